@@ -1,0 +1,586 @@
+//! GGX microfacet models: white conductor, dielectric interface (entering and leaving) and the
+//! glossy (specular-over-diffuse) ratio, each with both Smith forms.
+//!
+//! # The integral
+//! The albedo is integrated over *visible* microfacet normals (Heitz 2018, "Sampling the GGX
+//! distribution of visible normals"): with h distributed by D_ωo(h) = G1(ωo) max(0, ωo·h) D(h) / μo
+//! (Heitz 2014, eq. 14), each lobe contributes
+//!
+//! * reflection: E_R = ∫ D_ωo(h) F(ωo·h) G2(ωo, ωi)/G1(ωo) [μi > 0] dh, ωi = reflect(ωo, h);
+//! * transmission: E_T = ∫ D_ωo(h) (1 − F) G2(ωo, ωt)/G1(ωo) [μt < 0] dh, ωt = refract(ωo, h, η)
+//!   (energy form: no 1/η² factor, so E_R + E_T → 1 as α → 0).
+//!
+//! The weights are bounded by 1 and the near-delta lobe of α → 0 becomes a constant integrand, so
+//! nothing degenerates at low roughness. In the stretched (α = 1) configuration the visible
+//! normals of the hemisphere have density (N·V)/(π s), s = (1 + V_z)/2, on the lune
+//! {N_z > 0, N·V > 0}. We parametrise N by a latitude β about the plane of incidence and a
+//! longitude φ measured from the rim in that plane:
+//! N = (cos β cos φ, sin β, cos β sin φ) in the basis (e2, e1, e3·…) — see [`VndfIntegrand`] — so
+//! N·V = cos β sin(φ + θv), N_z = cos β sin φ, dω = cos β dβ dφ, with β ∈ [−π/2, π/2] (symmetric:
+//! we integrate [0, π/2] twice) and φ ∈ [0, π − θv].
+//!
+//! # Kinks
+//! Every kink of the integrand is a level set of a quadratic form in N: the reflection horizon
+//! μi = 0 ⇔ 2(ωo·m) m_z − μo|m|² = 0 and the critical angle (ωo·h)² = 1 − η² ⇔ (ωo·m)² − (1−η²)|m|² = 0,
+//! with m = (αN_x, αN_y, N_z) the unnormalised half vector. On a line of constant β such a form is
+//! P + R cos(2φ − γ) + A_yy tan²β, so its zeros are closed-form; the β at which zeros appear,
+//! merge or cross the ends of the φ range are closed-form as well and become outer panel ends.
+//! The one kink that is not quadratic — the transmitted direction crossing the horizon when
+//! leaving the denser medium — is located numerically on each line (bracketing + Illinois).
+
+use super::{AxisSpec, Model, ModelOptions, MAX_OUTPUTS};
+use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, SmithForm};
+use crate::quadrature::{integrate_2d, Integrand2D, Rules, CHANNELS};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// Which microfacet albedo a model tabulates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GgxKind {
+    /// White conductor: F = 1 (paper eqs. 14–15).
+    Conductor,
+    /// Dielectric interface seen from outside (relative IOR η = (1+√F0)/(1−√F0)), or from inside
+    /// (relative IOR 1/η, with total internal reflection) when `inverse` (paper eqs. 20–23).
+    Dielectric { inverse: bool },
+    /// Glossy: Fresnel-weighted specular albedo over the conductor albedo (paper eq. 17).
+    Glossy,
+}
+
+/// A GGX model: a kind, a Smith form and the transmission convention.
+#[derive(Clone, Debug)]
+pub struct GgxModel {
+    pub kind: GgxKind,
+    pub smith: SmithForm,
+    /// Transmission in radiance form (×1/η² entering, ×η² leaving) instead of energy form.
+    pub radiance_transmission: bool,
+}
+
+/// All built-in GGX models.
+pub fn all() -> Vec<Box<dyn Model>> {
+    let mut v: Vec<Box<dyn Model>> = Vec::new();
+    for kind in [
+        GgxKind::Conductor,
+        GgxKind::Dielectric { inverse: false },
+        GgxKind::Dielectric { inverse: true },
+        GgxKind::Glossy,
+    ] {
+        for smith in [SmithForm::HeightCorrelated, SmithForm::Separable] {
+            v.push(Box::new(GgxModel { kind, smith, radiance_transmission: false }));
+        }
+    }
+    v
+}
+
+/// The radiance-form variant of a dielectric model, by name.
+pub fn with_radiance_transmission(name: &str) -> Option<Box<dyn Model>> {
+    all().into_iter().find(|m| m.name() == name)?;
+    let model = all_ggx().into_iter().find(|m| m.name() == name)?;
+    match model.kind {
+        GgxKind::Dielectric { .. } => Some(Box::new(GgxModel { radiance_transmission: true, ..model })),
+        _ => None,
+    }
+}
+
+fn all_ggx() -> Vec<GgxModel> {
+    let mut v = Vec::new();
+    for kind in [
+        GgxKind::Conductor,
+        GgxKind::Dielectric { inverse: false },
+        GgxKind::Dielectric { inverse: true },
+        GgxKind::Glossy,
+    ] {
+        for smith in [SmithForm::HeightCorrelated, SmithForm::Separable] {
+            v.push(GgxModel { kind, smith, radiance_transmission: false });
+        }
+    }
+    v
+}
+
+impl GgxModel {
+    pub fn new(kind: GgxKind, smith: SmithForm, options: ModelOptions) -> GgxModel {
+        GgxModel { kind, smith, radiance_transmission: options.radiance_transmission }
+    }
+
+    fn base_name(&self) -> &'static str {
+        match self.kind {
+            GgxKind::Conductor => "ggx-conductor",
+            GgxKind::Dielectric { inverse: false } => "ggx-dielectric",
+            GgxKind::Dielectric { inverse: true } => "ggx-dielectric-inv",
+            GgxKind::Glossy => "ggx-glossy",
+        }
+    }
+
+    /// Relative IOR of the interface at normal reflectance `f0` as seen from ωo.
+    fn eta(&self, f0: f64) -> f64 {
+        let eta = eta_from_f0(f0);
+        match self.kind {
+            GgxKind::Dielectric { inverse: true } => 1.0 / eta,
+            _ => eta,
+        }
+    }
+
+    /// The albedo integrals at (f0, r, μo): channels [E_R, E_T] (dielectric),
+    /// [E_R·F, E_R without F] (glossy) or [E, 0] (conductor).
+    pub fn integrals(&self, f0: f64, r: f64, mu_o: f64, rules: &Rules) -> [f64; CHANNELS] {
+        let alpha = alpha_from_r(r);
+        let lobes = match self.kind {
+            GgxKind::Conductor => Lobes::Conductor,
+            GgxKind::Dielectric { .. } => Lobes::Dielectric { eta: self.eta(f0) },
+            GgxKind::Glossy => Lobes::Glossy { eta: self.eta(f0) },
+        };
+        if alpha == 0.0 {
+            return smooth_interface(lobes, mu_o);
+        }
+        let f = VndfIntegrand::new(alpha, mu_o, self.smith, lobes);
+        integrate_2d(&f, rules)
+    }
+}
+
+/// The r = 0 (α = 0) column: a smooth interface, whose BSDF is a delta and whose albedo is
+/// exact — E = 1 (conductor), E_R = F(μo), E_T = 1 − F(μo) (dielectric). This also defines the
+/// corner (r, μ) = (0, 0), where E is discontinuous (its limit depends on the path).
+fn smooth_interface(lobes: Lobes, mu_o: f64) -> [f64; CHANNELS] {
+    match lobes {
+        Lobes::Conductor => [1.0, 0.0],
+        Lobes::Dielectric { eta } => {
+            let f = fresnel_dielectric(mu_o, eta);
+            [f, 1.0 - f]
+        }
+        Lobes::Glossy { eta } => [fresnel_dielectric(mu_o, eta), 1.0],
+    }
+}
+
+impl Model for GgxModel {
+    fn name(&self) -> String {
+        let mut s = self.base_name().to_string();
+        if self.smith == SmithForm::Separable {
+            s.push_str("-separable");
+        }
+        s
+    }
+
+    fn summary(&self) -> String {
+        let g = match self.smith {
+            SmithForm::HeightCorrelated => "height-correlated Smith G2",
+            SmithForm::Separable => "separable Smith G1·G1 (the paper's renderer)",
+        };
+        let what = match self.kind {
+            GgxKind::Conductor => "GGX white conductor (F = 1), E(r, μ)",
+            GgxKind::Dielectric { inverse: false } => {
+                "GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T"
+            }
+            GgxKind::Dielectric { inverse: true } => {
+                "GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T"
+            }
+            GgxKind::Glossy => "GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17)",
+        };
+        let form = if self.radiance_transmission { "; transmission in radiance form (×1/η_rel²)" } else { "" };
+        format!("{what}; {g}{form}")
+    }
+
+    fn axes(&self) -> Vec<AxisSpec> {
+        let r = AxisSpec::new("r", (0.0, 1.0), (0.0, 1.0), "square root of GGX alpha (alpha = r²)");
+        let mu = AxisSpec::new("mu", (0.0, 1.0), (0.0, 1.0), "cosine of the outgoing direction, μo = n·ωo");
+        match self.kind {
+            GgxKind::Conductor => vec![r, mu],
+            GgxKind::Dielectric { .. } => vec![
+                AxisSpec::new(
+                    "f0",
+                    (0.0125, 0.25),
+                    (0.0, 0.99),
+                    "normal-incidence reflectance; relative IOR η = (1+√F0)/(1−√F0) (1.25 … 3 by default)",
+                ),
+                r,
+                mu,
+            ],
+            GgxKind::Glossy => vec![
+                AxisSpec::new("f0", (0.0, 1.0), (0.0, 1.0), "normal-incidence reflectance of the specular layer"),
+                r,
+                mu,
+            ],
+        }
+    }
+
+    fn outputs(&self) -> Vec<&'static str> {
+        match self.kind {
+            GgxKind::Dielectric { .. } => vec!["E", "E_R", "E_T"],
+            _ => vec!["E"],
+        }
+    }
+
+    fn integrate(&self, x: &[f64], rules: &Rules) -> [f64; MAX_OUTPUTS] {
+        let (f0, r, mu) = match self.kind {
+            GgxKind::Conductor => (0.0, x[0], x[1]),
+            _ => (x[0], x[1], x[2]),
+        };
+        let c = self.integrals(f0, r, mu, rules);
+        match self.kind {
+            GgxKind::Conductor => [c[0], 0.0, 0.0],
+            GgxKind::Dielectric { .. } => {
+                let t = if self.radiance_transmission {
+                    let eta = self.eta(f0);
+                    c[1] / (eta * eta)
+                } else {
+                    c[1]
+                };
+                [c[0] + t, c[0], t]
+            }
+            GgxKind::Glossy => [if c[1] > 0.0 { c[0] / c[1] } else { 0.0 }, 0.0, 0.0],
+        }
+    }
+
+    fn parameters(&self) -> serde_json::Value {
+        serde_json::json!({
+            "smith": self.smith,
+            "transmission": if self.radiance_transmission { "radiance" } else { "energy" },
+        })
+    }
+}
+
+/// The lobes a microfacet integrand carries in its two channels.
+#[derive(Clone, Copy, Debug)]
+pub enum Lobes {
+    /// [E, 0], F = 1.
+    Conductor,
+    /// [E_R, E_T] for relative IOR `eta`.
+    Dielectric { eta: f64 },
+    /// [E_R with Fresnel, E_R with F = 1].
+    Glossy { eta: f64 },
+}
+
+/// The quadratic form Q(N) = A_xx N_x² + 2A_xz N_x N_z + A_zz N_z² + A_yy N_y² restricted to the
+/// unit sphere: on the line of latitude β, Q = cos²β (P + R cos(2φ − γ)) + A_yy sin²β.
+#[derive(Clone, Copy, Debug)]
+struct QuadForm {
+    p: f64,
+    r: f64,
+    gamma: f64,
+    a_yy: f64,
+}
+
+impl QuadForm {
+    fn new(a_xx: f64, a_xz: f64, a_zz: f64, a_yy: f64) -> QuadForm {
+        let half = 0.5 * (a_xx - a_zz);
+        QuadForm { p: 0.5 * (a_xx + a_zz), r: half.hypot(a_xz), gamma: a_xz.atan2(half), a_yy }
+    }
+
+    /// Value on the line (sβ, cβ) at φ (for the sign only).
+    fn value(&self, sb: f64, cb: f64, phi: f64) -> f64 {
+        cb * cb * (self.p + self.r * (2.0 * phi - self.gamma).cos()) + self.a_yy * sb * sb
+    }
+
+    /// Zeros in φ ∈ (0, phi_max) on the line (sβ, cβ), appended to `out`.
+    fn roots(&self, sb: f64, cb: f64, phi_max: f64, out: &mut Vec<f64>) {
+        let den = self.r * cb * cb;
+        if den <= 0.0 {
+            return;
+        }
+        let c = -(self.p * cb * cb + self.a_yy * sb * sb) / den;
+        if !(c > -1.0 && c < 1.0) {
+            return;
+        }
+        let a = c.acos();
+        for k in -1..=1 {
+            for s in [-1.0, 1.0] {
+                let phi = 0.5 * (self.gamma + s * a) + k as f64 * PI;
+                if phi > 0.0 && phi < phi_max {
+                    out.push(phi);
+                }
+            }
+        }
+    }
+
+    /// Latitudes β ∈ (0, π/2) at which the zero set on a line changes shape: zeros merge
+    /// (cos(2φ − γ) = ±1 inside the range) or cross an end of the φ range.
+    fn outer_breaks(&self, phi_max: f64, out: &mut Vec<f64>) {
+        if self.a_yy == 0.0 {
+            return;
+        }
+        let mut push_tan2 = |t2: f64| {
+            if t2 > 0.0 && t2.is_finite() {
+                out.push(t2.sqrt().atan());
+            }
+        };
+        // Merges: P + A_yy tan²β = ∓R, at φ = (γ + {0, π})/2 + kπ.
+        for (sign, shift) in [(1.0, 0.0), (-1.0, PI)] {
+            let inside = (-1..=1).any(|k| {
+                let phi = 0.5 * (self.gamma + shift) + k as f64 * PI;
+                phi > 0.0 && phi < phi_max
+            });
+            if inside {
+                push_tan2(-(self.p + sign * self.r) / self.a_yy);
+            }
+        }
+        // Crossing an end of the range.
+        for phi in [0.0, phi_max] {
+            let q = self.p + self.r * (2.0 * phi - self.gamma).cos();
+            push_tan2(-q / self.a_yy);
+        }
+    }
+}
+
+/// The visible-normal integrand of one cell (see the module docs).
+pub struct VndfIntegrand {
+    alpha: f64,
+    mu_o: f64,
+    sin_o: f64,
+    /// Stretched view direction V = normalize(α sinθo, 0, μo) at angle θv from the normal.
+    sin_v: f64,
+    cos_v: f64,
+    phi_max: f64,
+    /// 2/(π s): the β-symmetry doubling over the visible projected area π s.
+    norm: f64,
+    smith: SmithForm,
+    lobes: Lobes,
+    /// Reflection horizon μi = 0 (valid where positive).
+    horizon: QuadForm,
+    /// Critical angle of total internal reflection (valid where positive), when η < 1.
+    tir: Option<QuadForm>,
+    /// Whether the transmitted direction can cross the horizon (η < 1): located numerically.
+    transmit_horizon: bool,
+}
+
+/// Per-line data of [`VndfIntegrand`].
+pub struct Line {
+    sb: f64,
+    cb: f64,
+    weight: f64,
+}
+
+impl VndfIntegrand {
+    pub fn new(alpha: f64, mu_o: f64, smith: SmithForm, lobes: Lobes) -> VndfIntegrand {
+        let sin_o = safe_sqrt(1.0 - mu_o * mu_o);
+        let theta_v = (alpha * sin_o).atan2(mu_o);
+        let (sin_v, cos_v) = theta_v.sin_cos();
+        let s = 0.5 * (1.0 + cos_v);
+        // 2(ωo·m) m_z − μo|m|², m = (αN_x, αN_y, N_z)
+        let horizon = QuadForm::new(-mu_o * alpha * alpha, sin_o * alpha, mu_o, -mu_o * alpha * alpha);
+        let eta = match lobes {
+            Lobes::Dielectric { eta } => Some(eta),
+            _ => None,
+        };
+        let tir = eta.filter(|&e| e < 1.0).map(|e| {
+            // (ωo·m)² − k|m|², k = 1 − η²
+            let k = 1.0 - e * e;
+            QuadForm::new(alpha * alpha * (sin_o * sin_o - k), sin_o * alpha * mu_o, mu_o * mu_o - k, -k * alpha * alpha)
+        });
+        VndfIntegrand {
+            alpha,
+            mu_o,
+            sin_o,
+            sin_v,
+            cos_v,
+            phi_max: PI - theta_v,
+            norm: 2.0 / (PI * s),
+            smith,
+            lobes,
+            horizon,
+            tir,
+            transmit_horizon: tir.is_some(),
+        }
+    }
+
+    /// Unit half vector h for the stretched normal at (β, φ).
+    #[inline]
+    fn half_vector(&self, line: &Line, sp: f64, cp: f64) -> Option<[f64; 3]> {
+        let m = [self.alpha * line.cb * cp, self.alpha * line.sb, line.cb * sp];
+        let len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
+        if len2 <= 0.0 {
+            return None;
+        }
+        let inv = 1.0 / len2.sqrt();
+        Some([m[0] * inv, m[1] * inv, m[2] * inv])
+    }
+
+    /// z of the transmitted direction (positive: above the horizon, invalid), or None under TIR.
+    fn transmitted_z(&self, line: &Line, phi: f64, eta: f64) -> Option<f64> {
+        let (sp, cp) = phi.sin_cos();
+        let h = self.half_vector(line, sp, cp)?;
+        let c = self.sin_o * h[0] + self.mu_o * h[2];
+        let sin2_t = (1.0 - c * c) / (eta * eta);
+        if sin2_t >= 1.0 {
+            return None;
+        }
+        let cos_t = (1.0 - sin2_t).sqrt();
+        Some(-self.mu_o / eta + (c / eta - cos_t) * h[2])
+    }
+
+    /// Zeros of the transmitted z between consecutive breakpoints of a line (non-TIR panels).
+    fn transmit_roots(&self, line: &Line, eta: f64, breaks: &[f64], out: &mut Vec<f64>) {
+        const SCAN: usize = 8; // samples per panel used to bracket sign changes
+        for w in breaks.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let mut prev: Option<(f64, f64)> = None;
+            for j in 0..=SCAN {
+                // stay strictly inside the panel: its ends may be TIR boundaries
+                let t = (j as f64 + 0.5) / (SCAN as f64 + 1.0);
+                let x = a + (b - a) * t;
+                let Some(z) = self.transmitted_z(line, x, eta) else {
+                    prev = None;
+                    continue;
+                };
+                if let Some((x0, z0)) = prev {
+                    if (z0 > 0.0) != (z > 0.0) {
+                        if let Some(root) = illinois(|p| self.transmitted_z(line, p, eta), x0, z0, x, z) {
+                            out.push(root);
+                        }
+                    }
+                }
+                prev = Some((x, z));
+            }
+        }
+    }
+}
+
+/// Illinois (modified regula falsi) on a bracketing interval; `None` if the function becomes
+/// undefined inside the bracket.
+fn illinois(f: impl Fn(f64) -> Option<f64>, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> Option<f64> {
+    const MAX_ITERS: usize = 100;
+    const X_TOL: f64 = 1e-15; // on φ ∈ [0, π]: far below what any rule resolves
+    let mut side = 0;
+    for _ in 0..MAX_ITERS {
+        let c = (a * fb - b * fa) / (fb - fa);
+        let c = if c.is_finite() && c > a.min(b) && c < a.max(b) { c } else { 0.5 * (a + b) };
+        let fc = f(c)?;
+        if fc == 0.0 || (b - a).abs() < X_TOL {
+            return Some(c);
+        }
+        if (fc > 0.0) == (fb > 0.0) {
+            b = c;
+            fb = fc;
+            if side == -1 {
+                fa *= 0.5;
+            }
+            side = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if side == 1 {
+                fb *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    Some(0.5 * (a + b))
+}
+
+impl Integrand2D for VndfIntegrand {
+    type Line = Line;
+
+    fn outer_breaks(&self, out: &mut Vec<f64>) {
+        out.push(0.0);
+        self.horizon.outer_breaks(self.phi_max, out);
+        if let Some(t) = &self.tir {
+            t.outer_breaks(self.phi_max, out);
+        }
+        out.push(FRAC_PI_2);
+        sort_dedup(out);
+    }
+
+    fn line(&self, beta: f64, breaks: &mut Vec<f64>) -> Line {
+        let (sb, cb) = beta.sin_cos();
+        let line = Line { sb, cb, weight: self.norm * cb * cb };
+        breaks.push(0.0);
+        self.horizon.roots(sb, cb, self.phi_max, breaks);
+        if let Some(t) = &self.tir {
+            t.roots(sb, cb, self.phi_max, breaks);
+        }
+        breaks.push(self.phi_max);
+        sort_dedup(breaks);
+        if self.transmit_horizon {
+            if let Lobes::Dielectric { eta } = self.lobes {
+                let mut extra = Vec::new();
+                self.transmit_roots(&line, eta, breaks, &mut extra);
+                if !extra.is_empty() {
+                    breaks.extend(extra);
+                    sort_dedup(breaks);
+                }
+            }
+        }
+        line
+    }
+
+    #[inline]
+    fn eval(&self, line: &Line, phi: f64) -> [f64; CHANNELS] {
+        let (sp, cp) = phi.sin_cos();
+        let Some(h) = self.half_vector(line, sp, cp) else {
+            return [0.0; CHANNELS];
+        };
+        // N·V = cos β sin(φ + θv): the clamped-cosine density of visible normals
+        let visible = line.weight * (sp * self.cos_v + cp * self.sin_v);
+        let c = self.sin_o * h[0] + self.mu_o * h[2]; // ωo·h > 0 for visible normals
+        let mu_i = 2.0 * c * h[2] - self.mu_o; // z of reflect(ωo, h)
+        let w_r = if mu_i > 0.0 { self.smith.g2_over_g1(self.mu_o, mu_i, self.alpha) } else { 0.0 }; // horizon
+        match self.lobes {
+            Lobes::Conductor => [visible * w_r, 0.0],
+            Lobes::Glossy { eta } => {
+                let f = fresnel_dielectric(c, eta);
+                [visible * f * w_r, visible * w_r]
+            }
+            Lobes::Dielectric { eta } => {
+                let sin2_t = (1.0 - c * c) / (eta * eta);
+                if sin2_t >= 1.0 {
+                    return [visible * w_r, 0.0]; // tir: F = 1
+                }
+                let cos_t = (1.0 - sin2_t).sqrt();
+                let f = fresnel_from_cosines(c, cos_t, eta);
+                let mu_t = -self.mu_o / eta + (c / eta - cos_t) * h[2]; // z of refract(ωo, h, η)
+                let w_t = if mu_t < 0.0 { self.smith.g2_over_g1(self.mu_o, -mu_t, self.alpha) } else { 0.0 };
+                [visible * f * w_r, visible * (1.0 - f) * w_t]
+            }
+        }
+    }
+}
+
+/// Fresnel reflectance from both cosines (Walter 2007, eq. 22), sharing cos θt with the
+/// refraction that needs it anyway.
+#[inline]
+fn fresnel_from_cosines(cos_i: f64, cos_t: f64, eta: f64) -> f64 {
+    let r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    0.5 * (r_s * r_s + r_p * r_p)
+}
+
+fn sort_dedup(v: &mut Vec<f64>) {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v.dedup_by(|a, b| (*a - *b).abs() <= 1e-15);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::quadrature::Rules;
+
+    fn conductor(smith: SmithForm) -> GgxModel {
+        GgxModel { kind: GgxKind::Conductor, smith, radiance_transmission: false }
+    }
+
+    #[test]
+    fn conductor_at_r1_mu1_is_one_minus_ln2() {
+        let rules = Rules::new(32);
+        for smith in [SmithForm::HeightCorrelated, SmithForm::Separable] {
+            let e = conductor(smith).integrate(&[1.0, 1.0], &rules)[0];
+            assert!((e - (1.0 - 2f64.ln())).abs() < 1e-12, "{smith:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn quadratic_forms_match_direct_evaluation() {
+        // The horizon form's sign must agree with the sign of μi computed from h.
+        let f = VndfIntegrand::new(0.5, 0.3, SmithForm::HeightCorrelated, Lobes::Conductor);
+        for &beta in &[0.1, 0.7, 1.3] {
+            let (sb, cb) = f64::sin_cos(beta);
+            let line = Line { sb, cb, weight: 1.0 };
+            for j in 1..50 {
+                let phi = f.phi_max * j as f64 / 50.0;
+                let (sp, cp) = phi.sin_cos();
+                let h = f.half_vector(&line, sp, cp).unwrap();
+                let c = f.sin_o * h[0] + f.mu_o * h[2];
+                let mu_i = 2.0 * c * h[2] - f.mu_o;
+                let q = f.horizon.value(sb, cb, phi);
+                if mu_i.abs() > 1e-9 {
+                    assert_eq!(q > 0.0, mu_i > 0.0, "β={beta} φ={phi}");
+                }
+            }
+        }
+    }
+}

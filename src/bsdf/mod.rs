@@ -1,0 +1,118 @@
+//! The model trait and the registry of built-in models.
+//!
+//! A model is a BSDF together with the parametrisation of its directional albedo
+//! E(ω_o) = ∫ f(ω_o, ω_i) |n·ω_i| dω_i (Sforza & Pellacini 2022, eq. 2): the axes a table spans
+//! and how to integrate at one point. To add a BSDF, write one file implementing [`Model`]
+//! and add one line to [`registry`] (see README, "Fitting a new BSDF").
+
+pub mod ggx;
+
+use crate::error::{Error, Result};
+use crate::quadrature::{estimate, Estimate, QuadratureSettings, RuleCache, Rules};
+
+/// Most outputs a model reports at one point (E, and E_R, E_T for dielectrics).
+pub const MAX_OUTPUTS: usize = 3;
+
+/// One axis of a model's parameter space.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct AxisSpec {
+    /// Name as it appears in CSV headers and JSON (`r`, `mu`, `f0`, `n`).
+    pub name: String,
+    /// Domain a default table spans.
+    pub default_range: (f64, f64),
+    /// Domain on which the model is defined; evaluation outside it is refused.
+    pub valid_range: (f64, f64),
+    /// What the axis means, one line.
+    pub description: String,
+}
+
+impl AxisSpec {
+    pub fn new(name: &str, default_range: (f64, f64), valid_range: (f64, f64), description: &str) -> AxisSpec {
+        AxisSpec { name: name.into(), default_range, valid_range, description: description.into() }
+    }
+}
+
+/// A BSDF whose directional albedo furnace can integrate.
+pub trait Model: Send + Sync {
+    /// Identifier as the CLI spells it; also the folder name under `data/` and `fits/`.
+    fn name(&self) -> String;
+    /// One line: what the model is and where it comes from.
+    fn summary(&self) -> String;
+    /// The axes of the albedo, in table order.
+    fn axes(&self) -> Vec<AxisSpec>;
+    /// Output names; the first is always `E`.
+    fn outputs(&self) -> Vec<&'static str>;
+    /// The outputs at point `x` (one coordinate per axis, inside the valid ranges),
+    /// integrated with `rules`. Entries past `outputs().len()` are ignored.
+    fn integrate(&self, x: &[f64], rules: &Rules) -> [f64; MAX_OUTPUTS];
+    /// Parameters that change the model's values beyond its name (e.g. the transmission form),
+    /// recorded in table sidecars and hashed into the cache key.
+    fn parameters(&self) -> serde_json::Value {
+        serde_json::Value::Null
+    }
+}
+
+/// E at one point with its error estimate, refined until it meets `settings.tolerance`.
+pub fn albedo(model: &dyn Model, x: &[f64], settings: &QuadratureSettings, cache: &RuleCache) -> Estimate<MAX_OUTPUTS> {
+    estimate(settings, cache, |rules| model.integrate(x, rules))
+}
+
+/// Checks that `x` has one finite coordinate per axis, inside the valid range.
+pub fn check_point(model: &dyn Model, x: &[f64]) -> std::result::Result<(), String> {
+    let axes = model.axes();
+    if x.len() != axes.len() {
+        return Err(format!("expected {} coordinates ({}), got {}", axes.len(), axis_names(model), x.len()));
+    }
+    for (v, a) in x.iter().zip(&axes) {
+        if !v.is_finite() {
+            return Err(format!("{} = {v} is not a finite number", a.name));
+        }
+        if *v < a.valid_range.0 || *v > a.valid_range.1 {
+            return Err(format!(
+                "{} = {v} is outside the model's domain [{}, {}]",
+                a.name, a.valid_range.0, a.valid_range.1
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `r,mu` or `f0,r,mu`: the axis names joined by commas.
+pub fn axis_names(model: &dyn Model) -> String {
+    model.axes().iter().map(|a| a.name.clone()).collect::<Vec<_>>().join(",")
+}
+
+/// Options that select a variant of a registered model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ModelOptions {
+    /// Tabulate transmission in radiance form (×1/η² entering, ×η² leaving), as the paper's
+    /// repository does, instead of the energy form.
+    pub radiance_transmission: bool,
+}
+
+/// Every built-in model, in the order `furnace models` lists them.
+pub fn registry() -> Vec<Box<dyn Model>> {
+    let mut models: Vec<Box<dyn Model>> = Vec::new();
+    models.extend(ggx::all());
+    models
+}
+
+/// Names of the built-in models, comma separated (for error messages).
+pub fn known_names() -> String {
+    registry().iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")
+}
+
+/// The model called `name`, or an error listing the known ones.
+pub fn find(name: &str, options: ModelOptions) -> Result<Box<dyn Model>> {
+    if options.radiance_transmission {
+        return ggx::with_radiance_transmission(name).ok_or_else(|| {
+            Error::InvalidInput(format!(
+                "--transmission radiance applies only to the dielectric models (ggx-dielectric, ggx-dielectric-inv and their -separable variants), not '{name}'"
+            ))
+        });
+    }
+    registry()
+        .into_iter()
+        .find(|m| m.name() == name)
+        .ok_or_else(|| Error::UnknownModel { name: name.to_string(), known: known_names() })
+}

@@ -1,0 +1,13 @@
+//! furnace: directional-albedo tables, fits and emitters for energy-compensated BSDFs.
+//!
+//! Data flows one way: [`bsdf`] (models) → [`quadrature`] → [`table`].
+
+pub mod bsdf;
+pub mod error;
+pub mod math;
+pub mod quadrature;
+
+pub use error::{Error, Result};
+
+/// The tool version recorded in every output file.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

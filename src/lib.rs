@@ -6,6 +6,8 @@ pub mod bsdf;
 pub mod error;
 pub mod math;
 pub mod quadrature;
+pub mod table;
+pub mod cli;
 
 pub use error::{Error, Result};
 

@@ -30,7 +30,7 @@
 
 use super::{AxisSpec, Model, ModelOptions, MAX_OUTPUTS};
 use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, SmithForm};
-use crate::quadrature::{integrate_2d, Integrand2D, Rules, CHANNELS};
+use crate::quadrature::{integrate_2d, panels_from_breaks, Break, Integrand2D, Panel, Rules, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Which microfacet albedo a model tabulates.
@@ -228,6 +228,10 @@ impl Model for GgxModel {
         }
     }
 
+    fn cache_name(&self) -> String {
+        if self.radiance_transmission { format!("{}-radiance", self.name()) } else { self.name() }
+    }
+
     fn parameters(&self) -> serde_json::Value {
         serde_json::json!({
             "smith": self.smith,
@@ -264,6 +268,7 @@ impl QuadForm {
     }
 
     /// Value on the line (sβ, cβ) at φ (for the sign only).
+    #[cfg(test)]
     fn value(&self, sb: f64, cb: f64, phi: f64) -> f64 {
         cb * cb * (self.p + self.r * (2.0 * phi - self.gamma).cos()) + self.a_yy * sb * sb
     }
@@ -391,58 +396,157 @@ impl VndfIntegrand {
         Some([m[0] * inv, m[1] * inv, m[2] * inv])
     }
 
-    /// z of the transmitted direction (positive: above the horizon, invalid), or None under TIR.
-    fn transmitted_z(&self, line: &Line, phi: f64, eta: f64) -> Option<f64> {
+    /// z of the reflected direction at (line, φ).
+    fn reflected_z(&self, line: &Line, phi: f64) -> f64 {
         let (sp, cp) = phi.sin_cos();
-        let h = self.half_vector(line, sp, cp)?;
-        let c = self.sin_o * h[0] + self.mu_o * h[2];
-        let sin2_t = (1.0 - c * c) / (eta * eta);
-        if sin2_t >= 1.0 {
-            return None;
+        match self.half_vector(line, sp, cp) {
+            Some(h) => 2.0 * (self.sin_o * h[0] + self.mu_o * h[2]) * h[2] - self.mu_o,
+            None => -self.mu_o,
         }
-        let cos_t = (1.0 - sin2_t).sqrt();
-        Some(-self.mu_o / eta + (c / eta - cos_t) * h[2])
     }
 
-    /// Zeros of the transmitted z between consecutive breakpoints of a line (non-TIR panels).
+    /// Distance in φ from a horizon zero at `phi` to the nearest singularity of the masking
+    /// weight. As a function of μ = |ωi·n| the weight G2/G1 has branch points at μ = ±iα/√(1−α²)
+    /// (from Λ) and, height-correlated, a pole at μ ≈ −α·μo/ao (from 1/(ao·μi + ai·μo)); divided
+    /// by |dμ/dφ| (central difference) that scale becomes a distance in φ.
+    fn near_singular_delta(&self, phi: f64, mu: impl Fn(f64) -> f64) -> f64 {
+        const H: f64 = 1e-7; // finite-difference step in φ (μ is smooth there)
+        let slope = ((mu(phi + H) - mu(phi - H)) / (2.0 * H)).abs();
+        let scale = match self.smith {
+            SmithForm::Separable => self.alpha,
+            SmithForm::HeightCorrelated => {
+                let a_o = crate::math::smith_a(self.mu_o, self.alpha);
+                if a_o > 0.0 { self.alpha * (self.mu_o / a_o).min(1.0) } else { self.alpha }
+            }
+        };
+        if slope > 0.0 && scale > 0.0 { scale / slope } else { f64::INFINITY }
+    }
+
+    /// Whether ωo is totally internally reflected at the normal of (line, φ).
+    fn is_tir(&self, line: &Line, phi: f64, eta: f64) -> bool {
+        let (sp, cp) = phi.sin_cos();
+        match self.half_vector(line, sp, cp) {
+            Some(h) => {
+                let c = self.sin_o * h[0] + self.mu_o * h[2];
+                (1.0 - c * c) / (eta * eta) >= 1.0
+            }
+            None => true,
+        }
+    }
+
+    /// z of the transmitted direction (positive: above the horizon, invalid), continued through
+    /// the critical angle with cos θt clamped to 0 so that it is continuous on a non-TIR panel
+    /// including its ends.
+    fn transmitted_z(&self, line: &Line, phi: f64, eta: f64) -> f64 {
+        let (sp, cp) = phi.sin_cos();
+        let Some(h) = self.half_vector(line, sp, cp) else {
+            return 0.0;
+        };
+        let c = self.sin_o * h[0] + self.mu_o * h[2];
+        let cos_t = safe_sqrt(1.0 - (1.0 - c * c) / (eta * eta));
+        -self.mu_o / eta + (c / eta - cos_t) * h[2]
+    }
+
+    /// Zeros of the transmitted z on the non-TIR panels of a line (breakpoints so far).
     fn transmit_roots(&self, line: &Line, eta: f64, breaks: &[f64], out: &mut Vec<f64>) {
-        const SCAN: usize = 8; // samples per panel used to bracket sign changes
         for w in breaks.windows(2) {
             let (a, b) = (w[0], w[1]);
-            let mut prev: Option<(f64, f64)> = None;
-            for j in 0..=SCAN {
-                // stay strictly inside the panel: its ends may be TIR boundaries
-                let t = (j as f64 + 0.5) / (SCAN as f64 + 1.0);
-                let x = a + (b - a) * t;
-                let Some(z) = self.transmitted_z(line, x, eta) else {
-                    prev = None;
-                    continue;
-                };
-                if let Some((x0, z0)) = prev {
-                    if (z0 > 0.0) != (z > 0.0) {
-                        if let Some(root) = illinois(|p| self.transmitted_z(line, p, eta), x0, z0, x, z) {
-                            out.push(root);
-                        }
+            if b <= a || self.is_tir(line, 0.5 * (a + b), eta) {
+                continue;
+            }
+            let mut prev = (a, self.transmitted_z(line, a, eta));
+            for j in 1..=TRANSMIT_SCAN {
+                let x = a + (b - a) * j as f64 / TRANSMIT_SCAN as f64;
+                let z = self.transmitted_z(line, x, eta);
+                if (prev.1 > 0.0) != (z > 0.0) {
+                    let root = illinois(|p| self.transmitted_z(line, p, eta), prev.0, prev.1, x, z);
+                    if root > a && root < b {
+                        out.push(root);
                     }
                 }
-                prev = Some((x, z));
+                prev = (x, z);
             }
+        }
+    }
+
+    /// The sequence of kinds of kink along the line at latitude β (0: reflection horizon,
+    /// 1: critical angle, 2: transmission horizon), in increasing φ.
+    fn kink_signature(&self, beta: f64, eta: f64, sig: &mut Vec<u8>) {
+        let (sb, cb) = beta.sin_cos();
+        let line = Line { sb, cb, weight: 0.0 };
+        let mut tagged: Vec<(f64, u8)> = Vec::with_capacity(8);
+        let mut tmp = Vec::with_capacity(4);
+        self.horizon.roots(sb, cb, self.phi_max, &mut tmp);
+        tagged.extend(tmp.drain(..).map(|p| (p, 0)));
+        if let Some(t) = &self.tir {
+            t.roots(sb, cb, self.phi_max, &mut tmp);
+            tagged.extend(tmp.drain(..).map(|p| (p, 1)));
+        }
+        let mut breaks: Vec<f64> = tagged.iter().map(|t| t.0).collect();
+        breaks.push(0.0);
+        breaks.push(self.phi_max);
+        sort_dedup(&mut breaks);
+        self.transmit_roots(&line, eta, &breaks, &mut tmp);
+        tagged.extend(tmp.drain(..).map(|p| (p, 2)));
+        tagged.sort_by(|a, b| a.0.total_cmp(&b.0));
+        sig.clear();
+        sig.extend(tagged.iter().map(|t| t.1));
+    }
+
+    /// Latitudes at which the kinks of a line change topology — zeros appear or merge, cross
+    /// the ends of the φ range or cross each other (where the critical-angle curve meets a
+    /// horizon): found by scanning β for a change in [`Self::kink_signature`] and bisecting
+    /// each change to [`BETA_TOL`]. Needed only when leaving the denser medium, where the
+    /// transmission horizon is not a quadratic form and kink curves intersect.
+    fn scanned_outer_breaks(&self, eta: f64, out: &mut Vec<f64>) {
+        let mut samples: Vec<f64> = (0..=BETA_SCAN).map(|j| FRAC_PI_2 * j as f64 / BETA_SCAN as f64).collect();
+        samples.extend(out.iter().copied());
+        sort_dedup(&mut samples);
+        let mut sigs = vec![Vec::new(); samples.len()];
+        for (b, sig) in samples.iter().zip(sigs.iter_mut()) {
+            self.kink_signature(*b, eta, sig);
+        }
+        let mut mid_sig = Vec::with_capacity(8);
+        for k in 1..samples.len() {
+            if sigs[k] == sigs[k - 1] {
+                continue;
+            }
+            let (mut lo, mut hi) = (samples[k - 1], samples[k]);
+            while hi - lo > BETA_TOL {
+                let mid = 0.5 * (lo + hi);
+                self.kink_signature(mid, eta, &mut mid_sig);
+                if mid_sig == sigs[k - 1] {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            out.push(0.5 * (lo + hi));
         }
     }
 }
 
-/// Illinois (modified regula falsi) on a bracketing interval; `None` if the function becomes
-/// undefined inside the bracket.
-fn illinois(f: impl Fn(f64) -> Option<f64>, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> Option<f64> {
+/// |μi| below which an end of the φ range counts as a horizon zero.
+const END_ZERO: f64 = 1e-12;
+
+/// Samples per panel used to bracket zeros of the transmitted z on a line.
+const TRANSMIT_SCAN: usize = 8;
+/// Latitude samples used to find where the kinks of a line change topology.
+const BETA_SCAN: usize = 32;
+/// Bisection tolerance on such a latitude: far below what the rules resolve.
+const BETA_TOL: f64 = 1e-13;
+
+/// Illinois (modified regula falsi) on a bracketing interval [a, b] with f(a), f(b) of opposite signs.
+fn illinois(f: impl Fn(f64) -> f64, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> f64 {
     const MAX_ITERS: usize = 100;
     const X_TOL: f64 = 1e-15; // on φ ∈ [0, π]: far below what any rule resolves
     let mut side = 0;
     for _ in 0..MAX_ITERS {
         let c = (a * fb - b * fa) / (fb - fa);
         let c = if c.is_finite() && c > a.min(b) && c < a.max(b) { c } else { 0.5 * (a + b) };
-        let fc = f(c)?;
+        let fc = f(c);
         if fc == 0.0 || (b - a).abs() < X_TOL {
-            return Some(c);
+            return c;
         }
         if (fc > 0.0) == (fb > 0.0) {
             b = c;
@@ -460,42 +564,90 @@ fn illinois(f: impl Fn(f64) -> Option<f64>, mut a: f64, mut fa: f64, mut b: f64,
             side = 1;
         }
     }
-    Some(0.5 * (a + b))
+    0.5 * (a + b)
 }
 
 impl Integrand2D for VndfIntegrand {
     type Line = Line;
 
     fn outer_breaks(&self, out: &mut Vec<f64>) {
-        out.push(0.0);
-        self.horizon.outer_breaks(self.phi_max, out);
-        if let Some(t) = &self.tir {
-            t.outer_breaks(self.phi_max, out);
-        }
-        out.push(FRAC_PI_2);
-        sort_dedup(out);
+        let mut panels = Vec::new();
+        self.outer_panels(&mut panels);
+        out.extend(panels.iter().map(|p| p.a));
+        out.extend(panels.last().map(|p| p.b));
     }
 
     fn line(&self, beta: f64, breaks: &mut Vec<f64>) -> Line {
-        let (sb, cb) = beta.sin_cos();
-        let line = Line { sb, cb, weight: self.norm * cb * cb };
-        breaks.push(0.0);
-        self.horizon.roots(sb, cb, self.phi_max, breaks);
+        let mut panels = Vec::new();
+        let line = self.line_panels(beta, &mut panels);
+        breaks.extend(panels.iter().map(|p| p.a));
+        breaks.extend(panels.last().map(|p| p.b));
+        line
+    }
+
+    fn outer_panels(&self, out: &mut Vec<Panel>) {
+        // Where kink curves are tangent to a line or cross the ends of the φ range, the inner
+        // integral has square-root behaviour in β.
+        let mut xs = vec![0.0, FRAC_PI_2];
+        self.horizon.outer_breaks(self.phi_max, &mut xs);
         if let Some(t) = &self.tir {
-            t.roots(sb, cb, self.phi_max, breaks);
+            t.outer_breaks(self.phi_max, &mut xs);
         }
-        breaks.push(self.phi_max);
-        sort_dedup(breaks);
+        sort_dedup(&mut xs);
         if self.transmit_horizon {
             if let Lobes::Dielectric { eta } = self.lobes {
-                let mut extra = Vec::new();
-                self.transmit_roots(&line, eta, breaks, &mut extra);
-                if !extra.is_empty() {
-                    breaks.extend(extra);
-                    sort_dedup(breaks);
-                }
+                self.scanned_outer_breaks(eta, &mut xs);
+                sort_dedup(&mut xs);
             }
         }
+        // β = π/2 is a rim too (N_z = cos β sin φ): the stretching map is singular at distance
+        // ~α from it, so every break carries that distance.
+        let rim = |x: f64| (FRAC_PI_2 - x).hypot(self.alpha);
+        let mut breaks: Vec<Break> = xs
+            .iter()
+            .map(|&x| if x == 0.0 { Break::regular(x) } else if x == FRAC_PI_2 { Break::near_singular(x, self.alpha) } else { Break::sqrt(x).with_delta(rim(x)) })
+            .collect();
+        panels_from_breaks(&mut breaks, out);
+    }
+
+    fn line_panels(&self, beta: f64, out: &mut Vec<Panel>) -> Line {
+        let (sb, cb) = beta.sin_cos();
+        let line = Line { sb, cb, weight: self.norm * cb * cb };
+        // Every break also sits near the singularities of the stretching map itself: h ∝
+        // (α cos β cos φ, α sin β, cos β sin φ) degenerates at φ ≈ ±iα and φ ≈ π ± iα.
+        let rim = |x: f64| x.hypot(self.alpha).min((PI - x).hypot(self.alpha));
+        let mut breaks = Vec::with_capacity(12);
+        // The ends of the range are horizon zeros themselves at grazing incidence (μo = 0: the
+        // rim reflects into the horizon), where the masking weight is near-singular too.
+        for end in [0.0, self.phi_max] {
+            let mut b = Break::near_singular(end, rim(end));
+            if self.reflected_z(&line, end).abs() <= END_ZERO {
+                b = b.with_delta(self.near_singular_delta(end, |p| self.reflected_z(&line, p)));
+            }
+            breaks.push(b);
+        }
+        let mut roots = Vec::with_capacity(4);
+        self.horizon.roots(sb, cb, self.phi_max, &mut roots);
+        for &phi in &roots {
+            let delta = self.near_singular_delta(phi, |p| self.reflected_z(&line, p));
+            breaks.push(Break::near_singular(phi, delta.min(rim(phi))));
+        }
+        if let Some(t) = &self.tir {
+            roots.clear();
+            t.roots(sb, cb, self.phi_max, &mut roots);
+            breaks.extend(roots.iter().map(|&x| Break::sqrt(x).with_delta(rim(x))));
+        }
+        if let (true, Lobes::Dielectric { eta }) = (self.transmit_horizon, self.lobes) {
+            let mut xs: Vec<f64> = breaks.iter().map(|b| b.x).collect();
+            sort_dedup(&mut xs);
+            roots.clear();
+            self.transmit_roots(&line, eta, &xs, &mut roots);
+            for &phi in &roots {
+                let delta = self.near_singular_delta(phi, |p| -self.transmitted_z(&line, p, eta));
+                breaks.push(Break::near_singular(phi, delta.min(rim(phi))));
+            }
+        }
+        panels_from_breaks(&mut breaks, out);
         line
     }
 

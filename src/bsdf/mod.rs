@@ -50,6 +50,11 @@ pub trait Model: Send + Sync {
     fn parameters(&self) -> serde_json::Value {
         serde_json::Value::Null
     }
+    /// Folder name of the model's tables under `data/` (differs from [`Model::name`] only for
+    /// variants selected by options, e.g. radiance-form transmission).
+    fn cache_name(&self) -> String {
+        self.name()
+    }
 }
 
 /// E at one point with its error estimate, refined until it meets `settings.tolerance`.

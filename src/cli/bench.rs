@@ -1,0 +1,109 @@
+//! `furnace bench tabulate`: run time against error of full-size tables.
+//!
+//! For each quadrature order the whole table is computed exactly as `furnace tabulate` does
+//! (every cell at order n and n/2 for its error estimate) but without refinement, and the same
+//! fixed-order rule is evaluated at the shared reference points to measure its true error.
+
+use crate::bsdf::{self, albedo, Model, ModelOptions};
+use crate::error::{Error, Result};
+use crate::quadrature::{QuadratureSettings, RuleCache};
+use crate::table::{self, TableSpec};
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Args, Debug)]
+pub struct BenchTabulateArgs {
+    /// Quadrature orders to measure.
+    #[arg(long, value_delimiter = ',', default_value = "6,8,12,16,24")]
+    pub orders: Vec<usize>,
+    /// Models to measure.
+    #[arg(long, value_delimiter = ',', default_value = "ggx-conductor,ggx-dielectric")]
+    pub models: Vec<String>,
+    /// Smaller tables (256² and 32³) for a quick look.
+    #[arg(long)]
+    pub quick: bool,
+    /// Folder with the shared reference albedos (ref2d.csv, ref3d.csv).
+    #[arg(long, default_value = "../shared/reference")]
+    pub reference_dir: PathBuf,
+}
+
+/// Reference points and expected E for a model, from the shared reference files.
+pub fn reference_points(model: &str, dir: &Path) -> Result<Vec<(Vec<f64>, f64)>> {
+    let (file, point, value): (&str, fn(&[f64]) -> Vec<f64>, fn(&[f64]) -> f64) = match model {
+        "ggx-conductor" => ("ref2d.csv", |r| vec![r[0], r[1]], |r| r[2]),
+        "ggx-conductor-separable" => ("ref2d.csv", |r| vec![r[0], r[1]], |r| r[3]),
+        "ggx-dielectric" => ("ref3d.csv", |r| vec![r[0], r[2], r[3]], |r| r[5] + r[6]),
+        "ggx-dielectric-inv" => ("ref3d.csv", |r| vec![r[0], r[2], r[3]], |r| r[7] + r[8]),
+        "ggx-glossy" => ("ref3d.csv", |r| vec![r[0], r[2], r[3]], |r| r[5] / r[4]),
+        _ => return Ok(vec![]),
+    };
+    let path = dir.join(file);
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate().skip(1) {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let row: Vec<f64> = line
+            .split(',')
+            .map(|v| v.trim().parse::<f64>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| Error::file(&path, format!("row {}: not a number", i + 1)))?;
+        out.push((point(&row), value(&row)));
+    }
+    Ok(out)
+}
+
+fn reference_error(model: &dyn Model, refs: &[(Vec<f64>, f64)], settings: &QuadratureSettings) -> Option<f64> {
+    if refs.is_empty() {
+        return None;
+    }
+    let cache = RuleCache::new(settings);
+    Some(refs.iter().map(|(x, e)| (albedo(model, x, settings, &cache).value[0] - e).abs()).fold(0.0, f64::max))
+}
+
+pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
+    println!(
+        "{:<22} {:>12} {:>6} {:>9} {:>9} {:>13} {:>13}",
+        "model", "table", "order", "wall s", "µs/cell", "max |ΔE| ref", "max est."
+    );
+    for name in &args.models {
+        let model = bsdf::find(name, ModelOptions::default())?;
+        let dims = model.axes().len();
+        let n = match (dims, args.quick) {
+            (2, false) => 1024,
+            (2, true) => 256,
+            (_, false) => 128,
+            (_, true) => 32,
+        };
+        let refs = reference_points(name, &args.reference_dir).unwrap_or_else(|e| {
+            eprintln!("note: no reference for {name} ({e}); the reference column stays empty");
+            vec![]
+        });
+        let mut rows: Vec<(String, QuadratureSettings)> = args
+            .orders
+            .iter()
+            .map(|&o| (o.to_string(), QuadratureSettings { tolerance: f64::MAX, max_order: o, ..QuadratureSettings::with_order(o) }))
+            .collect();
+        rows.push(("default".into(), QuadratureSettings::default()));
+        for (label, settings) in rows {
+            let spec = TableSpec::new(model.as_ref(), &vec![n; dims], settings.clone())?;
+            let start = Instant::now();
+            let t = table::tabulate(model.as_ref(), &spec, &|_| {})?;
+            let wall = start.elapsed().as_secs_f64();
+            let err = reference_error(model.as_ref(), &refs, &settings);
+            println!(
+                "{:<22} {:>12} {:>6} {:>9.2} {:>9.2} {:>13} {:>13.2e}",
+                name,
+                spec.resolution_name(),
+                label,
+                wall,
+                wall * 1e6 / spec.cells() as f64,
+                err.map(|e| format!("{e:.2e}")).unwrap_or_else(|| "-".into()),
+                t.summary.max_error_estimate
+            );
+        }
+    }
+    Ok(())
+}

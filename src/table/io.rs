@@ -1,0 +1,211 @@
+//! On-disk tables: `data/<model>/<resolution>.{exr,f64,json}`, written atomically (temp file,
+//! then rename; the sidecar last, so it commits the other two) and read back only when the
+//! sidecar's content hash matches the request and the f64 file's checksum matches the sidecar.
+
+use super::{ErrorSummary, GridAxis, Table, TableSpec, ENGINE_VERSION};
+use crate::bsdf::Model;
+use crate::error::{Error, Result};
+use crate::quadrature::QuadratureSettings;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+
+/// The JSON sidecar of a table.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Sidecar {
+    pub tool: String,
+    pub tool_version: String,
+    pub engine_version: u32,
+    /// Cache key: SHA-256 of the spec and engine version ([`TableSpec::content_hash`]).
+    pub content_hash: String,
+    pub model: String,
+    pub model_parameters: serde_json::Value,
+    pub axes: Vec<GridAxis>,
+    pub outputs: Vec<String>,
+    pub quadrature: QuadratureSettings,
+    /// How values are laid out in the EXR and f64 files.
+    pub layout: String,
+    /// SHA-256 of the f64 file.
+    pub f64_sha256: String,
+    pub errors: ErrorSummary,
+}
+
+/// Where a table lives: `dir/<cache name>/<resolution>[-<hash8>]` without extension.
+pub fn table_stem(dir: &Path, model: &dyn Model, spec: &TableSpec) -> PathBuf {
+    let default_domain = model
+        .axes()
+        .iter()
+        .zip(&spec.axes)
+        .all(|(a, g)| a.default_range == (g.lo, g.hi));
+    let mut name = spec.resolution_name();
+    if !default_domain {
+        name.push('-');
+        name.push_str(&spec.content_hash()[..8]);
+    }
+    dir.join(model.cache_name()).join(name)
+}
+
+fn with_ext(stem: &Path, ext: &str) -> PathBuf {
+    let mut s = stem.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
+/// Writes `bytes` to `path` atomically: a temp file in the same folder, then rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
+    }
+    let tmp = temp_path(path);
+    std::fs::write(&tmp, bytes).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::io(path, e)
+    })?;
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+}
+
+fn temp_path(path: &Path) -> PathBuf {
+    let mut s = path.as_os_str().to_owned();
+    s.push(format!(".tmp-{}", std::process::id()));
+    PathBuf::from(s)
+}
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+const LAYOUT: &str = "row-major, last axis fastest; EXR: one image n_last wide and (product of the other counts) tall, \
+row = flattened index of the other axes, one f32 channel per output plus 'err' (per-cell error estimate); \
+f64 file: little-endian f64, each output's cells in turn, then the error estimates";
+
+fn f64_bytes(table: &Table) -> Vec<u8> {
+    let mut bytes = Vec::with_capacity((table.values.len() + table.errors.len()) * 8);
+    for v in table.values.iter().chain(&table.errors) {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    bytes
+}
+
+fn exr_bytes_to(table: &Table, path: &Path) -> Result<()> {
+    use exr::prelude::*;
+    let spec = &table.spec;
+    let width = spec.axes.last().map(|a| a.n).unwrap_or(1);
+    let height = table.cells() / width;
+    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
+    for (o, name) in spec.outputs.iter().enumerate() {
+        let data: Vec<f32> = table.output(o).iter().map(|&v| v as f32).collect();
+        channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(data)));
+    }
+    channels.push(AnyChannel::new("err", FlatSamples::F32(table.errors.iter().map(|&v| v as f32).collect())));
+    let mut attributes = LayerAttributes::named(spec.model.as_str());
+    attributes.comments = Some(Text::from(format!(
+        "furnace {}: directional albedo of {} over {}",
+        crate::VERSION,
+        spec.model,
+        spec.axes.iter().map(|a| a.name.as_str()).collect::<Vec<_>>().join(", ")
+    ).as_str()));
+    let layer = Layer::new((width, height), attributes, Encoding::FAST_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(channels)));
+    let tmp = temp_path(path);
+    Image::from_layer(layer)
+        .write()
+        .to_file(&tmp)
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            crate::Error::file(path, format!("cannot write EXR: {e}"))
+        })?;
+    std::fs::rename(&tmp, path).map_err(|e| crate::Error::io(path, e))
+}
+
+/// Writes the table's three files (f64, EXR, then the sidecar that commits them).
+pub fn save(table: &Table, stem: &Path) -> Result<Sidecar> {
+    let raw = f64_bytes(table);
+    write_atomic(&with_ext(stem, "f64"), &raw)?;
+    exr_bytes_to(table, &with_ext(stem, "exr"))?;
+    let sidecar = Sidecar {
+        tool: "furnace".into(),
+        tool_version: crate::VERSION.into(),
+        engine_version: ENGINE_VERSION,
+        content_hash: table.spec.content_hash(),
+        model: table.spec.model.clone(),
+        model_parameters: table.spec.model_parameters.clone(),
+        axes: table.spec.axes.clone(),
+        outputs: table.spec.outputs.clone(),
+        quadrature: table.spec.quadrature.clone(),
+        layout: LAYOUT.into(),
+        f64_sha256: sha256_hex(&raw),
+        errors: table.summary.clone(),
+    };
+    let json = serde_json::to_string_pretty(&sidecar).expect("sidecar serialises");
+    write_atomic(&with_ext(stem, "json"), format!("{json}\n").as_bytes())?;
+    Ok(sidecar)
+}
+
+/// Reads a cached table if its sidecar matches `spec` exactly; `Ok(None)` when there is no
+/// usable cache (missing, stale, or inconsistent files — which are then recomputed).
+pub fn load_cached(spec: &TableSpec, stem: &Path) -> Result<Option<Table>> {
+    let json_path = with_ext(stem, "json");
+    let Ok(text) = std::fs::read_to_string(&json_path) else {
+        return Ok(None);
+    };
+    let Ok(sidecar) = serde_json::from_str::<Sidecar>(&text) else {
+        return Ok(None);
+    };
+    if sidecar.content_hash != spec.content_hash() {
+        return Ok(None);
+    }
+    let Ok(raw) = std::fs::read(with_ext(stem, "f64")) else {
+        return Ok(None);
+    };
+    let cells = spec.cells();
+    let n_out = spec.outputs.len();
+    if raw.len() != (n_out + 1) * cells * 8 || sha256_hex(&raw) != sidecar.f64_sha256 {
+        return Ok(None);
+    }
+    let all: Vec<f64> = raw.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect();
+    let (values, errors) = all.split_at(n_out * cells);
+    Ok(Some(Table { spec: spec.clone(), values: values.to_vec(), errors: errors.to_vec(), summary: sidecar.errors }))
+}
+
+/// Reads a table's sidecar and f64 values from `stem` whatever its spec (for `fit --table`).
+pub fn load_any(stem: &Path) -> Result<Table> {
+    let json_path = with_ext(stem, "json");
+    let text = std::fs::read_to_string(&json_path).map_err(|e| Error::io(&json_path, e))?;
+    let sidecar: Sidecar = serde_json::from_str(&text)
+        .map_err(|e| Error::file(&json_path, format!("not a furnace table sidecar: {e}")))?;
+    let spec = TableSpec {
+        model: sidecar.model.clone(),
+        model_parameters: sidecar.model_parameters.clone(),
+        axes: sidecar.axes.clone(),
+        outputs: sidecar.outputs.clone(),
+        quadrature: sidecar.quadrature.clone(),
+    };
+    spec.validate()?;
+    load_cached(&spec, stem)?
+        .ok_or_else(|| Error::file(with_ext(stem, "f64"), "missing or inconsistent with its sidecar; re-run `furnace tabulate --force`"))
+}
+
+/// Reads an EXR table written by [`save`] back as f32 channels (for checks and external use).
+pub fn read_exr_channels(path: &Path) -> Result<Vec<(String, Vec<f32>)>> {
+    use exr::prelude::*;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| crate::Error::file(path, format!("cannot read EXR: {e}")))?;
+    Ok(image
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect())
+}
+
+/// Paths of the three files of a table stem.
+pub fn files(stem: &Path) -> [PathBuf; 3] {
+    [with_ext(stem, "exr"), with_ext(stem, "f64"), with_ext(stem, "json")]
+}

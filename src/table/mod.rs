@@ -1,0 +1,288 @@
+//! Tables of directional albedo: grids, parallel tabulation with per-cell error estimates,
+//! the on-disk cache (EXR + exact f64 + JSON sidecar) and interpolation-free point evaluation.
+//!
+//! # Grid
+//! Every axis has `n ≥ 2` nodes *including both endpoints*: x_i = lo + (hi − lo)·i/(n − 1).
+//! At μ = 0 the value is the limit μ → 0⁺ (the integrand is continuous there for α > 0, so the
+//! quadrature evaluates it directly). At r = 0 the value is the smooth interface's exact albedo
+//! (E = 1 for a conductor; E_R = F(μ), E_T = 1 − F(μ) for a dielectric), which also defines the
+//! corner (r, μ) = (0, 0), where E is discontinuous.
+//!
+//! # Layout
+//! Values are stored row-major with the last axis fastest: for axes (f0, r, mu) the cell
+//! (k, i, j) is at `(k·n_r + i)·n_mu + j`. The EXR file is a single image `n_mu` wide and
+//! `n_f0·n_r` tall (row `k·n_r + i`, the same flattening as the paper's CSV tables), one f32
+//! channel per output (`E`, `E_R`, `E_T`) plus `err`, the per-cell error estimate. The exact f64
+//! values are kept beside it in `<name>.f64` (little-endian, outputs one after the other) and the
+//! sidecar `<name>.json` records the model, axes, quadrature settings, error summary and the
+//! content hash that keys the cache.
+
+pub mod io;
+pub mod points;
+
+use crate::bsdf::{albedo, Model, MAX_OUTPUTS};
+use crate::error::{human_bytes, Error, Result};
+use crate::quadrature::{QuadratureSettings, RuleCache};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Bumped whenever a change to the engine can change a table value: it is hashed into every
+/// cache key, so stale tables are recomputed rather than trusted.
+pub const ENGINE_VERSION: u32 = 1;
+
+/// Refuse tables whose values and error estimates would need more memory than this.
+pub const MAX_TABLE_BYTES: u128 = 8 << 30;
+
+/// One grid axis: `n` nodes from `lo` to `hi`, endpoints included.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct GridAxis {
+    pub name: String,
+    pub lo: f64,
+    pub hi: f64,
+    pub n: usize,
+    /// Always `"endpoints"`: x_i = lo + (hi − lo)·i/(n − 1).
+    pub placement: String,
+}
+
+impl GridAxis {
+    pub fn new(name: &str, lo: f64, hi: f64, n: usize) -> GridAxis {
+        GridAxis { name: name.into(), lo, hi, n, placement: "endpoints".into() }
+    }
+
+    /// Coordinate of node `i`.
+    #[inline]
+    pub fn node(&self, i: usize) -> f64 {
+        if self.n <= 1 {
+            return self.lo;
+        }
+        if i + 1 == self.n {
+            return self.hi; // exact endpoint, whatever the rounding of the affine map
+        }
+        self.lo + (self.hi - self.lo) * i as f64 / (self.n - 1) as f64
+    }
+
+    pub fn nodes(&self) -> Vec<f64> {
+        (0..self.n).map(|i| self.node(i)).collect()
+    }
+}
+
+/// What to tabulate: a model on a grid with quadrature settings.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct TableSpec {
+    pub model: String,
+    pub model_parameters: serde_json::Value,
+    pub axes: Vec<GridAxis>,
+    pub outputs: Vec<String>,
+    pub quadrature: QuadratureSettings,
+}
+
+impl TableSpec {
+    /// The model's default domain at the given resolution (one count per axis).
+    pub fn new(model: &dyn Model, resolution: &[usize], quadrature: QuadratureSettings) -> Result<TableSpec> {
+        let axes = model.axes();
+        if resolution.len() != axes.len() {
+            return Err(Error::InvalidInput(format!(
+                "model {} has {} axes ({}), but --resolution gives {} counts; use e.g. --resolution {}",
+                model.name(),
+                axes.len(),
+                crate::bsdf::axis_names(model),
+                resolution.len(),
+                vec!["64"; axes.len()].join("x")
+            )));
+        }
+        let grid = axes
+            .iter()
+            .zip(resolution)
+            .map(|(a, &n)| GridAxis::new(&a.name, a.default_range.0, a.default_range.1, n))
+            .collect();
+        let spec = TableSpec {
+            model: model.name(),
+            model_parameters: model.parameters(),
+            axes: grid,
+            outputs: model.outputs().iter().map(|s| s.to_string()).collect(),
+            quadrature,
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    /// Refuses empty, single-node and absurdly large grids before anything is allocated.
+    pub fn validate(&self) -> Result<()> {
+        for a in &self.axes {
+            if a.n < 2 {
+                return Err(Error::InvalidInput(format!(
+                    "resolution {} on axis {} is too small: a grid needs at least 2 nodes per axis (both endpoints)",
+                    a.n, a.name
+                )));
+            }
+            if !(a.lo.is_finite() && a.hi.is_finite() && a.lo < a.hi) {
+                return Err(Error::InvalidInput(format!("axis {} has an empty or invalid range [{}, {}]", a.name, a.lo, a.hi)));
+            }
+        }
+        self.quadrature.validate().map_err(Error::InvalidInput)?;
+        let cells = self.axes.iter().try_fold(1u128, |acc, a| acc.checked_mul(a.n as u128)).unwrap_or(u128::MAX);
+        let channels = self.outputs.len() + 1;
+        let bytes = cells.saturating_mul(channels as u128 * 8);
+        if bytes > MAX_TABLE_BYTES {
+            return Err(Error::TooLarge {
+                cells,
+                channels,
+                bytes,
+                human: human_bytes(bytes),
+                limit_human: human_bytes(MAX_TABLE_BYTES),
+            });
+        }
+        Ok(())
+    }
+
+    pub fn cells(&self) -> usize {
+        self.axes.iter().map(|a| a.n).product()
+    }
+
+    /// `1024x1024`, `128x128x128`.
+    pub fn resolution_name(&self) -> String {
+        self.axes.iter().map(|a| a.n.to_string()).collect::<Vec<_>>().join("x")
+    }
+
+    /// The coordinates of cell `index` (row-major, last axis fastest).
+    pub fn point(&self, mut index: usize, out: &mut [f64]) {
+        for (d, a) in self.axes.iter().enumerate().rev() {
+            out[d] = a.node(index % a.n);
+            index /= a.n;
+        }
+    }
+
+    /// SHA-256 of the canonical JSON of everything that determines the values, plus the
+    /// engine version: the cache key.
+    pub fn content_hash(&self) -> String {
+        use sha2::{Digest, Sha256};
+        let canonical = serde_json::json!({ "engine": ENGINE_VERSION, "spec": self });
+        let digest = Sha256::digest(canonical.to_string().as_bytes());
+        digest.iter().map(|b| format!("{b:02x}")).collect()
+    }
+}
+
+/// Error summary of a table, recorded in its sidecar.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ErrorSummary {
+    /// Largest per-cell error estimate.
+    pub max_error_estimate: f64,
+    /// Where it occurs.
+    pub max_error_at: Vec<f64>,
+    /// Cells that needed more than the base order.
+    pub refined_cells: usize,
+    /// Cells whose estimate still exceeds the tolerance at `max_order` (listed, never hidden).
+    pub unconverged_cells: usize,
+    /// Up to [`MAX_LISTED`] of them: coordinates and estimate.
+    pub unconverged: Vec<(Vec<f64>, f64)>,
+    /// Highest order any cell used.
+    pub max_order_used: usize,
+}
+
+/// How many unconverged cells a sidecar lists by coordinate.
+pub const MAX_LISTED: usize = 100;
+
+/// A computed table.
+#[derive(Clone, Debug)]
+pub struct Table {
+    pub spec: TableSpec,
+    /// `values[o * cells + cell]` for output `o`.
+    pub values: Vec<f64>,
+    /// Per-cell error estimate (max over outputs).
+    pub errors: Vec<f64>,
+    pub summary: ErrorSummary,
+}
+
+impl Table {
+    pub fn cells(&self) -> usize {
+        self.spec.cells()
+    }
+
+    /// The values of output `o` (0 is `E`).
+    pub fn output(&self, o: usize) -> &[f64] {
+        let n = self.cells();
+        &self.values[o * n..(o + 1) * n]
+    }
+
+    /// Index of a named output.
+    pub fn output_index(&self, name: &str) -> Option<usize> {
+        self.spec.outputs.iter().position(|o| o == name)
+    }
+}
+
+/// Progress callback: called with the number of cells finished since the last call.
+pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
+
+/// Tabulates `spec` in parallel. Every cell is integrated at the base order and half of it;
+/// cells whose difference exceeds the tolerance are recomputed at doubled orders up to
+/// `max_order`, and any still above it are counted and listed in the summary.
+pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Result<Table> {
+    spec.validate()?;
+    if spec.model != model.name() {
+        return Err(Error::InvalidInput(format!("table spec is for {} but the model is {}", spec.model, model.name())));
+    }
+    let cells = spec.cells();
+    let dims = spec.axes.len();
+    let n_out = spec.outputs.len();
+    let cache = RuleCache::new(&spec.quadrature);
+    // Rows of the fastest axis are the unit of parallel work and of progress.
+    let row_len = spec.axes[dims - 1].n;
+    let rows = cells / row_len;
+    let row_results: Vec<Vec<([f64; MAX_OUTPUTS], f64, usize, bool)>> = (0..rows)
+        .into_par_iter()
+        .map(|row| {
+            let mut x = vec![0.0; dims];
+            let out = (0..row_len)
+                .map(|j| {
+                    spec.point(row * row_len + j, &mut x);
+                    let e = albedo(model, &x, &spec.quadrature, &cache);
+                    (e.value, e.error, e.order, e.converged)
+                })
+                .collect();
+            progress(row_len as u64);
+            out
+        })
+        .collect();
+
+    let mut values = vec![0.0; n_out * cells];
+    let mut errors = vec![0.0; cells];
+    let mut summary = ErrorSummary {
+        max_error_estimate: 0.0,
+        max_error_at: vec![],
+        refined_cells: 0,
+        unconverged_cells: 0,
+        unconverged: vec![],
+        max_order_used: 0,
+    };
+    let mut x = vec![0.0; dims];
+    for (cell, (v, err, order, converged)) in row_results.into_iter().flatten().enumerate() {
+        for o in 0..n_out {
+            if !v[o].is_finite() {
+                spec.point(cell, &mut x);
+                return Err(Error::InvalidInput(format!(
+                    "{}: non-finite {} = {} at {:?} (a bug in the model; please report it)",
+                    spec.model, spec.outputs[o], v[o], x
+                )));
+            }
+            values[o * cells + cell] = v[o];
+        }
+        errors[cell] = err;
+        if err > summary.max_error_estimate || summary.max_error_at.is_empty() {
+            summary.max_error_estimate = err;
+            spec.point(cell, &mut x);
+            summary.max_error_at = x.clone();
+        }
+        if order > spec.quadrature.order {
+            summary.refined_cells += 1;
+        }
+        summary.max_order_used = summary.max_order_used.max(order);
+        if !converged {
+            summary.unconverged_cells += 1;
+            if summary.unconverged.len() < MAX_LISTED {
+                spec.point(cell, &mut x);
+                summary.unconverged.push((x.clone(), err));
+            }
+        }
+    }
+    Ok(Table { spec: spec.clone(), values, errors, summary })
+}

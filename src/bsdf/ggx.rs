@@ -118,6 +118,23 @@ impl GgxModel {
         }
     }
 
+    /// The model's outputs from its two integrals at normal reflectance `f0`.
+    fn outputs_from_integrals(&self, f0: f64, c: [f64; CHANNELS]) -> [f64; MAX_OUTPUTS] {
+        match self.kind {
+            GgxKind::Conductor => [c[0], 0.0, 0.0],
+            GgxKind::Dielectric { .. } => {
+                let t = if self.radiance_transmission {
+                    let eta = self.eta(f0);
+                    c[1] / (eta * eta)
+                } else {
+                    c[1]
+                };
+                [c[0] + t, c[0], t]
+            }
+            GgxKind::Glossy => [if c[1] > 0.0 { c[0] / c[1] } else { 0.0 }, 0.0, 0.0],
+        }
+    }
+
     /// The albedo integrals at (f0, r, μo): channels [E_R, E_T] (dielectric),
     /// [E_R·F, E_R without F] (glossy) or [E, 0] (conductor).
     pub fn integrals(&self, f0: f64, r: f64, mu_o: f64, rules: &Rules) -> [f64; CHANNELS] {
@@ -212,19 +229,32 @@ impl Model for GgxModel {
             GgxKind::Conductor => (0.0, x[0], x[1]),
             _ => (x[0], x[1], x[2]),
         };
-        let c = self.integrals(f0, r, mu, rules);
-        match self.kind {
-            GgxKind::Conductor => [c[0], 0.0, 0.0],
-            GgxKind::Dielectric { .. } => {
-                let t = if self.radiance_transmission {
-                    let eta = self.eta(f0);
-                    c[1] / (eta * eta)
-                } else {
-                    c[1]
-                };
-                [c[0] + t, c[0], t]
+        self.outputs_from_integrals(f0, self.integrals(f0, r, mu, rules))
+    }
+
+    fn integrate_column(&self, xs: &[Vec<f64>], rules: &Rules, out: &mut [[f64; MAX_OUTPUTS]]) {
+        let shares_geometry = matches!(self.kind, GgxKind::Dielectric { inverse: false } | GgxKind::Glossy);
+        let (r, mu) = match xs.first() {
+            Some(x) if x.len() == 3 => (x[1], x[2]),
+            _ => (0.0, 0.0),
+        };
+        if !shares_geometry || xs.is_empty() || alpha_from_r(r) == 0.0 {
+            for (x, o) in xs.iter().zip(out.iter_mut()) {
+                *o = self.integrate(x, rules);
             }
-            GgxKind::Glossy => [if c[1] > 0.0 { c[0] / c[1] } else { 0.0 }, 0.0, 0.0],
+            return;
+        }
+        debug_assert!(xs.iter().all(|x| x[1] == r && x[2] == mu), "a column shares r and mu");
+        let etas: Vec<f64> = xs.iter().map(|x| self.eta(x[0])).collect();
+        let lobes = match self.kind {
+            GgxKind::Glossy => Lobes::Glossy { eta: 1.0 },
+            _ => Lobes::Dielectric { eta: 1.0 },
+        };
+        let f = VndfIntegrand::column(alpha_from_r(r), mu, self.smith, lobes, &etas);
+        let mut c = vec![0.0; 2 * etas.len()];
+        crate::quadrature::integrate_2d_into(&f, rules, &mut c);
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = self.outputs_from_integrals(xs[k][0], [c[2 * k], c[2 * k + 1]]);
         }
     }
 
@@ -342,6 +372,12 @@ pub struct VndfIntegrand {
     tir: Option<QuadForm>,
     /// Whether the transmitted direction can cross the horizon (η < 1): located numerically.
     transmit_horizon: bool,
+    /// Column mode: relative IORs of many cells that share this geometry (entering dielectric
+    /// or glossy only, whose kinks do not depend on η); channels are 2 per IOR.
+    column: Vec<f64>,
+    /// Precomputed masking terms of ωo: a(μo) and μo + a(μo) (see [`SmithForm::g2_over_g1`]).
+    a_o: f64,
+    mu_o_plus_a_o: f64,
 }
 
 /// Per-line data of [`VndfIntegrand`].
@@ -368,7 +404,11 @@ impl VndfIntegrand {
             let k = 1.0 - e * e;
             QuadForm::new(alpha * alpha * (sin_o * sin_o - k), sin_o * alpha * mu_o, mu_o * mu_o - k, -k * alpha * alpha)
         });
+        let a_o = crate::math::smith_a(mu_o, alpha);
         VndfIntegrand {
+            column: Vec::new(),
+            a_o,
+            mu_o_plus_a_o: mu_o + a_o,
             alpha,
             mu_o,
             sin_o,
@@ -381,6 +421,29 @@ impl VndfIntegrand {
             horizon,
             tir,
             transmit_horizon: tir.is_some(),
+        }
+    }
+
+    /// The same geometry for a column of cells differing only in their relative IOR (entering
+    /// dielectric or glossy, whose kinks do not depend on it): channels 2k, 2k+1 belong to
+    /// `etas[k]`.
+    pub fn column(alpha: f64, mu_o: f64, smith: SmithForm, lobes: Lobes, etas: &[f64]) -> VndfIntegrand {
+        debug_assert!(etas.iter().all(|&e| e >= 1.0), "column mode needs η ≥ 1 (no critical angle)");
+        let mut f = VndfIntegrand::new(alpha, mu_o, smith, lobes);
+        f.column = etas.to_vec();
+        f
+    }
+
+    /// G2(ωo, ωi)/G1(ωo) for μi > 0, with ωo's terms precomputed (see [`SmithForm::g2_over_g1`]).
+    #[inline]
+    fn masking(&self, mu_i: f64) -> f64 {
+        match self.smith {
+            SmithForm::Separable => crate::math::smith_g1(mu_i, self.alpha),
+            SmithForm::HeightCorrelated => {
+                let a_i = crate::math::smith_a(mu_i, self.alpha);
+                let den = self.a_o * mu_i + a_i * self.mu_o;
+                if den > 0.0 { self.mu_o_plus_a_o * mu_i / den } else { 1.0 }
+            }
         }
     }
 
@@ -661,7 +724,7 @@ impl Integrand2D for VndfIntegrand {
         let visible = line.weight * (sp * self.cos_v + cp * self.sin_v);
         let c = self.sin_o * h[0] + self.mu_o * h[2]; // ωo·h > 0 for visible normals
         let mu_i = 2.0 * c * h[2] - self.mu_o; // z of reflect(ωo, h)
-        let w_r = if mu_i > 0.0 { self.smith.g2_over_g1(self.mu_o, mu_i, self.alpha) } else { 0.0 }; // horizon
+        let w_r = if mu_i > 0.0 { self.masking(mu_i) } else { 0.0 }; // horizon
         match self.lobes {
             Lobes::Conductor => [visible * w_r, 0.0],
             Lobes::Glossy { eta } => {
@@ -669,17 +732,71 @@ impl Integrand2D for VndfIntegrand {
                 [visible * f * w_r, visible * w_r]
             }
             Lobes::Dielectric { eta } => {
-                let sin2_t = (1.0 - c * c) / (eta * eta);
-                if sin2_t >= 1.0 {
-                    return [visible * w_r, 0.0]; // tir: F = 1
-                }
-                let cos_t = (1.0 - sin2_t).sqrt();
-                let f = fresnel_from_cosines(c, cos_t, eta);
-                let mu_t = -self.mu_o / eta + (c / eta - cos_t) * h[2]; // z of refract(ωo, h, η)
-                let w_t = if mu_t < 0.0 { self.smith.g2_over_g1(self.mu_o, -mu_t, self.alpha) } else { 0.0 };
+                let (f, w_t) = self.transmission(c, h[2], eta);
                 [visible * f * w_r, visible * (1.0 - f) * w_t]
             }
         }
+    }
+
+    fn channels(&self) -> usize {
+        if self.column.is_empty() { CHANNELS } else { 2 * self.column.len() }
+    }
+
+    #[inline]
+    fn accumulate(&self, line: &Line, phi: f64, w: f64, acc: &mut [f64]) -> bool {
+        if self.column.is_empty() {
+            let y = self.eval(line, phi);
+            acc[0] += w * y[0];
+            acc[1] += w * y[1];
+            return y[0] != 0.0 || y[1] != 0.0;
+        }
+        // Column mode: the geometry once, then the IOR-dependent factors per cell.
+        let (sp, cp) = phi.sin_cos();
+        let Some(h) = self.half_vector(line, sp, cp) else {
+            return false;
+        };
+        let visible = w * line.weight * (sp * self.cos_v + cp * self.sin_v);
+        let c = self.sin_o * h[0] + self.mu_o * h[2];
+        let mu_i = 2.0 * c * h[2] - self.mu_o;
+        let w_r = if mu_i > 0.0 { self.masking(mu_i) } else { 0.0 };
+        match self.lobes {
+            Lobes::Glossy { .. } => {
+                if w_r == 0.0 {
+                    return false;
+                }
+                for (k, &eta) in self.column.iter().enumerate() {
+                    let f = fresnel_dielectric(c, eta);
+                    acc[2 * k] += visible * f * w_r;
+                    acc[2 * k + 1] += visible * w_r;
+                }
+                true
+            }
+            _ => {
+                for (k, &eta) in self.column.iter().enumerate() {
+                    let (f, w_t) = self.transmission(c, h[2], eta);
+                    acc[2 * k] += visible * f * w_r;
+                    acc[2 * k + 1] += visible * (1.0 - f) * w_t;
+                }
+                true
+            }
+        }
+    }
+}
+
+impl VndfIntegrand {
+    /// Fresnel reflectance and the transmitted masking weight at a normal with ωo·h = c and
+    /// height h_z, for relative IOR `eta` (F = 1 and no transmission under TIR).
+    #[inline]
+    fn transmission(&self, c: f64, h_z: f64, eta: f64) -> (f64, f64) {
+        let sin2_t = (1.0 - c * c) / (eta * eta);
+        if sin2_t >= 1.0 {
+            return (1.0, 0.0); // tir
+        }
+        let cos_t = (1.0 - sin2_t).sqrt();
+        let f = fresnel_from_cosines(c, cos_t, eta);
+        let mu_t = -self.mu_o / eta + (c / eta - cos_t) * h_z; // z of refract(ωo, h, η)
+        let w_t = if mu_t < 0.0 { self.masking(-mu_t) } else { 0.0 };
+        (f, w_t)
     }
 }
 

@@ -50,6 +50,15 @@ pub trait Model: Send + Sync {
     fn parameters(&self) -> serde_json::Value {
         serde_json::Value::Null
     }
+    /// Outputs at points that share every coordinate but the first (a column of a table along
+    /// its first axis, e.g. f0), written to `out`. Models whose integrand geometry does not
+    /// depend on the first axis override this to compute it once per column; the default
+    /// integrates each point on its own.
+    fn integrate_column(&self, xs: &[Vec<f64>], rules: &Rules, out: &mut [[f64; MAX_OUTPUTS]]) {
+        for (x, o) in xs.iter().zip(out.iter_mut()) {
+            *o = self.integrate(x, rules);
+        }
+    }
     /// Folder name of the model's tables under `data/` (differs from [`Model::name`] only for
     /// variants selected by options, e.g. radiance-form transmission).
     fn cache_name(&self) -> String {
@@ -60,6 +69,43 @@ pub trait Model: Send + Sync {
 /// E at one point with its error estimate, refined until it meets `settings.tolerance`.
 pub fn albedo(model: &dyn Model, x: &[f64], settings: &QuadratureSettings, cache: &RuleCache) -> Estimate<MAX_OUTPUTS> {
     estimate(settings, cache, |rules| model.integrate(x, rules))
+}
+
+/// E at points sharing all but the first coordinate, with per-point error estimates: the whole
+/// column at the companion and base orders ([`Model::integrate_column`]), then each point whose
+/// estimate exceeds the tolerance refined on its own at doubled orders.
+pub fn albedo_column(
+    model: &dyn Model,
+    xs: &[Vec<f64>],
+    settings: &QuadratureSettings,
+    cache: &RuleCache,
+) -> Vec<Estimate<MAX_OUTPUTS>> {
+    let mut low = vec![[0.0; MAX_OUTPUTS]; xs.len()];
+    let mut high = vec![[0.0; MAX_OUTPUTS]; xs.len()];
+    model.integrate_column(xs, cache.get(settings.companion), &mut low);
+    model.integrate_column(xs, cache.get(settings.order), &mut high);
+    xs.iter()
+        .zip(low.iter().zip(&high))
+        .map(|(x, (l, h))| {
+            let error = h.iter().zip(l).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            if error <= settings.tolerance || settings.order * 2 > settings.max_order {
+                return Estimate { value: *h, error, order: settings.order, converged: error <= settings.tolerance };
+            }
+            // refine this point alone, continuing from the base order
+            let mut order = settings.order * 2;
+            let mut prev = *h;
+            loop {
+                let next = model.integrate(x, cache.get(order));
+                let error = next.iter().zip(&prev).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+                let converged = error <= settings.tolerance;
+                if converged || order * 2 > settings.max_order {
+                    return Estimate { value: next, error, order, converged };
+                }
+                prev = next;
+                order *= 2;
+            }
+        })
+        .collect()
 }
 
 /// Checks that `x` has one finite coordinate per axis, inside the valid range.

@@ -18,6 +18,9 @@ pub const CHANNELS: usize = 2;
 pub enum PanelMap {
     /// Gauss–Legendre mapped affinely: for integrands analytic on a neighbourhood of the panel.
     Plain,
+    /// Square-root behaviour at both ends: the map x = 3t² − 2t³ (a Sidi-type sigmoidal map,
+    /// Sidi 1993), whose derivative vanishes at both ends.
+    Smooth,
     /// Behaviour at the end `at` (the panel's a or b) handled by a substitution x = at ± y(t):
     /// * `sqrt` — square-root behaviour at that end (a kink curve tangent to the line, a critical
     ///   angle): y = L·t² makes √y analytic in t;
@@ -65,6 +68,15 @@ impl Break {
     }
 }
 
+/// Breaks closer than this are one break (both variables are angles of order one; root finders
+/// and bisections place breaks to ~1e-13).
+pub const MERGE_TOL: f64 = 1e-11;
+
+/// Smallest δ a near-singular end is mapped for: a feature narrower than this changes an
+/// integral of order one by less than the tolerances furnace works to, and a smaller δ would only
+/// add sinh pieces.
+pub const MIN_DELTA: f64 = 1e-7;
+
 /// A near-singular end is mapped only when δ is below this fraction of its (half) panel.
 pub const NEAR_SINGULAR_RATIO: f64 = 0.25;
 
@@ -90,7 +102,7 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
     let mut merged: Vec<Break> = Vec::with_capacity(breaks.len());
     for b in breaks.iter() {
         match merged.last_mut() {
-            Some(last) if (b.x - last.x).abs() <= 1e-15 * (1.0 + b.x.abs()) => {
+            Some(last) if (b.x - last.x).abs() <= MERGE_TOL => {
                 last.sqrt |= b.sqrt;
                 last.delta = last.delta.min(b.delta);
             }
@@ -107,7 +119,7 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
         if k + 1 < merged.len() && merged[k + 1].sqrt {
             delta = delta.min(merged[k + 1].x - merged[k].x);
         }
-        merged[k].delta = delta;
+        merged[k].delta = delta.max(MIN_DELTA);
     }
     for w in merged.windows(2) {
         let (l, r) = (w[0], w[1]);
@@ -116,6 +128,12 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
         }
         let len = r.x - l.x;
         match (end_map(&l, r.x, len), end_map(&r, l.x, len)) {
+            (Some(PanelMap::End { sqrt: true, delta: dl, .. }), Some(PanelMap::End { sqrt: true, delta: dr, .. }))
+                if dl.is_infinite() && dr.is_infinite() =>
+            {
+                // Square-root behaviour at both ends and nothing else: one panel, cubic map.
+                out.push(Panel { a: l.x, b: r.x, map: PanelMap::Smooth });
+            }
             (Some(ml), Some(mr)) => {
                 let mid = 0.5 * (l.x + r.x);
                 let ml = end_map(&l, mid, 0.5 * len).unwrap_or(ml);
@@ -147,6 +165,22 @@ pub trait Integrand2D {
     /// The integrand at (u, v) on `line`, every Jacobian included.
     fn eval(&self, line: &Self::Line, v: f64) -> [f64; CHANNELS];
 
+    /// How many channels [`Self::accumulate`] writes (default [`CHANNELS`]).
+    fn channels(&self) -> usize {
+        CHANNELS
+    }
+    /// Adds `w` times the integrand at (line, v) to `acc` (length [`Self::channels`]) and says
+    /// whether the integrand is non-zero there. Integrands with many channels (a whole column of
+    /// a table sharing one geometry) override it; the default calls [`Self::eval`].
+    #[inline]
+    fn accumulate(&self, line: &Self::Line, v: f64, w: f64, acc: &mut [f64]) -> bool {
+        let y = self.eval(line, v);
+        for k in 0..CHANNELS {
+            acc[k] += w * y[k];
+        }
+        y.iter().any(|&c| c != 0.0)
+    }
+
     /// Outer panels with their maps; by default every break of [`Self::outer_breaks`] is
     /// treated as a square-root point (safe whatever the behaviour there).
     fn outer_panels(&self, out: &mut Vec<Panel>) {
@@ -177,11 +211,12 @@ fn smooth_panels(breaks: &[f64], out: &mut Vec<Panel>) {
 #[derive(Clone, Debug)]
 pub struct DimRules {
     pub plain: UnitRule,
+    pub smooth: UnitRule,
 }
 
 impl DimRules {
     fn new(order: usize) -> DimRules {
-        DimRules { plain: UnitRule::gauss_legendre(order) }
+        DimRules { plain: UnitRule::gauss_legendre(order), smooth: UnitRule::gauss_legendre_smoothed(order) }
     }
 
     /// Calls `f(x, w)` for every node of `panel` (weights include the map's Jacobian).
@@ -192,6 +227,11 @@ impl DimRules {
         match panel.map {
             PanelMap::Plain => {
                 for (&t, &w) in rule.nodes.iter().zip(&rule.weights) {
+                    f(a + (b - a) * t, w * (b - a));
+                }
+            }
+            PanelMap::Smooth => {
+                for (&t, &w) in self.smooth.nodes.iter().zip(&self.smooth.weights) {
                     f(a + (b - a) * t, w * (b - a));
                 }
             }
@@ -247,42 +287,47 @@ impl Rules {
 
 /// Nested product rule over all panels.
 pub fn integrate_2d<I: Integrand2D>(f: &I, rules: &Rules) -> [f64; CHANNELS] {
+    let mut total = [0.0; CHANNELS];
+    integrate_2d_into(f, rules, &mut total);
+    total
+}
+
+/// Nested product rule over all panels, into `total` (length `f.channels()`, zeroed here).
+pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]) {
+    let n = f.channels();
+    total.iter_mut().for_each(|t| *t = 0.0);
+    let mut scratch = vec![0.0; n];
+    let mut line_sum = vec![0.0; n];
     let mut outer = Vec::with_capacity(16);
     f.outer_panels(&mut outer);
     let mut inner = Vec::with_capacity(16);
-    let mut total = [0.0; CHANNELS];
+    // A panel between kinks on which the integrand vanishes at the midpoint vanishes throughout
+    // (kinks are its only way to switch on); likewise an outer panel whose middle line vanishes
+    // at every inner midpoint (e.g. beyond the latitude where the reflection horizon closes).
+    let active = |line: &I::Line, seg: &Panel, scratch: &mut [f64]| f.accumulate(line, 0.5 * (seg.a + seg.b), 0.0, scratch);
     for panel in &outer {
-        // Outer panels end wherever the inner structure changes, so a panel whose middle line
-        // vanishes at every inner panel's midpoint vanishes throughout (e.g. beyond the latitude
-        // where the reflection horizon closes): skip it.
         inner.clear();
         let mid_line = f.line_panels(0.5 * (panel.a + panel.b), &mut inner);
-        if inner.iter().all(|seg| f.eval(&mid_line, 0.5 * (seg.a + seg.b)).iter().all(|&y| y == 0.0)) {
+        if !inner.iter().any(|seg| active(&mid_line, seg, &mut scratch)) {
             continue;
         }
         rules.outer.for_each_node(panel, |u, wu| {
             inner.clear();
             let line = f.line_panels(u, &mut inner);
-            let mut line_sum = [0.0; CHANNELS];
+            line_sum.iter_mut().for_each(|t| *t = 0.0);
             for seg in &inner {
-                // A panel between kinks on which the integrand vanishes at the midpoint vanishes
-                // throughout (kinks are its only way to switch on): skip it.
-                if f.eval(&line, 0.5 * (seg.a + seg.b)).iter().all(|&y| y == 0.0) {
+                if !active(&line, seg, &mut scratch) {
                     continue;
                 }
                 rules.inner.for_each_node(seg, |v, wv| {
-                    let y = f.eval(&line, v);
-                    for k in 0..CHANNELS {
-                        line_sum[k] += wv * y[k];
-                    }
+                    f.accumulate(&line, v, wv, &mut line_sum);
                 });
             }
-            for k in 0..CHANNELS {
+            for k in 0..n {
                 total[k] += wu * line_sum[k];
             }
         });
     }
-    total
 }
 
 /// Quadrature settings of a table or an evaluation: the base order per panel and dimension,

@@ -20,7 +20,7 @@
 pub mod io;
 pub mod points;
 
-use crate::bsdf::{albedo, Model, MAX_OUTPUTS};
+use crate::bsdf::{albedo, albedo_column, Model, MAX_OUTPUTS};
 use crate::error::{human_bytes, Error, Result};
 use crate::quadrature::{QuadratureSettings, RuleCache};
 use rayon::prelude::*;
@@ -225,24 +225,45 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
     let dims = spec.axes.len();
     let n_out = spec.outputs.len();
     let cache = RuleCache::new(&spec.quadrature);
-    // Rows of the fastest axis are the unit of parallel work and of progress.
-    let row_len = spec.axes[dims - 1].n;
-    let rows = cells / row_len;
-    let row_results: Vec<Vec<([f64; MAX_OUTPUTS], f64, usize, bool)>> = (0..rows)
+    // Unit of parallel work and of progress: in 2-D a row along the last axis; in 3-D a column
+    // along the first axis (f0), which models may integrate with one shared geometry.
+    let (units, unit_len) = if dims >= 3 { (cells / spec.axes[0].n, spec.axes[0].n) } else { (cells / spec.axes[dims - 1].n, spec.axes[dims - 1].n) };
+    let cell_of = |unit: usize, k: usize| -> usize {
+        if dims >= 3 { k * units + unit } else { unit * unit_len + k }
+    };
+    let unit_results: Vec<Vec<([f64; MAX_OUTPUTS], f64, usize, bool)>> = (0..units)
         .into_par_iter()
-        .map(|row| {
-            let mut x = vec![0.0; dims];
-            let out = (0..row_len)
-                .map(|j| {
-                    spec.point(row * row_len + j, &mut x);
-                    let e = albedo(model, &x, &spec.quadrature, &cache);
-                    (e.value, e.error, e.order, e.converged)
+        .map(|unit| {
+            let xs: Vec<Vec<f64>> = (0..unit_len)
+                .map(|k| {
+                    let mut x = vec![0.0; dims];
+                    spec.point(cell_of(unit, k), &mut x);
+                    x
                 })
                 .collect();
-            progress(row_len as u64);
+            let out = if dims >= 3 {
+                albedo_column(model, &xs, &spec.quadrature, &cache)
+                    .into_iter()
+                    .map(|e| (e.value, e.error, e.order, e.converged))
+                    .collect()
+            } else {
+                xs.iter()
+                    .map(|x| {
+                        let e = albedo(model, x, &spec.quadrature, &cache);
+                        (e.value, e.error, e.order, e.converged)
+                    })
+                    .collect()
+            };
+            progress(unit_len as u64);
             out
         })
         .collect();
+    let mut ordered: Vec<Option<([f64; MAX_OUTPUTS], f64, usize, bool)>> = vec![None; cells];
+    for (unit, results) in unit_results.into_iter().enumerate() {
+        for (k, r) in results.into_iter().enumerate() {
+            ordered[cell_of(unit, k)] = Some(r);
+        }
+    }
 
     let mut values = vec![0.0; n_out * cells];
     let mut errors = vec![0.0; cells];
@@ -255,7 +276,7 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
         max_order_used: 0,
     };
     let mut x = vec![0.0; dims];
-    for (cell, (v, err, order, converged)) in row_results.into_iter().flatten().enumerate() {
+    for (cell, (v, err, order, converged)) in ordered.into_iter().map(|r| r.expect("every cell computed")).enumerate() {
         for o in 0..n_out {
             if !v[o].is_finite() {
                 spec.point(cell, &mut x);

@@ -7,6 +7,7 @@
 
 pub mod diffuse;
 pub mod ggx;
+pub mod radziszewski;
 
 use crate::error::{Error, Result};
 use crate::quadrature::{estimate, Estimate, QuadratureSettings, RuleCache, Rules};
@@ -98,6 +99,7 @@ pub fn registry() -> Vec<Box<dyn Model>> {
     models.push(Box::new(diffuse::DiffuseModel::new(diffuse::DiffuseKind::Qon)));
     models.push(Box::new(diffuse::DiffuseModel::new(diffuse::DiffuseKind::Fon)));
     models.push(Box::new(diffuse::DiffuseModel::new(diffuse::DiffuseKind::Eon)));
+    models.push(Box::new(radziszewski::RadziszewskiModel));
     models
 }
 

@@ -5,7 +5,9 @@
 //! and how to integrate at one point. To add a BSDF, write one file implementing [`Model`]
 //! and add one line to [`registry`] (see README, "Fitting a new BSDF").
 
+pub mod diffuse;
 pub mod ggx;
+pub mod radziszewski;
 
 use crate::error::{Error, Result};
 use crate::quadrature::{estimate, Estimate, QuadratureSettings, RuleCache, Rules};
@@ -145,6 +147,10 @@ pub struct ModelOptions {
 pub fn registry() -> Vec<Box<dyn Model>> {
     let mut models: Vec<Box<dyn Model>> = Vec::new();
     models.extend(ggx::all());
+    models.push(Box::new(diffuse::DiffuseModel::new(diffuse::DiffuseKind::Qon)));
+    models.push(Box::new(diffuse::DiffuseModel::new(diffuse::DiffuseKind::Fon)));
+    models.push(Box::new(diffuse::DiffuseModel::new(diffuse::DiffuseKind::Eon)));
+    models.push(Box::new(radziszewski::RadziszewskiModel));
     models
 }
 

@@ -29,7 +29,9 @@ pub mod basis;
 pub mod data;
 pub mod error;
 pub mod linear;
+pub mod lm;
 
 pub use basis::{exponents, n_terms, Polynomial};
 pub use data::{FitData, InputTransform};
 pub use error::{FitError, Result};
+pub use lm::{LeastSquaresProblem, LevenbergMarquardt, LmReport, LmState, TerminationReason};

@@ -30,8 +30,18 @@ pub mod data;
 pub mod error;
 pub mod linear;
 pub mod lm;
+pub mod metrics;
+mod model;
+pub mod poles;
+pub mod polynomial;
+pub mod result;
+mod robust;
 
 pub use basis::{exponents, n_terms, Polynomial};
 pub use data::{FitData, InputTransform};
 pub use error::{FitError, Result};
 pub use lm::{LeastSquaresProblem, LevenbergMarquardt, LmReport, LmState, TerminationReason};
+pub use metrics::{measure, Metrics};
+pub use poles::{CertifyOptions, PoleVerdict};
+pub use polynomial::{fit_polynomial, PolynomialOptions};
+pub use result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};

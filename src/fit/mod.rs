@@ -34,8 +34,10 @@ pub mod metrics;
 mod model;
 pub mod poles;
 pub mod polynomial;
+pub mod rational;
 pub mod result;
 mod robust;
+pub mod sweep;
 
 pub use basis::{exponents, n_terms, Polynomial};
 pub use data::{FitData, InputTransform};
@@ -44,4 +46,6 @@ pub use lm::{LeastSquaresProblem, LevenbergMarquardt, LmReport, LmState, Termina
 pub use metrics::{measure, Metrics};
 pub use poles::{CertifyOptions, PoleVerdict};
 pub use polynomial::{fit_polynomial, PolynomialOptions};
+pub use rational::{fit_rational, RationalOptions};
 pub use result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
+pub use sweep::{best_under_budget, sweep, sweep_detailed, SkippedFit, SweepOptions, SweepReport};

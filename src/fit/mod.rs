@@ -32,6 +32,7 @@ pub mod linear;
 pub mod lm;
 pub mod metrics;
 mod model;
+pub mod paper;
 pub mod poles;
 pub mod polynomial;
 pub mod rational;
@@ -49,3 +50,6 @@ pub use polynomial::{fit_polynomial, PolynomialOptions};
 pub use rational::{fit_rational, RationalOptions};
 pub use result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
 pub use sweep::{best_under_budget, sweep, sweep_detailed, SkippedFit, SweepOptions, SweepReport};
+
+#[cfg(test)]
+mod paper_tests;

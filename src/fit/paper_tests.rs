@@ -1,0 +1,127 @@
+//! Checks against the paper's own data (Sforza & Pellacini 2022; tables and coefficients from
+//! their repository). The data directory is `$FURNACE_PAPER_DATA`, default
+//! `/work/shared/paper-repo-data`; the tests say so and pass vacuously if it is absent.
+//!
+//! The 1024² timing check is `#[ignore]`d (it needs a release build to be meaningful); run it with
+//! `cargo test --release --lib fit::paper_tests -- --ignored --nocapture`.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use super::paper::{load_coefficients, load_table, published_fit, PaperModel};
+use super::*;
+
+fn data_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("FURNACE_PAPER_DATA").map(PathBuf::from).unwrap_or_else(|| "/work/shared/paper-repo-data".into());
+    if dir.join("tables/conductors.csv").exists() {
+        Some(dir)
+    } else {
+        eprintln!("paper data not found in {} (set FURNACE_PAPER_DATA); skipping", dir.display());
+        None
+    }
+}
+
+#[test]
+fn published_conductor_fit_reproduces_the_papers_error() {
+    let Some(dir) = data_dir() else { return };
+    let table = load_table(&dir.join("tables/conductors.csv"), PaperModel::Conductors).unwrap();
+    let r = published_fit(&dir.join("coefficients/conductors.csv"), PaperModel::Conductors, &table).unwrap();
+    eprintln!("published conductors on 32²: MAE {:.5}, max {:.5} at {:?}, poles {:?}", r.metrics.mae, r.metrics.max_abs_error, r.metrics.max_abs_error_at, r.poles);
+    // README of the paper data: 0.0041 / 0.027
+    assert!((r.metrics.mae - 0.0041).abs() < 0.00005, "{}", r.metrics.mae);
+    assert!((r.metrics.max_abs_error - 0.027).abs() < 0.0005, "{}", r.metrics.max_abs_error);
+    assert!(r.poles.is_certified(), "{:?}", r.poles);
+}
+
+#[test]
+fn published_3d_fits_reproduce_the_papers_errors() {
+    let Some(dir) = data_dir() else { return };
+    // (model, table, coefficients, MAE, max) from the paper data README
+    for (model, name, mae, max) in [
+        (PaperModel::Glossy, "glossy", 0.0071, 0.128),
+        (PaperModel::Dielectrics, "dielectrics", 0.0042, 0.18),
+        (PaperModel::DielectricsInvEta, "dielectrics_inv_eta", 0.049, 1.86),
+    ] {
+        let table = load_table(&dir.join(format!("tables/{name}.csv")), model).unwrap();
+        let r = published_fit(&dir.join(format!("coefficients/{name}.csv")), model, &table).unwrap();
+        eprintln!("published {name} on 32³: MAE {:.5}, max {:.4}, poles {:?}", r.metrics.mae, r.metrics.max_abs_error, r.poles);
+        assert!((r.metrics.mae - mae).abs() < 0.03 * mae, "{name}: MAE {}", r.metrics.mae);
+        assert!((r.metrics.max_abs_error - max).abs() < 0.03 * max, "{name}: max {}", r.metrics.max_abs_error);
+    }
+}
+
+#[test]
+fn our_degree3_rational_beats_the_papers_on_its_table() {
+    let Some(dir) = data_dir() else { return };
+    let table = load_table(&dir.join("tables/conductors.csv"), PaperModel::Conductors).unwrap();
+    let t = Instant::now();
+    let r = fit_rational(&table, &[InputTransform::Identity; 2], 3, 3, Objective::LeastSquares, &RationalOptions::default()).unwrap();
+    eprintln!(
+        "our LS 3/3 on conductors 32²: MAE {:.5}, RMSE {:.5}, max {:.5}, {:.2} s (debug), poles {:?}, starts {:?}",
+        r.metrics.mae,
+        r.metrics.rmse,
+        r.metrics.max_abs_error,
+        t.elapsed().as_secs_f64(),
+        r.poles,
+        r.solver.as_ref().unwrap().starts.iter().map(|s| (s.name.clone(), s.cost, s.certified)).collect::<Vec<_>>()
+    );
+    assert_eq!(r.n_coefficients, 19);
+    assert!(r.is_usable(), "{:?}", r.poles);
+    assert!(r.metrics.mae <= 0.0041, "MAE {}", r.metrics.mae);
+    // the emitted coefficients use the paper's layout: Q's constant is 1
+    assert_eq!(r.approximant.denominator.as_ref().unwrap().coefficients[0], 1.0);
+    // a JSON round trip evaluates identically
+    let back = FitResult::from_json(&r.to_json().unwrap()).unwrap();
+    assert_eq!(back.eval(&[0.3, 0.6]).to_bits(), r.eval(&[0.3, 0.6]).to_bits());
+}
+
+#[test]
+fn published_coefficients_seed_our_fit_in_their_layout() {
+    let Some(dir) = data_dir() else { return };
+    let a = load_coefficients(&dir.join("coefficients/conductors.csv"), PaperModel::Conductors).unwrap();
+    assert_eq!(a.n_coefficients(), 19);
+    assert!((a.numerator.coefficients[0] - 1.0247217).abs() < 1e-12);
+    assert!((a.denominator.as_ref().unwrap().coefficients[9] - -5.930959).abs() < 1e-12); // a18 · μ³
+    let e = load_coefficients(&dir.join("coefficients/conductors.csv"), PaperModel::Glossy).unwrap_err();
+    assert!(e.to_string().contains("right model"), "{e}");
+}
+
+/// A smooth albedo-like 1024² data set: the paper's conductor rational plus a non-rational
+/// perturbation, so the fit has real work to do.
+fn synthetic_1024(dir: &std::path::Path) -> FitData {
+    let a = load_coefficients(&dir.join("coefficients/conductors.csv"), PaperModel::Conductors).unwrap();
+    let n = 1024;
+    let ax: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
+    let vals = ax
+        .iter()
+        .flat_map(|&r| ax.iter().map(move |&m| (r, m)))
+        .map(|(r, m)| a.eval(&[r, m]) + 0.01 * (3.0 * r).sin() * (2.0 * m).cos())
+        .collect();
+    FitData::from_grid(vec!["r".into(), "mu".into()], &[ax.clone(), ax], vals).unwrap()
+}
+
+#[test]
+#[ignore = "timing: run in release (see module docs)"]
+fn timing_1024_squared_degree3_rational() {
+    let Some(dir) = data_dir() else { return };
+    let data = synthetic_1024(&dir);
+    let t = Instant::now();
+    let r = fit_rational(&data, &[InputTransform::Identity; 2], 3, 3, Objective::LeastSquares, &RationalOptions::default()).unwrap();
+    let secs = t.elapsed().as_secs_f64();
+    let s = r.solver.as_ref().unwrap();
+    eprintln!(
+        "1024² 3/3 rational: {secs:.2} s on {} threads; MAE {:.2e}, RMSE {:.2e}, max {:.2e}; {:?} after {} LM steps; poles {:?}",
+        rayon::current_num_threads(),
+        r.metrics.mae,
+        r.metrics.rmse,
+        r.metrics.max_abs_error,
+        s.termination,
+        s.iterations,
+        r.poles
+    );
+    for st in &s.starts {
+        eprintln!("  start {}: cost {:?}, {:?}, {} steps, certified {}", st.name, st.cost, st.termination, st.iterations, st.certified);
+    }
+    assert!(r.is_usable());
+    assert!(secs <= 10.0, "{secs} s");
+}

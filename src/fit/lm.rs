@@ -14,7 +14,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DMatrixView, DVector};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -32,6 +32,12 @@ pub trait LeastSquaresProblem: Sync {
     fn residuals(&self, p: &[f64], rows: Range<usize>, r: &mut [f64]) -> bool;
     /// Writes residuals and the Jacobian block ∂r_i/∂p_j, column-major (`rows.len()` × n_params).
     fn jacobian(&self, p: &[f64], rows: Range<usize>, r: &mut [f64], jac: &mut [f64]) -> bool;
+    /// Whether `p` is admissible beyond the residuals (e.g. a denominator proved pole-free on
+    /// the whole domain). Checked for the start and for every trial point before its
+    /// residuals; an inadmissible trial is rejected like a cost increase. Default: always.
+    fn admissible(&self, _p: &[f64]) -> bool {
+        true
+    }
 }
 
 /// Why the solver stopped.
@@ -51,7 +57,7 @@ pub enum TerminationReason {
     /// The damping grew past its limit without finding a decrease: a local minimum to working
     /// precision, or a step blocked by infeasibility (e.g. a pole).
     NoProgress,
-    /// The starting point is infeasible or gives non-finite residuals.
+    /// The starting point is infeasible, inadmissible or gives non-finite residuals.
     InfeasibleStart,
 }
 
@@ -174,7 +180,8 @@ impl LevenbergMarquardt {
             jacobian_evaluations: 0,
             gradient_cosine: f64::INFINITY,
         };
-        let Some(mut ne) = normal_equations(problem, &state.params) else {
+        let start = if problem.admissible(&state.params) { normal_equations(problem, &state.params) } else { None };
+        let Some(mut ne) = start else {
             return Ok(LmReport { state, termination: TerminationReason::InfeasibleStart });
         };
         state.jacobian_evaluations += 1;
@@ -213,7 +220,7 @@ impl LevenbergMarquardt {
             let predicted = -g_delta - 0.5 * quad;
 
             let trial: Vec<f64> = state.params.iter().zip(&delta).map(|(x, d)| x + d).collect();
-            let trial_cost = cost(problem, &trial).unwrap_or(f64::INFINITY);
+            let trial_cost = if problem.admissible(&trial) { cost(problem, &trial).unwrap_or(f64::INFINITY) } else { f64::INFINITY };
             let actual = state.cost - trial_cost;
             let rho = if predicted > 0.0 { actual / predicted } else { f64::NEG_INFINITY };
 
@@ -348,14 +355,20 @@ pub(crate) fn normal_equations<P: LeastSquaresProblem + ?Sized>(problem: &P, p: 
                 if !problem.jacobian(p, rows, r, jac) {
                     return None;
                 }
+                // JᵀJ of the block by one blocked matrix product (matrixmultiply through
+                // nalgebra's gemm: single-threaded, fixed blocking → deterministic); Jᵀ is
+                // copied (len·n, cheap next to len·n²) so both operands have standard layout.
+                let jv = DMatrixView::from_slice(jac, len, n);
+                let jt = jv.transpose();
+                let mut block = DMatrix::zeros(n, n);
+                block.gemm(1.0, &jt, &jv, 0.0);
                 let mut jtj = Vec::with_capacity(n * (n + 1) / 2);
                 let mut jtr = Vec::with_capacity(n);
                 for a in 0..n {
-                    let ca = &jac[a * len..(a + 1) * len];
                     for b in a..n {
-                        jtj.push(dot(ca, &jac[b * len..(b + 1) * len]));
+                        jtj.push(block[(a, b)]);
                     }
-                    jtr.push(dot(ca, r));
+                    jtr.push(dot(&jac[a * len..(a + 1) * len], r));
                 }
                 Some(Partial { jtj, jtr, rr: dot(r, r) })
             },

@@ -14,6 +14,7 @@ use super::basis::{chebyshev_to_monomial, exponents, ChebyshevBasis, Polynomial}
 use super::data::{FitData, InputTransform, Prepared};
 use super::linear::LinearRows;
 use super::lm::LeastSquaresProblem;
+use super::poles::{certify_polynomial, CertifyOptions, RawVerdict};
 use super::result::Approximant;
 
 /// Denominator values at data points must stay above this (Q's Chebyshev constant is 1, so
@@ -183,15 +184,43 @@ impl LinearRows for LinearisedRows<'_> {
 }
 
 /// The nonlinear problem min ½ Σ (v_i (P/Q − y_i))², v_i = w_i · extra_i, for Levenberg–Marquardt.
+/// With `certified_steps`, only parameters whose denominator is proved pole-free on the whole
+/// domain box are admissible, so a run from a certified start can only end certified.
 pub(crate) struct RationalProblem<'a> {
     pub model: &'a Model,
     pub data: &'a Prepared,
     pub extra: Option<&'a [f64]>,
+    /// Certificate options and margin: admissible iff Q ≥ margin is proved on the domain.
+    pub certified_steps: Option<(&'a CertifyOptions, f64)>,
+}
+
+impl Model {
+    /// Q in monomial form of the transformed variables (Chebyshev normalisation kept).
+    pub fn denominator_monomial(&self, data: &Prepared, p: &[f64]) -> Option<Polynomial> {
+        let dd = self.den_degree?;
+        let exps = exponents(data.d, dd);
+        let mut cheb = vec![1.0];
+        cheb.extend_from_slice(&p[self.n_num..]);
+        let coefficients = chebyshev_to_monomial(&exps, dd, &data.scales, &cheb);
+        Some(Polynomial { exponents: exps, coefficients })
+    }
+
+    /// True if Q − margin is proved to have no zero on the (transformed) domain box; since Q's
+    /// Chebyshev mean is 1 > margin, that means Q ≥ margin everywhere there.
+    pub fn denominator_certified(&self, data: &Prepared, p: &[f64], opts: &CertifyOptions, margin: f64) -> bool {
+        let Some(mut q) = self.denominator_monomial(data, p) else { return true };
+        q.coefficients[0] -= margin; // exponent (0, …, 0) comes first
+        let bounds: Vec<(f64, f64)> = data.scales.iter().map(|s| (s.lo, s.hi)).collect();
+        matches!(certify_polynomial(&q, &bounds, opts), RawVerdict::Certified { .. })
+    }
 }
 
 impl LeastSquaresProblem for RationalProblem<'_> {
     fn n_params(&self) -> usize {
         self.model.n_params()
+    }
+    fn admissible(&self, p: &[f64]) -> bool {
+        self.certified_steps.is_none_or(|(opts, margin)| self.model.denominator_certified(self.data, p, opts, margin))
     }
     fn n_residuals(&self) -> usize {
         self.data.len()

@@ -10,9 +10,10 @@
 //!    - the least-squares polynomial P with Q = 1,
 //!    - caller-supplied approximants (e.g. the previous degree of a sweep, padded with zeros);
 //! 2. Levenberg–Marquardt ([`super::lm`]) from each start, with a barrier Q > [`Q_FLOOR`] at
-//!    every data point;
-//! 3. the lowest-cost result whose denominator is *certified* pole-free on the whole domain
-//!    ([`super::poles`]) is refined on all points;
+//!    every data point; from a start whose Q is certified pole-free, every trial step must be
+//!    certified too (the certificate is the feasibility oracle), so the run ends certified;
+//! 3. the result with the lowest cost on all points among those whose denominator is
+//!    *certified* ≥ a small margin on the whole domain ([`super::poles`]) is refined on all points;
 //! 4. for MeanAbsolute / Minimax, reweighted LM runs (IRLS / Lawson) from there, keeping the
 //!    best certified iterate.
 //!
@@ -23,7 +24,7 @@ use std::time::Instant;
 use super::basis::{check_degree, exponents, monomial_to_chebyshev, n_terms};
 use super::data::{FitData, InputTransform, Prepared};
 use super::error::{FitError, Result};
-use super::lm::{LevenbergMarquardt, TerminationReason};
+use super::lm::{cost, LevenbergMarquardt, TerminationReason};
 use super::model::{LinearisedRows, Model, RationalProblem, Q_FLOOR};
 use super::poles::CertifyOptions;
 use super::polynomial::solve_polynomial;
@@ -40,11 +41,23 @@ pub struct RationalOptions {
     pub sk_iterations: usize,
     /// Points used to explore the starts (0 = automatic: max(16 384, 200 × parameters)).
     pub exploration_points: usize,
+    /// Levenberg–Marquardt step limit when refining on all points after a subsampled
+    /// exploration (each step is a pass over all data).
+    pub refine_iterations: usize,
     /// Reweighting rounds for MeanAbsolute / Minimax.
     pub reweight_iterations: usize,
     /// Levenberg–Marquardt steps per reweighting round.
     pub reweight_lm_iterations: usize,
+    /// Pole certificate of the final result.
     pub certify: CertifyOptions,
+    /// Cheaper certificate that every Levenberg–Marquardt trial point must pass when the run
+    /// started certified (an undecided trial is rejected), so such runs end certified.
+    pub step_certify: CertifyOptions,
+    /// Runs from a start whose Q is proved ≥ `denominator_margin` on the whole domain (Q
+    /// normalised to Chebyshev mean 1) keep it so at every step, and candidates are ranked
+    /// certified only with this margin. Keeps fits away from near-poles, whose cancellation
+    /// makes f32 evaluation fragile. 0 = only require Q > 0.
+    pub denominator_margin: f64,
     /// Extra starting points, in monomial form with the same variables and transforms
     /// (lower degrees are padded with zeros; mismatching ones are skipped and reported).
     pub extra_starts: Vec<(String, Approximant)>,
@@ -56,9 +69,12 @@ impl Default for RationalOptions {
             lm: LevenbergMarquardt::new(),
             sk_iterations: 6,
             exploration_points: 0,
+            refine_iterations: 50,
             reweight_iterations: 30,
             reweight_lm_iterations: 30,
             certify: CertifyOptions::default(),
+            step_certify: CertifyOptions { max_boxes: 5_000, min_box_width: 1e-6, refine_splits: 0 },
+            denominator_margin: 1e-3,
             extra_starts: Vec::new(),
         }
     }
@@ -138,7 +154,10 @@ pub fn fit_rational(
     let sub = prep.subsample(explore_n);
     let ex = sub.as_ref().unwrap_or(&prep);
 
-    let certify = |p: &[f64]| model.to_approximant(data, transforms, &prep, p).certify_poles(&opts.certify).is_certified();
+    // Q ≥ margin proved on the whole domain: the admissibility test of constrained LM runs and
+    // the "certified" of candidates (the final verdict is the plain certificate, no margin).
+    let guard = (&opts.step_certify, opts.denominator_margin);
+    let safe = |p: &[f64]| model.denominator_certified(&prep, p, guard.0, guard.1);
 
     // 1. starts
     let mut starts: Vec<(String, std::result::Result<Vec<f64>, String>)> = Vec::new();
@@ -182,46 +201,70 @@ pub fn fit_rational(
         let p0 = match s {
             Ok(p) => p,
             Err(note) => {
-                reports.push(StartReport { name, cost: None, termination: None, iterations: 0, certified: false, note: Some(note) });
+                reports.push(StartReport {
+                    name,
+                    cost: None,
+                    cost_all_points: None,
+                    termination: None,
+                    iterations: 0,
+                    certified_steps: false,
+                    certified: false,
+                    note: Some(note),
+                });
                 continue;
             }
         };
-        let rep = opts.lm.solve(&RationalProblem { model: &model, data: ex, extra: None }, p0)?;
+        let constrained = safe(&p0);
+        let problem = RationalProblem { model: &model, data: ex, extra: None, certified_steps: constrained.then_some(guard) };
+        let rep = opts.lm.solve(&problem, p0)?;
         if rep.termination == TerminationReason::InfeasibleStart {
             reports.push(StartReport {
                 name,
                 cost: None,
                 termination: Some(rep.termination),
                 iterations: 0,
+                cost_all_points: None,
+                certified_steps: false,
                 certified: false,
                 note: Some("its denominator vanishes or changes sign at the data".into()),
             });
             continue;
         }
-        let certified = certify(&rep.state.params);
+        let certified = safe(&rep.state.params);
+        // the exploration cost can hide a blow-up between sampled points: rank on all points
+        let cost_all = if sub.is_some() {
+            cost(&RationalProblem { model: &model, data: &prep, extra: None, certified_steps: None }, &rep.state.params)
+        } else {
+            Some(rep.state.cost)
+        };
         reports.push(StartReport {
             name,
             cost: Some(rep.state.cost),
+            cost_all_points: cost_all,
             termination: Some(rep.termination),
             iterations: rep.state.iterations,
+            certified_steps: constrained,
             certified,
             note: None,
         });
-        candidates.push(Candidate { params: rep.state.params, cost: rep.state.cost, certified, termination: rep.termination, iterations: rep.state.iterations });
+        let cost = cost_all.unwrap_or(f64::INFINITY);
+        candidates.push(Candidate { params: rep.state.params, cost, certified, termination: rep.termination, iterations: rep.state.iterations });
     }
     if candidates.is_empty() {
         let tried = reports.iter().map(|r| format!("{}: {}", r.name, r.note.as_deref().unwrap_or("failed"))).collect::<Vec<_>>().join("; ");
         return Err(FitError::NoFeasibleStart { form: label, tried });
     }
-    // certified first, then by cost (stable: ties keep start order)
+    // certified first, then by cost on all points (stable: ties keep start order)
     candidates.sort_by(|a, b| b.certified.cmp(&a.certified).then(a.cost.total_cmp(&b.cost)));
 
     // 3. refine the best on all points
     let mut best = candidates.swap_remove(0);
     if sub.is_some() {
-        let rep = opts.lm.solve(&RationalProblem { model: &model, data: &prep, extra: None }, best.params.clone())?;
+        let lm = opts.lm.clone().with_max_iterations(opts.refine_iterations.max(1))?;
+        let problem = RationalProblem { model: &model, data: &prep, extra: None, certified_steps: best.certified.then_some(guard) };
+        let rep = lm.solve(&problem, best.params.clone())?;
         if rep.termination != TerminationReason::InfeasibleStart {
-            let certified = certify(&rep.state.params);
+            let certified = safe(&rep.state.params);
             if certified || !best.certified {
                 best = Candidate { params: rep.state.params, cost: rep.state.cost, certified, termination: rep.termination, iterations: rep.state.iterations };
             }
@@ -237,14 +280,16 @@ pub fn fit_rational(
     if objective != Objective::LeastSquares {
         if let Some(e0) = model.errors(&prep, &params) {
             let lm = opts.lm.clone().with_max_iterations(opts.reweight_lm_iterations.max(1))?;
+            let constrained = best.certified;
             let mut solve = |extra: &[f64], warm: &[f64]| -> Result<Option<(Vec<f64>, Vec<f64>, Option<TerminationReason>, usize)>> {
-                let rep = lm.solve(&RationalProblem { model: &model, data: &prep, extra: Some(extra) }, warm.to_vec())?;
+                let problem = RationalProblem { model: &model, data: &prep, extra: Some(extra), certified_steps: constrained.then_some(guard) };
+                let rep = lm.solve(&problem, warm.to_vec())?;
                 if rep.termination == TerminationReason::InfeasibleStart {
                     return Ok(None);
                 }
                 Ok(model.errors(&prep, &rep.state.params).map(|e| (rep.state.params, e, Some(rep.termination), rep.state.iterations)))
             };
-            let mut accept = |p: &[f64]| !best.certified || certify(p);
+            let mut accept = |p: &[f64]| !best.certified || safe(p);
             let rw = reweight(objective, opts.reweight_iterations, &prep.w, params.clone(), e0, &mut solve as &mut Solve<'_>, &mut accept)?;
             rounds = rw.rounds;
             converged = rw.converged;
@@ -349,6 +394,19 @@ mod tests {
         }
         assert_eq!(back.eval(&[0.2, 0.4]).to_bits(), r.eval(&[0.2, 0.4]).to_bits());
         assert!(FitResult::from_json("{\"form\": 3}").unwrap_err().to_string().contains("FitResult::to_json"));
+    }
+
+    #[test]
+    fn whole_fit_is_identical_for_any_thread_count() {
+        // 70² points span two accumulation chunks; exploration subsampled to exercise that path too
+        let data = grid2(70, |x, y| (1.0 + x * y).ln() / (1.3 + y));
+        let opts = RationalOptions { exploration_points: 1000, ..Default::default() };
+        let run = |t| {
+            rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| {
+                fit_rational(&data, &[InputTransform::Identity; 2], 2, 2, Objective::LeastSquares, &opts).unwrap().to_json().unwrap()
+            })
+        };
+        assert_eq!(run(1), run(3));
     }
 
     #[test]

@@ -91,8 +91,12 @@ impl Approximant {
         x.iter().zip(&self.transforms).map(|(&v, tr)| tr.apply(v)).collect()
     }
 
-    /// f(x) in f64. x in the original variables, one per variable.
+    /// f(x) in f64. x in the original variables, one per variable (NaN if the number of
+    /// coordinates is wrong: there is no value to give).
     pub fn eval(&self, x: &[f64]) -> f64 {
+        if x.len() != self.variables.len() || x.len() > MAX_DIM {
+            return f64::NAN;
+        }
         let mut t = [0.0f64; MAX_DIM];
         for (k, (&v, tr)) in x.iter().zip(&self.transforms).enumerate() {
             t[k] = tr.apply(v);
@@ -144,8 +148,14 @@ pub struct StartReport {
     pub name: String,
     /// ½ Σ (w e)² after Levenberg–Marquardt on the exploration set (None if it could not start).
     pub cost: Option<f64>,
+    /// The same cost on all points (equal to `cost` when nothing was subsampled); starts are
+    /// ranked by it.
+    pub cost_all_points: Option<f64>,
     pub termination: Option<TerminationReason>,
     pub iterations: usize,
+    /// Every trial step had to be certified pole-free (the start was).
+    pub certified_steps: bool,
+    /// The end point's denominator is proved ≥ the margin on the whole domain.
     pub certified: bool,
     /// Why the start was unusable, if it was.
     pub note: Option<String>,

@@ -319,7 +319,7 @@ impl Prepared {
         if n <= m {
             return None;
         }
-        let mut rng = SplitMix64(0x5EED_F17_u64);
+        let mut rng = SplitMix64(0x05EE_DF17_u64);
         let mut out = Prepared { d: self.d, s: Vec::with_capacity(m * self.d), y: Vec::with_capacity(m), w: Vec::with_capacity(m), scales: self.scales.clone() };
         let mut chosen = 0usize;
         for i in 0..n {

@@ -225,27 +225,25 @@ impl LevenbergMarquardt {
             let rho = if predicted > 0.0 { actual / predicted } else { f64::NEG_INFINITY };
 
             if rho > 0.0 && trial_cost.is_finite() {
-                match normal_equations(problem, &trial) {
-                    Some(next) => {
-                        state.jacobian_evaluations += 1;
-                        let old_cost = state.cost;
-                        state.params = trial;
-                        state.cost = next.cost;
-                        ne = next;
-                        for (j, d) in diag.iter_mut().enumerate() {
-                            *d = d.max(col_norm(&ne, j));
-                        }
-                        state.damping *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
-                        state.nu = 2.0;
-                        if actual.abs() <= self.ftol * old_cost && predicted <= self.ftol * old_cost && rho <= 2.0 {
-                            break TerminationReason::CostReductionSmall;
-                        }
-                        if dx_norm <= self.xtol * (x_norm + self.xtol) {
-                            break TerminationReason::StepSmall;
-                        }
-                        continue;
+                // (a finite cost but a non-finite Jacobian is treated as a rejection)
+                if let Some(next) = normal_equations(problem, &trial) {
+                    state.jacobian_evaluations += 1;
+                    let old_cost = state.cost;
+                    state.params = trial;
+                    state.cost = next.cost;
+                    ne = next;
+                    for (j, d) in diag.iter_mut().enumerate() {
+                        *d = d.max(col_norm(&ne, j));
                     }
-                    None => {} // cost was finite but the Jacobian was not: treat as rejected
+                    state.damping *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                    state.nu = 2.0;
+                    if actual.abs() <= self.ftol * old_cost && predicted <= self.ftol * old_cost && rho <= 2.0 {
+                        break TerminationReason::CostReductionSmall;
+                    }
+                    if dx_norm <= self.xtol * (x_norm + self.xtol) {
+                        break TerminationReason::StepSmall;
+                    }
+                    continue;
                 }
             }
             // rejected

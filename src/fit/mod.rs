@@ -25,6 +25,11 @@
 //! assert!((fit.eval(&[0.5, 0.5]) - 0.6).abs() < 1e-10);
 //! ```
 
+// Negated comparisons (`!(x > 0.0)`) are deliberate: they treat NaN as failure.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Index loops mirror the formulas they implement.
+#![allow(clippy::needless_range_loop)]
+
 pub mod basis;
 pub mod data;
 pub mod error;

@@ -84,7 +84,7 @@ impl Tensor {
     }
     /// Start indices of all fibres along axis k.
     fn fibre_starts(&self, k: usize) -> Vec<usize> {
-        (0..self.len()).filter(|&i| (i / self.stride[k]) % (self.deg[k] + 1) == 0).collect()
+        (0..self.len()).filter(|&i| (i / self.stride[k]).is_multiple_of(self.deg[k] + 1)).collect()
     }
 }
 

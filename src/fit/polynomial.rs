@@ -10,7 +10,7 @@ use super::linear::solve_lstsq;
 use super::model::{LinearisedRows, Model};
 use super::poles::CertifyOptions;
 use super::result::{FitResult, Form, Objective, SolverReport};
-use super::robust::{reweight, Solve};
+use super::robust::{reweight, Solve, Solved};
 
 /// Settings of a polynomial fit.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,7 +50,7 @@ pub fn fit_polynomial(
     let model = Model::polynomial(prep.d, degree);
     let (p0, condition) = solve_polynomial(&model, &prep, None, &form.label())?;
     let e0 = model.errors(&prep, &p0).unwrap_or_default();
-    let mut solve = |extra: &[f64], _warm: &[f64]| -> Result<Option<(Vec<f64>, Vec<f64>, Option<_>, usize)>> {
+    let mut solve = |extra: &[f64], _warm: &[f64]| -> Result<Option<Solved>> {
         match solve_polynomial(&model, &prep, Some(extra), &form.label()) {
             Ok((p, _)) => {
                 let e = model.errors(&prep, &p).unwrap_or_default();
@@ -109,7 +109,7 @@ mod tests {
     fn transform_is_applied_before_the_basis() {
         // y = √x is a degree-1 polynomial in t = √x
         let ax: Vec<f64> = (0..50).map(|i| i as f64 / 49.0).collect();
-        let data = FitData::from_grid(vec!["x".into()], &[ax.clone()], ax.iter().map(|x| x.sqrt()).collect()).unwrap();
+        let data = FitData::from_grid(vec!["x".into()], std::slice::from_ref(&ax), ax.iter().map(|x| x.sqrt()).collect()).unwrap();
         let r = fit_polynomial(&data, &[InputTransform::Sqrt], 1, Objective::LeastSquares, &Default::default()).unwrap();
         assert!(r.metrics.max_abs_error < 1e-14, "{:?}", r.metrics);
         assert!((r.eval(&[0.25]) - 0.5).abs() < 1e-14);
@@ -127,7 +127,7 @@ mod tests {
     fn objectives_order_their_own_metric() {
         // |x − 0.3| is not polynomial: each objective should win on its own metric
         let ax: Vec<f64> = (0..201).map(|i| i as f64 / 200.0).collect();
-        let data = FitData::from_grid(vec!["x".into()], &[ax.clone()], ax.iter().map(|x| (x - 0.3f64).abs()).collect()).unwrap();
+        let data = FitData::from_grid(vec!["x".into()], std::slice::from_ref(&ax), ax.iter().map(|x| (x - 0.3f64).abs()).collect()).unwrap();
         let fit = |o| fit_polynomial(&data, &[InputTransform::Identity], 4, o, &Default::default()).unwrap();
         let (ls, mae, mm) = (fit(Objective::LeastSquares), fit(Objective::MeanAbsolute), fit(Objective::Minimax));
         assert!(mae.metrics.mae < ls.metrics.mae, "{} vs {}", mae.metrics.mae, ls.metrics.mae);

@@ -29,7 +29,7 @@ use super::model::{LinearisedRows, Model, RationalProblem, Q_FLOOR};
 use super::poles::CertifyOptions;
 use super::polynomial::solve_polynomial;
 use super::result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
-use super::robust::{reweight, Solve};
+use super::robust::{reweight, Solve, Solved};
 use super::linear::solve_lstsq;
 
 /// Settings of a rational fit.
@@ -281,7 +281,7 @@ pub fn fit_rational(
         if let Some(e0) = model.errors(&prep, &params) {
             let lm = opts.lm.clone().with_max_iterations(opts.reweight_lm_iterations.max(1))?;
             let constrained = best.certified;
-            let mut solve = |extra: &[f64], warm: &[f64]| -> Result<Option<(Vec<f64>, Vec<f64>, Option<TerminationReason>, usize)>> {
+            let mut solve = |extra: &[f64], warm: &[f64]| -> Result<Option<Solved>> {
                 let problem = RationalProblem { model: &model, data: &prep, extra: Some(extra), certified_steps: constrained.then_some(guard) };
                 let rep = lm.solve(&problem, warm.to_vec())?;
                 if rep.termination == TerminationReason::InfeasibleStart {
@@ -356,7 +356,7 @@ mod tests {
     fn rational_beats_polynomial_near_a_pole_outside_the_domain() {
         // 1/(1.05 − x) has a pole just outside [0, 1]
         let ax: Vec<f64> = (0..200).map(|i| i as f64 / 199.0).collect();
-        let data = FitData::from_grid(vec!["x".into()], &[ax.clone()], ax.iter().map(|x| 1.0 / (1.05 - x)).collect()).unwrap();
+        let data = FitData::from_grid(vec!["x".into()], std::slice::from_ref(&ax), ax.iter().map(|x| 1.0 / (1.05 - x)).collect()).unwrap();
         let r = fit_rational(&data, &[InputTransform::Identity], 1, 1, Objective::LeastSquares, &Default::default()).unwrap();
         assert!(r.metrics.max_abs_error < 1e-9, "{:?}", r.metrics);
         assert!(r.is_usable(), "{:?}", r.poles);

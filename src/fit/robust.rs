@@ -32,7 +32,10 @@ pub(crate) fn objective_value(obj: Objective, w: &[f64], e: &[f64]) -> f64 {
 /// One weighted least-squares solve: given extra row weights and warm-start parameters,
 /// returns (parameters, unweighted errors f − y, LM termination if any, LM steps), or None if
 /// the solve failed to produce a usable point (e.g. a pole appeared).
-pub(crate) type Solve<'a> = dyn FnMut(&[f64], &[f64]) -> Result<Option<(Vec<f64>, Vec<f64>, Option<TerminationReason>, usize)>> + 'a;
+pub(crate) type Solve<'a> = dyn FnMut(&[f64], &[f64]) -> Result<Option<Solved>> + 'a;
+
+/// (parameters, errors f − y, LM termination, LM steps) of one reweighted solve.
+pub(crate) type Solved = (Vec<f64>, Vec<f64>, Option<TerminationReason>, usize);
 
 pub(crate) struct Reweighted {
     pub params: Vec<f64>,

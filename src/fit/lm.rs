@@ -473,6 +473,8 @@ mod tests {
         }
         let rel = (2.0 * rep.state.cost - rss).abs() / rss;
         assert!(rel < 1e-8, "{name}: RSS {} vs {rss}", 2.0 * rep.state.cost);
+        let worst = rep.state.params.iter().zip(certified).map(|(g, w)| ((g - w) / w).abs()).fold(0.0, f64::max);
+        eprintln!("{name} from {start:?}: worst parameter rel. error {worst:.1e}, RSS rel. error {rel:.1e}, {:?} after {} steps", rep.termination, rep.state.iterations);
     }
 
     // NIST StRD nonlinear regression data sets (https://www.itl.nist.gov/div898/strd/nls/),

@@ -14,6 +14,8 @@ pub enum Error {
     File { path: PathBuf, message: String },
     #[error("I/O error on {path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },
+    #[error(transparent)]
+    Fit(#[from] crate::fit::FitError),
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

@@ -1,9 +1,10 @@
 //! furnace: directional-albedo tables, fits and emitters for energy-compensated BSDFs.
 //!
-//! Data flows one way: [`bsdf`] (models) → [`quadrature`] → [`table`].
+//! Data flows one way: [`bsdf`] (models) → [`quadrature`] → table → [`fit`].
 
 pub mod bsdf;
 pub mod error;
+pub mod fit;
 pub mod math;
 pub mod quadrature;
 pub mod table;

@@ -1,0 +1,382 @@
+//! Total-degree polynomial bases.
+//!
+//! *Output* form: monomials in the transformed variables t, in scikit-learn
+//! `PolynomialFeatures` order (graded, then lexicographic by variable index), so the paper's
+//! coefficients (Sforza & Pellacini 2022, Appendix A) map coefficient-for-coefficient.
+//!
+//! *Solving* form: products of Chebyshev polynomials T_{e_1}(s_1)…T_{e_d}(s_d) in the variables
+//! scaled to s ∈ [−1, 1]. It spans the same space (T_n has degree n) and is far better
+//! conditioned, which matters because the nonlinear solver works with normal equations. Results
+//! are converted back to monomials in t exactly (up to rounding) by binomial expansion.
+
+use serde::{Deserialize, Serialize};
+
+use super::data::AxisScale;
+use super::error::{FitError, Result};
+use crate::math::CompensatedSum;
+
+/// Highest total degree accepted: beyond this, monomial coefficients on [0, 1] lose all
+/// meaning in f64 (the paper sweeps up to 10).
+pub const MAX_DEGREE: u32 = 20;
+
+pub(crate) fn check_degree(degree: u32) -> Result<()> {
+    if degree > MAX_DEGREE {
+        return Err(FitError::DegreeTooHigh { degree, max: MAX_DEGREE });
+    }
+    Ok(())
+}
+
+/// Exponent tuples of all monomials of total degree ≤ `degree` in `d` variables, in
+/// scikit-learn `PolynomialFeatures` order: by total degree, then the index combinations with
+/// replacement in lexicographic order. 2D: 1, x, y, x², xy, y², x³, x²y, xy², y³, …
+pub fn exponents(d: usize, degree: u32) -> Vec<Vec<u32>> {
+    fn push(d: usize, len: usize, start: usize, combo: &mut Vec<usize>, out: &mut Vec<Vec<u32>>) {
+        if combo.len() == len {
+            let mut e = vec![0u32; d];
+            for &v in combo.iter() {
+                e[v] += 1;
+            }
+            out.push(e);
+            return;
+        }
+        for v in start..d {
+            combo.push(v);
+            push(d, len, v, combo, out);
+            combo.pop();
+        }
+    }
+    let mut out = Vec::new();
+    for total in 0..=degree as usize {
+        push(d, total, 0, &mut Vec::with_capacity(total), &mut out);
+    }
+    out
+}
+
+/// Number of monomials of total degree ≤ `degree` in `d` variables: C(d + degree, d).
+pub fn n_terms(d: usize, degree: u32) -> usize {
+    binomial(d as u32 + degree, d as u32) as usize
+}
+
+/// Binomial coefficient C(n, k) as f64 (exact for the small n used here).
+pub(crate) fn binomial(n: u32, k: u32) -> f64 {
+    if k > n {
+        return 0.0;
+    }
+    let k = k.min(n - k);
+    let mut c = 1.0f64;
+    for i in 0..k {
+        c = c * (n - i) as f64 / (i + 1) as f64;
+    }
+    c.round()
+}
+
+/// A polynomial in monomial form: Σ_j c_j Π_k t_k^{e_jk}.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Polynomial {
+    pub exponents: Vec<Vec<u32>>,
+    pub coefficients: Vec<f64>,
+}
+
+impl Polynomial {
+    /// Total degree.
+    pub fn degree(&self) -> u32 {
+        self.exponents.iter().map(|e| e.iter().sum::<u32>()).max().unwrap_or(0)
+    }
+
+    pub fn dim(&self) -> usize {
+        self.exponents.first().map_or(0, Vec::len)
+    }
+
+    /// Value at t (already transformed), summed in coefficient order.
+    pub fn eval(&self, t: &[f64]) -> f64 {
+        self.eval_impl(t).0
+    }
+
+    /// Value and a bound on its floating-point evaluation error:
+    /// |computed − exact| ≤ γ_{2(deg+n)+d} Σ |c_j| |t^e_j| (Higham 2002, §3.1 bounds).
+    pub fn eval_with_bound(&self, t: &[f64]) -> (f64, f64) {
+        let (v, abs) = self.eval_impl(t);
+        let ops = 2 * (self.degree() as usize + self.coefficients.len()) + t.len();
+        (v, gamma(ops) * abs)
+    }
+
+    fn eval_impl(&self, t: &[f64]) -> (f64, f64) {
+        let d = t.len();
+        let deg = self.degree() as usize;
+        const STACK: usize = super::data::MAX_DIM * (MAX_DEGREE as usize + 1);
+        let mut stack = [1.0f64; STACK];
+        let mut heap = Vec::new();
+        let stride = deg + 1;
+        let pw: &mut [f64] = if d * stride <= STACK {
+            &mut stack[..d * stride]
+        } else {
+            heap.resize(d * stride, 1.0);
+            &mut heap
+        };
+        for k in 0..d {
+            for j in 1..=deg {
+                pw[k * stride + j] = pw[k * stride + j - 1] * t[k];
+            }
+        }
+        let (mut sum, mut abs) = (0.0, 0.0);
+        for (e, &c) in self.exponents.iter().zip(&self.coefficients) {
+            let mut m = c;
+            for (k, &ek) in e.iter().enumerate().take(d) {
+                m *= pw[k * stride + ek as usize];
+            }
+            sum += m;
+            abs += m.abs();
+        }
+        (sum, abs)
+    }
+}
+
+/// γ_n = n·u/(1 − n·u), u = 2⁻⁵³ (Higham 2002, eq. 3.8), inflated by 2 for safety.
+pub(crate) fn gamma(n: usize) -> f64 {
+    let nu = n as f64 * f64::EPSILON * 0.5;
+    2.0 * nu / (1.0 - nu)
+}
+
+/// Chebyshev product basis of total degree ≤ `degree` in s ∈ [−1, 1]^d, same exponent order.
+#[derive(Clone, Debug)]
+pub(crate) struct ChebyshevBasis {
+    pub d: usize,
+    pub degree: u32,
+    pub exps: Vec<Vec<u32>>,
+    flat: Vec<usize>,
+}
+
+impl ChebyshevBasis {
+    pub fn new(d: usize, degree: u32) -> ChebyshevBasis {
+        let exps = exponents(d, degree);
+        let flat = exps.iter().flat_map(|e| e.iter().map(|&x| x as usize)).collect();
+        ChebyshevBasis { d, degree, exps, flat }
+    }
+
+    pub fn len(&self) -> usize {
+        self.exps.len()
+    }
+
+    /// Scratch size for [`ChebyshevBasis::eval`].
+    pub fn table_len(&self) -> usize {
+        self.d * (self.degree as usize + 1)
+    }
+
+    /// All basis values at s into `out` (len ≥ self.len()); `table` is scratch.
+    #[inline]
+    pub fn eval(&self, s: &[f64], table: &mut [f64], out: &mut [f64]) {
+        let stride = self.degree as usize + 1;
+        for k in 0..self.d {
+            let t = &mut table[k * stride..(k + 1) * stride];
+            let x = s[k];
+            t[0] = 1.0;
+            if stride > 1 {
+                t[1] = x;
+            }
+            for j in 2..stride {
+                t[j] = 2.0 * x * t[j - 1] - t[j - 2]; // T_{j} = 2x T_{j−1} − T_{j−2}
+            }
+        }
+        match self.d {
+            1 => {
+                for (j, o) in out[..self.len()].iter_mut().enumerate() {
+                    *o = table[self.flat[j]];
+                }
+            }
+            2 => {
+                for (j, o) in out[..self.len()].iter_mut().enumerate() {
+                    *o = table[self.flat[2 * j]] * table[stride + self.flat[2 * j + 1]];
+                }
+            }
+            _ => {
+                let d = self.d;
+                for (j, o) in out[..self.len()].iter_mut().enumerate() {
+                    let mut v = 1.0;
+                    for k in 0..d {
+                        v *= table[k * stride + self.flat[d * j + k]];
+                    }
+                    *o = v;
+                }
+            }
+        }
+    }
+}
+
+/// Square matrix acting on the coefficients of one variable: out[m] = Σ_a M[m][a] in[a].
+type AxisMap = Vec<Vec<f64>>;
+
+/// Chebyshev → power basis in s: column a holds the coefficients of T_a.
+fn chebyshev_to_power(n: usize) -> AxisMap {
+    let mut m = vec![vec![0.0; n + 1]; n + 1];
+    m[0][0] = 1.0;
+    if n >= 1 {
+        m[1][1] = 1.0;
+    }
+    for a in 2..=n {
+        for k in 0..=n {
+            let up = if k >= 1 { 2.0 * m[k - 1][a - 1] } else { 0.0 };
+            m[k][a] = up - m[k][a - 2];
+        }
+    }
+    m
+}
+
+/// Power basis in s → power basis in t where s = α t + β:
+/// s^a = Σ_m C(a, m) α^m β^(a−m) t^m.
+fn affine_power(n: usize, alpha: f64, beta: f64) -> AxisMap {
+    let mut m = vec![vec![0.0; n + 1]; n + 1];
+    for a in 0..=n {
+        for k in 0..=a {
+            m[k][a] = binomial(a as u32, k as u32) * alpha.powi(k as i32) * beta.powi((a - k) as i32);
+        }
+    }
+    m
+}
+
+fn mat_mul(a: &AxisMap, b: &AxisMap) -> AxisMap {
+    let n = a.len();
+    let mut c = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in 0..n {
+            let mut s = CompensatedSum::default();
+            for k in 0..n {
+                s.add(a[i][k] * b[k][j]);
+            }
+            c[i][j] = s.value();
+        }
+    }
+    c
+}
+
+/// Inverse of an upper-triangular matrix with non-zero diagonal (back substitution).
+fn upper_inverse(a: &AxisMap) -> AxisMap {
+    let n = a.len();
+    let mut inv = vec![vec![0.0; n]; n];
+    for j in 0..n {
+        for i in (0..=j).rev() {
+            let mut s = CompensatedSum::default();
+            s.add(if i == j { 1.0 } else { 0.0 });
+            for k in i + 1..=j {
+                s.add(-a[i][k] * inv[k][j]);
+            }
+            inv[i][j] = s.value() / a[i][i];
+        }
+    }
+    inv
+}
+
+/// Applies per-variable maps to a coefficient vector over a total-degree exponent set:
+/// out[m] = Σ_a c[a] Π_k M_k[m_k][a_k]. The maps are degree-non-increasing (triangular), so
+/// the exponent set is closed under them.
+fn apply_axis_maps(exps: &[Vec<u32>], coeffs: &[f64], maps: &[AxisMap]) -> Vec<f64> {
+    exps.iter()
+        .map(|m| {
+            let mut s = CompensatedSum::default();
+            for (a, &c) in exps.iter().zip(coeffs) {
+                if c == 0.0 || m.iter().zip(a).any(|(mk, ak)| mk > ak) {
+                    continue;
+                }
+                let mut v = c;
+                for (k, map) in maps.iter().enumerate() {
+                    v *= map[m[k] as usize][a[k] as usize];
+                }
+                s.add(v);
+            }
+            s.value()
+        })
+        .collect()
+}
+
+/// Coefficients in the Chebyshev basis of s = (t − center)/half → monomial coefficients in t.
+pub(crate) fn chebyshev_to_monomial(exps: &[Vec<u32>], degree: u32, scales: &[AxisScale], coeffs: &[f64]) -> Vec<f64> {
+    let n = degree as usize;
+    let c2p = chebyshev_to_power(n);
+    let maps: Vec<AxisMap> = scales
+        .iter()
+        .map(|sc| mat_mul(&affine_power(n, 1.0 / sc.half, -sc.center / sc.half), &c2p))
+        .collect();
+    apply_axis_maps(exps, coeffs, &maps)
+}
+
+/// Monomial coefficients in t → coefficients in the Chebyshev basis of s (inverse of
+/// [`chebyshev_to_monomial`]; t = center + half·s).
+pub(crate) fn monomial_to_chebyshev(exps: &[Vec<u32>], degree: u32, scales: &[AxisScale], coeffs: &[f64]) -> Vec<f64> {
+    let n = degree as usize;
+    let p2c = upper_inverse(&chebyshev_to_power(n));
+    let maps: Vec<AxisMap> = scales.iter().map(|sc| mat_mul(&p2c, &affine_power(n, sc.half, sc.center))).collect();
+    apply_axis_maps(exps, coeffs, &maps)
+}
+
+/// Monomial coefficients in t → monomial coefficients in u where t = lo + (hi − lo)·u, together
+/// with the same map applied to |coefficients| with |map entries| (for rounding-error bounds).
+pub(crate) fn monomial_to_unit_box(p: &Polynomial, bounds: &[(f64, f64)]) -> (Vec<f64>, Vec<f64>) {
+    let n = p.degree() as usize;
+    let maps: Vec<AxisMap> = bounds.iter().map(|&(lo, hi)| affine_power(n, hi - lo, lo)).collect();
+    let abs_maps: Vec<AxisMap> = maps.iter().map(|m| m.iter().map(|r| r.iter().map(|x| x.abs()).collect()).collect()).collect();
+    let abs: Vec<f64> = p.coefficients.iter().map(|c| c.abs()).collect();
+    (apply_axis_maps(&p.exponents, &p.coefficients, &maps), apply_axis_maps(&p.exponents, &abs, &abs_maps))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sklearn_order_2d_and_3d() {
+        let e2 = exponents(2, 3);
+        let want2: Vec<Vec<u32>> = vec![
+            vec![0, 0], vec![1, 0], vec![0, 1], vec![2, 0], vec![1, 1], vec![0, 2],
+            vec![3, 0], vec![2, 1], vec![1, 2], vec![0, 3],
+        ];
+        assert_eq!(e2, want2);
+        let e3 = exponents(3, 3);
+        assert_eq!(e3.len(), 20);
+        // 1, x, r, μ, x², xr, xμ, r², rμ, μ², x³, x²r, x²μ, xr², xrμ, xμ², r³, r²μ, rμ², μ³
+        assert_eq!(e3[4], vec![2, 0, 0]);
+        assert_eq!(e3[6], vec![1, 0, 1]);
+        assert_eq!(e3[14], vec![1, 1, 1]);
+        assert_eq!(e3[15], vec![1, 0, 2]);
+        assert_eq!(e3[19], vec![0, 0, 3]);
+        assert_eq!(n_terms(2, 10), 66);
+        assert_eq!(n_terms(3, 5), 56);
+        assert_eq!(exponents(1, 4), vec![vec![0], vec![1], vec![2], vec![3], vec![4]]);
+    }
+
+    fn pseudo_random(seed: u64, n: usize) -> Vec<f64> {
+        let mut r = crate::fit::data::SplitMix64(seed);
+        (0..n).map(|_| 2.0 * r.next_f64() - 1.0).collect()
+    }
+
+    #[test]
+    fn chebyshev_monomial_round_trip() {
+        for (d, deg) in [(1usize, 7u32), (2, 6), (3, 4)] {
+            let scales: Vec<AxisScale> = (0..d).map(|k| AxisScale::new(0.1 * k as f64, 1.0 + 0.5 * k as f64)).collect();
+            let basis = ChebyshevBasis::new(d, deg);
+            let c = pseudo_random(7 + d as u64, basis.len());
+            let mono = chebyshev_to_monomial(&basis.exps, deg, &scales, &c);
+            let p = Polynomial { exponents: basis.exps.clone(), coefficients: mono.clone() };
+            // same function at random points
+            let mut table = vec![0.0; basis.table_len()];
+            let mut phi = vec![0.0; basis.len()];
+            for pt in pseudo_random(99, 50 * d).chunks(d) {
+                basis.eval(pt, &mut table, &mut phi);
+                let want: f64 = phi.iter().zip(&c).map(|(a, b)| a * b).sum();
+                let t: Vec<f64> = pt.iter().zip(&scales).map(|(s, sc)| sc.center + sc.half * s).collect();
+                assert!((p.eval(&t) - want).abs() < 1e-11, "d={d} deg={deg}: {} vs {want}", p.eval(&t));
+            }
+            // and back
+            let back = monomial_to_chebyshev(&basis.exps, deg, &scales, &mono);
+            for (a, b) in back.iter().zip(&c) {
+                assert!((a - b).abs() < 1e-11, "round trip {a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn unit_box_map() {
+        // q(t) = 1 + 2t on [2, 4]: q(2 + 2u) = 5 + 4u
+        let p = Polynomial { exponents: vec![vec![0], vec![1]], coefficients: vec![1.0, 2.0] };
+        let (u, _) = monomial_to_unit_box(&p, &[(2.0, 4.0)]);
+        assert_eq!(u, vec![5.0, 4.0]);
+    }
+}

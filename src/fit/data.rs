@@ -1,0 +1,406 @@
+//! Fit input: scattered points in 1–3 variables, values, optional weights, the domain box, and
+//! per-variable input transforms applied before the basis.
+
+use serde::{Deserialize, Serialize};
+
+use super::error::{FitError, Result};
+
+/// Most variables a fit may have (the paper's tables have 2 or 3).
+pub const MAX_DIM: usize = 3;
+
+/// A monotone map applied to a variable before the polynomial basis: the fitted function is
+/// P(t)/Q(t) with t_k = transform_k(x_k). Recorded in every result so the emitted code can apply it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum InputTransform {
+    /// t = x
+    Identity,
+    /// t = √x (x ≥ 0): resolves square-root behaviour at x = 0, e.g. grazing μ.
+    Sqrt,
+    /// t = 1 − x
+    OneMinus,
+    /// t = x²
+    Square,
+    /// t = (clamp(x, lo, hi) − lo)/(hi − lo): the paper's dielectric F0 normalisation
+    /// (Sforza & Pellacini 2022, Appendix A, with lo = 0.0125, hi = 0.25).
+    ClampNormalize { lo: f64, hi: f64 },
+}
+
+impl InputTransform {
+    /// t = transform(x).
+    #[inline]
+    pub fn apply(&self, x: f64) -> f64 {
+        match *self {
+            InputTransform::Identity => x,
+            // guard: x may round to a tiny negative value at a domain edge of 0
+            InputTransform::Sqrt => x.max(0.0).sqrt(),
+            InputTransform::OneMinus => 1.0 - x,
+            InputTransform::Square => x * x,
+            InputTransform::ClampNormalize { lo, hi } => (x.clamp(lo, hi) - lo) / (hi - lo),
+        }
+    }
+
+    /// x with transform(x) = t, for t in the image of the domain (used to report locations).
+    pub fn inverse(&self, t: f64) -> f64 {
+        match *self {
+            InputTransform::Identity => t,
+            InputTransform::Sqrt => t * t,
+            InputTransform::OneMinus => 1.0 - t,
+            InputTransform::Square => t.max(0.0).sqrt(),
+            InputTransform::ClampNormalize { lo, hi } => lo + t * (hi - lo),
+        }
+    }
+
+    /// Short name for reports ("sqrt", "one_minus", …).
+    pub fn name(&self) -> String {
+        match *self {
+            InputTransform::Identity => "identity".into(),
+            InputTransform::Sqrt => "sqrt".into(),
+            InputTransform::OneMinus => "one_minus".into(),
+            InputTransform::Square => "square".into(),
+            InputTransform::ClampNormalize { lo, hi } => format!("clamp_normalize({lo}, {hi})"),
+        }
+    }
+
+    /// Checks the transform is defined and monotone on [lo, hi]; returns the image interval.
+    pub fn image(&self, name: &str, lo: f64, hi: f64) -> Result<(f64, f64)> {
+        let bad = |reason: &'static str| FitError::InvalidTransform {
+            transform: self.name(),
+            name: name.to_string(),
+            lo,
+            hi,
+            reason,
+        };
+        match *self {
+            InputTransform::Sqrt if lo < 0.0 => return Err(bad("sqrt needs a domain with x ≥ 0")),
+            InputTransform::Square if lo < 0.0 => {
+                return Err(bad("x² is not monotone on a domain containing negative x; shift the variable first"))
+            }
+            InputTransform::ClampNormalize { lo: a, hi: b } if !(a.is_finite() && b.is_finite() && a < b) => {
+                return Err(bad("clamp_normalize needs finite bounds lo < hi"))
+            }
+            _ => {}
+        }
+        let (ta, tb) = (self.apply(lo), self.apply(hi));
+        let (t0, t1) = if ta <= tb { (ta, tb) } else { (tb, ta) };
+        if !(t0 < t1) {
+            return Err(bad("the transform maps the whole domain to a single value; adjust its bounds or the domain"));
+        }
+        Ok((t0, t1))
+    }
+}
+
+/// Scattered data to fit: `coords` holds `names.len()` coordinates per point, row-major.
+/// A grid is just points (see [`FitData::from_grid`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FitData {
+    pub names: Vec<String>,
+    pub coords: Vec<f64>,
+    pub values: Vec<f64>,
+    /// Optional non-negative weights multiplying each residual (None = all 1).
+    pub weights: Option<Vec<f64>>,
+    /// The box [lo, hi] per variable the fit must be valid on (poles are excluded on all of it).
+    pub domain: Vec<(f64, f64)>,
+}
+
+impl FitData {
+    /// Builds and validates a data set.
+    pub fn new(names: Vec<String>, coords: Vec<f64>, values: Vec<f64>, domain: Vec<(f64, f64)>) -> Result<FitData> {
+        let data = FitData { names, coords, values, weights: None, domain };
+        data.validate()?;
+        Ok(data)
+    }
+
+    /// Data on the tensor grid `axes[0] × axes[1] × …`, values row-major (last axis fastest);
+    /// the domain is each axis' [min, max].
+    pub fn from_grid(names: Vec<String>, axes: &[Vec<f64>], values: Vec<f64>) -> Result<FitData> {
+        let d = axes.len();
+        if d == 0 || d > MAX_DIM {
+            return Err(FitError::BadDimension { got: d, max: MAX_DIM });
+        }
+        let n: usize = axes.iter().map(Vec::len).product();
+        if values.len() != n {
+            return Err(FitError::ShapeMismatch {
+                what: "grid values",
+                expected: n,
+                got: values.len(),
+                fix: "supply one value per grid node, last axis fastest",
+            });
+        }
+        let mut coords = Vec::with_capacity(n * d);
+        let mut idx = vec![0usize; d];
+        for _ in 0..n {
+            for k in 0..d {
+                coords.push(axes[k][idx[k]]);
+            }
+            for k in (0..d).rev() {
+                idx[k] += 1;
+                if idx[k] < axes[k].len() {
+                    break;
+                }
+                idx[k] = 0;
+            }
+        }
+        let domain = axes
+            .iter()
+            .map(|a| a.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x))))
+            .collect();
+        FitData::new(names, coords, values, domain)
+    }
+
+    /// Attaches weights (validated).
+    pub fn with_weights(mut self, weights: Vec<f64>) -> Result<FitData> {
+        self.weights = Some(weights);
+        self.validate()?;
+        Ok(self)
+    }
+
+    pub fn dim(&self) -> usize {
+        self.names.len()
+    }
+
+    pub fn len(&self) -> usize {
+        self.values.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
+    }
+
+    /// Coordinates of point i.
+    pub fn point(&self, i: usize) -> &[f64] {
+        let d = self.dim();
+        &self.coords[i * d..(i + 1) * d]
+    }
+
+    /// Weight of point i (1 without weights).
+    pub fn weight(&self, i: usize) -> f64 {
+        self.weights.as_ref().map_or(1.0, |w| w[i])
+    }
+
+    /// Number of points with non-zero weight.
+    pub fn n_weighted(&self) -> usize {
+        self.weights.as_ref().map_or(self.len(), |w| w.iter().filter(|&&x| x > 0.0).count())
+    }
+
+    /// Checks shapes, finiteness, weights and that every point lies in the domain.
+    pub fn validate(&self) -> Result<()> {
+        let d = self.dim();
+        if d == 0 || d > MAX_DIM {
+            return Err(FitError::BadDimension { got: d, max: MAX_DIM });
+        }
+        let n = self.values.len();
+        if self.coords.len() != n * d {
+            return Err(FitError::ShapeMismatch {
+                what: "coordinates",
+                expected: n * d,
+                got: self.coords.len(),
+                fix: "give one coordinate per variable per value, row-major",
+            });
+        }
+        if self.domain.len() != d {
+            return Err(FitError::ShapeMismatch {
+                what: "domain",
+                expected: d,
+                got: self.domain.len(),
+                fix: "give one [lo, hi] interval per variable",
+            });
+        }
+        for (k, &(lo, hi)) in self.domain.iter().enumerate() {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                return Err(FitError::InvalidDomain { name: self.names[k].clone(), lo, hi });
+            }
+        }
+        if let Some(i) = self.values.iter().position(|v| !v.is_finite()) {
+            return Err(FitError::NonFinite { what: "value", index: i, value: self.values[i] });
+        }
+        for (j, &x) in self.coords.iter().enumerate() {
+            let (i, k) = (j / d, j % d);
+            if !x.is_finite() {
+                return Err(FitError::NonFinite { what: "coordinate of point", index: i, value: x });
+            }
+            let (lo, hi) = self.domain[k];
+            if x < lo || x > hi {
+                return Err(FitError::OutsideDomain { index: i, name: self.names[k].clone(), value: x, lo, hi });
+            }
+        }
+        if let Some(w) = &self.weights {
+            if w.len() != n {
+                return Err(FitError::ShapeMismatch {
+                    what: "weights",
+                    expected: n,
+                    got: w.len(),
+                    fix: "give one weight per value",
+                });
+            }
+            if let Some(i) = w.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err(FitError::InvalidWeight { index: i, value: w[i] });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The affine map t ∈ [lo, hi] ↦ s = (t − c)/h ∈ [−1, 1] of one transformed variable.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct AxisScale {
+    pub lo: f64,
+    pub hi: f64,
+    pub center: f64,
+    pub half: f64,
+}
+
+impl AxisScale {
+    pub fn new(lo: f64, hi: f64) -> AxisScale {
+        AxisScale { lo, hi, center: 0.5 * (lo + hi), half: 0.5 * (hi - lo) }
+    }
+}
+
+/// Data prepared for solving: transformed and scaled coordinates s ∈ [−1, 1]^d, values, weights.
+#[derive(Clone, Debug)]
+pub(crate) struct Prepared {
+    pub d: usize,
+    pub s: Vec<f64>,
+    pub y: Vec<f64>,
+    pub w: Vec<f64>,
+    pub scales: Vec<AxisScale>,
+}
+
+impl Prepared {
+    pub fn new(data: &FitData, transforms: &[InputTransform]) -> Result<Prepared> {
+        data.validate()?;
+        let d = data.dim();
+        if transforms.len() != d {
+            return Err(FitError::ShapeMismatch {
+                what: "input transforms",
+                expected: d,
+                got: transforms.len(),
+                fix: "give one transform per variable (InputTransform::Identity for none)",
+            });
+        }
+        let scales: Vec<AxisScale> = (0..d)
+            .map(|k| {
+                let (lo, hi) = data.domain[k];
+                transforms[k].image(&data.names[k], lo, hi).map(|(a, b)| AxisScale::new(a, b))
+            })
+            .collect::<Result<_>>()?;
+        let s = data
+            .coords
+            .iter()
+            .enumerate()
+            .map(|(j, &x)| {
+                let k = j % d;
+                let sc = &scales[k];
+                // clamp: rounding in the transform may step a hair outside [−1, 1]
+                ((transforms[k].apply(x) - sc.center) / sc.half).clamp(-1.0, 1.0)
+            })
+            .collect();
+        let w = (0..data.len()).map(|i| data.weight(i)).collect();
+        Ok(Prepared { d, s, y: data.values.clone(), w, scales })
+    }
+
+    pub fn len(&self) -> usize {
+        self.y.len()
+    }
+
+    pub fn point(&self, i: usize) -> &[f64] {
+        &self.s[i * self.d..(i + 1) * self.d]
+    }
+
+    pub fn n_weighted(&self) -> usize {
+        self.w.iter().filter(|&&x| x > 0.0).count()
+    }
+
+    /// A deterministic pseudo-random subset of `m` points (selection sampling, Knuth TAOCP
+    /// vol. 2, Algorithm 3.4.2 S, driven by SplitMix64), in their original order; `None` if the
+    /// data has no more than `m` points. Random rather than strided so grids do not alias.
+    pub fn subsample(&self, m: usize) -> Option<Prepared> {
+        let n = self.len();
+        if n <= m {
+            return None;
+        }
+        let mut rng = SplitMix64(0x05EE_DF17_u64);
+        let mut out = Prepared { d: self.d, s: Vec::with_capacity(m * self.d), y: Vec::with_capacity(m), w: Vec::with_capacity(m), scales: self.scales.clone() };
+        let mut chosen = 0usize;
+        for i in 0..n {
+            let u = rng.next_f64();
+            if ((n - i) as f64) * u < (m - chosen) as f64 {
+                out.s.extend_from_slice(self.point(i));
+                out.y.push(self.y[i]);
+                out.w.push(self.w[i]);
+                chosen += 1;
+                if chosen == m {
+                    break;
+                }
+            }
+        }
+        Some(out)
+    }
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): a tiny deterministic generator for subsampling.
+pub(crate) struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn next_f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_is_row_major_last_axis_fastest() {
+        let d = FitData::from_grid(vec!["a".into(), "b".into()], &[vec![0.0, 1.0], vec![10.0, 20.0, 30.0]], vec![0.0; 6]).unwrap();
+        assert_eq!(d.point(0), &[0.0, 10.0]);
+        assert_eq!(d.point(2), &[0.0, 30.0]);
+        assert_eq!(d.point(3), &[1.0, 10.0]);
+        assert_eq!(d.domain, vec![(0.0, 1.0), (10.0, 30.0)]);
+    }
+
+    #[test]
+    fn validation_names_the_problem() {
+        let e = FitData::new(vec!["x".into()], vec![0.0, f64::NAN], vec![1.0, 2.0], vec![(0.0, 1.0)]).unwrap_err();
+        assert!(matches!(e, FitError::NonFinite { index: 1, .. }), "{e}");
+        let e = FitData::new(vec!["x".into()], vec![0.0, 2.0], vec![1.0, 2.0], vec![(0.0, 1.0)]).unwrap_err();
+        assert!(e.to_string().contains("widen the domain"), "{e}");
+        let e = FitData::new(vec!["x".into()], vec![0.0], vec![1.0], vec![(1.0, 1.0)]).unwrap_err();
+        assert!(matches!(e, FitError::InvalidDomain { .. }));
+        let e = FitData::new(vec!["x".into()], vec![0.0], vec![1.0], vec![(0.0, 1.0)]).unwrap().with_weights(vec![-1.0]).unwrap_err();
+        assert!(matches!(e, FitError::InvalidWeight { .. }));
+    }
+
+    #[test]
+    fn transforms_and_inverses() {
+        let f = InputTransform::ClampNormalize { lo: 0.0125, hi: 0.25 };
+        assert_eq!(f.apply(0.0125), 0.0);
+        assert_eq!(f.apply(0.25), 1.0);
+        assert_eq!(f.apply(0.5), 1.0);
+        assert!((f.inverse(f.apply(0.1)) - 0.1).abs() < 1e-15);
+        assert_eq!(InputTransform::OneMinus.image("x", 0.0, 0.5).unwrap(), (0.5, 1.0));
+        assert!(InputTransform::Sqrt.image("x", -1.0, 1.0).is_err());
+    }
+
+    #[test]
+    fn subsample_is_deterministic_and_exact_size() {
+        let n = 1000;
+        let data = FitData::new(vec!["x".into()], (0..n).map(|i| i as f64).collect(), vec![0.0; n], vec![(0.0, 999.0)]).unwrap();
+        let p = Prepared::new(&data, &[InputTransform::Identity]).unwrap();
+        let a = p.subsample(100).unwrap();
+        let b = p.subsample(100).unwrap();
+        assert_eq!(a.len(), 100);
+        assert_eq!(a.s, b.s);
+        assert!(p.subsample(1000).is_none());
+    }
+}

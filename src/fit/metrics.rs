@@ -1,0 +1,146 @@
+//! Error metrics of an approximant on a data set, whatever objective produced it: mean absolute,
+//! RMS, maximum absolute (with its location) and maximum relative error. Computed in parallel over
+//! fixed chunks combined in order, so the numbers are reproducible bit for bit.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::data::FitData;
+use super::result::Approximant;
+use crate::math::CompensatedSum;
+
+/// Values with |y| below this are left out of the maximum relative error: relative error is
+/// meaningless at y ≈ 0 (e.g. the paper's glossy F0 = 0 slice, where E = 0).
+pub const RELATIVE_ERROR_FLOOR: f64 = 1e-6;
+
+const CHUNK: usize = 4096;
+
+/// Unweighted error statistics of f(x_i) − y_i over all points of a data set.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Metrics {
+    pub n_points: usize,
+    #[serde(with = "finite_or_string")]
+    pub mae: f64,
+    #[serde(with = "finite_or_string")]
+    pub rmse: f64,
+    #[serde(with = "finite_or_string")]
+    pub max_abs_error: f64,
+    /// Coordinates (original variables) of the worst absolute error.
+    pub max_abs_error_at: Vec<f64>,
+    #[serde(with = "finite_or_string")]
+    pub max_rel_error: f64,
+    pub max_rel_error_at: Vec<f64>,
+    /// Points where the approximant is not finite (a pole or overflow); 0 for a usable fit.
+    pub non_finite: usize,
+}
+
+#[derive(Clone, Copy)]
+struct Partial {
+    abs: f64,
+    sq: f64,
+    max_abs: (f64, usize),
+    max_rel: (f64, usize),
+    non_finite: usize,
+}
+
+/// Measures `approx` on `data` (every point, weights ignored).
+pub fn measure(approx: &Approximant, data: &FitData) -> Metrics {
+    let n = data.len();
+    let n_chunks = n.div_ceil(CHUNK);
+    let parts: Vec<Partial> = (0..n_chunks)
+        .into_par_iter()
+        .map(|c| {
+            let mut abs = CompensatedSum::default();
+            let mut sq = CompensatedSum::default();
+            let mut p = Partial { abs: 0.0, sq: 0.0, max_abs: (-1.0, usize::MAX), max_rel: (-1.0, usize::MAX), non_finite: 0 };
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let f = approx.eval(data.point(i));
+                let y = data.values[i];
+                let e = (f - y).abs();
+                if !e.is_finite() {
+                    p.non_finite += 1;
+                    continue;
+                }
+                abs.add(e);
+                sq.add(e * e);
+                if e > p.max_abs.0 {
+                    p.max_abs = (e, i);
+                }
+                if y.abs() >= RELATIVE_ERROR_FLOOR && e / y.abs() > p.max_rel.0 {
+                    p.max_rel = (e / y.abs(), i);
+                }
+            }
+            p.abs = abs.value();
+            p.sq = sq.value();
+            p
+        })
+        .collect();
+    let mut abs = CompensatedSum::default();
+    let mut sq = CompensatedSum::default();
+    let (mut max_abs, mut max_rel, mut non_finite) = ((-1.0f64, usize::MAX), (-1.0f64, usize::MAX), 0usize);
+    for p in &parts {
+        abs.add(p.abs);
+        sq.add(p.sq);
+        if p.max_abs.0 > max_abs.0 {
+            max_abs = p.max_abs;
+        }
+        if p.max_rel.0 > max_rel.0 {
+            max_rel = p.max_rel;
+        }
+        non_finite += p.non_finite;
+    }
+    let at = |i: usize| if i == usize::MAX { Vec::new() } else { data.point(i).to_vec() };
+    let finite = n - non_finite;
+    let (mae, rmse, max_abs_error) = if non_finite > 0 || n == 0 {
+        (f64::INFINITY, f64::INFINITY, f64::INFINITY)
+    } else {
+        (abs.value() / finite as f64, (sq.value() / finite as f64).sqrt(), max_abs.0.max(0.0))
+    };
+    Metrics {
+        n_points: n,
+        mae,
+        rmse,
+        max_abs_error,
+        max_abs_error_at: at(max_abs.1),
+        max_rel_error: if non_finite > 0 { f64::INFINITY } else { max_rel.0.max(0.0) },
+        max_rel_error_at: at(max_rel.1),
+        non_finite,
+    }
+}
+
+/// Serialises a finite f64 as a JSON number (shortest round-trip) and ±∞/NaN as the strings
+/// "inf", "-inf", "nan" — plain JSON has no non-finite numbers and serde_json would write null.
+pub(crate) mod finite_or_string {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if v.is_finite() {
+            s.serialize_f64(*v)
+        } else if v.is_nan() {
+            s.serialize_str("nan")
+        } else if *v > 0.0 {
+            s.serialize_str("inf")
+        } else {
+            s.serialize_str("-inf")
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Num {
+        F(f64),
+        S(String),
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        match Num::deserialize(d)? {
+            Num::F(x) => Ok(x),
+            Num::S(s) => match s.as_str() {
+                "inf" => Ok(f64::INFINITY),
+                "-inf" => Ok(f64::NEG_INFINITY),
+                "nan" => Ok(f64::NAN),
+                other => Err(serde::de::Error::custom(format!("expected a number, \"inf\", \"-inf\" or \"nan\", got \"{other}\""))),
+            },
+        }
+    }
+}

@@ -1,0 +1,60 @@
+//! Fitting: polynomial and rational approximations of tabulated albedos.
+//!
+//! Data flow: [`FitData`] (scattered points, values, weights, domain) + per-variable
+//! [`InputTransform`]s → [`fit_polynomial`] / [`fit_rational`] / [`sweep`] → [`FitResult`]
+//! (monomial coefficients in scikit-learn `PolynomialFeatures` order, metrics, solver record,
+//! pole certificate), serialisable to deterministic JSON.
+//!
+//! - [`basis`]: monomial exponents, the Chebyshev solving basis and the exact conversion between them.
+//! - [`linear`]: tall linear least squares by TSQR (chunked, deterministic).
+//! - [`lm`]: Levenberg–Marquardt with accumulated normal equations (argmin-style problem / solver / state).
+//! - [`polynomial`], [`rational`]: the fits; [`robust`]: mean-absolute and minimax objectives.
+//! - [`metrics`]: MAE, RMSE, max absolute / relative error and where they occur.
+//! - [`poles`]: Bernstein-subdivision proof that the denominator has no zero on the domain.
+//! - [`sweep`]: degree sweeps and the best certified fit under a coefficient budget.
+//! - [`paper`]: the published coefficients and tables of Sforza & Pellacini 2022.
+//!
+//! ```
+//! use furnace::fit::{fit_rational, FitData, InputTransform, Objective, RationalOptions};
+//! let ax: Vec<f64> = (0..16).map(|i| i as f64 / 15.0).collect();
+//! let vals = ax.iter().flat_map(|&r| ax.iter().map(move |&m| (1.0 + r) / (2.0 + m))).collect();
+//! let data = FitData::from_grid(vec!["r".into(), "mu".into()], &[ax.clone(), ax], vals).unwrap();
+//! let fit = fit_rational(&data, &[InputTransform::Identity; 2], 1, 1, Objective::LeastSquares,
+//!                        &RationalOptions::default()).unwrap();
+//! assert!(fit.metrics.max_abs_error < 1e-10 && fit.is_usable());
+//! assert!((fit.eval(&[0.5, 0.5]) - 0.6).abs() < 1e-10);
+//! ```
+
+// Negated comparisons (`!(x > 0.0)`) are deliberate: they treat NaN as failure.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Index loops mirror the formulas they implement.
+#![allow(clippy::needless_range_loop)]
+
+pub mod basis;
+pub mod data;
+pub mod error;
+pub mod linear;
+pub mod lm;
+pub mod metrics;
+mod model;
+pub mod paper;
+pub mod poles;
+pub mod polynomial;
+pub mod rational;
+pub mod result;
+mod robust;
+pub mod sweep;
+
+pub use basis::{exponents, n_terms, Polynomial};
+pub use data::{FitData, InputTransform};
+pub use error::{FitError, Result};
+pub use lm::{LeastSquaresProblem, LevenbergMarquardt, LmReport, LmState, TerminationReason};
+pub use metrics::{measure, Metrics};
+pub use poles::{CertifyOptions, PoleVerdict};
+pub use polynomial::{fit_polynomial, PolynomialOptions};
+pub use rational::{fit_rational, RationalOptions};
+pub use result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
+pub use sweep::{best_under_budget, sweep, sweep_detailed, SkippedFit, SweepOptions, SweepReport};
+
+#[cfg(test)]
+mod paper_tests;

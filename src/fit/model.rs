@@ -1,0 +1,267 @@
+//! The internal parameterisation shared by the polynomial and rational fits:
+//! f(s) = P(s)/Q(s) with P = Σ a_j T_j(s), Q = 1 + Σ_{j≥1} b_j T_j(s) in the Chebyshev product
+//! basis of the scaled variables s ∈ [−1, 1]^d. Fixing Q's *Chebyshev* constant to 1 normalises
+//! Q to mean ≈ 1 over the box, which keeps the parameters well scaled; the emitted form is
+//! renormalised to the paper's convention (monomial constant of Q = 1) afterwards.
+//!
+//! Parameters: [a_0 … a_{nP−1}, b_1 … b_{nQ−1}].
+
+use std::ops::Range;
+
+use rayon::prelude::*;
+
+use super::basis::{chebyshev_to_monomial, exponents, ChebyshevBasis, Polynomial};
+use super::data::{FitData, InputTransform, Prepared};
+use super::linear::LinearRows;
+use super::lm::LeastSquaresProblem;
+use super::poles::{certify_polynomial, CertifyOptions, RawVerdict};
+use super::result::Approximant;
+
+/// Denominator values at data points must stay above this (Q's Chebyshev constant is 1, so
+/// |Q| ~ 1 typically): a barrier that keeps Levenberg–Marquardt on the pole-free side.
+pub const Q_FLOOR: f64 = 1e-8;
+
+/// If |Q's monomial constant| falls below this fraction of its largest coefficient, the
+/// paper's normalisation Q(0) = 1 would blow the coefficients up; the Chebyshev normalisation
+/// is kept instead.
+pub const NORMALISE_MIN_RATIO: f64 = 1e-8;
+
+#[derive(Clone, Debug)]
+pub(crate) struct Model {
+    pub basis: ChebyshevBasis,
+    pub num_degree: u32,
+    pub den_degree: Option<u32>,
+    pub n_num: usize,
+    pub n_den: usize,
+}
+
+impl Model {
+    pub fn polynomial(d: usize, degree: u32) -> Model {
+        let basis = ChebyshevBasis::new(d, degree);
+        let n_num = basis.len();
+        Model { basis, num_degree: degree, den_degree: None, n_num, n_den: 0 }
+    }
+
+    pub fn rational(d: usize, num_degree: u32, den_degree: u32) -> Model {
+        // graded order: the basis of lower degree is a prefix of the one of higher degree
+        let basis = ChebyshevBasis::new(d, num_degree.max(den_degree));
+        let n_num = ChebyshevBasis::new(d, num_degree).len();
+        let n_den = ChebyshevBasis::new(d, den_degree).len();
+        Model { basis, num_degree, den_degree: Some(den_degree), n_num, n_den }
+    }
+
+    pub fn n_params(&self) -> usize {
+        self.n_num + self.n_den.saturating_sub(1)
+    }
+
+    pub fn is_rational(&self) -> bool {
+        self.den_degree.is_some()
+    }
+
+    /// (P, Q) at one point given the basis values `phi`.
+    #[inline]
+    pub fn pq(&self, p: &[f64], phi: &[f64]) -> (f64, f64) {
+        let mut num = 0.0;
+        for j in 0..self.n_num {
+            num += p[j] * phi[j];
+        }
+        let mut den = 1.0;
+        for j in 1..self.n_den {
+            den += p[self.n_num + j - 1] * phi[j];
+        }
+        (num, den)
+    }
+
+    /// f − y at every point (unweighted), or None if Q ≤ Q_FLOOR somewhere (rational only).
+    pub fn errors(&self, data: &Prepared, p: &[f64]) -> Option<Vec<f64>> {
+        const CHUNK: usize = 4096;
+        let n = data.len();
+        let parts: Vec<Option<Vec<f64>>> = (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let mut table = vec![0.0; self.basis.table_len()];
+                let mut phi = vec![0.0; self.basis.len()];
+                let rows = c * CHUNK..((c + 1) * CHUNK).min(n);
+                let mut out = Vec::with_capacity(rows.len());
+                for i in rows {
+                    self.basis.eval(data.point(i), &mut table, &mut phi);
+                    let (num, den) = self.pq(p, &phi);
+                    if self.is_rational() && !(den > Q_FLOOR) {
+                        return None;
+                    }
+                    out.push(num / den - data.y[i]);
+                }
+                Some(out)
+            })
+            .collect();
+        let mut all = Vec::with_capacity(n);
+        for part in parts {
+            all.extend(part?);
+        }
+        Some(all)
+    }
+
+    /// Q at every point (rational only).
+    pub fn denominators(&self, data: &Prepared, p: &[f64]) -> Vec<f64> {
+        let mut table = vec![0.0; self.basis.table_len()];
+        let mut phi = vec![0.0; self.basis.len()];
+        (0..data.len())
+            .map(|i| {
+                self.basis.eval(data.point(i), &mut table, &mut phi);
+                self.pq(p, &phi).1
+            })
+            .collect()
+    }
+
+    /// The emitted form: monomials in the transformed variables, Q normalised to constant 1.
+    pub fn to_approximant(&self, data: &FitData, transforms: &[InputTransform], prep: &Prepared, p: &[f64]) -> Approximant {
+        let d = prep.d;
+        let num_exps = exponents(d, self.num_degree);
+        let mut num = chebyshev_to_monomial(&num_exps, self.num_degree, &prep.scales, &p[..self.n_num]);
+        let denominator = self.den_degree.map(|dd| {
+            let den_exps = exponents(d, dd);
+            let mut cheb = vec![1.0];
+            cheb.extend_from_slice(&p[self.n_num..]);
+            let mut den = chebyshev_to_monomial(&den_exps, dd, &prep.scales, &cheb);
+            let q0 = den[0];
+            let qmax = den.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+            if q0.abs() >= NORMALISE_MIN_RATIO * qmax && q0 != 0.0 {
+                for c in den.iter_mut() {
+                    *c /= q0;
+                }
+                den[0] = 1.0; // exactly, by construction
+                for c in num.iter_mut() {
+                    *c /= q0;
+                }
+            }
+            Polynomial { exponents: den_exps, coefficients: den }
+        });
+        Approximant {
+            variables: data.names.clone(),
+            transforms: transforms.to_vec(),
+            domain: data.domain.clone(),
+            numerator: Polynomial { exponents: num_exps, coefficients: num },
+            denominator,
+        }
+    }
+}
+
+/// The linear least-squares rows of a polynomial fit (Q ≡ 1) or of the linearised rational
+/// problem P − yQ ≈ 0, i.e. P(s_i) − y_i Σ_{j≥1} b_j T_j(s_i) ≈ y_i (Levy 1959), each row scaled
+/// by the weight v_i = w_i · extra_i.
+pub(crate) struct LinearisedRows<'a> {
+    pub model: &'a Model,
+    pub data: &'a Prepared,
+    /// Extra per-point row weights (reweighting, Sanathanan–Koerner 1/|Q|).
+    pub extra: Option<&'a [f64]>,
+}
+
+impl LinearRows for LinearisedRows<'_> {
+    fn n_rows(&self) -> usize {
+        self.data.len()
+    }
+    fn n_cols(&self) -> usize {
+        self.model.n_params()
+    }
+    fn fill(&self, rows: Range<usize>, a: &mut [f64], b: &mut [f64]) {
+        let len = rows.len();
+        let m = self.model;
+        let mut table = vec![0.0; m.basis.table_len()];
+        let mut phi = vec![0.0; m.basis.len()];
+        for (k, i) in rows.enumerate() {
+            m.basis.eval(self.data.point(i), &mut table, &mut phi);
+            let v = self.data.w[i] * self.extra.map_or(1.0, |e| e[i]);
+            let y = self.data.y[i];
+            for j in 0..m.n_num {
+                a[j * len + k] = v * phi[j];
+            }
+            for j in 1..m.n_den {
+                a[(m.n_num + j - 1) * len + k] = -v * y * phi[j];
+            }
+            b[k] = v * y;
+        }
+    }
+}
+
+/// The nonlinear problem min ½ Σ (v_i (P/Q − y_i))², v_i = w_i · extra_i, for Levenberg–Marquardt.
+/// With `certified_steps`, only parameters whose denominator is proved pole-free on the whole
+/// domain box are admissible, so a run from a certified start can only end certified.
+pub(crate) struct RationalProblem<'a> {
+    pub model: &'a Model,
+    pub data: &'a Prepared,
+    pub extra: Option<&'a [f64]>,
+    /// Certificate options and margin: admissible iff Q ≥ margin is proved on the domain.
+    pub certified_steps: Option<(&'a CertifyOptions, f64)>,
+}
+
+impl Model {
+    /// Q in monomial form of the transformed variables (Chebyshev normalisation kept).
+    pub fn denominator_monomial(&self, data: &Prepared, p: &[f64]) -> Option<Polynomial> {
+        let dd = self.den_degree?;
+        let exps = exponents(data.d, dd);
+        let mut cheb = vec![1.0];
+        cheb.extend_from_slice(&p[self.n_num..]);
+        let coefficients = chebyshev_to_monomial(&exps, dd, &data.scales, &cheb);
+        Some(Polynomial { exponents: exps, coefficients })
+    }
+
+    /// True if Q − margin is proved to have no zero on the (transformed) domain box; since Q's
+    /// Chebyshev mean is 1 > margin, that means Q ≥ margin everywhere there.
+    pub fn denominator_certified(&self, data: &Prepared, p: &[f64], opts: &CertifyOptions, margin: f64) -> bool {
+        let Some(mut q) = self.denominator_monomial(data, p) else { return true };
+        q.coefficients[0] -= margin; // exponent (0, …, 0) comes first
+        let bounds: Vec<(f64, f64)> = data.scales.iter().map(|s| (s.lo, s.hi)).collect();
+        matches!(certify_polynomial(&q, &bounds, opts), RawVerdict::Certified { .. })
+    }
+}
+
+impl LeastSquaresProblem for RationalProblem<'_> {
+    fn n_params(&self) -> usize {
+        self.model.n_params()
+    }
+    fn admissible(&self, p: &[f64]) -> bool {
+        self.certified_steps.is_none_or(|(opts, margin)| self.model.denominator_certified(self.data, p, opts, margin))
+    }
+    fn n_residuals(&self) -> usize {
+        self.data.len()
+    }
+    fn residuals(&self, p: &[f64], rows: Range<usize>, r: &mut [f64]) -> bool {
+        let m = self.model;
+        let mut table = vec![0.0; m.basis.table_len()];
+        let mut phi = vec![0.0; m.basis.len()];
+        for (k, i) in rows.enumerate() {
+            m.basis.eval(self.data.point(i), &mut table, &mut phi);
+            let (num, den) = m.pq(p, &phi);
+            if m.is_rational() && !(den > Q_FLOOR) {
+                return false;
+            }
+            let v = self.data.w[i] * self.extra.map_or(1.0, |e| e[i]);
+            r[k] = v * (num / den - self.data.y[i]);
+        }
+        true
+    }
+    fn jacobian(&self, p: &[f64], rows: Range<usize>, r: &mut [f64], jac: &mut [f64]) -> bool {
+        let m = self.model;
+        let len = rows.len();
+        let mut table = vec![0.0; m.basis.table_len()];
+        let mut phi = vec![0.0; m.basis.len()];
+        for (k, i) in rows.enumerate() {
+            m.basis.eval(self.data.point(i), &mut table, &mut phi);
+            let (num, den) = m.pq(p, &phi);
+            if m.is_rational() && !(den > Q_FLOOR) {
+                return false;
+            }
+            let v = self.data.w[i] * self.extra.map_or(1.0, |e| e[i]);
+            let f = num / den;
+            r[k] = v * (f - self.data.y[i]);
+            let g = v / den; // ∂f/∂a_j = T_j/Q, ∂f/∂b_j = −f T_j/Q
+            for j in 0..m.n_num {
+                jac[j * len + k] = g * phi[j];
+            }
+            for j in 1..m.n_den {
+                jac[(m.n_num + j - 1) * len + k] = -g * f * phi[j];
+            }
+        }
+        true
+    }
+}

@@ -106,6 +106,37 @@ impl TableSpec {
         Ok(spec)
     }
 
+    /// A narrower (or wider, within the model's valid ranges) domain than the default: one
+    /// `(lo, hi)` per axis. Used by scene manifests, whose materials need only part of the domain.
+    pub fn with_ranges(
+        model: &dyn Model,
+        resolution: &[usize],
+        ranges: &[(f64, f64)],
+        quadrature: QuadratureSettings,
+    ) -> Result<TableSpec> {
+        let mut spec = TableSpec::new(model, resolution, quadrature)?;
+        if ranges.len() != spec.axes.len() {
+            return Err(Error::InvalidInput(format!(
+                "{} ranges given for the {} axes of {}",
+                ranges.len(),
+                spec.axes.len(),
+                model.name()
+            )));
+        }
+        for ((g, &(lo, hi)), a) in spec.axes.iter_mut().zip(ranges).zip(model.axes()) {
+            if !(lo < hi) || lo < a.valid_range.0 || hi > a.valid_range.1 {
+                return Err(Error::InvalidInput(format!(
+                    "range [{lo}, {hi}] of axis {} is empty, inverted or outside the model's domain [{}, {}]",
+                    a.name, a.valid_range.0, a.valid_range.1
+                )));
+            }
+            g.lo = lo;
+            g.hi = hi;
+        }
+        spec.validate()?;
+        Ok(spec)
+    }
+
     /// Refuses empty, single-node and absurdly large grids before anything is allocated.
     pub fn validate(&self) -> Result<()> {
         for a in &self.axes {

@@ -1,4 +1,4 @@
-use furnace::bsdf::ggx::{Lobes, VndfIntegrand};
+use furnace::bsdf::ggx::{Lobes, Part, VndfIntegrand};
 use furnace::math::SmithForm;
 use furnace::quadrature::{integrate_2d, Integrand2D, Panel, Rules, CHANNELS};
 use std::cell::Cell;
@@ -13,7 +13,7 @@ impl<'a> Integrand2D for C<'a> {
 }
 fn main() {
     let a: Vec<f64> = std::env::args().skip(1).map(|v| v.parse().unwrap()).collect();
-    let f = VndfIntegrand::new(a[0] * a[0], a[1], SmithForm::HeightCorrelated, match std::env::var("ETA") { Ok(e) => Lobes::Dielectric { eta: e.parse().unwrap() }, Err(_) => Lobes::Conductor });
+    let f = VndfIntegrand::part(a[0] * a[0], a[1], SmithForm::HeightCorrelated, match std::env::var("ETA") { Ok(e) => Lobes::Dielectric { eta: e.parse().unwrap() }, Err(_) => Lobes::Conductor }, match std::env::var("PART").as_deref() { Ok("T") => Part::TransmissionOnly, Ok("R") => Part::ReflectionOnly, _ => Part::Both });
     let c = C { f: &f, evals: Cell::new(0), lines: Cell::new(0), panels: Cell::new(0) };
     let v = integrate_2d(&c, &Rules::new(16));
     println!("E {:.12} evals {} lines {} inner panels/line {:.2}", v[0], c.evals.get(), c.lines.get(), c.panels.get() as f64 / c.lines.get() as f64);

@@ -1,10 +1,10 @@
-use furnace::bsdf::ggx::{Lobes, VndfIntegrand};
+use furnace::bsdf::ggx::{Lobes, Part, VndfIntegrand};
 use furnace::math::SmithForm;
 use furnace::quadrature::{Integrand2D, Rules};
 fn main() {
     let a: Vec<f64> = std::env::args().skip(1).map(|v| v.parse().unwrap()).collect();
     let (r, mu) = (a[0], a[1]);
-    let f = VndfIntegrand::new(r * r, mu, if std::env::var("SEP").is_ok() { SmithForm::Separable } else { SmithForm::HeightCorrelated }, match std::env::var("ETA") { Ok(e) => Lobes::Dielectric { eta: e.parse().unwrap() }, Err(_) => Lobes::Conductor });
+    let f = VndfIntegrand::part(r * r, mu, if std::env::var("SEP").is_ok() { SmithForm::Separable } else { SmithForm::HeightCorrelated }, match std::env::var("ETA") { Ok(e) => Lobes::Dielectric { eta: e.parse().unwrap() }, Err(_) => Lobes::Conductor }, match std::env::var("PART").as_deref() { Ok("T") => Part::TransmissionOnly, Ok("R") => Part::ReflectionOnly, _ => Part::Both });
     let (r16, r1k) = (Rules::new(16), Rules::new(1024));
     let mut worst = (0.0, 0.0);
     for k in 0..2000 {

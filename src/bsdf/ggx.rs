@@ -118,6 +118,15 @@ impl GgxModel {
         }
     }
 
+    /// The lobes of the integrand at normal reflectance `f0`.
+    fn lobes(&self, f0: f64) -> Lobes {
+        match self.kind {
+            GgxKind::Conductor => Lobes::Conductor,
+            GgxKind::Dielectric { .. } => Lobes::Dielectric { eta: self.eta(f0) },
+            GgxKind::Glossy => Lobes::Glossy { eta: self.eta(f0) },
+        }
+    }
+
     /// The model's outputs from its two integrals at normal reflectance `f0`.
     fn outputs_from_integrals(&self, f0: f64, c: [f64; CHANNELS]) -> [f64; MAX_OUTPUTS] {
         match self.kind {
@@ -139,16 +148,26 @@ impl GgxModel {
     /// [E_R·F, E_R without F] (glossy) or [E, 0] (conductor).
     pub fn integrals(&self, f0: f64, r: f64, mu_o: f64, rules: &Rules) -> [f64; CHANNELS] {
         let alpha = alpha_from_r(r);
-        let lobes = match self.kind {
-            GgxKind::Conductor => Lobes::Conductor,
-            GgxKind::Dielectric { .. } => Lobes::Dielectric { eta: self.eta(f0) },
-            GgxKind::Glossy => Lobes::Glossy { eta: self.eta(f0) },
-        };
+        let lobes = self.lobes(f0);
         if alpha == 0.0 {
             return smooth_interface(lobes, mu_o);
         }
-        let f = VndfIntegrand::new(alpha, mu_o, self.smith, lobes);
-        integrate_2d(&f, rules)
+        self.integrands(alpha, mu_o, lobes).iter().fold([0.0; CHANNELS], |acc, f| {
+            let v = integrate_2d(f, rules);
+            [acc[0] + v[0], acc[1] + v[1]]
+        })
+    }
+
+    /// The integrands of one cell: one carrying both channels, or — leaving the denser medium —
+    /// reflection and transmission apart (see [`Part`]).
+    fn integrands(&self, alpha: f64, mu_o: f64, lobes: Lobes) -> Vec<VndfIntegrand> {
+        match (self.kind, lobes) {
+            (GgxKind::Dielectric { inverse: true }, Lobes::Dielectric { eta }) if eta < 1.0 => vec![
+                VndfIntegrand::part(alpha, mu_o, self.smith, lobes, Part::ReflectionOnly),
+                VndfIntegrand::part(alpha, mu_o, self.smith, lobes, Part::TransmissionOnly),
+            ],
+            _ => vec![VndfIntegrand::new(alpha, mu_o, self.smith, lobes)],
+        }
     }
 }
 
@@ -230,6 +249,32 @@ impl Model for GgxModel {
             _ => (x[0], x[1], x[2]),
         };
         self.outputs_from_integrals(f0, self.integrals(f0, r, mu, rules))
+    }
+
+    fn integrate_orders(&self, x: &[f64], rules: &[&Rules]) -> Vec<[f64; MAX_OUTPUTS]> {
+        let (f0, r, mu) = match self.kind {
+            GgxKind::Conductor => (0.0, x[0], x[1]),
+            _ => (x[0], x[1], x[2]),
+        };
+        let alpha = alpha_from_r(r);
+        let lobes = self.lobes(f0);
+        if alpha == 0.0 {
+            let v = self.outputs_from_integrals(f0, smooth_interface(lobes, mu));
+            return vec![v; rules.len()];
+        }
+        // one set of integrands: their outer panels (scanned when leaving the denser medium)
+        // serve all orders
+        let fs = self.integrands(alpha, mu, lobes);
+        rules
+            .iter()
+            .map(|r| {
+                let c = fs.iter().fold([0.0; CHANNELS], |acc, f| {
+                    let v = integrate_2d(f, r);
+                    [acc[0] + v[0], acc[1] + v[1]]
+                });
+                self.outputs_from_integrals(f0, c)
+            })
+            .collect()
     }
 
     fn integrate_column(&self, xs: &[Vec<f64>], rules: &Rules, out: &mut [[f64; MAX_OUTPUTS]]) {
@@ -324,6 +369,101 @@ impl QuadForm {
         }
     }
 
+    /// The singularities of a kink function built on this form that lie *near* the range
+    /// without being zeros inside it: complex zeros (the curve almost touches the line) give
+    /// an interior point `re` at distance `im`; real zeros just outside the range give the end
+    /// they are close to, at distance `d`. Appends `(point, distance)` pairs with distance below
+    /// `reach`.
+    fn near_singularities(&self, sb: f64, cb: f64, phi_max: f64, reach: f64, out: &mut Vec<(f64, f64)>) {
+        let den = self.r * cb * cb;
+        if den <= 0.0 {
+            return;
+        }
+        let c = -(self.p * cb * cb + self.a_yy * sb * sb) / den;
+        if !c.is_finite() {
+            return;
+        }
+        if c > -1.0 && c < 1.0 {
+            let a = c.acos();
+            for k in -2..=2 {
+                for s in [-1.0, 1.0] {
+                    let phi = 0.5 * (self.gamma + s * a) + k as f64 * PI;
+                    if phi <= 0.0 && -phi < reach {
+                        out.push((0.0, -phi));
+                    } else if phi >= phi_max && phi - phi_max < reach {
+                        out.push((phi_max, phi - phi_max));
+                    }
+                }
+            }
+        } else {
+            // cos(2φ − γ) = c with |c| ≥ 1: 2φ − γ = {0, π} ± i·acosh|c|
+            let im = 0.5 * c.abs().acosh();
+            if im >= reach {
+                return;
+            }
+            let shift = if c >= 1.0 { 0.0 } else { PI };
+            for k in -2..=2 {
+                let re = 0.5 * (self.gamma + shift) + k as f64 * PI;
+                if re > 0.0 && re < phi_max {
+                    out.push((re, im));
+                } else if re <= 0.0 && (-re).hypot(im) < reach {
+                    out.push((0.0, (-re).hypot(im)));
+                } else if re >= phi_max && (re - phi_max).hypot(im) < reach {
+                    out.push((phi_max, (re - phi_max).hypot(im)));
+                }
+            }
+        }
+    }
+
+    /// Latitudes β ∈ (0, π/2) at which the zero curves of two forms cross inside the φ range.
+    /// Eliminating tan²β between the two line equations leaves a cos X + b sin X + c = 0 in
+    /// X = 2φ, so the crossings are closed-form too.
+    fn crossings(&self, other: &QuadForm, phi_max: f64, out: &mut Vec<f64>) {
+        let (q1, q2) = (self, other);
+        let mut push = |phi: f64, q: &QuadForm| {
+            if phi > 0.0 && phi < phi_max && q.a_yy != 0.0 {
+                let t2 = -(q.p + q.r * (2.0 * phi - q.gamma).cos()) / q.a_yy;
+                if t2 > 0.0 && t2.is_finite() {
+                    out.push(t2.sqrt().atan());
+                }
+            }
+        };
+        if q1.a_yy == 0.0 || q2.a_yy == 0.0 {
+            // one curve is a fixed set of lines φ = const (independent of β)
+            let (fixed, moving) = if q1.a_yy == 0.0 { (q1, q2) } else { (q2, q1) };
+            if fixed.r > 0.0 {
+                let c = -fixed.p / fixed.r;
+                if c > -1.0 && c < 1.0 {
+                    let a = c.acos();
+                    for k in -1..=2 {
+                        for sgn in [-1.0, 1.0] {
+                            push(0.5 * (fixed.gamma + sgn * a) + k as f64 * PI, moving);
+                        }
+                    }
+                }
+            }
+            return;
+        }
+        let a = q2.a_yy * q1.r * q1.gamma.cos() - q1.a_yy * q2.r * q2.gamma.cos();
+        let b = q2.a_yy * q1.r * q1.gamma.sin() - q1.a_yy * q2.r * q2.gamma.sin();
+        let c = q2.a_yy * q1.p - q1.a_yy * q2.p;
+        let rho = a.hypot(b);
+        if rho == 0.0 {
+            return;
+        }
+        let cc = -c / rho;
+        if !(cc > -1.0 && cc < 1.0) {
+            return;
+        }
+        let theta = b.atan2(a);
+        let d = cc.acos();
+        for k in -1..=2 {
+            for sgn in [-1.0, 1.0] {
+                push(0.5 * (theta + sgn * d) + k as f64 * PI, q1);
+            }
+        }
+    }
+
     /// Latitudes β ∈ (0, π/2) at which the zero set on a line changes shape: zeros merge
     /// (cos(2φ − γ) = ±1 inside the range) or cross an end of the φ range.
     fn outer_breaks(&self, phi_max: f64, out: &mut Vec<f64>) {
@@ -372,12 +512,27 @@ pub struct VndfIntegrand {
     tir: Option<QuadForm>,
     /// Whether the transmitted direction can cross the horizon (η < 1): located numerically.
     transmit_horizon: bool,
+    /// Which channels this integrand carries; the other one is left at zero and its kinks are
+    /// not panel ends. Leaving the denser medium, reflection and transmission are integrated
+    /// separately: reflection needs only closed-form kinks, transmission lives on the small
+    /// non-TIR cap with the numerically located horizon.
+    part: Part,
     /// Column mode: relative IORs of many cells that share this geometry (entering dielectric
     /// or glossy only, whose kinks do not depend on η); channels are 2 per IOR.
     column: Vec<f64>,
+    /// Outer panels, computed once per cell (they do not depend on the rule order).
+    outer_cache: std::cell::OnceCell<Vec<Panel>>,
     /// Precomputed masking terms of ωo: a(μo) and μo + a(μo) (see [`SmithForm::g2_over_g1`]).
     a_o: f64,
     mu_o_plus_a_o: f64,
+}
+
+/// The channels a [`VndfIntegrand`] carries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    Both,
+    ReflectionOnly,
+    TransmissionOnly,
 }
 
 /// Per-line data of [`VndfIntegrand`].
@@ -406,7 +561,9 @@ impl VndfIntegrand {
         });
         let a_o = crate::math::smith_a(mu_o, alpha);
         VndfIntegrand {
+            part: Part::Both,
             column: Vec::new(),
+            outer_cache: std::cell::OnceCell::new(),
             a_o,
             mu_o_plus_a_o: mu_o + a_o,
             alpha,
@@ -422,6 +579,16 @@ impl VndfIntegrand {
             tir,
             transmit_horizon: tir.is_some(),
         }
+    }
+
+    /// Only one channel of a dielectric integrand (see [`Part`]).
+    pub fn part(alpha: f64, mu_o: f64, smith: SmithForm, lobes: Lobes, part: Part) -> VndfIntegrand {
+        let mut f = VndfIntegrand::new(alpha, mu_o, smith, lobes);
+        f.part = part;
+        if part == Part::ReflectionOnly {
+            f.transmit_horizon = false;
+        }
+        f
     }
 
     /// The same geometry for a column of cells differing only in their relative IOR (entering
@@ -539,18 +706,22 @@ impl VndfIntegrand {
         let line = Line { sb, cb, weight: 0.0 };
         let mut tagged: Vec<(f64, u8)> = Vec::with_capacity(8);
         let mut tmp = Vec::with_capacity(4);
-        self.horizon.roots(sb, cb, self.phi_max, &mut tmp);
-        tagged.extend(tmp.drain(..).map(|p| (p, 0)));
+        if self.part != Part::TransmissionOnly {
+            self.horizon.roots(sb, cb, self.phi_max, &mut tmp);
+            tagged.extend(tmp.drain(..).map(|p| (p, 0)));
+        }
         if let Some(t) = &self.tir {
             t.roots(sb, cb, self.phi_max, &mut tmp);
             tagged.extend(tmp.drain(..).map(|p| (p, 1)));
         }
-        let mut breaks: Vec<f64> = tagged.iter().map(|t| t.0).collect();
-        breaks.push(0.0);
-        breaks.push(self.phi_max);
-        sort_dedup(&mut breaks);
-        self.transmit_roots(&line, eta, &breaks, &mut tmp);
-        tagged.extend(tmp.drain(..).map(|p| (p, 2)));
+        if self.transmit_horizon {
+            let mut breaks: Vec<f64> = tagged.iter().map(|t| t.0).collect();
+            breaks.push(0.0);
+            breaks.push(self.phi_max);
+            sort_dedup(&mut breaks);
+            self.transmit_roots(&line, eta, &breaks, &mut tmp);
+            tagged.extend(tmp.drain(..).map(|p| (p, 2)));
+        }
         tagged.sort_by(|a, b| a.0.total_cmp(&b.0));
         sig.clear();
         sig.extend(tagged.iter().map(|t| t.1));
@@ -592,12 +763,16 @@ impl VndfIntegrand {
 /// |μi| below which an end of the φ range counts as a horizon zero.
 const END_ZERO: f64 = 1e-12;
 
+/// How far from the φ range a complex or outside zero of a kink form still counts as a
+/// near-singularity (beyond it Gauss–Legendre converges fast enough at order 12–16 anyway).
+const NEAR_REACH: f64 = 0.3;
+
 /// Samples per panel used to bracket zeros of the transmitted z on a line.
 const TRANSMIT_SCAN: usize = 8;
 /// Latitude samples used to find where the kinks of a line change topology.
 const BETA_SCAN: usize = 32;
 /// Bisection tolerance on such a latitude: far below what the rules resolve.
-const BETA_TOL: f64 = 1e-13;
+const BETA_TOL: f64 = 1e-11;
 
 /// Illinois (modified regula falsi) on a bracketing interval [a, b] with f(a), f(b) of opposite signs.
 fn illinois(f: impl Fn(f64) -> f64, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> f64 {
@@ -649,69 +824,15 @@ impl Integrand2D for VndfIntegrand {
     }
 
     fn outer_panels(&self, out: &mut Vec<Panel>) {
-        // Where kink curves are tangent to a line or cross the ends of the φ range, the inner
-        // integral has square-root behaviour in β.
-        let mut xs = vec![0.0, FRAC_PI_2];
-        self.horizon.outer_breaks(self.phi_max, &mut xs);
-        if let Some(t) = &self.tir {
-            t.outer_breaks(self.phi_max, &mut xs);
-        }
-        sort_dedup(&mut xs);
-        if self.transmit_horizon {
-            if let Lobes::Dielectric { eta } = self.lobes {
-                self.scanned_outer_breaks(eta, &mut xs);
-                sort_dedup(&mut xs);
-            }
-        }
-        // β = π/2 is a rim too (N_z = cos β sin φ): the stretching map is singular at distance
-        // ~α from it, so every break carries that distance.
-        let rim = |x: f64| (FRAC_PI_2 - x).hypot(self.alpha);
-        let mut breaks: Vec<Break> = xs
-            .iter()
-            .map(|&x| if x == 0.0 { Break::regular(x) } else if x == FRAC_PI_2 { Break::near_singular(x, self.alpha) } else { Break::sqrt(x).with_delta(rim(x)) })
-            .collect();
-        panels_from_breaks(&mut breaks, out);
+        out.extend_from_slice(self.outer_cache.get_or_init(|| {
+            let mut panels = Vec::with_capacity(8);
+            self.compute_outer_panels(&mut panels);
+            panels
+        }));
     }
 
     fn line_panels(&self, beta: f64, out: &mut Vec<Panel>) -> Line {
-        let (sb, cb) = beta.sin_cos();
-        let line = Line { sb, cb, weight: self.norm * cb * cb };
-        // Every break also sits near the singularities of the stretching map itself: h ∝
-        // (α cos β cos φ, α sin β, cos β sin φ) degenerates at φ ≈ ±iα and φ ≈ π ± iα.
-        let rim = |x: f64| x.hypot(self.alpha).min((PI - x).hypot(self.alpha));
-        let mut breaks = Vec::with_capacity(12);
-        // The ends of the range are horizon zeros themselves at grazing incidence (μo = 0: the
-        // rim reflects into the horizon), where the masking weight is near-singular too.
-        for end in [0.0, self.phi_max] {
-            let mut b = Break::near_singular(end, rim(end));
-            if self.reflected_z(&line, end).abs() <= END_ZERO {
-                b = b.with_delta(self.near_singular_delta(end, |p| self.reflected_z(&line, p)));
-            }
-            breaks.push(b);
-        }
-        let mut roots = Vec::with_capacity(4);
-        self.horizon.roots(sb, cb, self.phi_max, &mut roots);
-        for &phi in &roots {
-            let delta = self.near_singular_delta(phi, |p| self.reflected_z(&line, p));
-            breaks.push(Break::near_singular(phi, delta.min(rim(phi))));
-        }
-        if let Some(t) = &self.tir {
-            roots.clear();
-            t.roots(sb, cb, self.phi_max, &mut roots);
-            breaks.extend(roots.iter().map(|&x| Break::sqrt(x).with_delta(rim(x))));
-        }
-        if let (true, Lobes::Dielectric { eta }) = (self.transmit_horizon, self.lobes) {
-            let mut xs: Vec<f64> = breaks.iter().map(|b| b.x).collect();
-            sort_dedup(&mut xs);
-            roots.clear();
-            self.transmit_roots(&line, eta, &xs, &mut roots);
-            for &phi in &roots {
-                let delta = self.near_singular_delta(phi, |p| -self.transmitted_z(&line, p, eta));
-                breaks.push(Break::near_singular(phi, delta.min(rim(phi))));
-            }
-        }
-        panels_from_breaks(&mut breaks, out);
-        line
+        self.compute_line_panels(beta, out)
     }
 
     #[inline]
@@ -733,7 +854,11 @@ impl Integrand2D for VndfIntegrand {
             }
             Lobes::Dielectric { eta } => {
                 let (f, w_t) = self.transmission(c, h[2], eta);
-                [visible * f * w_r, visible * (1.0 - f) * w_t]
+                match self.part {
+                    Part::Both => [visible * f * w_r, visible * (1.0 - f) * w_t],
+                    Part::ReflectionOnly => [visible * f * w_r, 0.0],
+                    Part::TransmissionOnly => [0.0, visible * (1.0 - f) * w_t],
+                }
             }
         }
     }
@@ -784,6 +909,103 @@ impl Integrand2D for VndfIntegrand {
 }
 
 impl VndfIntegrand {
+    fn compute_outer_panels(&self, out: &mut Vec<Panel>) {
+        // Where kink curves are tangent to a line or cross the ends of the φ range, the inner
+        // integral has square-root behaviour in β.
+        let mut xs = vec![0.0, FRAC_PI_2];
+        if self.part != Part::TransmissionOnly {
+            self.horizon.outer_breaks(self.phi_max, &mut xs);
+        }
+        if let Some(t) = &self.tir {
+            t.outer_breaks(self.phi_max, &mut xs);
+        }
+        sort_dedup(&mut xs);
+        if let (Some(tir), Lobes::Dielectric { eta }) = (&self.tir, self.lobes) {
+            if self.part == Part::ReflectionOnly {
+                // the horizon and the critical-angle curve cross in closed form
+                self.horizon.crossings(tir, self.phi_max, &mut xs);
+            } else {
+                // the numerical transmission horizon: scan for topology changes
+                self.scanned_outer_breaks(eta, &mut xs);
+            }
+            sort_dedup(&mut xs);
+        }
+        // β = π/2 is a rim too (N_z = cos β sin φ): the stretching map is singular at distance
+        // ~α from it, so every break carries that distance.
+        let rim = |x: f64| (FRAC_PI_2 - x).hypot(self.alpha);
+        let mut breaks: Vec<Break> = xs
+            .iter()
+            .map(|&x| if x == 0.0 { Break::regular(x) } else if x == FRAC_PI_2 { Break::near_singular(x, self.alpha) } else { Break::sqrt(x).with_delta(rim(x)) })
+            .collect();
+        panels_from_breaks(&mut breaks, out);
+    }
+
+    fn compute_line_panels(&self, beta: f64, out: &mut Vec<Panel>) -> Line {
+        let (sb, cb) = beta.sin_cos();
+        let line = Line { sb, cb, weight: self.norm * cb * cb };
+        // Every break also sits near the singularities of the stretching map itself: h ∝
+        // (α cos β cos φ, α sin β, cos β sin φ) degenerates at φ ≈ ±iα and φ ≈ π ± iα.
+        let rim = |x: f64| x.hypot(self.alpha).min((PI - x).hypot(self.alpha));
+        let mut breaks = Vec::with_capacity(12);
+        // The ends of the range are horizon zeros themselves at grazing incidence (μo = 0: the
+        // rim reflects into the horizon), where the masking weight is near-singular too.
+        for end in [0.0, self.phi_max] {
+            let mut b = Break::near_singular(end, rim(end));
+            if self.reflected_z(&line, end).abs() <= END_ZERO {
+                b = b.with_delta(self.near_singular_delta(end, |p| self.reflected_z(&line, p)));
+            }
+            breaks.push(b);
+        }
+        let mut roots = Vec::with_capacity(4);
+        if self.part != Part::TransmissionOnly {
+            self.horizon.roots(sb, cb, self.phi_max, &mut roots);
+            for &phi in &roots {
+                let delta = self.near_singular_delta(phi, |p| self.reflected_z(&line, p));
+                breaks.push(Break::near_singular(phi, delta.min(rim(phi))));
+            }
+        }
+        if let Some(t) = &self.tir {
+            roots.clear();
+            t.roots(sb, cb, self.phi_max, &mut roots);
+            // F has its square root on the transmitting side only (beyond the critical angle
+            // F = 1 and nothing is transmitted).
+            let eta = match self.lobes {
+                Lobes::Dielectric { eta } => eta,
+                _ => 1.0,
+            };
+            breaks.extend(roots.iter().map(|&x| {
+                let step = 1e-9 * (1.0 + x);
+                let above = !self.is_tir(&line, x + step, eta);
+                Break::one_sided_sqrt(x, above).with_delta(rim(x))
+            }));
+        }
+        // Kink curves that pass close by without crossing the line (or cross just outside the
+        // range) leave near-singularities: a break at the nearest point, mapped towards it.
+        let mut near = Vec::with_capacity(4);
+        if self.part != Part::TransmissionOnly {
+            self.horizon.near_singularities(sb, cb, self.phi_max, NEAR_REACH, &mut near);
+        }
+        if let Some(t) = &self.tir {
+            t.near_singularities(sb, cb, self.phi_max, NEAR_REACH, &mut near);
+        }
+        breaks.extend(near.iter().map(|&(x, d)| Break::near_singular(x, d.max(crate::quadrature::MIN_DELTA))));
+        if let (true, Lobes::Dielectric { eta }) = (self.transmit_horizon, self.lobes) {
+            let mut xs: Vec<f64> = breaks.iter().map(|b| b.x).collect();
+            sort_dedup(&mut xs);
+            roots.clear();
+            self.transmit_roots(&line, eta, &xs, &mut roots);
+            for &phi in &roots {
+                let delta = self.near_singular_delta(phi, |p| -self.transmitted_z(&line, p, eta));
+                breaks.push(Break::near_singular(phi, delta.min(rim(phi))));
+            }
+        }
+        panels_from_breaks(&mut breaks, out);
+        line
+    }
+
+}
+
+impl VndfIntegrand {
     /// Fresnel reflectance and the transmitted masking weight at a normal with ωo·h = c and
     /// height h_z, for relative IOR `eta` (F = 1 and no transmission under TIR).
     #[inline]
@@ -829,6 +1051,25 @@ mod tests {
         for smith in [SmithForm::HeightCorrelated, SmithForm::Separable] {
             let e = conductor(smith).integrate(&[1.0, 1.0], &rules)[0];
             assert!((e - (1.0 - 2f64.ln())).abs() < 1e-12, "{smith:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn closed_form_crossings_match_the_scan() {
+        // Leaving glass at grazing-ish incidence: horizon and critical angle cross.
+        let lobes = Lobes::Dielectric { eta: 1.0 / 1.5 };
+        let f = VndfIntegrand::part(0.36, 0.4, SmithForm::HeightCorrelated, lobes, Part::ReflectionOnly);
+        let tir = f.tir.unwrap();
+        let mut closed = Vec::new();
+        f.horizon.crossings(&tir, f.phi_max, &mut closed);
+        let mut all = vec![0.0, FRAC_PI_2];
+        f.horizon.outer_breaks(f.phi_max, &mut all);
+        tir.outer_breaks(f.phi_max, &mut all);
+        let mut scanned = all.clone();
+        f.scanned_outer_breaks(1.0 / 1.5, &mut scanned);
+        // every crossing found in closed form is a topology change the scan also finds
+        for c in &closed {
+            assert!(scanned.iter().any(|s| (s - c).abs() < 1e-9), "crossing {c} not in scan {scanned:?}");
         }
     }
 

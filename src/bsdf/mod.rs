@@ -10,7 +10,7 @@ pub mod ggx;
 pub mod radziszewski;
 
 use crate::error::{Error, Result};
-use crate::quadrature::{estimate, Estimate, QuadratureSettings, RuleCache, Rules};
+use crate::quadrature::{next_order, Estimate, QuadratureSettings, RuleCache, Rules};
 
 /// Most outputs a model reports at one point (E, and E_R, E_T for dielectrics).
 pub const MAX_OUTPUTS: usize = 3;
@@ -52,6 +52,11 @@ pub trait Model: Send + Sync {
     fn parameters(&self) -> serde_json::Value {
         serde_json::Value::Null
     }
+    /// Outputs at `x` for several rule sets (the orders of one error estimate). Models whose
+    /// setup is costly (breakpoints found by scanning) override this to set up once.
+    fn integrate_orders(&self, x: &[f64], rules: &[&Rules]) -> Vec<[f64; MAX_OUTPUTS]> {
+        rules.iter().map(|r| self.integrate(x, r)).collect()
+    }
     /// Outputs at points that share every coordinate but the first (a column of a table along
     /// its first axis, e.g. f0), written to `out`. Models whose integrand geometry does not
     /// depend on the first axis override this to compute it once per column; the default
@@ -70,12 +75,36 @@ pub trait Model: Send + Sync {
 
 /// E at one point with its error estimate, refined until it meets `settings.tolerance`.
 pub fn albedo(model: &dyn Model, x: &[f64], settings: &QuadratureSettings, cache: &RuleCache) -> Estimate<MAX_OUTPUTS> {
-    estimate(settings, cache, |rules| model.integrate(x, rules))
+    let first = model.integrate_orders(x, &[cache.get(settings.companion), cache.get(settings.order)]);
+    refine(model, x, settings, cache, first[0], first[1])
+}
+
+/// The estimate from the companion (`low`) and base-order (`high`) values, refined at higher
+/// orders while it exceeds the tolerance.
+fn refine(
+    model: &dyn Model,
+    x: &[f64],
+    settings: &QuadratureSettings,
+    cache: &RuleCache,
+    mut low: [f64; MAX_OUTPUTS],
+    mut high: [f64; MAX_OUTPUTS],
+) -> Estimate<MAX_OUTPUTS> {
+    let mut order = settings.order;
+    loop {
+        let error = high.iter().zip(&low).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let converged = error <= settings.tolerance;
+        if converged || next_order(order) > settings.max_order {
+            return Estimate { value: high, error, order, converged };
+        }
+        order = next_order(order);
+        low = high;
+        high = model.integrate(x, cache.get(order));
+    }
 }
 
 /// E at points sharing all but the first coordinate, with per-point error estimates: the whole
 /// column at the companion and base orders ([`Model::integrate_column`]), then each point whose
-/// estimate exceeds the tolerance refined on its own at doubled orders.
+/// estimate exceeds the tolerance refined on its own at higher orders ([`next_order`]).
 pub fn albedo_column(
     model: &dyn Model,
     xs: &[Vec<f64>],
@@ -88,25 +117,7 @@ pub fn albedo_column(
     model.integrate_column(xs, cache.get(settings.order), &mut high);
     xs.iter()
         .zip(low.iter().zip(&high))
-        .map(|(x, (l, h))| {
-            let error = h.iter().zip(l).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-            if error <= settings.tolerance || settings.order * 2 > settings.max_order {
-                return Estimate { value: *h, error, order: settings.order, converged: error <= settings.tolerance };
-            }
-            // refine this point alone, continuing from the base order
-            let mut order = settings.order * 2;
-            let mut prev = *h;
-            loop {
-                let next = model.integrate(x, cache.get(order));
-                let error = next.iter().zip(&prev).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-                let converged = error <= settings.tolerance;
-                if converged || order * 2 > settings.max_order {
-                    return Estimate { value: next, error, order, converged };
-                }
-                prev = next;
-                order *= 2;
-            }
-        })
+        .map(|(x, (l, h))| refine(model, x, settings, cache, *l, *h))
         .collect()
 }
 

@@ -46,25 +46,35 @@ pub struct Panel {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Break {
     pub x: f64,
-    /// Square-root behaviour on at least one side.
-    pub sqrt: bool,
+    /// Square-root behaviour on the side below x.
+    pub sqrt_below: bool,
+    /// Square-root behaviour on the side above x.
+    pub sqrt_above: bool,
     /// Distance to the nearest complex singularity of the integrand (∞ if none is known).
     pub delta: f64,
 }
 
 impl Break {
     pub fn regular(x: f64) -> Break {
-        Break { x, sqrt: false, delta: f64::INFINITY }
+        Break { x, sqrt_below: false, sqrt_above: false, delta: f64::INFINITY }
     }
+    /// Square-root behaviour on both sides.
     pub fn sqrt(x: f64) -> Break {
-        Break { x, sqrt: true, delta: f64::INFINITY }
+        Break { x, sqrt_below: true, sqrt_above: true, delta: f64::INFINITY }
+    }
+    /// Square-root behaviour on one side only (e.g. a critical angle, beyond which F = 1).
+    pub fn one_sided_sqrt(x: f64, above: bool) -> Break {
+        Break { x, sqrt_below: !above, sqrt_above: above, delta: f64::INFINITY }
     }
     pub fn near_singular(x: f64, delta: f64) -> Break {
-        Break { x, sqrt: false, delta }
+        Break { delta, ..Break::regular(x) }
     }
     /// Also near-singular at distance `delta` (keeps the smaller of the two).
     pub fn with_delta(self, delta: f64) -> Break {
         Break { delta: self.delta.min(delta), ..self }
+    }
+    fn any_sqrt(&self) -> bool {
+        self.sqrt_below || self.sqrt_above
     }
 }
 
@@ -83,15 +93,12 @@ pub const NEAR_SINGULAR_RATIO: f64 = 0.25;
 /// Longest w-range one rule covers under the sinh map (see [`PanelMap::End`]).
 pub const SINH_MAX_SPAN: f64 = 2.0;
 
-/// The map an end needs on a panel (or half panel) of length `len`, if any.
+/// The map an end needs on a panel (or half panel) of length `len` lying on its side
+/// `toward`, if any.
 fn end_map(b: &Break, toward: f64, len: f64) -> Option<PanelMap> {
     let near = b.delta < NEAR_SINGULAR_RATIO * len;
-    (b.sqrt || near).then_some(PanelMap::End {
-        at: b.x,
-        toward,
-        sqrt: b.sqrt,
-        delta: if near { b.delta } else { f64::INFINITY },
-    })
+    let sqrt = if toward > b.x { b.sqrt_above } else { b.sqrt_below };
+    (sqrt || near).then_some(PanelMap::End { at: b.x, toward, sqrt, delta: if near { b.delta } else { f64::INFINITY } })
 }
 
 /// Sorts `breaks`, merges coincident ones (keeping the more singular behaviour) and appends the
@@ -103,7 +110,8 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
     for b in breaks.iter() {
         match merged.last_mut() {
             Some(last) if (b.x - last.x).abs() <= MERGE_TOL => {
-                last.sqrt |= b.sqrt;
+                last.sqrt_below |= b.sqrt_below;
+                last.sqrt_above |= b.sqrt_above;
                 last.delta = last.delta.min(b.delta);
             }
             _ => merged.push(*b),
@@ -113,10 +121,10 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
     // is near-singular at least at that distance.
     for k in 0..merged.len() {
         let mut delta = merged[k].delta;
-        if k > 0 && merged[k - 1].sqrt {
+        if k > 0 && merged[k - 1].any_sqrt() {
             delta = delta.min(merged[k].x - merged[k - 1].x);
         }
-        if k + 1 < merged.len() && merged[k + 1].sqrt {
+        if k + 1 < merged.len() && merged[k + 1].any_sqrt() {
             delta = delta.min(merged[k + 1].x - merged[k].x);
         }
         merged[k].delta = delta.max(MIN_DELTA);
@@ -129,7 +137,7 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
         let len = r.x - l.x;
         match (end_map(&l, r.x, len), end_map(&r, l.x, len)) {
             (Some(PanelMap::End { sqrt: true, delta: dl, .. }), Some(PanelMap::End { sqrt: true, delta: dr, .. }))
-                if dl.is_infinite() && dr.is_infinite() =>
+                if dl.is_infinite() && dr.is_infinite() && std::env::var("NOSMOOTH").is_err() =>
             {
                 // Square-root behaviour at both ends and nothing else: one panel, cubic map.
                 out.push(Panel { a: l.x, b: r.x, map: PanelMap::Smooth });
@@ -340,8 +348,8 @@ pub struct QuadratureSettings {
     /// The lower order of the error estimate |Q(order) − Q(companion)|. Since the rules converge
     /// geometrically, the estimate is of the error of Q(companion): conservative for Q(order).
     pub companion: usize,
-    /// A cell whose estimate exceeds this is recomputed at twice the order (estimated against the
-    /// previous order).
+    /// A cell whose estimate exceeds this is recomputed at a higher order ([`next_order`]),
+    /// estimated against the previous one.
     pub tolerance: f64,
     /// Refinement stops here; a cell still above tolerance is reported, never hidden.
     pub max_order: usize,
@@ -353,23 +361,24 @@ impl Default for QuadratureSettings {
     }
 }
 
-/// Default base order: with the panel maps above, the order-12 rule is already within 3e-9 of the
-/// converged value over a 64² conductor grid, so |Q(16) − Q(12)| ≤ 1e-7 holds almost everywhere
-/// (measured by `examples/conv.rs`; see README).
-pub const DEFAULT_ORDER: usize = 16;
+/// Default base order. With the panel maps above the order-12 rule is within 3.4e-8 of the
+/// converged value over a 48² conductor grid, and |Q(12) − Q(9)| ≤ 1e-7 holds for ~97% of
+/// cells, the rest being refined (measured with `examples/conv.rs` and `furnace bench
+/// tabulate`; see README).
+pub const DEFAULT_ORDER: usize = 12;
 
 impl QuadratureSettings {
     /// `order` with companion ⌈3·order/4⌉, tolerance 1e-7 and refinement up to 8·order.
     pub fn with_order(order: usize) -> QuadratureSettings {
-        QuadratureSettings { order, companion: (3 * order).div_ceil(4).max(1), tolerance: 1e-7, max_order: 8 * order }
+        QuadratureSettings { order, companion: (3 * order).div_ceil(4).max(1), tolerance: 1e-7, max_order: (8 * order).min(MAX_ORDER) }
     }
 
     /// Every order [`estimate`] may use: companion, order, 2·order, … up to max_order.
     pub fn orders(&self) -> Vec<usize> {
         let mut v = vec![self.companion, self.order];
         let mut o = self.order;
-        while o * 2 <= self.max_order {
-            o *= 2;
+        while next_order(o) <= self.max_order {
+            o = next_order(o);
             v.push(o);
         }
         v.sort_unstable();
@@ -398,6 +407,13 @@ impl QuadratureSettings {
     }
 }
 
+/// The order refinement tries after `order`: ×1.5 (cheaper steps than doubling, since the
+/// panel structure already makes every rule converge geometrically; the previous order is the
+/// new estimate's companion).
+pub fn next_order(order: usize) -> usize {
+    (3 * order).div_ceil(2)
+}
+
 /// The largest order accepted anywhere (rules are built once per order; beyond this the panel
 /// structure, not the order, is what is wrong).
 pub const MAX_ORDER: usize = 1024;
@@ -415,8 +431,8 @@ pub struct Estimate<const N: usize> {
     pub converged: bool,
 }
 
-/// Evaluates `f` at the companion and base orders, then at doubled orders while the estimate
-/// exceeds the tolerance.
+/// Evaluates `f` at the companion and base orders, then at higher orders ([`next_order`])
+/// while the estimate exceeds the tolerance.
 pub fn estimate<const N: usize>(
     settings: &QuadratureSettings,
     cache: &RuleCache,
@@ -428,11 +444,11 @@ pub fn estimate<const N: usize>(
         let high = f(cache.get(order));
         let error = high.iter().zip(&low).map(|(h, l)| (h - l).abs()).fold(0.0, f64::max);
         let converged = error <= settings.tolerance;
-        if converged || order * 2 > settings.max_order {
+        if converged || next_order(order) > settings.max_order {
             return Estimate { value: high, error, order, converged };
         }
         low = high;
-        order *= 2;
+        order = next_order(order);
     }
 }
 

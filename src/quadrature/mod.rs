@@ -117,17 +117,18 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
             _ => merged.push(*b),
         }
     }
-    // A square-root point is a singularity of the integrand on both sides: a break next to one
-    // is near-singular at least at that distance.
-    for k in 0..merged.len() {
-        let mut delta = merged[k].delta;
-        if k > 0 && merged[k - 1].any_sqrt() {
-            delta = delta.min(merged[k].x - merged[k - 1].x);
+    // Singularities of other breaks are near this one too: a square-root point is itself a
+    // singularity, a near-singular break has one at complex distance δ from it; so break k is
+    // near-singular at least at min_j hypot(x_j − x_k, δ_j) (0 for square roots).
+    let own: Vec<(f64, f64)> = merged.iter().map(|b| (b.x, if b.any_sqrt() { 0.0 } else { b.delta })).collect();
+    for (k, b) in merged.iter_mut().enumerate() {
+        let mut delta = b.delta;
+        for (j, &(x, d)) in own.iter().enumerate() {
+            if j != k && d.is_finite() {
+                delta = delta.min((x - b.x).hypot(d));
+            }
         }
-        if k + 1 < merged.len() && merged[k + 1].any_sqrt() {
-            delta = delta.min(merged[k + 1].x - merged[k].x);
-        }
-        merged[k].delta = delta.max(MIN_DELTA);
+        b.delta = delta.max(MIN_DELTA);
     }
     for w in merged.windows(2) {
         let (l, r) = (w[0], w[1]);

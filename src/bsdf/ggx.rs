@@ -29,7 +29,7 @@
 //! leaving the denser medium — is located numerically on each line (bracketing + Illinois).
 
 use super::{AxisSpec, Model, ModelOptions, MAX_OUTPUTS};
-use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, SmithForm};
+use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, sin_cos_0_pi, SmithForm};
 use crate::quadrature::{integrate_2d, panels_from_breaks, Break, Integrand2D, Panel, Rules, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -628,7 +628,7 @@ impl VndfIntegrand {
 
     /// z of the reflected direction at (line, φ).
     fn reflected_z(&self, line: &Line, phi: f64) -> f64 {
-        let (sp, cp) = phi.sin_cos();
+        let (sp, cp) = sin_cos_0_pi(phi);
         match self.half_vector(line, sp, cp) {
             Some(h) => 2.0 * (self.sin_o * h[0] + self.mu_o * h[2]) * h[2] - self.mu_o,
             None => -self.mu_o,
@@ -654,7 +654,7 @@ impl VndfIntegrand {
 
     /// Whether ωo is totally internally reflected at the normal of (line, φ).
     fn is_tir(&self, line: &Line, phi: f64, eta: f64) -> bool {
-        let (sp, cp) = phi.sin_cos();
+        let (sp, cp) = sin_cos_0_pi(phi);
         match self.half_vector(line, sp, cp) {
             Some(h) => {
                 let c = self.sin_o * h[0] + self.mu_o * h[2];
@@ -668,7 +668,7 @@ impl VndfIntegrand {
     /// the critical angle with cos θt clamped to 0 so that it is continuous on a non-TIR panel
     /// including its ends.
     fn transmitted_z(&self, line: &Line, phi: f64, eta: f64) -> f64 {
-        let (sp, cp) = phi.sin_cos();
+        let (sp, cp) = sin_cos_0_pi(phi);
         let Some(h) = self.half_vector(line, sp, cp) else {
             return 0.0;
         };
@@ -837,15 +837,26 @@ impl Integrand2D for VndfIntegrand {
 
     #[inline]
     fn eval(&self, line: &Line, phi: f64) -> [f64; CHANNELS] {
-        let (sp, cp) = phi.sin_cos();
+        let (sp, cp) = sin_cos_0_pi(phi);
         let Some(h) = self.half_vector(line, sp, cp) else {
             return [0.0; CHANNELS];
         };
         // N·V = cos β sin(φ + θv): the clamped-cosine density of visible normals
         let visible = line.weight * (sp * self.cos_v + cp * self.sin_v);
         let c = self.sin_o * h[0] + self.mu_o * h[2]; // ωo·h > 0 for visible normals
+        if self.part == Part::TransmissionOnly {
+            if let Lobes::Dielectric { eta } = self.lobes {
+                let (f, w_t) = self.transmission(c, h[2], eta);
+                return [0.0, visible * (1.0 - f) * w_t];
+            }
+        }
         let mu_i = 2.0 * c * h[2] - self.mu_o; // z of reflect(ωo, h)
         let w_r = if mu_i > 0.0 { self.masking(mu_i) } else { 0.0 }; // horizon
+        if self.part == Part::ReflectionOnly {
+            if let Lobes::Dielectric { eta } = self.lobes {
+                return [visible * fresnel_dielectric(c, eta) * w_r, 0.0];
+            }
+        }
         match self.lobes {
             Lobes::Conductor => [visible * w_r, 0.0],
             Lobes::Glossy { eta } => {
@@ -876,7 +887,7 @@ impl Integrand2D for VndfIntegrand {
             return y[0] != 0.0 || y[1] != 0.0;
         }
         // Column mode: the geometry once, then the IOR-dependent factors per cell.
-        let (sp, cp) = phi.sin_cos();
+        let (sp, cp) = sin_cos_0_pi(phi);
         let Some(h) = self.half_vector(line, sp, cp) else {
             return false;
         };
@@ -945,7 +956,8 @@ impl VndfIntegrand {
         let line = Line { sb, cb, weight: self.norm * cb * cb };
         // Every break also sits near the singularities of the stretching map itself: h ∝
         // (α cos β cos φ, α sin β, cos β sin φ) degenerates at φ ≈ ±iα and φ ≈ π ± iα.
-        let rim = |x: f64| x.hypot(self.alpha).min((PI - x).hypot(self.alpha));
+        let a2 = self.alpha * self.alpha;
+        let rim = |x: f64| (x * x + a2).sqrt().min(((PI - x) * (PI - x) + a2).sqrt());
         let mut breaks = Vec::with_capacity(12);
         // The ends of the range are horizon zeros themselves at grazing incidence (μo = 0: the
         // rim reflects into the horizon), where the masking weight is near-singular too.
@@ -1082,7 +1094,7 @@ mod tests {
             let line = Line { sb, cb, weight: 1.0 };
             for j in 1..50 {
                 let phi = f.phi_max * j as f64 / 50.0;
-                let (sp, cp) = phi.sin_cos();
+                let (sp, cp) = sin_cos_0_pi(phi);
                 let h = f.half_vector(&line, sp, cp).unwrap();
                 let c = f.sin_o * h[0] + f.mu_o * h[2];
                 let mu_i = 2.0 * c * h[2] - f.mu_o;

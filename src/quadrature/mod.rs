@@ -125,7 +125,7 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
         let mut delta = b.delta;
         for (j, &(x, d)) in own.iter().enumerate() {
             if j != k && d.is_finite() {
-                delta = delta.min((x - b.x).hypot(d));
+                delta = delta.min(((x - b.x) * (x - b.x) + d * d).sqrt());
             }
         }
         b.delta = delta.max(MIN_DELTA);

@@ -5,7 +5,7 @@
 use super::{get_table, parse_resolution, QuadratureArgs};
 use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
-use crate::fit::compare::{compare_model, same_form_request, CompareReport, PaperPair, PAPER_PAIRS};
+use crate::fit::compare::{compare_model, paper_box, same_form_request, CompareReport, PaperPair, PAPER_PAIRS};
 use crate::fit::job::{self, FitRecord, FitRequest, FormKind, SweepOutcome, SweepPlan};
 use crate::fit::source::{self, FitInput, UserTableOptions};
 use crate::fit::Objective;
@@ -133,15 +133,22 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String)> {
     Ok((source::from_table(&t.table, &args.channel, Some(&t.stem))?, model.cache_name()))
 }
 
+/// Folder name of fits restricted to a sub-box: `<name>.<var><lo>-<hi>…`.
+fn boxed_name(name: &str, bounds: &[source::AxisDecl]) -> String {
+    let mut s = name.to_string();
+    for b in bounds {
+        s.push_str(&format!(".{}{}-{}", b.name, b.lo, b.hi));
+    }
+    s
+}
+
 /// `furnace fit`.
 pub fn fit_cmd(args: &FitArgs) -> Result<()> {
     let (mut input, mut name) = fit_input(args)?;
     if let Some(text) = &args.domain {
         let bounds = source::parse_axes(text).map_err(|e| Error::InvalidInput(e.to_string().replace("--axes", "--domain")))?;
         input = input.restrict(&bounds)?;
-        for b in &bounds {
-            name.push_str(&format!(".{}{}-{}", b.name, b.lo, b.hi));
-        }
+        name = boxed_name(&name, &bounds);
         eprintln!("restricted to {text}: {} points", input.data.len());
     }
     let transforms = match &args.transform {
@@ -297,7 +304,10 @@ fn best_40(input: &FitInput, dir: &Path, no_sweep: bool) -> Result<Option<FitRec
     let path = dir.join("best-40.json");
     if let Ok(text) = std::fs::read_to_string(&path) {
         if let Ok(rec) = FitRecord::from_json(&text) {
-            if rec.source.content_hash == input.source.content_hash && rec.source.channel == input.source.channel {
+            let same = rec.source.content_hash == input.source.content_hash
+                && rec.source.channel == input.source.channel
+                && rec.source.restricted_to == input.source.restricted_to;
+            if same {
                 eprintln!("  best ≤ 40 from {}", path.display());
                 return Ok(Some(rec));
             }
@@ -325,7 +335,10 @@ fn compare_one(args: &ComparePaperArgs, pair: &PaperPair) -> Result<crate::fit::
     let points = args.fit_points.unwrap_or(if d >= 3 { COMPARE_FIT_POINTS_3D } else { 0 });
     let same = job::fit_one(&input, &same_form_request(pair, points))?;
     let best = best_40(&input, &args.fits_dir.join(model.cache_name()), args.no_sweep)?;
-    compare_model(&args.paper_data, pair, &input, &same, best.as_ref())
+    let bounds = paper_box(pair);
+    let boxed = input.restrict(&bounds)?;
+    let best_box = best_40(&boxed, &args.fits_dir.join(boxed_name(&model.cache_name(), &bounds)), args.no_sweep)?;
+    compare_model(&args.paper_data, pair, &input, &same, best.as_ref(), best_box.as_ref())
 }
 
 /// `furnace compare-paper`.

@@ -1,15 +1,53 @@
-//! `furnace eval --model`: E at arbitrary points by direct quadrature.
+//! `furnace eval --model`: E at arbitrary points by direct quadrature; `furnace eval --fit`: E
+//! from a fit file's coefficients.
 
 use super::EvalArgs;
 use crate::bsdf::{self, albedo};
-use crate::error::Result;
+use crate::error::{Error, Result};
+use crate::fit::job::FitRecord;
 use crate::quadrature::RuleCache;
 use crate::table::{io::write_atomic, points::read_points};
 use rayon::prelude::*;
+use std::path::Path;
 
 pub fn eval_cmd(args: &EvalArgs) -> Result<()> {
+    match (&args.model, &args.fit) {
+        (Some(model), None) => eval_model(args, model),
+        (None, Some(fit)) => eval_fit(args, fit),
+        _ => Err(Error::InvalidInput("give exactly one of --model and --fit".into())),
+    }
+}
+
+/// E = P/Q (or P) of a fit file at the points of `--input`, which must lie in the fit's domain.
+fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
+    let text = std::fs::read_to_string(fit_path).map_err(|e| Error::io(fit_path, e))?;
+    let rec = FitRecord::from_json(&text).map_err(|m| Error::file(fit_path, m))?;
+    let a = &rec.fit.approximant;
+    let points = read_points(&args.input, &a.variables, &a.domain)?;
+    if !rec.usable {
+        eprintln!("warning: {}: {}", fit_path.display(), rec.verdict);
+    }
+    let mut out = points.header.join(",");
+    out.push_str(",E\n");
+    for (k, (raw, x)) in points.raw.iter().zip(&points.coords).enumerate() {
+        let e = a.eval(x);
+        if !e.is_finite() {
+            return Err(Error::file(
+                &args.input,
+                format!("data row {}: the fit is not finite at {x:?} (a pole of its denominator); {}", k + 1, rec.verdict),
+            ));
+        }
+        out.push_str(&raw.join(","));
+        out.push_str(&format!(",{e}\n"));
+    }
+    write_atomic(&args.output, out.as_bytes())?;
+    eprintln!("{} points of {} evaluated to {}", points.coords.len(), fit_path.display(), args.output.display());
+    Ok(())
+}
+
+fn eval_model(args: &EvalArgs, name: &str) -> Result<()> {
     let settings = args.quadrature.settings()?;
-    let model = bsdf::find(&args.model, args.quadrature.model_options())?;
+    let model = bsdf::find(name, args.quadrature.model_options())?;
     let axes: Vec<String> = model.axes().iter().map(|a| a.name.clone()).collect();
     let ranges: Vec<(f64, f64)> = model.axes().iter().map(|a| a.valid_range).collect();
     let points = read_points(&args.input, &axes, &ranges)?;

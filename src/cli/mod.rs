@@ -3,6 +3,9 @@
 
 mod bench;
 mod eval;
+mod fit;
+
+pub use fit::{ComparePaperArgs, FitArgs, FormArg, ObjectiveArg};
 
 use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
@@ -26,8 +29,12 @@ pub enum Command {
     Models,
     /// Tabulate a model's directional albedo on a grid (cached under data/).
     Tabulate(TabulateArgs),
-    /// Evaluate E at arbitrary points by direct quadrature (no interpolation).
+    /// Evaluate E at arbitrary points: a model by direct quadrature (no interpolation), or a fit.
     Eval(EvalArgs),
+    /// Fit a polynomial or rational approximation to a model's table or a user's table, or sweep degrees.
+    Fit(FitArgs),
+    /// Compare the paper's published coefficients with furnace's tables and fits.
+    ComparePaper(ComparePaperArgs),
     /// Benchmarks that print run time against error.
     Bench(BenchArgs),
     /// The main job on the built-in default set: tabulate (cached) every default model.
@@ -101,13 +108,16 @@ pub struct TabulateArgs {
 
 #[derive(Args, Debug)]
 pub struct EvalArgs {
-    /// Model name (see `furnace models`).
+    /// Model name (see `furnace models`): E by direct quadrature.
+    #[arg(long, required_unless_present = "fit", conflicts_with = "fit")]
+    pub model: Option<String>,
+    /// A fit file written by `furnace fit`: E from its coefficients.
     #[arg(long)]
-    pub model: String,
-    /// CSV whose header names the model's axes (any order), one point per row.
+    pub fit: Option<PathBuf>,
+    /// CSV whose header names the model's axes or the fit's variables (any order), one point per row.
     #[arg(long)]
     pub input: PathBuf,
-    /// CSV to write: the input columns, then E (and E_R, E_T) and the error estimate.
+    /// CSV to write: the input columns, then E (and E_R, E_T) and the error estimate (a fit: E only).
     #[arg(long)]
     pub output: PathBuf,
     #[command(flatten)]
@@ -145,6 +155,8 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         Command::Tabulate(args) => tabulate_cmd(&args).map(|_| ()),
         Command::Eval(args) => eval::eval_cmd(&args),
+        Command::Fit(args) => fit::fit_cmd(&args),
+        Command::ComparePaper(args) => fit::compare_paper_cmd(&args),
         Command::Bench(args) => match args.what {
             BenchWhat::Tabulate(a) => bench::bench_tabulate(&a),
         },

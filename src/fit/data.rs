@@ -183,6 +183,35 @@ impl FitData {
         self.weights.as_ref().map_or(self.len(), |w| w.iter().filter(|&&x| x > 0.0).count())
     }
 
+    /// A deterministic pseudo-random subset of `min(m, len)` points in their original order,
+    /// with the same domain (the same selection sampling as the rational fits' exploration set).
+    pub fn subsample(&self, m: usize) -> Result<FitData> {
+        let n = self.len();
+        if n <= m {
+            return Ok(self.clone());
+        }
+        let d = self.dim();
+        let mut rng = SplitMix64(0x05EE_DF17_u64);
+        let (mut coords, mut values) = (Vec::with_capacity(m * d), Vec::with_capacity(m));
+        let mut weights = self.weights.as_ref().map(|_| Vec::with_capacity(m));
+        for i in 0..n {
+            if values.len() == m {
+                break;
+            }
+            // Knuth TAOCP vol. 2, Algorithm 3.4.2 S: select with probability (m − chosen)/(n − i)
+            if ((n - i) as f64) * rng.next_f64() < (m - values.len()) as f64 {
+                coords.extend_from_slice(self.point(i));
+                values.push(self.values[i]);
+                if let Some(w) = weights.as_mut() {
+                    w.push(self.weight(i));
+                }
+            }
+        }
+        let data = FitData { names: self.names.clone(), coords, values, weights, domain: self.domain.clone() };
+        data.validate()?;
+        Ok(data)
+    }
+
     /// Checks shapes, finiteness, weights and that every point lies in the domain.
     pub fn validate(&self) -> Result<()> {
         let d = self.dim();

@@ -43,7 +43,10 @@ pub mod polynomial;
 pub mod rational;
 pub mod result;
 mod robust;
+pub mod source;
 pub mod sweep;
+pub mod job;
+pub mod compare;
 
 pub use basis::{exponents, n_terms, Polynomial};
 pub use data::{FitData, InputTransform};
@@ -54,7 +57,7 @@ pub use poles::{CertifyOptions, PoleVerdict};
 pub use polynomial::{fit_polynomial, PolynomialOptions};
 pub use rational::{fit_rational, RationalOptions};
 pub use result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
-pub use sweep::{best_under_budget, sweep, sweep_detailed, SkippedFit, SweepOptions, SweepReport};
+pub use sweep::{best_under_budget, sweep, sweep_detailed, sweep_with_progress, SkippedFit, SweepEvent, SweepOptions, SweepReport};
 
 #[cfg(test)]
 mod paper_tests;

@@ -64,6 +64,17 @@ pub struct SweepReport {
 /// are listed in `skipped` with the reason. Results are in the order transform set →
 /// polynomials by degree → rationals by degree; each carries its fit time.
 pub fn sweep_detailed(data: &FitData, opts: &SweepOptions) -> Result<SweepReport> {
+    sweep_with_progress(data, opts, &mut |_| {})
+}
+
+/// One finished step of a sweep, for progress reports.
+pub enum SweepEvent<'a> {
+    Fitted(&'a FitResult),
+    Skipped(&'a SkippedFit),
+}
+
+/// [`sweep_detailed`], calling `progress` after every fit made or skipped.
+pub fn sweep_with_progress(data: &FitData, opts: &SweepOptions, progress: &mut dyn FnMut(SweepEvent<'_>)) -> Result<SweepReport> {
     data.validate()?;
     let d = data.dim();
     let mut results = Vec::new();
@@ -71,15 +82,24 @@ pub fn sweep_detailed(data: &FitData, opts: &SweepOptions) -> Result<SweepReport
     for transforms in &opts.transform_sets {
         for &deg in &opts.polynomial_degrees {
             match fit_polynomial(data, transforms, deg, opts.objective, &opts.polynomial) {
-                Ok(r) => results.push(r),
-                Err(e) => skipped.push(SkippedFit { form: format!("polynomial of degree {deg}"), transforms: transforms.clone(), reason: e.to_string() }),
+                Ok(r) => {
+                    progress(SweepEvent::Fitted(&r));
+                    results.push(r);
+                }
+                Err(e) => {
+                    let s = SkippedFit { form: format!("polynomial of degree {deg}"), transforms: transforms.clone(), reason: e.to_string() };
+                    progress(SweepEvent::Skipped(&s));
+                    skipped.push(s);
+                }
             }
         }
         let mut previous: Option<FitResult> = None;
         for &deg in &opts.rational_degrees {
             let form = format!("rational of degree {deg}/{deg}");
             if 2 * n_terms(d, deg) - 1 > data.n_weighted() {
-                skipped.push(SkippedFit { form, transforms: transforms.clone(), reason: "more coefficients than data points".into() });
+                let s = SkippedFit { form, transforms: transforms.clone(), reason: "more coefficients than data points".into() };
+                progress(SweepEvent::Skipped(&s));
+                skipped.push(s);
                 continue;
             }
             let mut ro = opts.rational.clone();
@@ -92,10 +112,15 @@ pub fn sweep_detailed(data: &FitData, opts: &SweepOptions) -> Result<SweepReport
             match fit_rational(data, transforms, deg, deg, opts.objective, &ro) {
                 Ok(mut r) => {
                     r.fit_seconds = t.elapsed().as_secs_f64();
+                    progress(SweepEvent::Fitted(&r));
                     previous = Some(r.clone());
                     results.push(r);
                 }
-                Err(e) => skipped.push(SkippedFit { form, transforms: transforms.clone(), reason: e.to_string() }),
+                Err(e) => {
+                    let s = SkippedFit { form, transforms: transforms.clone(), reason: e.to_string() };
+                    progress(SweepEvent::Skipped(&s));
+                    skipped.push(s);
+                }
             }
         }
     }

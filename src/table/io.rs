@@ -187,6 +187,12 @@ pub fn load_any(stem: &Path) -> Result<Table> {
 
 /// Reads an EXR table written by [`save`] back as f32 channels (for checks and external use).
 pub fn read_exr_channels(path: &Path) -> Result<Vec<(String, Vec<f32>)>> {
+    Ok(read_exr_image(path)?.2)
+}
+
+/// Reads the first layer of an EXR file: (width, height, channels as f32, row-major with y
+/// down). Used to fit tables made elsewhere.
+pub fn read_exr_image(path: &Path) -> Result<(usize, usize, Vec<(String, Vec<f32>)>)> {
     use exr::prelude::*;
     let image = read()
         .no_deep_data()
@@ -196,13 +202,15 @@ pub fn read_exr_channels(path: &Path) -> Result<Vec<(String, Vec<f32>)>> {
         .all_attributes()
         .from_file(path)
         .map_err(|e| crate::Error::file(path, format!("cannot read EXR: {e}")))?;
-    Ok(image
+    let size = image.layer_data.size;
+    let channels = image
         .layer_data
         .channel_data
         .list
         .iter()
         .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
-        .collect())
+        .collect();
+    Ok((size.width(), size.height(), channels))
 }
 
 /// Paths of the three files of a table stem.

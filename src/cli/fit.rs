@@ -1,0 +1,357 @@
+//! `furnace fit` (one fit or a degree sweep of a model's or a user's table) and
+//! `furnace compare-paper`. Parsing, reporting and writing only; the work is in
+//! [`crate::fit::job`], [`crate::fit::source`] and [`crate::fit::compare`].
+
+use super::{get_table, parse_resolution, QuadratureArgs};
+use crate::bsdf::{self, ModelOptions};
+use crate::error::{Error, Result};
+use crate::fit::compare::{compare_model, paper_box, same_form_request, CompareReport, PaperPair, PAPER_PAIRS};
+use crate::fit::job::{self, FitRecord, FitRequest, FormKind, SweepOutcome, SweepPlan};
+use crate::fit::source::{self, FitInput, UserTableOptions};
+use crate::fit::Objective;
+use crate::quadrature::QuadratureSettings;
+use crate::table::io::write_atomic;
+use crate::table::TableSpec;
+use clap::{Args, ValueEnum};
+use std::path::{Path, PathBuf};
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FormArg {
+    Rational,
+    Polynomial,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObjectiveArg {
+    /// Least squares (sum of squared errors).
+    Lsq,
+    /// Mean absolute error (iteratively reweighted least squares).
+    Mae,
+    /// Maximum absolute error (Lawson reweighting).
+    Minimax,
+}
+
+#[derive(Args, Debug)]
+pub struct FitArgs {
+    /// Model whose table to fit (computed, or read from the cache under --data-dir).
+    #[arg(long, required_unless_present = "table", conflicts_with = "table")]
+    pub model: Option<String>,
+    /// A table to fit instead of a model's: a furnace table stem or its .json sidecar, a .csv
+    /// (header: the variables and E; scattered points allowed), an .exr, or a .json grid.
+    #[arg(long)]
+    pub table: Option<PathBuf>,
+    /// Functional form (n/n rational, or polynomial).
+    #[arg(long, value_enum, required_unless_present = "sweep")]
+    pub form: Option<FormArg>,
+    /// Total degree (of numerator and denominator for a rational).
+    #[arg(long, required_unless_present = "sweep")]
+    pub degree: Option<u32>,
+    /// Sweep degrees like the paper's Fig. 3 (2D: 1–10, 3D: polynomials 1–7, rationals 1–5)
+    /// over several input transforms; writes sweep.{json,csv}, best-20.json and best-40.json.
+    #[arg(long)]
+    pub sweep: bool,
+    /// Highest degree of a sweep (caps or extends the paper's range).
+    #[arg(long, requires = "sweep")]
+    pub max_degree: Option<u32>,
+    /// What the fit minimises.
+    #[arg(long, value_enum, default_value_t = ObjectiveArg::Lsq)]
+    pub objective: ObjectiveArg,
+    /// Input transforms, e.g. `mu=sqrt,f0=sqrt` (identity, sqrt, one_minus, square, clamp:lo:hi).
+    /// With --sweep: one more transform set to try.
+    #[arg(long)]
+    pub transform: Option<String>,
+    /// Table nodes per axis, `256` or `128x64x32` (default 1024² in 2D, 128³ in 3D).
+    #[arg(long, conflicts_with = "table")]
+    pub resolution: Option<String>,
+    /// Most points the solver sees; larger tables are fitted on an even subset of their nodes
+    /// (random subset for scattered points) and measured on all of them. 0 = all. Default: all
+    /// for one fit; 256² (2D) or 32³ (3D) for a sweep.
+    #[arg(long)]
+    pub fit_points: Option<usize>,
+    /// Output to fit: E, or E_R / E_T of dielectrics; the value column / channel of a user table.
+    #[arg(long, default_value = "E")]
+    pub channel: String,
+    /// Axes of an .exr without sidecar (`r=0:1,mu=0:1`, `f0=0:1:32,r=0:1,mu=0:1`), or the domain
+    /// of CSV points (default: their bounding box).
+    #[arg(long, requires = "table")]
+    pub axes: Option<String>,
+    /// Fit and measure only on a sub-box of the table, e.g. `r=0.035:1,mu=0.02:1` (where the
+    /// paper's tables start, away from the discontinuous corner r = μ = 0); the fit's domain
+    /// becomes that box. Files go to <fits-dir>/<name>.<var><lo>-<hi>…/.
+    #[arg(long)]
+    pub domain: Option<String>,
+    /// Folder for tables.
+    #[arg(long, default_value = "data")]
+    pub data_dir: PathBuf,
+    /// Folder for fits: files go to <fits-dir>/<model or table name>/.
+    #[arg(long, default_value = "fits")]
+    pub fits_dir: PathBuf,
+    /// Write a single fit here instead of <fits-dir>/<model>/<form>-<degree>.json.
+    #[arg(long, conflicts_with = "sweep")]
+    pub output: Option<PathBuf>,
+    /// Recompute the model's table even when cached.
+    #[arg(long)]
+    pub force: bool,
+    #[command(flatten)]
+    pub quadrature: QuadratureArgs,
+}
+
+impl ObjectiveArg {
+    fn objective(self) -> Objective {
+        match self {
+            ObjectiveArg::Lsq => Objective::LeastSquares,
+            ObjectiveArg::Mae => Objective::MeanAbsolute,
+            ObjectiveArg::Minimax => Objective::Minimax,
+        }
+    }
+}
+
+/// The data to fit and the folder name under --fits-dir.
+fn fit_input(args: &FitArgs) -> Result<(FitInput, String)> {
+    if let Some(path) = &args.table {
+        let axes = args.axes.as_deref().map(source::parse_axes).transpose()?;
+        let input = source::load_user_table(path, &UserTableOptions { channel: Some(args.channel.clone()), axes })?;
+        // a furnace table lives in data/<cache name>/<resolution>: fit into fits/<cache name>/
+        let name = if input.source.kind == "furnace_table" { path.parent().and_then(Path::file_name) } else { path.file_stem() };
+        let name = name.map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "table".into());
+        eprintln!("{}: {} points in {} variables ({})", path.display(), input.data.len(), input.data.dim(), input.data.names.join(", "));
+        return Ok((input, name));
+    }
+    let name = args.model.as_deref().ok_or_else(|| Error::InvalidInput("give --model or --table".into()))?;
+    let model = bsdf::find(name, args.quadrature.model_options())?;
+    let resolution = parse_resolution(args.resolution.as_deref(), model.axes().len())?;
+    let spec = TableSpec::new(model.as_ref(), &resolution, args.quadrature.settings()?)?;
+    let t = get_table(model.as_ref(), &spec, &args.data_dir, args.force)?;
+    eprintln!(
+        "{} {}: table {} in {:.1} s ({})",
+        t.table.spec.model,
+        t.table.spec.resolution_name(),
+        if t.cached { "read from cache" } else { "computed" },
+        t.seconds,
+        t.stem.display()
+    );
+    Ok((source::from_table(&t.table, &args.channel, Some(&t.stem))?, model.cache_name()))
+}
+
+/// Folder name of fits restricted to a sub-box: `<name>.<var><lo>-<hi>…`.
+fn boxed_name(name: &str, bounds: &[source::AxisDecl]) -> String {
+    let mut s = name.to_string();
+    for b in bounds {
+        s.push_str(&format!(".{}{}-{}", b.name, b.lo, b.hi));
+    }
+    s
+}
+
+/// `furnace fit`.
+pub fn fit_cmd(args: &FitArgs) -> Result<()> {
+    let (mut input, mut name) = fit_input(args)?;
+    if let Some(text) = &args.domain {
+        let bounds = source::parse_axes(text).map_err(|e| Error::InvalidInput(e.to_string().replace("--axes", "--domain")))?;
+        input = input.restrict(&bounds)?;
+        name = boxed_name(&name, &bounds);
+        eprintln!("restricted to {text}: {} points", input.data.len());
+    }
+    let transforms = match &args.transform {
+        Some(t) => Some(job::parse_transforms(t, &input.data.names)?),
+        None => None,
+    };
+    let dir = args.fits_dir.join(&name);
+    if args.sweep {
+        let mut plan = SweepPlan::paper(&input.data, args.max_degree, transforms, args.objective.objective());
+        if let Some(f) = args.form {
+            match f {
+                FormArg::Rational => plan.polynomial_degrees.clear(),
+                FormArg::Polynomial => plan.rational_degrees.clear(),
+            }
+        }
+        if let Some(n) = args.fit_points {
+            plan.max_fit_points = n;
+        }
+        let outcome = job::sweep_fits(&input, &plan, &mut |line| eprintln!("  {line}"))?;
+        write_sweep(&outcome, &dir)?;
+        return Ok(());
+    }
+    let (Some(form), Some(degree)) = (args.form, args.degree) else {
+        return Err(Error::InvalidInput("give --form and --degree, or --sweep".into()));
+    };
+    let req = FitRequest {
+        form: match form {
+            FormArg::Rational => FormKind::Rational,
+            FormArg::Polynomial => FormKind::Polynomial,
+        },
+        degree,
+        objective: args.objective.objective(),
+        transforms: transforms.unwrap_or_else(|| vec![crate::fit::InputTransform::Identity; input.data.dim()]),
+        max_fit_points: args.fit_points.unwrap_or(0),
+    };
+    let start = std::time::Instant::now();
+    let rec = job::fit_one(&input, &req)?;
+    let secs = start.elapsed().as_secs_f64();
+    let path = args.output.clone().unwrap_or_else(|| dir.join(rec.file_name()));
+    write_atomic(&path, rec.to_json()?.as_bytes())?;
+    print_record(&rec, &path, Some(secs));
+    Ok(())
+}
+
+fn print_record(rec: &FitRecord, path: &Path, secs: Option<f64>) {
+    let m = &rec.fit.metrics;
+    println!(
+        "{}: {} [{}], {} coefficients{}; on {} points: MAE {:.3e}, RMSE {:.3e}, max {:.3e} at {:?}, max relative {:.3e}",
+        path.display(),
+        rec.fit.form.label(),
+        rec.fit.approximant.transforms.iter().map(|t| t.name()).collect::<Vec<_>>().join(", "),
+        rec.fit.n_coefficients,
+        secs.map_or(String::new(), |s| format!(", fitted in {s:.2} s")),
+        m.n_points,
+        m.mae,
+        m.rmse,
+        m.max_abs_error,
+        m.max_abs_error_at,
+        m.max_rel_error
+    );
+    println!("    {}", rec.verdict);
+    for w in &rec.warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// Writes sweep.{json,csv} and best-<budget>.json, prints the summary.
+fn write_sweep(outcome: &SweepOutcome, dir: &Path) -> Result<()> {
+    write_atomic(&dir.join("sweep.json"), outcome.to_json()?.as_bytes())?;
+    write_atomic(&dir.join("sweep.csv"), outcome.to_csv().as_bytes())?;
+    println!("{:<11} {:>3} {:<28} {:<8} {:>4} {:>10} {:>10} {:>8} {}", "form", "deg", "transforms", "objective", "n", "MAE", "max", "seconds", "poles");
+    for r in &outcome.rows {
+        println!(
+            "{:<11} {:>3} {:<28} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>8.2} {}",
+            r.form.name(),
+            r.degree,
+            r.transforms.join(" "),
+            job::objective_name(r.objective),
+            r.n_coefficients,
+            r.mae,
+            r.max_abs_error,
+            r.fit_seconds,
+            r.poles
+        );
+    }
+    for b in &outcome.best {
+        let path = dir.join(format!("best-{}.json", b.budget));
+        match outcome.best_record(b.budget) {
+            Some(rec) => {
+                write_atomic(&path, rec.to_json()?.as_bytes())?;
+                println!("best with ≤ {} coefficients:", b.budget);
+                print_record(rec, &path, None);
+            }
+            None => {
+                // a stale file from an earlier sweep would be mistaken for this one's
+                if path.exists() {
+                    std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
+                }
+                eprintln!("warning: no usable fit with ≤ {} coefficients; {} not written", b.budget, path.display());
+            }
+        }
+    }
+    for s in &outcome.skipped {
+        eprintln!("skipped {} [{}]: {}", s.form, s.transforms.iter().map(|t| t.name()).collect::<Vec<_>>().join(" "), s.reason);
+    }
+    let not_usable = outcome.rows.iter().filter(|r| !r.usable).count();
+    if not_usable > 0 {
+        eprintln!("warning: {not_usable} fits are not usable (pole or uncertified); they are listed with usable = false and never chosen as best");
+    }
+    println!(
+        "sweep of {} fits in {:.1} s ({}); wrote {}/sweep.{{json,csv}}",
+        outcome.rows.len(),
+        outcome.seconds,
+        outcome.fitted_on.selection,
+        dir.display()
+    );
+    Ok(())
+}
+
+#[derive(Args, Debug)]
+pub struct ComparePaperArgs {
+    /// The paper's data folder (coefficients/ and tables/).
+    #[arg(long, default_value = "../shared/paper-repo-data")]
+    pub paper_data: PathBuf,
+    /// Table nodes per axis for all four tables (default 1024² and 128³).
+    #[arg(long)]
+    pub resolution: Option<usize>,
+    /// Table nodes per axis of the three 3D tables (overrides --resolution for them).
+    #[arg(long)]
+    pub resolution_3d: Option<usize>,
+    /// Most points furnace's 3/3 fit sees (0 = all; default all in 2D, 64³ in 3D).
+    #[arg(long)]
+    pub fit_points: Option<usize>,
+    /// Do not run a sweep for a missing best-40 fit; leave that column out.
+    #[arg(long)]
+    pub no_sweep: bool,
+    /// Folder for tables.
+    #[arg(long, default_value = "data")]
+    pub data_dir: PathBuf,
+    /// Folder for fits (best-40.json is read from, or a sweep written to, <fits-dir>/<model>/).
+    #[arg(long, default_value = "fits")]
+    pub fits_dir: PathBuf,
+    /// Folder for compare-paper.{md,json}.
+    #[arg(long, default_value = "reports")]
+    pub reports_dir: PathBuf,
+}
+
+/// Points furnace's same-form fit sees in compare-paper by default: all in 2D, 64³ in 3D.
+const COMPARE_FIT_POINTS_3D: usize = 64 * 64 * 64;
+
+/// best-40.json of this exact table, or a fresh sweep's.
+fn best_40(input: &FitInput, dir: &Path, no_sweep: bool) -> Result<Option<FitRecord>> {
+    let path = dir.join("best-40.json");
+    if let Ok(text) = std::fs::read_to_string(&path) {
+        if let Ok(rec) = FitRecord::from_json(&text) {
+            let same = rec.source.content_hash == input.source.content_hash
+                && rec.source.channel == input.source.channel
+                && rec.source.restricted_to == input.source.restricted_to;
+            if same {
+                eprintln!("  best ≤ 40 from {}", path.display());
+                return Ok(Some(rec));
+            }
+        }
+    }
+    if no_sweep {
+        return Ok(None);
+    }
+    eprintln!("  no best-40.json for this table in {}: running the default sweep", dir.display());
+    let plan = SweepPlan::paper(&input.data, None, None, Objective::LeastSquares);
+    let outcome = job::sweep_fits(input, &plan, &mut |line| eprintln!("    {line}"))?;
+    write_sweep(&outcome, dir)?;
+    Ok(outcome.best_record(40).cloned())
+}
+
+fn compare_one(args: &ComparePaperArgs, pair: &PaperPair) -> Result<crate::fit::compare::CompareEntry> {
+    let model = bsdf::find(pair.model, ModelOptions { radiance_transmission: pair.radiance })?;
+    let d = model.axes().len();
+    let n = if d >= 3 { args.resolution_3d.or(args.resolution) } else { args.resolution };
+    let resolution = parse_resolution(n.map(|n| n.to_string()).as_deref(), d)?;
+    let spec = TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())?;
+    let t = get_table(model.as_ref(), &spec, &args.data_dir, false)?;
+    eprintln!("{} ({}): {} table {} in {:.1} s", pair.paper_name, model.cache_name(), spec.resolution_name(), if t.cached { "read" } else { "computed" }, t.seconds);
+    let input = source::from_table(&t.table, "E", Some(&t.stem))?;
+    let points = args.fit_points.unwrap_or(if d >= 3 { COMPARE_FIT_POINTS_3D } else { 0 });
+    let same = job::fit_one(&input, &same_form_request(pair, points))?;
+    let best = best_40(&input, &args.fits_dir.join(model.cache_name()), args.no_sweep)?;
+    let bounds = paper_box(pair);
+    let boxed = input.restrict(&bounds)?;
+    let best_box = best_40(&boxed, &args.fits_dir.join(boxed_name(&model.cache_name(), &bounds)), args.no_sweep)?;
+    compare_model(&args.paper_data, pair, &input, &same, best.as_ref(), best_box.as_ref())
+}
+
+/// `furnace compare-paper`.
+pub fn compare_paper_cmd(args: &ComparePaperArgs) -> Result<()> {
+    if !args.paper_data.join("coefficients").is_dir() {
+        return Err(Error::file(&args.paper_data, "no coefficients/ folder here; point --paper-data at the paper's data (../shared/paper-repo-data)"));
+    }
+    let entries = PAPER_PAIRS.iter().map(|p| compare_one(args, p)).collect::<Result<Vec<_>>>()?;
+    let report = CompareReport::new(entries);
+    let md = report.to_markdown();
+    write_atomic(&args.reports_dir.join("compare-paper.md"), md.as_bytes())?;
+    write_atomic(&args.reports_dir.join("compare-paper.json"), report.to_json()?.as_bytes())?;
+    print!("{md}");
+    eprintln!("wrote {}/compare-paper.{{md,json}}", args.reports_dir.display());
+    Ok(())
+}

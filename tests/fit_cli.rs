@@ -1,0 +1,324 @@
+//! End-to-end tests of `furnace fit`, `furnace eval --fit` and `furnace compare-paper` on the
+//! built binary, with small tables (32², 8³) so the suite stays fast.
+
+use furnace::fit::job::FitRecord;
+use furnace::table::io::load_any;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_furnace"))
+}
+
+/// A fresh folder for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fit_cli").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn run(cmd: &mut Command) -> Output {
+    let out = cmd.output().expect("the furnace binary runs");
+    assert!(
+        out.status.success(),
+        "command failed: {:?}\nstdout: {}\nstderr: {}",
+        cmd,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// Runs a command that must fail and returns its stderr.
+fn fails(cmd: &mut Command) -> String {
+    let out = cmd.output().expect("the furnace binary runs");
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "command should have failed: {cmd:?}\nstderr: {err}");
+    assert!(!err.contains("panicked"), "a panic is not an error message: {err}");
+    err
+}
+
+fn read_record(path: &Path) -> FitRecord {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    FitRecord::from_json(&text).unwrap()
+}
+
+fn fit_conductor(dir: &Path, fits: &str, extra: &[&str]) -> Output {
+    run(bin()
+        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "32", "--form", "rational", "--degree", "3"])
+        .arg("--data-dir")
+        .arg(dir.join("data"))
+        .arg("--fits-dir")
+        .arg(dir.join(fits))
+        .args(extra))
+}
+
+#[test]
+fn fit_writes_a_record_that_round_trips_and_eval_reproduces_its_metrics() {
+    let dir = scratch("roundtrip");
+    fit_conductor(&dir, "fits", &[]);
+    let path = dir.join("fits/ggx-conductor-separable/rational-3.json");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let rec = FitRecord::from_json(&text).unwrap();
+    // deterministic serialisation: reading and writing gives the same bytes
+    assert_eq!(rec.to_json().unwrap(), text);
+    assert!(rec.usable, "{}", rec.verdict);
+    assert_eq!(rec.tool_version, furnace::VERSION);
+    assert_eq!(rec.source.resolution, Some(vec![32, 32]));
+    assert_eq!(rec.source.content_hash.len(), 64);
+    assert_eq!(rec.fit.n_coefficients, 19);
+    assert_eq!(rec.fit.approximant.variables, vec!["r", "mu"]);
+    assert_eq!(rec.fit.metrics.n_points, 32 * 32);
+    let solver = rec.fit.solver.as_ref().unwrap();
+    assert!(solver.termination.is_some() && solver.iterations > 0);
+    assert!(rec.fit.metrics.max_abs_error_at.len() == 2 && rec.fit.metrics.max_rel_error > 0.0);
+
+    // every table node, columns in the other order, through `eval --fit`
+    let table = load_any(&dir.join("data/ggx-conductor-separable/32x32")).unwrap();
+    let mut csv = String::from("mu,r\n");
+    let mut x = vec![0.0; 2];
+    for i in 0..table.cells() {
+        table.spec.point(i, &mut x);
+        csv.push_str(&format!("{},{}\n", x[1], x[0]));
+    }
+    std::fs::write(dir.join("nodes.csv"), csv).unwrap();
+    run(bin().arg("eval").arg("--fit").arg(&path).arg("--input").arg(dir.join("nodes.csv")).arg("--output").arg(dir.join("out.csv")));
+    let out = std::fs::read_to_string(dir.join("out.csv")).unwrap();
+    let mut lines = out.lines();
+    assert_eq!(lines.next(), Some("mu,r,E"));
+    let (mut sum, mut max) = (0.0f64, 0.0f64);
+    let mut n = 0;
+    for (line, want) in lines.zip(table.output(0)) {
+        let e: f64 = line.rsplit(',').next().unwrap().parse().unwrap();
+        let err = (e - want).abs();
+        sum += err;
+        max = max.max(err);
+        n += 1;
+    }
+    assert_eq!(n, table.cells());
+    assert_eq!(max, rec.fit.metrics.max_abs_error, "eval --fit reproduces the max error exactly");
+    assert!((sum / n as f64 - rec.fit.metrics.mae).abs() <= 1e-12 * rec.fit.metrics.mae);
+}
+
+#[test]
+fn fits_are_byte_identical_across_runs_and_thread_counts() {
+    let dir = scratch("determinism");
+    fit_conductor(&dir, "a", &["--transform", "mu=sqrt"]);
+    run(bin()
+        .env("RAYON_NUM_THREADS", "1")
+        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "32", "--form", "rational", "--degree", "3", "--transform", "mu=sqrt"])
+        .arg("--data-dir")
+        .arg(dir.join("data"))
+        .arg("--fits-dir")
+        .arg(dir.join("b")));
+    let name = "ggx-conductor-separable/rational-3-mu_sqrt.json";
+    let a = std::fs::read(dir.join("a").join(name)).unwrap();
+    let b = std::fs::read(dir.join("b").join(name)).unwrap();
+    assert!(a == b, "same inputs must give the same bytes");
+}
+
+#[test]
+fn same_form_fit_of_the_papers_conductor_table_matches_its_mae() {
+    // The paper's 32² table (its repository), as a user CSV with the unclamped coordinates the
+    // paper fitted with; its published 3/3 rational has MAE 0.0041 there.
+    let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/paper-repo-data/tables/conductors.csv");
+    let Ok(text) = std::fs::read_to_string(&paper) else {
+        eprintln!("{} not found; skipping", paper.display());
+        return;
+    };
+    let dir = scratch("paper_table");
+    let mut csv = String::from("r,mu,E\n");
+    for (i, line) in text.lines().filter(|l| !l.trim().is_empty()).enumerate() {
+        for (j, v) in line.split(',').enumerate() {
+            csv.push_str(&format!("{},{},{}\n", i as f64 / 31.0, j as f64 / 31.0, v.trim()));
+        }
+    }
+    std::fs::write(dir.join("conductors.csv"), csv).unwrap();
+    let out = run(bin()
+        .args(["fit", "--form", "rational", "--degree", "3", "--table"])
+        .arg(dir.join("conductors.csv"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits")));
+    let rec = read_record(&dir.join("fits/conductors/rational-3.json"));
+    eprintln!("{}", String::from_utf8_lossy(&out.stdout));
+    assert_eq!(rec.source.kind, "csv");
+    assert_eq!(rec.fit.n_coefficients, 19);
+    assert!(rec.usable, "{}", rec.verdict);
+    assert!(rec.fit.metrics.mae <= 0.0041, "MAE {}", rec.fit.metrics.mae);
+    assert!(rec.fit.metrics.max_abs_error <= 0.027, "max {}", rec.fit.metrics.max_abs_error);
+}
+
+#[test]
+fn sweep_writes_summary_and_best_fits_under_budget() {
+    let dir = scratch("sweep");
+    let out = run(bin()
+        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "24", "--sweep", "--max-degree", "3"])
+        .arg("--data-dir")
+        .arg(dir.join("data"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits")));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let d = dir.join("fits/ggx-conductor-separable");
+    let csv = std::fs::read_to_string(d.join("sweep.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(header.starts_with("form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error"), "{header}");
+    let rows: Vec<Vec<String>> = csv.lines().skip(1).map(|l| l.split(',').map(String::from).collect()).collect();
+    // 2 transform sets (identity, √μ) × (3 polynomials + 3 rationals), plus minimax refits
+    let lsq = rows.iter().filter(|r| r[3] == "lsq").count();
+    assert_eq!(lsq, 12, "{stdout}");
+    assert!(rows.iter().any(|r| r[3] == "minimax"), "{stdout}");
+    let sweep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("sweep.json")).unwrap()).unwrap();
+    assert_eq!(sweep["rows"].as_array().unwrap().len(), rows.len());
+    assert_eq!(sweep["fits"].as_array().unwrap().len(), rows.len());
+    for budget in [20usize, 40] {
+        let best = read_record(&d.join(format!("best-{budget}.json")));
+        assert!(best.usable && best.fit.n_coefficients <= budget);
+        // nothing usable within the budget has a lower max error
+        let lowest = rows
+            .iter()
+            .filter(|r| r[11] == "true" && r[4].parse::<usize>().unwrap() <= budget)
+            .map(|r| r[7].parse::<f64>().unwrap())
+            .fold(f64::INFINITY, f64::min);
+        assert_eq!(best.fit.metrics.max_abs_error, lowest, "budget {budget}");
+    }
+}
+
+#[test]
+fn user_tables_in_every_format() {
+    let dir = scratch("formats");
+    // a furnace 3D table (8³) by its sidecar
+    run(bin().args(["tabulate", "--model", "ggx-glossy-separable", "--resolution", "8"]).arg("--data-dir").arg(dir.join("data")));
+    let sidecar = dir.join("data/ggx-glossy-separable/8x8x8.json");
+    run(bin().args(["fit", "--form", "polynomial", "--degree", "2", "--table"]).arg(&sidecar).arg("--fits-dir").arg(dir.join("fits")));
+    let rec = read_record(&dir.join("fits/ggx-glossy-separable/polynomial-2.json"));
+    assert_eq!((rec.source.kind.as_str(), rec.fit.approximant.variables.len()), ("furnace_table", 3));
+
+    // its EXR, moved away from the sidecar: the axes come from --axes
+    std::fs::copy(dir.join("data/ggx-glossy-separable/8x8x8.exr"), dir.join("glossy.exr")).unwrap();
+    let err = fails(bin().args(["fit", "--form", "polynomial", "--degree", "2", "--table"]).arg(dir.join("glossy.exr")));
+    assert!(err.contains("--axes"), "{err}");
+    run(bin()
+        .args(["fit", "--form", "polynomial", "--degree", "2", "--axes", "f0=0:1:8,r=0:1,mu=0:1", "--table"])
+        .arg(dir.join("glossy.exr"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits")));
+    let exr = read_record(&dir.join("fits/glossy/polynomial-2.json"));
+    assert_eq!(exr.source.resolution, Some(vec![8, 8, 8]));
+    // f32 storage changes the coefficients only at f32 precision
+    assert!((exr.fit.metrics.mae - rec.fit.metrics.mae).abs() < 1e-6);
+
+    // scattered 1-D points of an exact rational: recovered to rounding
+    let mut csv = String::from("x,E\n");
+    for i in 0..40 {
+        let x = ((i * 7919) % 40) as f64 / 39.0;
+        csv.push_str(&format!("{x},{}\n", (1.0 + 2.0 * x) / (1.0 + 0.5 * x)));
+    }
+    std::fs::write(dir.join("line.csv"), csv).unwrap();
+    run(bin().args(["fit", "--form", "rational", "--degree", "1", "--table"]).arg(dir.join("line.csv")).arg("--fits-dir").arg(dir.join("fits")));
+    let one = read_record(&dir.join("fits/line/rational-1.json"));
+    assert!(one.usable && one.fit.metrics.max_abs_error < 1e-12, "{:?}", one.fit.metrics);
+
+    // a JSON grid
+    let json = r#"{"axes": [{"name": "a", "nodes": [0, 0.5, 1]}, {"name": "b", "nodes": [0, 1]}], "values": [0, 1, 0.5, 1.5, 1, 2]}"#;
+    std::fs::write(dir.join("grid.json"), json).unwrap();
+    run(bin().args(["fit", "--form", "polynomial", "--degree", "1", "--table"]).arg(dir.join("grid.json")).arg("--fits-dir").arg(dir.join("fits")));
+    let g = read_record(&dir.join("fits/grid/polynomial-1.json"));
+    assert!(g.fit.metrics.max_abs_error < 1e-14);
+    assert_eq!(g.fit.approximant.numerator.coefficients.len(), 3);
+}
+
+#[test]
+fn bad_input_gives_clear_errors() {
+    let dir = scratch("bad");
+    let fit = |table: &str, degree: &str| {
+        let mut c = bin();
+        c.args(["fit", "--form", "rational", "--degree", degree, "--table"]).arg(dir.join(table)).arg("--fits-dir").arg(dir.join("fits"));
+        c
+    };
+    std::fs::write(dir.join("nan.csv"), "r,mu,E\n0,0,1\n0.5,0.5,NaN\n").unwrap();
+    let err = fails(&mut fit("nan.csv", "1"));
+    assert!(err.contains("row 3, column 'E'") && err.contains("finite"), "{err}");
+
+    std::fs::write(dir.join("few.csv"), "r,mu,E\n0,0,1\n1,0,2\n0,1,3\n1,1,4\n0.5,0.5,5\n").unwrap();
+    let err = fails(&mut fit("few.csv", "3"));
+    assert!(err.contains("19 free coefficients but only 5 data points"), "{err}");
+
+    // every point on the line r = mu: the bivariate basis is rank deficient
+    let line: String = (0..20).map(|i| format!("{0},{0},{1}\n", i as f64 / 19.0, 1.0 + i as f64)).collect();
+    std::fs::write(dir.join("line.csv"), format!("r,mu,E\n{line}")).unwrap();
+    let mut c = bin();
+    c.args(["fit", "--form", "polynomial", "--degree", "2", "--table"]).arg(dir.join("line.csv")).arg("--fits-dir").arg(dir.join("fits"));
+    let err = fails(&mut c);
+    assert!(err.contains("singular"), "{err}");
+
+    std::fs::write(dir.join("flat.csv"), "r,mu,E\n0.5,0,1\n0.5,1,2\n0.5,0.5,3\n").unwrap();
+    let err = fails(&mut fit("flat.csv", "1"));
+    assert!(err.contains("'r'") && err.contains("constant variable"), "{err}");
+
+    let err = fails(&mut fit("missing.csv", "1"));
+    assert!(err.contains("missing.csv"), "{err}");
+
+    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "2", "--transform", "mu=log"]).arg("--data-dir").arg(dir.join("data")));
+    assert!(err.contains("unknown transform 'log'"), "{err}");
+    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "2", "--channel", "E_T"]).arg("--data-dir").arg(dir.join("data")));
+    assert!(err.contains("no output 'E_T'"), "{err}");
+
+    // eval --fit: exactly one of --model / --fit, points inside the fit's domain
+    std::fs::write(dir.join("ok.csv"), "x,E\n0,1\n0.25,1.5\n0.5,2\n0.75,2.5\n1,3\n").unwrap();
+    run(bin().args(["fit", "--form", "polynomial", "--degree", "1", "--table"]).arg(dir.join("ok.csv")).arg("--fits-dir").arg(dir.join("fits")));
+    let fit_file = dir.join("fits/ok/polynomial-1.json");
+    std::fs::write(dir.join("pts.csv"), "x\n0.5\n2\n").unwrap();
+    let err = fails(bin().arg("eval").arg("--fit").arg(&fit_file).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
+    assert!(err.contains("row 3") && err.contains("outside the domain"), "{err}");
+    std::fs::write(dir.join("pts.csv"), "y\n0.5\n").unwrap();
+    let err = fails(bin().arg("eval").arg("--fit").arg(&fit_file).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
+    assert!(err.contains("unknown column 'y'"), "{err}");
+    let err = fails(bin().args(["eval", "--model", "ggx-conductor"]).arg("--fit").arg(&fit_file).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
+    assert!(err.contains("cannot be used with"), "{err}");
+    std::fs::write(dir.join("notafit.json"), "{\"hello\": 1}").unwrap();
+    let err = fails(bin().arg("eval").arg("--fit").arg(dir.join("notafit.json")).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
+    assert!(err.contains("not a furnace fit file"), "{err}");
+    assert!(!dir.join("o.csv").exists(), "no output file after an error");
+}
+
+#[test]
+fn compare_paper_on_small_tables() {
+    let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/paper-repo-data");
+    if !paper.join("coefficients").is_dir() {
+        eprintln!("{} not found; skipping", paper.display());
+        return;
+    }
+    let dir = scratch("compare");
+    let out = run(bin()
+        .args(["compare-paper", "--resolution", "16", "--resolution-3d", "6", "--no-sweep"])
+        .arg("--paper-data")
+        .arg(&paper)
+        .arg("--data-dir")
+        .arg(dir.join("data"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits"))
+        .arg("--reports-dir")
+        .arg(dir.join("reports")));
+    let md = std::fs::read_to_string(dir.join("reports/compare-paper.md")).unwrap();
+    assert_eq!(String::from_utf8_lossy(&out.stdout), md);
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("reports/compare-paper.json")).unwrap()).unwrap();
+    let entries = report["entries"].as_array().unwrap();
+    assert_eq!(entries.len(), 4);
+    for e in entries {
+        let lines = e["on_furnace_table"].as_array().unwrap();
+        assert_eq!(lines[0]["fit"], "paper 3/3 (published)");
+        assert_eq!(lines[1]["n_coefficients"], lines[0]["n_coefficients"]);
+        assert!(lines[1]["mae"].as_f64().unwrap() > 0.0);
+        assert_eq!(e["on_paper_table"].as_array().unwrap().len(), 2);
+    }
+    // the published conductor fit on its own table: the paper's reported 0.0041 / 0.027
+    let theirs = &entries[0]["on_paper_table"][0];
+    assert!((theirs["mae"].as_f64().unwrap() - 0.0041).abs() < 5e-5);
+    assert!((theirs["max_abs_error"].as_f64().unwrap() - 0.027).abs() < 5e-4);
+    // dielectrics are compared in the paper's radiance form
+    assert!(entries[2]["transmission"].as_str().unwrap().starts_with("radiance"));
+    // the published glossy fit has a pole on its domain (near F0 = 0); furnace's is certified
+    assert_eq!(entries[1]["on_furnace_table"][0]["poles"], "pole", "{md}");
+    assert_eq!(entries[1]["on_furnace_table"][1]["poles"], "certified", "{md}");
+}

@@ -2,7 +2,10 @@
 //! subcommand. Nothing here computes; it only parses, reports and writes.
 
 mod bench;
+mod bench_eval;
+mod emit;
 mod eval;
+mod scene;
 
 use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
@@ -30,8 +33,13 @@ pub enum Command {
     Eval(EvalArgs),
     /// Benchmarks that print run time against error.
     Bench(BenchArgs),
-    /// The main job on the built-in default set: tabulate (cached) every default model.
+    /// The main job on the built-in default set: tabulate (cached) every default model; with
+    /// --scene, tabulate, fit and emit only what a scene's materials need.
     Run(RunArgs),
+    /// Write Rust / WGSL / GLSL source (and LUTs) for fit files.
+    Emit(emit::EmitArgs),
+    /// Run a fit's emitted f32 operation sequence at ≥ 10⁶ points and edges against f64.
+    Stress(emit::StressArgs),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -124,6 +132,8 @@ pub struct BenchArgs {
 pub enum BenchWhat {
     /// Wall time and error of full-size tables at several quadrature orders.
     Tabulate(bench::BenchTabulateArgs),
+    /// CPU f32 ns/evaluation and error of emitted fits and of LUTs (16², 32², 64², 16³, 32³).
+    Eval(bench_eval::BenchEvalArgs),
 }
 
 #[derive(Args, Debug)]
@@ -134,6 +144,8 @@ pub struct RunArgs {
     /// Recompute tables even when cached.
     #[arg(long)]
     pub force: bool,
+    #[command(flatten)]
+    pub scene: scene::SceneArgs,
 }
 
 /// Runs one parsed command line.
@@ -147,8 +159,12 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Eval(args) => eval::eval_cmd(&args),
         Command::Bench(args) => match args.what {
             BenchWhat::Tabulate(a) => bench::bench_tabulate(&a),
+            BenchWhat::Eval(a) => bench_eval::bench_eval_cmd(&a),
         },
+        Command::Run(args) if args.scene.scene.is_some() => scene::run_scene(&args.scene, &args.data_dir, args.force),
         Command::Run(args) => run_default(&args),
+        Command::Emit(args) => emit::emit_cmd(&args),
+        Command::Stress(args) => emit::stress_cmd(&args),
     }
 }
 

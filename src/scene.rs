@@ -433,6 +433,8 @@ pub struct RunOptions {
     pub lut_resolution: usize,
     /// Random points of the f32 stress test of each fit (0 skips it).
     pub stress_points: usize,
+    /// The command line that regenerates the output, quoted in the emitted headers.
+    pub command: String,
 }
 
 /// One fitted table of a scene run.
@@ -547,9 +549,8 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
         sources.push(SourceFit::new(&fit_path, file, Some(table.clone()))?);
         fitted.push(FittedTable { need: need.clone(), table_cached: cached, fit_path, fit, stress: stress_report });
     }
-    let command = format!("furnace run --scene <manifest of scene '{}'>", plan.scene);
     let keep = plan.helper_names();
-    let (mut unit, emitted) = build_unit(&plan.scene, &emit::guard_macro(&format!("scene {}", plan.scene)), &sources, &command, FormChoice::Auto, Some(&keep))?;
+    let (mut unit, emitted) = build_unit(&plan.scene, &emit::guard_macro(&format!("scene {}", plan.scene)), &sources, &opts.command, FormChoice::Auto, Some(&keep))?;
     if opts.langs.contains(&Lang::Lut) {
         for src in &sources {
             unit.luts.push(emit::lut_for_fit(src, opts.lut_resolution, &opts.data_dir, opts.force)?);

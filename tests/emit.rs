@@ -232,6 +232,17 @@ fn cli_emits_next_to_the_fit_and_refuses_bad_input_without_writing() {
     assert_eq!(std::fs::metadata(lut.join("8x8.f32")).unwrap().len(), 4 * 64);
     let desc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(lut.join("8x8.json")).unwrap()).unwrap();
     assert_eq!(desc["cells"], 64);
+    // the EXR holds the same f32 values as the raw file, and f16 is within its rounding of them
+    let raw: Vec<f32> = std::fs::read(lut.join("8x8.f32")).unwrap().chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    let exr = furnace::table::io::read_exr_channels(&lut.join("8x8.exr")).unwrap();
+    assert_eq!(exr.len(), 1);
+    assert_eq!(exr[0].0, "E");
+    assert_eq!(exr[0].1, raw);
+    let half: Vec<u16> = std::fs::read(lut.join("8x8.f16")).unwrap().chunks_exact(2).map(|c| u16::from_le_bytes(c.try_into().unwrap())).collect();
+    assert_eq!(half.len(), 64);
+    let f16_err = desc["f16_max_rounding_error"].as_f64().unwrap();
+    assert!(f16_err > 0.0 && f16_err <= 2f64.powi(-12), "{f16_err}");
+    assert!(raw.iter().all(|v| (0.0..=1.0).contains(v)));
     let rs = std::fs::read_to_string(fits.join("rational-3.rs")).unwrap();
     assert!(rs.contains("pub fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32"));
 

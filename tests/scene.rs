@@ -42,6 +42,7 @@ fn conductor_only_scene_tabulates_fits_and_emits_only_2d_conductor_code() {
         langs: vec![Lang::Rust, Lang::Wgsl, Lang::Glsl, Lang::Lut],
         lut_resolution: 8,
         stress_points: 5_000,
+        command: "furnace run --scene metals.json".into(),
     };
     let out = run(&manifest, &opts, &|l| eprintln!("{l}")).unwrap();
     // one table: ggx-conductor over r ∈ [0.2, 0.6] (the union of [0.2, 0.6] and √[0.04, 0.09])

@@ -46,6 +46,7 @@ pub fn run_scene(args: &SceneArgs, data_dir: &std::path::Path, force: bool) -> R
         langs: parse_langs(&args.lang)?,
         lut_resolution: args.lut_resolution,
         stress_points: args.stress_points,
+        command: format!("furnace run --scene {} --lang {}", path.display(), args.lang),
     };
     let start = std::time::Instant::now();
     let out = scene::run(&manifest, &opts, &|line| eprintln!("{}", line.trim_end()))?;

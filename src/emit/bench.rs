@@ -3,7 +3,7 @@
 //!
 //! Error: the emitted f32 code (the [`Compiled`] program, bit-identical to the emitted Rust —
 //! checked here by checksum) and the LUTs (f32 values, multilinear interpolation in f32) against
-//! an accurate reference table whose nodes mostly fall between LUT nodes (257² / 49³ by default).
+//! an accurate reference table whose nodes mostly fall between LUT nodes (257² / 33³ by default).
 //!
 //! Time: the emitted Rust itself, compiled. A throw-away crate is written to a temporary folder
 //! (the emitted `.rs` files `include!`d unchanged, a LUT sampler, the points and LUT values as
@@ -18,7 +18,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use super::fitfile::FitFile;
-use super::generate::{albedo_function_name, choose_form, domain_f32, FormChoice};
+use super::generate::{albedo_function_name, choose_form, domain_f32, EvalForm, FormChoice};
 use super::ir::{Arith, Compiled, Program};
 use super::lut::{tabulate_cached, Lut};
 use super::{build_unit, lut_spec, rust::Rust, Emitter, SourceFit};
@@ -50,7 +50,7 @@ impl Default for BenchOptions {
         BenchOptions {
             data_dir: "data".into(),
             reference_2d: 257,
-            reference_3d: 49,
+            reference_3d: 33,
             lut_sizes_2d: vec![16, 32, 64],
             lut_sizes_3d: vec![16, 32],
             points: 1 << 20,
@@ -78,7 +78,7 @@ pub struct BenchRow {
 
 /// One thing to time and measure.
 enum Case {
-    Fit { module: usize, function: String, compiled: Compiled },
+    Fit { module: String, function: String, compiled: Compiled },
     Lut { lut: Lut },
 }
 
@@ -213,28 +213,37 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
         let reference_name = format!("{} {}", reference.spec.model, reference.spec.resolution_name());
         // the fit, exactly as emitted
         let src = SourceFit::new(path, file.clone(), None)?;
-        let (unit, _) = build_unit(&format!("fit_{i}"), "FURNACE_BENCH", std::slice::from_ref(&src), "furnace bench eval", FormChoice::Auto, None)?;
-        let code = Rust.produce(&unit)?;
-        std::fs::write(src_dir.join(&code[0].file_name), &code[0].bytes).map_err(|e| Error::io(&src_dir, e))?;
-        writeln!(modules, "#[allow(dead_code)] mod fit_{i} {{ include!(\"fit_{i}.rs\"); }}").ok();
         let name = albedo_function_name(&file.model, &file.output);
-        let (function, report) = choose_form(&name, &[], &file.fit, FormChoice::Auto)?;
-        let compiled = Compiled::new(&Program { functions: vec![function] }, &name).map_err(|e| Error::InvalidInput(e.to_string()))?;
-        let mut regs = Vec::new();
-        let (max_e, mean_e) = errors_at_nodes(&reference, &file.output, |x| compiled.eval_f32(x, Arith::Ieee, &mut regs))?;
+        let (_, report) = choose_form(&name, &[], &file.fit, FormChoice::Auto)?;
         let points_file = point_sets.len();
         point_sets.push(random_points(&domain_f32(&file.fit), opts.points, 0xBE7C_0000 + i as u64));
-        jobs.push(Job {
-            model: file.model.clone(),
-            what: format!("fit {} ({}, {:?} form)", name, file.fit.form.label(), report.form),
-            bytes: 4 * file.fit.n_coefficients,
-            dims: d,
-            points_file,
-            case: Case::Fit { module: i, function: name, compiled },
-            max_error: max_e,
-            mean_error: mean_e,
-            reference: reference_name.clone(),
-        });
+        // every form, the emitted one first, so its cost can be weighed against its stability
+        let mut forms = vec![report.form];
+        forms.extend(EvalForm::ALL.iter().copied().filter(|&f| f != report.form));
+        for form in forms {
+            let module = format!("fit_{i}_{}", form.name());
+            let (unit, _) = build_unit(&module, "FURNACE_BENCH", std::slice::from_ref(&src), "furnace bench eval", FormChoice::Force(form), None)?;
+            let code = Rust.produce(&unit)?;
+            std::fs::write(src_dir.join(&code[0].file_name), &code[0].bytes).map_err(|e| Error::io(&src_dir, e))?;
+            writeln!(modules, "#[allow(dead_code)] mod {module} {{ include!(\"{module}.rs\"); }}").ok();
+            let (function, _) = choose_form(&name, &[], &file.fit, FormChoice::Force(form))?;
+            let compiled = Compiled::new(&Program { functions: vec![function] }, &name).map_err(|e| Error::InvalidInput(e.to_string()))?;
+            let mut regs = Vec::new();
+            let (max_e, mean_e) = errors_at_nodes(&reference, &file.output, |x| compiled.eval_f32(x, Arith::Ieee, &mut regs))?;
+            let f32_diff = report.candidates.iter().find(|(f, _)| *f == form).map_or(f64::NAN, |(_, a)| a.max_diff());
+            let status = if form == report.form { "emitted".to_string() } else { format!("not emitted; f32 Δ {f32_diff:.1e}") };
+            jobs.push(Job {
+                model: file.model.clone(),
+                what: format!("fit {} {}, {} form ({status})", file.fit.form.label().replace("rational of degree ", "rational "), name.trim_end_matches("_albedo"), form.name()),
+                bytes: 4 * file.fit.n_coefficients,
+                dims: d,
+                points_file,
+                case: Case::Fit { module, function: name.clone(), compiled },
+                max_error: max_e,
+                mean_error: mean_e,
+                reference: reference_name.clone(),
+            });
+        }
         let sizes = if d == 2 { &opts.lut_sizes_2d } else { &opts.lut_sizes_3d };
         for &n in sizes {
             let (model, spec) = lut_spec(file, n)?;
@@ -274,8 +283,8 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
         let floats = vec!["f32"; d].join(", ");
         let (inlined, pointer) = match &job.case {
             Case::Fit { module, function, .. } => (
-                format!("fit_{module}::{function}({})", args("pts")),
-                format!("let g: fn({floats}) -> f32 = std::hint::black_box(fit_{module}::{function});\n        let call = |i: usize| g({});", args("pts")),
+                format!("{module}::{function}({})", args("pts")),
+                format!("let g: fn({floats}) -> f32 = std::hint::black_box({module}::{function});\n        let call = |i: usize| g({});", args("pts")),
             ),
             Case::Lut { lut } => {
                 let p = work.join(format!("lut_{j}.f32"));
@@ -385,12 +394,12 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
 /// The benchmark table as text.
 pub fn render(rows: &[BenchRow]) -> String {
     let mut s = format!(
-        "{:<26} {:<58} {:>8} {:>10} {:>10} {:>10} {:>10}\n",
+        "{:<26} {:<72} {:>8} {:>10} {:>10} {:>10} {:>10}\n",
         "model", "evaluation (f32)", "bytes", "ns inlined", "ns call", "max |ΔE|", "mean |ΔE|"
     );
     for r in rows {
         s.push_str(&format!(
-            "{:<26} {:<58} {:>8} {:>10.2} {:>10.2} {:>10.2e} {:>10.2e}\n",
+            "{:<26} {:<72} {:>8} {:>10.2} {:>10.2} {:>10.2e} {:>10.2e}\n",
             r.model, r.what, r.bytes, r.ns_inlined, r.ns_call, r.max_error, r.mean_error
         ));
     }

@@ -269,12 +269,23 @@ pub enum FormPoly {
 impl FormPoly {
     /// (Σ terms, Σ |terms|) at the form's variables v (t, s or u).
     pub fn eval_abs(&self, v: &[f64]) -> (f64, f64) {
+        // per-variable power tables, so each term is a product of lookups
+        const MAXP: usize = crate::fit::basis::MAX_DEGREE as usize + 1;
+        let d = v.len().min(crate::fit::data::MAX_DIM);
+        let mut up = [[1.0f64; MAXP]; crate::fit::data::MAX_DIM];
+        let mut vp = [[1.0f64; MAXP]; crate::fit::data::MAX_DIM];
+        for k in 0..d {
+            for j in 1..MAXP {
+                up[k][j] = up[k][j - 1] * v[k];
+                vp[k][j] = vp[k][j - 1] * (1.0 - v[k]);
+            }
+        }
         let mut sum = CompensatedSum::default();
         let mut abs = 0.0;
         match self {
             FormPoly::Monomial(p) => {
                 for (e, &c) in p.exponents.iter().zip(&p.coefficients) {
-                    let m = e.iter().zip(v).fold(c, |acc, (&k, &x)| acc * x.powi(k as i32));
+                    let m = e.iter().enumerate().take(d).fold(c, |acc, (k, &x)| acc * up[k][x as usize]);
                     abs += m.abs();
                     sum.add(m);
                 }
@@ -283,11 +294,11 @@ impl FormPoly {
                 for (idx, &c) in coefficients.iter().enumerate() {
                     let mut rest = idx;
                     let mut m = c;
-                    for k in (0..degrees.len()).rev() {
+                    for k in (0..d).rev() {
                         let n = degrees[k] as usize;
                         let i = rest % (n + 1);
                         rest /= n + 1;
-                        m *= v[k].powi(i as i32) * (1.0 - v[k]).powi((n - i) as i32);
+                        m *= up[k][i] * vp[k][n - i];
                     }
                     abs += m.abs();
                     sum.add(m);

@@ -9,6 +9,8 @@ pub mod math;
 pub mod quadrature;
 pub mod table;
 pub mod cli;
+pub mod emit;
+pub mod scene;
 
 pub use error::{Error, Result};
 

@@ -2,10 +2,13 @@
 //! subcommand. Nothing here computes; it only parses, reports and writes.
 
 mod bench;
+mod bench_eval;
+mod emit;
 mod eval;
 mod fit;
 
 pub use fit::{ComparePaperArgs, FitArgs, FormArg, ObjectiveArg};
+mod scene;
 
 use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
@@ -37,8 +40,13 @@ pub enum Command {
     ComparePaper(ComparePaperArgs),
     /// Benchmarks that print run time against error.
     Bench(BenchArgs),
-    /// The main job on the built-in default set: tabulate (cached) every default model.
+    /// The main job on the built-in default set: tabulate (cached) every default model; with
+    /// --scene, tabulate, fit and emit only what a scene's materials need.
     Run(RunArgs),
+    /// Write Rust / WGSL / GLSL source (and LUTs) for fit files.
+    Emit(emit::EmitArgs),
+    /// Run a fit's emitted f32 operation sequence at ≥ 10⁶ points and edges against f64.
+    Stress(emit::StressArgs),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -134,6 +142,8 @@ pub struct BenchArgs {
 pub enum BenchWhat {
     /// Wall time and error of full-size tables at several quadrature orders.
     Tabulate(bench::BenchTabulateArgs),
+    /// CPU f32 ns/evaluation and error of emitted fits and of LUTs (16², 32², 64², 16³, 32³).
+    Eval(bench_eval::BenchEvalArgs),
 }
 
 #[derive(Args, Debug)]
@@ -144,6 +154,8 @@ pub struct RunArgs {
     /// Recompute tables even when cached.
     #[arg(long)]
     pub force: bool,
+    #[command(flatten)]
+    pub scene: scene::SceneArgs,
 }
 
 /// Runs one parsed command line.
@@ -159,8 +171,12 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::ComparePaper(args) => fit::compare_paper_cmd(&args),
         Command::Bench(args) => match args.what {
             BenchWhat::Tabulate(a) => bench::bench_tabulate(&a),
+            BenchWhat::Eval(a) => bench_eval::bench_eval_cmd(&a),
         },
+        Command::Run(args) if args.scene.scene.is_some() => scene::run_scene(&args.scene, &args.data_dir, args.force),
         Command::Run(args) => run_default(&args),
+        Command::Emit(args) => emit::emit_cmd(&args),
+        Command::Stress(args) => emit::stress_cmd(&args),
     }
 }
 

@@ -1,0 +1,50 @@
+//! `furnace bench eval`: a thin wrapper over [`crate::emit::bench`].
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::emit::bench::{bench_eval, render, BenchOptions};
+use crate::emit::fitfile::FitFile;
+use crate::error::Result;
+
+#[derive(Args, Debug)]
+pub struct BenchEvalArgs {
+    /// Fit files to time and measure (e.g. fits/ggx-conductor/rational-3.json).
+    #[arg(long, required = true)]
+    pub fit: Vec<PathBuf>,
+    /// Folder of the table cache (reference tables and LUT tables are cached there).
+    #[arg(long, default_value = "data")]
+    pub data_dir: PathBuf,
+    /// Nodes per axis of the accurate reference table of 2-D fits.
+    #[arg(long, default_value_t = BenchOptions::default().reference_2d)]
+    pub reference_2d: usize,
+    /// Nodes per axis of the accurate reference table of 3-D fits.
+    #[arg(long, default_value_t = BenchOptions::default().reference_3d)]
+    pub reference_3d: usize,
+    /// Random points per timing pass.
+    #[arg(long, default_value_t = BenchOptions::default().points)]
+    pub points: usize,
+    /// Timing passes (the best is reported).
+    #[arg(long, default_value_t = BenchOptions::default().passes)]
+    pub passes: usize,
+    /// Keep the generated timing crate and print where it is.
+    #[arg(long)]
+    pub keep: bool,
+}
+
+pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
+    let fits = args.fit.iter().map(|p| FitFile::read(p).map(|f| (p.clone(), f))).collect::<Result<Vec<_>>>()?;
+    let opts = BenchOptions {
+        data_dir: args.data_dir.clone(),
+        reference_2d: args.reference_2d,
+        reference_3d: args.reference_3d,
+        points: args.points,
+        passes: args.passes,
+        keep: args.keep,
+        ..BenchOptions::default()
+    };
+    let rows = bench_eval(&fits, &opts, &|l| eprintln!("{l}"))?;
+    print!("{}", render(&rows));
+    Ok(())
+}

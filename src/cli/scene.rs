@@ -1,0 +1,71 @@
+//! `furnace run --scene scene.json`: the scene options of the `run` command and its wrapper
+//! over [`crate::scene::run`].
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::emit::parse_langs;
+use crate::error::Result;
+use crate::quadrature::QuadratureSettings;
+use crate::scene::{self, Manifest, RunOptions};
+
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// Scene manifest: tabulate, fit and emit only what its materials need (see README,
+    /// "Emitting code for a renderer"). Without it, `run` tabulates the default model set.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Folder for the scene's fits and emitted code (`<fits-dir>/<scene name>/`).
+    #[arg(long, default_value = "fits")]
+    pub fits_dir: PathBuf,
+    /// Output formats for the scene: rust, wgsl, glsl, lut, all (or a comma-separated list).
+    #[arg(long, default_value = "rust,wgsl,glsl")]
+    pub lang: String,
+    /// Folder for LUTs (with `--lang lut` or `all`).
+    #[arg(long, default_value = "data/lut")]
+    pub lut_dir: PathBuf,
+    /// Nodes per axis of LUTs.
+    #[arg(long, default_value_t = 32)]
+    pub lut_resolution: usize,
+    /// Random points of the f32 stress test each fit must pass before anything is emitted.
+    #[arg(long, default_value_t = 100_000)]
+    pub stress_points: usize,
+}
+
+/// Runs the scene of `args.scene` (which must be set).
+pub fn run_scene(args: &SceneArgs, data_dir: &std::path::Path, force: bool) -> Result<()> {
+    let path = args.scene.as_ref().expect("called with --scene");
+    let manifest = Manifest::read(path)?;
+    let opts = RunOptions {
+        data_dir: data_dir.to_path_buf(),
+        fits_dir: args.fits_dir.clone(),
+        lut_dir: args.lut_dir.clone(),
+        force,
+        quadrature: QuadratureSettings::default(),
+        langs: parse_langs(&args.lang)?,
+        lut_resolution: args.lut_resolution,
+        stress_points: args.stress_points,
+        command: format!("furnace run --scene {} --lang {}", path.display(), args.lang),
+    };
+    let start = std::time::Instant::now();
+    let out = scene::run(&manifest, &opts, &|line| eprintln!("{}", line.trim_end()))?;
+    println!("{:<30} {:>12} {:>8} {:>10} {:>10} {:>10} {:>12}", "model", "table", "cached", "fit MAE", "fit max", "f32 max Δ", "stress");
+    for (f, e) in out.fitted.iter().zip(&out.emitted) {
+        println!(
+            "{:<30} {:>12} {:>8} {:>10.2e} {:>10.2e} {:>10.1e} {:>12}",
+            f.need.model,
+            f.need.resolution.iter().map(|n| n.to_string()).collect::<Vec<_>>().join("x"),
+            if f.table_cached { "yes" } else { "no" },
+            f.fit.metrics.mae,
+            f.fit.metrics.max_abs_error,
+            e.form.chosen().max_diff(),
+            f.stress.as_ref().map_or("skipped".to_string(), |s| if s.passed() { format!("pass ({})", s.random_points) } else { "FAIL".into() })
+        );
+    }
+    for w in &out.written {
+        println!("wrote {}", w.display());
+    }
+    println!("total {:.1} s", start.elapsed().as_secs_f64());
+    Ok(())
+}

@@ -1,0 +1,805 @@
+//! The one expression generator behind every language: a fit becomes an [`ir::Function`]
+//! (inputs clamped to the fitted domain, input transforms, nested Horner evaluation of P and Q,
+//! the division, the output clamp), and the energy-compensation helpers become small functions
+//! that call it.
+//!
+//! # Evaluation forms
+//! * [`EvalForm::Monomial`]: Horner in the transformed variables t, with the fit's own
+//!   coefficients (scikit-learn order, as in the JSON). Cheapest; cancels when the coefficients
+//!   are large against the values (the paper's glossy fit has ±400 for values in [0, 1]).
+//! * [`EvalForm::Shifted`]: Horner in s_k = (t_k − c_k)/h_k ∈ [−1, 1], c_k and h_k the centre and
+//!   half-width of t_k's range; coefficients re-expanded exactly, t_k = c_k + h_k s_k (binomial
+//!   theorem). Same cost plus one multiply–add per variable.
+//! * [`EvalForm::Bernstein`]: the tensor-product Bernstein form on the domain box,
+//!   P = Σ b_i Π_k C(n_k, i_k) u_k^{i_k} (1 − u_k)^{n_k − i_k}, u_k = (t_k − lo_k)/(hi_k − lo_k)
+//!   ∈ [0, 1], the basis products computed once and shared by P and Q. Every basis value is a
+//!   product of non-negative numbers, so the evaluation's condition number is
+//!   Σ|b_i B_i(u)| / |P(u)|, which is ≥ 1 and equals 1 when all b_i ≥ 0 (Farouki & Rajan 1987,
+//!   "On the numerical condition of polynomials in Bernstein form"): for these fits 5–15 where the
+//!   monomial forms reach 100–600. Costs about 2× (2-D) to 5× (3-D) the monomial form.
+//!
+//! [`choose_form`] builds all three, measures their f32 error against the f64 fit on a grid over
+//! the domain in three rounding models (each operation rounded, fused multiply–adds, GPU-allowed
+//! ÷ and sqrt errors), and keeps the cheapest whose error stays under [`STABLE_ERROR`]; the
+//! header says which form was used and why, with the numbers.
+//!
+//! Horner nesting (variables outermost first): P = Σ_i x₀ⁱ P_i(x₁, …), each P_i nested the same
+//! way in the remaining variables, evaluated as ((P_m x₀ + P_{m−1}) x₀ + …) x₀ + P_0
+//! (Horner 1819; pbrt-v4 `EvaluatePolynomial`). For d ≥ 2 the P_i of the first variable are
+//! `let` bindings, which changes no rounding.
+
+use std::collections::HashMap;
+
+use super::ir::build::*;
+use super::ir::{Arith, Compiled, Expr, Function, Lit, Stmt};
+use crate::fit::{FitResult, InputTransform, Polynomial};
+use crate::math::CompensatedSum;
+
+/// A form is stable enough if its measured max |f32 − f64| on the measurement grid, in every
+/// rounding model, stays under this: a quarter of the stress test's limit of 1e-5, a margin for
+/// the points between grid nodes the stress test visits. (The first-order bound is reported but
+/// not used to choose: it grows with the number of operations, so it overstates the error of
+/// the longer but better-conditioned Bernstein sums by 10–100×.)
+pub const STABLE_ERROR: f64 = 2.5e-6;
+
+/// The division guard of the normalisation helpers: the emitted albedo is clamped to [0, 1], so
+/// 1/E needs a floor; GGX conductor and dielectric albedos stay far above it on their domains.
+pub const ALBEDO_FLOOR: f64 = 1e-3;
+
+/// How P and Q are evaluated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EvalForm {
+    Monomial,
+    Shifted,
+    Bernstein,
+}
+
+impl EvalForm {
+    /// Cheapest first.
+    pub const ALL: [EvalForm; 3] = [EvalForm::Monomial, EvalForm::Shifted, EvalForm::Bernstein];
+
+    pub fn describe(self) -> &'static str {
+        match self {
+            EvalForm::Monomial => "nested Horner in the transformed variables t, with the fit's monomial coefficients",
+            EvalForm::Shifted => "nested Horner in the shifted variables s = (t − c)/h ∈ [−1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's",
+            EvalForm::Bernstein => "tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32)",
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            EvalForm::Monomial => "monomial",
+            EvalForm::Shifted => "shifted",
+            EvalForm::Bernstein => "bernstein",
+        }
+    }
+}
+
+/// What the user asked for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FormChoice {
+    /// The cheapest form whose measured f32 error is under [`STABLE_ERROR`] (else the most accurate).
+    #[default]
+    Auto,
+    Force(EvalForm),
+}
+
+/// A Rust/WGSL/GLSL identifier from a model or variable name: lower case, `[a-z0-9_]`, not
+/// starting with a digit.
+pub fn ident(name: &str) -> String {
+    let mut s: String = name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+        .collect();
+    if s.is_empty() || s.starts_with(|c: char| c.is_ascii_digit()) {
+        s.insert(0, 'v');
+    }
+    if RESERVED.contains(&s.as_str()) {
+        s.push_str("_v");
+    }
+    s
+}
+
+/// Keywords and reserved words of Rust, WGSL or GLSL a variable name could collide with, and the
+/// names the generated bodies use themselves.
+const RESERVED: &[&str] = &[
+    "as", "break", "const", "continue", "else", "enum", "false", "fn", "for", "if", "impl", "in", "let", "loop", "match", "mod",
+    "move", "mut", "pub", "ref", "return", "self", "struct", "super", "true", "type", "use", "where", "while", "var", "out",
+    "inout", "sample", "filter", "input", "output", "float", "int", "bool", "f32", "f16", "i32", "u32", "vec2", "vec3", "vec4",
+    "uniform", "buffer", "shared", "attribute", "varying", "precise", "invariant", "discard", "switch", "case", "default",
+    "p", "q", "e", "cos_o",
+];
+
+/// `ggx-conductor` → `ggx_conductor`; output `E` → `…_albedo`, `E_R` → `…_albedo_r`.
+pub fn albedo_function_name(model: &str, output: &str) -> String {
+    let suffix = match output {
+        "E" => String::new(),
+        o => format!("_{}", ident(o.trim_start_matches("E_").trim_start_matches('E'))),
+    };
+    format!("{}_albedo{suffix}", ident(model))
+}
+
+/// The largest f32 ≤ x.
+fn f32_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f as f64 > x { f.next_down() } else { f }
+}
+/// The smallest f32 ≥ x.
+fn f32_up(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x { f.next_up() } else { f }
+}
+
+/// The fitted domain rounded inwards to f32: clamping to it never leaves the domain on which
+/// the denominator was proved positive.
+pub fn domain_f32(fit: &FitResult) -> Vec<(f32, f32)> {
+    fit.approximant.domain.iter().map(|&(lo, hi)| (f32_up(lo), f32_down(hi))).collect()
+}
+
+/// Centre and half-width of each transformed variable's range.
+pub fn shifts(fit: &FitResult) -> crate::fit::Result<Vec<(f64, f64)>> {
+    Ok(fit.approximant.transformed_domain()?.into_iter().map(|(lo, hi)| (0.5 * (lo + hi), 0.5 * (hi - lo))).collect())
+}
+
+/// The same polynomial in s, t_k = c_k + h_k s_k: Σ_e a_e Π_k Σ_{j ≤ e_k} C(e_k, j) c_k^{e_k−j} h_k^j s_k^j,
+/// summed with compensation. The exponent set (all total degrees ≤ n) is unchanged.
+pub fn shift_polynomial(p: &Polynomial, shifts: &[(f64, f64)]) -> Polynomial {
+    let index: HashMap<&[u32], usize> = p.exponents.iter().enumerate().map(|(i, e)| (e.as_slice(), i)).collect();
+    let mut sums = vec![CompensatedSum::default(); p.exponents.len()];
+    for (e, &a) in p.exponents.iter().zip(&p.coefficients) {
+        if a == 0.0 {
+            continue;
+        }
+        // every j ≤ e componentwise
+        let mut j = vec![0u32; e.len()];
+        loop {
+            let mut term = a;
+            for k in 0..e.len() {
+                let (c, h) = shifts[k];
+                term *= binomial(e[k], j[k]) * c.powi((e[k] - j[k]) as i32) * h.powi(j[k] as i32);
+            }
+            sums[index[j.as_slice()]].add(term);
+            let mut k = 0;
+            loop {
+                if k == e.len() {
+                    break;
+                }
+                if j[k] < e[k] {
+                    j[k] += 1;
+                    break;
+                }
+                j[k] = 0;
+                k += 1;
+            }
+            if k == e.len() {
+                break;
+            }
+        }
+    }
+    Polynomial { exponents: p.exponents.clone(), coefficients: sums.iter().map(CompensatedSum::value).collect() }
+}
+
+fn binomial(n: u32, k: u32) -> f64 {
+    (0..k).fold(1.0, |c, i| c * (n - i) as f64 / (i + 1) as f64).round()
+}
+
+/// `acc + g`, written `acc − |g|` when g is a negative literal (same value, and no `+ -` in the
+/// printed code).
+fn add_signed(acc: Expr, g: Expr) -> Expr {
+    match g {
+        Expr::Lit(l) if l.value.is_sign_negative() => sub(acc, Expr::Lit(Lit { value: -l.value, exact: -l.exact })),
+        g => add(acc, g),
+    }
+}
+
+/// Nested Horner of the terms (exponent tuples from variable `k` on) in `vars[k..]`; None if all
+/// coefficients are zero.
+fn horner(terms: &[(&[u32], f64)], vars: &[Expr], k: usize) -> Option<Expr> {
+    let terms: Vec<(&[u32], f64)> = terms.iter().copied().filter(|&(_, c)| c != 0.0).collect();
+    if terms.is_empty() {
+        return None;
+    }
+    if k == vars.len() {
+        debug_assert_eq!(terms.len(), 1, "distinct exponent tuples");
+        return Some(lit(terms[0].1));
+    }
+    let m = terms.iter().map(|(e, _)| e[k]).max().unwrap_or(0);
+    let groups: Vec<Option<Expr>> = (0..=m)
+        .map(|i| {
+            let sub: Vec<(&[u32], f64)> = terms.iter().copied().filter(|(e, _)| e[k] == i).collect();
+            horner(&sub, vars, k + 1)
+        })
+        .collect();
+    let mut acc = groups[m as usize].clone().expect("the top power has a term");
+    for i in (0..m as usize).rev() {
+        acc = mul(acc, vars[k].clone());
+        if let Some(g) = groups[i].clone() {
+            acc = add_signed(acc, g);
+        }
+    }
+    Some(acc)
+}
+
+/// Horner of `p` in `vars`, as `let`s `{name}_{i}` for the powers of the first variable (d ≥ 2)
+/// and the final expression.
+fn horner_lets(name: &str, what: &str, p: &Polynomial, vars: &[Expr]) -> Vec<Stmt> {
+    let terms: Vec<(&[u32], f64)> = p.exponents.iter().map(Vec::as_slice).zip(p.coefficients.iter().copied()).collect();
+    let zero = || Stmt { name: name.into(), value: lit(0.0), comment: Some(format!("{what}: every coefficient is zero")) };
+    if vars.len() < 2 {
+        return vec![horner(&terms, vars, 0).map_or_else(zero, |e| Stmt { name: name.into(), value: e, comment: Some(what.into()) })];
+    }
+    let m = terms.iter().filter(|(_, c)| *c != 0.0).map(|(e, _)| e[0]).max();
+    let Some(m) = m else { return vec![zero()] };
+    let mut out = Vec::new();
+    let mut group_vars = Vec::new();
+    for i in 0..=m {
+        let sub: Vec<(&[u32], f64)> = terms.iter().copied().filter(|(e, _)| e[0] == i).collect();
+        let g = horner(&sub, vars, 1);
+        if let Some(g) = g {
+            let n = format!("{name}_{i}");
+            let comment = (i == 0).then(|| format!("{what}, grouped by powers of the first variable"));
+            out.push(Stmt { name: n.clone(), value: g, comment });
+            group_vars.push(Some(var(&n)));
+        } else {
+            group_vars.push(None);
+        }
+    }
+    let mut acc = group_vars[m as usize].clone().expect("top power present");
+    for i in (0..m as usize).rev() {
+        acc = mul(acc, vars[0].clone());
+        if let Some(g) = group_vars[i].clone() {
+            acc = add(acc, g);
+        }
+    }
+    out.push(Stmt { name: name.into(), value: acc, comment: None });
+    out
+}
+
+/// A polynomial in the basis of an evaluation form.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FormPoly {
+    /// Monomials (in t or s).
+    Monomial(Polynomial),
+    /// Tensor-product Bernstein coefficients with the binomials folded in: b_i·Π C(n_k, i_k),
+    /// row-major (last variable fastest) over i ∈ Π [0, n_k].
+    Bernstein { degrees: Vec<u32>, coefficients: Vec<f64> },
+}
+
+impl FormPoly {
+    /// (Σ terms, Σ |terms|) at the form's variables v (t, s or u).
+    pub fn eval_abs(&self, v: &[f64]) -> (f64, f64) {
+        // per-variable power tables, so each term is a product of lookups
+        const MAXP: usize = crate::fit::basis::MAX_DEGREE as usize + 1;
+        let d = v.len().min(crate::fit::data::MAX_DIM);
+        let mut up = [[1.0f64; MAXP]; crate::fit::data::MAX_DIM];
+        let mut vp = [[1.0f64; MAXP]; crate::fit::data::MAX_DIM];
+        for k in 0..d {
+            for j in 1..MAXP {
+                up[k][j] = up[k][j - 1] * v[k];
+                vp[k][j] = vp[k][j - 1] * (1.0 - v[k]);
+            }
+        }
+        let mut sum = CompensatedSum::default();
+        let mut abs = 0.0;
+        match self {
+            FormPoly::Monomial(p) => {
+                for (e, &c) in p.exponents.iter().zip(&p.coefficients) {
+                    let m = e.iter().enumerate().take(d).fold(c, |acc, (k, &x)| acc * up[k][x as usize]);
+                    abs += m.abs();
+                    sum.add(m);
+                }
+            }
+            FormPoly::Bernstein { degrees, coefficients } => {
+                for (idx, &c) in coefficients.iter().enumerate() {
+                    let mut rest = idx;
+                    let mut m = c;
+                    for k in (0..d).rev() {
+                        let n = degrees[k] as usize;
+                        let i = rest % (n + 1);
+                        rest /= n + 1;
+                        m *= up[k][i] * vp[k][n - i];
+                    }
+                    abs += m.abs();
+                    sum.add(m);
+                }
+            }
+        }
+        (sum.value(), abs)
+    }
+}
+
+/// Per-axis power basis → Bernstein basis of degree n: b_i = Σ_{j ≤ i} C(i, j)/C(n, j) a_j
+/// (Farouki & Rajan 1987), applied along axis `k` of a row-major tensor.
+fn power_to_bernstein_axis(t: &mut [f64], degrees: &[u32], k: usize) {
+    let n = degrees[k] as usize;
+    let stride: usize = degrees[k + 1..].iter().map(|&m| m as usize + 1).product();
+    let size = t.len();
+    for base in 0..size {
+        if !(base / stride).is_multiple_of(n + 1) {
+            continue; // not the start of a fibre along axis k
+        }
+        let a: Vec<f64> = (0..=n).map(|j| t[base + j * stride]).collect();
+        for i in 0..=n {
+            let mut acc = CompensatedSum::default();
+            for (j, &aj) in a.iter().enumerate().take(i + 1) {
+                acc.add(binomial(i as u32, j as u32) / binomial(n as u32, j as u32) * aj);
+            }
+            t[base + i * stride] = acc.value();
+        }
+    }
+}
+
+/// Largest exponent of each variable in `p`.
+pub fn axis_degrees(p: &Polynomial) -> Vec<u32> {
+    (0..p.dim()).map(|k| p.exponents.iter().map(|e| e[k]).max().unwrap_or(0)).collect()
+}
+
+/// The tensor Bernstein coefficients (binomials folded in) of `p` on the box `bounds` of its
+/// variables, of degree `degrees[k]` (≥ the degree of `p` in variable k) along each.
+pub fn bernstein(p: &Polynomial, bounds: &[(f64, f64)], degrees: &[u32]) -> FormPoly {
+    let d = bounds.len();
+    let degrees = degrees.to_vec();
+    // monomials in u, t = lo + (hi − lo) u
+    let sh: Vec<(f64, f64)> = bounds.iter().map(|&(lo, hi)| (lo, hi - lo)).collect();
+    let pu = shift_polynomial(p, &sh);
+    let size: usize = degrees.iter().map(|&n| n as usize + 1).product();
+    let mut t = vec![0.0; size];
+    for (e, &c) in pu.exponents.iter().zip(&pu.coefficients) {
+        let idx = e.iter().zip(&degrees).fold(0usize, |acc, (&x, &n)| acc * (n as usize + 1) + x as usize);
+        t[idx] += c;
+    }
+    for k in 0..d {
+        power_to_bernstein_axis(&mut t, &degrees, k);
+    }
+    // fold the binomials C(n_k, i_k) into the coefficients
+    for (idx, c) in t.iter_mut().enumerate() {
+        let mut rest = idx;
+        for k in (0..d).rev() {
+            let n = degrees[k] as usize;
+            let i = rest % (n + 1);
+            rest /= n + 1;
+            *c *= binomial(n as u32, i as u32);
+        }
+    }
+    FormPoly::Bernstein { degrees, coefficients: t }
+}
+
+/// P and Q in the basis of `form`.
+pub fn form_polynomials(fit: &FitResult, form: EvalForm) -> crate::fit::Result<(FormPoly, Option<FormPoly>)> {
+    let a = &fit.approximant;
+    Ok(match form {
+        EvalForm::Monomial => (FormPoly::Monomial(a.numerator.clone()), a.denominator.clone().map(FormPoly::Monomial)),
+        EvalForm::Shifted => {
+            let sh = shifts(fit)?;
+            (
+                FormPoly::Monomial(shift_polynomial(&a.numerator, &sh)),
+                a.denominator.as_ref().map(|q| FormPoly::Monomial(shift_polynomial(q, &sh))),
+            )
+        }
+        EvalForm::Bernstein => {
+            let b = a.transformed_domain()?;
+            // one degree per axis for P and Q, so they share the basis values
+            let mut degrees = axis_degrees(&a.numerator);
+            if let Some(q) = &a.denominator {
+                for (d, qd) in degrees.iter_mut().zip(axis_degrees(q)) {
+                    *d = (*d).max(qd);
+                }
+            }
+            (bernstein(&a.numerator, &b, &degrees), a.denominator.as_ref().map(|q| bernstein(q, &b, &degrees)))
+        }
+    })
+}
+
+/// The variables of `form` at an original-variable point x (clamped to the domain): t, s or u.
+pub fn form_variables(fit: &FitResult, form: EvalForm, x: &[f64]) -> crate::fit::Result<Vec<f64>> {
+    let a = &fit.approximant;
+    let t: Vec<f64> = x.iter().zip(&a.domain).zip(&a.transforms).map(|((&v, &(lo, hi)), tr)| tr.apply(v.clamp(lo, hi))).collect();
+    Ok(match form {
+        EvalForm::Monomial => t,
+        EvalForm::Shifted => t.iter().zip(shifts(fit)?).map(|(&t, (c, h))| (t - c) / h).collect(),
+        EvalForm::Bernstein => t.iter().zip(a.transformed_domain()?).map(|(&t, (lo, hi))| (t - lo) / (hi - lo)).collect(),
+    })
+}
+
+/// Condition number of evaluating `p` at v: Σ|terms| / |Σ terms| (Higham 2002, §5.1; for the
+/// Bernstein form the terms are b_i B_i(u)), ∞ where p(v) = 0.
+pub fn condition(p: &FormPoly, v: &[f64]) -> f64 {
+    let (s, abs) = p.eval_abs(v);
+    if s != 0.0 { abs / s.abs() } else if abs == 0.0 { 1.0 } else { f64::INFINITY }
+}
+
+/// Σ_i c_i·m_i as a left-to-right sum of products (`acc ± |c|·m`), zero coefficients skipped.
+fn sum_of_products(terms: &[(f64, Expr)]) -> Option<Expr> {
+    let mut acc: Option<Expr> = None;
+    for (c, m) in terms {
+        if *c == 0.0 {
+            continue;
+        }
+        acc = Some(match acc {
+            None => mul(lit(*c), m.clone()),
+            Some(a) if *c < 0.0 => sub(a, mul(lit(-*c), m.clone())),
+            Some(a) => add(a, mul(lit(*c), m.clone())),
+        });
+    }
+    acc
+}
+
+/// Bernstein evaluation of `coefficients` given the basis values `basis[k][i]` =
+/// u_k^i (1 − u_k)^{n_k − i}: sums of products over the last variable, then, with the partial
+/// sums bound as `let`s `{name}_{i}_{j}…`, over the earlier ones.
+fn bernstein_lets(name: &str, what: &str, degrees: &[u32], coefficients: &[f64], basis: &[Vec<Expr>]) -> Vec<Stmt> {
+    fn level(degrees: &[u32], coefficients: &[f64], basis: &[Vec<Expr>], k: usize, prefix: &str, offset: usize, out: &mut Vec<Stmt>) -> Option<Expr> {
+        let n = degrees[k] as usize;
+        let stride: usize = degrees[k + 1..].iter().map(|&m| m as usize + 1).product();
+        if k + 1 == degrees.len() {
+            let terms: Vec<(f64, Expr)> = (0..=n).map(|i| (coefficients[offset + i], basis[k][i].clone())).collect();
+            return sum_of_products(&terms);
+        }
+        let mut acc: Option<Expr> = None;
+        for i in 0..=n {
+            let sub_name = format!("{prefix}_{i}");
+            let Some(e) = level(degrees, coefficients, basis, k + 1, &sub_name, offset + i * stride, out) else { continue };
+            out.push(Stmt { name: sub_name.clone(), value: e, comment: None });
+            let term = mul(var(&sub_name), basis[k][i].clone());
+            acc = Some(match acc {
+                None => term,
+                Some(a) => add(a, term),
+            });
+        }
+        acc
+    }
+    let mut out = Vec::new();
+    let e = level(degrees, coefficients, basis, 0, name, 0, &mut out);
+    let comment = Some(format!("{what}: Bernstein sums over the last variable, then the earlier ones"));
+    if let Some(first) = out.first_mut() {
+        first.comment = comment.clone();
+    }
+    let top_comment = if out.is_empty() { comment } else { None };
+    match e {
+        Some(e) => out.push(Stmt { name: name.into(), value: e, comment: top_comment }),
+        None => out.push(Stmt { name: name.into(), value: lit(0.0), comment: Some(format!("{what}: every coefficient is zero")) }),
+    }
+    out
+}
+
+/// `let`s of the Bernstein basis values of variable `p` (u given): v = 1 − u, powers, and
+/// m_i = u^i v^(n−i), i = 0…n; returns the statements and the m_i.
+fn bernstein_basis(p: &str, u: &Expr, n: u32) -> (Vec<Stmt>, Vec<Expr>) {
+    let mut out = Vec::new();
+    let v = format!("{p}_v");
+    out.push(Stmt { name: v.clone(), value: sub(lit(1.0), u.clone()), comment: Some(format!("Bernstein basis of {p}: u^i (1 − u)^(n − i), n = {n}")) });
+    let n = n as usize;
+    // powers u^1..u^n and v^1..v^n (u^0 = v^0 = 1 are not materialised)
+    let mut up = vec![None, Some(u.clone())];
+    let mut vp = vec![None, Some(var(&v))];
+    for j in 2..=n {
+        for (base, pows, tag) in [(u.clone(), &mut up, "u"), (var(&v), &mut vp, "v")] {
+            let name = format!("{p}_{tag}{j}");
+            out.push(Stmt { name: name.clone(), value: mul(pows[j - 1].clone().expect("lower power"), base), comment: None });
+            pows.push(Some(var(&name)));
+        }
+    }
+    let mut m = Vec::new();
+    for i in 0..=n {
+        let e = match (i, n - i) {
+            (0, 0) => lit(1.0),
+            (0, b) => vp[b].clone().expect("power"),
+            (a, 0) => up[a].clone().expect("power"),
+            (a, b) => {
+                let name = format!("{p}_b{i}");
+                out.push(Stmt { name: name.clone(), value: mul(up[a].clone().expect("power"), vp[b].clone().expect("power")), comment: None });
+                var(&name)
+            }
+        };
+        m.push(e);
+    }
+    (out, m)
+}
+
+/// The albedo function of a fit: `name(x_1, …, x_d) -> f32`.
+///
+/// Body: clamp each input to the f32-rounded domain; apply the input transforms; shift (for
+/// [`EvalForm::Shifted`]); `p`, `q` by Horner; `e = p / q` (the unclamped value, which the
+/// stress test inspects); result `clamp(e, 0, 1)` — an albedo of an energy-conserving BSDF.
+pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: EvalForm) -> crate::fit::Result<Function> {
+    let a = &fit.approximant;
+    a.validate()?;
+    let params: Vec<String> = a.variables.iter().map(|v| ident(v)).collect();
+    let dom = domain_f32(fit);
+    let mut body = Vec::new();
+    let mut tvars = Vec::new();
+    for (k, p) in params.iter().enumerate() {
+        let c = format!("{p}_c");
+        body.push(Stmt {
+            name: c.clone(),
+            value: clamp(var(p), Expr::Lit(Lit::exact(dom[k].0)), Expr::Lit(Lit::exact(dom[k].1))),
+            comment: (k == 0).then(|| "inputs clamped to the fitted domain".to_string()),
+        });
+        let (lo, hi) = a.domain[k];
+        let t = match a.transforms[k] {
+            InputTransform::Identity => None,
+            // x ≥ lo ≥ 0 after the clamp (the transform is valid on the domain)
+            InputTransform::Sqrt => Some(sqrt(var(&c))),
+            InputTransform::OneMinus => Some(sub(lit(1.0), var(&c))),
+            InputTransform::Square => Some(mul(var(&c), var(&c))),
+            InputTransform::ClampNormalize { lo: a0, hi: b0 } => {
+                let x = if lo >= a0 && hi <= b0 { var(&c) } else { clamp(var(&c), lit(a0), lit(b0)) };
+                Some(mul(sub(x, lit(a0)), lit(1.0 / (b0 - a0))))
+            }
+        };
+        let tname = match t {
+            Some(t) => {
+                let n = format!("{p}_t");
+                body.push(Stmt { name: n.clone(), value: t, comment: Some(format!("t = {}({p})", a.transforms[k].name())) });
+                n
+            }
+            None => c,
+        };
+        tvars.push(tname);
+    }
+    let (num, den) = form_polynomials(fit, form)?;
+    let all_coefficients = |p: &FormPoly| -> Vec<f64> {
+        match p {
+            FormPoly::Monomial(m) => m.coefficients.clone(),
+            FormPoly::Bernstein { coefficients, .. } => coefficients.clone(),
+        }
+    };
+    let mut coeffs = all_coefficients(&num);
+    if let Some(q) = &den {
+        coeffs.extend(all_coefficients(q));
+    }
+    if let Some(bad) = coeffs.iter().find(|c| !((**c as f32).is_finite())) {
+        return Err(crate::fit::FitError::NonFinite { what: "coefficient in f32", index: 0, value: *bad });
+    }
+    match form {
+        EvalForm::Monomial | EvalForm::Shifted => {
+            let vars: Vec<Expr> = if form == EvalForm::Monomial {
+                tvars.iter().map(|t| var(t)).collect()
+            } else {
+                let sh = shifts(fit)?;
+                let mut vars = Vec::new();
+                for (k, t) in tvars.iter().enumerate() {
+                    let (c, h) = sh[k];
+                    let n = format!("{}_s", params[k]);
+                    // s = t·(1/h) − c/h
+                    let scaled = mul(var(t), lit(1.0 / h));
+                    let value = if c == 0.0 { scaled } else { add_signed(scaled, lit(-c / h)) };
+                    body.push(Stmt { name: n.clone(), value, comment: Some(format!("s = (t − {c})/{h} ∈ [−1, 1]")) });
+                    vars.push(var(&n));
+                }
+                vars
+            };
+            let mono = |p: &FormPoly| match p {
+                FormPoly::Monomial(m) => m.clone(),
+                FormPoly::Bernstein { .. } => unreachable!("monomial forms"),
+            };
+            body.extend(horner_lets("p", "numerator P", &mono(&num), &vars));
+            if let Some(q) = &den {
+                body.extend(horner_lets("q", "denominator Q (proved positive on the domain)", &mono(q), &vars));
+            }
+        }
+        EvalForm::Bernstein => {
+            let bounds = a.transformed_domain()?;
+            let FormPoly::Bernstein { degrees, coefficients: pc } = &num else { unreachable!("bernstein form") };
+            let mut basis = Vec::new();
+            for (k, t) in tvars.iter().enumerate() {
+                let (lo, hi) = bounds[k];
+                let u = if lo == 0.0 && hi == 1.0 {
+                    var(t)
+                } else {
+                    let n = format!("{}_u", params[k]);
+                    body.push(Stmt {
+                        name: n.clone(),
+                        value: mul(sub(var(t), lit(lo)), lit(1.0 / (hi - lo))),
+                        comment: Some(format!("u = (t − {lo})/({hi} − {lo}) ∈ [0, 1]")),
+                    });
+                    var(&n)
+                };
+                let (stmts, m) = bernstein_basis(&params[k], &u, degrees[k]);
+                body.extend(stmts);
+                basis.push(m);
+            }
+            body.extend(bernstein_lets("p", "numerator P", degrees, pc, &basis));
+            if let Some(FormPoly::Bernstein { coefficients: qc, .. }) = &den {
+                body.extend(bernstein_lets("q", "denominator Q (proved positive on the domain)", degrees, qc, &basis));
+            }
+        }
+    }
+    match &den {
+        Some(_) => body.push(Stmt { name: "e".into(), value: div(var("p"), var("q")), comment: None }),
+        None => body.push(Stmt { name: "e".into(), value: var("p"), comment: None }),
+    }
+    Ok(Function {
+        name: name.into(),
+        doc,
+        params,
+        body,
+        result: clamp(var("e"), lit(0.0), lit(1.0)),
+    })
+}
+
+/// Accuracy of an emitted function's f32 evaluation against the f64 fit on a point set.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct F32Accuracy {
+    pub points: usize,
+    /// max |f32 − f64| with every operation rounded once (the emitted Rust on a CPU).
+    pub max_diff_ieee: f64,
+    /// The same with multiply–adds fused.
+    pub max_diff_fused: f64,
+    /// The same with GPU-allowed division and square-root errors.
+    pub max_diff_gpu: f64,
+    /// Largest first-order error bound (covers all three).
+    pub max_bound: f64,
+    /// Largest |f64 fit| outside [0, 1] before the output clamp (0 if none).
+    pub max_overshoot: f64,
+}
+
+impl F32Accuracy {
+    pub fn max_diff(&self) -> f64 {
+        self.max_diff_ieee.max(self.max_diff_fused).max(self.max_diff_gpu)
+    }
+}
+
+/// The f64 reference of an emitted albedo at an f32 input: the fit at the input clamped to its
+/// domain, clamped to [0, 1] like the emitted output. Also returns the unclamped value.
+pub fn reference(fit: &FitResult, x: &[f32]) -> (f64, f64) {
+    let mut buf = [0.0f64; crate::fit::data::MAX_DIM];
+    for (k, (&v, &(lo, hi))) in x.iter().zip(&fit.approximant.domain).enumerate() {
+        buf[k] = (v as f64).clamp(lo, hi);
+    }
+    let raw = fit.eval(&buf[..x.len()]);
+    (raw.clamp(0.0, 1.0), raw)
+}
+
+/// Measures `compiled` (an albedo function of `fit`) at `points` (row-major f32 coordinates).
+pub fn measure(compiled: &Compiled, fit: &FitResult, points: &[f32]) -> F32Accuracy {
+    let d = compiled.n_params();
+    let mut acc = F32Accuracy { points: points.len() / d, ..Default::default() };
+    let mut regs = Vec::new();
+    let mut bregs = Vec::new();
+    for (i, x) in points.chunks_exact(d).enumerate() {
+        let (reference, raw) = reference(fit, x);
+        acc.max_overshoot = acc.max_overshoot.max(raw - 1.0).max(-raw);
+        let diff = |v: f32| if v.is_finite() && reference.is_finite() { (v as f64 - reference).abs() } else { f64::INFINITY };
+        acc.max_diff_ieee = acc.max_diff_ieee.max(diff(compiled.eval_f32(x, Arith::Ieee, &mut regs)));
+        acc.max_diff_fused = acc.max_diff_fused.max(diff(compiled.eval_f32(x, Arith::Fused, &mut regs)));
+        acc.max_diff_gpu = acc.max_diff_gpu.max(diff(compiled.eval_f32(x, Arith::Gpu { seed: i as u64 }, &mut regs)));
+        compiled.eval_bound(x, &mut bregs);
+        if let Some(e) = compiled.register("e") {
+            // NaN (a pole) must not vanish in max()
+            let b = bregs[e].1;
+            acc.max_bound = if b.is_nan() { f64::INFINITY } else { acc.max_bound.max(b) };
+        }
+    }
+    acc
+}
+
+/// A tensor grid of `n` nodes per axis over the f32 domain, endpoints included.
+pub fn grid_points(domain: &[(f32, f32)], n: usize) -> Vec<f32> {
+    let d = domain.len();
+    let total = n.pow(d as u32);
+    let mut out = Vec::with_capacity(total * d);
+    for idx in 0..total {
+        let mut rest = idx;
+        let mut x = vec![0.0f32; d];
+        for k in (0..d).rev() {
+            let i = rest % n;
+            rest /= n;
+            let (lo, hi) = domain[k];
+            x[k] = if i + 1 == n { hi } else { (lo as f64 + (hi as f64 - lo as f64) * i as f64 / (n - 1) as f64) as f32 };
+        }
+        out.extend_from_slice(&x);
+    }
+    out
+}
+
+/// Nodes per axis of the grid on which [`choose_form`] measures: 129² in 2-D, 33³ in 3-D.
+pub fn measurement_nodes(d: usize) -> usize {
+    match d {
+        1 => 4097,
+        2 => 129,
+        _ => 33,
+    }
+}
+
+/// Why a form was chosen, with the numbers.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FormReport {
+    pub form: EvalForm,
+    pub forced: bool,
+    /// Every form, cheapest first, with its accuracy on the measurement grid.
+    pub candidates: Vec<(EvalForm, F32Accuracy)>,
+}
+
+impl FormReport {
+    /// The accuracy of the chosen form.
+    pub fn chosen(&self) -> &F32Accuracy {
+        &self.candidates.iter().find(|(f, _)| *f == self.form).expect("the chosen form was measured").1
+    }
+
+    /// Header lines saying which form and why.
+    pub fn explain(&self) -> Vec<String> {
+        let mut v = vec![format!("Evaluation: {}.", self.form.describe())];
+        let numbers = self
+            .candidates
+            .iter()
+            .map(|(f, a)| format!("{} {:.1e} (bound {:.1e})", f.name(), a.max_diff(), a.max_bound))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let why = if self.forced {
+            "chosen by --form".to_string()
+        } else if self.chosen().max_diff() <= STABLE_ERROR {
+            if self.form == EvalForm::Monomial {
+                format!("the cheapest form, and stable in f32 (max |f32 − f64| ≤ {STABLE_ERROR:.1e})")
+            } else {
+                format!("the cheapest form with max |f32 − f64| ≤ {STABLE_ERROR:.1e}; the monomial form cancels in f32")
+            }
+        } else {
+            format!("no form keeps max |f32 − f64| ≤ {STABLE_ERROR:.1e}; this one is the most accurate")
+        };
+        v.push(format!("  Why: {why}. Max |f32 − f64| on {} grid points: {numbers}.", self.chosen().points));
+        v
+    }
+}
+
+/// Builds every form, measures them on the grid and picks the cheapest whose error is under
+/// [`STABLE_ERROR`], else the most accurate (or the forced one).
+pub fn choose_form(name: &str, doc: &[String], fit: &FitResult, choice: FormChoice) -> crate::Result<(Function, FormReport)> {
+    let points = grid_points(&domain_f32(fit), measurement_nodes(fit.approximant.variables.len()));
+    let mut built = Vec::new();
+    for form in EvalForm::ALL {
+        let f = albedo_function(name, doc.to_vec(), fit, form)?;
+        let program = super::ir::Program { functions: vec![f.clone()] };
+        let c = Compiled::new(&program, name).map_err(|e| crate::Error::InvalidInput(e.to_string()))?;
+        let acc = measure(&c, fit, &points);
+        built.push((form, f, acc));
+    }
+    let form = match choice {
+        FormChoice::Force(f) => f,
+        FormChoice::Auto => match built.iter().find(|(_, _, a)| a.max_diff() <= STABLE_ERROR) {
+            Some((f, _, _)) => *f,
+            None => built.iter().min_by(|a, b| a.2.max_diff().total_cmp(&b.2.max_diff())).expect("three forms").0,
+        },
+    };
+    let candidates = built.iter().map(|(f, _, a)| (*f, a.clone())).collect();
+    let function = built.into_iter().find(|(f, _, _)| *f == form).expect("built").1;
+    Ok((function, FormReport { form, forced: matches!(choice, FormChoice::Force(_)), candidates }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::basis::exponents;
+
+    #[test]
+    fn shifting_preserves_the_polynomial() {
+        let e = exponents(3, 3);
+        let c: Vec<f64> = (0..e.len()).map(|i| ((i * 37 % 11) as f64 - 5.0) * 40.0).collect();
+        let p = Polynomial { exponents: e, coefficients: c };
+        let sh = [(0.5, 0.5), (0.3, 0.2), (0.75, 0.25)];
+        let q = shift_polynomial(&p, &sh);
+        for &(a, b, cc) in &[(0.1, 0.2, 0.6), (1.0, 0.5, 1.0), (0.0, 0.1, 0.5)] {
+            let t = [a, b, cc];
+            let s: Vec<f64> = t.iter().zip(&sh).map(|(&t, &(c, h))| (t - c) / h).collect();
+            assert!((p.eval(&t) - q.eval(&s)).abs() < 1e-11, "{} vs {}", p.eval(&t), q.eval(&s));
+        }
+    }
+
+    #[test]
+    fn identifiers_and_names() {
+        assert_eq!(ident("F0"), "f0");
+        assert_eq!(ident("ggx-dielectric-inv"), "ggx_dielectric_inv");
+        assert_eq!(ident("3d"), "v3d");
+        assert_eq!(albedo_function_name("ggx-conductor", "E"), "ggx_conductor_albedo");
+        assert_eq!(albedo_function_name("ggx-dielectric", "E_T"), "ggx_dielectric_albedo_t");
+    }
+
+    #[test]
+    fn inward_rounding_of_the_domain() {
+        assert!(f32_up(0.0125) as f64 >= 0.0125 && (f32_up(0.0125).next_down() as f64) < 0.0125);
+        assert!(f32_down(0.1) as f64 <= 0.1 && (f32_down(0.1).next_up() as f64) > 0.1);
+        assert_eq!(f32_up(1.0), 1.0);
+    }
+}
+

@@ -1,0 +1,92 @@
+//! Printing a [`Unit`]'s program as source text: one walk over the shared tree, with the
+//! language differences (literal syntax, min/max/sqrt, select, declarations) behind [`Syntax`].
+//! Operands are parenthesised by [`needs_parens`], so every language groups — and therefore
+//! rounds — exactly as the tree says.
+
+use super::ir::{needs_parens, precedence, Expr, Function};
+use super::Unit;
+
+/// An operand already printed, and whether it can be used as a method receiver / postfix
+/// operand without parentheses.
+pub struct Operand {
+    pub text: String,
+    pub atomic: bool,
+}
+
+impl Operand {
+    /// The text, parenthesised unless atomic.
+    pub fn wrapped(&self) -> String {
+        if self.atomic { self.text.clone() } else { format!("({})", self.text) }
+    }
+}
+
+/// What differs between languages.
+pub trait Syntax {
+    fn literal(&self, x: f32) -> String;
+    fn min(&self, a: Operand, b: Operand) -> String;
+    fn max(&self, a: Operand, b: Operand) -> String;
+    fn sqrt(&self, a: Operand) -> String;
+    /// `a >= b ? then : otherwise` in the language's form.
+    fn select_ge(&self, a: Operand, b: Operand, then: Operand, otherwise: Operand) -> String;
+    /// Lines before the first function (after the header comment), e.g. an include guard.
+    fn prologue(&self, unit: &Unit) -> Vec<String>;
+    /// Lines after the last function.
+    fn epilogue(&self, unit: &Unit) -> Vec<String>;
+    /// The doc-comment lines and signature of a function, ending with `{`.
+    fn open_function(&self, f: &Function) -> Vec<String>;
+    fn let_stmt(&self, name: &str, value: &str) -> String;
+    /// The last line of a body.
+    fn result(&self, value: &str) -> String;
+}
+
+/// An expression as text.
+pub fn expr(e: &Expr, s: &dyn Syntax) -> String {
+    let operand = |child: &Expr, parent: u8, right: bool| -> String {
+        let t = expr(child, s);
+        if needs_parens(child, parent, right) { format!("({t})") } else { t }
+    };
+    let atom = |child: &Expr| -> Operand {
+        let atomic = precedence(child) == 3 && !matches!(child, Expr::Lit(l) if l.value.is_sign_negative());
+        Operand { text: expr(child, s), atomic }
+    };
+    match e {
+        Expr::Lit(l) => s.literal(l.value),
+        Expr::Var(n) => n.clone(),
+        Expr::Add(a, b) => format!("{} + {}", operand(a, 1, false), operand(b, 1, true)),
+        Expr::Sub(a, b) => format!("{} - {}", operand(a, 1, false), operand(b, 1, true)),
+        Expr::Mul(a, b) => format!("{} * {}", operand(a, 2, false), operand(b, 2, true)),
+        Expr::Div(a, b) => format!("{} / {}", operand(a, 2, false), operand(b, 2, true)),
+        Expr::Min(a, b) => s.min(atom(a), atom(b)),
+        Expr::Max(a, b) => s.max(atom(a), atom(b)),
+        Expr::Sqrt(a) => s.sqrt(atom(a)),
+        Expr::Call(name, args) => format!("{name}({})", args.iter().map(|a| expr(a, s)).collect::<Vec<_>>().join(", ")),
+        Expr::SelectGe { a, b, then, otherwise } => s.select_ge(atom(a), atom(b), atom(then), atom(otherwise)),
+    }
+}
+
+/// The whole file: header comment, prologue, functions, epilogue; `\n` line ends, one trailing
+/// newline.
+pub fn render(unit: &Unit, s: &dyn Syntax) -> String {
+    let mut lines: Vec<String> = unit.header.iter().map(|l| if l.is_empty() { "//".to_string() } else { format!("// {l}") }).collect();
+    lines.push(String::new());
+    lines.extend(s.prologue(unit));
+    for f in &unit.program.functions {
+        lines.extend(s.open_function(f));
+        for st in &f.body {
+            if let Some(c) = &st.comment {
+                lines.push(format!("    // {c}"));
+            }
+            lines.push(format!("    {}", s.let_stmt(&st.name, &expr(&st.value, s))));
+        }
+        lines.push(format!("    {}", s.result(&expr(&f.result, s))));
+        lines.push("}".into());
+        lines.push(String::new());
+    }
+    lines.extend(s.epilogue(unit));
+    while lines.last().is_some_and(|l| l.is_empty()) {
+        lines.pop();
+    }
+    let mut out = lines.join("\n");
+    out.push('\n');
+    out
+}

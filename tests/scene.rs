@@ -1,0 +1,93 @@
+//! Scene manifests end to end: a conductor-only scene tabulates only 2-D conductor tables over
+//! the narrower domain, fits and stress-tests them, and emits only the conductor functions.
+
+use std::path::PathBuf;
+
+use furnace::emit::Lang;
+use furnace::quadrature::QuadratureSettings;
+use furnace::scene::{run, Manifest, RunOptions};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("furnace-scene-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn walk(dir: &std::path::Path, out: &mut Vec<PathBuf>) {
+    if let Ok(rd) = std::fs::read_dir(dir) {
+        for e in rd {
+            let p = e.unwrap().path();
+            if p.is_dir() { walk(&p, out) } else { out.push(p) }
+        }
+    }
+}
+
+#[test]
+fn conductor_only_scene_tabulates_fits_and_emits_only_2d_conductor_code() {
+    let dir = scratch("metals");
+    let manifest = Manifest::parse(
+        r#"{"name": "metals", "resolution": {"2d": 24, "3d": 8}, "materials": [
+            {"name": "gold", "kind": "conductor", "r": [0.2, 0.6]},
+            {"name": "window", "kind": "thin-dielectric", "alpha": [0.04, 0.09]}]}"#,
+        std::path::Path::new("metals.json"),
+    )
+    .unwrap();
+    let opts = RunOptions {
+        data_dir: dir.join("data"),
+        fits_dir: dir.join("fits"),
+        lut_dir: dir.join("data/lut"),
+        force: false,
+        quadrature: QuadratureSettings::default(),
+        langs: vec![Lang::Rust, Lang::Wgsl, Lang::Glsl, Lang::Lut],
+        lut_resolution: 8,
+        stress_points: 5_000,
+        command: "furnace run --scene metals.json".into(),
+    };
+    let out = run(&manifest, &opts, &|l| eprintln!("{l}")).unwrap();
+    // one table: ggx-conductor over r ∈ [0.2, 0.6] (the union of [0.2, 0.6] and √[0.04, 0.09])
+    assert_eq!(out.plan.tables.len(), 1);
+    let t = &out.fitted[0];
+    assert_eq!(t.need.model, "ggx-conductor");
+    assert_eq!(t.need.ranges[0], (0.2, 0.6));
+    assert_eq!(t.fit.approximant.domain[0], (0.2, 0.6), "the fit covers the narrower domain only");
+    assert!(t.stress.as_ref().unwrap().passed());
+    // no 3-D table was made: every cached table is 2-D
+    let mut files = Vec::new();
+    walk(&dir.join("data"), &mut files);
+    let sidecars: Vec<&PathBuf> = files.iter().filter(|p| p.extension().is_some_and(|e| e == "json") && !p.to_string_lossy().contains("/lut/")).collect();
+    assert!(!sidecars.is_empty());
+    for s in &sidecars {
+        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(s).unwrap()).unwrap();
+        assert_eq!(v["axes"].as_array().unwrap().len(), 2, "{}", s.display());
+        assert_eq!(v["model"], "ggx-conductor");
+    }
+    // emitted: the conductor albedo, Turquin's scale (gold) and 1/E (window) — nothing else
+    let rs = std::fs::read_to_string(dir.join("fits/metals/metals.rs")).unwrap();
+    let fns: Vec<&str> = rs.lines().filter_map(|l| l.strip_prefix("pub fn ")).map(|l| l.split('(').next().unwrap()).collect();
+    assert_eq!(fns, ["ggx_conductor_albedo", "ggx_conductor_turquin_scale", "ggx_conductor_normalization"]);
+    assert!(rs.contains("r: t = r, [0.2, 0.6]"));
+    for ext in ["wgsl", "glsl"] {
+        assert!(dir.join(format!("fits/metals/metals.{ext}")).exists());
+    }
+    assert!(dir.join("fits/metals/ggx-conductor.json").exists());
+    // a LUT of the same narrow domain, compared with the fit at the table's nodes
+    let lut: Vec<&PathBuf> = files.iter().filter(|p| p.to_string_lossy().contains("/lut/") && p.extension().is_some_and(|e| e == "json")).collect();
+    assert_eq!(lut.len(), 1, "{files:?}");
+    let desc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(lut[0]).unwrap()).unwrap();
+    assert_eq!(desc["axes"][0]["lo"], 0.2);
+    assert!(desc["comparison"]["fit_f32_max"].as_f64().unwrap() < 0.05);
+    // a second run reads the table from the cache and writes identical code
+    let again = run(&manifest, &opts, &|_| {}).unwrap();
+    assert!(again.fitted[0].table_cached);
+    assert_eq!(std::fs::read_to_string(dir.join("fits/metals/metals.rs")).unwrap(), rs);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_example_manifest_parses_and_plans() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/scene.json");
+    let m = Manifest::read(&path).unwrap();
+    let p = furnace::scene::plan(&m).unwrap();
+    assert!(!p.tables.is_empty());
+}

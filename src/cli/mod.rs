@@ -154,8 +154,60 @@ pub struct RunArgs {
     /// Recompute tables even when cached.
     #[arg(long)]
     pub force: bool,
+    /// Only tabulate (skip the sweep of fits and the emitted code).
+    #[arg(long)]
+    pub tables_only: bool,
+    /// (`--fits-dir`, shared with scenes, is the folder for fits and emitted code.)
     #[command(flatten)]
     pub scene: scene::SceneArgs,
+}
+
+/// The main job's fitting and emitting for one model: the degree sweep (which writes
+/// `fits/<model>/sweep.{json,csv}` and `best-20.json`, `best-40.json`), then Rust, WGSL, GLSL and a
+/// LUT for each best fit.
+fn fit_and_emit(model: &str, resolution: &str, args: &RunArgs) -> Result<()> {
+    let quadrature = QuadratureArgs {
+        order: crate::quadrature::DEFAULT_ORDER,
+        companion: None,
+        tolerance: QuadratureSettings::default().tolerance,
+        max_order: None,
+        transmission: Transmission::Energy,
+    };
+    fit::fit_cmd(&FitArgs {
+        model: Some(model.to_string()),
+        table: None,
+        form: None,
+        degree: None,
+        sweep: true,
+        max_degree: None,
+        objective: ObjectiveArg::Lsq,
+        transform: None,
+        resolution: Some(resolution.to_string()),
+        fit_points: None,
+        channel: "E".into(),
+        axes: None,
+        domain: None,
+        data_dir: args.data_dir.clone(),
+        fits_dir: args.scene.fits_dir.clone(),
+        output: None,
+        force: false,
+        quadrature,
+    })?;
+    let dir = args.scene.fits_dir.join(model);
+    let fits: Vec<PathBuf> = ["best-20.json", "best-40.json"].iter().map(|f| dir.join(f)).filter(|p| p.exists()).collect();
+    if fits.is_empty() {
+        eprintln!("{model}: no certified fit under 40 coefficients; nothing emitted");
+        return Ok(());
+    }
+    emit::emit_cmd(&emit::EmitArgs {
+        fit: fits,
+        lang: "all".into(),
+        form: emit::FormArg::Auto,
+        data_dir: args.data_dir.clone(),
+        lut_dir: args.data_dir.join("lut"),
+        lut_resolution: 32,
+        force: false,
+    })
 }
 
 /// Runs one parsed command line.
@@ -319,6 +371,11 @@ fn run_default(args: &RunArgs) -> Result<()> {
         let t = get_table(model.as_ref(), &spec, &args.data_dir, args.force)?;
         report_table(&t);
         rows.push(t);
+    }
+    if !args.tables_only {
+        for (name, t) in DEFAULT_MODELS.iter().zip(&rows) {
+            fit_and_emit(name, &t.table.spec.resolution_name(), args)?;
+        }
     }
     println!("{:<30} {:>12} {:>8} {:>10} {:>12}", "model", "resolution", "cached", "seconds", "max err est");
     for t in &rows {

@@ -219,7 +219,7 @@ fn print_record(rec: &FitRecord, path: &Path, secs: Option<f64>) {
 fn write_sweep(outcome: &SweepOutcome, dir: &Path) -> Result<()> {
     write_atomic(&dir.join("sweep.json"), outcome.to_json()?.as_bytes())?;
     write_atomic(&dir.join("sweep.csv"), outcome.to_csv().as_bytes())?;
-    println!("{:<11} {:>3} {:<28} {:<8} {:>4} {:>10} {:>10} {:>8} {}", "form", "deg", "transforms", "objective", "n", "MAE", "max", "seconds", "poles");
+    println!("{:<11} {:>3} {:<28} {:<8} {:>4} {:>10} {:>10} {:>8} poles", "form", "deg", "transforms", "objective", "n", "MAE", "max", "seconds");
     for r in &outcome.rows {
         println!(
             "{:<11} {:>3} {:<28} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>8.2} {}",

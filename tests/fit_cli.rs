@@ -321,4 +321,11 @@ fn compare_paper_on_small_tables() {
     // the published glossy fit has a pole on its domain (near F0 = 0); furnace's is certified
     assert_eq!(entries[1]["on_furnace_table"][0]["poles"], "pole", "{md}");
     assert_eq!(entries[1]["on_furnace_table"][1]["poles"], "certified", "{md}");
+    // ... and its fit file says so; evaluating it warns
+    let glossy = read_record(&dir.join("reports/paper-glossy.json"));
+    assert!(!glossy.usable && glossy.verdict.starts_with("NOT usable"), "{}", glossy.verdict);
+    std::fs::write(dir.join("pts.csv"), "f0,r,mu\n0.5,0.5,0.5\n").unwrap();
+    let out = run(bin().arg("eval").arg("--fit").arg(dir.join("reports/paper-glossy.json")).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("warning") && err.contains("NOT usable"), "{err}");
 }

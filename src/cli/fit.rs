@@ -7,7 +7,7 @@ use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
 use crate::fit::compare::{compare_model, paper_box, same_form_request, CompareReport, PaperPair, PAPER_PAIRS};
 use crate::fit::job::{self, FitRecord, FitRequest, FormKind, SweepOutcome, SweepPlan};
-use crate::fit::source::{self, FitInput, UserTableOptions};
+use crate::fit::source::{self, FitInput, FittedOn, UserTableOptions};
 use crate::fit::Objective;
 use crate::quadrature::QuadratureSettings;
 use crate::table::io::write_atomic;
@@ -44,7 +44,7 @@ pub struct FitArgs {
     #[arg(long, value_enum, required_unless_present = "sweep")]
     pub form: Option<FormArg>,
     /// Total degree (of numerator and denominator for a rational).
-    #[arg(long, required_unless_present = "sweep")]
+    #[arg(long, required_unless_present = "sweep", conflicts_with = "sweep")]
     pub degree: Option<u32>,
     /// Sweep degrees like the paper's Fig. 3 (2D: 1–10, 3D: polynomials 1–7, rationals 1–5)
     /// over several input transforms; writes sweep.{json,csv}, best-20.json and best-40.json.
@@ -219,7 +219,7 @@ fn print_record(rec: &FitRecord, path: &Path, secs: Option<f64>) {
 fn write_sweep(outcome: &SweepOutcome, dir: &Path) -> Result<()> {
     write_atomic(&dir.join("sweep.json"), outcome.to_json()?.as_bytes())?;
     write_atomic(&dir.join("sweep.csv"), outcome.to_csv().as_bytes())?;
-    println!("{:<11} {:>3} {:<28} {:<8} {:>4} {:>10} {:>10} {:>8} {}", "form", "deg", "transforms", "objective", "n", "MAE", "max", "seconds", "poles");
+    println!("{:<11} {:>3} {:<28} {:<8} {:>4} {:>10} {:>10} {:>8} poles", "form", "deg", "transforms", "objective", "n", "MAE", "max", "seconds");
     for r in &outcome.rows {
         println!(
             "{:<11} {:>3} {:<28} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>8.2} {}",
@@ -338,7 +338,14 @@ fn compare_one(args: &ComparePaperArgs, pair: &PaperPair) -> Result<crate::fit::
     let bounds = paper_box(pair);
     let boxed = input.restrict(&bounds)?;
     let best_box = best_40(&boxed, &args.fits_dir.join(boxed_name(&model.cache_name(), &bounds)), args.no_sweep)?;
-    compare_model(&args.paper_data, pair, &input, &same, best.as_ref(), best_box.as_ref())
+    let entry = compare_model(&args.paper_data, pair, &input, &same, best.as_ref(), best_box.as_ref())?;
+    if let Some(paper) = &entry.paper_result {
+        // the published coefficients as a fit file, for `furnace eval --fit`
+        let rec = FitRecord::new(paper.clone(), &input, FittedOn { points: 0, selection: "published coefficients (Sforza & Pellacini 2022, Appendix A); not fitted by furnace".into() });
+        let path = args.reports_dir.join(format!("paper-{}.json", pair.paper_name));
+        write_atomic(&path, rec.to_json()?.as_bytes())?;
+    }
+    Ok(entry)
 }
 
 /// `furnace compare-paper`.

@@ -122,6 +122,10 @@ pub struct CompareEntry {
     pub on_furnace_table: Vec<CompareLine>,
     /// The paper's fit and furnace's 3/3 on the paper's own 32-point table.
     pub on_paper_table: Vec<CompareLine>,
+    /// The published fit measured on furnace's table (not in the report JSON; the CLI writes
+    /// it as a fit file so it can be evaluated with `furnace eval --fit`).
+    #[serde(skip)]
+    pub paper_result: Option<FitResult>,
 }
 
 /// The paper's approximant measured on `input` (variables renamed to the table's).
@@ -171,6 +175,7 @@ pub fn compare_model(
         on_furnace_table,
         paper_box: box_text(&paper_box(pair)),
         on_paper_table: vec![CompareLine::of("paper 3/3 (published)", &theirs, true, None), CompareLine::of("furnace 3/3 (same form)", &ours, true, None)],
+        paper_result: Some(paper),
     })
 }
 

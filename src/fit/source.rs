@@ -371,10 +371,12 @@ fn load_csv(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
     })
 }
 
-/// Parses a CSV table: header = variables + the value column `channel`; returns
-/// (names, row-major coordinates, values). Errors name the row (1-based, header = row 1) and
-/// the column.
-pub fn parse_csv_table(text: &str, channel: &str) -> std::result::Result<(Vec<String>, Vec<f64>, Vec<f64>), String> {
+/// Variable names, row-major coordinates and values of a CSV table.
+pub type CsvTable = (Vec<String>, Vec<f64>, Vec<f64>);
+
+/// Parses a CSV table: header = variables + the value column `channel`. Errors name the row
+/// (1-based, header = row 1) and the column.
+pub fn parse_csv_table(text: &str, channel: &str) -> std::result::Result<CsvTable, String> {
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let Some((_, head)) = lines.next() else {
         return Err(format!("empty file; expected a header naming the variables and the value column '{channel}', e.g. r,mu,{channel}"));

@@ -190,9 +190,11 @@ pub fn read_exr_channels(path: &Path) -> Result<Vec<(String, Vec<f32>)>> {
     Ok(read_exr_image(path)?.2)
 }
 
-/// Reads the first layer of an EXR file: (width, height, channels as f32, row-major with y
-/// down). Used to fit tables made elsewhere.
-pub fn read_exr_image(path: &Path) -> Result<(usize, usize, Vec<(String, Vec<f32>)>)> {
+/// Width, height and named f32 channels (row-major, y down) of an EXR image.
+pub type ExrImage = (usize, usize, Vec<(String, Vec<f32>)>);
+
+/// Reads the first layer of an EXR file. Used to fit tables made elsewhere.
+pub fn read_exr_image(path: &Path) -> Result<ExrImage> {
     use exr::prelude::*;
     let image = read()
         .no_deep_data()

@@ -526,6 +526,7 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
     for need in &plan.tables {
         let model = bsdf::find(&need.model, ModelOptions::default())?;
         let spec = TableSpec::with_ranges(model.as_ref(), &need.resolution, &need.ranges, opts.quadrature.clone())?;
+        log(&format!("  {} {}: tabulating {} cells (or reading them from the cache) …", need.model, spec.resolution_name(), spec.cells()));
         let (table, stem, cached) = crate::emit::lut::tabulate_cached(model.as_ref(), &spec, &opts.data_dir, opts.force)?;
         log(&format!("  {} {}: table {}", need.model, spec.resolution_name(), if cached { "read from cache" } else { "computed" }));
         let stable = fit_table(&table, &plan.fit, &need.model, opts.stress_points)?;

@@ -91,3 +91,51 @@ fn the_example_manifest_parses_and_plans() {
     let p = furnace::scene::plan(&m).unwrap();
     assert!(!p.tables.is_empty());
 }
+
+fn naga_ok(wgsl: &str, glsl: &str) {
+    let module = naga::front::wgsl::parse_str(wgsl).unwrap_or_else(|e| panic!("{}", e.emit_to_string(wgsl)));
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all()).validate(&module).unwrap();
+    let full = format!("#version 450\n{glsl}\nvoid main() {{}}\n");
+    let module = naga::front::glsl::Frontend::default()
+        .parse(&naga::front::glsl::Options::from(naga::ShaderStage::Fragment), &full)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&full)));
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all()).validate(&module).unwrap();
+}
+
+#[test]
+fn every_kind_in_one_scene_emits_valid_shaders_with_only_the_needed_helpers() {
+    let dir = scratch("all-kinds");
+    let manifest = Manifest::parse(
+        r#"{"name": "all-kinds", "resolution": {"2d": 12, "3d": 6}, "materials": [
+            {"name": "glass", "kind": "dielectric", "r": [0.1, 0.4], "ior": [1.4, 1.6]},
+            {"name": "plastic", "kind": "glossy", "r": [0.1, 0.4], "ior": 1.5},
+            {"name": "clay", "kind": "rough-diffuse", "r": [0.5, 1.0]}]}"#,
+        std::path::Path::new("all-kinds.json"),
+    )
+    .unwrap();
+    let opts = RunOptions {
+        data_dir: dir.join("data"),
+        fits_dir: dir.join("fits"),
+        lut_dir: dir.join("data/lut"),
+        force: false,
+        quadrature: QuadratureSettings::default(),
+        langs: vec![Lang::Rust, Lang::Wgsl, Lang::Glsl],
+        lut_resolution: 8,
+        stress_points: 2_000,
+        command: "furnace run --scene all-kinds.json".into(),
+    };
+    let out = run(&manifest, &opts, &|l| eprintln!("{l}")).unwrap();
+    let models: Vec<&str> = out.fitted.iter().map(|f| f.need.model.as_str()).collect();
+    assert_eq!(models, ["ggx-conductor", "ggx-dielectric", "ggx-dielectric-inv", "ggx-glossy", "oren-nayar-fon"]);
+    let rs = std::fs::read_to_string(dir.join("fits/all-kinds/all-kinds.rs")).unwrap();
+    let fns: Vec<&str> = rs.lines().filter_map(|l| l.strip_prefix("pub fn ")).map(|l| l.split('(').next().unwrap()).collect();
+    // glossy needs the conductor's 1/E_ss but no Turquin scale: no conductor material here
+    assert!(fns.contains(&"ggx_conductor_normalization") && !fns.contains(&"ggx_conductor_turquin_scale"), "{fns:?}");
+    for f in ["ggx_dielectric_sided_albedo", "ggx_dielectric_sided_normalization", "ggx_glossy_diffuse_weight", "oren_nayar_fon_albedo"] {
+        assert!(fns.contains(&f), "{f} missing from {fns:?}");
+    }
+    let wgsl = std::fs::read_to_string(dir.join("fits/all-kinds/all-kinds.wgsl")).unwrap();
+    let glsl = std::fs::read_to_string(dir.join("fits/all-kinds/all-kinds.glsl")).unwrap();
+    naga_ok(&wgsl, &glsl);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 
-use crate::emit::fitfile::{self, FitFile};
+use crate::emit::fitfile::FitFile;
 use crate::emit::generate::{EvalForm, FormChoice};
 use crate::emit::stress::{stress, StressOptions, DEFAULT_POINTS};
 use crate::emit::{self, build_unit, parse_langs, Lang, SourceFit};
@@ -100,7 +100,7 @@ pub fn emit_cmd(args: &EmitArgs) -> Result<()> {
 }
 
 fn emit_one(path: &Path, langs: &[Lang], args: &EmitArgs) -> Result<()> {
-    let (file, _) = fitfile::load(path)?;
+    let file = FitFile::read(path)?;
     let table = referenced_table(&file)?;
     if file.table.is_some() && table.is_none() {
         eprintln!("note: the table of {} is not in the cache; the header bounds the f32 error instead of measuring it", path.display());

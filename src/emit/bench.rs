@@ -394,18 +394,22 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
 /// The benchmark table as text.
 pub fn render(rows: &[BenchRow]) -> String {
     let mut s = format!(
-        "{:<26} {:<72} {:>8} {:>10} {:>10} {:>10} {:>10}\n",
+        "{:<20} {:<82} {:>7} {:>10} {:>8} {:>9} {:>9}\n",
         "model", "evaluation (f32)", "bytes", "ns inlined", "ns call", "max |ΔE|", "mean |ΔE|"
     );
     for r in rows {
         s.push_str(&format!(
-            "{:<26} {:<72} {:>8} {:>10.2} {:>10.2} {:>10.2e} {:>10.2e}\n",
+            "{:<20} {:<82} {:>7} {:>10.2} {:>8.2} {:>9.2e} {:>9.2e}\n",
             r.model, r.what, r.bytes, r.ns_inlined, r.ns_call, r.max_error, r.mean_error
         ));
     }
-    if let Some(r) = rows.first() {
-        s.push_str(&format!("errors against the {} table at all its nodes; times: best of the passes over random points, this machine\n", r.reference));
-    }
+    let mut refs: Vec<&str> = rows.iter().map(|r| r.reference.as_str()).collect();
+    refs.dedup();
+    s.push_str(&format!(
+        "errors: at every node of an accurate table of the same model and domain ({}); f32 LUT values, multilinear in f32\n",
+        refs.join(", ")
+    ));
+    s.push_str("times: best pass over random points; 'inlined' = call inlined in a summing loop (may vectorise), 'call' = through a function pointer\n");
     s.push_str("for comparison: approximate EON, 20.8 ns per evaluation on one CPU core (EON paper, Table 1; another machine)\n");
     s
 }

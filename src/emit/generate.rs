@@ -43,7 +43,9 @@ use crate::math::CompensatedSum;
 pub const STABLE_ERROR: f64 = 2.5e-6;
 
 /// The division guard of the normalisation helpers: the emitted albedo is clamped to [0, 1], so
-/// 1/E needs a floor; GGX conductor and dielectric albedos stay far above it on their domains.
+/// 1/E needs a floor. It never binds for a sane fit: over the default domains the tables have
+/// E ≥ 0.307 (conductor; 1 − ln 2 at r = 1, μ = 0), ≥ 0.67 (dielectric entering) and ≥ 0.30
+/// (leaving), measured on 64² and 16³ tables.
 pub const ALBEDO_FLOOR: f64 = 1e-3;
 
 /// How P and Q are evaluated.

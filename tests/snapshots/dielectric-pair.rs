@@ -6,7 +6,7 @@
 
 /// ggx_dielectric_albedo(f0, r, mu): directional albedo E of ggx-dielectric.
 /// Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; height-correlated Smith G2.
-/// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective.
+/// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial); best pole-certified start refined on all points.
 /// Source: tests/fixtures/ggx-dielectric.json (furnace 0.1.0), fit SHA-256 aa36b632e84d694212fde34358c611ba737b7620b2e4fe9af5ab79584cc9b0fe.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = f0, [0.0170132325141777, 0.0672153635116598]
@@ -15,7 +15,7 @@
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
 ///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 35937 grid points: monomial 3.1e-6 (bound 3.3e-5), shifted 1.7e-5 (bound 1.3e-4), bernstein 5.7e-7 (bound 1.9e-5).
 /// Error of the f64 fit on its 1728 data points: MAE 5.86e-4, max 4.92e-3 (recorded by the fitter).
-/// Error of this f32 code: at most the f64 fit's max 4.92e-3 + 5.7e-7 (its max |f32 − f64|); the table was not available.
+/// Error of this f32 code on the same data: MAE ≤ 5.86e-4 + 5.7e-7, max ≤ 4.92e-3 + 5.7e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
 /// f32 − f64 on 35937 grid points: max 5.7e-7 (every op rounded, as this Rust), 4.2e-7 (fused multiply–add), 5.4e-7 (GPU ÷/sqrt error); first-order bound 1.9e-5.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the grid.
 /// Denominator proved ≥ 4.748e-2 on the domain (Bernstein certificate), so the division is safe.
@@ -105,7 +105,7 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
 
 /// ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
-/// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective.
+/// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial); best pole-certified start refined on all points.
 /// Source: tests/fixtures/ggx-dielectric-inv.json (furnace 0.1.0), fit SHA-256 ca60496b6e33d029b419e752d2ebe4e5a9074d34c0898735de0da9ab9112392c.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = f0, [0.0170132325141777, 0.0672153635116598]
@@ -114,7 +114,7 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
 ///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 35937 grid points: monomial 2.1e-5 (bound 1.7e-4), shifted 1.2e-5 (bound 1.5e-4), bernstein 1.3e-6 (bound 9.7e-5).
 /// Error of the f64 fit on its 1728 data points: MAE 7.70e-3, max 5.21e-2 (recorded by the fitter).
-/// Error of this f32 code: at most the f64 fit's max 5.21e-2 + 1.3e-6 (its max |f32 − f64|); the table was not available.
+/// Error of this f32 code on the same data: MAE ≤ 7.70e-3 + 1.3e-6, max ≤ 5.21e-2 + 1.3e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
 /// f32 − f64 on 35937 grid points: max 5.7e-7 (every op rounded, as this Rust), 1.3e-6 (fused multiply–add), 1.3e-6 (GPU ÷/sqrt error); first-order bound 9.7e-5.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-2 on the grid.
 /// Denominator proved ≥ 7.971e-3 on the domain (Bernstein certificate), so the division is safe.

@@ -1,0 +1,5 @@
+//! Error reports: plots, the white furnace test, sphere images and `reports/README.md`.
+
+pub mod albedo;
+pub mod furnace;
+pub mod quad;

@@ -3,6 +3,7 @@
 
 mod bench;
 mod eval;
+mod report;
 
 use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
@@ -32,6 +33,8 @@ pub enum Command {
     Bench(BenchArgs),
     /// The main job on the built-in default set: tabulate (cached) every default model.
     Run(RunArgs),
+    /// Error reports and the white furnace test: regenerate reports/ (or one model's section).
+    Report(report::ReportArgs),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -149,6 +152,7 @@ pub fn run(cli: Cli) -> Result<()> {
             BenchWhat::Tabulate(a) => bench::bench_tabulate(&a),
         },
         Command::Run(args) => run_default(&args),
+        Command::Report(args) => report::report_cmd(&args),
     }
 }
 

@@ -3,3 +3,8 @@
 pub mod albedo;
 pub mod furnace;
 pub mod quad;
+pub mod plot;
+pub mod spheres;
+pub mod inputs;
+pub mod model;
+pub mod readme;

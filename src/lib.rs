@@ -7,6 +7,7 @@ pub mod error;
 pub mod fit;
 pub mod math;
 pub mod quadrature;
+pub mod report;
 pub mod table;
 pub mod cli;
 pub mod emit;

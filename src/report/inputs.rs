@@ -1,0 +1,347 @@
+//! What a report reads: tables (through a [`TableProvider`]), fit files under `fits/<model>/`,
+//! the paper's published fits, and benchmark CSV files. Nothing here draws or writes.
+//!
+//! # Fit files
+//! Every `*.json` file under `fits/<model>/` (recursively, in sorted path order) that holds a
+//! [`FitResult`] — or a JSON array of them, or an object with a `results` or `fits` array — is
+//! a fit of that model. The *chosen* fit, whose heat maps, slices and furnace row the report
+//! shows, is `fits/<model>/default.json` if it exists; otherwise the usable fit (pole-free,
+//! finite) with the smallest maximum error among those with at most as many coefficients as the
+//! paper's degree-3 rational (19 in 2-D, 39 in 3-D); otherwise the usable fit with the smallest
+//! maximum error. Files that are not fit results are listed in the report, never fatal.
+//!
+//! # Benchmark files
+//! Every `*.csv` file in the benchmark folder is one plot: optional comment lines
+//! `# title: …`, `# x: <label>` and `# y: <label>` (a label ending in `(log)` asks for a log
+//! axis), then a header `series,<x name>,<y name>` and one row per point.
+
+use super::albedo::{Albedo, FitAlbedo};
+use crate::bsdf::{Model, ModelOptions};
+use crate::error::{Error, Result};
+use crate::fit::paper::PaperModel;
+use crate::fit::{FitResult, Form};
+use crate::math::CompensatedSum;
+use crate::table::Table;
+use std::path::{Path, PathBuf};
+
+/// Supplies tables (e.g. from the cache under `data/`, computing missing ones).
+pub trait TableProvider {
+    /// The table of `model` at `resolution` (one count per axis) over its default domain.
+    fn table(&self, model: &dyn Model, resolution: &[usize]) -> Result<Table>;
+}
+
+/// A fit read from a file.
+#[derive(Clone, Debug)]
+pub struct LoadedFit {
+    /// Path relative to the fits folder (for the report), with `#k` for the k-th of a list.
+    pub source: String,
+    pub fit: FitResult,
+}
+
+impl LoadedFit {
+    /// "rational 3/3", "polynomial 5".
+    pub fn short_form(&self) -> String {
+        short_form(&self.fit.form)
+    }
+}
+
+/// "rational 3/3", "polynomial 5".
+pub fn short_form(form: &Form) -> String {
+    match *form {
+        Form::Polynomial { degree } => format!("polynomial {degree}"),
+        Form::Rational { numerator_degree, denominator_degree } => format!("rational {numerator_degree}/{denominator_degree}"),
+    }
+}
+
+/// Fits found for a model, and notes on files that were skipped.
+#[derive(Clone, Debug, Default)]
+pub struct FitFiles {
+    pub fits: Vec<LoadedFit>,
+    pub notes: Vec<String>,
+    /// Index into `fits` of `default.json`, if there was one.
+    pub default: Option<usize>,
+}
+
+fn json_files(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
+    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+    let mut paths: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
+    paths.sort();
+    for p in paths {
+        if p.is_dir() {
+            json_files(&p, out)?;
+        } else if p.extension().is_some_and(|e| e == "json") {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+/// Parses one fit file: a fit, an array of fits, or an object with a `results`/`fits` array.
+pub fn parse_fit_file(text: &str) -> std::result::Result<Vec<FitResult>, String> {
+    if let Ok(f) = FitResult::from_json(text) {
+        return Ok(vec![f]);
+    }
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
+    let list = match &value {
+        serde_json::Value::Array(a) => a.clone(),
+        serde_json::Value::Object(o) => match o.get("results").or_else(|| o.get("fits")) {
+            Some(serde_json::Value::Array(a)) => a.clone(),
+            _ => return Err("neither a fit result nor a list of them (no `results` or `fits` array)".into()),
+        },
+        _ => return Err("neither a fit result nor a list of them".into()),
+    };
+    list.iter()
+        .enumerate()
+        .map(|(k, v)| FitResult::from_json(&v.to_string()).map_err(|e| format!("entry {k}: {e}")))
+        .collect()
+}
+
+/// Reads every fit of a model under `dir` (missing folder: no fits, no error).
+pub fn load_fits(dir: &Path) -> Result<FitFiles> {
+    let mut out = FitFiles::default();
+    if !dir.is_dir() {
+        return Ok(out);
+    }
+    let mut files = Vec::new();
+    json_files(dir, &mut files)?;
+    for path in files {
+        let rel = path.strip_prefix(dir).unwrap_or(&path).to_string_lossy().replace('\\', "/");
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        match parse_fit_file(&text) {
+            Ok(fits) => {
+                let many = fits.len() > 1;
+                for (k, fit) in fits.into_iter().enumerate() {
+                    if rel == "default.json" && !many {
+                        out.default = Some(out.fits.len());
+                    }
+                    let source = if many { format!("{rel}#{k}") } else { rel.clone() };
+                    out.fits.push(LoadedFit { source, fit });
+                }
+            }
+            Err(e) => out.notes.push(format!("skipped `{rel}`: {e}")),
+        }
+    }
+    Ok(out)
+}
+
+/// Coefficients of the paper's degree-3 rational: 19 in 2-D, 39 in 3-D.
+pub fn paper_coefficients(dim: usize) -> usize {
+    if dim <= 2 { 19 } else { 39 }
+}
+
+/// The chosen fit (see the module docs), as an index into `files.fits`.
+pub fn choose_fit(files: &FitFiles, dim: usize, measured: &[Measured]) -> Option<usize> {
+    if files.default.is_some() {
+        return files.default;
+    }
+    let budget = paper_coefficients(dim);
+    let best = |within: bool| {
+        files
+            .fits
+            .iter()
+            .enumerate()
+            .filter(|(k, f)| f.fit.is_usable() && measured[*k].max_abs.is_finite() && (!within || f.fit.n_coefficients <= budget))
+            .min_by(|(a, _), (b, _)| measured[*a].max_abs.total_cmp(&measured[*b].max_abs).then(a.cmp(b)))
+            .map(|(k, _)| k)
+    };
+    best(true).or_else(|| best(false))
+}
+
+/// Error of an albedo source against a table, measured at every node.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Measured {
+    pub mae: f64,
+    pub max_abs: f64,
+    /// Where the largest error is (table axes).
+    pub max_abs_at: Vec<f64>,
+    /// max |f − E|/|E| over nodes with |E| ≥ 1e-6.
+    pub max_rel: f64,
+    pub points: usize,
+}
+
+/// Measures `source` at every node of `table` (sequential, compensated sums: reproducible).
+/// Non-finite values make every statistic infinite.
+pub fn measure(source: &dyn Albedo, table: &Table) -> Measured {
+    let spec = &table.spec;
+    let mut x = vec![0.0; spec.axes.len()];
+    let mut sum = CompensatedSum::default();
+    let mut m = Measured { mae: 0.0, max_abs: 0.0, max_abs_at: vec![], max_rel: 0.0, points: table.cells() };
+    let mut bad = false;
+    for (cell, &y) in table.output(0).iter().enumerate() {
+        spec.point(cell, &mut x);
+        let e = (source.albedo(&x) - y).abs();
+        if !e.is_finite() {
+            bad = true;
+            continue;
+        }
+        sum.add(e);
+        if e > m.max_abs || m.max_abs_at.is_empty() {
+            m.max_abs = e;
+            m.max_abs_at = x.clone();
+        }
+        if y.abs() >= crate::fit::metrics::RELATIVE_ERROR_FLOOR {
+            m.max_rel = m.max_rel.max(e / y.abs());
+        }
+    }
+    m.mae = sum.value() / table.cells().max(1) as f64;
+    if bad {
+        m.mae = f64::INFINITY;
+        m.max_abs = f64::INFINITY;
+        m.max_rel = f64::INFINITY;
+    }
+    m
+}
+
+/// The paper's fit of a furnace model, if it has one: which published table, and the options of
+/// the furnace model in the paper's convention (radiance-form transmission for dielectrics).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PaperLink {
+    pub paper: PaperModel,
+    /// Stem of the paper's coefficient and table files (`conductors`, …).
+    pub stem: &'static str,
+    pub options: ModelOptions,
+}
+
+/// The paper's fit of `model`, if any. The paper uses the separable Smith G and tabulates
+/// transmission in radiance form.
+pub fn paper_link(model: &str) -> Option<PaperLink> {
+    let radiance = ModelOptions { radiance_transmission: true };
+    match model {
+        "ggx-conductor-separable" => Some(PaperLink { paper: PaperModel::Conductors, stem: "conductors", options: ModelOptions::default() }),
+        "ggx-glossy-separable" => Some(PaperLink { paper: PaperModel::Glossy, stem: "glossy", options: ModelOptions::default() }),
+        "ggx-dielectric-separable" => Some(PaperLink { paper: PaperModel::Dielectrics, stem: "dielectrics", options: radiance }),
+        "ggx-dielectric-inv-separable" => Some(PaperLink { paper: PaperModel::DielectricsInvEta, stem: "dielectrics_inv_eta", options: radiance }),
+        _ => None,
+    }
+}
+
+/// The paper's published fit as a [`FitResult`] measured on its own 32-point table (so its
+/// `metrics` are the paper's own numbers), from `paper_dir`.
+pub fn load_paper_fit(paper_dir: &Path, link: &PaperLink) -> Result<FitResult> {
+    let coefficients = paper_dir.join("coefficients").join(format!("{}.csv", link.stem));
+    let table = paper_dir.join("tables").join(format!("{}.csv", link.stem));
+    let data = crate::fit::paper::load_table(&table, link.paper)?;
+    Ok(crate::fit::paper::published_fit(&coefficients, link.paper, &data)?)
+}
+
+/// A fit as an albedo source for a model with axes `axes`.
+pub fn fit_albedo(fit: &FitResult, axes: &[String]) -> Result<FitAlbedo> {
+    FitAlbedo::new(fit, axes)
+}
+
+/// One benchmark plot read from a CSV file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BenchPlot {
+    pub stem: String,
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub x_log: bool,
+    pub y_log: bool,
+    /// (series, x, y) in file order.
+    pub rows: Vec<(String, f64, f64)>,
+}
+
+/// Parses a benchmark CSV (see the module docs).
+pub fn parse_bench_csv(stem: &str, text: &str) -> std::result::Result<BenchPlot, String> {
+    let mut plot = BenchPlot { stem: stem.into(), title: stem.replace(['-', '_'], " "), x_label: String::new(), y_label: String::new(), x_log: false, y_log: false, rows: vec![] };
+    let mut header: Option<Vec<String>> = None;
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() {
+            continue;
+        }
+        if let Some(c) = line.strip_prefix('#') {
+            let c = c.trim();
+            if let Some(t) = c.strip_prefix("title:") {
+                plot.title = t.trim().into();
+            } else if let Some(t) = c.strip_prefix("x:") {
+                plot.x_label = t.trim().into();
+            } else if let Some(t) = c.strip_prefix("y:") {
+                plot.y_label = t.trim().into();
+            }
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').map(|s| s.trim()).collect();
+        if header.is_none() {
+            if cells.len() != 3 {
+                return Err(format!("line {}: the header must have three columns (series,x,y), found {}", n + 1, cells.len()));
+            }
+            header = Some(cells.iter().map(|s| s.to_string()).collect());
+            continue;
+        }
+        if cells.len() != 3 {
+            return Err(format!("line {}: expected 3 values, found {}", n + 1, cells.len()));
+        }
+        let num = |s: &str, what: &str| -> std::result::Result<f64, String> {
+            s.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| format!("line {}: {what} '{s}' is not a finite number", n + 1))
+        };
+        plot.rows.push((cells[0].to_string(), num(cells[1], "x")?, num(cells[2], "y")?));
+    }
+    let header = header.ok_or("no header line (series,x,y)")?;
+    if plot.x_label.is_empty() {
+        plot.x_label = header[1].clone();
+    }
+    if plot.y_label.is_empty() {
+        plot.y_label = header[2].clone();
+    }
+    for (label, log) in [(&mut plot.x_label, &mut plot.x_log), (&mut plot.y_label, &mut plot.y_log)] {
+        if let Some(l) = label.strip_suffix("(log)") {
+            *label = l.trim().to_string();
+            *log = true;
+        }
+    }
+    if plot.rows.is_empty() {
+        return Err("no data rows".into());
+    }
+    Ok(plot)
+}
+
+/// Reads every `*.csv` in `dir` (sorted); missing folder → none. Unreadable files become notes.
+pub fn load_bench(dir: &Path) -> Result<(Vec<BenchPlot>, Vec<String>)> {
+    let mut plots = Vec::new();
+    let mut notes = Vec::new();
+    if !dir.is_dir() {
+        return Ok((plots, notes));
+    }
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| Error::io(dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+        .collect();
+    paths.sort();
+    for p in paths {
+        let stem = p.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+        let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
+        match parse_bench_csv(&stem, &text) {
+            Ok(b) => plots.push(b),
+            Err(e) => notes.push(format!("skipped `{}`: {e}", p.file_name().map(|s| s.to_string_lossy().to_string()).unwrap_or_default())),
+        }
+    }
+    Ok((plots, notes))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bench_csv_parses_labels_and_log_axes() {
+        let text = "# title: Evaluation cost\n# x: ns per call (log)\n# y: max error (log)\nseries,ns,err\nfit a,1.5,1e-3\nLUT,2,2e-4\n";
+        let b = parse_bench_csv("eval", text).unwrap();
+        assert_eq!(b.title, "Evaluation cost");
+        assert_eq!((b.x_label.as_str(), b.x_log, b.y_log), ("ns per call", true, true));
+        assert_eq!(b.rows, vec![("fit a".into(), 1.5, 1e-3), ("LUT".into(), 2.0, 2e-4)]);
+        let b = parse_bench_csv("t", "series,order,seconds\na,1,2\n").unwrap();
+        assert_eq!((b.x_label.as_str(), b.y_label.as_str(), b.x_log), ("order", "seconds", false));
+        assert!(parse_bench_csv("t", "series,x,y\na,1,nan\n").unwrap_err().contains("line 2"));
+        assert!(parse_bench_csv("t", "series,x\n").is_err());
+    }
+
+    #[test]
+    fn fit_files_may_hold_lists() {
+        assert!(parse_fit_file("{\"results\": []}").unwrap().is_empty());
+        assert!(parse_fit_file("[1]").unwrap_err().contains("entry 0"));
+        assert!(parse_fit_file("{\"x\": 1}").is_err());
+    }
+}

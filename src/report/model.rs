@@ -1,0 +1,984 @@
+//! One model's section of the report: its fits measured against its table (the paper's Fig. 3),
+//! error heat maps and E(μ) slices of the chosen fit, the paper comparison, and the white furnace
+//! test of the materials its albedo compensates, with sphere images.
+//!
+//! Everything is written under `reports/<model>/`: the figures, `section.md` (the section's
+//! markdown, with links relative to `reports/`, included in `reports/README.md`) and
+//! `summary.json` (the numbers the README's summary tables are assembled from, so that
+//! `furnace report --model M` can update one model and rebuild the README).
+
+use super::albedo::{Albedo, FitAlbedo, TableAlbedo};
+use super::furnace::{furnace_stats, furnace_values, lobe_integrals_at, Compensation, FurnaceStats, Material, MaterialClass};
+use super::inputs::{self, choose_fit, load_fits, measure, paper_link, short_form, FitFiles, Measured, TableProvider};
+use super::plot::{self, color, Axis, Chart, ColorScale, Figure, Formats, HeatFigure, HeatPanel, LegendAt, Marker, Series, Style};
+use super::spheres::{sphere_columns, Show, SphereFigure, SphereRow};
+use crate::bsdf::{self, Model, ModelOptions};
+use crate::error::{Error, Result};
+use crate::fit::FitResult;
+use crate::math::SmithForm;
+use crate::table::Table;
+use serde::{Deserialize, Serialize};
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+/// What a report covers and where it reads and writes.
+#[derive(Clone, Debug)]
+pub struct ReportOptions {
+    /// Output folder (`reports`).
+    pub reports_dir: PathBuf,
+    /// Fit files, one folder per model (`fits`).
+    pub fits_dir: PathBuf,
+    /// Benchmark CSV files (`bench`).
+    pub bench_dir: PathBuf,
+    /// The paper's published coefficients and tables (`coefficients/`, `tables/`), if available.
+    pub paper_dir: Option<PathBuf>,
+    /// Nodes per axis of the tables fits are measured against, 2-D and 3-D.
+    pub resolution_2d: usize,
+    pub resolution_3d: usize,
+    /// Nodes per axis of the LUTs (multilinear), 2-D and 3-D.
+    pub lut_2d: usize,
+    pub lut_3d: usize,
+    /// Furnace grid: at most this many table nodes per r and μ axis…
+    pub furnace_nodes: usize,
+    /// …and this many F0 slices of 3-D tables.
+    pub furnace_f0_slices: usize,
+    /// Roughness of the spheres, left to right.
+    pub sphere_roughness: Vec<f64>,
+    /// F0 of the spheres of 3-D classes (glossy, dielectrics): 0.04, η = 1.5.
+    pub sphere_f0: f64,
+}
+
+impl ReportOptions {
+    /// Small, fast defaults (2-D 65², 3-D 17³ tables; 33² and 9³ LUTs that are every other node
+    /// of them), rooted at `root`.
+    pub fn new(root: &Path) -> ReportOptions {
+        ReportOptions {
+            reports_dir: root.join("reports"),
+            fits_dir: root.join("fits"),
+            bench_dir: root.join("bench"),
+            paper_dir: None,
+            resolution_2d: 65,
+            resolution_3d: 17,
+            lut_2d: 33,
+            lut_3d: 9,
+            furnace_nodes: 33,
+            furnace_f0_slices: 3,
+            sphere_roughness: vec![0.0, 0.2, 0.4, 0.6, 0.8, 1.0],
+            sphere_f0: 0.04,
+        }
+    }
+
+    fn resolution(&self, dims: usize) -> Vec<usize> {
+        vec![if dims <= 2 { self.resolution_2d } else { self.resolution_3d }; dims]
+    }
+
+    fn lut(&self, dims: usize) -> usize {
+        if dims <= 2 { self.lut_2d } else { self.lut_3d }
+    }
+}
+
+/// The models `furnace report` covers by default: the paper's set in both Smith forms and the
+/// rough-diffuse models.
+pub const REPORT_MODELS: &[&str] = &[
+    "ggx-conductor",
+    "ggx-conductor-separable",
+    "ggx-glossy",
+    "ggx-glossy-separable",
+    "ggx-dielectric",
+    "ggx-dielectric-separable",
+    "ggx-dielectric-inv",
+    "ggx-dielectric-inv-separable",
+    "oren-nayar-qon",
+    "oren-nayar-fon",
+    "eon",
+];
+
+/// The furnace materials whose compensation reads `model`'s albedo.
+pub fn materials_for(model: &str) -> Vec<Material> {
+    let smith = if model.ends_with("-separable") { SmithForm::Separable } else { SmithForm::HeightCorrelated };
+    let base = model.trim_end_matches("-separable");
+    let m = |class| Material::new(class, smith);
+    match base {
+        "ggx-conductor" => vec![m(MaterialClass::Conductor), m(MaterialClass::ThinDielectric)],
+        "ggx-glossy" => vec![m(MaterialClass::Glossy)],
+        "ggx-dielectric" => vec![m(MaterialClass::Dielectric { inverse: false })],
+        "ggx-dielectric-inv" => vec![m(MaterialClass::Dielectric { inverse: true })],
+        "oren-nayar-fon" => vec![Material::new(MaterialClass::RoughDiffuse, SmithForm::HeightCorrelated)],
+        _ => vec![],
+    }
+}
+
+/// A fit's row in the report.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitRow {
+    /// File (relative to `fits/<model>/`) or "paper".
+    pub source: String,
+    pub form: String,
+    pub n_coefficients: usize,
+    /// Proved pole-free and finite.
+    pub usable: bool,
+    /// Measured here against the report's table.
+    pub measured: Measured,
+    /// As recorded in the fit (on the data it was fitted to).
+    pub reported_mae: f64,
+    pub reported_max: f64,
+    pub reported_max_rel: f64,
+}
+
+/// The white furnace result of one compensation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FurnaceVariant {
+    pub name: String,
+    pub stats: Option<FurnaceStats>,
+    /// Why there is no result, or what the albedo source is.
+    pub note: String,
+}
+
+/// The furnace test of one material.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FurnaceRow {
+    pub material: String,
+    pub id: String,
+    pub points: usize,
+    /// Largest error estimate of the furnace quadrature over the points.
+    pub quadrature_error: f64,
+    pub unconverged: usize,
+    pub variants: Vec<FurnaceVariant>,
+    /// Sphere images (relative to `reports/`).
+    pub images: Vec<String>,
+}
+
+/// The paper comparison of a model (its four tables are conductors, glossy, dielectrics and
+/// dielectrics_inv_eta).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperRow {
+    pub paper_table: String,
+    /// The furnace model in the paper's convention (radiance-form transmission for dielectrics).
+    pub convention_model: String,
+    pub resolution: String,
+    pub furnace_fit: Option<FitRow>,
+    pub furnace_fit_furnace: Option<f64>,
+    pub paper_fit: FitRow,
+    pub paper_fit_furnace: Option<f64>,
+    /// Why a number is missing.
+    pub notes: Vec<String>,
+}
+
+/// Everything the README's summary needs from one model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelSummary {
+    pub model: String,
+    pub description: String,
+    pub resolution: String,
+    pub table_max_error_estimate: f64,
+    pub fits: Vec<FitRow>,
+    pub chosen: Option<usize>,
+    pub paper: Option<PaperRow>,
+    pub furnace: Vec<FurnaceRow>,
+    /// Every file the section links (relative to `reports/`).
+    pub files: Vec<String>,
+}
+
+/// A model's table, LUT, fits and paper fit, loaded once per report run.
+struct ModelData {
+    name: String,
+    model: Box<dyn Model>,
+    axes: Vec<String>,
+    table: Table,
+    lut: TableAlbedo,
+    exact: TableAlbedo,
+    fits: FitFiles,
+    measured: Vec<Measured>,
+    chosen: Option<usize>,
+    chosen_albedo: Option<FitAlbedo>,
+    paper: Option<(FitResult, FitAlbedo, Measured)>,
+}
+
+impl ModelData {
+    fn dims(&self) -> usize {
+        self.axes.len()
+    }
+
+    fn fit_row(&self, k: usize) -> FitRow {
+        fit_row(&self.fits.fits[k].source, &self.fits.fits[k].fit, &self.measured[k])
+    }
+}
+
+fn fit_row(source: &str, fit: &FitResult, measured: &Measured) -> FitRow {
+    FitRow {
+        source: source.into(),
+        form: short_form(&fit.form),
+        n_coefficients: fit.n_coefficients,
+        usable: fit.is_usable(),
+        measured: measured.clone(),
+        reported_mae: fit.metrics.mae,
+        reported_max: fit.metrics.max_abs_error,
+        reported_max_rel: fit.metrics.max_rel_error,
+    }
+}
+
+/// A report run: options, the table source, and the models loaded so far.
+pub struct Reporter<'a> {
+    pub options: ReportOptions,
+    tables: &'a dyn TableProvider,
+    progress: &'a dyn Fn(&str),
+    loaded: RefCell<BTreeMap<String, Rc<ModelData>>>,
+}
+
+/// A compensation reading `albedo` (and, for glossy, the conductor's `conductor`).
+fn with<'b>(albedo: &'b dyn Albedo, conductor: Option<&'b dyn Albedo>) -> Compensation<'b> {
+    Compensation::With { albedo, conductor }
+}
+
+/// Key of a model with options (the cache name distinguishes radiance-form variants).
+fn key(name: &str, options: ModelOptions) -> String {
+    if options.radiance_transmission { format!("{name}-radiance") } else { name.to_string() }
+}
+
+/// A LUT of `m` nodes per axis: every k-th node of `table` when (n − 1) is a multiple of (m − 1)
+/// (the tabulated values, no resampling), else `None`.
+fn subsample_lut(table: &Table, m: usize) -> Option<Table> {
+    let axes = &table.spec.axes;
+    if m < 2 || axes.iter().any(|a| (a.n - 1) % (m - 1) != 0) {
+        return None;
+    }
+    let strides: Vec<usize> = axes.iter().map(|a| (a.n - 1) / (m - 1)).collect();
+    let mut spec = table.spec.clone();
+    for a in &mut spec.axes {
+        a.n = m;
+    }
+    let cells = spec.cells();
+    let mut values = Vec::with_capacity(cells * spec.outputs.len());
+    for o in 0..spec.outputs.len() {
+        let src = table.output(o);
+        for cell in 0..cells {
+            let mut rest = cell;
+            let mut flat = 0;
+            let mut idx = vec![0; axes.len()];
+            for d in (0..axes.len()).rev() {
+                idx[d] = rest % m;
+                rest /= m;
+            }
+            for d in 0..axes.len() {
+                flat = flat * axes[d].n + idx[d] * strides[d];
+            }
+            values.push(src[flat]);
+        }
+    }
+    Some(Table { spec, values, errors: vec![0.0; cells], summary: table.summary.clone() })
+}
+
+impl<'a> Reporter<'a> {
+    pub fn new(options: ReportOptions, tables: &'a dyn TableProvider, progress: &'a dyn Fn(&str)) -> Reporter<'a> {
+        Reporter { options, tables, progress, loaded: RefCell::new(BTreeMap::new()) }
+    }
+
+    fn data(&self, name: &str, options: ModelOptions) -> Result<Rc<ModelData>> {
+        let k = key(name, options);
+        if let Some(d) = self.loaded.borrow().get(&k) {
+            return Ok(d.clone());
+        }
+        let model = bsdf::find(name, options)?;
+        let axes: Vec<String> = model.axes().iter().map(|a| a.name.clone()).collect();
+        (self.progress)(&format!("{k}: table"));
+        let table = self.tables.table(model.as_ref(), &self.options.resolution(axes.len()))?;
+        let lut_n = self.options.lut(axes.len());
+        let lut_table = match subsample_lut(&table, lut_n) {
+            Some(t) => t,
+            None => {
+                (self.progress)(&format!("{k}: LUT {lut_n}"));
+                self.tables.table(model.as_ref(), &vec![lut_n; axes.len()])?
+            }
+        };
+        let fits = load_fits(&self.options.fits_dir.join(model.cache_name()))?;
+        let fit_albedos: Vec<Option<FitAlbedo>> = fits.fits.iter().map(|f| FitAlbedo::new(&f.fit, &axes).ok()).collect();
+        let measured: Vec<Measured> = fit_albedos
+            .iter()
+            .map(|a| match a {
+                Some(a) => measure(a, &table),
+                None => Measured { mae: f64::INFINITY, max_abs: f64::INFINITY, max_abs_at: vec![], max_rel: f64::INFINITY, points: 0 },
+            })
+            .collect();
+        let chosen = choose_fit(&fits, axes.len(), &measured);
+        let chosen_albedo = chosen.and_then(|k| fit_albedos[k].clone());
+        let paper = match (&self.options.paper_dir, paper_link(name)) {
+            (Some(dir), Some(link)) if link.options == options => {
+                let fit = inputs::load_paper_fit(dir, &link)?;
+                let albedo = FitAlbedo::new(&fit, &axes)?;
+                let m = measure(&albedo, &table);
+                Some((fit, albedo, m))
+            }
+            _ => None,
+        };
+        let data = Rc::new(ModelData {
+            name: k.clone(),
+            exact: TableAlbedo::new(&table),
+            lut: TableAlbedo::new(&lut_table),
+            model,
+            axes,
+            table,
+            fits,
+            measured,
+            chosen,
+            chosen_albedo,
+            paper,
+        });
+        self.loaded.borrow_mut().insert(k, data.clone());
+        Ok(data)
+    }
+
+    fn model_dir(&self, name: &str) -> PathBuf {
+        self.options.reports_dir.join(name)
+    }
+
+    /// Generates `reports/<name>/` (figures, `section.md`, `summary.json`) and returns the summary.
+    pub fn report_model(&self, name: &str) -> Result<ModelSummary> {
+        let data = self.data(name, ModelOptions::default())?;
+        let dir = self.model_dir(name);
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        let mut files = Vec::new();
+        let rel = |p: &Path| p.strip_prefix(&self.options.reports_dir).unwrap_or(p).to_string_lossy().replace('\\', "/");
+
+        (self.progress)(&format!("{name}: figures"));
+        let fig3 = self.fig_error_vs_coefficients(&data, &dir.join("error-vs-coefficients"))?;
+        files.extend(fig3.iter().map(|p| rel(p)));
+        let heat = self.fig_heatmaps(&data, &dir)?;
+        files.extend(heat.iter().map(|p| rel(p)));
+        let slices = self.fig_slices(&data, &dir.join("slices"))?;
+        files.extend(slices.iter().map(|p| rel(p)));
+
+        let paper = match paper_link(name) {
+            Some(link) => match &self.options.paper_dir {
+                Some(_) => Some(self.paper_row(name, link)?),
+                None => None,
+            },
+            None => None,
+        };
+
+        let mut furnace = Vec::new();
+        for material in materials_for(name) {
+            (self.progress)(&format!("{name}: furnace {}", material.label()));
+            let row = self.furnace_row(&material, &dir)?;
+            files.extend(row.images.iter().cloned());
+            furnace.push(row);
+        }
+
+        let summary = ModelSummary {
+            model: name.to_string(),
+            description: data.model.summary(),
+            resolution: data.table.spec.resolution_name(),
+            table_max_error_estimate: data.table.summary.max_error_estimate,
+            fits: (0..data.fits.fits.len()).map(|k| data.fit_row(k)).collect(),
+            chosen: data.chosen,
+            paper,
+            furnace,
+            files,
+        };
+        let section = self.section_markdown(&data, &summary);
+        crate::table::io::write_atomic(&dir.join("section.md"), section.as_bytes())?;
+        let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::file(dir.join("summary.json"), e.to_string()))?;
+        crate::table::io::write_atomic(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
+        Ok(summary)
+    }
+
+    /// Paper's Fig. 3: MAE and max error against number of coefficients.
+    fn fig_error_vs_coefficients(&self, data: &ModelData, stem: &Path) -> Result<Vec<PathBuf>> {
+        if data.fits.fits.is_empty() && data.paper.is_none() {
+            return Ok(vec![]);
+        }
+        // best (lowest MAE) fit per (kind, coefficient count)
+        let mut best: BTreeMap<(bool, usize), usize> = BTreeMap::new();
+        for (k, f) in data.fits.fits.iter().enumerate() {
+            let rational = matches!(f.fit.form, crate::fit::Form::Rational { .. });
+            let e = best.entry((rational, f.fit.n_coefficients)).or_insert(k);
+            if data.measured[k].mae < data.measured[*e].mae {
+                *e = k;
+            }
+        }
+        let max_n = data.fits.fits.iter().map(|f| f.fit.n_coefficients).chain(data.paper.iter().map(|p| p.0.n_coefficients)).max().unwrap_or(1);
+        let chart = |title: &str, y_label: &str, pick: &dyn Fn(&Measured) -> f64| {
+            let mut series = Vec::new();
+            for (rational, name, c, marker) in [(false, "polynomial", 0, Marker::Circle), (true, "rational", 1, Marker::Square)] {
+                let pts: Vec<(f64, f64)> = best.iter().filter(|((r, _), _)| *r == rational).map(|((_, n), &k)| (*n as f64, pick(&data.measured[k]))).collect();
+                if !pts.is_empty() {
+                    series.push(Series::new(name, pts, color(c), Style::LinePoints).marker(marker));
+                }
+            }
+            if let Some(k) = data.chosen {
+                let f = &data.fits.fits[k];
+                series.push(Series::new(&format!("chosen: {}", f.short_form()), vec![(f.fit.n_coefficients as f64, pick(&data.measured[k]))], color(2), Style::Points).marker(Marker::Triangle));
+            }
+            if let Some((fit, _, m)) = &data.paper {
+                series.push(Series::new("paper's published fit (rational 3/3)", vec![(fit.n_coefficients as f64, pick(m))], color(3), Style::Points).marker(Marker::Cross));
+            }
+            let room = legend_room(&series);
+            Chart { title: title.into(), x: Axis::linear("number of coefficients").with_range(0.0, max_n as f64 * 1.08 + 2.0), y: Axis::log(y_label), series, legend: LegendAt::UpperRight, legend_room: room }
+        };
+        let fig = Figure {
+            title: Some(format!("{}: error against number of coefficients (on the {} table)", data.name, data.table.spec.resolution_name())),
+            charts: vec![
+                chart("mean absolute error", "MAE of E", &|m: &Measured| m.mae),
+                chart("maximum absolute error", "max |fit − table|", &|m: &Measured| m.max_abs),
+            ],
+            size: (1300, 560),
+        };
+        plot::save(&fig, stem, Formats::PngAndSvg)
+    }
+
+    /// Heat maps of the chosen fit's error: |fit − table| (log) and fit − table (signed).
+    fn fig_heatmaps(&self, data: &ModelData, dir: &Path) -> Result<Vec<PathBuf>> {
+        let (Some(k), Some(fit)) = (data.chosen, &data.chosen_albedo) else { return Ok(vec![]) };
+        let form = data.fits.fits[k].short_form();
+        let t = &data.table;
+        let axes = &t.spec.axes;
+        let dims = axes.len();
+        let (ra, ma) = (&axes[dims - 2], &axes[dims - 1]);
+        let slices: Vec<usize> = if dims == 3 { slice_indices(axes[0].n, 3) } else { vec![0] };
+        const MAX_CELLS: usize = 128;
+        let (br, bm) = (ra.n.div_ceil(MAX_CELLS), ma.n.div_ceil(MAX_CELLS));
+        let (ny, nx) = (ra.n.div_ceil(br), ma.n.div_ceil(bm));
+        let mut abs_panels = Vec::new();
+        let mut signed_panels = Vec::new();
+        let mut all_abs = Vec::new();
+        for &s in &slices {
+            // signed error with the largest magnitude in each display block (max-pooling keeps peaks)
+            let mut cells = vec![0.0f64; nx * ny];
+            let mut worst = (0.0f64, (0.0, 0.0));
+            let mut x = vec![0.0; dims];
+            for i in 0..ra.n {
+                for j in 0..ma.n {
+                    let cell = (s * ra.n + i) * ma.n + j;
+                    t.spec.point(cell, &mut x);
+                    let e = fit.albedo(&x) - t.output(0)[cell];
+                    let c = &mut cells[(i / br) * nx + j / bm];
+                    if e.abs() > c.abs() {
+                        *c = e;
+                    }
+                    if e.abs() > worst.0 {
+                        worst = (e.abs(), (x[dims - 1], x[dims - 2]));
+                    }
+                }
+            }
+            let title = if dims == 3 { format!("{} = {}", axes[0].name, plot::format_number(axes[0].node(s))) } else { data.name.clone() };
+            let half_r = 0.5 * (ra.hi - ra.lo) / (ra.n - 1) as f64 * br as f64;
+            let half_m = 0.5 * (ma.hi - ma.lo) / (ma.n - 1) as f64 * bm as f64;
+            let mark = Some((worst.1, format!("max {} at μ = {}, r = {}", plot::format_number(worst.0), plot::format_number(worst.1 .0), plot::format_number(worst.1 .1))));
+            let panel = |values: Vec<f64>| HeatPanel {
+                title: title.clone(),
+                x_label: "μ = cos θo".into(),
+                y_label: "r = √α".into(),
+                x_range: (ma.lo - half_m, ma.lo - half_m + 2.0 * half_m * nx as f64),
+                y_range: (ra.lo - half_r, ra.lo - half_r + 2.0 * half_r * ny as f64),
+                nx,
+                ny,
+                values,
+                mark: mark.clone(),
+            };
+            all_abs.extend(cells.iter().map(|v| v.abs()));
+            abs_panels.push(panel(cells.iter().map(|v| v.abs()).collect()));
+            signed_panels.push(panel(cells));
+        }
+        let width = (150 + 520 * slices.len() as u32).max(1000);
+        let mut out = Vec::new();
+        let abs = HeatFigure {
+            title: Some(format!("|fit − table| of the chosen fit ({form}, {} coefficients)", data.fits.fits[k].fit.n_coefficients)),
+            panels: abs_panels,
+            scale: ColorScale::log_for(&all_abs, 6.0),
+            colorbar_label: "|fit − table| (log scale)".into(),
+            size: (width, 580),
+        };
+        out.extend(plot::save(&abs, &dir.join("heatmap-abs"), Formats::PngAndSvg)?);
+        let signed_values: Vec<f64> = signed_panels.iter().flat_map(|p| p.values.iter().copied()).collect();
+        let signed = HeatFigure {
+            title: Some(format!("fit − table of the chosen fit ({form}; red: fit too high, blue: too low)")),
+            scale: ColorScale::signed_for(&signed_values),
+            panels: signed_panels,
+            colorbar_label: "fit − table".into(),
+            size: (width, 580),
+        };
+        out.extend(plot::save(&signed, &dir.join("heatmap-signed"), Formats::PngAndSvg)?);
+        Ok(out)
+    }
+
+    /// E(μ) at several r: table, chosen fit, paper's fit; and their differences.
+    fn fig_slices(&self, data: &ModelData, stem: &Path) -> Result<Vec<PathBuf>> {
+        let t = &data.table;
+        let axes = &t.spec.axes;
+        let dims = axes.len();
+        let (ra, ma) = (&axes[dims - 2], &axes[dims - 1]);
+        let f0_index = if dims == 3 { nearest_node(&axes[0], self.options.sphere_f0) } else { 0 };
+        let rs: Vec<usize> = [0.1, 0.3, 0.6, 1.0].iter().map(|&r| nearest_node(ra, r)).collect();
+        let fit = data.chosen.zip(data.chosen_albedo.as_ref());
+        let paper = data.paper.as_ref().map(|p| &p.1);
+        let mut left = Vec::new();
+        let mut right = Vec::new();
+        let marker_stride = (ma.n / 16).max(1);
+        for (c, &i) in rs.iter().enumerate() {
+            let r = ra.node(i);
+            let point = |j: usize| -> Vec<f64> {
+                let mu = ma.node(j);
+                if dims == 3 { vec![axes[0].node(f0_index), r, mu] } else { vec![r, mu] }
+            };
+            let cell = |j: usize| (f0_index * ra.n + i) * ma.n + j;
+            let table: Vec<(f64, f64)> = (0..ma.n).map(|j| (ma.node(j), t.output(0)[cell(j)])).collect();
+            left.push(Series::new(&format!("r = {}", plot::format_number(r)), table, color(c), Style::Line));
+            if let Some((_, f)) = fit {
+                left.push(Series::new("", (0..ma.n).map(|j| (ma.node(j), f.albedo(&point(j)))).collect(), color(c), Style::Dashed));
+                right.push(Series::new(&format!("fit, r = {}", plot::format_number(r)), (0..ma.n).map(|j| (ma.node(j), f.albedo(&point(j)) - t.output(0)[cell(j)])).collect(), color(c), Style::Line));
+            }
+            if let Some(p) = paper {
+                left.push(Series::new("", (0..ma.n).step_by(marker_stride).map(|j| (ma.node(j), p.albedo(&point(j)))).collect(), color(c), Style::Points).marker(Marker::Cross));
+                right.push(Series::new(&format!("paper, r = {}", plot::format_number(r)), (0..ma.n).map(|j| (ma.node(j), p.albedo(&point(j)) - t.output(0)[cell(j)])).collect(), color(c), Style::Dashed));
+            }
+        }
+        let key = RGBColorKey::black();
+        left.push(Series::new(&format!("table ({})", t.spec.resolution_name()), vec![], key, Style::Line));
+        if let Some((k, _)) = fit {
+            left.push(Series::new(&format!("fit: {}", data.fits.fits[k].short_form()), vec![], key, Style::Dashed));
+        }
+        if paper.is_some() {
+            left.push(Series::new("paper's fit", vec![], key, Style::Points).marker(Marker::Cross));
+        }
+        let f0_text = if dims == 3 { format!(" at {} = {}", axes[0].name, plot::format_number(axes[0].node(f0_index))) } else { String::new() };
+        let mut charts = vec![Chart {
+            title: format!("E(μ){f0_text}"),
+            x: Axis::linear("μ = cos θo").with_range(0.0, 1.0),
+            y: Axis::linear("directional albedo E"),
+            legend_room: 0.0,
+            series: left,
+            legend: LegendAt::Right,
+        }];
+        if !right.is_empty() {
+            let what = match (fit.is_some(), paper.is_some()) {
+                (true, true) => "solid: chosen fit, dashed: paper's fit",
+                (true, false) => "chosen fit",
+                _ => "paper's fit",
+            };
+            charts.push(Chart {
+                title: format!("fit − table{f0_text} ({what})"),
+                x: Axis::linear("μ = cos θo").with_range(0.0, 1.0),
+                y: Axis::linear("E(fit) − E(table)"),
+                legend_room: 0.0,
+                series: right,
+                legend: LegendAt::Right,
+            });
+        }
+        let width = if charts.len() == 2 { 1600 } else { 860 };
+        let fig = Figure { title: Some(format!("{}: slices of E at several r", data.name)), charts, size: (width, 620) };
+        plot::save(&fig, stem, Formats::PngAndSvg)
+    }
+
+    /// Furnace points of a material: table nodes of its albedo model (see [`furnace_axis`]).
+    fn furnace_points(&self, data: &ModelData) -> Vec<Vec<f64>> {
+        let axes = &data.table.spec.axes;
+        let dims = axes.len();
+        let per_axis: Vec<Vec<usize>> = axes
+            .iter()
+            .enumerate()
+            .map(|(d, a)| if dims == 3 && d == 0 { slice_indices(a.n, self.options.furnace_f0_slices) } else { furnace_axis(a.n, self.options.furnace_nodes) })
+            .collect();
+        let mut points = vec![vec![]];
+        for (d, idx) in per_axis.iter().enumerate() {
+            points = points.into_iter().flat_map(|p: Vec<f64>| idx.iter().map(move |&i| {
+                let mut q = p.clone();
+                q.push(axes[d].node(i));
+                q
+            })).collect();
+        }
+        points
+    }
+
+    /// The furnace test of one material (none, exact table, LUT, fit, paper fit) and its spheres.
+    fn furnace_row(&self, material: &Material, dir: &Path) -> Result<FurnaceRow> {
+        let options = ModelOptions { radiance_transmission: material.radiance_transmission };
+        let data = self.data(&material.albedo_model(), options)?;
+        let conductor = match material.conductor_model() {
+            Some(c) => Some(self.data(&c, ModelOptions::default())?),
+            None => None,
+        };
+        let points = self.furnace_points(&data);
+        let lobes = lobe_integrals_at(material, &points);
+        let quadrature_error = lobes.iter().map(|l| l.error).fold(0.0, f64::max);
+        let unconverged = lobes.iter().filter(|l| !l.converged).count();
+
+        let lut_name = |d: &ModelData| format!("LUT {} ({})", d.lut.resolution().replace('x', "×"), if d.dims() == 2 { "bilinear" } else { "trilinear" });
+        let mut variants: Vec<(String, std::result::Result<Compensation, String>, String)> = Vec::new();
+        variants.push(("no compensation".into(), Ok(Compensation::None), "single-scattering BSDF".into()));
+        variants.push((
+            format!("exact table ({})", data.table.spec.resolution_name()),
+            Ok(with(&data.exact, conductor.as_ref().map(|c| &c.exact as &dyn Albedo))),
+            "the furnace points are table nodes".into(),
+        ));
+        variants.push((lut_name(&data), Ok(with(&data.lut, conductor.as_ref().map(|c| &c.lut as &dyn Albedo))), "values at LUT nodes are the table's".into()));
+        let fit_variant = match (&data.chosen_albedo, data.chosen) {
+            (Some(f), Some(k)) => match &conductor {
+                Some(c) => match (&c.chosen_albedo, c.chosen) {
+                    (Some(cf), Some(ck)) => Ok((with(f, Some(cf as &dyn Albedo)), format!("{} + conductor {}", data.fits.fits[k].short_form(), c.fits.fits[ck].short_form()))),
+                    _ => Err(format!("needs a fit of {} too: run `furnace fit --model {} --sweep` first", c.name, c.name)),
+                },
+                None => Ok((with(f, None), data.fits.fits[k].short_form())),
+            },
+            _ => Err(format!("no fit of {}: run `furnace fit --model {} --sweep` first", data.name, cli_model(&data.name))),
+        };
+        match fit_variant {
+            Ok((c, note)) => variants.push(("furnace fit".into(), Ok(c), note)),
+            Err(e) => variants.push(("furnace fit".into(), Err(e.clone()), e)),
+        }
+        if let Some((_, pa, _)) = &data.paper {
+            let v = match &conductor {
+                Some(c) => match &c.paper {
+                    Some((_, cp, _)) => Ok(with(pa, Some(cp as &dyn Albedo))),
+                    None => Err("needs the paper's conductor fit too".to_string()),
+                },
+                None => Ok(with(pa, None)),
+            };
+            variants.push(("paper's fit".into(), v, "Sforza & Pellacini 2022, Appendix A".into()));
+        }
+
+        let mut out = Vec::new();
+        for (name, comp, note) in &variants {
+            let stats = comp.as_ref().ok().map(|c| furnace_stats(&points, &furnace_values(material, &points, &lobes, c)));
+            out.push(FurnaceVariant { name: name.clone(), stats, note: match comp { Ok(_) => note.clone(), Err(e) => e.clone() } });
+        }
+
+        // spheres: none, LUT, fit (and the paper's fit)
+        let sphere_rows: Vec<&(String, std::result::Result<Compensation, String>, String)> =
+            variants.iter().filter(|v| !v.0.starts_with("exact table")).collect();
+        let comps: Vec<Compensation> = sphere_rows.iter().filter_map(|v| v.1.as_ref().ok().copied()).collect();
+        let mut columns = sphere_columns(material, self.options.sphere_f0, &self.options.sphere_roughness, &comps).into_iter();
+        let rows: Vec<SphereRow> = sphere_rows
+            .iter()
+            .map(|v| {
+                let cols = match &v.1 {
+                    Ok(_) => Ok(columns.next().expect("one column set per available compensation")),
+                    Err(e) => Err(format!("not available: {e}")),
+                };
+                let note = match &cols {
+                    Ok(c) => format!("max |1 − E| = {}", plot::format_number(c.iter().flat_map(|s| s.values.iter()).map(|e| (1.0 - e).abs()).fold(0.0, f64::max))),
+                    Err(_) => String::new(),
+                };
+                SphereRow { label: v.0.clone(), note, columns: cols }
+            })
+            .collect();
+        let f0_text = if material.has_f0_axis() || material.class == MaterialClass::ThinDielectric {
+            format!(", F0 = {}", plot::format_number(if material.class == MaterialClass::ThinDielectric { super::furnace::THIN_F0 } else { self.options.sphere_f0 }))
+        } else {
+            String::new()
+        };
+        let column_labels: Vec<String> = self.options.sphere_roughness.iter().map(|r| format!("r = {}", plot::format_number(*r))).collect();
+        let caption = "Orthographic view of spheres under a uniform white environment: pixel = albedo E of the BSDF at μ = n·v (computed by quadrature). Faint circles outline the spheres.".to_string();
+        let dev_caption = "Pixel = E − 1 of the compensated BSDF on a symmetric log colour scale (|E − 1| below the bar's smallest tick is white). Faint circles outline the spheres.".to_string();
+        let albedo_fig = SphereFigure {
+            title: format!("White furnace: {}{f0_text}", material.label()),
+            column_labels: column_labels.clone(),
+            rows: rows.clone(),
+            show: Show::Albedo,
+            scale: ColorScale::Gray { lo: 0.0, hi: 1.0 },
+            colorbar_label: "E (pixel value, linear; shown sRGB)".into(),
+            caption: caption.clone(),
+        };
+        let mut images = Vec::new();
+        let stem = dir.join(format!("furnace-{}", material.id()));
+        images.extend(plot::save(&albedo_fig, &stem, Formats::Png)?);
+        let compensated: Vec<SphereRow> = rows.into_iter().filter(|r| r.label != "no compensation").collect();
+        let deviations: Vec<f64> = compensated.iter().filter_map(|r| r.columns.as_ref().ok()).flat_map(|c| c.iter().flat_map(|s| s.values.iter().map(|e| e - 1.0))).collect();
+        let dev_fig = SphereFigure {
+            title: format!("White furnace, E − 1 of the compensated BSDFs: {}{f0_text}", material.label()),
+            column_labels,
+            rows: compensated,
+            show: Show::Deviation,
+            scale: ColorScale::signed_log_for(&deviations, 4.0),
+            colorbar_label: "E − 1 (red: energy gain, blue: loss)".into(),
+            caption: dev_caption,
+        };
+        images.extend(plot::save(&dev_fig, &dir.join(format!("furnace-{}-deviation", material.id())), Formats::Png)?);
+        let images = images.iter().map(|p| p.strip_prefix(&self.options.reports_dir).unwrap_or(p).to_string_lossy().replace('\\', "/")).collect();
+        Ok(FurnaceRow { material: material.label(), id: material.id(), points: points.len(), quadrature_error, unconverged, variants: out, images })
+    }
+
+    /// The paper comparison: both fits measured on the furnace table in the paper's convention,
+    /// with their furnace max |1 − E|.
+    fn paper_row(&self, name: &str, link: inputs::PaperLink) -> Result<PaperRow> {
+        let data = self.data(name, link.options)?;
+        let mut notes = Vec::new();
+        let (paper_fit, _, paper_measured) = data.paper.as_ref().ok_or_else(|| Error::InvalidInput(format!("{name}: the paper's fit did not load")))?;
+        let materials = materials_for(name);
+        let material = materials.first().map(|m| Material { radiance_transmission: link.options.radiance_transmission, ..*m });
+        let conductor = match material.and_then(|m| m.conductor_model()) {
+            Some(c) => Some(self.data(&c, ModelOptions::default())?),
+            None => None,
+        };
+        let furnace_of = |albedo: &dyn Albedo, cond: Option<&dyn Albedo>| -> Option<f64> {
+            let m = material?;
+            let points = self.furnace_points(&data);
+            let lobes = lobe_integrals_at(&m, &points);
+            let values = furnace_values(&m, &points, &lobes, &Compensation::With { albedo, conductor: cond });
+            Some(furnace_stats(&points, &values).max_deviation)
+        };
+        let paper_cond = conductor.as_ref().and_then(|c| c.paper.as_ref().map(|p| &p.1 as &dyn Albedo));
+        let paper_fit_furnace = if conductor.is_some() && paper_cond.is_none() { None } else { furnace_of(&data.paper.as_ref().expect("checked").1, paper_cond) };
+        let (furnace_fit, furnace_fit_furnace) = match (data.chosen, &data.chosen_albedo) {
+            (Some(k), Some(f)) => {
+                let cond = conductor.as_ref().and_then(|c| c.chosen_albedo.as_ref().map(|a| a as &dyn Albedo));
+                let ff = if conductor.is_some() && cond.is_none() {
+                    notes.push("the furnace number of furnace's glossy fit needs a conductor fit too".into());
+                    None
+                } else {
+                    furnace_of(f, cond)
+                };
+                (Some(data.fit_row(k)), ff)
+            }
+            _ => {
+                notes.push(format!("no furnace fit of {}: run `furnace fit --model {}{} --sweep` first", data.name, name, if link.options.radiance_transmission { " --transmission radiance" } else { "" }));
+                (None, None)
+            }
+        };
+        Ok(PaperRow {
+            paper_table: link.stem.to_string(),
+            convention_model: data.name.clone(),
+            resolution: data.table.spec.resolution_name(),
+            furnace_fit,
+            furnace_fit_furnace,
+            paper_fit: fit_row("paper", paper_fit, paper_measured),
+            paper_fit_furnace,
+            notes,
+        })
+    }
+
+    fn section_markdown(&self, data: &ModelData, s: &ModelSummary) -> String {
+        let mut md = String::new();
+        let name = &s.model;
+        let _ = writeln!(md, "### {name}\n");
+        let _ = writeln!(md, "{}.\n", s.description.trim_end_matches('.'));
+        let _ = writeln!(
+            md,
+            "Table: {} nodes over the default domain, largest per-cell quadrature error estimate {}; fits are measured against it at every node.\n",
+            s.resolution,
+            fmt_e(s.table_max_error_estimate)
+        );
+        let link = |f: &str| format!("{name}/{f}");
+        let has = |f: &str| s.files.iter().any(|x| *x == link(f));
+
+        let _ = writeln!(md, "#### Error against number of coefficients\n");
+        if data.fits.fits.is_empty() {
+            let _ = writeln!(md, "No fits found under `fits/{}/`: run `furnace fit --model {} --sweep` first.\n", data.model.cache_name(), cli_model(name));
+        }
+        for n in &data.fits.notes {
+            let _ = writeln!(md, "- {n}");
+        }
+        if !data.fits.notes.is_empty() {
+            md.push('\n');
+        }
+        if has("error-vs-coefficients.png") {
+            let _ = writeln!(md, "![{name}: MAE and max error against number of coefficients]({}) ([SVG]({}))\n", link("error-vs-coefficients.png"), link("error-vs-coefficients.svg"));
+        }
+        if !s.fits.is_empty() || data.paper.is_some() {
+            let _ = writeln!(md, "| fit | form | coefficients | MAE | max error | max rel. error | pole-free | as fitted: MAE / max |");
+            let _ = writeln!(md, "| --- | --- | ---: | ---: | ---: | ---: | :---: | ---: |");
+            let mut order: Vec<usize> = (0..s.fits.len()).collect();
+            order.sort_by(|&a, &b| (s.fits[a].form.starts_with("rational"), s.fits[a].n_coefficients, &s.fits[a].source).cmp(&(s.fits[b].form.starts_with("rational"), s.fits[b].n_coefficients, &s.fits[b].source)));
+            for k in order {
+                let f = &s.fits[k];
+                let chosen = if s.chosen == Some(k) { " **(chosen)**" } else { "" };
+                let _ = writeln!(
+                    md,
+                    "| `{}`{chosen} | {} | {} | {} | {} | {} | {} | {} / {} |",
+                    f.source,
+                    f.form,
+                    f.n_coefficients,
+                    fmt_e(f.measured.mae),
+                    fmt_e(f.measured.max_abs),
+                    fmt_e(f.measured.max_rel),
+                    if f.usable { "yes" } else { "no" },
+                    fmt_e(f.reported_mae),
+                    fmt_e(f.reported_max)
+                );
+            }
+            if let Some((fit, _, m)) = &data.paper {
+                let _ = writeln!(
+                    md,
+                    "| paper (published) | {} | {} | {} | {} | {} | {} | {} / {} |",
+                    short_form(&fit.form),
+                    fit.n_coefficients,
+                    fmt_e(m.mae),
+                    fmt_e(m.max_abs),
+                    fmt_e(m.max_rel),
+                    if fit.is_usable() { "yes" } else { "no" },
+                    fmt_e(fit.metrics.mae),
+                    fmt_e(fit.metrics.max_abs_error)
+                );
+            }
+            let _ = writeln!(md, "\n\"As fitted\" is what the fit file records (on the data it was fitted to; for the paper, its own 32-point table).\n");
+        }
+
+        let _ = writeln!(md, "#### Error of the chosen fit over the domain\n");
+        if has("heatmap-abs.png") {
+            let _ = writeln!(md, "![{name}: |fit − table|]({}) ([SVG]({}))\n", link("heatmap-abs.png"), link("heatmap-abs.svg"));
+            let _ = writeln!(md, "![{name}: fit − table]({}) ([SVG]({}))\n", link("heatmap-signed.png"), link("heatmap-signed.svg"));
+        } else {
+            let _ = writeln!(md, "No chosen fit yet (run `furnace fit --model {} --sweep` first).\n", cli_model(name));
+        }
+        let _ = writeln!(md, "#### Slices E(μ) at several r\n");
+        if has("slices.png") {
+            let _ = writeln!(md, "![{name}: E(μ) slices]({}) ([SVG]({}))\n", link("slices.png"), link("slices.svg"));
+        }
+
+        if let Some(p) = &s.paper {
+            let _ = writeln!(md, "#### Against the paper's published fit (`{}`)\n", p.paper_table);
+            let _ = writeln!(md, "{}\n", paper_table_markdown(std::slice::from_ref(p)));
+            for n in &p.notes {
+                let _ = writeln!(md, "- {n}");
+            }
+            if !p.notes.is_empty() {
+                md.push('\n');
+            }
+        }
+
+        if !s.furnace.is_empty() {
+            let _ = writeln!(md, "#### White furnace test\n");
+            let _ = writeln!(md, "max |1 − E| of the energy-compensated BSDF, E integrated by quadrature of the BSDF over incident directions (`furnace::report::furnace`), at table nodes.\n");
+            for row in &s.furnace {
+                let _ = writeln!(md, "**{}** ({} points; quadrature error estimate ≤ {}{})\n", row.material, row.points, fmt_e(row.quadrature_error), if row.unconverged > 0 { format!(", {} points unconverged", row.unconverged) } else { String::new() });
+                let _ = writeln!(md, "| compensation | max \\|1 − E\\| | at | mean \\|1 − E\\| | E range | albedo source |");
+                let _ = writeln!(md, "| --- | ---: | --- | ---: | --- | --- |");
+                for v in &row.variants {
+                    match &v.stats {
+                        Some(st) => {
+                            let _ = writeln!(
+                                md,
+                                "| {} | {} | {} | {} | [{}, {}] | {} |",
+                                v.name,
+                                fmt_e(st.max_deviation),
+                                fmt_point(&st.at, &data_axes_for(&row.id, &data.axes)),
+                                fmt_e(st.mean_deviation),
+                                fmt_f(st.min_albedo),
+                                fmt_f(st.max_albedo),
+                                v.note
+                            );
+                        }
+                        None => {
+                            let _ = writeln!(md, "| {} | – | | | | {} |", v.name, v.note);
+                        }
+                    }
+                }
+                md.push('\n');
+                for img in &row.images {
+                    let _ = writeln!(md, "![{}]({img})\n", row.material);
+                }
+            }
+        }
+        md
+    }
+}
+
+/// The model name a `furnace fit --model` takes (without a radiance suffix).
+fn cli_model(name: &str) -> &str {
+    name.trim_end_matches("-radiance")
+}
+
+/// Axis names for a furnace row (its albedo model's).
+fn data_axes_for(_id: &str, axes: &[String]) -> Vec<String> {
+    axes.to_vec()
+}
+
+/// `{:.2e}`, or "–" for a non-finite value.
+pub fn fmt_e(v: f64) -> String {
+    if v.is_finite() { format!("{v:.2e}") } else { "–".into() }
+}
+
+/// `{:.4}`, or "–".
+pub fn fmt_f(v: f64) -> String {
+    if v.is_finite() { format!("{v:.4}") } else { "–".into() }
+}
+
+/// "r = 0.5, μ = 0.25".
+fn fmt_point(x: &[f64], axes: &[String]) -> String {
+    let names: Vec<String> = if axes.len() == x.len() { axes.to_vec() } else if x.len() == 3 { vec!["f0".into(), "r".into(), "mu".into()] } else { vec!["r".into(), "mu".into()] };
+    x.iter().zip(names).map(|(v, n)| format!("{} = {}", if n == "mu" { "μ".to_string() } else { n }, plot::format_number(*v))).collect::<Vec<_>>().join(", ")
+}
+
+/// The side-by-side table of furnace's fit and the paper's published fit.
+pub fn paper_table_markdown(rows: &[PaperRow]) -> String {
+    let mut md = String::new();
+    let _ = writeln!(md, "| paper table | measured on | fit | form | coefficients | MAE | max error | furnace max \\|1 − E\\| |");
+    let _ = writeln!(md, "| --- | --- | --- | --- | ---: | ---: | ---: | ---: |");
+    for p in rows {
+        let on = format!("`{}` {}", p.convention_model, p.resolution);
+        match &p.furnace_fit {
+            Some(f) => {
+                let _ = writeln!(md, "| {} | {on} | furnace (`{}`) | {} | {} | {} | {} | {} |", p.paper_table, f.source, f.form, f.n_coefficients, fmt_e(f.measured.mae), fmt_e(f.measured.max_abs), p.furnace_fit_furnace.map_or("–".into(), fmt_e));
+            }
+            None => {
+                let _ = writeln!(md, "| {} | {on} | furnace | no fit yet | | | | |", p.paper_table);
+            }
+        }
+        let f = &p.paper_fit;
+        let _ = writeln!(md, "| {} | {on} | paper (published) | {} | {} | {} | {} | {} |", p.paper_table, f.form, f.n_coefficients, fmt_e(f.measured.mae), fmt_e(f.measured.max_abs), p.paper_fit_furnace.map_or("–".into(), fmt_e));
+    }
+    md.trim_end().to_string()
+}
+
+/// Node index of `axis` nearest to `v`.
+fn nearest_node(axis: &crate::table::GridAxis, v: f64) -> usize {
+    let t = ((v - axis.lo) / (axis.hi - axis.lo)).clamp(0.0, 1.0) * (axis.n - 1) as f64;
+    t.round() as usize
+}
+
+/// Indices of `count` slices of an axis of `n` nodes: both ends and odd interior nodes in between
+/// (odd, so that the interior slices fall between the nodes of a LUT taking every other node).
+pub fn slice_indices(n: usize, count: usize) -> Vec<usize> {
+    if n <= count || count < 2 {
+        return (0..n).collect();
+    }
+    let mut v = vec![0, n - 1];
+    for k in 1..count - 1 {
+        let t = k as f64 * (n - 1) as f64 / (count - 1) as f64;
+        let mut i = t.round() as usize;
+        if i % 2 == 0 {
+            i = if (t - i as f64) >= 0.0 { i + 1 } else { i - 1 };
+        }
+        v.push(i.clamp(1, n - 2));
+    }
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
+/// Indices of at most `cap` nodes of an axis of `n` (all when n ≤ cap): both ends and odd interior
+/// nodes, which a LUT taking every other node does not contain.
+pub fn furnace_axis(n: usize, cap: usize) -> Vec<usize> {
+    if n <= cap {
+        return (0..n).collect();
+    }
+    slice_indices(n, cap.max(2))
+}
+
+/// Room to leave for a legend of the chart's labelled series (fraction of the y span).
+fn legend_room(series: &[Series]) -> f64 {
+    0.09 * series.iter().filter(|s| !s.label.is_empty()).count() as f64
+}
+
+/// Plain black for style keys in legends.
+struct RGBColorKey;
+impl RGBColorKey {
+    fn black() -> plotters::style::RGBColor {
+        plotters::style::RGBColor(0, 0, 0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slices_include_ends_and_odd_interior_nodes() {
+        assert_eq!(slice_indices(17, 3), vec![0, 9, 16]);
+        assert_eq!(slice_indices(5, 7), vec![0, 1, 2, 3, 4]);
+        assert_eq!(furnace_axis(65, 33).len(), 33);
+        assert!(furnace_axis(65, 33)[1..32].iter().all(|i| i % 2 == 1));
+        assert_eq!(furnace_axis(9, 33), (0..9).collect::<Vec<_>>());
+    }
+}

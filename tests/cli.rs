@@ -108,3 +108,21 @@ fn bad_input_gets_clear_errors_and_no_files() {
     assert!(!d.join("o.csv").exists(), "no output file from a failed run");
     assert!(!d.join("data").exists(), "nothing tabulated for refused requests");
 }
+
+#[test]
+fn a_fit_from_furnace_fit_can_be_emitted() {
+    let d = scratch("fit-emit");
+    let o = furnace(&["fit", "--model", "ggx-conductor", "--form", "rational", "--degree", "3", "--resolution", "24"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let fit = std::fs::read_dir(d.join("fits/ggx-conductor"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "json"))
+        .expect("a fit file");
+    let o = furnace(&["emit", "--fit", fit.to_str().unwrap(), "--lang", "rust,wgsl,glsl"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for ext in ["rs", "wgsl", "glsl"] {
+        let src = std::fs::read_to_string(fit.with_extension(ext)).unwrap();
+        assert!(src.contains("ggx_conductor"), "{ext}: {}", &src[..src.len().min(300)]);
+    }
+}

@@ -76,6 +76,9 @@ impl FitFile {
         let obj = value
             .as_object()
             .ok_or_else(|| Error::file(path, "a fit file is a JSON object; this is not one"))?;
+        if obj.contains_key("source") && obj.contains_key("fit") && !obj.contains_key("model") {
+            return FitFile::from_fit_record(value, path);
+        }
         for field in REQUIRED {
             if !obj.contains_key(field) {
                 let hint = if obj.contains_key("approximant") {
@@ -105,6 +108,33 @@ impl FitFile {
         if file.fit.approximant.variables.is_empty() {
             return Err(Error::file(path, "the approximant has no variables"));
         }
+        Ok(file)
+    }
+
+    /// A fit record written by `furnace fit` ([`crate::fit::job::FitRecord`]): its model and
+    /// channel come from the record's source; a record that says it is unusable is refused.
+    fn from_fit_record(value: serde_json::Value, path: &Path) -> Result<FitFile> {
+        let record: crate::fit::job::FitRecord = serde_json::from_value(value)
+            .map_err(|e| Error::file(path, format!("invalid fit record: {e}; re-create it with furnace {}", crate::VERSION)))?;
+        if record.tool != "furnace" {
+            return Err(Error::file(path, format!("written by '{}', not furnace", record.tool)));
+        }
+        if record.tool_version != crate::VERSION {
+            return Err(Error::file(
+                path,
+                format!(
+                    "written by furnace {}, but this is furnace {}; re-run the fit with this version",
+                    record.tool_version,
+                    crate::VERSION
+                ),
+            ));
+        }
+        if !record.usable {
+            return Err(Error::file(path, format!("the fit is not usable: {}; refit (e.g. another degree or --domain)", record.verdict)));
+        }
+        let model = record.source.model.clone().unwrap_or_else(|| "table".into());
+        let file = FitFile::new(&model, &record.source.channel, None, record.fit);
+        file.fit.approximant.validate().map_err(|e| Error::file(path, format!("invalid approximant: {e}")))?;
         Ok(file)
     }
 

@@ -150,11 +150,14 @@ pub fn choose_fit(files: &FitFiles, dim: usize, measured: &[Measured]) -> Option
 /// Error of an albedo source against a table, measured at every node.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Measured {
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub mae: f64,
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub max_abs: f64,
     /// Where the largest error is (table axes).
     pub max_abs_at: Vec<f64>,
     /// max |f − E|/|E| over nodes with |E| ≥ 1e-6.
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub max_rel: f64,
     pub points: usize,
 }

@@ -123,8 +123,11 @@ pub struct FitRow {
     /// Measured here against the report's table.
     pub measured: Measured,
     /// As recorded in the fit (on the data it was fitted to).
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub reported_mae: f64,
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub reported_max: f64,
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub reported_max_rel: f64,
 }
 
@@ -132,6 +135,7 @@ pub struct FitRow {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FurnaceVariant {
     pub name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stats: Option<FurnaceStats>,
     /// Why there is no result, or what the albedo source is.
     pub note: String,
@@ -159,9 +163,12 @@ pub struct PaperRow {
     /// The furnace model in the paper's convention (radiance-form transmission for dielectrics).
     pub convention_model: String,
     pub resolution: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub furnace_fit: Option<FitRow>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub furnace_fit_furnace: Option<f64>,
     pub paper_fit: FitRow,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paper_fit_furnace: Option<f64>,
     /// Why a number is missing.
     pub notes: Vec<String>,
@@ -175,7 +182,9 @@ pub struct ModelSummary {
     pub resolution: String,
     pub table_max_error_estimate: f64,
     pub fits: Vec<FitRow>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub chosen: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paper: Option<PaperRow>,
     pub furnace: Vec<FurnaceRow>,
     /// Every file the section links (relative to `reports/`).

@@ -245,6 +245,18 @@ pub struct BenchPlot {
     pub rows: Vec<(String, f64, f64)>,
 }
 
+impl BenchPlot {
+    /// The CSV form [`parse_bench_csv`] reads (for benchmark commands to write).
+    pub fn to_csv(&self) -> String {
+        let log = |l: &str, on: bool| if on { format!("{l} (log)") } else { l.to_string() };
+        let mut s = format!("# title: {}\n# x: {}\n# y: {}\nseries,x,y\n", self.title, log(&self.x_label, self.x_log), log(&self.y_label, self.y_log));
+        for (series, x, y) in &self.rows {
+            s.push_str(&format!("{},{x},{y}\n", series.replace(',', ";")));
+        }
+        s
+    }
+}
+
 /// Parses a benchmark CSV (see the module docs).
 pub fn parse_bench_csv(stem: &str, text: &str) -> std::result::Result<BenchPlot, String> {
     let mut plot = BenchPlot { stem: stem.into(), title: stem.replace(['-', '_'], " "), x_label: String::new(), y_label: String::new(), x_log: false, y_log: false, rows: vec![] };
@@ -339,6 +351,8 @@ mod tests {
         assert_eq!((b.x_label.as_str(), b.y_label.as_str(), b.x_log), ("order", "seconds", false));
         assert!(parse_bench_csv("t", "series,x,y\na,1,nan\n").unwrap_err().contains("line 2"));
         assert!(parse_bench_csv("t", "series,x\n").is_err());
+        let b = parse_bench_csv("eval", text).unwrap();
+        assert_eq!(parse_bench_csv("eval", &b.to_csv()).unwrap(), b);
     }
 
     #[test]

@@ -251,7 +251,7 @@ fn key(name: &str, options: ModelOptions) -> String {
 /// (the tabulated values, no resampling), else `None`.
 fn subsample_lut(table: &Table, m: usize) -> Option<Table> {
     let axes = &table.spec.axes;
-    if m < 2 || axes.iter().any(|a| (a.n - 1) % (m - 1) != 0) {
+    if m < 2 || axes.iter().any(|a| !(a.n - 1).is_multiple_of(m - 1)) {
         return None;
     }
     let strides: Vec<usize> = axes.iter().map(|a| (a.n - 1) / (m - 1)).collect();
@@ -946,7 +946,7 @@ pub fn slice_indices(n: usize, count: usize) -> Vec<usize> {
     for k in 1..count - 1 {
         let t = k as f64 * (n - 1) as f64 / (count - 1) as f64;
         let mut i = t.round() as usize;
-        if i % 2 == 0 {
+        if i.is_multiple_of(2) {
             i = if (t - i as f64) >= 0.0 { i + 1 } else { i - 1 };
         }
         v.push(i.clamp(1, n - 2));

@@ -302,8 +302,15 @@ impl<'a> Reporter<'a> {
                 self.tables.table(model.as_ref(), &vec![lut_n; axes.len()])?
             }
         };
-        let fits = load_fits(&self.options.fits_dir.join(model.cache_name()))?;
-        let fit_albedos: Vec<Option<FitAlbedo>> = fits.fits.iter().map(|f| FitAlbedo::new(&f.fit, &axes).ok()).collect();
+        let mut fits = load_fits(&self.options.fits_dir.join(model.cache_name()))?;
+        let fit_albedos: Vec<Option<FitAlbedo>> = fits
+            .fits
+            .iter()
+            .map(|f| FitAlbedo::new(&f.fit, &axes).map_err(|e| format!("cannot evaluate `{}` on {k}: {e}", f.source)))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .map(|r| r.map_err(|e| fits.notes.push(e)).ok())
+            .collect();
         let measured: Vec<Measured> = fit_albedos
             .iter()
             .map(|a| match a {

@@ -31,24 +31,25 @@ pub struct ReportArgs {
     /// $FURNACE_PAPER_DATA, else ../shared/paper-repo-data. Missing: no paper comparison.
     #[arg(long)]
     pub paper_dir: Option<PathBuf>,
-    /// Nodes per axis of the 2-D tables fits are measured against.
-    #[arg(long, default_value_t = 65)]
-    pub resolution_2d: usize,
-    /// Nodes per axis of the 3-D tables.
-    #[arg(long, default_value_t = 17)]
-    pub resolution_3d: usize,
-    /// Nodes per axis of the 2-D LUTs (every k-th table node when (n−1) is a multiple of (m−1)).
-    #[arg(long, default_value_t = 33)]
-    pub lut_2d: usize,
-    /// Nodes per axis of the 3-D LUTs.
-    #[arg(long, default_value_t = 9)]
-    pub lut_3d: usize,
-    /// White furnace: at most this many table nodes per r and μ axis.
-    #[arg(long, default_value_t = 33)]
-    pub furnace_nodes: usize,
-    /// White furnace: F0 slices of 3-D tables.
-    #[arg(long, default_value_t = 3)]
-    pub furnace_f0_slices: usize,
+    /// Nodes per axis of the 2-D tables fits are measured against (default 65).
+    #[arg(long)]
+    pub resolution_2d: Option<usize>,
+    /// Nodes per axis of the 3-D tables (default 17).
+    #[arg(long)]
+    pub resolution_3d: Option<usize>,
+    /// Nodes per axis of the 2-D LUTs (default 33; every k-th table node when (n−1) is a multiple
+    /// of (m−1), else tabulated at that size).
+    #[arg(long)]
+    pub lut_2d: Option<usize>,
+    /// Nodes per axis of the 3-D LUTs (default 9).
+    #[arg(long)]
+    pub lut_3d: Option<usize>,
+    /// White furnace: at most this many table nodes per r and μ axis (default 33).
+    #[arg(long)]
+    pub furnace_nodes: Option<usize>,
+    /// White furnace: F0 slices of 3-D tables (default 3: both ends and one between).
+    #[arg(long)]
+    pub furnace_f0_slices: Option<usize>,
 }
 
 /// Tables from the cache under `data_dir`, computed (with progress) when missing.
@@ -82,13 +83,25 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
         }
         None => default_paper_dir(),
     };
-    options.resolution_2d = args.resolution_2d;
-    options.resolution_3d = args.resolution_3d;
-    options.lut_2d = args.lut_2d;
-    options.lut_3d = args.lut_3d;
-    options.furnace_nodes = args.furnace_nodes;
-    options.furnace_f0_slices = args.furnace_f0_slices;
-    for (flag, v) in [("--resolution-2d", args.resolution_2d), ("--resolution-3d", args.resolution_3d), ("--lut-2d", args.lut_2d), ("--lut-3d", args.lut_3d), ("--furnace-nodes", args.furnace_nodes)] {
+    let set = |v: Option<usize>, d: &mut usize| {
+        if let Some(v) = v {
+            *d = v;
+        }
+    };
+    set(args.resolution_2d, &mut options.resolution_2d);
+    set(args.resolution_3d, &mut options.resolution_3d);
+    set(args.lut_2d, &mut options.lut_2d);
+    set(args.lut_3d, &mut options.lut_3d);
+    set(args.furnace_nodes, &mut options.furnace_nodes);
+    set(args.furnace_f0_slices, &mut options.furnace_f0_slices);
+    for (flag, v) in [
+        ("--resolution-2d", options.resolution_2d),
+        ("--resolution-3d", options.resolution_3d),
+        ("--lut-2d", options.lut_2d),
+        ("--lut-3d", options.lut_3d),
+        ("--furnace-nodes", options.furnace_nodes),
+        ("--furnace-f0-slices", options.furnace_f0_slices),
+    ] {
         if v < 2 {
             return Err(crate::Error::InvalidInput(format!("{flag} {v}: a grid needs at least 2 nodes per axis")));
         }

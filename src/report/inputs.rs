@@ -150,11 +150,14 @@ pub fn choose_fit(files: &FitFiles, dim: usize, measured: &[Measured]) -> Option
 /// Error of an albedo source against a table, measured at every node.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Measured {
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub mae: f64,
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub max_abs: f64,
     /// Where the largest error is (table axes).
     pub max_abs_at: Vec<f64>,
     /// max |f − E|/|E| over nodes with |E| ≥ 1e-6.
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub max_rel: f64,
     pub points: usize,
 }
@@ -240,6 +243,18 @@ pub struct BenchPlot {
     pub y_log: bool,
     /// (series, x, y) in file order.
     pub rows: Vec<(String, f64, f64)>,
+}
+
+impl BenchPlot {
+    /// The CSV form [`parse_bench_csv`] reads (for benchmark commands to write).
+    pub fn to_csv(&self) -> String {
+        let log = |l: &str, on: bool| if on { format!("{l} (log)") } else { l.to_string() };
+        let mut s = format!("# title: {}\n# x: {}\n# y: {}\nseries,x,y\n", self.title, log(&self.x_label, self.x_log), log(&self.y_label, self.y_log));
+        for (series, x, y) in &self.rows {
+            s.push_str(&format!("{},{x},{y}\n", series.replace(',', ";")));
+        }
+        s
+    }
 }
 
 /// Parses a benchmark CSV (see the module docs).
@@ -336,6 +351,8 @@ mod tests {
         assert_eq!((b.x_label.as_str(), b.y_label.as_str(), b.x_log), ("order", "seconds", false));
         assert!(parse_bench_csv("t", "series,x,y\na,1,nan\n").unwrap_err().contains("line 2"));
         assert!(parse_bench_csv("t", "series,x\n").is_err());
+        let b = parse_bench_csv("eval", text).unwrap();
+        assert_eq!(parse_bench_csv("eval", &b.to_csv()).unwrap(), b);
     }
 
     #[test]

@@ -123,8 +123,11 @@ pub struct FitRow {
     /// Measured here against the report's table.
     pub measured: Measured,
     /// As recorded in the fit (on the data it was fitted to).
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub reported_mae: f64,
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub reported_max: f64,
+    #[serde(with = "crate::fit::metrics::finite_or_string")]
     pub reported_max_rel: f64,
 }
 
@@ -132,6 +135,7 @@ pub struct FitRow {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FurnaceVariant {
     pub name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stats: Option<FurnaceStats>,
     /// Why there is no result, or what the albedo source is.
     pub note: String,
@@ -159,9 +163,12 @@ pub struct PaperRow {
     /// The furnace model in the paper's convention (radiance-form transmission for dielectrics).
     pub convention_model: String,
     pub resolution: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub furnace_fit: Option<FitRow>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub furnace_fit_furnace: Option<f64>,
     pub paper_fit: FitRow,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paper_fit_furnace: Option<f64>,
     /// Why a number is missing.
     pub notes: Vec<String>,
@@ -175,7 +182,9 @@ pub struct ModelSummary {
     pub resolution: String,
     pub table_max_error_estimate: f64,
     pub fits: Vec<FitRow>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub chosen: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paper: Option<PaperRow>,
     pub furnace: Vec<FurnaceRow>,
     /// Every file the section links (relative to `reports/`).
@@ -242,7 +251,7 @@ fn key(name: &str, options: ModelOptions) -> String {
 /// (the tabulated values, no resampling), else `None`.
 fn subsample_lut(table: &Table, m: usize) -> Option<Table> {
     let axes = &table.spec.axes;
-    if m < 2 || axes.iter().any(|a| (a.n - 1) % (m - 1) != 0) {
+    if m < 2 || axes.iter().any(|a| !(a.n - 1).is_multiple_of(m - 1)) {
         return None;
     }
     let strides: Vec<usize> = axes.iter().map(|a| (a.n - 1) / (m - 1)).collect();
@@ -293,8 +302,15 @@ impl<'a> Reporter<'a> {
                 self.tables.table(model.as_ref(), &vec![lut_n; axes.len()])?
             }
         };
-        let fits = load_fits(&self.options.fits_dir.join(model.cache_name()))?;
-        let fit_albedos: Vec<Option<FitAlbedo>> = fits.fits.iter().map(|f| FitAlbedo::new(&f.fit, &axes).ok()).collect();
+        let mut fits = load_fits(&self.options.fits_dir.join(model.cache_name()))?;
+        let fit_albedos: Vec<Option<FitAlbedo>> = fits
+            .fits
+            .iter()
+            .map(|f| FitAlbedo::new(&f.fit, &axes).map_err(|e| format!("cannot evaluate `{}` on {k}: {e}", f.source)))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .map(|r| r.map_err(|e| fits.notes.push(e)).ok())
+            .collect();
         let measured: Vec<Measured> = fit_albedos
             .iter()
             .map(|a| match a {
@@ -937,7 +953,7 @@ pub fn slice_indices(n: usize, count: usize) -> Vec<usize> {
     for k in 1..count - 1 {
         let t = k as f64 * (n - 1) as f64 / (count - 1) as f64;
         let mut i = t.round() as usize;
-        if i % 2 == 0 {
+        if i.is_multiple_of(2) {
             i = if (t - i as f64) >= 0.0 { i + 1 } else { i - 1 };
         }
         v.push(i.clamp(1, n - 2));

@@ -686,7 +686,10 @@ pub fn draw_colorbar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, scale: &
     cc.draw_series(std::iter::once(Rectangle::new([(0.0, lo), (1.0, hi)], RGBColor(90, 90, 90).stroke_width(1))))
         .map_err(plot_err)?;
     // a leading space keeps the tick mark from reading as a minus sign
-    let fmt = |v: &f64| format!(" {}", format_number(scale.bar_value(*v)));
+    let fmt = |v: &f64| {
+        let v = if v.abs() < 1e-9 * (hi - lo) { 0.0 } else { *v }; // rounding noise at the centre
+        format!(" {}", format_number(scale.bar_value(v)))
+    };
     let n_labels = match *scale {
         _ if log => ((hi - lo).round() as usize + 1).clamp(2, 12),
         // ticks at ±floor·10^k: u = k/decades

@@ -259,8 +259,8 @@ fn display_rel(p: &Path) -> String {
     p.to_string_lossy().replace('\\', "/")
 }
 
-/// One benchmark CSV as a chart: one line per series, sorted by x.
-fn bench_figure(b: &BenchPlot) -> Figure {
+/// One benchmark table as a chart: one line per series, sorted by x.
+pub fn bench_figure(b: &BenchPlot) -> Figure {
     let mut names: Vec<&str> = Vec::new();
     for (s, _, _) in &b.rows {
         if !names.contains(&s.as_str()) {

@@ -109,6 +109,9 @@ pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
     if !eta.is_finite() {
         return 1.0;
     }
+    if eta == 1.0 {
+        return 0.0; // no interface (F0 = 0): nothing reflects, even at grazing incidence
+    }
     let cos_i = cos_i.clamp(0.0, 1.0);
     let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
     if sin2_t >= 1.0 {
@@ -160,6 +163,13 @@ mod tests {
             let eta = eta_from_f0(f0);
             assert!((fresnel_dielectric(1.0, eta) - f0).abs() < 1e-14);
             assert!((fresnel_dielectric(1.0, 1.0 / eta) - f0).abs() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn fresnel_without_interface_is_zero() {
+        for c in [0.0, 0.3, 1.0] {
+            assert_eq!(fresnel_dielectric(c, 1.0), 0.0);
         }
     }
 

@@ -3,7 +3,7 @@
 //!
 //! * `paper-conductors.json`, `paper-glossy.json`: the published degree-3 rationals of Sforza &
 //!   Pellacini 2022 (Appendix A), measured on the paper's 32-point tables (paper repository data,
-//!   `$FURNACE_PAPER_DATA`, default `/work/shared/paper-repo-data`). The paper's renderer uses the
+//!   `$FURNACE_PAPER_DATA`, default `../shared/paper-repo-data` beside the repository). The paper's renderer uses the
 //!   separable Smith G, so the conductor fit is filed as `ggx-conductor-separable`; its glossy
 //!   fit has a pole in its domain (the emitter must refuse it, the stress test must fail it).
 //! * `ggx-dielectric.json`, `ggx-dielectric-inv.json`: furnace's own degree-3 rationals of the
@@ -32,7 +32,7 @@ fn fixtures() -> PathBuf {
 #[test]
 #[ignore = "regenerates committed fixtures"]
 fn regenerate_fixtures() {
-    let dir = std::env::var_os("FURNACE_PAPER_DATA").map(PathBuf::from).unwrap_or_else(|| "/work/shared/paper-repo-data".into());
+    let dir = std::env::var_os("FURNACE_PAPER_DATA").map(PathBuf::from).unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/paper-repo-data"));
     for (name, model, file_model) in [
         ("conductors", PaperModel::Conductors, "ggx-conductor-separable"),
         ("glossy", PaperModel::Glossy, "ggx-glossy-separable"),

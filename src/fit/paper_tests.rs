@@ -1,6 +1,6 @@
 //! Checks against the paper's own data (Sforza & Pellacini 2022; tables and coefficients from
 //! their repository). The data directory is `$FURNACE_PAPER_DATA`, default
-//! `/work/shared/paper-repo-data`; the tests say so and pass vacuously if it is absent.
+//! `../shared/paper-repo-data` beside the repository; the tests say so and pass vacuously if it is absent.
 //!
 //! The timing check (1024² degree-3 rational ≤ 10 s) and the report tests that print the numbers
 //! quoted in reviews are `#[ignore]`d because they need a release build; run them with
@@ -13,7 +13,7 @@ use super::paper::{load_coefficients, load_table, published_fit, PaperModel};
 use super::*;
 
 fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("FURNACE_PAPER_DATA").map(PathBuf::from).unwrap_or_else(|| "/work/shared/paper-repo-data".into());
+    let dir = std::env::var_os("FURNACE_PAPER_DATA").map(PathBuf::from).unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/paper-repo-data"));
     if dir.join("tables/conductors.csv").exists() {
         Some(dir)
     } else {

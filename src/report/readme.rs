@@ -236,18 +236,19 @@ thin and thick dielectrics (ρ_R + ρ_T)/E (§3.4, eq. 19); rough diffuse is Fuj
                 let _ = writeln!(md, "{n}\n");
             }
             let labelled = b.labels.iter().any(|l| !l.is_empty());
+            let cell = |t: &str| t.replace('|', "\\|");
             let _ = writeln!(md, "Source: `{}/{}.csv`.\n", display_rel(&self.options.bench_dir), b.stem);
             if labelled {
-                let _ = writeln!(md, "| series | point | {} | {} |\n| --- | --- | ---: | ---: |", b.x_label, b.y_label);
+                let _ = writeln!(md, "| series | point | {} | {} |\n| --- | --- | ---: | ---: |", cell(&b.x_label), cell(&b.y_label));
             } else {
-                let _ = writeln!(md, "| series | {} | {} |\n| --- | ---: | ---: |", b.x_label, b.y_label);
+                let _ = writeln!(md, "| series | {} | {} |\n| --- | ---: | ---: |", cell(&b.x_label), cell(&b.y_label));
             }
             for (k, (s, x, y)) in b.rows.iter().enumerate() {
                 let (x, y) = (plot::format_number(*x), plot::format_number(*y));
                 if labelled {
-                    let _ = writeln!(md, "| {s} | {} | {x} | {y} |", b.labels.get(k).map_or("", |l| l.as_str()));
+                    let _ = writeln!(md, "| {} | {} | {x} | {y} |", cell(s), cell(b.labels.get(k).map_or("", |l| l.as_str())));
                 } else {
-                    let _ = writeln!(md, "| {s} | {x} | {y} |");
+                    let _ = writeln!(md, "| {} | {x} | {y} |", cell(s));
                 }
             }
             md.push('\n');

@@ -682,10 +682,11 @@ impl<'a> Reporter<'a> {
             left.push(Series::new("paper's fit", vec![], key, Style::Points).marker(Marker::Cross));
         }
         let f0_text = if dims == 3 { format!(" at {} = {}", axes[0].name, plot::format_number(axes[0].node(f0_index))) } else { String::new() };
+        let y_label = offset_nearly_constant(&mut left).map_or("directional albedo E".to_string(), |c| format!("E − {} (E is nearly constant)", plot::format_number(c)));
         let mut charts = vec![Chart {
             title: format!("E(μ){f0_text}"),
             x: Axis::linear("μ = cos θo").with_range(0.0, 1.0),
-            y: Axis::linear("directional albedo E"),
+            y: Axis::linear(&y_label),
             legend_room: 0.0,
             series: left,
             legend: LegendAt::Right,
@@ -1085,6 +1086,28 @@ fn files_digest(dir: &Path) -> Result<Vec<(String, String)>> {
     Ok(out)
 }
 
+/// Relative spread below which the values of a chart are shown as offsets from a constant: tick
+/// labels of 3 significant digits could not tell them apart (EON's albedo is 1 to 1e-9).
+const NEARLY_CONSTANT: f64 = 1e-4;
+
+/// If every y value of `series` lies within [`NEARLY_CONSTANT`]·max(1, |y|) of the others,
+/// subtracts their midpoint (rounded to 3 significant digits) and returns it.
+fn offset_nearly_constant(series: &mut [Series]) -> Option<f64> {
+    let ys = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+    let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+    if !(lo.is_finite() && hi.is_finite()) || hi - lo >= NEARLY_CONSTANT * hi.abs().max(1.0) {
+        return None;
+    }
+    let mid = 0.5 * (lo + hi);
+    let c: f64 = plot::format_number(mid).parse().unwrap_or(mid);
+    for s in series.iter_mut() {
+        for p in &mut s.points {
+            p.1 -= c;
+        }
+    }
+    Some(c)
+}
+
 /// Node index of `axis` nearest to `v`.
 fn nearest_node(axis: &crate::table::GridAxis, v: f64) -> usize {
     let t = ((v - axis.lo) / (axis.hi - axis.lo)).clamp(0.0, 1.0) * (axis.n - 1) as f64;
@@ -1136,6 +1159,17 @@ impl RGBColorKey {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn nearly_constant_values_are_shown_as_offsets() {
+        let key = RGBColorKey::black();
+        let mut s = vec![Series::new("a", vec![(0.0, 1.0 + 1e-9), (1.0, 1.0 - 2e-9)], key, Style::Line), Series::new("key", vec![], key, Style::Line)];
+        assert_eq!(offset_nearly_constant(&mut s), Some(1.0));
+        assert!((s[0].points[1].1 + 2e-9).abs() < 1e-18);
+        let mut s = vec![Series::new("a", vec![(0.0, 0.3), (1.0, 0.9)], key, Style::Line)];
+        assert_eq!(offset_nearly_constant(&mut s), None);
+        assert_eq!(s[0].points[0].1, 0.3);
+    }
 
     #[test]
     fn slices_include_ends_and_odd_interior_nodes() {

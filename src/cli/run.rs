@@ -303,6 +303,12 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
             let langs = parse_langs(lang)?;
             match emit_files(fit, &langs, &emit_args, &mut |_| {}) {
                 Ok(written) => row.emitted.extend(written),
+                // a file that cannot be written stops the run; a fit that cannot be emitted
+                // (e.g. not proved pole-free) is reported and skipped
+                Err(e @ Error::Io { .. }) => {
+                    pb.finish_and_clear();
+                    return Err(e);
+                }
                 Err(e) => pb.suspend(|| eprintln!("  {}: {} not emitted: {e}", job.name, fit.display())),
             }
             pb.inc(1);

@@ -1165,7 +1165,7 @@ mod tests {
         let key = RGBColorKey::black();
         let mut s = vec![Series::new("a", vec![(0.0, 1.0 + 1e-9), (1.0, 1.0 - 2e-9)], key, Style::Line), Series::new("key", vec![], key, Style::Line)];
         assert_eq!(offset_nearly_constant(&mut s), Some(1.0));
-        assert!((s[0].points[1].1 + 2e-9).abs() < 1e-18);
+        assert!((s[0].points[1].1 + 2e-9).abs() < 1e-15);
         let mut s = vec![Series::new("a", vec![(0.0, 0.3), (1.0, 0.9)], key, Style::Line)];
         assert_eq!(offset_nearly_constant(&mut s), None);
         assert_eq!(s[0].points[0].1, 0.3);

@@ -150,6 +150,30 @@ fn run_end_to_end_is_reproducible_and_resumes() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// The same acceptance test on the committed default fit (`fits/ggx-conductor/best-20.json`, made
+/// by `furnace run` from the 1024² table): at every 32nd node of its table (ρ is its max relative
+/// error over all nodes, so the bound holds at any of them).
+#[test]
+fn the_committed_default_conductor_fit_passes_within_its_relative_error() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fits/ggx-conductor/best-20.json");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        eprintln!("{} not found (run `furnace run`); nothing to check", path.display());
+        return;
+    };
+    let rec = FitRecord::from_json(&text).unwrap();
+    let n = rec.source.resolution.as_ref().map_or(1024, |r| r[0]);
+    let stride = ((n - 1) / 32).max(1);
+    let axis: Vec<f64> = (0..n).step_by(stride).map(|i| i as f64 / (n - 1) as f64).collect();
+    let nodes: Vec<Vec<f64>> = axis.iter().flat_map(|&r| axis.iter().map(move |&mu| vec![r, mu])).collect();
+    let m = Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated);
+    let lobes = lobe_integrals_at(&m, &nodes);
+    let albedo = FitAlbedo::new(&rec.fit, &["r".into(), "mu".into()]).unwrap();
+    let s = furnace_stats(&nodes, &furnace_values(&m, &nodes, &lobes, &Compensation::With { albedo: &albedo, conductor: None }));
+    let rho = rec.fit.metrics.max_rel_error;
+    eprintln!("committed best-20 ({}): ρ = {rho:.3e}, furnace max |1 − E| = {:.3e} at {:?} ({} nodes)", rec.fit.form.label(), s.max_deviation, s.at, nodes.len());
+    assert!(s.max_deviation <= rho / (1.0 - rho) + 1e-6, "{} > {}", s.max_deviation, rho / (1.0 - rho));
+}
+
 #[test]
 fn unwritable_outputs_name_the_path() {
     let d = scratch("unwritable");

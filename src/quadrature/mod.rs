@@ -88,10 +88,10 @@ pub const MERGE_TOL: f64 = 1e-11;
 pub const MIN_DELTA: f64 = 1e-7;
 
 /// A near-singular end is mapped only when δ is below this fraction of its (half) panel.
-pub const NEAR_SINGULAR_RATIO: f64 = 0.25;
+pub const NEAR_SINGULAR_RATIO: f64 = 0.5;
 
 /// Longest w-range one rule covers under the sinh map (see [`PanelMap::End`]).
-pub const SINH_MAX_SPAN: f64 = 2.0;
+pub const SINH_MAX_SPAN: f64 = 3.0;
 
 /// The map an end needs on a panel (or half panel) of length `len` lying on its side
 /// `toward`, if any.
@@ -188,6 +188,16 @@ pub trait Integrand2D {
             acc[k] += w * y[k];
         }
         y.iter().any(|&c| c != 0.0)
+    }
+
+    /// Adds Σ_j ws[j]·f(line, vs[j]) to `acc`, node by node in order. Integrands whose
+    /// evaluation is one long dependency chain (divisions, square roots, a polynomial sine)
+    /// override it to evaluate several nodes side by side with the same arithmetic per node, so
+    /// that the result is the same to the bit and only faster.
+    fn accumulate_nodes(&self, line: &Self::Line, vs: &[f64], ws: &[f64], acc: &mut [f64]) {
+        for (&v, &w) in vs.iter().zip(ws) {
+            self.accumulate(line, v, w, acc);
+        }
     }
 
     /// Outer panels with their maps; by default every break of [`Self::outer_breaks`] is
@@ -310,6 +320,7 @@ pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]
     let mut outer = Vec::with_capacity(16);
     f.outer_panels(&mut outer);
     let mut inner = Vec::with_capacity(16);
+    let (mut vs, mut ws) = (Vec::with_capacity(64), Vec::with_capacity(64));
     // A panel between kinks on which the integrand vanishes at the midpoint vanishes throughout
     // (kinks are its only way to switch on); likewise an outer panel whose middle line vanishes
     // at every inner midpoint (e.g. beyond the latitude where the reflection horizon closes).
@@ -328,9 +339,13 @@ pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]
                 if !active(&line, seg, &mut scratch) {
                     continue;
                 }
+                vs.clear();
+                ws.clear();
                 rules.inner.for_each_node(seg, |v, wv| {
-                    f.accumulate(&line, v, wv, &mut line_sum);
+                    vs.push(v);
+                    ws.push(wv);
                 });
+                f.accumulate_nodes(&line, &vs, &ws, &mut line_sum);
             }
             for k in 0..n {
                 total[k] += wu * line_sum[k];

@@ -867,6 +867,30 @@ impl Integrand2D for VndfIntegrand {
         }
     }
 
+    fn nonzero_at(&self, line: &Line, vs: &[f64], out: &mut [bool], scratch: &mut [f64]) {
+        if !self.column.is_empty() {
+            for (o, &v) in out.iter_mut().zip(vs) {
+                *o = self.accumulate(line, v, 0.0, scratch);
+            }
+            return;
+        }
+        for (vc, oc) in vs.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let mut phi = [FRAC_PI_2; LANES];
+            phi[..vc.len()].copy_from_slice(vc);
+            let (mut sp, mut cp) = ([0.0; LANES], [0.0; LANES]);
+            for j in 0..LANES {
+                (sp[j], cp[j]) = sin_cos_0_pi(phi[j]);
+            }
+            let mut y = [[0.0; CHANNELS]; LANES];
+            for j in 0..LANES {
+                y[j] = self.eval_sin_cos(line, sp[j], cp[j]);
+            }
+            for (o, yj) in oc.iter_mut().zip(&y) {
+                *o = yj[0] != 0.0 || yj[1] != 0.0;
+            }
+        }
+    }
+
     #[inline]
     fn accumulate(&self, line: &Line, phi: f64, w: f64, acc: &mut [f64]) -> bool {
         if self.column.is_empty() {

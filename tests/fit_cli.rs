@@ -103,19 +103,33 @@ fn fit_writes_a_record_that_round_trips_and_eval_reproduces_its_metrics() {
 
 #[test]
 fn fits_are_byte_identical_across_runs_and_thread_counts() {
+    // 96² = 9216 nodes: more than one accumulation chunk (lm::CHUNK_ROWS), so the parallel
+    // reductions really are split across threads
     let dir = scratch("determinism");
-    fit_conductor(&dir, "a", &["--transform", "mu=sqrt"]);
-    run(bin()
-        .env("RAYON_NUM_THREADS", "1")
-        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "32", "--form", "rational", "--degree", "3", "--transform", "mu=sqrt"])
-        .arg("--data-dir")
-        .arg(dir.join("data"))
-        .arg("--fits-dir")
-        .arg(dir.join("b")));
-    let name = "ggx-conductor-separable/rational-3-mu_sqrt.json";
-    let a = std::fs::read(dir.join("a").join(name)).unwrap();
-    let b = std::fs::read(dir.join("b").join(name)).unwrap();
-    assert!(a == b, "same inputs must give the same bytes");
+    let fit = |threads: &str, fits: &str, args: &[&str]| {
+        run(bin()
+            .env("RAYON_NUM_THREADS", threads)
+            .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "96"])
+            .args(args)
+            .arg("--data-dir")
+            .arg(dir.join("data"))
+            .arg("--fits-dir")
+            .arg(dir.join(fits)))
+    };
+    for (threads, fits) in [("1", "a"), ("2", "b")] {
+        fit(threads, fits, &["--form", "rational", "--degree", "3", "--transform", "mu=sqrt"]);
+        fit(threads, fits, &["--sweep", "--max-degree", "2"]);
+    }
+    let d = "ggx-conductor-separable";
+    let names = ["rational-3-mu_sqrt.json", "sweep.json", "sweep.csv", "best-20.json"];
+    for name in names {
+        let a = std::fs::read(dir.join("a").join(d).join(name)).unwrap();
+        let b = std::fs::read(dir.join("b").join(d).join(name)).unwrap();
+        assert!(a == b, "{name}: same inputs must give the same bytes with 1 and 2 threads");
+    }
+    // the timings went to the sidecars (one per run; the last run's is kept)
+    assert!(dir.join("data/timing").join(d).join("rational-3-mu_sqrt-timing.json").is_file());
+    assert!(dir.join("data/timing").join(d).join("sweep-timing.json").is_file());
 }
 
 #[test]
@@ -163,6 +177,8 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
     let csv = std::fs::read_to_string(d.join("sweep.csv")).unwrap();
     let header = csv.lines().next().unwrap();
     assert!(header.starts_with("form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error"), "{header}");
+    let col = |name: &str| header.split(',').position(|h| h == name).unwrap_or_else(|| panic!("no column {name} in {header}"));
+    let (usable, n, max) = (col("usable"), col("n_coefficients"), col("max_abs_error"));
     let rows: Vec<Vec<String>> = csv.lines().skip(1).map(|l| l.split(',').map(String::from).collect()).collect();
     // 2 transform sets (identity, √μ) × (3 polynomials + 3 rationals), plus minimax refits
     let lsq = rows.iter().filter(|r| r[3] == "lsq").count();
@@ -177,11 +193,19 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
         // nothing usable within the budget has a lower max error
         let lowest = rows
             .iter()
-            .filter(|r| r[11] == "true" && r[4].parse::<usize>().unwrap() <= budget)
-            .map(|r| r[7].parse::<f64>().unwrap())
+            .filter(|r| r[usable] == "true" && r[n].parse::<usize>().unwrap() <= budget)
+            .map(|r| r[max].parse::<f64>().unwrap())
             .fold(f64::INFINITY, f64::min);
         assert_eq!(best.fit.metrics.max_abs_error, lowest, "budget {budget}");
     }
+    // wall times live in the timing sidecar under the data folder, not under fits/
+    let json = std::fs::read_to_string(d.join("sweep.json")).unwrap();
+    assert!(!json.contains("seconds") && !csv.contains("seconds"), "timings leaked into fits/");
+    let timing: furnace::fit::job::Timing =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("data/timing/ggx-conductor-separable/sweep-timing.json")).unwrap()).unwrap();
+    assert_eq!(timing.fits.len(), rows.len());
+    assert!(timing.wall_seconds > 0.0 && timing.fits.iter().all(|f| f.seconds >= 0.0));
+    assert!(timing.fits_file.ends_with("sweep.json"));
 }
 
 #[test]

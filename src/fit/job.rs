@@ -353,8 +353,6 @@ pub struct SweepRow {
     pub max_abs_error_at: Vec<f64>,
     #[serde(with = "super::metrics::finite_or_string")]
     pub max_rel_error: f64,
-    /// Wall time of the solve (the only field that differs between identical runs).
-    pub fit_seconds: f64,
     /// `certified`, `polynomial`, `pole`, `undecided` or `non-finite`.
     pub poles: String,
     pub usable: bool,
@@ -381,6 +379,9 @@ pub struct SweepOutcome {
     pub rows: Vec<SweepRow>,
     pub skipped: Vec<SkippedFit>,
     pub best: Vec<BestUnderBudget>,
+    /// Wall time of each fit, parallel to `rows` (never written under `fits/`: see [`SweepTiming`]).
+    pub fit_seconds: Vec<f64>,
+    /// Wall time of the whole sweep, including measuring every fit on all points.
     pub seconds: f64,
 }
 
@@ -405,7 +406,8 @@ impl SweepOutcome {
     }
 
     /// `sweep.json`: provenance, summary rows, the best fit per budget, skipped fits, and every
-    /// fit's approximant (identical runs differ only in `fit_seconds`).
+    /// fit's approximant. No timings: identical inputs give identical bytes (timings go to a
+    /// [`SweepTiming`] sidecar outside `fits/`).
     pub fn to_json(&self) -> Result<String> {
         let j = SweepJson {
             tool: "furnace",
@@ -423,10 +425,10 @@ impl SweepOutcome {
 
     /// `sweep.csv`: one line per fit.
     pub fn to_csv(&self) -> String {
-        let mut s = String::from("form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,fit_seconds,poles,usable,converged\n");
+        let mut s = String::from("form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,poles,usable,converged\n");
         for r in &self.rows {
             s.push_str(&format!(
-                "{},{},{},{},{},{:e},{:e},{:e},{:e},{:.3},{},{},{}\n",
+                "{},{},{},{},{},{:e},{:e},{:e},{:e},{},{},{}\n",
                 r.form.name(),
                 r.degree,
                 r.transforms.join(" "),
@@ -436,7 +438,6 @@ impl SweepOutcome {
                 r.rmse,
                 r.max_abs_error,
                 r.max_rel_error,
-                r.fit_seconds,
                 r.poles,
                 r.usable,
                 r.converged
@@ -446,7 +447,7 @@ impl SweepOutcome {
     }
 }
 
-fn row_of(rec: &FitRecord, seconds: f64) -> SweepRow {
+fn row_of(rec: &FitRecord) -> SweepRow {
     let f = &rec.fit;
     let (form, degree) = match f.form {
         Form::Polynomial { degree } => (FormKind::Polynomial, degree),
@@ -463,7 +464,6 @@ fn row_of(rec: &FitRecord, seconds: f64) -> SweepRow {
         max_abs_error: f.metrics.max_abs_error,
         max_abs_error_at: f.metrics.max_abs_error_at.clone(),
         max_rel_error: f.metrics.max_rel_error,
-        fit_seconds: seconds,
         poles: pole_word(f).into(),
         usable: rec.usable,
         converged: f.solver.as_ref().is_none_or(|s| s.converged),
@@ -547,10 +547,11 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
     let mut report = sweep_with_progress(data, &opts, &mut on_event)?;
     let mut records = Vec::with_capacity(report.results.len());
     let mut rows = Vec::with_capacity(report.results.len());
+    let mut fit_seconds = Vec::with_capacity(report.results.len());
     for fit in report.results {
-        let secs = fit.fit_seconds;
+        fit_seconds.push(fit.fit_seconds);
         let rec = FitRecord::new(remeasure(fit, input, reduced.is_some()), input, fitted_on.clone());
-        rows.push(row_of(&rec, secs));
+        rows.push(row_of(&rec));
         records.push(rec);
     }
     if plan.minimax_refits && plan.objective == Objective::LeastSquares {
@@ -570,9 +571,9 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
                 Ok(mut fit) => {
                     fit.fit_seconds = t.elapsed().as_secs_f64();
                     progress(&progress_line(&fit));
-                    let secs = fit.fit_seconds;
+                    fit_seconds.push(fit.fit_seconds);
                     let rec = FitRecord::new(remeasure(fit, input, reduced.is_some()), input, fitted_on.clone());
-                    rows.push(row_of(&rec, secs));
+                    rows.push(row_of(&rec));
                     records.push(rec);
                 }
                 Err(e) => {
@@ -600,8 +601,119 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
         rows,
         skipped: report.skipped,
         best,
+        fit_seconds,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Timings of a fit or a sweep: the sidecar `<data-dir>/timing/<fits folder>/sweep-timing.json`
+/// (or `<fit file stem>-timing.json` for one fit). Wall and CPU times depend on the machine,
+/// its load and the thread count, so they never go into files under `fits/`, which must be
+/// byte-identical for identical inputs; `data/` is not committed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Timing {
+    pub tool: String,
+    pub tool_version: String,
+    /// The fit or sweep file these times belong to (`fits/<name>/sweep.json`, …).
+    pub fits_file: String,
+    /// Content hash of the fitted data's source (as in the fit file's `source`).
+    pub source_content_hash: String,
+    /// Points the solver saw (metrics are always measured on all points).
+    pub fitted_points: usize,
+    /// Rayon worker threads.
+    pub threads: usize,
+    /// 1-, 5- and 15-minute load averages when the run ended (`/proc/loadavg`; None elsewhere).
+    pub load_average: Option<[f64; 3]>,
+    /// Wall time of the whole job: every fit, and measuring each on all points.
+    pub wall_seconds: f64,
+    /// CPU time (user + system, all threads) the process spent in the job (`/proc/self/stat`;
+    /// None elsewhere). Less sensitive to other processes than the wall time.
+    pub cpu_seconds: Option<f64>,
+    /// Wall time of each fit's solve, in the order of the sweep's rows.
+    pub fits: Vec<FitTime>,
+}
+
+/// Wall time of one fit's solve.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitTime {
+    /// The fit's file name as a single fit (`rational-4-mu_sqrt-minimax.json`): with
+    /// `n_coefficients` it identifies the row of `sweep.json`.
+    pub name: String,
+    pub n_coefficients: usize,
+    pub seconds: f64,
+}
+
+/// A running job's clock: wall time and process CPU time since [`Stopwatch::start`].
+#[derive(Clone, Copy, Debug)]
+pub struct Stopwatch {
+    wall: std::time::Instant,
+    cpu: Option<f64>,
+}
+
+impl Stopwatch {
+    pub fn start() -> Stopwatch {
+        Stopwatch { wall: std::time::Instant::now(), cpu: process_cpu_seconds() }
+    }
+
+    pub fn wall_seconds(&self) -> f64 {
+        self.wall.elapsed().as_secs_f64()
+    }
+
+    pub fn cpu_seconds(&self) -> Option<f64> {
+        Some(process_cpu_seconds()? - self.cpu?)
+    }
+}
+
+/// Clock ticks per second of `/proc/self/stat` (Linux's USER_HZ, 100 on every architecture's ABI).
+const USER_HZ: f64 = 100.0;
+
+/// User + system CPU time of this process (all threads), from `/proc/self/stat` fields 14–15.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // the command name (field 2) is in parentheses and may contain spaces: skip past it
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    // rest starts at field 3 (state): utime is field 14, stime field 15
+    let utime: f64 = f.get(11)?.parse().ok()?;
+    let stime: f64 = f.get(12)?.parse().ok()?;
+    Some((utime + stime) / USER_HZ)
+}
+
+/// The 1-, 5- and 15-minute load averages from `/proc/loadavg`.
+pub fn load_average() -> Option<[f64; 3]> {
+    let text = std::fs::read_to_string("/proc/loadavg").ok()?;
+    let v: Vec<f64> = text.split_whitespace().take(3).map(|x| x.parse().ok()).collect::<Option<_>>()?;
+    Some([*v.first()?, *v.get(1)?, *v.get(2)?])
+}
+
+impl Timing {
+    /// The timing record of a job measured by `clock`, for the file `fits_file`.
+    pub fn new(fits_file: &str, source: &Source, fitted_on: &FittedOn, clock: &Stopwatch, fits: Vec<FitTime>) -> Timing {
+        Timing {
+            tool: "furnace".into(),
+            tool_version: crate::VERSION.into(),
+            fits_file: fits_file.into(),
+            source_content_hash: source.content_hash.clone(),
+            fitted_points: fitted_on.points,
+            threads: rayon::current_num_threads(),
+            load_average: load_average(),
+            wall_seconds: clock.wall_seconds(),
+            cpu_seconds: clock.cpu_seconds(),
+            fits,
+        }
+    }
+
+    /// Pretty JSON with a final newline.
+    pub fn to_json(&self) -> Result<String> {
+        Ok(format!("{}\n", serde_json::to_string_pretty(self).map_err(FitError::from)?))
+    }
+}
+
+impl SweepOutcome {
+    /// Every fit's solve time, in row order.
+    pub fn fit_times(&self) -> Vec<FitTime> {
+        self.rows.iter().zip(&self.fit_seconds).map(|(r, &seconds)| FitTime { name: r.name.clone(), n_coefficients: r.n_coefficients, seconds }).collect()
+    }
 }
 
 /// Parses `mu=sqrt,f0=sqrt` into one transform per variable (unnamed variables: identity).

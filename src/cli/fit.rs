@@ -217,7 +217,7 @@ fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
         "{}: {} [{}], {} coefficients{}; on {} points: MAE {:.3e}, RMSE {:.3e}, max {:.3e} at {:?}, max relative {:.3e}",
         path.display(),
         rec.fit.form.label(),
-        rec.fit.approximant.transforms.iter().map(|t| t.name()).collect::<Vec<_>>().join(", "),
+        rec.fit.approximant.transforms.iter().map(|t| t.label(&rec.fit.approximant.variables)).collect::<Vec<_>>().join(", "),
         rec.fit.n_coefficients,
         timing.map_or(String::new(), |t| format!(", fitted in {}", timing_text(t))),
         m.n_points,

@@ -92,7 +92,7 @@ impl CompareLine {
         CompareLine {
             fit: fit.into(),
             form: r.form.label(),
-            transforms: r.approximant.transforms.iter().map(|t| t.name()).collect(),
+            transforms: r.approximant.transforms.iter().map(|t| t.label(&r.approximant.variables)).collect(),
             objective: r.objective,
             n_coefficients: r.n_coefficients,
             mae: if full { finite(r.metrics.mae) } else { None },

@@ -133,6 +133,40 @@ fn fits_are_byte_identical_across_runs_and_thread_counts() {
 }
 
 #[test]
+fn boundary_layer_transform_follows_the_grazing_corner() {
+    // E(r, μ) → g(μ/r²) as r → 0: a layer of width α = r² at μ = 0 and a discontinuity at the
+    // corner, which a rational in (r, μ) cannot follow and one in (r², layer) can
+    let dir = scratch("layer");
+    let fit = |transform: Option<&str>| {
+        let mut c = bin();
+        c.args(["fit", "--model", "ggx-conductor-separable", "--resolution", "48", "--form", "rational", "--degree", "4"])
+            .arg("--data-dir")
+            .arg(dir.join("data"))
+            .arg("--fits-dir")
+            .arg(dir.join("fits"));
+        if let Some(t) = transform {
+            c.args(["--transform", t]);
+        }
+        run(&mut c);
+    };
+    fit(None);
+    fit(Some("r=square,mu=layer:r:1"));
+    let plain = read_record(&dir.join("fits/ggx-conductor-separable/rational-4.json"));
+    let layer = read_record(&dir.join("fits/ggx-conductor-separable/rational-4-r_square-mu_layer_r_1.json"));
+    // measured: 3.9e-2 (at the corner) and 1.4e-3 on the whole 48² square
+    assert!(plain.fit.metrics.max_abs_error > 2e-2, "{:?}", plain.fit.metrics);
+    assert!(layer.usable && layer.fit.metrics.max_abs_error < 3e-3, "{:?}", layer.fit.metrics);
+    assert_eq!(layer.fit.approximant.transforms[1], furnace::fit::InputTransform::BoundaryLayer { by: 0, k: 1.0 });
+    // its emitted f32 code is stable, including at the corner and the edges
+    let path = dir.join("fits/ggx-conductor-separable/rational-4-r_square-mu_layer_r_1.json");
+    let out = run(bin().args(["stress", "--points", "20000", "--fit"]).arg(&path));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("PASS"), "{}", String::from_utf8_lossy(&out.stdout));
+    // a layer must scale by an earlier variable
+    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "48", "--form", "rational", "--degree", "2", "--transform", "r=layer:mu:1"]).arg("--data-dir").arg(dir.join("data")));
+    assert!(err.contains("layer:<variable>:<k>"), "{err}");
+}
+
+#[test]
 fn same_form_fit_of_the_papers_conductor_table_matches_its_mae() {
     // The paper's 32² table (its repository), as a user CSV with the unclamped coordinates the
     // paper fitted with; its published 3/3 rational has MAE 0.0041 there.

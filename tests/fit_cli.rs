@@ -214,9 +214,18 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
     let col = |name: &str| header.split(',').position(|h| h == name).unwrap_or_else(|| panic!("no column {name} in {header}"));
     let (usable, n, max) = (col("usable"), col("n_coefficients"), col("max_abs_error"));
     let rows: Vec<Vec<String>> = csv.lines().skip(1).map(|l| l.split(',').map(String::from).collect()).collect();
-    // 2 transform sets (identity, √μ) × (3 polynomials + 3 rationals), plus minimax refits
+    // 3 transform sets (identity, √μ, (r², layer)) × (3 polynomials + 3 rationals), plus minimax refits
     let lsq = rows.iter().filter(|r| r[3] == "lsq").count();
-    assert_eq!(lsq, 12, "{stdout}");
+    assert_eq!(lsq, 18, "{stdout}");
+    assert!(rows.iter().any(|r| r[2] == "square layer:r:1"), "{stdout}");
+    // every fit measured on the whole square and, labelled apart, on the paper's box inside it
+    let (box_max, whole_max) = (col("paper_box_max_abs_error"), col("max_abs_error"));
+    for r in &rows {
+        let (b, w) = (r[box_max].parse::<f64>().unwrap(), r[whole_max].parse::<f64>().unwrap());
+        assert!(b <= w, "the box is inside the square: {r:?}");
+    }
+    assert!(stdout.contains("on all 576 points of the source (the whole domain)"), "{stdout}");
+    assert!(stdout.contains("r ∈ [0.035, 1], mu ∈ [0.02, 1]"), "{stdout}");
     assert!(rows.iter().any(|r| r[3] == "minimax"), "{stdout}");
     let sweep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("sweep.json")).unwrap()).unwrap();
     assert_eq!(sweep["rows"].as_array().unwrap().len(), rows.len());

@@ -89,6 +89,10 @@ pub struct FitArgs {
     /// Write a single fit here instead of <fits-dir>/<model>/<form>-<degree>.json.
     #[arg(long, conflicts_with = "sweep")]
     pub output: Option<PathBuf>,
+    /// Print the N table points with the largest error of the fit (of each best-<budget> fit
+    /// of a sweep), with the table value and the fit's there.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub worst: usize,
     /// Recompute the model's table even when cached.
     #[arg(long)]
     pub force: bool,
@@ -171,6 +175,12 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         let clock = Stopwatch::start();
         let outcome = job::sweep_fits(&input, &plan, &mut |line| eprintln!("  {line}"))?;
         write_sweep(&outcome, &dir, &timing_dir, &clock)?;
+        for b in &outcome.best {
+            if let Some(rec) = outcome.best_record(b.budget).filter(|_| args.worst > 0) {
+                println!("worst points of best-{}.json:", b.budget);
+                print_worst(rec, &input, args.worst);
+            }
+        }
         return Ok(());
     }
     let (Some(form), Some(degree)) = (args.form, args.degree) else {
@@ -197,7 +207,20 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
     write_atomic(&timing_path, timing.to_json()?.as_bytes())?;
     print_record(&rec, &path, Some(&timing));
     eprintln!("timing: {}", timing_path.display());
+    if args.worst > 0 {
+        print_worst(&rec, &input, args.worst);
+    }
     Ok(())
+}
+
+/// The `n` points of `input` where `rec` errs most.
+fn print_worst(rec: &FitRecord, input: &FitInput, n: usize) {
+    let names = input.data.names.join(", ");
+    println!("    {:>4}  {:<40} {:>12} {:>12} {:>10}", "rank", format!("({names})"), "table", "fit", "|error|");
+    for (i, p) in crate::fit::metrics::worst_points(&rec.fit.approximant, &input.data, n).iter().enumerate() {
+        let at = p.at.iter().map(|x| format!("{x:.6}")).collect::<Vec<_>>().join(", ");
+        println!("    {:>4}  {:<40} {:>12.8} {:>12.8} {:>10.3e}", i + 1, format!("({at})"), p.value, p.fit, p.abs_error);
+    }
 }
 
 /// `12.3 s wall, 20.1 s CPU, 2 threads, load 1.52`: a timing for the terminal.
@@ -242,10 +265,18 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &St
     write_atomic(&dir.join("sweep.csv"), outcome.to_csv().as_bytes())?;
     let timing_path = timing_dir.join("sweep-timing.json");
     write_atomic(&timing_path, timing.to_json()?.as_bytes())?;
-    println!("{:<11} {:>3} {:<28} {:<8} {:>4} {:>10} {:>10} {:>8} poles", "form", "deg", "transforms", "objective", "n", "MAE", "max", "seconds");
+    println!("MAE and max: on {}", outcome.metrics_on);
+    if let Some(b) = &outcome.paper_box {
+        println!("box MAE, box max: on {}", b.metrics_on);
+    }
+    println!(
+        "{:<11} {:>3} {:<32} {:<8} {:>4} {:>10} {:>10} {:>10} {:>10} {:>8} poles",
+        "form", "deg", "transforms", "objective", "n", "MAE", "max", "box MAE", "box max", "seconds"
+    );
     for (r, secs) in outcome.rows.iter().zip(&outcome.fit_seconds) {
+        let (bm, bx) = r.paper_box.as_ref().map_or(("-".to_string(), "-".to_string()), |b| (format!("{:.3e}", b.mae), format!("{:.3e}", b.max_abs_error)));
         println!(
-            "{:<11} {:>3} {:<28} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>8.2} {}",
+            "{:<11} {:>3} {:<32} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>10} {:>10} {:>8.2} {}",
             r.form.name(),
             r.degree,
             r.transforms.join(" "),
@@ -253,6 +284,8 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &St
             r.n_coefficients,
             r.mae,
             r.max_abs_error,
+            bm,
+            bx,
             secs,
             r.poles
         );
@@ -262,8 +295,11 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &St
         match outcome.best_record(b.budget) {
             Some(rec) => {
                 write_atomic(&path, rec.to_json()?.as_bytes())?;
-                println!("best with ≤ {} coefficients:", b.budget);
+                println!("best with ≤ {} coefficients (lowest max error on the whole domain):", b.budget);
                 print_record(rec, &path, None);
+                if let Some(bm) = b.index.and_then(|i| outcome.rows[i].paper_box.as_ref()) {
+                    println!("    on the paper's box: MAE {:.3e}, max {:.3e} at {:?}", bm.mae, bm.max_abs_error, bm.max_abs_error_at);
+                }
             }
             None => {
                 // a stale file from an earlier sweep would be mistaken for this one's

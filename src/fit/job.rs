@@ -15,6 +15,7 @@ use super::rational::{fit_rational, RationalOptions};
 use super::result::{Approximant, FitResult, Form, Objective};
 use super::source::{FitInput, FittedOn, Source};
 use super::sweep::{best_under_budget, sweep_with_progress, SkippedFit, SweepEvent, SweepOptions};
+use super::compare::paper_box_in;
 use super::PoleVerdict;
 use crate::error::{Error, Result};
 
@@ -366,6 +367,15 @@ impl SweepPlan {
     }
 }
 
+/// The paper's box of a sweep.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperBox {
+    /// [lo, hi] per variable.
+    pub bounds: Vec<(f64, f64)>,
+    /// In words, with the number of points.
+    pub metrics_on: String,
+}
+
 /// One row of a sweep summary.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SweepRow {
@@ -384,12 +394,25 @@ pub struct SweepRow {
     pub max_abs_error_at: Vec<f64>,
     #[serde(with = "super::metrics::finite_or_string")]
     pub max_rel_error: f64,
+    /// MAE and max error on the table nodes inside the paper's box ([`SweepOutcome::paper_box`]);
+    /// None without one. The fields above are on the whole domain.
+    pub paper_box: Option<BoxMetrics>,
     /// `certified`, `polynomial`, `pole`, `undecided` or `non-finite`.
     pub poles: String,
     pub usable: bool,
     pub converged: bool,
     /// The file name this fit would have as a single fit (`rational-4-mu_sqrt.json`).
     pub name: String,
+}
+
+/// Errors of a fit on the points inside a sub-box.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BoxMetrics {
+    #[serde(with = "super::metrics::finite_or_string")]
+    pub mae: f64,
+    #[serde(with = "super::metrics::finite_or_string")]
+    pub max_abs_error: f64,
+    pub max_abs_error_at: Vec<f64>,
 }
 
 /// The best usable fit under one coefficient budget.
@@ -405,7 +428,12 @@ pub struct BestUnderBudget {
 pub struct SweepOutcome {
     pub source: Source,
     pub fitted_on: FittedOn,
+    /// What the rows' `mae`, `max_abs_error`, … were measured on: every point (the whole domain).
     pub metrics_on: String,
+    /// The paper's box inside the domain (r ≥ 0.035, μ ≥ 0.02, dielectrics μ ≤ 0.98: where
+    /// the paper's tables are; [`super::compare::paper_box_in`]) and what the rows'
+    /// `paper_box` metrics were measured on; None for data without variables `r` and `mu`.
+    pub paper_box: Option<PaperBox>,
     pub records: Vec<FitRecord>,
     pub rows: Vec<SweepRow>,
     pub skipped: Vec<SkippedFit>,
@@ -423,6 +451,7 @@ struct SweepJson<'a> {
     source: &'a Source,
     fitted_on: &'a FittedOn,
     metrics_on: &'a str,
+    paper_box: &'a Option<PaperBox>,
     /// The summary rows; `fits[i]` holds row i's approximant.
     rows: &'a [SweepRow],
     best: &'a [BestUnderBudget],
@@ -446,6 +475,7 @@ impl SweepOutcome {
             source: &self.source,
             fitted_on: &self.fitted_on,
             metrics_on: &self.metrics_on,
+            paper_box: &self.paper_box,
             rows: &self.rows,
             best: &self.best,
             skipped: &self.skipped,
@@ -456,10 +486,13 @@ impl SweepOutcome {
 
     /// `sweep.csv`: one line per fit.
     pub fn to_csv(&self) -> String {
-        let mut s = String::from("form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,poles,usable,converged\n");
+        let mut s = String::from(
+            "form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,paper_box_mae,paper_box_max_abs_error,poles,usable,converged\n",
+        );
         for r in &self.rows {
+            let (bm, bx) = r.paper_box.as_ref().map_or((String::new(), String::new()), |b| (format!("{:e}", b.mae), format!("{:e}", b.max_abs_error)));
             s.push_str(&format!(
-                "{},{},{},{},{},{:e},{:e},{:e},{:e},{},{},{}\n",
+                "{},{},{},{},{},{:e},{:e},{:e},{:e},{bm},{bx},{},{},{}\n",
                 r.form.name(),
                 r.degree,
                 r.transforms.join(" "),
@@ -478,7 +511,7 @@ impl SweepOutcome {
     }
 }
 
-fn row_of(rec: &FitRecord) -> SweepRow {
+fn row_of(rec: &FitRecord, paper_box: Option<&FitData>) -> SweepRow {
     let f = &rec.fit;
     let (form, degree) = match f.form {
         Form::Polynomial { degree } => (FormKind::Polynomial, degree),
@@ -495,6 +528,10 @@ fn row_of(rec: &FitRecord) -> SweepRow {
         max_abs_error: f.metrics.max_abs_error,
         max_abs_error_at: f.metrics.max_abs_error_at.clone(),
         max_rel_error: f.metrics.max_rel_error,
+        paper_box: paper_box.map(|b| {
+            let m = measure(&f.approximant, b);
+            BoxMetrics { mae: m.mae, max_abs_error: m.max_abs_error, max_abs_error_at: m.max_abs_error_at }
+        }),
         poles: pole_word(f).into(),
         usable: rec.usable,
         converged: f.solver.as_ref().is_none_or(|s| s.converged),
@@ -548,6 +585,20 @@ fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
     chosen
 }
 
+/// The points of `data` inside `bounds` (same domain as `data`, so transforms see the same
+/// box), or None if there are none.
+fn points_in(data: &FitData, bounds: &[(f64, f64)]) -> Option<FitData> {
+    let (mut coords, mut values) = (Vec::new(), Vec::new());
+    for i in 0..data.len() {
+        let x = data.point(i);
+        if x.iter().zip(bounds).all(|(v, (lo, hi))| v >= lo && v <= hi) {
+            coords.extend_from_slice(x);
+            values.push(data.values[i]);
+        }
+    }
+    (!values.is_empty()).then(|| FitData { names: data.names.clone(), coords, values, weights: None, domain: data.domain.clone() })
+}
+
 /// Runs a sweep; `progress` gets one line per fit made or skipped.
 ///
 /// 1. The paper's sweep ([`sweep_with_progress`]) for every transform set, on the reduced data.
@@ -564,6 +615,22 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
     }
     let (reduced, fitted_on) = fitting_data(input, plan.max_fit_points)?;
     let data = reduced.as_ref().unwrap_or(&input.data);
+    let (boxed, paper_box) = match paper_box_in(&input.data.names, &input.data.domain, input.source.model.as_deref()) {
+        Some(bounds) => {
+            let b = points_in(&input.data, &bounds);
+            let text = input
+                .data
+                .names
+                .iter()
+                .zip(&bounds)
+                .map(|(n, (lo, hi))| format!("{n} ∈ [{lo}, {hi}]"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let on = format!("the {} points with {text} (the paper's box: where its tables are)", b.as_ref().map_or(0, FitData::len));
+            (b, Some(PaperBox { bounds, metrics_on: on }))
+        }
+        None => (None, None),
+    };
     let opts = SweepOptions {
         polynomial_degrees: plan.polynomial_degrees.clone(),
         rational_degrees: plan.rational_degrees.clone(),
@@ -582,7 +649,7 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
     for fit in report.results {
         fit_seconds.push(fit.fit_seconds);
         let rec = FitRecord::new(remeasure(fit, input, reduced.is_some()), input, fitted_on.clone());
-        rows.push(row_of(&rec));
+        rows.push(row_of(&rec, boxed.as_ref()));
         records.push(rec);
     }
     if plan.minimax_refits && plan.objective == Objective::LeastSquares {
@@ -604,7 +671,7 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
                     progress(&progress_line(&fit));
                     fit_seconds.push(fit.fit_seconds);
                     let rec = FitRecord::new(remeasure(fit, input, reduced.is_some()), input, fitted_on.clone());
-                    rows.push(row_of(&rec));
+                    rows.push(row_of(&rec, boxed.as_ref()));
                     records.push(rec);
                 }
                 Err(e) => {
@@ -627,7 +694,8 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
     Ok(SweepOutcome {
         source: input.source.clone(),
         fitted_on,
-        metrics_on: format!("all {} points of the source", input.data.len()),
+        metrics_on: format!("all {} points of the source (the whole domain)", input.data.len()),
+        paper_box: paper_box.filter(|_| boxed.is_some()),
         records,
         rows,
         skipped: report.skipped,

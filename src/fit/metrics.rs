@@ -108,6 +108,44 @@ pub fn measure(approx: &Approximant, data: &FitData) -> Metrics {
     }
 }
 
+/// One point of a data set with the fit's error there.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointError {
+    /// Index of the point in the data set.
+    pub index: usize,
+    /// Its coordinates (original variables).
+    pub at: Vec<f64>,
+    /// The data value.
+    pub value: f64,
+    /// The approximant's value (NaN or ±∞ at a pole).
+    #[serde(with = "finite_or_string")]
+    pub fit: f64,
+    /// |fit − value| (∞ where the fit is not finite).
+    #[serde(with = "finite_or_string")]
+    pub abs_error: f64,
+}
+
+/// The `n` points with the largest absolute error, largest first (ties: lower index first), so
+/// one can see where a fit fails and what the data does there.
+pub fn worst_points(approx: &Approximant, data: &FitData, n: usize) -> Vec<PointError> {
+    let errors: Vec<(f64, f64)> = (0..data.len())
+        .into_par_iter()
+        .with_min_len(CHUNK)
+        .map(|i| {
+            let f = approx.eval(data.point(i));
+            let e = (f - data.values[i]).abs();
+            (f, if e.is_finite() { e } else { f64::INFINITY })
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..data.len()).collect();
+    order.sort_by(|&a, &b| errors[b].1.total_cmp(&errors[a].1).then(a.cmp(&b)));
+    order
+        .into_iter()
+        .take(n)
+        .map(|i| PointError { index: i, at: data.point(i).to_vec(), value: data.values[i], fit: errors[i].0, abs_error: errors[i].1 })
+        .collect()
+}
+
 /// Serialises a finite f64 as a JSON number (shortest round-trip) and ±∞/NaN as the strings
 /// "inf", "-inf", "nan" — plain JSON has no non-finite numbers and serde_json would write null.
 pub(crate) mod finite_or_string {
@@ -142,5 +180,30 @@ pub(crate) mod finite_or_string {
                 other => Err(serde::de::Error::custom(format!("expected a number, \"inf\", \"-inf\" or \"nan\", got \"{other}\""))),
             },
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::basis::Polynomial;
+    use crate::fit::data::InputTransform;
+
+    #[test]
+    fn worst_points_are_sorted_and_located() {
+        // f = 0 against values 0, 3, 1, 3, 2: the worst are index 1 and 3 (tie: lower index first), then 4
+        let data = FitData::new(vec!["x".into()], vec![0.0, 0.25, 0.5, 0.75, 1.0], vec![0.0, 3.0, 1.0, 3.0, 2.0], vec![(0.0, 1.0)]).unwrap();
+        let zero = Approximant {
+            variables: vec!["x".into()],
+            transforms: vec![InputTransform::Identity],
+            domain: vec![(0.0, 1.0)],
+            numerator: Polynomial { exponents: vec![vec![0]], coefficients: vec![0.0] },
+            denominator: None,
+        };
+        let w = worst_points(&zero, &data, 3);
+        assert_eq!(w.iter().map(|p| p.index).collect::<Vec<_>>(), vec![1, 3, 4]);
+        assert_eq!((w[0].at.clone(), w[0].value, w[0].fit, w[0].abs_error), (vec![0.25], 3.0, 0.0, 3.0));
+        assert_eq!(w[2].abs_error, measure(&zero, &data).max_abs_error - 1.0);
+        assert_eq!(worst_points(&zero, &data, 10).len(), 5);
     }
 }

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::data::{FitData, InputTransform};
 use super::error::FitError;
-use super::metrics::measure;
+use super::metrics::{measure, measure_with_subset};
 use super::polynomial::{fit_polynomial, PolynomialOptions};
 use super::rational::{fit_rational, RationalOptions};
 use super::result::{Approximant, FitResult, Form, Objective};
@@ -511,7 +511,7 @@ impl SweepOutcome {
     }
 }
 
-fn row_of(rec: &FitRecord, paper_box: Option<&FitData>) -> SweepRow {
+fn row_of(rec: &FitRecord, paper_box: Option<BoxMetrics>) -> SweepRow {
     let f = &rec.fit;
     let (form, degree) = match f.form {
         Form::Polynomial { degree } => (FormKind::Polynomial, degree),
@@ -528,10 +528,7 @@ fn row_of(rec: &FitRecord, paper_box: Option<&FitData>) -> SweepRow {
         max_abs_error: f.metrics.max_abs_error,
         max_abs_error_at: f.metrics.max_abs_error_at.clone(),
         max_rel_error: f.metrics.max_rel_error,
-        paper_box: paper_box.map(|b| {
-            let m = measure(&f.approximant, b);
-            BoxMetrics { mae: m.mae, max_abs_error: m.max_abs_error, max_abs_error_at: m.max_abs_error_at }
-        }),
+        paper_box,
         poles: pole_word(f).into(),
         usable: rec.usable,
         converged: f.solver.as_ref().is_none_or(|s| s.converged),
@@ -585,18 +582,23 @@ fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
     chosen
 }
 
-/// The points of `data` inside `bounds` (same domain as `data`, so transforms see the same
-/// box), or None if there are none.
-fn points_in(data: &FitData, bounds: &[(f64, f64)]) -> Option<FitData> {
-    let (mut coords, mut values) = (Vec::new(), Vec::new());
-    for i in 0..data.len() {
-        let x = data.point(i);
-        if x.iter().zip(bounds).all(|(v, (lo, hi))| v >= lo && v <= hi) {
-            coords.extend_from_slice(x);
-            values.push(data.values[i]);
-        }
+/// Which points of `data` lie inside `bounds`, or None if none do.
+fn points_in(data: &FitData, bounds: &[(f64, f64)]) -> Option<Vec<bool>> {
+    let mask: Vec<bool> = (0..data.len()).map(|i| data.point(i).iter().zip(bounds).all(|(v, (lo, hi))| v >= lo && v <= hi)).collect();
+    mask.contains(&true).then_some(mask)
+}
+
+/// A fit's metrics on every point of `input` (measured again if it was fitted on fewer) and
+/// on the points of `mask`, in one pass.
+fn measured(mut fit: FitResult, input: &FitInput, reduced: bool, mask: Option<&[bool]>) -> (FitResult, Option<BoxMetrics>) {
+    if !reduced && mask.is_none() {
+        return (fit, None);
     }
-    (!values.is_empty()).then(|| FitData { names: data.names.clone(), coords, values, weights: None, domain: data.domain.clone() })
+    let (all, sub) = measure_with_subset(&fit.approximant, &input.data, mask);
+    if reduced {
+        fit.metrics = all;
+    }
+    (fit, sub.map(|m| BoxMetrics { mae: m.mae, max_abs_error: m.max_abs_error, max_abs_error_at: m.max_abs_error_at }))
 }
 
 /// Runs a sweep; `progress` gets one line per fit made or skipped.
@@ -626,7 +628,7 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
                 .map(|(n, (lo, hi))| format!("{n} ∈ [{lo}, {hi}]"))
                 .collect::<Vec<_>>()
                 .join(", ");
-            let on = format!("the {} points with {text} (the paper's box: where its tables are)", b.as_ref().map_or(0, FitData::len));
+            let on = format!("the {} points with {text} (the paper's box: where its tables are)", b.as_ref().map_or(0, |m| m.iter().filter(|&&x| x).count()));
             (b, Some(PaperBox { bounds, metrics_on: on }))
         }
         None => (None, None),
@@ -648,8 +650,9 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
     let mut fit_seconds = Vec::with_capacity(report.results.len());
     for fit in report.results {
         fit_seconds.push(fit.fit_seconds);
-        let rec = FitRecord::new(remeasure(fit, input, reduced.is_some()), input, fitted_on.clone());
-        rows.push(row_of(&rec, boxed.as_ref()));
+        let (fit, on_box) = measured(fit, input, reduced.is_some(), boxed.as_deref());
+        let rec = FitRecord::new(fit, input, fitted_on.clone());
+        rows.push(row_of(&rec, on_box));
         records.push(rec);
     }
     if plan.minimax_refits && plan.objective == Objective::LeastSquares {
@@ -670,8 +673,9 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
                     fit.fit_seconds = t.elapsed().as_secs_f64();
                     progress(&progress_line(&fit));
                     fit_seconds.push(fit.fit_seconds);
-                    let rec = FitRecord::new(remeasure(fit, input, reduced.is_some()), input, fitted_on.clone());
-                    rows.push(row_of(&rec, boxed.as_ref()));
+                    let (fit, on_box) = measured(fit, input, reduced.is_some(), boxed.as_deref());
+                    let rec = FitRecord::new(fit, input, fitted_on.clone());
+                    rows.push(row_of(&rec, on_box));
                     records.push(rec);
                 }
                 Err(e) => {

@@ -326,6 +326,24 @@ fn bad_input_gives_clear_errors() {
     let err = fails(&mut fit("missing.csv", "1"));
     assert!(err.contains("missing.csv"), "{err}");
 
+    // degree beyond f64 meaning, and degrees beyond the data (one fit: refused; a sweep: skipped, said why)
+    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "21"]).arg("--data-dir").arg(dir.join("data")));
+    assert!(err.contains("degree 21 is above the supported maximum 20"), "{err}");
+    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "polynomial", "--degree", "10"]).arg("--data-dir").arg(dir.join("data")));
+    assert!(err.contains("66 free coefficients but only 64 data points"), "{err}");
+    let out = run(bin()
+        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--sweep", "--form", "rational", "--max-degree", "7"])
+        .arg("--data-dir")
+        .arg(dir.join("data"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits")));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("skipped rational of degree 7/7 [identity identity]: 71 coefficients but only 64 data points"), "{err}");
+    assert!(err.contains("[square layer:r:1]"), "{err}");
+    // a table with NaN: refused naming the cell (a JSON grid here; furnace tables are checked the same way)
+    std::fs::write(dir.join("nan.json"), r#"{"axes": [{"name": "r", "nodes": [0, 1]}, {"name": "mu", "nodes": [0, 1]}], "values": [1, 2, "NaN", 4]}"#).unwrap();
+    let err = fails(&mut fit("nan.json", "1"));
+    assert!(err.contains("nan.json") && err.contains("\"NaN\"") && err.contains("column 98"), "{err}");
     let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "2", "--transform", "mu=log"]).arg("--data-dir").arg(dir.join("data")));
     assert!(err.contains("unknown transform 'log'"), "{err}");
     let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "2", "--channel", "E_T"]).arg("--data-dir").arg(dir.join("data")));

@@ -311,7 +311,7 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &St
         }
     }
     for s in &outcome.skipped {
-        eprintln!("skipped {} [{}]: {}", s.form, s.transforms.iter().map(|t| t.name()).collect::<Vec<_>>().join(" "), s.reason);
+        eprintln!("skipped {} [{}]: {}", s.form, s.transforms.iter().map(|t| t.label(&outcome.variables)).collect::<Vec<_>>().join(" "), s.reason);
     }
     let not_usable = outcome.rows.iter().filter(|r| !r.usable).count();
     if not_usable > 0 {

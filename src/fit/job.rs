@@ -427,6 +427,8 @@ pub struct BestUnderBudget {
 #[derive(Clone, Debug)]
 pub struct SweepOutcome {
     pub source: Source,
+    /// The data's variable names.
+    pub variables: Vec<String>,
     pub fitted_on: FittedOn,
     /// What the rows' `mae`, `max_abs_error`, … were measured on: every point (the whole domain).
     pub metrics_on: String,
@@ -697,6 +699,7 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
         .collect();
     Ok(SweepOutcome {
         source: input.source.clone(),
+        variables: input.data.names.clone(),
         fitted_on,
         metrics_on: format!("all {} points of the source (the whole domain)", input.data.len()),
         paper_box: paper_box.filter(|_| boxed.is_some()),

@@ -214,10 +214,11 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
     let col = |name: &str| header.split(',').position(|h| h == name).unwrap_or_else(|| panic!("no column {name} in {header}"));
     let (usable, n, max) = (col("usable"), col("n_coefficients"), col("max_abs_error"));
     let rows: Vec<Vec<String>> = csv.lines().skip(1).map(|l| l.split(',').map(String::from).collect()).collect();
-    // 3 transform sets (identity, √μ, (r², layer)) × (3 polynomials + 3 rationals), plus minimax refits
+    // 4 transform sets (identity, √μ, (r², layer k = 1), (r², layer k = 0.5)) × (3 polynomials
+    // + 3 rationals), plus minimax refits
     let lsq = rows.iter().filter(|r| r[3] == "lsq").count();
-    assert_eq!(lsq, 18, "{stdout}");
-    assert!(rows.iter().any(|r| r[2] == "square layer:r:1"), "{stdout}");
+    assert_eq!(lsq, 24, "{stdout}");
+    assert!(rows.iter().any(|r| r[2] == "square layer:r:1") && rows.iter().any(|r| r[2] == "square layer:r:0.5"), "{stdout}");
     // every fit measured on the whole square and, labelled apart, on the paper's box inside it
     let (box_max, whole_max) = (col("paper_box_max_abs_error"), col("max_abs_error"));
     for r in &rows {

@@ -268,17 +268,18 @@ pub fn default_sweep_points(d: usize) -> usize {
     }
 }
 
-/// Scale k of the boundary-layer transform the sweep tries (t = (μ(1 + k r²) + τ)/(μ + k r² + τ),
-/// [`InputTransform::BoundaryLayer`]). Measured on the 1024² separable conductor (whole
-/// square, `furnace fit … --transform r=square,mu=layer:r:K --fit-points 65536`): 3/3 minimax
-/// max error 4.2e-3 (k = 1) vs 6.5e-3 (k = 0.5); 4/4 minimax 5.1e-4 (k = 1) vs 4.3e-4 (k = 0.5).
-pub const LAYER_SCALE: f64 = 1.0;
+/// Scales k of the boundary-layer transform the sweep tries (t = (μ(1 + k r²) + τ)/(μ + k r² + τ),
+/// [`InputTransform::BoundaryLayer`]): both in 2D, the first in 3D (where fits cost more).
+/// Measured on the 1024² tables, whole square (`furnace fit … --transform r=square,mu=layer:r:K
+/// --objective minimax --fit-points 65536`): separable conductor 3/3 max error 4.2e-3 (k = 1)
+/// vs 6.5e-3 (k = 0.5), 4/4 5.1e-4 vs 4.3e-4; height-correlated 4/4 3.1e-3 vs 2.2e-3.
+pub const LAYER_SCALES: [f64; 2] = [1.0, 0.5];
 
 /// Input transforms a sweep tries besides the identity:
 /// - √ of the variables named `mu` (grazing angles, where albedos vary like √μ) and `f0`
 ///   (η = (1+√F0)/(1−√F0)), alone and together, if their domain starts at ≥ 0;
 /// - with variables `r` before `mu` (μ ⊂ [0, 1], r ≥ 0): r² (= α) and the boundary-layer
-///   coordinate of μ scaled by r² ([`InputTransform::BoundaryLayer`], k = [`LAYER_SCALE`]),
+///   coordinate of μ scaled by r² ([`InputTransform::BoundaryLayer`], k in [`LAYER_SCALES`]),
 ///   which makes the grazing layer of width ~α and the corner r = μ = 0 smooth; with `f0`
 ///   also with √F0.
 ///
@@ -309,23 +310,22 @@ pub fn default_transform_sets(data: &FitData) -> Vec<Vec<InputTransform>> {
             sets.push(with(&[f]));
         }
     }
-    let layer = match (find("r"), mu) {
-        (Some(r), Some(m)) if r < m && data.domain[r].0 >= 0.0 && data.domain[m].1 <= 1.0 => {
-            let mut t = id.clone();
-            t[r] = InputTransform::Square;
-            t[m] = InputTransform::BoundaryLayer { by: r, k: LAYER_SCALE };
-            Some(t)
-        }
-        _ => None,
-    };
-    if let Some(t) = layer {
-        if let Some(f) = f0 {
-            let mut with_f0 = t.clone();
-            with_f0[f] = InputTransform::Sqrt;
-            sets.push(t);
-            sets.push(with_f0);
-        } else {
-            sets.push(t);
+    if let (Some(r), Some(m)) = (find("r"), mu) {
+        if r < m && data.domain[r].0 >= 0.0 && data.domain[m].1 <= 1.0 {
+            let scales = if d >= 3 { &LAYER_SCALES[..1] } else { &LAYER_SCALES[..] };
+            for &k in scales {
+                let mut t = id.clone();
+                t[r] = InputTransform::Square;
+                t[m] = InputTransform::BoundaryLayer { by: r, k };
+                if let Some(f) = f0 {
+                    let mut with_f0 = t.clone();
+                    with_f0[f] = InputTransform::Sqrt;
+                    sets.push(t);
+                    sets.push(with_f0);
+                } else {
+                    sets.push(t);
+                }
+            }
         }
     }
     sets

@@ -46,8 +46,10 @@ pub const PAPER_PAIRS: [PaperPair; 4] = [
 
 /// The box where the paper's tables start (its repository clamps r ≥ 0.035 and μ ≥ 0.02, and
 /// μ ≤ 0.98 for dielectrics, when computing them): away from the corner r = μ = 0, where
-/// albedos are discontinuous and no low-degree fit can be accurate. The issue's reference
-/// figures for the published conductor fit (MAE 3.9e-3, max 3.2e-2) are on this box.
+/// albedos are discontinuous in (r, μ) and no low-degree fit in those variables is accurate
+/// (in the boundary-layer variable of [`super::InputTransform::BoundaryLayer`] they are smooth).
+/// The issue's reference figures for the published conductor fit (MAE 3.9e-3, max 3.2e-2) are
+/// on this box.
 pub fn paper_box(pair: &PaperPair) -> Vec<AxisDecl> {
     let mu_hi = if pair.radiance { PAPER_MU_MAX_DIELECTRIC } else { 1.0 };
     vec![AxisDecl { name: "r".into(), lo: PAPER_R_MIN, hi: 1.0, n: None }, AxisDecl { name: "mu".into(), lo: PAPER_MU_MIN, hi: mu_hi, n: None }]
@@ -241,7 +243,7 @@ impl CompareReport {
         s.push_str(&format!(
             "{}; furnace {}. Errors are |fit − table| over every node of the table (MAE, max), and over the nodes inside \
 the paper's box (where its tables start: r ≥ 0.035, μ ≥ 0.02, dielectrics μ ≤ 0.98), away from the corner r = μ = 0 where \
-albedos are discontinuous. Dielectric tables use the paper's radiance form of transmission (E_T × 1/η² entering, × η² leaving), \
+albedos are discontinuous in (r, μ) (furnace's fits in the boundary-layer variable μ(1 + k r²)/(μ + k r²) are smooth there). Dielectric tables use the paper's radiance form of transmission (E_T × 1/η² entering, × η² leaving), \
 since that is what its coefficients approximate. Pole verdicts are proofs on each fit's whole domain (Bernstein certificate), \
 not checks at the nodes.\n",
             self.paper, self.tool_version

@@ -193,6 +193,7 @@ fn fit_and_emit(model: &str, resolution: &str, args: &RunArgs) -> Result<()> {
         data_dir: args.data_dir.clone(),
         fits_dir: args.scene.fits_dir.clone(),
         output: None,
+        worst: 0,
         force: false,
         quadrature,
     })?;

@@ -184,8 +184,8 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
     std::fs::create_dir_all(&fit_dir).unwrap();
     std::fs::write(fit_dir.join("rational2.json"), fit.to_json().unwrap()).unwrap();
     std::fs::write(fit_dir.join("notes.json"), "{\"comment\": 1}").unwrap();
-    std::fs::create_dir_all(root.join("bench")).unwrap();
-    std::fs::write(root.join("bench/eval-cost.csv"), "# title: Evaluation cost\n# x: ns per call (log)\n# y: max error (log)\nseries,ns,err\nfit,2.5,1e-3\nfit,4,2e-4\nLUT,1.5,3e-3\n").unwrap();
+    std::fs::create_dir_all(root.join("reports/bench")).unwrap();
+    std::fs::write(root.join("reports/bench/eval-cost.csv"), "# title: Evaluation cost\n# x: ns per call (log)\n# y: max error (log)\nseries,ns,err\nfit,2.5,1e-3\nfit,4,2e-4\nLUT,1.5,3e-3\n").unwrap();
 
     let tables = Tables { cache: RefCell::new(BTreeMap::new()) };
     let quiet = |_: &str| {};

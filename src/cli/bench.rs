@@ -26,6 +26,27 @@ pub struct BenchTabulateArgs {
     /// Folder with the shared reference albedos (ref2d.csv, ref3d.csv).
     #[arg(long, default_value = "../shared/reference")]
     pub reference_dir: PathBuf,
+    /// Also write the rows as a benchmark CSV (wall time against error at the reference points)
+    /// for the report, e.g. reports/bench/tabulate.csv.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+}
+
+/// "2 CPUs, load average 3.10 at the start" — the conditions a wall time was measured under.
+pub fn machine_note(command: &str) -> String {
+    let cpus = std::thread::available_parallelism().map_or(0, |n| n.get());
+    let load = std::fs::read_to_string("/proc/loadavg").ok().and_then(|s| s.split_whitespace().next().map(str::to_string));
+    format!(
+        "Measured by `{command}` on {cpus} CPUs{} (wall times; other work on the machine slows them).",
+        load.map_or(String::new(), |l| format!(", load average {l} at the start"))
+    )
+}
+
+/// Writes a benchmark plot's CSV (atomically) and says where.
+pub fn write_bench(plot: &crate::report::inputs::BenchPlot, path: &Path) -> Result<()> {
+    crate::table::io::write_atomic(path, plot.to_csv().as_bytes())?;
+    eprintln!("wrote {} ({} points); `furnace report` plots it", path.display(), plot.rows.len());
+    Ok(())
 }
 
 /// Reference points and expected E for a model, from the shared reference files.
@@ -64,6 +85,16 @@ fn reference_error(model: &dyn Model, refs: &[(Vec<f64>, f64)], settings: &Quadr
 }
 
 pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
+    let mut plot = crate::report::inputs::BenchPlot::new(
+        "tabulate",
+        "Tabulation: wall time against quadrature error",
+        "wall time of the whole table, s",
+        true,
+        "max |E − reference| at the shared reference points",
+        true,
+    );
+    plot.notes.push(machine_note(&format!("furnace bench tabulate --orders {} --models {}{}", args.orders.iter().map(|o| o.to_string()).collect::<Vec<_>>().join(","), args.models.join(","), if args.quick { " --quick" } else { "" })));
+    plot.notes.push("Each point is one table at a fixed Gauss–Legendre order without refinement (\"default\": the default settings, with refinement to 1e-7).".into());
     println!(
         "{:<22} {:>12} {:>6} {:>9} {:>9} {:>13} {:>13}",
         "model", "table", "order", "wall s", "µs/cell", "max |ΔE| ref", "max est."
@@ -93,6 +124,12 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
             let t = table::tabulate(model.as_ref(), &spec, &|_| {})?;
             let wall = start.elapsed().as_secs_f64();
             let err = reference_error(model.as_ref(), &refs, &settings);
+            if let Some(e) = err {
+                // an exact zero cannot go on a log axis: the reference's own rounding is ~1e-16
+                // the default settings (order 12, refined) are not on the fixed-order curve
+                let series = if label == "default" { format!("{name} {} default settings", spec.resolution_name()) } else { format!("{name} {} fixed order", spec.resolution_name()) };
+                plot.push(&series, wall, e.max(1e-16), &if label == "default" { "order 12 refined to 1e-7".to_string() } else { format!("order {label}") });
+            }
             println!(
                 "{:<22} {:>12} {:>6} {:>9.2} {:>9.2} {:>13} {:>13.2e}",
                 name,
@@ -104,6 +141,12 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
                 t.summary.max_error_estimate
             );
         }
+    }
+    if let Some(path) = &args.output {
+        if plot.rows.is_empty() {
+            return Err(Error::InvalidInput("no reference points for these models: nothing to write to --output".into()));
+        }
+        write_bench(&plot, path)?;
     }
     Ok(())
 }

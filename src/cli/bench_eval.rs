@@ -31,6 +31,10 @@ pub struct BenchEvalArgs {
     /// Keep the generated timing crate and print where it is.
     #[arg(long)]
     pub keep: bool,
+    /// Also write the rows as a benchmark CSV (ns per call against max error) for the report,
+    /// e.g. reports/bench/eval.csv.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
 }
 
 pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
@@ -46,5 +50,35 @@ pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
     };
     let rows = bench_eval(&fits, &opts, &|l| eprintln!("{l}"))?;
     print!("{}", render(&rows));
+    if let Some(path) = &args.output {
+        let mut plot = crate::report::inputs::BenchPlot::new(
+            "eval",
+            "Evaluation: cost against error, fits and LUTs (f32, CPU)",
+            "ns per evaluation (one call through a function pointer)",
+            true,
+            "max |ΔE| against an accurate table",
+            true,
+        );
+        let files: Vec<String> = args.fit.iter().map(|p| p.display().to_string()).collect();
+        plot.notes.push(super::bench::machine_note(&format!("furnace bench eval --fit {}", files.join(" --fit "))));
+        let mut refs: Vec<&str> = rows.iter().map(|r| r.reference.as_str()).collect();
+        refs.dedup();
+        plot.notes.push(format!("Errors at every node of {}; times: best of {} passes over {} random points.", refs.join(", "), args.passes, args.points));
+        plot.notes.push("Fits: the evaluation form furnace emits for each (the other forms are in the terminal output); LUTs: f32 values, multilinear in f32.".into());
+        for r in &rows {
+            let lut = r.what.contains("LUT");
+            // fits: only the emitted form; LUTs: once per model (they are timed again for each fit)
+            if !lut && !r.what.contains("(emitted)") {
+                continue;
+            }
+            let series = format!("{} {}", r.model, if lut { "LUTs" } else { "fits" });
+            let label = format!("{} ({} B)", r.what.replace(", f32", ""), r.bytes);
+            if lut && plot.rows.iter().zip(&plot.labels).any(|(row, l)| row.0 == series && *l == label) {
+                continue;
+            }
+            plot.push(&series, r.ns_call, r.max_error.max(1e-16), &label);
+        }
+        super::bench::write_bench(&plot, path)?;
+    }
     Ok(())
 }

@@ -100,10 +100,19 @@ pub fn emit_cmd(args: &EmitArgs) -> Result<()> {
 }
 
 fn emit_one(path: &Path, langs: &[Lang], args: &EmitArgs) -> Result<()> {
+    for w in emit_files(path, langs, args, &mut |line| println!("{line}"))? {
+        println!("wrote {}", w.display());
+    }
+    Ok(())
+}
+
+/// Emits one fit file in `langs` (source next to it, LUTs under `args.lut_dir`); `log` gets the
+/// accuracy lines `furnace emit` prints. Returns the files written.
+pub fn emit_files(path: &Path, langs: &[Lang], args: &EmitArgs, log: &mut dyn FnMut(&str)) -> Result<Vec<PathBuf>> {
     let file = FitFile::read(path)?;
     let table = referenced_table(&file)?;
     if file.table.is_some() && table.is_none() {
-        eprintln!("note: the table of {} is not in the cache; the header bounds the f32 error instead of measuring it", path.display());
+        log(&format!("note: the table of {} is not in the cache; the header bounds the f32 error instead of measuring it", path.display()));
     }
     let src = SourceFit::new(path, file, table)?;
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).ok_or_else(|| Error::file(path, "a fit file needs a file name"))?;
@@ -122,17 +131,17 @@ fn emit_one(path: &Path, langs: &[Lang], args: &EmitArgs) -> Result<()> {
     let written = emit::write_artifacts(&artifacts, &dir, &args.lut_dir)?;
     for e in &emitted {
         let acc = e.form.chosen();
-        println!(
+        log(&format!(
             "{}: {:?} form, {} coefficients; f32 − f64 max {:.1e} (IEEE) / {:.1e} (FMA) / {:.1e} (GPU model), bound {:.1e}",
             e.function, e.form.form, e.n_coefficients, acc.max_diff_ieee, acc.max_diff_fused, acc.max_diff_gpu, acc.max_bound
-        );
+        ));
         if let Some(t) = &e.table {
-            println!("    on its table ({} nodes): f64 MAE {:.2e} max {:.2e}; f32 MAE {:.2e} max {:.2e}", t.points, t.f64_mae, t.f64_max, t.f32_mae, t.f32_max);
+            log(&format!("    on its table ({} nodes): f64 MAE {:.2e} max {:.2e}; f32 MAE {:.2e} max {:.2e}", t.points, t.f64_mae, t.f64_max, t.f32_mae, t.f32_max));
         }
     }
     for l in &unit.luts {
         if let Some(c) = &l.comparison {
-            println!(
+            log(&format!(
                 "LUT {} ({} B f32, {} B f16) vs fit ({} B) at the {} nodes of the {}: LUT f32 MAE {:.2e} max {:.2e}, f16 MAE {:.2e} max {:.2e}; fit MAE {:.2e} max {:.2e}",
                 l.stem,
                 4 * l.cells(),
@@ -146,13 +155,10 @@ fn emit_one(path: &Path, langs: &[Lang], args: &EmitArgs) -> Result<()> {
                 c.lut_f16_max,
                 c.fit_f32_mae.unwrap_or(f64::NAN),
                 c.fit_f32_max.unwrap_or(f64::NAN)
-            );
+            ));
         }
     }
-    for w in written {
-        println!("wrote {}", w.display());
-    }
-    Ok(())
+    Ok(written)
 }
 
 /// `furnace stress`: exit status 1 if the test fails.

@@ -3,13 +3,17 @@
 
 mod bench;
 mod bench_eval;
+mod bench_fit;
 mod emit;
 mod eval;
 mod fit;
 
 pub use fit::{ComparePaperArgs, FitArgs, FormArg, ObjectiveArg};
-mod scene;
 mod report;
+mod run;
+mod scene;
+
+pub use run::{RunArgs, DEFAULT_MODELS, PAPER_RADIANCE_MODELS, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D};
 
 use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
@@ -39,9 +43,11 @@ pub enum Command {
     Fit(FitArgs),
     /// Compare the paper's published coefficients with furnace's tables and fits.
     ComparePaper(ComparePaperArgs),
-    /// Benchmarks that print run time against error.
+    /// Benchmarks that print run time against error (and, with --output, write the CSV files the
+    /// report plots; nothing else writes them).
     Bench(BenchArgs),
-    /// The main job on the built-in default set: tabulate (cached) every default model; with
+    /// The main job on the built-in default set: tabulate (cached), fit (degree sweeps, reused
+    /// when their table and options are unchanged), emit code and LUTs, and write reports/; with
     /// --scene, tabulate, fit and emit only what a scene's materials need.
     Run(RunArgs),
     /// Write Rust / WGSL / GLSL source (and LUTs) for fit files.
@@ -147,77 +153,8 @@ pub enum BenchWhat {
     Tabulate(bench::BenchTabulateArgs),
     /// CPU f32 ns/evaluation and error of emitted fits and of LUTs (16², 32², 64², 16³, 32³).
     Eval(bench_eval::BenchEvalArgs),
-}
-
-#[derive(Args, Debug)]
-pub struct RunArgs {
-    /// Folder for tables.
-    #[arg(long, default_value = "data")]
-    pub data_dir: PathBuf,
-    /// Recompute tables even when cached.
-    #[arg(long)]
-    pub force: bool,
-    /// Only tabulate (skip the sweep of fits and the emitted code).
-    #[arg(long)]
-    pub tables_only: bool,
-    /// (`--fits-dir`, shared with scenes, is the folder for fits and emitted code.)
-    #[command(flatten)]
-    pub scene: scene::SceneArgs,
-}
-
-/// The main job's fitting and emitting for one model: the degree sweep (which writes
-/// `fits/<model>/sweep.{json,csv}` and `best-20.json`, `best-40.json`), then Rust, WGSL, GLSL and a
-/// LUT for each best fit.
-fn fit_and_emit(model: &str, resolution: &str, args: &RunArgs) -> Result<()> {
-    let quadrature = QuadratureArgs {
-        order: crate::quadrature::DEFAULT_ORDER,
-        companion: None,
-        tolerance: QuadratureSettings::default().tolerance,
-        max_order: None,
-        transmission: Transmission::Energy,
-    };
-    fit::fit_cmd(&FitArgs {
-        model: Some(model.to_string()),
-        table: None,
-        form: None,
-        degree: None,
-        sweep: true,
-        max_degree: None,
-        objective: ObjectiveArg::Lsq,
-        transform: None,
-        resolution: Some(resolution.to_string()),
-        fit_points: None,
-        channel: "E".into(),
-        axes: None,
-        domain: None,
-        data_dir: args.data_dir.clone(),
-        fits_dir: args.scene.fits_dir.clone(),
-        output: None,
-        worst: 0,
-        force: false,
-        quadrature,
-    })?;
-    let dir = args.scene.fits_dir.join(model);
-    let fits: Vec<PathBuf> = ["best-20.json", "best-40.json"].iter().map(|f| dir.join(f)).filter(|p| p.exists()).collect();
-    if fits.is_empty() {
-        eprintln!("{model}: no certified fit under 40 coefficients; nothing emitted");
-        return Ok(());
-    }
-    let emitted = emit::emit_cmd(&emit::EmitArgs {
-        fit: fits,
-        lang: "all".into(),
-        form: emit::FormArg::Auto,
-        data_dir: args.data_dir.clone(),
-        lut_dir: args.data_dir.join("lut"),
-        lut_resolution: 32,
-        force: false,
-    });
-    if let Err(e) = emitted {
-        // Known gap: `furnace fit` writes fit records that `furnace emit` does not read yet
-        // (scenes emit their own fits); reported, not hidden.
-        eprintln!("{model}: not emitted: {e}");
-    }
-    Ok(())
+    /// Wall time and error of fits at every degree of the paper's sweep.
+    Fit(bench_fit::BenchFitArgs),
 }
 
 /// Runs one parsed command line.
@@ -234,9 +171,10 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(args) => match args.what {
             BenchWhat::Tabulate(a) => bench::bench_tabulate(&a),
             BenchWhat::Eval(a) => bench_eval::bench_eval_cmd(&a),
+            BenchWhat::Fit(a) => bench_fit::bench_fit(&a),
         },
         Command::Run(args) if args.scene.scene.is_some() => scene::run_scene(&args.scene, &args.data_dir, args.force),
-        Command::Run(args) => run_default(&args),
+        Command::Run(args) => run::run_default(&args),
         Command::Emit(args) => emit::emit_cmd(&args),
         Command::Stress(args) => emit::stress_cmd(&args),
         Command::Report(args) => report::report_cmd(&args),
@@ -351,54 +289,4 @@ fn report_table(t: &Tabulated) {
             s.unconverged.first().map(|u| &u.0)
         );
     }
-}
-
-/// 3-D resolution of the main command's tables: 64³ rather than the paper's 128³ (which
-/// `furnace tabulate` still makes by default), so that the whole default set tabulates within the
-/// main job's budget on 2 cores — the leaving dielectric costs ~6e6 instructions a cell, and fits
-/// of ≤ 40 coefficients gain nothing from 2·10⁶ points over 2.6·10⁵ (see README, "Speed").
-pub const RUN_RESOLUTION_3D: usize = 64;
-
-/// The built-in default set of the main command.
-pub const DEFAULT_MODELS: &[&str] = &[
-    "ggx-conductor",
-    "ggx-conductor-separable",
-    "ggx-glossy",
-    "ggx-glossy-separable",
-    "ggx-dielectric",
-    "ggx-dielectric-separable",
-    "ggx-dielectric-inv",
-    "ggx-dielectric-inv-separable",
-];
-
-fn run_default(args: &RunArgs) -> Result<()> {
-    let start = Instant::now();
-    let mut rows = Vec::new();
-    for name in DEFAULT_MODELS {
-        let model = bsdf::find(name, ModelOptions::default())?;
-        let dims = model.axes().len();
-        let resolution = if dims >= 3 { vec![RUN_RESOLUTION_3D; dims] } else { parse_resolution(None, dims)? };
-        let spec = TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())?;
-        let t = get_table(model.as_ref(), &spec, &args.data_dir, args.force)?;
-        report_table(&t);
-        rows.push(t);
-    }
-    if !args.tables_only {
-        for (name, t) in DEFAULT_MODELS.iter().zip(&rows) {
-            fit_and_emit(name, &t.table.spec.resolution_name(), args)?;
-        }
-    }
-    println!("{:<30} {:>12} {:>8} {:>10} {:>12}", "model", "resolution", "cached", "seconds", "max err est");
-    for t in &rows {
-        println!(
-            "{:<30} {:>12} {:>8} {:>10.2} {:>12.2e}",
-            t.table.spec.model,
-            t.table.spec.resolution_name(),
-            if t.cached { "yes" } else { "no" },
-            t.seconds,
-            t.table.summary.max_error_estimate
-        );
-    }
-    println!("total {:.1} s", start.elapsed().as_secs_f64());
-    Ok(())
 }

@@ -24,9 +24,10 @@ pub struct ReportArgs {
     /// Folder of cached tables (missing ones are computed and cached).
     #[arg(long, default_value = "data")]
     pub data_dir: PathBuf,
-    /// Folder of benchmark CSV files (one plot each).
-    #[arg(long, default_value = "bench")]
-    pub bench_dir: PathBuf,
+    /// Folder of benchmark CSV files (one plot each), written only by the benchmark commands'
+    /// `--output` (default: <reports-dir>/bench).
+    #[arg(long)]
+    pub bench_dir: Option<PathBuf>,
     /// The paper's published coefficients and tables (`coefficients/`, `tables/`); default:
     /// $FURNACE_PAPER_DATA, else ../shared/paper-repo-data. Missing: no paper comparison.
     #[arg(long)]
@@ -37,11 +38,11 @@ pub struct ReportArgs {
     /// Nodes per axis of the 3-D tables (default 17).
     #[arg(long)]
     pub resolution_3d: Option<usize>,
-    /// Nodes per axis of the 2-D LUTs (default 33; every k-th table node when (n−1) is a multiple
-    /// of (m−1), else tabulated at that size).
+    /// Nodes per axis of the 2-D LUTs (default 32, as `furnace run` emits them; every k-th table
+    /// node when (n−1) is a multiple of (m−1), else tabulated at that size).
     #[arg(long)]
     pub lut_2d: Option<usize>,
-    /// Nodes per axis of the 3-D LUTs (default 9).
+    /// Nodes per axis of the 3-D LUTs (default 32).
     #[arg(long)]
     pub lut_3d: Option<usize>,
     /// White furnace: at most this many table nodes per r and μ axis (default 33).
@@ -53,8 +54,8 @@ pub struct ReportArgs {
 }
 
 /// Tables from the cache under `data_dir`, computed (with progress) when missing.
-struct CachedTables<'a> {
-    data_dir: &'a Path,
+pub(super) struct CachedTables<'a> {
+    pub data_dir: &'a Path,
 }
 
 impl TableProvider for CachedTables<'_> {
@@ -64,7 +65,7 @@ impl TableProvider for CachedTables<'_> {
     }
 }
 
-fn default_paper_dir() -> Option<PathBuf> {
+pub(super) fn default_paper_dir() -> Option<PathBuf> {
     let dir = std::env::var_os("FURNACE_PAPER_DATA").map(PathBuf::from).unwrap_or_else(|| "../shared/paper-repo-data".into());
     dir.join("coefficients").is_dir().then_some(dir)
 }
@@ -73,7 +74,7 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
     let mut options = ReportOptions::new(Path::new("."));
     options.reports_dir = args.reports_dir.clone();
     options.fits_dir = args.fits_dir.clone();
-    options.bench_dir = args.bench_dir.clone();
+    options.bench_dir = args.bench_dir.clone().unwrap_or_else(|| args.reports_dir.join("bench"));
     options.paper_dir = match &args.paper_dir {
         Some(d) => {
             if !d.join("coefficients").is_dir() {

@@ -3,23 +3,31 @@
 //!
 //! # Fit files
 //! Every `*.json` file under `fits/<model>/` (recursively, in sorted path order) that holds a
-//! [`FitResult`] — or a JSON array of them, or an object with a `results` or `fits` array — is
-//! a fit of that model. The *chosen* fit, whose heat maps, slices and furnace row the report
-//! shows, is `fits/<model>/default.json` if it exists; otherwise the usable fit (pole-free,
-//! finite) with the smallest maximum error among those with at most as many coefficients as the
-//! paper's degree-3 rational (19 in 2-D, 39 in 3-D); otherwise the usable fit with the smallest
-//! maximum error. Files that are not fit results are listed in the report, never fatal.
+//! fit is a fit of that model: a fit file of `furnace fit` / `furnace run` (a
+//! [`FitRecord`] or a bare [`FitResult`]), a JSON array of fit results or an object with a
+//! `results` or `fits` array of them, or a sweep file (`sweep.json`: every fit of the sweep,
+//! its pole certificate redone on load). The *chosen* fit, whose heat maps, slices and furnace
+//! row the report shows, is `fits/<model>/default.json` if it exists; otherwise the sweep's
+//! `best-<N>.json` with the smallest budget N that holds the paper's degree-3 rational (19
+//! coefficients in 2-D → `best-20.json`, 39 in 3-D → `best-40.json`); otherwise the usable fit
+//! (pole-free, finite) with the smallest maximum error among those with at most as many
+//! coefficients as the paper's; otherwise the usable fit with the smallest maximum error. Files
+//! that are not fits are listed in the report, never fatal (`sweep-inputs.json`, which records
+//! what a sweep was made from, is skipped silently).
 //!
 //! # Benchmark files
-//! Every `*.csv` file in the benchmark folder is one plot: optional comment lines
-//! `# title: …`, `# x: <label>` and `# y: <label>` (a label ending in `(log)` asks for a log
-//! axis), then a header `series,<x name>,<y name>` and one row per point.
+//! Every `*.csv` file in the benchmark folder (`reports/bench/`, written only by the benchmark
+//! commands' `--output`) is one plot: optional comment lines `# title: …`, `# x: <label>` and
+//! `# y: <label>` (a label ending in `(log)` asks for a log axis) and `# note: …` (how the
+//! numbers were measured), then a header `series,<x name>,<y name>[,label]` and one row per
+//! point (the optional label names the point, e.g. `degree 3`).
 
 use super::albedo::{Albedo, FitAlbedo};
 use crate::bsdf::{Model, ModelOptions};
 use crate::error::{Error, Result};
 use crate::fit::paper::PaperModel;
-use crate::fit::{FitResult, Form};
+use crate::fit::job::FitRecord;
+use crate::fit::{Approximant, CertifyOptions, FitData, FitResult, Form, Objective};
 use crate::math::CompensatedSum;
 use crate::table::Table;
 use std::path::{Path, PathBuf};
@@ -96,17 +104,78 @@ pub fn parse_fit_file(text: &str) -> std::result::Result<Vec<FitResult>, String>
         .collect()
 }
 
-/// Reads every fit of a model under `dir` (missing folder: no fits, no error).
-pub fn load_fits(dir: &Path) -> Result<FitFiles> {
+/// The file `furnace run` writes beside a sweep to record its inputs (not a fit).
+pub const SWEEP_INPUTS_FILE: &str = "sweep-inputs.json";
+
+/// The fits of a sweep file (`sweep.json`: summary `rows` and the approximants in `fits`), each
+/// re-assessed on `data` — its pole certificate redone, not read from the file — with the
+/// errors its row records on the table it was fitted to.
+pub fn parse_sweep_file(text: &str, data: &FitData) -> std::result::Result<Vec<FitResult>, String> {
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
+    let (Some(rows), Some(fits)) = (value.get("rows").and_then(|v| v.as_array()), value.get("fits").and_then(|v| v.as_array())) else {
+        return Err("not a sweep file (no `rows` and `fits` arrays)".into());
+    };
+    if rows.len() != fits.len() {
+        return Err(format!("{} rows but {} fits", rows.len(), fits.len()));
+    }
+    let mut out = Vec::with_capacity(fits.len());
+    for (k, (row, fit)) in rows.iter().zip(fits).enumerate() {
+        let approximant: Approximant = serde_json::from_value(fit.clone()).map_err(|e| format!("fit {k}: {e}"))?;
+        approximant.validate().map_err(|e| format!("fit {k}: {e}"))?;
+        let form = match &approximant.denominator {
+            None => Form::Polynomial { degree: approximant.numerator.degree() },
+            Some(q) => Form::Rational { numerator_degree: approximant.numerator.degree(), denominator_degree: q.degree() },
+        };
+        let objective: Objective = row.get("objective").and_then(|o| serde_json::from_value(o.clone()).ok()).unwrap_or_default();
+        let mut result = FitResult::assess(form, approximant, data, objective, None, &CertifyOptions::default()).map_err(|e| format!("fit {k}: {e}"))?;
+        // "as fitted": what the sweep measured on its own (full-size) table
+        let number = |key: &str| row.get(key).and_then(|v| v.as_f64());
+        if let Some(v) = number("mae") {
+            result.metrics.mae = v;
+        }
+        if let Some(v) = number("rmse") {
+            result.metrics.rmse = v;
+        }
+        if let Some(v) = number("max_abs_error") {
+            result.metrics.max_abs_error = v;
+        }
+        if let Some(v) = number("max_rel_error") {
+            result.metrics.max_rel_error = v;
+        }
+        out.push(result);
+    }
+    Ok(out)
+}
+
+/// Reads every fit of a model under `dir` (missing folder: no fits, no error): fit files
+/// written by `furnace fit` / `furnace run` (a fit record or a bare fit result), lists of fit
+/// results, and sweep files (`sweep.json`, assessed on `data`). A sweep's fit that is also in a
+/// `best-<N>.json` of the same folder is listed once, under the best file's name.
+pub fn load_fits(dir: &Path, data: &FitData) -> Result<FitFiles> {
     let mut out = FitFiles::default();
     if !dir.is_dir() {
         return Ok(out);
     }
     let mut files = Vec::new();
     json_files(dir, &mut files)?;
+    let mut sweeps: Vec<(String, Vec<FitResult>)> = Vec::new();
     for path in files {
         let rel = path.strip_prefix(dir).unwrap_or(&path).to_string_lossy().replace('\\', "/");
+        if path.file_name().is_some_and(|n| n == SWEEP_INPUTS_FILE) {
+            continue;
+        }
         let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        if let Ok(rec) = FitRecord::from_json(&text) {
+            if rel == "default.json" {
+                out.default = Some(out.fits.len());
+            }
+            out.fits.push(LoadedFit { source: rel, fit: rec.fit });
+            continue;
+        }
+        if let Ok(fits) = parse_sweep_file(&text, data) {
+            sweeps.push((rel, fits));
+            continue;
+        }
         match parse_fit_file(&text) {
             Ok(fits) => {
                 let many = fits.len() > 1;
@@ -121,6 +190,15 @@ pub fn load_fits(dir: &Path) -> Result<FitFiles> {
             Err(e) => out.notes.push(format!("skipped `{rel}`: {e}")),
         }
     }
+    for (rel, fits) in sweeps {
+        let folder = rel.rsplit_once('/').map_or("", |(d, _)| d);
+        for (k, fit) in fits.into_iter().enumerate() {
+            let listed = out.fits.iter().any(|f| f.source.rsplit_once('/').map_or("", |(d, _)| d) == folder && f.fit.approximant == fit.approximant);
+            if !listed {
+                out.fits.push(LoadedFit { source: format!("{rel}#{k}"), fit });
+            }
+        }
+    }
     Ok(out)
 }
 
@@ -129,12 +207,27 @@ pub fn paper_coefficients(dim: usize) -> usize {
     if dim <= 2 { 19 } else { 39 }
 }
 
+/// The budget of `best-<N>.json`, if `source` is such a file at the top of the fits folder.
+fn best_budget(source: &str) -> Option<usize> {
+    source.strip_prefix("best-")?.strip_suffix(".json")?.parse().ok()
+}
+
 /// The chosen fit (see the module docs), as an index into `files.fits`.
 pub fn choose_fit(files: &FitFiles, dim: usize, measured: &[Measured]) -> Option<usize> {
     if files.default.is_some() {
         return files.default;
     }
     let budget = paper_coefficients(dim);
+    // the sweep's best within the smallest budget that holds the paper's fit
+    let best_file = files
+        .fits
+        .iter()
+        .enumerate()
+        .filter_map(|(k, f)| best_budget(&f.source).filter(|&b| b >= budget && f.fit.is_usable()).map(|b| (b, k)))
+        .min();
+    if let Some((_, k)) = best_file {
+        return Some(k);
+    }
     let best = |within: bool| {
         files
             .fits
@@ -243,15 +336,54 @@ pub struct BenchPlot {
     pub y_log: bool,
     /// (series, x, y) in file order.
     pub rows: Vec<(String, f64, f64)>,
+    /// One label per row (e.g. "order 12", "degree 3"), empty if the file has no label column.
+    pub labels: Vec<String>,
+    /// `# note:` lines: how and where the numbers were measured.
+    pub notes: Vec<String>,
 }
 
 impl BenchPlot {
+    /// An empty plot to fill.
+    pub fn new(stem: &str, title: &str, x_label: &str, x_log: bool, y_label: &str, y_log: bool) -> BenchPlot {
+        BenchPlot {
+            stem: stem.into(),
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            x_log,
+            y_log,
+            rows: Vec::new(),
+            labels: Vec::new(),
+            notes: Vec::new(),
+        }
+    }
+
+    /// Adds a point with a label.
+    pub fn push(&mut self, series: &str, x: f64, y: f64, label: &str) {
+        self.rows.push((series.into(), x, y));
+        self.labels.push(label.into());
+    }
+
+    fn has_labels(&self) -> bool {
+        self.labels.iter().any(|l| !l.is_empty())
+    }
+
     /// The CSV form [`parse_bench_csv`] reads (for benchmark commands to write).
     pub fn to_csv(&self) -> String {
         let log = |l: &str, on: bool| if on { format!("{l} (log)") } else { l.to_string() };
-        let mut s = format!("# title: {}\n# x: {}\n# y: {}\nseries,x,y\n", self.title, log(&self.x_label, self.x_log), log(&self.y_label, self.y_log));
-        for (series, x, y) in &self.rows {
-            s.push_str(&format!("{},{x},{y}\n", series.replace(',', ";")));
+        let clean = |s: &str| s.replace([',', '\n'], ";");
+        let mut s = format!("# title: {}\n# x: {}\n# y: {}\n", self.title, log(&self.x_label, self.x_log), log(&self.y_label, self.y_log));
+        for n in &self.notes {
+            s.push_str(&format!("# note: {}\n", n.replace('\n', " ")));
+        }
+        let labelled = self.has_labels();
+        s.push_str(if labelled { "series,x,y,label\n" } else { "series,x,y\n" });
+        for (k, (series, x, y)) in self.rows.iter().enumerate() {
+            s.push_str(&format!("{},{x},{y}", clean(series)));
+            if labelled {
+                s.push_str(&format!(",{}", clean(self.labels.get(k).map_or("", |l| l.as_str()))));
+            }
+            s.push('\n');
         }
         s
     }
@@ -259,7 +391,7 @@ impl BenchPlot {
 
 /// Parses a benchmark CSV (see the module docs).
 pub fn parse_bench_csv(stem: &str, text: &str) -> std::result::Result<BenchPlot, String> {
-    let mut plot = BenchPlot { stem: stem.into(), title: stem.replace(['-', '_'], " "), x_label: String::new(), y_label: String::new(), x_log: false, y_log: false, rows: vec![] };
+    let mut plot = BenchPlot::new(stem, &stem.replace(['-', '_'], " "), "", false, "", false);
     let mut header: Option<Vec<String>> = None;
     for (n, line) in text.lines().enumerate() {
         let line = line.trim();
@@ -274,24 +406,26 @@ pub fn parse_bench_csv(stem: &str, text: &str) -> std::result::Result<BenchPlot,
                 plot.x_label = t.trim().into();
             } else if let Some(t) = c.strip_prefix("y:") {
                 plot.y_label = t.trim().into();
+            } else if let Some(t) = c.strip_prefix("note:") {
+                plot.notes.push(t.trim().into());
             }
             continue;
         }
         let cells: Vec<&str> = line.split(',').map(|s| s.trim()).collect();
-        if header.is_none() {
-            if cells.len() != 3 {
-                return Err(format!("line {}: the header must have three columns (series,x,y), found {}", n + 1, cells.len()));
+        let Some(h) = &header else {
+            if cells.len() != 3 && cells.len() != 4 {
+                return Err(format!("line {}: the header must have three columns (series,x,y) or four (series,x,y,label), found {}", n + 1, cells.len()));
             }
             header = Some(cells.iter().map(|s| s.to_string()).collect());
             continue;
-        }
-        if cells.len() != 3 {
-            return Err(format!("line {}: expected 3 values, found {}", n + 1, cells.len()));
+        };
+        if cells.len() != h.len() {
+            return Err(format!("line {}: expected {} values, found {}", n + 1, h.len(), cells.len()));
         }
         let num = |s: &str, what: &str| -> std::result::Result<f64, String> {
             s.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| format!("line {}: {what} '{s}' is not a finite number", n + 1))
         };
-        plot.rows.push((cells[0].to_string(), num(cells[1], "x")?, num(cells[2], "y")?));
+        plot.push(cells[0], num(cells[1], "x")?, num(cells[2], "y")?, cells.get(3).copied().unwrap_or(""));
     }
     let header = header.ok_or("no header line (series,x,y)")?;
     if plot.x_label.is_empty() {
@@ -353,6 +487,16 @@ mod tests {
         assert!(parse_bench_csv("t", "series,x\n").is_err());
         let b = parse_bench_csv("eval", text).unwrap();
         assert_eq!(parse_bench_csv("eval", &b.to_csv()).unwrap(), b);
+        // labels and notes round-trip
+        let mut b = BenchPlot::new("fit", "Fit time", "s", true, "max error", true);
+        b.notes.push("2 cores, load average 3.1".into());
+        b.push("rational", 0.5, 1e-3, "degree 3");
+        b.push("rational, sqrt", 1.5, 2e-4, "degree 4");
+        let back = parse_bench_csv("fit", &b.to_csv()).unwrap();
+        assert_eq!(back.labels, vec!["degree 3", "degree 4"]);
+        assert_eq!(back.rows[1].0, "rational; sqrt");
+        assert_eq!(back.notes, b.notes);
+        assert!(parse_bench_csv("t", "series,x,y,label\na,1,2\n").unwrap_err().contains("expected 4"));
     }
 
     #[test]

@@ -31,7 +31,7 @@ pub struct ReportOptions {
     pub reports_dir: PathBuf,
     /// Fit files, one folder per model (`fits`).
     pub fits_dir: PathBuf,
-    /// Benchmark CSV files (`bench`).
+    /// Benchmark CSV files (`reports/bench`), written only by the benchmark commands.
     pub bench_dir: PathBuf,
     /// The paper's published coefficients and tables (`coefficients/`, `tables/`), if available.
     pub paper_dir: Option<PathBuf>,
@@ -52,18 +52,18 @@ pub struct ReportOptions {
 }
 
 impl ReportOptions {
-    /// Small, fast defaults (2-D 65², 3-D 17³ tables; 33² and 9³ LUTs that are every other node
-    /// of them), rooted at `root`.
+    /// Small, fast defaults (2-D 65², 3-D 17³ tables; 32-per-axis LUTs, the size `furnace run`
+    /// emits under `data/lut/`, whose interior nodes fall between the table's), rooted at `root`.
     pub fn new(root: &Path) -> ReportOptions {
         ReportOptions {
             reports_dir: root.join("reports"),
             fits_dir: root.join("fits"),
-            bench_dir: root.join("bench"),
+            bench_dir: root.join("reports").join("bench"),
             paper_dir: None,
             resolution_2d: 65,
             resolution_3d: 17,
-            lut_2d: 33,
-            lut_3d: 9,
+            lut_2d: 32,
+            lut_3d: 32,
             furnace_nodes: 33,
             furnace_f0_slices: 3,
             sphere_roughness: vec![0.0, 0.2, 0.4, 0.6, 0.8, 1.0],
@@ -189,6 +189,45 @@ pub struct ModelSummary {
     pub furnace: Vec<FurnaceRow>,
     /// Every file the section links (relative to `reports/`).
     pub files: Vec<String>,
+    /// The models (with their options) whose tables and fits the section read.
+    #[serde(default)]
+    pub dependencies: Vec<Dependency>,
+    /// SHA-256 of everything the section was computed from (see [`Reporter::inputs_digest`]).
+    #[serde(default)]
+    pub inputs_sha256: String,
+    /// The section's files (figures and `section.md`, relative to `reports/`) with their SHA-256.
+    #[serde(default)]
+    pub outputs: Vec<FileHash>,
+}
+
+/// A model (with its options) a section read.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Dependency {
+    pub model: String,
+    pub radiance_transmission: bool,
+}
+
+/// A file and its SHA-256.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FileHash {
+    pub file: String,
+    pub sha256: String,
+}
+
+/// SHA-256 of bytes, in hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// SHA-256 of a table's values (little-endian f64).
+fn table_digest(table: &Table) -> String {
+    use sha2::{Digest, Sha256};
+    let mut h = Sha256::new();
+    for v in &table.values {
+        h.update(v.to_le_bytes());
+    }
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// A model's table, LUT, fits and paper fit, loaded once per report run.
@@ -235,6 +274,8 @@ pub struct Reporter<'a> {
     tables: &'a dyn TableProvider,
     progress: &'a dyn Fn(&str),
     loaded: RefCell<BTreeMap<String, Rc<ModelData>>>,
+    /// Models read since the current section started.
+    used: RefCell<std::collections::BTreeSet<Dependency>>,
 }
 
 /// A compensation reading `albedo` (and, for glossy, the conductor's `conductor`).
@@ -282,10 +323,11 @@ fn subsample_lut(table: &Table, m: usize) -> Option<Table> {
 
 impl<'a> Reporter<'a> {
     pub fn new(options: ReportOptions, tables: &'a dyn TableProvider, progress: &'a dyn Fn(&str)) -> Reporter<'a> {
-        Reporter { options, tables, progress, loaded: RefCell::new(BTreeMap::new()) }
+        Reporter { options, tables, progress, loaded: RefCell::new(BTreeMap::new()), used: RefCell::new(Default::default()) }
     }
 
     fn data(&self, name: &str, options: ModelOptions) -> Result<Rc<ModelData>> {
+        self.used.borrow_mut().insert(Dependency { model: name.to_string(), radiance_transmission: options.radiance_transmission });
         let k = key(name, options);
         if let Some(d) = self.loaded.borrow().get(&k) {
             return Ok(d.clone());
@@ -302,7 +344,8 @@ impl<'a> Reporter<'a> {
                 self.tables.table(model.as_ref(), &vec![lut_n; axes.len()])?
             }
         };
-        let mut fits = load_fits(&self.options.fits_dir.join(model.cache_name()))?;
+        let fit_data = crate::fit::source::from_table(&table, "E", None)?.data;
+        let mut fits = load_fits(&self.options.fits_dir.join(model.cache_name()), &fit_data)?;
         let fit_albedos: Vec<Option<FitAlbedo>> = fits
             .fits
             .iter()
@@ -350,8 +393,75 @@ impl<'a> Reporter<'a> {
         self.options.reports_dir.join(name)
     }
 
+    /// SHA-256 of everything a section computed from `deps` reads: the report options, the
+    /// furnace version, and per model its report table's and LUT's values, every file under its
+    /// fits folder, and the paper's files for it.
+    pub fn inputs_digest(&self, deps: &[Dependency]) -> Result<String> {
+        let o = &self.options;
+        let mut text = format!(
+            "furnace {}\nresolution {} {} lut {} {} furnace nodes {} f0 slices {} spheres {:?} f0 {} paper {}\n",
+            crate::VERSION,
+            o.resolution_2d,
+            o.resolution_3d,
+            o.lut_2d,
+            o.lut_3d,
+            o.furnace_nodes,
+            o.furnace_f0_slices,
+            o.sphere_roughness,
+            o.sphere_f0,
+            o.paper_dir.is_some()
+        );
+        for d in deps {
+            let options = ModelOptions { radiance_transmission: d.radiance_transmission };
+            let model = bsdf::find(&d.model, options)?;
+            let dims = model.axes().len();
+            let table = self.tables.table(model.as_ref(), &self.options.resolution(dims))?;
+            let _ = writeln!(text, "model {} table {} {}", model.cache_name(), table.spec.resolution_name(), table_digest(&table));
+            if subsample_lut(&table, self.options.lut(dims)).is_none() {
+                let lut = self.tables.table(model.as_ref(), &vec![self.options.lut(dims); dims])?;
+                let _ = writeln!(text, "lut {}", table_digest(&lut));
+            }
+            let dir = self.options.fits_dir.join(model.cache_name());
+            for (rel, sha) in files_digest(&dir)? {
+                let _ = writeln!(text, "fit {rel} {sha}");
+            }
+            if let (Some(paper), Some(link)) = (&self.options.paper_dir, paper_link(&d.model)) {
+                if link.options == options {
+                    for sub in ["coefficients", "tables"] {
+                        let p = paper.join(sub).join(format!("{}.csv", link.stem));
+                        let sha = std::fs::read(&p).map(|b| sha256_hex(&b)).unwrap_or_else(|_| "missing".into());
+                        let _ = writeln!(text, "paper {sub} {sha}");
+                    }
+                }
+            }
+        }
+        Ok(sha256_hex(text.as_bytes()))
+    }
+
+    /// The summary of `reports/<name>/` if it was made from the same inputs as now and its
+    /// files are intact (their SHA-256 as recorded), so that it need not be regenerated.
+    pub fn reusable_section(&self, name: &str) -> Result<Option<ModelSummary>> {
+        let path = self.model_dir(name).join("summary.json");
+        let Ok(text) = std::fs::read_to_string(&path) else { return Ok(None) };
+        let Ok(summary) = serde_json::from_str::<ModelSummary>(&text) else { return Ok(None) };
+        if summary.model != name || summary.dependencies.is_empty() || summary.outputs.is_empty() {
+            return Ok(None);
+        }
+        for f in &summary.outputs {
+            match std::fs::read(self.options.reports_dir.join(&f.file)) {
+                Ok(bytes) if sha256_hex(&bytes) == f.sha256 => {}
+                _ => return Ok(None),
+            }
+        }
+        if self.inputs_digest(&summary.dependencies)? != summary.inputs_sha256 {
+            return Ok(None);
+        }
+        Ok(Some(summary))
+    }
+
     /// Generates `reports/<name>/` (figures, `section.md`, `summary.json`) and returns the summary.
     pub fn report_model(&self, name: &str) -> Result<ModelSummary> {
+        self.used.borrow_mut().clear();
         let data = self.data(name, ModelOptions::default())?;
         let dir = self.model_dir(name);
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
@@ -392,9 +502,22 @@ impl<'a> Reporter<'a> {
             paper,
             furnace,
             files,
+            dependencies: Vec::new(),
+            inputs_sha256: String::new(),
+            outputs: Vec::new(),
         };
+        let mut summary = summary;
         let section = self.section_markdown(&data, &summary);
         crate::table::io::write_atomic(&dir.join("section.md"), section.as_bytes())?;
+        summary.dependencies = self.used.borrow().iter().cloned().collect();
+        summary.inputs_sha256 = self.inputs_digest(&summary.dependencies)?;
+        let mut outputs = summary.files.clone();
+        outputs.push(format!("{name}/section.md"));
+        for f in outputs {
+            let p = self.options.reports_dir.join(&f);
+            let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+            summary.outputs.push(FileHash { file: f, sha256: sha256_hex(&bytes) });
+        }
         let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::file(dir.join("summary.json"), e.to_string()))?;
         crate::table::io::write_atomic(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
         Ok(summary)
@@ -559,10 +682,11 @@ impl<'a> Reporter<'a> {
             left.push(Series::new("paper's fit", vec![], key, Style::Points).marker(Marker::Cross));
         }
         let f0_text = if dims == 3 { format!(" at {} = {}", axes[0].name, plot::format_number(axes[0].node(f0_index))) } else { String::new() };
+        let y_label = offset_nearly_constant(&mut left).map_or("directional albedo E".to_string(), |c| format!("E − {} (E is nearly constant)", plot::format_number(c)));
         let mut charts = vec![Chart {
             title: format!("E(μ){f0_text}"),
             x: Axis::linear("μ = cos θo").with_range(0.0, 1.0),
-            y: Axis::linear("directional albedo E"),
+            y: Axis::linear(&y_label),
             legend_room: 0.0,
             series: left,
             legend: LegendAt::Right,
@@ -727,11 +851,14 @@ impl<'a> Reporter<'a> {
             Some(c) => Some(self.data(&c, ModelOptions::default())?),
             None => None,
         };
+        // the lobe integrals do not depend on the compensation: computed once for both fits
+        let points = self.furnace_points(&data);
+        let lobes: RefCell<Option<Vec<_>>> = RefCell::new(None);
         let furnace_of = |albedo: &dyn Albedo, cond: Option<&dyn Albedo>| -> Option<f64> {
             let m = material?;
-            let points = self.furnace_points(&data);
-            let lobes = lobe_integrals_at(&m, &points);
-            let values = furnace_values(&m, &points, &lobes, &Compensation::With { albedo, conductor: cond });
+            let mut lobes = lobes.borrow_mut();
+            let lobes = lobes.get_or_insert_with(|| lobe_integrals_at(&m, &points));
+            let values = furnace_values(&m, &points, lobes, &Compensation::With { albedo, conductor: cond });
             Some(furnace_stats(&points, &values).max_deviation)
         };
         let paper_cond = conductor.as_ref().and_then(|c| c.paper.as_ref().map(|p| &p.1 as &dyn Albedo));
@@ -937,6 +1064,50 @@ pub fn paper_table_markdown(rows: &[PaperRow]) -> String {
     md.trim_end().to_string()
 }
 
+/// (path relative to `dir`, SHA-256) of every file under `dir`, recursively, sorted; none if
+/// `dir` does not exist.
+fn files_digest(dir: &Path) -> Result<Vec<(String, String)>> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, String)>) -> Result<()> {
+        let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
+        let mut paths: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
+        paths.sort();
+        for p in paths {
+            if p.is_dir() {
+                walk(root, &p, out)?;
+            } else if p.extension().is_some_and(|e| e == "json") {
+                let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+                out.push((p.strip_prefix(root).unwrap_or(&p).to_string_lossy().replace('\\', "/"), sha256_hex(&bytes)));
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, dir, &mut out)?;
+    Ok(out)
+}
+
+/// Relative spread below which the values of a chart are shown as offsets from a constant: tick
+/// labels of 3 significant digits could not tell them apart (EON's albedo is 1 to 1e-9).
+const NEARLY_CONSTANT: f64 = 1e-4;
+
+/// If every y value of `series` lies within [`NEARLY_CONSTANT`]·max(1, |y|) of the others,
+/// subtracts their midpoint (rounded to 3 significant digits) and returns it.
+fn offset_nearly_constant(series: &mut [Series]) -> Option<f64> {
+    let ys = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+    let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+    if !(lo.is_finite() && hi.is_finite()) || hi - lo >= NEARLY_CONSTANT * hi.abs().max(1.0) {
+        return None;
+    }
+    let mid = 0.5 * (lo + hi);
+    let c: f64 = plot::format_number(mid).parse().unwrap_or(mid);
+    for s in series.iter_mut() {
+        for p in &mut s.points {
+            p.1 -= c;
+        }
+    }
+    Some(c)
+}
+
 /// Node index of `axis` nearest to `v`.
 fn nearest_node(axis: &crate::table::GridAxis, v: f64) -> usize {
     let t = ((v - axis.lo) / (axis.hi - axis.lo)).clamp(0.0, 1.0) * (axis.n - 1) as f64;
@@ -988,6 +1159,17 @@ impl RGBColorKey {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn nearly_constant_values_are_shown_as_offsets() {
+        let key = RGBColorKey::black();
+        let mut s = vec![Series::new("a", vec![(0.0, 1.0 + 1e-9), (1.0, 1.0 - 2e-9)], key, Style::Line), Series::new("key", vec![], key, Style::Line)];
+        assert_eq!(offset_nearly_constant(&mut s), Some(1.0));
+        assert!((s[0].points[1].1 + 2e-9).abs() < 1e-15);
+        let mut s = vec![Series::new("a", vec![(0.0, 0.3), (1.0, 0.9)], key, Style::Line)];
+        assert_eq!(offset_nearly_constant(&mut s), None);
+        assert_eq!(s[0].points[0].1, 0.3);
+    }
 
     #[test]
     fn slices_include_ends_and_odd_interior_nodes() {

@@ -163,8 +163,18 @@ const LABEL_SIZE: u32 = 15;
 const DESC_SIZE: u32 = 16;
 const LEGEND_SIZE: u32 = 14;
 
+/// A drawing error as text: the I/O message inside plotters' nested error (e.g. "No space left
+/// on device (os error 28)") when there is one, else the whole debug form.
 fn plot_err<E: std::fmt::Debug>(e: E) -> String {
-    format!("{e:?}")
+    let d = format!("{e:?}");
+    for key in ["error: \"", "message: \""] {
+        if let Some(start) = d.find(key).map(|i| i + key.len()) {
+            if let Some(len) = d[start..].find('"') {
+                return d[start..start + len].to_string();
+            }
+        }
+    }
+    d
 }
 
 /// "1e-3", "3.2e-4", "0.5", "19": a compact number for tick labels and tables (three significant
@@ -424,13 +434,14 @@ pub fn save(d: &impl Draw, stem: &Path, formats: Formats) -> Result<Vec<PathBuf>
     }
     // plotters picks the encoder from the extension: the temporary file must end in .png
     let tmp = stem.with_extension(format!("tmp-{}.png", std::process::id()));
-    {
+    let drawn = {
         let root = CrispText(BitMapBackend::new(&tmp, d.size())).into_drawing_area();
-        let drawn = d.draw(&root).and_then(|_| root.present().map_err(plot_err));
-        if let Err(e) = drawn {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(Error::file(&png, format!("cannot draw the figure: {e}")));
-        }
+        d.draw(&root).and_then(|_| root.present().map_err(plot_err))
+    };
+    // removed only now: the backend writes the file again when it is dropped unpresented
+    if let Err(e) = drawn {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::file(&png, format!("cannot write the figure: {e}")));
     }
     std::fs::rename(&tmp, &png).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
@@ -726,6 +737,20 @@ impl Draw for HeatFigure {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn drawing_errors_show_the_io_message() {
+        // what plotters' nested error prints as Debug when the disk is full
+        struct Raw(&'static str);
+        impl std::fmt::Debug for Raw {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.0)
+            }
+        }
+        let e = Raw("BackendError(DrawingError(ImageError(IoError(Custom { kind: Other, error: \"No space left on device (os error 28)\" }))))");
+        assert_eq!(super::plot_err(e), "No space left on device (os error 28)");
+        assert_eq!(super::plot_err(7), "7");
+    }
+
     use super::*;
 
     #[test]

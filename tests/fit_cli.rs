@@ -103,19 +103,67 @@ fn fit_writes_a_record_that_round_trips_and_eval_reproduces_its_metrics() {
 
 #[test]
 fn fits_are_byte_identical_across_runs_and_thread_counts() {
+    // 96² = 9216 nodes: more than one accumulation chunk (lm::CHUNK_ROWS), so the parallel
+    // reductions really are split across threads
     let dir = scratch("determinism");
-    fit_conductor(&dir, "a", &["--transform", "mu=sqrt"]);
-    run(bin()
-        .env("RAYON_NUM_THREADS", "1")
-        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "32", "--form", "rational", "--degree", "3", "--transform", "mu=sqrt"])
-        .arg("--data-dir")
-        .arg(dir.join("data"))
-        .arg("--fits-dir")
-        .arg(dir.join("b")));
-    let name = "ggx-conductor-separable/rational-3-mu_sqrt.json";
-    let a = std::fs::read(dir.join("a").join(name)).unwrap();
-    let b = std::fs::read(dir.join("b").join(name)).unwrap();
-    assert!(a == b, "same inputs must give the same bytes");
+    let fit = |threads: &str, fits: &str, args: &[&str]| {
+        run(bin()
+            .env("RAYON_NUM_THREADS", threads)
+            .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "96"])
+            .args(args)
+            .arg("--data-dir")
+            .arg(dir.join("data"))
+            .arg("--fits-dir")
+            .arg(dir.join(fits)))
+    };
+    for (threads, fits) in [("1", "a"), ("2", "b")] {
+        fit(threads, fits, &["--form", "rational", "--degree", "3", "--transform", "mu=sqrt"]);
+        fit(threads, fits, &["--sweep", "--max-degree", "2"]);
+    }
+    let d = "ggx-conductor-separable";
+    let names = ["rational-3-mu_sqrt.json", "sweep.json", "sweep.csv", "best-20.json"];
+    for name in names {
+        let a = std::fs::read(dir.join("a").join(d).join(name)).unwrap();
+        let b = std::fs::read(dir.join("b").join(d).join(name)).unwrap();
+        assert!(a == b, "{name}: same inputs must give the same bytes with 1 and 2 threads");
+    }
+    // the timings went to the sidecars (one per run; the last run's is kept)
+    assert!(dir.join("data/timing").join(d).join("rational-3-mu_sqrt-timing.json").is_file());
+    assert!(dir.join("data/timing").join(d).join("sweep-timing.json").is_file());
+}
+
+#[test]
+fn boundary_layer_transform_follows_the_grazing_corner() {
+    // E(r, μ) → g(μ/r²) as r → 0: a layer of width α = r² at μ = 0 and a discontinuity at the
+    // corner, which a rational in (r, μ) cannot follow and one in (r², layer) can
+    let dir = scratch("layer");
+    let fit = |transform: Option<&str>| {
+        let mut c = bin();
+        c.args(["fit", "--model", "ggx-conductor-separable", "--resolution", "48", "--form", "rational", "--degree", "4"])
+            .arg("--data-dir")
+            .arg(dir.join("data"))
+            .arg("--fits-dir")
+            .arg(dir.join("fits"));
+        if let Some(t) = transform {
+            c.args(["--transform", t]);
+        }
+        run(&mut c);
+    };
+    fit(None);
+    fit(Some("r=square,mu=layer:r:1"));
+    let plain = read_record(&dir.join("fits/ggx-conductor-separable/rational-4.json"));
+    let layer = read_record(&dir.join("fits/ggx-conductor-separable/rational-4-r_square-mu_layer_r_1.json"));
+    // measured: 3.9e-2 (at the corner) and 1.4e-3 on the whole 48² square
+    assert!(plain.fit.metrics.max_abs_error > 2e-2, "{:?}", plain.fit.metrics);
+    assert!(layer.usable && layer.fit.metrics.max_abs_error < 3e-3, "{:?}", layer.fit.metrics);
+    assert_eq!(layer.fit.approximant.transforms[1], furnace::fit::InputTransform::BoundaryLayer { by: 0, k: 1.0 });
+    // its emitted f32 code is stable, including at the corner and the edges
+    let path = dir.join("fits/ggx-conductor-separable/rational-4-r_square-mu_layer_r_1.json");
+    let out = run(bin().args(["stress", "--points", "20000", "--fit"]).arg(&path));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("PASS"), "{}", String::from_utf8_lossy(&out.stdout));
+    // a layer must scale by an earlier variable
+    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "48", "--form", "rational", "--degree", "2", "--transform", "r=layer:mu:1"]).arg("--data-dir").arg(dir.join("data")));
+    assert!(err.contains("layer:<variable>:<k>"), "{err}");
 }
 
 #[test]
@@ -163,10 +211,22 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
     let csv = std::fs::read_to_string(d.join("sweep.csv")).unwrap();
     let header = csv.lines().next().unwrap();
     assert!(header.starts_with("form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error"), "{header}");
+    let col = |name: &str| header.split(',').position(|h| h == name).unwrap_or_else(|| panic!("no column {name} in {header}"));
+    let (usable, n, max) = (col("usable"), col("n_coefficients"), col("max_abs_error"));
     let rows: Vec<Vec<String>> = csv.lines().skip(1).map(|l| l.split(',').map(String::from).collect()).collect();
-    // 2 transform sets (identity, √μ) × (3 polynomials + 3 rationals), plus minimax refits
+    // 4 transform sets (identity, √μ, (r², layer k = 1), (r², layer k = 0.5)) × (3 polynomials
+    // + 3 rationals), plus minimax refits
     let lsq = rows.iter().filter(|r| r[3] == "lsq").count();
-    assert_eq!(lsq, 12, "{stdout}");
+    assert_eq!(lsq, 24, "{stdout}");
+    assert!(rows.iter().any(|r| r[2] == "square layer:r:1") && rows.iter().any(|r| r[2] == "square layer:r:0.5"), "{stdout}");
+    // every fit measured on the whole square and, labelled apart, on the paper's box inside it
+    let (box_max, whole_max) = (col("paper_box_max_abs_error"), col("max_abs_error"));
+    for r in &rows {
+        let (b, w) = (r[box_max].parse::<f64>().unwrap(), r[whole_max].parse::<f64>().unwrap());
+        assert!(b <= w, "the box is inside the square: {r:?}");
+    }
+    assert!(stdout.contains("on all 576 points of the source (the whole domain)"), "{stdout}");
+    assert!(stdout.contains("r ∈ [0.035, 1], mu ∈ [0.02, 1]"), "{stdout}");
     assert!(rows.iter().any(|r| r[3] == "minimax"), "{stdout}");
     let sweep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("sweep.json")).unwrap()).unwrap();
     assert_eq!(sweep["rows"].as_array().unwrap().len(), rows.len());
@@ -177,11 +237,19 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
         // nothing usable within the budget has a lower max error
         let lowest = rows
             .iter()
-            .filter(|r| r[11] == "true" && r[4].parse::<usize>().unwrap() <= budget)
-            .map(|r| r[7].parse::<f64>().unwrap())
+            .filter(|r| r[usable] == "true" && r[n].parse::<usize>().unwrap() <= budget)
+            .map(|r| r[max].parse::<f64>().unwrap())
             .fold(f64::INFINITY, f64::min);
         assert_eq!(best.fit.metrics.max_abs_error, lowest, "budget {budget}");
     }
+    // wall times live in the timing sidecar under the data folder, not under fits/
+    let json = std::fs::read_to_string(d.join("sweep.json")).unwrap();
+    assert!(!json.contains("seconds") && !csv.contains("seconds"), "timings leaked into fits/");
+    let timing: furnace::fit::job::Timing =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("data/timing/ggx-conductor-separable/sweep-timing.json")).unwrap()).unwrap();
+    assert_eq!(timing.fits.len(), rows.len());
+    assert!(timing.wall_seconds > 0.0 && timing.fits.iter().all(|f| f.seconds >= 0.0));
+    assert!(timing.fits_file.ends_with("sweep.json"));
 }
 
 #[test]
@@ -259,6 +327,24 @@ fn bad_input_gives_clear_errors() {
     let err = fails(&mut fit("missing.csv", "1"));
     assert!(err.contains("missing.csv"), "{err}");
 
+    // degree beyond f64 meaning, and degrees beyond the data (one fit: refused; a sweep: skipped, said why)
+    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "21"]).arg("--data-dir").arg(dir.join("data")));
+    assert!(err.contains("degree 21 is above the supported maximum 20"), "{err}");
+    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "polynomial", "--degree", "10"]).arg("--data-dir").arg(dir.join("data")));
+    assert!(err.contains("66 free coefficients but only 64 data points"), "{err}");
+    let out = run(bin()
+        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--sweep", "--form", "rational", "--max-degree", "7"])
+        .arg("--data-dir")
+        .arg(dir.join("data"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits")));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("skipped rational of degree 7/7 [identity identity]: 71 coefficients but only 64 data points"), "{err}");
+    assert!(err.contains("[square layer:r:1]"), "{err}");
+    // a table with NaN: refused naming the cell (a JSON grid here; furnace tables are checked the same way)
+    std::fs::write(dir.join("nan.json"), r#"{"axes": [{"name": "r", "nodes": [0, 1]}, {"name": "mu", "nodes": [0, 1]}], "values": [1, 2, "NaN", 4]}"#).unwrap();
+    let err = fails(&mut fit("nan.json", "1"));
+    assert!(err.contains("nan.json") && err.contains("\"NaN\"") && err.contains("column 98"), "{err}");
     let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "2", "--transform", "mu=log"]).arg("--data-dir").arg(dir.join("data")));
     assert!(err.contains("unknown transform 'log'"), "{err}");
     let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "2", "--channel", "E_T"]).arg("--data-dir").arg(dir.join("data")));

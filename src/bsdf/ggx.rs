@@ -512,6 +512,9 @@ pub struct VndfIntegrand {
     tir: Option<QuadForm>,
     /// Whether the transmitted direction can cross the horizon (η < 1): located numerically.
     transmit_horizon: bool,
+    /// The transmission horizon μt = 0 squared into a quadratic form (leaving the denser
+    /// medium only): see [`VndfIntegrand::transmit_roots`].
+    transmit: Option<QuadForm>,
     /// Which channels this integrand carries; the other one is left at zero and its kinks are
     /// not panel ends. Leaving the denser medium, reflection and transmission are integrated
     /// separately: reflection needs only closed-form kinks, transmission lives on the small
@@ -534,6 +537,9 @@ pub enum Part {
     ReflectionOnly,
     TransmissionOnly,
 }
+
+/// Nodes evaluated side by side in [`Integrand2D::accumulate_nodes`].
+const LANES: usize = 8;
 
 /// Per-line data of [`VndfIntegrand`].
 pub struct Line {
@@ -578,6 +584,11 @@ impl VndfIntegrand {
             horizon,
             tir,
             transmit_horizon: tir.is_some(),
+            transmit: eta.filter(|&e| e < 1.0).map(|e| {
+                // (η² − 1) m_z² + 2μo (ωo·m) m_z − μo² |m|², m = (αN_x, αN_y, N_z)
+                let m2 = mu_o * mu_o;
+                QuadForm::new(-m2 * alpha * alpha, mu_o * sin_o * alpha, e * e - 1.0 + m2, -m2 * alpha * alpha)
+            }),
         }
     }
 
@@ -677,24 +688,39 @@ impl VndfIntegrand {
         -self.mu_o / eta + (c / eta - cos_t) * h[2]
     }
 
-    /// Zeros of the transmitted z on the non-TIR panels of a line (breakpoints so far).
+    /// Zeros of the transmitted z on the non-TIR panels of a line (breakpoints so far), in
+    /// closed form. With c = ωo·h and η cos θt = √(η² − 1 + c²), μt = 0 reads
+    /// c·h_z − μo = h_z·√(η² − 1 + c²) (Walter et al. 2007, eq. 40, z component); squared, it is
+    /// (η² − 1) h_z² + 2c·μo·h_z − μo² = 0, a quadratic form in the unnormalised normal m, whose
+    /// zeros on a line are closed-form like the horizon's. Solving it for c shows every zero has
+    /// c² ≥ 1 − η² (no TIR), with c·h_z − μo = ((1 − η²) h_z² − μo²)/(2μo): the zeros of the
+    /// unsquared equation are those with (1 − η²) h_z² ≥ μo², the others belong to the spurious
+    /// sign (and the two branches meet on the critical-angle curve).
     fn transmit_roots(&self, line: &Line, eta: f64, breaks: &[f64], out: &mut Vec<f64>) {
-        for w in breaks.windows(2) {
-            let (a, b) = (w[0], w[1]);
-            if b <= a || self.is_tir(line, 0.5 * (a + b), eta) {
+        let Some(q) = &self.transmit else {
+            return;
+        };
+        let mut roots = [0.0; 8];
+        let mut tmp = Vec::with_capacity(8);
+        q.roots(line.sb, line.cb, self.phi_max, &mut tmp);
+        let n = tmp.len().min(roots.len());
+        roots[..n].copy_from_slice(&tmp[..n]);
+        for &phi in &roots[..n] {
+            let (sp, cp) = sin_cos_0_pi(phi);
+            let Some(h) = self.half_vector(line, sp, cp) else {
+                continue;
+            };
+            if (1.0 - eta * eta) * h[2] * h[2] < self.mu_o * self.mu_o {
+                continue; // the spurious branch
+            }
+            // strictly inside a panel that transmits
+            let k = breaks.partition_point(|&b| b < phi);
+            if k == 0 || k == breaks.len() || breaks[k] == phi {
                 continue;
             }
-            let mut prev = (a, self.transmitted_z(line, a, eta));
-            for j in 1..=TRANSMIT_SCAN {
-                let x = a + (b - a) * j as f64 / TRANSMIT_SCAN as f64;
-                let z = self.transmitted_z(line, x, eta);
-                if (prev.1 > 0.0) != (z > 0.0) {
-                    let root = illinois(|p| self.transmitted_z(line, p, eta), prev.0, prev.1, x, z);
-                    if root > a && root < b {
-                        out.push(root);
-                    }
-                }
-                prev = (x, z);
+            let (a, b) = (breaks[k - 1], breaks[k]);
+            if !self.is_tir(line, 0.5 * (a + b), eta) {
+                out.push(phi);
             }
         }
     }
@@ -767,43 +793,10 @@ const END_ZERO: f64 = 1e-12;
 /// near-singularity (beyond it Gauss–Legendre converges fast enough at order 12–16 anyway).
 const NEAR_REACH: f64 = 0.3;
 
-/// Samples per panel used to bracket zeros of the transmitted z on a line.
-const TRANSMIT_SCAN: usize = 8;
 /// Latitude samples used to find where the kinks of a line change topology.
 const BETA_SCAN: usize = 32;
 /// Bisection tolerance on such a latitude: far below what the rules resolve.
 const BETA_TOL: f64 = 1e-11;
-
-/// Illinois (modified regula falsi) on a bracketing interval [a, b] with f(a), f(b) of opposite signs.
-fn illinois(f: impl Fn(f64) -> f64, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> f64 {
-    const MAX_ITERS: usize = 100;
-    const X_TOL: f64 = 1e-15; // on φ ∈ [0, π]: far below what any rule resolves
-    let mut side = 0;
-    for _ in 0..MAX_ITERS {
-        let c = (a * fb - b * fa) / (fb - fa);
-        let c = if c.is_finite() && c > a.min(b) && c < a.max(b) { c } else { 0.5 * (a + b) };
-        let fc = f(c);
-        if fc == 0.0 || (b - a).abs() < X_TOL {
-            return c;
-        }
-        if (fc > 0.0) == (fb > 0.0) {
-            b = c;
-            fb = fc;
-            if side == -1 {
-                fa *= 0.5;
-            }
-            side = -1;
-        } else {
-            a = c;
-            fa = fc;
-            if side == 1 {
-                fb *= 0.5;
-            }
-            side = 1;
-        }
-    }
-    0.5 * (a + b)
-}
 
 impl Integrand2D for VndfIntegrand {
     type Line = Line;
@@ -838,6 +831,135 @@ impl Integrand2D for VndfIntegrand {
     #[inline]
     fn eval(&self, line: &Line, phi: f64) -> [f64; CHANNELS] {
         let (sp, cp) = sin_cos_0_pi(phi);
+        self.eval_sin_cos(line, sp, cp)
+    }
+
+    fn channels(&self) -> usize {
+        if self.column.is_empty() { CHANNELS } else { 2 * self.column.len() }
+    }
+
+    fn accumulate_nodes(&self, line: &Line, vs: &[f64], ws: &[f64], acc: &mut [f64]) {
+        if !self.column.is_empty() {
+            for (&v, &w) in vs.iter().zip(ws) {
+                self.accumulate(line, v, w, acc);
+            }
+            return;
+        }
+        // LANES nodes at a time, stage by stage, so that the independent dependency chains of
+        // different nodes (the polynomial sine, square roots, divisions) overlap. Every node
+        // gets exactly the arithmetic of [`Integrand2D::eval`], and the sums run in node order:
+        // the result is the same to the bit.
+        for (vc, wc) in vs.chunks(LANES).zip(ws.chunks(LANES)) {
+            let mut phi = [FRAC_PI_2; LANES];
+            phi[..vc.len()].copy_from_slice(vc);
+            let (mut sp, mut cp) = ([0.0; LANES], [0.0; LANES]);
+            for j in 0..LANES {
+                (sp[j], cp[j]) = sin_cos_0_pi(phi[j]);
+            }
+            let mut y = [[0.0; CHANNELS]; LANES];
+            for j in 0..LANES {
+                y[j] = self.eval_sin_cos(line, sp[j], cp[j]);
+            }
+            for (yj, &w) in y.iter().zip(wc) {
+                acc[0] += w * yj[0];
+                acc[1] += w * yj[1];
+            }
+        }
+    }
+
+    fn nonzero_at(&self, line: &Line, vs: &[f64], out: &mut [bool], scratch: &mut [f64]) {
+        if !self.column.is_empty() {
+            for (o, &v) in out.iter_mut().zip(vs) {
+                *o = self.accumulate(line, v, 0.0, scratch);
+            }
+            return;
+        }
+        for (vc, oc) in vs.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let mut phi = [FRAC_PI_2; LANES];
+            phi[..vc.len()].copy_from_slice(vc);
+            let (mut sp, mut cp) = ([0.0; LANES], [0.0; LANES]);
+            for j in 0..LANES {
+                (sp[j], cp[j]) = sin_cos_0_pi(phi[j]);
+            }
+            let mut y = [[0.0; CHANNELS]; LANES];
+            for j in 0..LANES {
+                y[j] = self.eval_sin_cos(line, sp[j], cp[j]);
+            }
+            for (o, yj) in oc.iter_mut().zip(&y) {
+                *o = yj[0] != 0.0 || yj[1] != 0.0;
+            }
+        }
+    }
+
+    #[inline]
+    fn accumulate(&self, line: &Line, phi: f64, w: f64, acc: &mut [f64]) -> bool {
+        if self.column.is_empty() {
+            let y = self.eval(line, phi);
+            acc[0] += w * y[0];
+            acc[1] += w * y[1];
+            return y[0] != 0.0 || y[1] != 0.0;
+        }
+        // Column mode: the geometry once, then the IOR-dependent factors per cell.
+        let (sp, cp) = sin_cos_0_pi(phi);
+        let Some(h) = self.half_vector(line, sp, cp) else {
+            return false;
+        };
+        let visible = w * line.weight * (sp * self.cos_v + cp * self.sin_v);
+        let c = self.sin_o * h[0] + self.mu_o * h[2];
+        let mu_i = 2.0 * c * h[2] - self.mu_o;
+        let w_r = if mu_i > 0.0 { self.masking(mu_i) } else { 0.0 };
+        self.accumulate_column(c, h[2], visible, w_r, acc)
+    }
+}
+
+impl VndfIntegrand {
+    /// Column mode: adds the IOR-dependent factors of every cell of the column at one normal
+    /// (ωo·h = c, height h_z, weight `visible`, reflection masking w_r). The loops over the
+    /// column have no branches (selects only) so that they vectorise; each cell gets exactly the
+    /// arithmetic of [`fresnel_dielectric`] and [`Self::transmission`].
+    #[inline]
+    fn accumulate_column(&self, c: f64, h_z: f64, visible: f64, w_r: f64, acc: &mut [f64]) -> bool {
+        let n = self.column.len();
+        let (acc_pairs, _) = acc.as_chunks_mut::<2>();
+        let acc_pairs = &mut acc_pairs[..n];
+        match self.lobes {
+            Lobes::Glossy { .. } => {
+                if w_r == 0.0 {
+                    return false;
+                }
+                let cos_i = c.clamp(0.0, 1.0);
+                for (a, &eta) in acc_pairs.iter_mut().zip(&self.column) {
+                    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+                    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+                    let f = fresnel_from_cosines(cos_i, cos_t, eta);
+                    let f = if !eta.is_finite() || sin2_t >= 1.0 { 1.0 } else { f };
+                    let f = if eta == 1.0 { 0.0 } else { f };
+                    a[0] += visible * f * w_r;
+                    a[1] += visible * w_r;
+                }
+                true
+            }
+            _ => {
+                let m = |mu: f64| self.masking(mu);
+                for (a, &eta) in acc_pairs.iter_mut().zip(&self.column) {
+                    let sin2_t = (1.0 - c * c) / (eta * eta);
+                    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+                    let f = fresnel_from_cosines(c, cos_t, eta);
+                    let mu_t = -self.mu_o / eta + (c / eta - cos_t) * h_z;
+                    let w_t = if mu_t < 0.0 { m(-mu_t) } else { 0.0 };
+                    let tir = sin2_t >= 1.0;
+                    let (f, w_t) = if tir { (1.0, 0.0) } else { (f, w_t) };
+                    a[0] += visible * f * w_r;
+                    a[1] += visible * (1.0 - f) * w_t;
+                }
+                true
+            }
+        }
+    }
+
+    /// The integrand at the normal with (sin φ, cos φ) on `line`.
+    #[inline(always)]
+    fn eval_sin_cos(&self, line: &Line, sp: f64, cp: f64) -> [f64; CHANNELS] {
         let Some(h) = self.half_vector(line, sp, cp) else {
             return [0.0; CHANNELS];
         };
@@ -874,52 +996,6 @@ impl Integrand2D for VndfIntegrand {
         }
     }
 
-    fn channels(&self) -> usize {
-        if self.column.is_empty() { CHANNELS } else { 2 * self.column.len() }
-    }
-
-    #[inline]
-    fn accumulate(&self, line: &Line, phi: f64, w: f64, acc: &mut [f64]) -> bool {
-        if self.column.is_empty() {
-            let y = self.eval(line, phi);
-            acc[0] += w * y[0];
-            acc[1] += w * y[1];
-            return y[0] != 0.0 || y[1] != 0.0;
-        }
-        // Column mode: the geometry once, then the IOR-dependent factors per cell.
-        let (sp, cp) = sin_cos_0_pi(phi);
-        let Some(h) = self.half_vector(line, sp, cp) else {
-            return false;
-        };
-        let visible = w * line.weight * (sp * self.cos_v + cp * self.sin_v);
-        let c = self.sin_o * h[0] + self.mu_o * h[2];
-        let mu_i = 2.0 * c * h[2] - self.mu_o;
-        let w_r = if mu_i > 0.0 { self.masking(mu_i) } else { 0.0 };
-        match self.lobes {
-            Lobes::Glossy { .. } => {
-                if w_r == 0.0 {
-                    return false;
-                }
-                for (k, &eta) in self.column.iter().enumerate() {
-                    let f = fresnel_dielectric(c, eta);
-                    acc[2 * k] += visible * f * w_r;
-                    acc[2 * k + 1] += visible * w_r;
-                }
-                true
-            }
-            _ => {
-                for (k, &eta) in self.column.iter().enumerate() {
-                    let (f, w_t) = self.transmission(c, h[2], eta);
-                    acc[2 * k] += visible * f * w_r;
-                    acc[2 * k + 1] += visible * (1.0 - f) * w_t;
-                }
-                true
-            }
-        }
-    }
-}
-
-impl VndfIntegrand {
     fn compute_outer_panels(&self, out: &mut Vec<Panel>) {
         // Where kink curves are tangent to a line or cross the ends of the φ range, the inner
         // integral has square-root behaviour in β.

@@ -103,8 +103,9 @@ fn refine(
 }
 
 /// E at points sharing all but the first coordinate, with per-point error estimates: the whole
-/// column at the companion and base orders ([`Model::integrate_column`]), then each point whose
-/// estimate exceeds the tolerance refined on its own at higher orders ([`next_order`]).
+/// column at the companion and base orders ([`Model::integrate_column`]), then the points whose
+/// estimate exceeds the tolerance, together as a shorter column (they still share the
+/// geometry), at higher orders ([`next_order`]) until each meets it or `max_order` is reached.
 pub fn albedo_column(
     model: &dyn Model,
     xs: &[Vec<f64>],
@@ -115,10 +116,30 @@ pub fn albedo_column(
     let mut high = vec![[0.0; MAX_OUTPUTS]; xs.len()];
     model.integrate_column(xs, cache.get(settings.companion), &mut low);
     model.integrate_column(xs, cache.get(settings.order), &mut high);
-    xs.iter()
-        .zip(low.iter().zip(&high))
-        .map(|(x, (l, h))| refine(model, x, settings, cache, *l, *h))
-        .collect()
+    let error = |l: &[f64; MAX_OUTPUTS], h: &[f64; MAX_OUTPUTS]| l.iter().zip(h).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let mut out: Vec<Estimate<MAX_OUTPUTS>> = low
+        .iter()
+        .zip(&high)
+        .map(|(l, h)| {
+            let e = error(l, h);
+            Estimate { value: *h, error: e, order: settings.order, converged: e <= settings.tolerance }
+        })
+        .collect();
+    let mut order = settings.order;
+    loop {
+        let open: Vec<usize> = (0..xs.len()).filter(|&k| !out[k].converged).collect();
+        if open.is_empty() || next_order(order) > settings.max_order {
+            return out;
+        }
+        order = next_order(order);
+        let sub: Vec<Vec<f64>> = open.iter().map(|&k| xs[k].clone()).collect();
+        let mut next = vec![[0.0; MAX_OUTPUTS]; sub.len()];
+        model.integrate_column(&sub, cache.get(order), &mut next);
+        for (&k, v) in open.iter().zip(&next) {
+            let e = error(&out[k].value, v);
+            out[k] = Estimate { value: *v, error: e, order, converged: e <= settings.tolerance };
+        }
+    }
 }
 
 /// Checks that `x` has one finite coordinate per axis, inside the valid range.

@@ -6,7 +6,7 @@ use super::{get_table, parse_resolution, QuadratureArgs};
 use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
 use crate::fit::compare::{compare_model, paper_box, same_form_request, CompareReport, PaperPair, PAPER_PAIRS};
-use crate::fit::job::{self, FitRecord, FitRequest, FormKind, SweepOutcome, SweepPlan};
+use crate::fit::job::{self, FitRecord, FitRequest, FitTime, FormKind, Stopwatch, SweepOutcome, SweepPlan, Timing};
 use crate::fit::source::{self, FitInput, FittedOn, UserTableOptions};
 use crate::fit::Objective;
 use crate::quadrature::QuadratureSettings;
@@ -89,6 +89,10 @@ pub struct FitArgs {
     /// Write a single fit here instead of <fits-dir>/<model>/<form>-<degree>.json.
     #[arg(long, conflicts_with = "sweep")]
     pub output: Option<PathBuf>,
+    /// Print the N table points with the largest error of the fit (of each best-<budget> fit
+    /// of a sweep), with the table value and the fit's there.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub worst: usize,
     /// Recompute the model's table even when cached.
     #[arg(long)]
     pub force: bool,
@@ -156,6 +160,7 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         None => None,
     };
     let dir = args.fits_dir.join(&name);
+    let timing_dir = args.data_dir.join("timing").join(&name);
     if args.sweep {
         let mut plan = SweepPlan::paper(&input.data, args.max_degree, transforms, args.objective.objective());
         if let Some(f) = args.form {
@@ -167,8 +172,15 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         if let Some(n) = args.fit_points {
             plan.max_fit_points = n;
         }
+        let clock = Stopwatch::start();
         let outcome = job::sweep_fits(&input, &plan, &mut |line| eprintln!("  {line}"))?;
-        write_sweep(&outcome, &dir)?;
+        write_sweep(&outcome, &dir, &timing_dir, &clock)?;
+        for b in &outcome.best {
+            if let Some(rec) = outcome.best_record(b.budget).filter(|_| args.worst > 0) {
+                println!("worst points of best-{}.json:", b.budget);
+                print_worst(rec, &input, args.worst);
+            }
+        }
         return Ok(());
     }
     let (Some(form), Some(degree)) = (args.form, args.degree) else {
@@ -184,24 +196,53 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         transforms: transforms.unwrap_or_else(|| vec![crate::fit::InputTransform::Identity; input.data.dim()]),
         max_fit_points: args.fit_points.unwrap_or(0),
     };
-    let start = std::time::Instant::now();
+    let clock = Stopwatch::start();
     let rec = job::fit_one(&input, &req)?;
-    let secs = start.elapsed().as_secs_f64();
     let path = args.output.clone().unwrap_or_else(|| dir.join(rec.file_name()));
+    let time = FitTime { name: rec.file_name(), n_coefficients: rec.fit.n_coefficients, seconds: clock.wall_seconds() };
+    let timing = Timing::new(&path.display().to_string(), &input.source, &rec.fitted_on, &clock, vec![time]);
     write_atomic(&path, rec.to_json()?.as_bytes())?;
-    print_record(&rec, &path, Some(secs));
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "fit".into());
+    let timing_path = timing_dir.join(format!("{stem}-timing.json"));
+    write_atomic(&timing_path, timing.to_json()?.as_bytes())?;
+    print_record(&rec, &path, Some(&timing));
+    eprintln!("timing: {}", timing_path.display());
+    if args.worst > 0 {
+        print_worst(&rec, &input, args.worst);
+    }
     Ok(())
 }
 
-fn print_record(rec: &FitRecord, path: &Path, secs: Option<f64>) {
+/// The `n` points of `input` where `rec` errs most.
+fn print_worst(rec: &FitRecord, input: &FitInput, n: usize) {
+    let names = input.data.names.join(", ");
+    println!("    {:>4}  {:<40} {:>12} {:>12} {:>10}", "rank", format!("({names})"), "table", "fit", "|error|");
+    for (i, p) in crate::fit::metrics::worst_points(&rec.fit.approximant, &input.data, n).iter().enumerate() {
+        let at = p.at.iter().map(|x| format!("{x:.6}")).collect::<Vec<_>>().join(", ");
+        println!("    {:>4}  {:<40} {:>12.8} {:>12.8} {:>10.3e}", i + 1, format!("({at})"), p.value, p.fit, p.abs_error);
+    }
+}
+
+/// `12.3 s wall, 20.1 s CPU, 2 threads, load 1.52`: a timing for the terminal.
+fn timing_text(t: &Timing) -> String {
+    format!(
+        "{:.2} s wall{}, {} threads{}",
+        t.wall_seconds,
+        t.cpu_seconds.map_or(String::new(), |c| format!(", {c:.2} s CPU")),
+        t.threads,
+        t.load_average.map_or(String::new(), |l| format!(", load {:.2}", l[0]))
+    )
+}
+
+fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
     let m = &rec.fit.metrics;
     println!(
         "{}: {} [{}], {} coefficients{}; on {} points: MAE {:.3e}, RMSE {:.3e}, max {:.3e} at {:?}, max relative {:.3e}",
         path.display(),
         rec.fit.form.label(),
-        rec.fit.approximant.transforms.iter().map(|t| t.name()).collect::<Vec<_>>().join(", "),
+        rec.fit.approximant.transforms.iter().map(|t| t.label(&rec.fit.approximant.variables)).collect::<Vec<_>>().join(", "),
         rec.fit.n_coefficients,
-        secs.map_or(String::new(), |s| format!(", fitted in {s:.2} s")),
+        timing.map_or(String::new(), |t| format!(", fitted in {}", timing_text(t))),
         m.n_points,
         m.mae,
         m.rmse,
@@ -215,14 +256,27 @@ fn print_record(rec: &FitRecord, path: &Path, secs: Option<f64>) {
     }
 }
 
-/// Writes sweep.{json,csv} and best-<budget>.json, prints the summary.
-fn write_sweep(outcome: &SweepOutcome, dir: &Path) -> Result<()> {
-    write_atomic(&dir.join("sweep.json"), outcome.to_json()?.as_bytes())?;
+/// Writes sweep.{json,csv} and best-<budget>.json under `dir`, the timings (measured by `clock`)
+/// to `timing_dir/sweep-timing.json`, and prints the summary.
+fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &Stopwatch) -> Result<()> {
+    let sweep_path = dir.join("sweep.json");
+    let timing = Timing::new(&sweep_path.display().to_string(), &outcome.source, &outcome.fitted_on, clock, outcome.fit_times());
+    write_atomic(&sweep_path, outcome.to_json()?.as_bytes())?;
     write_atomic(&dir.join("sweep.csv"), outcome.to_csv().as_bytes())?;
-    println!("{:<11} {:>3} {:<28} {:<8} {:>4} {:>10} {:>10} {:>8} poles", "form", "deg", "transforms", "objective", "n", "MAE", "max", "seconds");
-    for r in &outcome.rows {
+    let timing_path = timing_dir.join("sweep-timing.json");
+    write_atomic(&timing_path, timing.to_json()?.as_bytes())?;
+    println!("MAE and max: on {}", outcome.metrics_on);
+    if let Some(b) = &outcome.paper_box {
+        println!("box MAE, box max: on {}", b.metrics_on);
+    }
+    println!(
+        "{:<11} {:>3} {:<32} {:<8} {:>4} {:>10} {:>10} {:>10} {:>10} {:>8} poles",
+        "form", "deg", "transforms", "objective", "n", "MAE", "max", "box MAE", "box max", "seconds"
+    );
+    for (r, secs) in outcome.rows.iter().zip(&outcome.fit_seconds) {
+        let (bm, bx) = r.paper_box.as_ref().map_or(("-".to_string(), "-".to_string()), |b| (format!("{:.3e}", b.mae), format!("{:.3e}", b.max_abs_error)));
         println!(
-            "{:<11} {:>3} {:<28} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>8.2} {}",
+            "{:<11} {:>3} {:<32} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>10} {:>10} {:>8.2} {}",
             r.form.name(),
             r.degree,
             r.transforms.join(" "),
@@ -230,7 +284,9 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path) -> Result<()> {
             r.n_coefficients,
             r.mae,
             r.max_abs_error,
-            r.fit_seconds,
+            bm,
+            bx,
+            secs,
             r.poles
         );
     }
@@ -239,8 +295,11 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path) -> Result<()> {
         match outcome.best_record(b.budget) {
             Some(rec) => {
                 write_atomic(&path, rec.to_json()?.as_bytes())?;
-                println!("best with ≤ {} coefficients:", b.budget);
+                println!("best with ≤ {} coefficients (lowest max error on the whole domain):", b.budget);
                 print_record(rec, &path, None);
+                if let Some(bm) = b.index.and_then(|i| outcome.rows[i].paper_box.as_ref()) {
+                    println!("    on the paper's box: MAE {:.3e}, max {:.3e} at {:?}", bm.mae, bm.max_abs_error, bm.max_abs_error_at);
+                }
             }
             None => {
                 // a stale file from an earlier sweep would be mistaken for this one's
@@ -252,18 +311,19 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path) -> Result<()> {
         }
     }
     for s in &outcome.skipped {
-        eprintln!("skipped {} [{}]: {}", s.form, s.transforms.iter().map(|t| t.name()).collect::<Vec<_>>().join(" "), s.reason);
+        eprintln!("skipped {} [{}]: {}", s.form, s.transforms.iter().map(|t| t.label(&outcome.variables)).collect::<Vec<_>>().join(" "), s.reason);
     }
     let not_usable = outcome.rows.iter().filter(|r| !r.usable).count();
     if not_usable > 0 {
         eprintln!("warning: {not_usable} fits are not usable (pole or uncertified); they are listed with usable = false and never chosen as best");
     }
     println!(
-        "sweep of {} fits in {:.1} s ({}); wrote {}/sweep.{{json,csv}}",
+        "sweep of {} fits in {} ({}); wrote {}/sweep.{{json,csv}}, timings to {}",
         outcome.rows.len(),
-        outcome.seconds,
+        timing_text(&timing),
         outcome.fitted_on.selection,
-        dir.display()
+        dir.display(),
+        timing_path.display()
     );
     Ok(())
 }
@@ -299,8 +359,8 @@ pub struct ComparePaperArgs {
 /// Points furnace's same-form fit sees in compare-paper by default: all in 2D, 64³ in 3D.
 const COMPARE_FIT_POINTS_3D: usize = 64 * 64 * 64;
 
-/// best-40.json of this exact table, or a fresh sweep's.
-fn best_40(input: &FitInput, dir: &Path, no_sweep: bool) -> Result<Option<FitRecord>> {
+/// best-40.json of this exact table, or a fresh sweep's (timings to `timing_dir`).
+fn best_40(input: &FitInput, dir: &Path, timing_dir: &Path, no_sweep: bool) -> Result<Option<FitRecord>> {
     let path = dir.join("best-40.json");
     if let Ok(text) = std::fs::read_to_string(&path) {
         if let Ok(rec) = FitRecord::from_json(&text) {
@@ -318,8 +378,9 @@ fn best_40(input: &FitInput, dir: &Path, no_sweep: bool) -> Result<Option<FitRec
     }
     eprintln!("  no best-40.json for this table in {}: running the default sweep", dir.display());
     let plan = SweepPlan::paper(&input.data, None, None, Objective::LeastSquares);
+    let clock = Stopwatch::start();
     let outcome = job::sweep_fits(input, &plan, &mut |line| eprintln!("    {line}"))?;
-    write_sweep(&outcome, dir)?;
+    write_sweep(&outcome, dir, timing_dir, &clock)?;
     Ok(outcome.best_record(40).cloned())
 }
 
@@ -334,10 +395,12 @@ fn compare_one(args: &ComparePaperArgs, pair: &PaperPair) -> Result<crate::fit::
     let input = source::from_table(&t.table, "E", Some(&t.stem))?;
     let points = args.fit_points.unwrap_or(if d >= 3 { COMPARE_FIT_POINTS_3D } else { 0 });
     let same = job::fit_one(&input, &same_form_request(pair, points))?;
-    let best = best_40(&input, &args.fits_dir.join(model.cache_name()), args.no_sweep)?;
+    let timing = args.data_dir.join("timing");
+    let best = best_40(&input, &args.fits_dir.join(model.cache_name()), &timing.join(model.cache_name()), args.no_sweep)?;
     let bounds = paper_box(pair);
     let boxed = input.restrict(&bounds)?;
-    let best_box = best_40(&boxed, &args.fits_dir.join(boxed_name(&model.cache_name(), &bounds)), args.no_sweep)?;
+    let boxed_dir = boxed_name(&model.cache_name(), &bounds);
+    let best_box = best_40(&boxed, &args.fits_dir.join(&boxed_dir), &timing.join(&boxed_dir), args.no_sweep)?;
     let entry = compare_model(&args.paper_data, pair, &input, &same, best.as_ref(), best_box.as_ref())?;
     if let Some(paper) = &entry.paper_result {
         // the published coefficients as a fit file, for `furnace eval --fit`

@@ -396,7 +396,8 @@ pub fn form_polynomials(fit: &FitResult, form: EvalForm) -> crate::fit::Result<(
 /// The variables of `form` at an original-variable point x (clamped to the domain): t, s or u.
 pub fn form_variables(fit: &FitResult, form: EvalForm, x: &[f64]) -> crate::fit::Result<Vec<f64>> {
     let a = &fit.approximant;
-    let t: Vec<f64> = x.iter().zip(&a.domain).zip(&a.transforms).map(|((&v, &(lo, hi)), tr)| tr.apply(v.clamp(lo, hi))).collect();
+    let clamped: Vec<f64> = x.iter().zip(&a.domain).map(|(&v, &(lo, hi))| v.clamp(lo, hi)).collect();
+    let t = a.transform(&clamped);
     Ok(match form {
         EvalForm::Monomial => t,
         EvalForm::Shifted => t.iter().zip(shifts(fit)?).map(|(&t, (c, h))| (t - c) / h).collect(),
@@ -529,11 +530,18 @@ pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: Eval
                 let x = if lo >= a0 && hi <= b0 { var(&c) } else { clamp(var(&c), lit(a0), lit(b0)) };
                 Some(mul(sub(x, lit(a0)), lit(1.0 / (b0 - a0))))
             }
+            // (x(1 + k y²) + τ)/(x + k y² + τ), y = an earlier (already clamped) argument
+            InputTransform::BoundaryLayer { by, k: scale } => {
+                let y = var(&format!("{}_c", params[by]));
+                let s = || mul(lit(scale), mul(y.clone(), y.clone()));
+                let tau = || lit(crate::fit::data::LAYER_TAU);
+                Some(div(add(mul(var(&c), add(lit(1.0), s())), tau()), add(add(var(&c), s()), tau())))
+            }
         };
         let tname = match t {
             Some(t) => {
                 let n = format!("{p}_t");
-                body.push(Stmt { name: n.clone(), value: t, comment: Some(format!("t = {}({p})", a.transforms[k].name())) });
+                body.push(Stmt { name: n.clone(), value: t, comment: Some(format!("t = {}", a.transforms[k].formula(k, &params))) });
                 n
             }
             None => c,

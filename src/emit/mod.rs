@@ -247,7 +247,7 @@ fn albedo_doc(src: &SourceFit, name: &str, params: &[String], hash: &str, report
         let (lo, hi) = a.domain[k];
         let tr = match a.transforms[k] {
             crate::fit::InputTransform::Identity => format!("t = {p}"),
-            t => format!("t = {}({p})", t.name()),
+            t => format!("t = {}", t.formula(k, params)),
         };
         doc.push(format!("  {p}: {tr}, {}", fmt_domain(lo, hi)));
     }

@@ -46,11 +46,35 @@ pub const PAPER_PAIRS: [PaperPair; 4] = [
 
 /// The box where the paper's tables start (its repository clamps r ≥ 0.035 and μ ≥ 0.02, and
 /// μ ≤ 0.98 for dielectrics, when computing them): away from the corner r = μ = 0, where
-/// albedos are discontinuous and no low-degree fit can be accurate. The issue's reference
-/// figures for the published conductor fit (MAE 3.9e-3, max 3.2e-2) are on this box.
+/// albedos are discontinuous in (r, μ) and no low-degree fit in those variables is accurate
+/// (in the boundary-layer variable of [`super::InputTransform::BoundaryLayer`] they are smooth).
+/// The issue's reference figures for the published conductor fit (MAE 3.9e-3, max 3.2e-2) are
+/// on this box.
 pub fn paper_box(pair: &PaperPair) -> Vec<AxisDecl> {
-    let mu_hi = if pair.radiance { 0.98 } else { 1.0 };
-    vec![AxisDecl { name: "r".into(), lo: 0.035, hi: 1.0, n: None }, AxisDecl { name: "mu".into(), lo: 0.02, hi: mu_hi, n: None }]
+    let mu_hi = if pair.radiance { PAPER_MU_MAX_DIELECTRIC } else { 1.0 };
+    vec![AxisDecl { name: "r".into(), lo: PAPER_R_MIN, hi: 1.0, n: None }, AxisDecl { name: "mu".into(), lo: PAPER_MU_MIN, hi: mu_hi, n: None }]
+}
+
+/// Smallest r of the paper's tables (its repository clamps r to ≥ 0.035; paper-repo-data README).
+pub const PAPER_R_MIN: f64 = 0.035;
+/// Smallest μ of the paper's tables (clamped to ≥ 0.02).
+pub const PAPER_MU_MIN: f64 = 0.02;
+/// Largest μ of the paper's dielectric tables (clamped to ≤ 0.98).
+pub const PAPER_MU_MAX_DIELECTRIC: f64 = 0.98;
+
+/// The paper's box inside a domain: r ≥ [`PAPER_R_MIN`], μ ≥ [`PAPER_MU_MIN`] (and for a
+/// dielectric model μ ≤ [`PAPER_MU_MAX_DIELECTRIC`]), other variables as they are. None if the
+/// data has no variables `r` and `mu` or the box misses the domain.
+pub fn paper_box_in(names: &[String], domain: &[(f64, f64)], model: Option<&str>) -> Option<Vec<(f64, f64)>> {
+    let find = |n: &str| names.iter().position(|x| x.eq_ignore_ascii_case(n));
+    let (r, mu) = (find("r")?, find("mu")?);
+    let mut b = domain.to_vec();
+    b[r].0 = b[r].0.max(PAPER_R_MIN);
+    b[mu].0 = b[mu].0.max(PAPER_MU_MIN);
+    if model.is_some_and(|m| m.contains("dielectric")) {
+        b[mu].1 = b[mu].1.min(PAPER_MU_MAX_DIELECTRIC);
+    }
+    b.iter().all(|(lo, hi)| lo <= hi).then_some(b)
 }
 
 /// `r=0.035:1,mu=0.02:0.98`: the `--domain` argument of a box.
@@ -92,7 +116,7 @@ impl CompareLine {
         CompareLine {
             fit: fit.into(),
             form: r.form.label(),
-            transforms: r.approximant.transforms.iter().map(|t| t.name()).collect(),
+            transforms: r.approximant.transforms.iter().map(|t| t.label(&r.approximant.variables)).collect(),
             objective: r.objective,
             n_coefficients: r.n_coefficients,
             mae: if full { finite(r.metrics.mae) } else { None },
@@ -219,7 +243,7 @@ impl CompareReport {
         s.push_str(&format!(
             "{}; furnace {}. Errors are |fit − table| over every node of the table (MAE, max), and over the nodes inside \
 the paper's box (where its tables start: r ≥ 0.035, μ ≥ 0.02, dielectrics μ ≤ 0.98), away from the corner r = μ = 0 where \
-albedos are discontinuous. Dielectric tables use the paper's radiance form of transmission (E_T × 1/η² entering, × η² leaving), \
+albedos are discontinuous in (r, μ) (furnace's fits in the boundary-layer variable μ(1 + k r²)/(μ + k r²) are smooth there). Dielectric tables use the paper's radiance form of transmission (E_T × 1/η² entering, × η² leaving), \
 since that is what its coefficients approximate. Pole verdicts are proofs on each fit's whole domain (Bernstein certificate), \
 not checks at the nodes.\n",
             self.paper, self.tool_version

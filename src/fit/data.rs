@@ -8,8 +8,13 @@ use super::error::{FitError, Result};
 /// Most variables a fit may have (the paper's tables have 2 or 3).
 pub const MAX_DIM: usize = 3;
 
+/// τ of [`InputTransform::BoundaryLayer`]: 2⁻¹⁰⁰, exact in f32 and f64. It only decides the
+/// corner x = y = 0 (t = τ/τ = 1) and changes t by less than τ/(x + k y²) elsewhere, i.e.
+/// nowhere a table node or an f32 input away from the corner can see.
+pub const LAYER_TAU: f64 = 7.888609052210118e-31;
+
 /// A monotone map applied to a variable before the polynomial basis: the fitted function is
-/// P(t)/Q(t) with t_k = transform_k(x_k). Recorded in every result so the emitted code can apply it.
+/// P(t)/Q(t) with t_k = transform_k(x). Recorded in every result so the emitted code can apply it.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum InputTransform {
@@ -24,34 +29,63 @@ pub enum InputTransform {
     /// t = (clamp(x, lo, hi) − lo)/(hi − lo): the paper's dielectric F0 normalisation
     /// (Sforza & Pellacini 2022, Appendix A, with lo = 0.0125, hi = 0.25).
     ClampNormalize { lo: f64, hi: f64 },
+    /// t = (x(1 + k y²) + τ)/(x + k y² + τ), y = variable number `by` (untransformed, earlier
+    /// in the variable list), τ = [`LAYER_TAU`]: the boundary-layer coordinate of grazing angles.
+    ///
+    /// Why: GGX masking depends on the outgoing direction only through a = μ/(α √(1 − μ²))
+    /// (Heitz 2014, "Understanding the Masking-Shadowing Function", eqs. 72 and 86), so for
+    /// α = r² → 0 the albedo tends to a function of μ/α alone: E(r, c r²) → g(c), with g
+    /// from E(μ → 0⁺) (0.936 separable, 1 height-correlated) through a dip (≈ 0.88 at c ≈ 1)
+    /// to 1. In (r, μ) that is a layer of width ~α at μ = 0 and a discontinuity at the corner
+    /// r = μ = 0, which no polynomial or rational in (r, μ) follows; in (r, t) with x = μ,
+    /// y = r it is smooth: t ≈ c k⁻¹/(1 + c k⁻¹) for small r, t = 1 at μ = 1 (the map is onto
+    /// [0, 1] for x, y ∈ [0, 1]), and the corner takes the r = 0 value t = 1, as the tables do.
+    /// t increases with x and, for x ≤ 1, decreases with y.
+    BoundaryLayer { by: usize, k: f64 },
 }
 
 impl InputTransform {
-    /// t = transform(x).
+    /// t_k, the transform of variable `k` at the point `x` (original variables, all of them).
     #[inline]
-    pub fn apply(&self, x: f64) -> f64 {
+    pub fn apply(&self, k: usize, x: &[f64]) -> f64 {
+        let v = x[k];
         match *self {
-            InputTransform::Identity => x,
+            InputTransform::Identity => v,
             // guard: x may round to a tiny negative value at a domain edge of 0
-            InputTransform::Sqrt => x.max(0.0).sqrt(),
-            InputTransform::OneMinus => 1.0 - x,
-            InputTransform::Square => x * x,
-            InputTransform::ClampNormalize { lo, hi } => (x.clamp(lo, hi) - lo) / (hi - lo),
+            InputTransform::Sqrt => v.max(0.0).sqrt(),
+            InputTransform::OneMinus => 1.0 - v,
+            InputTransform::Square => v * v,
+            InputTransform::ClampNormalize { lo, hi } => (v.clamp(lo, hi) - lo) / (hi - lo),
+            // (a `by` out of range — only in an unvalidated approximant — gives NaN, not a panic)
+            InputTransform::BoundaryLayer { by, k: scale } => layer(v, x.get(by).copied().unwrap_or(f64::NAN), scale),
         }
     }
 
-    /// x with transform(x) = t, for t in the image of the domain (used to report locations).
-    pub fn inverse(&self, t: f64) -> f64 {
+    /// The variable `k` with transform(x)_k = t, given the other variables of x already in
+    /// original form (only `by` of a boundary layer is read); used to report locations.
+    pub fn inverse(&self, t: f64, x: &[f64]) -> f64 {
         match *self {
             InputTransform::Identity => t,
             InputTransform::Sqrt => t * t,
             InputTransform::OneMinus => 1.0 - t,
             InputTransform::Square => t.max(0.0).sqrt(),
             InputTransform::ClampNormalize { lo, hi } => lo + t * (hi - lo),
+            InputTransform::BoundaryLayer { by, k } => {
+                // t (x + s) = x (1 + s) (τ neglected) ⇒ x = t s / (1 + s − t)
+                let y = x.get(by).copied().unwrap_or(f64::NAN);
+                let s = k * y * y;
+                let den = 1.0 + s - t;
+                if den > 0.0 {
+                    t * s / den
+                } else {
+                    1.0
+                }
+            }
         }
     }
 
-    /// Short name for reports ("sqrt", "one_minus", …).
+    /// Short name for reports and file names ("sqrt", "one_minus", "layer:#0:1", …); see
+    /// [`InputTransform::label`] for one with variable names.
     pub fn name(&self) -> String {
         match *self {
             InputTransform::Identity => "identity".into(),
@@ -59,19 +93,47 @@ impl InputTransform {
             InputTransform::OneMinus => "one_minus".into(),
             InputTransform::Square => "square".into(),
             InputTransform::ClampNormalize { lo, hi } => format!("clamp_normalize({lo}, {hi})"),
+            InputTransform::BoundaryLayer { by, k } => format!("layer:#{by}:{k}"),
         }
     }
 
-    /// Checks the transform is defined and monotone on [lo, hi]; returns the image interval.
-    pub fn image(&self, name: &str, lo: f64, hi: f64) -> Result<(f64, f64)> {
+    /// [`InputTransform::name`] with variable names: `layer:r:1` (the `--transform` syntax).
+    pub fn label(&self, names: &[String]) -> String {
+        match *self {
+            InputTransform::BoundaryLayer { by, k } => match names.get(by) {
+                Some(n) => format!("layer:{n}:{k}"),
+                None => self.name(),
+            },
+            _ => self.name(),
+        }
+    }
+
+    /// The transform of variable `k` as a formula in the variable names: `sqrt(mu)`, or for a
+    /// boundary layer `(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)`.
+    pub fn formula(&self, k: usize, names: &[String]) -> String {
+        let x = names.get(k).map_or("x", String::as_str);
+        match *self {
+            InputTransform::Identity => x.to_string(),
+            InputTransform::BoundaryLayer { by, k: scale } => {
+                let y = names.get(by).map_or("y", String::as_str);
+                format!("({x}*(1 + {scale}*{y}*{y}) + 2^-100)/({x} + {scale}*{y}*{y} + 2^-100)")
+            }
+            _ => format!("{}({x})", self.name()),
+        }
+    }
+
+    /// Checks the transform of variable `k` is defined and monotone on the box `domain`
+    /// (one [lo, hi] per variable) and returns the image interval of t_k.
+    pub fn image(&self, k: usize, names: &[String], domain: &[(f64, f64)]) -> Result<(f64, f64)> {
+        let (lo, hi) = domain[k];
         let bad = |reason: &'static str| FitError::InvalidTransform {
-            transform: self.name(),
-            name: name.to_string(),
+            transform: self.label(names),
+            name: names.get(k).cloned().unwrap_or_default(),
             lo,
             hi,
             reason,
         };
-        match *self {
+        let (ta, tb) = match *self {
             InputTransform::Sqrt if lo < 0.0 => return Err(bad("sqrt needs a domain with x ≥ 0")),
             InputTransform::Square if lo < 0.0 => {
                 return Err(bad("x² is not monotone on a domain containing negative x; shift the variable first"))
@@ -79,15 +141,77 @@ impl InputTransform {
             InputTransform::ClampNormalize { lo: a, hi: b } if !(a.is_finite() && b.is_finite() && a < b) => {
                 return Err(bad("clamp_normalize needs finite bounds lo < hi"))
             }
-            _ => {}
-        }
-        let (ta, tb) = (self.apply(lo), self.apply(hi));
+            InputTransform::BoundaryLayer { by, k: scale } => {
+                if by >= k {
+                    return Err(bad("a boundary layer scales by a variable that comes before it (e.g. mu by r)"));
+                }
+                if !(scale > 0.0 && scale.is_finite()) {
+                    return Err(bad("a boundary layer needs a finite scale k > 0"));
+                }
+                if !(lo >= 0.0 && hi <= 1.0) {
+                    return Err(bad("a boundary layer needs 0 ≤ x ≤ 1 (it is monotone there)"));
+                }
+                let (ylo, yhi) = domain[by];
+                if ylo < 0.0 {
+                    return Err(bad("a boundary layer needs the variable it scales by to be ≥ 0"));
+                }
+                // increasing in x, decreasing in y (x ≤ 1): the extremes are at opposite corners
+                (layer(lo, yhi, scale), layer(hi, ylo, scale))
+            }
+            _ => {
+                let at = |v: f64| {
+                    let mut x = [0.0; MAX_DIM];
+                    x[0] = v;
+                    self.apply(0, &x)
+                };
+                (at(lo), at(hi))
+            }
+        };
         let (t0, t1) = if ta <= tb { (ta, tb) } else { (tb, ta) };
         if !(t0 < t1) {
             return Err(bad("the transform maps the whole domain to a single value; adjust its bounds or the domain"));
         }
         Ok((t0, t1))
     }
+}
+
+/// [`InputTransform::BoundaryLayer`]: t = (x(1 + k y²) + τ)/(x + k y² + τ).
+#[inline]
+fn layer(x: f64, y: f64, k: f64) -> f64 {
+    let s = k * y * y;
+    (x * (1.0 + s) + LAYER_TAU) / (x + s + LAYER_TAU)
+}
+
+/// The transformed coordinates t of the point x (original variables) into `t`.
+#[inline]
+pub fn transform_point(transforms: &[InputTransform], x: &[f64], t: &mut [f64]) {
+    for (k, tr) in transforms.iter().enumerate() {
+        t[k] = tr.apply(k, x);
+    }
+}
+
+/// The original coordinates of the transformed point t (inverses taken in variable order,
+/// so a boundary layer finds the variable it scales by already inverted).
+pub fn inverse_point(transforms: &[InputTransform], t: &[f64]) -> Vec<f64> {
+    let mut x = vec![0.0; t.len()];
+    for (k, tr) in transforms.iter().enumerate() {
+        x[k] = tr.inverse(t[k], &x);
+    }
+    x
+}
+
+/// The box of transformed coordinates that contains the image of `domain`, checking that every
+/// transform is defined and monotone there.
+pub fn transformed_box(names: &[String], domain: &[(f64, f64)], transforms: &[InputTransform]) -> Result<Vec<(f64, f64)>> {
+    if transforms.len() != domain.len() {
+        return Err(FitError::ShapeMismatch {
+            what: "input transforms",
+            expected: domain.len(),
+            got: transforms.len(),
+            fix: "give one transform per variable (InputTransform::Identity for none)",
+        });
+    }
+    (0..domain.len()).map(|k| transforms[k].image(k, names, domain)).collect()
 }
 
 /// Scattered data to fit: `coords` holds `names.len()` coordinates per point, row-major.
@@ -307,23 +431,16 @@ impl Prepared {
                 fix: "give one transform per variable (InputTransform::Identity for none)",
             });
         }
-        let scales: Vec<AxisScale> = (0..d)
-            .map(|k| {
-                let (lo, hi) = data.domain[k];
-                transforms[k].image(&data.names[k], lo, hi).map(|(a, b)| AxisScale::new(a, b))
-            })
-            .collect::<Result<_>>()?;
-        let s = data
-            .coords
-            .iter()
-            .enumerate()
-            .map(|(j, &x)| {
-                let k = j % d;
-                let sc = &scales[k];
+        let scales: Vec<AxisScale> =
+            transformed_box(&data.names, &data.domain, transforms)?.into_iter().map(|(a, b)| AxisScale::new(a, b)).collect();
+        let mut s = Vec::with_capacity(data.coords.len());
+        for i in 0..data.len() {
+            let x = data.point(i);
+            for (k, sc) in scales.iter().enumerate() {
                 // clamp: rounding in the transform may step a hair outside [−1, 1]
-                ((transforms[k].apply(x) - sc.center) / sc.half).clamp(-1.0, 1.0)
-            })
-            .collect();
+                s.push(((transforms[k].apply(k, x) - sc.center) / sc.half).clamp(-1.0, 1.0));
+            }
+        }
         let w = (0..data.len()).map(|i| data.weight(i)).collect();
         Ok(Prepared { d, s, y: data.values.clone(), w, scales })
     }
@@ -413,12 +530,48 @@ mod tests {
     #[test]
     fn transforms_and_inverses() {
         let f = InputTransform::ClampNormalize { lo: 0.0125, hi: 0.25 };
-        assert_eq!(f.apply(0.0125), 0.0);
-        assert_eq!(f.apply(0.25), 1.0);
-        assert_eq!(f.apply(0.5), 1.0);
-        assert!((f.inverse(f.apply(0.1)) - 0.1).abs() < 1e-15);
-        assert_eq!(InputTransform::OneMinus.image("x", 0.0, 0.5).unwrap(), (0.5, 1.0));
-        assert!(InputTransform::Sqrt.image("x", -1.0, 1.0).is_err());
+        assert_eq!(f.apply(0, &[0.0125]), 0.0);
+        assert_eq!(f.apply(0, &[0.25]), 1.0);
+        assert_eq!(f.apply(0, &[0.5]), 1.0);
+        assert!((f.inverse(f.apply(0, &[0.1]), &[0.0]) - 0.1).abs() < 1e-15);
+        let x = vec!["x".to_string()];
+        assert_eq!(InputTransform::OneMinus.image(0, &x, &[(0.0, 0.5)]).unwrap(), (0.5, 1.0));
+        assert!(InputTransform::Sqrt.image(0, &x, &[(-1.0, 1.0)]).is_err());
+    }
+
+    #[test]
+    fn boundary_layer_transform() {
+        let names = vec!["r".to_string(), "mu".to_string()];
+        let bl = InputTransform::BoundaryLayer { by: 0, k: 1.0 };
+        let t = |r: f64, mu: f64| bl.apply(1, &[r, mu]);
+        // ends: μ = 1 ↦ 1 for every r, μ = 0 ↦ 0 for r > 0, r = 0 ↦ 1 (μ > 0 and the corner)
+        for r in [1e-6, 0.1, 0.5, 1.0] {
+            assert!((t(r, 1.0) - 1.0).abs() < 1e-15 && t(r, 0.0) < 1e-18, "r = {r}");
+        }
+        assert_eq!(t(0.0, 0.0), 1.0);
+        assert_eq!(t(0.0, 1e-9), 1.0);
+        // the similarity variable: for small r, t depends on μ/r² only (t ≈ c/(1 + c))
+        for c in [0.1, 1.0, 10.0] {
+            let (a, b) = (t(1e-3, c * 1e-6), t(1e-4, c * 1e-8));
+            assert!((a - c / (1.0 + c)).abs() < 1e-5 && (a - b).abs() < 1e-5, "c = {c}: {a} {b}");
+        }
+        // monotone: increasing in μ, decreasing in r; the image of the unit square is [0, 1]
+        assert!(t(0.3, 0.2) < t(0.3, 0.21) && t(0.3, 0.2) > t(0.31, 0.2));
+        let (lo, hi) = bl.image(1, &names, &[(0.0, 1.0), (0.0, 1.0)]).unwrap();
+        assert!(lo <= LAYER_TAU && hi == 1.0, "({lo}, {hi})");
+        let (lo, hi) = bl.image(1, &names, &[(0.035, 1.0), (0.02, 1.0)]).unwrap();
+        assert!((lo - t(1.0, 0.02)).abs() < 1e-16 && (hi - 1.0).abs() < 1e-15);
+        // inverse
+        for (r, mu) in [(0.2, 0.3), (1.0, 0.01), (0.05, 0.9)] {
+            let x = inverse_point(&[InputTransform::Identity, bl], &[r, t(r, mu)]);
+            assert!((x[0] - r).abs() < 1e-15 && (x[1] - mu).abs() < 1e-12, "{x:?}");
+        }
+        // refused: scaling by a later variable, μ outside [0, 1], negative r, k ≤ 0
+        let later = InputTransform::BoundaryLayer { by: 1, k: 1.0 };
+        assert!(later.image(0, &names, &[(0.0, 1.0), (0.0, 1.0)]).unwrap_err().to_string().contains("comes before"));
+        assert!(bl.image(1, &names, &[(0.0, 1.0), (0.0, 2.0)]).is_err());
+        assert!(bl.image(1, &names, &[(-1.0, 1.0), (0.0, 1.0)]).is_err());
+        assert!(InputTransform::BoundaryLayer { by: 0, k: 0.0 }.image(1, &names, &[(0.0, 1.0), (0.0, 1.0)]).is_err());
     }
 
     #[test]

@@ -9,12 +9,13 @@ use serde::{Deserialize, Serialize};
 
 use super::data::{FitData, InputTransform};
 use super::error::FitError;
-use super::metrics::measure;
+use super::metrics::{measure, measure_with_subset};
 use super::polynomial::{fit_polynomial, PolynomialOptions};
 use super::rational::{fit_rational, RationalOptions};
 use super::result::{Approximant, FitResult, Form, Objective};
 use super::source::{FitInput, FittedOn, Source};
 use super::sweep::{best_under_budget, sweep_with_progress, SkippedFit, SweepEvent, SweepOptions};
+use super::compare::paper_box_in;
 use super::PoleVerdict;
 use crate::error::{Error, Result};
 
@@ -186,8 +187,9 @@ pub fn fit_file_name(form: FormKind, degree: u32, variables: &[String], transfor
     let mut s = format!("{}-{degree}", form.name());
     for (v, t) in variables.iter().zip(transforms) {
         if *t != InputTransform::Identity {
-            let t = match t {
+            let t = match *t {
                 InputTransform::ClampNormalize { lo, hi } => format!("clamp_{lo}_{hi}"),
+                InputTransform::BoundaryLayer { by, k } => format!("layer_{}_{k}", variables.get(by).map_or("x", String::as_str)),
                 other => other.name(),
             };
             s.push_str(&format!("-{v}_{t}"));
@@ -266,16 +268,28 @@ pub fn default_sweep_points(d: usize) -> usize {
     }
 }
 
-/// Input transforms a sweep tries besides the identity: √ of the variables named `mu` (grazing
-/// angles, where albedos vary like √μ) and `f0` (η = (1+√F0)/(1−√F0)), alone and together, if
-/// their domain starts at ≥ 0. 1 − x is not tried: a total-degree polynomial space is invariant
-/// under affine maps of a variable, so it gives the same fit as the identity.
+/// Scales k of the boundary-layer transform the sweep tries (t = (μ(1 + k r²) + τ)/(μ + k r² + τ),
+/// [`InputTransform::BoundaryLayer`]): both in 2D, the first in 3D (where fits cost more).
+/// Measured on the 1024² tables, whole square (`furnace fit … --transform r=square,mu=layer:r:K
+/// --objective minimax --fit-points 65536`): separable conductor 3/3 max error 4.2e-3 (k = 1)
+/// vs 6.5e-3 (k = 0.5), 4/4 5.1e-4 vs 4.3e-4; height-correlated 4/4 3.1e-3 vs 2.2e-3.
+pub const LAYER_SCALES: [f64; 2] = [1.0, 0.5];
+
+/// Input transforms a sweep tries besides the identity:
+/// - √ of the variables named `mu` (grazing angles, where albedos vary like √μ) and `f0`
+///   (η = (1+√F0)/(1−√F0)), alone and together, if their domain starts at ≥ 0;
+/// - with variables `r` before `mu` (μ ⊂ [0, 1], r ≥ 0): r² (= α) and the boundary-layer
+///   coordinate of μ scaled by r² ([`InputTransform::BoundaryLayer`], k in [`LAYER_SCALES`]),
+///   which makes the grazing layer of width ~α and the corner r = μ = 0 smooth; with `f0`
+///   also with √F0.
+///
+/// 1 − x is not tried: a total-degree polynomial space is invariant under affine maps of a
+/// variable, so it gives the same fit as the identity.
 pub fn default_transform_sets(data: &FitData) -> Vec<Vec<InputTransform>> {
     let d = data.dim();
     let id = vec![InputTransform::Identity; d];
-    let sqrtable = |name: &str| {
-        data.names.iter().position(|n| n.eq_ignore_ascii_case(name)).filter(|&k| data.domain[k].0 >= 0.0)
-    };
+    let find = |name: &str| data.names.iter().position(|n| n.eq_ignore_ascii_case(name));
+    let sqrtable = |name: &str| find(name).filter(|&k| data.domain[k].0 >= 0.0);
     let mut sets = vec![id.clone()];
     let mu = sqrtable("mu");
     let f0 = sqrtable("f0");
@@ -294,6 +308,24 @@ pub fn default_transform_sets(data: &FitData) -> Vec<Vec<InputTransform>> {
             sets.push(with(&[f, m]));
         } else {
             sets.push(with(&[f]));
+        }
+    }
+    if let (Some(r), Some(m)) = (find("r"), mu) {
+        if r < m && data.domain[r].0 >= 0.0 && data.domain[m].1 <= 1.0 {
+            let scales = if d >= 3 { &LAYER_SCALES[..1] } else { &LAYER_SCALES[..] };
+            for &k in scales {
+                let mut t = id.clone();
+                t[r] = InputTransform::Square;
+                t[m] = InputTransform::BoundaryLayer { by: r, k };
+                if let Some(f) = f0 {
+                    let mut with_f0 = t.clone();
+                    with_f0[f] = InputTransform::Sqrt;
+                    sets.push(t);
+                    sets.push(with_f0);
+                } else {
+                    sets.push(t);
+                }
+            }
         }
     }
     sets
@@ -335,6 +367,15 @@ impl SweepPlan {
     }
 }
 
+/// The paper's box of a sweep.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperBox {
+    /// [lo, hi] per variable.
+    pub bounds: Vec<(f64, f64)>,
+    /// In words, with the number of points.
+    pub metrics_on: String,
+}
+
 /// One row of a sweep summary.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SweepRow {
@@ -353,14 +394,25 @@ pub struct SweepRow {
     pub max_abs_error_at: Vec<f64>,
     #[serde(with = "super::metrics::finite_or_string")]
     pub max_rel_error: f64,
-    /// Wall time of the solve (the only field that differs between identical runs).
-    pub fit_seconds: f64,
+    /// MAE and max error on the table nodes inside the paper's box ([`SweepOutcome::paper_box`]);
+    /// None without one. The fields above are on the whole domain.
+    pub paper_box: Option<BoxMetrics>,
     /// `certified`, `polynomial`, `pole`, `undecided` or `non-finite`.
     pub poles: String,
     pub usable: bool,
     pub converged: bool,
     /// The file name this fit would have as a single fit (`rational-4-mu_sqrt.json`).
     pub name: String,
+}
+
+/// Errors of a fit on the points inside a sub-box.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BoxMetrics {
+    #[serde(with = "super::metrics::finite_or_string")]
+    pub mae: f64,
+    #[serde(with = "super::metrics::finite_or_string")]
+    pub max_abs_error: f64,
+    pub max_abs_error_at: Vec<f64>,
 }
 
 /// The best usable fit under one coefficient budget.
@@ -375,12 +427,22 @@ pub struct BestUnderBudget {
 #[derive(Clone, Debug)]
 pub struct SweepOutcome {
     pub source: Source,
+    /// The data's variable names.
+    pub variables: Vec<String>,
     pub fitted_on: FittedOn,
+    /// What the rows' `mae`, `max_abs_error`, … were measured on: every point (the whole domain).
     pub metrics_on: String,
+    /// The paper's box inside the domain (r ≥ 0.035, μ ≥ 0.02, dielectrics μ ≤ 0.98: where
+    /// the paper's tables are; [`super::compare::paper_box_in`]) and what the rows'
+    /// `paper_box` metrics were measured on; None for data without variables `r` and `mu`.
+    pub paper_box: Option<PaperBox>,
     pub records: Vec<FitRecord>,
     pub rows: Vec<SweepRow>,
     pub skipped: Vec<SkippedFit>,
     pub best: Vec<BestUnderBudget>,
+    /// Wall time of each fit, parallel to `rows` (never written under `fits/`: see [`SweepTiming`]).
+    pub fit_seconds: Vec<f64>,
+    /// Wall time of the whole sweep, including measuring every fit on all points.
     pub seconds: f64,
 }
 
@@ -391,6 +453,7 @@ struct SweepJson<'a> {
     source: &'a Source,
     fitted_on: &'a FittedOn,
     metrics_on: &'a str,
+    paper_box: &'a Option<PaperBox>,
     /// The summary rows; `fits[i]` holds row i's approximant.
     rows: &'a [SweepRow],
     best: &'a [BestUnderBudget],
@@ -405,7 +468,8 @@ impl SweepOutcome {
     }
 
     /// `sweep.json`: provenance, summary rows, the best fit per budget, skipped fits, and every
-    /// fit's approximant (identical runs differ only in `fit_seconds`).
+    /// fit's approximant. No timings: identical inputs give identical bytes (timings go to a
+    /// [`SweepTiming`] sidecar outside `fits/`).
     pub fn to_json(&self) -> Result<String> {
         let j = SweepJson {
             tool: "furnace",
@@ -413,6 +477,7 @@ impl SweepOutcome {
             source: &self.source,
             fitted_on: &self.fitted_on,
             metrics_on: &self.metrics_on,
+            paper_box: &self.paper_box,
             rows: &self.rows,
             best: &self.best,
             skipped: &self.skipped,
@@ -423,10 +488,13 @@ impl SweepOutcome {
 
     /// `sweep.csv`: one line per fit.
     pub fn to_csv(&self) -> String {
-        let mut s = String::from("form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,fit_seconds,poles,usable,converged\n");
+        let mut s = String::from(
+            "form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,paper_box_mae,paper_box_max_abs_error,poles,usable,converged\n",
+        );
         for r in &self.rows {
+            let (bm, bx) = r.paper_box.as_ref().map_or((String::new(), String::new()), |b| (format!("{:e}", b.mae), format!("{:e}", b.max_abs_error)));
             s.push_str(&format!(
-                "{},{},{},{},{},{:e},{:e},{:e},{:e},{:.3},{},{},{}\n",
+                "{},{},{},{},{},{:e},{:e},{:e},{:e},{bm},{bx},{},{},{}\n",
                 r.form.name(),
                 r.degree,
                 r.transforms.join(" "),
@@ -436,7 +504,6 @@ impl SweepOutcome {
                 r.rmse,
                 r.max_abs_error,
                 r.max_rel_error,
-                r.fit_seconds,
                 r.poles,
                 r.usable,
                 r.converged
@@ -446,7 +513,7 @@ impl SweepOutcome {
     }
 }
 
-fn row_of(rec: &FitRecord, seconds: f64) -> SweepRow {
+fn row_of(rec: &FitRecord, paper_box: Option<BoxMetrics>) -> SweepRow {
     let f = &rec.fit;
     let (form, degree) = match f.form {
         Form::Polynomial { degree } => (FormKind::Polynomial, degree),
@@ -455,7 +522,7 @@ fn row_of(rec: &FitRecord, seconds: f64) -> SweepRow {
     SweepRow {
         form,
         degree,
-        transforms: f.approximant.transforms.iter().map(InputTransform::name).collect(),
+        transforms: f.approximant.transforms.iter().map(|t| t.label(&f.approximant.variables)).collect(),
         objective: f.objective,
         n_coefficients: f.n_coefficients,
         mae: f.metrics.mae,
@@ -463,7 +530,7 @@ fn row_of(rec: &FitRecord, seconds: f64) -> SweepRow {
         max_abs_error: f.metrics.max_abs_error,
         max_abs_error_at: f.metrics.max_abs_error_at.clone(),
         max_rel_error: f.metrics.max_rel_error,
-        fit_seconds: seconds,
+        paper_box,
         poles: pole_word(f).into(),
         usable: rec.usable,
         converged: f.solver.as_ref().is_none_or(|s| s.converged),
@@ -484,7 +551,7 @@ fn progress_line(r: &FitResult) -> String {
     format!(
         "{:<26} [{}] {:<7} n={:<3} MAE {:.2e} max {:.2e} (on the fitted points) {:>7.2} s {}",
         r.form.label(),
-        r.approximant.transforms.iter().map(InputTransform::name).collect::<Vec<_>>().join(" "),
+        r.approximant.transforms.iter().map(|t| t.label(&r.approximant.variables)).collect::<Vec<_>>().join(" "),
         objective_name(r.objective),
         r.n_coefficients,
         r.metrics.mae,
@@ -517,6 +584,25 @@ fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
     chosen
 }
 
+/// Which points of `data` lie inside `bounds`, or None if none do.
+fn points_in(data: &FitData, bounds: &[(f64, f64)]) -> Option<Vec<bool>> {
+    let mask: Vec<bool> = (0..data.len()).map(|i| data.point(i).iter().zip(bounds).all(|(v, (lo, hi))| v >= lo && v <= hi)).collect();
+    mask.contains(&true).then_some(mask)
+}
+
+/// A fit's metrics on every point of `input` (measured again if it was fitted on fewer) and
+/// on the points of `mask`, in one pass.
+fn measured(mut fit: FitResult, input: &FitInput, reduced: bool, mask: Option<&[bool]>) -> (FitResult, Option<BoxMetrics>) {
+    if !reduced && mask.is_none() {
+        return (fit, None);
+    }
+    let (all, sub) = measure_with_subset(&fit.approximant, &input.data, mask);
+    if reduced {
+        fit.metrics = all;
+    }
+    (fit, sub.map(|m| BoxMetrics { mae: m.mae, max_abs_error: m.max_abs_error, max_abs_error_at: m.max_abs_error_at }))
+}
+
 /// Runs a sweep; `progress` gets one line per fit made or skipped.
 ///
 /// 1. The paper's sweep ([`sweep_with_progress`]) for every transform set, on the reduced data.
@@ -533,6 +619,22 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
     }
     let (reduced, fitted_on) = fitting_data(input, plan.max_fit_points)?;
     let data = reduced.as_ref().unwrap_or(&input.data);
+    let (boxed, paper_box) = match paper_box_in(&input.data.names, &input.data.domain, input.source.model.as_deref()) {
+        Some(bounds) => {
+            let b = points_in(&input.data, &bounds);
+            let text = input
+                .data
+                .names
+                .iter()
+                .zip(&bounds)
+                .map(|(n, (lo, hi))| format!("{n} ∈ [{lo}, {hi}]"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let on = format!("the {} points with {text} (the paper's box: where its tables are)", b.as_ref().map_or(0, |m| m.iter().filter(|&&x| x).count()));
+            (b, Some(PaperBox { bounds, metrics_on: on }))
+        }
+        None => (None, None),
+    };
     let opts = SweepOptions {
         polynomial_degrees: plan.polynomial_degrees.clone(),
         rational_degrees: plan.rational_degrees.clone(),
@@ -547,10 +649,12 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
     let mut report = sweep_with_progress(data, &opts, &mut on_event)?;
     let mut records = Vec::with_capacity(report.results.len());
     let mut rows = Vec::with_capacity(report.results.len());
+    let mut fit_seconds = Vec::with_capacity(report.results.len());
     for fit in report.results {
-        let secs = fit.fit_seconds;
-        let rec = FitRecord::new(remeasure(fit, input, reduced.is_some()), input, fitted_on.clone());
-        rows.push(row_of(&rec, secs));
+        fit_seconds.push(fit.fit_seconds);
+        let (fit, on_box) = measured(fit, input, reduced.is_some(), boxed.as_deref());
+        let rec = FitRecord::new(fit, input, fitted_on.clone());
+        rows.push(row_of(&rec, on_box));
         records.push(rec);
     }
     if plan.minimax_refits && plan.objective == Objective::LeastSquares {
@@ -570,9 +674,10 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
                 Ok(mut fit) => {
                     fit.fit_seconds = t.elapsed().as_secs_f64();
                     progress(&progress_line(&fit));
-                    let secs = fit.fit_seconds;
-                    let rec = FitRecord::new(remeasure(fit, input, reduced.is_some()), input, fitted_on.clone());
-                    rows.push(row_of(&rec, secs));
+                    fit_seconds.push(fit.fit_seconds);
+                    let (fit, on_box) = measured(fit, input, reduced.is_some(), boxed.as_deref());
+                    let rec = FitRecord::new(fit, input, fitted_on.clone());
+                    rows.push(row_of(&rec, on_box));
                     records.push(rec);
                 }
                 Err(e) => {
@@ -594,24 +699,138 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
         .collect();
     Ok(SweepOutcome {
         source: input.source.clone(),
+        variables: input.data.names.clone(),
         fitted_on,
-        metrics_on: format!("all {} points of the source", input.data.len()),
+        metrics_on: format!("all {} points of the source (the whole domain)", input.data.len()),
+        paper_box: paper_box.filter(|_| boxed.is_some()),
         records,
         rows,
         skipped: report.skipped,
         best,
+        fit_seconds,
         seconds: start.elapsed().as_secs_f64(),
     })
 }
 
+/// Timings of a fit or a sweep: the sidecar `<data-dir>/timing/<fits folder>/sweep-timing.json`
+/// (or `<fit file stem>-timing.json` for one fit). Wall and CPU times depend on the machine,
+/// its load and the thread count, so they never go into files under `fits/`, which must be
+/// byte-identical for identical inputs; `data/` is not committed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Timing {
+    pub tool: String,
+    pub tool_version: String,
+    /// The fit or sweep file these times belong to (`fits/<name>/sweep.json`, …).
+    pub fits_file: String,
+    /// Content hash of the fitted data's source (as in the fit file's `source`).
+    pub source_content_hash: String,
+    /// Points the solver saw (metrics are always measured on all points).
+    pub fitted_points: usize,
+    /// Rayon worker threads.
+    pub threads: usize,
+    /// 1-, 5- and 15-minute load averages when the run ended (`/proc/loadavg`; None elsewhere).
+    pub load_average: Option<[f64; 3]>,
+    /// Wall time of the whole job: every fit, and measuring each on all points.
+    pub wall_seconds: f64,
+    /// CPU time (user + system, all threads) the process spent in the job (`/proc/self/stat`;
+    /// None elsewhere). Less sensitive to other processes than the wall time.
+    pub cpu_seconds: Option<f64>,
+    /// Wall time of each fit's solve, in the order of the sweep's rows.
+    pub fits: Vec<FitTime>,
+}
+
+/// Wall time of one fit's solve.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitTime {
+    /// The fit's file name as a single fit (`rational-4-mu_sqrt-minimax.json`): with
+    /// `n_coefficients` it identifies the row of `sweep.json`.
+    pub name: String,
+    pub n_coefficients: usize,
+    pub seconds: f64,
+}
+
+/// A running job's clock: wall time and process CPU time since [`Stopwatch::start`].
+#[derive(Clone, Copy, Debug)]
+pub struct Stopwatch {
+    wall: std::time::Instant,
+    cpu: Option<f64>,
+}
+
+impl Stopwatch {
+    pub fn start() -> Stopwatch {
+        Stopwatch { wall: std::time::Instant::now(), cpu: process_cpu_seconds() }
+    }
+
+    pub fn wall_seconds(&self) -> f64 {
+        self.wall.elapsed().as_secs_f64()
+    }
+
+    pub fn cpu_seconds(&self) -> Option<f64> {
+        Some(process_cpu_seconds()? - self.cpu?)
+    }
+}
+
+/// Clock ticks per second of `/proc/self/stat` (Linux's USER_HZ, 100 on every architecture's ABI).
+const USER_HZ: f64 = 100.0;
+
+/// User + system CPU time of this process (all threads), from `/proc/self/stat` fields 14–15.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // the command name (field 2) is in parentheses and may contain spaces: skip past it
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    // rest starts at field 3 (state): utime is field 14, stime field 15
+    let utime: f64 = f.get(11)?.parse().ok()?;
+    let stime: f64 = f.get(12)?.parse().ok()?;
+    Some((utime + stime) / USER_HZ)
+}
+
+/// The 1-, 5- and 15-minute load averages from `/proc/loadavg`.
+pub fn load_average() -> Option<[f64; 3]> {
+    let text = std::fs::read_to_string("/proc/loadavg").ok()?;
+    let v: Vec<f64> = text.split_whitespace().take(3).map(|x| x.parse().ok()).collect::<Option<_>>()?;
+    Some([*v.first()?, *v.get(1)?, *v.get(2)?])
+}
+
+impl Timing {
+    /// The timing record of a job measured by `clock`, for the file `fits_file`.
+    pub fn new(fits_file: &str, source: &Source, fitted_on: &FittedOn, clock: &Stopwatch, fits: Vec<FitTime>) -> Timing {
+        Timing {
+            tool: "furnace".into(),
+            tool_version: crate::VERSION.into(),
+            fits_file: fits_file.into(),
+            source_content_hash: source.content_hash.clone(),
+            fitted_points: fitted_on.points,
+            threads: rayon::current_num_threads(),
+            load_average: load_average(),
+            wall_seconds: clock.wall_seconds(),
+            cpu_seconds: clock.cpu_seconds(),
+            fits,
+        }
+    }
+
+    /// Pretty JSON with a final newline.
+    pub fn to_json(&self) -> Result<String> {
+        Ok(format!("{}\n", serde_json::to_string_pretty(self).map_err(FitError::from)?))
+    }
+}
+
+impl SweepOutcome {
+    /// Every fit's solve time, in row order.
+    pub fn fit_times(&self) -> Vec<FitTime> {
+        self.rows.iter().zip(&self.fit_seconds).map(|(r, &seconds)| FitTime { name: r.name.clone(), n_coefficients: r.n_coefficients, seconds }).collect()
+    }
+}
+
 /// Parses `mu=sqrt,f0=sqrt` into one transform per variable (unnamed variables: identity).
-/// Transforms: `identity`, `sqrt`, `one_minus`, `square`, `clamp:lo:hi`.
+/// Transforms: `identity`, `sqrt`, `one_minus`, `square`, `clamp:lo:hi`, `layer:<variable>:<k>`
+/// ([`InputTransform::BoundaryLayer`], e.g. `mu=layer:r:1`).
 pub fn parse_transforms(text: &str, names: &[String]) -> Result<Vec<InputTransform>> {
     let mut out = vec![InputTransform::Identity; names.len()];
     let mut seen = vec![false; names.len()];
     for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
         let (var, tr) = part.split_once('=').ok_or_else(|| {
-            Error::InvalidInput(format!("--transform '{part}': write variable=transform, e.g. mu=sqrt (transforms: identity, sqrt, one_minus, square, clamp:lo:hi)"))
+            Error::InvalidInput(format!("--transform '{part}': write variable=transform, e.g. mu=sqrt (transforms: identity, sqrt, one_minus, square, clamp:lo:hi, layer:<variable>:<k>)"))
         })?;
         let (var, tr) = (var.trim(), tr.trim());
         let k = names.iter().position(|n| n == var).ok_or_else(|| {
@@ -634,9 +853,16 @@ pub fn parse_transforms(text: &str, names: &[String]) -> Result<Vec<InputTransfo
                     _ => return Err(Error::InvalidInput(format!("--transform '{part}': write clamp:lo:hi with finite lo < hi, e.g. f0=clamp:0.0125:0.25"))),
                 }
             }
+            t if t.starts_with("layer:") => {
+                let usage = || Error::InvalidInput(format!("--transform '{part}': write layer:<variable>:<k> with a variable before '{var}' and a finite k > 0, e.g. mu=layer:r:1"));
+                let (by, scale) = t["layer:".len()..].split_once(':').ok_or_else(usage)?;
+                let by = names.iter().position(|n| n == by.trim()).filter(|&b| b < k).ok_or_else(usage)?;
+                let scale = scale.trim().parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0).ok_or_else(usage)?;
+                InputTransform::BoundaryLayer { by, k: scale }
+            }
             other => {
                 return Err(Error::InvalidInput(format!(
-                    "--transform '{part}': unknown transform '{other}'; use identity, sqrt, one_minus, square or clamp:lo:hi"
+                    "--transform '{part}': unknown transform '{other}'; use identity, sqrt, one_minus, square, clamp:lo:hi or layer:<variable>:<k>"
                 )))
             }
         };
@@ -666,5 +892,11 @@ mod tests {
         assert!(parse_transforms("x=sqrt", &v).unwrap_err().to_string().contains("unknown variable 'x'"));
         assert!(parse_transforms("mu=log", &v).unwrap_err().to_string().contains("unknown transform"));
         assert!(parse_transforms("mu=sqrt,mu=square", &v).is_err());
+        let t = parse_transforms("mu=layer:r:0.5,r=square", &v).unwrap();
+        assert_eq!(t, vec![InputTransform::Identity, InputTransform::Square, InputTransform::BoundaryLayer { by: 1, k: 0.5 }]);
+        assert_eq!(fit_file_name(FormKind::Rational, 4, &v, &t, Objective::LeastSquares), "rational-4-r_square-mu_layer_r_0.5.json");
+        for bad in ["mu=layer:r", "mu=layer:q:1", "mu=layer:r:0", "r=layer:mu:1", "mu=layer:r:inf"] {
+            assert!(parse_transforms(bad, &v).unwrap_err().to_string().contains("layer:<variable>:<k>"), "{bad}");
+        }
     }
 }

@@ -14,7 +14,7 @@
 
 use std::ops::Range;
 
-use nalgebra::{DMatrix, DMatrixView, DVector};
+use nalgebra::{DMatrix, DMatrixView, DVector, DVectorView, Dyn};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -30,7 +30,9 @@ pub trait LeastSquaresProblem: Sync {
     /// Writes r_i(p) for i in `rows` into `r` (len = rows.len()). Returns false if `p` is
     /// infeasible for one of these residuals (e.g. a rational's denominator vanishes there).
     fn residuals(&self, p: &[f64], rows: Range<usize>, r: &mut [f64]) -> bool;
-    /// Writes residuals and the Jacobian block ∂r_i/∂p_j, column-major (`rows.len()` × n_params).
+    /// Writes residuals and the Jacobian block ∂r_i/∂p_j row by row (row-major, `rows.len()` ×
+    /// n_params: ∂r_i/∂p_j at `(i − rows.start)·n_params + j`), so each point writes one
+    /// contiguous run.
     fn jacobian(&self, p: &[f64], rows: Range<usize>, r: &mut [f64], jac: &mut [f64]) -> bool;
     /// Whether `p` is admissible beyond the residuals (e.g. a denominator proved pole-free on
     /// the whole domain). Checked for the start and for every trial point before its
@@ -354,20 +356,22 @@ pub(crate) fn normal_equations<P: LeastSquaresProblem + ?Sized>(problem: &P, p: 
                     return None;
                 }
                 // JᵀJ of the block by one blocked matrix product (matrixmultiply through
-                // nalgebra's gemm: single-threaded, fixed blocking → deterministic); Jᵀ is
-                // copied (len·n, cheap next to len·n²) so both operands have standard layout.
-                let jv = DMatrixView::from_slice(jac, len, n);
-                let jt = jv.transpose();
+                // nalgebra's gemm: single-threaded, fixed blocking → deterministic). The
+                // row-major block is Jᵀ in column-major (n × len), and J the same memory read
+                // with swapped strides, so nothing is copied.
+                let jt = DMatrixView::from_slice(jac, n, len);
+                let jv = DMatrixView::from_slice_with_strides_generic(jac, Dyn(len), Dyn(n), Dyn(n), Dyn(1));
                 let mut block = DMatrix::zeros(n, n);
                 block.gemm(1.0, &jt, &jv, 0.0);
+                let mut jtr_block = DVector::zeros(n);
+                jtr_block.gemv(1.0, &jt, &DVectorView::from_slice(r, len), 0.0);
                 let mut jtj = Vec::with_capacity(n * (n + 1) / 2);
-                let mut jtr = Vec::with_capacity(n);
                 for a in 0..n {
                     for b in a..n {
                         jtj.push(block[(a, b)]);
                     }
-                    jtr.push(dot(&jac[a * len..(a + 1) * len], r));
                 }
+                let jtr = jtr_block.as_slice().to_vec();
                 Some(Partial { jtj, jtr, rr: dot(r, r) })
             },
         )
@@ -448,13 +452,10 @@ mod tests {
             true
         }
         fn jacobian(&self, p: &[f64], rows: Range<usize>, r: &mut [f64], jac: &mut [f64]) -> bool {
-            let len = rows.len();
             let mut g = vec![0.0; self.n];
             for (k, i) in rows.enumerate() {
                 r[k] = (self.f)(p, self.x[i], &mut g) - self.y[i];
-                for j in 0..self.n {
-                    jac[j * len + k] = g[j];
-                }
+                jac[k * self.n..(k + 1) * self.n].copy_from_slice(&g);
             }
             true
         }

@@ -41,44 +41,56 @@ struct Partial {
     max_abs: (f64, usize),
     max_rel: (f64, usize),
     non_finite: usize,
+    n: usize,
 }
 
-/// Measures `approx` on `data` (every point, weights ignored).
-pub fn measure(approx: &Approximant, data: &FitData) -> Metrics {
-    let n = data.len();
-    let n_chunks = n.div_ceil(CHUNK);
-    let parts: Vec<Partial> = (0..n_chunks)
-        .into_par_iter()
-        .map(|c| {
-            let mut abs = CompensatedSum::default();
-            let mut sq = CompensatedSum::default();
-            let mut p = Partial { abs: 0.0, sq: 0.0, max_abs: (-1.0, usize::MAX), max_rel: (-1.0, usize::MAX), non_finite: 0 };
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                let f = approx.eval(data.point(i));
-                let y = data.values[i];
-                let e = (f - y).abs();
-                if !e.is_finite() {
-                    p.non_finite += 1;
-                    continue;
-                }
-                abs.add(e);
-                sq.add(e * e);
-                if e > p.max_abs.0 {
-                    p.max_abs = (e, i);
-                }
-                if y.abs() >= RELATIVE_ERROR_FLOOR && e / y.abs() > p.max_rel.0 {
-                    p.max_rel = (e / y.abs(), i);
-                }
-            }
-            p.abs = abs.value();
-            p.sq = sq.value();
-            p
-        })
-        .collect();
+impl Partial {
+    const EMPTY: Partial = Partial { abs: 0.0, sq: 0.0, max_abs: (-1.0, usize::MAX), max_rel: (-1.0, usize::MAX), non_finite: 0, n: 0 };
+}
+
+/// Compensated running sums of one chunk.
+struct Running {
+    abs: CompensatedSum,
+    sq: CompensatedSum,
+    p: Partial,
+}
+
+impl Running {
+    fn new() -> Running {
+        Running { abs: CompensatedSum::default(), sq: CompensatedSum::default(), p: Partial::EMPTY }
+    }
+
+    #[inline]
+    fn add(&mut self, i: usize, f: f64, y: f64) {
+        self.p.n += 1;
+        let e = (f - y).abs();
+        if !e.is_finite() {
+            self.p.non_finite += 1;
+            return;
+        }
+        self.abs.add(e);
+        self.sq.add(e * e);
+        if e > self.p.max_abs.0 {
+            self.p.max_abs = (e, i);
+        }
+        if y.abs() >= RELATIVE_ERROR_FLOOR && e / y.abs() > self.p.max_rel.0 {
+            self.p.max_rel = (e / y.abs(), i);
+        }
+    }
+
+    fn finish(mut self) -> Partial {
+        self.p.abs = self.abs.value();
+        self.p.sq = self.sq.value();
+        self.p
+    }
+}
+
+/// Combines chunk partials in chunk order into metrics.
+fn combine(parts: impl Iterator<Item = Partial>, data: &FitData) -> Metrics {
     let mut abs = CompensatedSum::default();
     let mut sq = CompensatedSum::default();
-    let (mut max_abs, mut max_rel, mut non_finite) = ((-1.0f64, usize::MAX), (-1.0f64, usize::MAX), 0usize);
-    for p in &parts {
+    let (mut max_abs, mut max_rel, mut non_finite, mut n) = ((-1.0f64, usize::MAX), (-1.0f64, usize::MAX), 0usize, 0usize);
+    for p in parts {
         abs.add(p.abs);
         sq.add(p.sq);
         if p.max_abs.0 > max_abs.0 {
@@ -88,6 +100,7 @@ pub fn measure(approx: &Approximant, data: &FitData) -> Metrics {
             max_rel = p.max_rel;
         }
         non_finite += p.non_finite;
+        n += p.n;
     }
     let at = |i: usize| if i == usize::MAX { Vec::new() } else { data.point(i).to_vec() };
     let finite = n - non_finite;
@@ -106,6 +119,75 @@ pub fn measure(approx: &Approximant, data: &FitData) -> Metrics {
         max_rel_error_at: at(max_rel.1),
         non_finite,
     }
+}
+
+/// Measures `approx` on `data` (every point, weights ignored).
+pub fn measure(approx: &Approximant, data: &FitData) -> Metrics {
+    measure_with_subset(approx, data, None).0
+}
+
+/// [`measure`] on all of `data` and, in the same pass, on the points i with `subset[i]` (e.g.
+/// a sub-box); the subset's metrics are None without a subset or if it is empty.
+pub fn measure_with_subset(approx: &Approximant, data: &FitData, subset: Option<&[bool]>) -> (Metrics, Option<Metrics>) {
+    let n = data.len();
+    let parts: Vec<(Partial, Partial)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let (mut all, mut sub) = (Running::new(), Running::new());
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let (f, y) = (approx.eval(data.point(i)), data.values[i]);
+                all.add(i, f, y);
+                if subset.is_some_and(|s| s[i]) {
+                    sub.add(i, f, y);
+                }
+            }
+            (all.finish(), sub.finish())
+        })
+        .collect();
+    let all = combine(parts.iter().map(|p| p.0), data);
+    let sub = subset.and_then(|_| {
+        let m = combine(parts.iter().map(|p| p.1), data);
+        (m.n_points > 0).then_some(m)
+    });
+    (all, sub)
+}
+
+/// One point of a data set with the fit's error there.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointError {
+    /// Index of the point in the data set.
+    pub index: usize,
+    /// Its coordinates (original variables).
+    pub at: Vec<f64>,
+    /// The data value.
+    pub value: f64,
+    /// The approximant's value (NaN or ±∞ at a pole).
+    #[serde(with = "finite_or_string")]
+    pub fit: f64,
+    /// |fit − value| (∞ where the fit is not finite).
+    #[serde(with = "finite_or_string")]
+    pub abs_error: f64,
+}
+
+/// The `n` points with the largest absolute error, largest first (ties: lower index first), so
+/// one can see where a fit fails and what the data does there.
+pub fn worst_points(approx: &Approximant, data: &FitData, n: usize) -> Vec<PointError> {
+    let errors: Vec<(f64, f64)> = (0..data.len())
+        .into_par_iter()
+        .with_min_len(CHUNK)
+        .map(|i| {
+            let f = approx.eval(data.point(i));
+            let e = (f - data.values[i]).abs();
+            (f, if e.is_finite() { e } else { f64::INFINITY })
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..data.len()).collect();
+    order.sort_by(|&a, &b| errors[b].1.total_cmp(&errors[a].1).then(a.cmp(&b)));
+    order
+        .into_iter()
+        .take(n)
+        .map(|i| PointError { index: i, at: data.point(i).to_vec(), value: data.values[i], fit: errors[i].0, abs_error: errors[i].1 })
+        .collect()
 }
 
 /// Serialises a finite f64 as a JSON number (shortest round-trip) and ±∞/NaN as the strings
@@ -142,5 +224,30 @@ pub(crate) mod finite_or_string {
                 other => Err(serde::de::Error::custom(format!("expected a number, \"inf\", \"-inf\" or \"nan\", got \"{other}\""))),
             },
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::basis::Polynomial;
+    use crate::fit::data::InputTransform;
+
+    #[test]
+    fn worst_points_are_sorted_and_located() {
+        // f = 0 against values 0, 3, 1, 3, 2: the worst are index 1 and 3 (tie: lower index first), then 4
+        let data = FitData::new(vec!["x".into()], vec![0.0, 0.25, 0.5, 0.75, 1.0], vec![0.0, 3.0, 1.0, 3.0, 2.0], vec![(0.0, 1.0)]).unwrap();
+        let zero = Approximant {
+            variables: vec!["x".into()],
+            transforms: vec![InputTransform::Identity],
+            domain: vec![(0.0, 1.0)],
+            numerator: Polynomial { exponents: vec![vec![0]], coefficients: vec![0.0] },
+            denominator: None,
+        };
+        let w = worst_points(&zero, &data, 3);
+        assert_eq!(w.iter().map(|p| p.index).collect::<Vec<_>>(), vec![1, 3, 4]);
+        assert_eq!((w[0].at.clone(), w[0].value, w[0].fit, w[0].abs_error), (vec![0.25], 3.0, 0.0, 3.0));
+        assert_eq!(w[2].abs_error, measure(&zero, &data).max_abs_error - 1.0);
+        assert_eq!(worst_points(&zero, &data, 10).len(), 5);
     }
 }

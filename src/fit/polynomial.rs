@@ -49,11 +49,11 @@ pub fn fit_polynomial(
     }
     let model = Model::polynomial(prep.d, degree);
     let (p0, condition) = solve_polynomial(&model, &prep, None, &form.label())?;
-    let e0 = model.errors(&prep, &p0).unwrap_or_default();
+    let e0 = model.errors(&prep, None, &p0).unwrap_or_default();
     let mut solve = |extra: &[f64], _warm: &[f64]| -> Result<Option<Solved>> {
         match solve_polynomial(&model, &prep, Some(extra), &form.label()) {
             Ok((p, _)) => {
-                let e = model.errors(&prep, &p).unwrap_or_default();
+                let e = model.errors(&prep, None, &p).unwrap_or_default();
                 Ok(Some((p, e, None, 0)))
             }
             // a reweighted system can lose rank when the weights concentrate: keep the best so far

@@ -153,6 +153,11 @@ pub fn fit_rational(
     let explore_n = if opts.exploration_points == 0 { (200 * np).max(16_384) } else { opts.exploration_points.max(np) };
     let sub = prep.subsample(explore_n);
     let ex = sub.as_ref().unwrap_or(&prep);
+    // basis values of the exploration set and of all points, evaluated once per fit
+    let table_ex = model.basis_table(ex);
+    let table_all = if sub.is_some() { model.basis_table(&prep) } else { None };
+    let phi_ex = table_ex.as_deref();
+    let phi_all = if sub.is_some() { table_all.as_deref() } else { phi_ex };
 
     // Q ≥ margin proved on the whole domain: the admissibility test of constrained LM runs and
     // the "certified" of candidates (the final verdict is the plain certificate, no margin).
@@ -215,7 +220,7 @@ pub fn fit_rational(
             }
         };
         let constrained = safe(&p0);
-        let problem = RationalProblem { model: &model, data: ex, extra: None, certified_steps: constrained.then_some(guard) };
+        let problem = RationalProblem { model: &model, data: ex, phi: phi_ex, extra: None, certified_steps: constrained.then_some(guard) };
         let rep = opts.lm.solve(&problem, p0)?;
         if rep.termination == TerminationReason::InfeasibleStart {
             reports.push(StartReport {
@@ -233,7 +238,7 @@ pub fn fit_rational(
         let certified = safe(&rep.state.params);
         // the exploration cost can hide a blow-up between sampled points: rank on all points
         let cost_all = if sub.is_some() {
-            cost(&RationalProblem { model: &model, data: &prep, extra: None, certified_steps: None }, &rep.state.params)
+            cost(&RationalProblem { model: &model, data: &prep, phi: phi_all, extra: None, certified_steps: None }, &rep.state.params)
         } else {
             Some(rep.state.cost)
         };
@@ -261,7 +266,7 @@ pub fn fit_rational(
     let mut best = candidates.swap_remove(0);
     if sub.is_some() {
         let lm = opts.lm.clone().with_max_iterations(opts.refine_iterations.max(1))?;
-        let problem = RationalProblem { model: &model, data: &prep, extra: None, certified_steps: best.certified.then_some(guard) };
+        let problem = RationalProblem { model: &model, data: &prep, phi: phi_all, extra: None, certified_steps: best.certified.then_some(guard) };
         let rep = lm.solve(&problem, best.params.clone())?;
         if rep.termination != TerminationReason::InfeasibleStart {
             let certified = safe(&rep.state.params);
@@ -278,16 +283,16 @@ pub fn fit_rational(
     let mut converged = best.termination.converged();
     let mut params = best.params;
     if objective != Objective::LeastSquares {
-        if let Some(e0) = model.errors(&prep, &params) {
+        if let Some(e0) = model.errors(&prep, phi_all, &params) {
             let lm = opts.lm.clone().with_max_iterations(opts.reweight_lm_iterations.max(1))?;
             let constrained = best.certified;
             let mut solve = |extra: &[f64], warm: &[f64]| -> Result<Option<Solved>> {
-                let problem = RationalProblem { model: &model, data: &prep, extra: Some(extra), certified_steps: constrained.then_some(guard) };
+                let problem = RationalProblem { model: &model, data: &prep, phi: phi_all, extra: Some(extra), certified_steps: constrained.then_some(guard) };
                 let rep = lm.solve(&problem, warm.to_vec())?;
                 if rep.termination == TerminationReason::InfeasibleStart {
                     return Ok(None);
                 }
-                Ok(model.errors(&prep, &rep.state.params).map(|e| (rep.state.params, e, Some(rep.termination), rep.state.iterations)))
+                Ok(model.errors(&prep, phi_all, &rep.state.params).map(|e| (rep.state.params, e, Some(rep.termination), rep.state.iterations)))
             };
             let mut accept = |p: &[f64]| !best.certified || safe(p);
             let rw = reweight(objective, opts.reweight_iterations, &prep.w, params.clone(), e0, &mut solve as &mut Solve<'_>, &mut accept)?;

@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::basis::Polynomial;
-use super::data::{FitData, InputTransform, MAX_DIM};
+use super::data::{inverse_point, transform_point, transformed_box, FitData, InputTransform, MAX_DIM};
 use super::error::{FitError, Result};
 use super::lm::TerminationReason;
 use super::metrics::{measure, Metrics};
@@ -83,12 +83,16 @@ impl Approximant {
                 return Err(FitError::NonFinite { what: "coefficient", index: i, value: p.coefficients[i] });
             }
         }
+        // every transform defined and monotone on the domain (a boundary layer's `by` in range)
+        self.transformed_domain()?;
         Ok(())
     }
 
-    /// Transformed coordinates t of x.
+    /// Transformed coordinates t of x (original variables, one per variable).
     pub fn transform(&self, x: &[f64]) -> Vec<f64> {
-        x.iter().zip(&self.transforms).map(|(&v, tr)| tr.apply(v)).collect()
+        let mut t = vec![0.0; x.len()];
+        transform_point(&self.transforms[..x.len().min(self.transforms.len())], x, &mut t);
+        t
     }
 
     /// f(x) in f64. x in the original variables, one per variable (NaN if the number of
@@ -98,9 +102,7 @@ impl Approximant {
             return f64::NAN;
         }
         let mut t = [0.0f64; MAX_DIM];
-        for (k, (&v, tr)) in x.iter().zip(&self.transforms).enumerate() {
-            t[k] = tr.apply(v);
-        }
+        transform_point(&self.transforms, x, &mut t);
         let t = &t[..x.len()];
         let p = self.numerator.eval(t);
         match &self.denominator {
@@ -111,9 +113,7 @@ impl Approximant {
 
     /// The domain box in transformed variables.
     pub fn transformed_domain(&self) -> Result<Vec<(f64, f64)>> {
-        (0..self.variables.len())
-            .map(|k| self.transforms[k].image(&self.variables[k], self.domain[k].0, self.domain[k].1))
-            .collect()
+        transformed_box(&self.variables, &self.domain, &self.transforms)
     }
 
     /// Number of stored coefficients, not counting a denominator constant equal to 1.
@@ -136,7 +136,7 @@ impl Approximant {
             RawVerdict::Certified { min_lower_bound, boxes } => PoleVerdict::Certified { min_lower_bound, boxes },
             RawVerdict::Undecided { reason, boxes } => PoleVerdict::Undecided { reason, boxes },
             RawVerdict::PoleFound { at } => {
-                PoleVerdict::PoleFound { at: at.iter().zip(&self.transforms).map(|(&t, tr)| tr.inverse(t)).collect() }
+                PoleVerdict::PoleFound { at: inverse_point(&self.transforms, &at) }
             }
         }
     }

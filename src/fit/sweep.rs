@@ -96,8 +96,10 @@ pub fn sweep_with_progress(data: &FitData, opts: &SweepOptions, progress: &mut d
         let mut previous: Option<FitResult> = None;
         for &deg in &opts.rational_degrees {
             let form = format!("rational of degree {deg}/{deg}");
-            if 2 * n_terms(d, deg) - 1 > data.n_weighted() {
-                let s = SkippedFit { form, transforms: transforms.clone(), reason: "more coefficients than data points".into() };
+            let coefficients = 2 * n_terms(d, deg) - 1;
+            if coefficients > data.n_weighted() {
+                let reason = format!("{coefficients} coefficients but only {} data points; lower the degree or use a finer table", data.n_weighted());
+                let s = SkippedFit { form, transforms: transforms.clone(), reason };
                 progress(SweepEvent::Skipped(&s));
                 skipped.push(s);
                 continue;

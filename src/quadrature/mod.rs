@@ -88,10 +88,10 @@ pub const MERGE_TOL: f64 = 1e-11;
 pub const MIN_DELTA: f64 = 1e-7;
 
 /// A near-singular end is mapped only when δ is below this fraction of its (half) panel.
-pub const NEAR_SINGULAR_RATIO: f64 = 0.25;
+pub const NEAR_SINGULAR_RATIO: f64 = 0.5;
 
 /// Longest w-range one rule covers under the sinh map (see [`PanelMap::End`]).
-pub const SINH_MAX_SPAN: f64 = 2.0;
+pub const SINH_MAX_SPAN: f64 = 3.0;
 
 /// The map an end needs on a panel (or half panel) of length `len` lying on its side
 /// `toward`, if any.
@@ -106,21 +106,37 @@ fn end_map(b: &Break, toward: f64, len: f64) -> Option<PanelMap> {
 /// split at its midpoint so that each half is mapped towards its own end.
 pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
     breaks.sort_by(|p, q| p.x.total_cmp(&q.x));
-    let mut merged: Vec<Break> = Vec::with_capacity(breaks.len());
+    // on the stack for the usual handful of breaks (this runs once per quadrature line)
+    const STACK: usize = 32;
+    let (mut merged_stack, mut own_stack) = ([Break::regular(0.0); STACK], [(0.0, 0.0); STACK]);
+    let (mut merged_heap, mut own_heap) = (Vec::new(), Vec::new());
+    let (merged_buf, own_buf): (&mut [Break], &mut [(f64, f64)]) = if breaks.len() <= STACK {
+        (&mut merged_stack, &mut own_stack)
+    } else {
+        merged_heap.resize(breaks.len(), Break::regular(0.0));
+        own_heap.resize(breaks.len(), (0.0, 0.0));
+        (&mut merged_heap, &mut own_heap)
+    };
+    let mut n = 0;
     for b in breaks.iter() {
-        match merged.last_mut() {
-            Some(last) if (b.x - last.x).abs() <= MERGE_TOL => {
-                last.sqrt_below |= b.sqrt_below;
-                last.sqrt_above |= b.sqrt_above;
-                last.delta = last.delta.min(b.delta);
-            }
-            _ => merged.push(*b),
+        if n > 0 && (b.x - merged_buf[n - 1].x).abs() <= MERGE_TOL {
+            let last = &mut merged_buf[n - 1];
+            last.sqrt_below |= b.sqrt_below;
+            last.sqrt_above |= b.sqrt_above;
+            last.delta = last.delta.min(b.delta);
+        } else {
+            merged_buf[n] = *b;
+            n += 1;
         }
     }
+    let merged = &mut merged_buf[..n];
     // Singularities of other breaks are near this one too: a square-root point is itself a
     // singularity, a near-singular break has one at complex distance δ from it; so break k is
     // near-singular at least at min_j hypot(x_j − x_k, δ_j) (0 for square roots).
-    let own: Vec<(f64, f64)> = merged.iter().map(|b| (b.x, if b.any_sqrt() { 0.0 } else { b.delta })).collect();
+    let own = &mut own_buf[..n];
+    for (o, b) in own.iter_mut().zip(merged.iter()) {
+        *o = (b.x, if b.any_sqrt() { 0.0 } else { b.delta });
+    }
     for (k, b) in merged.iter_mut().enumerate() {
         let mut delta = b.delta;
         for (j, &(x, d)) in own.iter().enumerate() {
@@ -188,6 +204,24 @@ pub trait Integrand2D {
             acc[k] += w * y[k];
         }
         y.iter().any(|&c| c != 0.0)
+    }
+
+    /// Adds Σ_j ws[j]·f(line, vs[j]) to `acc`, node by node in order. Integrands whose
+    /// evaluation is one long dependency chain (divisions, square roots, a polynomial sine)
+    /// override it to evaluate several nodes side by side with the same arithmetic per node, so
+    /// that the result is the same to the bit and only faster.
+    fn accumulate_nodes(&self, line: &Self::Line, vs: &[f64], ws: &[f64], acc: &mut [f64]) {
+        for (&v, &w) in vs.iter().zip(ws) {
+            self.accumulate(line, v, w, acc);
+        }
+    }
+
+    /// Whether the integrand is non-zero at each point `vs[j]` of `line` (into `out[j]`); by
+    /// default [`Self::accumulate`] with weight 0 into `scratch` (length [`Self::channels`]).
+    fn nonzero_at(&self, line: &Self::Line, vs: &[f64], out: &mut [bool], scratch: &mut [f64]) {
+        for (o, &v) in out.iter_mut().zip(vs) {
+            *o = self.accumulate(line, v, 0.0, scratch);
+        }
     }
 
     /// Outer panels with their maps; by default every break of [`Self::outer_breaks`] is
@@ -310,27 +344,38 @@ pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]
     let mut outer = Vec::with_capacity(16);
     f.outer_panels(&mut outer);
     let mut inner = Vec::with_capacity(16);
+    let (mut vs, mut ws) = (Vec::with_capacity(64), Vec::with_capacity(64));
     // A panel between kinks on which the integrand vanishes at the midpoint vanishes throughout
     // (kinks are its only way to switch on); likewise an outer panel whose middle line vanishes
     // at every inner midpoint (e.g. beyond the latitude where the reflection horizon closes).
-    let active = |line: &I::Line, seg: &Panel, scratch: &mut [f64]| f.accumulate(line, 0.5 * (seg.a + seg.b), 0.0, scratch);
+    let (mut mids, mut active) = (Vec::with_capacity(16), Vec::with_capacity(16));
+    let mut activity = |line: &I::Line, inner: &[Panel], mids: &mut Vec<f64>, active: &mut Vec<bool>| {
+        mids.clear();
+        mids.extend(inner.iter().map(|seg| 0.5 * (seg.a + seg.b)));
+        active.clear();
+        active.resize(mids.len(), false);
+        f.nonzero_at(line, mids, active, &mut scratch);
+    };
     for panel in &outer {
         inner.clear();
         let mid_line = f.line_panels(0.5 * (panel.a + panel.b), &mut inner);
-        if !inner.iter().any(|seg| active(&mid_line, seg, &mut scratch)) {
+        activity(&mid_line, &inner, &mut mids, &mut active);
+        if !active.iter().any(|&a| a) {
             continue;
         }
         rules.outer.for_each_node(panel, |u, wu| {
             inner.clear();
             let line = f.line_panels(u, &mut inner);
             line_sum.iter_mut().for_each(|t| *t = 0.0);
-            for seg in &inner {
-                if !active(&line, seg, &mut scratch) {
-                    continue;
-                }
+            activity(&line, &inner, &mut mids, &mut active);
+            for (seg, _) in inner.iter().zip(&active).filter(|(_, a)| **a) {
+                vs.clear();
+                ws.clear();
                 rules.inner.for_each_node(seg, |v, wv| {
-                    f.accumulate(&line, v, wv, &mut line_sum);
+                    vs.push(v);
+                    ws.push(wv);
                 });
+                f.accumulate_nodes(&line, &vs, &ws, &mut line_sum);
             }
             for k in 0..n {
                 total[k] += wu * line_sum[k];

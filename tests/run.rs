@@ -107,7 +107,7 @@ fn run_end_to_end_is_reproducible_and_resumes() {
         assert!(!s.contains("fit_seconds") && !s.contains("seconds\""), "{name} holds a wall time");
         assert!(!s.contains(&root), "{name} holds the absolute path {root}");
     }
-    assert!(d.join("data/timing/ggx-conductor/sweep.csv").is_file(), "wall times go to data/timing/");
+    assert!(d.join("data/timing/ggx-conductor/sweep-timing.json").is_file(), "wall times go to data/timing/");
 
     // re-run: tables cached, sweeps and sections reused, same bytes
     let o = furnace(RUN, &d, None);

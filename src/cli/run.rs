@@ -22,7 +22,7 @@ use super::{get_table, progress_bar, Tabulated};
 use crate::bsdf::{self, Model, ModelOptions};
 use crate::emit::parse_langs;
 use crate::error::{Error, Result};
-use crate::fit::job::{self, FitRecord, SweepOutcome, SweepPlan};
+use crate::fit::job::{self, FitRecord, Stopwatch, SweepOutcome, SweepPlan, Timing};
 use crate::fit::{source, Objective};
 use crate::quadrature::QuadratureSettings;
 use crate::report::model::{fmt_e, ModelSummary, ReportOptions, Reporter, REPORT_MODELS};
@@ -513,6 +513,7 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
     }
     let planned = (plan.polynomial_degrees.len() + plan.rational_degrees.len()) * plan.transform_sets.len();
     let pb = progress_bar(planned as u64, &format!("fit {}", job.name));
+    let clock = Stopwatch::start();
     let outcome = job::sweep_fits(&input, &plan, &mut |_line| {
         // one line per fit made or skipped; the minimax refits come on top of the planned ones
         if pb.position() >= pb.length().unwrap_or(0) {
@@ -522,7 +523,7 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
     });
     pb.finish_and_clear();
     let outcome = outcome?;
-    let files = write_sweep_files(&outcome, &dir, &args.data_dir.join("timing").join(&job.name))?;
+    let files = write_sweep_files(&outcome, &dir, &args.data_dir.join("timing").join(&job.name), &clock)?;
     inputs.files = files
         .iter()
         .map(|p| {
@@ -545,17 +546,16 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
 
 /// Writes `sweep.json`, `sweep.csv` and `best-<budget>.json` (removing a stale best file when a
 /// budget has no usable fit), as `furnace fit --sweep` does, without printing; returns the paths.
-/// Wall times (`fit_seconds`, if the sweep records them) go to `data/timing/<model>/sweep.csv`
-/// instead, so that the files under `fits/` are the same for the same inputs.
-fn write_sweep_files(outcome: &SweepOutcome, dir: &Path, timing: &Path) -> Result<Vec<PathBuf>> {
+/// The wall and CPU times go to `<timing>/sweep-timing.json` (git-ignored, under `data/`), the
+/// sidecar `furnace fit` writes, so that the files under `fits/` are the same for the same inputs.
+fn write_sweep_files(outcome: &SweepOutcome, dir: &Path, timing: &Path, clock: &Stopwatch) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
-    let (json, seconds) = strip_json_field(&outcome.to_json()?, TIMING_FIELD);
-    let (csv, csv_seconds) = strip_csv_column(&outcome.to_csv(), TIMING_FIELD);
     let sweep_json = dir.join("sweep.json");
-    write_atomic(&sweep_json, json.as_bytes())?;
+    let times = Timing::new(&sweep_json.display().to_string(), &outcome.source, &outcome.fitted_on, clock, outcome.fit_times());
+    write_atomic(&sweep_json, outcome.to_json()?.as_bytes())?;
     written.push(sweep_json);
     let sweep_csv = dir.join("sweep.csv");
-    write_atomic(&sweep_csv, csv.as_bytes())?;
+    write_atomic(&sweep_csv, outcome.to_csv().as_bytes())?;
     written.push(sweep_csv);
     for b in &outcome.best {
         let path = dir.join(format!("best-{}.json", b.budget));
@@ -568,68 +568,7 @@ fn write_sweep_files(outcome: &SweepOutcome, dir: &Path, timing: &Path) -> Resul
             None => {}
         }
     }
-    let seconds = if seconds.is_empty() { csv_seconds } else { seconds };
-    if !seconds.is_empty() && seconds.len() == outcome.rows.len() {
-        let mut t = String::from("name,objective,n_coefficients,fit_seconds\n");
-        for (r, s) in outcome.rows.iter().zip(&seconds) {
-            t.push_str(&format!("{},{},{},{s}\n", r.name, job::objective_name(r.objective), r.n_coefficients));
-        }
-        write_atomic(&timing.join("sweep.csv"), t.as_bytes())?;
-    }
+    write_atomic(&timing.join("sweep-timing.json"), times.to_json()?.as_bytes())?;
     Ok(written)
 }
 
-/// The field of a sweep row that holds a wall time.
-const TIMING_FIELD: &str = "fit_seconds";
-
-/// Removes every line `"<field>": <value>,` from pretty-printed JSON (the field is never the
-/// last of its object there); returns the text and the values removed, in order.
-fn strip_json_field(json: &str, field: &str) -> (String, Vec<String>) {
-    let key = format!("\"{field}\":");
-    let mut out = String::with_capacity(json.len());
-    let mut values = Vec::new();
-    for line in json.split_inclusive('\n') {
-        let t = line.trim();
-        match t.strip_prefix(&key) {
-            Some(v) if t.ends_with(',') => values.push(v.trim().trim_end_matches(',').trim().to_string()),
-            _ => out.push_str(line),
-        }
-    }
-    (out, values)
-}
-
-/// Removes a column (by header name) from a simple CSV without quoted fields; returns the text
-/// and the column's values.
-fn strip_csv_column(csv: &str, column: &str) -> (String, Vec<String>) {
-    let mut lines = csv.lines();
-    let Some(header) = lines.next() else { return (csv.to_string(), vec![]) };
-    let Some(k) = header.split(',').position(|h| h == column) else { return (csv.to_string(), vec![]) };
-    let drop = |line: &str| line.split(',').enumerate().filter(|(i, _)| *i != k).map(|(_, v)| v).collect::<Vec<_>>().join(",");
-    let mut out = format!("{}\n", drop(header));
-    let mut values = Vec::new();
-    for line in lines {
-        values.push(line.split(',').nth(k).unwrap_or("").to_string());
-        out.push_str(&drop(line));
-        out.push('\n');
-    }
-    (out, values)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn timing_is_stripped_from_json_and_csv() {
-        let json = "{\n  \"rows\": [\n    {\n      \"mae\": 0.1,\n      \"fit_seconds\": 0.25,\n      \"poles\": \"polynomial\"\n    }\n  ]\n}\n";
-        let (j, v) = strip_json_field(json, "fit_seconds");
-        assert_eq!(v, vec!["0.25"]);
-        assert!(!j.contains("fit_seconds") && serde_json::from_str::<serde_json::Value>(&j).is_ok());
-        let (c, v) = strip_csv_column("form,mae,fit_seconds,poles\npolynomial,0.1,0.250,polynomial\n", "fit_seconds");
-        assert_eq!(c, "form,mae,poles\npolynomial,0.1,polynomial\n");
-        assert_eq!(v, vec!["0.250"]);
-        // without the field: unchanged
-        assert_eq!(strip_csv_column("a,b\n1,2\n", "fit_seconds").0, "a,b\n1,2\n");
-        assert_eq!(strip_json_field("{\n  \"a\": 1\n}\n", "fit_seconds").0, "{\n  \"a\": 1\n}\n");
-    }
-}

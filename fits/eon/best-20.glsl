@@ -10,7 +10,7 @@
 // eon_albedo(r, mu): directional albedo E of eon.
 // Model: energy-preserving Oren–Nayar (EON): FON + exact-albedo multiple-scattering lobe, white albedo (EON paper, eqs. 16, 19).
 // Fit: rational of degree 1/1, 5 coefficients (numerator 3, denominator 2 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/eon/best-20.json (furnace 0.1.0), fit SHA-256 d6168080df5eed665bf1cc2589146a25d927afaff3509fd3e719caef6a63e76a.
+// Source: fits/eon/best-20.json (furnace 0.1.0), fit SHA-256 d7cb96e103e3f3eaa6caf91149c090506c85d7d9b611b252da165d597086b442.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   r: t = r, [0, 1]
 //   mu: t = sqrt(mu), [0, 1]

@@ -10,58 +10,62 @@
 // ggx_conductor_separable_albedo(r, mu): directional albedo E of ggx-conductor-separable.
 // Model: GGX white conductor (F = 1), E(r, μ); separable Smith G1·G1 (the paper's renderer).
 // Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 35160fd5b03311314f71e22da2a24e82c7ae2f00367cb7d3b2916cfce70e686d.
+// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 40542a7ac7964679a79db29480e0328d201302f666bf212cb185df5b8de21f74.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
-//   r: t = r, [0, 1]
-//   mu: t = sqrt(mu), [0, 1]
+//   r: t = square(r), [0, 1]
+//   mu: t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100), [0, 1]
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 5.9e-6 (bound 1.1e-4), shifted 9.8e-5 (bound 2.1e-3), bernstein 8.4e-7 (bound 2.8e-5).
-// Error of the f64 fit on its 1048576 data points: MAE 8.24e-4, max 3.82e-2 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 8.24e-4 + 8.4e-7, max ≤ 3.82e-2 + 8.4e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 16641 grid points: max 5.8e-7 (every op rounded, as this Rust), 6.2e-7 (fused multiply–add), 8.4e-7 (GPU ÷/sqrt error); first-order bound 2.8e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-3 on the grid.
-// Denominator proved ≥ 9.695e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 5.6e-6 (bound 1.2e-4), shifted 3.3e-6 (bound 9.8e-5), bernstein 4.6e-7 (bound 1.5e-5).
+// Error of the f64 fit on its 1048576 data points: MAE 1.89e-4, max 4.28e-4 (recorded by the fitter).
+// Error of this f32 code on the same data: MAE ≤ 1.89e-4 + 4.6e-7, max ≤ 4.28e-4 + 4.6e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 16641 grid points: max 3.9e-7 (every op rounded, as this Rust), 3.9e-7 (fused multiply–add), 4.6e-7 (GPU ÷/sqrt error); first-order bound 1.5e-5.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-4 on the grid.
+// Denominator proved ≥ 4.862e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0), 0.0);
+    // t = square(r)
+    float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0), 0.0);
-    // t = sqrt(mu)
-    float mu_t = sqrt(mu_c);
+    // t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100)
+    float mu_t = (mu_c * (1.0 + 0.5 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 0.5 * (r_c * r_c) + 7.888609e-31);
     // Bernstein basis of r: u^i (1 − u)^(n − i), n = 4
-    float r_v = 1.0 - r_c;
-    float r_u2 = r_c * r_c;
+    float r_v = 1.0 - r_t;
+    float r_u2 = r_t * r_t;
     float r_v2 = r_v * r_v;
-    float r_u3 = r_u2 * r_c;
+    float r_u3 = r_u2 * r_t;
     float r_v3 = r_v2 * r_v;
-    float r_u4 = r_u3 * r_c;
+    float r_u4 = r_u3 * r_t;
     float r_v4 = r_v3 * r_v;
-    float r_b1 = r_c * r_v3;
+    float r_b1 = r_t * r_v3;
     float r_b2 = r_u2 * r_v2;
     float r_b3 = r_u3 * r_v;
+    // u = (t − 0.0000000000000000000000000000015777218104420236)/(1 − 0.0000000000000000000000000000015777218104420236) ∈ [0, 1]
+    float mu_u = (mu_t - 1.5777218e-30) * 1.0;
     // Bernstein basis of mu: u^i (1 − u)^(n − i), n = 4
-    float mu_v = 1.0 - mu_t;
-    float mu_u2 = mu_t * mu_t;
+    float mu_v = 1.0 - mu_u;
+    float mu_u2 = mu_u * mu_u;
     float mu_v2 = mu_v * mu_v;
-    float mu_u3 = mu_u2 * mu_t;
+    float mu_u3 = mu_u2 * mu_u;
     float mu_v3 = mu_v2 * mu_v;
-    float mu_u4 = mu_u3 * mu_t;
+    float mu_u4 = mu_u3 * mu_u;
     float mu_v4 = mu_v3 * mu_v;
-    float mu_b1 = mu_t * mu_v3;
+    float mu_b1 = mu_u * mu_v3;
     float mu_b2 = mu_u2 * mu_v2;
     float mu_b3 = mu_u3 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 0.9793918 * mu_v4 + 21.641882 * mu_b1 + 4218.3184 * mu_b2 + 9442.833 * mu_b3 + 4357.7803 * mu_u4;
-    float p_1 = -30.53671 * mu_v4 - 9248.542 * mu_b1 - 18947.254 * mu_b2 - 5154.7954 * mu_b3 + 1024.8657 * mu_u4;
-    float p_2 = 7417.5273 * mu_v4 + 16721.572 * mu_b1 + 9894.921 * mu_b2 + 8240.703 * mu_b3 + 2325.4482 * mu_u4;
-    float p_3 = 4022.322 * mu_v4 + 10691.84 * mu_b1 + 7203.934 * mu_b2 + 5232.702 * mu_b3 + 1148.6989 * mu_u4;
-    float p_4 = 1316.841 * mu_v4 + 3674.3308 * mu_b1 + 2604.8137 * mu_b2 + 1368.6189 * mu_b3 + 233.89842 * mu_u4;
+    float p_0 = 0.93633884 * mu_v4 + 1.334326 * mu_b1 + 0.7170776 * mu_b2 - 0.027987726 * mu_b3 + 0.06458042 * mu_u4;
+    float p_1 = 5.235865 * mu_v4 + 8.136103 * mu_b1 + 5.0662255 * mu_b2 + 0.7088167 * mu_b3 + 0.18946333 * mu_u4;
+    float p_2 = 10.738199 * mu_v4 + 17.94892 * mu_b1 + 12.242615 * mu_b2 + 2.9420323 * mu_b3 + 0.38008904 * mu_u4;
+    float p_3 = 9.306824 * mu_v4 + 16.095787 * mu_b1 + 11.20573 * mu_b2 + 3.1111991 * mu_b3 + 0.34106648 * mu_u4;
+    float p_4 = 2.8974624 * mu_v4 + 5.0658903 * mu_b1 + 3.4881315 * mu_b2 + 1.0232168 * mu_b3 + 0.11517176 * mu_u4;
     float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0 * mu_v4 + 18.893953 * mu_b1 + 4237.882 * mu_b2 + 9409.946 * mu_b3 + 4369.303 * mu_u4;
-    float q_1 = -26.304613 * mu_v4 - 9373.996 * mu_b1 - 19037.998 * mu_b2 - 5498.398 * mu_b3 + 909.28503 * mu_u4;
-    float q_2 = 7860.6885 * mu_v4 + 18024.293 * mu_b1 + 12362.667 * mu_b2 + 9856.498 * mu_b3 + 2733.5012 * mu_u4;
-    float q_3 = 4186.4854 * mu_v4 + 10322.296 * mu_b1 + 6726.116 * mu_b2 + 5018.847 * mu_b3 + 1145.9186 * mu_u4;
-    float q_4 = 2120.0242 * mu_v4 + 6191.2383 * mu_b1 + 6016.7593 * mu_b2 + 3540.1313 * mu_b3 + 773.93085 * mu_u4;
+    float q_0 = 1.0 * mu_v4 + 1.4665899 * mu_b1 + 0.8794562 * mu_b2 - 0.028156843 * mu_b3 + 0.06456342 * mu_u4;
+    float q_1 = 5.6026044 * mu_v4 + 8.875952 * mu_b1 + 5.9800158 * mu_b2 + 0.8733797 * mu_b3 + 0.18905711 * mu_u4;
+    float q_2 = 12.240825 * mu_v4 + 20.965393 * mu_b1 + 14.909145 * mu_b2 + 3.6015613 * mu_b3 + 0.45050365 * mu_u4;
+    float q_3 = 12.166455 * mu_v4 + 22.56058 * mu_b1 + 16.614212 * mu_b2 + 4.703262 * mu_b3 + 0.50551844 * mu_u4;
+    float q_4 = 4.723672 * mu_v4 + 9.786294 * mu_b1 + 7.9782476 * mu_b2 + 2.7849846 * mu_b3 + 0.37494537 * mu_u4;
     float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -7,61 +7,65 @@
 /// ggx_conductor_separable_albedo(r, mu): directional albedo E of ggx-conductor-separable.
 /// Model: GGX white conductor (F = 1), E(r, μ); separable Smith G1·G1 (the paper's renderer).
 /// Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 35160fd5b03311314f71e22da2a24e82c7ae2f00367cb7d3b2916cfce70e686d.
+/// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 40542a7ac7964679a79db29480e0328d201302f666bf212cb185df5b8de21f74.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
-///   r: t = r, [0, 1]
-///   mu: t = sqrt(mu), [0, 1]
+///   r: t = square(r), [0, 1]
+///   mu: t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100), [0, 1]
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 5.9e-6 (bound 1.1e-4), shifted 9.8e-5 (bound 2.1e-3), bernstein 8.4e-7 (bound 2.8e-5).
-/// Error of the f64 fit on its 1048576 data points: MAE 8.24e-4, max 3.82e-2 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 8.24e-4 + 8.4e-7, max ≤ 3.82e-2 + 8.4e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 16641 grid points: max 5.8e-7 (every op rounded, as this Rust), 6.2e-7 (fused multiply–add), 8.4e-7 (GPU ÷/sqrt error); first-order bound 2.8e-5.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-3 on the grid.
-/// Denominator proved ≥ 9.695e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 5.6e-6 (bound 1.2e-4), shifted 3.3e-6 (bound 9.8e-5), bernstein 4.6e-7 (bound 1.5e-5).
+/// Error of the f64 fit on its 1048576 data points: MAE 1.89e-4, max 4.28e-4 (recorded by the fitter).
+/// Error of this f32 code on the same data: MAE ≤ 1.89e-4 + 4.6e-7, max ≤ 4.28e-4 + 4.6e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 16641 grid points: max 3.9e-7 (every op rounded, as this Rust), 3.9e-7 (fused multiply–add), 4.6e-7 (GPU ÷/sqrt error); first-order bound 1.5e-5.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-4 on the grid.
+/// Denominator proved ≥ 4.862e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables)]
 pub fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = r.min(1.0_f32).max(0.0_f32);
+    // t = square(r)
+    let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = sqrt(mu)
-    let mu_t = mu_c.sqrt();
+    // t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100)
+    let mu_t = (mu_c * (1.0_f32 + 0.5_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 0.5_f32 * (r_c * r_c) + 7.888609e-31_f32);
     // Bernstein basis of r: u^i (1 − u)^(n − i), n = 4
-    let r_v = 1.0_f32 - r_c;
-    let r_u2 = r_c * r_c;
+    let r_v = 1.0_f32 - r_t;
+    let r_u2 = r_t * r_t;
     let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_c;
+    let r_u3 = r_u2 * r_t;
     let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_c;
+    let r_u4 = r_u3 * r_t;
     let r_v4 = r_v3 * r_v;
-    let r_b1 = r_c * r_v3;
+    let r_b1 = r_t * r_v3;
     let r_b2 = r_u2 * r_v2;
     let r_b3 = r_u3 * r_v;
+    // u = (t − 0.0000000000000000000000000000015777218104420236)/(1 − 0.0000000000000000000000000000015777218104420236) ∈ [0, 1]
+    let mu_u = (mu_t - 1.5777218e-30_f32) * 1.0_f32;
     // Bernstein basis of mu: u^i (1 − u)^(n − i), n = 4
-    let mu_v = 1.0_f32 - mu_t;
-    let mu_u2 = mu_t * mu_t;
+    let mu_v = 1.0_f32 - mu_u;
+    let mu_u2 = mu_u * mu_u;
     let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_t;
+    let mu_u3 = mu_u2 * mu_u;
     let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_t;
+    let mu_u4 = mu_u3 * mu_u;
     let mu_v4 = mu_v3 * mu_v;
-    let mu_b1 = mu_t * mu_v3;
+    let mu_b1 = mu_u * mu_v3;
     let mu_b2 = mu_u2 * mu_v2;
     let mu_b3 = mu_u3 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9793918_f32 * mu_v4 + 21.641882_f32 * mu_b1 + 4218.3184_f32 * mu_b2 + 9442.833_f32 * mu_b3 + 4357.7803_f32 * mu_u4;
-    let p_1 = -30.53671_f32 * mu_v4 - 9248.542_f32 * mu_b1 - 18947.254_f32 * mu_b2 - 5154.7954_f32 * mu_b3 + 1024.8657_f32 * mu_u4;
-    let p_2 = 7417.5273_f32 * mu_v4 + 16721.572_f32 * mu_b1 + 9894.921_f32 * mu_b2 + 8240.703_f32 * mu_b3 + 2325.4482_f32 * mu_u4;
-    let p_3 = 4022.322_f32 * mu_v4 + 10691.84_f32 * mu_b1 + 7203.934_f32 * mu_b2 + 5232.702_f32 * mu_b3 + 1148.6989_f32 * mu_u4;
-    let p_4 = 1316.841_f32 * mu_v4 + 3674.3308_f32 * mu_b1 + 2604.8137_f32 * mu_b2 + 1368.6189_f32 * mu_b3 + 233.89842_f32 * mu_u4;
+    let p_0 = 0.93633884_f32 * mu_v4 + 1.334326_f32 * mu_b1 + 0.7170776_f32 * mu_b2 - 0.027987726_f32 * mu_b3 + 0.06458042_f32 * mu_u4;
+    let p_1 = 5.235865_f32 * mu_v4 + 8.136103_f32 * mu_b1 + 5.0662255_f32 * mu_b2 + 0.7088167_f32 * mu_b3 + 0.18946333_f32 * mu_u4;
+    let p_2 = 10.738199_f32 * mu_v4 + 17.94892_f32 * mu_b1 + 12.242615_f32 * mu_b2 + 2.9420323_f32 * mu_b3 + 0.38008904_f32 * mu_u4;
+    let p_3 = 9.306824_f32 * mu_v4 + 16.095787_f32 * mu_b1 + 11.20573_f32 * mu_b2 + 3.1111991_f32 * mu_b3 + 0.34106648_f32 * mu_u4;
+    let p_4 = 2.8974624_f32 * mu_v4 + 5.0658903_f32 * mu_b1 + 3.4881315_f32 * mu_b2 + 1.0232168_f32 * mu_b3 + 0.11517176_f32 * mu_u4;
     let p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v4 + 18.893953_f32 * mu_b1 + 4237.882_f32 * mu_b2 + 9409.946_f32 * mu_b3 + 4369.303_f32 * mu_u4;
-    let q_1 = -26.304613_f32 * mu_v4 - 9373.996_f32 * mu_b1 - 19037.998_f32 * mu_b2 - 5498.398_f32 * mu_b3 + 909.28503_f32 * mu_u4;
-    let q_2 = 7860.6885_f32 * mu_v4 + 18024.293_f32 * mu_b1 + 12362.667_f32 * mu_b2 + 9856.498_f32 * mu_b3 + 2733.5012_f32 * mu_u4;
-    let q_3 = 4186.4854_f32 * mu_v4 + 10322.296_f32 * mu_b1 + 6726.116_f32 * mu_b2 + 5018.847_f32 * mu_b3 + 1145.9186_f32 * mu_u4;
-    let q_4 = 2120.0242_f32 * mu_v4 + 6191.2383_f32 * mu_b1 + 6016.7593_f32 * mu_b2 + 3540.1313_f32 * mu_b3 + 773.93085_f32 * mu_u4;
+    let q_0 = 1.0_f32 * mu_v4 + 1.4665899_f32 * mu_b1 + 0.8794562_f32 * mu_b2 - 0.028156843_f32 * mu_b3 + 0.06456342_f32 * mu_u4;
+    let q_1 = 5.6026044_f32 * mu_v4 + 8.875952_f32 * mu_b1 + 5.9800158_f32 * mu_b2 + 0.8733797_f32 * mu_b3 + 0.18905711_f32 * mu_u4;
+    let q_2 = 12.240825_f32 * mu_v4 + 20.965393_f32 * mu_b1 + 14.909145_f32 * mu_b2 + 3.6015613_f32 * mu_b3 + 0.45050365_f32 * mu_u4;
+    let q_3 = 12.166455_f32 * mu_v4 + 22.56058_f32 * mu_b1 + 16.614212_f32 * mu_b2 + 4.703262_f32 * mu_b3 + 0.50551844_f32 * mu_u4;
+    let q_4 = 4.723672_f32 * mu_v4 + 9.786294_f32 * mu_b1 + 7.9782476_f32 * mu_b2 + 2.7849846_f32 * mu_b3 + 0.37494537_f32 * mu_u4;
     let q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -7,59 +7,43 @@
 // ggx_conductor_albedo(r, mu): directional albedo E of ggx-conductor.
 // Model: GGX white conductor (F = 1), E(r, μ); height-correlated Smith G2.
 // Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 6175d9161af655639b93332ebe1345907e56205bf05434bfc21fef5913b1fbfa.
+// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 894d13427ace838eccccce43be88f9c9260558ee316463940091c2445cfdd674.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
-//   r: t = r, [0, 1]
-//   mu: t = sqrt(mu), [0, 1]
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 1.1e-5 (bound 1.6e-4), shifted 5.5e-5 (bound 3.1e-3), bernstein 1.1e-6 (bound 3.8e-5).
-// Error of the f64 fit on its 1048576 data points: MAE 1.74e-3, max 1.91e-2 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 1.74e-3 + 1.1e-6, max ≤ 1.91e-2 + 1.1e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 16641 grid points: max 6.7e-7 (every op rounded, as this Rust), 1.0e-6 (fused multiply–add), 1.1e-6 (GPU ÷/sqrt error); first-order bound 3.8e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.4e-3 on the grid.
-// Denominator proved ≥ 7.680e-1 on the domain (Bernstein certificate), so the division is safe.
+//   r: t = square(r), [0, 1]
+//   mu: t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100), [0, 1]
+// Evaluation: nested Horner in the shifted variables s = (t − c)/h ∈ [−1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 8.6e-6 (bound 1.3e-4), shifted 2.3e-6 (bound 5.3e-5), bernstein 3.9e-7 (bound 1.6e-5).
+// Error of the f64 fit on its 1048576 data points: MAE 9.23e-4, max 2.16e-3 (recorded by the fitter).
+// Error of this f32 code on the same data: MAE ≤ 9.23e-4 + 2.3e-6, max ≤ 2.16e-3 + 2.3e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 16641 grid points: max 2.3e-6 (every op rounded, as this Rust), 2.0e-6 (fused multiply–add), 1.9e-6 (GPU ÷/sqrt error); first-order bound 5.3e-5.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.1e-4 on the grid.
+// Denominator proved ≥ 2.157e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
+    // t = square(r)
+    let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
-    // t = sqrt(mu)
-    let mu_t = sqrt(mu_c);
-    // Bernstein basis of r: u^i (1 − u)^(n − i), n = 4
-    let r_v = 1.0 - r_c;
-    let r_u2 = r_c * r_c;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_c;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_c;
-    let r_v4 = r_v3 * r_v;
-    let r_b1 = r_c * r_v3;
-    let r_b2 = r_u2 * r_v2;
-    let r_b3 = r_u3 * r_v;
-    // Bernstein basis of mu: u^i (1 − u)^(n − i), n = 4
-    let mu_v = 1.0 - mu_t;
-    let mu_u2 = mu_t * mu_t;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_t;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_t;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_b1 = mu_t * mu_v3;
-    let mu_b2 = mu_u2 * mu_v2;
-    let mu_b3 = mu_u3 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9995065 * mu_v4 + 68.81688 * mu_b1 + 6919.3345 * mu_b2 + 8209.848 * mu_b3 + 3725.6594 * mu_u4;
-    let p_1 = -87.81137 * mu_v4 - 13789.128 * mu_b1 - 13042.762 * mu_b2 - 9180.796 * mu_b3 - 370.0363 * mu_u4;
-    let p_2 = 8871.162 * mu_v4 + 8756.197 * mu_b1 + 18447.79 * mu_b2 + 6335.6113 * mu_b3 + 1976.829 * mu_u4;
-    let p_3 = 5274.7134 * mu_v4 + 1751.0841 * mu_b1 + 7899.569 * mu_b2 + 2721.4534 * mu_b3 + 767.5694 * mu_u4;
-    let p_4 = 1758.1909 * mu_v4 + 910.74274 * mu_b1 + 2150.385 * mu_b2 + 768.9996 * mu_b3 + 138.49501 * mu_u4;
-    let p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v4 + 70.36145 * mu_b1 + 6866.785 * mu_b2 + 8190.753 * mu_b3 + 3726.9888 * mu_u4;
-    let q_1 = -87.847305 * mu_v4 - 13516.61 * mu_b1 - 12908.202 * mu_b2 - 9122.597 * mu_b3 - 308.5194 * mu_u4;
-    let q_2 = 8893.532 * mu_v4 + 9713.536 * mu_b1 + 19208.434 * mu_b2 + 6350.8804 * mu_b3 + 1964.4076 * mu_u4;
-    let q_3 = 5219.339 * mu_v4 + 2934.1108 * mu_b1 + 9647.496 * mu_b2 + 3541.9753 * mu_b3 + 943.889 * mu_u4;
-    let q_4 = 1751.9841 * mu_v4 + 1693.6997 * mu_b1 + 3754.221 * mu_b2 + 1937.8434 * mu_b3 + 458.99753 * mu_u4;
-    let q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
+    // t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100)
+    let mu_t = (mu_c * (1.0 + 0.5 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 0.5 * (r_c * r_c) + 7.888609e-31);
+    // s = (t − 0.5)/0.5 ∈ [−1, 1]
+    let r_s = r_t * 2.0 - 1.0;
+    // s = (t − 0.5)/0.5 ∈ [−1, 1]
+    let mu_s = mu_t * 2.0 - 1.0;
+    // numerator P, grouped by powers of the first variable
+    let p_0 = (((-0.28599313 * mu_s + 0.86802125) * mu_s - 0.5048861) * mu_s - 1.315175) * mu_s + 1.76517;
+    let p_1 = ((0.00939342 * mu_s - 0.3725798) * mu_s - 0.36003456) * mu_s + 1.1201893;
+    let p_2 = (0.23469216 * mu_s - 0.25436342) * mu_s - 0.02107191;
+    let p_3 = 0.023498626 * mu_s - 0.10659911;
+    let p_4 = 0.07847252;
+    let p = (((p_4 * r_s + p_3) * r_s + p_2) * r_s + p_1) * r_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    let q_0 = (((-0.22092307 * mu_s + 0.79965895) * mu_s - 0.8639653) * mu_s - 1.1272663) * mu_s + 2.1800373;
+    let q_1 = ((-0.073987044 * mu_s - 0.7885609) * mu_s + 0.08787904) * mu_s + 1.899942;
+    let q_2 = (0.042091787 * mu_s + 0.11928586) * mu_s + 0.54470044;
+    let q_3 = 0.15220006 * mu_s + 0.02562394;
+    let q_4 = 0.0806503;
+    let q = (((q_4 * r_s + q_3) * r_s + q_2) * r_s + q_1) * r_s + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);
 }

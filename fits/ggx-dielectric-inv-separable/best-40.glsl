@@ -10,97 +10,39 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 // Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 9aaefade918cc67389df6e63f66023debbf8034916917d53073650eee9801057.
+// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 a1ee568c31f78ed39b8761c12d1aa9678c546857c756c218308f61b32ac069e5.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
-//   f0: t = sqrt(f0), [0.0125, 0.25]
-//   r: t = r, [0, 1]
-//   mu: t = sqrt(mu), [0, 1]
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 35937 grid points: monomial 4.4e-6 (bound 1.7e-4), shifted 3.4e-6 (bound 1.6e-4), bernstein 7.8e-7 (bound 1.2e-4).
-// Error of the f64 fit on its 262144 data points: MAE 1.11e-2, max 5.30e-2 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 1.11e-2 + 7.8e-7, max ≤ 5.30e-2 + 7.8e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 35937 grid points: max 3.5e-7 (every op rounded, as this Rust), 2.9e-7 (fused multiply–add), 7.8e-7 (GPU ÷/sqrt error); first-order bound 1.2e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.7e-2 on the grid.
-// Denominator proved ≥ 1.479e-2 on the domain (Bernstein certificate), so the division is safe.
+//   f0: t = f0, [0.0125, 0.25]
+//   r: t = square(r), [0, 1]
+//   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
+// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 1.7e-6 (bound 5.5e-5), shifted 1.8e-6 (bound 6.5e-5), bernstein 4.2e-7 (bound 1.6e-5).
+// Error of the f64 fit on its 262144 data points: MAE 8.76e-3, max 2.90e-2 (recorded by the fitter).
+// Error of this f32 code on the same data: MAE ≤ 8.76e-3 + 1.7e-6, max ≤ 2.90e-2 + 1.7e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 35937 grid points: max 1.3e-6 (every op rounded, as this Rust), 1.6e-6 (fused multiply–add), 1.7e-6 (GPU ÷/sqrt error); first-order bound 5.5e-5.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-2 on the grid.
+// Denominator proved ≥ 1.480e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25), 0.0125);
-    // t = sqrt(f0)
-    float f0_t = sqrt(f0_c);
     float r_c = max(min(r, 1.0), 0.0);
+    // t = square(r)
+    float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0), 0.0);
-    // t = sqrt(mu)
-    float mu_t = sqrt(mu_c);
-    // u = (t − 0.11180339887498948)/(0.5 − 0.11180339887498948) ∈ [0, 1]
-    float f0_u = (f0_t - 0.1118034) * 2.5760143;
-    // Bernstein basis of f0: u^i (1 − u)^(n − i), n = 3
-    float f0_v = 1.0 - f0_u;
-    float f0_u2 = f0_u * f0_u;
-    float f0_v2 = f0_v * f0_v;
-    float f0_u3 = f0_u2 * f0_u;
-    float f0_v3 = f0_v2 * f0_v;
-    float f0_b1 = f0_u * f0_v2;
-    float f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 − u)^(n − i), n = 3
-    float r_v = 1.0 - r_c;
-    float r_u2 = r_c * r_c;
-    float r_v2 = r_v * r_v;
-    float r_u3 = r_u2 * r_c;
-    float r_v3 = r_v2 * r_v;
-    float r_b1 = r_c * r_v2;
-    float r_b2 = r_u2 * r_v;
-    // Bernstein basis of mu: u^i (1 − u)^(n − i), n = 3
-    float mu_v = 1.0 - mu_t;
-    float mu_u2 = mu_t * mu_t;
-    float mu_v2 = mu_v * mu_v;
-    float mu_u3 = mu_u2 * mu_t;
-    float mu_v3 = mu_v2 * mu_v;
-    float mu_b1 = mu_t * mu_v2;
-    float mu_b2 = mu_u2 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0_0 = 0.87409455 * mu_v3 + 1.6471506 * mu_b1 + 1.3402145 * mu_b2 + 0.36498103 * mu_u3;
-    float p_0_1 = 0.47481304 * mu_v3 - 0.5539398 * mu_b1 - 0.79754686 * mu_b2 - 0.37532637 * mu_u3;
-    float p_0_2 = 0.42686623 * mu_v3 + 0.18282035 * mu_b1 + 0.54999506 * mu_b2 + 0.18750858 * mu_u3;
-    float p_0_3 = 0.058218963 * mu_v3 + 0.08012454 * mu_b1 + 0.38397026 * mu_b2 + 0.15988722 * mu_u3;
-    float p_0 = p_0_0 * r_v3 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_u3;
-    float p_1_0 = 2.2405932 * mu_v3 + 4.255981 * mu_b1 + 3.6755986 * mu_b2 + 1.0536784 * mu_u3;
-    float p_1_1 = 1.8642621 * mu_v3 - 0.07856285 * mu_b1 - 0.90312076 * mu_b2 - 0.77989274 * mu_u3;
-    float p_1_2 = 2.5567384 * mu_v3 + 3.5256536 * mu_b1 + 3.4184268 * mu_b2 + 0.62991464 * mu_u3;
-    float p_1_3 = 0.62928313 * mu_v3 + 0.9488388 * mu_b1 + 1.0857875 * mu_b2 + 0.1596996 * mu_u3;
-    float p_1 = p_1_0 * r_v3 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_u3;
-    float p_2_0 = 1.5456356 * mu_v3 + 3.0411327 * mu_b1 + 3.2115998 * mu_b2 + 1.1095704 * mu_u3;
-    float p_2_1 = 1.6633159 * mu_v3 + 0.8136569 * mu_b1 + 1.1266334 * mu_b2 + 0.15669543 * mu_u3;
-    float p_2_2 = 3.4911408 * mu_v3 + 6.708905 * mu_b1 + 6.624199 * mu_b2 + 1.5868374 * mu_u3;
-    float p_2_3 = 1.0696743 * mu_v3 + 2.0250225 * mu_b1 + 1.7978066 * mu_b2 + 0.2359262 * mu_u3;
-    float p_2 = p_2_0 * r_v3 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_u3;
-    float p_3_0 = 0.035039697 * mu_v3 + 1.0362384e-5 * mu_b1 + 0.44392383 * mu_b2 + 0.27677572 * mu_u3;
-    float p_3_1 = -0.15842508 * mu_v3 - 0.9585955 * mu_b1 - 0.06466814 * mu_b2 + 0.12896998 * mu_u3;
-    float p_3_2 = 0.92897683 * mu_v3 + 2.0691967 * mu_b1 + 2.4588919 * mu_b2 + 0.71213955 * mu_u3;
-    float p_3_3 = 0.35451284 * mu_v3 + 0.72401637 * mu_b1 + 0.6636975 * mu_b2 + 0.09201654 * mu_u3;
-    float p_3 = p_3_0 * r_v3 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_u3;
-    float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0_0 = 0.9117208 * mu_v3 + 1.5952348 * mu_b1 + 1.2407738 * mu_b2 + 0.36717296 * mu_u3;
-    float q_0_1 = 0.8216811 * mu_v3 - 0.060641397 * mu_b1 - 0.6057614 * mu_b2 - 0.29369962 * mu_u3;
-    float q_0_2 = 0.62537116 * mu_v3 + 0.23555581 * mu_b1 + 0.19972701 * mu_b2 + 0.01928168 * mu_u3;
-    float q_0_3 = 0.2882356 * mu_v3 + 0.60990596 * mu_b1 + 0.7647362 * mu_b2 + 0.25297892 * mu_u3;
-    float q_0 = q_0_0 * r_v3 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_u3;
-    float q_1_0 = 2.344009 * mu_v3 + 4.1965346 * mu_b1 + 3.476677 * mu_b2 + 1.0538905 * mu_u3;
-    float q_1_1 = 2.6617792 * mu_v3 + 1.1670343 * mu_b1 - 0.4318734 * mu_b2 - 0.64791054 * mu_u3;
-    float q_1_2 = 2.9498513 * mu_v3 + 3.6925077 * mu_b1 + 2.6273506 * mu_b2 + 0.17391191 * mu_u3;
-    float q_1_3 = 1.350555 * mu_v3 + 2.8774302 * mu_b1 + 2.691323 * mu_b2 + 0.5941869 * mu_u3;
-    float q_1 = q_1_0 * r_v3 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_u3;
-    float q_2_0 = 1.6162349 * mu_v3 + 3.042377 * mu_b1 + 3.1109173 * mu_b2 + 1.1145147 * mu_u3;
-    float q_2_1 = 2.144971 * mu_v3 + 1.709979 * mu_b1 + 1.482143 * mu_b2 + 0.20635277 * mu_u3;
-    float q_2_2 = 3.6063616 * mu_v3 + 6.761286 * mu_b1 + 6.073077 * mu_b2 + 1.2073709 * mu_u3;
-    float q_2_3 = 1.7960997 * mu_v3 + 4.2491055 * mu_b1 + 3.8572736 * mu_b2 + 0.8340068 * mu_u3;
-    float q_2 = q_2_0 * r_v3 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_u3;
-    float q_3_0 = 0.035507403 * mu_v3 - 0.0042412244 * mu_b1 + 0.42969605 * mu_b2 + 0.2793578 * mu_u3;
-    float q_3_1 = -0.14044538 * mu_v3 - 0.853651 * mu_b1 - 0.027699385 * mu_b2 + 0.11524554 * mu_u3;
-    float q_3_2 = 0.8365635 * mu_v3 + 1.9683795 * mu_b1 + 2.3094993 * mu_b2 + 0.60742253 * mu_u3;
-    float q_3_3 = 0.585341 * mu_v3 + 1.5362632 * mu_b1 + 1.4853686 * mu_b2 + 0.3443594 * mu_u3;
-    float q_3 = q_3_0 * r_v3 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_u3;
-    float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
+    // numerator P, grouped by powers of the first variable
+    float p_0 = ((-0.9082558 * r_t + (-0.4102288 * mu_t + 2.1640706)) * r_t + ((-0.9980572 * mu_t + 1.9571112) * mu_t - 2.0662296)) * r_t + (((-0.9543694 * mu_t + 2.2681005) * mu_t - 1.8921716) * mu_t + 0.9018463);
+    float p_1 = (9.709168 * r_t + (9.71325 * mu_t - 26.165136)) * r_t + ((3.9712563 * mu_t - 20.578035) * mu_t + 25.443415);
+    float p_2 = -11.682238 * r_t + (-11.390259 * mu_t + 23.72756);
+    float p_3 = 2.443441;
+    float p = ((p_3 * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    float q_0 = ((-0.9288136 * r_t + (-0.13856511 * mu_t + 1.916031)) * r_t + ((-0.5691788 * mu_t + 0.670931) * mu_t - 1.2179649)) * r_t + (((-1.1371261 * mu_t + 2.5914514) * mu_t - 2.1304142) * mu_t + 1.0);
+    float q_1 = (11.884692 * r_t + (12.170362 * mu_t - 25.397198)) * r_t + ((-0.39526197 * mu_t - 17.735771) * mu_t + 26.753828);
+    float q_2 = -6.9686723 * r_t + (-15.001665 * mu_t + 25.934849);
+    float q_3 = 6.2445483;
+    float q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
     float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

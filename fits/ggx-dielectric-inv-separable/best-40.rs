@@ -7,100 +7,42 @@
 /// ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 /// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 9aaefade918cc67389df6e63f66023debbf8034916917d53073650eee9801057.
+/// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 a1ee568c31f78ed39b8761c12d1aa9678c546857c756c218308f61b32ac069e5.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
-///   f0: t = sqrt(f0), [0.0125, 0.25]
-///   r: t = r, [0, 1]
-///   mu: t = sqrt(mu), [0, 1]
-/// Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 35937 grid points: monomial 4.4e-6 (bound 1.7e-4), shifted 3.4e-6 (bound 1.6e-4), bernstein 7.8e-7 (bound 1.2e-4).
-/// Error of the f64 fit on its 262144 data points: MAE 1.11e-2, max 5.30e-2 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 1.11e-2 + 7.8e-7, max ≤ 5.30e-2 + 7.8e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 35937 grid points: max 3.5e-7 (every op rounded, as this Rust), 2.9e-7 (fused multiply–add), 7.8e-7 (GPU ÷/sqrt error); first-order bound 1.2e-4.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.7e-2 on the grid.
-/// Denominator proved ≥ 1.479e-2 on the domain (Bernstein certificate), so the division is safe.
+///   f0: t = f0, [0.0125, 0.25]
+///   r: t = square(r), [0, 1]
+///   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
+/// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 1.7e-6 (bound 5.5e-5), shifted 1.8e-6 (bound 6.5e-5), bernstein 4.2e-7 (bound 1.6e-5).
+/// Error of the f64 fit on its 262144 data points: MAE 8.76e-3, max 2.90e-2 (recorded by the fitter).
+/// Error of this f32 code on the same data: MAE ≤ 8.76e-3 + 1.7e-6, max ≤ 2.90e-2 + 1.7e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 35937 grid points: max 1.3e-6 (every op rounded, as this Rust), 1.6e-6 (fused multiply–add), 1.7e-6 (GPU ÷/sqrt error); first-order bound 5.5e-5.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-2 on the grid.
+/// Denominator proved ≥ 1.480e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables)]
 pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
-    // t = sqrt(f0)
-    let f0_t = f0_c.sqrt();
     let r_c = r.min(1.0_f32).max(0.0_f32);
+    // t = square(r)
+    let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = sqrt(mu)
-    let mu_t = mu_c.sqrt();
-    // u = (t − 0.11180339887498948)/(0.5 − 0.11180339887498948) ∈ [0, 1]
-    let f0_u = (f0_t - 0.1118034_f32) * 2.5760143_f32;
-    // Bernstein basis of f0: u^i (1 − u)^(n − i), n = 3
-    let f0_v = 1.0_f32 - f0_u;
-    let f0_u2 = f0_u * f0_u;
-    let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_u;
-    let f0_v3 = f0_v2 * f0_v;
-    let f0_b1 = f0_u * f0_v2;
-    let f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 − u)^(n − i), n = 3
-    let r_v = 1.0_f32 - r_c;
-    let r_u2 = r_c * r_c;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_c;
-    let r_v3 = r_v2 * r_v;
-    let r_b1 = r_c * r_v2;
-    let r_b2 = r_u2 * r_v;
-    // Bernstein basis of mu: u^i (1 − u)^(n − i), n = 3
-    let mu_v = 1.0_f32 - mu_t;
-    let mu_u2 = mu_t * mu_t;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_t;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_b1 = mu_t * mu_v2;
-    let mu_b2 = mu_u2 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.87409455_f32 * mu_v3 + 1.6471506_f32 * mu_b1 + 1.3402145_f32 * mu_b2 + 0.36498103_f32 * mu_u3;
-    let p_0_1 = 0.47481304_f32 * mu_v3 - 0.5539398_f32 * mu_b1 - 0.79754686_f32 * mu_b2 - 0.37532637_f32 * mu_u3;
-    let p_0_2 = 0.42686623_f32 * mu_v3 + 0.18282035_f32 * mu_b1 + 0.54999506_f32 * mu_b2 + 0.18750858_f32 * mu_u3;
-    let p_0_3 = 0.058218963_f32 * mu_v3 + 0.08012454_f32 * mu_b1 + 0.38397026_f32 * mu_b2 + 0.15988722_f32 * mu_u3;
-    let p_0 = p_0_0 * r_v3 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_u3;
-    let p_1_0 = 2.2405932_f32 * mu_v3 + 4.255981_f32 * mu_b1 + 3.6755986_f32 * mu_b2 + 1.0536784_f32 * mu_u3;
-    let p_1_1 = 1.8642621_f32 * mu_v3 - 0.07856285_f32 * mu_b1 - 0.90312076_f32 * mu_b2 - 0.77989274_f32 * mu_u3;
-    let p_1_2 = 2.5567384_f32 * mu_v3 + 3.5256536_f32 * mu_b1 + 3.4184268_f32 * mu_b2 + 0.62991464_f32 * mu_u3;
-    let p_1_3 = 0.62928313_f32 * mu_v3 + 0.9488388_f32 * mu_b1 + 1.0857875_f32 * mu_b2 + 0.1596996_f32 * mu_u3;
-    let p_1 = p_1_0 * r_v3 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_u3;
-    let p_2_0 = 1.5456356_f32 * mu_v3 + 3.0411327_f32 * mu_b1 + 3.2115998_f32 * mu_b2 + 1.1095704_f32 * mu_u3;
-    let p_2_1 = 1.6633159_f32 * mu_v3 + 0.8136569_f32 * mu_b1 + 1.1266334_f32 * mu_b2 + 0.15669543_f32 * mu_u3;
-    let p_2_2 = 3.4911408_f32 * mu_v3 + 6.708905_f32 * mu_b1 + 6.624199_f32 * mu_b2 + 1.5868374_f32 * mu_u3;
-    let p_2_3 = 1.0696743_f32 * mu_v3 + 2.0250225_f32 * mu_b1 + 1.7978066_f32 * mu_b2 + 0.2359262_f32 * mu_u3;
-    let p_2 = p_2_0 * r_v3 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_u3;
-    let p_3_0 = 0.035039697_f32 * mu_v3 + 1.0362384e-5_f32 * mu_b1 + 0.44392383_f32 * mu_b2 + 0.27677572_f32 * mu_u3;
-    let p_3_1 = -0.15842508_f32 * mu_v3 - 0.9585955_f32 * mu_b1 - 0.06466814_f32 * mu_b2 + 0.12896998_f32 * mu_u3;
-    let p_3_2 = 0.92897683_f32 * mu_v3 + 2.0691967_f32 * mu_b1 + 2.4588919_f32 * mu_b2 + 0.71213955_f32 * mu_u3;
-    let p_3_3 = 0.35451284_f32 * mu_v3 + 0.72401637_f32 * mu_b1 + 0.6636975_f32 * mu_b2 + 0.09201654_f32 * mu_u3;
-    let p_3 = p_3_0 * r_v3 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_u3;
-    let p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 0.9117208_f32 * mu_v3 + 1.5952348_f32 * mu_b1 + 1.2407738_f32 * mu_b2 + 0.36717296_f32 * mu_u3;
-    let q_0_1 = 0.8216811_f32 * mu_v3 - 0.060641397_f32 * mu_b1 - 0.6057614_f32 * mu_b2 - 0.29369962_f32 * mu_u3;
-    let q_0_2 = 0.62537116_f32 * mu_v3 + 0.23555581_f32 * mu_b1 + 0.19972701_f32 * mu_b2 + 0.01928168_f32 * mu_u3;
-    let q_0_3 = 0.2882356_f32 * mu_v3 + 0.60990596_f32 * mu_b1 + 0.7647362_f32 * mu_b2 + 0.25297892_f32 * mu_u3;
-    let q_0 = q_0_0 * r_v3 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_u3;
-    let q_1_0 = 2.344009_f32 * mu_v3 + 4.1965346_f32 * mu_b1 + 3.476677_f32 * mu_b2 + 1.0538905_f32 * mu_u3;
-    let q_1_1 = 2.6617792_f32 * mu_v3 + 1.1670343_f32 * mu_b1 - 0.4318734_f32 * mu_b2 - 0.64791054_f32 * mu_u3;
-    let q_1_2 = 2.9498513_f32 * mu_v3 + 3.6925077_f32 * mu_b1 + 2.6273506_f32 * mu_b2 + 0.17391191_f32 * mu_u3;
-    let q_1_3 = 1.350555_f32 * mu_v3 + 2.8774302_f32 * mu_b1 + 2.691323_f32 * mu_b2 + 0.5941869_f32 * mu_u3;
-    let q_1 = q_1_0 * r_v3 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_u3;
-    let q_2_0 = 1.6162349_f32 * mu_v3 + 3.042377_f32 * mu_b1 + 3.1109173_f32 * mu_b2 + 1.1145147_f32 * mu_u3;
-    let q_2_1 = 2.144971_f32 * mu_v3 + 1.709979_f32 * mu_b1 + 1.482143_f32 * mu_b2 + 0.20635277_f32 * mu_u3;
-    let q_2_2 = 3.6063616_f32 * mu_v3 + 6.761286_f32 * mu_b1 + 6.073077_f32 * mu_b2 + 1.2073709_f32 * mu_u3;
-    let q_2_3 = 1.7960997_f32 * mu_v3 + 4.2491055_f32 * mu_b1 + 3.8572736_f32 * mu_b2 + 0.8340068_f32 * mu_u3;
-    let q_2 = q_2_0 * r_v3 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_u3;
-    let q_3_0 = 0.035507403_f32 * mu_v3 - 0.0042412244_f32 * mu_b1 + 0.42969605_f32 * mu_b2 + 0.2793578_f32 * mu_u3;
-    let q_3_1 = -0.14044538_f32 * mu_v3 - 0.853651_f32 * mu_b1 - 0.027699385_f32 * mu_b2 + 0.11524554_f32 * mu_u3;
-    let q_3_2 = 0.8365635_f32 * mu_v3 + 1.9683795_f32 * mu_b1 + 2.3094993_f32 * mu_b2 + 0.60742253_f32 * mu_u3;
-    let q_3_3 = 0.585341_f32 * mu_v3 + 1.5362632_f32 * mu_b1 + 1.4853686_f32 * mu_b2 + 0.3443594_f32 * mu_u3;
-    let q_3 = q_3_0 * r_v3 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_u3;
-    let q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // numerator P, grouped by powers of the first variable
+    let p_0 = ((-0.9082558_f32 * r_t + (-0.4102288_f32 * mu_t + 2.1640706_f32)) * r_t + ((-0.9980572_f32 * mu_t + 1.9571112_f32) * mu_t - 2.0662296_f32)) * r_t + (((-0.9543694_f32 * mu_t + 2.2681005_f32) * mu_t - 1.8921716_f32) * mu_t + 0.9018463_f32);
+    let p_1 = (9.709168_f32 * r_t + (9.71325_f32 * mu_t - 26.165136_f32)) * r_t + ((3.9712563_f32 * mu_t - 20.578035_f32) * mu_t + 25.443415_f32);
+    let p_2 = -11.682238_f32 * r_t + (-11.390259_f32 * mu_t + 23.72756_f32);
+    let p_3 = 2.443441_f32;
+    let p = ((p_3 * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    let q_0 = ((-0.9288136_f32 * r_t + (-0.13856511_f32 * mu_t + 1.916031_f32)) * r_t + ((-0.5691788_f32 * mu_t + 0.670931_f32) * mu_t - 1.2179649_f32)) * r_t + (((-1.1371261_f32 * mu_t + 2.5914514_f32) * mu_t - 2.1304142_f32) * mu_t + 1.0_f32);
+    let q_1 = (11.884692_f32 * r_t + (12.170362_f32 * mu_t - 25.397198_f32)) * r_t + ((-0.39526197_f32 * mu_t - 17.735771_f32) * mu_t + 26.753828_f32);
+    let q_2 = -6.9686723_f32 * r_t + (-15.001665_f32 * mu_t + 25.934849_f32);
+    let q_3 = 6.2445483_f32;
+    let q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

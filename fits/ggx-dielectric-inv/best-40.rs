@@ -7,17 +7,17 @@
 /// ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 /// Fit: polynomial of degree 4, 35 coefficients (35 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 e224ee9a09264431a5e19de08bedc8b6064ce44486ce8c24ce0591c8c54f4874.
+/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 d61ab03d5b868ce99c6c41c401d540d616d6e9e6647b1ad0fdb360580591f11b.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = sqrt(f0), [0.0125, 0.25]
-///   r: t = r, [0, 1]
-///   mu: t = sqrt(mu), [0, 1]
+///   r: t = square(r), [0, 1]
+///   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 7.0e-7 (bound 1.7e-5), shifted 4.1e-7 (bound 2.7e-6), bernstein 4.8e-7 (bound 1.2e-5).
-/// Error of the f64 fit on its 262144 data points: MAE 1.65e-2, max 5.27e-2 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 1.65e-2 + 7.0e-7, max ≤ 5.27e-2 + 7.0e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 35937 grid points: max 7.0e-7 (every op rounded, as this Rust), 5.5e-7 (fused multiply–add), 5.8e-7 (GPU ÷/sqrt error); first-order bound 1.7e-5.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.0e-2 on the grid.
+///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 7.4e-7 (bound 2.0e-5), shifted 2.2e-7 (bound 2.7e-6), bernstein 3.8e-7 (bound 1.4e-5).
+/// Error of the f64 fit on its 262144 data points: MAE 1.14e-2, max 3.67e-2 (recorded by the fitter).
+/// Error of this f32 code on the same data: MAE ≤ 1.14e-2 + 7.4e-7, max ≤ 3.67e-2 + 7.4e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 35937 grid points: max 6.8e-7 (every op rounded, as this Rust), 7.4e-7 (fused multiply–add), 7.4e-7 (GPU ÷/sqrt error); first-order bound 2.0e-5.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.8e-2 on the grid.
 /// Polynomial: no division.
 #[inline]
 #[rustfmt::skip]
@@ -28,15 +28,17 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(f0)
     let f0_t = f0_c.sqrt();
     let r_c = r.min(1.0_f32).max(0.0_f32);
+    // t = square(r)
+    let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = sqrt(mu)
-    let mu_t = mu_c.sqrt();
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = (((1.0543799_f32 * r_c + (0.67913586_f32 * mu_t - 1.6834141_f32)) * r_c + ((-2.0290487_f32 * mu_t + 1.037538_f32) * mu_t + 0.22602452_f32)) * r_c + (((0.18278842_f32 * mu_t + 2.0834131_f32) * mu_t - 0.8714224_f32) * mu_t - 0.6937264_f32)) * r_c + ((((1.2456874_f32 * mu_t - 3.0025089_f32) * mu_t + 2.206794_f32) * mu_t - 0.46618706_f32) * mu_t + 1.0275998_f32);
-    let p_1 = ((-2.0486348_f32 * r_c + (-2.2687256_f32 * mu_t + 3.1935077_f32)) * r_c + ((-0.70558035_f32 * mu_t - 4.741843_f32) * mu_t + 3.394014_f32)) * r_c + (((0.6701681_f32 * mu_t - 1.8106835_f32) * mu_t + 0.4003946_f32) * mu_t + 0.08972222_f32);
-    let p_2 = (1.1607174_f32 * r_c + (8.63909_f32 * mu_t - 6.5932903_f32)) * r_c + ((1.6498716_f32 * mu_t + 2.9256542_f32) * mu_t - 2.281482_f32);
-    let p_3 = 0.6553288_f32 * r_c + (-6.2282805_f32 * mu_t + 5.7493057_f32);
-    let p_4 = -3.3288014_f32;
+    let p_0 = (((-0.19551176_f32 * r_t + (0.625508_f32 * mu_t - 0.19513081_f32)) * r_t + ((-0.85429054_f32 * mu_t - 0.73033315_f32) * mu_t + 1.4449047_f32)) * r_t + (((-0.780244_f32 * mu_t + 1.6107342_f32) * mu_t + 0.9424348_f32) * mu_t - 1.9281497_f32)) * r_t + ((((-0.1941467_f32 * mu_t + 0.9084751_f32) * mu_t - 0.49691704_f32) * mu_t - 0.03615472_f32) * mu_t + 0.85086095_f32);
+    let p_1 = ((1.3715318_f32 * r_t + (1.3915598_f32 * mu_t - 5.3523393_f32)) * r_t + ((0.4720877_f32 * mu_t - 7.75065_f32) * mu_t + 6.1049967_f32)) * r_t + (((-0.34625354_f32 * mu_t - 0.65149957_f32) * mu_t - 1.249527_f32) * mu_t + 2.386147_f32);
+    let p_2 = (2.5613027_f32 * r_t + (5.9379864_f32 * mu_t - 1.95218_f32)) * r_t + ((1.4495512_f32 * mu_t + 6.698104_f32) * mu_t - 10.472088_f32);
+    let p_3 = -3.4224901_f32 * r_t + (-8.480505_f32 * mu_t + 16.410164_f32);
+    let p_4 = -7.9601097_f32;
     let p = (((p_4 * f0_t + p_3) * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     let e = p;
     e.min(1.0_f32).max(0.0_f32)

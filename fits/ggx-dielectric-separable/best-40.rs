@@ -7,38 +7,44 @@
 /// ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 /// Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 /// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 c659b544dea29ac1297952a47f0590d7584c25a248b3fe444049fb22ac3655c3.
+/// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 1d6a8a1ee17ad657da7a25dea3ca1b01b3e0cc64264c509c973b053a747a6c7d.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
-///   f0: t = f0, [0.0125, 0.25]
-///   r: t = r, [0, 1]
-///   mu: t = mu, [0, 1]
+///   f0: t = sqrt(f0), [0.0125, 0.25]
+///   r: t = square(r), [0, 1]
+///   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 1.6e-6 (bound 1.2e-5), shifted 9.3e-6 (bound 1.4e-4), bernstein 3.7e-7 (bound 4.4e-6).
-/// Error of the f64 fit on its 262144 data points: MAE 9.60e-3, max 5.00e-2 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 9.60e-3 + 1.6e-6, max ≤ 5.00e-2 + 1.6e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 35937 grid points: max 1.6e-6 (every op rounded, as this Rust), 1.3e-6 (fused multiply–add), 1.4e-6 (GPU ÷/sqrt error); first-order bound 1.2e-5.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.0e-2 on the grid.
-/// Denominator proved ≥ 1.157e0 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 5.6e-7 (bound 1.4e-5), shifted 4.0e-7 (bound 9.6e-6), bernstein 4.2e-7 (bound 1.7e-5).
+/// Error of the f64 fit on its 262144 data points: MAE 3.73e-3, max 1.88e-2 (recorded by the fitter).
+/// Error of this f32 code on the same data: MAE ≤ 3.73e-3 + 5.6e-7, max ≤ 1.88e-2 + 5.6e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 35937 grid points: max 4.3e-7 (every op rounded, as this Rust), 4.8e-7 (fused multiply–add), 5.6e-7 (GPU ÷/sqrt error); first-order bound 1.4e-5.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.8e-3 on the grid.
+/// Denominator proved ≥ 9.389e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables)]
 pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
+    // t = sqrt(f0)
+    let f0_t = f0_c.sqrt();
     let r_c = r.min(1.0_f32).max(0.0_f32);
+    // t = square(r)
+    let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((11.548237_f32 * r_c + (370.81894_f32 * mu_c - 21.860018_f32)) * r_c + ((-341.3241_f32 * mu_c - 557.1315_f32) * mu_c + 12.841658_f32)) * r_c + (((55.54945_f32 * mu_c + 335.55228_f32) * mu_c + 235.75595_f32) * mu_c + 1.0512933_f32);
-    let p_1 = (-195.69836_f32 * r_c + (-119.202545_f32 * mu_c + 346.24637_f32)) * r_c + ((-80.75792_f32 * mu_c - 6.239276_f32) * mu_c + 14.056715_f32);
-    let p_2 = -868.1933_f32 * r_c + (-105.787224_f32 * mu_c - 224.97227_f32);
-    let p_3 = 2850.752_f32;
-    let p = ((p_3 * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
+    let p_0 = ((-1.3488779_f32 * r_t + (2.189329_f32 * mu_t + 2.679534_f32)) * r_t + ((-5.253387_f32 * mu_t + 2.818431_f32) * mu_t - 2.133085_f32)) * r_t + (((1.8075753_f32 * mu_t + 1.8263079_f32) * mu_t - 1.3508565_f32) * mu_t + 0.9668901_f32);
+    let p_1 = (-1.7412539_f32 * r_t + (-7.809456_f32 * mu_t + 6.0236077_f32)) * r_t + ((5.368668_f32 * mu_t - 4.841965_f32) * mu_t + 3.4465847_f32);
+    let p_2 = -0.6913966_f32 * r_t + (3.8961468_f32 * mu_t - 7.5799413_f32);
+    let p_3 = 6.7124_f32;
+    let p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((49.084137_f32 * r_c + (328.2598_f32 * mu_c - 45.1227_f32)) * r_c + ((-313.17215_f32 * mu_c - 522.83673_f32) * mu_c + 17.788994_f32)) * r_c + (((43.57336_f32 * mu_c + 316.35986_f32) * mu_c + 235.25096_f32) * mu_c + 1.0_f32);
-    let q_1 = (-240.61165_f32 * r_c + (-141.42503_f32 * mu_c + 378.1466_f32)) * r_c + ((66.727486_f32 * mu_c - 0.27322897_f32) * mu_c + 15.253953_f32);
-    let q_2 = -781.2096_f32 * r_c + (-406.9597_f32 * mu_c - 254.03046_f32);
-    let q_3 = 3036.1182_f32;
-    let q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
+    let q_0 = ((-1.4852049_f32 * r_t + (-0.96429425_f32 * mu_t + 5.946758_f32)) * r_t + ((-2.9050393_f32 * mu_t + 0.15316875_f32) * mu_t - 1.7129127_f32)) * r_t + (((1.0446426_f32 * mu_t + 2.5618103_f32) * mu_t - 1.4037514_f32) * mu_t + 1.0_f32);
+    let q_1 = (-1.0225871_f32 * r_t + (-4.8239546_f32 * mu_t + 2.7981691_f32)) * r_t + ((5.053328_f32 * mu_t - 4.769168_f32) * mu_t + 3.9260905_f32);
+    let q_2 = 1.5732249_f32 * r_t + (4.0140815_f32 * mu_t - 8.569715_f32);
+    let q_3 = 7.5271773_f32;
+    let q = ((q_3 * f0_t + q_2) * f0_t + q_1) * f0_t + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

@@ -7,35 +7,41 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 // Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 c659b544dea29ac1297952a47f0590d7584c25a248b3fe444049fb22ac3655c3.
+// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 1d6a8a1ee17ad657da7a25dea3ca1b01b3e0cc64264c509c973b053a747a6c7d.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
-//   f0: t = f0, [0.0125, 0.25]
-//   r: t = r, [0, 1]
-//   mu: t = mu, [0, 1]
+//   f0: t = sqrt(f0), [0.0125, 0.25]
+//   r: t = square(r), [0, 1]
+//   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 1.6e-6 (bound 1.2e-5), shifted 9.3e-6 (bound 1.4e-4), bernstein 3.7e-7 (bound 4.4e-6).
-// Error of the f64 fit on its 262144 data points: MAE 9.60e-3, max 5.00e-2 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 9.60e-3 + 1.6e-6, max ≤ 5.00e-2 + 1.6e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 35937 grid points: max 1.6e-6 (every op rounded, as this Rust), 1.3e-6 (fused multiply–add), 1.4e-6 (GPU ÷/sqrt error); first-order bound 1.2e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.0e-2 on the grid.
-// Denominator proved ≥ 1.157e0 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 5.6e-7 (bound 1.4e-5), shifted 4.0e-7 (bound 9.6e-6), bernstein 4.2e-7 (bound 1.7e-5).
+// Error of the f64 fit on its 262144 data points: MAE 3.73e-3, max 1.88e-2 (recorded by the fitter).
+// Error of this f32 code on the same data: MAE ≤ 3.73e-3 + 5.6e-7, max ≤ 1.88e-2 + 5.6e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 35937 grid points: max 4.3e-7 (every op rounded, as this Rust), 4.8e-7 (fused multiply–add), 5.6e-7 (GPU ÷/sqrt error); first-order bound 1.4e-5.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.8e-3 on the grid.
+// Denominator proved ≥ 9.389e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
+    // t = sqrt(f0)
+    let f0_t = sqrt(f0_c);
     let r_c = max(min(r, 1.0), 0.0);
+    // t = square(r)
+    let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    let mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((11.548237 * r_c + (370.81894 * mu_c - 21.860018)) * r_c + ((-341.3241 * mu_c - 557.1315) * mu_c + 12.841658)) * r_c + (((55.54945 * mu_c + 335.55228) * mu_c + 235.75595) * mu_c + 1.0512933);
-    let p_1 = (-195.69836 * r_c + (-119.202545 * mu_c + 346.24637)) * r_c + ((-80.75792 * mu_c - 6.239276) * mu_c + 14.056715);
-    let p_2 = -868.1933 * r_c + (-105.787224 * mu_c - 224.97227);
-    let p_3 = 2850.752;
-    let p = ((p_3 * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
+    let p_0 = ((-1.3488779 * r_t + (2.189329 * mu_t + 2.679534)) * r_t + ((-5.253387 * mu_t + 2.818431) * mu_t - 2.133085)) * r_t + (((1.8075753 * mu_t + 1.8263079) * mu_t - 1.3508565) * mu_t + 0.9668901);
+    let p_1 = (-1.7412539 * r_t + (-7.809456 * mu_t + 6.0236077)) * r_t + ((5.368668 * mu_t - 4.841965) * mu_t + 3.4465847);
+    let p_2 = -0.6913966 * r_t + (3.8961468 * mu_t - 7.5799413);
+    let p_3 = 6.7124;
+    let p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((49.084137 * r_c + (328.2598 * mu_c - 45.1227)) * r_c + ((-313.17215 * mu_c - 522.83673) * mu_c + 17.788994)) * r_c + (((43.57336 * mu_c + 316.35986) * mu_c + 235.25096) * mu_c + 1.0);
-    let q_1 = (-240.61165 * r_c + (-141.42503 * mu_c + 378.1466)) * r_c + ((66.727486 * mu_c - 0.27322897) * mu_c + 15.253953);
-    let q_2 = -781.2096 * r_c + (-406.9597 * mu_c - 254.03046);
-    let q_3 = 3036.1182;
-    let q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
+    let q_0 = ((-1.4852049 * r_t + (-0.96429425 * mu_t + 5.946758)) * r_t + ((-2.9050393 * mu_t + 0.15316875) * mu_t - 1.7129127)) * r_t + (((1.0446426 * mu_t + 2.5618103) * mu_t - 1.4037514) * mu_t + 1.0);
+    let q_1 = (-1.0225871 * r_t + (-4.8239546 * mu_t + 2.7981691)) * r_t + ((5.053328 * mu_t - 4.769168) * mu_t + 3.9260905);
+    let q_2 = 1.5732249 * r_t + (4.0140815 * mu_t - 8.569715);
+    let q_3 = 7.5271773;
+    let q = ((q_3 * f0_t + q_2) * f0_t + q_1) * f0_t + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);
 }

@@ -6,19 +6,19 @@
 
 /// ggx_dielectric_albedo(f0, r, mu): directional albedo E of ggx-dielectric.
 /// Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; height-correlated Smith G2.
-/// Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-/// Source: fits/ggx-dielectric/best-20.json (furnace 0.1.0), fit SHA-256 6770d5ce48caf5a763cd0b95ff1702b2f07da063f45bb07b89b8e835d0c21282.
+/// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+/// Source: fits/ggx-dielectric/best-20.json (furnace 0.1.0), fit SHA-256 4311d7d72c5cd24b3ff48fa0e7ae6ef991615e8d15d4d310e04ff349074489da.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = sqrt(f0), [0.0125, 0.25]
-///   r: t = r, [0, 1]
-///   mu: t = sqrt(mu), [0, 1]
-/// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 2.9e-7 (bound 2.4e-6), shifted 2.9e-7 (bound 1.2e-6), bernstein 3.6e-7 (bound 9.2e-6).
-/// Error of the f64 fit on its 262144 data points: MAE 1.55e-2, max 5.34e-2 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 1.55e-2 + 2.9e-7, max ≤ 5.34e-2 + 2.9e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 35937 grid points: max 2.0e-7 (every op rounded, as this Rust), 1.5e-7 (fused multiply–add), 2.9e-7 (GPU ÷/sqrt error); first-order bound 2.4e-6.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.9e-2 on the grid.
-/// Polynomial: no division.
+///   r: t = square(r), [0, 1]
+///   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
+/// Evaluation: nested Horner in the shifted variables s = (t − c)/h ∈ [−1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 35937 grid points: monomial 2.9e-6 (bound 2.8e-5), shifted 7.3e-7 (bound 2.1e-5), bernstein 4.8e-7 (bound 1.6e-5).
+/// Error of the f64 fit on its 262144 data points: MAE 1.06e-2, max 3.24e-2 (recorded by the fitter).
+/// Error of this f32 code on the same data: MAE ≤ 1.06e-2 + 7.3e-7, max ≤ 3.24e-2 + 7.3e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 35937 grid points: max 4.8e-7 (every op rounded, as this Rust), 4.3e-7 (fused multiply–add), 7.3e-7 (GPU ÷/sqrt error); first-order bound 2.1e-5.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.0e-2 on the grid.
+/// Denominator proved ≥ 5.224e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables)]
@@ -28,16 +28,28 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(f0)
     let f0_t = f0_c.sqrt();
     let r_c = r.min(1.0_f32).max(0.0_f32);
+    // t = square(r)
+    let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = sqrt(mu)
-    let mu_t = mu_c.sqrt();
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // s = (t − 0.30590169943749473)/0.19409830056250527 ∈ [−1, 1]
+    let f0_s = f0_t * 5.1520286_f32 - 1.5760143_f32;
+    // s = (t − 0.5)/0.5 ∈ [−1, 1]
+    let r_s = r_t * 2.0_f32 - 1.0_f32;
+    // s = (t − 0.5)/0.5 ∈ [−1, 1]
+    let mu_s = mu_t * 2.0_f32 - 1.0_f32;
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((-0.33656323_f32 * r_c + (-0.31435493_f32 * mu_t + 0.5105697_f32)) * r_c + ((0.953294_f32 * mu_t - 0.6539012_f32) * mu_t - 0.273309_f32)) * r_c + (((-0.548777_f32 * mu_t + 0.8123949_f32) * mu_t - 0.2511146_f32) * mu_t + 1.0059927_f32);
-    let p_1 = (-0.020120803_f32 * r_c + (-0.5036225_f32 * mu_t + 0.673033_f32)) * r_c + ((-0.37310305_f32 * mu_t + 0.36075288_f32) * mu_t - 0.0822877_f32);
-    let p_2 = -0.6955963_f32 * r_c + (-0.04186154_f32 * mu_t - 0.13031797_f32);
-    let p_3 = 0.3239146_f32;
-    let p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
-    let e = p;
+    let p_0 = (0.26071212_f32 * r_s + (0.017070316_f32 * mu_s - 0.5286526_f32)) * r_s + ((-0.07297355_f32 * mu_s + 0.091298_f32) * mu_s + 0.6639843_f32);
+    let p_1 = -0.01784861_f32 * r_s + (-0.12790419_f32 * mu_s + 0.025057027_f32);
+    let p_2 = -0.026455497_f32;
+    let p = (p_2 * f0_s + p_1) * f0_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    let q_0 = (0.26680285_f32 * r_s + (0.041379433_f32 * mu_s - 0.5042669_f32)) * r_s + ((-0.18896255_f32 * mu_s + 0.104909234_f32) * mu_s + 0.79125834_f32);
+    let q_1 = -0.0070908624_f32 * r_s + (-0.113647744_f32 * mu_s + 0.03177382_f32);
+    let q_2 = -0.027970606_f32;
+    let q = (q_2 * f0_s + q_1) * f0_s + q_0;
+    let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }
 

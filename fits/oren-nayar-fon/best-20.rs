@@ -7,15 +7,15 @@
 /// oren_nayar_fon_albedo(r, mu): directional albedo E of oren-nayar-fon.
 /// Model: Fujii's Oren–Nayar (FON), white albedo (EON paper, eqs. 10–11).
 /// Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/oren-nayar-fon/best-20.json (furnace 0.1.0), fit SHA-256 2e67f935fd91b200fe6f00edaad3b8b805bd957fb2afc738ed63bbf594cffaea.
+/// Source: fits/oren-nayar-fon/best-20.json (furnace 0.1.0), fit SHA-256 784bf241d085bd3735d8e0efeb2164b47509d67668499a17b43e4b1ce10e8500.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   r: t = r, [0, 1]
 ///   mu: t = mu, [0, 1]
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 16641 grid points: monomial 1.9e-6 (bound 6.9e-6), shifted 6.3e-7 (bound 6.1e-6), bernstein 4.0e-7 (bound 2.5e-6).
+///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 16641 grid points: monomial 1.2e-6 (bound 6.9e-6), shifted 5.0e-7 (bound 6.4e-6), bernstein 3.7e-7 (bound 2.5e-6).
 /// Error of the f64 fit on its 1048576 data points: MAE 2.58e-5, max 4.98e-5 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 2.58e-5 + 1.9e-6, max ≤ 4.98e-5 + 1.9e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 16641 grid points: max 1.9e-6 (every op rounded, as this Rust), 1.4e-6 (fused multiply–add), 1.4e-6 (GPU ÷/sqrt error); first-order bound 6.9e-6.
+/// Error of this f32 code on the same data: MAE ≤ 2.58e-5 + 1.2e-6, max ≤ 4.98e-5 + 1.2e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 16641 grid points: max 1.2e-6 (every op rounded, as this Rust), 1.2e-6 (fused multiply–add), 1.2e-6 (GPU ÷/sqrt error); first-order bound 6.9e-6.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-5 on the grid.
 /// Denominator proved ≥ 7.998e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
@@ -26,16 +26,16 @@ pub fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     let r_c = r.min(1.0_f32).max(0.0_f32);
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((-0.45607945_f32 * mu_c + 0.8825453_f32) * mu_c - 1.3464278_f32) * mu_c + 0.99995035_f32;
-    let p_1 = (0.39175218_f32 * mu_c - 0.66194594_f32) * mu_c + 0.39983895_f32;
-    let p_2 = -0.021186477_f32 * mu_c + 0.01853561_f32;
-    let p_3 = 0.00031484928_f32;
+    let p_0 = ((-0.4560795_f32 * mu_c + 0.8825451_f32) * mu_c - 1.3464277_f32) * mu_c + 0.99995035_f32;
+    let p_1 = (0.39175293_f32 * mu_c - 0.661947_f32) * mu_c + 0.39983997_f32;
+    let p_2 = -0.021186478_f32 * mu_c + 0.018535588_f32;
+    let p_3 = 0.00031484483_f32;
     let p = ((p_3 * r_c + p_2) * r_c + p_1) * r_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((-0.45669937_f32 * mu_c + 0.88364756_f32) * mu_c - 1.3469635_f32) * mu_c + 1.0_f32;
-    let q_1 = (0.096469805_f32 * mu_c - 0.3434781_f32) * mu_c + 0.39973748_f32;
-    let q_2 = 0.015426284_f32 * mu_c + 0.018954525_f32;
-    let q_3 = -0.00012134232_f32;
+    let q_0 = ((-0.45669943_f32 * mu_c + 0.8836473_f32) * mu_c - 1.3469635_f32) * mu_c + 1.0_f32;
+    let q_1 = (0.09647043_f32 * mu_c - 0.34347913_f32) * mu_c + 0.39973846_f32;
+    let q_2 = 0.01542646_f32 * mu_c + 0.01895452_f32;
+    let q_3 = -0.000121356716_f32;
     let q = ((q_3 * r_c + q_2) * r_c + q_1) * r_c + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -7,15 +7,15 @@
 // oren_nayar_fon_albedo(r, mu): directional albedo E of oren-nayar-fon.
 // Model: Fujii's Oren–Nayar (FON), white albedo (EON paper, eqs. 10–11).
 // Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 cf4ffa379698f84828fc3bdb183e3207188abf5f55ea435a783da068416f0603.
+// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 3be4df0da76d08b85d6ac9c28d5caaaa3f250625ab3440de1362babc97902f22.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   r: t = r, [0, 1]
 //   mu: t = sqrt(mu), [0, 1]
 // Evaluation: nested Horner in the shifted variables s = (t − c)/h ∈ [−1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 2.8e-6 (bound 6.2e-5), shifted 6.7e-7 (bound 2.3e-5), bernstein 3.8e-7 (bound 2.1e-5).
+//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 2.6e-6 (bound 6.3e-5), shifted 6.0e-7 (bound 2.3e-5), bernstein 4.2e-7 (bound 2.1e-5).
 // Error of the f64 fit on its 1048576 data points: MAE 1.68e-5, max 4.75e-5 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 1.68e-5 + 6.7e-7, max ≤ 4.75e-5 + 6.7e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 16641 grid points: max 6.4e-7 (every op rounded, as this Rust), 4.4e-7 (fused multiply–add), 6.7e-7 (GPU ÷/sqrt error); first-order bound 2.3e-5.
+// Error of this f32 code on the same data: MAE ≤ 1.68e-5 + 6.0e-7, max ≤ 4.75e-5 + 6.0e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 16641 grid points: max 5.0e-7 (every op rounded, as this Rust), 4.2e-7 (fused multiply–add), 6.0e-7 (GPU ÷/sqrt error); first-order bound 2.3e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.2e-5 on the grid.
 // Denominator proved ≥ 1.068e-1 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
@@ -29,18 +29,18 @@ fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     // s = (t − 0.5)/0.5 ∈ [−1, 1]
     let mu_s = mu_t * 2.0 - 1.0;
     // numerator P, grouped by powers of the first variable
-    let p_0 = (((-0.08012553 * mu_s + 0.09819728) * mu_s + 0.08585919) * mu_s - 0.6429201) * mu_s + 0.6527369;
-    let p_1 = ((0.011402656 * mu_s + 0.041543223) * mu_s - 0.114461616) * mu_s + 0.069614835;
-    let p_2 = (0.002508505 * mu_s - 0.0049711107) * mu_s + 0.0036032388;
-    let p_3 = -5.6474877e-5 * mu_s + 2.0819049e-5;
-    let p_4 = 9.9349545e-6;
+    let p_0 = (((-0.08012553 * mu_s + 0.09819729) * mu_s + 0.08585919) * mu_s - 0.6429201) * mu_s + 0.6527369;
+    let p_1 = ((0.011402657 * mu_s + 0.041543227) * mu_s - 0.11446162) * mu_s + 0.06961484;
+    let p_2 = (0.0025085032 * mu_s - 0.004971108) * mu_s + 0.0036032367;
+    let p_3 = -5.6474746e-5 * mu_s + 2.0818803e-5;
+    let p_4 = 9.934972e-6;
     let p = (((p_4 * r_s + p_3) * r_s + p_2) * r_s + p_1) * r_s + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (((-0.08000349 * mu_s + 0.07641895) * mu_s + 0.06852917) * mu_s - 0.61297363) * mu_s + 0.67814755;
-    let q_1 = ((-0.010335776 * mu_s + 0.024517113) * mu_s - 0.083960935) * mu_s + 0.095414445;
-    let q_2 = (0.0026768965 * mu_s - 0.0043023485) * mu_s + 0.0040969746;
-    let q_3 = 2.0480642e-5 * mu_s + 0.00010396604;
-    let q_4 = 7.5735147e-6;
+    let q_0 = (((-0.08000349 * mu_s + 0.07641896) * mu_s + 0.06852917) * mu_s - 0.6129737) * mu_s + 0.6781476;
+    let q_1 = ((-0.010335776 * mu_s + 0.024517117) * mu_s - 0.08396094) * mu_s + 0.095414445;
+    let q_2 = (0.0026768947 * mu_s - 0.004302345) * mu_s + 0.0040969728;
+    let q_3 = 2.048068e-5 * mu_s + 0.000103965715;
+    let q_4 = 7.5735225e-6;
     let q = (((q_4 * r_s + q_3) * r_s + q_2) * r_s + q_1) * r_s + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -7,7 +7,7 @@
 // oren_nayar_qon_albedo(r, mu): directional albedo E of oren-nayar-qon.
 // Model: qualitative Oren–Nayar (QON), white albedo, σ = (π/2)·r (EON paper, eqs. 1–4).
 // Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 827edfa451c47255a7f5c04a8523df758d32b597d5f57fb9bb2a9a78761972fd.
+// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 ba7932e5e823987361ff2e83baca179f582df4fd4983011d094b5c5df1b8121f.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   r: t = r, [0, 1]
 //   mu: t = mu, [0, 1]

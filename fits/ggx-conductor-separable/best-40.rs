@@ -7,17 +7,17 @@
 /// ggx_conductor_separable_albedo(r, mu): directional albedo E of ggx-conductor-separable.
 /// Model: GGX white conductor (F = 1), E(r, μ); separable Smith G1·G1 (the paper's renderer).
 /// Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 40542a7ac7964679a79db29480e0328d201302f666bf212cb185df5b8de21f74.
+/// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 0a0bb6ea77a2eb8b81a5db19f2e3594b25f24b5b46cbfcbe4e5ca73ee054bf92.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   r: t = square(r), [0, 1]
 ///   mu: t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100), [0, 1]
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 5.6e-6 (bound 1.2e-4), shifted 3.3e-6 (bound 9.8e-5), bernstein 4.6e-7 (bound 1.5e-5).
-/// Error of the f64 fit on its 1048576 data points: MAE 1.89e-4, max 4.28e-4 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 1.89e-4 + 4.6e-7, max ≤ 4.28e-4 + 4.6e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 16641 grid points: max 3.9e-7 (every op rounded, as this Rust), 3.9e-7 (fused multiply–add), 4.6e-7 (GPU ÷/sqrt error); first-order bound 1.5e-5.
+///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 7.3e-6 (bound 1.2e-4), shifted 2.6e-6 (bound 9.9e-5), bernstein 4.6e-7 (bound 1.5e-5).
+/// Error of the f64 fit on its 1048576 data points: MAE 1.88e-4, max 4.30e-4 (recorded by the fitter).
+/// Error of this f32 code on the same data: MAE ≤ 1.88e-4 + 4.6e-7, max ≤ 4.30e-4 + 4.6e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 16641 grid points: max 3.5e-7 (every op rounded, as this Rust), 3.6e-7 (fused multiply–add), 4.6e-7 (GPU ÷/sqrt error); first-order bound 1.5e-5.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-4 on the grid.
-/// Denominator proved ≥ 4.862e-2 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved ≥ 4.855e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables)]
@@ -54,18 +54,18 @@ pub fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     let mu_b2 = mu_u2 * mu_v2;
     let mu_b3 = mu_u3 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.93633884_f32 * mu_v4 + 1.334326_f32 * mu_b1 + 0.7170776_f32 * mu_b2 - 0.027987726_f32 * mu_b3 + 0.06458042_f32 * mu_u4;
-    let p_1 = 5.235865_f32 * mu_v4 + 8.136103_f32 * mu_b1 + 5.0662255_f32 * mu_b2 + 0.7088167_f32 * mu_b3 + 0.18946333_f32 * mu_u4;
-    let p_2 = 10.738199_f32 * mu_v4 + 17.94892_f32 * mu_b1 + 12.242615_f32 * mu_b2 + 2.9420323_f32 * mu_b3 + 0.38008904_f32 * mu_u4;
-    let p_3 = 9.306824_f32 * mu_v4 + 16.095787_f32 * mu_b1 + 11.20573_f32 * mu_b2 + 3.1111991_f32 * mu_b3 + 0.34106648_f32 * mu_u4;
-    let p_4 = 2.8974624_f32 * mu_v4 + 5.0658903_f32 * mu_b1 + 3.4881315_f32 * mu_b2 + 1.0232168_f32 * mu_b3 + 0.11517176_f32 * mu_u4;
+    let p_0 = 0.936345_f32 * mu_v4 + 1.3326725_f32 * mu_b1 + 0.7161074_f32 * mu_b2 - 0.027884964_f32 * mu_b3 + 0.06447472_f32 * mu_u4;
+    let p_1 = 5.2332883_f32 * mu_v4 + 8.1244_f32 * mu_b1 + 5.0583973_f32 * mu_b2 + 0.7080096_f32 * mu_b3 + 0.18928297_f32 * mu_u4;
+    let p_2 = 10.729443_f32 * mu_v4 + 17.921099_f32 * mu_b1 + 12.222008_f32 * mu_b2 + 2.9370515_f32 * mu_b3 + 0.37953803_f32 * mu_u4;
+    let p_3 = 9.297377_f32 * mu_v4 + 16.069986_f32 * mu_b1 + 11.186294_f32 * mu_b2 + 3.1056201_f32 * mu_b3 + 0.34049544_f32 * mu_u4;
+    let p_4 = 2.8940675_f32 * mu_v4 + 5.0573754_f32 * mu_b1 + 3.481714_f32 * mu_b2 + 1.021222_f32 * mu_b3 + 0.11495537_f32 * mu_u4;
     let p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v4 + 1.4665899_f32 * mu_b1 + 0.8794562_f32 * mu_b2 - 0.028156843_f32 * mu_b3 + 0.06456342_f32 * mu_u4;
-    let q_1 = 5.6026044_f32 * mu_v4 + 8.875952_f32 * mu_b1 + 5.9800158_f32 * mu_b2 + 0.8733797_f32 * mu_b3 + 0.18905711_f32 * mu_u4;
-    let q_2 = 12.240825_f32 * mu_v4 + 20.965393_f32 * mu_b1 + 14.909145_f32 * mu_b2 + 3.6015613_f32 * mu_b3 + 0.45050365_f32 * mu_u4;
-    let q_3 = 12.166455_f32 * mu_v4 + 22.56058_f32 * mu_b1 + 16.614212_f32 * mu_b2 + 4.703262_f32 * mu_b3 + 0.50551844_f32 * mu_u4;
-    let q_4 = 4.723672_f32 * mu_v4 + 9.786294_f32 * mu_b1 + 7.9782476_f32 * mu_b2 + 2.7849846_f32 * mu_b3 + 0.37494537_f32 * mu_u4;
+    let q_0 = 1.0_f32 * mu_v4 + 1.4648551_f32 * mu_b1 + 0.87827086_f32 * mu_b2 - 0.028061068_f32 * mu_b3 + 0.06445798_f32 * mu_u4;
+    let q_1 = 5.599921_f32 * mu_v4 + 8.863326_f32 * mu_b1 + 5.97072_f32 * mu_b2 + 0.8724464_f32 * mu_b3 + 0.18887106_f32 * mu_u4;
+    let q_2 = 12.231255_f32 * mu_v4 + 20.933796_f32 * mu_b1 + 14.883959_f32 * mu_b2 + 3.5956762_f32 * mu_b3 + 0.44986722_f32 * mu_u4;
+    let q_3 = 12.154564_f32 * mu_v4 + 22.526327_f32 * mu_b1 + 16.585808_f32 * mu_b2 + 4.6950955_f32 * mu_b3 + 0.504789_f32 * mu_u4;
+    let q_4 = 4.7181373_f32 * mu_v4 + 9.770627_f32 * mu_b1 + 7.9637356_f32 * mu_b2 + 2.779552_f32 * mu_b3 + 0.3742411_f32 * mu_u4;
     let q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

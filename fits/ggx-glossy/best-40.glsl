@@ -10,7 +10,7 @@
 // ggx_glossy_albedo(f0, r, mu): directional albedo E of ggx-glossy.
 // Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); height-correlated Smith G2.
 // Fit: polynomial of degree 4, 35 coefficients (35 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 3e37dc0fc030ded99fbf226e9300c3e48490c19a18b6a385d68f25490db94469.
+// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 eb9df46cc04988abca52b26e44e287a3f0dbad87c18ad6b75c4c3bd09e6ab655.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0, 1]
 //   r: t = r, [0, 1]
@@ -32,8 +32,8 @@ float ggx_glossy_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     float mu_t = sqrt(mu_c);
     // numerator P, grouped by powers of the first variable
-    float p_0 = (((-0.3604624 * r_c + (1.9473431 * mu_t - 0.026662989)) * r_c + ((2.9560392 * mu_t - 6.951937) * mu_t + 1.3128436)) * r_c + (((0.6668895 * mu_t - 4.4820356) * mu_t + 5.9915276) * mu_t - 1.0828763)) * r_c + ((((0.76841027 * mu_t + 0.22280306) * mu_t - 1.315064) * mu_t + 0.20496637) * mu_t + 0.12121477);
-    float p_1 = ((-0.77298343 * r_c + (0.82779306 * mu_t + 4.308592)) * r_c + ((0.03871596 * mu_t + 3.345757) * mu_t - 8.833834)) * r_c + (((-3.2470527 * mu_t + 7.8440833) * mu_t - 9.956765) * mu_t + 6.397202);
+    float p_0 = (((-0.3604624 * r_c + (1.9473432 * mu_t - 0.026662968)) * r_c + ((2.9560392 * mu_t - 6.951937) * mu_t + 1.3128436)) * r_c + (((0.6668895 * mu_t - 4.4820356) * mu_t + 5.9915276) * mu_t - 1.0828763)) * r_c + ((((0.7684103 * mu_t + 0.22280304) * mu_t - 1.315064) * mu_t + 0.20496637) * mu_t + 0.12121477);
+    float p_1 = ((-0.77298343 * r_c + (0.82779306 * mu_t + 4.308592)) * r_c + ((0.038715962 * mu_t + 3.345757) * mu_t - 8.833834)) * r_c + (((-3.2470527 * mu_t + 7.8440833) * mu_t - 9.956765) * mu_t + 6.397202);
     float p_2 = (-3.530582 * r_c + (-4.747084 * mu_t + 12.943448)) * r_c + ((-2.9615614 * mu_t + 12.508472) * mu_t - 10.924882);
     float p_3 = -3.7715385 * r_c + (-3.8781238 * mu_t + 4.1872187);
     float p_4 = 1.1260216;

@@ -7,7 +7,7 @@
 /// ggx_glossy_albedo(f0, r, mu): directional albedo E of ggx-glossy.
 /// Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); height-correlated Smith G2.
 /// Fit: polynomial of degree 4, 35 coefficients (35 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-/// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 3e37dc0fc030ded99fbf226e9300c3e48490c19a18b6a385d68f25490db94469.
+/// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 eb9df46cc04988abca52b26e44e287a3f0dbad87c18ad6b75c4c3bd09e6ab655.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = sqrt(f0), [0, 1]
 ///   r: t = r, [0, 1]
@@ -32,8 +32,8 @@ pub fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = mu_c.sqrt();
     // numerator P, grouped by powers of the first variable
-    let p_0 = (((-0.3604624_f32 * r_c + (1.9473431_f32 * mu_t - 0.026662989_f32)) * r_c + ((2.9560392_f32 * mu_t - 6.951937_f32) * mu_t + 1.3128436_f32)) * r_c + (((0.6668895_f32 * mu_t - 4.4820356_f32) * mu_t + 5.9915276_f32) * mu_t - 1.0828763_f32)) * r_c + ((((0.76841027_f32 * mu_t + 0.22280306_f32) * mu_t - 1.315064_f32) * mu_t + 0.20496637_f32) * mu_t + 0.12121477_f32);
-    let p_1 = ((-0.77298343_f32 * r_c + (0.82779306_f32 * mu_t + 4.308592_f32)) * r_c + ((0.03871596_f32 * mu_t + 3.345757_f32) * mu_t - 8.833834_f32)) * r_c + (((-3.2470527_f32 * mu_t + 7.8440833_f32) * mu_t - 9.956765_f32) * mu_t + 6.397202_f32);
+    let p_0 = (((-0.3604624_f32 * r_c + (1.9473432_f32 * mu_t - 0.026662968_f32)) * r_c + ((2.9560392_f32 * mu_t - 6.951937_f32) * mu_t + 1.3128436_f32)) * r_c + (((0.6668895_f32 * mu_t - 4.4820356_f32) * mu_t + 5.9915276_f32) * mu_t - 1.0828763_f32)) * r_c + ((((0.7684103_f32 * mu_t + 0.22280304_f32) * mu_t - 1.315064_f32) * mu_t + 0.20496637_f32) * mu_t + 0.12121477_f32);
+    let p_1 = ((-0.77298343_f32 * r_c + (0.82779306_f32 * mu_t + 4.308592_f32)) * r_c + ((0.038715962_f32 * mu_t + 3.345757_f32) * mu_t - 8.833834_f32)) * r_c + (((-3.2470527_f32 * mu_t + 7.8440833_f32) * mu_t - 9.956765_f32) * mu_t + 6.397202_f32);
     let p_2 = (-3.530582_f32 * r_c + (-4.747084_f32 * mu_t + 12.943448_f32)) * r_c + ((-2.9615614_f32 * mu_t + 12.508472_f32) * mu_t - 10.924882_f32);
     let p_3 = -3.7715385_f32 * r_c + (-3.8781238_f32 * mu_t + 4.1872187_f32);
     let p_4 = 1.1260216_f32;

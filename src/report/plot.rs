@@ -625,9 +625,12 @@ pub struct HeatFigure {
 const BAR_COLUMN: u32 = 150;
 
 fn draw_heat_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &HeatPanel, scale: &ColorScale) -> std::result::Result<(), String> {
-    let mut cc = ChartBuilder::on(area)
-        .caption(&p.title, (FONT, CAPTION_SIZE))
+    // the title drawn apart, so that the max-error marker on the top row (which reaches above
+    // the cells) has room below it
+    let area = area.titled(&p.title, (FONT, CAPTION_SIZE)).map_err(plot_err)?;
+    let mut cc = ChartBuilder::on(&area)
         .margin(12)
+        .margin_top(16)
         .margin_right(18)
         .x_label_area_size(48)
         .y_label_area_size(64)

@@ -1,3 +1,5 @@
+//! Integrand evaluations per cell of the GGX conductor at a few (r, μ): where the quadrature spends its work.
+//! `cargo run --release --example count`
 use furnace::bsdf::ggx::{Lobes, VndfIntegrand};
 use furnace::math::SmithForm;
 use furnace::quadrature::{integrate_2d, Integrand2D, Panel, Rules, CHANNELS};

@@ -25,8 +25,9 @@
 //! with m = (αN_x, αN_y, N_z) the unnormalised half vector. On a line of constant β such a form is
 //! P + R cos(2φ − γ) + A_yy tan²β, so its zeros are closed-form; the β at which zeros appear,
 //! merge or cross the ends of the φ range are closed-form as well and become outer panel ends.
-//! The one kink that is not quadratic — the transmitted direction crossing the horizon when
-//! leaving the denser medium — is located numerically on each line (bracketing + Illinois).
+//! The transmitted direction crossing the horizon when leaving the denser medium squares into
+//! a quadratic form as well (see [`VndfIntegrand::transmit_roots`]); only where the three kink
+//! curves meet are the outer panel ends found by scanning β and bisecting.
 
 use super::{AxisSpec, Model, ModelOptions, MAX_OUTPUTS};
 use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, sin_cos_0_pi, SmithForm};
@@ -510,7 +511,7 @@ pub struct VndfIntegrand {
     horizon: QuadForm,
     /// Critical angle of total internal reflection (valid where positive), when η < 1.
     tir: Option<QuadForm>,
-    /// Whether the transmitted direction can cross the horizon (η < 1): located numerically.
+    /// Whether the transmitted direction can cross the horizon (η < 1), a kink to split at.
     transmit_horizon: bool,
     /// The transmission horizon μt = 0 squared into a quadratic form (leaving the denser
     /// medium only): see [`VndfIntegrand::transmit_roots`].
@@ -1012,7 +1013,7 @@ impl VndfIntegrand {
                 // the horizon and the critical-angle curve cross in closed form
                 self.horizon.crossings(tir, self.phi_max, &mut xs);
             } else {
-                // the numerical transmission horizon: scan for topology changes
+                // three kink curves meet: scan for topology changes
                 self.scanned_outer_breaks(eta, &mut xs);
             }
             sort_dedup(&mut xs);

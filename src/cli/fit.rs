@@ -258,13 +258,39 @@ fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
 
 /// Writes sweep.{json,csv} and best-<budget>.json under `dir`, the timings (measured by `clock`)
 /// to `timing_dir/sweep-timing.json`, and prints the summary.
+/// Writes `sweep.json`, `sweep.csv` and `best-<budget>.json` (removing a stale best file when a
+/// budget has no usable fit), as `furnace fit --sweep` does, without printing; returns the paths
+/// and the times.
+/// The wall and CPU times go to `<timing>/sweep-timing.json` (git-ignored, under `data/`), the
+/// sidecar `furnace fit` writes, so that the files under `fits/` are the same for the same inputs.
+pub(super) fn write_sweep_files(outcome: &SweepOutcome, dir: &Path, timing: &Path, clock: &Stopwatch) -> Result<(Vec<PathBuf>, Timing)> {
+    let mut written = Vec::new();
+    let sweep_json = dir.join("sweep.json");
+    let times = Timing::new(&sweep_json.display().to_string(), &outcome.source, &outcome.fitted_on, clock, outcome.fit_times());
+    write_atomic(&sweep_json, outcome.to_json()?.as_bytes())?;
+    written.push(sweep_json);
+    let sweep_csv = dir.join("sweep.csv");
+    write_atomic(&sweep_csv, outcome.to_csv().as_bytes())?;
+    written.push(sweep_csv);
+    for b in &outcome.best {
+        let path = dir.join(format!("best-{}.json", b.budget));
+        match outcome.best_record(b.budget) {
+            Some(rec) => {
+                write_atomic(&path, rec.to_json()?.as_bytes())?;
+                written.push(path);
+            }
+            None if path.exists() => std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?,
+            None => {}
+        }
+    }
+    write_atomic(&timing.join("sweep-timing.json"), times.to_json()?.as_bytes())?;
+    Ok((written, times))
+}
+
+/// Writes a sweep's files ([`write_sweep_files`]) and prints its table.
 fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &Stopwatch) -> Result<()> {
-    let sweep_path = dir.join("sweep.json");
-    let timing = Timing::new(&sweep_path.display().to_string(), &outcome.source, &outcome.fitted_on, clock, outcome.fit_times());
-    write_atomic(&sweep_path, outcome.to_json()?.as_bytes())?;
-    write_atomic(&dir.join("sweep.csv"), outcome.to_csv().as_bytes())?;
+    let (_, timing) = write_sweep_files(outcome, dir, timing_dir, clock)?;
     let timing_path = timing_dir.join("sweep-timing.json");
-    write_atomic(&timing_path, timing.to_json()?.as_bytes())?;
     println!("MAE and max: on {}", outcome.metrics_on);
     if let Some(b) = &outcome.paper_box {
         println!("box MAE, box max: on {}", b.metrics_on);
@@ -294,22 +320,16 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &St
         let path = dir.join(format!("best-{}.json", b.budget));
         match outcome.best_record(b.budget) {
             Some(rec) => {
-                write_atomic(&path, rec.to_json()?.as_bytes())?;
                 println!("best with ≤ {} coefficients (lowest max error on the whole domain):", b.budget);
                 print_record(rec, &path, None);
                 if let Some(bm) = b.index.and_then(|i| outcome.rows[i].paper_box.as_ref()) {
                     println!("    on the paper's box: MAE {:.3e}, max {:.3e} at {:?}", bm.mae, bm.max_abs_error, bm.max_abs_error_at);
                 }
             }
-            None => {
-                // a stale file from an earlier sweep would be mistaken for this one's
-                if path.exists() {
-                    std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
-                }
-                eprintln!("warning: no usable fit with ≤ {} coefficients; {} not written", b.budget, path.display());
-            }
+            None => eprintln!("warning: no usable fit with ≤ {} coefficients; {} not written", b.budget, path.display()),
         }
     }
+
     for s in &outcome.skipped {
         eprintln!("skipped {} [{}]: {}", s.form, s.transforms.iter().map(|t| t.label(&outcome.variables)).collect::<Vec<_>>().join(" "), s.reason);
     }

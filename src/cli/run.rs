@@ -22,7 +22,7 @@ use super::{get_table, progress_bar, Tabulated};
 use crate::bsdf::{self, Model, ModelOptions};
 use crate::emit::parse_langs;
 use crate::error::{Error, Result};
-use crate::fit::job::{self, FitRecord, Stopwatch, SweepOutcome, SweepPlan, Timing};
+use crate::fit::job::{self, FitRecord, Stopwatch, SweepPlan};
 use crate::fit::{source, Objective};
 use crate::quadrature::QuadratureSettings;
 use crate::report::model::{fmt_e, ModelSummary, ReportOptions, Reporter, REPORT_MODELS};
@@ -523,7 +523,7 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
     });
     pb.finish_and_clear();
     let outcome = outcome?;
-    let files = write_sweep_files(&outcome, &dir, &args.data_dir.join("timing").join(&job.name), &clock)?;
+    let (files, _) = super::fit::write_sweep_files(&outcome, &dir, &args.data_dir.join("timing").join(&job.name), &clock)?;
     inputs.files = files
         .iter()
         .map(|p| {
@@ -544,31 +544,4 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
     Ok(FitStep { reused: false, best, files, note })
 }
 
-/// Writes `sweep.json`, `sweep.csv` and `best-<budget>.json` (removing a stale best file when a
-/// budget has no usable fit), as `furnace fit --sweep` does, without printing; returns the paths.
-/// The wall and CPU times go to `<timing>/sweep-timing.json` (git-ignored, under `data/`), the
-/// sidecar `furnace fit` writes, so that the files under `fits/` are the same for the same inputs.
-fn write_sweep_files(outcome: &SweepOutcome, dir: &Path, timing: &Path, clock: &Stopwatch) -> Result<Vec<PathBuf>> {
-    let mut written = Vec::new();
-    let sweep_json = dir.join("sweep.json");
-    let times = Timing::new(&sweep_json.display().to_string(), &outcome.source, &outcome.fitted_on, clock, outcome.fit_times());
-    write_atomic(&sweep_json, outcome.to_json()?.as_bytes())?;
-    written.push(sweep_json);
-    let sweep_csv = dir.join("sweep.csv");
-    write_atomic(&sweep_csv, outcome.to_csv().as_bytes())?;
-    written.push(sweep_csv);
-    for b in &outcome.best {
-        let path = dir.join(format!("best-{}.json", b.budget));
-        match outcome.best_record(b.budget) {
-            Some(rec) => {
-                write_atomic(&path, rec.to_json()?.as_bytes())?;
-                written.push(path);
-            }
-            None if path.exists() => std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?,
-            None => {}
-        }
-    }
-    write_atomic(&timing.join("sweep-timing.json"), times.to_json()?.as_bytes())?;
-    Ok(written)
-}
 

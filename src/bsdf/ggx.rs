@@ -526,9 +526,23 @@ pub struct VndfIntegrand {
     column: Vec<f64>,
     /// Outer panels, computed once per cell (they do not depend on the rule order).
     outer_cache: std::cell::OnceCell<Vec<Panel>>,
+    /// Buffers reused by every line of the cell (a line's breaks and roots), so that the
+    /// per-line geometry allocates nothing.
+    scratch: std::cell::RefCell<Scratch>,
     /// Precomputed masking terms of ωo: a(μo) and μo + a(μo) (see [`SmithForm::g2_over_g1`]).
     a_o: f64,
     mu_o_plus_a_o: f64,
+}
+
+/// Reused buffers of [`VndfIntegrand`] (see its `scratch`).
+#[derive(Default)]
+struct Scratch {
+    breaks: Vec<Break>,
+    roots: Vec<f64>,
+    near: Vec<(f64, f64)>,
+    xs: Vec<f64>,
+    tmp: Vec<f64>,
+    tagged: Vec<(f64, u8)>,
 }
 
 /// The channels a [`VndfIntegrand`] carries.
@@ -571,6 +585,7 @@ impl VndfIntegrand {
             part: Part::Both,
             column: Vec::new(),
             outer_cache: std::cell::OnceCell::new(),
+            scratch: std::cell::RefCell::new(Scratch::default()),
             a_o,
             mu_o_plus_a_o: mu_o + a_o,
             alpha,
@@ -697,13 +712,13 @@ impl VndfIntegrand {
     /// c² ≥ 1 − η² (no TIR), with c·h_z − μo = ((1 − η²) h_z² − μo²)/(2μo): the zeros of the
     /// unsquared equation are those with (1 − η²) h_z² ≥ μo², the others belong to the spurious
     /// sign (and the two branches meet on the critical-angle curve).
-    fn transmit_roots(&self, line: &Line, eta: f64, breaks: &[f64], out: &mut Vec<f64>) {
+    fn transmit_roots(&self, line: &Line, eta: f64, breaks: &[f64], out: &mut Vec<f64>, tmp: &mut Vec<f64>) {
         let Some(q) = &self.transmit else {
             return;
         };
         let mut roots = [0.0; 8];
-        let mut tmp = Vec::with_capacity(8);
-        q.roots(line.sb, line.cb, self.phi_max, &mut tmp);
+        tmp.clear();
+        q.roots(line.sb, line.cb, self.phi_max, tmp);
         let n = tmp.len().min(roots.len());
         roots[..n].copy_from_slice(&tmp[..n]);
         for &phi in &roots[..n] {
@@ -731,22 +746,25 @@ impl VndfIntegrand {
     fn kink_signature(&self, beta: f64, eta: f64, sig: &mut Vec<u8>) {
         let (sb, cb) = beta.sin_cos();
         let line = Line { sb, cb, weight: 0.0 };
-        let mut tagged: Vec<(f64, u8)> = Vec::with_capacity(8);
-        let mut tmp = Vec::with_capacity(4);
+        let mut scratch = self.scratch.borrow_mut();
+        let Scratch { tagged, tmp, xs: breaks, roots, .. } = &mut *scratch;
+        tagged.clear();
+        tmp.clear();
         if self.part != Part::TransmissionOnly {
-            self.horizon.roots(sb, cb, self.phi_max, &mut tmp);
+            self.horizon.roots(sb, cb, self.phi_max, tmp);
             tagged.extend(tmp.drain(..).map(|p| (p, 0)));
         }
         if let Some(t) = &self.tir {
-            t.roots(sb, cb, self.phi_max, &mut tmp);
+            t.roots(sb, cb, self.phi_max, tmp);
             tagged.extend(tmp.drain(..).map(|p| (p, 1)));
         }
         if self.transmit_horizon {
-            let mut breaks: Vec<f64> = tagged.iter().map(|t| t.0).collect();
+            breaks.clear();
+            breaks.extend(tagged.iter().map(|t| t.0));
             breaks.push(0.0);
             breaks.push(self.phi_max);
-            sort_dedup(&mut breaks);
-            self.transmit_roots(&line, eta, &breaks, &mut tmp);
+            sort_dedup(breaks);
+            self.transmit_roots(&line, eta, breaks, tmp, roots);
             tagged.extend(tmp.drain(..).map(|p| (p, 2)));
         }
         tagged.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -1035,7 +1053,9 @@ impl VndfIntegrand {
         // (α cos β cos φ, α sin β, cos β sin φ) degenerates at φ ≈ ±iα and φ ≈ π ± iα.
         let a2 = self.alpha * self.alpha;
         let rim = |x: f64| (x * x + a2).sqrt().min(((PI - x) * (PI - x) + a2).sqrt());
-        let mut breaks = Vec::with_capacity(12);
+        let mut scratch = self.scratch.borrow_mut();
+        let Scratch { breaks, roots, near, xs, tmp, .. } = &mut *scratch;
+        breaks.clear();
         // The ends of the range are horizon zeros themselves at grazing incidence (μo = 0: the
         // rim reflects into the horizon), where the masking weight is near-singular too.
         for end in [0.0, self.phi_max] {
@@ -1045,17 +1065,17 @@ impl VndfIntegrand {
             }
             breaks.push(b);
         }
-        let mut roots = Vec::with_capacity(4);
+        roots.clear();
         if self.part != Part::TransmissionOnly {
-            self.horizon.roots(sb, cb, self.phi_max, &mut roots);
-            for &phi in &roots {
+            self.horizon.roots(sb, cb, self.phi_max, roots);
+            for &phi in roots.iter() {
                 let delta = self.near_singular_delta(phi, |p| self.reflected_z(&line, p));
                 breaks.push(Break::near_singular(phi, delta.min(rim(phi))));
             }
         }
         if let Some(t) = &self.tir {
             roots.clear();
-            t.roots(sb, cb, self.phi_max, &mut roots);
+            t.roots(sb, cb, self.phi_max, roots);
             // F has its square root on the transmitting side only (beyond the critical angle
             // F = 1 and nothing is transmitted).
             let eta = match self.lobes {
@@ -1070,25 +1090,26 @@ impl VndfIntegrand {
         }
         // Kink curves that pass close by without crossing the line (or cross just outside the
         // range) leave near-singularities: a break at the nearest point, mapped towards it.
-        let mut near = Vec::with_capacity(4);
+        near.clear();
         if self.part != Part::TransmissionOnly {
-            self.horizon.near_singularities(sb, cb, self.phi_max, NEAR_REACH, &mut near);
+            self.horizon.near_singularities(sb, cb, self.phi_max, NEAR_REACH, near);
         }
         if let Some(t) = &self.tir {
-            t.near_singularities(sb, cb, self.phi_max, NEAR_REACH, &mut near);
+            t.near_singularities(sb, cb, self.phi_max, NEAR_REACH, near);
         }
         breaks.extend(near.iter().map(|&(x, d)| Break::near_singular(x, d.max(crate::quadrature::MIN_DELTA))));
         if let (true, Lobes::Dielectric { eta }) = (self.transmit_horizon, self.lobes) {
-            let mut xs: Vec<f64> = breaks.iter().map(|b| b.x).collect();
-            sort_dedup(&mut xs);
+            xs.clear();
+            xs.extend(breaks.iter().map(|b| b.x));
+            sort_dedup(xs);
             roots.clear();
-            self.transmit_roots(&line, eta, &xs, &mut roots);
-            for &phi in &roots {
+            self.transmit_roots(&line, eta, xs, roots, tmp);
+            for &phi in roots.iter() {
                 let delta = self.near_singular_delta(phi, |p| -self.transmitted_z(&line, p, eta));
                 breaks.push(Break::near_singular(phi, delta.min(rim(phi))));
             }
         }
-        panels_from_breaks(&mut breaks, out);
+        panels_from_breaks(breaks, out);
         line
     }
 

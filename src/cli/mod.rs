@@ -66,7 +66,7 @@ pub struct QuadratureArgs {
     /// Lower order of the per-cell error estimate |Q(order) − Q(companion)| (default ⌈3·order/4⌉).
     #[arg(long)]
     pub companion: Option<usize>,
-    /// Per-cell tolerance on the error estimate; cells above it are refined at higher orders (×1.5 each).
+    /// Per-cell tolerance on the error estimate; cells above it are refined at higher orders (×1.25 each).
     #[arg(long, default_value_t = QuadratureSettings::default().tolerance)]
     pub tolerance: f64,
     /// Highest order refinement may reach (default 8·order); cells still above tolerance are reported.

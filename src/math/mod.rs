@@ -67,7 +67,6 @@ const SIN_TAYLOR: [f64; 11] = [
     1.0 / 51_090_942_171_709_440_000.0,
 ];
 
-/// Neumaier's compensated summation (an improved Kahan sum), as pbrt-v4 uses for long sums.
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -85,6 +84,7 @@ mod tests {
     }
 }
 
+/// Neumaier's compensated summation (an improved Kahan sum), as pbrt-v4 uses for long sums.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CompensatedSum {
     sum: f64,

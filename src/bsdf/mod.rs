@@ -66,6 +66,12 @@ pub trait Model: Send + Sync {
             *o = self.integrate(x, rules);
         }
     }
+    /// Whether [`Model::integrate_column`] shares work across the column. When it does not,
+    /// [`albedo_column`] takes the points one at a time through [`Model::integrate_orders`],
+    /// so that a point's setup serves both orders of its estimate.
+    fn shares_column_geometry(&self) -> bool {
+        false
+    }
     /// Folder name of the model's tables under `data/` (differs from [`Model::name`] only for
     /// variants selected by options, e.g. radiance-form transmission).
     fn cache_name(&self) -> String {
@@ -112,6 +118,9 @@ pub fn albedo_column(
     settings: &QuadratureSettings,
     cache: &RuleCache,
 ) -> Vec<Estimate<MAX_OUTPUTS>> {
+    if !model.shares_column_geometry() {
+        return xs.iter().map(|x| albedo(model, x, settings, cache)).collect();
+    }
     let mut low = vec![[0.0; MAX_OUTPUTS]; xs.len()];
     let mut high = vec![[0.0; MAX_OUTPUTS]; xs.len()];
     model.integrate_column(xs, cache.get(settings.companion), &mut low);

@@ -23,14 +23,14 @@ pub enum PanelMap {
     Smooth,
     /// Behaviour at the end `at` (the panel's a or b) handled by a substitution x = at ± y(t):
     /// * `sqrt` — square-root behaviour at that end (a kink curve tangent to the line, a critical
-    ///   angle): y = L·t² makes √y analytic in t;
+    ///   angle): y = L·t²(2 − t) makes √y analytic in t (see `sqrt_map`);
     /// * `delta` — a complex singularity at distance δ from that end (near-singular): the sinh
     ///   map y = δ·sinh(w) (Johnston & Elliott 2005, "A sinh transformation for evaluating nearly
     ///   singular boundary element integrals") moves it to distance π/2 in w whatever δ. Long
     ///   w-ranges (many decades between δ and L) are covered in pieces of at most
     ///   [`SINH_MAX_SPAN`], each with the full rule, which amounts to geometric grading.
     ///
-    /// Both together compose: y = δ·sinh(W·t²) on the first piece.
+    /// Both together compose: y = δ·sinh(W·t²(2 − t)) on the first piece.
     End { at: f64, toward: f64, sqrt: bool, delta: f64 },
 }
 
@@ -309,7 +309,7 @@ impl DimRules {
                     let mut piece_exp = 1.0;
                     for k in 0..pieces {
                         for ((&t, &wt), &e_t) in rule.nodes.iter().zip(&rule.weights).zip(node_exp.iter()) {
-                            let (e, dwdt) = if sqrt && k == 0 { ((dw * t * t).exp(), 2.0 * dw * t) } else { (piece_exp * e_t, dw) };
+                            let (e, dwdt) = if sqrt && k == 0 { let (q, dq) = sqrt_map(t); ((dw * q).exp(), dw * dq) } else { (piece_exp * e_t, dw) };
                             let inv = 1.0 / e;
                             let (sinh, cosh) = (0.5 * (e - inv), 0.5 * (e + inv));
                             let x = (at + sign * delta * sinh).clamp(lo, hi);
@@ -318,14 +318,26 @@ impl DimRules {
                         piece_exp *= step;
                     }
                 } else {
-                    // y = L·t²
+                    // y = L·t²(2 − t)
                     for (&t, &wt) in rule.nodes.iter().zip(&rule.weights) {
-                        f(at + sign * len * t * t, wt * 2.0 * len * t);
+                        let (q, dq) = sqrt_map(t);
+                        f(at + sign * len * q, wt * len * dq);
                     }
                 }
             }
         }
     }
+}
+
+/// q(t) and q'(t) of the square-root substitution y = L·q(t), q = t²(2 − t): quadratic at the
+/// break (so √y is analytic in t), with slope 1 rather than 2 at the far end, so that the far
+/// half of the panel keeps the node density of a plain rule instead of half of it. Against
+/// q = t² this takes 4 % (conductor 64²), 9 % (leaving dielectric 16³) and 11 % (entering
+/// dielectric 16³) fewer instructions at the same tolerance, because fewer cells miss the
+/// estimate at the companion order (callgrind, `furnace tabulate`, errors against an order-24 table).
+#[inline]
+fn sqrt_map(t: f64) -> (f64, f64) {
+    (t * t * (2.0 - t), t * (4.0 - 3.0 * t))
 }
 
 /// The rules used for one evaluation.

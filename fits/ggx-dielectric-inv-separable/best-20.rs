@@ -7,16 +7,16 @@
 /// ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 /// Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-/// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 fc0c32aba93cf4b9f608abaee3e1ac0e27986eed34ae43c0ba186fe69787634d.
+/// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 435c15102d01942a949c00fe8ebcde95d6dbc97d1e6f15c4aed2e7aa0e36f335.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = sqrt(f0), [0.0125, 0.25]
 ///   r: t = square(r), [0, 1]
 ///   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 3.1e-7 (bound 6.6e-6), shifted 2.1e-7 (bound 1.7e-6), bernstein 3.0e-7 (bound 1.0e-5).
+///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 3.0e-7 (bound 6.6e-6), shifted 2.1e-7 (bound 1.7e-6), bernstein 3.0e-7 (bound 1.0e-5).
 /// Error of the f64 fit on its 262144 data points: MAE 1.79e-2, max 5.38e-2 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 1.79e-2 + 3.1e-7, max ≤ 5.38e-2 + 3.1e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 35937 grid points: max 3.1e-7 (every op rounded, as this Rust), 2.2e-7 (fused multiply–add), 2.7e-7 (GPU ÷/sqrt error); first-order bound 6.6e-6.
+/// Error of this f32 code on the same data: MAE ≤ 1.79e-2 + 3.0e-7, max ≤ 5.38e-2 + 3.0e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 35937 grid points: max 3.0e-7 (every op rounded, as this Rust), 2.4e-7 (fused multiply–add), 2.8e-7 (GPU ÷/sqrt error); first-order bound 6.6e-6.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.0e-2 on the grid.
 /// Polynomial: no division.
 #[inline]
@@ -34,10 +34,10 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((0.27420738_f32 * r_t + (-0.19453746_f32 * mu_t - 0.02432852_f32)) * r_t + ((-0.43972194_f32 * mu_t + 1.1392785_f32) * mu_t - 1.0146312_f32)) * r_t + (((-0.11706719_f32 * mu_t + 0.8072457_f32) * mu_t - 0.41403973_f32) * mu_t + 0.8794513_f32);
+    let p_0 = ((0.27420738_f32 * r_t + (-0.19453746_f32 * mu_t - 0.024328519_f32)) * r_t + ((-0.43972194_f32 * mu_t + 1.1392785_f32) * mu_t - 1.0146312_f32)) * r_t + (((-0.11706719_f32 * mu_t + 0.8072457_f32) * mu_t - 0.41403973_f32) * mu_t + 0.8794513_f32);
     let p_1 = (-0.86559325_f32 * r_t + (-2.0902224_f32 * mu_t + 1.2760661_f32)) * r_t + ((-0.62331945_f32 * mu_t - 1.1492484_f32) * mu_t + 0.45709997_f32);
-    let p_2 = 1.2153643_f32 * r_t + (3.0926316_f32 * mu_t + 0.48753822_f32);
-    let p_3 = -2.745792_f32;
+    let p_2 = 1.2153643_f32 * r_t + (3.0926316_f32 * mu_t + 0.48753825_f32);
+    let p_3 = -2.7457922_f32;
     let p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     let e = p;
     e.min(1.0_f32).max(0.0_f32)

@@ -10,16 +10,16 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 // Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 c7e2b800f6addb0e1ca837123229b99c9b57a3b97a209b6d80e11e71a4217ac4.
+// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 21d456a5092789dc09c8ac10f114e095195b7cc8fdb397e25f8584f435654e9a.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = f0, [0.0125, 0.25]
 //   r: t = square(r), [0, 1]
 //   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
-// Evaluation: nested Horner in the shifted variables s = (t − c)/h ∈ [−1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 35937 grid points: monomial 2.6e-6 (bound 5.5e-5), shifted 1.8e-6 (bound 6.5e-5), bernstein 4.8e-7 (bound 1.6e-5).
+// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 1.8e-6 (bound 5.5e-5), shifted 1.5e-6 (bound 6.5e-5), bernstein 4.2e-7 (bound 1.6e-5).
 // Error of the f64 fit on its 262144 data points: MAE 8.76e-3, max 2.90e-2 (recorded by the fitter).
 // Error of this f32 code on the same data: MAE ≤ 8.76e-3 + 1.8e-6, max ≤ 2.90e-2 + 1.8e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 35937 grid points: max 1.8e-6 (every op rounded, as this Rust), 1.6e-6 (fused multiply–add), 1.6e-6 (GPU ÷/sqrt error); first-order bound 6.5e-5.
+// f32 − f64 on 35937 grid points: max 1.8e-6 (every op rounded, as this Rust), 1.2e-6 (fused multiply–add), 1.4e-6 (GPU ÷/sqrt error); first-order bound 5.5e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-2 on the grid.
 // Denominator proved ≥ 1.480e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
@@ -31,24 +31,18 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float mu_c = max(min(mu, 1.0), 0.0);
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // s = (t − 0.13125)/0.11875 ∈ [−1, 1]
-    float f0_s = f0_c * 8.421053 - 1.1052631;
-    // s = (t − 0.5)/0.5 ∈ [−1, 1]
-    float r_s = r_t * 2.0 - 1.0;
-    // s = (t − 0.5)/0.5 ∈ [−1, 1]
-    float mu_s = mu_t * 2.0 - 1.0;
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((-0.11353198 * r_s + (-0.051278595 * mu_s + 0.4677252)) * r_s + ((-0.12475715 * mu_s + 0.45592237) * mu_s - 0.8915413)) * r_s + (((-0.11929618 * mu_s + 0.21468627) * mu_s - 0.8506506) * mu_s + 1.3661737);
-    float p_1 = (0.28824094 * r_s + (0.28836212 * mu_s - 0.87078965)) * r_s + ((0.11789667 * mu_s - 0.8751933) * mu_s + 1.3355505);
-    float p_2 = -0.0823689 * r_s + (-0.08031022 * mu_s + 0.18548372);
-    float p_3 = 0.0040916875;
-    float p = ((p_3 * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
+    float p_0 = ((-0.9082559 * r_t + (-0.41022876 * mu_t + 2.1640706)) * r_t + ((-0.9980571 * mu_t + 1.9571112) * mu_t - 2.0662296)) * r_t + (((-0.9543694 * mu_t + 2.2681005) * mu_t - 1.8921716) * mu_t + 0.90184635);
+    float p_1 = (9.7091675 * r_t + (9.71325 * mu_t - 26.165136)) * r_t + ((3.9712563 * mu_t - 20.578035) * mu_t + 25.443413);
+    float p_2 = -11.682238 * r_t + (-11.390258 * mu_t + 23.72756);
+    float p_3 = 2.4434407;
+    float p = ((p_3 * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = ((-0.1161017 * r_s + (-0.017320639 * mu_s + 0.50334847)) * r_s + ((-0.07114735 * mu_s + 0.39013678) * mu_s - 0.48476923)) * r_s + (((-0.14214078 * mu_s + 0.13732369) * mu_s - 1.1075088) * mu_s + 2.0025296);
-    float q_1 = (0.35282677 * r_s + (0.36130765 * mu_s - 0.5496107)) * r_s + ((-0.011734336 * mu_s - 0.94903743) * mu_s + 1.8227293);
-    float q_2 = -0.049134586 * r_s + (-0.10577346 * mu_s + 0.24548663);
-    float q_3 = 0.01045687;
-    float q = ((q_3 * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
+    float q_0 = ((-0.9288136 * r_t + (-0.1385651 * mu_t + 1.916031)) * r_t + ((-0.56917876 * mu_t + 0.67093086) * mu_t - 1.2179649)) * r_t + (((-1.1371262 * mu_t + 2.5914514) * mu_t - 2.130414) * mu_t + 1.0);
+    float q_1 = (11.884692 * r_t + (12.170362 * mu_t - 25.397198)) * r_t + ((-0.3952618 * mu_t - 17.735771) * mu_t + 26.753828);
+    float q_2 = -6.968672 * r_t + (-15.001665 * mu_t + 25.934849);
+    float q_3 = 6.2445474;
+    float q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
     float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

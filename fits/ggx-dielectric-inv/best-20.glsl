@@ -10,16 +10,16 @@
 // ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 // Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-dielectric-inv/best-20.json (furnace 0.1.0), fit SHA-256 6d9fca4271deb391225ff90b7eeec281ee88a771908f2fadd472e4c60eb0e4a4.
+// Source: fits/ggx-dielectric-inv/best-20.json (furnace 0.1.0), fit SHA-256 ff6815e3706ab63ca5dc663d300f45e858f63a1d060b03874c3d303c887b8b8a.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0.0125, 0.25]
 //   r: t = square(r), [0, 1]
 //   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 3.5e-7 (bound 6.3e-6), shifted 2.3e-7 (bound 1.7e-6), bernstein 3.5e-7 (bound 1.0e-5).
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 3.9e-7 (bound 6.3e-6), shifted 2.3e-7 (bound 1.7e-6), bernstein 3.5e-7 (bound 1.0e-5).
 // Error of the f64 fit on its 262144 data points: MAE 1.72e-2, max 5.67e-2 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 1.72e-2 + 3.5e-7, max ≤ 5.67e-2 + 3.5e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 35937 grid points: max 3.5e-7 (every op rounded, as this Rust), 2.8e-7 (fused multiply–add), 3.3e-7 (GPU ÷/sqrt error); first-order bound 6.3e-6.
+// Error of this f32 code on the same data: MAE ≤ 1.72e-2 + 3.9e-7, max ≤ 5.67e-2 + 3.9e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 35937 grid points: max 3.7e-7 (every op rounded, as this Rust), 3.4e-7 (fused multiply–add), 3.9e-7 (GPU ÷/sqrt error); first-order bound 6.3e-6.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-2 on the grid.
 // Polynomial: no division.
 float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
@@ -34,9 +34,9 @@ float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((0.2339069 * r_t + (-0.18582317 * mu_t + 0.025817538)) * r_t + ((-0.4490747 * mu_t + 0.9625747) * mu_t - 0.85435843)) * r_t + (((0.10515119 * mu_t + 0.408713) * mu_t - 0.21190222) * mu_t + 0.8545075);
+    float p_0 = ((0.2339069 * r_t + (-0.18582317 * mu_t + 0.025817543)) * r_t + ((-0.44907466 * mu_t + 0.9625747) * mu_t - 0.85435843)) * r_t + (((0.105151184 * mu_t + 0.40871304) * mu_t - 0.21190222) * mu_t + 0.8545075);
     float p_1 = (-0.9450893 * r_t + (-2.123662 * mu_t + 1.4448508)) * r_t + ((-0.058998317 * mu_t - 2.1786957) * mu_t + 0.90167516);
-    float p_2 = 1.1394761 * r_t + (3.6586792 * mu_t - 0.03399145);
+    float p_2 = 1.1394761 * r_t + (3.6586792 * mu_t - 0.033991452);
     float p_3 = -2.7670743;
     float p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     float e = p;

@@ -7,16 +7,16 @@
 /// ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 /// Fit: polynomial of degree 4, 35 coefficients (35 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 d295ef35e4b91008da0ec05e73ad2f8b8b122b2eec487e2ba8cd53afcd9c9512.
+/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 f5ba736861016f2d2eaea960365d4a0eebc8689301d35a2e0b9cc32196b8c0e6.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = sqrt(f0), [0.0125, 0.25]
 ///   r: t = square(r), [0, 1]
 ///   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 5.8e-7 (bound 2.0e-5), shifted 2.2e-7 (bound 2.7e-6), bernstein 3.8e-7 (bound 1.4e-5).
+///   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 6.5e-7 (bound 2.0e-5), shifted 2.2e-7 (bound 2.7e-6), bernstein 3.8e-7 (bound 1.4e-5).
 /// Error of the f64 fit on its 262144 data points: MAE 1.14e-2, max 3.67e-2 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 1.14e-2 + 5.8e-7, max ≤ 3.67e-2 + 5.8e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 35937 grid points: max 5.2e-7 (every op rounded, as this Rust), 5.7e-7 (fused multiply–add), 5.8e-7 (GPU ÷/sqrt error); first-order bound 2.0e-5.
+/// Error of this f32 code on the same data: MAE ≤ 1.14e-2 + 6.5e-7, max ≤ 3.67e-2 + 6.5e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 35937 grid points: max 6.5e-7 (every op rounded, as this Rust), 4.7e-7 (fused multiply–add), 5.6e-7 (GPU ÷/sqrt error); first-order bound 2.0e-5.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.8e-2 on the grid.
 /// Polynomial: no division.
 #[inline]
@@ -34,11 +34,11 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = (((-0.19551174_f32 * r_t + (0.625508_f32 * mu_t - 0.19513085_f32)) * r_t + ((-0.85429054_f32 * mu_t - 0.73033315_f32) * mu_t + 1.4449047_f32)) * r_t + (((-0.780244_f32 * mu_t + 1.6107342_f32) * mu_t + 0.9424348_f32) * mu_t - 1.9281497_f32)) * r_t + ((((-0.1941467_f32 * mu_t + 0.9084751_f32) * mu_t - 0.49691704_f32) * mu_t - 0.036154713_f32) * mu_t + 0.85086095_f32);
-    let p_1 = ((1.3715318_f32 * r_t + (1.3915598_f32 * mu_t - 5.3523397_f32)) * r_t + ((0.4720877_f32 * mu_t - 7.75065_f32) * mu_t + 6.1049967_f32)) * r_t + (((-0.34625354_f32 * mu_t - 0.6514995_f32) * mu_t - 1.2495271_f32) * mu_t + 2.386147_f32);
-    let p_2 = (2.561303_f32 * r_t + (5.9379864_f32 * mu_t - 1.9521801_f32)) * r_t + ((1.4495512_f32 * mu_t + 6.698104_f32) * mu_t - 10.472088_f32);
+    let p_0 = (((-0.19551176_f32 * r_t + (0.625508_f32 * mu_t - 0.19513083_f32)) * r_t + ((-0.85429054_f32 * mu_t - 0.7303332_f32) * mu_t + 1.4449047_f32)) * r_t + (((-0.780244_f32 * mu_t + 1.6107342_f32) * mu_t + 0.9424348_f32) * mu_t - 1.9281497_f32)) * r_t + ((((-0.1941467_f32 * mu_t + 0.9084751_f32) * mu_t - 0.49691704_f32) * mu_t - 0.036154725_f32) * mu_t + 0.85086095_f32);
+    let p_1 = ((1.3715318_f32 * r_t + (1.3915598_f32 * mu_t - 5.3523397_f32)) * r_t + ((0.4720877_f32 * mu_t - 7.75065_f32) * mu_t + 6.1049967_f32)) * r_t + (((-0.3462535_f32 * mu_t - 0.65149957_f32) * mu_t - 1.249527_f32) * mu_t + 2.386147_f32);
+    let p_2 = (2.561303_f32 * r_t + (5.9379864_f32 * mu_t - 1.9521801_f32)) * r_t + ((1.4495512_f32 * mu_t + 6.698104_f32) * mu_t - 10.472089_f32);
     let p_3 = -3.4224901_f32 * r_t + (-8.480505_f32 * mu_t + 16.410164_f32);
-    let p_4 = -7.9601097_f32;
+    let p_4 = -7.96011_f32;
     let p = (((p_4 * f0_t + p_3) * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     let e = p;
     e.min(1.0_f32).max(0.0_f32)

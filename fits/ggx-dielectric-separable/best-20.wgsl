@@ -7,16 +7,16 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 // Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-dielectric-separable/best-20.json (furnace 0.1.0), fit SHA-256 7c406ed337690beaa340a19f2346a43aa0410830e4b4e8741aef3c98013369be.
+// Source: fits/ggx-dielectric-separable/best-20.json (furnace 0.1.0), fit SHA-256 2b9a1df3f64aa6ad966b4075b2c44faace7df145371aca0468ebce047431e1dc.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0.0125, 0.25]
 //   r: t = square(r), [0, 1]
 //   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 2.4e-7 (bound 3.4e-6), shifted 2.8e-7 (bound 1.5e-6), bernstein 3.3e-7 (bound 1.0e-5).
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 2.5e-7 (bound 3.4e-6), shifted 2.2e-7 (bound 1.5e-6), bernstein 3.3e-7 (bound 1.0e-5).
 // Error of the f64 fit on its 262144 data points: MAE 1.37e-2, max 3.83e-2 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 1.37e-2 + 2.4e-7, max ≤ 3.83e-2 + 2.4e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 35937 grid points: max 2.1e-7 (every op rounded, as this Rust), 1.5e-7 (fused multiply–add), 2.4e-7 (GPU ÷/sqrt error); first-order bound 3.4e-6.
+// Error of this f32 code on the same data: MAE ≤ 1.37e-2 + 2.5e-7, max ≤ 3.83e-2 + 2.5e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 35937 grid points: max 1.7e-7 (every op rounded, as this Rust), 1.5e-7 (fused multiply–add), 2.5e-7 (GPU ÷/sqrt error); first-order bound 3.4e-6.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-2 on the grid.
 // Polynomial: no division.
 fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
@@ -31,10 +31,10 @@ fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     let mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((0.6888202 * r_t + (-0.24938871 * mu_t - 0.8022051)) * r_t + ((-0.1602286 * mu_t + 1.332399) * mu_t - 0.7661014)) * r_t + (((0.06537729 * mu_t + 0.045383006) * mu_t - 0.054708168) * mu_t + 0.9249105);
+    let p_0 = ((0.6888202 * r_t + (-0.24938871 * mu_t - 0.8022051)) * r_t + ((-0.16022861 * mu_t + 1.332399) * mu_t - 0.7661014)) * r_t + (((0.06537729 * mu_t + 0.04538301) * mu_t - 0.05470817) * mu_t + 0.9249105);
     let p_1 = (-0.54201937 * r_t + (-1.5946507 * mu_t + 1.674282)) * r_t + ((0.20297588 * mu_t - 0.52672803) * mu_t + 0.35028207);
-    let p_2 = -0.42382666 * r_t + (0.6470708 * mu_t - 0.7837045);
-    let p_3 = 0.2686681;
+    let p_2 = -0.42382663 * r_t + (0.6470708 * mu_t - 0.7837045);
+    let p_3 = 0.26866806;
     let p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     let e = p;
     return max(min(e, 1.0), 0.0);

@@ -10,16 +10,16 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 // Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 3eee6b1e453495a2c6f00b8eac3db39a76f07df667a59c73e0782cb33bfe1114.
+// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 b34a900ecdffa220cff12d8b4c6e986ffb496d9583bb98321bdd36c7c4de0f24.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0.0125, 0.25]
 //   r: t = square(r), [0, 1]
 //   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 5.0e-7 (bound 1.4e-5), shifted 4.0e-7 (bound 9.6e-6), bernstein 4.1e-7 (bound 1.7e-5).
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 5.8e-7 (bound 1.4e-5), shifted 3.6e-7 (bound 9.6e-6), bernstein 3.8e-7 (bound 1.7e-5).
 // Error of the f64 fit on its 262144 data points: MAE 3.73e-3, max 1.88e-2 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 3.73e-3 + 5.0e-7, max ≤ 1.88e-2 + 5.0e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 35937 grid points: max 4.5e-7 (every op rounded, as this Rust), 3.6e-7 (fused multiply–add), 5.0e-7 (GPU ÷/sqrt error); first-order bound 1.4e-5.
+// Error of this f32 code on the same data: MAE ≤ 3.73e-3 + 5.8e-7, max ≤ 1.88e-2 + 5.8e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 35937 grid points: max 4.6e-7 (every op rounded, as this Rust), 3.9e-7 (fused multiply–add), 5.8e-7 (GPU ÷/sqrt error); first-order bound 1.4e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.8e-3 on the grid.
 // Denominator proved ≥ 9.389e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
@@ -34,15 +34,15 @@ float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((-1.3488779 * r_t + (2.189329 * mu_t + 2.679534)) * r_t + ((-5.2533865 * mu_t + 2.818431) * mu_t - 2.1330848)) * r_t + (((1.8075752 * mu_t + 1.8263079) * mu_t - 1.3508567) * mu_t + 0.9668901);
-    float p_1 = (-1.7412541 * r_t + (-7.809456 * mu_t + 6.0236077)) * r_t + ((5.3686686 * mu_t - 4.8419642) * mu_t + 3.4465845);
-    float p_2 = -0.6913965 * r_t + (3.8961456 * mu_t - 7.5799403);
-    float p_3 = 6.7123995;
+    float p_0 = ((-1.3488779 * r_t + (2.1893294 * mu_t + 2.679534)) * r_t + ((-5.253387 * mu_t + 2.8184307) * mu_t - 2.1330848)) * r_t + (((1.8075751 * mu_t + 1.8263081) * mu_t - 1.3508567) * mu_t + 0.9668901);
+    float p_1 = (-1.741254 * r_t + (-7.809457 * mu_t + 6.023608)) * r_t + ((5.3686686 * mu_t - 4.8419642) * mu_t + 3.4465847);
+    float p_2 = -0.69139695 * r_t + (3.8961458 * mu_t - 7.579941);
+    float p_3 = 6.712399;
     float p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = ((-1.4852049 * r_t + (-0.9642943 * mu_t + 5.946758)) * r_t + ((-2.905039 * mu_t + 0.15316883) * mu_t - 1.7129126)) * r_t + (((1.0446424 * mu_t + 2.5618105) * mu_t - 1.4037515) * mu_t + 1.0);
-    float q_1 = (-1.0225871 * r_t + (-4.8239546 * mu_t + 2.7981696)) * r_t + ((5.053328 * mu_t - 4.769167) * mu_t + 3.9260902);
-    float q_2 = 1.573225 * r_t + (4.0140805 * mu_t - 8.569714);
+    float q_0 = ((-1.4852049 * r_t + (-0.96429396 * mu_t + 5.946758)) * r_t + ((-2.9050393 * mu_t + 0.15316842) * mu_t - 1.7129126)) * r_t + (((1.0446423 * mu_t + 2.5618105) * mu_t - 1.4037515) * mu_t + 1.0);
+    float q_1 = (-1.0225872 * r_t + (-4.8239555 * mu_t + 2.79817)) * r_t + ((5.0533285 * mu_t - 4.769167) * mu_t + 3.9260902);
+    float q_2 = 1.5732243 * r_t + (4.0140805 * mu_t - 8.569714);
     float q_3 = 7.5271764;
     float q = ((q_3 * f0_t + q_2) * f0_t + q_1) * f0_t + q_0;
     float e = p / q;

@@ -7,16 +7,16 @@
 // ggx_dielectric_albedo(f0, r, mu): directional albedo E of ggx-dielectric.
 // Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; height-correlated Smith G2.
 // Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric/best-20.json (furnace 0.1.0), fit SHA-256 01f4ddfc3e326463b9316131fdcac492ab46ebb3ed2d6a5dd2c9b7f558cd65fe.
+// Source: fits/ggx-dielectric/best-20.json (furnace 0.1.0), fit SHA-256 a220ebe33352a0f70146692dadc47212782368aa5b78be3ed253483688564f0b.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0.0125, 0.25]
 //   r: t = square(r), [0, 1]
 //   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 // Evaluation: nested Horner in the shifted variables s = (t − c)/h ∈ [−1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 35937 grid points: monomial 2.9e-6 (bound 2.8e-5), shifted 7.3e-7 (bound 2.1e-5), bernstein 4.8e-7 (bound 1.6e-5).
+//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 35937 grid points: monomial 2.7e-6 (bound 2.8e-5), shifted 7.3e-7 (bound 2.1e-5), bernstein 4.8e-7 (bound 1.6e-5).
 // Error of the f64 fit on its 262144 data points: MAE 1.06e-2, max 3.24e-2 (recorded by the fitter).
 // Error of this f32 code on the same data: MAE ≤ 1.06e-2 + 7.3e-7, max ≤ 3.24e-2 + 7.3e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 35937 grid points: max 4.3e-7 (every op rounded, as this Rust), 4.3e-7 (fused multiply–add), 7.3e-7 (GPU ÷/sqrt error); first-order bound 2.1e-5.
+// f32 − f64 on 35937 grid points: max 4.0e-7 (every op rounded, as this Rust), 4.3e-7 (fused multiply–add), 7.3e-7 (GPU ÷/sqrt error); first-order bound 2.1e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.0e-2 on the grid.
 // Denominator proved ≥ 5.224e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
@@ -37,13 +37,13 @@ fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // s = (t − 0.5)/0.5 ∈ [−1, 1]
     let mu_s = mu_t * 2.0 - 1.0;
     // numerator P, grouped by powers of the first variable
-    let p_0 = (0.26071212 * r_s + (0.017070316 * mu_s - 0.5286526)) * r_s + ((-0.07297355 * mu_s + 0.09129801) * mu_s + 0.6639843);
-    let p_1 = -0.017848613 * r_s + (-0.12790419 * mu_s + 0.025057027);
+    let p_0 = (0.26071212 * r_s + (0.01707032 * mu_s - 0.5286526)) * r_s + ((-0.07297355 * mu_s + 0.09129801) * mu_s + 0.6639843);
+    let p_1 = -0.01784861 * r_s + (-0.12790419 * mu_s + 0.025057025);
     let p_2 = -0.026455497;
     let p = (p_2 * f0_s + p_1) * f0_s + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (0.26680285 * r_s + (0.041379433 * mu_s - 0.5042669)) * r_s + ((-0.18896255 * mu_s + 0.104909234) * mu_s + 0.79125834);
-    let q_1 = -0.007090863 * r_s + (-0.113647744 * mu_s + 0.03177382);
+    let q_0 = (0.26680285 * r_s + (0.041379437 * mu_s - 0.5042669)) * r_s + ((-0.18896255 * mu_s + 0.104909234) * mu_s + 0.79125834);
+    let q_1 = -0.0070908614 * r_s + (-0.113647744 * mu_s + 0.03177382);
     let q_2 = -0.027970606;
     let q = (q_2 * f0_s + q_1) * f0_s + q_0;
     let e = p / q;

@@ -10,16 +10,16 @@
 // ggx_glossy_separable_albedo(f0, r, mu): directional albedo E of ggx-glossy-separable.
 // Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); separable Smith G1·G1 (the paper's renderer).
 // Fit: polynomial of degree 4, 35 coefficients (35 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 193938e3a54daece8ca5bd8096110653125cab86716388a70bfbcb194bd85e09.
+// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 03938e2253a6368c57f89c3abdab398cb2a1571fe66efdbe636684d54a70131f.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0, 1]
 //   r: t = r, [0, 1]
 //   mu: t = sqrt(mu), [0, 1]
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 2.2e-6 (bound 4.6e-5), shifted 1.9e-6 (bound 6.1e-6), bernstein 1.9e-6 (bound 9.0e-6).
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 2.3e-6 (bound 4.6e-5), shifted 1.9e-6 (bound 6.1e-6), bernstein 1.9e-6 (bound 9.0e-6).
 // Error of the f64 fit on its 262144 data points: MAE 5.53e-2, max 3.11e-1 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 5.53e-2 + 2.2e-6, max ≤ 3.11e-1 + 2.2e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 35937 grid points: max 2.2e-6 (every op rounded, as this Rust), 2.0e-6 (fused multiply–add), 2.1e-6 (GPU ÷/sqrt error); first-order bound 4.6e-5.
+// Error of this f32 code on the same data: MAE ≤ 5.53e-2 + 2.3e-6, max ≤ 3.11e-1 + 2.3e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 35937 grid points: max 2.3e-6 (every op rounded, as this Rust), 2.1e-6 (fused multiply–add), 2.1e-6 (GPU ÷/sqrt error); first-order bound 4.6e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.3e-1 on the grid.
 // Polynomial: no division.
 float ggx_glossy_separable_albedo(float f0, float r, float mu) {
@@ -32,7 +32,7 @@ float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     float mu_t = sqrt(mu_c);
     // numerator P, grouped by powers of the first variable
-    float p_0 = (((-0.37610486 * r_c + (2.0219514 * mu_t - 0.06810599)) * r_c + ((2.9925635 * mu_t - 7.1562023) * mu_t + 1.4212308)) * r_c + (((0.5947737 * mu_t - 4.4428105) * mu_t + 6.113965) * mu_t - 1.1369677)) * r_c + ((((0.645886 * mu_t + 0.45277375) * mu_t - 1.4332271) * mu_t + 0.20827779) * mu_t + 0.124782406);
+    float p_0 = (((-0.37610483 * r_c + (2.0219514 * mu_t - 0.06810603)) * r_c + ((2.9925635 * mu_t - 7.1562023) * mu_t + 1.4212308)) * r_c + (((0.5947737 * mu_t - 4.4428105) * mu_t + 6.113965) * mu_t - 1.1369677)) * r_c + ((((0.645886 * mu_t + 0.45277375) * mu_t - 1.4332271) * mu_t + 0.2082778) * mu_t + 0.124782406);
     float p_1 = ((-0.7780406 * r_c + (0.8915539 * mu_t + 4.4431477)) * r_c + ((0.08632209 * mu_t + 3.3040395) * mu_t - 9.088595)) * r_c + (((-3.1896415 * mu_t + 7.6804295) * mu_t - 9.812378) * mu_t + 6.4009604);
     float p_2 = (-3.6975868 * r_c + (-4.8205476 * mu_t + 13.393184)) * r_c + ((-2.8907626 * mu_t + 12.3502035) * mu_t - 10.978782);
     float p_3 = -3.9238684 * r_c + (-3.816911 * mu_t + 4.289482);

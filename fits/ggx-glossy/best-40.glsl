@@ -10,7 +10,7 @@
 // ggx_glossy_albedo(f0, r, mu): directional albedo E of ggx-glossy.
 // Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); height-correlated Smith G2.
 // Fit: polynomial of degree 4, 35 coefficients (35 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 eb9df46cc04988abca52b26e44e287a3f0dbad87c18ad6b75c4c3bd09e6ab655.
+// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 fc8b25b2b261dd20312d8046c646f264d4dfca81e61a078c5a85cd18a8fcd799.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0, 1]
 //   r: t = r, [0, 1]
@@ -19,7 +19,7 @@
 //   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 35937 grid points: monomial 2.2e-6 (bound 4.6e-5), shifted 1.8e-6 (bound 6.2e-6), bernstein 1.9e-6 (bound 9.0e-6).
 // Error of the f64 fit on its 262144 data points: MAE 5.49e-2, max 3.12e-1 (recorded by the fitter).
 // Error of this f32 code on the same data: MAE ≤ 5.49e-2 + 2.2e-6, max ≤ 3.12e-1 + 2.2e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 35937 grid points: max 1.4e-6 (every op rounded, as this Rust), 1.5e-6 (fused multiply–add), 2.2e-6 (GPU ÷/sqrt error); first-order bound 4.6e-5.
+// f32 − f64 on 35937 grid points: max 1.6e-6 (every op rounded, as this Rust), 1.5e-6 (fused multiply–add), 2.2e-6 (GPU ÷/sqrt error); first-order bound 4.6e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.3e-1 on the grid.
 // Polynomial: no division.
 float ggx_glossy_albedo(float f0, float r, float mu) {
@@ -32,8 +32,8 @@ float ggx_glossy_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     float mu_t = sqrt(mu_c);
     // numerator P, grouped by powers of the first variable
-    float p_0 = (((-0.3604624 * r_c + (1.9473432 * mu_t - 0.026662968)) * r_c + ((2.9560392 * mu_t - 6.951937) * mu_t + 1.3128436)) * r_c + (((0.6668895 * mu_t - 4.4820356) * mu_t + 5.9915276) * mu_t - 1.0828763)) * r_c + ((((0.7684103 * mu_t + 0.22280304) * mu_t - 1.315064) * mu_t + 0.20496637) * mu_t + 0.12121477);
-    float p_1 = ((-0.77298343 * r_c + (0.82779306 * mu_t + 4.308592)) * r_c + ((0.038715962 * mu_t + 3.345757) * mu_t - 8.833834)) * r_c + (((-3.2470527 * mu_t + 7.8440833) * mu_t - 9.956765) * mu_t + 6.397202);
+    float p_0 = (((-0.3604624 * r_c + (1.9473432 * mu_t - 0.026662983)) * r_c + ((2.9560394 * mu_t - 6.951937) * mu_t + 1.3128436)) * r_c + (((0.6668895 * mu_t - 4.4820356) * mu_t + 5.9915276) * mu_t - 1.0828763)) * r_c + ((((0.76841027 * mu_t + 0.22280306) * mu_t - 1.315064) * mu_t + 0.20496637) * mu_t + 0.12121477);
+    float p_1 = ((-0.77298343 * r_c + (0.82779306 * mu_t + 4.308592)) * r_c + ((0.03871598 * mu_t + 3.345757) * mu_t - 8.833834)) * r_c + (((-3.2470527 * mu_t + 7.8440833) * mu_t - 9.956765) * mu_t + 6.397202);
     float p_2 = (-3.530582 * r_c + (-4.747084 * mu_t + 12.943448)) * r_c + ((-2.9615614 * mu_t + 12.508472) * mu_t - 10.924882);
     float p_3 = -3.7715385 * r_c + (-3.8781238 * mu_t + 4.1872187);
     float p_4 = 1.1260216;

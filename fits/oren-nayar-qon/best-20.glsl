@@ -10,15 +10,15 @@
 // oren_nayar_qon_albedo(r, mu): directional albedo E of oren-nayar-qon.
 // Model: qualitative Oren–Nayar (QON), white albedo, σ = (π/2)·r (EON paper, eqs. 1–4).
 // Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 ba7932e5e823987361ff2e83baca179f582df4fd4983011d094b5c5df1b8121f.
+// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 c8566571c84b47e3dc99b803203a0063a21780699198d20fb3ad56be1a46d3f8.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   r: t = r, [0, 1]
 //   mu: t = mu, [0, 1]
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 16641 grid points: monomial 5.9e-7 (bound 2.5e-6), shifted 1.0e-6 (bound 8.3e-6), bernstein 3.8e-7 (bound 2.5e-6).
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 16641 grid points: monomial 8.3e-7 (bound 2.6e-6), shifted 1.3e-6 (bound 8.5e-6), bernstein 4.2e-7 (bound 2.5e-6).
 // Error of the f64 fit on its 1048576 data points: MAE 2.07e-3, max 7.48e-3 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 2.07e-3 + 5.9e-7, max ≤ 7.48e-3 + 5.9e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 16641 grid points: max 4.7e-7 (every op rounded, as this Rust), 4.9e-7 (fused multiply–add), 5.9e-7 (GPU ÷/sqrt error); first-order bound 2.5e-6.
+// Error of this f32 code on the same data: MAE ≤ 2.07e-3 + 8.3e-7, max ≤ 7.48e-3 + 8.3e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 16641 grid points: max 7.6e-7 (every op rounded, as this Rust), 7.7e-7 (fused multiply–add), 8.3e-7 (GPU ÷/sqrt error); first-order bound 2.6e-6.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-2 on the grid.
 // Denominator proved ≥ 3.906e-1 on the domain (Bernstein certificate), so the division is safe.
 float oren_nayar_qon_albedo(float r, float mu) {
@@ -26,16 +26,16 @@ float oren_nayar_qon_albedo(float r, float mu) {
     float r_c = max(min(r, 1.0), 0.0);
     float mu_c = max(min(mu, 1.0), 0.0);
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((-1.3336046 * mu_c + 2.3210876) * mu_c - 1.5947978) * mu_c + 0.9994557;
-    float p_1 = (-1.520699 * mu_c + 4.936711) * mu_c - 2.6691787;
-    float p_2 = -5.3230157 * mu_c + 6.4380035;
-    float p_3 = 2.4313455;
+    float p_0 = ((-1.3336046 * mu_c + 2.3210876) * mu_c - 1.594798) * mu_c + 0.9994557;
+    float p_1 = (-1.5206991 * mu_c + 4.9367113) * mu_c - 2.6691787;
+    float p_2 = -5.323016 * mu_c + 6.4380035;
+    float p_3 = 2.4313457;
     float p = ((p_3 * r_c + p_2) * r_c + p_1) * r_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = ((-1.3539361 * mu_c + 2.3347216) * mu_c - 1.5902255) * mu_c + 1.0;
-    float q_1 = (-1.320171 * mu_c + 4.860961) * mu_c - 2.7842727;
-    float q_2 = -3.9487135 * mu_c + 6.5481725;
-    float q_3 = 4.5245757;
+    float q_0 = ((-1.3539361 * mu_c + 2.3347218) * mu_c - 1.5902255) * mu_c + 1.0;
+    float q_1 = (-1.3201712 * mu_c + 4.8609614) * mu_c - 2.7842727;
+    float q_2 = -3.9487133 * mu_c + 6.5481725;
+    float q_3 = 4.524576;
     float q = ((q_3 * r_c + q_2) * r_c + q_1) * r_c + q_0;
     float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -7,15 +7,15 @@
 /// oren_nayar_qon_albedo(r, mu): directional albedo E of oren-nayar-qon.
 /// Model: qualitative Oren–Nayar (QON), white albedo, σ = (π/2)·r (EON paper, eqs. 1–4).
 /// Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/oren-nayar-qon/best-40.json (furnace 0.1.0), fit SHA-256 38b3414aa10eb6610c30c8cf7d32a8fa013aa08d0f1d0b808ef10cf170a79d2c.
+/// Source: fits/oren-nayar-qon/best-40.json (furnace 0.1.0), fit SHA-256 0e4475a8260ea95acff73111a99e2fc8c580ffef27f951ab0daefd347583e715.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   r: t = r, [0, 1]
 ///   mu: t = mu, [0, 1]
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 1.3e-4 (bound 6.2e-4), shifted 1.3e-4 (bound 1.6e-3), bernstein 4.2e-7 (bound 3.2e-6).
+///   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 1.3e-4 (bound 5.6e-4), shifted 7.4e-5 (bound 1.6e-3), bernstein 4.0e-7 (bound 3.2e-6).
 /// Error of the f64 fit on its 1048576 data points: MAE 4.47e-4, max 2.81e-3 (recorded by the fitter).
-/// Error of this f32 code on the same data: MAE ≤ 4.47e-4 + 4.2e-7, max ≤ 2.81e-3 + 4.2e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-/// f32 − f64 on 16641 grid points: max 3.5e-7 (every op rounded, as this Rust), 3.7e-7 (fused multiply–add), 4.2e-7 (GPU ÷/sqrt error); first-order bound 3.2e-6.
+/// Error of this f32 code on the same data: MAE ≤ 4.47e-4 + 4.0e-7, max ≤ 2.81e-3 + 4.0e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+/// f32 − f64 on 16641 grid points: max 3.3e-7 (every op rounded, as this Rust), 3.3e-7 (fused multiply–add), 4.0e-7 (GPU ÷/sqrt error); first-order bound 3.2e-6.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the grid.
 /// Denominator proved ≥ 1.860e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
@@ -48,18 +48,18 @@ pub fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b2 = mu_u2 * mu_v2;
     let mu_b3 = mu_u3 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9972586_f32 * mu_v4 + 3.3968315_f32 * mu_b1 + 2.2851963_f32 * mu_b2 + 0.81451744_f32 * mu_b3 + 0.0018598115_f32 * mu_u4;
-    let p_1 = 1.5931952_f32 * mu_v4 + 8.969291_f32 * mu_b1 + 7.4420195_f32 * mu_b2 + 3.9588816_f32 * mu_b3 + 0.18482135_f32 * mu_u4;
-    let p_2 = 6.5012836_f32 * mu_v4 + 25.07005_f32 * mu_b1 + 22.440268_f32 * mu_b2 + 9.831818_f32 * mu_b3 + 0.39811152_f32 * mu_u4;
-    let p_3 = 13.586434_f32 * mu_v4 + 41.64129_f32 * mu_b1 + 37.91396_f32 * mu_b2 + 14.514923_f32 * mu_b3 + 0.9476794_f32 * mu_u4;
-    let p_4 = 7.026715_f32 * mu_v4 + 19.526207_f32 * mu_b1 + 16.70428_f32 * mu_b2 + 5.209979_f32 * mu_b3 + 0.07815678_f32 * mu_u4;
+    let p_0 = 0.9972586_f32 * mu_v4 + 3.3968315_f32 * mu_b1 + 2.2851965_f32 * mu_b2 + 0.81451744_f32 * mu_b3 + 0.0018598136_f32 * mu_u4;
+    let p_1 = 1.5931951_f32 * mu_v4 + 8.969291_f32 * mu_b1 + 7.442019_f32 * mu_b2 + 3.958881_f32 * mu_b3 + 0.18482123_f32 * mu_u4;
+    let p_2 = 6.5012836_f32 * mu_v4 + 25.07005_f32 * mu_b1 + 22.440268_f32 * mu_b2 + 9.831819_f32 * mu_b3 + 0.39811185_f32 * mu_u4;
+    let p_3 = 13.586434_f32 * mu_v4 + 41.641285_f32 * mu_b1 + 37.91396_f32 * mu_b2 + 14.514922_f32 * mu_b3 + 0.94767916_f32 * mu_u4;
+    let p_4 = 7.026715_f32 * mu_v4 + 19.526207_f32 * mu_b1 + 16.70428_f32 * mu_b2 + 5.209979_f32 * mu_b3 + 0.07815677_f32 * mu_u4;
     let p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
     let q_0 = 1.0_f32 * mu_v4 + 3.4035368_f32 * mu_b1 + 2.2900186_f32 * mu_b2 + 0.8127425_f32 * mu_b3 + 0.0018600484_f32 * mu_u4;
-    let q_1 = 1.3886799_f32 * mu_v4 + 8.503376_f32 * mu_b1 + 7.2752194_f32 * mu_b2 + 4.0435753_f32 * mu_b3 + 0.18544912_f32 * mu_u4;
-    let q_2 = 6.361268_f32 * mu_v4 + 26.18052_f32 * mu_b1 + 25.532055_f32 * mu_b2 + 11.653364_f32 * mu_b3 + 0.3941557_f32 * mu_u4;
-    let q_3 = 16.341398_f32 * mu_v4 + 53.240673_f32 * mu_b1 + 54.015957_f32 * mu_b2 + 22.474596_f32 * mu_b3 + 1.6603115_f32 * mu_u4;
-    let q_4 = 9.058999_f32 * mu_v4 + 26.920746_f32 * mu_b1 + 25.61023_f32 * mu_b2 + 8.812818_f32 * mu_b3 + 0.13993293_f32 * mu_u4;
+    let q_1 = 1.3886801_f32 * mu_v4 + 8.503377_f32 * mu_b1 + 7.2752204_f32 * mu_b2 + 4.043576_f32 * mu_b3 + 0.1854492_f32 * mu_u4;
+    let q_2 = 6.361268_f32 * mu_v4 + 26.18052_f32 * mu_b1 + 25.532053_f32 * mu_b2 + 11.653362_f32 * mu_b3 + 0.3941553_f32 * mu_u4;
+    let q_3 = 16.341398_f32 * mu_v4 + 53.240673_f32 * mu_b1 + 54.015957_f32 * mu_b2 + 22.474596_f32 * mu_b3 + 1.6603112_f32 * mu_u4;
+    let q_4 = 9.058999_f32 * mu_v4 + 26.920746_f32 * mu_b1 + 25.61023_f32 * mu_b2 + 8.812818_f32 * mu_b3 + 0.13993292_f32 * mu_u4;
     let q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -7,15 +7,15 @@
 // oren_nayar_qon_albedo(r, mu): directional albedo E of oren-nayar-qon.
 // Model: qualitative Oren–Nayar (QON), white albedo, σ = (π/2)·r (EON paper, eqs. 1–4).
 // Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-qon/best-40.json (furnace 0.1.0), fit SHA-256 38b3414aa10eb6610c30c8cf7d32a8fa013aa08d0f1d0b808ef10cf170a79d2c.
+// Source: fits/oren-nayar-qon/best-40.json (furnace 0.1.0), fit SHA-256 0e4475a8260ea95acff73111a99e2fc8c580ffef27f951ab0daefd347583e715.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   r: t = r, [0, 1]
 //   mu: t = mu, [0, 1]
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 1.3e-4 (bound 6.2e-4), shifted 1.3e-4 (bound 1.6e-3), bernstein 4.2e-7 (bound 3.2e-6).
+//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 1.3e-4 (bound 5.6e-4), shifted 7.4e-5 (bound 1.6e-3), bernstein 4.0e-7 (bound 3.2e-6).
 // Error of the f64 fit on its 1048576 data points: MAE 4.47e-4, max 2.81e-3 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 4.47e-4 + 4.2e-7, max ≤ 2.81e-3 + 4.2e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 16641 grid points: max 3.5e-7 (every op rounded, as this Rust), 3.7e-7 (fused multiply–add), 4.2e-7 (GPU ÷/sqrt error); first-order bound 3.2e-6.
+// Error of this f32 code on the same data: MAE ≤ 4.47e-4 + 4.0e-7, max ≤ 2.81e-3 + 4.0e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 16641 grid points: max 3.3e-7 (every op rounded, as this Rust), 3.3e-7 (fused multiply–add), 4.0e-7 (GPU ÷/sqrt error); first-order bound 3.2e-6.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the grid.
 // Denominator proved ≥ 1.860e-3 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
@@ -45,18 +45,18 @@ fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b2 = mu_u2 * mu_v2;
     let mu_b3 = mu_u3 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9972586 * mu_v4 + 3.3968315 * mu_b1 + 2.2851963 * mu_b2 + 0.81451744 * mu_b3 + 0.0018598115 * mu_u4;
-    let p_1 = 1.5931952 * mu_v4 + 8.969291 * mu_b1 + 7.4420195 * mu_b2 + 3.9588816 * mu_b3 + 0.18482135 * mu_u4;
-    let p_2 = 6.5012836 * mu_v4 + 25.07005 * mu_b1 + 22.440268 * mu_b2 + 9.831818 * mu_b3 + 0.39811152 * mu_u4;
-    let p_3 = 13.586434 * mu_v4 + 41.64129 * mu_b1 + 37.91396 * mu_b2 + 14.514923 * mu_b3 + 0.9476794 * mu_u4;
-    let p_4 = 7.026715 * mu_v4 + 19.526207 * mu_b1 + 16.70428 * mu_b2 + 5.209979 * mu_b3 + 0.07815678 * mu_u4;
+    let p_0 = 0.9972586 * mu_v4 + 3.3968315 * mu_b1 + 2.2851965 * mu_b2 + 0.81451744 * mu_b3 + 0.0018598136 * mu_u4;
+    let p_1 = 1.5931951 * mu_v4 + 8.969291 * mu_b1 + 7.442019 * mu_b2 + 3.958881 * mu_b3 + 0.18482123 * mu_u4;
+    let p_2 = 6.5012836 * mu_v4 + 25.07005 * mu_b1 + 22.440268 * mu_b2 + 9.831819 * mu_b3 + 0.39811185 * mu_u4;
+    let p_3 = 13.586434 * mu_v4 + 41.641285 * mu_b1 + 37.91396 * mu_b2 + 14.514922 * mu_b3 + 0.94767916 * mu_u4;
+    let p_4 = 7.026715 * mu_v4 + 19.526207 * mu_b1 + 16.70428 * mu_b2 + 5.209979 * mu_b3 + 0.07815677 * mu_u4;
     let p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
     let q_0 = 1.0 * mu_v4 + 3.4035368 * mu_b1 + 2.2900186 * mu_b2 + 0.8127425 * mu_b3 + 0.0018600484 * mu_u4;
-    let q_1 = 1.3886799 * mu_v4 + 8.503376 * mu_b1 + 7.2752194 * mu_b2 + 4.0435753 * mu_b3 + 0.18544912 * mu_u4;
-    let q_2 = 6.361268 * mu_v4 + 26.18052 * mu_b1 + 25.532055 * mu_b2 + 11.653364 * mu_b3 + 0.3941557 * mu_u4;
-    let q_3 = 16.341398 * mu_v4 + 53.240673 * mu_b1 + 54.015957 * mu_b2 + 22.474596 * mu_b3 + 1.6603115 * mu_u4;
-    let q_4 = 9.058999 * mu_v4 + 26.920746 * mu_b1 + 25.61023 * mu_b2 + 8.812818 * mu_b3 + 0.13993293 * mu_u4;
+    let q_1 = 1.3886801 * mu_v4 + 8.503377 * mu_b1 + 7.2752204 * mu_b2 + 4.043576 * mu_b3 + 0.1854492 * mu_u4;
+    let q_2 = 6.361268 * mu_v4 + 26.18052 * mu_b1 + 25.532053 * mu_b2 + 11.653362 * mu_b3 + 0.3941553 * mu_u4;
+    let q_3 = 16.341398 * mu_v4 + 53.240673 * mu_b1 + 54.015957 * mu_b2 + 22.474596 * mu_b3 + 1.6603112 * mu_u4;
+    let q_4 = 9.058999 * mu_v4 + 26.920746 * mu_b1 + 25.61023 * mu_b2 + 8.812818 * mu_b3 + 0.13993292 * mu_u4;
     let q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

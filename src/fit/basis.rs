@@ -104,17 +104,44 @@ impl Polynomial {
     #[inline]
     fn eval_impl<const ABS: bool>(&self, t: &[f64]) -> (f64, f64) {
         let d = t.len();
+        if d > super::data::MAX_DIM {
+            return self.eval_general::<ABS>(t);
+        }
+        // Powers t_k^j filled on demand as the terms need them: the same products
+        // (t^j = t^{j−1}·t) as a full table, without a pass over the exponents for the degree.
+        const STRIDE: usize = MAX_DEGREE as usize + 1;
+        let mut pw = [[1.0f64; STRIDE]; super::data::MAX_DIM];
+        let mut filled = [0usize; super::data::MAX_DIM];
+        let (mut sum, mut abs) = (0.0, 0.0);
+        for (e, &c) in self.exponents.iter().zip(&self.coefficients) {
+            let mut m = c;
+            for (k, &ek) in e.iter().enumerate().take(d) {
+                let ek = ek as usize;
+                if ek >= STRIDE {
+                    return self.eval_general::<ABS>(t);
+                }
+                if ek > filled[k] {
+                    for j in filled[k] + 1..=ek {
+                        pw[k][j] = pw[k][j - 1] * t[k];
+                    }
+                    filled[k] = ek;
+                }
+                m *= pw[k][ek];
+            }
+            sum += m;
+            if ABS {
+                abs += m.abs();
+            }
+        }
+        (sum, abs)
+    }
+
+    /// [`Self::eval_impl`] for any dimension and degree (a full power table first).
+    fn eval_general<const ABS: bool>(&self, t: &[f64]) -> (f64, f64) {
+        let d = t.len();
         let deg = self.degree() as usize;
-        const STACK: usize = super::data::MAX_DIM * (MAX_DEGREE as usize + 1);
-        let mut stack = [1.0f64; STACK];
-        let mut heap = Vec::new();
         let stride = deg + 1;
-        let pw: &mut [f64] = if d * stride <= STACK {
-            &mut stack[..d * stride]
-        } else {
-            heap.resize(d * stride, 1.0);
-            &mut heap
-        };
+        let mut pw = vec![1.0; d * stride];
         for k in 0..d {
             for j in 1..=deg {
                 pw[k * stride + j] = pw[k * stride + j - 1] * t[k];

@@ -100,6 +100,47 @@ impl Polynomial {
         (v, gamma(ops) * abs)
     }
 
+    /// [`Self::eval`] at `out.len()` points whose `d` transformed coordinates stand one point
+    /// after the other in `ts`. Every point gets exactly the arithmetic of [`Self::eval`]
+    /// (powers by repeated products, each term c·Π t_k^e_k left to right, terms summed in
+    /// coefficient order), so the values are the same to the bit; the loops run across a block
+    /// of points, which vectorises.
+    pub fn eval_many(&self, d: usize, ts: &[f64], out: &mut [f64]) {
+        const BLOCK: usize = 32;
+        debug_assert_eq!(ts.len(), d * out.len());
+        let deg = self.degree() as usize;
+        let stride = deg + 1;
+        let mut pw = vec![1.0; d * stride * BLOCK];
+        let (mut m, mut sum) = ([0.0; BLOCK], [0.0; BLOCK]);
+        for (block, o) in out.chunks_mut(BLOCK).enumerate() {
+            let nb = o.len();
+            let t = &ts[block * BLOCK * d..(block * BLOCK + nb) * d];
+            for k in 0..d {
+                for j in 1..=deg {
+                    let (lo, hi) = pw.split_at_mut((k * stride + j) * BLOCK);
+                    let prev = &lo[(k * stride + j - 1) * BLOCK..];
+                    for p in 0..nb {
+                        hi[p] = prev[p] * t[p * d + k];
+                    }
+                }
+            }
+            sum[..nb].iter_mut().for_each(|s| *s = 0.0);
+            for (e, &c) in self.exponents.iter().zip(&self.coefficients) {
+                m[..nb].iter_mut().for_each(|v| *v = c);
+                for (k, &ek) in e.iter().enumerate().take(d) {
+                    let row = &pw[(k * stride + ek as usize) * BLOCK..];
+                    for p in 0..nb {
+                        m[p] *= row[p];
+                    }
+                }
+                for p in 0..nb {
+                    sum[p] += m[p];
+                }
+            }
+            o.copy_from_slice(&sum[..nb]);
+        }
+    }
+
     /// (Σ terms, Σ |terms| if `ABS`, else 0), summed in coefficient order.
     #[inline]
     fn eval_impl<const ABS: bool>(&self, t: &[f64]) -> (f64, f64) {
@@ -351,6 +392,29 @@ pub(crate) fn monomial_to_unit_box(p: &Polynomial, bounds: &[(f64, f64)]) -> (Ve
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn eval_many_is_eval_to_the_bit() {
+        // a small LCG: deterministic coefficients and points, some outside [0, 1]
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.6 - 0.8
+        };
+        for d in 1..=3 {
+            for degree in [0, 1, 4, 10, 20] {
+                let exps = exponents(d, degree);
+                let p = Polynomial { coefficients: exps.iter().map(|_| next()).collect(), exponents: exps };
+                let n = 77; // not a multiple of the block
+                let ts: Vec<f64> = (0..n * d).map(|_| next()).collect();
+                let mut many = vec![0.0; n];
+                p.eval_many(d, &ts, &mut many);
+                for (k, v) in many.iter().enumerate() {
+                    assert_eq!(v.to_bits(), p.eval(&ts[k * d..(k + 1) * d]).to_bits(), "d {d} degree {degree} point {k}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn sklearn_order_2d_and_3d() {

@@ -134,8 +134,12 @@ pub fn measure_with_subset(approx: &Approximant, data: &FitData, subset: Option<
         .into_par_iter()
         .map(|c| {
             let (mut all, mut sub) = (Running::new(), Running::new());
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                let (f, y) = (approx.eval(data.point(i)), data.values[i]);
+            let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
+            let d = data.dim();
+            let mut fs = vec![0.0; hi - lo];
+            approx.eval_many(d, &data.coords[lo * d..hi * d], &mut fs);
+            for i in lo..hi {
+                let (f, y) = (fs[i - lo], data.values[i]);
                 all.add(i, f, y);
                 if subset.is_some_and(|s| s[i]) {
                     sub.add(i, f, y);

@@ -111,6 +111,29 @@ impl Approximant {
         }
     }
 
+    /// [`Self::eval`] at `out.len()` points of `d` coordinates each, one after the other in
+    /// `xs` (original variables); the same to the bit, evaluated a block at a time.
+    pub fn eval_many(&self, d: usize, xs: &[f64], out: &mut [f64]) {
+        if d != self.variables.len() || d > MAX_DIM || xs.len() != d * out.len() {
+            out.iter_mut().for_each(|o| *o = f64::NAN);
+            return;
+        }
+        let mut ts = vec![0.0; xs.len()];
+        let mut t = [0.0f64; MAX_DIM];
+        for (x, tp) in xs.chunks_exact(d).zip(ts.chunks_exact_mut(d)) {
+            transform_point(&self.transforms, x, &mut t);
+            tp.copy_from_slice(&t[..d]);
+        }
+        self.numerator.eval_many(d, &ts, out);
+        if let Some(q) = &self.denominator {
+            let mut den = vec![0.0; out.len()];
+            q.eval_many(d, &ts, &mut den);
+            for (o, q) in out.iter_mut().zip(&den) {
+                *o /= q;
+            }
+        }
+    }
+
     /// The domain box in transformed variables.
     pub fn transformed_domain(&self) -> Result<Vec<(f64, f64)>> {
         transformed_box(&self.variables, &self.domain, &self.transforms)

@@ -278,6 +278,10 @@ impl Model for GgxModel {
             .collect()
     }
 
+    fn grazing_boundary_layer(&self) -> bool {
+        true
+    }
+
     fn shares_column_geometry(&self) -> bool {
         matches!(self.kind, GgxKind::Dielectric { inverse: false } | GgxKind::Glossy)
     }

@@ -72,6 +72,13 @@ pub trait Model: Send + Sync {
     fn shares_column_geometry(&self) -> bool {
         false
     }
+    /// Whether E has a boundary layer at grazing μ whose width shrinks with roughness (GGX:
+    /// E(r, μ) → g(μ/r²) as r → 0). Degree sweeps of such a model also try the boundary-layer
+    /// input transform ([`crate::fit::InputTransform::BoundaryLayer`]); for the others it only
+    /// costs time (the rough-diffuse models' best fits never used it: measured on every sweep).
+    fn grazing_boundary_layer(&self) -> bool {
+        false
+    }
     /// Folder name of the model's tables under `data/` (differs from [`Model::name`] only for
     /// variants selected by options, e.g. radiance-form transmission).
     fn cache_name(&self) -> String {

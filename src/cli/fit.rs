@@ -111,7 +111,9 @@ impl ObjectiveArg {
 }
 
 /// The data to fit and the folder name under --fits-dir.
-fn fit_input(args: &FitArgs) -> Result<(FitInput, String)> {
+/// The data to fit, the fits folder's name and whether the data may have a grazing boundary
+/// layer (a model's say-so; a user's table may).
+fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
     if let Some(path) = &args.table {
         let axes = args.axes.as_deref().map(source::parse_axes).transpose()?;
         let input = source::load_user_table(path, &UserTableOptions { channel: Some(args.channel.clone()), axes })?;
@@ -119,7 +121,7 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String)> {
         let name = if input.source.kind == "furnace_table" { path.parent().and_then(Path::file_name) } else { path.file_stem() };
         let name = name.map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "table".into());
         eprintln!("{}: {} points in {} variables ({})", path.display(), input.data.len(), input.data.dim(), input.data.names.join(", "));
-        return Ok((input, name));
+        return Ok((input, name, true));
     }
     let name = args.model.as_deref().ok_or_else(|| Error::InvalidInput("give --model or --table".into()))?;
     let model = bsdf::find(name, args.quadrature.model_options())?;
@@ -134,7 +136,7 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String)> {
         t.seconds,
         t.stem.display()
     );
-    Ok((source::from_table(&t.table, &args.channel, Some(&t.stem))?, model.cache_name()))
+    Ok((source::from_table(&t.table, &args.channel, Some(&t.stem))?, model.cache_name(), model.grazing_boundary_layer()))
 }
 
 /// Folder name of fits restricted to a sub-box: `<name>.<var><lo>-<hi>…`.
@@ -148,7 +150,7 @@ fn boxed_name(name: &str, bounds: &[source::AxisDecl]) -> String {
 
 /// `furnace fit`.
 pub fn fit_cmd(args: &FitArgs) -> Result<()> {
-    let (mut input, mut name) = fit_input(args)?;
+    let (mut input, mut name, layer) = fit_input(args)?;
     if let Some(text) = &args.domain {
         let bounds = source::parse_axes(text).map_err(|e| Error::InvalidInput(e.to_string().replace("--axes", "--domain")))?;
         input = input.restrict(&bounds)?;
@@ -162,7 +164,10 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
     let dir = args.fits_dir.join(&name);
     let timing_dir = args.data_dir.join("timing").join(&name);
     if args.sweep {
-        let mut plan = SweepPlan::paper(&input.data, args.max_degree, transforms, args.objective.objective());
+        let mut plan = SweepPlan::paper(&input.data, args.max_degree, transforms.clone(), args.objective.objective());
+        if !layer {
+            plan = plan.without_boundary_layer(transforms.as_deref());
+        }
         if let Some(f) = args.form {
             match f {
                 FormArg::Rational => plan.polynomial_degrees.clear(),

@@ -503,7 +503,10 @@ fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<f64>)
 
 fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
     let input = source::from_table(&t.table, "E", Some(&t.stem))?;
-    let plan = SweepPlan::paper(&input.data, args.max_degree, None, Objective::LeastSquares);
+    let mut plan = SweepPlan::paper(&input.data, args.max_degree, None, Objective::LeastSquares);
+    if !job.model.grazing_boundary_layer() {
+        plan = plan.without_boundary_layer(None);
+    }
     let dir = args.scene.fits_dir.join(&job.name);
     let mut inputs = sweep_inputs(t, &plan);
     if !args.refit && !args.force {

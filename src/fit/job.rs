@@ -365,6 +365,13 @@ impl SweepPlan {
             minimax_refits: true,
         }
     }
+
+    /// Drops the transform sets that use the boundary layer, except `keep` (a set the user
+    /// asked for): for data without a grazing layer (see `Model::grazing_boundary_layer`).
+    pub fn without_boundary_layer(mut self, keep: Option<&[InputTransform]>) -> SweepPlan {
+        self.transform_sets.retain(|t| keep == Some(t.as_slice()) || !t.iter().any(|x| matches!(x, InputTransform::BoundaryLayer { .. })));
+        self
+    }
 }
 
 /// The paper's box of a sweep.
@@ -873,6 +880,23 @@ pub fn parse_transforms(text: &str, names: &[String]) -> Result<Vec<InputTransfo
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn boundary_layer_sets_drop_unless_asked_for() {
+        let (r, mu): (Vec<f64>, Vec<f64>) = (0..16).map(|k| ((k / 4) as f64 / 3.0, (k % 4) as f64 / 3.0)).unzip();
+        let coords: Vec<f64> = r.iter().zip(&mu).flat_map(|(&a, &b)| [a, b]).collect();
+        let data = FitData::new(vec!["r".into(), "mu".into()], coords, vec![0.5; 16], vec![(0.0, 1.0); 2]).unwrap();
+        let is_layer = |t: &Vec<InputTransform>| t.iter().any(|x| matches!(x, InputTransform::BoundaryLayer { .. }));
+        let plan = SweepPlan::paper(&data, None, None, Objective::LeastSquares);
+        assert_eq!(plan.transform_sets.iter().filter(|t| is_layer(t)).count(), 2, "{:?}", plan.transform_sets);
+        let n = plan.transform_sets.len();
+        let kept = plan.clone().without_boundary_layer(None);
+        assert_eq!(kept.transform_sets.len(), n - 2);
+        assert!(!kept.transform_sets.iter().any(is_layer));
+        let asked = plan.transform_sets.iter().find(|t| is_layer(t)).unwrap().clone();
+        let kept = plan.without_boundary_layer(Some(&asked));
+        assert_eq!(kept.transform_sets.iter().filter(|t| is_layer(t)).collect::<Vec<_>>(), vec![&asked]);
+    }
 
     #[test]
     fn file_names() {

@@ -439,10 +439,11 @@ impl Default for QuadratureSettings {
     }
 }
 
-/// Default base order. With the panel maps above the order-12 rule is within 3.4e-8 of the
-/// converged value over a 48² conductor grid, and |Q(12) − Q(9)| ≤ 1e-7 holds for ~97% of
-/// cells, the rest being refined (measured with `examples/conv.rs` and `furnace bench
-/// tabulate`; see README).
+/// Default base order. With the panel maps above the bare order-12 rule is within 2.4e-8
+/// (conductor) and 9.2e-9 (entering dielectric) of the shared reference, and
+/// |Q(12) − Q(9)| ≤ 1e-7 holds for 77 % of the cells of a 1024² conductor table and 79 % of a
+/// 128³ dielectric one, the rest being refined (`furnace bench tabulate`, `furnace tabulate`;
+/// see README).
 pub const DEFAULT_ORDER: usize = 12;
 
 impl QuadratureSettings {

@@ -877,16 +877,7 @@ impl Integrand2D for VndfIntegrand {
         // gets exactly the arithmetic of [`Integrand2D::eval`], and the sums run in node order:
         // the result is the same to the bit.
         for (vc, wc) in vs.chunks(LANES).zip(ws.chunks(LANES)) {
-            let mut phi = [FRAC_PI_2; LANES];
-            phi[..vc.len()].copy_from_slice(vc);
-            let (mut sp, mut cp) = ([0.0; LANES], [0.0; LANES]);
-            for j in 0..LANES {
-                (sp[j], cp[j]) = sin_cos_0_pi(phi[j]);
-            }
-            let mut y = [[0.0; CHANNELS]; LANES];
-            for j in 0..LANES {
-                y[j] = self.eval_sin_cos(line, sp[j], cp[j]);
-            }
+            let y = self.eval_lanes(line, vc);
             for (yj, &w) in y.iter().zip(wc) {
                 acc[0] += w * yj[0];
                 acc[1] += w * yj[1];
@@ -902,16 +893,7 @@ impl Integrand2D for VndfIntegrand {
             return;
         }
         for (vc, oc) in vs.chunks(LANES).zip(out.chunks_mut(LANES)) {
-            let mut phi = [FRAC_PI_2; LANES];
-            phi[..vc.len()].copy_from_slice(vc);
-            let (mut sp, mut cp) = ([0.0; LANES], [0.0; LANES]);
-            for j in 0..LANES {
-                (sp[j], cp[j]) = sin_cos_0_pi(phi[j]);
-            }
-            let mut y = [[0.0; CHANNELS]; LANES];
-            for j in 0..LANES {
-                y[j] = self.eval_sin_cos(line, sp[j], cp[j]);
-            }
+            let y = self.eval_lanes(line, vc);
             for (o, yj) in oc.iter_mut().zip(&y) {
                 *o = yj[0] != 0.0 || yj[1] != 0.0;
             }
@@ -940,6 +922,23 @@ impl Integrand2D for VndfIntegrand {
 }
 
 impl VndfIntegrand {
+    /// The integrand at up to [`LANES`] points of `line`, stage by stage (all sines, then all
+    /// evaluations) so that the nodes' dependency chains overlap; unused lanes hold φ = π/2.
+    #[inline(always)]
+    fn eval_lanes(&self, line: &Line, vc: &[f64]) -> [[f64; CHANNELS]; LANES] {
+        let mut phi = [FRAC_PI_2; LANES];
+        phi[..vc.len()].copy_from_slice(vc);
+        let (mut sp, mut cp) = ([0.0; LANES], [0.0; LANES]);
+        for j in 0..LANES {
+            (sp[j], cp[j]) = sin_cos_0_pi(phi[j]);
+        }
+        let mut y = [[0.0; CHANNELS]; LANES];
+        for j in 0..LANES {
+            y[j] = self.eval_sin_cos(line, sp[j], cp[j]);
+        }
+        y
+    }
+
     /// Column mode: adds the IOR-dependent factors of every cell of the column at one normal
     /// (ωo·h = c, height h_z, weight `visible`, reflection masking w_r). The loops over the
     /// column have no branches (selects only) so that they vectorise; each cell gets exactly the

@@ -94,20 +94,8 @@ pub const RUN_RESOLUTION_PAPER_RADIANCE: usize = 32;
 pub const RUN_LUT_RESOLUTION: usize = 32;
 
 /// The built-in default set of the main command: the paper's models in both Smith forms and
-/// the rough-diffuse models.
-pub const DEFAULT_MODELS: &[&str] = &[
-    "ggx-conductor",
-    "ggx-conductor-separable",
-    "ggx-glossy",
-    "ggx-glossy-separable",
-    "ggx-dielectric",
-    "ggx-dielectric-separable",
-    "ggx-dielectric-inv",
-    "ggx-dielectric-inv-separable",
-    "oren-nayar-qon",
-    "oren-nayar-fon",
-    "eon",
-];
+/// the rough-diffuse models — the set the report covers.
+pub const DEFAULT_MODELS: &[&str] = REPORT_MODELS;
 
 /// Models also tabulated and fitted with radiance-form transmission (×1/η² entering, ×η²
 /// leaving): the paper's two dielectric tables are in that form, and its published fits are

@@ -29,6 +29,7 @@
 //! a quadratic form as well (see [`VndfIntegrand::transmit_roots`]); only where the three kink
 //! curves meet are the outer panel ends found by scanning β and bisecting.
 
+use super::slope::SlopeIntegrand;
 use super::{AxisSpec, Model, ModelOptions, MAX_OUTPUTS};
 use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, sin_cos_0_pi, SmithForm};
 use crate::quadrature::{integrate_2d, panels_from_breaks, Break, Integrand2D, Panel, Rules, CHANNELS};
@@ -153,6 +154,9 @@ impl GgxModel {
         if alpha == 0.0 {
             return smooth_interface(lobes, mu_o);
         }
+        if let Lobes::Conductor = lobes {
+            return integrate_2d(&SlopeIntegrand::conductor(alpha, mu_o, self.smith), rules);
+        }
         self.integrands(alpha, mu_o, lobes).iter().fold([0.0; CHANNELS], |acc, f| {
             let v = integrate_2d(f, rules);
             [acc[0] + v[0], acc[1] + v[1]]
@@ -262,6 +266,10 @@ impl Model for GgxModel {
         if alpha == 0.0 {
             let v = self.outputs_from_integrals(f0, smooth_interface(lobes, mu));
             return vec![v; rules.len()];
+        }
+        if let Lobes::Conductor = lobes {
+            let f = SlopeIntegrand::conductor(alpha, mu, self.smith);
+            return rules.iter().map(|r| self.outputs_from_integrals(f0, integrate_2d(&f, r))).collect();
         }
         // one set of integrands: their outer panels (scanned when leaving the denser medium)
         // serve all orders

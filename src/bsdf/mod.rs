@@ -8,6 +8,7 @@
 pub mod diffuse;
 pub mod ggx;
 pub mod radziszewski;
+pub mod slope;
 
 use crate::error::{Error, Result};
 use crate::quadrature::{next_order, Estimate, QuadratureSettings, RuleCache, Rules};

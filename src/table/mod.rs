@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a change to the engine can change a table value: it is hashed into every
 /// cache key, so stale tables are recomputed rather than trusted.
-pub const ENGINE_VERSION: u32 = 1;
+pub const ENGINE_VERSION: u32 = 2;
 
 /// Refuse tables whose values and error estimates would need more memory than this.
 pub const MAX_TABLE_BYTES: u128 = 8 << 30;

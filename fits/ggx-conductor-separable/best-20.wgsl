@@ -7,15 +7,15 @@
 // ggx_conductor_separable_albedo(r, mu): directional albedo E of ggx-conductor-separable.
 // Model: GGX white conductor (F = 1), E(r, μ); separable Smith G1·G1 (the paper's renderer).
 // Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor-separable/best-20.json (furnace 0.1.0), fit SHA-256 143360dfd9391279c915996a3d7eac10de6e5b84a82988153d89931f5e88d3a0.
+// Source: fits/ggx-conductor-separable/best-20.json (furnace 0.1.0), fit SHA-256 27060b16b8b4c485b7af469a84edbd8426c37a729736d81e1d1746042949b197.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   r: t = square(r), [0, 1]
 //   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
-// Evaluation: nested Horner in the shifted variables s = (t − c)/h ∈ [−1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 3.9e-6 (bound 4.0e-5), shifted 1.4e-6 (bound 4.9e-5), bernstein 3.8e-7 (bound 1.1e-5).
+// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 16641 grid points: monomial 2.3e-6 (bound 3.9e-5), shifted 1.8e-6 (bound 5.0e-5), bernstein 4.1e-7 (bound 1.1e-5).
 // Error of the f64 fit on its 1048576 data points: MAE 1.68e-3, max 4.24e-3 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 1.68e-3 + 1.4e-6, max ≤ 4.24e-3 + 1.4e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 16641 grid points: max 1.4e-6 (every op rounded, as this Rust), 1.3e-6 (fused multiply–add), 1.3e-6 (GPU ÷/sqrt error); first-order bound 4.9e-5.
+// Error of this f32 code on the same data: MAE ≤ 1.68e-3 + 2.3e-6, max ≤ 4.24e-3 + 2.3e-6 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 16641 grid points: max 2.3e-6 (every op rounded, as this Rust), 1.7e-6 (fused multiply–add), 2.0e-6 (GPU ÷/sqrt error); first-order bound 3.9e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-3 on the grid.
 // Denominator proved ≥ 9.994e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
@@ -26,22 +26,18 @@ fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     let mu_c = max(min(mu, 1.0), 0.0);
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     let mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // s = (t − 0.5)/0.5 ∈ [−1, 1]
-    let r_s = r_t * 2.0 - 1.0;
-    // s = (t − 0.5)/0.5 ∈ [−1, 1]
-    let mu_s = mu_t * 2.0 - 1.0;
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((-0.09943229 * mu_s + 0.4925004) * mu_s - 0.94463706) * mu_s + 0.90376896;
-    let p_1 = (0.09563914 * mu_s - 0.6454684) * mu_s + 0.86641127;
-    let p_2 = 0.00944621 * mu_s + 0.02576365;
-    let p_3 = -0.08966786;
-    let p = ((p_3 * r_s + p_2) * r_s + p_1) * r_s + p_0;
+    let p_0 = ((-0.79545856 * mu_t + 2.7806327) * mu_t - 2.7634838) * mu_t + 0.93880516;
+    let p_1 = (0.7651131 * mu_t - 3.4225566) * mu_t + 2.6117609;
+    let p_2 = 0.07557054 * mu_t + 1.1412826;
+    let p_3 = -0.71734244;
+    let p = ((p_3 * r_t + p_2) * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((-0.09336257 * mu_s + 0.4993882) * mu_s - 1.1427253) * mu_s + 1.2512077;
-    let q_1 = (0.09267635 * mu_s - 0.9132024) * mu_s + 1.6465431;
-    let q_2 = -0.09707611 * mu_s + 0.6768716;
-    let q_3 = 0.10820963;
-    let q = ((q_3 * r_s + q_2) * r_s + q_1) * r_s + q_0;
+    let q_0 = ((-0.7469008 * mu_t + 2.7471986) * mu_t - 2.8402212) * mu_t + 1.0;
+    let q_1 = (0.74141085 * mu_t - 3.617612) * mu_t + 2.858311;
+    let q_2 = -0.77660817 * mu_t + 1.797274;
+    let q_3 = 0.86567676;
+    let q = ((q_3 * r_t + q_2) * r_t + q_1) * r_t + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);
 }

@@ -10,17 +10,17 @@
 // ggx_conductor_separable_albedo(r, mu): directional albedo E of ggx-conductor-separable.
 // Model: GGX white conductor (F = 1), E(r, μ); separable Smith G1·G1 (the paper's renderer).
 // Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 4705026c08d7f365dd734796be462b09204c178b777f802b9ec6c2fdc6ef161a.
+// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 43a21c0c86697e57a06f5dffa1ff5e788c37c226048b1d7df036afce87f7cd39.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   r: t = square(r), [0, 1]
 //   mu: t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100), [0, 1]
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t − lo)/(hi − lo) ∈ [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 6.2e-6 (bound 1.2e-4), shifted 3.2e-6 (bound 9.8e-5), bernstein 3.9e-7 (bound 1.5e-5).
+//   Why: the cheapest form with max |f32 − f64| ≤ 2.5e-6; the monomial form cancels in f32. Max |f32 − f64| on 16641 grid points: monomial 5.3e-6 (bound 1.2e-4), shifted 3.2e-6 (bound 9.8e-5), bernstein 3.8e-7 (bound 1.5e-5).
 // Error of the f64 fit on its 1048576 data points: MAE 1.89e-4, max 4.29e-4 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 1.89e-4 + 3.9e-7, max ≤ 4.29e-4 + 3.9e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 16641 grid points: max 3.1e-7 (every op rounded, as this Rust), 3.0e-7 (fused multiply–add), 3.9e-7 (GPU ÷/sqrt error); first-order bound 1.5e-5.
+// Error of this f32 code on the same data: MAE ≤ 1.89e-4 + 3.8e-7, max ≤ 4.29e-4 + 3.8e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 16641 grid points: max 3.1e-7 (every op rounded, as this Rust), 2.9e-7 (fused multiply–add), 3.8e-7 (GPU ÷/sqrt error); first-order bound 1.5e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-4 on the grid.
-// Denominator proved ≥ 4.858e-2 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved ≥ 4.859e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0), 0.0);
@@ -54,18 +54,18 @@ float ggx_conductor_separable_albedo(float r, float mu) {
     float mu_b2 = mu_u2 * mu_v2;
     float mu_b3 = mu_u3 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 0.93634194 * mu_v4 + 1.3334895 * mu_b1 + 0.7165868 * mu_b2 - 0.027935725 * mu_b3 + 0.064526945 * mu_u4;
-    float p_1 = 5.2345643 * mu_v4 + 8.130188 * mu_b1 + 5.0622673 * mu_b2 + 0.7084091 * mu_b3 + 0.18937226 * mu_u4;
-    float p_2 = 10.733777 * mu_v4 + 17.934855 * mu_b1 + 12.232189 * mu_b2 + 2.93951 * mu_b3 + 0.37980965 * mu_u4;
-    float p_3 = 9.3020525 * mu_v4 + 16.082743 * mu_b1 + 11.195895 * mu_b2 + 3.1083734 * mu_b3 + 0.3407768 * mu_u4;
-    float p_4 = 2.8957472 * mu_v4 + 5.0615845 * mu_b1 + 3.4848835 * mu_b2 + 1.0222062 * mu_b3 + 0.115062 * mu_u4;
+    float p_0 = 0.9363417 * mu_v4 + 1.3335519 * mu_b1 + 0.7166233 * mu_b2 - 0.02793959 * mu_b3 + 0.064530924 * mu_u4;
+    float p_1 = 5.2346597 * mu_v4 + 8.130626 * mu_b1 + 5.0625606 * mu_b2 + 0.70843905 * mu_b3 + 0.18937889 * mu_u4;
+    float p_2 = 10.734101 * mu_v4 + 17.935896 * mu_b1 + 12.232966 * mu_b2 + 2.9396996 * mu_b3 + 0.37983084 * mu_u4;
+    float p_3 = 9.3024025 * mu_v4 + 16.08371 * mu_b1 + 11.196629 * mu_b2 + 3.108586 * mu_b3 + 0.34079888 * mu_u4;
+    float p_4 = 2.8958735 * mu_v4 + 5.061904 * mu_b1 + 3.4851263 * mu_b2 + 1.0222824 * mu_b3 + 0.11507036 * mu_u4;
     float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0 * mu_v4 + 1.4657124 * mu_b1 + 0.8788566 * mu_b2 - 0.028108379 * mu_b3 + 0.06451008 * mu_u4;
-    float q_1 = 5.60125 * mu_v4 + 8.86957 * mu_b1 + 5.9753156 * mu_b2 + 0.8729083 * mu_b3 + 0.18896315 * mu_u4;
-    float q_2 = 12.2359915 * mu_v4 + 20.949419 * mu_b1 + 14.896403 * mu_b2 + 3.5985813 * mu_b3 + 0.45018116 * mu_u4;
-    float q_3 = 12.16045 * mu_v4 + 22.543264 * mu_b1 + 16.599844 * mu_b2 + 4.6991267 * mu_b3 + 0.5051485 * mu_u4;
-    float q_4 = 4.7208757 * mu_v4 + 9.778373 * mu_b1 + 7.970905 * mu_b2 + 2.782233 * mu_b3 + 0.37458813 * mu_u4;
+    float q_0 = 1.0 * mu_v4 + 1.4657778 * mu_b1 + 0.8789012 * mu_b2 - 0.02811198 * mu_b3 + 0.06451405 * mu_u4;
+    float q_1 = 5.601349 * mu_v4 + 8.870042 * mu_b1 + 5.9756637 * mu_b2 + 0.8729429 * mu_b3 + 0.18897 * mu_u4;
+    float q_2 = 12.236346 * mu_v4 + 20.950602 * mu_b1 + 14.897353 * mu_b2 + 3.598805 * mu_b3 + 0.45020545 * mu_u4;
+    float q_3 = 12.160891 * mu_v4 + 22.544544 * mu_b1 + 16.600914 * mu_b2 + 4.699437 * mu_b3 + 0.5051766 * mu_u4;
+    float q_4 = 4.7210817 * mu_v4 + 9.77896 * mu_b1 + 7.9714527 * mu_b2 + 2.78244 * mu_b3 + 0.37461534 * mu_u4;
     float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -7,15 +7,15 @@
 // ggx_conductor_albedo(r, mu): directional albedo E of ggx-conductor.
 // Model: GGX white conductor (F = 1), E(r, μ); height-correlated Smith G2.
 // Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 a987208ef28e126c6328ce6d004e57ca3cdd46a4c662d32d87e51f7972b0a720.
+// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 4d24d543148d8f27d8c1cdbf367ac4ad31a2207fa39817a824129a9340b1f69e.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   r: t = square(r), [0, 1]
 //   mu: t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100), [0, 1]
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 16641 grid points: monomial 5.7e-7 (bound 1.1e-5), shifted 8.5e-7 (bound 1.5e-5), bernstein 4.0e-7 (bound 1.2e-5).
+//   Why: the cheapest form, and stable in f32 (max |f32 − f64| ≤ 2.5e-6). Max |f32 − f64| on 16641 grid points: monomial 5.6e-7 (bound 1.1e-5), shifted 8.9e-7 (bound 1.5e-5), bernstein 4.2e-7 (bound 1.2e-5).
 // Error of the f64 fit on its 1048576 data points: MAE 2.79e-3, max 8.83e-3 (recorded by the fitter).
-// Error of this f32 code on the same data: MAE ≤ 2.79e-3 + 5.7e-7, max ≤ 8.83e-3 + 5.7e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
-// f32 − f64 on 16641 grid points: max 5.3e-7 (every op rounded, as this Rust), 4.4e-7 (fused multiply–add), 5.7e-7 (GPU ÷/sqrt error); first-order bound 1.1e-5.
+// Error of this f32 code on the same data: MAE ≤ 2.79e-3 + 5.6e-7, max ≤ 8.83e-3 + 5.6e-7 (the f64 errors plus max |f32 − f64|; the table was not at hand to measure it).
+// f32 − f64 on 16641 grid points: max 4.7e-7 (every op rounded, as this Rust), 5.6e-7 (fused multiply–add), 5.4e-7 (GPU ÷/sqrt error); first-order bound 1.1e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.7e-3 on the grid.
 // Denominator proved ≥ 2.464e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
@@ -27,16 +27,16 @@ fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     let mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((1.5618361 * mu_t - 0.4425442) * mu_t - 1.5664383) * mu_t + 1.0034989;
-    let p_1 = (-3.0257034 * mu_t + 0.84437186) * mu_t + 3.6163769;
-    let p_2 = 1.8245094 * mu_t - 4.2968655;
-    let p_3 = 1.1007631;
+    let p_0 = ((1.5618376 * mu_t - 0.44254526) * mu_t - 1.566438) * mu_t + 1.0034989;
+    let p_1 = (-3.0257056 * mu_t + 0.8443719) * mu_t + 3.6163802;
+    let p_2 = 1.8245107 * mu_t - 4.296869;
+    let p_3 = 1.1007639;
     let p = ((p_3 * r_t + p_2) * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((1.8412765 * mu_t - 1.0198237) * mu_t - 1.2648673) * mu_t + 1.0;
-    let q_1 = (-4.374635 * mu_t + 2.1377876) * mu_t + 3.5548625;
-    let q_2 = 3.3137105 * mu_t - 4.059377;
-    let q_3 = 0.92712754;
+    let q_0 = ((1.8412777 * mu_t - 1.0198245) * mu_t - 1.264867) * mu_t + 1.0;
+    let q_1 = (-4.374638 * mu_t + 2.1377883) * mu_t + 3.5548658;
+    let q_2 = 3.313713 * mu_t - 4.0593805;
+    let q_3 = 0.9271284;
     let q = ((q_3 * r_t + q_2) * r_t + q_1) * r_t + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

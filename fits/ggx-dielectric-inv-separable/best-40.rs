@@ -7,7 +7,7 @@
 /// ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 /// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 21d456a5092789dc09c8ac10f114e095195b7cc8fdb397e25f8584f435654e9a.
+/// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 18feba72aaf43170ab22ed8feb886d423c3917ec350fcbfa5840917bc10715ca.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = f0, [0.0125, 0.25]
 ///   r: t = square(r), [0, 1]

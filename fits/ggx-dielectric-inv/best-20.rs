@@ -7,7 +7,7 @@
 /// ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/η, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 /// Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-/// Source: fits/ggx-dielectric-inv/best-20.json (furnace 0.1.0), fit SHA-256 ff6815e3706ab63ca5dc663d300f45e858f63a1d060b03874c3d303c887b8b8a.
+/// Source: fits/ggx-dielectric-inv/best-20.json (furnace 0.1.0), fit SHA-256 20a1b5248e91d0f9fd3610969d0952852f1e0400dfda9a15e635f3bc3b0e50d0.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = sqrt(f0), [0.0125, 0.25]
 ///   r: t = square(r), [0, 1]

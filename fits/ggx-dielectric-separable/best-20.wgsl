@@ -7,7 +7,7 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 // Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-dielectric-separable/best-20.json (furnace 0.1.0), fit SHA-256 2b9a1df3f64aa6ad966b4075b2c44faace7df145371aca0468ebce047431e1dc.
+// Source: fits/ggx-dielectric-separable/best-20.json (furnace 0.1.0), fit SHA-256 528b45139a6f830a2269d532c0d73c085b51c9f400a37ff83f3452da64b7ddf1.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0.0125, 0.25]
 //   r: t = square(r), [0, 1]

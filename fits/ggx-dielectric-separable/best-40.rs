@@ -7,7 +7,7 @@
 /// ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 /// Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; separable Smith G1·G1 (the paper's renderer).
 /// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 b34a900ecdffa220cff12d8b4c6e986ffb496d9583bb98321bdd36c7c4de0f24.
+/// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 dd3ea9a0a262fcced455fd9ce6bc1d195c40069190ce338cabf0ea947d1fe08a.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = sqrt(f0), [0.0125, 0.25]
 ///   r: t = square(r), [0, 1]
@@ -36,7 +36,7 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // numerator P, grouped by powers of the first variable
     let p_0 = ((-1.3488779_f32 * r_t + (2.1893294_f32 * mu_t + 2.679534_f32)) * r_t + ((-5.253387_f32 * mu_t + 2.8184307_f32) * mu_t - 2.1330848_f32)) * r_t + (((1.8075751_f32 * mu_t + 1.8263081_f32) * mu_t - 1.3508567_f32) * mu_t + 0.9668901_f32);
     let p_1 = (-1.741254_f32 * r_t + (-7.809457_f32 * mu_t + 6.023608_f32)) * r_t + ((5.3686686_f32 * mu_t - 4.8419642_f32) * mu_t + 3.4465847_f32);
-    let p_2 = -0.69139695_f32 * r_t + (3.8961458_f32 * mu_t - 7.579941_f32);
+    let p_2 = -0.6913969_f32 * r_t + (3.8961458_f32 * mu_t - 7.579941_f32);
     let p_3 = 6.712399_f32;
     let p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable

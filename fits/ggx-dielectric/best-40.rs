@@ -7,7 +7,7 @@
 /// ggx_dielectric_albedo(f0, r, mu): directional albedo E of ggx-dielectric.
 /// Model: GGX rough dielectric seen from outside (η = (1+√F0)/(1−√F0)), E = E_R + E_T; height-correlated Smith G2.
 /// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 a220ebe33352a0f70146692dadc47212782368aa5b78be3ed253483688564f0b.
+/// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 2b4db8b98a2b56bddd838a428f0c57c98dd4aca83dc58f3bef256848ba104232.
 /// Arguments, transform t, fitted domain (arguments are clamped to it):
 ///   f0: t = sqrt(f0), [0.0125, 0.25]
 ///   r: t = square(r), [0, 1]

@@ -7,7 +7,7 @@
 // ggx_glossy_separable_albedo(f0, r, mu): directional albedo E of ggx-glossy-separable.
 // Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); separable Smith G1·G1 (the paper's renderer).
 // Fit: polynomial of degree 2, 10 coefficients (10 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-glossy-separable/best-20.json (furnace 0.1.0), fit SHA-256 7725e701234da21430c91689ba879ac52b628a03ad9e3d35b76af60c8eb0c672.
+// Source: fits/ggx-glossy-separable/best-20.json (furnace 0.1.0), fit SHA-256 ef6504a6a36720b0073c9fa326e6af4f321748fda8351d542790faee099f6454.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0, 1]
 //   r: t = r, [0, 1]

@@ -10,7 +10,7 @@
 // ggx_glossy_separable_albedo(f0, r, mu): directional albedo E of ggx-glossy-separable.
 // Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); separable Smith G1·G1 (the paper's renderer).
 // Fit: polynomial of degree 4, 35 coefficients (35 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 03938e2253a6368c57f89c3abdab398cb2a1571fe66efdbe636684d54a70131f.
+// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 495866f1e2db94f272d8f413c53c4bf426393f6bfd04daeaa4d5d1f87860ddd8.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0, 1]
 //   r: t = r, [0, 1]

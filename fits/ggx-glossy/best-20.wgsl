@@ -7,7 +7,7 @@
 // ggx_glossy_albedo(f0, r, mu): directional albedo E of ggx-glossy.
 // Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); height-correlated Smith G2.
 // Fit: polynomial of degree 2, 10 coefficients (10 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-glossy/best-20.json (furnace 0.1.0), fit SHA-256 134d723fe19492d5ce644372b0d84167d580fca0ee7c3cc930c6732cf8ced126.
+// Source: fits/ggx-glossy/best-20.json (furnace 0.1.0), fit SHA-256 dc0e26447e434d0014b4488b122ab9ff714358c48e5dcfdb812de42238d7aaf4.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0, 1]
 //   r: t = r, [0, 1]

@@ -10,7 +10,7 @@
 // ggx_glossy_albedo(f0, r, mu): directional albedo E of ggx-glossy.
 // Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); height-correlated Smith G2.
 // Fit: polynomial of degree 4, 35 coefficients (35 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 fc8b25b2b261dd20312d8046c646f264d4dfca81e61a078c5a85cd18a8fcd799.
+// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 7da7c50095dd426f60bb88c776e16a9790c565f5b032b6621dcd1f989aa31b68.
 // Arguments, transform t, fitted domain (arguments are clamped to it):
 //   f0: t = sqrt(f0), [0, 1]
 //   r: t = r, [0, 1]

@@ -4,48 +4,17 @@
 use furnace::bsdf::ggx::{Lobes, VndfIntegrand};
 use furnace::bsdf::slope::SlopeIntegrand;
 use furnace::math::SmithForm;
-use furnace::quadrature::{integrate_2d, Integrand2D, Panel, Rules, CHANNELS};
-use std::cell::Cell;
+use furnace::quadrature::{integrate_2d, Integrand2D, Rules};
 
-/// Counts evaluations and lines of `f` (through `eval`, so every node is counted once).
-struct Count<'a, I: Integrand2D> {
-    f: &'a I,
-    n: Cell<usize>,
-    lines: Cell<usize>,
-}
-
-impl<'a, I: Integrand2D> Integrand2D for Count<'a, I> {
-    type Line = I::Line;
-    fn outer_breaks(&self, o: &mut Vec<f64>) {
-        self.f.outer_breaks(o)
-    }
-    fn line(&self, u: f64, b: &mut Vec<f64>) -> Self::Line {
-        self.f.line(u, b)
-    }
-    fn eval(&self, l: &Self::Line, v: f64) -> [f64; CHANNELS] {
-        self.n.set(self.n.get() + 1);
-        self.f.eval(l, v)
-    }
-    fn outer_panels(&self, o: &mut Vec<Panel>) {
-        self.f.outer_panels(o)
-    }
-    fn line_panels(&self, u: f64, o: &mut Vec<Panel>) -> Self::Line {
-        self.lines.set(self.lines.get() + 1);
-        self.f.line_panels(u, o)
-    }
-    fn lean_outer(&self) -> bool {
-        self.f.lean_outer()
-    }
-    fn panels_all_active(&self) -> bool {
-        self.f.panels_all_active()
-    }
-}
+#[path = "common/counted.rs"]
+mod counted;
+use counted::Counted;
 
 fn count<I: Integrand2D>(f: &I) -> (f64, usize, usize) {
-    let c = Count { f, n: Cell::new(0), lines: Cell::new(0) };
+    let c = Counted::new(f, None);
     let e = integrate_2d(&c, &Rules::new(12))[0];
     integrate_2d(&c, &Rules::new(9));
-    (e, c.lines.get(), c.n.get())
+    (e, c.lines.get(), c.evals.get())
 }
 
 fn main() {

@@ -5,41 +5,11 @@
 //! `cargo run --release --example lean_outer`
 use furnace::bsdf::slope::SlopeIntegrand;
 use furnace::math::SmithForm;
-use furnace::quadrature::{integrate_2d, Integrand2D, Panel, Rules, CHANNELS};
-use std::cell::Cell;
+use furnace::quadrature::{integrate_2d, Rules};
 
-/// `f` with its outer rule chosen here, counting evaluations.
-struct Outer<'a> {
-    f: &'a SlopeIntegrand,
-    lean: bool,
-    n: Cell<usize>,
-}
-
-impl<'a> Integrand2D for Outer<'a> {
-    type Line = <SlopeIntegrand as Integrand2D>::Line;
-    fn outer_breaks(&self, o: &mut Vec<f64>) {
-        self.f.outer_breaks(o)
-    }
-    fn line(&self, u: f64, b: &mut Vec<f64>) -> Self::Line {
-        self.f.line(u, b)
-    }
-    fn eval(&self, l: &Self::Line, v: f64) -> [f64; CHANNELS] {
-        self.n.set(self.n.get() + 1);
-        self.f.eval(l, v)
-    }
-    fn outer_panels(&self, o: &mut Vec<Panel>) {
-        self.f.outer_panels(o)
-    }
-    fn line_panels(&self, u: f64, o: &mut Vec<Panel>) -> Self::Line {
-        self.f.line_panels(u, o)
-    }
-    fn lean_outer(&self) -> bool {
-        self.lean
-    }
-    fn panels_all_active(&self) -> bool {
-        true
-    }
-}
+#[path = "common/counted.rs"]
+mod counted;
+use counted::Counted;
 
 fn main() {
     let (q9, q12, q15, truth) = (Rules::new(9), Rules::new(12), Rules::new(15), Rules::new(30));
@@ -48,7 +18,7 @@ fn main() {
         for j in 0..20 {
             let (r, mu) = (i as f64 / 20.0, j as f64 / 19.0);
             let f = SlopeIntegrand::conductor(r * r, mu, SmithForm::HeightCorrelated);
-            let full = Outer { f: &f, lean: false, n: Cell::new(0) };
+            let full = Counted::new(&f, Some(false));
             let exact = integrate_2d(&full, &Rules::new(40))[0];
             outer9 = outer9.max((integrate_2d(&full, &Rules::with_orders(9, 40))[0] - exact).abs());
             inner9 = inner9.max((integrate_2d(&full, &Rules::with_orders(40, 9))[0] - exact).abs());
@@ -63,14 +33,14 @@ fn main() {
             for j in 0..n {
                 let mu = j as f64 / (n - 1) as f64;
                 let f = SlopeIntegrand::conductor(r * r, mu, SmithForm::HeightCorrelated);
-                let c = Outer { f: &f, lean, n: Cell::new(0) };
+                let c = Counted::new(&f, Some(lean));
                 let (a, b) = (integrate_2d(&c, &q9)[0], integrate_2d(&c, &q12)[0]);
                 let mut value = b;
                 if (a - b).abs() > 1e-7 {
                     value = integrate_2d(&c, &q15)[0];
                     refined += 1;
                 }
-                evals += c.n.get();
+                evals += c.evals.get();
                 cells += 1;
                 worst = worst.max((value - integrate_2d(&f, &truth)[0]).abs());
             }

@@ -309,9 +309,6 @@ impl DimRules {
                     let span = crate::math::asinh_pos(len / delta);
                     let pieces = (span / SINH_MAX_SPAN).ceil().max(1.0) as usize;
                     let dw = span / pieces as f64;
-                    // e^w = e^{k·dw}·e^{dw·t}: one exponential per node of the rule and one per
-                    // piece instead of one per node of every piece (node positions change at
-                    // the rounding level only).
                     let start = xs.len();
                     xs.resize(start + n * pieces, 0.0);
                     ws.resize(start + n * pieces, 0.0);
@@ -344,8 +341,9 @@ struct SinhPieces {
 }
 
 impl SinhPieces {
-    /// Writes the `pieces·n` nodes and weights (e^w = e^{k·dw}·e^{dw·q}: one exponential per
-    /// node and one per piece).
+    /// Writes the `pieces·n` nodes and weights: e^w = e^{k·dw}·e^{dw·q}, the first factor
+    /// carried from piece to piece, the second a polynomial exponential per node ([`exp_poly`]),
+    /// e^−w by one division.
     #[inline(always)]
     fn fill(&self, nodes: &[f64], weights: &[f64], xs: &mut [f64], ws: &mut [f64]) {
         let n = nodes.len();
@@ -433,9 +431,9 @@ impl Rules {
     }
 }
 
-/// The outer order a lean-outer integrand uses at `order`: ⌈5·order/6⌉ rounded to nearest
-/// (12 → 10, 9 → 8, 15 → 13, 19 → 16), so that the estimate still compares two orders in
-/// both dimensions.
+/// The outer order a lean-outer integrand uses at `order`: 5·order/6 rounded to the nearest
+/// integer (12 → 10, 9 → 8, 15 → 13, 19 → 16), so that the estimate still compares two orders
+/// in both dimensions.
 pub fn lean_order(order: usize) -> usize {
     ((5 * order + 3) / 6).max(1)
 }

@@ -35,6 +35,14 @@ use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, sin_
 use crate::quadrature::{integrate_2d, panels_from_breaks, Break, Integrand2D, Panel, Rules, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, PI};
 
+/// Smallest α the GGX integrands integrate as given (r = 1e-75). Below it α² underflows
+/// towards subnormals (the separable weight 2/(μo + a(μo)) then divides by zero at μo = 0 and
+/// gave E = 2) and the slope integrand's s = asinh(ρ/α) leaves the range of its node
+/// exponential, so α is raised to it. The albedo depends on α only through μo/α as α → 0 (and
+/// is 1 − O(α), or the smooth interface's, away from μo = 0), so this changes E by less than
+/// 1e-140 except for μo within ~1e-150 of 0, where E is its α → 0 limit.
+pub(crate) const ALPHA_MIN: f64 = 1e-150;
+
 /// Which microfacet albedo a model tabulates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GgxKind {
@@ -580,7 +588,9 @@ pub struct Line {
 }
 
 impl VndfIntegrand {
+    /// The integrand of one cell; α below [`ALPHA_MIN`] is integrated at ALPHA_MIN.
     pub fn new(alpha: f64, mu_o: f64, smith: SmithForm, lobes: Lobes) -> VndfIntegrand {
+        let alpha = alpha.max(ALPHA_MIN);
         let sin_o = safe_sqrt(1.0 - mu_o * mu_o);
         let theta_v = (alpha * sin_o).atan2(mu_o);
         let (sin_v, cos_v) = theta_v.sin_cos();

@@ -35,13 +35,17 @@ use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, sin_
 use crate::quadrature::{integrate_2d, panels_from_breaks, Break, Integrand2D, Panel, Rules, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// Smallest α the GGX integrands integrate as given (r = 1e-75). Below it α² underflows
-/// towards subnormals (the separable weight 2/(μo + a(μo)) then divides by zero at μo = 0 and
-/// gave E = 2) and the slope integrand's s = asinh(ρ/α) leaves the range of its node
-/// exponential, so α is raised to it. The albedo depends on α only through μo/α as α → 0 (and
-/// is 1 − O(α), or the smooth interface's, away from μo = 0), so this changes E by less than
-/// 1e-140 except for μo within ~1e-150 of 0, where E is its α → 0 limit.
-pub(crate) const ALPHA_MIN: f64 = 1e-150;
+/// Smallest α the GGX integrands integrate as given (r = 1e-50). Below it α² heads for
+/// underflow (the separable weight 2/(μo + a(μo)) then divided by zero at μo = 0 and gave E = 2)
+/// and the slope integrand's s = asinh(ρ/α) for the range of its node exponential, so α is
+/// raised to it. The albedo depends on α only through μo/α as α → 0 (and is 1 − O(α), or the
+/// smooth interface's, away from μo = 0), so this changes E by less than 1e-90 except for μo
+/// within ~1e-100 of 0, where E is its α → 0 limit.
+pub(crate) const ALPHA_MIN: f64 = 1e-100;
+
+/// μo below this fraction of α is integrated as μo = 0: E depends on μo/α there and is within
+/// ~1e-16 of its grazing limit, while products such as μo·α would leave the normal range.
+pub(crate) const GRAZING_RATIO: f64 = 1e-16;
 
 /// Which microfacet albedo a model tabulates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -36,7 +36,7 @@
 //! With G2/μo written without the 1/μo (height-correlated: 2μi/(μi·a(μo) + μo·a(μi)), separable:
 //! G1(μi)·2/(μo + a(μo)), a(μ) = √(μ² + α²(1 − μ²))), nothing degenerates at μo = 0.
 
-use super::ggx::ALPHA_MIN;
+use super::ggx::{ALPHA_MIN, GRAZING_RATIO};
 use crate::math::{asinh_pos, exp_poly, sin_cos_0_pi, smith_a, SmithForm};
 use crate::quadrature::{panels_from_breaks, Break, Integrand2D, Panel, PanelMap, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -86,9 +86,10 @@ pub struct SlopeLine {
 
 impl SlopeIntegrand {
     /// The white conductor of roughness α > 0 seen from μo ∈ [0, 1]. α below [`ALPHA_MIN`] is
-    /// integrated at ALPHA_MIN (see there).
+    /// integrated at ALPHA_MIN, μo below [`GRAZING_RATIO`]·α at μo = 0 (see there).
     pub fn conductor(alpha: f64, mu_o: f64, smith: SmithForm) -> SlopeIntegrand {
         let alpha = alpha.max(ALPHA_MIN);
+        let mu_o = if mu_o < GRAZING_RATIO * alpha { 0.0 } else { mu_o };
         let a_o = smith_a(mu_o, alpha);
         // a(μi) has its branch points at μi = ±iα/√(1 − α²): α is their (conservative) scale.
         // The height-correlated weight's one pole, μi = −μo (where μi·a(μo) + μo·a(μi) = 0),

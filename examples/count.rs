@@ -18,12 +18,24 @@ fn count<I: Integrand2D>(f: &I) -> (f64, usize, usize) {
 }
 
 fn main() {
-    println!("{:>5} {:>5} | {:>9} {:>6} {:>6} | {:>9} {:>6} {:>6}", "r", "mu", "E vndf", "lines", "evals", "E slope", "lines", "evals");
+    println!(
+        "{:>5} {:>5} | {:>9} {:>6} {:>6} | {:>9} {:>6} {:>6}",
+        "r", "mu", "E vndf", "lines", "evals", "E slope", "lines", "evals"
+    );
     for r in [0.01, 0.05, 0.1, 0.3, 0.6, 1.0] {
         for mu in [0.0, 0.01, 0.1, 0.5, 1.0] {
             let alpha = r * r;
-            let (ev, lv, nv) = count(&VndfIntegrand::new(alpha, mu, SmithForm::HeightCorrelated, Lobes::Conductor));
-            let (es, ls, ns) = count(&SlopeIntegrand::conductor(alpha, mu, SmithForm::HeightCorrelated));
+            let (ev, lv, nv) = count(&VndfIntegrand::new(
+                alpha,
+                mu,
+                SmithForm::HeightCorrelated,
+                Lobes::Conductor,
+            ));
+            let (es, ls, ns) = count(&SlopeIntegrand::conductor(
+                alpha,
+                mu,
+                SmithForm::HeightCorrelated,
+            ));
             println!("{r:>5} {mu:>5} | {ev:>9.6} {lv:>6} {nv:>6} | {es:>9.6} {ls:>6} {ns:>6}");
         }
     }

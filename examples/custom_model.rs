@@ -8,7 +8,9 @@
 //! Run: `cargo run --release --example custom_model`
 
 use furnace::bsdf::{albedo, AxisSpec, Model, MAX_OUTPUTS};
-use furnace::quadrature::{integrate_2d, Integrand2D, QuadratureSettings, RuleCache, Rules, CHANNELS};
+use furnace::quadrature::{
+    integrate_2d, Integrand2D, QuadratureSettings, RuleCache, Rules, CHANNELS,
+};
 use std::f64::consts::PI;
 
 struct CoatedLambert;
@@ -48,15 +50,31 @@ impl Model for CoatedLambert {
     }
     fn axes(&self) -> Vec<AxisSpec> {
         vec![
-            AxisSpec::new("f0", (0.02, 0.1), (0.0, 1.0), "coat reflectance at normal incidence"),
-            AxisSpec::new("mu", (0.0, 1.0), (0.0, 1.0), "cosine of the outgoing direction"),
+            AxisSpec::new(
+                "f0",
+                (0.02, 0.1),
+                (0.0, 1.0),
+                "coat reflectance at normal incidence",
+            ),
+            AxisSpec::new(
+                "mu",
+                (0.0, 1.0),
+                (0.0, 1.0),
+                "cosine of the outgoing direction",
+            ),
         ]
     }
     fn outputs(&self) -> Vec<&'static str> {
         vec!["E"]
     }
     fn integrate(&self, x: &[f64], rules: &Rules) -> [f64; MAX_OUTPUTS] {
-        let c = integrate_2d(&Integrand { f0: x[0], mu_o: x[1] }, rules);
+        let c = integrate_2d(
+            &Integrand {
+                f0: x[0],
+                mu_o: x[1],
+            },
+            rules,
+        );
         [c[0], 0.0, 0.0]
     }
 }
@@ -65,7 +83,10 @@ fn main() {
     let model = CoatedLambert;
     let settings = QuadratureSettings::default();
     let cache = RuleCache::new(&settings);
-    println!("{:>6} {:>6} {:>20} {:>20}", "f0", "mu", "E (quadrature)", "E (closed form)");
+    println!(
+        "{:>6} {:>6} {:>20} {:>20}",
+        "f0", "mu", "E (quadrature)", "E (closed form)"
+    );
     for (f0, mu) in [(0.04, 0.0), (0.04, 0.5), (0.1, 1.0)] {
         let e = albedo(&model, &[f0, mu], &settings, &cache);
         // ∫0^1 2μ(1 − μ)^5 dμ = 2/42

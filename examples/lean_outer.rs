@@ -12,7 +12,12 @@ mod counted;
 use counted::Counted;
 
 fn main() {
-    let (q9, q12, q15, truth) = (Rules::new(9), Rules::new(12), Rules::new(15), Rules::new(30));
+    let (q9, q12, q15, truth) = (
+        Rules::new(9),
+        Rules::new(12),
+        Rules::new(15),
+        Rules::new(30),
+    );
     let (mut outer9, mut inner9) = (0.0f64, 0.0f64);
     for i in 1..=20 {
         for j in 0..20 {
@@ -45,7 +50,11 @@ fn main() {
                 worst = worst.max((value - integrate_2d(&f, &truth)[0]).abs());
             }
         }
-        let outer = if lean { "lean_order (10/8/13)" } else { "full (12/9/15)" };
+        let outer = if lean {
+            "lean_order (10/8/13)"
+        } else {
+            "full (12/9/15)"
+        };
         println!(
             "outer {outer:<22} evaluations/cell {:6.0}  refined {refined:4} of {cells}  worst error {worst:.1e}",
             evals as f64 / cells as f64

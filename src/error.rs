@@ -9,11 +9,20 @@ pub enum Error {
     #[error("{0}")]
     InvalidInput(String),
     #[error("table of {cells} cells × {channels} channels would need {bytes} bytes ({human}), over the limit of {limit_human}; choose a smaller --resolution")]
-    TooLarge { cells: u128, channels: usize, bytes: u128, human: String, limit_human: String },
+    TooLarge {
+        cells: u128,
+        channels: usize,
+        bytes: u128,
+        human: String,
+        limit_human: String,
+    },
     #[error("{path}: {message}")]
     File { path: PathBuf, message: String },
     #[error("I/O error on {path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error(transparent)]
     Fit(#[from] crate::fit::FitError),
 }
@@ -22,10 +31,16 @@ pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Error {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
     pub fn file(path: impl Into<PathBuf>, message: impl Into<String>) -> Error {
-        Error::File { path: path.into(), message: message.into() }
+        Error::File {
+            path: path.into(),
+            message: message.into(),
+        }
     }
 }
 
@@ -38,5 +53,9 @@ pub fn human_bytes(bytes: u128) -> String {
         v /= 1024.0;
         u += 1;
     }
-    if u == 0 { format!("{bytes} B") } else { format!("{v:.1} {}", UNITS[u]) }
+    if u == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{v:.1} {}", UNITS[u])
+    }
 }

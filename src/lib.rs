@@ -3,15 +3,15 @@
 //! Data flows one way: [`bsdf`] (models) → [`quadrature`] → table → [`fit`].
 
 pub mod bsdf;
+pub mod cli;
+pub mod emit;
 pub mod error;
 pub mod fit;
 pub mod math;
 pub mod quadrature;
 pub mod report;
-pub mod table;
-pub mod cli;
-pub mod emit;
 pub mod scene;
+pub mod table;
 
 pub use error::{Error, Result};
 

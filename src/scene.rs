@@ -116,7 +116,10 @@ fn default_3d() -> usize {
 
 impl Default for Resolution {
     fn default() -> Self {
-        Resolution { two_d: DEFAULT_RESOLUTION_2D, three_d: DEFAULT_RESOLUTION_3D }
+        Resolution {
+            two_d: DEFAULT_RESOLUTION_2D,
+            three_d: DEFAULT_RESOLUTION_3D,
+        }
     }
 }
 
@@ -136,7 +139,10 @@ fn three() -> u32 {
 
 impl Default for FitSettings {
     fn default() -> Self {
-        FitSettings { numerator_degree: 3, denominator_degree: 3 }
+        FitSettings {
+            numerator_degree: 3,
+            denominator_degree: 3,
+        }
     }
 }
 
@@ -174,15 +180,25 @@ impl Manifest {
     }
 
     fn validate(&self) -> std::result::Result<(), String> {
-        if self.name.is_empty() || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+        if self.name.is_empty()
+            || !self
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
             return Err(format!("scene name '{}' must be non-empty letters, digits, '-' or '_' (it names the output files)", self.name));
         }
         if self.materials.is_empty() {
             return Err("the scene lists no materials; add at least one".into());
         }
-        for (what, n) in [("2d", self.resolution.two_d), ("3d", self.resolution.three_d)] {
+        for (what, n) in [
+            ("2d", self.resolution.two_d),
+            ("3d", self.resolution.three_d),
+        ] {
             if n < 2 {
-                return Err(format!("resolution.{what} = {n}: a table needs at least 2 nodes per axis"));
+                return Err(format!(
+                    "resolution.{what} = {n}: a table needs at least 2 nodes per axis"
+                ));
             }
         }
         for m in &self.materials {
@@ -193,24 +209,38 @@ impl Manifest {
 }
 
 fn kind_of(m: &Material) -> std::result::Result<Kind, String> {
-    serde_json::from_value(serde_json::Value::String(m.kind.clone()))
-        .map_err(|_| format!("material '{}': unknown kind '{}'; known kinds: {KINDS}", m.name, m.kind))
+    serde_json::from_value(serde_json::Value::String(m.kind.clone())).map_err(|_| {
+        format!(
+            "material '{}': unknown kind '{}'; known kinds: {KINDS}",
+            m.name, m.kind
+        )
+    })
 }
 
 /// (lo, hi) of a range spec, checked against `valid`; a single value is widened.
-fn resolve(material: &str, field: &str, spec: &RangeSpec, valid: (f64, f64)) -> std::result::Result<(f64, f64), String> {
+fn resolve(
+    material: &str,
+    field: &str,
+    spec: &RangeSpec,
+    valid: (f64, f64),
+) -> std::result::Result<(f64, f64), String> {
     let (lo, hi) = match *spec {
         RangeSpec::Pair([lo, hi]) => (lo, hi),
         RangeSpec::Value(v) => (v, v),
     };
     if !(lo.is_finite() && hi.is_finite()) {
-        return Err(format!("material '{material}': {field} range [{lo}, {hi}] is not finite"));
+        return Err(format!(
+            "material '{material}': {field} range [{lo}, {hi}] is not finite"
+        ));
     }
     if lo > hi {
         return Err(format!("material '{material}': {field} range [{lo}, {hi}] is inverted; write it as [{hi}, {lo}]"));
     }
     if lo < valid.0 || hi > valid.1 {
-        return Err(format!("material '{material}': {field} range [{lo}, {hi}] leaves the valid range [{}, {}]", valid.0, valid.1));
+        return Err(format!(
+            "material '{material}': {field} range [{lo}, {hi}] leaves the valid range [{}, {}]",
+            valid.0, valid.1
+        ));
     }
     Ok((lo, hi))
 }
@@ -258,15 +288,25 @@ type Need = (String, Vec<(f64, f64)>, Vec<Helper>);
 
 fn material_needs(m: &Material, smith: Smith) -> std::result::Result<Vec<Need>, String> {
     let kind = kind_of(m)?;
-    let sfx = if smith == Smith::Separable { "-separable" } else { "" };
+    let sfx = if smith == Smith::Separable {
+        "-separable"
+    } else {
+        ""
+    };
     if m.r.is_some() && m.alpha.is_some() {
-        return Err(format!("material '{}': give either r or alpha, not both (α = r²)", m.name));
+        return Err(format!(
+            "material '{}': give either r or alpha, not both (α = r²)",
+            m.name
+        ));
     }
     let r = match (&m.r, &m.alpha) {
         (Some(r), _) => resolve(&m.name, "r", r, (0.0, 1.0))?,
         (None, Some(a)) => {
             if kind == Kind::RoughDiffuse {
-                return Err(format!("material '{}': rough-diffuse takes r (the FON/EON roughness), not alpha", m.name));
+                return Err(format!(
+                    "material '{}': rough-diffuse takes r (the FON/EON roughness), not alpha",
+                    m.name
+                ));
             }
             let (lo, hi) = resolve(&m.name, "alpha", a, (0.0, 1.0))?;
             (lo.sqrt(), hi.sqrt())
@@ -308,15 +348,27 @@ fn material_needs(m: &Material, smith: Smith) -> std::result::Result<Vec<Need>, 
         Kind::Glossy => {
             let f = f0((0.0, 1.0), 1.0)?;
             vec![
-                (format!("ggx-glossy{sfx}"), vec![f, r, mu], vec![Helper::DiffuseWeight]),
+                (
+                    format!("ggx-glossy{sfx}"),
+                    vec![f, r, mu],
+                    vec![Helper::DiffuseWeight],
+                ),
                 (conductor, vec![r, mu], vec![Helper::Normalization]),
             ]
         }
         Kind::Dielectric => {
             let f = f0((0.0125, 0.25), 0.99)?;
             vec![
-                (format!("ggx-dielectric{sfx}"), vec![f, r, mu], vec![Helper::Normalization, Helper::Sided]),
-                (format!("ggx-dielectric-inv{sfx}"), vec![f, r, mu], vec![Helper::Normalization, Helper::Sided]),
+                (
+                    format!("ggx-dielectric{sfx}"),
+                    vec![f, r, mu],
+                    vec![Helper::Normalization, Helper::Sided],
+                ),
+                (
+                    format!("ggx-dielectric-inv{sfx}"),
+                    vec![f, r, mu],
+                    vec![Helper::Normalization, Helper::Sided],
+                ),
             ]
         }
         Kind::RoughDiffuse => {
@@ -375,8 +427,16 @@ impl Plan {
             s.push_str(&format!(
                 "  {:<28} {:>12}  {}  for {}\n",
                 t.model,
-                t.resolution.iter().map(|n| n.to_string()).collect::<Vec<_>>().join("x"),
-                t.ranges.iter().map(|(a, b)| format!("[{a:.4}, {b:.4}]")).collect::<Vec<_>>().join(" × "),
+                t.resolution
+                    .iter()
+                    .map(|n| n.to_string())
+                    .collect::<Vec<_>>()
+                    .join("x"),
+                t.ranges
+                    .iter()
+                    .map(|(a, b)| format!("[{a:.4}, {b:.4}]"))
+                    .collect::<Vec<_>>()
+                    .join(" × "),
                 t.used_by.join(", ")
             ));
         }
@@ -391,7 +451,11 @@ pub fn plan(m: &Manifest) -> Result<Plan> {
     for mat in &m.materials {
         for (model, ranges, helpers) in material_needs(mat, m.smith).map_err(Error::InvalidInput)? {
             let dims = ranges.len();
-            let res = if dims <= 2 { m.resolution.two_d } else { m.resolution.three_d };
+            let res = if dims <= 2 {
+                m.resolution.two_d
+            } else {
+                m.resolution.three_d
+            };
             let entry = by_model.entry(model.clone()).or_insert_with(|| TableNeed {
                 model: model.clone(),
                 ranges: ranges.clone(),
@@ -417,7 +481,11 @@ pub fn plan(m: &Manifest) -> Result<Plan> {
     for t in &mut tables {
         t.helpers.sort();
     }
-    Ok(Plan { scene: m.name.clone(), tables, fit: m.fit.clone() })
+    Ok(Plan {
+        scene: m.name.clone(),
+        tables,
+        fit: m.fit.clone(),
+    })
 }
 
 /// Where and how to run a scene.
@@ -478,15 +546,30 @@ pub struct StableFit {
 /// paper's form) over the table's own domain; tries [`DENOMINATOR_MARGINS`] in turn until the fit
 /// is certified and passes the f32 stress test at `stress_points` random points (0: certified
 /// is enough).
-pub fn fit_table(table: &Table, settings: &FitSettings, model: &str, stress_points: usize) -> Result<StableFit> {
+pub fn fit_table(
+    table: &Table,
+    settings: &FitSettings,
+    model: &str,
+    stress_points: usize,
+) -> Result<StableFit> {
     let names: Vec<String> = table.spec.axes.iter().map(|a| a.name.clone()).collect();
     let axes: Vec<Vec<f64>> = table.spec.axes.iter().map(|a| a.nodes()).collect();
     let data = FitData::from_grid(names, &axes, table.output(0).to_vec())?;
     let d = axes.len();
     let mut rejected = Vec::new();
     for margin in DENOMINATOR_MARGINS {
-        let opts = RationalOptions { denominator_margin: margin, ..RationalOptions::default() };
-        let fit = match fit_rational(&data, &vec![InputTransform::Identity; d], settings.numerator_degree, settings.denominator_degree, Objective::LeastSquares, &opts) {
+        let opts = RationalOptions {
+            denominator_margin: margin,
+            ..RationalOptions::default()
+        };
+        let fit = match fit_rational(
+            &data,
+            &vec![InputTransform::Identity; d],
+            settings.numerator_degree,
+            settings.denominator_degree,
+            Objective::LeastSquares,
+            &opts,
+        ) {
             Ok(f) => f,
             Err(e) => {
                 rejected.push((margin, e.to_string()));
@@ -498,12 +581,28 @@ pub fn fit_table(table: &Table, settings: &FitSettings, model: &str, stress_poin
             continue;
         }
         if stress_points == 0 {
-            return Ok(StableFit { fit, margin, stress: None, rejected });
+            return Ok(StableFit {
+                fit,
+                margin,
+                stress: None,
+                rejected,
+            });
         }
         let file = FitFile::new(model, "E", None, fit.clone());
-        let report = stress(&file, &StressOptions { random_points: stress_points, ..Default::default() })?;
+        let report = stress(
+            &file,
+            &StressOptions {
+                random_points: stress_points,
+                ..Default::default()
+            },
+        )?;
         if report.passed() {
-            return Ok(StableFit { fit, margin, stress: Some(report), rejected });
+            return Ok(StableFit {
+                fit,
+                margin,
+                stress: Some(report),
+                rejected,
+            });
         }
         rejected.push((margin, report.failures.join("; ")));
     }
@@ -525,13 +624,36 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
     let mut sources = Vec::new();
     for need in &plan.tables {
         let model = bsdf::find(&need.model, ModelOptions::default())?;
-        let spec = TableSpec::with_ranges(model.as_ref(), &need.resolution, &need.ranges, opts.quadrature.clone())?;
-        log(&format!("  {} {}: tabulating {} cells (or reading them from the cache) …", need.model, spec.resolution_name(), spec.cells()));
-        let (table, stem, cached) = crate::emit::lut::tabulate_cached(model.as_ref(), &spec, &opts.data_dir, opts.force)?;
-        log(&format!("  {} {}: table {}", need.model, spec.resolution_name(), if cached { "read from cache" } else { "computed" }));
+        let spec = TableSpec::with_ranges(
+            model.as_ref(),
+            &need.resolution,
+            &need.ranges,
+            opts.quadrature.clone(),
+        )?;
+        log(&format!(
+            "  {} {}: tabulating {} cells (or reading them from the cache) …",
+            need.model,
+            spec.resolution_name(),
+            spec.cells()
+        ));
+        let (table, stem, cached) =
+            crate::emit::lut::tabulate_cached(model.as_ref(), &spec, &opts.data_dir, opts.force)?;
+        log(&format!(
+            "  {} {}: table {}",
+            need.model,
+            spec.resolution_name(),
+            if cached {
+                "read from cache"
+            } else {
+                "computed"
+            }
+        ));
         let stable = fit_table(&table, &plan.fit, &need.model, opts.stress_points)?;
         for (m, why) in &stable.rejected {
-            log(&format!("  {}: denominator margin {m} rejected: {why}", need.model));
+            log(&format!(
+                "  {}: denominator margin {m} rejected: {why}",
+                need.model
+            ));
         }
         let fit = stable.fit;
         log(&format!(
@@ -541,20 +663,50 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
             stable.margin,
             fit.metrics.mae,
             fit.metrics.max_abs_error,
-            stable.stress.as_ref().map_or(String::new(), |r| format!("; f32 stress passed at {} points", r.random_points + r.edge_points))
+            stable.stress.as_ref().map_or(String::new(), |r| format!(
+                "; f32 stress passed at {} points",
+                r.random_points + r.edge_points
+            ))
         ));
         let stress_report = stable.stress;
-        let file = FitFile::new(&need.model, "E", Some(TableRef { stem, content_hash: spec.content_hash(), spec: spec.clone() }), fit.clone());
+        let file = FitFile::new(
+            &need.model,
+            "E",
+            Some(TableRef {
+                stem,
+                content_hash: spec.content_hash(),
+                spec: spec.clone(),
+            }),
+            fit.clone(),
+        );
         let fit_path = out_dir.join(format!("{}.json", need.model));
         io::write_atomic(&fit_path, file.to_json()?.as_bytes())?;
         sources.push(SourceFit::new(&fit_path, file, Some(table.clone()))?);
-        fitted.push(FittedTable { need: need.clone(), table_cached: cached, fit_path, fit, stress: stress_report });
+        fitted.push(FittedTable {
+            need: need.clone(),
+            table_cached: cached,
+            fit_path,
+            fit,
+            stress: stress_report,
+        });
     }
     let keep = plan.helper_names();
-    let (mut unit, emitted) = build_unit(&plan.scene, &emit::guard_macro(&format!("scene {}", plan.scene)), &sources, &opts.command, FormChoice::Auto, Some(&keep))?;
+    let (mut unit, emitted) = build_unit(
+        &plan.scene,
+        &emit::guard_macro(&format!("scene {}", plan.scene)),
+        &sources,
+        &opts.command,
+        FormChoice::Auto,
+        Some(&keep),
+    )?;
     if opts.langs.contains(&Lang::Lut) {
         for src in &sources {
-            unit.luts.push(emit::lut_for_fit(src, opts.lut_resolution, &opts.data_dir, opts.force)?);
+            unit.luts.push(emit::lut_for_fit(
+                src,
+                opts.lut_resolution,
+                &opts.data_dir,
+                opts.force,
+            )?);
         }
     }
     let mut artifacts = Vec::new();
@@ -562,7 +714,12 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
         artifacts.extend(emit::emitter(lang).produce(&unit)?);
     }
     let written = emit::write_artifacts(&artifacts, &out_dir, &opts.lut_dir)?;
-    Ok(SceneOutcome { plan, fitted, emitted, written })
+    Ok(SceneOutcome {
+        plan,
+        fitted,
+        emitted,
+        written,
+    })
 }
 
 #[cfg(test)]
@@ -575,10 +732,12 @@ mod tests {
 
     #[test]
     fn conductor_only_scene_needs_no_3d_table() {
-        let m = manifest(r#"{"name": "metals", "materials": [
+        let m = manifest(
+            r#"{"name": "metals", "materials": [
             {"name": "gold", "kind": "conductor", "r": [0.2, 0.6]},
             {"name": "steel", "kind": "conductor", "alpha": [0.01, 0.09]},
-            {"name": "window", "kind": "thin-dielectric", "r": 0.1}]}"#)
+            {"name": "window", "kind": "thin-dielectric", "r": 0.1}]}"#,
+        )
         .unwrap();
         let p = plan(&m).unwrap();
         assert_eq!(p.tables.len(), 1, "{p:?}");
@@ -586,48 +745,103 @@ mod tests {
         assert_eq!(t.model, "ggx-conductor");
         assert_eq!(t.resolution, vec![DEFAULT_RESOLUTION_2D; 2]);
         // union of [0.2, 0.6], √[0.01, 0.09] = [0.1, 0.3] and 0.1 widened to [0.09, 0.11]
-        assert!((t.ranges[0].0 - 0.09).abs() < 1e-12 && (t.ranges[0].1 - 0.6).abs() < 1e-12, "{:?}", t.ranges);
+        assert!(
+            (t.ranges[0].0 - 0.09).abs() < 1e-12 && (t.ranges[0].1 - 0.6).abs() < 1e-12,
+            "{:?}",
+            t.ranges
+        );
         assert_eq!(t.ranges[1], (0.0, 1.0));
-        assert_eq!(p.helper_names(), vec!["ggx_conductor_turquin_scale", "ggx_conductor_normalization"]);
+        assert_eq!(
+            p.helper_names(),
+            vec!["ggx_conductor_turquin_scale", "ggx_conductor_normalization"]
+        );
     }
 
     #[test]
     fn dielectric_and_glossy_scene_plans_3d_tables_over_ior_ranges() {
-        let m = manifest(r#"{"name": "mixed", "smith": "separable", "materials": [
+        let m = manifest(
+            r#"{"name": "mixed", "smith": "separable", "materials": [
             {"name": "glass", "kind": "dielectric", "r": [0.0, 0.3], "ior": [1.45, 1.55]},
             {"name": "plastic", "kind": "glossy", "ior": 1.5},
-            {"name": "clay", "kind": "rough-diffuse"}]}"#)
+            {"name": "clay", "kind": "rough-diffuse"}]}"#,
+        )
         .unwrap();
         let p = plan(&m).unwrap();
         let models: Vec<&str> = p.tables.iter().map(|t| t.model.as_str()).collect();
         assert_eq!(
             models,
-            ["ggx-conductor-separable", "ggx-dielectric-inv-separable", "ggx-dielectric-separable", "ggx-glossy-separable", "oren-nayar-fon"]
+            [
+                "ggx-conductor-separable",
+                "ggx-dielectric-inv-separable",
+                "ggx-dielectric-separable",
+                "ggx-glossy-separable",
+                "oren-nayar-fon"
+            ]
         );
         let glass = &p.tables[2];
-        assert!((glass.ranges[0].0 - f0_from_ior(1.45)).abs() < 1e-15 && (glass.ranges[0].1 - f0_from_ior(1.55)).abs() < 1e-15);
+        assert!(
+            (glass.ranges[0].0 - f0_from_ior(1.45)).abs() < 1e-15
+                && (glass.ranges[0].1 - f0_from_ior(1.55)).abs() < 1e-15
+        );
         assert_eq!(glass.resolution, vec![DEFAULT_RESOLUTION_3D; 3]);
         let plastic = &p.tables[3];
-        assert!((plastic.ranges[0].1 - plastic.ranges[0].0 - MIN_RANGE_WIDTH).abs() < 1e-12, "{:?}", plastic.ranges);
+        assert!(
+            (plastic.ranges[0].1 - plastic.ranges[0].0 - MIN_RANGE_WIDTH).abs() < 1e-12,
+            "{:?}",
+            plastic.ranges
+        );
         let h = p.helper_names();
-        assert!(h.contains(&"ggx_dielectric_separable_sided_normalization".to_string()), "{h:?}");
+        assert!(
+            h.contains(&"ggx_dielectric_separable_sided_normalization".to_string()),
+            "{h:?}"
+        );
         assert!(h.contains(&"ggx_glossy_separable_diffuse_weight".to_string()));
-        assert!(!h.iter().any(|n| n.contains("turquin")), "no conductor material, no Turquin scale: {h:?}");
+        assert!(
+            !h.iter().any(|n| n.contains("turquin")),
+            "no conductor material, no Turquin scale: {h:?}"
+        );
     }
 
     #[test]
     fn bad_manifests_are_refused_with_the_fix() {
         let cases = [
-            (r#"{"name": "x", "materials": [{"name": "a", "kind": "velvet"}]}"#, "unknown kind 'velvet'; known kinds: conductor"),
-            (r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "r": [0.6, 0.2]}]}"#, "is inverted; write it as [0.2, 0.6]"),
-            (r#"{"name": "x", "materials": [{"name": "a", "kind": "dielectric", "ior": [1.6, 1.4]}]}"#, "ior range [1.6, 1.4] is inverted"),
-            (r#"{"name": "x", "materials": [{"name": "a", "kind": "glossy", "ior": [0.5, 1.4]}]}"#, "leaves the valid range [1, 398]"),
-            (r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "r": [0.0, 1.5]}]}"#, "leaves the valid range [0, 1]"),
-            (r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "ior": 1.5}]}"#, "remove 'ior'"),
-            (r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "r": 0.5, "alpha": 0.25}]}"#, "either r or alpha"),
-            (r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "roughness": 0.5}]}"#, "unknown field `roughness`"),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "velvet"}]}"#,
+                "unknown kind 'velvet'; known kinds: conductor",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "r": [0.6, 0.2]}]}"#,
+                "is inverted; write it as [0.2, 0.6]",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "dielectric", "ior": [1.6, 1.4]}]}"#,
+                "ior range [1.6, 1.4] is inverted",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "glossy", "ior": [0.5, 1.4]}]}"#,
+                "leaves the valid range [1, 398]",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "r": [0.0, 1.5]}]}"#,
+                "leaves the valid range [0, 1]",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "ior": 1.5}]}"#,
+                "remove 'ior'",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "r": 0.5, "alpha": 0.25}]}"#,
+                "either r or alpha",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "roughness": 0.5}]}"#,
+                "unknown field `roughness`",
+            ),
             (r#"{"name": "x", "materials": []}"#, "lists no materials"),
-            (r#"{"name": "../x", "materials": [{"name": "a", "kind": "conductor"}]}"#, "scene name"),
+            (
+                r#"{"name": "../x", "materials": [{"name": "a", "kind": "conductor"}]}"#,
+                "scene name",
+            ),
         ];
         for (text, want) in cases {
             let e = manifest(text).unwrap_err().to_string();

@@ -5,7 +5,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn furnace(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_furnace")).args(args).current_dir(dir).output().expect("runs")
+    Command::new(env!("CARGO_BIN_EXE_furnace"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("runs")
 }
 
 fn scratch(name: &str) -> PathBuf {
@@ -34,30 +38,78 @@ fn models_lists_every_model_with_axes() {
 #[test]
 fn tabulate_writes_exr_and_sidecar_then_reads_the_cache() {
     let d = scratch("tabulate");
-    let o = furnace(&["tabulate", "--model", "ggx-conductor", "--resolution", "16"], &d);
+    let o = furnace(
+        &["tabulate", "--model", "ggx-conductor", "--resolution", "16"],
+        &d,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("computed"));
     let stem = d.join("data/ggx-conductor/16x16");
     let sidecar: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(stem.with_extension("json")).unwrap()).unwrap();
-    for key in ["model", "axes", "quadrature", "content_hash", "tool_version", "errors", "layout"] {
+        serde_json::from_str(&std::fs::read_to_string(stem.with_extension("json")).unwrap())
+            .unwrap();
+    for key in [
+        "model",
+        "axes",
+        "quadrature",
+        "content_hash",
+        "tool_version",
+        "errors",
+        "layout",
+    ] {
         assert!(sidecar.get(key).is_some(), "sidecar lacks {key}");
     }
     assert_eq!(sidecar["axes"][1]["placement"], "endpoints");
     let channels = furnace::table::io::read_exr_channels(&stem.with_extension("exr")).unwrap();
     let e = &channels.iter().find(|c| c.0 == "E").unwrap().1;
     assert_eq!(e.len(), 256);
-    assert_eq!(e[15 * 16], 1.0, "r = 1 row starts at μ = 0; r = 0 column is the mirror (E = 1)");
-    assert!((e[255] as f64 - (1.0 - 2f64.ln())).abs() < 1e-7, "E(1, 1) = 1 − ln 2, got {}", e[255]);
+    assert_eq!(
+        e[15 * 16],
+        1.0,
+        "r = 1 row starts at μ = 0; r = 0 column is the mirror (E = 1)"
+    );
+    assert!(
+        (e[255] as f64 - (1.0 - 2f64.ln())).abs() < 1e-7,
+        "E(1, 1) = 1 − ln 2, got {}",
+        e[255]
+    );
     // same inputs: read from the cache, byte-identical files
     let before = std::fs::read(stem.with_extension("f64")).unwrap();
-    let o = furnace(&["tabulate", "--model", "ggx-conductor", "--resolution", "16"], &d);
+    let o = furnace(
+        &["tabulate", "--model", "ggx-conductor", "--resolution", "16"],
+        &d,
+    );
     assert!(stderr(&o).contains("read from cache"), "{}", stderr(&o));
-    let o = furnace(&["tabulate", "--model", "ggx-conductor", "--resolution", "16", "--force"], &d);
+    let o = furnace(
+        &[
+            "tabulate",
+            "--model",
+            "ggx-conductor",
+            "--resolution",
+            "16",
+            "--force",
+        ],
+        &d,
+    );
     assert!(stderr(&o).contains("computed"));
-    assert_eq!(before, std::fs::read(stem.with_extension("f64")).unwrap(), "deterministic");
+    assert_eq!(
+        before,
+        std::fs::read(stem.with_extension("f64")).unwrap(),
+        "deterministic"
+    );
     // other settings: not the cached table
-    let o = furnace(&["tabulate", "--model", "ggx-conductor", "--resolution", "16", "--order", "16"], &d);
+    let o = furnace(
+        &[
+            "tabulate",
+            "--model",
+            "ggx-conductor",
+            "--resolution",
+            "16",
+            "--order",
+            "16",
+        ],
+        &d,
+    );
     assert!(stderr(&o).contains("computed"), "{}", stderr(&o));
 }
 
@@ -65,7 +117,18 @@ fn tabulate_writes_exr_and_sidecar_then_reads_the_cache() {
 fn eval_repeats_inputs_and_adds_outputs_with_many_digits() {
     let d = scratch("eval");
     std::fs::write(d.join("p.csv"), "mu,r,f0\n1.0,1.0,0.04\n0.5,0.0,0.04\n").unwrap();
-    let o = furnace(&["eval", "--model", "ggx-dielectric", "--input", "p.csv", "--output", "out.csv"], &d);
+    let o = furnace(
+        &[
+            "eval",
+            "--model",
+            "ggx-dielectric",
+            "--input",
+            "p.csv",
+            "--output",
+            "out.csv",
+        ],
+        &d,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let out = std::fs::read_to_string(d.join("out.csv")).unwrap();
     let lines: Vec<&str> = out.lines().collect();
@@ -73,8 +136,19 @@ fn eval_repeats_inputs_and_adds_outputs_with_many_digits() {
     assert!(lines[1].starts_with("1.0,1.0,0.04,"));
     let e: f64 = lines[2].split(',').nth(3).unwrap().parse().unwrap();
     assert_eq!(e, 1.0, "r = 0: E_R + E_T = 1");
-    let digits = lines[1].split(',').nth(3).unwrap().split('e').next().unwrap().replace(['.', '-'], "");
-    assert!(digits.len() >= 12, "at least 12 significant digits: {}", lines[1]);
+    let digits = lines[1]
+        .split(',')
+        .nth(3)
+        .unwrap()
+        .split('e')
+        .next()
+        .unwrap()
+        .replace(['.', '-'], "");
+    assert!(
+        digits.len() >= 12,
+        "at least 12 significant digits: {}",
+        lines[1]
+    );
 }
 
 #[test]
@@ -82,16 +156,53 @@ fn bad_input_gets_clear_errors_and_no_files() {
     let d = scratch("bad");
     let o = furnace(&["tabulate", "--model", "ggx-metal"], &d);
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("unknown model 'ggx-metal'") && stderr(&o).contains("ggx-conductor"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("unknown model 'ggx-metal'") && stderr(&o).contains("ggx-conductor"),
+        "{}",
+        stderr(&o)
+    );
 
-    let o = furnace(&["tabulate", "--model", "ggx-conductor", "--resolution", "0"], &d);
-    assert!(!o.status.success() && stderr(&o).contains("at least 2 nodes"), "{}", stderr(&o));
+    let o = furnace(
+        &["tabulate", "--model", "ggx-conductor", "--resolution", "0"],
+        &d,
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("at least 2 nodes"),
+        "{}",
+        stderr(&o)
+    );
 
-    let o = furnace(&["tabulate", "--model", "ggx-dielectric", "--resolution", "100000"], &d);
-    assert!(!o.status.success() && stderr(&o).contains("would need") && stderr(&o).contains("PiB"), "{}", stderr(&o));
+    let o = furnace(
+        &[
+            "tabulate",
+            "--model",
+            "ggx-dielectric",
+            "--resolution",
+            "100000",
+        ],
+        &d,
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("would need") && stderr(&o).contains("PiB"),
+        "{}",
+        stderr(&o)
+    );
 
-    let o = furnace(&["tabulate", "--model", "ggx-dielectric", "--resolution", "8x8"], &d);
-    assert!(!o.status.success() && stderr(&o).contains("3 axes"), "{}", stderr(&o));
+    let o = furnace(
+        &[
+            "tabulate",
+            "--model",
+            "ggx-dielectric",
+            "--resolution",
+            "8x8",
+        ],
+        &d,
+    );
+    assert!(
+        !o.status.success() && stderr(&o).contains("3 axes"),
+        "{}",
+        stderr(&o)
+    );
 
     for (text, want) in [
         ("r\n0.5\n", "lacks the axis 'mu'"),
@@ -100,29 +211,72 @@ fn bad_input_gets_clear_errors_and_no_files() {
         ("r,mu\n0.5,1.5\n", "outside the domain"),
     ] {
         std::fs::write(d.join("p.csv"), text).unwrap();
-        let o = furnace(&["eval", "--model", "ggx-conductor", "--input", "p.csv", "--output", "o.csv"], &d);
+        let o = furnace(
+            &[
+                "eval",
+                "--model",
+                "ggx-conductor",
+                "--input",
+                "p.csv",
+                "--output",
+                "o.csv",
+            ],
+            &d,
+        );
         assert!(!o.status.success(), "{text:?} accepted");
         assert!(stderr(&o).contains(want), "{text:?}: {}", stderr(&o));
         assert!(!stderr(&o).contains("panicked"));
     }
-    assert!(!d.join("o.csv").exists(), "no output file from a failed run");
-    assert!(!d.join("data").exists(), "nothing tabulated for refused requests");
+    assert!(
+        !d.join("o.csv").exists(),
+        "no output file from a failed run"
+    );
+    assert!(
+        !d.join("data").exists(),
+        "nothing tabulated for refused requests"
+    );
 }
 
 #[test]
 fn a_fit_from_furnace_fit_can_be_emitted() {
     let d = scratch("fit-emit");
-    let o = furnace(&["fit", "--model", "ggx-conductor", "--form", "rational", "--degree", "3", "--resolution", "24"], &d);
+    let o = furnace(
+        &[
+            "fit",
+            "--model",
+            "ggx-conductor",
+            "--form",
+            "rational",
+            "--degree",
+            "3",
+            "--resolution",
+            "24",
+        ],
+        &d,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let fit = std::fs::read_dir(d.join("fits/ggx-conductor"))
         .unwrap()
         .map(|e| e.unwrap().path())
         .find(|p| p.extension().is_some_and(|e| e == "json"))
         .expect("a fit file");
-    let o = furnace(&["emit", "--fit", fit.to_str().unwrap(), "--lang", "rust,wgsl,glsl"], &d);
+    let o = furnace(
+        &[
+            "emit",
+            "--fit",
+            fit.to_str().unwrap(),
+            "--lang",
+            "rust,wgsl,glsl",
+        ],
+        &d,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     for ext in ["rs", "wgsl", "glsl"] {
         let src = std::fs::read_to_string(fit.with_extension(ext)).unwrap();
-        assert!(src.contains("ggx_conductor"), "{ext}: {}", &src[..src.len().min(300)]);
+        assert!(
+            src.contains("ggx_conductor"),
+            "{ext}: {}",
+            &src[..src.len().min(300)]
+        );
     }
 }

@@ -31,13 +31,16 @@ fn fixture(name: &str) -> FitFile {
     FitFile::read(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
-
 /// Dense grid plus every combination of edge values (out-of-range inputs included).
 fn check_points(domain: &[(f32, f32)], n: usize) -> Vec<Vec<f32>> {
     let d = domain.len();
     let mut lists: Vec<Vec<f32>> = domain
         .iter()
-        .map(|&(lo, hi)| (0..n).map(|i| lo + (hi - lo) * i as f32 / (n - 1) as f32).collect())
+        .map(|&(lo, hi)| {
+            (0..n)
+                .map(|i| lo + (hi - lo) * i as f32 / (n - 1) as f32)
+                .collect()
+        })
         .collect();
     let mut pts = Vec::new();
     let total: usize = lists.iter().map(Vec::len).product();
@@ -68,7 +71,13 @@ fn check_points(domain: &[(f32, f32)], n: usize) -> Vec<Vec<f32>> {
 fn check_compiled(file: &FitFile, f: &dyn Fn(&[f32]) -> f32, n: usize) -> (usize, f64) {
     let name = albedo_function_name(&file.model, &file.output);
     let (function, _) = choose_form(&name, &[], &file.fit, FormChoice::Auto).unwrap();
-    let model = Compiled::new(&Program { functions: vec![function] }, &name).unwrap();
+    let model = Compiled::new(
+        &Program {
+            functions: vec![function],
+        },
+        &name,
+    )
+    .unwrap();
     let domain = furnace::emit::generate::domain_f32(&file.fit);
     let mut regs = Vec::new();
     let mut worst = 0.0f64;
@@ -77,28 +86,50 @@ fn check_compiled(file: &FitFile, f: &dyn Fn(&[f32]) -> f32, n: usize) -> (usize
     for x in &pts {
         let got = f(x);
         let want_bits = model.eval_f32(x, Arith::Ieee, &mut regs);
-        assert_eq!(got.to_bits(), want_bits.to_bits(), "{name} at {x:?}: compiled {got} vs model {want_bits}");
-        assert!(got.is_finite() && (0.0..=1.0).contains(&got), "{name} at {x:?}: {got}");
+        assert_eq!(
+            got.to_bits(),
+            want_bits.to_bits(),
+            "{name} at {x:?}: compiled {got} vs model {want_bits}"
+        );
+        assert!(
+            got.is_finite() && (0.0..=1.0).contains(&got),
+            "{name} at {x:?}: {got}"
+        );
         let (r, _) = reference(&file.fit, x);
         if (got as f64 - r).abs() > worst {
             worst = (got as f64 - r).abs();
             worst_at = x.clone();
         }
     }
-    assert!(worst <= 1e-5, "{name}: max |f32 − f64| {worst:e} at {worst_at:?}");
+    assert!(
+        worst <= 1e-5,
+        "{name}: max |f32 − f64| {worst:e} at {worst_at:?}"
+    );
     (pts.len(), worst)
 }
 
 #[test]
 fn emitted_rust_compiles_and_matches_the_fit() {
     let c = fixture("paper-conductors.json");
-    let (n, w) = check_compiled(&c, &|x| emitted_conductor::ggx_conductor_separable_albedo(x[0], x[1]), 257);
+    let (n, w) = check_compiled(
+        &c,
+        &|x| emitted_conductor::ggx_conductor_separable_albedo(x[0], x[1]),
+        257,
+    );
     eprintln!("paper conductors: {n} points, max |f32 − f64| {w:.2e}");
     let d = fixture("ggx-dielectric.json");
-    let (n, w) = check_compiled(&d, &|x| emitted_dielectric::ggx_dielectric_albedo(x[0], x[1], x[2]), 41);
+    let (n, w) = check_compiled(
+        &d,
+        &|x| emitted_dielectric::ggx_dielectric_albedo(x[0], x[1], x[2]),
+        41,
+    );
     eprintln!("ggx-dielectric: {n} points, max |f32 − f64| {w:.2e}");
     let i = fixture("ggx-dielectric-inv.json");
-    let (n, w) = check_compiled(&i, &|x| emitted_dielectric::ggx_dielectric_inv_albedo(x[0], x[1], x[2]), 41);
+    let (n, w) = check_compiled(
+        &i,
+        &|x| emitted_dielectric::ggx_dielectric_inv_albedo(x[0], x[1], x[2]),
+        41,
+    );
     eprintln!("ggx-dielectric-inv: {n} points, max |f32 − f64| {w:.2e}");
 }
 
@@ -113,23 +144,47 @@ fn emitted_helpers_compute_the_papers_factors() {
             let want = 1.0 + f0 * ((1.0 - e.max(1e-3)) / e.max(1e-3));
             assert_eq!(c::ggx_conductor_separable_turquin_scale(f0, r, mu), want);
         }
-        assert_eq!(c::ggx_conductor_separable_normalization(r, mu), 1.0 / e.max(1e-3));
+        assert_eq!(
+            c::ggx_conductor_separable_normalization(r, mu),
+            1.0 / e.max(1e-3)
+        );
         assert!(c::ggx_conductor_separable_turquin_scale(1.0, r, mu) >= 1.0);
     }
-    for &(f0, r, cos_o) in &[(0.03f32, 0.2f32, 0.7f32), (0.05, 0.5, -0.3), (0.02, 0.05, 0.0), (0.06, 0.6, -1.0)] {
+    for &(f0, r, cos_o) in &[
+        (0.03f32, 0.2f32, 0.7f32),
+        (0.05, 0.5, -0.3),
+        (0.02, 0.05, 0.0),
+        (0.06, 0.6, -1.0),
+    ] {
         let sided = d::ggx_dielectric_sided_albedo(f0, r, cos_o);
-        let want = if cos_o >= 0.0 { d::ggx_dielectric_albedo(f0, r, cos_o) } else { d::ggx_dielectric_inv_albedo(f0, r, -cos_o) };
-        assert_eq!(sided, want, "side of the surface picks the table (paper §3.3)");
-        assert_eq!(d::ggx_dielectric_sided_normalization(f0, r, cos_o), 1.0 / want.max(1e-3));
-        assert_eq!(d::ggx_dielectric_normalization(f0, r, cos_o.abs()), 1.0 / d::ggx_dielectric_albedo(f0, r, cos_o.abs()).max(1e-3));
+        let want = if cos_o >= 0.0 {
+            d::ggx_dielectric_albedo(f0, r, cos_o)
+        } else {
+            d::ggx_dielectric_inv_albedo(f0, r, -cos_o)
+        };
+        assert_eq!(
+            sided, want,
+            "side of the surface picks the table (paper §3.3)"
+        );
+        assert_eq!(
+            d::ggx_dielectric_sided_normalization(f0, r, cos_o),
+            1.0 / want.max(1e-3)
+        );
+        assert_eq!(
+            d::ggx_dielectric_normalization(f0, r, cos_o.abs()),
+            1.0 / d::ggx_dielectric_albedo(f0, r, cos_o.abs()).max(1e-3)
+        );
     }
 }
 
 fn naga_wgsl(src: &str) -> Result<(), String> {
     let module = naga::front::wgsl::parse_str(src).map_err(|e| e.emit_to_string(src))?;
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-        .validate(&module)
-        .map_err(|e| format!("{e:?}"))?;
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .map_err(|e| format!("{e:?}"))?;
     Ok(())
 }
 
@@ -137,18 +192,27 @@ fn naga_glsl(src: &str) -> Result<(), String> {
     // the emitted file is an include: give it a version line and an entry point
     let full = format!("#version 450\n{src}\nvoid main() {{}}\n");
     let module = naga::front::glsl::Frontend::default()
-        .parse(&naga::front::glsl::Options::from(naga::ShaderStage::Fragment), &full)
+        .parse(
+            &naga::front::glsl::Options::from(naga::ShaderStage::Fragment),
+            &full,
+        )
         .map_err(|e| e.emit_to_string(&full))?;
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-        .validate(&module)
-        .map_err(|e| format!("{e:?}"))?;
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .map_err(|e| format!("{e:?}"))?;
     Ok(())
 }
 
 #[test]
 fn wgsl_and_glsl_pass_naga() {
     let mut checked = 0;
-    let mut names: Vec<String> = std::fs::read_dir(root().join("tests/snapshots")).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> = std::fs::read_dir(root().join("tests/snapshots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
     names.sort();
     for name in names {
         let text = std::fs::read_to_string(root().join("tests/snapshots").join(&name)).unwrap();
@@ -168,36 +232,73 @@ fn wgsl_and_glsl_pass_naga() {
 
 #[test]
 fn stress_passes_on_good_fits_and_fails_on_the_papers_glossy_fit() {
-    let opts = StressOptions { random_points: 20_000, ..Default::default() };
-    for name in ["paper-conductors.json", "ggx-dielectric.json", "ggx-dielectric-inv.json"] {
+    let opts = StressOptions {
+        random_points: 20_000,
+        ..Default::default()
+    };
+    for name in [
+        "paper-conductors.json",
+        "ggx-dielectric.json",
+        "ggx-dielectric-inv.json",
+    ] {
         let r = stress(&fixture(name), &opts).unwrap();
         eprint!("{}", r.render());
         assert!(r.passed(), "{name}: {:?}", r.failures);
         assert!(r.edge_points > 1000);
-        assert!(r.min_abs_q.unwrap() >= r.q_lower_bound.unwrap() * 0.999, "sampled |Q| cannot beat the proved bound");
+        assert!(
+            r.min_abs_q.unwrap() >= r.q_lower_bound.unwrap() * 0.999,
+            "sampled |Q| cannot beat the proved bound"
+        );
     }
     // certified, but Q comes within 8e-4 of zero: f32 rounding is amplified past 1e-5 on an edge
     let r = stress(&fixture("ggx-dielectric-inv-nearpole.json"), &opts).unwrap();
     eprint!("{}", r.render());
     assert!(!r.passed());
-    assert!(r.failures.iter().all(|f| f.contains("max |f32 − f64|")), "{:?}", r.failures);
+    assert!(
+        r.failures.iter().all(|f| f.contains("max |f32 − f64|")),
+        "{:?}",
+        r.failures
+    );
     let r = stress(&fixture("paper-glossy.json"), &opts).unwrap();
     eprint!("{}", r.render());
     assert!(!r.passed());
-    assert!(r.failures.iter().any(|f| f.contains("not proved pole-free")), "{:?}", r.failures);
-    assert!(r.max_condition_p > 1e3, "the ±400 coefficients cancel: κ_P = {}", r.max_condition_p);
+    assert!(
+        r.failures
+            .iter()
+            .any(|f| f.contains("not proved pole-free")),
+        "{:?}",
+        r.failures
+    );
+    assert!(
+        r.max_condition_p > 1e3,
+        "the ±400 coefficients cancel: κ_P = {}",
+        r.max_condition_p
+    );
 }
 
 #[test]
 fn emitting_refuses_the_papers_glossy_fit() {
     let f = fixture("paper-glossy.json");
-    let e = SourceFit::new("paper-glossy.json", f, None).unwrap_err().to_string();
-    assert!(e.contains("uncertified denominator") && e.contains("refit"), "{e}");
+    let e = SourceFit::new("paper-glossy.json", f, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("uncertified denominator") && e.contains("refit"),
+        "{e}"
+    );
 }
 
 fn furnace(args: &[&str], dir: &Path) -> (bool, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_furnace")).args(args).current_dir(dir).output().unwrap();
-    (out.status.success(), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_furnace"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 fn scratch(name: &str) -> PathBuf {
@@ -208,7 +309,10 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn files_in(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
     v.sort();
     v
 }
@@ -217,10 +321,22 @@ fn files_in(dir: &Path) -> Vec<String> {
 fn cli_emits_next_to_the_fit_and_refuses_bad_input_without_writing() {
     let dir = scratch("cli");
     let fits = dir.join("fits/ggx-conductor");
-    let good = std::fs::read_to_string(root().join("tests/fixtures/paper-conductors.json")).unwrap();
+    let good =
+        std::fs::read_to_string(root().join("tests/fixtures/paper-conductors.json")).unwrap();
     std::fs::write(fits.join("rational-3.json"), &good).unwrap();
 
-    let (ok, out, err) = furnace(&["emit", "--fit", "fits/ggx-conductor/rational-3.json", "--lang", "all", "--lut-resolution", "8"], &dir);
+    let (ok, out, err) = furnace(
+        &[
+            "emit",
+            "--fit",
+            "fits/ggx-conductor/rational-3.json",
+            "--lang",
+            "all",
+            "--lut-resolution",
+            "8",
+        ],
+        &dir,
+    );
     assert!(ok, "{out}\n{err}");
     let listed = files_in(&fits);
     for f in ["rational-3.rs", "rational-3.wgsl", "rational-3.glsl"] {
@@ -228,17 +344,32 @@ fn cli_emits_next_to_the_fit_and_refuses_bad_input_without_writing() {
     }
     assert!(!listed.iter().any(|f| f.contains(".tmp")), "{listed:?}");
     let lut = dir.join("data/lut/ggx-conductor-separable");
-    assert_eq!(files_in(&lut), ["8x8.exr", "8x8.f16", "8x8.f32", "8x8.json"]);
-    assert_eq!(std::fs::metadata(lut.join("8x8.f32")).unwrap().len(), 4 * 64);
-    let desc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(lut.join("8x8.json")).unwrap()).unwrap();
+    assert_eq!(
+        files_in(&lut),
+        ["8x8.exr", "8x8.f16", "8x8.f32", "8x8.json"]
+    );
+    assert_eq!(
+        std::fs::metadata(lut.join("8x8.f32")).unwrap().len(),
+        4 * 64
+    );
+    let desc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(lut.join("8x8.json")).unwrap()).unwrap();
     assert_eq!(desc["cells"], 64);
     // the EXR holds the same f32 values as the raw file, and f16 is within its rounding of them
-    let raw: Vec<f32> = std::fs::read(lut.join("8x8.f32")).unwrap().chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    let raw: Vec<f32> = std::fs::read(lut.join("8x8.f32"))
+        .unwrap()
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
     let exr = furnace::table::io::read_exr_channels(&lut.join("8x8.exr")).unwrap();
     assert_eq!(exr.len(), 1);
     assert_eq!(exr[0].0, "E");
     assert_eq!(exr[0].1, raw);
-    let half: Vec<u16> = std::fs::read(lut.join("8x8.f16")).unwrap().chunks_exact(2).map(|c| u16::from_le_bytes(c.try_into().unwrap())).collect();
+    let half: Vec<u16> = std::fs::read(lut.join("8x8.f16"))
+        .unwrap()
+        .chunks_exact(2)
+        .map(|c| u16::from_le_bytes(c.try_into().unwrap()))
+        .collect();
     assert_eq!(half.len(), 64);
     let f16_err = desc["f16_max_rounding_error"].as_f64().unwrap();
     assert!(f16_err > 0.0 && f16_err <= 2f64.powi(-12), "{f16_err}");
@@ -251,17 +382,52 @@ fn cli_emits_next_to_the_fit_and_refuses_bad_input_without_writing() {
     other_version["tool_version"] = "0.0.9".into();
     let mut missing: serde_json::Value = serde_json::from_str(&good).unwrap();
     missing.as_object_mut().unwrap().remove("model");
-    let bare = serde_json::to_string(&serde_json::from_str::<serde_json::Value>(&good).unwrap()["fit"]).unwrap();
+    let bare =
+        serde_json::to_string(&serde_json::from_str::<serde_json::Value>(&good).unwrap()["fit"])
+            .unwrap();
     let mut no_numerator: serde_json::Value = serde_json::from_str(&good).unwrap();
-    no_numerator["fit"]["approximant"].as_object_mut().unwrap().remove("numerator");
+    no_numerator["fit"]["approximant"]
+        .as_object_mut()
+        .unwrap()
+        .remove("numerator");
     let glossy = std::fs::read_to_string(root().join("tests/fixtures/paper-glossy.json")).unwrap();
     let cases: Vec<(&str, String, Vec<&str>, &str)> = vec![
-        ("version.json", other_version.to_string(), vec!["--lang", "rust"], "written by furnace 0.0.9, but this is furnace"),
-        ("missing.json", missing.to_string(), vec!["--lang", "rust"], "missing field 'model'"),
-        ("bare.json", bare, vec!["--lang", "rust"], "looks like a bare fit result"),
-        ("nonum.json", no_numerator.to_string(), vec!["--lang", "rust"], "missing field `numerator`"),
-        ("glossy.json", glossy, vec!["--lang", "rust"], "uncertified denominator"),
-        ("lang.json", good.clone(), vec!["--lang", "rust,hlsl"], "unknown language 'hlsl' for --lang; choose from rust, wgsl, glsl, lut, all"),
+        (
+            "version.json",
+            other_version.to_string(),
+            vec!["--lang", "rust"],
+            "written by furnace 0.0.9, but this is furnace",
+        ),
+        (
+            "missing.json",
+            missing.to_string(),
+            vec!["--lang", "rust"],
+            "missing field 'model'",
+        ),
+        (
+            "bare.json",
+            bare,
+            vec!["--lang", "rust"],
+            "looks like a bare fit result",
+        ),
+        (
+            "nonum.json",
+            no_numerator.to_string(),
+            vec!["--lang", "rust"],
+            "missing field `numerator`",
+        ),
+        (
+            "glossy.json",
+            glossy,
+            vec!["--lang", "rust"],
+            "uncertified denominator",
+        ),
+        (
+            "lang.json",
+            good.clone(),
+            vec!["--lang", "rust,hlsl"],
+            "unknown language 'hlsl' for --lang; choose from rust, wgsl, glsl, lut, all",
+        ),
     ];
     for (file, text, extra, want) in cases {
         std::fs::write(fits.join(file), text).unwrap();
@@ -275,11 +441,35 @@ fn cli_emits_next_to_the_fit_and_refuses_bad_input_without_writing() {
         assert_eq!(files_in(&fits), before, "{file}: nothing may be written");
     }
     // the stress command fails the glossy fit with a non-zero exit and says why
-    let (ok, out, err) = furnace(&["stress", "--fit", "fits/ggx-conductor/glossy.json", "--points", "2000"], &dir);
+    let (ok, out, err) = furnace(
+        &[
+            "stress",
+            "--fit",
+            "fits/ggx-conductor/glossy.json",
+            "--points",
+            "2000",
+        ],
+        &dir,
+    );
     assert!(!ok);
-    assert!(out.contains("FAIL: the denominator is not proved pole-free"), "{out}");
-    assert!(err.contains("stress test of fits/ggx-conductor/glossy.json failed"), "{err}");
-    let (ok, out, _) = furnace(&["stress", "--fit", "fits/ggx-conductor/rational-3.json", "--points", "2000"], &dir);
+    assert!(
+        out.contains("FAIL: the denominator is not proved pole-free"),
+        "{out}"
+    );
+    assert!(
+        err.contains("stress test of fits/ggx-conductor/glossy.json failed"),
+        "{err}"
+    );
+    let (ok, out, _) = furnace(
+        &[
+            "stress",
+            "--fit",
+            "fits/ggx-conductor/rational-3.json",
+            "--points",
+            "2000",
+        ],
+        &dir,
+    );
     assert!(ok && out.contains("PASS"), "{out}");
     let _ = std::fs::remove_dir_all(&dir);
 }

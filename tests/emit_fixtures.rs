@@ -3,7 +3,7 @@
 //!
 //! * `paper-conductors.json`, `paper-glossy.json`: the published degree-3 rationals of Sforza &
 //!   Pellacini 2022 (Appendix A), measured on the paper's 32-point tables (paper repository data,
-//!   `$FURNACE_PAPER_DATA`, default `../shared/paper-repo-data` beside the repository). The paper's renderer uses the
+//!   `$FURNACE_PAPER_DATA`, default `data/paper` in the repository). The paper's renderer uses the
 //!   separable Smith G, so the conductor fit is filed as `ggx-conductor-separable`; its glossy
 //!   fit has a pole in its domain (the emitter must refuse it, the stress test must fail it).
 //! * `ggx-dielectric.json`, `ggx-dielectric-inv.json`: furnace's own degree-3 rationals of the
@@ -32,25 +32,46 @@ fn fixtures() -> PathBuf {
 #[test]
 #[ignore = "regenerates committed fixtures"]
 fn regenerate_fixtures() {
-    let dir = std::env::var_os("FURNACE_PAPER_DATA").map(PathBuf::from).unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/paper-repo-data"));
+    let dir = std::env::var_os("FURNACE_PAPER_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/paper"));
     for (name, model, file_model) in [
-        ("conductors", PaperModel::Conductors, "ggx-conductor-separable"),
+        (
+            "conductors",
+            PaperModel::Conductors,
+            "ggx-conductor-separable",
+        ),
         ("glossy", PaperModel::Glossy, "ggx-glossy-separable"),
     ] {
         let table = load_table(&dir.join(format!("tables/{name}.csv")), model).unwrap();
-        let fit = published_fit(&dir.join(format!("coefficients/{name}.csv")), model, &table).unwrap();
+        let fit =
+            published_fit(&dir.join(format!("coefficients/{name}.csv")), model, &table).unwrap();
         let f = FitFile::new(file_model, "E", None, fit);
-        std::fs::write(fixtures().join(format!("paper-{name}.json")), f.to_json().unwrap()).unwrap();
+        std::fs::write(
+            fixtures().join(format!("paper-{name}.json")),
+            f.to_json().unwrap(),
+        )
+        .unwrap();
         eprintln!("paper {name}: poles {:?}", f.fit.poles);
     }
     let f0 = (f0_from_ior(1.3), f0_from_ior(1.7));
     for model_name in ["ggx-dielectric", "ggx-dielectric-inv"] {
         let model = bsdf::find(model_name, ModelOptions::default()).unwrap();
-        let spec = TableSpec::with_ranges(model.as_ref(), &[12, 12, 12], &[f0, (0.05, 0.6), (0.0, 1.0)], QuadratureSettings::default()).unwrap();
+        let spec = TableSpec::with_ranges(
+            model.as_ref(),
+            &[12, 12, 12],
+            &[f0, (0.05, 0.6), (0.0, 1.0)],
+            QuadratureSettings::default(),
+        )
+        .unwrap();
         let t = std::time::Instant::now();
         let table = table::tabulate(model.as_ref(), &spec, &|_| {}).unwrap();
         let stem = table::io::table_stem(Path::new("data"), model.as_ref(), &spec);
-        let table_ref = TableRef { stem, content_hash: spec.content_hash(), spec };
+        let table_ref = TableRef {
+            stem,
+            content_hash: spec.content_hash(),
+            spec,
+        };
         let stable = fit_table(&table, &FitSettings::default(), model_name, 100_000).unwrap();
         let fit = stable.fit;
         eprintln!(
@@ -63,12 +84,20 @@ fn regenerate_fixtures() {
             stable.rejected
         );
         let f = FitFile::new(model_name, "E", Some(table_ref.clone()), fit);
-        std::fs::write(fixtures().join(format!("{model_name}.json")), f.to_json().unwrap()).unwrap();
+        std::fs::write(
+            fixtures().join(format!("{model_name}.json")),
+            f.to_json().unwrap(),
+        )
+        .unwrap();
         if !stable.rejected.is_empty() {
             // the first, rejected fit (default margin): a certified fit that fails the f32 stress test
             let near = fit_table(&table, &FitSettings::default(), model_name, 0).unwrap();
             let f = FitFile::new(model_name, "E", Some(table_ref), near.fit);
-            std::fs::write(fixtures().join(format!("{model_name}-nearpole.json")), f.to_json().unwrap()).unwrap();
+            std::fs::write(
+                fixtures().join(format!("{model_name}-nearpole.json")),
+                f.to_json().unwrap(),
+            )
+            .unwrap();
         }
     }
 }
@@ -84,17 +113,41 @@ fn denominator_margin_sweep() {
     let f0 = (f0_from_ior(1.3), f0_from_ior(1.7));
     for model_name in ["ggx-dielectric-inv", "ggx-dielectric"] {
         let model = bsdf::find(model_name, ModelOptions::default()).unwrap();
-        let spec = TableSpec::with_ranges(model.as_ref(), &[12, 12, 12], &[f0, (0.05, 0.6), (0.0, 1.0)], QuadratureSettings::default()).unwrap();
+        let spec = TableSpec::with_ranges(
+            model.as_ref(),
+            &[12, 12, 12],
+            &[f0, (0.05, 0.6), (0.0, 1.0)],
+            QuadratureSettings::default(),
+        )
+        .unwrap();
         let table = table::tabulate(model.as_ref(), &spec, &|_| {}).unwrap();
         let names: Vec<String> = table.spec.axes.iter().map(|a| a.name.clone()).collect();
         let axes: Vec<Vec<f64>> = table.spec.axes.iter().map(|a| a.nodes()).collect();
         let data = FitData::from_grid(names, &axes, table.output(0).to_vec()).unwrap();
         for margin in [1e-3, 1e-2, 3e-2, 1e-1, 0.3] {
             let t = std::time::Instant::now();
-            let fit = fit_rational(&data, &[InputTransform::Identity; 3], 3, 3, Objective::LeastSquares, &RationalOptions { denominator_margin: margin, ..Default::default() }).unwrap();
+            let fit = fit_rational(
+                &data,
+                &[InputTransform::Identity; 3],
+                3,
+                3,
+                Objective::LeastSquares,
+                &RationalOptions {
+                    denominator_margin: margin,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
             let secs = t.elapsed().as_secs_f64();
             let f = FitFile::new(model_name, "E", None, fit);
-            let r = stress(&f, &StressOptions { random_points: 50_000, ..Default::default() }).unwrap();
+            let r = stress(
+                &f,
+                &StressOptions {
+                    random_points: 50_000,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
             eprintln!("{model_name} margin {margin}: MAE {:.2e} max {:.2e} poles {:?} | {:?} f32 max {:.2e} κQ {:.1e} minQ {:.2e} ({secs:.1} s)", f.fit.metrics.mae, f.fit.metrics.max_abs_error, f.fit.poles, r.form, r.ieee.max_abs_diff.max(r.fused.max_abs_diff).max(r.gpu.max_abs_diff), r.max_condition_q.unwrap(), r.min_abs_q.unwrap());
         }
     }

@@ -14,7 +14,8 @@ fn root() -> PathBuf {
 }
 
 fn source(name: &str) -> SourceFit {
-    let file = FitFile::read(&root().join("tests/fixtures").join(name)).unwrap_or_else(|e| panic!("{e}"));
+    let file =
+        FitFile::read(&root().join("tests/fixtures").join(name)).unwrap_or_else(|e| panic!("{e}"));
     SourceFit::new(format!("tests/fixtures/{name}"), file, None).unwrap()
 }
 
@@ -32,7 +33,10 @@ fn units() -> Vec<Unit> {
     let (b, _) = build_unit(
         "dielectric-pair",
         "FURNACE_DIELECTRIC_PAIR_GLSL",
-        &[source("ggx-dielectric.json"), source("ggx-dielectric-inv.json")],
+        &[
+            source("ggx-dielectric.json"),
+            source("ggx-dielectric-inv.json"),
+        ],
         "furnace run --scene (a dielectric material; see tests/emit_snapshots.rs)",
         FormChoice::Auto,
         None,

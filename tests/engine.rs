@@ -28,16 +28,33 @@ fn albedos_tend_to_one_as_roughness_vanishes() {
         let m = model(name);
         for mu in [0.1, 0.5, 1.0] {
             let e = e_at(m.as_ref(), &[1e-3, mu])[0];
-            assert!((1.0 - e).abs() < 1e-5, "{name} at μ = {mu}: 1 − E = {}", 1.0 - e);
+            assert!(
+                (1.0 - e).abs() < 1e-5,
+                "{name} at μ = {mu}: 1 − E = {}",
+                1.0 - e
+            );
         }
-        assert_eq!(e_at(m.as_ref(), &[0.0, 0.5])[0], 1.0, "{name}: r = 0 is the smooth mirror");
+        assert_eq!(
+            e_at(m.as_ref(), &[0.0, 0.5])[0],
+            1.0,
+            "{name}: r = 0 is the smooth mirror"
+        );
     }
-    for name in ["ggx-dielectric", "ggx-dielectric-inv", "ggx-dielectric-separable", "ggx-dielectric-inv-separable"] {
+    for name in [
+        "ggx-dielectric",
+        "ggx-dielectric-inv",
+        "ggx-dielectric-separable",
+        "ggx-dielectric-inv-separable",
+    ] {
         let m = model(name);
         for (f0, mu) in [(0.04, 0.3), (0.25, 0.9), (0.0125, 0.6)] {
             let v = e_at(m.as_ref(), &[f0, 1e-3, mu]);
             assert!((v[1] + v[2] - v[0]).abs() < 1e-15);
-            assert!((1.0 - v[0]).abs() < 1e-5, "{name} at f0 = {f0}, μ = {mu}: 1 − E = {}", 1.0 - v[0]);
+            assert!(
+                (1.0 - v[0]).abs() < 1e-5,
+                "{name} at f0 = {f0}, μ = {mu}: 1 − E = {}",
+                1.0 - v[0]
+            );
         }
     }
 }
@@ -61,18 +78,36 @@ fn vanishing_roughness_is_its_limit_not_an_overflow() {
     ];
     for name in names {
         let m = model(name);
-        let point = |r: f64, mu: f64| if m.axes().len() == 2 { vec![r, mu] } else { vec![0.04, r, mu] };
+        let point = |r: f64, mu: f64| {
+            if m.axes().len() == 2 {
+                vec![r, mu]
+            } else {
+                vec![0.04, r, mu]
+            }
+        };
         let limit = e_at(m.as_ref(), &point(1e-5, 0.0));
         for r in [1e-100, 1e-160] {
             for mu in [0.0, 1e-300, 0.5] {
                 let v = e_at(m.as_ref(), &point(r, mu));
                 for (k, &x) in v.iter().enumerate().take(m.outputs().len()) {
-                    assert!(x.is_finite() && (0.0..=1.0 + 1e-9).contains(&x), "{name} r={r} μ={mu}: output {k} = {x}");
+                    assert!(
+                        x.is_finite() && (0.0..=1.0 + 1e-9).contains(&x),
+                        "{name} r={r} μ={mu}: output {k} = {x}"
+                    );
                 }
                 if mu < 0.5 {
-                    assert!((v[0] - limit[0]).abs() < 1e-7, "{name} r={r} μ=0: {} against {} at r = 1e-5", v[0], limit[0]);
+                    assert!(
+                        (v[0] - limit[0]).abs() < 1e-7,
+                        "{name} r={r} μ=0: {} against {} at r = 1e-5",
+                        v[0],
+                        limit[0]
+                    );
                 } else if !name.starts_with("ggx-glossy") {
-                    assert!((v[0] - 1.0).abs() < 1e-9, "{name} r={r} μ=0.5: E = {}", v[0]);
+                    assert!(
+                        (v[0] - 1.0).abs() < 1e-9,
+                        "{name} r={r} μ=0.5: E = {}",
+                        v[0]
+                    );
                 }
             }
         }
@@ -84,7 +119,12 @@ fn assert_physical(t: &Table) {
     for c in 0..n {
         for o in 0..t.spec.outputs.len() {
             let v = t.output(o)[c];
-            assert!(v.is_finite() && v >= 0.0 && v <= 1.0 + 1e-9, "{} {}[{c}] = {v}", t.spec.model, t.spec.outputs[o]);
+            assert!(
+                v.is_finite() && (0.0..=1.0 + 1e-9).contains(&v),
+                "{} {}[{c}] = {v}",
+                t.spec.model,
+                t.spec.outputs[o]
+            );
         }
     }
 }
@@ -103,21 +143,45 @@ fn max_diff(a: &Table, b: &Table) -> (f64, usize) {
 /// luck, carries hard cells) and checks that no entry moves by more than 1e-9.
 fn doubling(name: &str, resolution: &[usize]) {
     let m = model(name);
-    let tight = |order: usize| QuadratureSettings { tolerance: 1e-10, ..QuadratureSettings::with_order(order) };
+    let tight = |order: usize| QuadratureSettings {
+        tolerance: 1e-10,
+        ..QuadratureSettings::with_order(order)
+    };
     // Base order 16 (the default 12 works as well, but its order-9 companion can agree with it by
     // accident to 1e-10 at a few cells while both are 1e-8 off, which the tight tolerance below
     // would then not refine; see README "Error estimates").
     let base = 16;
-    let a = tabulate(m.as_ref(), &TableSpec::new(m.as_ref(), resolution, tight(base)).unwrap(), &|_| {}).unwrap();
-    let b = tabulate(m.as_ref(), &TableSpec::new(m.as_ref(), resolution, tight(2 * base)).unwrap(), &|_| {}).unwrap();
+    let a = tabulate(
+        m.as_ref(),
+        &TableSpec::new(m.as_ref(), resolution, tight(base)).unwrap(),
+        &|_| {},
+    )
+    .unwrap();
+    let b = tabulate(
+        m.as_ref(),
+        &TableSpec::new(m.as_ref(), resolution, tight(2 * base)).unwrap(),
+        &|_| {},
+    )
+    .unwrap();
     assert_physical(&a);
     assert_physical(&b);
-    assert_eq!(a.summary.unconverged_cells, 0, "{name}: {:?}", a.summary.unconverged.first());
+    assert_eq!(
+        a.summary.unconverged_cells,
+        0,
+        "{name}: {:?}",
+        a.summary.unconverged.first()
+    );
     let (d, cell) = max_diff(&a, &b);
     let mut x = vec![0.0; resolution.len()];
     a.spec.point(cell, &mut x);
-    eprintln!("{name} {:?}: max change on doubling the order {d:.2e} at {x:?}", resolution);
-    assert!(d <= 1e-9, "{name}: doubling the order changed an entry by {d:e} at {x:?}");
+    eprintln!(
+        "{name} {:?}: max change on doubling the order {d:.2e} at {x:?}",
+        resolution
+    );
+    assert!(
+        d <= 1e-9,
+        "{name}: doubling the order changed an entry by {d:e} at {x:?}"
+    );
 }
 
 #[test]
@@ -139,9 +203,17 @@ fn doubling_the_order_changes_leaving_3d_tables_by_at_most_1e_9() {
 
 #[test]
 fn default_tables_are_physical_and_meet_their_tolerance() {
-    for (name, res) in [("ggx-dielectric-inv-separable", vec![12, 12, 12]), ("ggx-glossy-separable", vec![12, 12, 12])] {
+    for (name, res) in [
+        ("ggx-dielectric-inv-separable", vec![12, 12, 12]),
+        ("ggx-glossy-separable", vec![12, 12, 12]),
+    ] {
         let m = model(name);
-        let t = tabulate(m.as_ref(), &TableSpec::new(m.as_ref(), &res, QuadratureSettings::default()).unwrap(), &|_| {}).unwrap();
+        let t = tabulate(
+            m.as_ref(),
+            &TableSpec::new(m.as_ref(), &res, QuadratureSettings::default()).unwrap(),
+            &|_| {},
+        )
+        .unwrap();
         assert_physical(&t);
         assert_eq!(t.summary.unconverged_cells, 0, "{name}");
         assert!(t.summary.max_error_estimate <= QuadratureSettings::default().tolerance);

@@ -12,7 +12,9 @@ fn bin() -> Command {
 
 /// A fresh folder for one test.
 fn scratch(name: &str) -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fit_cli").join(name);
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("fit_cli")
+        .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -34,8 +36,14 @@ fn run(cmd: &mut Command) -> Output {
 fn fails(cmd: &mut Command) -> String {
     let out = cmd.output().expect("the furnace binary runs");
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "command should have failed: {cmd:?}\nstderr: {err}");
-    assert!(!err.contains("panicked"), "a panic is not an error message: {err}");
+    assert!(
+        !out.status.success(),
+        "command should have failed: {cmd:?}\nstderr: {err}"
+    );
+    assert!(
+        !err.contains("panicked"),
+        "a panic is not an error message: {err}"
+    );
     err
 }
 
@@ -46,7 +54,17 @@ fn read_record(path: &Path) -> FitRecord {
 
 fn fit_conductor(dir: &Path, fits: &str, extra: &[&str]) -> Output {
     run(bin()
-        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "32", "--form", "rational", "--degree", "3"])
+        .args([
+            "fit",
+            "--model",
+            "ggx-conductor-separable",
+            "--resolution",
+            "32",
+            "--form",
+            "rational",
+            "--degree",
+            "3",
+        ])
         .arg("--data-dir")
         .arg(dir.join("data"))
         .arg("--fits-dir")
@@ -83,7 +101,14 @@ fn fit_writes_a_record_that_round_trips_and_eval_reproduces_its_metrics() {
         csv.push_str(&format!("{},{}\n", x[1], x[0]));
     }
     std::fs::write(dir.join("nodes.csv"), csv).unwrap();
-    run(bin().arg("eval").arg("--fit").arg(&path).arg("--input").arg(dir.join("nodes.csv")).arg("--output").arg(dir.join("out.csv")));
+    run(bin()
+        .arg("eval")
+        .arg("--fit")
+        .arg(&path)
+        .arg("--input")
+        .arg(dir.join("nodes.csv"))
+        .arg("--output")
+        .arg(dir.join("out.csv")));
     let out = std::fs::read_to_string(dir.join("out.csv")).unwrap();
     let mut lines = out.lines();
     assert_eq!(lines.next(), Some("mu,r,E"));
@@ -97,7 +122,10 @@ fn fit_writes_a_record_that_round_trips_and_eval_reproduces_its_metrics() {
         n += 1;
     }
     assert_eq!(n, table.cells());
-    assert_eq!(max, rec.fit.metrics.max_abs_error, "eval --fit reproduces the max error exactly");
+    assert_eq!(
+        max, rec.fit.metrics.max_abs_error,
+        "eval --fit reproduces the max error exactly"
+    );
     assert!((sum / n as f64 - rec.fit.metrics.mae).abs() <= 1e-12 * rec.fit.metrics.mae);
 }
 
@@ -109,7 +137,13 @@ fn fits_are_byte_identical_across_runs_and_thread_counts() {
     let fit = |threads: &str, fits: &str, args: &[&str]| {
         run(bin()
             .env("RAYON_NUM_THREADS", threads)
-            .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "96"])
+            .args([
+                "fit",
+                "--model",
+                "ggx-conductor-separable",
+                "--resolution",
+                "96",
+            ])
             .args(args)
             .arg("--data-dir")
             .arg(dir.join("data"))
@@ -117,19 +151,46 @@ fn fits_are_byte_identical_across_runs_and_thread_counts() {
             .arg(dir.join(fits)))
     };
     for (threads, fits) in [("1", "a"), ("2", "b")] {
-        fit(threads, fits, &["--form", "rational", "--degree", "3", "--transform", "mu=sqrt"]);
+        fit(
+            threads,
+            fits,
+            &[
+                "--form",
+                "rational",
+                "--degree",
+                "3",
+                "--transform",
+                "mu=sqrt",
+            ],
+        );
         fit(threads, fits, &["--sweep", "--max-degree", "2"]);
     }
     let d = "ggx-conductor-separable";
-    let names = ["rational-3-mu_sqrt.json", "sweep.json", "sweep.csv", "best-20.json"];
+    let names = [
+        "rational-3-mu_sqrt.json",
+        "sweep.json",
+        "sweep.csv",
+        "best-20.json",
+    ];
     for name in names {
         let a = std::fs::read(dir.join("a").join(d).join(name)).unwrap();
         let b = std::fs::read(dir.join("b").join(d).join(name)).unwrap();
-        assert!(a == b, "{name}: same inputs must give the same bytes with 1 and 2 threads");
+        assert!(
+            a == b,
+            "{name}: same inputs must give the same bytes with 1 and 2 threads"
+        );
     }
     // the timings went to the sidecars (one per run; the last run's is kept)
-    assert!(dir.join("data/timing").join(d).join("rational-3-mu_sqrt-timing.json").is_file());
-    assert!(dir.join("data/timing").join(d).join("sweep-timing.json").is_file());
+    assert!(dir
+        .join("data/timing")
+        .join(d)
+        .join("rational-3-mu_sqrt-timing.json")
+        .is_file());
+    assert!(dir
+        .join("data/timing")
+        .join(d)
+        .join("sweep-timing.json")
+        .is_file());
 }
 
 #[test]
@@ -139,11 +200,21 @@ fn boundary_layer_transform_follows_the_grazing_corner() {
     let dir = scratch("layer");
     let fit = |transform: Option<&str>| {
         let mut c = bin();
-        c.args(["fit", "--model", "ggx-conductor-separable", "--resolution", "48", "--form", "rational", "--degree", "4"])
-            .arg("--data-dir")
-            .arg(dir.join("data"))
-            .arg("--fits-dir")
-            .arg(dir.join("fits"));
+        c.args([
+            "fit",
+            "--model",
+            "ggx-conductor-separable",
+            "--resolution",
+            "48",
+            "--form",
+            "rational",
+            "--degree",
+            "4",
+        ])
+        .arg("--data-dir")
+        .arg(dir.join("data"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits"));
         if let Some(t) = transform {
             c.args(["--transform", t]);
         }
@@ -152,17 +223,53 @@ fn boundary_layer_transform_follows_the_grazing_corner() {
     fit(None);
     fit(Some("r=square,mu=layer:r:1"));
     let plain = read_record(&dir.join("fits/ggx-conductor-separable/rational-4.json"));
-    let layer = read_record(&dir.join("fits/ggx-conductor-separable/rational-4-r_square-mu_layer_r_1.json"));
+    let layer = read_record(
+        &dir.join("fits/ggx-conductor-separable/rational-4-r_square-mu_layer_r_1.json"),
+    );
     // measured: 3.9e-2 (at the corner) and 1.4e-3 on the whole 48² square
-    assert!(plain.fit.metrics.max_abs_error > 2e-2, "{:?}", plain.fit.metrics);
-    assert!(layer.usable && layer.fit.metrics.max_abs_error < 3e-3, "{:?}", layer.fit.metrics);
-    assert_eq!(layer.fit.approximant.transforms[1], furnace::fit::InputTransform::BoundaryLayer { by: 0, k: 1.0 });
+    assert!(
+        plain.fit.metrics.max_abs_error > 2e-2,
+        "{:?}",
+        plain.fit.metrics
+    );
+    assert!(
+        layer.usable && layer.fit.metrics.max_abs_error < 3e-3,
+        "{:?}",
+        layer.fit.metrics
+    );
+    assert_eq!(
+        layer.fit.approximant.transforms[1],
+        furnace::fit::InputTransform::BoundaryLayer { by: 0, k: 1.0 }
+    );
     // its emitted f32 code is stable, including at the corner and the edges
     let path = dir.join("fits/ggx-conductor-separable/rational-4-r_square-mu_layer_r_1.json");
-    let out = run(bin().args(["stress", "--points", "20000", "--fit"]).arg(&path));
-    assert!(String::from_utf8_lossy(&out.stdout).contains("PASS"), "{}", String::from_utf8_lossy(&out.stdout));
+    let out = run(bin()
+        .args(["stress", "--points", "20000", "--fit"])
+        .arg(&path));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("PASS"),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
     // a layer must scale by an earlier variable
-    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "48", "--form", "rational", "--degree", "2", "--transform", "r=layer:mu:1"]).arg("--data-dir").arg(dir.join("data")));
+    let err = fails(
+        bin()
+            .args([
+                "fit",
+                "--model",
+                "ggx-conductor-separable",
+                "--resolution",
+                "48",
+                "--form",
+                "rational",
+                "--degree",
+                "2",
+                "--transform",
+                "r=layer:mu:1",
+            ])
+            .arg("--data-dir")
+            .arg(dir.join("data")),
+    );
     assert!(err.contains("layer:<variable>:<k>"), "{err}");
 }
 
@@ -170,16 +277,19 @@ fn boundary_layer_transform_follows_the_grazing_corner() {
 fn same_form_fit_of_the_papers_conductor_table_matches_its_mae() {
     // The paper's 32² table (its repository), as a user CSV with the unclamped coordinates the
     // paper fitted with; its published 3/3 rational has MAE 0.0041 there.
-    let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/paper-repo-data/tables/conductors.csv");
-    let Ok(text) = std::fs::read_to_string(&paper) else {
-        eprintln!("{} not found; skipping", paper.display());
-        return;
-    };
+    let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/paper/tables/conductors.csv");
+    let text = std::fs::read_to_string(&paper)
+        .unwrap_or_else(|e| panic!("{}: {e} (vendored under data/paper)", paper.display()));
     let dir = scratch("paper_table");
     let mut csv = String::from("r,mu,E\n");
     for (i, line) in text.lines().filter(|l| !l.trim().is_empty()).enumerate() {
         for (j, v) in line.split(',').enumerate() {
-            csv.push_str(&format!("{},{},{}\n", i as f64 / 31.0, j as f64 / 31.0, v.trim()));
+            csv.push_str(&format!(
+                "{},{},{}\n",
+                i as f64 / 31.0,
+                j as f64 / 31.0,
+                v.trim()
+            ));
         }
     }
     std::fs::write(dir.join("conductors.csv"), csv).unwrap();
@@ -194,14 +304,27 @@ fn same_form_fit_of_the_papers_conductor_table_matches_its_mae() {
     assert_eq!(rec.fit.n_coefficients, 19);
     assert!(rec.usable, "{}", rec.verdict);
     assert!(rec.fit.metrics.mae <= 0.0041, "MAE {}", rec.fit.metrics.mae);
-    assert!(rec.fit.metrics.max_abs_error <= 0.027, "max {}", rec.fit.metrics.max_abs_error);
+    assert!(
+        rec.fit.metrics.max_abs_error <= 0.027,
+        "max {}",
+        rec.fit.metrics.max_abs_error
+    );
 }
 
 #[test]
 fn sweep_writes_summary_and_best_fits_under_budget() {
     let dir = scratch("sweep");
     let out = run(bin()
-        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "24", "--sweep", "--max-degree", "3"])
+        .args([
+            "fit",
+            "--model",
+            "ggx-conductor-separable",
+            "--resolution",
+            "24",
+            "--sweep",
+            "--max-degree",
+            "3",
+        ])
         .arg("--data-dir")
         .arg(dir.join("data"))
         .arg("--fits-dir")
@@ -210,25 +333,52 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
     let d = dir.join("fits/ggx-conductor-separable");
     let csv = std::fs::read_to_string(d.join("sweep.csv")).unwrap();
     let header = csv.lines().next().unwrap();
-    assert!(header.starts_with("form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error"), "{header}");
-    let col = |name: &str| header.split(',').position(|h| h == name).unwrap_or_else(|| panic!("no column {name} in {header}"));
+    assert!(
+        header
+            .starts_with("form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error"),
+        "{header}"
+    );
+    let col = |name: &str| {
+        header
+            .split(',')
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("no column {name} in {header}"))
+    };
     let (usable, n, max) = (col("usable"), col("n_coefficients"), col("max_abs_error"));
-    let rows: Vec<Vec<String>> = csv.lines().skip(1).map(|l| l.split(',').map(String::from).collect()).collect();
+    let rows: Vec<Vec<String>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
     // 4 transform sets (identity, √μ, (r², layer k = 1), (r², layer k = 0.5)) × (3 polynomials
     // + 3 rationals), plus minimax refits
     let lsq = rows.iter().filter(|r| r[3] == "lsq").count();
     assert_eq!(lsq, 24, "{stdout}");
-    assert!(rows.iter().any(|r| r[2] == "square layer:r:1") && rows.iter().any(|r| r[2] == "square layer:r:0.5"), "{stdout}");
+    assert!(
+        rows.iter().any(|r| r[2] == "square layer:r:1")
+            && rows.iter().any(|r| r[2] == "square layer:r:0.5"),
+        "{stdout}"
+    );
     // every fit measured on the whole square and, labelled apart, on the paper's box inside it
     let (box_max, whole_max) = (col("paper_box_max_abs_error"), col("max_abs_error"));
     for r in &rows {
-        let (b, w) = (r[box_max].parse::<f64>().unwrap(), r[whole_max].parse::<f64>().unwrap());
+        let (b, w) = (
+            r[box_max].parse::<f64>().unwrap(),
+            r[whole_max].parse::<f64>().unwrap(),
+        );
         assert!(b <= w, "the box is inside the square: {r:?}");
     }
-    assert!(stdout.contains("on all 576 points of the source (the whole domain)"), "{stdout}");
-    assert!(stdout.contains("r ∈ [0.035, 1], mu ∈ [0.02, 1]"), "{stdout}");
+    assert!(
+        stdout.contains("on all 576 points of the source (the whole domain)"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("r ∈ [0.035, 1], mu ∈ [0.02, 1]"),
+        "{stdout}"
+    );
     assert!(rows.iter().any(|r| r[3] == "minimax"), "{stdout}");
-    let sweep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("sweep.json")).unwrap()).unwrap();
+    let sweep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("sweep.json")).unwrap()).unwrap();
     assert_eq!(sweep["rows"].as_array().unwrap().len(), rows.len());
     assert_eq!(sweep["fits"].as_array().unwrap().len(), rows.len());
     for budget in [20usize, 40] {
@@ -244,9 +394,15 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
     }
     // wall times live in the timing sidecar under the data folder, not under fits/
     let json = std::fs::read_to_string(d.join("sweep.json")).unwrap();
-    assert!(!json.contains("seconds") && !csv.contains("seconds"), "timings leaked into fits/");
-    let timing: furnace::fit::job::Timing =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("data/timing/ggx-conductor-separable/sweep-timing.json")).unwrap()).unwrap();
+    assert!(
+        !json.contains("seconds") && !csv.contains("seconds"),
+        "timings leaked into fits/"
+    );
+    let timing: furnace::fit::job::Timing = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("data/timing/ggx-conductor-separable/sweep-timing.json"))
+            .unwrap(),
+    )
+    .unwrap();
     assert_eq!(timing.fits.len(), rows.len());
     assert!(timing.wall_seconds > 0.0 && timing.fits.iter().all(|f| f.seconds >= 0.0));
     assert!(timing.fits_file.ends_with("sweep.json"));
@@ -256,18 +412,54 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
 fn user_tables_in_every_format() {
     let dir = scratch("formats");
     // a furnace 3D table (8³) by its sidecar
-    run(bin().args(["tabulate", "--model", "ggx-glossy-separable", "--resolution", "8"]).arg("--data-dir").arg(dir.join("data")));
+    run(bin()
+        .args([
+            "tabulate",
+            "--model",
+            "ggx-glossy-separable",
+            "--resolution",
+            "8",
+        ])
+        .arg("--data-dir")
+        .arg(dir.join("data")));
     let sidecar = dir.join("data/ggx-glossy-separable/8x8x8.json");
-    run(bin().args(["fit", "--form", "polynomial", "--degree", "2", "--table"]).arg(&sidecar).arg("--fits-dir").arg(dir.join("fits")));
+    run(bin()
+        .args(["fit", "--form", "polynomial", "--degree", "2", "--table"])
+        .arg(&sidecar)
+        .arg("--fits-dir")
+        .arg(dir.join("fits")));
     let rec = read_record(&dir.join("fits/ggx-glossy-separable/polynomial-2.json"));
-    assert_eq!((rec.source.kind.as_str(), rec.fit.approximant.variables.len()), ("furnace_table", 3));
+    assert_eq!(
+        (
+            rec.source.kind.as_str(),
+            rec.fit.approximant.variables.len()
+        ),
+        ("furnace_table", 3)
+    );
 
     // its EXR, moved away from the sidecar: the axes come from --axes
-    std::fs::copy(dir.join("data/ggx-glossy-separable/8x8x8.exr"), dir.join("glossy.exr")).unwrap();
-    let err = fails(bin().args(["fit", "--form", "polynomial", "--degree", "2", "--table"]).arg(dir.join("glossy.exr")));
+    std::fs::copy(
+        dir.join("data/ggx-glossy-separable/8x8x8.exr"),
+        dir.join("glossy.exr"),
+    )
+    .unwrap();
+    let err = fails(
+        bin()
+            .args(["fit", "--form", "polynomial", "--degree", "2", "--table"])
+            .arg(dir.join("glossy.exr")),
+    );
     assert!(err.contains("--axes"), "{err}");
     run(bin()
-        .args(["fit", "--form", "polynomial", "--degree", "2", "--axes", "f0=0:1:8,r=0:1,mu=0:1", "--table"])
+        .args([
+            "fit",
+            "--form",
+            "polynomial",
+            "--degree",
+            "2",
+            "--axes",
+            "f0=0:1:8,r=0:1,mu=0:1",
+            "--table",
+        ])
         .arg(dir.join("glossy.exr"))
         .arg("--fits-dir")
         .arg(dir.join("fits")));
@@ -283,14 +475,26 @@ fn user_tables_in_every_format() {
         csv.push_str(&format!("{x},{}\n", (1.0 + 2.0 * x) / (1.0 + 0.5 * x)));
     }
     std::fs::write(dir.join("line.csv"), csv).unwrap();
-    run(bin().args(["fit", "--form", "rational", "--degree", "1", "--table"]).arg(dir.join("line.csv")).arg("--fits-dir").arg(dir.join("fits")));
+    run(bin()
+        .args(["fit", "--form", "rational", "--degree", "1", "--table"])
+        .arg(dir.join("line.csv"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits")));
     let one = read_record(&dir.join("fits/line/rational-1.json"));
-    assert!(one.usable && one.fit.metrics.max_abs_error < 1e-12, "{:?}", one.fit.metrics);
+    assert!(
+        one.usable && one.fit.metrics.max_abs_error < 1e-12,
+        "{:?}",
+        one.fit.metrics
+    );
 
     // a JSON grid
     let json = r#"{"axes": [{"name": "a", "nodes": [0, 0.5, 1]}, {"name": "b", "nodes": [0, 1]}], "values": [0, 1, 0.5, 1.5, 1, 2]}"#;
     std::fs::write(dir.join("grid.json"), json).unwrap();
-    run(bin().args(["fit", "--form", "polynomial", "--degree", "1", "--table"]).arg(dir.join("grid.json")).arg("--fits-dir").arg(dir.join("fits")));
+    run(bin()
+        .args(["fit", "--form", "polynomial", "--degree", "1", "--table"])
+        .arg(dir.join("grid.json"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits")));
     let g = read_record(&dir.join("fits/grid/polynomial-1.json"));
     assert!(g.fit.metrics.max_abs_error < 1e-14);
     assert_eq!(g.fit.approximant.numerator.coefficients.len(), 3);
@@ -301,39 +505,111 @@ fn bad_input_gives_clear_errors() {
     let dir = scratch("bad");
     let fit = |table: &str, degree: &str| {
         let mut c = bin();
-        c.args(["fit", "--form", "rational", "--degree", degree, "--table"]).arg(dir.join(table)).arg("--fits-dir").arg(dir.join("fits"));
+        c.args(["fit", "--form", "rational", "--degree", degree, "--table"])
+            .arg(dir.join(table))
+            .arg("--fits-dir")
+            .arg(dir.join("fits"));
         c
     };
     std::fs::write(dir.join("nan.csv"), "r,mu,E\n0,0,1\n0.5,0.5,NaN\n").unwrap();
     let err = fails(&mut fit("nan.csv", "1"));
-    assert!(err.contains("row 3, column 'E'") && err.contains("finite"), "{err}");
+    assert!(
+        err.contains("row 3, column 'E'") && err.contains("finite"),
+        "{err}"
+    );
 
-    std::fs::write(dir.join("few.csv"), "r,mu,E\n0,0,1\n1,0,2\n0,1,3\n1,1,4\n0.5,0.5,5\n").unwrap();
+    std::fs::write(
+        dir.join("few.csv"),
+        "r,mu,E\n0,0,1\n1,0,2\n0,1,3\n1,1,4\n0.5,0.5,5\n",
+    )
+    .unwrap();
     let err = fails(&mut fit("few.csv", "3"));
-    assert!(err.contains("19 free coefficients but only 5 data points"), "{err}");
+    assert!(
+        err.contains("19 free coefficients but only 5 data points"),
+        "{err}"
+    );
 
     // every point on the line r = mu: the bivariate basis is rank deficient
-    let line: String = (0..20).map(|i| format!("{0},{0},{1}\n", i as f64 / 19.0, 1.0 + i as f64)).collect();
+    let line: String = (0..20)
+        .map(|i| format!("{0},{0},{1}\n", i as f64 / 19.0, 1.0 + i as f64))
+        .collect();
     std::fs::write(dir.join("line.csv"), format!("r,mu,E\n{line}")).unwrap();
     let mut c = bin();
-    c.args(["fit", "--form", "polynomial", "--degree", "2", "--table"]).arg(dir.join("line.csv")).arg("--fits-dir").arg(dir.join("fits"));
+    c.args(["fit", "--form", "polynomial", "--degree", "2", "--table"])
+        .arg(dir.join("line.csv"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits"));
     let err = fails(&mut c);
     assert!(err.contains("singular"), "{err}");
 
-    std::fs::write(dir.join("flat.csv"), "r,mu,E\n0.5,0,1\n0.5,1,2\n0.5,0.5,3\n").unwrap();
+    std::fs::write(
+        dir.join("flat.csv"),
+        "r,mu,E\n0.5,0,1\n0.5,1,2\n0.5,0.5,3\n",
+    )
+    .unwrap();
     let err = fails(&mut fit("flat.csv", "1"));
-    assert!(err.contains("'r'") && err.contains("constant variable"), "{err}");
+    assert!(
+        err.contains("'r'") && err.contains("constant variable"),
+        "{err}"
+    );
 
     let err = fails(&mut fit("missing.csv", "1"));
     assert!(err.contains("missing.csv"), "{err}");
 
     // degree beyond f64 meaning, and degrees beyond the data (one fit: refused; a sweep: skipped, said why)
-    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "21"]).arg("--data-dir").arg(dir.join("data")));
-    assert!(err.contains("degree 21 is above the supported maximum 20"), "{err}");
-    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "polynomial", "--degree", "10"]).arg("--data-dir").arg(dir.join("data")));
-    assert!(err.contains("66 free coefficients but only 64 data points"), "{err}");
+    let err = fails(
+        bin()
+            .args([
+                "fit",
+                "--model",
+                "ggx-conductor-separable",
+                "--resolution",
+                "8",
+                "--form",
+                "rational",
+                "--degree",
+                "21",
+            ])
+            .arg("--data-dir")
+            .arg(dir.join("data")),
+    );
+    assert!(
+        err.contains("degree 21 is above the supported maximum 20"),
+        "{err}"
+    );
+    let err = fails(
+        bin()
+            .args([
+                "fit",
+                "--model",
+                "ggx-conductor-separable",
+                "--resolution",
+                "8",
+                "--form",
+                "polynomial",
+                "--degree",
+                "10",
+            ])
+            .arg("--data-dir")
+            .arg(dir.join("data")),
+    );
+    assert!(
+        err.contains("66 free coefficients but only 64 data points"),
+        "{err}"
+    );
     let out = run(bin()
-        .args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--sweep", "--form", "rational", "--max-degree", "7"])
+        .args([
+            "fit",
+            "--model",
+            "ggx-conductor-separable",
+            "--resolution",
+            "8",
+            "--sweep",
+            "--form",
+            "rational",
+            "--max-degree",
+            "7",
+        ])
         .arg("--data-dir")
         .arg(dir.join("data"))
         .arg("--fits-dir")
@@ -344,40 +620,132 @@ fn bad_input_gives_clear_errors() {
     // a table with NaN: refused naming the cell (a JSON grid here; furnace tables are checked the same way)
     std::fs::write(dir.join("nan.json"), r#"{"axes": [{"name": "r", "nodes": [0, 1]}, {"name": "mu", "nodes": [0, 1]}], "values": [1, 2, "NaN", 4]}"#).unwrap();
     let err = fails(&mut fit("nan.json", "1"));
-    assert!(err.contains("nan.json") && err.contains("\"NaN\"") && err.contains("column 98"), "{err}");
-    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "2", "--transform", "mu=log"]).arg("--data-dir").arg(dir.join("data")));
+    assert!(
+        err.contains("nan.json") && err.contains("\"NaN\"") && err.contains("column 98"),
+        "{err}"
+    );
+    let err = fails(
+        bin()
+            .args([
+                "fit",
+                "--model",
+                "ggx-conductor-separable",
+                "--resolution",
+                "8",
+                "--form",
+                "rational",
+                "--degree",
+                "2",
+                "--transform",
+                "mu=log",
+            ])
+            .arg("--data-dir")
+            .arg(dir.join("data")),
+    );
     assert!(err.contains("unknown transform 'log'"), "{err}");
-    let err = fails(bin().args(["fit", "--model", "ggx-conductor-separable", "--resolution", "8", "--form", "rational", "--degree", "2", "--channel", "E_T"]).arg("--data-dir").arg(dir.join("data")));
+    let err = fails(
+        bin()
+            .args([
+                "fit",
+                "--model",
+                "ggx-conductor-separable",
+                "--resolution",
+                "8",
+                "--form",
+                "rational",
+                "--degree",
+                "2",
+                "--channel",
+                "E_T",
+            ])
+            .arg("--data-dir")
+            .arg(dir.join("data")),
+    );
     assert!(err.contains("no output 'E_T'"), "{err}");
 
     // eval --fit: exactly one of --model / --fit, points inside the fit's domain
-    std::fs::write(dir.join("ok.csv"), "x,E\n0,1\n0.25,1.5\n0.5,2\n0.75,2.5\n1,3\n").unwrap();
-    run(bin().args(["fit", "--form", "polynomial", "--degree", "1", "--table"]).arg(dir.join("ok.csv")).arg("--fits-dir").arg(dir.join("fits")));
+    std::fs::write(
+        dir.join("ok.csv"),
+        "x,E\n0,1\n0.25,1.5\n0.5,2\n0.75,2.5\n1,3\n",
+    )
+    .unwrap();
+    run(bin()
+        .args(["fit", "--form", "polynomial", "--degree", "1", "--table"])
+        .arg(dir.join("ok.csv"))
+        .arg("--fits-dir")
+        .arg(dir.join("fits")));
     let fit_file = dir.join("fits/ok/polynomial-1.json");
     std::fs::write(dir.join("pts.csv"), "x\n0.5\n2\n").unwrap();
-    let err = fails(bin().arg("eval").arg("--fit").arg(&fit_file).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
-    assert!(err.contains("row 3") && err.contains("outside the domain"), "{err}");
+    let err = fails(
+        bin()
+            .arg("eval")
+            .arg("--fit")
+            .arg(&fit_file)
+            .arg("--input")
+            .arg(dir.join("pts.csv"))
+            .arg("--output")
+            .arg(dir.join("o.csv")),
+    );
+    assert!(
+        err.contains("row 3") && err.contains("outside the domain"),
+        "{err}"
+    );
     std::fs::write(dir.join("pts.csv"), "y\n0.5\n").unwrap();
-    let err = fails(bin().arg("eval").arg("--fit").arg(&fit_file).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
+    let err = fails(
+        bin()
+            .arg("eval")
+            .arg("--fit")
+            .arg(&fit_file)
+            .arg("--input")
+            .arg(dir.join("pts.csv"))
+            .arg("--output")
+            .arg(dir.join("o.csv")),
+    );
     assert!(err.contains("unknown column 'y'"), "{err}");
-    let err = fails(bin().args(["eval", "--model", "ggx-conductor"]).arg("--fit").arg(&fit_file).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
+    let err = fails(
+        bin()
+            .args(["eval", "--model", "ggx-conductor"])
+            .arg("--fit")
+            .arg(&fit_file)
+            .arg("--input")
+            .arg(dir.join("pts.csv"))
+            .arg("--output")
+            .arg(dir.join("o.csv")),
+    );
     assert!(err.contains("cannot be used with"), "{err}");
     std::fs::write(dir.join("notafit.json"), "{\"hello\": 1}").unwrap();
-    let err = fails(bin().arg("eval").arg("--fit").arg(dir.join("notafit.json")).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
+    let err = fails(
+        bin()
+            .arg("eval")
+            .arg("--fit")
+            .arg(dir.join("notafit.json"))
+            .arg("--input")
+            .arg(dir.join("pts.csv"))
+            .arg("--output")
+            .arg(dir.join("o.csv")),
+    );
     assert!(err.contains("not a furnace fit file"), "{err}");
     assert!(!dir.join("o.csv").exists(), "no output file after an error");
 }
 
 #[test]
 fn compare_paper_on_small_tables() {
-    let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/paper-repo-data");
-    if !paper.join("coefficients").is_dir() {
-        eprintln!("{} not found; skipping", paper.display());
-        return;
-    }
+    let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/paper");
+    assert!(
+        paper.join("coefficients").is_dir(),
+        "{} not found (vendored under data/paper)",
+        paper.display()
+    );
     let dir = scratch("compare");
     let out = run(bin()
-        .args(["compare-paper", "--resolution", "16", "--resolution-3d", "6", "--no-sweep"])
+        .args([
+            "compare-paper",
+            "--resolution",
+            "16",
+            "--resolution-3d",
+            "6",
+            "--no-sweep",
+        ])
         .arg("--paper-data")
         .arg(&paper)
         .arg("--data-dir")
@@ -388,7 +756,10 @@ fn compare_paper_on_small_tables() {
         .arg(dir.join("reports")));
     let md = std::fs::read_to_string(dir.join("reports/compare-paper.md")).unwrap();
     assert_eq!(String::from_utf8_lossy(&out.stdout), md);
-    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("reports/compare-paper.json")).unwrap()).unwrap();
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("reports/compare-paper.json")).unwrap(),
+    )
+    .unwrap();
     let entries = report["entries"].as_array().unwrap();
     assert_eq!(entries.len(), 4);
     for e in entries {
@@ -403,15 +774,35 @@ fn compare_paper_on_small_tables() {
     assert!((theirs["mae"].as_f64().unwrap() - 0.0041).abs() < 5e-5);
     assert!((theirs["max_abs_error"].as_f64().unwrap() - 0.027).abs() < 5e-4);
     // dielectrics are compared in the paper's radiance form
-    assert!(entries[2]["transmission"].as_str().unwrap().starts_with("radiance"));
+    assert!(entries[2]["transmission"]
+        .as_str()
+        .unwrap()
+        .starts_with("radiance"));
     // the published glossy fit has a pole on its domain (near F0 = 0); furnace's is certified
     assert_eq!(entries[1]["on_furnace_table"][0]["poles"], "pole", "{md}");
-    assert_eq!(entries[1]["on_furnace_table"][1]["poles"], "certified", "{md}");
+    assert_eq!(
+        entries[1]["on_furnace_table"][1]["poles"], "certified",
+        "{md}"
+    );
     // ... and its fit file says so; evaluating it warns
     let glossy = read_record(&dir.join("reports/paper-glossy.json"));
-    assert!(!glossy.usable && glossy.verdict.starts_with("NOT usable"), "{}", glossy.verdict);
+    assert!(
+        !glossy.usable && glossy.verdict.starts_with("NOT usable"),
+        "{}",
+        glossy.verdict
+    );
     std::fs::write(dir.join("pts.csv"), "f0,r,mu\n0.5,0.5,0.5\n").unwrap();
-    let out = run(bin().arg("eval").arg("--fit").arg(dir.join("reports/paper-glossy.json")).arg("--input").arg(dir.join("pts.csv")).arg("--output").arg(dir.join("o.csv")));
+    let out = run(bin()
+        .arg("eval")
+        .arg("--fit")
+        .arg(dir.join("reports/paper-glossy.json"))
+        .arg("--input")
+        .arg(dir.join("pts.csv"))
+        .arg("--output")
+        .arg(dir.join("o.csv")));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("warning") && err.contains("NOT usable"), "{err}");
+    assert!(
+        err.contains("warning") && err.contains("NOT usable"),
+        "{err}"
+    );
 }

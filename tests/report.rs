@@ -2,11 +2,16 @@
 //! configuration: files linked and present, images of the expected size, byte-identical reruns.
 
 use furnace::bsdf::{self, Model, ModelOptions};
-use furnace::fit::{fit_polynomial, fit_rational, FitData, InputTransform, Objective, PolynomialOptions, RationalOptions};
+use furnace::fit::{
+    fit_polynomial, fit_rational, FitData, InputTransform, Objective, PolynomialOptions,
+    RationalOptions,
+};
 use furnace::math::SmithForm;
 use furnace::quadrature::QuadratureSettings;
 use furnace::report::albedo::{FitAlbedo, TableAlbedo};
-use furnace::report::furnace::{furnace_stats, furnace_values, lobe_integrals_at, Compensation, Material, MaterialClass};
+use furnace::report::furnace::{
+    furnace_stats, furnace_values, lobe_integrals_at, Compensation, Material, MaterialClass,
+};
 use furnace::report::inputs::TableProvider;
 use furnace::report::model::{ReportOptions, Reporter};
 use furnace::table::{self, Table, TableSpec};
@@ -35,12 +40,24 @@ fn nodes(t: &Table) -> Vec<Vec<f64>> {
 fn furnace_on_nodes(material: &Material, t: &Table, conductor: Option<&Table>) -> (f64, f64) {
     let points = nodes(t);
     let lobes = lobe_integrals_at(material, &points);
-    assert!(lobes.iter().all(|l| l.converged), "{}: furnace quadrature did not converge", material.label());
+    assert!(
+        lobes.iter().all(|l| l.converged),
+        "{}: furnace quadrature did not converge",
+        material.label()
+    );
     let exact = TableAlbedo::new(t);
     let cond = conductor.map(TableAlbedo::new);
-    let comp = Compensation::With { albedo: &exact, conductor: cond.as_ref().map(|c| c as &dyn furnace::report::albedo::Albedo) };
+    let comp = Compensation::With {
+        albedo: &exact,
+        conductor: cond
+            .as_ref()
+            .map(|c| c as &dyn furnace::report::albedo::Albedo),
+    };
     let with = furnace_stats(&points, &furnace_values(material, &points, &lobes, &comp));
-    let none = furnace_stats(&points, &furnace_values(material, &points, &lobes, &Compensation::None));
+    let none = furnace_stats(
+        &points,
+        &furnace_values(material, &points, &lobes, &Compensation::None),
+    );
     (with.max_deviation, none.max_deviation)
 }
 
@@ -49,12 +66,19 @@ fn furnace_on_nodes(material: &Material, t: &Table, conductor: Option<&Table>) -
 /// uncompensated one visibly does not.
 #[test]
 fn conductor_with_the_exact_table_passes_the_furnace_to_1e6() {
-    for (name, smith) in [("ggx-conductor", SmithForm::HeightCorrelated), ("ggx-conductor-separable", SmithForm::Separable)] {
+    for (name, smith) in [
+        ("ggx-conductor", SmithForm::HeightCorrelated),
+        ("ggx-conductor-separable", SmithForm::Separable),
+    ] {
         let t = table(name, ModelOptions::default(), &[17, 17]);
-        let (with, none) = furnace_on_nodes(&Material::new(MaterialClass::Conductor, smith), &t, None);
+        let (with, none) =
+            furnace_on_nodes(&Material::new(MaterialClass::Conductor, smith), &t, None);
         eprintln!("{name}: furnace max |1 − E| with the exact table {with:.2e}, without compensation {none:.3}");
         assert!(with <= 1e-6, "{name}: {with:e}");
-        assert!(none > 0.5, "{name}: the uncompensated conductor loses up to 1 − E(r=1, μ=1) ≈ 0.69, got {none}");
+        assert!(
+            none > 0.5,
+            "{name}: the uncompensated conductor loses up to 1 − E(r=1, μ=1) ≈ 0.69, got {none}"
+        );
     }
 }
 
@@ -64,28 +88,72 @@ fn every_class_passes_with_its_exact_tables() {
     let hc = SmithForm::HeightCorrelated;
     let cond = table("ggx-conductor", ModelOptions::default(), &[9, 9]);
     let cases: Vec<(Material, Table, Option<&Table>)> = vec![
-        (Material::new(MaterialClass::ThinDielectric, hc), cond.clone(), None),
-        (Material::new(MaterialClass::Glossy, hc), table("ggx-glossy", ModelOptions::default(), &[3, 9, 9]), Some(&cond)),
-        (Material::new(MaterialClass::Dielectric { inverse: false }, hc), table("ggx-dielectric", ModelOptions::default(), &[3, 9, 9]), None),
-        (Material::new(MaterialClass::Dielectric { inverse: true }, hc), table("ggx-dielectric-inv", ModelOptions::default(), &[3, 9, 9]), None),
         (
-            Material { radiance_transmission: true, ..Material::new(MaterialClass::Dielectric { inverse: true }, SmithForm::Separable) },
-            table("ggx-dielectric-inv-separable", ModelOptions { radiance_transmission: true }, &[3, 9, 9]),
+            Material::new(MaterialClass::ThinDielectric, hc),
+            cond.clone(),
             None,
         ),
-        (Material::new(MaterialClass::RoughDiffuse, hc), table("oren-nayar-fon", ModelOptions::default(), &[9, 9]), None),
+        (
+            Material::new(MaterialClass::Glossy, hc),
+            table("ggx-glossy", ModelOptions::default(), &[3, 9, 9]),
+            Some(&cond),
+        ),
+        (
+            Material::new(MaterialClass::Dielectric { inverse: false }, hc),
+            table("ggx-dielectric", ModelOptions::default(), &[3, 9, 9]),
+            None,
+        ),
+        (
+            Material::new(MaterialClass::Dielectric { inverse: true }, hc),
+            table("ggx-dielectric-inv", ModelOptions::default(), &[3, 9, 9]),
+            None,
+        ),
+        (
+            Material {
+                radiance_transmission: true,
+                ..Material::new(
+                    MaterialClass::Dielectric { inverse: true },
+                    SmithForm::Separable,
+                )
+            },
+            table(
+                "ggx-dielectric-inv-separable",
+                ModelOptions {
+                    radiance_transmission: true,
+                },
+                &[3, 9, 9],
+            ),
+            None,
+        ),
+        (
+            Material::new(MaterialClass::RoughDiffuse, hc),
+            table("oren-nayar-fon", ModelOptions::default(), &[9, 9]),
+            None,
+        ),
     ];
     for (m, t, c) in &cases {
         let (with, none) = furnace_on_nodes(m, t, *c);
-        eprintln!("{}: with exact table {with:.2e}, without {none:.3}", m.label());
+        eprintln!(
+            "{}: with exact table {with:.2e}, without {none:.3}",
+            m.label()
+        );
         assert!(with <= 1e-6, "{}: {with:e}", m.label());
-        assert!(none > 0.1, "{}: uncompensated deviation {none} should be visible", m.label());
+        assert!(
+            none > 0.1,
+            "{}: uncompensated deviation {none} should be visible",
+            m.label()
+        );
     }
 }
 
 fn grid_data(t: &Table) -> FitData {
     let axes: Vec<Vec<f64>> = t.spec.axes.iter().map(|a| a.nodes()).collect();
-    FitData::from_grid(t.spec.axes.iter().map(|a| a.name.clone()).collect(), &axes, t.output(0).to_vec()).unwrap()
+    FitData::from_grid(
+        t.spec.axes.iter().map(|a| a.name.clone()).collect(),
+        &axes,
+        t.output(0).to_vec(),
+    )
+    .unwrap()
 }
 
 /// The acceptance test, part 2: compensated with a fit, the conductor passes the furnace to within
@@ -97,21 +165,58 @@ fn conductor_with_a_fit_passes_to_within_its_relative_error() {
     let data = grid_data(&t);
     let id = [InputTransform::Identity; 2];
     let fits = vec![
-        fit_rational(&data, &id, 3, 3, Objective::LeastSquares, &RationalOptions::default()).unwrap(),
-        fit_polynomial(&data, &id, 4, Objective::LeastSquares, &PolynomialOptions::default()).unwrap(),
+        fit_rational(
+            &data,
+            &id,
+            3,
+            3,
+            Objective::LeastSquares,
+            &RationalOptions::default(),
+        )
+        .unwrap(),
+        fit_polynomial(
+            &data,
+            &id,
+            4,
+            Objective::LeastSquares,
+            &PolynomialOptions::default(),
+        )
+        .unwrap(),
     ];
     let points = nodes(&t);
-    let lobes = lobe_integrals_at(&Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated), &points);
+    let lobes = lobe_integrals_at(
+        &Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated),
+        &points,
+    );
     for fit in &fits {
         let rho = fit.metrics.max_rel_error;
         let albedo = FitAlbedo::new(fit, &["r".into(), "mu".into()]).unwrap();
-        let comp = Compensation::With { albedo: &albedo, conductor: None };
+        let comp = Compensation::With {
+            albedo: &albedo,
+            conductor: None,
+        };
         let m = Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated);
         let s = furnace_stats(&points, &furnace_values(&m, &points, &lobes, &comp));
-        eprintln!("{}: reported max rel. error {rho:.3e}, furnace max |1 − E| {:.3e}", fit.form.label(), s.max_deviation);
-        assert!(s.max_deviation <= rho / (1.0 - rho) + 1e-6, "{}: {} > {}", fit.form.label(), s.max_deviation, rho / (1.0 - rho));
+        eprintln!(
+            "{}: reported max rel. error {rho:.3e}, furnace max |1 − E| {:.3e}",
+            fit.form.label(),
+            s.max_deviation
+        );
+        assert!(
+            s.max_deviation <= rho / (1.0 - rho) + 1e-6,
+            "{}: {} > {}",
+            fit.form.label(),
+            s.max_deviation,
+            rho / (1.0 - rho)
+        );
         // and the bound is attained up to the quadrature: the furnace sees the fit's error
-        assert!(s.max_deviation >= rho / (1.0 + rho) - 1e-6, "{}: {} < {}", fit.form.label(), s.max_deviation, rho / (1.0 + rho));
+        assert!(
+            s.max_deviation >= rho / (1.0 + rho) - 1e-6,
+            "{}: {} < {}",
+            fit.form.label(),
+            s.max_deviation,
+            rho / (1.0 + rho)
+        );
     }
 }
 
@@ -142,8 +247,13 @@ fn tiny_options(root: &Path) -> ReportOptions {
     o.furnace_nodes = 9;
     o.furnace_f0_slices = 2;
     o.sphere_roughness = vec![0.3, 1.0];
-    let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/paper-repo-data");
-    o.paper_dir = paper.join("coefficients").is_dir().then_some(paper);
+    let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/paper");
+    assert!(
+        paper.join("coefficients").is_dir(),
+        "{} not found",
+        paper.display()
+    );
+    o.paper_dir = Some(paper);
     o
 }
 
@@ -163,7 +273,12 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
 
 /// Markdown link targets `](target)`.
 fn links(md: &str) -> Vec<String> {
-    md.split("](").skip(1).filter_map(|s| s.split(')').next()).filter(|l| !l.starts_with('#') && !l.starts_with("http")).map(String::from).collect()
+    md.split("](")
+        .skip(1)
+        .filter_map(|s| s.split(')').next())
+        .filter(|l| !l.starts_with('#') && !l.starts_with("http"))
+        .map(String::from)
+        .collect()
 }
 
 fn png_size(bytes: &[u8]) -> (u32, u32) {
@@ -179,7 +294,15 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
     std::fs::create_dir_all(&root).unwrap();
     // one fit for the conductor (a degree-2 rational on the 9² table), none for the others
     let cond = table("ggx-conductor-separable", ModelOptions::default(), &[9, 9]);
-    let fit = fit_rational(&grid_data(&cond), &[InputTransform::Identity; 2], 2, 2, Objective::LeastSquares, &RationalOptions::default()).unwrap();
+    let fit = fit_rational(
+        &grid_data(&cond),
+        &[InputTransform::Identity; 2],
+        2,
+        2,
+        Objective::LeastSquares,
+        &RationalOptions::default(),
+    )
+    .unwrap();
     let fit_dir = root.join("fits/ggx-conductor-separable/sweep");
     std::fs::create_dir_all(&fit_dir).unwrap();
     std::fs::write(fit_dir.join("rational2.json"), fit.to_json().unwrap()).unwrap();
@@ -187,9 +310,14 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
     std::fs::create_dir_all(root.join("reports/bench")).unwrap();
     std::fs::write(root.join("reports/bench/eval-cost.csv"), "# title: Evaluation cost\n# x: ns per call (log)\n# y: max error (log)\nseries,ns,err\nfit,2.5,1e-3\nfit,4,2e-4\nLUT,1.5,3e-3\n").unwrap();
 
-    let tables = Tables { cache: RefCell::new(BTreeMap::new()) };
+    let tables = Tables {
+        cache: RefCell::new(BTreeMap::new()),
+    };
     let quiet = |_: &str| {};
-    let models = vec!["ggx-conductor-separable".to_string(), "oren-nayar-fon".to_string()];
+    let models = vec![
+        "ggx-conductor-separable".to_string(),
+        "oren-nayar-fon".to_string(),
+    ];
     let run = || {
         let reporter = Reporter::new(tiny_options(&root), &tables, &quiet);
         reporter.generate(Some(&models)).unwrap()
@@ -201,59 +329,112 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
     // every link resolves, and every figure is linked
     let linked = links(&readme);
     for l in &linked {
-        assert!(reports.join(l).is_file(), "README links {l}, which does not exist");
+        assert!(
+            reports.join(l).is_file(),
+            "README links {l}, which does not exist"
+        );
     }
     let written = files_under(&reports);
     for f in &written {
-        let rel = f.strip_prefix(&reports).unwrap().to_string_lossy().replace('\\', "/");
+        let rel = f
+            .strip_prefix(&reports)
+            .unwrap()
+            .to_string_lossy()
+            .replace('\\', "/");
         if rel.ends_with(".png") || rel.ends_with(".svg") {
-            assert!(linked.contains(&rel), "{rel} is written but not linked from README.md");
+            assert!(
+                linked.contains(&rel),
+                "{rel} is written but not linked from README.md"
+            );
         }
         if rel.ends_with(".md") || rel.ends_with(".json") || rel.ends_with(".svg") {
             let text = std::fs::read_to_string(f).unwrap();
-            assert!(!text.contains("NaN") && !text.contains("\"nan\"") && !text.contains("null"), "{rel} contains a non-finite number");
+            assert!(
+                !text.contains("NaN") && !text.contains("\"nan\"") && !text.contains("null"),
+                "{rel} contains a non-finite number"
+            );
         }
     }
     // what it cannot compute yet it says, with the command to run
-    assert!(readme.contains("run `furnace fit --model oren-nayar-fon --sweep` first"), "missing-fit hint");
-    assert!(readme.contains("skipped `sweep/notes.json`"), "unreadable fit files are listed");
-    assert!(readme.contains("### ggx-conductor-separable") && readme.contains("### oren-nayar-fon"));
+    assert!(
+        readme.contains("run `furnace fit --model oren-nayar-fon --sweep` first"),
+        "missing-fit hint"
+    );
+    assert!(
+        readme.contains("skipped `sweep/notes.json`"),
+        "unreadable fit files are listed"
+    );
+    assert!(
+        readme.contains("### ggx-conductor-separable") && readme.contains("### oren-nayar-fon")
+    );
     assert!(readme.contains("Not generated yet: run `furnace report --model ggx-glossy`"));
     assert!(readme.contains("rational 2/2"), "the fit is in the tables");
     // expected figures with the expected pixel sizes
     let expect = [
-        ("ggx-conductor-separable/error-vs-coefficients.png", (1300, 560)),
+        (
+            "ggx-conductor-separable/error-vs-coefficients.png",
+            (1300, 560),
+        ),
         ("ggx-conductor-separable/heatmap-abs.png", (1000, 580)),
         ("ggx-conductor-separable/slices.png", (1600, 620)),
-        ("ggx-conductor-separable/furnace-conductor-separable.png", (300 + 2 * 132 + 160, 84 + 4 * 132 + 46)),
-        ("oren-nayar-fon/furnace-rough-diffuse.png", (300 + 2 * 132 + 160, 84 + 3 * 132 + 46)),
+        (
+            "ggx-conductor-separable/furnace-conductor-separable.png",
+            (300 + 2 * 132 + 160, 84 + 4 * 132 + 46),
+        ),
+        (
+            "oren-nayar-fon/furnace-rough-diffuse.png",
+            (300 + 2 * 132 + 160, 84 + 3 * 132 + 46),
+        ),
         ("benchmarks/eval-cost.png", (900, 600)),
     ];
     for (f, size) in expect {
         let bytes = std::fs::read(reports.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
         assert_eq!(png_size(&bytes), size, "{f}");
     }
-    for svg in written.iter().filter(|p| p.extension().is_some_and(|e| e == "svg")) {
+    for svg in written
+        .iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "svg"))
+    {
         let text = std::fs::read_to_string(svg).unwrap();
-        assert!(text.starts_with("<svg") && text.trim_end().ends_with("</svg>"), "{}", svg.display());
+        assert!(
+            text.starts_with("<svg") && text.trim_end().ends_with("</svg>"),
+            "{}",
+            svg.display()
+        );
     }
     // the summary row of the conductor carries the fit's furnace number
     let s = &outcome.regenerated[0];
-    let furnace_fit = s.furnace[0].variants.iter().find(|v| v.name == "furnace fit").unwrap();
+    let furnace_fit = s.furnace[0]
+        .variants
+        .iter()
+        .find(|v| v.name == "furnace fit")
+        .unwrap();
     assert!(furnace_fit.stats.as_ref().unwrap().max_deviation > 0.0);
 
     // same inputs → same bytes
-    let before: Vec<(PathBuf, Vec<u8>)> = written.iter().map(|p| (p.clone(), std::fs::read(p).unwrap())).collect();
+    let before: Vec<(PathBuf, Vec<u8>)> = written
+        .iter()
+        .map(|p| (p.clone(), std::fs::read(p).unwrap()))
+        .collect();
     run();
     let after = files_under(&reports);
     assert_eq!(after, written, "the rerun wrote a different set of files");
     for (p, bytes) in before {
-        assert!(std::fs::read(&p).unwrap() == bytes, "{} differs on rerun", p.display());
+        assert!(
+            std::fs::read(&p).unwrap() == bytes,
+            "{} differs on rerun",
+            p.display()
+        );
     }
     // removing the fit removes its figures (no stale files) and the README says so
     std::fs::remove_dir_all(root.join("fits")).unwrap();
     let reporter = Reporter::new(tiny_options(&root), &tables, &quiet);
     reporter.generate(Some(&models[..1])).unwrap();
-    assert!(!reports.join("ggx-conductor-separable/heatmap-abs.png").exists(), "stale heat map kept");
+    assert!(
+        !reports
+            .join("ggx-conductor-separable/heatmap-abs.png")
+            .exists(),
+        "stale heat map kept"
+    );
     let _ = std::fs::remove_dir_all(&root);
 }

@@ -7,14 +7,18 @@
 use furnace::fit::job::FitRecord;
 use furnace::math::SmithForm;
 use furnace::report::albedo::FitAlbedo;
-use furnace::report::furnace::{furnace_stats, furnace_values, lobe_integrals_at, Compensation, Material, MaterialClass};
+use furnace::report::furnace::{
+    furnace_stats, furnace_values, lobe_integrals_at, Compensation, Material, MaterialClass,
+};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn furnace(args: &[&str], dir: &Path, threads: Option<&str>) -> Output {
     let mut c = Command::new(env!("CARGO_BIN_EXE_furnace"));
-    c.args(args).current_dir(dir).env_remove("FURNACE_PAPER_DATA");
+    c.args(args)
+        .current_dir(dir)
+        .env_remove("FURNACE_PAPER_DATA");
     if let Some(t) = threads {
         c.env("RAYON_NUM_THREADS", t);
     }
@@ -29,22 +33,40 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
 }
 
 /// The main job on two models, 17² tables, degrees ≤ 2, the report on tiny grids.
-const RUN: &[&str] = &["run", "--models", "ggx-conductor,oren-nayar-fon", "--resolution-2d", "17", "--max-degree", "2", "--quick-report"];
+const RUN: &[&str] = &[
+    "run",
+    "--models",
+    "ggx-conductor,oren-nayar-fon",
+    "--resolution-2d",
+    "17",
+    "--max-degree",
+    "2",
+    "--quick-report",
+];
 
 /// Every file under the committed output folders, with its bytes.
 fn outputs(root: &Path) -> BTreeMap<String, Vec<u8>> {
     fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
-        let Ok(entries) = std::fs::read_dir(dir) else { return };
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
         for e in entries.flatten() {
             let p = e.path();
             if p.is_dir() {
                 walk(root, &p, out);
             } else {
-                out.insert(p.strip_prefix(root).unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap());
+                out.insert(
+                    p.strip_prefix(root).unwrap().to_string_lossy().into_owned(),
+                    std::fs::read(&p).unwrap(),
+                );
             }
         }
     }
@@ -69,11 +91,26 @@ fn run_end_to_end_is_reproducible_and_resumes() {
     let o = furnace(RUN, &d, None);
     assert!(o.status.success(), "{}", text(&o));
     let out = text(&o);
-    for want in ["[1/4] tables", "[2/4] fits", "[3/4] emit", "[4/4] report", "best-20 max", "furnace |1−E|"] {
+    for want in [
+        "[1/4] tables",
+        "[2/4] fits",
+        "[3/4] emit",
+        "[4/4] report",
+        "best-20 max",
+        "furnace |1−E|",
+    ] {
         assert!(out.contains(want), "missing '{want}':\n{out}");
     }
-    let summary_line = |name: &str| out.lines().find(|l| l.starts_with(name)).unwrap_or_else(|| panic!("no summary row for {name}:\n{out}")).to_string();
-    assert!(summary_line("ggx-conductor ").contains("17x17") && summary_line("ggx-conductor ").contains("fitted"));
+    let summary_line = |name: &str| {
+        out.lines()
+            .find(|l| l.starts_with(name))
+            .unwrap_or_else(|| panic!("no summary row for {name}:\n{out}"))
+            .to_string()
+    };
+    assert!(
+        summary_line("ggx-conductor ").contains("17x17")
+            && summary_line("ggx-conductor ").contains("fitted")
+    );
     for f in [
         "fits/ggx-conductor/sweep.json",
         "fits/ggx-conductor/sweep.csv",
@@ -95,26 +132,48 @@ fn run_end_to_end_is_reproducible_and_resumes() {
     }
     // the report reads what `run` wrote: the sweep's fits and the chosen best file
     let readme = std::fs::read_to_string(d.join("reports/README.md")).unwrap();
-    assert!(readme.contains("`best-20.json`"), "the chosen fit is the sweep's best ≤ 20");
-    assert!(readme.contains("sweep.json#"), "the sweep's fits are listed");
-    assert!(!readme.contains("skipped `"), "every fit file was readable:\n{readme}");
+    assert!(
+        readme.contains("`best-20.json`"),
+        "the chosen fit is the sweep's best ≤ 20"
+    );
+    assert!(
+        readme.contains("sweep.json#"),
+        "the sweep's fits are listed"
+    );
+    assert!(
+        !readme.contains("skipped `"),
+        "every fit file was readable:\n{readme}"
+    );
 
     // nothing committed holds a wall time or where it was made
     let first = outputs(&d);
     let root = d.to_string_lossy().into_owned();
     for (name, bytes) in &first {
         let s = String::from_utf8_lossy(bytes);
-        assert!(!s.contains("fit_seconds") && !s.contains("seconds\""), "{name} holds a wall time");
+        assert!(
+            !s.contains("fit_seconds") && !s.contains("seconds\""),
+            "{name} holds a wall time"
+        );
         assert!(!s.contains(&root), "{name} holds the absolute path {root}");
     }
-    assert!(d.join("data/timing/ggx-conductor/sweep-timing.json").is_file(), "wall times go to data/timing/");
+    assert!(
+        d.join("data/timing/ggx-conductor/sweep-timing.json")
+            .is_file(),
+        "wall times go to data/timing/"
+    );
 
     // re-run: tables cached, sweeps and sections reused, same bytes
     let o = furnace(RUN, &d, None);
     assert!(o.status.success(), "{}", text(&o));
     let out = text(&o);
-    assert!(out.contains("reused (same table values and options)"), "{out}");
-    assert!(out.contains("0 regenerated, 2 unchanged inputs: kept"), "{out}");
+    assert!(
+        out.contains("reused (same table values and options)"),
+        "{out}"
+    );
+    assert!(
+        out.contains("0 regenerated, 2 unchanged inputs: kept"),
+        "{out}"
+    );
     assert_same(&first, &outputs(&d), "cached re-run");
 
     // refit and regenerate everything on one thread: still the same bytes
@@ -131,22 +190,52 @@ fn run_end_to_end_is_reproducible_and_resumes() {
     std::fs::write(d.join("fits/ggx-conductor/best-20.json"), "{}").unwrap();
     let o = furnace(RUN, &d, None);
     assert!(o.status.success(), "{}", text(&o));
-    assert!(text(&o).lines().any(|l| l.contains("ggx-conductor") && l.contains("fitted:")), "{}", text(&o));
+    assert!(
+        text(&o)
+            .lines()
+            .any(|l| l.contains("ggx-conductor") && l.contains("fitted:")),
+        "{}",
+        text(&o)
+    );
     assert_same(&first, &outputs(&d), "after repairing a damaged fit");
 
     // the issue's acceptance test with the fit `run` chose: the compensated conductor passes the
     // furnace within that fit's reported relative error ρ (|1 − E| = |fit − E_ss|/fit ≤ ρ/(1 − ρ)
     // at the table's nodes, plus the furnace quadrature's accuracy)
-    let rec = FitRecord::from_json(&std::fs::read_to_string(d.join("fits/ggx-conductor/best-20.json")).unwrap()).unwrap();
+    let rec = FitRecord::from_json(
+        &std::fs::read_to_string(d.join("fits/ggx-conductor/best-20.json")).unwrap(),
+    )
+    .unwrap();
     let rho = rec.fit.metrics.max_rel_error;
     assert!(rho > 0.0 && rho < 0.5, "ρ = {rho}");
-    let nodes: Vec<Vec<f64>> = (0..17).flat_map(|i| (0..17).map(move |j| vec![i as f64 / 16.0, j as f64 / 16.0])).collect();
+    let nodes: Vec<Vec<f64>> = (0..17)
+        .flat_map(|i| (0..17).map(move |j| vec![i as f64 / 16.0, j as f64 / 16.0]))
+        .collect();
     let m = Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated);
     let lobes = lobe_integrals_at(&m, &nodes);
     let albedo = FitAlbedo::new(&rec.fit, &["r".into(), "mu".into()]).unwrap();
-    let s = furnace_stats(&nodes, &furnace_values(&m, &nodes, &lobes, &Compensation::With { albedo: &albedo, conductor: None }));
-    eprintln!("best-20: ρ = {rho:.3e}, furnace max |1 − E| = {:.3e}", s.max_deviation);
-    assert!(s.max_deviation <= rho / (1.0 - rho) + 1e-6, "{} > {}", s.max_deviation, rho / (1.0 - rho));
+    let s = furnace_stats(
+        &nodes,
+        &furnace_values(
+            &m,
+            &nodes,
+            &lobes,
+            &Compensation::With {
+                albedo: &albedo,
+                conductor: None,
+            },
+        ),
+    );
+    eprintln!(
+        "best-20: ρ = {rho:.3e}, furnace max |1 − E| = {:.3e}",
+        s.max_deviation
+    );
+    assert!(
+        s.max_deviation <= rho / (1.0 - rho) + 1e-6,
+        "{} > {}",
+        s.max_deviation,
+        rho / (1.0 - rho)
+    );
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -157,21 +246,52 @@ fn run_end_to_end_is_reproducible_and_resumes() {
 fn the_committed_default_conductor_fit_passes_within_its_relative_error() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fits/ggx-conductor/best-20.json");
     let Ok(text) = std::fs::read_to_string(&path) else {
-        eprintln!("{} not found (run `furnace run`); nothing to check", path.display());
+        eprintln!(
+            "{} not found (run `furnace run`); nothing to check",
+            path.display()
+        );
         return;
     };
     let rec = FitRecord::from_json(&text).unwrap();
     let n = rec.source.resolution.as_ref().map_or(1024, |r| r[0]);
     let stride = ((n - 1) / 32).max(1);
-    let axis: Vec<f64> = (0..n).step_by(stride).map(|i| i as f64 / (n - 1) as f64).collect();
-    let nodes: Vec<Vec<f64>> = axis.iter().flat_map(|&r| axis.iter().map(move |&mu| vec![r, mu])).collect();
+    let axis: Vec<f64> = (0..n)
+        .step_by(stride)
+        .map(|i| i as f64 / (n - 1) as f64)
+        .collect();
+    let nodes: Vec<Vec<f64>> = axis
+        .iter()
+        .flat_map(|&r| axis.iter().map(move |&mu| vec![r, mu]))
+        .collect();
     let m = Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated);
     let lobes = lobe_integrals_at(&m, &nodes);
     let albedo = FitAlbedo::new(&rec.fit, &["r".into(), "mu".into()]).unwrap();
-    let s = furnace_stats(&nodes, &furnace_values(&m, &nodes, &lobes, &Compensation::With { albedo: &albedo, conductor: None }));
+    let s = furnace_stats(
+        &nodes,
+        &furnace_values(
+            &m,
+            &nodes,
+            &lobes,
+            &Compensation::With {
+                albedo: &albedo,
+                conductor: None,
+            },
+        ),
+    );
     let rho = rec.fit.metrics.max_rel_error;
-    eprintln!("committed best-20 ({}): ρ = {rho:.3e}, furnace max |1 − E| = {:.3e} at {:?} ({} nodes)", rec.fit.form.label(), s.max_deviation, s.at, nodes.len());
-    assert!(s.max_deviation <= rho / (1.0 - rho) + 1e-6, "{} > {}", s.max_deviation, rho / (1.0 - rho));
+    eprintln!(
+        "committed best-20 ({}): ρ = {rho:.3e}, furnace max |1 − E| = {:.3e} at {:?} ({} nodes)",
+        rec.fit.form.label(),
+        s.max_deviation,
+        s.at,
+        nodes.len()
+    );
+    assert!(
+        s.max_deviation <= rho / (1.0 - rho) + 1e-6,
+        "{} > {}",
+        s.max_deviation,
+        rho / (1.0 - rho)
+    );
 }
 
 #[test]
@@ -180,7 +300,20 @@ fn unwritable_outputs_name_the_path() {
     // a file where the report folder should be: no folder can be made there (this also fails
     // as root, unlike a permission bit)
     std::fs::write(d.join("reports"), "not a folder").unwrap();
-    let o = furnace(&["run", "--models", "oren-nayar-fon", "--resolution-2d", "9", "--max-degree", "1", "--quick-report"], &d, None);
+    let o = furnace(
+        &[
+            "run",
+            "--models",
+            "oren-nayar-fon",
+            "--resolution-2d",
+            "9",
+            "--max-degree",
+            "1",
+            "--quick-report",
+        ],
+        &d,
+        None,
+    );
     assert!(!o.status.success(), "{}", text(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("error: ") && err.contains("reports"), "{err}");
@@ -196,7 +329,10 @@ fn unknown_models_are_refused_with_the_choices() {
     let o = furnace(&["run", "--models", "ggx-metal"], &d, None);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("'ggx-metal' is not in the default set") && err.contains("eon"), "{err}");
+    assert!(
+        err.contains("'ggx-metal' is not in the default set") && err.contains("eon"),
+        "{err}"
+    );
     assert!(!d.join("data").exists());
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -8,7 +8,8 @@ use furnace::quadrature::QuadratureSettings;
 use furnace::scene::{run, Manifest, RunOptions};
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("furnace-scene-test-{name}-{}", std::process::id()));
+    let dir =
+        std::env::temp_dir().join(format!("furnace-scene-test-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -18,7 +19,11 @@ fn walk(dir: &std::path::Path, out: &mut Vec<PathBuf>) {
     if let Ok(rd) = std::fs::read_dir(dir) {
         for e in rd {
             let p = e.unwrap().path();
-            if p.is_dir() { walk(&p, out) } else { out.push(p) }
+            if p.is_dir() {
+                walk(&p, out)
+            } else {
+                out.push(p)
+            }
         }
     }
 }
@@ -50,37 +55,67 @@ fn conductor_only_scene_tabulates_fits_and_emits_only_2d_conductor_code() {
     let t = &out.fitted[0];
     assert_eq!(t.need.model, "ggx-conductor");
     assert_eq!(t.need.ranges[0], (0.2, 0.6));
-    assert_eq!(t.fit.approximant.domain[0], (0.2, 0.6), "the fit covers the narrower domain only");
+    assert_eq!(
+        t.fit.approximant.domain[0],
+        (0.2, 0.6),
+        "the fit covers the narrower domain only"
+    );
     assert!(t.stress.as_ref().unwrap().passed());
     // no 3-D table was made: every cached table is 2-D
     let mut files = Vec::new();
     walk(&dir.join("data"), &mut files);
-    let sidecars: Vec<&PathBuf> = files.iter().filter(|p| p.extension().is_some_and(|e| e == "json") && !p.to_string_lossy().contains("/lut/")).collect();
+    let sidecars: Vec<&PathBuf> = files
+        .iter()
+        .filter(|p| {
+            p.extension().is_some_and(|e| e == "json") && !p.to_string_lossy().contains("/lut/")
+        })
+        .collect();
     assert!(!sidecars.is_empty());
     for s in &sidecars {
-        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(s).unwrap()).unwrap();
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(s).unwrap()).unwrap();
         assert_eq!(v["axes"].as_array().unwrap().len(), 2, "{}", s.display());
         assert_eq!(v["model"], "ggx-conductor");
     }
     // emitted: the conductor albedo, Turquin's scale (gold) and 1/E (window) — nothing else
     let rs = std::fs::read_to_string(dir.join("fits/metals/metals.rs")).unwrap();
-    let fns: Vec<&str> = rs.lines().filter_map(|l| l.strip_prefix("pub fn ")).map(|l| l.split('(').next().unwrap()).collect();
-    assert_eq!(fns, ["ggx_conductor_albedo", "ggx_conductor_turquin_scale", "ggx_conductor_normalization"]);
+    let fns: Vec<&str> = rs
+        .lines()
+        .filter_map(|l| l.strip_prefix("pub fn "))
+        .map(|l| l.split('(').next().unwrap())
+        .collect();
+    assert_eq!(
+        fns,
+        [
+            "ggx_conductor_albedo",
+            "ggx_conductor_turquin_scale",
+            "ggx_conductor_normalization"
+        ]
+    );
     assert!(rs.contains("r: t = r, [0.2, 0.6]"));
     for ext in ["wgsl", "glsl"] {
         assert!(dir.join(format!("fits/metals/metals.{ext}")).exists());
     }
     assert!(dir.join("fits/metals/ggx-conductor.json").exists());
     // a LUT of the same narrow domain, compared with the fit at the table's nodes
-    let lut: Vec<&PathBuf> = files.iter().filter(|p| p.to_string_lossy().contains("/lut/") && p.extension().is_some_and(|e| e == "json")).collect();
+    let lut: Vec<&PathBuf> = files
+        .iter()
+        .filter(|p| {
+            p.to_string_lossy().contains("/lut/") && p.extension().is_some_and(|e| e == "json")
+        })
+        .collect();
     assert_eq!(lut.len(), 1, "{files:?}");
-    let desc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(lut[0]).unwrap()).unwrap();
+    let desc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(lut[0]).unwrap()).unwrap();
     assert_eq!(desc["axes"][0]["lo"], 0.2);
     assert!(desc["comparison"]["fit_f32_max"].as_f64().unwrap() < 0.05);
     // a second run reads the table from the cache and writes identical code
     let again = run(&manifest, &opts, &|_| {}).unwrap();
     assert!(again.fitted[0].table_cached);
-    assert_eq!(std::fs::read_to_string(dir.join("fits/metals/metals.rs")).unwrap(), rs);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("fits/metals/metals.rs")).unwrap(),
+        rs
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -93,13 +128,27 @@ fn the_example_manifest_parses_and_plans() {
 }
 
 fn naga_ok(wgsl: &str, glsl: &str) {
-    let module = naga::front::wgsl::parse_str(wgsl).unwrap_or_else(|e| panic!("{}", e.emit_to_string(wgsl)));
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all()).validate(&module).unwrap();
+    let module =
+        naga::front::wgsl::parse_str(wgsl).unwrap_or_else(|e| panic!("{}", e.emit_to_string(wgsl)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap();
     let full = format!("#version 450\n{glsl}\nvoid main() {{}}\n");
     let module = naga::front::glsl::Frontend::default()
-        .parse(&naga::front::glsl::Options::from(naga::ShaderStage::Fragment), &full)
+        .parse(
+            &naga::front::glsl::Options::from(naga::ShaderStage::Fragment),
+            &full,
+        )
         .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&full)));
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all()).validate(&module).unwrap();
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap();
 }
 
 #[test]
@@ -126,12 +175,34 @@ fn every_kind_in_one_scene_emits_valid_shaders_with_only_the_needed_helpers() {
     };
     let out = run(&manifest, &opts, &|l| eprintln!("{l}")).unwrap();
     let models: Vec<&str> = out.fitted.iter().map(|f| f.need.model.as_str()).collect();
-    assert_eq!(models, ["ggx-conductor", "ggx-dielectric", "ggx-dielectric-inv", "ggx-glossy", "oren-nayar-fon"]);
+    assert_eq!(
+        models,
+        [
+            "ggx-conductor",
+            "ggx-dielectric",
+            "ggx-dielectric-inv",
+            "ggx-glossy",
+            "oren-nayar-fon"
+        ]
+    );
     let rs = std::fs::read_to_string(dir.join("fits/all-kinds/all-kinds.rs")).unwrap();
-    let fns: Vec<&str> = rs.lines().filter_map(|l| l.strip_prefix("pub fn ")).map(|l| l.split('(').next().unwrap()).collect();
+    let fns: Vec<&str> = rs
+        .lines()
+        .filter_map(|l| l.strip_prefix("pub fn "))
+        .map(|l| l.split('(').next().unwrap())
+        .collect();
     // glossy needs the conductor's 1/E_ss but no Turquin scale: no conductor material here
-    assert!(fns.contains(&"ggx_conductor_normalization") && !fns.contains(&"ggx_conductor_turquin_scale"), "{fns:?}");
-    for f in ["ggx_dielectric_sided_albedo", "ggx_dielectric_sided_normalization", "ggx_glossy_diffuse_weight", "oren_nayar_fon_albedo"] {
+    assert!(
+        fns.contains(&"ggx_conductor_normalization")
+            && !fns.contains(&"ggx_conductor_turquin_scale"),
+        "{fns:?}"
+    );
+    for f in [
+        "ggx_dielectric_sided_albedo",
+        "ggx_dielectric_sided_normalization",
+        "ggx_glossy_diffuse_weight",
+        "oren_nayar_fon_albedo",
+    ] {
         assert!(fns.contains(&f), "{f} missing from {fns:?}");
     }
     let wgsl = std::fs::read_to_string(dir.join("fits/all-kinds/all-kinds.wgsl")).unwrap();

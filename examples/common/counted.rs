@@ -13,7 +13,12 @@ pub struct Counted<'a, I: Integrand2D> {
 
 impl<'a, I: Integrand2D> Counted<'a, I> {
     pub fn new(f: &'a I, lean: Option<bool>) -> Self {
-        Counted { f, lean, evals: Cell::new(0), lines: Cell::new(0) }
+        Counted {
+            f,
+            lean,
+            evals: Cell::new(0),
+            lines: Cell::new(0),
+        }
     }
 }
 

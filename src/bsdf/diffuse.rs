@@ -140,7 +140,12 @@ impl Model for DiffuseModel {
                 "EON roughness r, the FON weight: A_F = 1/(1 + (1/2 − 2/(3π)) r), B_F = r A_F (r = 0 is Lambert)",
             ),
         };
-        let mu = AxisSpec::new("mu", (0.0, 1.0), (0.0, 1.0), "cosine of the outgoing direction, μo = n·ωo");
+        let mu = AxisSpec::new(
+            "mu",
+            (0.0, 1.0),
+            (0.0, 1.0),
+            "cosine of the outgoing direction, μo = n·ωo",
+        );
         vec![r, mu]
     }
 
@@ -313,7 +318,12 @@ pub struct DiffuseLine {
 impl DiffuseIntegrand {
     pub fn new(model: DiffuseModel, r: f64, mu_o: f64) -> DiffuseIntegrand {
         let sin_o = ((1.0 - mu_o) * (1.0 + mu_o)).max(0.0).sqrt();
-        DiffuseIntegrand { model, r, mu_o, sin_o }
+        DiffuseIntegrand {
+            model,
+            r,
+            mu_o,
+            sin_o,
+        }
     }
 }
 
@@ -326,7 +336,10 @@ impl Integrand2D for DiffuseIntegrand {
 
     fn line(&self, mu_i: f64, inner_breaks: &mut Vec<f64>) -> DiffuseLine {
         inner_breaks.extend([0.0, FRAC_PI_2, PI]); // s = sinθi sinθo cos φ changes sign at φ = π/2
-        DiffuseLine { mu_i, sin_i: ((1.0 - mu_i) * (1.0 + mu_i)).max(0.0).sqrt() }
+        DiffuseLine {
+            mu_i,
+            sin_i: ((1.0 - mu_i) * (1.0 + mu_i)).max(0.0).sqrt(),
+        }
     }
 
     #[inline]
@@ -344,7 +357,19 @@ mod tests {
     use crate::math::UnitRule;
 
     const R_GRID: [f64; 7] = [0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0];
-    const MU_GRID: [f64; 11] = [0.0, 1e-6, 0.01, 0.1, 0.3, 0.5, 0.7, 0.9, 0.99, 1.0 - 1e-9, 1.0];
+    const MU_GRID: [f64; 11] = [
+        0.0,
+        1e-6,
+        0.01,
+        0.1,
+        0.3,
+        0.5,
+        0.7,
+        0.9,
+        0.99,
+        1.0 - 1e-9,
+        1.0,
+    ];
     /// Agreement asked of quadrature against the closed forms.
     const ORACLE_TOL: f64 = 1e-9;
 
@@ -360,7 +385,11 @@ mod tests {
             for mu in MU_GRID {
                 let q = model.albedo(r, mu, &rules);
                 let a = model.albedo_analytic(r, mu);
-                assert!(q.is_finite() && a.is_finite(), "{:?} r={r} mu={mu}: {q} vs {a}", model.kind);
+                assert!(
+                    q.is_finite() && a.is_finite(),
+                    "{:?} r={r} mu={mu}: {q} vs {a}",
+                    model.kind
+                );
                 worst = worst.max((q - a).abs());
             }
         }
@@ -372,7 +401,10 @@ mod tests {
         for model in models() {
             for order in [16, 32] {
                 let err = max_oracle_error(&model, order);
-                eprintln!("{:?} order {order}: max |E_quad − E_analytic| = {err:.3e}", model.kind);
+                eprintln!(
+                    "{:?} order {order}: max |E_quad − E_analytic| = {err:.3e}",
+                    model.kind
+                );
                 assert!(err <= ORACLE_TOL, "{:?} order {order}: {err:e}", model.kind);
             }
         }
@@ -411,12 +443,24 @@ mod tests {
         let rule = UnitRule::gauss_legendre_smoothed(64);
         for r in R_GRID {
             let mean = |e: &dyn Fn(f64) -> f64| -> f64 {
-                rule.nodes.iter().zip(&rule.weights).map(|(&mu, &w)| w * 2.0 * mu * e(mu)).sum()
+                rule.nodes
+                    .iter()
+                    .zip(&rule.weights)
+                    .map(|(&mu, &w)| w * 2.0 * mu * e(mu))
+                    .sum()
             };
             let q = mean(&|mu| qon_albedo_analytic(r, mu));
             let f = mean(&|mu| fon_albedo_analytic(r, mu));
-            assert!((q - qon_average_albedo(r)).abs() < 1e-13, "QON r={r}: {q} vs {}", qon_average_albedo(r));
-            assert!((f - fon_average_albedo(r)).abs() < 1e-13, "FON r={r}: {f} vs {}", fon_average_albedo(r));
+            assert!(
+                (q - qon_average_albedo(r)).abs() < 1e-13,
+                "QON r={r}: {q} vs {}",
+                qon_average_albedo(r)
+            );
+            assert!(
+                (f - fon_average_albedo(r)).abs() < 1e-13,
+                "FON r={r}: {f} vs {}",
+                fon_average_albedo(r)
+            );
         }
     }
 
@@ -473,7 +517,10 @@ mod tests {
     fn models_describe_their_axes() {
         for m in models() {
             let axes = m.axes();
-            assert_eq!(axes.iter().map(|a| a.name.as_str()).collect::<Vec<_>>(), ["r", "mu"]);
+            assert_eq!(
+                axes.iter().map(|a| a.name.as_str()).collect::<Vec<_>>(),
+                ["r", "mu"]
+            );
             assert_eq!(m.outputs(), ["E"]);
             let e = m.integrate(&[0.5, 0.5], &Rules::new(16))[0];
             assert!((e - m.albedo_analytic(0.5, 0.5)).abs() < ORACLE_TOL);

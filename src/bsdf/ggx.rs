@@ -31,8 +31,12 @@
 
 use super::slope::SlopeIntegrand;
 use super::{AxisSpec, Model, ModelOptions, MAX_OUTPUTS};
-use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, sin_cos_0_pi, SmithForm};
-use crate::quadrature::{integrate_2d, panels_from_breaks, Break, Integrand2D, Panel, Rules, CHANNELS};
+use crate::math::{
+    alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, sin_cos_0_pi, SmithForm,
+};
+use crate::quadrature::{
+    integrate_2d, panels_from_breaks, Break, Integrand2D, Panel, Rules, CHANNELS,
+};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Smallest α the GGX integrands integrate as given (r = 1e-50). Below it α² heads for
@@ -78,7 +82,11 @@ pub fn all() -> Vec<Box<dyn Model>> {
         GgxKind::Glossy,
     ] {
         for smith in [SmithForm::HeightCorrelated, SmithForm::Separable] {
-            v.push(Box::new(GgxModel { kind, smith, radiance_transmission: false }));
+            v.push(Box::new(GgxModel {
+                kind,
+                smith,
+                radiance_transmission: false,
+            }));
         }
     }
     v
@@ -89,7 +97,10 @@ pub fn with_radiance_transmission(name: &str) -> Option<Box<dyn Model>> {
     all().into_iter().find(|m| m.name() == name)?;
     let model = all_ggx().into_iter().find(|m| m.name() == name)?;
     match model.kind {
-        GgxKind::Dielectric { .. } => Some(Box::new(GgxModel { radiance_transmission: true, ..model })),
+        GgxKind::Dielectric { .. } => Some(Box::new(GgxModel {
+            radiance_transmission: true,
+            ..model
+        })),
         _ => None,
     }
 }
@@ -103,7 +114,11 @@ fn all_ggx() -> Vec<GgxModel> {
         GgxKind::Glossy,
     ] {
         for smith in [SmithForm::HeightCorrelated, SmithForm::Separable] {
-            v.push(GgxModel { kind, smith, radiance_transmission: false });
+            v.push(GgxModel {
+                kind,
+                smith,
+                radiance_transmission: false,
+            });
         }
     }
     v
@@ -111,7 +126,11 @@ fn all_ggx() -> Vec<GgxModel> {
 
 impl GgxModel {
     pub fn new(kind: GgxKind, smith: SmithForm, options: ModelOptions) -> GgxModel {
-        GgxModel { kind, smith, radiance_transmission: options.radiance_transmission }
+        GgxModel {
+            kind,
+            smith,
+            radiance_transmission: options.radiance_transmission,
+        }
     }
 
     fn base_name(&self) -> &'static str {
@@ -169,20 +188,24 @@ impl GgxModel {
         if let Lobes::Conductor = lobes {
             return integrate_2d(&SlopeIntegrand::conductor(alpha, mu_o, self.smith), rules);
         }
-        self.integrands(alpha, mu_o, lobes).iter().fold([0.0; CHANNELS], |acc, f| {
-            let v = integrate_2d(f, rules);
-            [acc[0] + v[0], acc[1] + v[1]]
-        })
+        self.integrands(alpha, mu_o, lobes)
+            .iter()
+            .fold([0.0; CHANNELS], |acc, f| {
+                let v = integrate_2d(f, rules);
+                [acc[0] + v[0], acc[1] + v[1]]
+            })
     }
 
     /// The integrands of one cell: one carrying both channels, or — leaving the denser medium —
     /// reflection and transmission apart (see [`Part`]).
     fn integrands(&self, alpha: f64, mu_o: f64, lobes: Lobes) -> Vec<VndfIntegrand> {
         match (self.kind, lobes) {
-            (GgxKind::Dielectric { inverse: true }, Lobes::Dielectric { eta }) if eta < 1.0 => vec![
-                VndfIntegrand::part(alpha, mu_o, self.smith, lobes, Part::ReflectionOnly),
-                VndfIntegrand::part(alpha, mu_o, self.smith, lobes, Part::TransmissionOnly),
-            ],
+            (GgxKind::Dielectric { inverse: true }, Lobes::Dielectric { eta }) if eta < 1.0 => {
+                vec![
+                    VndfIntegrand::part(alpha, mu_o, self.smith, lobes, Part::ReflectionOnly),
+                    VndfIntegrand::part(alpha, mu_o, self.smith, lobes, Part::TransmissionOnly),
+                ]
+            }
             _ => vec![VndfIntegrand::new(alpha, mu_o, self.smith, lobes)],
         }
     }
@@ -226,13 +249,27 @@ impl Model for GgxModel {
             }
             GgxKind::Glossy => "GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17)",
         };
-        let form = if self.radiance_transmission { "; transmission in radiance form (×1/η_rel²)" } else { "" };
+        let form = if self.radiance_transmission {
+            "; transmission in radiance form (×1/η_rel²)"
+        } else {
+            ""
+        };
         format!("{what}; {g}{form}")
     }
 
     fn axes(&self) -> Vec<AxisSpec> {
-        let r = AxisSpec::new("r", (0.0, 1.0), (0.0, 1.0), "square root of GGX alpha (alpha = r²)");
-        let mu = AxisSpec::new("mu", (0.0, 1.0), (0.0, 1.0), "cosine of the outgoing direction, μo = n·ωo");
+        let r = AxisSpec::new(
+            "r",
+            (0.0, 1.0),
+            (0.0, 1.0),
+            "square root of GGX alpha (alpha = r²)",
+        );
+        let mu = AxisSpec::new(
+            "mu",
+            (0.0, 1.0),
+            (0.0, 1.0),
+            "cosine of the outgoing direction, μo = n·ωo",
+        );
         match self.kind {
             GgxKind::Conductor => vec![r, mu],
             GgxKind::Dielectric { .. } => vec![
@@ -281,7 +318,10 @@ impl Model for GgxModel {
         }
         if let Lobes::Conductor = lobes {
             let f = SlopeIntegrand::conductor(alpha, mu, self.smith);
-            return rules.iter().map(|r| self.outputs_from_integrals(f0, integrate_2d(&f, r))).collect();
+            return rules
+                .iter()
+                .map(|r| self.outputs_from_integrals(f0, integrate_2d(&f, r)))
+                .collect();
         }
         // one set of integrands: their outer panels (scanned when leaving the denser medium)
         // serve all orders
@@ -303,7 +343,10 @@ impl Model for GgxModel {
     }
 
     fn shares_column_geometry(&self) -> bool {
-        matches!(self.kind, GgxKind::Dielectric { inverse: false } | GgxKind::Glossy)
+        matches!(
+            self.kind,
+            GgxKind::Dielectric { inverse: false } | GgxKind::Glossy
+        )
     }
 
     fn integrate_column(&self, xs: &[Vec<f64>], rules: &Rules, out: &mut [[f64; MAX_OUTPUTS]]) {
@@ -318,7 +361,10 @@ impl Model for GgxModel {
             }
             return;
         }
-        debug_assert!(xs.iter().all(|x| x[1] == r && x[2] == mu), "a column shares r and mu");
+        debug_assert!(
+            xs.iter().all(|x| x[1] == r && x[2] == mu),
+            "a column shares r and mu"
+        );
         let etas: Vec<f64> = xs.iter().map(|x| self.eta(x[0])).collect();
         let lobes = match self.kind {
             GgxKind::Glossy => Lobes::Glossy { eta: 1.0 },
@@ -333,7 +379,11 @@ impl Model for GgxModel {
     }
 
     fn cache_name(&self) -> String {
-        if self.radiance_transmission { format!("{}-radiance", self.name()) } else { self.name() }
+        if self.radiance_transmission {
+            format!("{}-radiance", self.name())
+        } else {
+            self.name()
+        }
     }
 
     fn parameters(&self) -> serde_json::Value {
@@ -368,7 +418,12 @@ struct QuadForm {
 impl QuadForm {
     fn new(a_xx: f64, a_xz: f64, a_zz: f64, a_yy: f64) -> QuadForm {
         let half = 0.5 * (a_xx - a_zz);
-        QuadForm { p: 0.5 * (a_xx + a_zz), r: half.hypot(a_xz), gamma: a_xz.atan2(half), a_yy }
+        QuadForm {
+            p: 0.5 * (a_xx + a_zz),
+            r: half.hypot(a_xz),
+            gamma: a_xz.atan2(half),
+            a_yy,
+        }
     }
 
     /// Value on the line (sβ, cβ) at φ (for the sign only).
@@ -403,7 +458,14 @@ impl QuadForm {
     /// an interior point `re` at distance `im`; real zeros just outside the range give the end
     /// they are close to, at distance `d`. Appends `(point, distance)` pairs with distance below
     /// `reach`.
-    fn near_singularities(&self, sb: f64, cb: f64, phi_max: f64, reach: f64, out: &mut Vec<(f64, f64)>) {
+    fn near_singularities(
+        &self,
+        sb: f64,
+        cb: f64,
+        phi_max: f64,
+        reach: f64,
+        out: &mut Vec<(f64, f64)>,
+    ) {
         let den = self.r * cb * cb;
         if den <= 0.0 {
             return;
@@ -600,7 +662,12 @@ impl VndfIntegrand {
         let (sin_v, cos_v) = theta_v.sin_cos();
         let s = 0.5 * (1.0 + cos_v);
         // 2(ωo·m) m_z − μo|m|², m = (αN_x, αN_y, N_z)
-        let horizon = QuadForm::new(-mu_o * alpha * alpha, sin_o * alpha, mu_o, -mu_o * alpha * alpha);
+        let horizon = QuadForm::new(
+            -mu_o * alpha * alpha,
+            sin_o * alpha,
+            mu_o,
+            -mu_o * alpha * alpha,
+        );
         let eta = match lobes {
             Lobes::Dielectric { eta } => Some(eta),
             _ => None,
@@ -608,7 +675,12 @@ impl VndfIntegrand {
         let tir = eta.filter(|&e| e < 1.0).map(|e| {
             // (ωo·m)² − k|m|², k = 1 − η²
             let k = 1.0 - e * e;
-            QuadForm::new(alpha * alpha * (sin_o * sin_o - k), sin_o * alpha * mu_o, mu_o * mu_o - k, -k * alpha * alpha)
+            QuadForm::new(
+                alpha * alpha * (sin_o * sin_o - k),
+                sin_o * alpha * mu_o,
+                mu_o * mu_o - k,
+                -k * alpha * alpha,
+            )
         });
         let a_o = crate::math::smith_a(mu_o, alpha);
         VndfIntegrand {
@@ -633,13 +705,24 @@ impl VndfIntegrand {
             transmit: eta.filter(|&e| e < 1.0).map(|e| {
                 // (η² − 1) m_z² + 2μo (ωo·m) m_z − μo² |m|², m = (αN_x, αN_y, N_z)
                 let m2 = mu_o * mu_o;
-                QuadForm::new(-m2 * alpha * alpha, mu_o * sin_o * alpha, e * e - 1.0 + m2, -m2 * alpha * alpha)
+                QuadForm::new(
+                    -m2 * alpha * alpha,
+                    mu_o * sin_o * alpha,
+                    e * e - 1.0 + m2,
+                    -m2 * alpha * alpha,
+                )
             }),
         }
     }
 
     /// Only one channel of a dielectric integrand (see [`Part`]).
-    pub fn part(alpha: f64, mu_o: f64, smith: SmithForm, lobes: Lobes, part: Part) -> VndfIntegrand {
+    pub fn part(
+        alpha: f64,
+        mu_o: f64,
+        smith: SmithForm,
+        lobes: Lobes,
+        part: Part,
+    ) -> VndfIntegrand {
         let mut f = VndfIntegrand::new(alpha, mu_o, smith, lobes);
         f.part = part;
         if part == Part::ReflectionOnly {
@@ -651,8 +734,17 @@ impl VndfIntegrand {
     /// The same geometry for a column of cells differing only in their relative IOR (entering
     /// dielectric or glossy, whose kinks do not depend on it): channels 2k, 2k+1 belong to
     /// `etas[k]`.
-    pub fn column(alpha: f64, mu_o: f64, smith: SmithForm, lobes: Lobes, etas: &[f64]) -> VndfIntegrand {
-        debug_assert!(etas.iter().all(|&e| e >= 1.0), "column mode needs η ≥ 1 (no critical angle)");
+    pub fn column(
+        alpha: f64,
+        mu_o: f64,
+        smith: SmithForm,
+        lobes: Lobes,
+        etas: &[f64],
+    ) -> VndfIntegrand {
+        debug_assert!(
+            etas.iter().all(|&e| e >= 1.0),
+            "column mode needs η ≥ 1 (no critical angle)"
+        );
         let mut f = VndfIntegrand::new(alpha, mu_o, smith, lobes);
         f.column = etas.to_vec();
         f
@@ -666,7 +758,11 @@ impl VndfIntegrand {
             SmithForm::HeightCorrelated => {
                 let a_i = crate::math::smith_a(mu_i, self.alpha);
                 let den = self.a_o * mu_i + a_i * self.mu_o;
-                if den > 0.0 { self.mu_o_plus_a_o * mu_i / den } else { 1.0 }
+                if den > 0.0 {
+                    self.mu_o_plus_a_o * mu_i / den
+                } else {
+                    1.0
+                }
             }
         }
     }
@@ -674,7 +770,11 @@ impl VndfIntegrand {
     /// Unit half vector h for the stretched normal at (β, φ).
     #[inline]
     fn half_vector(&self, line: &Line, sp: f64, cp: f64) -> Option<[f64; 3]> {
-        let m = [self.alpha * line.cb * cp, self.alpha * line.sb, line.cb * sp];
+        let m = [
+            self.alpha * line.cb * cp,
+            self.alpha * line.sb,
+            line.cb * sp,
+        ];
         let len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
         if len2 <= 0.0 {
             return None;
@@ -703,10 +803,18 @@ impl VndfIntegrand {
             SmithForm::Separable => self.alpha,
             SmithForm::HeightCorrelated => {
                 let a_o = crate::math::smith_a(self.mu_o, self.alpha);
-                if a_o > 0.0 { self.alpha * (self.mu_o / a_o).min(1.0) } else { self.alpha }
+                if a_o > 0.0 {
+                    self.alpha * (self.mu_o / a_o).min(1.0)
+                } else {
+                    self.alpha
+                }
             }
         };
-        if slope > 0.0 && scale > 0.0 { scale / slope } else { f64::INFINITY }
+        if slope > 0.0 && scale > 0.0 {
+            scale / slope
+        } else {
+            f64::INFINITY
+        }
     }
 
     /// Whether ωo is totally internally reflected at the normal of (line, φ).
@@ -742,7 +850,14 @@ impl VndfIntegrand {
     /// c² ≥ 1 − η² (no TIR), with c·h_z − μo = ((1 − η²) h_z² − μo²)/(2μo): the zeros of the
     /// unsquared equation are those with (1 − η²) h_z² ≥ μo², the others belong to the spurious
     /// sign (and the two branches meet on the critical-angle curve).
-    fn transmit_roots(&self, line: &Line, eta: f64, breaks: &[f64], out: &mut Vec<f64>, tmp: &mut Vec<f64>) {
+    fn transmit_roots(
+        &self,
+        line: &Line,
+        eta: f64,
+        breaks: &[f64],
+        out: &mut Vec<f64>,
+        tmp: &mut Vec<f64>,
+    ) {
         let Some(q) = &self.transmit else {
             return;
         };
@@ -775,9 +890,19 @@ impl VndfIntegrand {
     /// 1: critical angle, 2: transmission horizon), in increasing φ.
     fn kink_signature(&self, beta: f64, eta: f64, sig: &mut Vec<u8>) {
         let (sb, cb) = beta.sin_cos();
-        let line = Line { sb, cb, weight: 0.0 };
+        let line = Line {
+            sb,
+            cb,
+            weight: 0.0,
+        };
         let mut scratch = self.scratch.borrow_mut();
-        let Scratch { tagged, tmp, xs: breaks, roots, .. } = &mut *scratch;
+        let Scratch {
+            tagged,
+            tmp,
+            xs: breaks,
+            roots,
+            ..
+        } = &mut *scratch;
         tagged.clear();
         tmp.clear();
         if self.part != Part::TransmissionOnly {
@@ -808,7 +933,9 @@ impl VndfIntegrand {
     /// each change to [`BETA_TOL`]. Needed only when leaving the denser medium, where the
     /// transmission horizon is not a quadratic form and kink curves intersect.
     fn scanned_outer_breaks(&self, eta: f64, out: &mut Vec<f64>) {
-        let mut samples: Vec<f64> = (0..=BETA_SCAN).map(|j| FRAC_PI_2 * j as f64 / BETA_SCAN as f64).collect();
+        let mut samples: Vec<f64> = (0..=BETA_SCAN)
+            .map(|j| FRAC_PI_2 * j as f64 / BETA_SCAN as f64)
+            .collect();
         samples.extend(out.iter().copied());
         sort_dedup(&mut samples);
         let mut sigs = vec![Vec::new(); samples.len()];
@@ -884,7 +1011,11 @@ impl Integrand2D for VndfIntegrand {
     }
 
     fn channels(&self) -> usize {
-        if self.column.is_empty() { CHANNELS } else { 2 * self.column.len() }
+        if self.column.is_empty() {
+            CHANNELS
+        } else {
+            2 * self.column.len()
+        }
     }
 
     fn accumulate_nodes(&self, line: &Line, vs: &[f64], ws: &[f64], acc: &mut [f64]) {
@@ -980,7 +1111,11 @@ impl VndfIntegrand {
                     let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
                     let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
                     let f = fresnel_from_cosines(cos_i, cos_t, eta);
-                    let f = if !eta.is_finite() || sin2_t >= 1.0 { 1.0 } else { f };
+                    let f = if !eta.is_finite() || sin2_t >= 1.0 {
+                        1.0
+                    } else {
+                        f
+                    };
                     let f = if eta == 1.0 { 0.0 } else { f };
                     a[0] += visible * f * w_r;
                     a[1] += visible * w_r;
@@ -1070,20 +1205,39 @@ impl VndfIntegrand {
         let rim = |x: f64| (FRAC_PI_2 - x).hypot(self.alpha);
         let mut breaks: Vec<Break> = xs
             .iter()
-            .map(|&x| if x == 0.0 { Break::regular(x) } else if x == FRAC_PI_2 { Break::near_singular(x, self.alpha) } else { Break::sqrt(x).with_delta(rim(x)) })
+            .map(|&x| {
+                if x == 0.0 {
+                    Break::regular(x)
+                } else if x == FRAC_PI_2 {
+                    Break::near_singular(x, self.alpha)
+                } else {
+                    Break::sqrt(x).with_delta(rim(x))
+                }
+            })
             .collect();
         panels_from_breaks(&mut breaks, out);
     }
 
     fn compute_line_panels(&self, beta: f64, out: &mut Vec<Panel>) -> Line {
         let (sb, cb) = beta.sin_cos();
-        let line = Line { sb, cb, weight: self.norm * cb * cb };
+        let line = Line {
+            sb,
+            cb,
+            weight: self.norm * cb * cb,
+        };
         // Every break also sits near the singularities of the stretching map itself: h ∝
         // (α cos β cos φ, α sin β, cos β sin φ) degenerates at φ ≈ ±iα and φ ≈ π ± iα.
         let a2 = self.alpha * self.alpha;
         let rim = |x: f64| (x * x + a2).sqrt().min(((PI - x) * (PI - x) + a2).sqrt());
         let mut scratch = self.scratch.borrow_mut();
-        let Scratch { breaks, roots, near, xs, tmp, .. } = &mut *scratch;
+        let Scratch {
+            breaks,
+            roots,
+            near,
+            xs,
+            tmp,
+            ..
+        } = &mut *scratch;
         breaks.clear();
         // The ends of the range are horizon zeros themselves at grazing incidence (μo = 0: the
         // rim reflects into the horizon), where the masking weight is near-singular too.
@@ -1121,12 +1275,16 @@ impl VndfIntegrand {
         // range) leave near-singularities: a break at the nearest point, mapped towards it.
         near.clear();
         if self.part != Part::TransmissionOnly {
-            self.horizon.near_singularities(sb, cb, self.phi_max, NEAR_REACH, near);
+            self.horizon
+                .near_singularities(sb, cb, self.phi_max, NEAR_REACH, near);
         }
         if let Some(t) = &self.tir {
             t.near_singularities(sb, cb, self.phi_max, NEAR_REACH, near);
         }
-        breaks.extend(near.iter().map(|&(x, d)| Break::near_singular(x, d.max(crate::quadrature::MIN_DELTA))));
+        breaks.extend(
+            near.iter()
+                .map(|&(x, d)| Break::near_singular(x, d.max(crate::quadrature::MIN_DELTA))),
+        );
         if let (true, Lobes::Dielectric { eta }) = (self.transmit_horizon, self.lobes) {
             xs.clear();
             xs.extend(breaks.iter().map(|b| b.x));
@@ -1141,7 +1299,6 @@ impl VndfIntegrand {
         panels_from_breaks(breaks, out);
         line
     }
-
 }
 
 impl VndfIntegrand {
@@ -1181,7 +1338,11 @@ mod tests {
     use crate::quadrature::Rules;
 
     fn conductor(smith: SmithForm) -> GgxModel {
-        GgxModel { kind: GgxKind::Conductor, smith, radiance_transmission: false }
+        GgxModel {
+            kind: GgxKind::Conductor,
+            smith,
+            radiance_transmission: false,
+        }
     }
 
     #[test]
@@ -1197,7 +1358,13 @@ mod tests {
     fn closed_form_crossings_match_the_scan() {
         // Leaving glass at grazing-ish incidence: horizon and critical angle cross.
         let lobes = Lobes::Dielectric { eta: 1.0 / 1.5 };
-        let f = VndfIntegrand::part(0.36, 0.4, SmithForm::HeightCorrelated, lobes, Part::ReflectionOnly);
+        let f = VndfIntegrand::part(
+            0.36,
+            0.4,
+            SmithForm::HeightCorrelated,
+            lobes,
+            Part::ReflectionOnly,
+        );
         let tir = f.tir.unwrap();
         let mut closed = Vec::new();
         f.horizon.crossings(&tir, f.phi_max, &mut closed);
@@ -1208,7 +1375,10 @@ mod tests {
         f.scanned_outer_breaks(1.0 / 1.5, &mut scanned);
         // every crossing found in closed form is a topology change the scan also finds
         for c in &closed {
-            assert!(scanned.iter().any(|s| (s - c).abs() < 1e-9), "crossing {c} not in scan {scanned:?}");
+            assert!(
+                scanned.iter().any(|s| (s - c).abs() < 1e-9),
+                "crossing {c} not in scan {scanned:?}"
+            );
         }
     }
 
@@ -1218,7 +1388,11 @@ mod tests {
         let f = VndfIntegrand::new(0.5, 0.3, SmithForm::HeightCorrelated, Lobes::Conductor);
         for &beta in &[0.1, 0.7, 1.3] {
             let (sb, cb) = f64::sin_cos(beta);
-            let line = Line { sb, cb, weight: 1.0 };
+            let line = Line {
+                sb,
+                cb,
+                weight: 1.0,
+            };
             for j in 1..50 {
                 let phi = f.phi_max * j as f64 / 50.0;
                 let (sp, cp) = sin_cos_0_pi(phi);

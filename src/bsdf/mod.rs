@@ -30,8 +30,18 @@ pub struct AxisSpec {
 }
 
 impl AxisSpec {
-    pub fn new(name: &str, default_range: (f64, f64), valid_range: (f64, f64), description: &str) -> AxisSpec {
-        AxisSpec { name: name.into(), default_range, valid_range, description: description.into() }
+    pub fn new(
+        name: &str,
+        default_range: (f64, f64),
+        valid_range: (f64, f64),
+        description: &str,
+    ) -> AxisSpec {
+        AxisSpec {
+            name: name.into(),
+            default_range,
+            valid_range,
+            description: description.into(),
+        }
     }
 }
 
@@ -88,8 +98,16 @@ pub trait Model: Send + Sync {
 }
 
 /// E at one point with its error estimate, refined until it meets `settings.tolerance`.
-pub fn albedo(model: &dyn Model, x: &[f64], settings: &QuadratureSettings, cache: &RuleCache) -> Estimate<MAX_OUTPUTS> {
-    let first = model.integrate_orders(x, &[cache.get(settings.companion), cache.get(settings.order)]);
+pub fn albedo(
+    model: &dyn Model,
+    x: &[f64],
+    settings: &QuadratureSettings,
+    cache: &RuleCache,
+) -> Estimate<MAX_OUTPUTS> {
+    let first = model.integrate_orders(
+        x,
+        &[cache.get(settings.companion), cache.get(settings.order)],
+    );
     refine(model, x, settings, cache, first[0], first[1])
 }
 
@@ -105,10 +123,19 @@ fn refine(
 ) -> Estimate<MAX_OUTPUTS> {
     let mut order = settings.order;
     loop {
-        let error = high.iter().zip(&low).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let error = high
+            .iter()
+            .zip(&low)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         let converged = error <= settings.tolerance;
         if converged || next_order(order) > settings.max_order {
-            return Estimate { value: high, error, order, converged };
+            return Estimate {
+                value: high,
+                error,
+                order,
+                converged,
+            };
         }
         order = next_order(order);
         low = high;
@@ -127,19 +154,32 @@ pub fn albedo_column(
     cache: &RuleCache,
 ) -> Vec<Estimate<MAX_OUTPUTS>> {
     if !model.shares_column_geometry() {
-        return xs.iter().map(|x| albedo(model, x, settings, cache)).collect();
+        return xs
+            .iter()
+            .map(|x| albedo(model, x, settings, cache))
+            .collect();
     }
     let mut low = vec![[0.0; MAX_OUTPUTS]; xs.len()];
     let mut high = vec![[0.0; MAX_OUTPUTS]; xs.len()];
     model.integrate_column(xs, cache.get(settings.companion), &mut low);
     model.integrate_column(xs, cache.get(settings.order), &mut high);
-    let error = |l: &[f64; MAX_OUTPUTS], h: &[f64; MAX_OUTPUTS]| l.iter().zip(h).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let error = |l: &[f64; MAX_OUTPUTS], h: &[f64; MAX_OUTPUTS]| {
+        l.iter()
+            .zip(h)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+    };
     let mut out: Vec<Estimate<MAX_OUTPUTS>> = low
         .iter()
         .zip(&high)
         .map(|(l, h)| {
             let e = error(l, h);
-            Estimate { value: *h, error: e, order: settings.order, converged: e <= settings.tolerance }
+            Estimate {
+                value: *h,
+                error: e,
+                order: settings.order,
+                converged: e <= settings.tolerance,
+            }
         })
         .collect();
     let mut order = settings.order;
@@ -154,7 +194,12 @@ pub fn albedo_column(
         model.integrate_column(&sub, cache.get(order), &mut next);
         for (&k, v) in open.iter().zip(&next) {
             let e = error(&out[k].value, v);
-            out[k] = Estimate { value: *v, error: e, order, converged: e <= settings.tolerance };
+            out[k] = Estimate {
+                value: *v,
+                error: e,
+                order,
+                converged: e <= settings.tolerance,
+            };
         }
     }
 }
@@ -163,7 +208,12 @@ pub fn albedo_column(
 pub fn check_point(model: &dyn Model, x: &[f64]) -> std::result::Result<(), String> {
     let axes = model.axes();
     if x.len() != axes.len() {
-        return Err(format!("expected {} coordinates ({}), got {}", axes.len(), axis_names(model), x.len()));
+        return Err(format!(
+            "expected {} coordinates ({}), got {}",
+            axes.len(),
+            axis_names(model),
+            x.len()
+        ));
     }
     for (v, a) in x.iter().zip(&axes) {
         if !v.is_finite() {
@@ -181,7 +231,12 @@ pub fn check_point(model: &dyn Model, x: &[f64]) -> std::result::Result<(), Stri
 
 /// `r,mu` or `f0,r,mu`: the axis names joined by commas.
 pub fn axis_names(model: &dyn Model) -> String {
-    model.axes().iter().map(|a| a.name.clone()).collect::<Vec<_>>().join(",")
+    model
+        .axes()
+        .iter()
+        .map(|a| a.name.clone())
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 /// Options that select a variant of a registered model.
@@ -196,16 +251,26 @@ pub struct ModelOptions {
 pub fn registry() -> Vec<Box<dyn Model>> {
     let mut models: Vec<Box<dyn Model>> = Vec::new();
     models.extend(ggx::all());
-    models.push(Box::new(diffuse::DiffuseModel::new(diffuse::DiffuseKind::Qon)));
-    models.push(Box::new(diffuse::DiffuseModel::new(diffuse::DiffuseKind::Fon)));
-    models.push(Box::new(diffuse::DiffuseModel::new(diffuse::DiffuseKind::Eon)));
+    models.push(Box::new(diffuse::DiffuseModel::new(
+        diffuse::DiffuseKind::Qon,
+    )));
+    models.push(Box::new(diffuse::DiffuseModel::new(
+        diffuse::DiffuseKind::Fon,
+    )));
+    models.push(Box::new(diffuse::DiffuseModel::new(
+        diffuse::DiffuseKind::Eon,
+    )));
     models.push(Box::new(radziszewski::RadziszewskiModel));
     models
 }
 
 /// Names of the built-in models, comma separated (for error messages).
 pub fn known_names() -> String {
-    registry().iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")
+    registry()
+        .iter()
+        .map(|m| m.name())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The model called `name`, or an error listing the known ones.
@@ -220,5 +285,8 @@ pub fn find(name: &str, options: ModelOptions) -> Result<Box<dyn Model>> {
     registry()
         .into_iter()
         .find(|m| m.name() == name)
-        .ok_or_else(|| Error::UnknownModel { name: name.to_string(), known: known_names() })
+        .ok_or_else(|| Error::UnknownModel {
+            name: name.to_string(),
+            known: known_names(),
+        })
 }

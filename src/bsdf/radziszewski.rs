@@ -124,7 +124,12 @@ impl Model for RadziszewskiModel {
                 (0.0, N_MAX),
                 "glossiness n: n_θ = n, n_φ = 0.75 n √(n sinθi sinθr) (R&A §5); n = 0 is Lambert",
             ),
-            AxisSpec::new("mu", (0.0, 1.0), (0.0, 1.0), "cosine of the outgoing direction, μo = n·ωo"),
+            AxisSpec::new(
+                "mu",
+                (0.0, 1.0),
+                (0.0, 1.0),
+                "cosine of the outgoing direction, μo = n·ωo",
+            ),
         ]
     }
 
@@ -217,7 +222,13 @@ pub struct GlossyLine {
 impl GlossyIntegrand {
     pub fn new(n: f64, mu_o: f64) -> GlossyIntegrand {
         let sin_r = ((1.0 - mu_o) * (1.0 + mu_o)).max(0.0).sqrt();
-        GlossyIntegrand { n, mu_o, y: mu_o * mu_o, sin_r, lambda: n.max(MIN_LOBE_SCALE) }
+        GlossyIntegrand {
+            n,
+            mu_o,
+            y: mu_o * mu_o,
+            sin_r,
+            lambda: n.max(MIN_LOBE_SCALE),
+        }
     }
 }
 
@@ -227,7 +238,10 @@ impl Integrand2D for GlossyIntegrand {
     fn outer_breaks(&self, out: &mut Vec<f64>) {
         // x ∈ [0, 1] ⇔ w ∈ [−asinh(λy), asinh(λ(1 − y))]; split at the peak x = y and where
         // the lobe has fallen off on either side
-        let (lo, hi) = (-(self.lambda * self.y).asinh(), (self.lambda * (1.0 - self.y)).asinh());
+        let (lo, hi) = (
+            -(self.lambda * self.y).asinh(),
+            (self.lambda * (1.0 - self.y)).asinh(),
+        );
         out.extend([lo, 0.0, hi]);
         for d in LOBE_BREAKS {
             let w = d.asinh();
@@ -244,7 +258,11 @@ impl Integrand2D for GlossyIntegrand {
         // order-16 error on it from 3e-9 to 2e-13
         inner_breaks.extend([0.0, FRAC_PI_4, FRAC_PI_2]);
         let dx_dw = w.cosh() / self.lambda; // d/dw of x = y + sinh(w)/λ
-        GlossyLine { mu_i: x.sqrt(), dx_dw, scale: (2.0 * k + 1.0).sqrt() }
+        GlossyLine {
+            mu_i: x.sqrt(),
+            dx_dw,
+            scale: (2.0 * k + 1.0).sqrt(),
+        }
     }
 
     #[inline]
@@ -334,8 +352,12 @@ mod tests {
             let via_legendre = legendre5(z) * (2.0 * k + 1.0f64).powf(2.5);
             assert!((p5(k) - via_legendre).abs() <= 1e-12 * p5(k), "k={k}");
             // split at the peak Δφ = 0; 200 points resolve the width ~1/√k
-            let total: f64 =
-                rule.nodes.iter().zip(&rule.weights).map(|(&t, &w)| w * PI * 2.0 * longitudinal(k, PI * t)).sum();
+            let total: f64 = rule
+                .nodes
+                .iter()
+                .zip(&rule.weights)
+                .map(|(&t, &w)| w * PI * 2.0 * longitudinal(k, PI * t))
+                .sum();
             assert!((total - 1.0).abs() < 1e-10, "k={k}: {total}");
         }
     }
@@ -343,7 +365,14 @@ mod tests {
     #[test]
     fn latitudinal_factor_is_symmetric_and_matches_printed_form_where_that_is_accurate() {
         for n in [0.01, 0.5, 2.0, 5.0] {
-            for &(x, y) in &[(0.1, 0.7), (0.5, 0.5), (0.99, 0.2), (0.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+            for &(x, y) in &[
+                (0.1, 0.7),
+                (0.5, 0.5),
+                (0.99, 0.2),
+                (0.0, 0.0),
+                (1.0, 1.0),
+                (0.0, 1.0),
+            ] {
                 let a = latitudinal(n, x, y);
                 assert_eq!(a, latitudinal(n, y, x));
                 let p = latitudinal_as_printed(n, x, y);
@@ -374,7 +403,10 @@ mod tests {
         ];
         for (n, x, y, want) in REFERENCE {
             let got = latitudinal(n, x, y);
-            assert!(((got - want) / want).abs() < 1e-12, "n={n} x={x} y={y}: {got} vs {want}");
+            assert!(
+                ((got - want) / want).abs() < 1e-12,
+                "n={n} x={x} y={y}: {got} vs {want}"
+            );
         }
     }
 
@@ -395,7 +427,9 @@ mod tests {
                     }
                 }
             }
-            eprintln!("printed eq. 17 at n = {n}: max relative error {worst:.3e} at (x, y) = {at:?}");
+            eprintln!(
+                "printed eq. 17 at n = {n}: max relative error {worst:.3e} at (x, y) = {at:?}"
+            );
         }
         assert!(latitudinal_as_printed(20.0, 1.0, 1.0).is_infinite());
         assert!(latitudinal(20.0, 1.0, 1.0).is_finite());

@@ -89,7 +89,11 @@ impl SlopeIntegrand {
     /// integrated at ALPHA_MIN, μo below [`GRAZING_RATIO`]·α at μo = 0 (see there).
     pub fn conductor(alpha: f64, mu_o: f64, smith: SmithForm) -> SlopeIntegrand {
         let alpha = alpha.max(ALPHA_MIN);
-        let mu_o = if mu_o < GRAZING_RATIO * alpha { 0.0 } else { mu_o };
+        let mu_o = if mu_o < GRAZING_RATIO * alpha {
+            0.0
+        } else {
+            mu_o
+        };
         let a_o = smith_a(mu_o, alpha);
         // a(μi) has its branch points at μi = ±iα/√(1 − α²): α is their (conservative) scale.
         // The height-correlated weight's one pole, μi = −μo (where μi·a(μo) + μo·a(μi) = 0),
@@ -110,7 +114,12 @@ impl SlopeIntegrand {
     /// Σ_j ws[j]·f(vs[j]) for the conductor, in node order, by blocks of [`LANES`] nodes
     /// ([`Self::block`]).
     #[inline(always)]
-    fn sum<const TAIL: bool, const FACTORED: bool, const HC: bool>(&self, line: &SlopeLine, vs: &[f64], ws: &[f64]) -> f64 {
+    fn sum<const TAIL: bool, const FACTORED: bool, const HC: bool>(
+        &self,
+        line: &SlopeLine,
+        vs: &[f64],
+        ws: &[f64],
+    ) -> f64 {
         let mut sum = 0.0;
         for (vc, wc) in vs.chunks(LANES).zip(ws.chunks(LANES)) {
             // unused lanes repeat the first node (finite, discarded)
@@ -127,7 +136,12 @@ impl SlopeIntegrand {
     /// [`Self::sum`] compiled for AVX-512 or AVX2 where the CPU has them (8 or 4
     /// lanes per instruction instead of SSE2's 2). Without FMA contraction the arithmetic is
     /// the same IEEE operations either way, so the bits do not depend on the machine.
-    fn sum_dispatch<const TAIL: bool, const FACTORED: bool, const HC: bool>(&self, line: &SlopeLine, vs: &[f64], ws: &[f64]) -> f64 {
+    fn sum_dispatch<const TAIL: bool, const FACTORED: bool, const HC: bool>(
+        &self,
+        line: &SlopeLine,
+        vs: &[f64],
+        ws: &[f64],
+    ) -> f64 {
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx512f") {
@@ -147,10 +161,18 @@ impl SlopeIntegrand {
     /// from the masking weight (one division per node), so that the block vectorises.
     /// `FACTORED`: ρmax is finite (μi in factored form); `HC`: height-correlated masking.
     #[inline(always)]
-    fn block<const TAIL: bool, const FACTORED: bool, const HC: bool>(&self, line: &SlopeLine, v: &[f64; LANES]) -> [f64; LANES] {
+    fn block<const TAIL: bool, const FACTORED: bool, const HC: bool>(
+        &self,
+        line: &SlopeLine,
+        v: &[f64; LANES],
+    ) -> [f64; LANES] {
         let (alpha, mu_o) = (self.alpha, self.mu_o);
         let alpha2 = alpha * alpha;
-        let scale = if HC { 2.0 / PI } else { self.g1_o_over_mu_o * (2.0 / PI) };
+        let scale = if HC {
+            2.0 / PI
+        } else {
+            self.g1_o_over_mu_o * (2.0 / PI)
+        };
         let mut y = [0.0; LANES];
         if TAIL {
             // u = 1/ρ: μi = n/d with n = (u − umax)(k' + μo·u), d = 1 + u²; the Jacobian
@@ -160,7 +182,11 @@ impl SlopeIntegrand {
                 let n = (u - line.u_max) * (line.k_prime + mu_o * u);
                 let d = 1.0 + u * u;
                 let a_d = (n * n * (1.0 - alpha2) + alpha2 * d * d).max(0.0).sqrt();
-                let den = if HC { n * self.a_o + mu_o * a_d } else { n + a_d };
+                let den = if HC {
+                    n * self.a_o + mu_o * a_d
+                } else {
+                    n + a_d
+                };
                 let au2 = 1.0 + alpha2 * u * u;
                 let g = scale * 2.0 * n * alpha2 * (mu_o * u - line.sc) / (au2 * au2 * den);
                 *yj = if n > 0.0 { g } else { 0.0 };
@@ -175,10 +201,18 @@ impl SlopeIntegrand {
             let rho = alpha * sinh;
             // μi = n/d with d = 1 + ρ² > 0; a(μi) = √(n²(1 − α²) + α²d²)/d, and d cancels from
             // μi/(μi·a(μo) + μo·a(μi)) and μi/(μi + a(μi)): one division per node.
-            let n = if FACTORED { (line.rho_max - rho) * (mu_o * rho + line.k) } else { mu_o * (1.0 - rho * rho) - 2.0 * line.sc * rho };
+            let n = if FACTORED {
+                (line.rho_max - rho) * (mu_o * rho + line.k)
+            } else {
+                mu_o * (1.0 - rho * rho) - 2.0 * line.sc * rho
+            };
             let d = 1.0 + rho * rho;
             let a_d = (n * n * (1.0 - alpha2) + alpha2 * d * d).max(0.0).sqrt();
-            let den = if HC { n * self.a_o + mu_o * a_d } else { n + a_d };
+            let den = if HC {
+                n * self.a_o + mu_o * a_d
+            } else {
+                n + a_d
+            };
             let proj = mu_o - line.sc * rho;
             let g = scale * 2.0 * n * sinh * proj / (cosh * cosh * cosh * den);
             *yj = if n > 0.0 { g } else { 0.0 };
@@ -228,9 +262,16 @@ impl Integrand2D for SlopeIntegrand {
     /// √(sin²θo cos²ψ + μo²), whose branch points ψ = π/2 ± i·asinh(μo/sin θo) approach the real
     /// axis at grazing incidence.
     fn outer_panels(&self, out: &mut Vec<Panel>) {
-        let delta = if self.sin_o > 0.0 { asinh_pos(self.mu_o / self.sin_o) } else { f64::INFINITY };
-        let mut breaks =
-            [Break::regular(0.0), Break::near_singular(FRAC_PI_2, delta.max(crate::quadrature::MIN_DELTA)), Break::regular(PI)];
+        let delta = if self.sin_o > 0.0 {
+            asinh_pos(self.mu_o / self.sin_o)
+        } else {
+            f64::INFINITY
+        };
+        let mut breaks = [
+            Break::regular(0.0),
+            Break::near_singular(FRAC_PI_2, delta.max(crate::quadrature::MIN_DELTA)),
+            Break::regular(PI),
+        ];
         panels_from_breaks(&mut breaks, out);
     }
 
@@ -247,9 +288,21 @@ impl Integrand2D for SlopeIntegrand {
             let kp = root - sc;
             (mu_o * mu_o / kp, kp)
         };
-        let (rho_max, u_max) = if sc >= 0.0 { (mu_o / k, k / mu_o) } else { (k_prime / mu_o, mu_o / k_prime) };
-        let mut line = SlopeLine { sc, rho_max, u_max, k, k_prime, s_end: 0.0, u_tail: 1.0 / RHO_TAIL };
-        if !(rho_max > 0.0) {
+        let (rho_max, u_max) = if sc >= 0.0 {
+            (mu_o / k, k / mu_o)
+        } else {
+            (k_prime / mu_o, mu_o / k_prime)
+        };
+        let mut line = SlopeLine {
+            sc,
+            rho_max,
+            u_max,
+            k,
+            k_prime,
+            s_end: 0.0,
+            u_tail: 1.0 / RHO_TAIL,
+        };
+        if rho_max.is_nan() || rho_max <= 0.0 {
             return line; // μo = 0 looking forward: nothing reflects above the horizon
         }
         let rt = RHO_TAIL;
@@ -265,7 +318,11 @@ impl Integrand2D for SlopeIntegrand {
         // part, they lie at s(ρmax) − s_end along the axis and that distance off it.
         let s_end = line.s_end;
         let slope_s = k * (alpha * alpha + rho_max * rho_max).sqrt();
-        let horizon_delta = if slope_s > 0.0 { self.mask_scale / slope_s } else { f64::INFINITY };
+        let horizon_delta = if slope_s > 0.0 {
+            self.mask_scale / slope_s
+        } else {
+            f64::INFINITY
+        };
         // asinh(ρmax/α) − asinh(ρs/α) as one logarithm: ln((x + √(x²+1))/(y + √(y²+1)))
         let beyond = if tail {
             let (x, y) = (rho_max / alpha, rho_s / alpha);
@@ -273,11 +330,26 @@ impl Integrand2D for SlopeIntegrand {
         } else {
             0.0
         };
-        let end_delta = (beyond * beyond + horizon_delta * horizon_delta).sqrt().max(crate::quadrature::MIN_DELTA);
+        let end_delta = (beyond * beyond + horizon_delta * horizon_delta)
+            .sqrt()
+            .max(crate::quadrature::MIN_DELTA);
         let peak_part = |len: f64, out: &mut Vec<Panel>| {
             // grade towards s = 0 once the piece is long against the poles' distance π/2
-            let map = if len > S_PLAIN { PanelMap::End { at: 0.0, toward: len, sqrt: false, delta: FRAC_PI_2 } } else { PanelMap::Plain };
-            out.push(Panel { a: 0.0, b: len, map });
+            let map = if len > S_PLAIN {
+                PanelMap::End {
+                    at: 0.0,
+                    toward: len,
+                    sqrt: false,
+                    delta: FRAC_PI_2,
+                }
+            } else {
+                PanelMap::Plain
+            };
+            out.push(Panel {
+                a: 0.0,
+                b: len,
+                map,
+            });
         };
         if end_delta < crate::quadrature::NEAR_SINGULAR_RATIO * s_end {
             // The horizon's sinh map crowds the rule towards s_end and thins it out towards
@@ -285,23 +357,43 @@ impl Integrand2D for SlopeIntegrand {
             // maps only the half next to the horizon.
             // L·asinh(L/δ) > SPLIT_LW ⇔ L/δ > sinh(SPLIT_LW/L), without a logarithm
             let x = (SPLIT_LW / s_end).min(700.0);
-            let mid = if s_end / end_delta > 0.5 * (exp_poly(x) - exp_poly(-x)) { 0.5 * s_end } else { 0.0 };
+            let mid = if s_end / end_delta > 0.5 * (exp_poly(x) - exp_poly(-x)) {
+                0.5 * s_end
+            } else {
+                0.0
+            };
             if mid > 0.0 {
                 peak_part(mid, out);
             }
-            out.push(Panel { a: mid, b: s_end, map: PanelMap::End { at: s_end, toward: mid, sqrt: false, delta: end_delta } });
+            out.push(Panel {
+                a: mid,
+                b: s_end,
+                map: PanelMap::End {
+                    at: s_end,
+                    toward: mid,
+                    sqrt: false,
+                    delta: end_delta,
+                },
+            });
         } else {
             peak_part(s_end, out);
         }
         if tail {
             // the u part is panelled on its own: a distance in u is none in s
             let v_end = s_end + (line.u_tail - u_max);
-            let mut delta = if k_prime > 0.0 { self.mask_scale / k_prime } else { f64::INFINITY };
+            let mut delta = if k_prime > 0.0 {
+                self.mask_scale / k_prime
+            } else {
+                f64::INFINITY
+            };
             if self.smith == SmithForm::HeightCorrelated && mu_o > 0.0 {
                 // the pole at u = 0 (μi → −μo as ρ → ∞), at distance umax beyond the horizon end
                 delta = delta.min(u_max);
             }
-            let mut breaks = [Break::regular(s_end), Break::near_singular(v_end, delta.max(crate::quadrature::MIN_DELTA))];
+            let mut breaks = [
+                Break::regular(s_end),
+                Break::near_singular(v_end, delta.max(crate::quadrature::MIN_DELTA)),
+            ];
             panels_from_breaks(&mut breaks, out);
         }
         line
@@ -327,11 +419,21 @@ impl Integrand2D for SlopeIntegrand {
         // A panel lies wholly in the s part or wholly in the u part.
         let tail = vs.first().is_some_and(|&v| v > line.s_end);
         acc[0] += match (tail, line.rho_max.is_finite(), self.smith) {
-            (false, true, SmithForm::HeightCorrelated) => self.sum_dispatch::<false, true, true>(line, vs, ws),
-            (false, true, SmithForm::Separable) => self.sum_dispatch::<false, true, false>(line, vs, ws),
-            (false, false, SmithForm::HeightCorrelated) => self.sum_dispatch::<false, false, true>(line, vs, ws),
-            (false, false, SmithForm::Separable) => self.sum_dispatch::<false, false, false>(line, vs, ws),
-            (true, _, SmithForm::HeightCorrelated) => self.sum_dispatch::<true, true, true>(line, vs, ws),
+            (false, true, SmithForm::HeightCorrelated) => {
+                self.sum_dispatch::<false, true, true>(line, vs, ws)
+            }
+            (false, true, SmithForm::Separable) => {
+                self.sum_dispatch::<false, true, false>(line, vs, ws)
+            }
+            (false, false, SmithForm::HeightCorrelated) => {
+                self.sum_dispatch::<false, false, true>(line, vs, ws)
+            }
+            (false, false, SmithForm::Separable) => {
+                self.sum_dispatch::<false, false, false>(line, vs, ws)
+            }
+            (true, _, SmithForm::HeightCorrelated) => {
+                self.sum_dispatch::<true, true, true>(line, vs, ws)
+            }
             (true, _, SmithForm::Separable) => self.sum_dispatch::<true, true, false>(line, vs, ws),
         };
     }
@@ -344,7 +446,9 @@ impl Integrand2D for SlopeIntegrand {
         let y = match (tail, line.rho_max.is_finite(), self.smith) {
             (false, true, SmithForm::HeightCorrelated) => self.block::<false, true, true>(line, &v),
             (false, true, SmithForm::Separable) => self.block::<false, true, false>(line, &v),
-            (false, false, SmithForm::HeightCorrelated) => self.block::<false, false, true>(line, &v),
+            (false, false, SmithForm::HeightCorrelated) => {
+                self.block::<false, false, true>(line, &v)
+            }
             (false, false, SmithForm::Separable) => self.block::<false, false, false>(line, &v),
             (true, _, SmithForm::HeightCorrelated) => self.block::<true, true, true>(line, &v),
             (true, _, SmithForm::Separable) => self.block::<true, true, false>(line, &v),
@@ -362,8 +466,17 @@ mod tests {
 
     const SMITH: [SmithForm; 2] = [SmithForm::HeightCorrelated, SmithForm::Separable];
     /// (r, μo): peaked and rough lobes, grazing, normal and exactly-grazing incidence.
-    const CELLS: [(f64, f64); 9] =
-        [(0.02, 0.5), (0.05, 0.9), (0.1, 0.0), (0.3, 0.01), (0.5, 0.5), (0.7, 0.05), (0.9, 0.3), (1.0, 1.0), (1.0, 0.0)];
+    const CELLS: [(f64, f64); 9] = [
+        (0.02, 0.5),
+        (0.05, 0.9),
+        (0.1, 0.0),
+        (0.3, 0.01),
+        (0.5, 0.5),
+        (0.7, 0.05),
+        (0.9, 0.3),
+        (1.0, 1.0),
+        (1.0, 0.0),
+    ];
 
     /// Two parametrisations that share no coordinate, panel or map: slopes polar about the peak
     /// here, visible normals by latitude and longitude in `ggx`.
@@ -374,8 +487,14 @@ mod tests {
             for (r, mu) in CELLS {
                 let alpha = r * r;
                 let a = integrate_2d(&SlopeIntegrand::conductor(alpha, mu, smith), &rules)[0];
-                let b = integrate_2d(&VndfIntegrand::new(alpha, mu, smith, Lobes::Conductor), &rules)[0];
-                assert!((a - b).abs() < 2e-10, "{smith:?} r={r} mu={mu}: slope {a} vs vndf {b}");
+                let b = integrate_2d(
+                    &VndfIntegrand::new(alpha, mu, smith, Lobes::Conductor),
+                    &rules,
+                )[0];
+                assert!(
+                    (a - b).abs() < 2e-10,
+                    "{smith:?} r={r} mu={mu}: slope {a} vs vndf {b}"
+                );
             }
         }
     }
@@ -386,7 +505,10 @@ mod tests {
     #[test]
     fn height_correlated_albedo_at_grazing_incidence_is_one() {
         for r in [0.1, 0.4, 0.8, 1.0] {
-            let e = integrate_2d(&SlopeIntegrand::conductor(r * r, 0.0, SmithForm::HeightCorrelated), &Rules::new(24))[0];
+            let e = integrate_2d(
+                &SlopeIntegrand::conductor(r * r, 0.0, SmithForm::HeightCorrelated),
+                &Rules::new(24),
+            )[0];
             assert!((e - 1.0).abs() < 1e-9, "r={r}: E(μ=0) = {e}");
         }
     }
@@ -420,9 +542,11 @@ mod tests {
                         if wi[2] <= 0.0 {
                             return 0.0;
                         }
-                        let p22 = 1.0 / (PI * alpha * alpha * (1.0 + rho * rho / (alpha * alpha)).powi(2));
+                        let p22 = 1.0
+                            / (PI * alpha * alpha * (1.0 + rho * rho / (alpha * alpha)).powi(2));
                         // (ωo·h)/h_z is the projected-area factor μo − sin θo·x; both ψ signs: ×2
-                        2.0 * rho * p22 * drho_dv * smith.g2(mu, wi[2], alpha) * dot(wo, h) * len / mu
+                        2.0 * rho * p22 * drho_dv * smith.g2(mu, wi[2], alpha) * dot(wo, h) * len
+                            / mu
                     };
                     for p in &panels {
                         let (mut vs, mut ws) = (Vec::new(), Vec::new());
@@ -458,16 +582,34 @@ mod tests {
                     let tail = vs[0] > line.s_end;
                     let pairs = match (tail, line.rho_max.is_finite()) {
                         (true, _) => [
-                            (f.sum::<true, true, true>(&line, &vs, &ws), f.sum_dispatch::<true, true, true>(&line, &vs, &ws)),
-                            (g.sum::<true, true, false>(&line, &vs, &ws), g.sum_dispatch::<true, true, false>(&line, &vs, &ws)),
+                            (
+                                f.sum::<true, true, true>(&line, &vs, &ws),
+                                f.sum_dispatch::<true, true, true>(&line, &vs, &ws),
+                            ),
+                            (
+                                g.sum::<true, true, false>(&line, &vs, &ws),
+                                g.sum_dispatch::<true, true, false>(&line, &vs, &ws),
+                            ),
                         ],
                         (false, true) => [
-                            (f.sum::<false, true, true>(&line, &vs, &ws), f.sum_dispatch::<false, true, true>(&line, &vs, &ws)),
-                            (g.sum::<false, true, false>(&line, &vs, &ws), g.sum_dispatch::<false, true, false>(&line, &vs, &ws)),
+                            (
+                                f.sum::<false, true, true>(&line, &vs, &ws),
+                                f.sum_dispatch::<false, true, true>(&line, &vs, &ws),
+                            ),
+                            (
+                                g.sum::<false, true, false>(&line, &vs, &ws),
+                                g.sum_dispatch::<false, true, false>(&line, &vs, &ws),
+                            ),
                         ],
                         (false, false) => [
-                            (f.sum::<false, false, true>(&line, &vs, &ws), f.sum_dispatch::<false, false, true>(&line, &vs, &ws)),
-                            (g.sum::<false, false, false>(&line, &vs, &ws), g.sum_dispatch::<false, false, false>(&line, &vs, &ws)),
+                            (
+                                f.sum::<false, false, true>(&line, &vs, &ws),
+                                f.sum_dispatch::<false, false, true>(&line, &vs, &ws),
+                            ),
+                            (
+                                g.sum::<false, false, false>(&line, &vs, &ws),
+                                g.sum_dispatch::<false, false, false>(&line, &vs, &ws),
+                            ),
                         ],
                     };
                     for (base, wide) in pairs {

@@ -18,13 +18,17 @@ pub struct BenchTabulateArgs {
     #[arg(long, value_delimiter = ',', default_value = "6,8,12,16,24")]
     pub orders: Vec<usize>,
     /// Models to measure.
-    #[arg(long, value_delimiter = ',', default_value = "ggx-conductor,ggx-dielectric")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "ggx-conductor,ggx-dielectric"
+    )]
     pub models: Vec<String>,
     /// Smaller tables (256² and 32³) for a quick look.
     #[arg(long)]
     pub quick: bool,
     /// Folder with the shared reference albedos (ref2d.csv, ref3d.csv).
-    #[arg(long, default_value = "../shared/reference")]
+    #[arg(long, default_value = "data/reference")]
     pub reference_dir: PathBuf,
     /// Also write the rows as a benchmark CSV (wall time against error at the reference points)
     /// for the report, e.g. reports/bench/tabulate.csv.
@@ -35,7 +39,9 @@ pub struct BenchTabulateArgs {
 /// "2 CPUs, load average 3.10 at the start" — the conditions a wall time was measured under.
 pub fn machine_note(command: &str) -> String {
     let cpus = std::thread::available_parallelism().map_or(0, |n| n.get());
-    let load = std::fs::read_to_string("/proc/loadavg").ok().and_then(|s| s.split_whitespace().next().map(str::to_string));
+    let load = std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().map(str::to_string));
     format!(
         "Measured by `{command}` on {cpus} CPUs{} (wall times; other work on the machine slows them).",
         load.map_or(String::new(), |l| format!(", load average {l} at the start"))
@@ -45,13 +51,22 @@ pub fn machine_note(command: &str) -> String {
 /// Writes a benchmark plot's CSV (atomically) and says where.
 pub fn write_bench(plot: &crate::report::inputs::BenchPlot, path: &Path) -> Result<()> {
     crate::table::io::write_atomic(path, plot.to_csv().as_bytes())?;
-    eprintln!("wrote {} ({} points); `furnace report` plots it", path.display(), plot.rows.len());
+    eprintln!(
+        "wrote {} ({} points); `furnace report` plots it",
+        path.display(),
+        plot.rows.len()
+    );
     Ok(())
 }
 
+/// Reads a model's coordinates from a reference row.
+type PointOf = fn(&[f64]) -> Vec<f64>;
+/// Reads a model's expected E from a reference row.
+type ValueOf = fn(&[f64]) -> f64;
+
 /// Reference points and expected E for a model, from the shared reference files.
 pub fn reference_points(model: &str, dir: &Path) -> Result<Vec<(Vec<f64>, f64)>> {
-    let (file, point, value): (&str, fn(&[f64]) -> Vec<f64>, fn(&[f64]) -> f64) = match model {
+    let (file, point, value): (&str, PointOf, ValueOf) = match model {
         "ggx-conductor" => ("ref2d.csv", |r| vec![r[0], r[1]], |r| r[2]),
         "ggx-conductor-separable" => ("ref2d.csv", |r| vec![r[0], r[1]], |r| r[3]),
         "ggx-dielectric" => ("ref3d.csv", |r| vec![r[0], r[2], r[3]], |r| r[5] + r[6]),
@@ -76,12 +91,20 @@ pub fn reference_points(model: &str, dir: &Path) -> Result<Vec<(Vec<f64>, f64)>>
     Ok(out)
 }
 
-fn reference_error(model: &dyn Model, refs: &[(Vec<f64>, f64)], settings: &QuadratureSettings) -> Option<f64> {
+fn reference_error(
+    model: &dyn Model,
+    refs: &[(Vec<f64>, f64)],
+    settings: &QuadratureSettings,
+) -> Option<f64> {
     if refs.is_empty() {
         return None;
     }
     let cache = RuleCache::new(settings);
-    Some(refs.iter().map(|(x, e)| (albedo(model, x, settings, &cache).value[0] - e).abs()).fold(0.0, f64::max))
+    Some(
+        refs.iter()
+            .map(|(x, e)| (albedo(model, x, settings, &cache).value[0] - e).abs())
+            .fold(0.0, f64::max),
+    )
 }
 
 pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
@@ -93,7 +116,16 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
         "max |E − reference| at the shared reference points",
         true,
     );
-    plot.notes.push(machine_note(&format!("furnace bench tabulate --orders {} --models {}{}", args.orders.iter().map(|o| o.to_string()).collect::<Vec<_>>().join(","), args.models.join(","), if args.quick { " --quick" } else { "" })));
+    plot.notes.push(machine_note(&format!(
+        "furnace bench tabulate --orders {} --models {}{}",
+        args.orders
+            .iter()
+            .map(|o| o.to_string())
+            .collect::<Vec<_>>()
+            .join(","),
+        args.models.join(","),
+        if args.quick { " --quick" } else { "" }
+    )));
     plot.notes.push("Each point is one table at a fixed Gauss–Legendre order without refinement (\"default\": the default settings, with refinement to 1e-7).".into());
     println!(
         "{:<22} {:>12} {:>6} {:>9} {:>9} {:>13} {:>13}",
@@ -115,7 +147,16 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
         let mut rows: Vec<(String, QuadratureSettings)> = args
             .orders
             .iter()
-            .map(|&o| (o.to_string(), QuadratureSettings { tolerance: f64::MAX, max_order: o, ..QuadratureSettings::with_order(o) }))
+            .map(|&o| {
+                (
+                    o.to_string(),
+                    QuadratureSettings {
+                        tolerance: f64::MAX,
+                        max_order: o,
+                        ..QuadratureSettings::with_order(o)
+                    },
+                )
+            })
             .collect();
         rows.push(("default".into(), QuadratureSettings::default()));
         for (label, settings) in rows {
@@ -127,8 +168,21 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
             if let Some(e) = err {
                 // an exact zero cannot go on a log axis: the reference's own rounding is ~1e-16
                 // the default settings (order 12, refined) are not on the fixed-order curve
-                let series = if label == "default" { format!("{name} {} default settings", spec.resolution_name()) } else { format!("{name} {} fixed order", spec.resolution_name()) };
-                plot.push(&series, wall, e.max(1e-16), &if label == "default" { "order 12 refined to 1e-7".to_string() } else { format!("order {label}") });
+                let series = if label == "default" {
+                    format!("{name} {} default settings", spec.resolution_name())
+                } else {
+                    format!("{name} {} fixed order", spec.resolution_name())
+                };
+                plot.push(
+                    &series,
+                    wall,
+                    e.max(1e-16),
+                    &if label == "default" {
+                        "order 12 refined to 1e-7".to_string()
+                    } else {
+                        format!("order {label}")
+                    },
+                );
             }
             println!(
                 "{:<22} {:>12} {:>6} {:>9.2} {:>9.2} {:>13} {:>13.2e}",
@@ -137,14 +191,17 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
                 label,
                 wall,
                 wall * 1e6 / spec.cells() as f64,
-                err.map(|e| format!("{e:.2e}")).unwrap_or_else(|| "-".into()),
+                err.map(|e| format!("{e:.2e}"))
+                    .unwrap_or_else(|| "-".into()),
                 t.summary.max_error_estimate
             );
         }
     }
     if let Some(path) = &args.output {
         if plot.rows.is_empty() {
-            return Err(Error::InvalidInput("no reference points for these models: nothing to write to --output".into()));
+            return Err(Error::InvalidInput(
+                "no reference points for these models: nothing to write to --output".into(),
+            ));
         }
         write_bench(&plot, path)?;
     }

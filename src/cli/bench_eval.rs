@@ -38,7 +38,11 @@ pub struct BenchEvalArgs {
 }
 
 pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
-    let fits = args.fit.iter().map(|p| FitFile::read(p).map(|f| (p.clone(), f))).collect::<Result<Vec<_>>>()?;
+    let fits = args
+        .fit
+        .iter()
+        .map(|p| FitFile::read(p).map(|f| (p.clone(), f)))
+        .collect::<Result<Vec<_>>>()?;
     let opts = BenchOptions {
         data_dir: args.data_dir.clone(),
         reference_2d: args.reference_2d,
@@ -60,10 +64,18 @@ pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
             true,
         );
         let files: Vec<String> = args.fit.iter().map(|p| p.display().to_string()).collect();
-        plot.notes.push(super::bench::machine_note(&format!("furnace bench eval --fit {}", files.join(" --fit "))));
+        plot.notes.push(super::bench::machine_note(&format!(
+            "furnace bench eval --fit {}",
+            files.join(" --fit ")
+        )));
         let mut refs: Vec<&str> = rows.iter().map(|r| r.reference.as_str()).collect();
         refs.dedup();
-        plot.notes.push(format!("Errors at every node of {}; times: best of {} passes over {} random points.", refs.join(", "), args.passes, args.points));
+        plot.notes.push(format!(
+            "Errors at every node of {}; times: best of {} passes over {} random points.",
+            refs.join(", "),
+            args.passes,
+            args.points
+        ));
         plot.notes.push("Fits: the evaluation form furnace emits for each (the other forms are in the terminal output); LUTs: f32 values, multilinear in f32.".into());
         for r in &rows {
             let lut = r.what.contains("LUT");
@@ -73,7 +85,13 @@ pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
             }
             let series = format!("{} {}", r.model, if lut { "LUTs" } else { "fits" });
             let label = format!("{} ({} B)", r.what.replace(", f32", ""), r.bytes);
-            if lut && plot.rows.iter().zip(&plot.labels).any(|(row, l)| row.0 == series && *l == label) {
+            if lut
+                && plot
+                    .rows
+                    .iter()
+                    .zip(&plot.labels)
+                    .any(|(row, l)| row.0 == series && *l == label)
+            {
                 continue;
             }
             plot.push(&series, r.ns_call, r.max_error.max(1e-16), &label);

@@ -77,7 +77,9 @@ pub struct StressArgs {
 
 /// The table a fit file refers to, if it is still in the cache.
 pub fn referenced_table(file: &FitFile) -> Result<Option<crate::table::Table>> {
-    let Some(t) = &file.table else { return Ok(None) };
+    let Some(t) = &file.table else {
+        return Ok(None);
+    };
     if t.spec.content_hash() != t.content_hash {
         return Err(Error::InvalidInput(format!(
             "the fit file's table reference is inconsistent (hash {} does not match its spec); re-create the fit",
@@ -91,7 +93,10 @@ pub fn referenced_table(file: &FitFile) -> Result<Option<crate::table::Table>> {
 pub fn emit_cmd(args: &EmitArgs) -> Result<()> {
     let langs = parse_langs(&args.lang)?;
     if args.lut_resolution < 2 {
-        return Err(Error::InvalidInput(format!("--lut-resolution {} is too small: a LUT needs at least 2 nodes per axis", args.lut_resolution)));
+        return Err(Error::InvalidInput(format!(
+            "--lut-resolution {} is too small: a LUT needs at least 2 nodes per axis",
+            args.lut_resolution
+        )));
     }
     for path in &args.fit {
         emit_one(path, &langs, args)?;
@@ -108,20 +113,40 @@ fn emit_one(path: &Path, langs: &[Lang], args: &EmitArgs) -> Result<()> {
 
 /// Emits one fit file in `langs` (source next to it, LUTs under `args.lut_dir`); `log` gets the
 /// accuracy lines `furnace emit` prints. Returns the files written.
-pub fn emit_files(path: &Path, langs: &[Lang], args: &EmitArgs, log: &mut dyn FnMut(&str)) -> Result<Vec<PathBuf>> {
+pub fn emit_files(
+    path: &Path,
+    langs: &[Lang],
+    args: &EmitArgs,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<PathBuf>> {
     let file = FitFile::read(path)?;
     let table = referenced_table(&file)?;
     if file.table.is_some() && table.is_none() {
         log(&format!("note: the table of {} is not in the cache; the header bounds the f32 error instead of measuring it", path.display()));
     }
     let src = SourceFit::new(path, file, table)?;
-    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).ok_or_else(|| Error::file(path, "a fit file needs a file name"))?;
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .ok_or_else(|| Error::file(path, "a fit file needs a file name"))?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let command = format!("furnace emit --fit {} --lang {}", path.display(), args.lang);
     let guard = emit::guard_macro(&format!("{} {stem}", src.file.model));
-    let (mut unit, emitted) = build_unit(&stem, &guard, std::slice::from_ref(&src), &command, args.form.choice(), None)?;
+    let (mut unit, emitted) = build_unit(
+        &stem,
+        &guard,
+        std::slice::from_ref(&src),
+        &command,
+        args.form.choice(),
+        None,
+    )?;
     if langs.contains(&Lang::Lut) {
-        unit.luts.push(emit::lut_for_fit(&src, args.lut_resolution, &args.data_dir, args.force)?);
+        unit.luts.push(emit::lut_for_fit(
+            &src,
+            args.lut_resolution,
+            &args.data_dir,
+            args.force,
+        )?);
     }
     // every byte is produced before anything is written
     let mut artifacts = Vec::new();
@@ -136,7 +161,10 @@ pub fn emit_files(path: &Path, langs: &[Lang], args: &EmitArgs, log: &mut dyn Fn
             e.function, e.form.form, e.n_coefficients, acc.max_diff_ieee, acc.max_diff_fused, acc.max_diff_gpu, acc.max_bound
         ));
         if let Some(t) = &e.table {
-            log(&format!("    on its table ({} nodes): f64 MAE {:.2e} max {:.2e}; f32 MAE {:.2e} max {:.2e}", t.points, t.f64_mae, t.f64_max, t.f32_mae, t.f32_max));
+            log(&format!(
+                "    on its table ({} nodes): f64 MAE {:.2e} max {:.2e}; f32 MAE {:.2e} max {:.2e}",
+                t.points, t.f64_mae, t.f64_max, t.f32_mae, t.f32_max
+            ));
         }
     }
     for l in &unit.luts {
@@ -164,7 +192,14 @@ pub fn emit_files(path: &Path, langs: &[Lang], args: &EmitArgs, log: &mut dyn Fn
 /// `furnace stress`: exit status 1 if the test fails.
 pub fn stress_cmd(args: &StressArgs) -> Result<()> {
     let file = FitFile::read(&args.fit)?;
-    let report = stress(&file, &StressOptions { random_points: args.points, seed: args.seed, form: args.form.choice() })?;
+    let report = stress(
+        &file,
+        &StressOptions {
+            random_points: args.points,
+            seed: args.seed,
+            form: args.form.choice(),
+        },
+    )?;
     print!("{}", report.render());
     if report.passed() {
         Ok(())

@@ -14,7 +14,9 @@ pub fn eval_cmd(args: &EvalArgs) -> Result<()> {
     match (&args.model, &args.fit) {
         (Some(model), None) => eval_model(args, model),
         (None, Some(fit)) => eval_fit(args, fit),
-        _ => Err(Error::InvalidInput("give exactly one of --model and --fit".into())),
+        _ => Err(Error::InvalidInput(
+            "give exactly one of --model and --fit".into(),
+        )),
     }
 }
 
@@ -34,14 +36,23 @@ fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
         if !e.is_finite() {
             return Err(Error::file(
                 &args.input,
-                format!("data row {}: the fit is not finite at {x:?} (a pole of its denominator); {}", k + 1, rec.verdict),
+                format!(
+                    "data row {}: the fit is not finite at {x:?} (a pole of its denominator); {}",
+                    k + 1,
+                    rec.verdict
+                ),
             ));
         }
         out.push_str(&raw.join(","));
         out.push_str(&format!(",{e}\n"));
     }
     write_atomic(&args.output, out.as_bytes())?;
-    eprintln!("{} points of {} evaluated to {}", points.coords.len(), fit_path.display(), args.output.display());
+    eprintln!(
+        "{} points of {} evaluated to {}",
+        points.coords.len(),
+        fit_path.display(),
+        args.output.display()
+    );
     Ok(())
 }
 
@@ -52,7 +63,10 @@ fn eval_model(args: &EvalArgs, name: &str) -> Result<()> {
     let ranges: Vec<(f64, f64)> = model.axes().iter().map(|a| a.valid_range).collect();
     let points = read_points(&args.input, &axes, &ranges)?;
     let cache = RuleCache::new(&settings);
-    let pb = super::progress_bar(points.coords.len() as u64, &format!("eval {}", model.name()));
+    let pb = super::progress_bar(
+        points.coords.len() as u64,
+        &format!("eval {}", model.name()),
+    );
     let estimates: Vec<_> = points
         .coords
         .par_iter()
@@ -86,7 +100,9 @@ fn eval_model(args: &EvalArgs, name: &str) -> Result<()> {
         model.name(),
         args.output.display(),
         if unconverged > 0 {
-            format!("; warning: {unconverged} points did not reach the tolerance (see the err column)")
+            format!(
+                "; warning: {unconverged} points did not reach the tolerance (see the err column)"
+            )
         } else {
             String::new()
         }

@@ -5,8 +5,12 @@
 use super::{get_table, parse_resolution, QuadratureArgs};
 use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
-use crate::fit::compare::{compare_model, paper_box, same_form_request, CompareReport, PaperPair, PAPER_PAIRS};
-use crate::fit::job::{self, FitRecord, FitRequest, FitTime, FormKind, Stopwatch, SweepOutcome, SweepPlan, Timing};
+use crate::fit::compare::{
+    compare_model, paper_box, same_form_request, CompareReport, PaperPair, PAPER_PAIRS,
+};
+use crate::fit::job::{
+    self, FitRecord, FitRequest, FitTime, FormKind, Stopwatch, SweepOutcome, SweepPlan, Timing,
+};
 use crate::fit::source::{self, FitInput, FittedOn, UserTableOptions};
 use crate::fit::Objective;
 use crate::quadrature::QuadratureSettings;
@@ -116,14 +120,35 @@ impl ObjectiveArg {
 fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
     if let Some(path) = &args.table {
         let axes = args.axes.as_deref().map(source::parse_axes).transpose()?;
-        let input = source::load_user_table(path, &UserTableOptions { channel: Some(args.channel.clone()), axes })?;
+        let input = source::load_user_table(
+            path,
+            &UserTableOptions {
+                channel: Some(args.channel.clone()),
+                axes,
+            },
+        )?;
         // a furnace table lives in data/<cache name>/<resolution>: fit into fits/<cache name>/
-        let name = if input.source.kind == "furnace_table" { path.parent().and_then(Path::file_name) } else { path.file_stem() };
-        let name = name.map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "table".into());
-        eprintln!("{}: {} points in {} variables ({})", path.display(), input.data.len(), input.data.dim(), input.data.names.join(", "));
+        let name = if input.source.kind == "furnace_table" {
+            path.parent().and_then(Path::file_name)
+        } else {
+            path.file_stem()
+        };
+        let name = name
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "table".into());
+        eprintln!(
+            "{}: {} points in {} variables ({})",
+            path.display(),
+            input.data.len(),
+            input.data.dim(),
+            input.data.names.join(", ")
+        );
         return Ok((input, name, true));
     }
-    let name = args.model.as_deref().ok_or_else(|| Error::InvalidInput("give --model or --table".into()))?;
+    let name = args
+        .model
+        .as_deref()
+        .ok_or_else(|| Error::InvalidInput("give --model or --table".into()))?;
     let model = bsdf::find(name, args.quadrature.model_options())?;
     let resolution = parse_resolution(args.resolution.as_deref(), model.axes().len())?;
     let spec = TableSpec::new(model.as_ref(), &resolution, args.quadrature.settings()?)?;
@@ -132,11 +157,19 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
         "{} {}: table {} in {:.1} s ({})",
         t.table.spec.model,
         t.table.spec.resolution_name(),
-        if t.cached { "read from cache" } else { "computed" },
+        if t.cached {
+            "read from cache"
+        } else {
+            "computed"
+        },
         t.seconds,
         t.stem.display()
     );
-    Ok((source::from_table(&t.table, &args.channel, Some(&t.stem))?, model.cache_name(), model.grazing_boundary_layer()))
+    Ok((
+        source::from_table(&t.table, &args.channel, Some(&t.stem))?,
+        model.cache_name(),
+        model.grazing_boundary_layer(),
+    ))
 }
 
 /// Folder name of fits restricted to a sub-box: `<name>.<var><lo>-<hi>…`.
@@ -152,7 +185,8 @@ fn boxed_name(name: &str, bounds: &[source::AxisDecl]) -> String {
 pub fn fit_cmd(args: &FitArgs) -> Result<()> {
     let (mut input, mut name, layer) = fit_input(args)?;
     if let Some(text) = &args.domain {
-        let bounds = source::parse_axes(text).map_err(|e| Error::InvalidInput(e.to_string().replace("--axes", "--domain")))?;
+        let bounds = source::parse_axes(text)
+            .map_err(|e| Error::InvalidInput(e.to_string().replace("--axes", "--domain")))?;
         input = input.restrict(&bounds)?;
         name = boxed_name(&name, &bounds);
         eprintln!("restricted to {text}: {} points", input.data.len());
@@ -164,7 +198,12 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
     let dir = args.fits_dir.join(&name);
     let timing_dir = args.data_dir.join("timing").join(&name);
     if args.sweep {
-        let mut plan = SweepPlan::paper(&input.data, args.max_degree, transforms.clone(), args.objective.objective());
+        let mut plan = SweepPlan::paper(
+            &input.data,
+            args.max_degree,
+            transforms.clone(),
+            args.objective.objective(),
+        );
         if !layer {
             plan = plan.without_boundary_layer(transforms.as_deref());
         }
@@ -189,7 +228,9 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         return Ok(());
     }
     let (Some(form), Some(degree)) = (args.form, args.degree) else {
-        return Err(Error::InvalidInput("give --form and --degree, or --sweep".into()));
+        return Err(Error::InvalidInput(
+            "give --form and --degree, or --sweep".into(),
+        ));
     };
     let req = FitRequest {
         form: match form {
@@ -198,16 +239,33 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         },
         degree,
         objective: args.objective.objective(),
-        transforms: transforms.unwrap_or_else(|| vec![crate::fit::InputTransform::Identity; input.data.dim()]),
+        transforms: transforms
+            .unwrap_or_else(|| vec![crate::fit::InputTransform::Identity; input.data.dim()]),
         max_fit_points: args.fit_points.unwrap_or(0),
     };
     let clock = Stopwatch::start();
     let rec = job::fit_one(&input, &req)?;
-    let path = args.output.clone().unwrap_or_else(|| dir.join(rec.file_name()));
-    let time = FitTime { name: rec.file_name(), n_coefficients: rec.fit.n_coefficients, seconds: clock.wall_seconds() };
-    let timing = Timing::new(&path.display().to_string(), &input.source, &rec.fitted_on, &clock, vec![time]);
+    let path = args
+        .output
+        .clone()
+        .unwrap_or_else(|| dir.join(rec.file_name()));
+    let time = FitTime {
+        name: rec.file_name(),
+        n_coefficients: rec.fit.n_coefficients,
+        seconds: clock.wall_seconds(),
+    };
+    let timing = Timing::new(
+        &path.display().to_string(),
+        &input.source,
+        &rec.fitted_on,
+        &clock,
+        vec![time],
+    );
     write_atomic(&path, rec.to_json()?.as_bytes())?;
-    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "fit".into());
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "fit".into());
     let timing_path = timing_dir.join(format!("{stem}-timing.json"));
     write_atomic(&timing_path, timing.to_json()?.as_bytes())?;
     print_record(&rec, &path, Some(&timing));
@@ -221,10 +279,31 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
 /// The `n` points of `input` where `rec` errs most.
 fn print_worst(rec: &FitRecord, input: &FitInput, n: usize) {
     let names = input.data.names.join(", ");
-    println!("    {:>4}  {:<40} {:>12} {:>12} {:>10}", "rank", format!("({names})"), "table", "fit", "|error|");
-    for (i, p) in crate::fit::metrics::worst_points(&rec.fit.approximant, &input.data, n).iter().enumerate() {
-        let at = p.at.iter().map(|x| format!("{x:.6}")).collect::<Vec<_>>().join(", ");
-        println!("    {:>4}  {:<40} {:>12.8} {:>12.8} {:>10.3e}", i + 1, format!("({at})"), p.value, p.fit, p.abs_error);
+    println!(
+        "    {:>4}  {:<40} {:>12} {:>12} {:>10}",
+        "rank",
+        format!("({names})"),
+        "table",
+        "fit",
+        "|error|"
+    );
+    for (i, p) in crate::fit::metrics::worst_points(&rec.fit.approximant, &input.data, n)
+        .iter()
+        .enumerate()
+    {
+        let at =
+            p.at.iter()
+                .map(|x| format!("{x:.6}"))
+                .collect::<Vec<_>>()
+                .join(", ");
+        println!(
+            "    {:>4}  {:<40} {:>12.8} {:>12.8} {:>10.3e}",
+            i + 1,
+            format!("({at})"),
+            p.value,
+            p.fit,
+            p.abs_error
+        );
     }
 }
 
@@ -233,9 +312,11 @@ fn timing_text(t: &Timing) -> String {
     format!(
         "{:.2} s wall{}, {} threads{}",
         t.wall_seconds,
-        t.cpu_seconds.map_or(String::new(), |c| format!(", {c:.2} s CPU")),
+        t.cpu_seconds
+            .map_or(String::new(), |c| format!(", {c:.2} s CPU")),
         t.threads,
-        t.load_average.map_or(String::new(), |l| format!(", load {:.2}", l[0]))
+        t.load_average
+            .map_or(String::new(), |l| format!(", load {:.2}", l[0]))
     )
 }
 
@@ -268,10 +349,21 @@ fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
 /// and the times.
 /// The wall and CPU times go to `<timing>/sweep-timing.json` (git-ignored, under `data/`), the
 /// sidecar `furnace fit` writes, so that the files under `fits/` are the same for the same inputs.
-pub(super) fn write_sweep_files(outcome: &SweepOutcome, dir: &Path, timing: &Path, clock: &Stopwatch) -> Result<(Vec<PathBuf>, Timing)> {
+pub(super) fn write_sweep_files(
+    outcome: &SweepOutcome,
+    dir: &Path,
+    timing: &Path,
+    clock: &Stopwatch,
+) -> Result<(Vec<PathBuf>, Timing)> {
     let mut written = Vec::new();
     let sweep_json = dir.join("sweep.json");
-    let times = Timing::new(&sweep_json.display().to_string(), &outcome.source, &outcome.fitted_on, clock, outcome.fit_times());
+    let times = Timing::new(
+        &sweep_json.display().to_string(),
+        &outcome.source,
+        &outcome.fitted_on,
+        clock,
+        outcome.fit_times(),
+    );
     write_atomic(&sweep_json, outcome.to_json()?.as_bytes())?;
     written.push(sweep_json);
     let sweep_csv = dir.join("sweep.csv");
@@ -284,16 +376,26 @@ pub(super) fn write_sweep_files(outcome: &SweepOutcome, dir: &Path, timing: &Pat
                 write_atomic(&path, rec.to_json()?.as_bytes())?;
                 written.push(path);
             }
-            None if path.exists() => std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?,
+            None if path.exists() => {
+                std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?
+            }
             None => {}
         }
     }
-    write_atomic(&timing.join("sweep-timing.json"), times.to_json()?.as_bytes())?;
+    write_atomic(
+        &timing.join("sweep-timing.json"),
+        times.to_json()?.as_bytes(),
+    )?;
     Ok((written, times))
 }
 
 /// Writes a sweep's files ([`write_sweep_files`]) and prints its table.
-fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &Stopwatch) -> Result<()> {
+fn write_sweep(
+    outcome: &SweepOutcome,
+    dir: &Path,
+    timing_dir: &Path,
+    clock: &Stopwatch,
+) -> Result<()> {
     let (_, timing) = write_sweep_files(outcome, dir, timing_dir, clock)?;
     let timing_path = timing_dir.join("sweep-timing.json");
     println!("MAE and max: on {}", outcome.metrics_on);
@@ -302,10 +404,24 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &St
     }
     println!(
         "{:<11} {:>3} {:<32} {:<8} {:>4} {:>10} {:>10} {:>10} {:>10} {:>8} poles",
-        "form", "deg", "transforms", "objective", "n", "MAE", "max", "box MAE", "box max", "seconds"
+        "form",
+        "deg",
+        "transforms",
+        "objective",
+        "n",
+        "MAE",
+        "max",
+        "box MAE",
+        "box max",
+        "seconds"
     );
     for (r, secs) in outcome.rows.iter().zip(&outcome.fit_seconds) {
-        let (bm, bx) = r.paper_box.as_ref().map_or(("-".to_string(), "-".to_string()), |b| (format!("{:.3e}", b.mae), format!("{:.3e}", b.max_abs_error)));
+        let (bm, bx) = r
+            .paper_box
+            .as_ref()
+            .map_or(("-".to_string(), "-".to_string()), |b| {
+                (format!("{:.3e}", b.mae), format!("{:.3e}", b.max_abs_error))
+            });
         println!(
             "{:<11} {:>3} {:<32} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>10} {:>10} {:>8.2} {}",
             r.form.name(),
@@ -325,18 +441,37 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &St
         let path = dir.join(format!("best-{}.json", b.budget));
         match outcome.best_record(b.budget) {
             Some(rec) => {
-                println!("best with ≤ {} coefficients (lowest max error on the whole domain):", b.budget);
+                println!(
+                    "best with ≤ {} coefficients (lowest max error on the whole domain):",
+                    b.budget
+                );
                 print_record(rec, &path, None);
                 if let Some(bm) = b.index.and_then(|i| outcome.rows[i].paper_box.as_ref()) {
-                    println!("    on the paper's box: MAE {:.3e}, max {:.3e} at {:?}", bm.mae, bm.max_abs_error, bm.max_abs_error_at);
+                    println!(
+                        "    on the paper's box: MAE {:.3e}, max {:.3e} at {:?}",
+                        bm.mae, bm.max_abs_error, bm.max_abs_error_at
+                    );
                 }
             }
-            None => eprintln!("warning: no usable fit with ≤ {} coefficients; {} not written", b.budget, path.display()),
+            None => eprintln!(
+                "warning: no usable fit with ≤ {} coefficients; {} not written",
+                b.budget,
+                path.display()
+            ),
         }
     }
 
     for s in &outcome.skipped {
-        eprintln!("skipped {} [{}]: {}", s.form, s.transforms.iter().map(|t| t.label(&outcome.variables)).collect::<Vec<_>>().join(" "), s.reason);
+        eprintln!(
+            "skipped {} [{}]: {}",
+            s.form,
+            s.transforms
+                .iter()
+                .map(|t| t.label(&outcome.variables))
+                .collect::<Vec<_>>()
+                .join(" "),
+            s.reason
+        );
     }
     let not_usable = outcome.rows.iter().filter(|r| !r.usable).count();
     if not_usable > 0 {
@@ -356,7 +491,7 @@ fn write_sweep(outcome: &SweepOutcome, dir: &Path, timing_dir: &Path, clock: &St
 #[derive(Args, Debug)]
 pub struct ComparePaperArgs {
     /// The paper's data folder (coefficients/ and tables/).
-    #[arg(long, default_value = "../shared/paper-repo-data")]
+    #[arg(long, default_value = "data/paper")]
     pub paper_data: PathBuf,
     /// Table nodes per axis for all four tables (default 1024² and 128³).
     #[arg(long)]
@@ -385,7 +520,12 @@ pub struct ComparePaperArgs {
 const COMPARE_FIT_POINTS_3D: usize = 64 * 64 * 64;
 
 /// best-40.json of this exact table, or a fresh sweep's (timings to `timing_dir`).
-fn best_40(input: &FitInput, dir: &Path, timing_dir: &Path, no_sweep: bool) -> Result<Option<FitRecord>> {
+fn best_40(
+    input: &FitInput,
+    dir: &Path,
+    timing_dir: &Path,
+    no_sweep: bool,
+) -> Result<Option<FitRecord>> {
     let path = dir.join("best-40.json");
     if let Ok(text) = std::fs::read_to_string(&path) {
         if let Ok(rec) = FitRecord::from_json(&text) {
@@ -401,7 +541,10 @@ fn best_40(input: &FitInput, dir: &Path, timing_dir: &Path, no_sweep: bool) -> R
     if no_sweep {
         return Ok(None);
     }
-    eprintln!("  no best-40.json for this table in {}: running the default sweep", dir.display());
+    eprintln!(
+        "  no best-40.json for this table in {}: running the default sweep",
+        dir.display()
+    );
     let plan = SweepPlan::paper(&input.data, None, None, Objective::LeastSquares);
     let clock = Stopwatch::start();
     let outcome = job::sweep_fits(input, &plan, &mut |line| eprintln!("    {line}"))?;
@@ -409,28 +552,68 @@ fn best_40(input: &FitInput, dir: &Path, timing_dir: &Path, no_sweep: bool) -> R
     Ok(outcome.best_record(40).cloned())
 }
 
-fn compare_one(args: &ComparePaperArgs, pair: &PaperPair) -> Result<crate::fit::compare::CompareEntry> {
-    let model = bsdf::find(pair.model, ModelOptions { radiance_transmission: pair.radiance })?;
+fn compare_one(
+    args: &ComparePaperArgs,
+    pair: &PaperPair,
+) -> Result<crate::fit::compare::CompareEntry> {
+    let model = bsdf::find(
+        pair.model,
+        ModelOptions {
+            radiance_transmission: pair.radiance,
+        },
+    )?;
     let d = model.axes().len();
-    let n = if d >= 3 { args.resolution_3d.or(args.resolution) } else { args.resolution };
+    let n = if d >= 3 {
+        args.resolution_3d.or(args.resolution)
+    } else {
+        args.resolution
+    };
     let resolution = parse_resolution(n.map(|n| n.to_string()).as_deref(), d)?;
     let spec = TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())?;
     let t = get_table(model.as_ref(), &spec, &args.data_dir, false)?;
-    eprintln!("{} ({}): {} table {} in {:.1} s", pair.paper_name, model.cache_name(), spec.resolution_name(), if t.cached { "read" } else { "computed" }, t.seconds);
+    eprintln!(
+        "{} ({}): {} table {} in {:.1} s",
+        pair.paper_name,
+        model.cache_name(),
+        spec.resolution_name(),
+        if t.cached { "read" } else { "computed" },
+        t.seconds
+    );
     let input = source::from_table(&t.table, "E", Some(&t.stem))?;
-    let points = args.fit_points.unwrap_or(if d >= 3 { COMPARE_FIT_POINTS_3D } else { 0 });
+    let points = args
+        .fit_points
+        .unwrap_or(if d >= 3 { COMPARE_FIT_POINTS_3D } else { 0 });
     let same = job::fit_one(&input, &same_form_request(pair, points))?;
     let timing = args.data_dir.join("timing");
-    let best = best_40(&input, &args.fits_dir.join(model.cache_name()), &timing.join(model.cache_name()), args.no_sweep)?;
+    let best = best_40(
+        &input,
+        &args.fits_dir.join(model.cache_name()),
+        &timing.join(model.cache_name()),
+        args.no_sweep,
+    )?;
     let bounds = paper_box(pair);
     let boxed = input.restrict(&bounds)?;
     let boxed_dir = boxed_name(&model.cache_name(), &bounds);
-    let best_box = best_40(&boxed, &args.fits_dir.join(&boxed_dir), &timing.join(&boxed_dir), args.no_sweep)?;
-    let entry = compare_model(&args.paper_data, pair, &input, &same, best.as_ref(), best_box.as_ref())?;
+    let best_box = best_40(
+        &boxed,
+        &args.fits_dir.join(&boxed_dir),
+        &timing.join(&boxed_dir),
+        args.no_sweep,
+    )?;
+    let entry = compare_model(
+        &args.paper_data,
+        pair,
+        &input,
+        &same,
+        best.as_ref(),
+        best_box.as_ref(),
+    )?;
     if let Some(paper) = &entry.paper_result {
         // the published coefficients as a fit file, for `furnace eval --fit`
         let rec = FitRecord::new(paper.clone(), &input, FittedOn { points: 0, selection: "published coefficients (Sforza & Pellacini 2022, Appendix A); not fitted by furnace".into() });
-        let path = args.reports_dir.join(format!("paper-{}.json", pair.paper_name));
+        let path = args
+            .reports_dir
+            .join(format!("paper-{}.json", pair.paper_name));
         write_atomic(&path, rec.to_json()?.as_bytes())?;
     }
     Ok(entry)
@@ -439,14 +622,23 @@ fn compare_one(args: &ComparePaperArgs, pair: &PaperPair) -> Result<crate::fit::
 /// `furnace compare-paper`.
 pub fn compare_paper_cmd(args: &ComparePaperArgs) -> Result<()> {
     if !args.paper_data.join("coefficients").is_dir() {
-        return Err(Error::file(&args.paper_data, "no coefficients/ folder here; point --paper-data at the paper's data (../shared/paper-repo-data)"));
+        return Err(Error::file(&args.paper_data, "no coefficients/ folder here; point --paper-data at the paper's data (data/paper in the repository)"));
     }
-    let entries = PAPER_PAIRS.iter().map(|p| compare_one(args, p)).collect::<Result<Vec<_>>>()?;
+    let entries = PAPER_PAIRS
+        .iter()
+        .map(|p| compare_one(args, p))
+        .collect::<Result<Vec<_>>>()?;
     let report = CompareReport::new(entries);
     let md = report.to_markdown();
     write_atomic(&args.reports_dir.join("compare-paper.md"), md.as_bytes())?;
-    write_atomic(&args.reports_dir.join("compare-paper.json"), report.to_json()?.as_bytes())?;
+    write_atomic(
+        &args.reports_dir.join("compare-paper.json"),
+        report.to_json()?.as_bytes(),
+    )?;
     print!("{md}");
-    eprintln!("wrote {}/compare-paper.{{md,json}}", args.reports_dir.display());
+    eprintln!(
+        "wrote {}/compare-paper.{{md,json}}",
+        args.reports_dir.display()
+    );
     Ok(())
 }

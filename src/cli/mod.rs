@@ -13,7 +13,9 @@ mod report;
 mod run;
 mod scene;
 
-pub use run::{RunArgs, DEFAULT_MODELS, PAPER_RADIANCE_MODELS, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D};
+pub use run::{
+    RunArgs, DEFAULT_MODELS, PAPER_RADIANCE_MODELS, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D,
+};
 
 use crate::bsdf::{self, ModelOptions};
 use crate::error::{Error, Result};
@@ -25,7 +27,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Parser, Debug)]
-#[command(name = "furnace", version, about = "Directional-albedo tables, fits and emitters that make BSDFs pass the white furnace test")]
+#[command(
+    name = "furnace",
+    version,
+    about = "Directional-albedo tables, fits and emitters that make BSDFs pass the white furnace test"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -95,12 +101,18 @@ impl QuadratureArgs {
             q.max_order = m;
         }
         q.tolerance = self.tolerance;
-        q.validate().map_err(|m| Error::InvalidInput(format!("{m} (check --order, --companion, --tolerance, --max-order)")))?;
+        q.validate().map_err(|m| {
+            Error::InvalidInput(format!(
+                "{m} (check --order, --companion, --tolerance, --max-order)"
+            ))
+        })?;
         Ok(q)
     }
 
     fn model_options(&self) -> ModelOptions {
-        ModelOptions { radiance_transmission: self.transmission == Transmission::Radiance }
+        ModelOptions {
+            radiance_transmission: self.transmission == Transmission::Radiance,
+        }
     }
 }
 
@@ -173,7 +185,9 @@ pub fn run(cli: Cli) -> Result<()> {
             BenchWhat::Eval(a) => bench_eval::bench_eval_cmd(&a),
             BenchWhat::Fit(a) => bench_fit::bench_fit(&a),
         },
-        Command::Run(args) if args.scene.scene.is_some() => scene::run_scene(&args.scene, &args.data_dir, args.force),
+        Command::Run(args) if args.scene.scene.is_some() => {
+            scene::run_scene(&args.scene, &args.data_dir, args.force)
+        }
         Command::Run(args) => run::run_default(&args),
         Command::Emit(args) => emit::emit_cmd(&args),
         Command::Stress(args) => emit::stress_cmd(&args),
@@ -189,7 +203,12 @@ pub fn models_listing() -> String {
         for a in m.axes() {
             s.push_str(&format!(
                 "    {:<4} default [{}, {}], valid [{}, {}]: {}\n",
-                a.name, a.default_range.0, a.default_range.1, a.valid_range.0, a.valid_range.1, a.description
+                a.name,
+                a.default_range.0,
+                a.default_range.1,
+                a.valid_range.0,
+                a.valid_range.1,
+                a.description
             ));
         }
         s.push_str(&format!("    outputs: {}\n", m.outputs().join(", ")));
@@ -224,8 +243,10 @@ pub fn parse_resolution(text: Option<&str>, dims: usize) -> Result<Vec<usize>> {
 pub fn progress_bar(len: u64, what: &str) -> ProgressBar {
     let pb = ProgressBar::new(len);
     pb.set_style(
-        ProgressStyle::with_template("{msg:28} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta}")
-            .expect("valid template"),
+        ProgressStyle::with_template(
+            "{msg:28} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta}",
+        )
+        .expect("valid template"),
     );
     pb.set_message(what.to_string());
     pb
@@ -240,19 +261,37 @@ pub struct Tabulated {
 }
 
 /// Reads `spec` from the cache under `data_dir`, or computes and saves it.
-pub fn get_table(model: &dyn bsdf::Model, spec: &TableSpec, data_dir: &Path, force: bool) -> Result<Tabulated> {
+pub fn get_table(
+    model: &dyn bsdf::Model,
+    spec: &TableSpec,
+    data_dir: &Path,
+    force: bool,
+) -> Result<Tabulated> {
     let stem = io::table_stem(data_dir, model, spec);
     let start = Instant::now();
     if !force {
         if let Some(table) = io::load_cached(spec, &stem)? {
-            return Ok(Tabulated { table, stem, cached: true, seconds: start.elapsed().as_secs_f64() });
+            return Ok(Tabulated {
+                table,
+                stem,
+                cached: true,
+                seconds: start.elapsed().as_secs_f64(),
+            });
         }
     }
-    let pb = progress_bar(spec.cells() as u64, &format!("{} {}", spec.model, spec.resolution_name()));
+    let pb = progress_bar(
+        spec.cells() as u64,
+        &format!("{} {}", spec.model, spec.resolution_name()),
+    );
     let table = table::tabulate(model, spec, &|n| pb.inc(n))?;
     pb.finish_and_clear();
     io::save(&table, &stem)?;
-    Ok(Tabulated { table, stem, cached: false, seconds: start.elapsed().as_secs_f64() })
+    Ok(Tabulated {
+        table,
+        stem,
+        cached: false,
+        seconds: start.elapsed().as_secs_f64(),
+    })
 }
 
 fn tabulate_cmd(args: &TabulateArgs) -> Result<Tabulated> {

@@ -29,7 +29,7 @@ pub struct ReportArgs {
     #[arg(long)]
     pub bench_dir: Option<PathBuf>,
     /// The paper's published coefficients and tables (`coefficients/`, `tables/`); default:
-    /// $FURNACE_PAPER_DATA, else ../shared/paper-repo-data. Missing: no paper comparison.
+    /// $FURNACE_PAPER_DATA, else data/paper. Missing: no paper comparison.
     #[arg(long)]
     pub paper_dir: Option<PathBuf>,
     /// Nodes per axis of the 2-D tables fits are measured against (default 65).
@@ -66,7 +66,9 @@ impl TableProvider for CachedTables<'_> {
 }
 
 pub(super) fn default_paper_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("FURNACE_PAPER_DATA").map(PathBuf::from).unwrap_or_else(|| "../shared/paper-repo-data".into());
+    let dir = std::env::var_os("FURNACE_PAPER_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| "data/paper".into());
     dir.join("coefficients").is_dir().then_some(dir)
 }
 
@@ -74,7 +76,10 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
     let mut options = ReportOptions::new(Path::new("."));
     options.reports_dir = args.reports_dir.clone();
     options.fits_dir = args.fits_dir.clone();
-    options.bench_dir = args.bench_dir.clone().unwrap_or_else(|| args.reports_dir.join("bench"));
+    options.bench_dir = args
+        .bench_dir
+        .clone()
+        .unwrap_or_else(|| args.reports_dir.join("bench"));
     options.paper_dir = match &args.paper_dir {
         Some(d) => {
             if !d.join("coefficients").is_dir() {
@@ -104,30 +109,63 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
         ("--furnace-f0-slices", options.furnace_f0_slices),
     ] {
         if v < 2 {
-            return Err(crate::Error::InvalidInput(format!("{flag} {v}: a grid needs at least 2 nodes per axis")));
+            return Err(crate::Error::InvalidInput(format!(
+                "{flag} {v}: a grid needs at least 2 nodes per axis"
+            )));
         }
     }
-    let tables = CachedTables { data_dir: &args.data_dir };
+    let tables = CachedTables {
+        data_dir: &args.data_dir,
+    };
     let progress = |m: &str| eprintln!("report: {m}");
     let reporter = Reporter::new(options, &tables, &progress);
     let models = args.model.as_ref().map(|m| vec![m.clone()]);
     let outcome = reporter.generate(models.as_deref())?;
-    println!("{:<30} {:<22} {:>6} {:>10} {:>10}   furnace max |1 − E|: none / table / LUT / fit", "model", "chosen fit", "coeffs", "MAE", "max err");
+    println!(
+        "{:<30} {:<22} {:>6} {:>10} {:>10}   furnace max |1 − E|: none / table / LUT / fit",
+        "model", "chosen fit", "coeffs", "MAE", "max err"
+    );
     for s in &outcome.regenerated {
         let (form, n, mae, max) = match s.chosen.and_then(|k| s.fits.get(k)) {
-            Some(f) => (f.form.clone(), f.n_coefficients.to_string(), fmt_e(f.measured.mae), fmt_e(f.measured.max_abs)),
+            Some(f) => (
+                f.form.clone(),
+                f.n_coefficients.to_string(),
+                fmt_e(f.measured.mae),
+                fmt_e(f.measured.max_abs),
+            ),
             None => ("no fit".into(), "-".into(), "-".into(), "-".into()),
         };
         let furnace: Vec<String> = s
             .furnace
             .iter()
             .map(|r| {
-                let v: Vec<String> = r.variants.iter().take(4).map(|v| v.stats.as_ref().map_or("-".into(), |st| fmt_e(st.max_deviation))).collect();
+                let v: Vec<String> = r
+                    .variants
+                    .iter()
+                    .take(4)
+                    .map(|v| {
+                        v.stats
+                            .as_ref()
+                            .map_or("-".into(), |st| fmt_e(st.max_deviation))
+                    })
+                    .collect();
                 format!("{}: {}", r.id, v.join(" / "))
             })
             .collect();
-        println!("{:<30} {:<22} {:>6} {:>10} {:>10}   {}", s.model, form, n, mae, max, furnace.join("; "));
+        println!(
+            "{:<30} {:<22} {:>6} {:>10} {:>10}   {}",
+            s.model,
+            form,
+            n,
+            mae,
+            max,
+            furnace.join("; ")
+        );
     }
-    println!("wrote {} ({} linked files)", outcome.readme.display(), outcome.linked.len());
+    println!(
+        "wrote {} ({} linked files)",
+        outcome.readme.display(),
+        outcome.linked.len()
+    );
     Ok(())
 }

@@ -100,7 +100,8 @@ pub const DEFAULT_MODELS: &[&str] = REPORT_MODELS;
 /// Models also tabulated and fitted with radiance-form transmission (×1/η² entering, ×η²
 /// leaving): the paper's two dielectric tables are in that form, and its published fits are
 /// compared with furnace's on the same convention.
-pub const PAPER_RADIANCE_MODELS: &[&str] = &["ggx-dielectric-separable", "ggx-dielectric-inv-separable"];
+pub const PAPER_RADIANCE_MODELS: &[&str] =
+    &["ggx-dielectric-separable", "ggx-dielectric-inv-separable"];
 
 /// One table of the main job and what became of it.
 struct Job {
@@ -142,10 +143,19 @@ struct Row {
 fn default_jobs(args: &RunArgs) -> Result<Vec<Job>> {
     let r2 = args.resolution_2d.unwrap_or(RUN_RESOLUTION_2D);
     let r3 = args.resolution_3d.unwrap_or(RUN_RESOLUTION_3D);
-    let r3_radiance = args.resolution_3d.map_or(RUN_RESOLUTION_PAPER_RADIANCE, |n| n.min(RUN_RESOLUTION_PAPER_RADIANCE));
+    let r3_radiance = args
+        .resolution_3d
+        .map_or(RUN_RESOLUTION_PAPER_RADIANCE, |n| {
+            n.min(RUN_RESOLUTION_PAPER_RADIANCE)
+        });
     let mut jobs = Vec::new();
-    let radiance = ModelOptions { radiance_transmission: true };
-    let candidates = DEFAULT_MODELS.iter().map(|m| (*m, ModelOptions::default())).chain(PAPER_RADIANCE_MODELS.iter().map(|m| (*m, radiance)));
+    let radiance = ModelOptions {
+        radiance_transmission: true,
+    };
+    let candidates = DEFAULT_MODELS
+        .iter()
+        .map(|m| (*m, ModelOptions::default()))
+        .chain(PAPER_RADIANCE_MODELS.iter().map(|m| (*m, radiance)));
     for (name, options) in candidates {
         let model = bsdf::find(name, options)?;
         let dims = model.axes().len();
@@ -154,13 +164,20 @@ fn default_jobs(args: &RunArgs) -> Result<Vec<Job>> {
             (_, false) => r3,
             (_, true) => r3_radiance,
         };
-        jobs.push(Job { name: model.cache_name(), resolution: vec![n; dims], model });
+        jobs.push(Job {
+            name: model.cache_name(),
+            resolution: vec![n; dims],
+            model,
+        });
     }
     if !args.models.is_empty() {
         for m in &args.models {
             if !jobs.iter().any(|j| &j.name == m) {
                 let known: Vec<&str> = jobs.iter().map(|j| j.name.as_str()).collect();
-                return Err(Error::InvalidInput(format!("--models: '{m}' is not in the default set; choose from {}", known.join(", "))));
+                return Err(Error::InvalidInput(format!(
+                    "--models: '{m}' is not in the default set; choose from {}",
+                    known.join(", ")
+                )));
             }
         }
         jobs.retain(|j| args.models.contains(&j.name));
@@ -190,15 +207,29 @@ fn report_options(args: &RunArgs) -> ReportOptions {
 pub fn run_default(args: &RunArgs) -> Result<()> {
     let start = Instant::now();
     let jobs = default_jobs(args)?;
-    let steps = if args.tables_only { 1 } else if args.no_report { 3 } else { 4 };
+    let steps = if args.tables_only {
+        1
+    } else if args.no_report {
+        3
+    } else {
+        4
+    };
 
     // 1. tables
     let stage = Instant::now();
-    eprintln!("[1/{steps}] tables ({} models; cached under {})", jobs.len(), args.data_dir.display());
+    eprintln!(
+        "[1/{steps}] tables ({} models; cached under {})",
+        jobs.len(),
+        args.data_dir.display()
+    );
     let mut rows = Vec::new();
     let mut tables = Vec::new();
     for (k, job) in jobs.iter().enumerate() {
-        let spec = TableSpec::new(job.model.as_ref(), &job.resolution, QuadratureSettings::default())?;
+        let spec = TableSpec::new(
+            job.model.as_ref(),
+            &job.resolution,
+            QuadratureSettings::default(),
+        )?;
         let t = get_table(job.model.as_ref(), &spec, &args.data_dir, args.force)?;
         eprintln!(
             "  {:>2}/{} {:<38} {:>12} {} in {:.1} s; max error estimate {:.1e}{}",
@@ -206,10 +237,21 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
             jobs.len(),
             job.name,
             spec.resolution_name(),
-            if t.cached { "read from cache" } else { "computed" },
+            if t.cached {
+                "read from cache"
+            } else {
+                "computed"
+            },
             t.seconds,
             t.table.summary.max_error_estimate,
-            if t.table.summary.unconverged_cells > 0 { format!(", {} cells unconverged (listed in the sidecar)", t.table.summary.unconverged_cells) } else { String::new() }
+            if t.table.summary.unconverged_cells > 0 {
+                format!(
+                    ", {} cells unconverged (listed in the sidecar)",
+                    t.table.summary.unconverged_cells
+                )
+            } else {
+                String::new()
+            }
         );
         rows.push(Row {
             name: job.name.clone(),
@@ -233,12 +275,23 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
             }
             if !args.no_report {
                 let dims = job.model.axes().len();
-                small.push((job.model.as_ref(), if dims <= 2 { options.resolution_2d } else { options.resolution_3d }));
+                small.push((
+                    job.model.as_ref(),
+                    if dims <= 2 {
+                        options.resolution_2d
+                    } else {
+                        options.resolution_3d
+                    },
+                ));
             }
         }
         let mut computed = 0;
         for (model, n) in small {
-            let spec = TableSpec::new(model, &vec![n; model.axes().len()], QuadratureSettings::default())?;
+            let spec = TableSpec::new(
+                model,
+                &vec![n; model.axes().len()],
+                QuadratureSettings::default(),
+            )?;
             let t = get_table(model, &spec, &args.data_dir, false)?;
             if !t.cached {
                 computed += 1;
@@ -256,11 +309,28 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
 
     // 2. fits
     let stage = Instant::now();
-    eprintln!("[2/{steps}] fits (degree sweeps into {})", args.scene.fits_dir.display());
+    eprintln!(
+        "[2/{steps}] fits (degree sweeps into {})",
+        args.scene.fits_dir.display()
+    );
     for ((job, t), row) in jobs.iter().zip(&tables).zip(rows.iter_mut()) {
         row.fit = sweep_or_reuse(job, t, args)?;
-        let best: Vec<String> = row.fit.best.iter().map(|(b, e)| format!("best-{b} max {}", e.map_or("none".into(), fmt_e))).collect();
-        eprintln!("  {:<38} {}: {}", job.name, if row.fit.reused { "reused (same table values and options)" } else { "fitted" }, best.join(", "));
+        let best: Vec<String> = row
+            .fit
+            .best
+            .iter()
+            .map(|(b, e)| format!("best-{b} max {}", e.map_or("none".into(), fmt_e)))
+            .collect();
+        eprintln!(
+            "  {:<38} {}: {}",
+            job.name,
+            if row.fit.reused {
+                "reused (same table values and options)"
+            } else {
+                "fitted"
+            },
+            best.join(", ")
+        );
         if let Some(n) = &row.fit.note {
             eprintln!("    {n}");
         }
@@ -269,16 +339,38 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
 
     // 3. emit
     let stage = Instant::now();
-    eprintln!("[3/{steps}] emit (Rust, WGSL, GLSL next to each best fit; LUTs under {})", args.data_dir.join("lut").display());
-    let total: usize = jobs.iter().zip(&rows).filter(|(j, _)| !j.radiance()).map(|(_, r)| r.fit.best.iter().filter(|b| b.1.is_some()).count()).sum();
+    eprintln!(
+        "[3/{steps}] emit (Rust, WGSL, GLSL next to each best fit; LUTs under {})",
+        args.data_dir.join("lut").display()
+    );
+    let total: usize = jobs
+        .iter()
+        .zip(&rows)
+        .filter(|(j, _)| !j.radiance())
+        .map(|(_, r)| r.fit.best.iter().filter(|b| b.1.is_some()).count())
+        .sum();
     let pb = progress_bar(total as u64, "emit");
-    for (job, row) in jobs.iter().zip(rows.iter_mut()).filter(|(j, _)| !j.radiance()) {
+    for (job, row) in jobs
+        .iter()
+        .zip(rows.iter_mut())
+        .filter(|(j, _)| !j.radiance())
+    {
         let dir = args.scene.fits_dir.join(&job.name);
-        let best: Vec<PathBuf> = row.fit.best.iter().filter(|b| b.1.is_some()).map(|(b, _)| dir.join(format!("best-{b}.json"))).collect();
+        let best: Vec<PathBuf> = row
+            .fit
+            .best
+            .iter()
+            .filter(|b| b.1.is_some())
+            .map(|(b, _)| dir.join(format!("best-{b}.json")))
+            .collect();
         for (k, fit) in best.iter().enumerate() {
             pb.set_message(format!("emit {}", job.name));
             // one LUT per model, compared with the largest-budget fit
-            let lang = if k + 1 == best.len() { "all" } else { "rust,wgsl,glsl" };
+            let lang = if k + 1 == best.len() {
+                "all"
+            } else {
+                "rust,wgsl,glsl"
+            };
             let emit_args = EmitArgs {
                 fit: vec![fit.clone()],
                 lang: lang.into(),
@@ -297,25 +389,42 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
                     pb.finish_and_clear();
                     return Err(e);
                 }
-                Err(e) => pb.suspend(|| eprintln!("  {}: {} not emitted: {e}", job.name, fit.display())),
+                Err(e) => {
+                    pb.suspend(|| eprintln!("  {}: {} not emitted: {e}", job.name, fit.display()))
+                }
             }
             pb.inc(1);
         }
     }
     pb.finish_and_clear();
-    eprintln!("  emit: {} files in {:.1} s", rows.iter().map(|r| r.emitted.len()).sum::<usize>(), stage.elapsed().as_secs_f64());
+    eprintln!(
+        "  emit: {} files in {:.1} s",
+        rows.iter().map(|r| r.emitted.len()).sum::<usize>(),
+        stage.elapsed().as_secs_f64()
+    );
 
     // 4. report
     if !args.no_report {
         let stage = Instant::now();
-        eprintln!("[4/{steps}] report ({})", args.reports_dir.join("README.md").display());
-        let selected: Vec<String> = REPORT_MODELS.iter().filter(|m| jobs.iter().any(|j| j.name == **m)).map(|m| m.to_string()).collect();
-        let provider = CachedTables { data_dir: &args.data_dir };
+        eprintln!(
+            "[4/{steps}] report ({})",
+            args.reports_dir.join("README.md").display()
+        );
+        let selected: Vec<String> = REPORT_MODELS
+            .iter()
+            .filter(|m| jobs.iter().any(|j| j.name == **m))
+            .map(|m| m.to_string())
+            .collect();
+        let provider = CachedTables {
+            data_dir: &args.data_dir,
+        };
         let pb = progress_bar(selected.len() as u64, "report");
         let pb_ref = &pb;
-        let progress = |m: &str| pb_ref.set_message(format!("report {}", m.split(':').next().unwrap_or(m)));
+        let progress =
+            |m: &str| pb_ref.set_message(format!("report {}", m.split(':').next().unwrap_or(m)));
         let reporter = Reporter::new(report_options(args), &provider, &progress);
-        let outcome = reporter.generate_each(Some(&selected), !args.force, &mut |_, _| pb_ref.inc(1))?;
+        let outcome =
+            reporter.generate_each(Some(&selected), !args.force, &mut |_, _| pb_ref.inc(1))?;
         pb.finish_and_clear();
         for row in rows.iter_mut() {
             row.furnace = furnace_of(&row.name, &outcome.regenerated);
@@ -340,21 +449,47 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
 /// material, or for a radiance-form table the paper comparison of its energy-form model.
 fn furnace_of(name: &str, sections: &[ModelSummary]) -> Option<f64> {
     if let Some(energy) = name.strip_suffix("-radiance") {
-        return sections.iter().find(|s| s.model == energy).and_then(|s| s.paper.as_ref()).and_then(|p| p.furnace_fit_furnace);
+        return sections
+            .iter()
+            .find(|s| s.model == energy)
+            .and_then(|s| s.paper.as_ref())
+            .and_then(|p| p.furnace_fit_furnace);
     }
     let s = sections.iter().find(|s| s.model == name)?;
-    s.furnace.first()?.variants.iter().find(|v| v.name == "furnace fit")?.stats.as_ref().map(|st| st.max_deviation)
+    s.furnace
+        .first()?
+        .variants
+        .iter()
+        .find(|v| v.name == "furnace fit")?
+        .stats
+        .as_ref()
+        .map(|st| st.max_deviation)
 }
 
 fn print_summary(rows: &[Row], args: &RunArgs, start: Instant) {
     println!();
     println!(
         "{:<38} {:>12} {:>7} {:>9} {:>7} {:>11} {:>11} {:>13} {:>6}",
-        "model", "table", "cached", "table s", "fits", "best-20 max", "best-40 max", "furnace |1−E|", "files"
+        "model",
+        "table",
+        "cached",
+        "table s",
+        "fits",
+        "best-20 max",
+        "best-40 max",
+        "furnace |1−E|",
+        "files"
     );
     let mut files = 0;
     for r in rows {
-        let best = |b: usize| r.fit.best.iter().find(|x| x.0 == b).and_then(|x| x.1).map_or("–".to_string(), fmt_e);
+        let best = |b: usize| {
+            r.fit
+                .best
+                .iter()
+                .find(|x| x.0 == b)
+                .and_then(|x| x.1)
+                .map_or("–".to_string(), fmt_e)
+        };
         let fits = if args.tables_only {
             "–"
         } else if r.fit.reused {
@@ -420,7 +555,10 @@ pub struct FileHash {
 const SWEEP_INPUTS: &str = crate::report::inputs::SWEEP_INPUTS_FILE;
 
 fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// SHA-256 of a table's values.
@@ -450,7 +588,10 @@ fn sweep_inputs(t: &Tabulated, plan: &SweepPlan) -> SweepInputs {
 fn reusable(dir: &Path, expected: &SweepInputs) -> Option<Vec<PathBuf>> {
     let text = std::fs::read_to_string(dir.join(SWEEP_INPUTS)).ok()?;
     let found: SweepInputs = serde_json::from_str(&text).ok()?;
-    let same = SweepInputs { files: found.files.clone(), ..expected.clone() };
+    let same = SweepInputs {
+        files: found.files.clone(),
+        ..expected.clone()
+    };
     if found != same {
         return None;
     }
@@ -466,7 +607,10 @@ fn reusable(dir: &Path, expected: &SweepInputs) -> Option<Vec<PathBuf>> {
     // a best file the sweep did not write must not be there (it would be a stale one)
     for e in std::fs::read_dir(dir).ok()?.flatten() {
         let n = e.file_name().to_string_lossy().into_owned();
-        if n.starts_with("best-") && n.ends_with(".json") && !found.files.iter().any(|f| f.file == n) {
+        if n.starts_with("best-")
+            && n.ends_with(".json")
+            && !found.files.iter().any(|f| f.file == n)
+        {
             return None;
         }
     }
@@ -483,7 +627,12 @@ fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<f64>)
                 return Ok((b, None));
             }
             let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
-            let rec = FitRecord::from_json(&text).map_err(|e| Error::file(&p, format!("not a fit file ({e}); delete it or run with --refit")))?;
+            let rec = FitRecord::from_json(&text).map_err(|e| {
+                Error::file(
+                    &p,
+                    format!("not a fit file ({e}); delete it or run with --refit"),
+                )
+            })?;
             Ok((b, Some(rec.fit.metrics.max_abs_error)))
         })
         .collect()
@@ -499,10 +648,16 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
     let mut inputs = sweep_inputs(t, &plan);
     if !args.refit && !args.force {
         if let Some(files) = reusable(&dir, &inputs) {
-            return Ok(FitStep { reused: true, best: best_errors(&dir, &plan.budgets)?, files, note: None });
+            return Ok(FitStep {
+                reused: true,
+                best: best_errors(&dir, &plan.budgets)?,
+                files,
+                note: None,
+            });
         }
     }
-    let planned = (plan.polynomial_degrees.len() + plan.rational_degrees.len()) * plan.transform_sets.len();
+    let planned =
+        (plan.polynomial_degrees.len() + plan.rational_degrees.len()) * plan.transform_sets.len();
     let pb = progress_bar(planned as u64, &format!("fit {}", job.name));
     let clock = Stopwatch::start();
     let outcome = job::sweep_fits(&input, &plan, &mut |_line| {
@@ -514,15 +669,27 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
     });
     pb.finish_and_clear();
     let outcome = outcome?;
-    let (files, _) = super::fit::write_sweep_files(&outcome, &dir, &args.data_dir.join("timing").join(&job.name), &clock)?;
+    let (files, _) = super::fit::write_sweep_files(
+        &outcome,
+        &dir,
+        &args.data_dir.join("timing").join(&job.name),
+        &clock,
+    )?;
     inputs.files = files
         .iter()
         .map(|p| {
             let bytes = std::fs::read(p).map_err(|e| Error::io(p, e))?;
-            Ok(FileHash { file: p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(), sha256: sha256_hex(&bytes) })
+            Ok(FileHash {
+                file: p
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                sha256: sha256_hex(&bytes),
+            })
         })
         .collect::<Result<_>>()?;
-    let json = serde_json::to_string_pretty(&inputs).map_err(|e| Error::file(dir.join(SWEEP_INPUTS), e.to_string()))?;
+    let json = serde_json::to_string_pretty(&inputs)
+        .map_err(|e| Error::file(dir.join(SWEEP_INPUTS), e.to_string()))?;
     // written last: it commits the sweep's files
     let key = dir.join(SWEEP_INPUTS);
     write_atomic(&key, format!("{json}\n").as_bytes())?;
@@ -531,8 +698,20 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
     let unusable = outcome.rows.iter().filter(|r| !r.usable).count();
     let note = (unusable > 0 || !outcome.skipped.is_empty())
         .then(|| format!("{unusable} fits not usable (pole or uncertified), {} skipped; listed in sweep.json, never chosen as best", outcome.skipped.len()));
-    let best = plan.budgets.iter().map(|&b| (b, outcome.best_record(b).map(|r| r.fit.metrics.max_abs_error))).collect();
-    Ok(FitStep { reused: false, best, files, note })
+    let best = plan
+        .budgets
+        .iter()
+        .map(|&b| {
+            (
+                b,
+                outcome.best_record(b).map(|r| r.fit.metrics.max_abs_error),
+            )
+        })
+        .collect();
+    Ok(FitStep {
+        reused: false,
+        best,
+        files,
+        note,
+    })
 }
-
-

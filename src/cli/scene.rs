@@ -46,21 +46,39 @@ pub fn run_scene(args: &SceneArgs, data_dir: &std::path::Path, force: bool) -> R
         langs: parse_langs(&args.lang)?,
         lut_resolution: args.lut_resolution,
         stress_points: args.stress_points,
-        command: format!("furnace run --scene {} --lang {}", path.display(), args.lang),
+        command: format!(
+            "furnace run --scene {} --lang {}",
+            path.display(),
+            args.lang
+        ),
     };
     let start = std::time::Instant::now();
     let out = scene::run(&manifest, &opts, &|line| eprintln!("{}", line.trim_end()))?;
-    println!("{:<30} {:>12} {:>8} {:>10} {:>10} {:>10} {:>12}", "model", "table", "cached", "fit MAE", "fit max", "f32 max Δ", "stress");
+    println!(
+        "{:<30} {:>12} {:>8} {:>10} {:>10} {:>10} {:>12}",
+        "model", "table", "cached", "fit MAE", "fit max", "f32 max Δ", "stress"
+    );
     for (f, e) in out.fitted.iter().zip(&out.emitted) {
         println!(
             "{:<30} {:>12} {:>8} {:>10.2e} {:>10.2e} {:>10.1e} {:>12}",
             f.need.model,
-            f.need.resolution.iter().map(|n| n.to_string()).collect::<Vec<_>>().join("x"),
+            f.need
+                .resolution
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join("x"),
             if f.table_cached { "yes" } else { "no" },
             f.fit.metrics.mae,
             f.fit.metrics.max_abs_error,
             e.form.chosen().max_diff(),
-            f.stress.as_ref().map_or("skipped".to_string(), |s| if s.passed() { format!("pass ({})", s.random_points) } else { "FAIL".into() })
+            f.stress
+                .as_ref()
+                .map_or("skipped".to_string(), |s| if s.passed() {
+                    format!("pass ({})", s.random_points)
+                } else {
+                    "FAIL".into()
+                })
         );
     }
     for w in &out.written {

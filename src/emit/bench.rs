@@ -78,8 +78,14 @@ pub struct BenchRow {
 
 /// One thing to time and measure.
 enum Case {
-    Fit { module: String, function: String, compiled: Compiled },
-    Lut { lut: Lut },
+    Fit {
+        module: String,
+        function: String,
+        compiled: Compiled,
+    },
+    Lut {
+        lut: Lut,
+    },
 }
 
 struct Job {
@@ -94,8 +100,14 @@ struct Job {
     reference: String,
 }
 
-fn errors_at_nodes(reference: &Table, output: &str, mut eval: impl FnMut(&[f32]) -> f32) -> Result<(f64, f64)> {
-    let o = reference.output_index(output).ok_or_else(|| Error::InvalidInput(format!("the reference table has no output '{output}'")))?;
+fn errors_at_nodes(
+    reference: &Table,
+    output: &str,
+    mut eval: impl FnMut(&[f32]) -> f32,
+) -> Result<(f64, f64)> {
+    let o = reference.output_index(output).ok_or_else(|| {
+        Error::InvalidInput(format!("the reference table has no output '{output}'"))
+    })?;
     let d = reference.spec.axes.len();
     let mut x = vec![0.0; d];
     let mut x32 = vec![0.0f32; d];
@@ -188,12 +200,20 @@ pub fn best<F: FnMut() -> f64>(passes: usize, mut f: F) -> (f64, f64) {
 "#;
 
 /// Runs the benchmark for the given fit files.
-pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>> {
+pub fn bench_eval(
+    fits: &[(PathBuf, FitFile)],
+    opts: &BenchOptions,
+    log: &dyn Fn(&str),
+) -> Result<Vec<BenchRow>> {
     if fits.is_empty() {
-        return Err(Error::InvalidInput("no fit files given; pass --fit fits/<model>/<form>.json (one or more)".into()));
+        return Err(Error::InvalidInput(
+            "no fit files given; pass --fit fits/<model>/<form>.json (one or more)".into(),
+        ));
     }
     if opts.points == 0 || opts.passes == 0 {
-        return Err(Error::InvalidInput("--points and --passes must be positive".into()));
+        return Err(Error::InvalidInput(
+            "--points and --passes must be positive".into(),
+        ));
     }
     let work = std::env::temp_dir().join(format!("furnace-bench-eval-{}", std::process::id()));
     let src_dir = work.join("src");
@@ -204,47 +224,110 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
     for (i, (path, file)) in fits.iter().enumerate() {
         let d = file.fit.approximant.variables.len();
         if !(2..=3).contains(&d) {
-            return Err(Error::file(path, format!("bench eval handles fits of 2 or 3 variables, this one has {d}")));
+            return Err(Error::file(
+                path,
+                format!("bench eval handles fits of 2 or 3 variables, this one has {d}"),
+            ));
         }
-        let n_ref = if d == 2 { opts.reference_2d } else { opts.reference_3d };
+        let n_ref = if d == 2 {
+            opts.reference_2d
+        } else {
+            opts.reference_3d
+        };
         let (model, ref_spec) = lut_spec(file, n_ref)?;
-        log(&format!("{}: reference table {} …", file.model, ref_spec.resolution_name()));
+        log(&format!(
+            "{}: reference table {} …",
+            file.model,
+            ref_spec.resolution_name()
+        ));
         let (reference, _, _) = tabulate_cached(model.as_ref(), &ref_spec, &opts.data_dir, false)?;
-        let reference_name = format!("{} {}", reference.spec.model, reference.spec.resolution_name());
+        let reference_name = format!(
+            "{} {}",
+            reference.spec.model,
+            reference.spec.resolution_name()
+        );
         // the fit, exactly as emitted
         let src = SourceFit::new(path, file.clone(), None)?;
         let name = albedo_function_name(&file.model, &file.output);
         let (_, report) = choose_form(&name, &[], &file.fit, FormChoice::Auto)?;
         let points_file = point_sets.len();
-        point_sets.push(random_points(&domain_f32(&file.fit), opts.points, 0xBE7C_0000 + i as u64));
+        point_sets.push(random_points(
+            &domain_f32(&file.fit),
+            opts.points,
+            0xBE7C_0000 + i as u64,
+        ));
         // every form, the emitted one first, so its cost can be weighed against its stability
         let mut forms = vec![report.form];
         forms.extend(EvalForm::ALL.iter().copied().filter(|&f| f != report.form));
         for form in forms {
             let module = format!("fit_{i}_{}", form.name());
-            let (unit, _) = build_unit(&module, "FURNACE_BENCH", std::slice::from_ref(&src), "furnace bench eval", FormChoice::Force(form), None)?;
+            let (unit, _) = build_unit(
+                &module,
+                "FURNACE_BENCH",
+                std::slice::from_ref(&src),
+                "furnace bench eval",
+                FormChoice::Force(form),
+                None,
+            )?;
             let code = Rust.produce(&unit)?;
-            std::fs::write(src_dir.join(&code[0].file_name), &code[0].bytes).map_err(|e| Error::io(&src_dir, e))?;
-            writeln!(modules, "#[allow(dead_code)] mod {module} {{ include!(\"{module}.rs\"); }}").ok();
+            std::fs::write(src_dir.join(&code[0].file_name), &code[0].bytes)
+                .map_err(|e| Error::io(&src_dir, e))?;
+            writeln!(
+                modules,
+                "#[allow(dead_code)] mod {module} {{ include!(\"{module}.rs\"); }}"
+            )
+            .ok();
             let (function, _) = choose_form(&name, &[], &file.fit, FormChoice::Force(form))?;
-            let compiled = Compiled::new(&Program { functions: vec![function] }, &name).map_err(|e| Error::InvalidInput(e.to_string()))?;
+            let compiled = Compiled::new(
+                &Program {
+                    functions: vec![function],
+                },
+                &name,
+            )
+            .map_err(|e| Error::InvalidInput(e.to_string()))?;
             let mut regs = Vec::new();
-            let (max_e, mean_e) = errors_at_nodes(&reference, &file.output, |x| compiled.eval_f32(x, Arith::Ieee, &mut regs))?;
-            let f32_diff = report.candidates.iter().find(|(f, _)| *f == form).map_or(f64::NAN, |(_, a)| a.max_diff());
-            let status = if form == report.form { "emitted".to_string() } else { format!("not emitted; f32 Δ {f32_diff:.1e}") };
+            let (max_e, mean_e) = errors_at_nodes(&reference, &file.output, |x| {
+                compiled.eval_f32(x, Arith::Ieee, &mut regs)
+            })?;
+            let f32_diff = report
+                .candidates
+                .iter()
+                .find(|(f, _)| *f == form)
+                .map_or(f64::NAN, |(_, a)| a.max_diff());
+            let status = if form == report.form {
+                "emitted".to_string()
+            } else {
+                format!("not emitted; f32 Δ {f32_diff:.1e}")
+            };
             jobs.push(Job {
                 model: file.model.clone(),
-                what: format!("fit {} {}, {} form ({status})", file.fit.form.label().replace("rational of degree ", "rational "), name.trim_end_matches("_albedo"), form.name()),
+                what: format!(
+                    "fit {} {}, {} form ({status})",
+                    file.fit
+                        .form
+                        .label()
+                        .replace("rational of degree ", "rational "),
+                    name.trim_end_matches("_albedo"),
+                    form.name()
+                ),
                 bytes: 4 * file.fit.n_coefficients,
                 dims: d,
                 points_file,
-                case: Case::Fit { module, function: name.clone(), compiled },
+                case: Case::Fit {
+                    module,
+                    function: name.clone(),
+                    compiled,
+                },
                 max_error: max_e,
                 mean_error: mean_e,
                 reference: reference_name.clone(),
             });
         }
-        let sizes = if d == 2 { &opts.lut_sizes_2d } else { &opts.lut_sizes_3d };
+        let sizes = if d == 2 {
+            &opts.lut_sizes_2d
+        } else {
+            &opts.lut_sizes_3d
+        };
         for &n in sizes {
             let (model, spec) = lut_spec(file, n)?;
             log(&format!("{}: LUT {} …", file.model, spec.resolution_name()));
@@ -254,7 +337,11 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
             let (max_e, mean_e) = errors_at_nodes(&reference, &file.output, |x| sampler.sample(x))?;
             jobs.push(Job {
                 model: file.model.clone(),
-                what: format!("{} LUT {}, f32", if d == 2 { "bilinear" } else { "trilinear" }, spec.resolution_name()),
+                what: format!(
+                    "{} LUT {}, f32",
+                    if d == 2 { "bilinear" } else { "trilinear" },
+                    spec.resolution_name()
+                ),
                 bytes: 4 * lut.cells(),
                 dims: d,
                 points_file,
@@ -278,7 +365,12 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
     let mut expected = Vec::new();
     for (j, job) in jobs.iter().enumerate() {
         let d = job.dims;
-        let args = |p: &str| (0..d).map(|k| format!("{p}[{d} * i + {k}]")).collect::<Vec<_>>().join(", ");
+        let args = |p: &str| {
+            (0..d)
+                .map(|k| format!("{p}[{d} * i + {k}]"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         writeln!(main, "    {{\n        let pts = read_f32(&format!(\"{{dir}}/points_{}.f32\"));\n        let n = pts.len() / {d};", job.points_file).ok();
         let floats = vec!["f32"; d].join(", ");
         let (inlined, pointer) = match &job.case {
@@ -333,7 +425,10 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
     std::fs::write(src_dir.join("main.rs"), main).map_err(|e| Error::io(&src_dir, e))?;
     let manifest = "[package]\nname = \"furnace-bench-eval\"\nversion = \"0.0.0\"\nedition = \"2021\"\npublish = false\n\n[workspace]\n\n[profile.release]\nopt-level = 3\ncodegen-units = 1\ndebug = false\n";
     std::fs::write(work.join("Cargo.toml"), manifest).map_err(|e| Error::io(&work, e))?;
-    log(&format!("building the timing crate in {} …", work.display()));
+    log(&format!(
+        "building the timing crate in {} …",
+        work.display()
+    ));
     let status = Command::new(&opts.cargo)
         .args(["build", "--release", "--quiet", "--offline", "--manifest-path"])
         .arg(work.join("Cargo.toml"))
@@ -350,18 +445,35 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
         return Err(Error::InvalidInput(format!("the timing crate in {} did not build ({status}); the emitted Rust should always compile — please report this", work.display())));
     }
     let exe = work.join("target/release/furnace-bench-eval");
-    let out = Command::new(&exe).arg(&work).output().map_err(|e| Error::io(&exe, e))?;
+    let out = Command::new(&exe)
+        .arg(&work)
+        .output()
+        .map_err(|e| Error::io(&exe, e))?;
     if !out.status.success() {
-        return Err(Error::InvalidInput(format!("the timing run failed: {}", String::from_utf8_lossy(&out.stderr))));
+        return Err(Error::InvalidInput(format!(
+            "the timing run failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        )));
     }
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     let mut rows = Vec::new();
     for line in text.lines() {
         let f: Vec<&str> = line.split('\t').collect();
-        let parse = |s: &str| s.parse::<f64>().map_err(|_| Error::InvalidInput(format!("unexpected timing output line '{line}'")));
-        let [j, t1, t2, sum] = f.as_slice() else { return Err(Error::InvalidInput(format!("unexpected timing output line '{line}'"))) };
-        let j: usize = j.parse().map_err(|_| Error::InvalidInput(format!("unexpected timing output line '{line}'")))?;
-        let job = jobs.get(j).ok_or_else(|| Error::InvalidInput(format!("unexpected timing output line '{line}'")))?;
+        let parse = |s: &str| {
+            s.parse::<f64>()
+                .map_err(|_| Error::InvalidInput(format!("unexpected timing output line '{line}'")))
+        };
+        let [j, t1, t2, sum] = f.as_slice() else {
+            return Err(Error::InvalidInput(format!(
+                "unexpected timing output line '{line}'"
+            )));
+        };
+        let j: usize = j
+            .parse()
+            .map_err(|_| Error::InvalidInput(format!("unexpected timing output line '{line}'")))?;
+        let job = jobs.get(j).ok_or_else(|| {
+            Error::InvalidInput(format!("unexpected timing output line '{line}'"))
+        })?;
         let (sum, want) = (parse(sum)?, expected[j]);
         if sum.to_bits() != want.to_bits() {
             return Err(Error::InvalidInput(format!(
@@ -381,7 +493,11 @@ pub fn bench_eval(fits: &[(PathBuf, FitFile)], opts: &BenchOptions, log: &dyn Fn
         });
     }
     if rows.len() != jobs.len() {
-        return Err(Error::InvalidInput(format!("the timing run reported {} of {} cases", rows.len(), jobs.len())));
+        return Err(Error::InvalidInput(format!(
+            "the timing run reported {} of {} cases",
+            rows.len(),
+            jobs.len()
+        )));
     }
     if opts.keep {
         log(&format!("timing crate kept in {}", work.display()));

@@ -53,12 +53,20 @@ const REQUIRED: [&str; 5] = ["tool", "tool_version", "model", "output", "fit"];
 impl FitFile {
     /// Wraps a fit written by this version of furnace.
     pub fn new(model: &str, output: &str, table: Option<TableRef>, fit: FitResult) -> FitFile {
-        FitFile { tool: "furnace".into(), tool_version: crate::VERSION.into(), model: model.into(), output: output.into(), table, fit }
+        FitFile {
+            tool: "furnace".into(),
+            tool_version: crate::VERSION.into(),
+            model: model.into(),
+            output: output.into(),
+            table,
+            fit,
+        }
     }
 
     /// Pretty JSON with a trailing newline (deterministic: the fit's own JSON is).
     pub fn to_json(&self) -> Result<String> {
-        let s = serde_json::to_string_pretty(self).map_err(|e| Error::InvalidInput(format!("fit file does not serialise: {e}")))?;
+        let s = serde_json::to_string_pretty(self)
+            .map_err(|e| Error::InvalidInput(format!("fit file does not serialise: {e}")))?;
         Ok(format!("{s}\n"))
     }
 
@@ -66,7 +74,10 @@ impl FitFile {
     /// coefficients an emitted file was generated from.
     pub fn fit_hash(&self) -> Result<String> {
         let json = self.fit.to_json()?;
-        Ok(Sha256::digest(json.as_bytes()).iter().map(|b| format!("{b:02x}")).collect())
+        Ok(Sha256::digest(json.as_bytes())
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect())
     }
 
     /// Parses and checks a fit file's text (`path` only names it in errors).
@@ -90,7 +101,13 @@ impl FitFile {
             }
         }
         if obj["tool"] != "furnace" {
-            return Err(Error::file(path, format!("written by '{}', not furnace; only furnace fit files can be emitted", obj["tool"])));
+            return Err(Error::file(
+                path,
+                format!(
+                    "written by '{}', not furnace; only furnace fit files can be emitted",
+                    obj["tool"]
+                ),
+            ));
         }
         let version = obj["tool_version"].as_str().unwrap_or("?");
         if version != crate::VERSION {
@@ -102,9 +119,19 @@ impl FitFile {
                 ),
             ));
         }
-        let file: FitFile = serde_json::from_value(value)
-            .map_err(|e| Error::file(path, format!("invalid fit file: {e}; re-create it with furnace {}", crate::VERSION)))?;
-        file.fit.approximant.validate().map_err(|e| Error::file(path, format!("invalid approximant: {e}")))?;
+        let file: FitFile = serde_json::from_value(value).map_err(|e| {
+            Error::file(
+                path,
+                format!(
+                    "invalid fit file: {e}; re-create it with furnace {}",
+                    crate::VERSION
+                ),
+            )
+        })?;
+        file.fit
+            .approximant
+            .validate()
+            .map_err(|e| Error::file(path, format!("invalid approximant: {e}")))?;
         if file.fit.approximant.variables.is_empty() {
             return Err(Error::file(path, "the approximant has no variables"));
         }
@@ -114,10 +141,20 @@ impl FitFile {
     /// A fit record written by `furnace fit` ([`crate::fit::job::FitRecord`]): its model and
     /// channel come from the record's source; a record that says it is unusable is refused.
     fn from_fit_record(value: serde_json::Value, path: &Path) -> Result<FitFile> {
-        let record: crate::fit::job::FitRecord = serde_json::from_value(value)
-            .map_err(|e| Error::file(path, format!("invalid fit record: {e}; re-create it with furnace {}", crate::VERSION)))?;
+        let record: crate::fit::job::FitRecord = serde_json::from_value(value).map_err(|e| {
+            Error::file(
+                path,
+                format!(
+                    "invalid fit record: {e}; re-create it with furnace {}",
+                    crate::VERSION
+                ),
+            )
+        })?;
         if record.tool != "furnace" {
-            return Err(Error::file(path, format!("written by '{}', not furnace", record.tool)));
+            return Err(Error::file(
+                path,
+                format!("written by '{}', not furnace", record.tool),
+            ));
         }
         if record.tool_version != crate::VERSION {
             return Err(Error::file(
@@ -130,11 +167,24 @@ impl FitFile {
             ));
         }
         if !record.usable {
-            return Err(Error::file(path, format!("the fit is not usable: {}; refit (e.g. another degree or --domain)", record.verdict)));
+            return Err(Error::file(
+                path,
+                format!(
+                    "the fit is not usable: {}; refit (e.g. another degree or --domain)",
+                    record.verdict
+                ),
+            ));
         }
-        let model = record.source.model.clone().unwrap_or_else(|| "table".into());
+        let model = record
+            .source
+            .model
+            .clone()
+            .unwrap_or_else(|| "table".into());
         let file = FitFile::new(&model, &record.source.channel, None, record.fit);
-        file.fit.approximant.validate().map_err(|e| Error::file(path, format!("invalid approximant: {e}")))?;
+        file.fit
+            .approximant
+            .validate()
+            .map_err(|e| Error::file(path, format!("invalid approximant: {e}")))?;
         Ok(file)
     }
 

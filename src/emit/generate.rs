@@ -92,7 +92,13 @@ pub enum FormChoice {
 pub fn ident(name: &str) -> String {
     let mut s: String = name
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
         .collect();
     if s.is_empty() || s.starts_with(|c: char| c.is_ascii_digit()) {
         s.insert(0, 'v');
@@ -106,18 +112,77 @@ pub fn ident(name: &str) -> String {
 /// Keywords and reserved words of Rust, WGSL or GLSL a variable name could collide with, and the
 /// names the generated bodies use themselves.
 const RESERVED: &[&str] = &[
-    "as", "break", "const", "continue", "else", "enum", "false", "fn", "for", "if", "impl", "in", "let", "loop", "match", "mod",
-    "move", "mut", "pub", "ref", "return", "self", "struct", "super", "true", "type", "use", "where", "while", "var", "out",
-    "inout", "sample", "filter", "input", "output", "float", "int", "bool", "f32", "f16", "i32", "u32", "vec2", "vec3", "vec4",
-    "uniform", "buffer", "shared", "attribute", "varying", "precise", "invariant", "discard", "switch", "case", "default",
-    "p", "q", "e", "cos_o",
+    "as",
+    "break",
+    "const",
+    "continue",
+    "else",
+    "enum",
+    "false",
+    "fn",
+    "for",
+    "if",
+    "impl",
+    "in",
+    "let",
+    "loop",
+    "match",
+    "mod",
+    "move",
+    "mut",
+    "pub",
+    "ref",
+    "return",
+    "self",
+    "struct",
+    "super",
+    "true",
+    "type",
+    "use",
+    "where",
+    "while",
+    "var",
+    "out",
+    "inout",
+    "sample",
+    "filter",
+    "input",
+    "output",
+    "float",
+    "int",
+    "bool",
+    "f32",
+    "f16",
+    "i32",
+    "u32",
+    "vec2",
+    "vec3",
+    "vec4",
+    "uniform",
+    "buffer",
+    "shared",
+    "attribute",
+    "varying",
+    "precise",
+    "invariant",
+    "discard",
+    "switch",
+    "case",
+    "default",
+    "p",
+    "q",
+    "e",
+    "cos_o",
 ];
 
 /// `ggx-conductor` → `ggx_conductor`; output `E` → `…_albedo`, `E_R` → `…_albedo_r`.
 pub fn albedo_function_name(model: &str, output: &str) -> String {
     let suffix = match output {
         "E" => String::new(),
-        o => format!("_{}", ident(o.trim_start_matches("E_").trim_start_matches('E'))),
+        o => format!(
+            "_{}",
+            ident(o.trim_start_matches("E_").trim_start_matches('E'))
+        ),
     };
     format!("{}_albedo{suffix}", ident(model))
 }
@@ -125,29 +190,51 @@ pub fn albedo_function_name(model: &str, output: &str) -> String {
 /// The largest f32 ≤ x.
 fn f32_down(x: f64) -> f32 {
     let f = x as f32;
-    if f as f64 > x { f.next_down() } else { f }
+    if f as f64 > x {
+        f.next_down()
+    } else {
+        f
+    }
 }
 /// The smallest f32 ≥ x.
 fn f32_up(x: f64) -> f32 {
     let f = x as f32;
-    if (f as f64) < x { f.next_up() } else { f }
+    if (f as f64) < x {
+        f.next_up()
+    } else {
+        f
+    }
 }
 
 /// The fitted domain rounded inwards to f32: clamping to it never leaves the domain on which
 /// the denominator was proved positive.
 pub fn domain_f32(fit: &FitResult) -> Vec<(f32, f32)> {
-    fit.approximant.domain.iter().map(|&(lo, hi)| (f32_up(lo), f32_down(hi))).collect()
+    fit.approximant
+        .domain
+        .iter()
+        .map(|&(lo, hi)| (f32_up(lo), f32_down(hi)))
+        .collect()
 }
 
 /// Centre and half-width of each transformed variable's range.
 pub fn shifts(fit: &FitResult) -> crate::fit::Result<Vec<(f64, f64)>> {
-    Ok(fit.approximant.transformed_domain()?.into_iter().map(|(lo, hi)| (0.5 * (lo + hi), 0.5 * (hi - lo))).collect())
+    Ok(fit
+        .approximant
+        .transformed_domain()?
+        .into_iter()
+        .map(|(lo, hi)| (0.5 * (lo + hi), 0.5 * (hi - lo)))
+        .collect())
 }
 
 /// The same polynomial in s, t_k = c_k + h_k s_k: Σ_e a_e Π_k Σ_{j ≤ e_k} C(e_k, j) c_k^{e_k−j} h_k^j s_k^j,
 /// summed with compensation. The exponent set (all total degrees ≤ n) is unchanged.
 pub fn shift_polynomial(p: &Polynomial, shifts: &[(f64, f64)]) -> Polynomial {
-    let index: HashMap<&[u32], usize> = p.exponents.iter().enumerate().map(|(i, e)| (e.as_slice(), i)).collect();
+    let index: HashMap<&[u32], usize> = p
+        .exponents
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (e.as_slice(), i))
+        .collect();
     let mut sums = vec![CompensatedSum::default(); p.exponents.len()];
     for (e, &a) in p.exponents.iter().zip(&p.coefficients) {
         if a == 0.0 {
@@ -179,18 +266,29 @@ pub fn shift_polynomial(p: &Polynomial, shifts: &[(f64, f64)]) -> Polynomial {
             }
         }
     }
-    Polynomial { exponents: p.exponents.clone(), coefficients: sums.iter().map(CompensatedSum::value).collect() }
+    Polynomial {
+        exponents: p.exponents.clone(),
+        coefficients: sums.iter().map(CompensatedSum::value).collect(),
+    }
 }
 
 fn binomial(n: u32, k: u32) -> f64 {
-    (0..k).fold(1.0, |c, i| c * (n - i) as f64 / (i + 1) as f64).round()
+    (0..k)
+        .fold(1.0, |c, i| c * (n - i) as f64 / (i + 1) as f64)
+        .round()
 }
 
 /// `acc + g`, written `acc − |g|` when g is a negative literal (same value, and no `+ -` in the
 /// printed code).
 fn add_signed(acc: Expr, g: Expr) -> Expr {
     match g {
-        Expr::Lit(l) if l.value.is_sign_negative() => sub(acc, Expr::Lit(Lit { value: -l.value, exact: -l.exact })),
+        Expr::Lit(l) if l.value.is_sign_negative() => sub(
+            acc,
+            Expr::Lit(Lit {
+                value: -l.value,
+                exact: -l.exact,
+            }),
+        ),
         g => add(acc, g),
     }
 }
@@ -209,11 +307,14 @@ fn horner(terms: &[(&[u32], f64)], vars: &[Expr], k: usize) -> Option<Expr> {
     let m = terms.iter().map(|(e, _)| e[k]).max().unwrap_or(0);
     let groups: Vec<Option<Expr>> = (0..=m)
         .map(|i| {
-            let sub: Vec<(&[u32], f64)> = terms.iter().copied().filter(|(e, _)| e[k] == i).collect();
+            let sub: Vec<(&[u32], f64)> =
+                terms.iter().copied().filter(|(e, _)| e[k] == i).collect();
             horner(&sub, vars, k + 1)
         })
         .collect();
-    let mut acc = groups[m as usize].clone().expect("the top power has a term");
+    let mut acc = groups[m as usize]
+        .clone()
+        .expect("the top power has a term");
     for i in (0..m as usize).rev() {
         acc = mul(acc, vars[k].clone());
         if let Some(g) = groups[i].clone() {
@@ -226,12 +327,29 @@ fn horner(terms: &[(&[u32], f64)], vars: &[Expr], k: usize) -> Option<Expr> {
 /// Horner of `p` in `vars`, as `let`s `{name}_{i}` for the powers of the first variable (d ≥ 2)
 /// and the final expression.
 fn horner_lets(name: &str, what: &str, p: &Polynomial, vars: &[Expr]) -> Vec<Stmt> {
-    let terms: Vec<(&[u32], f64)> = p.exponents.iter().map(Vec::as_slice).zip(p.coefficients.iter().copied()).collect();
-    let zero = || Stmt { name: name.into(), value: lit(0.0), comment: Some(format!("{what}: every coefficient is zero")) };
+    let terms: Vec<(&[u32], f64)> = p
+        .exponents
+        .iter()
+        .map(Vec::as_slice)
+        .zip(p.coefficients.iter().copied())
+        .collect();
+    let zero = || Stmt {
+        name: name.into(),
+        value: lit(0.0),
+        comment: Some(format!("{what}: every coefficient is zero")),
+    };
     if vars.len() < 2 {
-        return vec![horner(&terms, vars, 0).map_or_else(zero, |e| Stmt { name: name.into(), value: e, comment: Some(what.into()) })];
+        return vec![horner(&terms, vars, 0).map_or_else(zero, |e| Stmt {
+            name: name.into(),
+            value: e,
+            comment: Some(what.into()),
+        })];
     }
-    let m = terms.iter().filter(|(_, c)| *c != 0.0).map(|(e, _)| e[0]).max();
+    let m = terms
+        .iter()
+        .filter(|(_, c)| *c != 0.0)
+        .map(|(e, _)| e[0])
+        .max();
     let Some(m) = m else { return vec![zero()] };
     let mut out = Vec::new();
     let mut group_vars = Vec::new();
@@ -240,8 +358,13 @@ fn horner_lets(name: &str, what: &str, p: &Polynomial, vars: &[Expr]) -> Vec<Stm
         let g = horner(&sub, vars, 1);
         if let Some(g) = g {
             let n = format!("{name}_{i}");
-            let comment = (i == 0).then(|| format!("{what}, grouped by powers of the first variable"));
-            out.push(Stmt { name: n.clone(), value: g, comment });
+            let comment =
+                (i == 0).then(|| format!("{what}, grouped by powers of the first variable"));
+            out.push(Stmt {
+                name: n.clone(),
+                value: g,
+                comment,
+            });
             group_vars.push(Some(var(&n)));
         } else {
             group_vars.push(None);
@@ -254,7 +377,11 @@ fn horner_lets(name: &str, what: &str, p: &Polynomial, vars: &[Expr]) -> Vec<Stm
             acc = add(acc, g);
         }
     }
-    out.push(Stmt { name: name.into(), value: acc, comment: None });
+    out.push(Stmt {
+        name: name.into(),
+        value: acc,
+        comment: None,
+    });
     out
 }
 
@@ -265,7 +392,10 @@ pub enum FormPoly {
     Monomial(Polynomial),
     /// Tensor-product Bernstein coefficients with the binomials folded in: b_i·Π C(n_k, i_k),
     /// row-major (last variable fastest) over i ∈ Π [0, n_k].
-    Bernstein { degrees: Vec<u32>, coefficients: Vec<f64> },
+    Bernstein {
+        degrees: Vec<u32>,
+        coefficients: Vec<f64>,
+    },
 }
 
 impl FormPoly {
@@ -287,12 +417,19 @@ impl FormPoly {
         match self {
             FormPoly::Monomial(p) => {
                 for (e, &c) in p.exponents.iter().zip(&p.coefficients) {
-                    let m = e.iter().enumerate().take(d).fold(c, |acc, (k, &x)| acc * up[k][x as usize]);
+                    let m = e
+                        .iter()
+                        .enumerate()
+                        .take(d)
+                        .fold(c, |acc, (k, &x)| acc * up[k][x as usize]);
                     abs += m.abs();
                     sum.add(m);
                 }
             }
-            FormPoly::Bernstein { degrees, coefficients } => {
+            FormPoly::Bernstein {
+                degrees,
+                coefficients,
+            } => {
                 for (idx, &c) in coefficients.iter().enumerate() {
                     let mut rest = idx;
                     let mut m = c;
@@ -334,7 +471,9 @@ fn power_to_bernstein_axis(t: &mut [f64], degrees: &[u32], k: usize) {
 
 /// Largest exponent of each variable in `p`.
 pub fn axis_degrees(p: &Polynomial) -> Vec<u32> {
-    (0..p.dim()).map(|k| p.exponents.iter().map(|e| e[k]).max().unwrap_or(0)).collect()
+    (0..p.dim())
+        .map(|k| p.exponents.iter().map(|e| e[k]).max().unwrap_or(0))
+        .collect()
 }
 
 /// The tensor Bernstein coefficients (binomials folded in) of `p` on the box `bounds` of its
@@ -348,7 +487,10 @@ pub fn bernstein(p: &Polynomial, bounds: &[(f64, f64)], degrees: &[u32]) -> Form
     let size: usize = degrees.iter().map(|&n| n as usize + 1).product();
     let mut t = vec![0.0; size];
     for (e, &c) in pu.exponents.iter().zip(&pu.coefficients) {
-        let idx = e.iter().zip(&degrees).fold(0usize, |acc, (&x, &n)| acc * (n as usize + 1) + x as usize);
+        let idx = e
+            .iter()
+            .zip(&degrees)
+            .fold(0usize, |acc, (&x, &n)| acc * (n as usize + 1) + x as usize);
         t[idx] += c;
     }
     for k in 0..d {
@@ -364,19 +506,30 @@ pub fn bernstein(p: &Polynomial, bounds: &[(f64, f64)], degrees: &[u32]) -> Form
             *c *= binomial(n as u32, i as u32);
         }
     }
-    FormPoly::Bernstein { degrees, coefficients: t }
+    FormPoly::Bernstein {
+        degrees,
+        coefficients: t,
+    }
 }
 
 /// P and Q in the basis of `form`.
-pub fn form_polynomials(fit: &FitResult, form: EvalForm) -> crate::fit::Result<(FormPoly, Option<FormPoly>)> {
+pub fn form_polynomials(
+    fit: &FitResult,
+    form: EvalForm,
+) -> crate::fit::Result<(FormPoly, Option<FormPoly>)> {
     let a = &fit.approximant;
     Ok(match form {
-        EvalForm::Monomial => (FormPoly::Monomial(a.numerator.clone()), a.denominator.clone().map(FormPoly::Monomial)),
+        EvalForm::Monomial => (
+            FormPoly::Monomial(a.numerator.clone()),
+            a.denominator.clone().map(FormPoly::Monomial),
+        ),
         EvalForm::Shifted => {
             let sh = shifts(fit)?;
             (
                 FormPoly::Monomial(shift_polynomial(&a.numerator, &sh)),
-                a.denominator.as_ref().map(|q| FormPoly::Monomial(shift_polynomial(q, &sh))),
+                a.denominator
+                    .as_ref()
+                    .map(|q| FormPoly::Monomial(shift_polynomial(q, &sh))),
             )
         }
         EvalForm::Bernstein => {
@@ -388,7 +541,10 @@ pub fn form_polynomials(fit: &FitResult, form: EvalForm) -> crate::fit::Result<(
                     *d = (*d).max(qd);
                 }
             }
-            (bernstein(&a.numerator, &b, &degrees), a.denominator.as_ref().map(|q| bernstein(q, &b, &degrees)))
+            (
+                bernstein(&a.numerator, &b, &degrees),
+                a.denominator.as_ref().map(|q| bernstein(q, &b, &degrees)),
+            )
         }
     })
 }
@@ -396,12 +552,24 @@ pub fn form_polynomials(fit: &FitResult, form: EvalForm) -> crate::fit::Result<(
 /// The variables of `form` at an original-variable point x (clamped to the domain): t, s or u.
 pub fn form_variables(fit: &FitResult, form: EvalForm, x: &[f64]) -> crate::fit::Result<Vec<f64>> {
     let a = &fit.approximant;
-    let clamped: Vec<f64> = x.iter().zip(&a.domain).map(|(&v, &(lo, hi))| v.clamp(lo, hi)).collect();
+    let clamped: Vec<f64> = x
+        .iter()
+        .zip(&a.domain)
+        .map(|(&v, &(lo, hi))| v.clamp(lo, hi))
+        .collect();
     let t = a.transform(&clamped);
     Ok(match form {
         EvalForm::Monomial => t,
-        EvalForm::Shifted => t.iter().zip(shifts(fit)?).map(|(&t, (c, h))| (t - c) / h).collect(),
-        EvalForm::Bernstein => t.iter().zip(a.transformed_domain()?).map(|(&t, (lo, hi))| (t - lo) / (hi - lo)).collect(),
+        EvalForm::Shifted => t
+            .iter()
+            .zip(shifts(fit)?)
+            .map(|(&t, (c, h))| (t - c) / h)
+            .collect(),
+        EvalForm::Bernstein => t
+            .iter()
+            .zip(a.transformed_domain()?)
+            .map(|(&t, (lo, hi))| (t - lo) / (hi - lo))
+            .collect(),
     })
 }
 
@@ -409,7 +577,13 @@ pub fn form_variables(fit: &FitResult, form: EvalForm, x: &[f64]) -> crate::fit:
 /// Bernstein form the terms are b_i B_i(u)), ∞ where p(v) = 0.
 pub fn condition(p: &FormPoly, v: &[f64]) -> f64 {
     let (s, abs) = p.eval_abs(v);
-    if s != 0.0 { abs / s.abs() } else if abs == 0.0 { 1.0 } else { f64::INFINITY }
+    if s != 0.0 {
+        abs / s.abs()
+    } else if abs == 0.0 {
+        1.0
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// Σ_i c_i·m_i as a left-to-right sum of products (`acc ± |c|·m`), zero coefficients skipped.
@@ -431,19 +605,49 @@ fn sum_of_products(terms: &[(f64, Expr)]) -> Option<Expr> {
 /// Bernstein evaluation of `coefficients` given the basis values `basis[k][i]` =
 /// u_k^i (1 − u_k)^{n_k − i}: sums of products over the last variable, then, with the partial
 /// sums bound as `let`s `{name}_{i}_{j}…`, over the earlier ones.
-fn bernstein_lets(name: &str, what: &str, degrees: &[u32], coefficients: &[f64], basis: &[Vec<Expr>]) -> Vec<Stmt> {
-    fn level(degrees: &[u32], coefficients: &[f64], basis: &[Vec<Expr>], k: usize, prefix: &str, offset: usize, out: &mut Vec<Stmt>) -> Option<Expr> {
+fn bernstein_lets(
+    name: &str,
+    what: &str,
+    degrees: &[u32],
+    coefficients: &[f64],
+    basis: &[Vec<Expr>],
+) -> Vec<Stmt> {
+    fn level(
+        degrees: &[u32],
+        coefficients: &[f64],
+        basis: &[Vec<Expr>],
+        k: usize,
+        prefix: &str,
+        offset: usize,
+        out: &mut Vec<Stmt>,
+    ) -> Option<Expr> {
         let n = degrees[k] as usize;
         let stride: usize = degrees[k + 1..].iter().map(|&m| m as usize + 1).product();
         if k + 1 == degrees.len() {
-            let terms: Vec<(f64, Expr)> = (0..=n).map(|i| (coefficients[offset + i], basis[k][i].clone())).collect();
+            let terms: Vec<(f64, Expr)> = (0..=n)
+                .map(|i| (coefficients[offset + i], basis[k][i].clone()))
+                .collect();
             return sum_of_products(&terms);
         }
         let mut acc: Option<Expr> = None;
         for i in 0..=n {
             let sub_name = format!("{prefix}_{i}");
-            let Some(e) = level(degrees, coefficients, basis, k + 1, &sub_name, offset + i * stride, out) else { continue };
-            out.push(Stmt { name: sub_name.clone(), value: e, comment: None });
+            let Some(e) = level(
+                degrees,
+                coefficients,
+                basis,
+                k + 1,
+                &sub_name,
+                offset + i * stride,
+                out,
+            ) else {
+                continue;
+            };
+            out.push(Stmt {
+                name: sub_name.clone(),
+                value: e,
+                comment: None,
+            });
             let term = mul(var(&sub_name), basis[k][i].clone());
             acc = Some(match acc {
                 None => term,
@@ -454,14 +658,24 @@ fn bernstein_lets(name: &str, what: &str, degrees: &[u32], coefficients: &[f64],
     }
     let mut out = Vec::new();
     let e = level(degrees, coefficients, basis, 0, name, 0, &mut out);
-    let comment = Some(format!("{what}: Bernstein sums over the last variable, then the earlier ones"));
+    let comment = Some(format!(
+        "{what}: Bernstein sums over the last variable, then the earlier ones"
+    ));
     if let Some(first) = out.first_mut() {
         first.comment = comment.clone();
     }
     let top_comment = if out.is_empty() { comment } else { None };
     match e {
-        Some(e) => out.push(Stmt { name: name.into(), value: e, comment: top_comment }),
-        None => out.push(Stmt { name: name.into(), value: lit(0.0), comment: Some(format!("{what}: every coefficient is zero")) }),
+        Some(e) => out.push(Stmt {
+            name: name.into(),
+            value: e,
+            comment: top_comment,
+        }),
+        None => out.push(Stmt {
+            name: name.into(),
+            value: lit(0.0),
+            comment: Some(format!("{what}: every coefficient is zero")),
+        }),
     }
     out
 }
@@ -471,7 +685,13 @@ fn bernstein_lets(name: &str, what: &str, degrees: &[u32], coefficients: &[f64],
 fn bernstein_basis(p: &str, u: &Expr, n: u32) -> (Vec<Stmt>, Vec<Expr>) {
     let mut out = Vec::new();
     let v = format!("{p}_v");
-    out.push(Stmt { name: v.clone(), value: sub(lit(1.0), u.clone()), comment: Some(format!("Bernstein basis of {p}: u^i (1 − u)^(n − i), n = {n}")) });
+    out.push(Stmt {
+        name: v.clone(),
+        value: sub(lit(1.0), u.clone()),
+        comment: Some(format!(
+            "Bernstein basis of {p}: u^i (1 − u)^(n − i), n = {n}"
+        )),
+    });
     let n = n as usize;
     // powers u^1..u^n and v^1..v^n (u^0 = v^0 = 1 are not materialised)
     let mut up = vec![None, Some(u.clone())];
@@ -479,7 +699,11 @@ fn bernstein_basis(p: &str, u: &Expr, n: u32) -> (Vec<Stmt>, Vec<Expr>) {
     for j in 2..=n {
         for (base, pows, tag) in [(u.clone(), &mut up, "u"), (var(&v), &mut vp, "v")] {
             let name = format!("{p}_{tag}{j}");
-            out.push(Stmt { name: name.clone(), value: mul(pows[j - 1].clone().expect("lower power"), base), comment: None });
+            out.push(Stmt {
+                name: name.clone(),
+                value: mul(pows[j - 1].clone().expect("lower power"), base),
+                comment: None,
+            });
             pows.push(Some(var(&name)));
         }
     }
@@ -491,7 +715,11 @@ fn bernstein_basis(p: &str, u: &Expr, n: u32) -> (Vec<Stmt>, Vec<Expr>) {
             (a, 0) => up[a].clone().expect("power"),
             (a, b) => {
                 let name = format!("{p}_b{i}");
-                out.push(Stmt { name: name.clone(), value: mul(up[a].clone().expect("power"), vp[b].clone().expect("power")), comment: None });
+                out.push(Stmt {
+                    name: name.clone(),
+                    value: mul(up[a].clone().expect("power"), vp[b].clone().expect("power")),
+                    comment: None,
+                });
                 var(&name)
             }
         };
@@ -505,7 +733,12 @@ fn bernstein_basis(p: &str, u: &Expr, n: u32) -> (Vec<Stmt>, Vec<Expr>) {
 /// Body: clamp each input to the f32-rounded domain; apply the input transforms; shift (for
 /// [`EvalForm::Shifted`]); `p`, `q` by Horner; `e = p / q` (the unclamped value, which the
 /// stress test inspects); result `clamp(e, 0, 1)` — an albedo of an energy-conserving BSDF.
-pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: EvalForm) -> crate::fit::Result<Function> {
+pub fn albedo_function(
+    name: &str,
+    doc: Vec<String>,
+    fit: &FitResult,
+    form: EvalForm,
+) -> crate::fit::Result<Function> {
     let a = &fit.approximant;
     a.validate()?;
     let params: Vec<String> = a.variables.iter().map(|v| ident(v)).collect();
@@ -516,7 +749,11 @@ pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: Eval
         let c = format!("{p}_c");
         body.push(Stmt {
             name: c.clone(),
-            value: clamp(var(p), Expr::Lit(Lit::exact(dom[k].0)), Expr::Lit(Lit::exact(dom[k].1))),
+            value: clamp(
+                var(p),
+                Expr::Lit(Lit::exact(dom[k].0)),
+                Expr::Lit(Lit::exact(dom[k].1)),
+            ),
             comment: (k == 0).then(|| "inputs clamped to the fitted domain".to_string()),
         });
         let (lo, hi) = a.domain[k];
@@ -527,7 +764,11 @@ pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: Eval
             InputTransform::OneMinus => Some(sub(lit(1.0), var(&c))),
             InputTransform::Square => Some(mul(var(&c), var(&c))),
             InputTransform::ClampNormalize { lo: a0, hi: b0 } => {
-                let x = if lo >= a0 && hi <= b0 { var(&c) } else { clamp(var(&c), lit(a0), lit(b0)) };
+                let x = if lo >= a0 && hi <= b0 {
+                    var(&c)
+                } else {
+                    clamp(var(&c), lit(a0), lit(b0))
+                };
                 Some(mul(sub(x, lit(a0)), lit(1.0 / (b0 - a0))))
             }
             // (x(1 + k y²) + τ)/(x + k y² + τ), y = an earlier (already clamped) argument
@@ -535,13 +776,20 @@ pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: Eval
                 let y = var(&format!("{}_c", params[by]));
                 let s = || mul(lit(scale), mul(y.clone(), y.clone()));
                 let tau = || lit(crate::fit::data::LAYER_TAU);
-                Some(div(add(mul(var(&c), add(lit(1.0), s())), tau()), add(add(var(&c), s()), tau())))
+                Some(div(
+                    add(mul(var(&c), add(lit(1.0), s())), tau()),
+                    add(add(var(&c), s()), tau()),
+                ))
             }
         };
         let tname = match t {
             Some(t) => {
                 let n = format!("{p}_t");
-                body.push(Stmt { name: n.clone(), value: t, comment: Some(format!("t = {}", a.transforms[k].formula(k, &params))) });
+                body.push(Stmt {
+                    name: n.clone(),
+                    value: t,
+                    comment: Some(format!("t = {}", a.transforms[k].formula(k, &params))),
+                });
                 n
             }
             None => c,
@@ -560,7 +808,11 @@ pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: Eval
         coeffs.extend(all_coefficients(q));
     }
     if let Some(bad) = coeffs.iter().find(|c| !((**c as f32).is_finite())) {
-        return Err(crate::fit::FitError::NonFinite { what: "coefficient in f32", index: 0, value: *bad });
+        return Err(crate::fit::FitError::NonFinite {
+            what: "coefficient in f32",
+            index: 0,
+            value: *bad,
+        });
     }
     match form {
         EvalForm::Monomial | EvalForm::Shifted => {
@@ -574,8 +826,16 @@ pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: Eval
                     let n = format!("{}_s", params[k]);
                     // s = t·(1/h) − c/h
                     let scaled = mul(var(t), lit(1.0 / h));
-                    let value = if c == 0.0 { scaled } else { add_signed(scaled, lit(-c / h)) };
-                    body.push(Stmt { name: n.clone(), value, comment: Some(format!("s = (t − {c})/{h} ∈ [−1, 1]")) });
+                    let value = if c == 0.0 {
+                        scaled
+                    } else {
+                        add_signed(scaled, lit(-c / h))
+                    };
+                    body.push(Stmt {
+                        name: n.clone(),
+                        value,
+                        comment: Some(format!("s = (t − {c})/{h} ∈ [−1, 1]")),
+                    });
                     vars.push(var(&n));
                 }
                 vars
@@ -586,12 +846,23 @@ pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: Eval
             };
             body.extend(horner_lets("p", "numerator P", &mono(&num), &vars));
             if let Some(q) = &den {
-                body.extend(horner_lets("q", "denominator Q (proved positive on the domain)", &mono(q), &vars));
+                body.extend(horner_lets(
+                    "q",
+                    "denominator Q (proved positive on the domain)",
+                    &mono(q),
+                    &vars,
+                ));
             }
         }
         EvalForm::Bernstein => {
             let bounds = a.transformed_domain()?;
-            let FormPoly::Bernstein { degrees, coefficients: pc } = &num else { unreachable!("bernstein form") };
+            let FormPoly::Bernstein {
+                degrees,
+                coefficients: pc,
+            } = &num
+            else {
+                unreachable!("bernstein form")
+            };
             let mut basis = Vec::new();
             for (k, t) in tvars.iter().enumerate() {
                 let (lo, hi) = bounds[k];
@@ -611,14 +882,31 @@ pub fn albedo_function(name: &str, doc: Vec<String>, fit: &FitResult, form: Eval
                 basis.push(m);
             }
             body.extend(bernstein_lets("p", "numerator P", degrees, pc, &basis));
-            if let Some(FormPoly::Bernstein { coefficients: qc, .. }) = &den {
-                body.extend(bernstein_lets("q", "denominator Q (proved positive on the domain)", degrees, qc, &basis));
+            if let Some(FormPoly::Bernstein {
+                coefficients: qc, ..
+            }) = &den
+            {
+                body.extend(bernstein_lets(
+                    "q",
+                    "denominator Q (proved positive on the domain)",
+                    degrees,
+                    qc,
+                    &basis,
+                ));
             }
         }
     }
     match &den {
-        Some(_) => body.push(Stmt { name: "e".into(), value: div(var("p"), var("q")), comment: None }),
-        None => body.push(Stmt { name: "e".into(), value: var("p"), comment: None }),
+        Some(_) => body.push(Stmt {
+            name: "e".into(),
+            value: div(var("p"), var("q")),
+            comment: None,
+        }),
+        None => body.push(Stmt {
+            name: "e".into(),
+            value: var("p"),
+            comment: None,
+        }),
     }
     Ok(Function {
         name: name.into(),
@@ -647,7 +935,9 @@ pub struct F32Accuracy {
 
 impl F32Accuracy {
     pub fn max_diff(&self) -> f64 {
-        self.max_diff_ieee.max(self.max_diff_fused).max(self.max_diff_gpu)
+        self.max_diff_ieee
+            .max(self.max_diff_fused)
+            .max(self.max_diff_gpu)
     }
 }
 
@@ -665,21 +955,42 @@ pub fn reference(fit: &FitResult, x: &[f32]) -> (f64, f64) {
 /// Measures `compiled` (an albedo function of `fit`) at `points` (row-major f32 coordinates).
 pub fn measure(compiled: &Compiled, fit: &FitResult, points: &[f32]) -> F32Accuracy {
     let d = compiled.n_params();
-    let mut acc = F32Accuracy { points: points.len() / d, ..Default::default() };
+    let mut acc = F32Accuracy {
+        points: points.len() / d,
+        ..Default::default()
+    };
     let mut regs = Vec::new();
     let mut bregs = Vec::new();
     for (i, x) in points.chunks_exact(d).enumerate() {
         let (reference, raw) = reference(fit, x);
         acc.max_overshoot = acc.max_overshoot.max(raw - 1.0).max(-raw);
-        let diff = |v: f32| if v.is_finite() && reference.is_finite() { (v as f64 - reference).abs() } else { f64::INFINITY };
-        acc.max_diff_ieee = acc.max_diff_ieee.max(diff(compiled.eval_f32(x, Arith::Ieee, &mut regs)));
-        acc.max_diff_fused = acc.max_diff_fused.max(diff(compiled.eval_f32(x, Arith::Fused, &mut regs)));
-        acc.max_diff_gpu = acc.max_diff_gpu.max(diff(compiled.eval_f32(x, Arith::Gpu { seed: i as u64 }, &mut regs)));
+        let diff = |v: f32| {
+            if v.is_finite() && reference.is_finite() {
+                (v as f64 - reference).abs()
+            } else {
+                f64::INFINITY
+            }
+        };
+        acc.max_diff_ieee =
+            acc.max_diff_ieee
+                .max(diff(compiled.eval_f32(x, Arith::Ieee, &mut regs)));
+        acc.max_diff_fused =
+            acc.max_diff_fused
+                .max(diff(compiled.eval_f32(x, Arith::Fused, &mut regs)));
+        acc.max_diff_gpu = acc.max_diff_gpu.max(diff(compiled.eval_f32(
+            x,
+            Arith::Gpu { seed: i as u64 },
+            &mut regs,
+        )));
         compiled.eval_bound(x, &mut bregs);
         if let Some(e) = compiled.register("e") {
             // NaN (a pole) must not vanish in max()
             let b = bregs[e].1;
-            acc.max_bound = if b.is_nan() { f64::INFINITY } else { acc.max_bound.max(b) };
+            acc.max_bound = if b.is_nan() {
+                f64::INFINITY
+            } else {
+                acc.max_bound.max(b)
+            };
         }
     }
     acc
@@ -697,7 +1008,11 @@ pub fn grid_points(domain: &[(f32, f32)], n: usize) -> Vec<f32> {
             let i = rest % n;
             rest /= n;
             let (lo, hi) = domain[k];
-            x[k] = if i + 1 == n { hi } else { (lo as f64 + (hi as f64 - lo as f64) * i as f64 / (n - 1) as f64) as f32 };
+            x[k] = if i + 1 == n {
+                hi
+            } else {
+                (lo as f64 + (hi as f64 - lo as f64) * i as f64 / (n - 1) as f64) as f32
+            };
         }
         out.extend_from_slice(&x);
     }
@@ -725,7 +1040,12 @@ pub struct FormReport {
 impl FormReport {
     /// The accuracy of the chosen form.
     pub fn chosen(&self) -> &F32Accuracy {
-        &self.candidates.iter().find(|(f, _)| *f == self.form).expect("the chosen form was measured").1
+        &self
+            .candidates
+            .iter()
+            .find(|(f, _)| *f == self.form)
+            .expect("the chosen form was measured")
+            .1
     }
 
     /// Header lines saying which form and why.
@@ -734,34 +1054,59 @@ impl FormReport {
         let numbers = self
             .candidates
             .iter()
-            .map(|(f, a)| format!("{} {:.1e} (bound {:.1e})", f.name(), a.max_diff(), a.max_bound))
+            .map(|(f, a)| {
+                format!(
+                    "{} {:.1e} (bound {:.1e})",
+                    f.name(),
+                    a.max_diff(),
+                    a.max_bound
+                )
+            })
             .collect::<Vec<_>>()
             .join(", ");
         let why = if self.forced {
             "chosen by --form".to_string()
         } else if self.chosen().max_diff() <= STABLE_ERROR {
             if self.form == EvalForm::Monomial {
-                format!("the cheapest form, and stable in f32 (max |f32 − f64| ≤ {STABLE_ERROR:.1e})")
+                format!(
+                    "the cheapest form, and stable in f32 (max |f32 − f64| ≤ {STABLE_ERROR:.1e})"
+                )
             } else {
                 format!("the cheapest form with max |f32 − f64| ≤ {STABLE_ERROR:.1e}; the monomial form cancels in f32")
             }
         } else {
-            format!("no form keeps max |f32 − f64| ≤ {STABLE_ERROR:.1e}; this one is the most accurate")
+            format!(
+                "no form keeps max |f32 − f64| ≤ {STABLE_ERROR:.1e}; this one is the most accurate"
+            )
         };
-        v.push(format!("  Why: {why}. Max |f32 − f64| on {} grid points: {numbers}.", self.chosen().points));
+        v.push(format!(
+            "  Why: {why}. Max |f32 − f64| on {} grid points: {numbers}.",
+            self.chosen().points
+        ));
         v
     }
 }
 
 /// Builds every form, measures them on the grid and picks the cheapest whose error is under
 /// [`STABLE_ERROR`], else the most accurate (or the forced one).
-pub fn choose_form(name: &str, doc: &[String], fit: &FitResult, choice: FormChoice) -> crate::Result<(Function, FormReport)> {
-    let points = grid_points(&domain_f32(fit), measurement_nodes(fit.approximant.variables.len()));
+pub fn choose_form(
+    name: &str,
+    doc: &[String],
+    fit: &FitResult,
+    choice: FormChoice,
+) -> crate::Result<(Function, FormReport)> {
+    let points = grid_points(
+        &domain_f32(fit),
+        measurement_nodes(fit.approximant.variables.len()),
+    );
     let mut built = Vec::new();
     for form in EvalForm::ALL {
         let f = albedo_function(name, doc.to_vec(), fit, form)?;
-        let program = super::ir::Program { functions: vec![f.clone()] };
-        let c = Compiled::new(&program, name).map_err(|e| crate::Error::InvalidInput(e.to_string()))?;
+        let program = super::ir::Program {
+            functions: vec![f.clone()],
+        };
+        let c =
+            Compiled::new(&program, name).map_err(|e| crate::Error::InvalidInput(e.to_string()))?;
         let acc = measure(&c, fit, &points);
         built.push((form, f, acc));
     }
@@ -769,12 +1114,29 @@ pub fn choose_form(name: &str, doc: &[String], fit: &FitResult, choice: FormChoi
         FormChoice::Force(f) => f,
         FormChoice::Auto => match built.iter().find(|(_, _, a)| a.max_diff() <= STABLE_ERROR) {
             Some((f, _, _)) => *f,
-            None => built.iter().min_by(|a, b| a.2.max_diff().total_cmp(&b.2.max_diff())).expect("three forms").0,
+            None => {
+                built
+                    .iter()
+                    .min_by(|a, b| a.2.max_diff().total_cmp(&b.2.max_diff()))
+                    .expect("three forms")
+                    .0
+            }
         },
     };
     let candidates = built.iter().map(|(f, _, a)| (*f, a.clone())).collect();
-    let function = built.into_iter().find(|(f, _, _)| *f == form).expect("built").1;
-    Ok((function, FormReport { form, forced: matches!(choice, FormChoice::Force(_)), candidates }))
+    let function = built
+        .into_iter()
+        .find(|(f, _, _)| *f == form)
+        .expect("built")
+        .1;
+    Ok((
+        function,
+        FormReport {
+            form,
+            forced: matches!(choice, FormChoice::Force(_)),
+            candidates,
+        },
+    ))
 }
 
 #[cfg(test)]
@@ -785,14 +1147,24 @@ mod tests {
     #[test]
     fn shifting_preserves_the_polynomial() {
         let e = exponents(3, 3);
-        let c: Vec<f64> = (0..e.len()).map(|i| ((i * 37 % 11) as f64 - 5.0) * 40.0).collect();
-        let p = Polynomial { exponents: e, coefficients: c };
+        let c: Vec<f64> = (0..e.len())
+            .map(|i| ((i * 37 % 11) as f64 - 5.0) * 40.0)
+            .collect();
+        let p = Polynomial {
+            exponents: e,
+            coefficients: c,
+        };
         let sh = [(0.5, 0.5), (0.3, 0.2), (0.75, 0.25)];
         let q = shift_polynomial(&p, &sh);
         for &(a, b, cc) in &[(0.1, 0.2, 0.6), (1.0, 0.5, 1.0), (0.0, 0.1, 0.5)] {
             let t = [a, b, cc];
             let s: Vec<f64> = t.iter().zip(&sh).map(|(&t, &(c, h))| (t - c) / h).collect();
-            assert!((p.eval(&t) - q.eval(&s)).abs() < 1e-11, "{} vs {}", p.eval(&t), q.eval(&s));
+            assert!(
+                (p.eval(&t) - q.eval(&s)).abs() < 1e-11,
+                "{} vs {}",
+                p.eval(&t),
+                q.eval(&s)
+            );
         }
     }
 
@@ -801,8 +1173,14 @@ mod tests {
         assert_eq!(ident("F0"), "f0");
         assert_eq!(ident("ggx-dielectric-inv"), "ggx_dielectric_inv");
         assert_eq!(ident("3d"), "v3d");
-        assert_eq!(albedo_function_name("ggx-conductor", "E"), "ggx_conductor_albedo");
-        assert_eq!(albedo_function_name("ggx-dielectric", "E_T"), "ggx_dielectric_albedo_t");
+        assert_eq!(
+            albedo_function_name("ggx-conductor", "E"),
+            "ggx_conductor_albedo"
+        );
+        assert_eq!(
+            albedo_function_name("ggx-dielectric", "E_T"),
+            "ggx_dielectric_albedo_t"
+        );
     }
 
     #[test]
@@ -812,4 +1190,3 @@ mod tests {
         assert_eq!(f32_up(1.0), 1.0);
     }
 }
-

@@ -24,17 +24,36 @@ impl Syntax for Glsl {
         format!("sqrt({})", a.text)
     }
     fn select_ge(&self, a: Operand, b: Operand, then: Operand, otherwise: Operand) -> String {
-        format!("{} >= {} ? {} : {}", a.wrapped(), b.wrapped(), then.wrapped(), otherwise.wrapped())
+        format!(
+            "{} >= {} ? {} : {}",
+            a.wrapped(),
+            b.wrapped(),
+            then.wrapped(),
+            otherwise.wrapped()
+        )
     }
     fn prologue(&self, unit: &Unit) -> Vec<String> {
-        vec![format!("#ifndef {}", unit.guard), format!("#define {}", unit.guard), String::new()]
+        vec![
+            format!("#ifndef {}", unit.guard),
+            format!("#define {}", unit.guard),
+            String::new(),
+        ]
     }
     fn epilogue(&self, unit: &Unit) -> Vec<String> {
         vec![format!("#endif // {}", unit.guard)]
     }
     fn open_function(&self, f: &Function) -> Vec<String> {
-        let mut v: Vec<String> = f.doc.iter().map(|l| format!("// {l}").trim_end().to_string()).collect();
-        let params = f.params.iter().map(|p| format!("float {p}")).collect::<Vec<_>>().join(", ");
+        let mut v: Vec<String> = f
+            .doc
+            .iter()
+            .map(|l| format!("// {l}").trim_end().to_string())
+            .collect();
+        let params = f
+            .params
+            .iter()
+            .map(|p| format!("float {p}"))
+            .collect::<Vec<_>>()
+            .join(", ");
         v.push(format!("float {}({params}) {{", f.name));
         v
     }
@@ -51,6 +70,9 @@ impl Emitter for Glsl {
         "glsl"
     }
     fn produce(&self, unit: &Unit) -> crate::Result<Vec<Artifact>> {
-        Ok(vec![Artifact::code(format!("{}.glsl", unit.stem), render(unit, self))])
+        Ok(vec![Artifact::code(
+            format!("{}.glsl", unit.stem),
+            render(unit, self),
+        )])
     }
 }

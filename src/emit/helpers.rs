@@ -120,14 +120,35 @@ fn sided(albedos: &[AlbedoRef]) -> Vec<Function> {
             continue;
         }
         let leave_model = format!("ggx-dielectric-inv{smith}");
-        let Some(leave) = albedos.iter().find(|a| a.model == leave_model && a.params == enter.params) else { continue };
+        let Some(leave) = albedos
+            .iter()
+            .find(|a| a.model == leave_model && a.params == enter.params)
+        else {
+            continue;
+        };
         if !enter.params.iter().any(|p| p == "mu") {
             continue;
         }
         let prefix = ident(&enter.model);
-        let params: Vec<String> = enter.params.iter().map(|p| if p == "mu" { "cos_o".to_string() } else { p.clone() }).collect();
+        let params: Vec<String> = enter
+            .params
+            .iter()
+            .map(|p| {
+                if p == "mu" {
+                    "cos_o".to_string()
+                } else {
+                    p.clone()
+                }
+            })
+            .collect();
         let args = |mu: super::ir::Expr, a: &AlbedoRef| {
-            call(&a.function, a.params.iter().map(|p| if p == "mu" { mu.clone() } else { var(p) }).collect())
+            call(
+                &a.function,
+                a.params
+                    .iter()
+                    .map(|p| if p == "mu" { mu.clone() } else { var(p) })
+                    .collect(),
+            )
         };
         let albedo_name = format!("{prefix}_sided_albedo");
         out.push(Function {
@@ -141,12 +162,17 @@ fn sided(albedos: &[AlbedoRef]) -> Vec<Function> {
             body: vec![],
             result: select_ge(var("cos_o"), lit(0.0), args(var("cos_o"), enter), args(sub(lit(0.0), var("cos_o")), leave)),
         });
-        let sided_ref = AlbedoRef { model: enter.model.clone(), function: albedo_name, params };
+        let sided_ref = AlbedoRef {
+            model: enter.model.clone(),
+            function: albedo_name,
+            params,
+        };
         out.push(normalization(
             format!("{prefix}_sided_normalization"),
             &sided_ref,
             vec![
-                "1/E for the side ωo is on (see the sided albedo above): divide ρ_R + ρ_T by it".into(),
+                "1/E for the side ωo is on (see the sided albedo above): divide ρ_R + ρ_T by it"
+                    .into(),
                 "(Sforza & Pellacini 2022, eq. 19).".into(),
             ],
         ));

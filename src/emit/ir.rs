@@ -24,11 +24,17 @@ pub struct Lit {
 impl Lit {
     /// The f32 nearest to `x`.
     pub fn nearest(x: f64) -> Lit {
-        Lit { value: x as f32, exact: x }
+        Lit {
+            value: x as f32,
+            exact: x,
+        }
     }
     /// An f32 that is exactly the value meant (a clamp bound, 1, 2, …).
     pub fn exact(x: f32) -> Lit {
-        Lit { value: x, exact: x as f64 }
+        Lit {
+            value: x,
+            exact: x as f64,
+        }
     }
 }
 
@@ -48,7 +54,12 @@ pub enum Expr {
     /// A call of an earlier function of the same program.
     Call(String, Vec<Expr>),
     /// `if a >= b { then } else { otherwise }`.
-    SelectGe { a: Box<Expr>, b: Box<Expr>, then: Box<Expr>, otherwise: Box<Expr> },
+    SelectGe {
+        a: Box<Expr>,
+        b: Box<Expr>,
+        then: Box<Expr>,
+        otherwise: Box<Expr>,
+    },
 }
 
 /// Shorthand constructors, so generator code reads like the formula.
@@ -85,7 +96,12 @@ pub mod build {
         Expr::Call(name.to_string(), args)
     }
     pub fn select_ge(a: Expr, b: Expr, then: Expr, otherwise: Expr) -> Expr {
-        Expr::SelectGe { a: Box::new(a), b: Box::new(b), then: Box::new(then), otherwise: Box::new(otherwise) }
+        Expr::SelectGe {
+            a: Box::new(a),
+            b: Box::new(b),
+            then: Box::new(then),
+            otherwise: Box::new(otherwise),
+        }
     }
     /// `max(min(x, hi), lo)`: clamp that maps +∞ to hi and −∞ to lo.
     pub fn clamp(x: Expr, lo: Expr, hi: Expr) -> Expr {
@@ -140,7 +156,9 @@ pub fn precedence(e: &Expr) -> u8 {
 /// always (floating-point + and × are not associative), and a negative literal on the right.
 pub fn needs_parens(child: &Expr, parent_prec: u8, right: bool) -> bool {
     let p = precedence(child);
-    p < parent_prec || (right && p == parent_prec) || (right && matches!(child, Expr::Lit(l) if l.value.is_sign_negative()))
+    p < parent_prec
+        || (right && p == parent_prec)
+        || (right && matches!(child, Expr::Lit(l) if l.value.is_sign_negative()))
 }
 
 /// The shortest decimal that denotes exactly `x` whether a compiler parses it straight to f32 or
@@ -148,10 +166,20 @@ pub fn needs_parens(child: &Expr, parent_prec: u8, right: bool) -> bool {
 /// to the shortest f64 decimal of `x`, which is exact in both paths. Always has a `.` or an
 /// exponent, so it is a float literal in Rust, WGSL and GLSL.
 pub fn float_literal(x: f32) -> String {
-    assert!(x.is_finite(), "emitted literals are finite (checked when the program is built)");
+    assert!(
+        x.is_finite(),
+        "emitted literals are finite (checked when the program is built)"
+    );
     let short = format!("{x:?}"); // Rust's shortest round-trip form, e.g. 0.1, 1.0, 1e-7
-    let candidate = if round_trips(&short, x) { short } else { format!("{:?}", x as f64) };
-    debug_assert!(round_trips(&candidate, x), "{candidate} does not round-trip {x:e}");
+    let candidate = if round_trips(&short, x) {
+        short
+    } else {
+        format!("{:?}", x as f64)
+    };
+    debug_assert!(
+        round_trips(&candidate, x),
+        "{candidate} does not round-trip {x:e}"
+    );
     if candidate.contains(['.', 'e', 'E']) {
         candidate
     } else {
@@ -225,18 +253,29 @@ pub enum IrError {
     #[error("variable '{name}' is not defined in function '{function}' (a generator bug; please report it)")]
     UnknownVariable { function: String, name: String },
     #[error("call of '{function}' with {got} arguments, expected {expected} (a generator bug; please report it)")]
-    Arity { function: String, expected: usize, got: usize },
+    Arity {
+        function: String,
+        expected: usize,
+        got: usize,
+    },
 }
 
 impl Compiled {
     /// Flattens function `name` of `program`.
     pub fn new(program: &Program, name: &str) -> Result<Compiled, IrError> {
-        let f = program.function(name).ok_or_else(|| IrError::UnknownFunction(name.into()))?;
+        let f = program
+            .function(name)
+            .ok_or_else(|| IrError::UnknownFunction(name.into()))?;
         let mut nodes: Vec<Node> = (0..f.params.len()).map(Node::Param).collect();
         let params: Vec<usize> = (0..f.params.len()).collect();
         let mut lets = HashMap::new();
         let result = inline(program, f, &params, &mut nodes, Some(&mut lets))?;
-        Ok(Compiled { nodes, n_params: f.params.len(), result, lets })
+        Ok(Compiled {
+            nodes,
+            n_params: f.params.len(),
+            result,
+            lets,
+        })
     }
 
     pub fn n_params(&self) -> usize {
@@ -276,16 +315,28 @@ impl Compiled {
                 Node::Mul(a, b) => regs[a] * regs[b],
                 Node::Div(a, b) => {
                     let q = regs[a] / regs[b];
-                    if matches!(arith, Arith::Gpu { .. }) { perturb(q, GPU_DIV_ULPS, &mut rng) } else { q }
+                    if matches!(arith, Arith::Gpu { .. }) {
+                        perturb(q, GPU_DIV_ULPS, &mut rng)
+                    } else {
+                        q
+                    }
                 }
                 Node::Min(a, b) => regs[a].min(regs[b]),
                 Node::Max(a, b) => regs[a].max(regs[b]),
                 Node::Sqrt(a) => {
                     let s = regs[a].sqrt();
-                    if matches!(arith, Arith::Gpu { .. }) && s > 0.0 { perturb(s, GPU_SQRT_ULPS, &mut rng) } else { s }
+                    if matches!(arith, Arith::Gpu { .. }) && s > 0.0 {
+                        perturb(s, GPU_SQRT_ULPS, &mut rng)
+                    } else {
+                        s
+                    }
                 }
                 Node::SelectGe(a, b, t, e) => {
-                    if regs[a] >= regs[b] { regs[t] } else { regs[e] }
+                    if regs[a] >= regs[b] {
+                        regs[t]
+                    } else {
+                        regs[e]
+                    }
                 }
             };
             regs[i] = v;
@@ -304,10 +355,18 @@ impl Compiled {
             }
             if let Node::Mul(x, y) = self.nodes[b] {
                 let (x, y) = (regs[x], regs[y]);
-                return if negate_b { (-x).mul_add(y, regs[a]) } else { x.mul_add(y, regs[a]) };
+                return if negate_b {
+                    (-x).mul_add(y, regs[a])
+                } else {
+                    x.mul_add(y, regs[a])
+                };
             }
         }
-        if negate_b { regs[a] - regs[b] } else { regs[a] + regs[b] }
+        if negate_b {
+            regs[a] - regs[b]
+        } else {
+            regs[a] + regs[b]
+        }
     }
 
     /// Evaluates with exact-coefficient f64 arithmetic and a first-order bound on the f32
@@ -322,7 +381,11 @@ impl Compiled {
                 Node::Param(k) => (x[k] as f64, 0.0),
                 Node::Add(a, b) | Node::Sub(a, b) => {
                     let ((va, ea), (vb, eb)) = (regs[a], regs[b]);
-                    let v = if matches!(node, Node::Add(..)) { va + vb } else { va - vb };
+                    let v = if matches!(node, Node::Add(..)) {
+                        va + vb
+                    } else {
+                        va - vb
+                    };
                     (v, ea + eb + U * (v.abs() + ea + eb))
                 }
                 Node::Mul(a, b) => {
@@ -333,7 +396,11 @@ impl Compiled {
                 Node::Div(a, b) => {
                     let ((va, ea), (vb, eb)) = (regs[a], regs[b]);
                     let v = va / vb;
-                    let e = if eb < vb.abs() { (ea + v.abs() * eb) / (vb.abs() - eb) } else { f64::INFINITY };
+                    let e = if eb < vb.abs() {
+                        (ea + v.abs() * eb) / (vb.abs() - eb)
+                    } else {
+                        f64::INFINITY
+                    };
                     (v, e + DIV_REL * (v.abs() + e))
                 }
                 Node::Min(a, b) => {
@@ -348,11 +415,19 @@ impl Compiled {
                     let (va, ea) = regs[a];
                     let v = va.max(0.0).sqrt();
                     // |√â − √a| ≤ ε/(√a + √(a−ε)) when a > ε, and ≤ √ε always
-                    let e = if va > 2.0 * ea { ea / (v + (va - ea).sqrt()) } else { ea.sqrt() };
+                    let e = if va > 2.0 * ea {
+                        ea / (v + (va - ea).sqrt())
+                    } else {
+                        ea.sqrt()
+                    };
                     (v, e + SQRT_REL * (v + e))
                 }
                 Node::SelectGe(a, b, t, e) => {
-                    if regs[a].0 >= regs[b].0 { regs[t] } else { regs[e] }
+                    if regs[a].0 >= regs[b].0 {
+                        regs[t]
+                    } else {
+                        regs[e]
+                    }
                 }
             };
             regs[i] = r;
@@ -371,7 +446,11 @@ fn perturb(v: f32, ulps: u32, state: &mut u64) -> f32 {
     let k = (z % (2 * ulps as u64 + 1)) as i64 - ulps as i64;
     let mut out = v;
     for _ in 0..k.unsigned_abs() {
-        out = if k > 0 { out.next_up() } else { out.next_down() };
+        out = if k > 0 {
+            out.next_up()
+        } else {
+            out.next_down()
+        };
     }
     out
 }
@@ -384,9 +463,14 @@ fn inline(
     mut lets_out: Option<&mut HashMap<String, usize>>,
 ) -> Result<usize, IrError> {
     if args.len() != f.params.len() {
-        return Err(IrError::Arity { function: f.name.clone(), expected: f.params.len(), got: args.len() });
+        return Err(IrError::Arity {
+            function: f.name.clone(),
+            expected: f.params.len(),
+            got: args.len(),
+        });
     }
-    let mut env: HashMap<String, usize> = f.params.iter().cloned().zip(args.iter().copied()).collect();
+    let mut env: HashMap<String, usize> =
+        f.params.iter().cloned().zip(args.iter().copied()).collect();
     for s in &f.body {
         let r = lower(program, f, &s.value, &env, nodes)?;
         env.insert(s.name.clone(), r);
@@ -397,8 +481,18 @@ fn inline(
     lower(program, f, &f.result, &env, nodes)
 }
 
-fn lower(program: &Program, f: &Function, e: &Expr, env: &HashMap<String, usize>, nodes: &mut Vec<Node>) -> Result<usize, IrError> {
-    let bin = |a: &Expr, b: &Expr, nodes: &mut Vec<Node>, mk: fn(usize, usize) -> Node| -> Result<usize, IrError> {
+fn lower(
+    program: &Program,
+    f: &Function,
+    e: &Expr,
+    env: &HashMap<String, usize>,
+    nodes: &mut Vec<Node>,
+) -> Result<usize, IrError> {
+    let bin = |a: &Expr,
+               b: &Expr,
+               nodes: &mut Vec<Node>,
+               mk: fn(usize, usize) -> Node|
+     -> Result<usize, IrError> {
         let ra = lower(program, f, a, env, nodes)?;
         let rb = lower(program, f, b, env, nodes)?;
         nodes.push(mk(ra, rb));
@@ -412,7 +506,10 @@ fn lower(program: &Program, f: &Function, e: &Expr, env: &HashMap<String, usize>
         Expr::Var(name) => env
             .get(name)
             .copied()
-            .ok_or_else(|| IrError::UnknownVariable { function: f.name.clone(), name: name.clone() }),
+            .ok_or_else(|| IrError::UnknownVariable {
+                function: f.name.clone(),
+                name: name.clone(),
+            }),
         Expr::Add(a, b) => bin(a, b, nodes, Node::Add),
         Expr::Sub(a, b) => bin(a, b, nodes, Node::Sub),
         Expr::Mul(a, b) => bin(a, b, nodes, Node::Mul),
@@ -425,11 +522,21 @@ fn lower(program: &Program, f: &Function, e: &Expr, env: &HashMap<String, usize>
             Ok(nodes.len() - 1)
         }
         Expr::Call(name, call_args) => {
-            let g = program.function(name).ok_or_else(|| IrError::UnknownFunction(name.clone()))?;
-            let regs = call_args.iter().map(|a| lower(program, f, a, env, nodes)).collect::<Result<Vec<_>, _>>()?;
+            let g = program
+                .function(name)
+                .ok_or_else(|| IrError::UnknownFunction(name.clone()))?;
+            let regs = call_args
+                .iter()
+                .map(|a| lower(program, f, a, env, nodes))
+                .collect::<Result<Vec<_>, _>>()?;
             inline(program, g, &regs, nodes, None)
         }
-        Expr::SelectGe { a, b, then, otherwise } => {
+        Expr::SelectGe {
+            a,
+            b,
+            then,
+            otherwise,
+        } => {
             let ra = lower(program, f, a, env, nodes)?;
             let rb = lower(program, f, b, env, nodes)?;
             let rt = lower(program, f, then, env, nodes)?;
@@ -448,9 +555,23 @@ mod tests {
     #[test]
     fn literals_round_trip_both_ways_and_look_like_floats() {
         let mut state = 0x1234_5678u64;
-        let mut xs = vec![0.0f32, -0.0, 1.0, 2.0, 0.1, -400.04813, 1e-7, 3.4028235e38, 1.0e-45, 16777216.0, 0.0125];
+        let mut xs = vec![
+            0.0f32,
+            -0.0,
+            1.0,
+            2.0,
+            0.1,
+            -400.04813,
+            1e-7,
+            3.4028235e38,
+            1.0e-45,
+            16777216.0,
+            0.0125,
+        ];
         for _ in 0..20_000 {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             let x = f32::from_bits((state >> 32) as u32);
             if x.is_finite() {
                 xs.push(x);
@@ -460,7 +581,11 @@ mod tests {
             let s = float_literal(x);
             assert!(s.contains(['.', 'e']), "{s}");
             assert_eq!(s.parse::<f32>().unwrap().to_bits(), x.to_bits(), "{s}");
-            assert_eq!((s.parse::<f64>().unwrap() as f32).to_bits(), x.to_bits(), "{s}");
+            assert_eq!(
+                (s.parse::<f64>().unwrap() as f32).to_bits(),
+                x.to_bits(),
+                "{s}"
+            );
         }
         assert_eq!(float_literal(1.0), "1.0");
         assert_eq!(float_literal(0.1), "0.1");
@@ -472,7 +597,11 @@ mod tests {
                 name: "f".into(),
                 doc: vec![],
                 params: vec!["x".into(), "y".into()],
-                body: vec![Stmt { name: "t".into(), value: mul(var("x"), var("y")), comment: None }],
+                body: vec![Stmt {
+                    name: "t".into(),
+                    value: mul(var("x"), var("y")),
+                    comment: None,
+                }],
                 result,
             }],
         }
@@ -491,7 +620,10 @@ mod tests {
         assert_eq!(fused, 2f32.powi(-11) + 2f32.powi(-24));
         let (v, bound) = c.eval_bound(&[x, x], &mut Vec::new());
         assert!((v - fused as f64).abs() < 1e-15);
-        assert!((ieee as f64 - v).abs() <= bound, "bound {bound} must cover the IEEE rounding");
+        assert!(
+            (ieee as f64 - v).abs() <= bound,
+            "bound {bound} must cover the IEEE rounding"
+        );
     }
 
     #[test]
@@ -523,12 +655,20 @@ mod tests {
             doc: vec![],
             params: vec!["a".into()],
             body: vec![],
-            result: select_ge(var("a"), lit(0.0), call("f", vec![var("a"), lit(3.0)]), call("f", vec![sub(lit(0.0), var("a")), lit(1.0)])),
+            result: select_ge(
+                var("a"),
+                lit(0.0),
+                call("f", vec![var("a"), lit(3.0)]),
+                call("f", vec![sub(lit(0.0), var("a")), lit(1.0)]),
+            ),
         });
         let c = Compiled::new(&p, "g").unwrap();
         let mut regs = Vec::new();
         assert_eq!(c.eval_f32(&[2.0], Arith::Ieee, &mut regs), 12.0);
         assert_eq!(c.eval_f32(&[-2.0], Arith::Ieee, &mut regs), 4.0);
-        assert!(matches!(Compiled::new(&p, "nope"), Err(IrError::UnknownFunction(_))));
+        assert!(matches!(
+            Compiled::new(&p, "nope"),
+            Err(IrError::UnknownFunction(_))
+        ));
     }
 }

@@ -61,7 +61,11 @@ impl Lut {
     /// Output `output` of `table`, stored under `stem`.
     pub fn from_table(table: &Table, output: &str, stem: String) -> Result<Lut> {
         let o = table.output_index(output).ok_or_else(|| {
-            Error::InvalidInput(format!("table of {} has no output '{output}'; it has {}", table.spec.model, table.spec.outputs.join(", ")))
+            Error::InvalidInput(format!(
+                "table of {} has no output '{output}'; it has {}",
+                table.spec.model,
+                table.spec.outputs.join(", ")
+            ))
         })?;
         if table.cells() > MAX_LUT_CELLS {
             return Err(Error::InvalidInput(format!(
@@ -100,7 +104,10 @@ impl Lut {
 
     /// A sampler over the f16 values (widened to f32, as a texture unit does).
     pub fn sampler_f16(&self) -> Sampler {
-        Sampler::new(&self.axes, self.values_f16().iter().map(|h| h.to_f32()).collect())
+        Sampler::new(
+            &self.axes,
+            self.values_f16().iter().map(|h| h.to_f32()).collect(),
+        )
     }
 }
 
@@ -122,8 +129,15 @@ impl Sampler {
         for k in (0..d.saturating_sub(1)).rev() {
             strides[k] = strides[k + 1] * axes[k + 1].n;
         }
-        let axes = axes.iter().map(|a| (a.lo as f32, ((a.n - 1) as f64 / (a.hi - a.lo)) as f32, a.n)).collect();
-        Sampler { axes, strides, data }
+        let axes = axes
+            .iter()
+            .map(|a| (a.lo as f32, ((a.n - 1) as f64 / (a.hi - a.lo)) as f32, a.n))
+            .collect();
+        Sampler {
+            axes,
+            strides,
+            data,
+        }
     }
 
     /// The interpolated value at `x` (one coordinate per axis).
@@ -164,7 +178,12 @@ impl Sampler {
 
 /// Reads `spec` from the table cache under `data_dir` (`data/<model>/<resolution>…`), or
 /// tabulates and caches it. Returns the table, its stem and whether it came from the cache.
-pub fn tabulate_cached(model: &dyn Model, spec: &TableSpec, data_dir: &Path, force: bool) -> Result<(Table, PathBuf, bool)> {
+pub fn tabulate_cached(
+    model: &dyn Model,
+    spec: &TableSpec,
+    data_dir: &Path,
+    force: bool,
+) -> Result<(Table, PathBuf, bool)> {
     let stem = io::table_stem(data_dir, model, spec);
     if !force {
         if let Some(t) = io::load_cached(spec, &stem)? {
@@ -179,16 +198,26 @@ pub fn tabulate_cached(model: &dyn Model, spec: &TableSpec, data_dir: &Path, for
 /// Errors of the LUT (f32 and f16 values, multilinear in f32) and of the emitted f32 fit at
 /// every node of `reference` (a finer table of the same model and domain).
 pub fn compare(lut: &Lut, reference: &Table, file: &FitFile) -> Result<LutComparison> {
-    let o = reference.output_index(&lut.output).ok_or_else(|| Error::InvalidInput(format!("reference table has no output '{}'", lut.output)))?;
+    let o = reference.output_index(&lut.output).ok_or_else(|| {
+        Error::InvalidInput(format!("reference table has no output '{}'", lut.output))
+    })?;
     let d = lut.axes.len();
     if reference.spec.axes.len() != d {
-        return Err(Error::InvalidInput("the reference table and the LUT have different axes".into()));
+        return Err(Error::InvalidInput(
+            "the reference table and the LUT have different axes".into(),
+        ));
     }
     let (s32, s16) = (lut.sampler_f32(), lut.sampler_f16());
     let name = super::generate::albedo_function_name(&file.model, &file.output);
-    let (function, _) = super::generate::choose_form(&name, &[], &file.fit, super::generate::FormChoice::Auto)?;
-    let compiled = super::ir::Compiled::new(&super::ir::Program { functions: vec![function] }, &name)
-        .map_err(|e| Error::InvalidInput(e.to_string()))?;
+    let (function, _) =
+        super::generate::choose_form(&name, &[], &file.fit, super::generate::FormChoice::Auto)?;
+    let compiled = super::ir::Compiled::new(
+        &super::ir::Program {
+            functions: vec![function],
+        },
+        &name,
+    )
+    .map_err(|e| Error::InvalidInput(e.to_string()))?;
     let mut sums = [crate::math::CompensatedSum::default(); 3];
     let mut maxes = [0.0f64; 3];
     let mut x = vec![0.0; d];
@@ -212,7 +241,11 @@ pub fn compare(lut: &Lut, reference: &Table, file: &FitFile) -> Result<LutCompar
     }
     let n = values.len().max(1) as f64;
     Ok(LutComparison {
-        reference: format!("{} {} table", reference.spec.model, reference.spec.resolution_name()),
+        reference: format!(
+            "{} {} table",
+            reference.spec.model,
+            reference.spec.resolution_name()
+        ),
         points: values.len(),
         lut_f32_mae: sums[0].value() / n,
         lut_f32_max: maxes[0],
@@ -226,7 +259,10 @@ pub fn compare(lut: &Lut, reference: &Table, file: &FitFile) -> Result<LutCompar
 }
 
 fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 #[derive(Serialize)]
@@ -273,17 +309,28 @@ fn exr_bytes(lut: &Lut) -> Result<Vec<u8>> {
             crate::VERSION,
             lut.output,
             lut.model,
-            lut.axes.iter().map(|a| format!("{} [{}, {}] x{}", a.name, a.lo, a.hi, a.n)).collect::<Vec<_>>().join(", ")
+            lut.axes
+                .iter()
+                .map(|a| format!("{} [{}, {}] x{}", a.name, a.lo, a.hi, a.n))
+                .collect::<Vec<_>>()
+                .join(", ")
         )
         .as_str(),
     ));
-    let layer = Layer::new((width, height), attributes, Encoding::UNCOMPRESSED, AnyChannels::sort(SmallVec::from_vec(vec![channel])));
+    let layer = Layer::new(
+        (width, height),
+        attributes,
+        Encoding::UNCOMPRESSED,
+        AnyChannels::sort(SmallVec::from_vec(vec![channel])),
+    );
     let mut buf = std::io::Cursor::new(Vec::new());
     Image::from_layer(layer)
         .write()
         .non_parallel()
         .to_buffered(&mut buf)
-        .map_err(|e| crate::Error::InvalidInput(format!("cannot encode the EXR of {}: {e}", lut.stem)))?;
+        .map_err(|e| {
+            crate::Error::InvalidInput(format!("cannot encode the EXR of {}: {e}", lut.stem))
+        })?;
     Ok(buf.into_inner())
 }
 
@@ -305,16 +352,34 @@ impl Emitter for LutEmitter {
         let mut out = Vec::new();
         for lut in &unit.luts {
             if let Some(bad) = lut.values.iter().find(|v| !v.is_finite()) {
-                return Err(Error::InvalidInput(format!("LUT {} holds a non-finite value {bad}; refusing to write it", lut.stem)));
+                return Err(Error::InvalidInput(format!(
+                    "LUT {} holds a non-finite value {bad}; refusing to write it",
+                    lut.stem
+                )));
             }
-            let f32_bytes: Vec<u8> = lut.values_f32().iter().flat_map(|v| v.to_le_bytes()).collect();
-            let f16_bytes: Vec<u8> = lut.values_f16().iter().flat_map(|v| v.to_le_bytes()).collect();
+            let f32_bytes: Vec<u8> = lut
+                .values_f32()
+                .iter()
+                .flat_map(|v| v.to_le_bytes())
+                .collect();
+            let f16_bytes: Vec<u8> = lut
+                .values_f16()
+                .iter()
+                .flat_map(|v| v.to_le_bytes())
+                .collect();
             let exr = exr_bytes(lut)?;
             let name = |ext: &str| format!("{}.{ext}", lut.stem);
             let base = |ext: &str| {
-                std::path::Path::new(&name(ext)).file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+                std::path::Path::new(&name(ext))
+                    .file_name()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default()
             };
-            let f16_err = lut.values.iter().map(|&v| (f16::from_f64(v).to_f64() - v).abs()).fold(0.0, f64::max);
+            let f16_err = lut
+                .values
+                .iter()
+                .map(|&v| (f16::from_f64(v).to_f64() - v).abs())
+                .fold(0.0, f64::max);
             let desc = Description {
                 tool: "furnace",
                 tool_version: crate::VERSION,
@@ -329,18 +394,50 @@ impl Emitter for LutEmitter {
                 table_max_error_estimate: lut.max_error_estimate,
                 f16_max_rounding_error: f16_err,
                 files: vec![
-                    FileEntry { file: base("exr"), sample_type: "f32", bytes: exr.len(), sha256: sha256_hex(&exr) },
-                    FileEntry { file: base("f32"), sample_type: "f32", bytes: f32_bytes.len(), sha256: sha256_hex(&f32_bytes) },
-                    FileEntry { file: base("f16"), sample_type: "f16", bytes: f16_bytes.len(), sha256: sha256_hex(&f16_bytes) },
+                    FileEntry {
+                        file: base("exr"),
+                        sample_type: "f32",
+                        bytes: exr.len(),
+                        sha256: sha256_hex(&exr),
+                    },
+                    FileEntry {
+                        file: base("f32"),
+                        sample_type: "f32",
+                        bytes: f32_bytes.len(),
+                        sha256: sha256_hex(&f32_bytes),
+                    },
+                    FileEntry {
+                        file: base("f16"),
+                        sample_type: "f16",
+                        bytes: f16_bytes.len(),
+                        sha256: sha256_hex(&f16_bytes),
+                    },
                 ],
                 comparison: &lut.comparison,
             };
-            let json = serde_json::to_string_pretty(&desc).map_err(|e| Error::InvalidInput(format!("LUT description: {e}")))?;
-            out.push(Artifact { file_name: name("exr"), bytes: exr, place: Place::Lut });
-            out.push(Artifact { file_name: name("f32"), bytes: f32_bytes, place: Place::Lut });
-            out.push(Artifact { file_name: name("f16"), bytes: f16_bytes, place: Place::Lut });
+            let json = serde_json::to_string_pretty(&desc)
+                .map_err(|e| Error::InvalidInput(format!("LUT description: {e}")))?;
+            out.push(Artifact {
+                file_name: name("exr"),
+                bytes: exr,
+                place: Place::Lut,
+            });
+            out.push(Artifact {
+                file_name: name("f32"),
+                bytes: f32_bytes,
+                place: Place::Lut,
+            });
+            out.push(Artifact {
+                file_name: name("f16"),
+                bytes: f16_bytes,
+                place: Place::Lut,
+            });
             // the description last: it commits the other three
-            out.push(Artifact { file_name: name("json"), bytes: format!("{json}\n").into_bytes(), place: Place::Lut });
+            out.push(Artifact {
+                file_name: name("json"),
+                bytes: format!("{json}\n").into_bytes(),
+                place: Place::Lut,
+            });
         }
         Ok(out)
     }
@@ -352,7 +449,11 @@ mod tests {
 
     #[test]
     fn multilinear_sampling_reproduces_nodes_and_linear_functions() {
-        let axes = vec![GridAxis::new("f0", 0.0, 0.5, 3), GridAxis::new("r", 0.0, 1.0, 4), GridAxis::new("mu", 0.0, 1.0, 5)];
+        let axes = vec![
+            GridAxis::new("f0", 0.0, 0.5, 3),
+            GridAxis::new("r", 0.0, 1.0, 4),
+            GridAxis::new("mu", 0.0, 1.0, 5),
+        ];
         let f = |x: &[f64]| 0.25 + 0.5 * x[0] - 0.125 * x[1] + 0.25 * x[2];
         let mut values = Vec::new();
         for i in 0..3 {
@@ -363,7 +464,12 @@ mod tests {
             }
         }
         let s = Sampler::new(&axes, values);
-        for x in [[0.0f32, 0.0, 0.0], [0.5, 1.0, 1.0], [0.1, 0.37, 0.81], [0.33, 0.99, 0.01]] {
+        for x in [
+            [0.0f32, 0.0, 0.0],
+            [0.5, 1.0, 1.0],
+            [0.1, 0.37, 0.81],
+            [0.33, 0.99, 0.01],
+        ] {
             let want = f(&[x[0] as f64, x[1] as f64, x[2] as f64]);
             assert!((s.sample(&x) as f64 - want).abs() < 1e-6, "{x:?}");
         }

@@ -20,7 +20,6 @@
 //! assert!(String::from_utf8_lossy(&wgsl[0].bytes).contains("fn ggx_conductor_albedo(r: f32, mu: f32) -> f32"));
 //! ```
 
-
 pub mod bench;
 pub mod fitfile;
 pub mod generate;
@@ -67,7 +66,11 @@ pub struct Artifact {
 
 impl Artifact {
     pub fn code(file_name: String, text: String) -> Artifact {
-        Artifact { file_name, bytes: text.into_bytes(), place: Place::Code }
+        Artifact {
+            file_name,
+            bytes: text.into_bytes(),
+            place: Place::Code,
+        }
     }
 }
 
@@ -107,7 +110,9 @@ pub fn parse_langs(text: &str) -> Result<Vec<Lang>> {
             "lut" => &[Lang::Lut],
             "all" => &[Lang::Rust, Lang::Wgsl, Lang::Glsl, Lang::Lut],
             other => {
-                return Err(Error::InvalidInput(format!("unknown language '{other}' for --lang; choose from {LANG_CHOICES}")));
+                return Err(Error::InvalidInput(format!(
+                    "unknown language '{other}' for --lang; choose from {LANG_CHOICES}"
+                )));
             }
         };
         for l in add {
@@ -145,7 +150,12 @@ impl SourceFit {
     pub fn new(path: impl Into<PathBuf>, file: FitFile, table: Option<Table>) -> Result<SourceFit> {
         let path = path.into();
         if let Some(t) = &file.table {
-            if t.spec.model_parameters.get("transmission").and_then(|v| v.as_str()) == Some("radiance") {
+            if t.spec
+                .model_parameters
+                .get("transmission")
+                .and_then(|v| v.as_str())
+                == Some("radiance")
+            {
                 return Err(Error::file(
                     &path,
                     "fit of a radiance-form transmission table (values above 1): the emitted albedo clamps to [0, 1]; fit the energy-form table (the default) instead",
@@ -153,7 +163,12 @@ impl SourceFit {
             }
         }
         let q_min = file.certify(&path)?;
-        Ok(SourceFit { path, file, q_min, table })
+        Ok(SourceFit {
+            path,
+            file,
+            q_min,
+            table,
+        })
     }
 }
 
@@ -181,9 +196,18 @@ pub struct EmittedFit {
 }
 
 /// Measures the IEEE f32 evaluation of `compiled` and the f64 fit at every node of `table`.
-pub fn table_accuracy(compiled: &ir::Compiled, file: &FitFile, table: &Table) -> Result<TableAccuracy> {
+pub fn table_accuracy(
+    compiled: &ir::Compiled,
+    file: &FitFile,
+    table: &Table,
+) -> Result<TableAccuracy> {
     let o = table.output_index(&file.output).ok_or_else(|| {
-        Error::InvalidInput(format!("the table of {} has no output '{}' (it has {})", table.spec.model, file.output, table.spec.outputs.join(", ")))
+        Error::InvalidInput(format!(
+            "the table of {} has no output '{}' (it has {})",
+            table.spec.model,
+            file.output,
+            table.spec.outputs.join(", ")
+        ))
     })?;
     let d = table.spec.axes.len();
     if d != compiled.n_params() {
@@ -193,7 +217,10 @@ pub fn table_accuracy(compiled: &ir::Compiled, file: &FitFile, table: &Table) ->
         )));
     }
     let values = table.output(o);
-    let (mut s64, mut s32) = (crate::math::CompensatedSum::default(), crate::math::CompensatedSum::default());
+    let (mut s64, mut s32) = (
+        crate::math::CompensatedSum::default(),
+        crate::math::CompensatedSum::default(),
+    );
     let (mut m64, mut m32) = (0.0f64, 0.0f64);
     let mut x = vec![0.0; d];
     let mut x32 = vec![0.0f32; d];
@@ -211,11 +238,19 @@ pub fn table_accuracy(compiled: &ir::Compiled, file: &FitFile, table: &Table) ->
         m32 = m32.max(e32);
     }
     let n = values.len().max(1) as f64;
-    Ok(TableAccuracy { points: values.len(), f64_mae: s64.value() / n, f64_max: m64, f32_mae: s32.value() / n, f32_max: m32 })
+    Ok(TableAccuracy {
+        points: values.len(),
+        f64_mae: s64.value() / n,
+        f64_max: m64,
+        f32_mae: s32.value() / n,
+        f32_max: m32,
+    })
 }
 
 fn model_summary(model: &str) -> Option<String> {
-    crate::bsdf::find(model, crate::bsdf::ModelOptions::default()).ok().map(|m| m.summary())
+    crate::bsdf::find(model, crate::bsdf::ModelOptions::default())
+        .ok()
+        .map(|m| m.summary())
 }
 
 fn fmt_domain(lo: f64, hi: f64) -> String {
@@ -223,25 +258,56 @@ fn fmt_domain(lo: f64, hi: f64) -> String {
 }
 
 /// The documentation block of an albedo function: everything the issue asks a header to state.
-fn albedo_doc(src: &SourceFit, name: &str, params: &[String], hash: &str, report: &FormReport, table: Option<&TableAccuracy>) -> Vec<String> {
+fn albedo_doc(
+    src: &SourceFit,
+    name: &str,
+    params: &[String],
+    hash: &str,
+    report: &FormReport,
+    table: Option<&TableAccuracy>,
+) -> Vec<String> {
     let f = &src.file;
     let a = &f.fit.approximant;
-    let mut doc = vec![format!("{name}({}): directional albedo {} of {}.", params.join(", "), f.output, f.model)];
+    let mut doc = vec![format!(
+        "{name}({}): directional albedo {} of {}.",
+        params.join(", "),
+        f.output,
+        f.model
+    )];
     if let Some(s) = model_summary(&f.model) {
         doc.push(format!("Model: {s}."));
     }
     let den = a.denominator.as_ref().map_or(0, |q| q.coefficients.len());
     let counts = if den > 0 {
-        format!("numerator {}, denominator {} with constant term 1", a.numerator.coefficients.len(), den.saturating_sub(1))
+        format!(
+            "numerator {}, denominator {} with constant term 1",
+            a.numerator.coefficients.len(),
+            den.saturating_sub(1)
+        )
     } else {
         format!("{} monomials", a.numerator.coefficients.len())
     };
     let origin = match &f.fit.solver {
-        Some(sv) => format!("{} objective, {}", serde_json::to_value(f.fit.objective).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(), sv.method),
+        Some(sv) => format!(
+            "{} objective, {}",
+            serde_json::to_value(f.fit.objective)
+                .ok()
+                .and_then(|v| v.as_str().map(String::from))
+                .unwrap_or_default(),
+            sv.method
+        ),
         None => "coefficients not fitted by furnace (e.g. published ones)".to_string(),
     };
-    doc.push(format!("Fit: {}, {} coefficients ({counts}); {origin}.", f.fit.form.label(), f.fit.n_coefficients));
-    doc.push(format!("Source: {} (furnace {}), fit SHA-256 {hash}.", src.path.display(), f.tool_version));
+    doc.push(format!(
+        "Fit: {}, {} coefficients ({counts}); {origin}.",
+        f.fit.form.label(),
+        f.fit.n_coefficients
+    ));
+    doc.push(format!(
+        "Source: {} (furnace {}), fit SHA-256 {hash}.",
+        src.path.display(),
+        f.tool_version
+    ));
     doc.push("Arguments, transform t, fitted domain (arguments are clamped to it):".into());
     for (k, p) in params.iter().enumerate() {
         let (lo, hi) = a.domain[k];
@@ -273,7 +339,10 @@ fn albedo_doc(src: &SourceFit, name: &str, params: &[String], hash: &str, report
         acc.points, acc.max_diff_ieee, acc.max_diff_fused, acc.max_diff_gpu, acc.max_bound
     ));
     if acc.max_overshoot > 0.0 {
-        doc.push(format!("Output clamped to [0, 1]; the f64 fit leaves that range by up to {:.1e} on the grid.", acc.max_overshoot));
+        doc.push(format!(
+            "Output clamped to [0, 1]; the f64 fit leaves that range by up to {:.1e} on the grid.",
+            acc.max_overshoot
+        ));
     } else {
         doc.push("Output clamped to [0, 1] (the fit stays inside on the grid).".into());
     }
@@ -312,15 +381,24 @@ pub fn build_unit(
         }
         let hash = f.fit_hash()?;
         let (function, report) = choose_form(&name, &[], &f.fit, choice)?;
-        let compiled = ir::Compiled::new(&ir::Program { functions: vec![function.clone()] }, &name)
-            .map_err(|e| Error::InvalidInput(e.to_string()))?;
+        let compiled = ir::Compiled::new(
+            &ir::Program {
+                functions: vec![function.clone()],
+            },
+            &name,
+        )
+        .map_err(|e| Error::InvalidInput(e.to_string()))?;
         let table = match &src.table {
             Some(t) => Some(table_accuracy(&compiled, f, t)?),
             None => None,
         };
         let mut function = function;
         function.doc = albedo_doc(src, &name, &function.params, &hash, &report, table.as_ref());
-        refs.push(helpers::AlbedoRef { model: f.model.clone(), function: name.clone(), params: function.params.clone() });
+        refs.push(helpers::AlbedoRef {
+            model: f.model.clone(),
+            function: name.clone(),
+            params: function.params.clone(),
+        });
         emitted.push(EmittedFit {
             model: f.model.clone(),
             function: name,
@@ -351,17 +429,33 @@ pub fn build_unit(
         "All arithmetic is f32. Each function states its domain, evaluation form and measured errors.".into(),
         "Helpers: Sforza & Pellacini 2022, \"Enforcing Energy Preservation in Microfacet Models\" (eqs. 13, 18, 19).".into(),
     ];
-    Ok((Unit { stem: stem.into(), header, guard: guard.into(), program, luts: vec![] }, emitted))
+    Ok((
+        Unit {
+            stem: stem.into(),
+            header,
+            guard: guard.into(),
+            program,
+            luts: vec![],
+        },
+        emitted,
+    ))
 }
 
 /// A GLSL include-guard macro from free text: `FURNACE_<TEXT>_GLSL`.
 pub fn guard_macro(text: &str) -> String {
-    format!("FURNACE_{}_GLSL", generate::ident(text).to_ascii_uppercase())
+    format!(
+        "FURNACE_{}_GLSL",
+        generate::ident(text).to_ascii_uppercase()
+    )
 }
 
 /// Writes every artifact atomically: code under `code_dir`, LUTs under `lut_dir`. All bytes
 /// are produced before this is called, so a failing emitter writes nothing.
-pub fn write_artifacts(artifacts: &[Artifact], code_dir: &Path, lut_dir: &Path) -> Result<Vec<PathBuf>> {
+pub fn write_artifacts(
+    artifacts: &[Artifact],
+    code_dir: &Path,
+    lut_dir: &Path,
+) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     for a in artifacts {
         let dir = match a.place {
@@ -377,13 +471,27 @@ pub fn write_artifacts(artifacts: &[Artifact], code_dir: &Path, lut_dir: &Path) 
 
 /// The table spec a fit's LUT is computed from: the fit's table spec (or, without one, the
 /// model's spec over the fit's domain) with `n` nodes per axis.
-pub fn lut_spec(file: &FitFile, n: usize) -> Result<(Box<dyn crate::bsdf::Model>, crate::table::TableSpec)> {
-    let model_name = file.table.as_ref().map_or(file.model.as_str(), |t| t.spec.model.as_str());
+pub fn lut_spec(
+    file: &FitFile,
+    n: usize,
+) -> Result<(Box<dyn crate::bsdf::Model>, crate::table::TableSpec)> {
+    let model_name = file
+        .table
+        .as_ref()
+        .map_or(file.model.as_str(), |t| t.spec.model.as_str());
     let options = crate::bsdf::ModelOptions {
-        radiance_transmission: file.table.as_ref().is_some_and(|t| t.spec.model_parameters.get("transmission").and_then(|v| v.as_str()) == Some("radiance")),
+        radiance_transmission: file.table.as_ref().is_some_and(|t| {
+            t.spec
+                .model_parameters
+                .get("transmission")
+                .and_then(|v| v.as_str())
+                == Some("radiance")
+        }),
     };
     let model = crate::bsdf::find(model_name, options).map_err(|e| {
-        Error::InvalidInput(format!("cannot make a LUT for this fit: {e}; LUTs are tabulated from a furnace model"))
+        Error::InvalidInput(format!(
+            "cannot make a LUT for this fit: {e}; LUTs are tabulated from a furnace model"
+        ))
     })?;
     let spec = match &file.table {
         Some(t) => {
@@ -419,9 +527,17 @@ pub fn lut_for_fit(src: &SourceFit, n: usize, data_dir: &Path, force: bool) -> R
     }
     let (table, _, _) = lut::tabulate_cached(model.as_ref(), &spec, data_dir, force)?;
     let stem = crate::table::io::table_stem(Path::new(""), model.as_ref(), &spec);
-    let mut l = lut::Lut::from_table(&table, &src.file.output, stem.to_string_lossy().replace('\\', "/"))?;
+    let mut l = lut::Lut::from_table(
+        &table,
+        &src.file.output,
+        stem.to_string_lossy().replace('\\', "/"),
+    )?;
     // compare only against a finer table: at the LUT's own nodes its error is zero
-    if let Some(reference) = src.table.as_ref().filter(|t| t.spec.axes.iter().zip(&l.axes).all(|(r, a)| r.n > a.n)) {
+    if let Some(reference) = src
+        .table
+        .as_ref()
+        .filter(|t| t.spec.axes.iter().zip(&l.axes).all(|(r, a)| r.n > a.n))
+    {
         l.comparison = Some(lut::compare(&l, reference, &src.file)?);
     }
     Ok(l)

@@ -25,7 +25,10 @@ impl Syntax for Rust {
         format!("{}.sqrt()", a.wrapped())
     }
     fn select_ge(&self, a: Operand, b: Operand, then: Operand, otherwise: Operand) -> String {
-        format!("if {} >= {} {{ {} }} else {{ {} }}", a.text, b.text, then.text, otherwise.text)
+        format!(
+            "if {} >= {} {{ {} }} else {{ {} }}",
+            a.text, b.text, then.text, otherwise.text
+        )
     }
     fn prologue(&self, _unit: &Unit) -> Vec<String> {
         vec![]
@@ -34,11 +37,20 @@ impl Syntax for Rust {
         vec![]
     }
     fn open_function(&self, f: &Function) -> Vec<String> {
-        let mut v: Vec<String> = f.doc.iter().map(|l| format!("/// {l}").trim_end().to_string()).collect();
+        let mut v: Vec<String> = f
+            .doc
+            .iter()
+            .map(|l| format!("/// {l}").trim_end().to_string())
+            .collect();
         v.push("#[inline]".into());
         v.push("#[rustfmt::skip]".into());
         v.push("#[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables)]".into());
-        let params = f.params.iter().map(|p| format!("{p}: f32")).collect::<Vec<_>>().join(", ");
+        let params = f
+            .params
+            .iter()
+            .map(|p| format!("{p}: f32"))
+            .collect::<Vec<_>>()
+            .join(", ");
         v.push(format!("pub fn {}({params}) -> f32 {{", f.name));
         v
     }
@@ -55,6 +67,9 @@ impl Emitter for Rust {
         "rust"
     }
     fn produce(&self, unit: &Unit) -> crate::Result<Vec<Artifact>> {
-        Ok(vec![Artifact::code(format!("{}.rs", unit.stem), render(unit, self))])
+        Ok(vec![Artifact::code(
+            format!("{}.rs", unit.stem),
+            render(unit, self),
+        )])
     }
 }

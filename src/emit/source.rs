@@ -16,7 +16,11 @@ pub struct Operand {
 impl Operand {
     /// The text, parenthesised unless atomic.
     pub fn wrapped(&self) -> String {
-        if self.atomic { self.text.clone() } else { format!("({})", self.text) }
+        if self.atomic {
+            self.text.clone()
+        } else {
+            format!("({})", self.text)
+        }
     }
 }
 
@@ -43,11 +47,19 @@ pub trait Syntax {
 pub fn expr(e: &Expr, s: &dyn Syntax) -> String {
     let operand = |child: &Expr, parent: u8, right: bool| -> String {
         let t = expr(child, s);
-        if needs_parens(child, parent, right) { format!("({t})") } else { t }
+        if needs_parens(child, parent, right) {
+            format!("({t})")
+        } else {
+            t
+        }
     };
     let atom = |child: &Expr| -> Operand {
-        let atomic = precedence(child) == 3 && !matches!(child, Expr::Lit(l) if l.value.is_sign_negative());
-        Operand { text: expr(child, s), atomic }
+        let atomic =
+            precedence(child) == 3 && !matches!(child, Expr::Lit(l) if l.value.is_sign_negative());
+        Operand {
+            text: expr(child, s),
+            atomic,
+        }
     };
     match e {
         Expr::Lit(l) => s.literal(l.value),
@@ -59,15 +71,36 @@ pub fn expr(e: &Expr, s: &dyn Syntax) -> String {
         Expr::Min(a, b) => s.min(atom(a), atom(b)),
         Expr::Max(a, b) => s.max(atom(a), atom(b)),
         Expr::Sqrt(a) => s.sqrt(atom(a)),
-        Expr::Call(name, args) => format!("{name}({})", args.iter().map(|a| expr(a, s)).collect::<Vec<_>>().join(", ")),
-        Expr::SelectGe { a, b, then, otherwise } => s.select_ge(atom(a), atom(b), atom(then), atom(otherwise)),
+        Expr::Call(name, args) => format!(
+            "{name}({})",
+            args.iter()
+                .map(|a| expr(a, s))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        Expr::SelectGe {
+            a,
+            b,
+            then,
+            otherwise,
+        } => s.select_ge(atom(a), atom(b), atom(then), atom(otherwise)),
     }
 }
 
 /// The whole file: header comment, prologue, functions, epilogue; `\n` line ends, one trailing
 /// newline.
 pub fn render(unit: &Unit, s: &dyn Syntax) -> String {
-    let mut lines: Vec<String> = unit.header.iter().map(|l| if l.is_empty() { "//".to_string() } else { format!("// {l}") }).collect();
+    let mut lines: Vec<String> = unit
+        .header
+        .iter()
+        .map(|l| {
+            if l.is_empty() {
+                "//".to_string()
+            } else {
+                format!("// {l}")
+            }
+        })
+        .collect();
     lines.push(String::new());
     lines.extend(s.prologue(unit));
     for f in &unit.program.functions {

@@ -16,7 +16,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::fitfile::FitFile;
-use super::generate::{choose_form, condition, form_polynomials, form_variables, reference, EvalForm, FormChoice};
+use super::generate::{
+    choose_form, condition, form_polynomials, form_variables, reference, EvalForm, FormChoice,
+};
 use super::ir::{Arith, Compiled, Program};
 use crate::error::{Error, Result};
 use crate::fit::data::SplitMix64;
@@ -44,7 +46,11 @@ pub struct StressOptions {
 
 impl Default for StressOptions {
     fn default() -> Self {
-        StressOptions { random_points: DEFAULT_POINTS, seed: 0x5EED_F00D, form: FormChoice::Auto }
+        StressOptions {
+            random_points: DEFAULT_POINTS,
+            seed: 0x5EED_F00D,
+            form: FormChoice::Auto,
+        }
     }
 }
 
@@ -98,17 +104,32 @@ impl StressReport {
             "{} ({:?} form): {} random + {} edge points, 3 rounding models\n",
             self.function, self.form, self.random_points, self.edge_points
         );
-        s.push_str(&format!("  {:<34} {:>12} {:>12} {:>9} {:>12}\n", "rounding model", "max |Δ|", "max rel Δ", "NaN/inf", "out of range"));
-        for (name, m) in [("each op rounded (emitted Rust)", &self.ieee), ("fused multiply-add", &self.fused), ("GPU ÷/sqrt error", &self.gpu)] {
+        s.push_str(&format!(
+            "  {:<34} {:>12} {:>12} {:>9} {:>12}\n",
+            "rounding model", "max |Δ|", "max rel Δ", "NaN/inf", "out of range"
+        ));
+        for (name, m) in [
+            ("each op rounded (emitted Rust)", &self.ieee),
+            ("fused multiply-add", &self.fused),
+            ("GPU ÷/sqrt error", &self.gpu),
+        ] {
             s.push_str(&format!(
                 "  {:<34} {:>12.3e} {:>12.3e} {:>9} {:>12}\n",
                 name, m.max_abs_diff, m.max_rel_diff, m.non_finite, m.out_of_range
             ));
         }
-        s.push_str(&format!("  worst point (IEEE): {:?}\n", self.ieee.max_abs_diff_at));
+        s.push_str(&format!(
+            "  worst point (IEEE): {:?}\n",
+            self.ieee.max_abs_diff_at
+        ));
         match (self.min_abs_q, self.q_lower_bound) {
-            (Some(q), Some(b)) => s.push_str(&format!("  min |Q| at the points {q:.4e}; proved ≥ {b:.4e} on the domain\n")),
-            (Some(q), None) => s.push_str(&format!("  min |Q| at the points {q:.4e}; NOT proved pole-free: {}\n", self.pole_verdict)),
+            (Some(q), Some(b)) => s.push_str(&format!(
+                "  min |Q| at the points {q:.4e}; proved ≥ {b:.4e} on the domain\n"
+            )),
+            (Some(q), None) => s.push_str(&format!(
+                "  min |Q| at the points {q:.4e}; NOT proved pole-free: {}\n",
+                self.pole_verdict
+            )),
             _ => s.push_str("  polynomial: no denominator\n"),
         }
         s.push_str(&format!(
@@ -135,13 +156,32 @@ impl StressReport {
 /// Values of one axis that stress its ends: the ends, their f32 neighbours, tiny and subnormal
 /// offsets, and inputs outside the domain (which must clamp).
 pub fn edge_values(lo: f32, hi: f32) -> Vec<f32> {
-    let mut v = vec![lo, hi, lo.next_up(), hi.next_down(), 0.5 * (lo + hi), -0.0, 0.0];
+    let mut v = vec![
+        lo,
+        hi,
+        lo.next_up(),
+        hi.next_down(),
+        0.5 * (lo + hi),
+        -0.0,
+        0.0,
+    ];
     for tiny in [1e-45f32, 1e-40, 1e-30, 1e-20, 1e-10] {
         v.push(lo + tiny);
         v.push(tiny);
         v.push(-tiny);
     }
-    v.extend([lo.next_down(), hi.next_up(), lo - 1.0, hi + 1.0, 2.0 * hi + 1.0, -1.0, f32::INFINITY, f32::NEG_INFINITY, f32::MAX, f32::MIN]);
+    v.extend([
+        lo.next_down(),
+        hi.next_up(),
+        lo - 1.0,
+        hi + 1.0,
+        2.0 * hi + 1.0,
+        -1.0,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::MAX,
+        f32::MIN,
+    ]);
     v.sort_by(f32::total_cmp);
     v.dedup_by(|a, b| a.to_bits() == b.to_bits());
     v
@@ -194,7 +234,9 @@ struct Partial {
 }
 
 fn merge(a: &mut ModeStats, b: ModeStats) {
-    if b.max_abs_diff > a.max_abs_diff || (a.max_abs_diff_at.is_empty() && !b.max_abs_diff_at.is_empty()) {
+    if b.max_abs_diff > a.max_abs_diff
+        || (a.max_abs_diff_at.is_empty() && !b.max_abs_diff_at.is_empty())
+    {
         a.max_abs_diff = b.max_abs_diff;
         a.max_abs_diff_at = b.max_abs_diff_at;
     }
@@ -209,8 +251,11 @@ pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
     let fit = &file.fit;
     let (function, report) = choose_form(&name, &[], fit, opts.form)?;
     let form = report.form;
-    let program = Program { functions: vec![function] };
-    let compiled = Compiled::new(&program, &name).map_err(|e| Error::InvalidInput(e.to_string()))?;
+    let program = Program {
+        functions: vec![function],
+    };
+    let compiled =
+        Compiled::new(&program, &name).map_err(|e| Error::InvalidInput(e.to_string()))?;
     let (p_poly, q_poly) = form_polynomials(fit, form)?;
     let domain = super::generate::domain_f32(fit);
     let d = domain.len();
@@ -233,14 +278,26 @@ pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
     let parts: Vec<Partial> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let mut part = Partial { min_q: f64::INFINITY, ..Default::default() };
+            let mut part = Partial {
+                min_q: f64::INFINITY,
+                ..Default::default()
+            };
             let mut regs = Vec::new();
             let mut bregs = Vec::new();
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let x = &points[i * d..(i + 1) * d];
                 let (refv, raw) = reference(fit, x);
                 part.overshoot = part.overshoot.max(raw - 1.0).max(-raw);
-                for (m, arith) in [Arith::Ieee, Arith::Fused, Arith::Gpu { seed: i as u64 ^ opts.seed }].into_iter().enumerate() {
+                for (m, arith) in [
+                    Arith::Ieee,
+                    Arith::Fused,
+                    Arith::Gpu {
+                        seed: i as u64 ^ opts.seed,
+                    },
+                ]
+                .into_iter()
+                .enumerate()
+                {
                     let out = compiled.eval_f32(x, arith, &mut regs);
                     let e = regs[e_reg];
                     let st = &mut part.modes[m];
@@ -282,7 +339,10 @@ pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
             part
         })
         .collect();
-    let mut total = Partial { min_q: f64::INFINITY, ..Default::default() };
+    let mut total = Partial {
+        min_q: f64::INFINITY,
+        ..Default::default()
+    };
     for p in parts {
         for (a, b) in total.modes.iter_mut().zip(p.modes) {
             merge(a, b);
@@ -295,11 +355,16 @@ pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
     }
     let verdict = fit.approximant.certify_poles(&CertifyOptions::default());
     let q_lower_bound = match verdict {
-        PoleVerdict::Certified { min_lower_bound, .. } => Some(min_lower_bound),
+        PoleVerdict::Certified {
+            min_lower_bound, ..
+        } => Some(min_lower_bound),
         _ => None,
     };
     let pole_verdict = match &verdict {
-        PoleVerdict::Certified { min_lower_bound, boxes } => format!("certified: Q ≥ {min_lower_bound:.4e} ({boxes} boxes)"),
+        PoleVerdict::Certified {
+            min_lower_bound,
+            boxes,
+        } => format!("certified: Q ≥ {min_lower_bound:.4e} ({boxes} boxes)"),
         PoleVerdict::PoleFound { at } => format!("pole found near {at:?}"),
         PoleVerdict::Undecided { reason, .. } => format!("undecided: {reason}"),
         PoleVerdict::NoDenominator => "no denominator".into(),
@@ -309,12 +374,22 @@ pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
     if !verdict.is_certified() {
         failures.push(format!("the denominator is not proved pole-free ({pole_verdict}); refit with a certified denominator"));
     }
-    for (name, m) in [("each-op-rounded", &ieee), ("fused multiply-add", &fused), ("GPU ÷/sqrt", &gpu)] {
+    for (name, m) in [
+        ("each-op-rounded", &ieee),
+        ("fused multiply-add", &fused),
+        ("GPU ÷/sqrt", &gpu),
+    ] {
         if m.non_finite > 0 {
-            failures.push(format!("{} NaN/inf values in the {name} model (first at {:?})", m.non_finite, m.max_abs_diff_at));
+            failures.push(format!(
+                "{} NaN/inf values in the {name} model (first at {:?})",
+                m.non_finite, m.max_abs_diff_at
+            ));
         }
         if m.out_of_range > 0 {
-            failures.push(format!("{} outputs outside [0, 1 + {OUTPUT_SLACK:.0e}] in the {name} model", m.out_of_range));
+            failures.push(format!(
+                "{} outputs outside [0, 1 + {OUTPUT_SLACK:.0e}] in the {name} model",
+                m.out_of_range
+            ));
         }
         if m.non_finite == 0 && m.max_abs_diff > MAX_ABS_DIFF {
             let fix = if form == EvalForm::Bernstein {
@@ -322,7 +397,10 @@ pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
             } else {
                 "try --form bernstein, or refit so the denominator stays further from zero"
             };
-            failures.push(format!("max |f32 − f64| {:.3e} > {MAX_ABS_DIFF:.0e} in the {name} model at {:?}; {fix}", m.max_abs_diff, m.max_abs_diff_at));
+            failures.push(format!(
+                "max |f32 − f64| {:.3e} > {MAX_ABS_DIFF:.0e} in the {name} model at {:?}; {fix}",
+                m.max_abs_diff, m.max_abs_diff_at
+            ));
         }
     }
     Ok(StressReport {

@@ -25,7 +25,10 @@ impl Syntax for Wgsl {
     }
     fn select_ge(&self, a: Operand, b: Operand, then: Operand, otherwise: Operand) -> String {
         // WGSL select(f, t, cond) returns t when cond holds
-        format!("select({}, {}, {} >= {})", otherwise.text, then.text, a.text, b.text)
+        format!(
+            "select({}, {}, {} >= {})",
+            otherwise.text, then.text, a.text, b.text
+        )
     }
     fn prologue(&self, _unit: &Unit) -> Vec<String> {
         vec![]
@@ -34,8 +37,17 @@ impl Syntax for Wgsl {
         vec![]
     }
     fn open_function(&self, f: &Function) -> Vec<String> {
-        let mut v: Vec<String> = f.doc.iter().map(|l| format!("// {l}").trim_end().to_string()).collect();
-        let params = f.params.iter().map(|p| format!("{p}: f32")).collect::<Vec<_>>().join(", ");
+        let mut v: Vec<String> = f
+            .doc
+            .iter()
+            .map(|l| format!("// {l}").trim_end().to_string())
+            .collect();
+        let params = f
+            .params
+            .iter()
+            .map(|p| format!("{p}: f32"))
+            .collect::<Vec<_>>()
+            .join(", ");
         v.push(format!("fn {}({params}) -> f32 {{", f.name));
         v
     }
@@ -52,6 +64,9 @@ impl Emitter for Wgsl {
         "wgsl"
     }
     fn produce(&self, unit: &Unit) -> crate::Result<Vec<Artifact>> {
-        Ok(vec![Artifact::code(format!("{}.wgsl", unit.stem), render(unit, self))])
+        Ok(vec![Artifact::code(
+            format!("{}.wgsl", unit.stem),
+            render(unit, self),
+        )])
     }
 }

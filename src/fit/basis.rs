@@ -21,7 +21,10 @@ pub const MAX_DEGREE: u32 = 20;
 
 pub(crate) fn check_degree(degree: u32) -> Result<()> {
     if degree > MAX_DEGREE {
-        return Err(FitError::DegreeTooHigh { degree, max: MAX_DEGREE });
+        return Err(FitError::DegreeTooHigh {
+            degree,
+            max: MAX_DEGREE,
+        });
     }
     Ok(())
 }
@@ -80,7 +83,11 @@ pub struct Polynomial {
 impl Polynomial {
     /// Total degree.
     pub fn degree(&self) -> u32 {
-        self.exponents.iter().map(|e| e.iter().sum::<u32>()).max().unwrap_or(0)
+        self.exponents
+            .iter()
+            .map(|e| e.iter().sum::<u32>())
+            .max()
+            .unwrap_or(0)
     }
 
     pub fn dim(&self) -> usize {
@@ -221,8 +228,16 @@ pub(crate) struct ChebyshevBasis {
 impl ChebyshevBasis {
     pub fn new(d: usize, degree: u32) -> ChebyshevBasis {
         let exps = exponents(d, degree);
-        let flat = exps.iter().flat_map(|e| e.iter().map(|&x| x as usize)).collect();
-        ChebyshevBasis { d, degree, exps, flat }
+        let flat = exps
+            .iter()
+            .flat_map(|e| e.iter().map(|&x| x as usize))
+            .collect();
+        ChebyshevBasis {
+            d,
+            degree,
+            exps,
+            flat,
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -299,7 +314,8 @@ fn affine_power(n: usize, alpha: f64, beta: f64) -> AxisMap {
     let mut m = vec![vec![0.0; n + 1]; n + 1];
     for a in 0..=n {
         for k in 0..=a {
-            m[k][a] = binomial(a as u32, k as u32) * alpha.powi(k as i32) * beta.powi((a - k) as i32);
+            m[k][a] =
+                binomial(a as u32, k as u32) * alpha.powi(k as i32) * beta.powi((a - k) as i32);
         }
     }
     m
@@ -360,7 +376,12 @@ fn apply_axis_maps(exps: &[Vec<u32>], coeffs: &[f64], maps: &[AxisMap]) -> Vec<f
 }
 
 /// Coefficients in the Chebyshev basis of s = (t − center)/half → monomial coefficients in t.
-pub(crate) fn chebyshev_to_monomial(exps: &[Vec<u32>], degree: u32, scales: &[AxisScale], coeffs: &[f64]) -> Vec<f64> {
+pub(crate) fn chebyshev_to_monomial(
+    exps: &[Vec<u32>],
+    degree: u32,
+    scales: &[AxisScale],
+    coeffs: &[f64],
+) -> Vec<f64> {
     let n = degree as usize;
     let c2p = chebyshev_to_power(n);
     let maps: Vec<AxisMap> = scales
@@ -372,10 +393,18 @@ pub(crate) fn chebyshev_to_monomial(exps: &[Vec<u32>], degree: u32, scales: &[Ax
 
 /// Monomial coefficients in t → coefficients in the Chebyshev basis of s (inverse of
 /// [`chebyshev_to_monomial`]; t = center + half·s).
-pub(crate) fn monomial_to_chebyshev(exps: &[Vec<u32>], degree: u32, scales: &[AxisScale], coeffs: &[f64]) -> Vec<f64> {
+pub(crate) fn monomial_to_chebyshev(
+    exps: &[Vec<u32>],
+    degree: u32,
+    scales: &[AxisScale],
+    coeffs: &[f64],
+) -> Vec<f64> {
     let n = degree as usize;
     let p2c = upper_inverse(&chebyshev_to_power(n));
-    let maps: Vec<AxisMap> = scales.iter().map(|sc| mat_mul(&p2c, &affine_power(n, sc.half, sc.center))).collect();
+    let maps: Vec<AxisMap> = scales
+        .iter()
+        .map(|sc| mat_mul(&p2c, &affine_power(n, sc.half, sc.center)))
+        .collect();
     apply_axis_maps(exps, coeffs, &maps)
 }
 
@@ -383,10 +412,23 @@ pub(crate) fn monomial_to_chebyshev(exps: &[Vec<u32>], degree: u32, scales: &[Ax
 /// with the same map applied to |coefficients| with |map entries| (for rounding-error bounds).
 pub(crate) fn monomial_to_unit_box(p: &Polynomial, bounds: &[(f64, f64)]) -> (Vec<f64>, Vec<f64>) {
     let n = p.degree() as usize;
-    let maps: Vec<AxisMap> = bounds.iter().map(|&(lo, hi)| affine_power(n, hi - lo, lo)).collect();
-    let abs_maps: Vec<AxisMap> = maps.iter().map(|m| m.iter().map(|r| r.iter().map(|x| x.abs()).collect()).collect()).collect();
+    let maps: Vec<AxisMap> = bounds
+        .iter()
+        .map(|&(lo, hi)| affine_power(n, hi - lo, lo))
+        .collect();
+    let abs_maps: Vec<AxisMap> = maps
+        .iter()
+        .map(|m| {
+            m.iter()
+                .map(|r| r.iter().map(|x| x.abs()).collect())
+                .collect()
+        })
+        .collect();
     let abs: Vec<f64> = p.coefficients.iter().map(|c| c.abs()).collect();
-    (apply_axis_maps(&p.exponents, &p.coefficients, &maps), apply_axis_maps(&p.exponents, &abs, &abs_maps))
+    (
+        apply_axis_maps(&p.exponents, &p.coefficients, &maps),
+        apply_axis_maps(&p.exponents, &abs, &abs_maps),
+    )
 }
 
 #[cfg(test)]
@@ -398,19 +440,28 @@ mod tests {
         // a small LCG: deterministic coefficients and points, some outside [0, 1]
         let mut state = 0x2545_f491_4f6c_dd1du64;
         let mut next = move || {
-            state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
             (state >> 11) as f64 / (1u64 << 53) as f64 * 2.6 - 0.8
         };
         for d in 1..=3 {
             for degree in [0, 1, 4, 10, 20] {
                 let exps = exponents(d, degree);
-                let p = Polynomial { coefficients: exps.iter().map(|_| next()).collect(), exponents: exps };
+                let p = Polynomial {
+                    coefficients: exps.iter().map(|_| next()).collect(),
+                    exponents: exps,
+                };
                 let n = 77; // not a multiple of the block
                 let ts: Vec<f64> = (0..n * d).map(|_| next()).collect();
                 let mut many = vec![0.0; n];
                 p.eval_many(d, &ts, &mut many);
                 for (k, v) in many.iter().enumerate() {
-                    assert_eq!(v.to_bits(), p.eval(&ts[k * d..(k + 1) * d]).to_bits(), "d {d} degree {degree} point {k}");
+                    assert_eq!(
+                        v.to_bits(),
+                        p.eval(&ts[k * d..(k + 1) * d]).to_bits(),
+                        "d {d} degree {degree} point {k}"
+                    );
                 }
             }
         }
@@ -420,8 +471,16 @@ mod tests {
     fn sklearn_order_2d_and_3d() {
         let e2 = exponents(2, 3);
         let want2: Vec<Vec<u32>> = vec![
-            vec![0, 0], vec![1, 0], vec![0, 1], vec![2, 0], vec![1, 1], vec![0, 2],
-            vec![3, 0], vec![2, 1], vec![1, 2], vec![0, 3],
+            vec![0, 0],
+            vec![1, 0],
+            vec![0, 1],
+            vec![2, 0],
+            vec![1, 1],
+            vec![0, 2],
+            vec![3, 0],
+            vec![2, 1],
+            vec![1, 2],
+            vec![0, 3],
         ];
         assert_eq!(e2, want2);
         let e3 = exponents(3, 3);
@@ -434,7 +493,10 @@ mod tests {
         assert_eq!(e3[19], vec![0, 0, 3]);
         assert_eq!(n_terms(2, 10), 66);
         assert_eq!(n_terms(3, 5), 56);
-        assert_eq!(exponents(1, 4), vec![vec![0], vec![1], vec![2], vec![3], vec![4]]);
+        assert_eq!(
+            exponents(1, 4),
+            vec![vec![0], vec![1], vec![2], vec![3], vec![4]]
+        );
     }
 
     fn pseudo_random(seed: u64, n: usize) -> Vec<f64> {
@@ -445,19 +507,32 @@ mod tests {
     #[test]
     fn chebyshev_monomial_round_trip() {
         for (d, deg) in [(1usize, 7u32), (2, 6), (3, 4)] {
-            let scales: Vec<AxisScale> = (0..d).map(|k| AxisScale::new(0.1 * k as f64, 1.0 + 0.5 * k as f64)).collect();
+            let scales: Vec<AxisScale> = (0..d)
+                .map(|k| AxisScale::new(0.1 * k as f64, 1.0 + 0.5 * k as f64))
+                .collect();
             let basis = ChebyshevBasis::new(d, deg);
             let c = pseudo_random(7 + d as u64, basis.len());
             let mono = chebyshev_to_monomial(&basis.exps, deg, &scales, &c);
-            let p = Polynomial { exponents: basis.exps.clone(), coefficients: mono.clone() };
+            let p = Polynomial {
+                exponents: basis.exps.clone(),
+                coefficients: mono.clone(),
+            };
             // same function at random points
             let mut table = vec![0.0; basis.table_len()];
             let mut phi = vec![0.0; basis.len()];
             for pt in pseudo_random(99, 50 * d).chunks(d) {
                 basis.eval(pt, &mut table, &mut phi);
                 let want: f64 = phi.iter().zip(&c).map(|(a, b)| a * b).sum();
-                let t: Vec<f64> = pt.iter().zip(&scales).map(|(s, sc)| sc.center + sc.half * s).collect();
-                assert!((p.eval(&t) - want).abs() < 1e-11, "d={d} deg={deg}: {} vs {want}", p.eval(&t));
+                let t: Vec<f64> = pt
+                    .iter()
+                    .zip(&scales)
+                    .map(|(s, sc)| sc.center + sc.half * s)
+                    .collect();
+                assert!(
+                    (p.eval(&t) - want).abs() < 1e-11,
+                    "d={d} deg={deg}: {} vs {want}",
+                    p.eval(&t)
+                );
             }
             // and back
             let back = monomial_to_chebyshev(&basis.exps, deg, &scales, &mono);
@@ -470,7 +545,10 @@ mod tests {
     #[test]
     fn unit_box_map() {
         // q(t) = 1 + 2t on [2, 4]: q(2 + 2u) = 5 + 4u
-        let p = Polynomial { exponents: vec![vec![0], vec![1]], coefficients: vec![1.0, 2.0] };
+        let p = Polynomial {
+            exponents: vec![vec![0], vec![1]],
+            coefficients: vec![1.0, 2.0],
+        };
         let (u, _) = monomial_to_unit_box(&p, &[(2.0, 4.0)]);
         assert_eq!(u, vec![5.0, 4.0]);
     }

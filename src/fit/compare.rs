@@ -16,11 +16,11 @@ use serde::{Deserialize, Serialize};
 use super::data::FitData;
 use super::job::{pole_word, verdict, FitRecord};
 use super::metrics::measure;
-use super::source::AxisDecl;
 use super::paper::{load_coefficients, load_table, PaperModel};
 use super::poles::CertifyOptions;
 use super::rational::{fit_rational, RationalOptions};
 use super::result::{FitResult, Form, Objective};
+use super::source::AxisDecl;
 use super::source::FitInput;
 use crate::error::Result;
 
@@ -38,10 +38,30 @@ pub struct PaperPair {
 
 /// The paper's four fits.
 pub const PAPER_PAIRS: [PaperPair; 4] = [
-    PaperPair { paper: PaperModel::Conductors, paper_name: "conductors", model: "ggx-conductor-separable", radiance: false },
-    PaperPair { paper: PaperModel::Glossy, paper_name: "glossy", model: "ggx-glossy-separable", radiance: false },
-    PaperPair { paper: PaperModel::Dielectrics, paper_name: "dielectrics", model: "ggx-dielectric-separable", radiance: true },
-    PaperPair { paper: PaperModel::DielectricsInvEta, paper_name: "dielectrics_inv_eta", model: "ggx-dielectric-inv-separable", radiance: true },
+    PaperPair {
+        paper: PaperModel::Conductors,
+        paper_name: "conductors",
+        model: "ggx-conductor-separable",
+        radiance: false,
+    },
+    PaperPair {
+        paper: PaperModel::Glossy,
+        paper_name: "glossy",
+        model: "ggx-glossy-separable",
+        radiance: false,
+    },
+    PaperPair {
+        paper: PaperModel::Dielectrics,
+        paper_name: "dielectrics",
+        model: "ggx-dielectric-separable",
+        radiance: true,
+    },
+    PaperPair {
+        paper: PaperModel::DielectricsInvEta,
+        paper_name: "dielectrics_inv_eta",
+        model: "ggx-dielectric-inv-separable",
+        radiance: true,
+    },
 ];
 
 /// The box where the paper's tables start (its repository clamps r ≥ 0.035 and μ ≥ 0.02, and
@@ -51,8 +71,25 @@ pub const PAPER_PAIRS: [PaperPair; 4] = [
 /// The issue's reference figures for the published conductor fit (MAE 3.9e-3, max 3.2e-2) are
 /// on this box.
 pub fn paper_box(pair: &PaperPair) -> Vec<AxisDecl> {
-    let mu_hi = if pair.radiance { PAPER_MU_MAX_DIELECTRIC } else { 1.0 };
-    vec![AxisDecl { name: "r".into(), lo: PAPER_R_MIN, hi: 1.0, n: None }, AxisDecl { name: "mu".into(), lo: PAPER_MU_MIN, hi: mu_hi, n: None }]
+    let mu_hi = if pair.radiance {
+        PAPER_MU_MAX_DIELECTRIC
+    } else {
+        1.0
+    };
+    vec![
+        AxisDecl {
+            name: "r".into(),
+            lo: PAPER_R_MIN,
+            hi: 1.0,
+            n: None,
+        },
+        AxisDecl {
+            name: "mu".into(),
+            lo: PAPER_MU_MIN,
+            hi: mu_hi,
+            n: None,
+        },
+    ]
 }
 
 /// Smallest r of the paper's tables (its repository clamps r to ≥ 0.035; paper-repo-data README).
@@ -65,7 +102,11 @@ pub const PAPER_MU_MAX_DIELECTRIC: f64 = 0.98;
 /// The paper's box inside a domain: r ≥ [`PAPER_R_MIN`], μ ≥ [`PAPER_MU_MIN`] (and for a
 /// dielectric model μ ≤ [`PAPER_MU_MAX_DIELECTRIC`]), other variables as they are. None if the
 /// data has no variables `r` and `mu` or the box misses the domain.
-pub fn paper_box_in(names: &[String], domain: &[(f64, f64)], model: Option<&str>) -> Option<Vec<(f64, f64)>> {
+pub fn paper_box_in(
+    names: &[String],
+    domain: &[(f64, f64)],
+    model: Option<&str>,
+) -> Option<Vec<(f64, f64)>> {
     let find = |n: &str| names.iter().position(|x| x.eq_ignore_ascii_case(n));
     let (r, mu) = (find("r")?, find("mu")?);
     let mut b = domain.to_vec();
@@ -79,7 +120,10 @@ pub fn paper_box_in(names: &[String], domain: &[(f64, f64)], model: Option<&str>
 
 /// `r=0.035:1,mu=0.02:0.98`: the `--domain` argument of a box.
 pub fn box_text(b: &[AxisDecl]) -> String {
-    b.iter().map(|a| format!("{}={}:{}", a.name, a.lo, a.hi)).collect::<Vec<_>>().join(",")
+    b.iter()
+        .map(|a| format!("{}={}:{}", a.name, a.lo, a.hi))
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 /// One fit's line of the comparison.
@@ -116,12 +160,25 @@ impl CompareLine {
         CompareLine {
             fit: fit.into(),
             form: r.form.label(),
-            transforms: r.approximant.transforms.iter().map(|t| t.label(&r.approximant.variables)).collect(),
+            transforms: r
+                .approximant
+                .transforms
+                .iter()
+                .map(|t| t.label(&r.approximant.variables))
+                .collect(),
             objective: r.objective,
             n_coefficients: r.n_coefficients,
             mae: if full { finite(r.metrics.mae) } else { None },
-            max_abs_error: if full { finite(r.metrics.max_abs_error) } else { None },
-            max_abs_error_at: if full { Some(r.metrics.max_abs_error_at.clone()) } else { None },
+            max_abs_error: if full {
+                finite(r.metrics.max_abs_error)
+            } else {
+                None
+            },
+            max_abs_error_at: if full {
+                Some(r.metrics.max_abs_error_at.clone())
+            } else {
+                None
+            },
             box_mae: b.as_ref().and_then(|m| finite(m.mae)),
             box_max_abs_error: b.as_ref().and_then(|m| finite(m.max_abs_error)),
             poles: pole_word(r).into(),
@@ -154,10 +211,25 @@ pub struct CompareEntry {
 
 /// The paper's approximant measured on `input` (variables renamed to the table's).
 pub fn paper_fit_on(paper_dir: &Path, pair: &PaperPair, data: &FitData) -> Result<FitResult> {
-    let mut a = load_coefficients(&paper_dir.join("coefficients").join(format!("{}.csv", pair.paper_name)), pair.paper)?;
+    let mut a = load_coefficients(
+        &paper_dir
+            .join("coefficients")
+            .join(format!("{}.csv", pair.paper_name)),
+        pair.paper,
+    )?;
     a.variables = data.names.clone();
     a.domain = data.domain.clone();
-    Ok(FitResult::assess(Form::Rational { numerator_degree: 3, denominator_degree: 3 }, a, data, Objective::LeastSquares, None, &CertifyOptions::default())?)
+    Ok(FitResult::assess(
+        Form::Rational {
+            numerator_degree: 3,
+            denominator_degree: 3,
+        },
+        a,
+        data,
+        Objective::LeastSquares,
+        None,
+        &CertifyOptions::default(),
+    )?)
 }
 
 /// Compares one model: `input` is furnace's table of `pair.model` (radiance form for
@@ -180,25 +252,52 @@ pub fn compare_model(
         CompareLine::of("furnace 3/3 (same form)", &same_form.fit, true, b),
     ];
     if let Some(r) = best {
-        on_furnace_table.push(CompareLine::of("furnace best ≤ 40, whole table", &r.fit, true, b));
+        on_furnace_table.push(CompareLine::of(
+            "furnace best ≤ 40, whole table",
+            &r.fit,
+            true,
+            b,
+        ));
     }
     if let Some(r) = best_box {
-        on_furnace_table.push(CompareLine::of("furnace best ≤ 40, fitted on the paper's box", &r.fit, false, b));
+        on_furnace_table.push(CompareLine::of(
+            "furnace best ≤ 40, fitted on the paper's box",
+            &r.fit,
+            false,
+            b,
+        ));
     }
     // the paper's own table, unclamped coordinates as it fitted them
-    let table = load_table(&paper_dir.join("tables").join(format!("{}.csv", pair.paper_name)), pair.paper)?;
+    let table = load_table(
+        &paper_dir
+            .join("tables")
+            .join(format!("{}.csv", pair.paper_name)),
+        pair.paper,
+    )?;
     let theirs = paper_fit_on(paper_dir, pair, &table)?;
-    let ours = fit_rational(&table, &pair.paper.transforms(), 3, 3, Objective::LeastSquares, &RationalOptions::default())?;
+    let ours = fit_rational(
+        &table,
+        &pair.paper.transforms(),
+        3,
+        3,
+        Objective::LeastSquares,
+        &RationalOptions::default(),
+    )?;
     Ok(CompareEntry {
         paper_fit: pair.paper_name.into(),
         model: pair.model.into(),
-        transmission: pair.radiance.then(|| "radiance (E_T × 1/η² entering, × η² leaving), as the paper's tables".to_string()),
+        transmission: pair.radiance.then(|| {
+            "radiance (E_T × 1/η² entering, × η² leaving), as the paper's tables".to_string()
+        }),
         table_resolution: input.source.resolution.clone(),
         table_content_hash: input.source.content_hash.clone(),
         furnace_fit_points: same_form.fitted_on.points,
         on_furnace_table,
         paper_box: box_text(&paper_box(pair)),
-        on_paper_table: vec![CompareLine::of("paper 3/3 (published)", &theirs, true, None), CompareLine::of("furnace 3/3 (same form)", &ours, true, None)],
+        on_paper_table: vec![
+            CompareLine::of("paper 3/3 (published)", &theirs, true, None),
+            CompareLine::of("furnace 3/3 (same form)", &ours, true, None),
+        ],
         paper_result: Some(paper),
     })
 }
@@ -234,7 +333,10 @@ impl CompareReport {
     }
 
     pub fn to_json(&self) -> Result<String> {
-        Ok(format!("{}\n", serde_json::to_string_pretty(self).map_err(super::FitError::from)?))
+        Ok(format!(
+            "{}\n",
+            serde_json::to_string_pretty(self).map_err(super::FitError::from)?
+        ))
     }
 
     /// A Markdown report: one table per model.
@@ -249,14 +351,29 @@ not checks at the nodes.\n",
             self.paper, self.tool_version
         ));
         for e in &self.entries {
-            let res = e.table_resolution.as_ref().map_or("?".into(), |r| r.iter().map(|n| n.to_string()).collect::<Vec<_>>().join("×"));
-            s.push_str(&format!("\n## {} — `{}` ({res} table", e.paper_fit, e.model));
+            let res = e.table_resolution.as_ref().map_or("?".into(), |r| {
+                r.iter()
+                    .map(|n| n.to_string())
+                    .collect::<Vec<_>>()
+                    .join("×")
+            });
+            s.push_str(&format!(
+                "\n## {} — `{}` ({res} table",
+                e.paper_fit, e.model
+            ));
             if e.transmission.is_some() {
                 s.push_str(", radiance-form transmission");
             }
-            s.push_str(&format!(", hash {})\n\n", &e.table_content_hash[..e.table_content_hash.len().min(12)]));
+            s.push_str(&format!(
+                ", hash {})\n\n",
+                &e.table_content_hash[..e.table_content_hash.len().min(12)]
+            ));
             table_md(&mut s, &e.on_furnace_table, true);
-            if e.furnace_fit_points < e.table_resolution.as_ref().map_or(0, |r| r.iter().product()) {
+            if e.furnace_fit_points
+                < e.table_resolution
+                    .as_ref()
+                    .map_or(0, |r| r.iter().product())
+            {
                 s.push_str(&format!("\nfurnace 3/3 fitted on {} table nodes (even subset, endpoints kept); all metrics on every node.\n", e.furnace_fit_points));
             }
             s.push_str("\nOn the paper's own 32-point table (its unclamped coordinates):\n\n");
@@ -285,7 +402,11 @@ fn table_md(s: &mut String, lines: &[CompareLine], with_box: bool) {
             num(l.max_abs_error),
         ));
         if with_box {
-            s.push_str(&format!(" {} | {} |", num(l.box_mae), num(l.box_max_abs_error)));
+            s.push_str(&format!(
+                " {} | {} |",
+                num(l.box_mae),
+                num(l.box_max_abs_error)
+            ));
         }
         s.push_str(&format!(" {} |\n", l.poles));
     }

@@ -57,7 +57,9 @@ impl InputTransform {
             InputTransform::Square => v * v,
             InputTransform::ClampNormalize { lo, hi } => (v.clamp(lo, hi) - lo) / (hi - lo),
             // (a `by` out of range — only in an unvalidated approximant — gives NaN, not a panic)
-            InputTransform::BoundaryLayer { by, k: scale } => layer(v, x.get(by).copied().unwrap_or(f64::NAN), scale),
+            InputTransform::BoundaryLayer { by, k: scale } => {
+                layer(v, x.get(by).copied().unwrap_or(f64::NAN), scale)
+            }
         }
     }
 
@@ -135,25 +137,33 @@ impl InputTransform {
         };
         let (ta, tb) = match *self {
             InputTransform::Sqrt if lo < 0.0 => return Err(bad("sqrt needs a domain with x ≥ 0")),
-            InputTransform::Square if lo < 0.0 => {
-                return Err(bad("x² is not monotone on a domain containing negative x; shift the variable first"))
-            }
-            InputTransform::ClampNormalize { lo: a, hi: b } if !(a.is_finite() && b.is_finite() && a < b) => {
+            InputTransform::Square if lo < 0.0 => return Err(bad(
+                "x² is not monotone on a domain containing negative x; shift the variable first",
+            )),
+            InputTransform::ClampNormalize { lo: a, hi: b }
+                if !(a.is_finite() && b.is_finite() && a < b) =>
+            {
                 return Err(bad("clamp_normalize needs finite bounds lo < hi"))
             }
             InputTransform::BoundaryLayer { by, k: scale } => {
                 if by >= k {
-                    return Err(bad("a boundary layer scales by a variable that comes before it (e.g. mu by r)"));
+                    return Err(bad(
+                        "a boundary layer scales by a variable that comes before it (e.g. mu by r)",
+                    ));
                 }
                 if !(scale > 0.0 && scale.is_finite()) {
                     return Err(bad("a boundary layer needs a finite scale k > 0"));
                 }
                 if !(lo >= 0.0 && hi <= 1.0) {
-                    return Err(bad("a boundary layer needs 0 ≤ x ≤ 1 (it is monotone there)"));
+                    return Err(bad(
+                        "a boundary layer needs 0 ≤ x ≤ 1 (it is monotone there)",
+                    ));
                 }
                 let (ylo, yhi) = domain[by];
                 if ylo < 0.0 {
-                    return Err(bad("a boundary layer needs the variable it scales by to be ≥ 0"));
+                    return Err(bad(
+                        "a boundary layer needs the variable it scales by to be ≥ 0",
+                    ));
                 }
                 // increasing in x, decreasing in y (x ≤ 1): the extremes are at opposite corners
                 (layer(lo, yhi, scale), layer(hi, ylo, scale))
@@ -202,7 +212,11 @@ pub fn inverse_point(transforms: &[InputTransform], t: &[f64]) -> Vec<f64> {
 
 /// The box of transformed coordinates that contains the image of `domain`, checking that every
 /// transform is defined and monotone there.
-pub fn transformed_box(names: &[String], domain: &[(f64, f64)], transforms: &[InputTransform]) -> Result<Vec<(f64, f64)>> {
+pub fn transformed_box(
+    names: &[String],
+    domain: &[(f64, f64)],
+    transforms: &[InputTransform],
+) -> Result<Vec<(f64, f64)>> {
     if transforms.len() != domain.len() {
         return Err(FitError::ShapeMismatch {
             what: "input transforms",
@@ -211,7 +225,9 @@ pub fn transformed_box(names: &[String], domain: &[(f64, f64)], transforms: &[In
             fix: "give one transform per variable (InputTransform::Identity for none)",
         });
     }
-    (0..domain.len()).map(|k| transforms[k].image(k, names, domain)).collect()
+    (0..domain.len())
+        .map(|k| transforms[k].image(k, names, domain))
+        .collect()
 }
 
 /// Scattered data to fit: `coords` holds `names.len()` coordinates per point, row-major.
@@ -229,8 +245,19 @@ pub struct FitData {
 
 impl FitData {
     /// Builds and validates a data set.
-    pub fn new(names: Vec<String>, coords: Vec<f64>, values: Vec<f64>, domain: Vec<(f64, f64)>) -> Result<FitData> {
-        let data = FitData { names, coords, values, weights: None, domain };
+    pub fn new(
+        names: Vec<String>,
+        coords: Vec<f64>,
+        values: Vec<f64>,
+        domain: Vec<(f64, f64)>,
+    ) -> Result<FitData> {
+        let data = FitData {
+            names,
+            coords,
+            values,
+            weights: None,
+            domain,
+        };
         data.validate()?;
         Ok(data)
     }
@@ -240,7 +267,10 @@ impl FitData {
     pub fn from_grid(names: Vec<String>, axes: &[Vec<f64>], values: Vec<f64>) -> Result<FitData> {
         let d = axes.len();
         if d == 0 || d > MAX_DIM {
-            return Err(FitError::BadDimension { got: d, max: MAX_DIM });
+            return Err(FitError::BadDimension {
+                got: d,
+                max: MAX_DIM,
+            });
         }
         let n: usize = axes.iter().map(Vec::len).product();
         if values.len() != n {
@@ -267,7 +297,12 @@ impl FitData {
         }
         let domain = axes
             .iter()
-            .map(|a| a.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x))))
+            .map(|a| {
+                a.iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                        (lo.min(x), hi.max(x))
+                    })
+            })
             .collect();
         FitData::new(names, coords, values, domain)
     }
@@ -304,7 +339,9 @@ impl FitData {
 
     /// Number of points with non-zero weight.
     pub fn n_weighted(&self) -> usize {
-        self.weights.as_ref().map_or(self.len(), |w| w.iter().filter(|&&x| x > 0.0).count())
+        self.weights
+            .as_ref()
+            .map_or(self.len(), |w| w.iter().filter(|&&x| x > 0.0).count())
     }
 
     /// A deterministic pseudo-random subset of `min(m, len)` points in their original order,
@@ -331,7 +368,13 @@ impl FitData {
                 }
             }
         }
-        let data = FitData { names: self.names.clone(), coords, values, weights, domain: self.domain.clone() };
+        let data = FitData {
+            names: self.names.clone(),
+            coords,
+            values,
+            weights,
+            domain: self.domain.clone(),
+        };
         data.validate()?;
         Ok(data)
     }
@@ -340,7 +383,10 @@ impl FitData {
     pub fn validate(&self) -> Result<()> {
         let d = self.dim();
         if d == 0 || d > MAX_DIM {
-            return Err(FitError::BadDimension { got: d, max: MAX_DIM });
+            return Err(FitError::BadDimension {
+                got: d,
+                max: MAX_DIM,
+            });
         }
         let n = self.values.len();
         if self.coords.len() != n * d {
@@ -361,20 +407,38 @@ impl FitData {
         }
         for (k, &(lo, hi)) in self.domain.iter().enumerate() {
             if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-                return Err(FitError::InvalidDomain { name: self.names[k].clone(), lo, hi });
+                return Err(FitError::InvalidDomain {
+                    name: self.names[k].clone(),
+                    lo,
+                    hi,
+                });
             }
         }
         if let Some(i) = self.values.iter().position(|v| !v.is_finite()) {
-            return Err(FitError::NonFinite { what: "value", index: i, value: self.values[i] });
+            return Err(FitError::NonFinite {
+                what: "value",
+                index: i,
+                value: self.values[i],
+            });
         }
         for (j, &x) in self.coords.iter().enumerate() {
             let (i, k) = (j / d, j % d);
             if !x.is_finite() {
-                return Err(FitError::NonFinite { what: "coordinate of point", index: i, value: x });
+                return Err(FitError::NonFinite {
+                    what: "coordinate of point",
+                    index: i,
+                    value: x,
+                });
             }
             let (lo, hi) = self.domain[k];
             if x < lo || x > hi {
-                return Err(FitError::OutsideDomain { index: i, name: self.names[k].clone(), value: x, lo, hi });
+                return Err(FitError::OutsideDomain {
+                    index: i,
+                    name: self.names[k].clone(),
+                    value: x,
+                    lo,
+                    hi,
+                });
             }
         }
         if let Some(w) = &self.weights {
@@ -387,7 +451,10 @@ impl FitData {
                 });
             }
             if let Some(i) = w.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
-                return Err(FitError::InvalidWeight { index: i, value: w[i] });
+                return Err(FitError::InvalidWeight {
+                    index: i,
+                    value: w[i],
+                });
             }
         }
         Ok(())
@@ -405,7 +472,12 @@ pub(crate) struct AxisScale {
 
 impl AxisScale {
     pub fn new(lo: f64, hi: f64) -> AxisScale {
-        AxisScale { lo, hi, center: 0.5 * (lo + hi), half: 0.5 * (hi - lo) }
+        AxisScale {
+            lo,
+            hi,
+            center: 0.5 * (lo + hi),
+            half: 0.5 * (hi - lo),
+        }
     }
 }
 
@@ -431,8 +503,10 @@ impl Prepared {
                 fix: "give one transform per variable (InputTransform::Identity for none)",
             });
         }
-        let scales: Vec<AxisScale> =
-            transformed_box(&data.names, &data.domain, transforms)?.into_iter().map(|(a, b)| AxisScale::new(a, b)).collect();
+        let scales: Vec<AxisScale> = transformed_box(&data.names, &data.domain, transforms)?
+            .into_iter()
+            .map(|(a, b)| AxisScale::new(a, b))
+            .collect();
         let mut s = Vec::with_capacity(data.coords.len());
         for i in 0..data.len() {
             let x = data.point(i);
@@ -442,7 +516,13 @@ impl Prepared {
             }
         }
         let w = (0..data.len()).map(|i| data.weight(i)).collect();
-        Ok(Prepared { d, s, y: data.values.clone(), w, scales })
+        Ok(Prepared {
+            d,
+            s,
+            y: data.values.clone(),
+            w,
+            scales,
+        })
     }
 
     pub fn len(&self) -> usize {
@@ -466,7 +546,13 @@ impl Prepared {
             return None;
         }
         let mut rng = SplitMix64(0x05EE_DF17_u64);
-        let mut out = Prepared { d: self.d, s: Vec::with_capacity(m * self.d), y: Vec::with_capacity(m), w: Vec::with_capacity(m), scales: self.scales.clone() };
+        let mut out = Prepared {
+            d: self.d,
+            s: Vec::with_capacity(m * self.d),
+            y: Vec::with_capacity(m),
+            w: Vec::with_capacity(m),
+            scales: self.scales.clone(),
+        };
         let mut chosen = 0usize;
         for i in 0..n {
             let u = rng.next_f64();
@@ -508,7 +594,12 @@ mod tests {
 
     #[test]
     fn grid_is_row_major_last_axis_fastest() {
-        let d = FitData::from_grid(vec!["a".into(), "b".into()], &[vec![0.0, 1.0], vec![10.0, 20.0, 30.0]], vec![0.0; 6]).unwrap();
+        let d = FitData::from_grid(
+            vec!["a".into(), "b".into()],
+            &[vec![0.0, 1.0], vec![10.0, 20.0, 30.0]],
+            vec![0.0; 6],
+        )
+        .unwrap();
         assert_eq!(d.point(0), &[0.0, 10.0]);
         assert_eq!(d.point(2), &[0.0, 30.0]);
         assert_eq!(d.point(3), &[1.0, 10.0]);
@@ -517,25 +608,48 @@ mod tests {
 
     #[test]
     fn validation_names_the_problem() {
-        let e = FitData::new(vec!["x".into()], vec![0.0, f64::NAN], vec![1.0, 2.0], vec![(0.0, 1.0)]).unwrap_err();
+        let e = FitData::new(
+            vec!["x".into()],
+            vec![0.0, f64::NAN],
+            vec![1.0, 2.0],
+            vec![(0.0, 1.0)],
+        )
+        .unwrap_err();
         assert!(matches!(e, FitError::NonFinite { index: 1, .. }), "{e}");
-        let e = FitData::new(vec!["x".into()], vec![0.0, 2.0], vec![1.0, 2.0], vec![(0.0, 1.0)]).unwrap_err();
+        let e = FitData::new(
+            vec!["x".into()],
+            vec![0.0, 2.0],
+            vec![1.0, 2.0],
+            vec![(0.0, 1.0)],
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("widen the domain"), "{e}");
         let e = FitData::new(vec!["x".into()], vec![0.0], vec![1.0], vec![(1.0, 1.0)]).unwrap_err();
         assert!(matches!(e, FitError::InvalidDomain { .. }));
-        let e = FitData::new(vec!["x".into()], vec![0.0], vec![1.0], vec![(0.0, 1.0)]).unwrap().with_weights(vec![-1.0]).unwrap_err();
+        let e = FitData::new(vec!["x".into()], vec![0.0], vec![1.0], vec![(0.0, 1.0)])
+            .unwrap()
+            .with_weights(vec![-1.0])
+            .unwrap_err();
         assert!(matches!(e, FitError::InvalidWeight { .. }));
     }
 
     #[test]
     fn transforms_and_inverses() {
-        let f = InputTransform::ClampNormalize { lo: 0.0125, hi: 0.25 };
+        let f = InputTransform::ClampNormalize {
+            lo: 0.0125,
+            hi: 0.25,
+        };
         assert_eq!(f.apply(0, &[0.0125]), 0.0);
         assert_eq!(f.apply(0, &[0.25]), 1.0);
         assert_eq!(f.apply(0, &[0.5]), 1.0);
         assert!((f.inverse(f.apply(0, &[0.1]), &[0.0]) - 0.1).abs() < 1e-15);
         let x = vec!["x".to_string()];
-        assert_eq!(InputTransform::OneMinus.image(0, &x, &[(0.0, 0.5)]).unwrap(), (0.5, 1.0));
+        assert_eq!(
+            InputTransform::OneMinus
+                .image(0, &x, &[(0.0, 0.5)])
+                .unwrap(),
+            (0.5, 1.0)
+        );
         assert!(InputTransform::Sqrt.image(0, &x, &[(-1.0, 1.0)]).is_err());
     }
 
@@ -546,14 +660,20 @@ mod tests {
         let t = |r: f64, mu: f64| bl.apply(1, &[r, mu]);
         // ends: μ = 1 ↦ 1 for every r, μ = 0 ↦ 0 for r > 0, r = 0 ↦ 1 (μ > 0 and the corner)
         for r in [1e-6, 0.1, 0.5, 1.0] {
-            assert!((t(r, 1.0) - 1.0).abs() < 1e-15 && t(r, 0.0) < 1e-18, "r = {r}");
+            assert!(
+                (t(r, 1.0) - 1.0).abs() < 1e-15 && t(r, 0.0) < 1e-18,
+                "r = {r}"
+            );
         }
         assert_eq!(t(0.0, 0.0), 1.0);
         assert_eq!(t(0.0, 1e-9), 1.0);
         // the similarity variable: for small r, t depends on μ/r² only (t ≈ c/(1 + c))
         for c in [0.1, 1.0, 10.0] {
             let (a, b) = (t(1e-3, c * 1e-6), t(1e-4, c * 1e-8));
-            assert!((a - c / (1.0 + c)).abs() < 1e-5 && (a - b).abs() < 1e-5, "c = {c}: {a} {b}");
+            assert!(
+                (a - c / (1.0 + c)).abs() < 1e-5 && (a - b).abs() < 1e-5,
+                "c = {c}: {a} {b}"
+            );
         }
         // monotone: increasing in μ, decreasing in r; the image of the unit square is [0, 1]
         assert!(t(0.3, 0.2) < t(0.3, 0.21) && t(0.3, 0.2) > t(0.31, 0.2));
@@ -564,20 +684,35 @@ mod tests {
         // inverse
         for (r, mu) in [(0.2, 0.3), (1.0, 0.01), (0.05, 0.9)] {
             let x = inverse_point(&[InputTransform::Identity, bl], &[r, t(r, mu)]);
-            assert!((x[0] - r).abs() < 1e-15 && (x[1] - mu).abs() < 1e-12, "{x:?}");
+            assert!(
+                (x[0] - r).abs() < 1e-15 && (x[1] - mu).abs() < 1e-12,
+                "{x:?}"
+            );
         }
         // refused: scaling by a later variable, μ outside [0, 1], negative r, k ≤ 0
         let later = InputTransform::BoundaryLayer { by: 1, k: 1.0 };
-        assert!(later.image(0, &names, &[(0.0, 1.0), (0.0, 1.0)]).unwrap_err().to_string().contains("comes before"));
+        assert!(later
+            .image(0, &names, &[(0.0, 1.0), (0.0, 1.0)])
+            .unwrap_err()
+            .to_string()
+            .contains("comes before"));
         assert!(bl.image(1, &names, &[(0.0, 1.0), (0.0, 2.0)]).is_err());
         assert!(bl.image(1, &names, &[(-1.0, 1.0), (0.0, 1.0)]).is_err());
-        assert!(InputTransform::BoundaryLayer { by: 0, k: 0.0 }.image(1, &names, &[(0.0, 1.0), (0.0, 1.0)]).is_err());
+        assert!(InputTransform::BoundaryLayer { by: 0, k: 0.0 }
+            .image(1, &names, &[(0.0, 1.0), (0.0, 1.0)])
+            .is_err());
     }
 
     #[test]
     fn subsample_is_deterministic_and_exact_size() {
         let n = 1000;
-        let data = FitData::new(vec!["x".into()], (0..n).map(|i| i as f64).collect(), vec![0.0; n], vec![(0.0, 999.0)]).unwrap();
+        let data = FitData::new(
+            vec!["x".into()],
+            (0..n).map(|i| i as f64).collect(),
+            vec![0.0; n],
+            vec![(0.0, 999.0)],
+        )
+        .unwrap();
         let p = Prepared::new(&data, &[InputTransform::Identity]).unwrap();
         let a = p.subsample(100).unwrap();
         let b = p.subsample(100).unwrap();

@@ -5,10 +5,19 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum FitError {
     #[error("{what}: expected {expected} values but got {got}; {fix}")]
-    ShapeMismatch { what: &'static str, expected: usize, got: usize, fix: &'static str },
+    ShapeMismatch {
+        what: &'static str,
+        expected: usize,
+        got: usize,
+        fix: &'static str,
+    },
 
     #[error("{what} {index} is {value}, not a finite number; remove or repair NaN/infinite entries before fitting")]
-    NonFinite { what: &'static str, index: usize, value: f64 },
+    NonFinite {
+        what: &'static str,
+        index: usize,
+        value: f64,
+    },
 
     #[error("a fit needs between 1 and {max} variables, got {got}; fit fewer variables at a time")]
     BadDimension { got: usize, max: usize },
@@ -17,16 +26,34 @@ pub enum FitError {
     InvalidDomain { name: String, lo: f64, hi: f64 },
 
     #[error("point {index} has {name} = {value}, outside its domain [{lo}, {hi}]; widen the domain or drop the point")]
-    OutsideDomain { index: usize, name: String, value: f64, lo: f64, hi: f64 },
+    OutsideDomain {
+        index: usize,
+        name: String,
+        value: f64,
+        lo: f64,
+        hi: f64,
+    },
 
-    #[error("transform '{transform}' of variable '{name}' is not usable on [{lo}, {hi}]: {reason}")]
-    InvalidTransform { transform: String, name: String, lo: f64, hi: f64, reason: &'static str },
+    #[error(
+        "transform '{transform}' of variable '{name}' is not usable on [{lo}, {hi}]: {reason}"
+    )]
+    InvalidTransform {
+        transform: String,
+        name: String,
+        lo: f64,
+        hi: f64,
+        reason: &'static str,
+    },
 
     #[error("weight {index} is {value}; weights must be finite and non-negative (use 0 to drop a point)")]
     InvalidWeight { index: usize, value: f64 },
 
     #[error("{form} has {coefficients} free coefficients but only {points} data points carry weight; lower the degree or supply more points")]
-    TooFewPoints { form: String, coefficients: usize, points: usize },
+    TooFewPoints {
+        form: String,
+        coefficients: usize,
+        points: usize,
+    },
 
     #[error("degree {degree} is above the supported maximum {max}; monomial coefficients of such degrees are meaningless in f64 — lower the degree")]
     DegreeTooHigh { degree: u32, max: u32 },
@@ -35,7 +62,11 @@ pub enum FitError {
     Singular { what: String, condition: f64 },
 
     #[error("invalid setting {name} = {value}: {expected}")]
-    InvalidSetting { name: &'static str, value: String, expected: &'static str },
+    InvalidSetting {
+        name: &'static str,
+        value: String,
+        expected: &'static str,
+    },
 
     #[error("no usable starting point for {form}: every start ({tried}) has a denominator that vanishes or changes sign at the data; lower the degree or fit a polynomial")]
     NoFeasibleStart { form: String, tried: String },

@@ -7,6 +7,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::compare::paper_box_in;
 use super::data::{FitData, InputTransform};
 use super::error::FitError;
 use super::metrics::{measure, measure_with_subset};
@@ -15,7 +16,6 @@ use super::rational::{fit_rational, RationalOptions};
 use super::result::{Approximant, FitResult, Form, Objective};
 use super::source::{FitInput, FittedOn, Source};
 use super::sweep::{best_under_budget, sweep_with_progress, SkippedFit, SweepEvent, SweepOptions};
-use super::compare::paper_box_in;
 use super::PoleVerdict;
 use crate::error::{Error, Result};
 
@@ -72,7 +72,10 @@ pub struct FitRecord {
 pub fn verdict(fit: &FitResult) -> (bool, String) {
     let usable = fit.is_usable();
     let s = if fit.metrics.non_finite > 0 {
-        format!("NOT usable: the fit is not finite at {} of the data points", fit.metrics.non_finite)
+        format!(
+            "NOT usable: the fit is not finite at {} of the data points",
+            fit.metrics.non_finite
+        )
     } else {
         match &fit.poles {
             PoleVerdict::NoDenominator => "usable: a polynomial has no poles".into(),
@@ -160,12 +163,17 @@ impl FitRecord {
                             points: fit.metrics.n_points,
                             restricted_to: None,
                         },
-                        fitted_on: FittedOn { points: fit.metrics.n_points, selection: "unknown".into() },
+                        fitted_on: FittedOn {
+                            points: fit.metrics.n_points,
+                            selection: "unknown".into(),
+                        },
                         metrics_on: "unknown".into(),
                         fit,
                     })
                 }
-                Err(_) => Err(format!("not a furnace fit file ({record_err}); write one with `furnace fit`")),
+                Err(_) => Err(format!(
+                    "not a furnace fit file ({record_err}); write one with `furnace fit`"
+                )),
             },
         }
     }
@@ -175,21 +183,38 @@ impl FitRecord {
         let a = &self.fit.approximant;
         let (kind, degree) = match self.fit.form {
             Form::Polynomial { degree } => (FormKind::Polynomial, degree),
-            Form::Rational { numerator_degree, .. } => (FormKind::Rational, numerator_degree),
+            Form::Rational {
+                numerator_degree, ..
+            } => (FormKind::Rational, numerator_degree),
         };
-        fit_file_name(kind, degree, &a.variables, &a.transforms, self.fit.objective)
+        fit_file_name(
+            kind,
+            degree,
+            &a.variables,
+            &a.transforms,
+            self.fit.objective,
+        )
     }
 }
 
 /// `rational-3.json`; non-identity transforms add `-<variable>_<transform>` and objectives other
 /// than least squares `-mae` / `-minimax`: `rational-4-mu_sqrt-minimax.json`.
-pub fn fit_file_name(form: FormKind, degree: u32, variables: &[String], transforms: &[InputTransform], objective: Objective) -> String {
+pub fn fit_file_name(
+    form: FormKind,
+    degree: u32,
+    variables: &[String],
+    transforms: &[InputTransform],
+    objective: Objective,
+) -> String {
     let mut s = format!("{}-{degree}", form.name());
     for (v, t) in variables.iter().zip(transforms) {
         if *t != InputTransform::Identity {
             let t = match *t {
                 InputTransform::ClampNormalize { lo, hi } => format!("clamp_{lo}_{hi}"),
-                InputTransform::BoundaryLayer { by, k } => format!("layer_{}_{k}", variables.get(by).map_or("x", String::as_str)),
+                InputTransform::BoundaryLayer { by, k } => format!(
+                    "layer_{}_{k}",
+                    variables.get(by).map_or("x", String::as_str)
+                ),
                 other => other.name(),
             };
             s.push_str(&format!("-{v}_{t}"));
@@ -208,7 +233,13 @@ pub fn fit_file_name(form: FormKind, degree: u32, variables: &[String], transfor
 fn fitting_data(input: &FitInput, max_fit_points: usize) -> Result<(Option<FitData>, FittedOn)> {
     Ok(match input.reduced(max_fit_points)? {
         Some((d, on)) => (Some(d), on),
-        None => (None, FittedOn { points: input.data.len(), selection: "all points".into() }),
+        None => (
+            None,
+            FittedOn {
+                points: input.data.len(),
+                selection: "all points".into(),
+            },
+        ),
     })
 }
 
@@ -233,10 +264,27 @@ pub fn fit_one(input: &FitInput, req: &FitRequest) -> Result<FitRecord> {
     let (reduced, fitted_on) = fitting_data(input, req.max_fit_points)?;
     let data = reduced.as_ref().unwrap_or(&input.data);
     let fit = match req.form {
-        FormKind::Polynomial => fit_polynomial(data, &req.transforms, req.degree, req.objective, &PolynomialOptions::default())?,
-        FormKind::Rational => fit_rational(data, &req.transforms, req.degree, req.degree, req.objective, &RationalOptions::default())?,
+        FormKind::Polynomial => fit_polynomial(
+            data,
+            &req.transforms,
+            req.degree,
+            req.objective,
+            &PolynomialOptions::default(),
+        )?,
+        FormKind::Rational => fit_rational(
+            data,
+            &req.transforms,
+            req.degree,
+            req.degree,
+            req.objective,
+            &RationalOptions::default(),
+        )?,
     };
-    Ok(FitRecord::new(remeasure(fit, input, reduced.is_some()), input, fitted_on))
+    Ok(FitRecord::new(
+        remeasure(fit, input, reduced.is_some()),
+        input,
+        fitted_on,
+    ))
 }
 
 /// What a sweep fits.
@@ -312,7 +360,11 @@ pub fn default_transform_sets(data: &FitData) -> Vec<Vec<InputTransform>> {
     }
     if let (Some(r), Some(m)) = (find("r"), mu) {
         if r < m && data.domain[r].0 >= 0.0 && data.domain[m].1 <= 1.0 {
-            let scales = if d >= 3 { &LAYER_SCALES[..1] } else { &LAYER_SCALES[..] };
+            let scales = if d >= 3 {
+                &LAYER_SCALES[..1]
+            } else {
+                &LAYER_SCALES[..]
+            };
             for &k in scales {
                 let mut t = id.clone();
                 t[r] = InputTransform::Square;
@@ -334,10 +386,19 @@ pub fn default_transform_sets(data: &FitData) -> Vec<Vec<InputTransform>> {
 impl SweepPlan {
     /// The paper's Fig. 3 degrees (2D: polynomials and rationals 1–10; 3D: polynomials 1–7,
     /// rationals 1–5), capped at `max_degree`, with [`default_transform_sets`] plus `extra`.
-    pub fn paper(data: &FitData, max_degree: Option<u32>, extra: Option<Vec<InputTransform>>, objective: Objective) -> SweepPlan {
+    pub fn paper(
+        data: &FitData,
+        max_degree: Option<u32>,
+        extra: Option<Vec<InputTransform>>,
+        objective: Objective,
+    ) -> SweepPlan {
         let d = data.dim();
         let base = SweepOptions::for_dimension(d);
-        let cap = |v: Vec<u32>| v.into_iter().filter(|&g| max_degree.is_none_or(|m| g <= m)).collect::<Vec<_>>();
+        let cap = |v: Vec<u32>| {
+            v.into_iter()
+                .filter(|&g| max_degree.is_none_or(|m| g <= m))
+                .collect::<Vec<_>>()
+        };
         let mut polynomial_degrees = cap(base.polynomial_degrees);
         let mut rational_degrees = cap(base.rational_degrees);
         if let Some(m) = max_degree {
@@ -369,7 +430,12 @@ impl SweepPlan {
     /// Drops the transform sets that use the boundary layer, except `keep` (a set the user
     /// asked for): for data without a grazing layer (see `Model::grazing_boundary_layer`).
     pub fn without_boundary_layer(mut self, keep: Option<&[InputTransform]>) -> SweepPlan {
-        self.transform_sets.retain(|t| keep == Some(t.as_slice()) || !t.iter().any(|x| matches!(x, InputTransform::BoundaryLayer { .. })));
+        self.transform_sets.retain(|t| {
+            keep == Some(t.as_slice())
+                || !t
+                    .iter()
+                    .any(|x| matches!(x, InputTransform::BoundaryLayer { .. }))
+        });
         self
     }
 }
@@ -471,7 +537,11 @@ struct SweepJson<'a> {
 impl SweepOutcome {
     /// The record of the best fit under `budget`, if any.
     pub fn best_record(&self, budget: usize) -> Option<&FitRecord> {
-        self.best.iter().find(|b| b.budget == budget).and_then(|b| b.index).map(|i| &self.records[i])
+        self.best
+            .iter()
+            .find(|b| b.budget == budget)
+            .and_then(|b| b.index)
+            .map(|i| &self.records[i])
     }
 
     /// `sweep.json`: provenance, summary rows, the best fit per budget, skipped fits, and every
@@ -490,7 +560,10 @@ impl SweepOutcome {
             skipped: &self.skipped,
             fits: self.records.iter().map(|r| &r.fit.approximant).collect(),
         };
-        Ok(format!("{}\n", serde_json::to_string_pretty(&j).map_err(FitError::from)?))
+        Ok(format!(
+            "{}\n",
+            serde_json::to_string_pretty(&j).map_err(FitError::from)?
+        ))
     }
 
     /// `sweep.csv`: one line per fit.
@@ -499,7 +572,12 @@ impl SweepOutcome {
             "form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,paper_box_mae,paper_box_max_abs_error,poles,usable,converged\n",
         );
         for r in &self.rows {
-            let (bm, bx) = r.paper_box.as_ref().map_or((String::new(), String::new()), |b| (format!("{:e}", b.mae), format!("{:e}", b.max_abs_error)));
+            let (bm, bx) = r
+                .paper_box
+                .as_ref()
+                .map_or((String::new(), String::new()), |b| {
+                    (format!("{:e}", b.mae), format!("{:e}", b.max_abs_error))
+                });
             s.push_str(&format!(
                 "{},{},{},{},{},{:e},{:e},{:e},{:e},{bm},{bx},{},{},{}\n",
                 r.form.name(),
@@ -524,12 +602,19 @@ fn row_of(rec: &FitRecord, paper_box: Option<BoxMetrics>) -> SweepRow {
     let f = &rec.fit;
     let (form, degree) = match f.form {
         Form::Polynomial { degree } => (FormKind::Polynomial, degree),
-        Form::Rational { numerator_degree, .. } => (FormKind::Rational, numerator_degree),
+        Form::Rational {
+            numerator_degree, ..
+        } => (FormKind::Rational, numerator_degree),
     };
     SweepRow {
         form,
         degree,
-        transforms: f.approximant.transforms.iter().map(|t| t.label(&f.approximant.variables)).collect(),
+        transforms: f
+            .approximant
+            .transforms
+            .iter()
+            .map(|t| t.label(&f.approximant.variables))
+            .collect(),
         objective: f.objective,
         n_coefficients: f.n_coefficients,
         mae: f.metrics.mae,
@@ -558,7 +643,12 @@ fn progress_line(r: &FitResult) -> String {
     format!(
         "{:<26} [{}] {:<7} n={:<3} MAE {:.2e} max {:.2e} (on the fitted points) {:>7.2} s {}",
         r.form.label(),
-        r.approximant.transforms.iter().map(|t| t.label(&r.approximant.variables)).collect::<Vec<_>>().join(" "),
+        r.approximant
+            .transforms
+            .iter()
+            .map(|t| t.label(&r.approximant.variables))
+            .collect::<Vec<_>>()
+            .join(" "),
         objective_name(r.objective),
         r.n_coefficients,
         r.metrics.mae,
@@ -577,11 +667,27 @@ fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
         let mut c: Vec<usize> = (0..records.len())
             .filter(|&i| {
                 let f = &records[i].fit;
-                records[i].usable && f.objective == Objective::LeastSquares && f.n_coefficients <= budget
+                records[i].usable
+                    && f.objective == Objective::LeastSquares
+                    && f.n_coefficients <= budget
             })
             .collect();
-        c.sort_by(|&a, &b| records[a].fit.metrics.max_abs_error.total_cmp(&records[b].fit.metrics.max_abs_error).then(a.cmp(&b)));
-        let by_mae = c.iter().copied().min_by(|&a, &b| records[a].fit.metrics.mae.total_cmp(&records[b].fit.metrics.mae).then(a.cmp(&b)));
+        c.sort_by(|&a, &b| {
+            records[a]
+                .fit
+                .metrics
+                .max_abs_error
+                .total_cmp(&records[b].fit.metrics.max_abs_error)
+                .then(a.cmp(&b))
+        });
+        let by_mae = c.iter().copied().min_by(|&a, &b| {
+            records[a]
+                .fit
+                .metrics
+                .mae
+                .total_cmp(&records[b].fit.metrics.mae)
+                .then(a.cmp(&b))
+        });
         for i in c.into_iter().take(MINIMAX_REFITS_BY_MAX).chain(by_mae) {
             if !chosen.contains(&i) {
                 chosen.push(i);
@@ -593,13 +699,25 @@ fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
 
 /// Which points of `data` lie inside `bounds`, or None if none do.
 fn points_in(data: &FitData, bounds: &[(f64, f64)]) -> Option<Vec<bool>> {
-    let mask: Vec<bool> = (0..data.len()).map(|i| data.point(i).iter().zip(bounds).all(|(v, (lo, hi))| v >= lo && v <= hi)).collect();
+    let mask: Vec<bool> = (0..data.len())
+        .map(|i| {
+            data.point(i)
+                .iter()
+                .zip(bounds)
+                .all(|(v, (lo, hi))| v >= lo && v <= hi)
+        })
+        .collect();
     mask.contains(&true).then_some(mask)
 }
 
 /// A fit's metrics on every point of `input` (measured again if it was fitted on fewer) and
 /// on the points of `mask`, in one pass.
-fn measured(mut fit: FitResult, input: &FitInput, reduced: bool, mask: Option<&[bool]>) -> (FitResult, Option<BoxMetrics>) {
+fn measured(
+    mut fit: FitResult,
+    input: &FitInput,
+    reduced: bool,
+    mask: Option<&[bool]>,
+) -> (FitResult, Option<BoxMetrics>) {
     if !reduced && mask.is_none() {
         return (fit, None);
     }
@@ -607,7 +725,14 @@ fn measured(mut fit: FitResult, input: &FitInput, reduced: bool, mask: Option<&[
     if reduced {
         fit.metrics = all;
     }
-    (fit, sub.map(|m| BoxMetrics { mae: m.mae, max_abs_error: m.max_abs_error, max_abs_error_at: m.max_abs_error_at }))
+    (
+        fit,
+        sub.map(|m| BoxMetrics {
+            mae: m.mae,
+            max_abs_error: m.max_abs_error,
+            max_abs_error_at: m.max_abs_error_at,
+        }),
+    )
 }
 
 /// Runs a sweep; `progress` gets one line per fit made or skipped.
@@ -618,15 +743,26 @@ fn measured(mut fit: FitResult, input: &FitInput, reduced: bool, mask: Option<&[
 ///    coefficients), since "best under a budget" is judged by max error — objective switching.
 /// 3. Every fit is measured on all points; the best usable fit per budget is the one with the
 ///    lowest max error ([`best_under_budget`]).
-pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&str)) -> Result<SweepOutcome> {
+pub fn sweep_fits(
+    input: &FitInput,
+    plan: &SweepPlan,
+    progress: &mut dyn FnMut(&str),
+) -> Result<SweepOutcome> {
     let start = std::time::Instant::now();
     let d = input.data.dim();
     if let Some(t) = plan.transform_sets.iter().find(|t| t.len() != d) {
-        return Err(Error::InvalidInput(format!("a transform set has {} entries for {d} variables", t.len())));
+        return Err(Error::InvalidInput(format!(
+            "a transform set has {} entries for {d} variables",
+            t.len()
+        )));
     }
     let (reduced, fitted_on) = fitting_data(input, plan.max_fit_points)?;
     let data = reduced.as_ref().unwrap_or(&input.data);
-    let (boxed, paper_box) = match paper_box_in(&input.data.names, &input.data.domain, input.source.model.as_deref()) {
+    let (boxed, paper_box) = match paper_box_in(
+        &input.data.names,
+        &input.data.domain,
+        input.source.model.as_deref(),
+    ) {
         Some(bounds) => {
             let b = points_in(&input.data, &bounds);
             let text = input
@@ -637,8 +773,17 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
                 .map(|(n, (lo, hi))| format!("{n} ∈ [{lo}, {hi}]"))
                 .collect::<Vec<_>>()
                 .join(", ");
-            let on = format!("the {} points with {text} (the paper's box: where its tables are)", b.as_ref().map_or(0, |m| m.iter().filter(|&&x| x).count()));
-            (b, Some(PaperBox { bounds, metrics_on: on }))
+            let on = format!(
+                "the {} points with {text} (the paper's box: where its tables are)",
+                b.as_ref().map_or(0, |m| m.iter().filter(|&&x| x).count())
+            );
+            (
+                b,
+                Some(PaperBox {
+                    bounds,
+                    metrics_on: on,
+                }),
+            )
         }
         None => (None, None),
     };
@@ -670,11 +815,30 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
             let transforms = ls.approximant.transforms.clone();
             let t = std::time::Instant::now();
             let fitted = match ls.form {
-                Form::Polynomial { degree } => fit_polynomial(data, &transforms, degree, Objective::Minimax, &PolynomialOptions::default()),
-                Form::Rational { numerator_degree, denominator_degree } => {
+                Form::Polynomial { degree } => fit_polynomial(
+                    data,
+                    &transforms,
+                    degree,
+                    Objective::Minimax,
+                    &PolynomialOptions::default(),
+                ),
+                Form::Rational {
+                    numerator_degree,
+                    denominator_degree,
+                } => {
                     let mut ro = RationalOptions::default();
-                    ro.extra_starts.push(("least-squares fit of the sweep".into(), ls.approximant.clone()));
-                    fit_rational(data, &transforms, numerator_degree, denominator_degree, Objective::Minimax, &ro)
+                    ro.extra_starts.push((
+                        "least-squares fit of the sweep".into(),
+                        ls.approximant.clone(),
+                    ));
+                    fit_rational(
+                        data,
+                        &transforms,
+                        numerator_degree,
+                        denominator_degree,
+                        Objective::Minimax,
+                        &ro,
+                    )
                 }
             };
             match fitted {
@@ -688,7 +852,11 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
                     records.push(rec);
                 }
                 Err(e) => {
-                    let s = SkippedFit { form: format!("{} (minimax)", ls.form.label()), transforms, reason: e.to_string() };
+                    let s = SkippedFit {
+                        form: format!("{} (minimax)", ls.form.label()),
+                        transforms,
+                        reason: e.to_string(),
+                    };
                     progress(&format!("{:<26} skipped: {}", s.form, s.reason));
                     report.skipped.push(s);
                 }
@@ -701,14 +869,18 @@ pub fn sweep_fits(input: &FitInput, plan: &SweepPlan, progress: &mut dyn FnMut(&
         .iter()
         .map(|&budget| BestUnderBudget {
             budget,
-            index: best_under_budget(&fits, budget).and_then(|b| fits.iter().position(|f| std::ptr::eq(f, b))),
+            index: best_under_budget(&fits, budget)
+                .and_then(|b| fits.iter().position(|f| std::ptr::eq(f, b))),
         })
         .collect();
     Ok(SweepOutcome {
         source: input.source.clone(),
         variables: input.data.names.clone(),
         fitted_on,
-        metrics_on: format!("all {} points of the source (the whole domain)", input.data.len()),
+        metrics_on: format!(
+            "all {} points of the source (the whole domain)",
+            input.data.len()
+        ),
         paper_box: paper_box.filter(|_| boxed.is_some()),
         records,
         rows,
@@ -765,7 +937,10 @@ pub struct Stopwatch {
 
 impl Stopwatch {
     pub fn start() -> Stopwatch {
-        Stopwatch { wall: std::time::Instant::now(), cpu: process_cpu_seconds() }
+        Stopwatch {
+            wall: std::time::Instant::now(),
+            cpu: process_cpu_seconds(),
+        }
     }
 
     pub fn wall_seconds(&self) -> f64 {
@@ -795,13 +970,23 @@ pub fn process_cpu_seconds() -> Option<f64> {
 /// The 1-, 5- and 15-minute load averages from `/proc/loadavg`.
 pub fn load_average() -> Option<[f64; 3]> {
     let text = std::fs::read_to_string("/proc/loadavg").ok()?;
-    let v: Vec<f64> = text.split_whitespace().take(3).map(|x| x.parse().ok()).collect::<Option<_>>()?;
+    let v: Vec<f64> = text
+        .split_whitespace()
+        .take(3)
+        .map(|x| x.parse().ok())
+        .collect::<Option<_>>()?;
     Some([*v.first()?, *v.get(1)?, *v.get(2)?])
 }
 
 impl Timing {
     /// The timing record of a job measured by `clock`, for the file `fits_file`.
-    pub fn new(fits_file: &str, source: &Source, fitted_on: &FittedOn, clock: &Stopwatch, fits: Vec<FitTime>) -> Timing {
+    pub fn new(
+        fits_file: &str,
+        source: &Source,
+        fitted_on: &FittedOn,
+        clock: &Stopwatch,
+        fits: Vec<FitTime>,
+    ) -> Timing {
         Timing {
             tool: "furnace".into(),
             tool_version: crate::VERSION.into(),
@@ -818,14 +1003,25 @@ impl Timing {
 
     /// Pretty JSON with a final newline.
     pub fn to_json(&self) -> Result<String> {
-        Ok(format!("{}\n", serde_json::to_string_pretty(self).map_err(FitError::from)?))
+        Ok(format!(
+            "{}\n",
+            serde_json::to_string_pretty(self).map_err(FitError::from)?
+        ))
     }
 }
 
 impl SweepOutcome {
     /// Every fit's solve time, in row order.
     pub fn fit_times(&self) -> Vec<FitTime> {
-        self.rows.iter().zip(&self.fit_seconds).map(|(r, &seconds)| FitTime { name: r.name.clone(), n_coefficients: r.n_coefficients, seconds }).collect()
+        self.rows
+            .iter()
+            .zip(&self.fit_seconds)
+            .map(|(r, &seconds)| FitTime {
+                name: r.name.clone(),
+                n_coefficients: r.n_coefficients,
+                seconds,
+            })
+            .collect()
     }
 }
 
@@ -841,10 +1037,15 @@ pub fn parse_transforms(text: &str, names: &[String]) -> Result<Vec<InputTransfo
         })?;
         let (var, tr) = (var.trim(), tr.trim());
         let k = names.iter().position(|n| n == var).ok_or_else(|| {
-            Error::InvalidInput(format!("--transform '{part}': unknown variable '{var}'; the data's variables are {}", names.join(", ")))
+            Error::InvalidInput(format!(
+                "--transform '{part}': unknown variable '{var}'; the data's variables are {}",
+                names.join(", ")
+            ))
         })?;
         if seen[k] {
-            return Err(Error::InvalidInput(format!("--transform gives variable '{var}' twice")));
+            return Err(Error::InvalidInput(format!(
+                "--transform gives variable '{var}' twice"
+            )));
         }
         seen[k] = true;
         out[k] = match tr {
@@ -883,27 +1084,69 @@ mod tests {
 
     #[test]
     fn boundary_layer_sets_drop_unless_asked_for() {
-        let (r, mu): (Vec<f64>, Vec<f64>) = (0..16).map(|k| ((k / 4) as f64 / 3.0, (k % 4) as f64 / 3.0)).unzip();
+        let (r, mu): (Vec<f64>, Vec<f64>) = (0..16)
+            .map(|k| ((k / 4) as f64 / 3.0, (k % 4) as f64 / 3.0))
+            .unzip();
         let coords: Vec<f64> = r.iter().zip(&mu).flat_map(|(&a, &b)| [a, b]).collect();
-        let data = FitData::new(vec!["r".into(), "mu".into()], coords, vec![0.5; 16], vec![(0.0, 1.0); 2]).unwrap();
-        let is_layer = |t: &Vec<InputTransform>| t.iter().any(|x| matches!(x, InputTransform::BoundaryLayer { .. }));
+        let data = FitData::new(
+            vec!["r".into(), "mu".into()],
+            coords,
+            vec![0.5; 16],
+            vec![(0.0, 1.0); 2],
+        )
+        .unwrap();
+        let is_layer = |t: &Vec<InputTransform>| {
+            t.iter()
+                .any(|x| matches!(x, InputTransform::BoundaryLayer { .. }))
+        };
         let plan = SweepPlan::paper(&data, None, None, Objective::LeastSquares);
-        assert_eq!(plan.transform_sets.iter().filter(|t| is_layer(t)).count(), 2, "{:?}", plan.transform_sets);
+        assert_eq!(
+            plan.transform_sets.iter().filter(|t| is_layer(t)).count(),
+            2,
+            "{:?}",
+            plan.transform_sets
+        );
         let n = plan.transform_sets.len();
         let kept = plan.clone().without_boundary_layer(None);
         assert_eq!(kept.transform_sets.len(), n - 2);
         assert!(!kept.transform_sets.iter().any(is_layer));
-        let asked = plan.transform_sets.iter().find(|t| is_layer(t)).unwrap().clone();
+        let asked = plan
+            .transform_sets
+            .iter()
+            .find(|t| is_layer(t))
+            .unwrap()
+            .clone();
         let kept = plan.without_boundary_layer(Some(&asked));
-        assert_eq!(kept.transform_sets.iter().filter(|t| is_layer(t)).collect::<Vec<_>>(), vec![&asked]);
+        assert_eq!(
+            kept.transform_sets
+                .iter()
+                .filter(|t| is_layer(t))
+                .collect::<Vec<_>>(),
+            vec![&asked]
+        );
     }
 
     #[test]
     fn file_names() {
         let v = vec!["r".to_string(), "mu".to_string()];
-        assert_eq!(fit_file_name(FormKind::Rational, 3, &v, &[InputTransform::Identity; 2], Objective::LeastSquares), "rational-3.json");
         assert_eq!(
-            fit_file_name(FormKind::Rational, 4, &v, &[InputTransform::Identity, InputTransform::Sqrt], Objective::Minimax),
+            fit_file_name(
+                FormKind::Rational,
+                3,
+                &v,
+                &[InputTransform::Identity; 2],
+                Objective::LeastSquares
+            ),
+            "rational-3.json"
+        );
+        assert_eq!(
+            fit_file_name(
+                FormKind::Rational,
+                4,
+                &v,
+                &[InputTransform::Identity, InputTransform::Sqrt],
+                Objective::Minimax
+            ),
             "rational-4-mu_sqrt-minimax.json"
         );
     }
@@ -912,15 +1155,53 @@ mod tests {
     fn transforms_parse() {
         let v = vec!["f0".to_string(), "r".to_string(), "mu".to_string()];
         let t = parse_transforms("mu=sqrt, f0=clamp:0.0125:0.25", &v).unwrap();
-        assert_eq!(t, vec![InputTransform::ClampNormalize { lo: 0.0125, hi: 0.25 }, InputTransform::Identity, InputTransform::Sqrt]);
-        assert!(parse_transforms("x=sqrt", &v).unwrap_err().to_string().contains("unknown variable 'x'"));
-        assert!(parse_transforms("mu=log", &v).unwrap_err().to_string().contains("unknown transform"));
+        assert_eq!(
+            t,
+            vec![
+                InputTransform::ClampNormalize {
+                    lo: 0.0125,
+                    hi: 0.25
+                },
+                InputTransform::Identity,
+                InputTransform::Sqrt
+            ]
+        );
+        assert!(parse_transforms("x=sqrt", &v)
+            .unwrap_err()
+            .to_string()
+            .contains("unknown variable 'x'"));
+        assert!(parse_transforms("mu=log", &v)
+            .unwrap_err()
+            .to_string()
+            .contains("unknown transform"));
         assert!(parse_transforms("mu=sqrt,mu=square", &v).is_err());
         let t = parse_transforms("mu=layer:r:0.5,r=square", &v).unwrap();
-        assert_eq!(t, vec![InputTransform::Identity, InputTransform::Square, InputTransform::BoundaryLayer { by: 1, k: 0.5 }]);
-        assert_eq!(fit_file_name(FormKind::Rational, 4, &v, &t, Objective::LeastSquares), "rational-4-r_square-mu_layer_r_0.5.json");
-        for bad in ["mu=layer:r", "mu=layer:q:1", "mu=layer:r:0", "r=layer:mu:1", "mu=layer:r:inf"] {
-            assert!(parse_transforms(bad, &v).unwrap_err().to_string().contains("layer:<variable>:<k>"), "{bad}");
+        assert_eq!(
+            t,
+            vec![
+                InputTransform::Identity,
+                InputTransform::Square,
+                InputTransform::BoundaryLayer { by: 1, k: 0.5 }
+            ]
+        );
+        assert_eq!(
+            fit_file_name(FormKind::Rational, 4, &v, &t, Objective::LeastSquares),
+            "rational-4-r_square-mu_layer_r_0.5.json"
+        );
+        for bad in [
+            "mu=layer:r",
+            "mu=layer:q:1",
+            "mu=layer:r:0",
+            "r=layer:mu:1",
+            "mu=layer:r:inf",
+        ] {
+            assert!(
+                parse_transforms(bad, &v)
+                    .unwrap_err()
+                    .to_string()
+                    .contains("layer:<variable>:<k>"),
+                "{bad}"
+            );
         }
     }
 }

@@ -62,7 +62,11 @@ pub(crate) fn solve_lstsq<L: LinearRows + ?Sized>(sys: &L, what: &str) -> Result
     let m = sys.n_rows();
     let n = sys.n_cols();
     if m < n {
-        return Err(FitError::TooFewPoints { form: what.to_string(), coefficients: n, points: m });
+        return Err(FitError::TooFewPoints {
+            form: what.to_string(),
+            coefficients: n,
+            points: m,
+        });
     }
     let n_chunks = m.div_ceil(CHUNK_ROWS);
     let mut level: Vec<DMatrix<f64>> = (0..n_chunks)
@@ -73,7 +77,13 @@ pub(crate) fn solve_lstsq<L: LinearRows + ?Sized>(sys: &L, what: &str) -> Result
     while level.len() > 1 {
         level = level
             .par_chunks(2)
-            .map(|p| if p.len() == 2 { stack_r(&p[0], &p[1]) } else { p[0].clone() })
+            .map(|p| {
+                if p.len() == 2 {
+                    stack_r(&p[0], &p[1])
+                } else {
+                    p[0].clone()
+                }
+            })
             .collect();
     }
     let r = level.pop().expect("at least one chunk since m ≥ n ≥ 1");
@@ -81,13 +91,24 @@ pub(crate) fn solve_lstsq<L: LinearRows + ?Sized>(sys: &L, what: &str) -> Result
     let rr = r.nrows().min(n);
     let r11 = r.view((0, 0), (rr, n)).into_owned();
     let z = r.view((0, n), (rr, 1)).into_owned();
-    let residual_sq = if r.nrows() > n { r[(n, n)] * r[(n, n)] } else { 0.0 };
+    let residual_sq = if r.nrows() > n {
+        r[(n, n)] * r[(n, n)]
+    } else {
+        0.0
+    };
 
     // column equilibration: the condition number should not depend on the units of a column
     let col_norms: Vec<f64> = (0..n).map(|j| r11.column(j).norm()).collect();
     if let Some(j) = col_norms.iter().position(|&c| !(c > 0.0) || !c.is_finite()) {
         return Err(FitError::Singular {
-            what: format!("{what} (column {j} of the design matrix is {})", if col_norms[j] == 0.0 { "zero" } else { "not finite" }),
+            what: format!(
+                "{what} (column {j} of the design matrix is {})",
+                if col_norms[j] == 0.0 {
+                    "zero"
+                } else {
+                    "not finite"
+                }
+            ),
             condition: f64::INFINITY,
         });
     }
@@ -97,12 +118,20 @@ pub(crate) fn solve_lstsq<L: LinearRows + ?Sized>(sys: &L, what: &str) -> Result
     }
     let svd = scaled.svd(true, true);
     let sv = &svd.singular_values;
-    let (smax, smin) = sv.iter().fold((0.0f64, f64::INFINITY), |(a, b), &s| (a.max(s), b.min(s)));
+    let (smax, smin) = sv
+        .iter()
+        .fold((0.0f64, f64::INFINITY), |(a, b), &s| (a.max(s), b.min(s)));
     let condition = if rr < n { f64::INFINITY } else { smax / smin };
     if !(condition <= MAX_CONDITION) {
-        return Err(FitError::Singular { what: what.to_string(), condition });
+        return Err(FitError::Singular {
+            what: what.to_string(),
+            condition,
+        });
     }
-    let (u, vt) = (svd.u.as_ref().expect("computed"), svd.v_t.as_ref().expect("computed"));
+    let (u, vt) = (
+        svd.u.as_ref().expect("computed"),
+        svd.v_t.as_ref().expect("computed"),
+    );
     let uz = u.tr_mul(&z);
     let mut y = DVector::zeros(n);
     for i in 0..n {
@@ -110,7 +139,11 @@ pub(crate) fn solve_lstsq<L: LinearRows + ?Sized>(sys: &L, what: &str) -> Result
     }
     let xs = vt.tr_mul(&y);
     let x: Vec<f64> = (0..n).map(|j| xs[j] / col_norms[j]).collect();
-    Ok(LstsqSolution { x, condition, residual_sq })
+    Ok(LstsqSolution {
+        x,
+        condition,
+        residual_sq,
+    })
 }
 
 #[cfg(test)]
@@ -144,16 +177,26 @@ mod tests {
         // y = 3 − 2x on 10 000 points: spans several chunks and tree levels
         let m = 10_000;
         let xs: Vec<f64> = (0..m).map(|i| i as f64 / m as f64).collect();
-        let sys = Dense { a: xs.iter().map(|&x| vec![1.0, x]).collect(), b: xs.iter().map(|&x| 3.0 - 2.0 * x).collect() };
+        let sys = Dense {
+            a: xs.iter().map(|&x| vec![1.0, x]).collect(),
+            b: xs.iter().map(|&x| 3.0 - 2.0 * x).collect(),
+        };
         let s = solve_lstsq(&sys, "line").unwrap();
-        assert!((s.x[0] - 3.0).abs() < 1e-13 && (s.x[1] + 2.0).abs() < 1e-13, "{:?}", s.x);
+        assert!(
+            (s.x[0] - 3.0).abs() < 1e-13 && (s.x[1] + 2.0).abs() < 1e-13,
+            "{:?}",
+            s.x
+        );
         assert!(s.residual_sq < 1e-20);
     }
 
     #[test]
     fn residual_matches_known_least_squares() {
         // fit a constant to 0, 1, 2, 3: x = 1.5, residual 1.25+0.25+0.25+1.25 = 5
-        let sys = Dense { a: vec![vec![1.0]; 4], b: vec![0.0, 1.0, 2.0, 3.0] };
+        let sys = Dense {
+            a: vec![vec![1.0]; 4],
+            b: vec![0.0, 1.0, 2.0, 3.0],
+        };
         let s = solve_lstsq(&sys, "const").unwrap();
         assert!((s.x[0] - 1.5).abs() < 1e-15);
         assert!((s.residual_sq - 5.0).abs() < 1e-13);
@@ -161,7 +204,10 @@ mod tests {
 
     #[test]
     fn singular_is_refused() {
-        let sys = Dense { a: (0..10).map(|i| vec![i as f64, 2.0 * i as f64]).collect(), b: vec![1.0; 10] };
+        let sys = Dense {
+            a: (0..10).map(|i| vec![i as f64, 2.0 * i as f64]).collect(),
+            b: vec![1.0; 10],
+        };
         let e = solve_lstsq(&sys, "dup").unwrap_err();
         assert!(matches!(e, FitError::Singular { .. }), "{e}");
         assert!(e.to_string().contains("lower the degree"));
@@ -171,11 +217,25 @@ mod tests {
     fn deterministic_across_thread_counts() {
         let m = 20_000;
         let sys = Dense {
-            a: (0..m).map(|i| { let x = (i as f64 * 0.37).sin(); vec![1.0, x, x * x, x * x * x] }).collect(),
+            a: (0..m)
+                .map(|i| {
+                    let x = (i as f64 * 0.37).sin();
+                    vec![1.0, x, x * x, x * x * x]
+                })
+                .collect(),
             b: (0..m).map(|i| (i as f64 * 0.11).cos()).collect(),
         };
-        let run = |t| rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| solve_lstsq(&sys, "t").unwrap().x);
+        let run = |t| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+                .install(|| solve_lstsq(&sys, "t").unwrap().x)
+        };
         let (a, b) = (run(1), run(3));
-        assert_eq!(a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), b.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+        assert_eq!(
+            a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        );
     }
 }

@@ -123,7 +123,14 @@ impl LevenbergMarquardt {
     /// Defaults: 200 iterations, ftol = 1e-12, xtol = 1e-10, gtol = 1e-10, λ₀ = 1e-3
     /// (Madsen, Nielsen & Tingleff's τ), λ_max = 1e16.
     pub fn new() -> Self {
-        LevenbergMarquardt { max_iterations: 200, ftol: 1e-12, xtol: 1e-10, gtol: 1e-10, initial_damping: 1e-3, max_damping: 1e16 }
+        LevenbergMarquardt {
+            max_iterations: 200,
+            ftol: 1e-12,
+            xtol: 1e-10,
+            gtol: 1e-10,
+            initial_damping: 1e-3,
+            max_damping: 1e16,
+        }
     }
 
     pub fn max_iterations(&self) -> usize {
@@ -132,7 +139,11 @@ impl LevenbergMarquardt {
 
     pub fn with_max_iterations(mut self, n: usize) -> Result<Self> {
         if n == 0 {
-            return Err(FitError::InvalidSetting { name: "max_iterations", value: n.to_string(), expected: "must be at least 1" });
+            return Err(FitError::InvalidSetting {
+                name: "max_iterations",
+                value: n.to_string(),
+                expected: "must be at least 1",
+            });
         }
         self.max_iterations = n;
         Ok(self)
@@ -142,7 +153,11 @@ impl LevenbergMarquardt {
     pub fn with_tolerances(mut self, ftol: f64, xtol: f64, gtol: f64) -> Result<Self> {
         for (name, v) in [("ftol", ftol), ("xtol", xtol), ("gtol", gtol)] {
             if !(0.0..1.0).contains(&v) {
-                return Err(FitError::InvalidSetting { name, value: v.to_string(), expected: "must be in [0, 1)" });
+                return Err(FitError::InvalidSetting {
+                    name,
+                    value: v.to_string(),
+                    expected: "must be in [0, 1)",
+                });
             }
         }
         (self.ftol, self.xtol, self.gtol) = (ftol, xtol, gtol);
@@ -152,7 +167,11 @@ impl LevenbergMarquardt {
     /// Initial damping τ relative to the scaled JᵀJ; must be > 0.
     pub fn with_initial_damping(mut self, tau: f64) -> Result<Self> {
         if !(tau > 0.0 && tau.is_finite()) {
-            return Err(FitError::InvalidSetting { name: "initial_damping", value: tau.to_string(), expected: "must be finite and > 0" });
+            return Err(FitError::InvalidSetting {
+                name: "initial_damping",
+                value: tau.to_string(),
+                expected: "must be finite and > 0",
+            });
         }
         self.initial_damping = tau;
         Ok(self)
@@ -160,7 +179,11 @@ impl LevenbergMarquardt {
 
     /// Minimises ½‖r(p)‖² from `x0`. Errors only on malformed input (wrong length, NaN start);
     /// an infeasible start or non-convergence is reported through the termination reason.
-    pub fn solve<P: LeastSquaresProblem + ?Sized>(&self, problem: &P, x0: Vec<f64>) -> Result<LmReport> {
+    pub fn solve<P: LeastSquaresProblem + ?Sized>(
+        &self,
+        problem: &P,
+        x0: Vec<f64>,
+    ) -> Result<LmReport> {
         let n = problem.n_params();
         if x0.len() != n {
             return Err(FitError::ShapeMismatch {
@@ -171,7 +194,11 @@ impl LevenbergMarquardt {
             });
         }
         if let Some(i) = x0.iter().position(|v| !v.is_finite()) {
-            return Err(FitError::NonFinite { what: "starting parameter", index: i, value: x0[i] });
+            return Err(FitError::NonFinite {
+                what: "starting parameter",
+                index: i,
+                value: x0[i],
+            });
         }
         let mut state = LmState {
             params: x0,
@@ -182,9 +209,16 @@ impl LevenbergMarquardt {
             jacobian_evaluations: 0,
             gradient_cosine: f64::INFINITY,
         };
-        let start = if problem.admissible(&state.params) { normal_equations(problem, &state.params) } else { None };
+        let start = if problem.admissible(&state.params) {
+            normal_equations(problem, &state.params)
+        } else {
+            None
+        };
         let Some(mut ne) = start else {
-            return Ok(LmReport { state, termination: TerminationReason::InfeasibleStart });
+            return Ok(LmReport {
+                state,
+                termination: TerminationReason::InfeasibleStart,
+            });
         };
         state.jacobian_evaluations += 1;
         state.cost = ne.cost;
@@ -213,18 +247,42 @@ impl LevenbergMarquardt {
                 }
                 continue;
             };
-            let dx_norm = delta.iter().zip(&diag).map(|(d, s)| (d * s).powi(2)).sum::<f64>().sqrt();
-            let x_norm = state.params.iter().zip(&diag).map(|(x, s)| (x * s).powi(2)).sum::<f64>().sqrt();
+            let dx_norm = delta
+                .iter()
+                .zip(&diag)
+                .map(|(d, s)| (d * s).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let x_norm = state
+                .params
+                .iter()
+                .zip(&diag)
+                .map(|(x, s)| (x * s).powi(2))
+                .sum::<f64>()
+                .sqrt();
             // predicted reduction of ½‖r + Jδ‖²: −gᵀδ − ½ δᵀJᵀJδ
             let jtj_delta = &ne.jtj * DVector::from_column_slice(&delta);
             let g_delta: f64 = delta.iter().zip(ne.jtr.iter()).map(|(a, b)| a * b).sum();
             let quad: f64 = delta.iter().zip(jtj_delta.iter()).map(|(a, b)| a * b).sum();
             let predicted = -g_delta - 0.5 * quad;
 
-            let trial: Vec<f64> = state.params.iter().zip(&delta).map(|(x, d)| x + d).collect();
-            let trial_cost = if problem.admissible(&trial) { cost(problem, &trial).unwrap_or(f64::INFINITY) } else { f64::INFINITY };
+            let trial: Vec<f64> = state
+                .params
+                .iter()
+                .zip(&delta)
+                .map(|(x, d)| x + d)
+                .collect();
+            let trial_cost = if problem.admissible(&trial) {
+                cost(problem, &trial).unwrap_or(f64::INFINITY)
+            } else {
+                f64::INFINITY
+            };
             let actual = state.cost - trial_cost;
-            let rho = if predicted > 0.0 { actual / predicted } else { f64::NEG_INFINITY };
+            let rho = if predicted > 0.0 {
+                actual / predicted
+            } else {
+                f64::NEG_INFINITY
+            };
 
             if rho > 0.0 && trial_cost.is_finite() {
                 // (a finite cost but a non-finite Jacobian is treated as a rejection)
@@ -239,7 +297,10 @@ impl LevenbergMarquardt {
                     }
                     state.damping *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
                     state.nu = 2.0;
-                    if actual.abs() <= self.ftol * old_cost && predicted <= self.ftol * old_cost && rho <= 2.0 {
+                    if actual.abs() <= self.ftol * old_cost
+                        && predicted <= self.ftol * old_cost
+                        && rho <= 2.0
+                    {
                         break TerminationReason::CostReductionSmall;
                     }
                     if dx_norm <= self.xtol * (x_norm + self.xtol) {
@@ -252,7 +313,10 @@ impl LevenbergMarquardt {
             if dx_norm <= self.xtol * (x_norm + self.xtol) {
                 break TerminationReason::StepSmall;
             }
-            if predicted >= 0.0 && predicted <= self.ftol * state.cost && actual.abs() <= self.ftol * state.cost {
+            if predicted >= 0.0
+                && predicted <= self.ftol * state.cost
+                && actual.abs() <= self.ftol * state.cost
+            {
                 break TerminationReason::CostReductionSmall;
             }
             state.damping *= state.nu;
@@ -340,7 +404,10 @@ struct Partial {
 }
 
 /// Accumulates the normal equations at `p`, or None if `p` is infeasible / non-finite.
-pub(crate) fn normal_equations<P: LeastSquaresProblem + ?Sized>(problem: &P, p: &[f64]) -> Option<NormalEquations> {
+pub(crate) fn normal_equations<P: LeastSquaresProblem + ?Sized>(
+    problem: &P,
+    p: &[f64],
+) -> Option<NormalEquations> {
     let m = problem.n_residuals();
     let n = problem.n_params();
     let n_chunks = m.div_ceil(CHUNK_ROWS);
@@ -360,7 +427,13 @@ pub(crate) fn normal_equations<P: LeastSquaresProblem + ?Sized>(problem: &P, p: 
                 // row-major block is Jᵀ in column-major (n × len), and J the same memory read
                 // with swapped strides, so nothing is copied.
                 let jt = DMatrixView::from_slice(jac, n, len);
-                let jv = DMatrixView::from_slice_with_strides_generic(jac, Dyn(len), Dyn(n), Dyn(n), Dyn(1));
+                let jv = DMatrixView::from_slice_with_strides_generic(
+                    jac,
+                    Dyn(len),
+                    Dyn(n),
+                    Dyn(n),
+                    Dyn(1),
+                );
                 let mut block = DMatrix::zeros(n, n);
                 block.gemm(1.0, &jt, &jv, 0.0);
                 let mut jtr_block = DVector::zeros(n);
@@ -372,7 +445,11 @@ pub(crate) fn normal_equations<P: LeastSquaresProblem + ?Sized>(problem: &P, p: 
                     }
                 }
                 let jtr = jtr_block.as_slice().to_vec();
-                Some(Partial { jtj, jtr, rr: dot(r, r) })
+                Some(Partial {
+                    jtj,
+                    jtr,
+                    rr: dot(r, r),
+                })
             },
         )
         .collect();
@@ -398,8 +475,14 @@ pub(crate) fn normal_equations<P: LeastSquaresProblem + ?Sized>(problem: &P, p: 
             k += 1;
         }
     }
-    let ok = rr.is_finite() && jtr.iter().all(|x| x.is_finite()) && jtj_packed.iter().all(|x| x.is_finite());
-    ok.then(|| NormalEquations { jtj, jtr: DVector::from_vec(jtr), cost: 0.5 * rr })
+    let ok = rr.is_finite()
+        && jtr.iter().all(|x| x.is_finite())
+        && jtj_packed.iter().all(|x| x.is_finite());
+    ok.then(|| NormalEquations {
+        jtj,
+        jtr: DVector::from_vec(jtr),
+        cost: 0.5 * rr,
+    })
 }
 
 /// ½‖r(p)‖², or None if infeasible / non-finite. Same chunking and order as the accumulation.
@@ -462,7 +545,11 @@ mod tests {
     }
 
     fn tight() -> LevenbergMarquardt {
-        LevenbergMarquardt::new().with_max_iterations(1000).unwrap().with_tolerances(1e-15, 1e-15, 1e-15).unwrap()
+        LevenbergMarquardt::new()
+            .with_max_iterations(1000)
+            .unwrap()
+            .with_tolerances(1e-15, 1e-15, 1e-15)
+            .unwrap()
     }
 
     fn check(name: &str, problem: &Curve, start: &[f64], certified: &[f64], rss: f64) {
@@ -470,11 +557,21 @@ mod tests {
         assert!(rep.termination.converged(), "{name}: {:?}", rep.termination);
         for (j, (got, want)) in rep.state.params.iter().zip(certified).enumerate() {
             let rel = ((got - want) / want).abs();
-            assert!(rel < 1e-6, "{name} from {start:?}: b{} = {got} vs certified {want} (rel {rel:.2e})", j + 1);
+            assert!(
+                rel < 1e-6,
+                "{name} from {start:?}: b{} = {got} vs certified {want} (rel {rel:.2e})",
+                j + 1
+            );
         }
         let rel = (2.0 * rep.state.cost - rss).abs() / rss;
         assert!(rel < 1e-8, "{name}: RSS {} vs {rss}", 2.0 * rep.state.cost);
-        let worst = rep.state.params.iter().zip(certified).map(|(g, w)| ((g - w) / w).abs()).fold(0.0, f64::max);
+        let worst = rep
+            .state
+            .params
+            .iter()
+            .zip(certified)
+            .map(|(g, w)| ((g - w) / w).abs())
+            .fold(0.0, f64::max);
         eprintln!("{name} from {start:?}: worst parameter rel. error {worst:.1e}, RSS rel. error {rel:.1e}, {:?} after {} steps", rep.termination, rep.state.iterations);
     }
 
@@ -483,8 +580,14 @@ mod tests {
 
     fn misra1a() -> Curve {
         Curve {
-            y: vec![10.07, 14.73, 17.94, 23.93, 29.61, 35.18, 40.02, 44.82, 50.76, 55.05, 61.01, 66.40, 75.47, 81.78],
-            x: vec![77.6, 114.9, 141.1, 190.8, 239.9, 289.0, 332.8, 378.4, 434.8, 477.3, 536.8, 593.1, 689.1, 760.0],
+            y: vec![
+                10.07, 14.73, 17.94, 23.93, 29.61, 35.18, 40.02, 44.82, 50.76, 55.05, 61.01, 66.40,
+                75.47, 81.78,
+            ],
+            x: vec![
+                77.6, 114.9, 141.1, 190.8, 239.9, 289.0, 332.8, 378.4, 434.8, 477.3, 536.8, 593.1,
+                689.1, 760.0,
+            ],
             n: 2,
             // y = b1 (1 − exp(−b2 x))
             f: |b, x, g| {
@@ -507,15 +610,17 @@ mod tests {
     fn thurber() -> Curve {
         Curve {
             y: vec![
-                80.574, 84.248, 87.264, 87.195, 89.076, 89.608, 89.868, 90.101, 92.405, 95.854, 100.696, 101.060, 401.672,
-                390.724, 567.534, 635.316, 733.054, 759.087, 894.206, 990.785, 1090.109, 1080.914, 1122.643, 1178.351,
-                1260.531, 1273.514, 1288.339, 1327.543, 1353.863, 1414.509, 1425.208, 1421.384, 1442.962, 1464.350,
-                1468.705, 1447.894, 1457.628,
+                80.574, 84.248, 87.264, 87.195, 89.076, 89.608, 89.868, 90.101, 92.405, 95.854,
+                100.696, 101.060, 401.672, 390.724, 567.534, 635.316, 733.054, 759.087, 894.206,
+                990.785, 1090.109, 1080.914, 1122.643, 1178.351, 1260.531, 1273.514, 1288.339,
+                1327.543, 1353.863, 1414.509, 1425.208, 1421.384, 1442.962, 1464.350, 1468.705,
+                1447.894, 1457.628,
             ],
             x: vec![
-                -3.067, -2.981, -2.921, -2.912, -2.840, -2.797, -2.702, -2.699, -2.633, -2.481, -2.363, -2.322, -1.501, -1.460,
-                -1.274, -1.212, -1.100, -1.046, -0.915, -0.714, -0.566, -0.545, -0.400, -0.309, -0.109, -0.103, 0.010, 0.119,
-                0.377, 0.790, 0.963, 1.006, 1.115, 1.572, 1.841, 2.047, 2.200,
+                -3.067, -2.981, -2.921, -2.912, -2.840, -2.797, -2.702, -2.699, -2.633, -2.481,
+                -2.363, -2.322, -1.501, -1.460, -1.274, -1.212, -1.100, -1.046, -0.915, -0.714,
+                -0.566, -0.545, -0.400, -0.309, -0.109, -0.103, 0.010, 0.119, 0.377, 0.790, 0.963,
+                1.006, 1.115, 1.572, 1.841, 2.047, 2.200,
             ],
             n: 7,
             // y = (b1 + b2 x + b3 x² + b4 x³) / (1 + b5 x + b6 x² + b7 x³)
@@ -539,18 +644,59 @@ mod tests {
     #[test]
     fn nist_thurber_rational() {
         let cert = [
-            1.2881396800E+03, 1.4910792535E+03, 5.8323836877E+02, 7.5416644291E+01, 9.6629502864E-01, 3.9797285797E-01,
+            1.2881396800E+03,
+            1.4910792535E+03,
+            5.8323836877E+02,
+            7.5416644291E+01,
+            9.6629502864E-01,
+            3.9797285797E-01,
             4.9727297349E-02,
         ];
         let rss = 5.6427082397E+03;
-        check("Thurber", &thurber(), &[1000.0, 1000.0, 400.0, 40.0, 0.7, 0.3, 0.03], &cert, rss);
-        check("Thurber", &thurber(), &[1300.0, 1500.0, 500.0, 75.0, 1.0, 0.4, 0.05], &cert, rss);
+        check(
+            "Thurber",
+            &thurber(),
+            &[1000.0, 1000.0, 400.0, 40.0, 0.7, 0.3, 0.03],
+            &cert,
+            rss,
+        );
+        check(
+            "Thurber",
+            &thurber(),
+            &[1300.0, 1500.0, 500.0, 75.0, 1.0, 0.4, 0.05],
+            &cert,
+            rss,
+        );
     }
 
     fn mgh09() -> Curve {
         Curve {
-            y: vec![1.957000E-01, 1.947000E-01, 1.735000E-01, 1.600000E-01, 8.440000E-02, 6.270000E-02, 4.560000E-02, 3.420000E-02, 3.230000E-02, 2.350000E-02, 2.460000E-02],
-            x: vec![4.000000E+00, 2.000000E+00, 1.000000E+00, 5.000000E-01, 2.500000E-01, 1.670000E-01, 1.250000E-01, 1.000000E-01, 8.330000E-02, 7.140000E-02, 6.250000E-02],
+            y: vec![
+                1.957000E-01,
+                1.947000E-01,
+                1.735000E-01,
+                1.600000E-01,
+                8.440000E-02,
+                6.270000E-02,
+                4.560000E-02,
+                3.420000E-02,
+                3.230000E-02,
+                2.350000E-02,
+                2.460000E-02,
+            ],
+            x: vec![
+                4.000000E+00,
+                2.000000E+00,
+                1.000000E+00,
+                5.000000E-01,
+                2.500000E-01,
+                1.670000E-01,
+                1.250000E-01,
+                1.000000E-01,
+                8.330000E-02,
+                7.140000E-02,
+                6.250000E-02,
+            ],
             n: 4,
             // y = b1 (x² + x b2) / (x² + x b3 + b4)
             f: |b, x, g| {
@@ -568,7 +714,12 @@ mod tests {
 
     #[test]
     fn nist_mgh09() {
-        let cert = [1.9280693458E-01, 1.9128232873E-01, 1.2305650693E-01, 1.3606233068E-01];
+        let cert = [
+            1.9280693458E-01,
+            1.9128232873E-01,
+            1.2305650693E-01,
+            1.3606233068E-01,
+        ];
         let rss = 3.0750560385E-04;
         check("MGH09", &mgh09(), &[0.25, 0.39, 0.415, 0.39], &cert, rss);
         check("MGH09", &mgh09(), &[25.0, 39.0, 41.5, 39.0], &cert, rss);
@@ -577,10 +728,16 @@ mod tests {
     #[test]
     fn settings_are_validated() {
         assert!(LevenbergMarquardt::new().with_max_iterations(0).is_err());
-        assert!(LevenbergMarquardt::new().with_tolerances(1.0, 0.0, 0.0).is_err());
-        let e = LevenbergMarquardt::new().with_initial_damping(-1.0).unwrap_err();
+        assert!(LevenbergMarquardt::new()
+            .with_tolerances(1.0, 0.0, 0.0)
+            .is_err());
+        let e = LevenbergMarquardt::new()
+            .with_initial_damping(-1.0)
+            .unwrap_err();
         assert!(e.to_string().contains("initial_damping"), "{e}");
-        assert!(LevenbergMarquardt::new().solve(&misra1a(), vec![1.0]).is_err());
+        assert!(LevenbergMarquardt::new()
+            .solve(&misra1a(), vec![1.0])
+            .is_err());
     }
 
     #[test]
@@ -589,12 +746,24 @@ mod tests {
         let m = 3 * CHUNK_ROWS + 17;
         let x: Vec<f64> = (0..m).map(|i| i as f64 / m as f64).collect();
         let y: Vec<f64> = x.iter().map(|&t| (3.0 * t).sin()).collect();
-        let p = Curve { x, y, n: 7, f: thurber().f };
+        let p = Curve {
+            x,
+            y,
+            n: 7,
+            f: thurber().f,
+        };
         let run = |t| {
-            rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| {
-                let ne = normal_equations(&p, &[0.1, 2.0, -1.0, 0.3, 0.1, 0.2, 0.0]).unwrap();
-                (ne.jtj.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), ne.cost.to_bits())
-            })
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+                .install(|| {
+                    let ne = normal_equations(&p, &[0.1, 2.0, -1.0, 0.3, 0.1, 0.2, 0.0]).unwrap();
+                    (
+                        ne.jtj.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                        ne.cost.to_bits(),
+                    )
+                })
         };
         assert_eq!(run(1), run(4));
     }

@@ -45,7 +45,14 @@ struct Partial {
 }
 
 impl Partial {
-    const EMPTY: Partial = Partial { abs: 0.0, sq: 0.0, max_abs: (-1.0, usize::MAX), max_rel: (-1.0, usize::MAX), non_finite: 0, n: 0 };
+    const EMPTY: Partial = Partial {
+        abs: 0.0,
+        sq: 0.0,
+        max_abs: (-1.0, usize::MAX),
+        max_rel: (-1.0, usize::MAX),
+        non_finite: 0,
+        n: 0,
+    };
 }
 
 /// Compensated running sums of one chunk.
@@ -57,7 +64,11 @@ struct Running {
 
 impl Running {
     fn new() -> Running {
-        Running { abs: CompensatedSum::default(), sq: CompensatedSum::default(), p: Partial::EMPTY }
+        Running {
+            abs: CompensatedSum::default(),
+            sq: CompensatedSum::default(),
+            p: Partial::EMPTY,
+        }
     }
 
     #[inline]
@@ -89,7 +100,8 @@ impl Running {
 fn combine(parts: impl Iterator<Item = Partial>, data: &FitData) -> Metrics {
     let mut abs = CompensatedSum::default();
     let mut sq = CompensatedSum::default();
-    let (mut max_abs, mut max_rel, mut non_finite, mut n) = ((-1.0f64, usize::MAX), (-1.0f64, usize::MAX), 0usize, 0usize);
+    let (mut max_abs, mut max_rel, mut non_finite, mut n) =
+        ((-1.0f64, usize::MAX), (-1.0f64, usize::MAX), 0usize, 0usize);
     for p in parts {
         abs.add(p.abs);
         sq.add(p.sq);
@@ -102,12 +114,22 @@ fn combine(parts: impl Iterator<Item = Partial>, data: &FitData) -> Metrics {
         non_finite += p.non_finite;
         n += p.n;
     }
-    let at = |i: usize| if i == usize::MAX { Vec::new() } else { data.point(i).to_vec() };
+    let at = |i: usize| {
+        if i == usize::MAX {
+            Vec::new()
+        } else {
+            data.point(i).to_vec()
+        }
+    };
     let finite = n - non_finite;
     let (mae, rmse, max_abs_error) = if non_finite > 0 || n == 0 {
         (f64::INFINITY, f64::INFINITY, f64::INFINITY)
     } else {
-        (abs.value() / finite as f64, (sq.value() / finite as f64).sqrt(), max_abs.0.max(0.0))
+        (
+            abs.value() / finite as f64,
+            (sq.value() / finite as f64).sqrt(),
+            max_abs.0.max(0.0),
+        )
     };
     Metrics {
         n_points: n,
@@ -115,7 +137,11 @@ fn combine(parts: impl Iterator<Item = Partial>, data: &FitData) -> Metrics {
         rmse,
         max_abs_error,
         max_abs_error_at: at(max_abs.1),
-        max_rel_error: if non_finite > 0 { f64::INFINITY } else { max_rel.0.max(0.0) },
+        max_rel_error: if non_finite > 0 {
+            f64::INFINITY
+        } else {
+            max_rel.0.max(0.0)
+        },
         max_rel_error_at: at(max_rel.1),
         non_finite,
     }
@@ -128,7 +154,11 @@ pub fn measure(approx: &Approximant, data: &FitData) -> Metrics {
 
 /// [`measure`] on all of `data` and, in the same pass, on the points i with `subset[i]` (e.g.
 /// a sub-box); the subset's metrics are None without a subset or if it is empty.
-pub fn measure_with_subset(approx: &Approximant, data: &FitData, subset: Option<&[bool]>) -> (Metrics, Option<Metrics>) {
+pub fn measure_with_subset(
+    approx: &Approximant,
+    data: &FitData,
+    subset: Option<&[bool]>,
+) -> (Metrics, Option<Metrics>) {
     let n = data.len();
     let parts: Vec<(Partial, Partial)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
@@ -190,7 +220,13 @@ pub fn worst_points(approx: &Approximant, data: &FitData, n: usize) -> Vec<Point
     order
         .into_iter()
         .take(n)
-        .map(|i| PointError { index: i, at: data.point(i).to_vec(), value: data.values[i], fit: errors[i].0, abs_error: errors[i].1 })
+        .map(|i| PointError {
+            index: i,
+            at: data.point(i).to_vec(),
+            value: data.values[i],
+            fit: errors[i].0,
+            abs_error: errors[i].1,
+        })
         .collect()
 }
 
@@ -225,7 +261,9 @@ pub(crate) mod finite_or_string {
                 "inf" => Ok(f64::INFINITY),
                 "-inf" => Ok(f64::NEG_INFINITY),
                 "nan" => Ok(f64::NAN),
-                other => Err(serde::de::Error::custom(format!("expected a number, \"inf\", \"-inf\" or \"nan\", got \"{other}\""))),
+                other => Err(serde::de::Error::custom(format!(
+                    "expected a number, \"inf\", \"-inf\" or \"nan\", got \"{other}\""
+                ))),
             },
         }
     }
@@ -240,17 +278,29 @@ mod tests {
     #[test]
     fn worst_points_are_sorted_and_located() {
         // f = 0 against values 0, 3, 1, 3, 2: the worst are index 1 and 3 (tie: lower index first), then 4
-        let data = FitData::new(vec!["x".into()], vec![0.0, 0.25, 0.5, 0.75, 1.0], vec![0.0, 3.0, 1.0, 3.0, 2.0], vec![(0.0, 1.0)]).unwrap();
+        let data = FitData::new(
+            vec!["x".into()],
+            vec![0.0, 0.25, 0.5, 0.75, 1.0],
+            vec![0.0, 3.0, 1.0, 3.0, 2.0],
+            vec![(0.0, 1.0)],
+        )
+        .unwrap();
         let zero = Approximant {
             variables: vec!["x".into()],
             transforms: vec![InputTransform::Identity],
             domain: vec![(0.0, 1.0)],
-            numerator: Polynomial { exponents: vec![vec![0]], coefficients: vec![0.0] },
+            numerator: Polynomial {
+                exponents: vec![vec![0]],
+                coefficients: vec![0.0],
+            },
             denominator: None,
         };
         let w = worst_points(&zero, &data, 3);
         assert_eq!(w.iter().map(|p| p.index).collect::<Vec<_>>(), vec![1, 3, 4]);
-        assert_eq!((w[0].at.clone(), w[0].value, w[0].fit, w[0].abs_error), (vec![0.25], 3.0, 0.0, 3.0));
+        assert_eq!(
+            (w[0].at.clone(), w[0].value, w[0].fit, w[0].abs_error),
+            (vec![0.25], 3.0, 0.0, 3.0)
+        );
         assert_eq!(w[2].abs_error, measure(&zero, &data).max_abs_error - 1.0);
         assert_eq!(worst_points(&zero, &data, 10).len(), 5);
     }

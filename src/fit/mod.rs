@@ -31,8 +31,10 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod basis;
+pub mod compare;
 pub mod data;
 pub mod error;
+pub mod job;
 pub mod linear;
 pub mod lm;
 pub mod metrics;
@@ -45,8 +47,6 @@ pub mod result;
 mod robust;
 pub mod source;
 pub mod sweep;
-pub mod job;
-pub mod compare;
 
 pub use basis::{exponents, n_terms, Polynomial};
 pub use data::{FitData, InputTransform};
@@ -57,7 +57,10 @@ pub use poles::{CertifyOptions, PoleVerdict};
 pub use polynomial::{fit_polynomial, PolynomialOptions};
 pub use rational::{fit_rational, RationalOptions};
 pub use result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
-pub use sweep::{best_under_budget, sweep, sweep_detailed, sweep_with_progress, SkippedFit, SweepEvent, SweepOptions, SweepReport};
+pub use sweep::{
+    best_under_budget, sweep, sweep_detailed, sweep_with_progress, SkippedFit, SweepEvent,
+    SweepOptions, SweepReport,
+};
 
 #[cfg(test)]
 mod paper_tests;

@@ -43,7 +43,13 @@ impl Model {
     pub fn polynomial(d: usize, degree: u32) -> Model {
         let basis = ChebyshevBasis::new(d, degree);
         let n_num = basis.len();
-        Model { basis, num_degree: degree, den_degree: None, n_num, n_den: 0 }
+        Model {
+            basis,
+            num_degree: degree,
+            den_degree: None,
+            n_num,
+            n_den: 0,
+        }
     }
 
     pub fn rational(d: usize, num_degree: u32, den_degree: u32) -> Model {
@@ -51,7 +57,13 @@ impl Model {
         let basis = ChebyshevBasis::new(d, num_degree.max(den_degree));
         let n_num = ChebyshevBasis::new(d, num_degree).len();
         let n_den = ChebyshevBasis::new(d, den_degree).len();
-        Model { basis, num_degree, den_degree: Some(den_degree), n_num, n_den }
+        Model {
+            basis,
+            num_degree,
+            den_degree: Some(den_degree),
+            n_num,
+            n_den,
+        }
     }
 
     pub fn n_params(&self) -> usize {
@@ -87,19 +99,28 @@ impl Model {
             return None;
         }
         let mut out = vec![0.0; n * len];
-        out.par_chunks_mut(CHUNK * len).enumerate().for_each(|(c, block)| {
-            let mut table = vec![0.0; self.basis.table_len()];
-            for (k, phi) in block.chunks_exact_mut(len).enumerate() {
-                self.basis.eval(data.point(c * CHUNK + k), &mut table, phi);
-            }
-        });
+        out.par_chunks_mut(CHUNK * len)
+            .enumerate()
+            .for_each(|(c, block)| {
+                let mut table = vec![0.0; self.basis.table_len()];
+                for (k, phi) in block.chunks_exact_mut(len).enumerate() {
+                    self.basis.eval(data.point(c * CHUNK + k), &mut table, phi);
+                }
+            });
         Some(out)
     }
 
     /// The basis values at point i: from `cached` (a [`Model::basis_table`] of the same data) or
     /// evaluated into `phi` with scratch `table`.
     #[inline]
-    pub fn basis_at<'b>(&self, data: &Prepared, cached: Option<&'b [f64]>, i: usize, table: &mut [f64], phi: &'b mut [f64]) -> &'b [f64] {
+    pub fn basis_at<'b>(
+        &self,
+        data: &Prepared,
+        cached: Option<&'b [f64]>,
+        i: usize,
+        table: &mut [f64],
+        phi: &'b mut [f64],
+    ) -> &'b [f64] {
         match cached {
             Some(t) => {
                 let len = self.basis.len();
@@ -155,10 +176,17 @@ impl Model {
     }
 
     /// The emitted form: monomials in the transformed variables, Q normalised to constant 1.
-    pub fn to_approximant(&self, data: &FitData, transforms: &[InputTransform], prep: &Prepared, p: &[f64]) -> Approximant {
+    pub fn to_approximant(
+        &self,
+        data: &FitData,
+        transforms: &[InputTransform],
+        prep: &Prepared,
+        p: &[f64],
+    ) -> Approximant {
         let d = prep.d;
         let num_exps = exponents(d, self.num_degree);
-        let mut num = chebyshev_to_monomial(&num_exps, self.num_degree, &prep.scales, &p[..self.n_num]);
+        let mut num =
+            chebyshev_to_monomial(&num_exps, self.num_degree, &prep.scales, &p[..self.n_num]);
         let denominator = self.den_degree.map(|dd| {
             let den_exps = exponents(d, dd);
             let mut cheb = vec![1.0];
@@ -175,13 +203,19 @@ impl Model {
                     *c /= q0;
                 }
             }
-            Polynomial { exponents: den_exps, coefficients: den }
+            Polynomial {
+                exponents: den_exps,
+                coefficients: den,
+            }
         });
         Approximant {
             variables: data.names.clone(),
             transforms: transforms.to_vec(),
             domain: data.domain.clone(),
-            numerator: Polynomial { exponents: num_exps, coefficients: num },
+            numerator: Polynomial {
+                exponents: num_exps,
+                coefficients: num,
+            },
             denominator,
         }
     }
@@ -245,16 +279,30 @@ impl Model {
         let mut cheb = vec![1.0];
         cheb.extend_from_slice(&p[self.n_num..]);
         let coefficients = chebyshev_to_monomial(&exps, dd, &data.scales, &cheb);
-        Some(Polynomial { exponents: exps, coefficients })
+        Some(Polynomial {
+            exponents: exps,
+            coefficients,
+        })
     }
 
     /// True if Q − margin is proved to have no zero on the (transformed) domain box; since Q's
     /// Chebyshev mean is 1 > margin, that means Q ≥ margin everywhere there.
-    pub fn denominator_certified(&self, data: &Prepared, p: &[f64], opts: &CertifyOptions, margin: f64) -> bool {
-        let Some(mut q) = self.denominator_monomial(data, p) else { return true };
+    pub fn denominator_certified(
+        &self,
+        data: &Prepared,
+        p: &[f64],
+        opts: &CertifyOptions,
+        margin: f64,
+    ) -> bool {
+        let Some(mut q) = self.denominator_monomial(data, p) else {
+            return true;
+        };
         q.coefficients[0] -= margin; // exponent (0, …, 0) comes first
         let bounds: Vec<(f64, f64)> = data.scales.iter().map(|s| (s.lo, s.hi)).collect();
-        matches!(certify_polynomial(&q, &bounds, opts), RawVerdict::Certified { .. })
+        matches!(
+            certify_polynomial(&q, &bounds, opts),
+            RawVerdict::Certified { .. }
+        )
     }
 }
 
@@ -263,7 +311,9 @@ impl LeastSquaresProblem for RationalProblem<'_> {
         self.model.n_params()
     }
     fn admissible(&self, p: &[f64]) -> bool {
-        self.certified_steps.is_none_or(|(opts, margin)| self.model.denominator_certified(self.data, p, opts, margin))
+        self.certified_steps.is_none_or(|(opts, margin)| {
+            self.model.denominator_certified(self.data, p, opts, margin)
+        })
     }
     fn n_residuals(&self) -> usize {
         self.data.len()
@@ -319,16 +369,28 @@ mod tests {
     #[test]
     fn cached_basis_gives_the_same_residuals_and_jacobian() {
         let ax: Vec<f64> = (0..70).map(|i| i as f64 / 69.0).collect();
-        let vals = ax.iter().flat_map(|&r| ax.iter().map(move |&m| (1.0 + r * m) / (2.0 + m))).collect();
-        let data = FitData::from_grid(vec!["r".into(), "mu".into()], &[ax.clone(), ax], vals).unwrap();
+        let vals = ax
+            .iter()
+            .flat_map(|&r| ax.iter().map(move |&m| (1.0 + r * m) / (2.0 + m)))
+            .collect();
+        let data =
+            FitData::from_grid(vec!["r".into(), "mu".into()], &[ax.clone(), ax], vals).unwrap();
         let prep = Prepared::new(&data, &[InputTransform::Identity, InputTransform::Sqrt]).unwrap();
         let model = Model::rational(2, 3, 2);
         let table = model.basis_table(&prep).unwrap();
         assert_eq!(table.len(), prep.len() * model.basis.len());
-        let p: Vec<f64> = (0..model.n_params()).map(|j| 0.1 / (1.0 + j as f64)).collect();
+        let p: Vec<f64> = (0..model.n_params())
+            .map(|j| 0.1 / (1.0 + j as f64))
+            .collect();
         let (n, np) = (prep.len(), model.n_params());
         let run = |phi: Option<&[f64]>| {
-            let problem = RationalProblem { model: &model, data: &prep, phi, extra: None, certified_steps: None };
+            let problem = RationalProblem {
+                model: &model,
+                data: &prep,
+                phi,
+                extra: None,
+                certified_steps: None,
+            };
             let (mut r, mut jac) = (vec![0.0; n], vec![0.0; n * np]);
             assert!(problem.jacobian(&p, 0..n, &mut r, &mut jac));
             let mut r2 = vec![0.0; n];
@@ -336,8 +398,15 @@ mod tests {
             assert_eq!(r, r2);
             (r, jac)
         };
-        assert_eq!(run(None), run(Some(&table)), "bit-identical with and without the cache");
-        assert_eq!(model.errors(&prep, None, &p), model.errors(&prep, Some(&table), &p));
+        assert_eq!(
+            run(None),
+            run(Some(&table)),
+            "bit-identical with and without the cache"
+        );
+        assert_eq!(
+            model.errors(&prep, None, &p),
+            model.errors(&prep, Some(&table), &p)
+        );
         // the row-major layout: ∂r_i/∂a_0 = T_0/Q = 1/Q at every point
         let (_, jac) = run(Some(&table));
         let q = model.denominators(&prep, &p);

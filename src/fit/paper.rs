@@ -42,17 +42,27 @@ impl PaperModel {
             "conductors" => Some(PaperModel::Conductors),
             "glossy" => Some(PaperModel::Glossy),
             "dielectrics" | "dielectrics_r" | "dielectrics_t" => Some(PaperModel::Dielectrics),
-            "dielectrics_inv_eta" | "dielectrics_inv_eta_r" | "dielectrics_inv_eta_t" => Some(PaperModel::DielectricsInvEta),
+            "dielectrics_inv_eta" | "dielectrics_inv_eta_r" | "dielectrics_inv_eta_t" => {
+                Some(PaperModel::DielectricsInvEta)
+            }
             _ => None,
         }
     }
 
     pub fn dim(self) -> usize {
-        if self == PaperModel::Conductors { 2 } else { 3 }
+        if self == PaperModel::Conductors {
+            2
+        } else {
+            3
+        }
     }
 
     pub fn variables(self) -> Vec<String> {
-        let v: &[&str] = if self.dim() == 2 { &["r", "mu"] } else { &["F0", "r", "mu"] };
+        let v: &[&str] = if self.dim() == 2 {
+            &["r", "mu"]
+        } else {
+            &["F0", "r", "mu"]
+        };
         v.iter().map(|s| s.to_string()).collect()
     }
 
@@ -62,7 +72,10 @@ impl PaperModel {
             PaperModel::Conductors => vec![InputTransform::Identity; 2],
             PaperModel::Glossy => vec![InputTransform::Identity; 3],
             PaperModel::Dielectrics | PaperModel::DielectricsInvEta => vec![
-                InputTransform::ClampNormalize { lo: DIELECTRIC_F0_MIN, hi: DIELECTRIC_F0_MAX },
+                InputTransform::ClampNormalize {
+                    lo: DIELECTRIC_F0_MIN,
+                    hi: DIELECTRIC_F0_MAX,
+                },
                 InputTransform::Identity,
                 InputTransform::Identity,
             ],
@@ -73,7 +86,11 @@ impl PaperModel {
         match self {
             PaperModel::Conductors => vec![(0.0, 1.0); 2],
             PaperModel::Glossy => vec![(0.0, 1.0); 3],
-            PaperModel::Dielectrics | PaperModel::DielectricsInvEta => vec![(DIELECTRIC_F0_MIN, DIELECTRIC_F0_MAX), (0.0, 1.0), (0.0, 1.0)],
+            PaperModel::Dielectrics | PaperModel::DielectricsInvEta => vec![
+                (DIELECTRIC_F0_MIN, DIELECTRIC_F0_MAX),
+                (0.0, 1.0),
+                (0.0, 1.0),
+            ],
         }
     }
 
@@ -82,14 +99,19 @@ impl PaperModel {
         let t = k as f64 / (PAPER_TABLE_SIZE - 1) as f64;
         match self {
             // min: rounding must not step past the domain end
-            PaperModel::Dielectrics | PaperModel::DielectricsInvEta => (DIELECTRIC_F0_MIN + t * (DIELECTRIC_F0_MAX - DIELECTRIC_F0_MIN)).min(DIELECTRIC_F0_MAX),
+            PaperModel::Dielectrics | PaperModel::DielectricsInvEta => (DIELECTRIC_F0_MIN
+                + t * (DIELECTRIC_F0_MAX - DIELECTRIC_F0_MIN))
+                .min(DIELECTRIC_F0_MAX),
             _ => t,
         }
     }
 }
 
 fn read_numbers(path: &Path) -> Result<Vec<Vec<f64>>> {
-    let text = std::fs::read_to_string(path).map_err(|e| FitError::File { path: path.into(), message: format!("cannot read: {e}") })?;
+    let text = std::fs::read_to_string(path).map_err(|e| FitError::File {
+        path: path.into(),
+        message: format!("cannot read: {e}"),
+    })?;
     text.lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())
@@ -99,7 +121,12 @@ fn read_numbers(path: &Path) -> Result<Vec<Vec<f64>>> {
                 .map(|(col, s)| {
                     s.trim().parse::<f64>().map_err(|_| FitError::File {
                         path: path.into(),
-                        message: format!("line {}, field {}: '{}' is not a number", ln + 1, col + 1, s.trim()),
+                        message: format!(
+                            "line {}, field {}: '{}' is not a number",
+                            ln + 1,
+                            col + 1,
+                            s.trim()
+                        ),
                     })
                 })
                 .collect()
@@ -115,7 +142,13 @@ pub fn load_coefficients(path: &Path, model: PaperModel) -> Result<Approximant> 
     let n = exps.len();
     let want = 2 * n - 1;
     let [c] = rows.as_slice() else {
-        return Err(FitError::File { path: path.into(), message: format!("expected one line of {want} coefficients, found {} lines", rows.len()) });
+        return Err(FitError::File {
+            path: path.into(),
+            message: format!(
+                "expected one line of {want} coefficients, found {} lines",
+                rows.len()
+            ),
+        });
     };
     if c.len() != want {
         return Err(FitError::File {
@@ -129,8 +162,14 @@ pub fn load_coefficients(path: &Path, model: PaperModel) -> Result<Approximant> 
         variables: model.variables(),
         transforms: model.transforms(),
         domain: model.domain(),
-        numerator: Polynomial { exponents: exps.clone(), coefficients: c[..n].to_vec() },
-        denominator: Some(Polynomial { exponents: exps, coefficients: den }),
+        numerator: Polynomial {
+            exponents: exps.clone(),
+            coefficients: c[..n].to_vec(),
+        },
+        denominator: Some(Polynomial {
+            exponents: exps,
+            coefficients: den,
+        }),
     };
     a.validate()?;
     Ok(a)
@@ -165,5 +204,15 @@ pub fn load_table(path: &Path, model: PaperModel) -> Result<FitData> {
 /// The published fit measured on `table` (metrics, pole verdict; no solver report).
 pub fn published_fit(coefficients: &Path, model: PaperModel, table: &FitData) -> Result<FitResult> {
     let a = load_coefficients(coefficients, model)?;
-    FitResult::assess(Form::Rational { numerator_degree: 3, denominator_degree: 3 }, a, table, Objective::LeastSquares, None, &CertifyOptions::default())
+    FitResult::assess(
+        Form::Rational {
+            numerator_degree: 3,
+            denominator_degree: 3,
+        },
+        a,
+        table,
+        Objective::LeastSquares,
+        None,
+        &CertifyOptions::default(),
+    )
 }

@@ -34,7 +34,10 @@ pub enum PoleVerdict {
 impl PoleVerdict {
     /// True if the approximant is proved finite on its domain.
     pub fn is_certified(&self) -> bool {
-        matches!(self, PoleVerdict::Certified { .. } | PoleVerdict::NoDenominator)
+        matches!(
+            self,
+            PoleVerdict::Certified { .. } | PoleVerdict::NoDenominator
+        )
     }
 }
 
@@ -51,7 +54,11 @@ pub struct CertifyOptions {
 
 impl Default for CertifyOptions {
     fn default() -> Self {
-        CertifyOptions { max_boxes: 200_000, min_box_width: 1e-7, refine_splits: 64 }
+        CertifyOptions {
+            max_boxes: 200_000,
+            min_box_width: 1e-7,
+            refine_splits: 64,
+        }
     }
 }
 
@@ -84,7 +91,9 @@ impl Tensor {
     }
     /// Start indices of all fibres along axis k.
     fn fibre_starts(&self, k: usize) -> Vec<usize> {
-        (0..self.len()).filter(|&i| (i / self.stride[k]).is_multiple_of(self.deg[k] + 1)).collect()
+        (0..self.len())
+            .filter(|&i| (i / self.stride[k]).is_multiple_of(self.deg[k] + 1))
+            .collect()
     }
 }
 
@@ -99,13 +108,25 @@ struct SubBox {
 
 impl SubBox {
     fn range(&self) -> (f64, f64) {
-        self.coeffs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &c| (a.min(c), b.max(c)))
+        self.coeffs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &c| {
+                (a.min(c), b.max(c))
+            })
     }
     fn width(&self) -> f64 {
-        self.lo.iter().zip(&self.hi).map(|(a, b)| b - a).fold(0.0, f64::max)
+        self.lo
+            .iter()
+            .zip(&self.hi)
+            .map(|(a, b)| b - a)
+            .fold(0.0, f64::max)
     }
     fn center(&self) -> Vec<f64> {
-        self.lo.iter().zip(&self.hi).map(|(a, b)| 0.5 * (a + b)).collect()
+        self.lo
+            .iter()
+            .zip(&self.hi)
+            .map(|(a, b)| 0.5 * (a + b))
+            .collect()
     }
 }
 
@@ -134,17 +155,33 @@ fn split(t: &Tensor, b: &SubBox, k: usize) -> (SubBox, SubBox) {
     // each averaging level adds at most u·max|b| (the halving is exact); ×2 safety
     let err = b.err + n as f64 * f64::EPSILON * maxabs;
     let mid = 0.5 * (b.lo[k] + b.hi[k]);
-    let mut l = SubBox { lo: b.lo.clone(), hi: b.hi.clone(), coeffs: left, err };
-    let mut r = SubBox { lo: b.lo.clone(), hi: b.hi.clone(), coeffs: right, err };
+    let mut l = SubBox {
+        lo: b.lo.clone(),
+        hi: b.hi.clone(),
+        coeffs: left,
+        err,
+    };
+    let mut r = SubBox {
+        lo: b.lo.clone(),
+        hi: b.hi.clone(),
+        coeffs: right,
+        err,
+    };
     l.hi[k] = mid;
     r.lo[k] = mid;
     (l, r)
 }
 
 /// Certifies that `q` (monomial in t) has no zero on the box `bounds` (in t).
-pub(crate) fn certify_polynomial(q: &Polynomial, bounds: &[(f64, f64)], opts: &CertifyOptions) -> RawVerdict {
+pub(crate) fn certify_polynomial(
+    q: &Polynomial,
+    bounds: &[(f64, f64)],
+    opts: &CertifyOptions,
+) -> RawVerdict {
     let d = bounds.len();
-    let deg: Vec<usize> = (0..d).map(|k| q.exponents.iter().map(|e| e[k] as usize).max().unwrap_or(0)).collect();
+    let deg: Vec<usize> = (0..d)
+        .map(|k| q.exponents.iter().map(|e| e[k] as usize).max().unwrap_or(0))
+        .collect();
     let t = Tensor::new(deg.clone());
     let (u, u_abs) = monomial_to_unit_box(q, bounds);
     let mut coeffs = vec![0.0; t.len()];
@@ -175,7 +212,12 @@ pub(crate) fn certify_polynomial(q: &Polynomial, bounds: &[(f64, f64)], opts: &C
     let ops = d * (nmax + 1) + d + 1 + 2 * nmax + d * (nmax + 3) + q.coefficients.len();
     let err0 = gamma(ops) * abs.iter().fold(0.0f64, |m, &a| m.max(a));
 
-    let to_t = |uu: &[f64]| -> Vec<f64> { uu.iter().zip(bounds).map(|(&x, &(lo, hi))| lo + (hi - lo) * x).collect() };
+    let to_t = |uu: &[f64]| -> Vec<f64> {
+        uu.iter()
+            .zip(bounds)
+            .map(|(&x, &(lo, hi))| lo + (hi - lo) * x)
+            .collect()
+    };
     // a point where Q is reliably positive / negative, in unit-box coordinates
     let mut witness: [Option<Vec<f64>>; 2] = [None, None];
     let note = |w: &mut [Option<Vec<f64>>; 2], p: Vec<f64>, positive: bool| {
@@ -198,7 +240,12 @@ pub(crate) fn certify_polynomial(q: &Polynomial, bounds: &[(f64, f64)], opts: &C
         to_t(&a)
     };
 
-    let root = SubBox { lo: vec![0.0; d], hi: vec![1.0; d], coeffs, err: err0 };
+    let root = SubBox {
+        lo: vec![0.0; d],
+        hi: vec![1.0; d],
+        coeffs,
+        err: err0,
+    };
     let mut queue = VecDeque::from([root]);
     let mut certified: Vec<(SubBox, bool)> = Vec::new();
     let mut boxes = 0usize;
@@ -211,10 +258,26 @@ pub(crate) fn certify_polynomial(q: &Polynomial, bounds: &[(f64, f64)], opts: &C
         } else {
             // corner coefficients are exact values of Q at the corners
             for corner in 0..(1usize << d) {
-                let idx: usize = (0..d).map(|k| if corner >> k & 1 == 1 { deg[k] * t.stride[k] } else { 0 }).sum();
+                let idx: usize = (0..d)
+                    .map(|k| {
+                        if corner >> k & 1 == 1 {
+                            deg[k] * t.stride[k]
+                        } else {
+                            0
+                        }
+                    })
+                    .sum();
                 let c = b.coeffs[idx];
                 if c.abs() > b.err {
-                    let p: Vec<f64> = (0..d).map(|k| if corner >> k & 1 == 1 { b.hi[k] } else { b.lo[k] }).collect();
+                    let p: Vec<f64> = (0..d)
+                        .map(|k| {
+                            if corner >> k & 1 == 1 {
+                                b.hi[k]
+                            } else {
+                                b.lo[k]
+                            }
+                        })
+                        .collect();
                     note(&mut witness, p, c > 0.0);
                 }
             }
@@ -231,7 +294,13 @@ pub(crate) fn certify_polynomial(q: &Polynomial, bounds: &[(f64, f64)], opts: &C
                     boxes,
                 };
             }
-            let k = (0..d).fold(0, |best, k| if b.hi[k] - b.lo[k] > b.hi[best] - b.lo[best] { k } else { best });
+            let k = (0..d).fold(0, |best, k| {
+                if b.hi[k] - b.lo[k] > b.hi[best] - b.lo[best] {
+                    k
+                } else {
+                    best
+                }
+            });
             let (l, r) = split(&t, &b, k);
             queue.push_back(l);
             queue.push_back(r);
@@ -240,18 +309,38 @@ pub(crate) fn certify_polynomial(q: &Polynomial, bounds: &[(f64, f64)], opts: &C
             return RawVerdict::PoleFound { at: locate(p, n) };
         }
         if boxes >= opts.max_boxes && !queue.is_empty() {
-            return RawVerdict::Undecided { reason: format!("gave up after {boxes} sub-boxes"), boxes };
+            return RawVerdict::Undecided {
+                reason: format!("gave up after {boxes} sub-boxes"),
+                boxes,
+            };
         }
     }
     // all boxes certified with one sign: tighten the weakest bounds a little
     let bound = |b: &SubBox, positive: bool| {
         let (lo, hi) = b.range();
-        if positive { lo - b.err } else { -hi - b.err }
+        if positive {
+            lo - b.err
+        } else {
+            -hi - b.err
+        }
     };
     for _ in 0..opts.refine_splits {
-        let Some((i, _)) = certified.iter().enumerate().map(|(i, (b, s))| (i, bound(b, *s))).min_by(|a, b| a.1.total_cmp(&b.1)) else { break };
+        let Some((i, _)) = certified
+            .iter()
+            .enumerate()
+            .map(|(i, (b, s))| (i, bound(b, *s)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            break;
+        };
         let (b, s) = certified.swap_remove(i);
-        let k = (0..d).fold(0, |best, k| if b.hi[k] - b.lo[k] > b.hi[best] - b.lo[best] { k } else { best });
+        let k = (0..d).fold(0, |best, k| {
+            if b.hi[k] - b.lo[k] > b.hi[best] - b.lo[best] {
+                k
+            } else {
+                best
+            }
+        });
         let (l, r) = split(&t, &b, k);
         if bound(&l, s) > 0.0 && bound(&r, s) > 0.0 {
             certified.push((l, s));
@@ -262,8 +351,14 @@ pub(crate) fn certify_polynomial(q: &Polynomial, bounds: &[(f64, f64)], opts: &C
             break;
         }
     }
-    let min_lower_bound = certified.iter().map(|(b, s)| bound(b, *s)).fold(f64::INFINITY, f64::min);
-    RawVerdict::Certified { min_lower_bound, boxes }
+    let min_lower_bound = certified
+        .iter()
+        .map(|(b, s)| bound(b, *s))
+        .fold(f64::INFINITY, f64::min);
+    RawVerdict::Certified {
+        min_lower_bound,
+        boxes,
+    }
 }
 
 #[cfg(test)]
@@ -278,7 +373,10 @@ mod tests {
             10 => 3,
             _ => panic!("bad test"),
         };
-        Polynomial { exponents: exponents(2, deg), coefficients: coeffs.to_vec() }
+        Polynomial {
+            exponents: exponents(2, deg),
+            coefficients: coeffs.to_vec(),
+        }
     }
 
     #[test]
@@ -286,8 +384,13 @@ mod tests {
         // Q = 1 + x² + y² − x y on [0,1]²: min is 1 at the origin
         let q = poly2(&[1.0, 0.0, 0.0, 1.0, -1.0, 1.0]);
         match certify_polynomial(&q, &[(0.0, 1.0), (0.0, 1.0)], &CertifyOptions::default()) {
-            RawVerdict::Certified { min_lower_bound, .. } => {
-                assert!(min_lower_bound > 0.5 && min_lower_bound <= 1.0, "{min_lower_bound}")
+            RawVerdict::Certified {
+                min_lower_bound, ..
+            } => {
+                assert!(
+                    min_lower_bound > 0.5 && min_lower_bound <= 1.0,
+                    "{min_lower_bound}"
+                )
             }
             v => panic!("{v:?}"),
         }
@@ -309,8 +412,14 @@ mod tests {
     #[test]
     fn zero_between_samples_is_found() {
         // Q(x) = (x − 0.5049)(x − 0.5051) is negative only on (0.5049, 0.5051)
-        let q = Polynomial { exponents: exponents(1, 2), coefficients: vec![0.5049 * 0.5051, -(0.5049 + 0.5051), 1.0] };
-        assert!((0..=100).all(|i| q.eval(&[i as f64 / 100.0]) > 0.0), "sampling must miss it");
+        let q = Polynomial {
+            exponents: exponents(1, 2),
+            coefficients: vec![0.5049 * 0.5051, -(0.5049 + 0.5051), 1.0],
+        };
+        assert!(
+            (0..=100).all(|i| q.eval(&[i as f64 / 100.0]) > 0.0),
+            "sampling must miss it"
+        );
         match certify_polynomial(&q, &[(0.0, 1.0)], &CertifyOptions::default()) {
             RawVerdict::PoleFound { at } => assert!((at[0] - 0.505).abs() < 2e-4, "{at:?}"),
             v => panic!("{v:?}"),
@@ -320,7 +429,10 @@ mod tests {
     #[test]
     fn touching_zero_is_undecided_not_certified() {
         // Q = x² touches zero at the box edge
-        let q = Polynomial { exponents: exponents(1, 2), coefficients: vec![0.0, 0.0, 1.0] };
+        let q = Polynomial {
+            exponents: exponents(1, 2),
+            coefficients: vec![0.0, 0.0, 1.0],
+        };
         let v = certify_polynomial(&q, &[(0.0, 1.0)], &CertifyOptions::default());
         assert!(matches!(v, RawVerdict::Undecided { .. }), "{v:?}");
     }
@@ -331,10 +443,19 @@ mod tests {
         let mut c = vec![0.0; e.len()];
         c[0] = -2.0;
         c[4] = 1.0; // x²
-        let q = Polynomial { exponents: e, coefficients: c };
-        let v = certify_polynomial(&q, &[(0.0, 1.0), (0.0, 1.0), (0.0, 1.0)], &CertifyOptions::default());
+        let q = Polynomial {
+            exponents: e,
+            coefficients: c,
+        };
+        let v = certify_polynomial(
+            &q,
+            &[(0.0, 1.0), (0.0, 1.0), (0.0, 1.0)],
+            &CertifyOptions::default(),
+        );
         match v {
-            RawVerdict::Certified { min_lower_bound, .. } => assert!(min_lower_bound > 0.9 && min_lower_bound <= 1.0),
+            RawVerdict::Certified {
+                min_lower_bound, ..
+            } => assert!(min_lower_bound > 0.9 && min_lower_bound <= 1.0),
             v => panic!("{v:?}"),
         }
     }

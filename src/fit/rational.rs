@@ -24,13 +24,13 @@ use std::time::Instant;
 use super::basis::{check_degree, exponents, monomial_to_chebyshev, n_terms};
 use super::data::{FitData, InputTransform, Prepared};
 use super::error::{FitError, Result};
+use super::linear::solve_lstsq;
 use super::lm::{cost, LevenbergMarquardt, TerminationReason};
 use super::model::{LinearisedRows, Model, RationalProblem, Q_FLOOR};
 use super::poles::CertifyOptions;
 use super::polynomial::solve_polynomial;
 use super::result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
 use super::robust::{reweight, Solve, Solved};
-use super::linear::solve_lstsq;
 
 /// Settings of a rational fit.
 #[derive(Clone, Debug)]
@@ -73,7 +73,11 @@ impl Default for RationalOptions {
             reweight_iterations: 30,
             reweight_lm_iterations: 30,
             certify: CertifyOptions::default(),
-            step_certify: CertifyOptions { max_boxes: 5_000, min_box_width: 1e-6, refine_splits: 0 },
+            step_certify: CertifyOptions {
+                max_boxes: 5_000,
+                min_box_width: 1e-6,
+                refine_splits: 0,
+            },
             denominator_margin: 1e-3,
             extra_starts: Vec::new(),
         }
@@ -81,28 +85,44 @@ impl Default for RationalOptions {
 }
 
 /// Linearised least squares (Levy) with optional extra row weights.
-fn linearised(model: &Model, data: &Prepared, extra: Option<&[f64]>, what: &str) -> Result<Vec<f64>> {
+fn linearised(
+    model: &Model,
+    data: &Prepared,
+    extra: Option<&[f64]>,
+    what: &str,
+) -> Result<Vec<f64>> {
     Ok(solve_lstsq(&LinearisedRows { model, data, extra }, what)?.x)
 }
 
 /// Converts an approximant to this model's Chebyshev parameters, or says why not.
-fn start_from_approximant(model: &Model, prep: &Prepared, transforms: &[InputTransform], a: &Approximant) -> std::result::Result<Vec<f64>, String> {
+fn start_from_approximant(
+    model: &Model,
+    prep: &Prepared,
+    transforms: &[InputTransform],
+    a: &Approximant,
+) -> std::result::Result<Vec<f64>, String> {
     if a.transforms != transforms || a.variables.len() != prep.d {
         return Err("different variables or transforms".into());
     }
     let d = prep.d;
-    let embed = |p: &super::basis::Polynomial, degree: u32| -> std::result::Result<Vec<f64>, String> {
-        let exps = exponents(d, degree);
-        let mut c = vec![0.0; exps.len()];
-        for (e, &v) in p.exponents.iter().zip(&p.coefficients) {
-            match exps.iter().position(|x| x == e) {
-                Some(j) => c[j] = v,
-                None if v == 0.0 => {}
-                None => return Err(format!("has a term of degree {} above this fit's", e.iter().sum::<u32>())),
+    let embed =
+        |p: &super::basis::Polynomial, degree: u32| -> std::result::Result<Vec<f64>, String> {
+            let exps = exponents(d, degree);
+            let mut c = vec![0.0; exps.len()];
+            for (e, &v) in p.exponents.iter().zip(&p.coefficients) {
+                match exps.iter().position(|x| x == e) {
+                    Some(j) => c[j] = v,
+                    None if v == 0.0 => {}
+                    None => {
+                        return Err(format!(
+                            "has a term of degree {} above this fit's",
+                            e.iter().sum::<u32>()
+                        ))
+                    }
+                }
             }
-        }
-        Ok(monomial_to_chebyshev(&exps, degree, &prep.scales, &c))
-    };
+            Ok(monomial_to_chebyshev(&exps, degree, &prep.scales, &c))
+        };
     let num = embed(&a.numerator, model.num_degree)?;
     let dd = model.den_degree.unwrap_or(0);
     let den = match &a.denominator {
@@ -143,21 +163,40 @@ pub fn fit_rational(
     check_degree(num_degree)?;
     check_degree(den_degree)?;
     let prep = Prepared::new(data, transforms)?;
-    let form = Form::Rational { numerator_degree: num_degree, denominator_degree: den_degree };
+    let form = Form::Rational {
+        numerator_degree: num_degree,
+        denominator_degree: den_degree,
+    };
     let label = form.label();
     let model = Model::rational(prep.d, num_degree, den_degree);
     let np = model.n_params();
     if prep.n_weighted() < np {
-        return Err(FitError::TooFewPoints { form: label, coefficients: np, points: prep.n_weighted() });
+        return Err(FitError::TooFewPoints {
+            form: label,
+            coefficients: np,
+            points: prep.n_weighted(),
+        });
     }
-    let explore_n = if opts.exploration_points == 0 { (200 * np).max(16_384) } else { opts.exploration_points.max(np) };
+    let explore_n = if opts.exploration_points == 0 {
+        (200 * np).max(16_384)
+    } else {
+        opts.exploration_points.max(np)
+    };
     let sub = prep.subsample(explore_n);
     let ex = sub.as_ref().unwrap_or(&prep);
     // basis values of the exploration set and of all points, evaluated once per fit
     let table_ex = model.basis_table(ex);
-    let table_all = if sub.is_some() { model.basis_table(&prep) } else { None };
+    let table_all = if sub.is_some() {
+        model.basis_table(&prep)
+    } else {
+        None
+    };
     let phi_ex = table_ex.as_deref();
-    let phi_all = if sub.is_some() { table_all.as_deref() } else { phi_ex };
+    let phi_all = if sub.is_some() {
+        table_all.as_deref()
+    } else {
+        phi_ex
+    };
 
     // Q ≥ margin proved on the whole domain: the admissibility test of constrained LM runs and
     // the "certified" of candidates (the final verdict is the plain certificate, no margin).
@@ -196,7 +235,10 @@ pub fn fit_rational(
         Err(e) => starts.push(("polynomial".into(), Err(e.to_string()))),
     }
     for (name, a) in &opts.extra_starts {
-        starts.push((name.clone(), start_from_approximant(&model, &prep, transforms, a)));
+        starts.push((
+            name.clone(),
+            start_from_approximant(&model, &prep, transforms, a),
+        ));
     }
 
     // 2. LM from each start on the exploration set
@@ -220,7 +262,13 @@ pub fn fit_rational(
             }
         };
         let constrained = safe(&p0);
-        let problem = RationalProblem { model: &model, data: ex, phi: phi_ex, extra: None, certified_steps: constrained.then_some(guard) };
+        let problem = RationalProblem {
+            model: &model,
+            data: ex,
+            phi: phi_ex,
+            extra: None,
+            certified_steps: constrained.then_some(guard),
+        };
         let rep = opts.lm.solve(&problem, p0)?;
         if rep.termination == TerminationReason::InfeasibleStart {
             reports.push(StartReport {
@@ -238,7 +286,16 @@ pub fn fit_rational(
         let certified = safe(&rep.state.params);
         // the exploration cost can hide a blow-up between sampled points: rank on all points
         let cost_all = if sub.is_some() {
-            cost(&RationalProblem { model: &model, data: &prep, phi: phi_all, extra: None, certified_steps: None }, &rep.state.params)
+            cost(
+                &RationalProblem {
+                    model: &model,
+                    data: &prep,
+                    phi: phi_all,
+                    extra: None,
+                    certified_steps: None,
+                },
+                &rep.state.params,
+            )
         } else {
             Some(rep.state.cost)
         };
@@ -253,25 +310,54 @@ pub fn fit_rational(
             note: None,
         });
         let cost = cost_all.unwrap_or(f64::INFINITY);
-        candidates.push(Candidate { params: rep.state.params, cost, certified, termination: rep.termination, iterations: rep.state.iterations });
+        candidates.push(Candidate {
+            params: rep.state.params,
+            cost,
+            certified,
+            termination: rep.termination,
+            iterations: rep.state.iterations,
+        });
     }
     if candidates.is_empty() {
-        let tried = reports.iter().map(|r| format!("{}: {}", r.name, r.note.as_deref().unwrap_or("failed"))).collect::<Vec<_>>().join("; ");
+        let tried = reports
+            .iter()
+            .map(|r| format!("{}: {}", r.name, r.note.as_deref().unwrap_or("failed")))
+            .collect::<Vec<_>>()
+            .join("; ");
         return Err(FitError::NoFeasibleStart { form: label, tried });
     }
     // certified first, then by cost on all points (stable: ties keep start order)
-    candidates.sort_by(|a, b| b.certified.cmp(&a.certified).then(a.cost.total_cmp(&b.cost)));
+    candidates.sort_by(|a, b| {
+        b.certified
+            .cmp(&a.certified)
+            .then(a.cost.total_cmp(&b.cost))
+    });
 
     // 3. refine the best on all points
     let mut best = candidates.swap_remove(0);
     if sub.is_some() {
-        let lm = opts.lm.clone().with_max_iterations(opts.refine_iterations.max(1))?;
-        let problem = RationalProblem { model: &model, data: &prep, phi: phi_all, extra: None, certified_steps: best.certified.then_some(guard) };
+        let lm = opts
+            .lm
+            .clone()
+            .with_max_iterations(opts.refine_iterations.max(1))?;
+        let problem = RationalProblem {
+            model: &model,
+            data: &prep,
+            phi: phi_all,
+            extra: None,
+            certified_steps: best.certified.then_some(guard),
+        };
         let rep = lm.solve(&problem, best.params.clone())?;
         if rep.termination != TerminationReason::InfeasibleStart {
             let certified = safe(&rep.state.params);
             if certified || !best.certified {
-                best = Candidate { params: rep.state.params, cost: rep.state.cost, certified, termination: rep.termination, iterations: rep.state.iterations };
+                best = Candidate {
+                    params: rep.state.params,
+                    cost: rep.state.cost,
+                    certified,
+                    termination: rep.termination,
+                    iterations: rep.state.iterations,
+                };
             }
         }
     }
@@ -284,18 +370,42 @@ pub fn fit_rational(
     let mut params = best.params;
     if objective != Objective::LeastSquares {
         if let Some(e0) = model.errors(&prep, phi_all, &params) {
-            let lm = opts.lm.clone().with_max_iterations(opts.reweight_lm_iterations.max(1))?;
+            let lm = opts
+                .lm
+                .clone()
+                .with_max_iterations(opts.reweight_lm_iterations.max(1))?;
             let constrained = best.certified;
             let mut solve = |extra: &[f64], warm: &[f64]| -> Result<Option<Solved>> {
-                let problem = RationalProblem { model: &model, data: &prep, phi: phi_all, extra: Some(extra), certified_steps: constrained.then_some(guard) };
+                let problem = RationalProblem {
+                    model: &model,
+                    data: &prep,
+                    phi: phi_all,
+                    extra: Some(extra),
+                    certified_steps: constrained.then_some(guard),
+                };
                 let rep = lm.solve(&problem, warm.to_vec())?;
                 if rep.termination == TerminationReason::InfeasibleStart {
                     return Ok(None);
                 }
-                Ok(model.errors(&prep, phi_all, &rep.state.params).map(|e| (rep.state.params, e, Some(rep.termination), rep.state.iterations)))
+                Ok(model.errors(&prep, phi_all, &rep.state.params).map(|e| {
+                    (
+                        rep.state.params,
+                        e,
+                        Some(rep.termination),
+                        rep.state.iterations,
+                    )
+                }))
             };
             let mut accept = |p: &[f64]| !best.certified || safe(p);
-            let rw = reweight(objective, opts.reweight_iterations, &prep.w, params.clone(), e0, &mut solve as &mut Solve<'_>, &mut accept)?;
+            let rw = reweight(
+                objective,
+                opts.reweight_iterations,
+                &prep.w,
+                params.clone(),
+                e0,
+                &mut solve as &mut Solve<'_>,
+                &mut accept,
+            )?;
             rounds = rw.rounds;
             converged = rw.converged;
             final_termination = rw.termination.unwrap_or(final_termination);
@@ -324,7 +434,14 @@ pub fn fit_rational(
         exploration_points: ex.len(),
         starts: reports,
     };
-    let mut result = FitResult::assess(form, approximant, data, objective, Some(solver), &opts.certify)?;
+    let mut result = FitResult::assess(
+        form,
+        approximant,
+        data,
+        objective,
+        Some(solver),
+        &opts.certify,
+    )?;
     result.fit_seconds = start_time.elapsed().as_secs_f64();
     Ok(result)
 }
@@ -336,7 +453,11 @@ mod tests {
 
     fn grid2(n: usize, f: impl Fn(f64, f64) -> f64) -> FitData {
         let ax: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
-        let vals = ax.iter().flat_map(|&x| ax.iter().map(move |&y| (x, y))).map(|(x, y)| f(x, y)).collect();
+        let vals = ax
+            .iter()
+            .flat_map(|&x| ax.iter().map(move |&y| (x, y)))
+            .map(|(x, y)| f(x, y))
+            .collect();
         FitData::from_grid(vec!["x".into(), "y".into()], &[ax.clone(), ax], vals).unwrap()
     }
 
@@ -345,13 +466,29 @@ mod tests {
         // (1 + x − y²) / (1 + 0.5 x + 0.3 x y): pole-free on [0,1]²
         let f = |x: f64, y: f64| (1.0 + x - y * y) / (1.0 + 0.5 * x + 0.3 * x * y);
         let data = grid2(20, f);
-        let r = fit_rational(&data, &[InputTransform::Identity; 2], 2, 2, Objective::LeastSquares, &Default::default()).unwrap();
+        let r = fit_rational(
+            &data,
+            &[InputTransform::Identity; 2],
+            2,
+            2,
+            Objective::LeastSquares,
+            &Default::default(),
+        )
+        .unwrap();
         assert!(r.metrics.max_abs_error < 1e-10, "{:?}", r.metrics);
-        assert!(matches!(r.poles, PoleVerdict::Certified { .. }), "{:?}", r.poles);
+        assert!(
+            matches!(r.poles, PoleVerdict::Certified { .. }),
+            "{:?}",
+            r.poles
+        );
         let q = r.approximant.denominator.as_ref().unwrap();
         assert_eq!(q.coefficients[0], 1.0);
         // coefficients are the generating ones (unique up to the normalisation)
-        assert!((q.coefficients[1] - 0.5).abs() < 1e-8 && (q.coefficients[4] - 0.3).abs() < 1e-8, "{:?}", q.coefficients);
+        assert!(
+            (q.coefficients[1] - 0.5).abs() < 1e-8 && (q.coefficients[4] - 0.3).abs() < 1e-8,
+            "{:?}",
+            q.coefficients
+        );
         assert!((r.eval(&[0.3, 0.7]) - f(0.3, 0.7)).abs() < 1e-10);
         assert_eq!(r.n_coefficients, 6 + 5);
         assert!(r.is_usable());
@@ -361,8 +498,21 @@ mod tests {
     fn rational_beats_polynomial_near_a_pole_outside_the_domain() {
         // 1/(1.05 − x) has a pole just outside [0, 1]
         let ax: Vec<f64> = (0..200).map(|i| i as f64 / 199.0).collect();
-        let data = FitData::from_grid(vec!["x".into()], std::slice::from_ref(&ax), ax.iter().map(|x| 1.0 / (1.05 - x)).collect()).unwrap();
-        let r = fit_rational(&data, &[InputTransform::Identity], 1, 1, Objective::LeastSquares, &Default::default()).unwrap();
+        let data = FitData::from_grid(
+            vec!["x".into()],
+            std::slice::from_ref(&ax),
+            ax.iter().map(|x| 1.0 / (1.05 - x)).collect(),
+        )
+        .unwrap();
+        let r = fit_rational(
+            &data,
+            &[InputTransform::Identity],
+            1,
+            1,
+            Objective::LeastSquares,
+            &Default::default(),
+        )
+        .unwrap();
         assert!(r.metrics.max_abs_error < 1e-9, "{:?}", r.metrics);
         assert!(r.is_usable(), "{:?}", r.poles);
     }
@@ -370,19 +520,59 @@ mod tests {
     #[test]
     fn minimax_lowers_max_error_and_stays_certified() {
         let data = grid2(16, |x, y| (1.0 + x).sqrt() * (2.0 - y * y).ln());
-        let base = fit_rational(&data, &[InputTransform::Identity; 2], 1, 1, Objective::LeastSquares, &Default::default()).unwrap();
-        let mm = fit_rational(&data, &[InputTransform::Identity; 2], 1, 1, Objective::Minimax, &Default::default()).unwrap();
-        assert!(mm.metrics.max_abs_error < base.metrics.max_abs_error, "{} vs {}", mm.metrics.max_abs_error, base.metrics.max_abs_error);
+        let base = fit_rational(
+            &data,
+            &[InputTransform::Identity; 2],
+            1,
+            1,
+            Objective::LeastSquares,
+            &Default::default(),
+        )
+        .unwrap();
+        let mm = fit_rational(
+            &data,
+            &[InputTransform::Identity; 2],
+            1,
+            1,
+            Objective::Minimax,
+            &Default::default(),
+        )
+        .unwrap();
+        assert!(
+            mm.metrics.max_abs_error < base.metrics.max_abs_error,
+            "{} vs {}",
+            mm.metrics.max_abs_error,
+            base.metrics.max_abs_error
+        );
         assert!(mm.is_usable());
-        let mae = fit_rational(&data, &[InputTransform::Identity; 2], 1, 1, Objective::MeanAbsolute, &Default::default()).unwrap();
+        let mae = fit_rational(
+            &data,
+            &[InputTransform::Identity; 2],
+            1,
+            1,
+            Objective::MeanAbsolute,
+            &Default::default(),
+        )
+        .unwrap();
         assert!(mae.metrics.mae < base.metrics.mae);
     }
 
     #[test]
     fn subsampled_exploration_then_full_refinement() {
         let data = grid2(60, |x, y| (1.0 + x * y) / (1.2 + x + y * y));
-        let opts = RationalOptions { exploration_points: 500, ..Default::default() };
-        let r = fit_rational(&data, &[InputTransform::Identity; 2], 2, 2, Objective::LeastSquares, &opts).unwrap();
+        let opts = RationalOptions {
+            exploration_points: 500,
+            ..Default::default()
+        };
+        let r = fit_rational(
+            &data,
+            &[InputTransform::Identity; 2],
+            2,
+            2,
+            Objective::LeastSquares,
+            &opts,
+        )
+        .unwrap();
         assert_eq!(r.solver.as_ref().unwrap().exploration_points, 500);
         assert!(r.metrics.max_abs_error < 1e-9, "{:?}", r.metrics);
     }
@@ -390,26 +580,63 @@ mod tests {
     #[test]
     fn json_round_trip_is_exact() {
         let data = grid2(10, |x, y| (1.0 + x) / (1.5 + y));
-        let r = fit_rational(&data, &[InputTransform::Identity, InputTransform::Sqrt], 1, 1, Objective::LeastSquares, &Default::default()).unwrap();
+        let r = fit_rational(
+            &data,
+            &[InputTransform::Identity, InputTransform::Sqrt],
+            1,
+            1,
+            Objective::LeastSquares,
+            &Default::default(),
+        )
+        .unwrap();
         let s = r.to_json().unwrap();
         let back = FitResult::from_json(&s).unwrap();
         assert_eq!(back.to_json().unwrap(), s);
-        for (a, b) in back.approximant.numerator.coefficients.iter().zip(&r.approximant.numerator.coefficients) {
+        for (a, b) in back
+            .approximant
+            .numerator
+            .coefficients
+            .iter()
+            .zip(&r.approximant.numerator.coefficients)
+        {
             assert_eq!(a.to_bits(), b.to_bits());
         }
-        assert_eq!(back.eval(&[0.2, 0.4]).to_bits(), r.eval(&[0.2, 0.4]).to_bits());
-        assert!(FitResult::from_json("{\"form\": 3}").unwrap_err().to_string().contains("FitResult::to_json"));
+        assert_eq!(
+            back.eval(&[0.2, 0.4]).to_bits(),
+            r.eval(&[0.2, 0.4]).to_bits()
+        );
+        assert!(FitResult::from_json("{\"form\": 3}")
+            .unwrap_err()
+            .to_string()
+            .contains("FitResult::to_json"));
     }
 
     #[test]
     fn whole_fit_is_identical_for_any_thread_count() {
         // 70² points span two accumulation chunks; exploration subsampled to exercise that path too
         let data = grid2(70, |x, y| (1.0 + x * y).ln() / (1.3 + y));
-        let opts = RationalOptions { exploration_points: 1000, ..Default::default() };
+        let opts = RationalOptions {
+            exploration_points: 1000,
+            ..Default::default()
+        };
         let run = |t| {
-            rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| {
-                fit_rational(&data, &[InputTransform::Identity; 2], 2, 2, Objective::LeastSquares, &opts).unwrap().to_json().unwrap()
-            })
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+                .install(|| {
+                    fit_rational(
+                        &data,
+                        &[InputTransform::Identity; 2],
+                        2,
+                        2,
+                        Objective::LeastSquares,
+                        &opts,
+                    )
+                    .unwrap()
+                    .to_json()
+                    .unwrap()
+                })
         };
         assert_eq!(run(1), run(3));
     }
@@ -417,11 +644,33 @@ mod tests {
     #[test]
     fn previous_degree_seeds_the_next() {
         let data = grid2(12, |x, y| (x + 2.0 * y).exp() / (3.0 + x));
-        let r1 = fit_rational(&data, &[InputTransform::Identity; 2], 1, 1, Objective::LeastSquares, &Default::default()).unwrap();
-        let opts = RationalOptions { extra_starts: vec![("degree 1".into(), r1.approximant.clone())], ..Default::default() };
-        let r2 = fit_rational(&data, &[InputTransform::Identity; 2], 2, 2, Objective::LeastSquares, &opts).unwrap();
+        let r1 = fit_rational(
+            &data,
+            &[InputTransform::Identity; 2],
+            1,
+            1,
+            Objective::LeastSquares,
+            &Default::default(),
+        )
+        .unwrap();
+        let opts = RationalOptions {
+            extra_starts: vec![("degree 1".into(), r1.approximant.clone())],
+            ..Default::default()
+        };
+        let r2 = fit_rational(
+            &data,
+            &[InputTransform::Identity; 2],
+            2,
+            2,
+            Objective::LeastSquares,
+            &opts,
+        )
+        .unwrap();
         let s = &r2.solver.as_ref().unwrap().starts;
-        assert!(s.iter().any(|s| s.name == "degree 1" && s.cost.is_some()), "{s:?}");
+        assert!(
+            s.iter().any(|s| s.name == "degree 1" && s.cost.is_some()),
+            "{s:?}"
+        );
         assert!(r2.metrics.rmse <= r1.metrics.rmse);
     }
 }

@@ -5,7 +5,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::basis::Polynomial;
-use super::data::{inverse_point, transform_point, transformed_box, FitData, InputTransform, MAX_DIM};
+use super::data::{
+    inverse_point, transform_point, transformed_box, FitData, InputTransform, MAX_DIM,
+};
 use super::error::{FitError, Result};
 use super::lm::TerminationReason;
 use super::metrics::{measure, Metrics};
@@ -28,16 +30,24 @@ pub enum Objective {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Form {
-    Polynomial { degree: u32 },
+    Polynomial {
+        degree: u32,
+    },
     /// P/Q with the denominator's constant term fixed to 1.
-    Rational { numerator_degree: u32, denominator_degree: u32 },
+    Rational {
+        numerator_degree: u32,
+        denominator_degree: u32,
+    },
 }
 
 impl Form {
     pub fn label(&self) -> String {
         match *self {
             Form::Polynomial { degree } => format!("polynomial of degree {degree}"),
-            Form::Rational { numerator_degree: n, denominator_degree: m } => format!("rational of degree {n}/{m}"),
+            Form::Rational {
+                numerator_degree: n,
+                denominator_degree: m,
+            } => format!("rational of degree {n}/{m}"),
         }
     }
 }
@@ -59,11 +69,22 @@ impl Approximant {
     pub fn validate(&self) -> Result<()> {
         let d = self.variables.len();
         if d == 0 || d > MAX_DIM {
-            return Err(FitError::BadDimension { got: d, max: MAX_DIM });
+            return Err(FitError::BadDimension {
+                got: d,
+                max: MAX_DIM,
+            });
         }
-        for (what, n) in [("transforms", self.transforms.len()), ("domain", self.domain.len())] {
+        for (what, n) in [
+            ("transforms", self.transforms.len()),
+            ("domain", self.domain.len()),
+        ] {
             if n != d {
-                return Err(FitError::ShapeMismatch { what, expected: d, got: n, fix: "give one entry per variable" });
+                return Err(FitError::ShapeMismatch {
+                    what,
+                    expected: d,
+                    got: n,
+                    fix: "give one entry per variable",
+                });
             }
         }
         for p in std::iter::once(&self.numerator).chain(self.denominator.iter()) {
@@ -76,11 +97,20 @@ impl Approximant {
                 });
             }
             if let Some(e) = p.exponents.iter().find(|e| e.len() != d) {
-                return Err(FitError::ShapeMismatch { what: "exponent tuple", expected: d, got: e.len(), fix: "one exponent per variable" });
+                return Err(FitError::ShapeMismatch {
+                    what: "exponent tuple",
+                    expected: d,
+                    got: e.len(),
+                    fix: "one exponent per variable",
+                });
             }
             super::basis::check_degree(p.degree())?;
             if let Some(i) = p.coefficients.iter().position(|c| !c.is_finite()) {
-                return Err(FitError::NonFinite { what: "coefficient", index: i, value: p.coefficients[i] });
+                return Err(FitError::NonFinite {
+                    what: "coefficient",
+                    index: i,
+                    value: p.coefficients[i],
+                });
             }
         }
         // every transform defined and monotone on the domain (a boundary layer's `by` in range)
@@ -91,7 +121,11 @@ impl Approximant {
     /// Transformed coordinates t of x (original variables, one per variable).
     pub fn transform(&self, x: &[f64]) -> Vec<f64> {
         let mut t = vec![0.0; x.len()];
-        transform_point(&self.transforms[..x.len().min(self.transforms.len())], x, &mut t);
+        transform_point(
+            &self.transforms[..x.len().min(self.transforms.len())],
+            x,
+            &mut t,
+        );
         t
     }
 
@@ -142,7 +176,11 @@ impl Approximant {
     /// Number of stored coefficients, not counting a denominator constant equal to 1.
     pub fn n_coefficients(&self) -> usize {
         let den = self.denominator.as_ref().map_or(0, |q| {
-            let fixed = q.exponents.iter().zip(&q.coefficients).any(|(e, &c)| e.iter().all(|&x| x == 0) && c == 1.0);
+            let fixed = q
+                .exponents
+                .iter()
+                .zip(&q.coefficients)
+                .any(|(e, &c)| e.iter().all(|&x| x == 0) && c == 1.0);
             q.coefficients.len() - usize::from(fixed)
         });
         self.numerator.coefficients.len() + den
@@ -150,17 +188,30 @@ impl Approximant {
 
     /// Proves (or refutes) that the denominator has no zero on the domain box.
     pub fn certify_poles(&self, opts: &CertifyOptions) -> PoleVerdict {
-        let Some(q) = &self.denominator else { return PoleVerdict::NoDenominator };
+        let Some(q) = &self.denominator else {
+            return PoleVerdict::NoDenominator;
+        };
         let bounds = match self.transformed_domain() {
             Ok(b) => b,
-            Err(e) => return PoleVerdict::Undecided { reason: e.to_string(), boxes: 0 },
+            Err(e) => {
+                return PoleVerdict::Undecided {
+                    reason: e.to_string(),
+                    boxes: 0,
+                }
+            }
         };
         match certify_polynomial(q, &bounds, opts) {
-            RawVerdict::Certified { min_lower_bound, boxes } => PoleVerdict::Certified { min_lower_bound, boxes },
+            RawVerdict::Certified {
+                min_lower_bound,
+                boxes,
+            } => PoleVerdict::Certified {
+                min_lower_bound,
+                boxes,
+            },
             RawVerdict::Undecided { reason, boxes } => PoleVerdict::Undecided { reason, boxes },
-            RawVerdict::PoleFound { at } => {
-                PoleVerdict::PoleFound { at: inverse_point(&self.transforms, &at) }
-            }
+            RawVerdict::PoleFound { at } => PoleVerdict::PoleFound {
+                at: inverse_point(&self.transforms, &at),
+            },
         }
     }
 }
@@ -240,7 +291,16 @@ impl FitResult {
         }
         let metrics = measure(&approximant, data);
         let poles = approximant.certify_poles(certify);
-        Ok(FitResult { form, n_coefficients: approximant.n_coefficients(), approximant, objective, metrics, solver, poles, fit_seconds: 0.0 })
+        Ok(FitResult {
+            form,
+            n_coefficients: approximant.n_coefficients(),
+            approximant,
+            objective,
+            metrics,
+            solver,
+            poles,
+            fit_seconds: 0.0,
+        })
     }
 
     /// f(x) in f64.

@@ -58,7 +58,13 @@ pub(crate) fn reweight(
 ) -> Result<Reweighted> {
     let n = w.len();
     let mut best = (objective_value(objective, w, &e0), p0.clone());
-    let mut out = Reweighted { params: p0.clone(), rounds: 0, converged: false, termination: None, lm_iterations: 0 };
+    let mut out = Reweighted {
+        params: p0.clone(),
+        rounds: 0,
+        converged: false,
+        termination: None,
+        lm_iterations: 0,
+    };
     if objective == Objective::LeastSquares {
         out.converged = true;
         return Ok(out);
@@ -93,7 +99,9 @@ pub(crate) fn reweight(
         }
         let extra: Vec<f64> = u.iter().map(|x| x.sqrt()).collect();
         out.rounds = round;
-        let Some((pn, en, term, its)) = solve(&extra, &p)? else { break };
+        let Some((pn, en, term, its)) = solve(&extra, &p)? else {
+            break;
+        };
         out.termination = term;
         out.lm_iterations += its;
         p = pn;

@@ -75,7 +75,9 @@ pub fn even_indices(n: usize, m: usize) -> Vec<usize> {
         return (0..n).collect();
     }
     let m = m.max(2);
-    (0..m).map(|j| ((j * (n - 1)) as f64 / (m - 1) as f64).round() as usize).collect()
+    (0..m)
+        .map(|j| ((j * (n - 1)) as f64 / (m - 1) as f64).round() as usize)
+        .collect()
 }
 
 impl FitInput {
@@ -92,9 +94,18 @@ impl FitInput {
         let d = self.data.dim();
         let mut domain = self.data.domain.clone();
         for b in bounds {
-            let k = self.data.names.iter().position(|n| *n == b.name).ok_or_else(|| {
-                Error::InvalidInput(format!("--domain names '{}', which is not a variable of the data ({})", b.name, self.data.names.join(", ")))
-            })?;
+            let k = self
+                .data
+                .names
+                .iter()
+                .position(|n| *n == b.name)
+                .ok_or_else(|| {
+                    Error::InvalidInput(format!(
+                        "--domain names '{}', which is not a variable of the data ({})",
+                        b.name,
+                        self.data.names.join(", ")
+                    ))
+                })?;
             let (lo, hi) = self.data.domain[k];
             if b.lo < lo || b.hi > hi {
                 return Err(Error::InvalidInput(format!(
@@ -104,7 +115,11 @@ impl FitInput {
             }
             domain[k] = (b.lo, b.hi);
         }
-        let inside = |x: &[f64]| x.iter().zip(&domain).all(|(v, (lo, hi))| v >= lo && v <= hi);
+        let inside = |x: &[f64]| {
+            x.iter()
+                .zip(&domain)
+                .all(|(v, (lo, hi))| v >= lo && v <= hi)
+        };
         let (mut coords, mut values) = (Vec::new(), Vec::new());
         for i in 0..self.data.len() {
             if inside(self.data.point(i)) {
@@ -113,16 +128,30 @@ impl FitInput {
             }
         }
         if values.is_empty() {
-            return Err(Error::InvalidInput("--domain leaves no data point; widen it".into()));
+            return Err(Error::InvalidInput(
+                "--domain leaves no data point; widen it".into(),
+            ));
         }
         let grid = self.grid.as_ref().map(|axes| {
-            axes.iter().zip(&domain).map(|(a, (lo, hi))| a.iter().copied().filter(|v| v >= lo && v <= hi).collect::<Vec<f64>>()).collect::<Vec<_>>()
+            axes.iter()
+                .zip(&domain)
+                .map(|(a, (lo, hi))| {
+                    a.iter()
+                        .copied()
+                        .filter(|v| v >= lo && v <= hi)
+                        .collect::<Vec<f64>>()
+                })
+                .collect::<Vec<_>>()
         });
         let data = FitData::new(self.data.names.clone(), coords, values, domain.clone())?;
         let mut source = self.source.clone();
         source.points = data.len();
         source.restricted_to = Some(domain);
-        debug_assert!(grid.as_ref().is_none_or(|g| g.iter().map(Vec::len).product::<usize>() == data.len() && g.len() == d));
+        debug_assert!(grid
+            .as_ref()
+            .is_none_or(
+                |g| g.iter().map(Vec::len).product::<usize>() == data.len() && g.len() == d
+            ));
         Ok(FitInput { data, source, grid })
     }
 
@@ -151,7 +180,11 @@ impl FitInput {
             m -= 1;
         }
         let picks: Vec<Vec<usize>> = counts.iter().map(|&c| even_indices(c, m)).collect();
-        let sub_axes: Vec<Vec<f64>> = picks.iter().zip(axes).map(|(p, a)| p.iter().map(|&i| a[i]).collect()).collect();
+        let sub_axes: Vec<Vec<f64>> = picks
+            .iter()
+            .zip(axes)
+            .map(|(p, a)| p.iter().map(|&i| a[i]).collect())
+            .collect();
         let d = counts.len();
         let sub_n: usize = picks.iter().map(Vec::len).product();
         let mut values = Vec::with_capacity(sub_n);
@@ -172,7 +205,11 @@ impl FitInput {
         }
         let mut sub = FitData::from_grid(self.data.names.clone(), &sub_axes, values)?;
         sub.domain = self.data.domain.clone();
-        let shape = picks.iter().map(|p| p.len().to_string()).collect::<Vec<_>>().join("x");
+        let shape = picks
+            .iter()
+            .map(|p| p.len().to_string())
+            .collect::<Vec<_>>()
+            .join("x");
         let on = FittedOn {
             points: sub.len(),
             selection: format!(
@@ -196,7 +233,13 @@ pub fn from_table(table: &Table, channel: &str, stem: Option<&Path>) -> Result<F
     let axes: Vec<Vec<f64>> = table.spec.axes.iter().map(GridAxis::nodes).collect();
     let names = table.spec.axes.iter().map(|a| a.name.clone()).collect();
     let values = table.output(o).to_vec();
-    check_values(&values, |i| format!("cell {i}"), &stem.map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from(&table.spec.model)))?;
+    check_values(
+        &values,
+        |i| format!("cell {i}"),
+        &stem
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from(&table.spec.model)),
+    )?;
     let mut data = FitData::from_grid(names, &axes, values)?;
     data.domain = table.spec.axes.iter().map(|a| (a.lo, a.hi)).collect();
     data.validate()?;
@@ -232,7 +275,9 @@ pub fn parse_axes(text: &str) -> Result<Vec<AxisDecl>> {
     };
     let mut out: Vec<AxisDecl> = Vec::new();
     for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let (name, range) = part.split_once('=').ok_or_else(|| bad(part, "has no '='"))?;
+        let (name, range) = part
+            .split_once('=')
+            .ok_or_else(|| bad(part, "has no '='"))?;
         let name = name.trim();
         if name.is_empty() {
             return Err(bad(part, "has no axis name"));
@@ -244,19 +289,37 @@ pub fn parse_axes(text: &str) -> Result<Vec<AxisDecl>> {
         if !(2..=3).contains(&fields.len()) {
             return Err(bad(part, "needs 2 or 3 ':'-separated fields"));
         }
-        let num = |s: &str| s.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| bad(part, "has a bound that is not a finite number"));
+        let num = |s: &str| {
+            s.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| bad(part, "has a bound that is not a finite number"))
+        };
         let (lo, hi) = (num(fields[0])?, num(fields[1])?);
         if !(lo < hi) {
             return Err(bad(part, "needs lo < hi"));
         }
         let n = match fields.get(2) {
-            Some(s) => Some(s.parse::<usize>().ok().filter(|&n| n >= 2).ok_or_else(|| bad(part, "needs a node count n ≥ 2"))?),
+            Some(s) => Some(
+                s.parse::<usize>()
+                    .ok()
+                    .filter(|&n| n >= 2)
+                    .ok_or_else(|| bad(part, "needs a node count n ≥ 2"))?,
+            ),
             None => None,
         };
-        out.push(AxisDecl { name: name.to_string(), lo, hi, n });
+        out.push(AxisDecl {
+            name: name.to_string(),
+            lo,
+            hi,
+            n,
+        });
     }
     if out.is_empty() || out.len() > MAX_DIM {
-        return Err(Error::InvalidInput(format!("--axes '{text}' declares {} axes; a fit needs 1 to {MAX_DIM}", out.len())));
+        return Err(Error::InvalidInput(format!(
+            "--axes '{text}' declares {} axes; a fit needs 1 to {MAX_DIM}",
+            out.len()
+        )));
     }
     Ok(out)
 }
@@ -272,7 +335,10 @@ pub struct UserTableOptions {
 
 fn sha256_file(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    Ok(Sha256::digest(&bytes).iter().map(|b| format!("{b:02x}")).collect())
+    Ok(Sha256::digest(&bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
 }
 
 /// Rejects NaN / infinite values, naming the first one.
@@ -280,7 +346,11 @@ fn check_values(values: &[f64], name: impl Fn(usize) -> String, path: &Path) -> 
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {
         return Err(Error::file(
             path,
-            format!("{} is {}, not a finite number; repair or drop it before fitting", name(i), values[i]),
+            format!(
+                "{} is {}, not a finite number; repair or drop it before fitting",
+                name(i),
+                values[i]
+            ),
         ));
     }
     Ok(())
@@ -295,7 +365,10 @@ fn with_ext(stem: &Path, ext: &str) -> PathBuf {
 
 /// Reads a user's table (see the module docs for the formats).
 pub fn load_user_table(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
     match ext.as_deref() {
         Some("csv") => load_csv(path, opts),
         Some("exr") => load_exr(path, opts),
@@ -324,7 +397,8 @@ fn load_furnace(stem: &Path, opts: &UserTableOptions) -> Result<FitInput> {
 fn load_csv(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let channel = opts.channel.clone().unwrap_or_else(|| "E".into());
-    let (names, coords, values) = parse_csv_table(&text, &channel).map_err(|m| Error::file(path, m))?;
+    let (names, coords, values) =
+        parse_csv_table(&text, &channel).map_err(|m| Error::file(path, m))?;
     let d = names.len();
     let n = values.len();
     let domain: Vec<(f64, f64)> = match &opts.axes {
@@ -342,7 +416,11 @@ fn load_csv(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
     };
     if let Some(decl) = &opts.axes {
         if let Some(extra) = decl.iter().find(|a| !names.contains(&a.name)) {
-            return Err(Error::InvalidInput(format!("--axes names '{}', which is not a column of {}", extra.name, path.display())));
+            return Err(Error::InvalidInput(format!(
+                "--axes names '{}', which is not a column of {}",
+                extra.name,
+                path.display()
+            )));
         }
         for i in 0..n {
             for k in 0..d {
@@ -354,7 +432,8 @@ fn load_csv(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
             }
         }
     }
-    let data = FitData::new(names, coords, values, domain).map_err(|e| Error::file(path, e.to_string()))?;
+    let data = FitData::new(names, coords, values, domain)
+        .map_err(|e| Error::file(path, e.to_string()))?;
     Ok(FitInput {
         source: Source {
             kind: "csv".into(),
@@ -377,7 +456,10 @@ pub type CsvTable = (Vec<String>, Vec<f64>, Vec<f64>);
 /// Parses a CSV table: header = variables + the value column `channel`. Errors name the row
 /// (1-based, header = row 1) and the column.
 pub fn parse_csv_table(text: &str, channel: &str) -> std::result::Result<CsvTable, String> {
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
     let Some((_, head)) = lines.next() else {
         return Err(format!("empty file; expected a header naming the variables and the value column '{channel}', e.g. r,mu,{channel}"));
     };
@@ -395,23 +477,40 @@ pub fn parse_csv_table(text: &str, channel: &str) -> std::result::Result<CsvTabl
     })?;
     let vars: Vec<usize> = (0..header.len()).filter(|&c| c != vcol).collect();
     if vars.is_empty() || vars.len() > MAX_DIM {
-        return Err(format!("{} variable columns besides '{channel}'; a fit needs 1 to {MAX_DIM}", vars.len()));
+        return Err(format!(
+            "{} variable columns besides '{channel}'; a fit needs 1 to {MAX_DIM}",
+            vars.len()
+        ));
     }
     let names: Vec<String> = vars.iter().map(|&c| header[c].clone()).collect();
     let (mut coords, mut values) = (Vec::new(), Vec::new());
     for (line_no, line) in lines {
         if values.len() >= MAX_FIT_POINTS {
-            return Err(format!("more than {MAX_FIT_POINTS} rows; subsample the table first"));
+            return Err(format!(
+                "more than {MAX_FIT_POINTS} rows; subsample the table first"
+            ));
         }
         let row = line_no + 1;
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         if cells.len() != header.len() {
-            return Err(format!("row {row}: {} values for {} columns", cells.len(), header.len()));
+            return Err(format!(
+                "row {row}: {} values for {} columns",
+                cells.len(),
+                header.len()
+            ));
         }
         let num = |c: usize| -> std::result::Result<f64, String> {
-            let v: f64 = cells[c].parse().map_err(|_| format!("row {row}, column '{}': '{}' is not a number", header[c], cells[c]))?;
+            let v: f64 = cells[c].parse().map_err(|_| {
+                format!(
+                    "row {row}, column '{}': '{}' is not a number",
+                    header[c], cells[c]
+                )
+            })?;
             if !v.is_finite() {
-                return Err(format!("row {row}, column '{}': {v} is not a finite number; repair or drop the row", header[c]));
+                return Err(format!(
+                    "row {row}, column '{}': {v} is not a finite number; repair or drop the row",
+                    header[c]
+                ));
             }
             Ok(v)
         };
@@ -430,16 +529,29 @@ fn load_exr(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
     let (width, height, channels) = io::read_exr_image(path)?;
     let channel = opts.channel.clone().unwrap_or_else(|| "E".into());
     let Some((_, samples)) = channels.iter().find(|(n, _)| *n == channel) else {
-        let names = channels.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", ");
-        return Err(Error::file(path, format!("no channel '{channel}'; the image has {names} (choose one with --channel)")));
+        let names = channels
+            .iter()
+            .map(|(n, _)| n.as_str())
+            .collect::<Vec<_>>()
+            .join(", ");
+        return Err(Error::file(
+            path,
+            format!("no channel '{channel}'; the image has {names} (choose one with --channel)"),
+        ));
     };
     let stem = path.with_extension("");
     let sidecar_path = with_ext(&stem, "json");
     let axes: Vec<GridAxis> = if let Some(decl) = &opts.axes {
         exr_axes_from_decl(decl, width, height).map_err(|m| Error::file(path, m))?
     } else if sidecar_path.exists() {
-        let text = std::fs::read_to_string(&sidecar_path).map_err(|e| Error::io(&sidecar_path, e))?;
-        let sc: Sidecar = serde_json::from_str(&text).map_err(|e| Error::file(&sidecar_path, format!("not a furnace table sidecar: {e}; pass --axes instead")))?;
+        let text =
+            std::fs::read_to_string(&sidecar_path).map_err(|e| Error::io(&sidecar_path, e))?;
+        let sc: Sidecar = serde_json::from_str(&text).map_err(|e| {
+            Error::file(
+                &sidecar_path,
+                format!("not a furnace table sidecar: {e}; pass --axes instead"),
+            )
+        })?;
         sc.axes
     } else {
         return Err(Error::file(
@@ -457,10 +569,21 @@ fn load_exr(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
         ));
     }
     let values: Vec<f64> = samples.iter().map(|&v| v as f64).collect();
-    check_values(&values, |i| format!("pixel (x {}, y {}) of channel '{channel}'", i % width, i / width), path)?;
+    check_values(
+        &values,
+        |i| {
+            format!(
+                "pixel (x {}, y {}) of channel '{channel}'",
+                i % width,
+                i / width
+            )
+        },
+        path,
+    )?;
     let nodes: Vec<Vec<f64>> = axes.iter().map(GridAxis::nodes).collect();
     let names = axes.iter().map(|a| a.name.clone()).collect();
-    let mut data = FitData::from_grid(names, &nodes, values).map_err(|e| Error::file(path, e.to_string()))?;
+    let mut data =
+        FitData::from_grid(names, &nodes, values).map_err(|e| Error::file(path, e.to_string()))?;
     data.domain = axes.iter().map(|a| (a.lo, a.hi)).collect();
     Ok(FitInput {
         source: Source {
@@ -480,11 +603,21 @@ fn load_exr(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
 
 /// Grid axes of an EXR from `name=lo:hi[:n]`: the last axis has `width` nodes; the first ones
 /// multiply to `height` (a single unknown count is inferred).
-fn exr_axes_from_decl(decl: &[AxisDecl], width: usize, height: usize) -> std::result::Result<Vec<GridAxis>, String> {
+fn exr_axes_from_decl(
+    decl: &[AxisDecl],
+    width: usize,
+    height: usize,
+) -> std::result::Result<Vec<GridAxis>, String> {
     let d = decl.len();
     let mut counts: Vec<Option<usize>> = decl.iter().map(|a| a.n).collect();
     match counts[d - 1] {
-        Some(n) if n != width => return Err(format!("--axes gives {} nodes for the last axis '{}' but the image is {width} wide", n, decl[d - 1].name)),
+        Some(n) if n != width => {
+            return Err(format!(
+                "--axes gives {} nodes for the last axis '{}' but the image is {width} wide",
+                n,
+                decl[d - 1].name
+            ))
+        }
         _ => counts[d - 1] = Some(width),
     }
     let known: usize = counts[..d - 1].iter().flatten().product();
@@ -496,9 +629,15 @@ fn exr_axes_from_decl(decl: &[AxisDecl], width: usize, height: usize) -> std::re
         _ => return Err(format!("give the node count of all but one of the first {} axes (name=lo:hi:n): the image height {height} is their product", d - 1)),
     }
     if d == 1 && height != 1 {
-        return Err(format!("a 1-variable table must be one row tall, the image is {height} rows"));
+        return Err(format!(
+            "a 1-variable table must be one row tall, the image is {height} rows"
+        ));
     }
-    Ok(decl.iter().zip(&counts).map(|(a, n)| GridAxis::new(&a.name, a.lo, a.hi, n.unwrap_or(2))).collect())
+    Ok(decl
+        .iter()
+        .zip(&counts)
+        .map(|(a, n)| GridAxis::new(&a.name, a.lo, a.hi, n.unwrap_or(2)))
+        .collect())
 }
 
 #[derive(Deserialize)]
@@ -521,26 +660,44 @@ fn load_json_grid(path: &Path, text: &str, opts: &UserTableOptions) -> Result<Fi
     })?;
     let n: usize = grid.axes.iter().map(|a| a.nodes.len()).product();
     if grid.axes.is_empty() || grid.axes.len() > MAX_DIM {
-        return Err(Error::file(path, format!("{} axes; a fit needs 1 to {MAX_DIM}", grid.axes.len())));
+        return Err(Error::file(
+            path,
+            format!("{} axes; a fit needs 1 to {MAX_DIM}", grid.axes.len()),
+        ));
     }
     if grid.values.len() != n {
-        return Err(Error::file(path, format!("{} values for a grid of {n} nodes (last axis fastest)", grid.values.len())));
+        return Err(Error::file(
+            path,
+            format!(
+                "{} values for a grid of {n} nodes (last axis fastest)",
+                grid.values.len()
+            ),
+        ));
     }
     for a in &grid.axes {
         if let Some(i) = a.nodes.iter().position(|v| !v.is_finite()) {
-            return Err(Error::file(path, format!("node {i} of axis '{}' is not a finite number", a.name)));
+            return Err(Error::file(
+                path,
+                format!("node {i} of axis '{}' is not a finite number", a.name),
+            ));
         }
         if a.nodes.windows(2).any(|w| !(w[0] < w[1])) {
-            return Err(Error::file(path, format!("the nodes of axis '{}' must increase strictly", a.name)));
+            return Err(Error::file(
+                path,
+                format!("the nodes of axis '{}' must increase strictly", a.name),
+            ));
         }
     }
     check_values(&grid.values, |i| format!("value {i}"), path)?;
     if opts.channel.as_deref().is_some_and(|c| c != "E") {
-        return Err(Error::InvalidInput("a JSON grid has one value array; --channel does not apply".into()));
+        return Err(Error::InvalidInput(
+            "a JSON grid has one value array; --channel does not apply".into(),
+        ));
     }
     let nodes: Vec<Vec<f64>> = grid.axes.iter().map(|a| a.nodes.clone()).collect();
     let names = grid.axes.iter().map(|a| a.name.clone()).collect();
-    let data = FitData::from_grid(names, &nodes, grid.values).map_err(|e| Error::file(path, e.to_string()))?;
+    let data = FitData::from_grid(names, &nodes, grid.values)
+        .map_err(|e| Error::file(path, e.to_string()))?;
     Ok(FitInput {
         source: Source {
             kind: "json_grid".into(),
@@ -575,7 +732,10 @@ mod tests {
     fn csv_errors_name_row_and_column() {
         assert!(parse_csv_table("r,mu,E\n0.1,0.2,0.5\n", "E").is_ok());
         let e = parse_csv_table("r,mu,E\n0.1,0.2,0.5\n0.1,0.3,NaN\n", "E").unwrap_err();
-        assert!(e.contains("row 3") && e.contains("'E'") && e.contains("finite"), "{e}");
+        assert!(
+            e.contains("row 3") && e.contains("'E'") && e.contains("finite"),
+            "{e}"
+        );
         let e = parse_csv_table("r,mu\n0.1,0.2\n", "E").unwrap_err();
         assert!(e.contains("no value column 'E'"), "{e}");
         let e = parse_csv_table("r,mu,E\n0.1,x,0.2\n", "E").unwrap_err();
@@ -587,7 +747,15 @@ mod tests {
     #[test]
     fn axes_parse_and_reject() {
         let a = parse_axes("f0=0.0125:0.25:32, r=0:1,mu=0:1").unwrap();
-        assert_eq!(a[0], AxisDecl { name: "f0".into(), lo: 0.0125, hi: 0.25, n: Some(32) });
+        assert_eq!(
+            a[0],
+            AxisDecl {
+                name: "f0".into(),
+                lo: 0.0125,
+                hi: 0.25,
+                n: Some(32)
+            }
+        );
         assert_eq!(a[2].n, None);
         assert!(parse_axes("r=1:0").is_err());
         assert!(parse_axes("r=0:1:1").is_err());

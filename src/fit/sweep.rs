@@ -32,7 +32,11 @@ impl SweepOptions {
     /// The paper's sweep (Sforza & Pellacini 2022, §3.5): 2D polynomials and rationals of degree
     /// 1–10; 3D polynomials 1–7 and rationals 1–5; 1D like 2D. Identity transforms.
     pub fn for_dimension(d: usize) -> SweepOptions {
-        let (poly, rat) = if d >= 3 { (1..=7, 1..=5) } else { (1..=10, 1..=10) };
+        let (poly, rat) = if d >= 3 {
+            (1..=7, 1..=5)
+        } else {
+            (1..=10, 1..=10)
+        };
         SweepOptions {
             polynomial_degrees: poly.collect(),
             rational_degrees: rat.collect(),
@@ -74,7 +78,11 @@ pub enum SweepEvent<'a> {
 }
 
 /// [`sweep_detailed`], calling `progress` after every fit made or skipped.
-pub fn sweep_with_progress(data: &FitData, opts: &SweepOptions, progress: &mut dyn FnMut(SweepEvent<'_>)) -> Result<SweepReport> {
+pub fn sweep_with_progress(
+    data: &FitData,
+    opts: &SweepOptions,
+    progress: &mut dyn FnMut(SweepEvent<'_>),
+) -> Result<SweepReport> {
     data.validate()?;
     let d = data.dim();
     let mut results = Vec::new();
@@ -87,7 +95,11 @@ pub fn sweep_with_progress(data: &FitData, opts: &SweepOptions, progress: &mut d
                     results.push(r);
                 }
                 Err(e) => {
-                    let s = SkippedFit { form: format!("polynomial of degree {deg}"), transforms: transforms.clone(), reason: e.to_string() };
+                    let s = SkippedFit {
+                        form: format!("polynomial of degree {deg}"),
+                        transforms: transforms.clone(),
+                        reason: e.to_string(),
+                    };
                     progress(SweepEvent::Skipped(&s));
                     skipped.push(s);
                 }
@@ -99,7 +111,11 @@ pub fn sweep_with_progress(data: &FitData, opts: &SweepOptions, progress: &mut d
             let coefficients = 2 * n_terms(d, deg) - 1;
             if coefficients > data.n_weighted() {
                 let reason = format!("{coefficients} coefficients but only {} data points; lower the degree or use a finer table", data.n_weighted());
-                let s = SkippedFit { form, transforms: transforms.clone(), reason };
+                let s = SkippedFit {
+                    form,
+                    transforms: transforms.clone(),
+                    reason,
+                };
                 progress(SweepEvent::Skipped(&s));
                 skipped.push(s);
                 continue;
@@ -107,7 +123,10 @@ pub fn sweep_with_progress(data: &FitData, opts: &SweepOptions, progress: &mut d
             let mut ro = opts.rational.clone();
             if opts.continue_degrees {
                 if let Some(p) = previous.as_ref().filter(|p| p.is_usable()) {
-                    ro.extra_starts.push((format!("previous degree ({})", p.form.label()), p.approximant.clone()));
+                    ro.extra_starts.push((
+                        format!("previous degree ({})", p.form.label()),
+                        p.approximant.clone(),
+                    ));
                 }
             }
             let t = Instant::now();
@@ -119,7 +138,11 @@ pub fn sweep_with_progress(data: &FitData, opts: &SweepOptions, progress: &mut d
                     results.push(r);
                 }
                 Err(e) => {
-                    let s = SkippedFit { form, transforms: transforms.clone(), reason: e.to_string() };
+                    let s = SkippedFit {
+                        form,
+                        transforms: transforms.clone(),
+                        reason: e.to_string(),
+                    };
                     progress(SweepEvent::Skipped(&s));
                     skipped.push(s);
                 }
@@ -140,7 +163,12 @@ pub fn best_under_budget(results: &[FitResult], max_coefficients: usize) -> Opti
     results
         .iter()
         .filter(|r| r.is_usable() && r.n_coefficients <= max_coefficients)
-        .min_by(|a, b| a.metrics.max_abs_error.total_cmp(&b.metrics.max_abs_error).then(a.n_coefficients.cmp(&b.n_coefficients)))
+        .min_by(|a, b| {
+            a.metrics
+                .max_abs_error
+                .total_cmp(&b.metrics.max_abs_error)
+                .then(a.n_coefficients.cmp(&b.n_coefficients))
+        })
 }
 
 #[cfg(test)]
@@ -150,22 +178,39 @@ mod tests {
     #[test]
     fn sweep_and_budget() {
         let ax: Vec<f64> = (0..15).map(|i| i as f64 / 14.0).collect();
-        let vals = ax.iter().flat_map(|&x| ax.iter().map(move |&y| (x, y))).map(|(x, y)| (1.0 + x * y).sqrt() / (1.1 + x)).collect();
-        let data = FitData::from_grid(vec!["x".into(), "y".into()], &[ax.clone(), ax], vals).unwrap();
+        let vals = ax
+            .iter()
+            .flat_map(|&x| ax.iter().map(move |&y| (x, y)))
+            .map(|(x, y)| (1.0 + x * y).sqrt() / (1.1 + x))
+            .collect();
+        let data =
+            FitData::from_grid(vec!["x".into(), "y".into()], &[ax.clone(), ax], vals).unwrap();
         let opts = SweepOptions {
             polynomial_degrees: vec![1, 2, 3, 4],
             rational_degrees: vec![1, 2, 3],
-            transform_sets: vec![vec![InputTransform::Identity; 2], vec![InputTransform::Identity, InputTransform::Sqrt]],
+            transform_sets: vec![
+                vec![InputTransform::Identity; 2],
+                vec![InputTransform::Identity, InputTransform::Sqrt],
+            ],
             ..SweepOptions::for_dimension(2)
         };
         let rep = sweep_detailed(&data, &opts).unwrap();
-        assert_eq!(rep.results.len() + rep.skipped.len(), 14, "{:?}", rep.skipped);
+        assert_eq!(
+            rep.results.len() + rep.skipped.len(),
+            14,
+            "{:?}",
+            rep.skipped
+        );
         // polynomial errors fall with degree
         let poly: Vec<f64> = rep.results[..4].iter().map(|r| r.metrics.rmse).collect();
         assert!(poly.windows(2).all(|w| w[1] <= w[0]), "{poly:?}");
         let best = best_under_budget(&rep.results, 11).unwrap();
         assert!(best.n_coefficients <= 11 && best.is_usable());
-        assert!(rep.results.iter().filter(|r| r.n_coefficients <= 11 && r.is_usable()).all(|r| r.metrics.max_abs_error >= best.metrics.max_abs_error));
+        assert!(rep
+            .results
+            .iter()
+            .filter(|r| r.n_coefficients <= 11 && r.is_usable())
+            .all(|r| r.metrics.max_abs_error >= best.metrics.max_abs_error));
         assert!(best_under_budget(&rep.results, 0).is_none());
     }
 }

@@ -78,7 +78,11 @@ impl SmithForm {
                     (mu_o + a_o) * mu_i / den
                 } else {
                     // α = 0 with μo = 0 or μi = 0: a measure-zero set; the smooth limit.
-                    if mu_i > 0.0 { 1.0 } else { 0.0 }
+                    if mu_i > 0.0 {
+                        1.0
+                    } else {
+                        0.0
+                    }
                 }
             }
         }
@@ -127,7 +131,11 @@ pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
 #[inline]
 pub fn reflect(wo: [f64; 3], h: [f64; 3]) -> [f64; 3] {
     let c = dot(wo, h);
-    [2.0 * c * h[0] - wo[0], 2.0 * c * h[1] - wo[1], 2.0 * c * h[2] - wo[2]]
+    [
+        2.0 * c * h[0] - wo[0],
+        2.0 * c * h[1] - wo[1],
+        2.0 * c * h[2] - wo[2],
+    ]
 }
 
 /// Refraction of `wo` through the microfacet `h` (with wo·h > 0) for relative IOR `eta`

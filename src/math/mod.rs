@@ -21,8 +21,8 @@ pub fn safe_sqrt(x: f64) -> f64 {
 #[inline(always)]
 pub fn exp_poly(x: f64) -> f64 {
     const SHIFTER: f64 = 6755399441055744.0; // 1.5·2^52: adding it rounds to an integer
-    const LN2_HI: f64 = 6.93147180369123816490e-01;
-    const LN2_LO: f64 = 1.90821492927058770002e-10;
+    const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     let kd = x * std::f64::consts::LOG2_E + SHIFTER;
     let k = kd - SHIFTER;
     let r = (x - k * LN2_HI) - k * LN2_LO;
@@ -52,7 +52,11 @@ pub fn exp_poly(x: f64) -> f64 {
     let q2 = (C[8] + C[9] * r) + (C[10] + C[11] * r) * r2;
     let q3 = C[12] + C[13] * r;
     let p = (q0 + q1 * r4) + (q2 + q3 * r4) * r8;
-    let bits = kd.to_bits().wrapping_sub(SHIFTER.to_bits()).wrapping_add(1023) << 52;
+    let bits = kd
+        .to_bits()
+        .wrapping_sub(SHIFTER.to_bits())
+        .wrapping_add(1023)
+        << 52;
     p * f64::from_bits(bits)
 }
 
@@ -80,7 +84,10 @@ pub fn asinh_pos(x: f64) -> f64 {
 /// tests) at a quarter of its cost; the hot loop of the quadrature calls this once per node.
 #[inline]
 pub fn sin_cos_0_pi(x: f64) -> (f64, f64) {
-    debug_assert!((-1e-9..=std::f64::consts::PI + 1e-9).contains(&x), "sin_cos_0_pi({x})");
+    debug_assert!(
+        (-1e-9..=std::f64::consts::PI + 1e-9).contains(&x),
+        "sin_cos_0_pi({x})"
+    );
     let y = x - std::f64::consts::FRAC_PI_2;
     let y2 = y * y;
     // cos y = Σ (−1)^k y^{2k}/(2k)!, k ≤ 11

@@ -97,7 +97,12 @@ mod tests {
             let r = UnitRule::gauss_legendre(n);
             assert!((r.weights.iter().sum::<f64>() - 1.0).abs() < 1e-14);
             let deg = 2 * n - 1;
-            let q: f64 = r.nodes.iter().zip(&r.weights).map(|(x, w)| w * x.powi(deg as i32)).sum();
+            let q: f64 = r
+                .nodes
+                .iter()
+                .zip(&r.weights)
+                .map(|(x, w)| w * x.powi(deg as i32))
+                .sum();
             assert!((q - 1.0 / (deg as f64 + 1.0)).abs() < 1e-13, "n={n}: {q}");
         }
     }
@@ -107,7 +112,13 @@ mod tests {
         // ∫0^1 sqrt(x(1-x)) dx = π/8; plain GL converges as n^-1.5, the smoothed one fast.
         let exact = PI / 8.0;
         let f = |x: f64| (x * (1.0 - x)).sqrt();
-        let q = |r: &UnitRule| -> f64 { r.nodes.iter().zip(&r.weights).map(|(&x, &w)| w * f(x)).sum() };
+        let q = |r: &UnitRule| -> f64 {
+            r.nodes
+                .iter()
+                .zip(&r.weights)
+                .map(|(&x, &w)| w * f(x))
+                .sum()
+        };
         let plain = (q(&UnitRule::gauss_legendre(16)) - exact).abs();
         let smooth = (q(&UnitRule::gauss_legendre_smoothed(16)) - exact).abs();
         assert!(smooth < 1e-9, "{smooth}");

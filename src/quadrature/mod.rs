@@ -31,7 +31,12 @@ pub enum PanelMap {
     ///   [`SINH_MAX_SPAN`], each with the full rule, which amounts to geometric grading.
     ///
     /// Both together compose: y = δ·sinh(W·t²(2 − t)) on the first piece.
-    End { at: f64, toward: f64, sqrt: bool, delta: f64 },
+    End {
+        at: f64,
+        toward: f64,
+        sqrt: bool,
+        delta: f64,
+    },
 }
 
 /// One panel [a, b] and its map.
@@ -56,22 +61,43 @@ pub struct Break {
 
 impl Break {
     pub fn regular(x: f64) -> Break {
-        Break { x, sqrt_below: false, sqrt_above: false, delta: f64::INFINITY }
+        Break {
+            x,
+            sqrt_below: false,
+            sqrt_above: false,
+            delta: f64::INFINITY,
+        }
     }
     /// Square-root behaviour on both sides.
     pub fn sqrt(x: f64) -> Break {
-        Break { x, sqrt_below: true, sqrt_above: true, delta: f64::INFINITY }
+        Break {
+            x,
+            sqrt_below: true,
+            sqrt_above: true,
+            delta: f64::INFINITY,
+        }
     }
     /// Square-root behaviour on one side only (e.g. a critical angle, beyond which F = 1).
     pub fn one_sided_sqrt(x: f64, above: bool) -> Break {
-        Break { x, sqrt_below: !above, sqrt_above: above, delta: f64::INFINITY }
+        Break {
+            x,
+            sqrt_below: !above,
+            sqrt_above: above,
+            delta: f64::INFINITY,
+        }
     }
     pub fn near_singular(x: f64, delta: f64) -> Break {
-        Break { delta, ..Break::regular(x) }
+        Break {
+            delta,
+            ..Break::regular(x)
+        }
     }
     /// Also near-singular at distance `delta` (keeps the smaller of the two).
     pub fn with_delta(self, delta: f64) -> Break {
-        Break { delta: self.delta.min(delta), ..self }
+        Break {
+            delta: self.delta.min(delta),
+            ..self
+        }
     }
     fn any_sqrt(&self) -> bool {
         self.sqrt_below || self.sqrt_above
@@ -97,8 +123,17 @@ pub const SINH_MAX_SPAN: f64 = 3.0;
 /// `toward`, if any.
 fn end_map(b: &Break, toward: f64, len: f64) -> Option<PanelMap> {
     let near = b.delta < NEAR_SINGULAR_RATIO * len;
-    let sqrt = if toward > b.x { b.sqrt_above } else { b.sqrt_below };
-    (sqrt || near).then_some(PanelMap::End { at: b.x, toward, sqrt, delta: if near { b.delta } else { f64::INFINITY } })
+    let sqrt = if toward > b.x {
+        b.sqrt_above
+    } else {
+        b.sqrt_below
+    };
+    (sqrt || near).then_some(PanelMap::End {
+        at: b.x,
+        toward,
+        sqrt,
+        delta: if near { b.delta } else { f64::INFINITY },
+    })
 }
 
 /// Sorts `breaks`, merges coincident ones (keeping the more singular behaviour) and appends the
@@ -153,28 +188,64 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
         }
         let len = r.x - l.x;
         match (end_map(&l, r.x, len), end_map(&r, l.x, len)) {
-            (Some(PanelMap::End { sqrt: true, delta: dl, .. }), Some(PanelMap::End { sqrt: true, delta: dr, .. }))
-                if dl.is_infinite() && dr.is_infinite() =>
-            {
+            (
+                Some(PanelMap::End {
+                    sqrt: true,
+                    delta: dl,
+                    ..
+                }),
+                Some(PanelMap::End {
+                    sqrt: true,
+                    delta: dr,
+                    ..
+                }),
+            ) if dl.is_infinite() && dr.is_infinite() => {
                 // Square-root behaviour at both ends and nothing else: one panel, cubic map.
-                out.push(Panel { a: l.x, b: r.x, map: PanelMap::Smooth });
+                out.push(Panel {
+                    a: l.x,
+                    b: r.x,
+                    map: PanelMap::Smooth,
+                });
             }
             (Some(ml), Some(mr)) => {
                 let mid = 0.5 * (l.x + r.x);
                 let ml = end_map(&l, mid, 0.5 * len).unwrap_or(ml);
                 let mr = end_map(&r, mid, 0.5 * len).unwrap_or(mr);
-                out.push(Panel { a: l.x, b: mid, map: retarget(ml, mid) });
-                out.push(Panel { a: mid, b: r.x, map: retarget(mr, mid) });
+                out.push(Panel {
+                    a: l.x,
+                    b: mid,
+                    map: retarget(ml, mid),
+                });
+                out.push(Panel {
+                    a: mid,
+                    b: r.x,
+                    map: retarget(mr, mid),
+                });
             }
-            (Some(m), None) | (None, Some(m)) => out.push(Panel { a: l.x, b: r.x, map: m }),
-            (None, None) => out.push(Panel { a: l.x, b: r.x, map: PanelMap::Plain }),
+            (Some(m), None) | (None, Some(m)) => out.push(Panel {
+                a: l.x,
+                b: r.x,
+                map: m,
+            }),
+            (None, None) => out.push(Panel {
+                a: l.x,
+                b: r.x,
+                map: PanelMap::Plain,
+            }),
         }
     }
 }
 
 fn retarget(map: PanelMap, toward: f64) -> PanelMap {
     match map {
-        PanelMap::End { at, sqrt, delta, .. } => PanelMap::End { at, toward, sqrt, delta },
+        PanelMap::End {
+            at, sqrt, delta, ..
+        } => PanelMap::End {
+            at,
+            toward,
+            sqrt,
+            delta,
+        },
         m => m,
     }
 }
@@ -272,7 +343,10 @@ pub struct DimRules {
 
 impl DimRules {
     fn new(order: usize) -> DimRules {
-        DimRules { plain: UnitRule::gauss_legendre(order), smooth: UnitRule::gauss_legendre_smoothed(order) }
+        DimRules {
+            plain: UnitRule::gauss_legendre(order),
+            smooth: UnitRule::gauss_legendre_smoothed(order),
+        }
     }
 
     /// Calls `f(x, w)` for every node of `panel` (weights include the map's Jacobian), in the
@@ -300,7 +374,12 @@ impl DimRules {
         match panel.map {
             PanelMap::Plain => affine(rule, xs, ws),
             PanelMap::Smooth => affine(&self.smooth, xs, ws),
-            PanelMap::End { at, toward, sqrt, delta } => {
+            PanelMap::End {
+                at,
+                toward,
+                sqrt,
+                delta,
+            } => {
                 let len = (toward - at).abs();
                 let sign = if toward > at { 1.0 } else { -1.0 };
                 let (lo, hi) = (a.min(b), a.max(b));
@@ -312,8 +391,22 @@ impl DimRules {
                     let start = xs.len();
                     xs.resize(start + n * pieces, 0.0);
                     ws.resize(start + n * pieces, 0.0);
-                    let map = SinhPieces { at, sign, delta, lo, hi, dw, pieces, sqrt };
-                    map.fill_dispatch(&rule.nodes, &rule.weights, &mut xs[start..], &mut ws[start..]);
+                    let map = SinhPieces {
+                        at,
+                        sign,
+                        delta,
+                        lo,
+                        hi,
+                        dw,
+                        pieces,
+                        sqrt,
+                    };
+                    map.fill_dispatch(
+                        &rule.nodes,
+                        &rule.weights,
+                        &mut xs[start..],
+                        &mut ws[start..],
+                    );
                 } else {
                     // y = L·t²(2 − t)
                     for (&t, &wt) in rule.nodes.iter().zip(&rule.weights) {
@@ -358,7 +451,9 @@ impl SinhPieces {
                 let e = piece_exp * exp_poly(dw * q);
                 let inv = 1.0 / e;
                 let (sinh, cosh) = (0.5 * (e - inv), 0.5 * (e + inv));
-                *x = (self.at + self.sign * delta * sinh).max(self.lo).min(self.hi);
+                *x = (self.at + self.sign * delta * sinh)
+                    .max(self.lo)
+                    .min(self.hi);
                 *w = wt * dw * dq * delta * cosh;
             }
             piece_exp *= step;
@@ -371,11 +466,23 @@ impl SinhPieces {
         #[cfg(target_arch = "x86_64")]
         {
             #[target_feature(enable = "avx512f")]
-            unsafe fn avx512(m: &SinhPieces, nodes: &[f64], weights: &[f64], xs: &mut [f64], ws: &mut [f64]) {
+            unsafe fn avx512(
+                m: &SinhPieces,
+                nodes: &[f64],
+                weights: &[f64],
+                xs: &mut [f64],
+                ws: &mut [f64],
+            ) {
                 m.fill(nodes, weights, xs, ws)
             }
             #[target_feature(enable = "avx2")]
-            unsafe fn avx2(m: &SinhPieces, nodes: &[f64], weights: &[f64], xs: &mut [f64], ws: &mut [f64]) {
+            unsafe fn avx2(
+                m: &SinhPieces,
+                nodes: &[f64],
+                weights: &[f64],
+                xs: &mut [f64],
+                ws: &mut [f64],
+            ) {
                 m.fill(nodes, weights, xs, ws)
             }
             if std::arch::is_x86_feature_detected!("avx512f") {
@@ -460,18 +567,19 @@ pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]
     // at every inner midpoint (e.g. beyond the latitude where the reflection horizon closes).
     let (mut mids, mut active) = (Vec::with_capacity(16), Vec::with_capacity(16));
     let all_active = f.panels_all_active();
-    let mut activity = |line: &I::Line, inner: &[Panel], mids: &mut Vec<f64>, active: &mut Vec<bool>| {
-        if all_active {
+    let mut activity =
+        |line: &I::Line, inner: &[Panel], mids: &mut Vec<f64>, active: &mut Vec<bool>| {
+            if all_active {
+                active.clear();
+                active.resize(inner.len(), true);
+                return;
+            }
+            mids.clear();
+            mids.extend(inner.iter().map(|seg| 0.5 * (seg.a + seg.b)));
             active.clear();
-            active.resize(inner.len(), true);
-            return;
-        }
-        mids.clear();
-        mids.extend(inner.iter().map(|seg| 0.5 * (seg.a + seg.b)));
-        active.clear();
-        active.resize(mids.len(), false);
-        f.nonzero_at(line, mids, active, &mut scratch);
-    };
+            active.resize(mids.len(), false);
+            f.nonzero_at(line, mids, active, &mut scratch);
+        };
     for panel in &outer {
         if !all_active {
             inner.clear();
@@ -481,7 +589,11 @@ pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]
                 continue;
             }
         }
-        let outer_rules = if f.lean_outer() { &rules.outer_lean } else { &rules.outer };
+        let outer_rules = if f.lean_outer() {
+            &rules.outer_lean
+        } else {
+            &rules.outer
+        };
         outer_rules.for_each_node(panel, |u, wu| {
             inner.clear();
             let line = f.line_panels(u, &mut inner);
@@ -533,7 +645,12 @@ pub const DEFAULT_ORDER: usize = 12;
 impl QuadratureSettings {
     /// `order` with companion ⌈3·order/4⌉, tolerance 1e-7 and refinement up to 8·order.
     pub fn with_order(order: usize) -> QuadratureSettings {
-        QuadratureSettings { order, companion: (3 * order).div_ceil(4).max(1), tolerance: 1e-7, max_order: (8 * order).min(MAX_ORDER) }
+        QuadratureSettings {
+            order,
+            companion: (3 * order).div_ceil(4).max(1),
+            tolerance: 1e-7,
+            max_order: (8 * order).min(MAX_ORDER),
+        }
     }
 
     /// Every order [`estimate`] may use: companion, order, 2·order, … up to max_order.
@@ -552,7 +669,10 @@ impl QuadratureSettings {
     /// Refuses settings no rule can honour.
     pub fn validate(&self) -> Result<(), String> {
         if self.order < 2 || self.order > MAX_ORDER {
-            return Err(format!("quadrature order {} is outside [2, {MAX_ORDER}]", self.order));
+            return Err(format!(
+                "quadrature order {} is outside [2, {MAX_ORDER}]",
+                self.order
+            ));
         }
         if self.companion < 1 || self.companion >= self.order {
             return Err(format!(
@@ -560,11 +680,17 @@ impl QuadratureSettings {
                 self.companion, self.order
             ));
         }
-        if !(self.tolerance > 0.0) || self.tolerance.is_nan() {
-            return Err(format!("tolerance {} must be a positive number", self.tolerance));
+        if self.tolerance.is_nan() || self.tolerance <= 0.0 {
+            return Err(format!(
+                "tolerance {} must be a positive number",
+                self.tolerance
+            ));
         }
         if self.max_order < self.order || self.max_order > MAX_ORDER {
-            return Err(format!("max order {} must lie in [order = {}, {MAX_ORDER}]", self.max_order, self.order));
+            return Err(format!(
+                "max order {} must lie in [order = {}, {MAX_ORDER}]",
+                self.max_order, self.order
+            ));
         }
         Ok(())
     }
@@ -607,10 +733,19 @@ pub fn estimate<const N: usize>(
     let mut low = f(cache.get(settings.companion));
     loop {
         let high = f(cache.get(order));
-        let error = high.iter().zip(&low).map(|(h, l)| (h - l).abs()).fold(0.0, f64::max);
+        let error = high
+            .iter()
+            .zip(&low)
+            .map(|(h, l)| (h - l).abs())
+            .fold(0.0, f64::max);
         let converged = error <= settings.tolerance;
         if converged || next_order(order) > settings.max_order {
-            return Estimate { value: high, error, order, converged };
+            return Estimate {
+                value: high,
+                error,
+                order,
+                converged,
+            };
         }
         low = high;
         order = next_order(order);
@@ -625,7 +760,9 @@ pub struct RuleCache {
 
 impl RuleCache {
     pub fn new(settings: &QuadratureSettings) -> RuleCache {
-        RuleCache { rules: settings.orders().into_iter().map(Rules::new).collect() }
+        RuleCache {
+            rules: settings.orders().into_iter().map(Rules::new).collect(),
+        }
     }
 
     pub fn get(&self, order: usize) -> &Rules {
@@ -668,9 +805,19 @@ mod tests {
     fn sinh_map_is_the_same_on_every_vector_unit() {
         let rule = UnitRule::gauss_legendre(19);
         for (sqrt, pieces) in [(false, 1), (true, 1), (true, 3), (false, 4)] {
-            let map = SinhPieces { at: 0.3, sign: 1.0, delta: 1e-3, lo: 0.3, hi: 1.2, dw: 2.1, pieces, sqrt };
+            let map = SinhPieces {
+                at: 0.3,
+                sign: 1.0,
+                delta: 1e-3,
+                lo: 0.3,
+                hi: 1.2,
+                dw: 2.1,
+                pieces,
+                sqrt,
+            };
             let n = rule.nodes.len() * pieces;
-            let (mut x0, mut w0, mut x1, mut w1) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            let (mut x0, mut w0, mut x1, mut w1) =
+                (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
             map.fill(&rule.nodes, &rule.weights, &mut x0, &mut w0);
             map.fill_dispatch(&rule.nodes, &rule.weights, &mut x1, &mut w1);
             assert!(x0.iter().zip(&x1).all(|(a, b)| a.to_bits() == b.to_bits()));
@@ -680,11 +827,22 @@ mod tests {
 
     #[test]
     fn estimate_refines_until_tolerance() {
-        let settings = QuadratureSettings { order: 4, companion: 2, tolerance: 1e-12, max_order: 64 };
+        let settings = QuadratureSettings {
+            order: 4,
+            companion: 2,
+            tolerance: 1e-12,
+            max_order: 64,
+        };
         let cache = RuleCache::new(&settings);
         // ∫0^1 exp(x) dx with a 1-D "integrand" disguised as a 1-point inner rule
         let e = estimate(&settings, &cache, |r: &Rules| {
-            [r.outer.plain.nodes.iter().zip(&r.outer.plain.weights).map(|(x, w)| w * x.exp()).sum::<f64>()]
+            [r.outer
+                .plain
+                .nodes
+                .iter()
+                .zip(&r.outer.plain.weights)
+                .map(|(x, w)| w * x.exp())
+                .sum::<f64>()]
         });
         assert!(e.converged);
         assert!((e.value[0] - (std::f64::consts::E - 1.0)).abs() < 1e-13);

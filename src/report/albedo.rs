@@ -35,7 +35,11 @@ impl TableAlbedo {
 
     /// Resolution name, `32x32`.
     pub fn resolution(&self) -> String {
-        self.axes.iter().map(|a| a.2.to_string()).collect::<Vec<_>>().join("x")
+        self.axes
+            .iter()
+            .map(|a| a.2.to_string())
+            .collect::<Vec<_>>()
+            .join("x")
     }
 
     /// Value stored at node `index` (one node index per axis).
@@ -110,12 +114,20 @@ impl FitAlbedo {
         let order = vars
             .iter()
             .map(|v| {
-                axes.iter().position(|a| a.eq_ignore_ascii_case(v)).ok_or_else(|| {
-                    Error::InvalidInput(format!("fit variable '{v}' is not an axis of the model ({})", axes.join(",")))
-                })
+                axes.iter()
+                    .position(|a| a.eq_ignore_ascii_case(v))
+                    .ok_or_else(|| {
+                        Error::InvalidInput(format!(
+                            "fit variable '{v}' is not an axis of the model ({})",
+                            axes.join(",")
+                        ))
+                    })
             })
             .collect::<Result<Vec<_>>>()?;
-        Ok(FitAlbedo { approximant: fit.approximant.clone(), order })
+        Ok(FitAlbedo {
+            approximant: fit.approximant.clone(),
+            order,
+        })
     }
 }
 
@@ -163,15 +175,32 @@ mod tests {
             unconverged: vec![],
             max_order_used: 0,
         };
-        Table { errors: vec![0.0; spec.cells()], spec, values, summary }
+        Table {
+            errors: vec![0.0; spec.cells()],
+            spec,
+            values,
+            summary,
+        }
     }
 
     #[test]
     fn multilinear_interpolation_is_exact_on_multilinear_functions() {
         let f = |x: &[f64]| 0.3 + 0.5 * x[0] - 0.2 * x[1] + 0.7 * x[0] * x[1] * x[2] + x[2];
-        let t = table(vec![GridAxis::new("f0", 0.0125, 0.25, 5), GridAxis::new("r", 0.0, 1.0, 4), GridAxis::new("mu", 0.0, 1.0, 7)], f);
+        let t = table(
+            vec![
+                GridAxis::new("f0", 0.0125, 0.25, 5),
+                GridAxis::new("r", 0.0, 1.0, 4),
+                GridAxis::new("mu", 0.0, 1.0, 7),
+            ],
+            f,
+        );
         let a = TableAlbedo::new(&t);
-        for p in [[0.0125, 0.0, 0.0], [0.1, 0.37, 0.91], [0.25, 1.0, 1.0], [0.2, 0.5, 0.123]] {
+        for p in [
+            [0.0125, 0.0, 0.0],
+            [0.1, 0.37, 0.91],
+            [0.25, 1.0, 1.0],
+            [0.2, 0.5, 0.123],
+        ] {
             assert!((a.albedo(&p) - f(&p)).abs() < 1e-14, "{p:?}");
         }
         // clamped outside
@@ -183,9 +212,18 @@ mod tests {
     fn bilinear_error_is_second_order() {
         let f = |x: &[f64]| (2.0 * x[0]).sin() * (3.0 * x[1]).cos();
         let err = |n: usize| {
-            let t = table(vec![GridAxis::new("r", 0.0, 1.0, n), GridAxis::new("mu", 0.0, 1.0, n)], f);
+            let t = table(
+                vec![
+                    GridAxis::new("r", 0.0, 1.0, n),
+                    GridAxis::new("mu", 0.0, 1.0, n),
+                ],
+                f,
+            );
             let a = TableAlbedo::new(&t);
-            (0..50).flat_map(|i| (0..50).map(move |j| [i as f64 / 49.3, j as f64 / 49.7])).map(|p| (a.albedo(&p) - f(&p)).abs()).fold(0.0, f64::max)
+            (0..50)
+                .flat_map(|i| (0..50).map(move |j| [i as f64 / 49.3, j as f64 / 49.7]))
+                .map(|p| (a.albedo(&p) - f(&p)).abs())
+                .fold(0.0, f64::max)
         };
         let (e16, e32) = (err(16), err(32));
         assert!(e32 < e16 / 3.0 && e32 > e16 / 5.5, "{e16} {e32}");

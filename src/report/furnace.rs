@@ -61,9 +61,17 @@ pub const MIN_ALBEDO: f64 = 1e-6;
 
 /// Outer (x) tolerance of the lobe integrals: a hundredth of the table tolerance (1e-7), so that the
 /// exact-table furnace measures the table, not this quadrature.
-pub const OUTER_TOLERANCE: Tolerance = Tolerance { abs: 1e-9, rel: 0.0, max_intervals: 400 };
+pub const OUTER_TOLERANCE: Tolerance = Tolerance {
+    abs: 1e-9,
+    rel: 0.0,
+    max_intervals: 400,
+};
 /// Inner (φ) tolerance, divided by the weight of its line: a tenth of the outer one.
-pub const INNER_TOLERANCE: Tolerance = Tolerance { abs: 1e-10, rel: 0.0, max_intervals: 200 };
+pub const INNER_TOLERANCE: Tolerance = Tolerance {
+    abs: 1e-10,
+    rel: 0.0,
+    max_intervals: 200,
+};
 
 /// The material classes of the paper's Fig. 4, plus rough diffuse.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -72,7 +80,9 @@ pub enum MaterialClass {
     Glossy,
     ThinDielectric,
     /// Rough dielectric interface seen from outside (relative IOR η) or inside (1/η).
-    Dielectric { inverse: bool },
+    Dielectric {
+        inverse: bool,
+    },
     RoughDiffuse,
 }
 
@@ -88,7 +98,11 @@ pub struct Material {
 
 impl Material {
     pub fn new(class: MaterialClass, smith: SmithForm) -> Material {
-        Material { class, smith, radiance_transmission: false }
+        Material {
+            class,
+            smith,
+            radiance_transmission: false,
+        }
     }
 
     fn suffix(&self) -> &'static str {
@@ -105,7 +119,9 @@ impl Material {
             MaterialClass::Conductor => "conductor".to_string(),
             MaterialClass::Glossy => "glossy".to_string(),
             MaterialClass::ThinDielectric => "thin dielectric".to_string(),
-            MaterialClass::Dielectric { inverse: false } => "thick dielectric, entering".to_string(),
+            MaterialClass::Dielectric { inverse: false } => {
+                "thick dielectric, entering".to_string()
+            }
             MaterialClass::Dielectric { inverse: true } => "thick dielectric, leaving".to_string(),
             MaterialClass::RoughDiffuse => "rough diffuse (FON + EON lobe)".to_string(),
         };
@@ -114,7 +130,11 @@ impl Material {
             (_, SmithForm::Separable) => ", separable G",
             (_, SmithForm::HeightCorrelated) => ", height-correlated G",
         };
-        let form = if self.radiance_transmission { ", radiance form" } else { "" };
+        let form = if self.radiance_transmission {
+            ", radiance form"
+        } else {
+            ""
+        };
         format!("{base}{smith}{form}")
     }
 
@@ -128,7 +148,11 @@ impl Material {
             MaterialClass::Dielectric { inverse: true } => "dielectric-inv",
             MaterialClass::RoughDiffuse => "rough-diffuse",
         };
-        let form = if self.radiance_transmission { "-radiance" } else { "" };
+        let form = if self.radiance_transmission {
+            "-radiance"
+        } else {
+            ""
+        };
         format!("{base}{}{form}", self.suffix())
     }
 
@@ -151,7 +175,10 @@ impl Material {
 
     /// Whether points carry F0 as their first coordinate (the albedo model is 3-D).
     pub fn has_f0_axis(&self) -> bool {
-        matches!(self.class, MaterialClass::Glossy | MaterialClass::Dielectric { .. })
+        matches!(
+            self.class,
+            MaterialClass::Glossy | MaterialClass::Dielectric { .. }
+        )
     }
 
     /// (F0, r, μ) of a point in the albedo model's axes.
@@ -196,7 +223,10 @@ pub enum Compensation<'a> {
     None,
     /// Compensated with `albedo` (of [`Material::albedo_model`]); glossy also reads the conductor
     /// E_ss from `conductor`.
-    With { albedo: &'a dyn Albedo, conductor: Option<&'a dyn Albedo> },
+    With {
+        albedo: &'a dyn Albedo,
+        conductor: Option<&'a dyn Albedo>,
+    },
 }
 
 /// The GGX geometry at one (r, μo).
@@ -227,7 +257,14 @@ fn ggx_d(h: [f64; 3], alpha: f64) -> f64 {
 impl Frame {
     fn new(alpha: f64, mu_o: f64, smith: SmithForm) -> Frame {
         let sin_o = safe_sqrt(1.0 - mu_o * mu_o);
-        Frame { alpha, mu_o, sin_o, wo: [sin_o, 0.0, mu_o], smith, g1o_over_mu_o: 2.0 / (mu_o + smith_a(mu_o, alpha)) }
+        Frame {
+            alpha,
+            mu_o,
+            sin_o,
+            wo: [sin_o, 0.0, mu_o],
+            smith,
+            g1o_over_mu_o: 2.0 / (mu_o + smith_a(mu_o, alpha)),
+        }
     }
 
     /// G2(ωo, ω)/μo for the cosine `mu` = |n·ω| of the other direction.
@@ -263,7 +300,8 @@ impl Frame {
         let f = fresnel_dielectric(c_o, eta);
         let den = c_o + eta * c_t;
         let scale = if radiance { 1.0 } else { eta * eta };
-        ggx_d(h, self.alpha) * (1.0 - f) * self.g2_over_mu_o(mu_t) * scale * c_o * (-c_t) / (den * den)
+        ggx_d(h, self.alpha) * (1.0 - f) * self.g2_over_mu_o(mu_t) * scale * c_o * (-c_t)
+            / (den * den)
     }
 }
 
@@ -294,7 +332,11 @@ fn microfacet_integrand(frame: &Frame, lobe: Lobe, n: &Normal) -> f64 {
     if c <= 0.0 || n.pdf <= 0.0 {
         return 0.0;
     }
-    let wi = [2.0 * c * h[0] - frame.wo[0], 2.0 * c * h[1] - frame.wo[1], 2.0 * c * h[2] - frame.wo[2]];
+    let wi = [
+        2.0 * c * h[0] - frame.wo[0],
+        2.0 * c * h[1] - frame.wo[1],
+        2.0 * c * h[2] - frame.wo[2],
+    ];
     let jacobian_r = 4.0 * c; // dωi/dωh (Walter 2007, eq. 14)
     let mut total = 0.0;
     match lobe {
@@ -305,7 +347,8 @@ fn microfacet_integrand(frame: &Frame, lobe: Lobe, n: &Normal) -> f64 {
             total += frame.brdf_cos(wi, h, Some(eta)) * jacobian_r;
             let wt = [wi[0], wi[1], -wi[2]];
             let mirrored = [wt[0], wt[1], -wt[2]];
-            total += (1.0 - fresnel_dielectric(c, eta)) * frame.brdf_cos(mirrored, h, None) * jacobian_r;
+            total +=
+                (1.0 - fresnel_dielectric(c, eta)) * frame.brdf_cos(mirrored, h, None) * jacobian_r;
         }
         Lobe::Dielectric { eta, radiance } => {
             total += frame.brdf_cos(wi, h, Some(eta)) * jacobian_r;
@@ -334,7 +377,11 @@ fn refracted_z(mu_o: f64, cos_h: f64, eta: f64, c: f64) -> f64 {
 /// on the scale α·μo/a(μo) (Heitz 2014, eqs. 72, 99).
 fn masking_width(frame: &Frame) -> f64 {
     let a_o = smith_a(frame.mu_o, frame.alpha);
-    let w = if a_o > 0.0 { frame.alpha * (frame.mu_o / a_o).min(1.0) } else { frame.alpha };
+    let w = if a_o > 0.0 {
+        frame.alpha * (frame.mu_o / a_o).min(1.0)
+    } else {
+        frame.alpha
+    };
     w.max(MIN_FEATURE)
 }
 
@@ -360,11 +407,18 @@ fn line_breaks(frame: &Frame, lobe: Lobe, cos_h: f64, sin_h: f64, out: &mut Vec<
         // reflection horizon: μi = 2c cos θh − μo = 0, dμi/dφ = −2 cos θh A sin φ
         if let Some(phi) = phi_of(frame.mu_o / (2.0 * cos_h)) {
             out.push(phi);
-            graded.push((phi, masking_width(frame) / (2.0 * cos_h * a * phi.sin()).abs()));
+            graded.push((
+                phi,
+                masking_width(frame) / (2.0 * cos_h * a * phi.sin()).abs(),
+            ));
         }
     }
     if let Lobe::Dielectric { eta, .. } = lobe {
-        let c_tir = if eta < 1.0 { (1.0 - eta * eta).sqrt() } else { 0.0 };
+        let c_tir = if eta < 1.0 {
+            (1.0 - eta * eta).sqrt()
+        } else {
+            0.0
+        };
         if eta < 1.0 {
             out.extend(phi_of(c_tir)); // critical angle: (ωo·h)² = 1 − η²
         }
@@ -442,7 +496,14 @@ fn microfacet_albedo(alpha: f64, mu_o: f64, smith: SmithForm, lobe: Lobe) -> (f6
     microfacet_albedo_with(alpha, mu_o, smith, lobe, &OUTER_TOLERANCE, &INNER_TOLERANCE)
 }
 
-fn microfacet_albedo_with(alpha: f64, mu_o: f64, smith: SmithForm, lobe: Lobe, outer_tol: &Tolerance, inner_tol: &Tolerance) -> (f64, f64, bool) {
+fn microfacet_albedo_with(
+    alpha: f64,
+    mu_o: f64,
+    smith: SmithForm,
+    lobe: Lobe,
+    outer_tol: &Tolerance,
+    inner_tol: &Tolerance,
+) -> (f64, f64, bool) {
     let frame = Frame::new(alpha, mu_o, smith);
     let mut inner_converged = true;
     let mut inner_error = 0.0f64;
@@ -463,12 +524,18 @@ fn microfacet_albedo_with(alpha: f64, mu_o: f64, smith: SmithForm, lobe: Lobe, o
         line_breaks(&frame, lobe, cos_h, sin_h, &mut line);
         line.sort_by(f64::total_cmp);
         line.dedup();
-        let tol = Tolerance { abs: inner_tol.abs / weight, ..*inner_tol };
+        let tol = Tolerance {
+            abs: inner_tol.abs / weight,
+            ..*inner_tol
+        };
         let r = integrate_smoothed(
             |phi: f64| {
                 let (sp, cp) = phi.sin_cos();
                 let h = [sin_h * cp, sin_h * sp, cos_h];
-                let n = Normal { h, pdf: ggx_d(h, alpha) * cos_h };
+                let n = Normal {
+                    h,
+                    pdf: ggx_d(h, alpha) * cos_h,
+                };
                 microfacet_integrand(&frame, lobe, &n)
             },
             &line,
@@ -483,7 +550,11 @@ fn microfacet_albedo_with(alpha: f64, mu_o: f64, smith: SmithForm, lobe: Lobe, o
     // angle: c = cos(θh ∓ θo) = cos θc at φ = 0 or π, θh = θo ± θc and θc − θo (θc = acos √(1 − η²));
     // transmission horizon: scanned.
     let theta_o = mu_o.clamp(0.0, 1.0).acos();
-    let mut thetas = vec![FRAC_PI_4 - theta_o / 2.0, FRAC_PI_4 + theta_o / 2.0, FRAC_PI_2 - theta_o];
+    let mut thetas = vec![
+        FRAC_PI_4 - theta_o / 2.0,
+        FRAC_PI_4 + theta_o / 2.0,
+        FRAC_PI_2 - theta_o,
+    ];
     if let Lobe::Dielectric { eta, .. } = lobe {
         if eta < 1.0 {
             let theta_c = (1.0 - eta * eta).sqrt().acos();
@@ -505,7 +576,11 @@ fn microfacet_albedo_with(alpha: f64, mu_o: f64, smith: SmithForm, lobe: Lobe, o
     breaks.sort_by(f64::total_cmp);
     breaks.dedup();
     let r = integrate_smoothed(outer, &breaks, outer_tol);
-    (r.value, r.error + inner_error, r.converged && inner_converged)
+    (
+        r.value,
+        r.error + inner_error,
+        r.converged && inner_converged,
+    )
 }
 
 /// ∫ ρ μi dωi of a diffuse BRDF `f(μi, μo, s)` over (μi, φ), with kinks at μi = μo and φ = π/2
@@ -537,12 +612,21 @@ pub fn lobe_integrals(material: &Material, x: &[f64]) -> LobeIntegrals {
     let (f0, r, mu_o) = material.coordinates(x);
     let alpha = alpha_from_r(r);
     let eta = material.eta(f0);
-    let mut out = LobeIntegrals { specular: 0.0, diffuse: 0.0, fresnel_o: 0.0, error: 0.0, converged: true };
+    let mut out = LobeIntegrals {
+        specular: 0.0,
+        diffuse: 0.0,
+        fresnel_o: 0.0,
+        error: 0.0,
+        converged: true,
+    };
     let lobe = match material.class {
         MaterialClass::Conductor => Some(Lobe::Conductor),
         MaterialClass::Glossy => Some(Lobe::Reflection { eta }),
         MaterialClass::ThinDielectric => Some(Lobe::Thin { eta }),
-        MaterialClass::Dielectric { .. } => Some(Lobe::Dielectric { eta, radiance: material.radiance_transmission }),
+        MaterialClass::Dielectric { .. } => Some(Lobe::Dielectric {
+            eta,
+            radiance: material.radiance_transmission,
+        }),
         MaterialClass::RoughDiffuse => None,
     };
     if let Some(lobe) = lobe {
@@ -552,7 +636,9 @@ pub fn lobe_integrals(material: &Material, x: &[f64]) -> LobeIntegrals {
             out.specular = match lobe {
                 Lobe::Conductor | Lobe::Thin { .. } => 1.0,
                 Lobe::Reflection { .. } => f,
-                Lobe::Dielectric { radiance, .. } => f + (1.0 - f) / if radiance { eta * eta } else { 1.0 },
+                Lobe::Dielectric { radiance, .. } => {
+                    f + (1.0 - f) / if radiance { eta * eta } else { 1.0 }
+                }
             };
         } else {
             let (v, e, c) = microfacet_albedo(alpha, mu_o, material.smith, lobe);
@@ -582,12 +668,19 @@ pub fn lobe_integrals(material: &Material, x: &[f64]) -> LobeIntegrals {
 
 /// Lobe integrals at many points, in parallel (results in input order).
 pub fn lobe_integrals_at(material: &Material, points: &[Vec<f64>]) -> Vec<LobeIntegrals> {
-    points.par_iter().map(|x| lobe_integrals(material, x)).collect()
+    points
+        .par_iter()
+        .map(|x| lobe_integrals(material, x))
+        .collect()
 }
 
 /// ⟨E⟩ = 2∫ E(r, μ) μ dμ of a 2-D (r, μ) source (Kulla & Conty 2017; paper eq. 5).
 pub fn average_albedo(albedo: &dyn Albedo, r: f64) -> f64 {
-    let res = integrate(|mu: f64| 2.0 * albedo.albedo(&[r, mu]) * mu, &[0.0, 1.0], &OUTER_TOLERANCE);
+    let res = integrate(
+        |mu: f64| 2.0 * albedo.albedo(&[r, mu]) * mu,
+        &[0.0, 1.0],
+        &OUTER_TOLERANCE,
+    );
     res.value
 }
 
@@ -601,11 +694,16 @@ impl Prepared {
     /// Precomputes what `compensation` needs at the r values of `points`.
     pub fn new(material: &Material, compensation: &Compensation, points: &[Vec<f64>]) -> Prepared {
         let mut lobe_on = Vec::new();
-        if let (MaterialClass::RoughDiffuse, Compensation::With { albedo, .. }) = (material.class, compensation) {
+        if let (MaterialClass::RoughDiffuse, Compensation::With { albedo, .. }) =
+            (material.class, compensation)
+        {
             let mut rs: Vec<f64> = points.iter().map(|x| material.coordinates(x).1).collect();
             rs.sort_by(f64::total_cmp);
             rs.dedup();
-            lobe_on = rs.iter().map(|&r| (r, 1.0 - average_albedo(*albedo, r) > 0.0)).collect();
+            lobe_on = rs
+                .iter()
+                .map(|&r| (r, 1.0 - average_albedo(*albedo, r) > 0.0))
+                .collect();
         }
         Prepared { lobe_on }
     }
@@ -619,10 +717,24 @@ impl Prepared {
 }
 
 /// The albedo of the compensated BSDF at `x` from its lobe integrals: the white furnace value.
-pub fn furnace_albedo(material: &Material, lobes: &LobeIntegrals, x: &[f64], compensation: &Compensation, prepared: &Prepared) -> f64 {
-    let guard = |e: f64| if e.is_finite() { e.max(MIN_ALBEDO) } else { MIN_ALBEDO };
+pub fn furnace_albedo(
+    material: &Material,
+    lobes: &LobeIntegrals,
+    x: &[f64],
+    compensation: &Compensation,
+    prepared: &Prepared,
+) -> f64 {
+    let guard = |e: f64| {
+        if e.is_finite() {
+            e.max(MIN_ALBEDO)
+        } else {
+            MIN_ALBEDO
+        }
+    };
     match (material.class, compensation) {
-        (MaterialClass::Glossy, Compensation::None) => lobes.specular + (1.0 - lobes.fresnel_o) * lobes.diffuse, // eq. 16
+        (MaterialClass::Glossy, Compensation::None) => {
+            lobes.specular + (1.0 - lobes.fresnel_o) * lobes.diffuse
+        } // eq. 16
         (MaterialClass::Glossy, Compensation::With { albedo, conductor }) => {
             let (_, r, mu) = material.coordinates(x);
             let e_ss = conductor.map_or(f64::NAN, |c| c.albedo(&[r, mu]));
@@ -661,9 +773,18 @@ pub struct FurnaceStats {
 }
 
 /// Furnace values of `compensation` at `points` (with their precomputed lobe integrals).
-pub fn furnace_values(material: &Material, points: &[Vec<f64>], lobes: &[LobeIntegrals], compensation: &Compensation) -> Vec<f64> {
+pub fn furnace_values(
+    material: &Material,
+    points: &[Vec<f64>],
+    lobes: &[LobeIntegrals],
+    compensation: &Compensation,
+) -> Vec<f64> {
     let prepared = Prepared::new(material, compensation, points);
-    points.iter().zip(lobes).map(|(x, l)| furnace_albedo(material, l, x, compensation, &prepared)).collect()
+    points
+        .iter()
+        .zip(lobes)
+        .map(|(x, l)| furnace_albedo(material, l, x, compensation, &prepared))
+        .collect()
 }
 
 /// Summarises furnace values (max |1 − E| and where).
@@ -689,7 +810,11 @@ pub fn furnace_stats(points: &[Vec<f64>], values: &[f64]) -> FurnaceStats {
         s.min_albedo = s.min_albedo.min(e);
         s.max_albedo = s.max_albedo.max(e);
     }
-    s.mean_deviation = if points.is_empty() { 0.0 } else { sum.value() / points.len() as f64 };
+    s.mean_deviation = if points.is_empty() {
+        0.0
+    } else {
+        sum.value() / points.len() as f64
+    };
     s
 }
 
@@ -699,15 +824,19 @@ mod tests {
     use std::path::PathBuf;
 
     fn reference(name: &str) -> Vec<Vec<f64>> {
-        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/reference").join(name);
-        let Ok(text) = std::fs::read_to_string(&path) else {
-            eprintln!("{} not found: reference checks skipped", path.display());
-            return vec![];
-        };
+        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("data/reference")
+            .join(name);
+        let text = std::fs::read_to_string(&path)
+            .unwrap_or_else(|e| panic!("{}: {e} (vendored under data/reference)", path.display()));
         text.lines()
             .skip(1)
             .filter(|l| !l.trim().is_empty())
-            .map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect())
+            .map(|l| {
+                l.split(',')
+                    .map(|v| v.trim().parse::<f64>().unwrap())
+                    .collect()
+            })
             .collect()
     }
 
@@ -716,25 +845,44 @@ mod tests {
     fn lobe_integrals_match_reference_albedos() {
         let mut worst = 0.0f64;
         for row in reference("ref2d.csv").iter().step_by(4) {
-            for (smith, want) in [(SmithForm::HeightCorrelated, row[2]), (SmithForm::Separable, row[3])] {
+            for (smith, want) in [
+                (SmithForm::HeightCorrelated, row[2]),
+                (SmithForm::Separable, row[3]),
+            ] {
                 let m = Material::new(MaterialClass::Conductor, smith);
                 let l = lobe_integrals(&m, &[row[0], row[1]]);
                 assert!(l.converged, "{row:?}");
                 worst = worst.max((l.specular - want).abs());
-                assert!((l.specular - want).abs() < 1e-8, "conductor {smith:?} at {row:?}: {} vs {want}", l.specular);
+                assert!(
+                    (l.specular - want).abs() < 1e-8,
+                    "conductor {smith:?} at {row:?}: {} vs {want}",
+                    l.specular
+                );
             }
         }
         for row in reference("ref3d.csv").iter().step_by(4) {
             let (f0, r, mu) = (row[0], row[2], row[3]);
             for (inverse, want) in [(false, row[5] + row[6]), (true, row[7] + row[8])] {
-                let m = Material::new(MaterialClass::Dielectric { inverse }, SmithForm::HeightCorrelated);
+                let m = Material::new(
+                    MaterialClass::Dielectric { inverse },
+                    SmithForm::HeightCorrelated,
+                );
                 let l = lobe_integrals(&m, &[f0, r, mu]);
                 worst = worst.max((l.specular - want).abs());
-                assert!((l.specular - want).abs() < 1e-8, "dielectric inverse={inverse} at {row:?}: {} vs {want}", l.specular);
+                assert!(
+                    (l.specular - want).abs() < 1e-8,
+                    "dielectric inverse={inverse} at {row:?}: {} vs {want}",
+                    l.specular
+                );
             }
             let m = Material::new(MaterialClass::Glossy, SmithForm::HeightCorrelated);
             let l = lobe_integrals(&m, &[f0, r, mu]);
-            assert!((l.specular - row[5]).abs() < 1e-8, "glossy specular at {row:?}: {} vs {}", l.specular, row[5]);
+            assert!(
+                (l.specular - row[5]).abs() < 1e-8,
+                "glossy specular at {row:?}: {} vs {}",
+                l.specular,
+                row[5]
+            );
             assert!((l.diffuse - 1.0).abs() < 1e-12);
         }
         eprintln!("max |lobe integral − reference| = {worst:.2e}");
@@ -743,9 +891,20 @@ mod tests {
     #[test]
     fn thin_dielectric_integrates_like_the_conductor() {
         for (r, mu) in [(0.3, 0.7), (0.8, 0.05), (1.0, 0.0), (0.05, 0.5)] {
-            let c = lobe_integrals(&Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated), &[r, mu]);
-            let t = lobe_integrals(&Material::new(MaterialClass::ThinDielectric, SmithForm::HeightCorrelated), &[r, mu]);
-            assert!((c.specular - t.specular).abs() < 1e-9, "r={r} mu={mu}: {} vs {}", c.specular, t.specular);
+            let c = lobe_integrals(
+                &Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated),
+                &[r, mu],
+            );
+            let t = lobe_integrals(
+                &Material::new(MaterialClass::ThinDielectric, SmithForm::HeightCorrelated),
+                &[r, mu],
+            );
+            assert!(
+                (c.specular - t.specular).abs() < 1e-9,
+                "r={r} mu={mu}: {} vs {}",
+                c.specular,
+                t.specular
+            );
         }
     }
 
@@ -755,18 +914,39 @@ mod tests {
         for (r, mu) in [(0.0, 0.5), (0.5, 0.0), (1.0, 0.3), (0.7, 1.0), (0.2, 0.9)] {
             let l = lobe_integrals(&m, &[r, mu]);
             let want = crate::bsdf::diffuse::fon_albedo_analytic(r, mu);
-            assert!((l.diffuse - want).abs() < 1e-9, "r={r} mu={mu}: {} vs {want}", l.diffuse);
+            assert!(
+                (l.diffuse - want).abs() < 1e-9,
+                "r={r} mu={mu}: {} vs {want}",
+                l.diffuse
+            );
         }
     }
 
     #[test]
     fn grazing_and_tiny_roughness_are_finite_and_bounded() {
-        for class in [MaterialClass::Conductor, MaterialClass::Dielectric { inverse: false }, MaterialClass::Dielectric { inverse: true }] {
+        for class in [
+            MaterialClass::Conductor,
+            MaterialClass::Dielectric { inverse: false },
+            MaterialClass::Dielectric { inverse: true },
+        ] {
             let m = Material::new(class, SmithForm::HeightCorrelated);
-            for (r, mu) in [(1e-3, 0.0), (1e-3, 1e-6), (0.01, 0.001), (1.0, 0.0), (1.0, 1.0)] {
-                let x: Vec<f64> = if m.has_f0_axis() { vec![0.04, r, mu] } else { vec![r, mu] };
+            for (r, mu) in [
+                (1e-3, 0.0),
+                (1e-3, 1e-6),
+                (0.01, 0.001),
+                (1.0, 0.0),
+                (1.0, 1.0),
+            ] {
+                let x: Vec<f64> = if m.has_f0_axis() {
+                    vec![0.04, r, mu]
+                } else {
+                    vec![r, mu]
+                };
                 let l = lobe_integrals(&m, &x);
-                assert!(l.specular.is_finite() && l.specular > 0.0 && l.specular <= 1.0 + 1e-9, "{class:?} r={r} mu={mu}: {l:?}");
+                assert!(
+                    l.specular.is_finite() && l.specular > 0.0 && l.specular <= 1.0 + 1e-9,
+                    "{class:?} r={r} mu={mu}: {l:?}"
+                );
             }
         }
     }
@@ -780,8 +960,16 @@ mod direct {
 
     fn direct(alpha: f64, mu_o: f64, eta: f64) -> f64 {
         let frame = Frame::new(alpha, mu_o, SmithForm::HeightCorrelated);
-        let tol = Tolerance { abs: 1e-10, rel: 0.0, max_intervals: 2000 };
-        let inner = Tolerance { abs: 1e-11, rel: 0.0, max_intervals: 2000 };
+        let tol = Tolerance {
+            abs: 1e-10,
+            rel: 0.0,
+            max_intervals: 2000,
+        };
+        let inner = Tolerance {
+            abs: 1e-11,
+            rel: 0.0,
+            max_intervals: 2000,
+        };
         let mut total = 0.0;
         for side in [1.0, -1.0] {
             let r = integrate(
@@ -791,11 +979,19 @@ mod direct {
                         |phi: f64| {
                             let w = [sin * phi.cos(), sin * phi.sin(), side * mu];
                             let (k, flip) = if side > 0.0 { (1.0, 1.0) } else { (eta, -1.0) };
-                            let v = [flip * (frame.wo[0] + k * w[0]), flip * (frame.wo[1] + k * w[1]), flip * (frame.wo[2] + k * w[2])];
+                            let v = [
+                                flip * (frame.wo[0] + k * w[0]),
+                                flip * (frame.wo[1] + k * w[1]),
+                                flip * (frame.wo[2] + k * w[2]),
+                            ];
                             let l = dot(v, v).sqrt();
                             let s = if v[2] < 0.0 { -1.0 / l } else { 1.0 / l };
                             let h = [v[0] * s, v[1] * s, v[2] * s];
-                            if side > 0.0 { frame.brdf_cos(w, h, Some(eta)) } else { frame.btdf_cos(w, h, eta, false) }
+                            if side > 0.0 {
+                                frame.brdf_cos(w, h, Some(eta))
+                            } else {
+                                frame.btdf_cos(w, h, eta, false)
+                            }
                         },
                         &[0.0, PI],
                         &inner,
@@ -816,9 +1012,20 @@ mod direct {
     fn half_vector_integral_agrees_with_direct_integration() {
         for (f0, r, mu) in [(0.14609375, 1.0, 0.125), (0.25, 0.6, 0.3)] {
             let eta = 1.0 / eta_from_f0(f0);
-            let (v, _, converged) = microfacet_albedo(r * r, mu, SmithForm::HeightCorrelated, Lobe::Dielectric { eta, radiance: false });
+            let (v, _, converged) = microfacet_albedo(
+                r * r,
+                mu,
+                SmithForm::HeightCorrelated,
+                Lobe::Dielectric {
+                    eta,
+                    radiance: false,
+                },
+            );
             let d = direct(r * r, mu, eta);
-            assert!(converged && (v - d).abs() < 2e-8, "f0={f0} r={r} mu={mu}: {v} vs direct {d}");
+            assert!(
+                converged && (v - d).abs() < 2e-8,
+                "f0={f0} r={r} mu={mu}: {v} vs direct {d}"
+            );
         }
     }
 }

@@ -25,8 +25,8 @@
 use super::albedo::{Albedo, FitAlbedo};
 use crate::bsdf::{Model, ModelOptions};
 use crate::error::{Error, Result};
-use crate::fit::paper::PaperModel;
 use crate::fit::job::FitRecord;
+use crate::fit::paper::PaperModel;
 use crate::fit::{Approximant, CertifyOptions, FitData, FitResult, Form, Objective};
 use crate::math::CompensatedSum;
 use crate::table::Table;
@@ -57,7 +57,10 @@ impl LoadedFit {
 pub fn short_form(form: &Form) -> String {
     match *form {
         Form::Polynomial { degree } => format!("polynomial {degree}"),
-        Form::Rational { numerator_degree, denominator_degree } => format!("rational {numerator_degree}/{denominator_degree}"),
+        Form::Rational {
+            numerator_degree,
+            denominator_degree,
+        } => format!("rational {numerator_degree}/{denominator_degree}"),
     }
 }
 
@@ -89,12 +92,17 @@ pub fn parse_fit_file(text: &str) -> std::result::Result<Vec<FitResult>, String>
     if let Ok(f) = FitResult::from_json(text) {
         return Ok(vec![f]);
     }
-    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
+    let value: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
     let list = match &value {
         serde_json::Value::Array(a) => a.clone(),
         serde_json::Value::Object(o) => match o.get("results").or_else(|| o.get("fits")) {
             Some(serde_json::Value::Array(a)) => a.clone(),
-            _ => return Err("neither a fit result nor a list of them (no `results` or `fits` array)".into()),
+            _ => {
+                return Err(
+                    "neither a fit result nor a list of them (no `results` or `fits` array)".into(),
+                )
+            }
         },
         _ => return Err("neither a fit result nor a list of them".into()),
     };
@@ -111,8 +119,12 @@ pub const SWEEP_INPUTS_FILE: &str = "sweep-inputs.json";
 /// re-assessed on `data` — its pole certificate redone, not read from the file — with the
 /// errors its row records on the table it was fitted to.
 pub fn parse_sweep_file(text: &str, data: &FitData) -> std::result::Result<Vec<FitResult>, String> {
-    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
-    let (Some(rows), Some(fits)) = (value.get("rows").and_then(|v| v.as_array()), value.get("fits").and_then(|v| v.as_array())) else {
+    let value: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
+    let (Some(rows), Some(fits)) = (
+        value.get("rows").and_then(|v| v.as_array()),
+        value.get("fits").and_then(|v| v.as_array()),
+    ) else {
         return Err("not a sweep file (no `rows` and `fits` arrays)".into());
     };
     if rows.len() != fits.len() {
@@ -120,14 +132,33 @@ pub fn parse_sweep_file(text: &str, data: &FitData) -> std::result::Result<Vec<F
     }
     let mut out = Vec::with_capacity(fits.len());
     for (k, (row, fit)) in rows.iter().zip(fits).enumerate() {
-        let approximant: Approximant = serde_json::from_value(fit.clone()).map_err(|e| format!("fit {k}: {e}"))?;
-        approximant.validate().map_err(|e| format!("fit {k}: {e}"))?;
+        let approximant: Approximant =
+            serde_json::from_value(fit.clone()).map_err(|e| format!("fit {k}: {e}"))?;
+        approximant
+            .validate()
+            .map_err(|e| format!("fit {k}: {e}"))?;
         let form = match &approximant.denominator {
-            None => Form::Polynomial { degree: approximant.numerator.degree() },
-            Some(q) => Form::Rational { numerator_degree: approximant.numerator.degree(), denominator_degree: q.degree() },
+            None => Form::Polynomial {
+                degree: approximant.numerator.degree(),
+            },
+            Some(q) => Form::Rational {
+                numerator_degree: approximant.numerator.degree(),
+                denominator_degree: q.degree(),
+            },
         };
-        let objective: Objective = row.get("objective").and_then(|o| serde_json::from_value(o.clone()).ok()).unwrap_or_default();
-        let mut result = FitResult::assess(form, approximant, data, objective, None, &CertifyOptions::default()).map_err(|e| format!("fit {k}: {e}"))?;
+        let objective: Objective = row
+            .get("objective")
+            .and_then(|o| serde_json::from_value(o.clone()).ok())
+            .unwrap_or_default();
+        let mut result = FitResult::assess(
+            form,
+            approximant,
+            data,
+            objective,
+            None,
+            &CertifyOptions::default(),
+        )
+        .map_err(|e| format!("fit {k}: {e}"))?;
         // "as fitted": what the sweep measured on its own (full-size) table
         let number = |key: &str| row.get(key).and_then(|v| v.as_f64());
         if let Some(v) = number("mae") {
@@ -160,7 +191,11 @@ pub fn load_fits(dir: &Path, data: &FitData) -> Result<FitFiles> {
     json_files(dir, &mut files)?;
     let mut sweeps: Vec<(String, Vec<FitResult>)> = Vec::new();
     for path in files {
-        let rel = path.strip_prefix(dir).unwrap_or(&path).to_string_lossy().replace('\\', "/");
+        let rel = path
+            .strip_prefix(dir)
+            .unwrap_or(&path)
+            .to_string_lossy()
+            .replace('\\', "/");
         if path.file_name().is_some_and(|n| n == SWEEP_INPUTS_FILE) {
             continue;
         }
@@ -169,7 +204,10 @@ pub fn load_fits(dir: &Path, data: &FitData) -> Result<FitFiles> {
             if rel == "default.json" {
                 out.default = Some(out.fits.len());
             }
-            out.fits.push(LoadedFit { source: rel, fit: rec.fit });
+            out.fits.push(LoadedFit {
+                source: rel,
+                fit: rec.fit,
+            });
             continue;
         }
         if let Ok(fits) = parse_sweep_file(&text, data) {
@@ -183,7 +221,11 @@ pub fn load_fits(dir: &Path, data: &FitData) -> Result<FitFiles> {
                     if rel == "default.json" && !many {
                         out.default = Some(out.fits.len());
                     }
-                    let source = if many { format!("{rel}#{k}") } else { rel.clone() };
+                    let source = if many {
+                        format!("{rel}#{k}")
+                    } else {
+                        rel.clone()
+                    };
                     out.fits.push(LoadedFit { source, fit });
                 }
             }
@@ -193,9 +235,15 @@ pub fn load_fits(dir: &Path, data: &FitData) -> Result<FitFiles> {
     for (rel, fits) in sweeps {
         let folder = rel.rsplit_once('/').map_or("", |(d, _)| d);
         for (k, fit) in fits.into_iter().enumerate() {
-            let listed = out.fits.iter().any(|f| f.source.rsplit_once('/').map_or("", |(d, _)| d) == folder && f.fit.approximant == fit.approximant);
+            let listed = out.fits.iter().any(|f| {
+                f.source.rsplit_once('/').map_or("", |(d, _)| d) == folder
+                    && f.fit.approximant == fit.approximant
+            });
             if !listed {
-                out.fits.push(LoadedFit { source: format!("{rel}#{k}"), fit });
+                out.fits.push(LoadedFit {
+                    source: format!("{rel}#{k}"),
+                    fit,
+                });
             }
         }
     }
@@ -204,12 +252,20 @@ pub fn load_fits(dir: &Path, data: &FitData) -> Result<FitFiles> {
 
 /// Coefficients of the paper's degree-3 rational: 19 in 2-D, 39 in 3-D.
 pub fn paper_coefficients(dim: usize) -> usize {
-    if dim <= 2 { 19 } else { 39 }
+    if dim <= 2 {
+        19
+    } else {
+        39
+    }
 }
 
 /// The budget of `best-<N>.json`, if `source` is such a file at the top of the fits folder.
 fn best_budget(source: &str) -> Option<usize> {
-    source.strip_prefix("best-")?.strip_suffix(".json")?.parse().ok()
+    source
+        .strip_prefix("best-")?
+        .strip_suffix(".json")?
+        .parse()
+        .ok()
 }
 
 /// The chosen fit (see the module docs), as an index into `files.fits`.
@@ -223,7 +279,11 @@ pub fn choose_fit(files: &FitFiles, dim: usize, measured: &[Measured]) -> Option
         .fits
         .iter()
         .enumerate()
-        .filter_map(|(k, f)| best_budget(&f.source).filter(|&b| b >= budget && f.fit.is_usable()).map(|b| (b, k)))
+        .filter_map(|(k, f)| {
+            best_budget(&f.source)
+                .filter(|&b| b >= budget && f.fit.is_usable())
+                .map(|b| (b, k))
+        })
         .min();
     if let Some((_, k)) = best_file {
         return Some(k);
@@ -233,8 +293,17 @@ pub fn choose_fit(files: &FitFiles, dim: usize, measured: &[Measured]) -> Option
             .fits
             .iter()
             .enumerate()
-            .filter(|(k, f)| f.fit.is_usable() && measured[*k].max_abs.is_finite() && (!within || f.fit.n_coefficients <= budget))
-            .min_by(|(a, _), (b, _)| measured[*a].max_abs.total_cmp(&measured[*b].max_abs).then(a.cmp(b)))
+            .filter(|(k, f)| {
+                f.fit.is_usable()
+                    && measured[*k].max_abs.is_finite()
+                    && (!within || f.fit.n_coefficients <= budget)
+            })
+            .min_by(|(a, _), (b, _)| {
+                measured[*a]
+                    .max_abs
+                    .total_cmp(&measured[*b].max_abs)
+                    .then(a.cmp(b))
+            })
             .map(|(k, _)| k)
     };
     best(true).or_else(|| best(false))
@@ -261,7 +330,13 @@ pub fn measure(source: &dyn Albedo, table: &Table) -> Measured {
     let spec = &table.spec;
     let mut x = vec![0.0; spec.axes.len()];
     let mut sum = CompensatedSum::default();
-    let mut m = Measured { mae: 0.0, max_abs: 0.0, max_abs_at: vec![], max_rel: 0.0, points: table.cells() };
+    let mut m = Measured {
+        mae: 0.0,
+        max_abs: 0.0,
+        max_abs_at: vec![],
+        max_rel: 0.0,
+        points: table.cells(),
+    };
     let mut bad = false;
     for (cell, &y) in table.output(0).iter().enumerate() {
         spec.point(cell, &mut x);
@@ -301,12 +376,30 @@ pub struct PaperLink {
 /// The paper's fit of `model`, if any. The paper uses the separable Smith G and tabulates
 /// transmission in radiance form.
 pub fn paper_link(model: &str) -> Option<PaperLink> {
-    let radiance = ModelOptions { radiance_transmission: true };
+    let radiance = ModelOptions {
+        radiance_transmission: true,
+    };
     match model {
-        "ggx-conductor-separable" => Some(PaperLink { paper: PaperModel::Conductors, stem: "conductors", options: ModelOptions::default() }),
-        "ggx-glossy-separable" => Some(PaperLink { paper: PaperModel::Glossy, stem: "glossy", options: ModelOptions::default() }),
-        "ggx-dielectric-separable" => Some(PaperLink { paper: PaperModel::Dielectrics, stem: "dielectrics", options: radiance }),
-        "ggx-dielectric-inv-separable" => Some(PaperLink { paper: PaperModel::DielectricsInvEta, stem: "dielectrics_inv_eta", options: radiance }),
+        "ggx-conductor-separable" => Some(PaperLink {
+            paper: PaperModel::Conductors,
+            stem: "conductors",
+            options: ModelOptions::default(),
+        }),
+        "ggx-glossy-separable" => Some(PaperLink {
+            paper: PaperModel::Glossy,
+            stem: "glossy",
+            options: ModelOptions::default(),
+        }),
+        "ggx-dielectric-separable" => Some(PaperLink {
+            paper: PaperModel::Dielectrics,
+            stem: "dielectrics",
+            options: radiance,
+        }),
+        "ggx-dielectric-inv-separable" => Some(PaperLink {
+            paper: PaperModel::DielectricsInvEta,
+            stem: "dielectrics_inv_eta",
+            options: radiance,
+        }),
         _ => None,
     }
 }
@@ -314,10 +407,16 @@ pub fn paper_link(model: &str) -> Option<PaperLink> {
 /// The paper's published fit as a [`FitResult`] measured on its own 32-point table (so its
 /// `metrics` are the paper's own numbers), from `paper_dir`.
 pub fn load_paper_fit(paper_dir: &Path, link: &PaperLink) -> Result<FitResult> {
-    let coefficients = paper_dir.join("coefficients").join(format!("{}.csv", link.stem));
+    let coefficients = paper_dir
+        .join("coefficients")
+        .join(format!("{}.csv", link.stem));
     let table = paper_dir.join("tables").join(format!("{}.csv", link.stem));
     let data = crate::fit::paper::load_table(&table, link.paper)?;
-    Ok(crate::fit::paper::published_fit(&coefficients, link.paper, &data)?)
+    Ok(crate::fit::paper::published_fit(
+        &coefficients,
+        link.paper,
+        &data,
+    )?)
 }
 
 /// A fit as an albedo source for a model with axes `axes`.
@@ -344,7 +443,14 @@ pub struct BenchPlot {
 
 impl BenchPlot {
     /// An empty plot to fill.
-    pub fn new(stem: &str, title: &str, x_label: &str, x_log: bool, y_label: &str, y_log: bool) -> BenchPlot {
+    pub fn new(
+        stem: &str,
+        title: &str,
+        x_label: &str,
+        x_log: bool,
+        y_label: &str,
+        y_log: bool,
+    ) -> BenchPlot {
         BenchPlot {
             stem: stem.into(),
             title: title.into(),
@@ -370,18 +476,36 @@ impl BenchPlot {
 
     /// The CSV form [`parse_bench_csv`] reads (for benchmark commands to write).
     pub fn to_csv(&self) -> String {
-        let log = |l: &str, on: bool| if on { format!("{l} (log)") } else { l.to_string() };
+        let log = |l: &str, on: bool| {
+            if on {
+                format!("{l} (log)")
+            } else {
+                l.to_string()
+            }
+        };
         let clean = |s: &str| s.replace([',', '\n'], ";");
-        let mut s = format!("# title: {}\n# x: {}\n# y: {}\n", self.title, log(&self.x_label, self.x_log), log(&self.y_label, self.y_log));
+        let mut s = format!(
+            "# title: {}\n# x: {}\n# y: {}\n",
+            self.title,
+            log(&self.x_label, self.x_log),
+            log(&self.y_label, self.y_log)
+        );
         for n in &self.notes {
             s.push_str(&format!("# note: {}\n", n.replace('\n', " ")));
         }
         let labelled = self.has_labels();
-        s.push_str(if labelled { "series,x,y,label\n" } else { "series,x,y\n" });
+        s.push_str(if labelled {
+            "series,x,y,label\n"
+        } else {
+            "series,x,y\n"
+        });
         for (k, (series, x, y)) in self.rows.iter().enumerate() {
             s.push_str(&format!("{},{x},{y}", clean(series)));
             if labelled {
-                s.push_str(&format!(",{}", clean(self.labels.get(k).map_or("", |l| l.as_str()))));
+                s.push_str(&format!(
+                    ",{}",
+                    clean(self.labels.get(k).map_or("", |l| l.as_str()))
+                ));
             }
             s.push('\n');
         }
@@ -420,12 +544,25 @@ pub fn parse_bench_csv(stem: &str, text: &str) -> std::result::Result<BenchPlot,
             continue;
         };
         if cells.len() != h.len() {
-            return Err(format!("line {}: expected {} values, found {}", n + 1, h.len(), cells.len()));
+            return Err(format!(
+                "line {}: expected {} values, found {}",
+                n + 1,
+                h.len(),
+                cells.len()
+            ));
         }
         let num = |s: &str, what: &str| -> std::result::Result<f64, String> {
-            s.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| format!("line {}: {what} '{s}' is not a finite number", n + 1))
+            s.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("line {}: {what} '{s}' is not a finite number", n + 1))
         };
-        plot.push(cells[0], num(cells[1], "x")?, num(cells[2], "y")?, cells.get(3).copied().unwrap_or(""));
+        plot.push(
+            cells[0],
+            num(cells[1], "x")?,
+            num(cells[2], "y")?,
+            cells.get(3).copied().unwrap_or(""),
+        );
     }
     let header = header.ok_or("no header line (series,x,y)")?;
     if plot.x_label.is_empty() {
@@ -434,7 +571,10 @@ pub fn parse_bench_csv(stem: &str, text: &str) -> std::result::Result<BenchPlot,
     if plot.y_label.is_empty() {
         plot.y_label = header[2].clone();
     }
-    for (label, log) in [(&mut plot.x_label, &mut plot.x_log), (&mut plot.y_label, &mut plot.y_log)] {
+    for (label, log) in [
+        (&mut plot.x_label, &mut plot.x_log),
+        (&mut plot.y_label, &mut plot.y_log),
+    ] {
         if let Some(l) = label.strip_suffix("(log)") {
             *label = l.trim().to_string();
             *log = true;
@@ -460,11 +600,19 @@ pub fn load_bench(dir: &Path) -> Result<(Vec<BenchPlot>, Vec<String>)> {
         .collect();
     paths.sort();
     for p in paths {
-        let stem = p.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+        let stem = p
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_default();
         let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
         match parse_bench_csv(&stem, &text) {
             Ok(b) => plots.push(b),
-            Err(e) => notes.push(format!("skipped `{}`: {e}", p.file_name().map(|s| s.to_string_lossy().to_string()).unwrap_or_default())),
+            Err(e) => notes.push(format!(
+                "skipped `{}`: {e}",
+                p.file_name()
+                    .map(|s| s.to_string_lossy().to_string())
+                    .unwrap_or_default()
+            )),
         }
     }
     Ok((plots, notes))
@@ -479,11 +627,22 @@ mod tests {
         let text = "# title: Evaluation cost\n# x: ns per call (log)\n# y: max error (log)\nseries,ns,err\nfit a,1.5,1e-3\nLUT,2,2e-4\n";
         let b = parse_bench_csv("eval", text).unwrap();
         assert_eq!(b.title, "Evaluation cost");
-        assert_eq!((b.x_label.as_str(), b.x_log, b.y_log), ("ns per call", true, true));
-        assert_eq!(b.rows, vec![("fit a".into(), 1.5, 1e-3), ("LUT".into(), 2.0, 2e-4)]);
+        assert_eq!(
+            (b.x_label.as_str(), b.x_log, b.y_log),
+            ("ns per call", true, true)
+        );
+        assert_eq!(
+            b.rows,
+            vec![("fit a".into(), 1.5, 1e-3), ("LUT".into(), 2.0, 2e-4)]
+        );
         let b = parse_bench_csv("t", "series,order,seconds\na,1,2\n").unwrap();
-        assert_eq!((b.x_label.as_str(), b.y_label.as_str(), b.x_log), ("order", "seconds", false));
-        assert!(parse_bench_csv("t", "series,x,y\na,1,nan\n").unwrap_err().contains("line 2"));
+        assert_eq!(
+            (b.x_label.as_str(), b.y_label.as_str(), b.x_log),
+            ("order", "seconds", false)
+        );
+        assert!(parse_bench_csv("t", "series,x,y\na,1,nan\n")
+            .unwrap_err()
+            .contains("line 2"));
         assert!(parse_bench_csv("t", "series,x\n").is_err());
         let b = parse_bench_csv("eval", text).unwrap();
         assert_eq!(parse_bench_csv("eval", &b.to_csv()).unwrap(), b);
@@ -496,7 +655,9 @@ mod tests {
         assert_eq!(back.labels, vec!["degree 3", "degree 4"]);
         assert_eq!(back.rows[1].0, "rational; sqrt");
         assert_eq!(back.notes, b.notes);
-        assert!(parse_bench_csv("t", "series,x,y,label\na,1,2\n").unwrap_err().contains("expected 4"));
+        assert!(parse_bench_csv("t", "series,x,y,label\na,1,2\n")
+            .unwrap_err()
+            .contains("expected 4"));
     }
 
     #[test]

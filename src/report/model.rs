@@ -8,9 +8,17 @@
 //! `furnace report --model M` can update one model and rebuild the README).
 
 use super::albedo::{Albedo, FitAlbedo, TableAlbedo};
-use super::furnace::{furnace_stats, furnace_values, lobe_integrals_at, Compensation, FurnaceStats, Material, MaterialClass};
-use super::inputs::{self, choose_fit, load_fits, measure, paper_link, short_form, FitFiles, Measured, TableProvider};
-use super::plot::{self, color, Axis, Chart, ColorScale, Figure, Formats, HeatFigure, HeatPanel, LegendAt, Marker, Series, Style};
+use super::furnace::{
+    furnace_stats, furnace_values, lobe_integrals_at, Compensation, FurnaceStats, Material,
+    MaterialClass,
+};
+use super::inputs::{
+    self, choose_fit, load_fits, measure, paper_link, short_form, FitFiles, Measured, TableProvider,
+};
+use super::plot::{
+    self, color, Axis, Chart, ColorScale, Figure, Formats, HeatFigure, HeatPanel, LegendAt, Marker,
+    Series, Style,
+};
 use super::spheres::{sphere_columns, Show, SphereFigure, SphereRow};
 use crate::bsdf::{self, Model, ModelOptions};
 use crate::error::{Error, Result};
@@ -72,11 +80,22 @@ impl ReportOptions {
     }
 
     fn resolution(&self, dims: usize) -> Vec<usize> {
-        vec![if dims <= 2 { self.resolution_2d } else { self.resolution_3d }; dims]
+        vec![
+            if dims <= 2 {
+                self.resolution_2d
+            } else {
+                self.resolution_3d
+            };
+            dims
+        ]
     }
 
     fn lut(&self, dims: usize) -> usize {
-        if dims <= 2 { self.lut_2d } else { self.lut_3d }
+        if dims <= 2 {
+            self.lut_2d
+        } else {
+            self.lut_3d
+        }
     }
 }
 
@@ -98,15 +117,25 @@ pub const REPORT_MODELS: &[&str] = &[
 
 /// The furnace materials whose compensation reads `model`'s albedo.
 pub fn materials_for(model: &str) -> Vec<Material> {
-    let smith = if model.ends_with("-separable") { SmithForm::Separable } else { SmithForm::HeightCorrelated };
+    let smith = if model.ends_with("-separable") {
+        SmithForm::Separable
+    } else {
+        SmithForm::HeightCorrelated
+    };
     let base = model.trim_end_matches("-separable");
     let m = |class| Material::new(class, smith);
     match base {
-        "ggx-conductor" => vec![m(MaterialClass::Conductor), m(MaterialClass::ThinDielectric)],
+        "ggx-conductor" => vec![
+            m(MaterialClass::Conductor),
+            m(MaterialClass::ThinDielectric),
+        ],
         "ggx-glossy" => vec![m(MaterialClass::Glossy)],
         "ggx-dielectric" => vec![m(MaterialClass::Dielectric { inverse: false })],
         "ggx-dielectric-inv" => vec![m(MaterialClass::Dielectric { inverse: true })],
-        "oren-nayar-fon" => vec![Material::new(MaterialClass::RoughDiffuse, SmithForm::HeightCorrelated)],
+        "oren-nayar-fon" => vec![Material::new(
+            MaterialClass::RoughDiffuse,
+            SmithForm::HeightCorrelated,
+        )],
         _ => vec![],
     }
 }
@@ -217,7 +246,10 @@ pub struct FileHash {
 /// SHA-256 of bytes, in hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
     use sha2::{Digest, Sha256};
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// SHA-256 of a table's values (little-endian f64).
@@ -251,7 +283,11 @@ impl ModelData {
     }
 
     fn fit_row(&self, k: usize) -> FitRow {
-        fit_row(&self.fits.fits[k].source, &self.fits.fits[k].fit, &self.measured[k])
+        fit_row(
+            &self.fits.fits[k].source,
+            &self.fits.fits[k].fit,
+            &self.measured[k],
+        )
     }
 }
 
@@ -285,7 +321,11 @@ fn with<'b>(albedo: &'b dyn Albedo, conductor: Option<&'b dyn Albedo>) -> Compen
 
 /// Key of a model with options (the cache name distinguishes radiance-form variants).
 fn key(name: &str, options: ModelOptions) -> String {
-    if options.radiance_transmission { format!("{name}-radiance") } else { name.to_string() }
+    if options.radiance_transmission {
+        format!("{name}-radiance")
+    } else {
+        name.to_string()
+    }
 }
 
 /// A LUT of `m` nodes per axis: every k-th node of `table` when (n − 1) is a multiple of (m − 1)
@@ -318,16 +358,34 @@ fn subsample_lut(table: &Table, m: usize) -> Option<Table> {
             values.push(src[flat]);
         }
     }
-    Some(Table { spec, values, errors: vec![0.0; cells], summary: table.summary.clone() })
+    Some(Table {
+        spec,
+        values,
+        errors: vec![0.0; cells],
+        summary: table.summary.clone(),
+    })
 }
 
 impl<'a> Reporter<'a> {
-    pub fn new(options: ReportOptions, tables: &'a dyn TableProvider, progress: &'a dyn Fn(&str)) -> Reporter<'a> {
-        Reporter { options, tables, progress, loaded: RefCell::new(BTreeMap::new()), used: RefCell::new(Default::default()) }
+    pub fn new(
+        options: ReportOptions,
+        tables: &'a dyn TableProvider,
+        progress: &'a dyn Fn(&str),
+    ) -> Reporter<'a> {
+        Reporter {
+            options,
+            tables,
+            progress,
+            loaded: RefCell::new(BTreeMap::new()),
+            used: RefCell::new(Default::default()),
+        }
     }
 
     fn data(&self, name: &str, options: ModelOptions) -> Result<Rc<ModelData>> {
-        self.used.borrow_mut().insert(Dependency { model: name.to_string(), radiance_transmission: options.radiance_transmission });
+        self.used.borrow_mut().insert(Dependency {
+            model: name.to_string(),
+            radiance_transmission: options.radiance_transmission,
+        });
         let k = key(name, options);
         if let Some(d) = self.loaded.borrow().get(&k) {
             return Ok(d.clone());
@@ -335,13 +393,16 @@ impl<'a> Reporter<'a> {
         let model = bsdf::find(name, options)?;
         let axes: Vec<String> = model.axes().iter().map(|a| a.name.clone()).collect();
         (self.progress)(&format!("{k}: table"));
-        let table = self.tables.table(model.as_ref(), &self.options.resolution(axes.len()))?;
+        let table = self
+            .tables
+            .table(model.as_ref(), &self.options.resolution(axes.len()))?;
         let lut_n = self.options.lut(axes.len());
         let lut_table = match subsample_lut(&table, lut_n) {
             Some(t) => t,
             None => {
                 (self.progress)(&format!("{k}: LUT {lut_n}"));
-                self.tables.table(model.as_ref(), &vec![lut_n; axes.len()])?
+                self.tables
+                    .table(model.as_ref(), &vec![lut_n; axes.len()])?
             }
         };
         let fit_data = crate::fit::source::from_table(&table, "E", None)?.data;
@@ -349,7 +410,10 @@ impl<'a> Reporter<'a> {
         let fit_albedos: Vec<Option<FitAlbedo>> = fits
             .fits
             .iter()
-            .map(|f| FitAlbedo::new(&f.fit, &axes).map_err(|e| format!("cannot evaluate `{}` on {k}: {e}", f.source)))
+            .map(|f| {
+                FitAlbedo::new(&f.fit, &axes)
+                    .map_err(|e| format!("cannot evaluate `{}` on {k}: {e}", f.source))
+            })
             .collect::<Vec<_>>()
             .into_iter()
             .map(|r| r.map_err(|e| fits.notes.push(e)).ok())
@@ -358,7 +422,13 @@ impl<'a> Reporter<'a> {
             .iter()
             .map(|a| match a {
                 Some(a) => measure(a, &table),
-                None => Measured { mae: f64::INFINITY, max_abs: f64::INFINITY, max_abs_at: vec![], max_rel: f64::INFINITY, points: 0 },
+                None => Measured {
+                    mae: f64::INFINITY,
+                    max_abs: f64::INFINITY,
+                    max_abs_at: vec![],
+                    max_rel: f64::INFINITY,
+                    points: 0,
+                },
             })
             .collect();
         let chosen = choose_fit(&fits, axes.len(), &measured);
@@ -412,13 +482,25 @@ impl<'a> Reporter<'a> {
             o.paper_dir.is_some()
         );
         for d in deps {
-            let options = ModelOptions { radiance_transmission: d.radiance_transmission };
+            let options = ModelOptions {
+                radiance_transmission: d.radiance_transmission,
+            };
             let model = bsdf::find(&d.model, options)?;
             let dims = model.axes().len();
-            let table = self.tables.table(model.as_ref(), &self.options.resolution(dims))?;
-            let _ = writeln!(text, "model {} table {} {}", model.cache_name(), table.spec.resolution_name(), table_digest(&table));
+            let table = self
+                .tables
+                .table(model.as_ref(), &self.options.resolution(dims))?;
+            let _ = writeln!(
+                text,
+                "model {} table {} {}",
+                model.cache_name(),
+                table.spec.resolution_name(),
+                table_digest(&table)
+            );
             if subsample_lut(&table, self.options.lut(dims)).is_none() {
-                let lut = self.tables.table(model.as_ref(), &vec![self.options.lut(dims); dims])?;
+                let lut = self
+                    .tables
+                    .table(model.as_ref(), &vec![self.options.lut(dims); dims])?;
                 let _ = writeln!(text, "lut {}", table_digest(&lut));
             }
             let dir = self.options.fits_dir.join(model.cache_name());
@@ -429,7 +511,9 @@ impl<'a> Reporter<'a> {
                 if link.options == options {
                     for sub in ["coefficients", "tables"] {
                         let p = paper.join(sub).join(format!("{}.csv", link.stem));
-                        let sha = std::fs::read(&p).map(|b| sha256_hex(&b)).unwrap_or_else(|_| "missing".into());
+                        let sha = std::fs::read(&p)
+                            .map(|b| sha256_hex(&b))
+                            .unwrap_or_else(|_| "missing".into());
                         let _ = writeln!(text, "paper {sub} {sha}");
                     }
                 }
@@ -442,8 +526,12 @@ impl<'a> Reporter<'a> {
     /// files are intact (their SHA-256 as recorded), so that it need not be regenerated.
     pub fn reusable_section(&self, name: &str) -> Result<Option<ModelSummary>> {
         let path = self.model_dir(name).join("summary.json");
-        let Ok(text) = std::fs::read_to_string(&path) else { return Ok(None) };
-        let Ok(summary) = serde_json::from_str::<ModelSummary>(&text) else { return Ok(None) };
+        let Ok(text) = std::fs::read_to_string(&path) else {
+            return Ok(None);
+        };
+        let Ok(summary) = serde_json::from_str::<ModelSummary>(&text) else {
+            return Ok(None);
+        };
         if summary.model != name || summary.dependencies.is_empty() || summary.outputs.is_empty() {
             return Ok(None);
         }
@@ -466,7 +554,12 @@ impl<'a> Reporter<'a> {
         let dir = self.model_dir(name);
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         let mut files = Vec::new();
-        let rel = |p: &Path| p.strip_prefix(&self.options.reports_dir).unwrap_or(p).to_string_lossy().replace('\\', "/");
+        let rel = |p: &Path| {
+            p.strip_prefix(&self.options.reports_dir)
+                .unwrap_or(p)
+                .to_string_lossy()
+                .replace('\\', "/")
+        };
 
         (self.progress)(&format!("{name}: figures"));
         let fig3 = self.fig_error_vs_coefficients(&data, &dir.join("error-vs-coefficients"))?;
@@ -516,9 +609,13 @@ impl<'a> Reporter<'a> {
         for f in outputs {
             let p = self.options.reports_dir.join(&f);
             let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
-            summary.outputs.push(FileHash { file: f, sha256: sha256_hex(&bytes) });
+            summary.outputs.push(FileHash {
+                file: f,
+                sha256: sha256_hex(&bytes),
+            });
         }
-        let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::file(dir.join("summary.json"), e.to_string()))?;
+        let json = serde_json::to_string_pretty(&summary)
+            .map_err(|e| Error::file(dir.join("summary.json"), e.to_string()))?;
         crate::table::io::write_atomic(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
         Ok(summary)
     }
@@ -537,30 +634,76 @@ impl<'a> Reporter<'a> {
                 *e = k;
             }
         }
-        let max_n = data.fits.fits.iter().map(|f| f.fit.n_coefficients).chain(data.paper.iter().map(|p| p.0.n_coefficients)).max().unwrap_or(1);
+        let max_n = data
+            .fits
+            .fits
+            .iter()
+            .map(|f| f.fit.n_coefficients)
+            .chain(data.paper.iter().map(|p| p.0.n_coefficients))
+            .max()
+            .unwrap_or(1);
         let chart = |title: &str, y_label: &str, pick: &dyn Fn(&Measured) -> f64| {
             let mut series = Vec::new();
-            for (rational, name, c, marker) in [(false, "polynomial", 0, Marker::Circle), (true, "rational", 1, Marker::Square)] {
-                let pts: Vec<(f64, f64)> = best.iter().filter(|((r, _), _)| *r == rational).map(|((_, n), &k)| (*n as f64, pick(&data.measured[k]))).collect();
+            for (rational, name, c, marker) in [
+                (false, "polynomial", 0, Marker::Circle),
+                (true, "rational", 1, Marker::Square),
+            ] {
+                let pts: Vec<(f64, f64)> = best
+                    .iter()
+                    .filter(|((r, _), _)| *r == rational)
+                    .map(|((_, n), &k)| (*n as f64, pick(&data.measured[k])))
+                    .collect();
                 if !pts.is_empty() {
                     series.push(Series::new(name, pts, color(c), Style::LinePoints).marker(marker));
                 }
             }
             if let Some(k) = data.chosen {
                 let f = &data.fits.fits[k];
-                series.push(Series::new(&format!("chosen: {}", f.short_form()), vec![(f.fit.n_coefficients as f64, pick(&data.measured[k]))], color(2), Style::Points).marker(Marker::Triangle));
+                series.push(
+                    Series::new(
+                        &format!("chosen: {}", f.short_form()),
+                        vec![(f.fit.n_coefficients as f64, pick(&data.measured[k]))],
+                        color(2),
+                        Style::Points,
+                    )
+                    .marker(Marker::Triangle),
+                );
             }
             if let Some((fit, _, m)) = &data.paper {
-                series.push(Series::new("paper's published fit (rational 3/3)", vec![(fit.n_coefficients as f64, pick(m))], color(3), Style::Points).marker(Marker::Cross));
+                series.push(
+                    Series::new(
+                        "paper's published fit (rational 3/3)",
+                        vec![(fit.n_coefficients as f64, pick(m))],
+                        color(3),
+                        Style::Points,
+                    )
+                    .marker(Marker::Cross),
+                );
             }
             let room = legend_room(&series);
-            Chart { title: title.into(), x: Axis::linear("number of coefficients").with_range(0.0, max_n as f64 * 1.08 + 2.0), y: Axis::log(y_label), series, legend: LegendAt::UpperRight, legend_room: room }
+            Chart {
+                title: title.into(),
+                x: Axis::linear("number of coefficients")
+                    .with_range(0.0, max_n as f64 * 1.08 + 2.0),
+                y: Axis::log(y_label),
+                series,
+                legend: LegendAt::UpperRight,
+                legend_room: room,
+            }
         };
         let fig = Figure {
-            title: Some(format!("{}: error against number of coefficients (on the {} table)", data.name, data.table.spec.resolution_name())),
+            title: Some(format!(
+                "{}: error against number of coefficients (on the {} table)",
+                data.name,
+                data.table.spec.resolution_name()
+            )),
             charts: vec![
                 chart("mean absolute error", "MAE of E", &|m: &Measured| m.mae),
-                chart("maximum absolute error", "max |fit − table|", &|m: &Measured| m.max_abs),
+                chart(
+                    "maximum absolute error",
+                    "max |fit − table|",
+                    &|m: &Measured| m.max_abs,
+                ),
             ],
             size: (1300, 560),
         };
@@ -569,13 +712,19 @@ impl<'a> Reporter<'a> {
 
     /// Heat maps of the chosen fit's error: |fit − table| (log) and fit − table (signed).
     fn fig_heatmaps(&self, data: &ModelData, dir: &Path) -> Result<Vec<PathBuf>> {
-        let (Some(k), Some(fit)) = (data.chosen, &data.chosen_albedo) else { return Ok(vec![]) };
+        let (Some(k), Some(fit)) = (data.chosen, &data.chosen_albedo) else {
+            return Ok(vec![]);
+        };
         let form = data.fits.fits[k].short_form();
         let t = &data.table;
         let axes = &t.spec.axes;
         let dims = axes.len();
         let (ra, ma) = (&axes[dims - 2], &axes[dims - 1]);
-        let slices: Vec<usize> = if dims == 3 { slice_indices(axes[0].n, 3) } else { vec![0] };
+        let slices: Vec<usize> = if dims == 3 {
+            slice_indices(axes[0].n, 3)
+        } else {
+            vec![0]
+        };
         const MAX_CELLS: usize = 128;
         let (br, bm) = (ra.n.div_ceil(MAX_CELLS), ma.n.div_ceil(MAX_CELLS));
         let (ny, nx) = (ra.n.div_ceil(br), ma.n.div_ceil(bm));
@@ -601,10 +750,26 @@ impl<'a> Reporter<'a> {
                     }
                 }
             }
-            let title = if dims == 3 { format!("{} = {}", axes[0].name, plot::format_number(axes[0].node(s))) } else { data.name.clone() };
+            let title = if dims == 3 {
+                format!(
+                    "{} = {}",
+                    axes[0].name,
+                    plot::format_number(axes[0].node(s))
+                )
+            } else {
+                data.name.clone()
+            };
             let half_r = 0.5 * (ra.hi - ra.lo) / (ra.n - 1) as f64 * br as f64;
             let half_m = 0.5 * (ma.hi - ma.lo) / (ma.n - 1) as f64 * bm as f64;
-            let mark = Some((worst.1, format!("max {} at μ = {}, r = {}", plot::format_number(worst.0), plot::format_number(worst.1 .0), plot::format_number(worst.1 .1))));
+            let mark = Some((
+                worst.1,
+                format!(
+                    "max {} at μ = {}, r = {}",
+                    plot::format_number(worst.0),
+                    plot::format_number(worst.1 .0),
+                    plot::format_number(worst.1 .1)
+                ),
+            ));
             let panel = |values: Vec<f64>| HeatPanel {
                 title: title.clone(),
                 x_label: "μ = cos θo".into(),
@@ -623,22 +788,38 @@ impl<'a> Reporter<'a> {
         let width = (150 + 520 * slices.len() as u32).max(1000);
         let mut out = Vec::new();
         let abs = HeatFigure {
-            title: Some(format!("|fit − table| of the chosen fit ({form}, {} coefficients)", data.fits.fits[k].fit.n_coefficients)),
+            title: Some(format!(
+                "|fit − table| of the chosen fit ({form}, {} coefficients)",
+                data.fits.fits[k].fit.n_coefficients
+            )),
             panels: abs_panels,
             scale: ColorScale::log_for(&all_abs, 6.0),
             colorbar_label: "|fit − table| (log scale)".into(),
             size: (width, 580),
         };
-        out.extend(plot::save(&abs, &dir.join("heatmap-abs"), Formats::PngAndSvg)?);
-        let signed_values: Vec<f64> = signed_panels.iter().flat_map(|p| p.values.iter().copied()).collect();
+        out.extend(plot::save(
+            &abs,
+            &dir.join("heatmap-abs"),
+            Formats::PngAndSvg,
+        )?);
+        let signed_values: Vec<f64> = signed_panels
+            .iter()
+            .flat_map(|p| p.values.iter().copied())
+            .collect();
         let signed = HeatFigure {
-            title: Some(format!("fit − table of the chosen fit ({form}; red: fit too high, blue: too low)")),
+            title: Some(format!(
+                "fit − table of the chosen fit ({form}; red: fit too high, blue: too low)"
+            )),
             scale: ColorScale::signed_for(&signed_values),
             panels: signed_panels,
             colorbar_label: "fit − table".into(),
             size: (width, 580),
         };
-        out.extend(plot::save(&signed, &dir.join("heatmap-signed"), Formats::PngAndSvg)?);
+        out.extend(plot::save(
+            &signed,
+            &dir.join("heatmap-signed"),
+            Formats::PngAndSvg,
+        )?);
         Ok(out)
     }
 
@@ -648,8 +829,15 @@ impl<'a> Reporter<'a> {
         let axes = &t.spec.axes;
         let dims = axes.len();
         let (ra, ma) = (&axes[dims - 2], &axes[dims - 1]);
-        let f0_index = if dims == 3 { nearest_node(&axes[0], self.options.sphere_f0) } else { 0 };
-        let rs: Vec<usize> = [0.1, 0.3, 0.6, 1.0].iter().map(|&r| nearest_node(ra, r)).collect();
+        let f0_index = if dims == 3 {
+            nearest_node(&axes[0], self.options.sphere_f0)
+        } else {
+            0
+        };
+        let rs: Vec<usize> = [0.1, 0.3, 0.6, 1.0]
+            .iter()
+            .map(|&r| nearest_node(ra, r))
+            .collect();
         let fit = data.chosen.zip(data.chosen_albedo.as_ref());
         let paper = data.paper.as_ref().map(|p| &p.1);
         let mut left = Vec::new();
@@ -659,30 +847,94 @@ impl<'a> Reporter<'a> {
             let r = ra.node(i);
             let point = |j: usize| -> Vec<f64> {
                 let mu = ma.node(j);
-                if dims == 3 { vec![axes[0].node(f0_index), r, mu] } else { vec![r, mu] }
+                if dims == 3 {
+                    vec![axes[0].node(f0_index), r, mu]
+                } else {
+                    vec![r, mu]
+                }
             };
             let cell = |j: usize| (f0_index * ra.n + i) * ma.n + j;
-            let table: Vec<(f64, f64)> = (0..ma.n).map(|j| (ma.node(j), t.output(0)[cell(j)])).collect();
-            left.push(Series::new(&format!("r = {}", plot::format_number(r)), table, color(c), Style::Line));
+            let table: Vec<(f64, f64)> = (0..ma.n)
+                .map(|j| (ma.node(j), t.output(0)[cell(j)]))
+                .collect();
+            left.push(Series::new(
+                &format!("r = {}", plot::format_number(r)),
+                table,
+                color(c),
+                Style::Line,
+            ));
             if let Some((_, f)) = fit {
-                left.push(Series::new("", (0..ma.n).map(|j| (ma.node(j), f.albedo(&point(j)))).collect(), color(c), Style::Dashed));
-                right.push(Series::new(&format!("fit, r = {}", plot::format_number(r)), (0..ma.n).map(|j| (ma.node(j), f.albedo(&point(j)) - t.output(0)[cell(j)])).collect(), color(c), Style::Line));
+                left.push(Series::new(
+                    "",
+                    (0..ma.n)
+                        .map(|j| (ma.node(j), f.albedo(&point(j))))
+                        .collect(),
+                    color(c),
+                    Style::Dashed,
+                ));
+                right.push(Series::new(
+                    &format!("fit, r = {}", plot::format_number(r)),
+                    (0..ma.n)
+                        .map(|j| (ma.node(j), f.albedo(&point(j)) - t.output(0)[cell(j)]))
+                        .collect(),
+                    color(c),
+                    Style::Line,
+                ));
             }
             if let Some(p) = paper {
-                left.push(Series::new("", (0..ma.n).step_by(marker_stride).map(|j| (ma.node(j), p.albedo(&point(j)))).collect(), color(c), Style::Points).marker(Marker::Cross));
-                right.push(Series::new(&format!("paper, r = {}", plot::format_number(r)), (0..ma.n).map(|j| (ma.node(j), p.albedo(&point(j)) - t.output(0)[cell(j)])).collect(), color(c), Style::Dashed));
+                left.push(
+                    Series::new(
+                        "",
+                        (0..ma.n)
+                            .step_by(marker_stride)
+                            .map(|j| (ma.node(j), p.albedo(&point(j))))
+                            .collect(),
+                        color(c),
+                        Style::Points,
+                    )
+                    .marker(Marker::Cross),
+                );
+                right.push(Series::new(
+                    &format!("paper, r = {}", plot::format_number(r)),
+                    (0..ma.n)
+                        .map(|j| (ma.node(j), p.albedo(&point(j)) - t.output(0)[cell(j)]))
+                        .collect(),
+                    color(c),
+                    Style::Dashed,
+                ));
             }
         }
         let key = RGBColorKey::black();
-        left.push(Series::new(&format!("table ({})", t.spec.resolution_name()), vec![], key, Style::Line));
+        left.push(Series::new(
+            &format!("table ({})", t.spec.resolution_name()),
+            vec![],
+            key,
+            Style::Line,
+        ));
         if let Some((k, _)) = fit {
-            left.push(Series::new(&format!("fit: {}", data.fits.fits[k].short_form()), vec![], key, Style::Dashed));
+            left.push(Series::new(
+                &format!("fit: {}", data.fits.fits[k].short_form()),
+                vec![],
+                key,
+                Style::Dashed,
+            ));
         }
         if paper.is_some() {
             left.push(Series::new("paper's fit", vec![], key, Style::Points).marker(Marker::Cross));
         }
-        let f0_text = if dims == 3 { format!(" at {} = {}", axes[0].name, plot::format_number(axes[0].node(f0_index))) } else { String::new() };
-        let y_label = offset_nearly_constant(&mut left).map_or("directional albedo E".to_string(), |c| format!("E − {} (E is nearly constant)", plot::format_number(c)));
+        let f0_text = if dims == 3 {
+            format!(
+                " at {} = {}",
+                axes[0].name,
+                plot::format_number(axes[0].node(f0_index))
+            )
+        } else {
+            String::new()
+        };
+        let y_label = offset_nearly_constant(&mut left)
+            .map_or("directional albedo E".to_string(), |c| {
+                format!("E − {} (E is nearly constant)", plot::format_number(c))
+            });
         let mut charts = vec![Chart {
             title: format!("E(μ){f0_text}"),
             x: Axis::linear("μ = cos θo").with_range(0.0, 1.0),
@@ -707,7 +959,11 @@ impl<'a> Reporter<'a> {
             });
         }
         let width = if charts.len() == 2 { 1600 } else { 860 };
-        let fig = Figure { title: Some(format!("{}: slices of E at several r", data.name)), charts, size: (width, 620) };
+        let fig = Figure {
+            title: Some(format!("{}: slices of E at several r", data.name)),
+            charts,
+            size: (width, 620),
+        };
         plot::save(&fig, stem, Formats::PngAndSvg)
     }
 
@@ -718,22 +974,35 @@ impl<'a> Reporter<'a> {
         let per_axis: Vec<Vec<usize>> = axes
             .iter()
             .enumerate()
-            .map(|(d, a)| if dims == 3 && d == 0 { slice_indices(a.n, self.options.furnace_f0_slices) } else { furnace_axis(a.n, self.options.furnace_nodes) })
+            .map(|(d, a)| {
+                if dims == 3 && d == 0 {
+                    slice_indices(a.n, self.options.furnace_f0_slices)
+                } else {
+                    furnace_axis(a.n, self.options.furnace_nodes)
+                }
+            })
             .collect();
         let mut points = vec![vec![]];
         for (d, idx) in per_axis.iter().enumerate() {
-            points = points.into_iter().flat_map(|p: Vec<f64>| idx.iter().map(move |&i| {
-                let mut q = p.clone();
-                q.push(axes[d].node(i));
-                q
-            })).collect();
+            points = points
+                .into_iter()
+                .flat_map(|p: Vec<f64>| {
+                    idx.iter().map(move |&i| {
+                        let mut q = p.clone();
+                        q.push(axes[d].node(i));
+                        q
+                    })
+                })
+                .collect();
         }
         points
     }
 
     /// The furnace test of one material (none, exact table, LUT, fit, paper fit) and its spheres.
     fn furnace_row(&self, material: &Material, dir: &Path) -> Result<FurnaceRow> {
-        let options = ModelOptions { radiance_transmission: material.radiance_transmission };
+        let options = ModelOptions {
+            radiance_transmission: material.radiance_transmission,
+        };
         let data = self.data(&material.albedo_model(), options)?;
         let conductor = match material.conductor_model() {
             Some(c) => Some(self.data(&c, ModelOptions::default())?),
@@ -744,24 +1013,63 @@ impl<'a> Reporter<'a> {
         let quadrature_error = lobes.iter().map(|l| l.error).fold(0.0, f64::max);
         let unconverged = lobes.iter().filter(|l| !l.converged).count();
 
-        let lut_name = |d: &ModelData| format!("LUT {} ({})", d.lut.resolution().replace('x', "×"), if d.dims() == 2 { "bilinear" } else { "trilinear" });
-        let mut variants: Vec<(String, std::result::Result<Compensation, String>, String)> = Vec::new();
-        variants.push(("no compensation".into(), Ok(Compensation::None), "single-scattering BSDF".into()));
+        let lut_name = |d: &ModelData| {
+            format!(
+                "LUT {} ({})",
+                d.lut.resolution().replace('x', "×"),
+                if d.dims() == 2 {
+                    "bilinear"
+                } else {
+                    "trilinear"
+                }
+            )
+        };
+        let mut variants: Vec<(String, std::result::Result<Compensation, String>, String)> =
+            Vec::new();
+        variants.push((
+            "no compensation".into(),
+            Ok(Compensation::None),
+            "single-scattering BSDF".into(),
+        ));
         variants.push((
             format!("exact table ({})", data.table.spec.resolution_name()),
-            Ok(with(&data.exact, conductor.as_ref().map(|c| &c.exact as &dyn Albedo))),
+            Ok(with(
+                &data.exact,
+                conductor.as_ref().map(|c| &c.exact as &dyn Albedo),
+            )),
             "the furnace points are table nodes".into(),
         ));
-        variants.push((lut_name(&data), Ok(with(&data.lut, conductor.as_ref().map(|c| &c.lut as &dyn Albedo))), "values at LUT nodes are the table's".into()));
+        variants.push((
+            lut_name(&data),
+            Ok(with(
+                &data.lut,
+                conductor.as_ref().map(|c| &c.lut as &dyn Albedo),
+            )),
+            "values at LUT nodes are the table's".into(),
+        ));
         let fit_variant = match (&data.chosen_albedo, data.chosen) {
             (Some(f), Some(k)) => match &conductor {
                 Some(c) => match (&c.chosen_albedo, c.chosen) {
-                    (Some(cf), Some(ck)) => Ok((with(f, Some(cf as &dyn Albedo)), format!("{} + conductor {}", data.fits.fits[k].short_form(), c.fits.fits[ck].short_form()))),
-                    _ => Err(format!("needs a fit of {} too: run `furnace fit --model {} --sweep` first", c.name, c.name)),
+                    (Some(cf), Some(ck)) => Ok((
+                        with(f, Some(cf as &dyn Albedo)),
+                        format!(
+                            "{} + conductor {}",
+                            data.fits.fits[k].short_form(),
+                            c.fits.fits[ck].short_form()
+                        ),
+                    )),
+                    _ => Err(format!(
+                        "needs a fit of {} too: run `furnace fit --model {} --sweep` first",
+                        c.name, c.name
+                    )),
                 },
                 None => Ok((with(f, None), data.fits.fits[k].short_form())),
             },
-            _ => Err(format!("no fit of {}: run `furnace fit --model {} --sweep` first", data.name, cli_model(&data.name))),
+            _ => Err(format!(
+                "no fit of {}: run `furnace fit --model {} --sweep` first",
+                data.name,
+                cli_model(&data.name)
+            )),
         };
         match fit_variant {
             Ok((c, note)) => variants.push(("furnace fit".into(), Ok(c), note)),
@@ -775,40 +1083,92 @@ impl<'a> Reporter<'a> {
                 },
                 None => Ok(with(pa, None)),
             };
-            variants.push(("paper's fit".into(), v, "Sforza & Pellacini 2022, Appendix A".into()));
+            variants.push((
+                "paper's fit".into(),
+                v,
+                "Sforza & Pellacini 2022, Appendix A".into(),
+            ));
         }
 
         let mut out = Vec::new();
         for (name, comp, note) in &variants {
-            let stats = comp.as_ref().ok().map(|c| furnace_stats(&points, &furnace_values(material, &points, &lobes, c)));
-            out.push(FurnaceVariant { name: name.clone(), stats, note: match comp { Ok(_) => note.clone(), Err(e) => e.clone() } });
+            let stats = comp
+                .as_ref()
+                .ok()
+                .map(|c| furnace_stats(&points, &furnace_values(material, &points, &lobes, c)));
+            out.push(FurnaceVariant {
+                name: name.clone(),
+                stats,
+                note: match comp {
+                    Ok(_) => note.clone(),
+                    Err(e) => e.clone(),
+                },
+            });
         }
 
         // spheres: none, LUT, fit (and the paper's fit)
         let sphere_rows: Vec<&(String, std::result::Result<Compensation, String>, String)> =
-            variants.iter().filter(|v| !v.0.starts_with("exact table")).collect();
-        let comps: Vec<Compensation> = sphere_rows.iter().filter_map(|v| v.1.as_ref().ok().copied()).collect();
-        let mut columns = sphere_columns(material, self.options.sphere_f0, &self.options.sphere_roughness, &comps).into_iter();
+            variants
+                .iter()
+                .filter(|v| !v.0.starts_with("exact table"))
+                .collect();
+        let comps: Vec<Compensation> = sphere_rows
+            .iter()
+            .filter_map(|v| v.1.as_ref().ok().copied())
+            .collect();
+        let mut columns = sphere_columns(
+            material,
+            self.options.sphere_f0,
+            &self.options.sphere_roughness,
+            &comps,
+        )
+        .into_iter();
         let rows: Vec<SphereRow> = sphere_rows
             .iter()
             .map(|v| {
                 let cols = match &v.1 {
-                    Ok(_) => Ok(columns.next().expect("one column set per available compensation")),
+                    Ok(_) => Ok(columns
+                        .next()
+                        .expect("one column set per available compensation")),
                     Err(e) => Err(format!("not available: {e}")),
                 };
                 let note = match &cols {
-                    Ok(c) => format!("max |1 − E| = {}", plot::format_number(c.iter().flat_map(|s| s.values.iter()).map(|e| (1.0 - e).abs()).fold(0.0, f64::max))),
+                    Ok(c) => format!(
+                        "max |1 − E| = {}",
+                        plot::format_number(
+                            c.iter()
+                                .flat_map(|s| s.values.iter())
+                                .map(|e| (1.0 - e).abs())
+                                .fold(0.0, f64::max)
+                        )
+                    ),
                     Err(_) => String::new(),
                 };
-                SphereRow { label: v.0.clone(), note, columns: cols }
+                SphereRow {
+                    label: v.0.clone(),
+                    note,
+                    columns: cols,
+                }
             })
             .collect();
         let f0_text = if material.has_f0_axis() || material.class == MaterialClass::ThinDielectric {
-            format!(", F0 = {}", plot::format_number(if material.class == MaterialClass::ThinDielectric { super::furnace::THIN_F0 } else { self.options.sphere_f0 }))
+            format!(
+                ", F0 = {}",
+                plot::format_number(if material.class == MaterialClass::ThinDielectric {
+                    super::furnace::THIN_F0
+                } else {
+                    self.options.sphere_f0
+                })
+            )
         } else {
             String::new()
         };
-        let column_labels: Vec<String> = self.options.sphere_roughness.iter().map(|r| format!("r = {}", plot::format_number(*r))).collect();
+        let column_labels: Vec<String> = self
+            .options
+            .sphere_roughness
+            .iter()
+            .map(|r| format!("r = {}", plot::format_number(*r)))
+            .collect();
         let caption = "Orthographic view of spheres under a uniform white environment: pixel = albedo E of the BSDF at μ = n·v (computed by quadrature). Faint circles outline the spheres.".to_string();
         let dev_caption = "Pixel = E − 1 of the compensated BSDF on a symmetric log colour scale (|E − 1| below the bar's smallest tick is white). Faint circles outline the spheres.".to_string();
         let albedo_fig = SphereFigure {
@@ -823,10 +1183,20 @@ impl<'a> Reporter<'a> {
         let mut images = Vec::new();
         let stem = dir.join(format!("furnace-{}", material.id()));
         images.extend(plot::save(&albedo_fig, &stem, Formats::Png)?);
-        let compensated: Vec<SphereRow> = rows.into_iter().filter(|r| r.label != "no compensation").collect();
-        let deviations: Vec<f64> = compensated.iter().filter_map(|r| r.columns.as_ref().ok()).flat_map(|c| c.iter().flat_map(|s| s.values.iter().map(|e| e - 1.0))).collect();
+        let compensated: Vec<SphereRow> = rows
+            .into_iter()
+            .filter(|r| r.label != "no compensation")
+            .collect();
+        let deviations: Vec<f64> = compensated
+            .iter()
+            .filter_map(|r| r.columns.as_ref().ok())
+            .flat_map(|c| c.iter().flat_map(|s| s.values.iter().map(|e| e - 1.0)))
+            .collect();
         let dev_fig = SphereFigure {
-            title: format!("White furnace, E − 1 of the compensated BSDFs: {}{f0_text}", material.label()),
+            title: format!(
+                "White furnace, E − 1 of the compensated BSDFs: {}{f0_text}",
+                material.label()
+            ),
             column_labels,
             rows: compensated,
             show: Show::Deviation,
@@ -834,9 +1204,29 @@ impl<'a> Reporter<'a> {
             colorbar_label: "E − 1 (red: energy gain, blue: loss)".into(),
             caption: dev_caption,
         };
-        images.extend(plot::save(&dev_fig, &dir.join(format!("furnace-{}-deviation", material.id())), Formats::Png)?);
-        let images = images.iter().map(|p| p.strip_prefix(&self.options.reports_dir).unwrap_or(p).to_string_lossy().replace('\\', "/")).collect();
-        Ok(FurnaceRow { material: material.label(), id: material.id(), points: points.len(), quadrature_error, unconverged, variants: out, images })
+        images.extend(plot::save(
+            &dev_fig,
+            &dir.join(format!("furnace-{}-deviation", material.id())),
+            Formats::Png,
+        )?);
+        let images = images
+            .iter()
+            .map(|p| {
+                p.strip_prefix(&self.options.reports_dir)
+                    .unwrap_or(p)
+                    .to_string_lossy()
+                    .replace('\\', "/")
+            })
+            .collect();
+        Ok(FurnaceRow {
+            material: material.label(),
+            id: material.id(),
+            points: points.len(),
+            quadrature_error,
+            unconverged,
+            variants: out,
+            images,
+        })
     }
 
     /// The paper comparison: both fits measured on the furnace table in the paper's convention,
@@ -844,9 +1234,15 @@ impl<'a> Reporter<'a> {
     fn paper_row(&self, name: &str, link: inputs::PaperLink) -> Result<PaperRow> {
         let data = self.data(name, link.options)?;
         let mut notes = Vec::new();
-        let (paper_fit, _, paper_measured) = data.paper.as_ref().ok_or_else(|| Error::InvalidInput(format!("{name}: the paper's fit did not load")))?;
+        let (paper_fit, _, paper_measured) = data
+            .paper
+            .as_ref()
+            .ok_or_else(|| Error::InvalidInput(format!("{name}: the paper's fit did not load")))?;
         let materials = materials_for(name);
-        let material = materials.first().map(|m| Material { radiance_transmission: link.options.radiance_transmission, ..*m });
+        let material = materials.first().map(|m| Material {
+            radiance_transmission: link.options.radiance_transmission,
+            ..*m
+        });
         let conductor = match material.and_then(|m| m.conductor_model()) {
             Some(c) => Some(self.data(&c, ModelOptions::default())?),
             None => None,
@@ -858,16 +1254,35 @@ impl<'a> Reporter<'a> {
             let m = material?;
             let mut lobes = lobes.borrow_mut();
             let lobes = lobes.get_or_insert_with(|| lobe_integrals_at(&m, &points));
-            let values = furnace_values(&m, &points, lobes, &Compensation::With { albedo, conductor: cond });
+            let values = furnace_values(
+                &m,
+                &points,
+                lobes,
+                &Compensation::With {
+                    albedo,
+                    conductor: cond,
+                },
+            );
             Some(furnace_stats(&points, &values).max_deviation)
         };
-        let paper_cond = conductor.as_ref().and_then(|c| c.paper.as_ref().map(|p| &p.1 as &dyn Albedo));
-        let paper_fit_furnace = if conductor.is_some() && paper_cond.is_none() { None } else { furnace_of(&data.paper.as_ref().expect("checked").1, paper_cond) };
+        let paper_cond = conductor
+            .as_ref()
+            .and_then(|c| c.paper.as_ref().map(|p| &p.1 as &dyn Albedo));
+        let paper_fit_furnace = if conductor.is_some() && paper_cond.is_none() {
+            None
+        } else {
+            furnace_of(&data.paper.as_ref().expect("checked").1, paper_cond)
+        };
         let (furnace_fit, furnace_fit_furnace) = match (data.chosen, &data.chosen_albedo) {
             (Some(k), Some(f)) => {
-                let cond = conductor.as_ref().and_then(|c| c.chosen_albedo.as_ref().map(|a| a as &dyn Albedo));
+                let cond = conductor
+                    .as_ref()
+                    .and_then(|c| c.chosen_albedo.as_ref().map(|a| a as &dyn Albedo));
                 let ff = if conductor.is_some() && cond.is_none() {
-                    notes.push("the furnace number of furnace's glossy fit needs a conductor fit too".into());
+                    notes.push(
+                        "the furnace number of furnace's glossy fit needs a conductor fit too"
+                            .into(),
+                    );
                     None
                 } else {
                     furnace_of(f, cond)
@@ -875,7 +1290,16 @@ impl<'a> Reporter<'a> {
                 (Some(data.fit_row(k)), ff)
             }
             _ => {
-                notes.push(format!("no furnace fit of {}: run `furnace fit --model {}{} --sweep` first", data.name, name, if link.options.radiance_transmission { " --transmission radiance" } else { "" }));
+                notes.push(format!(
+                    "no furnace fit of {}: run `furnace fit --model {}{} --sweep` first",
+                    data.name,
+                    name,
+                    if link.options.radiance_transmission {
+                        " --transmission radiance"
+                    } else {
+                        ""
+                    }
+                ));
                 (None, None)
             }
         };
@@ -907,7 +1331,12 @@ impl<'a> Reporter<'a> {
 
         let _ = writeln!(md, "#### Error against number of coefficients\n");
         if data.fits.fits.is_empty() {
-            let _ = writeln!(md, "No fits found under `fits/{}/`: run `furnace fit --model {} --sweep` first.\n", data.model.cache_name(), cli_model(name));
+            let _ = writeln!(
+                md,
+                "No fits found under `fits/{}/`: run `furnace fit --model {} --sweep` first.\n",
+                data.model.cache_name(),
+                cli_model(name)
+            );
         }
         for n in &data.fits.notes {
             let _ = writeln!(md, "- {n}");
@@ -916,16 +1345,39 @@ impl<'a> Reporter<'a> {
             md.push('\n');
         }
         if has("error-vs-coefficients.png") {
-            let _ = writeln!(md, "![{name}: MAE and max error against number of coefficients]({}) ([SVG]({}))\n", link("error-vs-coefficients.png"), link("error-vs-coefficients.svg"));
+            let _ = writeln!(
+                md,
+                "![{name}: MAE and max error against number of coefficients]({}) ([SVG]({}))\n",
+                link("error-vs-coefficients.png"),
+                link("error-vs-coefficients.svg")
+            );
         }
         if !s.fits.is_empty() || data.paper.is_some() {
             let _ = writeln!(md, "| fit | form | coefficients | MAE | max error | max rel. error | pole-free | as fitted: MAE / max |");
-            let _ = writeln!(md, "| --- | --- | ---: | ---: | ---: | ---: | :---: | ---: |");
+            let _ = writeln!(
+                md,
+                "| --- | --- | ---: | ---: | ---: | ---: | :---: | ---: |"
+            );
             let mut order: Vec<usize> = (0..s.fits.len()).collect();
-            order.sort_by(|&a, &b| (s.fits[a].form.starts_with("rational"), s.fits[a].n_coefficients, &s.fits[a].source).cmp(&(s.fits[b].form.starts_with("rational"), s.fits[b].n_coefficients, &s.fits[b].source)));
+            order.sort_by(|&a, &b| {
+                (
+                    s.fits[a].form.starts_with("rational"),
+                    s.fits[a].n_coefficients,
+                    &s.fits[a].source,
+                )
+                    .cmp(&(
+                        s.fits[b].form.starts_with("rational"),
+                        s.fits[b].n_coefficients,
+                        &s.fits[b].source,
+                    ))
+            });
             for k in order {
                 let f = &s.fits[k];
-                let chosen = if s.chosen == Some(k) { " **(chosen)**" } else { "" };
+                let chosen = if s.chosen == Some(k) {
+                    " **(chosen)**"
+                } else {
+                    ""
+                };
                 let _ = writeln!(
                     md,
                     "| `{}`{chosen} | {} | {} | {} | {} | {} | {} | {} / {} |",
@@ -959,18 +1411,41 @@ impl<'a> Reporter<'a> {
 
         let _ = writeln!(md, "#### Error of the chosen fit over the domain\n");
         if has("heatmap-abs.png") {
-            let _ = writeln!(md, "![{name}: |fit − table|]({}) ([SVG]({}))\n", link("heatmap-abs.png"), link("heatmap-abs.svg"));
-            let _ = writeln!(md, "![{name}: fit − table]({}) ([SVG]({}))\n", link("heatmap-signed.png"), link("heatmap-signed.svg"));
+            let _ = writeln!(
+                md,
+                "![{name}: |fit − table|]({}) ([SVG]({}))\n",
+                link("heatmap-abs.png"),
+                link("heatmap-abs.svg")
+            );
+            let _ = writeln!(
+                md,
+                "![{name}: fit − table]({}) ([SVG]({}))\n",
+                link("heatmap-signed.png"),
+                link("heatmap-signed.svg")
+            );
         } else {
-            let _ = writeln!(md, "No chosen fit yet (run `furnace fit --model {} --sweep` first).\n", cli_model(name));
+            let _ = writeln!(
+                md,
+                "No chosen fit yet (run `furnace fit --model {} --sweep` first).\n",
+                cli_model(name)
+            );
         }
         let _ = writeln!(md, "#### Slices E(μ) at several r\n");
         if has("slices.png") {
-            let _ = writeln!(md, "![{name}: E(μ) slices]({}) ([SVG]({}))\n", link("slices.png"), link("slices.svg"));
+            let _ = writeln!(
+                md,
+                "![{name}: E(μ) slices]({}) ([SVG]({}))\n",
+                link("slices.png"),
+                link("slices.svg")
+            );
         }
 
         if let Some(p) = &s.paper {
-            let _ = writeln!(md, "#### Against the paper's published fit (`{}`)\n", p.paper_table);
+            let _ = writeln!(
+                md,
+                "#### Against the paper's published fit (`{}`)\n",
+                p.paper_table
+            );
             let _ = writeln!(md, "{}\n", paper_table_markdown(std::slice::from_ref(p)));
             for n in &p.notes {
                 let _ = writeln!(md, "- {n}");
@@ -984,7 +1459,18 @@ impl<'a> Reporter<'a> {
             let _ = writeln!(md, "#### White furnace test\n");
             let _ = writeln!(md, "max |1 − E| of the energy-compensated BSDF, E integrated by quadrature of the BSDF over incident directions (`furnace::report::furnace`), at table nodes.\n");
             for row in &s.furnace {
-                let _ = writeln!(md, "**{}** ({} points; quadrature error estimate ≤ {}{})\n", row.material, row.points, fmt_e(row.quadrature_error), if row.unconverged > 0 { format!(", {} points unconverged", row.unconverged) } else { String::new() });
+                let _ = writeln!(
+                    md,
+                    "**{}** ({} points; quadrature error estimate ≤ {}{})\n",
+                    row.material,
+                    row.points,
+                    fmt_e(row.quadrature_error),
+                    if row.unconverged > 0 {
+                        format!(", {} points unconverged", row.unconverged)
+                    } else {
+                        String::new()
+                    }
+                );
                 let _ = writeln!(md, "| compensation | max \\|1 − E\\| | at | mean \\|1 − E\\| | E range | albedo source |");
                 let _ = writeln!(md, "| --- | ---: | --- | ---: | --- | --- |");
                 for v in &row.variants {
@@ -1029,18 +1515,42 @@ fn data_axes_for(_id: &str, axes: &[String]) -> Vec<String> {
 
 /// `{:.2e}`, or "–" for a non-finite value.
 pub fn fmt_e(v: f64) -> String {
-    if v.is_finite() { format!("{v:.2e}") } else { "–".into() }
+    if v.is_finite() {
+        format!("{v:.2e}")
+    } else {
+        "–".into()
+    }
 }
 
 /// `{:.4}`, or "–".
 pub fn fmt_f(v: f64) -> String {
-    if v.is_finite() { format!("{v:.4}") } else { "–".into() }
+    if v.is_finite() {
+        format!("{v:.4}")
+    } else {
+        "–".into()
+    }
 }
 
 /// "r = 0.5, μ = 0.25".
 fn fmt_point(x: &[f64], axes: &[String]) -> String {
-    let names: Vec<String> = if axes.len() == x.len() { axes.to_vec() } else if x.len() == 3 { vec!["f0".into(), "r".into(), "mu".into()] } else { vec!["r".into(), "mu".into()] };
-    x.iter().zip(names).map(|(v, n)| format!("{} = {}", if n == "mu" { "μ".to_string() } else { n }, plot::format_number(*v))).collect::<Vec<_>>().join(", ")
+    let names: Vec<String> = if axes.len() == x.len() {
+        axes.to_vec()
+    } else if x.len() == 3 {
+        vec!["f0".into(), "r".into(), "mu".into()]
+    } else {
+        vec!["r".into(), "mu".into()]
+    };
+    x.iter()
+        .zip(names)
+        .map(|(v, n)| {
+            format!(
+                "{} = {}",
+                if n == "mu" { "μ".to_string() } else { n },
+                plot::format_number(*v)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The side-by-side table of furnace's fit and the paper's published fit.
@@ -1052,14 +1562,37 @@ pub fn paper_table_markdown(rows: &[PaperRow]) -> String {
         let on = format!("`{}` {}", p.convention_model, p.resolution);
         match &p.furnace_fit {
             Some(f) => {
-                let _ = writeln!(md, "| {} | {on} | furnace (`{}`) | {} | {} | {} | {} | {} |", p.paper_table, f.source, f.form, f.n_coefficients, fmt_e(f.measured.mae), fmt_e(f.measured.max_abs), p.furnace_fit_furnace.map_or("–".into(), fmt_e));
+                let _ = writeln!(
+                    md,
+                    "| {} | {on} | furnace (`{}`) | {} | {} | {} | {} | {} |",
+                    p.paper_table,
+                    f.source,
+                    f.form,
+                    f.n_coefficients,
+                    fmt_e(f.measured.mae),
+                    fmt_e(f.measured.max_abs),
+                    p.furnace_fit_furnace.map_or("–".into(), fmt_e)
+                );
             }
             None => {
-                let _ = writeln!(md, "| {} | {on} | furnace | no fit yet | | | | |", p.paper_table);
+                let _ = writeln!(
+                    md,
+                    "| {} | {on} | furnace | no fit yet | | | | |",
+                    p.paper_table
+                );
             }
         }
         let f = &p.paper_fit;
-        let _ = writeln!(md, "| {} | {on} | paper (published) | {} | {} | {} | {} | {} |", p.paper_table, f.form, f.n_coefficients, fmt_e(f.measured.mae), fmt_e(f.measured.max_abs), p.paper_fit_furnace.map_or("–".into(), fmt_e));
+        let _ = writeln!(
+            md,
+            "| {} | {on} | paper (published) | {} | {} | {} | {} | {} |",
+            p.paper_table,
+            f.form,
+            f.n_coefficients,
+            fmt_e(f.measured.mae),
+            fmt_e(f.measured.max_abs),
+            p.paper_fit_furnace.map_or("–".into(), fmt_e)
+        );
     }
     md.trim_end().to_string()
 }
@@ -1068,7 +1601,9 @@ pub fn paper_table_markdown(rows: &[PaperRow]) -> String {
 /// `dir` does not exist.
 fn files_digest(dir: &Path) -> Result<Vec<(String, String)>> {
     fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, String)>) -> Result<()> {
-        let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return Ok(());
+        };
         let mut paths: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
         paths.sort();
         for p in paths {
@@ -1076,7 +1611,13 @@ fn files_digest(dir: &Path) -> Result<Vec<(String, String)>> {
                 walk(root, &p, out)?;
             } else if p.extension().is_some_and(|e| e == "json") {
                 let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
-                out.push((p.strip_prefix(root).unwrap_or(&p).to_string_lossy().replace('\\', "/"), sha256_hex(&bytes)));
+                out.push((
+                    p.strip_prefix(root)
+                        .unwrap_or(&p)
+                        .to_string_lossy()
+                        .replace('\\', "/"),
+                    sha256_hex(&bytes),
+                ));
             }
         }
         Ok(())
@@ -1094,7 +1635,9 @@ const NEARLY_CONSTANT: f64 = 1e-4;
 /// subtracts their midpoint (rounded to 3 significant digits) and returns it.
 fn offset_nearly_constant(series: &mut [Series]) -> Option<f64> {
     let ys = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
-    let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+    let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
+        (lo.min(y), hi.max(y))
+    });
     if !(lo.is_finite() && hi.is_finite()) || hi - lo >= NEARLY_CONSTANT * hi.abs().max(1.0) {
         return None;
     }
@@ -1163,10 +1706,23 @@ mod tests {
     #[test]
     fn nearly_constant_values_are_shown_as_offsets() {
         let key = RGBColorKey::black();
-        let mut s = vec![Series::new("a", vec![(0.0, 1.0 + 1e-9), (1.0, 1.0 - 2e-9)], key, Style::Line), Series::new("key", vec![], key, Style::Line)];
+        let mut s = vec![
+            Series::new(
+                "a",
+                vec![(0.0, 1.0 + 1e-9), (1.0, 1.0 - 2e-9)],
+                key,
+                Style::Line,
+            ),
+            Series::new("key", vec![], key, Style::Line),
+        ];
         assert_eq!(offset_nearly_constant(&mut s), Some(1.0));
         assert!((s[0].points[1].1 + 2e-9).abs() < 1e-15);
-        let mut s = vec![Series::new("a", vec![(0.0, 0.3), (1.0, 0.9)], key, Style::Line)];
+        let mut s = vec![Series::new(
+            "a",
+            vec![(0.0, 0.3), (1.0, 0.9)],
+            key,
+            Style::Line,
+        )];
         assert_eq!(offset_nearly_constant(&mut s), None);
         assert_eq!(s[0].points[0].1, 0.3);
     }

@@ -67,10 +67,18 @@ pub struct Axis {
 
 impl Axis {
     pub fn linear(label: &str) -> Axis {
-        Axis { label: label.into(), scale: Scale::Linear, range: None }
+        Axis {
+            label: label.into(),
+            scale: Scale::Linear,
+            range: None,
+        }
     }
     pub fn log(label: &str) -> Axis {
-        Axis { label: label.into(), scale: Scale::Log10, range: None }
+        Axis {
+            label: label.into(),
+            scale: Scale::Log10,
+            range: None,
+        }
     }
     pub fn with_range(mut self, lo: f64, hi: f64) -> Axis {
         self.range = Some((lo, hi));
@@ -114,7 +122,13 @@ pub struct Series {
 
 impl Series {
     pub fn new(label: &str, points: Vec<(f64, f64)>, color: RGBColor, style: Style) -> Series {
-        Series { label: label.into(), points, color, style, marker: Marker::Circle }
+        Series {
+            label: label.into(),
+            points,
+            color,
+            style,
+            marker: Marker::Circle,
+        }
     }
     pub fn marker(mut self, marker: Marker) -> Series {
         self.marker = marker;
@@ -190,7 +204,11 @@ pub fn format_number(v: f64) -> String {
     if (0.0095..1e4).contains(&a) {
         let decimals = (2 - a.log10().floor() as i32).clamp(0, 6) as usize;
         let s = format!("{v:.decimals$}");
-        let s = if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s };
+        let s = if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        };
         return if s == "-0" { "0".into() } else { s };
     }
     format!("{v:.1e}").replace(".0e", "e")
@@ -225,7 +243,11 @@ fn axis_range(axis: &Axis, values: impl Iterator<Item = f64>) -> (f64, f64) {
             }
         };
     }
-    let pad = if axis.scale == Scale::Log10 { 0.15 } else { 0.05 * (hi - lo) };
+    let pad = if axis.scale == Scale::Log10 {
+        0.15
+    } else {
+        0.05 * (hi - lo)
+    };
     match axis.scale {
         // decades: snap outwards so that the end ticks are powers of ten
         Scale::Log10 => ((lo - pad).floor(), (hi + pad).ceil()),
@@ -233,7 +255,10 @@ fn axis_range(axis: &Axis, values: impl Iterator<Item = f64>) -> (f64, f64) {
     }
 }
 
-fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) -> std::result::Result<(), String> {
+fn draw_chart<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    chart: &Chart,
+) -> std::result::Result<(), String> {
     if chart.legend == LegendAt::Right {
         let (w, _) = area.dim_in_pixel();
         let (plot_area, legend_area) = area.split_horizontally(w.saturating_sub(LEGEND_COLUMN));
@@ -244,39 +269,85 @@ fn draw_chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) 
 }
 
 /// A legend drawn by hand in its own area: one row per labelled series.
-fn draw_legend_column<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, series: &[Series]) -> std::result::Result<(), String> {
+fn draw_legend_column<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    series: &[Series],
+) -> std::result::Result<(), String> {
     const ROW: i32 = 22;
-    let text = TextStyle::from((FONT, LEGEND_SIZE).into_font()).pos(plotters::style::text_anchor::Pos::new(plotters::style::text_anchor::HPos::Left, plotters::style::text_anchor::VPos::Center));
+    let text = TextStyle::from((FONT, LEGEND_SIZE).into_font()).pos(
+        plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Left,
+            plotters::style::text_anchor::VPos::Center,
+        ),
+    );
     let mut y = 64;
     for s in series.iter().filter(|s| !s.label.is_empty()) {
         let line = s.color.stroke_width(2);
         let (x0, xm) = (6, 18);
         match s.style {
-            Style::Line | Style::LinePoints => area.draw(&PathElement::new(vec![(x0, y), (x0 + 24, y)], line)).map_err(plot_err)?,
+            Style::Line | Style::LinePoints => area
+                .draw(&PathElement::new(vec![(x0, y), (x0 + 24, y)], line))
+                .map_err(plot_err)?,
             Style::Dashed => {
-                area.draw(&PathElement::new(vec![(x0, y), (x0 + 9, y)], line)).map_err(plot_err)?;
-                area.draw(&PathElement::new(vec![(x0 + 15, y), (x0 + 24, y)], line)).map_err(plot_err)?;
+                area.draw(&PathElement::new(vec![(x0, y), (x0 + 9, y)], line))
+                    .map_err(plot_err)?;
+                area.draw(&PathElement::new(vec![(x0 + 15, y), (x0 + 24, y)], line))
+                    .map_err(plot_err)?;
             }
             Style::Points => {}
         }
         if matches!(s.style, Style::Points | Style::LinePoints) {
             let c = s.color;
             match s.marker {
-                Marker::Circle => area.draw(&Circle::new((xm, y), MARKER, c.filled())).map_err(plot_err)?,
-                Marker::Square => area.draw(&Rectangle::new([(xm - MARKER, y - MARKER), (xm + MARKER, y + MARKER)], c.filled())).map_err(plot_err)?,
-                Marker::Triangle => area.draw(&Polygon::new(vec![(xm, y - MARKER - 1), (xm - MARKER - 1, y + MARKER), (xm + MARKER + 1, y + MARKER)], c.filled())).map_err(plot_err)?,
-                Marker::Cross => area.draw(&PathElement::new(CROSS.iter().map(|&(dx, dy)| (xm + dx, y + dy)).collect::<Vec<_>>(), c.stroke_width(3))).map_err(plot_err)?,
+                Marker::Circle => area
+                    .draw(&Circle::new((xm, y), MARKER, c.filled()))
+                    .map_err(plot_err)?,
+                Marker::Square => area
+                    .draw(&Rectangle::new(
+                        [(xm - MARKER, y - MARKER), (xm + MARKER, y + MARKER)],
+                        c.filled(),
+                    ))
+                    .map_err(plot_err)?,
+                Marker::Triangle => area
+                    .draw(&Polygon::new(
+                        vec![
+                            (xm, y - MARKER - 1),
+                            (xm - MARKER - 1, y + MARKER),
+                            (xm + MARKER + 1, y + MARKER),
+                        ],
+                        c.filled(),
+                    ))
+                    .map_err(plot_err)?,
+                Marker::Cross => area
+                    .draw(&PathElement::new(
+                        CROSS
+                            .iter()
+                            .map(|&(dx, dy)| (xm + dx, y + dy))
+                            .collect::<Vec<_>>(),
+                        c.stroke_width(3),
+                    ))
+                    .map_err(plot_err)?,
             }
         }
-        area.draw_text(&s.label, &text, (x0 + 32, y)).map_err(plot_err)?;
+        area.draw_text(&s.label, &text, (x0 + 32, y))
+            .map_err(plot_err)?;
         y += ROW;
     }
     Ok(())
 }
 
-fn draw_chart_inner<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Chart) -> std::result::Result<(), String> {
-    let xs = chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
-    let ys = chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+fn draw_chart_inner<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    chart: &Chart,
+) -> std::result::Result<(), String> {
+    let xs = chart
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0));
+    let ys = chart
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1));
     let (x0, x1) = axis_range(&chart.x, xs);
     let (mut y0, mut y1) = axis_range(&chart.y, ys);
     let room = chart.legend_room * (y1 - y0);
@@ -295,8 +366,20 @@ fn draw_chart_inner<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &C
         .map_err(plot_err)?;
     // ticks at rounding noise around zero read as 0
     let snap = |v: f64, span: f64| if v.abs() < 1e-9 * span { 0.0 } else { v };
-    let x_fmt = |v: &f64| if chart.x.scale == Scale::Log10 { log_tick(*v) } else { format_number(snap(*v, x1 - x0)) };
-    let y_fmt = |v: &f64| if chart.y.scale == Scale::Log10 { log_tick(*v) } else { format_number(snap(*v, y1 - y0)) };
+    let x_fmt = |v: &f64| {
+        if chart.x.scale == Scale::Log10 {
+            log_tick(*v)
+        } else {
+            format_number(snap(*v, x1 - x0))
+        }
+    };
+    let y_fmt = |v: &f64| {
+        if chart.y.scale == Scale::Log10 {
+            log_tick(*v)
+        } else {
+            format_number(snap(*v, y1 - y0))
+        }
+    };
     let decades = |lo: f64, hi: f64| ((hi - lo).round() as usize + 1).clamp(2, 12);
     let mut mesh = cc.configure_mesh();
     mesh.x_desc(chart.x.label.as_str())
@@ -333,30 +416,55 @@ fn draw_chart_inner<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &C
             ($shape:expr) => {{
                 if has_line {
                     let anno = if s.style == Style::Dashed {
-                        cc.draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line)).map_err(plot_err)?
+                        cc.draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line))
+                            .map_err(plot_err)?
                     } else {
-                        cc.draw_series(LineSeries::new(pts.clone(), line)).map_err(plot_err)?
+                        cc.draw_series(LineSeries::new(pts.clone(), line))
+                            .map_err(plot_err)?
                     };
                     if labelled && has_points {
-                        anno.label(label).legend(move |(x, y)| EmptyElement::at((x + 12, y)) + PathElement::new(vec![(-12, 0), (12, 0)], line) + $shape);
+                        anno.label(label).legend(move |(x, y)| {
+                            EmptyElement::at((x + 12, y))
+                                + PathElement::new(vec![(-12, 0), (12, 0)], line)
+                                + $shape
+                        });
                     } else if labelled && s.style == Style::Dashed {
-                        anno.label(label).legend(move |(x, y)| EmptyElement::at((x, y)) + PathElement::new(vec![(0, 0), (9, 0)], line) + PathElement::new(vec![(15, 0), (24, 0)], line));
+                        anno.label(label).legend(move |(x, y)| {
+                            EmptyElement::at((x, y))
+                                + PathElement::new(vec![(0, 0), (9, 0)], line)
+                                + PathElement::new(vec![(15, 0), (24, 0)], line)
+                        });
                     } else if labelled {
-                        anno.label(label).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], line));
+                        anno.label(label).legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 24, y)], line)
+                        });
                     }
                 }
                 if has_points {
-                    let anno = cc.draw_series(pts.iter().map(|&p| EmptyElement::at(p) + $shape)).map_err(plot_err)?;
+                    let anno = cc
+                        .draw_series(pts.iter().map(|&p| EmptyElement::at(p) + $shape))
+                        .map_err(plot_err)?;
                     if labelled && !has_line {
-                        anno.label(label).legend(move |(x, y)| EmptyElement::at((x + 12, y)) + $shape);
+                        anno.label(label)
+                            .legend(move |(x, y)| EmptyElement::at((x + 12, y)) + $shape);
                     }
                 }
             }};
         }
         match s.marker {
             Marker::Circle => draw_with!(Circle::new((0, 0), MARKER, c.filled())),
-            Marker::Square => draw_with!(Rectangle::new([(-MARKER, -MARKER), (MARKER, MARKER)], c.filled())),
-            Marker::Triangle => draw_with!(Polygon::new(vec![(0, -MARKER - 1), (-MARKER - 1, MARKER), (MARKER + 1, MARKER)], c.filled())),
+            Marker::Square => draw_with!(Rectangle::new(
+                [(-MARKER, -MARKER), (MARKER, MARKER)],
+                c.filled()
+            )),
+            Marker::Triangle => draw_with!(Polygon::new(
+                vec![
+                    (0, -MARKER - 1),
+                    (-MARKER - 1, MARKER),
+                    (MARKER + 1, MARKER)
+                ],
+                c.filled()
+            )),
             Marker::Cross => draw_with!(PathElement::new(CROSS.to_vec(), c.stroke_width(3))),
         }
     }
@@ -385,13 +493,29 @@ const MARKER: i32 = 5;
 const CROSS: [(i32, i32); 5] = [(-6, -6), (6, 6), (0, 0), (-6, 6), (6, -6)];
 
 /// Splits `root` under a title (if any) into `n` equal panels side by side.
-fn panels<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: Option<&str>, n: usize) -> std::result::Result<Vec<DrawingArea<DB, Shift>>, String> {
+fn panels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: Option<&str>,
+    n: usize,
+) -> std::result::Result<Vec<DrawingArea<DB, Shift>>, String> {
     root.fill(&WHITE).map_err(plot_err)?;
     let body = match title {
         Some(t) => {
             let (top, body) = root.split_vertically(TITLE_SIZE as i32 + 18);
-            top.draw_text(t, &TextStyle::from((FONT, TITLE_SIZE).into_font()).pos(plotters::style::text_anchor::Pos::new(plotters::style::text_anchor::HPos::Center, plotters::style::text_anchor::VPos::Center)), (top.dim_in_pixel().0 as i32 / 2, (TITLE_SIZE as i32 + 18) / 2))
-                .map_err(plot_err)?;
+            top.draw_text(
+                t,
+                &TextStyle::from((FONT, TITLE_SIZE).into_font()).pos(
+                    plotters::style::text_anchor::Pos::new(
+                        plotters::style::text_anchor::HPos::Center,
+                        plotters::style::text_anchor::VPos::Center,
+                    ),
+                ),
+                (
+                    top.dim_in_pixel().0 as i32 / 2,
+                    (TITLE_SIZE as i32 + 18) / 2,
+                ),
+            )
+            .map_err(plot_err)?;
             body
         }
         None => root.clone(),
@@ -402,14 +526,20 @@ fn panels<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: Option<&str>
 /// Something drawable on any plotters backend.
 pub trait Draw {
     fn size(&self) -> (u32, u32);
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String>;
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+    ) -> std::result::Result<(), String>;
 }
 
 impl Draw for Figure {
     fn size(&self) -> (u32, u32) {
         self.size
     }
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+    ) -> std::result::Result<(), String> {
         let areas = panels(root, self.title.as_deref(), self.charts.len())?;
         for (a, c) in areas.iter().zip(&self.charts) {
             draw_chart(a, c)?;
@@ -453,7 +583,9 @@ pub fn save(d: &impl Draw, stem: &Path, formats: Formats) -> Result<Vec<PathBuf>
         let mut svg = String::new();
         {
             let root = SVGBackend::with_string(&mut svg, d.size()).into_drawing_area();
-            d.draw(&root).and_then(|_| root.present().map_err(plot_err)).map_err(|e| Error::file(&svg_path, format!("cannot draw the figure: {e}")))?;
+            d.draw(&root)
+                .and_then(|_| root.present().map_err(plot_err))
+                .map_err(|e| Error::file(&svg_path, format!("cannot draw the figure: {e}")))?;
         }
         crate::table::io::write_atomic(&svg_path, svg.as_bytes())?;
         written.push(svg_path);
@@ -480,8 +612,16 @@ pub enum ColorScale {
 
 /// sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
 pub fn srgb_encode(v: f64) -> f64 {
-    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
-    if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
+    let v = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 /// Viridis, 9 control points (matplotlib's viridis at t = k/8), linear between them.
@@ -498,10 +638,20 @@ const VIRIDIS: [(u8, u8, u8); 9] = [
 ];
 
 /// Diverging (ColorBrewer RdBu, reversed so that negative is blue) at t = −1, −0.5, 0, 0.5, 1.
-const DIVERGING: [(u8, u8, u8); 5] = [(5, 48, 97), (67, 147, 195), (247, 247, 247), (214, 96, 77), (103, 0, 31)];
+const DIVERGING: [(u8, u8, u8); 5] = [
+    (5, 48, 97),
+    (67, 147, 195),
+    (247, 247, 247),
+    (214, 96, 77),
+    (103, 0, 31),
+];
 
 fn ramp(stops: &[(u8, u8, u8)], t: f64) -> RGBColor {
-    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let x = t * (stops.len() - 1) as f64;
     let i = (x.floor() as usize).min(stops.len() - 2);
     let f = x - i as f64;
@@ -528,13 +678,17 @@ impl ColorScale {
                 let t = ((v.abs() / floor).log10() / (max / floor).log10()).clamp(0.0, 1.0);
                 0.5 + 0.5 * t * v.signum()
             }
-            ColorScale::Linear { lo, hi } | ColorScale::Gray { lo, hi } => ((v - lo) / (hi - lo)).clamp(0.0, 1.0),
+            ColorScale::Linear { lo, hi } | ColorScale::Gray { lo, hi } => {
+                ((v - lo) / (hi - lo)).clamp(0.0, 1.0)
+            }
         }
     }
 
     pub fn color(&self, v: f64) -> RGBColor {
         match self {
-            ColorScale::Signed { .. } | ColorScale::SignedLog { .. } => ramp(&DIVERGING, self.position(v)),
+            ColorScale::Signed { .. } | ColorScale::SignedLog { .. } => {
+                ramp(&DIVERGING, self.position(v))
+            }
             ColorScale::Gray { lo, hi } => {
                 let g = (255.0 * srgb_encode(lo + (hi - lo) * self.position(v))).round() as u8;
                 RGBColor(g, g, g)
@@ -557,21 +711,50 @@ impl ColorScale {
     /// A log scale spanning the positive finite `values` (at most `decades` decades below the
     /// maximum), snapped to powers of ten.
     pub fn log_for(values: &[f64], decades: f64) -> ColorScale {
-        let hi = values.iter().copied().filter(|v| v.is_finite() && *v > 0.0).fold(0.0, f64::max);
+        let hi = values
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .fold(0.0, f64::max);
         if hi <= 0.0 {
-            return ColorScale::Log { lo: 1e-16, hi: 1e-15 };
+            return ColorScale::Log {
+                lo: 1e-16,
+                hi: 1e-15,
+            };
         }
         let hi_exp = hi.log10().ceil();
-        let lo_pos = values.iter().copied().filter(|v| v.is_finite() && *v > 0.0).fold(f64::INFINITY, f64::min);
-        let lo_exp = lo_pos.log10().floor().max(hi_exp - decades).min(hi_exp - 1.0);
-        ColorScale::Log { lo: 10f64.powf(lo_exp), hi: 10f64.powf(hi_exp) }
+        let lo_pos = values
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let lo_exp = lo_pos
+            .log10()
+            .floor()
+            .max(hi_exp - decades)
+            .min(hi_exp - 1.0);
+        ColorScale::Log {
+            lo: 10f64.powf(lo_exp),
+            hi: 10f64.powf(hi_exp),
+        }
     }
 
     /// A signed log scale from the largest |value| down `decades` decades (at least 1e-9).
     pub fn signed_log_for(values: &[f64], decades: f64) -> ColorScale {
-        let m = values.iter().copied().filter(|v| v.is_finite()).fold(0.0, |a: f64, v| a.max(v.abs()));
-        let max = if m > 0.0 { 10f64.powf(m.log10().ceil()) } else { 1.0 };
-        ColorScale::SignedLog { floor: (max / 10f64.powf(decades)).max(1e-9), max }
+        let m = values
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(0.0, |a: f64, v| a.max(v.abs()));
+        let max = if m > 0.0 {
+            10f64.powf(m.log10().ceil())
+        } else {
+            1.0
+        };
+        ColorScale::SignedLog {
+            floor: (max / 10f64.powf(decades)).max(1e-9),
+            max,
+        }
     }
 
     /// The value at bar coordinate `u` (inverse of the bar's mapping).
@@ -591,8 +774,14 @@ impl ColorScale {
 
     /// A symmetric scale covering the largest |value|.
     pub fn signed_for(values: &[f64]) -> ColorScale {
-        let m = values.iter().copied().filter(|v| v.is_finite()).fold(0.0, |a: f64, v| a.max(v.abs()));
-        ColorScale::Signed { max: if m > 0.0 { m } else { 1.0 } }
+        let m = values
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(0.0, |a: f64, v| a.max(v.abs()));
+        ColorScale::Signed {
+            max: if m > 0.0 { m } else { 1.0 },
+        }
     }
 }
 
@@ -624,10 +813,16 @@ pub struct HeatFigure {
 /// Width of the colour-bar column in pixels.
 const BAR_COLUMN: u32 = 150;
 
-fn draw_heat_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &HeatPanel, scale: &ColorScale) -> std::result::Result<(), String> {
+fn draw_heat_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &HeatPanel,
+    scale: &ColorScale,
+) -> std::result::Result<(), String> {
     // the title drawn apart, so that the max-error marker on the top row (which reaches above
     // the cells) has room below it
-    let area = area.titled(&p.title, (FONT, CAPTION_SIZE)).map_err(plot_err)?;
+    let area = area
+        .titled(&p.title, (FONT, CAPTION_SIZE))
+        .map_err(plot_err)?;
     let mut cc = ChartBuilder::on(&area)
         .margin(12)
         .margin_top(16)
@@ -660,11 +855,18 @@ fn draw_heat_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &HeatPa
     if let Some((at, text)) = &p.mark {
         let halo = RGBColor(255, 255, 255).stroke_width(6);
         let ink = RGBColor(0, 0, 0).stroke_width(3);
-        cc.draw_series(std::iter::once(EmptyElement::at(*at) + PathElement::new(CROSS.to_vec(), halo))).map_err(plot_err)?;
-        cc.draw_series(std::iter::once(EmptyElement::at(*at) + PathElement::new(CROSS.to_vec(), ink)))
-            .map_err(plot_err)?
-            .label(text.as_str())
-            .legend(move |(x, y)| EmptyElement::at((x + 10, y)) + PathElement::new(CROSS.to_vec(), ink));
+        cc.draw_series(std::iter::once(
+            EmptyElement::at(*at) + PathElement::new(CROSS.to_vec(), halo),
+        ))
+        .map_err(plot_err)?;
+        cc.draw_series(std::iter::once(
+            EmptyElement::at(*at) + PathElement::new(CROSS.to_vec(), ink),
+        ))
+        .map_err(plot_err)?
+        .label(text.as_str())
+        .legend(move |(x, y)| {
+            EmptyElement::at((x + 10, y)) + PathElement::new(CROSS.to_vec(), ink)
+        });
         cc.configure_series_labels()
             .position(SeriesLabelPosition::LowerRight)
             .background_style(WHITE.mix(0.9))
@@ -677,7 +879,11 @@ fn draw_heat_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &HeatPa
 }
 
 /// Draws a vertical colour bar for `scale` with its label.
-pub fn draw_colorbar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, scale: &ColorScale, label: &str) -> std::result::Result<(), String> {
+pub fn draw_colorbar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    scale: &ColorScale,
+    label: &str,
+) -> std::result::Result<(), String> {
     let (lo, hi, log) = scale.bar_range();
     let mut cc = ChartBuilder::on(area)
         .margin_top(48)
@@ -697,8 +903,11 @@ pub fn draw_colorbar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, scale: &
         Rectangle::new([(0.0, v0), (1.0, v0 + step)], scale.color(value).filled())
     }))
     .map_err(plot_err)?;
-    cc.draw_series(std::iter::once(Rectangle::new([(0.0, lo), (1.0, hi)], RGBColor(90, 90, 90).stroke_width(1))))
-        .map_err(plot_err)?;
+    cc.draw_series(std::iter::once(Rectangle::new(
+        [(0.0, lo), (1.0, hi)],
+        RGBColor(90, 90, 90).stroke_width(1),
+    )))
+    .map_err(plot_err)?;
     // a leading space keeps the tick mark from reading as a minus sign
     let fmt = |v: &f64| {
         let v = if v.abs() < 1e-9 * (hi - lo) { 0.0 } else { *v }; // rounding noise at the centre
@@ -725,7 +934,10 @@ impl Draw for HeatFigure {
     fn size(&self) -> (u32, u32) {
         self.size
     }
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+    ) -> std::result::Result<(), String> {
         root.fill(&WHITE).map_err(plot_err)?;
         let (w, _) = root.dim_in_pixel();
         let (body, bar) = root.split_horizontally(w.saturating_sub(BAR_COLUMN));
@@ -733,7 +945,11 @@ impl Draw for HeatFigure {
         for (a, p) in areas.iter().zip(&self.panels) {
             draw_heat_panel(a, p, &self.scale)?;
         }
-        let bar = if self.title.is_some() { bar.split_vertically(TITLE_SIZE as i32 + 18).1 } else { bar };
+        let bar = if self.title.is_some() {
+            bar.split_vertically(TITLE_SIZE as i32 + 18).1
+        } else {
+            bar
+        };
         draw_colorbar(&bar, &self.scale, &self.colorbar_label)
     }
 }
@@ -792,7 +1008,9 @@ mod crisp {
     use ab_glyph::{Font, FontRef, PxScale, ScaleFont};
     use plotters::prelude::DrawingBackend;
     use plotters_backend::text_anchor::{HPos, VPos};
-    use plotters_backend::{BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind, FontStyle};
+    use plotters_backend::{
+        BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind, FontStyle,
+    };
 
     impl<B: DrawingBackend> DrawingBackend for CrispText<B> {
         type ErrorType = B::ErrorType;
@@ -805,38 +1023,83 @@ mod crisp {
         fn present(&mut self) -> Result<(), DrawingErrorKind<B::ErrorType>> {
             self.0.present()
         }
-        fn draw_pixel(&mut self, p: BackendCoord, c: BackendColor) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        fn draw_pixel(
+            &mut self,
+            p: BackendCoord,
+            c: BackendColor,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
             self.0.draw_pixel(p, c)
         }
-        fn draw_line<S: BackendStyle>(&mut self, a: BackendCoord, b: BackendCoord, s: &S) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        fn draw_line<S: BackendStyle>(
+            &mut self,
+            a: BackendCoord,
+            b: BackendCoord,
+            s: &S,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
             self.0.draw_line(a, b, s)
         }
-        fn draw_rect<S: BackendStyle>(&mut self, a: BackendCoord, b: BackendCoord, s: &S, fill: bool) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        fn draw_rect<S: BackendStyle>(
+            &mut self,
+            a: BackendCoord,
+            b: BackendCoord,
+            s: &S,
+            fill: bool,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
             self.0.draw_rect(a, b, s, fill)
         }
-        fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(&mut self, path: I, s: &S) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+            &mut self,
+            path: I,
+            s: &S,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
             self.0.draw_path(path, s)
         }
-        fn draw_circle<S: BackendStyle>(&mut self, c: BackendCoord, r: u32, s: &S, fill: bool) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        fn draw_circle<S: BackendStyle>(
+            &mut self,
+            c: BackendCoord,
+            r: u32,
+            s: &S,
+            fill: bool,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
             self.0.draw_circle(c, r, s, fill)
         }
-        fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(&mut self, v: I, s: &S) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+            &mut self,
+            v: I,
+            s: &S,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
             self.0.fill_polygon(v, s)
         }
-        fn blit_bitmap(&mut self, pos: BackendCoord, size: (u32, u32), src: &[u8]) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        fn blit_bitmap(
+            &mut self,
+            pos: BackendCoord,
+            size: (u32, u32),
+            src: &[u8],
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
             self.0.blit_bitmap(pos, size, src)
         }
-        fn estimate_text_size<T: BackendTextStyle>(&self, text: &str, style: &T) -> Result<(u32, u32), DrawingErrorKind<B::ErrorType>> {
+        fn estimate_text_size<T: BackendTextStyle>(
+            &self,
+            text: &str,
+            style: &T,
+        ) -> Result<(u32, u32), DrawingErrorKind<B::ErrorType>> {
             self.0.estimate_text_size(text, style)
         }
 
-        fn draw_text<T: BackendTextStyle>(&mut self, text: &str, style: &T, pos: BackendCoord) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        fn draw_text<T: BackendTextStyle>(
+            &mut self,
+            text: &str,
+            style: &T,
+            pos: BackendCoord,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
             let color = style.color();
             if color.alpha == 0.0 {
                 return Ok(());
             }
             // the same box, anchor and transform as plotters' default draw_text
-            let ((min_x, min_y), (max_x, max_y)) = style.layout_box(text).map_err(|e| DrawingErrorKind::FontError(Box::new(e)))?;
+            let ((min_x, min_y), (max_x, max_y)) = style
+                .layout_box(text)
+                .map_err(|e| DrawingErrorKind::FontError(Box::new(e)))?;
             let (width, height) = (max_x - min_x, max_y - min_y);
             let dx = match style.anchor().h_pos {
                 HPos::Left => 0,
@@ -852,7 +1115,8 @@ mod crisp {
                 FontStyle::Bold => dejavu::sans::bold(),
                 _ => dejavu::sans::regular(),
             };
-            let font = FontRef::try_from_slice(bytes).map_err(|e| DrawingErrorKind::FontError(Box::new(e)))?;
+            let font = FontRef::try_from_slice(bytes)
+                .map_err(|e| DrawingErrorKind::FontError(Box::new(e)))?;
             let size = style.size() as f32;
             let scaled = font.as_scaled(PxScale::from(size));
             let trans = style.transform();
@@ -867,12 +1131,21 @@ mod crisp {
                     pen += scaled.kern(p, id);
                 }
                 prev = Some(id);
-                let glyph = id.with_scale_and_position(PxScale::from(size), ab_glyph::point(pen, baseline));
+                let glyph =
+                    id.with_scale_and_position(PxScale::from(size), ab_glyph::point(pen, baseline));
                 pen += scaled.h_advance(id);
-                let Some(outline) = font.outline_glyph(glyph) else { continue };
+                let Some(outline) = font.outline_glyph(glyph) else {
+                    continue;
+                };
                 let bounds = outline.px_bounds();
                 let mut pixels = Vec::new();
-                outline.draw(|x, y, c| pixels.push((bounds.min.x as i32 + x as i32, bounds.min.y as i32 + y as i32, c)));
+                outline.draw(|x, y, c| {
+                    pixels.push((
+                        bounds.min.x as i32 + x as i32,
+                        bounds.min.y as i32 + y as i32,
+                        c,
+                    ))
+                });
                 for (x, y, c) in pixels {
                     if c <= 0.0 {
                         continue;
@@ -880,7 +1153,13 @@ mod crisp {
                     let (x, y) = trans.transform(x + dx - min_x, y + dy - min_y);
                     let (x, y) = (pos.0 + x, pos.1 + y);
                     if x >= 0 && x < w as i32 && y >= 0 && y < h as i32 {
-                        self.0.draw_pixel((x, y), BackendColor { alpha: color.alpha * c.min(1.0) as f64, rgb: color.rgb })?;
+                        self.0.draw_pixel(
+                            (x, y),
+                            BackendColor {
+                                alpha: color.alpha * c.min(1.0) as f64,
+                                rgb: color.rgb,
+                            },
+                        )?;
                     }
                 }
             }

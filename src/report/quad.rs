@@ -103,7 +103,8 @@ fn kronrod(f: &mut impl FnMut(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
 /// ∫ f over [breaks[0], breaks.last()], the breaks (sorted, at least two) seeding the intervals.
 /// A non-finite integrand value is a bug in the caller; it propagates into the result.
 pub fn integrate(mut f: impl FnMut(f64) -> f64, breaks: &[f64], tol: &Tolerance) -> Integral {
-    let mut intervals: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(tol.max_intervals.max(breaks.len()));
+    let mut intervals: Vec<(f64, f64, f64, f64)> =
+        Vec::with_capacity(tol.max_intervals.max(breaks.len()));
     let mut evaluations = 0;
     for w in breaks.windows(2) {
         if w[1] > w[0] {
@@ -126,13 +127,24 @@ pub fn integrate(mut f: impl FnMut(f64) -> f64, breaks: &[f64], tol: &Tolerance)
         let value = value.value();
         let target = tol.abs.max(tol.rel * value.abs());
         let Some(w) = worst else {
-            return Integral { value: 0.0, error: 0.0, evaluations, converged: true };
+            return Integral {
+                value: 0.0,
+                error: 0.0,
+                evaluations,
+                converged: true,
+            };
         };
         let (a, b, _, e) = intervals[w];
         let m = 0.5 * (a + b);
         // Converged, out of budget, or the worst interval cannot be split in floating point.
-        if error <= target || intervals.len() >= tol.max_intervals || !(m > a && m < b) || e == 0.0 {
-            return Integral { value, error, evaluations, converged: error <= target };
+        if error <= target || intervals.len() >= tol.max_intervals || !(m > a && m < b) || e == 0.0
+        {
+            return Integral {
+                value,
+                error,
+                evaluations,
+                converged: error <= target,
+            };
         }
         let (v1, e1) = kronrod(&mut f, a, m);
         let (v2, e2) = kronrod(&mut f, m, b);
@@ -146,8 +158,16 @@ pub fn integrate(mut f: impl FnMut(f64) -> f64, breaks: &[f64], tol: &Tolerance)
 /// x = a + (b − a)(3t² − 2t³) (Sidi 1993), whose derivative vanishes at both ends: square-root
 /// behaviour at a break (a kink curve tangent to a line, a critical angle) becomes smooth in t, so
 /// breaks may sit at such points without the adaptive rule crawling towards them.
-pub fn integrate_smoothed(mut f: impl FnMut(f64) -> f64, breaks: &[f64], tol: &Tolerance) -> Integral {
-    let pieces: Vec<(f64, f64)> = breaks.windows(2).filter(|w| w[1] > w[0]).map(|w| (w[0], w[1])).collect();
+pub fn integrate_smoothed(
+    mut f: impl FnMut(f64) -> f64,
+    breaks: &[f64],
+    tol: &Tolerance,
+) -> Integral {
+    let pieces: Vec<(f64, f64)> = breaks
+        .windows(2)
+        .filter(|w| w[1] > w[0])
+        .map(|w| (w[0], w[1]))
+        .collect();
     let seeds: Vec<f64> = (0..=pieces.len()).map(|k| k as f64).collect();
     integrate(
         |t: f64| {
@@ -156,7 +176,11 @@ pub fn integrate_smoothed(mut f: impl FnMut(f64) -> f64, breaks: &[f64], tol: &T
             let u = t - k as f64;
             let x = a + (b - a) * u * u * (3.0 - 2.0 * u);
             let dx = (b - a) * 6.0 * u * (1.0 - u);
-            if dx == 0.0 { 0.0 } else { f(x) * dx }
+            if dx == 0.0 {
+                0.0
+            } else {
+                f(x) * dx
+            }
         },
         &seeds,
         tol,
@@ -185,12 +209,19 @@ pub fn grade_towards(breaks: &mut Vec<f64>, at: f64, width: f64, lo: f64, hi: f6
 mod tests {
     use super::*;
 
-    const TIGHT: Tolerance = Tolerance { abs: 1e-13, rel: 0.0, max_intervals: 500 };
+    const TIGHT: Tolerance = Tolerance {
+        abs: 1e-13,
+        rel: 0.0,
+        max_intervals: 500,
+    };
 
     #[test]
     fn smooth_integrals_are_exact() {
         let r = integrate(|x: f64| x.exp(), &[0.0, 1.0], &TIGHT);
-        assert!((r.value - (std::f64::consts::E - 1.0)).abs() < 1e-14, "{r:?}");
+        assert!(
+            (r.value - (std::f64::consts::E - 1.0)).abs() < 1e-14,
+            "{r:?}"
+        );
         assert!(r.converged && r.evaluations == 15);
     }
 
@@ -209,8 +240,15 @@ mod tests {
     #[test]
     fn smoothed_pieces_absorb_square_root_ends() {
         // ∫0^1 √(x(1 − x)) dx = π/8 with both ends square-root singular
-        let r = integrate_smoothed(|x: f64| (x * (1.0 - x)).max(0.0).sqrt(), &[0.0, 1.0], &TIGHT);
-        assert!((r.value - std::f64::consts::PI / 8.0).abs() < 1e-13, "{r:?}");
+        let r = integrate_smoothed(
+            |x: f64| (x * (1.0 - x)).max(0.0).sqrt(),
+            &[0.0, 1.0],
+            &TIGHT,
+        );
+        assert!(
+            (r.value - std::f64::consts::PI / 8.0).abs() < 1e-13,
+            "{r:?}"
+        );
         assert!(r.evaluations < 200, "{}", r.evaluations);
     }
 
@@ -229,7 +267,11 @@ mod tests {
 
     #[test]
     fn budget_exhaustion_is_reported() {
-        let tol = Tolerance { abs: 1e-15, rel: 0.0, max_intervals: 3 };
+        let tol = Tolerance {
+            abs: 1e-15,
+            rel: 0.0,
+            max_intervals: 3,
+        };
         let r = integrate(|x: f64| (x - 0.3).abs().sqrt(), &[0.0, 1.0], &tol);
         assert!(!r.converged && r.error > 0.0);
     }

@@ -24,13 +24,19 @@ pub struct ReportOutcome {
 
 /// Files a model's report owns in its folder: figures, images and the two text files.
 fn owned(p: &Path) -> bool {
-    matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "svg")) || matches!(p.file_name().and_then(|e| e.to_str()), Some("section.md" | "summary.json"))
+    matches!(p.extension().and_then(|e| e.to_str()), Some("png" | "svg"))
+        || matches!(
+            p.file_name().and_then(|e| e.to_str()),
+            Some("section.md" | "summary.json")
+        )
 }
 
 /// Removes files of `dir` that a model report owns but did not write this time (stale figures
 /// of a fit that is gone), so that the folder holds exactly what the README links.
 fn remove_stale(dir: &Path, keep: &[PathBuf]) -> Result<()> {
-    let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
     for e in entries.flatten() {
         let p = e.path();
         if p.is_file() && owned(&p) && !keep.iter().any(|k| k == &p) {
@@ -50,7 +56,12 @@ impl Reporter<'_> {
     /// [`Reporter::generate`], calling `done(k, model)` after the k-th section (from 0). With
     /// `reuse`, a section whose inputs are unchanged and whose files are intact is kept as it is
     /// ([`Reporter::reusable_section`]) — it would come out byte for byte the same.
-    pub fn generate_each(&self, models: Option<&[String]>, reuse: bool, done: &mut dyn FnMut(usize, &str)) -> Result<ReportOutcome> {
+    pub fn generate_each(
+        &self,
+        models: Option<&[String]>,
+        reuse: bool,
+        done: &mut dyn FnMut(usize, &str),
+    ) -> Result<ReportOutcome> {
         let all: Vec<String> = REPORT_MODELS.iter().map(|s| s.to_string()).collect();
         let targets = models.map(|m| m.to_vec()).unwrap_or_else(|| all.clone());
         for m in &targets {
@@ -59,7 +70,11 @@ impl Reporter<'_> {
         let mut regenerated = Vec::new();
         let mut reused = Vec::new();
         for (k, m) in targets.iter().enumerate() {
-            let kept = if reuse { self.reusable_section(m)? } else { None };
+            let kept = if reuse {
+                self.reusable_section(m)?
+            } else {
+                None
+            };
             if kept.is_some() {
                 reused.push(m.clone());
             }
@@ -68,7 +83,11 @@ impl Reporter<'_> {
                 None => self.report_model(m)?,
             };
             let dir = self.options.reports_dir.join(m);
-            let mut keep: Vec<PathBuf> = s.files.iter().map(|f| self.options.reports_dir.join(f)).collect();
+            let mut keep: Vec<PathBuf> = s
+                .files
+                .iter()
+                .map(|f| self.options.reports_dir.join(f))
+                .collect();
             keep.push(dir.join("section.md"));
             keep.push(dir.join("summary.json"));
             remove_stale(&dir, &keep)?;
@@ -83,7 +102,12 @@ impl Reporter<'_> {
             }
         }
         let (readme, linked) = self.assemble(&order)?;
-        Ok(ReportOutcome { regenerated, reused, linked, readme })
+        Ok(ReportOutcome {
+            regenerated,
+            reused,
+            linked,
+            readme,
+        })
     }
 
     fn load_summary(&self, model: &str) -> Result<Option<(ModelSummary, String)>> {
@@ -93,7 +117,14 @@ impl Reporter<'_> {
             return Ok(None);
         }
         let text = std::fs::read_to_string(&json).map_err(|e| Error::io(&json, e))?;
-        let summary: ModelSummary = serde_json::from_str(&text).map_err(|e| Error::file(&json, format!("not a report summary ({e}); regenerate with `furnace report --model {model}`")))?;
+        let summary: ModelSummary = serde_json::from_str(&text).map_err(|e| {
+            Error::file(
+                &json,
+                format!(
+                    "not a report summary ({e}); regenerate with `furnace report --model {model}`"
+                ),
+            )
+        })?;
         let section = std::fs::read_to_string(&md).map_err(|e| Error::io(&md, e))?;
         Ok(Some((summary, section)))
     }
@@ -125,16 +156,37 @@ gives the same bytes.\n",
         let _ = writeln!(md, "## Summary\n");
         let _ = writeln!(md, "Errors of the chosen fit against the model's table (at every node); furnace: max |1 − E| of the BSDF compensated with that fit.\n");
         let _ = writeln!(md, "| model | table | fits found | chosen fit | coefficients | MAE | max error | max rel. error | furnace max \\|1 − E\\| |");
-        let _ = writeln!(md, "| --- | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: |");
+        let _ = writeln!(
+            md,
+            "| --- | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: |"
+        );
         for (m, s) in &sections {
             let Some((s, _)) = s else {
                 let _ = writeln!(md, "| [{m}](#{}) | not generated: run `furnace report --model {m}` | | | | | | | |", anchor(m));
                 continue;
             };
-            let furnace = s.furnace.first().and_then(|r| r.variants.iter().find(|v| v.name == "furnace fit")).and_then(|v| v.stats.as_ref()).map(|st| fmt_e(st.max_deviation));
+            let furnace = s
+                .furnace
+                .first()
+                .and_then(|r| r.variants.iter().find(|v| v.name == "furnace fit"))
+                .and_then(|v| v.stats.as_ref())
+                .map(|st| fmt_e(st.max_deviation));
             match s.chosen.and_then(|k| s.fits.get(k)) {
                 Some(f) => {
-                    let _ = writeln!(md, "| [{m}](#{}) | {} | {} | `{}` {} | {} | {} | {} | {} | {} |", anchor(m), s.resolution, s.fits.len(), f.source, f.form, f.n_coefficients, fmt_e(f.measured.mae), fmt_e(f.measured.max_abs), fmt_e(f.measured.max_rel), furnace.unwrap_or_else(|| "–".into()));
+                    let _ = writeln!(
+                        md,
+                        "| [{m}](#{}) | {} | {} | `{}` {} | {} | {} | {} | {} | {} |",
+                        anchor(m),
+                        s.resolution,
+                        s.fits.len(),
+                        f.source,
+                        f.form,
+                        f.n_coefficients,
+                        fmt_e(f.measured.mae),
+                        fmt_e(f.measured.max_abs),
+                        fmt_e(f.measured.max_rel),
+                        furnace.unwrap_or_else(|| "–".into())
+                    );
                 }
                 None => {
                     let _ = writeln!(md, "| [{m}](#{}) | {} | {} | none: run `furnace fit --model {m} --sweep` | | | | | |", anchor(m), s.resolution, s.fits.len());
@@ -145,7 +197,11 @@ gives the same bytes.\n",
 
         // Paper side by side
         let _ = writeln!(md, "## Furnace and the paper, side by side\n");
-        let paper_rows: Vec<_> = sections.iter().filter_map(|(_, s)| s.as_ref()).filter_map(|(s, _)| s.paper.clone()).collect();
+        let paper_rows: Vec<_> = sections
+            .iter()
+            .filter_map(|(_, s)| s.as_ref())
+            .filter_map(|(s, _)| s.paper.clone())
+            .collect();
         if paper_rows.is_empty() {
             let _ = writeln!(md, "No paper comparison: the paper's coefficients were not found (pass `--paper-dir <dsforza96/energy-preservation resources>` or set `FURNACE_PAPER_DATA`), or the separable models' sections are not generated yet.\n");
         } else {
@@ -172,7 +228,10 @@ max |1 − E| over the table nodes tested (1 = energy preserved). Compensations 
 thin and thick dielectrics (ρ_R + ρ_T)/E (§3.4, eq. 19); rough diffuse is Fujii's Oren–Nayar with the EON multiple-scattering lobe built from E.\n"
         );
         let mut columns: Vec<String> = Vec::new();
-        for (_, s) in sections.iter().filter_map(|(m, s)| s.as_ref().map(|s| (m, s))) {
+        for (_, s) in sections
+            .iter()
+            .filter_map(|(m, s)| s.as_ref().map(|s| (m, s)))
+        {
             for row in &s.0.furnace {
                 for v in &row.variants {
                     let key = variant_key(&v.name);
@@ -185,16 +244,35 @@ thin and thick dielectrics (ρ_R + ρ_T)/E (§3.4, eq. 19); rough diffuse is Fuj
         if columns.is_empty() {
             let _ = writeln!(md, "No furnace results yet: generate the sections of the GGX and rough-diffuse models.\n");
         } else {
-            let _ = writeln!(md, "| material | compensation table of | {} |", columns.join(" | "));
+            let _ = writeln!(
+                md,
+                "| material | compensation table of | {} |",
+                columns.join(" | ")
+            );
             let _ = writeln!(md, "| --- | --- |{}", " ---: |".repeat(columns.len()));
             for (m, s) in &sections {
                 let Some((s, _)) = s else { continue };
                 for row in &s.furnace {
                     let mut cells: BTreeMap<String, String> = BTreeMap::new();
                     for v in &row.variants {
-                        cells.insert(variant_key(&v.name), v.stats.as_ref().map_or("–".into(), |st| fmt_e(st.max_deviation)));
+                        cells.insert(
+                            variant_key(&v.name),
+                            v.stats
+                                .as_ref()
+                                .map_or("–".into(), |st| fmt_e(st.max_deviation)),
+                        );
                     }
-                    let _ = writeln!(md, "| {} | [{m}](#{}) | {} |", row.material, anchor(m), columns.iter().map(|c| cells.get(c).cloned().unwrap_or_else(|| "–".into())).collect::<Vec<_>>().join(" | "));
+                    let _ = writeln!(
+                        md,
+                        "| {} | [{m}](#{}) | {} |",
+                        row.material,
+                        anchor(m),
+                        columns
+                            .iter()
+                            .map(|c| cells.get(c).cloned().unwrap_or_else(|| "–".into()))
+                            .collect::<Vec<_>>()
+                            .join(" | ")
+                    );
                 }
             }
             let _ = writeln!(md, "\nLUT and table sizes are given in each model's section. Rows of spheres of increasing roughness (the paper's Figs. 2 and 4):\n");
@@ -228,8 +306,20 @@ thin and thick dielectrics (ρ_R + ρ_T)/E (§3.4, eq. 19); rough diffuse is Fuj
             let _ = writeln!(md, "- {n}");
         }
         for b in &plots {
-            let written = plot::save(&bench_figure(b), &bench_dir.join(&b.stem), Formats::PngAndSvg)?;
-            let rel: Vec<String> = written.iter().map(|p| p.strip_prefix(&self.options.reports_dir).unwrap_or(p).to_string_lossy().replace('\\', "/")).collect();
+            let written = plot::save(
+                &bench_figure(b),
+                &bench_dir.join(&b.stem),
+                Formats::PngAndSvg,
+            )?;
+            let rel: Vec<String> = written
+                .iter()
+                .map(|p| {
+                    p.strip_prefix(&self.options.reports_dir)
+                        .unwrap_or(p)
+                        .to_string_lossy()
+                        .replace('\\', "/")
+                })
+                .collect();
             let _ = writeln!(md, "### {}\n", b.title);
             let _ = writeln!(md, "![{}]({}) ([SVG]({}))\n", b.title, rel[0], rel[1]);
             for n in &b.notes {
@@ -237,16 +327,36 @@ thin and thick dielectrics (ρ_R + ρ_T)/E (§3.4, eq. 19); rough diffuse is Fuj
             }
             let labelled = b.labels.iter().any(|l| !l.is_empty());
             let cell = |t: &str| t.replace('|', "\\|");
-            let _ = writeln!(md, "Source: `{}/{}.csv`.\n", display_rel(&self.options.bench_dir), b.stem);
+            let _ = writeln!(
+                md,
+                "Source: `{}/{}.csv`.\n",
+                display_rel(&self.options.bench_dir),
+                b.stem
+            );
             if labelled {
-                let _ = writeln!(md, "| series | point | {} | {} |\n| --- | --- | ---: | ---: |", cell(&b.x_label), cell(&b.y_label));
+                let _ = writeln!(
+                    md,
+                    "| series | point | {} | {} |\n| --- | --- | ---: | ---: |",
+                    cell(&b.x_label),
+                    cell(&b.y_label)
+                );
             } else {
-                let _ = writeln!(md, "| series | {} | {} |\n| --- | ---: | ---: |", cell(&b.x_label), cell(&b.y_label));
+                let _ = writeln!(
+                    md,
+                    "| series | {} | {} |\n| --- | ---: | ---: |",
+                    cell(&b.x_label),
+                    cell(&b.y_label)
+                );
             }
             for (k, (s, x, y)) in b.rows.iter().enumerate() {
                 let (x, y) = (plot::format_number(*x), plot::format_number(*y));
                 if labelled {
-                    let _ = writeln!(md, "| {} | {} | {x} | {y} |", cell(s), cell(b.labels.get(k).map_or("", |l| l.as_str())));
+                    let _ = writeln!(
+                        md,
+                        "| {} | {} | {x} | {y} |",
+                        cell(s),
+                        cell(b.labels.get(k).map_or("", |l| l.as_str()))
+                    );
                 } else {
                     let _ = writeln!(md, "| {} | {x} | {y} |", cell(s));
                 }
@@ -267,7 +377,10 @@ thin and thick dielectrics (ρ_R + ρ_T)/E (§3.4, eq. 19); rough diffuse is Fuj
                     linked.extend(s.files.iter().cloned());
                 }
                 None => {
-                    let _ = writeln!(md, "### {m}\n\nNot generated yet: run `furnace report --model {m}`.\n");
+                    let _ = writeln!(
+                        md,
+                        "### {m}\n\nNot generated yet: run `furnace report --model {m}`.\n"
+                    );
                 }
             }
         }
@@ -292,7 +405,11 @@ fn variant_key(name: &str) -> String {
 
 /// GitHub's heading anchor of a model name (lower case, already hyphenated).
 fn anchor(heading: &str) -> String {
-    heading.to_lowercase().chars().filter(|c| c.is_alphanumeric() || *c == '-' || *c == '_').collect()
+    heading
+        .to_lowercase()
+        .chars()
+        .filter(|c| c.is_alphanumeric() || *c == '-' || *c == '_')
+        .collect()
 }
 
 fn display_rel(p: &Path) -> String {
@@ -311,15 +428,33 @@ pub fn bench_figure(b: &BenchPlot) -> Figure {
         .iter()
         .enumerate()
         .map(|(k, n)| {
-            let mut pts: Vec<(f64, f64)> = b.rows.iter().filter(|r| r.0 == *n).map(|r| (r.1, r.2)).collect();
+            let mut pts: Vec<(f64, f64)> = b
+                .rows
+                .iter()
+                .filter(|r| r.0 == *n)
+                .map(|r| (r.1, r.2))
+                .collect();
             pts.sort_by(|a, c| a.0.total_cmp(&c.0));
             Series::new(n, pts, color(k), Style::LinePoints)
         })
         .collect();
-    let axis = |label: &str, log: bool| if log { Axis::log(label) } else { Axis::linear(label) };
+    let axis = |label: &str, log: bool| {
+        if log {
+            Axis::log(label)
+        } else {
+            Axis::linear(label)
+        }
+    };
     Figure {
         title: None,
-        charts: vec![Chart { title: b.title.clone(), x: axis(&b.x_label, b.x_log), y: axis(&b.y_label, b.y_log), legend_room: 0.06 * names.len() as f64, series, legend: LegendAt::UpperRight }],
+        charts: vec![Chart {
+            title: b.title.clone(),
+            x: axis(&b.x_label, b.x_log),
+            y: axis(&b.y_label, b.y_log),
+            legend_room: 0.06 * names.len() as f64,
+            series,
+            legend: LegendAt::UpperRight,
+        }],
         size: (900, 600),
     }
 }

@@ -9,7 +9,9 @@
 //! the background; darkening is energy loss, a bright rim energy gain. Pixels are 2×2
 //! supersampled against the background (which is the environment, E = 1).
 
-use super::furnace::{furnace_albedo, lobe_integrals_at, Compensation, LobeIntegrals, Material, Prepared};
+use super::furnace::{
+    furnace_albedo, lobe_integrals_at, Compensation, LobeIntegrals, Material, Prepared,
+};
 use super::plot::{self, ColorScale, Draw, FONT};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -81,14 +83,33 @@ pub struct SphereFigure {
 /// Furnace values of `material` at F0 = `f0` (3-D classes) for spheres of roughness `roughness`
 /// under each compensation: `[row][column]`. The lobe integrals are computed once on a μ grid of
 /// [`MU_SAMPLES`] nodes per roughness and shared by every row.
-pub fn sphere_columns(material: &Material, f0: f64, roughness: &[f64], compensations: &[Compensation]) -> Vec<Vec<SphereColumn>> {
-    let point = |r: f64, mu: f64| if material.has_f0_axis() { vec![f0, r, mu] } else { vec![r, mu] };
-    let mus: Vec<f64> = (0..MU_SAMPLES).map(|k| k as f64 / (MU_SAMPLES - 1) as f64).collect();
-    let nodes: Vec<Vec<f64>> = roughness.iter().flat_map(|&r| mus.iter().map(move |&mu| point(r, mu))).collect();
+pub fn sphere_columns(
+    material: &Material,
+    f0: f64,
+    roughness: &[f64],
+    compensations: &[Compensation],
+) -> Vec<Vec<SphereColumn>> {
+    let point = |r: f64, mu: f64| {
+        if material.has_f0_axis() {
+            vec![f0, r, mu]
+        } else {
+            vec![r, mu]
+        }
+    };
+    let mus: Vec<f64> = (0..MU_SAMPLES)
+        .map(|k| k as f64 / (MU_SAMPLES - 1) as f64)
+        .collect();
+    let nodes: Vec<Vec<f64>> = roughness
+        .iter()
+        .flat_map(|&r| mus.iter().map(move |&mu| point(r, mu)))
+        .collect();
     let lobes = lobe_integrals_at(material, &nodes);
     let pixel_points: Vec<Vec<f64>> = roughness
         .iter()
-        .flat_map(|&r| (0..PIXEL_SAMPLES).map(move |k| point(r, mu_of_rho(k as f64 / (PIXEL_SAMPLES - 1) as f64))))
+        .flat_map(|&r| {
+            (0..PIXEL_SAMPLES)
+                .map(move |k| point(r, mu_of_rho(k as f64 / (PIXEL_SAMPLES - 1) as f64)))
+        })
         .collect();
     compensations
         .iter()
@@ -147,7 +168,10 @@ impl Draw for SphereFigure {
         (LEFT + cols * CELL + BAR, TOP + rows * CELL + BOTTOM)
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+    ) -> std::result::Result<(), String> {
         root.fill(&WHITE).map_err(err)?;
         let (w, h) = self.size();
         let center = Pos::new(HPos::Center, VPos::Center);
@@ -155,12 +179,16 @@ impl Draw for SphereFigure {
         let title = TextStyle::from((FONT, 22).into_font()).pos(center);
         let label = TextStyle::from((FONT, 16).into_font()).pos(center);
         let row_label = TextStyle::from((FONT, 16).into_font()).pos(left);
-        let note = TextStyle::from((FONT, 14).into_font()).color(&RGBColor(80, 80, 80)).pos(left);
+        let note = TextStyle::from((FONT, 14).into_font())
+            .color(&RGBColor(80, 80, 80))
+            .pos(left);
         let grid_w = w - LEFT - BAR;
-        root.draw_text(&self.title, &title, ((LEFT + grid_w / 2) as i32, 22)).map_err(err)?;
+        root.draw_text(&self.title, &title, ((LEFT + grid_w / 2) as i32, 22))
+            .map_err(err)?;
         for (c, l) in self.column_labels.iter().enumerate() {
             let x = LEFT + c as u32 * CELL + CELL / 2;
-            root.draw_text(l, &label, (x as i32, TOP as i32 - 18)).map_err(err)?;
+            root.draw_text(l, &label, (x as i32, TOP as i32 - 18))
+                .map_err(err)?;
         }
         let background = match self.show {
             Show::Albedo => 1.0,
@@ -169,12 +197,15 @@ impl Draw for SphereFigure {
         for (r, row) in self.rows.iter().enumerate() {
             let y0 = TOP + r as u32 * CELL;
             let cy = (y0 + CELL / 2) as i32;
-            root.draw_text(&row.label, &row_label, (14, cy - 10)).map_err(err)?;
-            root.draw_text(&row.note, &note, (14, cy + 12)).map_err(err)?;
+            root.draw_text(&row.label, &row_label, (14, cy - 10))
+                .map_err(err)?;
+            root.draw_text(&row.note, &note, (14, cy + 12))
+                .map_err(err)?;
             let columns = match &row.columns {
                 Ok(c) => c,
                 Err(why) => {
-                    root.draw_text(why, &note, ((LEFT + 10) as i32, cy)).map_err(err)?;
+                    root.draw_text(why, &note, ((LEFT + 10) as i32, cy))
+                        .map_err(err)?;
                     continue;
                 }
             };
@@ -187,29 +218,50 @@ impl Draw for SphereFigure {
                         // 2×2 supersampling; outside the disc the sample sees the environment
                         let mut sum = 0.0;
                         for (sx, sy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
-                            let (dx, dy) = ((px as f64 + sx - 0.5) / RADIUS, (py as f64 + sy - 0.5) / RADIUS);
+                            let (dx, dy) = (
+                                (px as f64 + sx - 0.5) / RADIUS,
+                                (py as f64 + sy - 0.5) / RADIUS,
+                            );
                             let rho = (dx * dx + dy * dy).sqrt();
                             sum += if rho < 1.0 {
                                 let e = col.at(rho);
-                                if self.show == Show::Deviation { e - 1.0 } else { e }
+                                if self.show == Show::Deviation {
+                                    e - 1.0
+                                } else {
+                                    e
+                                }
                             } else {
                                 background
                             };
                         }
                         let v = sum / 4.0;
                         if v != background {
-                            root.draw_pixel(((cx as i32) + px, (cyf as i32) + py), &self.scale.color(v)).map_err(err)?;
+                            root.draw_pixel(
+                                ((cx as i32) + px, (cyf as i32) + py),
+                                &self.scale.color(v),
+                            )
+                            .map_err(err)?;
                         }
                     }
                 }
                 // faint outline so that a sphere that vanishes (E = 1) can still be located
-                root.draw(&Circle::new((cx as i32, cyf as i32), RADIUS as i32 + 3, RGBColor(215, 215, 215).stroke_width(1)))
-                    .map_err(err)?;
+                root.draw(&Circle::new(
+                    (cx as i32, cyf as i32),
+                    RADIUS as i32 + 3,
+                    RGBColor(215, 215, 215).stroke_width(1),
+                ))
+                .map_err(err)?;
             }
         }
-        let caption = TextStyle::from((FONT, 14).into_font()).color(&RGBColor(60, 60, 60)).pos(left);
-        root.draw_text(&self.caption, &caption, (14, (h - BOTTOM / 2) as i32)).map_err(err)?;
-        let bar = root.clone().shrink(((w - BAR) as i32, TOP as i32 - 40), (BAR, h - TOP - BOTTOM + 40));
+        let caption = TextStyle::from((FONT, 14).into_font())
+            .color(&RGBColor(60, 60, 60))
+            .pos(left);
+        root.draw_text(&self.caption, &caption, (14, (h - BOTTOM / 2) as i32))
+            .map_err(err)?;
+        let bar = root.clone().shrink(
+            ((w - BAR) as i32, TOP as i32 - 40),
+            (BAR, h - TOP - BOTTOM + 40),
+        );
         plot::draw_colorbar(&bar, &self.scale, &self.colorbar_label)
     }
 }

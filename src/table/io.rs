@@ -72,7 +72,10 @@ fn temp_path(path: &Path) -> PathBuf {
 }
 
 fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 const LAYOUT: &str = "row-major, last axis fastest; EXR: one image n_last wide and (product of the other counts) tall, \
@@ -97,15 +100,30 @@ fn exr_bytes_to(table: &Table, path: &Path) -> Result<()> {
         let data: Vec<f32> = table.output(o).iter().map(|&v| v as f32).collect();
         channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(data)));
     }
-    channels.push(AnyChannel::new("err", FlatSamples::F32(table.errors.iter().map(|&v| v as f32).collect())));
+    channels.push(AnyChannel::new(
+        "err",
+        FlatSamples::F32(table.errors.iter().map(|&v| v as f32).collect()),
+    ));
     let mut attributes = LayerAttributes::named(spec.model.as_str());
-    attributes.comments = Some(Text::from(format!(
-        "furnace {}: directional albedo of {} over {}",
-        crate::VERSION,
-        spec.model,
-        spec.axes.iter().map(|a| a.name.as_str()).collect::<Vec<_>>().join(", ")
-    ).as_str()));
-    let layer = Layer::new((width, height), attributes, Encoding::FAST_LOSSLESS, AnyChannels::sort(SmallVec::from_vec(channels)));
+    attributes.comments = Some(Text::from(
+        format!(
+            "furnace {}: directional albedo of {} over {}",
+            crate::VERSION,
+            spec.model,
+            spec.axes
+                .iter()
+                .map(|a| a.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+        .as_str(),
+    ));
+    let layer = Layer::new(
+        (width, height),
+        attributes,
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
     let tmp = temp_path(path);
     Image::from_layer(layer)
         .write()
@@ -162,9 +180,17 @@ pub fn load_cached(spec: &TableSpec, stem: &Path) -> Result<Option<Table>> {
     if raw.len() != (n_out + 1) * cells * 8 || sha256_hex(&raw) != sidecar.f64_sha256 {
         return Ok(None);
     }
-    let all: Vec<f64> = raw.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect();
+    let all: Vec<f64> = raw
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+        .collect();
     let (values, errors) = all.split_at(n_out * cells);
-    Ok(Some(Table { spec: spec.clone(), values: values.to_vec(), errors: errors.to_vec(), summary: sidecar.errors }))
+    Ok(Some(Table {
+        spec: spec.clone(),
+        values: values.to_vec(),
+        errors: errors.to_vec(),
+        summary: sidecar.errors,
+    }))
 }
 
 /// Reads a table's sidecar and f64 values from `stem` whatever its spec (for `fit --table`).
@@ -181,8 +207,12 @@ pub fn load_any(stem: &Path) -> Result<Table> {
         quadrature: sidecar.quadrature.clone(),
     };
     spec.validate()?;
-    load_cached(&spec, stem)?
-        .ok_or_else(|| Error::file(with_ext(stem, "f64"), "missing or inconsistent with its sidecar; re-run `furnace tabulate --force`"))
+    load_cached(&spec, stem)?.ok_or_else(|| {
+        Error::file(
+            with_ext(stem, "f64"),
+            "missing or inconsistent with its sidecar; re-run `furnace tabulate --force`",
+        )
+    })
 }
 
 /// Reads an EXR table written by [`save`] back as f32 channels (for checks and external use).
@@ -217,5 +247,9 @@ pub fn read_exr_image(path: &Path) -> Result<ExrImage> {
 
 /// Paths of the three files of a table stem.
 pub fn files(stem: &Path) -> [PathBuf; 3] {
-    [with_ext(stem, "exr"), with_ext(stem, "f64"), with_ext(stem, "json")]
+    [
+        with_ext(stem, "exr"),
+        with_ext(stem, "f64"),
+        with_ext(stem, "json"),
+    ]
 }

@@ -26,6 +26,9 @@ use crate::quadrature::{QuadratureSettings, RuleCache};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+/// One cell's outcome while tabulating: outputs, error estimate, final order, converged.
+type CellResult = ([f64; MAX_OUTPUTS], f64, usize, bool);
+
 /// Bumped whenever a change to the engine can change a table value: it is hashed into every
 /// cache key, so stale tables are recomputed rather than trusted.
 pub const ENGINE_VERSION: u32 = 2;
@@ -46,7 +49,13 @@ pub struct GridAxis {
 
 impl GridAxis {
     pub fn new(name: &str, lo: f64, hi: f64, n: usize) -> GridAxis {
-        GridAxis { name: name.into(), lo, hi, n, placement: "endpoints".into() }
+        GridAxis {
+            name: name.into(),
+            lo,
+            hi,
+            n,
+            placement: "endpoints".into(),
+        }
     }
 
     /// Coordinate of node `i`.
@@ -78,7 +87,11 @@ pub struct TableSpec {
 
 impl TableSpec {
     /// The model's default domain at the given resolution (one count per axis).
-    pub fn new(model: &dyn Model, resolution: &[usize], quadrature: QuadratureSettings) -> Result<TableSpec> {
+    pub fn new(
+        model: &dyn Model,
+        resolution: &[usize],
+        quadrature: QuadratureSettings,
+    ) -> Result<TableSpec> {
         let axes = model.axes();
         if resolution.len() != axes.len() {
             return Err(Error::InvalidInput(format!(
@@ -124,7 +137,12 @@ impl TableSpec {
             )));
         }
         for ((g, &(lo, hi)), a) in spec.axes.iter_mut().zip(ranges).zip(model.axes()) {
-            if !(lo < hi) || lo < a.valid_range.0 || hi > a.valid_range.1 {
+            if lo.is_nan()
+                || hi.is_nan()
+                || lo >= hi
+                || lo < a.valid_range.0
+                || hi > a.valid_range.1
+            {
                 return Err(Error::InvalidInput(format!(
                     "range [{lo}, {hi}] of axis {} is empty, inverted or outside the model's domain [{}, {}]",
                     a.name, a.valid_range.0, a.valid_range.1
@@ -147,11 +165,18 @@ impl TableSpec {
                 )));
             }
             if !(a.lo.is_finite() && a.hi.is_finite() && a.lo < a.hi) {
-                return Err(Error::InvalidInput(format!("axis {} has an empty or invalid range [{}, {}]", a.name, a.lo, a.hi)));
+                return Err(Error::InvalidInput(format!(
+                    "axis {} has an empty or invalid range [{}, {}]",
+                    a.name, a.lo, a.hi
+                )));
             }
         }
         self.quadrature.validate().map_err(Error::InvalidInput)?;
-        let cells = self.axes.iter().try_fold(1u128, |acc, a| acc.checked_mul(a.n as u128)).unwrap_or(u128::MAX);
+        let cells = self
+            .axes
+            .iter()
+            .try_fold(1u128, |acc, a| acc.checked_mul(a.n as u128))
+            .unwrap_or(u128::MAX);
         let channels = self.outputs.len() + 1;
         let bytes = cells.saturating_mul(channels as u128 * 8);
         if bytes > MAX_TABLE_BYTES {
@@ -172,7 +197,11 @@ impl TableSpec {
 
     /// `1024x1024`, `128x128x128`.
     pub fn resolution_name(&self) -> String {
-        self.axes.iter().map(|a| a.n.to_string()).collect::<Vec<_>>().join("x")
+        self.axes
+            .iter()
+            .map(|a| a.n.to_string())
+            .collect::<Vec<_>>()
+            .join("x")
     }
 
     /// The coordinates of cell `index` (row-major, last axis fastest).
@@ -250,7 +279,11 @@ pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
 pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Result<Table> {
     spec.validate()?;
     if spec.model != model.name() {
-        return Err(Error::InvalidInput(format!("table spec is for {} but the model is {}", spec.model, model.name())));
+        return Err(Error::InvalidInput(format!(
+            "table spec is for {} but the model is {}",
+            spec.model,
+            model.name()
+        )));
     }
     let cells = spec.cells();
     let dims = spec.axes.len();
@@ -258,11 +291,19 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
     let cache = RuleCache::new(&spec.quadrature);
     // Unit of parallel work and of progress: in 2-D a row along the last axis; in 3-D a column
     // along the first axis (f0), which models may integrate with one shared geometry.
-    let (units, unit_len) = if dims >= 3 { (cells / spec.axes[0].n, spec.axes[0].n) } else { (cells / spec.axes[dims - 1].n, spec.axes[dims - 1].n) };
-    let cell_of = |unit: usize, k: usize| -> usize {
-        if dims >= 3 { k * units + unit } else { unit * unit_len + k }
+    let (units, unit_len) = if dims >= 3 {
+        (cells / spec.axes[0].n, spec.axes[0].n)
+    } else {
+        (cells / spec.axes[dims - 1].n, spec.axes[dims - 1].n)
     };
-    let unit_results: Vec<Vec<([f64; MAX_OUTPUTS], f64, usize, bool)>> = (0..units)
+    let cell_of = |unit: usize, k: usize| -> usize {
+        if dims >= 3 {
+            k * units + unit
+        } else {
+            unit * unit_len + k
+        }
+    };
+    let unit_results: Vec<Vec<CellResult>> = (0..units)
         .into_par_iter()
         .map(|unit| {
             let xs: Vec<Vec<f64>> = (0..unit_len)
@@ -289,7 +330,7 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
             out
         })
         .collect();
-    let mut ordered: Vec<Option<([f64; MAX_OUTPUTS], f64, usize, bool)>> = vec![None; cells];
+    let mut ordered: Vec<Option<CellResult>> = vec![None; cells];
     for (unit, results) in unit_results.into_iter().enumerate() {
         for (k, r) in results.into_iter().enumerate() {
             ordered[cell_of(unit, k)] = Some(r);
@@ -307,7 +348,11 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
         max_order_used: 0,
     };
     let mut x = vec![0.0; dims];
-    for (cell, (v, err, order, converged)) in ordered.into_iter().map(|r| r.expect("every cell computed")).enumerate() {
+    for (cell, (v, err, order, converged)) in ordered
+        .into_iter()
+        .map(|r| r.expect("every cell computed"))
+        .enumerate()
+    {
         for o in 0..n_out {
             if !v[o].is_finite() {
                 spec.point(cell, &mut x);
@@ -336,5 +381,10 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
             }
         }
     }
-    Ok(Table { spec: spec.clone(), values, errors, summary })
+    Ok(Table {
+        spec: spec.clone(),
+        values,
+        errors,
+        summary,
+    })
 }

@@ -25,10 +25,20 @@ pub fn read_points(path: &Path, axes: &[String], ranges: &[(f64, f64)]) -> Resul
     parse_points(&text, axes, ranges).map_err(|m| Error::file(path, m))
 }
 
-pub fn parse_points(text: &str, axes: &[String], ranges: &[(f64, f64)]) -> std::result::Result<Points, String> {
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+pub fn parse_points(
+    text: &str,
+    axes: &[String],
+    ranges: &[(f64, f64)],
+) -> std::result::Result<Points, String> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
     let Some((_, head)) = lines.next() else {
-        return Err(format!("empty file; expected a header naming the axes {}", axes.join(",")));
+        return Err(format!(
+            "empty file; expected a header naming the axes {}",
+            axes.join(",")
+        ));
     };
     let header: Vec<String> = head.split(',').map(|s| s.trim().to_string()).collect();
     let mut index = vec![usize::MAX; axes.len()];
@@ -45,7 +55,11 @@ pub fn parse_points(text: &str, axes: &[String], ranges: &[(f64, f64)]) -> std::
         }
     }
     if let Some(missing) = axes.iter().zip(&index).find(|(_, &i)| i == usize::MAX) {
-        return Err(format!("the header lacks the axis '{}'; expected columns {}", missing.0, axes.join(",")));
+        return Err(format!(
+            "the header lacks the axis '{}'; expected columns {}",
+            missing.0,
+            axes.join(",")
+        ));
     }
     let mut raw = Vec::new();
     let mut coords = Vec::new();
@@ -56,26 +70,43 @@ pub fn parse_points(text: &str, axes: &[String], ranges: &[(f64, f64)]) -> std::
         let row = line_no + 1;
         let cells: Vec<String> = line.split(',').map(|s| s.trim().to_string()).collect();
         if cells.len() != header.len() {
-            return Err(format!("row {row}: {} values for {} columns", cells.len(), header.len()));
+            return Err(format!(
+                "row {row}: {} values for {} columns",
+                cells.len(),
+                header.len()
+            ));
         }
         let mut x = vec![0.0; axes.len()];
         for (a, &c) in index.iter().enumerate() {
-            let v: f64 = cells[c]
-                .parse()
-                .map_err(|_| format!("row {row}, column '{}': '{}' is not a number", axes[a], cells[c]))?;
+            let v: f64 = cells[c].parse().map_err(|_| {
+                format!(
+                    "row {row}, column '{}': '{}' is not a number",
+                    axes[a], cells[c]
+                )
+            })?;
             if !v.is_finite() {
-                return Err(format!("row {row}, column '{}': {v} is not a finite number", axes[a]));
+                return Err(format!(
+                    "row {row}, column '{}': {v} is not a finite number",
+                    axes[a]
+                ));
             }
             let (lo, hi) = ranges[a];
             if v < lo || v > hi {
-                return Err(format!("row {row}, column '{}': {v} is outside the domain [{lo}, {hi}]", axes[a]));
+                return Err(format!(
+                    "row {row}, column '{}': {v} is outside the domain [{lo}, {hi}]",
+                    axes[a]
+                ));
             }
             x[a] = v;
         }
         raw.push(cells);
         coords.push(x);
     }
-    Ok(Points { header, raw, coords })
+    Ok(Points {
+        header,
+        raw,
+        coords,
+    })
 }
 
 #[cfg(test)]

@@ -1,6 +1,6 @@
 //! Integrand evaluations per conductor cell at a few (r, μ), for the estimate's two orders (9 and
 //! 12): the slope-space integrand the conductor uses (`bsdf::slope`) against the visible-normal
-//! one it used before (`bsdf::ggx`). `cargo run --release --example count`
+//! one of the other GGX models (`bsdf::ggx`). `cargo run --release --example count`
 use furnace::bsdf::ggx::{Lobes, VndfIntegrand};
 use furnace::bsdf::slope::SlopeIntegrand;
 use furnace::math::SmithForm;

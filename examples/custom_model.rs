@@ -1,4 +1,4 @@
-//! A new BSDF in one file: the worked example of README "Fitting a new BSDF".
+//! A new BSDF in one file: the worked example of docs/models.md, "Adding a model".
 //!
 //! The model is a white Lambertian base under a smooth dielectric coat seen through Schlick's
 //! Fresnel approximation: f(ωo, ωi) = (1 − F(μo))(1 − F(μi))/π with F(μ) = F0 + (1 − F0)(1 − μ)⁵
@@ -46,7 +46,8 @@ impl Model for CoatedLambert {
         "coated-lambert".into()
     }
     fn summary(&self) -> String {
-        "white Lambertian under a Schlick-Fresnel coat (README worked example)".into()
+        "white Lambertian under a Schlick-Fresnel coat (the worked example of docs/models.md)"
+            .into()
     }
     fn axes(&self) -> Vec<AxisSpec> {
         vec![

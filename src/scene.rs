@@ -167,7 +167,7 @@ impl Manifest {
         let m: Manifest = serde_json::from_str(text).map_err(|e| {
             Error::file(
                 path,
-                format!("invalid scene manifest: {e}; expected {{\"name\": …, \"materials\": [{{\"name\": …, \"kind\": …, \"r\": [lo, hi], \"ior\": [lo, hi]}}]}} (see README, \"Emitting code for a renderer\")"),
+                format!("invalid scene manifest: {e}; expected {{\"name\": …, \"materials\": [{{\"name\": …, \"kind\": …, \"r\": [lo, hi], \"ior\": [lo, hi]}}]}} (see docs/scenes.md)"),
             )
         })?;
         m.validate().map_err(|e| Error::file(path, e))?;

@@ -1,5 +1,5 @@
 //! The `furnace` command as a user meets it: listing, tabulating with a cache, evaluating
-//! points, and clear errors for bad input (issue 2).
+//! points, and clear errors for bad input.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,4 +1,4 @@
-//! Accuracy of the albedo engine against exact limits and its own convergence (issue 2).
+//! Accuracy of the albedo engine against exact limits and its own convergence.
 
 use furnace::bsdf::{albedo, find, Model, ModelOptions};
 use furnace::quadrature::{QuadratureSettings, RuleCache};
@@ -149,7 +149,7 @@ fn doubling(name: &str, resolution: &[usize]) {
     };
     // Base order 16 (the default 12 works as well, but its order-9 companion can agree with it by
     // accident to 1e-10 at a few cells while both are 1e-8 off, which the tight tolerance below
-    // would then not refine; see README "Error estimates").
+    // would then not refine; see docs/quadrature.md, "Error estimate and refinement").
     let base = 16;
     let a = tabulate(
         m.as_ref(),

@@ -61,7 +61,7 @@ fn furnace_on_nodes(material: &Material, t: &Table, conductor: Option<&Table>) -
     (with.max_deviation, none.max_deviation)
 }
 
-/// The acceptance test, part 1: the compensated conductor with the exact table passes the
+/// The white furnace test proper: the compensated conductor with the exact table passes the
 /// furnace to ≤ 1e-6 — its albedo integrated independently of the table — while the
 /// uncompensated one visibly does not.
 #[test]

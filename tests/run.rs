@@ -1,4 +1,4 @@
-//! The main job end to end on tiny grids (issue 5): `furnace run` tabulates, fits, emits and
+//! `furnace run` end to end on tiny grids: `furnace run` tabulates, fits, emits and
 //! reports; a re-run reuses the sweeps and report sections and gives the same bytes; nothing
 //! under fits/, reports/ or data/lut/ holds a wall time or an absolute path; the conductor
 //! compensated with the fit `run` chose passes the white furnace test within that fit's relative
@@ -40,7 +40,7 @@ fn text(o: &Output) -> String {
     )
 }
 
-/// The main job on two models, 17² tables, degrees ≤ 2, the report on tiny grids.
+/// `furnace run` on two models, 17² tables, degrees ≤ 2, the report on tiny grids.
 const RUN: &[&str] = &[
     "run",
     "--models",
@@ -199,7 +199,7 @@ fn run_end_to_end_is_reproducible_and_resumes() {
     );
     assert_same(&first, &outputs(&d), "after repairing a damaged fit");
 
-    // the issue's acceptance test with the fit `run` chose: the compensated conductor passes the
+    // the white furnace test with the fit `run` chose: the compensated conductor passes the
     // furnace within that fit's reported relative error ρ (|1 − E| = |fit − E_ss|/fit ≤ ρ/(1 − ρ)
     // at the table's nodes, plus the furnace quadrature's accuracy)
     let rec = FitRecord::from_json(

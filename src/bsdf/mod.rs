@@ -3,7 +3,7 @@
 //! A model is a BSDF together with the parametrisation of its directional albedo
 //! E(ω_o) = ∫ f(ω_o, ω_i) |n·ω_i| dω_i (Sforza & Pellacini 2022, eq. 2): the axes a table spans
 //! and how to integrate at one point. To add a BSDF, write one file implementing [`Model`]
-//! and add one line to [`registry`] (see README, "Fitting a new BSDF").
+//! and add one line to [`registry`] (see docs/models.md, "Adding a model").
 
 pub mod diffuse;
 pub mod ggx;

@@ -2,7 +2,7 @@
 //!
 //! For each quadrature order the whole table is computed exactly as `furnace tabulate` does
 //! (every cell at order n and n/2 for its error estimate) but without refinement, and the same
-//! fixed-order rule is evaluated at the shared reference points to measure its true error.
+//! fixed-order rule is evaluated at the reference points to measure its true error.
 
 use crate::bsdf::{self, albedo, Model, ModelOptions};
 use crate::error::{Error, Result};
@@ -27,7 +27,7 @@ pub struct BenchTabulateArgs {
     /// Smaller tables (256² and 32³) for a quick look.
     #[arg(long)]
     pub quick: bool,
-    /// Folder with the shared reference albedos (ref2d.csv, ref3d.csv).
+    /// Folder with the reference albedos (ref2d.csv, ref3d.csv).
     #[arg(long, default_value = "data/reference")]
     pub reference_dir: PathBuf,
     /// Also write the rows as a benchmark CSV (wall time against error at the reference points)
@@ -64,7 +64,7 @@ type PointOf = fn(&[f64]) -> Vec<f64>;
 /// Reads a model's expected E from a reference row.
 type ValueOf = fn(&[f64]) -> f64;
 
-/// Reference points and expected E for a model, from the shared reference files.
+/// Reference points and expected E for a model, from the reference files (data/reference).
 pub fn reference_points(model: &str, dir: &Path) -> Result<Vec<(Vec<f64>, f64)>> {
     let (file, point, value): (&str, PointOf, ValueOf) = match model {
         "ggx-conductor" => ("ref2d.csv", |r| vec![r[0], r[1]], |r| r[2]),
@@ -113,7 +113,7 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
         "Tabulation: wall time against quadrature error",
         "wall time of the whole table, s",
         true,
-        "max |E − reference| at the shared reference points",
+        "max |E − reference| at the reference points",
         true,
     );
     plot.notes.push(machine_note(&format!(

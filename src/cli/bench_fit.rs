@@ -1,4 +1,4 @@
-//! `furnace bench fit`: fit time against error, per form and degree, on the main job's tables.
+//! `furnace bench fit`: fit time against error, per form and degree, on `furnace run`'s tables.
 
 use super::bench::{machine_note, write_bench};
 use super::{get_table, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D};
@@ -22,10 +22,10 @@ pub struct BenchFitArgs {
         default_value = "ggx-conductor,ggx-dielectric"
     )]
     pub models: Vec<String>,
-    /// Nodes per axis of 2-D tables (default: the main job's, 1024).
+    /// Nodes per axis of 2-D tables (default: `furnace run`'s, 1024).
     #[arg(long)]
     pub resolution_2d: Option<usize>,
-    /// Nodes per axis of 3-D tables (default: the main job's, 64).
+    /// Nodes per axis of 3-D tables (default: `furnace run`'s, 64).
     #[arg(long)]
     pub resolution_3d: Option<usize>,
     /// Highest degree (default: the paper's sweep — 10 in 2-D; 7 for polynomials and 5 for

@@ -52,7 +52,7 @@ pub enum Command {
     /// Benchmarks that print run time against error (and, with --output, write the CSV files the
     /// report plots; nothing else writes them).
     Bench(BenchArgs),
-    /// The main job on the built-in default set: tabulate (cached), fit (degree sweeps, reused
+    /// The whole pipeline on the built-in default set: tabulate (cached), fit (degree sweeps, reused
     /// when their table and options are unchanged), emit code and LUTs, and write reports/; with
     /// --scene, tabulate, fit and emit only what a scene's materials need.
     Run(RunArgs),

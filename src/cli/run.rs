@@ -1,4 +1,4 @@
-//! `furnace run` without a scene: the main job on the built-in default set.
+//! `furnace run` without a scene: the whole pipeline on the built-in default set.
 //!
 //! 1. **Tables** (cached under `data/`): every model of [`DEFAULT_MODELS`] at 1024² (2-D) or
 //!    [`RUN_RESOLUTION_3D`]³, the paper's radiance-form dielectrics ([`PAPER_RADIANCE_MODELS`],
@@ -77,23 +77,23 @@ pub struct RunArgs {
     pub scene: SceneArgs,
 }
 
-/// Nodes per axis of the main job's 2-D tables (the paper's).
+/// Nodes per axis of `furnace run`'s 2-D tables (the paper's).
 pub const RUN_RESOLUTION_2D: usize = 1024;
 
-/// 3-D resolution of the main command's tables: 64³ rather than the paper's 128³ (which
-/// `furnace tabulate` still makes by default), so that the whole default set tabulates within the
-/// main job's budget on 2 cores — the leaving dielectric costs ~6e6 instructions a cell, and fits
-/// of ≤ 40 coefficients gain nothing from 2·10⁶ points over 2.6·10⁵ (see README, "Speed").
+/// 3-D resolution of `furnace run`'s tables: 64³ rather than the paper's 128³ (which
+/// `furnace tabulate` still makes by default), so that the whole default set tabulates in a few
+/// minutes on 2 cores — the leaving dielectric costs ~6e6 instructions a cell, and fits of ≤ 40
+/// coefficients gain nothing from 2·10⁶ points over 2.6·10⁵ (see docs/running.md).
 pub const RUN_RESOLUTION_3D: usize = 64;
 
 /// 3-D resolution of the radiance-form tables, which exist only to set furnace's fit beside the
 /// paper's published one: 32³ is what a sweep fits on anyway (`job::default_sweep_points`).
 pub const RUN_RESOLUTION_PAPER_RADIANCE: usize = 32;
 
-/// Nodes per axis of the LUTs the main job emits.
+/// Nodes per axis of the LUTs `furnace run` emits.
 pub const RUN_LUT_RESOLUTION: usize = 32;
 
-/// The built-in default set of the main command: the paper's models in both Smith forms and
+/// The built-in default set of `furnace run`: the paper's models in both Smith forms and
 /// the rough-diffuse models — the set the report covers.
 pub const DEFAULT_MODELS: &[&str] = REPORT_MODELS;
 
@@ -103,7 +103,7 @@ pub const DEFAULT_MODELS: &[&str] = REPORT_MODELS;
 pub const PAPER_RADIANCE_MODELS: &[&str] =
     &["ggx-dielectric-separable", "ggx-dielectric-inv-separable"];
 
-/// One table of the main job and what became of it.
+/// One table of `furnace run` and what became of it.
 struct Job {
     model: Box<dyn Model>,
     /// The cache name (`ggx-dielectric-separable-radiance`): folder under data/, fits/.

@@ -12,8 +12,8 @@ use crate::scene::{self, Manifest, RunOptions};
 
 #[derive(Args, Debug, Clone)]
 pub struct SceneArgs {
-    /// Scene manifest: tabulate, fit and emit only what its materials need (see README,
-    /// "Emitting code for a renderer"). Without it, `run` tabulates the default model set.
+    /// Scene manifest: tabulate, fit and emit only what its materials need (see
+    /// docs/scenes.md). Without it, `run` tabulates the default model set.
     #[arg(long)]
     pub scene: Option<PathBuf>,
     /// Folder for the scene's fits and emitted code (`<fits-dir>/<scene name>/`).

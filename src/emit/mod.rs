@@ -257,7 +257,8 @@ fn fmt_domain(lo: f64, hi: f64) -> String {
     format!("[{lo}, {hi}]")
 }
 
-/// The documentation block of an albedo function: everything the issue asks a header to state.
+/// The documentation block of an albedo function: model, variables, domain, form, measured errors, f32
+/// bounds and provenance.
 fn albedo_doc(
     src: &SourceFit,
     name: &str,

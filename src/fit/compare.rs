@@ -68,8 +68,8 @@ pub const PAPER_PAIRS: [PaperPair; 4] = [
 /// μ ≤ 0.98 for dielectrics, when computing them): away from the corner r = μ = 0, where
 /// albedos are discontinuous in (r, μ) and no low-degree fit in those variables is accurate
 /// (in the boundary-layer variable of [`super::InputTransform::BoundaryLayer`] they are smooth).
-/// The reference figures for the published conductor fit (MAE 3.9e-3, max 3.2e-2) are
-/// on this box.
+/// The published conductor fit's figures against the exact albedo (MAE 3.9e-3, max 3.2e-2;
+/// data/paper/README.md) are on this box.
 pub fn paper_box(pair: &PaperPair) -> Vec<AxisDecl> {
     let mu_hi = if pair.radiance {
         PAPER_MU_MAX_DIELECTRIC

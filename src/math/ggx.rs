@@ -1,6 +1,6 @@
 //! GGX (Trowbridge–Reitz) microfacet distribution, Smith masking and exact dielectric Fresnel.
 //!
-//! Conventions (DEVELOPERS.md): the table axis is `r`, the GGX parameter is `alpha = r²`
+//! Conventions (docs/models.md): the table axis is `r`, the GGX parameter is `alpha = r²`
 //! ([`alpha_from_r`]); directions live in the local frame with the normal `n = (0, 0, 1)`.
 
 /// α = r² (Turquin 2019 / Sforza–Pellacini 2022 parametrisation): the one place it is converted.

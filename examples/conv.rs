@@ -1,9 +1,9 @@
-use furnace::bsdf::{find, ModelOptions};
+use furnace::bsdf::find;
 use furnace::quadrature::Rules;
 use rayon::prelude::*;
 fn main() {
     let a: Vec<String> = std::env::args().collect();
-    let m = find(&a[1], ModelOptions::default()).unwrap();
+    let m = find(&a[1]).unwrap();
     let n: usize = a[2].parse().unwrap();
     let (o1, o2): (usize, usize) = (a[3].parse().unwrap(), a[4].parse().unwrap());
     let (r1, r2) = (Rules::new(o1), Rules::new(o2));

@@ -7,7 +7,7 @@
 //!
 //! Run: `cargo run --release --example custom_model`
 
-use furnace::bsdf::{albedo, AxisSpec, Model, MAX_OUTPUTS};
+use furnace::bsdf::{albedo, AxisSpec, Family, Model, ModelId, MAX_OUTPUTS};
 use furnace::quadrature::{
     integrate_2d, Integrand2D, QuadratureSettings, RuleCache, Rules, CHANNELS,
 };
@@ -42,8 +42,8 @@ impl Integrand2D for Integrand {
 }
 
 impl Model for CoatedLambert {
-    fn name(&self) -> String {
-        "coated-lambert".into()
+    fn id(&self) -> ModelId {
+        ModelId::new(Family::new("coated-lambert"))
     }
     fn summary(&self) -> String {
         "white Lambertian under a Schlick-Fresnel coat (the worked example of docs/models.md)"

@@ -1,8 +1,8 @@
-use furnace::bsdf::{find, ModelOptions};
+use furnace::bsdf::find;
 use furnace::quadrature::Rules;
 fn main() {
     let a: Vec<String> = std::env::args().collect();
-    let m = find(&a[1], ModelOptions::default()).unwrap();
+    let m = find(&a[1]).unwrap();
     let x: Vec<f64> = a[2].split(',').map(|v| v.parse().unwrap()).collect();
     let refv = m.integrate(&x, &Rules::new(256));
     println!("ref {:.15} {:.15} {:.15}", refv[0], refv[1], refv[2]);

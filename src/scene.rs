@@ -30,13 +30,14 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::bsdf::{self, ModelOptions};
+use crate::bsdf::{self, Family, ModelId, Side};
 use crate::emit::fitfile::{FitFile, TableRef};
 use crate::emit::generate::FormChoice;
 use crate::emit::stress::{stress, StressOptions, StressReport};
 use crate::emit::{self, build_unit, Lang, SourceFit};
 use crate::error::{Error, Result};
 use crate::fit::{fit_rational, FitData, FitResult, InputTransform, Objective, RationalOptions};
+use crate::math::SmithForm;
 
 use crate::quadrature::QuadratureSettings;
 use crate::table::{io, Table, TableSpec};
@@ -85,16 +86,6 @@ pub struct Material {
     pub alpha: Option<RangeSpec>,
     #[serde(default)]
     pub ior: Option<RangeSpec>,
-}
-
-/// Smith masking–shadowing form of the GGX tables.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Smith {
-    #[default]
-    HeightCorrelated,
-    /// G1·G1, the paper's renderer.
-    Separable,
 }
 
 /// Table resolutions.
@@ -153,8 +144,9 @@ pub struct Manifest {
     /// Names the output files (`fits/<name>/<name>.rs`, …): letters, digits, `-`, `_`.
     pub name: String,
     pub materials: Vec<Material>,
+    /// Smith masking–shadowing form of the GGX tables (`separable`: G1·G1, the paper's renderer).
     #[serde(default)]
-    pub smith: Smith,
+    pub smith: SmithForm,
     #[serde(default)]
     pub resolution: Resolution,
     #[serde(default)]
@@ -284,15 +276,10 @@ enum Helper {
 }
 
 /// What one material needs: (model, ranges per axis, helpers of that model).
-type Need = (String, Vec<(f64, f64)>, Vec<Helper>);
+type Need = (ModelId, Vec<(f64, f64)>, Vec<Helper>);
 
-fn material_needs(m: &Material, smith: Smith) -> std::result::Result<Vec<Need>, String> {
+fn material_needs(m: &Material, smith: SmithForm) -> std::result::Result<Vec<Need>, String> {
     let kind = kind_of(m)?;
-    let sfx = if smith == Smith::Separable {
-        "-separable"
-    } else {
-        ""
-    };
     if m.r.is_some() && m.alpha.is_some() {
         return Err(format!(
             "material '{}': give either r or alpha, not both (α = r²)",
@@ -334,7 +321,7 @@ fn material_needs(m: &Material, smith: Smith) -> std::result::Result<Vec<Need>, 
         }
         Ok(())
     };
-    let conductor = format!("ggx-conductor{sfx}");
+    let conductor = ModelId::ggx_conductor(smith);
     Ok(match kind {
         Kind::Conductor => {
             needs_ior("conductor")?;
@@ -349,7 +336,7 @@ fn material_needs(m: &Material, smith: Smith) -> std::result::Result<Vec<Need>, 
             let f = f0((0.0, 1.0), 1.0)?;
             vec![
                 (
-                    format!("ggx-glossy{sfx}"),
+                    ModelId::ggx_glossy(smith),
                     vec![f, r, mu],
                     vec![Helper::DiffuseWeight],
                 ),
@@ -360,12 +347,12 @@ fn material_needs(m: &Material, smith: Smith) -> std::result::Result<Vec<Need>, 
             let f = f0((0.0125, 0.25), 0.99)?;
             vec![
                 (
-                    format!("ggx-dielectric{sfx}"),
+                    ModelId::ggx_dielectric(Side::Entering, smith),
                     vec![f, r, mu],
                     vec![Helper::Normalization, Helper::Sided],
                 ),
                 (
-                    format!("ggx-dielectric-inv{sfx}"),
+                    ModelId::ggx_dielectric(Side::Leaving, smith),
                     vec![f, r, mu],
                     vec![Helper::Normalization, Helper::Sided],
                 ),
@@ -373,7 +360,7 @@ fn material_needs(m: &Material, smith: Smith) -> std::result::Result<Vec<Need>, 
         }
         Kind::RoughDiffuse => {
             needs_ior("rough-diffuse material")?;
-            vec![("oren-nayar-fon".to_string(), vec![r, mu], vec![])]
+            vec![(ModelId::new(Family::OREN_NAYAR_FON), vec![r, mu], vec![])]
         }
     })
 }
@@ -381,7 +368,7 @@ fn material_needs(m: &Material, smith: Smith) -> std::result::Result<Vec<Need>, 
 /// One table (and fit) a scene needs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TableNeed {
-    pub model: String,
+    pub model: ModelId,
     /// Union of the materials' ranges, one per axis.
     pub ranges: Vec<(f64, f64)>,
     pub resolution: Vec<usize>,
@@ -403,13 +390,13 @@ impl Plan {
     pub fn helper_names(&self) -> Vec<String> {
         let mut out = Vec::new();
         for t in &self.tables {
-            let p = emit::generate::ident(&t.model);
+            let p = emit::generate::ident(&t.model.name());
             for h in &t.helpers {
                 match h {
                     Helper::TurquinScale => out.push(format!("{p}_turquin_scale")),
                     Helper::Normalization => out.push(format!("{p}_normalization")),
                     Helper::DiffuseWeight => out.push(format!("{p}_diffuse_weight")),
-                    Helper::Sided if !t.model.contains("-inv") => {
+                    Helper::Sided if t.model.side != Some(Side::Leaving) => {
                         out.push(format!("{p}_sided_albedo"));
                         out.push(format!("{p}_sided_normalization"));
                     }
@@ -447,7 +434,7 @@ impl Plan {
 /// Works out the tables, ranges and helpers of a manifest.
 pub fn plan(m: &Manifest) -> Result<Plan> {
     m.validate().map_err(Error::InvalidInput)?;
-    let mut by_model: BTreeMap<String, TableNeed> = BTreeMap::new();
+    let mut by_model: BTreeMap<String, TableNeed> = BTreeMap::new(); // by key: a fixed order
     for mat in &m.materials {
         for (model, ranges, helpers) in material_needs(mat, m.smith).map_err(Error::InvalidInput)? {
             let dims = ranges.len();
@@ -456,8 +443,8 @@ pub fn plan(m: &Manifest) -> Result<Plan> {
             } else {
                 m.resolution.three_d
             };
-            let entry = by_model.entry(model.clone()).or_insert_with(|| TableNeed {
-                model: model.clone(),
+            let entry = by_model.entry(model.key()).or_insert_with(|| TableNeed {
+                model,
                 ranges: ranges.clone(),
                 resolution: vec![res; dims],
                 used_by: vec![],
@@ -623,7 +610,7 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
     let mut fitted = Vec::new();
     let mut sources = Vec::new();
     for need in &plan.tables {
-        let model = bsdf::find(&need.model, ModelOptions::default())?;
+        let model = bsdf::get(need.model)?;
         let spec = TableSpec::with_ranges(
             model.as_ref(),
             &need.resolution,
@@ -648,7 +635,7 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
                 "computed"
             }
         ));
-        let stable = fit_table(&table, &plan.fit, &need.model, opts.stress_points)?;
+        let stable = fit_table(&table, &plan.fit, &need.model.name(), opts.stress_points)?;
         for (m, why) in &stable.rejected {
             log(&format!(
                 "  {}: denominator margin {m} rejected: {why}",
@@ -670,7 +657,7 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
         ));
         let stress_report = stable.stress;
         let file = FitFile::new(
-            &need.model,
+            &need.model.name(),
             "E",
             Some(TableRef {
                 stem,
@@ -679,7 +666,7 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
             }),
             fit.clone(),
         );
-        let fit_path = out_dir.join(format!("{}.json", need.model));
+        let fit_path = out_dir.join(format!("{}.json", need.model.key()));
         io::write_atomic(&fit_path, file.to_json()?.as_bytes())?;
         sources.push(SourceFit::new(&fit_path, file, Some(table.clone()))?);
         fitted.push(FittedTable {
@@ -742,7 +729,7 @@ mod tests {
         let p = plan(&m).unwrap();
         assert_eq!(p.tables.len(), 1, "{p:?}");
         let t = &p.tables[0];
-        assert_eq!(t.model, "ggx-conductor");
+        assert_eq!(t.model.key(), "ggx-conductor");
         assert_eq!(t.resolution, vec![DEFAULT_RESOLUTION_2D; 2]);
         // union of [0.2, 0.6], √[0.01, 0.09] = [0.1, 0.3] and 0.1 widened to [0.09, 0.11]
         assert!(
@@ -767,7 +754,7 @@ mod tests {
         )
         .unwrap();
         let p = plan(&m).unwrap();
-        let models: Vec<&str> = p.tables.iter().map(|t| t.model.as_str()).collect();
+        let models: Vec<String> = p.tables.iter().map(|t| t.model.key()).collect();
         assert_eq!(
             models,
             [

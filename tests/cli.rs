@@ -29,8 +29,8 @@ fn models_lists_every_model_with_axes() {
     let o = furnace(&["models"], &d);
     assert!(o.status.success());
     let text = String::from_utf8_lossy(&o.stdout);
-    for m in furnace::bsdf::registry() {
-        assert!(text.contains(&m.name()), "{} missing", m.name());
+    for m in furnace::bsdf::listed() {
+        assert!(text.contains(&m.id().name()), "{} missing", m.id().name());
     }
     assert!(text.contains("f0") && text.contains("mu") && text.contains("default [0.0125, 0.25]"));
 }

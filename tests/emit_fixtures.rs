@@ -18,7 +18,7 @@
 
 use std::path::{Path, PathBuf};
 
-use furnace::bsdf::{self, ModelOptions};
+use furnace::bsdf;
 use furnace::emit::fitfile::{FitFile, TableRef};
 use furnace::fit::paper::{load_table, published_fit, PaperModel};
 use furnace::quadrature::QuadratureSettings;
@@ -56,7 +56,7 @@ fn regenerate_fixtures() {
     }
     let f0 = (f0_from_ior(1.3), f0_from_ior(1.7));
     for model_name in ["ggx-dielectric", "ggx-dielectric-inv"] {
-        let model = bsdf::find(model_name, ModelOptions::default()).unwrap();
+        let model = bsdf::find(model_name).unwrap();
         let spec = TableSpec::with_ranges(
             model.as_ref(),
             &[12, 12, 12],
@@ -112,7 +112,7 @@ fn denominator_margin_sweep() {
     use furnace::fit::{fit_rational, FitData, InputTransform, Objective, RationalOptions};
     let f0 = (f0_from_ior(1.3), f0_from_ior(1.7));
     for model_name in ["ggx-dielectric-inv", "ggx-dielectric"] {
-        let model = bsdf::find(model_name, ModelOptions::default()).unwrap();
+        let model = bsdf::find(model_name).unwrap();
         let spec = TableSpec::with_ranges(
             model.as_ref(),
             &[12, 12, 12],

@@ -1,11 +1,11 @@
 //! Accuracy of the albedo engine against exact limits and its own convergence.
 
-use furnace::bsdf::{albedo, find, Model, ModelOptions};
+use furnace::bsdf::{albedo, find, Model};
 use furnace::quadrature::{QuadratureSettings, RuleCache};
 use furnace::table::{tabulate, Table, TableSpec};
 
-fn model(name: &str) -> Box<dyn Model> {
-    find(name, ModelOptions::default()).unwrap()
+fn model(name: &str) -> std::sync::Arc<dyn Model> {
+    find(name).unwrap()
 }
 
 fn e_at(m: &dyn Model, x: &[f64]) -> [f64; 3] {

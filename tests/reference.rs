@@ -1,7 +1,7 @@
 //! Every built-in GGX model against the independently computed albedos in data/reference
 //! (12 significant digits; see its README for how they were made).
 
-use furnace::bsdf::{albedo, find, ModelOptions};
+use furnace::bsdf::{albedo, find};
 use furnace::quadrature::{QuadratureSettings, RuleCache};
 use std::path::PathBuf;
 
@@ -29,7 +29,7 @@ fn check(
     point: impl Fn(&[f64]) -> Vec<f64>,
     expected: impl Fn(&[f64]) -> Vec<f64>,
 ) {
-    let m = find(model, ModelOptions::default()).unwrap();
+    let m = find(model).unwrap();
     let settings = QuadratureSettings::default();
     let cache = RuleCache::new(&settings);
     let mut worst = (0.0f64, String::new());

@@ -1,7 +1,7 @@
 //! The white furnace test on small engine tables, and `reports/` end to end on a tiny
 //! configuration: files linked and present, images of the expected size, byte-identical reruns.
 
-use furnace::bsdf::{self, Model, ModelOptions};
+use furnace::bsdf::{self, Model, Transmission};
 use furnace::fit::{
     fit_polynomial, fit_rational, FitData, InputTransform, Objective, PolynomialOptions,
     RationalOptions,
@@ -19,8 +19,8 @@ use std::cell::RefCell;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-fn table(name: &str, options: ModelOptions, resolution: &[usize]) -> Table {
-    let model = bsdf::find(name, options).unwrap();
+fn table(name: &str, transmission: Transmission, resolution: &[usize]) -> Table {
+    let model = bsdf::find_variant(name, transmission).unwrap();
     let spec = TableSpec::new(model.as_ref(), resolution, QuadratureSettings::default()).unwrap();
     table::tabulate(model.as_ref(), &spec, &|_| {}).unwrap()
 }
@@ -70,7 +70,7 @@ fn conductor_with_the_exact_table_passes_the_furnace_to_1e6() {
         ("ggx-conductor", SmithForm::HeightCorrelated),
         ("ggx-conductor-separable", SmithForm::Separable),
     ] {
-        let t = table(name, ModelOptions::default(), &[17, 17]);
+        let t = table(name, Transmission::Energy, &[17, 17]);
         let (with, none) =
             furnace_on_nodes(&Material::new(MaterialClass::Conductor, smith), &t, None);
         eprintln!("{name}: furnace max |1 − E| with the exact table {with:.2e}, without compensation {none:.3}");
@@ -86,7 +86,7 @@ fn conductor_with_the_exact_table_passes_the_furnace_to_1e6() {
 #[test]
 fn every_class_passes_with_its_exact_tables() {
     let hc = SmithForm::HeightCorrelated;
-    let cond = table("ggx-conductor", ModelOptions::default(), &[9, 9]);
+    let cond = table("ggx-conductor", Transmission::Energy, &[9, 9]);
     let cases: Vec<(Material, Table, Option<&Table>)> = vec![
         (
             Material::new(MaterialClass::ThinDielectric, hc),
@@ -95,17 +95,17 @@ fn every_class_passes_with_its_exact_tables() {
         ),
         (
             Material::new(MaterialClass::Glossy, hc),
-            table("ggx-glossy", ModelOptions::default(), &[3, 9, 9]),
+            table("ggx-glossy", Transmission::Energy, &[3, 9, 9]),
             Some(&cond),
         ),
         (
             Material::new(MaterialClass::Dielectric { inverse: false }, hc),
-            table("ggx-dielectric", ModelOptions::default(), &[3, 9, 9]),
+            table("ggx-dielectric", Transmission::Energy, &[3, 9, 9]),
             None,
         ),
         (
             Material::new(MaterialClass::Dielectric { inverse: true }, hc),
-            table("ggx-dielectric-inv", ModelOptions::default(), &[3, 9, 9]),
+            table("ggx-dielectric-inv", Transmission::Energy, &[3, 9, 9]),
             None,
         ),
         (
@@ -118,16 +118,14 @@ fn every_class_passes_with_its_exact_tables() {
             },
             table(
                 "ggx-dielectric-inv-separable",
-                ModelOptions {
-                    radiance_transmission: true,
-                },
+                Transmission::Radiance,
                 &[3, 9, 9],
             ),
             None,
         ),
         (
             Material::new(MaterialClass::RoughDiffuse, hc),
-            table("oren-nayar-fon", ModelOptions::default(), &[9, 9]),
+            table("oren-nayar-fon", Transmission::Energy, &[9, 9]),
             None,
         ),
     ];
@@ -161,7 +159,7 @@ fn grid_data(t: &Table) -> FitData {
 /// ρ/(1 − ρ), plus the furnace quadrature's own accuracy.
 #[test]
 fn conductor_with_a_fit_passes_to_within_its_relative_error() {
-    let t = table("ggx-conductor", ModelOptions::default(), &[17, 17]);
+    let t = table("ggx-conductor", Transmission::Energy, &[17, 17]);
     let data = grid_data(&t);
     let id = [InputTransform::Identity; 2];
     let fits = vec![
@@ -227,7 +225,7 @@ struct Tables {
 
 impl TableProvider for Tables {
     fn table(&self, model: &dyn Model, resolution: &[usize]) -> furnace::Result<Table> {
-        let key = format!("{}-{:?}", model.cache_name(), resolution);
+        let key = format!("{}-{:?}", model.id().key(), resolution);
         if let Some(t) = self.cache.borrow().get(&key) {
             return Ok(t.clone());
         }
@@ -293,7 +291,7 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
     let _ = std::fs::remove_dir_all(&root);
     std::fs::create_dir_all(&root).unwrap();
     // one fit for the conductor (a degree-2 rational on the 9² table), none for the others
-    let cond = table("ggx-conductor-separable", ModelOptions::default(), &[9, 9]);
+    let cond = table("ggx-conductor-separable", Transmission::Energy, &[9, 9]);
     let fit = fit_rational(
         &grid_data(&cond),
         &[InputTransform::Identity; 2],
@@ -315,8 +313,8 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
     };
     let quiet = |_: &str| {};
     let models = vec![
-        "ggx-conductor-separable".to_string(),
-        "oren-nayar-fon".to_string(),
+        bsdf::lookup("ggx-conductor-separable").unwrap(),
+        bsdf::lookup("oren-nayar-fon").unwrap(),
     ];
     let run = || {
         let reporter = Reporter::new(tiny_options(&root), &tables, &quiet);

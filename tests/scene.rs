@@ -53,7 +53,7 @@ fn conductor_only_scene_tabulates_fits_and_emits_only_2d_conductor_code() {
     // one table: ggx-conductor over r ∈ [0.2, 0.6] (the union of [0.2, 0.6] and √[0.04, 0.09])
     assert_eq!(out.plan.tables.len(), 1);
     let t = &out.fitted[0];
-    assert_eq!(t.need.model, "ggx-conductor");
+    assert_eq!(t.need.model.key(), "ggx-conductor");
     assert_eq!(t.need.ranges[0], (0.2, 0.6));
     assert_eq!(
         t.fit.approximant.domain[0],
@@ -174,7 +174,7 @@ fn every_kind_in_one_scene_emits_valid_shaders_with_only_the_needed_helpers() {
         command: "furnace run --scene all-kinds.json".into(),
     };
     let out = run(&manifest, &opts, &|l| eprintln!("{l}")).unwrap();
-    let models: Vec<&str> = out.fitted.iter().map(|f| f.need.model.as_str()).collect();
+    let models: Vec<String> = out.fitted.iter().map(|f| f.need.model.key()).collect();
     assert_eq!(
         models,
         [

@@ -28,7 +28,7 @@
 //! [`qon_average_albedo`] (eq. 9), [`fon_average_albedo`] (eq. 15) — are implemented separately
 //! from the BRDFs and serve as test oracles; the models themselves integrate the BRDF.
 
-use super::{AxisSpec, Model, MAX_OUTPUTS};
+use super::{AxisSpec, Family, Model, ModelId, MAX_OUTPUTS};
 use crate::quadrature::{integrate_2d, Integrand2D, Rules, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -99,13 +99,12 @@ impl DiffuseModel {
 }
 
 impl Model for DiffuseModel {
-    fn name(&self) -> String {
-        match self.kind {
-            DiffuseKind::Qon => "oren-nayar-qon",
-            DiffuseKind::Fon => "oren-nayar-fon",
-            DiffuseKind::Eon => "eon",
-        }
-        .to_string()
+    fn id(&self) -> ModelId {
+        ModelId::new(match self.kind {
+            DiffuseKind::Qon => Family::OREN_NAYAR_QON,
+            DiffuseKind::Fon => Family::OREN_NAYAR_FON,
+            DiffuseKind::Eon => Family::EON,
+        })
     }
 
     fn summary(&self) -> String {

@@ -30,7 +30,7 @@
 //! curves meet are the outer panel ends found by scanning β and bisecting.
 
 use super::slope::SlopeIntegrand;
-use super::{AxisSpec, Model, ModelOptions, MAX_OUTPUTS};
+use super::{AxisSpec, Model, ModelId, Side, Transmission, MAX_OUTPUTS};
 use crate::math::{
     alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, sin_cos_0_pi, SmithForm,
 };
@@ -72,40 +72,8 @@ pub struct GgxModel {
     pub radiance_transmission: bool,
 }
 
-/// All built-in GGX models.
-pub fn all() -> Vec<Box<dyn Model>> {
-    let mut v: Vec<Box<dyn Model>> = Vec::new();
-    for kind in [
-        GgxKind::Conductor,
-        GgxKind::Dielectric { inverse: false },
-        GgxKind::Dielectric { inverse: true },
-        GgxKind::Glossy,
-    ] {
-        for smith in [SmithForm::HeightCorrelated, SmithForm::Separable] {
-            v.push(Box::new(GgxModel {
-                kind,
-                smith,
-                radiance_transmission: false,
-            }));
-        }
-    }
-    v
-}
-
-/// The radiance-form variant of a dielectric model, by name.
-pub fn with_radiance_transmission(name: &str) -> Option<Box<dyn Model>> {
-    all().into_iter().find(|m| m.name() == name)?;
-    let model = all_ggx().into_iter().find(|m| m.name() == name)?;
-    match model.kind {
-        GgxKind::Dielectric { .. } => Some(Box::new(GgxModel {
-            radiance_transmission: true,
-            ..model
-        })),
-        _ => None,
-    }
-}
-
-fn all_ggx() -> Vec<GgxModel> {
+/// Every GGX kind and Smith form, energy-form transmission, in the order `furnace models` lists them.
+pub fn all() -> Vec<GgxModel> {
     let mut v = Vec::new();
     for kind in [
         GgxKind::Conductor,
@@ -114,31 +82,27 @@ fn all_ggx() -> Vec<GgxModel> {
         GgxKind::Glossy,
     ] {
         for smith in [SmithForm::HeightCorrelated, SmithForm::Separable] {
-            v.push(GgxModel {
-                kind,
-                smith,
-                radiance_transmission: false,
-            });
+            v.push(GgxModel::new(kind, smith, Transmission::Energy));
         }
     }
     v
 }
 
+/// The dielectrics with radiance-form transmission (the paper's tables).
+pub fn radiance_variants() -> Vec<GgxModel> {
+    all()
+        .into_iter()
+        .filter(|m| matches!(m.kind, GgxKind::Dielectric { .. }))
+        .map(|m| GgxModel::new(m.kind, m.smith, Transmission::Radiance))
+        .collect()
+}
+
 impl GgxModel {
-    pub fn new(kind: GgxKind, smith: SmithForm, options: ModelOptions) -> GgxModel {
+    pub fn new(kind: GgxKind, smith: SmithForm, transmission: Transmission) -> GgxModel {
         GgxModel {
             kind,
             smith,
-            radiance_transmission: options.radiance_transmission,
-        }
-    }
-
-    fn base_name(&self) -> &'static str {
-        match self.kind {
-            GgxKind::Conductor => "ggx-conductor",
-            GgxKind::Dielectric { inverse: false } => "ggx-dielectric",
-            GgxKind::Dielectric { inverse: true } => "ggx-dielectric-inv",
-            GgxKind::Glossy => "ggx-glossy",
+            radiance_transmission: transmission == Transmission::Radiance,
         }
     }
 
@@ -226,12 +190,24 @@ fn smooth_interface(lobes: Lobes, mu_o: f64) -> [f64; CHANNELS] {
 }
 
 impl Model for GgxModel {
-    fn name(&self) -> String {
-        let mut s = self.base_name().to_string();
-        if self.smith == SmithForm::Separable {
-            s.push_str("-separable");
+    fn id(&self) -> ModelId {
+        match self.kind {
+            GgxKind::Conductor => ModelId::ggx_conductor(self.smith),
+            GgxKind::Glossy => ModelId::ggx_glossy(self.smith),
+            GgxKind::Dielectric { inverse } => ModelId::ggx_dielectric(
+                if inverse {
+                    Side::Leaving
+                } else {
+                    Side::Entering
+                },
+                self.smith,
+            )
+            .with_transmission(if self.radiance_transmission {
+                Transmission::Radiance
+            } else {
+                Transmission::Energy
+            }),
         }
-        s
     }
 
     fn summary(&self) -> String {
@@ -375,14 +351,6 @@ impl Model for GgxModel {
         crate::quadrature::integrate_2d_into(&f, rules, &mut c);
         for (k, o) in out.iter_mut().enumerate() {
             *o = self.outputs_from_integrals(xs[k][0], [c[2 * k], c[2 * k + 1]]);
-        }
-    }
-
-    fn cache_name(&self) -> String {
-        if self.radiance_transmission {
-            format!("{}-radiance", self.name())
-        } else {
-            self.name()
         }
     }
 

@@ -1,16 +1,22 @@
-//! The model trait and the registry of built-in models.
+//! The model trait, model identities and the registry of models.
 //!
 //! A model is a BSDF together with the parametrisation of its directional albedo
 //! E(ω_o) = ∫ f(ω_o, ω_i) |n·ω_i| dω_i (Sforza & Pellacini 2022, eq. 2): the axes a table spans
-//! and how to integrate at one point. To add a BSDF, write one file implementing [`Model`]
-//! and add one line to [`registry`] (see docs/models.md, "Adding a model").
+//! and how to integrate at one point. Its identity is a [`ModelId`] (family, Smith form, side,
+//! transmission convention), whose text form is the model's name. To add a BSDF, implement
+//! [`Model`] and [`register`] it (see docs/models.md, "Adding a model"; a built-in one joins the
+//! registry's built-in list, and `examples/custom_model.rs` registers one from outside the library).
 
 pub mod diffuse;
 pub mod ggx;
+mod id;
 pub mod radziszewski;
+mod registry;
 pub mod slope;
 
-use crate::error::{Error, Result};
+pub use id::{Family, ModelId, Side, Transmission};
+pub use registry::{find, find_variant, get, known_names, listed, lookup, models, register};
+
 use crate::quadrature::{next_order, Estimate, QuadratureSettings, RuleCache, Rules};
 
 /// Most outputs a model reports at one point (E, and E_R, E_T for dielectrics).
@@ -47,8 +53,9 @@ impl AxisSpec {
 
 /// A BSDF whose directional albedo furnace can integrate.
 pub trait Model: Send + Sync {
-    /// Identifier as the CLI spells it; also the folder name under `data/` and `fits/`.
-    fn name(&self) -> String;
+    /// The model's identity; [`ModelId::name`] is how the CLI spells it and
+    /// [`ModelId::key`] the folder under `data/` and `fits/`.
+    fn id(&self) -> ModelId;
     /// One line: what the model is and where it comes from.
     fn summary(&self) -> String;
     /// The axes of the albedo, in table order.
@@ -89,11 +96,6 @@ pub trait Model: Send + Sync {
     /// costs time (the rough-diffuse models' best fits never used it: measured on every sweep).
     fn grazing_boundary_layer(&self) -> bool {
         false
-    }
-    /// Folder name of the model's tables under `data/` (differs from [`Model::name`] only for
-    /// variants selected by options, e.g. radiance-form transmission).
-    fn cache_name(&self) -> String {
-        self.name()
     }
 }
 
@@ -237,56 +239,4 @@ pub fn axis_names(model: &dyn Model) -> String {
         .map(|a| a.name.clone())
         .collect::<Vec<_>>()
         .join(",")
-}
-
-/// Options that select a variant of a registered model.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct ModelOptions {
-    /// Tabulate transmission in radiance form (×1/η² entering, ×η² leaving), as the paper's
-    /// repository does, instead of the energy form.
-    pub radiance_transmission: bool,
-}
-
-/// Every built-in model, in the order `furnace models` lists them.
-pub fn registry() -> Vec<Box<dyn Model>> {
-    let mut models: Vec<Box<dyn Model>> = Vec::new();
-    models.extend(ggx::all());
-    models.push(Box::new(diffuse::DiffuseModel::new(
-        diffuse::DiffuseKind::Qon,
-    )));
-    models.push(Box::new(diffuse::DiffuseModel::new(
-        diffuse::DiffuseKind::Fon,
-    )));
-    models.push(Box::new(diffuse::DiffuseModel::new(
-        diffuse::DiffuseKind::Eon,
-    )));
-    models.push(Box::new(radziszewski::RadziszewskiModel));
-    models
-}
-
-/// Names of the built-in models, comma separated (for error messages).
-pub fn known_names() -> String {
-    registry()
-        .iter()
-        .map(|m| m.name())
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// The model called `name`, or an error listing the known ones.
-pub fn find(name: &str, options: ModelOptions) -> Result<Box<dyn Model>> {
-    if options.radiance_transmission {
-        return ggx::with_radiance_transmission(name).ok_or_else(|| {
-            Error::InvalidInput(format!(
-                "--transmission radiance applies only to the dielectric models (ggx-dielectric, ggx-dielectric-inv and their -separable variants), not '{name}'"
-            ))
-        });
-    }
-    registry()
-        .into_iter()
-        .find(|m| m.name() == name)
-        .ok_or_else(|| Error::UnknownModel {
-            name: name.to_string(),
-            known: known_names(),
-        })
 }

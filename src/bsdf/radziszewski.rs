@@ -66,7 +66,7 @@
 //! The BRDF itself is evaluated at the mapped (x, Δφ) and multiplied by both Jacobians; nothing
 //! analytic about its integral is used.
 
-use super::{AxisSpec, Model, MAX_OUTPUTS};
+use super::{AxisSpec, Family, Model, ModelId, MAX_OUTPUTS};
 use crate::quadrature::{integrate_2d, Integrand2D, Rules, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, LN_2, PI};
 
@@ -107,8 +107,8 @@ impl RadziszewskiModel {
 }
 
 impl Model for RadziszewskiModel {
-    fn name(&self) -> String {
-        "radziszewski-glossy".to_string()
+    fn id(&self) -> ModelId {
+        ModelId::new(Family::RADZISZEWSKI_GLOSSY)
     }
 
     fn summary(&self) -> String {

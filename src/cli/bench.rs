@@ -4,7 +4,7 @@
 //! (every cell at order n and n/2 for its error estimate) but without refinement, and the same
 //! fixed-order rule is evaluated at the reference points to measure its true error.
 
-use crate::bsdf::{self, albedo, Model, ModelOptions};
+use crate::bsdf::{self, albedo, Model};
 use crate::error::{Error, Result};
 use crate::quadrature::{QuadratureSettings, RuleCache};
 use crate::table::{self, TableSpec};
@@ -132,7 +132,7 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
         "model", "table", "order", "wall s", "µs/cell", "max |ΔE| ref", "max est."
     );
     for name in &args.models {
-        let model = bsdf::find(name, ModelOptions::default())?;
+        let model = bsdf::find(name)?;
         let dims = model.axes().len();
         let n = match (dims, args.quick) {
             (2, false) => 1024,

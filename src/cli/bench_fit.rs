@@ -2,7 +2,7 @@
 
 use super::bench::{machine_note, write_bench};
 use super::{get_table, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D};
-use crate::bsdf::{self, ModelOptions};
+use crate::bsdf;
 use crate::error::Result;
 use crate::fit::job::{self, default_sweep_points, FitRequest, FormKind, SweepPlan};
 use crate::fit::{source, InputTransform, Objective};
@@ -69,7 +69,7 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
         "model", "table", "form", "degree", "n", "seconds", "MAE", "max"
     );
     for name in &args.models {
-        let model = bsdf::find(name, ModelOptions::default())?;
+        let model = bsdf::find(name)?;
         let d = model.axes().len();
         let n = if d <= 2 {
             args.resolution_2d.unwrap_or(RUN_RESOLUTION_2D)

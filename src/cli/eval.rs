@@ -2,7 +2,7 @@
 //! from a fit file's coefficients.
 
 use super::EvalArgs;
-use crate::bsdf::{self, albedo};
+use crate::bsdf::albedo;
 use crate::error::{Error, Result};
 use crate::fit::job::FitRecord;
 use crate::quadrature::RuleCache;
@@ -58,14 +58,14 @@ fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
 
 fn eval_model(args: &EvalArgs, name: &str) -> Result<()> {
     let settings = args.quadrature.settings()?;
-    let model = bsdf::find(name, args.quadrature.model_options())?;
+    let model = args.quadrature.model(name)?;
     let axes: Vec<String> = model.axes().iter().map(|a| a.name.clone()).collect();
     let ranges: Vec<(f64, f64)> = model.axes().iter().map(|a| a.valid_range).collect();
     let points = read_points(&args.input, &axes, &ranges)?;
     let cache = RuleCache::new(&settings);
     let pb = super::progress_bar(
         points.coords.len() as u64,
-        &format!("eval {}", model.name()),
+        &format!("eval {}", model.id().name()),
     );
     let estimates: Vec<_> = points
         .coords
@@ -97,7 +97,7 @@ fn eval_model(args: &EvalArgs, name: &str) -> Result<()> {
     eprintln!(
         "{} points of {} evaluated to {}{}",
         estimates.len(),
-        model.name(),
+        model.id().name(),
         args.output.display(),
         if unconverged > 0 {
             format!(

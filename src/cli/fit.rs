@@ -3,7 +3,7 @@
 //! [`crate::fit::job`], [`crate::fit::source`] and [`crate::fit::compare`].
 
 use super::{get_table, parse_resolution, QuadratureArgs};
-use crate::bsdf::{self, ModelOptions};
+use crate::bsdf;
 use crate::error::{Error, Result};
 use crate::fit::compare::{
     compare_model, paper_box, same_form_request, CompareReport, PaperPair, PAPER_PAIRS,
@@ -149,7 +149,7 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
         .model
         .as_deref()
         .ok_or_else(|| Error::InvalidInput("give --model or --table".into()))?;
-    let model = bsdf::find(name, args.quadrature.model_options())?;
+    let model = args.quadrature.model(name)?;
     let resolution = parse_resolution(args.resolution.as_deref(), model.axes().len())?;
     let spec = TableSpec::new(model.as_ref(), &resolution, args.quadrature.settings()?)?;
     let t = get_table(model.as_ref(), &spec, &args.data_dir, args.force)?;
@@ -167,7 +167,7 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
     );
     Ok((
         source::from_table(&t.table, &args.channel, Some(&t.stem))?,
-        model.cache_name(),
+        model.id().key(),
         model.grazing_boundary_layer(),
     ))
 }
@@ -556,12 +556,7 @@ fn compare_one(
     args: &ComparePaperArgs,
     pair: &PaperPair,
 ) -> Result<crate::fit::compare::CompareEntry> {
-    let model = bsdf::find(
-        pair.model,
-        ModelOptions {
-            radiance_transmission: pair.radiance,
-        },
-    )?;
+    let model = bsdf::get(pair.table_model())?;
     let d = model.axes().len();
     let n = if d >= 3 {
         args.resolution_3d.or(args.resolution)
@@ -574,7 +569,7 @@ fn compare_one(
     eprintln!(
         "{} ({}): {} table {} in {:.1} s",
         pair.paper_name,
-        model.cache_name(),
+        model.id().key(),
         spec.resolution_name(),
         if t.cached { "read" } else { "computed" },
         t.seconds
@@ -587,13 +582,13 @@ fn compare_one(
     let timing = args.data_dir.join("timing");
     let best = best_40(
         &input,
-        &args.fits_dir.join(model.cache_name()),
-        &timing.join(model.cache_name()),
+        &args.fits_dir.join(model.id().key()),
+        &timing.join(model.id().key()),
         args.no_sweep,
     )?;
     let bounds = paper_box(pair);
     let boxed = input.restrict(&bounds)?;
-    let boxed_dir = boxed_name(&model.cache_name(), &bounds);
+    let boxed_dir = boxed_name(&model.id().key(), &bounds);
     let best_box = best_40(
         &boxed,
         &args.fits_dir.join(&boxed_dir),

@@ -17,7 +17,7 @@ pub use run::{
     RunArgs, DEFAULT_MODELS, PAPER_RADIANCE_MODELS, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D,
 };
 
-use crate::bsdf::{self, ModelOptions};
+use crate::bsdf::{self, Transmission};
 use crate::error::{Error, Result};
 use crate::quadrature::QuadratureSettings;
 use crate::table::{self, io, Table, TableSpec};
@@ -79,12 +79,12 @@ pub struct QuadratureArgs {
     #[arg(long)]
     pub max_order: Option<usize>,
     /// Transmission convention of dielectric models.
-    #[arg(long, value_enum, default_value_t = Transmission::Energy)]
-    pub transmission: Transmission,
+    #[arg(long, value_enum, default_value_t = TransmissionArg::Energy)]
+    pub transmission: TransmissionArg,
 }
 
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Transmission {
+pub enum TransmissionArg {
     /// E_T without the 1/η² radiance factor: E_R + E_T → 1 as α → 0 (the default).
     Energy,
     /// E_T in radiance form (×1/η² entering, ×η² leaving), as the paper's repository tabulates.
@@ -109,10 +109,15 @@ impl QuadratureArgs {
         Ok(q)
     }
 
-    fn model_options(&self) -> ModelOptions {
-        ModelOptions {
-            radiance_transmission: self.transmission == Transmission::Radiance,
-        }
+    /// The model `name` in the `--transmission` convention.
+    fn model(&self, name: &str) -> Result<std::sync::Arc<dyn bsdf::Model>> {
+        bsdf::find_variant(
+            name,
+            match self.transmission {
+                TransmissionArg::Energy => Transmission::Energy,
+                TransmissionArg::Radiance => Transmission::Radiance,
+            },
+        )
     }
 }
 
@@ -198,8 +203,8 @@ pub fn run(cli: Cli) -> Result<()> {
 /// `furnace models`: one block per model.
 pub fn models_listing() -> String {
     let mut s = String::new();
-    for m in bsdf::registry() {
-        s.push_str(&format!("{}\n    {}\n", m.name(), m.summary()));
+    for m in bsdf::listed() {
+        s.push_str(&format!("{}\n    {}\n", m.id().name(), m.summary()));
         for a in m.axes() {
             s.push_str(&format!(
                 "    {:<4} default [{}, {}], valid [{}, {}]: {}\n",
@@ -296,7 +301,7 @@ pub fn get_table(
 
 fn tabulate_cmd(args: &TabulateArgs) -> Result<Tabulated> {
     let settings = args.quadrature.settings()?;
-    let model = bsdf::find(&args.model, args.quadrature.model_options())?;
+    let model = args.quadrature.model(&args.model)?;
     let resolution = parse_resolution(args.resolution.as_deref(), model.axes().len())?;
     let spec = TableSpec::new(model.as_ref(), &resolution, settings)?;
     let t = get_table(model.as_ref(), &spec, &args.data_dir, args.force)?;

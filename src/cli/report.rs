@@ -119,7 +119,10 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
     };
     let progress = |m: &str| eprintln!("report: {m}");
     let reporter = Reporter::new(options, &tables, &progress);
-    let models = args.model.as_ref().map(|m| vec![m.clone()]);
+    let models = match &args.model {
+        Some(m) => Some(vec![crate::bsdf::lookup(m)?]),
+        None => None,
+    };
     let outcome = reporter.generate(models.as_deref())?;
     println!(
         "{:<30} {:<22} {:>6} {:>10} {:>10}   furnace max |1 − E|: none / table / LUT / fit",

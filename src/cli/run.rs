@@ -19,11 +19,12 @@ use super::emit::{emit_files, EmitArgs, FormArg as EmitFormArg};
 use super::report::CachedTables;
 use super::scene::SceneArgs;
 use super::{get_table, progress_bar, Tabulated};
-use crate::bsdf::{self, Model, ModelOptions};
+use crate::bsdf::{self, Model, ModelId, Side, Transmission};
 use crate::emit::parse_langs;
 use crate::error::{Error, Result};
 use crate::fit::job::{self, FitRecord, Stopwatch, SweepPlan};
 use crate::fit::{source, Objective};
+use crate::math::SmithForm;
 use crate::quadrature::QuadratureSettings;
 use crate::report::model::{fmt_e, ModelSummary, ReportOptions, Reporter, REPORT_MODELS};
 use crate::table::io::write_atomic;
@@ -95,17 +96,21 @@ pub const RUN_LUT_RESOLUTION: usize = 32;
 
 /// The built-in default set of `furnace run`: the paper's models in both Smith forms and
 /// the rough-diffuse models — the set the report covers.
-pub const DEFAULT_MODELS: &[&str] = REPORT_MODELS;
+pub const DEFAULT_MODELS: &[ModelId] = REPORT_MODELS;
 
 /// Models also tabulated and fitted with radiance-form transmission (×1/η² entering, ×η²
 /// leaving): the paper's two dielectric tables are in that form, and its published fits are
 /// compared with furnace's on the same convention.
-pub const PAPER_RADIANCE_MODELS: &[&str] =
-    &["ggx-dielectric-separable", "ggx-dielectric-inv-separable"];
+pub const PAPER_RADIANCE_MODELS: &[ModelId] = &[
+    ModelId::ggx_dielectric(Side::Entering, SmithForm::Separable)
+        .with_transmission(Transmission::Radiance),
+    ModelId::ggx_dielectric(Side::Leaving, SmithForm::Separable)
+        .with_transmission(Transmission::Radiance),
+];
 
 /// One table of `furnace run` and what became of it.
 struct Job {
-    model: Box<dyn Model>,
+    model: std::sync::Arc<dyn Model>,
     /// The cache name (`ggx-dielectric-separable-radiance`): folder under data/, fits/.
     name: String,
     resolution: Vec<usize>,
@@ -114,7 +119,7 @@ struct Job {
 impl Job {
     /// A radiance-form table (for the paper comparison only: fitted and reported, not emitted).
     fn radiance(&self) -> bool {
-        self.name.ends_with("-radiance")
+        self.model.id().is_radiance()
     }
 }
 
@@ -130,6 +135,7 @@ struct FitStep {
 
 /// One row of the final summary.
 struct Row {
+    id: ModelId,
     name: String,
     resolution: String,
     cached: bool,
@@ -149,23 +155,16 @@ fn default_jobs(args: &RunArgs) -> Result<Vec<Job>> {
             n.min(RUN_RESOLUTION_PAPER_RADIANCE)
         });
     let mut jobs = Vec::new();
-    let radiance = ModelOptions {
-        radiance_transmission: true,
-    };
-    let candidates = DEFAULT_MODELS
-        .iter()
-        .map(|m| (*m, ModelOptions::default()))
-        .chain(PAPER_RADIANCE_MODELS.iter().map(|m| (*m, radiance)));
-    for (name, options) in candidates {
-        let model = bsdf::find(name, options)?;
+    for &id in DEFAULT_MODELS.iter().chain(PAPER_RADIANCE_MODELS) {
+        let model = bsdf::get(id)?;
         let dims = model.axes().len();
-        let n = match (dims, options.radiance_transmission) {
+        let n = match (dims, id.is_radiance()) {
             (2, _) => r2,
             (_, false) => r3,
             (_, true) => r3_radiance,
         };
         jobs.push(Job {
-            name: model.cache_name(),
+            name: model.id().key(),
             resolution: vec![n; dims],
             model,
         });
@@ -254,6 +253,7 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
             }
         );
         rows.push(Row {
+            id: job.model.id(),
             name: job.name.clone(),
             resolution: spec.resolution_name(),
             cached: t.cached,
@@ -410,10 +410,10 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
             "[4/{steps}] report ({})",
             args.reports_dir.join("README.md").display()
         );
-        let selected: Vec<String> = REPORT_MODELS
+        let selected: Vec<ModelId> = REPORT_MODELS
             .iter()
-            .filter(|m| jobs.iter().any(|j| j.name == **m))
-            .map(|m| m.to_string())
+            .filter(|m| jobs.iter().any(|j| j.model.id() == **m))
+            .copied()
             .collect();
         let provider = CachedTables {
             data_dir: &args.data_dir,
@@ -427,7 +427,7 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
             reporter.generate_each(Some(&selected), !args.force, &mut |_, _| pb_ref.inc(1))?;
         pb.finish_and_clear();
         for row in rows.iter_mut() {
-            row.furnace = furnace_of(&row.name, &outcome.regenerated);
+            row.furnace = furnace_of(row.id, &outcome.regenerated);
             if let Some(s) = outcome.regenerated.iter().find(|s| s.model == row.name) {
                 row.report_files = s.files.len() + 2;
             }
@@ -447,11 +447,12 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
 
 /// max |1 − E| of the BSDF compensated with furnace's chosen fit: the model's first furnace
 /// material, or for a radiance-form table the paper comparison of its energy-form model.
-fn furnace_of(name: &str, sections: &[ModelSummary]) -> Option<f64> {
-    if let Some(energy) = name.strip_suffix("-radiance") {
+fn furnace_of(id: ModelId, sections: &[ModelSummary]) -> Option<f64> {
+    let name = id.key();
+    if id.is_radiance() {
         return sections
             .iter()
-            .find(|s| s.model == energy)
+            .find(|s| s.model == id.energy_form().key())
             .and_then(|s| s.paper.as_ref())
             .and_then(|p| p.furnace_fit_furnace);
     }

@@ -15,11 +15,15 @@
 use super::generate::{ident, ALBEDO_FLOOR};
 use super::ir::build::*;
 use super::ir::{Function, Stmt};
+use crate::bsdf::{Family, ModelId, Side};
 
 /// An emitted albedo function the helpers can call.
 #[derive(Clone, Debug)]
 pub struct AlbedoRef {
+    /// The model as the fit file names it.
     pub model: String,
+    /// Its registered identity (None for a table furnace did not make).
+    pub id: Option<ModelId>,
     pub function: String,
     pub params: Vec<String>,
 }
@@ -47,22 +51,15 @@ fn normalization(name: String, a: &AlbedoRef, doc: Vec<String>) -> Function {
     }
 }
 
-/// Base model name without the Smith-form suffix, and the suffix.
-fn split_smith(model: &str) -> (&str, &str) {
-    match model.strip_suffix("-separable") {
-        Some(base) => (base, "-separable"),
-        None => (model, ""),
-    }
-}
-
 /// The helpers for the albedo functions of one emitted file, in call order.
 pub fn helpers(albedos: &[AlbedoRef]) -> Vec<Function> {
     let mut out = Vec::new();
     for a in albedos {
         let prefix = ident(&a.model);
         let args = a.params.join(", ");
-        match split_smith(&a.model).0 {
-            "ggx-conductor" => {
+        let Some(id) = a.id else { continue };
+        match id.family {
+            Family::GGX_CONDUCTOR => {
                 let mut params = vec!["f0".to_string()];
                 params.extend(a.params.iter().filter(|p| *p != "f0").cloned());
                 out.push(Function {
@@ -85,7 +82,7 @@ pub fn helpers(albedos: &[AlbedoRef]) -> Vec<Function> {
                     ],
                 ));
             }
-            "ggx-glossy" => out.push(Function {
+            Family::GGX_GLOSSY => out.push(Function {
                 name: format!("{prefix}_diffuse_weight"),
                 doc: vec![
                     format!("Weight 1 − E_spec of the diffuse base under the specular layer, E_spec = {}({args})", a.function),
@@ -95,7 +92,7 @@ pub fn helpers(albedos: &[AlbedoRef]) -> Vec<Function> {
                 body: vec![],
                 result: sub(lit(1.0), call_albedo(a)), // paper eq. 18
             }),
-            "ggx-dielectric" | "ggx-dielectric-inv" => out.push(normalization(
+            Family::GGX_DIELECTRIC => out.push(normalization(
                 format!("{prefix}_normalization"),
                 a,
                 vec![
@@ -115,14 +112,14 @@ pub fn helpers(albedos: &[AlbedoRef]) -> Vec<Function> {
 fn sided(albedos: &[AlbedoRef]) -> Vec<Function> {
     let mut out = Vec::new();
     for enter in albedos {
-        let (base, smith) = split_smith(&enter.model);
-        if base != "ggx-dielectric" {
+        let Some(enter_id) = enter.id else { continue };
+        if enter_id.family != Family::GGX_DIELECTRIC || enter_id.side != Some(Side::Entering) {
             continue;
         }
-        let leave_model = format!("ggx-dielectric-inv{smith}");
+        let leave_id = enter_id.with_side(Side::Leaving);
         let Some(leave) = albedos
             .iter()
-            .find(|a| a.model == leave_model && a.params == enter.params)
+            .find(|a| a.id == Some(leave_id) && a.params == enter.params)
         else {
             continue;
         };
@@ -164,6 +161,7 @@ fn sided(albedos: &[AlbedoRef]) -> Vec<Function> {
         });
         let sided_ref = AlbedoRef {
             model: enter.model.clone(),
+            id: enter.id,
             function: albedo_name,
             params,
         };

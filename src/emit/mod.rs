@@ -33,6 +33,7 @@ pub mod stress;
 pub mod wgsl;
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use crate::error::{Error, Result};
 use crate::table::Table;
@@ -150,12 +151,7 @@ impl SourceFit {
     pub fn new(path: impl Into<PathBuf>, file: FitFile, table: Option<Table>) -> Result<SourceFit> {
         let path = path.into();
         if let Some(t) = &file.table {
-            if t.spec
-                .model_parameters
-                .get("transmission")
-                .and_then(|v| v.as_str())
-                == Some("radiance")
-            {
+            if t.spec.transmission() == Some(crate::bsdf::Transmission::Radiance) {
                 return Err(Error::file(
                     &path,
                     "fit of a radiance-form transmission table (values above 1): the emitted albedo clamps to [0, 1]; fit the energy-form table (the default) instead",
@@ -248,9 +244,7 @@ pub fn table_accuracy(
 }
 
 fn model_summary(model: &str) -> Option<String> {
-    crate::bsdf::find(model, crate::bsdf::ModelOptions::default())
-        .ok()
-        .map(|m| m.summary())
+    crate::bsdf::find(model).ok().map(|m| m.summary())
 }
 
 fn fmt_domain(lo: f64, hi: f64) -> String {
@@ -397,6 +391,10 @@ pub fn build_unit(
         function.doc = albedo_doc(src, &name, &function.params, &hash, &report, table.as_ref());
         refs.push(helpers::AlbedoRef {
             model: f.model.clone(),
+            id: match &f.table {
+                Some(t) => t.spec.model_id().ok(),
+                None => crate::bsdf::lookup(&f.model).ok(),
+            },
             function: name.clone(),
             params: function.params.clone(),
         });
@@ -475,21 +473,13 @@ pub fn write_artifacts(
 pub fn lut_spec(
     file: &FitFile,
     n: usize,
-) -> Result<(Box<dyn crate::bsdf::Model>, crate::table::TableSpec)> {
-    let model_name = file
-        .table
-        .as_ref()
-        .map_or(file.model.as_str(), |t| t.spec.model.as_str());
-    let options = crate::bsdf::ModelOptions {
-        radiance_transmission: file.table.as_ref().is_some_and(|t| {
-            t.spec
-                .model_parameters
-                .get("transmission")
-                .and_then(|v| v.as_str())
-                == Some("radiance")
-        }),
-    };
-    let model = crate::bsdf::find(model_name, options).map_err(|e| {
+) -> Result<(Arc<dyn crate::bsdf::Model>, crate::table::TableSpec)> {
+    let model = match &file.table {
+        Some(t) => t.spec.model_id(),
+        None => crate::bsdf::lookup(&file.model),
+    }
+    .and_then(crate::bsdf::get)
+    .map_err(|e| {
         Error::InvalidInput(format!(
             "cannot make a LUT for this fit: {e}; LUTs are tabulated from a furnace model"
         ))

@@ -22,7 +22,9 @@ use super::rational::{fit_rational, RationalOptions};
 use super::result::{FitResult, Form, Objective};
 use super::source::AxisDecl;
 use super::source::FitInput;
+use crate::bsdf::{ModelId, Side, Transmission};
 use crate::error::Result;
+use crate::math::SmithForm;
 
 /// One of the paper's fits and the furnace model it approximates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -31,9 +33,21 @@ pub struct PaperPair {
     /// File stem under `coefficients/` and `tables/`.
     pub paper_name: &'static str,
     /// furnace model (separable Smith G, as the paper's renderer).
-    pub model: &'static str,
+    pub model: ModelId,
     /// The table must be in radiance form of transmission (dielectrics).
     pub radiance: bool,
+}
+
+impl PaperPair {
+    /// The model of the table the paper's fit is compared on: `model` in the paper's
+    /// transmission convention.
+    pub fn table_model(&self) -> ModelId {
+        if self.radiance {
+            self.model.with_transmission(Transmission::Radiance)
+        } else {
+            self.model
+        }
+    }
 }
 
 /// The paper's four fits.
@@ -41,25 +55,25 @@ pub const PAPER_PAIRS: [PaperPair; 4] = [
     PaperPair {
         paper: PaperModel::Conductors,
         paper_name: "conductors",
-        model: "ggx-conductor-separable",
+        model: ModelId::ggx_conductor(SmithForm::Separable),
         radiance: false,
     },
     PaperPair {
         paper: PaperModel::Glossy,
         paper_name: "glossy",
-        model: "ggx-glossy-separable",
+        model: ModelId::ggx_glossy(SmithForm::Separable),
         radiance: false,
     },
     PaperPair {
         paper: PaperModel::Dielectrics,
         paper_name: "dielectrics",
-        model: "ggx-dielectric-separable",
+        model: ModelId::ggx_dielectric(Side::Entering, SmithForm::Separable),
         radiance: true,
     },
     PaperPair {
         paper: PaperModel::DielectricsInvEta,
         paper_name: "dielectrics_inv_eta",
-        model: "ggx-dielectric-inv-separable",
+        model: ModelId::ggx_dielectric(Side::Leaving, SmithForm::Separable),
         radiance: true,
     },
 ];
@@ -285,7 +299,7 @@ pub fn compare_model(
     )?;
     Ok(CompareEntry {
         paper_fit: pair.paper_name.into(),
-        model: pair.model.into(),
+        model: pair.model.name(),
         transmission: pair.radiance.then(|| {
             "radiance (E_T × 1/η² entering, × η² leaving), as the paper's tables".to_string()
         }),

@@ -49,11 +49,24 @@ pub fn smith_g1(mu: f64, alpha: f64) -> f64 {
 }
 
 /// Which bidirectional shadowing–masking term a model uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Hash,
+    PartialOrd,
+    Ord,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum SmithForm {
     /// Height-correlated G2 = 1/(1+Λo+Λi) (Heitz 2014, eq. 99), used for reflection and
     /// transmission alike (as pbrt-v4 does).
+    #[default]
     HeightCorrelated,
     /// Separable ("uncorrelated") G2 = G1(o)·G1(i) (Heitz 2014, eq. 98); the paper's renderer.
     Separable,

@@ -48,6 +48,7 @@
 use super::albedo::Albedo;
 use super::quad::{grade_towards, integrate, integrate_smoothed, Tolerance};
 use crate::bsdf::diffuse::fon_brdf;
+use crate::bsdf::{Family, ModelId, Side, Transmission};
 use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, safe_sqrt, smith_a, SmithForm};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
@@ -157,20 +158,33 @@ impl Material {
     }
 
     /// The model whose albedo compensates this material (the table, LUT and fit are of it).
-    pub fn albedo_model(&self) -> String {
-        let base = match self.class {
-            MaterialClass::Conductor | MaterialClass::ThinDielectric => "ggx-conductor",
-            MaterialClass::Glossy => "ggx-glossy",
-            MaterialClass::Dielectric { inverse: false } => "ggx-dielectric",
-            MaterialClass::Dielectric { inverse: true } => "ggx-dielectric-inv",
-            MaterialClass::RoughDiffuse => "oren-nayar-fon",
+    pub fn albedo_model(&self) -> ModelId {
+        let transmission = if self.radiance_transmission {
+            Transmission::Radiance
+        } else {
+            Transmission::Energy
         };
-        format!("{base}{}", self.suffix())
+        match self.class {
+            MaterialClass::Conductor | MaterialClass::ThinDielectric => {
+                ModelId::ggx_conductor(self.smith)
+            }
+            MaterialClass::Glossy => ModelId::ggx_glossy(self.smith),
+            MaterialClass::Dielectric { inverse } => ModelId::ggx_dielectric(
+                if inverse {
+                    Side::Leaving
+                } else {
+                    Side::Entering
+                },
+                self.smith,
+            )
+            .with_transmission(transmission),
+            MaterialClass::RoughDiffuse => ModelId::new(Family::OREN_NAYAR_FON),
+        }
     }
 
     /// The second albedo a glossy material needs: the conductor E_ss of the same Smith form.
-    pub fn conductor_model(&self) -> Option<String> {
-        (self.class == MaterialClass::Glossy).then(|| format!("ggx-conductor{}", self.suffix()))
+    pub fn conductor_model(&self) -> Option<ModelId> {
+        (self.class == MaterialClass::Glossy).then(|| ModelId::ggx_conductor(self.smith))
     }
 
     /// Whether points carry F0 as their first coordinate (the albedo model is 3-D).

@@ -23,8 +23,9 @@
 //! point (the optional label names the point, e.g. `degree 3`).
 
 use super::albedo::{Albedo, FitAlbedo};
-use crate::bsdf::{Model, ModelOptions};
+use crate::bsdf::{Model, ModelId};
 use crate::error::{Error, Result};
+use crate::fit::compare::PAPER_PAIRS;
 use crate::fit::job::FitRecord;
 use crate::fit::paper::PaperModel;
 use crate::fit::{Approximant, CertifyOptions, FitData, FitResult, Form, Objective};
@@ -363,45 +364,28 @@ pub fn measure(source: &dyn Albedo, table: &Table) -> Measured {
     m
 }
 
-/// The paper's fit of a furnace model, if it has one: which published table, and the options of
-/// the furnace model in the paper's convention (radiance-form transmission for dielectrics).
+/// The paper's fit of a furnace model, if it has one: which published table, and the furnace
+/// model in the paper's convention (radiance-form transmission for dielectrics).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PaperLink {
     pub paper: PaperModel,
     /// Stem of the paper's coefficient and table files (`conductors`, …).
     pub stem: &'static str,
-    pub options: ModelOptions,
+    /// The model whose table the paper's fit approximates.
+    pub model: ModelId,
 }
 
-/// The paper's fit of `model`, if any. The paper uses the separable Smith G and tabulates
-/// transmission in radiance form.
-pub fn paper_link(model: &str) -> Option<PaperLink> {
-    let radiance = ModelOptions {
-        radiance_transmission: true,
-    };
-    match model {
-        "ggx-conductor-separable" => Some(PaperLink {
-            paper: PaperModel::Conductors,
-            stem: "conductors",
-            options: ModelOptions::default(),
-        }),
-        "ggx-glossy-separable" => Some(PaperLink {
-            paper: PaperModel::Glossy,
-            stem: "glossy",
-            options: ModelOptions::default(),
-        }),
-        "ggx-dielectric-separable" => Some(PaperLink {
-            paper: PaperModel::Dielectrics,
-            stem: "dielectrics",
-            options: radiance,
-        }),
-        "ggx-dielectric-inv-separable" => Some(PaperLink {
-            paper: PaperModel::DielectricsInvEta,
-            stem: "dielectrics_inv_eta",
-            options: radiance,
-        }),
-        _ => None,
-    }
+/// The paper's fit of `model` (one of [`PAPER_PAIRS`]), if any. The paper uses the separable
+/// Smith G and tabulates transmission in radiance form.
+pub fn paper_link(model: ModelId) -> Option<PaperLink> {
+    PAPER_PAIRS
+        .iter()
+        .find(|p| p.model == model.energy_form())
+        .map(|p| PaperLink {
+            paper: p.paper,
+            stem: p.paper_name,
+            model: p.table_model(),
+        })
 }
 
 /// The paper's published fit as a [`FitResult`] measured on its own 32-point table (so its

@@ -25,7 +25,8 @@
 //! let tables = provider(); // e.g. the CLI's cache under data/
 //! let quiet = |_: &str| {};
 //! let reporter = Reporter::new(ReportOptions::new(std::path::Path::new(".")), tables.as_ref(), &quiet);
-//! reporter.generate(Some(&["ggx-conductor".to_string()]))?; // one model's section + README.md
+//! let conductor = furnace::bsdf::lookup("ggx-conductor")?;
+//! reporter.generate(Some(&[conductor]))?; // one model's section + README.md
 //! # Ok::<(), furnace::Error>(())
 //! ```
 

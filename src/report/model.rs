@@ -20,7 +20,7 @@ use super::plot::{
     Series, Style,
 };
 use super::spheres::{sphere_columns, Show, SphereFigure, SphereRow};
-use crate::bsdf::{self, Model, ModelOptions};
+use crate::bsdf::{self, Family, Model, ModelId, Side, Transmission};
 use crate::error::{Error, Result};
 use crate::fit::FitResult;
 use crate::math::SmithForm;
@@ -31,6 +31,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
+use std::sync::Arc;
 
 /// What a report covers and where it reads and writes.
 #[derive(Clone, Debug)]
@@ -101,38 +102,34 @@ impl ReportOptions {
 
 /// The models `furnace report` covers by default: the paper's set in both Smith forms and the
 /// rough-diffuse models.
-pub const REPORT_MODELS: &[&str] = &[
-    "ggx-conductor",
-    "ggx-conductor-separable",
-    "ggx-glossy",
-    "ggx-glossy-separable",
-    "ggx-dielectric",
-    "ggx-dielectric-separable",
-    "ggx-dielectric-inv",
-    "ggx-dielectric-inv-separable",
-    "oren-nayar-qon",
-    "oren-nayar-fon",
-    "eon",
+pub const REPORT_MODELS: &[ModelId] = &[
+    ModelId::ggx_conductor(SmithForm::HeightCorrelated),
+    ModelId::ggx_conductor(SmithForm::Separable),
+    ModelId::ggx_glossy(SmithForm::HeightCorrelated),
+    ModelId::ggx_glossy(SmithForm::Separable),
+    ModelId::ggx_dielectric(Side::Entering, SmithForm::HeightCorrelated),
+    ModelId::ggx_dielectric(Side::Entering, SmithForm::Separable),
+    ModelId::ggx_dielectric(Side::Leaving, SmithForm::HeightCorrelated),
+    ModelId::ggx_dielectric(Side::Leaving, SmithForm::Separable),
+    ModelId::new(Family::OREN_NAYAR_QON),
+    ModelId::new(Family::OREN_NAYAR_FON),
+    ModelId::new(Family::EON),
 ];
 
 /// The furnace materials whose compensation reads `model`'s albedo.
-pub fn materials_for(model: &str) -> Vec<Material> {
-    let smith = if model.ends_with("-separable") {
-        SmithForm::Separable
-    } else {
-        SmithForm::HeightCorrelated
-    };
-    let base = model.trim_end_matches("-separable");
+pub fn materials_for(model: ModelId) -> Vec<Material> {
+    let smith = model.smith.unwrap_or_default();
     let m = |class| Material::new(class, smith);
-    match base {
-        "ggx-conductor" => vec![
+    match (model.family, model.side) {
+        (Family::GGX_CONDUCTOR, _) => vec![
             m(MaterialClass::Conductor),
             m(MaterialClass::ThinDielectric),
         ],
-        "ggx-glossy" => vec![m(MaterialClass::Glossy)],
-        "ggx-dielectric" => vec![m(MaterialClass::Dielectric { inverse: false })],
-        "ggx-dielectric-inv" => vec![m(MaterialClass::Dielectric { inverse: true })],
-        "oren-nayar-fon" => vec![Material::new(
+        (Family::GGX_GLOSSY, _) => vec![m(MaterialClass::Glossy)],
+        (Family::GGX_DIELECTRIC, Some(side)) => vec![m(MaterialClass::Dielectric {
+            inverse: side == Side::Leaving,
+        })],
+        (Family::OREN_NAYAR_FON, _) => vec![Material::new(
             MaterialClass::RoughDiffuse,
             SmithForm::HeightCorrelated,
         )],
@@ -229,11 +226,30 @@ pub struct ModelSummary {
     pub outputs: Vec<FileHash>,
 }
 
-/// A model (with its options) a section read.
+/// A model (with its transmission convention) a section read.
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct Dependency {
     pub model: String,
     pub radiance_transmission: bool,
+}
+
+impl Dependency {
+    pub fn new(id: ModelId) -> Dependency {
+        Dependency {
+            model: id.name(),
+            radiance_transmission: id.is_radiance(),
+        }
+    }
+
+    /// The registered model this names.
+    pub fn id(&self) -> Result<ModelId> {
+        let id = bsdf::lookup(&self.model)?;
+        Ok(if self.radiance_transmission {
+            id.with_transmission(Transmission::Radiance)
+        } else {
+            id
+        })
+    }
 }
 
 /// A file and its SHA-256.
@@ -265,7 +281,7 @@ fn table_digest(table: &Table) -> String {
 /// A model's table, LUT, fits and paper fit, loaded once per report run.
 struct ModelData {
     name: String,
-    model: Box<dyn Model>,
+    model: Arc<dyn Model>,
     axes: Vec<String>,
     table: Table,
     lut: TableAlbedo,
@@ -317,15 +333,6 @@ pub struct Reporter<'a> {
 /// A compensation reading `albedo` (and, for glossy, the conductor's `conductor`).
 fn with<'b>(albedo: &'b dyn Albedo, conductor: Option<&'b dyn Albedo>) -> Compensation<'b> {
     Compensation::With { albedo, conductor }
-}
-
-/// Key of a model with options (the cache name distinguishes radiance-form variants).
-fn key(name: &str, options: ModelOptions) -> String {
-    if options.radiance_transmission {
-        format!("{name}-radiance")
-    } else {
-        name.to_string()
-    }
 }
 
 /// A LUT of `m` nodes per axis: every k-th node of `table` when (n − 1) is a multiple of (m − 1)
@@ -381,16 +388,13 @@ impl<'a> Reporter<'a> {
         }
     }
 
-    fn data(&self, name: &str, options: ModelOptions) -> Result<Rc<ModelData>> {
-        self.used.borrow_mut().insert(Dependency {
-            model: name.to_string(),
-            radiance_transmission: options.radiance_transmission,
-        });
-        let k = key(name, options);
+    fn data(&self, id: ModelId) -> Result<Rc<ModelData>> {
+        self.used.borrow_mut().insert(Dependency::new(id));
+        let k = id.key();
         if let Some(d) = self.loaded.borrow().get(&k) {
             return Ok(d.clone());
         }
-        let model = bsdf::find(name, options)?;
+        let model = bsdf::get(id)?;
         let axes: Vec<String> = model.axes().iter().map(|a| a.name.clone()).collect();
         (self.progress)(&format!("{k}: table"));
         let table = self
@@ -406,7 +410,7 @@ impl<'a> Reporter<'a> {
             }
         };
         let fit_data = crate::fit::source::from_table(&table, "E", None)?.data;
-        let mut fits = load_fits(&self.options.fits_dir.join(model.cache_name()), &fit_data)?;
+        let mut fits = load_fits(&self.options.fits_dir.join(model.id().key()), &fit_data)?;
         let fit_albedos: Vec<Option<FitAlbedo>> = fits
             .fits
             .iter()
@@ -433,8 +437,8 @@ impl<'a> Reporter<'a> {
             .collect();
         let chosen = choose_fit(&fits, axes.len(), &measured);
         let chosen_albedo = chosen.and_then(|k| fit_albedos[k].clone());
-        let paper = match (&self.options.paper_dir, paper_link(name)) {
-            (Some(dir), Some(link)) if link.options == options => {
+        let paper = match (&self.options.paper_dir, paper_link(id)) {
+            (Some(dir), Some(link)) if link.model == id => {
                 let fit = inputs::load_paper_fit(dir, &link)?;
                 let albedo = FitAlbedo::new(&fit, &axes)?;
                 let m = measure(&albedo, &table);
@@ -482,10 +486,8 @@ impl<'a> Reporter<'a> {
             o.paper_dir.is_some()
         );
         for d in deps {
-            let options = ModelOptions {
-                radiance_transmission: d.radiance_transmission,
-            };
-            let model = bsdf::find(&d.model, options)?;
+            let id = d.id()?;
+            let model = bsdf::get(id)?;
             let dims = model.axes().len();
             let table = self
                 .tables
@@ -493,7 +495,7 @@ impl<'a> Reporter<'a> {
             let _ = writeln!(
                 text,
                 "model {} table {} {}",
-                model.cache_name(),
+                model.id().key(),
                 table.spec.resolution_name(),
                 table_digest(&table)
             );
@@ -503,12 +505,12 @@ impl<'a> Reporter<'a> {
                     .table(model.as_ref(), &vec![self.options.lut(dims); dims])?;
                 let _ = writeln!(text, "lut {}", table_digest(&lut));
             }
-            let dir = self.options.fits_dir.join(model.cache_name());
+            let dir = self.options.fits_dir.join(model.id().key());
             for (rel, sha) in files_digest(&dir)? {
                 let _ = writeln!(text, "fit {rel} {sha}");
             }
-            if let (Some(paper), Some(link)) = (&self.options.paper_dir, paper_link(&d.model)) {
-                if link.options == options {
+            if let (Some(paper), Some(link)) = (&self.options.paper_dir, paper_link(id)) {
+                if link.model == id {
                     for sub in ["coefficients", "tables"] {
                         let p = paper.join(sub).join(format!("{}.csv", link.stem));
                         let sha = std::fs::read(&p)
@@ -524,8 +526,9 @@ impl<'a> Reporter<'a> {
 
     /// The summary of `reports/<name>/` if it was made from the same inputs as now and its
     /// files are intact (their SHA-256 as recorded), so that it need not be regenerated.
-    pub fn reusable_section(&self, name: &str) -> Result<Option<ModelSummary>> {
-        let path = self.model_dir(name).join("summary.json");
+    pub fn reusable_section(&self, id: ModelId) -> Result<Option<ModelSummary>> {
+        let name = id.key();
+        let path = self.model_dir(&name).join("summary.json");
         let Ok(text) = std::fs::read_to_string(&path) else {
             return Ok(None);
         };
@@ -548,9 +551,10 @@ impl<'a> Reporter<'a> {
     }
 
     /// Generates `reports/<name>/` (figures, `section.md`, `summary.json`) and returns the summary.
-    pub fn report_model(&self, name: &str) -> Result<ModelSummary> {
+    pub fn report_model(&self, id: ModelId) -> Result<ModelSummary> {
         self.used.borrow_mut().clear();
-        let data = self.data(name, ModelOptions::default())?;
+        let name = &id.key();
+        let data = self.data(id)?;
         let dir = self.model_dir(name);
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         let mut files = Vec::new();
@@ -569,16 +573,16 @@ impl<'a> Reporter<'a> {
         let slices = self.fig_slices(&data, &dir.join("slices"))?;
         files.extend(slices.iter().map(|p| rel(p)));
 
-        let paper = match paper_link(name) {
+        let paper = match paper_link(id) {
             Some(link) => match &self.options.paper_dir {
-                Some(_) => Some(self.paper_row(name, link)?),
+                Some(_) => Some(self.paper_row(id, link)?),
                 None => None,
             },
             None => None,
         };
 
         let mut furnace = Vec::new();
-        for material in materials_for(name) {
+        for material in materials_for(id) {
             (self.progress)(&format!("{name}: furnace {}", material.label()));
             let row = self.furnace_row(&material, &dir)?;
             files.extend(row.images.iter().cloned());
@@ -1000,12 +1004,9 @@ impl<'a> Reporter<'a> {
 
     /// The furnace test of one material (none, exact table, LUT, fit, paper fit) and its spheres.
     fn furnace_row(&self, material: &Material, dir: &Path) -> Result<FurnaceRow> {
-        let options = ModelOptions {
-            radiance_transmission: material.radiance_transmission,
-        };
-        let data = self.data(&material.albedo_model(), options)?;
+        let data = self.data(material.albedo_model())?;
         let conductor = match material.conductor_model() {
-            Some(c) => Some(self.data(&c, ModelOptions::default())?),
+            Some(c) => Some(self.data(c)?),
             None => None,
         };
         let points = self.furnace_points(&data);
@@ -1068,7 +1069,7 @@ impl<'a> Reporter<'a> {
             _ => Err(format!(
                 "no fit of {}: run `furnace fit --model {} --sweep` first",
                 data.name,
-                cli_model(&data.name)
+                data.model.id().name()
             )),
         };
         match fit_variant {
@@ -1231,20 +1232,21 @@ impl<'a> Reporter<'a> {
 
     /// The paper comparison: both fits measured on the furnace table in the paper's convention,
     /// with their furnace max |1 − E|.
-    fn paper_row(&self, name: &str, link: inputs::PaperLink) -> Result<PaperRow> {
-        let data = self.data(name, link.options)?;
+    fn paper_row(&self, id: ModelId, link: inputs::PaperLink) -> Result<PaperRow> {
+        let name = id.key();
+        let data = self.data(link.model)?;
         let mut notes = Vec::new();
         let (paper_fit, _, paper_measured) = data
             .paper
             .as_ref()
             .ok_or_else(|| Error::InvalidInput(format!("{name}: the paper's fit did not load")))?;
-        let materials = materials_for(name);
+        let materials = materials_for(id);
         let material = materials.first().map(|m| Material {
-            radiance_transmission: link.options.radiance_transmission,
+            radiance_transmission: link.model.is_radiance(),
             ..*m
         });
         let conductor = match material.and_then(|m| m.conductor_model()) {
-            Some(c) => Some(self.data(&c, ModelOptions::default())?),
+            Some(c) => Some(self.data(c)?),
             None => None,
         };
         // the lobe integrals do not depend on the compensation: computed once for both fits
@@ -1294,7 +1296,7 @@ impl<'a> Reporter<'a> {
                     "no furnace fit of {}: run `furnace fit --model {}{} --sweep` first",
                     data.name,
                     name,
-                    if link.options.radiance_transmission {
+                    if link.model.is_radiance() {
                         " --transmission radiance"
                     } else {
                         ""
@@ -1334,8 +1336,8 @@ impl<'a> Reporter<'a> {
             let _ = writeln!(
                 md,
                 "No fits found under `fits/{}/`: run `furnace fit --model {} --sweep` first.\n",
-                data.model.cache_name(),
-                cli_model(name)
+                data.model.id().key(),
+                data.model.id().name()
             );
         }
         for n in &data.fits.notes {
@@ -1427,7 +1429,7 @@ impl<'a> Reporter<'a> {
             let _ = writeln!(
                 md,
                 "No chosen fit yet (run `furnace fit --model {} --sweep` first).\n",
-                cli_model(name)
+                data.model.id().name()
             );
         }
         let _ = writeln!(md, "#### Slices E(μ) at several r\n");
@@ -1501,11 +1503,6 @@ impl<'a> Reporter<'a> {
         }
         md
     }
-}
-
-/// The model name a `furnace fit --model` takes (without a radiance suffix).
-fn cli_model(name: &str) -> &str {
-    name.trim_end_matches("-radiance")
 }
 
 /// Axis names for a furnace row (its albedo model's).

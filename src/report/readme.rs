@@ -5,6 +5,7 @@
 use super::inputs::{load_bench, BenchPlot};
 use super::model::{fmt_e, paper_table_markdown, ModelSummary, Reporter, REPORT_MODELS};
 use super::plot::{self, color, Axis, Chart, Figure, Formats, LegendAt, Series, Style};
+use crate::bsdf::ModelId;
 use crate::error::{Error, Result};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -49,7 +50,7 @@ fn remove_stale(dir: &Path, keep: &[PathBuf]) -> Result<()> {
 impl Reporter<'_> {
     /// Regenerates the sections of `models` (every [`REPORT_MODELS`] if `None`), the benchmark
     /// plots, and `reports/README.md`.
-    pub fn generate(&self, models: Option<&[String]>) -> Result<ReportOutcome> {
+    pub fn generate(&self, models: Option<&[ModelId]>) -> Result<ReportOutcome> {
         self.generate_each(models, false, &mut |_, _| {})
     }
 
@@ -58,31 +59,30 @@ impl Reporter<'_> {
     /// ([`Reporter::reusable_section`]) — it would come out byte for byte the same.
     pub fn generate_each(
         &self,
-        models: Option<&[String]>,
+        models: Option<&[ModelId]>,
         reuse: bool,
         done: &mut dyn FnMut(usize, &str),
     ) -> Result<ReportOutcome> {
-        let all: Vec<String> = REPORT_MODELS.iter().map(|s| s.to_string()).collect();
-        let targets = models.map(|m| m.to_vec()).unwrap_or_else(|| all.clone());
-        for m in &targets {
-            crate::bsdf::find(m, crate::bsdf::ModelOptions::default())?;
+        let targets = models.unwrap_or(REPORT_MODELS);
+        for &m in targets {
+            crate::bsdf::get(m)?;
         }
         let mut regenerated = Vec::new();
         let mut reused = Vec::new();
-        for (k, m) in targets.iter().enumerate() {
+        for (k, &m) in targets.iter().enumerate() {
             let kept = if reuse {
                 self.reusable_section(m)?
             } else {
                 None
             };
             if kept.is_some() {
-                reused.push(m.clone());
+                reused.push(m.key());
             }
             let s = match kept {
                 Some(s) => s,
                 None => self.report_model(m)?,
             };
-            let dir = self.options.reports_dir.join(m);
+            let dir = self.options.reports_dir.join(m.key());
             let mut keep: Vec<PathBuf> = s
                 .files
                 .iter()
@@ -92,13 +92,13 @@ impl Reporter<'_> {
             keep.push(dir.join("summary.json"));
             remove_stale(&dir, &keep)?;
             regenerated.push(s);
-            done(k, m);
+            done(k, &m.key());
         }
         // the README lists the default set, then any other model that has a section
-        let mut order = all;
-        for m in &targets {
-            if !order.contains(m) {
-                order.push(m.clone());
+        let mut order: Vec<String> = REPORT_MODELS.iter().map(|m| m.key()).collect();
+        for m in targets {
+            if !order.contains(&m.key()) {
+                order.push(m.key());
             }
         }
         let (readme, linked) = self.assemble(&order)?;

@@ -42,7 +42,7 @@ pub fn table_stem(dir: &Path, model: &dyn Model, spec: &TableSpec) -> PathBuf {
         name.push('-');
         name.push_str(&spec.content_hash()[..8]);
     }
-    dir.join(model.cache_name()).join(name)
+    dir.join(model.id().key()).join(name)
 }
 
 fn with_ext(stem: &Path, ext: &str) -> PathBuf {

@@ -20,7 +20,7 @@
 pub mod io;
 pub mod points;
 
-use crate::bsdf::{albedo, albedo_column, Model, MAX_OUTPUTS};
+use crate::bsdf::{albedo, albedo_column, Model, ModelId, Transmission, MAX_OUTPUTS};
 use crate::error::{human_bytes, Error, Result};
 use crate::quadrature::{QuadratureSettings, RuleCache};
 use rayon::prelude::*;
@@ -96,7 +96,7 @@ impl TableSpec {
         if resolution.len() != axes.len() {
             return Err(Error::InvalidInput(format!(
                 "model {} has {} axes ({}), but --resolution gives {} counts; use e.g. --resolution {}",
-                model.name(),
+                model.id().name(),
                 axes.len(),
                 crate::bsdf::axis_names(model),
                 resolution.len(),
@@ -109,7 +109,7 @@ impl TableSpec {
             .map(|(a, &n)| GridAxis::new(&a.name, a.default_range.0, a.default_range.1, n))
             .collect();
         let spec = TableSpec {
-            model: model.name(),
+            model: model.id().name(),
             model_parameters: model.parameters(),
             axes: grid,
             outputs: model.outputs().iter().map(|s| s.to_string()).collect(),
@@ -133,7 +133,7 @@ impl TableSpec {
                 "{} ranges given for the {} axes of {}",
                 ranges.len(),
                 spec.axes.len(),
-                model.name()
+                model.id().name()
             )));
         }
         for ((g, &(lo, hi)), a) in spec.axes.iter_mut().zip(ranges).zip(model.axes()) {
@@ -212,6 +212,21 @@ impl TableSpec {
         }
     }
 
+    /// The transmission convention the model parameters record (dielectrics), if any.
+    pub fn transmission(&self) -> Option<Transmission> {
+        serde_json::from_value(self.model_parameters.get("transmission")?.clone()).ok()
+    }
+
+    /// The registered model this spec tabulates: its name, in the transmission convention its
+    /// parameters record.
+    pub fn model_id(&self) -> Result<ModelId> {
+        let id = crate::bsdf::lookup(&self.model)?;
+        Ok(match (id.transmission, self.transmission()) {
+            (Some(_), Some(t)) => id.with_transmission(t),
+            _ => id,
+        })
+    }
+
     /// SHA-256 of the canonical JSON of everything that determines the values, plus the
     /// engine version: the cache key.
     pub fn content_hash(&self) -> String {
@@ -278,11 +293,11 @@ pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
 /// `max_order`, and any still above it are counted and listed in the summary.
 pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Result<Table> {
     spec.validate()?;
-    if spec.model != model.name() {
+    if spec.model != model.id().name() {
         return Err(Error::InvalidInput(format!(
             "table spec is for {} but the model is {}",
             spec.model,
-            model.name()
+            model.id().name()
         )));
     }
     let cells = spec.cells();

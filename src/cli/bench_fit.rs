@@ -5,11 +5,11 @@ use super::{get_table, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D};
 use crate::bsdf;
 use crate::error::Result;
 use crate::fit::job::{self, default_sweep_points, FitRequest, FormKind, SweepPlan};
-use crate::fit::{source, InputTransform, Objective};
+use crate::fit::{source, InputTransform, LsqMethod, Objective, RationalOptions};
 use crate::quadrature::QuadratureSettings;
 use crate::report::inputs::BenchPlot;
 use crate::table::TableSpec;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -35,9 +35,35 @@ pub struct BenchFitArgs {
     /// Folder of the table cache.
     #[arg(long, default_value = "data")]
     pub data_dir: PathBuf,
+    /// Least-squares solvers of the rational fits, each timed at every degree (polynomials are
+    /// linear least squares and need none).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "lm,trust-region"
+    )]
+    pub solvers: Vec<SolverArg>,
     /// Also write the points as a benchmark CSV for the report, e.g. reports/bench/fit.csv.
     #[arg(long)]
     pub output: Option<PathBuf>,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolverArg {
+    /// Levenberg–Marquardt (furnace's, under argmin's executor; what every fit uses by default).
+    Lm,
+    /// argmin's trust-region method with the dogleg step, on the same Gauss–Newton model.
+    TrustRegion,
+}
+
+impl SolverArg {
+    fn method(self) -> LsqMethod {
+        match self {
+            SolverArg::Lm => LsqMethod::LevenbergMarquardt,
+            SolverArg::TrustRegion => LsqMethod::TrustRegion,
+        }
+    }
 }
 
 /// Times least-squares fits in the identity variables at every degree of the paper's sweep, on
@@ -55,18 +81,31 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
     );
     let resolution_arg =
         |flag: &str, v: Option<usize>| v.map_or(String::new(), |n| format!(" {flag} {n}"));
+    let solvers: Vec<LsqMethod> = args.solvers.iter().map(|s| s.method()).collect();
     plot.notes.push(machine_note(&format!(
-        "furnace bench fit --models {}{}{}{}",
+        "furnace bench fit --models {}{}{}{}{}",
         args.models.join(","),
         resolution_arg("--resolution-2d", args.resolution_2d),
         resolution_arg("--resolution-3d", args.resolution_3d),
         args.max_degree
-            .map_or(String::new(), |d| format!(" --max-degree {d}"))
+            .map_or(String::new(), |d| format!(" --max-degree {d}")),
+        if solvers == LsqMethod::ALL {
+            String::new()
+        } else {
+            format!(
+                " --solvers {}",
+                solvers
+                    .iter()
+                    .map(|m| m.name())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            )
+        }
     )));
-    plot.notes.push("Least squares in the identity variables, as the sweep's first transform set; fitted on at most 256² (2-D) or 32³ (3-D) even-subset nodes, measured on all.".into());
+    plot.notes.push("Least squares in the identity variables, as the sweep's first transform set; fitted on at most 256² (2-D) or 32³ (3-D) even-subset nodes, measured on all. Rationals: one series per least-squares solver (lm: Levenberg–Marquardt, trust-region: argmin's dogleg trust region), each the whole multi-start strategy.".into());
     println!(
-        "{:<24} {:>12} {:<11} {:>6} {:>5} {:>10} {:>10} {:>10}",
-        "model", "table", "form", "degree", "n", "seconds", "MAE", "max"
+        "{:<24} {:>12} {:<11} {:<13} {:>6} {:>5} {:>10} {:>10} {:>10} {:>6}  stopped by",
+        "model", "table", "form", "solver", "degree", "n", "seconds", "MAE", "max", "steps"
     );
     for name in &args.models {
         let model = bsdf::find(name)?;
@@ -80,10 +119,23 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
         let t = get_table(model.as_ref(), &spec, &args.data_dir, false)?;
         let input = source::from_table(&t.table, "E", Some(&t.stem))?;
         let plan = SweepPlan::paper(&input.data, args.max_degree, None, Objective::LeastSquares);
-        for (form, degrees) in [
-            (FormKind::Polynomial, &plan.polynomial_degrees),
-            (FormKind::Rational, &plan.rational_degrees),
-        ] {
+        let mut runs: Vec<(FormKind, Option<LsqMethod>, &Vec<u32>)> =
+            vec![(FormKind::Polynomial, None, &plan.polynomial_degrees)];
+        for &m in &solvers {
+            runs.push((FormKind::Rational, Some(m), &plan.rational_degrees));
+        }
+        for (form, method, degrees) in runs {
+            let rational = RationalOptions {
+                method: method.unwrap_or_default(),
+                ..RationalOptions::default()
+            };
+            // the default solver keeps the plot's series names of earlier benchmark files
+            let series = match method {
+                Some(m) if m != LsqMethod::LevenbergMarquardt => {
+                    format!("{name} {} ({})", form.name(), m.name())
+                }
+                _ => format!("{name} {}", form.name()),
+            };
             for &degree in degrees {
                 let req = FitRequest {
                     form,
@@ -93,7 +145,7 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
                     max_fit_points: default_sweep_points(d),
                 };
                 let start = Instant::now();
-                let rec = match job::fit_one(&input, &req) {
+                let rec = match job::fit_one_with(&input, &req, &rational) {
                     Ok(r) => r,
                     Err(e) => {
                         eprintln!("{name}: {} {degree}: {e}", form.name());
@@ -102,21 +154,27 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
                 };
                 let secs = start.elapsed().as_secs_f64();
                 let m = &rec.fit.metrics;
+                let solver = rec.fit.solver.as_ref();
                 println!(
-                    "{:<24} {:>12} {:<11} {:>6} {:>5} {:>10.3} {:>10.2e} {:>10.2e}{}",
+                    "{:<24} {:>12} {:<11} {:<13} {:>6} {:>5} {:>10.3} {:>10.2e} {:>10.2e} {:>6}  {}{}",
                     name,
                     spec.resolution_name(),
                     form.name(),
+                    method.map_or("-", |m| m.name()),
                     degree,
                     rec.fit.n_coefficients,
                     secs,
                     m.mae,
                     m.max_abs_error,
+                    solver.map_or(0, |s| s.iterations),
+                    solver
+                        .and_then(|s| s.termination)
+                        .map_or("direct solve", |t| t.text()),
                     if rec.usable { "" } else { "  (not usable)" }
                 );
                 if rec.usable && m.max_abs_error.is_finite() {
                     plot.push(
-                        &format!("{name} {}", form.name()),
+                        &series,
                         secs,
                         m.mae.max(1e-16),
                         &format!(

@@ -74,6 +74,12 @@ pub enum FitError {
     #[error("{path}: {message}")]
     File { path: PathBuf, message: String },
 
+    #[error("the {solver} solver failed: {message}")]
+    Solver {
+        solver: &'static str,
+        message: String,
+    },
+
     #[error("invalid fit JSON ({0}); load only files written by FitResult::to_json")]
     Json(#[from] serde_json::Error),
 }

@@ -253,6 +253,16 @@ fn remeasure(mut fit: FitResult, input: &FitInput, reduced: bool) -> FitResult {
 
 /// Makes one fit.
 pub fn fit_one(input: &FitInput, req: &FitRequest) -> Result<FitRecord> {
+    fit_one_with(input, req, &RationalOptions::default())
+}
+
+/// [`fit_one`] with the rational fit's settings (e.g. its least-squares solver,
+/// [`RationalOptions::method`]).
+pub fn fit_one_with(
+    input: &FitInput,
+    req: &FitRequest,
+    rational: &RationalOptions,
+) -> Result<FitRecord> {
     if req.transforms.len() != input.data.dim() {
         return Err(Error::InvalidInput(format!(
             "{} transforms for the {} variables {}",
@@ -277,7 +287,7 @@ pub fn fit_one(input: &FitInput, req: &FitRequest) -> Result<FitRecord> {
             req.degree,
             req.degree,
             req.objective,
-            &RationalOptions::default(),
+            rational,
         )?,
     };
     Ok(FitRecord::new(

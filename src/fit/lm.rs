@@ -1,7 +1,9 @@
-//! Levenberg–Marquardt for large least-squares problems, argmin-style: a problem trait that
-//! produces residuals and Jacobian rows in chunks ([`LeastSquaresProblem`]), a solver with
-//! validated settings ([`LevenbergMarquardt`]), a plain state struct ([`LmState`]) and a
-//! recorded [`TerminationReason`].
+//! Levenberg–Marquardt for large least-squares problems as an [argmin] [`Solver`]: a problem
+//! trait that produces residuals and Jacobian rows in chunks ([`LeastSquaresProblem`]), its
+//! argmin operator ([`LeastSquares`]: cost ½‖r‖², gradient Jᵀr, Gauss–Newton Hessian JᵀJ),
+//! validated settings ([`LevenbergMarquardt`]), the running solver ([`LmSolver`]) driven by
+//! argmin's [`Executor`] (observers, iteration limit, termination status), and the result
+//! ([`LmReport`]) with furnace's finer [`TerminationReason`].
 //!
 //! The Jacobian is never stored: JᵀJ and Jᵀr are accumulated over fixed chunks of
 //! [`CHUNK_ROWS`] residuals in parallel (rayon) and the partial sums are added in chunk order,
@@ -10,10 +12,51 @@
 //! Algorithm: Marquardt's scaled damping (Moré 1978, "The Levenberg–Marquardt algorithm:
 //! implementation and theory": D = running max of the column norms of J) with Nielsen's damping
 //! update (Madsen, Nielsen & Tingleff 2004, "Methods for non-linear least squares problems",
-//! eq. 3.16) and MINPACK's three convergence tests (ftol, xtol, gtol).
+//! eq. 3.16) and MINPACK's three convergence tests (ftol, xtol, gtol). argmin has no
+//! Levenberg–Marquardt; its trust-region method on the same Gauss–Newton model is the second
+//! solver ([`super::trust_region`]).
+//!
+//! ```
+//! use furnace::fit::{LeastSquaresProblem, LevenbergMarquardt};
+//! use std::ops::Range;
+//!
+//! /// y = b0 · exp(b1 · x) through three exact points.
+//! struct Exp;
+//! const X: [f64; 3] = [0.0, 1.0, 2.0];
+//! impl LeastSquaresProblem for Exp {
+//!     fn n_params(&self) -> usize { 2 }
+//!     fn n_residuals(&self) -> usize { 3 }
+//!     fn residuals(&self, p: &[f64], rows: Range<usize>, r: &mut [f64]) -> bool {
+//!         for (k, i) in rows.enumerate() {
+//!             r[k] = p[0] * (p[1] * X[i]).exp() - 2.0 * (0.5 * X[i]).exp();
+//!         }
+//!         true
+//!     }
+//!     fn jacobian(&self, p: &[f64], rows: Range<usize>, r: &mut [f64], jac: &mut [f64]) -> bool {
+//!         for (k, i) in rows.enumerate() {
+//!             let e = (p[1] * X[i]).exp();
+//!             r[k] = p[0] * e - 2.0 * (0.5 * X[i]).exp();
+//!             jac[2 * k] = e;
+//!             jac[2 * k + 1] = p[0] * X[i] * e;
+//!         }
+//!         true
+//!     }
+//! }
+//!
+//! let report = LevenbergMarquardt::new().solve(&Exp, vec![1.0, 0.0]).unwrap();
+//! assert!(report.termination.converged());
+//! assert!((report.state.params[0] - 2.0).abs() < 1e-9 && (report.state.params[1] - 0.5).abs() < 1e-9);
+//! ```
+//!
+//! [argmin]: https://argmin-rs.org
 
+use std::cell::RefCell;
 use std::ops::Range;
 
+use argmin::core::{
+    CostFunction, Error as ArgminError, Executor, Gradient, Hessian, IterState, OptimizationResult,
+    Problem, Solver, State, TerminationReason as ArgminReason, TerminationStatus, KV,
+};
 use nalgebra::{DMatrix, DMatrixView, DVector, DVectorView, Dyn};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -39,6 +82,93 @@ pub trait LeastSquaresProblem: Sync {
     /// residuals; an inadmissible trial is rejected like a cost increase. Default: always.
     fn admissible(&self, _p: &[f64]) -> bool {
         true
+    }
+}
+
+/// The argmin state both least-squares solvers run on: parameters, ½‖r‖², and (for the trust
+/// region) the gradient Jᵀr and the Gauss–Newton Hessian JᵀJ.
+pub type LsqState = IterState<DVector<f64>, DVector<f64>, (), DMatrix<f64>, (), f64>;
+
+/// A [`LeastSquaresProblem`] as an argmin operator: cost ½‖r(p)‖² (+∞ where `p` is
+/// infeasible or inadmissible, so a solver rejects the step), gradient Jᵀr and Gauss–Newton
+/// Hessian JᵀJ. Gradient and Hessian at the same point share one accumulation.
+pub struct LeastSquares<'a, P: LeastSquaresProblem + ?Sized> {
+    problem: &'a P,
+    last: RefCell<Option<(Vec<f64>, NormalEquations)>>,
+}
+
+impl<'a, P: LeastSquaresProblem + ?Sized> LeastSquares<'a, P> {
+    pub fn new(problem: &'a P) -> Self {
+        LeastSquares {
+            problem,
+            last: RefCell::new(None),
+        }
+    }
+
+    /// The wrapped problem.
+    pub fn problem(&self) -> &'a P {
+        self.problem
+    }
+
+    /// ½‖r(p)‖², or +∞ if `p` is inadmissible, infeasible or gives non-finite residuals.
+    pub fn cost_at(&self, p: &[f64]) -> f64 {
+        if self.problem.admissible(p) {
+            cost(self.problem, p).unwrap_or(f64::INFINITY)
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// JᵀJ, Jᵀr and the cost at `p` (reused when asked again at the same point), or None if
+    /// `p` is infeasible or non-finite.
+    pub(crate) fn normal_equations_at(&self, p: &[f64]) -> Option<NormalEquations> {
+        let mut last = self.last.borrow_mut();
+        if let Some((q, ne)) = last.as_ref() {
+            if q.iter().zip(p).all(|(a, b)| a.to_bits() == b.to_bits()) {
+                return Some(ne.clone());
+            }
+        }
+        let ne = normal_equations(self.problem, p)?;
+        *last = Some((p.to_vec(), ne.clone()));
+        Some(ne)
+    }
+}
+
+fn infeasible_point() -> ArgminError {
+    FitError::Solver {
+        solver: "least-squares",
+        message:
+            "the Jacobian was requested at a point where the residuals are infeasible or non-finite"
+                .into(),
+    }
+    .into()
+}
+
+impl<P: LeastSquaresProblem + ?Sized> CostFunction for LeastSquares<'_, P> {
+    type Param = DVector<f64>;
+    type Output = f64;
+    fn cost(&self, p: &DVector<f64>) -> std::result::Result<f64, ArgminError> {
+        Ok(self.cost_at(p.as_slice()))
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> Gradient for LeastSquares<'_, P> {
+    type Param = DVector<f64>;
+    type Gradient = DVector<f64>;
+    fn gradient(&self, p: &DVector<f64>) -> std::result::Result<DVector<f64>, ArgminError> {
+        self.normal_equations_at(p.as_slice())
+            .map(|ne| ne.jtr)
+            .ok_or_else(infeasible_point)
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> Hessian for LeastSquares<'_, P> {
+    type Param = DVector<f64>;
+    type Hessian = DMatrix<f64>;
+    fn hessian(&self, p: &DVector<f64>) -> std::result::Result<DMatrix<f64>, ArgminError> {
+        self.normal_equations_at(p.as_slice())
+            .map(|ne| ne.jtj)
+            .ok_or_else(infeasible_point)
     }
 }
 
@@ -75,6 +205,29 @@ impl TerminationReason {
                 | TerminationReason::ZeroResidual
         )
     }
+
+    /// What argmin's [`Executor`] records: converged reasons as `SolverConverged`, the
+    /// iteration limit as `MaxItersReached`, the others as `SolverExit` with this text.
+    pub fn to_argmin(self) -> ArgminReason {
+        match self {
+            r if r.converged() => ArgminReason::SolverConverged,
+            TerminationReason::MaxIterations => ArgminReason::MaxItersReached,
+            r => ArgminReason::SolverExit(r.text().into()),
+        }
+    }
+
+    /// One line on the reason.
+    pub fn text(self) -> &'static str {
+        match self {
+            TerminationReason::GradientSmall => "gradient orthogonal to the residuals (gtol)",
+            TerminationReason::StepSmall => "step below xtol",
+            TerminationReason::CostReductionSmall => "cost reduction below ftol",
+            TerminationReason::ZeroResidual => "zero residual",
+            TerminationReason::MaxIterations => "iteration limit",
+            TerminationReason::NoProgress => "no decrease found (damping or radius at its limit)",
+            TerminationReason::InfeasibleStart => "infeasible start",
+        }
+    }
 }
 
 /// Solver state, handed back with the result.
@@ -83,22 +236,75 @@ pub struct LmState {
     pub params: Vec<f64>,
     /// ½ Σ r_i².
     pub cost: f64,
-    /// Current damping λ (relative to the scaled JᵀJ, whose diagonal is ≤ 1).
+    /// Current damping λ (relative to the scaled JᵀJ, whose diagonal is ≤ 1); NaN for the
+    /// trust-region solver, which has a radius instead.
     pub damping: f64,
-    /// Nielsen's growth factor ν.
+    /// Nielsen's growth factor ν (NaN for the trust-region solver).
     pub nu: f64,
-    /// Steps attempted.
+    /// Steps attempted (argmin's iteration count).
     pub iterations: usize,
     /// Jacobian accumulations.
     pub jacobian_evaluations: usize,
     /// max_j |g_j| / (‖J_j‖ ‖r‖) at the last accepted point.
     pub gradient_cosine: f64,
+    /// The trust radius at the end (trust-region solver only).
+    pub trust_radius: Option<f64>,
 }
 
 #[derive(Clone, Debug)]
 pub struct LmReport {
     pub state: LmState,
     pub termination: TerminationReason,
+}
+
+/// Which least-squares solver a fit runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LsqMethod {
+    /// [`LevenbergMarquardt`] (the default).
+    #[default]
+    LevenbergMarquardt,
+    /// argmin's trust-region method with the dogleg step
+    /// ([`super::trust_region::TrustRegionSettings`]), with the same iteration limit and
+    /// tolerances.
+    TrustRegion,
+}
+
+impl LsqMethod {
+    /// Both, in the order benchmarks list them.
+    pub const ALL: [LsqMethod; 2] = [LsqMethod::LevenbergMarquardt, LsqMethod::TrustRegion];
+
+    /// Minimises ½‖r(p)‖² from `x0` with this method and `lm`'s iteration limit and
+    /// tolerances.
+    pub fn solve<P: LeastSquaresProblem + ?Sized>(
+        self,
+        lm: &LevenbergMarquardt,
+        problem: &P,
+        x0: Vec<f64>,
+    ) -> Result<LmReport> {
+        match self {
+            LsqMethod::LevenbergMarquardt => lm.solve(problem, x0),
+            LsqMethod::TrustRegion => {
+                super::trust_region::TrustRegionSettings::from_lm(lm).solve(problem, x0)
+            }
+        }
+    }
+
+    /// The method's name in reports.
+    pub fn label(self) -> &'static str {
+        match self {
+            LsqMethod::LevenbergMarquardt => "Levenberg–Marquardt",
+            LsqMethod::TrustRegion => "trust region (argmin, dogleg)",
+        }
+    }
+
+    /// The name on the command line (`lm`, `trust-region`).
+    pub fn name(self) -> &'static str {
+        match self {
+            LsqMethod::LevenbergMarquardt => "lm",
+            LsqMethod::TrustRegion => "trust-region",
+        }
+    }
 }
 
 /// Levenberg–Marquardt settings. Construct with [`LevenbergMarquardt::new`], adjust with the
@@ -119,6 +325,37 @@ impl Default for LevenbergMarquardt {
     }
 }
 
+/// Checks a start: one finite value per parameter.
+pub(crate) fn check_start(n: usize, x0: &[f64], what: &'static str) -> Result<()> {
+    if x0.len() != n {
+        return Err(FitError::ShapeMismatch {
+            what,
+            expected: n,
+            got: x0.len(),
+            fix: "give one starting value per parameter",
+        });
+    }
+    if let Some(i) = x0.iter().position(|v| !v.is_finite()) {
+        return Err(FitError::NonFinite {
+            what: "starting parameter",
+            index: i,
+            value: x0[i],
+        });
+    }
+    Ok(())
+}
+
+/// An argmin error as a fit error (furnace's own errors pass through unchanged).
+pub(crate) fn from_argmin(solver: &'static str, e: ArgminError) -> FitError {
+    match e.downcast::<FitError>() {
+        Ok(f) => f,
+        Err(e) => FitError::Solver {
+            solver,
+            message: e.to_string(),
+        },
+    }
+}
+
 impl LevenbergMarquardt {
     /// Defaults: 200 iterations, ftol = 1e-12, xtol = 1e-10, gtol = 1e-10, λ₀ = 1e-3
     /// (Madsen, Nielsen & Tingleff's τ), λ_max = 1e16.
@@ -135,6 +372,11 @@ impl LevenbergMarquardt {
 
     pub fn max_iterations(&self) -> usize {
         self.max_iterations
+    }
+
+    /// (ftol, xtol, gtol).
+    pub fn tolerances(&self) -> (f64, f64, f64) {
+        (self.ftol, self.xtol, self.gtol)
     }
 
     pub fn with_max_iterations(mut self, n: usize) -> Result<Self> {
@@ -177,155 +419,279 @@ impl LevenbergMarquardt {
         Ok(self)
     }
 
-    /// Minimises ½‖r(p)‖² from `x0`. Errors only on malformed input (wrong length, NaN start);
-    /// an infeasible start or non-convergence is reported through the termination reason.
+    /// The argmin solver for these settings (its state starts empty; [`Self::executor`] sets
+    /// the start and the iteration limit).
+    pub fn solver(&self) -> LmSolver {
+        LmSolver {
+            settings: self.clone(),
+            params: Vec::new(),
+            ne: None,
+            diag: Vec::new(),
+            damping: self.initial_damping,
+            nu: 2.0,
+            jacobian_evaluations: 0,
+            gradient_cosine: f64::INFINITY,
+            reason: None,
+        }
+    }
+
+    /// argmin's [`Executor`] for `problem` from `x0`, with these settings' iteration limit:
+    /// add observers to it, run it, and read the result with [`LmReport::from_result`].
+    /// Errors only on malformed input (wrong length, NaN start).
+    pub fn executor<'a, P: LeastSquaresProblem + ?Sized>(
+        &self,
+        problem: &'a P,
+        x0: Vec<f64>,
+    ) -> Result<Executor<LeastSquares<'a, P>, LmSolver, LsqState>> {
+        check_start(problem.n_params(), &x0, "Levenberg–Marquardt start")?;
+        let max_iters = self.max_iterations as u64;
+        Ok(Executor::new(LeastSquares::new(problem), self.solver())
+            .configure(|state| state.param(DVector::from_vec(x0)).max_iters(max_iters)))
+    }
+
+    /// Minimises ½‖r(p)‖² from `x0` under argmin's [`Executor`]. Errors only on malformed input
+    /// (wrong length, NaN start); an infeasible start or non-convergence is reported through
+    /// the termination reason.
     pub fn solve<P: LeastSquaresProblem + ?Sized>(
         &self,
         problem: &P,
         x0: Vec<f64>,
     ) -> Result<LmReport> {
-        let n = problem.n_params();
-        if x0.len() != n {
-            return Err(FitError::ShapeMismatch {
-                what: "Levenberg–Marquardt start",
-                expected: n,
-                got: x0.len(),
-                fix: "give one starting value per parameter",
-            });
-        }
-        if let Some(i) = x0.iter().position(|v| !v.is_finite()) {
-            return Err(FitError::NonFinite {
-                what: "starting parameter",
-                index: i,
-                value: x0[i],
-            });
-        }
-        let mut state = LmState {
-            params: x0,
-            cost: f64::INFINITY,
-            damping: self.initial_damping,
-            nu: 2.0,
-            iterations: 0,
-            jacobian_evaluations: 0,
-            gradient_cosine: f64::INFINITY,
+        let result = self
+            .executor(problem, x0)?
+            .run()
+            .map_err(|e| from_argmin("Levenberg–Marquardt", e))?;
+        Ok(LmReport::from_result(result))
+    }
+}
+
+/// The Levenberg–Marquardt iteration as an argmin [`Solver`]: one `next_iter` is one attempted
+/// step (accepted, or rejected with the damping raised). Made by [`LevenbergMarquardt::solver`].
+#[derive(Clone, Debug)]
+pub struct LmSolver {
+    settings: LevenbergMarquardt,
+    params: Vec<f64>,
+    ne: Option<NormalEquations>,
+    /// Moré's scaling D_j = max over iterations of ‖J_j‖ (1 for an all-zero column).
+    diag: Vec<f64>,
+    damping: f64,
+    nu: f64,
+    jacobian_evaluations: usize,
+    gradient_cosine: f64,
+    reason: Option<TerminationReason>,
+}
+
+impl LmSolver {
+    fn stop(&mut self, state: LsqState, reason: TerminationReason) -> LsqState {
+        self.reason = Some(reason);
+        state.terminate_with(reason.to_argmin())
+    }
+
+    fn kv(&self, accepted: bool) -> KV {
+        argmin::kv!(
+            "damping" => self.damping;
+            "gradient_cosine" => self.gradient_cosine;
+            "accepted" => accepted;
+        )
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> Solver<LeastSquares<'_, P>, LsqState> for LmSolver {
+    fn name(&self) -> &str {
+        "Levenberg–Marquardt"
+    }
+
+    fn init(
+        &mut self,
+        problem: &mut Problem<LeastSquares<'_, P>>,
+        state: LsqState,
+    ) -> std::result::Result<(LsqState, Option<KV>), ArgminError> {
+        let x0 = state.get_param().ok_or_else(|| -> ArgminError {
+            FitError::Solver {
+                solver: "Levenberg–Marquardt",
+                message: "no start given (configure the executor with a parameter vector)".into(),
+            }
+            .into()
+        })?;
+        self.params = x0.as_slice().to_vec();
+        let start = problem.problem("jacobian_count", |op| {
+            Ok(if op.problem.admissible(&self.params) {
+                normal_equations(op.problem, &self.params)
+            } else {
+                None
+            })
+        })?;
+        let Some(ne) = start else {
+            let state = self.stop(state, TerminationReason::InfeasibleStart);
+            return Ok((state, None));
         };
-        let start = if problem.admissible(&state.params) {
-            normal_equations(problem, &state.params)
+        self.jacobian_evaluations += 1;
+        self.diag = (0..self.params.len()).map(|j| col_norm(&ne, j)).collect();
+        let cost = ne.cost;
+        self.ne = Some(ne);
+        Ok((state.cost(cost), None))
+    }
+
+    fn next_iter(
+        &mut self,
+        problem: &mut Problem<LeastSquares<'_, P>>,
+        state: LsqState,
+    ) -> std::result::Result<(LsqState, Option<KV>), ArgminError> {
+        let (ftol, xtol, max_damping) = (
+            self.settings.ftol,
+            self.settings.xtol,
+            self.settings.max_damping,
+        );
+        let Some(ne) = self.ne.as_ref() else {
+            return Err(FitError::Solver {
+                solver: "Levenberg–Marquardt",
+                message: "next_iter before a feasible init".into(),
+            }
+            .into());
+        };
+        let cost = ne.cost;
+        // solve (D⁻¹JᵀJD⁻¹ + λI) z = −D⁻¹Jᵀr, δ = D⁻¹z
+        let Some(delta) = damped_step(ne, &self.diag, self.damping) else {
+            self.damping *= self.nu;
+            self.nu *= 2.0;
+            let kv = self.kv(false);
+            if self.damping > max_damping {
+                return Ok((self.stop(state, TerminationReason::NoProgress), Some(kv)));
+            }
+            return Ok((state, Some(kv)));
+        };
+        let dx_norm = delta
+            .iter()
+            .zip(&self.diag)
+            .map(|(d, s)| (d * s).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let x_norm = self
+            .params
+            .iter()
+            .zip(&self.diag)
+            .map(|(x, s)| (x * s).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        // predicted reduction of ½‖r + Jδ‖²: −gᵀδ − ½ δᵀJᵀJδ
+        let jtj_delta = &ne.jtj * DVector::from_column_slice(&delta);
+        let g_delta: f64 = delta.iter().zip(ne.jtr.iter()).map(|(a, b)| a * b).sum();
+        let quad: f64 = delta.iter().zip(jtj_delta.iter()).map(|(a, b)| a * b).sum();
+        let predicted = -g_delta - 0.5 * quad;
+
+        let trial: Vec<f64> = self.params.iter().zip(&delta).map(|(x, d)| x + d).collect();
+        let trial_cost = problem.problem("cost_count", |op| Ok(op.cost_at(&trial)))?;
+        let actual = cost - trial_cost;
+        let rho = if predicted > 0.0 {
+            actual / predicted
         } else {
-            None
+            f64::NEG_INFINITY
         };
-        let Some(mut ne) = start else {
-            return Ok(LmReport {
-                state,
-                termination: TerminationReason::InfeasibleStart,
+        let small_step = dx_norm <= xtol * (x_norm + xtol);
+
+        if rho > 0.0 && trial_cost.is_finite() {
+            // (a finite cost but a non-finite Jacobian is treated as a rejection)
+            let next = problem.problem("jacobian_count", |op| {
+                Ok(normal_equations(op.problem, &trial))
+            })?;
+            if let Some(next) = next {
+                self.jacobian_evaluations += 1;
+                let old_cost = cost;
+                let new_cost = next.cost;
+                for (j, d) in self.diag.iter_mut().enumerate() {
+                    *d = d.max(col_norm(&next, j));
+                }
+                self.ne = Some(next);
+                self.damping *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                self.nu = 2.0;
+                let state = state
+                    .param(DVector::from_column_slice(&trial))
+                    .cost(new_cost);
+                self.params = trial;
+                let kv = self.kv(true);
+                if actual.abs() <= ftol * old_cost && predicted <= ftol * old_cost && rho <= 2.0 {
+                    return Ok((
+                        self.stop(state, TerminationReason::CostReductionSmall),
+                        Some(kv),
+                    ));
+                }
+                if small_step {
+                    return Ok((self.stop(state, TerminationReason::StepSmall), Some(kv)));
+                }
+                return Ok((state, Some(kv)));
+            }
+        }
+        // rejected
+        if small_step {
+            let kv = self.kv(false);
+            return Ok((self.stop(state, TerminationReason::StepSmall), Some(kv)));
+        }
+        if predicted >= 0.0 && predicted <= ftol * cost && actual.abs() <= ftol * cost {
+            let kv = self.kv(false);
+            return Ok((
+                self.stop(state, TerminationReason::CostReductionSmall),
+                Some(kv),
+            ));
+        }
+        self.damping *= self.nu;
+        self.nu *= 2.0;
+        let kv = self.kv(false);
+        if self.damping > max_damping {
+            return Ok((self.stop(state, TerminationReason::NoProgress), Some(kv)));
+        }
+        Ok((state, Some(kv)))
+    }
+
+    /// MINPACK's tests at the current point (zero residual, gradient cosine ≤ gtol), before
+    /// argmin's own iteration limit.
+    fn terminate(&mut self, _state: &LsqState) -> TerminationStatus {
+        if let Some(r) = self.reason {
+            return TerminationStatus::Terminated(r.to_argmin());
+        }
+        let Some(ne) = self.ne.as_ref() else {
+            return TerminationStatus::NotTerminated;
+        };
+        if ne.cost == 0.0 {
+            self.reason = Some(TerminationReason::ZeroResidual);
+        } else {
+            self.gradient_cosine = gradient_cosine(ne);
+            if self.gradient_cosine <= self.settings.gtol {
+                self.reason = Some(TerminationReason::GradientSmall);
+            }
+        }
+        match self.reason {
+            Some(r) => TerminationStatus::Terminated(r.to_argmin()),
+            None => TerminationStatus::NotTerminated,
+        }
+    }
+}
+
+impl LmReport {
+    /// The report of a finished Levenberg–Marquardt run (from [`LevenbergMarquardt::executor`]).
+    pub fn from_result<P: LeastSquaresProblem + ?Sized>(
+        result: OptimizationResult<LeastSquares<'_, P>, LmSolver, LsqState>,
+    ) -> LmReport {
+        let OptimizationResult { solver, state, .. } = result;
+        let termination = solver
+            .reason
+            .unwrap_or(match state.get_termination_reason() {
+                Some(ArgminReason::MaxItersReached) | None => TerminationReason::MaxIterations,
+                // an interrupt or timeout an observer or the caller asked for: not converged
+                Some(_) => TerminationReason::NoProgress,
             });
-        };
-        state.jacobian_evaluations += 1;
-        state.cost = ne.cost;
-        // Moré's scaling D_j = max over iterations of ‖J_j‖ (1 for an all-zero column).
-        let mut diag: Vec<f64> = (0..n).map(|j| col_norm(&ne, j)).collect();
-
-        let termination = loop {
-            if state.cost == 0.0 {
-                break TerminationReason::ZeroResidual;
-            }
-            state.gradient_cosine = gradient_cosine(&ne);
-            if state.gradient_cosine <= self.gtol {
-                break TerminationReason::GradientSmall;
-            }
-            if state.iterations >= self.max_iterations {
-                break TerminationReason::MaxIterations;
-            }
-            state.iterations += 1;
-
-            // solve (D⁻¹JᵀJD⁻¹ + λI) z = −D⁻¹Jᵀr, δ = D⁻¹z
-            let Some(delta) = damped_step(&ne, &diag, state.damping) else {
-                state.damping *= state.nu;
-                state.nu *= 2.0;
-                if state.damping > self.max_damping {
-                    break TerminationReason::NoProgress;
-                }
-                continue;
-            };
-            let dx_norm = delta
-                .iter()
-                .zip(&diag)
-                .map(|(d, s)| (d * s).powi(2))
-                .sum::<f64>()
-                .sqrt();
-            let x_norm = state
-                .params
-                .iter()
-                .zip(&diag)
-                .map(|(x, s)| (x * s).powi(2))
-                .sum::<f64>()
-                .sqrt();
-            // predicted reduction of ½‖r + Jδ‖²: −gᵀδ − ½ δᵀJᵀJδ
-            let jtj_delta = &ne.jtj * DVector::from_column_slice(&delta);
-            let g_delta: f64 = delta.iter().zip(ne.jtr.iter()).map(|(a, b)| a * b).sum();
-            let quad: f64 = delta.iter().zip(jtj_delta.iter()).map(|(a, b)| a * b).sum();
-            let predicted = -g_delta - 0.5 * quad;
-
-            let trial: Vec<f64> = state
-                .params
-                .iter()
-                .zip(&delta)
-                .map(|(x, d)| x + d)
-                .collect();
-            let trial_cost = if problem.admissible(&trial) {
-                cost(problem, &trial).unwrap_or(f64::INFINITY)
-            } else {
-                f64::INFINITY
-            };
-            let actual = state.cost - trial_cost;
-            let rho = if predicted > 0.0 {
-                actual / predicted
-            } else {
-                f64::NEG_INFINITY
-            };
-
-            if rho > 0.0 && trial_cost.is_finite() {
-                // (a finite cost but a non-finite Jacobian is treated as a rejection)
-                if let Some(next) = normal_equations(problem, &trial) {
-                    state.jacobian_evaluations += 1;
-                    let old_cost = state.cost;
-                    state.params = trial;
-                    state.cost = next.cost;
-                    ne = next;
-                    for (j, d) in diag.iter_mut().enumerate() {
-                        *d = d.max(col_norm(&ne, j));
-                    }
-                    state.damping *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
-                    state.nu = 2.0;
-                    if actual.abs() <= self.ftol * old_cost
-                        && predicted <= self.ftol * old_cost
-                        && rho <= 2.0
-                    {
-                        break TerminationReason::CostReductionSmall;
-                    }
-                    if dx_norm <= self.xtol * (x_norm + self.xtol) {
-                        break TerminationReason::StepSmall;
-                    }
-                    continue;
-                }
-            }
-            // rejected
-            if dx_norm <= self.xtol * (x_norm + self.xtol) {
-                break TerminationReason::StepSmall;
-            }
-            if predicted >= 0.0
-                && predicted <= self.ftol * state.cost
-                && actual.abs() <= self.ftol * state.cost
-            {
-                break TerminationReason::CostReductionSmall;
-            }
-            state.damping *= state.nu;
-            state.nu *= 2.0;
-            if state.damping > self.max_damping {
-                break TerminationReason::NoProgress;
-            }
-        };
-        Ok(LmReport { state, termination })
+        LmReport {
+            state: LmState {
+                params: solver.params,
+                cost: solver.ne.as_ref().map_or(f64::INFINITY, |ne| ne.cost),
+                damping: solver.damping,
+                nu: solver.nu,
+                iterations: state.get_iter() as usize,
+                jacobian_evaluations: solver.jacobian_evaluations,
+                gradient_cosine: solver.gradient_cosine,
+                trust_radius: None,
+            },
+            termination,
+        }
     }
 }
 
@@ -723,6 +1089,194 @@ mod tests {
         let rss = 3.0750560385E-04;
         check("MGH09", &mgh09(), &[0.25, 0.39, 0.415, 0.39], &cert, rss);
         check("MGH09", &mgh09(), &[25.0, 39.0, 41.5, 39.0], &cert, rss);
+    }
+
+    /// The same problems with argmin's trust region (from the starts near the solution: the
+    /// unscaled dogleg needs many more steps than Levenberg–Marquardt from far away).
+    #[test]
+    fn nist_problems_with_the_trust_region() {
+        use crate::fit::trust_region::TrustRegionSettings;
+        let tr = TrustRegionSettings::from_lm(&tight().with_max_iterations(5000).unwrap());
+        for (name, problem, start, cert, rss) in [
+            (
+                "Misra1a",
+                misra1a(),
+                vec![250.0, 5e-4],
+                vec![2.3894212918E+02, 5.5015643181E-04],
+                1.2455138894E-01,
+            ),
+            (
+                "MGH09",
+                mgh09(),
+                vec![0.25, 0.39, 0.415, 0.39],
+                vec![
+                    1.9280693458E-01,
+                    1.9128232873E-01,
+                    1.2305650693E-01,
+                    1.3606233068E-01,
+                ],
+                3.0750560385E-04,
+            ),
+            (
+                "Thurber",
+                thurber(),
+                vec![1300.0, 1500.0, 500.0, 75.0, 1.0, 0.4, 0.05],
+                vec![
+                    1.2881396800E+03,
+                    1.4910792535E+03,
+                    5.8323836877E+02,
+                    7.5416644291E+01,
+                    9.6629502864E-01,
+                    3.9797285797E-01,
+                    4.9727297349E-02,
+                ],
+                5.6427082397E+03,
+            ),
+        ] {
+            let rep = tr.solve(&problem, start).unwrap();
+            let worst = rep
+                .state
+                .params
+                .iter()
+                .zip(&cert)
+                .map(|(g, w)| ((g - w) / w).abs())
+                .fold(0.0, f64::max);
+            let rel = (2.0 * rep.state.cost - rss).abs() / rss;
+            eprintln!(
+                "trust region {name}: worst parameter rel. error {worst:.1e}, RSS rel. error {rel:.1e}, {:?} after {} steps",
+                rep.termination, rep.state.iterations
+            );
+            assert!(rep.termination.converged(), "{name}: {:?}", rep.termination);
+            assert!(worst < 1e-5 && rel < 1e-8, "{name}: {worst:.2e}, {rel:.2e}");
+        }
+    }
+
+    /// Both solvers run under argmin's executor: an observer sees every iteration, the cost
+    /// never rises, and argmin's termination status agrees with furnace's reason.
+    #[test]
+    fn the_executor_drives_both_solvers_with_observers() {
+        use crate::fit::trust_region::TrustRegionSettings;
+        use argmin::core::observers::{Observe, ObserverMode};
+        use std::sync::{Arc, Mutex};
+
+        #[derive(Clone, Default)]
+        struct Costs(Arc<Mutex<Vec<f64>>>);
+        impl Observe<LsqState> for Costs {
+            fn observe_iter(
+                &mut self,
+                state: &LsqState,
+                _kv: &KV,
+            ) -> std::result::Result<(), ArgminError> {
+                self.0.lock().unwrap().push(state.get_cost());
+                Ok(())
+            }
+        }
+        let check = |costs: &Costs, iterations: usize, status: &TerminationStatus| {
+            let costs = costs.0.lock().unwrap();
+            assert_eq!(costs.len(), iterations);
+            assert!(costs.windows(2).all(|w| w[1] <= w[0]), "{costs:?}");
+            assert_eq!(
+                *status,
+                TerminationStatus::Terminated(ArgminReason::SolverConverged)
+            );
+        };
+
+        let problem = misra1a();
+        let lm = tight();
+        let costs = Costs::default();
+        let result = lm
+            .executor(&problem, vec![500.0, 1e-4])
+            .unwrap()
+            .add_observer(costs.clone(), ObserverMode::Always)
+            .run()
+            .unwrap();
+        let status = result.state.get_termination_status().clone();
+        let rep = LmReport::from_result(result);
+        assert!(rep.termination.converged(), "{:?}", rep.termination);
+        check(&costs, rep.state.iterations, &status);
+
+        let tr = TrustRegionSettings::from_lm(&lm);
+        let costs = Costs::default();
+        let result = tr
+            .executor(&problem, vec![250.0, 5e-4])
+            .unwrap()
+            .add_observer(costs.clone(), ObserverMode::Always)
+            .run()
+            .unwrap();
+        let status = result.state.get_termination_status().clone();
+        let rep = TrustRegionSettings::report(result);
+        assert!(rep.termination.converged(), "{:?}", rep.termination);
+        check(&costs, rep.state.iterations, &status);
+    }
+
+    /// The iteration limit is argmin's: MaxIterations after exactly that many steps.
+    #[test]
+    fn the_iteration_limit_stops_both_solvers() {
+        use crate::fit::trust_region::TrustRegionSettings;
+        let lm = LevenbergMarquardt::new().with_max_iterations(3).unwrap();
+        let rep = lm
+            .solve(
+                &thurber(),
+                vec![1000.0, 1000.0, 400.0, 40.0, 0.7, 0.3, 0.03],
+            )
+            .unwrap();
+        assert_eq!(
+            (rep.termination, rep.state.iterations),
+            (TerminationReason::MaxIterations, 3)
+        );
+        let tr = TrustRegionSettings::from_lm(&lm);
+        let rep = tr
+            .solve(
+                &thurber(),
+                vec![1000.0, 1000.0, 400.0, 40.0, 0.7, 0.3, 0.03],
+            )
+            .unwrap();
+        assert_eq!(
+            (rep.termination, rep.state.iterations),
+            (TerminationReason::MaxIterations, 3)
+        );
+    }
+
+    /// A start where the model cannot be evaluated is reported, not an error, by both solvers.
+    #[test]
+    fn an_infeasible_start_is_a_termination_reason() {
+        use crate::fit::trust_region::TrustRegionSettings;
+        struct Infeasible;
+        impl LeastSquaresProblem for Infeasible {
+            fn n_params(&self) -> usize {
+                1
+            }
+            fn n_residuals(&self) -> usize {
+                2
+            }
+            fn residuals(&self, _p: &[f64], _rows: Range<usize>, _r: &mut [f64]) -> bool {
+                false
+            }
+            fn jacobian(
+                &self,
+                _p: &[f64],
+                _rows: Range<usize>,
+                _r: &mut [f64],
+                _j: &mut [f64],
+            ) -> bool {
+                false
+            }
+        }
+        let rep = LevenbergMarquardt::new()
+            .solve(&Infeasible, vec![1.0])
+            .unwrap();
+        assert_eq!(
+            (rep.termination, rep.state.iterations),
+            (TerminationReason::InfeasibleStart, 0)
+        );
+        assert_eq!(rep.state.params, [1.0]);
+        let rep = TrustRegionSettings::new()
+            .solve(&Infeasible, vec![1.0])
+            .unwrap();
+        assert_eq!(
+            (rep.termination, rep.state.iterations),
+            (TerminationReason::InfeasibleStart, 0)
+        );
     }
 
     #[test]

@@ -7,7 +7,8 @@
 //!
 //! - [`basis`]: monomial exponents, the Chebyshev solving basis and the exact conversion between them.
 //! - [`linear`]: tall linear least squares by TSQR (chunked, deterministic).
-//! - [`lm`]: Levenberg–Marquardt with accumulated normal equations (argmin-style problem / solver / state).
+//! - [`lm`]: Levenberg–Marquardt with accumulated normal equations, an argmin `Solver` run by argmin's `Executor`.
+//! - [`trust_region`]: argmin's trust-region method (dogleg) on the same problems, the second solver.
 //! - [`polynomial`], [`rational`]: the fits; [`robust`]: mean-absolute and minimax objectives.
 //! - [`metrics`]: MAE, RMSE, max absolute / relative error and where they occur.
 //! - [`poles`]: Bernstein-subdivision proof that the denominator has no zero on the domain.
@@ -47,11 +48,15 @@ pub mod result;
 mod robust;
 pub mod source;
 pub mod sweep;
+pub mod trust_region;
 
 pub use basis::{exponents, n_terms, Polynomial};
 pub use data::{FitData, InputTransform};
 pub use error::{FitError, Result};
-pub use lm::{LeastSquaresProblem, LevenbergMarquardt, LmReport, LmState, TerminationReason};
+pub use lm::{
+    LeastSquares, LeastSquaresProblem, LevenbergMarquardt, LmReport, LmSolver, LmState, LsqMethod,
+    LsqState, TerminationReason,
+};
 pub use metrics::{measure, Metrics};
 pub use poles::{CertifyOptions, PoleVerdict};
 pub use polynomial::{fit_polynomial, PolynomialOptions};
@@ -61,6 +66,7 @@ pub use sweep::{
     best_under_budget, sweep, sweep_detailed, sweep_with_progress, SkippedFit, SweepEvent,
     SweepOptions, SweepReport,
 };
+pub use trust_region::{TrustRegionSettings, TrustRegionSolver};
 
 #[cfg(test)]
 mod paper_tests;

@@ -25,7 +25,7 @@ use super::basis::{check_degree, exponents, monomial_to_chebyshev, n_terms};
 use super::data::{FitData, InputTransform, Prepared};
 use super::error::{FitError, Result};
 use super::linear::solve_lstsq;
-use super::lm::{cost, LevenbergMarquardt, TerminationReason};
+use super::lm::{cost, LevenbergMarquardt, LsqMethod, TerminationReason};
 use super::model::{LinearisedRows, Model, RationalProblem, Q_FLOOR};
 use super::poles::CertifyOptions;
 use super::polynomial::solve_polynomial;
@@ -35,8 +35,12 @@ use super::robust::{reweight, Solve, Solved};
 /// Settings of a rational fit.
 #[derive(Clone, Debug)]
 pub struct RationalOptions {
-    /// Levenberg–Marquardt settings for every run.
+    /// Levenberg–Marquardt settings for every run (iteration limits and tolerances also of the
+    /// trust-region method).
     pub lm: LevenbergMarquardt,
+    /// The least-squares solver of every run: Levenberg–Marquardt (default) or argmin's trust
+    /// region.
+    pub method: LsqMethod,
     /// Sanathanan–Koerner rounds after the linearised start.
     pub sk_iterations: usize,
     /// Points used to explore the starts (0 = automatic: max(16 384, 200 × parameters)).
@@ -67,6 +71,7 @@ impl Default for RationalOptions {
     fn default() -> Self {
         RationalOptions {
             lm: LevenbergMarquardt::new(),
+            method: LsqMethod::LevenbergMarquardt,
             sk_iterations: 6,
             exploration_points: 0,
             refine_iterations: 50,
@@ -269,7 +274,7 @@ pub fn fit_rational(
             extra: None,
             certified_steps: constrained.then_some(guard),
         };
-        let rep = opts.lm.solve(&problem, p0)?;
+        let rep = opts.method.solve(&opts.lm, &problem, p0)?;
         if rep.termination == TerminationReason::InfeasibleStart {
             reports.push(StartReport {
                 name,
@@ -347,7 +352,7 @@ pub fn fit_rational(
             extra: None,
             certified_steps: best.certified.then_some(guard),
         };
-        let rep = lm.solve(&problem, best.params.clone())?;
+        let rep = opts.method.solve(&lm, &problem, best.params.clone())?;
         if rep.termination != TerminationReason::InfeasibleStart {
             let certified = safe(&rep.state.params);
             if certified || !best.certified {
@@ -383,7 +388,7 @@ pub fn fit_rational(
                     extra: Some(extra),
                     certified_steps: constrained.then_some(guard),
                 };
-                let rep = lm.solve(&problem, warm.to_vec())?;
+                let rep = opts.method.solve(&lm, &problem, warm.to_vec())?;
                 if rep.termination == TerminationReason::InfeasibleStart {
                     return Ok(None);
                 }
@@ -417,7 +422,8 @@ pub fn fit_rational(
     let approximant = model.to_approximant(data, transforms, &prep, &params);
     let solver = SolverReport {
         method: format!(
-            "multi-start Levenberg–Marquardt (linearised LS, Sanathanan–Koerner, polynomial{}){}; best pole-certified start refined on all points{}",
+            "multi-start {} (linearised LS, Sanathanan–Koerner, polynomial{}){}; best pole-certified start refined on all points{}",
+            opts.method.label(),
             if opts.extra_starts.is_empty() { "" } else { ", supplied starts" },
             if sub.is_some() { format!(" on {} of {} points", ex.len(), prep.len()) } else { String::new() },
             match objective {

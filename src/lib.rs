@@ -7,6 +7,7 @@ pub mod cli;
 pub mod emit;
 pub mod error;
 pub mod fit;
+pub mod material;
 pub mod math;
 pub mod quadrature;
 pub mod report;

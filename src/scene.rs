@@ -8,19 +8,14 @@
 //!     { "name": "glass", "kind": "dielectric", "r": [0.0, 0.3], "ior": [1.45, 1.55] } ] }
 //! ```
 //!
-//! Kinds and what they need (Sforza & Pellacini 2022, §3):
+//! A material's `kind` is a registered material class ([`crate::material`]: `conductor`,
+//! `glossy`, `thin-dielectric`, `dielectric`, `rough-diffuse`, or one a program registers),
+//! which says which albedo tables it reads and which helper functions are emitted for them.
 //!
-//! | kind            | tables (axes)                                   | emitted helpers                       |
-//! |-----------------|-------------------------------------------------|---------------------------------------|
-//! | conductor       | ggx-conductor (r, μ)                            | Turquin scale (eq. 13)                |
-//! | thin-dielectric | ggx-conductor (r, μ) — §3.4                     | 1/E (eq. 19)                          |
-//! | glossy          | ggx-glossy (f0, r, μ) + ggx-conductor (r, μ)    | 1 − E_spec and 1/E_ss (eq. 18)        |
-//! | dielectric      | ggx-dielectric + ggx-dielectric-inv (f0, r, μ)  | 1/E by side of the surface (eq. 19)   |
-//! | rough-diffuse   | oren-nayar-fon (r, μ): E_F of the EON lobe      | —                                     |
-//!
-//! Ranges: `r` ∈ [0, 1] is the table axis (α = r² for GGX; the FON roughness for rough-diffuse),
-//! or `alpha` (converted by r = √α); `ior` ≥ 1 is converted to F0 = ((η − 1)/(η + 1))² (the
-//! normal-incidence Fresnel reflectance). Missing ranges mean the model's default domain. One
+//! Ranges: `r` ∈ [0, 1] is the tables' `r` axis (α = r² for GGX; the FON roughness for
+//! rough-diffuse), or `alpha` (converted by r = √α); `ior` ≥ 1 is converted to
+//! F0 = ((η − 1)/(η + 1))² (the normal-incidence Fresnel reflectance) on the tables' `f0` axes.
+//! Missing ranges, and every other axis, mean the model's default domain. One
 //! number instead of a pair means a fixed value, widened to [`MIN_RANGE_WIDTH`]. Materials that
 //! share a model share one table over the union of their ranges; μ always spans [0, 1].
 //! A scene of conductors, thin dielectrics and rough-diffuse materials needs no 3-D table.
@@ -30,13 +25,14 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::bsdf::{self, Family, ModelId, Side};
+use crate::bsdf::{self, AxisSpec, ModelId};
 use crate::emit::fitfile::{FitFile, TableRef};
 use crate::emit::generate::FormChoice;
 use crate::emit::stress::{stress, StressOptions, StressReport};
 use crate::emit::{self, build_unit, Lang, SourceFit};
 use crate::error::{Error, Result};
 use crate::fit::{fit_rational, FitData, FitResult, InputTransform, Objective, RationalOptions};
+use crate::material::{self, Helper};
 use crate::math::SmithForm;
 
 use crate::quadrature::QuadratureSettings;
@@ -52,19 +48,6 @@ pub const MIN_RANGE_WIDTH: f64 = 0.02;
 pub const DEFAULT_RESOLUTION_2D: usize = 1024;
 pub const DEFAULT_RESOLUTION_3D: usize = 128;
 
-/// Material kinds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Kind {
-    Conductor,
-    Glossy,
-    ThinDielectric,
-    Dielectric,
-    RoughDiffuse,
-}
-
-pub const KINDS: &str = "conductor, glossy, thin-dielectric, dielectric, rough-diffuse";
-
 /// A range in the manifest: `[lo, hi]` or one number.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
@@ -78,7 +61,8 @@ pub enum RangeSpec {
 #[serde(deny_unknown_fields)]
 pub struct Material {
     pub name: String,
-    /// One of [`KINDS`] (checked with a clear error, so kept as text here).
+    /// A registered material class ([`crate::material::find`]; checked with a clear error, so
+    /// kept as text here).
     pub kind: String,
     #[serde(default)]
     pub r: Option<RangeSpec>,
@@ -200,15 +184,6 @@ impl Manifest {
     }
 }
 
-fn kind_of(m: &Material) -> std::result::Result<Kind, String> {
-    serde_json::from_value(serde_json::Value::String(m.kind.clone())).map_err(|_| {
-        format!(
-            "material '{}': unknown kind '{}'; known kinds: {KINDS}",
-            m.name, m.kind
-        )
-    })
-}
-
 /// (lo, hi) of a range spec, checked against `valid`; a single value is widened.
 fn resolve(
     material: &str,
@@ -266,103 +241,96 @@ pub fn f0_from_ior(eta: f64) -> f64 {
 /// Largest IOR a manifest may give: F0(η) must stay within the dielectric tables' valid f0 ≤ 0.99.
 pub const MAX_IOR: f64 = 398.0;
 
-/// Helper functions a kind needs, by role.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-enum Helper {
-    TurquinScale,
-    Normalization,
-    DiffuseWeight,
-    Sided,
-}
-
 /// What one material needs: (model, ranges per axis, helpers of that model).
 type Need = (ModelId, Vec<(f64, f64)>, Vec<Helper>);
 
 fn material_needs(m: &Material, smith: SmithForm) -> std::result::Result<Vec<Need>, String> {
-    let kind = kind_of(m)?;
+    let class = material::find(&m.kind).map_err(|_| {
+        format!(
+            "material '{}': unknown kind '{}'; known kinds: {}",
+            m.name,
+            m.kind,
+            material::known_kinds()
+        )
+    })?;
     if m.r.is_some() && m.alpha.is_some() {
         return Err(format!(
             "material '{}': give either r or alpha, not both (α = r²)",
             m.name
         ));
     }
-    let r = match (&m.r, &m.alpha) {
-        (Some(r), _) => resolve(&m.name, "r", r, (0.0, 1.0))?,
-        (None, Some(a)) => {
-            if kind == Kind::RoughDiffuse {
+    let tables = class.tables(smith);
+    let axes: Vec<Vec<AxisSpec>> = tables
+        .iter()
+        .map(|t| bsdf::get(t.model).map(|model| model.axes()))
+        .collect::<Result<_>>()
+        .map_err(|e| format!("material '{}': {e}", m.name))?;
+    let axis = |name: &str| axes.iter().flatten().find(|a| a.name == name);
+    let absent = |field: &str, what: &str| {
+        format!(
+            "material '{}': a {} has no {what} axis; remove '{field}'",
+            m.name,
+            class.noun()
+        )
+    };
+    let r = match (axis("r"), &m.r, &m.alpha) {
+        (None, Some(_), _) => return Err(absent("r", "r")),
+        (None, None, Some(_)) => return Err(absent("alpha", "r")),
+        (None, None, None) => None,
+        (Some(a), Some(r), _) => Some(widen(
+            resolve(&m.name, "r", r, a.valid_range)?,
+            a.valid_range,
+        )),
+        (Some(a), None, Some(alpha)) => {
+            if let Some(what) = class.r_is_not_alpha() {
                 return Err(format!(
-                    "material '{}': rough-diffuse takes r (the FON/EON roughness), not alpha",
-                    m.name
+                    "material '{}': {} takes r ({what}), not alpha",
+                    m.name,
+                    class.kind()
                 ));
             }
-            let (lo, hi) = resolve(&m.name, "alpha", a, (0.0, 1.0))?;
-            (lo.sqrt(), hi.sqrt())
+            let (v0, v1) = a.valid_range;
+            let (lo, hi) = resolve(&m.name, "alpha", alpha, (v0 * v0, v1 * v1))?;
+            Some(widen((lo.sqrt(), hi.sqrt()), a.valid_range))
         }
-        (None, None) => (0.0, 1.0),
+        (Some(a), None, None) => Some(a.default_range),
     };
-    let r = widen(r, (0.0, 1.0));
-    let f0 = |default: (f64, f64), valid_hi: f64| -> std::result::Result<(f64, f64), String> {
+    if m.ior.is_some() && axis("f0").is_none() {
+        return Err(format!(
+            "material '{}': a {} has no IOR axis (its F0 is applied at render time); remove 'ior'",
+            m.name,
+            class.noun()
+        ));
+    }
+    let f0 = |a: &AxisSpec| -> std::result::Result<(f64, f64), String> {
         match &m.ior {
-            None => Ok(default),
+            None => Ok(a.default_range),
             Some(spec) => {
                 let (lo, hi) = resolve(&m.name, "ior", spec, (1.0, MAX_IOR))?;
-                let range = (f0_from_ior(lo), f0_from_ior(hi).min(valid_hi));
-                Ok(widen(range, (0.0, valid_hi)))
+                let range = (f0_from_ior(lo), f0_from_ior(hi).min(a.valid_range.1));
+                Ok(widen(range, a.valid_range))
             }
         }
     };
-    let mu = (0.0, 1.0);
-    let needs_ior = |k: &str| -> std::result::Result<(), String> {
-        if m.ior.is_some() {
-            return Err(format!(
-                "material '{}': a {k} has no IOR axis (its F0 is applied at render time); remove 'ior'",
-                m.name
-            ));
-        }
-        Ok(())
-    };
-    let conductor = ModelId::ggx_conductor(smith);
-    Ok(match kind {
-        Kind::Conductor => {
-            needs_ior("conductor")?;
-            vec![(conductor, vec![r, mu], vec![Helper::TurquinScale])]
-        }
-        Kind::ThinDielectric => {
-            // §3.4: a thin dielectric's reflection and transmission lobes share the conductor table
-            needs_ior("thin dielectric (paper §3.4: it uses the conductor table)")?;
-            vec![(conductor, vec![r, mu], vec![Helper::Normalization])]
-        }
-        Kind::Glossy => {
-            let f = f0((0.0, 1.0), 1.0)?;
-            vec![
-                (
-                    ModelId::ggx_glossy(smith),
-                    vec![f, r, mu],
-                    vec![Helper::DiffuseWeight],
-                ),
-                (conductor, vec![r, mu], vec![Helper::Normalization]),
-            ]
-        }
-        Kind::Dielectric => {
-            let f = f0((0.0125, 0.25), 0.99)?;
-            vec![
-                (
-                    ModelId::ggx_dielectric(Side::Entering, smith),
-                    vec![f, r, mu],
-                    vec![Helper::Normalization, Helper::Sided],
-                ),
-                (
-                    ModelId::ggx_dielectric(Side::Leaving, smith),
-                    vec![f, r, mu],
-                    vec![Helper::Normalization, Helper::Sided],
-                ),
-            ]
-        }
-        Kind::RoughDiffuse => {
-            needs_ior("rough-diffuse material")?;
-            vec![(ModelId::new(Family::OREN_NAYAR_FON), vec![r, mu], vec![])]
-        }
-    })
+    tables
+        .into_iter()
+        .zip(&axes)
+        .map(|(t, axes)| {
+            let ranges = axes
+                .iter()
+                .map(|a| match a.name.as_str() {
+                    "r" => Ok(r.unwrap_or(a.default_range)),
+                    "f0" => f0(a),
+                    _ => Ok(a.default_range),
+                })
+                .collect::<std::result::Result<_, String>>()?;
+            Ok((
+                t.model,
+                ranges,
+                t.helpers.into_iter().map(|u| u.helper).collect(),
+            ))
+        })
+        .collect()
 }
 
 /// One table (and fit) a scene needs.
@@ -388,23 +356,14 @@ pub struct Plan {
 impl Plan {
     /// Names of the helper functions to emit.
     pub fn helper_names(&self) -> Vec<String> {
-        let mut out = Vec::new();
-        for t in &self.tables {
-            let p = emit::generate::ident(&t.model.name());
-            for h in &t.helpers {
-                match h {
-                    Helper::TurquinScale => out.push(format!("{p}_turquin_scale")),
-                    Helper::Normalization => out.push(format!("{p}_normalization")),
-                    Helper::DiffuseWeight => out.push(format!("{p}_diffuse_weight")),
-                    Helper::Sided if t.model.side != Some(Side::Leaving) => {
-                        out.push(format!("{p}_sided_albedo"));
-                        out.push(format!("{p}_sided_normalization"));
-                    }
-                    Helper::Sided => {}
-                }
-            }
-        }
-        out
+        self.tables
+            .iter()
+            .flat_map(|t| {
+                t.helpers
+                    .iter()
+                    .flat_map(|&h| emit::helpers::helper_names(t.model, h))
+            })
+            .collect()
     }
 
     /// A table of the plan.

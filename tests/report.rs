@@ -6,12 +6,12 @@ use furnace::fit::{
     fit_polynomial, fit_rational, FitData, InputTransform, Objective, PolynomialOptions,
     RationalOptions,
 };
+use furnace::material::builtin::{Kind, Material};
+use furnace::material::furnace::{furnace_stats, furnace_values, lobe_integrals_at};
+use furnace::material::{CompensatedBsdf, Compensation};
 use furnace::math::SmithForm;
 use furnace::quadrature::QuadratureSettings;
 use furnace::report::albedo::{FitAlbedo, TableAlbedo};
-use furnace::report::furnace::{
-    furnace_stats, furnace_values, lobe_integrals_at, Compensation, Material, MaterialClass,
-};
 use furnace::report::inputs::TableProvider;
 use furnace::report::model::{ReportOptions, Reporter};
 use furnace::table::{self, Table, TableSpec};
@@ -47,12 +47,9 @@ fn furnace_on_nodes(material: &Material, t: &Table, conductor: Option<&Table>) -
     );
     let exact = TableAlbedo::new(t);
     let cond = conductor.map(TableAlbedo::new);
-    let comp = Compensation::With {
-        albedo: &exact,
-        conductor: cond
-            .as_ref()
-            .map(|c| c as &dyn furnace::report::albedo::Albedo),
-    };
+    let mut sources: Vec<&dyn furnace::material::Albedo> = vec![&exact];
+    sources.extend(cond.as_ref().map(|c| c as &dyn furnace::material::Albedo));
+    let comp = Compensation::With(sources);
     let with = furnace_stats(&points, &furnace_values(material, &points, &lobes, &comp));
     let none = furnace_stats(
         &points,
@@ -71,8 +68,7 @@ fn conductor_with_the_exact_table_passes_the_furnace_to_1e6() {
         ("ggx-conductor-separable", SmithForm::Separable),
     ] {
         let t = table(name, Transmission::Energy, &[17, 17]);
-        let (with, none) =
-            furnace_on_nodes(&Material::new(MaterialClass::Conductor, smith), &t, None);
+        let (with, none) = furnace_on_nodes(&Material::new(Kind::Conductor, smith), &t, None);
         eprintln!("{name}: furnace max |1 − E| with the exact table {with:.2e}, without compensation {none:.3}");
         assert!(with <= 1e-6, "{name}: {with:e}");
         assert!(
@@ -88,34 +84,26 @@ fn every_class_passes_with_its_exact_tables() {
     let hc = SmithForm::HeightCorrelated;
     let cond = table("ggx-conductor", Transmission::Energy, &[9, 9]);
     let cases: Vec<(Material, Table, Option<&Table>)> = vec![
+        (Material::new(Kind::ThinDielectric, hc), cond.clone(), None),
         (
-            Material::new(MaterialClass::ThinDielectric, hc),
-            cond.clone(),
-            None,
-        ),
-        (
-            Material::new(MaterialClass::Glossy, hc),
+            Material::new(Kind::Glossy, hc),
             table("ggx-glossy", Transmission::Energy, &[3, 9, 9]),
             Some(&cond),
         ),
         (
-            Material::new(MaterialClass::Dielectric { inverse: false }, hc),
+            Material::new(Kind::Dielectric, hc),
             table("ggx-dielectric", Transmission::Energy, &[3, 9, 9]),
             None,
         ),
         (
-            Material::new(MaterialClass::Dielectric { inverse: true }, hc),
+            Material::new(Kind::Dielectric, hc).leaving(),
             table("ggx-dielectric-inv", Transmission::Energy, &[3, 9, 9]),
             None,
         ),
         (
-            Material {
-                radiance_transmission: true,
-                ..Material::new(
-                    MaterialClass::Dielectric { inverse: true },
-                    SmithForm::Separable,
-                )
-            },
+            Material::new(Kind::Dielectric, SmithForm::Separable)
+                .leaving()
+                .with_transmission(Transmission::Radiance),
             table(
                 "ggx-dielectric-inv-separable",
                 Transmission::Radiance,
@@ -124,7 +112,7 @@ fn every_class_passes_with_its_exact_tables() {
             None,
         ),
         (
-            Material::new(MaterialClass::RoughDiffuse, hc),
+            Material::new(Kind::RoughDiffuse, hc),
             table("oren-nayar-fon", Transmission::Energy, &[9, 9]),
             None,
         ),
@@ -183,17 +171,14 @@ fn conductor_with_a_fit_passes_to_within_its_relative_error() {
     ];
     let points = nodes(&t);
     let lobes = lobe_integrals_at(
-        &Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated),
+        &Material::new(Kind::Conductor, SmithForm::HeightCorrelated),
         &points,
     );
     for fit in &fits {
         let rho = fit.metrics.max_rel_error;
         let albedo = FitAlbedo::new(fit, &["r".into(), "mu".into()]).unwrap();
-        let comp = Compensation::With {
-            albedo: &albedo,
-            conductor: None,
-        };
-        let m = Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated);
+        let comp = Compensation::With(vec![&albedo]);
+        let m = Material::new(Kind::Conductor, SmithForm::HeightCorrelated);
         let s = furnace_stats(&points, &furnace_values(&m, &points, &lobes, &comp));
         eprintln!(
             "{}: reported max rel. error {rho:.3e}, furnace max |1 − E| {:.3e}",

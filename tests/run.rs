@@ -5,11 +5,11 @@
 //! error; unwritable outputs give an error naming the path.
 
 use furnace::fit::job::FitRecord;
+use furnace::material::builtin::{Kind, Material};
+use furnace::material::furnace::{furnace_stats, furnace_values, lobe_integrals_at};
+use furnace::material::Compensation;
 use furnace::math::SmithForm;
 use furnace::report::albedo::FitAlbedo;
-use furnace::report::furnace::{
-    furnace_stats, furnace_values, lobe_integrals_at, Compensation, Material, MaterialClass,
-};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -211,20 +211,12 @@ fn run_end_to_end_is_reproducible_and_resumes() {
     let nodes: Vec<Vec<f64>> = (0..17)
         .flat_map(|i| (0..17).map(move |j| vec![i as f64 / 16.0, j as f64 / 16.0]))
         .collect();
-    let m = Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated);
+    let m = Material::new(Kind::Conductor, SmithForm::HeightCorrelated);
     let lobes = lobe_integrals_at(&m, &nodes);
     let albedo = FitAlbedo::new(&rec.fit, &["r".into(), "mu".into()]).unwrap();
     let s = furnace_stats(
         &nodes,
-        &furnace_values(
-            &m,
-            &nodes,
-            &lobes,
-            &Compensation::With {
-                albedo: &albedo,
-                conductor: None,
-            },
-        ),
+        &furnace_values(&m, &nodes, &lobes, &Compensation::With(vec![&albedo])),
     );
     eprintln!(
         "best-20: ρ = {rho:.3e}, furnace max |1 − E| = {:.3e}",
@@ -263,20 +255,12 @@ fn the_committed_default_conductor_fit_passes_within_its_relative_error() {
         .iter()
         .flat_map(|&r| axis.iter().map(move |&mu| vec![r, mu]))
         .collect();
-    let m = Material::new(MaterialClass::Conductor, SmithForm::HeightCorrelated);
+    let m = Material::new(Kind::Conductor, SmithForm::HeightCorrelated);
     let lobes = lobe_integrals_at(&m, &nodes);
     let albedo = FitAlbedo::new(&rec.fit, &["r".into(), "mu".into()]).unwrap();
     let s = furnace_stats(
         &nodes,
-        &furnace_values(
-            &m,
-            &nodes,
-            &lobes,
-            &Compensation::With {
-                albedo: &albedo,
-                conductor: None,
-            },
-        ),
+        &furnace_values(&m, &nodes, &lobes, &Compensation::With(vec![&albedo])),
     );
     let rho = rec.fit.metrics.max_rel_error;
     eprintln!(

@@ -15,7 +15,8 @@
 use super::generate::{ident, ALBEDO_FLOOR};
 use super::ir::build::*;
 use super::ir::{Function, Stmt};
-use crate::bsdf::{Family, ModelId, Side};
+use crate::bsdf::ModelId;
+use crate::material::{self, Helper};
 
 /// An emitted albedo function the helpers can call.
 #[derive(Clone, Debug)]
@@ -51,129 +52,151 @@ fn normalization(name: String, a: &AlbedoRef, doc: Vec<String>) -> Function {
     }
 }
 
-/// The helpers for the albedo functions of one emitted file, in call order.
+/// The names of the functions `helper` adds next to an albedo function of `model`.
+pub fn helper_names(model: ModelId, helper: Helper) -> Vec<String> {
+    names(&ident(&model.name()), helper)
+}
+
+fn names(prefix: &str, helper: Helper) -> Vec<String> {
+    match helper {
+        Helper::TurquinScale => vec![format!("{prefix}_turquin_scale")],
+        Helper::Normalization => vec![format!("{prefix}_normalization")],
+        Helper::DiffuseWeight => vec![format!("{prefix}_diffuse_weight")],
+        Helper::Sided { .. } => vec![
+            format!("{prefix}_sided_albedo"),
+            format!("{prefix}_sided_normalization"),
+        ],
+    }
+}
+
+/// The doc comment of 1/E: its definition, then what each material that needs it does with it
+/// (the uses joined by ", or ").
+fn normalization_doc(a: &AlbedoRef, args: &str, purposes: &[Vec<String>]) -> Vec<String> {
+    let mut lines = vec![format!("1/E with E = {}({args}):", a.function)];
+    let uses: Vec<&Vec<String>> = purposes.iter().filter(|p| !p.is_empty()).collect();
+    if uses.is_empty() {
+        lines[0].push_str(" divide the lobe whose albedo is E by it");
+    }
+    for (k, purpose) in uses.iter().enumerate() {
+        let last = lines.last_mut().expect("one line at least");
+        last.push_str(if k == 0 { " " } else { ", or " });
+        last.push_str(&purpose[0]);
+        lines.extend(purpose[1..].iter().cloned());
+    }
+    lines.last_mut().expect("one line at least").push('.');
+    lines
+}
+
+/// The helpers for the albedo functions of one emitted file, in call order: those the material
+/// registry lists for each albedo's model ([`material::helpers_for`]), albedo by albedo, then
+/// the side-of-surface pairs.
 pub fn helpers(albedos: &[AlbedoRef]) -> Vec<Function> {
     let mut out = Vec::new();
+    let mut pairs = Vec::new();
     for a in albedos {
+        let Some(id) = a.id else { continue };
         let prefix = ident(&a.model);
         let args = a.params.join(", ");
-        let Some(id) = a.id else { continue };
-        match id.family {
-            Family::GGX_CONDUCTOR => {
-                let mut params = vec!["f0".to_string()];
-                params.extend(a.params.iter().filter(|p| *p != "f0").cloned());
-                out.push(Function {
-                    name: format!("{prefix}_turquin_scale"),
+        for (helper, purposes) in material::helpers_for(id) {
+            let name = names(&prefix, helper).remove(0);
+            match helper {
+                Helper::TurquinScale => {
+                    let mut params = vec!["f0".to_string()];
+                    params.extend(a.params.iter().filter(|p| *p != "f0").cloned());
+                    out.push(Function {
+                        name,
+                        doc: vec![
+                            format!("Turquin's multiple-scattering scale 1 + F0·(1 − E)/E with E = {}({args}):", a.function),
+                            "multiply the single-scattering conductor BRDF by it (Sforza & Pellacini 2022, eq. 13;".into(),
+                            "Turquin 2019). F0 is the normal-incidence reflectance: call once per colour channel.".into(),
+                        ],
+                        params,
+                        body: vec![floor_stmt(call_albedo(a))],
+                        result: add(lit(1.0), mul(var("f0"), div(sub(lit(1.0), var("e")), var("e")))), // paper eq. 13
+                    });
+                }
+                Helper::Normalization => {
+                    out.push(normalization(name, a, normalization_doc(a, &args, &purposes)))
+                }
+                Helper::DiffuseWeight => out.push(Function {
+                    name,
                     doc: vec![
-                        format!("Turquin's multiple-scattering scale 1 + F0·(1 − E)/E with E = {}({args}):", a.function),
-                        "multiply the single-scattering conductor BRDF by it (Sforza & Pellacini 2022, eq. 13;".into(),
-                        "Turquin 2019). F0 is the normal-incidence reflectance: call once per colour channel.".into(),
+                        format!("Weight 1 − E_spec of the diffuse base under the specular layer, E_spec = {}({args})", a.function),
+                        "(Sforza & Pellacini 2022, eq. 18: ρ = ρ_ss/E_ss + (1 − E_spec) ρ_diff).".into(),
                     ],
-                    params,
-                    body: vec![floor_stmt(call_albedo(a))],
-                    result: add(lit(1.0), mul(var("f0"), div(sub(lit(1.0), var("e")), var("e")))), // paper eq. 13
-                });
-                out.push(normalization(
-                    format!("{prefix}_normalization"),
-                    a,
-                    vec![
-                        format!("1/E with E = {}({args}): divide a thin dielectric's reflection + transmission by E", a.function),
-                        "(Sforza & Pellacini 2022, §3.4 with eq. 19), or the glossy specular layer ρ_ss/E_ss (eq. 18).".into(),
-                    ],
-                ));
+                    params: a.params.clone(),
+                    body: vec![],
+                    result: sub(lit(1.0), call_albedo(a)), // paper eq. 18
+                }),
+                Helper::Sided { leaving } => pairs.push((a, leaving)),
             }
-            Family::GGX_GLOSSY => out.push(Function {
-                name: format!("{prefix}_diffuse_weight"),
-                doc: vec![
-                    format!("Weight 1 − E_spec of the diffuse base under the specular layer, E_spec = {}({args})", a.function),
-                    "(Sforza & Pellacini 2022, eq. 18: ρ = ρ_ss/E_ss + (1 − E_spec) ρ_diff).".into(),
-                ],
-                params: a.params.clone(),
-                body: vec![],
-                result: sub(lit(1.0), call_albedo(a)), // paper eq. 18
-            }),
-            Family::GGX_DIELECTRIC => out.push(normalization(
-                format!("{prefix}_normalization"),
-                a,
-                vec![
-                    format!("1/E with E = {}({args}): divide the single-scattering BSDF ρ_R + ρ_T by it", a.function),
-                    "(Sforza & Pellacini 2022, eq. 19).".into(),
-                ],
-            )),
-            _ => {}
         }
     }
-    out.extend(sided(albedos));
+    for (enter, leaving) in pairs {
+        out.extend(sided(albedos, enter, leaving));
+    }
     out
 }
 
-/// The side-of-surface helpers for every (entering, leaving) dielectric pair with the same
-/// Smith form and a `mu` argument.
-fn sided(albedos: &[AlbedoRef]) -> Vec<Function> {
-    let mut out = Vec::new();
-    for enter in albedos {
-        let Some(enter_id) = enter.id else { continue };
-        if enter_id.family != Family::GGX_DIELECTRIC || enter_id.side != Some(Side::Entering) {
-            continue;
-        }
-        let leave_id = enter_id.with_side(Side::Leaving);
-        let Some(leave) = albedos
-            .iter()
-            .find(|a| a.id == Some(leave_id) && a.params == enter.params)
-        else {
-            continue;
-        };
-        if !enter.params.iter().any(|p| p == "mu") {
-            continue;
-        }
-        let prefix = ident(&enter.model);
-        let params: Vec<String> = enter
-            .params
-            .iter()
-            .map(|p| {
-                if p == "mu" {
-                    "cos_o".to_string()
-                } else {
-                    p.clone()
-                }
-            })
-            .collect();
-        let args = |mu: super::ir::Expr, a: &AlbedoRef| {
-            call(
-                &a.function,
-                a.params
-                    .iter()
-                    .map(|p| if p == "mu" { mu.clone() } else { var(p) })
-                    .collect(),
-            )
-        };
-        let albedo_name = format!("{prefix}_sided_albedo");
-        out.push(Function {
-            name: albedo_name.clone(),
-            doc: vec![
-                format!("E of the dielectric seen from ωo, cos_o = n·ωo: {}(…, cos_o) when ωo is on the side the", enter.function),
-                format!("normal points to (entering, relative IOR η), else {}(…, −cos_o) (leaving, 1/η)", leave.function),
-                "(Sforza & Pellacini 2022, §3.3: one table per direction of travel).".into(),
-            ],
-            params: params.clone(),
-            body: vec![],
-            result: select_ge(var("cos_o"), lit(0.0), args(var("cos_o"), enter), args(sub(lit(0.0), var("cos_o")), leave)),
-        });
-        let sided_ref = AlbedoRef {
-            model: enter.model.clone(),
-            id: enter.id,
-            function: albedo_name,
-            params,
-        };
-        out.push(normalization(
-            format!("{prefix}_sided_normalization"),
-            &sided_ref,
-            vec![
-                "1/E for the side ωo is on (see the sided albedo above): divide ρ_R + ρ_T by it"
-                    .into(),
-                "(Sforza & Pellacini 2022, eq. 19).".into(),
-            ],
-        ));
+/// The side-of-surface helpers of the entering albedo `enter` and the albedo of model `leaving`
+/// with the same arguments, if it is emitted too and they take `mu`.
+fn sided(albedos: &[AlbedoRef], enter: &AlbedoRef, leaving: ModelId) -> Vec<Function> {
+    let Some(leave) = albedos
+        .iter()
+        .find(|a| a.id == Some(leaving) && a.params == enter.params)
+    else {
+        return vec![];
+    };
+    if !enter.params.iter().any(|p| p == "mu") {
+        return vec![];
     }
+    let mut out = Vec::new();
+    let prefix = ident(&enter.model);
+    let params: Vec<String> = enter
+        .params
+        .iter()
+        .map(|p| {
+            if p == "mu" {
+                "cos_o".to_string()
+            } else {
+                p.clone()
+            }
+        })
+        .collect();
+    let args = |mu: super::ir::Expr, a: &AlbedoRef| {
+        call(
+            &a.function,
+            a.params
+                .iter()
+                .map(|p| if p == "mu" { mu.clone() } else { var(p) })
+                .collect(),
+        )
+    };
+    let albedo_name = format!("{prefix}_sided_albedo");
+    out.push(Function {
+        name: albedo_name.clone(),
+        doc: vec![
+            format!("E of the dielectric seen from ωo, cos_o = n·ωo: {}(…, cos_o) when ωo is on the side the", enter.function),
+            format!("normal points to (entering, relative IOR η), else {}(…, −cos_o) (leaving, 1/η)", leave.function),
+            "(Sforza & Pellacini 2022, §3.3: one table per direction of travel).".into(),
+        ],
+        params: params.clone(),
+        body: vec![],
+        result: select_ge(var("cos_o"), lit(0.0), args(var("cos_o"), enter), args(sub(lit(0.0), var("cos_o")), leave)),
+    });
+    let sided_ref = AlbedoRef {
+        model: enter.model.clone(),
+        id: enter.id,
+        function: albedo_name,
+        params,
+    };
+    out.push(normalization(
+        format!("{prefix}_sided_normalization"),
+        &sided_ref,
+        vec![
+            "1/E for the side ωo is on (see the sided albedo above): divide ρ_R + ρ_T by it".into(),
+            "(Sforza & Pellacini 2022, eq. 19).".into(),
+        ],
+    ));
     out
 }

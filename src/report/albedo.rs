@@ -5,16 +5,8 @@
 
 use crate::error::{Error, Result};
 use crate::fit::{Approximant, FitResult};
+pub use crate::material::Albedo;
 use crate::table::Table;
-
-/// A directional albedo E(x) a renderer would read to compensate a BSDF.
-pub trait Albedo: Sync {
-    /// E at `x` (the model's axes, in table order). Points outside the source's domain are
-    /// clamped to it (as a texture lookup or a shader clamps its inputs).
-    fn albedo(&self, x: &[f64]) -> f64;
-    /// Number of axes.
-    fn dim(&self) -> usize;
-}
 
 /// Multilinear interpolation of output `E` of a table: bilinear in 2-D, trilinear in 3-D, exact
 /// at the nodes. With a coarse table this is the classic LUT (e.g. 32² bilinear).

@@ -1,14 +1,14 @@
-//! Error reports: the white furnace test, plots, sphere images and `reports/README.md`.
+//! Error reports: fits against tables, the white furnace test, sphere images and `reports/README.md`.
 //!
 //! The end of the pipeline (model → quadrature → table → fit → emit/**report**): it reads tables
 //! (through [`inputs::TableProvider`]), fit files (`fits/<model>/*.json`, [`crate::fit::FitResult`]),
 //! the paper's published fits ([`crate::fit::paper`]) and benchmark CSV files, and writes figures
 //! and markdown. It never changes a table or a fit.
 //!
-//! - [`furnace`]: the white furnace test — the albedo of each energy-compensated BSDF (conductor,
-//!   glossy, thin and thick dielectric, rough diffuse) integrated over incident directions by its
-//!   own quadrature ([`quad`], adaptive Gauss–Kronrod over GGX normals), not re-read from the
-//!   albedo it is compensated with.
+//! The white furnace test it shows is [`crate::material::furnace`]: the albedo of each
+//! energy-compensated BSDF integrated over incident directions by its own quadrature, not re-read
+//! from the albedo it is compensated with.
+//!
 //! - [`albedo`]: albedo sources a compensation reads — exact table / LUT (multilinear) and fits.
 //! - [`plot`]: charts (linear/log axes, legends), heat maps with colour bars; PNG and SVG.
 //! - [`spheres`]: rows of spheres of increasing roughness under a white environment (paper Figs. 2, 4).
@@ -32,16 +32,12 @@
 
 // Negated comparisons (`!(x > 0.0)`) are deliberate: they treat NaN as failure.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
-// The Gauss–Kronrod constants are quoted to QUADPACK's 33 digits, as published.
-#![allow(clippy::excessive_precision)]
 // Index loops mirror the multilinear interpolation formula.
 #![allow(clippy::needless_range_loop)]
 
 pub mod albedo;
-pub mod furnace;
 pub mod inputs;
 pub mod model;
 pub mod plot;
-pub mod quad;
 pub mod readme;
 pub mod spheres;

@@ -8,10 +8,6 @@
 //! `furnace report --model M` can update one model and rebuild the README).
 
 use super::albedo::{Albedo, FitAlbedo, TableAlbedo};
-use super::furnace::{
-    furnace_stats, furnace_values, lobe_integrals_at, Compensation, FurnaceStats, Material,
-    MaterialClass,
-};
 use super::inputs::{
     self, choose_fit, load_fits, measure, paper_link, short_form, FitFiles, Measured, TableProvider,
 };
@@ -23,6 +19,8 @@ use super::spheres::{sphere_columns, Show, SphereFigure, SphereRow};
 use crate::bsdf::{self, Family, Model, ModelId, Side, Transmission};
 use crate::error::{Error, Result};
 use crate::fit::FitResult;
+use crate::material::furnace::{furnace_stats, furnace_values, lobe_integrals_at, FurnaceStats};
+use crate::material::{compensated_for, CompensatedBsdf, Compensation};
 use crate::math::SmithForm;
 use crate::table::Table;
 use serde::{Deserialize, Serialize};
@@ -115,27 +113,6 @@ pub const REPORT_MODELS: &[ModelId] = &[
     ModelId::new(Family::OREN_NAYAR_FON),
     ModelId::new(Family::EON),
 ];
-
-/// The furnace materials whose compensation reads `model`'s albedo.
-pub fn materials_for(model: ModelId) -> Vec<Material> {
-    let smith = model.smith.unwrap_or_default();
-    let m = |class| Material::new(class, smith);
-    match (model.family, model.side) {
-        (Family::GGX_CONDUCTOR, _) => vec![
-            m(MaterialClass::Conductor),
-            m(MaterialClass::ThinDielectric),
-        ],
-        (Family::GGX_GLOSSY, _) => vec![m(MaterialClass::Glossy)],
-        (Family::GGX_DIELECTRIC, Some(side)) => vec![m(MaterialClass::Dielectric {
-            inverse: side == Side::Leaving,
-        })],
-        (Family::OREN_NAYAR_FON, _) => vec![Material::new(
-            MaterialClass::RoughDiffuse,
-            SmithForm::HeightCorrelated,
-        )],
-        _ => vec![],
-    }
-}
 
 /// A fit's row in the report.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -328,11 +305,6 @@ pub struct Reporter<'a> {
     loaded: RefCell<BTreeMap<String, Rc<ModelData>>>,
     /// Models read since the current section started.
     used: RefCell<std::collections::BTreeSet<Dependency>>,
-}
-
-/// A compensation reading `albedo` (and, for glossy, the conductor's `conductor`).
-fn with<'b>(albedo: &'b dyn Albedo, conductor: Option<&'b dyn Albedo>) -> Compensation<'b> {
-    Compensation::With { albedo, conductor }
 }
 
 /// A LUT of `m` nodes per axis: every k-th node of `table` when (n − 1) is a multiple of (m − 1)
@@ -582,9 +554,9 @@ impl<'a> Reporter<'a> {
         };
 
         let mut furnace = Vec::new();
-        for material in materials_for(id) {
+        for material in compensated_for(id) {
             (self.progress)(&format!("{name}: furnace {}", material.label()));
-            let row = self.furnace_row(&material, &dir)?;
+            let row = self.furnace_row(material.as_ref(), &dir)?;
             files.extend(row.images.iter().cloned());
             furnace.push(row);
         }
@@ -1002,13 +974,30 @@ impl<'a> Reporter<'a> {
         points
     }
 
+    /// The point of `data`'s axes at roughness `r` and cosine `mu` for the sphere images: `f0` at
+    /// [`ReportOptions::sphere_f0`], any other axis at the middle of its table's range.
+    fn sphere_point(&self, data: &ModelData, r: f64, mu: f64) -> Vec<f64> {
+        data.table
+            .spec
+            .axes
+            .iter()
+            .map(|a| match a.name.as_str() {
+                "r" => r,
+                "mu" => mu,
+                "f0" => self.options.sphere_f0,
+                _ => 0.5 * (a.lo + a.hi),
+            })
+            .collect()
+    }
+
     /// The furnace test of one material (none, exact table, LUT, fit, paper fit) and its spheres.
-    fn furnace_row(&self, material: &Material, dir: &Path) -> Result<FurnaceRow> {
-        let data = self.data(material.albedo_model())?;
-        let conductor = match material.conductor_model() {
-            Some(c) => Some(self.data(c)?),
-            None => None,
-        };
+    fn furnace_row(&self, material: &dyn CompensatedBsdf, dir: &Path) -> Result<FurnaceRow> {
+        let albedos = material.albedos();
+        let data = self.data(albedos[0])?;
+        let others: Vec<Rc<ModelData>> = albedos[1..]
+            .iter()
+            .map(|&m| self.data(m))
+            .collect::<Result<_>>()?;
         let points = self.furnace_points(&data);
         let lobes = lobe_integrals_at(material, &points);
         let quadrature_error = lobes.iter().map(|l| l.error).fold(0.0, f64::max);
@@ -1025,6 +1014,13 @@ impl<'a> Reporter<'a> {
                 }
             )
         };
+        // the same kind of source for the primary albedo and every other one
+        let sources = |pick: &dyn for<'d> Fn(&'d ModelData) -> Option<&'d dyn Albedo>| {
+            std::iter::once(&data)
+                .chain(&others)
+                .map(|d| pick(d))
+                .collect::<Option<Vec<&dyn Albedo>>>()
+        };
         let mut variants: Vec<(String, std::result::Result<Compensation, String>, String)> =
             Vec::new();
         variants.push((
@@ -1034,38 +1030,42 @@ impl<'a> Reporter<'a> {
         ));
         variants.push((
             format!("exact table ({})", data.table.spec.resolution_name()),
-            Ok(with(
-                &data.exact,
-                conductor.as_ref().map(|c| &c.exact as &dyn Albedo),
+            Ok(Compensation::With(
+                sources(&|d| Some(&d.exact)).expect("every table is loaded"),
             )),
             "the furnace points are table nodes".into(),
         ));
         variants.push((
             lut_name(&data),
-            Ok(with(
-                &data.lut,
-                conductor.as_ref().map(|c| &c.lut as &dyn Albedo),
+            Ok(Compensation::With(
+                sources(&|d| Some(&d.lut)).expect("every LUT is loaded"),
             )),
             "values at LUT nodes are the table's".into(),
         ));
-        let fit_variant = match (&data.chosen_albedo, data.chosen) {
-            (Some(f), Some(k)) => match &conductor {
-                Some(c) => match (&c.chosen_albedo, c.chosen) {
-                    (Some(cf), Some(ck)) => Ok((
-                        with(f, Some(cf as &dyn Albedo)),
-                        format!(
-                            "{} + conductor {}",
-                            data.fits.fits[k].short_form(),
-                            c.fits.fits[ck].short_form()
-                        ),
-                    )),
-                    _ => Err(format!(
-                        "needs a fit of {} too: run `furnace fit --model {} --sweep` first",
-                        c.name, c.name
-                    )),
-                },
-                None => Ok((with(f, None), data.fits.fits[k].short_form())),
-            },
+        let chosen = sources(&|d| d.chosen_albedo.as_ref().map(|a| a as _));
+        let fit_variant = match (&data.chosen_albedo, data.chosen, chosen) {
+            (Some(_), Some(k), Some(s)) => {
+                let mut note = data.fits.fits[k].short_form();
+                for (j, o) in others.iter().enumerate() {
+                    let ok = o.chosen.expect("a chosen albedo has a chosen fit");
+                    note.push_str(&format!(
+                        " + {} {}",
+                        material.albedo_role(j + 1),
+                        o.fits.fits[ok].short_form()
+                    ));
+                }
+                Ok((Compensation::With(s), note))
+            }
+            (Some(_), Some(_), None) => {
+                let missing = others
+                    .iter()
+                    .find(|o| o.chosen_albedo.is_none())
+                    .expect("only another albedo can lack its fit");
+                Err(format!(
+                    "needs a fit of {} too: run `furnace fit --model {} --sweep` first",
+                    missing.name, missing.name
+                ))
+            }
             _ => Err(format!(
                 "no fit of {}: run `furnace fit --model {} --sweep` first",
                 data.name,
@@ -1076,13 +1076,16 @@ impl<'a> Reporter<'a> {
             Ok((c, note)) => variants.push(("furnace fit".into(), Ok(c), note)),
             Err(e) => variants.push(("furnace fit".into(), Err(e.clone()), e)),
         }
-        if let Some((_, pa, _)) = &data.paper {
-            let v = match &conductor {
-                Some(c) => match &c.paper {
-                    Some((_, cp, _)) => Ok(with(pa, Some(cp as &dyn Albedo))),
-                    None => Err("needs the paper's conductor fit too".to_string()),
-                },
-                None => Ok(with(pa, None)),
+        if data.paper.is_some() {
+            let v = match sources(&|d| d.paper.as_ref().map(|p| &p.1 as _)) {
+                Some(s) => Ok(Compensation::With(s)),
+                None => {
+                    let j = others.iter().position(|o| o.paper.is_none()).unwrap_or(0);
+                    Err(format!(
+                        "needs the paper's {} fit too",
+                        material.albedo_role(j + 1)
+                    ))
+                }
             };
             variants.push((
                 "paper's fit".into(),
@@ -1115,15 +1118,11 @@ impl<'a> Reporter<'a> {
                 .collect();
         let comps: Vec<Compensation> = sphere_rows
             .iter()
-            .filter_map(|v| v.1.as_ref().ok().copied())
+            .filter_map(|v| v.1.as_ref().ok().cloned())
             .collect();
-        let mut columns = sphere_columns(
-            material,
-            self.options.sphere_f0,
-            &self.options.sphere_roughness,
-            &comps,
-        )
-        .into_iter();
+        let point = |r: f64, mu: f64| self.sphere_point(&data, r, mu);
+        let mut columns =
+            sphere_columns(material, &point, &self.options.sphere_roughness, &comps).into_iter();
         let rows: Vec<SphereRow> = sphere_rows
             .iter()
             .map(|v| {
@@ -1152,17 +1151,15 @@ impl<'a> Reporter<'a> {
                 }
             })
             .collect();
-        let f0_text = if material.has_f0_axis() || material.class == MaterialClass::ThinDielectric {
-            format!(
-                ", F0 = {}",
-                plot::format_number(if material.class == MaterialClass::ThinDielectric {
-                    super::furnace::THIN_F0
-                } else {
-                    self.options.sphere_f0
-                })
-            )
-        } else {
-            String::new()
+        let f0 = material.fixed_f0().or_else(|| {
+            data.axes
+                .iter()
+                .any(|a| a == "f0")
+                .then_some(self.options.sphere_f0)
+        });
+        let f0_text = match f0 {
+            Some(f0) => format!(", F0 = {}", plot::format_number(f0)),
+            None => String::new(),
         };
         let column_labels: Vec<String> = self
             .options
@@ -1240,54 +1237,59 @@ impl<'a> Reporter<'a> {
             .paper
             .as_ref()
             .ok_or_else(|| Error::InvalidInput(format!("{name}: the paper's fit did not load")))?;
-        let materials = materials_for(id);
-        let material = materials.first().map(|m| Material {
-            radiance_transmission: link.model.is_radiance(),
-            ..*m
-        });
-        let conductor = match material.and_then(|m| m.conductor_model()) {
-            Some(c) => Some(self.data(c)?),
-            None => None,
+        let material = compensated_for(link.model).into_iter().next();
+        let others: Vec<Rc<ModelData>> = match &material {
+            Some(m) => m.albedos()[1..]
+                .iter()
+                .map(|&o| self.data(o))
+                .collect::<Result<_>>()?,
+            None => Vec::new(),
         };
         // the lobe integrals do not depend on the compensation: computed once for both fits
         let points = self.furnace_points(&data);
         let lobes: RefCell<Option<Vec<_>>> = RefCell::new(None);
-        let furnace_of = |albedo: &dyn Albedo, cond: Option<&dyn Albedo>| -> Option<f64> {
-            let m = material?;
+        let furnace_of = |sources: Vec<&dyn Albedo>| -> Option<f64> {
+            let m = material.as_deref()?;
             let mut lobes = lobes.borrow_mut();
-            let lobes = lobes.get_or_insert_with(|| lobe_integrals_at(&m, &points));
-            let values = furnace_values(
-                &m,
-                &points,
-                lobes,
-                &Compensation::With {
-                    albedo,
-                    conductor: cond,
-                },
-            );
+            let lobes = lobes.get_or_insert_with(|| lobe_integrals_at(m, &points));
+            let values = furnace_values(m, &points, lobes, &Compensation::With(sources));
             Some(furnace_stats(&points, &values).max_deviation)
         };
-        let paper_cond = conductor
-            .as_ref()
-            .and_then(|c| c.paper.as_ref().map(|p| &p.1 as &dyn Albedo));
-        let paper_fit_furnace = if conductor.is_some() && paper_cond.is_none() {
-            None
-        } else {
-            furnace_of(&data.paper.as_ref().expect("checked").1, paper_cond)
+        let other_sources = |pick: &dyn for<'d> Fn(&'d ModelData) -> Option<&'d dyn Albedo>| {
+            others
+                .iter()
+                .map(|d| pick(d))
+                .collect::<Option<Vec<&dyn Albedo>>>()
+        };
+        let paper_fit_furnace = match other_sources(&|d| d.paper.as_ref().map(|p| &p.1 as _)) {
+            Some(rest) => {
+                let mut s: Vec<&dyn Albedo> = vec![&data.paper.as_ref().expect("checked").1];
+                s.extend(rest);
+                furnace_of(s)
+            }
+            None => None,
         };
         let (furnace_fit, furnace_fit_furnace) = match (data.chosen, &data.chosen_albedo) {
             (Some(k), Some(f)) => {
-                let cond = conductor
-                    .as_ref()
-                    .and_then(|c| c.chosen_albedo.as_ref().map(|a| a as &dyn Albedo));
-                let ff = if conductor.is_some() && cond.is_none() {
-                    notes.push(
-                        "the furnace number of furnace's glossy fit needs a conductor fit too"
-                            .into(),
-                    );
-                    None
-                } else {
-                    furnace_of(f, cond)
+                let ff = match other_sources(&|d| d.chosen_albedo.as_ref().map(|a| a as _)) {
+                    Some(rest) => {
+                        let mut s: Vec<&dyn Albedo> = vec![f];
+                        s.extend(rest);
+                        furnace_of(s)
+                    }
+                    None => {
+                        let m = material.as_deref().expect("others come from a material");
+                        let j = others
+                            .iter()
+                            .position(|o| o.chosen_albedo.is_none())
+                            .unwrap_or(0);
+                        notes.push(format!(
+                            "the furnace number of furnace's {} fit needs a {} fit too",
+                            m.albedo_role(0),
+                            m.albedo_role(j + 1)
+                        ));
+                        None
+                    }
                 };
                 (Some(data.fit_row(k)), ff)
             }
@@ -1459,7 +1461,7 @@ impl<'a> Reporter<'a> {
 
         if !s.furnace.is_empty() {
             let _ = writeln!(md, "#### White furnace test\n");
-            let _ = writeln!(md, "max |1 − E| of the energy-compensated BSDF, E integrated by quadrature of the BSDF over incident directions (`furnace::report::furnace`), at table nodes.\n");
+            let _ = writeln!(md, "max |1 − E| of the energy-compensated BSDF, E integrated by quadrature of the BSDF over incident directions (`furnace::material::furnace`), at table nodes.\n");
             for row in &s.furnace {
                 let _ = writeln!(
                     md,

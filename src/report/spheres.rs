@@ -9,10 +9,9 @@
 //! the background; darkening is energy loss, a bright rim energy gain. Pixels are 2×2
 //! supersampled against the background (which is the environment, E = 1).
 
-use super::furnace::{
-    furnace_albedo, lobe_integrals_at, Compensation, LobeIntegrals, Material, Prepared,
-};
 use super::plot::{self, ColorScale, Draw, FONT};
+use crate::material::furnace::{lobe_integrals_at, LobeIntegrals};
+use crate::material::{CompensatedBsdf, Compensation};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -80,22 +79,16 @@ pub struct SphereFigure {
     pub caption: String,
 }
 
-/// Furnace values of `material` at F0 = `f0` (3-D classes) for spheres of roughness `roughness`
-/// under each compensation: `[row][column]`. The lobe integrals are computed once on a μ grid of
+/// Furnace values of `material` for spheres of roughness `roughness` under each compensation:
+/// `[row][column]`. `point(r, μ)` is the point of the material's albedo axes at roughness r and
+/// μ (F0 and any other axis held fixed). The lobe integrals are computed once on a μ grid of
 /// [`MU_SAMPLES`] nodes per roughness and shared by every row.
 pub fn sphere_columns(
-    material: &Material,
-    f0: f64,
+    material: &dyn CompensatedBsdf,
+    point: &dyn Fn(f64, f64) -> Vec<f64>,
     roughness: &[f64],
     compensations: &[Compensation],
 ) -> Vec<Vec<SphereColumn>> {
-    let point = |r: f64, mu: f64| {
-        if material.has_f0_axis() {
-            vec![f0, r, mu]
-        } else {
-            vec![r, mu]
-        }
-    };
     let mus: Vec<f64> = (0..MU_SAMPLES)
         .map(|k| k as f64 / (MU_SAMPLES - 1) as f64)
         .collect();
@@ -114,7 +107,7 @@ pub fn sphere_columns(
     compensations
         .iter()
         .map(|comp| {
-            let prepared = Prepared::new(material, comp, &pixel_points);
+            let prepared = material.prepare(comp, &pixel_points);
             roughness
                 .iter()
                 .enumerate()
@@ -125,7 +118,7 @@ pub fn sphere_columns(
                             let x = &pixel_points[c * PIXEL_SAMPLES + k];
                             let mu = x[x.len() - 1];
                             let l = interpolate_lobes(node_lobes, mu);
-                            furnace_albedo(material, &l, x, comp, &prepared)
+                            material.albedo(&l.values, x, comp, &prepared)
                         })
                         .collect();
                     SphereColumn { values }
@@ -149,9 +142,12 @@ fn interpolate_lobes(nodes: &[LobeIntegrals], mu: f64) -> LobeIntegrals {
     let (a, b) = (&nodes[i], &nodes[i + 1]);
     let lerp = |x: f64, y: f64| x * (1.0 - f) + y * f;
     LobeIntegrals {
-        specular: lerp(a.specular, b.specular),
-        diffuse: lerp(a.diffuse, b.diffuse),
-        fresnel_o: lerp(a.fresnel_o, b.fresnel_o),
+        values: a
+            .values
+            .iter()
+            .zip(&b.values)
+            .map(|(&x, &y)| lerp(x, y))
+            .collect(),
         error: a.error.max(b.error),
         converged: a.converged && b.converged,
     }

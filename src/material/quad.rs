@@ -7,6 +7,9 @@
 //! the interval budget is spent. Initial breakpoints (known kinks) seed the list. Deterministic:
 //! intervals are chosen by error with ties broken by position, and summed in order.
 
+// The Gauss–Kronrod constants are quoted to QUADPACK's 33 digits, as published.
+#![allow(clippy::excessive_precision)]
+
 use crate::math::CompensatedSum;
 
 /// Kronrod nodes on [−1, 1] (non-negative half; QUADPACK `qk15`).
@@ -191,6 +194,8 @@ pub fn integrate_smoothed(
 /// towards a feature of the given width (a near-singularity at distance ~width from `at`), so that
 /// the adaptive rule sees it from its first estimate. Nothing is added for a feature as wide as a
 /// quarter of the range.
+// `!(width > 0.0)` is deliberate: it refuses NaN too.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub fn grade_towards(breaks: &mut Vec<f64>, at: f64, width: f64, lo: f64, hi: f64) {
     const RATIO: f64 = 4.0;
     if !(width > 0.0) || !width.is_finite() {

@@ -325,6 +325,18 @@ impl Default for LevenbergMarquardt {
     }
 }
 
+/// An iteration limit, at least 1.
+pub(crate) fn check_max_iterations(n: usize) -> Result<usize> {
+    if n == 0 {
+        return Err(FitError::InvalidSetting {
+            name: "max_iterations",
+            value: n.to_string(),
+            expected: "must be at least 1",
+        });
+    }
+    Ok(n)
+}
+
 /// Checks a start: one finite value per parameter.
 pub(crate) fn check_start(n: usize, x0: &[f64], what: &'static str) -> Result<()> {
     if x0.len() != n {
@@ -343,6 +355,36 @@ pub(crate) fn check_start(n: usize, x0: &[f64], what: &'static str) -> Result<()
         });
     }
     Ok(())
+}
+
+/// argmin's [`Executor`] for `solver` on `problem` from `x0` (checked: one finite value per
+/// parameter) with `max_iterations` as argmin's iteration limit.
+pub(crate) fn executor_for<'a, P, S>(
+    problem: &'a P,
+    solver: S,
+    x0: Vec<f64>,
+    max_iterations: usize,
+    what: &'static str,
+) -> Result<Executor<LeastSquares<'a, P>, S, LsqState>>
+where
+    P: LeastSquaresProblem + ?Sized,
+    S: Solver<LeastSquares<'a, P>, LsqState>,
+{
+    check_start(problem.n_params(), &x0, what)?;
+    let max_iters = max_iterations as u64;
+    Ok(Executor::new(LeastSquares::new(problem), solver)
+        .configure(|state| state.param(DVector::from_vec(x0)).max_iters(max_iters)))
+}
+
+/// Runs an executor, its errors as fit errors.
+pub(crate) fn run<O, S>(
+    executor: Executor<O, S, LsqState>,
+    solver: &'static str,
+) -> Result<OptimizationResult<O, S, LsqState>>
+where
+    S: Solver<O, LsqState>,
+{
+    executor.run().map_err(|e| from_argmin(solver, e))
 }
 
 /// An argmin error as a fit error (furnace's own errors pass through unchanged).
@@ -380,14 +422,7 @@ impl LevenbergMarquardt {
     }
 
     pub fn with_max_iterations(mut self, n: usize) -> Result<Self> {
-        if n == 0 {
-            return Err(FitError::InvalidSetting {
-                name: "max_iterations",
-                value: n.to_string(),
-                expected: "must be at least 1",
-            });
-        }
-        self.max_iterations = n;
+        self.max_iterations = check_max_iterations(n)?;
         Ok(self)
     }
 
@@ -443,10 +478,13 @@ impl LevenbergMarquardt {
         problem: &'a P,
         x0: Vec<f64>,
     ) -> Result<Executor<LeastSquares<'a, P>, LmSolver, LsqState>> {
-        check_start(problem.n_params(), &x0, "Levenberg–Marquardt start")?;
-        let max_iters = self.max_iterations as u64;
-        Ok(Executor::new(LeastSquares::new(problem), self.solver())
-            .configure(|state| state.param(DVector::from_vec(x0)).max_iters(max_iters)))
+        executor_for(
+            problem,
+            self.solver(),
+            x0,
+            self.max_iterations,
+            "Levenberg–Marquardt start",
+        )
     }
 
     /// Minimises ½‖r(p)‖² from `x0` under argmin's [`Executor`]. Errors only on malformed input
@@ -457,10 +495,7 @@ impl LevenbergMarquardt {
         problem: &P,
         x0: Vec<f64>,
     ) -> Result<LmReport> {
-        let result = self
-            .executor(problem, x0)?
-            .run()
-            .map_err(|e| from_argmin("Levenberg–Marquardt", e))?;
+        let result = run(self.executor(problem, x0)?, "Levenberg–Marquardt")?;
         Ok(LmReport::from_result(result))
     }
 }
@@ -1181,28 +1216,30 @@ mod tests {
             );
         };
 
+        fn observed<'a, S: Solver<LeastSquares<'a, Curve>, LsqState>>(
+            executor: Executor<LeastSquares<'a, Curve>, S, LsqState>,
+        ) -> (
+            OptimizationResult<LeastSquares<'a, Curve>, S, LsqState>,
+            Costs,
+        ) {
+            let costs = Costs::default();
+            let result = executor
+                .add_observer(costs.clone(), ObserverMode::Always)
+                .run()
+                .unwrap();
+            (result, costs)
+        }
+
         let problem = misra1a();
         let lm = tight();
-        let costs = Costs::default();
-        let result = lm
-            .executor(&problem, vec![500.0, 1e-4])
-            .unwrap()
-            .add_observer(costs.clone(), ObserverMode::Always)
-            .run()
-            .unwrap();
+        let (result, costs) = observed(lm.executor(&problem, vec![500.0, 1e-4]).unwrap());
         let status = result.state.get_termination_status().clone();
         let rep = LmReport::from_result(result);
         assert!(rep.termination.converged(), "{:?}", rep.termination);
         check(&costs, rep.state.iterations, &status);
 
         let tr = TrustRegionSettings::from_lm(&lm);
-        let costs = Costs::default();
-        let result = tr
-            .executor(&problem, vec![250.0, 5e-4])
-            .unwrap()
-            .add_observer(costs.clone(), ObserverMode::Always)
-            .run()
-            .unwrap();
+        let (result, costs) = observed(tr.executor(&problem, vec![250.0, 5e-4]).unwrap());
         let status = result.state.get_termination_status().clone();
         let rep = TrustRegionSettings::report(result);
         assert!(rep.termination.converged(), "{:?}", rep.termination);
@@ -1212,35 +1249,21 @@ mod tests {
     /// The iteration limit is argmin's: MaxIterations after exactly that many steps.
     #[test]
     fn the_iteration_limit_stops_both_solvers() {
-        use crate::fit::trust_region::TrustRegionSettings;
         let lm = LevenbergMarquardt::new().with_max_iterations(3).unwrap();
-        let rep = lm
-            .solve(
-                &thurber(),
-                vec![1000.0, 1000.0, 400.0, 40.0, 0.7, 0.3, 0.03],
-            )
-            .unwrap();
-        assert_eq!(
-            (rep.termination, rep.state.iterations),
-            (TerminationReason::MaxIterations, 3)
-        );
-        let tr = TrustRegionSettings::from_lm(&lm);
-        let rep = tr
-            .solve(
-                &thurber(),
-                vec![1000.0, 1000.0, 400.0, 40.0, 0.7, 0.3, 0.03],
-            )
-            .unwrap();
-        assert_eq!(
-            (rep.termination, rep.state.iterations),
-            (TerminationReason::MaxIterations, 3)
-        );
+        let start = vec![1000.0, 1000.0, 400.0, 40.0, 0.7, 0.3, 0.03];
+        for method in LsqMethod::ALL {
+            let rep = method.solve(&lm, &thurber(), start.clone()).unwrap();
+            assert_eq!(
+                (rep.termination, rep.state.iterations),
+                (TerminationReason::MaxIterations, 3),
+                "{method:?}"
+            );
+        }
     }
 
     /// A start where the model cannot be evaluated is reported, not an error, by both solvers.
     #[test]
     fn an_infeasible_start_is_a_termination_reason() {
-        use crate::fit::trust_region::TrustRegionSettings;
         struct Infeasible;
         impl LeastSquaresProblem for Infeasible {
             fn n_params(&self) -> usize {
@@ -1262,21 +1285,17 @@ mod tests {
                 false
             }
         }
-        let rep = LevenbergMarquardt::new()
-            .solve(&Infeasible, vec![1.0])
-            .unwrap();
-        assert_eq!(
-            (rep.termination, rep.state.iterations),
-            (TerminationReason::InfeasibleStart, 0)
-        );
-        assert_eq!(rep.state.params, [1.0]);
-        let rep = TrustRegionSettings::new()
-            .solve(&Infeasible, vec![1.0])
-            .unwrap();
-        assert_eq!(
-            (rep.termination, rep.state.iterations),
-            (TerminationReason::InfeasibleStart, 0)
-        );
+        for method in LsqMethod::ALL {
+            let rep = method
+                .solve(&LevenbergMarquardt::new(), &Infeasible, vec![1.0])
+                .unwrap();
+            assert_eq!(
+                (rep.termination, rep.state.iterations),
+                (TerminationReason::InfeasibleStart, 0),
+                "{method:?}"
+            );
+            assert_eq!(rep.state.params, [1.0], "{method:?}");
+        }
     }
 
     #[test]

@@ -19,8 +19,8 @@ use nalgebra::DVector;
 
 use super::error::{FitError, Result};
 use super::lm::{
-    check_start, from_argmin, LeastSquares, LeastSquaresProblem, LevenbergMarquardt, LmReport,
-    LmState, LsqState, TerminationReason,
+    check_max_iterations, executor_for, from_argmin, run, LeastSquares, LeastSquaresProblem,
+    LevenbergMarquardt, LmReport, LmState, LsqState, TerminationReason,
 };
 
 /// Trust-region settings. Construct with [`TrustRegionSettings::new`] or
@@ -70,14 +70,7 @@ impl TrustRegionSettings {
     }
 
     pub fn with_max_iterations(mut self, n: usize) -> Result<Self> {
-        if n == 0 {
-            return Err(FitError::InvalidSetting {
-                name: "max_iterations",
-                value: n.to_string(),
-                expected: "must be at least 1",
-            });
-        }
-        self.max_iterations = n;
+        self.max_iterations = check_max_iterations(n)?;
         Ok(self)
     }
 
@@ -120,10 +113,13 @@ impl TrustRegionSettings {
         problem: &'a P,
         x0: Vec<f64>,
     ) -> Result<Executor<LeastSquares<'a, P>, TrustRegionSolver, LsqState>> {
-        check_start(problem.n_params(), &x0, "trust-region start")?;
-        let max_iters = self.max_iterations as u64;
-        Ok(Executor::new(LeastSquares::new(problem), self.solver()?)
-            .configure(|state| state.param(DVector::from_vec(x0)).max_iters(max_iters)))
+        executor_for(
+            problem,
+            self.solver()?,
+            x0,
+            self.max_iterations,
+            "trust-region start",
+        )
     }
 
     /// Minimises ½‖r(p)‖² from `x0`. Errors only on malformed input; an infeasible start or
@@ -133,10 +129,7 @@ impl TrustRegionSettings {
         problem: &P,
         x0: Vec<f64>,
     ) -> Result<LmReport> {
-        let result = self
-            .executor(problem, x0)?
-            .run()
-            .map_err(|e| from_argmin("trust-region", e))?;
+        let result = run(self.executor(problem, x0)?, "trust-region")?;
         Ok(Self::report(result))
     }
 

@@ -806,3 +806,63 @@ fn compare_paper_on_small_tables() {
         "{err}"
     );
 }
+
+/// `--solver trust-region` runs argmin's trust region: its own file, its method recorded, the
+/// default Levenberg–Marquardt fit beside it; a polynomial (no nonlinear solve) refuses it.
+#[test]
+fn the_trust_region_solver_is_offered_for_rational_fits() {
+    let d = scratch("trust-region");
+    let fit = |extra: &[&str]| {
+        let mut c = bin();
+        c.current_dir(&d).args([
+            "fit",
+            "--model",
+            "ggx-conductor",
+            "--resolution",
+            "16",
+            "--degree",
+            "2",
+        ]);
+        c.args(extra);
+        c
+    };
+    run(&mut fit(&["--form", "rational"]));
+    run(&mut fit(&[
+        "--form",
+        "rational",
+        "--solver",
+        "trust-region",
+    ]));
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_str(
+            &std::fs::read_to_string(d.join("fits/ggx-conductor").join(name)).unwrap(),
+        )
+        .unwrap()
+    };
+    let method = |v: &serde_json::Value| v["fit"]["solver"]["method"].as_str().unwrap().to_string();
+    let (lm, tr) = (
+        read("rational-2.json"),
+        read("rational-2-trust-region.json"),
+    );
+    assert!(
+        method(&lm).starts_with("multi-start Levenberg–Marquardt"),
+        "{}",
+        method(&lm)
+    );
+    assert!(
+        method(&tr).starts_with("multi-start trust region"),
+        "{}",
+        method(&tr)
+    );
+    for v in [&lm, &tr] {
+        let max = v["fit"]["metrics"]["max_abs_error"].as_f64().unwrap();
+        assert!(max < 0.2, "{max}");
+    }
+    let err = fails(&mut fit(&[
+        "--form",
+        "polynomial",
+        "--solver",
+        "trust-region",
+    ]));
+    assert!(err.contains("--solver applies to rational fits"), "{err}");
+}

@@ -1,6 +1,7 @@
 //! `furnace bench fit`: fit time against error, per form and degree, on `furnace run`'s tables.
 
 use super::bench::{machine_note, write_bench};
+use super::fit::SolverArg;
 use super::{get_table, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D};
 use crate::bsdf;
 use crate::error::Result;
@@ -9,7 +10,7 @@ use crate::fit::{source, InputTransform, LsqMethod, Objective, RationalOptions};
 use crate::quadrature::QuadratureSettings;
 use crate::report::inputs::BenchPlot;
 use crate::table::TableSpec;
-use clap::{Args, ValueEnum};
+use clap::Args;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -47,23 +48,6 @@ pub struct BenchFitArgs {
     /// Also write the points as a benchmark CSV for the report, e.g. reports/bench/fit.csv.
     #[arg(long)]
     pub output: Option<PathBuf>,
-}
-
-#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SolverArg {
-    /// Levenberg–Marquardt (furnace's, under argmin's executor; what every fit uses by default).
-    Lm,
-    /// argmin's trust-region method with the dogleg step, on the same Gauss–Newton model.
-    TrustRegion,
-}
-
-impl SolverArg {
-    fn method(self) -> LsqMethod {
-        match self {
-            SolverArg::Lm => LsqMethod::LevenbergMarquardt,
-            SolverArg::TrustRegion => LsqMethod::TrustRegion,
-        }
-    }
 }
 
 /// Times least-squares fits in the identity variables at every degree of the paper's sweep, on

@@ -12,7 +12,7 @@ use crate::fit::job::{
     self, FitRecord, FitRequest, FitTime, FormKind, Stopwatch, SweepOutcome, SweepPlan, Timing,
 };
 use crate::fit::source::{self, FitInput, FittedOn, UserTableOptions};
-use crate::fit::Objective;
+use crate::fit::{LsqMethod, Objective, RationalOptions};
 use crate::quadrature::QuadratureSettings;
 use crate::table::io::write_atomic;
 use crate::table::TableSpec;
@@ -33,6 +33,24 @@ pub enum ObjectiveArg {
     Mae,
     /// Maximum absolute error (Lawson reweighting).
     Minimax,
+}
+
+/// The least-squares solver of a rational fit.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolverArg {
+    /// Levenberg–Marquardt (furnace's, under argmin's executor; the default of every fit).
+    Lm,
+    /// argmin's trust-region method with the dogleg step, on the same Gauss–Newton model.
+    TrustRegion,
+}
+
+impl SolverArg {
+    pub fn method(self) -> LsqMethod {
+        match self {
+            SolverArg::Lm => LsqMethod::LevenbergMarquardt,
+            SolverArg::TrustRegion => LsqMethod::TrustRegion,
+        }
+    }
 }
 
 #[derive(Args, Debug)]
@@ -60,6 +78,10 @@ pub struct FitArgs {
     /// What the fit minimises.
     #[arg(long, value_enum, default_value_t = ObjectiveArg::Lsq)]
     pub objective: ObjectiveArg,
+    /// Least-squares solver of a single rational fit; with trust-region the fit file's name
+    /// ends in `-trust-region.json`.
+    #[arg(long, value_enum, default_value_t = SolverArg::Lm, conflicts_with = "sweep")]
+    pub solver: SolverArg,
     /// Input transforms, e.g. `mu=sqrt,f0=sqrt` (identity, sqrt, one_minus, square, clamp:lo:hi).
     /// With --sweep: one more transform set to try.
     #[arg(long)]
@@ -243,14 +265,28 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
             .unwrap_or_else(|| vec![crate::fit::InputTransform::Identity; input.data.dim()]),
         max_fit_points: args.fit_points.unwrap_or(0),
     };
+    if args.solver != SolverArg::Lm && req.form != FormKind::Rational {
+        return Err(Error::InvalidInput(
+            "--solver applies to rational fits (a polynomial is a linear least-squares solve); drop it or use --form rational".into(),
+        ));
+    }
+    let rational = RationalOptions {
+        method: args.solver.method(),
+        ..RationalOptions::default()
+    };
     let clock = Stopwatch::start();
-    let rec = job::fit_one(&input, &req)?;
-    let path = args
-        .output
-        .clone()
-        .unwrap_or_else(|| dir.join(rec.file_name()));
+    let rec = job::fit_one_with(&input, &req, &rational)?;
+    let name = match args.solver {
+        SolverArg::Lm => rec.file_name(),
+        SolverArg::TrustRegion => {
+            let name = rec.file_name();
+            let stem = name.strip_suffix(".json").unwrap_or(&name);
+            format!("{stem}-trust-region.json")
+        }
+    };
+    let path = args.output.clone().unwrap_or_else(|| dir.join(&name));
     let time = FitTime {
-        name: rec.file_name(),
+        name,
         n_coefficients: rec.fit.n_coefficients,
         seconds: clock.wall_seconds(),
     };

@@ -112,8 +112,13 @@ impl FitRecord {
         }
         if let Some(s) = fit.solver.as_ref().filter(|s| !s.converged) {
             warnings.push(format!(
-                "{}: the solver did not report convergence (last Levenberg–Marquardt run: {}, {} reweighting rounds); the coefficients are its best iterate, with the metrics recorded here",
+                "{}: the solver did not report convergence (last {} run: {}, {} reweighting rounds); the coefficients are its best iterate, with the metrics recorded here",
                 fit.form.label(),
+                if s.method.contains(crate::fit::LsqMethod::TrustRegion.label()) {
+                    crate::fit::LsqMethod::TrustRegion.label()
+                } else {
+                    crate::fit::LsqMethod::LevenbergMarquardt.label()
+                },
                 s.termination.map_or("none".to_string(), |t| format!("{t:?}")),
                 s.reweighting_iterations
             ));

@@ -12,7 +12,7 @@
 //!   combines their integrals with an albedo source into the compensated albedo
 //!   ([`CompensatedBsdf::albedo`]).
 //!
-//! Scenes, the report, the emitters and the main job read these; none of them knows a material by
+//! Scenes, the report, the emitters and `furnace run` read these; none of them knows a material by
 //! name.
 //!
 //! | kind | tables | helpers | compensated BSDF | paper |

@@ -1,8 +1,9 @@
 //! Integrand evaluations per conductor cell at a few (r, μ), for the estimate's two orders (9 and
 //! 12): the slope-space integrand the conductor uses (`bsdf::slope`) against the visible-normal
-//! one of the other GGX models (`bsdf::ggx`). `cargo run --release --example count`
-use furnace::bsdf::ggx::{Lobes, VndfIntegrand};
+//! one of the other GGX models (`bsdf::vndf`). `cargo run --release --example count`
+use furnace::bsdf::microfacet::Lobes;
 use furnace::bsdf::slope::SlopeIntegrand;
+use furnace::bsdf::vndf::VndfIntegrand;
 use furnace::math::SmithForm;
 use furnace::quadrature::{integrate_2d, Integrand2D, Rules};
 

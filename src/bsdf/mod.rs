@@ -10,14 +10,17 @@
 pub mod diffuse;
 pub mod ggx;
 mod id;
+pub mod kinks;
+pub mod microfacet;
 pub mod radziszewski;
 mod registry;
 pub mod slope;
+pub mod vndf;
 
 pub use id::{Family, ModelId, Side, Transmission};
 pub use registry::{find, find_variant, get, known_names, listed, lookup, models, register};
 
-use crate::quadrature::{next_order, Estimate, QuadratureSettings, RuleCache, Rules};
+use crate::quadrature::{refine, Estimate, QuadratureSettings, RuleCache, Rules};
 
 /// Most outputs a model reports at one point (E, and E_R, E_T for dielectrics).
 pub const MAX_OUTPUTS: usize = 3;
@@ -99,7 +102,8 @@ pub trait Model: Send + Sync {
     }
 }
 
-/// E at one point with its error estimate, refined until it meets `settings.tolerance`.
+/// E at one point with its error estimate, refined until it meets `settings.tolerance`
+/// ([`refine`]; both orders of the first estimate through [`Model::integrate_orders`]).
 pub fn albedo(
     model: &dyn Model,
     x: &[f64],
@@ -110,45 +114,21 @@ pub fn albedo(
         x,
         &[cache.get(settings.companion), cache.get(settings.order)],
     );
-    refine(model, x, settings, cache, first[0], first[1])
-}
-
-/// The estimate from the companion (`low`) and base-order (`high`) values, refined at higher
-/// orders while it exceeds the tolerance.
-fn refine(
-    model: &dyn Model,
-    x: &[f64],
-    settings: &QuadratureSettings,
-    cache: &RuleCache,
-    mut low: [f64; MAX_OUTPUTS],
-    mut high: [f64; MAX_OUTPUTS],
-) -> Estimate<MAX_OUTPUTS> {
-    let mut order = settings.order;
-    loop {
-        let error = high
-            .iter()
-            .zip(&low)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        let converged = error <= settings.tolerance;
-        if converged || next_order(order) > settings.max_order {
-            return Estimate {
-                value: high,
-                error,
-                order,
-                converged,
-            };
-        }
-        order = next_order(order);
-        low = high;
-        high = model.integrate(x, cache.get(order));
-    }
+    refine(
+        settings,
+        cache,
+        &first[..1],
+        &first[1..2],
+        |_, rules, out| out[0] = model.integrate(x, rules),
+    )
+    .remove(0)
 }
 
 /// E at points sharing all but the first coordinate, with per-point error estimates: the whole
 /// column at the companion and base orders ([`Model::integrate_column`]), then the points whose
 /// estimate exceeds the tolerance, together as a shorter column (they still share the
-/// geometry), at higher orders ([`next_order`]) until each meets it or `max_order` is reached.
+/// geometry), at higher orders ([`refine`]). Models that share nothing across a column take
+/// their points one at a time ([`albedo`]).
 pub fn albedo_column(
     model: &dyn Model,
     xs: &[Vec<f64>],
@@ -165,45 +145,10 @@ pub fn albedo_column(
     let mut high = vec![[0.0; MAX_OUTPUTS]; xs.len()];
     model.integrate_column(xs, cache.get(settings.companion), &mut low);
     model.integrate_column(xs, cache.get(settings.order), &mut high);
-    let error = |l: &[f64; MAX_OUTPUTS], h: &[f64; MAX_OUTPUTS]| {
-        l.iter()
-            .zip(h)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max)
-    };
-    let mut out: Vec<Estimate<MAX_OUTPUTS>> = low
-        .iter()
-        .zip(&high)
-        .map(|(l, h)| {
-            let e = error(l, h);
-            Estimate {
-                value: *h,
-                error: e,
-                order: settings.order,
-                converged: e <= settings.tolerance,
-            }
-        })
-        .collect();
-    let mut order = settings.order;
-    loop {
-        let open: Vec<usize> = (0..xs.len()).filter(|&k| !out[k].converged).collect();
-        if open.is_empty() || next_order(order) > settings.max_order {
-            return out;
-        }
-        order = next_order(order);
+    refine(settings, cache, &low, &high, |open, rules, out| {
         let sub: Vec<Vec<f64>> = open.iter().map(|&k| xs[k].clone()).collect();
-        let mut next = vec![[0.0; MAX_OUTPUTS]; sub.len()];
-        model.integrate_column(&sub, cache.get(order), &mut next);
-        for (&k, v) in open.iter().zip(&next) {
-            let e = error(&out[k].value, v);
-            out[k] = Estimate {
-                value: *v,
-                error: e,
-                order,
-                converged: e <= settings.tolerance,
-            };
-        }
-    }
+        model.integrate_column(&sub, rules, out)
+    })
 }
 
 /// Checks that `x` has one finite coordinate per axis, inside the valid range.

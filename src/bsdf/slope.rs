@@ -36,7 +36,7 @@
 //! With G2/μo written without the 1/μo (height-correlated: 2μi/(μi·a(μo) + μo·a(μi)), separable:
 //! G1(μi)·2/(μo + a(μo)), a(μ) = √(μ² + α²(1 − μ²))), nothing degenerates at μo = 0.
 
-use super::ggx::{ALPHA_MIN, GRAZING_RATIO};
+use super::microfacet::{ALPHA_MIN, GRAZING_RATIO};
 use crate::math::{asinh_pos, exp_poly, sin_cos_0_pi, smith_a, SmithForm};
 use crate::quadrature::{panels_from_breaks, Break, Integrand2D, Panel, PanelMap, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -460,7 +460,8 @@ impl Integrand2D for SlopeIntegrand {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::ggx::{Lobes, VndfIntegrand};
+    use crate::bsdf::microfacet::Lobes;
+    use crate::bsdf::vndf::VndfIntegrand;
     use crate::math::{dot, reflect};
     use crate::quadrature::{integrate_2d, Rules};
 

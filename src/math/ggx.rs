@@ -140,6 +140,16 @@ pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
     0.5 * (r_s * r_s + r_p * r_p)
 }
 
+/// Fresnel reflectance from both cosines (Walter 2007, eq. 22), for integrands that share
+/// cos θt with the refraction that needs it anyway (no TIR or η checks: see
+/// [`fresnel_dielectric`]).
+#[inline]
+pub fn fresnel_from_cosines(cos_i: f64, cos_t: f64, eta: f64) -> f64 {
+    let r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    0.5 * (r_s * r_s + r_p * r_p)
+}
+
 /// Mirror reflection of `wo` about `h` (both unit): wi = 2(wo·h)h − wo.
 #[inline]
 pub fn reflect(wo: [f64; 3], h: [f64; 3]) -> [f64; 3] {

@@ -722,34 +722,76 @@ pub struct Estimate<const N: usize> {
     pub converged: bool,
 }
 
-/// Evaluates `f` at the companion and base orders, then at higher orders ([`next_order`])
-/// while the estimate exceeds the tolerance.
+/// Error estimates of a batch of points from their values at the companion (`low`) and base
+/// (`high`) orders: a point whose |high − low| (max over channels) exceeds the tolerance is
+/// recomputed at the next order ([`next_order`]) and estimated against its previous value,
+/// until it meets the tolerance or `max_order` is reached. `eval(open, rules, out)` integrates
+/// the points `open` (indices into the batch, ascending) with `rules` into `out` (one entry
+/// per open point), so that points sharing work (a column of a table) are refined together.
+/// This is the one refinement loop: single points and table columns both go through it.
+pub fn refine<const N: usize>(
+    settings: &QuadratureSettings,
+    cache: &RuleCache,
+    low: &[[f64; N]],
+    high: &[[f64; N]],
+    mut eval: impl FnMut(&[usize], &Rules, &mut [[f64; N]]),
+) -> Vec<Estimate<N>> {
+    let difference = |a: &[f64; N], b: &[f64; N]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    };
+    let mut out: Vec<Estimate<N>> = low
+        .iter()
+        .zip(high)
+        .map(|(l, h)| {
+            let error = difference(h, l);
+            Estimate {
+                value: *h,
+                error,
+                order: settings.order,
+                converged: error <= settings.tolerance,
+            }
+        })
+        .collect();
+    let mut order = settings.order;
+    let (mut open, mut next) = (Vec::new(), Vec::new());
+    loop {
+        open.clear();
+        open.extend((0..out.len()).filter(|&k| !out[k].converged));
+        if open.is_empty() || next_order(order) > settings.max_order {
+            return out;
+        }
+        order = next_order(order);
+        next.clear();
+        next.resize(open.len(), [0.0; N]);
+        eval(&open, cache.get(order), &mut next);
+        for (&k, v) in open.iter().zip(&next) {
+            let error = difference(v, &out[k].value);
+            out[k] = Estimate {
+                value: *v,
+                error,
+                order,
+                converged: error <= settings.tolerance,
+            };
+        }
+    }
+}
+
+/// [`refine`] for one value: `f` at the companion and base orders, then at higher orders while
+/// the estimate exceeds the tolerance.
 pub fn estimate<const N: usize>(
     settings: &QuadratureSettings,
     cache: &RuleCache,
     mut f: impl FnMut(&Rules) -> [f64; N],
 ) -> Estimate<N> {
-    let mut order = settings.order;
-    let mut low = f(cache.get(settings.companion));
-    loop {
-        let high = f(cache.get(order));
-        let error = high
-            .iter()
-            .zip(&low)
-            .map(|(h, l)| (h - l).abs())
-            .fold(0.0, f64::max);
-        let converged = error <= settings.tolerance;
-        if converged || next_order(order) > settings.max_order {
-            return Estimate {
-                value: high,
-                error,
-                order,
-                converged,
-            };
-        }
-        low = high;
-        order = next_order(order);
-    }
+    let low = f(cache.get(settings.companion));
+    let high = f(cache.get(settings.order));
+    refine(settings, cache, &[low], &[high], |_, rules, out| {
+        out[0] = f(rules)
+    })
+    .remove(0)
 }
 
 /// Rules for every order a tabulation may need, built once.

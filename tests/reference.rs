@@ -5,7 +5,7 @@ use furnace::bsdf::{albedo, find};
 use furnace::quadrature::{QuadratureSettings, RuleCache};
 use std::path::PathBuf;
 
-const TOLERANCE: f64 = 1e-7;
+const TOLERANCE: f64 = 1e-8;
 
 fn reference(name: &str) -> Vec<Vec<f64>> {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))

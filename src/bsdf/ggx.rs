@@ -5,6 +5,7 @@
 
 use super::microfacet::Lobes;
 use super::slope::SlopeIntegrand;
+use super::slope_dielectric::SlopeDielectric;
 use super::vndf::{Part, VndfIntegrand};
 use super::{AxisSpec, Model, ModelId, Side, Transmission, MAX_OUTPUTS};
 use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, SmithForm};
@@ -103,20 +104,25 @@ impl GgxModel {
     /// The albedo integrals at (f0, r, μo): channels [E_R, E_T] (dielectric),
     /// [E_R·F, E_R without F] (glossy) or [E, 0] (conductor).
     pub fn integrals(&self, f0: f64, r: f64, mu_o: f64, rules: &Rules) -> [f64; CHANNELS] {
+        self.cell(f0, r, mu_o).integrate(rules)
+    }
+
+    /// The integrand of the cell at (f0, r, μo), set up once for every order of its estimate.
+    fn cell(&self, f0: f64, r: f64, mu_o: f64) -> Cell {
         let alpha = alpha_from_r(r);
         let lobes = self.lobes(f0);
         if alpha == 0.0 {
-            return smooth_interface(lobes, mu_o);
+            return Cell::Smooth(smooth_interface(lobes, mu_o));
         }
-        if let Lobes::Conductor = lobes {
-            return integrate_2d(&SlopeIntegrand::conductor(alpha, mu_o, self.smith), rules);
+        match (self.kind, lobes) {
+            (_, Lobes::Conductor) => {
+                Cell::Conductor(SlopeIntegrand::conductor(alpha, mu_o, self.smith))
+            }
+            (GgxKind::Dielectric { inverse: true }, Lobes::Dielectric { eta }) => {
+                Cell::Dielectric(SlopeDielectric::new(alpha, mu_o, eta, self.smith))
+            }
+            _ => Cell::VisibleNormals(self.integrands(alpha, mu_o, lobes)),
         }
-        self.integrands(alpha, mu_o, lobes)
-            .iter()
-            .fold([0.0; CHANNELS], |acc, f| {
-                let v = integrate_2d(f, rules);
-                [acc[0] + v[0], acc[1] + v[1]]
-            })
     }
 
     /// The integrands of one cell: one carrying both channels, or — leaving the denser medium —
@@ -130,6 +136,33 @@ impl GgxModel {
                 ]
             }
             _ => vec![VndfIntegrand::new(alpha, mu_o, self.smith, lobes)],
+        }
+    }
+}
+
+/// The integrand of one cell, by parametrisation.
+enum Cell {
+    /// r = 0: the smooth interface's exact values.
+    Smooth([f64; CHANNELS]),
+    /// The white conductor in slope space.
+    Conductor(SlopeIntegrand),
+    /// A dielectric interface in slope space.
+    Dielectric(SlopeDielectric),
+    /// Over visible normals: one integrand carrying both channels, or reflection and
+    /// transmission apart.
+    VisibleNormals(Vec<VndfIntegrand>),
+}
+
+impl Cell {
+    fn integrate(&self, rules: &Rules) -> [f64; CHANNELS] {
+        match self {
+            Cell::Smooth(v) => *v,
+            Cell::Conductor(f) => integrate_2d(f, rules),
+            Cell::Dielectric(f) => integrate_2d(f, rules),
+            Cell::VisibleNormals(fs) => fs.iter().fold([0.0; CHANNELS], |acc, f| {
+                let v = integrate_2d(f, rules);
+                [acc[0] + v[0], acc[1] + v[1]]
+            }),
         }
     }
 }
@@ -245,31 +278,10 @@ impl Model for GgxModel {
             GgxKind::Conductor => (0.0, x[0], x[1]),
             _ => (x[0], x[1], x[2]),
         };
-        let alpha = alpha_from_r(r);
-        let lobes = self.lobes(f0);
-        if alpha == 0.0 {
-            let v = self.outputs_from_integrals(f0, smooth_interface(lobes, mu));
-            return vec![v; rules.len()];
-        }
-        if let Lobes::Conductor = lobes {
-            let f = SlopeIntegrand::conductor(alpha, mu, self.smith);
-            return rules
-                .iter()
-                .map(|r| self.outputs_from_integrals(f0, integrate_2d(&f, r)))
-                .collect();
-        }
-        // one set of integrands: their outer panels (scanned when leaving the denser medium)
-        // serve all orders
-        let fs = self.integrands(alpha, mu, lobes);
+        let cell = self.cell(f0, r, mu);
         rules
             .iter()
-            .map(|r| {
-                let c = fs.iter().fold([0.0; CHANNELS], |acc, f| {
-                    let v = integrate_2d(f, r);
-                    [acc[0] + v[0], acc[1] + v[1]]
-                });
-                self.outputs_from_integrals(f0, c)
-            })
+            .map(|r| self.outputs_from_integrals(f0, cell.integrate(r)))
             .collect()
     }
 

@@ -15,6 +15,7 @@ pub mod microfacet;
 pub mod radziszewski;
 mod registry;
 pub mod slope;
+pub mod slope_dielectric;
 pub mod vndf;
 
 pub use id::{Family, ModelId, Side, Transmission};

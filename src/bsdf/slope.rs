@@ -38,6 +38,7 @@
 
 use super::microfacet::{ALPHA_MIN, GRAZING_RATIO};
 use crate::math::{asinh_pos, exp_poly, sin_cos_0_pi, smith_a, SmithForm};
+use crate::quadrature::vector::{self, LANES};
 use crate::quadrature::{panels_from_breaks, Break, Integrand2D, Panel, PanelMap, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -52,10 +53,7 @@ const S_PLAIN: f64 = 2.0;
 const SPLIT_LW: f64 = 2.6;
 
 /// Radius in slope space beyond which the tail variable u = 1/ρ takes over from s.
-const RHO_TAIL: f64 = 2.0;
-
-/// Nodes evaluated side by side in [`Integrand2D::accumulate_nodes`].
-const LANES: usize = 8;
+pub(crate) const RHO_TAIL: f64 = 2.0;
 
 /// The slope-space integrand of one conductor cell.
 pub struct SlopeIntegrand {
@@ -112,48 +110,36 @@ impl SlopeIntegrand {
     }
 
     /// Σ_j ws[j]·f(vs[j]) for the conductor, in node order, by blocks of [`LANES`] nodes
-    /// ([`Self::block`]).
-    #[inline(always)]
+    /// ([`Self::block`]), compiled for the current target.
+    #[cfg(test)]
     fn sum<const TAIL: bool, const FACTORED: bool, const HC: bool>(
         &self,
         line: &SlopeLine,
         vs: &[f64],
         ws: &[f64],
     ) -> f64 {
-        let mut sum = 0.0;
-        for (vc, wc) in vs.chunks(LANES).zip(ws.chunks(LANES)) {
-            // unused lanes repeat the first node (finite, discarded)
-            let mut v = [vc[0]; LANES];
-            v[..vc.len()].copy_from_slice(vc);
-            let y = self.block::<TAIL, FACTORED, HC>(line, &v);
-            for (&yj, &w) in y.iter().zip(wc) {
-                sum += w * yj;
-            }
+        use vector::Kernel;
+        vector::WeightedSum {
+            block: ConductorBlock::<TAIL, FACTORED, HC> { f: self, line },
+            vs,
+            ws,
         }
-        sum
+        .run()[0]
     }
 
-    /// [`Self::sum`] compiled for AVX-512 or AVX2 where the CPU has them (8 or 4
-    /// lanes per instruction instead of SSE2's 2). Without FMA contraction the arithmetic is
-    /// the same IEEE operations either way, so the bits do not depend on the machine.
+    /// Σ_j ws[j]·f(vs[j]) on the widest vector unit ([`vector::run`]): the same bits on every
+    /// machine.
     fn sum_dispatch<const TAIL: bool, const FACTORED: bool, const HC: bool>(
         &self,
         line: &SlopeLine,
         vs: &[f64],
         ws: &[f64],
     ) -> f64 {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU supports AVX-512F (checked just above).
-                return unsafe { sum_avx512::<TAIL, FACTORED, HC>(self, line, vs, ws) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2 (checked just above).
-                return unsafe { sum_avx2::<TAIL, FACTORED, HC>(self, line, vs, ws) };
-            }
-        }
-        self.sum::<TAIL, FACTORED, HC>(line, vs, ws)
+        vector::run(vector::WeightedSum {
+            block: ConductorBlock::<TAIL, FACTORED, HC> { f: self, line },
+            vs,
+            ws,
+        })[0]
     }
 
     /// The integrand at [`LANES`] nodes of the s part (or the u part, `TAIL`): the arithmetic of
@@ -165,7 +151,7 @@ impl SlopeIntegrand {
         &self,
         line: &SlopeLine,
         v: &[f64; LANES],
-    ) -> [f64; LANES] {
+    ) -> [[f64; 1]; LANES] {
         let (alpha, mu_o) = (self.alpha, self.mu_o);
         let alpha2 = alpha * alpha;
         let scale = if HC {
@@ -173,7 +159,7 @@ impl SlopeIntegrand {
         } else {
             self.g1_o_over_mu_o * (2.0 / PI)
         };
-        let mut y = [0.0; LANES];
+        let mut y = [[0.0; 1]; LANES];
         if TAIL {
             // u = 1/ρ: μi = n/d with n = (u − umax)(k' + μo·u), d = 1 + u²; the Jacobian
             // α²u/(1 + α²u²)² times the projected factor (μo − sc/u) is α²(μo·u − sc)/(1 + α²u²)².
@@ -189,7 +175,7 @@ impl SlopeIntegrand {
                 };
                 let au2 = 1.0 + alpha2 * u * u;
                 let g = scale * 2.0 * n * alpha2 * (mu_o * u - line.sc) / (au2 * au2 * den);
-                *yj = if n > 0.0 { g } else { 0.0 };
+                yj[0] = if n > 0.0 { g } else { 0.0 };
             }
             return y;
         }
@@ -215,32 +201,122 @@ impl SlopeIntegrand {
             };
             let proj = mu_o - line.sc * rho;
             let g = scale * 2.0 * n * sinh * proj / (cosh * cosh * cosh * den);
-            *yj = if n > 0.0 { g } else { 0.0 };
+            yj[0] = if n > 0.0 { g } else { 0.0 };
         }
         y
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn sum_avx2<const TAIL: bool, const FACTORED: bool, const HC: bool>(
-    f: &SlopeIntegrand,
-    line: &SlopeLine,
-    vs: &[f64],
-    ws: &[f64],
-) -> f64 {
-    f.sum::<TAIL, FACTORED, HC>(line, vs, ws)
+/// Where a radial line ψ of the slope plane leaves the reflection disc (the horizon μi = 0):
+/// ρmax = μo/k = k'/μo with k = sc + √(sc² + μo²), k' = −sc + √(sc² + μo²), k·k' = μo²
+/// (sc = sin θo·cos ψ), each computed without cancellation; ρmax = ∞ (umax = 0) at μo = 0
+/// looking away from ωo, and NaN or 0 looking towards it (nothing reflects).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Horizon {
+    pub k: f64,
+    pub k_prime: f64,
+    pub rho_max: f64,
+    pub u_max: f64,
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn sum_avx512<const TAIL: bool, const FACTORED: bool, const HC: bool>(
-    f: &SlopeIntegrand,
-    line: &SlopeLine,
-    vs: &[f64],
-    ws: &[f64],
-) -> f64 {
-    f.sum::<TAIL, FACTORED, HC>(line, vs, ws)
+impl Horizon {
+    #[inline]
+    pub(crate) fn new(sc: f64, mu_o: f64) -> Horizon {
+        let root = (sc * sc + mu_o * mu_o).sqrt(); // both in [−1, 1]: no scaling needed
+        let (k, k_prime) = if sc >= 0.0 {
+            let k = sc + root;
+            (k, mu_o * mu_o / k)
+        } else {
+            let kp = root - sc;
+            (mu_o * mu_o / kp, kp)
+        };
+        let (rho_max, u_max) = if sc >= 0.0 {
+            (mu_o / k, k / mu_o)
+        } else {
+            (k_prime / mu_o, mu_o / k_prime)
+        };
+        Horizon {
+            k,
+            k_prime,
+            rho_max,
+            u_max,
+        }
+    }
+}
+
+/// Panels of the peak part [0, s1] of a radial line in s = asinh(ρ/α), whose end s1 is
+/// near-singular at distance `end_delta` (and has square-root behaviour below it if `sqrt`) and
+/// whose start s = 0 at distance `start_delta` (the poles of sech² s, π/2, or nearer ones).
+/// A piece longer than [`S_PLAIN`] (or twice its start's distance) is graded towards s = 0. A
+/// near-singular end's sinh map crowds the rule towards s1 and thins it out towards s = 0,
+/// whose singularities would then come too close: on long lines ([`SPLIT_LW`]) only the half
+/// next to the end is mapped; a square-root end longer than 2·S_PLAIN likewise.
+pub(crate) fn peak_panels(
+    s1: f64,
+    end_delta: f64,
+    sqrt: bool,
+    start_delta: f64,
+    out: &mut Vec<Panel>,
+) {
+    let start_delta = start_delta.min(FRAC_PI_2);
+    let peak_part = |len: f64, out: &mut Vec<Panel>| {
+        let map = if len > S_PLAIN || start_delta < crate::quadrature::NEAR_SINGULAR_RATIO * len {
+            PanelMap::End {
+                at: 0.0,
+                toward: len,
+                sqrt: false,
+                delta: start_delta,
+            }
+        } else {
+            PanelMap::Plain
+        };
+        out.push(Panel {
+            a: 0.0,
+            b: len,
+            map,
+        });
+    };
+    let near = end_delta < crate::quadrature::NEAR_SINGULAR_RATIO * s1;
+    if near || sqrt {
+        // L·asinh(L/δ) > SPLIT_LW ⇔ L/δ > sinh(SPLIT_LW/L), without a logarithm
+        let x = (SPLIT_LW / s1).min(700.0);
+        let split = if near {
+            s1 / end_delta > 0.5 * (exp_poly(x) - exp_poly(-x))
+        } else {
+            s1 > 2.0 * S_PLAIN
+        } || start_delta < FRAC_PI_2;
+        let mid = if split { 0.5 * s1 } else { 0.0 };
+        if mid > 0.0 {
+            peak_part(mid, out);
+        }
+        out.push(Panel {
+            a: mid,
+            b: s1,
+            map: PanelMap::End {
+                at: s1,
+                toward: mid,
+                sqrt,
+                delta: if near { end_delta } else { f64::INFINITY },
+            },
+        });
+    } else {
+        peak_part(s1, out);
+    }
+}
+
+/// One line's [`SlopeIntegrand::block`] as a [`vector::Block`].
+struct ConductorBlock<'a, const TAIL: bool, const FACTORED: bool, const HC: bool> {
+    f: &'a SlopeIntegrand,
+    line: &'a SlopeLine,
+}
+
+impl<const TAIL: bool, const FACTORED: bool, const HC: bool> vector::Block<1>
+    for ConductorBlock<'_, TAIL, FACTORED, HC>
+{
+    #[inline(always)]
+    fn block(&self, v: &[f64; LANES]) -> [[f64; 1]; LANES] {
+        self.f.block::<TAIL, FACTORED, HC>(self.line, v)
+    }
 }
 
 impl Integrand2D for SlopeIntegrand {
@@ -278,21 +354,12 @@ impl Integrand2D for SlopeIntegrand {
     fn line_panels(&self, psi: f64, out: &mut Vec<Panel>) -> SlopeLine {
         let (alpha, mu_o) = (self.alpha, self.mu_o);
         let sc = self.sin_o * sin_cos_0_pi(psi).1;
-        // ρmax = μo/k = k'/μo with k = sc + √(sc² + μo²), k' = −sc + √(sc² + μo²), k·k' = μo²;
-        // each computed without cancellation.
-        let root = (sc * sc + mu_o * mu_o).sqrt(); // both in [−1, 1]: no scaling needed
-        let (k, k_prime) = if sc >= 0.0 {
-            let k = sc + root;
-            (k, mu_o * mu_o / k)
-        } else {
-            let kp = root - sc;
-            (mu_o * mu_o / kp, kp)
-        };
-        let (rho_max, u_max) = if sc >= 0.0 {
-            (mu_o / k, k / mu_o)
-        } else {
-            (k_prime / mu_o, mu_o / k_prime)
-        };
+        let Horizon {
+            k,
+            k_prime,
+            rho_max,
+            u_max,
+        } = Horizon::new(sc, mu_o);
         let mut line = SlopeLine {
             sc,
             rho_max,
@@ -333,51 +400,7 @@ impl Integrand2D for SlopeIntegrand {
         let end_delta = (beyond * beyond + horizon_delta * horizon_delta)
             .sqrt()
             .max(crate::quadrature::MIN_DELTA);
-        let peak_part = |len: f64, out: &mut Vec<Panel>| {
-            // grade towards s = 0 once the piece is long against the poles' distance π/2
-            let map = if len > S_PLAIN {
-                PanelMap::End {
-                    at: 0.0,
-                    toward: len,
-                    sqrt: false,
-                    delta: FRAC_PI_2,
-                }
-            } else {
-                PanelMap::Plain
-            };
-            out.push(Panel {
-                a: 0.0,
-                b: len,
-                map,
-            });
-        };
-        if end_delta < crate::quadrature::NEAR_SINGULAR_RATIO * s_end {
-            // The horizon's sinh map crowds the rule towards s_end and thins it out towards
-            // s = 0, whose poles at distance π/2 would then come too close: on long lines it
-            // maps only the half next to the horizon.
-            // L·asinh(L/δ) > SPLIT_LW ⇔ L/δ > sinh(SPLIT_LW/L), without a logarithm
-            let x = (SPLIT_LW / s_end).min(700.0);
-            let mid = if s_end / end_delta > 0.5 * (exp_poly(x) - exp_poly(-x)) {
-                0.5 * s_end
-            } else {
-                0.0
-            };
-            if mid > 0.0 {
-                peak_part(mid, out);
-            }
-            out.push(Panel {
-                a: mid,
-                b: s_end,
-                map: PanelMap::End {
-                    at: s_end,
-                    toward: mid,
-                    sqrt: false,
-                    delta: end_delta,
-                },
-            });
-        } else {
-            peak_part(s_end, out);
-        }
+        peak_panels(s_end, end_delta, false, f64::INFINITY, out);
         if tail {
             // the u part is panelled on its own: a distance in u is none in s
             let v_end = s_end + (line.u_tail - u_max);
@@ -453,7 +476,7 @@ impl Integrand2D for SlopeIntegrand {
             (true, _, SmithForm::HeightCorrelated) => self.block::<true, true, true>(line, &v),
             (true, _, SmithForm::Separable) => self.block::<true, true, false>(line, &v),
         };
-        [y[0], 0.0]
+        [y[0][0], 0.0]
     }
 }
 

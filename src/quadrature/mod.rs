@@ -8,6 +8,8 @@
 //! ([`PanelMap`]) absorb the square-root behaviour that appears where a
 //! kink curve is tangent to a line of constant `u`.
 
+pub mod vector;
+
 use crate::math::{exp_poly, UnitRule};
 
 /// Number of channels an integrand carries (e.g. reflection and transmission).
@@ -460,41 +462,29 @@ impl SinhPieces {
         }
     }
 
-    /// [`Self::fill`] compiled for AVX-512 or AVX2 where the CPU has them; the same IEEE
-    /// operations (no FMA contraction), so the same bits on every machine.
+    /// [`Self::fill`] on the widest vector unit ([`vector::run`]): the same bits on every machine.
     fn fill_dispatch(&self, nodes: &[f64], weights: &[f64], xs: &mut [f64], ws: &mut [f64]) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            #[target_feature(enable = "avx512f")]
-            unsafe fn avx512(
-                m: &SinhPieces,
-                nodes: &[f64],
-                weights: &[f64],
-                xs: &mut [f64],
-                ws: &mut [f64],
-            ) {
-                m.fill(nodes, weights, xs, ws)
-            }
-            #[target_feature(enable = "avx2")]
-            unsafe fn avx2(
-                m: &SinhPieces,
-                nodes: &[f64],
-                weights: &[f64],
-                xs: &mut [f64],
-                ws: &mut [f64],
-            ) {
-                m.fill(nodes, weights, xs, ws)
-            }
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU supports AVX-512F (checked just above).
-                return unsafe { avx512(self, nodes, weights, xs, ws) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2 (checked just above).
-                return unsafe { avx2(self, nodes, weights, xs, ws) };
+        struct Fill<'a> {
+            map: &'a SinhPieces,
+            nodes: &'a [f64],
+            weights: &'a [f64],
+            xs: &'a mut [f64],
+            ws: &'a mut [f64],
+        }
+        impl vector::Kernel for Fill<'_> {
+            type Output = ();
+            #[inline(always)]
+            fn run(&mut self) {
+                self.map.fill(self.nodes, self.weights, self.xs, self.ws)
             }
         }
-        self.fill(nodes, weights, xs, ws)
+        vector::run(Fill {
+            map: self,
+            nodes,
+            weights,
+            xs,
+            ws,
+        })
     }
 }
 

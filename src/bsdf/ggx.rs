@@ -9,7 +9,7 @@ use super::slope_dielectric::SlopeDielectric;
 use super::vndf::{Part, VndfIntegrand};
 use super::{AxisSpec, Model, ModelId, Side, Transmission, MAX_OUTPUTS};
 use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, SmithForm};
-use crate::quadrature::{integrate_2d, Rules, CHANNELS};
+use crate::quadrature::{integrate_2d, Break, Rules, CHANNELS};
 
 /// Which microfacet albedo a model tabulates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -287,6 +287,44 @@ impl Model for GgxModel {
 
     fn grazing_boundary_layer(&self) -> bool {
         true
+    }
+
+    /// E(μ) has a square-root end and a boundary layer at grazing μ of width ~α (the masking
+    /// weight's branch points at μ = ±iα/√(1 − α²)), and seen from inside a dielectric the critical angle
+    /// μc = √(1 − η²) of the relative IOR η < 1, a square-root kink of the smooth interface that
+    /// roughness smooths over a width ~α·η (the spread of microfacet normals in μ there), and
+    /// μ = η, where the kinks change topology. μ = 1 is a square-root end seen from inside
+    /// (measured); it is mapped as one for every GGX model, which costs nothing where E is
+    /// analytic there.
+    fn mu_breaks(&self, x: &[f64], out: &mut Vec<Break>) {
+        let (f0, r) = match self.kind {
+            GgxKind::Conductor => (0.0, x[0]),
+            _ => (x[0], x[1]),
+        };
+        let alpha = alpha_from_r(r).min(1.0);
+        // μ = 0 is a square-root point of E for α > 0 (measured: the plain rule converges like
+        // n⁻⁶ there at r = 1, the square-root map geometrically)
+        out.push(if alpha > 0.0 {
+            Break::sqrt(0.0).with_delta(alpha / (1.0 - alpha * alpha).max(0.0).sqrt())
+        } else {
+            Break::regular(0.0)
+        });
+        out.push(Break::sqrt(1.0));
+        if let GgxKind::Dielectric { inverse: true } = self.kind {
+            let eta = self.eta(f0);
+            if eta < 1.0 {
+                let mu_c = (1.0 - eta * eta).sqrt();
+                if alpha > 0.0 {
+                    out.push(Break::near_singular(mu_c, alpha * eta));
+                    // μo = η: the critical-angle curve (ωo·h)² = 1 − η² touches the rim of the
+                    // microfacet hemisphere (h_z = 0, where ωo·h ≤ sin θo), a change of topology
+                    // of the integrand's kinks
+                    out.push(Break::sqrt(eta));
+                } else {
+                    out.push(Break::one_sided_sqrt(mu_c, true)); // F = 1 below μc (tir)
+                }
+            }
+        }
     }
 
     fn shares_column_geometry(&self) -> bool {

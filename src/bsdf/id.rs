@@ -9,6 +9,7 @@
 //! | [`Side`] (dielectrics) | entering (relative IOR η), leaving (1/η) | `-inv` when leaving |
 //! | [`SmithForm`] (microfacet families) | height-correlated, separable | `-separable` when separable |
 //! | [`Transmission`] (dielectrics) | energy, radiance | `-radiance` in the [key](ModelId::key) only |
+//! | `average` (models with a `mu` axis) | E, or its cosine-weighted average E_avg over μ | `-avg` when averaged |
 
 use crate::math::SmithForm;
 use std::fmt;
@@ -96,6 +97,9 @@ pub struct ModelId {
     pub smith: Option<SmithForm>,
     pub side: Option<Side>,
     pub transmission: Option<Transmission>,
+    /// The cosine-weighted average over μ of the model's outputs, E_avg = 2∫₀¹ E(μ) μ dμ
+    /// (Kulla & Conty 2017), instead of the outputs themselves ([`super::average`]).
+    pub average: bool,
 }
 
 impl ModelId {
@@ -106,6 +110,7 @@ impl ModelId {
             smith: None,
             side: None,
             transmission: None,
+            average: false,
         }
     }
 
@@ -126,6 +131,22 @@ impl ModelId {
     pub const fn with_transmission(self, transmission: Transmission) -> ModelId {
         ModelId {
             transmission: Some(transmission),
+            ..self
+        }
+    }
+
+    /// The cosine-weighted average over μ of this model ([`ModelId::average`]).
+    pub const fn averaged(self) -> ModelId {
+        ModelId {
+            average: true,
+            ..self
+        }
+    }
+
+    /// The model this one averages over μ (itself when it is not an average).
+    pub const fn unaveraged(self) -> ModelId {
+        ModelId {
+            average: false,
             ..self
         }
     }
@@ -157,6 +178,9 @@ impl ModelId {
         }
         if self.smith == Some(SmithForm::Separable) {
             s.push_str("-separable");
+        }
+        if self.average {
+            s.push_str("-avg");
         }
         s
     }
@@ -258,5 +282,17 @@ mod tests {
             r
         );
         assert!(serde_json::from_str::<ModelId>("\"ggx-conductor-radiance\"").is_err());
+        let avg = ModelId::ggx_dielectric(Side::Leaving, Separable).averaged();
+        assert_eq!(avg.name(), "ggx-dielectric-inv-separable-avg");
+        assert_eq!(
+            avg.with_transmission(Transmission::Radiance).key(),
+            "ggx-dielectric-inv-separable-avg-radiance"
+        );
+        assert_eq!("ggx-dielectric-inv-separable-avg".parse::<ModelId>().unwrap(), avg);
+        assert_eq!(avg.unaveraged().name(), "ggx-dielectric-inv-separable");
+        assert_eq!(
+            "eon-avg".parse::<ModelId>().unwrap(),
+            ModelId::new(Family::EON).averaged()
+        );
     }
 }

@@ -7,6 +7,7 @@
 //! [`Model`] and [`register`] it (see docs/models.md, "Adding a model"; a built-in one joins the
 //! registry's built-in list, and `examples/custom_model.rs` registers one from outside the library).
 
+pub mod average;
 pub mod diffuse;
 pub mod ggx;
 mod id;
@@ -21,7 +22,7 @@ pub mod vndf;
 pub use id::{Family, ModelId, Side, Transmission};
 pub use registry::{find, find_variant, get, known_names, listed, lookup, models, register};
 
-use crate::quadrature::{refine, Estimate, QuadratureSettings, RuleCache, Rules};
+use crate::quadrature::{refine, Break, Estimate, QuadratureSettings, RuleCache, Rules};
 
 /// Most outputs a model reports at one point (E, and E_R, E_T for dielectrics).
 pub const MAX_OUTPUTS: usize = 3;
@@ -100,6 +101,14 @@ pub trait Model: Send + Sync {
     /// costs time (the rough-diffuse models' best fits never used it: measured on every sweep).
     fn grazing_boundary_layer(&self) -> bool {
         false
+    }
+    /// The breakpoints of the outputs as functions of μ (the axis named `mu`) at the other
+    /// coordinates of `x` (its `mu` entry is ignored): kinks, and ends next to which E varies on
+    /// a short scale, as [`Break`]s. The average over μ ([`average::AverageAlbedo`]) puts its
+    /// panels between them. By default both ends are square-root points, which is safe for any
+    /// E that is smooth inside (0, 1).
+    fn mu_breaks(&self, _x: &[f64], out: &mut Vec<Break>) {
+        out.extend([Break::sqrt(0.0), Break::sqrt(1.0)]);
     }
 }
 

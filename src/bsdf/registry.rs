@@ -1,6 +1,7 @@
 //! The one list of models: the built-in ones, then any a program [`register`]s. Everything that
 //! turns a name into a model (the CLI, scenes, reports, emitters, fit files) asks it.
 
+use super::average::AverageAlbedo;
 use super::{diffuse, ggx, radziszewski, Model, ModelId, Transmission, MAX_OUTPUTS};
 use crate::error::{Error, Result};
 use std::sync::{Arc, OnceLock, RwLock, RwLockReadGuard};
@@ -23,6 +24,12 @@ fn builtins() -> Vec<Arc<dyn Model>> {
     for m in ggx::radiance_variants() {
         models.push(Arc::new(m));
     }
+    let averages: Vec<Arc<dyn Model>> = models
+        .iter()
+        .filter_map(|m| AverageAlbedo::new(m.clone()))
+        .map(|a| Arc::new(a) as Arc<dyn Model>)
+        .collect();
+    models.extend(averages);
     models
 }
 
@@ -37,7 +44,8 @@ fn read() -> RwLockReadGuard<'static, Vec<Arc<dyn Model>>> {
 }
 
 /// Checks what the rest of furnace relies on: a key that can name a folder, axes with sane
-/// ranges, and `E` as the first of at most [`MAX_OUTPUTS`] outputs.
+/// ranges, and between one and [`MAX_OUTPUTS`] distinct outputs whose names can name a
+/// channel and a function (the first is the one a fit takes by default).
 fn check(model: &dyn Model) -> std::result::Result<(), String> {
     let key = model.id().key();
     if key.is_empty()
@@ -66,9 +74,17 @@ fn check(model: &dyn Model) -> std::result::Result<(), String> {
         }
     }
     let outputs = model.outputs();
-    if outputs.first() != Some(&"E") || outputs.len() > MAX_OUTPUTS {
+    let well_named = |o: &str| {
+        o.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+            && o.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    };
+    if outputs.is_empty()
+        || outputs.len() > MAX_OUTPUTS
+        || !outputs.iter().all(|o| well_named(o))
+        || outputs.iter().enumerate().any(|(k, o)| outputs[..k].contains(o))
+    {
         return Err(format!(
-            "model {key}: outputs {outputs:?} must start with E and number at most {MAX_OUTPUTS}"
+            "model {key}: outputs {outputs:?} must be 1 to {MAX_OUTPUTS} distinct names of letters, digits and '_' starting with a letter"
         ));
     }
     Ok(())
@@ -76,17 +92,25 @@ fn check(model: &dyn Model) -> std::result::Result<(), String> {
 
 /// Adds `model` to the registry, after the built-in models, and returns its identity. From
 /// then on every part of furnace finds it by name: tabulation, fits, emitters, reports and
-/// scenes. Refused if its name is taken or its axes or outputs are malformed.
+/// scenes. A model with a `mu` axis over [0, 1] brings its average over μ with it
+/// (`<name>-avg`, [`AverageAlbedo`]). Refused if its name (or its average's) is taken or its
+/// axes or outputs are malformed.
 pub fn register(model: impl Model + 'static) -> Result<ModelId> {
     check(&model).map_err(Error::InvalidInput)?;
     let id = model.id();
+    let model: Arc<dyn Model> = Arc::new(model);
+    let average = AverageAlbedo::new(model.clone()).map(|a| Arc::new(a) as Arc<dyn Model>);
     let mut list = registry().write().unwrap_or_else(|e| e.into_inner());
-    if list.iter().any(|m| m.id().key() == id.key()) {
-        return Err(Error::InvalidInput(format!(
-            "a model named {id} is already registered; give the new one another family name"
-        )));
+    for m in std::iter::once(&model).chain(&average) {
+        if list.iter().any(|l| l.id().key() == m.id().key()) {
+            return Err(Error::InvalidInput(format!(
+                "a model named {} is already registered; give the new one another family name",
+                m.id()
+            )));
+        }
     }
-    list.push(Arc::new(model));
+    list.push(model);
+    list.extend(average);
     Ok(id)
 }
 
@@ -186,7 +210,10 @@ mod tests {
             "E = 1".into()
         }
         fn axes(&self) -> Vec<AxisSpec> {
-            vec![AxisSpec::new("mu", (0.0, 1.0), (0.0, 1.0), "cosine")]
+            vec![
+                AxisSpec::new("r", (0.0, 1.0), (0.0, 1.0), "roughness"),
+                AxisSpec::new("mu", (0.0, 1.0), (0.0, 1.0), "cosine"),
+            ]
         }
         fn outputs(&self) -> Vec<&'static str> {
             self.1.clone()
@@ -210,8 +237,14 @@ mod tests {
         assert!(taken.to_string().contains("already registered"), "{taken}");
         let bad = register(Flat("Bad Name", vec!["E"])).unwrap_err();
         assert!(bad.to_string().contains("lower-case letters"), "{bad}");
-        let no_e = register(Flat("registry-test-no-e", vec!["A"])).unwrap_err();
-        assert!(no_e.to_string().contains("must start with E"), "{no_e}");
+        let bad_output = register(Flat("registry-test-bad-output", vec!["E", "E"])).unwrap_err();
+        assert!(bad_output.to_string().contains("distinct names"), "{bad_output}");
+        let no_output = register(Flat("registry-test-no-output", vec![])).unwrap_err();
+        assert!(no_output.to_string().contains("1 to"), "{no_output}");
+        // a model with a mu axis brings its average
+        let avg = lookup("registry-test-flat-avg").unwrap();
+        assert_eq!(avg, id.averaged());
+        assert_eq!(get(avg).unwrap().axes().len(), 1);
     }
 
     #[test]

@@ -304,15 +304,17 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
     let dims = spec.axes.len();
     let n_out = spec.outputs.len();
     let cache = RuleCache::new(&spec.quadrature);
-    // Unit of parallel work and of progress: in 2-D a row along the last axis; in 3-D a column
-    // along the first axis (f0), which models may integrate with one shared geometry.
-    let (units, unit_len) = if dims >= 3 {
+    // Unit of parallel work and of progress: a row along the last axis; or, in 3-D and for
+    // models that share geometry along their first axis, a column along the first axis (f0),
+    // which the model may integrate with one shared geometry.
+    let by_column = dims >= 3 || (dims == 2 && model.shares_column_geometry());
+    let (units, unit_len) = if by_column {
         (cells / spec.axes[0].n, spec.axes[0].n)
     } else {
         (cells / spec.axes[dims - 1].n, spec.axes[dims - 1].n)
     };
     let cell_of = |unit: usize, k: usize| -> usize {
-        if dims >= 3 {
+        if by_column {
             k * units + unit
         } else {
             unit * unit_len + k
@@ -328,7 +330,7 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
                     x
                 })
                 .collect();
-            let out = if dims >= 3 {
+            let out = if by_column {
                 albedo_column(model, &xs, &spec.quadrature, &cache)
                     .into_iter()
                     .map(|e| (e.value, e.error, e.order, e.converged))

@@ -34,6 +34,12 @@ impl Family {
     pub const EON: Family = Family("eon");
     /// Radziszewski & Alda's energy-conserving glossy lobe.
     pub const RADZISZEWSKI_GLOSSY: Family = Family("radziszewski-glossy");
+    /// F_avg of Schlick's Fresnel.
+    pub const FRESNEL_SCHLICK: Family = Family("fresnel-schlick");
+    /// F_avg of the exact dielectric Fresnel (a side of the interface).
+    pub const FRESNEL_DIELECTRIC: Family = Family("fresnel-dielectric");
+    /// F_avg of the F82-tint conductor Fresnel (OpenPBR, Adobe Standard Material).
+    pub const FRESNEL_F82_TINT: Family = Family("fresnel-f82-tint");
 
     /// A family named `name` (lower-case letters, digits and `-`; checked when a model of it is
     /// registered, since the name becomes a folder under `data/` and `fits/`).
@@ -288,7 +294,12 @@ mod tests {
             avg.with_transmission(Transmission::Radiance).key(),
             "ggx-dielectric-inv-separable-avg-radiance"
         );
-        assert_eq!("ggx-dielectric-inv-separable-avg".parse::<ModelId>().unwrap(), avg);
+        assert_eq!(
+            "ggx-dielectric-inv-separable-avg"
+                .parse::<ModelId>()
+                .unwrap(),
+            avg
+        );
         assert_eq!(avg.unaveraged().name(), "ggx-dielectric-inv-separable");
         assert_eq!(
             "eon-avg".parse::<ModelId>().unwrap(),

@@ -9,6 +9,7 @@
 
 pub mod average;
 pub mod diffuse;
+pub mod fresnel;
 pub mod ggx;
 mod id;
 pub mod kinks;

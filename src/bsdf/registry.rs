@@ -2,7 +2,7 @@
 //! turns a name into a model (the CLI, scenes, reports, emitters, fit files) asks it.
 
 use super::average::AverageAlbedo;
-use super::{diffuse, ggx, radziszewski, Model, ModelId, Transmission, MAX_OUTPUTS};
+use super::{diffuse, fresnel, ggx, radziszewski, Model, ModelId, Transmission, MAX_OUTPUTS};
 use crate::error::{Error, Result};
 use std::sync::{Arc, OnceLock, RwLock, RwLockReadGuard};
 
@@ -21,6 +21,9 @@ fn builtins() -> Vec<Arc<dyn Model>> {
         models.push(Arc::new(diffuse::DiffuseModel::new(kind)));
     }
     models.push(Arc::new(radziszewski::RadziszewskiModel));
+    for m in fresnel::all() {
+        models.push(Arc::new(m));
+    }
     for m in ggx::radiance_variants() {
         models.push(Arc::new(m));
     }
@@ -81,7 +84,10 @@ fn check(model: &dyn Model) -> std::result::Result<(), String> {
     if outputs.is_empty()
         || outputs.len() > MAX_OUTPUTS
         || !outputs.iter().all(|o| well_named(o))
-        || outputs.iter().enumerate().any(|(k, o)| outputs[..k].contains(o))
+        || outputs
+            .iter()
+            .enumerate()
+            .any(|(k, o)| outputs[..k].contains(o))
     {
         return Err(format!(
             "model {key}: outputs {outputs:?} must be 1 to {MAX_OUTPUTS} distinct names of letters, digits and '_' starting with a letter"
@@ -238,7 +244,10 @@ mod tests {
         let bad = register(Flat("Bad Name", vec!["E"])).unwrap_err();
         assert!(bad.to_string().contains("lower-case letters"), "{bad}");
         let bad_output = register(Flat("registry-test-bad-output", vec!["E", "E"])).unwrap_err();
-        assert!(bad_output.to_string().contains("distinct names"), "{bad_output}");
+        assert!(
+            bad_output.to_string().contains("distinct names"),
+            "{bad_output}"
+        );
         let no_output = register(Flat("registry-test-no-output", vec![])).unwrap_err();
         assert!(no_output.to_string().contains("1 to"), "{no_output}");
         // a model with a mu axis brings its average

@@ -34,6 +34,12 @@ impl Family {
     pub const EON: Family = Family("eon");
     /// Radziszewski & Alda's energy-conserving glossy lobe.
     pub const RADZISZEWSKI_GLOSSY: Family = Family("radziszewski-glossy");
+    /// The split-sum terms A, B of a GGX reflection with Schlick's Fresnel.
+    pub const GGX_SPLIT_SUM: Family = Family("ggx-split-sum");
+    /// Visible-normal average of the generalised-Schlick factor (1 − ωo·h)^p (Cycles).
+    pub const GGX_GEN_SCHLICK: Family = Family("ggx-gen-schlick");
+    /// Visible-normal average of the remapped dielectric Fresnel (Cycles).
+    pub const GGX_GEN_SCHLICK_IOR: Family = Family("ggx-gen-schlick-ior");
     /// F_avg of Schlick's Fresnel.
     pub const FRESNEL_SCHLICK: Family = Family("fresnel-schlick");
     /// F_avg of the exact dielectric Fresnel (a side of the interface).

@@ -19,6 +19,7 @@ mod registry;
 pub mod slope;
 pub mod slope_dielectric;
 pub mod vndf;
+pub mod weighted;
 
 pub use id::{Family, ModelId, Side, Transmission};
 pub use registry::{find, find_variant, get, known_names, listed, lookup, models, register};

@@ -2,7 +2,9 @@
 //! turns a name into a model (the CLI, scenes, reports, emitters, fit files) asks it.
 
 use super::average::AverageAlbedo;
-use super::{diffuse, fresnel, ggx, radziszewski, Model, ModelId, Transmission, MAX_OUTPUTS};
+use super::{
+    diffuse, fresnel, ggx, radziszewski, weighted, Model, ModelId, Transmission, MAX_OUTPUTS,
+};
 use crate::error::{Error, Result};
 use std::sync::{Arc, OnceLock, RwLock, RwLockReadGuard};
 
@@ -21,6 +23,9 @@ fn builtins() -> Vec<Arc<dyn Model>> {
         models.push(Arc::new(diffuse::DiffuseModel::new(kind)));
     }
     models.push(Arc::new(radziszewski::RadziszewskiModel));
+    for m in weighted::all() {
+        models.push(Arc::new(m));
+    }
     for m in fresnel::all() {
         models.push(Arc::new(m));
     }

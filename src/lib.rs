@@ -9,6 +9,7 @@ pub mod error;
 pub mod fit;
 pub mod material;
 pub mod math;
+pub mod output;
 pub mod quadrature;
 pub mod report;
 pub mod scene;

@@ -26,17 +26,18 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::bsdf::{self, AxisSpec, ModelId};
-use crate::emit::fitfile::{FitFile, TableRef};
-use crate::emit::generate::FormChoice;
-use crate::emit::stress::{stress, StressOptions, StressReport};
-use crate::emit::{self, build_unit, Lang, SourceFit};
+use crate::emit::generate::albedo_function_name;
+use crate::emit::stress::StressReport;
+use crate::emit::{self, build_unit, EmitOptions, Lang, SourceFit};
 use crate::error::{Error, Result};
+use crate::fit::job::FitRecord;
+use crate::fit::source::FittedOn;
 use crate::fit::{fit_rational, FitData, FitResult, InputTransform, Objective, RationalOptions};
 use crate::material::{self, Helper};
 use crate::math::SmithForm;
 
 use crate::quadrature::QuadratureSettings;
-use crate::table::{io, Table, TableSpec};
+use crate::table::{Table, TableSpec};
 
 /// A fixed value (one number, or lo = hi) is widened to a range of this width (in table-axis
 /// units), centred on it and kept inside the axis' valid range: a table needs lo < hi, and a fit
@@ -534,23 +535,23 @@ pub fn fit_table(
                 rejected,
             });
         }
-        let file = FitFile::new(model, "E", None, fit.clone());
-        let report = stress(
-            &file,
-            &StressOptions {
-                random_points: stress_points,
-                ..Default::default()
-            },
-        )?;
-        if report.passed() {
-            return Ok(StableFit {
-                fit,
-                margin,
-                stress: Some(report),
-                rejected,
-            });
+        // the gate every emitted fit passes (all evaluation forms are tried)
+        match emit::stress_gate(
+            &fit,
+            &albedo_function_name(model, "E"),
+            emit::generate::FormChoice::Auto,
+            stress_points,
+        ) {
+            Ok((_, _, report)) => {
+                return Ok(StableFit {
+                    fit,
+                    margin,
+                    stress: Some(report),
+                    rejected,
+                })
+            }
+            Err(why) => rejected.push((margin, why)),
         }
-        rejected.push((margin, report.failures.join("; ")));
     }
     Err(Error::InvalidInput(format!(
         "no {} fit of {} is both pole-free and stable in f32 (denominator margins tried: {}); lower fit.numerator_degree / fit.denominator_degree in the manifest or narrow the material ranges",
@@ -594,7 +595,12 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
                 "computed"
             }
         ));
-        let stable = fit_table(&table, &plan.fit, &need.model.name(), opts.stress_points)?;
+        // the emit gate's own number of points, so what passes here is emitted
+        let points = match opts.stress_points {
+            0 => 0,
+            n => n.max(emit::stress::DEFAULT_POINTS),
+        };
+        let stable = fit_table(&table, &plan.fit, &need.model.name(), points)?;
         for (m, why) in &stable.rejected {
             log(&format!(
                 "  {}: denominator margin {m} rejected: {why}",
@@ -615,18 +621,17 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
             ))
         ));
         let stress_report = stable.stress;
-        let file = FitFile::new(
-            &need.model.name(),
-            "E",
-            Some(TableRef {
-                stem,
-                content_hash: spec.content_hash(),
-                spec: spec.clone(),
-            }),
+        let input = crate::fit::source::from_table(&table, "E", Some(&stem))?;
+        let file = FitRecord::new(
             fit.clone(),
+            &input,
+            FittedOn {
+                points: input.data.len(),
+                selection: "all points".into(),
+            },
         );
         let fit_path = out_dir.join(format!("{}.json", need.model.key()));
-        io::write_atomic(&fit_path, file.to_json()?.as_bytes())?;
+        crate::output::write(&fit_path, file.to_json()?.as_bytes())?;
         sources.push(SourceFit::new(&fit_path, file, Some(table.clone()))?);
         fitted.push(FittedTable {
             need: need.clone(),
@@ -642,17 +647,23 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
         &emit::guard_macro(&format!("scene {}", plan.scene)),
         &sources,
         &opts.command,
-        FormChoice::Auto,
-        Some(&keep),
+        &EmitOptions {
+            helpers: Some(keep),
+            stress_points: opts.stress_points.max(emit::stress::DEFAULT_POINTS),
+            ..EmitOptions::default()
+        },
     )?;
     if opts.langs.contains(&Lang::Lut) {
-        for src in &sources {
-            unit.luts.push(emit::lut_for_fit(
+        for (src, e) in sources.iter().zip(&emitted) {
+            let lut = emit::lut_for_fit(
                 src,
+                &unit,
+                &e.function,
                 opts.lut_resolution,
                 &opts.data_dir,
                 opts.force,
-            )?);
+            )?;
+            unit.luts.push(lut);
         }
     }
     let mut artifacts = Vec::new();

@@ -7,11 +7,12 @@
 
 use std::path::{Path, PathBuf};
 
-use furnace::emit::fitfile::FitFile;
 use furnace::emit::generate::{albedo_function_name, choose_form, reference, FormChoice};
 use furnace::emit::ir::{Arith, Compiled, Program};
 use furnace::emit::stress::{edge_values, stress, StressOptions};
 use furnace::emit::SourceFit;
+use furnace::fit::file as fitfile;
+use furnace::fit::job::FitRecord;
 
 #[allow(dead_code)]
 mod emitted_conductor {
@@ -26,9 +27,13 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn fixture(name: &str) -> FitFile {
+fn fixture(name: &str) -> FitRecord {
     let path = root().join("tests/fixtures").join(name);
-    FitFile::read(&path).unwrap_or_else(|e| panic!("{e}"))
+    fitfile::read(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn name_of(file: &FitRecord) -> String {
+    albedo_function_name(&fitfile::subject_name(file), &file.source.channel)
 }
 
 /// Dense grid plus every combination of edge values (out-of-range inputs included).
@@ -68,8 +73,8 @@ fn check_points(domain: &[(f32, f32)], n: usize) -> Vec<Vec<f32>> {
 }
 
 /// The compiled Rust against the f32 model (bit for bit) and the f64 fit (≤ 1e-5).
-fn check_compiled(file: &FitFile, f: &dyn Fn(&[f32]) -> f32, n: usize) -> (usize, f64) {
-    let name = albedo_function_name(&file.model, &file.output);
+fn check_compiled(file: &FitRecord, f: &dyn Fn(&[f32]) -> f32, n: usize) -> (usize, f64) {
+    let name = name_of(file);
     let (function, _) = choose_form(&name, &[], &file.fit, FormChoice::Auto).unwrap();
     let model = Compiled::new(
         &Program {
@@ -178,32 +183,11 @@ fn emitted_helpers_compute_the_papers_factors() {
 }
 
 fn naga_wgsl(src: &str) -> Result<(), String> {
-    let module = naga::front::wgsl::parse_str(src).map_err(|e| e.emit_to_string(src))?;
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .map_err(|e| format!("{e:?}"))?;
-    Ok(())
+    furnace::emit::validate::wgsl(src).map_err(|e| e.to_string())
 }
 
 fn naga_glsl(src: &str) -> Result<(), String> {
-    // the emitted file is an include: give it a version line and an entry point
-    let full = format!("#version 450\n{src}\nvoid main() {{}}\n");
-    let module = naga::front::glsl::Frontend::default()
-        .parse(
-            &naga::front::glsl::Options::from(naga::ShaderStage::Fragment),
-            &full,
-        )
-        .map_err(|e| e.emit_to_string(&full))?;
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .map_err(|e| format!("{e:?}"))?;
-    Ok(())
+    furnace::emit::validate::glsl(src).map_err(|e| e.to_string())
 }
 
 #[test]
@@ -241,7 +225,8 @@ fn stress_passes_on_good_fits_and_fails_on_the_papers_glossy_fit() {
         "ggx-dielectric.json",
         "ggx-dielectric-inv.json",
     ] {
-        let r = stress(&fixture(name), &opts).unwrap();
+        let f = fixture(name);
+        let r = stress(&f.fit, &name_of(&f), &opts).unwrap();
         eprint!("{}", r.render());
         assert!(r.passed(), "{name}: {:?}", r.failures);
         assert!(r.edge_points > 1000);
@@ -251,7 +236,8 @@ fn stress_passes_on_good_fits_and_fails_on_the_papers_glossy_fit() {
         );
     }
     // certified, but Q comes within 8e-4 of zero: f32 rounding is amplified past 1e-5 on an edge
-    let r = stress(&fixture("ggx-dielectric-inv-nearpole.json"), &opts).unwrap();
+    let f = fixture("ggx-dielectric-inv-nearpole.json");
+    let r = stress(&f.fit, &name_of(&f), &opts).unwrap();
     eprint!("{}", r.render());
     assert!(!r.passed());
     assert!(
@@ -259,7 +245,8 @@ fn stress_passes_on_good_fits_and_fails_on_the_papers_glossy_fit() {
         "{:?}",
         r.failures
     );
-    let r = stress(&fixture("paper-glossy.json"), &opts).unwrap();
+    let f = fixture("paper-glossy.json");
+    let r = stress(&f.fit, &name_of(&f), &opts).unwrap();
     eprint!("{}", r.render());
     assert!(!r.passed());
     assert!(
@@ -381,7 +368,7 @@ fn cli_emits_next_to_the_fit_and_refuses_bad_input_without_writing() {
     let mut other_version: serde_json::Value = serde_json::from_str(&good).unwrap();
     other_version["tool_version"] = "0.0.9".into();
     let mut missing: serde_json::Value = serde_json::from_str(&good).unwrap();
-    missing.as_object_mut().unwrap().remove("model");
+    missing.as_object_mut().unwrap().remove("source");
     let bare =
         serde_json::to_string(&serde_json::from_str::<serde_json::Value>(&good).unwrap()["fit"])
             .unwrap();
@@ -402,7 +389,7 @@ fn cli_emits_next_to_the_fit_and_refuses_bad_input_without_writing() {
             "missing.json",
             missing.to_string(),
             vec!["--lang", "rust"],
-            "missing field 'model'",
+            "the field 'source' is missing",
         ),
         (
             "bare.json",

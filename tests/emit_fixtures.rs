@@ -18,9 +18,12 @@
 
 use std::path::{Path, PathBuf};
 
+use sha2::{Digest, Sha256};
+
 use furnace::bsdf;
-use furnace::emit::fitfile::{FitFile, TableRef};
+use furnace::fit::job::FitRecord;
 use furnace::fit::paper::{load_table, published_fit, PaperModel};
+use furnace::fit::source::{from_table, FittedOn, Source};
 use furnace::quadrature::QuadratureSettings;
 use furnace::scene::{f0_from_ior, fit_table, FitSettings};
 use furnace::table::{self, TableSpec};
@@ -43,10 +46,31 @@ fn regenerate_fixtures() {
         ),
         ("glossy", PaperModel::Glossy, "ggx-glossy-separable"),
     ] {
+        let table_path = format!("data/paper/tables/{name}.csv");
         let table = load_table(&dir.join(format!("tables/{name}.csv")), model).unwrap();
         let fit =
             published_fit(&dir.join(format!("coefficients/{name}.csv")), model, &table).unwrap();
-        let f = FitFile::new(file_model, "E", None, fit);
+        let bytes = std::fs::read(dir.join(format!("tables/{name}.csv"))).unwrap();
+        let source = Source {
+            kind: "paper_table".into(),
+            model: Some(file_model.into()),
+            path: Some(table_path),
+            content_hash: Sha256::digest(&bytes)
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect(),
+            resolution: None,
+            channel: "E".into(),
+            points: fit.metrics.n_points,
+            restricted_to: None,
+        };
+        let fitted_on = FittedOn {
+            points: 0,
+            selection:
+                "published coefficients (Sforza & Pellacini 2022, Appendix A); not fitted by furnace"
+                    .into(),
+        };
+        let f = FitRecord::from_source(fit, source, None, fitted_on);
         std::fs::write(
             fixtures().join(format!("paper-{name}.json")),
             f.to_json().unwrap(),
@@ -67,11 +91,12 @@ fn regenerate_fixtures() {
         let t = std::time::Instant::now();
         let table = table::tabulate(model.as_ref(), &spec, &|_| {}).unwrap();
         let stem = table::io::table_stem(Path::new("data"), model.as_ref(), &spec);
-        let table_ref = TableRef {
-            stem,
-            content_hash: spec.content_hash(),
-            spec,
+        let input = from_table(&table, "E", Some(&stem)).unwrap();
+        let all = FittedOn {
+            points: input.data.len(),
+            selection: "all points".into(),
         };
+        let record = |fit| FitRecord::new(fit, &input, all.clone());
         let stable = fit_table(&table, &FitSettings::default(), model_name, 100_000).unwrap();
         let fit = stable.fit;
         eprintln!(
@@ -83,7 +108,7 @@ fn regenerate_fixtures() {
             fit.poles,
             stable.rejected
         );
-        let f = FitFile::new(model_name, "E", Some(table_ref.clone()), fit);
+        let f = record(fit);
         std::fs::write(
             fixtures().join(format!("{model_name}.json")),
             f.to_json().unwrap(),
@@ -92,7 +117,7 @@ fn regenerate_fixtures() {
         if !stable.rejected.is_empty() {
             // the first, rejected fit (default margin): a certified fit that fails the f32 stress test
             let near = fit_table(&table, &FitSettings::default(), model_name, 0).unwrap();
-            let f = FitFile::new(model_name, "E", Some(table_ref), near.fit);
+            let f = record(near.fit);
             std::fs::write(
                 fixtures().join(format!("{model_name}-nearpole.json")),
                 f.to_json().unwrap(),
@@ -139,16 +164,16 @@ fn denominator_margin_sweep() {
             )
             .unwrap();
             let secs = t.elapsed().as_secs_f64();
-            let f = FitFile::new(model_name, "E", None, fit);
             let r = stress(
-                &f,
+                &fit,
+                &furnace::emit::generate::albedo_function_name(model_name, "E"),
                 &StressOptions {
                     random_points: 50_000,
                     ..Default::default()
                 },
             )
             .unwrap();
-            eprintln!("{model_name} margin {margin}: MAE {:.2e} max {:.2e} poles {:?} | {:?} f32 max {:.2e} κQ {:.1e} minQ {:.2e} ({secs:.1} s)", f.fit.metrics.mae, f.fit.metrics.max_abs_error, f.fit.poles, r.form, r.ieee.max_abs_diff.max(r.fused.max_abs_diff).max(r.gpu.max_abs_diff), r.max_condition_q.unwrap(), r.min_abs_q.unwrap());
+            eprintln!("{model_name} margin {margin}: MAE {:.2e} max {:.2e} poles {:?} | {:?} f32 max {:.2e} κQ {:.1e} minQ {:.2e} ({secs:.1} s)", fit.metrics.mae, fit.metrics.max_abs_error, fit.poles, r.form, r.ieee.max_abs_diff.max(r.fused.max_abs_diff).max(r.gpu.max_abs_diff), r.max_condition_q.unwrap(), r.min_abs_q.unwrap());
         }
     }
 }

@@ -5,9 +5,8 @@
 
 use std::path::PathBuf;
 
-use furnace::emit::fitfile::FitFile;
-use furnace::emit::generate::FormChoice;
-use furnace::emit::{build_unit, emitter, Lang, SourceFit, Unit};
+use furnace::emit::{build_unit, emitter, EmitOptions, Lang, SourceFit, Unit};
+use furnace::fit::file as fitfile;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -15,7 +14,7 @@ fn root() -> PathBuf {
 
 fn source(name: &str) -> SourceFit {
     let file =
-        FitFile::read(&root().join("tests/fixtures").join(name)).unwrap_or_else(|e| panic!("{e}"));
+        fitfile::read(&root().join("tests/fixtures").join(name)).unwrap_or_else(|e| panic!("{e}"));
     SourceFit::new(format!("tests/fixtures/{name}"), file, None).unwrap()
 }
 
@@ -26,8 +25,7 @@ fn units() -> Vec<Unit> {
         "FURNACE_PAPER_CONDUCTORS_GLSL",
         &[source("paper-conductors.json")],
         "furnace emit --fit tests/fixtures/paper-conductors.json --lang all",
-        FormChoice::Auto,
-        None,
+        &EmitOptions::default(),
     )
     .unwrap();
     let (b, _) = build_unit(
@@ -38,8 +36,7 @@ fn units() -> Vec<Unit> {
             source("ggx-dielectric-inv.json"),
         ],
         "furnace run --scene (a dielectric material; see tests/emit_snapshots.rs)",
-        FormChoice::Auto,
-        None,
+        &EmitOptions::default(),
     )
     .unwrap();
     vec![a, b]

@@ -101,9 +101,9 @@ fn fit_writes_a_record_that_round_trips_and_eval_reproduces_its_metrics() {
         csv.push_str(&format!("{},{}\n", x[1], x[0]));
     }
     std::fs::write(dir.join("nodes.csv"), csv).unwrap();
+    // the raw approximant reproduces the fit's metrics exactly
     run(bin()
-        .arg("eval")
-        .arg("--fit")
+        .args(["eval", "--raw", "--fit"])
         .arg(&path)
         .arg("--input")
         .arg(dir.join("nodes.csv"))
@@ -127,6 +127,24 @@ fn fit_writes_a_record_that_round_trips_and_eval_reproduces_its_metrics() {
         "eval --fit reproduces the max error exactly"
     );
     assert!((sum / n as f64 - rec.fit.metrics.mae).abs() <= 1e-12 * rec.fit.metrics.mae);
+    // by default the emitted code's function: the same values, clamped to [0, 1] (this fit
+    // overshoots 1 near r = 0), written to standard output with `--output -`
+    let out = run(bin()
+        .args(["eval", "--fit"])
+        .arg(&path)
+        .arg("--input")
+        .arg(dir.join("nodes.csv"))
+        .args(["--output", "-"]));
+    let clamped = String::from_utf8(out.stdout).unwrap();
+    let raw = std::fs::read_to_string(dir.join("out.csv")).unwrap();
+    let mut above = 0;
+    for (c, r) in clamped.lines().zip(raw.lines()).skip(1) {
+        let c: f64 = c.rsplit(',').next().unwrap().parse().unwrap();
+        let r: f64 = r.rsplit(',').next().unwrap().parse().unwrap();
+        assert_eq!(c, r.clamp(0.0, 1.0));
+        above += usize::from(r > 1.0);
+    }
+    assert!(above > 0, "the clamp is exercised");
 }
 
 #[test]
@@ -675,11 +693,33 @@ fn bad_input_gives_clear_errors() {
         .arg("--fits-dir")
         .arg(dir.join("fits")));
     let fit_file = dir.join("fits/ok/polynomial-1.json");
+    // a user's table fitted without --data-dir leaves no timing folder in the current folder
+    assert!(!Path::new("data/timing/ok").exists());
     std::fs::write(dir.join("pts.csv"), "x\n0.5\n2\n").unwrap();
+    // as the emitted code: the input clamped to the domain [0, 1], the output to [0, 1]
+    let out = run(bin()
+        .arg("eval")
+        .arg("--fit")
+        .arg(&fit_file)
+        .arg("--input")
+        .arg(dir.join("pts.csv"))
+        .arg("--output")
+        .arg(dir.join("o.csv")));
+    assert!(
+        String::from_utf8_lossy(&out.stderr)
+            .contains("1 points lie outside the domain x in [0, 1] and were clamped"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("o.csv")).unwrap(),
+        "x,E\n0.5,1\n2,1\n"
+    );
+    std::fs::remove_file(dir.join("o.csv")).unwrap();
+    // the raw approximant is only defined on the domain
     let err = fails(
         bin()
-            .arg("eval")
-            .arg("--fit")
+            .args(["eval", "--raw", "--fit"])
             .arg(&fit_file)
             .arg("--input")
             .arg(dir.join("pts.csv"))
@@ -784,7 +824,7 @@ fn compare_paper_on_small_tables() {
         entries[1]["on_furnace_table"][1]["poles"], "certified",
         "{md}"
     );
-    // ... and its fit file says so; evaluating it warns
+    // ... and its fit file says so; eval proves the pole again, as emit does, and refuses it
     let glossy = read_record(&dir.join("reports/paper-glossy.json"));
     assert!(
         !glossy.usable && glossy.verdict.starts_with("NOT usable"),
@@ -792,19 +832,24 @@ fn compare_paper_on_small_tables() {
         glossy.verdict
     );
     std::fs::write(dir.join("pts.csv"), "f0,r,mu\n0.5,0.5,0.5\n").unwrap();
-    let out = run(bin()
-        .arg("eval")
-        .arg("--fit")
-        .arg(dir.join("reports/paper-glossy.json"))
-        .arg("--input")
-        .arg(dir.join("pts.csv"))
-        .arg("--output")
-        .arg(dir.join("o.csv")));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("warning") && err.contains("NOT usable"),
-        "{err}"
-    );
+    for raw in [false, true] {
+        let err = fails(
+            bin()
+                .arg("eval")
+                .args(raw.then_some("--raw"))
+                .arg("--fit")
+                .arg(dir.join("reports/paper-glossy.json"))
+                .arg("--input")
+                .arg(dir.join("pts.csv"))
+                .arg("--output")
+                .arg(dir.join("o.csv")),
+        );
+        assert!(
+            err.contains("uncertified denominator") && err.contains("pole inside its domain"),
+            "{err}"
+        );
+        assert!(!dir.join("o.csv").exists());
+    }
 }
 
 /// `--solver trust-region` runs argmin's trust region: its own file, its method recorded, the

@@ -240,18 +240,27 @@ impl Model for GgxModel {
         );
         match self.kind {
             GgxKind::Conductor => vec![r, mu],
-            GgxKind::Dielectric { .. } => vec![
+            GgxKind::Dielectric { inverse } => vec![
                 AxisSpec::new(
                     "f0",
                     (0.0125, 0.25),
                     (0.0, 0.99),
-                    "normal-incidence reflectance; relative IOR η = (1+√F0)/(1−√F0) (1.25 … 3 by default)",
+                    if inverse {
+                        "normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR η = (1+√F0)/(1−√F0), so this side sees 1/η (1.25 … 3 by default)"
+                    } else {
+                        "normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR η = (1+√F0)/(1−√F0) (1.25 … 3 by default)"
+                    },
                 ),
                 r,
                 mu,
             ],
             GgxKind::Glossy => vec![
-                AxisSpec::new("f0", (0.0, 1.0), (0.0, 1.0), "normal-incidence reflectance of the specular layer"),
+                AxisSpec::new(
+                    "f0",
+                    (0.0, 1.0),
+                    (0.0, 1.0),
+                    "normal-incidence reflectance of the specular layer",
+                ),
                 r,
                 mu,
             ],

@@ -31,7 +31,7 @@ pub struct BenchTabulateArgs {
     #[arg(long, default_value = "data/reference")]
     pub reference_dir: PathBuf,
     /// Also write the rows as a benchmark CSV (wall time against error at the reference points)
-    /// for the report, e.g. reports/bench/tabulate.csv.
+    /// for the report, e.g. reports/bench/tabulate.csv (`-`: standard output).
     #[arg(long)]
     pub output: Option<PathBuf>,
 }
@@ -48,12 +48,28 @@ pub fn machine_note(command: &str) -> String {
     )
 }
 
-/// Writes a benchmark plot's CSV (atomically) and says where.
+/// A line of a benchmark's table: on standard output, or on standard error when the CSV goes
+/// to standard output (`--output -`).
+pub fn table_line(csv_to_stdout: bool, line: String) {
+    if csv_to_stdout {
+        eprintln!("{line}");
+    } else {
+        println!("{line}");
+    }
+}
+
+/// Whether `--output` is standard output.
+pub fn csv_to_stdout(output: &Option<PathBuf>) -> bool {
+    output.as_deref().is_some_and(|p| p.as_os_str() == "-")
+}
+
+/// Writes a benchmark plot's CSV to `path` (`-`: standard output) and says where.
 pub fn write_bench(plot: &crate::report::inputs::BenchPlot, path: &Path) -> Result<()> {
-    crate::table::io::write_atomic(path, plot.to_csv().as_bytes())?;
+    let target = crate::output::Target::from_arg(path);
+    target.write(plot.to_csv().as_bytes())?;
     eprintln!(
         "wrote {} ({} points); `furnace report` plots it",
-        path.display(),
+        target.describe(),
         plot.rows.len()
     );
     Ok(())
@@ -108,6 +124,7 @@ fn reference_error(
 }
 
 pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
+    let csv_to_stdout = csv_to_stdout(&args.output);
     let mut plot = crate::report::inputs::BenchPlot::new(
         "tabulate",
         "Tabulation: wall time against quadrature error",
@@ -127,9 +144,12 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
         if args.quick { " --quick" } else { "" }
     )));
     plot.notes.push("Each point is one table at a fixed Gauss–Legendre order without refinement (\"default\": the default settings, with refinement to 1e-7).".into());
-    println!(
-        "{:<22} {:>12} {:>6} {:>9} {:>9} {:>13} {:>13}",
-        "model", "table", "order", "wall s", "µs/cell", "max |ΔE| ref", "max est."
+    table_line(
+        csv_to_stdout,
+        format!(
+            "{:<22} {:>12} {:>6} {:>9} {:>9} {:>13} {:>13}",
+            "model", "table", "order", "wall s", "µs/cell", "max |ΔE| ref", "max est."
+        ),
     );
     for name in &args.models {
         let model = bsdf::find(name)?;
@@ -184,16 +204,19 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
                     },
                 );
             }
-            println!(
-                "{:<22} {:>12} {:>6} {:>9.2} {:>9.2} {:>13} {:>13.2e}",
-                name,
-                spec.resolution_name(),
-                label,
-                wall,
-                wall * 1e6 / spec.cells() as f64,
-                err.map(|e| format!("{e:.2e}"))
-                    .unwrap_or_else(|| "-".into()),
-                t.summary.max_error_estimate
+            table_line(
+                csv_to_stdout,
+                format!(
+                    "{:<22} {:>12} {:>6} {:>9.2} {:>9.2} {:>13} {:>13.2e}",
+                    name,
+                    spec.resolution_name(),
+                    label,
+                    wall,
+                    wall * 1e6 / spec.cells() as f64,
+                    err.map(|e| format!("{e:.2e}"))
+                        .unwrap_or_else(|| "-".into()),
+                    t.summary.max_error_estimate
+                ),
             );
         }
     }

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use crate::emit::bench::{bench_eval, render, BenchOptions};
-use crate::emit::fitfile::FitFile;
 use crate::error::Result;
+use crate::fit::file as fitfile;
 
 #[derive(Args, Debug)]
 pub struct BenchEvalArgs {
@@ -32,7 +32,7 @@ pub struct BenchEvalArgs {
     #[arg(long)]
     pub keep: bool,
     /// Also write the rows as a benchmark CSV (ns per call against max error) for the report,
-    /// e.g. reports/bench/eval.csv.
+    /// e.g. reports/bench/eval.csv (`-`: standard output).
     #[arg(long)]
     pub output: Option<PathBuf>,
 }
@@ -41,7 +41,7 @@ pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
     let fits = args
         .fit
         .iter()
-        .map(|p| FitFile::read(p).map(|f| (p.clone(), f)))
+        .map(|p| fitfile::read(p).map(|f| (p.clone(), f)))
         .collect::<Result<Vec<_>>>()?;
     let opts = BenchOptions {
         data_dir: args.data_dir.clone(),
@@ -53,7 +53,10 @@ pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
         ..BenchOptions::default()
     };
     let rows = bench_eval(&fits, &opts, &|l| eprintln!("{l}"))?;
-    print!("{}", render(&rows));
+    super::bench::table_line(
+        super::bench::csv_to_stdout(&args.output),
+        render(&rows).trim_end().to_string(),
+    );
     if let Some(path) = &args.output {
         let mut plot = crate::report::inputs::BenchPlot::new(
             "eval",

@@ -1,6 +1,6 @@
 //! `furnace bench fit`: fit time against error, per form and degree, on `furnace run`'s tables.
 
-use super::bench::{machine_note, write_bench};
+use super::bench::{csv_to_stdout, machine_note, table_line, write_bench};
 use super::fit::SolverArg;
 use super::{get_table, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D};
 use crate::bsdf;
@@ -45,7 +45,8 @@ pub struct BenchFitArgs {
         default_value = "lm,trust-region"
     )]
     pub solvers: Vec<SolverArg>,
-    /// Also write the points as a benchmark CSV for the report, e.g. reports/bench/fit.csv.
+    /// Also write the points as a benchmark CSV for the report, e.g. reports/bench/fit.csv
+    /// (`-`: standard output).
     #[arg(long)]
     pub output: Option<PathBuf>,
 }
@@ -53,6 +54,7 @@ pub struct BenchFitArgs {
 /// Times least-squares fits in the identity variables at every degree of the paper's sweep, on
 /// the points a sweep fits (an even subset of large tables), and measures each on every node.
 pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
+    let csv_to_stdout = csv_to_stdout(&args.output);
     // MAE, not the max error: over the whole box every fit's max error sits at the
     // discontinuous corner r = μ = 0 (≈ 0.09 for the conductor at every degree)
     let mut plot = BenchPlot::new(
@@ -87,9 +89,12 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
         }
     )));
     plot.notes.push("Least squares in the identity variables, as the sweep's first transform set; fitted on at most 256² (2-D) or 32³ (3-D) even-subset nodes, measured on all. Rationals: one series per least-squares solver (lm: Levenberg–Marquardt, trust-region: argmin's dogleg trust region), each the whole multi-start strategy.".into());
-    println!(
-        "{:<24} {:>12} {:<11} {:<13} {:>6} {:>5} {:>10} {:>10} {:>10} {:>6}  stopped by",
-        "model", "table", "form", "solver", "degree", "n", "seconds", "MAE", "max", "steps"
+    table_line(
+        csv_to_stdout,
+        format!(
+            "{:<24} {:>12} {:<11} {:<13} {:>6} {:>5} {:>10} {:>10} {:>10} {:>6}  stopped by",
+            "model", "table", "form", "solver", "degree", "n", "seconds", "MAE", "max", "steps"
+        ),
     );
     for name in &args.models {
         let model = bsdf::find(name)?;
@@ -139,7 +144,7 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
                 let secs = start.elapsed().as_secs_f64();
                 let m = &rec.fit.metrics;
                 let solver = rec.fit.solver.as_ref();
-                println!(
+                table_line(csv_to_stdout, format!(
                     "{:<24} {:>12} {:<11} {:<13} {:>6} {:>5} {:>10.3} {:>10.2e} {:>10.2e} {:>6}  {}{}",
                     name,
                     spec.resolution_name(),
@@ -155,7 +160,7 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
                         .and_then(|s| s.termination)
                         .map_or("direct solve", |t| t.text()),
                     if rec.usable { "" } else { "  (not usable)" }
-                );
+                ));
                 if rec.usable && m.max_abs_error.is_finite() {
                     plot.push(
                         &series,

@@ -4,11 +4,13 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 
-use crate::emit::fitfile::FitFile;
-use crate::emit::generate::{EvalForm, FormChoice};
+use crate::emit::generate::{albedo_function_name, EvalForm, FormChoice};
 use crate::emit::stress::{stress, StressOptions, DEFAULT_POINTS};
-use crate::emit::{self, build_unit, parse_langs, Lang, SourceFit};
+use crate::emit::{self, build_unit, parse_langs, EmitOptions, Lang, SourceFit};
 use crate::error::{Error, Result};
+use crate::fit::file as fitfile;
+use crate::fit::job::FitRecord;
+use crate::output::Target;
 use crate::table::io;
 
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -36,7 +38,7 @@ impl FormArg {
 
 #[derive(Args, Debug)]
 pub struct EmitArgs {
-    /// Fit file(s) to emit (e.g. fits/ggx-conductor/rational-3.json); output goes next to each.
+    /// Fit file(s) to emit (e.g. fits/ggx-conductor/best-40.json); output goes next to each.
     #[arg(long, required = true)]
     pub fit: Vec<PathBuf>,
     /// Output formats: rust, wgsl, glsl, lut, all (or a comma-separated list).
@@ -45,6 +47,14 @@ pub struct EmitArgs {
     /// Evaluation form of the polynomials.
     #[arg(long, value_enum, default_value_t = FormArg::Auto)]
     pub form: FormArg,
+    /// Appended to every emitted function name (e.g. `_best20`), so several fits of one model
+    /// (different budgets) can be included in one shader.
+    #[arg(long, default_value = "")]
+    pub suffix: String,
+    /// Write the one emitted file here instead of next to the fit (`-`: standard output); needs
+    /// one fit and one of rust, wgsl, glsl.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
     /// Folder of the table cache (where fit files' tables are looked up and LUT tables cached).
     #[arg(long, default_value = "data")]
     pub data_dir: PathBuf,
@@ -75,18 +85,20 @@ pub struct StressArgs {
     pub form: FormArg,
 }
 
-/// The table a fit file refers to, if it is still in the cache.
-pub fn referenced_table(file: &FitFile) -> Result<Option<crate::table::Table>> {
-    let Some(t) = &file.table else {
+/// The table a fit file refers to, if it is still in the cache: at the stem the file records,
+/// or where the same table lives under `data_dir`.
+pub fn referenced_table(file: &FitRecord, data_dir: &Path) -> Result<Option<crate::table::Table>> {
+    let Some(t) = file.table.as_ref().filter(|t| t.is_current()) else {
         return Ok(None);
     };
-    if t.spec.content_hash() != t.content_hash {
-        return Err(Error::InvalidInput(format!(
-            "the fit file's table reference is inconsistent (hash {} does not match its spec); re-create the fit",
-            t.content_hash
-        )));
+    if let Some(table) = io::load_cached(&t.spec, &t.stem)? {
+        return Ok(Some(table));
     }
-    io::load_cached(&t.spec, &t.stem)
+    let Ok(model) = t.spec.model_id().and_then(crate::bsdf::get) else {
+        return Ok(None);
+    };
+    let stem = io::table_stem(data_dir, model.as_ref(), &t.spec);
+    io::load_cached(&t.spec, &stem)
 }
 
 /// `furnace emit`.
@@ -98,31 +110,49 @@ pub fn emit_cmd(args: &EmitArgs) -> Result<()> {
             args.lut_resolution
         )));
     }
+    emit::check_suffix(&args.suffix)?;
+    let target = args.output.as_deref().map(Target::from_arg);
+    if target.is_some() && (args.fit.len() != 1 || langs.len() != 1 || langs[0] == Lang::Lut) {
+        return Err(Error::InvalidInput(
+            "--output writes one file: give one --fit and one of --lang rust, wgsl or glsl".into(),
+        ));
+    }
+    // with the code on standard output, the notes go to standard error
+    let to_stdout = target.as_ref().is_some_and(Target::is_stdout);
+    let mut log = |line: &str| {
+        if to_stdout {
+            eprintln!("{line}")
+        } else {
+            println!("{line}")
+        }
+    };
     for path in &args.fit {
-        emit_one(path, &langs, args)?;
+        for w in emit_files(path, &langs, args, target.as_ref(), &mut log)? {
+            match &target {
+                Some(t) => log(&format!("wrote {}", t.describe())),
+                None => log(&format!("wrote {}", w.display())),
+            }
+        }
     }
     Ok(())
 }
 
-fn emit_one(path: &Path, langs: &[Lang], args: &EmitArgs) -> Result<()> {
-    for w in emit_files(path, langs, args, &mut |line| println!("{line}"))? {
-        println!("wrote {}", w.display());
-    }
-    Ok(())
-}
-
-/// Emits one fit file in `langs` (source next to it, LUTs under `args.lut_dir`); `log` gets the
-/// accuracy lines `furnace emit` prints. Returns the files written.
+/// Emits one fit file in `langs` (source next to it, or to `target`; LUTs under
+/// `args.lut_dir`); `log` gets the accuracy lines `furnace emit` prints. Returns the files
+/// written (`-` for standard output).
 pub fn emit_files(
     path: &Path,
     langs: &[Lang],
     args: &EmitArgs,
+    target: Option<&Target>,
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<PathBuf>> {
-    let file = FitFile::read(path)?;
-    let table = referenced_table(&file)?;
-    if file.table.is_some() && table.is_none() {
-        log(&format!("note: the table of {} is not in the cache; the header bounds the f32 error instead of measuring it", path.display()));
+    let file = fitfile::read(path)?;
+    let table = referenced_table(&file, &args.data_dir)?;
+    match &file.table {
+        Some(t) if !t.is_current() => log(&format!("note: the table of {} was computed by another version of the quadrature engine; the header states the fit's error on its data plus the f32 bound instead of measuring the code on the table", path.display())),
+        Some(_) if table.is_none() => log(&format!("note: the table of {} is not in the cache; the header states the fit's error on its data plus the f32 bound instead of measuring the code on the table", path.display())),
+        _ => {}
     }
     let src = SourceFit::new(path, file, table)?;
     let stem = path
@@ -130,35 +160,48 @@ pub fn emit_files(
         .map(|s| s.to_string_lossy().into_owned())
         .ok_or_else(|| Error::file(path, "a fit file needs a file name"))?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let command = format!("furnace emit --fit {} --lang {}", path.display(), args.lang);
-    let guard = emit::guard_macro(&format!("{} {stem}", src.file.model));
-    let (mut unit, emitted) = build_unit(
-        &stem,
-        &guard,
-        std::slice::from_ref(&src),
-        &command,
-        args.form.choice(),
-        None,
-    )?;
+    let mut command = format!("furnace emit --fit {} --lang {}", path.display(), args.lang);
+    if !args.suffix.is_empty() {
+        command.push_str(&format!(" --suffix {}", args.suffix));
+    }
+    let guard = emit::guard_macro(&format!("{} {stem}{}", src.subject(), args.suffix));
+    let opts = EmitOptions {
+        form: args.form.choice(),
+        suffix: args.suffix.clone(),
+        ..EmitOptions::default()
+    };
+    let (mut unit, emitted) =
+        build_unit(&stem, &guard, std::slice::from_ref(&src), &command, &opts)?;
     if langs.contains(&Lang::Lut) {
         unit.luts.push(emit::lut_for_fit(
             &src,
+            &unit,
+            &emitted[0].function,
             args.lut_resolution,
             &args.data_dir,
             args.force,
         )?);
     }
-    // every byte is produced before anything is written
+    // every byte is produced (and every shader validated) before anything is written
     let mut artifacts = Vec::new();
     for &lang in langs {
         artifacts.extend(emit::emitter(lang).produce(&unit)?);
     }
-    let written = emit::write_artifacts(&artifacts, &dir, &args.lut_dir)?;
+    let written = match target {
+        Some(t) => {
+            t.write(&artifacts[0].bytes)?;
+            vec![match t {
+                Target::Stdout => PathBuf::from("-"),
+                Target::File(p) => p.clone(),
+            }]
+        }
+        None => emit::write_artifacts(&artifacts, &dir, &args.lut_dir)?,
+    };
     for e in &emitted {
-        let acc = e.form.chosen();
+        let st = &e.stress;
         log(&format!(
-            "{}: {:?} form, {} coefficients; f32 − f64 max {:.1e} (IEEE) / {:.1e} (FMA) / {:.1e} (GPU model), bound {:.1e}",
-            e.function, e.form.form, e.n_coefficients, acc.max_diff_ieee, acc.max_diff_fused, acc.max_diff_gpu, acc.max_bound
+            "{}: {:?} form, {} coefficients; f32 − f64 at {} stress points max {:.1e} (IEEE) / {:.1e} (FMA) / {:.1e} (GPU model); bound {:.1e} over the whole domain",
+            e.function, e.form.form, e.n_coefficients, st.random_points + st.edge_points, st.max_diff_ieee, st.max_diff_fused, st.max_diff_gpu, e.bound.max_error
         ));
         if let Some(t) = &e.table {
             log(&format!(
@@ -191,13 +234,16 @@ pub fn emit_files(
 
 /// `furnace stress`: exit status 1 if the test fails.
 pub fn stress_cmd(args: &StressArgs) -> Result<()> {
-    let file = FitFile::read(&args.fit)?;
+    let file = fitfile::read(&args.fit)?;
+    let name = albedo_function_name(&fitfile::subject_name(&file), &file.source.channel);
     let report = stress(
-        &file,
+        &file.fit,
+        &name,
         &StressOptions {
             random_points: args.points,
             seed: args.seed,
             form: args.form.choice(),
+            diagnostics: true,
         },
     )?;
     print!("{}", report.render());

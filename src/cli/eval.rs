@@ -1,12 +1,14 @@
 //! `furnace eval --model`: E at arbitrary points by direct quadrature; `furnace eval --fit`: E
-//! from a fit file's coefficients.
+//! from a fit file's coefficients, as the emitted code computes it.
 
 use super::EvalArgs;
 use crate::bsdf::albedo;
+use crate::emit::generate::clamped;
 use crate::error::{Error, Result};
-use crate::fit::job::FitRecord;
+use crate::fit::file as fitfile;
+use crate::output::Target;
 use crate::quadrature::RuleCache;
-use crate::table::{io::write_atomic, points::read_points};
+use crate::table::points::read_points;
 use rayon::prelude::*;
 use std::path::Path;
 
@@ -20,38 +22,68 @@ pub fn eval_cmd(args: &EvalArgs) -> Result<()> {
     }
 }
 
-/// E = P/Q (or P) of a fit file at the points of `--input`, which must lie in the fit's domain.
+/// A fit file's value at the points of `--input`: the fit is read and checked, and its
+/// denominator proved pole-free, exactly as `furnace emit` does (refused otherwise); the value
+/// is the emitted code's function in f64 (inputs clamped to the domain, output to [0, 1]), or
+/// with `--raw` the approximant itself at points inside the domain.
 fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
-    let text = std::fs::read_to_string(fit_path).map_err(|e| Error::io(fit_path, e))?;
-    let rec = FitRecord::from_json(&text).map_err(|m| Error::file(fit_path, m))?;
+    let checked = fitfile::load(fit_path)?;
+    let rec = &checked.record;
     let a = &rec.fit.approximant;
-    let points = read_points(&args.input, &a.variables, &a.domain)?;
-    if !rec.usable {
-        eprintln!("warning: {}: {}", fit_path.display(), rec.verdict);
-    }
+    let ranges: Vec<(f64, f64)> = if args.raw {
+        a.domain.clone()
+    } else {
+        vec![(f64::NEG_INFINITY, f64::INFINITY); a.domain.len()]
+    };
+    let points = read_points(&args.input, &a.variables, &ranges)?;
     let mut out = points.header.join(",");
-    out.push_str(",E\n");
+    out.push_str(&format!(",{}\n", rec.source.channel));
+    let mut outside = 0;
     for (k, (raw, x)) in points.raw.iter().zip(&points.coords).enumerate() {
-        let e = a.eval(x);
+        outside += usize::from(
+            x.iter()
+                .zip(&a.domain)
+                .any(|(v, (lo, hi))| v < lo || v > hi),
+        );
+        let e = if args.raw {
+            a.eval(x)
+        } else {
+            clamped(&rec.fit, x).0
+        };
         if !e.is_finite() {
             return Err(Error::file(
                 &args.input,
-                format!(
-                    "data row {}: the fit is not finite at {x:?} (a pole of its denominator); {}",
-                    k + 1,
-                    rec.verdict
-                ),
+                format!("data row {}: the fit is not finite at {x:?}", k + 1),
             ));
         }
         out.push_str(&raw.join(","));
         out.push_str(&format!(",{e}\n"));
     }
-    write_atomic(&args.output, out.as_bytes())?;
+    let target = Target::from_arg(&args.output);
+    target.write(out.as_bytes())?;
     eprintln!(
-        "{} points of {} evaluated to {}",
+        "{} points of {} evaluated to {} ({}){}",
         points.coords.len(),
         fit_path.display(),
-        args.output.display()
+        target.describe(),
+        if args.raw {
+            "the raw approximant"
+        } else {
+            "inputs clamped to the fit's domain and output to [0, 1], as the emitted code"
+        },
+        if outside > 0 {
+            format!(
+                "; {outside} points lie outside the domain {} and were clamped into it",
+                a.variables
+                    .iter()
+                    .zip(&a.domain)
+                    .map(|(v, (lo, hi))| format!("{v} in [{lo}, {hi}]"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        } else {
+            String::new()
+        }
     );
     Ok(())
 }
@@ -93,12 +125,13 @@ fn eval_model(args: &EvalArgs, name: &str) -> Result<()> {
         out.push_str(&format!(",{:.3e}\n", e.error));
         unconverged += usize::from(!e.converged);
     }
-    write_atomic(&args.output, out.as_bytes())?;
+    let target = Target::from_arg(&args.output);
+    target.write(out.as_bytes())?;
     eprintln!(
         "{} points of {} evaluated to {}{}",
         estimates.len(),
         model.id().name(),
-        args.output.display(),
+        target.describe(),
         if unconverged > 0 {
             format!(
                 "; warning: {unconverged} points did not reach the tolerance (see the err column)"

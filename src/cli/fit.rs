@@ -13,8 +13,9 @@ use crate::fit::job::{
 };
 use crate::fit::source::{self, FitInput, FittedOn, UserTableOptions};
 use crate::fit::{LsqMethod, Objective, RationalOptions};
+use crate::output;
+use crate::output::Target;
 use crate::quadrature::QuadratureSettings;
-use crate::table::io::write_atomic;
 use crate::table::TableSpec;
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -106,13 +107,15 @@ pub struct FitArgs {
     /// becomes that box. Files go to <fits-dir>/<name>.<var><lo>-<hi>…/.
     #[arg(long)]
     pub domain: Option<String>,
-    /// Folder for tables.
-    #[arg(long, default_value = "data")]
-    pub data_dir: PathBuf,
+    /// Folder for tables (default `data`), and for the timings of fits under `<data-dir>/timing/`
+    /// (with --table, timings are written only when --data-dir is given).
+    #[arg(long)]
+    pub data_dir: Option<PathBuf>,
     /// Folder for fits: files go to <fits-dir>/<model or table name>/.
     #[arg(long, default_value = "fits")]
     pub fits_dir: PathBuf,
-    /// Write a single fit here instead of <fits-dir>/<model>/<form>-<degree>.json.
+    /// Write a single fit here instead of <fits-dir>/<model>/<form>-<degree>.json (`-`:
+    /// standard output, the summary then goes to standard error).
     #[arg(long, conflicts_with = "sweep")]
     pub output: Option<PathBuf>,
     /// Print the N table points with the largest error of the fit (of each best-<budget> fit
@@ -124,6 +127,25 @@ pub struct FitArgs {
     pub force: bool,
     #[command(flatten)]
     pub quadrature: QuadratureArgs,
+}
+
+impl FitArgs {
+    /// The table folder: `--data-dir`, or `data`.
+    fn data_dir(&self) -> PathBuf {
+        self.data_dir
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("data"))
+    }
+
+    /// Where timings go: `<data-dir>/timing/<name>`, unless a user's table is fitted without
+    /// an explicit --data-dir (its fit then writes nothing into the current folder's `data/`).
+    fn timing_dir(&self, name: &str) -> Option<PathBuf> {
+        if self.table.is_some() && self.data_dir.is_none() {
+            None
+        } else {
+            Some(self.data_dir().join("timing").join(name))
+        }
+    }
 }
 
 impl ObjectiveArg {
@@ -174,7 +196,7 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
     let model = args.quadrature.model(name)?;
     let resolution = parse_resolution(args.resolution.as_deref(), model.axes().len())?;
     let spec = TableSpec::new(model.as_ref(), &resolution, args.quadrature.settings()?)?;
-    let t = get_table(model.as_ref(), &spec, &args.data_dir, args.force)?;
+    let t = get_table(model.as_ref(), &spec, &args.data_dir(), args.force)?;
     eprintln!(
         "{} {}: table {} in {:.1} s ({})",
         t.table.spec.model,
@@ -218,7 +240,7 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         None => None,
     };
     let dir = args.fits_dir.join(&name);
-    let timing_dir = args.data_dir.join("timing").join(&name);
+    let timing_dir = args.timing_dir(&name);
     if args.sweep {
         let mut plan = SweepPlan::paper(
             &input.data,
@@ -240,11 +262,11 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         }
         let clock = Stopwatch::start();
         let outcome = job::sweep_fits(&input, &plan, &mut |line| eprintln!("  {line}"))?;
-        write_sweep(&outcome, &dir, &timing_dir, &clock)?;
+        write_sweep(&outcome, &dir, timing_dir.as_deref(), &clock)?;
         for b in &outcome.best {
             if let Some(rec) = outcome.best_record(b.budget).filter(|_| args.worst > 0) {
                 println!("worst points of best-{}.json:", b.budget);
-                print_worst(rec, &input, args.worst);
+                print!("{}", worst_text(rec, &input, args.worst));
             }
         }
         return Ok(());
@@ -284,39 +306,54 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
             format!("{stem}-trust-region.json")
         }
     };
-    let path = args.output.clone().unwrap_or_else(|| dir.join(&name));
+    let target = match &args.output {
+        Some(p) => Target::from_arg(p),
+        None => Target::File(dir.join(&name)),
+    };
     let time = FitTime {
-        name,
+        name: name.clone(),
         n_coefficients: rec.fit.n_coefficients,
         seconds: clock.wall_seconds(),
     };
     let timing = Timing::new(
-        &path.display().to_string(),
+        &target.describe(),
         &input.source,
         &rec.fitted_on,
         &clock,
         vec![time],
     );
-    write_atomic(&path, rec.to_json()?.as_bytes())?;
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "fit".into());
-    let timing_path = timing_dir.join(format!("{stem}-timing.json"));
-    write_atomic(&timing_path, timing.to_json()?.as_bytes())?;
-    print_record(&rec, &path, Some(&timing));
-    eprintln!("timing: {}", timing_path.display());
+    target.write(rec.to_json()?.as_bytes())?;
+    let stem = match &target {
+        Target::File(p) => p.file_stem().map(|s| s.to_string_lossy().into_owned()),
+        Target::Stdout => None,
+    }
+    .unwrap_or_else(|| name.trim_end_matches(".json").to_string());
+    let mut text = record_text(&rec, &target.describe(), Some(&timing));
+    if let Some(dir) = &timing_dir {
+        let timing_path = dir.join(format!("{stem}-timing.json"));
+        output::write(&timing_path, timing.to_json()?.as_bytes())?;
+        text.push_str(&format!("timing: {}\n", timing_path.display()));
+    }
     if args.worst > 0 {
-        print_worst(&rec, &input, args.worst);
+        text.push_str(&worst_text(&rec, &input, args.worst));
+    }
+    // the summary goes where the fit does not
+    if target.is_stdout() {
+        eprint!("{text}");
+    } else {
+        print!("{text}");
+    }
+    for w in &rec.warnings {
+        eprintln!("warning: {w}");
     }
     Ok(())
 }
 
-/// The `n` points of `input` where `rec` errs most.
-fn print_worst(rec: &FitRecord, input: &FitInput, n: usize) {
+/// The `n` points of `input` where `rec` errs most, as a table.
+fn worst_text(rec: &FitRecord, input: &FitInput, n: usize) -> String {
     let names = input.data.names.join(", ");
-    println!(
-        "    {:>4}  {:<40} {:>12} {:>12} {:>10}",
+    let mut s = format!(
+        "    {:>4}  {:<40} {:>12} {:>12} {:>10}\n",
         "rank",
         format!("({names})"),
         "table",
@@ -332,15 +369,16 @@ fn print_worst(rec: &FitRecord, input: &FitInput, n: usize) {
                 .map(|x| format!("{x:.6}"))
                 .collect::<Vec<_>>()
                 .join(", ");
-        println!(
-            "    {:>4}  {:<40} {:>12.8} {:>12.8} {:>10.3e}",
+        s.push_str(&format!(
+            "    {:>4}  {:<40} {:>12.8} {:>12.8} {:>10.3e}\n",
             i + 1,
             format!("({at})"),
             p.value,
             p.fit,
             p.abs_error
-        );
+        ));
     }
+    s
 }
 
 /// `12.3 s wall, 20.1 s CPU, 2 threads, load 1.52`: a timing for the terminal.
@@ -356,11 +394,11 @@ fn timing_text(t: &Timing) -> String {
     )
 }
 
-fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
+/// A fit's summary lines: file, form, metrics and verdict.
+fn record_text(rec: &FitRecord, path: &str, timing: Option<&Timing>) -> String {
     let m = &rec.fit.metrics;
-    println!(
-        "{}: {} [{}], {} coefficients{}; on {} points: MAE {:.3e}, RMSE {:.3e}, max {:.3e} at {:?}, max relative {:.3e}",
-        path.display(),
+    format!(
+        "{path}: {} [{}], {} coefficients{}; on {} points: MAE {:.3e}, RMSE {:.3e}, max {:.3e} at {:?}, max relative {:.3e}\n    {}\n",
         rec.fit.form.label(),
         rec.fit.approximant.transforms.iter().map(|t| t.label(&rec.fit.approximant.variables)).collect::<Vec<_>>().join(", "),
         rec.fit.n_coefficients,
@@ -370,25 +408,28 @@ fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
         m.rmse,
         m.max_abs_error,
         m.max_abs_error_at,
-        m.max_rel_error
-    );
-    println!("    {}", rec.verdict);
+        m.max_rel_error,
+        rec.verdict
+    )
+}
+
+fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
+    print!("{}", record_text(rec, &path.display().to_string(), timing));
     for w in &rec.warnings {
         eprintln!("warning: {w}");
     }
 }
 
-/// Writes sweep.{json,csv} and best-<budget>.json under `dir`, the timings (measured by `clock`)
-/// to `timing_dir/sweep-timing.json`, and prints the summary.
 /// Writes `sweep.json`, `sweep.csv` and `best-<budget>.json` (removing a stale best file when a
 /// budget has no usable fit), as `furnace fit --sweep` does, without printing; returns the paths
 /// and the times.
 /// The wall and CPU times go to `<timing>/sweep-timing.json` (git-ignored, under `data/`), the
-/// sidecar `furnace fit` writes, so that the files under `fits/` are the same for the same inputs.
+/// sidecar `furnace fit` writes, so that the files under `fits/` are the same for the same inputs;
+/// without a timing folder they are only returned.
 pub(super) fn write_sweep_files(
     outcome: &SweepOutcome,
     dir: &Path,
-    timing: &Path,
+    timing: Option<&Path>,
     clock: &Stopwatch,
 ) -> Result<(Vec<PathBuf>, Timing)> {
     let mut written = Vec::new();
@@ -400,16 +441,16 @@ pub(super) fn write_sweep_files(
         clock,
         outcome.fit_times(),
     );
-    write_atomic(&sweep_json, outcome.to_json()?.as_bytes())?;
+    output::write(&sweep_json, outcome.to_json()?.as_bytes())?;
     written.push(sweep_json);
     let sweep_csv = dir.join("sweep.csv");
-    write_atomic(&sweep_csv, outcome.to_csv().as_bytes())?;
+    output::write(&sweep_csv, outcome.to_csv().as_bytes())?;
     written.push(sweep_csv);
     for b in &outcome.best {
         let path = dir.join(format!("best-{}.json", b.budget));
         match outcome.best_record(b.budget) {
             Some(rec) => {
-                write_atomic(&path, rec.to_json()?.as_bytes())?;
+                output::write(&path, rec.to_json()?.as_bytes())?;
                 written.push(path);
             }
             None if path.exists() => {
@@ -418,10 +459,12 @@ pub(super) fn write_sweep_files(
             None => {}
         }
     }
-    write_atomic(
-        &timing.join("sweep-timing.json"),
-        times.to_json()?.as_bytes(),
-    )?;
+    if let Some(timing) = timing {
+        output::write(
+            &timing.join("sweep-timing.json"),
+            times.to_json()?.as_bytes(),
+        )?;
+    }
     Ok((written, times))
 }
 
@@ -429,11 +472,13 @@ pub(super) fn write_sweep_files(
 fn write_sweep(
     outcome: &SweepOutcome,
     dir: &Path,
-    timing_dir: &Path,
+    timing_dir: Option<&Path>,
     clock: &Stopwatch,
 ) -> Result<()> {
     let (_, timing) = write_sweep_files(outcome, dir, timing_dir, clock)?;
-    let timing_path = timing_dir.join("sweep-timing.json");
+    let timing_note = timing_dir.map_or(String::new(), |d| {
+        format!(", timings to {}", d.join("sweep-timing.json").display())
+    });
     println!("MAE and max: on {}", outcome.metrics_on);
     if let Some(b) = &outcome.paper_box {
         println!("box MAE, box max: on {}", b.metrics_on);
@@ -514,12 +559,11 @@ fn write_sweep(
         eprintln!("warning: {not_usable} fits are not usable (pole or uncertified); they are listed with usable = false and never chosen as best");
     }
     println!(
-        "sweep of {} fits in {} ({}); wrote {}/sweep.{{json,csv}}, timings to {}",
+        "sweep of {} fits in {} ({}); wrote {}/sweep.{{json,csv}}{timing_note}",
         outcome.rows.len(),
         timing_text(&timing),
         outcome.fitted_on.selection,
         dir.display(),
-        timing_path.display()
     );
     Ok(())
 }
@@ -584,7 +628,7 @@ fn best_40(
     let plan = SweepPlan::paper(&input.data, None, None, Objective::LeastSquares);
     let clock = Stopwatch::start();
     let outcome = job::sweep_fits(input, &plan, &mut |line| eprintln!("    {line}"))?;
-    write_sweep(&outcome, dir, timing_dir, &clock)?;
+    write_sweep(&outcome, dir, Some(timing_dir), &clock)?;
     Ok(outcome.best_record(40).cloned())
 }
 
@@ -645,7 +689,7 @@ fn compare_one(
         let path = args
             .reports_dir
             .join(format!("paper-{}.json", pair.paper_name));
-        write_atomic(&path, rec.to_json()?.as_bytes())?;
+        output::write(&path, rec.to_json()?.as_bytes())?;
     }
     Ok(entry)
 }
@@ -661,8 +705,8 @@ pub fn compare_paper_cmd(args: &ComparePaperArgs) -> Result<()> {
         .collect::<Result<Vec<_>>>()?;
     let report = CompareReport::new(entries);
     let md = report.to_markdown();
-    write_atomic(&args.reports_dir.join("compare-paper.md"), md.as_bytes())?;
-    write_atomic(
+    output::write(&args.reports_dir.join("compare-paper.md"), md.as_bytes())?;
+    output::write(
         &args.reports_dir.join("compare-paper.json"),
         report.to_json()?.as_bytes(),
     )?;

@@ -37,6 +37,29 @@ pub struct Cli {
     pub command: Command,
 }
 
+impl Cli {
+    /// Parses the process's arguments (exiting with clap's message on a usage error), with
+    /// negative numbers taken as option values: `--tolerance -1` reaches the check that says
+    /// what the tolerance must be, instead of clap's "unexpected argument".
+    pub fn parse_args() -> Cli {
+        use clap::{CommandFactory, FromArgMatches};
+        let matches = negative_values(Cli::command()).get_matches();
+        Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+    }
+}
+
+/// Every option that takes a value accepts a negative number as one, in every subcommand.
+fn negative_values(cmd: clap::Command) -> clap::Command {
+    cmd.mut_args(|a| {
+        if a.get_action().takes_values() {
+            a.allow_negative_numbers(true)
+        } else {
+            a
+        }
+    })
+    .mut_subcommands(negative_values)
+}
+
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// List the built-in models with their axes, ranges and a line on what they are.
@@ -145,13 +168,20 @@ pub struct EvalArgs {
     /// Model name (see `furnace models`): E by direct quadrature.
     #[arg(long, required_unless_present = "fit", conflicts_with = "fit")]
     pub model: Option<String>,
-    /// A fit file written by `furnace fit`: E from its coefficients.
+    /// A fit file (written by `furnace fit`, `run` or `run --scene`): E as the emitted code
+    /// computes it — inputs clamped to the fit's domain, output to [0, 1] — in f64, after
+    /// proving the fit pole-free as `emit` does.
     #[arg(long)]
     pub fit: Option<PathBuf>,
+    /// With --fit: the raw f64 approximant P/Q, without the clamps (points must lie in the
+    /// fit's domain).
+    #[arg(long, requires = "fit")]
+    pub raw: bool,
     /// CSV whose header names the model's axes or the fit's variables (any order), one point per row.
     #[arg(long)]
     pub input: PathBuf,
-    /// CSV to write: the input columns, then E (and E_R, E_T) and the error estimate (a fit: E only).
+    /// CSV to write (`-`: standard output): the input columns, then E (and E_R, E_T) and the
+    /// error estimate (a fit: its output only).
     #[arg(long)]
     pub output: PathBuf,
     #[command(flatten)]

@@ -25,9 +25,9 @@ use crate::error::{Error, Result};
 use crate::fit::job::{self, FitRecord, Stopwatch, SweepPlan};
 use crate::fit::{source, Objective};
 use crate::math::SmithForm;
+use crate::output;
 use crate::quadrature::QuadratureSettings;
 use crate::report::model::{fmt_e, ModelSummary, ReportOptions, Reporter, REPORT_MODELS};
-use crate::table::io::write_atomic;
 use crate::table::{Table, TableSpec};
 use clap::Args;
 use serde::{Deserialize, Serialize};
@@ -375,13 +375,15 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
                 fit: vec![fit.clone()],
                 lang: lang.into(),
                 form: EmitFormArg::Auto,
+                suffix: String::new(),
+                output: None,
                 data_dir: args.data_dir.clone(),
                 lut_dir: args.data_dir.join("lut"),
                 lut_resolution: RUN_LUT_RESOLUTION,
                 force: false,
             };
             let langs = parse_langs(lang)?;
-            match emit_files(fit, &langs, &emit_args, &mut |_| {}) {
+            match emit_files(fit, &langs, &emit_args, None, &mut |_| {}) {
                 Ok(written) => row.emitted.extend(written),
                 // a file that cannot be written stops the run; a fit that cannot be emitted
                 // (e.g. not proved pole-free) is reported and skipped
@@ -673,7 +675,7 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
     let (files, _) = super::fit::write_sweep_files(
         &outcome,
         &dir,
-        &args.data_dir.join("timing").join(&job.name),
+        Some(&args.data_dir.join("timing").join(&job.name)),
         &clock,
     )?;
     inputs.files = files
@@ -693,7 +695,7 @@ fn sweep_or_reuse(job: &Job, t: &Tabulated, args: &RunArgs) -> Result<FitStep> {
         .map_err(|e| Error::file(dir.join(SWEEP_INPUTS), e.to_string()))?;
     // written last: it commits the sweep's files
     let key = dir.join(SWEEP_INPUTS);
-    write_atomic(&key, format!("{json}\n").as_bytes())?;
+    output::write(&key, format!("{json}\n").as_bytes())?;
     let mut files = files;
     files.push(key);
     let unusable = outcome.rows.iter().filter(|r| !r.usable).count();

@@ -28,14 +28,17 @@ pub struct SceneArgs {
     /// Nodes per axis of LUTs.
     #[arg(long, default_value_t = 32)]
     pub lut_resolution: usize,
-    /// Random points of the f32 stress test each fit must pass before anything is emitted.
-    #[arg(long, default_value_t = 100_000)]
+    /// Random points (at least 10⁶, besides the edges) of the f32 stress test each fit must pass
+    /// before anything is emitted; a fit that fails it is refitted with a larger denominator
+    /// margin.
+    #[arg(long, default_value_t = crate::emit::stress::DEFAULT_POINTS)]
     pub stress_points: usize,
 }
 
 /// Runs the scene of `args.scene` (which must be set).
 pub fn run_scene(args: &SceneArgs, data_dir: &std::path::Path, force: bool) -> Result<()> {
     let path = args.scene.as_ref().expect("called with --scene");
+    crate::emit::check_stress_points(args.stress_points)?;
     let manifest = Manifest::read(path)?;
     let opts = RunOptions {
         data_dir: data_dir.to_path_buf(),

@@ -14,17 +14,38 @@
 //! (its Table 1, one CPU core) is the point of comparison.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use super::fitfile::FitFile;
 use super::generate::{albedo_function_name, choose_form, domain_f32, EvalForm, FormChoice};
 use super::ir::{Arith, Compiled, Program};
 use super::lut::{tabulate_cached, Lut};
-use super::{build_unit, lut_spec, rust::Rust, Emitter, SourceFit};
+use super::{lut_spec, rust::Rust, Emitter, SourceFit, Unit};
 use crate::error::{Error, Result};
 use crate::fit::data::SplitMix64;
+use crate::fit::job::FitRecord;
 use crate::table::Table;
+
+/// The timing crate's folder, removed when this is dropped — on success and on every error
+/// alike — unless it is to be kept.
+struct WorkDir {
+    path: PathBuf,
+    keep: bool,
+}
+
+impl Drop for WorkDir {
+    fn drop(&mut self) {
+        if !self.keep {
+            let _ = std::fs::remove_dir_all(&self.path);
+        }
+    }
+}
+
+impl WorkDir {
+    fn path(&self) -> &Path {
+        &self.path
+    }
+}
 
 /// Settings of the benchmark.
 #[derive(Clone, Debug)]
@@ -201,7 +222,7 @@ pub fn best<F: FnMut() -> f64>(passes: usize, mut f: F) -> (f64, f64) {
 
 /// Runs the benchmark for the given fit files.
 pub fn bench_eval(
-    fits: &[(PathBuf, FitFile)],
+    fits: &[(PathBuf, FitRecord)],
     opts: &BenchOptions,
     log: &dyn Fn(&str),
 ) -> Result<Vec<BenchRow>> {
@@ -215,7 +236,11 @@ pub fn bench_eval(
             "--points and --passes must be positive".into(),
         ));
     }
-    let work = std::env::temp_dir().join(format!("furnace-bench-eval-{}", std::process::id()));
+    let work = WorkDir {
+        path: std::env::temp_dir().join(format!("furnace-bench-eval-{}", std::process::id())),
+        keep: opts.keep,
+    };
+    let work = work.path();
     let src_dir = work.join("src");
     std::fs::create_dir_all(&src_dir).map_err(|e| Error::io(&src_dir, e))?;
     let mut jobs = Vec::new();
@@ -235,9 +260,11 @@ pub fn bench_eval(
             opts.reference_3d
         };
         let (model, ref_spec) = lut_spec(file, n_ref)?;
+        let src = SourceFit::new(path, file.clone(), None)?;
+        let subject = src.subject();
+        let output = src.output().to_string();
         log(&format!(
-            "{}: reference table {} …",
-            file.model,
+            "{subject}: reference table {} …",
             ref_spec.resolution_name()
         ));
         let (reference, _, _) = tabulate_cached(model.as_ref(), &ref_spec, &opts.data_dir, false)?;
@@ -246,10 +273,16 @@ pub fn bench_eval(
             reference.spec.model,
             reference.spec.resolution_name()
         );
-        // the fit, exactly as emitted
-        let src = SourceFit::new(path, file.clone(), None)?;
-        let name = albedo_function_name(&file.model, &file.output);
-        let (_, report) = choose_form(&name, &[], &file.fit, FormChoice::Auto)?;
+        // the fit, exactly as emitted (the form that passes the stress test)
+        let name = albedo_function_name(&subject, &output);
+        let (_, emitted) = super::build_unit(
+            "bench",
+            "FURNACE_BENCH",
+            std::slice::from_ref(&src),
+            "furnace bench eval",
+            &super::EmitOptions::default(),
+        )?;
+        let report = &emitted[0].form;
         let points_file = point_sets.len();
         point_sets.push(random_points(
             &domain_f32(&file.fit),
@@ -261,14 +294,14 @@ pub fn bench_eval(
         forms.extend(EvalForm::ALL.iter().copied().filter(|&f| f != report.form));
         for form in forms {
             let module = format!("fit_{i}_{}", form.name());
-            let (unit, _) = build_unit(
-                &module,
-                "FURNACE_BENCH",
-                std::slice::from_ref(&src),
-                "furnace bench eval",
-                FormChoice::Force(form),
-                None,
-            )?;
+            let (function, _) = choose_form(&name, &[], &file.fit, FormChoice::Force(form))?;
+            let unit = Unit {
+                stem: module.clone(),
+                program: Program {
+                    functions: vec![function.clone()],
+                },
+                ..Unit::default()
+            };
             let code = Rust.produce(&unit)?;
             std::fs::write(src_dir.join(&code[0].file_name), &code[0].bytes)
                 .map_err(|e| Error::io(&src_dir, e))?;
@@ -277,7 +310,6 @@ pub fn bench_eval(
                 "#[allow(dead_code)] mod {module} {{ include!(\"{module}.rs\"); }}"
             )
             .ok();
-            let (function, _) = choose_form(&name, &[], &file.fit, FormChoice::Force(form))?;
             let compiled = Compiled::new(
                 &Program {
                     functions: vec![function],
@@ -286,7 +318,7 @@ pub fn bench_eval(
             )
             .map_err(|e| Error::InvalidInput(e.to_string()))?;
             let mut regs = Vec::new();
-            let (max_e, mean_e) = errors_at_nodes(&reference, &file.output, |x| {
+            let (max_e, mean_e) = errors_at_nodes(&reference, &output, |x| {
                 compiled.eval_f32(x, Arith::Ieee, &mut regs)
             })?;
             let f32_diff = report
@@ -300,7 +332,7 @@ pub fn bench_eval(
                 format!("not emitted; f32 Δ {f32_diff:.1e}")
             };
             jobs.push(Job {
-                model: file.model.clone(),
+                model: subject.clone(),
                 what: format!(
                     "fit {} {}, {} form ({status})",
                     file.fit
@@ -330,13 +362,13 @@ pub fn bench_eval(
         };
         for &n in sizes {
             let (model, spec) = lut_spec(file, n)?;
-            log(&format!("{}: LUT {} …", file.model, spec.resolution_name()));
+            log(&format!("{subject}: LUT {} …", spec.resolution_name()));
             let (table, _, _) = tabulate_cached(model.as_ref(), &spec, &opts.data_dir, false)?;
-            let lut = Lut::from_table(&table, &file.output, spec.resolution_name())?;
+            let lut = Lut::from_table(&table, &output, spec.resolution_name())?;
             let sampler = lut.sampler_f32();
-            let (max_e, mean_e) = errors_at_nodes(&reference, &file.output, |x| sampler.sample(x))?;
+            let (max_e, mean_e) = errors_at_nodes(&reference, &output, |x| sampler.sample(x))?;
             jobs.push(Job {
-                model: file.model.clone(),
+                model: subject.clone(),
                 what: format!(
                     "{} LUT {}, f32",
                     if d == 2 { "bilinear" } else { "trilinear" },
@@ -424,7 +456,7 @@ pub fn bench_eval(
     main.push_str("}\n");
     std::fs::write(src_dir.join("main.rs"), main).map_err(|e| Error::io(&src_dir, e))?;
     let manifest = "[package]\nname = \"furnace-bench-eval\"\nversion = \"0.0.0\"\nedition = \"2021\"\npublish = false\n\n[workspace]\n\n[profile.release]\nopt-level = 3\ncodegen-units = 1\ndebug = false\n";
-    std::fs::write(work.join("Cargo.toml"), manifest).map_err(|e| Error::io(&work, e))?;
+    std::fs::write(work.join("Cargo.toml"), manifest).map_err(|e| Error::io(work, e))?;
     log(&format!(
         "building the timing crate in {} …",
         work.display()
@@ -446,7 +478,7 @@ pub fn bench_eval(
     }
     let exe = work.join("target/release/furnace-bench-eval");
     let out = Command::new(&exe)
-        .arg(&work)
+        .arg(work)
         .output()
         .map_err(|e| Error::io(&exe, e))?;
     if !out.status.success() {
@@ -501,8 +533,6 @@ pub fn bench_eval(
     }
     if opts.keep {
         log(&format!("timing crate kept in {}", work.display()));
-    } else {
-        let _ = std::fs::remove_dir_all(&work);
     }
     Ok(rows)
 }

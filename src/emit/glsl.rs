@@ -1,6 +1,9 @@
-//! GLSL (4.50 core, and any version with `float` functions): `float name(float x, …)` inside an
+//! GLSL (4.50 core and GLSL ES 3.00 alike): `highp float name(highp float x, …)` inside an
 //! include guard, to `#include` or paste after the `#version` line. The file has no `#version`
-//! and no `main`, so it can be included as it is.
+//! and no `main`, so it can be included as it is. Every declaration is `highp`: an ES fragment
+//! shader has no default float precision, and under `mediump` (fp16) the 2⁻¹⁰⁰ literal of the
+//! grazing-layer transform underflows and the conductor gives 0/0 at r = μ = 0. RGB values are
+//! `vec3`. The text is validated by naga before it is returned ([`super::validate`]).
 
 use super::ir::{float_literal, Function};
 use super::source::{render, Operand, Syntax};
@@ -32,8 +35,17 @@ impl Syntax for Glsl {
             otherwise.wrapped()
         )
     }
+    fn component(&self, vector: &str, i: u8) -> String {
+        format!("{vector}.{}", ["x", "y", "z"][i as usize])
+    }
+    fn vec3(&self, x: String, y: String, z: String) -> String {
+        format!("vec3({x}, {y}, {z})")
+    }
     fn prologue(&self, unit: &Unit) -> Vec<String> {
         vec![
+            "// GLSL 4.50 or GLSL ES 3.00 (every declaration highp). Include after #version (glslangValidator".into(),
+            "// needs #extension GL_GOOGLE_include_directive : require for #include) or paste.".into(),
+            String::new(),
             format!("#ifndef {}", unit.guard),
             format!("#define {}", unit.guard),
             String::new(),
@@ -48,17 +60,22 @@ impl Syntax for Glsl {
             .iter()
             .map(|l| format!("// {l}").trim_end().to_string())
             .collect();
+        let ty = |vector: bool| if vector { "highp vec3" } else { "highp float" };
         let params = f
             .params
             .iter()
-            .map(|p| format!("float {p}"))
+            .map(|p| format!("{} {p}", ty(f.is_vector_param(p))))
             .collect::<Vec<_>>()
             .join(", ");
-        v.push(format!("float {}({params}) {{", f.name));
+        v.push(format!(
+            "{} {}({params}) {{",
+            ty(f.returns_vector()),
+            f.name
+        ));
         v
     }
     fn let_stmt(&self, name: &str, value: &str) -> String {
-        format!("float {name} = {value};")
+        format!("highp float {name} = {value};")
     }
     fn result(&self, value: &str) -> String {
         format!("return {value};")
@@ -70,9 +87,8 @@ impl Emitter for Glsl {
         "glsl"
     }
     fn produce(&self, unit: &Unit) -> crate::Result<Vec<Artifact>> {
-        Ok(vec![Artifact::code(
-            format!("{}.glsl", unit.stem),
-            render(unit, self),
-        )])
+        let text = render(unit, self)?;
+        super::validate::glsl(&text)?;
+        Ok(vec![Artifact::code(format!("{}.glsl", unit.stem), text)])
     }
 }

@@ -3,7 +3,8 @@
 //! tiny function that calls an emitted albedo, so a renderer gets the factor it multiplies by:
 //!
 //! * conductor: Turquin's scale 1 + F0·(1 − E)/E (paper eq. 13, after Turquin 2019): the single-
-//!   scattering BRDF times it is ρ_ss + ρ_ms; and 1/E, the normalisation of a thin dielectric
+//!   scattering BRDF times it is ρ_ss + ρ_ms — per channel, and for an RGB F0 with the albedo
+//!   evaluated once; and 1/E, the normalisation of a thin dielectric
 //!   (paper §3.4 with eq. 19 on the conductor table) and of the glossy specular layer ρ_ss/E_ss
 //!   (paper eq. 18);
 //! * glossy: the diffuse weight 1 − E_spec (paper eq. 18);
@@ -59,7 +60,10 @@ pub fn helper_names(model: ModelId, helper: Helper) -> Vec<String> {
 
 fn names(prefix: &str, helper: Helper) -> Vec<String> {
     match helper {
-        Helper::TurquinScale => vec![format!("{prefix}_turquin_scale")],
+        Helper::TurquinScale => vec![
+            format!("{prefix}_turquin_scale"),
+            format!("{prefix}_turquin_scale_rgb"),
+        ],
         Helper::Normalization => vec![format!("{prefix}_normalization")],
         Helper::DiffuseWeight => vec![format!("{prefix}_diffuse_weight")],
         Helper::Sided { .. } => vec![
@@ -89,8 +93,9 @@ fn normalization_doc(a: &AlbedoRef, args: &str, purposes: &[Vec<String>]) -> Vec
 
 /// The helpers for the albedo functions of one emitted file, in call order: those the material
 /// registry lists for each albedo's model ([`material::helpers_for`]), albedo by albedo, then
-/// the side-of-surface pairs.
-pub fn helpers(albedos: &[AlbedoRef]) -> Vec<Function> {
+/// the side-of-surface pairs. `suffix` ends every helper's name (as it ends the albedo
+/// functions').
+pub fn helpers(albedos: &[AlbedoRef], suffix: &str) -> Vec<Function> {
     let mut out = Vec::new();
     let mut pairs = Vec::new();
     for a in albedos {
@@ -98,7 +103,7 @@ pub fn helpers(albedos: &[AlbedoRef]) -> Vec<Function> {
         let prefix = ident(&a.model);
         let args = a.params.join(", ");
         for (helper, purposes) in material::helpers_for(id) {
-            let name = names(&prefix, helper).remove(0);
+            let name = format!("{}{suffix}", names(&prefix, helper).remove(0));
             match helper {
                 Helper::TurquinScale => {
                     let mut params = vec!["f0".to_string()];
@@ -108,11 +113,30 @@ pub fn helpers(albedos: &[AlbedoRef]) -> Vec<Function> {
                         doc: vec![
                             format!("Turquin's multiple-scattering scale 1 + F0·(1 − E)/E with E = {}({args}):", a.function),
                             "multiply the single-scattering conductor BRDF by it (Sforza & Pellacini 2022, eq. 13;".into(),
-                            "Turquin 2019). F0 is the normal-incidence reflectance: call once per colour channel.".into(),
+                            "Turquin 2019). F0 is the normal-incidence reflectance of one colour channel, in [0, 1];".into(),
+                            format!("for RGB use {prefix}_turquin_scale_rgb{suffix}, which evaluates the albedo once."),
                         ],
-                        params,
+                        params: params.clone(),
                         body: vec![floor_stmt(call_albedo(a))],
                         result: add(lit(1.0), mul(var("f0"), div(sub(lit(1.0), var("e")), var("e")))), // paper eq. 13
+                    });
+                    let channel = |i: u8| add(lit(1.0), mul(component("f0", i), var("k"))); // paper eq. 13
+                    out.push(Function {
+                        name: format!("{prefix}_turquin_scale_rgb{suffix}"),
+                        doc: vec![
+                            format!("Turquin's scale 1 + F0·(1 − E)/E for an RGB F0 (each channel in [0, 1]), E = {}({args})", a.function),
+                            format!("evaluated once: channel by channel the same value as {prefix}_turquin_scale{suffix}."),
+                        ],
+                        params,
+                        body: vec![
+                            floor_stmt(call_albedo(a)),
+                            Stmt {
+                                name: "k".into(),
+                                value: div(sub(lit(1.0), var("e")), var("e")),
+                                comment: Some("(1 − E)/E, shared by the three channels".into()),
+                            },
+                        ],
+                        result: vec3(channel(0), channel(1), channel(2)),
                     });
                 }
                 Helper::Normalization => {
@@ -133,14 +157,19 @@ pub fn helpers(albedos: &[AlbedoRef]) -> Vec<Function> {
         }
     }
     for (enter, leaving) in pairs {
-        out.extend(sided(albedos, enter, leaving));
+        out.extend(sided(albedos, enter, leaving, suffix));
     }
     out
 }
 
 /// The side-of-surface helpers of the entering albedo `enter` and the albedo of model `leaving`
 /// with the same arguments, if it is emitted too and they take `mu`.
-fn sided(albedos: &[AlbedoRef], enter: &AlbedoRef, leaving: ModelId) -> Vec<Function> {
+fn sided(
+    albedos: &[AlbedoRef],
+    enter: &AlbedoRef,
+    leaving: ModelId,
+    suffix: &str,
+) -> Vec<Function> {
     let Some(leave) = albedos
         .iter()
         .find(|a| a.id == Some(leaving) && a.params == enter.params)
@@ -172,7 +201,7 @@ fn sided(albedos: &[AlbedoRef], enter: &AlbedoRef, leaving: ModelId) -> Vec<Func
                 .collect(),
         )
     };
-    let albedo_name = format!("{prefix}_sided_albedo");
+    let albedo_name = format!("{prefix}_sided_albedo{suffix}");
     out.push(Function {
         name: albedo_name.clone(),
         doc: vec![
@@ -191,7 +220,7 @@ fn sided(albedos: &[AlbedoRef], enter: &AlbedoRef, leaving: ModelId) -> Vec<Func
         params,
     };
     out.push(normalization(
-        format!("{prefix}_sided_normalization"),
+        format!("{prefix}_sided_normalization{suffix}"),
         &sided_ref,
         vec![
             "1/E for the side ωo is on (see the sided albedo above): divide ρ_R + ρ_T by it".into(),

@@ -60,6 +60,11 @@ pub enum Expr {
         then: Box<Expr>,
         otherwise: Box<Expr>,
     },
+    /// Component 0, 1 or 2 of a three-component parameter (an RGB colour): a parameter used
+    /// only this way is printed as a vector (`[f32; 3]`, `vec3<f32>`, `vec3`).
+    Component(String, u8),
+    /// A three-component value; only as a function's result, which then returns a vector.
+    Vec3(Box<[Expr; 3]>),
 }
 
 /// Shorthand constructors, so generator code reads like the formula.
@@ -107,6 +112,12 @@ pub mod build {
     pub fn clamp(x: Expr, lo: Expr, hi: Expr) -> Expr {
         max(min(x, hi), lo)
     }
+    pub fn component(vector: &str, i: u8) -> Expr {
+        Expr::Component(vector.to_string(), i)
+    }
+    pub fn vec3(x: Expr, y: Expr, z: Expr) -> Expr {
+        Expr::Vec3(Box::new([x, y, z]))
+    }
 }
 
 /// `let name = value;` with an optional comment line above it.
@@ -137,6 +148,72 @@ pub struct Program {
 impl Program {
     pub fn function(&self, name: &str) -> Option<&Function> {
         self.functions.iter().find(|f| f.name == name)
+    }
+}
+
+impl Expr {
+    /// Calls `visit` on this node and every node below it.
+    pub fn walk(&self, visit: &mut dyn FnMut(&Expr)) {
+        visit(self);
+        match self {
+            Expr::Lit(_) | Expr::Var(_) | Expr::Component(..) => {}
+            Expr::Add(a, b)
+            | Expr::Sub(a, b)
+            | Expr::Mul(a, b)
+            | Expr::Div(a, b)
+            | Expr::Min(a, b)
+            | Expr::Max(a, b) => {
+                a.walk(visit);
+                b.walk(visit);
+            }
+            Expr::Sqrt(a) => a.walk(visit),
+            Expr::Call(_, args) => args.iter().for_each(|a| a.walk(visit)),
+            Expr::SelectGe {
+                a,
+                b,
+                then,
+                otherwise,
+            } => {
+                for e in [a, b, then, otherwise] {
+                    e.walk(visit);
+                }
+            }
+            Expr::Vec3(v) => v.iter().for_each(|e| e.walk(visit)),
+        }
+    }
+}
+
+impl Function {
+    /// Every expression of the body and the result, in order.
+    pub fn exprs(&self) -> impl Iterator<Item = &Expr> {
+        self.body.iter().map(|s| &s.value).chain([&self.result])
+    }
+
+    /// Whether parameter `p` is a three-component vector (used through [`Expr::Component`]).
+    pub fn is_vector_param(&self, p: &str) -> bool {
+        let mut found = false;
+        for e in self.exprs() {
+            e.walk(&mut |n| {
+                if matches!(n, Expr::Component(v, _) if v == p) {
+                    found = true;
+                }
+            });
+        }
+        found
+    }
+
+    /// Whether the function returns a three-component vector.
+    pub fn returns_vector(&self) -> bool {
+        matches!(self.result, Expr::Vec3(_))
+    }
+
+    /// Whether any expression takes a square root.
+    pub fn uses_sqrt(&self) -> bool {
+        let mut found = false;
+        for e in self.exprs() {
+            e.walk(&mut |n| found |= matches!(n, Expr::Sqrt(_)));
+        }
+        found
     }
 }
 
@@ -212,6 +289,8 @@ pub const GPU_DIV_ULPS: u32 = 2;
 /// Error of sqrt a GPU may have: inherited from 1/inverseSqrt(x) (inverseSqrt 2 ulp, then a
 /// 2.5-ulp division), i.e. up to about 4.5 ulp; the simulation uses 4 whole ulps.
 pub const GPU_SQRT_ULPS: u32 = 4;
+/// Points [`Compiled::eval_block`] evaluates at once.
+pub const BLOCK: usize = 64;
 /// Relative error bound per operation for the running bound: u = 2⁻²⁴ for +, −, × (correctly
 /// rounded everywhere), and the GPU allowances for ÷ (2.5 ulp ≤ 5u) and sqrt (4.5 ulp ≤ 9u),
 /// so the bound covers CPUs and GPUs alike.
@@ -221,7 +300,7 @@ const SQRT_REL: f64 = 9.0 * U;
 
 /// One register of a flattened function: operands are earlier registers.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Node {
+pub(crate) enum Node {
     Lit(Lit),
     Param(usize),
     Add(usize, usize),
@@ -240,7 +319,8 @@ enum Node {
 pub struct Compiled {
     nodes: Vec<Node>,
     n_params: usize,
-    result: usize,
+    /// The result's registers: one, or three for a vector result.
+    results: Vec<usize>,
     /// Register of each named `let` of the top function.
     lets: HashMap<String, usize>,
 }
@@ -258,22 +338,85 @@ pub enum IrError {
         expected: usize,
         got: usize,
     },
+    #[error("function '{function}' uses a vector where a scalar is needed (a generator bug; please report it)")]
+    Vector { function: String },
 }
 
 impl Compiled {
-    /// Flattens function `name` of `program`.
+    /// Flattens function `name` of `program`. A vector parameter takes three consecutive
+    /// scalar arguments; a vector result gives three results.
     pub fn new(program: &Program, name: &str) -> Result<Compiled, IrError> {
         let f = program
             .function(name)
             .ok_or_else(|| IrError::UnknownFunction(name.into()))?;
-        let mut nodes: Vec<Node> = (0..f.params.len()).map(Node::Param).collect();
-        let params: Vec<usize> = (0..f.params.len()).collect();
+        let widths: Vec<usize> = f
+            .params
+            .iter()
+            .map(|p| if f.is_vector_param(p) { 3 } else { 1 })
+            .collect();
+        let n_params: usize = widths.iter().sum();
+        let mut nodes: Vec<Node> = (0..n_params).map(Node::Param).collect();
+        let mut env = HashMap::new();
+        let mut k = 0;
+        for (p, &w) in f.params.iter().zip(&widths) {
+            if w == 3 {
+                for i in 0..3 {
+                    env.insert(component_key(p, i), k + i);
+                }
+            } else {
+                env.insert(p.clone(), k);
+            }
+            k += w;
+        }
         let mut lets = HashMap::new();
-        let result = inline(program, f, &params, &mut nodes, Some(&mut lets))?;
+        let results = inline_body(program, f, &f.body, env, &mut nodes, Some(&mut lets))?;
         Ok(Compiled {
             nodes,
-            n_params: f.params.len(),
-            result,
+            n_params,
+            results,
+            lets,
+        })
+    }
+
+    /// The part of scalar function `name` after its `let`s `inputs`, as a function of them:
+    /// parameter k is the value of `inputs[k]` (e.g. the transformed variables of an albedo
+    /// function, whose polynomial part this then is). Fails if that part uses any other earlier
+    /// `let` or a parameter of the function.
+    pub fn after_lets(
+        program: &Program,
+        name: &str,
+        inputs: &[String],
+    ) -> Result<Compiled, IrError> {
+        let f = program
+            .function(name)
+            .ok_or_else(|| IrError::UnknownFunction(name.into()))?;
+        let mut start = 0;
+        for input in inputs {
+            let at = f
+                .body
+                .iter()
+                .position(|s| s.name == *input)
+                .ok_or_else(|| IrError::UnknownVariable {
+                    function: f.name.clone(),
+                    name: input.clone(),
+                })?;
+            start = start.max(at + 1);
+        }
+        let mut nodes: Vec<Node> = (0..inputs.len()).map(Node::Param).collect();
+        let env: HashMap<String, usize> = inputs.iter().cloned().zip(0..).collect();
+        let mut lets = HashMap::new();
+        let results = inline_body(
+            program,
+            f,
+            &f.body[start..],
+            env,
+            &mut nodes,
+            Some(&mut lets),
+        )?;
+        Ok(Compiled {
+            nodes,
+            n_params: inputs.len(),
+            results,
             lets,
         })
     }
@@ -290,6 +433,15 @@ impl Compiled {
     /// Number of registers (a rough operation count).
     pub fn len(&self) -> usize {
         self.nodes.len()
+    }
+
+    pub(crate) fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// The registers of the result (one, or three for a vector).
+    pub fn results(&self) -> &[usize] {
+        &self.results
     }
 
     pub fn is_empty(&self) -> bool {
@@ -341,7 +493,123 @@ impl Compiled {
             };
             regs[i] = v;
         }
-        regs[self.result]
+        regs[self.results[0]]
+    }
+
+    /// [`Compiled::eval_f32`] on a block of up to [`BLOCK`] points at once, bit for bit the same:
+    /// `xs` holds the points row-major (`n_params` values each); in the GPU model point j's
+    /// error directions come from `seeds[j]`, as `Arith::Gpu { seed: seeds[j] }` would give.
+    /// Register r of point j is `regs[r * BLOCK + j]` afterwards. One pass over the registers
+    /// serves the whole block, so the dispatch on each operation is paid once per block.
+    pub fn eval_block(&self, xs: &[f32], arith: Arith, seeds: &[u64], regs: &mut Vec<f32>) {
+        let d = self.n_params;
+        let n = xs.len().checked_div(d).unwrap_or(0);
+        assert!(
+            n <= BLOCK && xs.len() == n * d,
+            "at most BLOCK whole points"
+        );
+        regs.clear();
+        regs.resize(self.nodes.len() * BLOCK, 0.0);
+        let gpu = matches!(arith, Arith::Gpu { .. });
+        let mut rng = [0u64; BLOCK];
+        if gpu {
+            for (r, s) in rng.iter_mut().zip(seeds) {
+                *r = s | 1;
+            }
+        }
+        let fused = !matches!(arith, Arith::Ieee);
+        for (i, node) in self.nodes.iter().enumerate() {
+            let (done, rest) = regs.split_at_mut(i * BLOCK);
+            let out = &mut rest[..n];
+            let r = |k: usize| &done[k * BLOCK..k * BLOCK + n];
+            match *node {
+                Node::Lit(l) => out.fill(l.value),
+                Node::Param(k) => {
+                    for (j, o) in out.iter_mut().enumerate() {
+                        *o = xs[j * d + k];
+                    }
+                }
+                Node::Add(a, b) | Node::Sub(a, b) => {
+                    let neg = matches!(node, Node::Sub(..));
+                    let (ra, rb) = (r(a), r(b));
+                    match (fused, self.nodes[a], self.nodes[b]) {
+                        (true, Node::Mul(x, y), _) => {
+                            let (rx, ry) = (r(x), r(y));
+                            for j in 0..n {
+                                let c = if neg { -rb[j] } else { rb[j] };
+                                out[j] = rx[j].mul_add(ry[j], c);
+                            }
+                        }
+                        (true, _, Node::Mul(x, y)) => {
+                            let (rx, ry) = (r(x), r(y));
+                            for j in 0..n {
+                                out[j] = if neg {
+                                    (-rx[j]).mul_add(ry[j], ra[j])
+                                } else {
+                                    rx[j].mul_add(ry[j], ra[j])
+                                };
+                            }
+                        }
+                        _ if neg => {
+                            for j in 0..n {
+                                out[j] = ra[j] - rb[j];
+                            }
+                        }
+                        _ => {
+                            for j in 0..n {
+                                out[j] = ra[j] + rb[j];
+                            }
+                        }
+                    }
+                }
+                Node::Mul(a, b) => {
+                    let (ra, rb) = (r(a), r(b));
+                    for j in 0..n {
+                        out[j] = ra[j] * rb[j];
+                    }
+                }
+                Node::Div(a, b) => {
+                    let (ra, rb) = (r(a), r(b));
+                    for j in 0..n {
+                        let q = ra[j] / rb[j];
+                        out[j] = if gpu {
+                            perturb(q, GPU_DIV_ULPS, &mut rng[j])
+                        } else {
+                            q
+                        };
+                    }
+                }
+                Node::Min(a, b) => {
+                    let (ra, rb) = (r(a), r(b));
+                    for j in 0..n {
+                        out[j] = ra[j].min(rb[j]);
+                    }
+                }
+                Node::Max(a, b) => {
+                    let (ra, rb) = (r(a), r(b));
+                    for j in 0..n {
+                        out[j] = ra[j].max(rb[j]);
+                    }
+                }
+                Node::Sqrt(a) => {
+                    let ra = r(a);
+                    for j in 0..n {
+                        let s = ra[j].sqrt();
+                        out[j] = if gpu && s > 0.0 {
+                            perturb(s, GPU_SQRT_ULPS, &mut rng[j])
+                        } else {
+                            s
+                        };
+                    }
+                }
+                Node::SelectGe(a, b, t, e) => {
+                    let (ra, rb, rt, re) = (r(a), r(b), r(t), r(e));
+                    for j in 0..n {
+                        out[j] = if ra[j] >= rb[j] { rt[j] } else { re[j] };
+                    }
+                }
+            }
+        }
     }
 
     /// a ± b, fused with a product operand when `fused` (the product on the left first, as a
@@ -432,7 +700,7 @@ impl Compiled {
             };
             regs[i] = r;
         }
-        regs[self.result]
+        regs[self.results[0]]
     }
 }
 
@@ -455,12 +723,41 @@ fn perturb(v: f32, ulps: u32, state: &mut u64) -> f32 {
     out
 }
 
+fn component_key(vector: &str, i: usize) -> String {
+    format!("{vector}.{i}")
+}
+
+/// Lowers `body` and the result of `f` with the bindings `env`; returns the result's registers.
+fn inline_body(
+    program: &Program,
+    f: &Function,
+    body: &[Stmt],
+    mut env: HashMap<String, usize>,
+    nodes: &mut Vec<Node>,
+    mut lets_out: Option<&mut HashMap<String, usize>>,
+) -> Result<Vec<usize>, IrError> {
+    for s in body {
+        let r = lower(program, f, &s.value, &env, nodes)?;
+        env.insert(s.name.clone(), r);
+        if let Some(l) = lets_out.as_deref_mut() {
+            l.insert(s.name.clone(), r);
+        }
+    }
+    match &f.result {
+        Expr::Vec3(v) => v
+            .iter()
+            .map(|e| lower(program, f, e, &env, nodes))
+            .collect(),
+        e => Ok(vec![lower(program, f, e, &env, nodes)?]),
+    }
+}
+
+/// A call: the callee must take and return scalars.
 fn inline(
     program: &Program,
     f: &Function,
     args: &[usize],
     nodes: &mut Vec<Node>,
-    mut lets_out: Option<&mut HashMap<String, usize>>,
 ) -> Result<usize, IrError> {
     if args.len() != f.params.len() {
         return Err(IrError::Arity {
@@ -469,16 +766,13 @@ fn inline(
             got: args.len(),
         });
     }
-    let mut env: HashMap<String, usize> =
-        f.params.iter().cloned().zip(args.iter().copied()).collect();
-    for s in &f.body {
-        let r = lower(program, f, &s.value, &env, nodes)?;
-        env.insert(s.name.clone(), r);
-        if let Some(l) = lets_out.as_deref_mut() {
-            l.insert(s.name.clone(), r);
-        }
+    if f.returns_vector() || f.params.iter().any(|p| f.is_vector_param(p)) {
+        return Err(IrError::Vector {
+            function: f.name.clone(),
+        });
     }
-    lower(program, f, &f.result, &env, nodes)
+    let env: HashMap<String, usize> = f.params.iter().cloned().zip(args.iter().copied()).collect();
+    Ok(inline_body(program, f, &f.body, env, nodes, None)?[0])
 }
 
 fn lower(
@@ -529,8 +823,19 @@ fn lower(
                 .iter()
                 .map(|a| lower(program, f, a, env, nodes))
                 .collect::<Result<Vec<_>, _>>()?;
-            inline(program, g, &regs, nodes, None)
+            inline(program, g, &regs, nodes)
         }
+        Expr::Component(v, i) => {
+            env.get(&component_key(v, *i as usize))
+                .copied()
+                .ok_or_else(|| IrError::UnknownVariable {
+                    function: f.name.clone(),
+                    name: format!("{v}[{i}]"),
+                })
+        }
+        Expr::Vec3(_) => Err(IrError::Vector {
+            function: f.name.clone(),
+        }),
         Expr::SelectGe {
             a,
             b,
@@ -645,6 +950,30 @@ mod tests {
             }
         }
         assert!(worst > 0.05, "the bound should not be vacuous: {worst}");
+    }
+
+    #[test]
+    fn block_evaluation_is_bit_identical() {
+        let p = program(div(
+            add(mul(var("t"), lit(0.3)), sqrt(var("x"))),
+            sub(var("y"), lit(2.5)),
+        ));
+        let c = Compiled::new(&p, "f").unwrap();
+        let xs: Vec<f32> = (0..2 * 50).map(|i| 0.37 * i as f32 - 3.1).collect();
+        let seeds: Vec<u64> = (0..50).map(|j| 1000 + j).collect();
+        let (mut one, mut block) = (Vec::new(), Vec::new());
+        for arith in [Arith::Ieee, Arith::Fused, Arith::Gpu { seed: 0 }] {
+            c.eval_block(&xs, arith, &seeds, &mut block);
+            for j in 0..50 {
+                let a = match arith {
+                    Arith::Gpu { .. } => Arith::Gpu { seed: seeds[j] },
+                    a => a,
+                };
+                let want = c.eval_f32(&xs[2 * j..2 * j + 2], a, &mut one);
+                let got = block[c.results()[0] * BLOCK + j];
+                assert_eq!(got.to_bits(), want.to_bits(), "{arith:?} point {j}");
+            }
+        }
     }
 
     #[test]

@@ -14,7 +14,6 @@ use sha2::{Digest, Sha256};
 
 use std::path::{Path, PathBuf};
 
-use super::fitfile::FitFile;
 use super::{Artifact, Emitter, Place, Unit};
 use crate::bsdf::Model;
 use crate::error::{Error, Result};
@@ -195,9 +194,16 @@ pub fn tabulate_cached(
     Ok((t, stem, false))
 }
 
-/// Errors of the LUT (f32 and f16 values, multilinear in f32) and of the emitted f32 fit at
-/// every node of `reference` (a finer table of the same model and domain).
-pub fn compare(lut: &Lut, reference: &Table, file: &FitFile) -> Result<LutComparison> {
+/// Errors of the LUT (f32 and f16 values, multilinear in f32) and of the emitted f32 fit
+/// (`function`, flattened as `compiled`, of `n_coefficients` coefficients) at every node of
+/// `reference` (a finer table of the same model and domain).
+pub fn compare(
+    lut: &Lut,
+    reference: &Table,
+    function: &str,
+    compiled: &super::ir::Compiled,
+    n_coefficients: usize,
+) -> Result<LutComparison> {
     let o = reference.output_index(&lut.output).ok_or_else(|| {
         Error::InvalidInput(format!("reference table has no output '{}'", lut.output))
     })?;
@@ -208,16 +214,6 @@ pub fn compare(lut: &Lut, reference: &Table, file: &FitFile) -> Result<LutCompar
         ));
     }
     let (s32, s16) = (lut.sampler_f32(), lut.sampler_f16());
-    let name = super::generate::albedo_function_name(&file.model, &file.output);
-    let (function, _) =
-        super::generate::choose_form(&name, &[], &file.fit, super::generate::FormChoice::Auto)?;
-    let compiled = super::ir::Compiled::new(
-        &super::ir::Program {
-            functions: vec![function],
-        },
-        &name,
-    )
-    .map_err(|e| Error::InvalidInput(e.to_string()))?;
     let mut sums = [crate::math::CompensatedSum::default(); 3];
     let mut maxes = [0.0f64; 3];
     let mut x = vec![0.0; d];
@@ -251,8 +247,8 @@ pub fn compare(lut: &Lut, reference: &Table, file: &FitFile) -> Result<LutCompar
         lut_f32_max: maxes[0],
         lut_f16_mae: sums[1].value() / n,
         lut_f16_max: maxes[1],
-        fit_function: Some(name),
-        fit_bytes: Some(4 * file.fit.n_coefficients),
+        fit_function: Some(function.to_string()),
+        fit_bytes: Some(4 * n_coefficients),
         fit_f32_mae: Some(sums[2].value() / n),
         fit_f32_max: Some(maxes[2]),
     })

@@ -1,7 +1,7 @@
 //! Printing a [`Unit`]'s program as source text: one walk over the shared tree, with the
-//! language differences (literal syntax, min/max/sqrt, select, declarations) behind [`Syntax`].
-//! Operands are parenthesised by [`needs_parens`], so every language groups — and therefore
-//! rounds — exactly as the tree says.
+//! language differences (literal syntax, min/max/sqrt, select, declarations, vectors) behind
+//! [`Syntax`]. Operands are parenthesised by [`needs_parens`], so every language groups — and
+//! therefore rounds — exactly as the tree says. The text is ASCII ([`super::ascii`]).
 
 use super::ir::{needs_parens, precedence, Expr, Function};
 use super::Unit;
@@ -32,6 +32,10 @@ pub trait Syntax {
     fn sqrt(&self, a: Operand) -> String;
     /// `a >= b ? then : otherwise` in the language's form.
     fn select_ge(&self, a: Operand, b: Operand, then: Operand, otherwise: Operand) -> String;
+    /// Component `i` (0, 1, 2) of a vector parameter.
+    fn component(&self, vector: &str, i: u8) -> String;
+    /// A three-component vector value.
+    fn vec3(&self, x: String, y: String, z: String) -> String;
     /// Lines before the first function (after the header comment), e.g. an include guard.
     fn prologue(&self, unit: &Unit) -> Vec<String>;
     /// Lines after the last function.
@@ -84,12 +88,14 @@ pub fn expr(e: &Expr, s: &dyn Syntax) -> String {
             then,
             otherwise,
         } => s.select_ge(atom(a), atom(b), atom(then), atom(otherwise)),
+        Expr::Component(v, i) => s.component(v, *i),
+        Expr::Vec3(v) => s.vec3(expr(&v[0], s), expr(&v[1], s), expr(&v[2], s)),
     }
 }
 
 /// The whole file: header comment, prologue, functions, epilogue; `\n` line ends, one trailing
-/// newline.
-pub fn render(unit: &Unit, s: &dyn Syntax) -> String {
+/// newline, ASCII only.
+pub fn render(unit: &Unit, s: &dyn Syntax) -> crate::Result<String> {
     let mut lines: Vec<String> = unit
         .header
         .iter()
@@ -121,5 +127,5 @@ pub fn render(unit: &Unit, s: &dyn Syntax) -> String {
     }
     let mut out = lines.join("\n");
     out.push('\n');
-    out
+    super::ascii::to_ascii(&out)
 }

@@ -15,14 +15,13 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::fitfile::FitFile;
 use super::generate::{
     choose_form, condition, form_polynomials, form_variables, reference, EvalForm, FormChoice,
 };
-use super::ir::{Arith, Compiled, Program};
+use super::ir::{Arith, Compiled, Program, BLOCK};
 use crate::error::{Error, Result};
 use crate::fit::data::SplitMix64;
-use crate::fit::{CertifyOptions, PoleVerdict};
+use crate::fit::{CertifyOptions, FitResult, PoleVerdict};
 
 /// Largest |f32 − f64| allowed.
 pub const MAX_ABS_DIFF: f64 = 1e-5;
@@ -42,6 +41,9 @@ pub struct StressOptions {
     pub random_points: usize,
     pub seed: u64,
     pub form: FormChoice,
+    /// Also measure the condition numbers of P and Q and the first-order error bound at every
+    /// point (reported, not tested: `furnace stress` shows them, the emit gate skips them).
+    pub diagnostics: bool,
 }
 
 impl Default for StressOptions {
@@ -50,6 +52,7 @@ impl Default for StressOptions {
             random_points: DEFAULT_POINTS,
             seed: 0x5EED_F00D,
             form: FormChoice::Auto,
+            diagnostics: true,
         }
     }
 }
@@ -71,6 +74,8 @@ pub struct StressReport {
     pub form: EvalForm,
     pub random_points: usize,
     pub edge_points: usize,
+    /// Seed of the random points (and of the GPU rounding model's error directions).
+    pub seed: u64,
     /// Each operation rounded once (the emitted Rust on a CPU).
     pub ieee: ModeStats,
     /// Multiply–adds fused.
@@ -132,13 +137,15 @@ impl StressReport {
             )),
             _ => s.push_str("  polynomial: no denominator\n"),
         }
-        s.push_str(&format!(
+        if self.max_condition_p > 0.0 {
+            s.push_str(&format!(
             "  condition number of P {:.3e}{}; first-order f32 error bound {:.3e} (= {:.0} u, u = 2^-24)\n",
             self.max_condition_p,
             self.max_condition_q.map(|q| format!(", of Q {q:.3e}")).unwrap_or_default(),
             self.max_error_bound,
             self.max_error_bound * (1u64 << 24) as f64
         ));
+        }
         if self.max_overshoot > 0.0 {
             s.push_str(&format!("  note: the f64 fit leaves [0, 1] by up to {:.3e}; the emitted output clamp removes it\n", self.max_overshoot));
         }
@@ -245,12 +252,20 @@ fn merge(a: &mut ModeStats, b: ModeStats) {
     a.out_of_range += b.out_of_range;
 }
 
-/// Runs the stress test on `file`'s fit, with the function the emitters would write for it.
-pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
-    let name = super::generate::albedo_function_name(&file.model, &file.output);
-    let fit = &file.fit;
-    let (function, report) = choose_form(&name, &[], fit, opts.form)?;
-    let form = report.form;
+/// Runs the stress test on `fit`, with the albedo function `name` the emitters would write for it
+/// (in the form `opts.form` picks).
+pub fn stress(fit: &FitResult, name: &str, opts: &StressOptions) -> Result<StressReport> {
+    let name = name.to_string();
+    let (function, form) = match opts.form {
+        FormChoice::Force(form) => (
+            super::generate::albedo_function(&name, vec![], fit, form)?,
+            form,
+        ),
+        FormChoice::Auto => {
+            let (function, report) = choose_form(&name, &[], fit, opts.form)?;
+            (function, report.form)
+        }
+    };
     let program = Program {
         functions: vec![function],
     };
@@ -272,6 +287,7 @@ pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
     let points: Vec<f32> = edges.into_iter().chain(random).collect();
     let e_reg = compiled.register("e").expect("albedo functions bind e");
     let q_reg = compiled.register("q");
+    let result = compiled.results()[0];
 
     const CHUNK: usize = 4096;
     let n = points.len() / d;
@@ -284,55 +300,63 @@ pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
             };
             let mut regs = Vec::new();
             let mut bregs = Vec::new();
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                let x = &points[i * d..(i + 1) * d];
-                let (refv, raw) = reference(fit, x);
-                part.overshoot = part.overshoot.max(raw - 1.0).max(-raw);
-                for (m, arith) in [
-                    Arith::Ieee,
-                    Arith::Fused,
-                    Arith::Gpu {
-                        seed: i as u64 ^ opts.seed,
-                    },
-                ]
-                .into_iter()
-                .enumerate()
+            let end = ((c + 1) * CHUNK).min(n);
+            for b0 in (c * CHUNK..end).step_by(BLOCK) {
+                let b1 = (b0 + BLOCK).min(end);
+                let xs = &points[b0 * d..b1 * d];
+                let seeds: Vec<u64> = (b0..b1).map(|i| i as u64 ^ opts.seed).collect();
+                let refs: Vec<(f64, f64)> = xs.chunks_exact(d).map(|x| reference(fit, x)).collect();
+                for &(_, raw) in &refs {
+                    part.overshoot = part.overshoot.max(raw - 1.0).max(-raw);
+                }
+                for (m, arith) in [Arith::Ieee, Arith::Fused, Arith::Gpu { seed: 0 }]
+                    .into_iter()
+                    .enumerate()
                 {
-                    let out = compiled.eval_f32(x, arith, &mut regs);
-                    let e = regs[e_reg];
+                    compiled.eval_block(xs, arith, &seeds, &mut regs);
                     let st = &mut part.modes[m];
-                    if !out.is_finite() || !e.is_finite() {
-                        st.non_finite += 1;
-                        if st.max_abs_diff_at.is_empty() {
+                    for (j, &(refv, _)) in refs.iter().enumerate() {
+                        let x = &xs[j * d..(j + 1) * d];
+                        let out = regs[result * BLOCK + j];
+                        let e = regs[e_reg * BLOCK + j];
+                        if !out.is_finite() || !e.is_finite() {
+                            st.non_finite += 1;
+                            if st.max_abs_diff_at.is_empty() {
+                                st.max_abs_diff_at = x.to_vec();
+                            }
+                            st.max_abs_diff = f64::INFINITY;
+                            continue;
+                        }
+                        if !(out >= 0.0 && (out as f64) <= 1.0 + OUTPUT_SLACK) {
+                            st.out_of_range += 1;
+                        }
+                        let diff = (out as f64 - refv).abs();
+                        if diff > st.max_abs_diff || st.max_abs_diff_at.is_empty() {
+                            st.max_abs_diff = st.max_abs_diff.max(diff);
                             st.max_abs_diff_at = x.to_vec();
                         }
-                        st.max_abs_diff = f64::INFINITY;
-                        continue;
-                    }
-                    if !(out >= 0.0 && (out as f64) <= 1.0 + OUTPUT_SLACK) {
-                        st.out_of_range += 1;
-                    }
-                    let diff = (out as f64 - refv).abs();
-                    if diff > st.max_abs_diff || st.max_abs_diff_at.is_empty() {
-                        st.max_abs_diff = st.max_abs_diff.max(diff);
-                        st.max_abs_diff_at = x.to_vec();
-                    }
-                    if refv.abs() >= RELATIVE_FLOOR {
-                        st.max_rel_diff = st.max_rel_diff.max(diff / refv.abs());
-                    }
-                    if m == 0 {
-                        if let Some(q) = q_reg {
-                            part.min_q = part.min_q.min((regs[q] as f64).abs());
+                        if refv.abs() >= RELATIVE_FLOOR {
+                            st.max_rel_diff = st.max_rel_diff.max(diff / refv.abs());
+                        }
+                        if m == 0 {
+                            if let Some(q) = q_reg {
+                                part.min_q = part.min_q.min((regs[q * BLOCK + j] as f64).abs());
+                            }
                         }
                     }
                 }
-                compiled.eval_bound(x, &mut bregs);
-                part.bound = part.bound.max(bregs[e_reg].1);
-                let xv: Vec<f64> = x.iter().map(|&v| v as f64).collect();
-                if let Ok(v) = form_variables(fit, form, &xv) {
-                    part.cond_p = part.cond_p.max(condition(&p_poly, &v));
-                    if let Some(q) = &q_poly {
-                        part.cond_q = part.cond_q.max(condition(q, &v));
+                if !opts.diagnostics {
+                    continue;
+                }
+                for x in xs.chunks_exact(d) {
+                    compiled.eval_bound(x, &mut bregs);
+                    part.bound = part.bound.max(bregs[e_reg].1);
+                    let xv: Vec<f64> = x.iter().map(|&v| v as f64).collect();
+                    if let Ok(v) = form_variables(fit, form, &xv) {
+                        part.cond_p = part.cond_p.max(condition(&p_poly, &v));
+                        if let Some(q) = &q_poly {
+                            part.cond_q = part.cond_q.max(condition(q, &v));
+                        }
                     }
                 }
             }
@@ -408,6 +432,7 @@ pub fn stress(file: &FitFile, opts: &StressOptions) -> Result<StressReport> {
         form,
         random_points: opts.random_points,
         edge_points: n_edges,
+        seed: opts.seed,
         ieee,
         fused,
         gpu,

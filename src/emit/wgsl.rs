@@ -1,6 +1,7 @@
 //! WGSL: `fn name(x: f32, …) -> f32`, plain functions to paste or concatenate into a shader
 //! module (WGSL has no include). Literals are abstract floats whose decimal denotes an f32
-//! exactly (see [`float_literal`]), so conversion to f32 is exact.
+//! exactly (see [`float_literal`]), so conversion to f32 is exact. RGB values are `vec3<f32>`.
+//! The text is validated by naga before it is returned ([`super::validate`]).
 
 use super::ir::{float_literal, Function};
 use super::source::{render, Operand, Syntax};
@@ -30,8 +31,17 @@ impl Syntax for Wgsl {
             otherwise.text, then.text, a.text, b.text
         )
     }
+    fn component(&self, vector: &str, i: u8) -> String {
+        format!("{vector}.{}", ["x", "y", "z"][i as usize])
+    }
+    fn vec3(&self, x: String, y: String, z: String) -> String {
+        format!("vec3<f32>({x}, {y}, {z})")
+    }
     fn prologue(&self, _unit: &Unit) -> Vec<String> {
-        vec![]
+        vec![
+            "// Paste or concatenate into a WGSL module (WGSL has no include).".into(),
+            String::new(),
+        ]
     }
     fn epilogue(&self, _unit: &Unit) -> Vec<String> {
         vec![]
@@ -42,13 +52,18 @@ impl Syntax for Wgsl {
             .iter()
             .map(|l| format!("// {l}").trim_end().to_string())
             .collect();
+        let ty = |vector: bool| if vector { "vec3<f32>" } else { "f32" };
         let params = f
             .params
             .iter()
-            .map(|p| format!("{p}: f32"))
+            .map(|p| format!("{p}: {}", ty(f.is_vector_param(p))))
             .collect::<Vec<_>>()
             .join(", ");
-        v.push(format!("fn {}({params}) -> f32 {{", f.name));
+        v.push(format!(
+            "fn {}({params}) -> {} {{",
+            f.name,
+            ty(f.returns_vector())
+        ));
         v
     }
     fn let_stmt(&self, name: &str, value: &str) -> String {
@@ -64,9 +79,8 @@ impl Emitter for Wgsl {
         "wgsl"
     }
     fn produce(&self, unit: &Unit) -> crate::Result<Vec<Artifact>> {
-        Ok(vec![Artifact::code(
-            format!("{}.wgsl", unit.stem),
-            render(unit, self),
-        )])
+        let text = render(unit, self)?;
+        super::validate::wgsl(&text)?;
+        Ok(vec![Artifact::code(format!("{}.wgsl", unit.stem), text)])
     }
 }

@@ -49,8 +49,9 @@ pub struct FitRequest {
     pub max_fit_points: usize,
 }
 
-/// A fit with everything needed to trust, reproduce and use it. Serialised deterministically
-/// (no timings), so the same inputs give the same bytes.
+/// A fit with everything needed to trust, reproduce and use it: the content of every fit file
+/// (read and checked by [`super::file`]). Serialised deterministically (no timings), so the same
+/// inputs give the same bytes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitRecord {
     pub tool: String,
@@ -62,6 +63,11 @@ pub struct FitRecord {
     /// Non-fatal problems (not converged, not certified), also printed by the CLI.
     pub warnings: Vec<String>,
     pub source: Source,
+    /// The furnace table fitted, when the data was one (None for a user's CSV, EXR or JSON
+    /// grid, and for published coefficients): what emit measures the f32 code on and LUTs are
+    /// tabulated from.
+    #[serde(default)]
+    pub table: Option<super::file::TableRef>,
     pub fitted_on: FittedOn,
     /// What `fit.metrics` were measured on.
     pub metrics_on: String,
@@ -105,22 +111,43 @@ pub fn pole_word(fit: &FitResult) -> &'static str {
 impl FitRecord {
     /// Wraps a fit of `input` (metrics already on all of `input`).
     pub fn new(fit: FitResult, input: &FitInput, fitted_on: FittedOn) -> FitRecord {
+        FitRecord::from_source(fit, input.source.clone(), input.table.clone(), fitted_on)
+    }
+
+    /// Wraps a fit of the data `source` describes (`source.points` points, on which the
+    /// metrics were measured) and, if it is a furnace table, `table`.
+    pub fn from_source(
+        fit: FitResult,
+        source: Source,
+        table: Option<super::file::TableRef>,
+        fitted_on: FittedOn,
+    ) -> FitRecord {
         let (usable, verdict) = verdict(&fit);
         let mut warnings = Vec::new();
         if !usable {
             warnings.push(format!("{}: {verdict}", fit.form.label()));
         }
         if let Some(s) = fit.solver.as_ref().filter(|s| !s.converged) {
+            let how = match s.termination {
+                Some(t) => format!(
+                    "last {} run: {t:?}, {} reweighting rounds",
+                    if s.method
+                        .contains(crate::fit::LsqMethod::TrustRegion.label())
+                    {
+                        crate::fit::LsqMethod::TrustRegion.label()
+                    } else {
+                        crate::fit::LsqMethod::LevenbergMarquardt.label()
+                    },
+                    s.reweighting_iterations
+                ),
+                None => format!(
+                    "{} reweighting rounds of {} without meeting its tolerance",
+                    s.reweighting_iterations, s.method
+                ),
+            };
             warnings.push(format!(
-                "{}: the solver did not report convergence (last {} run: {}, {} reweighting rounds); the coefficients are its best iterate, with the metrics recorded here",
+                "{}: the solver did not report convergence ({how}); the coefficients are its best iterate, with the metrics recorded here",
                 fit.form.label(),
-                if s.method.contains(crate::fit::LsqMethod::TrustRegion.label()) {
-                    crate::fit::LsqMethod::TrustRegion.label()
-                } else {
-                    crate::fit::LsqMethod::LevenbergMarquardt.label()
-                },
-                s.termination.map_or("none".to_string(), |t| format!("{t:?}")),
-                s.reweighting_iterations
             ));
         }
         FitRecord {
@@ -129,9 +156,10 @@ impl FitRecord {
             usable,
             verdict,
             warnings,
-            source: input.source.clone(),
+            metrics_on: format!("all {} points of the source", source.points),
+            source,
+            table,
             fitted_on,
-            metrics_on: format!("all {} points of the source", input.data.len()),
             fit,
         }
     }
@@ -168,6 +196,7 @@ impl FitRecord {
                             points: fit.metrics.n_points,
                             restricted_to: None,
                         },
+                        table: None,
                         fitted_on: FittedOn {
                             points: fit.metrics.n_points,
                             selection: "unknown".into(),

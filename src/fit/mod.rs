@@ -13,6 +13,7 @@
 //! - [`metrics`]: MAE, RMSE, max absolute / relative error and where they occur.
 //! - [`poles`]: Bernstein-subdivision proof that the denominator has no zero on the domain.
 //! - [`sweep`]: degree sweeps and the best certified fit under a coefficient budget.
+//! - [`file`]: fit files, the one format every fit is written in and read back from.
 //! - [`paper`]: the published coefficients and tables of Sforza & Pellacini 2022.
 //!
 //! ```
@@ -35,6 +36,7 @@ pub mod basis;
 pub mod compare;
 pub mod data;
 pub mod error;
+pub mod file;
 pub mod job;
 pub mod linear;
 pub mod lm;

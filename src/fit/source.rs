@@ -57,6 +57,8 @@ pub struct FitInput {
     pub data: FitData,
     pub source: Source,
     pub grid: Option<Vec<Vec<f64>>>,
+    /// The furnace table the data is, if it is one (carried into the fit file).
+    pub table: Option<super::file::TableRef>,
 }
 
 /// How a fit's data was reduced before solving (metrics are always on all points).
@@ -152,7 +154,12 @@ impl FitInput {
             .is_none_or(
                 |g| g.iter().map(Vec::len).product::<usize>() == data.len() && g.len() == d
             ));
-        Ok(FitInput { data, source, grid })
+        Ok(FitInput {
+            data,
+            source,
+            grid,
+            table: self.table.clone(),
+        })
     }
 
     /// At most `max_points` of the data for solving, deterministically: a grid keeps an even
@@ -256,6 +263,7 @@ pub fn from_table(table: &Table, channel: &str, stem: Option<&Path>) -> Result<F
         },
         data,
         grid: Some(axes),
+        table: stem.map(|p| super::file::TableRef::new(p, &table.spec)),
     })
 }
 
@@ -447,6 +455,7 @@ fn load_csv(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
         },
         data,
         grid: None,
+        table: None,
     })
 }
 
@@ -598,6 +607,7 @@ fn load_exr(path: &Path, opts: &UserTableOptions) -> Result<FitInput> {
         },
         data,
         grid: Some(nodes),
+        table: None,
     })
 }
 
@@ -711,6 +721,7 @@ fn load_json_grid(path: &Path, text: &str, opts: &UserTableOptions) -> Result<Fi
         },
         data,
         grid: Some(nodes),
+        table: None,
     })
 }
 

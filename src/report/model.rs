@@ -577,7 +577,7 @@ impl<'a> Reporter<'a> {
         };
         let mut summary = summary;
         let section = self.section_markdown(&data, &summary);
-        crate::table::io::write_atomic(&dir.join("section.md"), section.as_bytes())?;
+        crate::output::write(&dir.join("section.md"), section.as_bytes())?;
         summary.dependencies = self.used.borrow().iter().cloned().collect();
         summary.inputs_sha256 = self.inputs_digest(&summary.dependencies)?;
         let mut outputs = summary.files.clone();
@@ -592,7 +592,7 @@ impl<'a> Reporter<'a> {
         }
         let json = serde_json::to_string_pretty(&summary)
             .map_err(|e| Error::file(dir.join("summary.json"), e.to_string()))?;
-        crate::table::io::write_atomic(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
+        crate::output::write(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
         Ok(summary)
     }
 

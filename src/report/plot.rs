@@ -2,8 +2,8 @@
 //! heat maps with a labelled colour bar, each written as PNG (for viewing) and SVG (for papers).
 //!
 //! Text uses the embedded DejaVu Sans ([`ensure_font`]); no system font is needed. Output is
-//! deterministic (no timestamps in either format) and written atomically: PNG to a temporary file
-//! in the same folder then renamed, SVG through [`crate::table::io::write_atomic`].
+//! deterministic (no timestamps in either format) and written through [`crate::output`] (PNG with
+//! [`crate::output::write_with`], as plotters encodes it to a file itself).
 //!
 //! Log axes are drawn as linear axes over log10 of the data with tick labels 10^v, so that every
 //! chart has one coordinate type; values ≤ 0 cannot be shown on a log axis and are left out (the
@@ -559,23 +559,15 @@ pub enum Formats {
 pub fn save(d: &impl Draw, stem: &Path, formats: Formats) -> Result<Vec<PathBuf>> {
     ensure_font();
     let png = stem.with_extension("png");
-    if let Some(parent) = png.parent() {
-        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
-    }
     // plotters picks the encoder from the extension: the temporary file must end in .png
-    let tmp = stem.with_extension(format!("tmp-{}.png", std::process::id()));
-    let drawn = {
-        let root = CrispText(BitMapBackend::new(&tmp, d.size())).into_drawing_area();
-        d.draw(&root).and_then(|_| root.present().map_err(plot_err))
-    };
-    // removed only now: the backend writes the file again when it is dropped unpresented
-    if let Err(e) = drawn {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::file(&png, format!("cannot write the figure: {e}")));
-    }
-    std::fs::rename(&tmp, &png).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(&png, e)
+    crate::output::write_with(&png, ".png", |tmp| {
+        let drawn = {
+            let root = CrispText(BitMapBackend::new(tmp, d.size())).into_drawing_area();
+            d.draw(&root).and_then(|_| root.present().map_err(plot_err))
+        };
+        // the backend writes the file again when it is dropped unpresented: the writer removes
+        // the temporary file only after this returns
+        drawn.map_err(|e| Error::file(&png, format!("cannot write the figure: {e}")))
     })?;
     let mut written = vec![png];
     if formats == Formats::PngAndSvg {
@@ -587,7 +579,7 @@ pub fn save(d: &impl Draw, stem: &Path, formats: Formats) -> Result<Vec<PathBuf>
                 .and_then(|_| root.present().map_err(plot_err))
                 .map_err(|e| Error::file(&svg_path, format!("cannot draw the figure: {e}")))?;
         }
-        crate::table::io::write_atomic(&svg_path, svg.as_bytes())?;
+        crate::output::write(&svg_path, svg.as_bytes())?;
         written.push(svg_path);
     }
     Ok(written)

@@ -387,7 +387,7 @@ thin and thick dielectrics (ρ_R + ρ_T)/E (§3.4, eq. 19); rough diffuse is Fuj
         linked.sort();
         linked.dedup();
         let path = self.options.reports_dir.join("README.md");
-        crate::table::io::write_atomic(&path, format!("{}\n", md.trim_end()).as_bytes())?;
+        crate::output::write(&path, format!("{}\n", md.trim_end()).as_bytes())?;
         Ok((path, linked))
     }
 }

@@ -1,6 +1,7 @@
-//! On-disk tables: `data/<model>/<resolution>.{exr,f64,json}`, written atomically (temp file,
-//! then rename; the sidecar last, so it commits the other two) and read back only when the
-//! sidecar's content hash matches the request and the f64 file's checksum matches the sidecar.
+//! On-disk tables: `data/<model>/<resolution>.{exr,f64,json}`, written by [`crate::output`]
+//! (each file atomically; the sidecar last, so it commits the other two) and read back only when
+//! the sidecar's content hash matches the request and the f64 file's checksum matches the
+//! sidecar.
 
 use super::{ErrorSummary, GridAxis, Table, TableSpec, ENGINE_VERSION};
 use crate::bsdf::Model;
@@ -52,25 +53,6 @@ fn with_ext(stem: &Path, ext: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
-/// Writes `bytes` to `path` atomically: a temp file in the same folder, then rename.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    if let Some(parent) = path.parent() {
-        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
-    }
-    let tmp = temp_path(path);
-    std::fs::write(&tmp, bytes).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
-    })?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
-}
-
-fn temp_path(path: &Path) -> PathBuf {
-    let mut s = path.as_os_str().to_owned();
-    s.push(format!(".tmp-{}", std::process::id()));
-    PathBuf::from(s)
-}
-
 fn sha256_hex(bytes: &[u8]) -> String {
     Sha256::digest(bytes)
         .iter()
@@ -90,7 +72,7 @@ fn f64_bytes(table: &Table) -> Vec<u8> {
     bytes
 }
 
-fn exr_bytes_to(table: &Table, path: &Path) -> Result<()> {
+fn exr_bytes(table: &Table, path: &Path) -> Result<Vec<u8>> {
     use exr::prelude::*;
     let spec = &table.spec;
     let width = spec.axes.last().map(|a| a.n).unwrap_or(1);
@@ -124,22 +106,20 @@ fn exr_bytes_to(table: &Table, path: &Path) -> Result<()> {
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
-    let tmp = temp_path(path);
+    let mut bytes = std::io::Cursor::new(Vec::new());
     Image::from_layer(layer)
         .write()
-        .to_file(&tmp)
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            crate::Error::file(path, format!("cannot write EXR: {e}"))
-        })?;
-    std::fs::rename(&tmp, path).map_err(|e| crate::Error::io(path, e))
+        .to_buffered(&mut bytes)
+        .map_err(|e| crate::Error::file(path, format!("cannot encode EXR: {e}")))?;
+    Ok(bytes.into_inner())
 }
 
 /// Writes the table's three files (f64, EXR, then the sidecar that commits them).
 pub fn save(table: &Table, stem: &Path) -> Result<Sidecar> {
     let raw = f64_bytes(table);
-    write_atomic(&with_ext(stem, "f64"), &raw)?;
-    exr_bytes_to(table, &with_ext(stem, "exr"))?;
+    crate::output::write(&with_ext(stem, "f64"), &raw)?;
+    let exr = with_ext(stem, "exr");
+    crate::output::write(&exr, &exr_bytes(table, &exr)?)?;
     let sidecar = Sidecar {
         tool: "furnace".into(),
         tool_version: crate::VERSION.into(),
@@ -155,7 +135,7 @@ pub fn save(table: &Table, stem: &Path) -> Result<Sidecar> {
         errors: table.summary.clone(),
     };
     let json = serde_json::to_string_pretty(&sidecar).expect("sidecar serialises");
-    write_atomic(&with_ext(stem, "json"), format!("{json}\n").as_bytes())?;
+    crate::output::write(&with_ext(stem, "json"), format!("{json}\n").as_bytes())?;
     Ok(sidecar)
 }
 

@@ -102,6 +102,12 @@ pub fn parse_points(
         raw.push(cells);
         coords.push(x);
     }
+    if coords.is_empty() {
+        return Err(format!(
+            "no points: the header ({}) is not followed by any row; add one point per row below it",
+            header.join(",")
+        ));
+    }
     Ok(Points {
         header,
         raw,
@@ -137,5 +143,10 @@ mod tests {
         assert!(e.contains("lacks the axis 'mu'"), "{e}");
         let e = parse_points("r,mu,x\n0.5,0.5,1\n", &a, &r).unwrap_err();
         assert!(e.contains("unknown column 'x'"), "{e}");
+        let e = parse_points("r,mu\n\n", &a, &r).unwrap_err();
+        assert!(
+            e.contains("no points") && e.contains("add one point per row"),
+            "{e}"
+        );
     }
 }

@@ -710,7 +710,11 @@ mod tests {
         assert_eq!(t.ranges[1], (0.0, 1.0));
         assert_eq!(
             p.helper_names(),
-            vec!["ggx_conductor_turquin_scale", "ggx_conductor_normalization"]
+            vec![
+                "ggx_conductor_turquin_scale",
+                "ggx_conductor_turquin_scale_rgb",
+                "ggx_conductor_normalization"
+            ]
         );
     }
 

@@ -298,3 +298,166 @@ fn a_fit_from_furnace_fit_can_be_emitted_if_its_f32_code_passes_the_stress_test(
         );
     }
 }
+
+/// The published conductor fit (certified; its f32 code passes the stress test) in `d`.
+fn conductor_fit(d: &Path) -> &'static str {
+    let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(
+        manifest.join("tests/fixtures/paper-conductors.json"),
+        d.join("conductor.json"),
+    )
+    .unwrap();
+    "conductor.json"
+}
+
+#[test]
+fn a_points_file_with_only_a_header_is_refused() {
+    let d = scratch("header-only");
+    std::fs::write(d.join("h.csv"), "r,mu\n").unwrap();
+    let fit = conductor_fit(&d);
+    for source in [["--model", "ggx-conductor"], ["--fit", fit]] {
+        let mut args = vec!["eval"];
+        args.extend(source);
+        args.extend(["--input", "h.csv", "--output", "o.csv"]);
+        let o = furnace(&args, &d);
+        assert!(!o.status.success());
+        assert!(
+            stderr(&o).contains("no points: the header (r,mu) is not followed by any row"),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!d.join("o.csv").exists());
+    }
+}
+
+#[test]
+fn negative_numbers_reach_the_check_that_names_the_fix() {
+    let d = scratch("negative");
+    let o = furnace(
+        &[
+            "tabulate",
+            "--model",
+            "ggx-conductor",
+            "--resolution",
+            "4",
+            "--tolerance",
+            "-1",
+        ],
+        &d,
+    );
+    let e = stderr(&o);
+    assert!(!o.status.success());
+    assert!(
+        e.contains("tolerance -1 must be a positive number") && !e.contains("unexpected argument"),
+        "{e}"
+    );
+    let o = furnace(
+        &[
+            "emit",
+            "--fit",
+            "x.json",
+            "--lang",
+            "rust",
+            "--lut-resolution",
+            "-3",
+        ],
+        &d,
+    );
+    assert!(stderr(&o).contains("-3") && !stderr(&o).contains("unexpected argument"));
+}
+
+#[test]
+fn an_io_error_is_printed_once() {
+    let d = scratch("io-once");
+    std::fs::write(d.join("pts.csv"), "r,mu\n0.5,0.5\n").unwrap();
+    let o = furnace(
+        &[
+            "eval",
+            "--fit",
+            "missing.json",
+            "--input",
+            "pts.csv",
+            "--output",
+            "o.csv",
+        ],
+        &d,
+    );
+    let e = stderr(&o);
+    assert!(!o.status.success());
+    assert_eq!(e.matches("No such file or directory").count(), 1, "{e}");
+    assert!(e.contains("missing.json"), "{e}");
+}
+
+#[test]
+fn fits_of_user_tables_are_emitted_under_their_tables_names() {
+    let d = scratch("user-names");
+    for (name, slope) in [("brushed_steel", 0.2), ("velvet", 0.4)] {
+        let mut csv = String::from("r,E\n");
+        for i in 0..=16 {
+            let r = i as f64 / 16.0;
+            csv.push_str(&format!("{r},{}\n", 0.9 - slope * r * r));
+        }
+        std::fs::write(d.join(format!("{name}.csv")), csv).unwrap();
+        let o = furnace(
+            &[
+                "fit",
+                "--table",
+                &format!("{name}.csv"),
+                "--form",
+                "polynomial",
+                "--degree",
+                "2",
+            ],
+            &d,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let fit = format!("fits/{name}/polynomial-2.json");
+        let o = furnace(
+            &["emit", "--fit", &fit, "--lang", "wgsl", "--output", "-"],
+            &d,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let wgsl = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(
+            wgsl.contains(&format!("fn {name}_albedo(r: f32) -> f32")),
+            "{wgsl}"
+        );
+        assert!(
+            wgsl.contains(&format!("Fitted to a user's table ({name}.csv)")),
+            "{wgsl}"
+        );
+    }
+    // fitting a user's table without --data-dir writes no data/ into the current folder
+    assert!(!d.join("data").exists());
+}
+
+#[test]
+fn bench_eval_leaves_no_temporary_folder_when_cargo_is_missing() {
+    let d = scratch("bench-no-cargo");
+    let tmp = d.join("tmp");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let fit = conductor_fit(&d);
+    let o = Command::new(env!("CARGO_BIN_EXE_furnace"))
+        .args([
+            "bench",
+            "eval",
+            "--fit",
+            fit,
+            "--reference-2d",
+            "9",
+            "--points",
+            "64",
+            "--passes",
+            "1",
+        ])
+        .current_dir(&d)
+        .env("TMPDIR", &tmp)
+        .env("CARGO", d.join("no-such-cargo"))
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert!(!o.status.success());
+    assert!(e.contains("needs cargo on PATH"), "{e}");
+    let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().collect();
+    assert!(left.is_empty(), "{left:?}");
+}

@@ -208,7 +208,7 @@ pub fn check(record: &FitRecord) -> std::result::Result<(), String> {
     }
     if let Some(name) = &record.source.model {
         let model = bsdf::find(name).map_err(|e| {
-            format!("{e}; a fit of a furnace model names one of them, a fit of a user's table none")
+            format!("{e}; a fit of a furnace model names one of them in source.model, a fit of a user's table none — fix the field or re-create the fit")
         })?;
         check_model(record, model.as_ref())?;
     }

@@ -1170,6 +1170,46 @@ mod tests {
         );
     }
 
+    /// A solver that stopped short is reported as what it was: Lawson reweighting of a
+    /// polynomial fit has no Levenberg–Marquardt run to name.
+    #[test]
+    fn the_non_convergence_warning_names_the_solver_that_ran() {
+        let ax: Vec<f64> = (0..9).map(|i| i as f64 / 8.0).collect();
+        let vals = ax.iter().map(|&x| (3.0 * x).sin()).collect();
+        let data = FitData::from_grid(vec!["x".into()], &[ax], vals).unwrap();
+        let mut fit = fit_polynomial(
+            &data,
+            &[InputTransform::Identity],
+            2,
+            Objective::Minimax,
+            &PolynomialOptions::default(),
+        )
+        .unwrap();
+        let solver = fit.solver.as_mut().unwrap();
+        solver.converged = false;
+        assert!(solver.termination.is_none());
+        let source = Source {
+            kind: "csv".into(),
+            model: None,
+            path: None,
+            content_hash: String::new(),
+            resolution: None,
+            channel: "E".into(),
+            points: 9,
+            restricted_to: None,
+        };
+        let on = FittedOn {
+            points: 9,
+            selection: "all points".into(),
+        };
+        let rec = FitRecord::from_source(fit, source, None, on);
+        let w = rec.warnings.join("\n");
+        assert!(
+            w.contains("reweighting rounds of Lawson") && !w.contains("Levenberg"),
+            "{w}"
+        );
+    }
+
     #[test]
     fn file_names() {
         let v = vec!["r".to_string(), "mu".to_string()];

@@ -178,7 +178,21 @@ impl Manifest {
                 ));
             }
         }
-        for m in &self.materials {
+        for (i, m) in self.materials.iter().enumerate() {
+            if m.name.trim().is_empty() {
+                return Err(format!(
+                    "material {} has an empty name; name every material",
+                    i + 1
+                ));
+            }
+            if let Some(j) = self.materials[..i].iter().position(|o| o.name == m.name) {
+                return Err(format!(
+                    "materials {} and {} are both named '{}'; a renderer looks materials up by name, so give each its own",
+                    j + 1,
+                    i + 1,
+                    m.name
+                ));
+            }
             material_needs(m, self.smith)?;
         }
         Ok(())
@@ -799,6 +813,10 @@ mod tests {
                 "unknown field `roughness`",
             ),
             (r#"{"name": "x", "materials": []}"#, "lists no materials"),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor"}, {"name": "a", "kind": "rough-diffuse"}]}"#,
+                "materials 1 and 2 are both named 'a'",
+            ),
             (
                 r#"{"name": "../x", "materials": [{"name": "a", "kind": "conductor"}]}"#,
                 "scene name",

@@ -461,3 +461,43 @@ fn bench_eval_leaves_no_temporary_folder_when_cargo_is_missing() {
     let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().collect();
     assert!(left.is_empty(), "{left:?}");
 }
+
+#[test]
+fn run_and_run_scene_refuse_an_unwritable_output_folder_before_computing() {
+    let d = scratch("unwritable");
+    // a folder cannot be made inside a file, whoever runs the test
+    std::fs::write(d.join("file"), "").unwrap();
+    let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/scene.json");
+    let runs: [Vec<&str>; 2] = [
+        vec![
+            "run",
+            "--data-dir",
+            "data",
+            "--fits-dir",
+            "file/fits",
+            "--reports-dir",
+            "reports",
+        ],
+        vec![
+            "run",
+            "--scene",
+            manifest.to_str().unwrap(),
+            "--data-dir",
+            "data",
+            "--fits-dir",
+            "file/fits",
+        ],
+    ];
+    for args in runs {
+        let o = furnace(&args, &d);
+        let e = stderr(&o);
+        assert!(!o.status.success());
+        assert!(
+            e.contains("file/fits") && e.contains("cannot write here") && e.contains("--fits-dir"),
+            "{e}"
+        );
+        // nothing was tabulated: the data folder holds no table
+        let tables = std::fs::read_dir(d.join("data")).map_or(0, |r| r.count());
+        assert_eq!(tables, 0, "{args:?}");
+    }
+}

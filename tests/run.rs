@@ -282,7 +282,7 @@ fn the_committed_default_conductor_fit_passes_within_its_relative_error() {
 fn unwritable_outputs_name_the_path() {
     let d = scratch("unwritable");
     // a file where the report folder should be: no folder can be made there (this also fails
-    // as root, unlike a permission bit)
+    // as root, unlike a permission bit), which the run finds before computing anything
     std::fs::write(d.join("reports"), "not a folder").unwrap();
     let o = furnace(
         &[
@@ -300,10 +300,14 @@ fn unwritable_outputs_name_the_path() {
     );
     assert!(!o.status.success(), "{}", text(&o));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("error: ") && err.contains("reports"), "{err}");
+    assert!(
+        err.contains("error: ") && err.contains("reports") && err.contains("--reports-dir"),
+        "{err}"
+    );
     assert!(!err.contains("panicked"), "{err}");
-    // the earlier steps' outputs are complete
-    assert!(d.join("fits/oren-nayar-fon/sweep-inputs.json").is_file());
+    // found before any work: nothing was tabulated or fitted
+    assert!(!d.join("fits/oren-nayar-fon").exists());
+    assert!(!d.join("data/oren-nayar-fon").exists());
     let _ = std::fs::remove_dir_all(&d);
 }
 

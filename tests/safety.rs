@@ -258,6 +258,21 @@ fn emit_refuses_inconsistent_fit_files_and_writes_nothing() {
         );
         refused(&furnace(&["stress", "--fit", &file], &d), want);
     }
+    // a fit that is not an albedo (here, three times the conductor's): the output clamp would
+    // replace it, so it is not emitted
+    let mut v = good.clone();
+    for c in v["fit"]["approximant"]["numerator"]["coefficients"]
+        .as_array_mut()
+        .unwrap()
+    {
+        *c = (3.0 * c.as_f64().unwrap()).into();
+    }
+    std::fs::write(d.join("tripled.json"), v.to_string()).unwrap();
+    refused(
+        &furnace(&["emit", "--fit", "tripled.json", "--lang", "wgsl"], &d),
+        "the fit's values leave [0, 1] by up to",
+    );
+    assert!(!d.join("tripled.wgsl").exists());
     // the verdict stored in a file is not trusted: re-proved, and the message never
     // contradicts itself ("not usable: usable: …")
     let mut glossy: serde_json::Value = serde_json::from_str(

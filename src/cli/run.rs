@@ -206,6 +206,15 @@ fn report_options(args: &RunArgs) -> ReportOptions {
 pub fn run_default(args: &RunArgs) -> Result<()> {
     let start = Instant::now();
     let jobs = default_jobs(args)?;
+    // every output folder is writable before anything is computed
+    output::check_writable_dir(&args.data_dir, "--data-dir")?;
+    if !args.tables_only {
+        output::check_writable_dir(&args.scene.fits_dir, "--fits-dir")?;
+        output::check_writable_dir(&args.data_dir.join("lut"), "--data-dir")?;
+        if !args.no_report {
+            output::check_writable_dir(&args.reports_dir, "--reports-dir")?;
+        }
+    }
     let steps = if args.tables_only {
         1
     } else if args.no_report {

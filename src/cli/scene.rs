@@ -40,13 +40,20 @@ pub fn run_scene(args: &SceneArgs, data_dir: &std::path::Path, force: bool) -> R
     let path = args.scene.as_ref().expect("called with --scene");
     crate::emit::check_stress_points(args.stress_points)?;
     let manifest = Manifest::read(path)?;
+    let langs = parse_langs(&args.lang)?;
+    // every output folder is writable before anything is computed
+    crate::output::check_writable_dir(data_dir, "--data-dir")?;
+    crate::output::check_writable_dir(&args.fits_dir.join(&manifest.name), "--fits-dir")?;
+    if langs.contains(&crate::emit::Lang::Lut) {
+        crate::output::check_writable_dir(&args.lut_dir, "--lut-dir")?;
+    }
     let opts = RunOptions {
         data_dir: data_dir.to_path_buf(),
         fits_dir: args.fits_dir.clone(),
         lut_dir: args.lut_dir.clone(),
         force,
         quadrature: QuadratureSettings::default(),
-        langs: parse_langs(&args.lang)?,
+        langs,
         lut_resolution: args.lut_resolution,
         stress_points: args.stress_points,
         command: format!(

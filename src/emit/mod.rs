@@ -248,6 +248,12 @@ pub struct EmittedFit {
     pub q_min: Option<f64>,
 }
 
+/// Most a fit may leave [0, 1] (measured on the form-choice grid) and still be emitted: the
+/// emitted output is clamped to [0, 1], which hides a fit's small overshoot near the corners
+/// (the published conductor fit: 2.5e-2) but would replace a function that is not an albedo
+/// (a radiance-form dielectric table reaches E ≈ 7).
+pub const MAX_OVERSHOOT: f64 = 0.1;
+
 /// How [`build_unit`] emits.
 #[derive(Clone, Debug)]
 pub struct EmitOptions {
@@ -637,6 +643,15 @@ pub fn build_unit(
         }
         let hash = fitfile::fit_hash(r)?;
         let (mut function, report, st) = gated_form(src, &name, opts)?;
+        let overshoot = report.chosen().max_overshoot;
+        if overshoot > MAX_OVERSHOOT {
+            return Err(Error::file(
+                &src.path,
+                format!(
+                    "the fit's values leave [0, 1] by up to {overshoot:.2e} on its domain, so the albedo the code clamps to [0, 1] is not the fitted function; fit a directional albedo (for a dielectric, the energy-form table, not the radiance form) — it is not emitted"
+                ),
+            ));
+        }
         let single = ir::Program {
             functions: vec![function.clone()],
         };

@@ -144,6 +144,21 @@ fn run_end_to_end_is_reproducible_and_resumes() {
         !readme.contains("skipped `"),
         "every fit file was readable:\n{readme}"
     );
+    // the chosen fit links its table, so the emitted header measures the f32 code at its nodes
+    let best: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(d.join("fits/ggx-conductor/best-20.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        best["table"]["spec"]["model"], "ggx-conductor",
+        "{}",
+        best["table"]
+    );
+    let rs = std::fs::read_to_string(d.join("fits/ggx-conductor/best-20.rs")).unwrap();
+    assert!(
+        rs.contains("Error at the 289 nodes of its table") && !rs.contains("not at hand"),
+        "{rs}"
+    );
 
     // nothing committed holds a wall time or where it was made
     let first = outputs(&d);

@@ -36,6 +36,52 @@ fn models_lists_every_model_with_axes() {
 }
 
 #[test]
+fn tabulate_makes_the_four_dimensional_anisotropic_table() {
+    let d = scratch("tabulate-aniso");
+    let o = furnace(
+        &[
+            "tabulate",
+            "--model",
+            "ggx-conductor-aniso",
+            "--resolution",
+            "5x3x4x3",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stem = d.join("data/ggx-conductor-aniso/5x3x4x3");
+    let sidecar: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(stem.with_extension("json")).unwrap())
+            .unwrap();
+    let names: Vec<&str> = (0..4)
+        .map(|k| sidecar["axes"][k]["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["r", "aniso", "mu", "phi"]);
+    let channels = furnace::table::io::read_exr_channels(&stem.with_extension("exr")).unwrap();
+    let e = &channels.iter().find(|c| c.0 == "E").unwrap().1;
+    assert_eq!(e.len(), 5 * 3 * 4 * 3);
+    // row-major, φ fastest: index ((i_r·3 + i_aniso)·4 + i_mu)·3 + i_phi
+    let at = |ir: usize, ia: usize, im: usize, ip: usize| e[((ir * 3 + ia) * 4 + im) * 3 + ip];
+    for ip in 0..3 {
+        assert_eq!(at(0, 2, 1, ip), 1.0, "r = 0 is a mirror");
+        let e11 = at(4, 0, 3, ip) as f64;
+        assert!((e11 - (1.0 - 2f64.ln())).abs() < 1e-7, "E(1, 0, 1) = {e11}");
+        assert_eq!(
+            at(3, 2, 3, ip),
+            at(3, 2, 3, 0),
+            "μ = 1 does not depend on φ"
+        );
+    }
+    assert_ne!(
+        at(3, 2, 1, 0),
+        at(3, 2, 1, 2),
+        "φ matters at μ < 1 when anisotropic"
+    );
+    let o = furnace(&["models"], &d);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("default resolution 64x16x64x16"));
+}
+
+#[test]
 fn tabulate_writes_exr_and_sidecar_then_reads_the_cache() {
     let d = scratch("tabulate");
     let o = furnace(

@@ -31,11 +31,16 @@ pub struct AverageAlbedo {
 
 impl AverageAlbedo {
     /// The average of `base`, if it has a `mu` axis whose valid range is [0, 1] and at least one
-    /// other axis (an average over the only axis would be a number, not a table).
+    /// other axis (an average over the only axis would be a number, not a table), and no
+    /// azimuth axis `phi` (its hemispherical average would integrate over φ as well).
     pub fn new(base: Arc<dyn Model>) -> Option<AverageAlbedo> {
         let axes = base.axes();
         let mu_index = axes.iter().position(|a| a.name == MU_AXIS)?;
-        if axes[mu_index].valid_range != (0.0, 1.0) || axes.len() < 2 || base.id().average {
+        if axes[mu_index].valid_range != (0.0, 1.0)
+            || axes.len() < 2
+            || base.id().average
+            || axes.iter().any(|a| a.name == "phi")
+        {
             return None;
         }
         Some(AverageAlbedo { base, mu_index })

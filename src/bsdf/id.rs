@@ -22,6 +22,8 @@ pub struct Family(&'static str);
 impl Family {
     /// White GGX conductor (F = 1).
     pub const GGX_CONDUCTOR: Family = Family("ggx-conductor");
+    /// Anisotropic white GGX conductor, OpenPBR's (r, aniso) roughness.
+    pub const GGX_CONDUCTOR_ANISO: Family = Family("ggx-conductor-aniso");
     /// GGX rough dielectric interface (reflection + transmission).
     pub const GGX_DIELECTRIC: Family = Family("ggx-dielectric");
     /// GGX specular layer over a diffuse base: E_spec / E_ss (paper eq. 17).

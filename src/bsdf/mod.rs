@@ -11,12 +11,14 @@ pub mod average;
 pub mod diffuse;
 pub mod fresnel;
 pub mod ggx;
+pub mod ggx_aniso;
 mod id;
 pub mod kinks;
 pub mod microfacet;
 pub mod radziszewski;
 mod registry;
 pub mod slope;
+pub mod slope_aniso;
 pub mod slope_dielectric;
 pub mod vndf;
 pub mod weighted;
@@ -111,6 +113,12 @@ pub trait Model: Send + Sync {
     /// E that is smooth inside (0, 1).
     fn mu_breaks(&self, _x: &[f64], out: &mut Vec<Break>) {
         out.extend([Break::sqrt(0.0), Break::sqrt(1.0)]);
+    }
+    /// Nodes per axis of a table when none is asked for: 1024 per axis in 2-D and 128 in 3-D (the
+    /// paper's resolutions); a model with more axes names its own.
+    fn default_resolution(&self) -> Vec<usize> {
+        let d = self.axes().len();
+        vec![if d <= 2 { 1024 } else { 128 }; d]
     }
 }
 

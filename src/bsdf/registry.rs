@@ -3,7 +3,8 @@
 
 use super::average::AverageAlbedo;
 use super::{
-    diffuse, fresnel, ggx, radziszewski, weighted, Model, ModelId, Transmission, MAX_OUTPUTS,
+    diffuse, fresnel, ggx, ggx_aniso, radziszewski, weighted, Model, ModelId, Transmission,
+    MAX_OUTPUTS,
 };
 use crate::error::{Error, Result};
 use std::sync::{Arc, OnceLock, RwLock, RwLockReadGuard};
@@ -13,6 +14,9 @@ use std::sync::{Arc, OnceLock, RwLock, RwLockReadGuard};
 fn builtins() -> Vec<Arc<dyn Model>> {
     let mut models: Vec<Arc<dyn Model>> = Vec::new();
     for m in ggx::all() {
+        models.push(Arc::new(m));
+    }
+    for m in ggx_aniso::AnisoConductor::all() {
         models.push(Arc::new(m));
     }
     for kind in [

@@ -70,16 +70,16 @@ pub struct SlopeIntegrand {
 
 /// Per-line data of [`SlopeIntegrand`]: the direction ψ and where the line ends.
 pub struct SlopeLine {
-    /// sin θo · cos ψ.
-    sc: f64,
+    /// sin θo · cos ψ (e·ωo,xy of the line's direction e).
+    pub(crate) sc: f64,
     /// ρmax and 1/ρmax (either may be infinite at μo = 0), and k = μo/ρmax, k' = μo·ρmax.
-    rho_max: f64,
-    u_max: f64,
-    k: f64,
-    k_prime: f64,
+    pub(crate) rho_max: f64,
+    pub(crate) u_max: f64,
+    pub(crate) k: f64,
+    pub(crate) k_prime: f64,
     /// The inner variable v is s on [0, s_end] and s_end + (u_tail − u) beyond it.
-    s_end: f64,
-    u_tail: f64,
+    pub(crate) s_end: f64,
+    pub(crate) u_tail: f64,
 }
 
 impl SlopeIntegrand {
@@ -304,6 +304,100 @@ pub(crate) fn peak_panels(
     }
 }
 
+impl SlopeLine {
+    /// The radial line whose direction e has e·ωo,xy = `sc` (sin θo·cos ψ for the isotropic
+    /// integrand), seen from μo, up to where it leaves the reflection disc ([`Horizon`]); its
+    /// panels are laid by [`SlopeLine::panels`].
+    pub(crate) fn new(sc: f64, mu_o: f64) -> SlopeLine {
+        let Horizon {
+            k,
+            k_prime,
+            rho_max,
+            u_max,
+        } = Horizon::new(sc, mu_o);
+        SlopeLine {
+            sc,
+            rho_max,
+            u_max,
+            k,
+            k_prime,
+            s_end: 0.0,
+            u_tail: 1.0 / RHO_TAIL,
+        }
+    }
+
+    /// Whether any of the line lies above the horizon (not so at μo = 0 looking towards ωo).
+    pub(crate) fn reflects(&self) -> bool {
+        !(self.rho_max.is_nan() || self.rho_max <= 0.0)
+    }
+
+    /// Lays the panels of the inner variable v — s = asinh(ρ/α), then s_end + (u_tail − u) with
+    /// u = 1/ρ past [`RHO_TAIL`] — for slope scale `alpha` along the line, the masking weight's
+    /// singularities lying at |μi| ~ `mask_scale` next to the horizon; sets `s_end` and `u_tail`.
+    /// Nothing when the line does not reflect ([`SlopeLine::reflects`]).
+    pub(crate) fn panels(
+        &mut self,
+        alpha: f64,
+        mu_o: f64,
+        mask_scale: f64,
+        smith: SmithForm,
+        out: &mut Vec<Panel>,
+    ) {
+        if !self.reflects() {
+            return; // μo = 0 looking forward: nothing reflects above the horizon
+        }
+        let line = self;
+        let (rho_max, u_max, k, k_prime) = (line.rho_max, line.u_max, line.k, line.k_prime);
+        let rt = RHO_TAIL;
+        // The tail variable takes over only when the horizon lies well beyond ρ = RHO_TAIL, so
+        // that no tail panel is a sliver.
+        let tail = rho_max > 2.0 * rt;
+        let rho_s = if tail { rt } else { rho_max };
+        line.u_tail = 1.0 / rt;
+        line.s_end = asinh_pos(rho_s / alpha);
+        // s = 0 sits at distance π/2 from the poles of sech² s. The horizon sits next to the
+        // masking weight's singularities (|μi| ~ mask_scale), where |dμi/dρ| = k, so that
+        // |dμi/ds| = k·√(α² + ρmax²) and |dμi/du| = k·ρmax² = k'; seen from the end of the s
+        // part, they lie at s(ρmax) − s_end along the axis and that distance off it.
+        let s_end = line.s_end;
+        let slope_s = k * (alpha * alpha + rho_max * rho_max).sqrt();
+        let horizon_delta = if slope_s > 0.0 {
+            mask_scale / slope_s
+        } else {
+            f64::INFINITY
+        };
+        // asinh(ρmax/α) − asinh(ρs/α) as one logarithm: ln((x + √(x²+1))/(y + √(y²+1)))
+        let beyond = if tail {
+            let (x, y) = (rho_max / alpha, rho_s / alpha);
+            ((x + (x * x + 1.0).sqrt()) / (y + (y * y + 1.0).sqrt())).ln()
+        } else {
+            0.0
+        };
+        let end_delta = (beyond * beyond + horizon_delta * horizon_delta)
+            .sqrt()
+            .max(crate::quadrature::MIN_DELTA);
+        peak_panels(s_end, end_delta, false, f64::INFINITY, out);
+        if tail {
+            // the u part is panelled on its own: a distance in u is none in s
+            let v_end = s_end + (line.u_tail - u_max);
+            let mut delta = if k_prime > 0.0 {
+                mask_scale / k_prime
+            } else {
+                f64::INFINITY
+            };
+            if smith == SmithForm::HeightCorrelated && mu_o > 0.0 {
+                // the pole at u = 0 (μi → −μo as ρ → ∞), at distance umax beyond the horizon end
+                delta = delta.min(u_max);
+            }
+            let mut breaks = [
+                Break::regular(s_end),
+                Break::near_singular(v_end, delta.max(crate::quadrature::MIN_DELTA)),
+            ];
+            panels_from_breaks(&mut breaks, out);
+        }
+    }
+}
+
 /// One line's [`SlopeIntegrand::block`] as a [`vector::Block`].
 struct ConductorBlock<'a, const TAIL: bool, const FACTORED: bool, const HC: bool> {
     f: &'a SlopeIntegrand,
@@ -352,73 +446,9 @@ impl Integrand2D for SlopeIntegrand {
     }
 
     fn line_panels(&self, psi: f64, out: &mut Vec<Panel>) -> SlopeLine {
-        let (alpha, mu_o) = (self.alpha, self.mu_o);
         let sc = self.sin_o * sin_cos_0_pi(psi).1;
-        let Horizon {
-            k,
-            k_prime,
-            rho_max,
-            u_max,
-        } = Horizon::new(sc, mu_o);
-        let mut line = SlopeLine {
-            sc,
-            rho_max,
-            u_max,
-            k,
-            k_prime,
-            s_end: 0.0,
-            u_tail: 1.0 / RHO_TAIL,
-        };
-        if rho_max.is_nan() || rho_max <= 0.0 {
-            return line; // μo = 0 looking forward: nothing reflects above the horizon
-        }
-        let rt = RHO_TAIL;
-        // The tail variable takes over only when the horizon lies well beyond ρ = RHO_TAIL, so
-        // that no tail panel is a sliver.
-        let tail = rho_max > 2.0 * rt;
-        let rho_s = if tail { rt } else { rho_max };
-        line.u_tail = 1.0 / rt;
-        line.s_end = asinh_pos(rho_s / alpha);
-        // s = 0 sits at distance π/2 from the poles of sech² s. The horizon sits next to the
-        // masking weight's singularities (|μi| ~ mask_scale), where |dμi/dρ| = k, so that
-        // |dμi/ds| = k·√(α² + ρmax²) and |dμi/du| = k·ρmax² = k'; seen from the end of the s
-        // part, they lie at s(ρmax) − s_end along the axis and that distance off it.
-        let s_end = line.s_end;
-        let slope_s = k * (alpha * alpha + rho_max * rho_max).sqrt();
-        let horizon_delta = if slope_s > 0.0 {
-            self.mask_scale / slope_s
-        } else {
-            f64::INFINITY
-        };
-        // asinh(ρmax/α) − asinh(ρs/α) as one logarithm: ln((x + √(x²+1))/(y + √(y²+1)))
-        let beyond = if tail {
-            let (x, y) = (rho_max / alpha, rho_s / alpha);
-            ((x + (x * x + 1.0).sqrt()) / (y + (y * y + 1.0).sqrt())).ln()
-        } else {
-            0.0
-        };
-        let end_delta = (beyond * beyond + horizon_delta * horizon_delta)
-            .sqrt()
-            .max(crate::quadrature::MIN_DELTA);
-        peak_panels(s_end, end_delta, false, f64::INFINITY, out);
-        if tail {
-            // the u part is panelled on its own: a distance in u is none in s
-            let v_end = s_end + (line.u_tail - u_max);
-            let mut delta = if k_prime > 0.0 {
-                self.mask_scale / k_prime
-            } else {
-                f64::INFINITY
-            };
-            if self.smith == SmithForm::HeightCorrelated && mu_o > 0.0 {
-                // the pole at u = 0 (μi → −μo as ρ → ∞), at distance umax beyond the horizon end
-                delta = delta.min(u_max);
-            }
-            let mut breaks = [
-                Break::regular(s_end),
-                Break::near_singular(v_end, delta.max(crate::quadrature::MIN_DELTA)),
-            ];
-            panels_from_breaks(&mut breaks, out);
-        }
+        let mut line = SlopeLine::new(sc, self.mu_o);
+        line.panels(self.alpha, self.mu_o, self.mask_scale, self.smith, out);
         line
     }
 

@@ -194,7 +194,7 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
         .as_deref()
         .ok_or_else(|| Error::InvalidInput("give --model or --table".into()))?;
     let model = args.quadrature.model(name)?;
-    let resolution = parse_resolution(args.resolution.as_deref(), model.axes().len())?;
+    let resolution = parse_resolution(args.resolution.as_deref(), &model.default_resolution())?;
     let spec = TableSpec::new(model.as_ref(), &resolution, args.quadrature.settings()?)?;
     let t = get_table(model.as_ref(), &spec, &args.data_dir(), args.force)?;
     eprintln!(
@@ -643,7 +643,10 @@ fn compare_one(
     } else {
         args.resolution
     };
-    let resolution = parse_resolution(n.map(|n| n.to_string()).as_deref(), d)?;
+    let resolution = parse_resolution(
+        n.map(|n| n.to_string()).as_deref(),
+        &model.default_resolution(),
+    )?;
     let spec = TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())?;
     let t = get_table(model.as_ref(), &spec, &args.data_dir, false)?;
     eprintln!(

@@ -150,7 +150,8 @@ pub struct TabulateArgs {
     #[arg(long)]
     pub model: String,
     /// Nodes per axis: one count for every axis (`1024`) or one per axis (`128x64x32`).
-    /// Default: 1024 per axis in 2-D, 128 in 3-D (the paper's resolutions).
+    /// Default: 1024 per axis in 2-D, 128 in 3-D (the paper's resolutions), 64x16x64x16 for the
+    /// anisotropic conductor (see `furnace models`).
     #[arg(long)]
     pub resolution: Option<String>,
     /// Recompute even when a cached table with the same inputs exists.
@@ -211,7 +212,7 @@ pub fn run(cli: Cli) -> Result<()> {
             print!("{}", models_listing());
             Ok(())
         }
-        Command::Tabulate(args) => tabulate_cmd(&args).map(|_| ()),
+        Command::Tabulate(args) => tabulate_cmd(&args),
         Command::Eval(args) => eval::eval_cmd(&args),
         Command::Fit(args) => fit::fit_cmd(&args),
         Command::ComparePaper(args) => fit::compare_paper_cmd(&args),
@@ -246,15 +247,26 @@ pub fn models_listing() -> String {
                 a.description
             ));
         }
-        s.push_str(&format!("    outputs: {}\n", m.outputs().join(", ")));
+        let default: Vec<String> = m
+            .default_resolution()
+            .iter()
+            .map(|n| n.to_string())
+            .collect();
+        s.push_str(&format!(
+            "    outputs: {}; default resolution {}\n",
+            m.outputs().join(", "),
+            default.join("x")
+        ));
     }
     s
 }
 
-/// Parses `1024` or `128x64x32` for a model with `dims` axes.
-pub fn parse_resolution(text: Option<&str>, dims: usize) -> Result<Vec<usize>> {
+/// Parses `1024` or `128x64x32` for a model whose default resolution is `default` (one count per
+/// axis, [`bsdf::Model::default_resolution`]).
+pub fn parse_resolution(text: Option<&str>, default: &[usize]) -> Result<Vec<usize>> {
+    let dims = default.len();
     let Some(text) = text else {
-        return Ok(vec![if dims <= 2 { 1024 } else { 128 }; dims]);
+        return Ok(default.to_vec());
     };
     let parts: Vec<&str> = text.split(['x', 'X']).collect();
     let counts: Vec<usize> = parts
@@ -329,14 +341,14 @@ pub fn get_table(
     })
 }
 
-fn tabulate_cmd(args: &TabulateArgs) -> Result<Tabulated> {
+fn tabulate_cmd(args: &TabulateArgs) -> Result<()> {
     let settings = args.quadrature.settings()?;
     let model = args.quadrature.model(&args.model)?;
-    let resolution = parse_resolution(args.resolution.as_deref(), model.axes().len())?;
+    let resolution = parse_resolution(args.resolution.as_deref(), &model.default_resolution())?;
     let spec = TableSpec::new(model.as_ref(), &resolution, settings)?;
     let t = get_table(model.as_ref(), &spec, &args.data_dir, args.force)?;
     report_table(&t);
-    Ok(t)
+    Ok(())
 }
 
 fn report_table(t: &Tabulated) {

@@ -9,6 +9,44 @@ pub fn alpha_from_r(r: f64) -> f64 {
     r * r
 }
 
+/// OpenPBR's anisotropic GGX roughness (OpenPBR Surface specification, "Microfacet model"):
+/// α_t = r²·√(2/(1 + (1 − aniso)²)) along the tangent and α_b = (1 − aniso)·α_t along the
+/// bitangent, so that α_t² + α_b² = 2r⁴ (the isotropic α = r² at aniso = 0) and
+/// α_b/α_t = 1 − aniso. Returns (α_t, α_b); α_t exceeds r² (up to √2·r²) as aniso → 1.
+#[inline]
+pub fn anisotropic_alphas(r: f64, aniso: f64) -> (f64, f64) {
+    let b = 1.0 - aniso;
+    let alpha_t = alpha_from_r(r) * (2.0 / (1.0 + b * b)).sqrt();
+    (alpha_t, b * alpha_t)
+}
+
+/// The inverse of [`anisotropic_alphas`]: (r, aniso) of roughnesses α_t ≥ α_b ≥ 0 (one of them
+/// positive), r = ((α_t² + α_b²)/2)^¼ and aniso = 1 − α_b/α_t. A renderer whose larger roughness
+/// lies along its bitangent swaps the two and measures φ from its bitangent instead.
+/// `None` when α_b > α_t or either is negative or not finite.
+pub fn openpbr_roughness(alpha_t: f64, alpha_b: f64) -> Option<(f64, f64)> {
+    if !(alpha_t.is_finite() && alpha_b.is_finite() && alpha_b >= 0.0 && alpha_t >= alpha_b) {
+        return None;
+    }
+    if alpha_t == 0.0 {
+        return Some((0.0, 0.0));
+    }
+    let r = (0.5 * (alpha_t * alpha_t + alpha_b * alpha_b))
+        .sqrt()
+        .sqrt();
+    Some((r, 1.0 - alpha_b / alpha_t))
+}
+
+/// Smith's a(ω) = √(μ² + α_x² ω_x² + α_y² ω_y²) of anisotropic GGX, so that
+/// Λ(ω) = (a/|μ| − 1)/2 (Heitz 2014, "Understanding the masking-shadowing function": GGX's Λ
+/// with the projected roughness α(φ) = √(α_x² cos²φ + α_y² sin²φ) of ω's azimuth).
+/// Equal to [`smith_a`] for α_x = α_y and a unit ω.
+#[inline]
+pub fn smith_a_aniso(w: [f64; 3], alpha_x: f64, alpha_y: f64) -> f64 {
+    let (x, y) = (alpha_x * w[0], alpha_y * w[1]);
+    (w[2] * w[2] + x * x + y * y).sqrt()
+}
+
 /// Relative index of refraction from normal-incidence reflectance, η = (1+√F0)/(1−√F0)
 /// (inverse of F0 = ((η−1)/(η+1))²). Returns `f64::INFINITY` for `f0 = 1`.
 #[inline]

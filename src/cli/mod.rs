@@ -66,6 +66,8 @@ pub enum Command {
     Models,
     /// Tabulate a model's directional albedo on a grid (cached under data/).
     Tabulate(TabulateArgs),
+    /// Join the shards written by `tabulate --shard K/N` into the table (the same bytes as one run).
+    Merge(MergeArgs),
     /// Evaluate E at arbitrary points: a model by direct quadrature (no interpolation), or a fit.
     Eval(EvalArgs),
     /// Fit a polynomial or rational approximation to a model's table or a user's table, or sweep degrees.
@@ -160,6 +162,28 @@ pub struct TabulateArgs {
     /// Folder for tables.
     #[arg(long, default_value = "data")]
     pub data_dir: PathBuf,
+    /// Compute only slice K of N (0 ≤ K < N) and write it as a shard beside the table;
+    /// `furnace merge` joins the N shards (see docs/quadrature.md, "Tables in shards").
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    #[command(flatten)]
+    pub quadrature: QuadratureArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// Model name, as given to `tabulate --shard`.
+    #[arg(long)]
+    pub model: String,
+    /// Nodes per axis, as given to `tabulate --shard`.
+    #[arg(long)]
+    pub resolution: Option<String>,
+    /// The N of `--shard K/N`: how many shards to join.
+    #[arg(long)]
+    pub shards: usize,
+    /// Folder for tables (where the shards are).
+    #[arg(long, default_value = "data")]
+    pub data_dir: PathBuf,
     #[command(flatten)]
     pub quadrature: QuadratureArgs,
 }
@@ -213,6 +237,7 @@ pub fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Tabulate(args) => tabulate_cmd(&args),
+        Command::Merge(args) => merge_cmd(&args),
         Command::Eval(args) => eval::eval_cmd(&args),
         Command::Fit(args) => fit::fit_cmd(&args),
         Command::ComparePaper(args) => fit::compare_paper_cmd(&args),
@@ -346,8 +371,47 @@ fn tabulate_cmd(args: &TabulateArgs) -> Result<()> {
     let model = args.quadrature.model(&args.model)?;
     let resolution = parse_resolution(args.resolution.as_deref(), &model.default_resolution())?;
     let spec = TableSpec::new(model.as_ref(), &resolution, settings)?;
+    if let Some(text) = &args.shard {
+        let id = table::shard::ShardId::parse(text)?;
+        let stem = io::table_stem(&args.data_dir, model.as_ref(), &spec);
+        let start = Instant::now();
+        let pb = progress_bar(
+            spec.cells() as u64 / id.count as u64,
+            &format!("{} {} shard {text}", spec.model, spec.resolution_name()),
+        );
+        let json = table::shard::tabulate_shard(model.as_ref(), &spec, id, &stem, &|n| pb.inc(n))?;
+        pb.finish_and_clear();
+        eprintln!(
+            "{} {} shard {}/{}: computed in {:.2} s\n    {} (+ .bin)",
+            spec.model,
+            spec.resolution_name(),
+            id.index,
+            id.count,
+            start.elapsed().as_secs_f64(),
+            json.display()
+        );
+        return Ok(());
+    }
     let t = get_table(model.as_ref(), &spec, &args.data_dir, args.force)?;
     report_table(&t);
+    Ok(())
+}
+
+fn merge_cmd(args: &MergeArgs) -> Result<()> {
+    let settings = args.quadrature.settings()?;
+    let model = args.quadrature.model(&args.model)?;
+    let resolution = parse_resolution(args.resolution.as_deref(), &model.default_resolution())?;
+    let spec = TableSpec::new(model.as_ref(), &resolution, settings)?;
+    let stem = io::table_stem(&args.data_dir, model.as_ref(), &spec);
+    let start = Instant::now();
+    let table = table::shard::merge(model.as_ref(), &spec, args.shards, &stem)?;
+    io::save(&table, &stem)?;
+    report_table(&Tabulated {
+        table,
+        stem,
+        cached: false,
+        seconds: start.elapsed().as_secs_f64(),
+    });
     Ok(())
 }
 

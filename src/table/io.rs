@@ -46,14 +46,14 @@ pub fn table_stem(dir: &Path, model: &dyn Model, spec: &TableSpec) -> PathBuf {
     dir.join(model.id().key()).join(name)
 }
 
-fn with_ext(stem: &Path, ext: &str) -> PathBuf {
+pub(super) fn with_ext(stem: &Path, ext: &str) -> PathBuf {
     let mut s = stem.as_os_str().to_owned();
     s.push(".");
     s.push(ext);
     PathBuf::from(s)
 }
 
-fn sha256_hex(bytes: &[u8]) -> String {
+pub(super) fn sha256_hex(bytes: &[u8]) -> String {
     Sha256::digest(bytes)
         .iter()
         .map(|b| format!("{b:02x}"))

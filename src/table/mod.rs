@@ -19,6 +19,7 @@
 
 pub mod io;
 pub mod points;
+pub mod shard;
 
 use crate::bsdf::{albedo, albedo_column, Model, ModelId, Transmission, MAX_OUTPUTS};
 use crate::error::{human_bytes, Error, Result};
@@ -27,7 +28,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// One cell's outcome while tabulating: outputs, error estimate, final order, converged.
-type CellResult = ([f64; MAX_OUTPUTS], f64, usize, bool);
+pub(crate) type CellResult = ([f64; MAX_OUTPUTS], f64, usize, bool);
 
 /// Bumped whenever a change to the engine can change a table value: it is hashed into every
 /// cache key, so stale tables are recomputed rather than trusted.
@@ -292,6 +293,20 @@ pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
 /// cells whose difference exceeds the tolerance are recomputed at higher orders (×1.25 each) up to
 /// `max_order`, and any still above it are counted and listed in the summary.
 pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Result<Table> {
+    check_request(model, spec)?;
+    let layout = Units::of(model, spec);
+    let unit_results = compute_units(model, spec, &layout, 0..layout.units, progress);
+    let mut ordered: Vec<Option<CellResult>> = vec![None; spec.cells()];
+    for (unit, results) in unit_results.into_iter().enumerate() {
+        for (k, r) in results.into_iter().enumerate() {
+            ordered[layout.cell_of(unit, k)] = Some(r);
+        }
+    }
+    assemble(spec, ordered)
+}
+
+/// Refuses a spec that is invalid or names another model.
+fn check_request(model: &dyn Model, spec: &TableSpec) -> Result<()> {
     spec.validate()?;
     if spec.model != model.id().name() {
         return Err(Error::InvalidInput(format!(
@@ -300,37 +315,65 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
             model.id().name()
         )));
     }
-    let cells = spec.cells();
-    let dims = spec.axes.len();
-    let n_out = spec.outputs.len();
-    let cache = RuleCache::new(&spec.quadrature);
-    // Unit of parallel work and of progress: a row along the last axis; or, in 3-D and for
-    // models that share geometry along their first axis, a column along the first axis (f0),
-    // which the model may integrate with one shared geometry.
-    let by_column = dims >= 3 || (dims == 2 && model.shares_column_geometry());
-    let (units, unit_len) = if by_column {
-        (cells / spec.axes[0].n, spec.axes[0].n)
-    } else {
-        (cells / spec.axes[dims - 1].n, spec.axes[dims - 1].n)
-    };
-    let cell_of = |unit: usize, k: usize| -> usize {
-        if by_column {
-            k * units + unit
+    Ok(())
+}
+
+/// The units of parallel work (and of progress, and of shards): a row along the last axis; or,
+/// in 3-D and beyond and for models that share geometry along their first axis, a column along
+/// the first axis (f0), which the model may integrate with one shared geometry.
+struct Units {
+    units: usize,
+    unit_len: usize,
+    column: bool,
+}
+
+impl Units {
+    fn of(model: &dyn Model, spec: &TableSpec) -> Units {
+        let (cells, dims) = (spec.cells(), spec.axes.len());
+        let column = dims >= 3 || (dims == 2 && model.shares_column_geometry());
+        let unit_len = if column {
+            spec.axes[0].n
         } else {
-            unit * unit_len + k
+            spec.axes[dims - 1].n
+        };
+        Units {
+            units: cells / unit_len,
+            unit_len,
+            column,
         }
-    };
-    let unit_results: Vec<Vec<CellResult>> = (0..units)
+    }
+
+    /// The cell of the `k`-th point of `unit`.
+    fn cell_of(&self, unit: usize, k: usize) -> usize {
+        if self.column {
+            k * self.units + unit
+        } else {
+            unit * self.unit_len + k
+        }
+    }
+}
+
+/// The cells of the units `range`, in parallel, each unit's in order.
+fn compute_units(
+    model: &dyn Model,
+    spec: &TableSpec,
+    layout: &Units,
+    range: std::ops::Range<usize>,
+    progress: Progress,
+) -> Vec<Vec<CellResult>> {
+    let dims = spec.axes.len();
+    let cache = RuleCache::new(&spec.quadrature);
+    range
         .into_par_iter()
         .map(|unit| {
-            let xs: Vec<Vec<f64>> = (0..unit_len)
+            let xs: Vec<Vec<f64>> = (0..layout.unit_len)
                 .map(|k| {
                     let mut x = vec![0.0; dims];
-                    spec.point(cell_of(unit, k), &mut x);
+                    spec.point(layout.cell_of(unit, k), &mut x);
                     x
                 })
                 .collect();
-            let out = if by_column {
+            let out = if layout.column {
                 albedo_column(model, &xs, &spec.quadrature, &cache)
                     .into_iter()
                     .map(|e| (e.value, e.error, e.order, e.converged))
@@ -343,17 +386,18 @@ pub fn tabulate(model: &dyn Model, spec: &TableSpec, progress: Progress) -> Resu
                     })
                     .collect()
             };
-            progress(unit_len as u64);
+            progress(layout.unit_len as u64);
             out
         })
-        .collect();
-    let mut ordered: Vec<Option<CellResult>> = vec![None; cells];
-    for (unit, results) in unit_results.into_iter().enumerate() {
-        for (k, r) in results.into_iter().enumerate() {
-            ordered[cell_of(unit, k)] = Some(r);
-        }
-    }
+        .collect()
+}
 
+/// The table from every cell's outcome (in cell order), with its error summary; refuses a
+/// non-finite value.
+fn assemble(spec: &TableSpec, ordered: Vec<Option<CellResult>>) -> Result<Table> {
+    let cells = spec.cells();
+    let dims = spec.axes.len();
+    let n_out = spec.outputs.len();
     let mut values = vec![0.0; n_out * cells];
     let mut errors = vec![0.0; cells];
     let mut summary = ErrorSummary {

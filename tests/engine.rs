@@ -219,3 +219,34 @@ fn default_tables_are_physical_and_meet_their_tolerance() {
         assert!(t.summary.max_error_estimate <= QuadratureSettings::default().tolerance);
     }
 }
+
+/// A table's bits do not depend on how many threads computed it (each cell's arithmetic, its
+/// refinement and a column's shared geometry are the same on any thread).
+#[test]
+fn tables_are_the_same_bits_on_one_and_two_threads() {
+    for (name, res) in [
+        ("ggx-conductor", vec![24, 24]),
+        ("ggx-dielectric", vec![9, 9, 9]),
+        ("ggx-dielectric-inv", vec![9, 9, 9]),
+        ("ggx-glossy-separable", vec![9, 9, 9]),
+    ] {
+        let m = model(name);
+        let spec = TableSpec::new(m.as_ref(), &res, QuadratureSettings::default()).unwrap();
+        let on = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| tabulate(m.as_ref(), &spec, &|_| {}).unwrap())
+        };
+        let (one, two) = (on(1), on(2));
+        let bits = |t: &Table| {
+            t.values
+                .iter()
+                .chain(&t.errors)
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert!(bits(&one) == bits(&two), "{name}: the tables differ");
+    }
+}

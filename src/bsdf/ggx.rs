@@ -1,12 +1,13 @@
 //! GGX microfacet models: white conductor, dielectric interface (entering and leaving) and the
 //! glossy (specular-over-diffuse) ratio, each with both Smith forms: what each tabulates, its
-//! axes and outputs, and which integrand integrates a cell — the conductor's in slope space
-//! ([`super::slope`]), the others' over visible normals ([`super::vndf`]).
+//! axes and outputs, and which integrand integrates a cell — the conductor's and the
+//! dielectrics' in slope space ([`super::slope`], [`super::slope_dielectric`]), the glossy
+//! model's over visible normals ([`super::vndf`]).
 
 use super::microfacet::Lobes;
 use super::slope::SlopeIntegrand;
 use super::slope_dielectric::SlopeDielectric;
-use super::vndf::{Part, VndfIntegrand};
+use super::vndf::VndfIntegrand;
 use super::{AxisSpec, Model, ModelId, Side, Transmission, MAX_OUTPUTS};
 use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, SmithForm};
 use crate::quadrature::{integrate_2d, Break, Rules, CHANNELS};
@@ -118,24 +119,14 @@ impl GgxModel {
             (_, Lobes::Conductor) => {
                 Cell::Conductor(SlopeIntegrand::conductor(alpha, mu_o, self.smith))
             }
-            (GgxKind::Dielectric { inverse: true }, Lobes::Dielectric { eta }) => {
+            (GgxKind::Dielectric { .. }, Lobes::Dielectric { eta }) if eta < 1.0 => Cell::Leaving {
+                conductor: SlopeIntegrand::conductor(alpha, mu_o, self.smith),
+                cap: SlopeDielectric::deficit(alpha, mu_o, eta, self.smith),
+            },
+            (GgxKind::Dielectric { .. }, Lobes::Dielectric { eta }) => {
                 Cell::Dielectric(SlopeDielectric::new(alpha, mu_o, eta, self.smith))
             }
-            _ => Cell::VisibleNormals(self.integrands(alpha, mu_o, lobes)),
-        }
-    }
-
-    /// The integrands of one cell: one carrying both channels, or — leaving the denser medium —
-    /// reflection and transmission apart (see [`Part`]).
-    fn integrands(&self, alpha: f64, mu_o: f64, lobes: Lobes) -> Vec<VndfIntegrand> {
-        match (self.kind, lobes) {
-            (GgxKind::Dielectric { inverse: true }, Lobes::Dielectric { eta }) if eta < 1.0 => {
-                vec![
-                    VndfIntegrand::part(alpha, mu_o, self.smith, lobes, Part::ReflectionOnly),
-                    VndfIntegrand::part(alpha, mu_o, self.smith, lobes, Part::TransmissionOnly),
-                ]
-            }
-            _ => vec![VndfIntegrand::new(alpha, mu_o, self.smith, lobes)],
+            _ => Cell::VisibleNormals(VndfIntegrand::new(alpha, mu_o, self.smith, lobes)),
         }
     }
 }
@@ -148,9 +139,14 @@ enum Cell {
     Conductor(SlopeIntegrand),
     /// A dielectric interface in slope space.
     Dielectric(SlopeDielectric),
-    /// Over visible normals: one integrand carrying both channels, or reflection and
-    /// transmission apart.
-    VisibleNormals(Vec<VndfIntegrand>),
+    /// Leaving the denser medium: E_R is the white conductor's albedo less the reflection
+    /// deficit of the critical-angle cap, E_T the cap's transmission.
+    Leaving {
+        conductor: SlopeIntegrand,
+        cap: SlopeDielectric,
+    },
+    /// Over visible normals (the glossy model).
+    VisibleNormals(VndfIntegrand),
 }
 
 impl Cell {
@@ -159,12 +155,18 @@ impl Cell {
             Cell::Smooth(v) => *v,
             Cell::Conductor(f) => integrate_2d(f, rules),
             Cell::Dielectric(f) => integrate_2d(f, rules),
-            Cell::VisibleNormals(fs) => fs.iter().fold([0.0; CHANNELS], |acc, f| {
-                let v = integrate_2d(f, rules);
-                [acc[0] + v[0], acc[1] + v[1]]
-            }),
+            Cell::Leaving { conductor, cap } => {
+                leaving(integrate_2d(conductor, rules)[0], integrate_2d(cap, rules))
+            }
+            Cell::VisibleNormals(f) => integrate_2d(f, rules),
         }
     }
+}
+
+/// Leaving the denser medium: [E_R, E_T] from the white conductor's albedo `e` and the
+/// critical-angle cap's integrals [∫(1 − F)·R, E_T] ([`SlopeDielectric::deficit`]).
+fn leaving(e: f64, cap: [f64; CHANNELS]) -> [f64; CHANNELS] {
+    [e - cap[0], cap[1]]
 }
 
 /// The r = 0 (α = 0) column: a smooth interface, whose BSDF is a delta and whose albedo is
@@ -336,11 +338,10 @@ impl Model for GgxModel {
         }
     }
 
+    /// The entering dielectric and glossy models share their kinks across a column of IORs,
+    /// the leaving dielectric its white conductor's albedo.
     fn shares_column_geometry(&self) -> bool {
-        matches!(
-            self.kind,
-            GgxKind::Dielectric { inverse: false } | GgxKind::Glossy
-        )
+        matches!(self.kind, GgxKind::Dielectric { .. } | GgxKind::Glossy)
     }
 
     fn integrate_column(&self, xs: &[Vec<f64>], rules: &Rules, out: &mut [[f64; MAX_OUTPUTS]]) {
@@ -360,13 +361,33 @@ impl Model for GgxModel {
             "a column shares r and mu"
         );
         let etas: Vec<f64> = xs.iter().map(|x| self.eta(x[0])).collect();
-        let lobes = match self.kind {
-            GgxKind::Glossy => Lobes::Glossy { eta: 1.0 },
-            _ => Lobes::Dielectric { eta: 1.0 },
-        };
-        let f = VndfIntegrand::column(alpha_from_r(r), mu, self.smith, lobes, &etas);
+        let alpha = alpha_from_r(r);
         let mut c = vec![0.0; 2 * etas.len()];
-        crate::quadrature::integrate_2d_into(&f, rules, &mut c);
+        match self.kind {
+            GgxKind::Glossy => {
+                let lobes = Lobes::Glossy { eta: 1.0 };
+                let f = VndfIntegrand::column(alpha, mu, self.smith, lobes, &etas);
+                crate::quadrature::integrate_2d_into(&f, rules, &mut c);
+            }
+            GgxKind::Dielectric { inverse: true } => {
+                let e = integrate_2d(&SlopeIntegrand::conductor(alpha, mu, self.smith), rules)[0];
+                for (k, &eta) in etas.iter().enumerate() {
+                    let v = if eta < 1.0 {
+                        let cap = SlopeDielectric::deficit(alpha, mu, eta, self.smith);
+                        leaving(e, integrate_2d(&cap, rules))
+                    } else {
+                        // F0 = 0: no interface
+                        integrate_2d(&SlopeDielectric::new(alpha, mu, eta, self.smith), rules)
+                    };
+                    c[2 * k] = v[0];
+                    c[2 * k + 1] = v[1];
+                }
+            }
+            _ => {
+                let f = SlopeDielectric::column(alpha, mu, &etas, self.smith);
+                crate::quadrature::integrate_2d_into(&f, rules, &mut c);
+            }
+        }
         for (k, o) in out.iter_mut().enumerate() {
             *o = self.outputs_from_integrals(xs[k][0], [c[2 * k], c[2 * k + 1]]);
         }

@@ -1,5 +1,6 @@
-//! The visible-normal integrand of the GGX dielectric and glossy models (and a second,
-//! independent parametrisation of the conductor, which its tests compare against).
+//! The visible-normal integrand of the GGX glossy model, and a second, independent
+//! parametrisation of the conductor and the dielectrics, which the slope-space integrands'
+//! tests compare against.
 //!
 //! # The integral
 //! The albedo is integrated over *visible* microfacet normals (Heitz 2018, "Sampling the GGX

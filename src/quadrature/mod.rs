@@ -57,8 +57,11 @@ pub struct Break {
     pub sqrt_below: bool,
     /// Square-root behaviour on the side above x.
     pub sqrt_above: bool,
-    /// Distance to the nearest complex singularity of the integrand (∞ if none is known).
-    pub delta: f64,
+    /// Distance to the nearest complex singularity of the integrand on the side below x and on
+    /// the side above it (∞ if none is known; the two differ where the integrand on one side
+    /// is analytic and the other side's continuation is not).
+    pub delta_below: f64,
+    pub delta_above: f64,
 }
 
 impl Break {
@@ -67,39 +70,54 @@ impl Break {
             x,
             sqrt_below: false,
             sqrt_above: false,
-            delta: f64::INFINITY,
+            delta_below: f64::INFINITY,
+            delta_above: f64::INFINITY,
         }
     }
     /// Square-root behaviour on both sides.
     pub fn sqrt(x: f64) -> Break {
         Break {
-            x,
             sqrt_below: true,
             sqrt_above: true,
-            delta: f64::INFINITY,
+            ..Break::regular(x)
         }
     }
     /// Square-root behaviour on one side only (e.g. a critical angle, beyond which F = 1).
     pub fn one_sided_sqrt(x: f64, above: bool) -> Break {
         Break {
-            x,
             sqrt_below: !above,
             sqrt_above: above,
-            delta: f64::INFINITY,
-        }
-    }
-    pub fn near_singular(x: f64, delta: f64) -> Break {
-        Break {
-            delta,
             ..Break::regular(x)
         }
     }
-    /// Also near-singular at distance `delta` (keeps the smaller of the two).
+    pub fn near_singular(x: f64, delta: f64) -> Break {
+        Break::regular(x).with_delta(delta)
+    }
+    /// Also near-singular at distance `delta` on both sides (keeps the smaller of the two).
     pub fn with_delta(self, delta: f64) -> Break {
         Break {
-            delta: self.delta.min(delta),
+            delta_below: self.delta_below.min(delta),
+            delta_above: self.delta_above.min(delta),
             ..self
         }
+    }
+    /// Also near-singular at distance `delta` on one side only.
+    pub fn with_delta_on(self, above: bool, delta: f64) -> Break {
+        if above {
+            Break {
+                delta_above: self.delta_above.min(delta),
+                ..self
+            }
+        } else {
+            Break {
+                delta_below: self.delta_below.min(delta),
+                ..self
+            }
+        }
+    }
+    /// The smaller of the two distances.
+    pub fn delta(&self) -> f64 {
+        self.delta_below.min(self.delta_above)
     }
     fn any_sqrt(&self) -> bool {
         self.sqrt_below || self.sqrt_above
@@ -124,64 +142,72 @@ pub const SINH_MAX_SPAN: f64 = 3.0;
 /// The map an end needs on a panel (or half panel) of length `len` lying on its side
 /// `toward`, if any.
 fn end_map(b: &Break, toward: f64, len: f64) -> Option<PanelMap> {
-    let near = b.delta < NEAR_SINGULAR_RATIO * len;
-    let sqrt = if toward > b.x {
-        b.sqrt_above
+    let (sqrt, delta) = if toward > b.x {
+        (b.sqrt_above, b.delta_above)
     } else {
-        b.sqrt_below
+        (b.sqrt_below, b.delta_below)
     };
+    let near = delta < NEAR_SINGULAR_RATIO * len;
     (sqrt || near).then_some(PanelMap::End {
         at: b.x,
         toward,
         sqrt,
-        delta: if near { b.delta } else { f64::INFINITY },
+        delta: if near { delta } else { f64::INFINITY },
     })
 }
 
-/// Sorts `breaks`, merges coincident ones (keeping the more singular behaviour) and appends the
+/// Sorts `breaks`, merges coincident ones in place (keeping the more singular behaviour) and appends the
 /// panels between them. A panel with one special end is mapped towards it; a panel with two is
 /// split at its midpoint so that each half is mapped towards its own end.
 pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
     breaks.sort_by(|p, q| p.x.total_cmp(&q.x));
-    // on the stack for the usual handful of breaks (this runs once per quadrature line)
-    const STACK: usize = 32;
-    let (mut merged_stack, mut own_stack) = ([Break::regular(0.0); STACK], [(0.0, 0.0); STACK]);
-    let (mut merged_heap, mut own_heap) = (Vec::new(), Vec::new());
-    let (merged_buf, own_buf): (&mut [Break], &mut [(f64, f64)]) = if breaks.len() <= STACK {
-        (&mut merged_stack, &mut own_stack)
-    } else {
-        merged_heap.resize(breaks.len(), Break::regular(0.0));
-        own_heap.resize(breaks.len(), (0.0, 0.0));
-        (&mut merged_heap, &mut own_heap)
-    };
+    // merge in place
     let mut n = 0;
-    for b in breaks.iter() {
-        if n > 0 && (b.x - merged_buf[n - 1].x).abs() <= MERGE_TOL {
-            let last = &mut merged_buf[n - 1];
+    for i in 0..breaks.len() {
+        let b = breaks[i];
+        if n > 0 && (b.x - breaks[n - 1].x).abs() <= MERGE_TOL {
+            let last = &mut breaks[n - 1];
             last.sqrt_below |= b.sqrt_below;
             last.sqrt_above |= b.sqrt_above;
-            last.delta = last.delta.min(b.delta);
+            last.delta_below = last.delta_below.min(b.delta_below);
+            last.delta_above = last.delta_above.min(b.delta_above);
         } else {
-            merged_buf[n] = *b;
+            breaks[n] = b;
             n += 1;
         }
     }
-    let merged = &mut merged_buf[..n];
+    let merged = &mut breaks[..n];
     // Singularities of other breaks are near this one too: a square-root point is itself a
     // singularity, a near-singular break has one at complex distance δ from it; so break k is
-    // near-singular at least at min_j hypot(x_j − x_k, δ_j) (0 for square roots).
-    let own = &mut own_buf[..n];
+    // near-singular at least at min_j hypot(x_j − x_k, δ_j) (0 for square roots; δ_j of the
+    // side of j that faces k). On the stack for the usual handful of breaks (this runs once
+    // per quadrature line).
+    const STACK: usize = 12;
+    let mut own_stack = [(0.0, 0.0, 0.0); STACK];
+    let mut own_heap = Vec::new();
+    let own: &mut [(f64, f64, f64)] = if n <= STACK {
+        &mut own_stack[..n]
+    } else {
+        own_heap.resize(n, (0.0, 0.0, 0.0));
+        &mut own_heap
+    };
     for (o, b) in own.iter_mut().zip(merged.iter()) {
-        *o = (b.x, if b.any_sqrt() { 0.0 } else { b.delta });
+        *o = if b.any_sqrt() {
+            (b.x, 0.0, 0.0)
+        } else {
+            (b.x, b.delta_below, b.delta_above)
+        };
     }
     for (k, b) in merged.iter_mut().enumerate() {
-        let mut delta = b.delta;
-        for (j, &(x, d)) in own.iter().enumerate() {
+        let mut near = f64::INFINITY;
+        for (j, &(x, below, above)) in own.iter().enumerate() {
+            let d = if x < b.x { above } else { below };
             if j != k && d.is_finite() {
-                delta = delta.min(((x - b.x) * (x - b.x) + d * d).sqrt());
+                near = near.min(((x - b.x) * (x - b.x) + d * d).sqrt());
             }
         }
-        b.delta = delta.max(MIN_DELTA);
+        b.delta_below = b.delta_below.min(near).max(MIN_DELTA);
+        b.delta_above = b.delta_above.min(near).max(MIN_DELTA);
     }
     for w in merged.windows(2) {
         let (l, r) = (w[0], w[1]);

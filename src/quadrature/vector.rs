@@ -22,6 +22,10 @@ pub trait Kernel {
 /// Runs `kernel` compiled for AVX-512 or AVX2 where the CPU has them, else for the baseline.
 #[inline]
 pub fn run<K: Kernel>(mut kernel: K) -> K::Output {
+    #[cfg(test)]
+    if BASELINE_ONLY.with(std::cell::Cell::get) {
+        return baseline(&mut kernel);
+    }
     #[cfg(target_arch = "x86_64")]
     {
         #[target_feature(enable = "avx512f")]
@@ -48,6 +52,22 @@ pub fn run<K: Kernel>(mut kernel: K) -> K::Output {
 #[inline(never)]
 fn baseline<K: Kernel>(kernel: &mut K) -> K::Output {
     kernel.run()
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Set by [`on_baseline`]: every [`run`] on this thread takes the baseline build.
+    static BASELINE_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with every [`run`] on this thread compiled for the baseline (SSE2), so that a test
+/// can compare whole integrals from the baseline and the wide builds bit for bit.
+#[cfg(test)]
+pub fn on_baseline<T>(f: impl FnOnce() -> T) -> T {
+    BASELINE_ONLY.with(|b| b.set(true));
+    let out = f();
+    BASELINE_ONLY.with(|b| b.set(false));
+    out
 }
 
 /// An integrand evaluated at [`LANES`] nodes at once, `C` channels per node: the body of a

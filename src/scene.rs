@@ -44,8 +44,8 @@ use crate::table::{Table, TableSpec};
 /// over a slightly wider range than used is harmless.
 pub const MIN_RANGE_WIDTH: f64 = 0.02;
 
-/// Default nodes per axis of scene tables: the paper's 1024² and 128³ (narrower domains make
-/// the same node count denser).
+/// Default nodes per axis of tables (`furnace tabulate`, `furnace run`, scenes): the paper's
+/// 1024² and 128³ (in a scene, narrower domains make the same node count denser).
 pub const DEFAULT_RESOLUTION_2D: usize = 1024;
 pub const DEFAULT_RESOLUTION_3D: usize = 128;
 

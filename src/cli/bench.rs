@@ -21,7 +21,7 @@ pub struct BenchTabulateArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "ggx-conductor,ggx-dielectric"
+        default_value = "ggx-conductor,ggx-dielectric,ggx-dielectric-inv,ggx-glossy"
     )]
     pub models: Vec<String>,
     /// Smaller tables (256² and 32³) for a quick look.

@@ -2,13 +2,14 @@
 
 use super::bench::{csv_to_stdout, machine_note, table_line, write_bench};
 use super::fit::SolverArg;
-use super::{get_table, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D};
+use super::get_table;
 use crate::bsdf;
 use crate::error::Result;
 use crate::fit::job::{self, default_sweep_points, FitRequest, FormKind, SweepPlan};
 use crate::fit::{source, InputTransform, LsqMethod, Objective, RationalOptions};
 use crate::quadrature::QuadratureSettings;
 use crate::report::inputs::BenchPlot;
+use crate::scene::{DEFAULT_RESOLUTION_2D, DEFAULT_RESOLUTION_3D};
 use crate::table::TableSpec;
 use clap::Args;
 use std::path::PathBuf;
@@ -26,7 +27,7 @@ pub struct BenchFitArgs {
     /// Nodes per axis of 2-D tables (default: `furnace run`'s, 1024).
     #[arg(long)]
     pub resolution_2d: Option<usize>,
-    /// Nodes per axis of 3-D tables (default: `furnace run`'s, 64).
+    /// Nodes per axis of 3-D tables (default: `furnace run`'s, 128).
     #[arg(long)]
     pub resolution_3d: Option<usize>,
     /// Highest degree (default: the paper's sweep — 10 in 2-D; 7 for polynomials and 5 for
@@ -100,9 +101,9 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
         let model = bsdf::find(name)?;
         let d = model.axes().len();
         let n = if d <= 2 {
-            args.resolution_2d.unwrap_or(RUN_RESOLUTION_2D)
+            args.resolution_2d.unwrap_or(DEFAULT_RESOLUTION_2D)
         } else {
-            args.resolution_3d.unwrap_or(RUN_RESOLUTION_3D)
+            args.resolution_3d.unwrap_or(DEFAULT_RESOLUTION_3D)
         };
         let spec = TableSpec::new(model.as_ref(), &vec![n; d], QuadratureSettings::default())?;
         let t = get_table(model.as_ref(), &spec, &args.data_dir, false)?;

@@ -13,9 +13,7 @@ mod report;
 mod run;
 mod scene;
 
-pub use run::{
-    RunArgs, DEFAULT_MODELS, PAPER_RADIANCE_MODELS, RUN_RESOLUTION_2D, RUN_RESOLUTION_3D,
-};
+pub use run::{RunArgs, DEFAULT_MODELS, PAPER_RADIANCE_MODELS};
 
 use crate::bsdf::{self, Transmission};
 use crate::error::{Error, Result};

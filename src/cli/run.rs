@@ -1,7 +1,7 @@
 //! `furnace run` without a scene: the whole pipeline on the built-in default set.
 //!
-//! 1. **Tables** (cached under `data/`): every model of [`DEFAULT_MODELS`] at 1024² (2-D) or
-//!    [`RUN_RESOLUTION_3D`]³, the paper's radiance-form dielectrics ([`PAPER_RADIANCE_MODELS`],
+//! 1. **Tables** (cached under `data/`): every model of [`DEFAULT_MODELS`] at the paper's
+//!    [`DEFAULT_RESOLUTION_2D`]² (2-D) or [`DEFAULT_RESOLUTION_3D`]³, the paper's radiance-form dielectrics ([`PAPER_RADIANCE_MODELS`],
 //!    at [`RUN_RESOLUTION_PAPER_RADIANCE`]³), and the small tables the report and the LUTs read.
 //! 2. **Fits**: the degree sweep of every table (`fits/<model>/sweep.{json,csv}`, `best-20.json`,
 //!    `best-40.json`). A sweep is reused, not redone, when `fits/<model>/sweep-inputs.json` says
@@ -28,6 +28,7 @@ use crate::math::SmithForm;
 use crate::output;
 use crate::quadrature::QuadratureSettings;
 use crate::report::model::{fmt_e, ModelSummary, ReportOptions, Reporter, REPORT_MODELS};
+use crate::scene::{DEFAULT_RESOLUTION_2D, DEFAULT_RESOLUTION_3D};
 use crate::table::{Table, TableSpec};
 use clap::Args;
 use serde::{Deserialize, Serialize};
@@ -64,7 +65,7 @@ pub struct RunArgs {
     /// Development: nodes per axis of the 2-D tables instead of 1024.
     #[arg(long, hide = true)]
     pub resolution_2d: Option<usize>,
-    /// Development: nodes per axis of the 3-D tables instead of 64 (and 32 for the radiance pair).
+    /// Development: nodes per axis of the 3-D tables instead of 128 (and 32 for the radiance pair).
     #[arg(long, hide = true)]
     pub resolution_3d: Option<usize>,
     /// Development: highest degree of the sweeps.
@@ -77,15 +78,6 @@ pub struct RunArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
 }
-
-/// Nodes per axis of `furnace run`'s 2-D tables (the paper's).
-pub const RUN_RESOLUTION_2D: usize = 1024;
-
-/// 3-D resolution of `furnace run`'s tables: 64³ rather than the paper's 128³ (which
-/// `furnace tabulate` still makes by default), so that the whole default set tabulates in a few
-/// minutes on 2 cores — the leaving dielectric costs ~6e6 instructions a cell, and fits of ≤ 40
-/// coefficients gain nothing from 2·10⁶ points over 2.6·10⁵ (see docs/running.md).
-pub const RUN_RESOLUTION_3D: usize = 64;
 
 /// 3-D resolution of the radiance-form tables, which exist only to set furnace's fit beside the
 /// paper's published one: 32³ is what a sweep fits on anyway (`job::default_sweep_points`).
@@ -147,8 +139,8 @@ struct Row {
 }
 
 fn default_jobs(args: &RunArgs) -> Result<Vec<Job>> {
-    let r2 = args.resolution_2d.unwrap_or(RUN_RESOLUTION_2D);
-    let r3 = args.resolution_3d.unwrap_or(RUN_RESOLUTION_3D);
+    let r2 = args.resolution_2d.unwrap_or(DEFAULT_RESOLUTION_2D);
+    let r3 = args.resolution_3d.unwrap_or(DEFAULT_RESOLUTION_3D);
     let r3_radiance = args
         .resolution_3d
         .map_or(RUN_RESOLUTION_PAPER_RADIANCE, |n| {

@@ -4,12 +4,15 @@
 
 pub mod bsdf;
 pub mod cli;
+pub mod digest;
 pub mod emit;
 pub mod error;
 pub mod fit;
 pub mod material;
 pub mod math;
 pub mod output;
+pub mod pipeline;
+pub mod progress;
 pub mod quadrature;
 pub mod report;
 pub mod scene;

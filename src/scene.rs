@@ -597,8 +597,18 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
             spec.resolution_name(),
             spec.cells()
         ));
-        let (table, stem, cached) =
-            crate::emit::lut::tabulate_cached(model.as_ref(), &spec, &opts.data_dir, opts.force)?;
+        let crate::table::Tabulated {
+            table,
+            stem,
+            cached,
+            ..
+        } = crate::table::get_or_tabulate(
+            model.as_ref(),
+            &spec,
+            &opts.data_dir,
+            opts.force,
+            &crate::progress::Quiet,
+        )?;
         log(&format!(
             "  {} {}: table {}",
             need.model,

@@ -426,7 +426,7 @@ fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
 /// The wall and CPU times go to `<timing>/sweep-timing.json` (git-ignored, under `data/`), the
 /// sidecar `furnace fit` writes, so that the files under `fits/` are the same for the same inputs;
 /// without a timing folder they are only returned.
-pub(super) fn write_sweep_files(
+pub(crate) fn write_sweep_files(
     outcome: &SweepOutcome,
     dir: &Path,
     timing: Option<&Path>,

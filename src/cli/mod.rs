@@ -13,12 +13,15 @@ mod report;
 mod run;
 mod scene;
 
-pub use run::{RunArgs, DEFAULT_MODELS, PAPER_RADIANCE_MODELS};
+pub use run::RunArgs;
+
+pub(crate) use fit::write_sweep_files;
 
 use crate::bsdf::{self, Transmission};
 use crate::error::{Error, Result};
+use crate::progress::Observer;
 use crate::quadrature::QuadratureSettings;
-use crate::table::{self, io, Table, TableSpec};
+use crate::table::{self, io, TableSpec, Tabulated};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -322,46 +325,60 @@ pub fn progress_bar(len: u64, what: &str) -> ProgressBar {
     pb
 }
 
-/// Result of getting a table: computed or read from the cache.
-pub struct Tabulated {
-    pub table: Table,
-    pub stem: PathBuf,
-    pub cached: bool,
-    pub seconds: f64,
+/// Progress bars on stderr for the library's long computations ([`Observer`]): one bar per
+/// task (a task begun inside another gets its own until it ends), hidden when stderr is not a
+/// terminal; log lines are printed above the bars.
+#[derive(Default)]
+pub struct Bars {
+    bars: std::sync::Mutex<Vec<ProgressBar>>,
 }
 
-/// Reads `spec` from the cache under `data_dir`, or computes and saves it.
+impl Bars {
+    fn with(&self, f: impl FnOnce(&ProgressBar)) {
+        let bars = self.bars.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(b) = bars.last() {
+            f(b)
+        }
+    }
+}
+
+impl Observer for Bars {
+    fn line(&self, text: &str) {
+        let bars = self.bars.lock().unwrap_or_else(|e| e.into_inner());
+        match bars.last() {
+            Some(b) => b.suspend(|| eprintln!("{text}")),
+            None => eprintln!("{text}"),
+        }
+    }
+    fn begin(&self, what: &str, total: u64) {
+        let mut bars = self.bars.lock().unwrap_or_else(|e| e.into_inner());
+        bars.push(progress_bar(total, what));
+    }
+    fn extend(&self, n: u64) {
+        self.with(|b| b.inc_length(n));
+    }
+    fn message(&self, what: &str) {
+        self.with(|b| b.set_message(what.to_string()));
+    }
+    fn advance(&self, n: u64) {
+        self.with(|b| b.inc(n));
+    }
+    fn end(&self) {
+        let mut bars = self.bars.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(b) = bars.pop() {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// Reads `spec` from the cache under `data_dir`, or computes (with a progress bar) and saves it.
 pub fn get_table(
     model: &dyn bsdf::Model,
     spec: &TableSpec,
     data_dir: &Path,
     force: bool,
 ) -> Result<Tabulated> {
-    let stem = io::table_stem(data_dir, model, spec);
-    let start = Instant::now();
-    if !force {
-        if let Some(table) = io::load_cached(spec, &stem)? {
-            return Ok(Tabulated {
-                table,
-                stem,
-                cached: true,
-                seconds: start.elapsed().as_secs_f64(),
-            });
-        }
-    }
-    let pb = progress_bar(
-        spec.cells() as u64,
-        &format!("{} {}", spec.model, spec.resolution_name()),
-    );
-    let table = table::tabulate(model, spec, &|n| pb.inc(n))?;
-    pb.finish_and_clear();
-    io::save(&table, &stem)?;
-    Ok(Tabulated {
-        table,
-        stem,
-        cached: false,
-        seconds: start.elapsed().as_secs_f64(),
-    })
+    table::get_or_tabulate(model, spec, data_dir, force, &Bars::default())
 }
 
 fn tabulate_cmd(args: &TabulateArgs) -> Result<()> {

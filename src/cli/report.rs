@@ -1,12 +1,9 @@
 //! `furnace report`: regenerate `reports/` (all models, or one with `--model`).
 
-use super::get_table;
-use crate::bsdf::Model;
+use super::Bars;
 use crate::error::Result;
-use crate::quadrature::QuadratureSettings;
-use crate::report::inputs::TableProvider;
+use crate::pipeline::CachedTables;
 use crate::report::model::{fmt_e, ReportOptions, Reporter};
-use crate::table::{Table, TableSpec};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -51,18 +48,6 @@ pub struct ReportArgs {
     /// White furnace: F0 slices of 3-D tables (default 3: both ends and one between).
     #[arg(long)]
     pub furnace_f0_slices: Option<usize>,
-}
-
-/// Tables from the cache under `data_dir`, computed (with progress) when missing.
-pub(super) struct CachedTables<'a> {
-    pub data_dir: &'a Path,
-}
-
-impl TableProvider for CachedTables<'_> {
-    fn table(&self, model: &dyn Model, resolution: &[usize]) -> Result<Table> {
-        let spec = TableSpec::new(model, resolution, QuadratureSettings::default())?;
-        Ok(get_table(model, &spec, self.data_dir, false)?.table)
-    }
 }
 
 pub(super) fn default_paper_dir() -> Option<PathBuf> {
@@ -114,8 +99,10 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
             )));
         }
     }
+    let bars = Bars::default();
     let tables = CachedTables {
         data_dir: &args.data_dir,
+        progress: &bars,
     };
     let progress = |m: &str| eprintln!("report: {m}");
     let reporter = Reporter::new(options, &tables, &progress);

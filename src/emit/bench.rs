@@ -19,11 +19,13 @@ use std::process::Command;
 
 use super::generate::{albedo_function_name, choose_form, domain_f32, EvalForm, FormChoice};
 use super::ir::{Arith, Compiled, Program};
-use super::lut::{tabulate_cached, Lut};
+use super::lut::Lut;
 use super::{lut_spec, rust::Rust, Emitter, SourceFit, Unit};
 use crate::error::{Error, Result};
 use crate::fit::data::SplitMix64;
 use crate::fit::job::FitRecord;
+use crate::progress::Quiet;
+use crate::table::get_or_tabulate;
 use crate::table::Table;
 
 /// The timing crate's folder, removed when this is dropped — on success and on every error
@@ -267,7 +269,8 @@ pub fn bench_eval(
             "{subject}: reference table {} …",
             ref_spec.resolution_name()
         ));
-        let (reference, _, _) = tabulate_cached(model.as_ref(), &ref_spec, &opts.data_dir, false)?;
+        let reference =
+            get_or_tabulate(model.as_ref(), &ref_spec, &opts.data_dir, false, &Quiet)?.table;
         let reference_name = format!(
             "{} {}",
             reference.spec.model,
@@ -363,7 +366,8 @@ pub fn bench_eval(
         for &n in sizes {
             let (model, spec) = lut_spec(file, n)?;
             log(&format!("{subject}: LUT {} …", spec.resolution_name()));
-            let (table, _, _) = tabulate_cached(model.as_ref(), &spec, &opts.data_dir, false)?;
+            let table =
+                get_or_tabulate(model.as_ref(), &spec, &opts.data_dir, false, &Quiet)?.table;
             let lut = Lut::from_table(&table, &output, spec.resolution_name())?;
             let sampler = lut.sampler_f32();
             let (max_e, mean_e) = errors_at_nodes(&reference, &output, |x| sampler.sample(x))?;

@@ -8,16 +8,13 @@
 //! sampler with linear filtering and clamp-to-edge must therefore be addressed at
 //! u = (0.5 + (n − 1)(x − lo)/(hi − lo))/n, which the JSON repeats.
 
+use crate::digest::sha256_hex;
 use exr::prelude::f16;
 use serde::Serialize;
-use sha2::{Digest, Sha256};
-
-use std::path::{Path, PathBuf};
 
 use super::{Artifact, Emitter, Place, Unit};
-use crate::bsdf::Model;
 use crate::error::{Error, Result};
-use crate::table::{io, GridAxis, Table, TableSpec};
+use crate::table::{GridAxis, Table};
 
 /// Most nodes a LUT may have (a 256³ f32 LUT is 64 MiB — far beyond "small"); refused before
 /// anything is computed.
@@ -175,25 +172,6 @@ impl Sampler {
     }
 }
 
-/// Reads `spec` from the table cache under `data_dir` (`data/<model>/<resolution>…`), or
-/// tabulates and caches it. Returns the table, its stem and whether it came from the cache.
-pub fn tabulate_cached(
-    model: &dyn Model,
-    spec: &TableSpec,
-    data_dir: &Path,
-    force: bool,
-) -> Result<(Table, PathBuf, bool)> {
-    let stem = io::table_stem(data_dir, model, spec);
-    if !force {
-        if let Some(t) = io::load_cached(spec, &stem)? {
-            return Ok((t, stem, true));
-        }
-    }
-    let t = crate::table::tabulate(model, spec, &|_| {})?;
-    io::save(&t, &stem)?;
-    Ok((t, stem, false))
-}
-
 /// Errors of the LUT (f32 and f16 values, multilinear in f32) and of the emitted f32 fit
 /// (`function`, flattened as `compiled`, of `n_coefficients` coefficients) at every node of
 /// `reference` (a finer table of the same model and domain).
@@ -252,13 +230,6 @@ pub fn compare(
         fit_f32_mae: Some(sums[2].value() / n),
         fit_f32_max: Some(maxes[2]),
     })
-}
-
-fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
 }
 
 #[derive(Serialize)]

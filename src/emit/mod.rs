@@ -34,6 +34,7 @@
 pub mod ascii;
 pub mod bench;
 pub mod bound;
+pub mod file;
 pub mod generate;
 pub mod glsl;
 pub mod helpers;
@@ -817,7 +818,14 @@ pub fn lut_for_fit(
             lut::MAX_LUT_CELLS
         )));
     }
-    let (table, _, _) = lut::tabulate_cached(model.as_ref(), &spec, data_dir, force)?;
+    let table = crate::table::get_or_tabulate(
+        model.as_ref(),
+        &spec,
+        data_dir,
+        force,
+        &crate::progress::Quiet,
+    )?
+    .table;
     let stem = crate::table::io::table_stem(Path::new(""), model.as_ref(), &spec);
     let mut l = lut::Lut::from_table(
         &table,

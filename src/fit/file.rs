@@ -307,12 +307,8 @@ pub fn certify(record: &FitRecord, path: &Path) -> Result<Option<f64>> {
 /// SHA-256 (hex) of the fit's canonical JSON ([`super::FitResult::to_json`]): identifies the
 /// coefficients an emitted file was generated from.
 pub fn fit_hash(record: &FitRecord) -> Result<String> {
-    use sha2::{Digest, Sha256};
     let json = record.fit.to_json()?;
-    Ok(Sha256::digest(json.as_bytes())
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect())
+    Ok(crate::digest::sha256_hex(json.as_bytes()))
 }
 
 /// The name a fit's emitted functions start with: its model, or for a user's table the table

@@ -17,7 +17,6 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use super::data::{FitData, MAX_DIM};
 use crate::error::{Error, Result};
@@ -343,10 +342,7 @@ pub struct UserTableOptions {
 
 fn sha256_file(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    Ok(Sha256::digest(&bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect())
+    Ok(crate::digest::sha256_hex(&bytes))
 }
 
 /// Rejects NaN / infinite values, naming the first one.

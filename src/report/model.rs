@@ -17,6 +17,7 @@ use super::plot::{
 };
 use super::spheres::{sphere_columns, Show, SphereFigure, SphereRow};
 use crate::bsdf::{self, Family, Model, ModelId, Side, Transmission};
+use crate::digest::{sha256_hex, values_sha256};
 use crate::error::{Error, Result};
 use crate::fit::FitResult;
 use crate::material::furnace::{furnace_stats, furnace_values, lobe_integrals_at, FurnaceStats};
@@ -236,25 +237,6 @@ pub struct FileHash {
     pub sha256: String,
 }
 
-/// SHA-256 of bytes, in hex.
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    use sha2::{Digest, Sha256};
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
-}
-
-/// SHA-256 of a table's values (little-endian f64).
-fn table_digest(table: &Table) -> String {
-    use sha2::{Digest, Sha256};
-    let mut h = Sha256::new();
-    for v in &table.values {
-        h.update(v.to_le_bytes());
-    }
-    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
-}
-
 /// A model's table, LUT, fits and paper fit, loaded once per report run.
 struct ModelData {
     name: String,
@@ -314,29 +296,21 @@ fn subsample_lut(table: &Table, m: usize) -> Option<Table> {
     if m < 2 || axes.iter().any(|a| !(a.n - 1).is_multiple_of(m - 1)) {
         return None;
     }
-    let strides: Vec<usize> = axes.iter().map(|a| (a.n - 1) / (m - 1)).collect();
     let mut spec = table.spec.clone();
     for a in &mut spec.axes {
         a.n = m;
     }
+    // every output, then every k-th node of each table axis
+    let strides: Vec<isize> = std::iter::once(1)
+        .chain(axes.iter().map(|a| ((a.n - 1) / (m - 1)) as isize))
+        .collect();
+    let values: Vec<f64> = table
+        .arrays()
+        .slice_each_axis(|ax| ndarray::Slice::new(0, None, strides[ax.axis.index()]))
+        .iter()
+        .copied()
+        .collect();
     let cells = spec.cells();
-    let mut values = Vec::with_capacity(cells * spec.outputs.len());
-    for o in 0..spec.outputs.len() {
-        let src = table.output(o);
-        for cell in 0..cells {
-            let mut rest = cell;
-            let mut flat = 0;
-            let mut idx = vec![0; axes.len()];
-            for d in (0..axes.len()).rev() {
-                idx[d] = rest % m;
-                rest /= m;
-            }
-            for d in 0..axes.len() {
-                flat = flat * axes[d].n + idx[d] * strides[d];
-            }
-            values.push(src[flat]);
-        }
-    }
     Some(Table {
         spec,
         values,
@@ -469,13 +443,13 @@ impl<'a> Reporter<'a> {
                 "model {} table {} {}",
                 model.id().key(),
                 table.spec.resolution_name(),
-                table_digest(&table)
+                values_sha256(&table.values)
             );
             if subsample_lut(&table, self.options.lut(dims)).is_none() {
                 let lut = self
                     .tables
                     .table(model.as_ref(), &vec![self.options.lut(dims); dims])?;
-                let _ = writeln!(text, "lut {}", table_digest(&lut));
+                let _ = writeln!(text, "lut {}", values_sha256(&lut.values));
             }
             let dir = self.options.fits_dir.join(model.id().key());
             for (rel, sha) in files_digest(&dir)? {
@@ -1733,5 +1707,27 @@ mod tests {
         assert_eq!(furnace_axis(65, 33).len(), 33);
         assert!(furnace_axis(65, 33)[1..32].iter().all(|i| i % 2 == 1));
         assert_eq!(furnace_axis(9, 33), (0..9).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_subsampled_lut_is_every_kth_node_of_every_output() {
+        use crate::quadrature::QuadratureSettings;
+        use crate::table::{tabulate, TableSpec};
+        let model = crate::bsdf::find("oren-nayar-fon").unwrap();
+        let spec = TableSpec::new(model.as_ref(), &[9, 5], QuadratureSettings::default()).unwrap();
+        let table = tabulate(model.as_ref(), &spec, &|_| {}).unwrap();
+        let lut = subsample_lut(&table, 3).unwrap();
+        assert_eq!(lut.shape(), [3, 3]);
+        let (full, sub) = (table.array(0), lut.array(0));
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_eq!(sub[[i, j]], full[[4 * i, 2 * j]]);
+            }
+        }
+        assert_eq!(lut.values.len(), 3 * 3 * table.spec.outputs.len());
+        assert!(
+            subsample_lut(&table, 4).is_none(),
+            "8 is not a multiple of 3"
+        );
     }
 }

@@ -5,10 +5,10 @@
 
 use super::{ErrorSummary, GridAxis, Table, TableSpec, ENGINE_VERSION};
 use crate::bsdf::Model;
+use crate::digest::sha256_hex;
 use crate::error::{Error, Result};
 use crate::quadrature::QuadratureSettings;
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
 /// The JSON sidecar of a table.
@@ -51,13 +51,6 @@ pub(super) fn with_ext(stem: &Path, ext: &str) -> PathBuf {
     s.push(".");
     s.push(ext);
     PathBuf::from(s)
-}
-
-pub(super) fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
 }
 
 const LAYOUT: &str = "row-major, last axis fastest; EXR: one image n_last wide and (product of the other counts) tall, \

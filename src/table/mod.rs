@@ -17,13 +17,17 @@
 //! sidecar `<name>.json` records the model, axes, quadrature settings, error summary and the
 //! content hash that keys the cache.
 
+pub mod cache;
 pub mod io;
 pub mod points;
 pub mod shard;
 
+pub use cache::{get_or_tabulate, Tabulated};
+
 use crate::bsdf::{albedo, albedo_column, Model, ModelId, Transmission, MAX_OUTPUTS};
 use crate::error::{human_bytes, Error, Result};
 use crate::quadrature::{QuadratureSettings, RuleCache};
+use ndarray::{ArrayViewD, IxDyn};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -231,10 +235,8 @@ impl TableSpec {
     /// SHA-256 of the canonical JSON of everything that determines the values, plus the
     /// engine version: the cache key.
     pub fn content_hash(&self) -> String {
-        use sha2::{Digest, Sha256};
         let canonical = serde_json::json!({ "engine": ENGINE_VERSION, "spec": self });
-        let digest = Sha256::digest(canonical.to_string().as_bytes());
-        digest.iter().map(|b| format!("{b:02x}")).collect()
+        crate::digest::sha256_hex(canonical.to_string().as_bytes())
     }
 }
 
@@ -278,6 +280,47 @@ impl Table {
     pub fn output(&self, o: usize) -> &[f64] {
         let n = self.cells();
         &self.values[o * n..(o + 1) * n]
+    }
+
+    /// Node counts per axis, in table order (the shape of [`Table::array`]).
+    pub fn shape(&self) -> Vec<usize> {
+        self.spec.axes.iter().map(|a| a.n).collect()
+    }
+
+    /// Output `o` (0 is `E`) as an array with one axis per table axis, in table order:
+    /// `array(o)[[i, j, k]]` is the value at node i of the first axis, j of the second, k of the
+    /// third.
+    ///
+    /// ```
+    /// use furnace::quadrature::QuadratureSettings;
+    /// use furnace::table::{tabulate, TableSpec};
+    ///
+    /// let model = furnace::bsdf::find("oren-nayar-fon")?;
+    /// let spec = TableSpec::new(model.as_ref(), &[5, 9], QuadratureSettings::default())?;
+    /// let table = tabulate(model.as_ref(), &spec, &|_| {})?;
+    /// let e = table.array(0);
+    /// assert_eq!(e.shape(), &[5, 9]);
+    /// // E → 1 as the roughness r → 0 (a Lambertian surface), at every μ
+    /// assert!((0..9).all(|j| (e[[0, j]] - 1.0).abs() < 1e-9));
+    /// # Ok::<(), furnace::Error>(())
+    /// ```
+    pub fn array(&self, o: usize) -> ArrayViewD<'_, f64> {
+        ArrayViewD::from_shape(IxDyn(&self.shape()), self.output(o))
+            .expect("a table holds one value per node of each output")
+    }
+
+    /// Every output: an array of shape `[outputs, n_1, …, n_d]`.
+    pub fn arrays(&self) -> ArrayViewD<'_, f64> {
+        let mut shape = vec![self.spec.outputs.len()];
+        shape.extend(self.shape());
+        ArrayViewD::from_shape(IxDyn(&shape), &self.values)
+            .expect("a table holds one value per node of each output")
+    }
+
+    /// The per-cell error estimates, shaped as [`Table::array`].
+    pub fn errors_array(&self) -> ArrayViewD<'_, f64> {
+        ArrayViewD::from_shape(IxDyn(&self.shape()), &self.errors)
+            .expect("a table holds one error estimate per node")
     }
 
     /// Index of a named output.

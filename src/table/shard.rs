@@ -9,11 +9,12 @@
 //! records the request (the table's spec and content hash), K, N, the unit range, the cell count
 //! and the SHA-256 of the binary file; it is written last and commits the shard.
 
-use super::io::{sha256_hex, with_ext};
+use super::io::with_ext;
 use super::{
     assemble, compute_units, CellResult, Progress, Table, TableSpec, Units, ENGINE_VERSION,
 };
 use crate::bsdf::{Model, MAX_OUTPUTS};
+use crate::digest::sha256_hex;
 use crate::error::{Error, Result};
 use crate::output;
 use serde::{Deserialize, Serialize};

@@ -1,0 +1,214 @@
+//! The reuse cache of degree sweeps: `fits/<model>/sweep-inputs.json` records what a sweep was
+//! made from (the table's values, the sweep options, the furnace version) and the SHA-256 of
+//! every file it wrote; a later run with the same inputs reuses those files instead of refitting.
+
+use super::Job;
+use crate::bsdf::Model;
+use crate::digest::{sha256_hex, values_sha256};
+use crate::error::{Error, Result};
+use crate::fit::job::{self, FitRecord, Stopwatch, SweepPlan};
+use crate::fit::{source, Objective};
+use crate::output;
+use crate::progress::Observer;
+use crate::table::Tabulated;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// What the fit step did for one model.
+#[derive(Clone, Debug, Default)]
+pub struct FitStep {
+    /// The files of a previous sweep with the same inputs were kept.
+    pub reused: bool,
+    /// (budget, max error on the whole table) of each best file.
+    pub best: Vec<(usize, Option<f64>)>,
+    /// Every file of the sweep, `sweep-inputs.json` last.
+    pub files: Vec<PathBuf>,
+    /// Fits not usable or skipped, if any.
+    pub note: Option<String>,
+}
+
+/// `fits/<model>/sweep-inputs.json`: what a sweep was made from, so that a re-run with the same
+/// inputs reuses its files. Deterministic: no times, no absolute paths.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SweepInputs {
+    pub what: String,
+    pub tool: String,
+    pub tool_version: String,
+    /// The table's cache stem as given to `furnace run` (relative to the working folder).
+    pub table_stem: String,
+    /// Cache key of the table's spec ([`TableSpec::content_hash`]).
+    pub table_content_hash: String,
+    /// SHA-256 of the table's values (little-endian f64, every output in turn).
+    pub table_values_sha256: String,
+    pub channel: String,
+    /// The sweep options (degrees, transforms, objective, points, budgets), as Rust debug text.
+    pub plan: String,
+    /// Every file the sweep wrote, with its SHA-256.
+    pub files: Vec<FileHash>,
+}
+
+/// A file a sweep wrote, with its SHA-256.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FileHash {
+    pub file: String,
+    pub sha256: String,
+}
+
+/// Name of the sweep-inputs file in each model's fit folder.
+const SWEEP_INPUTS: &str = crate::report::inputs::SWEEP_INPUTS_FILE;
+
+fn sweep_inputs(t: &Tabulated, plan: &SweepPlan) -> SweepInputs {
+    SweepInputs {
+        what: "inputs of the sweep files in this folder, written by `furnace run` after them: a run whose table values and sweep options are the same reuses the files listed here (if their SHA-256 still match) instead of refitting; `furnace run --refit` refits".into(),
+        tool: "furnace".into(),
+        tool_version: crate::VERSION.into(),
+        table_stem: t.stem.to_string_lossy().replace('\\', "/"),
+        table_content_hash: t.table.spec.content_hash(),
+        table_values_sha256: values_sha256(&t.table.values),
+        channel: "E".into(),
+        plan: format!("{plan:?}"),
+        files: Vec::new(),
+    }
+}
+
+/// The files of a previous sweep with the same inputs, if they are all intact.
+fn reusable(dir: &Path, expected: &SweepInputs) -> Option<Vec<PathBuf>> {
+    let text = std::fs::read_to_string(dir.join(SWEEP_INPUTS)).ok()?;
+    let found: SweepInputs = serde_json::from_str(&text).ok()?;
+    let same = SweepInputs {
+        files: found.files.clone(),
+        ..expected.clone()
+    };
+    if found != same {
+        return None;
+    }
+    let mut files = Vec::new();
+    for f in &found.files {
+        let p = dir.join(&f.file);
+        let bytes = std::fs::read(&p).ok()?;
+        if sha256_hex(&bytes) != f.sha256 {
+            return None;
+        }
+        files.push(p);
+    }
+    // a best file the sweep did not write must not be there (it would be a stale one)
+    for e in std::fs::read_dir(dir).ok()?.flatten() {
+        let n = e.file_name().to_string_lossy().into_owned();
+        if n.starts_with("best-")
+            && n.ends_with(".json")
+            && !found.files.iter().any(|f| f.file == n)
+        {
+            return None;
+        }
+    }
+    Some(files)
+}
+
+/// Max error (whole table) of each best file of a sweep folder.
+fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<f64>)>> {
+    budgets
+        .iter()
+        .map(|&b| {
+            let p = dir.join(format!("best-{b}.json"));
+            if !p.is_file() {
+                return Ok((b, None));
+            }
+            let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
+            let rec = FitRecord::from_json(&text).map_err(|e| {
+                Error::file(
+                    &p,
+                    format!("not a fit file ({e}); delete it or run with --refit"),
+                )
+            })?;
+            Ok((b, Some(rec.fit.metrics.max_abs_error)))
+        })
+        .collect()
+}
+
+/// The degree sweep of `t`'s table into `<fits_dir>/<name>/`, or the files of a previous sweep
+/// with the same inputs (unless `job.refit` or `job.force`).
+pub fn sweep_or_reuse(
+    model: &dyn Model,
+    name: &str,
+    t: &Tabulated,
+    job: &Job,
+    progress: &dyn Observer,
+) -> Result<FitStep> {
+    let input = source::from_table(&t.table, "E", Some(&t.stem))?;
+    let mut plan = SweepPlan::paper(&input.data, job.max_degree, None, Objective::LeastSquares);
+    if !model.grazing_boundary_layer() {
+        plan = plan.without_boundary_layer(None);
+    }
+    let dir = job.fits_dir.join(name);
+    let mut inputs = sweep_inputs(t, &plan);
+    if !job.refit && !job.force {
+        if let Some(files) = reusable(&dir, &inputs) {
+            return Ok(FitStep {
+                reused: true,
+                best: best_errors(&dir, &plan.budgets)?,
+                files,
+                note: None,
+            });
+        }
+    }
+    let planned =
+        (plan.polynomial_degrees.len() + plan.rational_degrees.len()) * plan.transform_sets.len();
+    progress.begin(&format!("fit {name}"), planned as u64);
+    let clock = Stopwatch::start();
+    let mut done = 0;
+    let outcome = job::sweep_fits(&input, &plan, &mut |_line| {
+        // one line per fit made or skipped; the minimax refits come on top of the planned ones
+        done += 1;
+        if done > planned {
+            progress.extend(1);
+        }
+        progress.advance(1);
+    });
+    progress.end();
+    let outcome = outcome?;
+    let (files, _) = crate::cli::write_sweep_files(
+        &outcome,
+        &dir,
+        Some(&job.data_dir.join("timing").join(name)),
+        &clock,
+    )?;
+    inputs.files = files
+        .iter()
+        .map(|p| {
+            let bytes = std::fs::read(p).map_err(|e| Error::io(p, e))?;
+            Ok(FileHash {
+                file: p
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                sha256: sha256_hex(&bytes),
+            })
+        })
+        .collect::<Result<_>>()?;
+    let json = serde_json::to_string_pretty(&inputs)
+        .map_err(|e| Error::file(dir.join(SWEEP_INPUTS), e.to_string()))?;
+    // written last: it commits the sweep's files
+    let key = dir.join(SWEEP_INPUTS);
+    output::write(&key, format!("{json}\n").as_bytes())?;
+    let mut files = files;
+    files.push(key);
+    let unusable = outcome.rows.iter().filter(|r| !r.usable).count();
+    let note = (unusable > 0 || !outcome.skipped.is_empty())
+        .then(|| format!("{unusable} fits not usable (pole or uncertified), {} skipped; listed in sweep.json, never chosen as best", outcome.skipped.len()));
+    let best = plan
+        .budgets
+        .iter()
+        .map(|&b| {
+            (
+                b,
+                outcome.best_record(b).map(|r| r.fit.metrics.max_abs_error),
+            )
+        })
+        .collect();
+    Ok(FitStep {
+        reused: false,
+        best,
+        files,
+        note,
+    })
+}

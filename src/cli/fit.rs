@@ -15,6 +15,7 @@ use crate::fit::source::{self, FitInput, FittedOn, UserTableOptions};
 use crate::fit::{LsqMethod, Objective, RationalOptions};
 use crate::output;
 use crate::output::Target;
+use crate::pipeline::sweeps::write_sweep_files;
 use crate::quadrature::QuadratureSettings;
 use crate::table::TableSpec;
 use clap::{Args, ValueEnum};
@@ -418,54 +419,6 @@ fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
     for w in &rec.warnings {
         eprintln!("warning: {w}");
     }
-}
-
-/// Writes `sweep.json`, `sweep.csv` and `best-<budget>.json` (removing a stale best file when a
-/// budget has no usable fit), as `furnace fit --sweep` does, without printing; returns the paths
-/// and the times.
-/// The wall and CPU times go to `<timing>/sweep-timing.json` (git-ignored, under `data/`), the
-/// sidecar `furnace fit` writes, so that the files under `fits/` are the same for the same inputs;
-/// without a timing folder they are only returned.
-pub(crate) fn write_sweep_files(
-    outcome: &SweepOutcome,
-    dir: &Path,
-    timing: Option<&Path>,
-    clock: &Stopwatch,
-) -> Result<(Vec<PathBuf>, Timing)> {
-    let mut written = Vec::new();
-    let sweep_json = dir.join("sweep.json");
-    let times = Timing::new(
-        &sweep_json.display().to_string(),
-        &outcome.source,
-        &outcome.fitted_on,
-        clock,
-        outcome.fit_times(),
-    );
-    output::write(&sweep_json, outcome.to_json()?.as_bytes())?;
-    written.push(sweep_json);
-    let sweep_csv = dir.join("sweep.csv");
-    output::write(&sweep_csv, outcome.to_csv().as_bytes())?;
-    written.push(sweep_csv);
-    for b in &outcome.best {
-        let path = dir.join(format!("best-{}.json", b.budget));
-        match outcome.best_record(b.budget) {
-            Some(rec) => {
-                output::write(&path, rec.to_json()?.as_bytes())?;
-                written.push(path);
-            }
-            None if path.exists() => {
-                std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?
-            }
-            None => {}
-        }
-    }
-    if let Some(timing) = timing {
-        output::write(
-            &timing.join("sweep-timing.json"),
-            times.to_json()?.as_bytes(),
-        )?;
-    }
-    Ok((written, times))
 }
 
 /// Writes a sweep's files ([`write_sweep_files`]) and prints its table.

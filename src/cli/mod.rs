@@ -15,8 +15,6 @@ mod scene;
 
 pub use run::RunArgs;
 
-pub(crate) use fit::write_sweep_files;
-
 use crate::bsdf::{self, Transmission};
 use crate::error::{Error, Result};
 use crate::progress::Observer;

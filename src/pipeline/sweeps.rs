@@ -6,7 +6,7 @@ use super::Job;
 use crate::bsdf::Model;
 use crate::digest::{sha256_hex, values_sha256};
 use crate::error::{Error, Result};
-use crate::fit::job::{self, FitRecord, Stopwatch, SweepPlan};
+use crate::fit::job::{self, FitRecord, Stopwatch, SweepOutcome, SweepPlan, Timing};
 use crate::fit::{source, Objective};
 use crate::output;
 use crate::progress::Observer;
@@ -166,7 +166,7 @@ pub fn sweep_or_reuse(
     });
     progress.end();
     let outcome = outcome?;
-    let (files, _) = crate::cli::write_sweep_files(
+    let (files, _) = write_sweep_files(
         &outcome,
         &dir,
         Some(&job.data_dir.join("timing").join(name)),
@@ -211,4 +211,52 @@ pub fn sweep_or_reuse(
         files,
         note,
     })
+}
+
+/// Writes `sweep.json`, `sweep.csv` and `best-<budget>.json` (removing a stale best file when a
+/// budget has no usable fit), as `furnace fit --sweep` does, without printing; returns the paths
+/// and the times.
+/// The wall and CPU times go to `<timing>/sweep-timing.json` (git-ignored, under `data/`), the
+/// sidecar `furnace fit` writes, so that the files under `fits/` are the same for the same inputs;
+/// without a timing folder they are only returned.
+pub fn write_sweep_files(
+    outcome: &SweepOutcome,
+    dir: &Path,
+    timing: Option<&Path>,
+    clock: &Stopwatch,
+) -> Result<(Vec<PathBuf>, Timing)> {
+    let mut written = Vec::new();
+    let sweep_json = dir.join("sweep.json");
+    let times = Timing::new(
+        &sweep_json.display().to_string(),
+        &outcome.source,
+        &outcome.fitted_on,
+        clock,
+        outcome.fit_times(),
+    );
+    output::write(&sweep_json, outcome.to_json()?.as_bytes())?;
+    written.push(sweep_json);
+    let sweep_csv = dir.join("sweep.csv");
+    output::write(&sweep_csv, outcome.to_csv().as_bytes())?;
+    written.push(sweep_csv);
+    for b in &outcome.best {
+        let path = dir.join(format!("best-{}.json", b.budget));
+        match outcome.best_record(b.budget) {
+            Some(rec) => {
+                output::write(&path, rec.to_json()?.as_bytes())?;
+                written.push(path);
+            }
+            None if path.exists() => {
+                std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?
+            }
+            None => {}
+        }
+    }
+    if let Some(timing) = timing {
+        output::write(
+            &timing.join("sweep-timing.json"),
+            times.to_json()?.as_bytes(),
+        )?;
+    }
+    Ok((written, times))
 }

@@ -460,3 +460,60 @@ fn cli_emits_next_to_the_fit_and_refuses_bad_input_without_writing() {
     assert!(ok && out.contains("PASS"), "{out}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Fits of two outputs of one model (the split sum's A and B) get LUTs of their own beside each
+/// other, each holding its output.
+#[test]
+fn luts_of_two_outputs_of_one_model_do_not_overwrite_each_other() {
+    let dir = scratch("lut-outputs");
+    for ch in ["A", "B"] {
+        let fit = format!("fits/split-sum-{ch}.json");
+        let (ok, out, err) = furnace(
+            &[
+                "fit",
+                "--model",
+                "ggx-split-sum",
+                "--channel",
+                ch,
+                "--form",
+                "rational",
+                "--degree",
+                "2",
+                "--resolution",
+                "17",
+                "--output",
+                &fit,
+            ],
+            &dir,
+        );
+        assert!(ok, "{out}\n{err}");
+        let (ok, out, err) = furnace(
+            &[
+                "emit",
+                "--fit",
+                &fit,
+                "--lang",
+                "lut",
+                "--lut-resolution",
+                "8",
+            ],
+            &dir,
+        );
+        assert!(ok, "{out}\n{err}");
+    }
+    let lut = dir.join("data/lut/ggx-split-sum");
+    let listed = files_in(&lut);
+    let mut values = Vec::new();
+    for ch in ["A", "B"] {
+        for ext in ["exr", "f16", "f32", "json"] {
+            let f = format!("8x8-{ch}.{ext}");
+            assert!(listed.contains(&f), "{f} missing: {listed:?}");
+        }
+        let exr =
+            furnace::table::io::read_exr_channels(&lut.join(format!("8x8-{ch}.exr"))).unwrap();
+        assert_eq!(exr[0].0, ch);
+        values.push(exr[0].1.clone());
+    }
+    assert_ne!(values[0], values[1]);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -827,11 +827,13 @@ pub fn lut_for_fit(
     )?
     .table;
     let stem = crate::table::io::table_stem(Path::new(""), model.as_ref(), &spec);
-    let mut l = lut::Lut::from_table(
-        &table,
-        src.output(),
-        stem.to_string_lossy().replace('\\', "/"),
-    )?;
+    let mut stem = stem.to_string_lossy().replace('\\', "/");
+    // one LUT per output: the LUTs of a model's other outputs (a dielectric's E_R, the split
+    // sum's A and B) live beside E's under their own names
+    if src.output() != "E" {
+        stem.push_str(&format!("-{}", src.output()));
+    }
+    let mut l = lut::Lut::from_table(&table, src.output(), stem)?;
     // compare only against a finer table: at the LUT's own nodes its error is zero
     if let Some(reference) = src
         .table

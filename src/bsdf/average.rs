@@ -177,6 +177,16 @@ mod tests {
         AverageAlbedo::new(crate::bsdf::find(name).unwrap()).unwrap()
     }
 
+    /// A model with an azimuth axis has no μ-only average: neither a model nor a registry name.
+    #[test]
+    fn models_with_an_azimuth_are_not_averaged() {
+        for name in ["ggx-conductor-aniso", "ggx-conductor-aniso-separable"] {
+            assert!(AverageAlbedo::new(crate::bsdf::find(name).unwrap()).is_none());
+            assert!(crate::bsdf::find(&format!("{name}-avg")).is_err());
+        }
+        assert!(AverageAlbedo::new(crate::bsdf::find("ggx-conductor").unwrap()).is_some());
+    }
+
     /// The rough-diffuse averages against their closed forms (EON paper, eqs. 9 and 15).
     #[test]
     fn diffuse_averages_match_the_eon_paper() {

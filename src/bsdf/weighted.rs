@@ -82,6 +82,31 @@ impl Weight {
         }
     }
 
+    /// Where the weight has a kink: the remapped dielectric F of a dense medium dips below F0
+    /// between Brewster's angle and normal incidence (r_p passes through 0), and the clamp to
+    /// [0, 1] (Cycles' `saturatef`) bends it where F = F0 again; returned as β = acos c.
+    fn kink(&self) -> Option<f64> {
+        let Weight::Dielectric { eta, f0 } = *self else {
+            return None;
+        };
+        const SCAN: usize = 1024;
+        let g = |c: f64| fresnel_dielectric(c, eta) - f0;
+        let first_below = (1..SCAN).find(|&k| g(k as f64 / SCAN as f64) < 0.0)?;
+        let (mut lo, mut hi) = (
+            (first_below - 1) as f64 / SCAN as f64,
+            first_below as f64 / SCAN as f64,
+        );
+        while hi - lo > 1e-15 {
+            let mid = 0.5 * (lo + hi);
+            if g(mid) < 0.0 {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        Some((0.5 * (lo + hi)).acos())
+    }
+
     /// Whether the weight is analytic at c = 1 (β = 0).
     fn analytic_at_normal(&self) -> bool {
         match *self {
@@ -91,13 +116,22 @@ impl Weight {
     }
 
     /// Distance in β, from β = π/2 − `gap`, to the weight's nearest singularity near c = 0
-    /// (the scale 1/p of (1 − c)^p = e^{p ln(1 − c)} there; the branch points c = ±i√(η² − 1)).
+    /// (the scale 1/p of (1 − c)^p = e^{p ln(1 − c)} there; the dielectric F's branch points and
+    /// poles).
     fn grazing_delta(&self, gap: f64) -> f64 {
         match *self {
             Weight::SplitSum => f64::INFINITY,
             Weight::Power { p } if p > 1.0 => 1.0 / p,
             Weight::Power { .. } => f64::INFINITY,
-            Weight::Dielectric { eta, .. } => gap.hypot((eta * eta - 1.0).max(0.0).sqrt()),
+            Weight::Dielectric { eta, .. } => {
+                // the branch points c = ±i√(η² − 1) and the poles of r_p,
+                // η²c + √(η² − 1 + c²) = 0 at c = ±i/√(η² + 1)
+                let near = (eta * eta - 1.0)
+                    .max(0.0)
+                    .sqrt()
+                    .min(1.0 / (eta * eta + 1.0).sqrt());
+                gap.hypot(near)
+            }
         }
     }
 }
@@ -338,6 +372,9 @@ impl Integrand2D for WeightedReflection {
             self.weight
                 .grazing_delta(gap)
                 .min(if beta1 > 0.0 { gap } else { f64::INFINITY });
+        if let Some(k) = self.weight.kink().filter(|&k| k > 0.0 && k < beta2) {
+            breaks.push(Break::regular(k));
+        }
         // the peak: inside, or at an end (θo = 0 at normal incidence, θo = β₂ = π/2 at μo = 0)
         let peak_at_end = self.theta_o >= beta2;
         let end_delta = horizon

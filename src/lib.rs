@@ -7,6 +7,7 @@ pub mod cli;
 pub mod digest;
 pub mod emit;
 pub mod error;
+pub mod export;
 pub mod fit;
 pub mod material;
 pub mod math;

@@ -6,6 +6,7 @@ mod bench_eval;
 mod bench_fit;
 mod emit;
 mod eval;
+mod export;
 mod fit;
 
 pub use fit::{ComparePaperArgs, FitArgs, FormArg, ObjectiveArg};
@@ -86,6 +87,9 @@ pub enum Command {
     Stress(emit::StressArgs),
     /// Error reports and the white furnace test: regenerate reports/ (or one model's section).
     Report(report::ReportArgs),
+    /// Drop-in tables in another renderer's exact layout: Blender Cycles' shader.tables,
+    /// Filament's DFG LUT, or any model as EXR + JSON.
+    Export(export::ExportArgs),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -252,6 +256,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Emit(args) => emit::emit_cmd(&args),
         Command::Stress(args) => emit::stress_cmd(&args),
         Command::Report(args) => report::report_cmd(&args),
+        Command::Export(args) => export::export_cmd(&args),
     }
 }
 

@@ -29,6 +29,9 @@ pub struct Sidecar {
     /// SHA-256 of the f64 file.
     pub f64_sha256: String,
     pub errors: ErrorSummary,
+    /// What the values are, in words (written by exports, [`save_described`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub definition: Option<String>,
 }
 
 /// Where a table lives: `dir/<cache name>/<resolution>[-<hash8>]` without extension.
@@ -37,7 +40,7 @@ pub fn table_stem(dir: &Path, model: &dyn Model, spec: &TableSpec) -> PathBuf {
         .axes()
         .iter()
         .zip(&spec.axes)
-        .all(|(a, g)| a.default_range == (g.lo, g.hi));
+        .all(|(a, g)| a.default_range == (g.lo, g.hi) && g.nodes.is_none());
     let mut name = spec.resolution_name();
     if !default_domain {
         name.push('-');
@@ -109,6 +112,11 @@ fn exr_bytes(table: &Table, path: &Path) -> Result<Vec<u8>> {
 
 /// Writes the table's three files (f64, EXR, then the sidecar that commits them).
 pub fn save(table: &Table, stem: &Path) -> Result<Sidecar> {
+    save_described(table, stem, None)
+}
+
+/// [`save`] with a definition of the values recorded in the sidecar.
+pub fn save_described(table: &Table, stem: &Path, definition: Option<&str>) -> Result<Sidecar> {
     let raw = f64_bytes(table);
     crate::output::write(&with_ext(stem, "f64"), &raw)?;
     let exr = with_ext(stem, "exr");
@@ -126,6 +134,7 @@ pub fn save(table: &Table, stem: &Path) -> Result<Sidecar> {
         layout: LAYOUT.into(),
         f64_sha256: sha256_hex(&raw),
         errors: table.summary.clone(),
+        definition: definition.map(String::from),
     };
     let json = serde_json::to_string_pretty(&sidecar).expect("sidecar serialises");
     crate::output::write(&with_ext(stem, "json"), format!("{json}\n").as_bytes())?;

@@ -48,8 +48,12 @@ pub struct GridAxis {
     pub lo: f64,
     pub hi: f64,
     pub n: usize,
-    /// Always `"endpoints"`: x_i = lo + (hi − lo)·i/(n − 1).
+    /// `"endpoints"`: x_i = lo + (hi − lo)·i/(n − 1); `"explicit"`: the nodes are listed in
+    /// [`GridAxis::nodes`] (a renderer's own node placement, see [`crate::export`]).
     pub placement: String,
+    /// The nodes of an `"explicit"` axis, increasing, `lo` first and `hi` last.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<Vec<f64>>,
 }
 
 impl GridAxis {
@@ -60,12 +64,36 @@ impl GridAxis {
             hi,
             n,
             placement: "endpoints".into(),
+            nodes: None,
         }
+    }
+
+    /// An axis with the given nodes (at least two, finite, strictly increasing).
+    pub fn explicit(name: &str, nodes: Vec<f64>) -> Result<GridAxis> {
+        if nodes.len() < 2
+            || nodes.iter().any(|v| !v.is_finite())
+            || nodes.windows(2).any(|w| w[1] <= w[0])
+        {
+            return Err(Error::InvalidInput(format!(
+                "axis {name}: explicit nodes must be at least two finite, strictly increasing numbers"
+            )));
+        }
+        Ok(GridAxis {
+            name: name.into(),
+            lo: nodes[0],
+            hi: nodes[nodes.len() - 1],
+            n: nodes.len(),
+            placement: "explicit".into(),
+            nodes: Some(nodes),
+        })
     }
 
     /// Coordinate of node `i`.
     #[inline]
     pub fn node(&self, i: usize) -> f64 {
+        if let Some(nodes) = &self.nodes {
+            return nodes[i];
+        }
         if self.n <= 1 {
             return self.lo;
         }
@@ -160,6 +188,40 @@ impl TableSpec {
         Ok(spec)
     }
 
+    /// A table on the given axes (one per model axis, in order, named as the model's), e.g. with
+    /// [explicit](GridAxis::explicit) nodes; every node must lie in the model's valid range.
+    pub fn with_axes(
+        model: &dyn Model,
+        axes: Vec<GridAxis>,
+        quadrature: QuadratureSettings,
+    ) -> Result<TableSpec> {
+        let specs = model.axes();
+        if axes.len() != specs.len() || axes.iter().zip(&specs).any(|(g, a)| g.name != a.name) {
+            return Err(Error::InvalidInput(format!(
+                "a table of {} needs the axes {} in that order",
+                model.id().name(),
+                crate::bsdf::axis_names(model)
+            )));
+        }
+        for (g, a) in axes.iter().zip(&specs) {
+            if g.lo < a.valid_range.0 || g.hi > a.valid_range.1 {
+                return Err(Error::InvalidInput(format!(
+                    "axis {} spans [{}, {}], outside the model's domain [{}, {}]",
+                    a.name, g.lo, g.hi, a.valid_range.0, a.valid_range.1
+                )));
+            }
+        }
+        let spec = TableSpec {
+            model: model.id().name(),
+            model_parameters: model.parameters(),
+            axes,
+            outputs: model.outputs().iter().map(|s| s.to_string()).collect(),
+            quadrature,
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+
     /// Refuses empty, single-node and absurdly large grids before anything is allocated.
     pub fn validate(&self) -> Result<()> {
         for a in &self.axes {
@@ -174,6 +236,18 @@ impl TableSpec {
                     "axis {} has an empty or invalid range [{}, {}]",
                     a.name, a.lo, a.hi
                 )));
+            }
+            if let Some(nodes) = &a.nodes {
+                let consistent = nodes.len() == a.n
+                    && nodes.first() == Some(&a.lo)
+                    && nodes.last() == Some(&a.hi)
+                    && nodes.windows(2).all(|w| w[1] > w[0]);
+                if !consistent || a.placement != "explicit" {
+                    return Err(Error::InvalidInput(format!(
+                        "axis {}: its explicit nodes do not match its range and count",
+                        a.name
+                    )));
+                }
             }
         }
         self.quadrature.validate().map_err(Error::InvalidInput)?;

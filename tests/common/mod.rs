@@ -57,7 +57,7 @@ fn repository_files() -> Vec<PathBuf> {
 }
 
 /// A fresh copy of the repository at `<tmp>/furnace-<what>-<pid>/furnace`: its parent folder
-/// holds nothing else, so a path that leaves the repository (`../shared/…`) finds nothing.
+/// holds nothing else, so a path that leaves the repository (into a sibling folder) finds nothing.
 pub fn fresh_copy(what: &str) -> PathBuf {
     let parent = std::env::temp_dir().join(format!("furnace-{what}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&parent);

@@ -55,6 +55,180 @@ pub fn exponents(d: usize, degree: u32) -> Vec<Vec<u32>> {
     out
 }
 
+/// A downward-closed set of exponent tuples: every e with e_k ≤ `caps[k]` for each variable and
+/// Σ_{k in the total} e_k ≤ `total`, where the variables in the total are those with
+/// `in_total[k]`. It covers
+/// - total degree n: caps n, every variable in the total;
+/// - per-variable degrees (a tensor product) m_k: caps m_k, no variable in the total;
+/// - the split-sum numerator Σ_{a ≤ K} t_j^a·P_a(others), P_a of total degree ≤ n: cap K and
+///   outside the total for variable j, caps n and in the total for the others; its shared
+///   denominator Q(others) has cap 0 for variable j.
+///
+/// Downward closed (e in the set and e' ≤ e componentwise ⇒ e' in the set), so the exact
+/// Chebyshev ↔ monomial conversions, the pole certificate's Bernstein form and the emitted
+/// Horner and Bernstein forms all stay inside it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ExponentSet {
+    /// Largest Σ e_k over the variables in the total.
+    pub total: u32,
+    /// Largest exponent of each variable.
+    pub caps: Vec<u32>,
+    /// Whether each variable counts towards `total`.
+    pub in_total: Vec<bool>,
+}
+
+impl ExponentSet {
+    /// All monomials of total degree ≤ `degree` in `d` variables (same set as [`exponents`]).
+    pub fn total_degree(d: usize, degree: u32) -> ExponentSet {
+        ExponentSet {
+            total: degree,
+            caps: vec![degree; d],
+            in_total: vec![true; d],
+        }
+    }
+
+    /// The tensor product of per-variable degrees: e_k ≤ degrees[k].
+    pub fn tensor(degrees: &[u32]) -> ExponentSet {
+        ExponentSet {
+            total: degrees.iter().sum(),
+            caps: degrees.to_vec(),
+            in_total: vec![false; degrees.len()],
+        }
+    }
+
+    /// Degree ≤ `split_degree` in variable `split` times total degree ≤ `degree` in the others
+    /// (the numerator of Σ_a t_split^a P_a(others)); `split_degree` 0 drops the variable (a
+    /// shared denominator Q(others)).
+    pub fn split(d: usize, split: usize, split_degree: u32, degree: u32) -> ExponentSet {
+        let mut s = ExponentSet::total_degree(d, degree);
+        if split < d {
+            s.caps[split] = split_degree;
+            s.in_total[split] = false;
+        }
+        s
+    }
+
+    pub fn dim(&self) -> usize {
+        self.caps.len()
+    }
+
+    /// Whether the exponent tuple `e` belongs to the set.
+    pub fn contains(&self, e: &[u32]) -> bool {
+        e.len() == self.dim()
+            && e.iter().zip(&self.caps).all(|(x, c)| x <= c)
+            && e.iter()
+                .zip(&self.in_total)
+                .filter(|(_, &t)| t)
+                .map(|(x, _)| *x)
+                .sum::<u32>()
+                <= self.total
+    }
+
+    /// Largest total degree Σ e_k of a member.
+    pub fn max_total_degree(&self) -> u32 {
+        let outside: u32 = self
+            .caps
+            .iter()
+            .zip(&self.in_total)
+            .filter(|(_, &t)| !t)
+            .map(|(c, _)| *c)
+            .sum();
+        let inside: u32 = self
+            .caps
+            .iter()
+            .zip(&self.in_total)
+            .filter(|(_, &t)| t)
+            .map(|(c, _)| *c)
+            .sum();
+        outside + inside.min(self.total)
+    }
+
+    /// Largest exponent of variable `k` in a member.
+    pub fn max_exponent_of(&self, k: usize) -> u32 {
+        match (self.caps.get(k), self.in_total.get(k)) {
+            (Some(&c), Some(true)) => c.min(self.total),
+            (Some(&c), _) => c,
+            _ => 0,
+        }
+    }
+
+    /// Largest exponent of any one variable in a member.
+    pub fn max_exponent(&self) -> u32 {
+        (0..self.dim())
+            .map(|k| {
+                if self.in_total[k] {
+                    self.caps[k].min(self.total)
+                } else {
+                    self.caps[k]
+                }
+            })
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// The members in scikit-learn `PolynomialFeatures` order (the order of [`exponents`]).
+    pub fn exponents(&self) -> Vec<Vec<u32>> {
+        exponents(self.dim(), self.max_total_degree())
+            .into_iter()
+            .filter(|e| self.contains(e))
+            .collect()
+    }
+
+    /// Number of members.
+    pub fn len(&self) -> usize {
+        self.exponents().len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        false // the constant term is always a member
+    }
+
+    /// Checks the shape against `d` variables and the degree limit.
+    pub fn check(&self, d: usize) -> Result<()> {
+        if self.caps.len() != d || self.in_total.len() != d {
+            return Err(FitError::ShapeMismatch {
+                what: "exponent set (caps / in_total)",
+                expected: d,
+                got: self.caps.len().min(self.in_total.len()),
+                fix: "give one cap and one in_total flag per variable",
+            });
+        }
+        check_degree(self.max_total_degree())
+    }
+
+    /// "3/(r+mu≤4)": the caps, and the total over the variables in it.
+    pub fn label(&self, names: &[String]) -> String {
+        let name = |k: usize| names.get(k).cloned().unwrap_or_else(|| format!("x{k}"));
+        let mut parts = Vec::new();
+        let inside: Vec<usize> = (0..self.dim()).filter(|&k| self.in_total[k]).collect();
+        for k in 0..self.dim() {
+            // a variable outside the total, or one capped below it
+            if !self.in_total[k] || self.caps[k] < self.total {
+                parts.push(format!("{}^{}", name(k), self.caps[k]));
+            }
+        }
+        if !inside.is_empty() {
+            let vars: Vec<String> = inside.iter().map(|&k| name(k)).collect();
+            parts.push(format!("deg({}) ≤ {}", vars.join(", "), self.total));
+        }
+        parts.join(" × ")
+    }
+}
+
+/// Whether every member e of `exps` with e_k > 0 has e − unit_k in `exps` too.
+pub fn is_downward_closed(exps: &[Vec<u32>]) -> bool {
+    let set: std::collections::HashSet<&[u32]> = exps.iter().map(Vec::as_slice).collect();
+    exps.iter().all(|e| {
+        (0..e.len()).all(|k| {
+            e[k] == 0 || {
+                let mut f = e.clone();
+                f[k] -= 1;
+                set.contains(f.as_slice())
+            }
+        })
+    })
+}
+
 /// Number of monomials of total degree ≤ `degree` in `d` variables: C(d + degree, d).
 pub fn n_terms(d: usize, degree: u32) -> usize {
     binomial(d as u32 + degree, d as u32) as usize
@@ -226,8 +400,15 @@ pub(crate) struct ChebyshevBasis {
 }
 
 impl ChebyshevBasis {
+    #[cfg(test)]
     pub fn new(d: usize, degree: u32) -> ChebyshevBasis {
-        let exps = exponents(d, degree);
+        ChebyshevBasis::from_exponents(d, exponents(d, degree))
+    }
+
+    /// The basis of any exponent list (`degree` is then its largest single exponent, which
+    /// sizes the per-variable recurrence tables).
+    pub fn from_exponents(d: usize, exps: Vec<Vec<u32>>) -> ChebyshevBasis {
+        let degree = exps.iter().flatten().copied().max().unwrap_or(0);
         let flat = exps
             .iter()
             .flat_map(|e| e.iter().map(|&x| x as usize))

@@ -55,6 +55,14 @@ pub enum FitError {
         points: usize,
     },
 
+    #[error("{form} has degree {degree} in '{name}', but the data have only {distinct} distinct values of '{name}', which determine a degree of at most {}; lower the degree in '{name}' or supply data at more values of it", distinct.saturating_sub(1))]
+    TooFewValues {
+        form: String,
+        name: String,
+        degree: u32,
+        distinct: usize,
+    },
+
     #[error("degree {degree} is above the supported maximum {max}; monomial coefficients of such degrees are meaningless in f64 — lower the degree")]
     DegreeTooHigh { degree: u32, max: u32 },
 

@@ -220,14 +220,19 @@ impl FitRecord {
             Form::Rational {
                 numerator_degree, ..
             } => (FormKind::Rational, numerator_degree),
+            Form::Exponents { .. } => (FormKind::Rational, 0),
         };
-        fit_file_name(
+        let name = fit_file_name(
             kind,
             degree,
             &a.variables,
             &a.transforms,
             self.fit.objective,
-        )
+        );
+        match self.fit.form {
+            Form::Exponents { .. } => name.replacen("rational-0", &self.fit.form.file_stem(), 1),
+            _ => name,
+        }
     }
 }
 
@@ -649,6 +654,10 @@ fn row_of(rec: &FitRecord, paper_box: Option<BoxMetrics>) -> SweepRow {
         Form::Rational {
             numerator_degree, ..
         } => (FormKind::Rational, numerator_degree),
+        Form::Exponents { .. } if f.form.is_rational() => {
+            (FormKind::Rational, f.form.numerator_degree())
+        }
+        Form::Exponents { .. } => (FormKind::Polynomial, f.form.numerator_degree()),
     };
     SweepRow {
         form,
@@ -858,7 +867,7 @@ pub fn sweep_fits(
             let ls = &records[i].fit;
             let transforms = ls.approximant.transforms.clone();
             let t = std::time::Instant::now();
-            let fitted = match ls.form {
+            let fitted = match ls.form.clone() {
                 Form::Polynomial { degree } => fit_polynomial(
                     data,
                     &transforms,
@@ -883,6 +892,14 @@ pub fn sweep_fits(
                         Objective::Minimax,
                         &ro,
                     )
+                }
+                form @ Form::Exponents { .. } => {
+                    let mut opts = super::FitOptions::default();
+                    opts.rational.extra_starts.push((
+                        "least-squares fit of the sweep".into(),
+                        ls.approximant.clone(),
+                    ));
+                    super::fit_form(data, &transforms, &form, Objective::Minimax, &opts)
                 }
             };
             match fitted {

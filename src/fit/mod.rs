@@ -37,6 +37,7 @@ pub mod compare;
 pub mod data;
 pub mod error;
 pub mod file;
+pub mod form;
 pub mod job;
 pub mod linear;
 pub mod lm;
@@ -52,9 +53,10 @@ pub mod source;
 pub mod sweep;
 pub mod trust_region;
 
-pub use basis::{exponents, n_terms, Polynomial};
+pub use basis::{exponents, n_terms, ExponentSet, Polynomial};
 pub use data::{FitData, InputTransform};
 pub use error::{FitError, Result};
+pub use form::{fit_form, split_form, tensor_form, FitOptions};
 pub use lm::{
     LeastSquares, LeastSquaresProblem, LevenbergMarquardt, LmReport, LmSolver, LmState, LsqMethod,
     LsqState, TerminationReason,
@@ -63,7 +65,7 @@ pub use metrics::{measure, Metrics};
 pub use poles::{CertifyOptions, PoleVerdict};
 pub use polynomial::{fit_polynomial, PolynomialOptions};
 pub use rational::{fit_rational, RationalOptions};
-pub use result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
+pub use result::{Approximant, FitResult, Form, FormSpec, Objective, SolverReport, StartReport};
 pub use sweep::{
     best_under_budget, sweep, sweep_detailed, sweep_with_progress, SkippedFit, SweepEvent,
     SweepOptions, SweepReport,

@@ -32,38 +32,77 @@ pub const NORMALISE_MIN_RATIO: f64 = 1e-8;
 
 #[derive(Clone, Debug)]
 pub(crate) struct Model {
+    /// The union of P's and Q's exponents (scikit-learn order).
     pub basis: ChebyshevBasis,
-    pub num_degree: u32,
-    pub den_degree: Option<u32>,
+    /// P's exponents and their positions in `basis`.
+    pub num_exps: Vec<Vec<u32>>,
+    pub num_idx: Vec<usize>,
+    /// Q's exponents (the constant first) and their positions in `basis`; None for a polynomial.
+    pub den_exps: Option<Vec<Vec<u32>>>,
+    pub den_idx: Vec<usize>,
     pub n_num: usize,
     pub n_den: usize,
 }
 
 impl Model {
     pub fn polynomial(d: usize, degree: u32) -> Model {
-        let basis = ChebyshevBasis::new(d, degree);
-        let n_num = basis.len();
-        Model {
-            basis,
-            num_degree: degree,
-            den_degree: None,
-            n_num,
-            n_den: 0,
-        }
+        Model::from_exponents(d, exponents(d, degree), None)
     }
 
     pub fn rational(d: usize, num_degree: u32, den_degree: u32) -> Model {
-        // graded order: the basis of lower degree is a prefix of the one of higher degree
-        let basis = ChebyshevBasis::new(d, num_degree.max(den_degree));
-        let n_num = ChebyshevBasis::new(d, num_degree).len();
-        let n_den = ChebyshevBasis::new(d, den_degree).len();
+        Model::from_exponents(d, exponents(d, num_degree), Some(exponents(d, den_degree)))
+    }
+
+    /// P and Q over any downward-closed exponent lists in scikit-learn order (Q's list then
+    /// starts with the constant, whose Chebyshev coefficient is fixed to 1). With total-degree
+    /// lists, the lower degree's is a prefix of the higher one's, so the basis is the higher
+    /// one's and the positions are 0, 1, 2, …
+    pub fn from_exponents(
+        d: usize,
+        num_exps: Vec<Vec<u32>>,
+        den_exps: Option<Vec<Vec<u32>>>,
+    ) -> Model {
+        let top = num_exps
+            .iter()
+            .chain(den_exps.iter().flatten())
+            .map(|e| e.iter().sum::<u32>())
+            .max()
+            .unwrap_or(0);
+        let union: Vec<Vec<u32>> = exponents(d, top)
+            .into_iter()
+            .filter(|e| num_exps.contains(e) || den_exps.as_ref().is_some_and(|q| q.contains(e)))
+            .collect();
+        let position = |e: &Vec<u32>| union.iter().position(|u| u == e).expect("in the union");
+        let num_idx = num_exps.iter().map(position).collect();
+        let den_idx = den_exps
+            .as_ref()
+            .map_or_else(Vec::new, |q| q.iter().map(position).collect());
+        let (n_num, n_den) = (num_exps.len(), den_exps.as_ref().map_or(0, Vec::len));
         Model {
-            basis,
-            num_degree,
-            den_degree: Some(den_degree),
+            basis: ChebyshevBasis::from_exponents(d, union),
+            num_exps,
+            num_idx,
+            den_exps,
+            den_idx,
             n_num,
             n_den,
         }
+    }
+
+    /// Largest single exponent of P (the size of the per-variable conversion maps).
+    pub fn num_max_exponent(&self) -> u32 {
+        self.num_exps.iter().flatten().copied().max().unwrap_or(0)
+    }
+
+    /// Largest single exponent of Q.
+    pub fn den_max_exponent(&self) -> u32 {
+        self.den_exps
+            .iter()
+            .flatten()
+            .flatten()
+            .copied()
+            .max()
+            .unwrap_or(0)
     }
 
     pub fn n_params(&self) -> usize {
@@ -71,7 +110,7 @@ impl Model {
     }
 
     pub fn is_rational(&self) -> bool {
-        self.den_degree.is_some()
+        self.den_exps.is_some()
     }
 
     /// (P, Q) at one point given the basis values `phi`.
@@ -79,11 +118,11 @@ impl Model {
     pub fn pq(&self, p: &[f64], phi: &[f64]) -> (f64, f64) {
         let mut num = 0.0;
         for j in 0..self.n_num {
-            num += p[j] * phi[j];
+            num += p[j] * phi[self.num_idx[j]];
         }
         let mut den = 1.0;
         for j in 1..self.n_den {
-            den += p[self.n_num + j - 1] * phi[j];
+            den += p[self.n_num + j - 1] * phi[self.den_idx[j]];
         }
         (num, den)
     }
@@ -183,15 +222,17 @@ impl Model {
         prep: &Prepared,
         p: &[f64],
     ) -> Approximant {
-        let d = prep.d;
-        let num_exps = exponents(d, self.num_degree);
-        let mut num =
-            chebyshev_to_monomial(&num_exps, self.num_degree, &prep.scales, &p[..self.n_num]);
-        let denominator = self.den_degree.map(|dd| {
-            let den_exps = exponents(d, dd);
+        let mut num = chebyshev_to_monomial(
+            &self.num_exps,
+            self.num_max_exponent(),
+            &prep.scales,
+            &p[..self.n_num],
+        );
+        let denominator = self.den_exps.as_ref().map(|den_exps| {
             let mut cheb = vec![1.0];
             cheb.extend_from_slice(&p[self.n_num..]);
-            let mut den = chebyshev_to_monomial(&den_exps, dd, &prep.scales, &cheb);
+            let mut den =
+                chebyshev_to_monomial(den_exps, self.den_max_exponent(), &prep.scales, &cheb);
             let q0 = den[0];
             let qmax = den.iter().fold(0.0f64, |m, c| m.max(c.abs()));
             if q0.abs() >= NORMALISE_MIN_RATIO * qmax && q0 != 0.0 {
@@ -204,7 +245,7 @@ impl Model {
                 }
             }
             Polynomial {
-                exponents: den_exps,
+                exponents: den_exps.clone(),
                 coefficients: den,
             }
         });
@@ -213,7 +254,7 @@ impl Model {
             transforms: transforms.to_vec(),
             domain: data.domain.clone(),
             numerator: Polynomial {
-                exponents: num_exps,
+                exponents: self.num_exps.clone(),
                 coefficients: num,
             },
             denominator,
@@ -248,10 +289,10 @@ impl LinearRows for LinearisedRows<'_> {
             let v = self.data.w[i] * self.extra.map_or(1.0, |e| e[i]);
             let y = self.data.y[i];
             for j in 0..m.n_num {
-                a[j * len + k] = v * phi[j];
+                a[j * len + k] = v * phi[m.num_idx[j]];
             }
             for j in 1..m.n_den {
-                a[(m.n_num + j - 1) * len + k] = -v * y * phi[j];
+                a[(m.n_num + j - 1) * len + k] = -v * y * phi[m.den_idx[j]];
             }
             b[k] = v * y;
         }
@@ -274,13 +315,13 @@ pub(crate) struct RationalProblem<'a> {
 impl Model {
     /// Q in monomial form of the transformed variables (Chebyshev normalisation kept).
     pub fn denominator_monomial(&self, data: &Prepared, p: &[f64]) -> Option<Polynomial> {
-        let dd = self.den_degree?;
-        let exps = exponents(data.d, dd);
+        let exps = self.den_exps.as_ref()?;
         let mut cheb = vec![1.0];
         cheb.extend_from_slice(&p[self.n_num..]);
-        let coefficients = chebyshev_to_monomial(&exps, dd, &data.scales, &cheb);
+        let coefficients =
+            chebyshev_to_monomial(exps, self.den_max_exponent(), &data.scales, &cheb);
         Some(Polynomial {
-            exponents: exps,
+            exponents: exps.clone(),
             coefficients,
         })
     }
@@ -350,11 +391,11 @@ impl LeastSquaresProblem for RationalProblem<'_> {
             let g = v / den; // ∂f/∂a_j = T_j/Q, ∂f/∂b_j = −f T_j/Q
             let row = &mut jac[k * np..(k + 1) * np];
             for j in 0..m.n_num {
-                row[j] = g * phi[j];
+                row[j] = g * phi[m.num_idx[j]];
             }
             let gf = -g * f;
             for j in 1..m.n_den {
-                row[m.n_num + j - 1] = gf * phi[j];
+                row[m.n_num + j - 1] = gf * phi[m.den_idx[j]];
             }
         }
         true

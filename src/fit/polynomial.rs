@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use super::basis::{check_degree, n_terms};
+use super::basis::check_degree;
 use super::data::{FitData, InputTransform, Prepared};
 use super::error::{FitError, Result};
 use super::linear::solve_lstsq;
@@ -46,11 +46,30 @@ pub fn fit_polynomial(
     objective: Objective,
     opts: &PolynomialOptions,
 ) -> Result<FitResult> {
-    let start = Instant::now();
     check_degree(degree)?;
+    let model = Model::polynomial(data.dim(), degree);
+    fit_polynomial_model(
+        data,
+        transforms,
+        Form::Polynomial { degree },
+        &model,
+        objective,
+        opts,
+    )
+}
+
+/// [`fit_polynomial`] for any (polynomial) model.
+pub(crate) fn fit_polynomial_model(
+    data: &FitData,
+    transforms: &[InputTransform],
+    form: Form,
+    model: &Model,
+    objective: Objective,
+    opts: &PolynomialOptions,
+) -> Result<FitResult> {
+    let start = Instant::now();
     let prep = Prepared::new(data, transforms)?;
-    let form = Form::Polynomial { degree };
-    let n_coef = n_terms(prep.d, degree);
+    let n_coef = model.n_params();
     if prep.n_weighted() < n_coef {
         return Err(FitError::TooFewPoints {
             form: form.label(),
@@ -58,11 +77,10 @@ pub fn fit_polynomial(
             points: prep.n_weighted(),
         });
     }
-    let model = Model::polynomial(prep.d, degree);
-    let (p0, condition) = solve_polynomial(&model, &prep, None, &form.label())?;
+    let (p0, condition) = solve_polynomial(model, &prep, None, &form.label())?;
     let e0 = model.errors(&prep, None, &p0).unwrap_or_default();
     let mut solve = |extra: &[f64], _warm: &[f64]| -> Result<Option<Solved>> {
-        match solve_polynomial(&model, &prep, Some(extra), &form.label()) {
+        match solve_polynomial(model, &prep, Some(extra), &form.label()) {
             Ok((p, _)) => {
                 let e = model.errors(&prep, None, &p).unwrap_or_default();
                 Ok(Some((p, e, None, 0)))

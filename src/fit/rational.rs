@@ -21,7 +21,7 @@
 
 use std::time::Instant;
 
-use super::basis::{check_degree, exponents, monomial_to_chebyshev, n_terms};
+use super::basis::{check_degree, monomial_to_chebyshev};
 use super::data::{FitData, InputTransform, Prepared};
 use super::error::{FitError, Result};
 use super::linear::solve_lstsq;
@@ -109,33 +109,37 @@ fn start_from_approximant(
     if a.transforms != transforms || a.variables.len() != prep.d {
         return Err("different variables or transforms".into());
     }
-    let d = prep.d;
-    let embed =
-        |p: &super::basis::Polynomial, degree: u32| -> std::result::Result<Vec<f64>, String> {
-            let exps = exponents(d, degree);
-            let mut c = vec![0.0; exps.len()];
-            for (e, &v) in p.exponents.iter().zip(&p.coefficients) {
-                match exps.iter().position(|x| x == e) {
-                    Some(j) => c[j] = v,
-                    None if v == 0.0 => {}
-                    None => {
-                        return Err(format!(
-                            "has a term of degree {} above this fit's",
-                            e.iter().sum::<u32>()
-                        ))
-                    }
+    let embed = |p: &super::basis::Polynomial,
+                 exps: &[Vec<u32>],
+                 max: u32|
+     -> std::result::Result<Vec<f64>, String> {
+        let mut c = vec![0.0; exps.len()];
+        for (e, &v) in p.exponents.iter().zip(&p.coefficients) {
+            match exps.iter().position(|x| x == e) {
+                Some(j) => c[j] = v,
+                None if v == 0.0 => {}
+                None => {
+                    return Err(format!(
+                        "has a term of degree {} above this fit's",
+                        e.iter().sum::<u32>()
+                    ))
                 }
             }
-            Ok(monomial_to_chebyshev(&exps, degree, &prep.scales, &c))
-        };
-    let num = embed(&a.numerator, model.num_degree)?;
-    let dd = model.den_degree.unwrap_or(0);
+        }
+        Ok(monomial_to_chebyshev(exps, max, &prep.scales, &c))
+    };
+    let num = embed(&a.numerator, &model.num_exps, model.num_max_exponent())?;
+    let den_exps = model
+        .den_exps
+        .clone()
+        .unwrap_or_else(|| vec![vec![0; prep.d]]);
+    let dd = model.den_max_exponent();
     let den = match &a.denominator {
-        Some(q) => embed(q, dd)?,
+        Some(q) => embed(q, &den_exps, dd)?,
         None => {
-            let mut one = vec![0.0; n_terms(d, dd)];
+            let mut one = vec![0.0; den_exps.len()];
             one[0] = 1.0;
-            monomial_to_chebyshev(&exponents(d, dd), dd, &prep.scales, &one)
+            monomial_to_chebyshev(&den_exps, dd, &prep.scales, &one)
         }
     };
     let c0 = den[0];
@@ -164,16 +168,32 @@ pub fn fit_rational(
     objective: Objective,
     opts: &RationalOptions,
 ) -> Result<FitResult> {
-    let start_time = Instant::now();
     check_degree(num_degree)?;
     check_degree(den_degree)?;
-    let prep = Prepared::new(data, transforms)?;
+    let d = data.dim();
     let form = Form::Rational {
         numerator_degree: num_degree,
         denominator_degree: den_degree,
     };
+    let model = Model::rational(d, num_degree, den_degree);
+    let poly_model = Model::polynomial(d, num_degree);
+    fit_rational_model(data, transforms, form, &model, &poly_model, objective, opts)
+}
+
+/// [`fit_rational`] for any model: `poly_model` is the polynomial (Q = 1) over the same
+/// numerator exponents, a start.
+pub(crate) fn fit_rational_model(
+    data: &FitData,
+    transforms: &[InputTransform],
+    form: Form,
+    model: &Model,
+    poly_model: &Model,
+    objective: Objective,
+    opts: &RationalOptions,
+) -> Result<FitResult> {
+    let start_time = Instant::now();
+    let prep = Prepared::new(data, transforms)?;
     let label = form.label();
-    let model = Model::rational(prep.d, num_degree, den_degree);
     let np = model.n_params();
     if prep.n_weighted() < np {
         return Err(FitError::TooFewPoints {
@@ -210,14 +230,14 @@ pub fn fit_rational(
 
     // 1. starts
     let mut starts: Vec<(String, std::result::Result<Vec<f64>, String>)> = Vec::new();
-    let lin = linearised(&model, ex, None, &label).map_err(|e| e.to_string());
+    let lin = linearised(model, ex, None, &label).map_err(|e| e.to_string());
     starts.push(("linearised".into(), lin.clone()));
     if let Ok(mut p) = lin {
         let mut ok = true;
         for _ in 0..opts.sk_iterations {
             let q = model.denominators(ex, &p);
             let extra: Vec<f64> = q.iter().map(|q| 1.0 / q.abs().max(Q_FLOOR)).collect();
-            match linearised(&model, ex, Some(&extra), &label) {
+            match linearised(model, ex, Some(&extra), &label) {
                 Ok(next) => p = next,
                 Err(e) => {
                     starts.push(("sanathanan_koerner".into(), Err(e.to_string())));
@@ -230,8 +250,7 @@ pub fn fit_rational(
             starts.push(("sanathanan_koerner".into(), Ok(p)));
         }
     }
-    let poly_model = Model::polynomial(prep.d, num_degree);
-    match solve_polynomial(&poly_model, ex, None, &label) {
+    match solve_polynomial(poly_model, ex, None, &label) {
         Ok((a, _)) => {
             let mut p = a;
             p.resize(np, 0.0);
@@ -242,7 +261,7 @@ pub fn fit_rational(
     for (name, a) in &opts.extra_starts {
         starts.push((
             name.clone(),
-            start_from_approximant(&model, &prep, transforms, a),
+            start_from_approximant(model, &prep, transforms, a),
         ));
     }
 
@@ -268,7 +287,7 @@ pub fn fit_rational(
         };
         let constrained = safe(&p0);
         let problem = RationalProblem {
-            model: &model,
+            model,
             data: ex,
             phi: phi_ex,
             extra: None,
@@ -293,7 +312,7 @@ pub fn fit_rational(
         let cost_all = if sub.is_some() {
             cost(
                 &RationalProblem {
-                    model: &model,
+                    model,
                     data: &prep,
                     phi: phi_all,
                     extra: None,
@@ -346,7 +365,7 @@ pub fn fit_rational(
             .clone()
             .with_max_iterations(opts.refine_iterations.max(1))?;
         let problem = RationalProblem {
-            model: &model,
+            model,
             data: &prep,
             phi: phi_all,
             extra: None,
@@ -382,7 +401,7 @@ pub fn fit_rational(
             let constrained = best.certified;
             let mut solve = |extra: &[f64], warm: &[f64]| -> Result<Option<Solved>> {
                 let problem = RationalProblem {
-                    model: &model,
+                    model,
                     data: &prep,
                     phi: phi_all,
                     extra: Some(extra),

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::basis::Polynomial;
+use super::basis::{n_terms, ExponentSet, Polynomial};
 use super::data::{
     inverse_point, transform_point, transformed_box, FitData, InputTransform, MAX_DIM,
 };
@@ -26,8 +26,8 @@ pub enum Objective {
     Minimax,
 }
 
-/// The functional form.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// The functional form: what [`super::fit_form`] fits, and what a fit file records.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Form {
     Polynomial {
@@ -38,16 +38,125 @@ pub enum Form {
         numerator_degree: u32,
         denominator_degree: u32,
     },
+    /// P/Q (or P without `denominator`) over downward-closed exponent sets: per-variable
+    /// degrees, and the split-sum form Σ_a t_j^a·P_a(others)/Q(others) with a shared
+    /// denominator ([`ExponentSet::split`]).
+    Exponents {
+        numerator: ExponentSet,
+        denominator: Option<ExponentSet>,
+    },
 }
+
+/// The form specification callers choose from; [`Form`] itself.
+pub type FormSpec = Form;
 
 impl Form {
     pub fn label(&self) -> String {
-        match *self {
+        match self {
             Form::Polynomial { degree } => format!("polynomial of degree {degree}"),
             Form::Rational {
                 numerator_degree: n,
                 denominator_degree: m,
             } => format!("rational of degree {n}/{m}"),
+            Form::Exponents {
+                numerator,
+                denominator,
+            } => match denominator {
+                None => format!("polynomial over [{}]", numerator.label(&[])),
+                Some(q) => format!(
+                    "rational over [{}]/[{}]",
+                    numerator.label(&[]),
+                    q.label(&[])
+                ),
+            },
+        }
+    }
+
+    /// [`Form::label`] with variable names.
+    pub fn label_with(&self, names: &[String]) -> String {
+        match self {
+            Form::Exponents {
+                numerator,
+                denominator,
+            } => match denominator {
+                None => format!("polynomial over [{}]", numerator.label(names)),
+                Some(q) => format!(
+                    "rational over [{}]/[{}]",
+                    numerator.label(names),
+                    q.label(names)
+                ),
+            },
+            _ => self.label(),
+        }
+    }
+
+    /// The form part of a fit file name: `polynomial-5`, `rational-3`, and for exponent sets
+    /// `rational-<P's set>-<Q's set>` (`polynomial-<P's set>`), a set written as its caps, `t`
+    /// and its total, then `x` and the variables outside the total: the split form of degree 3
+    /// in variable 0 over degree 4 / 3 in the others is `rational-3_4_4t4x0-0_3_3t3x0`.
+    pub fn file_stem(&self) -> String {
+        let token = |s: &ExponentSet| {
+            let caps: Vec<String> = s.caps.iter().map(u32::to_string).collect();
+            let outside: String = (0..s.dim())
+                .filter(|&k| !s.in_total[k])
+                .map(|k| k.to_string())
+                .collect();
+            let mut t = format!("{}t{}", caps.join("_"), s.total);
+            if !outside.is_empty() {
+                t.push('x');
+                t.push_str(&outside);
+            }
+            t
+        };
+        match self {
+            Form::Polynomial { degree } => format!("polynomial-{degree}"),
+            Form::Rational {
+                numerator_degree, ..
+            } => format!("rational-{numerator_degree}"),
+            Form::Exponents {
+                numerator,
+                denominator: None,
+            } => format!("polynomial-{}", token(numerator)),
+            Form::Exponents {
+                numerator,
+                denominator: Some(q),
+            } => format!("rational-{}-{}", token(numerator), token(q)),
+        }
+    }
+
+    /// Whether the form has a denominator.
+    pub fn is_rational(&self) -> bool {
+        match self {
+            Form::Polynomial { .. } => false,
+            Form::Rational { .. } => true,
+            Form::Exponents { denominator, .. } => denominator.is_some(),
+        }
+    }
+
+    /// The highest total degree of the numerator (the number in fit file names).
+    pub fn numerator_degree(&self) -> u32 {
+        match self {
+            Form::Polynomial { degree } => *degree,
+            Form::Rational {
+                numerator_degree, ..
+            } => *numerator_degree,
+            Form::Exponents { numerator, .. } => numerator.max_total_degree(),
+        }
+    }
+
+    /// Every number a fit of this form stores in `d` variables: P's coefficients and Q's, less
+    /// Q's constant (fixed to 1).
+    pub fn n_coefficients(&self, d: usize) -> usize {
+        match self {
+            Form::Polynomial { degree } => n_terms(d, *degree),
+            Form::Rational {
+                numerator_degree: n,
+                denominator_degree: m,
+            } => n_terms(d, *n) + n_terms(d, *m) - 1,
+            Form::Exponents {
+                numerator,
+                denominator,
+            } => numerator.len() + denominator.as_ref().map_or(0, |q| q.len() - 1),
         }
     }
 }
@@ -105,6 +214,14 @@ impl Approximant {
                 });
             }
             super::basis::check_degree(p.degree())?;
+            if !super::basis::is_downward_closed(&p.exponents) {
+                return Err(FitError::ShapeMismatch {
+                    what: "exponent tuples closed under lowering one exponent",
+                    expected: p.exponents.len(),
+                    got: p.exponents.len(),
+                    fix: "with every monomial, list every monomial that divides it (a coefficient 0 is fine)",
+                });
+            }
             if let Some(i) = p.coefficients.iter().position(|c| !c.is_finite()) {
                 return Err(FitError::NonFinite {
                     what: "coefficient",

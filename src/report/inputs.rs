@@ -62,6 +62,7 @@ pub fn short_form(form: &Form) -> String {
             numerator_degree,
             denominator_degree,
         } => format!("rational {numerator_degree}/{denominator_degree}"),
+        Form::Exponents { .. } => form.file_stem().replace('-', " "),
     }
 }
 

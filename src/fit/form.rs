@@ -1,0 +1,351 @@
+//! One entry point for every form: [`fit_form`] fits a [`Form`] (polynomial, rational, or P/Q
+//! over exponent sets — per-variable degrees and the split-sum form with a shared denominator)
+//! and checks beforehand that the data can determine it.
+
+use super::basis::{check_degree, exponents, ExponentSet};
+use super::data::{FitData, InputTransform};
+use super::error::{FitError, Result};
+use super::model::Model;
+use super::polynomial::{fit_polynomial, fit_polynomial_model, PolynomialOptions};
+use super::rational::{fit_rational, fit_rational_model, RationalOptions};
+use super::result::{FitResult, Form, Objective};
+
+/// Settings of [`fit_form`]: the polynomial solver's and the rational solver's.
+#[derive(Clone, Debug, Default)]
+pub struct FitOptions {
+    pub polynomial: PolynomialOptions,
+    pub rational: RationalOptions,
+}
+
+/// Fits `form` to `data` in the transformed variables and assesses it (metrics on `data`, pole
+/// certificate of the denominator on the whole domain box).
+///
+/// Refused before anything is solved, with the cause and the fix: a degree above
+/// [`super::basis::MAX_DEGREE`], an exponent set of the wrong shape, more coefficients than
+/// weighted points, and a degree in a variable at or above its number of distinct values in the
+/// data (the columns of the least-squares system would be dependent).
+///
+/// ```
+/// use furnace::fit::{fit_form, ExponentSet, FitData, FitOptions, Form, InputTransform, Objective};
+/// // f = (1 + x + x y)/(1 + y/2): degree 1 in x over a denominator without x
+/// let ax: Vec<f64> = (0..12).map(|i| i as f64 / 11.0).collect();
+/// let vals = ax.iter().flat_map(|&x| ax.iter().map(move |&y| (1.0 + x + x * y) / (1.0 + 0.5 * y))).collect();
+/// let data = FitData::from_grid(vec!["x".into(), "y".into()], &[ax.clone(), ax], vals).unwrap();
+/// let form = Form::Exponents {
+///     numerator: ExponentSet::split(2, 0, 1, 1),
+///     denominator: Some(ExponentSet::split(2, 0, 0, 1)),
+/// };
+/// let fit = fit_form(&data, &[InputTransform::Identity; 2], &form, Objective::LeastSquares,
+///                    &FitOptions::default()).unwrap();
+/// assert_eq!(fit.n_coefficients, 4 + 1);
+/// assert!(fit.metrics.max_abs_error < 1e-10 && fit.is_usable());
+/// ```
+pub fn fit_form(
+    data: &FitData,
+    transforms: &[InputTransform],
+    form: &Form,
+    objective: Objective,
+    opts: &FitOptions,
+) -> Result<FitResult> {
+    data.validate()?;
+    let d = data.dim();
+    match form {
+        Form::Polynomial { degree } => {
+            check_degree(*degree)?;
+            check_distinct(data, &ExponentSet::total_degree(d, *degree), form)?;
+            fit_polynomial(data, transforms, *degree, objective, &opts.polynomial)
+        }
+        Form::Rational {
+            numerator_degree,
+            denominator_degree,
+        } => {
+            check_degree(*numerator_degree)?;
+            check_degree(*denominator_degree)?;
+            let top = (*numerator_degree).max(*denominator_degree);
+            check_distinct(data, &ExponentSet::total_degree(d, top), form)?;
+            fit_rational(
+                data,
+                transforms,
+                *numerator_degree,
+                *denominator_degree,
+                objective,
+                &opts.rational,
+            )
+        }
+        Form::Exponents {
+            numerator,
+            denominator,
+        } => {
+            numerator.check(d)?;
+            check_distinct(data, numerator, form)?;
+            if let Some(q) = denominator {
+                q.check(d)?;
+                check_distinct(data, q, form)?;
+            }
+            let num_exps = numerator.exponents();
+            match denominator {
+                None => {
+                    let model = Model::from_exponents(d, num_exps, None);
+                    fit_polynomial_model(
+                        data,
+                        transforms,
+                        form.clone(),
+                        &model,
+                        objective,
+                        &opts.polynomial,
+                    )
+                }
+                Some(q) => {
+                    let model = Model::from_exponents(d, num_exps.clone(), Some(q.exponents()));
+                    let poly = Model::from_exponents(d, num_exps, None);
+                    fit_rational_model(
+                        data,
+                        transforms,
+                        form.clone(),
+                        &model,
+                        &poly,
+                        objective,
+                        &opts.rational,
+                    )
+                }
+            }
+        }
+    }
+}
+
+/// A variable with m distinct values in the data supports degree ≤ m − 1 in it.
+fn check_distinct(data: &FitData, set: &ExponentSet, form: &Form) -> Result<()> {
+    let d = data.dim();
+    for k in 0..d {
+        let degree = set.max_exponent_of(k);
+        if degree == 0 {
+            continue;
+        }
+        let mut v: Vec<f64> = (0..data.len())
+            .filter(|&i| data.weight(i) > 0.0)
+            .map(|i| data.point(i)[k])
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        if v.len() <= degree as usize {
+            return Err(FitError::TooFewValues {
+                form: form.label_with(&data.names),
+                name: data.names[k].clone(),
+                degree,
+                distinct: v.len(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The split-sum form Σ_{a ≤ k} t_j^a·P_a(others) / Q(others): numerator degree `k` in variable
+/// `split` times total degree `n` in the other variables, over a shared denominator of total
+/// degree `m` without variable `split` (`m` = 0: a polynomial).
+pub fn split_form(d: usize, split: usize, k: u32, n: u32, m: u32) -> Form {
+    Form::Exponents {
+        numerator: ExponentSet::split(d, split, k, n),
+        denominator: (m > 0).then(|| ExponentSet::split(d, split, 0, m)),
+    }
+}
+
+/// Per-variable degrees: P of degree `num[k]` and Q of degree `den[k]` in variable k (tensor
+/// products; `den` None: a polynomial).
+pub fn tensor_form(num: &[u32], den: Option<&[u32]>) -> Form {
+    Form::Exponents {
+        numerator: ExponentSet::tensor(num),
+        denominator: den.map(ExponentSet::tensor),
+    }
+}
+
+/// The exponent tuples of a total-degree polynomial (for callers building their own sets).
+pub fn total_degree_exponents(d: usize, degree: u32) -> Vec<Vec<u32>> {
+    exponents(d, degree)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid3(n: usize, f: impl Fn(f64, f64, f64) -> f64) -> FitData {
+        let ax: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
+        let mut vals = Vec::new();
+        for &x in &ax {
+            for &y in &ax {
+                for &z in &ax {
+                    vals.push(f(x, y, z));
+                }
+            }
+        }
+        FitData::from_grid(
+            vec!["f0".into(), "r".into(), "mu".into()],
+            &[ax.clone(), ax.clone(), ax],
+            vals,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn split_form_recovers_a_split_sum_and_counts_every_coefficient() {
+        // E = (A(r, μ) + f0·B(r, μ) + f0²·C)/Q(r, μ): degree 2 in f0, 2 in (r, μ), Q of degree 1
+        let f = |x: f64, r: f64, m: f64| {
+            (0.3 + 0.2 * r - 0.1 * m * m + x * (0.5 - 0.2 * r * m) + 0.1 * x * x)
+                / (1.0 + 0.3 * r + 0.2 * m)
+        };
+        let data = grid3(9, f);
+        let form = split_form(3, 0, 2, 2, 1);
+        let fit = fit_form(
+            &data,
+            &[InputTransform::Identity; 3],
+            &form,
+            Objective::LeastSquares,
+            &FitOptions::default(),
+        )
+        .unwrap();
+        // 3 × 6 numerator + 3 − 1 denominator
+        assert_eq!(form.n_coefficients(3), 18 + 2);
+        assert_eq!(fit.n_coefficients, 20);
+        assert!(fit.metrics.max_abs_error < 1e-10, "{:?}", fit.metrics);
+        assert!(fit.is_usable());
+        let q = fit.approximant.denominator.as_ref().unwrap();
+        assert!(q.exponents.iter().all(|e| e[0] == 0), "Q has no f0");
+        assert!((fit.eval(&[0.37, 0.61, 0.23]) - f(0.37, 0.61, 0.23)).abs() < 1e-10);
+        // JSON round trip keeps the form
+        let back = FitResult::from_json(&fit.to_json().unwrap()).unwrap();
+        assert_eq!(back.form, form);
+    }
+
+    #[test]
+    fn total_degree_forms_are_the_classic_fits() {
+        let data = grid3(6, |x, r, m| (1.0 + x * r) / (1.5 + m));
+        let t = [InputTransform::Identity; 3];
+        let (a, b) = (
+            fit_form(
+                &data,
+                &t,
+                &Form::Rational {
+                    numerator_degree: 2,
+                    denominator_degree: 1,
+                },
+                Objective::LeastSquares,
+                &FitOptions::default(),
+            )
+            .unwrap(),
+            fit_rational(
+                &data,
+                &t,
+                2,
+                1,
+                Objective::LeastSquares,
+                &RationalOptions::default(),
+            )
+            .unwrap(),
+        );
+        assert_eq!(a.to_json().unwrap(), b.to_json().unwrap());
+        // the same set as an exponent set fits the same function
+        let c = fit_form(
+            &data,
+            &t,
+            &Form::Exponents {
+                numerator: ExponentSet::total_degree(3, 2),
+                denominator: Some(ExponentSet::total_degree(3, 1)),
+            },
+            Objective::LeastSquares,
+            &FitOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(
+            c.approximant.numerator.coefficients,
+            a.approximant.numerator.coefficients
+        );
+    }
+
+    #[test]
+    fn tensor_degrees_fit_a_low_order_rational() {
+        // degree 1 in r over degree 1 in r, constant in μ's denominator: (a + b r + c μ)/(1 + d r)
+        let ax: Vec<f64> = (0..10).map(|i| i as f64 / 9.0).collect();
+        let vals = ax
+            .iter()
+            .flat_map(|&r| {
+                ax.iter()
+                    .map(move |&m| (0.2 + r + 0.3 * m * r) / (1.0 + 0.7 * r))
+            })
+            .collect();
+        let data =
+            FitData::from_grid(vec!["r".into(), "mu".into()], &[ax.clone(), ax], vals).unwrap();
+        let form = tensor_form(&[1, 1], Some(&[1, 0]));
+        let fit = fit_form(
+            &data,
+            &[InputTransform::Identity; 2],
+            &form,
+            Objective::LeastSquares,
+            &FitOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(fit.n_coefficients, 4 + 1);
+        assert!(fit.metrics.max_abs_error < 1e-12, "{:?}", fit.metrics);
+    }
+
+    #[test]
+    fn bad_forms_are_refused_with_the_fix() {
+        let data = grid3(4, |x, r, m| x + r + m);
+        let t = [InputTransform::Identity; 3];
+        let o = FitOptions::default();
+        // degree 4 in f0 with 4 distinct values
+        let e = fit_form(
+            &data,
+            &t,
+            &split_form(3, 0, 4, 1, 0),
+            Objective::LeastSquares,
+            &o,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                FitError::TooFewValues {
+                    distinct: 4,
+                    degree: 4,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(
+            e.to_string().contains("f0") && e.to_string().contains("lower"),
+            "{e}"
+        );
+        // wrong shape
+        let bad = Form::Exponents {
+            numerator: ExponentSet::total_degree(2, 1),
+            denominator: None,
+        };
+        let e = fit_form(&data, &t, &bad, Objective::LeastSquares, &o).unwrap_err();
+        assert!(matches!(e, FitError::ShapeMismatch { .. }), "{e}");
+        // more coefficients than points
+        let few = FitData::new(
+            vec!["x".into(), "y".into()],
+            vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.5, 0.5],
+            vec![1.0; 5],
+            vec![(0.0, 1.0), (0.0, 1.0)],
+        )
+        .unwrap();
+        let e = fit_form(
+            &few,
+            &[InputTransform::Identity; 2],
+            &tensor_form(&[1, 1], Some(&[1, 1])),
+            Objective::LeastSquares,
+            &o,
+        )
+        .unwrap_err();
+        assert!(matches!(e, FitError::TooFewPoints { .. }), "{e}");
+        // an unknown form kind in JSON names the known ones
+        let e = serde_json::from_str::<Form>(r#"{"kind": "chebyshev_sum", "degree": 3}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("chebyshev_sum") && e.contains("exponents"),
+            "{e}"
+        );
+    }
+}

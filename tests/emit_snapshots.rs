@@ -1,4 +1,4 @@
-//! Pins the emitters' output: the Rust, WGSL and GLSL generated from the committed fixtures must
+//! Pins the emitters' output: the Rust, WGSL, GLSL, HLSL and C/C++ generated from the committed fixtures must
 //! equal `tests/snapshots/*` byte for byte (`tests/emit.rs` compiles, validates and runs those
 //! files). After an intended change to the generator, rewrite them with
 //! `UPDATE_SNAPSHOTS=1 cargo test --test emit_snapshots` and review the diff.
@@ -45,7 +45,7 @@ fn units() -> Vec<Unit> {
 fn generated() -> Vec<(String, String)> {
     let mut out = Vec::new();
     for unit in units() {
-        for lang in [Lang::Rust, Lang::Wgsl, Lang::Glsl] {
+        for lang in Lang::SOURCE {
             for a in emitter(lang).produce(&unit).unwrap() {
                 out.push((a.file_name, String::from_utf8(a.bytes).unwrap()));
             }

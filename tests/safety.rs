@@ -2,7 +2,9 @@
 //! devices; `emit` refuses inconsistent fit files and states what its code's arguments mean,
 //! what the stress test measured and a bound; suffixes let several fits of one model share a
 //! shader; the emitted GLSL passes glslangValidator (ES 3.00 and 4.50, whose SPIR-V passes
-//! spirv-val) and the emitted Rust compiles under `#![no_std]`.
+//! spirv-val), the emitted HLSL passes glslangValidator's HLSL front end (SPIR-V checked by
+//! spirv-val), the emitted C/C++ header compiles as C++17 and C99 (g++/gcc, warnings as errors)
+//! and the emitted Rust compiles under `#![no_std]`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -385,7 +387,7 @@ fn emitted(d: &Path) -> Vec<(String, String)> {
         std::fs::copy(root().join("tests/fixtures").join(f), d.join(f)).unwrap();
     }
     let mut out = Vec::new();
-    for lang in ["rust", "wgsl", "glsl"] {
+    for lang in ["rust", "wgsl", "glsl", "hlsl", "cpp"] {
         let mut both = String::new();
         for suffix in ["_a", "_b"] {
             let o = furnace(
@@ -407,7 +409,7 @@ fn emitted(d: &Path) -> Vec<(String, String)> {
         out.push((format!("two-budgets.{lang}"), both));
     }
     for snapshot in ["dielectric-pair", "paper-conductors"] {
-        for ext in ["rs", "wgsl", "glsl"] {
+        for ext in ["rs", "wgsl", "glsl", "hlsl", "h"] {
             let name = format!("{snapshot}.{ext}");
             let t = std::fs::read_to_string(root().join("tests/snapshots").join(&name)).unwrap();
             out.push((name, t));
@@ -568,6 +570,110 @@ fn emitted_glsl_passes_glslang_and_spirv_val_and_rust_compiles_under_no_std() {
         .output()
         .unwrap();
     assert!(!o.status.success() && text(&o.stderr).contains("sqrt"));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// An HLSL pixel shader with `src` pasted before its `main`, which returns `body`.
+fn pixel_shader(src: &str, body: &str) -> String {
+    format!("{src}\nfloat4 main(float3 x : TEXCOORD0) : SV_Target {{\n    return {body};\n}}\n")
+}
+
+#[test]
+fn emitted_hlsl_passes_glslang_and_spirv_val_and_cpp_compiles_as_cpp17_and_c99() {
+    let d = scratch("hlsl-cpp");
+    let files = emitted(&d);
+    if tool("glslangValidator") && tool("spirv-val") {
+        let hlsl: Vec<_> = files.iter().filter(|(n, _)| n.ends_with(".hlsl")).collect();
+        assert_eq!(hlsl.len(), 3);
+        for (name, src) in hlsl {
+            let body = if name.starts_with("dielectric") {
+                "float4(ggx_dielectric_sided_albedo(x.x, x.y, x.z), ggx_dielectric_sided_normalization(x.x, x.y, x.z), ggx_dielectric_normalization(x.x, x.y, x.z), ggx_dielectric_inv_normalization(x.x, x.y, x.z))"
+            } else if name.starts_with("two-budgets") {
+                "float4(ggx_conductor_separable_turquin_scale_rgb_a(x, x.y, x.z) + ggx_conductor_separable_turquin_scale_rgb_b(x, x.y, x.z), ggx_conductor_separable_turquin_scale_a(x.x, x.y, x.z))"
+            } else {
+                "float4(ggx_conductor_separable_turquin_scale_rgb(x, x.y, x.z), ggx_conductor_separable_albedo(x.x, x.y) + ggx_conductor_separable_normalization(x.x, x.y))"
+            };
+            let file = d.join(format!("{name}.ps.hlsl"));
+            let spv = d.join(format!("{name}.hlsl.spv"));
+            std::fs::write(&file, pixel_shader(src, body)).unwrap();
+            // -D: HLSL input; -e main -S frag: the entry point and its stage; -V: SPIR-V out
+            let o = Command::new("glslangValidator")
+                .args(["-D", "-e", "main", "-S", "frag", "-V"])
+                .arg(&file)
+                .arg("-o")
+                .arg(&spv)
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{name} to SPIR-V: {}", text(&o.stdout));
+            let o = Command::new("spirv-val").arg(&spv).output().unwrap();
+            assert!(o.status.success(), "{name}: spirv-val: {}", text(&o.stderr));
+        }
+        // the HLSL front end is not vacuous
+        let bad = d.join("bad.hlsl");
+        std::fs::write(
+            &bad,
+            pixel_shader(
+                "float f(float x) { return y; }",
+                "float4(f(x.x), 0.0f, 0.0f, 1.0f)",
+            ),
+        )
+        .unwrap();
+        assert!(!Command::new("glslangValidator")
+            .args(["-D", "-e", "main", "-S", "frag", "-V"])
+            .arg(&bad)
+            .arg("-o")
+            .arg(d.join("bad.spv"))
+            .output()
+            .unwrap()
+            .status
+            .success());
+    } else {
+        visible("SKIPPED: glslangValidator or spirv-val not found (Debian packages glslang-tools and spirv-tools; .ci/run installs them) — the emitted HLSL was not compiled to SPIR-V");
+    }
+    let headers: Vec<_> = files
+        .iter()
+        .filter(|(n, _)| n.ends_with(".cpp") || n.ends_with(".h"))
+        .collect();
+    assert_eq!(headers.len(), 3);
+    for (compiler, std, lang) in [("g++", "-std=c++17", "c++"), ("gcc", "-std=c99", "c")] {
+        if !tool(compiler) {
+            visible(&format!("SKIPPED: {compiler} not found — the emitted C/C++ header was not compiled as {lang}"));
+            continue;
+        }
+        for (name, src) in &headers {
+            let file = d.join(format!("{name}.{lang}.h"));
+            std::fs::write(&file, src).unwrap();
+            let o = Command::new(compiler)
+                .args([
+                    std,
+                    "-fsyntax-only",
+                    "-Wall",
+                    "-Wextra",
+                    "-pedantic",
+                    "-Werror",
+                    "-x",
+                    lang,
+                ])
+                .arg(&file)
+                .output()
+                .unwrap();
+            assert!(
+                o.status.success(),
+                "{name} as {lang} ({compiler} {std}): {}",
+                text(&o.stderr)
+            );
+        }
+        // the compiler is not vacuous
+        let bad = d.join(format!("bad.{lang}.h"));
+        std::fs::write(&bad, "static inline float f(float x) { return y; }\n").unwrap();
+        assert!(!Command::new(compiler)
+            .args([std, "-fsyntax-only", "-x", lang])
+            .arg(&bad)
+            .output()
+            .unwrap()
+            .status
+            .success());
+    }
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -40,7 +40,8 @@ pub struct EmitArgs {
     /// Fit file(s) to emit (e.g. fits/ggx-conductor/best-40.json); output goes next to each.
     #[arg(long, required = true)]
     pub fit: Vec<PathBuf>,
-    /// Output formats: rust, wgsl, glsl, lut, all (or a comma-separated list).
+    /// Output formats: rust, wgsl, glsl, hlsl, cpp (a C/C++/CUDA header), lut, all (or a
+    /// comma-separated list).
     #[arg(long)]
     pub lang: String,
     /// Evaluation form of the polynomials.
@@ -51,7 +52,7 @@ pub struct EmitArgs {
     #[arg(long, default_value = "")]
     pub suffix: String,
     /// Write the one emitted file here instead of next to the fit (`-`: standard output); needs
-    /// one fit and one of rust, wgsl, glsl.
+    /// one fit and one of rust, wgsl, glsl, hlsl, cpp.
     #[arg(long)]
     pub output: Option<PathBuf>,
     /// Folder of the table cache (where fit files' tables are looked up and LUT tables cached).

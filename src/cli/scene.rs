@@ -19,7 +19,8 @@ pub struct SceneArgs {
     /// Folder for the scene's fits and emitted code (`<fits-dir>/<scene name>/`).
     #[arg(long, default_value = "fits")]
     pub fits_dir: PathBuf,
-    /// Output formats for the scene: rust, wgsl, glsl, lut, all (or a comma-separated list).
+    /// Output formats for the scene: rust, wgsl, glsl, hlsl, cpp, lut, all (or a comma-separated
+    /// list).
     #[arg(long, default_value = "rust,wgsl,glsl")]
     pub lang: String,
     /// Folder for LUTs (with `--lang lut` or `all`).

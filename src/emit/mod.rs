@@ -1,9 +1,10 @@
-//! Emitters: fits → source a renderer includes as it is (Rust, WGSL, GLSL), and tables → LUTs.
+//! Emitters: fits → source a renderer includes as it is (Rust, WGSL, GLSL, HLSL, C/C++), and
+//! tables → LUTs.
 //!
 //! Data flow: fit file ([`crate::fit::file`]) → one shared generator ([`generate`],
 //! [`helpers`]) → a language-neutral [`ir::Program`] → an [`Emitter`] per output format producing
-//! bytes ([`rust`], [`wgsl`], [`glsl`], [`lut`]; WGSL and GLSL are validated by naga before they
-//! are returned, [`validate`]) → [`write_artifacts`] ([`crate::output`]: nothing half-written).
+//! bytes ([`rust`], [`wgsl`], [`glsl`], [`hlsl`], [`cpp`], [`lut`]; WGSL and GLSL are validated by
+//! naga before they are returned, [`validate`]; the tests compile all five with real compilers) → [`write_artifacts`] ([`crate::output`]: nothing half-written).
 //! The same program, flattened ([`ir::Compiled`]), is what the f32 checks execute, so what is
 //! measured is what is emitted: every fit must pass the stress test ([`stress`]) before it is
 //! emitted, and its header states the stress test's numbers and a bound over the whole domain
@@ -34,10 +35,12 @@
 pub mod ascii;
 pub mod bench;
 pub mod bound;
+pub mod cpp;
 pub mod file;
 pub mod generate;
 pub mod glsl;
 pub mod helpers;
+pub mod hlsl;
 pub mod ir;
 pub mod lut;
 pub mod rust;
@@ -110,10 +113,19 @@ pub enum Lang {
     Rust,
     Wgsl,
     Glsl,
+    Hlsl,
+    /// C99 / C++ / CUDA header.
+    Cpp,
     Lut,
 }
 
-pub const LANG_CHOICES: &str = "rust, wgsl, glsl, lut, all (or a comma-separated list)";
+impl Lang {
+    /// Every source language, in the order `all` lists them (LUTs are not source).
+    pub const SOURCE: [Lang; 5] = [Lang::Rust, Lang::Wgsl, Lang::Glsl, Lang::Hlsl, Lang::Cpp];
+}
+
+pub const LANG_CHOICES: &str =
+    "rust, wgsl, glsl, hlsl, cpp (C/C++/CUDA header), lut, all (or a comma-separated list)";
 
 /// Parses `rust`, `wgsl,glsl`, `all`, …
 pub fn parse_langs(text: &str) -> Result<Vec<Lang>> {
@@ -123,8 +135,17 @@ pub fn parse_langs(text: &str) -> Result<Vec<Lang>> {
             "rust" | "rs" => &[Lang::Rust],
             "wgsl" => &[Lang::Wgsl],
             "glsl" => &[Lang::Glsl],
+            "hlsl" => &[Lang::Hlsl],
+            "cpp" | "c++" | "c" | "cuda" => &[Lang::Cpp],
             "lut" => &[Lang::Lut],
-            "all" => &[Lang::Rust, Lang::Wgsl, Lang::Glsl, Lang::Lut],
+            "all" => &[
+                Lang::Rust,
+                Lang::Wgsl,
+                Lang::Glsl,
+                Lang::Hlsl,
+                Lang::Cpp,
+                Lang::Lut,
+            ],
             other => {
                 return Err(Error::InvalidInput(format!(
                     "unknown language '{other}' for --lang; choose from {LANG_CHOICES}"
@@ -146,6 +167,8 @@ pub fn emitter(lang: Lang) -> Box<dyn Emitter> {
         Lang::Rust => Box::new(rust::Rust),
         Lang::Wgsl => Box::new(wgsl::Wgsl),
         Lang::Glsl => Box::new(glsl::Glsl),
+        Lang::Hlsl => Box::new(hlsl::Hlsl),
+        Lang::Cpp => Box::new(cpp::Cpp),
         Lang::Lut => Box::new(lut::LutEmitter),
     }
 }

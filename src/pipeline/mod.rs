@@ -6,7 +6,7 @@
 //!    read.
 //! 2. **Fits**: the degree sweep of every table (`fits/<model>/sweep.{json,csv}`, `best-20.json`,
 //!    `best-40.json`), reused rather than redone when its inputs are unchanged ([`sweeps`]).
-//! 3. **Emit** ([`crate::emit::file::emit_fit_file`]): Rust, WGSL and GLSL next to each best
+//! 3. **Emit** ([`crate::emit::file::emit_fit_file`]): Rust, WGSL, GLSL, HLSL and C/C++ next to each best
 //!    fit, and a [`RUN_LUT_RESOLUTION`]-per-axis LUT under `data/lut/<model>/` (not for the
 //!    radiance-form tables, which only serve the comparison with the paper).
 //! 4. **Report** ([`crate::report`]): `reports/`, one section per model.
@@ -359,7 +359,7 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
     let stage = Instant::now();
     let lut_dir = job.data_dir.join("lut");
     progress.line(&format!(
-        "[3/{steps}] emit (Rust, WGSL, GLSL next to each best fit; LUTs under {})",
+        "[3/{steps}] emit (Rust, WGSL, GLSL, HLSL, C/C++ next to each best fit; LUTs under {})",
         lut_dir.display()
     ));
     let total: usize = rows
@@ -383,7 +383,7 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
             let lang = if k + 1 == best.len() {
                 "all"
             } else {
-                "rust,wgsl,glsl"
+                "rust,wgsl,glsl,hlsl,cpp"
             };
             let options = EmitFileOptions {
                 langs: parse_langs(lang)?,

@@ -65,11 +65,17 @@ pub struct FitArgs {
     #[arg(long)]
     pub table: Option<PathBuf>,
     /// Functional form (n/n rational, or polynomial).
-    #[arg(long, value_enum, required_unless_present = "sweep")]
+    #[arg(long, value_enum, required_unless_present_any = ["sweep", "spec"], conflicts_with = "spec")]
     pub form: Option<FormArg>,
     /// Total degree (of numerator and denominator for a rational).
-    #[arg(long, required_unless_present = "sweep", conflicts_with = "sweep")]
+    #[arg(long, required_unless_present_any = ["sweep", "spec"], conflicts_with_all = ["sweep", "spec"])]
     pub degree: Option<u32>,
+    /// Any form instead of --form/--degree: `rational:4/3`, `split:f0:4:5/4` (degree 4 in f0
+    /// times total degree 5 in the others over a shared denominator of degree 4 without f0),
+    /// `tensor:1,1/1,0` (per-variable degrees), or a form's JSON (docs/fitting.md, "Structured
+    /// forms").
+    #[arg(long, conflicts_with = "sweep")]
+    pub spec: Option<String>,
     /// Sweep degrees like the paper's Fig. 3 (2D: 1–10, 3D: polynomials 1–7, rationals 1–5)
     /// over several input transforms; writes sweep.{json,csv}, best-20.json and best-40.json.
     #[arg(long)]
@@ -272,6 +278,46 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         }
         return Ok(());
     }
+    if let Some(text) = &args.spec {
+        let form = crate::fit::parse_form(text, &input.data.names)
+            .map_err(|m| Error::InvalidInput(format!("--spec: {m}")))?;
+        let opts = crate::fit::FitOptions {
+            rational: RationalOptions {
+                method: args.solver.method(),
+                ..RationalOptions::default()
+            },
+            ..Default::default()
+        };
+        let transforms = transforms
+            .unwrap_or_else(|| vec![crate::fit::InputTransform::Identity; input.data.dim()]);
+        let rec = job::fit_one_form(
+            &input,
+            &form,
+            args.objective.objective(),
+            &transforms,
+            args.fit_points.unwrap_or(0),
+            &opts,
+        )?;
+        let name = rec.file_name();
+        let target = match &args.output {
+            Some(p) => Target::from_arg(p),
+            None => Target::File(dir.join(&name)),
+        };
+        target.write(rec.to_json()?.as_bytes())?;
+        let mut text = record_text(&rec, &target.describe(), None);
+        if args.worst > 0 {
+            text.push_str(&worst_text(&rec, &input, args.worst));
+        }
+        if target.is_stdout() {
+            eprint!("{text}");
+        } else {
+            print!("{text}");
+        }
+        for w in &rec.warnings {
+            eprintln!("warning: {w}");
+        }
+        return Ok(());
+    }
     let (Some(form), Some(degree)) = (args.form, args.degree) else {
         return Err(Error::InvalidInput(
             "give --form and --degree, or --sweep".into(),
@@ -400,7 +446,7 @@ fn record_text(rec: &FitRecord, path: &str, timing: Option<&Timing>) -> String {
     let m = &rec.fit.metrics;
     format!(
         "{path}: {} [{}], {} coefficients{}; on {} points: MAE {:.3e}, RMSE {:.3e}, max {:.3e} at {:?}, max relative {:.3e}\n    {}\n",
-        rec.fit.form.label(),
+        rec.fit.form.label_with(&rec.fit.approximant.variables),
         rec.fit.approximant.transforms.iter().map(|t| t.label(&rec.fit.approximant.variables)).collect::<Vec<_>>().join(", "),
         rec.fit.n_coefficients,
         timing.map_or(String::new(), |t| format!(", fitted in {}", timing_text(t))),

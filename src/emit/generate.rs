@@ -851,6 +851,46 @@ pub fn albedo_function(
                     add(add(var(&c), s()), tau()),
                 ))
             }
+            // (clamp(x, lo, hi)^(1/n) − lo^(1/n))·(1/(hi^(1/n) − lo^(1/n))), the root as repeated
+            // square roots of a non-negative number
+            InputTransform::RootNormalize {
+                lo: a0,
+                hi: b0,
+                root,
+            } => {
+                let x = if lo >= a0 && hi <= b0 {
+                    var(&c)
+                } else {
+                    clamp(var(&c), lit(a0), lit(b0))
+                };
+                let rt = |v: f64| (0..root.trailing_zeros()).fold(v, |v, _| v.sqrt());
+                let x = (0..root.trailing_zeros()).fold(x, |e, _| sqrt(e));
+                let (ra, rb) = (rt(a0), rt(b0));
+                let shifted = if ra == 0.0 { x } else { sub(x, lit(ra)) };
+                Some(mul(shifted, lit(1.0 / (rb - ra))))
+            }
+            // ((1 − w)·(x(1 + k y²) + τ)/(x + k y² + τ) + w·x)^(1/n), y = an earlier clamped
+            // argument, the root as repeated square roots of a non-negative number
+            InputTransform::GrazingLayer {
+                by,
+                k: scale,
+                w,
+                root,
+            } => {
+                let y = var(&format!("{}_c", params[by]));
+                let s = || mul(lit(scale), mul(y.clone(), y.clone()));
+                let tau = || lit(crate::fit::data::LAYER_TAU);
+                let l = div(
+                    add(mul(var(&c), add(lit(1.0), s())), tau()),
+                    add(add(var(&c), s()), tau()),
+                );
+                let blend = if w == 0.0 {
+                    l
+                } else {
+                    add(mul(lit(1.0 - w), l), mul(lit(w), var(&c)))
+                };
+                Some((0..root.trailing_zeros()).fold(blend, |e, _| sqrt(e)))
+            }
         };
         let tname = match t {
             Some(t) => {

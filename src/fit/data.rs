@@ -42,6 +42,38 @@ pub enum InputTransform {
     /// [0, 1] for x, y ∈ [0, 1]), and the corner takes the r = 0 value t = 1, as the tables do.
     /// t increases with x and, for x ≤ 1, decreases with y.
     BoundaryLayer { by: usize, k: f64 },
+    /// t = (clamp(x, lo, hi)^(1/n) − lo^(1/n))/(hi^(1/n) − lo^(1/n)), n = `root` ∈ {2, 4, 8}
+    /// (the n-th root taken as repeated square roots, in the fit and in emitted code), onto
+    /// [0, 1] on [lo, hi] ⊂ [0, ∞).
+    ///
+    /// Why: a dielectric's albedo depends on F0 through η = (1 + √F0)/(1 − √F0) and the
+    /// Fresnel factor, steepest at small F0; F0^¼ spreads that end out, so a few powers of
+    /// t follow the F0 dependence at every (r, μ) (measurements in docs/fitting.md,
+    /// "Structured forms").
+    RootNormalize { lo: f64, hi: f64, root: u32 },
+    /// t = ((1 − w)·L + w·x)^(1/n), L = (x(1 + k y²) + τ)/(x + k y² + τ) the boundary-layer
+    /// coordinate of [`InputTransform::BoundaryLayer`] (y = variable number `by`, earlier in
+    /// the list), 0 ≤ w < 1, n = `root` ∈ {1, 2, 4} (repeated square roots): the grazing-layer
+    /// variable of a glossy albedo (w > 0), and with n = 2 of any albedo that also falls like
+    /// √μ at grazing angles where α is large.
+    ///
+    /// Why: L resolves the grazing layer μ ≲ α at small r (for α = r² → 0 it depends on μ/α
+    /// only) but maps the whole row r = 0 to t = 1, which is right when E(0, μ) is constant (a
+    /// conductor: 1) and wrong for a glossy layer, whose E(0, μ) = F(η, μ) varies. The blend
+    /// keeps the layer in t ∈ [0, 1 − w + w·x] and maps the row r = 0 one to one onto
+    /// [1 − w, 1] (t = 1 − w + w μ before the root), so both are resolved. For large α the
+    /// albedo falls like √μ at μ → 0 while L ≈ μ(1 + k y²)/(k y²) is linear in μ: the root
+    /// n = 2 turns that into a linear fall in t. t increases with x and, for x ≤ 1, decreases
+    /// with y, onto [0, 1] for x, y ∈ [0, 1]. In f32 every step adds, multiplies, divides or
+    /// takes the square root of non-negative numbers, so t carries a few ulp of relative error
+    /// (emit's stress test and bound measure it).
+    GrazingLayer {
+        by: usize,
+        k: f64,
+        w: f64,
+        #[serde(default = "one")]
+        root: u32,
+    },
 }
 
 impl InputTransform {
@@ -60,6 +92,16 @@ impl InputTransform {
             InputTransform::BoundaryLayer { by, k: scale } => {
                 layer(v, x.get(by).copied().unwrap_or(f64::NAN), scale)
             }
+            InputTransform::RootNormalize { lo, hi, root } => {
+                (nth_root(v.clamp(lo, hi), root) - nth_root(lo, root))
+                    / (nth_root(hi, root) - nth_root(lo, root))
+            }
+            InputTransform::GrazingLayer {
+                by,
+                k: scale,
+                w,
+                root,
+            } => grazing(v, x.get(by).copied().unwrap_or(f64::NAN), scale, w, root),
         }
     }
 
@@ -83,7 +125,86 @@ impl InputTransform {
                     1.0
                 }
             }
+            InputTransform::RootNormalize { lo, hi, root } => {
+                let (a, b) = (nth_root(lo, root), nth_root(hi, root));
+                let u = a + t * (b - a);
+                (0..root.trailing_zeros()).fold(u, |v, _| v * v)
+            }
+            InputTransform::GrazingLayer { by, k, w, root } => {
+                // t is increasing in x on [0, 1]: bisection (only to report locations)
+                let y = x.get(by).copied().unwrap_or(f64::NAN);
+                let (mut a, mut b) = (0.0f64, 1.0f64);
+                for _ in 0..60 {
+                    let m = 0.5 * (a + b);
+                    if grazing(m, y, k, w, root) < t {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+                0.5 * (a + b)
+            }
         }
+    }
+
+    /// The `--transform` syntax of the transforms [`InputTransform::parse_more`] reads.
+    pub const MORE_SYNTAX: &'static str =
+        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>] (0 ≤ w < 1, n = 1, 2, 4)";
+
+    /// Parses `root:<n>:lo:hi` ([`InputTransform::RootNormalize`]) and
+    /// `glayer:<variable>:<k>:<w>[:<n>]` ([`InputTransform::GrazingLayer`]) for variable number `k`
+    /// of `names`; None if `text` is neither kind, an error naming the syntax if it is malformed.
+    pub fn parse_more(
+        text: &str,
+        names: &[String],
+        k: usize,
+    ) -> Option<std::result::Result<InputTransform, String>> {
+        let num = |s: &str| s.trim().parse::<f64>().ok().filter(|v| v.is_finite());
+        if let Some(rest) = text.strip_prefix("root:") {
+            let f: Vec<&str> = rest.split(':').collect();
+            let parsed = match f.as_slice() {
+                [n, lo, hi] => match (n.trim().parse::<u32>().ok(), num(lo), num(hi)) {
+                    (Some(root @ (2 | 4 | 8)), Some(lo), Some(hi)) if 0.0 <= lo && lo < hi => {
+                        Some(InputTransform::RootNormalize { lo, hi, root })
+                    }
+                    _ => None,
+                },
+                _ => None,
+            };
+            return Some(parsed.ok_or_else(|| {
+                "write root:<n>:lo:hi with n = 2, 4 or 8 and finite 0 ≤ lo < hi, e.g. f0=root:4:0.0125:0.25".to_string()
+            }));
+        }
+        if let Some(rest) = text.strip_prefix("glayer:") {
+            let f: Vec<&str> = rest.split(':').collect();
+            let parsed = match f.as_slice() {
+                [by, scale, w, more @ ..] if more.len() <= 1 => {
+                    let by = names.iter().position(|n| n == by.trim()).filter(|&b| b < k);
+                    let root = match more {
+                        [n] => n.trim().parse::<u32>().ok(),
+                        _ => Some(1),
+                    };
+                    match (by, num(scale), num(w), root) {
+                        (Some(by), Some(scale), Some(w), Some(root @ (1 | 2 | 4)))
+                            if scale > 0.0 && (0.0..1.0).contains(&w) =>
+                        {
+                            Some(InputTransform::GrazingLayer {
+                                by,
+                                k: scale,
+                                w,
+                                root,
+                            })
+                        }
+                        _ => None,
+                    }
+                }
+                _ => None,
+            };
+            return Some(parsed.ok_or_else(|| {
+                "write glayer:<variable>:<k>:<w>[:<n>] with a variable before this one, a finite k > 0, 0 ≤ w < 1 and n = 1, 2 or 4, e.g. mu=glayer:r:1:0.5".to_string()
+            }));
+        }
+        None
     }
 
     /// Short name for reports and file names ("sqrt", "one_minus", "layer:#0:1", …); see
@@ -96,6 +217,10 @@ impl InputTransform {
             InputTransform::Square => "square".into(),
             InputTransform::ClampNormalize { lo, hi } => format!("clamp_normalize({lo}, {hi})"),
             InputTransform::BoundaryLayer { by, k } => format!("layer:#{by}:{k}"),
+            InputTransform::RootNormalize { lo, hi, root } => format!("root:{root}:{lo}:{hi}"),
+            InputTransform::GrazingLayer { by, k, w, root } => {
+                format!("glayer:#{by}:{k}:{w}:{root}")
+            }
         }
     }
 
@@ -104,6 +229,10 @@ impl InputTransform {
         match *self {
             InputTransform::BoundaryLayer { by, k } => match names.get(by) {
                 Some(n) => format!("layer:{n}:{k}"),
+                None => self.name(),
+            },
+            InputTransform::GrazingLayer { by, k, w, root } => match names.get(by) {
+                Some(n) => format!("glayer:{n}:{k}:{w}:{root}"),
                 None => self.name(),
             },
             _ => self.name(),
@@ -119,6 +248,26 @@ impl InputTransform {
             InputTransform::BoundaryLayer { by, k: scale } => {
                 let y = names.get(by).map_or("y", String::as_str);
                 format!("({x}*(1 + {scale}*{y}*{y}) + 2^-100)/({x} + {scale}*{y}*{y} + 2^-100)")
+            }
+            InputTransform::RootNormalize { lo, hi, root } => {
+                let x = if x.chars().all(|c| c.is_alphanumeric() || c == '_') {
+                    x.to_string()
+                } else {
+                    format!("({x})")
+                };
+                format!("(clamp({x}, {lo}, {hi})^(1/{root}) - {lo}^(1/{root}))/({hi}^(1/{root}) - {lo}^(1/{root}))")
+            }
+            InputTransform::GrazingLayer {
+                by,
+                k: scale,
+                w,
+                root,
+            } => {
+                let y = names.get(by).map_or("y", String::as_str);
+                format!(
+                    "({}*({x}*(1 + {scale}*{y}*{y}) + 2^-100)/({x} + {scale}*{y}*{y} + 2^-100) + {w}*{x})^(1/{root})",
+                    1.0 - w
+                )
             }
             _ => format!("{}({x})", self.name()),
         }
@@ -144,6 +293,40 @@ impl InputTransform {
                 if !(a.is_finite() && b.is_finite() && a < b) =>
             {
                 return Err(bad("clamp_normalize needs finite bounds lo < hi"))
+            }
+            InputTransform::RootNormalize { lo: a, hi: b, root } => {
+                if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
+                    return Err(bad("root_normalize needs finite bounds 0 ≤ lo < hi"));
+                }
+                if !matches!(root, 2 | 4 | 8) {
+                    return Err(bad("root_normalize takes the 2nd, 4th or 8th root (repeated square roots); use clamp:lo:hi for the identity"));
+                }
+                let at = |v: f64| {
+                    let mut x = [0.0; MAX_DIM];
+                    x[0] = v;
+                    self.apply(0, &x)
+                };
+                (at(lo), at(hi))
+            }
+            InputTransform::GrazingLayer {
+                by,
+                k: scale,
+                w,
+                root,
+            } => {
+                if !(0.0..1.0).contains(&w) {
+                    return Err(bad("a grazing layer needs a blend weight 0 ≤ w < 1"));
+                }
+                if !matches!(root, 1 | 2 | 4) {
+                    return Err(bad("a grazing layer takes the root n = 1, 2 or 4"));
+                }
+                let inner = InputTransform::BoundaryLayer { by, k: scale };
+                inner.image(k, names, domain)?;
+                let (ylo, yhi) = domain[by];
+                (
+                    grazing(lo, yhi, scale, w, root),
+                    grazing(hi, ylo, scale, w, root),
+                )
             }
             InputTransform::BoundaryLayer { by, k: scale } => {
                 if by >= k {
@@ -190,6 +373,22 @@ impl InputTransform {
 fn layer(x: f64, y: f64, k: f64) -> f64 {
     let s = k * y * y;
     (x * (1.0 + s) + LAYER_TAU) / (x + s + LAYER_TAU)
+}
+
+/// [`InputTransform::GrazingLayer`]: t = ((1 − w)·L(x, y) + w·x)^(1/n).
+#[inline]
+fn grazing(x: f64, y: f64, k: f64, w: f64, n: u32) -> f64 {
+    nth_root((1.0 - w) * layer(x, y, k) + w * x, n)
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// x^(1/n) for n = 2, 4, 8 by repeated square roots (what emitted code computes); x ≥ 0.
+#[inline]
+fn nth_root(x: f64, n: u32) -> f64 {
+    (0..n.trailing_zeros()).fold(x.max(0.0), |v, _| v.sqrt())
 }
 
 /// The transformed coordinates t of the point x (original variables) into `t`.
@@ -700,6 +899,114 @@ mod tests {
         assert!(bl.image(1, &names, &[(-1.0, 1.0), (0.0, 1.0)]).is_err());
         assert!(InputTransform::BoundaryLayer { by: 0, k: 0.0 }
             .image(1, &names, &[(0.0, 1.0), (0.0, 1.0)])
+            .is_err());
+    }
+
+    #[test]
+    fn root_normalize_transform() {
+        let f = InputTransform::RootNormalize {
+            lo: 0.0125,
+            hi: 0.25,
+            root: 4,
+        };
+        assert_eq!(f.apply(0, &[0.0125]), 0.0);
+        assert_eq!(f.apply(0, &[0.25]), 1.0);
+        assert_eq!(f.apply(0, &[0.9]), 1.0, "clamped");
+        let want = (0.1f64.powf(0.25) - 0.0125f64.powf(0.25))
+            / (0.25f64.powf(0.25) - 0.0125f64.powf(0.25));
+        assert!((f.apply(0, &[0.1]) - want).abs() < 1e-15);
+        assert!((f.inverse(f.apply(0, &[0.1]), &[0.0]) - 0.1).abs() < 1e-15);
+        let x = vec!["f0".to_string()];
+        assert_eq!(f.image(0, &x, &[(0.0125, 0.25)]).unwrap(), (0.0, 1.0));
+        for bad in [
+            InputTransform::RootNormalize {
+                lo: 0.0,
+                hi: 1.0,
+                root: 3,
+            },
+            InputTransform::RootNormalize {
+                lo: -0.1,
+                hi: 1.0,
+                root: 2,
+            },
+        ] {
+            assert!(bad.image(0, &x, &[(0.0, 1.0)]).is_err(), "{bad:?}");
+        }
+        let names = ["f0", "r", "mu"].map(String::from).to_vec();
+        assert_eq!(
+            InputTransform::parse_more("root:4:0.0125:0.25", &names, 0).unwrap(),
+            Ok(f)
+        );
+        assert!(InputTransform::parse_more("root:3:0:1", &names, 0)
+            .unwrap()
+            .is_err());
+        assert!(InputTransform::parse_more("cube", &names, 0).is_none());
+    }
+
+    #[test]
+    fn grazing_layer_keeps_the_smooth_row_and_resolves_the_layer() {
+        let names = vec!["r".to_string(), "mu".to_string()];
+        let g = InputTransform::GrazingLayer {
+            by: 0,
+            k: 1.0,
+            w: 0.5,
+            root: 1,
+        };
+        let t = |r: f64, mu: f64| g.apply(1, &[r, mu]);
+        // the row r = 0 maps one to one onto [1 − w, 1]: t = 1 − w + w μ
+        for mu in [0.0, 0.1, 0.5, 1.0] {
+            assert!((t(0.0, mu) - (0.5 + 0.5 * mu)).abs() < 1e-15, "μ = {mu}");
+        }
+        // small r: the layer variable of μ/r² fills [0, 1 − w]
+        for c in [0.1, 1.0, 10.0] {
+            let (a, b) = (t(1e-3, c * 1e-6), t(1e-4, c * 1e-8));
+            assert!((a - 0.5 * c / (1.0 + c)).abs() < 1e-5 && (a - b).abs() < 1e-5);
+        }
+        assert!(t(0.3, 0.2) < t(0.3, 0.21) && t(0.3, 0.2) > t(0.31, 0.2));
+        let (lo, hi) = g.image(1, &names, &[(0.0, 1.0), (0.0, 1.0)]).unwrap();
+        assert!(lo <= LAYER_TAU && (hi - 1.0).abs() < 1e-15, "({lo}, {hi})");
+        // the square root of the plain layer variable: √μ-like near μ = 0 at large r
+        let s = InputTransform::GrazingLayer {
+            by: 0,
+            k: 1.0,
+            w: 0.0,
+            root: 2,
+        };
+        let l = InputTransform::BoundaryLayer { by: 0, k: 1.0 };
+        assert_eq!(s.apply(1, &[0.7, 0.3]), l.apply(1, &[0.7, 0.3]).sqrt());
+        for (r, mu) in [(0.2, 0.3), (1.0, 0.01), (0.05, 0.9), (0.0, 0.4)] {
+            // (w = 0 maps the row r = 0 to one point, like the plain layer: not invertible there)
+            for tr in [g, s].into_iter().filter(|t| r > 0.0 || *t == g) {
+                let x = inverse_point(&[InputTransform::Identity, tr], &[r, tr.apply(1, &[r, mu])]);
+                assert!((x[1] - mu).abs() < 1e-12, "{tr:?}: {x:?}");
+            }
+        }
+        assert!(InputTransform::GrazingLayer {
+            by: 0,
+            k: 1.0,
+            w: 1.0,
+            root: 1
+        }
+        .image(1, &names, &[(0.0, 1.0), (0.0, 1.0)])
+        .is_err());
+        assert!(InputTransform::GrazingLayer {
+            by: 0,
+            k: 1.0,
+            w: 0.5,
+            root: 3
+        }
+        .image(1, &names, &[(0.0, 1.0), (0.0, 1.0)])
+        .is_err());
+        assert_eq!(
+            InputTransform::parse_more("glayer:r:1:0.5", &names, 1).unwrap(),
+            Ok(g)
+        );
+        assert_eq!(
+            InputTransform::parse_more("glayer:r:1:0:2", &names, 1).unwrap(),
+            Ok(s)
+        );
+        assert!(InputTransform::parse_more("glayer:mu:1:0.5", &names, 1)
+            .unwrap()
             .is_err());
     }
 

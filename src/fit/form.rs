@@ -2,7 +2,7 @@
 //! over exponent sets — per-variable degrees and the split-sum form with a shared denominator)
 //! and checks beforehand that the data can determine it.
 
-use super::basis::{check_degree, exponents, ExponentSet};
+use super::basis::{check_degree, ExponentSet};
 use super::data::{FitData, InputTransform};
 use super::error::{FitError, Result};
 use super::model::Model;
@@ -113,6 +113,90 @@ pub fn fit_form(
     }
 }
 
+/// The form families [`parse_form`] reads, with their syntax.
+pub const FORM_SYNTAX: &str = "polynomial:<n>, rational:<n>/<m>, split:<variable>:<k>:<n>/<m> (degree k in the variable times total degree n in the others, over a shared denominator of degree m without it; /0: no denominator), tensor:<n1>,<n2>,…/<m1>,<m2>,… (per-variable degrees; no /…: a polynomial), or the JSON of a form";
+
+/// Parses a form: `rational:3/3`, `split:f0:4:5/4`, `tensor:1,2/1,0`, or its JSON
+/// (`{"kind": "exponents", …}`), for data with the variables `names`. Errors name the syntax.
+pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, String> {
+    let text = text.trim();
+    let d = names.len();
+    if text.starts_with('{') {
+        let form: Form = serde_json::from_str(text).map_err(|e| {
+            format!("form '{text}' is not the JSON of a form ({e}); use {FORM_SYNTAX}")
+        })?;
+        if let Form::Exponents {
+            numerator,
+            denominator,
+        } = &form
+        {
+            for s in std::iter::once(numerator).chain(denominator.iter()) {
+                s.check(d).map_err(|e| format!("form '{text}': {e}"))?;
+            }
+        }
+        return Ok(form);
+    }
+    let (family, rest) = text.split_once(':').unwrap_or((text, ""));
+    let bad = |what: &str| format!("form '{text}': {what}; use {FORM_SYNTAX}");
+    let int = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .map_err(|_| bad(&format!("'{s}' is not a degree")))
+    };
+    let list = |s: &str| -> std::result::Result<Vec<u32>, String> {
+        let v = s
+            .split(',')
+            .map(int)
+            .collect::<std::result::Result<Vec<u32>, String>>()?;
+        if v.len() != d {
+            return Err(bad(&format!(
+                "{} per-variable degrees for the {d} variables {}",
+                v.len(),
+                names.join(", ")
+            )));
+        }
+        Ok(v)
+    };
+    match family {
+        "polynomial" => Ok(Form::Polynomial { degree: int(rest)? }),
+        "rational" => {
+            let (n, m) = rest
+                .split_once('/')
+                .ok_or_else(|| bad("write rational:<n>/<m>"))?;
+            Ok(Form::Rational {
+                numerator_degree: int(n)?,
+                denominator_degree: int(m)?,
+            })
+        }
+        "split" => {
+            let f: Vec<&str> = rest.split(':').collect();
+            let [var, k, nm] = f.as_slice() else {
+                return Err(bad("write split:<variable>:<k>:<n>/<m>"));
+            };
+            let j = names.iter().position(|x| x == var.trim()).ok_or_else(|| {
+                bad(&format!(
+                    "unknown variable '{var}' (the data's are {})",
+                    names.join(", ")
+                ))
+            })?;
+            let (n, m) = nm
+                .split_once('/')
+                .ok_or_else(|| bad("write split:<variable>:<k>:<n>/<m>"))?;
+            Ok(split_form(d, j, int(k)?, int(n)?, int(m)?))
+        }
+        "tensor" => {
+            let (n, m) = match rest.split_once('/') {
+                Some((n, m)) => (list(n)?, Some(list(m)?)),
+                None => (list(rest)?, None),
+            };
+            Ok(tensor_form(&n, m.as_deref()))
+        }
+        other => Err(format!(
+            "unknown form family '{other}' in '{text}'; the fitter knows {FORM_SYNTAX}"
+        )),
+    }
+}
+
 /// A variable with m distinct values in the data supports degree ≤ m − 1 in it.
 fn check_distinct(data: &FitData, set: &ExponentSet, form: &Form) -> Result<()> {
     let d = data.dim();
@@ -156,11 +240,6 @@ pub fn tensor_form(num: &[u32], den: Option<&[u32]>) -> Form {
         numerator: ExponentSet::tensor(num),
         denominator: den.map(ExponentSet::tensor),
     }
-}
-
-/// The exponent tuples of a total-degree polynomial (for callers building their own sets).
-pub fn total_degree_exponents(d: usize, degree: u32) -> Vec<Vec<u32>> {
-    exponents(d, degree)
 }
 
 #[cfg(test)]
@@ -339,6 +418,27 @@ mod tests {
         )
         .unwrap_err();
         assert!(matches!(e, FitError::TooFewPoints { .. }), "{e}");
+        // the text syntax, and an unknown family named with the known ones
+        let names: Vec<String> = ["f0", "r", "mu"].map(String::from).to_vec();
+        assert_eq!(
+            parse_form("split:f0:4:5/4", &names).unwrap(),
+            split_form(3, 0, 4, 5, 4)
+        );
+        assert_eq!(
+            parse_form("tensor:1,2,0/1,0,0", &names).unwrap(),
+            tensor_form(&[1, 2, 0], Some(&[1, 0, 0]))
+        );
+        let e = parse_form("chebyshev:3", &names).unwrap_err();
+        assert!(
+            e.contains("unknown form family 'chebyshev'") && e.contains("split:"),
+            "{e}"
+        );
+        assert!(parse_form("split:eta:4:5/4", &names)
+            .unwrap_err()
+            .contains("unknown variable"));
+        assert!(parse_form("tensor:1,2", &names)
+            .unwrap_err()
+            .contains("2 per-variable"));
         // an unknown form kind in JSON names the known ones
         let e = serde_json::from_str::<Form>(r#"{"kind": "chebyshev_sum", "degree": 3}"#)
             .unwrap_err()

@@ -254,6 +254,11 @@ pub fn fit_file_name(
                     "layer_{}_{k}",
                     variables.get(by).map_or("x", String::as_str)
                 ),
+                InputTransform::RootNormalize { lo, hi, root } => format!("root{root}_{lo}_{hi}"),
+                InputTransform::GrazingLayer { by, k, w, root } => format!(
+                    "glayer_{}_{k}_{w}_{root}",
+                    variables.get(by).map_or("x", String::as_str)
+                ),
                 other => other.name(),
             };
             s.push_str(&format!("-{v}_{t}"));
@@ -329,6 +334,26 @@ pub fn fit_one_with(
             rational,
         )?,
     };
+    Ok(FitRecord::new(
+        remeasure(fit, input, reduced.is_some()),
+        input,
+        fitted_on,
+    ))
+}
+
+/// Makes one fit of any [`Form`] ([`super::fit_form`]) on at most `max_fit_points` points
+/// (0 = all), measured on all of them.
+pub fn fit_one_form(
+    input: &FitInput,
+    form: &Form,
+    objective: Objective,
+    transforms: &[InputTransform],
+    max_fit_points: usize,
+    opts: &super::FitOptions,
+) -> Result<FitRecord> {
+    let (reduced, fitted_on) = fitting_data(input, max_fit_points)?;
+    let data = reduced.as_ref().unwrap_or(&input.data);
+    let fit = super::fit_form(data, transforms, form, objective, opts)?;
     Ok(FitRecord::new(
         remeasure(fit, input, reduced.is_some()),
         input,
@@ -1129,11 +1154,15 @@ pub fn parse_transforms(text: &str, names: &[String]) -> Result<Vec<InputTransfo
                 let scale = scale.trim().parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0).ok_or_else(usage)?;
                 InputTransform::BoundaryLayer { by, k: scale }
             }
-            other => {
-                return Err(Error::InvalidInput(format!(
-                    "--transform '{part}': unknown transform '{other}'; use identity, sqrt, one_minus, square, clamp:lo:hi or layer:<variable>:<k>"
-                )))
-            }
+            other => match InputTransform::parse_more(other, names, k) {
+                Some(t) => t.map_err(|m| Error::InvalidInput(format!("--transform '{part}': {m}")))?,
+                None => {
+                    return Err(Error::InvalidInput(format!(
+                        "--transform '{part}': unknown transform '{other}'; use identity, sqrt, one_minus, square, clamp:lo:hi, layer:<variable>:<k>, {}",
+                        InputTransform::MORE_SYNTAX
+                    )))
+                }
+            },
         };
     }
     Ok(out)

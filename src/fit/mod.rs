@@ -56,7 +56,7 @@ pub mod trust_region;
 pub use basis::{exponents, n_terms, ExponentSet, Polynomial};
 pub use data::{FitData, InputTransform};
 pub use error::{FitError, Result};
-pub use form::{fit_form, split_form, tensor_form, FitOptions};
+pub use form::{fit_form, parse_form, split_form, tensor_form, FitOptions};
 pub use lm::{
     LeastSquares, LeastSquaresProblem, LevenbergMarquardt, LmReport, LmSolver, LmState, LsqMethod,
     LsqState, TerminationReason,

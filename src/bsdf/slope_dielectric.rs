@@ -48,8 +48,18 @@ use super::microfacet::{ALPHA_MIN, GRAZING_RATIO};
 use super::slope::{peak_panels, Horizon, RHO_TAIL};
 use crate::math::{asinh_pos, exp_poly, sin_cos_0_pi, smith_a, SmithForm};
 use crate::quadrature::vector::{self, LANES};
-use crate::quadrature::{panels_from_breaks, Break, Integrand2D, Panel, CHANNELS, MIN_DELTA};
+use crate::quadrature::{
+    panels_from_breaks, Break, DimRules, Integrand2D, Panel, CHANNELS, MIN_DELTA,
+};
 use std::f64::consts::{FRAC_PI_2, PI};
+
+/// √(x² + y²) for the distances of panel ends to singularities, without libm's `hypot` (whose
+/// guard against overflow costs more than the rest of a line's set-up arithmetic; an overflow
+/// here means a distance too large to matter, ∞).
+#[inline]
+fn hyp(x: f64, y: f64) -> f64 {
+    (x * x + y * y).sqrt()
+}
 
 /// What a panel of a radial line carries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -185,6 +195,8 @@ pub struct SlopeDielectric {
     column: Column,
     /// Column mode: one panel's sums, reused.
     scratch: std::cell::RefCell<Vec<f64>>,
+    /// Deficit mode: one line's values, reused.
+    line_buf: std::cell::RefCell<LineBuf>,
     /// Deficit mode ([`SlopeDielectric::deficit`]): only the critical-angle cap, channels
     /// [∫(1 − F)·R, E_T].
     deficit: bool,
@@ -236,6 +248,7 @@ impl SlopeDielectric {
             mask_scale: alpha,
             column: Column::default(),
             scratch: std::cell::RefCell::new(Vec::new()),
+            line_buf: std::cell::RefCell::new(LineBuf::default()),
             deficit: false,
         }
     }
@@ -401,6 +414,64 @@ impl SlopeDielectric {
         out
     }
 
+    /// The cap's integrand ([`Lobe::DeficitBoth`]) at [`LANES`] nodes of one line part, lane j
+    /// keeping its reflection deficit where `r_on[j]` and its transmission where `t_on[j]`, so
+    /// that one block serves nodes of [`Lobe::Deficit`], [`Lobe::DeficitBoth`] and
+    /// [`Lobe::Transmit`] panels with the bits of [`Self::block`] for each.
+    #[inline(always)]
+    fn block_masked<const PART: u8>(
+        &self,
+        line: &DielectricLine,
+        v: &[f64; LANES],
+        r_on: &[bool; LANES],
+        t_on: &[bool; LANES],
+    ) -> ([f64; LANES], [f64; LANES]) {
+        let (mut r, mut t) = ([0.0; LANES], [0.0; LANES]);
+        for j in 0..LANES {
+            let nd = self.node::<PART>(line, v[j]);
+            let [yr, yt] = self.lobes::<5>(&nd, self.eta, self.eta2, self.c0);
+            r[j] = if r_on[j] { yr } else { 0.0 };
+            t[j] = if t_on[j] { yt } else { 0.0 };
+        }
+        (r, t)
+    }
+
+    /// Deficit mode: the integrand at the nodes `vs` of one line part (`PART`) into `r_out`
+    /// and `t_out`, [`LANES`] nodes at a time across panel ends: by [`Self::block`] of `LOBE`,
+    /// or, `LOBE` = [`MASKED`], by [`Self::block_masked`] with the lobes `r_on`, `t_on` of each
+    /// node's panel.
+    #[inline(always)]
+    fn deficit_run<const PART: u8, const LOBE: u8>(
+        &self,
+        line: &DielectricLine,
+        vs: &[f64],
+        on: (&[bool], &[bool]),
+        r_out: &mut [f64],
+        t_out: &mut [f64],
+    ) {
+        for (k, vc) in vs.chunks(LANES).enumerate() {
+            let len = vc.len();
+            let at = k * LANES;
+            let mut v = [vc[0]; LANES];
+            v[..len].copy_from_slice(vc);
+            let (r, t) = if LOBE == MASKED {
+                let (mut ron, mut ton) = ([false; LANES], [false; LANES]);
+                ron[..len].copy_from_slice(&on.0[at..at + len]);
+                ton[..len].copy_from_slice(&on.1[at..at + len]);
+                self.block_masked::<PART>(line, &v, &ron, &ton)
+            } else {
+                let y = self.block::<PART, LOBE>(line, &v);
+                let (mut r, mut t) = ([0.0; LANES], [0.0; LANES]);
+                for j in 0..LANES {
+                    [r[j], t[j]] = y[j];
+                }
+                (r, t)
+            };
+            r_out[at..at + len].copy_from_slice(&r[..len]);
+            t_out[at..at + len].copy_from_slice(&t[..len]);
+        }
+    }
+
     /// Column mode: Σ ws·f(vs) per IOR of the column into `out_r` and `out_t`, each IOR's
     /// sums in node order as [`Self::sum`] forms them; the loop over the IORs vectorises.
     #[inline(always)]
@@ -504,7 +575,7 @@ impl SlopeDielectric {
         }
         let (lobe, part) = Self::segment(line, vs);
         macro_rules! run {
-            ($part:literal, $lobe:literal) => {
+            ($part:literal, $lobe:expr) => {
                 vector::run(ColumnSum::<$part, $lobe> {
                     f: self,
                     line,
@@ -736,10 +807,10 @@ impl SlopeDielectric {
                     (k.delta_rho, k.delta_u)
                 };
                 if k.at.rho.is_finite() {
-                    last.delta_rho = last.delta_rho.min((k.at.rho - last.at.rho).hypot(dr));
+                    last.delta_rho = last.delta_rho.min(hyp(k.at.rho - last.at.rho, dr));
                 }
                 if last.at.u.is_finite() {
-                    last.delta_u = last.delta_u.min((last.at.u - k.at.u).hypot(du));
+                    last.delta_u = last.delta_u.min(hyp(last.at.u - k.at.u, du));
                 }
             }
         }
@@ -807,7 +878,7 @@ impl SlopeDielectric {
             }
             if !from_peak {
                 // a line starting off the peak still sees the poles of sech² s at ±iπ/2
-                let d = sb[0].x.hypot(FRAC_PI_2);
+                let d = hyp(sb[0].x, FRAC_PI_2);
                 sb[0] = sb[0].with_delta(d);
             }
             let mut end_delta = at_switch.as_ref().map_or(f64::INFINITY, ds);
@@ -821,7 +892,7 @@ impl SlopeDielectric {
                     } else {
                         ds(k)
                     };
-                    end_delta = end_delta.min(beyond.hypot(d));
+                    end_delta = end_delta.min(hyp(beyond, d));
                 }
             }
             let end_delta = end_delta.max(MIN_DELTA);
@@ -842,7 +913,7 @@ impl SlopeDielectric {
                         } else {
                             b.delta()
                         };
-                        d = d.min((b.x - first.x).hypot(own));
+                        d = d.min(hyp(b.x - first.x, own));
                     }
                     d.max(MIN_DELTA)
                 } else {
@@ -899,6 +970,37 @@ impl<const PART: u8, const LOBE: u8> vector::Block<CHANNELS> for DielectricBlock
     fn block(&self, v: &[f64; LANES]) -> [[f64; CHANNELS]; LANES] {
         self.f.block::<PART, LOBE>(self.line, v)
     }
+}
+
+/// One line part's [`SlopeDielectric::deficit_run`] as a [`vector::Kernel`].
+struct DeficitRun<'a, const PART: u8, const LOBE: u8> {
+    f: &'a SlopeDielectric,
+    line: &'a DielectricLine,
+    vs: &'a [f64],
+    on: (&'a [bool], &'a [bool]),
+    r_out: &'a mut [f64],
+    t_out: &'a mut [f64],
+}
+
+impl<const PART: u8, const LOBE: u8> vector::Kernel for DeficitRun<'_, PART, LOBE> {
+    type Output = ();
+    #[inline(always)]
+    fn run(&mut self) {
+        self.f
+            .deficit_run::<PART, LOBE>(self.line, self.vs, self.on, self.r_out, self.t_out)
+    }
+}
+
+/// The lobe index of [`SlopeDielectric::deficit_run`] whose nodes carry their own lobes.
+const MASKED: u8 = 6;
+
+/// Deficit mode: one line's integrand values and the lobes of its nodes, reused.
+#[derive(Default)]
+struct LineBuf {
+    r: Vec<f64>,
+    t: Vec<f64>,
+    r_on: Vec<bool>,
+    t_on: Vec<bool>,
 }
 
 impl Integrand2D for SlopeDielectric {
@@ -998,6 +1100,132 @@ impl Integrand2D for SlopeDielectric {
 
     fn panels_all_active(&self) -> bool {
         true
+    }
+
+    /// Deficit mode: the nodes of all the line's panels in one buffer, each line part (s, u)
+    /// evaluated by one branch-free loop across panel ends ([`Self::deficit_run`]) with the
+    /// bits of one panel at a time; the other modes panel by panel.
+    fn accumulate_line(
+        &self,
+        line: &DielectricLine,
+        panels: &[Panel],
+        rule: &DimRules,
+        vs: &mut Vec<f64>,
+        ws: &mut Vec<f64>,
+        acc: &mut [f64],
+    ) {
+        const MAX_PANELS: usize = 32;
+        let by_panel = |vs: &mut Vec<f64>, ws: &mut Vec<f64>, acc: &mut [f64]| {
+            for seg in panels {
+                vs.clear();
+                ws.clear();
+                rule.nodes_into(seg, vs, ws);
+                self.accumulate_nodes(line, vs, ws, acc);
+            }
+        };
+        if !self.deficit || !self.column.eta.is_empty() || panels.len() > MAX_PANELS {
+            return by_panel(vs, ws, acc);
+        }
+        vs.clear();
+        ws.clear();
+        let mut ends = [0usize; MAX_PANELS];
+        let (mut r_on, mut t_on) = ([false; MAX_PANELS], [false; MAX_PANELS]);
+        let mut part = [0u8; MAX_PANELS];
+        for (i, seg) in panels.iter().enumerate() {
+            let start = vs.len();
+            rule.nodes_into(seg, vs, ws);
+            ends[i] = vs.len();
+            let (lobe, p) = Self::segment(line, &vs[start..]);
+            (r_on[i], t_on[i]) = match lobe {
+                Lobe::Deficit => (true, false),
+                Lobe::DeficitBoth => (true, true),
+                Lobe::Transmit => (false, true),
+                _ => return by_panel(vs, ws, acc),
+            };
+            part[i] = p;
+        }
+        let n = panels.len();
+        let nodes = vs.len();
+        let mut buf = self.line_buf.borrow_mut();
+        let LineBuf {
+            r,
+            t,
+            r_on: ron,
+            t_on: ton,
+        } = &mut *buf;
+        r.resize(nodes, 0.0);
+        t.resize(nodes, 0.0);
+        ron.resize(nodes, false);
+        ton.resize(nodes, false);
+        let mut i = 0;
+        while i < n {
+            // a run of panels in one line part, of one lobe or several
+            let mut j = i + 1;
+            let mut one_lobe = true;
+            while j < n && part[j] == part[i] {
+                one_lobe &= r_on[j] == r_on[i] && t_on[j] == t_on[i];
+                j += 1;
+            }
+            let first = if i == 0 { 0 } else { ends[i - 1] };
+            let last = ends[j - 1];
+            if !one_lobe {
+                let mut from = first;
+                for k in i..j {
+                    ron[from..ends[k]].fill(r_on[k]);
+                    ton[from..ends[k]].fill(t_on[k]);
+                    from = ends[k];
+                }
+            }
+            let lobe = match (one_lobe, r_on[i], t_on[i]) {
+                (false, _, _) => MASKED,
+                (true, true, false) => 4,
+                (true, true, true) => 5,
+                _ => 3,
+            };
+            let v = &vs[first..last];
+            let on = (&ron[first..last], &ton[first..last]);
+            let (r_out, t_out) = (&mut r[first..last], &mut t[first..last]);
+            macro_rules! run {
+                ($part:literal, $lobe:expr) => {
+                    vector::run(DeficitRun::<$part, { $lobe }> {
+                        f: self,
+                        line,
+                        vs: v,
+                        on,
+                        r_out,
+                        t_out,
+                    })
+                };
+            }
+            macro_rules! by_lobe {
+                ($part:literal) => {
+                    match lobe {
+                        3 => run!($part, 3),
+                        4 => run!($part, 4),
+                        5 => run!($part, 5),
+                        _ => run!($part, MASKED),
+                    }
+                };
+            }
+            match part[i] {
+                0 => by_lobe!(0),
+                1 => by_lobe!(1),
+                _ => by_lobe!(2),
+            }
+            i = j;
+        }
+        // each panel summed from zero in node order, then added: the bits of `sum_panel`
+        let mut from = 0;
+        for &end in &ends[..n] {
+            let (mut sr, mut st) = (0.0, 0.0);
+            for ((&w, &yr), &yt) in ws[from..end].iter().zip(&r[from..end]).zip(&t[from..end]) {
+                sr += w * yr;
+                st += w * yt;
+            }
+            acc[0] += sr;
+            acc[1] += st;
+            from = end;
+        }
     }
 
     fn channels(&self) -> usize {
@@ -1102,6 +1330,53 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The cap's lines evaluated across panel ends give the bits of their panels summed one at
+    /// a time, over lines with every lobe and both line parts.
+    #[test]
+    fn a_cap_line_gives_the_bits_of_its_panels() {
+        let rules = Rules::new(15);
+        let (mut vs, mut ws) = (Vec::new(), Vec::new());
+        let mut mixed = 0;
+        for smith in SMITH {
+            for eta in [1.0 / 1.25, 1.0 / 1.5, 1.0 / 3.0, 0.95] {
+                for (r, mu) in CELLS {
+                    let f = SlopeDielectric::deficit(r * r, mu, eta, smith);
+                    for psi in [0.5, 1.6, 2.2, 2.6, 2.9, 3.1] {
+                        let mut panels = Vec::new();
+                        let line = f.line_panels(psi, &mut panels);
+                        let mut whole = [0.0; CHANNELS];
+                        f.accumulate_line(
+                            &line,
+                            &panels,
+                            &rules.inner,
+                            &mut vs,
+                            &mut ws,
+                            &mut whole,
+                        );
+                        let mut one_by_one = [0.0; CHANNELS];
+                        for p in &panels {
+                            vs.clear();
+                            ws.clear();
+                            rules.inner.nodes_into(p, &mut vs, &mut ws);
+                            f.accumulate_nodes(&line, &vs, &ws, &mut one_by_one);
+                        }
+                        assert_eq!(
+                            whole.map(f64::to_bits),
+                            one_by_one.map(f64::to_bits),
+                            "{smith:?} η={eta} r={r} mu={mu} psi={psi}"
+                        );
+                        mixed += usize::from(
+                            line.seg_lobe[..line.segments]
+                                .windows(2)
+                                .any(|w| w[0] != w[1]),
+                        );
+                    }
+                }
+            }
+        }
+        assert!(mixed > 0, "no line with more than one lobe");
     }
 
     /// A column of IORs entering the denser medium gives each IOR's single-cell integrals, to

@@ -315,6 +315,29 @@ pub trait Integrand2D {
         }
     }
 
+    /// Adds the integral along `line` over its inner `panels` (every one active) at the inner
+    /// rules `rule` to `acc`: by default each panel's nodes ([`DimRules::nodes_into`], into the
+    /// buffers `vs` and `ws`) through [`Self::accumulate_nodes`], one panel after the other.
+    /// Integrands whose panels are too short to fill the vector unit override it to evaluate
+    /// the nodes of several panels side by side, each panel still summed on its own in node
+    /// order, so that the result is the same to the bit.
+    fn accumulate_line(
+        &self,
+        line: &Self::Line,
+        panels: &[Panel],
+        rule: &DimRules,
+        vs: &mut Vec<f64>,
+        ws: &mut Vec<f64>,
+        acc: &mut [f64],
+    ) {
+        for seg in panels {
+            vs.clear();
+            ws.clear();
+            rule.nodes_into(seg, vs, ws);
+            self.accumulate_nodes(line, vs, ws, acc);
+        }
+    }
+
     /// Whether the outer variable converges so much faster than the inner one that the outer
     /// rule may use [`lean_order`] points instead of the full order (see [`Rules::outer_lean`]).
     fn lean_outer(&self) -> bool {
@@ -437,10 +460,17 @@ impl DimRules {
                     );
                 } else {
                     // y = L·t²(2 − t)
-                    for (&t, &wt) in rule.nodes.iter().zip(&rule.weights) {
+                    let start = xs.len();
+                    xs.resize(start + n, 0.0);
+                    ws.resize(start + n, 0.0);
+                    for ((x, w), (&t, &wt)) in xs[start..]
+                        .iter_mut()
+                        .zip(&mut ws[start..])
+                        .zip(rule.nodes.iter().zip(&rule.weights))
+                    {
                         let (q, dq) = sqrt_map(t);
-                        xs.push(at + sign * len * q);
-                        ws.push(wt * len * dq);
+                        *x = at + sign * len * q;
+                        *w = wt * len * dq;
                     }
                 }
             }
@@ -614,12 +644,16 @@ pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]
             inner.clear();
             let line = f.line_panels(u, &mut inner);
             line_sum.iter_mut().for_each(|t| *t = 0.0);
-            activity(&line, &inner, &mut mids, &mut active);
-            for (seg, _) in inner.iter().zip(&active).filter(|(_, a)| **a) {
-                vs.clear();
-                ws.clear();
-                rules.inner.nodes_into(seg, &mut vs, &mut ws);
-                f.accumulate_nodes(&line, &vs, &ws, &mut line_sum);
+            if all_active {
+                f.accumulate_line(&line, &inner, &rules.inner, &mut vs, &mut ws, &mut line_sum);
+            } else {
+                activity(&line, &inner, &mut mids, &mut active);
+                for (seg, _) in inner.iter().zip(&active).filter(|(_, a)| **a) {
+                    vs.clear();
+                    ws.clear();
+                    rules.inner.nodes_into(seg, &mut vs, &mut ws);
+                    f.accumulate_nodes(&line, &vs, &ws, &mut line_sum);
+                }
             }
             for k in 0..n {
                 total[k] += wu * line_sum[k];

@@ -1,7 +1,8 @@
 //! End to end, on the built binary and small tables: each structured form and each variable
 //! transform of the fitter is fitted (`furnace fit --spec`), written, read back and checked
 //! (`fit::file::load`), emitted to every language (`furnace emit`, which runs the f32 stress
-//! test) and evaluated (`furnace eval --fit`) against the f64 fit.
+//! test first; the WGSL and GLSL then pass naga's validator) and evaluated (`furnace eval
+//! --fit`) against the f64 fit.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -131,7 +132,7 @@ fn split_form_with_the_root_variable_round_trips() {
         "ggx-dielectric",
         "6x8x8",
         "split:f0:2:2/1",
-        "f0=root:4:0.0125:0.25,mu=sqrt",
+        "f0=root:4:0.0125:0.25,r=square,mu=glayer:r:1:0:2",
     );
     let fit = fitfile::load(&path).unwrap().record.fit;
     let q = fit.approximant.denominator.as_ref().unwrap();

@@ -96,7 +96,10 @@ fn run_end_to_end_is_reproducible_and_resumes() {
         "[2/4] fits",
         "[3/4] emit",
         "[4/4] report",
-        "best-20 max",
+        "best-8",
+        "best-20",
+        "best-160",
+        "LUT-32",
         "furnace |1−E|",
     ] {
         assert!(out.contains(want), "missing '{want}':\n{out}");
@@ -121,6 +124,9 @@ fn run_end_to_end_is_reproducible_and_resumes() {
         "fits/ggx-conductor/best-40.wgsl",
         "fits/ggx-conductor/best-40.glsl",
         "fits/oren-nayar-fon/best-20.json",
+        "fits/oren-nayar-fon/best-8.json",
+        "fits/oren-nayar-fon/best-160.rs",
+        "fits/ggx-conductor/off-grid.json",
         "data/lut/ggx-conductor/32x32.exr",
         "data/lut/oren-nayar-fon/32x32.f16",
         "reports/README.md",

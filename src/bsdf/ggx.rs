@@ -296,8 +296,12 @@ impl Model for GgxModel {
             .collect()
     }
 
+    /// Conductors and dielectrics: E(r → 0, μ) collapses onto one value at r = 0, as the
+    /// boundary-layer coordinate does. Not the glossy layer: its r = 0 row is the specular
+    /// layer's Fresnel reflectance F(η, μ), which varies with μ, and the coordinate would map
+    /// that whole row to one point.
     fn grazing_boundary_layer(&self) -> bool {
-        true
+        !matches!(self.kind, GgxKind::Glossy)
     }
 
     /// E(μ) has a square-root end and a boundary layer at grazing μ of width ~α (the masking

@@ -5,11 +5,13 @@
 use super::{get_table, parse_resolution, QuadratureArgs};
 use crate::bsdf;
 use crate::error::{Error, Result};
+use crate::fit::check::{self, CheckSet};
 use crate::fit::compare::{
     compare_model, paper_box, same_form_request, CompareReport, PaperPair, PAPER_PAIRS,
 };
+use crate::fit::defaults::default_plan;
 use crate::fit::job::{
-    self, FitRecord, FitRequest, FitTime, FormKind, Stopwatch, SweepOutcome, SweepPlan, Timing,
+    self, FitRecord, FitRequest, FitTime, FormKind, Stopwatch, SweepOutcome, Timing,
 };
 use crate::fit::source::{self, FitInput, FittedOn, UserTableOptions};
 use crate::fit::{LsqMethod, Objective, RationalOptions};
@@ -168,7 +170,7 @@ impl ObjectiveArg {
 /// The data to fit and the folder name under --fits-dir.
 /// The data to fit, the fits folder's name and whether the data may have a grazing boundary
 /// layer (a model's say-so; a user's table may).
-fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
+fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool, Option<CheckSet>)> {
     if let Some(path) = &args.table {
         let axes = args.axes.as_deref().map(source::parse_axes).transpose()?;
         let input = source::load_user_table(
@@ -194,7 +196,7 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
             input.data.dim(),
             input.data.names.join(", ")
         );
-        return Ok((input, name, true));
+        return Ok((input, name, true, None));
     }
     let name = args
         .model
@@ -216,10 +218,21 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool)> {
         t.seconds,
         t.stem.display()
     );
+    // the off-grid check points measure E; other channels are measured at the nodes only
+    let check = if args.channel == "E" {
+        Some(check::get_or_compute(
+            model.as_ref(),
+            &t.table.spec,
+            &t.stem,
+        )?)
+    } else {
+        None
+    };
     Ok((
         source::from_table(&t.table, &args.channel, Some(&t.stem))?,
         model.id().key(),
         model.grazing_boundary_layer(),
+        check,
     ))
 }
 
@@ -234,11 +247,12 @@ fn boxed_name(name: &str, bounds: &[source::AxisDecl]) -> String {
 
 /// `furnace fit`.
 pub fn fit_cmd(args: &FitArgs) -> Result<()> {
-    let (mut input, mut name, layer) = fit_input(args)?;
+    let (mut input, mut name, layer, mut check) = fit_input(args)?;
     if let Some(text) = &args.domain {
         let bounds = source::parse_axes(text)
             .map_err(|e| Error::InvalidInput(e.to_string().replace("--axes", "--domain")))?;
         input = input.restrict(&bounds)?;
+        check = check.and_then(|c| c.within(&input.data.domain));
         name = boxed_name(&name, &bounds);
         eprintln!("restricted to {text}: {} points", input.data.len());
     }
@@ -248,27 +262,32 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
     };
     let dir = args.fits_dir.join(&name);
     let timing_dir = args.timing_dir(&name);
+    let check_data = check.as_ref().map(CheckSet::data).transpose()?;
+    let check_on = check.as_ref().map(CheckSet::description);
+    let checked = check_data.as_ref().zip(check_on.as_deref());
     if args.sweep {
-        let mut plan = SweepPlan::paper(
+        let mut plan = default_plan(
             &input.data,
             args.max_degree,
             transforms.clone(),
             args.objective.objective(),
+            layer,
         );
-        if !layer {
-            plan = plan.without_boundary_layer(transforms.as_deref());
-        }
         if let Some(f) = args.form {
             match f {
                 FormArg::Rational => plan.polynomial_degrees.clear(),
-                FormArg::Polynomial => plan.rational_degrees.clear(),
+                FormArg::Polynomial => {
+                    plan.rational_degrees.clear();
+                    plan.rational_pairs.clear();
+                }
             }
         }
         if let Some(n) = args.fit_points {
             plan.max_fit_points = n;
         }
         let clock = Stopwatch::start();
-        let outcome = job::sweep_fits(&input, &plan, &mut |line| eprintln!("  {line}"))?;
+        let outcome =
+            job::sweep_fits_checked(&input, &plan, checked, &mut |line| eprintln!("  {line}"))?;
         write_sweep(&outcome, &dir, timing_dir.as_deref(), &clock)?;
         for b in &outcome.best {
             if let Some(rec) = outcome.best_record(b.budget).filter(|_| args.worst > 0) {
@@ -344,7 +363,7 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         ..RationalOptions::default()
     };
     let clock = Stopwatch::start();
-    let rec = job::fit_one_with(&input, &req, &rational)?;
+    let rec = job::fit_one_with(&input, &req, &rational)?.with_off_grid(checked);
     let name = match args.solver {
         SolverArg::Lm => rec.file_name(),
         SolverArg::TrustRegion => {
@@ -482,8 +501,11 @@ fn write_sweep(
     if let Some(b) = &outcome.paper_box {
         println!("box MAE, box max: on {}", b.metrics_on);
     }
+    if let Some(c) = &outcome.check {
+        println!("off MAE, off max: on {c}; * = on the Pareto front");
+    }
     println!(
-        "{:<11} {:>3} {:<32} {:<8} {:>4} {:>10} {:>10} {:>10} {:>10} {:>8} poles",
+        "{:<11} {:>5} {:<32} {:<8} {:>4} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>8} poles",
         "form",
         "deg",
         "transforms",
@@ -493,19 +515,26 @@ fn write_sweep(
         "max",
         "box MAE",
         "box max",
+        "off MAE",
+        "off max",
         "seconds"
     );
+    let cell = |b: Option<&job::BoxMetrics>| {
+        b.map_or(("-".to_string(), "-".to_string()), |b| {
+            (format!("{:.3e}", b.mae), format!("{:.3e}", b.max_abs_error))
+        })
+    };
     for (r, secs) in outcome.rows.iter().zip(&outcome.fit_seconds) {
-        let (bm, bx) = r
-            .paper_box
-            .as_ref()
-            .map_or(("-".to_string(), "-".to_string()), |b| {
-                (format!("{:.3e}", b.mae), format!("{:.3e}", b.max_abs_error))
-            });
+        let (bm, bx) = cell(r.paper_box.as_ref());
+        let (om, ox) = cell(r.off_grid.as_ref());
+        let degree = match r.denominator_degree {
+            Some(m) => format!("{}/{m}", r.degree),
+            None => r.degree.to_string(),
+        };
         println!(
-            "{:<11} {:>3} {:<32} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>10} {:>10} {:>8.2} {}",
+            "{:<11} {:>5} {:<32} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>10} {:>10} {:>10} {:>10} {:>8.2} {}{}",
             r.form.name(),
-            r.degree,
+            degree,
             r.transforms.join(" "),
             job::objective_name(r.objective),
             r.n_coefficients,
@@ -513,17 +542,28 @@ fn write_sweep(
             r.max_abs_error,
             bm,
             bx,
+            om,
+            ox,
             secs,
-            r.poles
+            r.poles,
+            if r.pareto { " *" } else { "" }
         );
     }
     for b in &outcome.best {
         let path = dir.join(format!("best-{}.json", b.budget));
         match outcome.best_record(b.budget) {
             Some(rec) => {
+                let (max, mae) = rec.headline();
                 println!(
-                    "best with ≤ {} coefficients (lowest max error on the whole domain):",
-                    b.budget
+                    "best with ≤ {} coefficients (lowest max error among the fits within {}× of the lowest MAE{}, {}): max {max:.3e}, MAE {mae:.3e}",
+                    b.budget,
+                    crate::fit::sweep::MAE_TOLERANCE,
+                    if b.budget >= job::paper_coefficients(outcome.variables.len()) && outcome.paper_refit.is_some() {
+                        ", no worse than the paper's degree-3 rational refitted here"
+                    } else {
+                        ""
+                    },
+                    if rec.off_grid.is_some() { "off-grid" } else { "at the nodes" },
                 );
                 print_record(rec, &path, None);
                 if let Some(bm) = b.index.and_then(|i| outcome.rows[i].paper_box.as_ref()) {
@@ -624,7 +664,7 @@ fn best_40(
         "  no best-40.json for this table in {}: running the default sweep",
         dir.display()
     );
-    let plan = SweepPlan::paper(&input.data, None, None, Objective::LeastSquares);
+    let plan = default_plan(&input.data, None, None, Objective::LeastSquares, true);
     let clock = Stopwatch::start();
     let outcome = job::sweep_fits(input, &plan, &mut |line| eprintln!("    {line}"))?;
     write_sweep(&outcome, dir, Some(timing_dir), &clock)?;

@@ -93,28 +93,37 @@ pub fn run_default(args: &RunArgs) -> Result<()> {
 }
 
 fn print_summary(rows: &[Row], args: &RunArgs, start: Instant) {
+    let mut budgets: Vec<usize> = rows
+        .iter()
+        .flat_map(|r| r.fit.best.iter().map(|b| b.0))
+        .collect();
+    budgets.sort_unstable();
+    budgets.dedup();
     println!();
-    println!(
-        "{:<38} {:>12} {:>7} {:>9} {:>7} {:>11} {:>11} {:>13} {:>6}",
-        "model",
-        "table",
-        "cached",
-        "table s",
-        "fits",
-        "best-20 max",
-        "best-40 max",
+    let mut head = format!(
+        "{:<38} {:>12} {:>7} {:>9} {:>7}",
+        "model", "table", "cached", "table s", "fits"
+    );
+    for b in &budgets {
+        head.push_str(&format!(" {:>9}", format!("best-{b}")));
+    }
+    head.push_str(&format!(
+        " {:>9} {:>13} {:>6}",
+        format!("LUT-{}", pipeline::LUT_TO_BEAT),
         "furnace |1−E|",
         "files"
-    );
+    ));
+    println!("{head}");
     let mut files = 0;
+    let mut losses = Vec::new();
     for r in rows {
         let best = |b: usize| {
             r.fit
                 .best
                 .iter()
                 .find(|x| x.0 == b)
-                .and_then(|x| x.1)
-                .map_or("–".to_string(), fmt_e)
+                .and_then(|x| x.1.as_ref())
+                .map_or("–".to_string(), |s| fmt_e(s.max_abs_error))
         };
         let fits = if args.tables_only {
             "–"
@@ -125,22 +134,54 @@ fn print_summary(rows: &[Row], args: &RunArgs, start: Instant) {
         };
         let n = r.fit.files.len() + r.emitted.len() + r.report_files + if r.cached { 0 } else { 3 };
         files += n;
-        println!(
-            "{:<38} {:>12} {:>7} {:>9.1} {:>7} {:>11} {:>11} {:>13} {:>6}",
+        let mut line = format!(
+            "{:<38} {:>12} {:>7} {:>9.1} {:>7}",
             r.name,
             r.resolution,
             if r.cached { "yes" } else { "no" },
             r.table_seconds,
             fits,
-            best(20),
-            best(40),
+        );
+        for &b in &budgets {
+            line.push_str(&format!(" {:>9}", best(b)));
+        }
+        let lut = r
+            .off_grid
+            .as_ref()
+            .and_then(|o| o.luts.iter().find(|l| l.per_axis == pipeline::LUT_TO_BEAT))
+            .map_or("–".to_string(), |l| fmt_e(l.errors.max_abs_error));
+        line.push_str(&format!(
+            " {:>9} {:>13} {:>6}",
+            lut,
             r.furnace.map_or("–".to_string(), fmt_e),
             n
-        );
+        ));
+        println!("{line}");
+        if let Some(o) = &r.off_grid {
+            losses.extend(o.losses());
+        }
     }
     println!(
-        "best-N max: largest |fit − table| over every node of the table; furnace: max |1 − E| of the BSDF compensated with the report's chosen fit (reports/README.md)"
+        "best-N, LUT-{}: max |E − exact| at the off-grid check points of each table (fits/<model>/off-grid.json; at the table nodes for a table without check points); furnace: max |1 − E| of the BSDF compensated with the report's chosen fit (reports/README.md)",
+        pipeline::LUT_TO_BEAT
     );
+    if losses.is_empty() {
+        if rows.iter().any(|r| r.off_grid.is_some()) {
+            println!(
+                "every best fit beats the {}-per-axis LUT on max error and MAE",
+                pipeline::LUT_TO_BEAT
+            );
+        }
+    } else {
+        println!(
+            "WARNING: {} best fits lose to the {}-per-axis LUT (a renderer would rather use the LUT):",
+            losses.len(),
+            pipeline::LUT_TO_BEAT
+        );
+        for l in &losses {
+            println!("  {l}");
+        }
+    }
     println!(
         "{files} files written or confirmed under {}, {}, {} and {}; total {:.1} s",
         args.data_dir.display(),

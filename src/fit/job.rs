@@ -15,7 +15,10 @@ use super::polynomial::{fit_polynomial, PolynomialOptions};
 use super::rational::{fit_rational, RationalOptions};
 use super::result::{Approximant, FitResult, Form, Objective};
 use super::source::{FitInput, FittedOn, Source};
-use super::sweep::{best_under_budget, sweep_with_progress, SkippedFit, SweepEvent, SweepOptions};
+use super::sweep::{
+    pareto_front, select_under_budget, sweep_with_progress, Score, SkippedFit, SweepEvent,
+    SweepOptions,
+};
 use super::PoleVerdict;
 use crate::error::{Error, Result};
 
@@ -72,6 +75,18 @@ pub struct FitRecord {
     /// What `fit.metrics` were measured on.
     pub metrics_on: String,
     pub fit: FitResult,
+    /// The fit's errors at the off-grid check points of its table ([`super::check`]), when the
+    /// data was a model's table: the headline numbers ([`FitRecord::headline`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub off_grid: Option<OffGrid>,
+}
+
+/// A fit's errors at points between the table nodes, against the model's exact values.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OffGrid {
+    /// What the points are (count, layers, version).
+    pub on: String,
+    pub metrics: super::metrics::Metrics,
 }
 
 /// The verdict sentence and usability of a fit.
@@ -161,7 +176,28 @@ impl FitRecord {
             table,
             fitted_on,
             fit,
+            off_grid: None,
         }
+    }
+
+    /// Adds the fit's errors at the check points `check` (described by `on`).
+    pub fn with_off_grid(mut self, check: Option<(&FitData, &str)>) -> FitRecord {
+        if let Some((data, on)) = check {
+            self.off_grid = Some(OffGrid {
+                on: on.into(),
+                metrics: measure(&self.fit.approximant, data),
+            });
+        }
+        self
+    }
+
+    /// The headline (max abs error, MAE): off-grid when measured, else on the data's points.
+    pub fn headline(&self) -> (f64, f64) {
+        let m = self
+            .off_grid
+            .as_ref()
+            .map_or(&self.fit.metrics, |o| &o.metrics);
+        (m.max_abs_error, m.mae)
     }
 
     /// Pretty JSON with a final newline (deterministic).
@@ -203,6 +239,7 @@ impl FitRecord {
                         },
                         metrics_on: "unknown".into(),
                         fit,
+                        off_grid: None,
                     })
                 }
                 Err(_) => Err(format!(
@@ -215,12 +252,13 @@ impl FitRecord {
     /// The file name under `fits/<model>/`: see [`fit_file_name`].
     pub fn file_name(&self) -> String {
         let a = &self.fit.approximant;
-        let (kind, degree) = match self.fit.form {
-            Form::Polynomial { degree } => (FormKind::Polynomial, degree),
+        let (kind, degree, denominator) = match self.fit.form {
+            Form::Polynomial { degree } => (FormKind::Polynomial, degree, degree),
             Form::Rational {
-                numerator_degree, ..
-            } => (FormKind::Rational, numerator_degree),
-            Form::Exponents { .. } => (FormKind::Rational, 0),
+                numerator_degree,
+                denominator_degree,
+            } => (FormKind::Rational, numerator_degree, denominator_degree),
+            Form::Exponents { .. } => (FormKind::Rational, 0, 0),
         };
         let name = fit_file_name(
             kind,
@@ -229,10 +267,15 @@ impl FitRecord {
             &a.transforms,
             self.fit.objective,
         );
-        match self.fit.form {
-            Form::Exponents { .. } => name.replacen("rational-0", &self.fit.form.file_stem(), 1),
-            _ => name,
+        if let Form::Exponents { .. } = self.fit.form {
+            return name.replacen("rational-0", &self.fit.form.file_stem(), 1);
         }
+        if denominator == degree {
+            return name;
+        }
+        // unequal degrees: `rational-2_1…`
+        let head = format!("{}-{degree}", kind.name());
+        format!("{head}_{denominator}{}", &name[head.len()..])
     }
 }
 
@@ -361,11 +404,14 @@ pub fn fit_one_form(
     ))
 }
 
-/// What a sweep fits.
-#[derive(Clone, Debug)]
+/// What a sweep fits. Serialised into `sweep-inputs.json`, whose JSON text is the reuse key.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SweepPlan {
     pub polynomial_degrees: Vec<u32>,
     pub rational_degrees: Vec<u32>,
+    /// Rationals with unequal total degrees (numerator, denominator).
+    #[serde(default)]
+    pub rational_pairs: Vec<(u32, u32)>,
     pub transform_sets: Vec<Vec<InputTransform>>,
     pub objective: Objective,
     /// Most points the solver sees (0 = all).
@@ -380,6 +426,21 @@ pub struct SweepPlan {
 /// Least-squares fits per budget refitted for minimax error: the best by max error, and the
 /// best by MAE if different.
 pub const MINIMAX_REFITS_BY_MAX: usize = 2;
+
+/// Coefficient budgets of a sweep's `best-<N>.json` files: 8 (2-D and 1-D only: a 3-D form
+/// needs more), 20, 40, 80 and 160.
+pub fn default_budgets(d: usize) -> Vec<usize> {
+    let mut b = if d <= 2 { vec![8] } else { Vec::new() };
+    b.extend([20, 40, 80, 160]);
+    b
+}
+
+/// Coefficients of the paper's degree-3 rational (Sforza & Pellacini 2022, §3.5) in `d`
+/// variables: 19 in 2-D, 39 in 3-D. No best fit under a budget at least this large may be worse
+/// than that form refitted on the same table (see [`sweep_fits_checked`]).
+pub fn paper_coefficients(d: usize) -> usize {
+    2 * super::basis::n_terms(d, 3) - 1
+}
 
 /// Default points the solver sees in a sweep: 2D 256² (of 1024²), 3D 32³ (of 128³), 1D 4096.
 pub fn default_sweep_points(d: usize) -> usize {
@@ -493,12 +554,58 @@ impl SweepPlan {
         SweepPlan {
             polynomial_degrees,
             rational_degrees,
+            rational_pairs: Vec::new(),
             transform_sets,
             objective,
             max_fit_points: default_sweep_points(d),
-            budgets: vec![20, 40],
+            budgets: default_budgets(d),
             minimax_refits: true,
         }
+    }
+
+    /// Refuses a plan the data cannot support, naming the cause: a transform set of the wrong
+    /// length, no budget, a budget no form of the plan fits into, or a form with more
+    /// coefficients than the data has points.
+    pub fn validate(&self, data: &FitData) -> Result<()> {
+        let d = data.dim();
+        if let Some(t) = self.transform_sets.iter().find(|t| t.len() != d) {
+            return Err(Error::InvalidInput(format!(
+                "a transform set has {} entries for {d} variables",
+                t.len()
+            )));
+        }
+        if self.transform_sets.is_empty() {
+            return Err(Error::InvalidInput(
+                "the sweep plan has no transform set; give at least the identity".into(),
+            ));
+        }
+        let n = super::basis::n_terms;
+        let sizes: Vec<usize> = self
+            .polynomial_degrees
+            .iter()
+            .map(|&g| n(d, g))
+            .chain(self.rational_degrees.iter().map(|&g| 2 * n(d, g) - 1))
+            .chain(
+                self.rational_pairs
+                    .iter()
+                    .map(|&(p, q)| n(d, p) + n(d, q) - 1),
+            )
+            .collect();
+        let smallest = sizes.iter().copied().min().ok_or_else(|| {
+            Error::InvalidInput("the sweep plan has no polynomial or rational degree".into())
+        })?;
+        if smallest > data.n_weighted() {
+            return Err(Error::InvalidInput(format!(
+                "every form of the sweep has more coefficients (at least {smallest}) than the data has points ({}); use a finer table or lower degrees",
+                data.n_weighted()
+            )));
+        }
+        if let Some(&b) = self.budgets.iter().find(|&&b| b < smallest) {
+            return Err(Error::InvalidInput(format!(
+                "budget {b}: the smallest form of the sweep has {smallest} coefficients; drop the budget or add lower degrees"
+            )));
+        }
+        Ok(())
     }
 
     /// Drops the transform sets that use the boundary layer, except `keep` (a set the user
@@ -528,6 +635,9 @@ pub struct PaperBox {
 pub struct SweepRow {
     pub form: FormKind,
     pub degree: u32,
+    /// A rational's denominator degree when it differs from `degree`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denominator_degree: Option<u32>,
     /// Transform names, one per variable.
     pub transforms: Vec<String>,
     pub objective: Objective,
@@ -544,6 +654,13 @@ pub struct SweepRow {
     /// MAE and max error on the table nodes inside the paper's box ([`SweepOutcome::paper_box`]);
     /// None without one. The fields above are on the whole domain.
     pub paper_box: Option<BoxMetrics>,
+    /// MAE and max error at the off-grid check points ([`SweepOutcome::check`]); None without a
+    /// check set. With one, these are the numbers the best fits are chosen by.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub off_grid: Option<BoxMetrics>,
+    /// On the Pareto front of (coefficients, max error, MAE) among the usable fits.
+    #[serde(default)]
+    pub pareto: bool,
     /// `certified`, `polynomial`, `pole`, `undecided` or `non-finite`.
     pub poles: String,
     pub usable: bool,
@@ -583,10 +700,17 @@ pub struct SweepOutcome {
     /// the paper's tables are; [`super::compare::paper_box_in`]) and what the rows'
     /// `paper_box` metrics were measured on; None for data without variables `r` and `mu`.
     pub paper_box: Option<PaperBox>,
+    /// What the rows' `off_grid` metrics were measured on; None without a check set.
+    pub check: Option<String>,
     pub records: Vec<FitRecord>,
     pub rows: Vec<SweepRow>,
     pub skipped: Vec<SkippedFit>,
     pub best: Vec<BestUnderBudget>,
+    /// Rows on the Pareto front of (coefficients, max error, MAE), by coefficients.
+    pub pareto: Vec<usize>,
+    /// The row of the paper's degree-3 rational refitted on this table (identity transforms,
+    /// least squares), the floor of every best fit at budgets ≥ [`paper_coefficients`].
+    pub paper_refit: Option<usize>,
     /// Wall time of each fit, parallel to `rows` (never written under `fits/`: see [`SweepTiming`]).
     pub fit_seconds: Vec<f64>,
     /// Wall time of the whole sweep, including measuring every fit on all points.
@@ -601,9 +725,14 @@ struct SweepJson<'a> {
     fitted_on: &'a FittedOn,
     metrics_on: &'a str,
     paper_box: &'a Option<PaperBox>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    off_grid_on: &'a Option<String>,
     /// The summary rows; `fits[i]` holds row i's approximant.
     rows: &'a [SweepRow],
     best: &'a [BestUnderBudget],
+    /// Row indices on the Pareto front (coefficients, max error, MAE).
+    pareto: &'a [usize],
+    paper_refit: Option<usize>,
     skipped: &'a [SkippedFit],
     fits: Vec<&'a Approximant>,
 }
@@ -629,8 +758,11 @@ impl SweepOutcome {
             fitted_on: &self.fitted_on,
             metrics_on: &self.metrics_on,
             paper_box: &self.paper_box,
+            off_grid_on: &self.check,
             rows: &self.rows,
             best: &self.best,
+            pareto: &self.pareto,
+            paper_refit: self.paper_refit,
             skipped: &self.skipped,
             fits: self.records.iter().map(|r| &r.fit.approximant).collect(),
         };
@@ -643,7 +775,7 @@ impl SweepOutcome {
     /// `sweep.csv`: one line per fit.
     pub fn to_csv(&self) -> String {
         let mut s = String::from(
-            "form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,paper_box_mae,paper_box_max_abs_error,poles,usable,converged\n",
+            "form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,paper_box_mae,paper_box_max_abs_error,poles,usable,converged,denominator_degree,off_grid_mae,off_grid_max_abs_error,pareto\n",
         );
         for r in &self.rows {
             let (bm, bx) = r
@@ -652,8 +784,14 @@ impl SweepOutcome {
                 .map_or((String::new(), String::new()), |b| {
                     (format!("{:e}", b.mae), format!("{:e}", b.max_abs_error))
                 });
+            let (om, ox) = r
+                .off_grid
+                .as_ref()
+                .map_or((String::new(), String::new()), |b| {
+                    (format!("{:e}", b.mae), format!("{:e}", b.max_abs_error))
+                });
             s.push_str(&format!(
-                "{},{},{},{},{},{:e},{:e},{:e},{:e},{bm},{bx},{},{},{}\n",
+                "{},{},{},{},{},{:e},{:e},{:e},{:e},{bm},{bx},{},{},{},{},{om},{ox},{}\n",
                 r.form.name(),
                 r.degree,
                 r.transforms.join(" "),
@@ -665,7 +803,10 @@ impl SweepOutcome {
                 r.max_rel_error,
                 r.poles,
                 r.usable,
-                r.converged
+                r.converged,
+                r.denominator_degree
+                    .map_or(String::new(), |m| m.to_string()),
+                r.pareto
             ));
         }
         s
@@ -674,19 +815,25 @@ impl SweepOutcome {
 
 fn row_of(rec: &FitRecord, paper_box: Option<BoxMetrics>) -> SweepRow {
     let f = &rec.fit;
-    let (form, degree) = match f.form {
-        Form::Polynomial { degree } => (FormKind::Polynomial, degree),
+    let (form, degree, denominator_degree) = match f.form {
+        Form::Polynomial { degree } => (FormKind::Polynomial, degree, None),
         Form::Rational {
-            numerator_degree, ..
-        } => (FormKind::Rational, numerator_degree),
+            numerator_degree,
+            denominator_degree,
+        } => (
+            FormKind::Rational,
+            numerator_degree,
+            (denominator_degree != numerator_degree).then_some(denominator_degree),
+        ),
         Form::Exponents { .. } if f.form.is_rational() => {
-            (FormKind::Rational, f.form.numerator_degree())
+            (FormKind::Rational, f.form.numerator_degree(), None)
         }
-        Form::Exponents { .. } => (FormKind::Polynomial, f.form.numerator_degree()),
+        Form::Exponents { .. } => (FormKind::Polynomial, f.form.numerator_degree(), None),
     };
     SweepRow {
         form,
         degree,
+        denominator_degree,
         transforms: f
             .approximant
             .transforms
@@ -701,6 +848,12 @@ fn row_of(rec: &FitRecord, paper_box: Option<BoxMetrics>) -> SweepRow {
         max_abs_error_at: f.metrics.max_abs_error_at.clone(),
         max_rel_error: f.metrics.max_rel_error,
         paper_box,
+        off_grid: rec.off_grid.as_ref().map(|o| BoxMetrics {
+            mae: o.metrics.mae,
+            max_abs_error: o.metrics.max_abs_error,
+            max_abs_error_at: o.metrics.max_abs_error_at.clone(),
+        }),
+        pareto: false,
         poles: pole_word(f).into(),
         usable: rec.usable,
         converged: f.solver.as_ref().is_none_or(|s| s.converged),
@@ -752,18 +905,16 @@ fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
             .collect();
         c.sort_by(|&a, &b| {
             records[a]
-                .fit
-                .metrics
-                .max_abs_error
-                .total_cmp(&records[b].fit.metrics.max_abs_error)
+                .headline()
+                .0
+                .total_cmp(&records[b].headline().0)
                 .then(a.cmp(&b))
         });
         let by_mae = c.iter().copied().min_by(|&a, &b| {
             records[a]
-                .fit
-                .metrics
-                .mae
-                .total_cmp(&records[b].fit.metrics.mae)
+                .headline()
+                .1
+                .total_cmp(&records[b].headline().1)
                 .then(a.cmp(&b))
         });
         for i in c.into_iter().take(MINIMAX_REFITS_BY_MAX).chain(by_mae) {
@@ -826,7 +977,33 @@ pub fn sweep_fits(
     plan: &SweepPlan,
     progress: &mut dyn FnMut(&str),
 ) -> Result<SweepOutcome> {
+    sweep_fits_checked(input, plan, None, progress)
+}
+
+/// [`sweep_fits`] with an off-grid check set (`check`: the points as data, and what they are):
+/// every fit is also measured there, and the best fits are chosen by those errors.
+///
+/// The best fit under each budget is [`select_under_budget`]'s: the lowest max error among the
+/// usable fits whose MAE is within [`super::sweep::MAE_TOLERANCE`] of the lowest; at budgets of
+/// at least [`paper_coefficients`], only among fits no worse than the paper's degree-3 rational
+/// refitted on the same table (identity transforms, least squares) on either metric.
+pub fn sweep_fits_checked(
+    input: &FitInput,
+    plan: &SweepPlan,
+    check: Option<(&FitData, &str)>,
+    progress: &mut dyn FnMut(&str),
+) -> Result<SweepOutcome> {
     let start = std::time::Instant::now();
+    plan.validate(&input.data)?;
+    if let Some((c, _)) = check {
+        if c.names != input.data.names {
+            return Err(Error::InvalidInput(format!(
+                "the check set's variables {} are not the data's {}",
+                c.names.join(","),
+                input.data.names.join(",")
+            )));
+        }
+    }
     let d = input.data.dim();
     if let Some(t) = plan.transform_sets.iter().find(|t| t.len() != d) {
         return Err(Error::InvalidInput(format!(
@@ -868,6 +1045,7 @@ pub fn sweep_fits(
     let opts = SweepOptions {
         polynomial_degrees: plan.polynomial_degrees.clone(),
         rational_degrees: plan.rational_degrees.clone(),
+        rational_pairs: plan.rational_pairs.clone(),
         transform_sets: plan.transform_sets.clone(),
         objective: plan.objective,
         ..SweepOptions::for_dimension(d)
@@ -883,7 +1061,7 @@ pub fn sweep_fits(
     for fit in report.results {
         fit_seconds.push(fit.fit_seconds);
         let (fit, on_box) = measured(fit, input, reduced.is_some(), boxed.as_deref());
-        let rec = FitRecord::new(fit, input, fitted_on.clone());
+        let rec = FitRecord::new(fit, input, fitted_on.clone()).with_off_grid(check);
         rows.push(row_of(&rec, on_box));
         records.push(rec);
     }
@@ -933,7 +1111,7 @@ pub fn sweep_fits(
                     progress(&progress_line(&fit));
                     fit_seconds.push(fit.fit_seconds);
                     let (fit, on_box) = measured(fit, input, reduced.is_some(), boxed.as_deref());
-                    let rec = FitRecord::new(fit, input, fitted_on.clone());
+                    let rec = FitRecord::new(fit, input, fitted_on.clone()).with_off_grid(check);
                     rows.push(row_of(&rec, on_box));
                     records.push(rec);
                 }
@@ -949,16 +1127,48 @@ pub fn sweep_fits(
             }
         }
     }
-    let fits: Vec<FitResult> = records.iter().map(|r| r.fit.clone()).collect();
+    let scores: Vec<Score> = records
+        .iter()
+        .map(|r| {
+            let (max_abs_error, mae) = r.headline();
+            Score {
+                n_coefficients: r.fit.n_coefficients,
+                max_abs_error,
+                mae,
+                usable: r.usable,
+            }
+        })
+        .collect();
+    let paper_refit = records.iter().position(|r| {
+        r.fit.objective == Objective::LeastSquares
+            && r.fit.form
+                == Form::Rational {
+                    numerator_degree: 3,
+                    denominator_degree: 3,
+                }
+            && r.fit
+                .approximant
+                .transforms
+                .iter()
+                .all(|t| *t == InputTransform::Identity)
+    });
+    let paper_count = paper_coefficients(d);
     let best = plan
         .budgets
         .iter()
         .map(|&budget| BestUnderBudget {
             budget,
-            index: best_under_budget(&fits, budget)
-                .and_then(|b| fits.iter().position(|f| std::ptr::eq(f, b))),
+            index: select_under_budget(
+                &scores,
+                budget,
+                paper_refit.filter(|_| budget >= paper_count),
+            ),
         })
         .collect();
+    let pareto = pareto_front(&scores);
+    for &i in &pareto {
+        rows[i].pareto = true;
+    }
     Ok(SweepOutcome {
         source: input.source.clone(),
         variables: input.data.names.clone(),
@@ -968,10 +1178,13 @@ pub fn sweep_fits(
             input.data.len()
         ),
         paper_box: paper_box.filter(|_| boxed.is_some()),
+        check: check.map(|c| c.1.to_string()),
         records,
         rows,
         skipped: report.skipped,
         best,
+        pareto,
+        paper_refit,
         fit_seconds,
         seconds: start.elapsed().as_secs_f64(),
     })

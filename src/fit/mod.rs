@@ -12,7 +12,9 @@
 //! - [`polynomial`], [`rational`]: the fits; [`robust`]: mean-absolute and minimax objectives.
 //! - [`metrics`]: MAE, RMSE, max absolute / relative error and where they occur.
 //! - [`poles`]: Bernstein-subdivision proof that the denominator has no zero on the domain.
-//! - [`sweep`]: degree sweeps and the best certified fit under a coefficient budget.
+//! - [`sweep`]: degree sweeps, their Pareto front and the best certified fit under a coefficient budget.
+//! - [`defaults`]: the default sweep plan of a table (degrees, transforms, budgets).
+//! - [`check`]: off-grid check points of a model's table with exact values, the headline errors.
 //! - [`file`]: fit files, the one format every fit is written in and read back from.
 //! - [`paper`]: the published coefficients and tables of Sforza & Pellacini 2022.
 //!
@@ -33,8 +35,10 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod basis;
+pub mod check;
 pub mod compare;
 pub mod data;
+pub mod defaults;
 pub mod error;
 pub mod file;
 pub mod form;
@@ -67,8 +71,8 @@ pub use polynomial::{fit_polynomial, PolynomialOptions};
 pub use rational::{fit_rational, RationalOptions};
 pub use result::{Approximant, FitResult, Form, FormSpec, Objective, SolverReport, StartReport};
 pub use sweep::{
-    best_under_budget, sweep, sweep_detailed, sweep_with_progress, SkippedFit, SweepEvent,
-    SweepOptions, SweepReport,
+    best_under_budget, pareto_front, select_under_budget, sweep, sweep_detailed,
+    sweep_with_progress, Score, SkippedFit, SweepEvent, SweepOptions, SweepReport,
 };
 pub use trust_region::{TrustRegionSettings, TrustRegionSolver};
 

@@ -18,6 +18,9 @@ pub struct SweepOptions {
     pub polynomial_degrees: Vec<u32>,
     /// Total degree n of P and Q (n/n rationals, as in the paper).
     pub rational_degrees: Vec<u32>,
+    /// Rationals with unequal total degrees (numerator, denominator), e.g. (2, 1): 8
+    /// coefficients in 2-D, the small budgets' natural candidates.
+    pub rational_pairs: Vec<(u32, u32)>,
     /// Input-transform sets to try (one transform per variable each).
     pub transform_sets: Vec<Vec<InputTransform>>,
     pub objective: Objective,
@@ -40,6 +43,7 @@ impl SweepOptions {
         SweepOptions {
             polynomial_degrees: poly.collect(),
             rational_degrees: rat.collect(),
+            rational_pairs: Vec::new(),
             transform_sets: vec![vec![InputTransform::Identity; d]],
             objective: Objective::LeastSquares,
             polynomial: PolynomialOptions::default(),
@@ -66,7 +70,7 @@ pub struct SweepReport {
 
 /// Runs the sweep; degrees that cannot be fitted (too few points, singular, no feasible start)
 /// are listed in `skipped` with the reason. Results are in the order transform set →
-/// polynomials by degree → rationals by degree; each carries its fit time.
+/// polynomials by degree → rationals by degree → unequal-degree rationals; each carries its fit time.
 pub fn sweep_detailed(data: &FitData, opts: &SweepOptions) -> Result<SweepReport> {
     sweep_with_progress(data, opts, &mut |_| {})
 }
@@ -148,6 +152,38 @@ pub fn sweep_with_progress(
                 }
             }
         }
+        for &(n, m) in &opts.rational_pairs {
+            let form = format!("rational of degree {n}/{m}");
+            let coefficients = n_terms(d, n) + n_terms(d, m) - 1;
+            if coefficients > data.n_weighted() {
+                let reason = format!("{coefficients} coefficients but only {} data points; lower the degrees or use a finer table", data.n_weighted());
+                let s = SkippedFit {
+                    form,
+                    transforms: transforms.clone(),
+                    reason,
+                };
+                progress(SweepEvent::Skipped(&s));
+                skipped.push(s);
+                continue;
+            }
+            let t = Instant::now();
+            match fit_rational(data, transforms, n, m, opts.objective, &opts.rational) {
+                Ok(mut r) => {
+                    r.fit_seconds = t.elapsed().as_secs_f64();
+                    progress(SweepEvent::Fitted(&r));
+                    results.push(r);
+                }
+                Err(e) => {
+                    let s = SkippedFit {
+                        form,
+                        transforms: transforms.clone(),
+                        reason: e.to_string(),
+                    };
+                    progress(SweepEvent::Skipped(&s));
+                    skipped.push(s);
+                }
+            }
+        }
     }
     Ok(SweepReport { results, skipped })
 }
@@ -171,9 +207,135 @@ pub fn best_under_budget(results: &[FitResult], max_coefficients: usize) -> Opti
         })
 }
 
+/// A fit's headline errors for selection: coefficients, max error and MAE (off-grid when the
+/// sweep has a check set), and whether it may be used at all.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Score {
+    pub n_coefficients: usize,
+    pub max_abs_error: f64,
+    pub mae: f64,
+    pub usable: bool,
+}
+
+/// A best fit's MAE may be at most this multiple of the lowest MAE under its budget: minimax
+/// fits lower the max error by trading MAE (about 3× on the albedo tables), and a renderer
+/// wants both small.
+pub const MAE_TOLERANCE: f64 = 1.5;
+
+/// The fit chosen under `budget`: among the usable fits with at most `budget` coefficients
+/// whose MAE is within [`MAE_TOLERANCE`] of the lowest such MAE, the one with the lowest max
+/// error (ties: fewer coefficients, then earlier). With a `floor` (the index of a reference fit
+/// within the budget, e.g. the paper's form refitted), only fits no worse than it on either
+/// metric are eligible; if none of those is within the MAE tolerance, the one of them with the
+/// lowest max error is chosen (the floor itself qualifies, so a usable floor always yields one).
+pub fn select_under_budget(scores: &[Score], budget: usize, floor: Option<usize>) -> Option<usize> {
+    let within: Vec<usize> = (0..scores.len())
+        .filter(|&i| {
+            let s = &scores[i];
+            s.usable
+                && s.n_coefficients <= budget
+                && s.max_abs_error.is_finite()
+                && s.mae.is_finite()
+        })
+        .collect();
+    let floor = floor.filter(|f| within.contains(f)).map(|f| scores[f]);
+    let eligible: Vec<usize> = within
+        .iter()
+        .copied()
+        .filter(|&i| {
+            floor.is_none_or(|f| {
+                scores[i].max_abs_error <= f.max_abs_error && scores[i].mae <= f.mae
+            })
+        })
+        .collect();
+    let lowest_mae = within
+        .iter()
+        .map(|&i| scores[i].mae)
+        .fold(f64::INFINITY, f64::min);
+    let by_max = |set: &mut dyn Iterator<Item = usize>| {
+        set.min_by(|&a, &b| {
+            scores[a]
+                .max_abs_error
+                .total_cmp(&scores[b].max_abs_error)
+                .then(scores[a].n_coefficients.cmp(&scores[b].n_coefficients))
+                .then(a.cmp(&b))
+        })
+    };
+    by_max(
+        &mut eligible
+            .iter()
+            .copied()
+            .filter(|&i| scores[i].mae <= MAE_TOLERANCE * lowest_mae),
+    )
+    .or_else(|| by_max(&mut eligible.iter().copied()))
+}
+
+/// The Pareto front of the usable fits in (coefficients, max error, MAE): those no other usable
+/// fit matches or beats on all three while beating on one. Sorted by coefficients, then max error.
+pub fn pareto_front(scores: &[Score]) -> Vec<usize> {
+    let ok = |s: &Score| s.usable && s.max_abs_error.is_finite() && s.mae.is_finite();
+    let dominates = |a: &Score, b: &Score| {
+        a.n_coefficients <= b.n_coefficients
+            && a.max_abs_error <= b.max_abs_error
+            && a.mae <= b.mae
+            && (a.n_coefficients < b.n_coefficients
+                || a.max_abs_error < b.max_abs_error
+                || a.mae < b.mae)
+    };
+    let mut front: Vec<usize> = (0..scores.len())
+        .filter(|&i| ok(&scores[i]))
+        .filter(|&i| {
+            !(0..scores.len())
+                .any(|j| j != i && ok(&scores[j]) && dominates(&scores[j], &scores[i]))
+        })
+        .collect();
+    front.sort_by(|&a, &b| {
+        scores[a]
+            .n_coefficients
+            .cmp(&scores[b].n_coefficients)
+            .then(scores[a].max_abs_error.total_cmp(&scores[b].max_abs_error))
+            .then(a.cmp(&b))
+    });
+    front
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn score(n: usize, max: f64, mae: f64) -> Score {
+        Score {
+            n_coefficients: n,
+            max_abs_error: max,
+            mae,
+            usable: true,
+        }
+    }
+
+    #[test]
+    fn selection_keeps_the_mae_and_never_loses_to_the_floor() {
+        let s = vec![
+            score(19, 4e-3, 1e-3),   // 0: the floor
+            score(19, 2e-3, 3e-3),   // 1: lower max, but MAE 3× the lowest
+            score(15, 3e-3, 1.2e-3), // 2: within 1.5× of the lowest MAE
+            score(40, 1e-4, 1e-5),   // 3: over the budget
+            Score {
+                usable: false,
+                ..score(10, 1e-9, 1e-9)
+            }, // 4: not usable
+        ];
+        assert_eq!(select_under_budget(&s, 20, None), Some(2));
+        // fit 2 has the lower max but a higher MAE than the floor: not eligible with it
+        assert_eq!(select_under_budget(&s, 20, Some(0)), Some(0));
+        assert_eq!(select_under_budget(&s, 40, Some(0)), Some(3));
+        assert_eq!(select_under_budget(&s, 9, None), None);
+        // a fit worse than the floor on MAE is never chosen, even with the lowest max error
+        let t = vec![score(19, 4e-3, 1e-3), score(19, 1e-3, 1.4e-3)];
+        assert_eq!(select_under_budget(&t, 20, None), Some(1));
+        assert_eq!(select_under_budget(&t, 20, Some(0)), Some(0));
+        assert_eq!(pareto_front(&s), vec![2, 1, 0, 3]);
+        assert_eq!(pareto_front(&t), vec![1, 0]);
+    }
 
     #[test]
     fn sweep_and_budget() {

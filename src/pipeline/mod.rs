@@ -30,9 +30,11 @@
 //! (no wall times, dates, absolute paths or thread counts), written through a temporary file
 //! and a rename; wall times go to the observer only.
 
+pub mod offgrid;
 pub mod sweeps;
 
-pub use sweeps::{sweep_or_reuse, FileHash, FitStep, SweepInputs};
+pub use offgrid::{OffGridSummary, LUT_CHECK_RESOLUTIONS, LUT_TO_BEAT};
+pub use sweeps::{sweep_or_reuse, BestSummary, FileHash, FitStep, SweepInputs};
 
 use crate::bsdf::{self, Model, ModelId, Side, Transmission};
 use crate::emit::file::{emit_fit_file, EmitFileOptions};
@@ -205,6 +207,9 @@ pub struct Row {
     pub report_files: usize,
     /// max |1 − E| of the BSDF compensated with the report's chosen fit.
     pub furnace: Option<f64>,
+    /// The best fits and the 16/32/64-per-axis LUTs at the off-grid check points (not for the
+    /// radiance-form tables).
+    pub off_grid: Option<OffGridSummary>,
 }
 
 /// What the pipeline did.
@@ -281,6 +286,7 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
             emitted: Vec::new(),
             report_files: 0,
             furnace: None,
+            off_grid: None,
         });
         tables.push(t);
     }
@@ -337,7 +343,16 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
             .fit
             .best
             .iter()
-            .map(|(b, e)| format!("best-{b} max {}", e.map_or("none".into(), fmt_e)))
+            .map(|(b, e)| {
+                format!(
+                    "best-{b} {}",
+                    e.as_ref().map_or("none".into(), |s| format!(
+                        "max {} MAE {}",
+                        fmt_e(s.max_abs_error),
+                        fmt_e(s.mae)
+                    ))
+                )
+            })
             .collect();
         progress.line(&format!(
             "  {:<38} {}: {}",
@@ -351,6 +366,15 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
         ));
         if let Some(n) = &row.fit.note {
             progress.line(&format!("    {n}"));
+        }
+        if let (Some(check), false) = (&row.fit.check, row.id.is_radiance()) {
+            let luts = offgrid::lut_errors(model.as_ref(), check, &job.data_dir, progress)?;
+            let s = offgrid::summary(&row.name, check, &row.fit.best, luts);
+            row.emitted.push(s.write(&job.fits_dir.join(&row.name))?);
+            for l in s.losses() {
+                progress.line(&format!("    warning: {l}"));
+            }
+            row.off_grid = Some(s);
         }
     }
     progress.line(&format!("  fits: {:.1} s", stage.elapsed().as_secs_f64()));

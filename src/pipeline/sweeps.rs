@@ -6,6 +6,8 @@ use super::Job;
 use crate::bsdf::Model;
 use crate::digest::{sha256_hex, values_sha256};
 use crate::error::{Error, Result};
+use crate::fit::check::{self, CheckSet};
+use crate::fit::defaults::default_plan;
 use crate::fit::job::{self, FitRecord, Stopwatch, SweepOutcome, SweepPlan, Timing};
 use crate::fit::{source, Objective};
 use crate::output;
@@ -19,12 +21,49 @@ use std::path::{Path, PathBuf};
 pub struct FitStep {
     /// The files of a previous sweep with the same inputs were kept.
     pub reused: bool,
-    /// (budget, max error on the whole table) of each best file.
-    pub best: Vec<(usize, Option<f64>)>,
+    /// Each budget's best file, if the sweep has one.
+    pub best: Vec<(usize, Option<BestSummary>)>,
+    /// The table's off-grid check set (None for a model without one).
+    pub check: Option<CheckSet>,
     /// Every file of the sweep, `sweep-inputs.json` last.
     pub files: Vec<PathBuf>,
     /// Fits not usable or skipped, if any.
     pub note: Option<String>,
+}
+
+/// The headline errors of a `best-<N>.json` (off-grid when measured, see [`FitRecord::headline`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BestSummary {
+    pub n_coefficients: usize,
+    pub max_abs_error: f64,
+    pub mae: f64,
+    /// Measured at the off-grid check points (else at the table nodes).
+    pub off_grid: bool,
+    /// The form, `rational of degree 4/4 [r² layer(μ; r, 1)] (minimax)`.
+    pub label: String,
+}
+
+impl BestSummary {
+    pub fn of(rec: &FitRecord) -> BestSummary {
+        let (max_abs_error, mae) = rec.headline();
+        let a = &rec.fit.approximant;
+        BestSummary {
+            n_coefficients: rec.fit.n_coefficients,
+            max_abs_error,
+            mae,
+            off_grid: rec.off_grid.is_some(),
+            label: format!(
+                "{} [{}] {}",
+                rec.fit.form.label(),
+                a.transforms
+                    .iter()
+                    .map(|t| t.label(&a.variables))
+                    .collect::<Vec<_>>()
+                    .join(" "),
+                job::objective_name(rec.fit.objective)
+            ),
+        }
+    }
 }
 
 /// `fits/<model>/sweep-inputs.json`: what a sweep was made from, so that a re-run with the same
@@ -41,8 +80,10 @@ pub struct SweepInputs {
     /// SHA-256 of the table's values (little-endian f64, every output in turn).
     pub table_values_sha256: String,
     pub channel: String,
-    /// The sweep options (degrees, transforms, objective, points, budgets), as Rust debug text.
-    pub plan: String,
+    /// The sweep options (degrees, transforms, objective, points, budgets).
+    pub plan: SweepPlan,
+    /// The off-grid check set the fits were measured on (count, layers, version).
+    pub check_set: Option<String>,
     /// Every file the sweep wrote, with its SHA-256.
     pub files: Vec<FileHash>,
 }
@@ -57,7 +98,7 @@ pub struct FileHash {
 /// Name of the sweep-inputs file in each model's fit folder.
 const SWEEP_INPUTS: &str = crate::report::inputs::SWEEP_INPUTS_FILE;
 
-fn sweep_inputs(t: &Tabulated, plan: &SweepPlan) -> SweepInputs {
+fn sweep_inputs(t: &Tabulated, plan: &SweepPlan, check: Option<&CheckSet>) -> SweepInputs {
     SweepInputs {
         what: "inputs of the sweep files in this folder, written by `furnace run` after them: a run whose table values and sweep options are the same reuses the files listed here (if their SHA-256 still match) instead of refitting; `furnace run --refit` refits".into(),
         tool: "furnace".into(),
@@ -66,7 +107,8 @@ fn sweep_inputs(t: &Tabulated, plan: &SweepPlan) -> SweepInputs {
         table_content_hash: t.table.spec.content_hash(),
         table_values_sha256: values_sha256(&t.table.values),
         channel: "E".into(),
-        plan: format!("{plan:?}"),
+        plan: plan.clone(),
+        check_set: check.map(CheckSet::description),
         files: Vec::new(),
     }
 }
@@ -104,8 +146,8 @@ fn reusable(dir: &Path, expected: &SweepInputs) -> Option<Vec<PathBuf>> {
     Some(files)
 }
 
-/// Max error (whole table) of each best file of a sweep folder.
-fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<f64>)>> {
+/// The headline errors of each best file of a sweep folder.
+fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<BestSummary>)>> {
     budgets
         .iter()
         .map(|&b| {
@@ -120,7 +162,7 @@ fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<f64>)
                     format!("not a fit file ({e}); delete it or run with --refit"),
                 )
             })?;
-            Ok((b, Some(rec.fit.metrics.max_abs_error)))
+            Ok((b, Some(BestSummary::of(&rec))))
         })
         .collect()
 }
@@ -135,35 +177,48 @@ pub fn sweep_or_reuse(
     progress: &dyn Observer,
 ) -> Result<FitStep> {
     let input = source::from_table(&t.table, "E", Some(&t.stem))?;
-    let mut plan = SweepPlan::paper(&input.data, job.max_degree, None, Objective::LeastSquares);
-    if !model.grazing_boundary_layer() {
-        plan = plan.without_boundary_layer(None);
-    }
+    let plan = default_plan(
+        &input.data,
+        job.max_degree,
+        None,
+        Objective::LeastSquares,
+        model.grazing_boundary_layer(),
+    );
+    plan.validate(&input.data)?;
+    let check = check::get_or_compute(model, &t.table.spec, &t.stem)?;
     let dir = job.fits_dir.join(name);
-    let mut inputs = sweep_inputs(t, &plan);
+    let mut inputs = sweep_inputs(t, &plan, Some(&check));
     if !job.refit && !job.force {
         if let Some(files) = reusable(&dir, &inputs) {
             return Ok(FitStep {
                 reused: true,
                 best: best_errors(&dir, &plan.budgets)?,
+                check: Some(check),
                 files,
                 note: None,
             });
         }
     }
+    let check_data = check.data()?;
+    let check_on = check.description();
     let planned =
         (plan.polynomial_degrees.len() + plan.rational_degrees.len()) * plan.transform_sets.len();
     progress.begin(&format!("fit {name}"), planned as u64);
     let clock = Stopwatch::start();
     let mut done = 0;
-    let outcome = job::sweep_fits(&input, &plan, &mut |_line| {
-        // one line per fit made or skipped; the minimax refits come on top of the planned ones
-        done += 1;
-        if done > planned {
-            progress.extend(1);
-        }
-        progress.advance(1);
-    });
+    let outcome = job::sweep_fits_checked(
+        &input,
+        &plan,
+        Some((&check_data, &check_on)),
+        &mut |_line| {
+            // one line per fit made or skipped; the minimax refits come on top of the planned ones
+            done += 1;
+            if done > planned {
+                progress.extend(1);
+            }
+            progress.advance(1);
+        },
+    );
     progress.end();
     let outcome = outcome?;
     let (files, _) = write_sweep_files(
@@ -198,16 +253,12 @@ pub fn sweep_or_reuse(
     let best = plan
         .budgets
         .iter()
-        .map(|&b| {
-            (
-                b,
-                outcome.best_record(b).map(|r| r.fit.metrics.max_abs_error),
-            )
-        })
+        .map(|&b| (b, outcome.best_record(b).map(BestSummary::of)))
         .collect();
     Ok(FitStep {
         reused: false,
         best,
+        check: Some(check),
         files,
         note,
     })

@@ -13,7 +13,8 @@
 //! (pole-free, finite) with the smallest maximum error among those with at most as many
 //! coefficients as the paper's; otherwise the usable fit with the smallest maximum error. Files
 //! that are not fits are listed in the report, never fatal (`sweep-inputs.json`, which records
-//! what a sweep was made from, is skipped silently).
+//! what a sweep was made from, and `off-grid.json`, the best fits' and LUTs' off-grid errors, are
+//! skipped silently).
 //!
 //! # Benchmark files
 //! Every `*.csv` file in the benchmark folder (`reports/bench/`, written only by the benchmark
@@ -117,6 +118,10 @@ pub fn parse_fit_file(text: &str) -> std::result::Result<Vec<FitResult>, String>
 /// The file `furnace run` writes beside a sweep to record its inputs (not a fit).
 pub const SWEEP_INPUTS_FILE: &str = "sweep-inputs.json";
 
+/// The file `furnace run` writes beside a sweep with the best fits' and the LUTs' errors at the
+/// off-grid check points (not a fit).
+pub const OFF_GRID_FILE: &str = "off-grid.json";
+
 /// The fits of a sweep file (`sweep.json`: summary `rows` and the approximants in `fits`), each
 /// re-assessed on `data` — its pole certificate redone, not read from the file — with the
 /// errors its row records on the table it was fitted to.
@@ -198,7 +203,10 @@ pub fn load_fits(dir: &Path, data: &FitData) -> Result<FitFiles> {
             .unwrap_or(&path)
             .to_string_lossy()
             .replace('\\', "/");
-        if path.file_name().is_some_and(|n| n == SWEEP_INPUTS_FILE) {
+        if path
+            .file_name()
+            .is_some_and(|n| n == SWEEP_INPUTS_FILE || n == OFF_GRID_FILE)
+        {
             continue;
         }
         let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;

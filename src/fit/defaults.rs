@@ -12,13 +12,12 @@ use super::result::Objective;
 /// Rationals with unequal total degrees (numerator, denominator) a default sweep adds.
 /// - 1-D and 2-D: (2, 1) and (1, 2), 8 coefficients in 2-D (the budget of `best-8`), and
 ///   (3, 2), (2, 3), 15 coefficients.
-/// - 3-D: (4, 3) (54 coefficients) and (6, 5) (139), between the n/n rationals' 69, 111 and 167
-///   so that the 80- and 160-coefficient budgets are filled by a rational near them.
+/// - 3-D: (4, 3), 54 coefficients, between the n/n rationals' 39 and 69.
 pub fn default_rational_pairs(d: usize) -> Vec<(u32, u32)> {
     if d <= 2 {
         vec![(2, 1), (1, 2), (3, 2), (2, 3)]
     } else {
-        vec![(4, 3), (6, 5)]
+        vec![(4, 3)]
     }
 }
 

@@ -39,7 +39,9 @@
 use super::microfacet::{ALPHA_MIN, GRAZING_RATIO};
 use crate::math::{asinh_pos, exp_poly, sin_cos_0_pi, smith_a, SmithForm};
 use crate::quadrature::vector::{self, LANES};
-use crate::quadrature::{panels_from_breaks, Break, Integrand2D, Panel, PanelMap, CHANNELS};
+use crate::quadrature::{
+    panels_from_breaks, Break, DimRules, Integrand2D, Panel, PanelMap, CHANNELS,
+};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Longest s range (from the peak at s = 0) covered by a plain rule: beyond it the poles of
@@ -66,6 +68,8 @@ pub struct SlopeIntegrand {
     g1_o_over_mu_o: f64,
     /// Scale in μi of the masking weight's singularities next to the horizon.
     mask_scale: f64,
+    /// One line's integrand values ([`Integrand2D::accumulate_line`]), reused.
+    line_buf: std::cell::RefCell<Vec<f64>>,
 }
 
 /// Per-line data of [`SlopeIntegrand`]: the direction ψ and where the line ends.
@@ -106,6 +110,7 @@ impl SlopeIntegrand {
             a_o,
             g1_o_over_mu_o: 2.0 / (mu_o + a_o),
             mask_scale,
+            line_buf: std::cell::RefCell::new(Vec::new()),
         }
     }
 
@@ -204,6 +209,32 @@ impl SlopeIntegrand {
             yj[0] = if n > 0.0 { g } else { 0.0 };
         }
         y
+    }
+}
+
+/// The integrand at the nodes `vs` of one line part into `out`, [`LANES`] nodes at a time
+/// across panel ends ([`SlopeIntegrand::block`]): a [`vector::Kernel`].
+struct ConductorRun<'a, const TAIL: bool, const FACTORED: bool, const HC: bool> {
+    f: &'a SlopeIntegrand,
+    line: &'a SlopeLine,
+    vs: &'a [f64],
+    out: &'a mut [f64],
+}
+
+impl<const TAIL: bool, const FACTORED: bool, const HC: bool> vector::Kernel
+    for ConductorRun<'_, TAIL, FACTORED, HC>
+{
+    type Output = ();
+    #[inline(always)]
+    fn run(&mut self) {
+        for (vc, oc) in self.vs.chunks(LANES).zip(self.out.chunks_mut(LANES)) {
+            let mut v = [vc[0]; LANES];
+            v[..vc.len()].copy_from_slice(vc);
+            let y = self.f.block::<TAIL, FACTORED, HC>(self.line, &v);
+            for (o, yj) in oc.iter_mut().zip(&y) {
+                *o = yj[0];
+            }
+        }
     }
 }
 
@@ -465,6 +496,82 @@ impl Integrand2D for SlopeIntegrand {
         true
     }
 
+    /// The nodes of all the line's panels in one buffer, each line part (s, u) evaluated by one
+    /// block loop across panel ends ([`ConductorRun`]), each panel summed from zero in node
+    /// order and added in turn: the bits of [`Self::accumulate_nodes`] panel by panel, with
+    /// fewer blocks left part empty.
+    fn accumulate_line(
+        &self,
+        line: &SlopeLine,
+        panels: &[Panel],
+        rule: &DimRules,
+        vs: &mut Vec<f64>,
+        ws: &mut Vec<f64>,
+        acc: &mut [f64],
+    ) {
+        const MAX_PANELS: usize = 32;
+        if panels.len() > MAX_PANELS {
+            for seg in panels {
+                vs.clear();
+                ws.clear();
+                rule.nodes_into(seg, vs, ws);
+                self.accumulate_nodes(line, vs, ws, acc);
+            }
+            return;
+        }
+        vs.clear();
+        ws.clear();
+        let mut ends = [0usize; MAX_PANELS];
+        let mut tail = [false; MAX_PANELS];
+        for (i, seg) in panels.iter().enumerate() {
+            let start = vs.len();
+            rule.nodes_into(seg, vs, ws);
+            ends[i] = vs.len();
+            // a panel lies wholly in the s part or wholly in the u part
+            tail[i] = vs[start..].first().is_some_and(|&v| v > line.s_end);
+        }
+        let n = panels.len();
+        let mut y = self.line_buf.borrow_mut();
+        y.resize(vs.len(), 0.0);
+        let mut i = 0;
+        while i < n {
+            let mut j = i + 1;
+            while j < n && tail[j] == tail[i] {
+                j += 1;
+            }
+            let (first, last) = (if i == 0 { 0 } else { ends[i - 1] }, ends[j - 1]);
+            let (v, out) = (&vs[first..last], &mut y[first..last]);
+            macro_rules! run {
+                ($tail:literal, $factored:literal, $hc:literal) => {
+                    vector::run(ConductorRun::<$tail, $factored, $hc> {
+                        f: self,
+                        line,
+                        vs: v,
+                        out,
+                    })
+                };
+            }
+            match (tail[i], line.rho_max.is_finite(), self.smith) {
+                (false, true, SmithForm::HeightCorrelated) => run!(false, true, true),
+                (false, true, SmithForm::Separable) => run!(false, true, false),
+                (false, false, SmithForm::HeightCorrelated) => run!(false, false, true),
+                (false, false, SmithForm::Separable) => run!(false, false, false),
+                (true, _, SmithForm::HeightCorrelated) => run!(true, true, true),
+                (true, _, SmithForm::Separable) => run!(true, true, false),
+            }
+            i = j;
+        }
+        let mut from = 0;
+        for &end in &ends[..n] {
+            let mut sum = 0.0;
+            for (&w, &yj) in ws[from..end].iter().zip(&y[from..end]) {
+                sum += w * yj;
+            }
+            acc[0] += sum;
+            from = end;
+        }
+    }
+
     /// The hot loop of a table: blocks of [`LANES`] nodes without branches or calls
     /// ([`SlopeIntegrand::block`]), compiled for the widest vector unit the CPU has, summed per
     /// panel in node order.
@@ -614,6 +721,36 @@ mod tests {
                             acc[0]
                         );
                     }
+                }
+            }
+        }
+    }
+
+    /// A line evaluated across panel ends gives the bits of its panels summed one at a time.
+    #[test]
+    fn a_line_gives_the_bits_of_its_panels() {
+        let rules = Rules::new(15);
+        let (mut vs, mut ws) = (Vec::new(), Vec::new());
+        for smith in SMITH {
+            for (r, mu) in CELLS {
+                let f = SlopeIntegrand::conductor(r * r, mu, smith);
+                for psi in [0.1, 1.0, 1.6, 2.5, 3.1] {
+                    let mut panels = Vec::new();
+                    let line = f.line_panels(psi, &mut panels);
+                    let mut whole = [0.0; CHANNELS];
+                    f.accumulate_line(&line, &panels, &rules.inner, &mut vs, &mut ws, &mut whole);
+                    let mut one_by_one = [0.0; CHANNELS];
+                    for p in &panels {
+                        vs.clear();
+                        ws.clear();
+                        rules.inner.nodes_into(p, &mut vs, &mut ws);
+                        f.accumulate_nodes(&line, &vs, &ws, &mut one_by_one);
+                    }
+                    assert_eq!(
+                        whole.map(f64::to_bits),
+                        one_by_one.map(f64::to_bits),
+                        "{smith:?} r={r} mu={mu} psi={psi}"
+                    );
                 }
             }
         }

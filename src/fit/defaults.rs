@@ -6,8 +6,9 @@
 //! value at r = 0 (`Model::grazing_boundary_layer`).
 
 use super::data::{FitData, InputTransform};
-use super::job::SweepPlan;
-use super::result::Objective;
+use super::form::{parse_form, split_form};
+use super::job::{PlannedForm, SweepPlan};
+use super::result::{Form, Objective};
 
 /// Rationals with unequal total degrees (numerator, denominator) a default sweep adds.
 /// - 1-D and 2-D: (2, 1) and (1, 2), 8 coefficients in 2-D (the budget of `best-8`), and
@@ -40,7 +41,95 @@ pub fn default_plan(
         .into_iter()
         .filter(|&(n, m)| max_degree.is_none_or(|c| n <= c && m <= c))
         .collect();
+    if let Some(t) = physics_transforms(data, grazing_layer) {
+        if !plan.transform_sets.contains(&t) {
+            plan.transform_sets.push(t.clone());
+        }
+        plan.forms = structured_forms(data, &t)
+            .into_iter()
+            .filter(|f| max_degree.is_none_or(|c| top_degree(&f.form) <= c))
+            .collect();
+    }
     plan
+}
+
+/// The highest total degree of a form's numerator or denominator.
+fn top_degree(form: &Form) -> u32 {
+    match form {
+        Form::Polynomial { degree } => *degree,
+        Form::Rational {
+            numerator_degree,
+            denominator_degree,
+        } => (*numerator_degree).max(*denominator_degree),
+        Form::Exponents {
+            numerator,
+            denominator,
+        } => numerator
+            .total
+            .max(denominator.as_ref().map_or(0, |q| q.total)),
+    }
+}
+
+/// The transforms that carry the physics of a GGX albedo, measured best in docs/fitting.md:
+/// r² (= α) and √L, the square root of the boundary-layer coordinate of μ
+/// ([`InputTransform::GrazingLayer`] with w = 0, n = 2), where the model has a grazing layer
+/// that collapses at r = 0; √μ where it has not (the glossy layer); and F0^¼
+/// ([`InputTransform::RootNormalize`]) for a variable `f0` whose domain starts at ≥ 0. None
+/// for data without variables `r` and `mu` (r before mu, both within [0, 1]).
+pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<InputTransform>> {
+    let find = |n: &str| data.names.iter().position(|x| x.eq_ignore_ascii_case(n));
+    let (r, mu) = (find("r")?, find("mu")?);
+    let unit = |k: usize| data.domain[k].0 >= 0.0 && data.domain[k].1 <= 1.0;
+    if r >= mu || !unit(r) || !unit(mu) {
+        return None;
+    }
+    let mut t = vec![InputTransform::Identity; data.dim()];
+    if grazing_layer {
+        t[r] = InputTransform::Square;
+        t[mu] = InputTransform::GrazingLayer {
+            by: r,
+            k: 1.0,
+            w: 0.0,
+            root: 2,
+        };
+    } else {
+        t[mu] = InputTransform::Sqrt;
+    }
+    if let Some(f) = find("f0").filter(|&f| data.domain[f].0 >= 0.0) {
+        t[f] = InputTransform::RootNormalize {
+            lo: data.domain[f].0,
+            hi: data.domain[f].1,
+            root: 4,
+        };
+    }
+    Some(t)
+}
+
+/// Structured forms a default sweep fits in `transforms` ([`physics_transforms`]):
+/// - 2-D: per-variable degrees 4,4 over 3,3 (40 coefficients) and 1,3 over 1,0 (9);
+/// - 3-D with a variable `f0`: the split sums Σ_{a ≤ k} t_f0^a·P_a(r, μ)/Q(r, μ) with
+///   (k, n, m) = (2, 4, 3) (54 coefficients) and (3, 6, 5) (132).
+pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<PlannedForm> {
+    let d = data.dim();
+    let planned = |form| PlannedForm {
+        form,
+        transforms: transforms.to_vec(),
+    };
+    match d {
+        2 => ["tensor:4,4/3,3", "tensor:1,3/1,0"]
+            .iter()
+            .filter_map(|t| parse_form(t, &data.names).ok())
+            .map(planned)
+            .collect(),
+        3 => match data.names.iter().position(|x| x.eq_ignore_ascii_case("f0")) {
+            Some(f) => vec![
+                planned(split_form(3, f, 2, 4, 3)),
+                planned(split_form(3, f, 3, 6, 5)),
+            ],
+            None => Vec::new(),
+        },
+        _ => Vec::new(),
+    }
 }
 
 #[cfg(test)]
@@ -82,5 +171,25 @@ mod tests {
         let back: SweepPlan = serde_json::from_str(&json).unwrap();
         assert_eq!(back, p3);
         assert_ne!(json, serde_json::to_string(&p).unwrap());
+        // the physics transforms: r², √L with a grazing layer, √μ without; F0^¼ in 3-D
+        let t = physics_transforms(&d3, true).unwrap();
+        assert!(matches!(
+            t[0],
+            InputTransform::RootNormalize { root: 4, .. }
+        ));
+        assert!(matches!(t[2], InputTransform::GrazingLayer { by: 1, .. }));
+        assert_eq!(
+            physics_transforms(&d2, false).unwrap()[1],
+            InputTransform::Sqrt
+        );
+        let full = default_plan(&d3, None, None, Objective::LeastSquares, true);
+        let sizes: Vec<usize> = full
+            .forms
+            .iter()
+            .map(|f| f.form.n_coefficients(3))
+            .collect();
+        assert_eq!(sizes, vec![54, 132]);
+        assert_eq!(full.transform_sets.last(), Some(&t));
+        assert!(physics_transforms(&data(&["x", "y"]), true).is_none());
     }
 }

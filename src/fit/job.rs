@@ -412,6 +412,9 @@ pub struct SweepPlan {
     /// Rationals with unequal total degrees (numerator, denominator).
     #[serde(default)]
     pub rational_pairs: Vec<(u32, u32)>,
+    /// Structured forms, each with its transforms (one per variable).
+    #[serde(default)]
+    pub forms: Vec<PlannedForm>,
     pub transform_sets: Vec<Vec<InputTransform>>,
     pub objective: Objective,
     /// Most points the solver sees (0 = all).
@@ -421,6 +424,13 @@ pub struct SweepPlan {
     /// After a least-squares sweep, refit the most promising fits of each budget with the
     /// minimax objective (see [`sweep_fits`]).
     pub minimax_refits: bool,
+}
+
+/// A structured form of a sweep and the transforms it is fitted in.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlannedForm {
+    pub form: Form,
+    pub transforms: Vec<InputTransform>,
 }
 
 /// Least-squares fits per budget refitted for minimax error: the best by max error, and the
@@ -555,6 +565,7 @@ impl SweepPlan {
             polynomial_degrees,
             rational_degrees,
             rational_pairs: Vec::new(),
+            forms: Vec::new(),
             transform_sets,
             objective,
             max_fit_points: default_sweep_points(d),
@@ -568,7 +579,12 @@ impl SweepPlan {
     /// coefficients than the data has points.
     pub fn validate(&self, data: &FitData) -> Result<()> {
         let d = data.dim();
-        if let Some(t) = self.transform_sets.iter().find(|t| t.len() != d) {
+        if let Some(t) = self
+            .transform_sets
+            .iter()
+            .chain(self.forms.iter().map(|f| &f.transforms))
+            .find(|t| t.len() != d)
+        {
             return Err(Error::InvalidInput(format!(
                 "a transform set has {} entries for {d} variables",
                 t.len()
@@ -590,6 +606,7 @@ impl SweepPlan {
                     .iter()
                     .map(|&(p, q)| n(d, p) + n(d, q) - 1),
             )
+            .chain(self.forms.iter().map(|f| f.form.n_coefficients(d)))
             .collect();
         let smallest = sizes.iter().copied().min().ok_or_else(|| {
             Error::InvalidInput("the sweep plan has no polynomial or rational degree".into())
@@ -1046,6 +1063,11 @@ pub fn sweep_fits_checked(
         polynomial_degrees: plan.polynomial_degrees.clone(),
         rational_degrees: plan.rational_degrees.clone(),
         rational_pairs: plan.rational_pairs.clone(),
+        forms: plan
+            .forms
+            .iter()
+            .map(|f| (f.form.clone(), f.transforms.clone()))
+            .collect(),
         transform_sets: plan.transform_sets.clone(),
         objective: plan.objective,
         ..SweepOptions::for_dimension(d)

@@ -8,9 +8,10 @@ use serde::{Deserialize, Serialize};
 use super::basis::n_terms;
 use super::data::{FitData, InputTransform};
 use super::error::Result;
+use super::form::{fit_form, FitOptions};
 use super::polynomial::{fit_polynomial, PolynomialOptions};
 use super::rational::{fit_rational, RationalOptions};
-use super::result::{FitResult, Objective};
+use super::result::{FitResult, Form, Objective};
 
 /// What to sweep.
 #[derive(Clone, Debug)]
@@ -21,6 +22,9 @@ pub struct SweepOptions {
     /// Rationals with unequal total degrees (numerator, denominator), e.g. (2, 1): 8
     /// coefficients in 2-D, the small budgets' natural candidates.
     pub rational_pairs: Vec<(u32, u32)>,
+    /// Structured forms (per-variable degrees, split sums: [`Form::Exponents`]), each fitted
+    /// with its own transforms after the transform sets' degree sweeps.
+    pub forms: Vec<(Form, Vec<InputTransform>)>,
     /// Input-transform sets to try (one transform per variable each).
     pub transform_sets: Vec<Vec<InputTransform>>,
     pub objective: Objective,
@@ -44,6 +48,7 @@ impl SweepOptions {
             polynomial_degrees: poly.collect(),
             rational_degrees: rat.collect(),
             rational_pairs: Vec::new(),
+            forms: Vec::new(),
             transform_sets: vec![vec![InputTransform::Identity; d]],
             objective: Objective::LeastSquares,
             polynomial: PolynomialOptions::default(),
@@ -182,6 +187,30 @@ pub fn sweep_with_progress(
                     progress(SweepEvent::Skipped(&s));
                     skipped.push(s);
                 }
+            }
+        }
+    }
+    let fit_opts = FitOptions {
+        polynomial: opts.polynomial.clone(),
+        rational: opts.rational.clone(),
+    };
+    for (form, transforms) in &opts.forms {
+        let t = Instant::now();
+        let made = fit_form(data, transforms, form, opts.objective, &fit_opts);
+        match made {
+            Ok(mut r) => {
+                r.fit_seconds = t.elapsed().as_secs_f64();
+                progress(SweepEvent::Fitted(&r));
+                results.push(r);
+            }
+            Err(e) => {
+                let s = SkippedFit {
+                    form: form.label_with(&data.names),
+                    transforms: transforms.clone(),
+                    reason: e.to_string(),
+                };
+                progress(SweepEvent::Skipped(&s));
+                skipped.push(s);
             }
         }
     }

@@ -1,27 +1,11 @@
 //! The `furnace` command as a user meets it: listing, tabulating with a cache, evaluating
 //! points, and clear errors for bad input.
 
+mod common;
+
+use common::{furnace, scratch, stderr};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn furnace(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_furnace"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("furnace-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use std::process::Command;
 
 #[test]
 fn models_lists_every_model_with_axes() {

@@ -2,27 +2,11 @@
 //! format, Cycles' arrays spliced into Cycles' own file, and clear errors that write nothing.
 
 use furnace::export::filament::{column_mu, f16_value, row_r};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn furnace(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_furnace"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("furnace-export-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{furnace, scratch, stderr};
+use std::path::Path;
+use std::process::Command;
 
 /// The folder holds exactly these names.
 fn assert_holds(d: &Path, names: &[&str]) {
@@ -300,4 +284,79 @@ fn bad_input_is_refused_clearly_and_writes_nothing() {
         "a user's file\n"
     );
     assert_holds(&d, &["mine.inc", "folder.inc"]);
+}
+
+#[test]
+fn one_file_exports_go_to_standard_output() {
+    let d = scratch("stdout");
+    let file = furnace(
+        &[
+            "export", "--format", "filament", "--size", "16", "--output", "dfg.inc",
+        ],
+        &d,
+    );
+    assert!(file.status.success(), "{}", stderr(&file));
+    let o = furnace(
+        &[
+            "export",
+            "--format",
+            "filament",
+            "--size",
+            "16",
+            "--encoding",
+            "inc",
+            "--output",
+            "-",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(o.stdout, std::fs::read(d.join("dfg.inc")).unwrap());
+    assert!(
+        stderr(&o).contains("wrote standard output"),
+        "{}",
+        stderr(&o)
+    );
+    assert_holds(&d, &["data", "dfg.inc"]); // the table cache and the one file
+                                            // what is not one file, or has no encoding to go by, is refused before anything is computed
+    for (args, needle) in [
+        (
+            &[
+                "export", "--format", "filament", "--size", "16", "--output", "-",
+            ][..],
+            "give --encoding inc, cpp or js",
+        ),
+        (
+            &[
+                "export",
+                "--format",
+                "filament",
+                "--size",
+                "16",
+                "--encoding",
+                "bin",
+                "--output",
+                "-",
+            ][..],
+            "cannot go to standard output",
+        ),
+        (
+            &[
+                "export",
+                "--format",
+                "generic",
+                "--model",
+                "oren-nayar-fon",
+                "--output",
+                "-",
+            ][..],
+            "three files",
+        ),
+    ] {
+        let o = furnace(args, &d);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+        assert!(o.stdout.is_empty(), "{args:?} wrote to standard output");
+    }
+    assert_holds(&d, &["data", "dfg.inc"]); // the table cache and the one file
 }

@@ -7,7 +7,8 @@ use clap::{Args, ValueEnum};
 
 use super::{parse_resolution, QuadratureArgs};
 use crate::error::{Error, Result};
-use crate::export::{self, cycles, filament, generic, Compute};
+use crate::export::{self, cycles, filament, generic, Compute, Files};
+use crate::output::Target;
 
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FormatArg {
@@ -44,8 +45,9 @@ pub struct ExportArgs {
     /// The renderer whose layout to write.
     #[arg(long, value_enum)]
     pub format: FormatArg,
-    /// The file to write (generic: an .exr, with .f64 and .json beside it). An existing file is
-    /// replaced only if furnace export wrote it.
+    /// The file to write (generic: an .exr, with .f64 and .json beside it), or `-` for standard
+    /// output (cycles, and filament's inc, cpp and js encodings: one text file). An existing file
+    /// is replaced only if furnace export wrote it.
     #[arg(long)]
     pub output: PathBuf,
     /// filament: side of the square table (a power of two; Filament uses 128).
@@ -123,11 +125,31 @@ fn check_options(args: &ExportArgs) -> Result<()> {
         "generic",
         "",
     )?;
+    if Target::from_arg(&args.output).is_stdout() {
+        let two_files = match f {
+            FormatArg::Generic => Some("the generic format writes three files (.exr, .f64, .json)"),
+            FormatArg::Filament if args.encoding == Some(EncodingArg::Bin) => {
+                Some("the bin encoding writes the texels and a JSON header beside them")
+            }
+            _ => None,
+        };
+        if let Some(why) = two_files {
+            return Err(Error::InvalidInput(format!(
+                "--output -: {why}, so they cannot go to standard output; give a file name"
+            )));
+        }
+        if f == FormatArg::Filament && args.encoding.is_none() {
+            return Err(Error::InvalidInput(
+                "--output -: standard output has no extension to tell the encoding from; give --encoding inc, cpp or js".into(),
+            ));
+        }
+    }
     Ok(())
 }
 
 pub fn export_cmd(args: &ExportArgs) -> Result<()> {
     check_options(args)?;
+    let target = Target::from_arg(&args.output);
     let start = Instant::now();
     let compute = Compute {
         quadrature: args.quadrature.settings()?,
@@ -165,7 +187,17 @@ pub fn export_cmd(args: &ExportArgs) -> Result<()> {
             generic::export(&compute, model.as_ref(), &resolution, &args.output)?
         }
     };
-    export::write(&out)?;
+    match (&target, &out.files) {
+        (Target::Stdout, Files::Bytes(files)) if files.len() == 1 => {
+            target.write(&files[0].bytes)?
+        }
+        (Target::Stdout, _) => {
+            return Err(Error::InvalidInput(
+                "--output -: this export is not one file; give a file name".into(),
+            ))
+        }
+        (Target::File(_), _) => export::write(&out)?,
+    }
     for t in &out.tables {
         eprintln!(
             "{:<28} {:>6} cells, max error estimate {:.1e}{}, {:.2} s",
@@ -180,8 +212,13 @@ pub fn export_cmd(args: &ExportArgs) -> Result<()> {
             t.seconds
         );
     }
-    for p in out.paths() {
-        eprintln!("    wrote {}", p.display());
+    match &target {
+        Target::Stdout => eprintln!("    wrote {}", target.describe()),
+        Target::File(_) => {
+            for p in out.paths() {
+                eprintln!("    wrote {}", p.display());
+            }
+        }
     }
     eprintln!(
         "export done in {:.2} s; max error estimate {:.1e}",

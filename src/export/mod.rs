@@ -101,25 +101,28 @@ pub struct Compute {
 }
 
 impl Compute {
-    /// `model` tabulated on `axes`, read from the cache when it holds the same request.
+    /// `model` tabulated on `axes`: from the table cache ([`table::get_or_tabulate`], which
+    /// saves what it computes) when there is one, else computed.
     pub fn table(&self, model: ModelId, axes: Vec<GridAxis>) -> Result<(Table, f64)> {
         let model = bsdf::get(model)?;
         let spec = TableSpec::with_axes(model.as_ref(), axes, self.quadrature.clone())?;
-        let start = Instant::now();
-        let stem = self
-            .data_dir
-            .as_ref()
-            .map(|d| io::table_stem(d, model.as_ref(), &spec));
-        if let Some(stem) = &stem {
-            if let Some(t) = io::load_cached(&spec, stem)? {
-                return Ok((t, start.elapsed().as_secs_f64()));
+        match &self.data_dir {
+            Some(dir) => {
+                let t = table::get_or_tabulate(
+                    model.as_ref(),
+                    &spec,
+                    dir,
+                    false,
+                    &crate::progress::Quiet,
+                )?;
+                Ok((t.table, t.seconds))
+            }
+            None => {
+                let start = Instant::now();
+                let t = table::tabulate(model.as_ref(), &spec, &|_| {})?;
+                Ok((t, start.elapsed().as_secs_f64()))
             }
         }
-        let t = table::tabulate(model.as_ref(), &spec, &|_| {})?;
-        if let Some(stem) = &stem {
-            io::save(&t, stem)?;
-        }
-        Ok((t, start.elapsed().as_secs_f64()))
     }
 }
 

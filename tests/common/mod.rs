@@ -1,8 +1,38 @@
 //! What the documentation tests share: a copy of the repository as a fresh clone has it, in a
-//! folder with no siblings, and running a shell command there with `furnace` on the `PATH`.
+//! folder with no siblings, and running a shell command there with `furnace` on the `PATH`; and
+//! what the command-line tests share: running `furnace` in a folder, scratch folders.
+
+// every test crate that includes this module uses some of its helpers, never all
+#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+/// Runs the `furnace` under test in `dir`.
+pub fn furnace(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_furnace"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("the furnace binary runs")
+}
+
+/// An empty scratch folder `<tmp>/furnace-<test crate>-<pid>-<name>`.
+pub fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "furnace-{}-{}-{name}",
+        env!("CARGO_CRATE_NAME"),
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The standard error of a finished command.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
 
 /// The repository (the package root).
 pub fn repository() -> PathBuf {

@@ -154,6 +154,40 @@ fn emitted_helpers_compute_the_papers_factors() {
             1.0 / e.max(1e-3)
         );
         assert!(c::ggx_conductor_separable_turquin_scale(1.0, r, mu) >= 1.0);
+        // Kulla & Conty 2017: f_ms, F_ms and the weight of a diffuse base
+        for (e_avg, mu_i) in [(0.9f32, 0.4f32), (0.5, 1.0), (0.999, 0.0)] {
+            let ei = c::ggx_conductor_separable_albedo(r, mu_i);
+            let want = (1.0 - e) * (1.0 - ei) / (std::f32::consts::PI * (1.0 - e_avg));
+            assert_eq!(
+                c::ggx_conductor_separable_kulla_conty_lobe(e_avg, r, mu, mu_i),
+                want
+            );
+            // off where 1 − E_avg is below the floor
+            assert_eq!(
+                c::ggx_conductor_separable_kulla_conty_lobe(1.0, r, mu, mu_i),
+                0.0
+            );
+            for f_avg in [0.0f32, 0.5, 1.0] {
+                let f_ms = f_avg * f_avg * e_avg / (1.0 - f_avg * (1.0 - e_avg)).max(1e-3);
+                assert_eq!(
+                    c::ggx_conductor_separable_kulla_conty_color(f_avg, e_avg),
+                    f_ms
+                );
+                assert_eq!(
+                    c::ggx_conductor_separable_kulla_conty_color_rgb([f_avg, 0.5, f_avg], e_avg),
+                    [
+                        f_ms,
+                        c::ggx_conductor_separable_kulla_conty_color(0.5, e_avg),
+                        f_ms
+                    ]
+                );
+                assert_eq!(
+                    c::ggx_conductor_separable_kulla_conty_diffuse_weight(f_avg, e_avg, r, mu),
+                    (1.0 - (f_avg * e + f_ms * (1.0 - e))).max(0.0)
+                );
+            }
+            assert!((c::ggx_conductor_separable_kulla_conty_color(1.0, e_avg) - 1.0).abs() < 1e-6);
+        }
     }
     for &(f0, r, cos_o) in &[
         (0.03f32, 0.2f32, 0.7f32),

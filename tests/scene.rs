@@ -77,7 +77,8 @@ fn conductor_only_scene_tabulates_fits_and_emits_only_2d_conductor_code() {
         assert_eq!(v["axes"].as_array().unwrap().len(), 2, "{}", s.display());
         assert_eq!(v["model"], "ggx-conductor");
     }
-    // emitted: the conductor albedo, Turquin's scale (gold) and 1/E (window) — nothing else
+    // emitted: the conductor albedo, Turquin's scale and the Kulla–Conty helpers (gold) and 1/E
+    // (window) — nothing else
     let rs = std::fs::read_to_string(dir.join("fits/metals/metals.rs")).unwrap();
     let fns: Vec<&str> = rs
         .lines()
@@ -90,6 +91,10 @@ fn conductor_only_scene_tabulates_fits_and_emits_only_2d_conductor_code() {
             "ggx_conductor_albedo",
             "ggx_conductor_turquin_scale",
             "ggx_conductor_turquin_scale_rgb",
+            "ggx_conductor_kulla_conty_lobe",
+            "ggx_conductor_kulla_conty_color",
+            "ggx_conductor_kulla_conty_color_rgb",
+            "ggx_conductor_kulla_conty_diffuse_weight",
             "ggx_conductor_normalization"
         ]
     );

@@ -7,6 +7,10 @@
 //!   evaluated once; and 1/E, the normalisation of a thin dielectric
 //!   (paper §3.4 with eq. 19 on the conductor table) and of the glossy specular layer ρ_ss/E_ss
 //!   (paper eq. 18);
+//! * conductor: Kulla & Conty's multiple-scattering lobe (1 − E(μo))(1 − E(μi))/(π(1 − E_avg)),
+//!   its colour F_ms = F_avg² E_avg/(1 − F_avg(1 − E_avg)) and the weight of a diffuse base under
+//!   a dielectric layer, 1 − (F_avg E + F_ms (1 − E)) (Kulla & Conty 2017, "Revisiting Physically
+//!   Based Shading at Imageworks"; the layered form as in Energy Compensation Pt. 1);
 //! * glossy: the diffuse weight 1 − E_spec (paper eq. 18);
 //! * dielectric: the normalisation 1/E (paper eq. 19), and — when the entering and leaving fits
 //!   are emitted together — the choice of table by the side of the surface ωo is on: the
@@ -63,6 +67,12 @@ fn names(prefix: &str, helper: Helper) -> Vec<String> {
         Helper::TurquinScale => vec![
             format!("{prefix}_turquin_scale"),
             format!("{prefix}_turquin_scale_rgb"),
+        ],
+        Helper::KullaConty => vec![
+            format!("{prefix}_kulla_conty_lobe"),
+            format!("{prefix}_kulla_conty_color"),
+            format!("{prefix}_kulla_conty_color_rgb"),
+            format!("{prefix}_kulla_conty_diffuse_weight"),
         ],
         Helper::Normalization => vec![format!("{prefix}_normalization")],
         Helper::DiffuseWeight => vec![format!("{prefix}_diffuse_weight")],
@@ -139,6 +149,7 @@ pub fn helpers(albedos: &[AlbedoRef], suffix: &str) -> Vec<Function> {
                         result: vec3(channel(0), channel(1), channel(2)),
                     });
                 }
+                Helper::KullaConty => out.extend(kulla_conty(a, &prefix, suffix)),
                 Helper::Normalization => {
                     out.push(normalization(name, a, normalization_doc(a, &args, &purposes)))
                 }
@@ -160,6 +171,125 @@ pub fn helpers(albedos: &[AlbedoRef], suffix: &str) -> Vec<Function> {
         out.extend(sided(albedos, enter, leaving, suffix));
     }
     out
+}
+
+/// Below this 1 − E_avg the Kulla–Conty lobe is off: the average energy it would restore is
+/// under 1e-6 (GGX at r ≲ 1e-3), while dividing by it would amplify a fit's error.
+pub const KULLA_CONTY_FLOOR: f64 = 1e-6;
+
+/// The Kulla–Conty helpers of albedo `a` (Kulla & Conty 2017, "Revisiting Physically Based
+/// Shading at Imageworks"; Kelemen & Szirmay-Kalos 2001), if it takes `mu`: the lobe, its colour
+/// (scalar and RGB) and the weight of a diffuse base under a dielectric layer (the layered model
+/// of the seed's "Complete Approximate Model", with Kulla & Conty's F_ms).
+fn kulla_conty(a: &AlbedoRef, prefix: &str, suffix: &str) -> Vec<Function> {
+    if !a.params.iter().any(|p| p == "mu") {
+        return vec![];
+    }
+    let at = |mu: &str| {
+        call(
+            &a.function,
+            a.params
+                .iter()
+                .map(|p| if p == "mu" { var(mu) } else { var(p) })
+                .collect(),
+        )
+    };
+    let others = a.params.iter().filter(|p| *p != "mu").cloned();
+    let mut lobe_params = vec!["e_avg".to_string()];
+    lobe_params.extend(others.clone());
+    lobe_params.extend(["mu_o".to_string(), "mu_i".to_string()]);
+    let lobe = Function {
+        name: format!("{prefix}_kulla_conty_lobe{suffix}"),
+        doc: vec![
+            format!("Kulla & Conty's multiple-scattering lobe f_ms = (1 − E(μo))(1 − E(μi)) / (π(1 − E_avg)), E = {}", a.function),
+            "at mu_o = n·ωo and mu_i = n·ωi (Kulla & Conty 2017, \"Revisiting Physically Based Shading at".into(),
+            "Imageworks\"; Kelemen & Szirmay-Kalos 2001). Add it, times the colour F_ms, to the single-scattering".into(),
+            "BRDF; it integrates to 1 − E(μo), so a white conductor keeps all its energy. e_avg is".into(),
+            format!("E_avg = 2 ∫ E(μ) μ dμ over [0, 1] at the same roughness: the fit or LUT of the `-avg` model. Returns 0 where 1 − E_avg < {KULLA_CONTY_FLOOR:e}."),
+        ],
+        params: lobe_params,
+        body: vec![
+            Stmt { name: "e_o".into(), value: at("mu_o"), comment: None },
+            Stmt { name: "e_i".into(), value: at("mu_i"), comment: None },
+            Stmt {
+                name: "one_minus_e_avg".into(),
+                value: sub(lit(1.0), var("e_avg")),
+                comment: Some(format!("guard: below {KULLA_CONTY_FLOOR:e} the lobe is off (it would restore less than that)")),
+            },
+        ],
+        result: select_ge(
+            var("one_minus_e_avg"),
+            lit(KULLA_CONTY_FLOOR),
+            div(
+                mul(sub(lit(1.0), var("e_o")), sub(lit(1.0), var("e_i"))),
+                mul(lit(std::f64::consts::PI), var("one_minus_e_avg")),
+            ), // Kulla & Conty 2017, f_ms
+            lit(0.0),
+        ),
+    };
+    let color_name = format!("{prefix}_kulla_conty_color{suffix}");
+    // Kulla & Conty 2017: F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)), the sum over the bounces
+    let f_ms = |f: super::ir::Expr| {
+        div(
+            mul(mul(f.clone(), f.clone()), var("e_avg")),
+            max(
+                sub(lit(1.0), mul(f, sub(lit(1.0), var("e_avg")))),
+                lit(ALBEDO_FLOOR),
+            ),
+        )
+    };
+    let color = Function {
+        name: color_name.clone(),
+        doc: vec![
+            "Kulla & Conty's colour of the multiple-scattering lobe, F_ms = F_avg² E_avg / (1 − F_avg(1 − E_avg)):".into(),
+            "multiply the lobe by it. f_avg = 2 ∫ F(μ) μ dμ over [0, 1] of one colour channel's Fresnel (the `fresnel-*` models;".into(),
+            format!("F0 + (1 − F0)/21 for Schlick's), e_avg as for {prefix}_kulla_conty_lobe{suffix}."),
+        ],
+        params: vec!["f_avg".into(), "e_avg".into()],
+        body: vec![],
+        result: f_ms(var("f_avg")),
+    };
+    let color_rgb = Function {
+        name: format!("{prefix}_kulla_conty_color_rgb{suffix}"),
+        doc: vec![format!(
+            "F_ms of {color_name} for an RGB F_avg, channel by channel the same value."
+        )],
+        params: vec!["f_avg".into(), "e_avg".into()],
+        body: vec![],
+        result: vec3(
+            f_ms(component("f_avg", 0)),
+            f_ms(component("f_avg", 1)),
+            f_ms(component("f_avg", 2)),
+        ),
+    };
+    let mut weight_params = vec!["f_avg".to_string(), "e_avg".to_string()];
+    weight_params.extend(a.params.iter().cloned());
+    let weight = Function {
+        name: format!("{prefix}_kulla_conty_diffuse_weight{suffix}"),
+        doc: vec![
+            format!("Weight 1 − (F_avg E(μo) + F_ms (1 − E(μo))) of a diffuse base under a dielectric specular layer, E = {}:", a.function),
+            "the energy the layer's single scattering (≈ F_avg E) and Kulla–Conty lobe (F_ms (1 − E)) leave to it".into(),
+            "(Kulla & Conty 2017, F_avg and F_ms; the layered model of Energy Compensation Pt. 1, \"Complete".into(),
+            "Approximate Model\"). f_avg of the dielectric's Fresnel (the `fresnel-dielectric` model), e_avg as above.".into(),
+        ],
+        params: weight_params,
+        body: vec![
+            Stmt { name: "e".into(), value: call_albedo(a), comment: None },
+            Stmt {
+                name: "f_ms".into(),
+                value: call(&color_name, vec![var("f_avg"), var("e_avg")]),
+                comment: None,
+            },
+        ],
+        result: max(
+            sub(
+                lit(1.0),
+                add(mul(var("f_avg"), var("e")), mul(var("f_ms"), sub(lit(1.0), var("e")))),
+            ),
+            lit(0.0),
+        ),
+    };
+    vec![lobe, color, color_rgb, weight]
 }
 
 /// The side-of-surface helpers of the entering albedo `enter` and the albedo of model `leaving`

@@ -741,6 +741,10 @@ pub fn build_unit(
         "All arithmetic is f32. Each function states what its arguments mean, its domain, evaluation form, measured errors and error bound.".into(),
         "Helpers: Sforza & Pellacini 2022, \"Enforcing Energy Preservation in Microfacet Models\" (eqs. 13, 18, 19).".into(),
     ];
+    let mut header = header;
+    if names.iter().any(|n| n.contains("_kulla_conty_")) {
+        header.push("Kulla-Conty helpers: Kulla & Conty 2017, \"Revisiting Physically Based Shading at Imageworks\".".into());
+    }
     Ok((
         Unit {
             stem: stem.into(),

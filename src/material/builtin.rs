@@ -3,7 +3,7 @@
 //!
 //! | class | BSDF | compensated (white) | paper |
 //! | --- | --- | --- | --- |
-//! | conductor | ρ_ss = D G2 / (4 μo μi), F = 1 | ρ_ss·(1 + F0(1−E)/E) = ρ_ss/E at F0 = 1 | eqs. 7–9, 13 |
+//! | conductor | ρ_ss = D G2 / (4 μo μi), F = 1 | ρ_ss·(1 + F0(1−E)/E) = ρ_ss/E at F0 = 1; ρ_ss + f_ms (Kulla–Conty, [`super::kulla_conty`]) | eqs. 7–9, 13 |
 //! | glossy | F ρ_ss* + (1 − F(μo)) / π | F ρ_ss*/E_ss + (1 − E_spec)/π | eqs. 16–18 |
 //! | thin dielectric | F ρ_ss* + (1 − F) ρ_ss*(mirrored) | (ρ_R + ρ_T)/E_ss | §3.4, eq. 19 |
 //! | dielectric | F ρ_ss* + ρ_T (Walter eq. 21) | (ρ_R + ρ_T)/E | eq. 19 |
@@ -25,6 +25,7 @@
 //! (1 for the conductor, F(μo) for the glossy specular layer, F + (1 − F) for dielectrics).
 
 use super::furnace::average_albedo;
+use super::kulla_conty::KullaConty;
 use super::{
     CompensatedBsdf, Compensation, Helper, HelperUse, Lobe, MaterialClass, MicrofacetLobe,
     Prepared, TableUse,
@@ -104,7 +105,10 @@ impl MaterialClass for Kind {
         match self {
             Kind::Conductor => vec![TableUse::new(
                 conductor,
-                vec![use_(Helper::TurquinScale, &[])],
+                vec![
+                    use_(Helper::TurquinScale, &[]),
+                    use_(Helper::KullaConty, &[]),
+                ],
             )],
             // §3.4: a thin dielectric's reflection and transmission lobes share the conductor table
             Kind::ThinDielectric => vec![TableUse::new(
@@ -168,6 +172,12 @@ impl MaterialClass for Kind {
                 Kind::RoughDiffuse,
                 SmithForm::HeightCorrelated,
             ))],
+            // Turquin's scale, then Kulla & Conty's lobe, white and coloured
+            Kind::Conductor => vec![
+                Arc::new(m),
+                Arc::new(KullaConty::white(smith)),
+                Arc::new(KullaConty::coloured(smith)),
+            ],
             _ => vec![Arc::new(m)],
         }
     }

@@ -17,7 +17,7 @@
 //!
 //! | kind | tables | helpers | compensated BSDF | paper |
 //! | --- | --- | --- | --- | --- |
-//! | conductor | ggx-conductor (r, μ) | Turquin scale | ρ_ss·(1 + F0(1−E)/E) = ρ_ss/E at F0 = 1 | eqs. 7–9, 13 |
+//! | conductor | ggx-conductor (r, μ) | Turquin scale; Kulla–Conty lobe, colour, diffuse weight | ρ_ss·(1 + F0(1−E)/E) = ρ_ss/E at F0 = 1; ρ_ss + F_ms f_ms ([`kulla_conty`]) | eqs. 7–9, 13; Kulla & Conty 2017 |
 //! | glossy | ggx-glossy (f0, r, μ), ggx-conductor | 1 − E_spec; 1/E_ss | F ρ_ss*/E_ss + (1 − E_spec)/π | eqs. 16–18 |
 //! | thin-dielectric | ggx-conductor (r, μ) | 1/E | (ρ_R + ρ_T)/E_ss | §3.4, eq. 19 |
 //! | dielectric | ggx-dielectric, ggx-dielectric-inv (f0, r, μ) | 1/E, by side of the surface | (ρ_R + ρ_T)/E | eq. 19, §3.3 |
@@ -28,6 +28,7 @@
 
 pub mod builtin;
 pub mod furnace;
+pub mod kulla_conty;
 pub mod microfacet;
 pub mod quad;
 mod registry;
@@ -55,6 +56,10 @@ pub trait Albedo: Sync {
 pub enum Helper {
     /// 1 + F0·(1 − E)/E: the conductor's multiple-scattering scale (eq. 13, after Turquin 2019).
     TurquinScale,
+    /// Kulla & Conty 2017: the multiple-scattering lobe f_ms(ωo, ωi) = (1 − E(μo))(1 − E(μi)) /
+    /// (π(1 − E_avg)), its colour F_ms = F_avg² E_avg / (1 − F_avg(1 − E_avg)), and the weight
+    /// 1 − (F_avg E(μo) + F_ms (1 − E(μo))) of a diffuse base under a dielectric layer.
+    KullaConty,
     /// 1/E: the normalisation of a lobe whose albedo is E (eqs. 18, 19; §3.4).
     Normalization,
     /// 1 − E: the weight of a diffuse base under a specular layer of albedo E (eq. 18).

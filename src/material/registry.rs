@@ -147,10 +147,14 @@ mod tests {
             |m: ModelId| -> Vec<Helper> { helpers_for(m).into_iter().map(|h| h.0).collect() };
         assert_eq!(
             kinds(ModelId::ggx_conductor(sep)),
-            [Helper::TurquinScale, Helper::Normalization]
+            [
+                Helper::TurquinScale,
+                Helper::KullaConty,
+                Helper::Normalization
+            ]
         );
         // the conductor's 1/E serves the thin dielectric and the glossy layer, in registry order
-        let normalization = &helpers_for(ModelId::ggx_conductor(sep))[1].1;
+        let normalization = &helpers_for(ModelId::ggx_conductor(sep))[2].1;
         assert!(normalization.len() == 2 && normalization[1][0].contains("glossy"));
         let enter = ModelId::ggx_dielectric(Side::Entering, sep);
         let leave = ModelId::ggx_dielectric(Side::Leaving, sep);
@@ -163,7 +167,12 @@ mod tests {
             |m: ModelId| -> Vec<String> { compensated_for(m).iter().map(|c| c.id()).collect() };
         assert_eq!(
             ids(ModelId::ggx_conductor(sep)),
-            ["conductor-separable", "thin-dielectric-separable"]
+            [
+                "conductor-separable",
+                "conductor-kulla-conty-separable",
+                "conductor-kulla-conty-f0-0.5-separable",
+                "thin-dielectric-separable"
+            ]
         );
         assert_eq!(ids(leave), ["dielectric-inv-separable"]);
         assert_eq!(

@@ -737,6 +737,10 @@ mod tests {
             vec![
                 "ggx_conductor_turquin_scale",
                 "ggx_conductor_turquin_scale_rgb",
+                "ggx_conductor_kulla_conty_lobe",
+                "ggx_conductor_kulla_conty_color",
+                "ggx_conductor_kulla_conty_color_rgb",
+                "ggx_conductor_kulla_conty_diffuse_weight",
                 "ggx_conductor_normalization"
             ]
         );

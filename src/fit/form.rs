@@ -205,12 +205,17 @@ fn check_distinct(data: &FitData, set: &ExponentSet, form: &Form) -> Result<()> 
         if degree == 0 {
             continue;
         }
-        let mut v: Vec<f64> = (0..data.len())
-            .filter(|&i| data.weight(i) > 0.0)
-            .map(|i| data.point(i)[k])
-            .collect();
-        v.sort_by(f64::total_cmp);
-        v.dedup();
+        // distinct values, counted only up to degree + 1 (a grid shows them early)
+        let mut v: Vec<f64> = Vec::with_capacity(degree as usize + 1);
+        for i in (0..data.len()).filter(|&i| data.weight(i) > 0.0) {
+            let x = data.point(i)[k];
+            if !v.contains(&x) {
+                v.push(x);
+                if v.len() > degree as usize {
+                    break;
+                }
+            }
+        }
         if v.len() <= degree as usize {
             return Err(FitError::TooFewValues {
                 form: form.label_with(&data.names),
@@ -392,6 +397,30 @@ mod tests {
         );
         assert!(
             e.to_string().contains("f0") && e.to_string().contains("lower"),
+            "{e}"
+        );
+        // a domain whose data lie on one slice of f0 (f0 = 0.1 only): no degree in f0 is determined
+        let mut coords = Vec::new();
+        for i in 0..36 {
+            coords.extend([0.1, (i / 6) as f64 / 5.0, (i % 6) as f64 / 5.0]);
+        }
+        let slice = FitData::new(
+            vec!["f0".into(), "r".into(), "mu".into()],
+            coords,
+            vec![0.5; 36],
+            vec![(0.0, 1.0); 3],
+        )
+        .unwrap();
+        let e = fit_form(
+            &slice,
+            &t,
+            &split_form(3, 0, 1, 1, 1),
+            Objective::LeastSquares,
+            &o,
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("only 1 distinct values of 'f0'"),
             "{e}"
         );
         // wrong shape

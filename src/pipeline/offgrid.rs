@@ -23,6 +23,11 @@ pub const LUT_CHECK_RESOLUTIONS: [usize; 3] = [16, 32, 64];
 /// The LUT resolution a chosen fit must beat (`furnace run` flags it otherwise).
 pub const LUT_TO_BEAT: usize = 32;
 
+/// Errors below this are within the check values' own quadrature tolerance (the tables' and the
+/// check set's 1e-7 per value), so a fit and a LUT that both reach it are not ranked against each
+/// other on it.
+pub const INDISTINGUISHABLE: f64 = 1e-7;
+
 /// Name of the file in each model's fit folder.
 pub use crate::report::inputs::OFF_GRID_FILE;
 
@@ -154,7 +159,7 @@ impl OffGridSummary {
     }
 
     /// One sentence per best fit that loses to the [`LUT_TO_BEAT`]-per-axis LUT on max error or
-    /// MAE at the check points.
+    /// MAE at the check points, by more than [`INDISTINGUISHABLE`].
     pub fn losses(&self) -> Vec<String> {
         let Some(lut) = self.luts.iter().find(|l| l.per_axis == LUT_TO_BEAT) else {
             return Vec::new();
@@ -162,8 +167,8 @@ impl OffGridSummary {
         self.best
             .iter()
             .filter_map(|b| {
-                let max = b.max_abs_error > lut.errors.max_abs_error;
-                let mae = b.mae > lut.errors.mae;
+                let max = b.max_abs_error > lut.errors.max_abs_error.max(INDISTINGUISHABLE);
+                let mae = b.mae > lut.errors.mae.max(INDISTINGUISHABLE);
                 (max || mae).then(|| {
                     format!(
                         "{} best-{} ({} coefficients) loses to the {n}-per-axis LUT ({} values) on {}: max {:.1e} vs {:.1e}, MAE {:.1e} vs {:.1e}",
@@ -231,5 +236,14 @@ mod tests {
             "{}",
             l[0]
         );
+        // both at the quadrature's own level: no loss to report
+        let mut tiny = s.clone();
+        tiny.luts[0].errors.max_abs_error = 1e-9;
+        tiny.luts[0].errors.mae = 5e-12;
+        tiny.best[0].max_abs_error = 2e-9;
+        tiny.best[0].mae = 1e-11;
+        assert!(tiny.losses().is_empty(), "{:?}", tiny.losses());
+        tiny.best[0].max_abs_error = 2e-7;
+        assert_eq!(tiny.losses().len(), 1);
     }
 }

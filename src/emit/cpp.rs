@@ -14,7 +14,7 @@
 //! three floats defined once however many headers are included.
 
 use super::ir::{float_literal, Function};
-use super::source::{render, Operand, Syntax};
+use super::source::{c_style_open, render, Operand, Syntax};
 use super::{Artifact, Emitter, Unit};
 
 /// The C/C++ emitter.
@@ -107,24 +107,7 @@ impl Syntax for Cpp {
         vec![format!("#endif // {}", guard(unit))]
     }
     fn open_function(&self, f: &Function) -> Vec<String> {
-        let mut v: Vec<String> = f
-            .doc
-            .iter()
-            .map(|l| format!("// {l}").trim_end().to_string())
-            .collect();
-        let ty = |vector: bool| if vector { "furnace_rgb" } else { "float" };
-        let params = f
-            .params
-            .iter()
-            .map(|p| format!("{} {p}", ty(f.is_vector_param(p))))
-            .collect::<Vec<_>>()
-            .join(", ");
-        v.push(format!(
-            "FURNACE_FN {} {}({params}) {{",
-            ty(f.returns_vector()),
-            f.name
-        ));
-        v
+        c_style_open(f, "FURNACE_FN ", "float", "furnace_rgb")
     }
     fn let_stmt(&self, name: &str, value: &str) -> String {
         format!("const float {name} = {value};")

@@ -6,7 +6,7 @@
 //! `vec3`. The text is validated by naga before it is returned ([`super::validate`]).
 
 use super::ir::{float_literal, Function};
-use super::source::{render, Operand, Syntax};
+use super::source::{c_style_open, render, Operand, Syntax};
 use super::{Artifact, Emitter, Unit};
 
 /// The GLSL emitter.
@@ -55,24 +55,7 @@ impl Syntax for Glsl {
         vec![format!("#endif // {}", unit.guard)]
     }
     fn open_function(&self, f: &Function) -> Vec<String> {
-        let mut v: Vec<String> = f
-            .doc
-            .iter()
-            .map(|l| format!("// {l}").trim_end().to_string())
-            .collect();
-        let ty = |vector: bool| if vector { "highp vec3" } else { "highp float" };
-        let params = f
-            .params
-            .iter()
-            .map(|p| format!("{} {p}", ty(f.is_vector_param(p))))
-            .collect::<Vec<_>>()
-            .join(", ");
-        v.push(format!(
-            "{} {}({params}) {{",
-            ty(f.returns_vector()),
-            f.name
-        ));
-        v
+        c_style_open(f, "", "highp float", "highp vec3")
     }
     fn let_stmt(&self, name: &str, value: &str) -> String {
         format!("highp float {name} = {value};")

@@ -6,7 +6,7 @@
 //! glslangValidator's HLSL front end to SPIR-V and check that with spirv-val.
 
 use super::ir::{float_literal, Function};
-use super::source::{render, Operand, Syntax};
+use super::source::{c_style_open, render, Operand, Syntax};
 use super::{Artifact, Emitter, Unit};
 
 /// The HLSL emitter.
@@ -64,24 +64,7 @@ impl Syntax for Hlsl {
         vec![format!("#endif // {}", guard(unit))]
     }
     fn open_function(&self, f: &Function) -> Vec<String> {
-        let mut v: Vec<String> = f
-            .doc
-            .iter()
-            .map(|l| format!("// {l}").trim_end().to_string())
-            .collect();
-        let ty = |vector: bool| if vector { "float3" } else { "float" };
-        let params = f
-            .params
-            .iter()
-            .map(|p| format!("{} {p}", ty(f.is_vector_param(p))))
-            .collect::<Vec<_>>()
-            .join(", ");
-        v.push(format!(
-            "{} {}({params}) {{",
-            ty(f.returns_vector()),
-            f.name
-        ));
-        v
+        c_style_open(f, "", "float", "float3")
     }
     fn let_stmt(&self, name: &str, value: &str) -> String {
         format!("float {name} = {value};")

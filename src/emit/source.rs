@@ -47,6 +47,30 @@ pub trait Syntax {
     fn result(&self, value: &str) -> String;
 }
 
+/// The `//` doc lines and `<ret> <name>(<type> <param>, …) {` signature of the C-family
+/// languages (GLSL, HLSL, C/C++), whose declarations differ only in the scalar and vector type
+/// names and an optional qualifier before the return type.
+pub fn c_style_open(f: &Function, qualifier: &str, scalar: &str, vector: &str) -> Vec<String> {
+    let mut v: Vec<String> = f
+        .doc
+        .iter()
+        .map(|l| format!("// {l}").trim_end().to_string())
+        .collect();
+    let ty = |is_vector: bool| if is_vector { vector } else { scalar };
+    let params = f
+        .params
+        .iter()
+        .map(|p| format!("{} {p}", ty(f.is_vector_param(p))))
+        .collect::<Vec<_>>()
+        .join(", ");
+    v.push(format!(
+        "{qualifier}{} {}({params}) {{",
+        ty(f.returns_vector()),
+        f.name
+    ));
+    v
+}
+
 /// An expression as text.
 pub fn expr(e: &Expr, s: &dyn Syntax) -> String {
     let operand = |child: &Expr, parent: u8, right: bool| -> String {

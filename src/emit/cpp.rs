@@ -14,7 +14,9 @@
 //! three floats defined once however many headers are included.
 
 use super::ir::{float_literal, Function};
-use super::source::{c_style_open, render, Operand, Syntax};
+use super::source::{
+    c_style_open, c_style_select_ge, guard_with_suffix, render, xyz_component, Operand, Syntax,
+};
 use super::{Artifact, Emitter, Unit};
 
 /// The C/C++ emitter.
@@ -23,10 +25,7 @@ pub struct Cpp;
 
 /// The include guard of `unit` in C: its GLSL guard with `_H` for `_GLSL`.
 pub fn guard(unit: &Unit) -> String {
-    format!(
-        "{}_H",
-        unit.guard.strip_suffix("_GLSL").unwrap_or(&unit.guard)
-    )
+    guard_with_suffix(unit, "_H")
 }
 
 impl Syntax for Cpp {
@@ -43,16 +42,10 @@ impl Syntax for Cpp {
         format!("sqrtf({})", a.text)
     }
     fn select_ge(&self, a: Operand, b: Operand, then: Operand, otherwise: Operand) -> String {
-        format!(
-            "{} >= {} ? {} : {}",
-            a.wrapped(),
-            b.wrapped(),
-            then.wrapped(),
-            otherwise.wrapped()
-        )
+        c_style_select_ge(a, b, then, otherwise)
     }
     fn component(&self, vector: &str, i: u8) -> String {
-        format!("{vector}.{}", ["x", "y", "z"][i as usize])
+        xyz_component(vector, i)
     }
     fn vec3(&self, x: String, y: String, z: String) -> String {
         format!("furnace_rgb_make({x}, {y}, {z})")

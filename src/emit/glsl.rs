@@ -6,7 +6,7 @@
 //! `vec3`. The text is validated by naga before it is returned ([`super::validate`]).
 
 use super::ir::{float_literal, Function};
-use super::source::{c_style_open, render, Operand, Syntax};
+use super::source::{c_style_open, c_style_select_ge, render, xyz_component, Operand, Syntax};
 use super::{Artifact, Emitter, Unit};
 
 /// The GLSL emitter.
@@ -27,16 +27,10 @@ impl Syntax for Glsl {
         format!("sqrt({})", a.text)
     }
     fn select_ge(&self, a: Operand, b: Operand, then: Operand, otherwise: Operand) -> String {
-        format!(
-            "{} >= {} ? {} : {}",
-            a.wrapped(),
-            b.wrapped(),
-            then.wrapped(),
-            otherwise.wrapped()
-        )
+        c_style_select_ge(a, b, then, otherwise)
     }
     fn component(&self, vector: &str, i: u8) -> String {
-        format!("{vector}.{}", ["x", "y", "z"][i as usize])
+        xyz_component(vector, i)
     }
     fn vec3(&self, x: String, y: String, z: String) -> String {
         format!("vec3({x}, {y}, {z})")

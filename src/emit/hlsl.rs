@@ -6,7 +6,9 @@
 //! glslangValidator's HLSL front end to SPIR-V and check that with spirv-val.
 
 use super::ir::{float_literal, Function};
-use super::source::{c_style_open, render, Operand, Syntax};
+use super::source::{
+    c_style_open, c_style_select_ge, guard_with_suffix, render, xyz_component, Operand, Syntax,
+};
 use super::{Artifact, Emitter, Unit};
 
 /// The HLSL emitter.
@@ -15,10 +17,7 @@ pub struct Hlsl;
 
 /// The include guard of `unit` in HLSL: its GLSL guard with `_HLSL` for `_GLSL`.
 pub fn guard(unit: &Unit) -> String {
-    format!(
-        "{}_HLSL",
-        unit.guard.strip_suffix("_GLSL").unwrap_or(&unit.guard)
-    )
+    guard_with_suffix(unit, "_HLSL")
 }
 
 impl Syntax for Hlsl {
@@ -35,16 +34,10 @@ impl Syntax for Hlsl {
         format!("sqrt({})", a.text)
     }
     fn select_ge(&self, a: Operand, b: Operand, then: Operand, otherwise: Operand) -> String {
-        format!(
-            "{} >= {} ? {} : {}",
-            a.wrapped(),
-            b.wrapped(),
-            then.wrapped(),
-            otherwise.wrapped()
-        )
+        c_style_select_ge(a, b, then, otherwise)
     }
     fn component(&self, vector: &str, i: u8) -> String {
-        format!("{vector}.{}", ["x", "y", "z"][i as usize])
+        xyz_component(vector, i)
     }
     fn vec3(&self, x: String, y: String, z: String) -> String {
         format!("float3({x}, {y}, {z})")

@@ -71,6 +71,30 @@ pub fn c_style_open(f: &Function, qualifier: &str, scalar: &str, vector: &str) -
     v
 }
 
+/// `a >= b ? then : otherwise`, the C-family conditional (GLSL, HLSL, C/C++).
+pub fn c_style_select_ge(a: Operand, b: Operand, then: Operand, otherwise: Operand) -> String {
+    format!(
+        "{} >= {} ? {} : {}",
+        a.wrapped(),
+        b.wrapped(),
+        then.wrapped(),
+        otherwise.wrapped()
+    )
+}
+
+/// Component `i` of a vector as `.x`, `.y`, `.z` (GLSL, HLSL, C/C++).
+pub fn xyz_component(vector: &str, i: u8) -> String {
+    format!("{vector}.{}", ["x", "y", "z"][i as usize])
+}
+
+/// `unit`'s include guard with the language's suffix in place of GLSL's `_GLSL`.
+pub fn guard_with_suffix(unit: &Unit, suffix: &str) -> String {
+    format!(
+        "{}{suffix}",
+        unit.guard.strip_suffix("_GLSL").unwrap_or(&unit.guard)
+    )
+}
+
 /// An expression as text.
 pub fn expr(e: &Expr, s: &dyn Syntax) -> String {
     let operand = |child: &Expr, parent: u8, right: bool| -> String {

@@ -5,6 +5,8 @@
 //!
 //! The snapshots in `tests/snapshots/` are pinned to the generator by `tests/emit_snapshots.rs`.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use furnace::emit::generate::{albedo_function_name, choose_form, reference, FormChoice};
@@ -23,9 +25,7 @@ mod emitted_dielectric {
     include!("snapshots/dielectric-pair.rs");
 }
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+use common::repository as root;
 
 fn fixture(name: &str) -> FitRecord {
     let path = root().join("tests/fixtures").join(name);
@@ -310,11 +310,7 @@ fn emitting_refuses_the_papers_glossy_fit() {
 }
 
 fn furnace(args: &[&str], dir: &Path) -> (bool, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_furnace"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap();
+    let out = common::furnace(args, dir);
     (
         out.status.success(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -322,9 +318,9 @@ fn furnace(args: &[&str], dir: &Path) -> (bool, String, String) {
     )
 }
 
+/// A scratch folder with an empty `fits/ggx-conductor/`.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("furnace-emit-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::scratch(name);
     std::fs::create_dir_all(dir.join("fits/ggx-conductor")).unwrap();
     dir
 }

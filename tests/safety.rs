@@ -6,27 +6,11 @@
 //! spirv-val), the emitted C/C++ header compiles as C++17 and C99 (g++/gcc, warnings as errors)
 //! and the emitted Rust compiles under `#![no_std]`.
 
+mod common;
+
+use common::{furnace, repository as root, scratch};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("furnace-safety-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn furnace(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_furnace"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the furnace binary runs")
-}
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

@@ -170,7 +170,11 @@ impl ObjectiveArg {
 /// The data to fit and the folder name under --fits-dir.
 /// The data to fit, the fits folder's name and whether the data may have a grazing boundary
 /// layer (a model's say-so; a user's table may).
-fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool, Option<CheckSet>)> {
+/// The data to fit, its name, whether it has a grazing boundary layer, its off-grid check set
+/// and (for a sweep of a model's 3-D table) its training set.
+type Input = (FitInput, String, bool, Option<CheckSet>, Option<CheckSet>);
+
+fn fit_input(args: &FitArgs) -> Result<Input> {
     if let Some(path) = &args.table {
         let axes = args.axes.as_deref().map(source::parse_axes).transpose()?;
         let input = source::load_user_table(
@@ -196,7 +200,7 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool, Option<CheckSet>
             input.data.dim(),
             input.data.names.join(", ")
         );
-        return Ok((input, name, true, None));
+        return Ok((input, name, true, None, None));
     }
     let name = args
         .model
@@ -228,11 +232,24 @@ fn fit_input(args: &FitArgs) -> Result<(FitInput, String, bool, Option<CheckSet>
     } else {
         None
     };
+    let input = source::from_table(&t.table, &args.channel, Some(&t.stem))?;
+    let n = crate::fit::defaults::default_training_points(&input.data);
+    let training = if args.sweep && check.is_some() && n > 0 {
+        Some(check::training_get_or_compute(
+            model.as_ref(),
+            &t.table.spec,
+            &t.stem,
+            n,
+        )?)
+    } else {
+        None
+    };
     Ok((
-        source::from_table(&t.table, &args.channel, Some(&t.stem))?,
+        input,
         model.id().key(),
         model.grazing_boundary_layer(),
         check,
+        training,
     ))
 }
 
@@ -247,12 +264,13 @@ fn boxed_name(name: &str, bounds: &[source::AxisDecl]) -> String {
 
 /// `furnace fit`.
 pub fn fit_cmd(args: &FitArgs) -> Result<()> {
-    let (mut input, mut name, layer, mut check) = fit_input(args)?;
+    let (mut input, mut name, layer, mut check, mut training) = fit_input(args)?;
     if let Some(text) = &args.domain {
         let bounds = source::parse_axes(text)
             .map_err(|e| Error::InvalidInput(e.to_string().replace("--axes", "--domain")))?;
         input = input.restrict(&bounds)?;
         check = check.and_then(|c| c.within(&input.data.domain));
+        training = training.and_then(|c| c.within(&input.data.domain));
         name = boxed_name(&name, &bounds);
         eprintln!("restricted to {text}: {} points", input.data.len());
     }
@@ -286,8 +304,15 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
             plan.max_fit_points = n;
         }
         let clock = Stopwatch::start();
-        let outcome =
-            job::sweep_fits_checked(&input, &plan, checked, &mut |line| eprintln!("  {line}"))?;
+        if training.is_none() {
+            plan.training_points = 0;
+        }
+        let training_data = training.as_ref().map(CheckSet::data).transpose()?;
+        let training_on = training.as_ref().map(CheckSet::training_description);
+        let trained = training_data.as_ref().zip(training_on.as_deref());
+        let outcome = job::sweep_fits_trained(&input, &plan, checked, trained, &mut |line| {
+            eprintln!("  {line}")
+        })?;
         write_sweep(&outcome, &dir, timing_dir.as_deref(), &clock)?;
         for b in &outcome.best {
             if let Some(rec) = outcome.best_record(b.budget).filter(|_| args.worst > 0) {

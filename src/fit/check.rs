@@ -73,11 +73,16 @@ enum Span {
 /// `n` points of the R_d sequence (over the non-fixed axes) mapped into `spans` (unit
 /// coordinates), then into the table box.
 fn fill(spans: &[Span], n: usize, domain: &[(f64, f64)], out: &mut Vec<f64>) {
+    fill_from(spans, 0, n, domain, out)
+}
+
+/// [`fill`] with points `start..start + n` of the sequence.
+fn fill_from(spans: &[Span], start: usize, n: usize, domain: &[(f64, f64)], out: &mut Vec<f64>) {
     let free: Vec<usize> = (0..spans.len())
         .filter(|&k| matches!(spans[k], Span::Range(..)))
         .collect();
     let mut u = vec![0.0; free.len()];
-    for i in 0..n {
+    for i in start..start + n {
         if !free.is_empty() {
             rd_point(i, free.len(), &mut u);
         }
@@ -145,6 +150,50 @@ pub fn check_points(names: &[String], domain: &[(f64, f64)]) -> Vec<f64> {
     out
 }
 
+/// Version of the training set: a change to [`training_points`] bumps it.
+pub const TRAINING_SET_VERSION: u32 = 1;
+/// The training points are points [`TRAINING_START`]… of the R_d sequence, the check points
+/// 0…[`QUASI_POINTS`] − 1 (in every sub-box): the two sets never share a point.
+pub const TRAINING_START: usize = 1 << 24;
+
+/// `n` training points of a box (flat, `names.len()` coordinates per point): exact values
+/// there join a sweep's fitting nodes, so that the solver sees between the table's nodes where
+/// albedos vary fastest. Disjoint from [`check_points`] (a later stretch of the same R_d
+/// sequence, from [`TRAINING_START`]): a quarter over the whole box; with `mu`, three eighths in
+/// its grazing layer over every r (μ clustered quadratically towards the low end); with `r`, an
+/// eighth in the low-roughness layer; with both, a quarter in their corner (μ clustered). The
+/// shares of missing layers go to the whole box.
+pub fn training_points(names: &[String], domain: &[(f64, f64)], n: usize) -> Vec<f64> {
+    let d = names.len();
+    let find = |x: &str| names.iter().position(|v| v.eq_ignore_ascii_case(x));
+    let whole = vec![Span::Range(0.0, 1.0, false); d];
+    let (mu, r) = (find("mu"), find("r"));
+    let mut layers: Vec<(Vec<Span>, usize)> = Vec::new();
+    if let Some(m) = mu {
+        let mut s = whole.clone();
+        s[m] = Span::Range(0.0, GRAZING_FRACTION, true);
+        layers.push((s, 3 * n / 8));
+    }
+    if let Some(k) = r {
+        let mut s = whole.clone();
+        s[k] = Span::Range(0.0, SMOOTH_FRACTION, false);
+        layers.push((s, n / 8));
+    }
+    if let (Some(m), Some(k)) = (mu, r) {
+        let mut s = whole.clone();
+        s[m] = Span::Range(0.0, GRAZING_FRACTION, true);
+        s[k] = Span::Range(0.0, SMOOTH_FRACTION, false);
+        layers.push((s, n / 4));
+    }
+    let rest = n - layers.iter().map(|l| l.1).sum::<usize>();
+    let mut out = Vec::with_capacity(n * d);
+    fill_from(&whole, TRAINING_START, rest, domain, &mut out);
+    for (spans, count) in &layers {
+        fill_from(spans, TRAINING_START, *count, domain, &mut out);
+    }
+    out
+}
+
 /// The off-grid check set of one table: points, the model's values there, and what they are.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CheckSet {
@@ -168,6 +217,20 @@ impl CheckSet {
     /// The model's values at [`check_points`] of `spec`'s box, by direct quadrature with the
     /// table's settings (output 0, `E`).
     pub fn compute(model: &dyn Model, spec: &TableSpec) -> Result<CheckSet> {
+        CheckSet::compute_with(model, spec, None)
+    }
+
+    /// The model's values at `n` [`training_points`] of `spec`'s box, like [`CheckSet::compute`].
+    pub fn compute_training(model: &dyn Model, spec: &TableSpec, n: usize) -> Result<CheckSet> {
+        CheckSet::compute_with(model, spec, Some(n))
+    }
+
+    /// The check set, or with `training: Some(n)` the training set of `n` points.
+    fn compute_with(
+        model: &dyn Model,
+        spec: &TableSpec,
+        training: Option<usize>,
+    ) -> Result<CheckSet> {
         let names: Vec<String> = spec.axes.iter().map(|a| a.name.clone()).collect();
         let domain: Vec<(f64, f64)> = spec.axes.iter().map(|a| (a.lo, a.hi)).collect();
         if let Some((a, _)) = spec
@@ -181,7 +244,10 @@ impl CheckSet {
                 a.name, spec.model, a.lo, a.hi
             )));
         }
-        let coords = check_points(&names, &domain);
+        let coords = match training {
+            Some(n) => training_points(&names, &domain, n),
+            None => check_points(&names, &domain),
+        };
         let d = names.len();
         let cache = RuleCache::new(&spec.quadrature);
         let estimates: Vec<(f64, f64)> = coords
@@ -198,9 +264,13 @@ impl CheckSet {
                 &coords[i * d..(i + 1) * d]
             )));
         }
+        let (what, version) = match training {
+            Some(_) => ("off-grid training points of the table with this content hash (disjoint from its check points), and the model's E there by direct quadrature (furnace eval --model); a sweep fits on them with the table's nodes", TRAINING_SET_VERSION),
+            None => ("off-grid check points of the table with this content hash, and the model's E there by direct quadrature (furnace eval --model); every fit of the table is measured on them", CHECK_SET_VERSION),
+        };
         Ok(CheckSet {
-            what: "off-grid check points of the table with this content hash, and the model's E there by direct quadrature (furnace eval --model); every fit of the table is measured on them".into(),
-            version: CHECK_SET_VERSION,
+            what: what.into(),
+            version,
             model: spec.model.clone(),
             table_content_hash: spec.content_hash(),
             channel: spec.outputs.first().cloned().unwrap_or_else(|| "E".into()),
@@ -261,6 +331,18 @@ impl CheckSet {
     }
 }
 
+impl CheckSet {
+    /// In words, for fit files, when the set is a training set ([`training_points`]).
+    pub fn training_description(&self) -> String {
+        format!(
+            "{} exact off-grid training points (training set v{}, disjoint from the check set: quasi-random over the whole domain, the grazing and low-roughness layers and their corner; error estimate ≤ {:.1e})",
+            self.len(),
+            self.version,
+            self.max_error_estimate
+        )
+    }
+}
+
 /// Where the check set of the table at `stem` is cached.
 pub fn check_path(stem: &Path) -> PathBuf {
     let mut s = stem.as_os_str().to_owned();
@@ -283,6 +365,39 @@ pub fn get_or_compute(model: &dyn Model, spec: &TableSpec, stem: &Path) -> Resul
         }
     }
     let set = CheckSet::compute(model, spec)?;
+    let json = serde_json::to_string(&set).map_err(|e| Error::file(&path, e.to_string()))?;
+    crate::output::write(&path, format!("{json}\n").as_bytes())?;
+    Ok(set)
+}
+
+/// Where the training set of `n` points of the table at `stem` is cached.
+pub fn training_path(stem: &Path, n: usize) -> PathBuf {
+    let mut s = stem.as_os_str().to_owned();
+    s.push(format!(".train-v{TRAINING_SET_VERSION}-{n}.json"));
+    PathBuf::from(s)
+}
+
+/// The training set of `n` points of `spec` (whose table lives at `stem`): read from its
+/// cache file when that belongs to the same spec and version, else computed and written there.
+pub fn training_get_or_compute(
+    model: &dyn Model,
+    spec: &TableSpec,
+    stem: &Path,
+    n: usize,
+) -> Result<CheckSet> {
+    let path = training_path(stem, n);
+    if let Ok(text) = std::fs::read_to_string(&path) {
+        if let Ok(set) = serde_json::from_str::<CheckSet>(&text) {
+            if set.version == TRAINING_SET_VERSION
+                && set.table_content_hash == spec.content_hash()
+                && set.values.len() == n
+                && set.values.len() * set.names.len() == set.coords.len()
+            {
+                return Ok(set);
+            }
+        }
+    }
+    let set = CheckSet::compute_training(model, spec, n)?;
     let json = serde_json::to_string(&set).map_err(|e| Error::file(&path, e.to_string()))?;
     crate::output::write(&path, format!("{json}\n").as_bytes())?;
     Ok(set)
@@ -328,6 +443,35 @@ mod tests {
     }
 
     #[test]
+    fn training_points_are_disjoint_from_the_check_points_and_inside_the_box() {
+        let names: Vec<String> = ["f0", "r", "mu"].iter().map(|s| s.to_string()).collect();
+        let domain = vec![(0.0125, 0.25), (0.0, 1.0), (0.0, 1.0)];
+        let n = 4096;
+        let t = training_points(&names, &domain, n);
+        assert_eq!(t.len(), 3 * n);
+        assert!(t.chunks(3).all(|x| x
+            .iter()
+            .zip(&domain)
+            .all(|(v, (lo, hi))| v >= lo && v <= hi)));
+        assert_eq!(t, training_points(&names, &domain, n));
+        // no training point is a check point
+        let key = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+        let check: std::collections::HashSet<Vec<u64>> =
+            check_points(&names, &domain).chunks(3).map(key).collect();
+        assert!(t.chunks(3).all(|x| !check.contains(&key(x))));
+        // the layers: μ < 0.05 over every r (and deep in it), and the corner
+        let grazing = t.chunks(3).filter(|x| x[2] < 0.05).count();
+        assert!(grazing >= 5 * n / 8, "{grazing}");
+        let deep_rough = t.chunks(3).filter(|x| x[2] < 0.005 && x[1] > 0.8).count();
+        assert!(deep_rough > 50, "{deep_rough}");
+        let corner = t.chunks(3).filter(|x| x[1] < 0.15 && x[2] < 1e-3).count();
+        assert!(corner > 100, "{corner}");
+        // data without the named layers: all over the box
+        let xy: Vec<String> = ["x", "y"].iter().map(|s| s.to_string()).collect();
+        assert_eq!(training_points(&xy, &[(0.0, 1.0); 2], 100).len(), 200);
+    }
+
+    #[test]
     fn a_model_check_set_matches_direct_quadrature_and_is_cached() {
         let model = crate::bsdf::find("oren-nayar-fon").unwrap();
         let spec = TableSpec::new(
@@ -349,6 +493,23 @@ mod tests {
         let cache = RuleCache::new(&spec.quadrature);
         let direct = albedo(model.as_ref(), x, &spec.quadrature, &cache).value[0];
         assert_eq!(direct, set.values[0]);
+        // the training set: cached apart, exact values, recomputed for another size
+        let train = training_get_or_compute(model.as_ref(), &spec, &stem, 64).unwrap();
+        assert_eq!(train.len(), 64);
+        assert!(training_path(&stem, 64).is_file());
+        assert_eq!(
+            train,
+            training_get_or_compute(model.as_ref(), &spec, &stem, 64).unwrap()
+        );
+        let y = &train.coords[2..4];
+        let direct = albedo(model.as_ref(), y, &spec.quadrature, &cache).value[0];
+        assert_eq!(direct, train.values[1]);
+        assert_eq!(
+            training_get_or_compute(model.as_ref(), &spec, &stem, 32)
+                .unwrap()
+                .len(),
+            32
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -37,6 +37,8 @@ pub fn default_plan(
     if !grazing_layer {
         plan = plan.without_boundary_layer(extra.as_deref());
     }
+    plan.fit_grading = default_fit_grading(data);
+    plan.training_points = default_training_points(data);
     plan.rational_pairs = default_rational_pairs(data.dim())
         .into_iter()
         .filter(|&(n, m)| max_degree.is_none_or(|c| n <= c && m <= c))
@@ -51,6 +53,35 @@ pub fn default_plan(
             .collect();
     }
     plan
+}
+
+/// Grading exponents of the sweep's fitting nodes ([`SweepPlan::fit_grading`]): in 3-D, the
+/// axes `mu` (p = 2: of 32 of 128 nodes, the first 9 are all kept) and `r` (p = 1.5) graded
+/// towards their low ends (the grazing and low-roughness layers); nothing elsewhere. Measured
+/// in docs/fitting.md ("Fitting points").
+pub fn default_fit_grading(data: &FitData) -> Vec<f64> {
+    if data.dim() != 3 {
+        return Vec::new();
+    }
+    data.names
+        .iter()
+        .map(|n| match n.to_ascii_lowercase().as_str() {
+            "mu" => 2.0,
+            "r" => 1.5,
+            _ => 1.0,
+        })
+        .collect()
+}
+
+/// Exact off-grid training points a default sweep fits on besides the table's nodes
+/// ([`SweepPlan::training_points`], [`super::check::training_points`]): 8192 in 3-D, none
+/// elsewhere.
+pub fn default_training_points(data: &FitData) -> usize {
+    if data.dim() == 3 {
+        8192
+    } else {
+        0
+    }
 }
 
 /// The highest total degree of a form's numerator or denominator.
@@ -167,6 +198,13 @@ mod tests {
         let p3 = default_plan(&d3, Some(4), None, Objective::LeastSquares, true);
         assert_eq!(p3.budgets, vec![20, 40, 80, 160]);
         assert_eq!(p3.rational_pairs, vec![(4, 3)]);
+        // 3-D: graded nodes in r and mu (not f0) and exact training points; 2-D: neither
+        assert_eq!(p3.fit_grading, vec![1.0, 1.5, 2.0]);
+        assert_eq!(p3.training_points, 8192);
+        assert!(p.fit_grading.is_empty() && p.training_points == 0);
+        assert!(!serde_json::to_string(&p)
+            .unwrap()
+            .contains("training_points"));
         let json = serde_json::to_string(&p3).unwrap();
         let back: SweepPlan = serde_json::from_str(&json).unwrap();
         assert_eq!(back, p3);

@@ -318,7 +318,16 @@ pub fn fit_file_name(
 
 /// The data the solver sees and how it was chosen.
 fn fitting_data(input: &FitInput, max_fit_points: usize) -> Result<(Option<FitData>, FittedOn)> {
-    Ok(match input.reduced(max_fit_points)? {
+    fitting_data_graded(input, max_fit_points, &[])
+}
+
+/// [`fitting_data`] with a grid's nodes graded per axis ([`FitInput::reduced_graded`]).
+fn fitting_data_graded(
+    input: &FitInput,
+    max_fit_points: usize,
+    grading: &[f64],
+) -> Result<(Option<FitData>, FittedOn)> {
+    Ok(match input.reduced_graded(max_fit_points, grading)? {
         Some((d, on)) => (Some(d), on),
         None => (
             None,
@@ -419,11 +428,23 @@ pub struct SweepPlan {
     pub objective: Objective,
     /// Most points the solver sees (0 = all).
     pub max_fit_points: usize,
+    /// Per variable, the exponent p grading a downsampled grid's nodes towards the variable's
+    /// low end ([`super::source::graded_indices`]); empty or 1: an even subset.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fit_grading: Vec<f64>,
+    /// Exact off-grid training points ([`super::check::training_points`]) the solver sees
+    /// besides the table's nodes (0 = none).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub training_points: usize,
     /// Coefficient budgets of the `best-<budget>.json` files.
     pub budgets: Vec<usize>,
     /// After a least-squares sweep, refit the most promising fits of each budget with the
     /// minimax objective (see [`sweep_fits`]).
     pub minimax_refits: bool,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// A structured form of a sweep and the transforms it is fitted in.
@@ -569,6 +590,8 @@ impl SweepPlan {
             transform_sets,
             objective,
             max_fit_points: default_sweep_points(d),
+            fit_grading: Vec::new(),
+            training_points: 0,
             budgets: default_budgets(d),
             minimax_refits: true,
         }
@@ -1010,6 +1033,41 @@ pub fn sweep_fits_checked(
     check: Option<(&FitData, &str)>,
     progress: &mut dyn FnMut(&str),
 ) -> Result<SweepOutcome> {
+    sweep_fits_trained(input, plan, check, None, progress)
+}
+
+/// The fitting data with `training` points appended (their values exact, weight 1).
+fn with_training(data: &FitData, training: &FitData) -> Result<FitData> {
+    if training.names != data.names {
+        return Err(Error::InvalidInput(format!(
+            "the training set's variables {} are not the data's {}",
+            training.names.join(","),
+            data.names.join(",")
+        )));
+    }
+    let mut coords = data.coords.clone();
+    coords.extend_from_slice(&training.coords);
+    let mut values = data.values.clone();
+    values.extend_from_slice(&training.values);
+    let mut out = FitData::new(data.names.clone(), coords, values, data.domain.clone())?;
+    out.weights = data.weights.as_ref().map(|w| {
+        let mut w = w.clone();
+        w.resize(w.len() + training.len(), 1.0);
+        w
+    });
+    Ok(out)
+}
+
+/// [`sweep_fits_checked`] whose solver also sees `training`: exact off-grid points (the
+/// points as data, and what they are; [`super::check::training_get_or_compute`]) appended to the
+/// table's fitting nodes. Every fit is still measured on all the table's nodes and on `check`.
+pub fn sweep_fits_trained(
+    input: &FitInput,
+    plan: &SweepPlan,
+    check: Option<(&FitData, &str)>,
+    training: Option<(&FitData, &str)>,
+    progress: &mut dyn FnMut(&str),
+) -> Result<SweepOutcome> {
     let start = std::time::Instant::now();
     plan.validate(&input.data)?;
     if let Some((c, _)) = check {
@@ -1028,7 +1086,16 @@ pub fn sweep_fits_checked(
             t.len()
         )));
     }
-    let (reduced, fitted_on) = fitting_data(input, plan.max_fit_points)?;
+    let (mut reduced, mut fitted_on) =
+        fitting_data_graded(input, plan.max_fit_points, &plan.fit_grading)?;
+    if let Some((t, what)) = training {
+        let joined = with_training(reduced.as_ref().unwrap_or(&input.data), t)?;
+        fitted_on = FittedOn {
+            points: joined.len(),
+            selection: format!("{}, and {what}", fitted_on.selection),
+        };
+        reduced = Some(joined);
+    }
     let data = reduced.as_ref().unwrap_or(&input.data);
     let (boxed, paper_box) = match paper_box_in(
         &input.data.names,
@@ -1449,6 +1516,113 @@ mod tests {
                 .collect::<Vec<_>>(),
             vec![&asked]
         );
+    }
+
+    /// A sweep fitted on graded nodes plus training points: the solver sees both, the fit is
+    /// measured on every node, and a layer between the subset's nodes is resolved better.
+    #[test]
+    fn training_points_join_the_graded_fitting_nodes() {
+        let ax: Vec<f64> = (0..17).map(|i| i as f64 / 16.0).collect();
+        let names: Vec<String> = ["f0", "r", "mu"].iter().map(|s| s.to_string()).collect();
+        // a thin layer in mu: e^(−40μ)
+        let e = |x: &[f64]| 0.5 + 0.3 * x[0] - 0.2 * x[1] + 0.4 * (-40.0 * x[2]).exp();
+        let mut values = Vec::new();
+        for &a in &ax {
+            for &b in &ax {
+                for &c in &ax {
+                    values.push(e(&[a, b, c]));
+                }
+            }
+        }
+        let data = FitData::from_grid(names.clone(), &[ax.clone(), ax.clone(), ax.clone()], values)
+            .unwrap();
+        let input = FitInput {
+            source: Source {
+                kind: "json_grid".into(),
+                model: None,
+                path: None,
+                content_hash: "test".into(),
+                resolution: Some(vec![17; 3]),
+                channel: "E".into(),
+                points: data.len(),
+                restricted_to: None,
+            },
+            data,
+            grid: Some(vec![ax.clone(), ax.clone(), ax]),
+            table: None,
+        };
+        let domain = vec![(0.0, 1.0); 3];
+        let coords = super::super::check::training_points(&names, &domain, 400);
+        let values: Vec<f64> = coords.chunks(3).map(e).collect();
+        let training = FitData::new(names.clone(), coords, values, domain.clone()).unwrap();
+        let check_coords = super::super::check::check_points(&names, &domain);
+        let check_values: Vec<f64> = check_coords.chunks(3).map(e).collect();
+        let check = FitData::new(names, check_coords, check_values, domain).unwrap();
+        let plan = SweepPlan {
+            polynomial_degrees: vec![4],
+            rational_degrees: Vec::new(),
+            rational_pairs: Vec::new(),
+            forms: Vec::new(),
+            transform_sets: vec![vec![InputTransform::Identity; 3]],
+            objective: Objective::LeastSquares,
+            max_fit_points: 6 * 6 * 6,
+            fit_grading: vec![1.0, 1.0, 2.0],
+            training_points: 400,
+            budgets: vec![40],
+            minimax_refits: false,
+        };
+        let run = |training: Option<(&FitData, &str)>, grading: Vec<f64>| {
+            let plan = SweepPlan {
+                fit_grading: grading,
+                ..plan.clone()
+            };
+            sweep_fits_trained(
+                &input,
+                &plan,
+                Some((&check, "check")),
+                training,
+                &mut |_| {},
+            )
+            .unwrap()
+        };
+        let even = run(None, Vec::new());
+        let trained = run(
+            Some((&training, "400 training points")),
+            plan.fit_grading.clone(),
+        );
+        assert_eq!(even.fitted_on.points, 216);
+        assert_eq!(trained.fitted_on.points, 216 + 400);
+        assert!(trained.fitted_on.selection.contains("graded"));
+        assert!(trained.fitted_on.selection.contains("400 training points"));
+        // measured on all 17³ nodes either way
+        assert!(trained.records[0].fit.metrics.max_abs_error_at.len() == 3);
+        let off = |o: &SweepOutcome| {
+            o.records[0]
+                .off_grid
+                .as_ref()
+                .unwrap()
+                .metrics
+                .max_abs_error
+        };
+        assert!(
+            off(&trained) < off(&even),
+            "{} vs {}",
+            off(&trained),
+            off(&even)
+        );
+        // a training set of other variables is refused
+        let other = FitData::new(
+            vec!["a".into(), "b".into(), "c".into()],
+            vec![0.5; 3],
+            vec![0.5],
+            vec![(0.0, 1.0); 3],
+        )
+        .unwrap();
+        let e = sweep_fits_trained(&input, &plan, None, Some((&other, "x")), &mut |_| {});
+        assert!(e
+            .unwrap_err()
+            .to_string()
+            .contains("training set's variables"));
     }
 
     /// A solver that stopped short is reported as what it was: Lawson reweighting of a

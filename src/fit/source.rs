@@ -81,6 +81,31 @@ pub fn even_indices(n: usize, m: usize) -> Vec<usize> {
         .collect()
 }
 
+/// Node indices 0 = i_0 < i_1 < … < i_{m−1} = n − 1 graded towards the axis's low end:
+/// i_j = round((n − 1)·(j/(m − 1))^p), raised where needed to stay strictly increasing and
+/// lowered to leave room for the indices after it. p = 1 is [`even_indices`]; p > 1 keeps
+/// every node of the first cells (where an albedo's grazing or low-roughness layer is) and
+/// thins the rest.
+pub fn graded_indices(n: usize, m: usize, p: f64) -> Vec<usize> {
+    if m >= n || n < 2 {
+        return (0..n).collect();
+    }
+    if !(p.is_finite() && p > 1.0) {
+        return even_indices(n, m);
+    }
+    let m = m.max(2);
+    let mut out: Vec<usize> = Vec::with_capacity(m);
+    for j in 0..m {
+        let t = j as f64 / (m - 1) as f64;
+        let mut i = ((n - 1) as f64 * t.powf(p)).round() as usize;
+        if let Some(&last) = out.last() {
+            i = i.max(last + 1);
+        }
+        out.push(i.min(n - m + j));
+    }
+    out
+}
+
 impl FitInput {
     /// Variable names.
     pub fn names(&self) -> &[String] {
@@ -166,6 +191,17 @@ impl FitInput {
     /// that has more than that), scattered data a pseudo-random subset
     /// ([`FitData::subsample`]). `None`: the data is already small enough.
     pub fn reduced(&self, max_points: usize) -> Result<Option<(FitData, FittedOn)>> {
+        self.reduced_graded(max_points, &[])
+    }
+
+    /// [`FitInput::reduced`] with the nodes of a grid's axis k graded towards its low end by
+    /// the exponent `grading[k]` ([`graded_indices`]; 1 or a missing entry: even). Scattered
+    /// data ignores the grading.
+    pub fn reduced_graded(
+        &self,
+        max_points: usize,
+        grading: &[f64],
+    ) -> Result<Option<(FitData, FittedOn)>> {
         let n = self.data.len();
         if max_points == 0 || n <= max_points {
             return Ok(None);
@@ -185,7 +221,12 @@ impl FitInput {
         while m > 2 && total(m) > max_points {
             m -= 1;
         }
-        let picks: Vec<Vec<usize>> = counts.iter().map(|&c| even_indices(c, m)).collect();
+        let power = |k: usize| grading.get(k).copied().unwrap_or(1.0);
+        let picks: Vec<Vec<usize>> = counts
+            .iter()
+            .enumerate()
+            .map(|(k, &c)| graded_indices(c, m, power(k)))
+            .collect();
         let sub_axes: Vec<Vec<f64>> = picks
             .iter()
             .zip(axes)
@@ -216,12 +257,26 @@ impl FitInput {
             .map(|p| p.len().to_string())
             .collect::<Vec<_>>()
             .join("x");
+        let nodes = counts
+            .iter()
+            .map(|c| c.to_string())
+            .collect::<Vec<_>>()
+            .join("x");
+        let graded: Vec<String> = (0..d)
+            .filter(|&k| power(k) > 1.0 && counts[k] > m)
+            .map(|k| format!("{} ^{}", self.data.names[k], power(k)))
+            .collect();
+        let selection = if graded.is_empty() {
+            format!("table downsampled to {shape} of its {nodes} nodes: node indices round(j·(n−1)/(m−1)) on each axis, endpoints kept")
+        } else {
+            format!(
+                "table downsampled to {shape} of its {nodes} nodes: node indices round((n−1)·(j/(m−1))^p) on each axis, graded towards the low end ({}; p = 1 elsewhere), endpoints kept",
+                graded.join(", ")
+            )
+        };
         let on = FittedOn {
             points: sub.len(),
-            selection: format!(
-                "table downsampled to {shape} of its {} nodes: node indices round(j·(n−1)/(m−1)) on each axis, endpoints kept",
-                counts.iter().map(|c| c.to_string()).collect::<Vec<_>>().join("x")
-            ),
+            selection,
         };
         Ok(Some((sub, on)))
     }
@@ -733,6 +788,22 @@ mod tests {
         assert_eq!(even_indices(5, 9), vec![0, 1, 2, 3, 4]);
         let e = even_indices(1024, 256);
         assert!(e.windows(2).all(|w| w[1] > w[0]));
+    }
+
+    #[test]
+    fn graded_indices_keep_the_first_nodes_and_the_endpoints() {
+        let g = graded_indices(128, 32, 2.0);
+        assert_eq!(g.len(), 32);
+        assert_eq!((g[0], g[31]), (0, 127));
+        assert!(g.windows(2).all(|w| w[1] > w[0]), "{g:?}");
+        assert_eq!(&g[..9], &[0, 1, 2, 3, 4, 5, 6, 7, 8]);
+        // p = 1 (or nonsense) is the even subset; as many picks as nodes keeps them all
+        assert_eq!(graded_indices(128, 32, 1.0), even_indices(128, 32));
+        assert_eq!(graded_indices(128, 32, f64::NAN), even_indices(128, 32));
+        assert_eq!(graded_indices(5, 9, 2.0), vec![0, 1, 2, 3, 4]);
+        // a steep grading still ends at the last node with distinct picks
+        let s = graded_indices(40, 32, 8.0);
+        assert!(s.windows(2).all(|w| w[1] > w[0]) && s[31] == 39, "{s:?}");
     }
 
     #[test]

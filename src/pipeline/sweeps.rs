@@ -201,15 +201,28 @@ pub fn sweep_or_reuse(
     }
     let check_data = check.data()?;
     let check_on = check.description();
+    let training = if plan.training_points > 0 {
+        Some(check::training_get_or_compute(
+            model,
+            &t.table.spec,
+            &t.stem,
+            plan.training_points,
+        )?)
+    } else {
+        None
+    };
+    let training_data = training.as_ref().map(CheckSet::data).transpose()?;
+    let training_on = training.as_ref().map(CheckSet::training_description);
     let planned =
         (plan.polynomial_degrees.len() + plan.rational_degrees.len()) * plan.transform_sets.len();
     progress.begin(&format!("fit {name}"), planned as u64);
     let clock = Stopwatch::start();
     let mut done = 0;
-    let outcome = job::sweep_fits_checked(
+    let outcome = job::sweep_fits_trained(
         &input,
         &plan,
         Some((&check_data, &check_on)),
+        training_data.as_ref().zip(training_on.as_deref()),
         &mut |_line| {
             // one line per fit made or skipped; the minimax refits come on top of the planned ones
             done += 1;

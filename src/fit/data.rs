@@ -1,12 +1,12 @@
-//! Fit input: scattered points in 1–3 variables, values, optional weights, the domain box, and
+//! Fit input: scattered points in 1–4 variables, values, optional weights, the domain box, and
 //! per-variable input transforms applied before the basis.
 
 use serde::{Deserialize, Serialize};
 
 use super::error::{FitError, Result};
 
-/// Most variables a fit may have (the paper's tables have 2 or 3).
-pub const MAX_DIM: usize = 3;
+/// Most variables a fit may have (the paper's tables have 2 or 3; the anisotropic conductor 4).
+pub const MAX_DIM: usize = 4;
 
 /// τ of [`InputTransform::BoundaryLayer`]: 2⁻¹⁰⁰, exact in f32 and f64. It only decides the
 /// corner x = y = 0 (t = τ/τ = 1) and changes t by less than τ/(x + k y²) elsewhere, i.e.

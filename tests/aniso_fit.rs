@@ -1,0 +1,111 @@
+//! Fits in four variables: `furnace fit` on a small `ggx-conductor-aniso` table makes a
+//! pole-certified rational measured at off-grid points, and `furnace emit` prints
+//! `ggx_conductor_aniso_albedo(r, aniso, mu, phi)` in every language, stress-tested in f32.
+
+mod common;
+
+use common::{furnace, scratch, stderr};
+
+#[test]
+fn a_four_variable_rational_is_certified_measured_off_grid_and_emitted() {
+    let dir = scratch("rational-2");
+    let fit = [
+        "fit",
+        "--model",
+        "ggx-conductor-aniso",
+        "--resolution",
+        "6x3x5x3",
+        "--form",
+        "rational",
+        "--degree",
+        "2",
+    ];
+    let o = furnace(&fit, &dir);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("29 coefficients"), "{err}");
+    assert!(err.contains("Bernstein certificate"), "{err}");
+    let path = dir.join("fits/ggx-conductor-aniso/rational-2.json");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(json["usable"], true, "{json}");
+    let names: Vec<&str> = json["fit"]["approximant"]["variables"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["r", "aniso", "mu", "phi"]);
+    // the off-grid set covers the 4-D box (quasi-random, layers, all eight faces)
+    let m = &json["off_grid"]["metrics"];
+    assert_eq!(m["n_points"], 16384 + 3 * 2048 + 8 * 256, "{m}");
+    let (mae, max) = (
+        m["mae"].as_f64().unwrap(),
+        m["max_abs_error"].as_f64().unwrap(),
+    );
+    assert!(mae > 0.0 && mae < 0.05 && max >= mae && max < 0.5, "{m}");
+
+    let emit = [
+        "emit",
+        "--fit",
+        "fits/ggx-conductor-aniso/rational-2.json",
+        "--lang",
+        "rust,wgsl,glsl,hlsl,cpp",
+    ];
+    let o = furnace(&emit, &dir);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    // the f32 stress test ran on the 4-D box
+    assert!(err.contains("stress points"), "{err}");
+    let read = |ext: &str| {
+        std::fs::read_to_string(dir.join(format!("fits/ggx-conductor-aniso/rational-2.{ext}")))
+            .unwrap()
+    };
+    let signatures = [
+        (
+            "rs",
+            "pub fn ggx_conductor_aniso_albedo(r: f32, aniso: f32, mu: f32, phi: f32) -> f32",
+        ),
+        (
+            "wgsl",
+            "fn ggx_conductor_aniso_albedo(r: f32, aniso: f32, mu: f32, phi: f32) -> f32",
+        ),
+        (
+            "glsl",
+            "float ggx_conductor_aniso_albedo(highp float r, highp float aniso, highp float mu, highp float phi)",
+        ),
+        (
+            "hlsl",
+            "float ggx_conductor_aniso_albedo(float r, float aniso, float mu, float phi)",
+        ),
+        ("h", "ggx_conductor_aniso_albedo(float r, float aniso, float mu, float phi)"),
+    ];
+    for (ext, sig) in signatures {
+        let text = read(ext);
+        assert!(text.contains(sig), "{ext}: no `{sig}` in\n{text}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn five_variables_are_refused_with_the_limit() {
+    let dir = scratch("five");
+    let csv = "a,b,c,d,e,E\n0,0,0,0,0,0.5\n1,1,1,1,1,0.6\n";
+    std::fs::write(dir.join("five.csv"), csv).unwrap();
+    let o = furnace(
+        &[
+            "fit",
+            "--table",
+            "five.csv",
+            "--form",
+            "polynomial",
+            "--degree",
+            "1",
+        ],
+        &dir,
+    );
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("1 to 4"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -818,8 +818,8 @@ mod tests {
         assert!(e.contains("no value column 'E'"), "{e}");
         let e = parse_csv_table("r,mu,E\n0.1,x,0.2\n", "E").unwrap_err();
         assert!(e.contains("row 2, column 'mu'"), "{e}");
-        let e = parse_csv_table("a,b,c,d,E\n1,2,3,4,5\n", "E").unwrap_err();
-        assert!(e.contains("4 variable columns"), "{e}");
+        let e = parse_csv_table("a,b,c,d,e,E\n1,2,3,4,5,6\n", "E").unwrap_err();
+        assert!(e.contains("5 variable columns"), "{e}");
     }
 
     #[test]
@@ -838,7 +838,7 @@ mod tests {
         assert!(parse_axes("r=1:0").is_err());
         assert!(parse_axes("r=0:1:1").is_err());
         assert!(parse_axes("r").is_err());
-        assert!(parse_axes("a=0:1,b=0:1,c=0:1,d=0:1").is_err());
+        assert!(parse_axes("a=0:1,b=0:1,c=0:1,d=0:1,e=0:1").is_err());
     }
 
     #[test]

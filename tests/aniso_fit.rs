@@ -21,7 +21,7 @@ fn a_four_variable_rational_is_certified_measured_off_grid_and_emitted() {
         "2",
     ];
     let o = furnace(&fit, &dir);
-    let err = stderr(&o);
+    let err = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
     assert!(o.status.success(), "{err}");
     assert!(err.contains("29 coefficients"), "{err}");
     assert!(err.contains("Bernstein certificate"), "{err}");
@@ -53,7 +53,7 @@ fn a_four_variable_rational_is_certified_measured_off_grid_and_emitted() {
         "rust,wgsl,glsl,hlsl,cpp",
     ];
     let o = furnace(&emit, &dir);
-    let err = stderr(&o);
+    let err = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
     assert!(o.status.success(), "{err}");
     // the f32 stress test ran on the 4-D box
     assert!(err.contains("stress points"), "{err}");

@@ -8,12 +8,14 @@ use furnace::fit::{
 };
 use furnace::material::builtin::{Kind, Material};
 use furnace::material::furnace::{furnace_stats, furnace_values, lobe_integrals_at};
+use furnace::material::kulla_conty::KullaConty;
 use furnace::material::{CompensatedBsdf, Compensation};
 use furnace::math::SmithForm;
 use furnace::quadrature::QuadratureSettings;
 use furnace::report::albedo::{FitAlbedo, TableAlbedo};
 use furnace::report::inputs::TableProvider;
 use furnace::report::model::{ReportOptions, Reporter};
+use furnace::report::offgrid::{BudgetErrors, LutErrors, OffGridSummary, PointErrors};
 use furnace::table::{self, Table, TableSpec};
 use std::cell::RefCell;
 use std::collections::BTreeMap;
@@ -37,7 +39,11 @@ fn nodes(t: &Table) -> Vec<Vec<f64>> {
 
 /// max |1 − E| of `material` compensated with `table` (and `conductor` for glossy) at the table's nodes,
 /// and the same without compensation.
-fn furnace_on_nodes(material: &Material, t: &Table, conductor: Option<&Table>) -> (f64, f64) {
+fn furnace_on_nodes(
+    material: &dyn CompensatedBsdf,
+    t: &Table,
+    conductor: Option<&Table>,
+) -> (f64, f64) {
     let points = nodes(t);
     let lobes = lobe_integrals_at(material, &points);
     assert!(
@@ -68,13 +74,25 @@ fn conductor_with_the_exact_table_passes_the_furnace_to_1e6() {
         ("ggx-conductor-separable", SmithForm::Separable),
     ] {
         let t = table(name, Transmission::Energy, &[17, 17]);
-        let (with, none) = furnace_on_nodes(&Material::new(Kind::Conductor, smith), &t, None);
-        eprintln!("{name}: furnace max |1 − E| with the exact table {with:.2e}, without compensation {none:.3}");
-        assert!(with <= 1e-6, "{name}: {with:e}");
-        assert!(
-            none > 0.5,
-            "{name}: the uncompensated conductor loses up to 1 − E(r=1, μ=1) ≈ 0.69, got {none}"
-        );
+        // Turquin's scale, and Kulla–Conty's lobe with the E_avg of the same bilinear E (the
+        // coloured row also measures that E_avg against the engine's, so it carries the
+        // table's interpolation error in μ)
+        let materials: Vec<Box<dyn CompensatedBsdf>> = vec![
+            Box::new(Material::new(Kind::Conductor, smith)),
+            Box::new(KullaConty::white(smith)),
+        ];
+        for m in &materials {
+            let (with, none) = furnace_on_nodes(m.as_ref(), &t, None);
+            eprintln!(
+                "{name}, {}: furnace max |1 − E| with the exact table {with:.2e}, without compensation {none:.3}",
+                m.label()
+            );
+            assert!(with <= 1e-6, "{name}, {}: {with:e}", m.label());
+            assert!(
+                none > 0.5,
+                "{name}: the uncompensated conductor loses up to 1 − E(r=1, μ=1) ≈ 0.69, got {none}"
+            );
+        }
     }
 }
 
@@ -227,6 +245,7 @@ fn tiny_options(root: &Path) -> ReportOptions {
     o.resolution_3d = 5;
     o.lut_2d = 5;
     o.lut_3d = 3;
+    o.furnace_luts = vec![3, 5];
     o.furnace_nodes = 9;
     o.furnace_f0_slices = 2;
     o.sphere_roughness = vec![0.3, 1.0];
@@ -290,6 +309,36 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
     std::fs::create_dir_all(&fit_dir).unwrap();
     std::fs::write(fit_dir.join("rational2.json"), fit.to_json().unwrap()).unwrap();
     std::fs::write(fit_dir.join("notes.json"), "{\"comment\": 1}").unwrap();
+    // the same fit as the sweep's best within 20 coefficients, with the off-grid errors a run
+    // records beside it (here: losing to the 32-per-axis LUT on max error)
+    let best_dir = root.join("fits/ggx-conductor-separable");
+    std::fs::write(best_dir.join("best-20.json"), fit.to_json().unwrap()).unwrap();
+    let lut = |per_axis: usize, max: f64| LutErrors {
+        per_axis,
+        values: per_axis * per_axis,
+        errors: PointErrors {
+            max_abs_error: max,
+            mae: max / 10.0,
+            max_abs_error_at: vec![0.5, 0.5],
+        },
+    };
+    let off_grid = OffGridSummary {
+        what: "errors at the check points".into(),
+        tool: "furnace".into(),
+        tool_version: furnace::VERSION.into(),
+        model: "ggx-conductor-separable".into(),
+        check_set: "100 off-grid points".into(),
+        best: vec![BudgetErrors {
+            budget: 20,
+            file: "best-20.json".into(),
+            form: "rational of degree 2/2".into(),
+            n_coefficients: 13,
+            max_abs_error: 2e-2,
+            mae: 1e-4,
+        }],
+        luts: vec![lut(16, 3e-2), lut(32, 1e-2), lut(64, 5e-3)],
+    };
+    off_grid.write(&best_dir).unwrap();
     std::fs::create_dir_all(root.join("reports/bench")).unwrap();
     std::fs::write(root.join("reports/bench/eval-cost.csv"), "# title: Evaluation cost\n# x: ns per call (log)\n# y: max error (log)\nseries,ns,err\nfit,2.5,1e-3\nfit,4,2e-4\nLUT,1.5,3e-3\n").unwrap();
 
@@ -359,6 +408,7 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
             (1300, 560),
         ),
         ("ggx-conductor-separable/heatmap-abs.png", (1000, 580)),
+        ("ggx-conductor-separable/off-grid.png", (1300, 560)),
         ("ggx-conductor-separable/slices.png", (1600, 620)),
         (
             "ggx-conductor-separable/furnace-conductor-separable.png",
@@ -393,6 +443,34 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
         .find(|v| v.name == "furnace fit")
         .unwrap();
     assert!(furnace_fit.stats.as_ref().unwrap().max_deviation > 0.0);
+    // the furnace test runs with every LUT size and every budget
+    let names: Vec<&str> = s.furnace[0]
+        .variants
+        .iter()
+        .map(|v| v.name.as_str())
+        .collect();
+    for n in ["LUT 3×3 (bilinear)", "LUT 5×5 (bilinear)", "best-20"] {
+        assert!(names.contains(&n), "{n} missing from {names:?}");
+    }
+    let best20 = s.furnace[0].variants.iter().find(|v| v.name == "best-20");
+    assert_eq!(
+        best20
+            .and_then(|v| v.stats.as_ref())
+            .map(|s| s.max_deviation),
+        furnace_fit.stats.as_ref().map(|s| s.max_deviation),
+        "best-20.json is the chosen fit"
+    );
+    // the off-grid table sets each budget beside the LUTs, the loss in bold
+    assert!(readme.contains("## Off-grid errors: fits against LUTs"));
+    assert!(
+        readme.contains("| **2.00e-2 / 1.00e-4 (13)** |")
+            && readme.contains("| 1.00e-2 / 1.00e-3 (1024) |"),
+        "off-grid summary row"
+    );
+    assert!(
+        readme.contains("| LUT 3 | LUT 5 |"),
+        "furnace columns per LUT size"
+    );
 
     // same inputs → same bytes
     let before: Vec<(PathBuf, Vec<u8>)> = written

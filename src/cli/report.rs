@@ -4,6 +4,7 @@ use super::Bars;
 use crate::error::Result;
 use crate::pipeline::CachedTables;
 use crate::report::model::{fmt_e, ReportOptions, Reporter};
+use crate::report::offgrid::LUT_TO_BEAT;
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -112,7 +113,7 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
     };
     let outcome = reporter.generate(models.as_deref())?;
     println!(
-        "{:<30} {:<22} {:>6} {:>10} {:>10}   furnace max |1 − E|: none / table / LUT / fit",
+        "{:<30} {:<22} {:>6} {:>10} {:>10}   furnace max |1 − E|: none / table / LUT {LUT_TO_BEAT} / fit",
         "model", "chosen fit", "coeffs", "MAE", "max err"
     );
     for s in &outcome.regenerated {
@@ -129,16 +130,24 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
             .furnace
             .iter()
             .map(|r| {
-                let v: Vec<String> = r
-                    .variants
-                    .iter()
-                    .take(4)
-                    .map(|v| {
-                        v.stats
-                            .as_ref()
-                            .map_or("-".into(), |st| fmt_e(st.max_deviation))
-                    })
-                    .collect();
+                let lut = format!("LUT {LUT_TO_BEAT}×");
+                let v: Vec<String> = [
+                    r.variants.iter().find(|v| v.name == "no compensation"),
+                    r.variants
+                        .iter()
+                        .find(|v| v.name.starts_with("exact table")),
+                    r.variants
+                        .iter()
+                        .find(|v| v.name.starts_with(&lut))
+                        .or_else(|| r.variants.iter().find(|v| v.name.starts_with("LUT"))),
+                    r.variants.iter().find(|v| v.name == "furnace fit"),
+                ]
+                .iter()
+                .map(|v| {
+                    v.and_then(|v| v.stats.as_ref())
+                        .map_or("-".into(), |st| fmt_e(st.max_deviation))
+                })
+                .collect();
                 format!("{}: {}", r.id, v.join(" / "))
             })
             .collect();

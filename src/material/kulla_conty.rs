@@ -10,17 +10,20 @@
 //! What the test integrates, and how independently: the single-scattering lobe over ωi by the
 //! material quadrature ([`super::microfacet`]); the f_ms lobe over ωi as 2∫(1 − E(μi)) μi dμi of
 //! the albedo *source* under test (table, LUT or fit), by adaptive Gauss–Kronrod
-//! ([`super::furnace::average_albedo`]); and E_avg not from the source but from furnace's
-//! `-avg` model ([`crate::bsdf::average`]), integrated by the engine. With the exact table and
-//! F = 1 the three meet only if the table, its μ average and the engine's E_avg agree, so the
-//! test measures them: |1 − E| of the white conductor.
+//! ([`super::furnace::average_albedo`]); and E_avg = 2∫E μ dμ of the same source, as a renderer
+//! computes its E_avg table from its E table. The lobe then restores exactly 1 − E(μo) of the
+//! source, and |1 − E| of the white conductor measures how far the source's E(μo) is from the
+//! single scattering the quadrature integrates: ≤ 1e-9 with the exact table at its nodes (a
+//! bilinear table between them carries its interpolation error, in E and in E_avg alike).
+//! Furnace's own E_avg ([`KullaConty::e_avg`], the `-avg` model of [`crate::bsdf::average`]) is
+//! what the exact source's average is checked against.
 //!
 //! Coloured F0 (the Fresnel of a dielectric of that F0 on every microfacet, as the glossy
 //! layer's): the compensated albedo is no longer 1; the lobe times F_ms must restore
 //! F_ms (1 − E(μo)) on top of the single scattering E_ss(μo). The coloured row's value is the
-//! compensated albedo over E_ss(μo) + F_ms (1 − E(μo)), E_ss integrated by the material
-//! quadrature, so |1 − value| measures the coloured lobe as the white row measures the white
-//! one. (How well F_ms models a coloured conductor's true multiple scattering — Kulla & Conty's
+//! compensated albedo over what exact quantities give, E_ss(μo) + F_ms (1 − E(μo)) with E_ss
+//! and the white E(μo) integrated by the material quadrature and F_ms from the engine's E_avg,
+//! so |1 − value| measures the source's E(μo) and its E_avg (through F_ms) together. (How well F_ms models a coloured conductor's true multiple scattering — Kulla & Conty's
 //! assumption that each bounce scales the energy by F_avg — is not what this measures.)
 
 use super::furnace::average_albedo;
@@ -135,7 +138,9 @@ impl CompensatedBsdf for KullaConty {
         Some(self.f0)
     }
 
-    /// The single-scattering lobe (F = 1, or the dielectric Fresnel of F0), exact at α = 0.
+    /// The single-scattering lobe (F = 1, or the dielectric Fresnel of F0), exact at α = 0; for
+    /// a coloured F0 also the white one (F = 1), the exact E(μo) the coloured value is set
+    /// against.
     fn lobes(&self, x: &[f64]) -> Vec<Lobe> {
         let (r, mu_o) = (x[0], x[1]);
         let alpha = alpha_from_r(r);
@@ -152,18 +157,32 @@ impl CompensatedBsdf for KullaConty {
             } else {
                 crate::math::fresnel_dielectric(mu_o, eta_from_f0(self.f0))
             };
-            return vec![Lobe::Exact(f)];
+            return if self.white_f() {
+                vec![Lobe::Exact(f)]
+            } else {
+                vec![Lobe::Exact(f), Lobe::Exact(1.0)]
+            };
         }
-        vec![Lobe::Microfacet {
+        let mut out = vec![Lobe::Microfacet {
             alpha,
             mu_o,
             smith: self.smith,
             lobe,
-        }]
+        }];
+        if !self.white_f() {
+            out.push(Lobe::Microfacet {
+                alpha,
+                mu_o,
+                smith: self.smith,
+                lobe: MicrofacetLobe::Conductor,
+            });
+        }
+        out
     }
 
-    /// Per distinct r: F_ms · 2∫(1 − E_src) μ dμ / (1 − E_avg), 0 where 1 − E_avg < [`FLOOR`]
-    /// (the lobe off); and under key −1 − r, F_ms (for the coloured prediction).
+    /// Per distinct r, with E_avg = 2∫E_src μ dμ of the source: F_ms · 2∫(1 − E_src) μ dμ /
+    /// (1 − E_avg), 0 where 1 − E_avg < [`FLOOR`] (the lobe off); and for a coloured F0, under
+    /// key −1 − r, F_ms of the engine's E_avg (for the exact prediction).
     fn prepare(&self, compensation: &Compensation, points: &[Vec<f64>]) -> Prepared {
         let Compensation::With(albedos) = compensation else {
             return Prepared::default();
@@ -172,18 +191,23 @@ impl CompensatedBsdf for KullaConty {
         rs.sort_by(f64::total_cmp);
         rs.dedup();
         let f_avg = self.f_avg();
-        let e_avg = self.e_avg(&rs);
+        let exact_e_avg = if self.white_f() {
+            vec![1.0; rs.len()]
+        } else {
+            self.e_avg(&rs)
+        };
         let mut values = Vec::with_capacity(2 * rs.len());
-        for (&r, &e_avg) in rs.iter().zip(&e_avg) {
+        for (&r, &exact_e_avg) in rs.iter().zip(&exact_e_avg) {
+            let e_avg = average_albedo(albedos[0], r); // 2∫E(μ) μ dμ of the source
             let fms = f_ms(f_avg, e_avg);
-            let lost = 1.0 - average_albedo(albedos[0], r); // 2∫(1 − E(μi)) μi dμi
+            let lost = 1.0 - e_avg; // 2∫(1 − E(μi)) μi dμi
             let lobe = if 1.0 - e_avg >= FLOOR {
                 fms * lost / (1.0 - e_avg)
             } else {
                 0.0
             };
             values.push((r, lobe));
-            values.push((-1.0 - r, fms));
+            values.push((-1.0 - r, f_ms(f_avg, exact_e_avg)));
         }
         Prepared::new(values)
     }
@@ -207,7 +231,7 @@ impl CompensatedBsdf for KullaConty {
             return total;
         }
         let fms = prepared.get(-1.0 - r).unwrap_or(0.0);
-        let predicted = lobes[0] + fms * (1.0 - e);
+        let predicted = lobes[0] + fms * (1.0 - lobes[1]);
         total / predicted.max(super::builtin::MIN_ALBEDO)
     }
 }
@@ -280,6 +304,19 @@ mod tests {
             );
             assert!(with.max_deviation <= 1e-6, "{with:?}");
             assert!(none.max_deviation > 0.5, "{none:?}");
+        }
+    }
+
+    /// The exact source's E_avg, 2∫E μ dμ by adaptive Gauss–Kronrod over the engine's E, is the
+    /// engine's `-avg` model to 1e-8.
+    #[test]
+    fn the_exact_average_is_the_engines_e_avg() {
+        let m = KullaConty::white(SmithForm::HeightCorrelated);
+        let exact = Exact::new(SmithForm::HeightCorrelated);
+        let rs = [0.1, 0.5, 1.0];
+        for (&r, e_avg) in rs.iter().zip(m.e_avg(&rs)) {
+            let avg = average_albedo(&exact, r);
+            assert!((avg - e_avg).abs() <= 1e-8, "r = {r}: {avg} vs {e_avg}");
         }
     }
 

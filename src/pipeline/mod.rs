@@ -144,13 +144,15 @@ impl Job {
         Ok(())
     }
 
-    /// The report on tiny grids (9² / 5³ tables, 2 sphere columns): for tests and trials.
+    /// The report on tiny grids (9² / 5³ tables, 3- and 5-per-axis LUTs, 2 sphere columns): for
+    /// tests and trials.
     pub fn quick_report(&mut self) {
         let o = &mut self.report;
         o.resolution_2d = 9;
         o.resolution_3d = 5;
         o.lut_2d = 5;
         o.lut_3d = 3;
+        o.furnace_luts = vec![3];
         o.furnace_nodes = 9;
         o.furnace_f0_slices = 2;
         o.sphere_roughness = vec![0.3, 1.0];
@@ -307,6 +309,11 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
                         job.report.resolution_3d
                     },
                 ));
+                if !model.id().is_radiance() {
+                    for &n in &job.report.furnace_luts {
+                        small.push((model.as_ref(), n));
+                    }
+                }
             }
         }
         let mut computed = 0;

@@ -6,70 +6,19 @@
 
 use super::sweeps::BestSummary;
 use crate::bsdf::Model;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::fit::check::CheckSet;
 use crate::math::CompensatedSum;
-use crate::output;
 use crate::progress::Observer;
 use crate::quadrature::QuadratureSettings;
 use crate::report::albedo::{Albedo, TableAlbedo};
 use crate::table::{get_or_tabulate, TableSpec};
-use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// Nodes per axis of the LUTs measured beside the fits.
-pub const LUT_CHECK_RESOLUTIONS: [usize; 3] = [16, 32, 64];
-
-/// The LUT resolution a chosen fit must beat (`furnace run` flags it otherwise).
-pub const LUT_TO_BEAT: usize = 32;
-
-/// Errors below this are within the check values' own quadrature tolerance (the tables' and the
-/// check set's 1e-7 per value), so a fit and a LUT that both reach it are not ranked against each
-/// other on it.
-pub const INDISTINGUISHABLE: f64 = 1e-7;
-
-/// Name of the file in each model's fit folder.
-pub use crate::report::inputs::OFF_GRID_FILE;
-
-/// Errors at the check points.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PointErrors {
-    pub max_abs_error: f64,
-    pub mae: f64,
-    pub max_abs_error_at: Vec<f64>,
-}
-
-/// A LUT's errors at the check points.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct LutErrors {
-    pub per_axis: usize,
-    /// Stored values (nodes).
-    pub values: usize,
-    pub errors: PointErrors,
-}
-
-/// A best fit's errors at the check points.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct BudgetErrors {
-    pub budget: usize,
-    pub file: String,
-    pub form: String,
-    pub n_coefficients: usize,
-    pub max_abs_error: f64,
-    pub mae: f64,
-}
-
-/// `fits/<model>/off-grid.json`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct OffGridSummary {
-    pub what: String,
-    pub tool: String,
-    pub tool_version: String,
-    pub model: String,
-    pub check_set: String,
-    pub best: Vec<BudgetErrors>,
-    pub luts: Vec<LutErrors>,
-}
+pub use crate::report::offgrid::{
+    BudgetErrors, LutErrors, OffGridSummary, PointErrors, INDISTINGUISHABLE, LUT_CHECK_RESOLUTIONS,
+    LUT_TO_BEAT, OFF_GRID_FILE,
+};
 
 /// Errors of `albedo` at the points of `check`.
 pub fn errors_of(albedo: &dyn Albedo, check: &CheckSet) -> PointErrors {
@@ -145,51 +94,6 @@ pub fn summary(
             })
             .collect(),
         luts,
-    }
-}
-
-impl OffGridSummary {
-    /// Writes `<dir>/off-grid.json`.
-    pub fn write(&self, dir: &Path) -> Result<PathBuf> {
-        let path = dir.join(OFF_GRID_FILE);
-        let json =
-            serde_json::to_string_pretty(self).map_err(|e| Error::file(&path, e.to_string()))?;
-        output::write(&path, format!("{json}\n").as_bytes())?;
-        Ok(path)
-    }
-
-    /// One sentence per best fit that loses to the [`LUT_TO_BEAT`]-per-axis LUT on max error or
-    /// MAE at the check points, by more than [`INDISTINGUISHABLE`].
-    pub fn losses(&self) -> Vec<String> {
-        let Some(lut) = self.luts.iter().find(|l| l.per_axis == LUT_TO_BEAT) else {
-            return Vec::new();
-        };
-        self.best
-            .iter()
-            .filter_map(|b| {
-                let max = b.max_abs_error > lut.errors.max_abs_error.max(INDISTINGUISHABLE);
-                let mae = b.mae > lut.errors.mae.max(INDISTINGUISHABLE);
-                (max || mae).then(|| {
-                    format!(
-                        "{} best-{} ({} coefficients) loses to the {n}-per-axis LUT ({} values) on {}: max {:.1e} vs {:.1e}, MAE {:.1e} vs {:.1e}",
-                        self.model,
-                        b.budget,
-                        b.n_coefficients,
-                        lut.values,
-                        match (max, mae) {
-                            (true, true) => "max error and MAE",
-                            (true, false) => "max error",
-                            _ => "MAE",
-                        },
-                        b.max_abs_error,
-                        lut.errors.max_abs_error,
-                        b.mae,
-                        lut.errors.mae,
-                        n = LUT_TO_BEAT,
-                    )
-                })
-            })
-            .collect()
     }
 }
 

@@ -270,7 +270,7 @@ pub fn paper_coefficients(dim: usize) -> usize {
 }
 
 /// The budget of `best-<N>.json`, if `source` is such a file at the top of the fits folder.
-fn best_budget(source: &str) -> Option<usize> {
+pub fn best_budget(source: &str) -> Option<usize> {
     source
         .strip_prefix("best-")?
         .strip_suffix(".json")?

@@ -15,6 +15,8 @@
 //! - [`inputs`]: fit files, the chosen fit, measurement against a table, the paper link, benchmark CSVs.
 //! - [`model`]: one model's section (`reports/<model>/`): Fig. 3, heat maps, slices, paper comparison,
 //!   furnace table and spheres.
+//! - [`offgrid`]: the best fits' and the LUTs' errors at the off-grid check points, and every
+//!   sweep fit's, by form family.
 //! - [`readme`]: `reports/README.md` from every section, with the summary tables.
 //!
 //! Same inputs give the same bytes: no timestamps, fixed evaluation and summation order.
@@ -38,6 +40,7 @@
 pub mod albedo;
 pub mod inputs;
 pub mod model;
+pub mod offgrid;
 pub mod plot;
 pub mod readme;
 pub mod spheres;

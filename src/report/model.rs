@@ -11,6 +11,7 @@ use super::albedo::{Albedo, FitAlbedo, TableAlbedo};
 use super::inputs::{
     self, choose_fit, load_fits, measure, paper_link, short_form, FitFiles, Measured, TableProvider,
 };
+use super::offgrid::{self, OffGridSummary, SweepPoint};
 use super::plot::{
     self, color, Axis, Chart, ColorScale, Figure, Formats, HeatFigure, HeatPanel, LegendAt, Marker,
     Series, Style,
@@ -46,9 +47,12 @@ pub struct ReportOptions {
     /// Nodes per axis of the tables fits are measured against, 2-D and 3-D.
     pub resolution_2d: usize,
     pub resolution_3d: usize,
-    /// Nodes per axis of the LUTs (multilinear), 2-D and 3-D.
+    /// Nodes per axis of the LUTs (multilinear), 2-D and 3-D: the LUT of the sphere images.
     pub lut_2d: usize,
     pub lut_3d: usize,
+    /// Nodes per axis of the LUTs the white furnace test is also run with (every model: 16, 32
+    /// and 64, the LUTs `fits/<model>/off-grid.json` measures beside the fits).
+    pub furnace_luts: Vec<usize>,
     /// Furnace grid: at most this many table nodes per r and μ axis…
     pub furnace_nodes: usize,
     /// …and this many F0 slices of 3-D tables.
@@ -72,6 +76,7 @@ impl ReportOptions {
             resolution_3d: 17,
             lut_2d: 32,
             lut_3d: 32,
+            furnace_luts: super::offgrid::LUT_CHECK_RESOLUTIONS.to_vec(),
             furnace_nodes: 33,
             furnace_f0_slices: 3,
             sphere_roughness: vec![0.0, 0.2, 0.4, 0.6, 0.8, 1.0],
@@ -190,6 +195,10 @@ pub struct ModelSummary {
     pub chosen: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paper: Option<PaperRow>,
+    /// The best fits' and the LUTs' errors at the off-grid check points
+    /// (`fits/<model>/off-grid.json`), if the sweep measured them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub off_grid: Option<OffGridSummary>,
     pub furnace: Vec<FurnaceRow>,
     /// Every file the section links (relative to `reports/`).
     pub files: Vec<String>,
@@ -244,8 +253,15 @@ struct ModelData {
     axes: Vec<String>,
     table: Table,
     lut: TableAlbedo,
+    /// The LUTs of [`ReportOptions::furnace_luts`] other than `lut`, by nodes per axis.
+    luts: Vec<(usize, TableAlbedo)>,
     exact: TableAlbedo,
     fits: FitFiles,
+    fit_albedos: Vec<Option<FitAlbedo>>,
+    /// (N, index into `fits`) of every usable `best-<N>.json`, by N.
+    budgets: Vec<(usize, usize)>,
+    off_grid: Option<OffGridSummary>,
+    sweep_points: Vec<SweepPoint>,
     measured: Vec<Measured>,
     chosen: Option<usize>,
     chosen_albedo: Option<FitAlbedo>,
@@ -255,6 +271,29 @@ struct ModelData {
 impl ModelData {
     fn dims(&self) -> usize {
         self.axes.len()
+    }
+
+    fn lut_per_axis(&self) -> usize {
+        self.lut
+            .resolution()
+            .split('x')
+            .next()
+            .and_then(|n| n.parse().ok())
+            .unwrap_or(0)
+    }
+
+    /// The LUT of `n` nodes per axis, if loaded.
+    fn lut_of(&self, n: usize) -> Option<&TableAlbedo> {
+        if n == self.lut_per_axis() {
+            return Some(&self.lut);
+        }
+        self.luts.iter().find(|(m, _)| *m == n).map(|(_, l)| l)
+    }
+
+    /// The albedo of `best-<n>.json`, if there is one and it can be evaluated.
+    fn budget_albedo(&self, n: usize) -> Option<&FitAlbedo> {
+        let &(_, k) = self.budgets.iter().find(|(b, _)| *b == n)?;
+        self.fit_albedos[k].as_ref()
     }
 
     fn fit_row(&self, k: usize) -> FitRow {
@@ -355,6 +394,15 @@ impl<'a> Reporter<'a> {
                     .table(model.as_ref(), &vec![lut_n; axes.len()])?
             }
         };
+        let mut luts = Vec::new();
+        for &n in &self.options.furnace_luts {
+            if n != lut_n && !luts.iter().any(|(m, _)| *m == n) {
+                (self.progress)(&format!("{k}: LUT {n}"));
+                let t = self.tables.table(model.as_ref(), &vec![n; axes.len()])?;
+                luts.push((n, TableAlbedo::new(&t)));
+            }
+        }
+        luts.sort_by_key(|(n, _)| *n);
         let fit_data = crate::fit::source::from_table(&table, "E", None)?.data;
         let mut fits = load_fits(&self.options.fits_dir.join(model.id().key()), &fit_data)?;
         let fit_albedos: Vec<Option<FitAlbedo>> = fits
@@ -383,6 +431,20 @@ impl<'a> Reporter<'a> {
             .collect();
         let chosen = choose_fit(&fits, axes.len(), &measured);
         let chosen_albedo = chosen.and_then(|k| fit_albedos[k].clone());
+        let mut budgets: Vec<(usize, usize)> = fits
+            .fits
+            .iter()
+            .enumerate()
+            .filter_map(|(j, f)| {
+                inputs::best_budget(&f.source)
+                    .filter(|_| f.fit.is_usable() && fit_albedos[j].is_some())
+                    .map(|b| (b, j))
+            })
+            .collect();
+        budgets.sort_unstable();
+        let fits_dir = self.options.fits_dir.join(model.id().key());
+        let off_grid = offgrid::read_summary(&fits_dir);
+        let sweep_points = offgrid::read_sweep_points(&fits_dir);
         let paper = match (&self.options.paper_dir, paper_link(id)) {
             (Some(dir), Some(link)) if link.model == id => {
                 let fit = inputs::load_paper_fit(dir, &link)?;
@@ -396,10 +458,15 @@ impl<'a> Reporter<'a> {
             name: k.clone(),
             exact: TableAlbedo::new(&table),
             lut: TableAlbedo::new(&lut_table),
+            luts,
             model,
             axes,
             table,
             fits,
+            fit_albedos,
+            budgets,
+            off_grid,
+            sweep_points,
             measured,
             chosen,
             chosen_albedo,
@@ -419,12 +486,13 @@ impl<'a> Reporter<'a> {
     pub fn inputs_digest(&self, deps: &[Dependency]) -> Result<String> {
         let o = &self.options;
         let mut text = format!(
-            "furnace {}\nresolution {} {} lut {} {} furnace nodes {} f0 slices {} spheres {:?} f0 {} paper {}\n",
+            "furnace {}\nresolution {} {} lut {} {} furnace luts {:?} nodes {} f0 slices {} spheres {:?} f0 {} paper {}\n",
             crate::VERSION,
             o.resolution_2d,
             o.resolution_3d,
             o.lut_2d,
             o.lut_3d,
+            o.furnace_luts,
             o.furnace_nodes,
             o.furnace_f0_slices,
             o.sphere_roughness,
@@ -450,6 +518,12 @@ impl<'a> Reporter<'a> {
                     .tables
                     .table(model.as_ref(), &vec![self.options.lut(dims); dims])?;
                 let _ = writeln!(text, "lut {}", values_sha256(&lut.values));
+            }
+            for &n in &self.options.furnace_luts {
+                if n != self.options.lut(dims) {
+                    let lut = self.tables.table(model.as_ref(), &vec![n; dims])?;
+                    let _ = writeln!(text, "lut {n} {}", values_sha256(&lut.values));
+                }
             }
             let dir = self.options.fits_dir.join(model.id().key());
             for (rel, sha) in files_digest(&dir)? {
@@ -518,6 +592,8 @@ impl<'a> Reporter<'a> {
         files.extend(heat.iter().map(|p| rel(p)));
         let slices = self.fig_slices(&data, &dir.join("slices"))?;
         files.extend(slices.iter().map(|p| rel(p)));
+        let off_grid = self.fig_off_grid(&data, &dir.join("off-grid"))?;
+        files.extend(off_grid.iter().map(|p| rel(p)));
 
         let paper = match paper_link(id) {
             Some(link) => match &self.options.paper_dir {
@@ -543,6 +619,7 @@ impl<'a> Reporter<'a> {
             fits: (0..data.fits.fits.len()).map(|k| data.fit_row(k)).collect(),
             chosen: data.chosen,
             paper,
+            off_grid: data.off_grid.clone(),
             furnace,
             files,
             dependencies: Vec::new(),
@@ -653,6 +730,113 @@ impl<'a> Reporter<'a> {
                     "maximum absolute error",
                     "max |fit − table|",
                     &|m: &Measured| m.max_abs,
+                ),
+            ],
+            size: (1300, 560),
+        };
+        plot::save(&fig, stem, Formats::PngAndSvg)
+    }
+
+    /// Error against stored values at the off-grid check points: the lower envelope of every
+    /// form family of the sweep, the `best-<N>.json` fits and the 16/32/64-per-axis LUTs, max
+    /// error and MAE side by side.
+    fn fig_off_grid(&self, data: &ModelData, stem: &Path) -> Result<Vec<PathBuf>> {
+        let Some(og) = &data.off_grid else {
+            return Ok(vec![]);
+        };
+        let points = &data.sweep_points;
+        let families = offgrid::families(points);
+        let markers = [Marker::Circle, Marker::Square, Marker::Cross];
+        let chart = |title: &str,
+                     y_label: &str,
+                     fit: &dyn Fn(&SweepPoint) -> f64,
+                     lut: &dyn Fn(&offgrid::PointErrors) -> f64,
+                     best: &dyn Fn(&offgrid::BudgetErrors) -> f64| {
+            let mut series = Vec::new();
+            for (c, family) in families.iter().enumerate() {
+                let pts = offgrid::envelope(points, family, fit);
+                if !pts.is_empty() {
+                    series.push(
+                        Series::new(
+                            &format!("{family} (best of the sweep)"),
+                            pts,
+                            color(c),
+                            Style::LinePoints,
+                        )
+                        .marker(markers[c % markers.len()]),
+                    );
+                }
+            }
+            if !og.best.is_empty() {
+                series.push(
+                    Series::new(
+                        "best-<N>.json",
+                        og.best
+                            .iter()
+                            .map(|b| (b.n_coefficients as f64, best(b)))
+                            .collect(),
+                        color(families.len()),
+                        Style::Points,
+                    )
+                    .marker(Marker::Triangle),
+                );
+            }
+            if !og.luts.is_empty() {
+                series.push(
+                    Series::new(
+                        &format!(
+                            "LUT {} per axis ({})",
+                            og.luts
+                                .iter()
+                                .map(|l| l.per_axis.to_string())
+                                .collect::<Vec<_>>()
+                                .join("/"),
+                            if data.dims() == 2 {
+                                "bilinear"
+                            } else {
+                                "trilinear"
+                            }
+                        ),
+                        og.luts
+                            .iter()
+                            .map(|l| (l.values as f64, lut(&l.errors)))
+                            .collect(),
+                        RGBColorKey::black(),
+                        Style::LinePoints,
+                    )
+                    .marker(Marker::Square),
+                );
+            }
+            let room = legend_room(&series);
+            Chart {
+                title: title.into(),
+                x: Axis::log("stored values (fit: coefficients; LUT: nodes)"),
+                y: Axis::log(y_label),
+                series,
+                legend: LegendAt::UpperRight,
+                legend_room: room,
+            }
+        };
+        let fig = Figure {
+            title: Some(format!(
+                "{}: error against stored values at {} off-grid points",
+                data.name,
+                og.check_set.split(" off-grid").next().unwrap_or("the")
+            )),
+            charts: vec![
+                chart(
+                    "maximum absolute error",
+                    "max |E − exact|",
+                    &|p| p.max_abs_error,
+                    &|e| e.max_abs_error,
+                    &|b| b.max_abs_error,
+                ),
+                chart(
+                    "mean absolute error",
+                    "MAE of E",
+                    &|p| p.mae,
+                    &|e| e.mae,
+                    &|b| b.mae,
                 ),
             ],
             size: (1300, 560),
@@ -977,11 +1161,11 @@ impl<'a> Reporter<'a> {
         let quadrature_error = lobes.iter().map(|l| l.error).fold(0.0, f64::max);
         let unconverged = lobes.iter().filter(|l| !l.converged).count();
 
-        let lut_name = |d: &ModelData| {
+        let lut_name = |n: usize| {
             format!(
                 "LUT {} ({})",
-                d.lut.resolution().replace('x', "×"),
-                if d.dims() == 2 {
+                vec![n.to_string(); data.dims()].join("×"),
+                if data.dims() == 2 {
                     "bilinear"
                 } else {
                     "trilinear"
@@ -1009,13 +1193,21 @@ impl<'a> Reporter<'a> {
             )),
             "the furnace points are table nodes".into(),
         ));
-        variants.push((
-            lut_name(&data),
-            Ok(Compensation::With(
-                sources(&|d| Some(&d.lut)).expect("every LUT is loaded"),
-            )),
-            "values at LUT nodes are the table's".into(),
-        ));
+        // the LUT of the sphere images, then every other size, by nodes per axis
+        let main_lut = data.lut_per_axis();
+        let mut lut_sizes = vec![main_lut];
+        lut_sizes.extend(self.options.furnace_luts.iter().filter(|&&n| n != main_lut));
+        lut_sizes.sort_unstable();
+        lut_sizes.dedup();
+        for &n in &lut_sizes {
+            variants.push((
+                lut_name(n),
+                Ok(Compensation::With(
+                    sources(&|d| d.lut_of(n).map(|l| l as _)).expect("every LUT is loaded"),
+                )),
+                "multilinear in the tabulated values at its nodes".into(),
+            ));
+        }
         let chosen = sources(&|d| d.chosen_albedo.as_ref().map(|a| a as _));
         let fit_variant = match (&data.chosen_albedo, data.chosen, chosen) {
             (Some(_), Some(k), Some(s)) => {
@@ -1049,6 +1241,29 @@ impl<'a> Reporter<'a> {
         match fit_variant {
             Ok((c, note)) => variants.push(("furnace fit".into(), Ok(c), note)),
             Err(e) => variants.push(("furnace fit".into(), Err(e.clone()), e)),
+        }
+        // every budget of the sweep (`best-<N>.json` of each albedo the material reads)
+        for &(b, k) in &data.budgets {
+            let name = format!("best-{b}");
+            match sources(&|d| d.budget_albedo(b).map(|a| a as _)) {
+                Some(s) => {
+                    let f = &data.fits.fits[k];
+                    let note = format!(
+                        "`best-{b}.json`: {}, {} coefficients",
+                        f.short_form(),
+                        f.fit.n_coefficients
+                    );
+                    variants.push((name, Ok(Compensation::With(s)), note));
+                }
+                None => {
+                    let missing = others
+                        .iter()
+                        .find(|o| o.budget_albedo(b).is_none())
+                        .map_or(data.name.as_str(), |o| o.name.as_str());
+                    let e = format!("no `best-{b}.json` of {missing}");
+                    variants.push((name, Err(e.clone()), e));
+                }
+            }
         }
         if data.paper.is_some() {
             let v = match sources(&|d| d.paper.as_ref().map(|p| &p.1 as _)) {
@@ -1084,11 +1299,16 @@ impl<'a> Reporter<'a> {
             });
         }
 
-        // spheres: none, LUT, fit (and the paper's fit)
+        // spheres: none, the report's LUT, the chosen fit (and the paper's fit)
+        let sphere_lut = lut_name(main_lut);
         let sphere_rows: Vec<&(String, std::result::Result<Compensation, String>, String)> =
             variants
                 .iter()
-                .filter(|v| !v.0.starts_with("exact table"))
+                .filter(|v| {
+                    !v.0.starts_with("exact table")
+                        && !v.0.starts_with("best-")
+                        && (!v.0.starts_with("LUT") || v.0 == sphere_lut)
+                })
                 .collect();
         let comps: Vec<Compensation> = sphere_rows
             .iter()
@@ -1387,6 +1607,24 @@ impl<'a> Reporter<'a> {
             let _ = writeln!(md, "\n\"As fitted\" is what the fit file records (on the data it was fitted to; for the paper, its own 32-point table).\n");
         }
 
+        if let Some(og) = &s.off_grid {
+            let _ = writeln!(md, "#### Off-grid errors: fits against LUTs\n");
+            let _ = writeln!(
+                md,
+                "Every fit of the sweep and the multilinear LUTs of the same model, measured at the same points against the exact values: {}.\n",
+                og.check_set
+            );
+            if has("off-grid.png") {
+                let _ = writeln!(
+                    md,
+                    "![{name}: off-grid error against stored values]({}) ([SVG]({}))\n",
+                    link("off-grid.png"),
+                    link("off-grid.svg")
+                );
+            }
+            md.push_str(&offgrid_markdown(og, &data.sweep_points, data.dims()));
+        }
+
         let _ = writeln!(md, "#### Error of the chosen fit over the domain\n");
         if has("heatmap-abs.png") {
             let _ = writeln!(
@@ -1479,6 +1717,88 @@ impl<'a> Reporter<'a> {
         }
         md
     }
+}
+
+/// The off-grid tables of a section: the best fits and the LUTs (with the flag of a best fit
+/// that loses to the [`offgrid::LUT_TO_BEAT`]-per-axis LUT), then the lowest max error of every
+/// form family within each budget.
+fn offgrid_markdown(og: &OffGridSummary, points: &[SweepPoint], dims: usize) -> String {
+    let mut md = String::new();
+    let losing: Vec<usize> = og
+        .best
+        .iter()
+        .filter(|b| og.loses(b))
+        .map(|b| b.budget)
+        .collect();
+    let _ = writeln!(
+        md,
+        "| albedo source | form | stored values | max error | MAE |"
+    );
+    let _ = writeln!(md, "| --- | --- | ---: | ---: | ---: |");
+    for b in &og.best {
+        let flag = if losing.contains(&b.budget) {
+            format!(" (loses to the LUT {})", offgrid::LUT_TO_BEAT)
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            md,
+            "| `{}`{flag} | {} | {} | {} | {} |",
+            b.file,
+            b.form,
+            b.n_coefficients,
+            fmt_e(b.max_abs_error),
+            fmt_e(b.mae)
+        );
+    }
+    for l in &og.luts {
+        let _ = writeln!(
+            md,
+            "| LUT {} | {} | {} | {} | {} |",
+            vec![l.per_axis.to_string(); dims].join("×"),
+            if dims == 2 { "bilinear" } else { "trilinear" },
+            l.values,
+            fmt_e(l.errors.max_abs_error),
+            fmt_e(l.errors.mae)
+        );
+    }
+    md.push('\n');
+    let families = offgrid::families(points);
+    if !families.is_empty() {
+        let budgets = crate::fit::job::default_budgets(dims);
+        let _ = writeln!(
+            md,
+            "Lowest off-grid max error of each form family of the sweep within each budget (max / MAE, coefficients):\n"
+        );
+        let _ = writeln!(
+            md,
+            "| form family | {} |",
+            budgets
+                .iter()
+                .map(|b| format!("≤ {b}"))
+                .collect::<Vec<_>>()
+                .join(" | ")
+        );
+        let _ = writeln!(md, "| --- |{}", " ---: |".repeat(budgets.len()));
+        for f in &families {
+            let cells: Vec<String> = budgets
+                .iter()
+                .map(|&b| {
+                    offgrid::lowest_max_within(points, f, b).map_or("–".into(), |p| {
+                        format!(
+                            "{} / {} ({})",
+                            fmt_e(p.max_abs_error),
+                            fmt_e(p.mae),
+                            p.n_coefficients
+                        )
+                    })
+                })
+                .collect();
+            let _ = writeln!(md, "| {f} | {} |", cells.join(" | "));
+        }
+        md.push('\n');
+    }
+    md
 }
 
 /// Axis names for a furnace row (its albedo model's).

@@ -1,9 +1,10 @@
-//! `reports/README.md`: the summary tables (per model, furnace against the paper, the white
-//! furnace test), the run-time-against-error plots from the benchmark files, and every model's
-//! section, assembled from the `summary.json` and `section.md` each model's report wrote.
+//! `reports/README.md`: the summary tables (per model, the best fits against the LUTs off the
+//! grid, furnace against the paper, the white furnace test), the run-time-against-error plots
+//! from the benchmark files, and every model's section, assembled from the `summary.json` and `section.md` each model's report wrote.
 
 use super::inputs::{load_bench, BenchPlot};
 use super::model::{fmt_e, paper_table_markdown, ModelSummary, Reporter, REPORT_MODELS};
+use super::offgrid::{OffGridSummary, LUT_TO_BEAT};
 use super::plot::{self, color, Axis, Chart, Figure, Formats, LegendAt, Series, Style};
 use crate::bsdf::ModelId;
 use crate::error::{Error, Result};
@@ -149,7 +150,7 @@ gives the same bytes.\n",
             crate::VERSION,
             display_rel(&self.options.bench_dir)
         );
-        let _ = writeln!(md, "- [Summary](#summary)\n- [Furnace and the paper, side by side](#furnace-and-the-paper-side-by-side)\n- [White furnace test](#white-furnace-test)\n- [Run time against error](#run-time-against-error)\n- [Models](#models): {}\n",
+        let _ = writeln!(md, "- [Summary](#summary)\n- [Off-grid errors: fits against LUTs](#off-grid-errors-fits-against-luts)\n- [Furnace and the paper, side by side](#furnace-and-the-paper-side-by-side)\n- [White furnace test](#white-furnace-test)\n- [Run time against error](#run-time-against-error)\n- [Models](#models): {}\n",
             order.iter().map(|m| format!("[{m}](#{})", anchor(m))).collect::<Vec<_>>().join(", "));
 
         // Summary
@@ -194,6 +195,97 @@ gives the same bytes.\n",
             }
         }
         md.push('\n');
+
+        // Off-grid: best fits next to the LUTs
+        let _ = writeln!(md, "## Off-grid errors: fits against LUTs\n");
+        let with_off_grid: Vec<(&String, &OffGridSummary)> = sections
+            .iter()
+            .filter_map(|(m, s)| {
+                s.as_ref()
+                    .and_then(|(s, _)| s.off_grid.as_ref().map(|o| (m, o)))
+            })
+            .collect();
+        if with_off_grid.is_empty() {
+            let _ = writeln!(md, "No off-grid errors yet: `furnace run` measures every best fit and the 16/32/64-per-axis LUTs at each model's check points (`fits/<model>/off-grid.json`).\n");
+        } else {
+            let _ = writeln!(
+                md,
+                "Max error / MAE at each model's off-grid check points (quasi-random over the whole domain plus the grazing, low-roughness and low-F0 layers and every face; exact values by quadrature), of each `best-<N>.json` and of multilinear LUTs of 16, 32 and 64 nodes per axis (f64 values) at the same points. \
+**Bold**: a best fit that loses to the {n}-per-axis LUT on max error or MAE. Each model's section plots every form family of the sweep against the LUTs.\n",
+                n = LUT_TO_BEAT
+            );
+            let mut budgets: Vec<usize> = with_off_grid
+                .iter()
+                .flat_map(|(_, o)| o.best.iter().map(|b| b.budget))
+                .collect();
+            budgets.sort_unstable();
+            budgets.dedup();
+            let mut luts: Vec<usize> = with_off_grid
+                .iter()
+                .flat_map(|(_, o)| o.luts.iter().map(|l| l.per_axis))
+                .collect();
+            luts.sort_unstable();
+            luts.dedup();
+            let _ = writeln!(
+                md,
+                "| model | {} | {} |",
+                budgets
+                    .iter()
+                    .map(|b| format!("best-{b}"))
+                    .collect::<Vec<_>>()
+                    .join(" | "),
+                luts.iter()
+                    .map(|n| format!("LUT {n}"))
+                    .collect::<Vec<_>>()
+                    .join(" | ")
+            );
+            let _ = writeln!(
+                md,
+                "| --- |{}",
+                " ---: |".repeat(budgets.len() + luts.len())
+            );
+            for (m, o) in &with_off_grid {
+                let mut cells: Vec<String> = budgets
+                    .iter()
+                    .map(|&b| {
+                        o.best
+                            .iter()
+                            .find(|e| e.budget == b)
+                            .map_or("–".into(), |e| {
+                                let text = format!(
+                                    "{} / {} ({})",
+                                    fmt_e(e.max_abs_error),
+                                    fmt_e(e.mae),
+                                    e.n_coefficients
+                                );
+                                if o.loses(e) {
+                                    format!("**{text}**")
+                                } else {
+                                    text
+                                }
+                            })
+                    })
+                    .collect();
+                cells.extend(luts.iter().map(|&n| {
+                    o.luts
+                        .iter()
+                        .find(|l| l.per_axis == n)
+                        .map_or("–".into(), |l| {
+                            format!(
+                                "{} / {} ({})",
+                                fmt_e(l.errors.max_abs_error),
+                                fmt_e(l.errors.mae),
+                                l.values
+                            )
+                        })
+                }));
+                let _ = writeln!(md, "| [{m}](#{}) | {} |", anchor(m), cells.join(" | "));
+            }
+            let _ = writeln!(
+                md,
+                "\nIn parentheses: stored values (coefficients of the fit, nodes of the LUT).\n"
+            );
+        }
 
         // Paper side by side
         let _ = writeln!(md, "## Furnace and the paper, side by side\n");
@@ -392,10 +484,13 @@ thin and thick dielectrics (ρ_R + ρ_T)/E (§3.4, eq. 19); rough diffuse is Fuj
     }
 }
 
-/// Column key of a furnace variant: sizes dropped ("LUT 33×33 (bilinear)" → "LUT").
+/// Column key of a furnace variant: a LUT by its nodes per axis ("LUT 32×32 (bilinear)" →
+/// "LUT 32"), a table without its size.
 fn variant_key(name: &str) -> String {
-    if name.starts_with("LUT") {
-        "LUT".into()
+    if let Some(rest) = name.strip_prefix("LUT ") {
+        // "LUT 16×16 (bilinear)" → "LUT 16"
+        let n: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
+        format!("LUT {n}")
     } else if name.starts_with("exact table") {
         "exact table".into()
     } else {

@@ -932,7 +932,25 @@ fn progress_line(r: &FitResult) -> String {
 /// Indices of the least-squares fits worth refitting for minimax error: per budget, the
 /// [`MINIMAX_REFITS_BY_MAX`] usable ones with the lowest max error and the one with the lowest
 /// MAE (the least-squares fit with the most accuracy to trade for a lower maximum).
+///
+/// A fit whose MAE is already beyond [`super::sweep::MAE_TOLERANCE`] × the lowest MAE under
+/// the smallest budget it fits in is not refitted: a minimax refit trades MAE for max error
+/// (its MAE is 1.6–3× the least-squares one on the albedo tables), so it could not be chosen
+/// under that budget or any larger one.
 fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
+    let lowest_mae = |budget: usize| {
+        records
+            .iter()
+            .filter(|r| r.usable && r.fit.n_coefficients <= budget)
+            .map(|r| r.headline().1)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let hopeful = |i: usize| {
+        let n = records[i].fit.n_coefficients;
+        budgets.iter().filter(|&&b| b >= n).min().is_some_and(|&b| {
+            records[i].headline().1 <= super::sweep::MAE_TOLERANCE * lowest_mae(b)
+        })
+    };
     let mut chosen: Vec<usize> = Vec::new();
     for &budget in budgets {
         let mut c: Vec<usize> = (0..records.len())
@@ -941,6 +959,7 @@ fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
                 records[i].usable
                     && f.objective == Objective::LeastSquares
                     && f.n_coefficients <= budget
+                    && hopeful(i)
             })
             .collect();
         c.sort_by(|&a, &b| {

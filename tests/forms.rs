@@ -153,6 +153,43 @@ fn per_variable_degrees_with_the_grazing_layer_round_trip() {
 }
 
 #[test]
+fn separate_denominators_round_trip_positive_and_certified() {
+    let dir = scratch("sum");
+    let path = round_trip(
+        &dir,
+        "ggx-dielectric",
+        "6x8x8",
+        "sum:f0:power:3:2/+1",
+        "f0=root:4:0.0125:0.25,r=square,mu=glayer:r:1:0:2",
+    );
+    let fit = fitfile::load(&path).unwrap().record.fit;
+    let a = &fit.approximant;
+    // three terms, each with its own denominator, none with f0
+    assert_eq!(a.terms.len(), 2);
+    assert_eq!(a.denominators().count(), 3);
+    assert!(a
+        .denominators()
+        .all(|q| q.exponents.iter().all(|e| e[0] == 0)));
+    assert!(fit.metrics.max_abs_error < 0.1, "{:?}", fit.metrics);
+}
+
+#[test]
+fn low_rank_round_trips() {
+    let dir = scratch("lowrank");
+    let path = round_trip(
+        &dir,
+        "ggx-dielectric-inv",
+        "6x8x8",
+        "lowrank:f0:2:2:2/1",
+        "f0=root:4:0.0125:0.25,r=square,mu=glayer:r:1:0:2",
+    );
+    let fit = fitfile::load(&path).unwrap().record.fit;
+    // u_k of degree 2 (3), P_k of total degree 2 in (r, μ) (6), Q_k of degree 1 (3 − 1)
+    assert_eq!(fit.n_coefficients, 2 * (3 + 6 + 2));
+    assert!(fit.approximant.factor.is_some());
+}
+
+#[test]
 fn forms_the_data_cannot_determine_are_refused() {
     let dir = scratch("refused");
     let base = |spec: &str| {
@@ -185,5 +222,11 @@ fn forms_the_data_cannot_determine_are_refused() {
             .arg("f0=root:3:0.0125:0.25"),
     );
     assert!(err.contains("n = 2, 4 or 8"), "{err}");
+    let err = fails(&mut base("sum:f0:chebyshev:2:2/1"));
+    assert!(err.contains("unknown basis family 'chebyshev'"), "{err}");
+    let err = fails(&mut base("sum:f0:power:5:2/1"));
+    assert!(err.contains("4 distinct values of 'f0'"), "{err}");
+    let err = fails(&mut base("lowrank:f0:4:2:2/+1"));
+    assert!(err.contains("at most 3 independent terms"), "{err}");
     assert!(!dir.join("never.json").exists(), "nothing written");
 }

@@ -341,7 +341,8 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
             &transforms,
             args.fit_points.unwrap_or(0),
             &opts,
-        )?;
+        )?
+        .with_off_grid(checked);
         let name = rec.file_name();
         let target = match &args.output {
             Some(p) => Target::from_arg(p),
@@ -488,6 +489,12 @@ fn timing_text(t: &Timing) -> String {
 /// A fit's summary lines: file, form, metrics and verdict.
 fn record_text(rec: &FitRecord, path: &str, timing: Option<&Timing>) -> String {
     let m = &rec.fit.metrics;
+    let off_grid = rec.off_grid.as_ref().map_or(String::new(), |o| {
+        format!(
+            "    off-grid ({}): MAE {:.3e}, max {:.3e} at {:?}\n",
+            o.on, o.metrics.mae, o.metrics.max_abs_error, o.metrics.max_abs_error_at
+        )
+    });
     format!(
         "{path}: {} [{}], {} coefficients{}; on {} points: MAE {:.3e}, RMSE {:.3e}, max {:.3e} at {:?}, max relative {:.3e}\n    {}\n",
         rec.fit.form.label_with(&rec.fit.approximant.variables),
@@ -501,7 +508,7 @@ fn record_text(rec: &FitRecord, path: &str, timing: Option<&Timing>) -> String {
         m.max_abs_error_at,
         m.max_rel_error,
         rec.verdict
-    )
+    ) + &off_grid
 }
 
 fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {

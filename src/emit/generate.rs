@@ -914,6 +914,9 @@ pub fn albedo_function(
         };
         tvars.push(tname);
     }
+    if a.is_structured() {
+        return structured_function(name, doc, fit, form, params, body, &tvars);
+    }
     let (num, den) = form_polynomials(fit, form)?;
     let all_coefficients = |p: &FormPoly| -> Vec<f64> {
         match p {
@@ -1026,6 +1029,206 @@ pub fn albedo_function(
             comment: None,
         }),
     }
+    Ok(Function {
+        name: name.into(),
+        doc,
+        params,
+        body,
+        result: clamp(var("e"), lit(0.0), lit(1.0)),
+    })
+}
+
+/// The exponent set of `p` closed downwards (every monomial dividing one of its monomials
+/// listed, with coefficient 0 where it had none): the shape the shifted and Bernstein
+/// conversions expand over. A structured form's term t_x^a·P_a(y) is not closed.
+fn closed_downwards(p: &Polynomial) -> Polynomial {
+    let mut exps: Vec<Vec<u32>> = Vec::new();
+    for e in &p.exponents {
+        let mut j = vec![0u32; e.len()];
+        loop {
+            if !exps.contains(&j) {
+                exps.push(j.clone());
+            }
+            let mut k = 0;
+            while k < e.len() {
+                if j[k] < e[k] {
+                    j[k] += 1;
+                    break;
+                }
+                j[k] = 0;
+                k += 1;
+            }
+            if k == e.len() {
+                break;
+            }
+        }
+    }
+    exps.sort_by(|a, b| {
+        a.iter()
+            .sum::<u32>()
+            .cmp(&b.iter().sum::<u32>())
+            .then_with(|| b.cmp(a))
+    });
+    let coefficients = exps
+        .iter()
+        .map(|e| {
+            p.exponents
+                .iter()
+                .position(|x| x == e)
+                .map_or(0.0, |i| p.coefficients[i])
+        })
+        .collect();
+    Polynomial {
+        exponents: exps,
+        coefficients,
+    }
+}
+
+/// The body of a structured form's albedo function after the transformed variables: per term
+/// i the factor `u{i}`, numerator `p{i}` and denominator `q{i}` (each in the evaluation form),
+/// the term `(p{i}·u{i})/q{i}`, and `e` their sum from the first term on — the order of
+/// [`crate::fit::Approximant::eval`].
+fn structured_function(
+    name: &str,
+    doc: Vec<String>,
+    fit: &FitResult,
+    form: EvalForm,
+    params: Vec<String>,
+    mut body: Vec<Stmt>,
+    tvars: &[String],
+) -> crate::fit::Result<Function> {
+    let a = &fit.approximant;
+    let terms = a.all_terms();
+    for p in terms.iter().flat_map(|t| {
+        std::iter::once(&t.numerator)
+            .chain(t.factor.iter())
+            .chain(t.denominator.iter())
+    }) {
+        if let Some(bad) = p.coefficients.iter().find(|c| !((**c as f32).is_finite())) {
+            return Err(crate::fit::FitError::NonFinite {
+                what: "coefficient in f32",
+                index: 0,
+                value: *bad,
+            });
+        }
+    }
+    // the evaluation form's variables, and a converter of each polynomial into its statements
+    let bounds = a.transformed_domain()?;
+    let mut vars: Vec<Expr> = tvars.iter().map(|t| var(t)).collect();
+    let mut u_vars: Vec<Expr> = Vec::new();
+    match form {
+        EvalForm::Monomial => {}
+        EvalForm::Shifted => {
+            let sh = shifts(fit)?;
+            vars.clear();
+            for (k, t) in tvars.iter().enumerate() {
+                let (c, h) = sh[k];
+                let n = format!("{}_s", params[k]);
+                let scaled = mul(var(t), lit(1.0 / h));
+                let value = if c == 0.0 {
+                    scaled
+                } else {
+                    add_signed(scaled, lit(-c / h))
+                };
+                body.push(Stmt {
+                    name: n.clone(),
+                    value,
+                    comment: Some(format!("s = (t − {c})/{h} ∈ [−1, 1]")),
+                });
+                vars.push(var(&n));
+            }
+        }
+        EvalForm::Bernstein => {
+            for (k, t) in tvars.iter().enumerate() {
+                let (lo, hi) = bounds[k];
+                u_vars.push(if lo == 0.0 && hi == 1.0 {
+                    var(t)
+                } else {
+                    let n = format!("{}_u", params[k]);
+                    body.push(Stmt {
+                        name: n.clone(),
+                        value: mul(sub(var(t), lit(lo)), lit(1.0 / (hi - lo))),
+                        comment: Some(format!("u = (t − {lo})/({hi} − {lo}) ∈ [0, 1]")),
+                    });
+                    var(&n)
+                });
+            }
+        }
+    }
+    // Bernstein basis values of each (variable, degree) used, made once
+    let mut bases: HashMap<(usize, u32), Vec<Expr>> = HashMap::new();
+    let sh = shifts(fit)?;
+    let mut poly_lets = |body: &mut Vec<Stmt>, n: &str, what: &str, p: &Polynomial| match form {
+        EvalForm::Monomial => body.extend(horner_lets(n, what, p, &vars)),
+        EvalForm::Shifted => body.extend(horner_lets(
+            n,
+            what,
+            &shift_polynomial(&closed_downwards(p), &sh),
+            &vars,
+        )),
+        EvalForm::Bernstein => {
+            let degrees = axis_degrees(p);
+            let FormPoly::Bernstein { coefficients, .. } =
+                bernstein(&closed_downwards(p), &bounds, &degrees)
+            else {
+                unreachable!("bernstein() gives the Bernstein form")
+            };
+            let mut basis = Vec::new();
+            for (k, &deg) in degrees.iter().enumerate() {
+                let b = bases.entry((k, deg)).or_insert_with(|| {
+                    if deg == 0 {
+                        vec![Expr::Lit(Lit::exact(1.0))]
+                    } else {
+                        let (stmts, m) =
+                            bernstein_basis(&format!("{}_b{deg}", params[k]), &u_vars[k], deg);
+                        body.extend(stmts);
+                        m
+                    }
+                });
+                basis.push(b.clone());
+            }
+            body.extend(bernstein_lets(n, what, &degrees, &coefficients, &basis));
+        }
+    };
+    let mut sum: Option<Expr> = None;
+    for (i, t) in terms.iter().enumerate() {
+        let (pn, un, qn) = (format!("p{i}"), format!("u{i}"), format!("q{i}"));
+        poly_lets(
+            &mut body,
+            &pn,
+            &format!("term {i}: numerator P_{i}"),
+            &t.numerator,
+        );
+        let mut value = var(&pn);
+        if let Some(u) = &t.factor {
+            poly_lets(&mut body, &un, &format!("term {i}: factor u_{i}"), u);
+            value = mul(value, var(&un));
+        }
+        if let Some(q) = &t.denominator {
+            poly_lets(
+                &mut body,
+                &qn,
+                &format!("term {i}: denominator Q_{i} (proved positive on the domain)"),
+                q,
+            );
+            value = div(value, var(&qn));
+        }
+        let en = format!("e{i}");
+        body.push(Stmt {
+            name: en.clone(),
+            value,
+            comment: None,
+        });
+        sum = Some(match sum {
+            None => var(&en),
+            Some(acc) => add(acc, var(&en)),
+        });
+    }
+    body.push(Stmt {
+        name: "e".into(),
+        value: sum.unwrap_or_else(|| lit(0.0)),
+        comment: Some(format!("the sum of the {} terms", terms.len())),
+    });
     Ok(Function {
         name: name.into(),
         doc,

@@ -445,7 +445,12 @@ fn albedo_doc(src: &SourceFit, name: &str, params: &[String], e: &EmittedFit) ->
     }
     doc.extend(argument_doc(src, params));
     let den = a.denominator.as_ref().map_or(0, |q| q.coefficients.len());
-    let counts = if den > 0 {
+    let counts = if a.is_structured() {
+        format!(
+            "{} terms (factor, numerator and denominator of each), denominator constants 1 not counted",
+            a.terms.len() + 1
+        )
+    } else if den > 0 {
         format!(
             "numerator {}, denominator {} with constant term 1",
             a.numerator.coefficients.len(),

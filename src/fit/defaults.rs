@@ -95,6 +95,7 @@ fn top_degree(form: &Form) -> u32 {
         Form::Exponents {
             numerator,
             denominator,
+            ..
         } => numerator
             .total
             .max(denominator.as_ref().map_or(0, |q| q.total)),

@@ -8,13 +8,15 @@ use super::error::{FitError, Result};
 use super::model::Model;
 use super::polynomial::{fit_polynomial, fit_polynomial_model, PolynomialOptions};
 use super::rational::{fit_rational, fit_rational_model, RationalOptions};
-use super::result::{FitResult, Form, Objective};
+use super::result::{Family, FitResult, Form, Objective, Structure};
+use super::structured::{check_structure, fit_structured, StructuredOptions};
 
-/// Settings of [`fit_form`]: the polynomial solver's and the rational solver's.
+/// Settings of [`fit_form`]: the polynomial, rational and structured solvers'.
 #[derive(Clone, Debug, Default)]
 pub struct FitOptions {
     pub polynomial: PolynomialOptions,
     pub rational: RationalOptions,
+    pub structured: StructuredOptions,
 }
 
 /// Fits `form` to `data` in the transformed variables and assesses it (metrics on `data`, pole
@@ -34,6 +36,7 @@ pub struct FitOptions {
 /// let form = Form::Exponents {
 ///     numerator: ExponentSet::split(2, 0, 1, 1),
 ///     denominator: Some(ExponentSet::split(2, 0, 0, 1)),
+///     structure: None,
 /// };
 /// let fit = fit_form(&data, &[InputTransform::Identity; 2], &form, Objective::LeastSquares,
 ///                    &FitOptions::default()).unwrap();
@@ -75,6 +78,28 @@ pub fn fit_form(
         Form::Exponents {
             numerator,
             denominator,
+            structure: Some(st),
+        } => {
+            check_structure(d, &data.names, numerator, denominator.as_ref(), st)?;
+            check_distinct(data, numerator, form)?;
+            if let Some(q) = denominator {
+                check_distinct(data, q, form)?;
+            }
+            // the structure's variable: degree K − 1 (powers) or u_k's degree (low rank)
+            let x = st.variable();
+            let in_x = match *st {
+                Structure::SeparateDenominators { terms, .. } => terms - 1,
+                Structure::LowRank { degree, .. } => degree,
+            };
+            let mut caps = vec![0; d];
+            caps[x] = in_x;
+            check_distinct(data, &ExponentSet::tensor(&caps), form)?;
+            fit_structured(data, transforms, form, objective, &opts.structured)
+        }
+        Form::Exponents {
+            numerator,
+            denominator,
+            structure: None,
         } => {
             numerator.check(d)?;
             check_distinct(data, numerator, form)?;
@@ -114,7 +139,7 @@ pub fn fit_form(
 }
 
 /// The form families [`parse_form`] reads, with their syntax.
-pub const FORM_SYNTAX: &str = "polynomial:<n>, rational:<n>/<m>, split:<variable>:<k>:<n>/<m> (degree k in the variable times total degree n in the others, over a shared denominator of degree m without it; /0: no denominator), tensor:<n1>,<n2>,…/<m1>,<m2>,… (per-variable degrees; no /…: a polynomial), or the JSON of a form";
+pub const FORM_SYNTAX: &str = "polynomial:<n>, rational:<n>/<m>, split:<variable>:<k>:<n>/<m> (degree k in the variable times total degree n in the others, over a shared denominator of degree m without it; /0: no denominator), tensor:<n1>,<n2>,…/<m1>,<m2>,… (per-variable degrees; no /…: a polynomial), sum:<variable>:<family>:<K>:<n>/<m> (Σ_a φ_a(variable)·P_a/Q_a, a < K, family power: φ_a = t^a; P_a of total degree n and Q_a of total degree m in the others, each term its own denominator), lowrank:<variable>:<K>:<p>:<n>/<m> (Σ_k u_k(variable)·P_k/Q_k, k < K, u_k fitted polynomials of degree p), where a denominator +<m> or +<m1>,<m2>,… is a positive Bernstein polynomial of degree m per other variable (Q > 0 on the box by construction), or the JSON of a form";
 
 /// Parses a form: `rational:3/3`, `split:f0:4:5/4`, `tensor:1,2/1,0`, or its JSON
 /// (`{"kind": "exponents", …}`), for data with the variables `names`. Errors name the syntax.
@@ -128,10 +153,15 @@ pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, Str
         if let Form::Exponents {
             numerator,
             denominator,
+            structure,
         } = &form
         {
             for s in std::iter::once(numerator).chain(denominator.iter()) {
                 s.check(d).map_err(|e| format!("form '{text}': {e}"))?;
+            }
+            if let Some(st) = structure {
+                check_structure(d, names, numerator, denominator.as_ref(), st)
+                    .map_err(|e| format!("form '{text}': {e}"))?;
             }
         }
         return Ok(form);
@@ -191,6 +221,109 @@ pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, Str
             };
             Ok(tensor_form(&n, m.as_deref()))
         }
+        "sum" | "lowrank" => {
+            let f: Vec<&str> = rest.split(':').collect();
+            let var_of = |v: &str| {
+                names.iter().position(|x| x == v.trim()).ok_or_else(|| {
+                    bad(&format!(
+                        "unknown variable '{v}' (the data's are {})",
+                        names.join(", ")
+                    ))
+                })
+            };
+            // the structure with its positivity still open
+            let (x, nm, make): (usize, &str, Box<dyn Fn(bool) -> Structure>) = if family == "sum" {
+                let [var, fam, k, nm] = f.as_slice() else {
+                    return Err(bad("write sum:<variable>:<family>:<K>:<n>/<m>"));
+                };
+                let variable = var_of(var)?;
+                let family = Family::ALL
+                    .iter()
+                    .find(|(_, n)| *n == fam.trim())
+                    .map(|(f, _)| *f)
+                    .ok_or_else(|| {
+                        bad(&format!(
+                            "unknown basis family '{}' (the fitter knows {})",
+                            fam.trim(),
+                            Family::ALL.map(|(_, n)| n).join(", ")
+                        ))
+                    })?;
+                let terms = int(k)?;
+                (
+                    variable,
+                    nm,
+                    Box::new(move |positive| Structure::SeparateDenominators {
+                        variable,
+                        family,
+                        terms,
+                        positive,
+                    }),
+                )
+            } else {
+                let [var, k, p, nm] = f.as_slice() else {
+                    return Err(bad("write lowrank:<variable>:<K>:<p>:<n>/<m>"));
+                };
+                let variable = var_of(var)?;
+                let (terms, degree) = (int(k)?, int(p)?);
+                (
+                    variable,
+                    nm,
+                    Box::new(move |positive| Structure::LowRank {
+                        variable,
+                        terms,
+                        degree,
+                        positive,
+                    }),
+                )
+            };
+            let (n, m) = nm
+                .split_once('/')
+                .ok_or_else(|| bad("write the per-term degrees as <n>/<m>"))?;
+            let numerator = ExponentSet::split(d, x, 0, int(n)?);
+            let m = m.trim();
+            let (denominator, positive) = match m.strip_prefix('+') {
+                Some(degrees) => {
+                    let v = degrees
+                        .split(',')
+                        .map(int)
+                        .collect::<std::result::Result<Vec<u32>, String>>()?;
+                    let mut caps = vec![0; d];
+                    let others: Vec<usize> = (0..d).filter(|&k| k != x).collect();
+                    match v.len() {
+                        1 => others.iter().for_each(|&k| caps[k] = v[0]),
+                        l if l == others.len() => {
+                            others.iter().zip(&v).for_each(|(&k, &m)| caps[k] = m)
+                        }
+                        l => {
+                            return Err(bad(&format!(
+                                "{l} degrees for the positive denominator; give one, or one per variable other than '{}'",
+                                names[x]
+                            )))
+                        }
+                    }
+                    (Some(ExponentSet::tensor(&caps)), true)
+                }
+                None => {
+                    let m = int(m)?;
+                    ((m > 0).then(|| ExponentSet::split(d, x, 0, m)), false)
+                }
+            };
+            let form = Form::Exponents {
+                numerator,
+                denominator,
+                structure: Some(make(positive)),
+            };
+            if let Form::Exponents {
+                numerator,
+                denominator,
+                structure: Some(st),
+            } = &form
+            {
+                check_structure(d, names, numerator, denominator.as_ref(), st)
+                    .map_err(|e| format!("form '{text}': {e}"))?;
+            }
+            Ok(form)
+        }
         other => Err(format!(
             "unknown form family '{other}' in '{text}'; the fitter knows {FORM_SYNTAX}"
         )),
@@ -235,6 +368,7 @@ pub fn split_form(d: usize, split: usize, k: u32, n: u32, m: u32) -> Form {
     Form::Exponents {
         numerator: ExponentSet::split(d, split, k, n),
         denominator: (m > 0).then(|| ExponentSet::split(d, split, 0, m)),
+        structure: None,
     }
 }
 
@@ -244,6 +378,7 @@ pub fn tensor_form(num: &[u32], den: Option<&[u32]>) -> Form {
     Form::Exponents {
         numerator: ExponentSet::tensor(num),
         denominator: den.map(ExponentSet::tensor),
+        structure: None,
     }
 }
 
@@ -333,6 +468,7 @@ mod tests {
             &Form::Exponents {
                 numerator: ExponentSet::total_degree(3, 2),
                 denominator: Some(ExponentSet::total_degree(3, 1)),
+                structure: None,
             },
             Objective::LeastSquares,
             &FitOptions::default(),
@@ -427,6 +563,7 @@ mod tests {
         let bad = Form::Exponents {
             numerator: ExponentSet::total_degree(2, 1),
             denominator: None,
+            structure: None,
         };
         let e = fit_form(&data, &t, &bad, Objective::LeastSquares, &o).unwrap_err();
         assert!(matches!(e, FitError::ShapeMismatch { .. }), "{e}");

@@ -294,6 +294,8 @@ mod tests {
                 coefficients: vec![0.0],
             },
             denominator: None,
+            factor: None,
+            terms: Vec::new(),
         };
         let w = worst_points(&zero, &data, 3);
         assert_eq!(w.iter().map(|p| p.index).collect::<Vec<_>>(), vec![1, 3, 4]);

@@ -54,6 +54,7 @@ pub mod rational;
 pub mod result;
 mod robust;
 pub mod source;
+pub mod structured;
 pub mod sweep;
 pub mod trust_region;
 
@@ -69,7 +70,11 @@ pub use metrics::{measure, Metrics};
 pub use poles::{CertifyOptions, PoleVerdict};
 pub use polynomial::{fit_polynomial, PolynomialOptions};
 pub use rational::{fit_rational, RationalOptions};
-pub use result::{Approximant, FitResult, Form, FormSpec, Objective, SolverReport, StartReport};
+pub use result::{
+    Approximant, Family, FitResult, Form, FormSpec, Objective, SolverReport, StartReport,
+    Structure, Term,
+};
+pub use structured::{fit_structured, StructuredOptions};
 pub use sweep::{
     best_under_budget, pareto_front, select_under_budget, sweep, sweep_detailed,
     sweep_with_progress, Score, SkippedFit, SweepEvent, SweepOptions, SweepReport,

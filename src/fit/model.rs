@@ -258,6 +258,8 @@ impl Model {
                 coefficients: num,
             },
             denominator,
+            factor: None,
+            terms: Vec::new(),
         }
     }
 }

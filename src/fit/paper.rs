@@ -170,6 +170,8 @@ pub fn load_coefficients(path: &Path, model: PaperModel) -> Result<Approximant> 
             exponents: exps,
             coefficients: den,
         }),
+        factor: None,
+        terms: Vec::new(),
     };
     a.validate()?;
     Ok(a)

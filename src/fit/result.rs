@@ -41,10 +41,108 @@ pub enum Form {
     /// P/Q (or P without `denominator`) over downward-closed exponent sets: per-variable
     /// degrees, and the split-sum form Σ_a t_j^a·P_a(others)/Q(others) with a shared
     /// denominator ([`ExponentSet::split`]).
+    ///
+    /// With a [`Structure`], the sets are those of every term's P_k and Q_k in the variables
+    /// other than the structure's, and the form is a sum of K such terms
+    /// (Σ_k φ_k·P_k/Q_k: separate denominators, or Σ_k u_k·P_k/Q_k: a low-rank separation).
     Exponents {
         numerator: ExponentSet,
         denominator: Option<ExponentSet>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        structure: Option<Structure>,
     },
+}
+
+/// The 1-D functions φ_a of a structured form's variable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Family {
+    /// φ_a = t^a, t the variable's transformed coordinate (with t = F0^¼: 1, F0^¼, √F0, …).
+    Power,
+}
+
+impl Family {
+    /// Every family, with its name in form specifications.
+    pub const ALL: [(Family, &'static str); 1] = [(Family::Power, "power")];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::Power => "power",
+        }
+    }
+}
+
+/// How a structured form combines its terms, each P_k(y)/Q_k(y) in the variables y other than
+/// `variable` (x): Σ_k g_k(x)·P_k(y)/Q_k(y).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Structure {
+    /// g_a = φ_a(x) of `family`, a = 0 … terms − 1: fixed functions, one numerator and one
+    /// denominator per term (the split sum with separate denominators).
+    SeparateDenominators {
+        variable: usize,
+        family: Family,
+        terms: u32,
+        /// Every Q_k is a tensor-product Bernstein polynomial on the box with positive
+        /// coefficients (positive on the box by construction).
+        positive: bool,
+    },
+    /// g_k = u_k(x), fitted polynomials of degree `degree` in x's transformed coordinate: the
+    /// low-rank separation Σ_k u_k(x)·v_k(y), v_k = P_k/Q_k.
+    LowRank {
+        variable: usize,
+        terms: u32,
+        degree: u32,
+        positive: bool,
+    },
+}
+
+impl Structure {
+    pub fn variable(&self) -> usize {
+        match *self {
+            Structure::SeparateDenominators { variable, .. }
+            | Structure::LowRank { variable, .. } => variable,
+        }
+    }
+    pub fn terms(&self) -> u32 {
+        match *self {
+            Structure::SeparateDenominators { terms, .. } | Structure::LowRank { terms, .. } => {
+                terms
+            }
+        }
+    }
+    pub fn positive(&self) -> bool {
+        match *self {
+            Structure::SeparateDenominators { positive, .. }
+            | Structure::LowRank { positive, .. } => positive,
+        }
+    }
+    /// Numbers stored per term besides P_k and Q_k: u_k's coefficients.
+    pub fn factor_len(&self) -> usize {
+        match *self {
+            Structure::SeparateDenominators { .. } => 0,
+            Structure::LowRank { degree, .. } => degree as usize + 1,
+        }
+    }
+    /// `sum-<family>-f0-K` or `lowrank-f0-K-p`, `+` marks positive denominators.
+    fn token(&self, names: &[String]) -> String {
+        let v = |k: usize| names.get(k).cloned().unwrap_or_else(|| k.to_string());
+        let pos = if self.positive() { "pos" } else { "" };
+        match *self {
+            Structure::SeparateDenominators {
+                variable,
+                family,
+                terms,
+                ..
+            } => format!("sum{pos}_{}_{}_{terms}", family.name(), v(variable)),
+            Structure::LowRank {
+                variable,
+                terms,
+                degree,
+                ..
+            } => format!("lowrank{pos}_{}_{terms}_{degree}", v(variable)),
+        }
+    }
 }
 
 /// The form specification callers choose from; [`Form`] itself.
@@ -59,8 +157,13 @@ impl Form {
                 denominator_degree: m,
             } => format!("rational of degree {n}/{m}"),
             Form::Exponents {
+                structure: Some(st),
+                ..
+            } => self.structure_label(st, &[]),
+            Form::Exponents {
                 numerator,
                 denominator,
+                ..
             } => match denominator {
                 None => format!("polynomial over [{}]", numerator.label(&[])),
                 Some(q) => format!(
@@ -76,8 +179,13 @@ impl Form {
     pub fn label_with(&self, names: &[String]) -> String {
         match self {
             Form::Exponents {
+                structure: Some(st),
+                ..
+            } => self.structure_label(st, names),
+            Form::Exponents {
                 numerator,
                 denominator,
+                ..
             } => match denominator {
                 None => format!("polynomial over [{}]", numerator.label(names)),
                 Some(q) => format!(
@@ -115,12 +223,71 @@ impl Form {
             } => format!("rational-{numerator_degree}"),
             Form::Exponents {
                 numerator,
+                denominator,
+                structure: Some(st),
+            } => format!(
+                "{}-{}-{}",
+                st.token(&[]),
+                token(numerator),
+                denominator.as_ref().map_or("1".into(), token)
+            ),
+            Form::Exponents {
+                numerator,
                 denominator: None,
+                ..
             } => format!("polynomial-{}", token(numerator)),
             Form::Exponents {
                 numerator,
                 denominator: Some(q),
+                ..
             } => format!("rational-{}-{}", token(numerator), token(q)),
+        }
+    }
+
+    /// "sum of 4 terms t_f0^a·P_a/Q_a over […]/[…]".
+    fn structure_label(&self, st: &Structure, names: &[String]) -> String {
+        let Form::Exponents {
+            numerator,
+            denominator,
+            ..
+        } = self
+        else {
+            return String::new();
+        };
+        let v = |k: usize| names.get(k).cloned().unwrap_or_else(|| format!("x{k}"));
+        let q = denominator.as_ref().map_or("1".into(), |q| {
+            format!(
+                "[{}]{}",
+                q.label(names),
+                if st.positive() {
+                    " (positive Bernstein)"
+                } else {
+                    ""
+                }
+            )
+        });
+        match *st {
+            Structure::SeparateDenominators {
+                variable,
+                family,
+                terms,
+                ..
+            } => format!(
+                "sum of {terms} terms {}^a·P_a/Q_a ({} family) over [{}]/{q}",
+                v(variable),
+                family.name(),
+                numerator.label(names)
+            ),
+            Structure::LowRank {
+                variable,
+                terms,
+                degree,
+                ..
+            } => format!(
+                "low rank {terms}: u_k({}) of degree {degree} times [{}]/{q}",
+                v(variable),
+                numerator.label(names)
+            ),
         }
     }
 
@@ -156,12 +323,24 @@ impl Form {
             Form::Exponents {
                 numerator,
                 denominator,
+                structure: None,
             } => numerator.len() + denominator.as_ref().map_or(0, |q| q.len() - 1),
+            Form::Exponents {
+                numerator,
+                denominator,
+                structure: Some(st),
+            } => {
+                st.terms() as usize
+                    * (st.factor_len()
+                        + numerator.len()
+                        + denominator.as_ref().map_or(0, |q| q.len() - 1))
+            }
         }
     }
 }
 
-/// f(x) = P(t)/Q(t) (or P(t)), t_k = transform_k(x_k), valid on the domain box.
+/// f(x) = P(t)/Q(t) (or P(t)), t_k = transform_k(x_k), valid on the domain box; a structured
+/// form adds terms: f = [u_0(t)·]P(t)/Q(t) + Σ_k [u_k(t)·]P_k(t)/Q_k(t).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Approximant {
     pub variables: Vec<String>,
@@ -171,9 +350,95 @@ pub struct Approximant {
     pub numerator: Polynomial,
     /// None for a polynomial. Coefficients include the constant term (1 after normalisation).
     pub denominator: Option<Polynomial>,
+    /// A factor of the first term (a low-rank form's u_0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub factor: Option<Polynomial>,
+    /// The further terms of a structured form, added in order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub terms: Vec<Term>,
+}
+
+/// One term [u·]P/Q of a structured approximant, evaluated as (u·P)/Q.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Term {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub factor: Option<Polynomial>,
+    pub numerator: Polynomial,
+    pub denominator: Option<Polynomial>,
+}
+
+impl Term {
+    /// (u·P)/Q at transformed coordinates t.
+    pub fn eval(&self, t: &[f64]) -> f64 {
+        let mut v = self.numerator.eval(t);
+        if let Some(u) = &self.factor {
+            v *= u.eval(t);
+        }
+        match &self.denominator {
+            Some(q) => v / q.eval(t),
+            None => v,
+        }
+    }
+
+    /// Stored numbers, not counting a denominator constant equal to 1.
+    pub fn n_coefficients(&self) -> usize {
+        let den = self.denominator.as_ref().map_or(0, |q| {
+            let fixed = q
+                .exponents
+                .iter()
+                .zip(&q.coefficients)
+                .any(|(e, &c)| e.iter().all(|&x| x == 0) && c == 1.0);
+            q.coefficients.len() - usize::from(fixed)
+        });
+        self.numerator.coefficients.len()
+            + self.factor.as_ref().map_or(0, |u| u.coefficients.len())
+            + den
+    }
 }
 
 impl Approximant {
+    /// A P/Q (or P) approximant.
+    pub fn rational(
+        variables: Vec<String>,
+        transforms: Vec<InputTransform>,
+        domain: Vec<(f64, f64)>,
+        numerator: Polynomial,
+        denominator: Option<Polynomial>,
+    ) -> Approximant {
+        Approximant {
+            variables,
+            transforms,
+            domain,
+            numerator,
+            denominator,
+            factor: None,
+            terms: Vec::new(),
+        }
+    }
+
+    /// Whether the approximant is more than one P/Q (a structured form's sum or factor).
+    pub fn is_structured(&self) -> bool {
+        self.factor.is_some() || !self.terms.is_empty()
+    }
+
+    /// Every term, the first one (`factor`, `numerator`, `denominator`) included.
+    pub fn all_terms(&self) -> Vec<Term> {
+        let mut v = vec![Term {
+            factor: self.factor.clone(),
+            numerator: self.numerator.clone(),
+            denominator: self.denominator.clone(),
+        }];
+        v.extend(self.terms.iter().cloned());
+        v
+    }
+
+    /// Every denominator, the first term's first.
+    pub fn denominators(&self) -> impl Iterator<Item = &Polynomial> {
+        self.denominator
+            .iter()
+            .chain(self.terms.iter().filter_map(|t| t.denominator.as_ref()))
+    }
+
     /// Checks shapes so that [`Approximant::eval`] cannot index out of bounds.
     pub fn validate(&self) -> Result<()> {
         let d = self.variables.len();
@@ -196,7 +461,15 @@ impl Approximant {
                 });
             }
         }
-        for p in std::iter::once(&self.numerator).chain(self.denominator.iter()) {
+        let polys = std::iter::once(&self.numerator)
+            .chain(self.denominator.iter())
+            .chain(self.factor.iter())
+            .chain(self.terms.iter().flat_map(|t| {
+                std::iter::once(&t.numerator)
+                    .chain(t.denominator.iter())
+                    .chain(t.factor.iter())
+            }));
+        for p in polys {
             if p.exponents.len() != p.coefficients.len() {
                 return Err(FitError::ShapeMismatch {
                     what: "polynomial coefficients",
@@ -214,7 +487,8 @@ impl Approximant {
                 });
             }
             super::basis::check_degree(p.degree())?;
-            if !super::basis::is_downward_closed(&p.exponents) {
+            // a structured form's term t_x^a·P_a(y) has its exponents of x raised by a
+            if !self.is_structured() && !super::basis::is_downward_closed(&p.exponents) {
                 return Err(FitError::ShapeMismatch {
                     what: "exponent tuples closed under lowering one exponent",
                     expected: p.exponents.len(),
@@ -255,11 +529,29 @@ impl Approximant {
         let mut t = [0.0f64; MAX_DIM];
         transform_point(&self.transforms, x, &mut t);
         let t = &t[..x.len()];
+        if self.is_structured() {
+            return self.eval_terms(t);
+        }
         let p = self.numerator.eval(t);
         match &self.denominator {
             Some(q) => p / q.eval(t),
             None => p,
         }
+    }
+
+    /// A structured approximant at transformed coordinates t: the terms added in order.
+    fn eval_terms(&self, t: &[f64]) -> f64 {
+        let mut v = self.numerator.eval(t);
+        if let Some(u) = &self.factor {
+            v *= u.eval(t);
+        }
+        if let Some(q) = &self.denominator {
+            v /= q.eval(t);
+        }
+        for term in &self.terms {
+            v += term.eval(t);
+        }
+        v
     }
 
     /// [`Self::eval`] at `out.len()` points of `d` coordinates each, one after the other in
@@ -274,6 +566,12 @@ impl Approximant {
         for (x, tp) in xs.chunks_exact(d).zip(ts.chunks_exact_mut(d)) {
             transform_point(&self.transforms, x, &mut t);
             tp.copy_from_slice(&t[..d]);
+        }
+        if self.is_structured() {
+            for (o, t) in out.iter_mut().zip(ts.chunks_exact(d)) {
+                *o = self.eval_terms(t);
+            }
+            return;
         }
         self.numerator.eval_many(d, &ts, out);
         if let Some(q) = &self.denominator {
@@ -290,24 +588,43 @@ impl Approximant {
         transformed_box(&self.variables, &self.domain, &self.transforms)
     }
 
-    /// Number of stored coefficients, not counting a denominator constant equal to 1.
+    /// Number of stored coefficients (every term's factor, numerator and denominator), not
+    /// counting a denominator constant equal to 1.
     pub fn n_coefficients(&self) -> usize {
-        let den = self.denominator.as_ref().map_or(0, |q| {
-            let fixed = q
-                .exponents
-                .iter()
-                .zip(&q.coefficients)
-                .any(|(e, &c)| e.iter().all(|&x| x == 0) && c == 1.0);
-            q.coefficients.len() - usize::from(fixed)
-        });
-        self.numerator.coefficients.len() + den
+        self.all_terms().iter().map(Term::n_coefficients).sum()
     }
 
-    /// Proves (or refutes) that the denominator has no zero on the domain box.
+    /// Proves (or refutes) that no denominator has a zero on the domain box: every one is
+    /// certified (the verdict's bound is the smallest), else the first that is not.
     pub fn certify_poles(&self, opts: &CertifyOptions) -> PoleVerdict {
-        let Some(q) = &self.denominator else {
-            return PoleVerdict::NoDenominator;
-        };
+        let mut verdict = PoleVerdict::NoDenominator;
+        for q in self.denominators() {
+            match self.certify_denominator(q, opts) {
+                PoleVerdict::Certified {
+                    min_lower_bound,
+                    boxes,
+                } => {
+                    verdict = match verdict {
+                        PoleVerdict::Certified {
+                            min_lower_bound: m,
+                            boxes: b,
+                        } => PoleVerdict::Certified {
+                            min_lower_bound: m.min(min_lower_bound),
+                            boxes: b + boxes,
+                        },
+                        _ => PoleVerdict::Certified {
+                            min_lower_bound,
+                            boxes,
+                        },
+                    }
+                }
+                other => return other,
+            }
+        }
+        verdict
+    }
+
+    fn certify_denominator(&self, q: &Polynomial, opts: &CertifyOptions) -> PoleVerdict {
         let bounds = match self.transformed_domain() {
             Ok(b) => b,
             Err(e) => {
@@ -440,5 +757,71 @@ impl FitResult {
         let r: FitResult = serde_json::from_str(s)?;
         r.approximant.validate()?;
         Ok(r)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn poly(exponents: Vec<Vec<u32>>, coefficients: Vec<f64>) -> Polynomial {
+        Polynomial {
+            exponents,
+            coefficients,
+        }
+    }
+
+    /// 1/(1 + y) + x·(0.2 + y)/(c + y) on [0, 1]²: the second denominator has a zero in the box
+    /// for c = −0.5.
+    fn two_terms(c: f64) -> Approximant {
+        Approximant {
+            variables: vec!["x".into(), "y".into()],
+            transforms: vec![InputTransform::Identity; 2],
+            domain: vec![(0.0, 1.0); 2],
+            numerator: poly(vec![vec![0, 0]], vec![1.0]),
+            denominator: Some(poly(vec![vec![0, 0], vec![0, 1]], vec![1.0, 1.0])),
+            factor: None,
+            terms: vec![Term {
+                factor: Some(poly(vec![vec![0, 0], vec![1, 0]], vec![0.0, 1.0])),
+                numerator: poly(vec![vec![0, 0], vec![0, 1]], vec![0.2, 1.0]),
+                denominator: Some(poly(vec![vec![0, 0], vec![0, 1]], vec![c, 1.0])),
+            }],
+        }
+    }
+
+    #[test]
+    fn every_denominator_of_a_structured_form_is_certified() {
+        let good = two_terms(0.5);
+        good.validate().unwrap();
+        assert!(good.is_structured());
+        let x = [0.3, 0.6];
+        let want = 1.0 / 1.6 + 0.3 * 0.8 / 1.1;
+        assert!((good.eval(&x) - want).abs() < 1e-15);
+        let mut many = [0.0];
+        good.eval_many(2, &x, &mut many);
+        assert_eq!(many[0].to_bits(), good.eval(&x).to_bits());
+        // (1 + 2 − 1) + (2 + 2 + 2): a denominator constant counts unless it is 1
+        assert_eq!(good.n_coefficients(), 8);
+        match good.certify_poles(&CertifyOptions::default()) {
+            PoleVerdict::Certified {
+                min_lower_bound, ..
+            } => assert!(min_lower_bound > 0.0 && min_lower_bound <= 0.5),
+            v => panic!("{v:?}"),
+        }
+        // the second term's Q = y − 0.5 vanishes at y = 0.5: refused
+        let bad = two_terms(-0.5);
+        let v = bad.certify_poles(&CertifyOptions::default());
+        assert!(matches!(v, PoleVerdict::PoleFound { .. }), "{v:?}");
+        assert!(!v.is_certified());
+        // a P/Q approximant's JSON has no structured fields
+        let plain = Approximant::rational(
+            vec!["x".into()],
+            vec![InputTransform::Identity],
+            vec![(0.0, 1.0)],
+            poly(vec![vec![0]], vec![1.0]),
+            None,
+        );
+        let json = serde_json::to_string(&plain).unwrap();
+        assert!(!json.contains("terms") && !json.contains("factor"), "{json}");
     }
 }

@@ -193,6 +193,7 @@ pub fn sweep_with_progress(
     let fit_opts = FitOptions {
         polynomial: opts.polynomial.clone(),
         rational: opts.rational.clone(),
+        ..FitOptions::default()
     };
     for (form, transforms) in &opts.forms {
         let t = Instant::now();

@@ -141,7 +141,10 @@ pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<Inp
 /// - 2-D: per-variable degrees 4,4 over 3,3 (40 coefficients) and 1,3 over 1,0 (9);
 /// - 3-D with a variable `f0`: the split sums Σ_{a ≤ k} t_f0^a·P_a(r, μ)/Q(r, μ) with
 ///   (k, n, m) = (2, 3, 3) (39 coefficients), (2, 4, 3) (54), (2, 5, 4) (77) and (3, 6, 6)
-///   (139), one near the top of each budget 40, 80, 160 (measured in docs/fitting.md).
+///   (139), one near the top of each budget 40, 80, 160 (measured in docs/fitting.md), and the
+///   low-rank separations Σ_k u_k(f0)·P_k(r, μ)/Q_k(r, μ) with K terms, u_k of degree p,
+///   P_k/Q_k of degrees n/m: (K, p, n, m) = (2, 2, 4, 1) (40), (3, 3, 4, 2) (72) and
+///   (4, 4, 5, 3) (140).
 pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<PlannedForm> {
     let d = data.dim();
     let planned = |form| PlannedForm {
@@ -155,12 +158,25 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
             .map(planned)
             .collect(),
         3 => match data.names.iter().position(|x| x.eq_ignore_ascii_case("f0")) {
-            Some(f) => vec![
-                planned(split_form(3, f, 2, 3, 3)),
-                planned(split_form(3, f, 2, 4, 3)),
-                planned(split_form(3, f, 2, 5, 4)),
-                planned(split_form(3, f, 3, 6, 6)),
-            ],
+            Some(f) => {
+                let mut v = vec![
+                    planned(split_form(3, f, 2, 3, 3)),
+                    planned(split_form(3, f, 2, 4, 3)),
+                    planned(split_form(3, f, 2, 5, 4)),
+                    planned(split_form(3, f, 3, 6, 6)),
+                ];
+                // low-rank separations (docs/fitting.md, "Sums of terms"): 40, 72 and 140
+                // coefficients
+                let x = &data.names[f];
+                for spec in [
+                    format!("lowrank:{x}:2:2:4/1"),
+                    format!("lowrank:{x}:3:3:4/2"),
+                    format!("lowrank:{x}:4:4:5/3"),
+                ] {
+                    v.extend(parse_form(&spec, &data.names).ok().map(planned));
+                }
+                v
+            }
             None => Vec::new(),
         },
         _ => Vec::new(),
@@ -230,7 +246,7 @@ mod tests {
             .iter()
             .map(|f| f.form.n_coefficients(3))
             .collect();
-        assert_eq!(sizes, vec![39, 54, 77, 139]);
+        assert_eq!(sizes, vec![39, 54, 77, 139, 40, 72, 140]);
         assert_eq!(full.transform_sets.last(), Some(&t));
         assert!(physics_transforms(&data(&["x", "y"]), true).is_none());
     }

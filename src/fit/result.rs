@@ -822,6 +822,9 @@ mod tests {
             None,
         );
         let json = serde_json::to_string(&plain).unwrap();
-        assert!(!json.contains("terms") && !json.contains("factor"), "{json}");
+        assert!(
+            !json.contains("terms") && !json.contains("factor"),
+            "{json}"
+        );
     }
 }

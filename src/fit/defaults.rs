@@ -356,7 +356,11 @@ mod tests {
             &crate::fit::FitOptions::default(),
         )
         .unwrap();
-        assert!(fit.metrics.max_abs_error < 1e-9, "{}", fit.metrics.max_abs_error);
+        assert!(
+            fit.metrics.max_abs_error < 1e-9,
+            "{}",
+            fit.metrics.max_abs_error
+        );
         assert!(fit.is_usable());
         // off the nodes too
         let x = [0.37, 0.61];

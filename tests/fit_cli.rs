@@ -370,9 +370,9 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
         .collect();
     // 4 transform sets (identity, √μ, (r², layer k = 1), (r², layer k = 0.5)) × (3 polynomials
     // + 3 rationals + the unequal-degree rationals 2/1, 1/2, 3/2, 2/3) and (r², √L) the same,
-    // plus minimax refits
+    // plus P linear in r over 1 + q r (8 coefficients, untransformed) and minimax refits
     let lsq = rows.iter().filter(|r| r[3] == "lsq").count();
-    assert_eq!(lsq, 50, "{stdout}");
+    assert_eq!(lsq, 51, "{stdout}");
     assert!(
         rows.iter().any(|r| r[2] == "square layer:r:1")
             && rows.iter().any(|r| r[2] == "square layer:r:0.5"),

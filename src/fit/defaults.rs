@@ -240,6 +240,7 @@ pub fn linear_in_r_form(data: &FitData) -> Option<Form> {
             in_total: vec![true; data.dim()],
         },
         denominator: Some(ExponentSet::tensor(&q_caps)),
+        structure: None,
     })
 }
 

@@ -250,3 +250,35 @@ fn tables_are_the_same_bits_on_one_and_two_threads() {
         assert!(bits(&one) == bits(&two), "{name}: the tables differ");
     }
 }
+
+/// No model's default domain starts or ends on a degenerate slice: a LUT or fit over the
+/// default domain would otherwise spend itself on the layer next to it (the glossy slice
+/// F0 = 0 has E = 0 at every (r, μ), against E → 1 at grazing angles beside it).
+#[test]
+fn default_domains_have_no_degenerate_f0_slice() {
+    for name in [
+        "ggx-glossy",
+        "ggx-glossy-separable",
+        "ggx-dielectric",
+        "ggx-dielectric-inv",
+    ] {
+        let m = model(name);
+        let axes = m.axes();
+        assert_eq!(axes[0].name, "f0", "{name}");
+        let (lo, hi) = axes[0].default_range;
+        assert!(
+            lo > 0.0 && hi < 1.0,
+            "{name}: default F0 range [{lo}, {hi}]"
+        );
+        for f0 in [lo, hi] {
+            for (r, mu) in [(0.0, 0.5), (0.5, 0.5), (1.0, 0.05)] {
+                let e = e_at(m.as_ref(), &[f0, r, mu])[0];
+                assert!(e > 0.01, "{name} at F0 = {f0}, r = {r}, μ = {mu}: E = {e}");
+            }
+        }
+    }
+    // the glossy slice F0 = 0 itself is degenerate (and stays in the valid range)
+    let g = model("ggx-glossy");
+    assert_eq!(g.axes()[0].valid_range, (0.0, 1.0));
+    assert_eq!(e_at(g.as_ref(), &[0.0, 0.5, 0.5])[0], 0.0);
+}

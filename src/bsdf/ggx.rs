@@ -12,6 +12,11 @@ use super::{AxisSpec, Model, ModelId, Side, Transmission, MAX_OUTPUTS};
 use crate::math::{alpha_from_r, eta_from_f0, fresnel_dielectric, SmithForm};
 use crate::quadrature::{integrate_2d, Break, Rules, CHANNELS};
 
+/// Default F0 range of the glossy models: η from 1.25 to 3, as the dielectrics'
+/// (Sforza & Pellacini 2022, §4: F0 from 0.0125 to 0.25), away from the degenerate slice
+/// F0 = 0 where the specular layer vanishes.
+pub const GLOSSY_F0_DEFAULT: (f64, f64) = (0.0125, 0.25);
+
 /// Which microfacet albedo a model tabulates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GgxKind {
@@ -256,12 +261,17 @@ impl Model for GgxModel {
                 r,
                 mu,
             ],
+            // F0 ∈ [0.0125, 0.25] (η 1.25 … 3, the dielectrics' range) by default: the
+            // slice F0 = 0 is degenerate (no specular layer, E = 0 against E → 1 beside it),
+            // and no LUT or fit should spend itself on the layer next to it. The paper's
+            // glossy table spans [0, 1] (data/paper/README.md): `compare-paper` asks for that
+            // domain explicitly.
             GgxKind::Glossy => vec![
                 AxisSpec::new(
                     "f0",
+                    (GLOSSY_F0_DEFAULT.0, GLOSSY_F0_DEFAULT.1),
                     (0.0, 1.0),
-                    (0.0, 1.0),
-                    "normal-incidence reflectance of the specular layer",
+                    "normal-incidence reflectance F0 of the specular layer (0.0125 … 0.25, η 1.25 … 3, by default)",
                 ),
                 r,
                 mu,

@@ -661,7 +661,9 @@ pub struct ComparePaperArgs {
     /// Folder for tables.
     #[arg(long, default_value = "data")]
     pub data_dir: PathBuf,
-    /// Folder for fits (best-40.json is read from, or a sweep written to, <fits-dir>/<model>/).
+    /// Folder for fits (best-40.json is read from, or a sweep written to, <fits-dir>/<model>/;
+    /// for the glossy table on the paper's F0 ∈ [0, 1], wider than the model's default,
+    /// <fits-dir>/<model>.paper-domain/).
     #[arg(long, default_value = "fits")]
     pub fits_dir: PathBuf,
     /// Folder for compare-paper.{md,json}.
@@ -720,7 +722,29 @@ fn compare_one(
         n.map(|n| n.to_string()).as_deref(),
         &model.default_resolution(),
     )?;
-    let spec = TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())?;
+    // the paper's own domain (its glossy table spans F0 ∈ [0, 1], wider than the model's
+    // default); fits on another domain than the default go to a folder of their own
+    let ranges = pair.paper.domain();
+    let default_domain = model
+        .axes()
+        .iter()
+        .zip(&ranges)
+        .all(|(a, &r)| a.default_range == r);
+    let spec = if default_domain {
+        TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())?
+    } else {
+        TableSpec::with_ranges(
+            model.as_ref(),
+            &resolution,
+            &ranges,
+            QuadratureSettings::default(),
+        )?
+    };
+    let fits_name = if default_domain {
+        model.id().key()
+    } else {
+        format!("{}.paper-domain", model.id().key())
+    };
     let t = get_table(model.as_ref(), &spec, &args.data_dir, false)?;
     eprintln!(
         "{} ({}): {} table {} in {:.1} s",
@@ -738,13 +762,13 @@ fn compare_one(
     let timing = args.data_dir.join("timing");
     let best = best_40(
         &input,
-        &args.fits_dir.join(model.id().key()),
-        &timing.join(model.id().key()),
+        &args.fits_dir.join(&fits_name),
+        &timing.join(&fits_name),
         args.no_sweep,
     )?;
     let bounds = paper_box(pair);
     let boxed = input.restrict(&bounds)?;
-    let boxed_dir = boxed_name(&model.id().key(), &bounds);
+    let boxed_dir = boxed_name(&fits_name, &bounds);
     let best_box = best_40(
         &boxed,
         &args.fits_dir.join(&boxed_dir),

@@ -49,6 +49,7 @@ pub mod stress;
 pub mod validate;
 pub mod wgsl;
 
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -330,7 +331,20 @@ pub fn check_stress_points(n: usize) -> Result<()> {
     }
 }
 
-/// Measures the IEEE f32 evaluation of `compiled` and the f64 fit at every node of `table`.
+/// Table nodes per work item of [`table_accuracy`].
+const ACCURACY_CHUNK: usize = 1 << 14;
+
+/// Error sums and maxima of one chunk of table nodes.
+#[derive(Default)]
+struct ChunkAccuracy {
+    s64: crate::math::CompensatedSum,
+    s32: crate::math::CompensatedSum,
+    m64: f64,
+    m32: f64,
+}
+
+/// Measures the IEEE f32 evaluation of `compiled` and the f64 fit at every node of `table`
+/// (in parallel over fixed chunks of nodes, so the result does not depend on the thread count).
 pub fn table_accuracy(
     compiled: &ir::Compiled,
     record: &FitRecord,
@@ -353,25 +367,41 @@ pub fn table_accuracy(
         )));
     }
     let values = table.output(o);
+    // fixed chunks, each summed in order and the chunks combined in order: the same bits for
+    // any number of threads
+    let chunks: Vec<ChunkAccuracy> = values
+        .par_chunks(ACCURACY_CHUNK)
+        .enumerate()
+        .map(|(c, chunk)| {
+            let mut acc = ChunkAccuracy::default();
+            let mut x = vec![0.0; d];
+            let mut x32 = vec![0.0f32; d];
+            let mut regs = Vec::new();
+            for (i, &y) in chunk.iter().enumerate() {
+                table.spec.point(c * ACCURACY_CHUNK + i, &mut x);
+                for k in 0..d {
+                    x32[k] = x[k] as f32;
+                }
+                let e64 = (record.fit.eval(&x).clamp(0.0, 1.0) - y).abs();
+                let e32 = (compiled.eval_f32(&x32, ir::Arith::Ieee, &mut regs) as f64 - y).abs();
+                acc.s64.add(e64);
+                acc.s32.add(e32);
+                acc.m64 = acc.m64.max(e64);
+                acc.m32 = acc.m32.max(e32);
+            }
+            acc
+        })
+        .collect();
     let (mut s64, mut s32) = (
         crate::math::CompensatedSum::default(),
         crate::math::CompensatedSum::default(),
     );
     let (mut m64, mut m32) = (0.0f64, 0.0f64);
-    let mut x = vec![0.0; d];
-    let mut x32 = vec![0.0f32; d];
-    let mut regs = Vec::new();
-    for (cell, &y) in values.iter().enumerate() {
-        table.spec.point(cell, &mut x);
-        for k in 0..d {
-            x32[k] = x[k] as f32;
-        }
-        let e64 = (record.fit.eval(&x).clamp(0.0, 1.0) - y).abs();
-        let e32 = (compiled.eval_f32(&x32, ir::Arith::Ieee, &mut regs) as f64 - y).abs();
-        s64.add(e64);
-        s32.add(e32);
-        m64 = m64.max(e64);
-        m32 = m32.max(e32);
+    for c in &chunks {
+        s64.add(c.s64.value());
+        s32.add(c.s32.value());
+        m64 = m64.max(c.m64);
+        m32 = m32.max(c.m32);
     }
     let n = values.len().max(1) as f64;
     Ok(TableAccuracy {

@@ -75,10 +75,12 @@ pub fn default_fit_grading(data: &FitData) -> Vec<f64> {
 }
 
 /// Exact off-grid training points a default sweep fits on besides the table's nodes
-/// ([`SweepPlan::training_points`], [`super::check::training_points`]): 8192 in 3-D, none
-/// elsewhere.
+/// ([`SweepPlan::training_points`], [`super::check::training_points`]): 8192 in 2-D and 3-D,
+/// none in 1-D or 4-D. In 2-D the 256² even subset of a 1024² table has a node every 0.004 in
+/// μ, coarser than the grazing layer μ ≲ α = r² at r < 0.06; the training points sit in it.
+/// Measured on the height-correlated conductor (docs/fitting.md, "Fitting points").
 pub fn default_training_points(data: &FitData) -> usize {
-    if data.dim() == 3 {
+    if matches!(data.dim(), 2 | 3) {
         8192
     } else {
         0
@@ -279,11 +281,14 @@ mod tests {
         let p3 = default_plan(&d3, Some(4), None, Objective::LeastSquares, true);
         assert_eq!(p3.budgets, vec![20, 40, 80, 160]);
         assert_eq!(p3.rational_pairs, vec![(4, 3)]);
-        // 3-D: graded nodes in r and mu (not f0) and exact training points; 2-D: neither
+        // 3-D: graded nodes in r and mu (not f0) and exact training points; 2-D: training
+        // points only; 1-D: neither
         assert_eq!(p3.fit_grading, vec![1.0, 1.5, 2.0]);
         assert_eq!(p3.training_points, 8192);
-        assert!(p.fit_grading.is_empty() && p.training_points == 0);
-        assert!(!serde_json::to_string(&p)
+        assert!(p.fit_grading.is_empty() && p.training_points == 8192);
+        let p1 = default_plan(&data(&["mu"]), None, None, Objective::LeastSquares, false);
+        assert!(p1.fit_grading.is_empty() && p1.training_points == 0);
+        assert!(!serde_json::to_string(&p1)
             .unwrap()
             .contains("training_points"));
         let json = serde_json::to_string(&p3).unwrap();

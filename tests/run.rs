@@ -195,7 +195,35 @@ fn run_end_to_end_is_reproducible_and_resumes() {
         out.contains("0 regenerated, 2 unchanged inputs: kept"),
         "{out}"
     );
+    let emitted = out
+        .lines()
+        .find(|l| l.contains("  emit: "))
+        .expect("an emit line");
+    let total = emitted
+        .split(" of ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .expect("kept N of M fits");
+    assert!(
+        total != "0" && emitted.contains(&format!("({total} of {total} fits kept")),
+        "{emitted}"
+    );
     assert_same(&first, &outputs(&d), "cached re-run");
+
+    // a damaged emitted file is not kept: that fit is emitted again and the file restored
+    std::fs::write(d.join("fits/ggx-conductor/best-20.rs"), "damaged").unwrap();
+    let o = furnace(RUN, &d, None);
+    assert!(o.status.success(), "{}", text(&o));
+    let again = text(&o);
+    assert!(
+        !again.contains(&format!("({total} of {total} fits kept")),
+        "{again}"
+    );
+    assert_same(
+        &first,
+        &outputs(&d),
+        "after repairing a damaged emitted file",
+    );
 
     // refit and regenerate everything on one thread: still the same bytes
     let refit: Vec<&str> = RUN.iter().copied().chain(["--refit"]).collect();

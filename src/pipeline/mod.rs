@@ -30,6 +30,7 @@
 //! (no wall times, dates, absolute paths or thread counts), written through a temporary file
 //! and a rename; wall times go to the observer only.
 
+pub mod emits;
 pub mod offgrid;
 pub mod sweeps;
 
@@ -399,6 +400,7 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
         .map(|r| r.fit.best.iter().filter(|b| b.1.is_some()).count())
         .sum();
     progress.begin("emit", total as u64);
+    let mut kept = 0;
     for row in rows.iter_mut().filter(|r| !r.id.is_radiance()) {
         let dir = job.fits_dir.join(&row.name);
         let best: Vec<PathBuf> = row
@@ -426,14 +428,38 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
                 lut_resolution: RUN_LUT_RESOLUTION,
                 force: false,
             };
-            match emit_fit_file(fit, &options, None, &mut |_| {}) {
-                Ok(written) => row.emitted.extend(written),
-                // a file that cannot be written stops the run; a fit that cannot be emitted
-                // (e.g. not proved pole-free) is reported and skipped
-                Err(e @ Error::Io { .. }) => {
-                    progress.end();
-                    return Err(e);
+            // the files of an emit with the same inputs are kept (emits::reusable)
+            let cache = emits::cache_path(&job.data_dir, &row.name, fit);
+            let inputs = emits::emit_inputs(fit, &job.data_dir, lang, RUN_LUT_RESOLUTION);
+            let previous = if job.force || job.refit {
+                None
+            } else {
+                inputs.as_ref().and_then(|i| emits::reusable(&cache, i))
+            };
+            let outcome = match previous {
+                Some(p) => {
+                    kept += 1;
+                    p
                 }
+                None => {
+                    let outcome = match emit_fit_file(fit, &options, None, &mut |_| {}) {
+                        Ok(written) => Ok(written),
+                        // a file that cannot be written stops the run; a fit that cannot be
+                        // emitted (e.g. not proved pole-free) is reported and skipped
+                        Err(e @ Error::Io { .. }) => {
+                            progress.end();
+                            return Err(e);
+                        }
+                        Err(e) => Err(e.to_string()),
+                    };
+                    if let Some(i) = inputs {
+                        emits::record(&cache, i, outcome.as_deref().map_err(Clone::clone))?;
+                    }
+                    outcome
+                }
+            };
+            match outcome {
+                Ok(written) => row.emitted.extend(written),
                 Err(e) => progress.line(&format!(
                     "  {}: {} not emitted: {e}",
                     row.name,
@@ -445,7 +471,7 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
     }
     progress.end();
     progress.line(&format!(
-        "  emit: {} files in {:.1} s",
+        "  emit: {} files in {:.1} s ({kept} of {total} fits kept: same inputs)",
         rows.iter().map(|r| r.emitted.len()).sum::<usize>(),
         stage.elapsed().as_secs_f64()
     ));

@@ -49,7 +49,7 @@ pub fn table_stem(dir: &Path, model: &dyn Model, spec: &TableSpec) -> PathBuf {
     dir.join(model.id().key()).join(name)
 }
 
-pub(super) fn with_ext(stem: &Path, ext: &str) -> PathBuf {
+pub(crate) fn with_ext(stem: &Path, ext: &str) -> PathBuf {
     let mut s = stem.as_os_str().to_owned();
     s.push(".");
     s.push(ext);

@@ -19,7 +19,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub force: bool,
     /// Redo every sweep even when fits/<model>/sweep-inputs.json shows it was made from the same
-    /// table values with the same options (after a change to the fitting code).
+    /// table values with the same options (after a change to the fitting code), and emit every
+    /// fit again.
     #[arg(long)]
     pub refit: bool,
     /// Only tabulate (skip fits, emitted code and the report).

@@ -728,3 +728,90 @@ fn emitted_cpp_runs_bit_identical_to_the_rust_f32_evaluation() {
     eprintln!("emitted C/C++ (g++ -O2 -ffp-contract=off): {compared} outputs bit-identical to the Rust f32 evaluation");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A fit whose numerator leaves out the μ-terms without r (`tensor:1,5@r:0/1,0`, the FON
+/// albedo's shape) emits in every language, and every evaluation form computes the fit.
+#[test]
+fn a_numerator_without_mu_terms_free_of_r_emits_and_matches_the_fit() {
+    let dir = common::scratch("fon-shape");
+    // the FON albedo (EON paper, eq. 12) at 33² nodes of [0, 1]²
+    let mut csv = String::from("r,mu,E\n");
+    for i in 0..33 {
+        for j in 0..33 {
+            let (r, mu) = (i as f64 / 32.0, j as f64 / 32.0);
+            let e = furnace::bsdf::diffuse::fon_albedo_analytic(r, mu);
+            csv.push_str(&format!("{r},{mu},{e}\n"));
+        }
+    }
+    std::fs::write(dir.join("fon.csv"), csv).unwrap();
+    std::fs::create_dir_all(dir.join("fits")).unwrap();
+    let (ok, out, err) = furnace(
+        &[
+            "fit",
+            "--table",
+            "fon.csv",
+            "--spec",
+            "tensor:1,5@r:0/1,0",
+            "--output",
+            "fits/fon.json",
+        ],
+        &dir,
+    );
+    assert!(ok, "{out}\n{err}");
+    let record = fitfile::read(&dir.join("fits/fon.json")).unwrap();
+    assert_eq!(record.fit.n_coefficients, 8);
+    assert!(!record
+        .fit
+        .approximant
+        .numerator
+        .exponents
+        .contains(&vec![0, 1]));
+    let (ok, out, err) = furnace(
+        &[
+            "emit",
+            "--fit",
+            "fits/fon.json",
+            "--lang",
+            "rust,wgsl,glsl,hlsl,cpp",
+        ],
+        &dir,
+    );
+    assert!(ok, "{out}\n{err}");
+    let text = |ext: &str| std::fs::read_to_string(dir.join(format!("fits/fon.{ext}"))).unwrap();
+    naga_wgsl(&text("wgsl")).unwrap();
+    naga_glsl(&text("glsl")).unwrap();
+    assert!(text("rs").contains("(r: f32, mu: f32) -> f32"));
+    // each evaluation form, in the f32 model of the emitted operations, against the f64 fit
+    let name = name_of(&record);
+    for form in furnace::emit::generate::EvalForm::ALL {
+        let function =
+            furnace::emit::generate::albedo_function(&name, vec![], &record.fit, form).unwrap();
+        let model = Compiled::new(
+            &Program {
+                functions: vec![function],
+            },
+            &name,
+        )
+        .unwrap();
+        let mut regs = Vec::new();
+        let domain = furnace::emit::generate::domain_f32(&record.fit);
+        let mut worst = 0.0f64;
+        for x in check_points(&domain, 41) {
+            let got = model.eval_f32(&x, Arith::Ieee, &mut regs);
+            let (want, _) = reference(&record.fit, &x);
+            worst = worst.max((got as f64 - want).abs());
+        }
+        assert!(worst <= 1e-5, "{form:?}: max |f32 − f64| {worst:e}");
+        let st = stress(
+            &record.fit,
+            &name,
+            &StressOptions {
+                random_points: 2000,
+                form: FormChoice::Force(form),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert!(st.passed(), "{}", st.render());
+    }
+}

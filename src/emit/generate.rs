@@ -286,8 +286,13 @@ pub fn shifts(fit: &FitResult) -> crate::fit::Result<Vec<(f64, f64)>> {
 }
 
 /// The same polynomial in s, t_k = c_k + h_k s_k: Σ_e a_e Π_k Σ_{j ≤ e_k} C(e_k, j) c_k^{e_k−j} h_k^j s_k^j,
-/// summed with compensation. The exponent set (all total degrees ≤ n) is unchanged.
+/// summed with compensation. A downward-closed exponent set is unchanged; any other (a
+/// numerator without some monomials free of a variable) is first closed downwards
+/// ([`closed_downwards`]), since a shift gives every monomial dividing a member a term.
 pub fn shift_polynomial(p: &Polynomial, shifts: &[(f64, f64)]) -> Polynomial {
+    if !crate::fit::basis::is_downward_closed(&p.exponents) {
+        return shift_polynomial(&closed_downwards(p), shifts);
+    }
     let index: HashMap<&[u32], usize> = p
         .exponents
         .iter()

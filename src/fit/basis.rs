@@ -55,18 +55,25 @@ pub fn exponents(d: usize, degree: u32) -> Vec<Vec<u32>> {
     out
 }
 
-/// A downward-closed set of exponent tuples: every e with e_k ≤ `caps[k]` for each variable and
+/// A set of exponent tuples: every e with e_k ≤ `caps[k]` for each variable and
 /// Σ_{k in the total} e_k ≤ `total`, where the variables in the total are those with
-/// `in_total[k]`. It covers
+/// `in_total[k]`, and, with [`FreeOf`], only those members free of its variable (e_j = 0) whose
+/// total degree is at most its `degree`. It covers
 /// - total degree n: caps n, every variable in the total;
 /// - per-variable degrees (a tensor product) m_k: caps m_k, no variable in the total;
-/// - the split-sum numerator Σ_{a ≤ K} t_j^a·P_a(others), P_a of total degree ≤ n: cap K and
+/// - the split-sum numerator Σ_{a ≤ K} t_j^a·P_a(others), P_a of total degree n: cap K and
 ///   outside the total for variable j, caps n and in the total for the others; its shared
-///   denominator Q(others) has cap 0 for variable j.
+///   denominator Q(others) has cap 0 for variable j;
+/// - a numerator whose part free of t_j is restricted, c + t_j·R(t) (tensor 1, 4 with
+///   `FreeOf { variable: j, degree: 0 }`): the shape of the FON albedo's numerator
+///   1 + r·G_F(μ)/π (EON paper, eq. 12), exactly 1 at r = 0.
 ///
-/// Downward closed (e in the set and e' ≤ e componentwise ⇒ e' in the set), so the exact
-/// Chebyshev ↔ monomial conversions, the pole certificate's Bernstein form and the emitted
-/// Horner and Bernstein forms all stay inside it.
+/// Without [`FreeOf`] the set is downward closed (e in the set and e' ≤ e componentwise ⇒ e' in
+/// the set), so the exact Chebyshev ↔ monomial conversions, the pole certificate's Bernstein
+/// form and the emitted Horner and Bernstein forms all stay inside it. With it, the set is still
+/// closed under lowering a positive exponent to a smaller positive one
+/// ([`is_support_closed`]), which is what a numerator's solving basis needs
+/// ([`ChebyshevBasis::with_vanishing`]); a denominator must stay downward closed.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ExponentSet {
     /// Largest Σ e_k over the variables in the total.
@@ -75,6 +82,17 @@ pub struct ExponentSet {
     pub caps: Vec<u32>,
     /// Whether each variable counts towards `total`.
     pub in_total: Vec<bool>,
+    /// The restriction of the members free of one variable (absent: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub free_of: Option<FreeOf>,
+}
+
+/// The members e of an [`ExponentSet`] with e_variable = 0 have total degree Σ e_k ≤ `degree`
+/// (`degree` 0: the constant only, so P − P(0) is divisible by t_variable).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FreeOf {
+    pub variable: usize,
+    pub degree: u32,
 }
 
 impl ExponentSet {
@@ -84,6 +102,7 @@ impl ExponentSet {
             total: degree,
             caps: vec![degree; d],
             in_total: vec![true; d],
+            free_of: None,
         }
     }
 
@@ -93,7 +112,15 @@ impl ExponentSet {
             total: degrees.iter().sum(),
             caps: degrees.to_vec(),
             in_total: vec![false; degrees.len()],
+            free_of: None,
         }
+    }
+
+    /// The same set with its members free of variable `variable` restricted to total degree
+    /// ≤ `degree` ([`FreeOf`]).
+    pub fn free_of(mut self, variable: usize, degree: u32) -> ExponentSet {
+        self.free_of = Some(FreeOf { variable, degree });
+        self
     }
 
     /// Degree ≤ `split_degree` in variable `split` times total degree ≤ `degree` in the others
@@ -122,10 +149,25 @@ impl ExponentSet {
                 .map(|(x, _)| *x)
                 .sum::<u32>()
                 <= self.total
+            && self.free_of.is_none_or(|f| {
+                e.get(f.variable).is_none_or(|&x| x > 0) || e.iter().sum::<u32>() <= f.degree
+            })
     }
 
     /// Largest total degree Σ e_k of a member.
     pub fn max_total_degree(&self) -> u32 {
+        if self.free_of.is_none() {
+            return self.unrestricted_total_degree();
+        }
+        self.exponents()
+            .iter()
+            .map(|e| e.iter().sum::<u32>())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Largest total degree of a member without the [`FreeOf`] restriction.
+    fn unrestricted_total_degree(&self) -> u32 {
         let outside: u32 = self
             .caps
             .iter()
@@ -145,6 +187,14 @@ impl ExponentSet {
 
     /// Largest exponent of variable `k` in a member.
     pub fn max_exponent_of(&self, k: usize) -> u32 {
+        if self.free_of.is_some() {
+            return self
+                .exponents()
+                .iter()
+                .filter_map(|e| e.get(k).copied())
+                .max()
+                .unwrap_or(0);
+        }
         match (self.caps.get(k), self.in_total.get(k)) {
             (Some(&c), Some(true)) => c.min(self.total),
             (Some(&c), _) => c,
@@ -155,20 +205,14 @@ impl ExponentSet {
     /// Largest exponent of any one variable in a member.
     pub fn max_exponent(&self) -> u32 {
         (0..self.dim())
-            .map(|k| {
-                if self.in_total[k] {
-                    self.caps[k].min(self.total)
-                } else {
-                    self.caps[k]
-                }
-            })
+            .map(|k| self.max_exponent_of(k))
             .max()
             .unwrap_or(0)
     }
 
     /// The members in scikit-learn `PolynomialFeatures` order (the order of [`exponents`]).
     pub fn exponents(&self) -> Vec<Vec<u32>> {
-        exponents(self.dim(), self.max_total_degree())
+        exponents(self.dim(), self.unrestricted_total_degree())
             .into_iter()
             .filter(|e| self.contains(e))
             .collect()
@@ -193,7 +237,24 @@ impl ExponentSet {
                 fix: "give one cap and one in_total flag per variable",
             });
         }
+        if let Some(f) = self.free_of {
+            if f.variable >= d {
+                return Err(FitError::BadExponents {
+                    problem: format!(
+                        "the restriction of the members free of variable {} names a variable the {d} variables do not have",
+                        f.variable
+                    ),
+                    fix: format!("give a variable index below {d}"),
+                });
+            }
+        }
         check_degree(self.max_total_degree())
+    }
+
+    /// Whether the set is downward closed (no [`FreeOf`] restriction, or one that removes no
+    /// member).
+    pub fn is_downward_closed(&self) -> bool {
+        self.free_of.is_none() || is_downward_closed(&self.exponents())
     }
 
     /// "3/(r+mu≤4)": the caps, and the total over the variables in it.
@@ -211,7 +272,15 @@ impl ExponentSet {
             let vars: Vec<String> = inside.iter().map(|&k| name(k)).collect();
             parts.push(format!("deg({}) ≤ {}", vars.join(", "), self.total));
         }
-        parts.join(" × ")
+        let mut label = parts.join(" × ");
+        if let Some(f) = self.free_of {
+            label.push_str(&format!(
+                ", deg ≤ {} where {} is absent",
+                f.degree,
+                name(f.variable)
+            ));
+        }
+        label
     }
 }
 
@@ -221,6 +290,24 @@ pub fn is_downward_closed(exps: &[Vec<u32>]) -> bool {
     exps.iter().all(|e| {
         (0..e.len()).all(|k| {
             e[k] == 0 || {
+                let mut f = e.clone();
+                f[k] -= 1;
+                set.contains(f.as_slice())
+            }
+        })
+    })
+}
+
+/// Whether every member e of `exps` with e_k ≥ 2 has e − unit_k in `exps` too: closed under
+/// lowering a positive exponent to a smaller positive one (a zero exponent stays zero). Every
+/// downward-closed set is; `{1, r, r·μ, r·μ²}` is too. These are the sets the vanishing basis
+/// ([`ChebyshevBasis::with_vanishing`]) spans exactly and its conversions to monomials
+/// ([`vanishing_to_monomial`]) stay inside.
+pub fn is_support_closed(exps: &[Vec<u32>]) -> bool {
+    let set: std::collections::HashSet<&[u32]> = exps.iter().map(Vec::as_slice).collect();
+    exps.iter().all(|e| {
+        (0..e.len()).all(|k| {
+            e[k] < 2 || {
                 let mut f = e.clone();
                 f[k] -= 1;
                 set.contains(f.as_slice())
@@ -391,12 +478,26 @@ pub(crate) fn gamma(n: usize) -> f64 {
 }
 
 /// Chebyshev product basis of total degree ≤ `degree` in s ∈ [−1, 1]^d, same exponent order.
+///
+/// Functions marked *vanishing* ([`ChebyshevBasis::with_vanishing`]) are instead products
+/// Π_k g_{e_k}(s_k) with g_0 = 1 and g_e = w_k·T_{e−1}(s_k) for e ≥ 1, where w_k = t_k/max|t_k|
+/// is the transformed variable itself, scaled to [−1, 1] over the box: g_e is t_k times a
+/// polynomial of degree e − 1, so these products span exactly the monomials of a
+/// support-closed exponent set ([`is_support_closed`]) even where it is not downward closed,
+/// and stay as well conditioned as the Chebyshev products (T_{e−1} on the box, times a factor
+/// bounded by 1).
 #[derive(Clone, Debug)]
 pub(crate) struct ChebyshevBasis {
     pub d: usize,
     pub degree: u32,
     pub exps: Vec<Vec<u32>>,
+    /// Per function and variable: the function's factor in that variable's table block.
     flat: Vec<usize>,
+    /// Per variable: w_k = α_k + β_k s_k (t_k/max|t_k|); empty without vanishing functions.
+    weights: Vec<(f64, f64)>,
+    /// Whether any function is vanishing (each variable's table block then holds
+    /// T_0 … T_n followed by g_0 … g_n).
+    vanishing: bool,
 }
 
 impl ChebyshevBasis {
@@ -408,16 +509,51 @@ impl ChebyshevBasis {
     /// The basis of any exponent list (`degree` is then its largest single exponent, which
     /// sizes the per-variable recurrence tables).
     pub fn from_exponents(d: usize, exps: Vec<Vec<u32>>) -> ChebyshevBasis {
+        let n = exps.len();
+        ChebyshevBasis::with_vanishing(d, exps, vec![false; n])
+    }
+
+    /// The basis of an exponent list whose functions with `vanishing[j]` are the products of
+    /// g_e (see the type); the weights w_k come from [`ChebyshevBasis::set_scales`], which must
+    /// be called before such a basis is evaluated.
+    pub fn with_vanishing(d: usize, exps: Vec<Vec<u32>>, vanishing: Vec<bool>) -> ChebyshevBasis {
         let degree = exps.iter().flatten().copied().max().unwrap_or(0);
+        let any = vanishing.iter().any(|&v| v);
+        let stride = degree as usize + 1;
         let flat = exps
             .iter()
-            .flat_map(|e| e.iter().map(|&x| x as usize))
+            .zip(&vanishing)
+            .flat_map(|(e, &v)| {
+                e.iter().map(move |&x| {
+                    if v && x > 0 {
+                        stride + x as usize
+                    } else {
+                        x as usize
+                    }
+                })
+            })
             .collect();
         ChebyshevBasis {
             d,
             degree,
             exps,
             flat,
+            weights: if any { vec![(0.0, 0.0); d] } else { Vec::new() },
+            vanishing: any,
+        }
+    }
+
+    /// Sets the weights w_k = t_k/max|t_k| = (c_k + h_k s_k)/(|c_k| + h_k) of the vanishing
+    /// functions from the scales of the data (no effect without vanishing functions).
+    pub fn set_scales(&mut self, scales: &[AxisScale]) {
+        if self.vanishing {
+            self.weights = scales
+                .iter()
+                .map(|sc| {
+                    let m = sc.center.abs() + sc.half;
+                    (sc.center / m, sc.half / m)
+                })
+                .collect();
         }
     }
 
@@ -425,24 +561,39 @@ impl ChebyshevBasis {
         self.exps.len()
     }
 
+    /// Length of one variable's block of the scratch table.
+    fn block(&self) -> usize {
+        (self.degree as usize + 1) * if self.vanishing { 2 } else { 1 }
+    }
+
     /// Scratch size for [`ChebyshevBasis::eval`].
     pub fn table_len(&self) -> usize {
-        self.d * (self.degree as usize + 1)
+        self.d * self.block()
     }
 
     /// All basis values at s into `out` (len ≥ self.len()); `table` is scratch.
     #[inline]
     pub fn eval(&self, s: &[f64], table: &mut [f64], out: &mut [f64]) {
-        let stride = self.degree as usize + 1;
+        let n1 = self.degree as usize + 1;
+        let stride = self.block();
         for k in 0..self.d {
             let t = &mut table[k * stride..(k + 1) * stride];
             let x = s[k];
             t[0] = 1.0;
-            if stride > 1 {
+            if n1 > 1 {
                 t[1] = x;
             }
-            for j in 2..stride {
+            for j in 2..n1 {
                 t[j] = 2.0 * x * t[j - 1] - t[j - 2]; // T_{j} = 2x T_{j−1} − T_{j−2}
+            }
+            if self.vanishing {
+                // g_0 = 1, g_e = w·T_{e−1}
+                let (a, b) = self.weights[k];
+                let w = a + b * x;
+                t[n1] = 1.0;
+                for e in 1..n1 {
+                    t[n1 + e] = w * t[e - 1];
+                }
             }
         }
         match self.d {
@@ -589,6 +740,54 @@ pub(crate) fn monomial_to_chebyshev(
     apply_axis_maps(exps, coeffs, &maps)
 }
 
+/// Per-variable maps of the vanishing basis g_0 = 1, g_e = (t/M)·T_{e−1}(s) (see
+/// [`ChebyshevBasis`]) to powers of t, M = |c| + h: column e holds g_e's coefficients. Upper
+/// triangular with a non-zero diagonal, and a zero exponent maps only to a zero exponent.
+fn vanishing_maps(n: usize, scales: &[AxisScale]) -> Vec<AxisMap> {
+    let c2p = chebyshev_to_power(n);
+    scales
+        .iter()
+        .map(|sc| {
+            let a = mat_mul(&affine_power(n, 1.0 / sc.half, -sc.center / sc.half), &c2p);
+            let m = sc.center.abs() + sc.half;
+            let mut g = vec![vec![0.0; n + 1]; n + 1];
+            g[0][0] = 1.0;
+            for e in 1..=n {
+                for k in 1..=e {
+                    g[k][e] = a[k - 1][e - 1] / m;
+                }
+            }
+            g
+        })
+        .collect()
+}
+
+/// Coefficients in the vanishing basis ([`ChebyshevBasis::with_vanishing`]) → monomial
+/// coefficients in t, over a support-closed exponent set ([`is_support_closed`]).
+pub(crate) fn vanishing_to_monomial(
+    exps: &[Vec<u32>],
+    degree: u32,
+    scales: &[AxisScale],
+    coeffs: &[f64],
+) -> Vec<f64> {
+    apply_axis_maps(exps, coeffs, &vanishing_maps(degree as usize, scales))
+}
+
+/// Monomial coefficients in t → coefficients in the vanishing basis (inverse of
+/// [`vanishing_to_monomial`]).
+pub(crate) fn monomial_to_vanishing(
+    exps: &[Vec<u32>],
+    degree: u32,
+    scales: &[AxisScale],
+    coeffs: &[f64],
+) -> Vec<f64> {
+    let maps: Vec<AxisMap> = vanishing_maps(degree as usize, scales)
+        .iter()
+        .map(upper_inverse)
+        .collect();
+    apply_axis_maps(exps, coeffs, &maps)
+}
+
 /// Monomial coefficients in t → monomial coefficients in u where t = lo + (hi − lo)·u, together
 /// with the same map applied to |coefficients| with |map entries| (for rounding-error bounds).
 pub(crate) fn monomial_to_unit_box(p: &Polynomial, bounds: &[(f64, f64)]) -> (Vec<f64>, Vec<f64>) {
@@ -720,6 +919,90 @@ mod tests {
             for (a, b) in back.iter().zip(&c) {
                 assert!((a - b).abs() < 1e-11, "round trip {a} vs {b}");
             }
+        }
+    }
+
+    #[test]
+    fn a_set_restricted_where_a_variable_is_absent() {
+        // c + r·(b0 + … + b4 μ⁴): the tensor 1, 4 without μ, …, μ⁴
+        let s = ExponentSet::tensor(&[1, 4]).free_of(0, 0);
+        let e = s.exponents();
+        assert_eq!(
+            e,
+            vec![
+                vec![0, 0],
+                vec![1, 0],
+                vec![1, 1],
+                vec![1, 2],
+                vec![1, 3],
+                vec![1, 4]
+            ]
+        );
+        assert_eq!((s.len(), s.max_total_degree(), s.max_exponent()), (6, 5, 4));
+        assert_eq!((s.max_exponent_of(0), s.max_exponent_of(1)), (1, 4));
+        assert!(!s.is_downward_closed() && !is_downward_closed(&e));
+        assert!(is_support_closed(&e));
+        assert!(s
+            .label(&["r".into(), "mu".into()])
+            .contains("where r is absent"));
+        // a restriction that removes nothing leaves the set downward closed
+        assert!(ExponentSet::tensor(&[1, 2])
+            .free_of(0, 2)
+            .is_downward_closed());
+        // without r² the set {1, r², …} is not support closed; r·μ² without r·μ neither
+        assert!(!is_support_closed(&[vec![0, 0], vec![2, 0]]));
+        assert!(!is_support_closed(&[vec![0, 0], vec![1, 2]]));
+        assert!(is_support_closed(&[vec![0, 0], vec![1, 1]]));
+        // a restriction naming a variable the data do not have is refused with the fix
+        let e = ExponentSet::tensor(&[1, 4])
+            .free_of(2, 0)
+            .check(2)
+            .unwrap_err();
+        assert!(e.to_string().contains("below 2"), "{e}");
+        // fit files without the field still load, and the field round-trips
+        let old: ExponentSet =
+            serde_json::from_str(r#"{"total": 5, "caps": [1, 4], "in_total": [false, false]}"#)
+                .unwrap();
+        assert_eq!(old, ExponentSet::tensor(&[1, 4]));
+        let json = serde_json::to_string(&s).unwrap();
+        assert_eq!(serde_json::from_str::<ExponentSet>(&json).unwrap(), s);
+        assert!(!serde_json::to_string(&old).unwrap().contains("free_of"));
+    }
+
+    #[test]
+    fn vanishing_basis_spans_the_set_and_converts_exactly() {
+        // over t_r ∈ [0.2, 1.4] (so r = 0 lies outside the box: the factor is t itself, not
+        // t − lo) and t_μ ∈ [0, 1]
+        let scales = [AxisScale::new(0.2, 1.4), AxisScale::new(0.0, 1.0)];
+        let exps = ExponentSet::tensor(&[2, 3]).free_of(0, 1).exponents();
+        assert!(exps.contains(&vec![0, 1]) && !exps.contains(&vec![0, 2]));
+        let mut basis = ChebyshevBasis::with_vanishing(2, exps.clone(), vec![true; exps.len()]);
+        basis.set_scales(&scales);
+        let c = pseudo_random(5, exps.len());
+        let mono = vanishing_to_monomial(&exps, 3, &scales, &c);
+        let p = Polynomial {
+            exponents: exps.clone(),
+            coefficients: mono.clone(),
+        };
+        let mut table = vec![0.0; basis.table_len()];
+        let mut phi = vec![0.0; basis.len()];
+        for pt in pseudo_random(41, 100).chunks(2) {
+            basis.eval(pt, &mut table, &mut phi);
+            let want: f64 = phi.iter().zip(&c).map(|(a, b)| a * b).sum();
+            let t: Vec<f64> = pt
+                .iter()
+                .zip(&scales)
+                .map(|(s, sc)| sc.center + sc.half * s)
+                .collect();
+            assert!(
+                (p.eval(&t) - want).abs() < 1e-12,
+                "{} vs {want}",
+                p.eval(&t)
+            );
+        }
+        let back = monomial_to_vanishing(&exps, 3, &scales, &mono);
+        for (a, b) in back.iter().zip(&c) {
+            assert!((a - b).abs() < 1e-12, "round trip {a} vs {b}");
         }
     }
 

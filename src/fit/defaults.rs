@@ -157,7 +157,8 @@ pub const LAYER_TENSOR_FORMS: [(&str, f64); 3] = [
 /// Structured forms a default sweep fits in `transforms` ([`physics_transforms`]):
 /// - 2-D with a grazing layer: [`LAYER_TENSOR_FORMS`] with μ in the boundary-layer variable;
 /// - 2-D: per-variable degrees 4,4 over 3,3 (40 coefficients) and 1,3 over 1,0 (9), and
-///   [`linear_in_r_form`] (8) in the untransformed variables;
+///   [`linear_in_r_form`] (8) and [`vanishing_in_r_forms`] (7 and 8) in the untransformed
+///   variables;
 /// - 3-D with a variable `f0`: the split sums Σ_{a ≤ k} t_f0^a·P_a(r, μ)/Q(r, μ) with
 ///   (k, n, m) = (2, 3, 3) (39 coefficients), (2, 4, 3) (54), (2, 5, 4) (77) and (3, 6, 6)
 ///   (139), one near the top of each budget 40, 80, 160 (measured in docs/fitting.md), and the
@@ -191,7 +192,10 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
             }
             out.extend(tensor("tensor:4,4/3,3").map(planned));
             out.extend(tensor("tensor:1,3/1,0").map(planned));
-            if let Some(form) = linear_in_r_form(data) {
+            for form in linear_in_r_form(data)
+                .into_iter()
+                .chain(vanishing_in_r_forms(data))
+            {
                 out.push(PlannedForm {
                     form,
                     transforms: vec![InputTransform::Identity; 2],
@@ -240,10 +244,37 @@ pub fn linear_in_r_form(data: &FitData) -> Option<Form> {
             total: 3,
             caps,
             in_total: vec![true; data.dim()],
+            free_of: None,
         },
         denominator: Some(ExponentSet::tensor(&q_caps)),
         structure: None,
     })
+}
+
+/// P/Q with P = c + r·(b₀ + b₁μ + … + b_k μ^k) and Q = 1 + q r, k = 4 and 5 (7 and 8
+/// coefficients): the FON albedo E = (1 + r G_F(μ)/π)/(1 + c₁ r) (EON paper, eq. 12) with
+/// G_F a polynomial of degree k, so E(r = 0) is the constant c with no μ-terms spent on it
+/// (`tensor:1,k@r:0/1,0`). Empty for data without variables `r` and `mu`.
+pub fn vanishing_in_r_forms(data: &FitData) -> Vec<Form> {
+    let find = |n: &str| data.names.iter().position(|x| x.eq_ignore_ascii_case(n));
+    let (Some(r), Some(mu)) = (find("r"), find("mu")) else {
+        return Vec::new();
+    };
+    [4, 5]
+        .into_iter()
+        .map(|k| {
+            let mut caps = vec![0; data.dim()];
+            caps[r] = 1;
+            caps[mu] = k;
+            let mut q_caps = vec![0; data.dim()];
+            q_caps[r] = 1;
+            Form::Exponents {
+                numerator: ExponentSet::tensor(&caps).free_of(r, 0),
+                denominator: Some(ExponentSet::tensor(&q_caps)),
+                structure: None,
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -323,16 +354,19 @@ mod tests {
                 .collect::<Vec<_>>()
         };
         let with = forms2(&p);
-        assert_eq!(with.len(), LAYER_TENSOR_FORMS.len() + 3);
+        assert_eq!(with.len(), LAYER_TENSOR_FORMS.len() + 5);
         assert!(with.contains(&(20, InputTransform::BoundaryLayer { by: 0, k: 2.0 })));
         assert!(with.contains(&(35, InputTransform::BoundaryLayer { by: 0, k: 1.0 })));
         assert!(with.contains(&(8, InputTransform::Identity)));
+        assert!(with.contains(&(7, InputTransform::Identity)));
         let without = forms2(&glossy);
         assert_eq!(
             without,
             vec![
                 (40, InputTransform::Sqrt),
                 (9, InputTransform::Sqrt),
+                (8, InputTransform::Identity),
+                (7, InputTransform::Identity),
                 (8, InputTransform::Identity)
             ]
         );
@@ -369,5 +403,67 @@ mod tests {
         let exact = (1.0 + x[0] * g(x[1])) / (1.0 + 0.29 * x[0]);
         assert!((fit.eval(&x) - exact).abs() < 1e-9);
         assert!(linear_in_r_form(&data(&["x", "y"])).is_none());
+    }
+
+    #[test]
+    fn vanishing_in_r_forms_beat_the_eon_papers_fon_fit_off_the_grid() {
+        use crate::bsdf::diffuse::fon_albedo_analytic;
+        // the FON albedo (EON paper, eq. 12) on a 64² table of [0, 1]²
+        let n = 64;
+        let ax: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
+        let vals = ax
+            .iter()
+            .flat_map(|&r| ax.iter().map(move |&m| fon_albedo_analytic(r, m)))
+            .collect();
+        let d = FitData::from_grid(vec!["r".into(), "mu".into()], &[ax.clone(), ax], vals).unwrap();
+        // off the grid: the centres of the cells, and the edges' midpoints
+        let mut points = Vec::new();
+        for i in 0..n - 1 {
+            for j in 0..n - 1 {
+                points.push([(i as f64 + 0.5) / 63.0, (j as f64 + 0.5) / 63.0]);
+            }
+            points.push([(i as f64 + 0.5) / 63.0, 1.0]);
+            points.push([1.0, (i as f64 + 0.5) / 63.0]);
+            points.push([0.0, (i as f64 + 0.5) / 63.0]);
+        }
+        let forms = vanishing_in_r_forms(&d);
+        let mut maxima = Vec::new();
+        for (form, bound) in forms.iter().zip([4.7e-4, 2.0e-4]) {
+            let fit = crate::fit::fit_form(
+                &d,
+                &[InputTransform::Identity; 2],
+                form,
+                Objective::Minimax,
+                &crate::fit::FitOptions::default(),
+            )
+            .unwrap();
+            assert!(fit.is_usable());
+            let max = points
+                .iter()
+                .map(|x| (fit.eval(x) - fon_albedo_analytic(x[0], x[1])).abs())
+                .fold(0.0f64, f64::max);
+            // the EON paper's 4-coefficient fit of the FON albedo: max error 4.7e-4
+            assert!(
+                max < bound,
+                "{} coefficients: off-grid max {max:.3e}",
+                fit.n_coefficients
+            );
+            // at r = 0 the fit is one constant (no μ-terms without r)
+            let e0 = fit.eval(&[0.0, 0.0]);
+            assert!((0..20).all(|j| fit.eval(&[0.0, j as f64 / 19.0]) == e0));
+            assert!((e0 - 1.0).abs() < bound);
+            // the fit file round trip keeps the form and the coefficients
+            let json = fit.to_json().unwrap();
+            let back = crate::fit::FitResult::from_json(&json).unwrap();
+            assert_eq!(
+                (&back.form, &back.approximant),
+                (&fit.form, &fit.approximant)
+            );
+            assert_eq!(back.to_json().unwrap(), json);
+            maxima.push((fit.n_coefficients, max));
+        }
+        eprintln!("off-grid max (coefficients, error): {maxima:?}");
+        assert_eq!(maxima.iter().map(|m| m.0).collect::<Vec<_>>(), vec![7, 8]);
+        assert!(vanishing_in_r_forms(&data(&["x", "y"])).is_empty());
     }
 }

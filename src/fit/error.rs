@@ -79,6 +79,9 @@ pub enum FitError {
     #[error("no usable starting point for {form}: every start ({tried}) has a denominator that vanishes or changes sign at the data; lower the degree or fit a polynomial")]
     NoFeasibleStart { form: String, tried: String },
 
+    #[error("exponent set: {problem}; {fix}")]
+    BadExponents { problem: String, fix: String },
+
     #[error("structured form: {problem}; {fix}")]
     BadStructure { problem: String, fix: String },
 

@@ -80,6 +80,7 @@ pub fn fit_form(
             denominator,
             structure: Some(st),
         } => {
+            check_sets(d, &data.names, numerator, denominator.as_ref(), true)?;
             check_structure(d, &data.names, numerator, denominator.as_ref(), st)?;
             check_distinct(data, numerator, form)?;
             if let Some(q) = denominator {
@@ -107,6 +108,7 @@ pub fn fit_form(
                 q.check(d)?;
                 check_distinct(data, q, form)?;
             }
+            check_sets(d, &data.names, numerator, denominator.as_ref(), false)?;
             let num_exps = numerator.exponents();
             match denominator {
                 None => {
@@ -139,7 +141,7 @@ pub fn fit_form(
 }
 
 /// The form families [`parse_form`] reads, with their syntax.
-pub const FORM_SYNTAX: &str = "polynomial:<n>, rational:<n>/<m>, split:<variable>:<k>:<n>/<m> (degree k in the variable times total degree n in the others, over a shared denominator of degree m without it; /0: no denominator), tensor:<n1>,<n2>,…/<m1>,<m2>,… (per-variable degrees; no /…: a polynomial), sum:<variable>:<family>:<K>:<n>/<m> (Σ_a φ_a(variable)·P_a/Q_a, a < K, family power: φ_a = t^a; P_a of total degree n and Q_a of total degree m in the others, each term its own denominator), lowrank:<variable>:<K>:<p>:<n>/<m> (Σ_k u_k(variable)·P_k/Q_k, k < K, u_k fitted polynomials of degree p), where a denominator +<m> or +<m1>,<m2>,… is a positive Bernstein polynomial of degree m per other variable (Q > 0 on the box by construction), or the JSON of a form";
+pub const FORM_SYNTAX: &str = "polynomial:<n>, rational:<n>/<m>, split:<variable>:<k>:<n>/<m> (degree k in the variable times total degree n in the others, over a shared denominator of degree m without it; /0: no denominator), tensor:<n1>,<n2>,…/<m1>,<m2>,… (per-variable degrees; no /…: a polynomial), sum:<variable>:<family>:<K>:<n>/<m> (Σ_a φ_a(variable)·P_a/Q_a, a < K, family power: φ_a = t^a; P_a of total degree n and Q_a of total degree m in the others, each term its own denominator), lowrank:<variable>:<K>:<p>:<n>/<m> (Σ_k u_k(variable)·P_k/Q_k, k < K, u_k fitted polynomials of degree p), where a denominator +<m> or +<m1>,<m2>,… is a positive Bernstein polynomial of degree m per other variable (Q > 0 on the box by construction), and a split or tensor numerator followed by @<variable>:<j> keeps of the monomials without that variable only those of total degree ≤ j (tensor:1,4@r:0/1,0 is c + r·(b₀ + b₁μ + … + b₄μ⁴) over 1 + q r), or the JSON of a form";
 
 /// Parses a form: `rational:3/3`, `split:f0:4:5/4`, `tensor:1,2/1,0`, or its JSON
 /// (`{"kind": "exponents", …}`), for data with the variables `names`. Errors name the syntax.
@@ -159,6 +161,14 @@ pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, Str
             for s in std::iter::once(numerator).chain(denominator.iter()) {
                 s.check(d).map_err(|e| format!("form '{text}': {e}"))?;
             }
+            check_sets(
+                d,
+                names,
+                numerator,
+                denominator.as_ref(),
+                structure.is_some(),
+            )
+            .map_err(|e| format!("form '{text}': {e}"))?;
             if let Some(st) = structure {
                 check_structure(d, names, numerator, denominator.as_ref(), st)
                     .map_err(|e| format!("form '{text}': {e}"))?;
@@ -187,6 +197,40 @@ pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, Str
         }
         Ok(v)
     };
+    // a numerator's `@<variable>:<j>`: the monomials without the variable of total degree ≤ j
+    let free_of = |spec: Option<&str>| -> std::result::Result<Option<(usize, u32)>, String> {
+        let Some(spec) = spec else {
+            return Ok(None);
+        };
+        let (var, j) = spec.split_once(':').ok_or_else(|| {
+            bad(&format!(
+                "write the numerator's restriction '@{spec}' as @<variable>:<j>, e.g. @{}:0",
+                names.first().map_or("r", String::as_str)
+            ))
+        })?;
+        let k = names.iter().position(|x| x == var.trim()).ok_or_else(|| {
+            bad(&format!(
+                "unknown variable '{var}' in '@{spec}' (the data's are {})",
+                names.join(", ")
+            ))
+        })?;
+        Ok(Some((k, int(j)?)))
+    };
+    let restrict = |form: Form, free: Option<(usize, u32)>| match (form, free) {
+        (
+            Form::Exponents {
+                numerator,
+                denominator,
+                structure,
+            },
+            Some((k, j)),
+        ) => Form::Exponents {
+            numerator: numerator.free_of(k, j),
+            denominator,
+            structure,
+        },
+        (form, _) => form,
+    };
     match family {
         "polynomial" => Ok(Form::Polynomial { degree: int(rest)? }),
         "rational" => {
@@ -199,7 +243,8 @@ pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, Str
             })
         }
         "split" => {
-            let f: Vec<&str> = rest.split(':').collect();
+            // the numerator's `@<variable>:<j>` has a colon of its own
+            let f: Vec<&str> = rest.splitn(3, ':').collect();
             let [var, k, nm] = f.as_slice() else {
                 return Err(bad("write split:<variable>:<k>:<n>/<m>"));
             };
@@ -212,14 +257,21 @@ pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, Str
             let (n, m) = nm
                 .split_once('/')
                 .ok_or_else(|| bad("write split:<variable>:<k>:<n>/<m>"))?;
-            Ok(split_form(d, j, int(k)?, int(n)?, int(m)?))
+            let (n, free) = split_restriction(n);
+            let free = free_of(free)?;
+            Ok(restrict(split_form(d, j, int(k)?, int(n)?, int(m)?), free))
         }
         "tensor" => {
-            let (n, m) = match rest.split_once('/') {
-                Some((n, m)) => (list(n)?, Some(list(m)?)),
-                None => (list(rest)?, None),
+            let (n, m) = rest.split_once('/').unwrap_or((rest, ""));
+            let (n, free) = split_restriction(n);
+            let free = free_of(free)?;
+            let n = list(n)?;
+            let m = if rest.contains('/') {
+                Some(list(m)?)
+            } else {
+                None
             };
-            Ok(tensor_form(&n, m.as_deref()))
+            Ok(restrict(tensor_form(&n, m.as_deref()), free))
         }
         "sum" | "lowrank" => {
             let f: Vec<&str> = rest.split(':').collect();
@@ -328,6 +380,58 @@ pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, Str
             "unknown form family '{other}' in '{text}'; the fitter knows {FORM_SYNTAX}"
         )),
     }
+}
+
+/// `1,4@r:0` → (`1,4`, Some(`r:0`)).
+fn split_restriction(n: &str) -> (&str, Option<&str>) {
+    match n.split_once('@') {
+        Some((n, spec)) => (n, Some(spec)),
+        None => (n, None),
+    }
+}
+
+/// The exponent sets a form may combine: a [`super::basis::FreeOf`] restriction only on the
+/// numerator of a P/Q form (the pole certificate and Q's normalisation need a downward-closed
+/// denominator; a structured form's terms have their own bases), and the restricted variable
+/// one of the data's.
+fn check_sets(
+    d: usize,
+    names: &[String],
+    numerator: &ExponentSet,
+    denominator: Option<&ExponentSet>,
+    structured: bool,
+) -> Result<()> {
+    let name = |k: usize| names.get(k).cloned().unwrap_or_else(|| format!("x{k}"));
+    if let Some(f) = denominator.and_then(|q| q.free_of) {
+        return Err(FitError::BadExponents {
+            problem: format!(
+                "the denominator leaves out monomials without '{}' (free_of), so it is not downward closed",
+                name(f.variable)
+            ),
+            fix: "restrict only the numerator (tensor:1,4@r:0/1,0); give the denominator a plain set".into(),
+        });
+    }
+    if let (Some(f), true) = (numerator.free_of, structured) {
+        return Err(FitError::BadExponents {
+            problem: format!(
+                "a structured form's numerator leaves out monomials without '{}' (free_of)",
+                name(f.variable)
+            ),
+            fix: "use the restriction in a tensor or split P/Q form, or drop it".into(),
+        });
+    }
+    if let Some(f) = numerator.free_of {
+        if f.variable >= d {
+            return Err(FitError::BadExponents {
+                problem: format!(
+                    "the numerator's restriction names variable {} of {d}",
+                    f.variable
+                ),
+                fix: format!("give a variable index below {d}"),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// A variable with m distinct values in the data supports degree ≤ m − 1 in it.
@@ -504,6 +608,94 @@ mod tests {
         .unwrap();
         assert_eq!(fit.n_coefficients, 4 + 1);
         assert!(fit.metrics.max_abs_error < 1e-12, "{:?}", fit.metrics);
+    }
+
+    #[test]
+    fn a_numerator_restricted_where_r_is_absent_parses_fits_and_refuses_bad_input() {
+        let names: Vec<String> = ["r", "mu"].map(String::from).to_vec();
+        let form = parse_form("tensor:1,4@r:0/1,0", &names).unwrap();
+        let want = Form::Exponents {
+            numerator: ExponentSet::tensor(&[1, 4]).free_of(0, 0),
+            denominator: Some(ExponentSet::tensor(&[1, 0])),
+            structure: None,
+        };
+        assert_eq!(form, want);
+        assert_eq!(form.n_coefficients(2), 6 + 1);
+        assert_eq!(form.file_stem(), "rational-1_4t5x01v0d0-1_0t1x01");
+        assert_eq!(
+            parse_form("split:r:1:3@r:0/0", &names).unwrap(),
+            Form::Exponents {
+                numerator: ExponentSet::split(2, 0, 1, 3).free_of(0, 0),
+                denominator: None,
+                structure: None,
+            }
+        );
+        // (0.3 + r·(1 − μ + μ²))/(1 + 0.5 r) is exact in the form; the plain tensor's μ-terms
+        // without r are not needed
+        let ax: Vec<f64> = (0..9).map(|i| i as f64 / 8.0).collect();
+        let f = |r: f64, m: f64| (0.3 + r * (1.0 - m + m * m)) / (1.0 + 0.5 * r);
+        let vals = ax
+            .iter()
+            .flat_map(|&r| ax.iter().map(move |&m| f(r, m)))
+            .collect();
+        let data = FitData::from_grid(names.clone(), &[ax.clone(), ax], vals).unwrap();
+        let t = [InputTransform::Identity; 2];
+        let o = FitOptions::default();
+        let fit = fit_form(&data, &t, &form, Objective::LeastSquares, &o).unwrap();
+        assert_eq!(fit.n_coefficients, 7);
+        assert!(fit.metrics.max_abs_error < 1e-12, "{:?}", fit.metrics);
+        assert!(fit.is_usable());
+        assert!(!fit.approximant.numerator.exponents.contains(&vec![0, 1]));
+        // the polynomial (no denominator) too
+        let poly = parse_form("tensor:1,2@r:0", &names).unwrap();
+        let g = fit_form(&data, &t, &poly, Objective::LeastSquares, &o).unwrap();
+        assert_eq!(g.n_coefficients, 4);
+        assert!((g.eval(&[0.0, 0.3]) - g.eval(&[0.0, 0.9])).abs() == 0.0);
+        // bad syntax and unknown variables name the syntax
+        for (text, what) in [
+            ("tensor:1,4@r/1,0", "@<variable>:<j>"),
+            ("tensor:1,4@eta:0/1,0", "unknown variable 'eta'"),
+            ("tensor:1,4@r:x/1,0", "not a degree"),
+        ] {
+            let e = parse_form(text, &names).unwrap_err();
+            assert!(e.contains(what) && e.contains("@<variable>:<j>"), "{e}");
+        }
+        // a restricted denominator, or a restricted structured numerator, is refused with the fix
+        let bad = Form::Exponents {
+            numerator: ExponentSet::tensor(&[1, 4]),
+            denominator: Some(ExponentSet::tensor(&[1, 1]).free_of(0, 0)),
+            structure: None,
+        };
+        let e = fit_form(&data, &t, &bad, Objective::LeastSquares, &o).unwrap_err();
+        assert!(
+            matches!(e, FitError::BadExponents { .. })
+                && e.to_string().contains("only the numerator"),
+            "{e}"
+        );
+        let json = serde_json::to_string(&bad).unwrap();
+        assert!(parse_form(&json, &names)
+            .unwrap_err()
+            .contains("not downward closed"));
+        // more coefficients than points
+        let few = FitData::new(
+            names.clone(),
+            vec![0.0, 0.0, 0.0, 0.25, 1.0, 0.5, 1.0, 0.75, 0.5, 1.0, 0.5, 0.1],
+            vec![1.0; 6],
+            vec![(0.0, 1.0), (0.0, 1.0)],
+        )
+        .unwrap();
+        let e = fit_form(&few, &t, &form, Objective::LeastSquares, &o).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                FitError::TooFewPoints {
+                    coefficients: 7,
+                    points: 6,
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 
     #[test]

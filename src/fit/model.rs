@@ -10,8 +10,11 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-use super::basis::{chebyshev_to_monomial, exponents, ChebyshevBasis, Polynomial};
-use super::data::{FitData, InputTransform, Prepared};
+use super::basis::{
+    chebyshev_to_monomial, exponents, is_downward_closed, monomial_to_chebyshev,
+    monomial_to_vanishing, vanishing_to_monomial, ChebyshevBasis, Polynomial,
+};
+use super::data::{AxisScale, FitData, InputTransform, Prepared};
 use super::linear::LinearRows;
 use super::lm::LeastSquaresProblem;
 use super::poles::{certify_polynomial, CertifyOptions, RawVerdict};
@@ -42,6 +45,9 @@ pub(crate) struct Model {
     pub den_idx: Vec<usize>,
     pub n_num: usize,
     pub n_den: usize,
+    /// P's exponents are not downward closed: P is in the vanishing basis
+    /// ([`ChebyshevBasis::with_vanishing`]), whose weights [`Model::with_scales`] sets.
+    pub num_vanishing: bool,
 }
 
 impl Model {
@@ -53,15 +59,21 @@ impl Model {
         Model::from_exponents(d, exponents(d, num_degree), Some(exponents(d, den_degree)))
     }
 
-    /// P and Q over any downward-closed exponent lists in scikit-learn order (Q's list then
-    /// starts with the constant, whose Chebyshev coefficient is fixed to 1). With total-degree
-    /// lists, the lower degree's is a prefix of the higher one's, so the basis is the higher
-    /// one's and the positions are 0, 1, 2, …
+    /// P and Q over exponent lists in scikit-learn order (Q's list then starts with the
+    /// constant, whose Chebyshev coefficient is fixed to 1), Q's downward closed. With
+    /// total-degree lists, the lower degree's is a prefix of the higher one's, so the basis is
+    /// the higher one's and the positions are 0, 1, 2, … A P list that is support closed but
+    /// not downward closed ([`super::basis::is_support_closed`]) is in the vanishing basis,
+    /// after Q's Chebyshev functions; the fit then binds the model to its data's scales
+    /// ([`Model::with_scales`]).
     pub fn from_exponents(
         d: usize,
         num_exps: Vec<Vec<u32>>,
         den_exps: Option<Vec<Vec<u32>>>,
     ) -> Model {
+        if !is_downward_closed(&num_exps) {
+            return Model::vanishing_numerator(d, num_exps, den_exps);
+        }
         let top = num_exps
             .iter()
             .chain(den_exps.iter().flatten())
@@ -86,6 +98,57 @@ impl Model {
             den_idx,
             n_num,
             n_den,
+            num_vanishing: false,
+        }
+    }
+
+    /// [`Model::from_exponents`] with P in the vanishing basis: Q's Chebyshev functions first,
+    /// then P's.
+    fn vanishing_numerator(
+        d: usize,
+        num_exps: Vec<Vec<u32>>,
+        den_exps: Option<Vec<Vec<u32>>>,
+    ) -> Model {
+        let mut exps: Vec<Vec<u32>> = den_exps.clone().unwrap_or_default();
+        let n_den = exps.len();
+        let mut vanishing = vec![false; n_den];
+        exps.extend(num_exps.iter().cloned());
+        vanishing.extend(std::iter::repeat_n(true, num_exps.len()));
+        Model {
+            basis: ChebyshevBasis::with_vanishing(d, exps, vanishing),
+            num_idx: (n_den..n_den + num_exps.len()).collect(),
+            n_num: num_exps.len(),
+            num_exps,
+            den_idx: (0..n_den).collect(),
+            den_exps,
+            n_den,
+            num_vanishing: true,
+        }
+    }
+
+    /// The model bound to the scales of its data (the vanishing basis's weights).
+    pub fn with_scales(mut self, scales: &[AxisScale]) -> Model {
+        self.basis.set_scales(scales);
+        self
+    }
+
+    /// P's basis coefficients → P's monomial coefficients in t.
+    pub fn num_to_monomial(&self, scales: &[AxisScale], c: &[f64]) -> Vec<f64> {
+        let n = self.num_max_exponent();
+        if self.num_vanishing {
+            vanishing_to_monomial(&self.num_exps, n, scales, c)
+        } else {
+            chebyshev_to_monomial(&self.num_exps, n, scales, c)
+        }
+    }
+
+    /// P's monomial coefficients in t → P's basis coefficients.
+    pub fn num_from_monomial(&self, scales: &[AxisScale], c: &[f64]) -> Vec<f64> {
+        let n = self.num_max_exponent();
+        if self.num_vanishing {
+            monomial_to_vanishing(&self.num_exps, n, scales, c)
+        } else {
+            monomial_to_chebyshev(&self.num_exps, n, scales, c)
         }
     }
 
@@ -222,12 +285,7 @@ impl Model {
         prep: &Prepared,
         p: &[f64],
     ) -> Approximant {
-        let mut num = chebyshev_to_monomial(
-            &self.num_exps,
-            self.num_max_exponent(),
-            &prep.scales,
-            &p[..self.n_num],
-        );
+        let mut num = self.num_to_monomial(&prep.scales, &p[..self.n_num]);
         let denominator = self.den_exps.as_ref().map(|den_exps| {
             let mut cheb = vec![1.0];
             cheb.extend_from_slice(&p[self.n_num..]);

@@ -69,6 +69,7 @@ pub(crate) fn fit_polynomial_model(
 ) -> Result<FitResult> {
     let start = Instant::now();
     let prep = Prepared::new(data, transforms)?;
+    let model = &model.clone().with_scales(&prep.scales);
     let n_coef = model.n_params();
     if prep.n_weighted() < n_coef {
         return Err(FitError::TooFewPoints {

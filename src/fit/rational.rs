@@ -109,9 +109,9 @@ fn start_from_approximant(
     if a.transforms != transforms || a.variables.len() != prep.d {
         return Err("different variables or transforms".into());
     }
+    // the approximant's monomial coefficients on this model's exponents
     let embed = |p: &super::basis::Polynomial,
-                 exps: &[Vec<u32>],
-                 max: u32|
+                 exps: &[Vec<u32>]|
      -> std::result::Result<Vec<f64>, String> {
         let mut c = vec![0.0; exps.len()];
         for (e, &v) in p.exponents.iter().zip(&p.coefficients) {
@@ -120,22 +120,22 @@ fn start_from_approximant(
                 None if v == 0.0 => {}
                 None => {
                     return Err(format!(
-                        "has a term of degree {} above this fit's",
+                        "has a term of degree {} outside this fit's exponents",
                         e.iter().sum::<u32>()
                     ))
                 }
             }
         }
-        Ok(monomial_to_chebyshev(exps, max, &prep.scales, &c))
+        Ok(c)
     };
-    let num = embed(&a.numerator, &model.num_exps, model.num_max_exponent())?;
+    let num = model.num_from_monomial(&prep.scales, &embed(&a.numerator, &model.num_exps)?);
     let den_exps = model
         .den_exps
         .clone()
         .unwrap_or_else(|| vec![vec![0; prep.d]]);
     let dd = model.den_max_exponent();
     let den = match &a.denominator {
-        Some(q) => embed(q, &den_exps, dd)?,
+        Some(q) => monomial_to_chebyshev(&den_exps, dd, &prep.scales, &embed(q, &den_exps)?),
         None => {
             let mut one = vec![0.0; den_exps.len()];
             one[0] = 1.0;
@@ -193,6 +193,8 @@ pub(crate) fn fit_rational_model(
 ) -> Result<FitResult> {
     let start_time = Instant::now();
     let prep = Prepared::new(data, transforms)?;
+    let model = &model.clone().with_scales(&prep.scales);
+    let poly_model = &poly_model.clone().with_scales(&prep.scales);
     let label = form.label();
     let np = model.n_params();
     if prep.n_weighted() < np {

@@ -38,9 +38,10 @@ pub enum Form {
         numerator_degree: u32,
         denominator_degree: u32,
     },
-    /// P/Q (or P without `denominator`) over downward-closed exponent sets: per-variable
-    /// degrees, and the split-sum form Σ_a t_j^a·P_a(others)/Q(others) with a shared
-    /// denominator ([`ExponentSet::split`]).
+    /// P/Q (or P without `denominator`) over exponent sets: per-variable degrees, and the
+    /// split-sum form Σ_a t_j^a·P_a(others)/Q(others) with a shared denominator
+    /// ([`ExponentSet::split`]); the numerator's may restrict its monomials free of one
+    /// variable ([`super::basis::FreeOf`]), the denominator's is downward closed.
     ///
     /// With a [`Structure`], the sets are those of every term's P_k and Q_k in the variables
     /// other than the structure's, and the form is a sum of K such terms
@@ -200,8 +201,10 @@ impl Form {
 
     /// The form part of a fit file name: `polynomial-5`, `rational-3`, and for exponent sets
     /// `rational-<P's set>-<Q's set>` (`polynomial-<P's set>`), a set written as its caps, `t`
-    /// and its total, then `x` and the variables outside the total: the split form of degree 3
-    /// in variable 0 over degree 4 / 3 in the others is `rational-3_4_4t4x0-0_3_3t3x0`.
+    /// and its total, then `x` and the variables outside the total, then `v<j>d<n>` for a
+    /// [`super::basis::FreeOf`] restriction: the split form of degree 3 in variable 0 over
+    /// degree 4 / 3 in the others is `rational-3_4_4t4x0-0_3_3t3x0`, and `tensor:1,4@r:0/1,0`
+    /// in (r, μ) is `rational-1_4t5x01v0d0-1_0t1x01`.
     pub fn file_stem(&self) -> String {
         let token = |s: &ExponentSet| {
             let caps: Vec<String> = s.caps.iter().map(u32::to_string).collect();
@@ -213,6 +216,9 @@ impl Form {
             if !outside.is_empty() {
                 t.push('x');
                 t.push_str(&outside);
+            }
+            if let Some(f) = s.free_of {
+                t.push_str(&format!("v{}d{}", f.variable, f.degree));
             }
             t
         };
@@ -487,14 +493,34 @@ impl Approximant {
                 });
             }
             super::basis::check_degree(p.degree())?;
-            // a structured form's term t_x^a·P_a(y) has its exponents of x raised by a
-            if !self.is_structured() && !super::basis::is_downward_closed(&p.exponents) {
-                return Err(FitError::ShapeMismatch {
-                    what: "exponent tuples closed under lowering one exponent",
-                    expected: p.exponents.len(),
-                    got: p.exponents.len(),
-                    fix: "with every monomial, list every monomial that divides it (a coefficient 0 is fine)",
-                });
+            // a structured form's term t_x^a·P_a(y) has its exponents of x raised by a; a
+            // numerator may leave out monomials free of a variable (support closed), a
+            // denominator must be downward closed (the pole certificate expands over it)
+            let numerator = std::ptr::eq(p, &self.numerator);
+            if !self.is_structured() {
+                let closed = if numerator {
+                    super::basis::is_support_closed(&p.exponents)
+                } else {
+                    super::basis::is_downward_closed(&p.exponents)
+                };
+                if !closed {
+                    return Err(FitError::BadExponents {
+                        problem: format!(
+                            "the {} lists a monomial without {}",
+                            if numerator {
+                                "numerator"
+                            } else {
+                                "denominator"
+                            },
+                            if numerator {
+                                "the one with a positive exponent lowered by 1 (a zero exponent may stay zero)"
+                            } else {
+                                "every monomial that divides it"
+                            }
+                        ),
+                        fix: "list those monomials too (a coefficient 0 is fine)".into(),
+                    });
+                }
             }
             if let Some(i) = p.coefficients.iter().position(|c| !c.is_finite()) {
                 return Err(FitError::NonFinite {

@@ -153,6 +153,23 @@ fn per_variable_degrees_with_the_grazing_layer_round_trip() {
 }
 
 #[test]
+fn a_numerator_without_mu_terms_free_of_r_round_trips() {
+    let dir = scratch("free-of-r");
+    let path = round_trip(
+        &dir,
+        "oren-nayar-fon",
+        "12",
+        "tensor:1,5@r:0/1,0",
+        "r=identity",
+    );
+    let fit = fitfile::load(&path).unwrap().record.fit;
+    assert_eq!(fit.n_coefficients, 8);
+    let p = &fit.approximant.numerator;
+    assert!(p.exponents.iter().all(|e| e[0] == 1 || e == &vec![0, 0]));
+    assert!(fit.metrics.max_abs_error < 1e-3, "{:?}", fit.metrics);
+}
+
+#[test]
 fn separate_denominators_round_trip_positive_and_certified() {
     let dir = scratch("sum");
     let path = round_trip(
@@ -226,6 +243,10 @@ fn forms_the_data_cannot_determine_are_refused() {
     assert!(err.contains("unknown basis family 'chebyshev'"), "{err}");
     let err = fails(&mut base("sum:f0:power:5:2/1"));
     assert!(err.contains("4 distinct values of 'f0'"), "{err}");
+    let err = fails(&mut base("tensor:1,1,1@r:0/1,0,0@r:0"));
+    assert!(err.contains("only a numerator takes @"), "{err}");
+    let err = fails(&mut base("tensor:1,1,1@eta:0/1,0,0"));
+    assert!(err.contains("unknown variable 'eta'"), "{err}");
     let err = fails(&mut base("lowrank:f0:4:2:2/+1"));
     assert!(err.contains("at most 3 independent terms"), "{err}");
     assert!(!dir.join("never.json").exists(), "nothing written");

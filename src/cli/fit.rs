@@ -74,7 +74,9 @@ pub struct FitArgs {
     pub degree: Option<u32>,
     /// Any form instead of --form/--degree: `rational:4/3`, `split:f0:4:5/4` (degree 4 in f0
     /// times total degree 5 in the others over a shared denominator of degree 4 without f0),
-    /// `tensor:1,1/1,0` (per-variable degrees), `sum:f0:power:3:3/+1` (Σ_a t_f0^a·P_a/Q_a, each
+    /// `tensor:1,1/1,0` (per-variable degrees), `tensor:1,5@r:0/1,0` (of the numerator's
+    /// monomials without r only those of total degree ≤ 0: c + r·(b₀ + … + b₅μ⁵) over
+    /// 1 + q r), `sum:f0:power:3:3/+1` (Σ_a t_f0^a·P_a/Q_a, each
     /// term its own denominator; `+`: positive Bernstein denominators), `lowrank:f0:3:3:4/2`
     /// (Σ_k u_k(f0)·P_k/Q_k, 3 terms, u_k of degree 3), or a form's JSON (docs/fitting.md,
     /// "Structured forms").

@@ -257,12 +257,18 @@ pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, Str
             let (n, m) = nm
                 .split_once('/')
                 .ok_or_else(|| bad("write split:<variable>:<k>:<n>/<m>"))?;
+            if m.contains('@') {
+                return Err(bad(DENOMINATOR_UNRESTRICTED));
+            }
             let (n, free) = split_restriction(n);
             let free = free_of(free)?;
             Ok(restrict(split_form(d, j, int(k)?, int(n)?, int(m)?), free))
         }
         "tensor" => {
             let (n, m) = rest.split_once('/').unwrap_or((rest, ""));
+            if m.contains('@') {
+                return Err(bad(DENOMINATOR_UNRESTRICTED));
+            }
             let (n, free) = split_restriction(n);
             let free = free_of(free)?;
             let n = list(n)?;
@@ -381,6 +387,9 @@ pub fn parse_form(text: &str, names: &[String]) -> std::result::Result<Form, Str
         )),
     }
 }
+
+/// Why a denominator takes no `@<variable>:<j>`.
+const DENOMINATOR_UNRESTRICTED: &str = "only a numerator takes @<variable>:<j>: the denominator must keep every monomial dividing one of its own (the pole certificate and Q's normalisation expand over them), so write it without the restriction";
 
 /// `1,4@r:0` → (`1,4`, Some(`r:0`)).
 fn split_restriction(n: &str) -> (&str, Option<&str>) {
@@ -656,6 +665,8 @@ mod tests {
             ("tensor:1,4@r/1,0", "@<variable>:<j>"),
             ("tensor:1,4@eta:0/1,0", "unknown variable 'eta'"),
             ("tensor:1,4@r:x/1,0", "not a degree"),
+            ("tensor:1,4@r:0/1,1@r:0", "only a numerator"),
+            ("split:r:1:3@r:0/1@r:0", "only a numerator"),
         ] {
             let e = parse_form(text, &names).unwrap_err();
             assert!(e.contains(what) && e.contains("@<variable>:<j>"), "{e}");

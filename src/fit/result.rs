@@ -816,6 +816,36 @@ mod tests {
     }
 
     #[test]
+    fn a_numerator_may_leave_out_monomials_free_of_a_variable_a_denominator_may_not() {
+        // c + r·(b₀ + b₂μ²) lacks r·μ, which r·μ² lowers to; c + r·(b₀ + b₁μ) is fine
+        let approximant = |num: Vec<Vec<u32>>, den: Vec<Vec<u32>>| {
+            let (n, m) = (num.len(), den.len());
+            Approximant::rational(
+                vec!["r".into(), "mu".into()],
+                vec![InputTransform::Identity; 2],
+                vec![(0.0, 1.0); 2],
+                poly(num, vec![0.5; n]),
+                Some(poly(den, vec![1.0; m])),
+            )
+        };
+        let q = vec![vec![0, 0], vec![1, 0]];
+        let good = approximant(vec![vec![0, 0], vec![1, 0], vec![1, 1]], q.clone());
+        good.validate().unwrap();
+        assert_eq!(good.eval(&[0.0, 0.7]), 0.5);
+        let gap = approximant(vec![vec![0, 0], vec![1, 0], vec![1, 2]], q.clone());
+        let e = gap.validate().unwrap_err();
+        assert!(
+            matches!(e, FitError::BadExponents { .. })
+                && e.to_string().contains("numerator")
+                && e.to_string().contains("list those monomials too"),
+            "{e}"
+        );
+        let den = approximant(vec![vec![0, 0]], vec![vec![0, 0], vec![1, 1]]);
+        let e = den.validate().unwrap_err();
+        assert!(e.to_string().contains("denominator"), "{e}");
+    }
+
+    #[test]
     fn every_denominator_of_a_structured_form_is_certified() {
         let good = two_terms(0.5);
         good.validate().unwrap();

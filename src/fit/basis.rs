@@ -73,7 +73,8 @@ pub fn exponents(d: usize, degree: u32) -> Vec<Vec<u32>> {
 /// form and the emitted Horner and Bernstein forms all stay inside it. With it, the set is still
 /// closed under lowering a positive exponent to a smaller positive one
 /// ([`is_support_closed`]), which is what a numerator's solving basis needs
-/// ([`ChebyshevBasis::with_vanishing`]); a denominator must stay downward closed.
+/// (the vanishing basis of the crate's `ChebyshevBasis::with_vanishing`); a denominator must
+/// stay downward closed.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ExponentSet {
     /// Largest Σ e_k over the variables in the total.
@@ -301,8 +302,8 @@ pub fn is_downward_closed(exps: &[Vec<u32>]) -> bool {
 /// Whether every member e of `exps` with e_k ≥ 2 has e − unit_k in `exps` too: closed under
 /// lowering a positive exponent to a smaller positive one (a zero exponent stays zero). Every
 /// downward-closed set is; `{1, r, r·μ, r·μ²}` is too. These are the sets the vanishing basis
-/// ([`ChebyshevBasis::with_vanishing`]) spans exactly and its conversions to monomials
-/// ([`vanishing_to_monomial`]) stay inside.
+/// (the crate's `ChebyshevBasis::with_vanishing`) spans exactly and its conversions to
+/// monomials stay inside.
 pub fn is_support_closed(exps: &[Vec<u32>]) -> bool {
     let set: std::collections::HashSet<&[u32]> = exps.iter().map(Vec::as_slice).collect();
     exps.iter().all(|e| {

@@ -2,7 +2,9 @@
 //! f(s) = P(s)/Q(s) with P = Σ a_j T_j(s), Q = 1 + Σ_{j≥1} b_j T_j(s) in the Chebyshev product
 //! basis of the scaled variables s ∈ [−1, 1]^d. Fixing Q's *Chebyshev* constant to 1 normalises
 //! Q to mean ≈ 1 over the box, which keeps the parameters well scaled; the emitted form is
-//! renormalised to the paper's convention (monomial constant of Q = 1) afterwards.
+//! renormalised to the paper's convention (monomial constant of Q = 1) afterwards. A numerator
+//! whose exponents are not downward closed (support closed, [`super::basis::is_support_closed`])
+//! is P = Σ a_j g_j(s) in the vanishing basis of [`ChebyshevBasis::with_vanishing`] instead.
 //!
 //! Parameters: [a_0 … a_{nP−1}, b_1 … b_{nQ−1}].
 

@@ -41,16 +41,16 @@ FURNACE_FN furnace_rgb furnace_rgb_make(float x, float y, float z) {
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor-separable/best-160.json (furnace 0.1.0), fit SHA-256 ba44542704b86bc8fffbfbc4a8be837649c64d7c66b9f25468d961af8b1a1371.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-conductor-separable/best-160.json (furnace 0.1.0), fit SHA-256 981daaf990387910e407bbeeab3a46c50aeb10694017ed5d24efa4d09c9efcb0.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.7e-4, shifted 1.9e-4, bernstein 4.8e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 7.59e-9, max 1.60e-7 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.08e-7 (every op rounded, as this Rust), 5.06e-7 (fused multiply-add), 6.00e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 7.84e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 21377 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.54e-9, max 1.60e-7; this f32 code MAE 6.34e-8, max 5.27e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.4e-9 on the measurement grid.
-// Denominator proved >= 6.913e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 8.9e-5, shifted 2.1e-5, bernstein 5.2e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.36e-8, max 4.65e-8 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.96e-7 (every op rounded, as this Rust), 4.90e-7 (fused multiply-add), 5.77e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.12e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 5765 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.34e-8, max 4.65e-8; this f32 code MAE 6.65e-8, max 5.23e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.8e-8 on the measurement grid.
+// Denominator proved >= 2.309e-2 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -120,30 +120,30 @@ FURNACE_FN float ggx_conductor_separable_albedo(float r, float mu) {
     const float mu_b8 = mu_u8 * mu_v2;
     const float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 0.9361349f * mu_v10 + 5.0518994f * mu_b1 + 10.971546f * mu_b2 + 13.042178f * mu_b3 + 12.049749f * mu_b4 + 8.255912f * mu_b5 + 3.8042219f * mu_b6 + 1.6384146f * mu_b7 + 0.37308177f * mu_b8 + 0.08851709f * mu_b9 + 0.0069131004f * mu_u10;
-    const float p_1 = 15.636207f * mu_v10 + 86.653824f * mu_b1 + 200.78938f * mu_b2 + 259.96072f * mu_b3 + 241.2819f * mu_b4 + 167.2893f * mu_b5 + 82.35031f * mu_b6 + 32.31406f * mu_b7 + 8.291641f * mu_b8 + 1.6337956f * mu_b9 + 0.14952174f * mu_u10;
-    const float p_2 = 109.99977f * mu_v10 + 630.83484f * mu_b1 + 1547.393f * mu_b2 + 2152.6663f * mu_b3 + 2059.0964f * mu_b4 + 1444.711f * mu_b5 + 732.66364f * mu_b6 + 279.65408f * mu_b7 + 73.54028f * mu_b8 + 13.001911f * mu_b9 + 1.0878143f * mu_u10;
-    const float p_3 = 440.07922f * mu_v10 + 2619.178f * mu_b1 + 6762.2666f * mu_b2 + 10012.03f * mu_b3 + 9974.04f * mu_b4 + 7151.5703f * mu_b5 + 3706.455f * mu_b6 + 1403.0775f * mu_b7 + 366.82022f * mu_b8 + 60.66617f * mu_b9 + 4.62911f * mu_u10;
-    const float p_4 = 1126.5037f * mu_v10 + 6952.7935f * mu_b1 + 18782.756f * mu_b2 + 29337.248f * mu_b3 + 30476.518f * mu_b4 + 22437.504f * mu_b5 + 11836.527f * mu_b6 + 4455.278f * mu_b7 + 1139.7589f * mu_b8 + 178.25468f * mu_b9 + 12.607647f * mu_u10;
-    const float p_5 = 1941.8546f * mu_v10 + 12389.071f * mu_b1 + 34786.38f * mu_b2 + 56790.008f * mu_b3 + 61232.902f * mu_b4 + 46220.516f * mu_b5 + 24723.002f * mu_b6 + 9259.582f * mu_b7 + 2314.3342f * mu_b8 + 346.17938f * mu_b9 + 23.196257f * mu_u10;
-    const float p_6 = 2279.9731f * mu_v10 + 14955.189f * mu_b1 + 43294.137f * mu_b2 + 73100.2f * mu_b3 + 81101.28f * mu_b4 + 62375.957f * mu_b5 + 33645.31f * mu_b6 + 12529.102f * mu_b7 + 3068.6045f * mu_b8 + 443.9433f * mu_b9 + 28.68613f * mu_u10;
-    const float p_7 = 1795.1774f * mu_v10 + 12033.653f * mu_b1 + 35637.965f * mu_b2 + 61644.71f * mu_b3 + 69781.83f * mu_b4 + 54346.66f * mu_b5 + 29437.975f * mu_b6 + 10900.999f * mu_b7 + 2629.2925f * mu_b8 + 371.94785f * mu_b9 + 23.49828f * mu_u10;
-    const float p_8 = 906.02606f * mu_v10 + 6172.96f * mu_b1 + 18580.012f * mu_b2 + 32677.219f * mu_b3 + 37491.19f * mu_b4 + 29426.127f * mu_b5 + 15965.898f * mu_b6 + 5885.6196f * mu_b7 + 1405.9938f * mu_b8 + 196.59137f * mu_b9 + 12.306545f * mu_u10;
-    const float p_9 = 264.63593f * mu_v10 + 1823.9236f * mu_b1 + 5548.9956f * mu_b2 + 9861.886f * mu_b3 + 11404.361f * mu_b4 + 8983.7295f * mu_b5 + 4871.184f * mu_b6 + 1788.3456f * mu_b7 + 424.85355f * mu_b8 + 59.22107f * mu_b9 + 3.7216377f * mu_u10;
-    const float p_10 = 33.926514f * mu_v10 + 235.46875f * mu_b1 + 720.31036f * mu_b2 + 1286.0413f * mu_b3 + 1490.4746f * mu_b4 + 1172.6427f * mu_b5 + 632.9583f * mu_b6 + 230.85258f * mu_b7 + 54.505802f * mu_b8 + 7.5872393f * mu_b9 + 0.48163223f * mu_u10;
+    const float p_0 = 0.9361349f * mu_v10 + 4.165896f * mu_b1 + 7.5929036f * mu_b2 + 10.007209f * mu_b3 + 10.713408f * mu_b4 + 8.264318f * mu_b5 + 4.9496293f * mu_b6 + 2.4828496f * mu_b7 + 0.79667014f * mu_b8 + 0.20738992f * mu_b9 + 0.036289275f * mu_u10;
+    const float p_1 = 14.871006f * mu_v10 + 70.44386f * mu_b1 + 145.37025f * mu_b2 + 203.80736f * mu_b3 + 218.67184f * mu_b4 + 174.88316f * mu_b5 + 106.04128f * mu_b6 + 49.75184f * mu_b7 + 16.24469f * mu_b8 + 3.8321066f * mu_b9 + 0.49296483f * mu_u10;
+    const float p_2 = 94.842865f * mu_v10 + 473.32367f * mu_b1 + 1069.9622f * mu_b2 + 1609.1515f * mu_b3 + 1786.8507f * mu_b4 + 1465.6978f * mu_b5 + 894.7163f * mu_b6 + 408.17746f * mu_b7 + 129.63101f * mu_b8 + 27.003002f * mu_b9 + 2.7320585f * mu_u10;
+    const float p_3 = 329.23236f * mu_v10 + 1725.6423f * mu_b1 + 4223.613f * mu_b2 + 6837.3647f * mu_b3 + 7990.3013f * mu_b4 + 6776.127f * mu_b5 + 4179.372f * mu_b6 + 1867.4098f * mu_b7 + 570.5198f * mu_b8 + 108.274635f * mu_b9 + 9.464702f * mu_u10;
+    const float p_4 = 697.01654f * mu_v10 + 3835.58f * mu_b1 + 10132.902f * mu_b2 + 17704.107f * mu_b3 + 21935.906f * mu_b4 + 19319.18f * mu_b5 + 12066.238f * mu_b6 + 5295.103f * mu_b7 + 1552.2574f * mu_b8 + 273.8022f * mu_b9 + 21.900059f * mu_u10;
+    const float p_5 = 943.24695f * mu_v10 + 5472.882f * mu_b1 + 15681.655f * mu_b2 + 29715.914f * mu_b3 + 39167.766f * mu_b4 + 35864.695f * mu_b5 + 22729.396f * mu_b6 + 9860.117f * mu_b7 + 2799.5952f * mu_b8 + 469.5771f * mu_b9 + 35.6645f * mu_u10;
+    const float p_6 = 822.37305f * mu_v10 + 5095.1826f * mu_b1 + 16051.173f * mu_b2 + 33203.832f * mu_b3 + 46542.14f * mu_b4 + 44174.508f * mu_b5 + 28372.418f * mu_b6 + 12218.401f * mu_b7 + 3393.725f * mu_b8 + 552.2732f * mu_b9 + 40.816658f * mu_u10;
+    const float p_7 = 449.17908f * mu_v10 + 3061.2498f * mu_b1 + 10870.743f * mu_b2 + 24726.662f * mu_b3 + 36740.813f * mu_b4 + 35952.176f * mu_b5 + 23331.918f * mu_b6 + 9994.899f * mu_b7 + 2736.4949f * mu_b8 + 438.5504f * mu_b9 + 32.071774f * mu_u10;
+    const float p_8 = 141.33878f * mu_v10 + 1134.5406f * mu_b1 + 4722.9004f * mu_b2 + 11873.617f * mu_b3 + 18582.926f * mu_b4 + 18617.982f * mu_b5 + 12159.544f * mu_b6 + 5183.078f * mu_b7 + 1405.4232f * mu_b8 + 223.92993f * mu_b9 + 16.398203f * mu_u10;
+    const float p_9 = 20.393343f * mu_v10 + 232.6332f * mu_b1 + 1202.4723f * mu_b2 + 3341.931f * mu_b3 + 5458.228f * mu_b4 + 5556.016f * mu_b5 + 3635.4312f * mu_b6 + 1540.3737f * mu_b7 + 414.49075f * mu_b8 + 65.96481f * mu_b9 + 4.876612f * mu_u10;
+    const float p_10 = 0.3593938f * mu_v10 + 19.497828f * mu_b1 + 136.80342f * mu_b2 + 418.244f * mu_b3 + 705.4846f * mu_b4 + 724.1525f * mu_b5 + 472.53375f * mu_b6 + 198.58937f * mu_b7 + 52.991978f * mu_b8 + 8.423376f * mu_b9 + 0.6312879f * mu_u10;
     const float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v10 + 5.4929543f * mu_b1 + 12.288618f * mu_b2 + 15.208231f * mu_b3 + 14.144225f * mu_b4 + 9.379594f * mu_b5 + 4.093845f * mu_b6 + 1.688052f * mu_b7 + 0.37652674f * mu_b8 + 0.08851719f * mu_b9 + 0.0069131004f * mu_u10;
-    const float q_1 = 16.702946f * mu_v10 + 94.07933f * mu_b1 + 223.50587f * mu_b2 + 299.00797f * mu_b3 + 282.09793f * mu_b4 + 193.06006f * mu_b5 + 91.445595f * mu_b6 + 34.06399f * mu_b7 + 8.47797f * mu_b8 + 1.6406876f * mu_b9 + 0.14952175f * mu_u10;
-    const float q_2 = 118.30216f * mu_v10 + 688.684f * mu_b1 + 1725.1737f * mu_b2 + 2464.1665f * mu_b3 + 2401.9731f * mu_b4 + 1687.9075f * mu_b5 + 838.7923f * mu_b6 + 306.02396f * mu_b7 + 77.08106f * mu_b8 + 13.260352f * mu_b9 + 1.0947253f * mu_u10;
-    const float q_3 = 481.12595f * mu_v10 + 2904.8523f * mu_b1 + 7637.9204f * mu_b2 + 11554.343f * mu_b3 + 11716.549f * mu_b4 + 8474.257f * mu_b5 + 4364.8667f * mu_b6 + 1602.9592f * mu_b7 + 401.43802f * mu_b8 + 63.929337f * mu_b9 + 4.774411f * mu_u10;
-    const float q_4 = 1264.1528f * mu_v10 + 7920.8813f * mu_b1 + 21771.172f * mu_b2 + 34647.605f * mu_b3 + 36574.23f * mu_b4 + 27232.201f * mu_b5 + 14406.179f * mu_b6 + 5342.3887f * mu_b7 + 1324.0747f * mu_b8 + 199.30734f * mu_b9 + 13.658989f * mu_u10;
-    const float q_5 = 2258.3064f * mu_v10 + 14665.482f * mu_b1 + 41955.008f * mu_b2 + 69787.11f * mu_b3 + 76464.88f * mu_b4 + 58486.887f * mu_b5 + 31572.254f * mu_b6 + 11808.931f * mu_b7 + 2907.3704f * mu_b8 + 423.61737f * mu_b9 + 27.50882f * mu_u10;
-    const float q_6 = 2778.3079f * mu_v10 + 18647.81f * mu_b1 + 55257.816f * mu_b2 + 95430.76f * mu_b3 + 108002.92f * mu_b4 + 84559.92f * mu_b5 + 46353.758f * mu_b6 + 17449.893f * mu_b7 + 4282.1206f * mu_b8 + 614.37555f * mu_b9 + 38.91387f * mu_u10;
-    const float q_7 = 2319.808f * mu_v10 + 16044.39f * mu_b1 + 49039.99f * mu_b2 + 87473.97f * mu_b3 + 101872.1f * mu_b4 + 81502.13f * mu_b5 + 45337.297f * mu_b6 + 17209.338f * mu_b7 + 4236.045f * mu_b8 + 607.5549f * mu_b9 + 38.487694f * mu_u10;
-    const float q_8 = 1254.789f * mu_v10 + 8916.588f * mu_b1 + 28009.955f * mu_b2 + 51381.34f * mu_b3 + 61372.793f * mu_b4 + 50094.105f * mu_b5 + 28268.553f * mu_b6 + 10832.027f * mu_b7 + 2682.4329f * mu_b8 + 386.8075f * mu_b9 + 24.723625f * mu_u10;
-    const float q_9 = 396.41348f * mu_v10 + 2887.214f * mu_b1 + 9295.267f * mu_b2 + 17480.871f * mu_b3 + 21367.875f * mu_b4 + 17784.752f * mu_b5 + 10194.796f * mu_b6 + 3957.4263f * mu_b7 + 992.3579f * mu_b8 + 145.48924f * mu_b9 + 9.570853f * mu_u10;
-    const float q_10 = 55.281395f * mu_v10 + 411.32504f * mu_b1 + 1351.7203f * mu_b2 + 2593.3962f * mu_b3 + 3227.4866f * mu_b4 + 2725.6338f * mu_b5 + 1579.3301f * mu_b6 + 617.8659f * mu_b7 + 156.04213f * mu_b8 + 23.156378f * mu_b9 + 1.5695873f * mu_u10;
+    const float q_0 = 1.0f * mu_v10 + 4.546502f * mu_b1 + 8.588279f * mu_b2 + 11.572414f * mu_b3 + 12.33935f * mu_b4 + 9.51321f * mu_b5 + 5.652415f * mu_b6 + 2.6165178f * mu_b7 + 0.814722f * mu_b8 + 0.2073907f * mu_b9 + 0.036289275f * mu_u10;
+    const float q_1 = 15.88554f * mu_v10 + 76.68479f * mu_b1 + 162.68597f * mu_b2 + 233.11383f * mu_b3 + 252.10205f * mu_b4 + 202.21867f * mu_b5 + 121.820244f * mu_b6 + 54.176697f * mu_b7 + 16.825594f * mu_b8 + 3.8681927f * mu_b9 + 0.49296555f * mu_u10;
+    const float q_2 = 102.11128f * mu_v10 + 518.19135f * mu_b1 + 1196.3618f * mu_b2 + 1831.3706f * mu_b3 + 2059.3857f * mu_b4 + 1706.8436f * mu_b5 + 1043.9348f * mu_b6 + 460.34366f * mu_b7 + 138.87999f * mu_b8 + 27.81695f * mu_b9 + 2.7682722f * mu_u10;
+    const float q_3 = 362.0637f * mu_v10 + 1928.2201f * mu_b1 + 4796.651f * mu_b2 + 7864.246f * mu_b3 + 9303.055f * mu_b4 + 7995.7715f * mu_b5 + 4974.267f * mu_b6 + 2186.2314f * mu_b7 + 642.29565f * mu_b8 + 116.798645f * mu_b9 + 9.938195f * mu_u10;
+    const float q_4 = 794.33185f * mu_v10 + 4447.0767f * mu_b1 + 11903.442f * mu_b2 + 20970.541f * mu_b3 + 26247.13f * mu_b4 + 23436.629f * mu_b5 + 14824.841f * mu_b6 + 6489.142f * mu_b7 + 1861.0294f * mu_b8 + 317.19235f * mu_b9 + 24.55773f * mu_u10;
+    const float q_5 = 1129.8964f * mu_v10 + 6691.737f * mu_b1 + 19391.533f * mu_b2 + 36939.684f * mu_b3 + 49134.652f * mu_b4 + 45653.64f * mu_b5 + 29403.834f * mu_b6 + 12859.605f * mu_b7 + 3631.9583f * mu_b8 + 597.47705f * mu_b9 + 43.975815f * mu_u10;
+    const float q_6 = 1048.8031f * mu_v10 + 6658.4644f * mu_b1 + 21176.533f * mu_b2 + 43996.17f * mu_b3 + 62378.195f * mu_b4 + 60328.707f * mu_b5 + 39606.273f * mu_b6 + 17370.936f * mu_b7 + 4873.413f * mu_b8 + 791.37604f * mu_b9 + 57.19186f * mu_u10;
+    const float q_7 = 616.24866f * mu_v10 + 4310.339f * mu_b1 + 15414.919f * mu_b2 + 35318.184f * mu_b3 + 53492.996f * mu_b4 + 53843.78f * mu_b5 + 36081.535f * mu_b6 + 15936.066f * mu_b7 + 4475.847f * mu_b8 + 729.3285f * mu_b9 + 53.15783f * mu_u10;
+    const float q_8 = 209.91595f * mu_v10 + 1719.6178f * mu_b1 + 7199.5596f * mu_b2 + 18416.64f * mu_b3 + 29812.928f * mu_b4 + 31192.883f * mu_b5 + 21348.418f * mu_b6 + 9523.131f * mu_b7 + 2691.24f * mu_b8 + 444.19846f * mu_b9 + 33.28578f * mu_u10;
+    const float q_9 = 32.86124f * mu_v10 + 375.05603f * mu_b1 + 1966.6937f * mu_b2 + 5681.0806f * mu_b3 + 9809.282f * mu_b4 + 10641.767f * mu_b5 + 7436.0767f * mu_b6 + 3356.1663f * mu_b7 + 957.1545f * mu_b8 + 160.78905f * mu_b9 + 12.540097f * mu_u10;
+    const float q_10 = 0.58561265f * mu_v10 + 32.06347f * mu_b1 + 238.65231f * mu_b2 + 785.0961f * mu_b3 + 1438.5006f * mu_b4 + 1610.2701f * mu_b5 + 1144.8008f * mu_b6 + 521.1575f * mu_b7 + 149.35912f * mu_b8 + 25.39355f * mu_b9 + 2.0572987f * mu_u10;
     const float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -12,16 +12,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor-separable/best-160.json (furnace 0.1.0), fit SHA-256 ba44542704b86bc8fffbfbc4a8be837649c64d7c66b9f25468d961af8b1a1371.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-conductor-separable/best-160.json (furnace 0.1.0), fit SHA-256 981daaf990387910e407bbeeab3a46c50aeb10694017ed5d24efa4d09c9efcb0.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.7e-4, shifted 1.9e-4, bernstein 4.8e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 7.59e-9, max 1.60e-7 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.08e-7 (every op rounded, as this Rust), 5.06e-7 (fused multiply-add), 6.00e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 7.84e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 21377 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.54e-9, max 1.60e-7; this f32 code MAE 6.34e-8, max 5.27e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.4e-9 on the measurement grid.
-// Denominator proved >= 6.913e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 8.9e-5, shifted 2.1e-5, bernstein 5.2e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.36e-8, max 4.65e-8 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.96e-7 (every op rounded, as this Rust), 4.90e-7 (fused multiply-add), 5.77e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.12e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 5765 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.34e-8, max 4.65e-8; this f32 code MAE 6.65e-8, max 5.23e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.8e-8 on the measurement grid.
+// Denominator proved >= 2.309e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -91,30 +91,30 @@ fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     let mu_b8 = mu_u8 * mu_v2;
     let mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9361349 * mu_v10 + 5.0518994 * mu_b1 + 10.971546 * mu_b2 + 13.042178 * mu_b3 + 12.049749 * mu_b4 + 8.255912 * mu_b5 + 3.8042219 * mu_b6 + 1.6384146 * mu_b7 + 0.37308177 * mu_b8 + 0.08851709 * mu_b9 + 0.0069131004 * mu_u10;
-    let p_1 = 15.636207 * mu_v10 + 86.653824 * mu_b1 + 200.78938 * mu_b2 + 259.96072 * mu_b3 + 241.2819 * mu_b4 + 167.2893 * mu_b5 + 82.35031 * mu_b6 + 32.31406 * mu_b7 + 8.291641 * mu_b8 + 1.6337956 * mu_b9 + 0.14952174 * mu_u10;
-    let p_2 = 109.99977 * mu_v10 + 630.83484 * mu_b1 + 1547.393 * mu_b2 + 2152.6663 * mu_b3 + 2059.0964 * mu_b4 + 1444.711 * mu_b5 + 732.66364 * mu_b6 + 279.65408 * mu_b7 + 73.54028 * mu_b8 + 13.001911 * mu_b9 + 1.0878143 * mu_u10;
-    let p_3 = 440.07922 * mu_v10 + 2619.178 * mu_b1 + 6762.2666 * mu_b2 + 10012.03 * mu_b3 + 9974.04 * mu_b4 + 7151.5703 * mu_b5 + 3706.455 * mu_b6 + 1403.0775 * mu_b7 + 366.82022 * mu_b8 + 60.66617 * mu_b9 + 4.62911 * mu_u10;
-    let p_4 = 1126.5037 * mu_v10 + 6952.7935 * mu_b1 + 18782.756 * mu_b2 + 29337.248 * mu_b3 + 30476.518 * mu_b4 + 22437.504 * mu_b5 + 11836.527 * mu_b6 + 4455.278 * mu_b7 + 1139.7589 * mu_b8 + 178.25468 * mu_b9 + 12.607647 * mu_u10;
-    let p_5 = 1941.8546 * mu_v10 + 12389.071 * mu_b1 + 34786.38 * mu_b2 + 56790.008 * mu_b3 + 61232.902 * mu_b4 + 46220.516 * mu_b5 + 24723.002 * mu_b6 + 9259.582 * mu_b7 + 2314.3342 * mu_b8 + 346.17938 * mu_b9 + 23.196257 * mu_u10;
-    let p_6 = 2279.9731 * mu_v10 + 14955.189 * mu_b1 + 43294.137 * mu_b2 + 73100.2 * mu_b3 + 81101.28 * mu_b4 + 62375.957 * mu_b5 + 33645.31 * mu_b6 + 12529.102 * mu_b7 + 3068.6045 * mu_b8 + 443.9433 * mu_b9 + 28.68613 * mu_u10;
-    let p_7 = 1795.1774 * mu_v10 + 12033.653 * mu_b1 + 35637.965 * mu_b2 + 61644.71 * mu_b3 + 69781.83 * mu_b4 + 54346.66 * mu_b5 + 29437.975 * mu_b6 + 10900.999 * mu_b7 + 2629.2925 * mu_b8 + 371.94785 * mu_b9 + 23.49828 * mu_u10;
-    let p_8 = 906.02606 * mu_v10 + 6172.96 * mu_b1 + 18580.012 * mu_b2 + 32677.219 * mu_b3 + 37491.19 * mu_b4 + 29426.127 * mu_b5 + 15965.898 * mu_b6 + 5885.6196 * mu_b7 + 1405.9938 * mu_b8 + 196.59137 * mu_b9 + 12.306545 * mu_u10;
-    let p_9 = 264.63593 * mu_v10 + 1823.9236 * mu_b1 + 5548.9956 * mu_b2 + 9861.886 * mu_b3 + 11404.361 * mu_b4 + 8983.7295 * mu_b5 + 4871.184 * mu_b6 + 1788.3456 * mu_b7 + 424.85355 * mu_b8 + 59.22107 * mu_b9 + 3.7216377 * mu_u10;
-    let p_10 = 33.926514 * mu_v10 + 235.46875 * mu_b1 + 720.31036 * mu_b2 + 1286.0413 * mu_b3 + 1490.4746 * mu_b4 + 1172.6427 * mu_b5 + 632.9583 * mu_b6 + 230.85258 * mu_b7 + 54.505802 * mu_b8 + 7.5872393 * mu_b9 + 0.48163223 * mu_u10;
+    let p_0 = 0.9361349 * mu_v10 + 4.165896 * mu_b1 + 7.5929036 * mu_b2 + 10.007209 * mu_b3 + 10.713408 * mu_b4 + 8.264318 * mu_b5 + 4.9496293 * mu_b6 + 2.4828496 * mu_b7 + 0.79667014 * mu_b8 + 0.20738992 * mu_b9 + 0.036289275 * mu_u10;
+    let p_1 = 14.871006 * mu_v10 + 70.44386 * mu_b1 + 145.37025 * mu_b2 + 203.80736 * mu_b3 + 218.67184 * mu_b4 + 174.88316 * mu_b5 + 106.04128 * mu_b6 + 49.75184 * mu_b7 + 16.24469 * mu_b8 + 3.8321066 * mu_b9 + 0.49296483 * mu_u10;
+    let p_2 = 94.842865 * mu_v10 + 473.32367 * mu_b1 + 1069.9622 * mu_b2 + 1609.1515 * mu_b3 + 1786.8507 * mu_b4 + 1465.6978 * mu_b5 + 894.7163 * mu_b6 + 408.17746 * mu_b7 + 129.63101 * mu_b8 + 27.003002 * mu_b9 + 2.7320585 * mu_u10;
+    let p_3 = 329.23236 * mu_v10 + 1725.6423 * mu_b1 + 4223.613 * mu_b2 + 6837.3647 * mu_b3 + 7990.3013 * mu_b4 + 6776.127 * mu_b5 + 4179.372 * mu_b6 + 1867.4098 * mu_b7 + 570.5198 * mu_b8 + 108.274635 * mu_b9 + 9.464702 * mu_u10;
+    let p_4 = 697.01654 * mu_v10 + 3835.58 * mu_b1 + 10132.902 * mu_b2 + 17704.107 * mu_b3 + 21935.906 * mu_b4 + 19319.18 * mu_b5 + 12066.238 * mu_b6 + 5295.103 * mu_b7 + 1552.2574 * mu_b8 + 273.8022 * mu_b9 + 21.900059 * mu_u10;
+    let p_5 = 943.24695 * mu_v10 + 5472.882 * mu_b1 + 15681.655 * mu_b2 + 29715.914 * mu_b3 + 39167.766 * mu_b4 + 35864.695 * mu_b5 + 22729.396 * mu_b6 + 9860.117 * mu_b7 + 2799.5952 * mu_b8 + 469.5771 * mu_b9 + 35.6645 * mu_u10;
+    let p_6 = 822.37305 * mu_v10 + 5095.1826 * mu_b1 + 16051.173 * mu_b2 + 33203.832 * mu_b3 + 46542.14 * mu_b4 + 44174.508 * mu_b5 + 28372.418 * mu_b6 + 12218.401 * mu_b7 + 3393.725 * mu_b8 + 552.2732 * mu_b9 + 40.816658 * mu_u10;
+    let p_7 = 449.17908 * mu_v10 + 3061.2498 * mu_b1 + 10870.743 * mu_b2 + 24726.662 * mu_b3 + 36740.813 * mu_b4 + 35952.176 * mu_b5 + 23331.918 * mu_b6 + 9994.899 * mu_b7 + 2736.4949 * mu_b8 + 438.5504 * mu_b9 + 32.071774 * mu_u10;
+    let p_8 = 141.33878 * mu_v10 + 1134.5406 * mu_b1 + 4722.9004 * mu_b2 + 11873.617 * mu_b3 + 18582.926 * mu_b4 + 18617.982 * mu_b5 + 12159.544 * mu_b6 + 5183.078 * mu_b7 + 1405.4232 * mu_b8 + 223.92993 * mu_b9 + 16.398203 * mu_u10;
+    let p_9 = 20.393343 * mu_v10 + 232.6332 * mu_b1 + 1202.4723 * mu_b2 + 3341.931 * mu_b3 + 5458.228 * mu_b4 + 5556.016 * mu_b5 + 3635.4312 * mu_b6 + 1540.3737 * mu_b7 + 414.49075 * mu_b8 + 65.96481 * mu_b9 + 4.876612 * mu_u10;
+    let p_10 = 0.3593938 * mu_v10 + 19.497828 * mu_b1 + 136.80342 * mu_b2 + 418.244 * mu_b3 + 705.4846 * mu_b4 + 724.1525 * mu_b5 + 472.53375 * mu_b6 + 198.58937 * mu_b7 + 52.991978 * mu_b8 + 8.423376 * mu_b9 + 0.6312879 * mu_u10;
     let p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v10 + 5.4929543 * mu_b1 + 12.288618 * mu_b2 + 15.208231 * mu_b3 + 14.144225 * mu_b4 + 9.379594 * mu_b5 + 4.093845 * mu_b6 + 1.688052 * mu_b7 + 0.37652674 * mu_b8 + 0.08851719 * mu_b9 + 0.0069131004 * mu_u10;
-    let q_1 = 16.702946 * mu_v10 + 94.07933 * mu_b1 + 223.50587 * mu_b2 + 299.00797 * mu_b3 + 282.09793 * mu_b4 + 193.06006 * mu_b5 + 91.445595 * mu_b6 + 34.06399 * mu_b7 + 8.47797 * mu_b8 + 1.6406876 * mu_b9 + 0.14952175 * mu_u10;
-    let q_2 = 118.30216 * mu_v10 + 688.684 * mu_b1 + 1725.1737 * mu_b2 + 2464.1665 * mu_b3 + 2401.9731 * mu_b4 + 1687.9075 * mu_b5 + 838.7923 * mu_b6 + 306.02396 * mu_b7 + 77.08106 * mu_b8 + 13.260352 * mu_b9 + 1.0947253 * mu_u10;
-    let q_3 = 481.12595 * mu_v10 + 2904.8523 * mu_b1 + 7637.9204 * mu_b2 + 11554.343 * mu_b3 + 11716.549 * mu_b4 + 8474.257 * mu_b5 + 4364.8667 * mu_b6 + 1602.9592 * mu_b7 + 401.43802 * mu_b8 + 63.929337 * mu_b9 + 4.774411 * mu_u10;
-    let q_4 = 1264.1528 * mu_v10 + 7920.8813 * mu_b1 + 21771.172 * mu_b2 + 34647.605 * mu_b3 + 36574.23 * mu_b4 + 27232.201 * mu_b5 + 14406.179 * mu_b6 + 5342.3887 * mu_b7 + 1324.0747 * mu_b8 + 199.30734 * mu_b9 + 13.658989 * mu_u10;
-    let q_5 = 2258.3064 * mu_v10 + 14665.482 * mu_b1 + 41955.008 * mu_b2 + 69787.11 * mu_b3 + 76464.88 * mu_b4 + 58486.887 * mu_b5 + 31572.254 * mu_b6 + 11808.931 * mu_b7 + 2907.3704 * mu_b8 + 423.61737 * mu_b9 + 27.50882 * mu_u10;
-    let q_6 = 2778.3079 * mu_v10 + 18647.81 * mu_b1 + 55257.816 * mu_b2 + 95430.76 * mu_b3 + 108002.92 * mu_b4 + 84559.92 * mu_b5 + 46353.758 * mu_b6 + 17449.893 * mu_b7 + 4282.1206 * mu_b8 + 614.37555 * mu_b9 + 38.91387 * mu_u10;
-    let q_7 = 2319.808 * mu_v10 + 16044.39 * mu_b1 + 49039.99 * mu_b2 + 87473.97 * mu_b3 + 101872.1 * mu_b4 + 81502.13 * mu_b5 + 45337.297 * mu_b6 + 17209.338 * mu_b7 + 4236.045 * mu_b8 + 607.5549 * mu_b9 + 38.487694 * mu_u10;
-    let q_8 = 1254.789 * mu_v10 + 8916.588 * mu_b1 + 28009.955 * mu_b2 + 51381.34 * mu_b3 + 61372.793 * mu_b4 + 50094.105 * mu_b5 + 28268.553 * mu_b6 + 10832.027 * mu_b7 + 2682.4329 * mu_b8 + 386.8075 * mu_b9 + 24.723625 * mu_u10;
-    let q_9 = 396.41348 * mu_v10 + 2887.214 * mu_b1 + 9295.267 * mu_b2 + 17480.871 * mu_b3 + 21367.875 * mu_b4 + 17784.752 * mu_b5 + 10194.796 * mu_b6 + 3957.4263 * mu_b7 + 992.3579 * mu_b8 + 145.48924 * mu_b9 + 9.570853 * mu_u10;
-    let q_10 = 55.281395 * mu_v10 + 411.32504 * mu_b1 + 1351.7203 * mu_b2 + 2593.3962 * mu_b3 + 3227.4866 * mu_b4 + 2725.6338 * mu_b5 + 1579.3301 * mu_b6 + 617.8659 * mu_b7 + 156.04213 * mu_b8 + 23.156378 * mu_b9 + 1.5695873 * mu_u10;
+    let q_0 = 1.0 * mu_v10 + 4.546502 * mu_b1 + 8.588279 * mu_b2 + 11.572414 * mu_b3 + 12.33935 * mu_b4 + 9.51321 * mu_b5 + 5.652415 * mu_b6 + 2.6165178 * mu_b7 + 0.814722 * mu_b8 + 0.2073907 * mu_b9 + 0.036289275 * mu_u10;
+    let q_1 = 15.88554 * mu_v10 + 76.68479 * mu_b1 + 162.68597 * mu_b2 + 233.11383 * mu_b3 + 252.10205 * mu_b4 + 202.21867 * mu_b5 + 121.820244 * mu_b6 + 54.176697 * mu_b7 + 16.825594 * mu_b8 + 3.8681927 * mu_b9 + 0.49296555 * mu_u10;
+    let q_2 = 102.11128 * mu_v10 + 518.19135 * mu_b1 + 1196.3618 * mu_b2 + 1831.3706 * mu_b3 + 2059.3857 * mu_b4 + 1706.8436 * mu_b5 + 1043.9348 * mu_b6 + 460.34366 * mu_b7 + 138.87999 * mu_b8 + 27.81695 * mu_b9 + 2.7682722 * mu_u10;
+    let q_3 = 362.0637 * mu_v10 + 1928.2201 * mu_b1 + 4796.651 * mu_b2 + 7864.246 * mu_b3 + 9303.055 * mu_b4 + 7995.7715 * mu_b5 + 4974.267 * mu_b6 + 2186.2314 * mu_b7 + 642.29565 * mu_b8 + 116.798645 * mu_b9 + 9.938195 * mu_u10;
+    let q_4 = 794.33185 * mu_v10 + 4447.0767 * mu_b1 + 11903.442 * mu_b2 + 20970.541 * mu_b3 + 26247.13 * mu_b4 + 23436.629 * mu_b5 + 14824.841 * mu_b6 + 6489.142 * mu_b7 + 1861.0294 * mu_b8 + 317.19235 * mu_b9 + 24.55773 * mu_u10;
+    let q_5 = 1129.8964 * mu_v10 + 6691.737 * mu_b1 + 19391.533 * mu_b2 + 36939.684 * mu_b3 + 49134.652 * mu_b4 + 45653.64 * mu_b5 + 29403.834 * mu_b6 + 12859.605 * mu_b7 + 3631.9583 * mu_b8 + 597.47705 * mu_b9 + 43.975815 * mu_u10;
+    let q_6 = 1048.8031 * mu_v10 + 6658.4644 * mu_b1 + 21176.533 * mu_b2 + 43996.17 * mu_b3 + 62378.195 * mu_b4 + 60328.707 * mu_b5 + 39606.273 * mu_b6 + 17370.936 * mu_b7 + 4873.413 * mu_b8 + 791.37604 * mu_b9 + 57.19186 * mu_u10;
+    let q_7 = 616.24866 * mu_v10 + 4310.339 * mu_b1 + 15414.919 * mu_b2 + 35318.184 * mu_b3 + 53492.996 * mu_b4 + 53843.78 * mu_b5 + 36081.535 * mu_b6 + 15936.066 * mu_b7 + 4475.847 * mu_b8 + 729.3285 * mu_b9 + 53.15783 * mu_u10;
+    let q_8 = 209.91595 * mu_v10 + 1719.6178 * mu_b1 + 7199.5596 * mu_b2 + 18416.64 * mu_b3 + 29812.928 * mu_b4 + 31192.883 * mu_b5 + 21348.418 * mu_b6 + 9523.131 * mu_b7 + 2691.24 * mu_b8 + 444.19846 * mu_b9 + 33.28578 * mu_u10;
+    let q_9 = 32.86124 * mu_v10 + 375.05603 * mu_b1 + 1966.6937 * mu_b2 + 5681.0806 * mu_b3 + 9809.282 * mu_b4 + 10641.767 * mu_b5 + 7436.0767 * mu_b6 + 3356.1663 * mu_b7 + 957.1545 * mu_b8 + 160.78905 * mu_b9 + 12.540097 * mu_u10;
+    let q_10 = 0.58561265 * mu_v10 + 32.06347 * mu_b1 + 238.65231 * mu_b2 + 785.0961 * mu_b3 + 1438.5006 * mu_b4 + 1610.2701 * mu_b5 + 1144.8008 * mu_b6 + 521.1575 * mu_b7 + 149.35912 * mu_b8 + 25.39355 * mu_b9 + 2.0572987 * mu_u10;
     let q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

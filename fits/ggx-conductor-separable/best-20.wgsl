@@ -12,16 +12,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor-separable/best-20.json (furnace 0.1.0), fit SHA-256 1a489eca7c9ca915e97b493fe7d9a5763eb7d65211c396d180a1b31583fc3bde.
-// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.6e-6, shifted 1.1e-6, bernstein 3.5e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 8.23e-4, max 1.25e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.60e-6 (every op rounded, as this Rust), 1.29e-6 (fused multiply-add), 1.40e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.01e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 445 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 8.13e-4, max 1.25e-2; this f32 code MAE 8.13e-4, max 1.25e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.4e-4 on the measurement grid.
-// Denominator proved >= 9.816e-2 on the domain (Bernstein certificate), so the division is safe.
+// Fit: rational over [x0^2 x x1^3]/[x0^2 x x1^2], 20 coefficients (numerator 12, denominator 8 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/ggx-conductor-separable/best-20.json (furnace 0.1.0), fit SHA-256 b39bbf0406b4d87843f989b07a205a1908d993f62ae3923b795385464eaf8dc1.
+// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.7e-6, shifted 3.9e-7, bernstein 3.5e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 7.56e-4, max 6.33e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.98e-6 (every op rounded, as this Rust), 1.41e-6 (fused multiply-add), 1.53e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 5.33e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1611 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.54e-4, max 6.33e-3; this f32 code MAE 7.54e-4, max 6.33e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-4 on the measurement grid.
+// Denominator proved >= 1.413e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -30,22 +30,16 @@ fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     let mu_c = max(min(mu, 1.0), 0.0);
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     let mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let r_s = r_t * 2.0 - 1.0;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let mu_s = mu_t * 2.0 - 1.0;
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((-0.06987882 * mu_s + 0.42343637) * mu_s - 0.8873753) * mu_s + 0.8558429;
-    let p_1 = (0.01514059 * mu_s - 0.47360283) * mu_s + 0.64541215;
-    let p_2 = 0.10483983 * mu_s - 0.09489804;
-    let p_3 = -0.038610857;
-    let p = ((p_3 * r_s + p_2) * r_s + p_1) * r_s + p_0;
+    let p_0 = ((-0.15503183 * mu_t + 1.5010346) * mu_t - 2.104863) * mu_t + 0.93893737;
+    let p_1 = ((0.56614786 * mu_t - 2.354046) * mu_t + 1.9119501) * mu_t - 0.24068063;
+    let p_2 = ((-0.9142999 * mu_t + 2.731098) * mu_t - 2.0935721) * mu_t + 0.32340577;
+    let p = (p_2 * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((-0.060659695 * mu_s + 0.41868553) * mu_s - 1.0713078) * mu_s + 1.1821289;
-    let q_1 = (0.0028244362 * mu_s - 0.7027576) * mu_s + 1.307591;
-    let q_2 = 0.02101502 * mu_s + 0.39339137;
-    let q_3 = 0.09198538;
-    let q = ((q_3 * r_s + q_2) * r_s + q_1) * r_s + q_0;
+    let q_0 = (1.2632167 * mu_t - 2.0830503) * mu_t + 1.0;
+    let q_1 = (-1.5821959 * mu_t + 1.6902184) * mu_t - 0.23023665;
+    let q_2 = (1.8282658 * mu_t - 2.4071488) * mu_t + 0.8779925;
+    let q = (q_2 * r_t + q_1) * r_t + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);
 }

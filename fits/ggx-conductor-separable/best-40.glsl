@@ -15,63 +15,41 @@
 // Model: GGX white conductor (F = 1), E(r, mu); separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100).
-// Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 6c6e6d0c0f394a76a1fa0f2e1e05fadd8d29d009c5511e163ce0238e9f4c1526.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 9.6e-6, shifted 3.0e-6, bernstein 4.5e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 7.97e-5, max 8.64e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 3.95e-7 (fused multiply-add), 5.15e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.33e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 3171 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.97e-5, max 8.64e-4; this f32 code MAE 7.97e-5, max 8.64e-4.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
+// Fit: rational over [x0^3 x x1^4]/[x0^3 x x1^3], 35 coefficients (numerator 20, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 4a5c490f23e618d06a78db3d09b2e9c9591263c26e2cab4a582b4d4641c8ba3f.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.9e-6, shifted 1.9e-6, bernstein 3.6e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.27e-4, max 2.82e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.43e-6 (every op rounded, as this Rust), 2.16e-6 (fused multiply-add), 2.10e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.47e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 867 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.27e-4, max 2.82e-4; this f32 code MAE 1.27e-4, max 2.82e-4.
 // Output clamped to [0, 1] (the fit stays inside on the measurement grid).
-// Denominator proved >= 4.966e-2 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 5.036e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_conductor_separable_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100)
-    highp float mu_t = (mu_c * (1.0 + 0.5 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 0.5 * (r_c * r_c) + 7.888609e-31);
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 4
-    highp float r_v = 1.0 - r_t;
-    highp float r_u2 = r_t * r_t;
-    highp float r_v2 = r_v * r_v;
-    highp float r_u3 = r_u2 * r_t;
-    highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_t;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_b1 = r_t * r_v3;
-    highp float r_b2 = r_u2 * r_v2;
-    highp float r_b3 = r_u3 * r_v;
-    // u = (t - 0.0000000000000000000000000000015777218104420236)/(1 - 0.0000000000000000000000000000015777218104420236) in [0, 1]
-    highp float mu_u = (mu_t - 1.5777218e-30) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 4
-    highp float mu_v = 1.0 - mu_u;
-    highp float mu_u2 = mu_u * mu_u;
-    highp float mu_v2 = mu_v * mu_v;
-    highp float mu_u3 = mu_u2 * mu_u;
-    highp float mu_v3 = mu_v2 * mu_v;
-    highp float mu_u4 = mu_u3 * mu_u;
-    highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_b1 = mu_u * mu_v3;
-    highp float mu_b2 = mu_u2 * mu_v2;
-    highp float mu_b3 = mu_u3 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 0.9368541 * mu_v4 + 1.3840039 * mu_b1 + 0.78890973 * mu_b2 - 0.032300495 * mu_b3 + 0.0655042 * mu_u4;
-    highp float p_1 = 4.984423 * mu_v4 + 7.867191 * mu_b1 + 5.1418767 * mu_b2 + 0.70269346 * mu_b3 + 0.20184381 * mu_u4;
-    highp float p_2 = 10.293134 * mu_v4 + 17.787924 * mu_b1 + 13.050272 * mu_b2 + 3.3909194 * mu_b3 + 0.472826 * mu_u4;
-    highp float p_3 = 9.086446 * mu_v4 + 16.486195 * mu_b1 + 12.522076 * mu_b2 + 3.8240137 * mu_b3 + 0.45994586 * mu_u4;
-    highp float p_4 = 2.8779418 * mu_v4 + 5.329699 * mu_b1 + 4.047132 * mu_b2 + 1.3163297 * mu_b3 + 0.16051981 * mu_u4;
-    highp float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v4 + 1.5200925 * mu_b1 + 0.96389663 * mu_b2 - 0.033831086 * mu_b3 + 0.06550967 * mu_u4;
-    highp float q_1 = 5.3422685 * mu_v4 + 8.56161 * mu_b1 + 6.06528 * mu_b2 + 0.87477016 * mu_b3 + 0.20141183 * mu_u4;
-    highp float q_2 = 11.750721 * mu_v4 + 20.689465 * mu_b1 + 15.820221 * mu_b2 + 4.162915 * mu_b3 + 0.5403078 * mu_u4;
-    highp float q_3 = 11.825114 * mu_v4 + 22.735441 * mu_b1 + 18.080242 * mu_b2 + 5.645295 * mu_b3 + 0.6479598 * mu_u4;
-    highp float q_4 = 4.696064 * mu_v4 + 10.205106 * mu_b1 + 9.037823 * mu_b2 + 3.5085936 * mu_b3 + 0.52295727 * mu_u4;
-    highp float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float r_s = r_t * 2.0 - 1.0;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float mu_s = mu_t * 2.0 - 1.0;
+    // numerator P, grouped by powers of the first variable
+    highp float p_0 = (((0.05330434 * mu_s - 0.9192566) * mu_s + 3.05539) * mu_s - 4.4000993) * mu_s + 3.0880654;
+    highp float p_1 = (((0.20676914 * mu_s - 1.4074993) * mu_s + 3.5089912) * mu_s - 4.6403813) * mu_s + 2.3593495;
+    highp float p_2 = (((0.07862977 * mu_s - 0.08440322) * mu_s + 0.75994176) * mu_s - 0.43394837) * mu_s - 0.23287314;
+    highp float p_3 = (((-0.045165695 * mu_s - 0.054480147) * mu_s - 0.14813064) * mu_s + 0.23848553) * mu_s - 0.04140105;
+    highp float p = ((p_3 * r_s + p_2) * r_s + p_1) * r_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    highp float q_0 = ((-0.9159165 * mu_s + 3.4510663) * mu_s - 5.514548) * mu_s + 4.2550364;
+    highp float q_1 = ((-1.3364547 * mu_s + 4.8117986) * mu_s - 7.28704) * mu_s + 4.7714825;
+    highp float q_2 = ((0.15506637 * mu_s + 1.8114171) * mu_s - 2.881205) * mu_s + 1.6683986;
+    highp float q_3 = ((0.08638955 * mu_s + 0.06580401) * mu_s - 0.6137242) * mu_s + 0.54260695;
+    highp float q = ((q_3 * r_s + q_2) * r_s + q_1) * r_s + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

@@ -40,63 +40,41 @@ FURNACE_FN furnace_rgb furnace_rgb_make(float x, float y, float z) {
 // Model: GGX white conductor (F = 1), E(r, mu); separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100).
-// Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 6c6e6d0c0f394a76a1fa0f2e1e05fadd8d29d009c5511e163ce0238e9f4c1526.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 9.6e-6, shifted 3.0e-6, bernstein 4.5e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 7.97e-5, max 8.64e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 3.95e-7 (fused multiply-add), 5.15e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.33e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 3171 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.97e-5, max 8.64e-4; this f32 code MAE 7.97e-5, max 8.64e-4.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
+// Fit: rational over [x0^3 x x1^4]/[x0^3 x x1^3], 35 coefficients (numerator 20, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 4a5c490f23e618d06a78db3d09b2e9c9591263c26e2cab4a582b4d4641c8ba3f.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.9e-6, shifted 1.9e-6, bernstein 3.6e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.27e-4, max 2.82e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.43e-6 (every op rounded, as this Rust), 2.16e-6 (fused multiply-add), 2.10e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.47e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 867 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.27e-4, max 2.82e-4; this f32 code MAE 1.27e-4, max 2.82e-4.
 // Output clamped to [0, 1] (the fit stays inside on the measurement grid).
-// Denominator proved >= 4.966e-2 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 5.036e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100)
-    const float mu_t = (mu_c * (1.0f + 0.5f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 0.5f * (r_c * r_c) + 7.888609e-31f);
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 4
-    const float r_v = 1.0f - r_t;
-    const float r_u2 = r_t * r_t;
-    const float r_v2 = r_v * r_v;
-    const float r_u3 = r_u2 * r_t;
-    const float r_v3 = r_v2 * r_v;
-    const float r_u4 = r_u3 * r_t;
-    const float r_v4 = r_v3 * r_v;
-    const float r_b1 = r_t * r_v3;
-    const float r_b2 = r_u2 * r_v2;
-    const float r_b3 = r_u3 * r_v;
-    // u = (t - 0.0000000000000000000000000000015777218104420236)/(1 - 0.0000000000000000000000000000015777218104420236) in [0, 1]
-    const float mu_u = (mu_t - 1.5777218e-30f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 4
-    const float mu_v = 1.0f - mu_u;
-    const float mu_u2 = mu_u * mu_u;
-    const float mu_v2 = mu_v * mu_v;
-    const float mu_u3 = mu_u2 * mu_u;
-    const float mu_v3 = mu_v2 * mu_v;
-    const float mu_u4 = mu_u3 * mu_u;
-    const float mu_v4 = mu_v3 * mu_v;
-    const float mu_b1 = mu_u * mu_v3;
-    const float mu_b2 = mu_u2 * mu_v2;
-    const float mu_b3 = mu_u3 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 0.9368541f * mu_v4 + 1.3840039f * mu_b1 + 0.78890973f * mu_b2 - 0.032300495f * mu_b3 + 0.0655042f * mu_u4;
-    const float p_1 = 4.984423f * mu_v4 + 7.867191f * mu_b1 + 5.1418767f * mu_b2 + 0.70269346f * mu_b3 + 0.20184381f * mu_u4;
-    const float p_2 = 10.293134f * mu_v4 + 17.787924f * mu_b1 + 13.050272f * mu_b2 + 3.3909194f * mu_b3 + 0.472826f * mu_u4;
-    const float p_3 = 9.086446f * mu_v4 + 16.486195f * mu_b1 + 12.522076f * mu_b2 + 3.8240137f * mu_b3 + 0.45994586f * mu_u4;
-    const float p_4 = 2.8779418f * mu_v4 + 5.329699f * mu_b1 + 4.047132f * mu_b2 + 1.3163297f * mu_b3 + 0.16051981f * mu_u4;
-    const float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v4 + 1.5200925f * mu_b1 + 0.96389663f * mu_b2 - 0.033831086f * mu_b3 + 0.06550967f * mu_u4;
-    const float q_1 = 5.3422685f * mu_v4 + 8.56161f * mu_b1 + 6.06528f * mu_b2 + 0.87477016f * mu_b3 + 0.20141183f * mu_u4;
-    const float q_2 = 11.750721f * mu_v4 + 20.689465f * mu_b1 + 15.820221f * mu_b2 + 4.162915f * mu_b3 + 0.5403078f * mu_u4;
-    const float q_3 = 11.825114f * mu_v4 + 22.735441f * mu_b1 + 18.080242f * mu_b2 + 5.645295f * mu_b3 + 0.6479598f * mu_u4;
-    const float q_4 = 4.696064f * mu_v4 + 10.205106f * mu_b1 + 9.037823f * mu_b2 + 3.5085936f * mu_b3 + 0.52295727f * mu_u4;
-    const float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float r_s = r_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float mu_s = mu_t * 2.0f - 1.0f;
+    // numerator P, grouped by powers of the first variable
+    const float p_0 = (((0.05330434f * mu_s - 0.9192566f) * mu_s + 3.05539f) * mu_s - 4.4000993f) * mu_s + 3.0880654f;
+    const float p_1 = (((0.20676914f * mu_s - 1.4074993f) * mu_s + 3.5089912f) * mu_s - 4.6403813f) * mu_s + 2.3593495f;
+    const float p_2 = (((0.07862977f * mu_s - 0.08440322f) * mu_s + 0.75994176f) * mu_s - 0.43394837f) * mu_s - 0.23287314f;
+    const float p_3 = (((-0.045165695f * mu_s - 0.054480147f) * mu_s - 0.14813064f) * mu_s + 0.23848553f) * mu_s - 0.04140105f;
+    const float p = ((p_3 * r_s + p_2) * r_s + p_1) * r_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    const float q_0 = ((-0.9159165f * mu_s + 3.4510663f) * mu_s - 5.514548f) * mu_s + 4.2550364f;
+    const float q_1 = ((-1.3364547f * mu_s + 4.8117986f) * mu_s - 7.28704f) * mu_s + 4.7714825f;
+    const float q_2 = ((0.15506637f * mu_s + 1.8114171f) * mu_s - 2.881205f) * mu_s + 1.6683986f;
+    const float q_3 = ((0.08638955f * mu_s + 0.06580401f) * mu_s - 0.6137242f) * mu_s + 0.54260695f;
+    const float q = ((q_3 * r_s + q_2) * r_s + q_1) * r_s + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }

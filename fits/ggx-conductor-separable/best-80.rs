@@ -12,16 +12,16 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points.
-/// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 3eb42fb61a0ea61cc8cb568b8f54273978a8c1fb566d979ddbb1be2adef17a67.
+/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+/// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 9b20a945f55182de4ed98f45c4aa2e10a1fba9c78c921f3afa294b877f7fac96.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.8e-4, shifted 3.5e-5, bernstein 4.5e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 2.55e-7, max 1.01e-5 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.69e-7 (every op rounded, as this Rust), 4.69e-7 (fused multiply-add), 5.43e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.01e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 231 boxes).
-/// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 2.53e-7, max 1.01e-5; this f32 code MAE 2.61e-7, max 1.02e-5.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-7 on the measurement grid.
-/// Denominator proved >= 2.745e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.6e-4, shifted 2.1e-5, bernstein 4.5e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 3.05e-7, max 4.28e-6 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.89e-7 (every op rounded, as this Rust), 5.04e-7 (fused multiply-add), 6.24e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.09e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 223 boxes).
+/// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.01e-7, max 4.28e-6; this f32 code MAE 3.07e-7, max 4.33e-6.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-7 on the measurement grid.
+/// Denominator proved >= 2.960e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -76,24 +76,24 @@ pub fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9361336_f32 * mu_v7 + 1.9250569_f32 * mu_b1 + 1.9761077_f32 * mu_b2 + 1.6184732_f32 * mu_b3 + 0.9607897_f32 * mu_b4 + 0.35327923_f32 * mu_b5 + 0.10013276_f32 * mu_b6 + 0.024151513_f32 * mu_u7;
-    let p_1 = 10.649298_f32 * mu_v7 + 27.296461_f32 * mu_b1 + 32.167664_f32 * mu_b2 + 25.21224_f32 * mu_b3 + 14.6515_f32 * mu_b4 + 5.7527037_f32 * mu_b5 + 1.3946261_f32 * mu_b6 + 0.23626426_f32 * mu_u7;
-    let p_2 = 48.863792_f32 * mu_v7 + 146.32164_f32 * mu_b1 + 194.70961_f32 * mu_b2 + 156.59267_f32 * mu_b3 + 86.801186_f32 * mu_b4 + 33.133114_f32 * mu_b5 + 7.776202_f32 * mu_b6 + 1.0071023_f32 * mu_u7;
-    let p_3 = 119.39146_f32 * mu_v7 + 402.17172_f32 * mu_b1 + 593.825_f32 * mu_b2 + 508.34848_f32 * mu_b3 + 282.5721_f32 * mu_b4 + 104.11336_f32 * mu_b5 + 23.097567_f32 * mu_b6 + 2.4255059_f32 * mu_u7;
-    let p_4 = 170.86443_f32 * mu_v7 + 628.82825_f32 * mu_b1 + 1002.8499_f32 * mu_b2 + 902.9216_f32 * mu_b3 + 504.61658_f32 * mu_b4 + 177.98866_f32 * mu_b5 + 36.526527_f32 * mu_b6 + 3.2918909_f32 * mu_u7;
-    let p_5 = 143.01173_f32 * mu_v7 + 558.23926_f32 * mu_b1 + 931.3963_f32 * mu_b2 + 857.5008_f32 * mu_b3 + 472.48022_f32 * mu_b4 + 156.85503_f32 * mu_b5 + 29.080168_f32 * mu_b6 + 2.2770813_f32 * mu_u7;
-    let p_6 = 64.30803_f32 * mu_v7 + 259.1322_f32 * mu_b1 + 439.6557_f32 * mu_b2 + 402.7886_f32 * mu_b3 + 213.45149_f32 * mu_b4 + 64.7187_f32 * mu_b5 + 10.210896_f32 * mu_b6 + 0.62118614_f32 * mu_u7;
-    let p_7 = 11.915247_f32 * mu_v7 + 48.46722_f32 * mu_b1 + 81.70495_f32 * mu_b2 + 72.69747_f32 * mu_b3 + 35.96389_f32 * mu_b4 + 9.375285_f32 * mu_b5 + 1.0089364_f32 * mu_b6 + 0.0008422424_f32 * mu_u7;
+    let p_0 = 0.9361342_f32 * mu_v7 + 1.9200487_f32 * mu_b1 + 2.0141459_f32 * mu_b2 + 1.6602732_f32 * mu_b3 + 0.9778174_f32 * mu_b4 + 0.38743633_f32 * mu_b5 + 0.100069515_f32 * mu_b6 + 0.028538546_f32 * mu_u7;
+    let p_1 = 10.760968_f32 * mu_v7 + 27.656002_f32 * mu_b1 + 33.1007_f32 * mu_b2 + 26.268335_f32 * mu_b3 + 15.266471_f32 * mu_b4 + 6.2184963_f32 * mu_b5 + 1.5113761_f32 * mu_b6 + 0.27359256_f32 * mu_u7;
+    let p_2 = 49.853336_f32 * mu_v7 + 150.34183_f32 * mu_b1 + 203.14665_f32 * mu_b2 + 166.13881_f32 * mu_b3 + 93.032814_f32 * mu_b4 + 36.44081_f32 * mu_b5 + 8.711474_f32 * mu_b6 + 1.1535718_f32 * mu_u7;
+    let p_3 = 123.11982_f32 * mu_v7 + 419.53082_f32 * mu_b1 + 630.028_f32 * mu_b2 + 549.32794_f32 * mu_b3 + 309.315_f32 * mu_b4 + 115.72658_f32 * mu_b5 + 25.981808_f32 * mu_b6 + 2.7438192_f32 * mu_u7;
+    let p_4 = 178.31142_f32 * mu_v7 + 665.9901_f32 * mu_b1 + 1080.9111_f32 * mu_b2 + 990.4791_f32 * mu_b3 + 560.2174_f32 * mu_b4 + 199.15257_f32 * mu_b5 + 40.97115_f32 * mu_b6 + 3.6738503_f32 * mu_u7;
+    let p_5 = 151.01793_f32 * mu_v7 + 599.2695_f32 * mu_b1 + 1017.2964_f32 * mu_b2 + 952.1869_f32 * mu_b3 + 530.62805_f32 * mu_b4 + 176.96466_f32 * mu_b5 + 32.66511_f32 * mu_b6 + 2.5171092_f32 * mu_u7;
+    let p_6 = 68.64233_f32 * mu_v7 + 281.39056_f32 * mu_b1 + 485.59512_f32 * mu_b2 + 452.15503_f32 * mu_b3 + 242.59273_f32 * mu_b4 + 73.97176_f32 * mu_b5 + 11.59261_f32 * mu_b6 + 0.6823628_f32 * mu_u7;
+    let p_7 = 12.841606_f32 * mu_v7 + 53.165974_f32 * mu_b1 + 91.18122_f32 * mu_b2 + 82.548706_f32 * mu_b3 + 41.509933_f32 * mu_b4 + 10.982056_f32 * mu_b5 + 1.1967505_f32 * mu_b6 + 0.00090819655_f32 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v7 + 2.152919_f32 * mu_b1 + 2.3570993_f32 * mu_b2 + 1.9179496_f32 * mu_b3 + 1.0368963_f32 * mu_b4 + 0.3649822_f32 * mu_b5 + 0.10013751_f32 * mu_b6 + 0.02415151_f32 * mu_u7;
-    let q_1 = 11.375644_f32 * mu_v7 + 30.155884_f32 * mu_b1 + 37.345005_f32 * mu_b2 + 30.036957_f32 * mu_b3 + 16.586887_f32 * mu_b4 + 6.0582724_f32 * mu_b5 + 1.4187546_f32 * mu_b6 + 0.23626333_f32 * mu_u7;
-    let q_2 = 52.99769_f32 * mu_v7 + 162.66359_f32 * mu_b1 + 223.83272_f32 * mu_b2 + 185.9326_f32 * mu_b3 + 102.50782_f32 * mu_b4 + 37.177147_f32 * mu_b5 + 8.183077_f32 * mu_b6 + 1.0312185_f32 * mu_u7;
-    let q_3 = 134.30835_f32 * mu_v7 + 462.9209_f32 * mu_b1 + 699.6778_f32 * mu_b2 + 613.67444_f32 * mu_b3 + 344.95926_f32 * mu_b4 + 125.07556_f32 * mu_b5 + 26.570032_f32 * mu_b6 + 2.649955_f32 * mu_u7;
-    let q_4 = 203.44386_f32 * mu_v7 + 771.3223_f32 * mu_b1 + 1260.3866_f32 * mu_b2 + 1159.892_f32 * mu_b3 + 659.4105_f32 * mu_b4 + 234.61722_f32 * mu_b5 + 48.06089_f32 * mu_b6 + 4.275685_f32 * mu_u7;
-    let q_5 = 184.5774_f32 * mu_v7 + 756.31445_f32 * mu_b1 + 1316.1844_f32 * mu_b2 + 1259.8022_f32 * mu_b3 + 720.51575_f32 * mu_b4 + 248.95872_f32 * mu_b5 + 48.644077_f32 * mu_b6 + 4.129515_f32 * mu_u7;
-    let q_6 = 92.567566_f32 * mu_v7 + 404.26123_f32 * mu_b1 + 741.38464_f32 * mu_b2 + 735.106_f32 * mu_b3 + 423.9582_f32 * mu_b4 + 142.18582_f32 * mu_b5 + 25.90154_f32 * mu_b6 + 2.0199223_f32 * mu_u7;
-    let q_7 = 19.41523_f32 * mu_v7 + 88.68141_f32 * mu_b1 + 167.77126_f32 * mu_b2 + 167.69739_f32 * mu_b3 + 93.21404_f32 * mu_b4 + 27.270145_f32 * mu_b5 + 3.28529_f32 * mu_b6 + 0.0027447531_f32 * mu_u7;
+    let q_0 = 1.0_f32 * mu_v7 + 2.1474702_f32 * mu_b1 + 2.3974607_f32 * mu_b2 + 1.9668951_f32 * mu_b3 + 1.0603936_f32 * mu_b4 + 0.40116197_f32 * mu_b5 + 0.1000778_f32 * mu_b6 + 0.028538538_f32 * mu_u7;
+    let q_1 = 11.495001_f32 * mu_v7 + 30.552198_f32 * mu_b1 + 38.381718_f32 * mu_b2 + 31.26455_f32 * mu_b3 + 17.334864_f32 * mu_b4 + 6.563872_f32 * mu_b5 + 1.539696_f32 * mu_b6 + 0.2735917_f32 * mu_u7;
+    let q_2 = 54.054283_f32 * mu_v7 + 167.04628_f32 * mu_b1 + 233.27457_f32 * mu_b2 + 197.05984_f32 * mu_b3 + 109.95703_f32 * mu_b4 + 40.878506_f32 * mu_b5 + 9.172014_f32 * mu_b6 + 1.1820703_f32 * mu_u7;
+    let q_3 = 138.38596_f32 * mu_v7 + 482.15573_f32 * mu_b1 + 740.6852_f32 * mu_b2 + 661.68915_f32 * mu_b3 + 377.22815_f32 * mu_b4 + 138.8429_f32 * mu_b5 + 29.877262_f32 * mu_b6 + 3.0034337_f32 * mu_u7;
+    let q_4 = 211.96965_f32 * mu_v7 + 814.5679_f32 * mu_b1 + 1353.4293_f32 * mu_b2 + 1267.7085_f32 * mu_b3 + 730.3205_f32 * mu_b4 + 262.07663_f32 * mu_b5 + 53.92109_f32 * mu_b6 + 4.802151_f32 * mu_u7;
+    let q_5 = 194.53482_f32 * mu_v7 + 809.0494_f32 * mu_b1 + 1431.089_f32 * mu_b2 + 1392.435_f32 * mu_b3 + 806.2256_f32 * mu_b4 + 280.02386_f32 * mu_b5 + 54.537487_f32 * mu_b6 + 4.587392_f32 * mu_u7;
+    let q_6 = 98.6808_f32 * mu_v7 + 437.6391_f32 * mu_b1 + 815.3641_f32 * mu_b2 + 821.1563_f32 * mu_b3 + 479.4777_f32 * mu_b4 + 161.6198_f32 * mu_b5 + 29.208668_f32 * mu_b6 + 2.2189405_f32 * mu_u7;
+    let q_7 = 20.924627_f32 * mu_v7 + 97.093155_f32 * mu_b1 + 186.65863_f32 * mu_b2 + 189.75145_f32 * mu_b3 + 107.27568_f32 * mu_b4 + 31.894653_f32 * mu_b5 + 3.8971405_f32 * mu_b6 + 0.0029596945_f32 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

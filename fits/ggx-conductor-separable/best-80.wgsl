@@ -12,16 +12,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 3eb42fb61a0ea61cc8cb568b8f54273978a8c1fb566d979ddbb1be2adef17a67.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 9b20a945f55182de4ed98f45c4aa2e10a1fba9c78c921f3afa294b877f7fac96.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.8e-4, shifted 3.5e-5, bernstein 4.5e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.55e-7, max 1.01e-5 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.69e-7 (every op rounded, as this Rust), 4.69e-7 (fused multiply-add), 5.43e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.01e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 231 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 2.53e-7, max 1.01e-5; this f32 code MAE 2.61e-7, max 1.02e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-7 on the measurement grid.
-// Denominator proved >= 2.745e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.6e-4, shifted 2.1e-5, bernstein 4.5e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 3.05e-7, max 4.28e-6 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.89e-7 (every op rounded, as this Rust), 5.04e-7 (fused multiply-add), 6.24e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.09e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 223 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.01e-7, max 4.28e-6; this f32 code MAE 3.07e-7, max 4.33e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-7 on the measurement grid.
+// Denominator proved >= 2.960e-3 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -73,24 +73,24 @@ fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9361336 * mu_v7 + 1.9250569 * mu_b1 + 1.9761077 * mu_b2 + 1.6184732 * mu_b3 + 0.9607897 * mu_b4 + 0.35327923 * mu_b5 + 0.10013276 * mu_b6 + 0.024151513 * mu_u7;
-    let p_1 = 10.649298 * mu_v7 + 27.296461 * mu_b1 + 32.167664 * mu_b2 + 25.21224 * mu_b3 + 14.6515 * mu_b4 + 5.7527037 * mu_b5 + 1.3946261 * mu_b6 + 0.23626426 * mu_u7;
-    let p_2 = 48.863792 * mu_v7 + 146.32164 * mu_b1 + 194.70961 * mu_b2 + 156.59267 * mu_b3 + 86.801186 * mu_b4 + 33.133114 * mu_b5 + 7.776202 * mu_b6 + 1.0071023 * mu_u7;
-    let p_3 = 119.39146 * mu_v7 + 402.17172 * mu_b1 + 593.825 * mu_b2 + 508.34848 * mu_b3 + 282.5721 * mu_b4 + 104.11336 * mu_b5 + 23.097567 * mu_b6 + 2.4255059 * mu_u7;
-    let p_4 = 170.86443 * mu_v7 + 628.82825 * mu_b1 + 1002.8499 * mu_b2 + 902.9216 * mu_b3 + 504.61658 * mu_b4 + 177.98866 * mu_b5 + 36.526527 * mu_b6 + 3.2918909 * mu_u7;
-    let p_5 = 143.01173 * mu_v7 + 558.23926 * mu_b1 + 931.3963 * mu_b2 + 857.5008 * mu_b3 + 472.48022 * mu_b4 + 156.85503 * mu_b5 + 29.080168 * mu_b6 + 2.2770813 * mu_u7;
-    let p_6 = 64.30803 * mu_v7 + 259.1322 * mu_b1 + 439.6557 * mu_b2 + 402.7886 * mu_b3 + 213.45149 * mu_b4 + 64.7187 * mu_b5 + 10.210896 * mu_b6 + 0.62118614 * mu_u7;
-    let p_7 = 11.915247 * mu_v7 + 48.46722 * mu_b1 + 81.70495 * mu_b2 + 72.69747 * mu_b3 + 35.96389 * mu_b4 + 9.375285 * mu_b5 + 1.0089364 * mu_b6 + 0.0008422424 * mu_u7;
+    let p_0 = 0.9361342 * mu_v7 + 1.9200487 * mu_b1 + 2.0141459 * mu_b2 + 1.6602732 * mu_b3 + 0.9778174 * mu_b4 + 0.38743633 * mu_b5 + 0.100069515 * mu_b6 + 0.028538546 * mu_u7;
+    let p_1 = 10.760968 * mu_v7 + 27.656002 * mu_b1 + 33.1007 * mu_b2 + 26.268335 * mu_b3 + 15.266471 * mu_b4 + 6.2184963 * mu_b5 + 1.5113761 * mu_b6 + 0.27359256 * mu_u7;
+    let p_2 = 49.853336 * mu_v7 + 150.34183 * mu_b1 + 203.14665 * mu_b2 + 166.13881 * mu_b3 + 93.032814 * mu_b4 + 36.44081 * mu_b5 + 8.711474 * mu_b6 + 1.1535718 * mu_u7;
+    let p_3 = 123.11982 * mu_v7 + 419.53082 * mu_b1 + 630.028 * mu_b2 + 549.32794 * mu_b3 + 309.315 * mu_b4 + 115.72658 * mu_b5 + 25.981808 * mu_b6 + 2.7438192 * mu_u7;
+    let p_4 = 178.31142 * mu_v7 + 665.9901 * mu_b1 + 1080.9111 * mu_b2 + 990.4791 * mu_b3 + 560.2174 * mu_b4 + 199.15257 * mu_b5 + 40.97115 * mu_b6 + 3.6738503 * mu_u7;
+    let p_5 = 151.01793 * mu_v7 + 599.2695 * mu_b1 + 1017.2964 * mu_b2 + 952.1869 * mu_b3 + 530.62805 * mu_b4 + 176.96466 * mu_b5 + 32.66511 * mu_b6 + 2.5171092 * mu_u7;
+    let p_6 = 68.64233 * mu_v7 + 281.39056 * mu_b1 + 485.59512 * mu_b2 + 452.15503 * mu_b3 + 242.59273 * mu_b4 + 73.97176 * mu_b5 + 11.59261 * mu_b6 + 0.6823628 * mu_u7;
+    let p_7 = 12.841606 * mu_v7 + 53.165974 * mu_b1 + 91.18122 * mu_b2 + 82.548706 * mu_b3 + 41.509933 * mu_b4 + 10.982056 * mu_b5 + 1.1967505 * mu_b6 + 0.00090819655 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v7 + 2.152919 * mu_b1 + 2.3570993 * mu_b2 + 1.9179496 * mu_b3 + 1.0368963 * mu_b4 + 0.3649822 * mu_b5 + 0.10013751 * mu_b6 + 0.02415151 * mu_u7;
-    let q_1 = 11.375644 * mu_v7 + 30.155884 * mu_b1 + 37.345005 * mu_b2 + 30.036957 * mu_b3 + 16.586887 * mu_b4 + 6.0582724 * mu_b5 + 1.4187546 * mu_b6 + 0.23626333 * mu_u7;
-    let q_2 = 52.99769 * mu_v7 + 162.66359 * mu_b1 + 223.83272 * mu_b2 + 185.9326 * mu_b3 + 102.50782 * mu_b4 + 37.177147 * mu_b5 + 8.183077 * mu_b6 + 1.0312185 * mu_u7;
-    let q_3 = 134.30835 * mu_v7 + 462.9209 * mu_b1 + 699.6778 * mu_b2 + 613.67444 * mu_b3 + 344.95926 * mu_b4 + 125.07556 * mu_b5 + 26.570032 * mu_b6 + 2.649955 * mu_u7;
-    let q_4 = 203.44386 * mu_v7 + 771.3223 * mu_b1 + 1260.3866 * mu_b2 + 1159.892 * mu_b3 + 659.4105 * mu_b4 + 234.61722 * mu_b5 + 48.06089 * mu_b6 + 4.275685 * mu_u7;
-    let q_5 = 184.5774 * mu_v7 + 756.31445 * mu_b1 + 1316.1844 * mu_b2 + 1259.8022 * mu_b3 + 720.51575 * mu_b4 + 248.95872 * mu_b5 + 48.644077 * mu_b6 + 4.129515 * mu_u7;
-    let q_6 = 92.567566 * mu_v7 + 404.26123 * mu_b1 + 741.38464 * mu_b2 + 735.106 * mu_b3 + 423.9582 * mu_b4 + 142.18582 * mu_b5 + 25.90154 * mu_b6 + 2.0199223 * mu_u7;
-    let q_7 = 19.41523 * mu_v7 + 88.68141 * mu_b1 + 167.77126 * mu_b2 + 167.69739 * mu_b3 + 93.21404 * mu_b4 + 27.270145 * mu_b5 + 3.28529 * mu_b6 + 0.0027447531 * mu_u7;
+    let q_0 = 1.0 * mu_v7 + 2.1474702 * mu_b1 + 2.3974607 * mu_b2 + 1.9668951 * mu_b3 + 1.0603936 * mu_b4 + 0.40116197 * mu_b5 + 0.1000778 * mu_b6 + 0.028538538 * mu_u7;
+    let q_1 = 11.495001 * mu_v7 + 30.552198 * mu_b1 + 38.381718 * mu_b2 + 31.26455 * mu_b3 + 17.334864 * mu_b4 + 6.563872 * mu_b5 + 1.539696 * mu_b6 + 0.2735917 * mu_u7;
+    let q_2 = 54.054283 * mu_v7 + 167.04628 * mu_b1 + 233.27457 * mu_b2 + 197.05984 * mu_b3 + 109.95703 * mu_b4 + 40.878506 * mu_b5 + 9.172014 * mu_b6 + 1.1820703 * mu_u7;
+    let q_3 = 138.38596 * mu_v7 + 482.15573 * mu_b1 + 740.6852 * mu_b2 + 661.68915 * mu_b3 + 377.22815 * mu_b4 + 138.8429 * mu_b5 + 29.877262 * mu_b6 + 3.0034337 * mu_u7;
+    let q_4 = 211.96965 * mu_v7 + 814.5679 * mu_b1 + 1353.4293 * mu_b2 + 1267.7085 * mu_b3 + 730.3205 * mu_b4 + 262.07663 * mu_b5 + 53.92109 * mu_b6 + 4.802151 * mu_u7;
+    let q_5 = 194.53482 * mu_v7 + 809.0494 * mu_b1 + 1431.089 * mu_b2 + 1392.435 * mu_b3 + 806.2256 * mu_b4 + 280.02386 * mu_b5 + 54.537487 * mu_b6 + 4.587392 * mu_u7;
+    let q_6 = 98.6808 * mu_v7 + 437.6391 * mu_b1 + 815.3641 * mu_b2 + 821.1563 * mu_b3 + 479.4777 * mu_b4 + 161.6198 * mu_b5 + 29.208668 * mu_b6 + 2.2189405 * mu_u7;
+    let q_7 = 20.924627 * mu_v7 + 97.093155 * mu_b1 + 186.65863 * mu_b2 + 189.75145 * mu_b3 + 107.27568 * mu_b4 + 31.894653 * mu_b5 + 3.8971405 * mu_b6 + 0.0029596945 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

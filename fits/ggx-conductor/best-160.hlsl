@@ -15,16 +15,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 9/9, 109 coefficients (numerator 55, denominator 54 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 21800 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 0c42262f93988f3783e5efae74fa53fb75fcfbcaf5334834048b748536d04ffb.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 8172047efb105ee755e33f8cc5e89221e39a1f643ce51c506bcf827541b608da.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 6.5e-4, shifted 5.3e-5, bernstein 6.0e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.37e-7, max 2.03e-5 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.39e-7 (every op rounded, as this Rust), 4.86e-7 (fused multiply-add), 7.55e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.88e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 8633 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.37e-7, max 2.03e-5; this f32 code MAE 1.54e-7, max 2.04e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.6e-7 on the measurement grid.
-// Denominator proved >= 2.090e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.3e-3, shifted 7.9e-5, bernstein 5.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 5.10e-8, max 1.34e-6 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 5.43e-7 (fused multiply-add), 6.80e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.30e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6773 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 5.05e-8, max 1.34e-6; this f32 code MAE 8.83e-8, max 1.45e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-6 on the measurement grid.
+// Denominator proved >= 3.330e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -33,7 +33,7 @@ float ggx_conductor_albedo(float r, float mu) {
     float mu_c = max(min(mu, 1.0f), 0.0f);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 9
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 10
     float r_v = 1.0f - r_t;
     float r_u2 = r_t * r_t;
     float r_v2 = r_v * r_v;
@@ -51,17 +51,20 @@ float ggx_conductor_albedo(float r, float mu) {
     float r_v8 = r_v7 * r_v;
     float r_u9 = r_u8 * r_t;
     float r_v9 = r_v8 * r_v;
-    float r_b1 = r_t * r_v8;
-    float r_b2 = r_u2 * r_v7;
-    float r_b3 = r_u3 * r_v6;
-    float r_b4 = r_u4 * r_v5;
-    float r_b5 = r_u5 * r_v4;
-    float r_b6 = r_u6 * r_v3;
-    float r_b7 = r_u7 * r_v2;
-    float r_b8 = r_u8 * r_v;
+    float r_u10 = r_u9 * r_t;
+    float r_v10 = r_v9 * r_v;
+    float r_b1 = r_t * r_v9;
+    float r_b2 = r_u2 * r_v8;
+    float r_b3 = r_u3 * r_v7;
+    float r_b4 = r_u4 * r_v6;
+    float r_b5 = r_u5 * r_v5;
+    float r_b6 = r_u6 * r_v4;
+    float r_b7 = r_u7 * r_v3;
+    float r_b8 = r_u8 * r_v2;
+    float r_b9 = r_u9 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 9
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 10
     float mu_v = 1.0f - mu_u;
     float mu_u2 = mu_u * mu_u;
     float mu_v2 = mu_v * mu_v;
@@ -79,38 +82,43 @@ float ggx_conductor_albedo(float r, float mu) {
     float mu_v8 = mu_v7 * mu_v;
     float mu_u9 = mu_u8 * mu_u;
     float mu_v9 = mu_v8 * mu_v;
-    float mu_b1 = mu_u * mu_v8;
-    float mu_b2 = mu_u2 * mu_v7;
-    float mu_b3 = mu_u3 * mu_v6;
-    float mu_b4 = mu_u4 * mu_v5;
-    float mu_b5 = mu_u5 * mu_v4;
-    float mu_b6 = mu_u6 * mu_v3;
-    float mu_b7 = mu_u7 * mu_v2;
-    float mu_b8 = mu_u8 * mu_v;
+    float mu_u10 = mu_u9 * mu_u;
+    float mu_v10 = mu_v9 * mu_v;
+    float mu_b1 = mu_u * mu_v9;
+    float mu_b2 = mu_u2 * mu_v8;
+    float mu_b3 = mu_u3 * mu_v7;
+    float mu_b4 = mu_u4 * mu_v6;
+    float mu_b5 = mu_u5 * mu_v5;
+    float mu_b6 = mu_u6 * mu_v4;
+    float mu_b7 = mu_u7 * mu_v3;
+    float mu_b8 = mu_u8 * mu_v2;
+    float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 1.0000002f * mu_v9 + 22.893648f * mu_b1 + 76.89385f * mu_b2 + 93.12024f * mu_b3 + 47.07027f * mu_b4 + 14.992347f * mu_b5 + 5.951139f * mu_b6 + 0.9655755f * mu_b7 + 0.14030533f * mu_b8 + 0.022048306f * mu_u9;
-    float p_1 = 15.613723f * mu_v9 + 247.41057f * mu_b1 + 848.1829f * mu_b2 + 1137.62f * mu_b3 + 702.6588f * mu_b4 + 255.43979f * mu_b5 + 81.24495f * mu_b6 + 17.56584f * mu_b7 + 2.1675186f * mu_b8 + 0.276387f * mu_u9;
-    float p_2 = 79.982506f * mu_v9 + 1149.9874f * mu_b1 + 4119.737f * mu_b2 + 6041.0474f * mu_b3 + 4303.764f * mu_b4 + 1768.4509f * mu_b5 + 525.60596f * mu_b6 + 116.70567f * mu_b7 + 14.690065f * mu_b8 + 1.366438f * mu_u9;
-    float p_3 = 220.70657f * mu_v9 + 3096.093f * mu_b1 + 11647.88f * mu_b2 + 18403.807f * mu_b3 + 14567.166f * mu_b4 + 6616.5645f * mu_b5 + 1979.1499f * mu_b6 + 428.56274f * mu_b7 + 55.5325f * mu_b8 + 4.223394f * mu_u9;
-    float p_4 = 375.13403f * mu_v9 + 5317.956f * mu_b1 + 21053.916f * mu_b2 + 35452.754f * mu_b3 + 30440.215f * mu_b4 + 14990.707f * mu_b5 + 4632.239f * mu_b6 + 974.4892f * mu_b7 + 124.3804f * mu_b8 + 8.2041855f * mu_u9;
-    float p_5 = 412.0463f * mu_v9 + 6050.506f * mu_b1 + 25277.713f * mu_b2 + 45051.516f * mu_b3 + 41334.324f * mu_b4 + 21757.844f * mu_b5 + 6997.254f * mu_b6 + 1447.5515f * mu_b7 + 178.42558f * mu_b8 + 10.571177f * mu_u9;
-    float p_6 = 295.45776f * mu_v9 + 4582.0293f * mu_b1 + 20243.895f * mu_b2 + 37972.2f * mu_b3 + 36786.31f * mu_b4 + 20409.887f * mu_b5 + 6794.6646f * mu_b6 + 1389.8291f * mu_b7 + 163.64014f * mu_b8 + 8.837206f * mu_u9;
-    float p_7 = 134.79784f * mu_v9 + 2239.5403f * mu_b1 + 10462.02f * mu_b2 + 20527.342f * mu_b3 + 20769.217f * mu_b4 + 11982.798f * mu_b5 + 4089.737f * mu_b6 + 828.325f * mu_b7 + 93.086105f * mu_b8 + 4.6295004f * mu_u9;
-    float p_8 = 35.770443f * mu_v9 + 642.7976f * mu_b1 + 3166.1594f * mu_b2 + 6453.76f * mu_b3 + 6750.006f * mu_b4 + 4000.107f * mu_b5 + 1385.3777f * mu_b6 + 277.63785f * mu_b7 + 29.927221f * mu_b8 + 1.3830942f * mu_u9;
-    float p_9 = 4.2511024f * mu_v9 + 82.75155f * mu_b1 + 427.3532f * mu_b2 + 898.54065f * mu_b3 + 962.9185f * mu_b4 + 580.4173f * mu_b5 + 202.39882f * mu_b6 + 40.170647f * mu_b7 + 4.2034893f * mu_b8 + 0.1832995f * mu_u9;
-    float p = p_0 * r_v9 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_u9;
+    float p_0 = 1.0000002f * mu_v10 + 31.140892f * mu_b1 + 200.37985f * mu_b2 + 395.5653f * mu_b3 + 322.57327f * mu_b4 + 106.21131f * mu_b5 + 54.325348f * mu_b6 + 10.139369f * mu_b7 + 2.5115964f * mu_b8 + 0.25918648f * mu_b9 + 0.034338754f * mu_u10;
+    float p_1 = 10.721368f * mu_v10 + 398.85156f * mu_b1 + 2534.6433f * mu_b2 + 5154.683f * mu_b3 + 4603.0693f * mu_b4 + 1858.0474f * mu_b5 + 777.5856f * mu_b6 + 172.97768f * mu_b7 + 37.043423f * mu_b8 + 3.8153534f * mu_b9 + 0.3959826f * mu_u10;
+    float p_2 = 60.560562f * mu_v10 + 2284.988f * mu_b1 + 14374.257f * mu_b2 + 29959.625f * mu_b3 + 28642.432f * mu_b4 + 13287.791f * mu_b5 + 5155.2944f * mu_b6 + 1228.6975f * mu_b7 + 240.58185f * mu_b8 + 26.314413f * mu_b9 + 2.1668448f * mu_u10;
+    float p_3 = 214.84479f * mu_v10 + 7644.476f * mu_b1 + 47793.105f * mu_b2 + 101572.14f * mu_b3 + 102065.99f * mu_b4 + 52131.11f * mu_b5 + 19883.553f * mu_b6 + 4934.171f * mu_b7 + 923.1138f * mu_b8 + 105.17155f * mu_b9 + 7.4598927f * mu_u10;
+    float p_4 = 478.95035f * mu_v10 + 16359.236f * mu_b1 + 102557.59f * mu_b2 + 221682.78f * mu_b3 + 231307.83f * mu_b4 + 126835.0f * mu_b5 + 48961.73f * mu_b6 + 12642.34f * mu_b7 + 2345.0405f * mu_b8 + 272.5605f * mu_b9 + 17.527655f * mu_u10;
+    float p_5 = 689.03955f * mu_v10 + 23396.402f * mu_b1 + 148394.98f * mu_b2 + 325953.88f * mu_b3 + 350605.38f * mu_b4 + 203507.72f * mu_b5 + 80775.086f * mu_b6 + 21817.95f * mu_b7 + 4120.881f * mu_b8 + 487.02588f * mu_b9 + 29.715559f * mu_u10;
+    float p_6 = 656.6801f * mu_v10 + 22775.016f * mu_b1 + 147169.97f * mu_b2 + 328637.94f * mu_b3 + 363327.88f * mu_b4 + 222018.19f * mu_b5 + 91761.89f * mu_b6 + 26150.018f * mu_b7 + 5122.413f * mu_b8 + 617.4895f * mu_b9 + 36.58251f * mu_u10;
+    float p_7 = 416.7938f * mu_v10 + 15028.489f * mu_b1 + 99428.52f * mu_b2 + 226191.92f * mu_b3 + 257425.63f * mu_b4 + 166016.67f * mu_b5 + 72512.54f * mu_b6 + 22063.182f * mu_b7 + 4548.8135f * mu_b8 + 563.77264f * mu_b9 + 32.753258f * mu_u10;
+    float p_8 = 172.69098f * mu_v10 + 6516.3154f * mu_b1 + 44234.484f * mu_b2 + 102902.76f * mu_b3 + 121242.08f * mu_b4 + 83173.35f * mu_b5 + 38923.996f * mu_b6 + 12733.567f * mu_b7 + 2774.9282f * mu_b8 + 354.64346f * mu_b9 + 20.326515f * mu_u10;
+    float p_9 = 44.47508f * mu_v10 + 1713.0281f * mu_b1 + 11879.237f * mu_b2 + 28378.232f * mu_b3 + 34881.543f * mu_b4 + 25654.814f * mu_b5 + 12937.967f * mu_b6 + 4528.5537f * mu_b7 + 1034.5118f * mu_b8 + 135.77023f * mu_b9 + 7.7476306f * mu_u10;
+    float p_10 = 5.901002f * mu_v10 + 213.63544f * mu_b1 + 1489.6942f * mu_b2 + 3661.1895f * mu_b3 + 4719.5796f * mu_b4 + 3724.747f * mu_b5 + 2010.2483f * mu_b6 + 741.07916f * mu_b7 + 174.7665f * mu_b8 + 23.372635f * mu_b9 + 1.342863f * mu_u10;
+    float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v9 + 22.889603f * mu_b1 + 77.14942f * mu_b2 + 97.42618f * mu_b3 + 54.549004f * mu_b4 + 19.30404f * mu_b5 + 6.438963f * mu_b6 + 1.0091668f * mu_b7 + 0.14030638f * mu_b8 + 0.022048306f * mu_u9;
-    float q_1 = 15.613765f * mu_v9 + 247.4422f * mu_b1 + 850.6224f * mu_b2 + 1180.6901f * mu_b3 + 780.15204f * mu_b4 + 309.71786f * mu_b5 + 95.86288f * mu_b6 + 18.696474f * mu_b7 + 2.211955f * mu_b8 + 0.27638674f * mu_u9;
-    float q_2 = 79.98151f * mu_v9 + 1150.0868f * mu_b1 + 4145.7183f * mu_b2 + 6300.5405f * mu_b3 + 4737.479f * mu_b4 + 2075.519f * mu_b5 + 632.187f * mu_b6 + 132.77803f * mu_b7 + 15.506677f * mu_b8 + 1.3884339f * mu_u9;
-    float q_3 = 220.71426f * mu_v9 + 3096.3337f * mu_b1 + 11787.747f * mu_b2 + 19446.877f * mu_b3 + 16245.737f * mu_b4 + 7775.2544f * mu_b5 + 2404.5347f * mu_b6 + 513.98706f * mu_b7 + 62.847054f * mu_b8 + 4.488617f * mu_u9;
-    float q_4 = 375.10873f * mu_v9 + 5319.256f * mu_b1 + 21447.729f * mu_b2 + 38143.8f * mu_b3 + 34889.07f * mu_b4 + 18140.166f * mu_b5 + 5807.616f * mu_b6 + 1233.4739f * mu_b7 + 153.66302f * mu_b8 + 9.53024f * mu_u9;
-    float q_5 = 412.08377f * mu_v9 + 6054.5483f * mu_b1 + 25918.514f * mu_b2 + 49474.082f * mu_b3 + 49122.777f * mu_b4 + 27664.105f * mu_b5 + 9306.767f * mu_b6 + 1971.3221f * mu_b7 + 245.0474f * mu_b8 + 14.170724f * mu_u9;
-    float q_6 = 295.43365f * mu_v9 + 4585.641f * mu_b1 + 20867.799f * mu_b2 + 42583.79f * mu_b3 + 45569.105f * mu_b4 + 27662.78f * mu_b5 + 9844.505f * mu_b6 + 2102.6626f * mu_b7 + 256.96155f * mu_b8 + 14.294486f * mu_u9;
-    float q_7 = 134.80399f * mu_v9 + 2241.6917f * mu_b1 + 10832.278f * mu_b2 + 23521.375f * mu_b3 + 26943.59f * mu_b4 + 17535.209f * mu_b5 + 6621.33f * mu_b6 + 1448.1887f * mu_b7 + 174.43051f * mu_b8 + 9.409167f * mu_u9;
-    float q_8 = 35.76994f * mu_v9 + 643.4122f * mu_b1 + 3290.1008f * mu_b2 + 7559.8364f * mu_b3 + 9205.353f * mu_b4 + 6381.9185f * mu_b5 + 2553.8389f * mu_b6 + 577.6236f * mu_b7 + 68.90225f * mu_b8 + 3.533979f * mu_u9;
-    float q_9 = 4.2511096f * mu_v9 + 82.82735f * mu_b1 + 445.56332f * mu_b2 + 1076.9078f * mu_b3 + 1385.1095f * mu_b4 + 1017.2047f * mu_b5 + 430.62857f * mu_b6 + 101.58307f * mu_b7 + 12.194473f * mu_b8 + 0.59735477f * mu_u9;
-    float q = q_0 * r_v9 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_u9;
+    float q_0 = 1.0f * mu_v10 + 31.141222f * mu_b1 + 200.58011f * mu_b2 + 401.84396f * mu_b3 + 351.72678f * mu_b4 + 132.46219f * mu_b5 + 63.687847f * mu_b6 + 10.958802f * mu_b7 + 2.5799022f * mu_b8 + 0.2591876f * mu_b9 + 0.034338754f * mu_u10;
+    float q_1 = 10.721373f * mu_v10 + 398.84183f * mu_b1 + 2536.8398f * mu_b2 + 5227.9487f * mu_b3 + 4943.361f * mu_b4 + 2190.466f * mu_b5 + 918.4725f * mu_b6 + 198.07301f * mu_b7 + 38.859135f * mu_b8 + 3.8837545f * mu_b9 + 0.39598364f * mu_u10;
+    float q_2 = 60.5607f * mu_v10 + 2285.0876f * mu_b1 + 14393.997f * mu_b2 + 30533.752f * mu_b3 + 30787.623f * mu_b4 + 15342.408f * mu_b5 + 6063.3584f * mu_b6 + 1452.6346f * mu_b7 + 266.18576f * mu_b8 + 27.58154f * mu_b9 + 2.2010586f * mu_u10;
+    float q_3 = 214.84265f * mu_v10 + 7644.4077f * mu_b1 + 47911.613f * mu_b2 + 104526.19f * mu_b3 + 111146.83f * mu_b4 + 60470.45f * mu_b5 + 23523.678f * mu_b6 + 5976.404f * mu_b7 + 1082.4845f * mu_b8 + 116.60733f * mu_b9 + 7.8393297f * mu_u10;
+    float q_4 = 478.95987f * mu_v10 + 16359.739f * mu_b1 + 103015.15f * mu_b2 + 231315.14f * mu_b3 + 257784.92f * mu_b4 + 150814.63f * mu_b5 + 59429.21f * mu_b6 + 15808.669f * mu_b7 + 2912.599f * mu_b8 + 324.14102f * mu_b9 + 19.633522f * mu_u10;
+    float q_5 = 689.02106f * mu_v10 + 23397.855f * mu_b1 + 149434.23f * mu_b2 + 345879.97f * mu_b3 + 402818.88f * mu_b4 + 251606.97f * mu_b5 + 102491.3f * mu_b6 + 28593.014f * mu_b7 + 5459.052f * mu_b8 + 629.08185f * mu_b9 + 36.21492f * mu_u10;
+    float q_6 = 656.6958f * mu_v10 + 22776.924f * mu_b1 + 148591.86f * mu_b2 + 355172.88f * mu_b3 + 432127.22f * mu_b4 + 287710.38f * mu_b5 + 123218.41f * mu_b6 + 36398.086f * mu_b7 + 7310.503f * mu_b8 + 878.1087f * mu_b9 + 49.856606f * mu_u10;
+    float q_7 = 416.78732f * mu_v10 + 15029.812f * mu_b1 + 100622.586f * mu_b2 + 248984.42f * mu_b3 + 317198.72f * mu_b4 + 225892.27f * mu_b5 + 103455.38f * mu_b6 + 32830.63f * mu_b7 + 7033.764f * mu_b8 + 887.742f * mu_b9 + 50.886703f * mu_u10;
+    float q_8 = 172.69188f * mu_v10 + 6517.1567f * mu_b1 + 44852.016f * mu_b2 + 115258.79f * mu_b3 + 154511.88f * mu_b4 + 118596.98f * mu_b5 + 59083.86f * mu_b6 + 20448.115f * mu_b7 + 4729.103f * mu_b8 + 633.35693f * mu_b9 + 37.31478f * mu_u10;
+    float q_9 = 44.47503f * mu_v10 + 1713.1902f * mu_b1 + 12069.857f * mu_b2 + 32311.18f * mu_b3 + 45882.582f * mu_b4 + 38319.066f * mu_b5 + 21059.943f * mu_b6 + 8034.531f * mu_b7 + 2024.0939f * mu_b8 + 291.66437f * mu_b9 + 18.117805f * mu_u10;
+    float q_10 = 5.9009957f * mu_v10 + 213.67622f * mu_b1 + 1519.8156f * mu_b2 + 4242.7295f * mu_b3 + 6418.9556f * mu_b4 + 5872.7393f * mu_b5 + 3582.231f * mu_b6 + 1509.6046f * mu_b7 + 415.56375f * mu_b8 + 65.15003f * mu_b9 + 4.376247f * mu_u10;
+    float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);
 }

@@ -13,16 +13,16 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational of degree 9/9, 109 coefficients (numerator 55, denominator 54 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 21800 of 65536 points; best pole-certified start refined on all points.
-/// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 0c42262f93988f3783e5efae74fa53fb75fcfbcaf5334834048b748536d04ffb.
+/// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
+/// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 8172047efb105ee755e33f8cc5e89221e39a1f643ce51c506bcf827541b608da.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 6.5e-4, shifted 5.3e-5, bernstein 6.0e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 1.37e-7, max 2.03e-5 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.39e-7 (every op rounded, as this Rust), 4.86e-7 (fused multiply-add), 7.55e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 2.88e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 8633 boxes).
-/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.37e-7, max 2.03e-5; this f32 code MAE 1.54e-7, max 2.04e-5.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.6e-7 on the measurement grid.
-/// Denominator proved >= 2.090e-2 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.3e-3, shifted 7.9e-5, bernstein 5.7e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 5.10e-8, max 1.34e-6 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 5.43e-7 (fused multiply-add), 6.80e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 4.30e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6773 boxes).
+/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 5.05e-8, max 1.34e-6; this f32 code MAE 8.83e-8, max 1.45e-6.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-6 on the measurement grid.
+/// Denominator proved >= 3.330e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -38,7 +38,7 @@ pub fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 9
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 10
     let r_v = 1.0_f32 - r_t;
     let r_u2 = r_t * r_t;
     let r_v2 = r_v * r_v;
@@ -56,17 +56,20 @@ pub fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let r_v8 = r_v7 * r_v;
     let r_u9 = r_u8 * r_t;
     let r_v9 = r_v8 * r_v;
-    let r_b1 = r_t * r_v8;
-    let r_b2 = r_u2 * r_v7;
-    let r_b3 = r_u3 * r_v6;
-    let r_b4 = r_u4 * r_v5;
-    let r_b5 = r_u5 * r_v4;
-    let r_b6 = r_u6 * r_v3;
-    let r_b7 = r_u7 * r_v2;
-    let r_b8 = r_u8 * r_v;
+    let r_u10 = r_u9 * r_t;
+    let r_v10 = r_v9 * r_v;
+    let r_b1 = r_t * r_v9;
+    let r_b2 = r_u2 * r_v8;
+    let r_b3 = r_u3 * r_v7;
+    let r_b4 = r_u4 * r_v6;
+    let r_b5 = r_u5 * r_v5;
+    let r_b6 = r_u6 * r_v4;
+    let r_b7 = r_u7 * r_v3;
+    let r_b8 = r_u8 * r_v2;
+    let r_b9 = r_u9 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 9
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 10
     let mu_v = 1.0_f32 - mu_u;
     let mu_u2 = mu_u * mu_u;
     let mu_v2 = mu_v * mu_v;
@@ -84,38 +87,43 @@ pub fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_v8 = mu_v7 * mu_v;
     let mu_u9 = mu_u8 * mu_u;
     let mu_v9 = mu_v8 * mu_v;
-    let mu_b1 = mu_u * mu_v8;
-    let mu_b2 = mu_u2 * mu_v7;
-    let mu_b3 = mu_u3 * mu_v6;
-    let mu_b4 = mu_u4 * mu_v5;
-    let mu_b5 = mu_u5 * mu_v4;
-    let mu_b6 = mu_u6 * mu_v3;
-    let mu_b7 = mu_u7 * mu_v2;
-    let mu_b8 = mu_u8 * mu_v;
+    let mu_u10 = mu_u9 * mu_u;
+    let mu_v10 = mu_v9 * mu_v;
+    let mu_b1 = mu_u * mu_v9;
+    let mu_b2 = mu_u2 * mu_v8;
+    let mu_b3 = mu_u3 * mu_v7;
+    let mu_b4 = mu_u4 * mu_v6;
+    let mu_b5 = mu_u5 * mu_v5;
+    let mu_b6 = mu_u6 * mu_v4;
+    let mu_b7 = mu_u7 * mu_v3;
+    let mu_b8 = mu_u8 * mu_v2;
+    let mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0000002_f32 * mu_v9 + 22.893648_f32 * mu_b1 + 76.89385_f32 * mu_b2 + 93.12024_f32 * mu_b3 + 47.07027_f32 * mu_b4 + 14.992347_f32 * mu_b5 + 5.951139_f32 * mu_b6 + 0.9655755_f32 * mu_b7 + 0.14030533_f32 * mu_b8 + 0.022048306_f32 * mu_u9;
-    let p_1 = 15.613723_f32 * mu_v9 + 247.41057_f32 * mu_b1 + 848.1829_f32 * mu_b2 + 1137.62_f32 * mu_b3 + 702.6588_f32 * mu_b4 + 255.43979_f32 * mu_b5 + 81.24495_f32 * mu_b6 + 17.56584_f32 * mu_b7 + 2.1675186_f32 * mu_b8 + 0.276387_f32 * mu_u9;
-    let p_2 = 79.982506_f32 * mu_v9 + 1149.9874_f32 * mu_b1 + 4119.737_f32 * mu_b2 + 6041.0474_f32 * mu_b3 + 4303.764_f32 * mu_b4 + 1768.4509_f32 * mu_b5 + 525.60596_f32 * mu_b6 + 116.70567_f32 * mu_b7 + 14.690065_f32 * mu_b8 + 1.366438_f32 * mu_u9;
-    let p_3 = 220.70657_f32 * mu_v9 + 3096.093_f32 * mu_b1 + 11647.88_f32 * mu_b2 + 18403.807_f32 * mu_b3 + 14567.166_f32 * mu_b4 + 6616.5645_f32 * mu_b5 + 1979.1499_f32 * mu_b6 + 428.56274_f32 * mu_b7 + 55.5325_f32 * mu_b8 + 4.223394_f32 * mu_u9;
-    let p_4 = 375.13403_f32 * mu_v9 + 5317.956_f32 * mu_b1 + 21053.916_f32 * mu_b2 + 35452.754_f32 * mu_b3 + 30440.215_f32 * mu_b4 + 14990.707_f32 * mu_b5 + 4632.239_f32 * mu_b6 + 974.4892_f32 * mu_b7 + 124.3804_f32 * mu_b8 + 8.2041855_f32 * mu_u9;
-    let p_5 = 412.0463_f32 * mu_v9 + 6050.506_f32 * mu_b1 + 25277.713_f32 * mu_b2 + 45051.516_f32 * mu_b3 + 41334.324_f32 * mu_b4 + 21757.844_f32 * mu_b5 + 6997.254_f32 * mu_b6 + 1447.5515_f32 * mu_b7 + 178.42558_f32 * mu_b8 + 10.571177_f32 * mu_u9;
-    let p_6 = 295.45776_f32 * mu_v9 + 4582.0293_f32 * mu_b1 + 20243.895_f32 * mu_b2 + 37972.2_f32 * mu_b3 + 36786.31_f32 * mu_b4 + 20409.887_f32 * mu_b5 + 6794.6646_f32 * mu_b6 + 1389.8291_f32 * mu_b7 + 163.64014_f32 * mu_b8 + 8.837206_f32 * mu_u9;
-    let p_7 = 134.79784_f32 * mu_v9 + 2239.5403_f32 * mu_b1 + 10462.02_f32 * mu_b2 + 20527.342_f32 * mu_b3 + 20769.217_f32 * mu_b4 + 11982.798_f32 * mu_b5 + 4089.737_f32 * mu_b6 + 828.325_f32 * mu_b7 + 93.086105_f32 * mu_b8 + 4.6295004_f32 * mu_u9;
-    let p_8 = 35.770443_f32 * mu_v9 + 642.7976_f32 * mu_b1 + 3166.1594_f32 * mu_b2 + 6453.76_f32 * mu_b3 + 6750.006_f32 * mu_b4 + 4000.107_f32 * mu_b5 + 1385.3777_f32 * mu_b6 + 277.63785_f32 * mu_b7 + 29.927221_f32 * mu_b8 + 1.3830942_f32 * mu_u9;
-    let p_9 = 4.2511024_f32 * mu_v9 + 82.75155_f32 * mu_b1 + 427.3532_f32 * mu_b2 + 898.54065_f32 * mu_b3 + 962.9185_f32 * mu_b4 + 580.4173_f32 * mu_b5 + 202.39882_f32 * mu_b6 + 40.170647_f32 * mu_b7 + 4.2034893_f32 * mu_b8 + 0.1832995_f32 * mu_u9;
-    let p = p_0 * r_v9 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_u9;
+    let p_0 = 1.0000002_f32 * mu_v10 + 31.140892_f32 * mu_b1 + 200.37985_f32 * mu_b2 + 395.5653_f32 * mu_b3 + 322.57327_f32 * mu_b4 + 106.21131_f32 * mu_b5 + 54.325348_f32 * mu_b6 + 10.139369_f32 * mu_b7 + 2.5115964_f32 * mu_b8 + 0.25918648_f32 * mu_b9 + 0.034338754_f32 * mu_u10;
+    let p_1 = 10.721368_f32 * mu_v10 + 398.85156_f32 * mu_b1 + 2534.6433_f32 * mu_b2 + 5154.683_f32 * mu_b3 + 4603.0693_f32 * mu_b4 + 1858.0474_f32 * mu_b5 + 777.5856_f32 * mu_b6 + 172.97768_f32 * mu_b7 + 37.043423_f32 * mu_b8 + 3.8153534_f32 * mu_b9 + 0.3959826_f32 * mu_u10;
+    let p_2 = 60.560562_f32 * mu_v10 + 2284.988_f32 * mu_b1 + 14374.257_f32 * mu_b2 + 29959.625_f32 * mu_b3 + 28642.432_f32 * mu_b4 + 13287.791_f32 * mu_b5 + 5155.2944_f32 * mu_b6 + 1228.6975_f32 * mu_b7 + 240.58185_f32 * mu_b8 + 26.314413_f32 * mu_b9 + 2.1668448_f32 * mu_u10;
+    let p_3 = 214.84479_f32 * mu_v10 + 7644.476_f32 * mu_b1 + 47793.105_f32 * mu_b2 + 101572.14_f32 * mu_b3 + 102065.99_f32 * mu_b4 + 52131.11_f32 * mu_b5 + 19883.553_f32 * mu_b6 + 4934.171_f32 * mu_b7 + 923.1138_f32 * mu_b8 + 105.17155_f32 * mu_b9 + 7.4598927_f32 * mu_u10;
+    let p_4 = 478.95035_f32 * mu_v10 + 16359.236_f32 * mu_b1 + 102557.59_f32 * mu_b2 + 221682.78_f32 * mu_b3 + 231307.83_f32 * mu_b4 + 126835.0_f32 * mu_b5 + 48961.73_f32 * mu_b6 + 12642.34_f32 * mu_b7 + 2345.0405_f32 * mu_b8 + 272.5605_f32 * mu_b9 + 17.527655_f32 * mu_u10;
+    let p_5 = 689.03955_f32 * mu_v10 + 23396.402_f32 * mu_b1 + 148394.98_f32 * mu_b2 + 325953.88_f32 * mu_b3 + 350605.38_f32 * mu_b4 + 203507.72_f32 * mu_b5 + 80775.086_f32 * mu_b6 + 21817.95_f32 * mu_b7 + 4120.881_f32 * mu_b8 + 487.02588_f32 * mu_b9 + 29.715559_f32 * mu_u10;
+    let p_6 = 656.6801_f32 * mu_v10 + 22775.016_f32 * mu_b1 + 147169.97_f32 * mu_b2 + 328637.94_f32 * mu_b3 + 363327.88_f32 * mu_b4 + 222018.19_f32 * mu_b5 + 91761.89_f32 * mu_b6 + 26150.018_f32 * mu_b7 + 5122.413_f32 * mu_b8 + 617.4895_f32 * mu_b9 + 36.58251_f32 * mu_u10;
+    let p_7 = 416.7938_f32 * mu_v10 + 15028.489_f32 * mu_b1 + 99428.52_f32 * mu_b2 + 226191.92_f32 * mu_b3 + 257425.63_f32 * mu_b4 + 166016.67_f32 * mu_b5 + 72512.54_f32 * mu_b6 + 22063.182_f32 * mu_b7 + 4548.8135_f32 * mu_b8 + 563.77264_f32 * mu_b9 + 32.753258_f32 * mu_u10;
+    let p_8 = 172.69098_f32 * mu_v10 + 6516.3154_f32 * mu_b1 + 44234.484_f32 * mu_b2 + 102902.76_f32 * mu_b3 + 121242.08_f32 * mu_b4 + 83173.35_f32 * mu_b5 + 38923.996_f32 * mu_b6 + 12733.567_f32 * mu_b7 + 2774.9282_f32 * mu_b8 + 354.64346_f32 * mu_b9 + 20.326515_f32 * mu_u10;
+    let p_9 = 44.47508_f32 * mu_v10 + 1713.0281_f32 * mu_b1 + 11879.237_f32 * mu_b2 + 28378.232_f32 * mu_b3 + 34881.543_f32 * mu_b4 + 25654.814_f32 * mu_b5 + 12937.967_f32 * mu_b6 + 4528.5537_f32 * mu_b7 + 1034.5118_f32 * mu_b8 + 135.77023_f32 * mu_b9 + 7.7476306_f32 * mu_u10;
+    let p_10 = 5.901002_f32 * mu_v10 + 213.63544_f32 * mu_b1 + 1489.6942_f32 * mu_b2 + 3661.1895_f32 * mu_b3 + 4719.5796_f32 * mu_b4 + 3724.747_f32 * mu_b5 + 2010.2483_f32 * mu_b6 + 741.07916_f32 * mu_b7 + 174.7665_f32 * mu_b8 + 23.372635_f32 * mu_b9 + 1.342863_f32 * mu_u10;
+    let p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v9 + 22.889603_f32 * mu_b1 + 77.14942_f32 * mu_b2 + 97.42618_f32 * mu_b3 + 54.549004_f32 * mu_b4 + 19.30404_f32 * mu_b5 + 6.438963_f32 * mu_b6 + 1.0091668_f32 * mu_b7 + 0.14030638_f32 * mu_b8 + 0.022048306_f32 * mu_u9;
-    let q_1 = 15.613765_f32 * mu_v9 + 247.4422_f32 * mu_b1 + 850.6224_f32 * mu_b2 + 1180.6901_f32 * mu_b3 + 780.15204_f32 * mu_b4 + 309.71786_f32 * mu_b5 + 95.86288_f32 * mu_b6 + 18.696474_f32 * mu_b7 + 2.211955_f32 * mu_b8 + 0.27638674_f32 * mu_u9;
-    let q_2 = 79.98151_f32 * mu_v9 + 1150.0868_f32 * mu_b1 + 4145.7183_f32 * mu_b2 + 6300.5405_f32 * mu_b3 + 4737.479_f32 * mu_b4 + 2075.519_f32 * mu_b5 + 632.187_f32 * mu_b6 + 132.77803_f32 * mu_b7 + 15.506677_f32 * mu_b8 + 1.3884339_f32 * mu_u9;
-    let q_3 = 220.71426_f32 * mu_v9 + 3096.3337_f32 * mu_b1 + 11787.747_f32 * mu_b2 + 19446.877_f32 * mu_b3 + 16245.737_f32 * mu_b4 + 7775.2544_f32 * mu_b5 + 2404.5347_f32 * mu_b6 + 513.98706_f32 * mu_b7 + 62.847054_f32 * mu_b8 + 4.488617_f32 * mu_u9;
-    let q_4 = 375.10873_f32 * mu_v9 + 5319.256_f32 * mu_b1 + 21447.729_f32 * mu_b2 + 38143.8_f32 * mu_b3 + 34889.07_f32 * mu_b4 + 18140.166_f32 * mu_b5 + 5807.616_f32 * mu_b6 + 1233.4739_f32 * mu_b7 + 153.66302_f32 * mu_b8 + 9.53024_f32 * mu_u9;
-    let q_5 = 412.08377_f32 * mu_v9 + 6054.5483_f32 * mu_b1 + 25918.514_f32 * mu_b2 + 49474.082_f32 * mu_b3 + 49122.777_f32 * mu_b4 + 27664.105_f32 * mu_b5 + 9306.767_f32 * mu_b6 + 1971.3221_f32 * mu_b7 + 245.0474_f32 * mu_b8 + 14.170724_f32 * mu_u9;
-    let q_6 = 295.43365_f32 * mu_v9 + 4585.641_f32 * mu_b1 + 20867.799_f32 * mu_b2 + 42583.79_f32 * mu_b3 + 45569.105_f32 * mu_b4 + 27662.78_f32 * mu_b5 + 9844.505_f32 * mu_b6 + 2102.6626_f32 * mu_b7 + 256.96155_f32 * mu_b8 + 14.294486_f32 * mu_u9;
-    let q_7 = 134.80399_f32 * mu_v9 + 2241.6917_f32 * mu_b1 + 10832.278_f32 * mu_b2 + 23521.375_f32 * mu_b3 + 26943.59_f32 * mu_b4 + 17535.209_f32 * mu_b5 + 6621.33_f32 * mu_b6 + 1448.1887_f32 * mu_b7 + 174.43051_f32 * mu_b8 + 9.409167_f32 * mu_u9;
-    let q_8 = 35.76994_f32 * mu_v9 + 643.4122_f32 * mu_b1 + 3290.1008_f32 * mu_b2 + 7559.8364_f32 * mu_b3 + 9205.353_f32 * mu_b4 + 6381.9185_f32 * mu_b5 + 2553.8389_f32 * mu_b6 + 577.6236_f32 * mu_b7 + 68.90225_f32 * mu_b8 + 3.533979_f32 * mu_u9;
-    let q_9 = 4.2511096_f32 * mu_v9 + 82.82735_f32 * mu_b1 + 445.56332_f32 * mu_b2 + 1076.9078_f32 * mu_b3 + 1385.1095_f32 * mu_b4 + 1017.2047_f32 * mu_b5 + 430.62857_f32 * mu_b6 + 101.58307_f32 * mu_b7 + 12.194473_f32 * mu_b8 + 0.59735477_f32 * mu_u9;
-    let q = q_0 * r_v9 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_u9;
+    let q_0 = 1.0_f32 * mu_v10 + 31.141222_f32 * mu_b1 + 200.58011_f32 * mu_b2 + 401.84396_f32 * mu_b3 + 351.72678_f32 * mu_b4 + 132.46219_f32 * mu_b5 + 63.687847_f32 * mu_b6 + 10.958802_f32 * mu_b7 + 2.5799022_f32 * mu_b8 + 0.2591876_f32 * mu_b9 + 0.034338754_f32 * mu_u10;
+    let q_1 = 10.721373_f32 * mu_v10 + 398.84183_f32 * mu_b1 + 2536.8398_f32 * mu_b2 + 5227.9487_f32 * mu_b3 + 4943.361_f32 * mu_b4 + 2190.466_f32 * mu_b5 + 918.4725_f32 * mu_b6 + 198.07301_f32 * mu_b7 + 38.859135_f32 * mu_b8 + 3.8837545_f32 * mu_b9 + 0.39598364_f32 * mu_u10;
+    let q_2 = 60.5607_f32 * mu_v10 + 2285.0876_f32 * mu_b1 + 14393.997_f32 * mu_b2 + 30533.752_f32 * mu_b3 + 30787.623_f32 * mu_b4 + 15342.408_f32 * mu_b5 + 6063.3584_f32 * mu_b6 + 1452.6346_f32 * mu_b7 + 266.18576_f32 * mu_b8 + 27.58154_f32 * mu_b9 + 2.2010586_f32 * mu_u10;
+    let q_3 = 214.84265_f32 * mu_v10 + 7644.4077_f32 * mu_b1 + 47911.613_f32 * mu_b2 + 104526.19_f32 * mu_b3 + 111146.83_f32 * mu_b4 + 60470.45_f32 * mu_b5 + 23523.678_f32 * mu_b6 + 5976.404_f32 * mu_b7 + 1082.4845_f32 * mu_b8 + 116.60733_f32 * mu_b9 + 7.8393297_f32 * mu_u10;
+    let q_4 = 478.95987_f32 * mu_v10 + 16359.739_f32 * mu_b1 + 103015.15_f32 * mu_b2 + 231315.14_f32 * mu_b3 + 257784.92_f32 * mu_b4 + 150814.63_f32 * mu_b5 + 59429.21_f32 * mu_b6 + 15808.669_f32 * mu_b7 + 2912.599_f32 * mu_b8 + 324.14102_f32 * mu_b9 + 19.633522_f32 * mu_u10;
+    let q_5 = 689.02106_f32 * mu_v10 + 23397.855_f32 * mu_b1 + 149434.23_f32 * mu_b2 + 345879.97_f32 * mu_b3 + 402818.88_f32 * mu_b4 + 251606.97_f32 * mu_b5 + 102491.3_f32 * mu_b6 + 28593.014_f32 * mu_b7 + 5459.052_f32 * mu_b8 + 629.08185_f32 * mu_b9 + 36.21492_f32 * mu_u10;
+    let q_6 = 656.6958_f32 * mu_v10 + 22776.924_f32 * mu_b1 + 148591.86_f32 * mu_b2 + 355172.88_f32 * mu_b3 + 432127.22_f32 * mu_b4 + 287710.38_f32 * mu_b5 + 123218.41_f32 * mu_b6 + 36398.086_f32 * mu_b7 + 7310.503_f32 * mu_b8 + 878.1087_f32 * mu_b9 + 49.856606_f32 * mu_u10;
+    let q_7 = 416.78732_f32 * mu_v10 + 15029.812_f32 * mu_b1 + 100622.586_f32 * mu_b2 + 248984.42_f32 * mu_b3 + 317198.72_f32 * mu_b4 + 225892.27_f32 * mu_b5 + 103455.38_f32 * mu_b6 + 32830.63_f32 * mu_b7 + 7033.764_f32 * mu_b8 + 887.742_f32 * mu_b9 + 50.886703_f32 * mu_u10;
+    let q_8 = 172.69188_f32 * mu_v10 + 6517.1567_f32 * mu_b1 + 44852.016_f32 * mu_b2 + 115258.79_f32 * mu_b3 + 154511.88_f32 * mu_b4 + 118596.98_f32 * mu_b5 + 59083.86_f32 * mu_b6 + 20448.115_f32 * mu_b7 + 4729.103_f32 * mu_b8 + 633.35693_f32 * mu_b9 + 37.31478_f32 * mu_u10;
+    let q_9 = 44.47503_f32 * mu_v10 + 1713.1902_f32 * mu_b1 + 12069.857_f32 * mu_b2 + 32311.18_f32 * mu_b3 + 45882.582_f32 * mu_b4 + 38319.066_f32 * mu_b5 + 21059.943_f32 * mu_b6 + 8034.531_f32 * mu_b7 + 2024.0939_f32 * mu_b8 + 291.66437_f32 * mu_b9 + 18.117805_f32 * mu_u10;
+    let q_10 = 5.9009957_f32 * mu_v10 + 213.67622_f32 * mu_b1 + 1519.8156_f32 * mu_b2 + 4242.7295_f32 * mu_b3 + 6418.9556_f32 * mu_b4 + 5872.7393_f32 * mu_b5 + 3582.231_f32 * mu_b6 + 1509.6046_f32 * mu_b7 + 415.56375_f32 * mu_b8 + 65.15003_f32 * mu_b9 + 4.376247_f32 * mu_u10;
+    let q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

@@ -12,16 +12,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 9/9, 109 coefficients (numerator 55, denominator 54 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 21800 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 0c42262f93988f3783e5efae74fa53fb75fcfbcaf5334834048b748536d04ffb.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 8172047efb105ee755e33f8cc5e89221e39a1f643ce51c506bcf827541b608da.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 6.5e-4, shifted 5.3e-5, bernstein 6.0e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.37e-7, max 2.03e-5 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.39e-7 (every op rounded, as this Rust), 4.86e-7 (fused multiply-add), 7.55e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.88e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 8633 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.37e-7, max 2.03e-5; this f32 code MAE 1.54e-7, max 2.04e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.6e-7 on the measurement grid.
-// Denominator proved >= 2.090e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.3e-3, shifted 7.9e-5, bernstein 5.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 5.10e-8, max 1.34e-6 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 5.43e-7 (fused multiply-add), 6.80e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.30e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6773 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 5.05e-8, max 1.34e-6; this f32 code MAE 8.83e-8, max 1.45e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-6 on the measurement grid.
+// Denominator proved >= 3.330e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -30,7 +30,7 @@ fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_c = max(min(mu, 1.0), 0.0);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 9
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 10
     let r_v = 1.0 - r_t;
     let r_u2 = r_t * r_t;
     let r_v2 = r_v * r_v;
@@ -48,17 +48,20 @@ fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let r_v8 = r_v7 * r_v;
     let r_u9 = r_u8 * r_t;
     let r_v9 = r_v8 * r_v;
-    let r_b1 = r_t * r_v8;
-    let r_b2 = r_u2 * r_v7;
-    let r_b3 = r_u3 * r_v6;
-    let r_b4 = r_u4 * r_v5;
-    let r_b5 = r_u5 * r_v4;
-    let r_b6 = r_u6 * r_v3;
-    let r_b7 = r_u7 * r_v2;
-    let r_b8 = r_u8 * r_v;
+    let r_u10 = r_u9 * r_t;
+    let r_v10 = r_v9 * r_v;
+    let r_b1 = r_t * r_v9;
+    let r_b2 = r_u2 * r_v8;
+    let r_b3 = r_u3 * r_v7;
+    let r_b4 = r_u4 * r_v6;
+    let r_b5 = r_u5 * r_v5;
+    let r_b6 = r_u6 * r_v4;
+    let r_b7 = r_u7 * r_v3;
+    let r_b8 = r_u8 * r_v2;
+    let r_b9 = r_u9 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     let mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 9
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 10
     let mu_v = 1.0 - mu_u;
     let mu_u2 = mu_u * mu_u;
     let mu_v2 = mu_v * mu_v;
@@ -76,38 +79,43 @@ fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_v8 = mu_v7 * mu_v;
     let mu_u9 = mu_u8 * mu_u;
     let mu_v9 = mu_v8 * mu_v;
-    let mu_b1 = mu_u * mu_v8;
-    let mu_b2 = mu_u2 * mu_v7;
-    let mu_b3 = mu_u3 * mu_v6;
-    let mu_b4 = mu_u4 * mu_v5;
-    let mu_b5 = mu_u5 * mu_v4;
-    let mu_b6 = mu_u6 * mu_v3;
-    let mu_b7 = mu_u7 * mu_v2;
-    let mu_b8 = mu_u8 * mu_v;
+    let mu_u10 = mu_u9 * mu_u;
+    let mu_v10 = mu_v9 * mu_v;
+    let mu_b1 = mu_u * mu_v9;
+    let mu_b2 = mu_u2 * mu_v8;
+    let mu_b3 = mu_u3 * mu_v7;
+    let mu_b4 = mu_u4 * mu_v6;
+    let mu_b5 = mu_u5 * mu_v5;
+    let mu_b6 = mu_u6 * mu_v4;
+    let mu_b7 = mu_u7 * mu_v3;
+    let mu_b8 = mu_u8 * mu_v2;
+    let mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0000002 * mu_v9 + 22.893648 * mu_b1 + 76.89385 * mu_b2 + 93.12024 * mu_b3 + 47.07027 * mu_b4 + 14.992347 * mu_b5 + 5.951139 * mu_b6 + 0.9655755 * mu_b7 + 0.14030533 * mu_b8 + 0.022048306 * mu_u9;
-    let p_1 = 15.613723 * mu_v9 + 247.41057 * mu_b1 + 848.1829 * mu_b2 + 1137.62 * mu_b3 + 702.6588 * mu_b4 + 255.43979 * mu_b5 + 81.24495 * mu_b6 + 17.56584 * mu_b7 + 2.1675186 * mu_b8 + 0.276387 * mu_u9;
-    let p_2 = 79.982506 * mu_v9 + 1149.9874 * mu_b1 + 4119.737 * mu_b2 + 6041.0474 * mu_b3 + 4303.764 * mu_b4 + 1768.4509 * mu_b5 + 525.60596 * mu_b6 + 116.70567 * mu_b7 + 14.690065 * mu_b8 + 1.366438 * mu_u9;
-    let p_3 = 220.70657 * mu_v9 + 3096.093 * mu_b1 + 11647.88 * mu_b2 + 18403.807 * mu_b3 + 14567.166 * mu_b4 + 6616.5645 * mu_b5 + 1979.1499 * mu_b6 + 428.56274 * mu_b7 + 55.5325 * mu_b8 + 4.223394 * mu_u9;
-    let p_4 = 375.13403 * mu_v9 + 5317.956 * mu_b1 + 21053.916 * mu_b2 + 35452.754 * mu_b3 + 30440.215 * mu_b4 + 14990.707 * mu_b5 + 4632.239 * mu_b6 + 974.4892 * mu_b7 + 124.3804 * mu_b8 + 8.2041855 * mu_u9;
-    let p_5 = 412.0463 * mu_v9 + 6050.506 * mu_b1 + 25277.713 * mu_b2 + 45051.516 * mu_b3 + 41334.324 * mu_b4 + 21757.844 * mu_b5 + 6997.254 * mu_b6 + 1447.5515 * mu_b7 + 178.42558 * mu_b8 + 10.571177 * mu_u9;
-    let p_6 = 295.45776 * mu_v9 + 4582.0293 * mu_b1 + 20243.895 * mu_b2 + 37972.2 * mu_b3 + 36786.31 * mu_b4 + 20409.887 * mu_b5 + 6794.6646 * mu_b6 + 1389.8291 * mu_b7 + 163.64014 * mu_b8 + 8.837206 * mu_u9;
-    let p_7 = 134.79784 * mu_v9 + 2239.5403 * mu_b1 + 10462.02 * mu_b2 + 20527.342 * mu_b3 + 20769.217 * mu_b4 + 11982.798 * mu_b5 + 4089.737 * mu_b6 + 828.325 * mu_b7 + 93.086105 * mu_b8 + 4.6295004 * mu_u9;
-    let p_8 = 35.770443 * mu_v9 + 642.7976 * mu_b1 + 3166.1594 * mu_b2 + 6453.76 * mu_b3 + 6750.006 * mu_b4 + 4000.107 * mu_b5 + 1385.3777 * mu_b6 + 277.63785 * mu_b7 + 29.927221 * mu_b8 + 1.3830942 * mu_u9;
-    let p_9 = 4.2511024 * mu_v9 + 82.75155 * mu_b1 + 427.3532 * mu_b2 + 898.54065 * mu_b3 + 962.9185 * mu_b4 + 580.4173 * mu_b5 + 202.39882 * mu_b6 + 40.170647 * mu_b7 + 4.2034893 * mu_b8 + 0.1832995 * mu_u9;
-    let p = p_0 * r_v9 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_u9;
+    let p_0 = 1.0000002 * mu_v10 + 31.140892 * mu_b1 + 200.37985 * mu_b2 + 395.5653 * mu_b3 + 322.57327 * mu_b4 + 106.21131 * mu_b5 + 54.325348 * mu_b6 + 10.139369 * mu_b7 + 2.5115964 * mu_b8 + 0.25918648 * mu_b9 + 0.034338754 * mu_u10;
+    let p_1 = 10.721368 * mu_v10 + 398.85156 * mu_b1 + 2534.6433 * mu_b2 + 5154.683 * mu_b3 + 4603.0693 * mu_b4 + 1858.0474 * mu_b5 + 777.5856 * mu_b6 + 172.97768 * mu_b7 + 37.043423 * mu_b8 + 3.8153534 * mu_b9 + 0.3959826 * mu_u10;
+    let p_2 = 60.560562 * mu_v10 + 2284.988 * mu_b1 + 14374.257 * mu_b2 + 29959.625 * mu_b3 + 28642.432 * mu_b4 + 13287.791 * mu_b5 + 5155.2944 * mu_b6 + 1228.6975 * mu_b7 + 240.58185 * mu_b8 + 26.314413 * mu_b9 + 2.1668448 * mu_u10;
+    let p_3 = 214.84479 * mu_v10 + 7644.476 * mu_b1 + 47793.105 * mu_b2 + 101572.14 * mu_b3 + 102065.99 * mu_b4 + 52131.11 * mu_b5 + 19883.553 * mu_b6 + 4934.171 * mu_b7 + 923.1138 * mu_b8 + 105.17155 * mu_b9 + 7.4598927 * mu_u10;
+    let p_4 = 478.95035 * mu_v10 + 16359.236 * mu_b1 + 102557.59 * mu_b2 + 221682.78 * mu_b3 + 231307.83 * mu_b4 + 126835.0 * mu_b5 + 48961.73 * mu_b6 + 12642.34 * mu_b7 + 2345.0405 * mu_b8 + 272.5605 * mu_b9 + 17.527655 * mu_u10;
+    let p_5 = 689.03955 * mu_v10 + 23396.402 * mu_b1 + 148394.98 * mu_b2 + 325953.88 * mu_b3 + 350605.38 * mu_b4 + 203507.72 * mu_b5 + 80775.086 * mu_b6 + 21817.95 * mu_b7 + 4120.881 * mu_b8 + 487.02588 * mu_b9 + 29.715559 * mu_u10;
+    let p_6 = 656.6801 * mu_v10 + 22775.016 * mu_b1 + 147169.97 * mu_b2 + 328637.94 * mu_b3 + 363327.88 * mu_b4 + 222018.19 * mu_b5 + 91761.89 * mu_b6 + 26150.018 * mu_b7 + 5122.413 * mu_b8 + 617.4895 * mu_b9 + 36.58251 * mu_u10;
+    let p_7 = 416.7938 * mu_v10 + 15028.489 * mu_b1 + 99428.52 * mu_b2 + 226191.92 * mu_b3 + 257425.63 * mu_b4 + 166016.67 * mu_b5 + 72512.54 * mu_b6 + 22063.182 * mu_b7 + 4548.8135 * mu_b8 + 563.77264 * mu_b9 + 32.753258 * mu_u10;
+    let p_8 = 172.69098 * mu_v10 + 6516.3154 * mu_b1 + 44234.484 * mu_b2 + 102902.76 * mu_b3 + 121242.08 * mu_b4 + 83173.35 * mu_b5 + 38923.996 * mu_b6 + 12733.567 * mu_b7 + 2774.9282 * mu_b8 + 354.64346 * mu_b9 + 20.326515 * mu_u10;
+    let p_9 = 44.47508 * mu_v10 + 1713.0281 * mu_b1 + 11879.237 * mu_b2 + 28378.232 * mu_b3 + 34881.543 * mu_b4 + 25654.814 * mu_b5 + 12937.967 * mu_b6 + 4528.5537 * mu_b7 + 1034.5118 * mu_b8 + 135.77023 * mu_b9 + 7.7476306 * mu_u10;
+    let p_10 = 5.901002 * mu_v10 + 213.63544 * mu_b1 + 1489.6942 * mu_b2 + 3661.1895 * mu_b3 + 4719.5796 * mu_b4 + 3724.747 * mu_b5 + 2010.2483 * mu_b6 + 741.07916 * mu_b7 + 174.7665 * mu_b8 + 23.372635 * mu_b9 + 1.342863 * mu_u10;
+    let p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v9 + 22.889603 * mu_b1 + 77.14942 * mu_b2 + 97.42618 * mu_b3 + 54.549004 * mu_b4 + 19.30404 * mu_b5 + 6.438963 * mu_b6 + 1.0091668 * mu_b7 + 0.14030638 * mu_b8 + 0.022048306 * mu_u9;
-    let q_1 = 15.613765 * mu_v9 + 247.4422 * mu_b1 + 850.6224 * mu_b2 + 1180.6901 * mu_b3 + 780.15204 * mu_b4 + 309.71786 * mu_b5 + 95.86288 * mu_b6 + 18.696474 * mu_b7 + 2.211955 * mu_b8 + 0.27638674 * mu_u9;
-    let q_2 = 79.98151 * mu_v9 + 1150.0868 * mu_b1 + 4145.7183 * mu_b2 + 6300.5405 * mu_b3 + 4737.479 * mu_b4 + 2075.519 * mu_b5 + 632.187 * mu_b6 + 132.77803 * mu_b7 + 15.506677 * mu_b8 + 1.3884339 * mu_u9;
-    let q_3 = 220.71426 * mu_v9 + 3096.3337 * mu_b1 + 11787.747 * mu_b2 + 19446.877 * mu_b3 + 16245.737 * mu_b4 + 7775.2544 * mu_b5 + 2404.5347 * mu_b6 + 513.98706 * mu_b7 + 62.847054 * mu_b8 + 4.488617 * mu_u9;
-    let q_4 = 375.10873 * mu_v9 + 5319.256 * mu_b1 + 21447.729 * mu_b2 + 38143.8 * mu_b3 + 34889.07 * mu_b4 + 18140.166 * mu_b5 + 5807.616 * mu_b6 + 1233.4739 * mu_b7 + 153.66302 * mu_b8 + 9.53024 * mu_u9;
-    let q_5 = 412.08377 * mu_v9 + 6054.5483 * mu_b1 + 25918.514 * mu_b2 + 49474.082 * mu_b3 + 49122.777 * mu_b4 + 27664.105 * mu_b5 + 9306.767 * mu_b6 + 1971.3221 * mu_b7 + 245.0474 * mu_b8 + 14.170724 * mu_u9;
-    let q_6 = 295.43365 * mu_v9 + 4585.641 * mu_b1 + 20867.799 * mu_b2 + 42583.79 * mu_b3 + 45569.105 * mu_b4 + 27662.78 * mu_b5 + 9844.505 * mu_b6 + 2102.6626 * mu_b7 + 256.96155 * mu_b8 + 14.294486 * mu_u9;
-    let q_7 = 134.80399 * mu_v9 + 2241.6917 * mu_b1 + 10832.278 * mu_b2 + 23521.375 * mu_b3 + 26943.59 * mu_b4 + 17535.209 * mu_b5 + 6621.33 * mu_b6 + 1448.1887 * mu_b7 + 174.43051 * mu_b8 + 9.409167 * mu_u9;
-    let q_8 = 35.76994 * mu_v9 + 643.4122 * mu_b1 + 3290.1008 * mu_b2 + 7559.8364 * mu_b3 + 9205.353 * mu_b4 + 6381.9185 * mu_b5 + 2553.8389 * mu_b6 + 577.6236 * mu_b7 + 68.90225 * mu_b8 + 3.533979 * mu_u9;
-    let q_9 = 4.2511096 * mu_v9 + 82.82735 * mu_b1 + 445.56332 * mu_b2 + 1076.9078 * mu_b3 + 1385.1095 * mu_b4 + 1017.2047 * mu_b5 + 430.62857 * mu_b6 + 101.58307 * mu_b7 + 12.194473 * mu_b8 + 0.59735477 * mu_u9;
-    let q = q_0 * r_v9 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_u9;
+    let q_0 = 1.0 * mu_v10 + 31.141222 * mu_b1 + 200.58011 * mu_b2 + 401.84396 * mu_b3 + 351.72678 * mu_b4 + 132.46219 * mu_b5 + 63.687847 * mu_b6 + 10.958802 * mu_b7 + 2.5799022 * mu_b8 + 0.2591876 * mu_b9 + 0.034338754 * mu_u10;
+    let q_1 = 10.721373 * mu_v10 + 398.84183 * mu_b1 + 2536.8398 * mu_b2 + 5227.9487 * mu_b3 + 4943.361 * mu_b4 + 2190.466 * mu_b5 + 918.4725 * mu_b6 + 198.07301 * mu_b7 + 38.859135 * mu_b8 + 3.8837545 * mu_b9 + 0.39598364 * mu_u10;
+    let q_2 = 60.5607 * mu_v10 + 2285.0876 * mu_b1 + 14393.997 * mu_b2 + 30533.752 * mu_b3 + 30787.623 * mu_b4 + 15342.408 * mu_b5 + 6063.3584 * mu_b6 + 1452.6346 * mu_b7 + 266.18576 * mu_b8 + 27.58154 * mu_b9 + 2.2010586 * mu_u10;
+    let q_3 = 214.84265 * mu_v10 + 7644.4077 * mu_b1 + 47911.613 * mu_b2 + 104526.19 * mu_b3 + 111146.83 * mu_b4 + 60470.45 * mu_b5 + 23523.678 * mu_b6 + 5976.404 * mu_b7 + 1082.4845 * mu_b8 + 116.60733 * mu_b9 + 7.8393297 * mu_u10;
+    let q_4 = 478.95987 * mu_v10 + 16359.739 * mu_b1 + 103015.15 * mu_b2 + 231315.14 * mu_b3 + 257784.92 * mu_b4 + 150814.63 * mu_b5 + 59429.21 * mu_b6 + 15808.669 * mu_b7 + 2912.599 * mu_b8 + 324.14102 * mu_b9 + 19.633522 * mu_u10;
+    let q_5 = 689.02106 * mu_v10 + 23397.855 * mu_b1 + 149434.23 * mu_b2 + 345879.97 * mu_b3 + 402818.88 * mu_b4 + 251606.97 * mu_b5 + 102491.3 * mu_b6 + 28593.014 * mu_b7 + 5459.052 * mu_b8 + 629.08185 * mu_b9 + 36.21492 * mu_u10;
+    let q_6 = 656.6958 * mu_v10 + 22776.924 * mu_b1 + 148591.86 * mu_b2 + 355172.88 * mu_b3 + 432127.22 * mu_b4 + 287710.38 * mu_b5 + 123218.41 * mu_b6 + 36398.086 * mu_b7 + 7310.503 * mu_b8 + 878.1087 * mu_b9 + 49.856606 * mu_u10;
+    let q_7 = 416.78732 * mu_v10 + 15029.812 * mu_b1 + 100622.586 * mu_b2 + 248984.42 * mu_b3 + 317198.72 * mu_b4 + 225892.27 * mu_b5 + 103455.38 * mu_b6 + 32830.63 * mu_b7 + 7033.764 * mu_b8 + 887.742 * mu_b9 + 50.886703 * mu_u10;
+    let q_8 = 172.69188 * mu_v10 + 6517.1567 * mu_b1 + 44852.016 * mu_b2 + 115258.79 * mu_b3 + 154511.88 * mu_b4 + 118596.98 * mu_b5 + 59083.86 * mu_b6 + 20448.115 * mu_b7 + 4729.103 * mu_b8 + 633.35693 * mu_b9 + 37.31478 * mu_u10;
+    let q_9 = 44.47503 * mu_v10 + 1713.1902 * mu_b1 + 12069.857 * mu_b2 + 32311.18 * mu_b3 + 45882.582 * mu_b4 + 38319.066 * mu_b5 + 21059.943 * mu_b6 + 8034.531 * mu_b7 + 2024.0939 * mu_b8 + 291.66437 * mu_b9 + 18.117805 * mu_u10;
+    let q_10 = 5.9009957 * mu_v10 + 213.67622 * mu_b1 + 1519.8156 * mu_b2 + 4242.7295 * mu_b3 + 6418.9556 * mu_b4 + 5872.7393 * mu_b5 + 3582.231 * mu_b6 + 1509.6046 * mu_b7 + 415.56375 * mu_b8 + 65.15003 * mu_b9 + 4.376247 * mu_u10;
+    let q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     let e = p / q;
     return max(min(e, 1.0), 0.0);
 }

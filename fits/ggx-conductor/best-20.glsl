@@ -15,37 +15,35 @@
 // Model: GGX white conductor (F = 1), E(r, mu); height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 4d24d543148d8f27d8c1cdbf367ac4ad31a2207fa39817a824129a9340b1f69e.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 2*r*r) + 2^-100)/(mu + 2*r*r + 2^-100).
+// Fit: rational over [x0^2 x x1^3]/[x0^2 x x1^2], 20 coefficients (numerator 12, denominator 8 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 ee94b6b83c9eb1aa2c6476740c9c225551abc1f9a7459812f8e6f55caa278782.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.6e-7, shifted 8.9e-7, bernstein 4.2e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.79e-3, max 8.83e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 6.80e-7 (every op rounded, as this Rust), 6.68e-7 (fused multiply-add), 7.12e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.66e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 153 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 2.66e-3, max 8.83e-3; this f32 code MAE 2.66e-3, max 8.83e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.7e-3 on the measurement grid.
-// Denominator proved >= 2.464e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 7.6e-7, shifted 3.4e-7, bernstein 3.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 9.51e-4, max 8.37e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 8.88e-7 (every op rounded, as this Rust), 6.06e-7 (fused multiply-add), 6.73e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.10e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 431 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 9.48e-4, max 8.37e-3; this f32 code MAE 9.48e-4, max 8.37e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.0e-4 on the measurement grid.
+// Denominator proved >= 3.854e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_conductor_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
+    // t = (mu*(1 + 2*r*r) + 2^-100)/(mu + 2*r*r + 2^-100)
+    highp float mu_t = (mu_c * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 2.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = ((1.5618376 * mu_t - 0.44254526) * mu_t - 1.566438) * mu_t + 1.0034989;
-    highp float p_1 = (-3.0257056 * mu_t + 0.8443719) * mu_t + 3.6163802;
-    highp float p_2 = 1.8245107 * mu_t - 4.296869;
-    highp float p_3 = 1.1007639;
-    highp float p = ((p_3 * r_t + p_2) * r_t + p_1) * r_t + p_0;
+    highp float p_0 = ((-0.434174 * mu_t + 3.3324888) * mu_t - 2.7235227) * mu_t + 0.99871784;
+    highp float p_1 = ((2.51437 * mu_t - 12.228163) * mu_t + 10.774123) * mu_t - 1.8200889;
+    highp float p_2 = ((-1.7237242 * mu_t + 7.8325047) * mu_t - 7.132379) * mu_t + 1.3449978;
+    highp float p = (p_2 * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = ((1.8412777 * mu_t - 1.0198245) * mu_t - 1.264867) * mu_t + 1.0;
-    highp float q_1 = (-4.374638 * mu_t + 2.1377883) * mu_t + 3.5548658;
-    highp float q_2 = 3.313713 * mu_t - 4.0593805;
-    highp float q_3 = 0.9271284;
-    highp float q = ((q_3 * r_t + q_2) * r_t + q_1) * r_t + q_0;
+    highp float q_0 = (2.5177193 * mu_t - 2.3431895) * mu_t + 1.0;
+    highp float q_1 = (-9.112129 * mu_t + 10.104817) * mu_t - 1.8189145;
+    highp float q_2 = (6.247479 * mu_t - 5.5715523) * mu_t + 1.3457861;
+    highp float q = (q_2 * r_t + q_1) * r_t + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

@@ -14,37 +14,35 @@
 // Model: GGX white conductor (F = 1), E(r, mu); height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 4d24d543148d8f27d8c1cdbf367ac4ad31a2207fa39817a824129a9340b1f69e.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 2*r*r) + 2^-100)/(mu + 2*r*r + 2^-100).
+// Fit: rational over [x0^2 x x1^3]/[x0^2 x x1^2], 20 coefficients (numerator 12, denominator 8 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 ee94b6b83c9eb1aa2c6476740c9c225551abc1f9a7459812f8e6f55caa278782.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.6e-7, shifted 8.9e-7, bernstein 4.2e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.79e-3, max 8.83e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 6.80e-7 (every op rounded, as this Rust), 6.68e-7 (fused multiply-add), 7.12e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.66e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 153 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 2.66e-3, max 8.83e-3; this f32 code MAE 2.66e-3, max 8.83e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.7e-3 on the measurement grid.
-// Denominator proved >= 2.464e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 7.6e-7, shifted 3.4e-7, bernstein 3.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 9.51e-4, max 8.37e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 8.88e-7 (every op rounded, as this Rust), 6.06e-7 (fused multiply-add), 6.73e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.10e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 431 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 9.48e-4, max 8.37e-3; this f32 code MAE 9.48e-4, max 8.37e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.0e-4 on the measurement grid.
+// Denominator proved >= 3.854e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
+    // t = (mu*(1 + 2*r*r) + 2^-100)/(mu + 2*r*r + 2^-100)
+    float mu_t = (mu_c * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 2.0f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((1.5618376f * mu_t - 0.44254526f) * mu_t - 1.566438f) * mu_t + 1.0034989f;
-    float p_1 = (-3.0257056f * mu_t + 0.8443719f) * mu_t + 3.6163802f;
-    float p_2 = 1.8245107f * mu_t - 4.296869f;
-    float p_3 = 1.1007639f;
-    float p = ((p_3 * r_t + p_2) * r_t + p_1) * r_t + p_0;
+    float p_0 = ((-0.434174f * mu_t + 3.3324888f) * mu_t - 2.7235227f) * mu_t + 0.99871784f;
+    float p_1 = ((2.51437f * mu_t - 12.228163f) * mu_t + 10.774123f) * mu_t - 1.8200889f;
+    float p_2 = ((-1.7237242f * mu_t + 7.8325047f) * mu_t - 7.132379f) * mu_t + 1.3449978f;
+    float p = (p_2 * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = ((1.8412777f * mu_t - 1.0198245f) * mu_t - 1.264867f) * mu_t + 1.0f;
-    float q_1 = (-4.374638f * mu_t + 2.1377883f) * mu_t + 3.5548658f;
-    float q_2 = 3.313713f * mu_t - 4.0593805f;
-    float q_3 = 0.9271284f;
-    float q = ((q_3 * r_t + q_2) * r_t + q_1) * r_t + q_0;
+    float q_0 = (2.5177193f * mu_t - 2.3431895f) * mu_t + 1.0f;
+    float q_1 = (-9.112129f * mu_t + 10.104817f) * mu_t - 1.8189145f;
+    float q_2 = (6.247479f * mu_t - 5.5715523f) * mu_t + 1.3457861f;
+    float q = (q_2 * r_t + q_1) * r_t + q_0;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);
 }

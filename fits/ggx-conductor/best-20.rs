@@ -11,17 +11,17 @@
 /// Model: GGX white conductor (F = 1), E(r, mu); height-correlated Smith G2.
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 4d24d543148d8f27d8c1cdbf367ac4ad31a2207fa39817a824129a9340b1f69e.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 2*r*r) + 2^-100)/(mu + 2*r*r + 2^-100).
+/// Fit: rational over [x0^2 x x1^3]/[x0^2 x x1^2], 20 coefficients (numerator 12, denominator 8 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 73728 points; best pole-certified start refined on all points.
+/// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 ee94b6b83c9eb1aa2c6476740c9c225551abc1f9a7459812f8e6f55caa278782.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.6e-7, shifted 8.9e-7, bernstein 4.2e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 2.79e-3, max 8.83e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 6.80e-7 (every op rounded, as this Rust), 6.68e-7 (fused multiply-add), 7.12e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 2.66e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 153 boxes).
-/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 2.66e-3, max 8.83e-3; this f32 code MAE 2.66e-3, max 8.83e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.7e-3 on the measurement grid.
-/// Denominator proved >= 2.464e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 7.6e-7, shifted 3.4e-7, bernstein 3.7e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 9.51e-4, max 8.37e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 8.88e-7 (every op rounded, as this Rust), 6.06e-7 (fused multiply-add), 6.73e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.10e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 431 boxes).
+/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 9.48e-4, max 8.37e-3; this f32 code MAE 9.48e-4, max 8.37e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.0e-4 on the measurement grid.
+/// Denominator proved >= 3.854e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -31,20 +31,18 @@ pub fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // t = (mu*(1 + 2*r*r) + 2^-100)/(mu + 2*r*r + 2^-100)
+    let mu_t = (mu_c * (1.0_f32 + 2.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 2.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((1.5618376_f32 * mu_t - 0.44254526_f32) * mu_t - 1.566438_f32) * mu_t + 1.0034989_f32;
-    let p_1 = (-3.0257056_f32 * mu_t + 0.8443719_f32) * mu_t + 3.6163802_f32;
-    let p_2 = 1.8245107_f32 * mu_t - 4.296869_f32;
-    let p_3 = 1.1007639_f32;
-    let p = ((p_3 * r_t + p_2) * r_t + p_1) * r_t + p_0;
+    let p_0 = ((-0.434174_f32 * mu_t + 3.3324888_f32) * mu_t - 2.7235227_f32) * mu_t + 0.99871784_f32;
+    let p_1 = ((2.51437_f32 * mu_t - 12.228163_f32) * mu_t + 10.774123_f32) * mu_t - 1.8200889_f32;
+    let p_2 = ((-1.7237242_f32 * mu_t + 7.8325047_f32) * mu_t - 7.132379_f32) * mu_t + 1.3449978_f32;
+    let p = (p_2 * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((1.8412777_f32 * mu_t - 1.0198245_f32) * mu_t - 1.264867_f32) * mu_t + 1.0_f32;
-    let q_1 = (-4.374638_f32 * mu_t + 2.1377883_f32) * mu_t + 3.5548658_f32;
-    let q_2 = 3.313713_f32 * mu_t - 4.0593805_f32;
-    let q_3 = 0.9271284_f32;
-    let q = ((q_3 * r_t + q_2) * r_t + q_1) * r_t + q_0;
+    let q_0 = (2.5177193_f32 * mu_t - 2.3431895_f32) * mu_t + 1.0_f32;
+    let q_1 = (-9.112129_f32 * mu_t + 10.104817_f32) * mu_t - 1.8189145_f32;
+    let q_2 = (6.247479_f32 * mu_t - 5.5715523_f32) * mu_t + 1.3457861_f32;
+    let q = (q_2 * r_t + q_1) * r_t + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

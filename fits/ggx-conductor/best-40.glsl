@@ -16,16 +16,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 1158a18b02f8c02fe412f19f9dbd8a138e10e30fddd0b8504d9e77ded04434a2.
+// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 2478a3b6bb7119896ecf4a78932635a0e98586850b4d549cab2b596cebf26e60.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.2e-5, shifted 3.2e-6, bernstein 5.1e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.84e-4, max 8.70e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.63e-7 (every op rounded, as this Rust), 4.09e-7 (fused multiply-add), 5.63e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.86e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 6235 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.84e-4, max 8.70e-4; this f32 code MAE 1.84e-4, max 8.70e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.7e-4 on the measurement grid.
-// Denominator proved >= 4.517e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.3e-5, shifted 3.9e-6, bernstein 5.1e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.01e-4, max 6.17e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.92e-7 (every op rounded, as this Rust), 3.37e-7 (fused multiply-add), 5.53e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 9.63e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 6595 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 2.01e-4, max 6.17e-4; this f32 code MAE 2.01e-4, max 6.17e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.6e-4 on the measurement grid.
+// Denominator proved >= 4.614e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_conductor_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
@@ -59,18 +59,18 @@ highp float ggx_conductor_albedo(highp float r, highp float mu) {
     highp float mu_b2 = mu_u2 * mu_v2;
     highp float mu_b3 = mu_u3 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 1.0003308 * mu_v4 + 1.7076974 * mu_b1 + 0.43453628 * mu_b2 - 0.010492953 * mu_b3 + 0.06061951 * mu_u4;
-    highp float p_1 = 7.296229 * mu_v4 + 11.733884 * mu_b1 + 4.109225 * mu_b2 + 1.3113469 * mu_b3 + 0.15879683 * mu_u4;
-    highp float p_2 = 10.048566 * mu_v4 + 25.277494 * mu_b1 + 17.599316 * mu_b2 + 2.7045164 * mu_b3 + 0.21655425 * mu_u4;
-    highp float p_3 = 5.0738034 * mu_v4 + 25.838827 * mu_b1 + 13.857893 * mu_b2 + 1.7866013 * mu_b3 + 0.11639937 * mu_u4;
-    highp float p_4 = 1.4040705 * mu_v4 + 8.546186 * mu_b1 + 3.4263234 * mu_b2 + 0.45306325 * mu_b3 + 0.022417556 * mu_u4;
+    highp float p_0 = 1.0001837 * mu_v4 + 1.7274417 * mu_b1 + 0.44595733 * mu_b2 - 0.0037075896 * mu_b3 + 0.060975723 * mu_u4;
+    highp float p_1 = 6.339172 * mu_v4 + 10.632754 * mu_b1 + 4.100181 * mu_b2 + 1.1466777 * mu_b3 + 0.15485911 * mu_u4;
+    highp float p_2 = 8.763397 * mu_v4 + 22.860092 * mu_b1 + 15.884985 * mu_b2 + 2.5367243 * mu_b3 + 0.19969314 * mu_u4;
+    highp float p_3 = 4.546386 * mu_v4 + 22.777508 * mu_b1 + 12.171347 * mu_b2 + 1.5949744 * mu_b3 + 0.10092493 * mu_u4;
+    highp float p_4 = 1.1868364 * mu_v4 + 7.2677426 * mu_b1 + 2.9464905 * mu_b2 + 0.38894823 * mu_b3 + 0.017682103 * mu_u4;
     highp float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v4 + 1.7130975 * mu_b1 + 0.63867474 * mu_b2 - 0.013786637 * mu_b3 + 0.060636114 * mu_u4;
-    highp float q_1 = 7.3110833 * mu_v4 + 11.485801 * mu_b1 + 5.498573 * mu_b2 + 1.4816853 * mu_b3 + 0.15782967 * mu_u4;
-    highp float q_2 = 10.001808 * mu_v4 + 26.940964 * mu_b1 + 20.075039 * mu_b2 + 3.4200108 * mu_b3 + 0.28412697 * mu_u4;
-    highp float q_3 = 5.0940013 * mu_v4 + 25.739742 * mu_b1 + 23.58589 * mu_b2 + 3.2002695 * mu_b3 + 0.2601207 * mu_u4;
-    highp float q_4 = 1.4032766 * mu_v4 + 8.571481 * mu_b1 + 8.370748 * mu_b2 + 1.2757306 * mu_b3 + 0.07318728 * mu_u4;
+    highp float q_0 = 1.0 * mu_v4 + 1.7266618 * mu_b1 + 0.6582656 * mu_b2 - 0.0074009397 * mu_b3 + 0.060995314 * mu_u4;
+    highp float q_1 = 6.351084 * mu_v4 + 10.458096 * mu_b1 + 5.289566 * mu_b2 + 1.3361945 * mu_b3 + 0.15363942 * mu_u4;
+    highp float q_2 = 8.725371 * mu_v4 + 24.192991 * mu_b1 + 18.34827 * mu_b2 + 3.1503055 * mu_b3 + 0.26965505 * mu_u4;
+    highp float q_3 = 4.5608215 * mu_v4 + 22.747303 * mu_b1 + 20.86673 * mu_b2 + 2.9149926 * mu_b3 + 0.23474346 * mu_u4;
+    highp float q_4 = 1.186535 * mu_v4 + 7.285746 * mu_b1 + 7.149761 * mu_b2 + 1.1082826 * mu_b3 + 0.057732496 * mu_u4;
     highp float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -15,16 +15,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 1158a18b02f8c02fe412f19f9dbd8a138e10e30fddd0b8504d9e77ded04434a2.
+// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 2478a3b6bb7119896ecf4a78932635a0e98586850b4d549cab2b596cebf26e60.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.2e-5, shifted 3.2e-6, bernstein 5.1e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.84e-4, max 8.70e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.63e-7 (every op rounded, as this Rust), 4.09e-7 (fused multiply-add), 5.63e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.86e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 6235 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.84e-4, max 8.70e-4; this f32 code MAE 1.84e-4, max 8.70e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.7e-4 on the measurement grid.
-// Denominator proved >= 4.517e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.3e-5, shifted 3.9e-6, bernstein 5.1e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.01e-4, max 6.17e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.92e-7 (every op rounded, as this Rust), 3.37e-7 (fused multiply-add), 5.53e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 9.63e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 6595 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 2.01e-4, max 6.17e-4; this f32 code MAE 2.01e-4, max 6.17e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.6e-4 on the measurement grid.
+// Denominator proved >= 4.614e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -58,18 +58,18 @@ float ggx_conductor_albedo(float r, float mu) {
     float mu_b2 = mu_u2 * mu_v2;
     float mu_b3 = mu_u3 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 1.0003308f * mu_v4 + 1.7076974f * mu_b1 + 0.43453628f * mu_b2 - 0.010492953f * mu_b3 + 0.06061951f * mu_u4;
-    float p_1 = 7.296229f * mu_v4 + 11.733884f * mu_b1 + 4.109225f * mu_b2 + 1.3113469f * mu_b3 + 0.15879683f * mu_u4;
-    float p_2 = 10.048566f * mu_v4 + 25.277494f * mu_b1 + 17.599316f * mu_b2 + 2.7045164f * mu_b3 + 0.21655425f * mu_u4;
-    float p_3 = 5.0738034f * mu_v4 + 25.838827f * mu_b1 + 13.857893f * mu_b2 + 1.7866013f * mu_b3 + 0.11639937f * mu_u4;
-    float p_4 = 1.4040705f * mu_v4 + 8.546186f * mu_b1 + 3.4263234f * mu_b2 + 0.45306325f * mu_b3 + 0.022417556f * mu_u4;
+    float p_0 = 1.0001837f * mu_v4 + 1.7274417f * mu_b1 + 0.44595733f * mu_b2 - 0.0037075896f * mu_b3 + 0.060975723f * mu_u4;
+    float p_1 = 6.339172f * mu_v4 + 10.632754f * mu_b1 + 4.100181f * mu_b2 + 1.1466777f * mu_b3 + 0.15485911f * mu_u4;
+    float p_2 = 8.763397f * mu_v4 + 22.860092f * mu_b1 + 15.884985f * mu_b2 + 2.5367243f * mu_b3 + 0.19969314f * mu_u4;
+    float p_3 = 4.546386f * mu_v4 + 22.777508f * mu_b1 + 12.171347f * mu_b2 + 1.5949744f * mu_b3 + 0.10092493f * mu_u4;
+    float p_4 = 1.1868364f * mu_v4 + 7.2677426f * mu_b1 + 2.9464905f * mu_b2 + 0.38894823f * mu_b3 + 0.017682103f * mu_u4;
     float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v4 + 1.7130975f * mu_b1 + 0.63867474f * mu_b2 - 0.013786637f * mu_b3 + 0.060636114f * mu_u4;
-    float q_1 = 7.3110833f * mu_v4 + 11.485801f * mu_b1 + 5.498573f * mu_b2 + 1.4816853f * mu_b3 + 0.15782967f * mu_u4;
-    float q_2 = 10.001808f * mu_v4 + 26.940964f * mu_b1 + 20.075039f * mu_b2 + 3.4200108f * mu_b3 + 0.28412697f * mu_u4;
-    float q_3 = 5.0940013f * mu_v4 + 25.739742f * mu_b1 + 23.58589f * mu_b2 + 3.2002695f * mu_b3 + 0.2601207f * mu_u4;
-    float q_4 = 1.4032766f * mu_v4 + 8.571481f * mu_b1 + 8.370748f * mu_b2 + 1.2757306f * mu_b3 + 0.07318728f * mu_u4;
+    float q_0 = 1.0f * mu_v4 + 1.7266618f * mu_b1 + 0.6582656f * mu_b2 - 0.0074009397f * mu_b3 + 0.060995314f * mu_u4;
+    float q_1 = 6.351084f * mu_v4 + 10.458096f * mu_b1 + 5.289566f * mu_b2 + 1.3361945f * mu_b3 + 0.15363942f * mu_u4;
+    float q_2 = 8.725371f * mu_v4 + 24.192991f * mu_b1 + 18.34827f * mu_b2 + 3.1503055f * mu_b3 + 0.26965505f * mu_u4;
+    float q_3 = 4.5608215f * mu_v4 + 22.747303f * mu_b1 + 20.86673f * mu_b2 + 2.9149926f * mu_b3 + 0.23474346f * mu_u4;
+    float q_4 = 1.186535f * mu_v4 + 7.285746f * mu_b1 + 7.149761f * mu_b2 + 1.1082826f * mu_b3 + 0.057732496f * mu_u4;
     float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

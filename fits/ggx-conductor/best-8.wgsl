@@ -12,16 +12,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100).
-// Fit: rational of degree 1/2, 8 coefficients (numerator 3, denominator 5 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-8.json (furnace 0.1.0), fit SHA-256 a9030ca4b437bcaecc3280499aa839071b504ce32a8d6cebe42d317939c233b6.
+// Fit: rational of degree 1/2, 8 coefficients (numerator 3, denominator 5 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-conductor/best-8.json (furnace 0.1.0), fit SHA-256 bf6e06ac735caaabb574d2ceb4e8880734fab68545d1f0541264a110cc25a8d3.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.7e-7, shifted 3.8e-7, bernstein 3.8e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.39e-2, max 3.54e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.83e-7 (every op rounded, as this Rust), 3.06e-7 (fused multiply-add), 4.79e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.97e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 41 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.09e-2, max 3.54e-2; this f32 code MAE 1.09e-2, max 3.54e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-2 on the measurement grid.
-// Denominator proved >= 4.853e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.5e-7, shifted 3.6e-7, bernstein 4.0e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.39e-2, max 3.44e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.32e-7 (every op rounded, as this Rust), 2.90e-7 (fused multiply-add), 4.41e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.97e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 39 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.09e-2, max 3.44e-2; this f32 code MAE 1.09e-2, max 3.44e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-2 on the measurement grid.
+// Denominator proved >= 4.854e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -31,13 +31,13 @@ fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100)
     let mu_t = (mu_c * (1.0 + 0.5 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 0.5 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    let p_0 = -0.4571273 * mu_t + 0.99091905;
-    let p_1 = -0.38909793;
+    let p_0 = -0.45803586 * mu_t + 0.9947295;
+    let p_1 = -0.39463148;
     let p = p_1 * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (-0.2980079 * mu_t - 0.18182957) * mu_t + 1.0;
-    let q_1 = 0.38421372 * mu_t - 0.5312964;
-    let q_2 = 0.15519948;
+    let q_0 = (-0.3031055 * mu_t - 0.17393985) * mu_t + 1.0;
+    let q_1 = 0.37455118 * mu_t - 0.52060616;
+    let q_2 = 0.142103;
     let q = (q_2 * r_t + q_1) * r_t + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

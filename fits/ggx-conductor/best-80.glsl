@@ -16,16 +16,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 e70c5631788324d1bc9569804fbe7c85efcaa87ac7a64d4e764576c6c4d8d600.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 329e62a8d6f62eb1f03622cc126f3a285f5a5f47ded0ab368776ed05afd0d366.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.2e-4, shifted 9.3e-6, bernstein 5.4e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 4.61e-6, max 1.22e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.11e-7 (every op rounded, as this Rust), 5.17e-7 (fused multiply-add), 5.87e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.51e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 22061 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.42e-6, max 1.22e-4; this f32 code MAE 4.42e-6, max 1.22e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.4e-6 on the measurement grid.
-// Denominator proved >= 1.275e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.7e-4, shifted 9.7e-6, bernstein 5.6e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 3.98e-6, max 1.04e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.82e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 7.26e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 25385 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 3.79e-6, max 6.80e-5; this f32 code MAE 3.80e-6, max 6.79e-5.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-4 on the measurement grid.
+// Denominator proved >= 3.031e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_conductor_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
@@ -77,24 +77,24 @@ highp float ggx_conductor_albedo(highp float r, highp float mu) {
     highp float mu_b5 = mu_u5 * mu_v2;
     highp float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 1.0000052 * mu_v7 + 8.303524 * mu_b1 + 13.136929 * mu_b2 + 7.13703 * mu_b3 + 1.1161606 * mu_b4 + 1.202504 * mu_b5 - 0.01072523 * mu_b6 + 0.037206568 * mu_u7;
-    highp float p_1 = 9.353571 * mu_v7 + 69.88025 * mu_b1 + 114.369675 * mu_b2 + 72.43917 * mu_b3 + 16.985004 * mu_b4 + 9.045678 * mu_b5 + 0.7739752 * mu_b6 + 0.18239753 * mu_u7;
-    highp float p_2 = 34.087597 * mu_v7 + 250.08414 * mu_b1 + 428.89975 * mu_b2 + 306.86676 * mu_b3 + 91.76341 * mu_b4 + 31.62835 * mu_b5 + 4.1519246 * mu_b6 + 0.51925325 * mu_u7;
-    highp float p_3 = 66.29062 * mu_v7 + 495.12497 * mu_b1 + 885.36237 * mu_b2 + 686.0882 * mu_b3 + 234.22339 * mu_b4 + 62.78494 * mu_b5 + 8.62699 * mu_b6 + 0.8316569 * mu_u7;
-    highp float p_4 = 76.73808 * mu_v7 + 589.3134 * mu_b1 + 1086.4559 * mu_b2 + 881.47015 * mu_b3 + 323.2092 * mu_b4 + 74.759 * mu_b5 + 9.604854 * mu_b6 + 0.7918294 * mu_u7;
-    highp float p_5 = 53.64802 * mu_v7 + 422.30627 * mu_b1 + 792.7654 * mu_b2 + 655.67017 * mu_b3 + 247.3796 * mu_b4 + 51.395477 * mu_b5 + 5.8040833 * mu_b6 + 0.42099503 * mu_u7;
-    highp float p_6 = 20.924168 * mu_v7 + 167.95836 * mu_b1 + 317.74707 * mu_b2 + 262.62003 * mu_b3 + 98.673096 * mu_b4 + 18.412941 * mu_b5 + 1.6835375 * mu_b6 + 0.10182974 * mu_u7;
-    highp float p_7 = 3.4464877 * mu_v7 + 28.269842 * mu_b1 + 53.50791 * mu_b2 + 43.505962 * mu_b3 + 15.783378 * mu_b4 + 2.542399 * mu_b5 + 0.14644183 * mu_b6 + 0.0039122845 * mu_u7;
+    highp float p_0 = 1.0000249 * mu_v7 + 8.584355 * mu_b1 + 14.327413 * mu_b2 + 8.957999 * mu_b3 + 1.2014184 * mu_b4 + 1.5582666 * mu_b5 - 0.024674686 * mu_b6 + 0.050718255 * mu_u7;
+    highp float p_1 = 10.237555 * mu_v7 + 78.11286 * mu_b1 + 135.20352 * mu_b2 + 96.54829 * mu_b3 + 21.561197 * mu_b4 + 11.920637 * mu_b5 + 1.2620945 * mu_b6 + 0.21268862 * mu_u7;
+    highp float p_2 = 39.019207 * mu_v7 + 295.29602 * mu_b1 + 537.7525 * mu_b2 + 427.5928 * mu_b3 + 126.19242 * mu_b4 + 40.725975 * mu_b5 + 5.6073465 * mu_b6 + 0.5469911 * mu_u7;
+    highp float p_3 = 78.1757 * mu_v7 + 608.0514 * mu_b1 + 1154.8354 * mu_b2 + 984.40155 * mu_b3 + 339.91287 * mu_b4 + 82.49757 * mu_b5 + 10.131708 * mu_b6 + 0.7557686 * mu_u7;
+    highp float p_4 = 92.942245 * mu_v7 + 746.59125 * mu_b1 + 1457.7762 * mu_b2 + 1291.3499 * mu_b3 + 489.34082 * mu_b4 + 105.1788 * mu_b5 + 11.070814 * mu_b6 + 0.6606835 * mu_u7;
+    highp float p_5 = 66.78839 * mu_v7 + 550.5698 * mu_b1 + 1091.2765 * mu_b2 + 981.5734 * mu_b3 + 391.37918 * mu_b4 + 80.11301 * mu_b5 + 7.5978456 * mu_b6 + 0.3759213 * mu_u7;
+    highp float p_6 = 26.67012 * mu_v7 + 225.15636 * mu_b1 + 449.95193 * mu_b2 + 405.3277 * mu_b3 + 165.6931 * mu_b4 + 33.236015 * mu_b5 + 3.003233 * mu_b6 + 0.12841876 * mu_u7;
+    highp float p_7 = 4.4063582 * mu_v7 + 38.72875 * mu_b1 + 77.99705 * mu_b2 + 69.8792 * mu_b3 + 28.74866 * mu_b4 + 5.6723313 * mu_b5 + 0.4998973 * mu_b6 + 0.018836977 * mu_u7;
     highp float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v7 + 8.310837 * mu_b1 + 13.340092 * mu_b2 + 8.365146 * mu_b3 + 1.6602745 * mu_b4 + 1.2680838 * mu_b5 - 0.010596603 * mu_b6 + 0.03720628 * mu_u7;
-    highp float q_1 = 9.353214 * mu_v7 + 69.81831 * mu_b1 + 116.26869 * mu_b2 + 81.38529 * mu_b3 + 21.331778 * mu_b4 + 10.345746 * mu_b5 + 0.8375954 * mu_b6 + 0.18245831 * mu_u7;
-    highp float q_2 = 34.091797 * mu_v7 + 250.11362 * mu_b1 + 443.486 * mu_b2 + 346.71436 * mu_b3 + 110.474915 * mu_b4 + 37.415363 * mu_b5 + 4.9236326 * mu_b6 + 0.55458146 * mu_u7;
-    highp float q_3 = 66.28238 * mu_v7 + 495.60803 * mu_b1 + 938.64594 * mu_b2 + 803.79816 * mu_b3 + 292.33398 * mu_b4 + 77.85444 * mu_b5 + 11.3132 * mu_b6 + 1.0174929 * mu_u7;
-    highp float q_4 = 76.74722 * mu_v7 + 590.44073 * mu_b1 + 1188.0542 * mu_b2 + 1095.6106 * mu_b3 + 441.7155 * mu_b4 + 103.4194 * mu_b5 + 14.469089 * mu_b6 + 1.2179272 * mu_u7;
-    highp float q_5 = 53.64112 * mu_v7 + 423.2977 * mu_b1 + 897.0501 * mu_b2 + 878.10144 * mu_b3 + 384.07532 * mu_b4 + 84.803116 * mu_b5 + 10.480851 * mu_b6 + 0.86671114 * mu_u7;
-    highp float q_6 = 20.92553 * mu_v7 + 168.5422 * mu_b1 + 373.35025 * mu_b2 + 384.15125 * mu_b3 + 179.76248 * mu_b4 + 38.958588 * mu_b5 + 3.9843256 * mu_b6 + 0.311072 * mu_u7;
-    highp float q_7 = 3.4464602 * mu_v7 + 28.393711 * mu_b1 + 65.39695 * mu_b2 + 70.10835 * mu_b3 + 34.42398 * mu_b4 + 7.1892643 * mu_b5 + 0.4451789 * mu_b6 + 0.012749571 * mu_u7;
+    highp float q_0 = 1.0 * mu_v7 + 8.584651 * mu_b1 + 14.5528555 * mu_b2 + 10.21731 * mu_b3 + 1.9136884 * mu_b4 + 1.649156 * mu_b5 - 0.024535362 * mu_b6 + 0.050717887 * mu_u7;
+    highp float q_1 = 10.238775 * mu_v7 + 78.07734 * mu_b1 + 137.31847 * mu_b2 + 106.52142 * mu_b3 + 28.01143 * mu_b4 + 13.525918 * mu_b5 + 1.3500063 * mu_b6 + 0.21277894 * mu_u7;
+    highp float q_2 = 39.013783 * mu_v7 + 295.28763 * mu_b1 + 553.46375 * mu_b2 + 474.40936 * mu_b3 + 154.78862 * mu_b4 + 47.820812 * mu_b5 + 6.590131 * mu_b6 + 0.5948616 * mu_u7;
+    highp float q_3 = 78.17908 * mu_v7 + 608.5782 * mu_b1 + 1215.8649 * mu_b2 + 1131.775 * mu_b3 + 429.1598 * mu_b4 + 102.197495 * mu_b5 + 13.229837 * mu_b6 + 0.97674155 * mu_u7;
+    highp float q_4 = 92.96019 * mu_v7 + 747.87463 * mu_b1 + 1580.131 * mu_b2 + 1572.2025 * mu_b3 + 670.46075 * mu_b4 + 145.83356 * mu_b5 + 16.333908 * mu_b6 + 1.0691504 * mu_u7;
+    highp float q_5 = 66.75805 * mu_v7 + 551.61523 * mu_b1 + 1221.6168 * mu_b2 + 1283.3547 * mu_b3 + 601.63367 * mu_b4 + 131.55225 * mu_b5 + 12.971274 * mu_b6 + 0.7139293 * mu_u7;
+    highp float q_6 = 26.676186 * mu_v7 + 225.86017 * mu_b1 + 521.8938 * mu_b2 + 575.63165 * mu_b3 + 293.5383 * mu_b4 + 68.32128 * mu_b5 + 6.604464 * mu_b6 + 0.318468 * mu_u7;
+    highp float q_7 = 4.4059014 * mu_v7 + 38.85781 * mu_b1 + 93.80583 * mu_b2 + 108.41707 * mu_b3 + 59.503983 * mu_b4 + 14.913608 * mu_b5 + 1.4743376 * mu_b6 + 0.061389197 * mu_u7;
     highp float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -15,16 +15,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 e70c5631788324d1bc9569804fbe7c85efcaa87ac7a64d4e764576c6c4d8d600.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 329e62a8d6f62eb1f03622cc126f3a285f5a5f47ded0ab368776ed05afd0d366.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.2e-4, shifted 9.3e-6, bernstein 5.4e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 4.61e-6, max 1.22e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.11e-7 (every op rounded, as this Rust), 5.17e-7 (fused multiply-add), 5.87e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.51e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 22061 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.42e-6, max 1.22e-4; this f32 code MAE 4.42e-6, max 1.22e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.4e-6 on the measurement grid.
-// Denominator proved >= 1.275e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.7e-4, shifted 9.7e-6, bernstein 5.6e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 3.98e-6, max 1.04e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.82e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 7.26e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 25385 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 3.79e-6, max 6.80e-5; this f32 code MAE 3.80e-6, max 6.79e-5.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-4 on the measurement grid.
+// Denominator proved >= 3.031e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -76,24 +76,24 @@ float ggx_conductor_albedo(float r, float mu) {
     float mu_b5 = mu_u5 * mu_v2;
     float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 1.0000052f * mu_v7 + 8.303524f * mu_b1 + 13.136929f * mu_b2 + 7.13703f * mu_b3 + 1.1161606f * mu_b4 + 1.202504f * mu_b5 - 0.01072523f * mu_b6 + 0.037206568f * mu_u7;
-    float p_1 = 9.353571f * mu_v7 + 69.88025f * mu_b1 + 114.369675f * mu_b2 + 72.43917f * mu_b3 + 16.985004f * mu_b4 + 9.045678f * mu_b5 + 0.7739752f * mu_b6 + 0.18239753f * mu_u7;
-    float p_2 = 34.087597f * mu_v7 + 250.08414f * mu_b1 + 428.89975f * mu_b2 + 306.86676f * mu_b3 + 91.76341f * mu_b4 + 31.62835f * mu_b5 + 4.1519246f * mu_b6 + 0.51925325f * mu_u7;
-    float p_3 = 66.29062f * mu_v7 + 495.12497f * mu_b1 + 885.36237f * mu_b2 + 686.0882f * mu_b3 + 234.22339f * mu_b4 + 62.78494f * mu_b5 + 8.62699f * mu_b6 + 0.8316569f * mu_u7;
-    float p_4 = 76.73808f * mu_v7 + 589.3134f * mu_b1 + 1086.4559f * mu_b2 + 881.47015f * mu_b3 + 323.2092f * mu_b4 + 74.759f * mu_b5 + 9.604854f * mu_b6 + 0.7918294f * mu_u7;
-    float p_5 = 53.64802f * mu_v7 + 422.30627f * mu_b1 + 792.7654f * mu_b2 + 655.67017f * mu_b3 + 247.3796f * mu_b4 + 51.395477f * mu_b5 + 5.8040833f * mu_b6 + 0.42099503f * mu_u7;
-    float p_6 = 20.924168f * mu_v7 + 167.95836f * mu_b1 + 317.74707f * mu_b2 + 262.62003f * mu_b3 + 98.673096f * mu_b4 + 18.412941f * mu_b5 + 1.6835375f * mu_b6 + 0.10182974f * mu_u7;
-    float p_7 = 3.4464877f * mu_v7 + 28.269842f * mu_b1 + 53.50791f * mu_b2 + 43.505962f * mu_b3 + 15.783378f * mu_b4 + 2.542399f * mu_b5 + 0.14644183f * mu_b6 + 0.0039122845f * mu_u7;
+    float p_0 = 1.0000249f * mu_v7 + 8.584355f * mu_b1 + 14.327413f * mu_b2 + 8.957999f * mu_b3 + 1.2014184f * mu_b4 + 1.5582666f * mu_b5 - 0.024674686f * mu_b6 + 0.050718255f * mu_u7;
+    float p_1 = 10.237555f * mu_v7 + 78.11286f * mu_b1 + 135.20352f * mu_b2 + 96.54829f * mu_b3 + 21.561197f * mu_b4 + 11.920637f * mu_b5 + 1.2620945f * mu_b6 + 0.21268862f * mu_u7;
+    float p_2 = 39.019207f * mu_v7 + 295.29602f * mu_b1 + 537.7525f * mu_b2 + 427.5928f * mu_b3 + 126.19242f * mu_b4 + 40.725975f * mu_b5 + 5.6073465f * mu_b6 + 0.5469911f * mu_u7;
+    float p_3 = 78.1757f * mu_v7 + 608.0514f * mu_b1 + 1154.8354f * mu_b2 + 984.40155f * mu_b3 + 339.91287f * mu_b4 + 82.49757f * mu_b5 + 10.131708f * mu_b6 + 0.7557686f * mu_u7;
+    float p_4 = 92.942245f * mu_v7 + 746.59125f * mu_b1 + 1457.7762f * mu_b2 + 1291.3499f * mu_b3 + 489.34082f * mu_b4 + 105.1788f * mu_b5 + 11.070814f * mu_b6 + 0.6606835f * mu_u7;
+    float p_5 = 66.78839f * mu_v7 + 550.5698f * mu_b1 + 1091.2765f * mu_b2 + 981.5734f * mu_b3 + 391.37918f * mu_b4 + 80.11301f * mu_b5 + 7.5978456f * mu_b6 + 0.3759213f * mu_u7;
+    float p_6 = 26.67012f * mu_v7 + 225.15636f * mu_b1 + 449.95193f * mu_b2 + 405.3277f * mu_b3 + 165.6931f * mu_b4 + 33.236015f * mu_b5 + 3.003233f * mu_b6 + 0.12841876f * mu_u7;
+    float p_7 = 4.4063582f * mu_v7 + 38.72875f * mu_b1 + 77.99705f * mu_b2 + 69.8792f * mu_b3 + 28.74866f * mu_b4 + 5.6723313f * mu_b5 + 0.4998973f * mu_b6 + 0.018836977f * mu_u7;
     float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v7 + 8.310837f * mu_b1 + 13.340092f * mu_b2 + 8.365146f * mu_b3 + 1.6602745f * mu_b4 + 1.2680838f * mu_b5 - 0.010596603f * mu_b6 + 0.03720628f * mu_u7;
-    float q_1 = 9.353214f * mu_v7 + 69.81831f * mu_b1 + 116.26869f * mu_b2 + 81.38529f * mu_b3 + 21.331778f * mu_b4 + 10.345746f * mu_b5 + 0.8375954f * mu_b6 + 0.18245831f * mu_u7;
-    float q_2 = 34.091797f * mu_v7 + 250.11362f * mu_b1 + 443.486f * mu_b2 + 346.71436f * mu_b3 + 110.474915f * mu_b4 + 37.415363f * mu_b5 + 4.9236326f * mu_b6 + 0.55458146f * mu_u7;
-    float q_3 = 66.28238f * mu_v7 + 495.60803f * mu_b1 + 938.64594f * mu_b2 + 803.79816f * mu_b3 + 292.33398f * mu_b4 + 77.85444f * mu_b5 + 11.3132f * mu_b6 + 1.0174929f * mu_u7;
-    float q_4 = 76.74722f * mu_v7 + 590.44073f * mu_b1 + 1188.0542f * mu_b2 + 1095.6106f * mu_b3 + 441.7155f * mu_b4 + 103.4194f * mu_b5 + 14.469089f * mu_b6 + 1.2179272f * mu_u7;
-    float q_5 = 53.64112f * mu_v7 + 423.2977f * mu_b1 + 897.0501f * mu_b2 + 878.10144f * mu_b3 + 384.07532f * mu_b4 + 84.803116f * mu_b5 + 10.480851f * mu_b6 + 0.86671114f * mu_u7;
-    float q_6 = 20.92553f * mu_v7 + 168.5422f * mu_b1 + 373.35025f * mu_b2 + 384.15125f * mu_b3 + 179.76248f * mu_b4 + 38.958588f * mu_b5 + 3.9843256f * mu_b6 + 0.311072f * mu_u7;
-    float q_7 = 3.4464602f * mu_v7 + 28.393711f * mu_b1 + 65.39695f * mu_b2 + 70.10835f * mu_b3 + 34.42398f * mu_b4 + 7.1892643f * mu_b5 + 0.4451789f * mu_b6 + 0.012749571f * mu_u7;
+    float q_0 = 1.0f * mu_v7 + 8.584651f * mu_b1 + 14.5528555f * mu_b2 + 10.21731f * mu_b3 + 1.9136884f * mu_b4 + 1.649156f * mu_b5 - 0.024535362f * mu_b6 + 0.050717887f * mu_u7;
+    float q_1 = 10.238775f * mu_v7 + 78.07734f * mu_b1 + 137.31847f * mu_b2 + 106.52142f * mu_b3 + 28.01143f * mu_b4 + 13.525918f * mu_b5 + 1.3500063f * mu_b6 + 0.21277894f * mu_u7;
+    float q_2 = 39.013783f * mu_v7 + 295.28763f * mu_b1 + 553.46375f * mu_b2 + 474.40936f * mu_b3 + 154.78862f * mu_b4 + 47.820812f * mu_b5 + 6.590131f * mu_b6 + 0.5948616f * mu_u7;
+    float q_3 = 78.17908f * mu_v7 + 608.5782f * mu_b1 + 1215.8649f * mu_b2 + 1131.775f * mu_b3 + 429.1598f * mu_b4 + 102.197495f * mu_b5 + 13.229837f * mu_b6 + 0.97674155f * mu_u7;
+    float q_4 = 92.96019f * mu_v7 + 747.87463f * mu_b1 + 1580.131f * mu_b2 + 1572.2025f * mu_b3 + 670.46075f * mu_b4 + 145.83356f * mu_b5 + 16.333908f * mu_b6 + 1.0691504f * mu_u7;
+    float q_5 = 66.75805f * mu_v7 + 551.61523f * mu_b1 + 1221.6168f * mu_b2 + 1283.3547f * mu_b3 + 601.63367f * mu_b4 + 131.55225f * mu_b5 + 12.971274f * mu_b6 + 0.7139293f * mu_u7;
+    float q_6 = 26.676186f * mu_v7 + 225.86017f * mu_b1 + 521.8938f * mu_b2 + 575.63165f * mu_b3 + 293.5383f * mu_b4 + 68.32128f * mu_b5 + 6.604464f * mu_b6 + 0.318468f * mu_u7;
+    float q_7 = 4.4059014f * mu_v7 + 38.85781f * mu_b1 + 93.80583f * mu_b2 + 108.41707f * mu_b3 + 59.503983f * mu_b4 + 14.913608f * mu_b5 + 1.4743376f * mu_b6 + 0.061389197f * mu_u7;
     float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

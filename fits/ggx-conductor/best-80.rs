@@ -13,16 +13,16 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 e70c5631788324d1bc9569804fbe7c85efcaa87ac7a64d4e764576c6c4d8d600.
+/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+/// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 329e62a8d6f62eb1f03622cc126f3a285f5a5f47ded0ab368776ed05afd0d366.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.2e-4, shifted 9.3e-6, bernstein 5.4e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 4.61e-6, max 1.22e-4 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.11e-7 (every op rounded, as this Rust), 5.17e-7 (fused multiply-add), 5.87e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.51e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 22061 boxes).
-/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.42e-6, max 1.22e-4; this f32 code MAE 4.42e-6, max 1.22e-4.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.4e-6 on the measurement grid.
-/// Denominator proved >= 1.275e-2 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.7e-4, shifted 9.7e-6, bernstein 5.6e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 3.98e-6, max 1.04e-4 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.82e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 7.26e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 25385 boxes).
+/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 3.79e-6, max 6.80e-5; this f32 code MAE 3.80e-6, max 6.79e-5.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-4 on the measurement grid.
+/// Denominator proved >= 3.031e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -81,24 +81,24 @@ pub fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0000052_f32 * mu_v7 + 8.303524_f32 * mu_b1 + 13.136929_f32 * mu_b2 + 7.13703_f32 * mu_b3 + 1.1161606_f32 * mu_b4 + 1.202504_f32 * mu_b5 - 0.01072523_f32 * mu_b6 + 0.037206568_f32 * mu_u7;
-    let p_1 = 9.353571_f32 * mu_v7 + 69.88025_f32 * mu_b1 + 114.369675_f32 * mu_b2 + 72.43917_f32 * mu_b3 + 16.985004_f32 * mu_b4 + 9.045678_f32 * mu_b5 + 0.7739752_f32 * mu_b6 + 0.18239753_f32 * mu_u7;
-    let p_2 = 34.087597_f32 * mu_v7 + 250.08414_f32 * mu_b1 + 428.89975_f32 * mu_b2 + 306.86676_f32 * mu_b3 + 91.76341_f32 * mu_b4 + 31.62835_f32 * mu_b5 + 4.1519246_f32 * mu_b6 + 0.51925325_f32 * mu_u7;
-    let p_3 = 66.29062_f32 * mu_v7 + 495.12497_f32 * mu_b1 + 885.36237_f32 * mu_b2 + 686.0882_f32 * mu_b3 + 234.22339_f32 * mu_b4 + 62.78494_f32 * mu_b5 + 8.62699_f32 * mu_b6 + 0.8316569_f32 * mu_u7;
-    let p_4 = 76.73808_f32 * mu_v7 + 589.3134_f32 * mu_b1 + 1086.4559_f32 * mu_b2 + 881.47015_f32 * mu_b3 + 323.2092_f32 * mu_b4 + 74.759_f32 * mu_b5 + 9.604854_f32 * mu_b6 + 0.7918294_f32 * mu_u7;
-    let p_5 = 53.64802_f32 * mu_v7 + 422.30627_f32 * mu_b1 + 792.7654_f32 * mu_b2 + 655.67017_f32 * mu_b3 + 247.3796_f32 * mu_b4 + 51.395477_f32 * mu_b5 + 5.8040833_f32 * mu_b6 + 0.42099503_f32 * mu_u7;
-    let p_6 = 20.924168_f32 * mu_v7 + 167.95836_f32 * mu_b1 + 317.74707_f32 * mu_b2 + 262.62003_f32 * mu_b3 + 98.673096_f32 * mu_b4 + 18.412941_f32 * mu_b5 + 1.6835375_f32 * mu_b6 + 0.10182974_f32 * mu_u7;
-    let p_7 = 3.4464877_f32 * mu_v7 + 28.269842_f32 * mu_b1 + 53.50791_f32 * mu_b2 + 43.505962_f32 * mu_b3 + 15.783378_f32 * mu_b4 + 2.542399_f32 * mu_b5 + 0.14644183_f32 * mu_b6 + 0.0039122845_f32 * mu_u7;
+    let p_0 = 1.0000249_f32 * mu_v7 + 8.584355_f32 * mu_b1 + 14.327413_f32 * mu_b2 + 8.957999_f32 * mu_b3 + 1.2014184_f32 * mu_b4 + 1.5582666_f32 * mu_b5 - 0.024674686_f32 * mu_b6 + 0.050718255_f32 * mu_u7;
+    let p_1 = 10.237555_f32 * mu_v7 + 78.11286_f32 * mu_b1 + 135.20352_f32 * mu_b2 + 96.54829_f32 * mu_b3 + 21.561197_f32 * mu_b4 + 11.920637_f32 * mu_b5 + 1.2620945_f32 * mu_b6 + 0.21268862_f32 * mu_u7;
+    let p_2 = 39.019207_f32 * mu_v7 + 295.29602_f32 * mu_b1 + 537.7525_f32 * mu_b2 + 427.5928_f32 * mu_b3 + 126.19242_f32 * mu_b4 + 40.725975_f32 * mu_b5 + 5.6073465_f32 * mu_b6 + 0.5469911_f32 * mu_u7;
+    let p_3 = 78.1757_f32 * mu_v7 + 608.0514_f32 * mu_b1 + 1154.8354_f32 * mu_b2 + 984.40155_f32 * mu_b3 + 339.91287_f32 * mu_b4 + 82.49757_f32 * mu_b5 + 10.131708_f32 * mu_b6 + 0.7557686_f32 * mu_u7;
+    let p_4 = 92.942245_f32 * mu_v7 + 746.59125_f32 * mu_b1 + 1457.7762_f32 * mu_b2 + 1291.3499_f32 * mu_b3 + 489.34082_f32 * mu_b4 + 105.1788_f32 * mu_b5 + 11.070814_f32 * mu_b6 + 0.6606835_f32 * mu_u7;
+    let p_5 = 66.78839_f32 * mu_v7 + 550.5698_f32 * mu_b1 + 1091.2765_f32 * mu_b2 + 981.5734_f32 * mu_b3 + 391.37918_f32 * mu_b4 + 80.11301_f32 * mu_b5 + 7.5978456_f32 * mu_b6 + 0.3759213_f32 * mu_u7;
+    let p_6 = 26.67012_f32 * mu_v7 + 225.15636_f32 * mu_b1 + 449.95193_f32 * mu_b2 + 405.3277_f32 * mu_b3 + 165.6931_f32 * mu_b4 + 33.236015_f32 * mu_b5 + 3.003233_f32 * mu_b6 + 0.12841876_f32 * mu_u7;
+    let p_7 = 4.4063582_f32 * mu_v7 + 38.72875_f32 * mu_b1 + 77.99705_f32 * mu_b2 + 69.8792_f32 * mu_b3 + 28.74866_f32 * mu_b4 + 5.6723313_f32 * mu_b5 + 0.4998973_f32 * mu_b6 + 0.018836977_f32 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v7 + 8.310837_f32 * mu_b1 + 13.340092_f32 * mu_b2 + 8.365146_f32 * mu_b3 + 1.6602745_f32 * mu_b4 + 1.2680838_f32 * mu_b5 - 0.010596603_f32 * mu_b6 + 0.03720628_f32 * mu_u7;
-    let q_1 = 9.353214_f32 * mu_v7 + 69.81831_f32 * mu_b1 + 116.26869_f32 * mu_b2 + 81.38529_f32 * mu_b3 + 21.331778_f32 * mu_b4 + 10.345746_f32 * mu_b5 + 0.8375954_f32 * mu_b6 + 0.18245831_f32 * mu_u7;
-    let q_2 = 34.091797_f32 * mu_v7 + 250.11362_f32 * mu_b1 + 443.486_f32 * mu_b2 + 346.71436_f32 * mu_b3 + 110.474915_f32 * mu_b4 + 37.415363_f32 * mu_b5 + 4.9236326_f32 * mu_b6 + 0.55458146_f32 * mu_u7;
-    let q_3 = 66.28238_f32 * mu_v7 + 495.60803_f32 * mu_b1 + 938.64594_f32 * mu_b2 + 803.79816_f32 * mu_b3 + 292.33398_f32 * mu_b4 + 77.85444_f32 * mu_b5 + 11.3132_f32 * mu_b6 + 1.0174929_f32 * mu_u7;
-    let q_4 = 76.74722_f32 * mu_v7 + 590.44073_f32 * mu_b1 + 1188.0542_f32 * mu_b2 + 1095.6106_f32 * mu_b3 + 441.7155_f32 * mu_b4 + 103.4194_f32 * mu_b5 + 14.469089_f32 * mu_b6 + 1.2179272_f32 * mu_u7;
-    let q_5 = 53.64112_f32 * mu_v7 + 423.2977_f32 * mu_b1 + 897.0501_f32 * mu_b2 + 878.10144_f32 * mu_b3 + 384.07532_f32 * mu_b4 + 84.803116_f32 * mu_b5 + 10.480851_f32 * mu_b6 + 0.86671114_f32 * mu_u7;
-    let q_6 = 20.92553_f32 * mu_v7 + 168.5422_f32 * mu_b1 + 373.35025_f32 * mu_b2 + 384.15125_f32 * mu_b3 + 179.76248_f32 * mu_b4 + 38.958588_f32 * mu_b5 + 3.9843256_f32 * mu_b6 + 0.311072_f32 * mu_u7;
-    let q_7 = 3.4464602_f32 * mu_v7 + 28.393711_f32 * mu_b1 + 65.39695_f32 * mu_b2 + 70.10835_f32 * mu_b3 + 34.42398_f32 * mu_b4 + 7.1892643_f32 * mu_b5 + 0.4451789_f32 * mu_b6 + 0.012749571_f32 * mu_u7;
+    let q_0 = 1.0_f32 * mu_v7 + 8.584651_f32 * mu_b1 + 14.5528555_f32 * mu_b2 + 10.21731_f32 * mu_b3 + 1.9136884_f32 * mu_b4 + 1.649156_f32 * mu_b5 - 0.024535362_f32 * mu_b6 + 0.050717887_f32 * mu_u7;
+    let q_1 = 10.238775_f32 * mu_v7 + 78.07734_f32 * mu_b1 + 137.31847_f32 * mu_b2 + 106.52142_f32 * mu_b3 + 28.01143_f32 * mu_b4 + 13.525918_f32 * mu_b5 + 1.3500063_f32 * mu_b6 + 0.21277894_f32 * mu_u7;
+    let q_2 = 39.013783_f32 * mu_v7 + 295.28763_f32 * mu_b1 + 553.46375_f32 * mu_b2 + 474.40936_f32 * mu_b3 + 154.78862_f32 * mu_b4 + 47.820812_f32 * mu_b5 + 6.590131_f32 * mu_b6 + 0.5948616_f32 * mu_u7;
+    let q_3 = 78.17908_f32 * mu_v7 + 608.5782_f32 * mu_b1 + 1215.8649_f32 * mu_b2 + 1131.775_f32 * mu_b3 + 429.1598_f32 * mu_b4 + 102.197495_f32 * mu_b5 + 13.229837_f32 * mu_b6 + 0.97674155_f32 * mu_u7;
+    let q_4 = 92.96019_f32 * mu_v7 + 747.87463_f32 * mu_b1 + 1580.131_f32 * mu_b2 + 1572.2025_f32 * mu_b3 + 670.46075_f32 * mu_b4 + 145.83356_f32 * mu_b5 + 16.333908_f32 * mu_b6 + 1.0691504_f32 * mu_u7;
+    let q_5 = 66.75805_f32 * mu_v7 + 551.61523_f32 * mu_b1 + 1221.6168_f32 * mu_b2 + 1283.3547_f32 * mu_b3 + 601.63367_f32 * mu_b4 + 131.55225_f32 * mu_b5 + 12.971274_f32 * mu_b6 + 0.7139293_f32 * mu_u7;
+    let q_6 = 26.676186_f32 * mu_v7 + 225.86017_f32 * mu_b1 + 521.8938_f32 * mu_b2 + 575.63165_f32 * mu_b3 + 293.5383_f32 * mu_b4 + 68.32128_f32 * mu_b5 + 6.604464_f32 * mu_b6 + 0.318468_f32 * mu_u7;
+    let q_7 = 4.4059014_f32 * mu_v7 + 38.85781_f32 * mu_b1 + 93.80583_f32 * mu_b2 + 108.41707_f32 * mu_b3 + 59.503983_f32 * mu_b4 + 14.913608_f32 * mu_b5 + 1.4743376_f32 * mu_b6 + 0.061389197_f32 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -13,165 +13,205 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 6519bfc26b52c630a7e0c28684579693185286bebf5b36b0fae1da0356a22bb0.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 627cdaba2350a94ccf674572401020ef147f4a816bd2f466dc9fd7502871005b.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-4, shifted 2.9e-5, bernstein 1.1e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.07e-3, max 7.49e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.22e-6 (every op rounded, as this Rust), 1.15e-6 (fused multiply-add), 1.42e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.42e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 37205 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.04e-3, max 7.49e-3; this f32 code MAE 1.04e-3, max 7.49e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.1e-3 on the measurement grid.
-// Denominator proved >= 7.352e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.9e-4, shifted 6.1e-5, bernstein 1.7e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 7.03e-4, max 8.84e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.17e-7 (every op rounded, as this Rust), 5.71e-7 (fused multiply-add), 1.92e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.74e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 21585 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 7.01e-4, max 8.84e-3; this f32 code MAE 7.01e-4, max 8.84e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.7e-4 on the measurement grid.
+// Denominator proved >= 2.836e-4 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
-    // t = sqrt(f0)
-    highp float f0_t = sqrt(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    highp float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // u = (t - 0.11180339887498948)/(0.5 - 0.11180339887498948) in [0, 1]
-    highp float f0_u = (f0_t - 0.1118034) * 2.5760143;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    highp float f0_v = 1.0 - f0_u;
-    highp float f0_u2 = f0_u * f0_u;
-    highp float f0_v2 = f0_v * f0_v;
-    highp float f0_u3 = f0_u2 * f0_u;
-    highp float f0_v3 = f0_v2 * f0_v;
-    highp float f0_u4 = f0_u3 * f0_u;
-    highp float f0_v4 = f0_v3 * f0_v;
-    highp float f0_u5 = f0_u4 * f0_u;
-    highp float f0_v5 = f0_v4 * f0_v;
-    highp float f0_b1 = f0_u * f0_v4;
-    highp float f0_b2 = f0_u2 * f0_v3;
-    highp float f0_b3 = f0_u3 * f0_v2;
-    highp float f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    highp float r_v = 1.0 - r_t;
-    highp float r_u2 = r_t * r_t;
-    highp float r_v2 = r_v * r_v;
-    highp float r_u3 = r_u2 * r_t;
-    highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_t;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_u5 = r_u4 * r_t;
-    highp float r_v5 = r_v4 * r_v;
-    highp float r_b1 = r_t * r_v4;
-    highp float r_b2 = r_u2 * r_v3;
-    highp float r_b3 = r_u3 * r_v2;
-    highp float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    highp float mu_u = (mu_t - 7.888609e-31) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    highp float mu_v = 1.0 - mu_u;
-    highp float mu_u2 = mu_u * mu_u;
-    highp float mu_v2 = mu_v * mu_v;
-    highp float mu_u3 = mu_u2 * mu_u;
-    highp float mu_v3 = mu_v2 * mu_v;
-    highp float mu_u4 = mu_u3 * mu_u;
-    highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_u5 = mu_u4 * mu_u;
-    highp float mu_v5 = mu_v4 * mu_v;
-    highp float mu_b1 = mu_u * mu_v4;
-    highp float mu_b2 = mu_u2 * mu_v3;
-    highp float mu_b3 = mu_u3 * mu_v2;
-    highp float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0_0 = 1.3262446 * mu_v5 + 6.309378 * mu_b1 + 2.7582963 * mu_b2 + 2.5728912 * mu_b3 + 0.2455105 * mu_b4 + 0.02331945 * mu_u5;
-    highp float p_0_1 = 4.812081 * mu_v5 + 26.659563 * mu_b1 + 12.019848 * mu_b2 + 5.6128297 * mu_b3 - 7.3929925 * mu_b4 + 0.044228934 * mu_u5;
-    highp float p_0_2 = 15.334151 * mu_v5 + 71.63891 * mu_b1 + 69.4222 * mu_b2 + 50.74004 * mu_b3 - 5.1327677 * mu_b4 + 3.0000103 * mu_u5;
-    highp float p_0_3 = 19.694372 * mu_v5 + 75.756195 * mu_b1 + 96.698204 * mu_b2 + 89.97635 * mu_b3 + 8.222696 * mu_b4 + 4.6380997 * mu_u5;
-    highp float p_0_4 = 12.334153 * mu_v5 + 42.18184 * mu_b1 + 78.08932 * mu_b2 + 93.67305 * mu_b3 + 28.061981 * mu_b4 + 5.5082483 * mu_u5;
-    highp float p_0_5 = 2.3235614 * mu_v5 + 6.8916936 * mu_b1 + 19.906424 * mu_b2 + 29.751461 * mu_b3 + 11.522348 * mu_b4 + 1.6847153 * mu_u5;
-    highp float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    highp float p_1_0 = 9.045544 * mu_v5 + 39.689053 * mu_b1 + 15.372645 * mu_b2 + 12.206684 * mu_b3 + 4.8262887 * mu_b4 + 0.22642615 * mu_u5;
-    highp float p_1_1 = 50.979973 * mu_v5 + 230.0469 * mu_b1 + 131.12958 * mu_b2 + 40.599705 * mu_b3 - 26.78279 * mu_b4 - 0.9314121 * mu_u5;
-    highp float p_1_2 = 146.67166 * mu_v5 + 610.8841 * mu_b1 + 539.15967 * mu_b2 + 263.60635 * mu_b3 - 29.636805 * mu_b4 + 10.480991 * mu_u5;
-    highp float p_1_3 = 174.14392 * mu_v5 + 646.8861 * mu_b1 + 655.26855 * mu_b2 + 391.59418 * mu_b3 - 5.126995 * mu_b4 + 14.582083 * mu_u5;
-    highp float p_1_4 = 99.71778 * mu_v5 + 340.83093 * mu_b1 + 445.06036 * mu_b2 + 386.49194 * mu_b3 + 87.97745 * mu_b4 + 19.821135 * mu_u5;
-    highp float p_1_5 = 19.488413 * mu_v5 + 60.35771 * mu_b1 + 104.96786 * mu_b2 + 121.884384 * mu_b3 + 40.963356 * mu_b4 + 6.0552096 * mu_u5;
-    highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    highp float p_2_0 = 26.2151 * mu_v5 + 103.31517 * mu_b1 + 38.542667 * mu_b2 + 22.35261 * mu_b3 + 15.588556 * mu_b4 + 0.43391702 * mu_u5;
-    highp float p_2_1 = 160.15381 * mu_v5 + 654.1568 * mu_b1 + 388.37207 * mu_b2 + 90.14707 * mu_b3 - 37.119053 * mu_b4 - 4.120206 * mu_u5;
-    highp float p_2_2 = 424.65094 * mu_v5 + 1685.6675 * mu_b1 + 1415.0219 * mu_b2 + 549.90027 * mu_b3 - 41.73231 * mu_b4 + 19.926462 * mu_u5;
-    highp float p_2_3 = 479.39096 * mu_v5 + 1773.7621 * mu_b1 + 1644.106 * mu_b2 + 754.6889 * mu_b3 - 20.300644 * mu_b4 + 32.29893 * mu_u5;
-    highp float p_2_4 = 262.07208 * mu_v5 + 917.4997 * mu_b1 + 1034.5941 * mu_b2 + 715.995 * mu_b3 + 150.33305 * mu_b4 + 42.281338 * mu_u5;
-    highp float p_2_5 = 51.748028 * mu_v5 + 170.33667 * mu_b1 + 239.22714 * mu_b2 + 226.9585 * mu_b3 + 73.38228 * mu_b4 + 12.817652 * mu_u5;
-    highp float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    highp float p_3_0 = 36.45636 * mu_v5 + 132.09409 * mu_b1 + 49.824375 * mu_b2 + 21.178566 * mu_b3 + 21.626131 * mu_b4 + 0.38959098 * mu_u5;
-    highp float p_3_1 = 217.26793 * mu_v5 + 833.335 * mu_b1 + 482.64127 * mu_b2 + 73.63677 * mu_b3 - 30.197905 * mu_b4 - 8.483627 * mu_u5;
-    highp float p_3_2 = 535.89856 * mu_v5 + 2067.3516 * mu_b1 + 1638.1614 * mu_b2 + 507.71423 * mu_b3 - 41.810677 * mu_b4 + 14.737274 * mu_u5;
-    highp float p_3_3 = 576.98114 * mu_v5 + 2139.914 * mu_b1 + 1853.0526 * mu_b2 + 683.3447 * mu_b3 - 29.957457 * mu_b4 + 34.37114 * mu_u5;
-    highp float p_3_4 = 302.95752 * mu_v5 + 1088.5591 * mu_b1 + 1125.7156 * mu_b2 + 661.6721 * mu_b3 + 139.74039 * mu_b4 + 46.959103 * mu_u5;
-    highp float p_3_5 = 59.41808 * mu_v5 + 206.52878 * mu_b1 + 261.55392 * mu_b2 + 217.12999 * mu_b3 + 71.48449 * mu_b4 + 14.553112 * mu_u5;
-    highp float p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    highp float p_4_0 = 24.127707 * mu_v5 + 83.07055 * mu_b1 + 35.100803 * mu_b2 + 14.78636 * mu_b3 + 16.39849 * mu_b4 + 0.6477791 * mu_u5;
-    highp float p_4_1 = 136.87772 * mu_v5 + 506.16788 * mu_b1 + 295.46158 * mu_b2 + 42.76224 * mu_b3 - 3.0476818 * mu_b4 - 5.250089 * mu_u5;
-    highp float p_4_2 = 316.54205 * mu_v5 + 1207.1707 * mu_b1 + 930.48 * mu_b2 + 257.58606 * mu_b3 - 5.022102 * mu_b4 + 6.0200305 * mu_u5;
-    highp float p_4_3 = 325.3694 * mu_v5 + 1225.4052 * mu_b1 + 1029.0085 * mu_b2 + 338.19366 * mu_b3 - 0.3773797 * mu_b4 + 19.178555 * mu_u5;
-    highp float p_4_4 = 164.0344 * mu_v5 + 613.0693 * mu_b1 + 610.2341 * mu_b2 + 326.4711 * mu_b3 + 77.19572 * mu_b4 + 26.312235 * mu_u5;
-    highp float p_4_5 = 31.63439 * mu_v5 + 117.62417 * mu_b1 + 143.11806 * mu_b2 + 109.660866 * mu_b3 + 37.883812 * mu_b4 + 8.228908 * mu_u5;
-    highp float p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    highp float p_5_0 = 5.9198213 * mu_v5 + 19.675339 * mu_b1 + 8.731501 * mu_b2 + 3.8533614 * mu_b3 + 4.543514 * mu_b4 + 0.24167356 * mu_u5;
-    highp float p_5_1 = 32.359077 * mu_v5 + 117.41924 * mu_b1 + 69.71641 * mu_b2 + 11.919426 * mu_b3 + 3.237846 * mu_b4 - 1.1476511 * mu_u5;
-    highp float p_5_2 = 71.48367 * mu_v5 + 273.8753 * mu_b1 + 212.87051 * mu_b2 + 62.173306 * mu_b3 + 7.194057 * mu_b4 + 1.254989 * mu_u5;
-    highp float p_5_3 = 70.856415 * mu_v5 + 275.75696 * mu_b1 + 236.75896 * mu_b2 + 83.18755 * mu_b3 + 10.262882 * mu_b4 + 4.6891117 * mu_u5;
-    highp float p_5_4 = 34.528694 * mu_v5 + 137.17764 * mu_b1 + 139.77528 * mu_b2 + 75.60886 * mu_b3 + 21.689795 * mu_b4 + 6.084961 * mu_u5;
-    highp float p_5_5 = 6.5521607 * mu_v5 + 26.729424 * mu_b1 + 33.25659 * mu_b2 + 24.883204 * mu_b3 + 9.103965 * mu_b4 + 1.8756288 * mu_u5;
-    highp float p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    highp float p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = 1.418392 * mu_v5 + 6.7638755 * mu_b1 + 4.0001674 * mu_b2 + 2.4498153 * mu_b3 + 0.24572235 * mu_b4 + 0.02331387 * mu_u5;
-    highp float q_0_1 = 6.6308227 * mu_v5 + 33.73159 * mu_b1 + 19.321854 * mu_b2 + 3.070839 * mu_b3 - 6.97017 * mu_b4 + 0.043691695 * mu_u5;
-    highp float q_0_2 = 21.742008 * mu_v5 + 100.395294 * mu_b1 + 93.56832 * mu_b2 + 41.67979 * mu_b3 - 5.9788914 * mu_b4 + 2.9835799 * mu_u5;
-    highp float q_0_3 = 41.3996 * mu_v5 + 172.11646 * mu_b1 + 207.02214 * mu_b2 + 121.51021 * mu_b3 + 14.249556 * mu_b4 + 4.7718663 * mu_u5;
-    highp float q_0_4 = 37.160374 * mu_v5 + 150.97675 * mu_b1 + 216.3582 * mu_b2 + 155.83446 * mu_b3 + 42.279472 * mu_b4 + 6.8504696 * mu_u5;
-    highp float q_0_5 = 10.046568 * mu_v5 + 41.06896 * mu_b1 + 65.144875 * mu_b2 + 52.945198 * mu_b3 + 18.04801 * mu_b4 + 2.7980237 * mu_u5;
-    highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    highp float q_1_0 = 9.641087 * mu_v5 + 42.75884 * mu_b1 + 22.44342 * mu_b2 + 11.797635 * mu_b3 + 4.8342757 * mu_b4 + 0.22592367 * mu_u5;
-    highp float q_1_1 = 62.74871 * mu_v5 + 275.63867 * mu_b1 + 178.66895 * mu_b2 + 31.6294 * mu_b3 - 24.409122 * mu_b4 - 0.94147235 * mu_u5;
-    highp float q_1_2 = 188.09906 * mu_v5 + 787.09314 * mu_b1 + 693.961 * mu_b2 + 230.42259 * mu_b3 - 32.443005 * mu_b4 + 10.737471 * mu_u5;
-    highp float q_1_3 = 283.92047 * mu_v5 + 1122.0671 * mu_b1 + 1171.7181 * mu_b2 + 506.56992 * mu_b3 + 9.031282 * mu_b4 + 14.668965 * mu_u5;
-    highp float q_1_4 = 213.39279 * mu_v5 + 837.13055 * mu_b1 + 1055.4766 * mu_b2 + 641.30023 * mu_b3 + 149.75017 * mu_b4 + 29.50672 * mu_u5;
-    highp float q_1_5 = 53.24485 * mu_v5 + 213.18222 * mu_b1 + 309.3048 * mu_b2 + 233.13208 * mu_b3 + 81.42474 * mu_b4 + 15.523713 * mu_u5;
-    highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    highp float q_2_0 = 27.833279 * mu_v5 + 111.621 * mu_b1 + 54.97085 * mu_b2 + 21.99455 * mu_b3 + 15.521014 * mu_b4 + 0.4368228 * mu_u5;
-    highp float q_2_1 = 186.92621 * mu_v5 + 759.97156 * mu_b1 + 499.6522 * mu_b2 + 77.011024 * mu_b3 - 32.383 * mu_b4 - 4.151025 * mu_u5;
-    highp float q_2_2 = 520.73865 * mu_v5 + 2091.062 * mu_b1 + 1787.4475 * mu_b2 + 509.7577 * mu_b3 - 44.35537 * mu_b4 + 20.283352 * mu_u5;
-    highp float q_2_3 = 698.5934 * mu_v5 + 2713.524 * mu_b1 + 2626.62 * mu_b2 + 916.87415 * mu_b3 - 23.741526 * mu_b4 + 28.345997 * mu_u5;
-    highp float q_2_4 = 470.18903 * mu_v5 + 1829.4767 * mu_b1 + 2123.1875 * mu_b2 + 1131.9503 * mu_b3 + 253.58203 * mu_b4 + 64.16776 * mu_u5;
-    highp float q_2_5 = 110.8036 * mu_v5 + 446.47504 * mu_b1 + 614.9555 * mu_b2 + 445.43927 * mu_b3 + 168.68312 * mu_b4 + 38.255154 * mu_u5;
-    highp float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    highp float q_3_0 = 38.714878 * mu_v5 + 143.39772 * mu_b1 + 69.53642 * mu_b2 + 21.626545 * mu_b3 + 21.435364 * mu_b4 + 0.38962352 * mu_u5;
-    highp float q_3_1 = 245.4322 * mu_v5 + 949.31433 * mu_b1 + 606.76416 * mu_b2 + 64.65424 * mu_b3 - 25.350304 * mu_b4 - 8.486418 * mu_u5;
-    highp float q_3_2 = 640.8163 * mu_v5 + 2519.7559 * mu_b1 + 2079.8472 * mu_b2 + 506.99054 * mu_b3 - 36.21993 * mu_b4 + 14.969457 * mu_u5;
-    highp float q_3_3 = 795.3275 * mu_v5 + 3083.8552 * mu_b1 + 2829.7463 * mu_b2 + 819.84076 * mu_b3 - 53.051987 * mu_b4 + 25.59829 * mu_u5;
-    highp float q_3_4 = 495.60126 * mu_v5 + 1945.3483 * mu_b1 + 2133.4673 * mu_b2 + 1024.2042 * mu_b3 + 231.91695 * mu_b4 + 70.069084 * mu_u5;
-    highp float q_3_5 = 111.93483 * mu_v5 + 463.14325 * mu_b1 + 621.9622 * mu_b2 + 443.94812 * mu_b3 + 183.3456 * mu_b4 + 45.87848 * mu_u5;
-    highp float q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    highp float q_4_0 = 25.701345 * mu_v5 + 90.73642 * mu_b1 + 47.294704 * mu_b2 + 15.758057 * mu_b3 + 16.282547 * mu_b4 + 0.64773625 * mu_u5;
-    highp float q_4_1 = 150.76164 * mu_v5 + 567.2503 * mu_b1 + 362.8451 * mu_b2 + 40.57367 * mu_b3 - 0.30587158 * mu_b4 - 5.2050414 * mu_u5;
-    highp float q_4_2 = 371.45276 * mu_v5 + 1455.3995 * mu_b1 + 1192.5662 * mu_b2 + 287.06723 * mu_b3 + 6.2104874 * mu_b4 + 6.398787 * mu_u5;
-    highp float q_4_3 = 434.58865 * mu_v5 + 1710.9014 * mu_b1 + 1545.4043 * mu_b2 + 423.65366 * mu_b3 - 11.1411915 * mu_b4 + 12.932875 * mu_u5;
-    highp float q_4_4 = 255.2595 * mu_v5 + 1030.6432 * mu_b1 + 1107.8909 * mu_b2 + 509.91815 * mu_b3 + 126.82108 * mu_b4 + 38.728188 * mu_u5;
-    highp float q_4_5 = 55.844383 * mu_v5 + 242.53294 * mu_b1 + 327.3133 * mu_b2 + 236.32703 * mu_b3 + 104.66665 * mu_b4 + 26.82797 * mu_u5;
-    highp float q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    highp float q_5_0 = 6.3462753 * mu_v5 + 21.710848 * mu_b1 + 11.778113 * mu_b2 + 4.2704744 * mu_b3 + 4.525759 * mu_b4 + 0.24154894 * mu_u5;
-    highp float q_5_1 = 34.88387 * mu_v5 + 129.731 * mu_b1 + 83.84723 * mu_b2 + 11.83304 * mu_b3 + 3.8309646 * mu_b4 - 1.1383686 * mu_u5;
-    highp float q_5_2 = 82.51034 * mu_v5 + 327.46912 * mu_b1 + 274.69614 * mu_b2 + 76.01389 * mu_b3 + 12.00032 * mu_b4 + 1.4510229 * mu_u5;
-    highp float q_5_3 = 92.82586 * mu_v5 + 378.08078 * mu_b1 + 352.50433 * mu_b2 + 110.54963 * mu_b3 + 10.848703 * mu_b4 + 3.2757149 * mu_u5;
-    highp float q_5_4 = 52.360985 * mu_v5 + 222.34834 * mu_b1 + 245.95406 * mu_b2 + 119.65963 * mu_b3 + 34.746048 * mu_b4 + 8.916734 * mu_u5;
-    highp float q_5_5 = 11.264089 * mu_v5 + 52.4976 * mu_b1 + 73.63892 * mu_b2 + 55.12351 * mu_b3 + 25.373554 * mu_b4 + 6.2281775 * mu_u5;
-    highp float q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    highp float q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
-    highp float e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    highp float r_b5_v = 1.0 - r_t;
+    highp float r_b5_u2 = r_t * r_t;
+    highp float r_b5_v2 = r_b5_v * r_b5_v;
+    highp float r_b5_u3 = r_b5_u2 * r_t;
+    highp float r_b5_v3 = r_b5_v2 * r_b5_v;
+    highp float r_b5_u4 = r_b5_u3 * r_t;
+    highp float r_b5_v4 = r_b5_v3 * r_b5_v;
+    highp float r_b5_u5 = r_b5_u4 * r_t;
+    highp float r_b5_v5 = r_b5_v4 * r_b5_v;
+    highp float r_b5_b1 = r_t * r_b5_v4;
+    highp float r_b5_b2 = r_b5_u2 * r_b5_v3;
+    highp float r_b5_b3 = r_b5_u3 * r_b5_v2;
+    highp float r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    highp float mu_b5_v = 1.0 - mu_u;
+    highp float mu_b5_u2 = mu_u * mu_u;
+    highp float mu_b5_v2 = mu_b5_v * mu_b5_v;
+    highp float mu_b5_u3 = mu_b5_u2 * mu_u;
+    highp float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    highp float mu_b5_u4 = mu_b5_u3 * mu_u;
+    highp float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    highp float mu_b5_u5 = mu_b5_u4 * mu_u;
+    highp float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    highp float mu_b5_b1 = mu_u * mu_b5_v4;
+    highp float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    highp float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    highp float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    highp float p0_0_0 = 0.22224648 * mu_b5_v5 + 2.080058 * mu_b5_b1 + 2.7999012 * mu_b5_b2 + 2.6335433 * mu_b5_b3 - 0.31439233 * mu_b5_b4 + 0.06330606 * mu_b5_u5;
+    highp float p0_0_1 = 4.90099 * mu_b5_v5 + 22.287449 * mu_b5_b1 + 19.664373 * mu_b5_b2 + 13.007452 * mu_b5_b3 + 1.1166557 * mu_b5_b4 + 0.7328782 * mu_b5_u5;
+    highp float p0_0_2 = 14.584245 * mu_b5_v5 + 68.65401 * mu_b5_b1 + 58.431934 * mu_b5_b2 + 28.25405 * mu_b5_b3 + 4.614967 * mu_b5_b4 + 1.4146066 * mu_b5_u5;
+    highp float p0_0_3 = 16.871683 * mu_b5_v5 + 90.56245 * mu_b5_b1 + 76.52069 * mu_b5_b2 + 24.56629 * mu_b5_b3 + 1.977527 * mu_b5_b4 + 0.9326872 * mu_b5_u5;
+    highp float p0_0_4 = 6.313493 * mu_b5_v5 + 44.206676 * mu_b5_b1 + 25.279478 * mu_b5_b2 - 11.604273 * mu_b5_b3 - 10.126012 * mu_b5_b4 - 0.7896831 * mu_b5_u5;
+    highp float p0_0_5 = 0.7215703 * mu_b5_v5 + 8.962149 * mu_b5_b1 + 4.0688505 * mu_b5_b2 - 4.5478187 * mu_b5_b3 - 2.0483181 * mu_b5_b4 + 0.39692447 * mu_b5_u5;
+    highp float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    highp float p0 = p0_0 * 1.0;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    highp float f0_b4_v = 1.0 - f0_t;
+    highp float f0_b4_u2 = f0_t * f0_t;
+    highp float f0_b4_v2 = f0_b4_v * f0_b4_v;
+    highp float f0_b4_u3 = f0_b4_u2 * f0_t;
+    highp float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    highp float f0_b4_u4 = f0_b4_u3 * f0_t;
+    highp float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    highp float f0_b4_b1 = f0_t * f0_b4_v3;
+    highp float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    highp float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    highp float u0_0_0 = 0.79304284 * 1.0;
+    highp float u0_0 = u0_0_0 * 1.0;
+    highp float u0_1_0 = 3.515841 * 1.0;
+    highp float u0_1 = u0_1_0 * 1.0;
+    highp float u0_2_0 = 5.184229 * 1.0;
+    highp float u0_2 = u0_2_0 * 1.0;
+    highp float u0_3_0 = 3.4922206 * 1.0;
+    highp float u0_3 = u0_3_0 * 1.0;
+    highp float u0_4_0 = 0.87667197 * 1.0;
+    highp float u0_4 = u0_4_0 * 1.0;
+    highp float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
+    highp float r_b3_v = 1.0 - r_t;
+    highp float r_b3_u2 = r_t * r_t;
+    highp float r_b3_v2 = r_b3_v * r_b3_v;
+    highp float r_b3_u3 = r_b3_u2 * r_t;
+    highp float r_b3_v3 = r_b3_v2 * r_b3_v;
+    highp float r_b3_b1 = r_t * r_b3_v2;
+    highp float r_b3_b2 = r_b3_u2 * r_b3_v;
+    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
+    highp float mu_b3_v = 1.0 - mu_u;
+    highp float mu_b3_u2 = mu_u * mu_u;
+    highp float mu_b3_v2 = mu_b3_v * mu_b3_v;
+    highp float mu_b3_u3 = mu_b3_u2 * mu_u;
+    highp float mu_b3_v3 = mu_b3_v2 * mu_b3_v;
+    highp float mu_b3_b1 = mu_u * mu_b3_v2;
+    highp float mu_b3_b2 = mu_b3_u2 * mu_b3_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q0_0_0 = 1.0 * mu_b3_v3 + 2.7429175 * mu_b3_b1 + 0.98035645 * mu_b3_b2 + 0.26321474 * mu_b3_u3;
+    highp float q0_0_1 = 3.348674 * mu_b3_v3 + 9.340424 * mu_b3_b1 + 3.86521 * mu_b3_b2 + 0.9507883 * mu_b3_u3;
+    highp float q0_0_2 = 4.146854 * mu_b3_v3 + 11.981896 * mu_b3_b1 + 6.500438 * mu_b3_b2 + 1.7427232 * mu_b3_u3;
+    highp float q0_0_3 = 1.6414753 * mu_b3_v3 + 4.914277 * mu_b3_b1 + 3.145471 * mu_b3_b2 + 0.89844525 * mu_b3_u3;
+    highp float q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
+    highp float q0 = q0_0 * 1.0;
+    highp float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    highp float p1_0_0 = 0.10619299 * mu_b5_v5 + 0.84137726 * mu_b5_b1 + 0.9805587 * mu_b5_b2 + 0.15443228 * mu_b5_b3 + 0.0095299035 * mu_b5_b4 + 5.0411763e-5 * mu_b5_u5;
+    highp float p1_0_1 = -0.68677795 * mu_b5_v5 - 3.8119934 * mu_b5_b1 - 6.209557 * mu_b5_b2 - 3.5838456 * mu_b5_b3 + 0.0023665389 * mu_b5_b4 - 0.00023776219 * mu_b5_u5;
+    highp float p1_0_2 = -1.3749454 * mu_b5_v5 - 10.670812 * mu_b5_b1 - 14.692839 * mu_b5_b2 - 5.2093005 * mu_b5_b3 + 1.1953013 * mu_b5_b4 + 0.0034133885 * mu_b5_u5;
+    highp float p1_0_3 = -1.3953317 * mu_b5_v5 - 11.121129 * mu_b5_b1 - 13.464799 * mu_b5_b2 - 4.092516 * mu_b5_b3 + 0.6783816 * mu_b5_b4 + 0.027679378 * mu_b5_u5;
+    highp float p1_0_4 = -0.8502589 * mu_b5_v5 - 5.0262356 * mu_b5_b1 - 4.894767 * mu_b5_b2 - 1.586892 * mu_b5_b3 - 0.038211312 * mu_b5_b4 + 0.3277824 * mu_b5_u5;
+    highp float p1_0_5 = -0.18136023 * mu_b5_v5 - 0.64484066 * mu_b5_b1 - 0.37727633 * mu_b5_b2 - 0.40998474 * mu_b5_b3 - 0.23642117 * mu_b5_b4 + 0.159346 * mu_b5_u5;
+    highp float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    highp float p1 = p1_0 * 1.0;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    highp float u1_0_0 = 0.64122 * 1.0;
+    highp float u1_0 = u1_0_0 * 1.0;
+    highp float u1_1_0 = 1.60442 * 1.0;
+    highp float u1_1 = u1_1_0 * 1.0;
+    highp float u1_2_0 = -0.48421544 * 1.0;
+    highp float u1_2 = u1_2_0 * 1.0;
+    highp float u1_3_0 = -1.1584883 * 1.0;
+    highp float u1_3 = u1_3_0 * 1.0;
+    highp float u1_4_0 = -0.4014383 * 1.0;
+    highp float u1_4 = u1_4_0 * 1.0;
+    highp float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q1_0_0 = 1.0 * mu_b3_v3 + 1.7703092 * mu_b3_b1 + 0.094730645 * mu_b3_b2 + 0.0005022735 * mu_b3_u3;
+    highp float q1_0_1 = 1.7237881 * mu_b3_v3 + 3.2525132 * mu_b3_b1 - 0.50589025 * mu_b3_b2 - 0.0063726213 * mu_b3_u3;
+    highp float q1_0_2 = 1.3689879 * mu_b3_v3 + 3.121114 * mu_b3_b1 - 0.20617628 * mu_b3_b2 + 0.0699402 * mu_b3_u3;
+    highp float q1_0_3 = 0.6641666 * mu_b3_v3 + 1.6958107 * mu_b3_b1 + 0.4513452 * mu_b3_b2 + 0.09578197 * mu_b3_u3;
+    highp float q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
+    highp float q1 = q1_0 * 1.0;
+    highp float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    highp float p2_0_0 = 0.039914336 * mu_b5_v5 - 0.44403595 * mu_b5_b1 - 0.560024 * mu_b5_b2 + 0.18355097 * mu_b5_b3 + 0.0044148574 * mu_b5_b4 + 2.6778394e-5 * mu_b5_u5;
+    highp float p2_0_1 = 0.03973821 * mu_b5_v5 + 2.08201 * mu_b5_b1 + 5.120979 * mu_b5_b2 + 4.280375 * mu_b5_b3 - 0.07499421 * mu_b5_b4 - 0.00047910676 * mu_b5_u5;
+    highp float p2_0_2 = -0.40981475 * mu_b5_v5 + 5.7511697 * mu_b5_b1 + 11.60153 * mu_b5_b2 + 6.7011714 * mu_b5_b3 - 1.2866848 * mu_b5_b4 + 0.0050555104 * mu_b5_u5;
+    highp float p2_0_3 = -0.29035792 * mu_b5_v5 + 5.078979 * mu_b5_b1 + 8.037067 * mu_b5_b2 + 4.168931 * mu_b5_b3 - 1.0777005 * mu_b5_b4 - 0.026535172 * mu_b5_u5;
+    highp float p2_0_4 = 0.03488596 * mu_b5_v5 + 1.017585 * mu_b5_b1 + 0.5454812 * mu_b5_b2 + 1.2920636 * mu_b5_b3 + 0.24062198 * mu_b5_b4 - 0.21247639 * mu_b5_u5;
+    highp float p2_0_5 = -0.01913896 * mu_b5_v5 - 0.50999135 * mu_b5_b1 - 0.918501 * mu_b5_b2 + 0.38003767 * mu_b5_b3 + 0.4373256 * mu_b5_b4 - 0.11512404 * mu_b5_u5;
+    highp float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    highp float p2 = p2_0 * 1.0;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    highp float u2_0_0 = 0.503114 * 1.0;
+    highp float u2_0 = u2_0_0 * 1.0;
+    highp float u2_1_0 = 1.5615572 * 1.0;
+    highp float u2_1 = u2_1_0 * 1.0;
+    highp float u2_2_0 = -0.07613506 * 1.0;
+    highp float u2_2 = u2_2_0 * 1.0;
+    highp float u2_3_0 = -0.8783531 * 1.0;
+    highp float u2_3 = u2_3_0 * 1.0;
+    highp float u2_4_0 = -0.32960382 * 1.0;
+    highp float u2_4 = u2_4_0 * 1.0;
+    highp float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q2_0_0 = 1.0 * mu_b3_v3 + 1.4815046 * mu_b3_b1 + 0.074680634 * mu_b3_b2 + 0.00046328027 * mu_b3_u3;
+    highp float q2_0_1 = 2.0612285 * mu_b3_v3 + 2.8476675 * mu_b3_b1 - 0.43841308 * mu_b3_b2 - 0.0029905436 * mu_b3_u3;
+    highp float q2_0_2 = 1.8751547 * mu_b3_v3 + 2.827246 * mu_b3_b1 - 0.2061119 * mu_b3_b2 + 0.06365838 * mu_b3_u3;
+    highp float q2_0_3 = 0.81490797 * mu_b3_v3 + 1.4640284 * mu_b3_b1 + 0.30992725 * mu_b3_b2 + 0.068094 * mu_b3_u3;
+    highp float q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
+    highp float q2 = q2_0 * 1.0;
+    highp float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    highp float p3_0_0 = -0.6152648 * mu_b5_v5 - 2.3964958 * mu_b5_b1 - 3.4640985 * mu_b5_b2 - 1.4219089 * mu_b5_b3 - 0.56277716 * mu_b5_b4 - 0.087540306 * mu_b5_u5;
+    highp float p3_0_1 = -0.5297324 * mu_b5_v5 - 3.1410484 * mu_b5_b1 - 15.644321 * mu_b5_b2 - 10.283925 * mu_b5_b3 - 1.009867 * mu_b5_b4 - 0.0779705 * mu_b5_u5;
+    highp float p3_0_2 = 2.8843405 * mu_b5_v5 + 13.252363 * mu_b5_b1 - 23.73798 * mu_b5_b2 - 30.047947 * mu_b5_b3 - 4.116052 * mu_b5_b4 - 0.8121539 * mu_b5_u5;
+    highp float p3_0_3 = 6.105868 * mu_b5_v5 + 37.087296 * mu_b5_b1 - 5.0292025 * mu_b5_b2 - 32.20227 * mu_b5_b3 - 4.2218747 * mu_b5_b4 - 0.6682841 * mu_b5_u5;
+    highp float p3_0_4 = 1.5307225 * mu_b5_v5 + 19.166128 * mu_b5_b1 - 12.926057 * mu_b5_b2 - 36.597122 * mu_b5_b3 - 11.219043 * mu_b5_b4 - 1.5024074 * mu_b5_u5;
+    highp float p3_0_5 = -0.13608272 * mu_b5_v5 + 4.277018 * mu_b5_b1 - 3.0520666 * mu_b5_b2 - 9.178238 * mu_b5_b3 - 2.464858 * mu_b5_b4 - 0.015592575 * mu_b5_u5;
+    highp float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    highp float p3 = p3_0 * 1.0;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    highp float u3_0_0 = -1.0929991 * 1.0;
+    highp float u3_0 = u3_0_0 * 1.0;
+    highp float u3_1_0 = -4.434357 * 1.0;
+    highp float u3_1 = u3_1_0 * 1.0;
+    highp float u3_2_0 = -7.3444963 * 1.0;
+    highp float u3_2 = u3_2_0 * 1.0;
+    highp float u3_3_0 = -5.0806828 * 1.0;
+    highp float u3_3 = u3_3_0 * 1.0;
+    highp float u3_4_0 = -1.2959784 * 1.0;
+    highp float u3_4 = u3_4_0 * 1.0;
+    highp float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q3_0_0 = 1.0 * mu_b3_v3 + 3.0581183 * mu_b3_b1 + 0.2259713 * mu_b3_b2 + 0.13370965 * mu_b3_u3;
+    highp float q3_0_1 = 3.6536567 * mu_b3_v3 + 10.816092 * mu_b3_b1 + 1.3210826 * mu_b3_b2 + 0.056217704 * mu_b3_u3;
+    highp float q3_0_2 = 5.0277557 * mu_b3_v3 + 14.981888 * mu_b3_b1 + 4.851042 * mu_b3_b2 + 0.7944807 * mu_b3_u3;
+    highp float q3_0_3 = 2.1438046 * mu_b3_v3 + 6.5330305 * mu_b3_b1 + 3.0650473 * mu_b3_b2 + 0.64167815 * mu_b3_u3;
+    highp float q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
+    highp float q3 = q3_0 * 1.0;
+    highp float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    highp float e = e0 + e1 + e2 + e3;
     return max(min(e, 1.0), 0.0);
 }
 

@@ -25,165 +25,205 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 6519bfc26b52c630a7e0c28684579693185286bebf5b36b0fae1da0356a22bb0.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 627cdaba2350a94ccf674572401020ef147f4a816bd2f466dc9fd7502871005b.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-4, shifted 2.9e-5, bernstein 1.1e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.07e-3, max 7.49e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.22e-6 (every op rounded, as this Rust), 1.15e-6 (fused multiply-add), 1.42e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.42e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 37205 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.04e-3, max 7.49e-3; this f32 code MAE 1.04e-3, max 7.49e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.1e-3 on the measurement grid.
-// Denominator proved >= 7.352e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.9e-4, shifted 6.1e-5, bernstein 1.7e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 7.03e-4, max 8.84e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.17e-7 (every op rounded, as this Rust), 5.71e-7 (fused multiply-add), 1.92e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.74e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 21585 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 7.01e-4, max 8.84e-3; this f32 code MAE 7.01e-4, max 8.84e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.7e-4 on the measurement grid.
+// Denominator proved >= 2.836e-4 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
-    // t = sqrt(f0)
-    const float f0_t = sqrtf(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    const float f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017f) * 2.6828594f;
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // u = (t - 0.11180339887498948)/(0.5 - 0.11180339887498948) in [0, 1]
-    const float f0_u = (f0_t - 0.1118034f) * 2.5760143f;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    const float f0_v = 1.0f - f0_u;
-    const float f0_u2 = f0_u * f0_u;
-    const float f0_v2 = f0_v * f0_v;
-    const float f0_u3 = f0_u2 * f0_u;
-    const float f0_v3 = f0_v2 * f0_v;
-    const float f0_u4 = f0_u3 * f0_u;
-    const float f0_v4 = f0_v3 * f0_v;
-    const float f0_u5 = f0_u4 * f0_u;
-    const float f0_v5 = f0_v4 * f0_v;
-    const float f0_b1 = f0_u * f0_v4;
-    const float f0_b2 = f0_u2 * f0_v3;
-    const float f0_b3 = f0_u3 * f0_v2;
-    const float f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    const float r_v = 1.0f - r_t;
-    const float r_u2 = r_t * r_t;
-    const float r_v2 = r_v * r_v;
-    const float r_u3 = r_u2 * r_t;
-    const float r_v3 = r_v2 * r_v;
-    const float r_u4 = r_u3 * r_t;
-    const float r_v4 = r_v3 * r_v;
-    const float r_u5 = r_u4 * r_t;
-    const float r_v5 = r_v4 * r_v;
-    const float r_b1 = r_t * r_v4;
-    const float r_b2 = r_u2 * r_v3;
-    const float r_b3 = r_u3 * r_v2;
-    const float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    const float mu_u = (mu_t - 7.888609e-31f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    const float mu_v = 1.0f - mu_u;
-    const float mu_u2 = mu_u * mu_u;
-    const float mu_v2 = mu_v * mu_v;
-    const float mu_u3 = mu_u2 * mu_u;
-    const float mu_v3 = mu_v2 * mu_v;
-    const float mu_u4 = mu_u3 * mu_u;
-    const float mu_v4 = mu_v3 * mu_v;
-    const float mu_u5 = mu_u4 * mu_u;
-    const float mu_v5 = mu_v4 * mu_v;
-    const float mu_b1 = mu_u * mu_v4;
-    const float mu_b2 = mu_u2 * mu_v3;
-    const float mu_b3 = mu_u3 * mu_v2;
-    const float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = 1.3262446f * mu_v5 + 6.309378f * mu_b1 + 2.7582963f * mu_b2 + 2.5728912f * mu_b3 + 0.2455105f * mu_b4 + 0.02331945f * mu_u5;
-    const float p_0_1 = 4.812081f * mu_v5 + 26.659563f * mu_b1 + 12.019848f * mu_b2 + 5.6128297f * mu_b3 - 7.3929925f * mu_b4 + 0.044228934f * mu_u5;
-    const float p_0_2 = 15.334151f * mu_v5 + 71.63891f * mu_b1 + 69.4222f * mu_b2 + 50.74004f * mu_b3 - 5.1327677f * mu_b4 + 3.0000103f * mu_u5;
-    const float p_0_3 = 19.694372f * mu_v5 + 75.756195f * mu_b1 + 96.698204f * mu_b2 + 89.97635f * mu_b3 + 8.222696f * mu_b4 + 4.6380997f * mu_u5;
-    const float p_0_4 = 12.334153f * mu_v5 + 42.18184f * mu_b1 + 78.08932f * mu_b2 + 93.67305f * mu_b3 + 28.061981f * mu_b4 + 5.5082483f * mu_u5;
-    const float p_0_5 = 2.3235614f * mu_v5 + 6.8916936f * mu_b1 + 19.906424f * mu_b2 + 29.751461f * mu_b3 + 11.522348f * mu_b4 + 1.6847153f * mu_u5;
-    const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    const float p_1_0 = 9.045544f * mu_v5 + 39.689053f * mu_b1 + 15.372645f * mu_b2 + 12.206684f * mu_b3 + 4.8262887f * mu_b4 + 0.22642615f * mu_u5;
-    const float p_1_1 = 50.979973f * mu_v5 + 230.0469f * mu_b1 + 131.12958f * mu_b2 + 40.599705f * mu_b3 - 26.78279f * mu_b4 - 0.9314121f * mu_u5;
-    const float p_1_2 = 146.67166f * mu_v5 + 610.8841f * mu_b1 + 539.15967f * mu_b2 + 263.60635f * mu_b3 - 29.636805f * mu_b4 + 10.480991f * mu_u5;
-    const float p_1_3 = 174.14392f * mu_v5 + 646.8861f * mu_b1 + 655.26855f * mu_b2 + 391.59418f * mu_b3 - 5.126995f * mu_b4 + 14.582083f * mu_u5;
-    const float p_1_4 = 99.71778f * mu_v5 + 340.83093f * mu_b1 + 445.06036f * mu_b2 + 386.49194f * mu_b3 + 87.97745f * mu_b4 + 19.821135f * mu_u5;
-    const float p_1_5 = 19.488413f * mu_v5 + 60.35771f * mu_b1 + 104.96786f * mu_b2 + 121.884384f * mu_b3 + 40.963356f * mu_b4 + 6.0552096f * mu_u5;
-    const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    const float p_2_0 = 26.2151f * mu_v5 + 103.31517f * mu_b1 + 38.542667f * mu_b2 + 22.35261f * mu_b3 + 15.588556f * mu_b4 + 0.43391702f * mu_u5;
-    const float p_2_1 = 160.15381f * mu_v5 + 654.1568f * mu_b1 + 388.37207f * mu_b2 + 90.14707f * mu_b3 - 37.119053f * mu_b4 - 4.120206f * mu_u5;
-    const float p_2_2 = 424.65094f * mu_v5 + 1685.6675f * mu_b1 + 1415.0219f * mu_b2 + 549.90027f * mu_b3 - 41.73231f * mu_b4 + 19.926462f * mu_u5;
-    const float p_2_3 = 479.39096f * mu_v5 + 1773.7621f * mu_b1 + 1644.106f * mu_b2 + 754.6889f * mu_b3 - 20.300644f * mu_b4 + 32.29893f * mu_u5;
-    const float p_2_4 = 262.07208f * mu_v5 + 917.4997f * mu_b1 + 1034.5941f * mu_b2 + 715.995f * mu_b3 + 150.33305f * mu_b4 + 42.281338f * mu_u5;
-    const float p_2_5 = 51.748028f * mu_v5 + 170.33667f * mu_b1 + 239.22714f * mu_b2 + 226.9585f * mu_b3 + 73.38228f * mu_b4 + 12.817652f * mu_u5;
-    const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    const float p_3_0 = 36.45636f * mu_v5 + 132.09409f * mu_b1 + 49.824375f * mu_b2 + 21.178566f * mu_b3 + 21.626131f * mu_b4 + 0.38959098f * mu_u5;
-    const float p_3_1 = 217.26793f * mu_v5 + 833.335f * mu_b1 + 482.64127f * mu_b2 + 73.63677f * mu_b3 - 30.197905f * mu_b4 - 8.483627f * mu_u5;
-    const float p_3_2 = 535.89856f * mu_v5 + 2067.3516f * mu_b1 + 1638.1614f * mu_b2 + 507.71423f * mu_b3 - 41.810677f * mu_b4 + 14.737274f * mu_u5;
-    const float p_3_3 = 576.98114f * mu_v5 + 2139.914f * mu_b1 + 1853.0526f * mu_b2 + 683.3447f * mu_b3 - 29.957457f * mu_b4 + 34.37114f * mu_u5;
-    const float p_3_4 = 302.95752f * mu_v5 + 1088.5591f * mu_b1 + 1125.7156f * mu_b2 + 661.6721f * mu_b3 + 139.74039f * mu_b4 + 46.959103f * mu_u5;
-    const float p_3_5 = 59.41808f * mu_v5 + 206.52878f * mu_b1 + 261.55392f * mu_b2 + 217.12999f * mu_b3 + 71.48449f * mu_b4 + 14.553112f * mu_u5;
-    const float p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    const float p_4_0 = 24.127707f * mu_v5 + 83.07055f * mu_b1 + 35.100803f * mu_b2 + 14.78636f * mu_b3 + 16.39849f * mu_b4 + 0.6477791f * mu_u5;
-    const float p_4_1 = 136.87772f * mu_v5 + 506.16788f * mu_b1 + 295.46158f * mu_b2 + 42.76224f * mu_b3 - 3.0476818f * mu_b4 - 5.250089f * mu_u5;
-    const float p_4_2 = 316.54205f * mu_v5 + 1207.1707f * mu_b1 + 930.48f * mu_b2 + 257.58606f * mu_b3 - 5.022102f * mu_b4 + 6.0200305f * mu_u5;
-    const float p_4_3 = 325.3694f * mu_v5 + 1225.4052f * mu_b1 + 1029.0085f * mu_b2 + 338.19366f * mu_b3 - 0.3773797f * mu_b4 + 19.178555f * mu_u5;
-    const float p_4_4 = 164.0344f * mu_v5 + 613.0693f * mu_b1 + 610.2341f * mu_b2 + 326.4711f * mu_b3 + 77.19572f * mu_b4 + 26.312235f * mu_u5;
-    const float p_4_5 = 31.63439f * mu_v5 + 117.62417f * mu_b1 + 143.11806f * mu_b2 + 109.660866f * mu_b3 + 37.883812f * mu_b4 + 8.228908f * mu_u5;
-    const float p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    const float p_5_0 = 5.9198213f * mu_v5 + 19.675339f * mu_b1 + 8.731501f * mu_b2 + 3.8533614f * mu_b3 + 4.543514f * mu_b4 + 0.24167356f * mu_u5;
-    const float p_5_1 = 32.359077f * mu_v5 + 117.41924f * mu_b1 + 69.71641f * mu_b2 + 11.919426f * mu_b3 + 3.237846f * mu_b4 - 1.1476511f * mu_u5;
-    const float p_5_2 = 71.48367f * mu_v5 + 273.8753f * mu_b1 + 212.87051f * mu_b2 + 62.173306f * mu_b3 + 7.194057f * mu_b4 + 1.254989f * mu_u5;
-    const float p_5_3 = 70.856415f * mu_v5 + 275.75696f * mu_b1 + 236.75896f * mu_b2 + 83.18755f * mu_b3 + 10.262882f * mu_b4 + 4.6891117f * mu_u5;
-    const float p_5_4 = 34.528694f * mu_v5 + 137.17764f * mu_b1 + 139.77528f * mu_b2 + 75.60886f * mu_b3 + 21.689795f * mu_b4 + 6.084961f * mu_u5;
-    const float p_5_5 = 6.5521607f * mu_v5 + 26.729424f * mu_b1 + 33.25659f * mu_b2 + 24.883204f * mu_b3 + 9.103965f * mu_b4 + 1.8756288f * mu_u5;
-    const float p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    const float p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = 1.418392f * mu_v5 + 6.7638755f * mu_b1 + 4.0001674f * mu_b2 + 2.4498153f * mu_b3 + 0.24572235f * mu_b4 + 0.02331387f * mu_u5;
-    const float q_0_1 = 6.6308227f * mu_v5 + 33.73159f * mu_b1 + 19.321854f * mu_b2 + 3.070839f * mu_b3 - 6.97017f * mu_b4 + 0.043691695f * mu_u5;
-    const float q_0_2 = 21.742008f * mu_v5 + 100.395294f * mu_b1 + 93.56832f * mu_b2 + 41.67979f * mu_b3 - 5.9788914f * mu_b4 + 2.9835799f * mu_u5;
-    const float q_0_3 = 41.3996f * mu_v5 + 172.11646f * mu_b1 + 207.02214f * mu_b2 + 121.51021f * mu_b3 + 14.249556f * mu_b4 + 4.7718663f * mu_u5;
-    const float q_0_4 = 37.160374f * mu_v5 + 150.97675f * mu_b1 + 216.3582f * mu_b2 + 155.83446f * mu_b3 + 42.279472f * mu_b4 + 6.8504696f * mu_u5;
-    const float q_0_5 = 10.046568f * mu_v5 + 41.06896f * mu_b1 + 65.144875f * mu_b2 + 52.945198f * mu_b3 + 18.04801f * mu_b4 + 2.7980237f * mu_u5;
-    const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    const float q_1_0 = 9.641087f * mu_v5 + 42.75884f * mu_b1 + 22.44342f * mu_b2 + 11.797635f * mu_b3 + 4.8342757f * mu_b4 + 0.22592367f * mu_u5;
-    const float q_1_1 = 62.74871f * mu_v5 + 275.63867f * mu_b1 + 178.66895f * mu_b2 + 31.6294f * mu_b3 - 24.409122f * mu_b4 - 0.94147235f * mu_u5;
-    const float q_1_2 = 188.09906f * mu_v5 + 787.09314f * mu_b1 + 693.961f * mu_b2 + 230.42259f * mu_b3 - 32.443005f * mu_b4 + 10.737471f * mu_u5;
-    const float q_1_3 = 283.92047f * mu_v5 + 1122.0671f * mu_b1 + 1171.7181f * mu_b2 + 506.56992f * mu_b3 + 9.031282f * mu_b4 + 14.668965f * mu_u5;
-    const float q_1_4 = 213.39279f * mu_v5 + 837.13055f * mu_b1 + 1055.4766f * mu_b2 + 641.30023f * mu_b3 + 149.75017f * mu_b4 + 29.50672f * mu_u5;
-    const float q_1_5 = 53.24485f * mu_v5 + 213.18222f * mu_b1 + 309.3048f * mu_b2 + 233.13208f * mu_b3 + 81.42474f * mu_b4 + 15.523713f * mu_u5;
-    const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    const float q_2_0 = 27.833279f * mu_v5 + 111.621f * mu_b1 + 54.97085f * mu_b2 + 21.99455f * mu_b3 + 15.521014f * mu_b4 + 0.4368228f * mu_u5;
-    const float q_2_1 = 186.92621f * mu_v5 + 759.97156f * mu_b1 + 499.6522f * mu_b2 + 77.011024f * mu_b3 - 32.383f * mu_b4 - 4.151025f * mu_u5;
-    const float q_2_2 = 520.73865f * mu_v5 + 2091.062f * mu_b1 + 1787.4475f * mu_b2 + 509.7577f * mu_b3 - 44.35537f * mu_b4 + 20.283352f * mu_u5;
-    const float q_2_3 = 698.5934f * mu_v5 + 2713.524f * mu_b1 + 2626.62f * mu_b2 + 916.87415f * mu_b3 - 23.741526f * mu_b4 + 28.345997f * mu_u5;
-    const float q_2_4 = 470.18903f * mu_v5 + 1829.4767f * mu_b1 + 2123.1875f * mu_b2 + 1131.9503f * mu_b3 + 253.58203f * mu_b4 + 64.16776f * mu_u5;
-    const float q_2_5 = 110.8036f * mu_v5 + 446.47504f * mu_b1 + 614.9555f * mu_b2 + 445.43927f * mu_b3 + 168.68312f * mu_b4 + 38.255154f * mu_u5;
-    const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    const float q_3_0 = 38.714878f * mu_v5 + 143.39772f * mu_b1 + 69.53642f * mu_b2 + 21.626545f * mu_b3 + 21.435364f * mu_b4 + 0.38962352f * mu_u5;
-    const float q_3_1 = 245.4322f * mu_v5 + 949.31433f * mu_b1 + 606.76416f * mu_b2 + 64.65424f * mu_b3 - 25.350304f * mu_b4 - 8.486418f * mu_u5;
-    const float q_3_2 = 640.8163f * mu_v5 + 2519.7559f * mu_b1 + 2079.8472f * mu_b2 + 506.99054f * mu_b3 - 36.21993f * mu_b4 + 14.969457f * mu_u5;
-    const float q_3_3 = 795.3275f * mu_v5 + 3083.8552f * mu_b1 + 2829.7463f * mu_b2 + 819.84076f * mu_b3 - 53.051987f * mu_b4 + 25.59829f * mu_u5;
-    const float q_3_4 = 495.60126f * mu_v5 + 1945.3483f * mu_b1 + 2133.4673f * mu_b2 + 1024.2042f * mu_b3 + 231.91695f * mu_b4 + 70.069084f * mu_u5;
-    const float q_3_5 = 111.93483f * mu_v5 + 463.14325f * mu_b1 + 621.9622f * mu_b2 + 443.94812f * mu_b3 + 183.3456f * mu_b4 + 45.87848f * mu_u5;
-    const float q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    const float q_4_0 = 25.701345f * mu_v5 + 90.73642f * mu_b1 + 47.294704f * mu_b2 + 15.758057f * mu_b3 + 16.282547f * mu_b4 + 0.64773625f * mu_u5;
-    const float q_4_1 = 150.76164f * mu_v5 + 567.2503f * mu_b1 + 362.8451f * mu_b2 + 40.57367f * mu_b3 - 0.30587158f * mu_b4 - 5.2050414f * mu_u5;
-    const float q_4_2 = 371.45276f * mu_v5 + 1455.3995f * mu_b1 + 1192.5662f * mu_b2 + 287.06723f * mu_b3 + 6.2104874f * mu_b4 + 6.398787f * mu_u5;
-    const float q_4_3 = 434.58865f * mu_v5 + 1710.9014f * mu_b1 + 1545.4043f * mu_b2 + 423.65366f * mu_b3 - 11.1411915f * mu_b4 + 12.932875f * mu_u5;
-    const float q_4_4 = 255.2595f * mu_v5 + 1030.6432f * mu_b1 + 1107.8909f * mu_b2 + 509.91815f * mu_b3 + 126.82108f * mu_b4 + 38.728188f * mu_u5;
-    const float q_4_5 = 55.844383f * mu_v5 + 242.53294f * mu_b1 + 327.3133f * mu_b2 + 236.32703f * mu_b3 + 104.66665f * mu_b4 + 26.82797f * mu_u5;
-    const float q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    const float q_5_0 = 6.3462753f * mu_v5 + 21.710848f * mu_b1 + 11.778113f * mu_b2 + 4.2704744f * mu_b3 + 4.525759f * mu_b4 + 0.24154894f * mu_u5;
-    const float q_5_1 = 34.88387f * mu_v5 + 129.731f * mu_b1 + 83.84723f * mu_b2 + 11.83304f * mu_b3 + 3.8309646f * mu_b4 - 1.1383686f * mu_u5;
-    const float q_5_2 = 82.51034f * mu_v5 + 327.46912f * mu_b1 + 274.69614f * mu_b2 + 76.01389f * mu_b3 + 12.00032f * mu_b4 + 1.4510229f * mu_u5;
-    const float q_5_3 = 92.82586f * mu_v5 + 378.08078f * mu_b1 + 352.50433f * mu_b2 + 110.54963f * mu_b3 + 10.848703f * mu_b4 + 3.2757149f * mu_u5;
-    const float q_5_4 = 52.360985f * mu_v5 + 222.34834f * mu_b1 + 245.95406f * mu_b2 + 119.65963f * mu_b3 + 34.746048f * mu_b4 + 8.916734f * mu_u5;
-    const float q_5_5 = 11.264089f * mu_v5 + 52.4976f * mu_b1 + 73.63892f * mu_b2 + 55.12351f * mu_b3 + 25.373554f * mu_b4 + 6.2281775f * mu_u5;
-    const float q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    const float q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
-    const float e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    const float r_b5_v = 1.0f - r_t;
+    const float r_b5_u2 = r_t * r_t;
+    const float r_b5_v2 = r_b5_v * r_b5_v;
+    const float r_b5_u3 = r_b5_u2 * r_t;
+    const float r_b5_v3 = r_b5_v2 * r_b5_v;
+    const float r_b5_u4 = r_b5_u3 * r_t;
+    const float r_b5_v4 = r_b5_v3 * r_b5_v;
+    const float r_b5_u5 = r_b5_u4 * r_t;
+    const float r_b5_v5 = r_b5_v4 * r_b5_v;
+    const float r_b5_b1 = r_t * r_b5_v4;
+    const float r_b5_b2 = r_b5_u2 * r_b5_v3;
+    const float r_b5_b3 = r_b5_u3 * r_b5_v2;
+    const float r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    const float mu_b5_v = 1.0f - mu_u;
+    const float mu_b5_u2 = mu_u * mu_u;
+    const float mu_b5_v2 = mu_b5_v * mu_b5_v;
+    const float mu_b5_u3 = mu_b5_u2 * mu_u;
+    const float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    const float mu_b5_u4 = mu_b5_u3 * mu_u;
+    const float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    const float mu_b5_u5 = mu_b5_u4 * mu_u;
+    const float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    const float mu_b5_b1 = mu_u * mu_b5_v4;
+    const float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    const float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    const float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    const float p0_0_0 = 0.22224648f * mu_b5_v5 + 2.080058f * mu_b5_b1 + 2.7999012f * mu_b5_b2 + 2.6335433f * mu_b5_b3 - 0.31439233f * mu_b5_b4 + 0.06330606f * mu_b5_u5;
+    const float p0_0_1 = 4.90099f * mu_b5_v5 + 22.287449f * mu_b5_b1 + 19.664373f * mu_b5_b2 + 13.007452f * mu_b5_b3 + 1.1166557f * mu_b5_b4 + 0.7328782f * mu_b5_u5;
+    const float p0_0_2 = 14.584245f * mu_b5_v5 + 68.65401f * mu_b5_b1 + 58.431934f * mu_b5_b2 + 28.25405f * mu_b5_b3 + 4.614967f * mu_b5_b4 + 1.4146066f * mu_b5_u5;
+    const float p0_0_3 = 16.871683f * mu_b5_v5 + 90.56245f * mu_b5_b1 + 76.52069f * mu_b5_b2 + 24.56629f * mu_b5_b3 + 1.977527f * mu_b5_b4 + 0.9326872f * mu_b5_u5;
+    const float p0_0_4 = 6.313493f * mu_b5_v5 + 44.206676f * mu_b5_b1 + 25.279478f * mu_b5_b2 - 11.604273f * mu_b5_b3 - 10.126012f * mu_b5_b4 - 0.7896831f * mu_b5_u5;
+    const float p0_0_5 = 0.7215703f * mu_b5_v5 + 8.962149f * mu_b5_b1 + 4.0688505f * mu_b5_b2 - 4.5478187f * mu_b5_b3 - 2.0483181f * mu_b5_b4 + 0.39692447f * mu_b5_u5;
+    const float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    const float p0 = p0_0 * 1.0f;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    const float f0_b4_v = 1.0f - f0_t;
+    const float f0_b4_u2 = f0_t * f0_t;
+    const float f0_b4_v2 = f0_b4_v * f0_b4_v;
+    const float f0_b4_u3 = f0_b4_u2 * f0_t;
+    const float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    const float f0_b4_u4 = f0_b4_u3 * f0_t;
+    const float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    const float f0_b4_b1 = f0_t * f0_b4_v3;
+    const float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    const float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    const float u0_0_0 = 0.79304284f * 1.0f;
+    const float u0_0 = u0_0_0 * 1.0f;
+    const float u0_1_0 = 3.515841f * 1.0f;
+    const float u0_1 = u0_1_0 * 1.0f;
+    const float u0_2_0 = 5.184229f * 1.0f;
+    const float u0_2 = u0_2_0 * 1.0f;
+    const float u0_3_0 = 3.4922206f * 1.0f;
+    const float u0_3 = u0_3_0 * 1.0f;
+    const float u0_4_0 = 0.87667197f * 1.0f;
+    const float u0_4 = u0_4_0 * 1.0f;
+    const float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
+    const float r_b3_v = 1.0f - r_t;
+    const float r_b3_u2 = r_t * r_t;
+    const float r_b3_v2 = r_b3_v * r_b3_v;
+    const float r_b3_u3 = r_b3_u2 * r_t;
+    const float r_b3_v3 = r_b3_v2 * r_b3_v;
+    const float r_b3_b1 = r_t * r_b3_v2;
+    const float r_b3_b2 = r_b3_u2 * r_b3_v;
+    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
+    const float mu_b3_v = 1.0f - mu_u;
+    const float mu_b3_u2 = mu_u * mu_u;
+    const float mu_b3_v2 = mu_b3_v * mu_b3_v;
+    const float mu_b3_u3 = mu_b3_u2 * mu_u;
+    const float mu_b3_v3 = mu_b3_v2 * mu_b3_v;
+    const float mu_b3_b1 = mu_u * mu_b3_v2;
+    const float mu_b3_b2 = mu_b3_u2 * mu_b3_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q0_0_0 = 1.0f * mu_b3_v3 + 2.7429175f * mu_b3_b1 + 0.98035645f * mu_b3_b2 + 0.26321474f * mu_b3_u3;
+    const float q0_0_1 = 3.348674f * mu_b3_v3 + 9.340424f * mu_b3_b1 + 3.86521f * mu_b3_b2 + 0.9507883f * mu_b3_u3;
+    const float q0_0_2 = 4.146854f * mu_b3_v3 + 11.981896f * mu_b3_b1 + 6.500438f * mu_b3_b2 + 1.7427232f * mu_b3_u3;
+    const float q0_0_3 = 1.6414753f * mu_b3_v3 + 4.914277f * mu_b3_b1 + 3.145471f * mu_b3_b2 + 0.89844525f * mu_b3_u3;
+    const float q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
+    const float q0 = q0_0 * 1.0f;
+    const float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    const float p1_0_0 = 0.10619299f * mu_b5_v5 + 0.84137726f * mu_b5_b1 + 0.9805587f * mu_b5_b2 + 0.15443228f * mu_b5_b3 + 0.0095299035f * mu_b5_b4 + 5.0411763e-5f * mu_b5_u5;
+    const float p1_0_1 = -0.68677795f * mu_b5_v5 - 3.8119934f * mu_b5_b1 - 6.209557f * mu_b5_b2 - 3.5838456f * mu_b5_b3 + 0.0023665389f * mu_b5_b4 - 0.00023776219f * mu_b5_u5;
+    const float p1_0_2 = -1.3749454f * mu_b5_v5 - 10.670812f * mu_b5_b1 - 14.692839f * mu_b5_b2 - 5.2093005f * mu_b5_b3 + 1.1953013f * mu_b5_b4 + 0.0034133885f * mu_b5_u5;
+    const float p1_0_3 = -1.3953317f * mu_b5_v5 - 11.121129f * mu_b5_b1 - 13.464799f * mu_b5_b2 - 4.092516f * mu_b5_b3 + 0.6783816f * mu_b5_b4 + 0.027679378f * mu_b5_u5;
+    const float p1_0_4 = -0.8502589f * mu_b5_v5 - 5.0262356f * mu_b5_b1 - 4.894767f * mu_b5_b2 - 1.586892f * mu_b5_b3 - 0.038211312f * mu_b5_b4 + 0.3277824f * mu_b5_u5;
+    const float p1_0_5 = -0.18136023f * mu_b5_v5 - 0.64484066f * mu_b5_b1 - 0.37727633f * mu_b5_b2 - 0.40998474f * mu_b5_b3 - 0.23642117f * mu_b5_b4 + 0.159346f * mu_b5_u5;
+    const float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    const float p1 = p1_0 * 1.0f;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    const float u1_0_0 = 0.64122f * 1.0f;
+    const float u1_0 = u1_0_0 * 1.0f;
+    const float u1_1_0 = 1.60442f * 1.0f;
+    const float u1_1 = u1_1_0 * 1.0f;
+    const float u1_2_0 = -0.48421544f * 1.0f;
+    const float u1_2 = u1_2_0 * 1.0f;
+    const float u1_3_0 = -1.1584883f * 1.0f;
+    const float u1_3 = u1_3_0 * 1.0f;
+    const float u1_4_0 = -0.4014383f * 1.0f;
+    const float u1_4 = u1_4_0 * 1.0f;
+    const float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q1_0_0 = 1.0f * mu_b3_v3 + 1.7703092f * mu_b3_b1 + 0.094730645f * mu_b3_b2 + 0.0005022735f * mu_b3_u3;
+    const float q1_0_1 = 1.7237881f * mu_b3_v3 + 3.2525132f * mu_b3_b1 - 0.50589025f * mu_b3_b2 - 0.0063726213f * mu_b3_u3;
+    const float q1_0_2 = 1.3689879f * mu_b3_v3 + 3.121114f * mu_b3_b1 - 0.20617628f * mu_b3_b2 + 0.0699402f * mu_b3_u3;
+    const float q1_0_3 = 0.6641666f * mu_b3_v3 + 1.6958107f * mu_b3_b1 + 0.4513452f * mu_b3_b2 + 0.09578197f * mu_b3_u3;
+    const float q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
+    const float q1 = q1_0 * 1.0f;
+    const float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    const float p2_0_0 = 0.039914336f * mu_b5_v5 - 0.44403595f * mu_b5_b1 - 0.560024f * mu_b5_b2 + 0.18355097f * mu_b5_b3 + 0.0044148574f * mu_b5_b4 + 2.6778394e-5f * mu_b5_u5;
+    const float p2_0_1 = 0.03973821f * mu_b5_v5 + 2.08201f * mu_b5_b1 + 5.120979f * mu_b5_b2 + 4.280375f * mu_b5_b3 - 0.07499421f * mu_b5_b4 - 0.00047910676f * mu_b5_u5;
+    const float p2_0_2 = -0.40981475f * mu_b5_v5 + 5.7511697f * mu_b5_b1 + 11.60153f * mu_b5_b2 + 6.7011714f * mu_b5_b3 - 1.2866848f * mu_b5_b4 + 0.0050555104f * mu_b5_u5;
+    const float p2_0_3 = -0.29035792f * mu_b5_v5 + 5.078979f * mu_b5_b1 + 8.037067f * mu_b5_b2 + 4.168931f * mu_b5_b3 - 1.0777005f * mu_b5_b4 - 0.026535172f * mu_b5_u5;
+    const float p2_0_4 = 0.03488596f * mu_b5_v5 + 1.017585f * mu_b5_b1 + 0.5454812f * mu_b5_b2 + 1.2920636f * mu_b5_b3 + 0.24062198f * mu_b5_b4 - 0.21247639f * mu_b5_u5;
+    const float p2_0_5 = -0.01913896f * mu_b5_v5 - 0.50999135f * mu_b5_b1 - 0.918501f * mu_b5_b2 + 0.38003767f * mu_b5_b3 + 0.4373256f * mu_b5_b4 - 0.11512404f * mu_b5_u5;
+    const float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    const float p2 = p2_0 * 1.0f;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    const float u2_0_0 = 0.503114f * 1.0f;
+    const float u2_0 = u2_0_0 * 1.0f;
+    const float u2_1_0 = 1.5615572f * 1.0f;
+    const float u2_1 = u2_1_0 * 1.0f;
+    const float u2_2_0 = -0.07613506f * 1.0f;
+    const float u2_2 = u2_2_0 * 1.0f;
+    const float u2_3_0 = -0.8783531f * 1.0f;
+    const float u2_3 = u2_3_0 * 1.0f;
+    const float u2_4_0 = -0.32960382f * 1.0f;
+    const float u2_4 = u2_4_0 * 1.0f;
+    const float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q2_0_0 = 1.0f * mu_b3_v3 + 1.4815046f * mu_b3_b1 + 0.074680634f * mu_b3_b2 + 0.00046328027f * mu_b3_u3;
+    const float q2_0_1 = 2.0612285f * mu_b3_v3 + 2.8476675f * mu_b3_b1 - 0.43841308f * mu_b3_b2 - 0.0029905436f * mu_b3_u3;
+    const float q2_0_2 = 1.8751547f * mu_b3_v3 + 2.827246f * mu_b3_b1 - 0.2061119f * mu_b3_b2 + 0.06365838f * mu_b3_u3;
+    const float q2_0_3 = 0.81490797f * mu_b3_v3 + 1.4640284f * mu_b3_b1 + 0.30992725f * mu_b3_b2 + 0.068094f * mu_b3_u3;
+    const float q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
+    const float q2 = q2_0 * 1.0f;
+    const float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    const float p3_0_0 = -0.6152648f * mu_b5_v5 - 2.3964958f * mu_b5_b1 - 3.4640985f * mu_b5_b2 - 1.4219089f * mu_b5_b3 - 0.56277716f * mu_b5_b4 - 0.087540306f * mu_b5_u5;
+    const float p3_0_1 = -0.5297324f * mu_b5_v5 - 3.1410484f * mu_b5_b1 - 15.644321f * mu_b5_b2 - 10.283925f * mu_b5_b3 - 1.009867f * mu_b5_b4 - 0.0779705f * mu_b5_u5;
+    const float p3_0_2 = 2.8843405f * mu_b5_v5 + 13.252363f * mu_b5_b1 - 23.73798f * mu_b5_b2 - 30.047947f * mu_b5_b3 - 4.116052f * mu_b5_b4 - 0.8121539f * mu_b5_u5;
+    const float p3_0_3 = 6.105868f * mu_b5_v5 + 37.087296f * mu_b5_b1 - 5.0292025f * mu_b5_b2 - 32.20227f * mu_b5_b3 - 4.2218747f * mu_b5_b4 - 0.6682841f * mu_b5_u5;
+    const float p3_0_4 = 1.5307225f * mu_b5_v5 + 19.166128f * mu_b5_b1 - 12.926057f * mu_b5_b2 - 36.597122f * mu_b5_b3 - 11.219043f * mu_b5_b4 - 1.5024074f * mu_b5_u5;
+    const float p3_0_5 = -0.13608272f * mu_b5_v5 + 4.277018f * mu_b5_b1 - 3.0520666f * mu_b5_b2 - 9.178238f * mu_b5_b3 - 2.464858f * mu_b5_b4 - 0.015592575f * mu_b5_u5;
+    const float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    const float p3 = p3_0 * 1.0f;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    const float u3_0_0 = -1.0929991f * 1.0f;
+    const float u3_0 = u3_0_0 * 1.0f;
+    const float u3_1_0 = -4.434357f * 1.0f;
+    const float u3_1 = u3_1_0 * 1.0f;
+    const float u3_2_0 = -7.3444963f * 1.0f;
+    const float u3_2 = u3_2_0 * 1.0f;
+    const float u3_3_0 = -5.0806828f * 1.0f;
+    const float u3_3 = u3_3_0 * 1.0f;
+    const float u3_4_0 = -1.2959784f * 1.0f;
+    const float u3_4 = u3_4_0 * 1.0f;
+    const float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q3_0_0 = 1.0f * mu_b3_v3 + 3.0581183f * mu_b3_b1 + 0.2259713f * mu_b3_b2 + 0.13370965f * mu_b3_u3;
+    const float q3_0_1 = 3.6536567f * mu_b3_v3 + 10.816092f * mu_b3_b1 + 1.3210826f * mu_b3_b2 + 0.056217704f * mu_b3_u3;
+    const float q3_0_2 = 5.0277557f * mu_b3_v3 + 14.981888f * mu_b3_b1 + 4.851042f * mu_b3_b2 + 0.7944807f * mu_b3_u3;
+    const float q3_0_3 = 2.1438046f * mu_b3_v3 + 6.5330305f * mu_b3_b1 + 3.0650473f * mu_b3_b2 + 0.64167815f * mu_b3_u3;
+    const float q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
+    const float q3 = q3_0 * 1.0f;
+    const float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    const float e = e0 + e1 + e2 + e3;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }
 

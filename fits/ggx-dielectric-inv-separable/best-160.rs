@@ -10,19 +10,19 @@
 /// ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 6519bfc26b52c630a7e0c28684579693185286bebf5b36b0fae1da0356a22bb0.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 627cdaba2350a94ccf674572401020ef147f4a816bd2f466dc9fd7502871005b.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-4, shifted 2.9e-5, bernstein 1.1e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.07e-3, max 7.49e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.22e-6 (every op rounded, as this Rust), 1.15e-6 (fused multiply-add), 1.42e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 9.42e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 37205 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.04e-3, max 7.49e-3; this f32 code MAE 1.04e-3, max 7.49e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.1e-3 on the measurement grid.
-/// Denominator proved >= 7.352e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.9e-4, shifted 6.1e-5, bernstein 1.7e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 7.03e-4, max 8.84e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.17e-7 (every op rounded, as this Rust), 5.71e-7 (fused multiply-add), 1.92e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.74e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 21585 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 7.01e-4, max 8.84e-3; this f32 code MAE 7.01e-4, max 8.84e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.7e-4 on the measurement grid.
+/// Denominator proved >= 2.836e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -33,149 +33,189 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
-    // t = sqrt(f0)
-    let f0_t = sqrtf(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    let f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017_f32) * 2.6828594_f32;
     let r_c = r.min(1.0_f32).max(0.0_f32);
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // u = (t - 0.11180339887498948)/(0.5 - 0.11180339887498948) in [0, 1]
-    let f0_u = (f0_t - 0.1118034_f32) * 2.5760143_f32;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    let f0_v = 1.0_f32 - f0_u;
-    let f0_u2 = f0_u * f0_u;
-    let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_u;
-    let f0_v3 = f0_v2 * f0_v;
-    let f0_u4 = f0_u3 * f0_u;
-    let f0_v4 = f0_v3 * f0_v;
-    let f0_u5 = f0_u4 * f0_u;
-    let f0_v5 = f0_v4 * f0_v;
-    let f0_b1 = f0_u * f0_v4;
-    let f0_b2 = f0_u2 * f0_v3;
-    let f0_b3 = f0_u3 * f0_v2;
-    let f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    let r_v = 1.0_f32 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_t;
-    let r_v4 = r_v3 * r_v;
-    let r_u5 = r_u4 * r_t;
-    let r_v5 = r_v4 * r_v;
-    let r_b1 = r_t * r_v4;
-    let r_b2 = r_u2 * r_v3;
-    let r_b3 = r_u3 * r_v2;
-    let r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    let mu_u = (mu_t - 7.888609e-31_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    let mu_v = 1.0_f32 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_b1 = mu_u * mu_v4;
-    let mu_b2 = mu_u2 * mu_v3;
-    let mu_b3 = mu_u3 * mu_v2;
-    let mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 1.3262446_f32 * mu_v5 + 6.309378_f32 * mu_b1 + 2.7582963_f32 * mu_b2 + 2.5728912_f32 * mu_b3 + 0.2455105_f32 * mu_b4 + 0.02331945_f32 * mu_u5;
-    let p_0_1 = 4.812081_f32 * mu_v5 + 26.659563_f32 * mu_b1 + 12.019848_f32 * mu_b2 + 5.6128297_f32 * mu_b3 - 7.3929925_f32 * mu_b4 + 0.044228934_f32 * mu_u5;
-    let p_0_2 = 15.334151_f32 * mu_v5 + 71.63891_f32 * mu_b1 + 69.4222_f32 * mu_b2 + 50.74004_f32 * mu_b3 - 5.1327677_f32 * mu_b4 + 3.0000103_f32 * mu_u5;
-    let p_0_3 = 19.694372_f32 * mu_v5 + 75.756195_f32 * mu_b1 + 96.698204_f32 * mu_b2 + 89.97635_f32 * mu_b3 + 8.222696_f32 * mu_b4 + 4.6380997_f32 * mu_u5;
-    let p_0_4 = 12.334153_f32 * mu_v5 + 42.18184_f32 * mu_b1 + 78.08932_f32 * mu_b2 + 93.67305_f32 * mu_b3 + 28.061981_f32 * mu_b4 + 5.5082483_f32 * mu_u5;
-    let p_0_5 = 2.3235614_f32 * mu_v5 + 6.8916936_f32 * mu_b1 + 19.906424_f32 * mu_b2 + 29.751461_f32 * mu_b3 + 11.522348_f32 * mu_b4 + 1.6847153_f32 * mu_u5;
-    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 9.045544_f32 * mu_v5 + 39.689053_f32 * mu_b1 + 15.372645_f32 * mu_b2 + 12.206684_f32 * mu_b3 + 4.8262887_f32 * mu_b4 + 0.22642615_f32 * mu_u5;
-    let p_1_1 = 50.979973_f32 * mu_v5 + 230.0469_f32 * mu_b1 + 131.12958_f32 * mu_b2 + 40.599705_f32 * mu_b3 - 26.78279_f32 * mu_b4 - 0.9314121_f32 * mu_u5;
-    let p_1_2 = 146.67166_f32 * mu_v5 + 610.8841_f32 * mu_b1 + 539.15967_f32 * mu_b2 + 263.60635_f32 * mu_b3 - 29.636805_f32 * mu_b4 + 10.480991_f32 * mu_u5;
-    let p_1_3 = 174.14392_f32 * mu_v5 + 646.8861_f32 * mu_b1 + 655.26855_f32 * mu_b2 + 391.59418_f32 * mu_b3 - 5.126995_f32 * mu_b4 + 14.582083_f32 * mu_u5;
-    let p_1_4 = 99.71778_f32 * mu_v5 + 340.83093_f32 * mu_b1 + 445.06036_f32 * mu_b2 + 386.49194_f32 * mu_b3 + 87.97745_f32 * mu_b4 + 19.821135_f32 * mu_u5;
-    let p_1_5 = 19.488413_f32 * mu_v5 + 60.35771_f32 * mu_b1 + 104.96786_f32 * mu_b2 + 121.884384_f32 * mu_b3 + 40.963356_f32 * mu_b4 + 6.0552096_f32 * mu_u5;
-    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 26.2151_f32 * mu_v5 + 103.31517_f32 * mu_b1 + 38.542667_f32 * mu_b2 + 22.35261_f32 * mu_b3 + 15.588556_f32 * mu_b4 + 0.43391702_f32 * mu_u5;
-    let p_2_1 = 160.15381_f32 * mu_v5 + 654.1568_f32 * mu_b1 + 388.37207_f32 * mu_b2 + 90.14707_f32 * mu_b3 - 37.119053_f32 * mu_b4 - 4.120206_f32 * mu_u5;
-    let p_2_2 = 424.65094_f32 * mu_v5 + 1685.6675_f32 * mu_b1 + 1415.0219_f32 * mu_b2 + 549.90027_f32 * mu_b3 - 41.73231_f32 * mu_b4 + 19.926462_f32 * mu_u5;
-    let p_2_3 = 479.39096_f32 * mu_v5 + 1773.7621_f32 * mu_b1 + 1644.106_f32 * mu_b2 + 754.6889_f32 * mu_b3 - 20.300644_f32 * mu_b4 + 32.29893_f32 * mu_u5;
-    let p_2_4 = 262.07208_f32 * mu_v5 + 917.4997_f32 * mu_b1 + 1034.5941_f32 * mu_b2 + 715.995_f32 * mu_b3 + 150.33305_f32 * mu_b4 + 42.281338_f32 * mu_u5;
-    let p_2_5 = 51.748028_f32 * mu_v5 + 170.33667_f32 * mu_b1 + 239.22714_f32 * mu_b2 + 226.9585_f32 * mu_b3 + 73.38228_f32 * mu_b4 + 12.817652_f32 * mu_u5;
-    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    let p_3_0 = 36.45636_f32 * mu_v5 + 132.09409_f32 * mu_b1 + 49.824375_f32 * mu_b2 + 21.178566_f32 * mu_b3 + 21.626131_f32 * mu_b4 + 0.38959098_f32 * mu_u5;
-    let p_3_1 = 217.26793_f32 * mu_v5 + 833.335_f32 * mu_b1 + 482.64127_f32 * mu_b2 + 73.63677_f32 * mu_b3 - 30.197905_f32 * mu_b4 - 8.483627_f32 * mu_u5;
-    let p_3_2 = 535.89856_f32 * mu_v5 + 2067.3516_f32 * mu_b1 + 1638.1614_f32 * mu_b2 + 507.71423_f32 * mu_b3 - 41.810677_f32 * mu_b4 + 14.737274_f32 * mu_u5;
-    let p_3_3 = 576.98114_f32 * mu_v5 + 2139.914_f32 * mu_b1 + 1853.0526_f32 * mu_b2 + 683.3447_f32 * mu_b3 - 29.957457_f32 * mu_b4 + 34.37114_f32 * mu_u5;
-    let p_3_4 = 302.95752_f32 * mu_v5 + 1088.5591_f32 * mu_b1 + 1125.7156_f32 * mu_b2 + 661.6721_f32 * mu_b3 + 139.74039_f32 * mu_b4 + 46.959103_f32 * mu_u5;
-    let p_3_5 = 59.41808_f32 * mu_v5 + 206.52878_f32 * mu_b1 + 261.55392_f32 * mu_b2 + 217.12999_f32 * mu_b3 + 71.48449_f32 * mu_b4 + 14.553112_f32 * mu_u5;
-    let p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    let p_4_0 = 24.127707_f32 * mu_v5 + 83.07055_f32 * mu_b1 + 35.100803_f32 * mu_b2 + 14.78636_f32 * mu_b3 + 16.39849_f32 * mu_b4 + 0.6477791_f32 * mu_u5;
-    let p_4_1 = 136.87772_f32 * mu_v5 + 506.16788_f32 * mu_b1 + 295.46158_f32 * mu_b2 + 42.76224_f32 * mu_b3 - 3.0476818_f32 * mu_b4 - 5.250089_f32 * mu_u5;
-    let p_4_2 = 316.54205_f32 * mu_v5 + 1207.1707_f32 * mu_b1 + 930.48_f32 * mu_b2 + 257.58606_f32 * mu_b3 - 5.022102_f32 * mu_b4 + 6.0200305_f32 * mu_u5;
-    let p_4_3 = 325.3694_f32 * mu_v5 + 1225.4052_f32 * mu_b1 + 1029.0085_f32 * mu_b2 + 338.19366_f32 * mu_b3 - 0.3773797_f32 * mu_b4 + 19.178555_f32 * mu_u5;
-    let p_4_4 = 164.0344_f32 * mu_v5 + 613.0693_f32 * mu_b1 + 610.2341_f32 * mu_b2 + 326.4711_f32 * mu_b3 + 77.19572_f32 * mu_b4 + 26.312235_f32 * mu_u5;
-    let p_4_5 = 31.63439_f32 * mu_v5 + 117.62417_f32 * mu_b1 + 143.11806_f32 * mu_b2 + 109.660866_f32 * mu_b3 + 37.883812_f32 * mu_b4 + 8.228908_f32 * mu_u5;
-    let p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    let p_5_0 = 5.9198213_f32 * mu_v5 + 19.675339_f32 * mu_b1 + 8.731501_f32 * mu_b2 + 3.8533614_f32 * mu_b3 + 4.543514_f32 * mu_b4 + 0.24167356_f32 * mu_u5;
-    let p_5_1 = 32.359077_f32 * mu_v5 + 117.41924_f32 * mu_b1 + 69.71641_f32 * mu_b2 + 11.919426_f32 * mu_b3 + 3.237846_f32 * mu_b4 - 1.1476511_f32 * mu_u5;
-    let p_5_2 = 71.48367_f32 * mu_v5 + 273.8753_f32 * mu_b1 + 212.87051_f32 * mu_b2 + 62.173306_f32 * mu_b3 + 7.194057_f32 * mu_b4 + 1.254989_f32 * mu_u5;
-    let p_5_3 = 70.856415_f32 * mu_v5 + 275.75696_f32 * mu_b1 + 236.75896_f32 * mu_b2 + 83.18755_f32 * mu_b3 + 10.262882_f32 * mu_b4 + 4.6891117_f32 * mu_u5;
-    let p_5_4 = 34.528694_f32 * mu_v5 + 137.17764_f32 * mu_b1 + 139.77528_f32 * mu_b2 + 75.60886_f32 * mu_b3 + 21.689795_f32 * mu_b4 + 6.084961_f32 * mu_u5;
-    let p_5_5 = 6.5521607_f32 * mu_v5 + 26.729424_f32 * mu_b1 + 33.25659_f32 * mu_b2 + 24.883204_f32 * mu_b3 + 9.103965_f32 * mu_b4 + 1.8756288_f32 * mu_u5;
-    let p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    let p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.418392_f32 * mu_v5 + 6.7638755_f32 * mu_b1 + 4.0001674_f32 * mu_b2 + 2.4498153_f32 * mu_b3 + 0.24572235_f32 * mu_b4 + 0.02331387_f32 * mu_u5;
-    let q_0_1 = 6.6308227_f32 * mu_v5 + 33.73159_f32 * mu_b1 + 19.321854_f32 * mu_b2 + 3.070839_f32 * mu_b3 - 6.97017_f32 * mu_b4 + 0.043691695_f32 * mu_u5;
-    let q_0_2 = 21.742008_f32 * mu_v5 + 100.395294_f32 * mu_b1 + 93.56832_f32 * mu_b2 + 41.67979_f32 * mu_b3 - 5.9788914_f32 * mu_b4 + 2.9835799_f32 * mu_u5;
-    let q_0_3 = 41.3996_f32 * mu_v5 + 172.11646_f32 * mu_b1 + 207.02214_f32 * mu_b2 + 121.51021_f32 * mu_b3 + 14.249556_f32 * mu_b4 + 4.7718663_f32 * mu_u5;
-    let q_0_4 = 37.160374_f32 * mu_v5 + 150.97675_f32 * mu_b1 + 216.3582_f32 * mu_b2 + 155.83446_f32 * mu_b3 + 42.279472_f32 * mu_b4 + 6.8504696_f32 * mu_u5;
-    let q_0_5 = 10.046568_f32 * mu_v5 + 41.06896_f32 * mu_b1 + 65.144875_f32 * mu_b2 + 52.945198_f32 * mu_b3 + 18.04801_f32 * mu_b4 + 2.7980237_f32 * mu_u5;
-    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 9.641087_f32 * mu_v5 + 42.75884_f32 * mu_b1 + 22.44342_f32 * mu_b2 + 11.797635_f32 * mu_b3 + 4.8342757_f32 * mu_b4 + 0.22592367_f32 * mu_u5;
-    let q_1_1 = 62.74871_f32 * mu_v5 + 275.63867_f32 * mu_b1 + 178.66895_f32 * mu_b2 + 31.6294_f32 * mu_b3 - 24.409122_f32 * mu_b4 - 0.94147235_f32 * mu_u5;
-    let q_1_2 = 188.09906_f32 * mu_v5 + 787.09314_f32 * mu_b1 + 693.961_f32 * mu_b2 + 230.42259_f32 * mu_b3 - 32.443005_f32 * mu_b4 + 10.737471_f32 * mu_u5;
-    let q_1_3 = 283.92047_f32 * mu_v5 + 1122.0671_f32 * mu_b1 + 1171.7181_f32 * mu_b2 + 506.56992_f32 * mu_b3 + 9.031282_f32 * mu_b4 + 14.668965_f32 * mu_u5;
-    let q_1_4 = 213.39279_f32 * mu_v5 + 837.13055_f32 * mu_b1 + 1055.4766_f32 * mu_b2 + 641.30023_f32 * mu_b3 + 149.75017_f32 * mu_b4 + 29.50672_f32 * mu_u5;
-    let q_1_5 = 53.24485_f32 * mu_v5 + 213.18222_f32 * mu_b1 + 309.3048_f32 * mu_b2 + 233.13208_f32 * mu_b3 + 81.42474_f32 * mu_b4 + 15.523713_f32 * mu_u5;
-    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 27.833279_f32 * mu_v5 + 111.621_f32 * mu_b1 + 54.97085_f32 * mu_b2 + 21.99455_f32 * mu_b3 + 15.521014_f32 * mu_b4 + 0.4368228_f32 * mu_u5;
-    let q_2_1 = 186.92621_f32 * mu_v5 + 759.97156_f32 * mu_b1 + 499.6522_f32 * mu_b2 + 77.011024_f32 * mu_b3 - 32.383_f32 * mu_b4 - 4.151025_f32 * mu_u5;
-    let q_2_2 = 520.73865_f32 * mu_v5 + 2091.062_f32 * mu_b1 + 1787.4475_f32 * mu_b2 + 509.7577_f32 * mu_b3 - 44.35537_f32 * mu_b4 + 20.283352_f32 * mu_u5;
-    let q_2_3 = 698.5934_f32 * mu_v5 + 2713.524_f32 * mu_b1 + 2626.62_f32 * mu_b2 + 916.87415_f32 * mu_b3 - 23.741526_f32 * mu_b4 + 28.345997_f32 * mu_u5;
-    let q_2_4 = 470.18903_f32 * mu_v5 + 1829.4767_f32 * mu_b1 + 2123.1875_f32 * mu_b2 + 1131.9503_f32 * mu_b3 + 253.58203_f32 * mu_b4 + 64.16776_f32 * mu_u5;
-    let q_2_5 = 110.8036_f32 * mu_v5 + 446.47504_f32 * mu_b1 + 614.9555_f32 * mu_b2 + 445.43927_f32 * mu_b3 + 168.68312_f32 * mu_b4 + 38.255154_f32 * mu_u5;
-    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    let q_3_0 = 38.714878_f32 * mu_v5 + 143.39772_f32 * mu_b1 + 69.53642_f32 * mu_b2 + 21.626545_f32 * mu_b3 + 21.435364_f32 * mu_b4 + 0.38962352_f32 * mu_u5;
-    let q_3_1 = 245.4322_f32 * mu_v5 + 949.31433_f32 * mu_b1 + 606.76416_f32 * mu_b2 + 64.65424_f32 * mu_b3 - 25.350304_f32 * mu_b4 - 8.486418_f32 * mu_u5;
-    let q_3_2 = 640.8163_f32 * mu_v5 + 2519.7559_f32 * mu_b1 + 2079.8472_f32 * mu_b2 + 506.99054_f32 * mu_b3 - 36.21993_f32 * mu_b4 + 14.969457_f32 * mu_u5;
-    let q_3_3 = 795.3275_f32 * mu_v5 + 3083.8552_f32 * mu_b1 + 2829.7463_f32 * mu_b2 + 819.84076_f32 * mu_b3 - 53.051987_f32 * mu_b4 + 25.59829_f32 * mu_u5;
-    let q_3_4 = 495.60126_f32 * mu_v5 + 1945.3483_f32 * mu_b1 + 2133.4673_f32 * mu_b2 + 1024.2042_f32 * mu_b3 + 231.91695_f32 * mu_b4 + 70.069084_f32 * mu_u5;
-    let q_3_5 = 111.93483_f32 * mu_v5 + 463.14325_f32 * mu_b1 + 621.9622_f32 * mu_b2 + 443.94812_f32 * mu_b3 + 183.3456_f32 * mu_b4 + 45.87848_f32 * mu_u5;
-    let q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    let q_4_0 = 25.701345_f32 * mu_v5 + 90.73642_f32 * mu_b1 + 47.294704_f32 * mu_b2 + 15.758057_f32 * mu_b3 + 16.282547_f32 * mu_b4 + 0.64773625_f32 * mu_u5;
-    let q_4_1 = 150.76164_f32 * mu_v5 + 567.2503_f32 * mu_b1 + 362.8451_f32 * mu_b2 + 40.57367_f32 * mu_b3 - 0.30587158_f32 * mu_b4 - 5.2050414_f32 * mu_u5;
-    let q_4_2 = 371.45276_f32 * mu_v5 + 1455.3995_f32 * mu_b1 + 1192.5662_f32 * mu_b2 + 287.06723_f32 * mu_b3 + 6.2104874_f32 * mu_b4 + 6.398787_f32 * mu_u5;
-    let q_4_3 = 434.58865_f32 * mu_v5 + 1710.9014_f32 * mu_b1 + 1545.4043_f32 * mu_b2 + 423.65366_f32 * mu_b3 - 11.1411915_f32 * mu_b4 + 12.932875_f32 * mu_u5;
-    let q_4_4 = 255.2595_f32 * mu_v5 + 1030.6432_f32 * mu_b1 + 1107.8909_f32 * mu_b2 + 509.91815_f32 * mu_b3 + 126.82108_f32 * mu_b4 + 38.728188_f32 * mu_u5;
-    let q_4_5 = 55.844383_f32 * mu_v5 + 242.53294_f32 * mu_b1 + 327.3133_f32 * mu_b2 + 236.32703_f32 * mu_b3 + 104.66665_f32 * mu_b4 + 26.82797_f32 * mu_u5;
-    let q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    let q_5_0 = 6.3462753_f32 * mu_v5 + 21.710848_f32 * mu_b1 + 11.778113_f32 * mu_b2 + 4.2704744_f32 * mu_b3 + 4.525759_f32 * mu_b4 + 0.24154894_f32 * mu_u5;
-    let q_5_1 = 34.88387_f32 * mu_v5 + 129.731_f32 * mu_b1 + 83.84723_f32 * mu_b2 + 11.83304_f32 * mu_b3 + 3.8309646_f32 * mu_b4 - 1.1383686_f32 * mu_u5;
-    let q_5_2 = 82.51034_f32 * mu_v5 + 327.46912_f32 * mu_b1 + 274.69614_f32 * mu_b2 + 76.01389_f32 * mu_b3 + 12.00032_f32 * mu_b4 + 1.4510229_f32 * mu_u5;
-    let q_5_3 = 92.82586_f32 * mu_v5 + 378.08078_f32 * mu_b1 + 352.50433_f32 * mu_b2 + 110.54963_f32 * mu_b3 + 10.848703_f32 * mu_b4 + 3.2757149_f32 * mu_u5;
-    let q_5_4 = 52.360985_f32 * mu_v5 + 222.34834_f32 * mu_b1 + 245.95406_f32 * mu_b2 + 119.65963_f32 * mu_b3 + 34.746048_f32 * mu_b4 + 8.916734_f32 * mu_u5;
-    let q_5_5 = 11.264089_f32 * mu_v5 + 52.4976_f32 * mu_b1 + 73.63892_f32 * mu_b2 + 55.12351_f32 * mu_b3 + 25.373554_f32 * mu_b4 + 6.2281775_f32 * mu_u5;
-    let q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    let q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
-    let e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    let r_b5_v = 1.0_f32 - r_t;
+    let r_b5_u2 = r_t * r_t;
+    let r_b5_v2 = r_b5_v * r_b5_v;
+    let r_b5_u3 = r_b5_u2 * r_t;
+    let r_b5_v3 = r_b5_v2 * r_b5_v;
+    let r_b5_u4 = r_b5_u3 * r_t;
+    let r_b5_v4 = r_b5_v3 * r_b5_v;
+    let r_b5_u5 = r_b5_u4 * r_t;
+    let r_b5_v5 = r_b5_v4 * r_b5_v;
+    let r_b5_b1 = r_t * r_b5_v4;
+    let r_b5_b2 = r_b5_u2 * r_b5_v3;
+    let r_b5_b3 = r_b5_u3 * r_b5_v2;
+    let r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    let mu_b5_v = 1.0_f32 - mu_u;
+    let mu_b5_u2 = mu_u * mu_u;
+    let mu_b5_v2 = mu_b5_v * mu_b5_v;
+    let mu_b5_u3 = mu_b5_u2 * mu_u;
+    let mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    let mu_b5_u4 = mu_b5_u3 * mu_u;
+    let mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    let mu_b5_u5 = mu_b5_u4 * mu_u;
+    let mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    let mu_b5_b1 = mu_u * mu_b5_v4;
+    let mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    let p0_0_0 = 0.22224648_f32 * mu_b5_v5 + 2.080058_f32 * mu_b5_b1 + 2.7999012_f32 * mu_b5_b2 + 2.6335433_f32 * mu_b5_b3 - 0.31439233_f32 * mu_b5_b4 + 0.06330606_f32 * mu_b5_u5;
+    let p0_0_1 = 4.90099_f32 * mu_b5_v5 + 22.287449_f32 * mu_b5_b1 + 19.664373_f32 * mu_b5_b2 + 13.007452_f32 * mu_b5_b3 + 1.1166557_f32 * mu_b5_b4 + 0.7328782_f32 * mu_b5_u5;
+    let p0_0_2 = 14.584245_f32 * mu_b5_v5 + 68.65401_f32 * mu_b5_b1 + 58.431934_f32 * mu_b5_b2 + 28.25405_f32 * mu_b5_b3 + 4.614967_f32 * mu_b5_b4 + 1.4146066_f32 * mu_b5_u5;
+    let p0_0_3 = 16.871683_f32 * mu_b5_v5 + 90.56245_f32 * mu_b5_b1 + 76.52069_f32 * mu_b5_b2 + 24.56629_f32 * mu_b5_b3 + 1.977527_f32 * mu_b5_b4 + 0.9326872_f32 * mu_b5_u5;
+    let p0_0_4 = 6.313493_f32 * mu_b5_v5 + 44.206676_f32 * mu_b5_b1 + 25.279478_f32 * mu_b5_b2 - 11.604273_f32 * mu_b5_b3 - 10.126012_f32 * mu_b5_b4 - 0.7896831_f32 * mu_b5_u5;
+    let p0_0_5 = 0.7215703_f32 * mu_b5_v5 + 8.962149_f32 * mu_b5_b1 + 4.0688505_f32 * mu_b5_b2 - 4.5478187_f32 * mu_b5_b3 - 2.0483181_f32 * mu_b5_b4 + 0.39692447_f32 * mu_b5_u5;
+    let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    let p0 = p0_0 * 1.0_f32;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    let f0_b4_v = 1.0_f32 - f0_t;
+    let f0_b4_u2 = f0_t * f0_t;
+    let f0_b4_v2 = f0_b4_v * f0_b4_v;
+    let f0_b4_u3 = f0_b4_u2 * f0_t;
+    let f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    let f0_b4_u4 = f0_b4_u3 * f0_t;
+    let f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    let f0_b4_b1 = f0_t * f0_b4_v3;
+    let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    let u0_0_0 = 0.79304284_f32 * 1.0_f32;
+    let u0_0 = u0_0_0 * 1.0_f32;
+    let u0_1_0 = 3.515841_f32 * 1.0_f32;
+    let u0_1 = u0_1_0 * 1.0_f32;
+    let u0_2_0 = 5.184229_f32 * 1.0_f32;
+    let u0_2 = u0_2_0 * 1.0_f32;
+    let u0_3_0 = 3.4922206_f32 * 1.0_f32;
+    let u0_3 = u0_3_0 * 1.0_f32;
+    let u0_4_0 = 0.87667197_f32 * 1.0_f32;
+    let u0_4 = u0_4_0 * 1.0_f32;
+    let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
+    let r_b3_v = 1.0_f32 - r_t;
+    let r_b3_u2 = r_t * r_t;
+    let r_b3_v2 = r_b3_v * r_b3_v;
+    let r_b3_u3 = r_b3_u2 * r_t;
+    let r_b3_v3 = r_b3_v2 * r_b3_v;
+    let r_b3_b1 = r_t * r_b3_v2;
+    let r_b3_b2 = r_b3_u2 * r_b3_v;
+    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
+    let mu_b3_v = 1.0_f32 - mu_u;
+    let mu_b3_u2 = mu_u * mu_u;
+    let mu_b3_v2 = mu_b3_v * mu_b3_v;
+    let mu_b3_u3 = mu_b3_u2 * mu_u;
+    let mu_b3_v3 = mu_b3_v2 * mu_b3_v;
+    let mu_b3_b1 = mu_u * mu_b3_v2;
+    let mu_b3_b2 = mu_b3_u2 * mu_b3_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q0_0_0 = 1.0_f32 * mu_b3_v3 + 2.7429175_f32 * mu_b3_b1 + 0.98035645_f32 * mu_b3_b2 + 0.26321474_f32 * mu_b3_u3;
+    let q0_0_1 = 3.348674_f32 * mu_b3_v3 + 9.340424_f32 * mu_b3_b1 + 3.86521_f32 * mu_b3_b2 + 0.9507883_f32 * mu_b3_u3;
+    let q0_0_2 = 4.146854_f32 * mu_b3_v3 + 11.981896_f32 * mu_b3_b1 + 6.500438_f32 * mu_b3_b2 + 1.7427232_f32 * mu_b3_u3;
+    let q0_0_3 = 1.6414753_f32 * mu_b3_v3 + 4.914277_f32 * mu_b3_b1 + 3.145471_f32 * mu_b3_b2 + 0.89844525_f32 * mu_b3_u3;
+    let q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
+    let q0 = q0_0 * 1.0_f32;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    let p1_0_0 = 0.10619299_f32 * mu_b5_v5 + 0.84137726_f32 * mu_b5_b1 + 0.9805587_f32 * mu_b5_b2 + 0.15443228_f32 * mu_b5_b3 + 0.0095299035_f32 * mu_b5_b4 + 5.0411763e-5_f32 * mu_b5_u5;
+    let p1_0_1 = -0.68677795_f32 * mu_b5_v5 - 3.8119934_f32 * mu_b5_b1 - 6.209557_f32 * mu_b5_b2 - 3.5838456_f32 * mu_b5_b3 + 0.0023665389_f32 * mu_b5_b4 - 0.00023776219_f32 * mu_b5_u5;
+    let p1_0_2 = -1.3749454_f32 * mu_b5_v5 - 10.670812_f32 * mu_b5_b1 - 14.692839_f32 * mu_b5_b2 - 5.2093005_f32 * mu_b5_b3 + 1.1953013_f32 * mu_b5_b4 + 0.0034133885_f32 * mu_b5_u5;
+    let p1_0_3 = -1.3953317_f32 * mu_b5_v5 - 11.121129_f32 * mu_b5_b1 - 13.464799_f32 * mu_b5_b2 - 4.092516_f32 * mu_b5_b3 + 0.6783816_f32 * mu_b5_b4 + 0.027679378_f32 * mu_b5_u5;
+    let p1_0_4 = -0.8502589_f32 * mu_b5_v5 - 5.0262356_f32 * mu_b5_b1 - 4.894767_f32 * mu_b5_b2 - 1.586892_f32 * mu_b5_b3 - 0.038211312_f32 * mu_b5_b4 + 0.3277824_f32 * mu_b5_u5;
+    let p1_0_5 = -0.18136023_f32 * mu_b5_v5 - 0.64484066_f32 * mu_b5_b1 - 0.37727633_f32 * mu_b5_b2 - 0.40998474_f32 * mu_b5_b3 - 0.23642117_f32 * mu_b5_b4 + 0.159346_f32 * mu_b5_u5;
+    let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    let p1 = p1_0 * 1.0_f32;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    let u1_0_0 = 0.64122_f32 * 1.0_f32;
+    let u1_0 = u1_0_0 * 1.0_f32;
+    let u1_1_0 = 1.60442_f32 * 1.0_f32;
+    let u1_1 = u1_1_0 * 1.0_f32;
+    let u1_2_0 = -0.48421544_f32 * 1.0_f32;
+    let u1_2 = u1_2_0 * 1.0_f32;
+    let u1_3_0 = -1.1584883_f32 * 1.0_f32;
+    let u1_3 = u1_3_0 * 1.0_f32;
+    let u1_4_0 = -0.4014383_f32 * 1.0_f32;
+    let u1_4 = u1_4_0 * 1.0_f32;
+    let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q1_0_0 = 1.0_f32 * mu_b3_v3 + 1.7703092_f32 * mu_b3_b1 + 0.094730645_f32 * mu_b3_b2 + 0.0005022735_f32 * mu_b3_u3;
+    let q1_0_1 = 1.7237881_f32 * mu_b3_v3 + 3.2525132_f32 * mu_b3_b1 - 0.50589025_f32 * mu_b3_b2 - 0.0063726213_f32 * mu_b3_u3;
+    let q1_0_2 = 1.3689879_f32 * mu_b3_v3 + 3.121114_f32 * mu_b3_b1 - 0.20617628_f32 * mu_b3_b2 + 0.0699402_f32 * mu_b3_u3;
+    let q1_0_3 = 0.6641666_f32 * mu_b3_v3 + 1.6958107_f32 * mu_b3_b1 + 0.4513452_f32 * mu_b3_b2 + 0.09578197_f32 * mu_b3_u3;
+    let q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
+    let q1 = q1_0 * 1.0_f32;
+    let e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    let p2_0_0 = 0.039914336_f32 * mu_b5_v5 - 0.44403595_f32 * mu_b5_b1 - 0.560024_f32 * mu_b5_b2 + 0.18355097_f32 * mu_b5_b3 + 0.0044148574_f32 * mu_b5_b4 + 2.6778394e-5_f32 * mu_b5_u5;
+    let p2_0_1 = 0.03973821_f32 * mu_b5_v5 + 2.08201_f32 * mu_b5_b1 + 5.120979_f32 * mu_b5_b2 + 4.280375_f32 * mu_b5_b3 - 0.07499421_f32 * mu_b5_b4 - 0.00047910676_f32 * mu_b5_u5;
+    let p2_0_2 = -0.40981475_f32 * mu_b5_v5 + 5.7511697_f32 * mu_b5_b1 + 11.60153_f32 * mu_b5_b2 + 6.7011714_f32 * mu_b5_b3 - 1.2866848_f32 * mu_b5_b4 + 0.0050555104_f32 * mu_b5_u5;
+    let p2_0_3 = -0.29035792_f32 * mu_b5_v5 + 5.078979_f32 * mu_b5_b1 + 8.037067_f32 * mu_b5_b2 + 4.168931_f32 * mu_b5_b3 - 1.0777005_f32 * mu_b5_b4 - 0.026535172_f32 * mu_b5_u5;
+    let p2_0_4 = 0.03488596_f32 * mu_b5_v5 + 1.017585_f32 * mu_b5_b1 + 0.5454812_f32 * mu_b5_b2 + 1.2920636_f32 * mu_b5_b3 + 0.24062198_f32 * mu_b5_b4 - 0.21247639_f32 * mu_b5_u5;
+    let p2_0_5 = -0.01913896_f32 * mu_b5_v5 - 0.50999135_f32 * mu_b5_b1 - 0.918501_f32 * mu_b5_b2 + 0.38003767_f32 * mu_b5_b3 + 0.4373256_f32 * mu_b5_b4 - 0.11512404_f32 * mu_b5_u5;
+    let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    let p2 = p2_0 * 1.0_f32;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    let u2_0_0 = 0.503114_f32 * 1.0_f32;
+    let u2_0 = u2_0_0 * 1.0_f32;
+    let u2_1_0 = 1.5615572_f32 * 1.0_f32;
+    let u2_1 = u2_1_0 * 1.0_f32;
+    let u2_2_0 = -0.07613506_f32 * 1.0_f32;
+    let u2_2 = u2_2_0 * 1.0_f32;
+    let u2_3_0 = -0.8783531_f32 * 1.0_f32;
+    let u2_3 = u2_3_0 * 1.0_f32;
+    let u2_4_0 = -0.32960382_f32 * 1.0_f32;
+    let u2_4 = u2_4_0 * 1.0_f32;
+    let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q2_0_0 = 1.0_f32 * mu_b3_v3 + 1.4815046_f32 * mu_b3_b1 + 0.074680634_f32 * mu_b3_b2 + 0.00046328027_f32 * mu_b3_u3;
+    let q2_0_1 = 2.0612285_f32 * mu_b3_v3 + 2.8476675_f32 * mu_b3_b1 - 0.43841308_f32 * mu_b3_b2 - 0.0029905436_f32 * mu_b3_u3;
+    let q2_0_2 = 1.8751547_f32 * mu_b3_v3 + 2.827246_f32 * mu_b3_b1 - 0.2061119_f32 * mu_b3_b2 + 0.06365838_f32 * mu_b3_u3;
+    let q2_0_3 = 0.81490797_f32 * mu_b3_v3 + 1.4640284_f32 * mu_b3_b1 + 0.30992725_f32 * mu_b3_b2 + 0.068094_f32 * mu_b3_u3;
+    let q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
+    let q2 = q2_0 * 1.0_f32;
+    let e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    let p3_0_0 = -0.6152648_f32 * mu_b5_v5 - 2.3964958_f32 * mu_b5_b1 - 3.4640985_f32 * mu_b5_b2 - 1.4219089_f32 * mu_b5_b3 - 0.56277716_f32 * mu_b5_b4 - 0.087540306_f32 * mu_b5_u5;
+    let p3_0_1 = -0.5297324_f32 * mu_b5_v5 - 3.1410484_f32 * mu_b5_b1 - 15.644321_f32 * mu_b5_b2 - 10.283925_f32 * mu_b5_b3 - 1.009867_f32 * mu_b5_b4 - 0.0779705_f32 * mu_b5_u5;
+    let p3_0_2 = 2.8843405_f32 * mu_b5_v5 + 13.252363_f32 * mu_b5_b1 - 23.73798_f32 * mu_b5_b2 - 30.047947_f32 * mu_b5_b3 - 4.116052_f32 * mu_b5_b4 - 0.8121539_f32 * mu_b5_u5;
+    let p3_0_3 = 6.105868_f32 * mu_b5_v5 + 37.087296_f32 * mu_b5_b1 - 5.0292025_f32 * mu_b5_b2 - 32.20227_f32 * mu_b5_b3 - 4.2218747_f32 * mu_b5_b4 - 0.6682841_f32 * mu_b5_u5;
+    let p3_0_4 = 1.5307225_f32 * mu_b5_v5 + 19.166128_f32 * mu_b5_b1 - 12.926057_f32 * mu_b5_b2 - 36.597122_f32 * mu_b5_b3 - 11.219043_f32 * mu_b5_b4 - 1.5024074_f32 * mu_b5_u5;
+    let p3_0_5 = -0.13608272_f32 * mu_b5_v5 + 4.277018_f32 * mu_b5_b1 - 3.0520666_f32 * mu_b5_b2 - 9.178238_f32 * mu_b5_b3 - 2.464858_f32 * mu_b5_b4 - 0.015592575_f32 * mu_b5_u5;
+    let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    let p3 = p3_0 * 1.0_f32;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    let u3_0_0 = -1.0929991_f32 * 1.0_f32;
+    let u3_0 = u3_0_0 * 1.0_f32;
+    let u3_1_0 = -4.434357_f32 * 1.0_f32;
+    let u3_1 = u3_1_0 * 1.0_f32;
+    let u3_2_0 = -7.3444963_f32 * 1.0_f32;
+    let u3_2 = u3_2_0 * 1.0_f32;
+    let u3_3_0 = -5.0806828_f32 * 1.0_f32;
+    let u3_3 = u3_3_0 * 1.0_f32;
+    let u3_4_0 = -1.2959784_f32 * 1.0_f32;
+    let u3_4 = u3_4_0 * 1.0_f32;
+    let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q3_0_0 = 1.0_f32 * mu_b3_v3 + 3.0581183_f32 * mu_b3_b1 + 0.2259713_f32 * mu_b3_b2 + 0.13370965_f32 * mu_b3_u3;
+    let q3_0_1 = 3.6536567_f32 * mu_b3_v3 + 10.816092_f32 * mu_b3_b1 + 1.3210826_f32 * mu_b3_b2 + 0.056217704_f32 * mu_b3_u3;
+    let q3_0_2 = 5.0277557_f32 * mu_b3_v3 + 14.981888_f32 * mu_b3_b1 + 4.851042_f32 * mu_b3_b2 + 0.7944807_f32 * mu_b3_u3;
+    let q3_0_3 = 2.1438046_f32 * mu_b3_v3 + 6.5330305_f32 * mu_b3_b1 + 3.0650473_f32 * mu_b3_b2 + 0.64167815_f32 * mu_b3_u3;
+    let q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
+    let q3 = q3_0 * 1.0_f32;
+    let e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    let e = e0 + e1 + e2 + e3;
     e.min(1.0_f32).max(0.0_f32)
 }
 

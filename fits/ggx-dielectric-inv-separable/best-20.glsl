@@ -16,16 +16,16 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 8fbca25faf41ac009363c9972042752852c8032d8a14e26a2f196d3a19383001.
+// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 6c6c8c54c28a35c36c8b63083bd2e58e5ab4679eef8cf5238b6c7624b4fcb61c.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 9.7e-7, shifted 1.2e-6, bernstein 8.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.23e-2, max 5.77e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.59e-7 (every op rounded, as this Rust), 5.39e-7 (fused multiply-add), 1.32e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.40e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 703 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.03e-2, max 5.77e-2; this f32 code MAE 1.03e-2, max 5.77e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-2 on the measurement grid.
-// Denominator proved >= 2.306e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-6, shifted 1.1e-6, bernstein 1.1e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.33e-2, max 5.57e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.53e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 1.23e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 5.23e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 711 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.18e-2, max 5.57e-2; this f32 code MAE 1.18e-2, max 5.57e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-2 on the measurement grid.
+// Denominator proved >= 2.859e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -38,14 +38,14 @@ highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, h
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = (0.2842702 * r_t + (1.0088098 * mu_t - 0.9314866)) * r_t + ((0.22684087 * mu_t - 0.9573744) * mu_t + 0.9652378);
-    highp float p_1 = -1.1855654 * r_t + (-3.3277793 * mu_t + 3.8032565);
-    highp float p_2 = 0.38205677;
+    highp float p_0 = (0.29142016 * r_t + (0.9740547 * mu_t - 0.93709105)) * r_t + ((0.19908197 * mu_t - 0.87887615) * mu_t + 0.9699172);
+    highp float p_1 = -1.0299091 * r_t + (-3.4104908 * mu_t + 3.5567718);
+    highp float p_2 = 0.49856588;
     highp float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = (0.67146724 * r_t + (-0.083412 * mu_t + 0.11318383)) * r_t + ((-0.038090214 * mu_t - 0.7312757) * mu_t + 1.0);
-    highp float q_1 = -0.73925173 * r_t + (-3.744192 * mu_t + 4.1933384);
-    highp float q_2 = 0.39929757;
+    highp float q_0 = (0.68402505 * r_t + (-0.105492376 * mu_t + 0.11734156)) * r_t + ((-0.10226422 * mu_t - 0.61179096) * mu_t + 1.0);
+    highp float q_1 = -0.7269682 * r_t + (-3.7974863 * mu_t + 3.9114687);
+    highp float q_2 = 0.5349391;
     highp float q = (q_2 * f0_t + q_1) * f0_t + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -12,101 +12,109 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 ea06533fc4fb513f00ef2efce7a776af1cffac65b16046c65a4bbdd75a09db5e.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 d9400d4614b3f88a8843429311a473fda45821d483be7028389c31d71ae789bd.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.7e-6, shifted 2.7e-6, bernstein 4.5e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 4.17e-3, max 6.54e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.54e-7 (every op rounded, as this Rust), 4.92e-7 (fused multiply-add), 7.03e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.48e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 15253 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.09e-3, max 6.54e-2; this f32 code MAE 4.09e-3, max 6.54e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.9e-3 on the measurement grid.
-// Denominator proved >= 6.478e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-5, shifted 1.1e-5, bernstein 5.7e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.29e-3, max 4.12e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.32e-6 (every op rounded, as this Rust), 4.48e-6 (fused multiply-add), 7.52e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.03e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17569 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.15e-3, max 4.12e-2; this f32 code MAE 4.15e-3, max 4.12e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.1e-3 on the measurement grid.
+// Denominator proved >= 1.261e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017f) * 2.6828594f;
     float r_c = max(min(r, 1.0f), 0.0f);
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // u = (t - 0.0125)/(0.25 - 0.0125) in [0, 1]
-    float f0_u = (f0_c - 0.0125f) * 4.2105265f;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    float f0_v = 1.0f - f0_u;
-    float f0_u2 = f0_u * f0_u;
-    float f0_v2 = f0_v * f0_v;
-    float f0_u3 = f0_u2 * f0_u;
-    float f0_v3 = f0_v2 * f0_v;
-    float f0_b1 = f0_u * f0_v2;
-    float f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 3
-    float r_v = 1.0f - r_t;
-    float r_u2 = r_t * r_t;
-    float r_v2 = r_v * r_v;
-    float r_u3 = r_u2 * r_t;
-    float r_v3 = r_v2 * r_v;
-    float r_b1 = r_t * r_v2;
-    float r_b2 = r_u2 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    float mu_u = (mu_t - 7.888609e-31f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 3
-    float mu_v = 1.0f - mu_u;
-    float mu_u2 = mu_u * mu_u;
-    float mu_v2 = mu_v * mu_v;
-    float mu_u3 = mu_u2 * mu_u;
-    float mu_v3 = mu_v2 * mu_v;
-    float mu_b1 = mu_u * mu_v2;
-    float mu_b2 = mu_u2 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0_0 = 1.1482275f * mu_v3 + 0.6944794f * mu_b1 + 0.29114372f * mu_b2 + 0.12804116f * mu_u3;
-    float p_0_1 = 2.12354f * mu_v3 + 1.385779f * mu_b1 + 1.110956f * mu_b2 - 0.001834974f * mu_u3;
-    float p_0_2 = 1.4471157f * mu_v3 + 2.576985f * mu_b1 + 3.192056f * mu_b2 + 0.21163496f * mu_u3;
-    float p_0_3 = 0.3500069f * mu_v3 + 1.5202962f * mu_b1 + 2.0068545f * mu_b2 + 0.21971476f * mu_u3;
-    float p_0 = p_0_0 * r_v3 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_u3;
-    float p_1_0 = 7.5533404f * mu_v3 + 6.2682233f * mu_b1 + 1.2127776f * mu_b2 + 0.64734274f * mu_u3;
-    float p_1_1 = 20.654722f * mu_v3 + 21.508707f * mu_b1 + 8.070549f * mu_b2 + 1.6649086f * mu_u3;
-    float p_1_2 = 19.500603f * mu_v3 + 26.630411f * mu_b1 + 14.784561f * mu_b2 + 2.1030982f * mu_u3;
-    float p_1_3 = 6.033832f * mu_v3 + 10.29376f * mu_b1 + 6.830623f * mu_b2 + 0.7201432f * mu_u3;
-    float p_1 = p_1_0 * r_v3 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_u3;
-    float p_2_0 = 11.159229f * mu_v3 + 9.564086f * mu_b1 + 1.2825867f * mu_b2 + 1.0271779f * mu_u3;
-    float p_2_1 = 33.75416f * mu_v3 + 37.164238f * mu_b1 + 12.970546f * mu_b2 + 4.008813f * mu_u3;
-    float p_2_2 = 33.79884f * mu_v3 + 44.80496f * mu_b1 + 21.1262f * mu_b2 + 4.568425f * mu_u3;
-    float p_2_3 = 10.838516f * mu_v3 + 16.108637f * mu_b1 + 8.342073f * mu_b2 + 1.221401f * mu_u3;
-    float p_2 = p_2_0 * r_v3 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_u3;
-    float p_3_0 = 4.6537704f * mu_v3 + 3.6893044f * mu_b1 + 0.05991543f * mu_b2 + 0.40753058f * mu_u3;
-    float p_3_1 = 14.921941f * mu_v3 + 16.138197f * mu_b1 + 5.107841f * mu_b2 + 2.041032f * mu_u3;
-    float p_3_2 = 15.444312f * mu_v3 + 19.84842f * mu_b1 + 8.630582f * mu_b2 + 2.3759246f * mu_u3;
-    float p_3_3 = 5.0543456f * mu_v3 + 7.0341363f * mu_b1 + 3.2172678f * mu_b2 + 0.6206267f * mu_u3;
-    float p_3 = p_3_0 * r_v3 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_u3;
-    float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0_0 = 1.2354498f * mu_v3 + 0.8690286f * mu_b1 + 0.2692712f * mu_b2 + 0.12768205f * mu_u3;
-    float q_0_1 = 3.028345f * mu_v3 + 2.802782f * mu_b1 + 1.3370359f * mu_b2 + 0.038567904f * mu_u3;
-    float q_0_2 = 3.7311518f * mu_v3 + 6.177846f * mu_b1 + 4.0825605f * mu_b2 + 0.111835346f * mu_u3;
-    float q_0_3 = 2.0898168f * mu_v3 + 4.6987734f * mu_b1 + 3.4694767f * mu_b2 + 0.3525098f * mu_u3;
-    float q_0 = q_0_0 * r_v3 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_u3;
-    float q_1_0 = 8.152328f * mu_v3 + 7.207113f * mu_b1 + 1.2247955f * mu_b2 + 0.6459792f * mu_u3;
-    float q_1_1 = 24.489239f * mu_v3 + 27.096952f * mu_b1 + 8.840299f * mu_b2 + 1.6604912f * mu_u3;
-    float q_1_2 = 29.047113f * mu_v3 + 43.26023f * mu_b1 + 21.80468f * mu_b2 + 3.019469f * mu_u3;
-    float q_1_3 = 13.164885f * mu_v3 + 24.734434f * mu_b1 + 15.553219f * mu_b2 + 2.4596379f * mu_u3;
-    float q_1 = q_1_0 * r_v3 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_u3;
-    float q_2_0 = 12.069078f * mu_v3 + 10.868638f * mu_b1 + 1.3524543f * mu_b2 + 1.0288641f * mu_u3;
-    float q_2_1 = 38.624672f * mu_v3 + 43.92679f * mu_b1 + 13.758256f * mu_b2 + 3.8840463f * mu_u3;
-    float q_2_2 = 45.950916f * mu_v3 + 67.08489f * mu_b1 + 32.40718f * mu_b2 + 6.7011113f * mu_u3;
-    float q_2_3 = 19.850004f * mu_v3 + 35.39078f * mu_b1 + 21.365421f * mu_b2 + 4.3006105f * mu_u3;
-    float q_2 = q_2_0 * r_v3 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_u3;
-    float q_3_0 = 5.0493045f * mu_v3 + 4.2218647f * mu_b1 + 0.08824102f * mu_b2 + 0.40767065f * mu_u3;
-    float q_3_1 = 16.855091f * mu_v3 + 18.706553f * mu_b1 + 5.3289266f * mu_b2 + 1.9534339f * mu_u3;
-    float q_3_2 = 20.326265f * mu_v3 + 29.076439f * mu_b1 + 13.758994f * mu_b2 + 3.484789f * mu_u3;
-    float q_3_3 = 8.67204f * mu_v3 + 15.0464325f * mu_b1 + 8.972989f * mu_b2 + 2.090586f * mu_u3;
-    float q_3 = q_3_0 * r_v3 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_u3;
-    float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    float e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    float r_b4_v = 1.0f - r_t;
+    float r_b4_u2 = r_t * r_t;
+    float r_b4_v2 = r_b4_v * r_b4_v;
+    float r_b4_u3 = r_b4_u2 * r_t;
+    float r_b4_v3 = r_b4_v2 * r_b4_v;
+    float r_b4_u4 = r_b4_u3 * r_t;
+    float r_b4_v4 = r_b4_v3 * r_b4_v;
+    float r_b4_b1 = r_t * r_b4_v3;
+    float r_b4_b2 = r_b4_u2 * r_b4_v2;
+    float r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    float mu_b4_v = 1.0f - mu_u;
+    float mu_b4_u2 = mu_u * mu_u;
+    float mu_b4_v2 = mu_b4_v * mu_b4_v;
+    float mu_b4_u3 = mu_b4_u2 * mu_u;
+    float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    float mu_b4_u4 = mu_b4_u3 * mu_u;
+    float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    float mu_b4_b1 = mu_u * mu_b4_v3;
+    float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    float p0_0_0 = -0.018748738f * mu_b4_v4 + 0.89886916f * mu_b4_b1 - 0.5032516f * mu_b4_b2 + 0.22391097f * mu_b4_b3 + 0.0011804242f * mu_b4_u4;
+    float p0_0_1 = -2.6540704f * mu_b4_v4 - 7.085195f * mu_b4_b1 - 12.496501f * mu_b4_b2 - 1.5106876f * mu_b4_b3 - 0.019711433f * mu_b4_u4;
+    float p0_0_2 = -6.861356f * mu_b4_v4 - 22.47685f * mu_b4_b1 - 28.682877f * mu_b4_b2 - 2.863693f * mu_b4_b3 + 0.3420887f * mu_b4_u4;
+    float p0_0_3 = -5.2411675f * mu_b4_v4 - 18.26838f * mu_b4_b1 - 19.952444f * mu_b4_b2 + 0.44847623f * mu_b4_b3 + 0.7993092f * mu_b4_u4;
+    float p0_0_4 = -1.2002466f * mu_b4_v4 - 4.516045f * mu_b4_b1 - 4.3734965f * mu_b4_b2 + 0.8371179f * mu_b4_b3 + 0.25121543f * mu_b4_u4;
+    float p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
+    float p0 = p0_0 * 1.0f;
+    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
+    float f0_b2_v = 1.0f - f0_t;
+    float f0_b2_u2 = f0_t * f0_t;
+    float f0_b2_v2 = f0_b2_v * f0_b2_v;
+    float f0_b2_b1 = f0_t * f0_b2_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    float u0_0_0 = 8.003702f * 1.0f;
+    float u0_0 = u0_0_0 * 1.0f;
+    float u0_1_0 = 15.46229f * 1.0f;
+    float u0_1 = u0_1_0 * 1.0f;
+    float u0_2_0 = 7.7392864f * 1.0f;
+    float u0_2 = u0_2_0 * 1.0f;
+    float u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
+    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
+    float r_b1_v = 1.0f - r_t;
+    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
+    float mu_b1_v = 1.0f - mu_u;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q0_0_0 = 1.0f * mu_b1_v + 0.12610653f * mu_u;
+    float q0_0_1 = 1.0915419f * mu_b1_v + 0.21764848f * mu_u;
+    float q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
+    float q0 = q0_0 * 1.0f;
+    float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    float p1_0_0 = -0.105771385f * mu_b4_v4 + 0.38953093f * mu_b4_b1 - 0.65484256f * mu_b4_b2 + 0.046665266f * mu_b4_b3 - 0.013474081f * mu_b4_u4;
+    float p1_0_1 = -2.3654811f * mu_b4_v4 - 6.6010594f * mu_b4_b1 - 10.829835f * mu_b4_b2 - 1.8379376f * mu_b4_b3 - 0.08481743f * mu_b4_u4;
+    float p1_0_2 = -5.6037207f * mu_b4_v4 - 18.450583f * mu_b4_b1 - 23.350073f * mu_b4_b2 - 3.0100145f * mu_b4_b3 + 0.23149109f * mu_b4_u4;
+    float p1_0_3 = -4.184149f * mu_b4_v4 - 14.549504f * mu_b4_b1 - 15.95854f * mu_b4_b2 - 0.14795358f * mu_b4_b3 + 0.6040937f * mu_b4_u4;
+    float p1_0_4 = -0.9527095f * mu_b4_v4 - 3.539798f * mu_b4_b1 - 3.458889f * mu_b4_b2 + 0.52717143f * mu_b4_b3 + 0.1886876f * mu_b4_u4;
+    float p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
+    float p1 = p1_0 * 1.0f;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    float u1_0_0 = -10.200564f * 1.0f;
+    float u1_0 = u1_0_0 * 1.0f;
+    float u1_1_0 = -20.405533f * 1.0f;
+    float u1_1 = u1_1_0 * 1.0f;
+    float u1_2_0 = -10.261158f * 1.0f;
+    float u1_2 = u1_2_0 * 1.0f;
+    float u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q1_0_0 = 1.0f * mu_b1_v + 0.14903119f * mu_u;
+    float q1_0_1 = 1.0742697f * mu_b1_v + 0.22330086f * mu_u;
+    float q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
+    float q1 = q1_0 * 1.0f;
+    float e1 = p1 * u1 / q1;
+    // the sum of the 2 terms
+    float e = e0 + e1;
     return max(min(e, 1.0f), 0.0f);
 }
 

@@ -9,101 +9,109 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 ea06533fc4fb513f00ef2efce7a776af1cffac65b16046c65a4bbdd75a09db5e.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 d9400d4614b3f88a8843429311a473fda45821d483be7028389c31d71ae789bd.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.7e-6, shifted 2.7e-6, bernstein 4.5e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 4.17e-3, max 6.54e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.54e-7 (every op rounded, as this Rust), 4.92e-7 (fused multiply-add), 7.03e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.48e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 15253 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.09e-3, max 6.54e-2; this f32 code MAE 4.09e-3, max 6.54e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.9e-3 on the measurement grid.
-// Denominator proved >= 6.478e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-5, shifted 1.1e-5, bernstein 5.7e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.29e-3, max 4.12e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.32e-6 (every op rounded, as this Rust), 4.48e-6 (fused multiply-add), 7.52e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.03e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17569 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.15e-3, max 4.12e-2; this f32 code MAE 4.15e-3, max 4.12e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.1e-3 on the measurement grid.
+// Denominator proved >= 1.261e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    let f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
     let r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    let mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // u = (t - 0.0125)/(0.25 - 0.0125) in [0, 1]
-    let f0_u = (f0_c - 0.0125) * 4.2105265;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    let f0_v = 1.0 - f0_u;
-    let f0_u2 = f0_u * f0_u;
-    let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_u;
-    let f0_v3 = f0_v2 * f0_v;
-    let f0_b1 = f0_u * f0_v2;
-    let f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 3
-    let r_v = 1.0 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_b1 = r_t * r_v2;
-    let r_b2 = r_u2 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    let mu_u = (mu_t - 7.888609e-31) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 3
-    let mu_v = 1.0 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_b1 = mu_u * mu_v2;
-    let mu_b2 = mu_u2 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 1.1482275 * mu_v3 + 0.6944794 * mu_b1 + 0.29114372 * mu_b2 + 0.12804116 * mu_u3;
-    let p_0_1 = 2.12354 * mu_v3 + 1.385779 * mu_b1 + 1.110956 * mu_b2 - 0.001834974 * mu_u3;
-    let p_0_2 = 1.4471157 * mu_v3 + 2.576985 * mu_b1 + 3.192056 * mu_b2 + 0.21163496 * mu_u3;
-    let p_0_3 = 0.3500069 * mu_v3 + 1.5202962 * mu_b1 + 2.0068545 * mu_b2 + 0.21971476 * mu_u3;
-    let p_0 = p_0_0 * r_v3 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_u3;
-    let p_1_0 = 7.5533404 * mu_v3 + 6.2682233 * mu_b1 + 1.2127776 * mu_b2 + 0.64734274 * mu_u3;
-    let p_1_1 = 20.654722 * mu_v3 + 21.508707 * mu_b1 + 8.070549 * mu_b2 + 1.6649086 * mu_u3;
-    let p_1_2 = 19.500603 * mu_v3 + 26.630411 * mu_b1 + 14.784561 * mu_b2 + 2.1030982 * mu_u3;
-    let p_1_3 = 6.033832 * mu_v3 + 10.29376 * mu_b1 + 6.830623 * mu_b2 + 0.7201432 * mu_u3;
-    let p_1 = p_1_0 * r_v3 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_u3;
-    let p_2_0 = 11.159229 * mu_v3 + 9.564086 * mu_b1 + 1.2825867 * mu_b2 + 1.0271779 * mu_u3;
-    let p_2_1 = 33.75416 * mu_v3 + 37.164238 * mu_b1 + 12.970546 * mu_b2 + 4.008813 * mu_u3;
-    let p_2_2 = 33.79884 * mu_v3 + 44.80496 * mu_b1 + 21.1262 * mu_b2 + 4.568425 * mu_u3;
-    let p_2_3 = 10.838516 * mu_v3 + 16.108637 * mu_b1 + 8.342073 * mu_b2 + 1.221401 * mu_u3;
-    let p_2 = p_2_0 * r_v3 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_u3;
-    let p_3_0 = 4.6537704 * mu_v3 + 3.6893044 * mu_b1 + 0.05991543 * mu_b2 + 0.40753058 * mu_u3;
-    let p_3_1 = 14.921941 * mu_v3 + 16.138197 * mu_b1 + 5.107841 * mu_b2 + 2.041032 * mu_u3;
-    let p_3_2 = 15.444312 * mu_v3 + 19.84842 * mu_b1 + 8.630582 * mu_b2 + 2.3759246 * mu_u3;
-    let p_3_3 = 5.0543456 * mu_v3 + 7.0341363 * mu_b1 + 3.2172678 * mu_b2 + 0.6206267 * mu_u3;
-    let p_3 = p_3_0 * r_v3 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_u3;
-    let p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.2354498 * mu_v3 + 0.8690286 * mu_b1 + 0.2692712 * mu_b2 + 0.12768205 * mu_u3;
-    let q_0_1 = 3.028345 * mu_v3 + 2.802782 * mu_b1 + 1.3370359 * mu_b2 + 0.038567904 * mu_u3;
-    let q_0_2 = 3.7311518 * mu_v3 + 6.177846 * mu_b1 + 4.0825605 * mu_b2 + 0.111835346 * mu_u3;
-    let q_0_3 = 2.0898168 * mu_v3 + 4.6987734 * mu_b1 + 3.4694767 * mu_b2 + 0.3525098 * mu_u3;
-    let q_0 = q_0_0 * r_v3 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_u3;
-    let q_1_0 = 8.152328 * mu_v3 + 7.207113 * mu_b1 + 1.2247955 * mu_b2 + 0.6459792 * mu_u3;
-    let q_1_1 = 24.489239 * mu_v3 + 27.096952 * mu_b1 + 8.840299 * mu_b2 + 1.6604912 * mu_u3;
-    let q_1_2 = 29.047113 * mu_v3 + 43.26023 * mu_b1 + 21.80468 * mu_b2 + 3.019469 * mu_u3;
-    let q_1_3 = 13.164885 * mu_v3 + 24.734434 * mu_b1 + 15.553219 * mu_b2 + 2.4596379 * mu_u3;
-    let q_1 = q_1_0 * r_v3 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_u3;
-    let q_2_0 = 12.069078 * mu_v3 + 10.868638 * mu_b1 + 1.3524543 * mu_b2 + 1.0288641 * mu_u3;
-    let q_2_1 = 38.624672 * mu_v3 + 43.92679 * mu_b1 + 13.758256 * mu_b2 + 3.8840463 * mu_u3;
-    let q_2_2 = 45.950916 * mu_v3 + 67.08489 * mu_b1 + 32.40718 * mu_b2 + 6.7011113 * mu_u3;
-    let q_2_3 = 19.850004 * mu_v3 + 35.39078 * mu_b1 + 21.365421 * mu_b2 + 4.3006105 * mu_u3;
-    let q_2 = q_2_0 * r_v3 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_u3;
-    let q_3_0 = 5.0493045 * mu_v3 + 4.2218647 * mu_b1 + 0.08824102 * mu_b2 + 0.40767065 * mu_u3;
-    let q_3_1 = 16.855091 * mu_v3 + 18.706553 * mu_b1 + 5.3289266 * mu_b2 + 1.9534339 * mu_u3;
-    let q_3_2 = 20.326265 * mu_v3 + 29.076439 * mu_b1 + 13.758994 * mu_b2 + 3.484789 * mu_u3;
-    let q_3_3 = 8.67204 * mu_v3 + 15.0464325 * mu_b1 + 8.972989 * mu_b2 + 2.090586 * mu_u3;
-    let q_3 = q_3_0 * r_v3 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_u3;
-    let q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    let e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    let mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    let mu_u = (mu_t - 8.881784e-16) * 1.0;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    let r_b4_v = 1.0 - r_t;
+    let r_b4_u2 = r_t * r_t;
+    let r_b4_v2 = r_b4_v * r_b4_v;
+    let r_b4_u3 = r_b4_u2 * r_t;
+    let r_b4_v3 = r_b4_v2 * r_b4_v;
+    let r_b4_u4 = r_b4_u3 * r_t;
+    let r_b4_v4 = r_b4_v3 * r_b4_v;
+    let r_b4_b1 = r_t * r_b4_v3;
+    let r_b4_b2 = r_b4_u2 * r_b4_v2;
+    let r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    let mu_b4_v = 1.0 - mu_u;
+    let mu_b4_u2 = mu_u * mu_u;
+    let mu_b4_v2 = mu_b4_v * mu_b4_v;
+    let mu_b4_u3 = mu_b4_u2 * mu_u;
+    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    let mu_b4_u4 = mu_b4_u3 * mu_u;
+    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    let mu_b4_b1 = mu_u * mu_b4_v3;
+    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    let p0_0_0 = -0.018748738 * mu_b4_v4 + 0.89886916 * mu_b4_b1 - 0.5032516 * mu_b4_b2 + 0.22391097 * mu_b4_b3 + 0.0011804242 * mu_b4_u4;
+    let p0_0_1 = -2.6540704 * mu_b4_v4 - 7.085195 * mu_b4_b1 - 12.496501 * mu_b4_b2 - 1.5106876 * mu_b4_b3 - 0.019711433 * mu_b4_u4;
+    let p0_0_2 = -6.861356 * mu_b4_v4 - 22.47685 * mu_b4_b1 - 28.682877 * mu_b4_b2 - 2.863693 * mu_b4_b3 + 0.3420887 * mu_b4_u4;
+    let p0_0_3 = -5.2411675 * mu_b4_v4 - 18.26838 * mu_b4_b1 - 19.952444 * mu_b4_b2 + 0.44847623 * mu_b4_b3 + 0.7993092 * mu_b4_u4;
+    let p0_0_4 = -1.2002466 * mu_b4_v4 - 4.516045 * mu_b4_b1 - 4.3734965 * mu_b4_b2 + 0.8371179 * mu_b4_b3 + 0.25121543 * mu_b4_u4;
+    let p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
+    let p0 = p0_0 * 1.0;
+    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
+    let f0_b2_v = 1.0 - f0_t;
+    let f0_b2_u2 = f0_t * f0_t;
+    let f0_b2_v2 = f0_b2_v * f0_b2_v;
+    let f0_b2_b1 = f0_t * f0_b2_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    let u0_0_0 = 8.003702 * 1.0;
+    let u0_0 = u0_0_0 * 1.0;
+    let u0_1_0 = 15.46229 * 1.0;
+    let u0_1 = u0_1_0 * 1.0;
+    let u0_2_0 = 7.7392864 * 1.0;
+    let u0_2 = u0_2_0 * 1.0;
+    let u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
+    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
+    let r_b1_v = 1.0 - r_t;
+    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
+    let mu_b1_v = 1.0 - mu_u;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q0_0_0 = 1.0 * mu_b1_v + 0.12610653 * mu_u;
+    let q0_0_1 = 1.0915419 * mu_b1_v + 0.21764848 * mu_u;
+    let q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
+    let q0 = q0_0 * 1.0;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    let p1_0_0 = -0.105771385 * mu_b4_v4 + 0.38953093 * mu_b4_b1 - 0.65484256 * mu_b4_b2 + 0.046665266 * mu_b4_b3 - 0.013474081 * mu_b4_u4;
+    let p1_0_1 = -2.3654811 * mu_b4_v4 - 6.6010594 * mu_b4_b1 - 10.829835 * mu_b4_b2 - 1.8379376 * mu_b4_b3 - 0.08481743 * mu_b4_u4;
+    let p1_0_2 = -5.6037207 * mu_b4_v4 - 18.450583 * mu_b4_b1 - 23.350073 * mu_b4_b2 - 3.0100145 * mu_b4_b3 + 0.23149109 * mu_b4_u4;
+    let p1_0_3 = -4.184149 * mu_b4_v4 - 14.549504 * mu_b4_b1 - 15.95854 * mu_b4_b2 - 0.14795358 * mu_b4_b3 + 0.6040937 * mu_b4_u4;
+    let p1_0_4 = -0.9527095 * mu_b4_v4 - 3.539798 * mu_b4_b1 - 3.458889 * mu_b4_b2 + 0.52717143 * mu_b4_b3 + 0.1886876 * mu_b4_u4;
+    let p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
+    let p1 = p1_0 * 1.0;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    let u1_0_0 = -10.200564 * 1.0;
+    let u1_0 = u1_0_0 * 1.0;
+    let u1_1_0 = -20.405533 * 1.0;
+    let u1_1 = u1_1_0 * 1.0;
+    let u1_2_0 = -10.261158 * 1.0;
+    let u1_2 = u1_2_0 * 1.0;
+    let u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q1_0_0 = 1.0 * mu_b1_v + 0.14903119 * mu_u;
+    let q1_0_1 = 1.0742697 * mu_b1_v + 0.22330086 * mu_u;
+    let q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
+    let q1 = q1_0 * 1.0;
+    let e1 = p1 * u1 / q1;
+    // the sum of the 2 terms
+    let e = e0 + e1;
     return max(min(e, 1.0), 0.0);
 }
 

@@ -28,16 +28,16 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 6df55c0bdd9f0469dbd2d2722ef42e2a0bafb1570f645f80d82e6d18511d67a1.
+// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points.
+// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 f017df35bfed8ec8e9d51065756708bfe19203dc4b2ed2a976bbb50a8491324c.
 // Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.6e-5, shifted 1.2e-6, bernstein 4.8e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.54e-3, max 1.79e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.77e-6 (every op rounded, as this Rust), 1.23e-6 (fused multiply-add), 1.33e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.56e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.53e-3, max 1.79e-2; this f32 code MAE 1.53e-3, max 1.79e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.6e-3 on the measurement grid.
-// Denominator proved >= 3.487e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.0e-6, shifted 9.0e-7, bernstein 4.3e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 1.75e-3, max 1.60e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.24e-6 (every op rounded, as this Rust), 1.01e-6 (fused multiply-add), 1.08e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.44e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 25689 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.74e-3, max 1.60e-2; this f32 code MAE 1.74e-3, max 1.60e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.8e-4 on the measurement grid.
+// Denominator proved >= 2.118e0 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -56,18 +56,18 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     // s = (t - 0.5)/0.5 in [-1, 1]
     const float mu_s = mu_t * 2.0f - 1.0f;
     // numerator P, grouped by powers of the first variable
-    const float p_0 = (((0.043335352f * r_s + (-0.11380788f * mu_s + 0.025111802f)) * r_s + ((-0.17960544f * mu_s + 0.2432201f) * mu_s + 0.031794682f)) * r_s + (((-0.10715898f * mu_s - 0.13737832f) * mu_s + 0.23045193f) * mu_s + 0.09611087f)) * r_s + ((((0.4310945f * mu_s - 1.3995827f) * mu_s + 3.0996351f) * mu_s - 3.2089808f) * mu_s + 1.521416f);
-    const float p_1 = ((-0.020827215f * r_s + (0.111131445f * mu_s - 0.14334245f)) * r_s + ((0.3108844f * mu_s - 0.2958324f) * mu_s - 0.0465552f)) * r_s + (((-0.8689f * mu_s + 1.9013379f) * mu_s - 1.4050758f) * mu_s + 0.35884959f);
-    const float p_2 = (0.06280932f * r_s + (0.10384797f * mu_s + 0.0071293265f)) * r_s + ((-0.346163f * mu_s + 0.4658731f) * mu_s - 0.14394097f);
-    const float p_3 = -0.07277808f * r_s + (-0.07942162f * mu_s + 0.036153566f);
-    const float p_4 = 0.027448582f;
+    const float p_0 = (((0.24196784f * r_s + (-1.6941894f * mu_s + 0.90283054f)) * r_s + ((-1.6799304f * mu_s + 3.3496218f) * mu_s - 0.43654948f)) * r_s + (((-1.4794472f * mu_s + 1.0439156f) * mu_s - 1.5189086f) * mu_s + 1.9133208f)) * r_s + ((((3.459204f * mu_s - 8.253649f) * mu_s + 15.842328f) * mu_s - 17.311275f) * mu_s + 9.469822f);
+    const float p_1 = ((-0.1378852f * r_s + (0.94505554f * mu_s - 1.187204f)) * r_s + ((2.6953332f * mu_s - 3.2308538f) * mu_s + 0.4347605f)) * r_s + (((-4.9060674f * mu_s + 10.500192f) * mu_s - 8.752789f) * mu_s + 3.4721203f);
+    const float p_2 = (0.22539398f * r_s + (0.96288097f * mu_s - 0.060718946f)) * r_s + ((-1.7754376f * mu_s + 2.2516677f) * mu_s - 0.73489416f);
+    const float p_3 = -0.2916345f * r_s + (-0.016154654f * mu_s - 0.080823615f);
+    const float p_4 = 0.10038421f;
     const float p = (((p_4 * f0_s + p_3) * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = (((0.07534774f * r_s + (-0.00052908337f * mu_s + 0.051793374f)) * r_s + ((0.37482864f * mu_s - 0.428951f) * mu_s + 0.50613946f)) * r_s + (((-0.5350973f * mu_s + 1.547948f) * mu_s - 1.6132177f) * mu_s + 1.1176738f)) * r_s + ((((0.36350045f * mu_s - 1.7144697f) * mu_s + 4.43037f) * mu_s - 4.715661f) * mu_s + 2.2664742f);
-    const float q_1 = ((0.00034249248f * r_s + (0.19579066f * mu_s - 0.1392549f)) * r_s + ((0.20195894f * mu_s + 0.09693902f) * mu_s - 0.22136235f)) * r_s + (((-0.8578769f * mu_s + 1.8373978f) * mu_s - 1.206897f) * mu_s + 0.2553052f);
-    const float q_2 = (0.020136004f * r_s + (-0.040931135f * mu_s + 0.055077106f)) * r_s + ((-0.37400746f * mu_s + 0.37280476f) * mu_s - 0.07768381f);
-    const float q_3 = -0.06329618f * r_s + (-0.080026016f * mu_s + 0.0459123f);
-    const float q_4 = 0.02831092f;
+    const float q_0 = (((0.5473754f * r_s + (-1.3578328f * mu_s + 1.560791f)) * r_s + ((1.4821867f * mu_s - 1.1717622f) * mu_s + 3.1424005f)) * r_s + (((-3.776307f * mu_s + 10.546506f) * mu_s - 12.803786f) * mu_s + 8.873105f)) * r_s + ((((3.5426114f * mu_s - 10.364743f) * mu_s + 22.602293f) * mu_s - 25.316181f) * mu_s + 14.091731f);
+    const float q_1 = ((0.06670443f * r_s + (1.5199486f * mu_s - 0.7955496f)) * r_s + ((1.9722996f * mu_s - 1.1274799f) * mu_s + 0.31484303f)) * r_s + (((-4.8595963f * mu_s + 10.052679f) * mu_s - 7.859133f) * mu_s + 3.4777231f);
+    const float q_2 = (0.07199601f * r_s + (0.3073002f * mu_s + 0.09884975f)) * r_s + ((-1.8981692f * mu_s + 1.813843f) * mu_s - 0.5169999f);
+    const float q_3 = -0.25368705f * r_s + (-0.022503769f * mu_s - 0.03564968f);
+    const float q_4 = 0.10362632f;
     const float q = (((q_4 * f0_s + q_3) * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -12,16 +12,16 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 6df55c0bdd9f0469dbd2d2722ef42e2a0bafb1570f645f80d82e6d18511d67a1.
+// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points.
+// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 f017df35bfed8ec8e9d51065756708bfe19203dc4b2ed2a976bbb50a8491324c.
 // Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.6e-5, shifted 1.2e-6, bernstein 4.8e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.54e-3, max 1.79e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.77e-6 (every op rounded, as this Rust), 1.23e-6 (fused multiply-add), 1.33e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.56e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.53e-3, max 1.79e-2; this f32 code MAE 1.53e-3, max 1.79e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.6e-3 on the measurement grid.
-// Denominator proved >= 3.487e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.0e-6, shifted 9.0e-7, bernstein 4.3e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 1.75e-3, max 1.60e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.24e-6 (every op rounded, as this Rust), 1.01e-6 (fused multiply-add), 1.08e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.44e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 25689 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.74e-3, max 1.60e-2; this f32 code MAE 1.74e-3, max 1.60e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.8e-4 on the measurement grid.
+// Denominator proved >= 2.118e0 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -40,18 +40,18 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // s = (t - 0.5)/0.5 in [-1, 1]
     let mu_s = mu_t * 2.0 - 1.0;
     // numerator P, grouped by powers of the first variable
-    let p_0 = (((0.043335352 * r_s + (-0.11380788 * mu_s + 0.025111802)) * r_s + ((-0.17960544 * mu_s + 0.2432201) * mu_s + 0.031794682)) * r_s + (((-0.10715898 * mu_s - 0.13737832) * mu_s + 0.23045193) * mu_s + 0.09611087)) * r_s + ((((0.4310945 * mu_s - 1.3995827) * mu_s + 3.0996351) * mu_s - 3.2089808) * mu_s + 1.521416);
-    let p_1 = ((-0.020827215 * r_s + (0.111131445 * mu_s - 0.14334245)) * r_s + ((0.3108844 * mu_s - 0.2958324) * mu_s - 0.0465552)) * r_s + (((-0.8689 * mu_s + 1.9013379) * mu_s - 1.4050758) * mu_s + 0.35884959);
-    let p_2 = (0.06280932 * r_s + (0.10384797 * mu_s + 0.0071293265)) * r_s + ((-0.346163 * mu_s + 0.4658731) * mu_s - 0.14394097);
-    let p_3 = -0.07277808 * r_s + (-0.07942162 * mu_s + 0.036153566);
-    let p_4 = 0.027448582;
+    let p_0 = (((0.24196784 * r_s + (-1.6941894 * mu_s + 0.90283054)) * r_s + ((-1.6799304 * mu_s + 3.3496218) * mu_s - 0.43654948)) * r_s + (((-1.4794472 * mu_s + 1.0439156) * mu_s - 1.5189086) * mu_s + 1.9133208)) * r_s + ((((3.459204 * mu_s - 8.253649) * mu_s + 15.842328) * mu_s - 17.311275) * mu_s + 9.469822);
+    let p_1 = ((-0.1378852 * r_s + (0.94505554 * mu_s - 1.187204)) * r_s + ((2.6953332 * mu_s - 3.2308538) * mu_s + 0.4347605)) * r_s + (((-4.9060674 * mu_s + 10.500192) * mu_s - 8.752789) * mu_s + 3.4721203);
+    let p_2 = (0.22539398 * r_s + (0.96288097 * mu_s - 0.060718946)) * r_s + ((-1.7754376 * mu_s + 2.2516677) * mu_s - 0.73489416);
+    let p_3 = -0.2916345 * r_s + (-0.016154654 * mu_s - 0.080823615);
+    let p_4 = 0.10038421;
     let p = (((p_4 * f0_s + p_3) * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (((0.07534774 * r_s + (-0.00052908337 * mu_s + 0.051793374)) * r_s + ((0.37482864 * mu_s - 0.428951) * mu_s + 0.50613946)) * r_s + (((-0.5350973 * mu_s + 1.547948) * mu_s - 1.6132177) * mu_s + 1.1176738)) * r_s + ((((0.36350045 * mu_s - 1.7144697) * mu_s + 4.43037) * mu_s - 4.715661) * mu_s + 2.2664742);
-    let q_1 = ((0.00034249248 * r_s + (0.19579066 * mu_s - 0.1392549)) * r_s + ((0.20195894 * mu_s + 0.09693902) * mu_s - 0.22136235)) * r_s + (((-0.8578769 * mu_s + 1.8373978) * mu_s - 1.206897) * mu_s + 0.2553052);
-    let q_2 = (0.020136004 * r_s + (-0.040931135 * mu_s + 0.055077106)) * r_s + ((-0.37400746 * mu_s + 0.37280476) * mu_s - 0.07768381);
-    let q_3 = -0.06329618 * r_s + (-0.080026016 * mu_s + 0.0459123);
-    let q_4 = 0.02831092;
+    let q_0 = (((0.5473754 * r_s + (-1.3578328 * mu_s + 1.560791)) * r_s + ((1.4821867 * mu_s - 1.1717622) * mu_s + 3.1424005)) * r_s + (((-3.776307 * mu_s + 10.546506) * mu_s - 12.803786) * mu_s + 8.873105)) * r_s + ((((3.5426114 * mu_s - 10.364743) * mu_s + 22.602293) * mu_s - 25.316181) * mu_s + 14.091731);
+    let q_1 = ((0.06670443 * r_s + (1.5199486 * mu_s - 0.7955496)) * r_s + ((1.9722996 * mu_s - 1.1274799) * mu_s + 0.31484303)) * r_s + (((-4.8595963 * mu_s + 10.052679) * mu_s - 7.859133) * mu_s + 3.4777231);
+    let q_2 = (0.07199601 * r_s + (0.3073002 * mu_s + 0.09884975)) * r_s + ((-1.8981692 * mu_s + 1.813843) * mu_s - 0.5169999);
+    let q_3 = -0.25368705 * r_s + (-0.022503769 * mu_s - 0.03564968);
+    let q_4 = 0.10362632;
     let q = (((q_4 * f0_s + q_3) * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

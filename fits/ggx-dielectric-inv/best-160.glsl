@@ -13,163 +13,205 @@
 // ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 15008e5dfd38943e06699465c67f2212081ca24a582fcc4f15a86bdd94c3efb5.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 43bb877a63c37b7d5b9a30656df90d83205120fb1746c7dd5f10b8ac1092be53.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.9e-5, shifted 6.7e-6, bernstein 5.5e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.04e-3, max 1.49e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.12e-7 (every op rounded, as this Rust), 4.65e-7 (fused multiply-add), 6.08e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.46e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 34735 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.03e-3, max 1.49e-2; this f32 code MAE 1.03e-3, max 1.49e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-3 on the measurement grid.
-// Denominator proved >= 4.197e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.6e-4, shifted 9.4e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 7.39e-4, max 1.11e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 9.25e-7 (every op rounded, as this Rust), 9.24e-7 (fused multiply-add), 1.88e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.35e-4, max 1.11e-2; this f32 code MAE 7.35e-4, max 1.11e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.1e-4 on the measurement grid.
+// Denominator proved >= 7.614e-5 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    highp float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // u = (t - 0.0125)/(0.25 - 0.0125) in [0, 1]
-    highp float f0_u = (f0_c - 0.0125) * 4.2105265;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    highp float f0_v = 1.0 - f0_u;
-    highp float f0_u2 = f0_u * f0_u;
-    highp float f0_v2 = f0_v * f0_v;
-    highp float f0_u3 = f0_u2 * f0_u;
-    highp float f0_v3 = f0_v2 * f0_v;
-    highp float f0_u4 = f0_u3 * f0_u;
-    highp float f0_v4 = f0_v3 * f0_v;
-    highp float f0_u5 = f0_u4 * f0_u;
-    highp float f0_v5 = f0_v4 * f0_v;
-    highp float f0_b1 = f0_u * f0_v4;
-    highp float f0_b2 = f0_u2 * f0_v3;
-    highp float f0_b3 = f0_u3 * f0_v2;
-    highp float f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    highp float r_v = 1.0 - r_t;
-    highp float r_u2 = r_t * r_t;
-    highp float r_v2 = r_v * r_v;
-    highp float r_u3 = r_u2 * r_t;
-    highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_t;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_u5 = r_u4 * r_t;
-    highp float r_v5 = r_v4 * r_v;
-    highp float r_b1 = r_t * r_v4;
-    highp float r_b2 = r_u2 * r_v3;
-    highp float r_b3 = r_u3 * r_v2;
-    highp float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    highp float mu_u = (mu_t - 7.888609e-31) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    highp float mu_v = 1.0 - mu_u;
-    highp float mu_u2 = mu_u * mu_u;
-    highp float mu_v2 = mu_v * mu_v;
-    highp float mu_u3 = mu_u2 * mu_u;
-    highp float mu_v3 = mu_v2 * mu_v;
-    highp float mu_u4 = mu_u3 * mu_u;
-    highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_u5 = mu_u4 * mu_u;
-    highp float mu_v5 = mu_v4 * mu_v;
-    highp float mu_b1 = mu_u * mu_v4;
-    highp float mu_b2 = mu_u2 * mu_v3;
-    highp float mu_b3 = mu_u3 * mu_v2;
-    highp float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0_0 = 1.5677431 * mu_v5 + 6.475747 * mu_b1 + 5.8610992 * mu_b2 + 3.2560296 * mu_b3 + 0.57352525 * mu_b4 + 0.10683802 * mu_u5;
-    highp float p_0_1 = 3.239701 * mu_v5 + 15.520924 * mu_b1 + 3.3651083 * mu_b2 - 6.3645577 * mu_b3 - 6.7094984 * mu_b4 - 0.07982046 * mu_u5;
-    highp float p_0_2 = 7.9293003 * mu_v5 + 42.954166 * mu_b1 + 36.049072 * mu_b2 + 14.25862 * mu_b3 - 2.3457303 * mu_b4 + 2.7823272 * mu_u5;
-    highp float p_0_3 = 7.8526397 * mu_v5 + 47.40899 * mu_b1 + 52.241512 * mu_b2 + 27.31308 * mu_b3 - 1.9569366 * mu_b4 + 1.7776136 * mu_u5;
-    highp float p_0_4 = 5.0286145 * mu_v5 + 35.315525 * mu_b1 + 59.199585 * mu_b2 + 48.219456 * mu_b3 + 12.170809 * mu_b4 + 2.0452642 * mu_u5;
-    highp float p_0_5 = 0.9091869 * mu_v5 + 9.194872 * mu_b1 + 20.261837 * mu_b2 + 19.54428 * mu_b3 + 6.4443874 * mu_b4 + 0.7125061 * mu_u5;
-    highp float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    highp float p_1_0 = 18.455626 * mu_v5 + 59.057266 * mu_b1 + 41.937492 * mu_b2 + 16.8923 * mu_b3 + 7.418931 * mu_b4 + 1.0437125 * mu_u5;
-    highp float p_1_1 = 70.338356 * mu_v5 + 236.65053 * mu_b1 + 128.3432 * mu_b2 - 7.4660697 * mu_b3 - 15.93562 * mu_b4 - 0.53236324 * mu_u5;
-    highp float p_1_2 = 140.87462 * mu_v5 + 543.7216 * mu_b1 + 439.30228 * mu_b2 + 131.5805 * mu_b3 + 17.271978 * mu_b4 + 13.959093 * mu_u5;
-    highp float p_1_3 = 134.68724 * mu_v5 + 575.5252 * mu_b1 + 547.96747 * mu_b2 + 203.92314 * mu_b3 + 17.38576 * mu_b4 + 12.404486 * mu_u5;
-    highp float p_1_4 = 75.31651 * mu_v5 + 367.151 * mu_b1 + 470.60626 * mu_b2 + 284.66525 * mu_b3 + 73.55828 * mu_b4 + 13.57099 * mu_u5;
-    highp float p_1_5 = 17.00051 * mu_v5 + 94.65092 * mu_b1 + 149.32884 * mu_b2 + 110.47445 * mu_b3 + 33.695793 * mu_b4 + 4.08102 * mu_u5;
-    highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    highp float p_2_0 = 55.995827 * mu_v5 + 167.15706 * mu_b1 + 107.7073 * mu_b2 + 35.843166 * mu_b3 + 23.392015 * mu_b4 + 2.4573917 * mu_u5;
-    highp float p_2_1 = 231.84299 * mu_v5 + 748.9532 * mu_b1 + 447.61877 * mu_b2 + 24.648497 * mu_b3 - 2.7960262 * mu_b4 - 5.123618 * mu_u5;
-    highp float p_2_2 = 435.35104 * mu_v5 + 1612.4897 * mu_b1 + 1276.5879 * mu_b2 + 339.27454 * mu_b3 + 76.865944 * mu_b4 + 20.665258 * mu_u5;
-    highp float p_2_3 = 396.439 * mu_v5 + 1648.8964 * mu_b1 + 1503.2803 * mu_b2 + 488.23355 * mu_b3 + 81.43927 * mu_b4 + 27.653343 * mu_u5;
-    highp float p_2_4 = 212.2686 * mu_v5 + 1007.59906 * mu_b1 + 1197.2184 * mu_b2 + 640.4912 * mu_b3 + 182.36476 * mu_b4 + 35.573814 * mu_u5;
-    highp float p_2_5 = 50.09217 * mu_v5 + 263.18976 * mu_b1 + 378.20145 * mu_b2 + 250.31386 * mu_b3 + 77.77296 * mu_b4 + 10.925434 * mu_u5;
-    highp float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    highp float p_3_0 = 74.32114 * mu_v5 + 214.81543 * mu_b1 + 131.1058 * mu_b2 + 38.046852 * mu_b3 + 31.797634 * mu_b4 + 2.7247577 * mu_u5;
-    highp float p_3_1 = 314.6072 * mu_v5 + 1001.97614 * mu_b1 + 614.45654 * mu_b2 + 47.37172 * mu_b3 + 16.341793 * mu_b4 - 12.129986 * mu_u5;
-    highp float p_3_2 = 559.0178 * mu_v5 + 2044.4877 * mu_b1 + 1556.2323 * mu_b2 + 326.65652 * mu_b3 + 74.222374 * mu_b4 + 1.952969 * mu_u5;
-    highp float p_3_3 = 478.10974 * mu_v5 + 1997.4883 * mu_b1 + 1711.7545 * mu_b2 + 420.938 * mu_b3 + 59.307438 * mu_b4 + 14.370091 * mu_u5;
-    highp float p_3_4 = 243.10977 * mu_v5 + 1177.9377 * mu_b1 + 1316.2893 * mu_b2 + 614.3257 * mu_b3 + 175.90355 * mu_b4 + 34.851585 * mu_u5;
-    highp float p_3_5 = 58.49048 * mu_v5 + 311.5698 * mu_b1 + 425.0033 * mu_b2 + 258.30637 * mu_b3 + 80.0678 * mu_b4 + 12.047905 * mu_u5;
-    highp float p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    highp float p_4_0 = 47.883003 * mu_v5 + 137.8353 * mu_b1 + 88.390976 * mu_b2 + 29.91633 * mu_b3 + 24.86198 * mu_b4 + 2.5655584 * mu_u5;
-    highp float p_4_1 = 206.82152 * mu_v5 + 664.01166 * mu_b1 + 454.47818 * mu_b2 + 90.66191 * mu_b3 + 42.84504 * mu_b4 - 4.622668 * mu_u5;
-    highp float p_4_2 = 355.31482 * mu_v5 + 1305.0547 * mu_b1 + 1038.5931 * mu_b2 + 261.5094 * mu_b3 + 80.1903 * mu_b4 - 0.6534839 * mu_u5;
-    highp float p_4_3 = 289.3866 * mu_v5 + 1224.3663 * mu_b1 + 1058.4391 * mu_b2 + 262.47372 * mu_b3 + 52.741688 * mu_b4 + 5.5396657 * mu_u5;
-    highp float p_4_4 = 138.79492 * mu_v5 + 689.4112 * mu_b1 + 751.995 * mu_b2 + 325.4171 * mu_b3 + 96.4454 * mu_b4 + 18.313198 * mu_u5;
-    highp float p_4_5 = 33.16399 * mu_v5 + 180.81996 * mu_b1 + 239.85536 * mu_b2 + 137.5007 * mu_b3 + 42.807693 * mu_b4 + 6.687623 * mu_u5;
-    highp float p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    highp float p_5_0 = 11.980658 * mu_v5 + 34.149635 * mu_b1 + 22.024536 * mu_b2 + 7.184823 * mu_b3 + 6.165181 * mu_b4 + 0.6721628 * mu_u5;
-    highp float p_5_1 = 53.512875 * mu_v5 + 172.63023 * mu_b1 + 128.20457 * mu_b2 + 34.582443 * mu_b3 + 15.704462 * mu_b4 - 0.60953283 * mu_u5;
-    highp float p_5_2 = 91.81119 * mu_v5 + 337.8316 * mu_b1 + 286.78006 * mu_b2 + 87.89003 * mu_b3 + 28.758406 * mu_b4 - 0.009511091 * mu_u5;
-    highp float p_5_3 = 73.98971 * mu_v5 + 313.20044 * mu_b1 + 285.32343 * mu_b2 + 84.24372 * mu_b3 + 21.073072 * mu_b4 + 1.3044944 * mu_u5;
-    highp float p_5_4 = 34.220074 * mu_v5 + 170.00818 * mu_b1 + 187.05965 * mu_b2 + 80.6791 * mu_b3 + 24.29026 * mu_b4 + 4.063924 * mu_u5;
-    highp float p_5_5 = 7.985203 * mu_v5 + 43.538097 * mu_b1 + 57.09496 * mu_b2 + 31.686487 * mu_b3 + 9.815661 * mu_b4 + 1.5074835 * mu_u5;
-    highp float p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    highp float p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = 1.5657432 * mu_v5 + 6.6562963 * mu_b1 + 7.804144 * mu_b2 + 3.098086 * mu_b3 + 0.56993437 * mu_b4 + 0.1069123 * mu_u5;
-    highp float q_0_1 = 4.797142 * mu_v5 + 19.926485 * mu_b1 + 12.044059 * mu_b2 - 9.125659 * mu_b3 - 5.7299814 * mu_b4 - 0.08224037 * mu_u5;
-    highp float q_0_2 = 11.353283 * mu_v5 + 56.255016 * mu_b1 + 50.572594 * mu_b2 - 0.50160944 * mu_b3 - 2.6314576 * mu_b4 + 2.755742 * mu_u5;
-    highp float q_0_3 = 14.569024 * mu_v5 + 88.388596 * mu_b1 + 105.9049 * mu_b2 + 30.08912 * mu_b3 + 0.9779893 * mu_b4 + 2.1889334 * mu_u5;
-    highp float q_0_4 = 10.822446 * mu_v5 + 79.16167 * mu_b1 + 124.30389 * mu_b2 + 70.35255 * mu_b3 + 17.215122 * mu_b4 + 2.4346106 * mu_u5;
-    highp float q_0_5 = 2.3870769 * mu_v5 + 23.816755 * mu_b1 + 44.84937 * mu_b2 + 32.103268 * mu_b3 + 9.964444 * mu_b4 + 1.2023425 * mu_u5;
-    highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    highp float q_1_0 = 18.45764 * mu_v5 + 62.314228 * mu_b1 + 54.447876 * mu_b2 + 16.543509 * mu_b3 + 7.386841 * mu_b4 + 1.0419854 * mu_u5;
-    highp float q_1_1 = 78.664116 * mu_v5 + 272.49057 * mu_b1 + 188.34746 * mu_b2 - 17.955265 * mu_b3 - 11.014217 * mu_b4 - 0.50112677 * mu_u5;
-    highp float q_1_2 = 163.64436 * mu_v5 + 658.9159 * mu_b1 + 580.4508 * mu_b2 + 91.02688 * mu_b3 + 24.583723 * mu_b4 + 14.80974 * mu_u5;
-    highp float q_1_3 = 171.9706 * mu_v5 + 825.11884 * mu_b1 + 883.3676 * mu_b2 + 252.53542 * mu_b3 + 41.877434 * mu_b4 + 15.635061 * mu_u5;
-    highp float q_1_4 = 103.477875 * mu_v5 + 606.4042 * mu_b1 + 843.6104 * mu_b2 + 442.55963 * mu_b3 + 125.58214 * mu_b4 + 21.743467 * mu_u5;
-    highp float q_1_5 = 25.004019 * mu_v5 + 180.31915 * mu_b1 + 307.38254 * mu_b2 + 216.13841 * mu_b3 + 76.98375 * mu_b4 + 12.520112 * mu_u5;
-    highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    highp float q_2_0 = 55.96163 * mu_v5 + 178.701 * mu_b1 + 139.06558 * mu_b2 + 36.323116 * mu_b3 + 23.247063 * mu_b4 + 2.4648788 * mu_u5;
-    highp float q_2_1 = 246.88258 * mu_v5 + 842.5307 * mu_b1 + 596.6376 * mu_b2 + 8.179632 * mu_b3 + 6.011499 * mu_b4 - 5.105029 * mu_u5;
-    highp float q_2_2 = 483.80283 * mu_v5 + 1918.9744 * mu_b1 + 1673.5374 * mu_b2 + 307.32767 * mu_b3 + 98.32942 * mu_b4 + 21.514988 * mu_u5;
-    highp float q_2_3 = 465.66016 * mu_v5 + 2195.7107 * mu_b1 + 2242.7625 * mu_b2 + 587.6329 * mu_b3 + 108.61652 * mu_b4 + 25.842957 * mu_u5;
-    highp float q_2_4 = 256.19604 * mu_v5 + 1481.9576 * mu_b1 + 1953.8801 * mu_b2 + 958.1925 * mu_b3 + 284.98984 * mu_b4 + 50.989513 * mu_u5;
-    highp float q_2_5 = 63.535492 * mu_v5 + 441.98013 * mu_b1 + 728.2601 * mu_b2 + 507.20782 * mu_b3 + 192.52684 * mu_b4 + 34.349155 * mu_u5;
-    highp float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    highp float q_3_0 = 74.24016 * mu_v5 + 231.87537 * mu_b1 + 169.68236 * mu_b2 + 39.95161 * mu_b3 + 31.410736 * mu_b4 + 2.7210069 * mu_u5;
-    highp float q_3_1 = 326.08508 * mu_v5 + 1114.9575 * mu_b1 + 793.88336 * mu_b2 + 38.100834 * mu_b3 + 25.072191 * mu_b4 - 11.944018 * mu_u5;
-    highp float q_3_2 = 606.66815 * mu_v5 + 2428.3416 * mu_b1 + 2089.0498 * mu_b2 + 368.80078 * mu_b3 + 112.40361 * mu_b4 + 3.126384 * mu_u5;
-    highp float q_3_3 = 539.35913 * mu_v5 + 2600.081 * mu_b1 + 2553.0059 * mu_b2 + 552.6657 * mu_b3 + 71.46093 * mu_b4 + 3.2264886 * mu_u5;
-    highp float q_3_4 = 272.77444 * mu_v5 + 1648.2268 * mu_b1 + 2087.3196 * mu_b2 + 928.9718 * mu_b3 + 265.67584 * mu_b4 + 44.64486 * mu_u5;
-    highp float q_3_5 = 68.356285 * mu_v5 + 493.9939 * mu_b1 + 800.33954 * mu_b2 + 548.13477 * mu_b3 + 213.5456 * mu_b4 + 39.327484 * mu_u5;
-    highp float q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    highp float q_4_0 = 47.903572 * mu_v5 + 149.73108 * mu_b1 + 112.30732 * mu_b2 + 32.138702 * mu_b3 + 24.614933 * mu_b4 + 2.563418 * mu_u5;
-    highp float q_4_1 = 210.10008 * mu_v5 + 730.069 * mu_b1 + 561.6196 * mu_b2 + 91.82958 * mu_b3 + 47.764427 * mu_b4 - 4.3776083 * mu_u5;
-    highp float q_4_2 = 378.30338 * mu_v5 + 1542.7351 * mu_b1 + 1395.1266 * mu_b2 + 342.46014 * mu_b3 + 117.18759 * mu_b4 + 1.4960356 * mu_u5;
-    highp float q_4_3 = 318.09024 * mu_v5 + 1573.902 * mu_b1 + 1577.8761 * mu_b2 + 389.8617 * mu_b3 + 69.321976 * mu_b4 - 2.4016485 * mu_u5;
-    highp float q_4_4 = 148.79298 * mu_v5 + 938.43536 * mu_b1 + 1177.7773 * mu_b2 + 509.46188 * mu_b3 + 144.32677 * mu_b4 + 21.036678 * mu_u5;
-    highp float q_4_5 = 36.868443 * mu_v5 + 277.22485 * mu_b1 + 446.3041 * mu_b2 + 302.95798 * mu_b3 + 119.33715 * mu_b4 + 21.934242 * mu_u5;
-    highp float q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    highp float q_5_0 = 12.033378 * mu_v5 + 37.399906 * mu_b1 + 28.049059 * mu_b2 + 8.067041 * mu_b3 + 6.1354814 * mu_b4 + 0.6724423 * mu_u5;
-    highp float q_5_1 = 53.531746 * mu_v5 + 187.58379 * mu_b1 + 153.08173 * mu_b2 + 35.749264 * mu_b3 + 16.493612 * mu_b4 - 0.6186048 * mu_u5;
-    highp float q_5_2 = 96.14924 * mu_v5 + 395.7181 * mu_b1 + 379.75864 * mu_b2 + 119.4811 * mu_b3 + 40.909504 * mu_b4 + 0.83289707 * mu_u5;
-    highp float q_5_3 = 79.99198 * mu_v5 + 397.81265 * mu_b1 + 420.19266 * mu_b2 + 132.40515 * mu_b3 + 30.589405 * mu_b4 - 0.2290521 * mu_u5;
-    highp float q_5_4 = 36.060276 * mu_v5 + 227.42941 * mu_b1 + 290.04272 * mu_b2 + 131.48674 * mu_b3 + 37.77939 * mu_b4 + 4.573602 * mu_u5;
-    highp float q_5_5 = 8.730935 * mu_v5 + 65.209816 * mu_b1 + 104.69374 * mu_b2 + 70.99817 * mu_b3 + 27.800207 * mu_b4 + 4.938369 * mu_u5;
-    highp float q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    highp float q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
-    highp float e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    highp float r_b5_v = 1.0 - r_t;
+    highp float r_b5_u2 = r_t * r_t;
+    highp float r_b5_v2 = r_b5_v * r_b5_v;
+    highp float r_b5_u3 = r_b5_u2 * r_t;
+    highp float r_b5_v3 = r_b5_v2 * r_b5_v;
+    highp float r_b5_u4 = r_b5_u3 * r_t;
+    highp float r_b5_v4 = r_b5_v3 * r_b5_v;
+    highp float r_b5_u5 = r_b5_u4 * r_t;
+    highp float r_b5_v5 = r_b5_v4 * r_b5_v;
+    highp float r_b5_b1 = r_t * r_b5_v4;
+    highp float r_b5_b2 = r_b5_u2 * r_b5_v3;
+    highp float r_b5_b3 = r_b5_u3 * r_b5_v2;
+    highp float r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    highp float mu_b5_v = 1.0 - mu_u;
+    highp float mu_b5_u2 = mu_u * mu_u;
+    highp float mu_b5_v2 = mu_b5_v * mu_b5_v;
+    highp float mu_b5_u3 = mu_b5_u2 * mu_u;
+    highp float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    highp float mu_b5_u4 = mu_b5_u3 * mu_u;
+    highp float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    highp float mu_b5_u5 = mu_b5_u4 * mu_u;
+    highp float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    highp float mu_b5_b1 = mu_u * mu_b5_v4;
+    highp float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    highp float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    highp float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    highp float p0_0_0 = 1.6818 * mu_b5_v5 + 11.377676 * mu_b5_b1 + 10.189635 * mu_b5_b2 + 12.696712 * mu_b5_b3 + 2.2255917 * mu_b5_b4 + 0.21794945 * mu_b5_u5;
+    highp float p0_0_1 = 3.9466972 * mu_b5_v5 + 23.870731 * mu_b5_b1 + 26.156363 * mu_b5_b2 + 75.799095 * mu_b5_b3 + 20.273315 * mu_b5_b4 + 1.6831049 * mu_b5_u5;
+    highp float p0_0_2 = 1.2936034 * mu_b5_v5 + 13.422764 * mu_b5_b1 + 62.81112 * mu_b5_b2 + 210.27165 * mu_b5_b3 + 61.918423 * mu_b5_b4 + 4.281839 * mu_b5_u5;
+    highp float p0_0_3 = -0.7073781 * mu_b5_v5 + 9.848942 * mu_b5_b1 + 115.01962 * mu_b5_b2 + 276.4421 * mu_b5_b3 + 73.13931 * mu_b5_b4 + 3.1136231 * mu_b5_u5;
+    highp float p0_0_4 = 0.11487696 * mu_b5_v5 + 10.811374 * mu_b5_b1 + 86.105576 * mu_b5_b2 + 157.8524 * mu_b5_b3 + 31.14779 * mu_b5_b4 - 0.31897697 * mu_b5_u5;
+    highp float p0_0_5 = 0.1045675 * mu_b5_v5 + 3.160172 * mu_b5_b1 + 20.466404 * mu_b5_b2 + 31.115633 * mu_b5_b3 + 3.1472113 * mu_b5_b4 - 0.36231056 * mu_b5_u5;
+    highp float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    highp float p0 = p0_0 * 1.0;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    highp float f0_b4_v = 1.0 - f0_t;
+    highp float f0_b4_u2 = f0_t * f0_t;
+    highp float f0_b4_v2 = f0_b4_v * f0_b4_v;
+    highp float f0_b4_u3 = f0_b4_u2 * f0_t;
+    highp float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    highp float f0_b4_u4 = f0_b4_u3 * f0_t;
+    highp float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    highp float f0_b4_b1 = f0_t * f0_b4_v3;
+    highp float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    highp float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    highp float u0_0_0 = 1.014124 * 1.0;
+    highp float u0_0 = u0_0_0 * 1.0;
+    highp float u0_1_0 = 4.449831 * 1.0;
+    highp float u0_1 = u0_1_0 * 1.0;
+    highp float u0_2_0 = 7.1663713 * 1.0;
+    highp float u0_2 = u0_2_0 * 1.0;
+    highp float u0_3_0 = 5.014802 * 1.0;
+    highp float u0_3 = u0_3_0 * 1.0;
+    highp float u0_4_0 = 1.2870095 * 1.0;
+    highp float u0_4 = u0_4_0 * 1.0;
+    highp float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
+    highp float r_b3_v = 1.0 - r_t;
+    highp float r_b3_u2 = r_t * r_t;
+    highp float r_b3_v2 = r_b3_v * r_b3_v;
+    highp float r_b3_u3 = r_b3_u2 * r_t;
+    highp float r_b3_v3 = r_b3_v2 * r_b3_v;
+    highp float r_b3_b1 = r_t * r_b3_v2;
+    highp float r_b3_b2 = r_b3_u2 * r_b3_v;
+    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
+    highp float mu_b3_v = 1.0 - mu_u;
+    highp float mu_b3_u2 = mu_u * mu_u;
+    highp float mu_b3_v2 = mu_b3_v * mu_b3_v;
+    highp float mu_b3_u3 = mu_b3_u2 * mu_u;
+    highp float mu_b3_v3 = mu_b3_v2 * mu_b3_v;
+    highp float mu_b3_b1 = mu_u * mu_b3_v2;
+    highp float mu_b3_b2 = mu_b3_u2 * mu_b3_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q0_0_0 = 1.0 * mu_b3_v3 + 6.2004137 * mu_b3_b1 + 1.170888 * mu_b3_b2 + 0.15695085 * mu_b3_u3;
+    highp float q0_0_1 = 3.8500752 * mu_b3_v3 + 23.165506 * mu_b3_b1 + 7.720306 * mu_b3_b2 + 0.9643049 * mu_b3_u3;
+    highp float q0_0_2 = 4.429608 * mu_b3_v3 + 27.584967 * mu_b3_b1 + 12.449967 * mu_b3_b2 + 1.8540384 * mu_b3_u3;
+    highp float q0_0_3 = 1.0764453 * mu_b3_v3 + 9.110613 * mu_b3_b1 + 4.391288 * mu_b3_b2 + 0.54359716 * mu_b3_u3;
+    highp float q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
+    highp float q0 = q0_0 * 1.0;
+    highp float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    highp float p1_0_0 = 0.24540247 * mu_b5_v5 + 1.5781301 * mu_b5_b1 + 1.8151569 * mu_b5_b2 + 1.2316706 * mu_b5_b3 + 0.041021947 * mu_b5_b4 + 0.00045068478 * mu_b5_u5;
+    highp float p1_0_1 = -0.42915264 * mu_b5_v5 - 3.2102087 * mu_b5_b1 - 3.7375302 * mu_b5_b2 + 2.3467088 * mu_b5_b3 - 0.24995886 * mu_b5_b4 - 0.009791324 * mu_b5_u5;
+    highp float p1_0_2 = -1.8019457 * mu_b5_v5 - 15.68482 * mu_b5_b1 - 13.93115 * mu_b5_b2 + 6.150875 * mu_b5_b3 - 0.85436624 * mu_b5_b4 + 0.033184264 * mu_b5_u5;
+    highp float p1_0_3 = -2.2403834 * mu_b5_v5 - 19.912947 * mu_b5_b1 - 13.646063 * mu_b5_b2 + 8.172362 * mu_b5_b3 - 2.6851935 * mu_b5_b4 + 0.25564525 * mu_b5_u5;
+    highp float p1_0_4 = -1.1729181 * mu_b5_v5 - 9.670602 * mu_b5_b1 - 2.6516566 * mu_b5_b2 + 7.2017984 * mu_b5_b3 - 1.3674804 * mu_b5_b4 + 0.8200987 * mu_b5_u5;
+    highp float p1_0_5 = -0.30032262 * mu_b5_v5 - 1.8561227 * mu_b5_b1 + 0.21197058 * mu_b5_b2 + 1.6612997 * mu_b5_b3 - 0.44765866 * mu_b5_b4 + 0.36748242 * mu_b5_u5;
+    highp float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    highp float p1 = p1_0 * 1.0;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    highp float u1_0_0 = 0.5702372 * 1.0;
+    highp float u1_0 = u1_0_0 * 1.0;
+    highp float u1_1_0 = 0.77727765 * 1.0;
+    highp float u1_1 = u1_1_0 * 1.0;
+    highp float u1_2_0 = -0.8001668 * 1.0;
+    highp float u1_2 = u1_2_0 * 1.0;
+    highp float u1_3_0 = -1.0279833 * 1.0;
+    highp float u1_3 = u1_3_0 * 1.0;
+    highp float u1_4_0 = -0.3292523 * 1.0;
+    highp float u1_4 = u1_4_0 * 1.0;
+    highp float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q1_0_0 = 1.0 * mu_b3_v3 + 4.625543 * mu_b3_b1 + 0.17963918 * mu_b3_b2 + 0.0019694008 * mu_b3_u3;
+    highp float q1_0_1 = 2.2616916 * mu_b3_v3 + 11.175309 * mu_b3_b1 - 1.4781957 * mu_b3_b2 - 0.048193216 * mu_b3_u3;
+    highp float q1_0_2 = 1.8258256 * mu_b3_v3 + 9.4459915 * mu_b3_b1 - 2.4586303 * mu_b3_b2 + 0.2648235 * mu_b3_u3;
+    highp float q1_0_3 = 0.94523185 * mu_b3_v3 + 4.0395193 * mu_b3_b1 + 0.34249824 * mu_b3_b2 + 0.696084 * mu_b3_u3;
+    highp float q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
+    highp float q1 = q1_0 * 1.0;
+    highp float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    highp float p2_0_0 = 0.05580612 * mu_b5_v5 + 0.22641385 * mu_b5_b1 + 0.1318353 * mu_b5_b2 + 0.09332001 * mu_b5_b3 - 0.0017314168 * mu_b5_b4 + 0.000458191 * mu_b5_u5;
+    highp float p2_0_1 = 0.20747547 * mu_b5_v5 + 1.2550974 * mu_b5_b1 + 1.0552676 * mu_b5_b2 + 0.6683324 * mu_b5_b3 - 0.010905951 * mu_b5_b4 - 0.00018238563 * mu_b5_u5;
+    highp float p2_0_2 = 0.108344585 * mu_b5_v5 + 1.5597241 * mu_b5_b1 + 0.8629077 * mu_b5_b2 + 0.6007037 * mu_b5_b3 - 0.1543589 * mu_b5_b4 - 0.0007139133 * mu_b5_u5;
+    highp float p2_0_3 = -0.10840547 * mu_b5_v5 + 0.4877684 * mu_b5_b1 - 0.7175686 * mu_b5_b2 - 0.070526764 * mu_b5_b3 - 0.09412011 * mu_b5_b4 + 0.005484699 * mu_b5_u5;
+    highp float p2_0_4 = -0.08104714 * mu_b5_v5 - 0.196999 * mu_b5_b1 - 1.0879637 * mu_b5_b2 - 0.22506218 * mu_b5_b3 + 0.064241365 * mu_b5_b4 - 0.011298015 * mu_b5_u5;
+    highp float p2_0_5 = -0.004828938 * mu_b5_v5 - 0.09803929 * mu_b5_b1 - 0.3195446 * mu_b5_b2 - 0.017469032 * mu_b5_b3 + 0.06886462 * mu_b5_b4 - 0.0057185492 * mu_b5_u5;
+    highp float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    highp float p2 = p2_0 * 1.0;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    highp float u2_0_0 = 0.40346384 * 1.0;
+    highp float u2_0 = u2_0_0 * 1.0;
+    highp float u2_1_0 = 2.1391003 * 1.0;
+    highp float u2_1 = u2_1_0 * 1.0;
+    highp float u2_2_0 = 0.41216505 * 1.0;
+    highp float u2_2 = u2_2_0 * 1.0;
+    highp float u2_3_0 = -1.1428729 * 1.0;
+    highp float u2_3 = u2_3_0 * 1.0;
+    highp float u2_4_0 = -0.49810582 * 1.0;
+    highp float u2_4 = u2_4_0 * 1.0;
+    highp float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q2_0_0 = 1.0 * mu_b3_v3 + 1.8551881 * mu_b3_b1 - 0.043757312 * mu_b3_b2 + 0.008336884 * mu_b3_u3;
+    highp float q2_0_1 = 1.5591007 * mu_b3_v3 + 3.6183083 * mu_b3_b1 - 0.66100836 * mu_b3_b2 + 0.0016310882 * mu_b3_u3;
+    highp float q2_0_2 = 0.64692104 * mu_b3_v3 + 2.8244894 * mu_b3_b1 - 0.47002894 * mu_b3_b2 + 0.0742497 * mu_b3_u3;
+    highp float q2_0_3 = 0.045673203 * mu_b3_v3 + 0.934928 * mu_b3_b1 + 0.020780956 * mu_b3_b2 + 0.038808446 * mu_b3_u3;
+    highp float q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
+    highp float q2 = q2_0 * 1.0;
+    highp float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    highp float p3_0_0 = 0.744252 * mu_b5_v5 - 0.518746 * mu_b5_b1 + 1.08865 * mu_b5_b2 + 0.07836499 * mu_b5_b3 + 0.11207676 * mu_b5_b4 + 0.017467197 * mu_b5_u5;
+    highp float p3_0_1 = -0.9310276 * mu_b5_v5 - 7.0639715 * mu_b5_b1 + 5.2021565 * mu_b5_b2 + 0.45056275 * mu_b5_b3 + 0.98426634 * mu_b5_b4 + 0.029340927 * mu_b5_u5;
+    highp float p3_0_2 = -6.4088907 * mu_b5_v5 - 13.8411875 * mu_b5_b1 + 14.756985 * mu_b5_b2 + 2.1837163 * mu_b5_b3 + 3.7622054 * mu_b5_b4 + 0.08884474 * mu_b5_u5;
+    highp float p3_0_3 = -7.3378024 * mu_b5_v5 - 7.069175 * mu_b5_b1 + 22.449951 * mu_b5_b2 + 5.20145 * mu_b5_b3 + 6.8566933 * mu_b5_b4 + 0.15764043 * mu_b5_u5;
+    highp float p3_0_4 = -3.1727424 * mu_b5_v5 + 0.36307135 * mu_b5_b1 + 13.338764 * mu_b5_b2 + 2.6710308 * mu_b5_b3 + 4.5400853 * mu_b5_b4 - 0.16745771 * mu_b5_u5;
+    highp float p3_0_5 = -0.4718404 * mu_b5_v5 + 0.6198355 * mu_b5_b1 + 2.499395 * mu_b5_b2 + 0.24820243 * mu_b5_b3 + 1.0569593 * mu_b5_b4 - 0.15141687 * mu_b5_u5;
+    highp float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    highp float p3 = p3_0 * 1.0;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    highp float u3_0_0 = -1.164495 * 1.0;
+    highp float u3_0 = u3_0_0 * 1.0;
+    highp float u3_1_0 = -5.1253433 * 1.0;
+    highp float u3_1 = u3_1_0 * 1.0;
+    highp float u3_2_0 = -7.8623743 * 1.0;
+    highp float u3_2 = u3_2_0 * 1.0;
+    highp float u3_3_0 = -5.530996 * 1.0;
+    highp float u3_3 = u3_3_0 * 1.0;
+    highp float u3_4_0 = -1.4202172 * 1.0;
+    highp float u3_4 = u3_4_0 * 1.0;
+    highp float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q3_0_0 = 1.0 * mu_b3_v3 + 0.17871301 * mu_b3_b1 + 0.085942835 * mu_b3_b2 + 0.03623221 * mu_b3_u3;
+    highp float q3_0_1 = 3.4206154 * mu_b3_v3 + 1.3859322 * mu_b3_b1 + 0.60689026 * mu_b3_b2 + 0.02858061 * mu_b3_u3;
+    highp float q3_0_2 = 3.6034389 * mu_b3_v3 + 2.101294 * mu_b3_b1 + 1.4004653 * mu_b3_b2 + 0.28961718 * mu_b3_u3;
+    highp float q3_0_3 = 1.0552826 * mu_b3_v3 + 0.5114522 * mu_b3_b1 + 0.49689513 * mu_b3_b2 + 0.16972788 * mu_b3_u3;
+    highp float q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
+    highp float q3 = q3_0 * 1.0;
+    highp float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    highp float e = e0 + e1 + e2 + e3;
     return max(min(e, 1.0), 0.0);
 }
 

@@ -12,163 +12,205 @@
 // ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 15008e5dfd38943e06699465c67f2212081ca24a582fcc4f15a86bdd94c3efb5.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 43bb877a63c37b7d5b9a30656df90d83205120fb1746c7dd5f10b8ac1092be53.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.9e-5, shifted 6.7e-6, bernstein 5.5e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.04e-3, max 1.49e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.12e-7 (every op rounded, as this Rust), 4.65e-7 (fused multiply-add), 6.08e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.46e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 34735 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.03e-3, max 1.49e-2; this f32 code MAE 1.03e-3, max 1.49e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-3 on the measurement grid.
-// Denominator proved >= 4.197e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.6e-4, shifted 9.4e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 7.39e-4, max 1.11e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 9.25e-7 (every op rounded, as this Rust), 9.24e-7 (fused multiply-add), 1.88e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.35e-4, max 1.11e-2; this f32 code MAE 7.35e-4, max 1.11e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.1e-4 on the measurement grid.
+// Denominator proved >= 7.614e-5 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017f) * 2.6828594f;
     float r_c = max(min(r, 1.0f), 0.0f);
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // u = (t - 0.0125)/(0.25 - 0.0125) in [0, 1]
-    float f0_u = (f0_c - 0.0125f) * 4.2105265f;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    float f0_v = 1.0f - f0_u;
-    float f0_u2 = f0_u * f0_u;
-    float f0_v2 = f0_v * f0_v;
-    float f0_u3 = f0_u2 * f0_u;
-    float f0_v3 = f0_v2 * f0_v;
-    float f0_u4 = f0_u3 * f0_u;
-    float f0_v4 = f0_v3 * f0_v;
-    float f0_u5 = f0_u4 * f0_u;
-    float f0_v5 = f0_v4 * f0_v;
-    float f0_b1 = f0_u * f0_v4;
-    float f0_b2 = f0_u2 * f0_v3;
-    float f0_b3 = f0_u3 * f0_v2;
-    float f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    float r_v = 1.0f - r_t;
-    float r_u2 = r_t * r_t;
-    float r_v2 = r_v * r_v;
-    float r_u3 = r_u2 * r_t;
-    float r_v3 = r_v2 * r_v;
-    float r_u4 = r_u3 * r_t;
-    float r_v4 = r_v3 * r_v;
-    float r_u5 = r_u4 * r_t;
-    float r_v5 = r_v4 * r_v;
-    float r_b1 = r_t * r_v4;
-    float r_b2 = r_u2 * r_v3;
-    float r_b3 = r_u3 * r_v2;
-    float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    float mu_u = (mu_t - 7.888609e-31f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    float mu_v = 1.0f - mu_u;
-    float mu_u2 = mu_u * mu_u;
-    float mu_v2 = mu_v * mu_v;
-    float mu_u3 = mu_u2 * mu_u;
-    float mu_v3 = mu_v2 * mu_v;
-    float mu_u4 = mu_u3 * mu_u;
-    float mu_v4 = mu_v3 * mu_v;
-    float mu_u5 = mu_u4 * mu_u;
-    float mu_v5 = mu_v4 * mu_v;
-    float mu_b1 = mu_u * mu_v4;
-    float mu_b2 = mu_u2 * mu_v3;
-    float mu_b3 = mu_u3 * mu_v2;
-    float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0_0 = 1.5677431f * mu_v5 + 6.475747f * mu_b1 + 5.8610992f * mu_b2 + 3.2560296f * mu_b3 + 0.57352525f * mu_b4 + 0.10683802f * mu_u5;
-    float p_0_1 = 3.239701f * mu_v5 + 15.520924f * mu_b1 + 3.3651083f * mu_b2 - 6.3645577f * mu_b3 - 6.7094984f * mu_b4 - 0.07982046f * mu_u5;
-    float p_0_2 = 7.9293003f * mu_v5 + 42.954166f * mu_b1 + 36.049072f * mu_b2 + 14.25862f * mu_b3 - 2.3457303f * mu_b4 + 2.7823272f * mu_u5;
-    float p_0_3 = 7.8526397f * mu_v5 + 47.40899f * mu_b1 + 52.241512f * mu_b2 + 27.31308f * mu_b3 - 1.9569366f * mu_b4 + 1.7776136f * mu_u5;
-    float p_0_4 = 5.0286145f * mu_v5 + 35.315525f * mu_b1 + 59.199585f * mu_b2 + 48.219456f * mu_b3 + 12.170809f * mu_b4 + 2.0452642f * mu_u5;
-    float p_0_5 = 0.9091869f * mu_v5 + 9.194872f * mu_b1 + 20.261837f * mu_b2 + 19.54428f * mu_b3 + 6.4443874f * mu_b4 + 0.7125061f * mu_u5;
-    float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    float p_1_0 = 18.455626f * mu_v5 + 59.057266f * mu_b1 + 41.937492f * mu_b2 + 16.8923f * mu_b3 + 7.418931f * mu_b4 + 1.0437125f * mu_u5;
-    float p_1_1 = 70.338356f * mu_v5 + 236.65053f * mu_b1 + 128.3432f * mu_b2 - 7.4660697f * mu_b3 - 15.93562f * mu_b4 - 0.53236324f * mu_u5;
-    float p_1_2 = 140.87462f * mu_v5 + 543.7216f * mu_b1 + 439.30228f * mu_b2 + 131.5805f * mu_b3 + 17.271978f * mu_b4 + 13.959093f * mu_u5;
-    float p_1_3 = 134.68724f * mu_v5 + 575.5252f * mu_b1 + 547.96747f * mu_b2 + 203.92314f * mu_b3 + 17.38576f * mu_b4 + 12.404486f * mu_u5;
-    float p_1_4 = 75.31651f * mu_v5 + 367.151f * mu_b1 + 470.60626f * mu_b2 + 284.66525f * mu_b3 + 73.55828f * mu_b4 + 13.57099f * mu_u5;
-    float p_1_5 = 17.00051f * mu_v5 + 94.65092f * mu_b1 + 149.32884f * mu_b2 + 110.47445f * mu_b3 + 33.695793f * mu_b4 + 4.08102f * mu_u5;
-    float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    float p_2_0 = 55.995827f * mu_v5 + 167.15706f * mu_b1 + 107.7073f * mu_b2 + 35.843166f * mu_b3 + 23.392015f * mu_b4 + 2.4573917f * mu_u5;
-    float p_2_1 = 231.84299f * mu_v5 + 748.9532f * mu_b1 + 447.61877f * mu_b2 + 24.648497f * mu_b3 - 2.7960262f * mu_b4 - 5.123618f * mu_u5;
-    float p_2_2 = 435.35104f * mu_v5 + 1612.4897f * mu_b1 + 1276.5879f * mu_b2 + 339.27454f * mu_b3 + 76.865944f * mu_b4 + 20.665258f * mu_u5;
-    float p_2_3 = 396.439f * mu_v5 + 1648.8964f * mu_b1 + 1503.2803f * mu_b2 + 488.23355f * mu_b3 + 81.43927f * mu_b4 + 27.653343f * mu_u5;
-    float p_2_4 = 212.2686f * mu_v5 + 1007.59906f * mu_b1 + 1197.2184f * mu_b2 + 640.4912f * mu_b3 + 182.36476f * mu_b4 + 35.573814f * mu_u5;
-    float p_2_5 = 50.09217f * mu_v5 + 263.18976f * mu_b1 + 378.20145f * mu_b2 + 250.31386f * mu_b3 + 77.77296f * mu_b4 + 10.925434f * mu_u5;
-    float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    float p_3_0 = 74.32114f * mu_v5 + 214.81543f * mu_b1 + 131.1058f * mu_b2 + 38.046852f * mu_b3 + 31.797634f * mu_b4 + 2.7247577f * mu_u5;
-    float p_3_1 = 314.6072f * mu_v5 + 1001.97614f * mu_b1 + 614.45654f * mu_b2 + 47.37172f * mu_b3 + 16.341793f * mu_b4 - 12.129986f * mu_u5;
-    float p_3_2 = 559.0178f * mu_v5 + 2044.4877f * mu_b1 + 1556.2323f * mu_b2 + 326.65652f * mu_b3 + 74.222374f * mu_b4 + 1.952969f * mu_u5;
-    float p_3_3 = 478.10974f * mu_v5 + 1997.4883f * mu_b1 + 1711.7545f * mu_b2 + 420.938f * mu_b3 + 59.307438f * mu_b4 + 14.370091f * mu_u5;
-    float p_3_4 = 243.10977f * mu_v5 + 1177.9377f * mu_b1 + 1316.2893f * mu_b2 + 614.3257f * mu_b3 + 175.90355f * mu_b4 + 34.851585f * mu_u5;
-    float p_3_5 = 58.49048f * mu_v5 + 311.5698f * mu_b1 + 425.0033f * mu_b2 + 258.30637f * mu_b3 + 80.0678f * mu_b4 + 12.047905f * mu_u5;
-    float p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    float p_4_0 = 47.883003f * mu_v5 + 137.8353f * mu_b1 + 88.390976f * mu_b2 + 29.91633f * mu_b3 + 24.86198f * mu_b4 + 2.5655584f * mu_u5;
-    float p_4_1 = 206.82152f * mu_v5 + 664.01166f * mu_b1 + 454.47818f * mu_b2 + 90.66191f * mu_b3 + 42.84504f * mu_b4 - 4.622668f * mu_u5;
-    float p_4_2 = 355.31482f * mu_v5 + 1305.0547f * mu_b1 + 1038.5931f * mu_b2 + 261.5094f * mu_b3 + 80.1903f * mu_b4 - 0.6534839f * mu_u5;
-    float p_4_3 = 289.3866f * mu_v5 + 1224.3663f * mu_b1 + 1058.4391f * mu_b2 + 262.47372f * mu_b3 + 52.741688f * mu_b4 + 5.5396657f * mu_u5;
-    float p_4_4 = 138.79492f * mu_v5 + 689.4112f * mu_b1 + 751.995f * mu_b2 + 325.4171f * mu_b3 + 96.4454f * mu_b4 + 18.313198f * mu_u5;
-    float p_4_5 = 33.16399f * mu_v5 + 180.81996f * mu_b1 + 239.85536f * mu_b2 + 137.5007f * mu_b3 + 42.807693f * mu_b4 + 6.687623f * mu_u5;
-    float p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    float p_5_0 = 11.980658f * mu_v5 + 34.149635f * mu_b1 + 22.024536f * mu_b2 + 7.184823f * mu_b3 + 6.165181f * mu_b4 + 0.6721628f * mu_u5;
-    float p_5_1 = 53.512875f * mu_v5 + 172.63023f * mu_b1 + 128.20457f * mu_b2 + 34.582443f * mu_b3 + 15.704462f * mu_b4 - 0.60953283f * mu_u5;
-    float p_5_2 = 91.81119f * mu_v5 + 337.8316f * mu_b1 + 286.78006f * mu_b2 + 87.89003f * mu_b3 + 28.758406f * mu_b4 - 0.009511091f * mu_u5;
-    float p_5_3 = 73.98971f * mu_v5 + 313.20044f * mu_b1 + 285.32343f * mu_b2 + 84.24372f * mu_b3 + 21.073072f * mu_b4 + 1.3044944f * mu_u5;
-    float p_5_4 = 34.220074f * mu_v5 + 170.00818f * mu_b1 + 187.05965f * mu_b2 + 80.6791f * mu_b3 + 24.29026f * mu_b4 + 4.063924f * mu_u5;
-    float p_5_5 = 7.985203f * mu_v5 + 43.538097f * mu_b1 + 57.09496f * mu_b2 + 31.686487f * mu_b3 + 9.815661f * mu_b4 + 1.5074835f * mu_u5;
-    float p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    float p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0_0 = 1.5657432f * mu_v5 + 6.6562963f * mu_b1 + 7.804144f * mu_b2 + 3.098086f * mu_b3 + 0.56993437f * mu_b4 + 0.1069123f * mu_u5;
-    float q_0_1 = 4.797142f * mu_v5 + 19.926485f * mu_b1 + 12.044059f * mu_b2 - 9.125659f * mu_b3 - 5.7299814f * mu_b4 - 0.08224037f * mu_u5;
-    float q_0_2 = 11.353283f * mu_v5 + 56.255016f * mu_b1 + 50.572594f * mu_b2 - 0.50160944f * mu_b3 - 2.6314576f * mu_b4 + 2.755742f * mu_u5;
-    float q_0_3 = 14.569024f * mu_v5 + 88.388596f * mu_b1 + 105.9049f * mu_b2 + 30.08912f * mu_b3 + 0.9779893f * mu_b4 + 2.1889334f * mu_u5;
-    float q_0_4 = 10.822446f * mu_v5 + 79.16167f * mu_b1 + 124.30389f * mu_b2 + 70.35255f * mu_b3 + 17.215122f * mu_b4 + 2.4346106f * mu_u5;
-    float q_0_5 = 2.3870769f * mu_v5 + 23.816755f * mu_b1 + 44.84937f * mu_b2 + 32.103268f * mu_b3 + 9.964444f * mu_b4 + 1.2023425f * mu_u5;
-    float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    float q_1_0 = 18.45764f * mu_v5 + 62.314228f * mu_b1 + 54.447876f * mu_b2 + 16.543509f * mu_b3 + 7.386841f * mu_b4 + 1.0419854f * mu_u5;
-    float q_1_1 = 78.664116f * mu_v5 + 272.49057f * mu_b1 + 188.34746f * mu_b2 - 17.955265f * mu_b3 - 11.014217f * mu_b4 - 0.50112677f * mu_u5;
-    float q_1_2 = 163.64436f * mu_v5 + 658.9159f * mu_b1 + 580.4508f * mu_b2 + 91.02688f * mu_b3 + 24.583723f * mu_b4 + 14.80974f * mu_u5;
-    float q_1_3 = 171.9706f * mu_v5 + 825.11884f * mu_b1 + 883.3676f * mu_b2 + 252.53542f * mu_b3 + 41.877434f * mu_b4 + 15.635061f * mu_u5;
-    float q_1_4 = 103.477875f * mu_v5 + 606.4042f * mu_b1 + 843.6104f * mu_b2 + 442.55963f * mu_b3 + 125.58214f * mu_b4 + 21.743467f * mu_u5;
-    float q_1_5 = 25.004019f * mu_v5 + 180.31915f * mu_b1 + 307.38254f * mu_b2 + 216.13841f * mu_b3 + 76.98375f * mu_b4 + 12.520112f * mu_u5;
-    float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    float q_2_0 = 55.96163f * mu_v5 + 178.701f * mu_b1 + 139.06558f * mu_b2 + 36.323116f * mu_b3 + 23.247063f * mu_b4 + 2.4648788f * mu_u5;
-    float q_2_1 = 246.88258f * mu_v5 + 842.5307f * mu_b1 + 596.6376f * mu_b2 + 8.179632f * mu_b3 + 6.011499f * mu_b4 - 5.105029f * mu_u5;
-    float q_2_2 = 483.80283f * mu_v5 + 1918.9744f * mu_b1 + 1673.5374f * mu_b2 + 307.32767f * mu_b3 + 98.32942f * mu_b4 + 21.514988f * mu_u5;
-    float q_2_3 = 465.66016f * mu_v5 + 2195.7107f * mu_b1 + 2242.7625f * mu_b2 + 587.6329f * mu_b3 + 108.61652f * mu_b4 + 25.842957f * mu_u5;
-    float q_2_4 = 256.19604f * mu_v5 + 1481.9576f * mu_b1 + 1953.8801f * mu_b2 + 958.1925f * mu_b3 + 284.98984f * mu_b4 + 50.989513f * mu_u5;
-    float q_2_5 = 63.535492f * mu_v5 + 441.98013f * mu_b1 + 728.2601f * mu_b2 + 507.20782f * mu_b3 + 192.52684f * mu_b4 + 34.349155f * mu_u5;
-    float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    float q_3_0 = 74.24016f * mu_v5 + 231.87537f * mu_b1 + 169.68236f * mu_b2 + 39.95161f * mu_b3 + 31.410736f * mu_b4 + 2.7210069f * mu_u5;
-    float q_3_1 = 326.08508f * mu_v5 + 1114.9575f * mu_b1 + 793.88336f * mu_b2 + 38.100834f * mu_b3 + 25.072191f * mu_b4 - 11.944018f * mu_u5;
-    float q_3_2 = 606.66815f * mu_v5 + 2428.3416f * mu_b1 + 2089.0498f * mu_b2 + 368.80078f * mu_b3 + 112.40361f * mu_b4 + 3.126384f * mu_u5;
-    float q_3_3 = 539.35913f * mu_v5 + 2600.081f * mu_b1 + 2553.0059f * mu_b2 + 552.6657f * mu_b3 + 71.46093f * mu_b4 + 3.2264886f * mu_u5;
-    float q_3_4 = 272.77444f * mu_v5 + 1648.2268f * mu_b1 + 2087.3196f * mu_b2 + 928.9718f * mu_b3 + 265.67584f * mu_b4 + 44.64486f * mu_u5;
-    float q_3_5 = 68.356285f * mu_v5 + 493.9939f * mu_b1 + 800.33954f * mu_b2 + 548.13477f * mu_b3 + 213.5456f * mu_b4 + 39.327484f * mu_u5;
-    float q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    float q_4_0 = 47.903572f * mu_v5 + 149.73108f * mu_b1 + 112.30732f * mu_b2 + 32.138702f * mu_b3 + 24.614933f * mu_b4 + 2.563418f * mu_u5;
-    float q_4_1 = 210.10008f * mu_v5 + 730.069f * mu_b1 + 561.6196f * mu_b2 + 91.82958f * mu_b3 + 47.764427f * mu_b4 - 4.3776083f * mu_u5;
-    float q_4_2 = 378.30338f * mu_v5 + 1542.7351f * mu_b1 + 1395.1266f * mu_b2 + 342.46014f * mu_b3 + 117.18759f * mu_b4 + 1.4960356f * mu_u5;
-    float q_4_3 = 318.09024f * mu_v5 + 1573.902f * mu_b1 + 1577.8761f * mu_b2 + 389.8617f * mu_b3 + 69.321976f * mu_b4 - 2.4016485f * mu_u5;
-    float q_4_4 = 148.79298f * mu_v5 + 938.43536f * mu_b1 + 1177.7773f * mu_b2 + 509.46188f * mu_b3 + 144.32677f * mu_b4 + 21.036678f * mu_u5;
-    float q_4_5 = 36.868443f * mu_v5 + 277.22485f * mu_b1 + 446.3041f * mu_b2 + 302.95798f * mu_b3 + 119.33715f * mu_b4 + 21.934242f * mu_u5;
-    float q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    float q_5_0 = 12.033378f * mu_v5 + 37.399906f * mu_b1 + 28.049059f * mu_b2 + 8.067041f * mu_b3 + 6.1354814f * mu_b4 + 0.6724423f * mu_u5;
-    float q_5_1 = 53.531746f * mu_v5 + 187.58379f * mu_b1 + 153.08173f * mu_b2 + 35.749264f * mu_b3 + 16.493612f * mu_b4 - 0.6186048f * mu_u5;
-    float q_5_2 = 96.14924f * mu_v5 + 395.7181f * mu_b1 + 379.75864f * mu_b2 + 119.4811f * mu_b3 + 40.909504f * mu_b4 + 0.83289707f * mu_u5;
-    float q_5_3 = 79.99198f * mu_v5 + 397.81265f * mu_b1 + 420.19266f * mu_b2 + 132.40515f * mu_b3 + 30.589405f * mu_b4 - 0.2290521f * mu_u5;
-    float q_5_4 = 36.060276f * mu_v5 + 227.42941f * mu_b1 + 290.04272f * mu_b2 + 131.48674f * mu_b3 + 37.77939f * mu_b4 + 4.573602f * mu_u5;
-    float q_5_5 = 8.730935f * mu_v5 + 65.209816f * mu_b1 + 104.69374f * mu_b2 + 70.99817f * mu_b3 + 27.800207f * mu_b4 + 4.938369f * mu_u5;
-    float q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    float q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
-    float e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    float r_b5_v = 1.0f - r_t;
+    float r_b5_u2 = r_t * r_t;
+    float r_b5_v2 = r_b5_v * r_b5_v;
+    float r_b5_u3 = r_b5_u2 * r_t;
+    float r_b5_v3 = r_b5_v2 * r_b5_v;
+    float r_b5_u4 = r_b5_u3 * r_t;
+    float r_b5_v4 = r_b5_v3 * r_b5_v;
+    float r_b5_u5 = r_b5_u4 * r_t;
+    float r_b5_v5 = r_b5_v4 * r_b5_v;
+    float r_b5_b1 = r_t * r_b5_v4;
+    float r_b5_b2 = r_b5_u2 * r_b5_v3;
+    float r_b5_b3 = r_b5_u3 * r_b5_v2;
+    float r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    float mu_b5_v = 1.0f - mu_u;
+    float mu_b5_u2 = mu_u * mu_u;
+    float mu_b5_v2 = mu_b5_v * mu_b5_v;
+    float mu_b5_u3 = mu_b5_u2 * mu_u;
+    float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    float mu_b5_u4 = mu_b5_u3 * mu_u;
+    float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    float mu_b5_u5 = mu_b5_u4 * mu_u;
+    float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    float mu_b5_b1 = mu_u * mu_b5_v4;
+    float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    float p0_0_0 = 1.6818f * mu_b5_v5 + 11.377676f * mu_b5_b1 + 10.189635f * mu_b5_b2 + 12.696712f * mu_b5_b3 + 2.2255917f * mu_b5_b4 + 0.21794945f * mu_b5_u5;
+    float p0_0_1 = 3.9466972f * mu_b5_v5 + 23.870731f * mu_b5_b1 + 26.156363f * mu_b5_b2 + 75.799095f * mu_b5_b3 + 20.273315f * mu_b5_b4 + 1.6831049f * mu_b5_u5;
+    float p0_0_2 = 1.2936034f * mu_b5_v5 + 13.422764f * mu_b5_b1 + 62.81112f * mu_b5_b2 + 210.27165f * mu_b5_b3 + 61.918423f * mu_b5_b4 + 4.281839f * mu_b5_u5;
+    float p0_0_3 = -0.7073781f * mu_b5_v5 + 9.848942f * mu_b5_b1 + 115.01962f * mu_b5_b2 + 276.4421f * mu_b5_b3 + 73.13931f * mu_b5_b4 + 3.1136231f * mu_b5_u5;
+    float p0_0_4 = 0.11487696f * mu_b5_v5 + 10.811374f * mu_b5_b1 + 86.105576f * mu_b5_b2 + 157.8524f * mu_b5_b3 + 31.14779f * mu_b5_b4 - 0.31897697f * mu_b5_u5;
+    float p0_0_5 = 0.1045675f * mu_b5_v5 + 3.160172f * mu_b5_b1 + 20.466404f * mu_b5_b2 + 31.115633f * mu_b5_b3 + 3.1472113f * mu_b5_b4 - 0.36231056f * mu_b5_u5;
+    float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    float p0 = p0_0 * 1.0f;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    float f0_b4_v = 1.0f - f0_t;
+    float f0_b4_u2 = f0_t * f0_t;
+    float f0_b4_v2 = f0_b4_v * f0_b4_v;
+    float f0_b4_u3 = f0_b4_u2 * f0_t;
+    float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    float f0_b4_u4 = f0_b4_u3 * f0_t;
+    float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    float f0_b4_b1 = f0_t * f0_b4_v3;
+    float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    float u0_0_0 = 1.014124f * 1.0f;
+    float u0_0 = u0_0_0 * 1.0f;
+    float u0_1_0 = 4.449831f * 1.0f;
+    float u0_1 = u0_1_0 * 1.0f;
+    float u0_2_0 = 7.1663713f * 1.0f;
+    float u0_2 = u0_2_0 * 1.0f;
+    float u0_3_0 = 5.014802f * 1.0f;
+    float u0_3 = u0_3_0 * 1.0f;
+    float u0_4_0 = 1.2870095f * 1.0f;
+    float u0_4 = u0_4_0 * 1.0f;
+    float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
+    float r_b3_v = 1.0f - r_t;
+    float r_b3_u2 = r_t * r_t;
+    float r_b3_v2 = r_b3_v * r_b3_v;
+    float r_b3_u3 = r_b3_u2 * r_t;
+    float r_b3_v3 = r_b3_v2 * r_b3_v;
+    float r_b3_b1 = r_t * r_b3_v2;
+    float r_b3_b2 = r_b3_u2 * r_b3_v;
+    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
+    float mu_b3_v = 1.0f - mu_u;
+    float mu_b3_u2 = mu_u * mu_u;
+    float mu_b3_v2 = mu_b3_v * mu_b3_v;
+    float mu_b3_u3 = mu_b3_u2 * mu_u;
+    float mu_b3_v3 = mu_b3_v2 * mu_b3_v;
+    float mu_b3_b1 = mu_u * mu_b3_v2;
+    float mu_b3_b2 = mu_b3_u2 * mu_b3_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q0_0_0 = 1.0f * mu_b3_v3 + 6.2004137f * mu_b3_b1 + 1.170888f * mu_b3_b2 + 0.15695085f * mu_b3_u3;
+    float q0_0_1 = 3.8500752f * mu_b3_v3 + 23.165506f * mu_b3_b1 + 7.720306f * mu_b3_b2 + 0.9643049f * mu_b3_u3;
+    float q0_0_2 = 4.429608f * mu_b3_v3 + 27.584967f * mu_b3_b1 + 12.449967f * mu_b3_b2 + 1.8540384f * mu_b3_u3;
+    float q0_0_3 = 1.0764453f * mu_b3_v3 + 9.110613f * mu_b3_b1 + 4.391288f * mu_b3_b2 + 0.54359716f * mu_b3_u3;
+    float q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
+    float q0 = q0_0 * 1.0f;
+    float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    float p1_0_0 = 0.24540247f * mu_b5_v5 + 1.5781301f * mu_b5_b1 + 1.8151569f * mu_b5_b2 + 1.2316706f * mu_b5_b3 + 0.041021947f * mu_b5_b4 + 0.00045068478f * mu_b5_u5;
+    float p1_0_1 = -0.42915264f * mu_b5_v5 - 3.2102087f * mu_b5_b1 - 3.7375302f * mu_b5_b2 + 2.3467088f * mu_b5_b3 - 0.24995886f * mu_b5_b4 - 0.009791324f * mu_b5_u5;
+    float p1_0_2 = -1.8019457f * mu_b5_v5 - 15.68482f * mu_b5_b1 - 13.93115f * mu_b5_b2 + 6.150875f * mu_b5_b3 - 0.85436624f * mu_b5_b4 + 0.033184264f * mu_b5_u5;
+    float p1_0_3 = -2.2403834f * mu_b5_v5 - 19.912947f * mu_b5_b1 - 13.646063f * mu_b5_b2 + 8.172362f * mu_b5_b3 - 2.6851935f * mu_b5_b4 + 0.25564525f * mu_b5_u5;
+    float p1_0_4 = -1.1729181f * mu_b5_v5 - 9.670602f * mu_b5_b1 - 2.6516566f * mu_b5_b2 + 7.2017984f * mu_b5_b3 - 1.3674804f * mu_b5_b4 + 0.8200987f * mu_b5_u5;
+    float p1_0_5 = -0.30032262f * mu_b5_v5 - 1.8561227f * mu_b5_b1 + 0.21197058f * mu_b5_b2 + 1.6612997f * mu_b5_b3 - 0.44765866f * mu_b5_b4 + 0.36748242f * mu_b5_u5;
+    float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    float p1 = p1_0 * 1.0f;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    float u1_0_0 = 0.5702372f * 1.0f;
+    float u1_0 = u1_0_0 * 1.0f;
+    float u1_1_0 = 0.77727765f * 1.0f;
+    float u1_1 = u1_1_0 * 1.0f;
+    float u1_2_0 = -0.8001668f * 1.0f;
+    float u1_2 = u1_2_0 * 1.0f;
+    float u1_3_0 = -1.0279833f * 1.0f;
+    float u1_3 = u1_3_0 * 1.0f;
+    float u1_4_0 = -0.3292523f * 1.0f;
+    float u1_4 = u1_4_0 * 1.0f;
+    float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q1_0_0 = 1.0f * mu_b3_v3 + 4.625543f * mu_b3_b1 + 0.17963918f * mu_b3_b2 + 0.0019694008f * mu_b3_u3;
+    float q1_0_1 = 2.2616916f * mu_b3_v3 + 11.175309f * mu_b3_b1 - 1.4781957f * mu_b3_b2 - 0.048193216f * mu_b3_u3;
+    float q1_0_2 = 1.8258256f * mu_b3_v3 + 9.4459915f * mu_b3_b1 - 2.4586303f * mu_b3_b2 + 0.2648235f * mu_b3_u3;
+    float q1_0_3 = 0.94523185f * mu_b3_v3 + 4.0395193f * mu_b3_b1 + 0.34249824f * mu_b3_b2 + 0.696084f * mu_b3_u3;
+    float q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
+    float q1 = q1_0 * 1.0f;
+    float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    float p2_0_0 = 0.05580612f * mu_b5_v5 + 0.22641385f * mu_b5_b1 + 0.1318353f * mu_b5_b2 + 0.09332001f * mu_b5_b3 - 0.0017314168f * mu_b5_b4 + 0.000458191f * mu_b5_u5;
+    float p2_0_1 = 0.20747547f * mu_b5_v5 + 1.2550974f * mu_b5_b1 + 1.0552676f * mu_b5_b2 + 0.6683324f * mu_b5_b3 - 0.010905951f * mu_b5_b4 - 0.00018238563f * mu_b5_u5;
+    float p2_0_2 = 0.108344585f * mu_b5_v5 + 1.5597241f * mu_b5_b1 + 0.8629077f * mu_b5_b2 + 0.6007037f * mu_b5_b3 - 0.1543589f * mu_b5_b4 - 0.0007139133f * mu_b5_u5;
+    float p2_0_3 = -0.10840547f * mu_b5_v5 + 0.4877684f * mu_b5_b1 - 0.7175686f * mu_b5_b2 - 0.070526764f * mu_b5_b3 - 0.09412011f * mu_b5_b4 + 0.005484699f * mu_b5_u5;
+    float p2_0_4 = -0.08104714f * mu_b5_v5 - 0.196999f * mu_b5_b1 - 1.0879637f * mu_b5_b2 - 0.22506218f * mu_b5_b3 + 0.064241365f * mu_b5_b4 - 0.011298015f * mu_b5_u5;
+    float p2_0_5 = -0.004828938f * mu_b5_v5 - 0.09803929f * mu_b5_b1 - 0.3195446f * mu_b5_b2 - 0.017469032f * mu_b5_b3 + 0.06886462f * mu_b5_b4 - 0.0057185492f * mu_b5_u5;
+    float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    float p2 = p2_0 * 1.0f;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    float u2_0_0 = 0.40346384f * 1.0f;
+    float u2_0 = u2_0_0 * 1.0f;
+    float u2_1_0 = 2.1391003f * 1.0f;
+    float u2_1 = u2_1_0 * 1.0f;
+    float u2_2_0 = 0.41216505f * 1.0f;
+    float u2_2 = u2_2_0 * 1.0f;
+    float u2_3_0 = -1.1428729f * 1.0f;
+    float u2_3 = u2_3_0 * 1.0f;
+    float u2_4_0 = -0.49810582f * 1.0f;
+    float u2_4 = u2_4_0 * 1.0f;
+    float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q2_0_0 = 1.0f * mu_b3_v3 + 1.8551881f * mu_b3_b1 - 0.043757312f * mu_b3_b2 + 0.008336884f * mu_b3_u3;
+    float q2_0_1 = 1.5591007f * mu_b3_v3 + 3.6183083f * mu_b3_b1 - 0.66100836f * mu_b3_b2 + 0.0016310882f * mu_b3_u3;
+    float q2_0_2 = 0.64692104f * mu_b3_v3 + 2.8244894f * mu_b3_b1 - 0.47002894f * mu_b3_b2 + 0.0742497f * mu_b3_u3;
+    float q2_0_3 = 0.045673203f * mu_b3_v3 + 0.934928f * mu_b3_b1 + 0.020780956f * mu_b3_b2 + 0.038808446f * mu_b3_u3;
+    float q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
+    float q2 = q2_0 * 1.0f;
+    float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    float p3_0_0 = 0.744252f * mu_b5_v5 - 0.518746f * mu_b5_b1 + 1.08865f * mu_b5_b2 + 0.07836499f * mu_b5_b3 + 0.11207676f * mu_b5_b4 + 0.017467197f * mu_b5_u5;
+    float p3_0_1 = -0.9310276f * mu_b5_v5 - 7.0639715f * mu_b5_b1 + 5.2021565f * mu_b5_b2 + 0.45056275f * mu_b5_b3 + 0.98426634f * mu_b5_b4 + 0.029340927f * mu_b5_u5;
+    float p3_0_2 = -6.4088907f * mu_b5_v5 - 13.8411875f * mu_b5_b1 + 14.756985f * mu_b5_b2 + 2.1837163f * mu_b5_b3 + 3.7622054f * mu_b5_b4 + 0.08884474f * mu_b5_u5;
+    float p3_0_3 = -7.3378024f * mu_b5_v5 - 7.069175f * mu_b5_b1 + 22.449951f * mu_b5_b2 + 5.20145f * mu_b5_b3 + 6.8566933f * mu_b5_b4 + 0.15764043f * mu_b5_u5;
+    float p3_0_4 = -3.1727424f * mu_b5_v5 + 0.36307135f * mu_b5_b1 + 13.338764f * mu_b5_b2 + 2.6710308f * mu_b5_b3 + 4.5400853f * mu_b5_b4 - 0.16745771f * mu_b5_u5;
+    float p3_0_5 = -0.4718404f * mu_b5_v5 + 0.6198355f * mu_b5_b1 + 2.499395f * mu_b5_b2 + 0.24820243f * mu_b5_b3 + 1.0569593f * mu_b5_b4 - 0.15141687f * mu_b5_u5;
+    float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    float p3 = p3_0 * 1.0f;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    float u3_0_0 = -1.164495f * 1.0f;
+    float u3_0 = u3_0_0 * 1.0f;
+    float u3_1_0 = -5.1253433f * 1.0f;
+    float u3_1 = u3_1_0 * 1.0f;
+    float u3_2_0 = -7.8623743f * 1.0f;
+    float u3_2 = u3_2_0 * 1.0f;
+    float u3_3_0 = -5.530996f * 1.0f;
+    float u3_3 = u3_3_0 * 1.0f;
+    float u3_4_0 = -1.4202172f * 1.0f;
+    float u3_4 = u3_4_0 * 1.0f;
+    float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q3_0_0 = 1.0f * mu_b3_v3 + 0.17871301f * mu_b3_b1 + 0.085942835f * mu_b3_b2 + 0.03623221f * mu_b3_u3;
+    float q3_0_1 = 3.4206154f * mu_b3_v3 + 1.3859322f * mu_b3_b1 + 0.60689026f * mu_b3_b2 + 0.02858061f * mu_b3_u3;
+    float q3_0_2 = 3.6034389f * mu_b3_v3 + 2.101294f * mu_b3_b1 + 1.4004653f * mu_b3_b2 + 0.28961718f * mu_b3_u3;
+    float q3_0_3 = 1.0552826f * mu_b3_v3 + 0.5114522f * mu_b3_b1 + 0.49689513f * mu_b3_b2 + 0.16972788f * mu_b3_u3;
+    float q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
+    float q3 = q3_0 * 1.0f;
+    float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    float e = e0 + e1 + e2 + e3;
     return max(min(e, 1.0f), 0.0f);
 }
 

@@ -4,171 +4,218 @@
 // All arithmetic is f32. Each function states what its arguments mean, its domain, evaluation form, measured errors and error bound.
 // Helpers: Sforza & Pellacini 2022, "Enforcing Energy Preservation in Microfacet Models" (eqs. 13, 18, 19).
 
-// Needs only `core`: usable under #![no_std].
+// Needs only `core`, but for square roots: with std they are f32::sqrt; under #![no_std],
+// give the including crate a `libm` feature that enables a libm dependency (same bits).
 
 /// ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
+///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 32768 points; best pole-certified start refined on all points.
-/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 15008e5dfd38943e06699465c67f2212081ca24a582fcc4f15a86bdd94c3efb5.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 43bb877a63c37b7d5b9a30656df90d83205120fb1746c7dd5f10b8ac1092be53.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.9e-5, shifted 6.7e-6, bernstein 5.5e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.04e-3, max 1.49e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.12e-7 (every op rounded, as this Rust), 4.65e-7 (fused multiply-add), 6.08e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.46e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 34735 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.03e-3, max 1.49e-2; this f32 code MAE 1.03e-3, max 1.49e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-3 on the measurement grid.
-/// Denominator proved >= 4.197e-2 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.6e-4, shifted 9.4e-5, bernstein 1.4e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 7.39e-4, max 1.11e-2 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 9.25e-7 (every op rounded, as this Rust), 9.24e-7 (fused multiply-add), 1.88e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.35e-4, max 1.11e-2; this f32 code MAE 7.35e-4, max 1.11e-2.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.1e-4 on the measurement grid.
+/// Denominator proved >= 7.614e-5 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
 pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
+    #[cfg(feature = "libm")]
+    use libm::sqrtf;
+    #[cfg(not(feature = "libm"))]
+    fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    let f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017_f32) * 2.6828594_f32;
     let r_c = r.min(1.0_f32).max(0.0_f32);
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // u = (t - 0.0125)/(0.25 - 0.0125) in [0, 1]
-    let f0_u = (f0_c - 0.0125_f32) * 4.2105265_f32;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    let f0_v = 1.0_f32 - f0_u;
-    let f0_u2 = f0_u * f0_u;
-    let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_u;
-    let f0_v3 = f0_v2 * f0_v;
-    let f0_u4 = f0_u3 * f0_u;
-    let f0_v4 = f0_v3 * f0_v;
-    let f0_u5 = f0_u4 * f0_u;
-    let f0_v5 = f0_v4 * f0_v;
-    let f0_b1 = f0_u * f0_v4;
-    let f0_b2 = f0_u2 * f0_v3;
-    let f0_b3 = f0_u3 * f0_v2;
-    let f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    let r_v = 1.0_f32 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_t;
-    let r_v4 = r_v3 * r_v;
-    let r_u5 = r_u4 * r_t;
-    let r_v5 = r_v4 * r_v;
-    let r_b1 = r_t * r_v4;
-    let r_b2 = r_u2 * r_v3;
-    let r_b3 = r_u3 * r_v2;
-    let r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    let mu_u = (mu_t - 7.888609e-31_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    let mu_v = 1.0_f32 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_b1 = mu_u * mu_v4;
-    let mu_b2 = mu_u2 * mu_v3;
-    let mu_b3 = mu_u3 * mu_v2;
-    let mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 1.5677431_f32 * mu_v5 + 6.475747_f32 * mu_b1 + 5.8610992_f32 * mu_b2 + 3.2560296_f32 * mu_b3 + 0.57352525_f32 * mu_b4 + 0.10683802_f32 * mu_u5;
-    let p_0_1 = 3.239701_f32 * mu_v5 + 15.520924_f32 * mu_b1 + 3.3651083_f32 * mu_b2 - 6.3645577_f32 * mu_b3 - 6.7094984_f32 * mu_b4 - 0.07982046_f32 * mu_u5;
-    let p_0_2 = 7.9293003_f32 * mu_v5 + 42.954166_f32 * mu_b1 + 36.049072_f32 * mu_b2 + 14.25862_f32 * mu_b3 - 2.3457303_f32 * mu_b4 + 2.7823272_f32 * mu_u5;
-    let p_0_3 = 7.8526397_f32 * mu_v5 + 47.40899_f32 * mu_b1 + 52.241512_f32 * mu_b2 + 27.31308_f32 * mu_b3 - 1.9569366_f32 * mu_b4 + 1.7776136_f32 * mu_u5;
-    let p_0_4 = 5.0286145_f32 * mu_v5 + 35.315525_f32 * mu_b1 + 59.199585_f32 * mu_b2 + 48.219456_f32 * mu_b3 + 12.170809_f32 * mu_b4 + 2.0452642_f32 * mu_u5;
-    let p_0_5 = 0.9091869_f32 * mu_v5 + 9.194872_f32 * mu_b1 + 20.261837_f32 * mu_b2 + 19.54428_f32 * mu_b3 + 6.4443874_f32 * mu_b4 + 0.7125061_f32 * mu_u5;
-    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 18.455626_f32 * mu_v5 + 59.057266_f32 * mu_b1 + 41.937492_f32 * mu_b2 + 16.8923_f32 * mu_b3 + 7.418931_f32 * mu_b4 + 1.0437125_f32 * mu_u5;
-    let p_1_1 = 70.338356_f32 * mu_v5 + 236.65053_f32 * mu_b1 + 128.3432_f32 * mu_b2 - 7.4660697_f32 * mu_b3 - 15.93562_f32 * mu_b4 - 0.53236324_f32 * mu_u5;
-    let p_1_2 = 140.87462_f32 * mu_v5 + 543.7216_f32 * mu_b1 + 439.30228_f32 * mu_b2 + 131.5805_f32 * mu_b3 + 17.271978_f32 * mu_b4 + 13.959093_f32 * mu_u5;
-    let p_1_3 = 134.68724_f32 * mu_v5 + 575.5252_f32 * mu_b1 + 547.96747_f32 * mu_b2 + 203.92314_f32 * mu_b3 + 17.38576_f32 * mu_b4 + 12.404486_f32 * mu_u5;
-    let p_1_4 = 75.31651_f32 * mu_v5 + 367.151_f32 * mu_b1 + 470.60626_f32 * mu_b2 + 284.66525_f32 * mu_b3 + 73.55828_f32 * mu_b4 + 13.57099_f32 * mu_u5;
-    let p_1_5 = 17.00051_f32 * mu_v5 + 94.65092_f32 * mu_b1 + 149.32884_f32 * mu_b2 + 110.47445_f32 * mu_b3 + 33.695793_f32 * mu_b4 + 4.08102_f32 * mu_u5;
-    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 55.995827_f32 * mu_v5 + 167.15706_f32 * mu_b1 + 107.7073_f32 * mu_b2 + 35.843166_f32 * mu_b3 + 23.392015_f32 * mu_b4 + 2.4573917_f32 * mu_u5;
-    let p_2_1 = 231.84299_f32 * mu_v5 + 748.9532_f32 * mu_b1 + 447.61877_f32 * mu_b2 + 24.648497_f32 * mu_b3 - 2.7960262_f32 * mu_b4 - 5.123618_f32 * mu_u5;
-    let p_2_2 = 435.35104_f32 * mu_v5 + 1612.4897_f32 * mu_b1 + 1276.5879_f32 * mu_b2 + 339.27454_f32 * mu_b3 + 76.865944_f32 * mu_b4 + 20.665258_f32 * mu_u5;
-    let p_2_3 = 396.439_f32 * mu_v5 + 1648.8964_f32 * mu_b1 + 1503.2803_f32 * mu_b2 + 488.23355_f32 * mu_b3 + 81.43927_f32 * mu_b4 + 27.653343_f32 * mu_u5;
-    let p_2_4 = 212.2686_f32 * mu_v5 + 1007.59906_f32 * mu_b1 + 1197.2184_f32 * mu_b2 + 640.4912_f32 * mu_b3 + 182.36476_f32 * mu_b4 + 35.573814_f32 * mu_u5;
-    let p_2_5 = 50.09217_f32 * mu_v5 + 263.18976_f32 * mu_b1 + 378.20145_f32 * mu_b2 + 250.31386_f32 * mu_b3 + 77.77296_f32 * mu_b4 + 10.925434_f32 * mu_u5;
-    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    let p_3_0 = 74.32114_f32 * mu_v5 + 214.81543_f32 * mu_b1 + 131.1058_f32 * mu_b2 + 38.046852_f32 * mu_b3 + 31.797634_f32 * mu_b4 + 2.7247577_f32 * mu_u5;
-    let p_3_1 = 314.6072_f32 * mu_v5 + 1001.97614_f32 * mu_b1 + 614.45654_f32 * mu_b2 + 47.37172_f32 * mu_b3 + 16.341793_f32 * mu_b4 - 12.129986_f32 * mu_u5;
-    let p_3_2 = 559.0178_f32 * mu_v5 + 2044.4877_f32 * mu_b1 + 1556.2323_f32 * mu_b2 + 326.65652_f32 * mu_b3 + 74.222374_f32 * mu_b4 + 1.952969_f32 * mu_u5;
-    let p_3_3 = 478.10974_f32 * mu_v5 + 1997.4883_f32 * mu_b1 + 1711.7545_f32 * mu_b2 + 420.938_f32 * mu_b3 + 59.307438_f32 * mu_b4 + 14.370091_f32 * mu_u5;
-    let p_3_4 = 243.10977_f32 * mu_v5 + 1177.9377_f32 * mu_b1 + 1316.2893_f32 * mu_b2 + 614.3257_f32 * mu_b3 + 175.90355_f32 * mu_b4 + 34.851585_f32 * mu_u5;
-    let p_3_5 = 58.49048_f32 * mu_v5 + 311.5698_f32 * mu_b1 + 425.0033_f32 * mu_b2 + 258.30637_f32 * mu_b3 + 80.0678_f32 * mu_b4 + 12.047905_f32 * mu_u5;
-    let p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    let p_4_0 = 47.883003_f32 * mu_v5 + 137.8353_f32 * mu_b1 + 88.390976_f32 * mu_b2 + 29.91633_f32 * mu_b3 + 24.86198_f32 * mu_b4 + 2.5655584_f32 * mu_u5;
-    let p_4_1 = 206.82152_f32 * mu_v5 + 664.01166_f32 * mu_b1 + 454.47818_f32 * mu_b2 + 90.66191_f32 * mu_b3 + 42.84504_f32 * mu_b4 - 4.622668_f32 * mu_u5;
-    let p_4_2 = 355.31482_f32 * mu_v5 + 1305.0547_f32 * mu_b1 + 1038.5931_f32 * mu_b2 + 261.5094_f32 * mu_b3 + 80.1903_f32 * mu_b4 - 0.6534839_f32 * mu_u5;
-    let p_4_3 = 289.3866_f32 * mu_v5 + 1224.3663_f32 * mu_b1 + 1058.4391_f32 * mu_b2 + 262.47372_f32 * mu_b3 + 52.741688_f32 * mu_b4 + 5.5396657_f32 * mu_u5;
-    let p_4_4 = 138.79492_f32 * mu_v5 + 689.4112_f32 * mu_b1 + 751.995_f32 * mu_b2 + 325.4171_f32 * mu_b3 + 96.4454_f32 * mu_b4 + 18.313198_f32 * mu_u5;
-    let p_4_5 = 33.16399_f32 * mu_v5 + 180.81996_f32 * mu_b1 + 239.85536_f32 * mu_b2 + 137.5007_f32 * mu_b3 + 42.807693_f32 * mu_b4 + 6.687623_f32 * mu_u5;
-    let p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    let p_5_0 = 11.980658_f32 * mu_v5 + 34.149635_f32 * mu_b1 + 22.024536_f32 * mu_b2 + 7.184823_f32 * mu_b3 + 6.165181_f32 * mu_b4 + 0.6721628_f32 * mu_u5;
-    let p_5_1 = 53.512875_f32 * mu_v5 + 172.63023_f32 * mu_b1 + 128.20457_f32 * mu_b2 + 34.582443_f32 * mu_b3 + 15.704462_f32 * mu_b4 - 0.60953283_f32 * mu_u5;
-    let p_5_2 = 91.81119_f32 * mu_v5 + 337.8316_f32 * mu_b1 + 286.78006_f32 * mu_b2 + 87.89003_f32 * mu_b3 + 28.758406_f32 * mu_b4 - 0.009511091_f32 * mu_u5;
-    let p_5_3 = 73.98971_f32 * mu_v5 + 313.20044_f32 * mu_b1 + 285.32343_f32 * mu_b2 + 84.24372_f32 * mu_b3 + 21.073072_f32 * mu_b4 + 1.3044944_f32 * mu_u5;
-    let p_5_4 = 34.220074_f32 * mu_v5 + 170.00818_f32 * mu_b1 + 187.05965_f32 * mu_b2 + 80.6791_f32 * mu_b3 + 24.29026_f32 * mu_b4 + 4.063924_f32 * mu_u5;
-    let p_5_5 = 7.985203_f32 * mu_v5 + 43.538097_f32 * mu_b1 + 57.09496_f32 * mu_b2 + 31.686487_f32 * mu_b3 + 9.815661_f32 * mu_b4 + 1.5074835_f32 * mu_u5;
-    let p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    let p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.5657432_f32 * mu_v5 + 6.6562963_f32 * mu_b1 + 7.804144_f32 * mu_b2 + 3.098086_f32 * mu_b3 + 0.56993437_f32 * mu_b4 + 0.1069123_f32 * mu_u5;
-    let q_0_1 = 4.797142_f32 * mu_v5 + 19.926485_f32 * mu_b1 + 12.044059_f32 * mu_b2 - 9.125659_f32 * mu_b3 - 5.7299814_f32 * mu_b4 - 0.08224037_f32 * mu_u5;
-    let q_0_2 = 11.353283_f32 * mu_v5 + 56.255016_f32 * mu_b1 + 50.572594_f32 * mu_b2 - 0.50160944_f32 * mu_b3 - 2.6314576_f32 * mu_b4 + 2.755742_f32 * mu_u5;
-    let q_0_3 = 14.569024_f32 * mu_v5 + 88.388596_f32 * mu_b1 + 105.9049_f32 * mu_b2 + 30.08912_f32 * mu_b3 + 0.9779893_f32 * mu_b4 + 2.1889334_f32 * mu_u5;
-    let q_0_4 = 10.822446_f32 * mu_v5 + 79.16167_f32 * mu_b1 + 124.30389_f32 * mu_b2 + 70.35255_f32 * mu_b3 + 17.215122_f32 * mu_b4 + 2.4346106_f32 * mu_u5;
-    let q_0_5 = 2.3870769_f32 * mu_v5 + 23.816755_f32 * mu_b1 + 44.84937_f32 * mu_b2 + 32.103268_f32 * mu_b3 + 9.964444_f32 * mu_b4 + 1.2023425_f32 * mu_u5;
-    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 18.45764_f32 * mu_v5 + 62.314228_f32 * mu_b1 + 54.447876_f32 * mu_b2 + 16.543509_f32 * mu_b3 + 7.386841_f32 * mu_b4 + 1.0419854_f32 * mu_u5;
-    let q_1_1 = 78.664116_f32 * mu_v5 + 272.49057_f32 * mu_b1 + 188.34746_f32 * mu_b2 - 17.955265_f32 * mu_b3 - 11.014217_f32 * mu_b4 - 0.50112677_f32 * mu_u5;
-    let q_1_2 = 163.64436_f32 * mu_v5 + 658.9159_f32 * mu_b1 + 580.4508_f32 * mu_b2 + 91.02688_f32 * mu_b3 + 24.583723_f32 * mu_b4 + 14.80974_f32 * mu_u5;
-    let q_1_3 = 171.9706_f32 * mu_v5 + 825.11884_f32 * mu_b1 + 883.3676_f32 * mu_b2 + 252.53542_f32 * mu_b3 + 41.877434_f32 * mu_b4 + 15.635061_f32 * mu_u5;
-    let q_1_4 = 103.477875_f32 * mu_v5 + 606.4042_f32 * mu_b1 + 843.6104_f32 * mu_b2 + 442.55963_f32 * mu_b3 + 125.58214_f32 * mu_b4 + 21.743467_f32 * mu_u5;
-    let q_1_5 = 25.004019_f32 * mu_v5 + 180.31915_f32 * mu_b1 + 307.38254_f32 * mu_b2 + 216.13841_f32 * mu_b3 + 76.98375_f32 * mu_b4 + 12.520112_f32 * mu_u5;
-    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 55.96163_f32 * mu_v5 + 178.701_f32 * mu_b1 + 139.06558_f32 * mu_b2 + 36.323116_f32 * mu_b3 + 23.247063_f32 * mu_b4 + 2.4648788_f32 * mu_u5;
-    let q_2_1 = 246.88258_f32 * mu_v5 + 842.5307_f32 * mu_b1 + 596.6376_f32 * mu_b2 + 8.179632_f32 * mu_b3 + 6.011499_f32 * mu_b4 - 5.105029_f32 * mu_u5;
-    let q_2_2 = 483.80283_f32 * mu_v5 + 1918.9744_f32 * mu_b1 + 1673.5374_f32 * mu_b2 + 307.32767_f32 * mu_b3 + 98.32942_f32 * mu_b4 + 21.514988_f32 * mu_u5;
-    let q_2_3 = 465.66016_f32 * mu_v5 + 2195.7107_f32 * mu_b1 + 2242.7625_f32 * mu_b2 + 587.6329_f32 * mu_b3 + 108.61652_f32 * mu_b4 + 25.842957_f32 * mu_u5;
-    let q_2_4 = 256.19604_f32 * mu_v5 + 1481.9576_f32 * mu_b1 + 1953.8801_f32 * mu_b2 + 958.1925_f32 * mu_b3 + 284.98984_f32 * mu_b4 + 50.989513_f32 * mu_u5;
-    let q_2_5 = 63.535492_f32 * mu_v5 + 441.98013_f32 * mu_b1 + 728.2601_f32 * mu_b2 + 507.20782_f32 * mu_b3 + 192.52684_f32 * mu_b4 + 34.349155_f32 * mu_u5;
-    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    let q_3_0 = 74.24016_f32 * mu_v5 + 231.87537_f32 * mu_b1 + 169.68236_f32 * mu_b2 + 39.95161_f32 * mu_b3 + 31.410736_f32 * mu_b4 + 2.7210069_f32 * mu_u5;
-    let q_3_1 = 326.08508_f32 * mu_v5 + 1114.9575_f32 * mu_b1 + 793.88336_f32 * mu_b2 + 38.100834_f32 * mu_b3 + 25.072191_f32 * mu_b4 - 11.944018_f32 * mu_u5;
-    let q_3_2 = 606.66815_f32 * mu_v5 + 2428.3416_f32 * mu_b1 + 2089.0498_f32 * mu_b2 + 368.80078_f32 * mu_b3 + 112.40361_f32 * mu_b4 + 3.126384_f32 * mu_u5;
-    let q_3_3 = 539.35913_f32 * mu_v5 + 2600.081_f32 * mu_b1 + 2553.0059_f32 * mu_b2 + 552.6657_f32 * mu_b3 + 71.46093_f32 * mu_b4 + 3.2264886_f32 * mu_u5;
-    let q_3_4 = 272.77444_f32 * mu_v5 + 1648.2268_f32 * mu_b1 + 2087.3196_f32 * mu_b2 + 928.9718_f32 * mu_b3 + 265.67584_f32 * mu_b4 + 44.64486_f32 * mu_u5;
-    let q_3_5 = 68.356285_f32 * mu_v5 + 493.9939_f32 * mu_b1 + 800.33954_f32 * mu_b2 + 548.13477_f32 * mu_b3 + 213.5456_f32 * mu_b4 + 39.327484_f32 * mu_u5;
-    let q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    let q_4_0 = 47.903572_f32 * mu_v5 + 149.73108_f32 * mu_b1 + 112.30732_f32 * mu_b2 + 32.138702_f32 * mu_b3 + 24.614933_f32 * mu_b4 + 2.563418_f32 * mu_u5;
-    let q_4_1 = 210.10008_f32 * mu_v5 + 730.069_f32 * mu_b1 + 561.6196_f32 * mu_b2 + 91.82958_f32 * mu_b3 + 47.764427_f32 * mu_b4 - 4.3776083_f32 * mu_u5;
-    let q_4_2 = 378.30338_f32 * mu_v5 + 1542.7351_f32 * mu_b1 + 1395.1266_f32 * mu_b2 + 342.46014_f32 * mu_b3 + 117.18759_f32 * mu_b4 + 1.4960356_f32 * mu_u5;
-    let q_4_3 = 318.09024_f32 * mu_v5 + 1573.902_f32 * mu_b1 + 1577.8761_f32 * mu_b2 + 389.8617_f32 * mu_b3 + 69.321976_f32 * mu_b4 - 2.4016485_f32 * mu_u5;
-    let q_4_4 = 148.79298_f32 * mu_v5 + 938.43536_f32 * mu_b1 + 1177.7773_f32 * mu_b2 + 509.46188_f32 * mu_b3 + 144.32677_f32 * mu_b4 + 21.036678_f32 * mu_u5;
-    let q_4_5 = 36.868443_f32 * mu_v5 + 277.22485_f32 * mu_b1 + 446.3041_f32 * mu_b2 + 302.95798_f32 * mu_b3 + 119.33715_f32 * mu_b4 + 21.934242_f32 * mu_u5;
-    let q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    let q_5_0 = 12.033378_f32 * mu_v5 + 37.399906_f32 * mu_b1 + 28.049059_f32 * mu_b2 + 8.067041_f32 * mu_b3 + 6.1354814_f32 * mu_b4 + 0.6724423_f32 * mu_u5;
-    let q_5_1 = 53.531746_f32 * mu_v5 + 187.58379_f32 * mu_b1 + 153.08173_f32 * mu_b2 + 35.749264_f32 * mu_b3 + 16.493612_f32 * mu_b4 - 0.6186048_f32 * mu_u5;
-    let q_5_2 = 96.14924_f32 * mu_v5 + 395.7181_f32 * mu_b1 + 379.75864_f32 * mu_b2 + 119.4811_f32 * mu_b3 + 40.909504_f32 * mu_b4 + 0.83289707_f32 * mu_u5;
-    let q_5_3 = 79.99198_f32 * mu_v5 + 397.81265_f32 * mu_b1 + 420.19266_f32 * mu_b2 + 132.40515_f32 * mu_b3 + 30.589405_f32 * mu_b4 - 0.2290521_f32 * mu_u5;
-    let q_5_4 = 36.060276_f32 * mu_v5 + 227.42941_f32 * mu_b1 + 290.04272_f32 * mu_b2 + 131.48674_f32 * mu_b3 + 37.77939_f32 * mu_b4 + 4.573602_f32 * mu_u5;
-    let q_5_5 = 8.730935_f32 * mu_v5 + 65.209816_f32 * mu_b1 + 104.69374_f32 * mu_b2 + 70.99817_f32 * mu_b3 + 27.800207_f32 * mu_b4 + 4.938369_f32 * mu_u5;
-    let q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    let q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
-    let e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    let r_b5_v = 1.0_f32 - r_t;
+    let r_b5_u2 = r_t * r_t;
+    let r_b5_v2 = r_b5_v * r_b5_v;
+    let r_b5_u3 = r_b5_u2 * r_t;
+    let r_b5_v3 = r_b5_v2 * r_b5_v;
+    let r_b5_u4 = r_b5_u3 * r_t;
+    let r_b5_v4 = r_b5_v3 * r_b5_v;
+    let r_b5_u5 = r_b5_u4 * r_t;
+    let r_b5_v5 = r_b5_v4 * r_b5_v;
+    let r_b5_b1 = r_t * r_b5_v4;
+    let r_b5_b2 = r_b5_u2 * r_b5_v3;
+    let r_b5_b3 = r_b5_u3 * r_b5_v2;
+    let r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    let mu_b5_v = 1.0_f32 - mu_u;
+    let mu_b5_u2 = mu_u * mu_u;
+    let mu_b5_v2 = mu_b5_v * mu_b5_v;
+    let mu_b5_u3 = mu_b5_u2 * mu_u;
+    let mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    let mu_b5_u4 = mu_b5_u3 * mu_u;
+    let mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    let mu_b5_u5 = mu_b5_u4 * mu_u;
+    let mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    let mu_b5_b1 = mu_u * mu_b5_v4;
+    let mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    let p0_0_0 = 1.6818_f32 * mu_b5_v5 + 11.377676_f32 * mu_b5_b1 + 10.189635_f32 * mu_b5_b2 + 12.696712_f32 * mu_b5_b3 + 2.2255917_f32 * mu_b5_b4 + 0.21794945_f32 * mu_b5_u5;
+    let p0_0_1 = 3.9466972_f32 * mu_b5_v5 + 23.870731_f32 * mu_b5_b1 + 26.156363_f32 * mu_b5_b2 + 75.799095_f32 * mu_b5_b3 + 20.273315_f32 * mu_b5_b4 + 1.6831049_f32 * mu_b5_u5;
+    let p0_0_2 = 1.2936034_f32 * mu_b5_v5 + 13.422764_f32 * mu_b5_b1 + 62.81112_f32 * mu_b5_b2 + 210.27165_f32 * mu_b5_b3 + 61.918423_f32 * mu_b5_b4 + 4.281839_f32 * mu_b5_u5;
+    let p0_0_3 = -0.7073781_f32 * mu_b5_v5 + 9.848942_f32 * mu_b5_b1 + 115.01962_f32 * mu_b5_b2 + 276.4421_f32 * mu_b5_b3 + 73.13931_f32 * mu_b5_b4 + 3.1136231_f32 * mu_b5_u5;
+    let p0_0_4 = 0.11487696_f32 * mu_b5_v5 + 10.811374_f32 * mu_b5_b1 + 86.105576_f32 * mu_b5_b2 + 157.8524_f32 * mu_b5_b3 + 31.14779_f32 * mu_b5_b4 - 0.31897697_f32 * mu_b5_u5;
+    let p0_0_5 = 0.1045675_f32 * mu_b5_v5 + 3.160172_f32 * mu_b5_b1 + 20.466404_f32 * mu_b5_b2 + 31.115633_f32 * mu_b5_b3 + 3.1472113_f32 * mu_b5_b4 - 0.36231056_f32 * mu_b5_u5;
+    let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    let p0 = p0_0 * 1.0_f32;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    let f0_b4_v = 1.0_f32 - f0_t;
+    let f0_b4_u2 = f0_t * f0_t;
+    let f0_b4_v2 = f0_b4_v * f0_b4_v;
+    let f0_b4_u3 = f0_b4_u2 * f0_t;
+    let f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    let f0_b4_u4 = f0_b4_u3 * f0_t;
+    let f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    let f0_b4_b1 = f0_t * f0_b4_v3;
+    let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    let u0_0_0 = 1.014124_f32 * 1.0_f32;
+    let u0_0 = u0_0_0 * 1.0_f32;
+    let u0_1_0 = 4.449831_f32 * 1.0_f32;
+    let u0_1 = u0_1_0 * 1.0_f32;
+    let u0_2_0 = 7.1663713_f32 * 1.0_f32;
+    let u0_2 = u0_2_0 * 1.0_f32;
+    let u0_3_0 = 5.014802_f32 * 1.0_f32;
+    let u0_3 = u0_3_0 * 1.0_f32;
+    let u0_4_0 = 1.2870095_f32 * 1.0_f32;
+    let u0_4 = u0_4_0 * 1.0_f32;
+    let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
+    let r_b3_v = 1.0_f32 - r_t;
+    let r_b3_u2 = r_t * r_t;
+    let r_b3_v2 = r_b3_v * r_b3_v;
+    let r_b3_u3 = r_b3_u2 * r_t;
+    let r_b3_v3 = r_b3_v2 * r_b3_v;
+    let r_b3_b1 = r_t * r_b3_v2;
+    let r_b3_b2 = r_b3_u2 * r_b3_v;
+    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
+    let mu_b3_v = 1.0_f32 - mu_u;
+    let mu_b3_u2 = mu_u * mu_u;
+    let mu_b3_v2 = mu_b3_v * mu_b3_v;
+    let mu_b3_u3 = mu_b3_u2 * mu_u;
+    let mu_b3_v3 = mu_b3_v2 * mu_b3_v;
+    let mu_b3_b1 = mu_u * mu_b3_v2;
+    let mu_b3_b2 = mu_b3_u2 * mu_b3_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q0_0_0 = 1.0_f32 * mu_b3_v3 + 6.2004137_f32 * mu_b3_b1 + 1.170888_f32 * mu_b3_b2 + 0.15695085_f32 * mu_b3_u3;
+    let q0_0_1 = 3.8500752_f32 * mu_b3_v3 + 23.165506_f32 * mu_b3_b1 + 7.720306_f32 * mu_b3_b2 + 0.9643049_f32 * mu_b3_u3;
+    let q0_0_2 = 4.429608_f32 * mu_b3_v3 + 27.584967_f32 * mu_b3_b1 + 12.449967_f32 * mu_b3_b2 + 1.8540384_f32 * mu_b3_u3;
+    let q0_0_3 = 1.0764453_f32 * mu_b3_v3 + 9.110613_f32 * mu_b3_b1 + 4.391288_f32 * mu_b3_b2 + 0.54359716_f32 * mu_b3_u3;
+    let q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
+    let q0 = q0_0 * 1.0_f32;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    let p1_0_0 = 0.24540247_f32 * mu_b5_v5 + 1.5781301_f32 * mu_b5_b1 + 1.8151569_f32 * mu_b5_b2 + 1.2316706_f32 * mu_b5_b3 + 0.041021947_f32 * mu_b5_b4 + 0.00045068478_f32 * mu_b5_u5;
+    let p1_0_1 = -0.42915264_f32 * mu_b5_v5 - 3.2102087_f32 * mu_b5_b1 - 3.7375302_f32 * mu_b5_b2 + 2.3467088_f32 * mu_b5_b3 - 0.24995886_f32 * mu_b5_b4 - 0.009791324_f32 * mu_b5_u5;
+    let p1_0_2 = -1.8019457_f32 * mu_b5_v5 - 15.68482_f32 * mu_b5_b1 - 13.93115_f32 * mu_b5_b2 + 6.150875_f32 * mu_b5_b3 - 0.85436624_f32 * mu_b5_b4 + 0.033184264_f32 * mu_b5_u5;
+    let p1_0_3 = -2.2403834_f32 * mu_b5_v5 - 19.912947_f32 * mu_b5_b1 - 13.646063_f32 * mu_b5_b2 + 8.172362_f32 * mu_b5_b3 - 2.6851935_f32 * mu_b5_b4 + 0.25564525_f32 * mu_b5_u5;
+    let p1_0_4 = -1.1729181_f32 * mu_b5_v5 - 9.670602_f32 * mu_b5_b1 - 2.6516566_f32 * mu_b5_b2 + 7.2017984_f32 * mu_b5_b3 - 1.3674804_f32 * mu_b5_b4 + 0.8200987_f32 * mu_b5_u5;
+    let p1_0_5 = -0.30032262_f32 * mu_b5_v5 - 1.8561227_f32 * mu_b5_b1 + 0.21197058_f32 * mu_b5_b2 + 1.6612997_f32 * mu_b5_b3 - 0.44765866_f32 * mu_b5_b4 + 0.36748242_f32 * mu_b5_u5;
+    let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    let p1 = p1_0 * 1.0_f32;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    let u1_0_0 = 0.5702372_f32 * 1.0_f32;
+    let u1_0 = u1_0_0 * 1.0_f32;
+    let u1_1_0 = 0.77727765_f32 * 1.0_f32;
+    let u1_1 = u1_1_0 * 1.0_f32;
+    let u1_2_0 = -0.8001668_f32 * 1.0_f32;
+    let u1_2 = u1_2_0 * 1.0_f32;
+    let u1_3_0 = -1.0279833_f32 * 1.0_f32;
+    let u1_3 = u1_3_0 * 1.0_f32;
+    let u1_4_0 = -0.3292523_f32 * 1.0_f32;
+    let u1_4 = u1_4_0 * 1.0_f32;
+    let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q1_0_0 = 1.0_f32 * mu_b3_v3 + 4.625543_f32 * mu_b3_b1 + 0.17963918_f32 * mu_b3_b2 + 0.0019694008_f32 * mu_b3_u3;
+    let q1_0_1 = 2.2616916_f32 * mu_b3_v3 + 11.175309_f32 * mu_b3_b1 - 1.4781957_f32 * mu_b3_b2 - 0.048193216_f32 * mu_b3_u3;
+    let q1_0_2 = 1.8258256_f32 * mu_b3_v3 + 9.4459915_f32 * mu_b3_b1 - 2.4586303_f32 * mu_b3_b2 + 0.2648235_f32 * mu_b3_u3;
+    let q1_0_3 = 0.94523185_f32 * mu_b3_v3 + 4.0395193_f32 * mu_b3_b1 + 0.34249824_f32 * mu_b3_b2 + 0.696084_f32 * mu_b3_u3;
+    let q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
+    let q1 = q1_0 * 1.0_f32;
+    let e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    let p2_0_0 = 0.05580612_f32 * mu_b5_v5 + 0.22641385_f32 * mu_b5_b1 + 0.1318353_f32 * mu_b5_b2 + 0.09332001_f32 * mu_b5_b3 - 0.0017314168_f32 * mu_b5_b4 + 0.000458191_f32 * mu_b5_u5;
+    let p2_0_1 = 0.20747547_f32 * mu_b5_v5 + 1.2550974_f32 * mu_b5_b1 + 1.0552676_f32 * mu_b5_b2 + 0.6683324_f32 * mu_b5_b3 - 0.010905951_f32 * mu_b5_b4 - 0.00018238563_f32 * mu_b5_u5;
+    let p2_0_2 = 0.108344585_f32 * mu_b5_v5 + 1.5597241_f32 * mu_b5_b1 + 0.8629077_f32 * mu_b5_b2 + 0.6007037_f32 * mu_b5_b3 - 0.1543589_f32 * mu_b5_b4 - 0.0007139133_f32 * mu_b5_u5;
+    let p2_0_3 = -0.10840547_f32 * mu_b5_v5 + 0.4877684_f32 * mu_b5_b1 - 0.7175686_f32 * mu_b5_b2 - 0.070526764_f32 * mu_b5_b3 - 0.09412011_f32 * mu_b5_b4 + 0.005484699_f32 * mu_b5_u5;
+    let p2_0_4 = -0.08104714_f32 * mu_b5_v5 - 0.196999_f32 * mu_b5_b1 - 1.0879637_f32 * mu_b5_b2 - 0.22506218_f32 * mu_b5_b3 + 0.064241365_f32 * mu_b5_b4 - 0.011298015_f32 * mu_b5_u5;
+    let p2_0_5 = -0.004828938_f32 * mu_b5_v5 - 0.09803929_f32 * mu_b5_b1 - 0.3195446_f32 * mu_b5_b2 - 0.017469032_f32 * mu_b5_b3 + 0.06886462_f32 * mu_b5_b4 - 0.0057185492_f32 * mu_b5_u5;
+    let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    let p2 = p2_0 * 1.0_f32;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    let u2_0_0 = 0.40346384_f32 * 1.0_f32;
+    let u2_0 = u2_0_0 * 1.0_f32;
+    let u2_1_0 = 2.1391003_f32 * 1.0_f32;
+    let u2_1 = u2_1_0 * 1.0_f32;
+    let u2_2_0 = 0.41216505_f32 * 1.0_f32;
+    let u2_2 = u2_2_0 * 1.0_f32;
+    let u2_3_0 = -1.1428729_f32 * 1.0_f32;
+    let u2_3 = u2_3_0 * 1.0_f32;
+    let u2_4_0 = -0.49810582_f32 * 1.0_f32;
+    let u2_4 = u2_4_0 * 1.0_f32;
+    let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q2_0_0 = 1.0_f32 * mu_b3_v3 + 1.8551881_f32 * mu_b3_b1 - 0.043757312_f32 * mu_b3_b2 + 0.008336884_f32 * mu_b3_u3;
+    let q2_0_1 = 1.5591007_f32 * mu_b3_v3 + 3.6183083_f32 * mu_b3_b1 - 0.66100836_f32 * mu_b3_b2 + 0.0016310882_f32 * mu_b3_u3;
+    let q2_0_2 = 0.64692104_f32 * mu_b3_v3 + 2.8244894_f32 * mu_b3_b1 - 0.47002894_f32 * mu_b3_b2 + 0.0742497_f32 * mu_b3_u3;
+    let q2_0_3 = 0.045673203_f32 * mu_b3_v3 + 0.934928_f32 * mu_b3_b1 + 0.020780956_f32 * mu_b3_b2 + 0.038808446_f32 * mu_b3_u3;
+    let q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
+    let q2 = q2_0 * 1.0_f32;
+    let e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    let p3_0_0 = 0.744252_f32 * mu_b5_v5 - 0.518746_f32 * mu_b5_b1 + 1.08865_f32 * mu_b5_b2 + 0.07836499_f32 * mu_b5_b3 + 0.11207676_f32 * mu_b5_b4 + 0.017467197_f32 * mu_b5_u5;
+    let p3_0_1 = -0.9310276_f32 * mu_b5_v5 - 7.0639715_f32 * mu_b5_b1 + 5.2021565_f32 * mu_b5_b2 + 0.45056275_f32 * mu_b5_b3 + 0.98426634_f32 * mu_b5_b4 + 0.029340927_f32 * mu_b5_u5;
+    let p3_0_2 = -6.4088907_f32 * mu_b5_v5 - 13.8411875_f32 * mu_b5_b1 + 14.756985_f32 * mu_b5_b2 + 2.1837163_f32 * mu_b5_b3 + 3.7622054_f32 * mu_b5_b4 + 0.08884474_f32 * mu_b5_u5;
+    let p3_0_3 = -7.3378024_f32 * mu_b5_v5 - 7.069175_f32 * mu_b5_b1 + 22.449951_f32 * mu_b5_b2 + 5.20145_f32 * mu_b5_b3 + 6.8566933_f32 * mu_b5_b4 + 0.15764043_f32 * mu_b5_u5;
+    let p3_0_4 = -3.1727424_f32 * mu_b5_v5 + 0.36307135_f32 * mu_b5_b1 + 13.338764_f32 * mu_b5_b2 + 2.6710308_f32 * mu_b5_b3 + 4.5400853_f32 * mu_b5_b4 - 0.16745771_f32 * mu_b5_u5;
+    let p3_0_5 = -0.4718404_f32 * mu_b5_v5 + 0.6198355_f32 * mu_b5_b1 + 2.499395_f32 * mu_b5_b2 + 0.24820243_f32 * mu_b5_b3 + 1.0569593_f32 * mu_b5_b4 - 0.15141687_f32 * mu_b5_u5;
+    let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    let p3 = p3_0 * 1.0_f32;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    let u3_0_0 = -1.164495_f32 * 1.0_f32;
+    let u3_0 = u3_0_0 * 1.0_f32;
+    let u3_1_0 = -5.1253433_f32 * 1.0_f32;
+    let u3_1 = u3_1_0 * 1.0_f32;
+    let u3_2_0 = -7.8623743_f32 * 1.0_f32;
+    let u3_2 = u3_2_0 * 1.0_f32;
+    let u3_3_0 = -5.530996_f32 * 1.0_f32;
+    let u3_3 = u3_3_0 * 1.0_f32;
+    let u3_4_0 = -1.4202172_f32 * 1.0_f32;
+    let u3_4 = u3_4_0 * 1.0_f32;
+    let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q3_0_0 = 1.0_f32 * mu_b3_v3 + 0.17871301_f32 * mu_b3_b1 + 0.085942835_f32 * mu_b3_b2 + 0.03623221_f32 * mu_b3_u3;
+    let q3_0_1 = 3.4206154_f32 * mu_b3_v3 + 1.3859322_f32 * mu_b3_b1 + 0.60689026_f32 * mu_b3_b2 + 0.02858061_f32 * mu_b3_u3;
+    let q3_0_2 = 3.6034389_f32 * mu_b3_v3 + 2.101294_f32 * mu_b3_b1 + 1.4004653_f32 * mu_b3_b2 + 0.28961718_f32 * mu_b3_u3;
+    let q3_0_3 = 1.0552826_f32 * mu_b3_v3 + 0.5114522_f32 * mu_b3_b1 + 0.49689513_f32 * mu_b3_b2 + 0.16972788_f32 * mu_b3_u3;
+    let q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
+    let q3 = q3_0 * 1.0_f32;
+    let e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    let e = e0 + e1 + e2 + e3;
     e.min(1.0_f32).max(0.0_f32)
 }
 

@@ -28,16 +28,16 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 2991ff48bb000354e090c37a99a708f21f654427b3c4077971f6e34ac71134a5.
-// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-5, shifted 1.7e-6, bernstein 9.8e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 4.02e-3, max 1.05e-1 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.18e-6 (every op rounded, as this Rust), 1.64e-6 (fused multiply-add), 2.09e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.57e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 7135 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 3.94e-3, max 1.05e-1; this f32 code MAE 3.94e-3, max 1.05e-1.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.5e-3 on the measurement grid.
-// Denominator proved >= 2.789e-2 on the domain (Bernstein certificate), so the division is safe.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 19726b7802040d72d7a12b4dfe2a8d27f4904549569a75c21ee00b52d1457689.
+// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-5, shifted 1.1e-5, bernstein 6.6e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.42e-3, max 4.34e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.83e-6 (every op rounded, as this Rust), 5.53e-6 (fused multiply-add), 7.86e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.15e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17865 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 4.26e-3, max 4.34e-2; this f32 code MAE 4.26e-3, max 4.34e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
+// Denominator proved >= 1.289e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -49,25 +49,85 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    const float f0_s = f0_t * 2.0f - 1.0f;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    const float r_s = r_t * 2.0f - 1.0f;
-    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
-    const float mu_s = mu_t * 2.0f - 1.0f;
-    // numerator P, grouped by powers of the first variable
-    const float p_0 = ((-0.0011351049f * r_s + (-0.03775935f * mu_s + 0.04306964f)) * r_s + ((-0.122743964f * mu_s + 0.15464176f) * mu_s - 0.011278793f)) * r_s + (((-0.019044153f * mu_s + 0.20978935f) * mu_s - 0.42969775f) * mu_s + 0.28622434f);
-    const float p_1 = (-0.019546391f * r_s + (-0.054626618f * mu_s + 0.03952902f)) * r_s + ((0.13702485f * mu_s - 0.18858394f) * mu_s + 0.06862493f);
-    const float p_2 = 0.01102495f * r_s + (0.04166852f * mu_s - 0.024816718f);
-    const float p_3 = -0.0029076482f;
-    const float p = ((p_3 * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
-    // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = ((0.008836388f * r_s + (-0.026901849f * mu_s + 0.07405929f)) * r_s + ((-0.122305706f * mu_s + 0.10889029f) * mu_s + 0.08650193f)) * r_s + (((-0.0008746322f * mu_s + 0.19815853f) * mu_s - 0.51448524f) * mu_s + 0.3851187f);
-    const float q_1 = (-0.00428238f * r_s + (0.0028353888f * mu_s + 0.011474574f)) * r_s + ((0.13053273f * mu_s - 0.12298646f) * mu_s + 0.0236821f);
-    const float q_2 = 0.012587438f * r_s + (0.03991729f * mu_s - 0.021654943f);
-    const float q_3 = -0.00298344f;
-    const float q = ((q_3 * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
-    const float e = p / q;
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    const float r_b4_v = 1.0f - r_t;
+    const float r_b4_u2 = r_t * r_t;
+    const float r_b4_v2 = r_b4_v * r_b4_v;
+    const float r_b4_u3 = r_b4_u2 * r_t;
+    const float r_b4_v3 = r_b4_v2 * r_b4_v;
+    const float r_b4_u4 = r_b4_u3 * r_t;
+    const float r_b4_v4 = r_b4_v3 * r_b4_v;
+    const float r_b4_b1 = r_t * r_b4_v3;
+    const float r_b4_b2 = r_b4_u2 * r_b4_v2;
+    const float r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    const float mu_b4_v = 1.0f - mu_u;
+    const float mu_b4_u2 = mu_u * mu_u;
+    const float mu_b4_v2 = mu_b4_v * mu_b4_v;
+    const float mu_b4_u3 = mu_b4_u2 * mu_u;
+    const float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    const float mu_b4_u4 = mu_b4_u3 * mu_u;
+    const float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    const float mu_b4_b1 = mu_u * mu_b4_v3;
+    const float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    const float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    const float p0_0_0 = -0.3752686f * mu_b4_v4 - 0.85907274f * mu_b4_b1 - 1.3257005f * mu_b4_b2 - 0.34294236f * mu_b4_b3 - 0.048734017f * mu_b4_u4;
+    const float p0_0_1 = -3.0796092f * mu_b4_v4 - 9.381838f * mu_b4_b1 - 11.19182f * mu_b4_b2 - 2.9741814f * mu_b4_b3 - 0.27534202f * mu_b4_u4;
+    const float p0_0_2 = -7.2487216f * mu_b4_v4 - 22.401209f * mu_b4_b1 - 23.327688f * mu_b4_b2 - 5.093376f * mu_b4_b3 - 0.20430396f * mu_b4_u4;
+    const float p0_0_3 = -5.9385414f * mu_b4_v4 - 17.41527f * mu_b4_b1 - 15.275833f * mu_b4_b2 - 1.1713903f * mu_b4_b3 + 0.4369614f * mu_b4_u4;
+    const float p0_0_4 = -1.6415193f * mu_b4_v4 - 4.526263f * mu_b4_b1 - 3.2984204f * mu_b4_b2 + 0.30130962f * mu_b4_b3 + 0.16729808f * mu_b4_u4;
+    const float p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
+    const float p0 = p0_0 * 1.0f;
+    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
+    const float f0_b2_v = 1.0f - f0_t;
+    const float f0_b2_u2 = f0_t * f0_t;
+    const float f0_b2_v2 = f0_b2_v * f0_b2_v;
+    const float f0_b2_b1 = f0_t * f0_b2_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    const float u0_0_0 = 11.04088f * 1.0f;
+    const float u0_0 = u0_0_0 * 1.0f;
+    const float u0_1_0 = 18.289953f * 1.0f;
+    const float u0_1 = u0_1_0 * 1.0f;
+    const float u0_2_0 = 8.812249f * 1.0f;
+    const float u0_2 = u0_2_0 * 1.0f;
+    const float u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
+    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
+    const float r_b1_v = 1.0f - r_t;
+    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
+    const float mu_b1_v = 1.0f - mu_u;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q0_0_0 = 1.0f * mu_b1_v + 0.12890857f * mu_u;
+    const float q0_0_1 = 1.1776302f * mu_b1_v + 0.3065387f * mu_u;
+    const float q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
+    const float q0 = q0_0 * 1.0f;
+    const float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    const float p1_0_0 = -0.38732168f * mu_b4_v4 - 0.9779952f * mu_b4_b1 - 1.3504157f * mu_b4_b2 - 0.40778446f * mu_b4_b3 - 0.063809544f * mu_b4_u4;
+    const float p1_0_1 = -2.801529f * mu_b4_v4 - 8.726374f * mu_b4_b1 - 10.350458f * mu_b4_b2 - 3.093102f * mu_b4_b3 - 0.33055824f * mu_b4_u4;
+    const float p1_0_2 = -6.2298675f * mu_b4_v4 - 19.470436f * mu_b4_b1 - 20.44709f * mu_b4_b2 - 4.94801f * mu_b4_b3 - 0.23609158f * mu_b4_u4;
+    const float p1_0_3 = -5.0155554f * mu_b4_v4 - 14.838866f * mu_b4_b1 - 13.273156f * mu_b4_b2 - 1.4542986f * mu_b4_b3 + 0.33247796f * mu_b4_u4;
+    const float p1_0_4 = -1.3714166f * mu_b4_v4 - 3.8028953f * mu_b4_b1 - 2.8552372f * mu_b4_b2 + 0.12230801f * mu_b4_b3 + 0.13029934f * mu_b4_u4;
+    const float p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
+    const float p1 = p1_0 * 1.0f;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    const float u1_0_0 = -13.275268f * 1.0f;
+    const float u1_0 = u1_0_0 * 1.0f;
+    const float u1_1_0 = -22.867315f * 1.0f;
+    const float u1_1 = u1_1_0 * 1.0f;
+    const float u1_2_0 = -11.125329f * 1.0f;
+    const float u1_2 = u1_2_0 * 1.0f;
+    const float u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q1_0_0 = 1.0f * mu_b1_v + 0.16386534f * mu_u;
+    const float q1_0_1 = 1.1547776f * mu_b1_v + 0.31864294f * mu_u;
+    const float q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
+    const float q1 = q1_0 * 1.0f;
+    const float e1 = p1 * u1 / q1;
+    // the sum of the 2 terms
+    const float e = e0 + e1;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }
 

@@ -12,16 +12,16 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 2991ff48bb000354e090c37a99a708f21f654427b3c4077971f6e34ac71134a5.
-// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-5, shifted 1.7e-6, bernstein 9.8e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 4.02e-3, max 1.05e-1 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.18e-6 (every op rounded, as this Rust), 1.64e-6 (fused multiply-add), 2.09e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.57e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 7135 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 3.94e-3, max 1.05e-1; this f32 code MAE 3.94e-3, max 1.05e-1.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.5e-3 on the measurement grid.
-// Denominator proved >= 2.789e-2 on the domain (Bernstein certificate), so the division is safe.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 19726b7802040d72d7a12b4dfe2a8d27f4904549569a75c21ee00b52d1457689.
+// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-5, shifted 1.1e-5, bernstein 6.6e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.42e-3, max 4.34e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.83e-6 (every op rounded, as this Rust), 5.53e-6 (fused multiply-add), 7.86e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.15e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17865 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 4.26e-3, max 4.34e-2; this f32 code MAE 4.26e-3, max 4.34e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
+// Denominator proved >= 1.289e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -33,25 +33,85 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_c = max(min(mu, 1.0), 0.0);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let f0_s = f0_t * 2.0 - 1.0;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let r_s = r_t * 2.0 - 1.0;
-    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
-    let mu_s = mu_t * 2.0 - 1.0;
-    // numerator P, grouped by powers of the first variable
-    let p_0 = ((-0.0011351049 * r_s + (-0.03775935 * mu_s + 0.04306964)) * r_s + ((-0.122743964 * mu_s + 0.15464176) * mu_s - 0.011278793)) * r_s + (((-0.019044153 * mu_s + 0.20978935) * mu_s - 0.42969775) * mu_s + 0.28622434);
-    let p_1 = (-0.019546391 * r_s + (-0.054626618 * mu_s + 0.03952902)) * r_s + ((0.13702485 * mu_s - 0.18858394) * mu_s + 0.06862493);
-    let p_2 = 0.01102495 * r_s + (0.04166852 * mu_s - 0.024816718);
-    let p_3 = -0.0029076482;
-    let p = ((p_3 * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
-    // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((0.008836388 * r_s + (-0.026901849 * mu_s + 0.07405929)) * r_s + ((-0.122305706 * mu_s + 0.10889029) * mu_s + 0.08650193)) * r_s + (((-0.0008746322 * mu_s + 0.19815853) * mu_s - 0.51448524) * mu_s + 0.3851187);
-    let q_1 = (-0.00428238 * r_s + (0.0028353888 * mu_s + 0.011474574)) * r_s + ((0.13053273 * mu_s - 0.12298646) * mu_s + 0.0236821);
-    let q_2 = 0.012587438 * r_s + (0.03991729 * mu_s - 0.021654943);
-    let q_3 = -0.00298344;
-    let q = ((q_3 * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
-    let e = p / q;
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    let mu_u = (mu_t - 8.881784e-16) * 1.0;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    let r_b4_v = 1.0 - r_t;
+    let r_b4_u2 = r_t * r_t;
+    let r_b4_v2 = r_b4_v * r_b4_v;
+    let r_b4_u3 = r_b4_u2 * r_t;
+    let r_b4_v3 = r_b4_v2 * r_b4_v;
+    let r_b4_u4 = r_b4_u3 * r_t;
+    let r_b4_v4 = r_b4_v3 * r_b4_v;
+    let r_b4_b1 = r_t * r_b4_v3;
+    let r_b4_b2 = r_b4_u2 * r_b4_v2;
+    let r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    let mu_b4_v = 1.0 - mu_u;
+    let mu_b4_u2 = mu_u * mu_u;
+    let mu_b4_v2 = mu_b4_v * mu_b4_v;
+    let mu_b4_u3 = mu_b4_u2 * mu_u;
+    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    let mu_b4_u4 = mu_b4_u3 * mu_u;
+    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    let mu_b4_b1 = mu_u * mu_b4_v3;
+    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    let p0_0_0 = -0.3752686 * mu_b4_v4 - 0.85907274 * mu_b4_b1 - 1.3257005 * mu_b4_b2 - 0.34294236 * mu_b4_b3 - 0.048734017 * mu_b4_u4;
+    let p0_0_1 = -3.0796092 * mu_b4_v4 - 9.381838 * mu_b4_b1 - 11.19182 * mu_b4_b2 - 2.9741814 * mu_b4_b3 - 0.27534202 * mu_b4_u4;
+    let p0_0_2 = -7.2487216 * mu_b4_v4 - 22.401209 * mu_b4_b1 - 23.327688 * mu_b4_b2 - 5.093376 * mu_b4_b3 - 0.20430396 * mu_b4_u4;
+    let p0_0_3 = -5.9385414 * mu_b4_v4 - 17.41527 * mu_b4_b1 - 15.275833 * mu_b4_b2 - 1.1713903 * mu_b4_b3 + 0.4369614 * mu_b4_u4;
+    let p0_0_4 = -1.6415193 * mu_b4_v4 - 4.526263 * mu_b4_b1 - 3.2984204 * mu_b4_b2 + 0.30130962 * mu_b4_b3 + 0.16729808 * mu_b4_u4;
+    let p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
+    let p0 = p0_0 * 1.0;
+    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
+    let f0_b2_v = 1.0 - f0_t;
+    let f0_b2_u2 = f0_t * f0_t;
+    let f0_b2_v2 = f0_b2_v * f0_b2_v;
+    let f0_b2_b1 = f0_t * f0_b2_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    let u0_0_0 = 11.04088 * 1.0;
+    let u0_0 = u0_0_0 * 1.0;
+    let u0_1_0 = 18.289953 * 1.0;
+    let u0_1 = u0_1_0 * 1.0;
+    let u0_2_0 = 8.812249 * 1.0;
+    let u0_2 = u0_2_0 * 1.0;
+    let u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
+    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
+    let r_b1_v = 1.0 - r_t;
+    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
+    let mu_b1_v = 1.0 - mu_u;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q0_0_0 = 1.0 * mu_b1_v + 0.12890857 * mu_u;
+    let q0_0_1 = 1.1776302 * mu_b1_v + 0.3065387 * mu_u;
+    let q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
+    let q0 = q0_0 * 1.0;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    let p1_0_0 = -0.38732168 * mu_b4_v4 - 0.9779952 * mu_b4_b1 - 1.3504157 * mu_b4_b2 - 0.40778446 * mu_b4_b3 - 0.063809544 * mu_b4_u4;
+    let p1_0_1 = -2.801529 * mu_b4_v4 - 8.726374 * mu_b4_b1 - 10.350458 * mu_b4_b2 - 3.093102 * mu_b4_b3 - 0.33055824 * mu_b4_u4;
+    let p1_0_2 = -6.2298675 * mu_b4_v4 - 19.470436 * mu_b4_b1 - 20.44709 * mu_b4_b2 - 4.94801 * mu_b4_b3 - 0.23609158 * mu_b4_u4;
+    let p1_0_3 = -5.0155554 * mu_b4_v4 - 14.838866 * mu_b4_b1 - 13.273156 * mu_b4_b2 - 1.4542986 * mu_b4_b3 + 0.33247796 * mu_b4_u4;
+    let p1_0_4 = -1.3714166 * mu_b4_v4 - 3.8028953 * mu_b4_b1 - 2.8552372 * mu_b4_b2 + 0.12230801 * mu_b4_b3 + 0.13029934 * mu_b4_u4;
+    let p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
+    let p1 = p1_0 * 1.0;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    let u1_0_0 = -13.275268 * 1.0;
+    let u1_0 = u1_0_0 * 1.0;
+    let u1_1_0 = -22.867315 * 1.0;
+    let u1_1 = u1_1_0 * 1.0;
+    let u1_2_0 = -11.125329 * 1.0;
+    let u1_2 = u1_2_0 * 1.0;
+    let u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q1_0_0 = 1.0 * mu_b1_v + 0.16386534 * mu_u;
+    let q1_0_1 = 1.1547776 * mu_b1_v + 0.31864294 * mu_u;
+    let q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
+    let q1 = q1_0 * 1.0;
+    let e1 = p1 * u1 / q1;
+    // the sum of the 2 terms
+    let e = e0 + e1;
     return max(min(e, 1.0), 0.0);
 }
 

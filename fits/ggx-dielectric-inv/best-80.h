@@ -25,50 +25,111 @@
 // ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 b4e93c7e0c5e066c63aa4a44b020f7e7b13d4758c14b4aacb65aca4b99d767ca.
-// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.5e-6, shifted 2.4e-6, bernstein 4.9e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.16e-3, max 2.87e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.39e-6 (every op rounded, as this Rust), 3.20e-6 (fused multiply-add), 3.43e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.97e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 15725 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 2.14e-3, max 2.87e-2; this f32 code MAE 2.14e-3, max 2.87e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.2e-3 on the measurement grid.
-// Denominator proved >= 1.662e-1 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 29230c7a8979ed661546886067f8f6280720983ad7490ede0947c60c474e7524.
+// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.5e-4, shifted 8.6e-6, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.94e-3, max 1.13e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.57e-7 (every op rounded, as this Rust), 4.79e-7 (fused multiply-add), 1.84e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.02e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.93e-3, max 1.13e-2; this f32 code MAE 1.93e-3, max 1.13e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
+// Denominator proved >= 3.757e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
-    // t = sqrt(f0)
-    const float f0_t = sqrtf(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    const float f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017f) * 2.6828594f;
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // s = (t - 0.30590169943749473)/0.19409830056250527 in [-1, 1]
-    const float f0_s = f0_t * 5.1520286f - 1.5760143f;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    const float r_s = r_t * 2.0f - 1.0f;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    const float mu_s = mu_t * 2.0f - 1.0f;
-    // numerator P, grouped by powers of the first variable
-    const float p_0 = (((0.07875194f * r_s + (0.7092822f * mu_s - 0.63312566f)) * r_s + ((0.56513864f * mu_s - 1.5707619f) * mu_s + 0.6788865f)) * r_s + (((0.67398125f * mu_s + 1.1894771f) * mu_s - 1.2080915f) * mu_s - 0.78441703f)) * r_s + ((((-0.30520982f * mu_s - 0.5568968f) * mu_s - 0.44909772f) * mu_s + 3.9467974f) * mu_s - 4.217926f);
-    const float p_1 = ((-0.08746524f * r_s + (-0.56029254f * mu_s + 0.7980775f)) * r_s + ((0.22050846f * mu_s + 0.28004134f) * mu_s - 0.18124627f)) * r_s + (((-0.92259914f * mu_s - 0.6098876f) * mu_s + 3.18761f) * mu_s - 2.90355f);
-    const float p_2 = (-0.05175313f * r_s + (0.17353946f * mu_s - 0.38236016f)) * r_s + ((-0.073902465f * mu_s - 0.03263892f) * mu_s - 0.26668575f);
-    const float p_3 = 0.06553969f * r_s + (-0.10960327f * mu_s + 0.13427144f);
-    const float p_4 = -0.03700213f;
-    const float p = (((p_4 * f0_s + p_3) * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
-    // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = (((-0.0045474805f * r_s + (0.22780967f * mu_s - 0.5519172f)) * r_s + ((0.8656119f * mu_s - 2.3999312f) * mu_s + 0.02773305f)) * r_s + (((0.52264583f * mu_s + 1.9478655f) * mu_s - 1.091926f) * mu_s - 3.0490794f)) * r_s + ((((-0.27843064f * mu_s - 1.0008696f) * mu_s + 0.21007062f) * mu_s + 4.7142773f) * mu_s - 5.906153f);
-    const float q_1 = ((-0.1747368f * r_s + (-0.9422665f * mu_s + 0.31054863f)) * r_s + ((0.54867005f * mu_s - 0.78127897f) * mu_s - 0.9196166f)) * r_s + (((-1.1880505f * mu_s - 0.05380606f) * mu_s + 2.7789323f) * mu_s - 3.4744036f);
-    const float q_2 = (-0.19754909f * r_s + (0.12629087f * mu_s - 0.59769464f)) * r_s + ((-0.047000606f * mu_s - 0.08749163f) * mu_s - 0.35342327f);
-    const float q_3 = 0.076967925f * r_s + (-0.10672425f * mu_s + 0.14126931f);
-    const float q_4 = -0.03856095f;
-    const float q = (((q_4 * f0_s + q_3) * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
+    const float f0_v = 1.0f - f0_t;
+    const float f0_u2 = f0_t * f0_t;
+    const float f0_v2 = f0_v * f0_v;
+    const float f0_b1 = f0_t * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    const float r_v = 1.0f - r_t;
+    const float r_u2 = r_t * r_t;
+    const float r_v2 = r_v * r_v;
+    const float r_u3 = r_u2 * r_t;
+    const float r_v3 = r_v2 * r_v;
+    const float r_u4 = r_u3 * r_t;
+    const float r_v4 = r_v3 * r_v;
+    const float r_u5 = r_u4 * r_t;
+    const float r_v5 = r_v4 * r_v;
+    const float r_b1 = r_t * r_v4;
+    const float r_b2 = r_u2 * r_v3;
+    const float r_b3 = r_u3 * r_v2;
+    const float r_b4 = r_u4 * r_v;
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    const float mu_v = 1.0f - mu_u;
+    const float mu_u2 = mu_u * mu_u;
+    const float mu_v2 = mu_v * mu_v;
+    const float mu_u3 = mu_u2 * mu_u;
+    const float mu_v3 = mu_v2 * mu_v;
+    const float mu_u4 = mu_u3 * mu_u;
+    const float mu_v4 = mu_v3 * mu_v;
+    const float mu_u5 = mu_u4 * mu_u;
+    const float mu_v5 = mu_v4 * mu_v;
+    const float mu_b1 = mu_u * mu_v4;
+    const float mu_b2 = mu_u2 * mu_v3;
+    const float mu_b3 = mu_u3 * mu_v2;
+    const float mu_b4 = mu_u4 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    const float p_0_0 = 0.99603087f * mu_v5 + 1.299391f * mu_b1 + 0.41289765f * mu_b2 + 0.12994254f * mu_b3 + 0.03127232f * mu_b4 + 0.0048000007f * mu_u5;
+    const float p_0_1 = 3.7568603f * mu_v5 + 4.70099f * mu_b1 + 1.5670979f * mu_b2 + 0.63294715f * mu_b3 + 0.048825394f * mu_b4 + 0.0085099675f * mu_u5;
+    const float p_0_2 = 5.7092104f * mu_v5 + 6.9993043f * mu_b1 + 2.7422583f * mu_b2 + 1.503148f * mu_b3 + 0.1622464f * mu_b4 + 0.050589725f * mu_u5;
+    const float p_0_3 = 4.496664f * mu_v5 + 5.6634564f * mu_b1 + 2.810969f * mu_b2 + 1.8180217f * mu_b3 + 0.30762777f * mu_b4 + 0.07311003f * mu_u5;
+    const float p_0_4 = 1.9189006f * mu_v5 + 2.7109804f * mu_b1 + 1.8398018f * mu_b2 + 1.340193f * mu_b3 + 0.37860683f * mu_b4 + 0.055799156f * mu_u5;
+    const float p_0_5 = 0.36195505f * mu_v5 + 0.6019172f * mu_b1 + 0.5302661f * mu_b2 + 0.43569025f * mu_b3 + 0.17236009f * mu_b4 + 0.02090643f * mu_u5;
+    const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
+    const float p_1_0 = 2.0103648f * mu_v5 + 2.815093f * mu_b1 + 0.5458614f * mu_b2 + 0.31140602f * mu_b3 + 0.061856307f * mu_b4 + 0.009571417f * mu_u5;
+    const float p_1_1 = 8.949925f * mu_v5 + 12.1788645f * mu_b1 + 2.2212627f * mu_b2 + 1.6523465f * mu_b3 + 0.08805608f * mu_b4 + 0.017973233f * mu_u5;
+    const float p_1_2 = 16.50218f * mu_v5 + 22.391752f * mu_b1 + 5.1050906f * mu_b2 + 4.7139473f * mu_b3 + 0.4132072f * mu_b4 + 0.09465955f * mu_u5;
+    const float p_1_3 = 15.47605f * mu_v5 + 20.670193f * mu_b1 + 5.1485248f * mu_b2 + 5.5994396f * mu_b3 + 0.5801482f * mu_b4 + 0.11496996f * mu_u5;
+    const float p_1_4 = 7.4090614f * mu_v5 + 9.771303f * mu_b1 + 2.8459945f * mu_b2 + 3.5939875f * mu_b3 + 0.59397495f * mu_b4 + 0.073680684f * mu_u5;
+    const float p_1_5 = 1.4680622f * mu_v5 + 1.9912463f * mu_b1 + 0.8514738f * mu_b2 + 1.0918692f * mu_b3 + 0.2629916f * mu_b4 + 0.01739994f * mu_u5;
+    const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
+    const float p_2_0 = 0.9964058f * mu_v5 + 1.3379264f * mu_b1 + 0.36887184f * mu_b2 + 0.13771968f * mu_b3 + 0.0312954f * mu_b4 + 0.00478872f * mu_u5;
+    const float p_2_1 = 4.648939f * mu_v5 + 5.8998823f * mu_b1 + 1.4213539f * mu_b2 + 0.6351263f * mu_b3 + 0.054246385f * mu_b4 + 0.00883956f * mu_u5;
+    const float p_2_2 = 8.77815f * mu_v5 + 10.755566f * mu_b1 + 2.8713403f * mu_b2 + 1.9540763f * mu_b3 + 0.2705825f * mu_b4 + 0.049048096f * mu_u5;
+    const float p_2_3 = 8.434971f * mu_v5 + 10.179696f * mu_b1 + 3.3101523f * mu_b2 + 2.7380812f * mu_b3 + 0.39306697f * mu_b4 + 0.05903011f * mu_u5;
+    const float p_2_4 = 4.19339f * mu_v5 + 5.235257f * mu_b1 + 2.3362973f * mu_b2 + 1.9784253f * mu_b3 + 0.3030015f * mu_b4 + 0.03831469f * mu_u5;
+    const float p_2_5 = 0.8706533f * mu_v5 + 1.1822605f * mu_b1 + 0.71118283f * mu_b2 + 0.56319344f * mu_b3 + 0.09065593f * mu_b4 + 0.010899817f * mu_u5;
+    const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
+    const float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q_0_0 = 1.0f * mu_v5 + 1.3552738f * mu_b1 + 0.4956207f * mu_b2 + 0.16557726f * mu_b3 + 0.03002297f * mu_b4 + 0.0047925483f * mu_u5;
+    const float q_0_1 = 4.710113f * mu_v5 + 6.1571174f * mu_b1 + 2.0642152f * mu_b2 + 0.6836293f * mu_b3 + 0.07569477f * mu_b4 + 0.0092759365f * mu_u5;
+    const float q_0_2 = 9.064212f * mu_v5 + 11.927741f * mu_b1 + 4.5747404f * mu_b2 + 2.0265558f * mu_b3 + 0.36514655f * mu_b4 + 0.049801763f * mu_u5;
+    const float q_0_3 = 8.890944f * mu_v5 + 12.167382f * mu_b1 + 5.8017945f * mu_b2 + 3.0987313f * mu_b3 + 0.6532385f * mu_b4 + 0.07986362f * mu_u5;
+    const float q_0_4 = 4.475618f * mu_v5 + 6.633218f * mu_b1 + 4.11728f * mu_b2 + 2.4835808f * mu_b3 + 0.5932792f * mu_b4 + 0.069378465f * mu_u5;
+    const float q_0_5 = 0.93877333f * mu_v5 + 1.5917337f * mu_b1 + 1.3216316f * mu_b2 + 0.89335334f * mu_b3 + 0.25951537f * mu_b4 + 0.034833215f * mu_u5;
+    const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
+    const float q_1_0 = 2.0f * mu_v5 + 2.7105477f * mu_b1 + 0.9912414f * mu_b2 + 0.33115453f * mu_b3 + 0.06004594f * mu_b4 + 0.0095850965f * mu_u5;
+    const float q_1_1 = 9.420226f * mu_v5 + 12.314235f * mu_b1 + 4.1284304f * mu_b2 + 1.3672585f * mu_b3 + 0.15138954f * mu_b4 + 0.018551873f * mu_u5;
+    const float q_1_2 = 18.128424f * mu_v5 + 23.855482f * mu_b1 + 9.149481f * mu_b2 + 4.0531116f * mu_b3 + 0.7302931f * mu_b4 + 0.09960353f * mu_u5;
+    const float q_1_3 = 17.781887f * mu_v5 + 24.334764f * mu_b1 + 11.603589f * mu_b2 + 6.1974626f * mu_b3 + 1.306477f * mu_b4 + 0.15972725f * mu_u5;
+    const float q_1_4 = 8.951236f * mu_v5 + 13.266436f * mu_b1 + 8.23456f * mu_b2 + 4.9671617f * mu_b3 + 1.1865584f * mu_b4 + 0.13875693f * mu_u5;
+    const float q_1_5 = 1.8775467f * mu_v5 + 3.1834674f * mu_b1 + 2.643263f * mu_b2 + 1.7867067f * mu_b3 + 0.51903075f * mu_b4 + 0.06966643f * mu_u5;
+    const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
+    const float q_2_0 = 1.0f * mu_v5 + 1.3552738f * mu_b1 + 0.4956207f * mu_b2 + 0.16557726f * mu_b3 + 0.03002297f * mu_b4 + 0.0047925483f * mu_u5;
+    const float q_2_1 = 4.710113f * mu_v5 + 6.1571174f * mu_b1 + 2.0642152f * mu_b2 + 0.6836293f * mu_b3 + 0.07569477f * mu_b4 + 0.0092759365f * mu_u5;
+    const float q_2_2 = 9.064212f * mu_v5 + 11.927741f * mu_b1 + 4.5747404f * mu_b2 + 2.0265558f * mu_b3 + 0.36514655f * mu_b4 + 0.049801763f * mu_u5;
+    const float q_2_3 = 8.890944f * mu_v5 + 12.167382f * mu_b1 + 5.8017945f * mu_b2 + 3.0987313f * mu_b3 + 0.6532385f * mu_b4 + 0.07986362f * mu_u5;
+    const float q_2_4 = 4.475618f * mu_v5 + 6.633218f * mu_b1 + 4.11728f * mu_b2 + 2.4835808f * mu_b3 + 0.5932792f * mu_b4 + 0.069378465f * mu_u5;
+    const float q_2_5 = 0.93877333f * mu_v5 + 1.5917337f * mu_b1 + 1.3216316f * mu_b2 + 0.89335334f * mu_b3 + 0.25951537f * mu_b4 + 0.034833215f * mu_u5;
+    const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
+    const float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }

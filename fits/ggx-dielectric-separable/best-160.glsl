@@ -13,47 +13,39 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 b380f5784ec5d82289b8134e4d8b081ea659c32d441d841edfaba73e993829fc.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 27800 of 40960 points; best pole-certified start refined on all points.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c5ae3dc67603ee989731afaec8540408da7ec3dc9347614329c716ed3f170201.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.2e-6, shifted 3.8e-6, bernstein 3.9e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 9.68e-5, max 2.60e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.11e-7 (every op rounded, as this Rust), 4.83e-7 (fused multiply-add), 6.47e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.36e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.66e-5, max 2.60e-3; this f32 code MAE 9.66e-5, max 2.60e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.6e-5 on the measurement grid.
-// Denominator proved >= 7.166e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-5, shifted 1.5e-5, bernstein 9.6e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 1.12e-4, max 1.71e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.54e-7 (every op rounded, as this Rust), 3.93e-7 (fused multiply-add), 9.46e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.19e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.12e-4, max 1.71e-3; this f32 code MAE 1.12e-4, max 1.71e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.8e-5 on the measurement grid.
+// Denominator proved >= 2.861e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
-    // t = sqrt(f0)
-    highp float f0_t = sqrt(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    highp float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // u = (t - 0.11180339887498948)/(0.5 - 0.11180339887498948) in [0, 1]
-    highp float f0_u = (f0_t - 0.1118034) * 2.5760143;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    highp float f0_v = 1.0 - f0_u;
-    highp float f0_u2 = f0_u * f0_u;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
+    highp float f0_v = 1.0 - f0_t;
+    highp float f0_u2 = f0_t * f0_t;
     highp float f0_v2 = f0_v * f0_v;
-    highp float f0_u3 = f0_u2 * f0_u;
+    highp float f0_u3 = f0_u2 * f0_t;
     highp float f0_v3 = f0_v2 * f0_v;
-    highp float f0_u4 = f0_u3 * f0_u;
-    highp float f0_v4 = f0_v3 * f0_v;
-    highp float f0_u5 = f0_u4 * f0_u;
-    highp float f0_v5 = f0_v4 * f0_v;
-    highp float f0_b1 = f0_u * f0_v4;
-    highp float f0_b2 = f0_u2 * f0_v3;
-    highp float f0_b3 = f0_u3 * f0_v2;
-    highp float f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    highp float f0_b1 = f0_t * f0_v2;
+    highp float f0_b2 = f0_u2 * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
     highp float r_v = 1.0 - r_t;
     highp float r_u2 = r_t * r_t;
     highp float r_v2 = r_v * r_v;
@@ -63,13 +55,16 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     highp float r_v4 = r_v3 * r_v;
     highp float r_u5 = r_u4 * r_t;
     highp float r_v5 = r_v4 * r_v;
-    highp float r_b1 = r_t * r_v4;
-    highp float r_b2 = r_u2 * r_v3;
-    highp float r_b3 = r_u3 * r_v2;
-    highp float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    highp float mu_u = (mu_t - 7.888609e-31) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    highp float r_u6 = r_u5 * r_t;
+    highp float r_v6 = r_v5 * r_v;
+    highp float r_b1 = r_t * r_v5;
+    highp float r_b2 = r_u2 * r_v4;
+    highp float r_b3 = r_u3 * r_v3;
+    highp float r_b4 = r_u4 * r_v2;
+    highp float r_b5 = r_u5 * r_v;
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
     highp float mu_v = 1.0 - mu_u;
     highp float mu_u2 = mu_u * mu_u;
     highp float mu_v2 = mu_v * mu_v;
@@ -79,98 +74,81 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     highp float mu_v4 = mu_v3 * mu_v;
     highp float mu_u5 = mu_u4 * mu_u;
     highp float mu_v5 = mu_v4 * mu_v;
-    highp float mu_b1 = mu_u * mu_v4;
-    highp float mu_b2 = mu_u2 * mu_v3;
-    highp float mu_b3 = mu_u3 * mu_v2;
-    highp float mu_b4 = mu_u4 * mu_v;
+    highp float mu_u6 = mu_u5 * mu_u;
+    highp float mu_v6 = mu_v5 * mu_v;
+    highp float mu_b1 = mu_u * mu_v5;
+    highp float mu_b2 = mu_u2 * mu_v4;
+    highp float mu_b3 = mu_u3 * mu_v3;
+    highp float mu_b4 = mu_u4 * mu_v2;
+    highp float mu_b5 = mu_u5 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0_0 = -3.8510025 * mu_v5 - 13.14317 * mu_b1 - 10.743079 * mu_b2 - 7.842113 * mu_b3 - 0.82159 * mu_b4 - 1.1907747 * mu_u5;
-    highp float p_0_1 = -34.45123 * mu_v5 - 103.58876 * mu_b1 - 112.54626 * mu_b2 - 87.98715 * mu_b3 - 30.571457 * mu_b4 - 19.794962 * mu_u5;
-    highp float p_0_2 = -121.740524 * mu_v5 - 438.2564 * mu_b1 - 615.8133 * mu_b2 - 421.56223 * mu_b3 - 100.06636 * mu_b4 - 45.405403 * mu_u5;
-    highp float p_0_3 = -189.82687 * mu_v5 - 846.7434 * mu_b1 - 1428.6711 * mu_b2 - 1057.9954 * mu_b3 - 287.65997 * mu_b4 - 69.02308 * mu_u5;
-    highp float p_0_4 = -133.44691 * mu_v5 - 720.20734 * mu_b1 - 1373.1262 * mu_b2 - 1111.8494 * mu_b3 - 357.72882 * mu_b4 - 66.04724 * mu_u5;
-    highp float p_0_5 = -37.741173 * mu_v5 - 236.179 * mu_b1 - 488.27365 * mu_b2 - 425.07956 * mu_b3 - 155.28957 * mu_b4 - 26.806221 * mu_u5;
-    highp float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    highp float p_1_0 = -32.24869 * mu_v5 - 109.42135 * mu_b1 - 89.16716 * mu_b2 - 46.720566 * mu_b3 - 11.539177 * mu_b4 - 10.615046 * mu_u5;
-    highp float p_1_1 = -274.62146 * mu_v5 - 871.1186 * mu_b1 - 951.3422 * mu_b2 - 637.30383 * mu_b3 - 227.19765 * mu_b4 - 113.74861 * mu_u5;
-    highp float p_1_2 = -945.32477 * mu_v5 - 3312.6914 * mu_b1 - 4391.293 * mu_b2 - 2855.4685 * mu_b3 - 750.6239 * mu_b4 - 257.1007 * mu_u5;
-    highp float p_1_3 = -1477.117 * mu_v5 - 5914.5605 * mu_b1 - 9073.61 * mu_b2 - 6368.0703 * mu_b3 - 1776.3136 * mu_b4 - 382.42944 * mu_u5;
-    highp float p_1_4 = -1052.1969 * mu_v5 - 4764.521 * mu_b1 - 8110.3545 * mu_b2 - 6168.0913 * mu_b3 - 1945.8549 * mu_b4 - 344.80338 * mu_u5;
-    highp float p_1_5 = -292.93616 * mu_v5 - 1475.4761 * mu_b1 - 2714.904 * mu_b2 - 2213.9485 * mu_b3 - 779.0278 * mu_b4 - 131.2453 * mu_u5;
-    highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    highp float p_2_0 = -79.14828 * mu_v5 - 266.55457 * mu_b1 - 208.188 * mu_b2 - 95.67341 * mu_b3 - 33.400623 * mu_b4 - 26.112816 * mu_u5;
-    highp float p_2_1 = -687.9427 * mu_v5 - 2189.8496 * mu_b1 - 2349.0198 * mu_b2 - 1496.456 * mu_b3 - 545.16614 * mu_b4 - 233.84235 * mu_u5;
-    highp float p_2_2 = -2396.8013 * mu_v5 - 8157.409 * mu_b1 - 10365.984 * mu_b2 - 6532.2383 * mu_b3 - 1769.2567 * mu_b4 - 518.4341 * mu_u5;
-    highp float p_2_3 = -3799.3135 * mu_v5 - 14251.719 * mu_b1 - 20535.104 * mu_b2 - 13855.448 * mu_b3 - 3870.8438 * mu_b4 - 774.1329 * mu_u5;
-    highp float p_2_4 = -2746.3835 * mu_v5 - 11273.757 * mu_b1 - 17769.768 * mu_b2 - 12874.544 * mu_b3 - 3979.2964 * mu_b4 - 685.16534 * mu_u5;
-    highp float p_2_5 = -764.8856 * mu_v5 - 3405.195 * mu_b1 - 5757.901 * mu_b2 - 4448.6357 * mu_b3 - 1514.986 * mu_b4 - 251.54546 * mu_u5;
-    highp float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    highp float p_3_0 = -87.6136 * mu_v5 - 291.48938 * mu_b1 - 217.98332 * mu_b2 - 98.06855 * mu_b3 - 44.04352 * mu_b4 - 27.686375 * mu_u5;
-    highp float p_3_1 = -801.41833 * mu_v5 - 2530.0508 * mu_b1 - 2685.7644 * mu_b2 - 1709.416 * mu_b3 - 643.40826 * mu_b4 - 229.14346 * mu_u5;
-    highp float p_3_2 = -2845.6765 * mu_v5 - 9405.214 * mu_b1 - 11564.577 * mu_b2 - 7186.9956 * mu_b3 - 2008.0969 * mu_b4 - 502.17938 * mu_u5;
-    highp float p_3_3 = -4569.6235 * mu_v5 - 16276.207 * mu_b1 - 22301.242 * mu_b2 - 14605.799 * mu_b3 - 4097.7896 * mu_b4 - 762.6887 * mu_u5;
-    highp float p_3_4 = -3340.696 * mu_v5 - 12759.157 * mu_b1 - 18891.686 * mu_b2 - 13138.254 * mu_b3 - 4000.1296 * mu_b4 - 673.1193 * mu_u5;
-    highp float p_3_5 = -932.7527 * mu_v5 - 3798.646 * mu_b1 - 5985.3237 * mu_b2 - 4406.187 * mu_b3 - 1460.1144 * mu_b4 - 240.96138 * mu_u5;
-    highp float p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    highp float p_4_0 = -45.213024 * mu_v5 - 145.10527 * mu_b1 - 96.72929 * mu_b2 - 41.89418 * mu_b3 - 23.85282 * mu_b4 - 12.597609 * mu_u5;
-    highp float p_4_1 = -451.35983 * mu_v5 - 1394.5216 * mu_b1 - 1455.6449 * mu_b2 - 940.9426 * mu_b3 - 365.18155 * mu_b4 - 105.73167 * mu_u5;
-    highp float p_4_2 = -1641.1227 * mu_v5 - 5249.233 * mu_b1 - 6247.724 * mu_b2 - 3849.081 * mu_b3 - 1103.1188 * mu_b4 - 231.6709 * mu_u5;
-    highp float p_4_3 = -2663.5518 * mu_v5 - 9050.003 * mu_b1 - 11832.021 * mu_b2 - 7538.6406 * mu_b3 - 2119.205 * mu_b4 - 364.15378 * mu_u5;
-    highp float p_4_4 = -1962.9169 * mu_v5 - 7056.5376 * mu_b1 - 9868.408 * mu_b2 - 6598.207 * mu_b3 - 1980.0828 * mu_b4 - 325.67337 * mu_u5;
-    highp float p_4_5 = -549.2453 * mu_v5 - 2080.8718 * mu_b1 - 3074.2375 * mu_b2 - 2158.641 * mu_b3 - 697.18884 * mu_b4 - 114.96065 * mu_u5;
-    highp float p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    highp float p_5_0 = -8.906386 * mu_v5 - 26.674126 * mu_b1 - 14.07362 * mu_b2 - 6.184319 * mu_b3 - 5.2742043 * mu_b4 - 2.1561525 * mu_u5;
-    highp float p_5_1 = -100.49586 * mu_v5 - 300.7001 * mu_b1 - 307.92316 * mu_b2 - 206.48465 * mu_b3 - 84.22255 * mu_b4 - 19.258757 * mu_u5;
-    highp float p_5_2 = -374.2271 * mu_v5 - 1154.8115 * mu_b1 - 1329.2893 * mu_b2 - 816.05444 * mu_b3 - 241.53975 * mu_b4 - 41.794 * mu_u5;
-    highp float p_5_3 = -611.5153 * mu_v5 - 1985.5162 * mu_b1 - 2476.5806 * mu_b2 - 1533.8523 * mu_b3 - 431.42426 * mu_b4 - 67.75535 * mu_u5;
-    highp float p_5_4 = -452.63647 * mu_v5 - 1540.7324 * mu_b1 - 2037.0803 * mu_b2 - 1306.0739 * mu_b3 - 385.03265 * mu_b4 - 61.745113 * mu_u5;
-    highp float p_5_5 = -126.739624 * mu_v5 - 450.9059 * mu_b1 - 625.7479 * mu_b2 - 417.7841 * mu_b3 - 131.10403 * mu_b4 - 21.662003 * mu_u5;
-    highp float p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    highp float p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
+    highp float p_0_0 = 0.93607944 * mu_v6 + 4.276971 * mu_b1 + 4.671561 * mu_b2 + 1.237638 * mu_b3 + 0.7565281 * mu_b4 - 0.00045736984 * mu_b5 + 0.041204974 * mu_u6;
+    highp float p_0_1 = 7.3018694 * mu_v6 + 31.601591 * mu_b1 + 40.871502 * mu_b2 + 19.215446 * mu_b3 + 7.83249 * mu_b4 + 0.37280545 * mu_b5 + 0.53130776 * mu_u6;
+    highp float p_0_2 = 24.326128 * mu_v6 + 103.634544 * mu_b1 + 160.60657 * mu_b2 + 111.61355 * mu_b3 + 46.86836 * mu_b4 + 5.2078037 * mu_b5 + 2.023157 * mu_u6;
+    highp float p_0_3 = 41.52221 * mu_v6 + 175.02039 * mu_b1 + 310.0935 * mu_b2 + 267.61722 * mu_b3 + 124.132126 * mu_b4 + 19.205301 * mu_b5 + 3.9195051 * mu_u6;
+    highp float p_0_4 = 40.489876 * mu_v6 + 170.17023 * mu_b1 + 336.24097 * mu_b2 + 338.09387 * mu_b3 + 173.42645 * mu_b4 + 32.602943 * mu_b5 + 4.078084 * mu_u6;
+    highp float p_0_5 = 21.311096 * mu_v6 + 89.60737 * mu_b1 + 191.68472 * mu_b2 + 213.04584 * mu_b3 + 116.781975 * mu_b4 + 23.562584 * mu_b5 + 1.7853353 * mu_u6;
+    highp float p_0_6 = 4.577083 * mu_v6 + 19.31154 * mu_b1 + 44.04047 * mu_b2 + 52.813248 * mu_b3 + 30.605104 * mu_b4 + 6.4943376 * mu_b5 + 0.28769225 * mu_u6;
+    highp float p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
+    highp float p_1_0 = 2.8092215 * mu_v6 + 12.826797 * mu_b1 + 13.997221 * mu_b2 + 3.8520787 * mu_b3 + 2.2290678 * mu_b4 - 0.0006784443 * mu_b5 + 0.123628736 * mu_u6;
+    highp float p_1_1 = 21.585995 * mu_v6 + 94.24952 * mu_b1 + 118.93173 * mu_b2 + 55.066 * mu_b3 + 23.256723 * mu_b4 + 1.1634198 * mu_b5 + 1.5901468 * mu_u6;
+    highp float p_1_2 = 81.27708 * mu_v6 + 345.15494 * mu_b1 + 505.8872 * mu_b2 + 332.15482 * mu_b3 + 136.31575 * mu_b4 + 15.059143 * mu_b5 + 6.1030145 * mu_u6;
+    highp float p_1_3 = 159.63144 * mu_v6 + 671.12463 * mu_b1 + 1086.0133 * mu_b2 + 854.3885 * mu_b3 + 376.07718 * mu_b4 + 58.246784 * mu_b5 + 11.656832 * mu_u6;
+    highp float p_1_4 = 169.43886 * mu_v6 + 714.52814 * mu_b1 + 1244.7385 * mu_b2 + 1103.567 * mu_b3 + 527.4726 * mu_b4 + 98.29372 * mu_b5 + 11.953093 * mu_u6;
+    highp float p_1_5 = 91.80351 * mu_v6 + 389.99985 * mu_b1 + 717.436 * mu_b2 + 688.75635 * mu_b3 + 348.52115 * mu_b4 + 69.30968 * mu_b5 + 5.1909347 * mu_u6;
+    highp float p_1_6 = 20.060051 * mu_v6 + 86.24966 * mu_b1 + 166.22194 * mu_b2 + 169.92212 * mu_b3 + 90.301544 * mu_b4 + 18.753256 * mu_b5 + 0.8224361 * mu_u6;
+    highp float p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
+    highp float p_2_0 = 2.8084059 * mu_v6 + 12.8289175 * mu_b1 + 13.990036 * mu_b2 + 3.8141396 * mu_b3 + 2.229337 * mu_b4 + 0.0007925067 * mu_b5 + 0.12361612 * mu_u6;
+    highp float p_2_1 = 21.65069 * mu_v6 + 94.53376 * mu_b1 + 119.45417 * mu_b2 + 55.89972 * mu_b3 + 23.78038 * mu_b4 + 0.99863505 * mu_b5 + 1.5921412 * mu_u6;
+    highp float p_2_2 = 80.02531 * mu_v6 + 340.49738 * mu_b1 + 494.54852 * mu_b2 + 321.75528 * mu_b3 + 134.57222 * mu_b4 + 15.384401 * mu_b5 + 6.104196 * mu_u6;
+    highp float p_2_3 = 165.5895 * mu_v6 + 697.5254 * mu_b1 + 1107.5475 * mu_b2 + 849.6338 * mu_b3 + 372.03235 * mu_b4 + 59.371174 * mu_b5 + 11.51197 * mu_u6;
+    highp float p_2_4 = 191.02365 * mu_v6 + 806.274 * mu_b1 + 1354.6107 * mu_b2 + 1141.1698 * mu_b3 + 526.052 * mu_b4 + 98.324745 * mu_b5 + 11.695343 * mu_u6;
+    highp float p_2_5 = 111.33328 * mu_v6 + 471.9153 * mu_b1 + 819.34534 * mu_b2 + 726.0887 * mu_b3 + 344.23178 * mu_b4 + 66.78174 * mu_b5 + 4.9206233 * mu_u6;
+    highp float p_2_6 = 25.38325 * mu_v6 + 108.37706 * mu_b1 + 193.20486 * mu_b2 + 178.22594 * mu_b3 + 87.19821 * mu_b4 + 17.444504 * mu_b5 + 0.76872814 * mu_u6;
+    highp float p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
+    highp float p_3_0 = 0.9361512 * mu_v6 + 4.2720704 * mu_b1 + 4.69293 * mu_b2 + 1.2414238 * mu_b3 + 0.7508569 * mu_b4 + 0.0001282566 * mu_b5 + 0.04120334 * mu_u6;
+    highp float p_3_1 = 7.2759047 * mu_v6 + 31.726307 * mu_b1 + 40.228897 * mu_b2 + 18.859993 * mu_b3 + 8.303067 * mu_b4 + 0.30792683 * mu_b5 + 0.53147036 * mu_u6;
+    highp float p_3_2 = 27.078222 * mu_v6 + 114.98914 * mu_b1 + 165.0413 * mu_b2 + 105.42009 * mu_b3 + 44.897453 * mu_b4 + 5.018746 * mu_b5 + 2.0237792 * mu_u6;
+    highp float p_3_3 = 57.569542 * mu_v6 + 243.06499 * mu_b1 + 379.23376 * mu_b2 + 283.90927 * mu_b3 + 124.4946 * mu_b4 + 19.935104 * mu_b5 + 3.7618475 * mu_u6;
+    highp float p_3_4 = 68.721466 * mu_v6 + 291.25674 * mu_b1 + 476.70697 * mu_b2 + 385.7818 * mu_b3 + 173.16878 * mu_b4 + 31.539473 * mu_b5 + 3.5935888 * mu_u6;
+    highp float p_3_5 = 41.69687 * mu_v6 + 177.20613 * mu_b1 + 296.35757 * mu_b2 + 247.47505 * mu_b3 + 111.18227 * mu_b4 + 20.56578 * mu_b5 + 1.4553703 * mu_u6;
+    highp float p_3_6 = 9.939859 * mu_v6 + 42.279797 * mu_b1 + 71.37983 * mu_b2 + 60.46876 * mu_b3 + 27.163675 * mu_b4 + 5.050795 * mu_b5 + 0.22350495 * mu_u6;
+    highp float p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
+    highp float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = -4.1146445 * mu_v5 - 14.295107 * mu_b1 - 13.932958 * mu_b2 - 8.264908 * mu_b3 - 0.812217 * mu_b4 - 1.190747 * mu_u5;
-    highp float q_0_1 = -35.6394 * mu_v5 - 106.74299 * mu_b1 - 127.20683 * mu_b2 - 91.33574 * mu_b3 - 30.592743 * mu_b4 - 19.814964 * mu_u5;
-    highp float q_0_2 = -141.77759 * mu_v5 - 464.88715 * mu_b1 - 653.78534 * mu_b2 - 448.00818 * mu_b3 - 113.64759 * mu_b4 - 45.224613 * mu_u5;
-    highp float q_0_3 = -317.43793 * mu_v5 - 1106.7196 * mu_b1 - 1619.3094 * mu_b2 - 1114.8148 * mu_b3 - 306.5097 * mu_b4 - 70.63203 * mu_u5;
-    highp float q_0_4 = -369.39694 * mu_v5 - 1313.6661 * mu_b1 - 1895.2981 * mu_b2 - 1288.585 * mu_b3 - 379.91156 * mu_b4 - 66.810234 * mu_u5;
-    highp float q_0_5 = -167.99734 * mu_v5 - 608.3131 * mu_b1 - 874.3548 * mu_b2 - 596.5622 * mu_b3 - 186.19632 * mu_b4 - 28.564075 * mu_u5;
-    highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    highp float q_1_0 = -34.40411 * mu_v5 - 119.576256 * mu_b1 - 111.16083 * mu_b2 - 51.338634 * mu_b3 - 11.510149 * mu_b4 - 10.614917 * mu_u5;
-    highp float q_1_1 = -286.04846 * mu_v5 - 918.80347 * mu_b1 - 1070.6816 * mu_b2 - 673.52203 * mu_b3 - 227.10757 * mu_b4 - 113.78576 * mu_u5;
-    highp float q_1_2 = -1051.4122 * mu_v5 - 3508.7363 * mu_b1 - 4690.005 * mu_b2 - 3044.1704 * mu_b3 - 824.449 * mu_b4 - 257.50647 * mu_u5;
-    highp float q_1_3 = -2110.1326 * mu_v5 - 7261.3247 * mu_b1 - 10142.554 * mu_b2 - 6728.239 * mu_b3 - 1885.6555 * mu_b4 - 393.32574 * mu_u5;
-    highp float q_1_4 = -2227.2466 * mu_v5 - 7769.22 * mu_b1 - 10833.354 * mu_b2 - 7153.142 * mu_b3 - 2094.9565 * mu_b4 - 355.46744 * mu_u5;
-    highp float q_1_5 = -945.8094 * mu_v5 - 3362.0413 * mu_b1 - 4710.557 * mu_b2 - 3136.1646 * mu_b3 - 962.7894 * mu_b4 - 145.40472 * mu_u5;
-    highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    highp float q_2_0 = -84.545 * mu_v5 - 292.3216 * mu_b1 - 259.33835 * mu_b2 - 107.71168 * mu_b3 - 33.35265 * mu_b4 - 26.112158 * mu_u5;
-    highp float q_2_1 = -718.2213 * mu_v5 - 2329.5793 * mu_b1 - 2650.4797 * mu_b2 - 1593.579 * mu_b3 - 543.80914 * mu_b4 - 233.899 * mu_u5;
-    highp float q_2_2 = -2613.561 * mu_v5 - 8634.721 * mu_b1 - 11118.25 * mu_b2 - 6989.735 * mu_b3 - 1925.4855 * mu_b4 - 521.93524 * mu_u5;
-    highp float q_2_3 = -5050.269 * mu_v5 - 17007.11 * mu_b1 - 22855.014 * mu_b2 - 14705.51 * mu_b3 - 4120.69 * mu_b4 - 802.44775 * mu_u5;
-    highp float q_2_4 = -5087.4995 * mu_v5 - 17354.637 * mu_b1 - 23437.133 * mu_b2 - 15055.085 * mu_b3 - 4362.5967 * mu_b4 - 722.0538 * mu_u5;
-    highp float q_2_5 = -2074.9702 * mu_v5 - 7234.263 * mu_b1 - 9887.773 * mu_b2 - 6431.9907 * mu_b3 - 1946.2098 * mu_b4 - 291.60922 * mu_u5;
-    highp float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    highp float q_3_0 = -93.593666 * mu_v5 - 319.6635 * mu_b1 - 271.70706 * mu_b2 - 110.872505 * mu_b3 - 44.01359 * mu_b4 - 27.687738 * mu_u5;
-    highp float q_3_1 = -836.7936 * mu_v5 - 2699.1577 * mu_b1 - 3026.774 * mu_b2 - 1820.4324 * mu_b3 - 640.691 * mu_b4 - 229.21558 * mu_u5;
-    highp float q_3_2 = -3063.8652 * mu_v5 - 9942.518 * mu_b1 - 12430.149 * mu_b2 - 7704.369 * mu_b3 - 2171.934 * mu_b4 - 508.15652 * mu_u5;
-    highp float q_3_3 = -5806.2393 * mu_v5 - 19083.475 * mu_b1 - 24784.682 * mu_b2 - 15581.942 * mu_b3 - 4383.374 * mu_b4 - 797.9716 * mu_u5;
-    highp float q_3_4 = -5676.9688 * mu_v5 - 18922.555 * mu_b1 - 24798.049 * mu_b2 - 15549.607 * mu_b3 - 4479.8164 * mu_b4 - 727.2211 * mu_u5;
-    highp float q_3_5 = -2249.2498 * mu_v5 - 7691.376 * mu_b1 - 10266.999 * mu_b2 - 6541.022 * mu_b3 - 1960.9734 * mu_b4 - 293.73294 * mu_u5;
-    highp float q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    highp float q_4_0 = -48.288097 * mu_v5 - 159.0136 * mu_b1 - 122.7399 * mu_b2 - 47.7208 * mu_b3 - 23.848402 * mu_b4 - 12.59672 * mu_u5;
-    highp float q_4_1 = -471.0453 * mu_v5 - 1488.4985 * mu_b1 - 1637.2383 * mu_b2 - 999.56714 * mu_b3 - 363.23227 * mu_b4 - 105.72381 * mu_u5;
-    highp float q_4_2 = -1751.3834 * mu_v5 - 5542.854 * mu_b1 - 6726.769 * mu_b2 - 4133.4854 * mu_b3 - 1189.2177 * mu_b4 - 235.57814 * mu_u5;
-    highp float q_4_3 = -3277.9126 * mu_v5 - 10485.417 * mu_b1 - 13161.365 * mu_b2 - 8096.7974 * mu_b3 - 2283.6257 * mu_b4 - 385.23602 * mu_u5;
-    highp float q_4_4 = -3132.5532 * mu_v5 - 10192.108 * mu_b1 - 12959.939 * mu_b2 - 7935.5107 * mu_b3 - 2274.8608 * mu_b4 - 362.00864 * mu_u5;
-    highp float q_4_5 = -1212.1941 * mu_v5 - 4064.6965 * mu_b1 - 5300.1187 * mu_b2 - 3309.6257 * mu_b3 - 985.7057 * mu_b4 - 148.15108 * mu_u5;
-    highp float q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    highp float q_5_0 = -9.509339 * mu_v5 - 29.187445 * mu_b1 - 18.737123 * mu_b2 - 7.080039 * mu_b3 - 5.2864256 * mu_b4 - 2.156348 * mu_u5;
-    highp float q_5_1 = -104.860855 * mu_v5 - 320.8442 * mu_b1 - 345.43826 * mu_b2 - 218.49637 * mu_b3 - 83.82006 * mu_b4 - 19.233343 * mu_u5;
-    highp float q_5_2 = -397.03854 * mu_v5 - 1219.1765 * mu_b1 - 1434.5874 * mu_b2 - 878.62665 * mu_b3 - 259.93655 * mu_b4 - 42.66882 * mu_u5;
-    highp float q_5_3 = -734.8416 * mu_v5 - 2282.416 * mu_b1 - 2764.3916 * mu_b2 - 1662.8792 * mu_b3 - 469.7647 * mu_b4 - 72.61222 * mu_u5;
-    highp float q_5_4 = -688.03125 * mu_v5 - 2182.6213 * mu_b1 - 2688.936 * mu_b2 - 1604.3999 * mu_b3 - 456.58038 * mu_b4 - 70.98101 * mu_u5;
-    highp float q_5_5 = -260.66217 * mu_v5 - 856.6525 * mu_b1 - 1090.2853 * mu_b2 - 666.5858 * mu_b3 - 197.146 * mu_b4 - 29.746084 * mu_u5;
-    highp float q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    highp float q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
+    highp float q_0_0 = 1.0 * mu_v6 + 4.568857 * mu_b1 + 5.040267 * mu_b2 + 1.6843363 * mu_b3 + 0.8409333 * mu_b4 - 0.0005688092 * mu_b5 + 0.04120637 * mu_u6;
+    highp float q_0_1 = 7.495099 * mu_v6 + 32.942654 * mu_b1 + 41.15573 * mu_b2 + 20.772064 * mu_b3 + 8.873614 * mu_b4 + 0.3221194 * mu_b5 + 0.53108215 * mu_u6;
+    highp float q_0_2 = 29.47367 * mu_v6 + 125.9019 * mu_b1 + 177.82973 * mu_b2 + 116.95558 * mu_b3 + 49.403835 * mu_b4 + 5.8395805 * mu_b5 + 2.036561 * mu_u6;
+    highp float q_0_3 = 65.33347 * mu_v6 + 275.70377 * mu_b1 + 417.06235 * mu_b2 + 306.55536 * mu_b3 + 130.6347 * mu_b4 + 21.291296 * mu_b5 + 3.9155402 * mu_u6;
+    highp float q_0_4 = 89.00653 * mu_v6 + 376.5045 * mu_b1 + 596.7913 * mu_b2 + 465.73843 * mu_b3 + 198.53064 * mu_b4 + 36.21554 * mu_b5 + 4.176717 * mu_u6;
+    highp float q_0_5 = 66.79348 * mu_v6 + 283.53558 * mu_b1 + 459.40433 * mu_b2 + 364.71588 * mu_b3 + 150.47876 * mu_b4 + 26.273354 * mu_b5 + 1.8669173 * mu_u6;
+    highp float q_0_6 = 20.389359 * mu_v6 + 86.69174 * mu_b1 + 141.67358 * mu_b2 + 112.61491 * mu_b3 + 44.924133 * mu_b4 + 7.3171997 * mu_b5 + 0.30655327 * mu_u6;
+    highp float q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
+    highp float q_1_0 = 3.0 * mu_v6 + 13.706572 * mu_b1 + 15.120801 * mu_b2 + 5.053009 * mu_b3 + 2.5228 * mu_b4 - 0.0017064275 * mu_b5 + 0.12361912 * mu_u6;
+    highp float q_1_1 = 22.485298 * mu_v6 + 98.82796 * mu_b1 + 123.46719 * mu_b2 + 62.316193 * mu_b3 + 26.620844 * mu_b4 + 0.96635824 * mu_b5 + 1.5932465 * mu_u6;
+    highp float q_1_2 = 88.421005 * mu_v6 + 377.70572 * mu_b1 + 533.4892 * mu_b2 + 350.86676 * mu_b3 + 148.21152 * mu_b4 + 17.518742 * mu_b5 + 6.1096826 * mu_u6;
+    highp float q_1_3 = 196.00043 * mu_v6 + 827.1113 * mu_b1 + 1251.1871 * mu_b2 + 919.6661 * mu_b3 + 391.90408 * mu_b4 + 63.873886 * mu_b5 + 11.74662 * mu_u6;
+    highp float q_1_4 = 267.0196 * mu_v6 + 1129.5135 * mu_b1 + 1790.3739 * mu_b2 + 1397.2152 * mu_b3 + 595.5919 * mu_b4 + 108.64662 * mu_b5 + 12.530149 * mu_u6;
+    highp float q_1_5 = 200.38045 * mu_v6 + 850.60675 * mu_b1 + 1378.213 * mu_b2 + 1094.1476 * mu_b3 + 451.43628 * mu_b4 + 78.82006 * mu_b5 + 5.600752 * mu_u6;
+    highp float q_1_6 = 61.16807 * mu_v6 + 260.07523 * mu_b1 + 425.02075 * mu_b2 + 337.84473 * mu_b3 + 134.7724 * mu_b4 + 21.9516 * mu_b5 + 0.91965985 * mu_u6;
+    highp float q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
+    highp float q_2_0 = 3.0 * mu_v6 + 13.706572 * mu_b1 + 15.120801 * mu_b2 + 5.053009 * mu_b3 + 2.5228 * mu_b4 - 0.0017064275 * mu_b5 + 0.12361912 * mu_u6;
+    highp float q_2_1 = 22.485298 * mu_v6 + 98.82796 * mu_b1 + 123.46719 * mu_b2 + 62.316193 * mu_b3 + 26.620844 * mu_b4 + 0.96635824 * mu_b5 + 1.5932465 * mu_u6;
+    highp float q_2_2 = 88.421005 * mu_v6 + 377.70572 * mu_b1 + 533.4892 * mu_b2 + 350.86676 * mu_b3 + 148.21152 * mu_b4 + 17.518742 * mu_b5 + 6.1096826 * mu_u6;
+    highp float q_2_3 = 196.00043 * mu_v6 + 827.1113 * mu_b1 + 1251.1871 * mu_b2 + 919.6661 * mu_b3 + 391.90408 * mu_b4 + 63.873886 * mu_b5 + 11.74662 * mu_u6;
+    highp float q_2_4 = 267.0196 * mu_v6 + 1129.5135 * mu_b1 + 1790.3739 * mu_b2 + 1397.2152 * mu_b3 + 595.5919 * mu_b4 + 108.64662 * mu_b5 + 12.530149 * mu_u6;
+    highp float q_2_5 = 200.38045 * mu_v6 + 850.60675 * mu_b1 + 1378.213 * mu_b2 + 1094.1476 * mu_b3 + 451.43628 * mu_b4 + 78.82006 * mu_b5 + 5.600752 * mu_u6;
+    highp float q_2_6 = 61.16807 * mu_v6 + 260.07523 * mu_b1 + 425.02075 * mu_b2 + 337.84473 * mu_b3 + 134.7724 * mu_b4 + 21.9516 * mu_b5 + 0.91965985 * mu_u6;
+    highp float q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
+    highp float q_3_0 = 1.0 * mu_v6 + 4.568857 * mu_b1 + 5.040267 * mu_b2 + 1.6843363 * mu_b3 + 0.8409333 * mu_b4 - 0.0005688092 * mu_b5 + 0.04120637 * mu_u6;
+    highp float q_3_1 = 7.495099 * mu_v6 + 32.942654 * mu_b1 + 41.15573 * mu_b2 + 20.772064 * mu_b3 + 8.873614 * mu_b4 + 0.3221194 * mu_b5 + 0.53108215 * mu_u6;
+    highp float q_3_2 = 29.47367 * mu_v6 + 125.9019 * mu_b1 + 177.82973 * mu_b2 + 116.95558 * mu_b3 + 49.403835 * mu_b4 + 5.8395805 * mu_b5 + 2.036561 * mu_u6;
+    highp float q_3_3 = 65.33347 * mu_v6 + 275.70377 * mu_b1 + 417.06235 * mu_b2 + 306.55536 * mu_b3 + 130.6347 * mu_b4 + 21.291296 * mu_b5 + 3.9155402 * mu_u6;
+    highp float q_3_4 = 89.00653 * mu_v6 + 376.5045 * mu_b1 + 596.7913 * mu_b2 + 465.73843 * mu_b3 + 198.53064 * mu_b4 + 36.21554 * mu_b5 + 4.176717 * mu_u6;
+    highp float q_3_5 = 66.79348 * mu_v6 + 283.53558 * mu_b1 + 459.40433 * mu_b2 + 364.71588 * mu_b3 + 150.47876 * mu_b4 + 26.273354 * mu_b5 + 1.8669173 * mu_u6;
+    highp float q_3_6 = 20.389359 * mu_v6 + 86.69174 * mu_b1 + 141.67358 * mu_b2 + 112.61491 * mu_b3 + 44.924133 * mu_b4 + 7.3171997 * mu_b5 + 0.30655327 * mu_u6;
+    highp float q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
+    highp float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

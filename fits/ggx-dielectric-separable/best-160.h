@@ -25,47 +25,39 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 b380f5784ec5d82289b8134e4d8b081ea659c32d441d841edfaba73e993829fc.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 27800 of 40960 points; best pole-certified start refined on all points.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c5ae3dc67603ee989731afaec8540408da7ec3dc9347614329c716ed3f170201.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.2e-6, shifted 3.8e-6, bernstein 3.9e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 9.68e-5, max 2.60e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.11e-7 (every op rounded, as this Rust), 4.83e-7 (fused multiply-add), 6.47e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.36e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.66e-5, max 2.60e-3; this f32 code MAE 9.66e-5, max 2.60e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.6e-5 on the measurement grid.
-// Denominator proved >= 7.166e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-5, shifted 1.5e-5, bernstein 9.6e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 1.12e-4, max 1.71e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.54e-7 (every op rounded, as this Rust), 3.93e-7 (fused multiply-add), 9.46e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.19e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.12e-4, max 1.71e-3; this f32 code MAE 1.12e-4, max 1.71e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.8e-5 on the measurement grid.
+// Denominator proved >= 2.861e-2 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
-    // t = sqrt(f0)
-    const float f0_t = sqrtf(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    const float f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017f) * 2.6828594f;
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // u = (t - 0.11180339887498948)/(0.5 - 0.11180339887498948) in [0, 1]
-    const float f0_u = (f0_t - 0.1118034f) * 2.5760143f;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    const float f0_v = 1.0f - f0_u;
-    const float f0_u2 = f0_u * f0_u;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
+    const float f0_v = 1.0f - f0_t;
+    const float f0_u2 = f0_t * f0_t;
     const float f0_v2 = f0_v * f0_v;
-    const float f0_u3 = f0_u2 * f0_u;
+    const float f0_u3 = f0_u2 * f0_t;
     const float f0_v3 = f0_v2 * f0_v;
-    const float f0_u4 = f0_u3 * f0_u;
-    const float f0_v4 = f0_v3 * f0_v;
-    const float f0_u5 = f0_u4 * f0_u;
-    const float f0_v5 = f0_v4 * f0_v;
-    const float f0_b1 = f0_u * f0_v4;
-    const float f0_b2 = f0_u2 * f0_v3;
-    const float f0_b3 = f0_u3 * f0_v2;
-    const float f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    const float f0_b1 = f0_t * f0_v2;
+    const float f0_b2 = f0_u2 * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
     const float r_v = 1.0f - r_t;
     const float r_u2 = r_t * r_t;
     const float r_v2 = r_v * r_v;
@@ -75,13 +67,16 @@ FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     const float r_v4 = r_v3 * r_v;
     const float r_u5 = r_u4 * r_t;
     const float r_v5 = r_v4 * r_v;
-    const float r_b1 = r_t * r_v4;
-    const float r_b2 = r_u2 * r_v3;
-    const float r_b3 = r_u3 * r_v2;
-    const float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    const float mu_u = (mu_t - 7.888609e-31f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    const float r_u6 = r_u5 * r_t;
+    const float r_v6 = r_v5 * r_v;
+    const float r_b1 = r_t * r_v5;
+    const float r_b2 = r_u2 * r_v4;
+    const float r_b3 = r_u3 * r_v3;
+    const float r_b4 = r_u4 * r_v2;
+    const float r_b5 = r_u5 * r_v;
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
     const float mu_v = 1.0f - mu_u;
     const float mu_u2 = mu_u * mu_u;
     const float mu_v2 = mu_v * mu_v;
@@ -91,98 +86,81 @@ FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     const float mu_v4 = mu_v3 * mu_v;
     const float mu_u5 = mu_u4 * mu_u;
     const float mu_v5 = mu_v4 * mu_v;
-    const float mu_b1 = mu_u * mu_v4;
-    const float mu_b2 = mu_u2 * mu_v3;
-    const float mu_b3 = mu_u3 * mu_v2;
-    const float mu_b4 = mu_u4 * mu_v;
+    const float mu_u6 = mu_u5 * mu_u;
+    const float mu_v6 = mu_v5 * mu_v;
+    const float mu_b1 = mu_u * mu_v5;
+    const float mu_b2 = mu_u2 * mu_v4;
+    const float mu_b3 = mu_u3 * mu_v3;
+    const float mu_b4 = mu_u4 * mu_v2;
+    const float mu_b5 = mu_u5 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = -3.8510025f * mu_v5 - 13.14317f * mu_b1 - 10.743079f * mu_b2 - 7.842113f * mu_b3 - 0.82159f * mu_b4 - 1.1907747f * mu_u5;
-    const float p_0_1 = -34.45123f * mu_v5 - 103.58876f * mu_b1 - 112.54626f * mu_b2 - 87.98715f * mu_b3 - 30.571457f * mu_b4 - 19.794962f * mu_u5;
-    const float p_0_2 = -121.740524f * mu_v5 - 438.2564f * mu_b1 - 615.8133f * mu_b2 - 421.56223f * mu_b3 - 100.06636f * mu_b4 - 45.405403f * mu_u5;
-    const float p_0_3 = -189.82687f * mu_v5 - 846.7434f * mu_b1 - 1428.6711f * mu_b2 - 1057.9954f * mu_b3 - 287.65997f * mu_b4 - 69.02308f * mu_u5;
-    const float p_0_4 = -133.44691f * mu_v5 - 720.20734f * mu_b1 - 1373.1262f * mu_b2 - 1111.8494f * mu_b3 - 357.72882f * mu_b4 - 66.04724f * mu_u5;
-    const float p_0_5 = -37.741173f * mu_v5 - 236.179f * mu_b1 - 488.27365f * mu_b2 - 425.07956f * mu_b3 - 155.28957f * mu_b4 - 26.806221f * mu_u5;
-    const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    const float p_1_0 = -32.24869f * mu_v5 - 109.42135f * mu_b1 - 89.16716f * mu_b2 - 46.720566f * mu_b3 - 11.539177f * mu_b4 - 10.615046f * mu_u5;
-    const float p_1_1 = -274.62146f * mu_v5 - 871.1186f * mu_b1 - 951.3422f * mu_b2 - 637.30383f * mu_b3 - 227.19765f * mu_b4 - 113.74861f * mu_u5;
-    const float p_1_2 = -945.32477f * mu_v5 - 3312.6914f * mu_b1 - 4391.293f * mu_b2 - 2855.4685f * mu_b3 - 750.6239f * mu_b4 - 257.1007f * mu_u5;
-    const float p_1_3 = -1477.117f * mu_v5 - 5914.5605f * mu_b1 - 9073.61f * mu_b2 - 6368.0703f * mu_b3 - 1776.3136f * mu_b4 - 382.42944f * mu_u5;
-    const float p_1_4 = -1052.1969f * mu_v5 - 4764.521f * mu_b1 - 8110.3545f * mu_b2 - 6168.0913f * mu_b3 - 1945.8549f * mu_b4 - 344.80338f * mu_u5;
-    const float p_1_5 = -292.93616f * mu_v5 - 1475.4761f * mu_b1 - 2714.904f * mu_b2 - 2213.9485f * mu_b3 - 779.0278f * mu_b4 - 131.2453f * mu_u5;
-    const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    const float p_2_0 = -79.14828f * mu_v5 - 266.55457f * mu_b1 - 208.188f * mu_b2 - 95.67341f * mu_b3 - 33.400623f * mu_b4 - 26.112816f * mu_u5;
-    const float p_2_1 = -687.9427f * mu_v5 - 2189.8496f * mu_b1 - 2349.0198f * mu_b2 - 1496.456f * mu_b3 - 545.16614f * mu_b4 - 233.84235f * mu_u5;
-    const float p_2_2 = -2396.8013f * mu_v5 - 8157.409f * mu_b1 - 10365.984f * mu_b2 - 6532.2383f * mu_b3 - 1769.2567f * mu_b4 - 518.4341f * mu_u5;
-    const float p_2_3 = -3799.3135f * mu_v5 - 14251.719f * mu_b1 - 20535.104f * mu_b2 - 13855.448f * mu_b3 - 3870.8438f * mu_b4 - 774.1329f * mu_u5;
-    const float p_2_4 = -2746.3835f * mu_v5 - 11273.757f * mu_b1 - 17769.768f * mu_b2 - 12874.544f * mu_b3 - 3979.2964f * mu_b4 - 685.16534f * mu_u5;
-    const float p_2_5 = -764.8856f * mu_v5 - 3405.195f * mu_b1 - 5757.901f * mu_b2 - 4448.6357f * mu_b3 - 1514.986f * mu_b4 - 251.54546f * mu_u5;
-    const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    const float p_3_0 = -87.6136f * mu_v5 - 291.48938f * mu_b1 - 217.98332f * mu_b2 - 98.06855f * mu_b3 - 44.04352f * mu_b4 - 27.686375f * mu_u5;
-    const float p_3_1 = -801.41833f * mu_v5 - 2530.0508f * mu_b1 - 2685.7644f * mu_b2 - 1709.416f * mu_b3 - 643.40826f * mu_b4 - 229.14346f * mu_u5;
-    const float p_3_2 = -2845.6765f * mu_v5 - 9405.214f * mu_b1 - 11564.577f * mu_b2 - 7186.9956f * mu_b3 - 2008.0969f * mu_b4 - 502.17938f * mu_u5;
-    const float p_3_3 = -4569.6235f * mu_v5 - 16276.207f * mu_b1 - 22301.242f * mu_b2 - 14605.799f * mu_b3 - 4097.7896f * mu_b4 - 762.6887f * mu_u5;
-    const float p_3_4 = -3340.696f * mu_v5 - 12759.157f * mu_b1 - 18891.686f * mu_b2 - 13138.254f * mu_b3 - 4000.1296f * mu_b4 - 673.1193f * mu_u5;
-    const float p_3_5 = -932.7527f * mu_v5 - 3798.646f * mu_b1 - 5985.3237f * mu_b2 - 4406.187f * mu_b3 - 1460.1144f * mu_b4 - 240.96138f * mu_u5;
-    const float p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    const float p_4_0 = -45.213024f * mu_v5 - 145.10527f * mu_b1 - 96.72929f * mu_b2 - 41.89418f * mu_b3 - 23.85282f * mu_b4 - 12.597609f * mu_u5;
-    const float p_4_1 = -451.35983f * mu_v5 - 1394.5216f * mu_b1 - 1455.6449f * mu_b2 - 940.9426f * mu_b3 - 365.18155f * mu_b4 - 105.73167f * mu_u5;
-    const float p_4_2 = -1641.1227f * mu_v5 - 5249.233f * mu_b1 - 6247.724f * mu_b2 - 3849.081f * mu_b3 - 1103.1188f * mu_b4 - 231.6709f * mu_u5;
-    const float p_4_3 = -2663.5518f * mu_v5 - 9050.003f * mu_b1 - 11832.021f * mu_b2 - 7538.6406f * mu_b3 - 2119.205f * mu_b4 - 364.15378f * mu_u5;
-    const float p_4_4 = -1962.9169f * mu_v5 - 7056.5376f * mu_b1 - 9868.408f * mu_b2 - 6598.207f * mu_b3 - 1980.0828f * mu_b4 - 325.67337f * mu_u5;
-    const float p_4_5 = -549.2453f * mu_v5 - 2080.8718f * mu_b1 - 3074.2375f * mu_b2 - 2158.641f * mu_b3 - 697.18884f * mu_b4 - 114.96065f * mu_u5;
-    const float p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    const float p_5_0 = -8.906386f * mu_v5 - 26.674126f * mu_b1 - 14.07362f * mu_b2 - 6.184319f * mu_b3 - 5.2742043f * mu_b4 - 2.1561525f * mu_u5;
-    const float p_5_1 = -100.49586f * mu_v5 - 300.7001f * mu_b1 - 307.92316f * mu_b2 - 206.48465f * mu_b3 - 84.22255f * mu_b4 - 19.258757f * mu_u5;
-    const float p_5_2 = -374.2271f * mu_v5 - 1154.8115f * mu_b1 - 1329.2893f * mu_b2 - 816.05444f * mu_b3 - 241.53975f * mu_b4 - 41.794f * mu_u5;
-    const float p_5_3 = -611.5153f * mu_v5 - 1985.5162f * mu_b1 - 2476.5806f * mu_b2 - 1533.8523f * mu_b3 - 431.42426f * mu_b4 - 67.75535f * mu_u5;
-    const float p_5_4 = -452.63647f * mu_v5 - 1540.7324f * mu_b1 - 2037.0803f * mu_b2 - 1306.0739f * mu_b3 - 385.03265f * mu_b4 - 61.745113f * mu_u5;
-    const float p_5_5 = -126.739624f * mu_v5 - 450.9059f * mu_b1 - 625.7479f * mu_b2 - 417.7841f * mu_b3 - 131.10403f * mu_b4 - 21.662003f * mu_u5;
-    const float p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    const float p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
+    const float p_0_0 = 0.93607944f * mu_v6 + 4.276971f * mu_b1 + 4.671561f * mu_b2 + 1.237638f * mu_b3 + 0.7565281f * mu_b4 - 0.00045736984f * mu_b5 + 0.041204974f * mu_u6;
+    const float p_0_1 = 7.3018694f * mu_v6 + 31.601591f * mu_b1 + 40.871502f * mu_b2 + 19.215446f * mu_b3 + 7.83249f * mu_b4 + 0.37280545f * mu_b5 + 0.53130776f * mu_u6;
+    const float p_0_2 = 24.326128f * mu_v6 + 103.634544f * mu_b1 + 160.60657f * mu_b2 + 111.61355f * mu_b3 + 46.86836f * mu_b4 + 5.2078037f * mu_b5 + 2.023157f * mu_u6;
+    const float p_0_3 = 41.52221f * mu_v6 + 175.02039f * mu_b1 + 310.0935f * mu_b2 + 267.61722f * mu_b3 + 124.132126f * mu_b4 + 19.205301f * mu_b5 + 3.9195051f * mu_u6;
+    const float p_0_4 = 40.489876f * mu_v6 + 170.17023f * mu_b1 + 336.24097f * mu_b2 + 338.09387f * mu_b3 + 173.42645f * mu_b4 + 32.602943f * mu_b5 + 4.078084f * mu_u6;
+    const float p_0_5 = 21.311096f * mu_v6 + 89.60737f * mu_b1 + 191.68472f * mu_b2 + 213.04584f * mu_b3 + 116.781975f * mu_b4 + 23.562584f * mu_b5 + 1.7853353f * mu_u6;
+    const float p_0_6 = 4.577083f * mu_v6 + 19.31154f * mu_b1 + 44.04047f * mu_b2 + 52.813248f * mu_b3 + 30.605104f * mu_b4 + 6.4943376f * mu_b5 + 0.28769225f * mu_u6;
+    const float p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
+    const float p_1_0 = 2.8092215f * mu_v6 + 12.826797f * mu_b1 + 13.997221f * mu_b2 + 3.8520787f * mu_b3 + 2.2290678f * mu_b4 - 0.0006784443f * mu_b5 + 0.123628736f * mu_u6;
+    const float p_1_1 = 21.585995f * mu_v6 + 94.24952f * mu_b1 + 118.93173f * mu_b2 + 55.066f * mu_b3 + 23.256723f * mu_b4 + 1.1634198f * mu_b5 + 1.5901468f * mu_u6;
+    const float p_1_2 = 81.27708f * mu_v6 + 345.15494f * mu_b1 + 505.8872f * mu_b2 + 332.15482f * mu_b3 + 136.31575f * mu_b4 + 15.059143f * mu_b5 + 6.1030145f * mu_u6;
+    const float p_1_3 = 159.63144f * mu_v6 + 671.12463f * mu_b1 + 1086.0133f * mu_b2 + 854.3885f * mu_b3 + 376.07718f * mu_b4 + 58.246784f * mu_b5 + 11.656832f * mu_u6;
+    const float p_1_4 = 169.43886f * mu_v6 + 714.52814f * mu_b1 + 1244.7385f * mu_b2 + 1103.567f * mu_b3 + 527.4726f * mu_b4 + 98.29372f * mu_b5 + 11.953093f * mu_u6;
+    const float p_1_5 = 91.80351f * mu_v6 + 389.99985f * mu_b1 + 717.436f * mu_b2 + 688.75635f * mu_b3 + 348.52115f * mu_b4 + 69.30968f * mu_b5 + 5.1909347f * mu_u6;
+    const float p_1_6 = 20.060051f * mu_v6 + 86.24966f * mu_b1 + 166.22194f * mu_b2 + 169.92212f * mu_b3 + 90.301544f * mu_b4 + 18.753256f * mu_b5 + 0.8224361f * mu_u6;
+    const float p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
+    const float p_2_0 = 2.8084059f * mu_v6 + 12.8289175f * mu_b1 + 13.990036f * mu_b2 + 3.8141396f * mu_b3 + 2.229337f * mu_b4 + 0.0007925067f * mu_b5 + 0.12361612f * mu_u6;
+    const float p_2_1 = 21.65069f * mu_v6 + 94.53376f * mu_b1 + 119.45417f * mu_b2 + 55.89972f * mu_b3 + 23.78038f * mu_b4 + 0.99863505f * mu_b5 + 1.5921412f * mu_u6;
+    const float p_2_2 = 80.02531f * mu_v6 + 340.49738f * mu_b1 + 494.54852f * mu_b2 + 321.75528f * mu_b3 + 134.57222f * mu_b4 + 15.384401f * mu_b5 + 6.104196f * mu_u6;
+    const float p_2_3 = 165.5895f * mu_v6 + 697.5254f * mu_b1 + 1107.5475f * mu_b2 + 849.6338f * mu_b3 + 372.03235f * mu_b4 + 59.371174f * mu_b5 + 11.51197f * mu_u6;
+    const float p_2_4 = 191.02365f * mu_v6 + 806.274f * mu_b1 + 1354.6107f * mu_b2 + 1141.1698f * mu_b3 + 526.052f * mu_b4 + 98.324745f * mu_b5 + 11.695343f * mu_u6;
+    const float p_2_5 = 111.33328f * mu_v6 + 471.9153f * mu_b1 + 819.34534f * mu_b2 + 726.0887f * mu_b3 + 344.23178f * mu_b4 + 66.78174f * mu_b5 + 4.9206233f * mu_u6;
+    const float p_2_6 = 25.38325f * mu_v6 + 108.37706f * mu_b1 + 193.20486f * mu_b2 + 178.22594f * mu_b3 + 87.19821f * mu_b4 + 17.444504f * mu_b5 + 0.76872814f * mu_u6;
+    const float p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
+    const float p_3_0 = 0.9361512f * mu_v6 + 4.2720704f * mu_b1 + 4.69293f * mu_b2 + 1.2414238f * mu_b3 + 0.7508569f * mu_b4 + 0.0001282566f * mu_b5 + 0.04120334f * mu_u6;
+    const float p_3_1 = 7.2759047f * mu_v6 + 31.726307f * mu_b1 + 40.228897f * mu_b2 + 18.859993f * mu_b3 + 8.303067f * mu_b4 + 0.30792683f * mu_b5 + 0.53147036f * mu_u6;
+    const float p_3_2 = 27.078222f * mu_v6 + 114.98914f * mu_b1 + 165.0413f * mu_b2 + 105.42009f * mu_b3 + 44.897453f * mu_b4 + 5.018746f * mu_b5 + 2.0237792f * mu_u6;
+    const float p_3_3 = 57.569542f * mu_v6 + 243.06499f * mu_b1 + 379.23376f * mu_b2 + 283.90927f * mu_b3 + 124.4946f * mu_b4 + 19.935104f * mu_b5 + 3.7618475f * mu_u6;
+    const float p_3_4 = 68.721466f * mu_v6 + 291.25674f * mu_b1 + 476.70697f * mu_b2 + 385.7818f * mu_b3 + 173.16878f * mu_b4 + 31.539473f * mu_b5 + 3.5935888f * mu_u6;
+    const float p_3_5 = 41.69687f * mu_v6 + 177.20613f * mu_b1 + 296.35757f * mu_b2 + 247.47505f * mu_b3 + 111.18227f * mu_b4 + 20.56578f * mu_b5 + 1.4553703f * mu_u6;
+    const float p_3_6 = 9.939859f * mu_v6 + 42.279797f * mu_b1 + 71.37983f * mu_b2 + 60.46876f * mu_b3 + 27.163675f * mu_b4 + 5.050795f * mu_b5 + 0.22350495f * mu_u6;
+    const float p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
+    const float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = -4.1146445f * mu_v5 - 14.295107f * mu_b1 - 13.932958f * mu_b2 - 8.264908f * mu_b3 - 0.812217f * mu_b4 - 1.190747f * mu_u5;
-    const float q_0_1 = -35.6394f * mu_v5 - 106.74299f * mu_b1 - 127.20683f * mu_b2 - 91.33574f * mu_b3 - 30.592743f * mu_b4 - 19.814964f * mu_u5;
-    const float q_0_2 = -141.77759f * mu_v5 - 464.88715f * mu_b1 - 653.78534f * mu_b2 - 448.00818f * mu_b3 - 113.64759f * mu_b4 - 45.224613f * mu_u5;
-    const float q_0_3 = -317.43793f * mu_v5 - 1106.7196f * mu_b1 - 1619.3094f * mu_b2 - 1114.8148f * mu_b3 - 306.5097f * mu_b4 - 70.63203f * mu_u5;
-    const float q_0_4 = -369.39694f * mu_v5 - 1313.6661f * mu_b1 - 1895.2981f * mu_b2 - 1288.585f * mu_b3 - 379.91156f * mu_b4 - 66.810234f * mu_u5;
-    const float q_0_5 = -167.99734f * mu_v5 - 608.3131f * mu_b1 - 874.3548f * mu_b2 - 596.5622f * mu_b3 - 186.19632f * mu_b4 - 28.564075f * mu_u5;
-    const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    const float q_1_0 = -34.40411f * mu_v5 - 119.576256f * mu_b1 - 111.16083f * mu_b2 - 51.338634f * mu_b3 - 11.510149f * mu_b4 - 10.614917f * mu_u5;
-    const float q_1_1 = -286.04846f * mu_v5 - 918.80347f * mu_b1 - 1070.6816f * mu_b2 - 673.52203f * mu_b3 - 227.10757f * mu_b4 - 113.78576f * mu_u5;
-    const float q_1_2 = -1051.4122f * mu_v5 - 3508.7363f * mu_b1 - 4690.005f * mu_b2 - 3044.1704f * mu_b3 - 824.449f * mu_b4 - 257.50647f * mu_u5;
-    const float q_1_3 = -2110.1326f * mu_v5 - 7261.3247f * mu_b1 - 10142.554f * mu_b2 - 6728.239f * mu_b3 - 1885.6555f * mu_b4 - 393.32574f * mu_u5;
-    const float q_1_4 = -2227.2466f * mu_v5 - 7769.22f * mu_b1 - 10833.354f * mu_b2 - 7153.142f * mu_b3 - 2094.9565f * mu_b4 - 355.46744f * mu_u5;
-    const float q_1_5 = -945.8094f * mu_v5 - 3362.0413f * mu_b1 - 4710.557f * mu_b2 - 3136.1646f * mu_b3 - 962.7894f * mu_b4 - 145.40472f * mu_u5;
-    const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    const float q_2_0 = -84.545f * mu_v5 - 292.3216f * mu_b1 - 259.33835f * mu_b2 - 107.71168f * mu_b3 - 33.35265f * mu_b4 - 26.112158f * mu_u5;
-    const float q_2_1 = -718.2213f * mu_v5 - 2329.5793f * mu_b1 - 2650.4797f * mu_b2 - 1593.579f * mu_b3 - 543.80914f * mu_b4 - 233.899f * mu_u5;
-    const float q_2_2 = -2613.561f * mu_v5 - 8634.721f * mu_b1 - 11118.25f * mu_b2 - 6989.735f * mu_b3 - 1925.4855f * mu_b4 - 521.93524f * mu_u5;
-    const float q_2_3 = -5050.269f * mu_v5 - 17007.11f * mu_b1 - 22855.014f * mu_b2 - 14705.51f * mu_b3 - 4120.69f * mu_b4 - 802.44775f * mu_u5;
-    const float q_2_4 = -5087.4995f * mu_v5 - 17354.637f * mu_b1 - 23437.133f * mu_b2 - 15055.085f * mu_b3 - 4362.5967f * mu_b4 - 722.0538f * mu_u5;
-    const float q_2_5 = -2074.9702f * mu_v5 - 7234.263f * mu_b1 - 9887.773f * mu_b2 - 6431.9907f * mu_b3 - 1946.2098f * mu_b4 - 291.60922f * mu_u5;
-    const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    const float q_3_0 = -93.593666f * mu_v5 - 319.6635f * mu_b1 - 271.70706f * mu_b2 - 110.872505f * mu_b3 - 44.01359f * mu_b4 - 27.687738f * mu_u5;
-    const float q_3_1 = -836.7936f * mu_v5 - 2699.1577f * mu_b1 - 3026.774f * mu_b2 - 1820.4324f * mu_b3 - 640.691f * mu_b4 - 229.21558f * mu_u5;
-    const float q_3_2 = -3063.8652f * mu_v5 - 9942.518f * mu_b1 - 12430.149f * mu_b2 - 7704.369f * mu_b3 - 2171.934f * mu_b4 - 508.15652f * mu_u5;
-    const float q_3_3 = -5806.2393f * mu_v5 - 19083.475f * mu_b1 - 24784.682f * mu_b2 - 15581.942f * mu_b3 - 4383.374f * mu_b4 - 797.9716f * mu_u5;
-    const float q_3_4 = -5676.9688f * mu_v5 - 18922.555f * mu_b1 - 24798.049f * mu_b2 - 15549.607f * mu_b3 - 4479.8164f * mu_b4 - 727.2211f * mu_u5;
-    const float q_3_5 = -2249.2498f * mu_v5 - 7691.376f * mu_b1 - 10266.999f * mu_b2 - 6541.022f * mu_b3 - 1960.9734f * mu_b4 - 293.73294f * mu_u5;
-    const float q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    const float q_4_0 = -48.288097f * mu_v5 - 159.0136f * mu_b1 - 122.7399f * mu_b2 - 47.7208f * mu_b3 - 23.848402f * mu_b4 - 12.59672f * mu_u5;
-    const float q_4_1 = -471.0453f * mu_v5 - 1488.4985f * mu_b1 - 1637.2383f * mu_b2 - 999.56714f * mu_b3 - 363.23227f * mu_b4 - 105.72381f * mu_u5;
-    const float q_4_2 = -1751.3834f * mu_v5 - 5542.854f * mu_b1 - 6726.769f * mu_b2 - 4133.4854f * mu_b3 - 1189.2177f * mu_b4 - 235.57814f * mu_u5;
-    const float q_4_3 = -3277.9126f * mu_v5 - 10485.417f * mu_b1 - 13161.365f * mu_b2 - 8096.7974f * mu_b3 - 2283.6257f * mu_b4 - 385.23602f * mu_u5;
-    const float q_4_4 = -3132.5532f * mu_v5 - 10192.108f * mu_b1 - 12959.939f * mu_b2 - 7935.5107f * mu_b3 - 2274.8608f * mu_b4 - 362.00864f * mu_u5;
-    const float q_4_5 = -1212.1941f * mu_v5 - 4064.6965f * mu_b1 - 5300.1187f * mu_b2 - 3309.6257f * mu_b3 - 985.7057f * mu_b4 - 148.15108f * mu_u5;
-    const float q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    const float q_5_0 = -9.509339f * mu_v5 - 29.187445f * mu_b1 - 18.737123f * mu_b2 - 7.080039f * mu_b3 - 5.2864256f * mu_b4 - 2.156348f * mu_u5;
-    const float q_5_1 = -104.860855f * mu_v5 - 320.8442f * mu_b1 - 345.43826f * mu_b2 - 218.49637f * mu_b3 - 83.82006f * mu_b4 - 19.233343f * mu_u5;
-    const float q_5_2 = -397.03854f * mu_v5 - 1219.1765f * mu_b1 - 1434.5874f * mu_b2 - 878.62665f * mu_b3 - 259.93655f * mu_b4 - 42.66882f * mu_u5;
-    const float q_5_3 = -734.8416f * mu_v5 - 2282.416f * mu_b1 - 2764.3916f * mu_b2 - 1662.8792f * mu_b3 - 469.7647f * mu_b4 - 72.61222f * mu_u5;
-    const float q_5_4 = -688.03125f * mu_v5 - 2182.6213f * mu_b1 - 2688.936f * mu_b2 - 1604.3999f * mu_b3 - 456.58038f * mu_b4 - 70.98101f * mu_u5;
-    const float q_5_5 = -260.66217f * mu_v5 - 856.6525f * mu_b1 - 1090.2853f * mu_b2 - 666.5858f * mu_b3 - 197.146f * mu_b4 - 29.746084f * mu_u5;
-    const float q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    const float q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
+    const float q_0_0 = 1.0f * mu_v6 + 4.568857f * mu_b1 + 5.040267f * mu_b2 + 1.6843363f * mu_b3 + 0.8409333f * mu_b4 - 0.0005688092f * mu_b5 + 0.04120637f * mu_u6;
+    const float q_0_1 = 7.495099f * mu_v6 + 32.942654f * mu_b1 + 41.15573f * mu_b2 + 20.772064f * mu_b3 + 8.873614f * mu_b4 + 0.3221194f * mu_b5 + 0.53108215f * mu_u6;
+    const float q_0_2 = 29.47367f * mu_v6 + 125.9019f * mu_b1 + 177.82973f * mu_b2 + 116.95558f * mu_b3 + 49.403835f * mu_b4 + 5.8395805f * mu_b5 + 2.036561f * mu_u6;
+    const float q_0_3 = 65.33347f * mu_v6 + 275.70377f * mu_b1 + 417.06235f * mu_b2 + 306.55536f * mu_b3 + 130.6347f * mu_b4 + 21.291296f * mu_b5 + 3.9155402f * mu_u6;
+    const float q_0_4 = 89.00653f * mu_v6 + 376.5045f * mu_b1 + 596.7913f * mu_b2 + 465.73843f * mu_b3 + 198.53064f * mu_b4 + 36.21554f * mu_b5 + 4.176717f * mu_u6;
+    const float q_0_5 = 66.79348f * mu_v6 + 283.53558f * mu_b1 + 459.40433f * mu_b2 + 364.71588f * mu_b3 + 150.47876f * mu_b4 + 26.273354f * mu_b5 + 1.8669173f * mu_u6;
+    const float q_0_6 = 20.389359f * mu_v6 + 86.69174f * mu_b1 + 141.67358f * mu_b2 + 112.61491f * mu_b3 + 44.924133f * mu_b4 + 7.3171997f * mu_b5 + 0.30655327f * mu_u6;
+    const float q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
+    const float q_1_0 = 3.0f * mu_v6 + 13.706572f * mu_b1 + 15.120801f * mu_b2 + 5.053009f * mu_b3 + 2.5228f * mu_b4 - 0.0017064275f * mu_b5 + 0.12361912f * mu_u6;
+    const float q_1_1 = 22.485298f * mu_v6 + 98.82796f * mu_b1 + 123.46719f * mu_b2 + 62.316193f * mu_b3 + 26.620844f * mu_b4 + 0.96635824f * mu_b5 + 1.5932465f * mu_u6;
+    const float q_1_2 = 88.421005f * mu_v6 + 377.70572f * mu_b1 + 533.4892f * mu_b2 + 350.86676f * mu_b3 + 148.21152f * mu_b4 + 17.518742f * mu_b5 + 6.1096826f * mu_u6;
+    const float q_1_3 = 196.00043f * mu_v6 + 827.1113f * mu_b1 + 1251.1871f * mu_b2 + 919.6661f * mu_b3 + 391.90408f * mu_b4 + 63.873886f * mu_b5 + 11.74662f * mu_u6;
+    const float q_1_4 = 267.0196f * mu_v6 + 1129.5135f * mu_b1 + 1790.3739f * mu_b2 + 1397.2152f * mu_b3 + 595.5919f * mu_b4 + 108.64662f * mu_b5 + 12.530149f * mu_u6;
+    const float q_1_5 = 200.38045f * mu_v6 + 850.60675f * mu_b1 + 1378.213f * mu_b2 + 1094.1476f * mu_b3 + 451.43628f * mu_b4 + 78.82006f * mu_b5 + 5.600752f * mu_u6;
+    const float q_1_6 = 61.16807f * mu_v6 + 260.07523f * mu_b1 + 425.02075f * mu_b2 + 337.84473f * mu_b3 + 134.7724f * mu_b4 + 21.9516f * mu_b5 + 0.91965985f * mu_u6;
+    const float q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
+    const float q_2_0 = 3.0f * mu_v6 + 13.706572f * mu_b1 + 15.120801f * mu_b2 + 5.053009f * mu_b3 + 2.5228f * mu_b4 - 0.0017064275f * mu_b5 + 0.12361912f * mu_u6;
+    const float q_2_1 = 22.485298f * mu_v6 + 98.82796f * mu_b1 + 123.46719f * mu_b2 + 62.316193f * mu_b3 + 26.620844f * mu_b4 + 0.96635824f * mu_b5 + 1.5932465f * mu_u6;
+    const float q_2_2 = 88.421005f * mu_v6 + 377.70572f * mu_b1 + 533.4892f * mu_b2 + 350.86676f * mu_b3 + 148.21152f * mu_b4 + 17.518742f * mu_b5 + 6.1096826f * mu_u6;
+    const float q_2_3 = 196.00043f * mu_v6 + 827.1113f * mu_b1 + 1251.1871f * mu_b2 + 919.6661f * mu_b3 + 391.90408f * mu_b4 + 63.873886f * mu_b5 + 11.74662f * mu_u6;
+    const float q_2_4 = 267.0196f * mu_v6 + 1129.5135f * mu_b1 + 1790.3739f * mu_b2 + 1397.2152f * mu_b3 + 595.5919f * mu_b4 + 108.64662f * mu_b5 + 12.530149f * mu_u6;
+    const float q_2_5 = 200.38045f * mu_v6 + 850.60675f * mu_b1 + 1378.213f * mu_b2 + 1094.1476f * mu_b3 + 451.43628f * mu_b4 + 78.82006f * mu_b5 + 5.600752f * mu_u6;
+    const float q_2_6 = 61.16807f * mu_v6 + 260.07523f * mu_b1 + 425.02075f * mu_b2 + 337.84473f * mu_b3 + 134.7724f * mu_b4 + 21.9516f * mu_b5 + 0.91965985f * mu_u6;
+    const float q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
+    const float q_3_0 = 1.0f * mu_v6 + 4.568857f * mu_b1 + 5.040267f * mu_b2 + 1.6843363f * mu_b3 + 0.8409333f * mu_b4 - 0.0005688092f * mu_b5 + 0.04120637f * mu_u6;
+    const float q_3_1 = 7.495099f * mu_v6 + 32.942654f * mu_b1 + 41.15573f * mu_b2 + 20.772064f * mu_b3 + 8.873614f * mu_b4 + 0.3221194f * mu_b5 + 0.53108215f * mu_u6;
+    const float q_3_2 = 29.47367f * mu_v6 + 125.9019f * mu_b1 + 177.82973f * mu_b2 + 116.95558f * mu_b3 + 49.403835f * mu_b4 + 5.8395805f * mu_b5 + 2.036561f * mu_u6;
+    const float q_3_3 = 65.33347f * mu_v6 + 275.70377f * mu_b1 + 417.06235f * mu_b2 + 306.55536f * mu_b3 + 130.6347f * mu_b4 + 21.291296f * mu_b5 + 3.9155402f * mu_u6;
+    const float q_3_4 = 89.00653f * mu_v6 + 376.5045f * mu_b1 + 596.7913f * mu_b2 + 465.73843f * mu_b3 + 198.53064f * mu_b4 + 36.21554f * mu_b5 + 4.176717f * mu_u6;
+    const float q_3_5 = 66.79348f * mu_v6 + 283.53558f * mu_b1 + 459.40433f * mu_b2 + 364.71588f * mu_b3 + 150.47876f * mu_b4 + 26.273354f * mu_b5 + 1.8669173f * mu_u6;
+    const float q_3_6 = 20.389359f * mu_v6 + 86.69174f * mu_b1 + 141.67358f * mu_b2 + 112.61491f * mu_b3 + 44.924133f * mu_b4 + 7.3171997f * mu_b5 + 0.30655327f * mu_u6;
+    const float q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
+    const float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }

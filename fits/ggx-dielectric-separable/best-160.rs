@@ -10,19 +10,19 @@
 /// ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 /// Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 32768 points; best pole-certified start refined on all points.
-/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 b380f5784ec5d82289b8134e4d8b081ea659c32d441d841edfaba73e993829fc.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+/// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 27800 of 40960 points; best pole-certified start refined on all points.
+/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c5ae3dc67603ee989731afaec8540408da7ec3dc9347614329c716ed3f170201.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.2e-6, shifted 3.8e-6, bernstein 3.9e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 9.68e-5, max 2.60e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.11e-7 (every op rounded, as this Rust), 4.83e-7 (fused multiply-add), 6.47e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.36e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.66e-5, max 2.60e-3; this f32 code MAE 9.66e-5, max 2.60e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.6e-5 on the measurement grid.
-/// Denominator proved >= 7.166e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-5, shifted 1.5e-5, bernstein 9.6e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 1.12e-4, max 1.71e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.54e-7 (every op rounded, as this Rust), 3.93e-7 (fused multiply-add), 9.46e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 3.19e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.12e-4, max 1.71e-3; this f32 code MAE 1.12e-4, max 1.71e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.8e-5 on the measurement grid.
+/// Denominator proved >= 2.861e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -33,31 +33,23 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
-    // t = sqrt(f0)
-    let f0_t = sqrtf(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    let f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017_f32) * 2.6828594_f32;
     let r_c = r.min(1.0_f32).max(0.0_f32);
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // u = (t - 0.11180339887498948)/(0.5 - 0.11180339887498948) in [0, 1]
-    let f0_u = (f0_t - 0.1118034_f32) * 2.5760143_f32;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    let f0_v = 1.0_f32 - f0_u;
-    let f0_u2 = f0_u * f0_u;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
+    let f0_v = 1.0_f32 - f0_t;
+    let f0_u2 = f0_t * f0_t;
     let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_u;
+    let f0_u3 = f0_u2 * f0_t;
     let f0_v3 = f0_v2 * f0_v;
-    let f0_u4 = f0_u3 * f0_u;
-    let f0_v4 = f0_v3 * f0_v;
-    let f0_u5 = f0_u4 * f0_u;
-    let f0_v5 = f0_v4 * f0_v;
-    let f0_b1 = f0_u * f0_v4;
-    let f0_b2 = f0_u2 * f0_v3;
-    let f0_b3 = f0_u3 * f0_v2;
-    let f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    let f0_b1 = f0_t * f0_v2;
+    let f0_b2 = f0_u2 * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
     let r_v = 1.0_f32 - r_t;
     let r_u2 = r_t * r_t;
     let r_v2 = r_v * r_v;
@@ -67,13 +59,16 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let r_v4 = r_v3 * r_v;
     let r_u5 = r_u4 * r_t;
     let r_v5 = r_v4 * r_v;
-    let r_b1 = r_t * r_v4;
-    let r_b2 = r_u2 * r_v3;
-    let r_b3 = r_u3 * r_v2;
-    let r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    let mu_u = (mu_t - 7.888609e-31_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    let r_u6 = r_u5 * r_t;
+    let r_v6 = r_v5 * r_v;
+    let r_b1 = r_t * r_v5;
+    let r_b2 = r_u2 * r_v4;
+    let r_b3 = r_u3 * r_v3;
+    let r_b4 = r_u4 * r_v2;
+    let r_b5 = r_u5 * r_v;
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
     let mu_v = 1.0_f32 - mu_u;
     let mu_u2 = mu_u * mu_u;
     let mu_v2 = mu_v * mu_v;
@@ -83,98 +78,81 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_v4 = mu_v3 * mu_v;
     let mu_u5 = mu_u4 * mu_u;
     let mu_v5 = mu_v4 * mu_v;
-    let mu_b1 = mu_u * mu_v4;
-    let mu_b2 = mu_u2 * mu_v3;
-    let mu_b3 = mu_u3 * mu_v2;
-    let mu_b4 = mu_u4 * mu_v;
+    let mu_u6 = mu_u5 * mu_u;
+    let mu_v6 = mu_v5 * mu_v;
+    let mu_b1 = mu_u * mu_v5;
+    let mu_b2 = mu_u2 * mu_v4;
+    let mu_b3 = mu_u3 * mu_v3;
+    let mu_b4 = mu_u4 * mu_v2;
+    let mu_b5 = mu_u5 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = -3.8510025_f32 * mu_v5 - 13.14317_f32 * mu_b1 - 10.743079_f32 * mu_b2 - 7.842113_f32 * mu_b3 - 0.82159_f32 * mu_b4 - 1.1907747_f32 * mu_u5;
-    let p_0_1 = -34.45123_f32 * mu_v5 - 103.58876_f32 * mu_b1 - 112.54626_f32 * mu_b2 - 87.98715_f32 * mu_b3 - 30.571457_f32 * mu_b4 - 19.794962_f32 * mu_u5;
-    let p_0_2 = -121.740524_f32 * mu_v5 - 438.2564_f32 * mu_b1 - 615.8133_f32 * mu_b2 - 421.56223_f32 * mu_b3 - 100.06636_f32 * mu_b4 - 45.405403_f32 * mu_u5;
-    let p_0_3 = -189.82687_f32 * mu_v5 - 846.7434_f32 * mu_b1 - 1428.6711_f32 * mu_b2 - 1057.9954_f32 * mu_b3 - 287.65997_f32 * mu_b4 - 69.02308_f32 * mu_u5;
-    let p_0_4 = -133.44691_f32 * mu_v5 - 720.20734_f32 * mu_b1 - 1373.1262_f32 * mu_b2 - 1111.8494_f32 * mu_b3 - 357.72882_f32 * mu_b4 - 66.04724_f32 * mu_u5;
-    let p_0_5 = -37.741173_f32 * mu_v5 - 236.179_f32 * mu_b1 - 488.27365_f32 * mu_b2 - 425.07956_f32 * mu_b3 - 155.28957_f32 * mu_b4 - 26.806221_f32 * mu_u5;
-    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = -32.24869_f32 * mu_v5 - 109.42135_f32 * mu_b1 - 89.16716_f32 * mu_b2 - 46.720566_f32 * mu_b3 - 11.539177_f32 * mu_b4 - 10.615046_f32 * mu_u5;
-    let p_1_1 = -274.62146_f32 * mu_v5 - 871.1186_f32 * mu_b1 - 951.3422_f32 * mu_b2 - 637.30383_f32 * mu_b3 - 227.19765_f32 * mu_b4 - 113.74861_f32 * mu_u5;
-    let p_1_2 = -945.32477_f32 * mu_v5 - 3312.6914_f32 * mu_b1 - 4391.293_f32 * mu_b2 - 2855.4685_f32 * mu_b3 - 750.6239_f32 * mu_b4 - 257.1007_f32 * mu_u5;
-    let p_1_3 = -1477.117_f32 * mu_v5 - 5914.5605_f32 * mu_b1 - 9073.61_f32 * mu_b2 - 6368.0703_f32 * mu_b3 - 1776.3136_f32 * mu_b4 - 382.42944_f32 * mu_u5;
-    let p_1_4 = -1052.1969_f32 * mu_v5 - 4764.521_f32 * mu_b1 - 8110.3545_f32 * mu_b2 - 6168.0913_f32 * mu_b3 - 1945.8549_f32 * mu_b4 - 344.80338_f32 * mu_u5;
-    let p_1_5 = -292.93616_f32 * mu_v5 - 1475.4761_f32 * mu_b1 - 2714.904_f32 * mu_b2 - 2213.9485_f32 * mu_b3 - 779.0278_f32 * mu_b4 - 131.2453_f32 * mu_u5;
-    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = -79.14828_f32 * mu_v5 - 266.55457_f32 * mu_b1 - 208.188_f32 * mu_b2 - 95.67341_f32 * mu_b3 - 33.400623_f32 * mu_b4 - 26.112816_f32 * mu_u5;
-    let p_2_1 = -687.9427_f32 * mu_v5 - 2189.8496_f32 * mu_b1 - 2349.0198_f32 * mu_b2 - 1496.456_f32 * mu_b3 - 545.16614_f32 * mu_b4 - 233.84235_f32 * mu_u5;
-    let p_2_2 = -2396.8013_f32 * mu_v5 - 8157.409_f32 * mu_b1 - 10365.984_f32 * mu_b2 - 6532.2383_f32 * mu_b3 - 1769.2567_f32 * mu_b4 - 518.4341_f32 * mu_u5;
-    let p_2_3 = -3799.3135_f32 * mu_v5 - 14251.719_f32 * mu_b1 - 20535.104_f32 * mu_b2 - 13855.448_f32 * mu_b3 - 3870.8438_f32 * mu_b4 - 774.1329_f32 * mu_u5;
-    let p_2_4 = -2746.3835_f32 * mu_v5 - 11273.757_f32 * mu_b1 - 17769.768_f32 * mu_b2 - 12874.544_f32 * mu_b3 - 3979.2964_f32 * mu_b4 - 685.16534_f32 * mu_u5;
-    let p_2_5 = -764.8856_f32 * mu_v5 - 3405.195_f32 * mu_b1 - 5757.901_f32 * mu_b2 - 4448.6357_f32 * mu_b3 - 1514.986_f32 * mu_b4 - 251.54546_f32 * mu_u5;
-    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    let p_3_0 = -87.6136_f32 * mu_v5 - 291.48938_f32 * mu_b1 - 217.98332_f32 * mu_b2 - 98.06855_f32 * mu_b3 - 44.04352_f32 * mu_b4 - 27.686375_f32 * mu_u5;
-    let p_3_1 = -801.41833_f32 * mu_v5 - 2530.0508_f32 * mu_b1 - 2685.7644_f32 * mu_b2 - 1709.416_f32 * mu_b3 - 643.40826_f32 * mu_b4 - 229.14346_f32 * mu_u5;
-    let p_3_2 = -2845.6765_f32 * mu_v5 - 9405.214_f32 * mu_b1 - 11564.577_f32 * mu_b2 - 7186.9956_f32 * mu_b3 - 2008.0969_f32 * mu_b4 - 502.17938_f32 * mu_u5;
-    let p_3_3 = -4569.6235_f32 * mu_v5 - 16276.207_f32 * mu_b1 - 22301.242_f32 * mu_b2 - 14605.799_f32 * mu_b3 - 4097.7896_f32 * mu_b4 - 762.6887_f32 * mu_u5;
-    let p_3_4 = -3340.696_f32 * mu_v5 - 12759.157_f32 * mu_b1 - 18891.686_f32 * mu_b2 - 13138.254_f32 * mu_b3 - 4000.1296_f32 * mu_b4 - 673.1193_f32 * mu_u5;
-    let p_3_5 = -932.7527_f32 * mu_v5 - 3798.646_f32 * mu_b1 - 5985.3237_f32 * mu_b2 - 4406.187_f32 * mu_b3 - 1460.1144_f32 * mu_b4 - 240.96138_f32 * mu_u5;
-    let p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    let p_4_0 = -45.213024_f32 * mu_v5 - 145.10527_f32 * mu_b1 - 96.72929_f32 * mu_b2 - 41.89418_f32 * mu_b3 - 23.85282_f32 * mu_b4 - 12.597609_f32 * mu_u5;
-    let p_4_1 = -451.35983_f32 * mu_v5 - 1394.5216_f32 * mu_b1 - 1455.6449_f32 * mu_b2 - 940.9426_f32 * mu_b3 - 365.18155_f32 * mu_b4 - 105.73167_f32 * mu_u5;
-    let p_4_2 = -1641.1227_f32 * mu_v5 - 5249.233_f32 * mu_b1 - 6247.724_f32 * mu_b2 - 3849.081_f32 * mu_b3 - 1103.1188_f32 * mu_b4 - 231.6709_f32 * mu_u5;
-    let p_4_3 = -2663.5518_f32 * mu_v5 - 9050.003_f32 * mu_b1 - 11832.021_f32 * mu_b2 - 7538.6406_f32 * mu_b3 - 2119.205_f32 * mu_b4 - 364.15378_f32 * mu_u5;
-    let p_4_4 = -1962.9169_f32 * mu_v5 - 7056.5376_f32 * mu_b1 - 9868.408_f32 * mu_b2 - 6598.207_f32 * mu_b3 - 1980.0828_f32 * mu_b4 - 325.67337_f32 * mu_u5;
-    let p_4_5 = -549.2453_f32 * mu_v5 - 2080.8718_f32 * mu_b1 - 3074.2375_f32 * mu_b2 - 2158.641_f32 * mu_b3 - 697.18884_f32 * mu_b4 - 114.96065_f32 * mu_u5;
-    let p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    let p_5_0 = -8.906386_f32 * mu_v5 - 26.674126_f32 * mu_b1 - 14.07362_f32 * mu_b2 - 6.184319_f32 * mu_b3 - 5.2742043_f32 * mu_b4 - 2.1561525_f32 * mu_u5;
-    let p_5_1 = -100.49586_f32 * mu_v5 - 300.7001_f32 * mu_b1 - 307.92316_f32 * mu_b2 - 206.48465_f32 * mu_b3 - 84.22255_f32 * mu_b4 - 19.258757_f32 * mu_u5;
-    let p_5_2 = -374.2271_f32 * mu_v5 - 1154.8115_f32 * mu_b1 - 1329.2893_f32 * mu_b2 - 816.05444_f32 * mu_b3 - 241.53975_f32 * mu_b4 - 41.794_f32 * mu_u5;
-    let p_5_3 = -611.5153_f32 * mu_v5 - 1985.5162_f32 * mu_b1 - 2476.5806_f32 * mu_b2 - 1533.8523_f32 * mu_b3 - 431.42426_f32 * mu_b4 - 67.75535_f32 * mu_u5;
-    let p_5_4 = -452.63647_f32 * mu_v5 - 1540.7324_f32 * mu_b1 - 2037.0803_f32 * mu_b2 - 1306.0739_f32 * mu_b3 - 385.03265_f32 * mu_b4 - 61.745113_f32 * mu_u5;
-    let p_5_5 = -126.739624_f32 * mu_v5 - 450.9059_f32 * mu_b1 - 625.7479_f32 * mu_b2 - 417.7841_f32 * mu_b3 - 131.10403_f32 * mu_b4 - 21.662003_f32 * mu_u5;
-    let p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    let p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
+    let p_0_0 = 0.93607944_f32 * mu_v6 + 4.276971_f32 * mu_b1 + 4.671561_f32 * mu_b2 + 1.237638_f32 * mu_b3 + 0.7565281_f32 * mu_b4 - 0.00045736984_f32 * mu_b5 + 0.041204974_f32 * mu_u6;
+    let p_0_1 = 7.3018694_f32 * mu_v6 + 31.601591_f32 * mu_b1 + 40.871502_f32 * mu_b2 + 19.215446_f32 * mu_b3 + 7.83249_f32 * mu_b4 + 0.37280545_f32 * mu_b5 + 0.53130776_f32 * mu_u6;
+    let p_0_2 = 24.326128_f32 * mu_v6 + 103.634544_f32 * mu_b1 + 160.60657_f32 * mu_b2 + 111.61355_f32 * mu_b3 + 46.86836_f32 * mu_b4 + 5.2078037_f32 * mu_b5 + 2.023157_f32 * mu_u6;
+    let p_0_3 = 41.52221_f32 * mu_v6 + 175.02039_f32 * mu_b1 + 310.0935_f32 * mu_b2 + 267.61722_f32 * mu_b3 + 124.132126_f32 * mu_b4 + 19.205301_f32 * mu_b5 + 3.9195051_f32 * mu_u6;
+    let p_0_4 = 40.489876_f32 * mu_v6 + 170.17023_f32 * mu_b1 + 336.24097_f32 * mu_b2 + 338.09387_f32 * mu_b3 + 173.42645_f32 * mu_b4 + 32.602943_f32 * mu_b5 + 4.078084_f32 * mu_u6;
+    let p_0_5 = 21.311096_f32 * mu_v6 + 89.60737_f32 * mu_b1 + 191.68472_f32 * mu_b2 + 213.04584_f32 * mu_b3 + 116.781975_f32 * mu_b4 + 23.562584_f32 * mu_b5 + 1.7853353_f32 * mu_u6;
+    let p_0_6 = 4.577083_f32 * mu_v6 + 19.31154_f32 * mu_b1 + 44.04047_f32 * mu_b2 + 52.813248_f32 * mu_b3 + 30.605104_f32 * mu_b4 + 6.4943376_f32 * mu_b5 + 0.28769225_f32 * mu_u6;
+    let p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
+    let p_1_0 = 2.8092215_f32 * mu_v6 + 12.826797_f32 * mu_b1 + 13.997221_f32 * mu_b2 + 3.8520787_f32 * mu_b3 + 2.2290678_f32 * mu_b4 - 0.0006784443_f32 * mu_b5 + 0.123628736_f32 * mu_u6;
+    let p_1_1 = 21.585995_f32 * mu_v6 + 94.24952_f32 * mu_b1 + 118.93173_f32 * mu_b2 + 55.066_f32 * mu_b3 + 23.256723_f32 * mu_b4 + 1.1634198_f32 * mu_b5 + 1.5901468_f32 * mu_u6;
+    let p_1_2 = 81.27708_f32 * mu_v6 + 345.15494_f32 * mu_b1 + 505.8872_f32 * mu_b2 + 332.15482_f32 * mu_b3 + 136.31575_f32 * mu_b4 + 15.059143_f32 * mu_b5 + 6.1030145_f32 * mu_u6;
+    let p_1_3 = 159.63144_f32 * mu_v6 + 671.12463_f32 * mu_b1 + 1086.0133_f32 * mu_b2 + 854.3885_f32 * mu_b3 + 376.07718_f32 * mu_b4 + 58.246784_f32 * mu_b5 + 11.656832_f32 * mu_u6;
+    let p_1_4 = 169.43886_f32 * mu_v6 + 714.52814_f32 * mu_b1 + 1244.7385_f32 * mu_b2 + 1103.567_f32 * mu_b3 + 527.4726_f32 * mu_b4 + 98.29372_f32 * mu_b5 + 11.953093_f32 * mu_u6;
+    let p_1_5 = 91.80351_f32 * mu_v6 + 389.99985_f32 * mu_b1 + 717.436_f32 * mu_b2 + 688.75635_f32 * mu_b3 + 348.52115_f32 * mu_b4 + 69.30968_f32 * mu_b5 + 5.1909347_f32 * mu_u6;
+    let p_1_6 = 20.060051_f32 * mu_v6 + 86.24966_f32 * mu_b1 + 166.22194_f32 * mu_b2 + 169.92212_f32 * mu_b3 + 90.301544_f32 * mu_b4 + 18.753256_f32 * mu_b5 + 0.8224361_f32 * mu_u6;
+    let p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
+    let p_2_0 = 2.8084059_f32 * mu_v6 + 12.8289175_f32 * mu_b1 + 13.990036_f32 * mu_b2 + 3.8141396_f32 * mu_b3 + 2.229337_f32 * mu_b4 + 0.0007925067_f32 * mu_b5 + 0.12361612_f32 * mu_u6;
+    let p_2_1 = 21.65069_f32 * mu_v6 + 94.53376_f32 * mu_b1 + 119.45417_f32 * mu_b2 + 55.89972_f32 * mu_b3 + 23.78038_f32 * mu_b4 + 0.99863505_f32 * mu_b5 + 1.5921412_f32 * mu_u6;
+    let p_2_2 = 80.02531_f32 * mu_v6 + 340.49738_f32 * mu_b1 + 494.54852_f32 * mu_b2 + 321.75528_f32 * mu_b3 + 134.57222_f32 * mu_b4 + 15.384401_f32 * mu_b5 + 6.104196_f32 * mu_u6;
+    let p_2_3 = 165.5895_f32 * mu_v6 + 697.5254_f32 * mu_b1 + 1107.5475_f32 * mu_b2 + 849.6338_f32 * mu_b3 + 372.03235_f32 * mu_b4 + 59.371174_f32 * mu_b5 + 11.51197_f32 * mu_u6;
+    let p_2_4 = 191.02365_f32 * mu_v6 + 806.274_f32 * mu_b1 + 1354.6107_f32 * mu_b2 + 1141.1698_f32 * mu_b3 + 526.052_f32 * mu_b4 + 98.324745_f32 * mu_b5 + 11.695343_f32 * mu_u6;
+    let p_2_5 = 111.33328_f32 * mu_v6 + 471.9153_f32 * mu_b1 + 819.34534_f32 * mu_b2 + 726.0887_f32 * mu_b3 + 344.23178_f32 * mu_b4 + 66.78174_f32 * mu_b5 + 4.9206233_f32 * mu_u6;
+    let p_2_6 = 25.38325_f32 * mu_v6 + 108.37706_f32 * mu_b1 + 193.20486_f32 * mu_b2 + 178.22594_f32 * mu_b3 + 87.19821_f32 * mu_b4 + 17.444504_f32 * mu_b5 + 0.76872814_f32 * mu_u6;
+    let p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
+    let p_3_0 = 0.9361512_f32 * mu_v6 + 4.2720704_f32 * mu_b1 + 4.69293_f32 * mu_b2 + 1.2414238_f32 * mu_b3 + 0.7508569_f32 * mu_b4 + 0.0001282566_f32 * mu_b5 + 0.04120334_f32 * mu_u6;
+    let p_3_1 = 7.2759047_f32 * mu_v6 + 31.726307_f32 * mu_b1 + 40.228897_f32 * mu_b2 + 18.859993_f32 * mu_b3 + 8.303067_f32 * mu_b4 + 0.30792683_f32 * mu_b5 + 0.53147036_f32 * mu_u6;
+    let p_3_2 = 27.078222_f32 * mu_v6 + 114.98914_f32 * mu_b1 + 165.0413_f32 * mu_b2 + 105.42009_f32 * mu_b3 + 44.897453_f32 * mu_b4 + 5.018746_f32 * mu_b5 + 2.0237792_f32 * mu_u6;
+    let p_3_3 = 57.569542_f32 * mu_v6 + 243.06499_f32 * mu_b1 + 379.23376_f32 * mu_b2 + 283.90927_f32 * mu_b3 + 124.4946_f32 * mu_b4 + 19.935104_f32 * mu_b5 + 3.7618475_f32 * mu_u6;
+    let p_3_4 = 68.721466_f32 * mu_v6 + 291.25674_f32 * mu_b1 + 476.70697_f32 * mu_b2 + 385.7818_f32 * mu_b3 + 173.16878_f32 * mu_b4 + 31.539473_f32 * mu_b5 + 3.5935888_f32 * mu_u6;
+    let p_3_5 = 41.69687_f32 * mu_v6 + 177.20613_f32 * mu_b1 + 296.35757_f32 * mu_b2 + 247.47505_f32 * mu_b3 + 111.18227_f32 * mu_b4 + 20.56578_f32 * mu_b5 + 1.4553703_f32 * mu_u6;
+    let p_3_6 = 9.939859_f32 * mu_v6 + 42.279797_f32 * mu_b1 + 71.37983_f32 * mu_b2 + 60.46876_f32 * mu_b3 + 27.163675_f32 * mu_b4 + 5.050795_f32 * mu_b5 + 0.22350495_f32 * mu_u6;
+    let p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
+    let p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = -4.1146445_f32 * mu_v5 - 14.295107_f32 * mu_b1 - 13.932958_f32 * mu_b2 - 8.264908_f32 * mu_b3 - 0.812217_f32 * mu_b4 - 1.190747_f32 * mu_u5;
-    let q_0_1 = -35.6394_f32 * mu_v5 - 106.74299_f32 * mu_b1 - 127.20683_f32 * mu_b2 - 91.33574_f32 * mu_b3 - 30.592743_f32 * mu_b4 - 19.814964_f32 * mu_u5;
-    let q_0_2 = -141.77759_f32 * mu_v5 - 464.88715_f32 * mu_b1 - 653.78534_f32 * mu_b2 - 448.00818_f32 * mu_b3 - 113.64759_f32 * mu_b4 - 45.224613_f32 * mu_u5;
-    let q_0_3 = -317.43793_f32 * mu_v5 - 1106.7196_f32 * mu_b1 - 1619.3094_f32 * mu_b2 - 1114.8148_f32 * mu_b3 - 306.5097_f32 * mu_b4 - 70.63203_f32 * mu_u5;
-    let q_0_4 = -369.39694_f32 * mu_v5 - 1313.6661_f32 * mu_b1 - 1895.2981_f32 * mu_b2 - 1288.585_f32 * mu_b3 - 379.91156_f32 * mu_b4 - 66.810234_f32 * mu_u5;
-    let q_0_5 = -167.99734_f32 * mu_v5 - 608.3131_f32 * mu_b1 - 874.3548_f32 * mu_b2 - 596.5622_f32 * mu_b3 - 186.19632_f32 * mu_b4 - 28.564075_f32 * mu_u5;
-    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = -34.40411_f32 * mu_v5 - 119.576256_f32 * mu_b1 - 111.16083_f32 * mu_b2 - 51.338634_f32 * mu_b3 - 11.510149_f32 * mu_b4 - 10.614917_f32 * mu_u5;
-    let q_1_1 = -286.04846_f32 * mu_v5 - 918.80347_f32 * mu_b1 - 1070.6816_f32 * mu_b2 - 673.52203_f32 * mu_b3 - 227.10757_f32 * mu_b4 - 113.78576_f32 * mu_u5;
-    let q_1_2 = -1051.4122_f32 * mu_v5 - 3508.7363_f32 * mu_b1 - 4690.005_f32 * mu_b2 - 3044.1704_f32 * mu_b3 - 824.449_f32 * mu_b4 - 257.50647_f32 * mu_u5;
-    let q_1_3 = -2110.1326_f32 * mu_v5 - 7261.3247_f32 * mu_b1 - 10142.554_f32 * mu_b2 - 6728.239_f32 * mu_b3 - 1885.6555_f32 * mu_b4 - 393.32574_f32 * mu_u5;
-    let q_1_4 = -2227.2466_f32 * mu_v5 - 7769.22_f32 * mu_b1 - 10833.354_f32 * mu_b2 - 7153.142_f32 * mu_b3 - 2094.9565_f32 * mu_b4 - 355.46744_f32 * mu_u5;
-    let q_1_5 = -945.8094_f32 * mu_v5 - 3362.0413_f32 * mu_b1 - 4710.557_f32 * mu_b2 - 3136.1646_f32 * mu_b3 - 962.7894_f32 * mu_b4 - 145.40472_f32 * mu_u5;
-    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = -84.545_f32 * mu_v5 - 292.3216_f32 * mu_b1 - 259.33835_f32 * mu_b2 - 107.71168_f32 * mu_b3 - 33.35265_f32 * mu_b4 - 26.112158_f32 * mu_u5;
-    let q_2_1 = -718.2213_f32 * mu_v5 - 2329.5793_f32 * mu_b1 - 2650.4797_f32 * mu_b2 - 1593.579_f32 * mu_b3 - 543.80914_f32 * mu_b4 - 233.899_f32 * mu_u5;
-    let q_2_2 = -2613.561_f32 * mu_v5 - 8634.721_f32 * mu_b1 - 11118.25_f32 * mu_b2 - 6989.735_f32 * mu_b3 - 1925.4855_f32 * mu_b4 - 521.93524_f32 * mu_u5;
-    let q_2_3 = -5050.269_f32 * mu_v5 - 17007.11_f32 * mu_b1 - 22855.014_f32 * mu_b2 - 14705.51_f32 * mu_b3 - 4120.69_f32 * mu_b4 - 802.44775_f32 * mu_u5;
-    let q_2_4 = -5087.4995_f32 * mu_v5 - 17354.637_f32 * mu_b1 - 23437.133_f32 * mu_b2 - 15055.085_f32 * mu_b3 - 4362.5967_f32 * mu_b4 - 722.0538_f32 * mu_u5;
-    let q_2_5 = -2074.9702_f32 * mu_v5 - 7234.263_f32 * mu_b1 - 9887.773_f32 * mu_b2 - 6431.9907_f32 * mu_b3 - 1946.2098_f32 * mu_b4 - 291.60922_f32 * mu_u5;
-    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    let q_3_0 = -93.593666_f32 * mu_v5 - 319.6635_f32 * mu_b1 - 271.70706_f32 * mu_b2 - 110.872505_f32 * mu_b3 - 44.01359_f32 * mu_b4 - 27.687738_f32 * mu_u5;
-    let q_3_1 = -836.7936_f32 * mu_v5 - 2699.1577_f32 * mu_b1 - 3026.774_f32 * mu_b2 - 1820.4324_f32 * mu_b3 - 640.691_f32 * mu_b4 - 229.21558_f32 * mu_u5;
-    let q_3_2 = -3063.8652_f32 * mu_v5 - 9942.518_f32 * mu_b1 - 12430.149_f32 * mu_b2 - 7704.369_f32 * mu_b3 - 2171.934_f32 * mu_b4 - 508.15652_f32 * mu_u5;
-    let q_3_3 = -5806.2393_f32 * mu_v5 - 19083.475_f32 * mu_b1 - 24784.682_f32 * mu_b2 - 15581.942_f32 * mu_b3 - 4383.374_f32 * mu_b4 - 797.9716_f32 * mu_u5;
-    let q_3_4 = -5676.9688_f32 * mu_v5 - 18922.555_f32 * mu_b1 - 24798.049_f32 * mu_b2 - 15549.607_f32 * mu_b3 - 4479.8164_f32 * mu_b4 - 727.2211_f32 * mu_u5;
-    let q_3_5 = -2249.2498_f32 * mu_v5 - 7691.376_f32 * mu_b1 - 10266.999_f32 * mu_b2 - 6541.022_f32 * mu_b3 - 1960.9734_f32 * mu_b4 - 293.73294_f32 * mu_u5;
-    let q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    let q_4_0 = -48.288097_f32 * mu_v5 - 159.0136_f32 * mu_b1 - 122.7399_f32 * mu_b2 - 47.7208_f32 * mu_b3 - 23.848402_f32 * mu_b4 - 12.59672_f32 * mu_u5;
-    let q_4_1 = -471.0453_f32 * mu_v5 - 1488.4985_f32 * mu_b1 - 1637.2383_f32 * mu_b2 - 999.56714_f32 * mu_b3 - 363.23227_f32 * mu_b4 - 105.72381_f32 * mu_u5;
-    let q_4_2 = -1751.3834_f32 * mu_v5 - 5542.854_f32 * mu_b1 - 6726.769_f32 * mu_b2 - 4133.4854_f32 * mu_b3 - 1189.2177_f32 * mu_b4 - 235.57814_f32 * mu_u5;
-    let q_4_3 = -3277.9126_f32 * mu_v5 - 10485.417_f32 * mu_b1 - 13161.365_f32 * mu_b2 - 8096.7974_f32 * mu_b3 - 2283.6257_f32 * mu_b4 - 385.23602_f32 * mu_u5;
-    let q_4_4 = -3132.5532_f32 * mu_v5 - 10192.108_f32 * mu_b1 - 12959.939_f32 * mu_b2 - 7935.5107_f32 * mu_b3 - 2274.8608_f32 * mu_b4 - 362.00864_f32 * mu_u5;
-    let q_4_5 = -1212.1941_f32 * mu_v5 - 4064.6965_f32 * mu_b1 - 5300.1187_f32 * mu_b2 - 3309.6257_f32 * mu_b3 - 985.7057_f32 * mu_b4 - 148.15108_f32 * mu_u5;
-    let q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    let q_5_0 = -9.509339_f32 * mu_v5 - 29.187445_f32 * mu_b1 - 18.737123_f32 * mu_b2 - 7.080039_f32 * mu_b3 - 5.2864256_f32 * mu_b4 - 2.156348_f32 * mu_u5;
-    let q_5_1 = -104.860855_f32 * mu_v5 - 320.8442_f32 * mu_b1 - 345.43826_f32 * mu_b2 - 218.49637_f32 * mu_b3 - 83.82006_f32 * mu_b4 - 19.233343_f32 * mu_u5;
-    let q_5_2 = -397.03854_f32 * mu_v5 - 1219.1765_f32 * mu_b1 - 1434.5874_f32 * mu_b2 - 878.62665_f32 * mu_b3 - 259.93655_f32 * mu_b4 - 42.66882_f32 * mu_u5;
-    let q_5_3 = -734.8416_f32 * mu_v5 - 2282.416_f32 * mu_b1 - 2764.3916_f32 * mu_b2 - 1662.8792_f32 * mu_b3 - 469.7647_f32 * mu_b4 - 72.61222_f32 * mu_u5;
-    let q_5_4 = -688.03125_f32 * mu_v5 - 2182.6213_f32 * mu_b1 - 2688.936_f32 * mu_b2 - 1604.3999_f32 * mu_b3 - 456.58038_f32 * mu_b4 - 70.98101_f32 * mu_u5;
-    let q_5_5 = -260.66217_f32 * mu_v5 - 856.6525_f32 * mu_b1 - 1090.2853_f32 * mu_b2 - 666.5858_f32 * mu_b3 - 197.146_f32 * mu_b4 - 29.746084_f32 * mu_u5;
-    let q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    let q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
+    let q_0_0 = 1.0_f32 * mu_v6 + 4.568857_f32 * mu_b1 + 5.040267_f32 * mu_b2 + 1.6843363_f32 * mu_b3 + 0.8409333_f32 * mu_b4 - 0.0005688092_f32 * mu_b5 + 0.04120637_f32 * mu_u6;
+    let q_0_1 = 7.495099_f32 * mu_v6 + 32.942654_f32 * mu_b1 + 41.15573_f32 * mu_b2 + 20.772064_f32 * mu_b3 + 8.873614_f32 * mu_b4 + 0.3221194_f32 * mu_b5 + 0.53108215_f32 * mu_u6;
+    let q_0_2 = 29.47367_f32 * mu_v6 + 125.9019_f32 * mu_b1 + 177.82973_f32 * mu_b2 + 116.95558_f32 * mu_b3 + 49.403835_f32 * mu_b4 + 5.8395805_f32 * mu_b5 + 2.036561_f32 * mu_u6;
+    let q_0_3 = 65.33347_f32 * mu_v6 + 275.70377_f32 * mu_b1 + 417.06235_f32 * mu_b2 + 306.55536_f32 * mu_b3 + 130.6347_f32 * mu_b4 + 21.291296_f32 * mu_b5 + 3.9155402_f32 * mu_u6;
+    let q_0_4 = 89.00653_f32 * mu_v6 + 376.5045_f32 * mu_b1 + 596.7913_f32 * mu_b2 + 465.73843_f32 * mu_b3 + 198.53064_f32 * mu_b4 + 36.21554_f32 * mu_b5 + 4.176717_f32 * mu_u6;
+    let q_0_5 = 66.79348_f32 * mu_v6 + 283.53558_f32 * mu_b1 + 459.40433_f32 * mu_b2 + 364.71588_f32 * mu_b3 + 150.47876_f32 * mu_b4 + 26.273354_f32 * mu_b5 + 1.8669173_f32 * mu_u6;
+    let q_0_6 = 20.389359_f32 * mu_v6 + 86.69174_f32 * mu_b1 + 141.67358_f32 * mu_b2 + 112.61491_f32 * mu_b3 + 44.924133_f32 * mu_b4 + 7.3171997_f32 * mu_b5 + 0.30655327_f32 * mu_u6;
+    let q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
+    let q_1_0 = 3.0_f32 * mu_v6 + 13.706572_f32 * mu_b1 + 15.120801_f32 * mu_b2 + 5.053009_f32 * mu_b3 + 2.5228_f32 * mu_b4 - 0.0017064275_f32 * mu_b5 + 0.12361912_f32 * mu_u6;
+    let q_1_1 = 22.485298_f32 * mu_v6 + 98.82796_f32 * mu_b1 + 123.46719_f32 * mu_b2 + 62.316193_f32 * mu_b3 + 26.620844_f32 * mu_b4 + 0.96635824_f32 * mu_b5 + 1.5932465_f32 * mu_u6;
+    let q_1_2 = 88.421005_f32 * mu_v6 + 377.70572_f32 * mu_b1 + 533.4892_f32 * mu_b2 + 350.86676_f32 * mu_b3 + 148.21152_f32 * mu_b4 + 17.518742_f32 * mu_b5 + 6.1096826_f32 * mu_u6;
+    let q_1_3 = 196.00043_f32 * mu_v6 + 827.1113_f32 * mu_b1 + 1251.1871_f32 * mu_b2 + 919.6661_f32 * mu_b3 + 391.90408_f32 * mu_b4 + 63.873886_f32 * mu_b5 + 11.74662_f32 * mu_u6;
+    let q_1_4 = 267.0196_f32 * mu_v6 + 1129.5135_f32 * mu_b1 + 1790.3739_f32 * mu_b2 + 1397.2152_f32 * mu_b3 + 595.5919_f32 * mu_b4 + 108.64662_f32 * mu_b5 + 12.530149_f32 * mu_u6;
+    let q_1_5 = 200.38045_f32 * mu_v6 + 850.60675_f32 * mu_b1 + 1378.213_f32 * mu_b2 + 1094.1476_f32 * mu_b3 + 451.43628_f32 * mu_b4 + 78.82006_f32 * mu_b5 + 5.600752_f32 * mu_u6;
+    let q_1_6 = 61.16807_f32 * mu_v6 + 260.07523_f32 * mu_b1 + 425.02075_f32 * mu_b2 + 337.84473_f32 * mu_b3 + 134.7724_f32 * mu_b4 + 21.9516_f32 * mu_b5 + 0.91965985_f32 * mu_u6;
+    let q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
+    let q_2_0 = 3.0_f32 * mu_v6 + 13.706572_f32 * mu_b1 + 15.120801_f32 * mu_b2 + 5.053009_f32 * mu_b3 + 2.5228_f32 * mu_b4 - 0.0017064275_f32 * mu_b5 + 0.12361912_f32 * mu_u6;
+    let q_2_1 = 22.485298_f32 * mu_v6 + 98.82796_f32 * mu_b1 + 123.46719_f32 * mu_b2 + 62.316193_f32 * mu_b3 + 26.620844_f32 * mu_b4 + 0.96635824_f32 * mu_b5 + 1.5932465_f32 * mu_u6;
+    let q_2_2 = 88.421005_f32 * mu_v6 + 377.70572_f32 * mu_b1 + 533.4892_f32 * mu_b2 + 350.86676_f32 * mu_b3 + 148.21152_f32 * mu_b4 + 17.518742_f32 * mu_b5 + 6.1096826_f32 * mu_u6;
+    let q_2_3 = 196.00043_f32 * mu_v6 + 827.1113_f32 * mu_b1 + 1251.1871_f32 * mu_b2 + 919.6661_f32 * mu_b3 + 391.90408_f32 * mu_b4 + 63.873886_f32 * mu_b5 + 11.74662_f32 * mu_u6;
+    let q_2_4 = 267.0196_f32 * mu_v6 + 1129.5135_f32 * mu_b1 + 1790.3739_f32 * mu_b2 + 1397.2152_f32 * mu_b3 + 595.5919_f32 * mu_b4 + 108.64662_f32 * mu_b5 + 12.530149_f32 * mu_u6;
+    let q_2_5 = 200.38045_f32 * mu_v6 + 850.60675_f32 * mu_b1 + 1378.213_f32 * mu_b2 + 1094.1476_f32 * mu_b3 + 451.43628_f32 * mu_b4 + 78.82006_f32 * mu_b5 + 5.600752_f32 * mu_u6;
+    let q_2_6 = 61.16807_f32 * mu_v6 + 260.07523_f32 * mu_b1 + 425.02075_f32 * mu_b2 + 337.84473_f32 * mu_b3 + 134.7724_f32 * mu_b4 + 21.9516_f32 * mu_b5 + 0.91965985_f32 * mu_u6;
+    let q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
+    let q_3_0 = 1.0_f32 * mu_v6 + 4.568857_f32 * mu_b1 + 5.040267_f32 * mu_b2 + 1.6843363_f32 * mu_b3 + 0.8409333_f32 * mu_b4 - 0.0005688092_f32 * mu_b5 + 0.04120637_f32 * mu_u6;
+    let q_3_1 = 7.495099_f32 * mu_v6 + 32.942654_f32 * mu_b1 + 41.15573_f32 * mu_b2 + 20.772064_f32 * mu_b3 + 8.873614_f32 * mu_b4 + 0.3221194_f32 * mu_b5 + 0.53108215_f32 * mu_u6;
+    let q_3_2 = 29.47367_f32 * mu_v6 + 125.9019_f32 * mu_b1 + 177.82973_f32 * mu_b2 + 116.95558_f32 * mu_b3 + 49.403835_f32 * mu_b4 + 5.8395805_f32 * mu_b5 + 2.036561_f32 * mu_u6;
+    let q_3_3 = 65.33347_f32 * mu_v6 + 275.70377_f32 * mu_b1 + 417.06235_f32 * mu_b2 + 306.55536_f32 * mu_b3 + 130.6347_f32 * mu_b4 + 21.291296_f32 * mu_b5 + 3.9155402_f32 * mu_u6;
+    let q_3_4 = 89.00653_f32 * mu_v6 + 376.5045_f32 * mu_b1 + 596.7913_f32 * mu_b2 + 465.73843_f32 * mu_b3 + 198.53064_f32 * mu_b4 + 36.21554_f32 * mu_b5 + 4.176717_f32 * mu_u6;
+    let q_3_5 = 66.79348_f32 * mu_v6 + 283.53558_f32 * mu_b1 + 459.40433_f32 * mu_b2 + 364.71588_f32 * mu_b3 + 150.47876_f32 * mu_b4 + 26.273354_f32 * mu_b5 + 1.8669173_f32 * mu_u6;
+    let q_3_6 = 20.389359_f32 * mu_v6 + 86.69174_f32 * mu_b1 + 141.67358_f32 * mu_b2 + 112.61491_f32 * mu_b3 + 44.924133_f32 * mu_b4 + 7.3171997_f32 * mu_b5 + 0.30655327_f32 * mu_u6;
+    let q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
+    let q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

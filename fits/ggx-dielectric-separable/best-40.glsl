@@ -16,16 +16,16 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 d9e896b3fbdf0ab591adc0ba68f1aa6950adf21f8e15bccaaa9d26c4c8a1b019.
+// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 b2954f733f19412d1f78b779b1c75b024534e1b90563f575284e3c2fe939d40c.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.7e-7, shifted 7.3e-7, bernstein 4.9e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.41e-3, max 2.38e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.10e-7 (every op rounded, as this Rust), 4.46e-7 (fused multiply-add), 5.48e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.07e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 925 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-3, max 2.38e-2; this f32 code MAE 2.11e-3, max 2.38e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.3e-3 on the measurement grid.
-// Denominator proved >= 9.162e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.6e-7, shifted 8.5e-7, bernstein 3.7e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 3.22e-3, max 1.31e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.00e-7 (every op rounded, as this Rust), 7.53e-7 (fused multiply-add), 8.73e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.72e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1785 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.60e-3, max 1.31e-2; this f32 code MAE 2.60e-3, max 1.31e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 7.0e-3 on the measurement grid.
+// Denominator proved >= 6.847e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -36,16 +36,16 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = ((1.9069121 * r_t + (-0.9026216 * mu_t - 3.084831)) * r_t + ((-3.0381894 * mu_t + 6.9643183) * mu_t + 1.3373511)) * r_t + (((7.100832 * mu_t - 4.0456395) * mu_t - 0.3399397) * mu_t + 0.9533547);
-    highp float p_1 = (-24.220957 * r_t + (-6.1875787 * mu_t + 47.116848)) * r_t + ((5.8228245 * mu_t - 5.8293777) * mu_t + 15.790969);
-    highp float p_2 = -12.70677 * r_t + (2.83984 * mu_t - 71.452896);
-    highp float p_3 = 176.98471;
+    highp float p_0 = ((-0.2961582 * r_t + (-0.47996578 * mu_t + 1.0462347)) * r_t + ((-5.285737 * mu_t + 5.790607) * mu_t - 0.9444727)) * r_t + (((5.092481 * mu_t - 0.44939378) * mu_t - 1.8993179) * mu_t + 0.9558262);
+    highp float p_1 = (-11.6603775 * r_t + (-1.086359 * mu_t + 19.803333)) * r_t + ((10.310927 * mu_t - 16.881783) * mu_t + 17.94597);
+    highp float p_2 = 6.08574 * r_t + (17.774738 * mu_t - 81.59018);
+    highp float p_3 = 159.6954;
     highp float p = ((p_3 * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = ((1.8427299 * r_t + (-6.0200896 * mu_t + 2.2892704)) * r_t + ((-2.0350494 * mu_t + 6.115611) * mu_t + 1.3021059)) * r_t + (((6.9059777 * mu_t - 4.1289153) * mu_t - 0.12924202) * mu_t + 1.0);
-    highp float q_1 = (-5.53057 * r_t + (-3.199614 * mu_t + 40.853912)) * r_t + ((3.6675951 * mu_t - 4.7175493) * mu_t + 17.211903);
-    highp float q_2 = -3.7198415 * r_t + (3.9832423 * mu_t - 75.86736);
-    highp float q_3 = 184.09937;
+    highp float q_0 = ((-0.33652592 * r_t + (-4.0533857 * mu_t + 4.5794687)) * r_t + ((-3.4270813 * mu_t + 4.1472206) * mu_t - 0.89263934)) * r_t + (((4.5453 * mu_t + 0.078592084) * mu_t - 1.9559065) * mu_t + 1.0);
+    highp float q_1 = (-2.1182334 * r_t + (1.469576 * mu_t + 15.883793)) * r_t + ((9.63394 * mu_t - 17.395592) * mu_t + 19.58707);
+    highp float q_2 = 11.567648 * r_t + (20.350061 * mu_t - 88.595505);
+    highp float q_3 = 170.6403;
     highp float q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -28,16 +28,16 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 d9e896b3fbdf0ab591adc0ba68f1aa6950adf21f8e15bccaaa9d26c4c8a1b019.
+// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 b2954f733f19412d1f78b779b1c75b024534e1b90563f575284e3c2fe939d40c.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.7e-7, shifted 7.3e-7, bernstein 4.9e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.41e-3, max 2.38e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.10e-7 (every op rounded, as this Rust), 4.46e-7 (fused multiply-add), 5.48e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.07e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 925 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-3, max 2.38e-2; this f32 code MAE 2.11e-3, max 2.38e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.3e-3 on the measurement grid.
-// Denominator proved >= 9.162e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.6e-7, shifted 8.5e-7, bernstein 3.7e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 3.22e-3, max 1.31e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.00e-7 (every op rounded, as this Rust), 7.53e-7 (fused multiply-add), 8.73e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.72e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1785 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.60e-3, max 1.31e-2; this f32 code MAE 2.60e-3, max 1.31e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 7.0e-3 on the measurement grid.
+// Denominator proved >= 6.847e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -48,16 +48,16 @@ FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    const float p_0 = ((1.9069121f * r_t + (-0.9026216f * mu_t - 3.084831f)) * r_t + ((-3.0381894f * mu_t + 6.9643183f) * mu_t + 1.3373511f)) * r_t + (((7.100832f * mu_t - 4.0456395f) * mu_t - 0.3399397f) * mu_t + 0.9533547f);
-    const float p_1 = (-24.220957f * r_t + (-6.1875787f * mu_t + 47.116848f)) * r_t + ((5.8228245f * mu_t - 5.8293777f) * mu_t + 15.790969f);
-    const float p_2 = -12.70677f * r_t + (2.83984f * mu_t - 71.452896f);
-    const float p_3 = 176.98471f;
+    const float p_0 = ((-0.2961582f * r_t + (-0.47996578f * mu_t + 1.0462347f)) * r_t + ((-5.285737f * mu_t + 5.790607f) * mu_t - 0.9444727f)) * r_t + (((5.092481f * mu_t - 0.44939378f) * mu_t - 1.8993179f) * mu_t + 0.9558262f);
+    const float p_1 = (-11.6603775f * r_t + (-1.086359f * mu_t + 19.803333f)) * r_t + ((10.310927f * mu_t - 16.881783f) * mu_t + 17.94597f);
+    const float p_2 = 6.08574f * r_t + (17.774738f * mu_t - 81.59018f);
+    const float p_3 = 159.6954f;
     const float p = ((p_3 * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = ((1.8427299f * r_t + (-6.0200896f * mu_t + 2.2892704f)) * r_t + ((-2.0350494f * mu_t + 6.115611f) * mu_t + 1.3021059f)) * r_t + (((6.9059777f * mu_t - 4.1289153f) * mu_t - 0.12924202f) * mu_t + 1.0f);
-    const float q_1 = (-5.53057f * r_t + (-3.199614f * mu_t + 40.853912f)) * r_t + ((3.6675951f * mu_t - 4.7175493f) * mu_t + 17.211903f);
-    const float q_2 = -3.7198415f * r_t + (3.9832423f * mu_t - 75.86736f);
-    const float q_3 = 184.09937f;
+    const float q_0 = ((-0.33652592f * r_t + (-4.0533857f * mu_t + 4.5794687f)) * r_t + ((-3.4270813f * mu_t + 4.1472206f) * mu_t - 0.89263934f)) * r_t + (((4.5453f * mu_t + 0.078592084f) * mu_t - 1.9559065f) * mu_t + 1.0f);
+    const float q_1 = (-2.1182334f * r_t + (1.469576f * mu_t + 15.883793f)) * r_t + ((9.63394f * mu_t - 17.395592f) * mu_t + 19.58707f);
+    const float q_2 = 11.567648f * r_t + (20.350061f * mu_t - 88.595505f);
+    const float q_3 = 170.6403f;
     const float q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -13,39 +13,39 @@
 // ggx_dielectric_albedo(f0, r, mu): directional albedo E of ggx-dielectric.
 // Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric/best-20.json (furnace 0.1.0), fit SHA-256 e9067aeb636b8b30c186c71d96427e5ed66de012bfbaf67ddf715e7bcfbe5dca.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
+// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points.
+// Source: fits/ggx-dielectric/best-20.json (furnace 0.1.0), fit SHA-256 e16a4f23d6c775da10a53960ba7860fe0247331e85f7a7d8df502836dc4716f2.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 9.7e-7, shifted 8.7e-7, bernstein 7.5e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 4.08e-3, max 5.55e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.22e-6 (every op rounded, as this Rust), 1.00e-6 (fused multiply-add), 1.13e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 7.05e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 5051 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 3.63e-3, max 5.55e-2; this f32 code MAE 3.63e-3, max 5.55e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.9e-3 on the measurement grid.
-// Denominator proved >= 1.712e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.1e-6, shifted 4.6e-7, bernstein 3.8e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 5.88e-3, max 4.72e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.80e-6 (every op rounded, as this Rust), 3.80e-6 (fused multiply-add), 3.92e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.52e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 1193 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 5.41e-3, max 4.72e-2; this f32 code MAE 5.41e-3, max 4.72e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.1e-2 on the measurement grid.
+// Denominator proved >= 4.980e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
-    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
-    highp float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
+    // t = sqrt(f0)
+    highp float f0_t = sqrt(f0_c);
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = (0.45650434 * r_t + (0.42666027 * mu_t - 1.1713585)) * r_t + ((0.5652348 * mu_t - 1.0354606) * mu_t + 0.9900214);
-    highp float p_1 = -0.0884472 * r_t + (-0.42365602 * mu_t + 0.48536295);
-    highp float p_2 = -0.04669891;
+    highp float p_0 = (1.2451633 * r_t + (-0.33354175 * mu_t - 2.2602627)) * r_t + ((-0.22146417 * mu_t + 1.3107486) * mu_t + 0.97406125);
+    highp float p_1 = -0.4891065 * r_t + (-1.6104933 * mu_t + 1.3859788);
+    highp float p_2 = -0.17751719;
     highp float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = (0.47938037 * r_t + (0.45485565 * mu_t - 1.2015983)) * r_t + ((0.3706066 * mu_t - 0.852272) * mu_t + 1.0);
-    highp float q_1 = -0.052818 * r_t + (-0.39995384 * mu_t + 0.45703048);
-    highp float q_2 = -0.04193872;
+    highp float q_0 = (1.263097 * r_t + (-0.2325908 * mu_t - 2.3078325)) * r_t + ((-0.6784163 * mu_t + 1.7256984) * mu_t + 1.0);
+    highp float q_1 = -0.38129994 * r_t + (-1.5166357 * mu_t + 1.296464);
+    highp float q_2 = -0.13337383;
     highp float q = (q_2 * f0_t + q_1) * f0_t + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

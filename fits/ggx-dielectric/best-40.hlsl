@@ -12,48 +12,38 @@
 // ggx_dielectric_albedo(f0, r, mu): directional albedo E of ggx-dielectric.
 // Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 18fcc4eeaab96ad6688a2e9078d47485379d440f34a8571a520141b3c90a0f1b.
-// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-6, shifted 1.7e-6, bernstein 4.2e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.13e-3, max 5.61e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.78e-6 (every op rounded, as this Rust), 1.51e-6 (fused multiply-add), 1.86e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.18e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 207 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.03e-3, max 4.27e-2; this f32 code MAE 2.03e-3, max 4.27e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.6e-2 on the measurement grid.
-// Denominator proved >= 1.138e-1 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 40960 points; best pole-certified start refined on all points.
+// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 2344cefeb85c280dbaec3d59c507fd0ea642de0823ef3a6c628f97732901ecf8.
+// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 5.7e-7, bernstein 6.6e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.55e-3, max 2.48e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.68e-6 (every op rounded, as this Rust), 2.57e-6 (fused multiply-add), 2.56e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.69e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 12769 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.25e-3, max 2.09e-2; this f32 code MAE 2.25e-3, max 2.09e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.5e-2 on the measurement grid.
+// Denominator proved >= 5.734e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
-    // t = sqrt(f0)
-    float f0_t = sqrt(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017f) * 2.6828594f;
     float r_c = max(min(r, 1.0f), 0.0f);
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // s = (t - 0.30590169943749473)/0.19409830056250527 in [-1, 1]
-    float f0_s = f0_t * 5.1520286f - 1.5760143f;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    float r_s = r_t * 2.0f - 1.0f;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    float mu_s = mu_t * 2.0f - 1.0f;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((0.09580379f * r_s + (-0.22409202f * mu_s - 0.02303607f)) * r_s + ((-0.06936032f * mu_s + 0.38191593f) * mu_s - 0.28896207f)) * r_s + (((0.1773948f * mu_s + 0.010757617f) * mu_s - 0.15761308f) * mu_s + 0.7453438f);
-    float p_1 = (0.0006210372f * r_s + (0.070609815f * mu_s + 0.0022671726f)) * r_s + ((-0.04600288f * mu_s - 0.1881177f) * mu_s + 0.028270828f);
-    float p_2 = 0.002138312f * r_s + (0.012948019f * mu_s - 0.041288834f);
-    float p_3 = 0.0129044745f;
-    float p = ((p_3 * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
+    float p_0 = ((0.54883987f * r_t + (-0.26711592f * mu_t - 1.0976769f)) * r_t + ((-1.0963054f * mu_t + 2.0638542f) * mu_t - 0.025177503f)) * r_t + (((0.2827352f * mu_t + 1.2017179f) * mu_t - 2.33033f) * mu_t + 1.0063294f);
+    float p_1 = ((-0.07596388f * r_t + (0.05405696f * mu_t + 0.019520238f)) * r_t + ((-0.15674943f * mu_t + 0.01732365f) * mu_t + 0.099030256f)) * r_t + (((0.099220365f * mu_t - 0.19068564f) * mu_t + 0.11656691f) * mu_t - 0.024010405f);
+    float p_2 = ((0.081365146f * r_t + (-0.055444896f * mu_t - 0.061992772f)) * r_t + ((-0.049483772f * mu_t + 0.10102322f) * mu_t - 0.043828215f)) * r_t + (((-0.07786915f * mu_t + 0.14855352f) * mu_t - 0.085754804f) * mu_t + 0.01460395f);
+    float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = ((0.07606523f * r_s + (-0.2160679f * mu_s - 0.0109140575f)) * r_s + ((-0.11624807f * mu_s + 0.41506582f) * mu_s - 0.19320495f)) * r_s + (((0.24247311f * mu_s - 0.09874279f) * mu_s - 0.20021774f) * mu_s + 0.874922f);
-    float q_1 = (0.015369702f * r_s + (0.09117265f * mu_s + 0.016158605f)) * r_s + ((-0.035916246f * mu_s - 0.17590983f) * mu_s + 0.025573596f);
-    float q_2 = 0.00027948944f * r_s + (0.011426438f * mu_s - 0.041903254f);
-    float q_3 = 0.013026657f;
-    float q = ((q_3 * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
+    float q_0 = ((0.4385005f * r_t + (-0.23313524f * mu_t - 0.96898067f)) * r_t + ((-1.439907f * mu_t + 2.3842716f) * mu_t - 0.039120827f)) * r_t + (((0.30307308f * mu_t + 1.1246912f) * mu_t - 2.2670646f) * mu_t + 1.0f);
+    float q = q_0;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);
 }

@@ -10,19 +10,19 @@
 /// ggx_dielectric_albedo(f0, r, mu): directional albedo E of ggx-dielectric.
 /// Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; height-correlated Smith G2.
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 32768 points; best pole-certified start refined on all points.
-/// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 18fcc4eeaab96ad6688a2e9078d47485379d440f34a8571a520141b3c90a0f1b.
-/// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-6, shifted 1.7e-6, bernstein 4.2e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 2.13e-3, max 5.61e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.78e-6 (every op rounded, as this Rust), 1.51e-6 (fused multiply-add), 1.86e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 9.18e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 207 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.03e-3, max 4.27e-2; this f32 code MAE 2.03e-3, max 4.27e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.6e-2 on the measurement grid.
-/// Denominator proved >= 1.138e-1 on the domain (Bernstein certificate), so the division is safe.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+/// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 40960 points; best pole-certified start refined on all points.
+/// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 2344cefeb85c280dbaec3d59c507fd0ea642de0823ef3a6c628f97732901ecf8.
+/// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 5.7e-7, bernstein 6.6e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 2.55e-3, max 2.48e-2 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.68e-6 (every op rounded, as this Rust), 2.57e-6 (fused multiply-add), 2.56e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 3.69e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 12769 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.25e-3, max 2.09e-2; this f32 code MAE 2.25e-3, max 2.09e-2.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.5e-2 on the measurement grid.
+/// Denominator proved >= 5.734e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -33,32 +33,22 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
-    // t = sqrt(f0)
-    let f0_t = sqrtf(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    let f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017_f32) * 2.6828594_f32;
     let r_c = r.min(1.0_f32).max(0.0_f32);
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // s = (t - 0.30590169943749473)/0.19409830056250527 in [-1, 1]
-    let f0_s = f0_t * 5.1520286_f32 - 1.5760143_f32;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let r_s = r_t * 2.0_f32 - 1.0_f32;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let mu_s = mu_t * 2.0_f32 - 1.0_f32;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((0.09580379_f32 * r_s + (-0.22409202_f32 * mu_s - 0.02303607_f32)) * r_s + ((-0.06936032_f32 * mu_s + 0.38191593_f32) * mu_s - 0.28896207_f32)) * r_s + (((0.1773948_f32 * mu_s + 0.010757617_f32) * mu_s - 0.15761308_f32) * mu_s + 0.7453438_f32);
-    let p_1 = (0.0006210372_f32 * r_s + (0.070609815_f32 * mu_s + 0.0022671726_f32)) * r_s + ((-0.04600288_f32 * mu_s - 0.1881177_f32) * mu_s + 0.028270828_f32);
-    let p_2 = 0.002138312_f32 * r_s + (0.012948019_f32 * mu_s - 0.041288834_f32);
-    let p_3 = 0.0129044745_f32;
-    let p = ((p_3 * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
+    let p_0 = ((0.54883987_f32 * r_t + (-0.26711592_f32 * mu_t - 1.0976769_f32)) * r_t + ((-1.0963054_f32 * mu_t + 2.0638542_f32) * mu_t - 0.025177503_f32)) * r_t + (((0.2827352_f32 * mu_t + 1.2017179_f32) * mu_t - 2.33033_f32) * mu_t + 1.0063294_f32);
+    let p_1 = ((-0.07596388_f32 * r_t + (0.05405696_f32 * mu_t + 0.019520238_f32)) * r_t + ((-0.15674943_f32 * mu_t + 0.01732365_f32) * mu_t + 0.099030256_f32)) * r_t + (((0.099220365_f32 * mu_t - 0.19068564_f32) * mu_t + 0.11656691_f32) * mu_t - 0.024010405_f32);
+    let p_2 = ((0.081365146_f32 * r_t + (-0.055444896_f32 * mu_t - 0.061992772_f32)) * r_t + ((-0.049483772_f32 * mu_t + 0.10102322_f32) * mu_t - 0.043828215_f32)) * r_t + (((-0.07786915_f32 * mu_t + 0.14855352_f32) * mu_t - 0.085754804_f32) * mu_t + 0.01460395_f32);
+    let p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((0.07606523_f32 * r_s + (-0.2160679_f32 * mu_s - 0.0109140575_f32)) * r_s + ((-0.11624807_f32 * mu_s + 0.41506582_f32) * mu_s - 0.19320495_f32)) * r_s + (((0.24247311_f32 * mu_s - 0.09874279_f32) * mu_s - 0.20021774_f32) * mu_s + 0.874922_f32);
-    let q_1 = (0.015369702_f32 * r_s + (0.09117265_f32 * mu_s + 0.016158605_f32)) * r_s + ((-0.035916246_f32 * mu_s - 0.17590983_f32) * mu_s + 0.025573596_f32);
-    let q_2 = 0.00027948944_f32 * r_s + (0.011426438_f32 * mu_s - 0.041903254_f32);
-    let q_3 = 0.013026657_f32;
-    let q = ((q_3 * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
+    let q_0 = ((0.4385005_f32 * r_t + (-0.23313524_f32 * mu_t - 0.96898067_f32)) * r_t + ((-1.439907_f32 * mu_t + 2.3842716_f32) * mu_t - 0.039120827_f32)) * r_t + (((0.30307308_f32 * mu_t + 1.1246912_f32) * mu_t - 2.2670646_f32) * mu_t + 1.0_f32);
+    let q = q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

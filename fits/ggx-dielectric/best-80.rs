@@ -4,50 +4,84 @@
 // All arithmetic is f32. Each function states what its arguments mean, its domain, evaluation form, measured errors and error bound.
 // Helpers: Sforza & Pellacini 2022, "Enforcing Energy Preservation in Microfacet Models" (eqs. 13, 18, 19).
 
-// Needs only `core`: usable under #![no_std].
+// Needs only `core`, but for square roots: with std they are f32::sqrt; under #![no_std],
+// give the including crate a `libm` feature that enables a libm dependency (same bits).
 
 /// ggx_dielectric_albedo(f0, r, mu): directional albedo E of ggx-dielectric.
 /// Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; height-correlated Smith G2.
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
+///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational of degree 4/3, 54 coefficients (numerator 35, denominator 19 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 32768 points; best pole-certified start refined on all points.
-/// Source: fits/ggx-dielectric/best-80.json (furnace 0.1.0), fit SHA-256 028a439cedcd4067e5dfc3e036ca69cd2ee590acf8375a2a72dff299079a0706.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+/// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
+/// Source: fits/ggx-dielectric/best-80.json (furnace 0.1.0), fit SHA-256 5f2ab4bfae8338cfc90870bcac67ba1f8947fedcaed6253812bafbd19f7a8cd4.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-6, shifted 9.3e-7, bernstein 4.2e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.20e-3, max 2.42e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.57e-6 (every op rounded, as this Rust), 1.28e-6 (fused multiply-add), 1.40e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 8.83e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 591 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 1.13e-3, max 2.42e-2; this f32 code MAE 1.13e-3, max 2.42e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-/// Denominator proved >= 1.807e0 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 7.8e-7, bernstein 8.4e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 4.80e-4, max 6.79e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.64e-6 (every op rounded, as this Rust), 1.27e-6 (fused multiply-add), 1.37e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 3.34e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 8901 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 4.64e-4, max 6.79e-3; this f32 code MAE 4.64e-4, max 6.79e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.5e-3 on the measurement grid.
+/// Denominator proved >= 4.789e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
 pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
+    #[cfg(feature = "libm")]
+    use libm::sqrtf;
+    #[cfg(not(feature = "libm"))]
+    fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    let f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017_f32) * 2.6828594_f32;
     let r_c = r.min(1.0_f32).max(0.0_f32);
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // numerator P, grouped by powers of the first variable
-    let p_0 = (((0.18304779_f32 * r_t + (-5.162753_f32 * mu_t + 29.191935_f32)) * r_t + ((42.55716_f32 * mu_t - 35.34952_f32) * mu_t - 37.538265_f32)) * r_t + (((-4.895829_f32 * mu_t - 63.70903_f32) * mu_t + 102.30659_f32) * mu_t + 12.029539_f32)) * r_t + ((((-12.961486_f32 * mu_t + 82.32549_f32) * mu_t - 80.42709_f32) * mu_t + 25.29215_f32) * mu_t + 1.0081651_f32);
-    let p_1 = ((-5.3470616_f32 * r_t + (-92.74559_f32 * mu_t - 54.79394_f32)) * r_t + ((-8.924559_f32 * mu_t + 45.940945_f32) * mu_t + 178.023_f32)) * r_t + (((-2.2204936_f32 * mu_t - 34.26695_f32) * mu_t - 3.0058281_f32) * mu_t + 69.050674_f32);
-    let p_2 = (43.501637_f32 * r_t + (21.629656_f32 * mu_t - 182.2493_f32)) * r_t + ((-36.617634_f32 * mu_t + 129.99942_f32) * mu_t - 378.74283_f32);
-    let p_3 = 11.493182_f32 * r_t + (-10.865258_f32 * mu_t + 597.9447_f32);
-    let p_4 = -63.013474_f32;
-    let p = (((p_4 * f0_c + p_3) * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
-    // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((29.162188_f32 * r_t + (4.573544_f32 * mu_t - 37.627453_f32)) * r_t + ((-74.83294_f32 * mu_t + 109.172386_f32) * mu_t + 12.186505_f32)) * r_t + (((55.573162_f32 * mu_t - 64.987564_f32) * mu_t + 23.64569_f32) * mu_t + 1.0_f32);
-    let q_1 = (-50.53165_f32 * r_t + (32.13868_f32 * mu_t + 171.92734_f32)) * r_t + ((-53.204075_f32 * mu_t + 13.653604_f32) * mu_t + 69.20085_f32);
-    let q_2 = -147.37428_f32 * r_t + (91.3189_f32 * mu_t - 375.97507_f32);
-    let q_3 = 567.8962_f32;
-    let q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
-    let e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
+    // term 0: numerator P_0, grouped by powers of the first variable
+    let p0_0 = (((-0.0863421_f32 * r_t + (1.0975502_f32 * mu_t + 0.14320967_f32)) * r_t + ((-1.2232028_f32 * mu_t - 1.3329185_f32) * mu_t - 0.4945648_f32)) * r_t + (((0.361965_f32 * mu_t - 0.10637595_f32) * mu_t + 1.7109259_f32) * mu_t + 0.11596484_f32)) * r_t + ((((0.826016_f32 * mu_t - 1.5221514_f32) * mu_t + 3.9085045_f32) * mu_t - 2.6894288_f32) * mu_t + 1.0771226_f32);
+    let p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    let u0_0 = 0.870999_f32;
+    let u0_1 = 0.07759887_f32;
+    let u0_2 = -0.025020342_f32;
+    let u0_3 = 0.023945682_f32;
+    let u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    let q0_0 = (-0.46946242_f32 * r_t + (1.7114475_f32 * mu_t + 0.2053712_f32)) * r_t + ((2.7621133_f32 * mu_t - 2.2464905_f32) * mu_t + 1.0_f32);
+    let q0 = q0_0;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    let p1_0 = (((-0.010588631_f32 * r_t + (-0.50843775_f32 * mu_t + 0.15038876_f32)) * r_t + ((-1.4576669_f32 * mu_t + 1.62291_f32) * mu_t - 0.33644047_f32)) * r_t + (((0.8788323_f32 * mu_t - 1.3450813_f32) * mu_t + 0.42575073_f32) * mu_t + 0.08855378_f32)) * r_t + ((((0.12119624_f32 * mu_t - 0.28971878_f32) * mu_t + 0.1392094_f32) * mu_t + 0.12593257_f32) * mu_t - 0.12717314_f32);
+    let p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    let u1_0 = -0.3578901_f32;
+    let u1_1 = 0.8179056_f32;
+    let u1_2 = -0.3681638_f32;
+    let u1_3 = 0.21593161_f32;
+    let u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    let q1_0 = (1.4045509_f32 * r_t + (0.053759765_f32 * mu_t - 0.46193922_f32)) * r_t + ((0.5473208_f32 * mu_t - 1.3045106_f32) * mu_t + 1.0_f32);
+    let q1 = q1_0;
+    let e1 = p1 * u1 / q1;
+    // term 2: numerator P_2, grouped by powers of the first variable
+    let p2_0 = (((0.047966436_f32 * r_t + (-0.012191505_f32 * mu_t - 0.05597078_f32)) * r_t + ((-0.03690379_f32 * mu_t - 0.08470538_f32) * mu_t + 0.034512416_f32)) * r_t + (((-0.7559232_f32 * mu_t + 1.323518_f32) * mu_t - 0.43259868_f32) * mu_t - 0.14135122_f32)) * r_t + ((((0.59473675_f32 * mu_t - 1.4514804_f32) * mu_t + 1.1069597_f32) * mu_t - 0.22837457_f32) * mu_t - 0.02501734_f32);
+    let p2 = p2_0;
+    // term 2: factor u_2, grouped by powers of the first variable
+    let u2_0 = -0.72842723_f32;
+    let u2_1 = -0.42443308_f32;
+    let u2_2 = 0.42240253_f32;
+    let u2_3 = -0.06043333_f32;
+    let u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
+    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
+    let q2_0 = (0.1258813_f32 * r_t + (-0.4786584_f32 * mu_t + 0.6125954_f32)) * r_t + ((1.2246077_f32 * mu_t - 2.1590886_f32) * mu_t + 1.0_f32);
+    let q2 = q2_0;
+    let e2 = p2 * u2 / q2;
+    // the sum of the 3 terms
+    let e = e0 + e1 + e2;
     e.min(1.0_f32).max(0.0_f32)
 }
 

@@ -15,16 +15,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 3ae6d403f522f38b50bbd59d00352371e1ba235163489784ace2406a773278dc.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 ecd5b7f507a8d6a61dd32c466e5f92543799059d3636af8022fdda5a737ee5ec.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.0e-2, shifted 3.6e-4, bernstein 4.3e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.76e-9, max 5.19e-7 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.26e-7 (every op rounded, as this Rust), 5.45e-7 (fused multiply-add), 5.89e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.23e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 4439 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.76e-9, max 5.19e-7; this f32 code MAE 6.92e-8, max 6.37e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.0e-9 on the measurement grid.
-// Denominator proved >= 6.377e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.0e-2, shifted 9.7e-5, bernstein 5.4e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.82e-9, max 5.38e-7 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.46e-7 (every op rounded, as this Rust), 5.46e-7 (fused multiply-add), 6.65e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.19e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 5105 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.81e-9, max 5.38e-7; this f32 code MAE 6.87e-8, max 6.46e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.5e-9 on the measurement grid.
+// Denominator proved >= 1.269e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float oren_nayar_fon_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
@@ -88,30 +88,30 @@ highp float oren_nayar_fon_albedo(highp float r, highp float mu) {
     highp float mu_b8 = mu_u8 * mu_v2;
     highp float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 1.0 * mu_v10 + 66.88092 * mu_b1 + 57.791237 * mu_b2 - 207.51471 * mu_b3 + 107.69561 * mu_b4 + 1085.4895 * mu_b5 + 1219.5637 * mu_b6 + 473.0216 * mu_b7 + 54.65402 * mu_b8 + 1.516655 * mu_b9 + 0.0065126005 * mu_u10;
-    highp float p_1 = 11.614086 * mu_v10 + 693.5582 * mu_b1 + 593.4254 * mu_b2 - 2017.2365 * mu_b3 + 1525.0895 * mu_b4 + 11493.165 * mu_b5 + 12534.461 * mu_b6 + 4821.277 * mu_b7 + 554.3108 * mu_b8 + 15.025642 * mu_b9 + 0.060193222 * mu_u10;
-    highp float p_2 = 66.31247 * mu_v10 + 3282.159 * mu_b1 + 2924.4373 * mu_b2 - 8389.756 * mu_b3 + 9501.471 * mu_b4 + 55157.92 * mu_b5 + 58256.9 * mu_b6 + 22225.084 * mu_b7 + 2554.0603 * mu_b8 + 68.77299 * mu_b9 + 0.27042705 * mu_u10;
-    highp float p_3 = 216.4564 * mu_v10 + 9176.481 * mu_b1 + 8446.853 * mu_b2 - 20516.709 * mu_b3 + 32525.232 * mu_b4 + 156456.83 * mu_b5 + 160436.39 * mu_b6 + 60756.668 * mu_b7 + 6994.3896 * mu_b8 + 188.72737 * mu_b9 + 0.73284274 * mu_u10;
-    highp float p_4 = 429.49756 * mu_v10 + 16597.752 * mu_b1 + 15147.76 * mu_b2 - 34139.46 * mu_b3 + 67739.53 * mu_b4 + 288802.5 * mu_b5 + 288962.28 * mu_b6 + 108753.19 * mu_b7 + 12550.893 * mu_b8 + 340.7154 * mu_b9 + 1.3289429 * mu_u10;
-    highp float p_5 = 536.2598 * mu_v10 + 20165.936 * mu_b1 + 17116.393 * mu_b2 - 41857.13 * mu_b3 + 90522.8 * mu_b4 + 361477.7 * mu_b5 + 354966.16 * mu_b6 + 132939.02 * mu_b7 + 15374.113 * mu_b8 + 419.94418 * mu_b9 + 1.659734 * mu_u10;
-    highp float p_6 = 426.58963 * mu_v10 + 16634.873 * mu_b1 + 11939.633 * mu_b2 - 38567.215 * mu_b3 + 79381.28 * mu_b4 + 310509.84 * mu_b5 + 300950.3 * mu_b6 + 112286.93 * mu_b7 + 12998.057 * mu_b8 + 356.28104 * mu_b9 + 1.4182581 * mu_u10;
-    highp float p_7 = 215.64655 * mu_v10 + 9225.886 * mu_b1 + 4764.6816 * mu_b2 - 25685.584 * mu_b3 + 45595.742 * mu_b4 + 180989.75 * mu_b5 + 173941.86 * mu_b6 + 64712.258 * mu_b7 + 7486.7407 * mu_b8 + 205.11032 * mu_b9 + 0.8152133 * mu_u10;
-    highp float p_8 = 69.4723 * mu_v10 + 3325.5696 * mu_b1 + 865.9922 * mu_b2 - 11353.106 * mu_b3 + 16680.28 * mu_b4 + 68728.99 * mu_b5 + 65683.15 * mu_b6 + 24375.957 * mu_b7 + 2814.2583 * mu_b8 + 76.766594 * mu_b9 + 0.30362803 * mu_u10;
-    highp float p_9 = 14.83041 * mu_v10 + 718.5128 * mu_b1 + 5.771507 * mu_b2 - 2890.337 * mu_b3 + 3608.2378 * mu_b4 + 15436.783 * mu_b5 + 14671.038 * mu_b6 + 5429.71 * mu_b7 + 624.8225 * mu_b8 + 16.92634 * mu_b9 + 0.06633116 * mu_u10;
-    highp float p_10 = 1.9353023 * mu_v10 + 73.140144 * mu_b1 - 8.489759 * mu_b2 - 309.94162 * mu_b3 + 366.8445 * mu_b4 + 1569.5037 * mu_b5 + 1477.6958 * mu_b6 + 544.74774 * mu_b7 + 62.456043 * mu_b8 + 1.6813827 * mu_b9 + 0.00656335 * mu_u10;
+    highp float p_0 = 1.0 * mu_v10 + 139.08817 * mu_b1 + 186.78807 * mu_b2 - 257.8611 * mu_b3 + 285.62708 * mu_b4 + 2113.1812 * mu_b5 + 2454.84 * mu_b6 + 1042.0208 * mu_b7 + 151.08752 * mu_b8 + 6.0365486 * mu_b9 + 0.038154967 * mu_u10;
+    highp float p_1 = 13.99034 * mu_v10 + 1413.742 * mu_b1 + 1699.7977 * mu_b2 - 3264.9827 * mu_b3 + 1830.6329 * mu_b4 + 19721.736 * mu_b5 + 23021.736 * mu_b6 + 9599.16 * mu_b7 + 1320.8505 * mu_b8 + 48.473663 * mu_b9 + 0.27473512 * mu_u10;
+    highp float p_2 = 87.01405 * mu_v10 + 6536.2295 * mu_b1 + 7407.3677 * mu_b2 - 15880.283 * mu_b3 + 7443.77 * mu_b4 + 86924.97 * mu_b5 + 99942.82 * mu_b6 + 40796.535 * mu_b7 + 5337.027 * mu_b8 + 180.28444 * mu_b9 + 0.92514795 * mu_u10;
+    highp float p_3 = 302.79837 * mu_v10 + 17958.023 * mu_b1 + 19874.506 * mu_b2 - 41989.957 * mu_b3 + 25473.553 * mu_b4 + 236465.5 * mu_b5 + 263670.44 * mu_b6 + 105194.95 * mu_b7 + 13145.727 * mu_b8 + 410.58173 * mu_b9 + 1.9469452 * mu_u10;
+    highp float p_4 = 652.292 * mu_v10 + 32262.28 * mu_b1 + 35358.47 * mu_b2 - 69157.99 * mu_b3 + 64138.03 * mu_b4 + 434804.66 * mu_b5 + 466067.0 * mu_b6 + 181781.42 * mu_b7 + 21859.95 * mu_b8 + 635.9243 * mu_b9 + 2.7759411 * mu_u10;
+    highp float p_5 = 917.85126 * mu_v10 + 39405.453 * mu_b1 + 42488.1 * mu_b2 - 76098.695 * mu_b3 + 107933.79 * mu_b4 + 558282.56 * mu_b5 + 573890.56 * mu_b6 + 219249.64 * mu_b7 + 25611.639 * mu_b8 + 703.14197 * mu_b9 + 2.7936027 * mu_u10;
+    highp float p_6 = 863.49084 * mu_v10 + 33000.86 * mu_b1 + 34066.414 * mu_b2 - 58472.66 * mu_b3 + 118669.7 * mu_b4 + 501946.84 * mu_b5 + 496062.6 * mu_b6 + 186226.5 * mu_b7 + 21354.28 * mu_b8 + 564.7696 * mu_b9 + 2.0704167 * mu_u10;
+    highp float p_7 = 540.8886 * mu_v10 + 18628.533 * mu_b1 + 17390.62 * mu_b2 - 32392.547 * mu_b3 + 83889.836 * mu_b4 + 309531.3 * mu_b5 + 295788.03 * mu_b6 + 109544.19 * mu_b7 + 12456.253 * mu_b8 + 325.42828 * mu_b9 + 1.1571199 * mu_u10;
+    highp float p_8 = 216.86467 * mu_v10 + 6740.4717 * mu_b1 + 5022.4067 * mu_b2 - 13037.039 * mu_b3 + 36484.504 * mu_b4 + 124430.92 * mu_b5 + 115880.52 * mu_b6 + 42516.02 * mu_b7 + 4834.4097 * mu_b8 + 127.61399 * mu_b9 + 0.4697148 * mu_u10;
+    highp float p_9 = 50.128654 * mu_v10 + 1396.0265 * mu_b1 + 555.8506 * mu_b2 - 3548.24 * mu_b3 + 8752.923 * mu_b4 + 29247.262 * mu_b5 + 26798.482 * mu_b6 + 9781.1455 * mu_b7 + 1118.0085 * mu_b8 + 30.165525 * mu_b9 + 0.11959141 * mu_u10;
+    highp float p_10 = 4.99567 * mu_v10 + 122.84999 * mu_b1 - 32.569275 * mu_b2 - 488.59143 * mu_b3 + 859.08826 * mu_b4 + 3027.811 * mu_b5 + 2761.4683 * mu_b6 + 1006.5722 * mu_b7 + 115.72374 * mu_b8 + 3.1619296 * mu_b9 + 0.0125862425 * mu_u10;
     highp float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v10 + 66.88092 * mu_b1 + 57.79121 * mu_b2 - 207.51448 * mu_b3 + 107.69497 * mu_b4 + 1085.4902 * mu_b5 + 1219.5634 * mu_b6 + 473.02167 * mu_b7 + 54.654015 * mu_b8 + 1.5166551 * mu_b9 + 0.0065126005 * mu_u10;
-    highp float q_1 = 11.614086 * mu_v10 + 693.8765 * mu_b1 + 614.53906 * mu_b2 - 2010.6458 * mu_b3 + 1439.1527 * mu_b4 + 11601.019 * mu_b5 + 12831.611 * mu_b6 + 4954.117 * mu_b7 + 570.0003 * mu_b8 + 15.462084 * mu_b9 + 0.062067505 * mu_u10;
-    highp float q_2 = 66.31246 * mu_v10 + 3285.446 * mu_b1 + 3116.082 * mu_b2 - 8325.314 * mu_b3 + 8764.309 * mu_b4 + 56210.457 * mu_b5 + 61003.617 * mu_b6 + 23445.682 * mu_b7 + 2697.5046 * mu_b8 + 72.66047 * mu_b9 + 0.28587598 * mu_u10;
-    highp float q_3 = 216.45642 * mu_v10 + 9193.357 * mu_b1 + 9234.246 * mu_b2 - 20190.58 * mu_b3 + 29813.434 * mu_b4 + 161101.27 * mu_b5 + 171788.63 * mu_b6 + 65771.22 * mu_b7 + 7584.1577 * mu_b8 + 204.63058 * mu_b9 + 0.7952206 * mu_u10;
-    highp float q_4 = 429.49753 * mu_v10 + 16644.922 * mu_b1 + 17022.27 * mu_b2 - 33255.867 * mu_b3 + 61910.03 * mu_b4 + 300614.3 * mu_b5 + 316296.88 * mu_b6 + 120770.43 * mu_b7 + 13968.924 * mu_b8 + 379.122 * mu_b9 + 1.477474 * mu_u10;
-    highp float q_5 = 536.2598 * mu_v10 + 20241.906 * mu_b1 + 19925.64 * mu_b2 - 40544.582 * mu_b3 + 82180.21 * mu_b4 + 380309.75 * mu_b5 + 397037.97 * mu_b6 + 151382.5 * mu_b7 + 17558.6 * mu_b8 + 479.58487 * mu_b9 + 1.8936609 * mu_u10;
-    highp float q_6 = 426.58963 * mu_v10 + 16707.736 * mu_b1 + 14671.478 * mu_b2 - 37526.92 * mu_b3 + 70965.95 * mu_b4 + 329952.9 * mu_b5 + 343782.34 * mu_b6 + 131046.65 * mu_b7 + 15226.005 * mu_b8 + 417.4864 * mu_b9 + 1.6619933 * mu_u10;
-    highp float q_7 = 215.64653 * mu_v10 + 9267.841 * mu_b1 + 6490.4136 * mu_b2 - 25334.352 * mu_b3 + 39627.09 * mu_b4 + 194012.94 * mu_b5 + 202778.64 * mu_b6 + 77351.06 * mu_b7 + 8988.949 * mu_b8 + 246.43034 * mu_b9 + 0.9796442 * mu_u10;
-    highp float q_8 = 69.4723 * mu_v10 + 3340.1833 * mu_b1 + 1556.022 * mu_b2 - 11388.908 * mu_b3 + 13879.983 * mu_b4 + 74225.6 * mu_b5 + 78083.9 * mu_b6 + 29819.654 * mu_b7 + 3460.4292 * mu_b8 + 94.47033 * mu_b9 + 0.37380955 * mu_u10;
-    highp float q_9 = 14.83041 * mu_v10 + 721.80707 * mu_b1 + 168.24857 * mu_b2 - 2942.1733 * mu_b3 + 2847.2793 * mu_b4 + 16782.361 * mu_b5 + 17773.09 * mu_b6 + 6793.2573 * mu_b7 + 786.1852 * mu_b8 + 21.313301 * mu_b9 + 0.08353194 * mu_u10;
-    highp float q_10 = 1.9353023 * mu_v10 + 73.6185 * mu_b1 + 9.444753 * mu_b2 - 317.81018 * mu_b3 + 279.1902 * mu_b4 + 1718.5708 * mu_b5 + 1823.6243 * mu_b6 + 696.7196 * mu_b7 + 80.37607 * mu_b8 + 2.165224 * mu_b9 + 0.008452239 * mu_u10;
+    highp float q_0 = 1.0 * mu_v10 + 139.08817 * mu_b1 + 186.78807 * mu_b2 - 257.86118 * mu_b3 + 285.62726 * mu_b4 + 2113.181 * mu_b5 + 2454.8403 * mu_b6 + 1042.0206 * mu_b7 + 151.08752 * mu_b8 + 6.036548 * mu_b9 + 0.038154967 * mu_u10;
+    highp float q_1 = 13.99034 * mu_v10 + 1414.0603 * mu_b1 + 1743.8958 * mu_b2 - 3229.9214 * mu_b3 + 1694.9156 * mu_b4 + 19926.357 * mu_b5 + 23600.947 * mu_b6 + 9888.306 * mu_b7 + 1364.1401 * mu_b8 + 50.210663 * mu_b9 + 0.28571588 * mu_u10;
+    highp float q_2 = 87.01405 * mu_v10 + 6540.273 * mu_b1 + 7798.2383 * mu_b2 - 15618.947 * mu_b3 + 6074.95 * mu_b4 + 88480.62 * mu_b5 + 104798.58 * mu_b6 + 43176.453 * mu_b7 + 5672.3477 * mu_b8 + 192.49583 * mu_b9 + 0.99323434 * mu_u10;
+    highp float q_3 = 302.79834 * mu_v10 + 17980.516 * mu_b1 + 21437.76 * mu_b2 - 40997.617 * mu_b3 + 19943.408 * mu_b4 + 242436.61 * mu_b5 + 282453.9 * mu_b6 + 114181.12 * mu_b7 + 14340.8 * mu_b8 + 450.24854 * mu_b9 + 2.1451101 * mu_u10;
+    highp float q_4 = 652.292 * mu_v10 + 32329.701 * mu_b1 + 39015.77 * mu_b2 - 66792.914 * mu_b3 + 51875.07 * mu_b4 + 449622.94 * mu_b5 + 509798.94 * mu_b6 + 202154.31 * mu_b7 + 24435.656 * mu_b8 + 714.4065 * mu_b9 + 3.1380925 * mu_u10;
+    highp float q_5 = 917.8512 * mu_v10 + 39526.26 * mu_b1 + 47955.152 * mu_b2 - 72461.63 * mu_b3 + 91072.81 * mu_b4 + 583300.56 * mu_b5 + 640898.5 * mu_b6 + 249679.95 * mu_b7 + 29308.117 * mu_b8 + 807.6546 * mu_b9 + 3.2303545 * mu_u10;
+    highp float q_6 = 863.49084 * mu_v10 + 33137.445 * mu_b1 + 39447.27 * mu_b2 - 54924.176 * mu_b3 + 103435.06 * mu_b4 + 530592.8 * mu_b5 + 565589.3 * mu_b6 + 217124.56 * mu_b7 + 25008.121 * mu_b8 + 662.59766 * mu_b9 + 2.4376411 * mu_u10;
+    highp float q_7 = 540.8886 * mu_v10 + 18727.498 * mu_b1 + 20858.389 * mu_b2 - 30316.531 * mu_b3 + 74589.86 * mu_b4 + 331223.1 * mu_b5 + 344285.47 * mu_b6 + 130753.586 * mu_b7 + 14931.746 * mu_b8 + 390.124 * mu_b9 + 1.3857473 * mu_u10;
+    highp float q_8 = 216.86467 * mu_v10 + 6785.1987 * mu_b1 + 6423.368 * mu_b2 - 12420.075 * mu_b3 + 32638.234 * mu_b4 + 134741.77 * mu_b5 + 137661.05 * mu_b6 + 51949.68 * mu_b7 + 5934.2764 * mu_b8 + 156.56676 * mu_b9 + 0.5740999 * mu_u10;
+    highp float q_9 = 50.128654 * mu_v10 + 1407.4581 * mu_b1 + 873.6583 * mu_b2 - 3514.9275 * mu_b3 + 7729.9263 * mu_b4 + 32002.033 * mu_b5 + 32473.55 * mu_b6 + 12231.356 * mu_b7 + 1405.6052 * mu_b8 + 37.936172 * mu_b9 + 0.15038681 * mu_u10;
+    highp float q_10 = 4.9956703 * mu_v10 + 124.084785 * mu_b1 - 2.5749786 * mu_b2 - 506.6379 * mu_b3 + 722.0021 * mu_b4 + 3337.341 * mu_b5 + 3409.717 * mu_b6 + 1287.305 * mu_b7 + 148.9249 * mu_b8 + 4.071817 * mu_b9 + 0.01620848 * mu_u10;
     highp float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -27,16 +27,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 3ae6d403f522f38b50bbd59d00352371e1ba235163489784ace2406a773278dc.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 ecd5b7f507a8d6a61dd32c466e5f92543799059d3636af8022fdda5a737ee5ec.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.0e-2, shifted 3.6e-4, bernstein 4.3e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.76e-9, max 5.19e-7 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.26e-7 (every op rounded, as this Rust), 5.45e-7 (fused multiply-add), 5.89e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.23e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 4439 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.76e-9, max 5.19e-7; this f32 code MAE 6.92e-8, max 6.37e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.0e-9 on the measurement grid.
-// Denominator proved >= 6.377e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.0e-2, shifted 9.7e-5, bernstein 5.4e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.82e-9, max 5.38e-7 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.46e-7 (every op rounded, as this Rust), 5.46e-7 (fused multiply-add), 6.65e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.19e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 5105 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.81e-9, max 5.38e-7; this f32 code MAE 6.87e-8, max 6.46e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.5e-9 on the measurement grid.
+// Denominator proved >= 1.269e-2 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float oren_nayar_fon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -100,30 +100,30 @@ FURNACE_FN float oren_nayar_fon_albedo(float r, float mu) {
     const float mu_b8 = mu_u8 * mu_v2;
     const float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 1.0f * mu_v10 + 66.88092f * mu_b1 + 57.791237f * mu_b2 - 207.51471f * mu_b3 + 107.69561f * mu_b4 + 1085.4895f * mu_b5 + 1219.5637f * mu_b6 + 473.0216f * mu_b7 + 54.65402f * mu_b8 + 1.516655f * mu_b9 + 0.0065126005f * mu_u10;
-    const float p_1 = 11.614086f * mu_v10 + 693.5582f * mu_b1 + 593.4254f * mu_b2 - 2017.2365f * mu_b3 + 1525.0895f * mu_b4 + 11493.165f * mu_b5 + 12534.461f * mu_b6 + 4821.277f * mu_b7 + 554.3108f * mu_b8 + 15.025642f * mu_b9 + 0.060193222f * mu_u10;
-    const float p_2 = 66.31247f * mu_v10 + 3282.159f * mu_b1 + 2924.4373f * mu_b2 - 8389.756f * mu_b3 + 9501.471f * mu_b4 + 55157.92f * mu_b5 + 58256.9f * mu_b6 + 22225.084f * mu_b7 + 2554.0603f * mu_b8 + 68.77299f * mu_b9 + 0.27042705f * mu_u10;
-    const float p_3 = 216.4564f * mu_v10 + 9176.481f * mu_b1 + 8446.853f * mu_b2 - 20516.709f * mu_b3 + 32525.232f * mu_b4 + 156456.83f * mu_b5 + 160436.39f * mu_b6 + 60756.668f * mu_b7 + 6994.3896f * mu_b8 + 188.72737f * mu_b9 + 0.73284274f * mu_u10;
-    const float p_4 = 429.49756f * mu_v10 + 16597.752f * mu_b1 + 15147.76f * mu_b2 - 34139.46f * mu_b3 + 67739.53f * mu_b4 + 288802.5f * mu_b5 + 288962.28f * mu_b6 + 108753.19f * mu_b7 + 12550.893f * mu_b8 + 340.7154f * mu_b9 + 1.3289429f * mu_u10;
-    const float p_5 = 536.2598f * mu_v10 + 20165.936f * mu_b1 + 17116.393f * mu_b2 - 41857.13f * mu_b3 + 90522.8f * mu_b4 + 361477.7f * mu_b5 + 354966.16f * mu_b6 + 132939.02f * mu_b7 + 15374.113f * mu_b8 + 419.94418f * mu_b9 + 1.659734f * mu_u10;
-    const float p_6 = 426.58963f * mu_v10 + 16634.873f * mu_b1 + 11939.633f * mu_b2 - 38567.215f * mu_b3 + 79381.28f * mu_b4 + 310509.84f * mu_b5 + 300950.3f * mu_b6 + 112286.93f * mu_b7 + 12998.057f * mu_b8 + 356.28104f * mu_b9 + 1.4182581f * mu_u10;
-    const float p_7 = 215.64655f * mu_v10 + 9225.886f * mu_b1 + 4764.6816f * mu_b2 - 25685.584f * mu_b3 + 45595.742f * mu_b4 + 180989.75f * mu_b5 + 173941.86f * mu_b6 + 64712.258f * mu_b7 + 7486.7407f * mu_b8 + 205.11032f * mu_b9 + 0.8152133f * mu_u10;
-    const float p_8 = 69.4723f * mu_v10 + 3325.5696f * mu_b1 + 865.9922f * mu_b2 - 11353.106f * mu_b3 + 16680.28f * mu_b4 + 68728.99f * mu_b5 + 65683.15f * mu_b6 + 24375.957f * mu_b7 + 2814.2583f * mu_b8 + 76.766594f * mu_b9 + 0.30362803f * mu_u10;
-    const float p_9 = 14.83041f * mu_v10 + 718.5128f * mu_b1 + 5.771507f * mu_b2 - 2890.337f * mu_b3 + 3608.2378f * mu_b4 + 15436.783f * mu_b5 + 14671.038f * mu_b6 + 5429.71f * mu_b7 + 624.8225f * mu_b8 + 16.92634f * mu_b9 + 0.06633116f * mu_u10;
-    const float p_10 = 1.9353023f * mu_v10 + 73.140144f * mu_b1 - 8.489759f * mu_b2 - 309.94162f * mu_b3 + 366.8445f * mu_b4 + 1569.5037f * mu_b5 + 1477.6958f * mu_b6 + 544.74774f * mu_b7 + 62.456043f * mu_b8 + 1.6813827f * mu_b9 + 0.00656335f * mu_u10;
+    const float p_0 = 1.0f * mu_v10 + 139.08817f * mu_b1 + 186.78807f * mu_b2 - 257.8611f * mu_b3 + 285.62708f * mu_b4 + 2113.1812f * mu_b5 + 2454.84f * mu_b6 + 1042.0208f * mu_b7 + 151.08752f * mu_b8 + 6.0365486f * mu_b9 + 0.038154967f * mu_u10;
+    const float p_1 = 13.99034f * mu_v10 + 1413.742f * mu_b1 + 1699.7977f * mu_b2 - 3264.9827f * mu_b3 + 1830.6329f * mu_b4 + 19721.736f * mu_b5 + 23021.736f * mu_b6 + 9599.16f * mu_b7 + 1320.8505f * mu_b8 + 48.473663f * mu_b9 + 0.27473512f * mu_u10;
+    const float p_2 = 87.01405f * mu_v10 + 6536.2295f * mu_b1 + 7407.3677f * mu_b2 - 15880.283f * mu_b3 + 7443.77f * mu_b4 + 86924.97f * mu_b5 + 99942.82f * mu_b6 + 40796.535f * mu_b7 + 5337.027f * mu_b8 + 180.28444f * mu_b9 + 0.92514795f * mu_u10;
+    const float p_3 = 302.79837f * mu_v10 + 17958.023f * mu_b1 + 19874.506f * mu_b2 - 41989.957f * mu_b3 + 25473.553f * mu_b4 + 236465.5f * mu_b5 + 263670.44f * mu_b6 + 105194.95f * mu_b7 + 13145.727f * mu_b8 + 410.58173f * mu_b9 + 1.9469452f * mu_u10;
+    const float p_4 = 652.292f * mu_v10 + 32262.28f * mu_b1 + 35358.47f * mu_b2 - 69157.99f * mu_b3 + 64138.03f * mu_b4 + 434804.66f * mu_b5 + 466067.0f * mu_b6 + 181781.42f * mu_b7 + 21859.95f * mu_b8 + 635.9243f * mu_b9 + 2.7759411f * mu_u10;
+    const float p_5 = 917.85126f * mu_v10 + 39405.453f * mu_b1 + 42488.1f * mu_b2 - 76098.695f * mu_b3 + 107933.79f * mu_b4 + 558282.56f * mu_b5 + 573890.56f * mu_b6 + 219249.64f * mu_b7 + 25611.639f * mu_b8 + 703.14197f * mu_b9 + 2.7936027f * mu_u10;
+    const float p_6 = 863.49084f * mu_v10 + 33000.86f * mu_b1 + 34066.414f * mu_b2 - 58472.66f * mu_b3 + 118669.7f * mu_b4 + 501946.84f * mu_b5 + 496062.6f * mu_b6 + 186226.5f * mu_b7 + 21354.28f * mu_b8 + 564.7696f * mu_b9 + 2.0704167f * mu_u10;
+    const float p_7 = 540.8886f * mu_v10 + 18628.533f * mu_b1 + 17390.62f * mu_b2 - 32392.547f * mu_b3 + 83889.836f * mu_b4 + 309531.3f * mu_b5 + 295788.03f * mu_b6 + 109544.19f * mu_b7 + 12456.253f * mu_b8 + 325.42828f * mu_b9 + 1.1571199f * mu_u10;
+    const float p_8 = 216.86467f * mu_v10 + 6740.4717f * mu_b1 + 5022.4067f * mu_b2 - 13037.039f * mu_b3 + 36484.504f * mu_b4 + 124430.92f * mu_b5 + 115880.52f * mu_b6 + 42516.02f * mu_b7 + 4834.4097f * mu_b8 + 127.61399f * mu_b9 + 0.4697148f * mu_u10;
+    const float p_9 = 50.128654f * mu_v10 + 1396.0265f * mu_b1 + 555.8506f * mu_b2 - 3548.24f * mu_b3 + 8752.923f * mu_b4 + 29247.262f * mu_b5 + 26798.482f * mu_b6 + 9781.1455f * mu_b7 + 1118.0085f * mu_b8 + 30.165525f * mu_b9 + 0.11959141f * mu_u10;
+    const float p_10 = 4.99567f * mu_v10 + 122.84999f * mu_b1 - 32.569275f * mu_b2 - 488.59143f * mu_b3 + 859.08826f * mu_b4 + 3027.811f * mu_b5 + 2761.4683f * mu_b6 + 1006.5722f * mu_b7 + 115.72374f * mu_b8 + 3.1619296f * mu_b9 + 0.0125862425f * mu_u10;
     const float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v10 + 66.88092f * mu_b1 + 57.79121f * mu_b2 - 207.51448f * mu_b3 + 107.69497f * mu_b4 + 1085.4902f * mu_b5 + 1219.5634f * mu_b6 + 473.02167f * mu_b7 + 54.654015f * mu_b8 + 1.5166551f * mu_b9 + 0.0065126005f * mu_u10;
-    const float q_1 = 11.614086f * mu_v10 + 693.8765f * mu_b1 + 614.53906f * mu_b2 - 2010.6458f * mu_b3 + 1439.1527f * mu_b4 + 11601.019f * mu_b5 + 12831.611f * mu_b6 + 4954.117f * mu_b7 + 570.0003f * mu_b8 + 15.462084f * mu_b9 + 0.062067505f * mu_u10;
-    const float q_2 = 66.31246f * mu_v10 + 3285.446f * mu_b1 + 3116.082f * mu_b2 - 8325.314f * mu_b3 + 8764.309f * mu_b4 + 56210.457f * mu_b5 + 61003.617f * mu_b6 + 23445.682f * mu_b7 + 2697.5046f * mu_b8 + 72.66047f * mu_b9 + 0.28587598f * mu_u10;
-    const float q_3 = 216.45642f * mu_v10 + 9193.357f * mu_b1 + 9234.246f * mu_b2 - 20190.58f * mu_b3 + 29813.434f * mu_b4 + 161101.27f * mu_b5 + 171788.63f * mu_b6 + 65771.22f * mu_b7 + 7584.1577f * mu_b8 + 204.63058f * mu_b9 + 0.7952206f * mu_u10;
-    const float q_4 = 429.49753f * mu_v10 + 16644.922f * mu_b1 + 17022.27f * mu_b2 - 33255.867f * mu_b3 + 61910.03f * mu_b4 + 300614.3f * mu_b5 + 316296.88f * mu_b6 + 120770.43f * mu_b7 + 13968.924f * mu_b8 + 379.122f * mu_b9 + 1.477474f * mu_u10;
-    const float q_5 = 536.2598f * mu_v10 + 20241.906f * mu_b1 + 19925.64f * mu_b2 - 40544.582f * mu_b3 + 82180.21f * mu_b4 + 380309.75f * mu_b5 + 397037.97f * mu_b6 + 151382.5f * mu_b7 + 17558.6f * mu_b8 + 479.58487f * mu_b9 + 1.8936609f * mu_u10;
-    const float q_6 = 426.58963f * mu_v10 + 16707.736f * mu_b1 + 14671.478f * mu_b2 - 37526.92f * mu_b3 + 70965.95f * mu_b4 + 329952.9f * mu_b5 + 343782.34f * mu_b6 + 131046.65f * mu_b7 + 15226.005f * mu_b8 + 417.4864f * mu_b9 + 1.6619933f * mu_u10;
-    const float q_7 = 215.64653f * mu_v10 + 9267.841f * mu_b1 + 6490.4136f * mu_b2 - 25334.352f * mu_b3 + 39627.09f * mu_b4 + 194012.94f * mu_b5 + 202778.64f * mu_b6 + 77351.06f * mu_b7 + 8988.949f * mu_b8 + 246.43034f * mu_b9 + 0.9796442f * mu_u10;
-    const float q_8 = 69.4723f * mu_v10 + 3340.1833f * mu_b1 + 1556.022f * mu_b2 - 11388.908f * mu_b3 + 13879.983f * mu_b4 + 74225.6f * mu_b5 + 78083.9f * mu_b6 + 29819.654f * mu_b7 + 3460.4292f * mu_b8 + 94.47033f * mu_b9 + 0.37380955f * mu_u10;
-    const float q_9 = 14.83041f * mu_v10 + 721.80707f * mu_b1 + 168.24857f * mu_b2 - 2942.1733f * mu_b3 + 2847.2793f * mu_b4 + 16782.361f * mu_b5 + 17773.09f * mu_b6 + 6793.2573f * mu_b7 + 786.1852f * mu_b8 + 21.313301f * mu_b9 + 0.08353194f * mu_u10;
-    const float q_10 = 1.9353023f * mu_v10 + 73.6185f * mu_b1 + 9.444753f * mu_b2 - 317.81018f * mu_b3 + 279.1902f * mu_b4 + 1718.5708f * mu_b5 + 1823.6243f * mu_b6 + 696.7196f * mu_b7 + 80.37607f * mu_b8 + 2.165224f * mu_b9 + 0.008452239f * mu_u10;
+    const float q_0 = 1.0f * mu_v10 + 139.08817f * mu_b1 + 186.78807f * mu_b2 - 257.86118f * mu_b3 + 285.62726f * mu_b4 + 2113.181f * mu_b5 + 2454.8403f * mu_b6 + 1042.0206f * mu_b7 + 151.08752f * mu_b8 + 6.036548f * mu_b9 + 0.038154967f * mu_u10;
+    const float q_1 = 13.99034f * mu_v10 + 1414.0603f * mu_b1 + 1743.8958f * mu_b2 - 3229.9214f * mu_b3 + 1694.9156f * mu_b4 + 19926.357f * mu_b5 + 23600.947f * mu_b6 + 9888.306f * mu_b7 + 1364.1401f * mu_b8 + 50.210663f * mu_b9 + 0.28571588f * mu_u10;
+    const float q_2 = 87.01405f * mu_v10 + 6540.273f * mu_b1 + 7798.2383f * mu_b2 - 15618.947f * mu_b3 + 6074.95f * mu_b4 + 88480.62f * mu_b5 + 104798.58f * mu_b6 + 43176.453f * mu_b7 + 5672.3477f * mu_b8 + 192.49583f * mu_b9 + 0.99323434f * mu_u10;
+    const float q_3 = 302.79834f * mu_v10 + 17980.516f * mu_b1 + 21437.76f * mu_b2 - 40997.617f * mu_b3 + 19943.408f * mu_b4 + 242436.61f * mu_b5 + 282453.9f * mu_b6 + 114181.12f * mu_b7 + 14340.8f * mu_b8 + 450.24854f * mu_b9 + 2.1451101f * mu_u10;
+    const float q_4 = 652.292f * mu_v10 + 32329.701f * mu_b1 + 39015.77f * mu_b2 - 66792.914f * mu_b3 + 51875.07f * mu_b4 + 449622.94f * mu_b5 + 509798.94f * mu_b6 + 202154.31f * mu_b7 + 24435.656f * mu_b8 + 714.4065f * mu_b9 + 3.1380925f * mu_u10;
+    const float q_5 = 917.8512f * mu_v10 + 39526.26f * mu_b1 + 47955.152f * mu_b2 - 72461.63f * mu_b3 + 91072.81f * mu_b4 + 583300.56f * mu_b5 + 640898.5f * mu_b6 + 249679.95f * mu_b7 + 29308.117f * mu_b8 + 807.6546f * mu_b9 + 3.2303545f * mu_u10;
+    const float q_6 = 863.49084f * mu_v10 + 33137.445f * mu_b1 + 39447.27f * mu_b2 - 54924.176f * mu_b3 + 103435.06f * mu_b4 + 530592.8f * mu_b5 + 565589.3f * mu_b6 + 217124.56f * mu_b7 + 25008.121f * mu_b8 + 662.59766f * mu_b9 + 2.4376411f * mu_u10;
+    const float q_7 = 540.8886f * mu_v10 + 18727.498f * mu_b1 + 20858.389f * mu_b2 - 30316.531f * mu_b3 + 74589.86f * mu_b4 + 331223.1f * mu_b5 + 344285.47f * mu_b6 + 130753.586f * mu_b7 + 14931.746f * mu_b8 + 390.124f * mu_b9 + 1.3857473f * mu_u10;
+    const float q_8 = 216.86467f * mu_v10 + 6785.1987f * mu_b1 + 6423.368f * mu_b2 - 12420.075f * mu_b3 + 32638.234f * mu_b4 + 134741.77f * mu_b5 + 137661.05f * mu_b6 + 51949.68f * mu_b7 + 5934.2764f * mu_b8 + 156.56676f * mu_b9 + 0.5740999f * mu_u10;
+    const float q_9 = 50.128654f * mu_v10 + 1407.4581f * mu_b1 + 873.6583f * mu_b2 - 3514.9275f * mu_b3 + 7729.9263f * mu_b4 + 32002.033f * mu_b5 + 32473.55f * mu_b6 + 12231.356f * mu_b7 + 1405.6052f * mu_b8 + 37.936172f * mu_b9 + 0.15038681f * mu_u10;
+    const float q_10 = 4.9956703f * mu_v10 + 124.084785f * mu_b1 - 2.5749786f * mu_b2 - 506.6379f * mu_b3 + 722.0021f * mu_b4 + 3337.341f * mu_b5 + 3409.717f * mu_b6 + 1287.305f * mu_b7 + 148.9249f * mu_b8 + 4.071817f * mu_b9 + 0.01620848f * mu_u10;
     const float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

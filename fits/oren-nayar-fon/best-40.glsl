@@ -14,59 +14,35 @@
 // Model: Fujii's Oren-Nayar (FON), white albedo (EON paper, eqs. 10-11).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 ba77998eea23c9a4b31c3b99cba202f16783606952ce783f4cb8ece642de1161.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 9.9e-4, shifted 8.4e-5, bernstein 4.3e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 3.39e-6, max 1.64e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.31e-7 (every op rounded, as this Rust), 3.97e-7 (fused multiply-add), 4.61e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.17e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1549 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 3.35e-6, max 9.00e-5; this f32 code MAE 3.35e-6, max 9.00e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.6e-4 on the measurement grid.
-// Denominator proved >= 2.694e-4 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
+// Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 ea7121e26f83b34202bbde137dfe81467683ee687c1d0ece0919510695247d29.
+// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.2e-6, shifted 2.0e-6, bernstein 3.5e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.70e-6, max 1.41e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.50e-6 (every op rounded, as this Rust), 1.31e-6 (fused multiply-add), 1.36e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.05e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 51 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 4.70e-6, max 1.41e-4; this f32 code MAE 4.70e-6, max 1.41e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.6e-6 on the measurement grid.
+// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 highp float oren_nayar_fon_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = sqrt(mu)
-    highp float mu_t = sqrt(mu_c);
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 4
-    highp float r_v = 1.0 - r_c;
-    highp float r_u2 = r_c * r_c;
-    highp float r_v2 = r_v * r_v;
-    highp float r_u3 = r_u2 * r_c;
-    highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_c;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_b1 = r_c * r_v3;
-    highp float r_b2 = r_u2 * r_v2;
-    highp float r_b3 = r_u3 * r_v;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 4
-    highp float mu_v = 1.0 - mu_t;
-    highp float mu_u2 = mu_t * mu_t;
-    highp float mu_v2 = mu_v * mu_v;
-    highp float mu_u3 = mu_u2 * mu_t;
-    highp float mu_v3 = mu_v2 * mu_v;
-    highp float mu_u4 = mu_u3 * mu_t;
-    highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_b1 = mu_t * mu_v3;
-    highp float mu_b2 = mu_u2 * mu_v2;
-    highp float mu_b3 = mu_u3 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 1.0000023 * mu_v4 + 1.948066 * mu_b1 + 1.2686691 * mu_b2 + 0.33347535 * mu_b3 + 0.012875646 * mu_u4;
-    highp float p_1 = 4.264742 * mu_v4 + 8.286568 * mu_b1 + 5.09961 * mu_b2 + 1.3229109 * mu_b3 + 0.05075108 * mu_u4;
-    highp float p_2 = 5.8154645 * mu_v4 + 11.290688 * mu_b1 + 6.488374 * mu_b2 + 1.6487598 * mu_b3 + 0.06311598 * mu_u4;
-    highp float p_3 = 2.5660756 * mu_v4 + 4.984634 * mu_b1 + 2.6726882 * mu_b2 + 0.6640447 * mu_b3 + 0.025443694 * mu_u4;
-    highp float p_4 = 0.015690232 * mu_v4 + 0.03064632 * mu_b1 + 0.016923014 * mu_b2 + 0.004402835 * mu_b3 + 0.00020913972 * mu_u4;
-    highp float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v4 + 1.9480697 * mu_b1 + 1.2686691 * mu_b2 + 0.33347505 * mu_b3 + 0.012875657 * mu_u4;
-    highp float q_1 = 4.264735 * mu_v4 + 8.289773 * mu_b1 + 5.388846 * mu_b2 + 1.4182649 * mu_b3 + 0.05445673 * mu_u4;
-    highp float q_2 = 5.814967 * mu_v4 + 11.302624 * mu_b1 + 7.3450565 * mu_b2 + 1.9314191 * mu_b3 + 0.07401918 * mu_u4;
-    highp float q_3 = 2.5659192 * mu_v4 + 4.9916244 * mu_b1 + 3.2452805 * mu_b2 + 0.85228306 * mu_b3 + 0.032707468 * mu_u4;
-    highp float q_4 = 0.015687661 * mu_v4 + 0.030704094 * mu_b1 + 0.020400904 * mu_b2 + 0.0056538293 * mu_b3 + 0.00026935997 * mu_u4;
-    highp float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
+    // numerator P, grouped by powers of the first variable
+    highp float p_0 = (((-35.87151 * mu_c + 76.28415) * mu_c - 127.6227) * mu_c + 105.0877) * mu_c + 0.9999942;
+    highp float p_1 = ((19.751242 * mu_c - 32.830536) * mu_c - 5.2450757) * mu_c + 29.944506;
+    highp float p_2 = (9.206745 * mu_c - 17.417435) * mu_c + 10.048466;
+    highp float p_3 = -0.34045875 * mu_c + 0.31453842;
+    highp float p_4 = 0.000638246;
+    highp float p = (((p_4 * r_c + p_3) * r_c + p_2) * r_c + p_1) * r_c + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    highp float q_0 = (((-35.86389 * mu_c + 76.27048) * mu_c - 127.61555) * mu_c + 105.08671) * mu_c + 1.0;
+    highp float q_1 = ((-8.847154 * mu_c + 0.8609194) * mu_c - 4.9049335) * mu_c + 29.944387;
+    highp float q_2 = (3.217875 * mu_c - 8.077143) * mu_c + 10.047772;
+    highp float q_3 = 0.1810896 * mu_c + 0.3182258;
+    highp float q_4 = -0.0023024804;
+    highp float q = (((q_4 * r_c + q_3) * r_c + q_2) * r_c + q_1) * r_c + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

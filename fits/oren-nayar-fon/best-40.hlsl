@@ -13,59 +13,35 @@
 // Model: Fujii's Oren-Nayar (FON), white albedo (EON paper, eqs. 10-11).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 ba77998eea23c9a4b31c3b99cba202f16783606952ce783f4cb8ece642de1161.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 9.9e-4, shifted 8.4e-5, bernstein 4.3e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 3.39e-6, max 1.64e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.31e-7 (every op rounded, as this Rust), 3.97e-7 (fused multiply-add), 4.61e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.17e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1549 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 3.35e-6, max 9.00e-5; this f32 code MAE 3.35e-6, max 9.00e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.6e-4 on the measurement grid.
-// Denominator proved >= 2.694e-4 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
+// Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 ea7121e26f83b34202bbde137dfe81467683ee687c1d0ece0919510695247d29.
+// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.2e-6, shifted 2.0e-6, bernstein 3.5e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.70e-6, max 1.41e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.50e-6 (every op rounded, as this Rust), 1.31e-6 (fused multiply-add), 1.36e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.05e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 51 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 4.70e-6, max 1.41e-4; this f32 code MAE 4.70e-6, max 1.41e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.6e-6 on the measurement grid.
+// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 float oren_nayar_fon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // t = sqrt(mu)
-    float mu_t = sqrt(mu_c);
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 4
-    float r_v = 1.0f - r_c;
-    float r_u2 = r_c * r_c;
-    float r_v2 = r_v * r_v;
-    float r_u3 = r_u2 * r_c;
-    float r_v3 = r_v2 * r_v;
-    float r_u4 = r_u3 * r_c;
-    float r_v4 = r_v3 * r_v;
-    float r_b1 = r_c * r_v3;
-    float r_b2 = r_u2 * r_v2;
-    float r_b3 = r_u3 * r_v;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 4
-    float mu_v = 1.0f - mu_t;
-    float mu_u2 = mu_t * mu_t;
-    float mu_v2 = mu_v * mu_v;
-    float mu_u3 = mu_u2 * mu_t;
-    float mu_v3 = mu_v2 * mu_v;
-    float mu_u4 = mu_u3 * mu_t;
-    float mu_v4 = mu_v3 * mu_v;
-    float mu_b1 = mu_t * mu_v3;
-    float mu_b2 = mu_u2 * mu_v2;
-    float mu_b3 = mu_u3 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 1.0000023f * mu_v4 + 1.948066f * mu_b1 + 1.2686691f * mu_b2 + 0.33347535f * mu_b3 + 0.012875646f * mu_u4;
-    float p_1 = 4.264742f * mu_v4 + 8.286568f * mu_b1 + 5.09961f * mu_b2 + 1.3229109f * mu_b3 + 0.05075108f * mu_u4;
-    float p_2 = 5.8154645f * mu_v4 + 11.290688f * mu_b1 + 6.488374f * mu_b2 + 1.6487598f * mu_b3 + 0.06311598f * mu_u4;
-    float p_3 = 2.5660756f * mu_v4 + 4.984634f * mu_b1 + 2.6726882f * mu_b2 + 0.6640447f * mu_b3 + 0.025443694f * mu_u4;
-    float p_4 = 0.015690232f * mu_v4 + 0.03064632f * mu_b1 + 0.016923014f * mu_b2 + 0.004402835f * mu_b3 + 0.00020913972f * mu_u4;
-    float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v4 + 1.9480697f * mu_b1 + 1.2686691f * mu_b2 + 0.33347505f * mu_b3 + 0.012875657f * mu_u4;
-    float q_1 = 4.264735f * mu_v4 + 8.289773f * mu_b1 + 5.388846f * mu_b2 + 1.4182649f * mu_b3 + 0.05445673f * mu_u4;
-    float q_2 = 5.814967f * mu_v4 + 11.302624f * mu_b1 + 7.3450565f * mu_b2 + 1.9314191f * mu_b3 + 0.07401918f * mu_u4;
-    float q_3 = 2.5659192f * mu_v4 + 4.9916244f * mu_b1 + 3.2452805f * mu_b2 + 0.85228306f * mu_b3 + 0.032707468f * mu_u4;
-    float q_4 = 0.015687661f * mu_v4 + 0.030704094f * mu_b1 + 0.020400904f * mu_b2 + 0.0056538293f * mu_b3 + 0.00026935997f * mu_u4;
-    float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
+    // numerator P, grouped by powers of the first variable
+    float p_0 = (((-35.87151f * mu_c + 76.28415f) * mu_c - 127.6227f) * mu_c + 105.0877f) * mu_c + 0.9999942f;
+    float p_1 = ((19.751242f * mu_c - 32.830536f) * mu_c - 5.2450757f) * mu_c + 29.944506f;
+    float p_2 = (9.206745f * mu_c - 17.417435f) * mu_c + 10.048466f;
+    float p_3 = -0.34045875f * mu_c + 0.31453842f;
+    float p_4 = 0.000638246f;
+    float p = (((p_4 * r_c + p_3) * r_c + p_2) * r_c + p_1) * r_c + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    float q_0 = (((-35.86389f * mu_c + 76.27048f) * mu_c - 127.61555f) * mu_c + 105.08671f) * mu_c + 1.0f;
+    float q_1 = ((-8.847154f * mu_c + 0.8609194f) * mu_c - 4.9049335f) * mu_c + 29.944387f;
+    float q_2 = (3.217875f * mu_c - 8.077143f) * mu_c + 10.047772f;
+    float q_3 = 0.1810896f * mu_c + 0.3182258f;
+    float q_4 = -0.0023024804f;
+    float q = (((q_4 * r_c + q_3) * r_c + q_2) * r_c + q_1) * r_c + q_0;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);
 }

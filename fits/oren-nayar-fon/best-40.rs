@@ -4,73 +4,44 @@
 // All arithmetic is f32. Each function states what its arguments mean, its domain, evaluation form, measured errors and error bound.
 // Helpers: Sforza & Pellacini 2022, "Enforcing Energy Preservation in Microfacet Models" (eqs. 13, 18, 19).
 
-// Needs only `core`, but for square roots: with std they are f32::sqrt; under #![no_std],
-// give the including crate a `libm` feature that enables a libm dependency (same bits).
+// Needs only `core`: usable under #![no_std].
 
 /// oren_nayar_fon_albedo(r, mu): directional albedo E of oren-nayar-fon.
 /// Model: Fujii's Oren-Nayar (FON), white albedo (EON paper, eqs. 10-11).
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-/// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 ba77998eea23c9a4b31c3b99cba202f16783606952ce783f4cb8ece642de1161.
-/// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 9.9e-4, shifted 8.4e-5, bernstein 4.3e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 3.39e-6, max 1.64e-4 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.31e-7 (every op rounded, as this Rust), 3.97e-7 (fused multiply-add), 4.61e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 4.17e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1549 boxes).
-/// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 3.35e-6, max 9.00e-5; this f32 code MAE 3.35e-6, max 9.00e-5.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.6e-4 on the measurement grid.
-/// Denominator proved >= 2.694e-4 on the domain (Bernstein certificate), so the division is safe.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
+/// Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+/// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 ea7121e26f83b34202bbde137dfe81467683ee687c1d0ece0919510695247d29.
+/// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.2e-6, shifted 2.0e-6, bernstein 3.5e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 4.70e-6, max 1.41e-4 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.50e-6 (every op rounded, as this Rust), 1.31e-6 (fused multiply-add), 1.36e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 4.05e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 51 boxes).
+/// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 4.70e-6, max 1.41e-4; this f32 code MAE 4.70e-6, max 1.41e-4.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.6e-6 on the measurement grid.
+/// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
 pub fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
-    #[cfg(feature = "libm")]
-    use libm::sqrtf;
-    #[cfg(not(feature = "libm"))]
-    fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let r_c = r.min(1.0_f32).max(0.0_f32);
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = sqrt(mu)
-    let mu_t = sqrtf(mu_c);
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 4
-    let r_v = 1.0_f32 - r_c;
-    let r_u2 = r_c * r_c;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_c;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_c;
-    let r_v4 = r_v3 * r_v;
-    let r_b1 = r_c * r_v3;
-    let r_b2 = r_u2 * r_v2;
-    let r_b3 = r_u3 * r_v;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 4
-    let mu_v = 1.0_f32 - mu_t;
-    let mu_u2 = mu_t * mu_t;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_t;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_t;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_b1 = mu_t * mu_v3;
-    let mu_b2 = mu_u2 * mu_v2;
-    let mu_b3 = mu_u3 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0000023_f32 * mu_v4 + 1.948066_f32 * mu_b1 + 1.2686691_f32 * mu_b2 + 0.33347535_f32 * mu_b3 + 0.012875646_f32 * mu_u4;
-    let p_1 = 4.264742_f32 * mu_v4 + 8.286568_f32 * mu_b1 + 5.09961_f32 * mu_b2 + 1.3229109_f32 * mu_b3 + 0.05075108_f32 * mu_u4;
-    let p_2 = 5.8154645_f32 * mu_v4 + 11.290688_f32 * mu_b1 + 6.488374_f32 * mu_b2 + 1.6487598_f32 * mu_b3 + 0.06311598_f32 * mu_u4;
-    let p_3 = 2.5660756_f32 * mu_v4 + 4.984634_f32 * mu_b1 + 2.6726882_f32 * mu_b2 + 0.6640447_f32 * mu_b3 + 0.025443694_f32 * mu_u4;
-    let p_4 = 0.015690232_f32 * mu_v4 + 0.03064632_f32 * mu_b1 + 0.016923014_f32 * mu_b2 + 0.004402835_f32 * mu_b3 + 0.00020913972_f32 * mu_u4;
-    let p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v4 + 1.9480697_f32 * mu_b1 + 1.2686691_f32 * mu_b2 + 0.33347505_f32 * mu_b3 + 0.012875657_f32 * mu_u4;
-    let q_1 = 4.264735_f32 * mu_v4 + 8.289773_f32 * mu_b1 + 5.388846_f32 * mu_b2 + 1.4182649_f32 * mu_b3 + 0.05445673_f32 * mu_u4;
-    let q_2 = 5.814967_f32 * mu_v4 + 11.302624_f32 * mu_b1 + 7.3450565_f32 * mu_b2 + 1.9314191_f32 * mu_b3 + 0.07401918_f32 * mu_u4;
-    let q_3 = 2.5659192_f32 * mu_v4 + 4.9916244_f32 * mu_b1 + 3.2452805_f32 * mu_b2 + 0.85228306_f32 * mu_b3 + 0.032707468_f32 * mu_u4;
-    let q_4 = 0.015687661_f32 * mu_v4 + 0.030704094_f32 * mu_b1 + 0.020400904_f32 * mu_b2 + 0.0056538293_f32 * mu_b3 + 0.00026935997_f32 * mu_u4;
-    let q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
+    // numerator P, grouped by powers of the first variable
+    let p_0 = (((-35.87151_f32 * mu_c + 76.28415_f32) * mu_c - 127.6227_f32) * mu_c + 105.0877_f32) * mu_c + 0.9999942_f32;
+    let p_1 = ((19.751242_f32 * mu_c - 32.830536_f32) * mu_c - 5.2450757_f32) * mu_c + 29.944506_f32;
+    let p_2 = (9.206745_f32 * mu_c - 17.417435_f32) * mu_c + 10.048466_f32;
+    let p_3 = -0.34045875_f32 * mu_c + 0.31453842_f32;
+    let p_4 = 0.000638246_f32;
+    let p = (((p_4 * r_c + p_3) * r_c + p_2) * r_c + p_1) * r_c + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    let q_0 = (((-35.86389_f32 * mu_c + 76.27048_f32) * mu_c - 127.61555_f32) * mu_c + 105.08671_f32) * mu_c + 1.0_f32;
+    let q_1 = ((-8.847154_f32 * mu_c + 0.8609194_f32) * mu_c - 4.9049335_f32) * mu_c + 29.944387_f32;
+    let q_2 = (3.217875_f32 * mu_c - 8.077143_f32) * mu_c + 10.047772_f32;
+    let q_3 = 0.1810896_f32 * mu_c + 0.3182258_f32;
+    let q_4 = -0.0023024804_f32;
+    let q = (((q_4 * r_c + q_3) * r_c + q_2) * r_c + q_1) * r_c + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

@@ -14,29 +14,28 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 1/2, 8 coefficients (numerator 3, denominator 5 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-fon/best-8.json (furnace 0.1.0), fit SHA-256 66d4f50409e5b7c6cfb15bce06cc1bd59c0785d2b3d9e0fc47140cda78603715.
+// Fit: rational over [x0^1 x x1^5, deg <= 0 where x0 is absent]/[x0^1 x x1^0], 8 coefficients (numerator 7, denominator 1 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-fon/best-8.json (furnace 0.1.0), fit SHA-256 6a767d5399a86cf931e3a3996f28566d9efb1d3213b0ea8475cbe878e1e7ed8a.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.3e-7, shifted 3.6e-7, bernstein 3.8e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.55e-3, max 9.34e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 2.54e-7 (every op rounded, as this Rust), 2.46e-7 (fused multiply-add), 3.65e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 8.42e-7 for every input, in all three rounding models (interval error analysis over the whole domain, 1 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.50e-3, max 9.34e-3; this f32 code MAE 1.50e-3, max 9.34e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.1e-3 on the measurement grid.
-// Denominator proved >= 9.899e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.9e-7, shifted 3.5e-7, bernstein 3.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.04e-5, max 3.79e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.85e-7 (every op rounded, as this Rust), 1.85e-7 (fused multiply-add), 3.03e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 7.45e-7 for every input, in all three rounding models (interval error analysis over the whole domain, 1 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.04e-5, max 3.79e-4; this f32 code MAE 2.04e-5, max 3.79e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.8e-7 on the measurement grid.
+// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 float oren_nayar_fon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
     float mu_c = max(min(mu, 1.0f), 0.0f);
     // numerator P, grouped by powers of the first variable
-    float p_0 = 0.06025624f * mu_c + 1.0025264f;
-    float p_1 = -0.0036890334f;
+    float p_0 = 1.0000002f;
+    float p_1 = ((((0.09872992f * mu_c - 0.19681026f) * mu_c + 0.30349466f) * mu_c - 0.17909616f) * mu_c - 0.3145266f) * mu_c + 0.28772447f;
     float p = p_1 * r_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = (-0.017122403f * mu_c + 0.07687627f) * mu_c + 1.0f;
-    float q_1 = 0.33088654f * mu_c + 0.00096751493f;
-    float q_2 = -0.01110501f;
-    float q = (q_2 * r_c + q_1) * r_c + q_0;
+    float q_0 = 1.0f;
+    float q_1 = 0.28779948f;
+    float q = q_1 * r_c + q_0;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);
 }

@@ -27,16 +27,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 3044c7337329c22d2b1725e6285bd66e288879f498c924861a7a5858401a0e42.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 6a49d36188c6eab3f79902b78868c1edc889e26765dcbc84f292f4d8d58761f4.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.3e-4, shifted 6.1e-5, bernstein 4.3e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.97e-8, max 1.21e-6 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.72e-7 (every op rounded, as this Rust), 4.72e-7 (fused multiply-add), 5.62e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 237 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.97e-8, max 1.21e-6; this f32 code MAE 6.99e-8, max 1.28e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.3e-8 on the measurement grid.
-// Denominator proved >= 4.657e-4 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.6e-4, shifted 6.6e-5, bernstein 5.8e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.01e-8, max 1.12e-6 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 4.92e-7 (fused multiply-add), 6.05e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 241 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.00e-8, max 1.12e-6; this f32 code MAE 7.03e-8, max 1.23e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.1e-8 on the measurement grid.
+// Denominator proved >= 4.651e-4 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float oren_nayar_fon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -82,24 +82,24 @@ FURNACE_FN float oren_nayar_fon_albedo(float r, float mu) {
     const float mu_b5 = mu_u5 * mu_v2;
     const float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 1.0f * mu_v7 + 5.0988846f * mu_b1 + 10.670883f * mu_b2 + 11.051033f * mu_b3 + 5.7749324f * mu_b4 + 1.2361338f * mu_b5 + 0.06555344f * mu_b6 + 0.00046572153f * mu_u7;
-    const float p_1 = 7.3749495f * mu_v7 + 37.42344f * mu_b1 + 77.678856f * mu_b2 + 79.789375f * mu_b3 + 41.47633f * mu_b4 + 8.917207f * mu_b5 + 0.47733653f * mu_b6 + 0.0034810891f * mu_u7;
-    const float p_2 = 23.248442f * mu_v7 + 117.49379f * mu_b1 + 242.0277f * mu_b2 + 246.64511f * mu_b3 + 127.543365f * mu_b4 + 27.536737f * mu_b5 + 1.4889235f * mu_b6 + 0.010868422f * mu_u7;
-    const float p_3 = 40.628227f * mu_v7 + 204.63586f * mu_b1 + 418.56912f * mu_b2 + 423.32755f * mu_b3 + 217.79024f * mu_b4 + 47.21709f * mu_b5 + 2.5816526f * mu_b6 + 0.018901408f * mu_u7;
-    const float p_4 = 42.534355f * mu_v7 + 213.64243f * mu_b1 + 434.14517f * mu_b2 + 435.9044f * mu_b3 + 223.15433f * mu_b4 + 48.58772f * mu_b5 + 2.6904645f * mu_b6 + 0.0199655f * mu_u7;
-    const float p_5 = 26.694344f * mu_v7 + 133.77737f * mu_b1 + 270.2083f * mu_b2 + 269.43552f * mu_b3 + 137.28735f * mu_b4 + 30.0301f * mu_b5 + 1.6877121f * mu_b6 + 0.012813353f * mu_u7;
-    const float p_6 = 9.3060255f * mu_v7 + 46.55045f * mu_b1 + 93.496185f * mu_b2 + 92.621635f * mu_b3 + 46.989365f * mu_b4 + 10.33208f * mu_b5 + 0.5911758f * mu_b6 + 0.0046204915f * mu_u7;
-    const float p_7 = 1.3913018f * mu_v7 + 6.948873f * mu_b1 + 13.883649f * mu_b2 + 13.669731f * mu_b3 + 6.9080834f * mu_b4 + 1.5282683f * mu_b5 + 0.08941623f * mu_b6 + 0.00072428095f * mu_u7;
+    const float p_0 = 1.0f * mu_v7 + 5.1074085f * mu_b1 + 10.664439f * mu_b2 + 11.019307f * mu_b3 + 5.7433047f * mu_b4 + 1.2289469f * mu_b5 + 0.0653104f * mu_b6 + 0.00046513107f * mu_u7;
+    const float p_1 = 7.36704f * mu_v7 + 37.439198f * mu_b1 + 77.53326f * mu_b2 + 79.46028f * mu_b3 + 41.201393f * mu_b4 + 8.855341f * mu_b5 + 0.4750904f * mu_b6 + 0.0034735105f * mu_u7;
+    const float p_2 = 23.214985f * mu_v7 + 117.469765f * mu_b1 + 241.40561f * mu_b2 + 245.45839f * mu_b3 + 126.62505f * mu_b4 + 27.3326f * mu_b5 + 1.4813868f * mu_b6 + 0.010846535f * mu_u7;
+    const float p_3 = 40.577446f * mu_v7 + 204.5639f * mu_b1 + 417.38287f * mu_b2 + 421.17957f * mu_b3 + 216.1949f * mu_b4 + 46.870785f * mu_b5 + 2.5702786f * mu_b6 + 0.018835777f * mu_u7;
+    const float p_4 = 42.50412f * mu_v7 + 213.59615f * mu_b1 + 432.90567f * mu_b2 + 433.67874f * mu_b3 + 221.54546f * mu_b4 + 48.25082f * mu_b5 + 2.6828315f * mu_b6 + 0.01992927f * mu_u7;
+    const float p_5 = 26.691914f * mu_v7 + 133.77026f * mu_b1 + 269.4302f * mu_b2 + 268.04367f * mu_b3 + 136.30563f * mu_b4 + 29.831266f * mu_b5 + 1.685754f * mu_b6 + 0.012887578f * mu_u7;
+    const float p_6 = 9.308569f * mu_v7 + 46.542133f * mu_b1 + 93.19513f * mu_b2 + 92.10371f * mu_b3 + 46.634285f * mu_b4 + 10.259524f * mu_b5 + 0.5905347f * mu_b6 + 0.004679618f * mu_u7;
+    const float p_7 = 1.3912727f * mu_v7 + 6.9421024f * mu_b1 + 13.824535f * mu_b2 + 13.576675f * mu_b3 + 6.846193f * mu_b4 + 1.5145189f * mu_b5 + 0.088946655f * mu_b6 + 0.00072458276f * mu_u7;
     const float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v7 + 5.098885f * mu_b1 + 10.670878f * mu_b2 + 11.05104f * mu_b3 + 5.774929f * mu_b4 + 1.2361342f * mu_b5 + 0.06555343f * mu_b6 + 0.00046572153f * mu_u7;
-    const float q_1 = 7.37495f * mu_v7 + 37.74174f * mu_b1 + 79.12734f * mu_b2 + 82.14386f * mu_b3 + 43.03527f * mu_b4 + 9.270695f * mu_b5 + 0.496199f * mu_b6 + 0.0036151207f * mu_u7;
-    const float q_2 = 23.248444f * mu_v7 + 119.43141f * mu_b1 + 250.888f * mu_b2 + 261.09122f * mu_b3 + 137.14444f * mu_b4 + 29.732357f * mu_b5 + 1.6074076f * mu_b6 + 0.011736224f * mu_u7;
-    const float q_3 = 40.628227f * mu_v7 + 209.54106f * mu_b1 + 441.11383f * mu_b2 + 460.20404f * mu_b3 + 242.39235f * mu_b4 + 52.890472f * mu_b5 + 2.8915794f * mu_b6 + 0.021161476f * mu_u7;
-    const float q_4 = 42.534348f * mu_v7 + 220.25856f * mu_b1 + 464.71323f * mu_b2 + 486.07306f * mu_b3 + 256.75522f * mu_b4 + 56.402092f * mu_b5 + 3.1233594f * mu_b6 + 0.023145137f * mu_u7;
-    const float q_5 = 26.69434f * mu_v7 + 138.79697f * mu_b1 + 293.52298f * mu_b2 + 307.83237f * mu_b3 + 163.10907f * mu_b4 + 36.089046f * mu_b5 + 2.0289412f * mu_b6 + 0.015379647f * mu_u7;
-    const float q_6 = 9.3060255f * mu_v7 + 48.58367f * mu_b1 + 102.98964f * mu_b2 + 108.31176f * mu_b3 + 57.587326f * mu_b4 + 12.843506f * mu_b5 + 0.7355407f * mu_b6 + 0.0057417983f * mu_u7;
-    const float q_7 = 1.3913016f * mu_v7 + 7.292777f * mu_b1 + 15.497603f * mu_b2 + 16.346844f * mu_b3 + 8.725217f * mu_b4 + 1.963875f * mu_b5 + 0.11514216f * mu_b6 + 0.0009327245f * mu_u7;
+    const float q_0 = 1.0f * mu_v7 + 5.107409f * mu_b1 + 10.664435f * mu_b2 + 11.019314f * mu_b3 + 5.7433014f * mu_b4 + 1.2289473f * mu_b5 + 0.065310396f * mu_b6 + 0.0004651312f * mu_u7;
+    const float q_1 = 7.3670406f * mu_v7 + 37.7575f * mu_b1 + 78.984474f * mu_b2 + 81.81086f * mu_b3 + 42.75172f * mu_b4 + 9.206768f * mu_b5 + 0.49388286f * mu_b6 + 0.0036073697f * mu_u7;
+    const float q_2 = 23.214985f * mu_v7 + 119.40486f * mu_b1 + 250.26918f * mu_b2 + 259.85944f * mu_b3 + 136.16023f * mu_b4 + 29.512537f * mu_b5 + 1.5992942f * mu_b6 + 0.011712337f * mu_u7;
+    const float q_3 = 40.577446f * mu_v7 + 209.46162f * mu_b1 + 439.92233f * mu_b2 + 457.917f * mu_b3 + 240.61453f * mu_b4 + 52.50132f * mu_b5 + 2.8786135f * mu_b6 + 0.021091599f * mu_u7;
+    const float q_4 = 42.504116f * mu_v7 + 220.20554f * mu_b1 + 463.4669f * mu_b2 + 483.6525f * mu_b3 + 254.89673f * mu_b4 + 56.00874f * mu_b5 + 3.1140432f * mu_b6 + 0.023094129f * mu_u7;
+    const float q_5 = 26.691912f * mu_v7 + 138.78868f * mu_b1 + 292.74475f * mu_b2 + 306.29312f * mu_b3 + 161.93916f * mu_b4 + 35.849873f * mu_b5 + 2.0264695f * mu_b6 + 0.015458314f * mu_u7;
+    const float q_6 = 9.308569f * mu_v7 + 48.57598f * mu_b1 + 102.6879f * mu_b2 + 107.72914f * mu_b3 + 57.151913f * mu_b4 + 12.753901f * mu_b5 + 0.7348488f * mu_b6 + 0.005817853f * mu_u7;
+    const float q_7 = 1.3912725f * mu_v7 + 7.285997f * mu_b1 + 15.436853f * mu_b2 + 16.239447f * mu_b3 + 8.646806f * mu_b4 + 1.9461801f * mu_b5 + 0.1145374f * mu_b6 + 0.00093311333f * mu_u7;
     const float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

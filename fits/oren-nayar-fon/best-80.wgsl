@@ -11,16 +11,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 3044c7337329c22d2b1725e6285bd66e288879f498c924861a7a5858401a0e42.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 6a49d36188c6eab3f79902b78868c1edc889e26765dcbc84f292f4d8d58761f4.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.3e-4, shifted 6.1e-5, bernstein 4.3e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.97e-8, max 1.21e-6 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.72e-7 (every op rounded, as this Rust), 4.72e-7 (fused multiply-add), 5.62e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 237 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.97e-8, max 1.21e-6; this f32 code MAE 6.99e-8, max 1.28e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.3e-8 on the measurement grid.
-// Denominator proved >= 4.657e-4 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.6e-4, shifted 6.6e-5, bernstein 5.8e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.01e-8, max 1.12e-6 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 4.92e-7 (fused multiply-add), 6.05e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 241 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.00e-8, max 1.12e-6; this f32 code MAE 7.03e-8, max 1.23e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.1e-8 on the measurement grid.
+// Denominator proved >= 4.651e-4 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -66,24 +66,24 @@ fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0 * mu_v7 + 5.0988846 * mu_b1 + 10.670883 * mu_b2 + 11.051033 * mu_b3 + 5.7749324 * mu_b4 + 1.2361338 * mu_b5 + 0.06555344 * mu_b6 + 0.00046572153 * mu_u7;
-    let p_1 = 7.3749495 * mu_v7 + 37.42344 * mu_b1 + 77.678856 * mu_b2 + 79.789375 * mu_b3 + 41.47633 * mu_b4 + 8.917207 * mu_b5 + 0.47733653 * mu_b6 + 0.0034810891 * mu_u7;
-    let p_2 = 23.248442 * mu_v7 + 117.49379 * mu_b1 + 242.0277 * mu_b2 + 246.64511 * mu_b3 + 127.543365 * mu_b4 + 27.536737 * mu_b5 + 1.4889235 * mu_b6 + 0.010868422 * mu_u7;
-    let p_3 = 40.628227 * mu_v7 + 204.63586 * mu_b1 + 418.56912 * mu_b2 + 423.32755 * mu_b3 + 217.79024 * mu_b4 + 47.21709 * mu_b5 + 2.5816526 * mu_b6 + 0.018901408 * mu_u7;
-    let p_4 = 42.534355 * mu_v7 + 213.64243 * mu_b1 + 434.14517 * mu_b2 + 435.9044 * mu_b3 + 223.15433 * mu_b4 + 48.58772 * mu_b5 + 2.6904645 * mu_b6 + 0.0199655 * mu_u7;
-    let p_5 = 26.694344 * mu_v7 + 133.77737 * mu_b1 + 270.2083 * mu_b2 + 269.43552 * mu_b3 + 137.28735 * mu_b4 + 30.0301 * mu_b5 + 1.6877121 * mu_b6 + 0.012813353 * mu_u7;
-    let p_6 = 9.3060255 * mu_v7 + 46.55045 * mu_b1 + 93.496185 * mu_b2 + 92.621635 * mu_b3 + 46.989365 * mu_b4 + 10.33208 * mu_b5 + 0.5911758 * mu_b6 + 0.0046204915 * mu_u7;
-    let p_7 = 1.3913018 * mu_v7 + 6.948873 * mu_b1 + 13.883649 * mu_b2 + 13.669731 * mu_b3 + 6.9080834 * mu_b4 + 1.5282683 * mu_b5 + 0.08941623 * mu_b6 + 0.00072428095 * mu_u7;
+    let p_0 = 1.0 * mu_v7 + 5.1074085 * mu_b1 + 10.664439 * mu_b2 + 11.019307 * mu_b3 + 5.7433047 * mu_b4 + 1.2289469 * mu_b5 + 0.0653104 * mu_b6 + 0.00046513107 * mu_u7;
+    let p_1 = 7.36704 * mu_v7 + 37.439198 * mu_b1 + 77.53326 * mu_b2 + 79.46028 * mu_b3 + 41.201393 * mu_b4 + 8.855341 * mu_b5 + 0.4750904 * mu_b6 + 0.0034735105 * mu_u7;
+    let p_2 = 23.214985 * mu_v7 + 117.469765 * mu_b1 + 241.40561 * mu_b2 + 245.45839 * mu_b3 + 126.62505 * mu_b4 + 27.3326 * mu_b5 + 1.4813868 * mu_b6 + 0.010846535 * mu_u7;
+    let p_3 = 40.577446 * mu_v7 + 204.5639 * mu_b1 + 417.38287 * mu_b2 + 421.17957 * mu_b3 + 216.1949 * mu_b4 + 46.870785 * mu_b5 + 2.5702786 * mu_b6 + 0.018835777 * mu_u7;
+    let p_4 = 42.50412 * mu_v7 + 213.59615 * mu_b1 + 432.90567 * mu_b2 + 433.67874 * mu_b3 + 221.54546 * mu_b4 + 48.25082 * mu_b5 + 2.6828315 * mu_b6 + 0.01992927 * mu_u7;
+    let p_5 = 26.691914 * mu_v7 + 133.77026 * mu_b1 + 269.4302 * mu_b2 + 268.04367 * mu_b3 + 136.30563 * mu_b4 + 29.831266 * mu_b5 + 1.685754 * mu_b6 + 0.012887578 * mu_u7;
+    let p_6 = 9.308569 * mu_v7 + 46.542133 * mu_b1 + 93.19513 * mu_b2 + 92.10371 * mu_b3 + 46.634285 * mu_b4 + 10.259524 * mu_b5 + 0.5905347 * mu_b6 + 0.004679618 * mu_u7;
+    let p_7 = 1.3912727 * mu_v7 + 6.9421024 * mu_b1 + 13.824535 * mu_b2 + 13.576675 * mu_b3 + 6.846193 * mu_b4 + 1.5145189 * mu_b5 + 0.088946655 * mu_b6 + 0.00072458276 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v7 + 5.098885 * mu_b1 + 10.670878 * mu_b2 + 11.05104 * mu_b3 + 5.774929 * mu_b4 + 1.2361342 * mu_b5 + 0.06555343 * mu_b6 + 0.00046572153 * mu_u7;
-    let q_1 = 7.37495 * mu_v7 + 37.74174 * mu_b1 + 79.12734 * mu_b2 + 82.14386 * mu_b3 + 43.03527 * mu_b4 + 9.270695 * mu_b5 + 0.496199 * mu_b6 + 0.0036151207 * mu_u7;
-    let q_2 = 23.248444 * mu_v7 + 119.43141 * mu_b1 + 250.888 * mu_b2 + 261.09122 * mu_b3 + 137.14444 * mu_b4 + 29.732357 * mu_b5 + 1.6074076 * mu_b6 + 0.011736224 * mu_u7;
-    let q_3 = 40.628227 * mu_v7 + 209.54106 * mu_b1 + 441.11383 * mu_b2 + 460.20404 * mu_b3 + 242.39235 * mu_b4 + 52.890472 * mu_b5 + 2.8915794 * mu_b6 + 0.021161476 * mu_u7;
-    let q_4 = 42.534348 * mu_v7 + 220.25856 * mu_b1 + 464.71323 * mu_b2 + 486.07306 * mu_b3 + 256.75522 * mu_b4 + 56.402092 * mu_b5 + 3.1233594 * mu_b6 + 0.023145137 * mu_u7;
-    let q_5 = 26.69434 * mu_v7 + 138.79697 * mu_b1 + 293.52298 * mu_b2 + 307.83237 * mu_b3 + 163.10907 * mu_b4 + 36.089046 * mu_b5 + 2.0289412 * mu_b6 + 0.015379647 * mu_u7;
-    let q_6 = 9.3060255 * mu_v7 + 48.58367 * mu_b1 + 102.98964 * mu_b2 + 108.31176 * mu_b3 + 57.587326 * mu_b4 + 12.843506 * mu_b5 + 0.7355407 * mu_b6 + 0.0057417983 * mu_u7;
-    let q_7 = 1.3913016 * mu_v7 + 7.292777 * mu_b1 + 15.497603 * mu_b2 + 16.346844 * mu_b3 + 8.725217 * mu_b4 + 1.963875 * mu_b5 + 0.11514216 * mu_b6 + 0.0009327245 * mu_u7;
+    let q_0 = 1.0 * mu_v7 + 5.107409 * mu_b1 + 10.664435 * mu_b2 + 11.019314 * mu_b3 + 5.7433014 * mu_b4 + 1.2289473 * mu_b5 + 0.065310396 * mu_b6 + 0.0004651312 * mu_u7;
+    let q_1 = 7.3670406 * mu_v7 + 37.7575 * mu_b1 + 78.984474 * mu_b2 + 81.81086 * mu_b3 + 42.75172 * mu_b4 + 9.206768 * mu_b5 + 0.49388286 * mu_b6 + 0.0036073697 * mu_u7;
+    let q_2 = 23.214985 * mu_v7 + 119.40486 * mu_b1 + 250.26918 * mu_b2 + 259.85944 * mu_b3 + 136.16023 * mu_b4 + 29.512537 * mu_b5 + 1.5992942 * mu_b6 + 0.011712337 * mu_u7;
+    let q_3 = 40.577446 * mu_v7 + 209.46162 * mu_b1 + 439.92233 * mu_b2 + 457.917 * mu_b3 + 240.61453 * mu_b4 + 52.50132 * mu_b5 + 2.8786135 * mu_b6 + 0.021091599 * mu_u7;
+    let q_4 = 42.504116 * mu_v7 + 220.20554 * mu_b1 + 463.4669 * mu_b2 + 483.6525 * mu_b3 + 254.89673 * mu_b4 + 56.00874 * mu_b5 + 3.1140432 * mu_b6 + 0.023094129 * mu_u7;
+    let q_5 = 26.691912 * mu_v7 + 138.78868 * mu_b1 + 292.74475 * mu_b2 + 306.29312 * mu_b3 + 161.93916 * mu_b4 + 35.849873 * mu_b5 + 2.0264695 * mu_b6 + 0.015458314 * mu_u7;
+    let q_6 = 9.308569 * mu_v7 + 48.57598 * mu_b1 + 102.6879 * mu_b2 + 107.72914 * mu_b3 + 57.151913 * mu_b4 + 12.753901 * mu_b5 + 0.7348488 * mu_b6 + 0.005817853 * mu_u7;
+    let q_7 = 1.3912725 * mu_v7 + 7.285997 * mu_b1 + 15.436853 * mu_b2 + 16.239447 * mu_b3 + 8.646806 * mu_b4 + 1.9461801 * mu_b5 + 0.1145374 * mu_b6 + 0.00093311333 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

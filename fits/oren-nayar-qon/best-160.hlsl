@@ -14,16 +14,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 8d8ee309e19ec3d427c46b1f91fffb40aa1f160622b991585cbc5fd5b16baf9b.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 7c94e41b26a8cfd6ff4554b6f800854bf1a9a1903a1447bc917de55f763d6f07.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.8e-1, shifted 5.0e-4, bernstein 4.7e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.55e-6, max 5.72e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.60e-7 (every op rounded, as this Rust), 5.84e-7 (fused multiply-add), 5.84e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.15e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1927 boxes).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.5e-2, shifted 5.5e-4, bernstein 5.3e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.74e-6, max 5.08e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.20e-7 (every op rounded, as this Rust), 5.25e-7 (fused multiply-add), 5.77e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.83e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2661 boxes).
 // Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.79e-4, max 1.52e-2; this f32 code MAE 2.79e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 9.550e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 9.453e-4 on the domain (Bernstein certificate), so the division is safe.
 float oren_nayar_qon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -87,30 +87,30 @@ float oren_nayar_qon_albedo(float r, float mu) {
     float mu_b8 = mu_u8 * mu_v2;
     float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 0.9999793f * mu_v10 + 10.698665f * mu_b1 + 49.762558f * mu_b2 + 121.024475f * mu_b3 + 173.53123f * mu_b4 + 245.40892f * mu_b5 + 200.7346f * mu_b6 + 101.68887f * mu_b7 + 20.452705f * mu_b8 + 1.9207792f * mu_b9 + 0.008079292f * mu_u10;
-    float p_1 = 5.644311f * mu_v10 + 65.02321f * mu_b1 + 300.60245f * mu_b2 + 733.9136f * mu_b3 + 943.6565f * mu_b4 + 1492.8871f * mu_b5 + 1263.4744f * mu_b6 + 669.7922f * mu_b7 + 94.41655f * mu_b8 - 1.3143884f * mu_b9 - 0.018055532f * mu_u10;
-    float p_2 = 50.439983f * mu_v10 + 563.3918f * mu_b1 + 2518.0571f * mu_b2 + 6320.332f * mu_b3 + 9289.229f * mu_b4 + 12310.437f * mu_b5 + 9907.955f * mu_b6 + 5022.4575f * mu_b7 + 885.4814f * mu_b8 + 20.939157f * mu_b9 + 0.029494965f * mu_u10;
-    float p_3 = 145.75922f * mu_v10 + 1739.8519f * mu_b1 + 7868.778f * mu_b2 + 19859.936f * mu_b3 + 30508.414f * mu_b4 + 40860.43f * mu_b5 + 33757.97f * mu_b6 + 17075.44f * mu_b7 + 3088.3552f * mu_b8 + 63.938026f * mu_b9 + 0.013049195f * mu_u10;
-    float p_4 = 317.4199f * mu_v10 + 3935.7407f * mu_b1 + 18011.115f * mu_b2 + 45279.4f * mu_b3 + 72414.945f * mu_b4 + 97169.164f * mu_b5 + 81476.125f * mu_b6 + 40682.313f * mu_b7 + 7665.931f * mu_b8 + 222.48131f * mu_b9 + 0.5242939f * mu_u10;
-    float p_5 = 273.7453f * mu_v10 + 4163.26f * mu_b1 + 20377.07f * mu_b2 + 52376.754f * mu_b3 + 89825.086f * mu_b4 + 131706.33f * mu_b5 + 117373.164f * mu_b6 + 59585.184f * mu_b7 + 11457.697f * mu_b8 + 359.38135f * mu_b9 + 0.50334466f * mu_u10;
-    float p_6 = 29.773872f * mu_v10 + 1710.7528f * mu_b1 + 9777.932f * mu_b2 + 25476.05f * mu_b3 + 51290.242f * mu_b4 + 97525.28f * mu_b5 + 99184.17f * mu_b6 + 52879.824f * mu_b7 + 10192.043f * mu_b8 + 285.93997f * mu_b9 + 0.6460265f * mu_u10;
-    float p_7 = 22.63941f * mu_v10 + 712.4479f * mu_b1 + 3163.4353f * mu_b2 + 5256.0083f * mu_b3 + 14265.55f * mu_b4 + 45266.992f * mu_b5 + 54411.688f * mu_b6 + 30589.48f * mu_b7 + 5891.1914f * mu_b8 + 159.96426f * mu_b9 + 0.081927516f * mu_u10;
-    float p_8 = 67.08846f * mu_v10 + 608.0914f * mu_b1 + 1681.4725f * mu_b2 + 773.93524f * mu_b3 + 1780.8241f * mu_b4 + 13934.4375f * mu_b5 + 19385.04f * mu_b6 + 11260.728f * mu_b7 + 2143.9788f * mu_b8 + 67.73665f * mu_b9 + 0.15957318f * mu_u10;
-    float p_9 = 17.999786f * mu_v10 + 156.30054f * mu_b1 + 348.04776f * mu_b2 - 333.50317f * mu_b3 - 759.69073f * mu_b4 + 1929.9371f * mu_b5 + 3568.8057f * mu_b6 + 2133.2002f * mu_b7 + 368.04062f * mu_b8 + 9.80784f * mu_b9 + 0.013941747f * mu_u10;
-    float p_10 = 0.83961344f * mu_v10 + 15.945998f * mu_b1 + 54.414486f * mu_b2 + 15.225408f * mu_b3 - 3.2602932f * mu_b4 + 266.85046f * mu_b5 + 383.57813f * mu_b6 + 198.9403f * mu_b7 + 26.634356f * mu_b8 + 0.49718103f * mu_b9 + 0.0005338389f * mu_u10;
+    float p_0 = 0.9999927f * mu_v10 + 10.063863f * mu_b1 + 47.193584f * mu_b2 + 120.01701f * mu_b3 + 181.43074f * mu_b4 + 270.3968f * mu_b5 + 223.26996f * mu_b6 + 110.464325f * mu_b7 + 22.251532f * mu_b8 + 2.169459f * mu_b9 + 0.010311128f * mu_u10;
+    float p_1 = 5.7301044f * mu_v10 + 61.40375f * mu_b1 + 285.47018f * mu_b2 + 738.6787f * mu_b3 + 1012.09076f * mu_b4 + 1685.5204f * mu_b5 + 1415.9052f * mu_b6 + 706.4554f * mu_b7 + 91.44938f * mu_b8 - 1.8953946f * mu_b9 - 0.036170084f * mu_u10;
+    float p_2 = 50.17764f * mu_v10 + 538.51465f * mu_b1 + 2432.7183f * mu_b2 + 6383.9834f * mu_b3 + 9777.494f * mu_b4 + 13451.7295f * mu_b5 + 10837.917f * mu_b6 + 5305.5806f * mu_b7 + 894.9414f * mu_b8 + 21.51673f * mu_b9 + 0.08570758f * mu_u10;
+    float p_3 = 146.20288f * mu_v10 + 1661.2759f * mu_b1 + 7598.812f * mu_b2 + 20083.99f * mu_b3 + 32115.348f * mu_b4 + 44305.305f * mu_b5 + 36477.55f * mu_b6 + 17859.9f * mu_b7 + 3078.7434f * mu_b8 + 60.723995f * mu_b9 - 0.10144976f * mu_u10;
+    float p_4 = 315.91904f * mu_v10 + 3768.1738f * mu_b1 + 17401.879f * mu_b2 + 45495.055f * mu_b3 + 75299.13f * mu_b4 + 103469.55f * mu_b5 + 86351.375f * mu_b6 + 41961.773f * mu_b7 + 7573.18f * mu_b8 + 218.32211f * mu_b9 + 0.7637018f * mu_u10;
+    float p_5 = 272.45807f * mu_v10 + 3967.9587f * mu_b1 + 19331.918f * mu_b2 + 51208.547f * mu_b3 + 90688.164f * mu_b4 + 136555.0f * mu_b5 + 121284.73f * mu_b6 + 60123.336f * mu_b7 + 11050.614f * mu_b8 + 337.67996f * mu_b9 - 0.099213f * mu_u10;
+    float p_6 = 31.912298f * mu_v10 + 1602.9585f * mu_b1 + 8482.009f * mu_b2 + 21874.97f * mu_b3 + 46587.28f * mu_b4 + 95636.07f * mu_b5 + 98440.305f * mu_b6 + 51577.16f * mu_b7 + 9426.203f * mu_b8 + 248.36708f * mu_b9 + 1.1934961f * mu_u10;
+    float p_7 = 18.64887f * mu_v10 + 695.244f * mu_b1 + 2192.7588f * mu_b2 + 1383.6718f * mu_b3 + 7650.7437f * mu_b4 + 39911.383f * mu_b5 + 51172.832f * mu_b6 + 28617.684f * mu_b7 + 5127.564f * mu_b8 + 108.8736f * mu_b9 - 0.33373192f * mu_u10;
+    float p_8 = 62.936096f * mu_v10 + 668.78467f * mu_b1 + 1539.1251f * mu_b2 - 505.476f * mu_b3 - 685.46387f * mu_b4 + 12064.338f * mu_b5 + 18433.498f * mu_b6 + 10655.37f * mu_b7 + 1875.4286f * mu_b8 + 50.639748f * mu_b9 + 0.14137837f * mu_u10;
+    float p_9 = 16.882408f * mu_v10 + 194.04553f * mu_b1 + 423.45593f * mu_b2 - 393.7427f * mu_b3 - 933.39825f * mu_b4 + 2016.8412f * mu_b5 + 3783.7097f * mu_b6 + 2191.9824f * mu_b7 + 347.50214f * mu_b8 + 8.590509f * mu_b9 + 0.011543624f * mu_u10;
+    float p_10 = 0.73140407f * mu_v10 + 18.974003f * mu_b1 + 53.426f * mu_b2 - 16.908216f * mu_b3 - 48.556885f * mu_b4 + 276.0165f * mu_b5 + 426.72772f * mu_b6 + 219.50757f * mu_b7 + 27.804768f * mu_b8 + 0.49901262f * mu_b9 + 0.0005300216f * mu_u10;
     float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v10 + 10.6979885f * mu_b1 + 49.762207f * mu_b2 + 121.066025f * mu_b3 + 173.39603f * mu_b4 + 245.53975f * mu_b5 + 200.71478f * mu_b6 + 101.67117f * mu_b7 + 20.456509f * mu_b8 + 1.9206574f * mu_b9 + 0.0080794245f * mu_u10;
-    float q_1 = 5.6419744f * mu_v10 + 65.09959f * mu_b1 + 300.17398f * mu_b2 + 733.91187f * mu_b3 + 944.95197f * mu_b4 + 1492.0234f * mu_b5 + 1261.4496f * mu_b6 + 672.0654f * mu_b7 + 94.02083f * mu_b8 - 1.300128f * mu_b9 - 0.018069204f * mu_u10;
-    float q_2 = 48.06813f * mu_v10 + 540.43585f * mu_b1 + 2441.4893f * mu_b2 + 6222.9355f * mu_b3 + 9225.924f * mu_b4 + 12288.085f * mu_b5 + 10016.617f * mu_b6 + 5191.5303f * mu_b7 + 937.6976f * mu_b8 + 26.978392f * mu_b9 + 0.05996857f * mu_u10;
-    float q_3 = 136.1373f * mu_v10 + 1646.4167f * mu_b1 + 7546.8955f * mu_b2 + 19373.55f * mu_b3 + 29982.555f * mu_b4 + 40646.54f * mu_b5 + 34575.313f * mu_b6 + 18095.082f * mu_b7 + 3305.5889f * mu_b8 + 51.740574f * mu_b9 - 0.11707577f * mu_u10;
-    float q_4 = 368.32697f * mu_v10 + 4498.548f * mu_b1 + 20740.357f * mu_b2 + 52920.895f * mu_b3 + 85599.484f * mu_b4 + 113586.586f * mu_b5 + 97351.85f * mu_b6 + 50022.48f * mu_b7 + 9783.04f * mu_b8 + 282.49124f * mu_b9 + 0.7561438f * mu_u10;
-    float q_5 = 350.6807f * mu_v10 + 5184.223f * mu_b1 + 25672.416f * mu_b2 + 67509.1f * mu_b3 + 117205.74f * mu_b4 + 168592.98f * mu_b5 + 154288.23f * mu_b6 + 81073.37f * mu_b7 + 16418.912f * mu_b8 + 537.6233f * mu_b9 + 0.69660056f * mu_u10;
-    float q_6 = 34.00834f * mu_v10 + 2096.6343f * mu_b1 + 12459.813f * mu_b2 + 34013.4f * mu_b3 + 69016.03f * mu_b4 + 127914.49f * mu_b5 + 135920.55f * mu_b6 + 75981.02f * mu_b7 + 15559.764f * mu_b8 + 452.90768f * mu_b9 + 1.124681f * mu_u10;
-    float q_7 = 19.153912f * mu_v10 + 827.1988f * mu_b1 + 3942.8394f * mu_b2 + 7256.572f * mu_b3 + 19110.438f * mu_b4 + 59003.6f * mu_b5 + 76177.05f * mu_b6 + 45536.06f * mu_b7 + 9367.303f * mu_b8 + 260.40286f * mu_b9 + 0.09332136f * mu_u10;
-    float q_8 = 83.75133f * mu_v10 + 774.49774f * mu_b1 + 2241.9326f * mu_b2 + 1388.6825f * mu_b3 + 2463.152f * mu_b4 + 18034.209f * mu_b5 + 27683.225f * mu_b6 + 17286.465f * mu_b7 + 3527.334f * mu_b8 + 115.93154f * mu_b9 + 0.2807899f * mu_u10;
-    float q_9 = 23.071667f * mu_v10 + 203.10541f * mu_b1 + 474.98196f * mu_b2 - 360.33273f * mu_b3 - 1097.6202f * mu_b4 + 2283.663f * mu_b5 + 5110.096f * mu_b6 + 3340.9146f * mu_b7 + 618.3466f * mu_b8 + 17.1308f * mu_b9 + 0.0247643f * mu_u10;
-    float q_10 = 1.0818654f * mu_v10 + 20.740604f * mu_b1 + 73.750656f * mu_b2 + 31.956327f * mu_b3 - 6.1952434f * mu_b4 + 340.7665f * mu_b5 + 564.9094f * mu_b6 + 320.4419f * mu_b7 + 45.67833f * mu_b8 + 0.878643f * mu_b9 + 0.00095501356f * mu_u10;
+    float q_0 = 1.0f * mu_v10 + 10.063305f * mu_b1 + 47.195427f * mu_b2 + 120.049576f * mu_b3 + 181.30281f * mu_b4 + 270.52905f * mu_b5 + 223.24753f * mu_b6 + 110.44496f * mu_b7 + 22.256012f * mu_b8 + 2.1693168f * mu_b9 + 0.010311268f * mu_u10;
+    float q_1 = 5.7294154f * mu_v10 + 61.452305f * mu_b1 + 284.99857f * mu_b2 + 738.7295f * mu_b3 + 1013.5731f * mu_b4 + 1684.6292f * mu_b5 + 1414.0448f * mu_b6 + 708.8282f * mu_b7 + 91.00805f * mu_b8 - 1.8799877f * mu_b9 - 0.036182277f * mu_u10;
+    float q_2 = 47.765785f * mu_v10 + 517.7032f * mu_b1 + 2362.128f * mu_b2 + 6282.2173f * mu_b3 + 9684.845f * mu_b4 + 13407.762f * mu_b5 + 10962.085f * mu_b6 + 5493.084f * mu_b7 + 951.1624f * mu_b8 + 28.33101f * mu_b9 + 0.1243677f * mu_u10;
+    float q_3 = 136.76486f * mu_v10 + 1567.5431f * mu_b1 + 7255.9287f * mu_b2 + 19517.941f * mu_b3 + 31487.377f * mu_b4 + 44149.242f * mu_b5 + 37500.453f * mu_b6 + 18973.818f * mu_b7 + 3284.6782f * mu_b8 + 45.644703f * mu_b9 - 0.31333306f * mu_u10;
+    float q_4 = 366.80447f * mu_v10 + 4315.5625f * mu_b1 + 20086.299f * mu_b2 + 53261.492f * mu_b3 + 89221.16f * mu_b4 + 121472.42f * mu_b5 + 103860.125f * mu_b6 + 51964.54f * mu_b7 + 9728.271f * mu_b8 + 281.22244f * mu_b9 + 1.3153138f * mu_u10;
+    float q_5 = 348.38168f * mu_v10 + 4947.4253f * mu_b1 + 24479.611f * mu_b2 + 66389.46f * mu_b3 + 119035.32f * mu_b4 + 175734.66f * mu_b5 + 160541.11f * mu_b6 + 82416.16f * mu_b7 + 15957.392f * mu_b8 + 511.1146f * mu_b9 - 0.5378198f * mu_u10;
+    float q_6 = 37.497932f * mu_v10 + 1962.3136f * mu_b1 + 10920.326f * mu_b2 + 29758.34f * mu_b3 + 63481.53f * mu_b4 + 125940.625f * mu_b5 + 135681.58f * mu_b6 + 74595.09f * mu_b7 + 14504.297f * mu_b8 + 402.36548f * mu_b9 + 2.2363658f * mu_u10;
+    float q_7 = 14.612465f * mu_v10 + 794.6333f * mu_b1 + 2701.482f * mu_b2 + 2240.6028f * mu_b3 + 10162.771f * mu_b4 + 51281.04f * mu_b5 + 71537.22f * mu_b6 + 42690.914f * mu_b7 + 8179.4277f * mu_b8 + 176.97198f * mu_b9 - 0.64291674f * mu_u10;
+    float q_8 = 78.57141f * mu_v10 + 846.2864f * mu_b1 + 2058.8083f * mu_b2 - 288.19098f * mu_b3 - 990.9141f * mu_b4 + 15147.392f * mu_b5 + 26205.322f * mu_b6 + 16369.506f * mu_b7 + 3088.294f * mu_b8 + 86.32489f * mu_b9 + 0.24893321f * mu_u10;
+    float q_9 = 21.647617f * mu_v10 + 251.03291f * mu_b1 + 580.83545f * mu_b2 - 416.0107f * mu_b3 - 1337.5978f * mu_b4 + 2361.4817f * mu_b5 + 5423.6694f * mu_b6 + 3443.9668f * mu_b7 + 584.4375f * mu_b8 + 14.983742f * mu_b9 + 0.020478474f * mu_u10;
+    float q_10 = 0.94243175f * mu_v10 + 24.61791f * mu_b1 + 73.16971f * mu_b2 - 9.668109f * mu_b3 - 72.811874f * mu_b4 + 344.71396f * mu_b5 + 627.80133f * mu_b6 + 354.53378f * mu_b7 + 47.73287f * mu_b8 + 0.88199997f * mu_b9 + 0.0009481697f * mu_u10;
     float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

@@ -11,16 +11,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 8d8ee309e19ec3d427c46b1f91fffb40aa1f160622b991585cbc5fd5b16baf9b.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 7c94e41b26a8cfd6ff4554b6f800854bf1a9a1903a1447bc917de55f763d6f07.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.8e-1, shifted 5.0e-4, bernstein 4.7e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.55e-6, max 5.72e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.60e-7 (every op rounded, as this Rust), 5.84e-7 (fused multiply-add), 5.84e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.15e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1927 boxes).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.5e-2, shifted 5.5e-4, bernstein 5.3e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.74e-6, max 5.08e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.20e-7 (every op rounded, as this Rust), 5.25e-7 (fused multiply-add), 5.77e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.83e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2661 boxes).
 // Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.79e-4, max 1.52e-2; this f32 code MAE 2.79e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 9.550e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 9.453e-4 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -84,30 +84,30 @@ fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b8 = mu_u8 * mu_v2;
     let mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9999793 * mu_v10 + 10.698665 * mu_b1 + 49.762558 * mu_b2 + 121.024475 * mu_b3 + 173.53123 * mu_b4 + 245.40892 * mu_b5 + 200.7346 * mu_b6 + 101.68887 * mu_b7 + 20.452705 * mu_b8 + 1.9207792 * mu_b9 + 0.008079292 * mu_u10;
-    let p_1 = 5.644311 * mu_v10 + 65.02321 * mu_b1 + 300.60245 * mu_b2 + 733.9136 * mu_b3 + 943.6565 * mu_b4 + 1492.8871 * mu_b5 + 1263.4744 * mu_b6 + 669.7922 * mu_b7 + 94.41655 * mu_b8 - 1.3143884 * mu_b9 - 0.018055532 * mu_u10;
-    let p_2 = 50.439983 * mu_v10 + 563.3918 * mu_b1 + 2518.0571 * mu_b2 + 6320.332 * mu_b3 + 9289.229 * mu_b4 + 12310.437 * mu_b5 + 9907.955 * mu_b6 + 5022.4575 * mu_b7 + 885.4814 * mu_b8 + 20.939157 * mu_b9 + 0.029494965 * mu_u10;
-    let p_3 = 145.75922 * mu_v10 + 1739.8519 * mu_b1 + 7868.778 * mu_b2 + 19859.936 * mu_b3 + 30508.414 * mu_b4 + 40860.43 * mu_b5 + 33757.97 * mu_b6 + 17075.44 * mu_b7 + 3088.3552 * mu_b8 + 63.938026 * mu_b9 + 0.013049195 * mu_u10;
-    let p_4 = 317.4199 * mu_v10 + 3935.7407 * mu_b1 + 18011.115 * mu_b2 + 45279.4 * mu_b3 + 72414.945 * mu_b4 + 97169.164 * mu_b5 + 81476.125 * mu_b6 + 40682.313 * mu_b7 + 7665.931 * mu_b8 + 222.48131 * mu_b9 + 0.5242939 * mu_u10;
-    let p_5 = 273.7453 * mu_v10 + 4163.26 * mu_b1 + 20377.07 * mu_b2 + 52376.754 * mu_b3 + 89825.086 * mu_b4 + 131706.33 * mu_b5 + 117373.164 * mu_b6 + 59585.184 * mu_b7 + 11457.697 * mu_b8 + 359.38135 * mu_b9 + 0.50334466 * mu_u10;
-    let p_6 = 29.773872 * mu_v10 + 1710.7528 * mu_b1 + 9777.932 * mu_b2 + 25476.05 * mu_b3 + 51290.242 * mu_b4 + 97525.28 * mu_b5 + 99184.17 * mu_b6 + 52879.824 * mu_b7 + 10192.043 * mu_b8 + 285.93997 * mu_b9 + 0.6460265 * mu_u10;
-    let p_7 = 22.63941 * mu_v10 + 712.4479 * mu_b1 + 3163.4353 * mu_b2 + 5256.0083 * mu_b3 + 14265.55 * mu_b4 + 45266.992 * mu_b5 + 54411.688 * mu_b6 + 30589.48 * mu_b7 + 5891.1914 * mu_b8 + 159.96426 * mu_b9 + 0.081927516 * mu_u10;
-    let p_8 = 67.08846 * mu_v10 + 608.0914 * mu_b1 + 1681.4725 * mu_b2 + 773.93524 * mu_b3 + 1780.8241 * mu_b4 + 13934.4375 * mu_b5 + 19385.04 * mu_b6 + 11260.728 * mu_b7 + 2143.9788 * mu_b8 + 67.73665 * mu_b9 + 0.15957318 * mu_u10;
-    let p_9 = 17.999786 * mu_v10 + 156.30054 * mu_b1 + 348.04776 * mu_b2 - 333.50317 * mu_b3 - 759.69073 * mu_b4 + 1929.9371 * mu_b5 + 3568.8057 * mu_b6 + 2133.2002 * mu_b7 + 368.04062 * mu_b8 + 9.80784 * mu_b9 + 0.013941747 * mu_u10;
-    let p_10 = 0.83961344 * mu_v10 + 15.945998 * mu_b1 + 54.414486 * mu_b2 + 15.225408 * mu_b3 - 3.2602932 * mu_b4 + 266.85046 * mu_b5 + 383.57813 * mu_b6 + 198.9403 * mu_b7 + 26.634356 * mu_b8 + 0.49718103 * mu_b9 + 0.0005338389 * mu_u10;
+    let p_0 = 0.9999927 * mu_v10 + 10.063863 * mu_b1 + 47.193584 * mu_b2 + 120.01701 * mu_b3 + 181.43074 * mu_b4 + 270.3968 * mu_b5 + 223.26996 * mu_b6 + 110.464325 * mu_b7 + 22.251532 * mu_b8 + 2.169459 * mu_b9 + 0.010311128 * mu_u10;
+    let p_1 = 5.7301044 * mu_v10 + 61.40375 * mu_b1 + 285.47018 * mu_b2 + 738.6787 * mu_b3 + 1012.09076 * mu_b4 + 1685.5204 * mu_b5 + 1415.9052 * mu_b6 + 706.4554 * mu_b7 + 91.44938 * mu_b8 - 1.8953946 * mu_b9 - 0.036170084 * mu_u10;
+    let p_2 = 50.17764 * mu_v10 + 538.51465 * mu_b1 + 2432.7183 * mu_b2 + 6383.9834 * mu_b3 + 9777.494 * mu_b4 + 13451.7295 * mu_b5 + 10837.917 * mu_b6 + 5305.5806 * mu_b7 + 894.9414 * mu_b8 + 21.51673 * mu_b9 + 0.08570758 * mu_u10;
+    let p_3 = 146.20288 * mu_v10 + 1661.2759 * mu_b1 + 7598.812 * mu_b2 + 20083.99 * mu_b3 + 32115.348 * mu_b4 + 44305.305 * mu_b5 + 36477.55 * mu_b6 + 17859.9 * mu_b7 + 3078.7434 * mu_b8 + 60.723995 * mu_b9 - 0.10144976 * mu_u10;
+    let p_4 = 315.91904 * mu_v10 + 3768.1738 * mu_b1 + 17401.879 * mu_b2 + 45495.055 * mu_b3 + 75299.13 * mu_b4 + 103469.55 * mu_b5 + 86351.375 * mu_b6 + 41961.773 * mu_b7 + 7573.18 * mu_b8 + 218.32211 * mu_b9 + 0.7637018 * mu_u10;
+    let p_5 = 272.45807 * mu_v10 + 3967.9587 * mu_b1 + 19331.918 * mu_b2 + 51208.547 * mu_b3 + 90688.164 * mu_b4 + 136555.0 * mu_b5 + 121284.73 * mu_b6 + 60123.336 * mu_b7 + 11050.614 * mu_b8 + 337.67996 * mu_b9 - 0.099213 * mu_u10;
+    let p_6 = 31.912298 * mu_v10 + 1602.9585 * mu_b1 + 8482.009 * mu_b2 + 21874.97 * mu_b3 + 46587.28 * mu_b4 + 95636.07 * mu_b5 + 98440.305 * mu_b6 + 51577.16 * mu_b7 + 9426.203 * mu_b8 + 248.36708 * mu_b9 + 1.1934961 * mu_u10;
+    let p_7 = 18.64887 * mu_v10 + 695.244 * mu_b1 + 2192.7588 * mu_b2 + 1383.6718 * mu_b3 + 7650.7437 * mu_b4 + 39911.383 * mu_b5 + 51172.832 * mu_b6 + 28617.684 * mu_b7 + 5127.564 * mu_b8 + 108.8736 * mu_b9 - 0.33373192 * mu_u10;
+    let p_8 = 62.936096 * mu_v10 + 668.78467 * mu_b1 + 1539.1251 * mu_b2 - 505.476 * mu_b3 - 685.46387 * mu_b4 + 12064.338 * mu_b5 + 18433.498 * mu_b6 + 10655.37 * mu_b7 + 1875.4286 * mu_b8 + 50.639748 * mu_b9 + 0.14137837 * mu_u10;
+    let p_9 = 16.882408 * mu_v10 + 194.04553 * mu_b1 + 423.45593 * mu_b2 - 393.7427 * mu_b3 - 933.39825 * mu_b4 + 2016.8412 * mu_b5 + 3783.7097 * mu_b6 + 2191.9824 * mu_b7 + 347.50214 * mu_b8 + 8.590509 * mu_b9 + 0.011543624 * mu_u10;
+    let p_10 = 0.73140407 * mu_v10 + 18.974003 * mu_b1 + 53.426 * mu_b2 - 16.908216 * mu_b3 - 48.556885 * mu_b4 + 276.0165 * mu_b5 + 426.72772 * mu_b6 + 219.50757 * mu_b7 + 27.804768 * mu_b8 + 0.49901262 * mu_b9 + 0.0005300216 * mu_u10;
     let p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v10 + 10.6979885 * mu_b1 + 49.762207 * mu_b2 + 121.066025 * mu_b3 + 173.39603 * mu_b4 + 245.53975 * mu_b5 + 200.71478 * mu_b6 + 101.67117 * mu_b7 + 20.456509 * mu_b8 + 1.9206574 * mu_b9 + 0.0080794245 * mu_u10;
-    let q_1 = 5.6419744 * mu_v10 + 65.09959 * mu_b1 + 300.17398 * mu_b2 + 733.91187 * mu_b3 + 944.95197 * mu_b4 + 1492.0234 * mu_b5 + 1261.4496 * mu_b6 + 672.0654 * mu_b7 + 94.02083 * mu_b8 - 1.300128 * mu_b9 - 0.018069204 * mu_u10;
-    let q_2 = 48.06813 * mu_v10 + 540.43585 * mu_b1 + 2441.4893 * mu_b2 + 6222.9355 * mu_b3 + 9225.924 * mu_b4 + 12288.085 * mu_b5 + 10016.617 * mu_b6 + 5191.5303 * mu_b7 + 937.6976 * mu_b8 + 26.978392 * mu_b9 + 0.05996857 * mu_u10;
-    let q_3 = 136.1373 * mu_v10 + 1646.4167 * mu_b1 + 7546.8955 * mu_b2 + 19373.55 * mu_b3 + 29982.555 * mu_b4 + 40646.54 * mu_b5 + 34575.313 * mu_b6 + 18095.082 * mu_b7 + 3305.5889 * mu_b8 + 51.740574 * mu_b9 - 0.11707577 * mu_u10;
-    let q_4 = 368.32697 * mu_v10 + 4498.548 * mu_b1 + 20740.357 * mu_b2 + 52920.895 * mu_b3 + 85599.484 * mu_b4 + 113586.586 * mu_b5 + 97351.85 * mu_b6 + 50022.48 * mu_b7 + 9783.04 * mu_b8 + 282.49124 * mu_b9 + 0.7561438 * mu_u10;
-    let q_5 = 350.6807 * mu_v10 + 5184.223 * mu_b1 + 25672.416 * mu_b2 + 67509.1 * mu_b3 + 117205.74 * mu_b4 + 168592.98 * mu_b5 + 154288.23 * mu_b6 + 81073.37 * mu_b7 + 16418.912 * mu_b8 + 537.6233 * mu_b9 + 0.69660056 * mu_u10;
-    let q_6 = 34.00834 * mu_v10 + 2096.6343 * mu_b1 + 12459.813 * mu_b2 + 34013.4 * mu_b3 + 69016.03 * mu_b4 + 127914.49 * mu_b5 + 135920.55 * mu_b6 + 75981.02 * mu_b7 + 15559.764 * mu_b8 + 452.90768 * mu_b9 + 1.124681 * mu_u10;
-    let q_7 = 19.153912 * mu_v10 + 827.1988 * mu_b1 + 3942.8394 * mu_b2 + 7256.572 * mu_b3 + 19110.438 * mu_b4 + 59003.6 * mu_b5 + 76177.05 * mu_b6 + 45536.06 * mu_b7 + 9367.303 * mu_b8 + 260.40286 * mu_b9 + 0.09332136 * mu_u10;
-    let q_8 = 83.75133 * mu_v10 + 774.49774 * mu_b1 + 2241.9326 * mu_b2 + 1388.6825 * mu_b3 + 2463.152 * mu_b4 + 18034.209 * mu_b5 + 27683.225 * mu_b6 + 17286.465 * mu_b7 + 3527.334 * mu_b8 + 115.93154 * mu_b9 + 0.2807899 * mu_u10;
-    let q_9 = 23.071667 * mu_v10 + 203.10541 * mu_b1 + 474.98196 * mu_b2 - 360.33273 * mu_b3 - 1097.6202 * mu_b4 + 2283.663 * mu_b5 + 5110.096 * mu_b6 + 3340.9146 * mu_b7 + 618.3466 * mu_b8 + 17.1308 * mu_b9 + 0.0247643 * mu_u10;
-    let q_10 = 1.0818654 * mu_v10 + 20.740604 * mu_b1 + 73.750656 * mu_b2 + 31.956327 * mu_b3 - 6.1952434 * mu_b4 + 340.7665 * mu_b5 + 564.9094 * mu_b6 + 320.4419 * mu_b7 + 45.67833 * mu_b8 + 0.878643 * mu_b9 + 0.00095501356 * mu_u10;
+    let q_0 = 1.0 * mu_v10 + 10.063305 * mu_b1 + 47.195427 * mu_b2 + 120.049576 * mu_b3 + 181.30281 * mu_b4 + 270.52905 * mu_b5 + 223.24753 * mu_b6 + 110.44496 * mu_b7 + 22.256012 * mu_b8 + 2.1693168 * mu_b9 + 0.010311268 * mu_u10;
+    let q_1 = 5.7294154 * mu_v10 + 61.452305 * mu_b1 + 284.99857 * mu_b2 + 738.7295 * mu_b3 + 1013.5731 * mu_b4 + 1684.6292 * mu_b5 + 1414.0448 * mu_b6 + 708.8282 * mu_b7 + 91.00805 * mu_b8 - 1.8799877 * mu_b9 - 0.036182277 * mu_u10;
+    let q_2 = 47.765785 * mu_v10 + 517.7032 * mu_b1 + 2362.128 * mu_b2 + 6282.2173 * mu_b3 + 9684.845 * mu_b4 + 13407.762 * mu_b5 + 10962.085 * mu_b6 + 5493.084 * mu_b7 + 951.1624 * mu_b8 + 28.33101 * mu_b9 + 0.1243677 * mu_u10;
+    let q_3 = 136.76486 * mu_v10 + 1567.5431 * mu_b1 + 7255.9287 * mu_b2 + 19517.941 * mu_b3 + 31487.377 * mu_b4 + 44149.242 * mu_b5 + 37500.453 * mu_b6 + 18973.818 * mu_b7 + 3284.6782 * mu_b8 + 45.644703 * mu_b9 - 0.31333306 * mu_u10;
+    let q_4 = 366.80447 * mu_v10 + 4315.5625 * mu_b1 + 20086.299 * mu_b2 + 53261.492 * mu_b3 + 89221.16 * mu_b4 + 121472.42 * mu_b5 + 103860.125 * mu_b6 + 51964.54 * mu_b7 + 9728.271 * mu_b8 + 281.22244 * mu_b9 + 1.3153138 * mu_u10;
+    let q_5 = 348.38168 * mu_v10 + 4947.4253 * mu_b1 + 24479.611 * mu_b2 + 66389.46 * mu_b3 + 119035.32 * mu_b4 + 175734.66 * mu_b5 + 160541.11 * mu_b6 + 82416.16 * mu_b7 + 15957.392 * mu_b8 + 511.1146 * mu_b9 - 0.5378198 * mu_u10;
+    let q_6 = 37.497932 * mu_v10 + 1962.3136 * mu_b1 + 10920.326 * mu_b2 + 29758.34 * mu_b3 + 63481.53 * mu_b4 + 125940.625 * mu_b5 + 135681.58 * mu_b6 + 74595.09 * mu_b7 + 14504.297 * mu_b8 + 402.36548 * mu_b9 + 2.2363658 * mu_u10;
+    let q_7 = 14.612465 * mu_v10 + 794.6333 * mu_b1 + 2701.482 * mu_b2 + 2240.6028 * mu_b3 + 10162.771 * mu_b4 + 51281.04 * mu_b5 + 71537.22 * mu_b6 + 42690.914 * mu_b7 + 8179.4277 * mu_b8 + 176.97198 * mu_b9 - 0.64291674 * mu_u10;
+    let q_8 = 78.57141 * mu_v10 + 846.2864 * mu_b1 + 2058.8083 * mu_b2 - 288.19098 * mu_b3 - 990.9141 * mu_b4 + 15147.392 * mu_b5 + 26205.322 * mu_b6 + 16369.506 * mu_b7 + 3088.294 * mu_b8 + 86.32489 * mu_b9 + 0.24893321 * mu_u10;
+    let q_9 = 21.647617 * mu_v10 + 251.03291 * mu_b1 + 580.83545 * mu_b2 - 416.0107 * mu_b3 - 1337.5978 * mu_b4 + 2361.4817 * mu_b5 + 5423.6694 * mu_b6 + 3443.9668 * mu_b7 + 584.4375 * mu_b8 + 14.983742 * mu_b9 + 0.020478474 * mu_u10;
+    let q_10 = 0.94243175 * mu_v10 + 24.61791 * mu_b1 + 73.16971 * mu_b2 - 9.668109 * mu_b3 - 72.811874 * mu_b4 + 344.71396 * mu_b5 + 627.80133 * mu_b6 + 354.53378 * mu_b7 + 47.73287 * mu_b8 + 0.88199997 * mu_b9 + 0.0009481697 * mu_u10;
     let q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

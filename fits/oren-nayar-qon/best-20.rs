@@ -11,16 +11,16 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-/// Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points.
-/// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 d3830211308e3ba364b8b0edd1a13bf611ce92c68efea2e0bc6253ea4a1563a8.
+/// Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+/// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 4a48654327c0f44cd822bca0cd899ea91ef6a9dad9fd07e72e2e4aa6155d2eaf.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.1e-7, shifted 8.1e-7, bernstein 3.6e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 8.70e-4, max 1.48e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.63e-7 (every op rounded, as this Rust), 2.87e-7 (fused multiply-add), 3.92e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.77e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 139 boxes).
-/// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 1.07e-3, max 1.52e-2; this f32 code MAE 1.07e-3, max 1.52e-2.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.1e-7, shifted 6.9e-7, bernstein 3.1e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 8.70e-4, max 1.53e-2 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.36e-7 (every op rounded, as this Rust), 2.59e-7 (fused multiply-add), 3.78e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.62e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 155 boxes).
+/// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 1.08e-3, max 1.53e-2; this f32 code MAE 1.08e-3, max 1.53e-2.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-/// Denominator proved >= 5.057e-1 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 5.388e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -29,16 +29,16 @@ pub fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
     let r_c = r.min(1.0_f32).max(0.0_f32);
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((-0.38533512_f32 * mu_c + 0.30791822_f32) * mu_c - 0.40791583_f32) * mu_c + 0.99392587_f32;
-    let p_1 = (0.31111023_f32 * mu_c + 1.2863463_f32) * mu_c - 1.7216371_f32;
-    let p_2 = -3.7500153_f32 * mu_c + 5.8458147_f32;
-    let p_3 = 0.549564_f32;
+    let p_0 = ((-0.32410613_f32 * mu_c + 0.21693912_f32) * mu_c - 0.34680727_f32) * mu_c + 0.99534506_f32;
+    let p_1 = (0.074344404_f32 * mu_c + 1.8924198_f32) * mu_c - 1.9569131_f32;
+    let p_2 = -4.0576053_f32 * mu_c + 6.1586447_f32;
+    let p_3 = 0.975015_f32;
     let p = ((p_3 * r_c + p_2) * r_c + p_1) * r_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((-0.41237834_f32 * mu_c + 0.3470491_f32) * mu_c - 0.42854044_f32) * mu_c + 1.0_f32;
-    let q_1 = (0.26763812_f32 * mu_c + 1.6713485_f32) * mu_c - 2.019567_f32;
-    let q_2 = -3.469251_f32 * mu_c + 6.9934425_f32;
-    let q_3 = 1.3338393_f32;
+    let q_0 = ((-0.34727904_f32 * mu_c + 0.24674149_f32) * mu_c - 0.36070967_f32) * mu_c + 1.0_f32;
+    let q_1 = (0.09596805_f32 * mu_c + 2.1828_f32) * mu_c - 2.2219026_f32;
+    let q_2 = -3.4621284_f32 * mu_c + 7.1030493_f32;
+    let q_3 = 2.079957_f32;
     let q = ((q_3 * r_c + q_2) * r_c + q_1) * r_c + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -14,16 +14,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-qon/best-40.json (furnace 0.1.0), fit SHA-256 857fafd2b0606c125be9199b53e60306c30298398f06c8a855c94fc7d169ce64.
+// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-qon/best-40.json (furnace 0.1.0), fit SHA-256 10d56b3255405eccb736d9508a5af33acbf90b9a5df125db6af13481d0c731ff.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.5e-5, shifted 7.1e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 1048576 data points: MAE 1.19e-4, max 1.65e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.62e-7 (every op rounded, as this Rust), 3.72e-7 (fused multiply-add), 1.38e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.28e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 617 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 3.89e-4, max 1.52e-2; this f32 code MAE 3.89e-4, max 1.52e-2.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.6e-5, shifted 5.8e-5, bernstein 1.5e-6.
+// Error of the f64 fit on its 1048576 data points: MAE 1.04e-4, max 1.95e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.19e-7 (every op rounded, as this Rust), 3.79e-7 (fused multiply-add), 1.41e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 9.91e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1095 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 3.75e-4, max 1.52e-2; this f32 code MAE 3.75e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 1.590e-2 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 1.798e-2 on the domain (Bernstein certificate), so the division is safe.
 float oren_nayar_qon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -53,18 +53,18 @@ float oren_nayar_qon_albedo(float r, float mu) {
     float mu_b2 = mu_u2 * mu_v2;
     float mu_b3 = mu_u3 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 1.0009053f * mu_v4 + 5.9503565f * mu_b1 + 6.5614486f * mu_b2 + 1.6199937f * mu_b3 + 0.01591211f * mu_u4;
-    float p_1 = 9.869156f * mu_v4 + 28.318422f * mu_b1 + 35.948853f * mu_b2 + 18.667412f * mu_b3 + 0.17039517f * mu_u4;
-    float p_2 = 32.319016f * mu_v4 + 106.719185f * mu_b1 + 136.85262f * mu_b2 + 47.678787f * mu_b3 + 0.49227697f * mu_u4;
-    float p_3 = 90.3413f * mu_v4 + 295.84775f * mu_b1 + 311.8919f * mu_b2 + 97.30326f * mu_b3 + 0.96201146f * mu_u4;
-    float p_4 = 69.28899f * mu_v4 + 217.70795f * mu_b1 + 222.42711f * mu_b2 + 65.04515f * mu_b3 + 0.62851477f * mu_u4;
+    float p_0 = 1.0007535f * mu_v4 + 4.584293f * mu_b1 + 4.7470903f * mu_b2 + 1.1749166f * mu_b3 + 0.017972093f * mu_u4;
+    float p_1 = 7.452612f * mu_v4 + 21.670443f * mu_b1 + 27.012558f * mu_b2 + 13.662157f * mu_b3 + 0.14605731f * mu_u4;
+    float p_2 = 26.634754f * mu_v4 + 83.44601f * mu_b1 + 101.24185f * mu_b2 + 34.81911f * mu_b3 + 0.4260532f * mu_u4;
+    float p_3 = 72.36472f * mu_v4 + 227.01389f * mu_b1 + 232.22687f * mu_b2 + 71.67047f * mu_b3 + 0.75066936f * mu_u4;
+    float p_4 = 54.489754f * mu_v4 + 166.41313f * mu_b1 + 166.15865f * mu_b2 + 48.076073f * mu_b3 + 0.46420616f * mu_u4;
     float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v4 + 5.95359f * mu_b1 + 6.5575986f * mu_b2 + 1.619905f * mu_b3 + 0.015896589f * mu_u4;
-    float q_1 = 10.011645f * mu_v4 + 28.057497f * mu_b1 + 36.567577f * mu_b2 + 18.692984f * mu_b3 + 0.17125915f * mu_u4;
-    float q_2 = 26.173769f * mu_v4 + 90.11643f * mu_b1 + 115.415825f * mu_b2 + 52.015263f * mu_b3 + 0.54210454f * mu_u4;
-    float q_3 = 106.46658f * mu_v4 + 348.52237f * mu_b1 + 385.74612f * mu_b2 + 145.19821f * mu_b3 + 1.5078601f * mu_u4;
-    float q_4 = 89.30446f * mu_v4 + 280.50986f * mu_b1 + 300.3403f * mu_b2 + 110.25602f * mu_b3 + 1.1211181f * mu_u4;
+    float q_0 = 1.0f * mu_v4 + 4.5870585f * mu_b1 + 4.74368f * mu_b2 + 1.1745973f * mu_b3 + 0.017975844f * mu_u4;
+    float q_1 = 7.5435686f * mu_v4 + 21.491045f * mu_b1 + 27.490042f * mu_b2 + 13.688463f * mu_b3 + 0.14589836f * mu_u4;
+    float q_2 = 21.773155f * mu_v4 + 70.370056f * mu_b1 + 85.869896f * mu_b2 + 37.762184f * mu_b3 + 0.48919755f * mu_u4;
+    float q_3 = 85.447044f * mu_v4 + 267.90872f * mu_b1 + 288.03586f * mu_b2 + 106.763016f * mu_b3 + 1.188838f * mu_u4;
+    float q_4 = 70.21745f * mu_v4 + 214.44266f * mu_b1 + 224.91234f * mu_b2 + 81.514694f * mu_b3 + 0.827563f * mu_u4;
     float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

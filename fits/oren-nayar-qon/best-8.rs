@@ -4,37 +4,45 @@
 // All arithmetic is f32. Each function states what its arguments mean, its domain, evaluation form, measured errors and error bound.
 // Helpers: Sforza & Pellacini 2022, "Enforcing Energy Preservation in Microfacet Models" (eqs. 13, 18, 19).
 
-// Needs only `core`: usable under #![no_std].
+// Needs only `core`, but for square roots: with std they are f32::sqrt; under #![no_std],
+// give the including crate a `libm` feature that enables a libm dependency (same bits).
 
 /// oren_nayar_qon_albedo(r, mu): directional albedo E of oren-nayar-qon.
 /// Model: qualitative Oren-Nayar (QON), white albedo, sigma = (pi/2)*r (EON paper, eqs. 1-4).
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-/// Fit: rational of degree 1/1, 5 coefficients (numerator 3, denominator 2 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/oren-nayar-qon/best-8.json (furnace 0.1.0), fit SHA-256 c9b9b0089bfcb564ced7112b43bff752d918415c09afc688f858650ace3e1d2f.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
+/// Fit: rational of degree 2/1, 8 coefficients (numerator 6, denominator 2 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+/// Source: fits/oren-nayar-qon/best-8.json (furnace 0.1.0), fit SHA-256 4a4da305acdbf6d863769ce03c8211bda4903bec1e1c77a194d4885612b3ac25.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.3e-7, shifted 3.2e-7, bernstein 3.1e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 1.66e-2, max 3.52e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.29e-7 (every op rounded, as this Rust), 2.92e-7 (fused multiply-add), 4.11e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 9.11e-7 for every input, in all three rounding models (interval error analysis over the whole domain, 9 boxes).
-/// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 1.59e-2, max 3.52e-2; this f32 code MAE 1.59e-2, max 3.52e-2.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 6.8e-7, shifted 5.5e-7, bernstein 5.6e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 1.62e-2, max 3.46e-2 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.39e-7 (every op rounded, as this Rust), 4.68e-7 (fused multiply-add), 6.42e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 4.77e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 37 boxes).
+/// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 1.53e-2, max 3.35e-2; this f32 code MAE 1.53e-2, max 3.35e-2.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.5e-2 on the measurement grid.
-/// Denominator proved >= 4.198e-1 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 2.564e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
 pub fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
+    #[cfg(feature = "libm")]
+    use libm::sqrtf;
+    #[cfg(not(feature = "libm"))]
+    fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let r_c = r.min(1.0_f32).max(0.0_f32);
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
+    // t = sqrt(mu)
+    let mu_t = sqrtf(mu_c);
     // numerator P, grouped by powers of the first variable
-    let p_0 = -0.61042523_f32 * mu_c + 1.0350991_f32;
-    let p_1 = -0.028468091_f32;
-    let p = p_1 * r_c + p_0;
+    let p_0 = (-0.009091185_f32 * mu_t - 0.7633626_f32) * mu_t + 1.0335968_f32;
+    let p_1 = 0.12139214_f32 * mu_t - 0.31592098_f32;
+    let p_2 = 0.08278461_f32;
+    let p = (p_2 * r_c + p_1) * r_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = -0.5802272_f32 * mu_c + 1.0_f32;
-    let q_1 = 0.3204454_f32;
+    let q_0 = -0.74357444_f32 * mu_t + 1.0_f32;
+    let q_1 = 0.016369086_f32;
     let q = q_1 * r_c + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -15,16 +15,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-80.json (furnace 0.1.0), fit SHA-256 59fbe6f3dfadca54486bf12bbff4f95562ef61e59b19be87aa46a27125d79a71.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-qon/best-80.json (furnace 0.1.0), fit SHA-256 edbb0733c96c26ae8a5ed22060aa26c2a25cd3093ca2f9300b26346e2012940c.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.7e-4, shifted 8.0e-5, bernstein 4.4e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.93e-5, max 1.02e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.68e-7 (every op rounded, as this Rust), 5.24e-7 (fused multiply-add), 5.59e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.51e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2773 boxes).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.6e-4, shifted 1.6e-4, bernstein 4.8e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.97e-5, max 1.08e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.43e-7 (every op rounded, as this Rust), 5.24e-7 (fused multiply-add), 5.31e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.52e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2709 boxes).
 // Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.94e-4, max 1.52e-2; this f32 code MAE 2.94e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 1.409e-3 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 1.452e-3 on the domain (Bernstein certificate), so the division is safe.
 highp float oren_nayar_qon_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
@@ -70,24 +70,24 @@ highp float oren_nayar_qon_albedo(highp float r, highp float mu) {
     highp float mu_b5 = mu_u5 * mu_v2;
     highp float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 1.0001609 * mu_v7 + 5.725867 * mu_b1 + 13.174434 * mu_b2 + 19.43097 * mu_b3 + 15.628905 * mu_b4 + 6.2304816 * mu_b5 + 0.32128295 * mu_b6 + 0.0028661534 * mu_u7;
-    highp float p_1 = 5.129308 * mu_v7 + 32.46799 * mu_b1 + 70.98865 * mu_b2 + 112.583725 * mu_b3 + 97.94876 * mu_b4 + 40.840694 * mu_b5 + 2.96677 * mu_b6 - 0.0011236909 * mu_u7;
-    highp float p_2 = 27.11547 * mu_v7 + 162.28702 * mu_b1 + 328.70187 * mu_b2 + 460.56088 * mu_b3 + 368.9883 * mu_b4 + 137.1694 * mu_b5 + 8.678786 * mu_b6 + 0.04052832 * mu_u7;
-    highp float p_3 = 78.33241 * mu_v7 + 459.9133 * mu_b1 + 932.057 * mu_b2 + 1216.1263 * mu_b3 + 915.3636 * mu_b4 + 312.06635 * mu_b5 + 18.085337 * mu_b6 + 0.021393802 * mu_u7;
-    highp float p_4 = 107.0088 * mu_v7 + 644.5628 * mu_b1 + 1323.5603 * mu_b2 + 1682.6272 * mu_b3 + 1227.902 * mu_b4 + 392.35205 * mu_b5 + 16.932798 * mu_b6 + 0.15087369 * mu_u7;
-    highp float p_5 = 78.17334 * mu_v7 + 513.0372 * mu_b1 + 1111.1193 * mu_b2 + 1421.9452 * mu_b3 + 1022.1723 * mu_b4 + 313.07825 * mu_b5 + 9.926062 * mu_b6 - 0.096171945 * mu_u7;
-    highp float p_6 = 27.196573 * mu_v7 + 218.26207 * mu_b1 + 530.23926 * mu_b2 + 716.7136 * mu_b3 + 527.39185 * mu_b4 + 167.57837 * mu_b5 + 8.915352 * mu_b6 + 0.046715032 * mu_u7;
-    highp float p_7 = 0.37312207 * mu_v7 + 23.229553 * mu_b1 + 74.94174 * mu_b2 + 117.72879 * mu_b3 + 93.47763 * mu_b4 + 30.77579 * mu_b5 + 1.68031 * mu_b6 + 0.004064848 * mu_u7;
+    highp float p_0 = 1.0001463 * mu_v7 + 5.824761 * mu_b1 + 13.497701 * mu_b2 + 20.18905 * mu_b3 + 16.218245 * mu_b4 + 6.384963 * mu_b5 + 0.31852412 * mu_b6 + 0.0029529978 * mu_u7;
+    highp float p_1 = 5.1855974 * mu_v7 + 32.975 * mu_b1 + 72.54698 * mu_b2 + 116.926865 * mu_b3 + 101.66709 * mu_b4 + 42.11917 * mu_b5 + 3.0502768 * mu_b6 - 0.0013077918 * mu_u7;
+    highp float p_2 = 27.534475 * mu_v7 + 164.5849 * mu_b1 + 335.9312 * mu_b2 + 477.15796 * mu_b3 + 382.54907 * mu_b4 + 141.97502 * mu_b5 + 9.035811 * mu_b6 + 0.04203878 * mu_u7;
+    highp float p_3 = 79.57926 * mu_v7 + 466.55765 * mu_b1 + 953.8707 * mu_b2 + 1258.3389 * mu_b3 + 948.20325 * mu_b4 + 323.55267 * mu_b5 + 18.969995 * mu_b6 + 0.022917053 * mu_u7;
+    highp float p_4 = 108.71126 * mu_v7 + 653.6549 * mu_b1 + 1355.127 * mu_b2 + 1740.3019 * mu_b3 + 1271.7595 * mu_b4 + 407.37744 * mu_b5 + 18.04684 * mu_b6 + 0.1593098 * mu_u7;
+    highp float p_5 = 79.42174 * mu_v7 + 519.81775 * mu_b1 + 1136.0529 * mu_b2 + 1466.3688 * mu_b3 + 1055.2661 * mu_b4 + 323.92154 * mu_b5 + 10.558143 * mu_b6 - 0.09992907 * mu_u7;
+    highp float p_6 = 27.746496 * mu_v7 + 221.60449 * mu_b1 + 542.78467 * mu_b2 + 738.33167 * mu_b3 + 543.4627 * mu_b4 + 172.84897 * mu_b5 + 9.27025 * mu_b6 + 0.04883965 * mu_u7;
+    highp float p_7 = 0.4789339 * mu_v7 + 24.030792 * mu_b1 + 78.00643 * mu_b2 + 122.90656 * mu_b3 + 97.413734 * mu_b4 + 32.129368 * mu_b5 + 1.8051287 * mu_b6 + 0.004620546 * mu_u7;
     highp float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v7 + 5.7282476 * mu_b1 + 13.160982 * mu_b2 + 19.427706 * mu_b3 + 15.644575 * mu_b4 + 6.223908 * mu_b5 + 0.32151356 * mu_b6 + 0.0028657478 * mu_u7;
-    highp float q_1 = 5.1491275 * mu_v7 + 32.503742 * mu_b1 + 71.86595 * mu_b2 + 112.79562 * mu_b3 + 97.71116 * mu_b4 + 41.176 * mu_b5 + 2.958415 * mu_b6 - 0.0011115357 * mu_u7;
-    highp float q_2 = 23.879221 * mu_v7 + 146.86879 * mu_b1 + 303.89032 * mu_b2 + 441.7294 * mu_b3 + 373.5572 * mu_b4 + 148.82204 * mu_b5 + 9.775786 * mu_b6 + 0.051099982 * mu_u7;
-    highp float q_3 = 83.80669 * mu_v7 + 501.3196 * mu_b1 + 1055.0627 * mu_b2 + 1409.5555 * mu_b3 + 1110.8452 * mu_b4 + 409.178 * mu_b5 + 26.387274 * mu_b6 - 0.0032997963 * mu_u7;
-    highp float q_4 = 126.69753 * mu_v7 + 774.6114 * mu_b1 + 1655.8525 * mu_b2 + 2150.3591 * mu_b3 + 1639.1008 * mu_b4 + 566.7035 * mu_b5 + 26.373775 * mu_b6 + 0.2985772 * mu_u7;
-    highp float q_5 = 96.518394 * mu_v7 + 643.30786 * mu_b1 + 1451.9586 * mu_b2 + 1909.8754 * mu_b3 + 1441.4589 * mu_b4 + 478.2026 * mu_b5 + 14.894592 * mu_b6 - 0.18659316 * mu_u7;
-    highp float q_6 = 34.996754 * mu_v7 + 284.25018 * mu_b1 + 721.0137 * mu_b2 + 1010.2675 * mu_b3 + 785.8002 * mu_b4 + 271.04385 * mu_b5 + 15.043341 * mu_b6 + 0.08202777 * mu_u7;
-    highp float q_7 = 0.48100883 * mu_v7 + 29.999315 * mu_b1 + 102.04599 * mu_b2 + 167.91681 * mu_b3 + 142.44716 * mu_b4 + 51.252464 * mu_b5 + 2.946058 * mu_b6 + 0.0072784238 * mu_u7;
+    highp float q_0 = 1.0 * mu_v7 + 5.826597 * mu_b1 + 13.484578 * mu_b2 + 20.186214 * mu_b3 + 16.234612 * mu_b4 + 6.377852 * mu_b5 + 0.31877849 * mu_b6 + 0.0029523554 * mu_u7;
+    highp float q_1 = 5.207202 * mu_v7 + 33.02894 * mu_b1 + 73.41465 * mu_b2 + 117.100914 * mu_b3 + 101.44856 * mu_b4 + 42.472824 * mu_b5 + 3.0414236 * mu_b6 - 0.0012922888 * mu_u7;
+    highp float q_2 = 24.243395 * mu_v7 + 148.87335 * mu_b1 + 310.34296 * mu_b2 + 457.7936 * mu_b3 + 387.42664 * mu_b4 + 153.88757 * mu_b5 + 10.125823 * mu_b6 + 0.05293439 * mu_u7;
+    highp float q_3 = 85.13501 * mu_v7 + 508.58115 * mu_b1 + 1079.225 * mu_b2 + 1457.8262 * mu_b3 + 1150.9551 * mu_b4 + 423.94162 * mu_b5 + 27.582878 * mu_b6 - 0.0033263087 * mu_u7;
+    highp float q_4 = 128.71042 * mu_v7 + 785.7173 * mu_b1 + 1694.5543 * mu_b2 + 2223.2834 * mu_b3 + 1698.9141 * mu_b4 + 588.44305 * mu_b5 + 28.132305 * mu_b6 + 0.314946 * mu_u7;
+    highp float q_5 = 98.038925 * mu_v7 + 651.7868 * mu_b1 + 1483.3716 * mu_b2 + 1968.3446 * mu_b3 + 1488.7883 * mu_b4 + 494.61816 * mu_b5 + 15.887995 * mu_b6 - 0.19400902 * mu_u7;
+    highp float q_6 = 35.691452 * mu_v7 + 288.5634 * mu_b1 + 737.38916 * mu_b2 + 1039.922 * mu_b3 + 809.7468 * mu_b4 + 279.37244 * mu_b5 + 15.6264515 * mu_b6 + 0.0856339 * mu_u7;
+    highp float q_7 = 0.6173015 * mu_v7 + 31.055954 * mu_b1 + 106.17649 * mu_b2 + 175.2749 * mu_b3 + 148.49146 * mu_b4 + 53.465073 * mu_b5 + 3.1633146 * mu_b6 + 0.008273132 * mu_u7;
     highp float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -27,16 +27,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-80.json (furnace 0.1.0), fit SHA-256 59fbe6f3dfadca54486bf12bbff4f95562ef61e59b19be87aa46a27125d79a71.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+// Source: fits/oren-nayar-qon/best-80.json (furnace 0.1.0), fit SHA-256 edbb0733c96c26ae8a5ed22060aa26c2a25cd3093ca2f9300b26346e2012940c.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.7e-4, shifted 8.0e-5, bernstein 4.4e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.93e-5, max 1.02e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.68e-7 (every op rounded, as this Rust), 5.24e-7 (fused multiply-add), 5.59e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.51e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2773 boxes).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.6e-4, shifted 1.6e-4, bernstein 4.8e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.97e-5, max 1.08e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.43e-7 (every op rounded, as this Rust), 5.24e-7 (fused multiply-add), 5.31e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.52e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2709 boxes).
 // Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.94e-4, max 1.52e-2; this f32 code MAE 2.94e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 1.409e-3 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 1.452e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float oren_nayar_qon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -82,24 +82,24 @@ FURNACE_FN float oren_nayar_qon_albedo(float r, float mu) {
     const float mu_b5 = mu_u5 * mu_v2;
     const float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 1.0001609f * mu_v7 + 5.725867f * mu_b1 + 13.174434f * mu_b2 + 19.43097f * mu_b3 + 15.628905f * mu_b4 + 6.2304816f * mu_b5 + 0.32128295f * mu_b6 + 0.0028661534f * mu_u7;
-    const float p_1 = 5.129308f * mu_v7 + 32.46799f * mu_b1 + 70.98865f * mu_b2 + 112.583725f * mu_b3 + 97.94876f * mu_b4 + 40.840694f * mu_b5 + 2.96677f * mu_b6 - 0.0011236909f * mu_u7;
-    const float p_2 = 27.11547f * mu_v7 + 162.28702f * mu_b1 + 328.70187f * mu_b2 + 460.56088f * mu_b3 + 368.9883f * mu_b4 + 137.1694f * mu_b5 + 8.678786f * mu_b6 + 0.04052832f * mu_u7;
-    const float p_3 = 78.33241f * mu_v7 + 459.9133f * mu_b1 + 932.057f * mu_b2 + 1216.1263f * mu_b3 + 915.3636f * mu_b4 + 312.06635f * mu_b5 + 18.085337f * mu_b6 + 0.021393802f * mu_u7;
-    const float p_4 = 107.0088f * mu_v7 + 644.5628f * mu_b1 + 1323.5603f * mu_b2 + 1682.6272f * mu_b3 + 1227.902f * mu_b4 + 392.35205f * mu_b5 + 16.932798f * mu_b6 + 0.15087369f * mu_u7;
-    const float p_5 = 78.17334f * mu_v7 + 513.0372f * mu_b1 + 1111.1193f * mu_b2 + 1421.9452f * mu_b3 + 1022.1723f * mu_b4 + 313.07825f * mu_b5 + 9.926062f * mu_b6 - 0.096171945f * mu_u7;
-    const float p_6 = 27.196573f * mu_v7 + 218.26207f * mu_b1 + 530.23926f * mu_b2 + 716.7136f * mu_b3 + 527.39185f * mu_b4 + 167.57837f * mu_b5 + 8.915352f * mu_b6 + 0.046715032f * mu_u7;
-    const float p_7 = 0.37312207f * mu_v7 + 23.229553f * mu_b1 + 74.94174f * mu_b2 + 117.72879f * mu_b3 + 93.47763f * mu_b4 + 30.77579f * mu_b5 + 1.68031f * mu_b6 + 0.004064848f * mu_u7;
+    const float p_0 = 1.0001463f * mu_v7 + 5.824761f * mu_b1 + 13.497701f * mu_b2 + 20.18905f * mu_b3 + 16.218245f * mu_b4 + 6.384963f * mu_b5 + 0.31852412f * mu_b6 + 0.0029529978f * mu_u7;
+    const float p_1 = 5.1855974f * mu_v7 + 32.975f * mu_b1 + 72.54698f * mu_b2 + 116.926865f * mu_b3 + 101.66709f * mu_b4 + 42.11917f * mu_b5 + 3.0502768f * mu_b6 - 0.0013077918f * mu_u7;
+    const float p_2 = 27.534475f * mu_v7 + 164.5849f * mu_b1 + 335.9312f * mu_b2 + 477.15796f * mu_b3 + 382.54907f * mu_b4 + 141.97502f * mu_b5 + 9.035811f * mu_b6 + 0.04203878f * mu_u7;
+    const float p_3 = 79.57926f * mu_v7 + 466.55765f * mu_b1 + 953.8707f * mu_b2 + 1258.3389f * mu_b3 + 948.20325f * mu_b4 + 323.55267f * mu_b5 + 18.969995f * mu_b6 + 0.022917053f * mu_u7;
+    const float p_4 = 108.71126f * mu_v7 + 653.6549f * mu_b1 + 1355.127f * mu_b2 + 1740.3019f * mu_b3 + 1271.7595f * mu_b4 + 407.37744f * mu_b5 + 18.04684f * mu_b6 + 0.1593098f * mu_u7;
+    const float p_5 = 79.42174f * mu_v7 + 519.81775f * mu_b1 + 1136.0529f * mu_b2 + 1466.3688f * mu_b3 + 1055.2661f * mu_b4 + 323.92154f * mu_b5 + 10.558143f * mu_b6 - 0.09992907f * mu_u7;
+    const float p_6 = 27.746496f * mu_v7 + 221.60449f * mu_b1 + 542.78467f * mu_b2 + 738.33167f * mu_b3 + 543.4627f * mu_b4 + 172.84897f * mu_b5 + 9.27025f * mu_b6 + 0.04883965f * mu_u7;
+    const float p_7 = 0.4789339f * mu_v7 + 24.030792f * mu_b1 + 78.00643f * mu_b2 + 122.90656f * mu_b3 + 97.413734f * mu_b4 + 32.129368f * mu_b5 + 1.8051287f * mu_b6 + 0.004620546f * mu_u7;
     const float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v7 + 5.7282476f * mu_b1 + 13.160982f * mu_b2 + 19.427706f * mu_b3 + 15.644575f * mu_b4 + 6.223908f * mu_b5 + 0.32151356f * mu_b6 + 0.0028657478f * mu_u7;
-    const float q_1 = 5.1491275f * mu_v7 + 32.503742f * mu_b1 + 71.86595f * mu_b2 + 112.79562f * mu_b3 + 97.71116f * mu_b4 + 41.176f * mu_b5 + 2.958415f * mu_b6 - 0.0011115357f * mu_u7;
-    const float q_2 = 23.879221f * mu_v7 + 146.86879f * mu_b1 + 303.89032f * mu_b2 + 441.7294f * mu_b3 + 373.5572f * mu_b4 + 148.82204f * mu_b5 + 9.775786f * mu_b6 + 0.051099982f * mu_u7;
-    const float q_3 = 83.80669f * mu_v7 + 501.3196f * mu_b1 + 1055.0627f * mu_b2 + 1409.5555f * mu_b3 + 1110.8452f * mu_b4 + 409.178f * mu_b5 + 26.387274f * mu_b6 - 0.0032997963f * mu_u7;
-    const float q_4 = 126.69753f * mu_v7 + 774.6114f * mu_b1 + 1655.8525f * mu_b2 + 2150.3591f * mu_b3 + 1639.1008f * mu_b4 + 566.7035f * mu_b5 + 26.373775f * mu_b6 + 0.2985772f * mu_u7;
-    const float q_5 = 96.518394f * mu_v7 + 643.30786f * mu_b1 + 1451.9586f * mu_b2 + 1909.8754f * mu_b3 + 1441.4589f * mu_b4 + 478.2026f * mu_b5 + 14.894592f * mu_b6 - 0.18659316f * mu_u7;
-    const float q_6 = 34.996754f * mu_v7 + 284.25018f * mu_b1 + 721.0137f * mu_b2 + 1010.2675f * mu_b3 + 785.8002f * mu_b4 + 271.04385f * mu_b5 + 15.043341f * mu_b6 + 0.08202777f * mu_u7;
-    const float q_7 = 0.48100883f * mu_v7 + 29.999315f * mu_b1 + 102.04599f * mu_b2 + 167.91681f * mu_b3 + 142.44716f * mu_b4 + 51.252464f * mu_b5 + 2.946058f * mu_b6 + 0.0072784238f * mu_u7;
+    const float q_0 = 1.0f * mu_v7 + 5.826597f * mu_b1 + 13.484578f * mu_b2 + 20.186214f * mu_b3 + 16.234612f * mu_b4 + 6.377852f * mu_b5 + 0.31877849f * mu_b6 + 0.0029523554f * mu_u7;
+    const float q_1 = 5.207202f * mu_v7 + 33.02894f * mu_b1 + 73.41465f * mu_b2 + 117.100914f * mu_b3 + 101.44856f * mu_b4 + 42.472824f * mu_b5 + 3.0414236f * mu_b6 - 0.0012922888f * mu_u7;
+    const float q_2 = 24.243395f * mu_v7 + 148.87335f * mu_b1 + 310.34296f * mu_b2 + 457.7936f * mu_b3 + 387.42664f * mu_b4 + 153.88757f * mu_b5 + 10.125823f * mu_b6 + 0.05293439f * mu_u7;
+    const float q_3 = 85.13501f * mu_v7 + 508.58115f * mu_b1 + 1079.225f * mu_b2 + 1457.8262f * mu_b3 + 1150.9551f * mu_b4 + 423.94162f * mu_b5 + 27.582878f * mu_b6 - 0.0033263087f * mu_u7;
+    const float q_4 = 128.71042f * mu_v7 + 785.7173f * mu_b1 + 1694.5543f * mu_b2 + 2223.2834f * mu_b3 + 1698.9141f * mu_b4 + 588.44305f * mu_b5 + 28.132305f * mu_b6 + 0.314946f * mu_u7;
+    const float q_5 = 98.038925f * mu_v7 + 651.7868f * mu_b1 + 1483.3716f * mu_b2 + 1968.3446f * mu_b3 + 1488.7883f * mu_b4 + 494.61816f * mu_b5 + 15.887995f * mu_b6 - 0.19400902f * mu_u7;
+    const float q_6 = 35.691452f * mu_v7 + 288.5634f * mu_b1 + 737.38916f * mu_b2 + 1039.922f * mu_b3 + 809.7468f * mu_b4 + 279.37244f * mu_b5 + 15.6264515f * mu_b6 + 0.0856339f * mu_u7;
+    const float q_7 = 0.6173015f * mu_v7 + 31.055954f * mu_b1 + 106.17649f * mu_b2 + 175.2749f * mu_b3 + 148.49146f * mu_b4 + 53.465073f * mu_b5 + 3.1633146f * mu_b6 + 0.008273132f * mu_u7;
     const float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -11,16 +11,16 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 65536 points; best pole-certified start refined on all points.
-/// Source: fits/oren-nayar-qon/best-80.json (furnace 0.1.0), fit SHA-256 59fbe6f3dfadca54486bf12bbff4f95562ef61e59b19be87aa46a27125d79a71.
+/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
+/// Source: fits/oren-nayar-qon/best-80.json (furnace 0.1.0), fit SHA-256 edbb0733c96c26ae8a5ed22060aa26c2a25cd3093ca2f9300b26346e2012940c.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.7e-4, shifted 8.0e-5, bernstein 4.4e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 1.93e-5, max 1.02e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.68e-7 (every op rounded, as this Rust), 5.24e-7 (fused multiply-add), 5.59e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.51e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2773 boxes).
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.6e-4, shifted 1.6e-4, bernstein 4.8e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 1.97e-5, max 1.08e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.43e-7 (every op rounded, as this Rust), 5.24e-7 (fused multiply-add), 5.31e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.52e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2709 boxes).
 /// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.94e-4, max 1.52e-2; this f32 code MAE 2.94e-4, max 1.52e-2.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-/// Denominator proved >= 1.409e-3 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 1.452e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -69,24 +69,24 @@ pub fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0001609_f32 * mu_v7 + 5.725867_f32 * mu_b1 + 13.174434_f32 * mu_b2 + 19.43097_f32 * mu_b3 + 15.628905_f32 * mu_b4 + 6.2304816_f32 * mu_b5 + 0.32128295_f32 * mu_b6 + 0.0028661534_f32 * mu_u7;
-    let p_1 = 5.129308_f32 * mu_v7 + 32.46799_f32 * mu_b1 + 70.98865_f32 * mu_b2 + 112.583725_f32 * mu_b3 + 97.94876_f32 * mu_b4 + 40.840694_f32 * mu_b5 + 2.96677_f32 * mu_b6 - 0.0011236909_f32 * mu_u7;
-    let p_2 = 27.11547_f32 * mu_v7 + 162.28702_f32 * mu_b1 + 328.70187_f32 * mu_b2 + 460.56088_f32 * mu_b3 + 368.9883_f32 * mu_b4 + 137.1694_f32 * mu_b5 + 8.678786_f32 * mu_b6 + 0.04052832_f32 * mu_u7;
-    let p_3 = 78.33241_f32 * mu_v7 + 459.9133_f32 * mu_b1 + 932.057_f32 * mu_b2 + 1216.1263_f32 * mu_b3 + 915.3636_f32 * mu_b4 + 312.06635_f32 * mu_b5 + 18.085337_f32 * mu_b6 + 0.021393802_f32 * mu_u7;
-    let p_4 = 107.0088_f32 * mu_v7 + 644.5628_f32 * mu_b1 + 1323.5603_f32 * mu_b2 + 1682.6272_f32 * mu_b3 + 1227.902_f32 * mu_b4 + 392.35205_f32 * mu_b5 + 16.932798_f32 * mu_b6 + 0.15087369_f32 * mu_u7;
-    let p_5 = 78.17334_f32 * mu_v7 + 513.0372_f32 * mu_b1 + 1111.1193_f32 * mu_b2 + 1421.9452_f32 * mu_b3 + 1022.1723_f32 * mu_b4 + 313.07825_f32 * mu_b5 + 9.926062_f32 * mu_b6 - 0.096171945_f32 * mu_u7;
-    let p_6 = 27.196573_f32 * mu_v7 + 218.26207_f32 * mu_b1 + 530.23926_f32 * mu_b2 + 716.7136_f32 * mu_b3 + 527.39185_f32 * mu_b4 + 167.57837_f32 * mu_b5 + 8.915352_f32 * mu_b6 + 0.046715032_f32 * mu_u7;
-    let p_7 = 0.37312207_f32 * mu_v7 + 23.229553_f32 * mu_b1 + 74.94174_f32 * mu_b2 + 117.72879_f32 * mu_b3 + 93.47763_f32 * mu_b4 + 30.77579_f32 * mu_b5 + 1.68031_f32 * mu_b6 + 0.004064848_f32 * mu_u7;
+    let p_0 = 1.0001463_f32 * mu_v7 + 5.824761_f32 * mu_b1 + 13.497701_f32 * mu_b2 + 20.18905_f32 * mu_b3 + 16.218245_f32 * mu_b4 + 6.384963_f32 * mu_b5 + 0.31852412_f32 * mu_b6 + 0.0029529978_f32 * mu_u7;
+    let p_1 = 5.1855974_f32 * mu_v7 + 32.975_f32 * mu_b1 + 72.54698_f32 * mu_b2 + 116.926865_f32 * mu_b3 + 101.66709_f32 * mu_b4 + 42.11917_f32 * mu_b5 + 3.0502768_f32 * mu_b6 - 0.0013077918_f32 * mu_u7;
+    let p_2 = 27.534475_f32 * mu_v7 + 164.5849_f32 * mu_b1 + 335.9312_f32 * mu_b2 + 477.15796_f32 * mu_b3 + 382.54907_f32 * mu_b4 + 141.97502_f32 * mu_b5 + 9.035811_f32 * mu_b6 + 0.04203878_f32 * mu_u7;
+    let p_3 = 79.57926_f32 * mu_v7 + 466.55765_f32 * mu_b1 + 953.8707_f32 * mu_b2 + 1258.3389_f32 * mu_b3 + 948.20325_f32 * mu_b4 + 323.55267_f32 * mu_b5 + 18.969995_f32 * mu_b6 + 0.022917053_f32 * mu_u7;
+    let p_4 = 108.71126_f32 * mu_v7 + 653.6549_f32 * mu_b1 + 1355.127_f32 * mu_b2 + 1740.3019_f32 * mu_b3 + 1271.7595_f32 * mu_b4 + 407.37744_f32 * mu_b5 + 18.04684_f32 * mu_b6 + 0.1593098_f32 * mu_u7;
+    let p_5 = 79.42174_f32 * mu_v7 + 519.81775_f32 * mu_b1 + 1136.0529_f32 * mu_b2 + 1466.3688_f32 * mu_b3 + 1055.2661_f32 * mu_b4 + 323.92154_f32 * mu_b5 + 10.558143_f32 * mu_b6 - 0.09992907_f32 * mu_u7;
+    let p_6 = 27.746496_f32 * mu_v7 + 221.60449_f32 * mu_b1 + 542.78467_f32 * mu_b2 + 738.33167_f32 * mu_b3 + 543.4627_f32 * mu_b4 + 172.84897_f32 * mu_b5 + 9.27025_f32 * mu_b6 + 0.04883965_f32 * mu_u7;
+    let p_7 = 0.4789339_f32 * mu_v7 + 24.030792_f32 * mu_b1 + 78.00643_f32 * mu_b2 + 122.90656_f32 * mu_b3 + 97.413734_f32 * mu_b4 + 32.129368_f32 * mu_b5 + 1.8051287_f32 * mu_b6 + 0.004620546_f32 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v7 + 5.7282476_f32 * mu_b1 + 13.160982_f32 * mu_b2 + 19.427706_f32 * mu_b3 + 15.644575_f32 * mu_b4 + 6.223908_f32 * mu_b5 + 0.32151356_f32 * mu_b6 + 0.0028657478_f32 * mu_u7;
-    let q_1 = 5.1491275_f32 * mu_v7 + 32.503742_f32 * mu_b1 + 71.86595_f32 * mu_b2 + 112.79562_f32 * mu_b3 + 97.71116_f32 * mu_b4 + 41.176_f32 * mu_b5 + 2.958415_f32 * mu_b6 - 0.0011115357_f32 * mu_u7;
-    let q_2 = 23.879221_f32 * mu_v7 + 146.86879_f32 * mu_b1 + 303.89032_f32 * mu_b2 + 441.7294_f32 * mu_b3 + 373.5572_f32 * mu_b4 + 148.82204_f32 * mu_b5 + 9.775786_f32 * mu_b6 + 0.051099982_f32 * mu_u7;
-    let q_3 = 83.80669_f32 * mu_v7 + 501.3196_f32 * mu_b1 + 1055.0627_f32 * mu_b2 + 1409.5555_f32 * mu_b3 + 1110.8452_f32 * mu_b4 + 409.178_f32 * mu_b5 + 26.387274_f32 * mu_b6 - 0.0032997963_f32 * mu_u7;
-    let q_4 = 126.69753_f32 * mu_v7 + 774.6114_f32 * mu_b1 + 1655.8525_f32 * mu_b2 + 2150.3591_f32 * mu_b3 + 1639.1008_f32 * mu_b4 + 566.7035_f32 * mu_b5 + 26.373775_f32 * mu_b6 + 0.2985772_f32 * mu_u7;
-    let q_5 = 96.518394_f32 * mu_v7 + 643.30786_f32 * mu_b1 + 1451.9586_f32 * mu_b2 + 1909.8754_f32 * mu_b3 + 1441.4589_f32 * mu_b4 + 478.2026_f32 * mu_b5 + 14.894592_f32 * mu_b6 - 0.18659316_f32 * mu_u7;
-    let q_6 = 34.996754_f32 * mu_v7 + 284.25018_f32 * mu_b1 + 721.0137_f32 * mu_b2 + 1010.2675_f32 * mu_b3 + 785.8002_f32 * mu_b4 + 271.04385_f32 * mu_b5 + 15.043341_f32 * mu_b6 + 0.08202777_f32 * mu_u7;
-    let q_7 = 0.48100883_f32 * mu_v7 + 29.999315_f32 * mu_b1 + 102.04599_f32 * mu_b2 + 167.91681_f32 * mu_b3 + 142.44716_f32 * mu_b4 + 51.252464_f32 * mu_b5 + 2.946058_f32 * mu_b6 + 0.0072784238_f32 * mu_u7;
+    let q_0 = 1.0_f32 * mu_v7 + 5.826597_f32 * mu_b1 + 13.484578_f32 * mu_b2 + 20.186214_f32 * mu_b3 + 16.234612_f32 * mu_b4 + 6.377852_f32 * mu_b5 + 0.31877849_f32 * mu_b6 + 0.0029523554_f32 * mu_u7;
+    let q_1 = 5.207202_f32 * mu_v7 + 33.02894_f32 * mu_b1 + 73.41465_f32 * mu_b2 + 117.100914_f32 * mu_b3 + 101.44856_f32 * mu_b4 + 42.472824_f32 * mu_b5 + 3.0414236_f32 * mu_b6 - 0.0012922888_f32 * mu_u7;
+    let q_2 = 24.243395_f32 * mu_v7 + 148.87335_f32 * mu_b1 + 310.34296_f32 * mu_b2 + 457.7936_f32 * mu_b3 + 387.42664_f32 * mu_b4 + 153.88757_f32 * mu_b5 + 10.125823_f32 * mu_b6 + 0.05293439_f32 * mu_u7;
+    let q_3 = 85.13501_f32 * mu_v7 + 508.58115_f32 * mu_b1 + 1079.225_f32 * mu_b2 + 1457.8262_f32 * mu_b3 + 1150.9551_f32 * mu_b4 + 423.94162_f32 * mu_b5 + 27.582878_f32 * mu_b6 - 0.0033263087_f32 * mu_u7;
+    let q_4 = 128.71042_f32 * mu_v7 + 785.7173_f32 * mu_b1 + 1694.5543_f32 * mu_b2 + 2223.2834_f32 * mu_b3 + 1698.9141_f32 * mu_b4 + 588.44305_f32 * mu_b5 + 28.132305_f32 * mu_b6 + 0.314946_f32 * mu_u7;
+    let q_5 = 98.038925_f32 * mu_v7 + 651.7868_f32 * mu_b1 + 1483.3716_f32 * mu_b2 + 1968.3446_f32 * mu_b3 + 1488.7883_f32 * mu_b4 + 494.61816_f32 * mu_b5 + 15.887995_f32 * mu_b6 - 0.19400902_f32 * mu_u7;
+    let q_6 = 35.691452_f32 * mu_v7 + 288.5634_f32 * mu_b1 + 737.38916_f32 * mu_b2 + 1039.922_f32 * mu_b3 + 809.7468_f32 * mu_b4 + 279.37244_f32 * mu_b5 + 15.6264515_f32 * mu_b6 + 0.0856339_f32 * mu_u7;
+    let q_7 = 0.6173015_f32 * mu_v7 + 31.055954_f32 * mu_b1 + 106.17649_f32 * mu_b2 + 175.2749_f32 * mu_b3 + 148.49146_f32 * mu_b4 + 53.465073_f32 * mu_b5 + 3.1633146_f32 * mu_b6 + 0.008273132_f32 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

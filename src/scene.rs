@@ -585,6 +585,9 @@ pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result
     let mut sources = Vec::new();
     for need in &plan.tables {
         let model = bsdf::get(need.model)?;
+        bsdf::check_no_degenerate_slice(model.as_ref(), &need.ranges, &|a, (lo, hi)| {
+            format!("narrow the materials' {a} range in the manifest to leave the slice out (the model's default range is [{lo}, {hi}])")
+        })?;
         let spec = TableSpec::with_ranges(
             model.as_ref(),
             &need.resolution,

@@ -874,6 +874,36 @@ fn compare_paper_on_small_tables() {
         );
         assert!(!dir.join("o.csv").exists());
     }
+    // the glossy table compare-paper made spans the paper's F0 ∈ [0, 1]: fitting it as a user's
+    // table is refused at the degenerate slice F0 = 0, and accepted on a domain without it
+    let glossy_dir = dir.join("data/ggx-glossy-separable");
+    let table = std::fs::read_dir(&glossy_dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| {
+            let n = p.file_name().unwrap().to_string_lossy().into_owned();
+            n.starts_with("6x6x6-") && n.ends_with(".json") && n.matches('.').count() == 1
+        })
+        .expect("the paper-domain glossy table");
+    let fit = |domain: Option<&str>| {
+        let mut c = bin();
+        c.args(["fit", "--table"])
+            .arg(&table)
+            .args(["--form", "polynomial", "--degree", "1"])
+            .arg("--fits-dir")
+            .arg(dir.join("fits"));
+        if let Some(d) = domain {
+            c.args(["--domain", d]);
+        }
+        c
+    };
+    let err = fails(&mut fit(None));
+    assert!(
+        err.contains("includes f0 = 0") && err.contains("--domain f0=0.0125:0.25"),
+        "{err}"
+    );
+    run(&mut fit(Some("f0=0.2:1")));
 }
 
 /// `--solver trust-region` runs argmin's trust region: its own file, its method recorded, the

@@ -314,6 +314,19 @@ impl Model for GgxModel {
         !matches!(self.kind, GgxKind::Glossy)
     }
 
+    /// Glossy: the slice F0 = 0 (η = 1: no specular layer, E = 0) next to E(F0 → 0⁺, r, μ → 0)
+    /// ≈ 1 (the Fresnel layer of width ~F0^¼ at η → 1; docs/fitting.md).
+    fn degenerate_slices(&self) -> Vec<super::DegenerateSlice> {
+        match self.kind {
+            GgxKind::Glossy => vec![super::DegenerateSlice {
+                axis: 0,
+                value: 0.0,
+                why: "the glossy albedo is 0 on the slice (η = 1 reflects nothing) but tends to 1 at grazing angles just beside it",
+            }],
+            _ => Vec::new(),
+        }
+    }
+
     /// E(μ) has a square-root end and a boundary layer at grazing μ of width ~α (the masking
     /// weight's branch points at μ = ±iα/√(1 − α²)), and seen from inside a dielectric the critical angle
     /// μc = √(1 − η²) of the relative IOR η < 1, a square-root kink of the smooth interface that
@@ -418,6 +431,33 @@ impl Model for GgxModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_glossy_domain_with_the_slice_f0_0_is_refused_and_the_others_pass() {
+        let glossy = GgxModel::new(
+            GgxKind::Glossy,
+            SmithForm::HeightCorrelated,
+            Transmission::Energy,
+        );
+        let fix = |a: &str, (lo, hi): (f64, f64)| format!("use {a}={lo}:{hi}");
+        let whole = [(0.0, 1.0), (0.0, 1.0), (0.0, 1.0)];
+        let err = crate::bsdf::check_no_degenerate_slice(&glossy, &whole, &fix)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("includes f0 = 0") && err.contains("use f0=0.0125:0.25"),
+            "{err}"
+        );
+        let default: Vec<(f64, f64)> = glossy.axes().iter().map(|a| a.default_range).collect();
+        assert!(crate::bsdf::check_no_degenerate_slice(&glossy, &default, &fix).is_ok());
+        // the dielectric's F0 = 0 is no jump (E_R + E_T = 1 there): nothing to refuse
+        let dielectric = GgxModel::new(
+            GgxKind::Dielectric { inverse: false },
+            SmithForm::HeightCorrelated,
+            Transmission::Energy,
+        );
+        assert!(crate::bsdf::check_no_degenerate_slice(&dielectric, &whole, &fix).is_ok());
+    }
     use crate::quadrature::Rules;
 
     fn conductor(smith: SmithForm) -> GgxModel {

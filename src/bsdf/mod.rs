@@ -26,6 +26,7 @@ pub mod weighted;
 pub use id::{Family, ModelId, Side, Transmission};
 pub use registry::{find, find_variant, get, known_names, listed, lookup, models, register};
 
+use crate::error::{Error, Result};
 use crate::quadrature::{refine, Break, Estimate, QuadratureSettings, RuleCache, Rules};
 
 /// Most outputs a model reports at one point (E, and E_R, E_T for dielectrics).
@@ -58,6 +59,45 @@ impl AxisSpec {
             description: description.into(),
         }
     }
+}
+
+/// A value of one axis where a model's albedo is degenerate ([`Model::degenerate_slices`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DegenerateSlice {
+    /// Index of the axis.
+    pub axis: usize,
+    /// The axis value of the slice.
+    pub value: f64,
+    /// What happens there, for the error message.
+    pub why: &'static str,
+}
+
+/// Refuses a fitting domain (one `(lo, hi)` per axis of `model`) that contains one of the
+/// model's degenerate slices, naming the slice; `fix` says how to leave it out, given the axis
+/// name and the model's default range of that axis.
+pub fn check_no_degenerate_slice(
+    model: &dyn Model,
+    domain: &[(f64, f64)],
+    fix: &dyn Fn(&str, (f64, f64)) -> String,
+) -> Result<()> {
+    let axes = model.axes();
+    for s in model.degenerate_slices() {
+        let (Some(&(lo, hi)), Some(a)) = (domain.get(s.axis), axes.get(s.axis)) else {
+            continue;
+        };
+        if lo <= s.value && s.value <= hi {
+            return Err(Error::InvalidInput(format!(
+                "the {} domain includes {} = {} ({} ∈ [{lo}, {hi}]), where {}; no continuous fit or LUT follows that jump: {}",
+                model.id().name(),
+                a.name,
+                s.value,
+                a.name,
+                s.why,
+                fix(&a.name, a.default_range)
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// A BSDF whose directional albedo furnace can integrate.
@@ -105,6 +145,12 @@ pub trait Model: Send + Sync {
     /// costs time (the rough-diffuse models' best fits never used it: measured on every sweep).
     fn grazing_boundary_layer(&self) -> bool {
         false
+    }
+    /// Slices of the domain where the albedo is degenerate: a value of one axis where E jumps
+    /// (the glossy layer at F0 = 0 has E = 0, against E → 1 at grazing angles beside it), so
+    /// that no fit or LUT should span it ([`check_no_degenerate_slice`]). None by default.
+    fn degenerate_slices(&self) -> Vec<DegenerateSlice> {
+        Vec::new()
     }
     /// The breakpoints of the outputs as functions of μ (the axis named `mu`) at the other
     /// coordinates of `x` (its `mu` entry is ignored): kinks, and ends next to which E varies on

@@ -278,6 +278,25 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         name = boxed_name(&name, &bounds);
         eprintln!("restricted to {text}: {} points", input.data.len());
     }
+    // a table of a registered model (furnace's, or a furnace table given with --table) must not
+    // span one of the model's degenerate slices
+    if let Some(model) = input
+        .source
+        .model
+        .as_deref()
+        .and_then(|m| crate::bsdf::find(m).ok())
+        .filter(|m| m.axes().len() == input.data.dim())
+    {
+        crate::bsdf::check_no_degenerate_slice(
+            model.as_ref(),
+            &input.data.domain,
+            &|a, (lo, hi)| {
+                format!(
+                    "leave the slice out with --domain {a}={lo}:{hi} (the model's default range)"
+                )
+            },
+        )?;
+    }
     let transforms = match &args.transform {
         Some(t) => Some(job::parse_transforms(t, &input.data.names)?),
         None => None,

@@ -10,7 +10,8 @@
 //! reflection F(μo) added, and the base rescaled so that it carries all the energy the coat lets
 //! through: F(μo) δ + (1 − F(μo))·f/E(μo), which integrates to F + (1 − F) = 1 exactly; the
 //! `1/E` helper is emitted next to the albedo fit for it. Once both are registered
-//! ([`furnace::bsdf::register`], [`furnace::material::register`]), the library's pipeline
+//! ([`furnace::bsdf::register_in_default_set`], which also puts the model in the default set of
+//! `furnace run` and the report, and [`furnace::material::register`]), the library's pipeline
 //! ([`furnace::pipeline::run`]: table → degree sweep → Rust/WGSL/GLSL and a LUT → report with
 //! the white furnace test of the new class) and a scene whose material is of the new kind
 //! ([`furnace::scene::run`]) take them with no other change. The example runs both at small
@@ -200,12 +201,15 @@ fn check_quadrature() {
 /// Registers the model and the class, then runs the pipeline on the model and a scene of the
 /// class into `root`; returns the compensated BSDF's worst |1 − E| with the fitted albedo.
 fn run_everything(root: &Path) -> furnace::Result<f64> {
-    let id = furnace::bsdf::register(CoatedLambert)?;
+    let id = furnace::bsdf::register_in_default_set(CoatedLambert)?;
     furnace::material::register(CoatedDiffuse)?;
 
-    // tables → degree sweep → emitted code and LUT → report (small sizes)
+    // tables → degree sweep → emitted code and LUT → report (small sizes); the default set
+    // now ends with the model, so `furnace run`'s job has it with no other change
     let mut job = Job::default_set(root);
-    job.models = vec![id];
+    assert!(job.models.contains(&id));
+    assert_eq!(furnace::bsdf::default_set().last(), Some(&id));
+    job.only(&[id.key()])?;
     job.resolution_2d = 33;
     job.max_degree = Some(4);
     job.quick_report();

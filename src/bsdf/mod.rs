@@ -24,7 +24,10 @@ pub mod vndf;
 pub mod weighted;
 
 pub use id::{Family, ModelId, Side, Transmission};
-pub use registry::{find, find_variant, get, known_names, listed, lookup, models, register};
+pub use registry::{
+    default_set, find, find_variant, get, known_names, listed, lookup, models, register,
+    register_in_default_set,
+};
 
 use crate::error::{Error, Result};
 use crate::quadrature::{refine, Break, Estimate, QuadratureSettings, RuleCache, Rules};

@@ -1,12 +1,17 @@
 //! The one list of models: the built-in ones, then any a program [`register`]s. Everything that
 //! turns a name into a model (the CLI, scenes, reports, emitters, fit files) asks it.
+//!
+//! It also holds the default set ([`default_set`]): the models `furnace run` tabulates, fits,
+//! emits and reports, and `furnace report` covers, when none are named. A program adds a model
+//! of its own to it with [`register_in_default_set`].
 
 use super::average::AverageAlbedo;
 use super::{
-    diffuse, fresnel, ggx, ggx_aniso, radziszewski, weighted, Model, ModelId, Transmission,
-    MAX_OUTPUTS,
+    diffuse, fresnel, ggx, ggx_aniso, radziszewski, weighted, Family, Model, ModelId, Side,
+    Transmission, MAX_OUTPUTS,
 };
 use crate::error::{Error, Result};
+use crate::math::SmithForm;
 use std::sync::{Arc, OnceLock, RwLock, RwLockReadGuard};
 
 /// The built-in models in the order `furnace models` lists them, then the transmission
@@ -45,13 +50,45 @@ fn builtins() -> Vec<Arc<dyn Model>> {
     models
 }
 
-fn registry() -> &'static RwLock<Vec<Arc<dyn Model>>> {
-    static REGISTRY: OnceLock<RwLock<Vec<Arc<dyn Model>>>> = OnceLock::new();
-    REGISTRY.get_or_init(|| RwLock::new(builtins()))
+/// The built-in models of the default set, in its order: the paper's GGX tables (conductor,
+/// glossy, dielectric entering and leaving) in both Smith forms, then the rough-diffuse models.
+fn builtin_default_set() -> Vec<ModelId> {
+    let ggx: [fn(SmithForm) -> ModelId; 4] = [
+        ModelId::ggx_conductor,
+        ModelId::ggx_glossy,
+        |smith| ModelId::ggx_dielectric(Side::Entering, smith),
+        |smith| ModelId::ggx_dielectric(Side::Leaving, smith),
+    ];
+    let mut ids = Vec::new();
+    for table in ggx {
+        for smith in [SmithForm::HeightCorrelated, SmithForm::Separable] {
+            ids.push(table(smith));
+        }
+    }
+    for family in [Family::OREN_NAYAR_QON, Family::OREN_NAYAR_FON, Family::EON] {
+        ids.push(ModelId::new(family));
+    }
+    ids
 }
 
-fn read() -> RwLockReadGuard<'static, Vec<Arc<dyn Model>>> {
-    // a panic while registering leaves the list as it was before the push: still consistent
+/// The registered models, and the identities of those in the default set, in its order.
+struct Registry {
+    models: Vec<Arc<dyn Model>>,
+    default_set: Vec<ModelId>,
+}
+
+fn registry() -> &'static RwLock<Registry> {
+    static REGISTRY: OnceLock<RwLock<Registry>> = OnceLock::new();
+    REGISTRY.get_or_init(|| {
+        RwLock::new(Registry {
+            models: builtins(),
+            default_set: builtin_default_set(),
+        })
+    })
+}
+
+fn read() -> RwLockReadGuard<'static, Registry> {
+    // a panic while registering leaves the lists as they were before the push: still consistent
     registry().read().unwrap_or_else(|e| e.into_inner())
 }
 
@@ -111,32 +148,54 @@ fn check(model: &dyn Model) -> std::result::Result<(), String> {
 /// (`<name>-avg`, [`AverageAlbedo`]). Refused if its name (or its average's) is taken or its
 /// axes or outputs are malformed.
 pub fn register(model: impl Model + 'static) -> Result<ModelId> {
+    add(model, false)
+}
+
+/// [`register`], and adds the model to the default set after the models already in it: from
+/// then on `furnace run`'s job ([`crate::pipeline::Job::default_set`]) tabulates, fits, emits and
+/// reports it, and the report ([`crate::report::model::Reporter::generate`]) covers it, with no
+/// other change. Its average over μ is registered but not added.
+pub fn register_in_default_set(model: impl Model + 'static) -> Result<ModelId> {
+    add(model, true)
+}
+
+fn add(model: impl Model + 'static, in_default_set: bool) -> Result<ModelId> {
     check(&model).map_err(Error::InvalidInput)?;
     let id = model.id();
     let model: Arc<dyn Model> = Arc::new(model);
     let average = AverageAlbedo::new(model.clone()).map(|a| Arc::new(a) as Arc<dyn Model>);
-    let mut list = registry().write().unwrap_or_else(|e| e.into_inner());
+    let mut registry = registry().write().unwrap_or_else(|e| e.into_inner());
     for m in std::iter::once(&model).chain(&average) {
-        if list.iter().any(|l| l.id().key() == m.id().key()) {
+        if registry.models.iter().any(|l| l.id().key() == m.id().key()) {
             return Err(Error::InvalidInput(format!(
                 "a model named {} is already registered; give the new one another family name",
                 m.id()
             )));
         }
     }
-    list.push(model);
-    list.extend(average);
+    registry.models.push(model);
+    registry.models.extend(average);
+    if in_default_set {
+        registry.default_set.push(id);
+    }
     Ok(id)
 }
 
 /// Every registered model, built-in ones first, in registration order.
 pub fn models() -> Vec<Arc<dyn Model>> {
-    read().clone()
+    read().models.clone()
+}
+
+/// The default set: the built-in models of the paper's tables in both Smith forms and the
+/// rough-diffuse models, then every model added with [`register_in_default_set`], in that order.
+pub fn default_set() -> Vec<ModelId> {
+    read().default_set.clone()
 }
 
 /// The models `furnace models` lists: every registered one but the transmission variants.
 pub fn listed() -> Vec<Arc<dyn Model>> {
     read()
+        .models
         .iter()
         .filter(|m| !m.id().is_radiance())
         .cloned()
@@ -155,6 +214,7 @@ pub fn known_names() -> String {
 /// The identity of the registered model whose [key](ModelId::key) is `key`.
 pub fn lookup(key: &str) -> Result<ModelId> {
     read()
+        .models
         .iter()
         .map(|m| m.id())
         .find(|id| id.key() == key)
@@ -167,6 +227,7 @@ pub fn lookup(key: &str) -> Result<ModelId> {
 /// The registered model of identity `id`.
 pub fn get(id: ModelId) -> Result<Arc<dyn Model>> {
     read()
+        .models
         .iter()
         .find(|m| m.id() == id)
         .cloned()
@@ -195,6 +256,7 @@ pub fn find_variant(name: &str, transmission: Transmission) -> Result<Arc<dyn Mo
         }
     }
     let with: Vec<String> = read()
+        .models
         .iter()
         .filter(|m| m.id().transmission == Some(transmission))
         .map(|m| m.id().name())

@@ -11,7 +11,8 @@
 //!    radiance-form tables, which only serve the comparison with the paper).
 //! 4. **Report** ([`crate::report`]): `reports/`, one section per model.
 //!
-//! [`Job::default_set`] is the built-in default set (`furnace run`): [`DEFAULT_MODELS`] and
+//! [`Job::default_set`] is the default set (`furnace run`): the registry's
+//! ([`crate::bsdf::default_set`], which [`crate::bsdf::register_in_default_set`] extends) and
 //! [`PAPER_RADIANCE_MODELS`]. A library user runs it, or the same job on models of their own,
 //! without the command line:
 //!
@@ -47,7 +48,7 @@ use crate::output;
 use crate::progress::Observer;
 use crate::quadrature::QuadratureSettings;
 use crate::report::inputs::TableProvider;
-use crate::report::model::{fmt_e, ModelSummary, ReportOptions, Reporter, REPORT_MODELS};
+use crate::report::model::{fmt_e, ModelSummary, ReportOptions, Reporter};
 use crate::scene::{DEFAULT_RESOLUTION_2D, DEFAULT_RESOLUTION_3D};
 use crate::table::{get_or_tabulate, Table, TableSpec, Tabulated};
 use std::path::{Path, PathBuf};
@@ -60,10 +61,6 @@ pub const RUN_RESOLUTION_PAPER_RADIANCE: usize = 32;
 
 /// Nodes per axis of the LUTs `furnace run` emits.
 pub const RUN_LUT_RESOLUTION: usize = 32;
-
-/// The built-in default set: the paper's models in both Smith forms and the rough-diffuse
-/// models — the set the report covers.
-pub const DEFAULT_MODELS: &[ModelId] = REPORT_MODELS;
 
 /// Models also tabulated and fitted with radiance-form transmission (×1/η² entering, ×η²
 /// leaving): the paper's two dielectric tables are in that form, and its published fits are
@@ -103,17 +100,16 @@ pub struct Job {
 }
 
 impl Job {
-    /// The built-in default set at full size, reading and writing `data/`, `fits/` and
-    /// `reports/` under `root` (the paper's data from `root/data/paper` when it is there).
+    /// The default set ([`crate::bsdf::default_set`], then [`PAPER_RADIANCE_MODELS`]) at full
+    /// size, reading and writing `data/`, `fits/` and `reports/` under `root` (the paper's data from `root/data/paper` when it is there).
     pub fn default_set(root: &Path) -> Job {
         let mut report = ReportOptions::new(root);
         let paper = root.join("data").join("paper");
         report.paper_dir = paper.join("coefficients").is_dir().then_some(paper);
         Job {
-            models: DEFAULT_MODELS
-                .iter()
-                .chain(PAPER_RADIANCE_MODELS)
-                .copied()
+            models: bsdf::default_set()
+                .into_iter()
+                .chain(PAPER_RADIANCE_MODELS.iter().copied())
                 .collect(),
             data_dir: root.join("data"),
             fits_dir: root.join("fits"),

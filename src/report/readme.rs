@@ -3,7 +3,7 @@
 //! from the benchmark files, and every model's section, assembled from the `summary.json` and `section.md` each model's report wrote.
 
 use super::inputs::{load_bench, BenchPlot};
-use super::model::{fmt_e, paper_table_markdown, ModelSummary, Reporter, REPORT_MODELS};
+use super::model::{fmt_e, paper_table_markdown, ModelSummary, Reporter};
 use super::offgrid::{OffGridSummary, LUT_TO_BEAT};
 use super::plot::{self, color, Axis, Chart, Figure, Formats, LegendAt, Series, Style};
 use crate::bsdf::ModelId;
@@ -49,7 +49,8 @@ fn remove_stale(dir: &Path, keep: &[PathBuf]) -> Result<()> {
 }
 
 impl Reporter<'_> {
-    /// Regenerates the sections of `models` (every [`REPORT_MODELS`] if `None`), the benchmark
+    /// Regenerates the sections of `models` (the default set, [`crate::bsdf::default_set`], if
+    /// `None`), the benchmark
     /// plots, and `reports/README.md`.
     pub fn generate(&self, models: Option<&[ModelId]>) -> Result<ReportOutcome> {
         self.generate_each(models, false, &mut |_, _| {})
@@ -64,7 +65,8 @@ impl Reporter<'_> {
         reuse: bool,
         done: &mut dyn FnMut(usize, &str),
     ) -> Result<ReportOutcome> {
-        let targets = models.unwrap_or(REPORT_MODELS);
+        let default_set = crate::bsdf::default_set();
+        let targets = models.unwrap_or(&default_set);
         for &m in targets {
             crate::bsdf::get(m)?;
         }
@@ -96,7 +98,7 @@ impl Reporter<'_> {
             done(k, &m.key());
         }
         // the README lists the default set, then any other model that has a section
-        let mut order: Vec<String> = REPORT_MODELS.iter().map(|m| m.key()).collect();
+        let mut order: Vec<String> = default_set.iter().map(|m| m.key()).collect();
         for m in targets {
             if !order.contains(&m.key()) {
                 order.push(m.key());

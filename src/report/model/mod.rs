@@ -34,11 +34,10 @@ pub use summary::{
     Dependency, FileHash, FitRow, FurnaceRow, FurnaceVariant, ModelSummary, PaperRow,
 };
 
-use crate::bsdf::{Family, ModelId, Side};
+use crate::bsdf::ModelId;
 use crate::digest::sha256_hex;
 use crate::error::{Error, Result};
 use crate::material::compensated_for;
-use crate::math::SmithForm;
 use crate::report::inputs::{paper_link, TableProvider};
 use data::ModelData;
 use std::cell::RefCell;
@@ -117,21 +116,6 @@ impl ReportOptions {
     }
 }
 
-/// The models `furnace report` covers by default: the paper's set in both Smith forms and the
-/// rough-diffuse models.
-pub const REPORT_MODELS: &[ModelId] = &[
-    ModelId::ggx_conductor(SmithForm::HeightCorrelated),
-    ModelId::ggx_conductor(SmithForm::Separable),
-    ModelId::ggx_glossy(SmithForm::HeightCorrelated),
-    ModelId::ggx_glossy(SmithForm::Separable),
-    ModelId::ggx_dielectric(Side::Entering, SmithForm::HeightCorrelated),
-    ModelId::ggx_dielectric(Side::Entering, SmithForm::Separable),
-    ModelId::ggx_dielectric(Side::Leaving, SmithForm::HeightCorrelated),
-    ModelId::ggx_dielectric(Side::Leaving, SmithForm::Separable),
-    ModelId::new(Family::OREN_NAYAR_QON),
-    ModelId::new(Family::OREN_NAYAR_FON),
-    ModelId::new(Family::EON),
-];
 /// A report run: options, the table source, and the models loaded so far.
 pub struct Reporter<'a> {
     pub options: ReportOptions,

@@ -14,7 +14,7 @@
 //! `furnace run` and the report, and [`furnace::material::register`]), the library's pipeline
 //! ([`furnace::pipeline::run`]: table → degree sweep → Rust/WGSL/GLSL and a LUT → report with
 //! the white furnace test of the new class) and a scene whose material is of the new kind
-//! ([`furnace::scene::run`]) take them with no other change. The example runs both at small
+//! ([`furnace::pipeline::scene::run`]) take them with no other change. The example runs both at small
 //! sizes into a temporary folder and checks what they wrote.
 //!
 //! Run: `cargo run --release --example custom_model`
@@ -30,7 +30,7 @@ use furnace::progress::Quiet;
 use furnace::quadrature::{
     integrate_2d, Integrand2D, QuadratureSettings, RuleCache, Rules, CHANNELS,
 };
-use furnace::scene::{self, Manifest};
+use furnace::scene::Manifest;
 use std::f64::consts::PI;
 use std::path::Path;
 use std::sync::Arc;
@@ -251,7 +251,7 @@ fn run_everything(root: &Path) -> furnace::Result<f64> {
             "materials": [{"name": "paint", "kind": "coated-diffuse", "ior": [1.4, 1.6]}]}"#,
         Path::new("studio.json"),
     )?;
-    let opts = scene::RunOptions {
+    let opts = pipeline::scene::RunOptions {
         data_dir: root.join("data"),
         fits_dir: root.join("fits"),
         lut_dir: root.join("data").join("lut"),
@@ -262,7 +262,7 @@ fn run_everything(root: &Path) -> furnace::Result<f64> {
         stress_points: 1000,
         command: "cargo run --example custom_model".into(),
     };
-    let out = scene::run(&manifest, &opts, &|_| {})?;
+    let out = pipeline::scene::run(&manifest, &opts, &|_| {})?;
     assert_eq!(out.plan.tables.len(), 1);
     assert_eq!(out.plan.tables[0].model, id);
     let wgsl = std::fs::read_to_string(root.join("fits/studio/studio.wgsl")).expect("scene WGSL");

@@ -24,8 +24,9 @@ use furnace::bsdf;
 use furnace::fit::job::FitRecord;
 use furnace::fit::paper::{load_table, published_fit, PaperModel};
 use furnace::fit::source::{from_table, FittedOn, Source};
+use furnace::pipeline::scene::fit_table;
 use furnace::quadrature::QuadratureSettings;
-use furnace::scene::{f0_from_ior, fit_table, FitSettings};
+use furnace::scene::{f0_from_ior, FitSettings};
 use furnace::table::{self, TableSpec};
 
 fn fixtures() -> PathBuf {
@@ -127,7 +128,7 @@ fn regenerate_fixtures() {
     }
 }
 
-/// The measurement behind `scene::DENOMINATOR_MARGINS`: accuracy, denominator bound and f32
+/// The measurement behind `pipeline::scene::DENOMINATOR_MARGINS`: accuracy, denominator bound and f32
 /// stress error of the 12³ dielectric fits at several denominator margins.
 /// Run: `cargo test --test emit_fixtures -- --ignored --nocapture denominator_margin_sweep`.
 #[test]

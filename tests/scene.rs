@@ -4,8 +4,9 @@
 use std::path::PathBuf;
 
 use furnace::emit::Lang;
+use furnace::pipeline::scene::{run, RunOptions};
 use furnace::quadrature::QuadratureSettings;
-use furnace::scene::{run, Manifest, RunOptions};
+use furnace::scene::Manifest;
 
 fn scratch(name: &str) -> PathBuf {
     let dir =

@@ -1,5 +1,5 @@
 //! `furnace run --scene scene.json`: the scene options of the `run` command and its wrapper
-//! over [`crate::scene::run`].
+//! over [`crate::pipeline::scene::run`].
 
 use std::path::PathBuf;
 
@@ -7,8 +7,9 @@ use clap::Args;
 
 use crate::emit::parse_langs;
 use crate::error::Result;
+use crate::pipeline::scene::{self, RunOptions};
 use crate::quadrature::QuadratureSettings;
-use crate::scene::{self, Manifest, RunOptions};
+use crate::scene::Manifest;
 
 #[derive(Args, Debug, Clone)]
 pub struct SceneArgs {

@@ -27,12 +27,17 @@
 //! # Ok::<(), furnace::Error>(())
 //! ```
 //!
+//! A scene manifest ([`crate::scene`]) is planned into the tables its materials need and run by
+//! [`scene::run`] through the same table cache and emitters, with one stress-tested rational fit
+//! per table instead of a sweep.
+//!
 //! Everything written under `fits/`, `reports/` and `data/lut/` is a function of the inputs
 //! (no wall times, dates, absolute paths or thread counts), written through a temporary file
 //! and a rename; wall times go to the observer only.
 
 pub mod emits;
 pub mod offgrid;
+pub mod scene;
 pub mod sweeps;
 
 pub use offgrid::{OffGridSummary, LUT_CHECK_RESOLUTIONS, LUT_TO_BEAT};

@@ -106,31 +106,7 @@ pub fn paper_box(pair: &PaperPair) -> Vec<AxisDecl> {
     ]
 }
 
-/// Smallest r of the paper's tables (its repository clamps r to ≥ 0.035; paper-repo-data README).
-pub const PAPER_R_MIN: f64 = 0.035;
-/// Smallest μ of the paper's tables (clamped to ≥ 0.02).
-pub const PAPER_MU_MIN: f64 = 0.02;
-/// Largest μ of the paper's dielectric tables (clamped to ≤ 0.98).
-pub const PAPER_MU_MAX_DIELECTRIC: f64 = 0.98;
-
-/// The paper's box inside a domain: r ≥ [`PAPER_R_MIN`], μ ≥ [`PAPER_MU_MIN`] (and for a
-/// dielectric model μ ≤ [`PAPER_MU_MAX_DIELECTRIC`]), other variables as they are. None if the
-/// data has no variables `r` and `mu` or the box misses the domain.
-pub fn paper_box_in(
-    names: &[String],
-    domain: &[(f64, f64)],
-    model: Option<&str>,
-) -> Option<Vec<(f64, f64)>> {
-    let find = |n: &str| names.iter().position(|x| x.eq_ignore_ascii_case(n));
-    let (r, mu) = (find("r")?, find("mu")?);
-    let mut b = domain.to_vec();
-    b[r].0 = b[r].0.max(PAPER_R_MIN);
-    b[mu].0 = b[mu].0.max(PAPER_MU_MIN);
-    if model.is_some_and(|m| m.contains("dielectric")) {
-        b[mu].1 = b[mu].1.min(PAPER_MU_MAX_DIELECTRIC);
-    }
-    b.iter().all(|(lo, hi)| lo <= hi).then_some(b)
-}
+pub use super::paper::{paper_box_in, PAPER_MU_MAX_DIELECTRIC, PAPER_MU_MIN, PAPER_R_MIN};
 
 /// `r=0.035:1,mu=0.02:0.98`: the `--domain` argument of a box.
 pub fn box_text(b: &[AxisDecl]) -> String {

@@ -9,43 +9,14 @@
 //! verdict stored in the file is recomputed, not trusted): what `emit`, `eval --fit` and
 //! `stress` accept. Every error names the file and the fix.
 
-use std::path::{Path, PathBuf};
-
-use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 use super::job::FitRecord;
 use super::{CertifyOptions, PoleVerdict};
 use crate::bsdf;
 use crate::error::{Error, Result};
-use crate::table::TableSpec;
 
-/// The furnace table a fit was fitted to: enough to find it in the cache or compute it again
-/// (at any size, for LUTs), and to measure emitted code on it.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct TableRef {
-    /// The cached table's path without extension (see `table::io::table_stem`).
-    pub stem: PathBuf,
-    /// Its content hash (the cache key: [`TableSpec::content_hash`]).
-    pub content_hash: String,
-    /// Everything that determines its values.
-    pub spec: TableSpec,
-}
-
-impl TableRef {
-    pub fn new(stem: &Path, spec: &TableSpec) -> TableRef {
-        TableRef {
-            stem: stem.to_path_buf(),
-            content_hash: spec.content_hash(),
-            spec: spec.clone(),
-        }
-    }
-
-    /// Whether this furnace computes the same table from the spec: the content hash covers the
-    /// quadrature engine's version, so a table of another engine version is not the one fitted.
-    pub fn is_current(&self) -> bool {
-        self.spec.content_hash() == self.content_hash
-    }
-}
+pub use super::source::TableRef;
 
 /// Top-level fields every fit file has, in the order they are checked.
 const REQUIRED: [&str; 9] = [

@@ -21,7 +21,35 @@ use serde::{Deserialize, Serialize};
 use super::data::{FitData, MAX_DIM};
 use crate::error::{Error, Result};
 use crate::table::io::{self, Sidecar};
-use crate::table::{GridAxis, Table};
+use crate::table::{GridAxis, Table, TableSpec};
+
+/// The furnace table a fit was fitted to: enough to find it in the cache or compute it again
+/// (at any size, for LUTs), and to measure emitted code on it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TableRef {
+    /// The cached table's path without extension (see `table::io::table_stem`).
+    pub stem: PathBuf,
+    /// Its content hash (the cache key: [`TableSpec::content_hash`]).
+    pub content_hash: String,
+    /// Everything that determines its values.
+    pub spec: TableSpec,
+}
+
+impl TableRef {
+    pub fn new(stem: &Path, spec: &TableSpec) -> TableRef {
+        TableRef {
+            stem: stem.to_path_buf(),
+            content_hash: spec.content_hash(),
+            spec: spec.clone(),
+        }
+    }
+
+    /// Whether this furnace computes the same table from the spec: the content hash covers the
+    /// quadrature engine's version, so a table of another engine version is not the one fitted.
+    pub fn is_current(&self) -> bool {
+        self.spec.content_hash() == self.content_hash
+    }
+}
 
 /// Refuse user tables with more points than this before allocating their coordinates
 /// (the same limit as point files).
@@ -57,7 +85,7 @@ pub struct FitInput {
     pub source: Source,
     pub grid: Option<Vec<Vec<f64>>>,
     /// The furnace table the data is, if it is one (carried into the fit file).
-    pub table: Option<super::file::TableRef>,
+    pub table: Option<TableRef>,
 }
 
 /// How a fit's data was reduced before solving (metrics are always on all points).
@@ -317,7 +345,7 @@ pub fn from_table(table: &Table, channel: &str, stem: Option<&Path>) -> Result<F
         },
         data,
         grid: Some(axes),
-        table: stem.map(|p| super::file::TableRef::new(p, &table.spec)),
+        table: stem.map(|p| TableRef::new(p, &table.spec)),
     })
 }
 

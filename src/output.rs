@@ -50,6 +50,15 @@ impl Target {
         }
     }
 
+    /// Checks, before any work, that the target can be written (see [`check_file`]); standard
+    /// output always can. `what` names the option that gave the target.
+    pub fn check(&self, what: &str) -> Result<()> {
+        match self {
+            Target::Stdout => Ok(()),
+            Target::File(p) => check_file(p, what),
+        }
+    }
+
     /// How messages name the target.
     pub fn describe(&self) -> String {
         match self {
@@ -78,6 +87,14 @@ enum Resolved {
     InPlace(PathBuf, bool),
 }
 
+/// Nothing at the path: not found, or a path through a file (`file/sub`).
+fn is_missing(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory
+    )
+}
+
 /// Follows `path`'s symbolic links to what they name. The links under `/proc` behind
 /// `/dev/stdout` and `/dev/fd/N` name an open descriptor, not a path (`pipe:[…]`, or a file
 /// the shell opened): what they reach is written in place, through the original path.
@@ -87,8 +104,9 @@ fn resolve(path: &Path) -> Result<Resolved> {
     for _ in 0..=MAX_LINK_HOPS {
         let meta = match std::fs::symlink_metadata(&p) {
             Ok(m) => m,
-            // a dangling link, or a plain missing file: create what it names
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Resolved::Missing(p)),
+            // a dangling link, or a plain missing file: create what it names (a path through a
+            // file is missing too; making its folder fails, or the check names the file)
+            Err(e) if is_missing(&e) => return Ok(Resolved::Missing(p)),
             Err(e) => return Err(Error::io(&p, e)),
         };
         let ft = meta.file_type();
@@ -251,6 +269,65 @@ pub fn check_writable_dir(dir: &Path, what: &str) -> Result<()> {
     std::fs::remove_file(&probe).map_err(fix)
 }
 
+/// Makes sure [`write`] can write `path`, without creating or changing anything: a FIFO or a
+/// device is written in place and needs nothing more; for a missing or regular file (after its
+/// links are followed) the folder it goes in must be writable, or be creatable in the nearest
+/// folder that exists. Commands call this for their output file before computing anything.
+/// `what` names the option that gave the path.
+pub fn check_file(path: &Path, what: &str) -> Result<()> {
+    match resolve(path)? {
+        Resolved::InPlace(..) => Ok(()),
+        Resolved::Missing(p) | Resolved::Regular(p, _) => {
+            let dir = match p.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+                _ => PathBuf::from("."),
+            };
+            check_dir_creatable(&dir, what)
+        }
+    }
+}
+
+/// Makes sure files can be written under `dir` without creating it: the nearest folder of `dir`
+/// and its parents that exists must be a folder in which a probe file can be made (the probe is
+/// removed). A path that runs through a file, or an unwritable folder, is refused naming `what`.
+pub fn check_dir_creatable(dir: &Path, what: &str) -> Result<()> {
+    let mut existing = dir.to_path_buf();
+    loop {
+        match std::fs::metadata(&existing) {
+            Ok(m) if m.is_dir() => break,
+            Ok(_) => {
+                return Err(Error::file(
+                    dir,
+                    format!(
+                        "cannot write here: {} is not a folder; choose another path with {what}",
+                        existing.display()
+                    ),
+                ))
+            }
+            Err(e) if is_missing(&e) => {}
+            Err(e) => {
+                return Err(Error::file(
+                    dir,
+                    format!("cannot write here ({e}); choose another path with {what}"),
+                ))
+            }
+        }
+        existing = match existing.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+    }
+    let probe = temp_path(&existing.join("probe"), "");
+    std::fs::write(&probe, b"")
+        .and_then(|_| std::fs::remove_file(&probe))
+        .map_err(|e| {
+            Error::file(
+                dir,
+                format!("cannot write here ({e}); choose another path with {what}"),
+            )
+        })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -366,6 +443,47 @@ mod tests {
             e.contains("cannot write here") && e.contains("--fits-dir"),
             "{e}"
         );
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn output_files_are_checked_without_creating_anything() {
+        let d = scratch("check");
+        // a new file in folders still to be made, a regular file, a FIFO: all writable
+        check_file(&d.join("new/deeper/out.csv"), "--output").unwrap();
+        assert!(!d.join("new").exists(), "the check creates nothing");
+        std::fs::write(d.join("old.csv"), b"x").unwrap();
+        check_file(&d.join("old.csv"), "--output").unwrap();
+        let fifo = d.join("pipe");
+        if std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .is_ok_and(|s| s.success())
+        {
+            // opening a FIFO for writing would block: the check must not open it
+            check_file(&fifo, "--output").unwrap();
+        }
+        Target::Stdout.check("--output").unwrap();
+        assert!(
+            names(&d).iter().all(|n| n == "old.csv" || n == "pipe"),
+            "the probes are removed: {:?}",
+            names(&d)
+        );
+        // a path through a file, and a folder, are refused naming the option
+        std::fs::write(d.join("plain"), b"").unwrap();
+        let e = check_file(&d.join("plain/sub/out.csv"), "--output")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("is not a folder") && e.contains("plain") && e.contains("--output"),
+            "{e}"
+        );
+        let e = check_dir_creatable(&d.join("plain/fits"), "--fits-dir")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--fits-dir"), "{e}");
+        let e = check_file(&d, "--output").unwrap_err().to_string();
+        assert!(e.contains("is a folder"), "{e}");
         let _ = std::fs::remove_dir_all(&d);
     }
 

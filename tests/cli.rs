@@ -531,3 +531,143 @@ fn run_and_run_scene_refuse_an_unwritable_output_folder_before_computing() {
         assert_eq!(tables, 0, "{args:?}");
     }
 }
+
+#[test]
+fn single_output_commands_refuse_an_unwritable_output_before_computing() {
+    let d = scratch("unwritable-output");
+    // a folder cannot be made inside a file, whoever runs the test
+    std::fs::write(d.join("file"), "").unwrap();
+    std::fs::write(d.join("p.csv"), "r,mu\n0.5,0.5\n").unwrap();
+    let fit = conductor_fit(&d);
+    let runs: [(Vec<&str>, &str); 7] = [
+        (
+            vec![
+                "fit",
+                "--model",
+                "ggx-conductor",
+                "--resolution",
+                "9",
+                "--sweep",
+                "--max-degree",
+                "1",
+                "--fits-dir",
+                "file/fits",
+            ],
+            "--fits-dir",
+        ),
+        (
+            vec![
+                "fit",
+                "--model",
+                "ggx-conductor",
+                "--resolution",
+                "9",
+                "--form",
+                "polynomial",
+                "--degree",
+                "1",
+                "--output",
+                "file/fit.json",
+            ],
+            "--output",
+        ),
+        (
+            vec![
+                "fit",
+                "--model",
+                "ggx-conductor",
+                "--resolution",
+                "9",
+                "--form",
+                "polynomial",
+                "--degree",
+                "1",
+                "--data-dir",
+                "file/data",
+            ],
+            "--data-dir",
+        ),
+        (
+            vec![
+                "eval",
+                "--model",
+                "ggx-conductor",
+                "--input",
+                "p.csv",
+                "--output",
+                "file/o.csv",
+            ],
+            "--output",
+        ),
+        (
+            vec![
+                "eval",
+                "--fit",
+                fit,
+                "--input",
+                "p.csv",
+                "--output",
+                "file/o.csv",
+            ],
+            "--output",
+        ),
+        (
+            vec![
+                "emit",
+                "--fit",
+                fit,
+                "--lang",
+                "glsl",
+                "--output",
+                "file/o.glsl",
+            ],
+            "--output",
+        ),
+        (
+            vec![
+                "export",
+                "--format",
+                "cycles",
+                "--output",
+                "file/shader.tables",
+            ],
+            "--output",
+        ),
+    ];
+    for (args, option) in runs {
+        let o = furnace(&args, &d);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            e.contains("cannot write here: ")
+                && e.contains("is not a folder")
+                && e.contains(option),
+            "{args:?}: {e}"
+        );
+        assert!(
+            !e.contains("I/O error"),
+            "refused by the check, not by the write: {e}"
+        );
+        // nothing was tabulated or fitted first
+        assert!(
+            !d.join("data").exists() && !d.join("fits").exists(),
+            "{args:?}"
+        );
+    }
+    // a new folder for the output is still made
+    let o = furnace(
+        &[
+            "eval",
+            "--fit",
+            fit,
+            "--input",
+            "p.csv",
+            "--output",
+            "new/sub/o.csv",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(d.join("new/sub/o.csv").is_file());
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -58,6 +58,14 @@ pub fn table_line(csv_to_stdout: bool, line: String) {
     }
 }
 
+/// Refuses, before the benchmark runs, an `--output` that cannot be written.
+pub fn check_output(output: &Option<PathBuf>) -> Result<()> {
+    match output {
+        Some(p) => crate::output::Target::from_arg(p).check("--output"),
+        None => Ok(()),
+    }
+}
+
 /// Whether `--output` is standard output.
 pub fn csv_to_stdout(output: &Option<PathBuf>) -> bool {
     output.as_deref().is_some_and(|p| p.as_os_str() == "-")
@@ -124,6 +132,7 @@ fn reference_error(
 }
 
 pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
+    check_output(&args.output)?;
     let csv_to_stdout = csv_to_stdout(&args.output);
     let mut plot = crate::report::inputs::BenchPlot::new(
         "tabulate",

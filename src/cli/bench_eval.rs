@@ -38,6 +38,7 @@ pub struct BenchEvalArgs {
 }
 
 pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
+    super::bench::check_output(&args.output)?;
     let fits = args
         .fit
         .iter()

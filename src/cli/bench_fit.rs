@@ -55,6 +55,7 @@ pub struct BenchFitArgs {
 /// Times least-squares fits in the identity variables at every degree of the paper's sweep, on
 /// the points a sweep fits (an even subset of large tables), and measures each on every node.
 pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
+    super::bench::check_output(&args.output)?;
     let csv_to_stdout = csv_to_stdout(&args.output);
     // MAE, not the max error: over the whole box every fit's max error sits at the
     // discontinuous corner r = μ = 0 (≈ 0.09 for the conductor at every degree)

@@ -98,8 +98,15 @@ pub fn emit_cmd(args: &EmitArgs) -> Result<()> {
     let target = args.output.as_deref().map(Target::from_arg);
     if target.is_some() && (args.fit.len() != 1 || langs.len() != 1 || langs[0] == Lang::Lut) {
         return Err(Error::InvalidInput(
-            "--output writes one file: give one --fit and one of --lang rust, wgsl or glsl".into(),
+            "--output writes one file: give one --fit and one of --lang rust, wgsl, glsl, hlsl or cpp".into(),
         ));
+    }
+    // an unwritable output is refused before the stress tests and LUT tables are computed
+    if let Some(t) = &target {
+        t.check("--output")?;
+    }
+    if langs.contains(&Lang::Lut) {
+        crate::output::check_dir_creatable(&args.lut_dir, "--lut-dir")?;
     }
     // with the code on standard output, the notes go to standard error
     let to_stdout = target.as_ref().is_some_and(Target::is_stdout);

@@ -27,6 +27,7 @@ pub fn eval_cmd(args: &EvalArgs) -> Result<()> {
 /// is the emitted code's function in f64 (inputs clamped to the domain, output to [0, 1]), or
 /// with `--raw` the approximant itself at points inside the domain.
 fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
+    Target::from_arg(&args.output).check("--output")?;
     let checked = fitfile::load(fit_path)?;
     let rec = &checked.record;
     let a = &rec.fit.approximant;
@@ -89,6 +90,8 @@ fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
 }
 
 fn eval_model(args: &EvalArgs, name: &str) -> Result<()> {
+    // an unwritable output is refused before the quadrature, not after it
+    Target::from_arg(&args.output).check("--output")?;
     let settings = args.quadrature.settings()?;
     let model = args.quadrature.model(name)?;
     let axes: Vec<String> = model.axes().iter().map(|a| a.name.clone()).collect();

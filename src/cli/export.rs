@@ -150,6 +150,8 @@ fn check_options(args: &ExportArgs) -> Result<()> {
 pub fn export_cmd(args: &ExportArgs) -> Result<()> {
     check_options(args)?;
     let target = Target::from_arg(&args.output);
+    // an unwritable output is refused before any table is computed
+    target.check("--output")?;
     let start = Instant::now();
     let compute = Compute {
         quadrature: args.quadrature.settings()?,

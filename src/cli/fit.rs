@@ -198,10 +198,11 @@ fn fit_input(args: &FitArgs) -> Result<Input> {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "table".into());
         eprintln!(
-            "{}: {} points in {} variables ({})",
+            "{}: {} points in {} variable{} ({})",
             path.display(),
             input.data.len(),
             input.data.dim(),
+            if input.data.dim() == 1 { "" } else { "s" },
             input.data.names.join(", ")
         );
         return Ok((input, name, true, None, None));
@@ -266,8 +267,23 @@ fn boxed_name(name: &str, bounds: &[source::AxisDecl]) -> String {
     s
 }
 
+/// Refuses, before any table is read, computed or fitted, an output folder or file that cannot
+/// be written: the fits folder (a sweep, or a fit without --output), the --output file, and the
+/// data folder where tables and timings go.
+fn check_outputs(args: &FitArgs) -> Result<()> {
+    match &args.output {
+        Some(p) if !args.sweep => Target::from_arg(p).check("--output")?,
+        _ => output::check_dir_creatable(&args.fits_dir, "--fits-dir")?,
+    }
+    if args.table.is_none() || args.data_dir.is_some() {
+        output::check_dir_creatable(&args.data_dir(), "--data-dir")?;
+    }
+    Ok(())
+}
+
 /// `furnace fit`.
 pub fn fit_cmd(args: &FitArgs) -> Result<()> {
+    check_outputs(args)?;
     let (mut input, mut name, layer, mut check, mut training) = fit_input(args)?;
     if let Some(text) = &args.domain {
         let bounds = source::parse_axes(text)

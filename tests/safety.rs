@@ -729,3 +729,69 @@ fn libm_rlib() -> PathBuf {
         })
         .unwrap_or_else(|| panic!("no liblibm-*.rlib in {}", deps.display()))
 }
+
+#[test]
+fn emit_notes_a_fits_table_only_when_it_emits_and_names_an_edited_table_record() {
+    let d = scratch("table-notes");
+    let good: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root().join("fits/ggx-conductor/best-20.json")).unwrap(),
+    )
+    .unwrap();
+    // its table is not in this folder's cache: emitted with a note saying so
+    std::fs::write(d.join("linked.json"), good.to_string()).unwrap();
+    let o = furnace(
+        &[
+            "emit",
+            "--fit",
+            "linked.json",
+            "--lang",
+            "glsl",
+            "--output",
+            "-",
+        ],
+        &d,
+    );
+    ok(&o);
+    assert!(
+        text(&o.stderr).contains("note: the table of linked.json is not in the cache"),
+        "{}",
+        text(&o.stderr)
+    );
+    // a pole: refused, and no note about the table comes before the refusal
+    let mut pole = good.clone();
+    let q = &mut pole["fit"]["approximant"]["denominator"]["coefficients"];
+    for c in q.as_array_mut().unwrap().iter_mut().skip(1) {
+        *c = 0.0.into();
+    }
+    q[1] = (-3.0).into();
+    std::fs::write(d.join("pole.json"), pole.to_string()).unwrap();
+    let e = refused(
+        &furnace(&["emit", "--fit", "pole.json", "--lang", "glsl"], &d),
+        "uncertified denominator: Q changes sign",
+    );
+    assert!(!e.contains("note:"), "{e}");
+    assert!(!d.join("pole.glsl").exists());
+    // a table record whose spec no longer hashes to its content hash is named as such
+    let mut edited = good.clone();
+    edited["table"]["spec"]["quadrature"]["order"] = 13.into();
+    std::fs::write(d.join("edited.json"), edited.to_string()).unwrap();
+    let o = ok(&furnace(
+        &[
+            "emit",
+            "--fit",
+            "edited.json",
+            "--lang",
+            "glsl",
+            "--output",
+            "-",
+        ],
+        &d,
+    ))
+    .clone();
+    assert!(
+        text(&o.stderr).contains("the table record of edited.json does not match its content hash"),
+        "{}",
+        text(&o.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

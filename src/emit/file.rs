@@ -62,11 +62,12 @@ pub fn emit_fit_file(
     let (args, langs) = (options, &options.langs);
     let file = fitfile::read(path)?;
     let table = referenced_table(&file, &args.data_dir)?;
-    match &file.table {
-        Some(t) if !t.is_current() => log(&format!("note: the table of {} was computed by another version of the quadrature engine; the header states the fit's error on its data plus the f32 bound instead of measuring the code on the table", path.display())),
-        Some(_) if table.is_none() => log(&format!("note: the table of {} is not in the cache; the header states the fit's error on its data plus the f32 bound instead of measuring the code on the table", path.display())),
-        _ => {}
-    }
+    // said once the fit is emitted, so a refusal is not preceded by a note about its table
+    let note = match &file.table {
+        Some(t) if !t.is_current() => Some(format!("note: the table record of {} does not match its content hash (a table of another version of the quadrature engine, or an edited record); the header states the fit's error on its data plus the f32 bound instead of measuring the code on the table", path.display())),
+        Some(_) if table.is_none() => Some(format!("note: the table of {} is not in the cache; the header states the fit's error on its data plus the f32 bound instead of measuring the code on the table", path.display())),
+        _ => None,
+    };
     let src = SourceFit::new(path, file, table)?;
     let stem = path
         .file_stem()
@@ -114,6 +115,9 @@ pub fn emit_fit_file(
         }
         None => super::write_artifacts(&artifacts, &dir, &args.lut_dir)?,
     };
+    if let Some(note) = &note {
+        log(note);
+    }
     for e in &emitted {
         let st = &e.stress;
         log(&format!(

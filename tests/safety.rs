@@ -795,3 +795,61 @@ fn emit_notes_a_fits_table_only_when_it_emits_and_names_an_edited_table_record()
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn emit_refuses_a_pole_free_fit_whose_f32_code_fails_the_stress_test() {
+    let d = scratch("f32-gate");
+    let mut csv = String::from("x,y,E\n");
+    for i in 0..=8 {
+        for j in 0..=8 {
+            let (x, y) = (i as f64 / 8.0, j as f64 / 8.0);
+            csv.push_str(&format!("{x},{y},{}\n", 0.5 + 0.1 * x - 0.05 * y * y));
+        }
+    }
+    std::fs::write(d.join("t.csv"), csv).unwrap();
+    ok(&furnace(
+        &[
+            "fit", "--table", "t.csv", "--form", "rational", "--degree", "2", "--output", "t.json",
+        ],
+        &d,
+    ));
+    // E = 0.5 / (1 + 1000 (x - y)^2): Q >= 1, so pole-free, but Q cancels in f32 near x = y
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("t.json")).unwrap()).unwrap();
+    let a = &mut v["fit"]["approximant"];
+    let coefficient = |e: &serde_json::Value, table: &[([i64; 2], f64)]| {
+        let e = [e[0].as_i64().unwrap(), e[1].as_i64().unwrap()];
+        table.iter().find(|(k, _)| *k == e).map_or(0.0, |(_, c)| *c)
+    };
+    for (part, table) in [
+        ("numerator", vec![([0, 0], 0.5)]),
+        (
+            "denominator",
+            vec![([0, 0], 1.0), ([2, 0], 1e3), ([1, 1], -2e3), ([0, 2], 1e3)],
+        ),
+    ] {
+        let c: Vec<f64> = a[part]["exponents"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| coefficient(e, &table))
+            .collect();
+        a[part]["coefficients"] = serde_json::json!(c);
+    }
+    std::fs::write(d.join("cancels.json"), v.to_string()).unwrap();
+    let before = listing(&d);
+    let e = refused(
+        &furnace(&["emit", "--fit", "cancels.json", "--lang", "all"], &d),
+        "the f32 code fails the stress test",
+    );
+    assert!(
+        e.contains("cancels.json") && e.contains("so it is not emitted") && e.contains("refit"),
+        "{e}"
+    );
+    assert_eq!(listing(&d), before, "nothing may be written");
+    refused(
+        &furnace(&["stress", "--fit", "cancels.json"], &d),
+        "stress test of cancels.json failed",
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -59,6 +59,27 @@ impl Target {
         }
     }
 
+    /// Refuses a target that is one of the command's input files (after links are followed):
+    /// writing it would destroy the input. `inputs` pairs each input with the option that gave
+    /// it; `what` names the target's option.
+    pub fn check_not_input(&self, inputs: &[(&Path, &str)], what: &str) -> Result<()> {
+        let Target::File(p) = self else {
+            return Ok(());
+        };
+        let Ok(target) = std::fs::canonicalize(p) else {
+            return Ok(()); // not there yet: no input can be it
+        };
+        for (input, option) in inputs {
+            if std::fs::canonicalize(input).is_ok_and(|i| i == target) {
+                return Err(Error::file(
+                    p,
+                    format!("is also the {option} file; writing {what} there would destroy it, so give another path"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// How messages name the target.
     pub fn describe(&self) -> String {
         match self {

@@ -539,7 +539,7 @@ fn single_output_commands_refuse_an_unwritable_output_before_computing() {
     std::fs::write(d.join("file"), "").unwrap();
     std::fs::write(d.join("p.csv"), "r,mu\n0.5,0.5\n").unwrap();
     let fit = conductor_fit(&d);
-    let runs: [(Vec<&str>, &str); 7] = [
+    let runs: [(Vec<&str>, &str); 8] = [
         (
             vec![
                 "fit",
@@ -633,6 +633,16 @@ fn single_output_commands_refuse_an_unwritable_output_before_computing() {
             ],
             "--output",
         ),
+        (
+            vec![
+                "report",
+                "--model",
+                "ggx-conductor",
+                "--reports-dir",
+                "file/reports",
+            ],
+            "--reports-dir",
+        ),
     ];
     for (args, option) in runs {
         let o = furnace(&args, &d);
@@ -669,5 +679,76 @@ fn single_output_commands_refuse_an_unwritable_output_before_computing() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(d.join("new/sub/o.csv").is_file());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn an_output_that_is_an_input_file_is_refused() {
+    let d = scratch("output-is-input");
+    let fit = conductor_fit(&d);
+    std::fs::write(d.join("p.csv"), "r,mu\n0.5,0.5\n").unwrap();
+    std::fs::write(d.join("t.csv"), "x,E\n0,1\n0.5,0.8\n1,0.7\n").unwrap();
+    std::os::unix::fs::symlink("p.csv", d.join("link.csv")).unwrap();
+    let fit_bytes = std::fs::read(d.join(fit)).unwrap();
+    let runs: [(Vec<&str>, &str); 5] = [
+        (
+            vec!["emit", "--fit", fit, "--lang", "glsl", "--output", fit],
+            "is also the --fit file",
+        ),
+        (
+            vec!["eval", "--fit", fit, "--input", "p.csv", "--output", fit],
+            "is also the --fit file",
+        ),
+        (
+            vec![
+                "eval", "--fit", fit, "--input", "p.csv", "--output", "link.csv",
+            ],
+            "is also the --input file",
+        ),
+        (
+            vec![
+                "eval",
+                "--model",
+                "ggx-conductor",
+                "--input",
+                "p.csv",
+                "--output",
+                "p.csv",
+            ],
+            "is also the --input file",
+        ),
+        (
+            vec![
+                "fit",
+                "--table",
+                "t.csv",
+                "--form",
+                "polynomial",
+                "--degree",
+                "1",
+                "--output",
+                "t.csv",
+            ],
+            "is also the --table file",
+        ),
+    ];
+    for (args, want) in runs {
+        let o = furnace(&args, &d);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            e.contains(want) && e.contains("give another path"),
+            "{args:?}: {e}"
+        );
+    }
+    // every input is as it was
+    assert_eq!(std::fs::read(d.join(fit)).unwrap(), fit_bytes);
+    assert_eq!(
+        std::fs::read_to_string(d.join("p.csv")).unwrap(),
+        "r,mu\n0.5,0.5\n"
+    );
+    assert!(std::fs::read_to_string(d.join("t.csv"))
+        .unwrap()
+        .starts_with("x,E\n"));
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -1,6 +1,6 @@
 //! `furnace emit` and `furnace stress`: thin wrappers over [`crate::emit`].
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 
@@ -104,6 +104,8 @@ pub fn emit_cmd(args: &EmitArgs) -> Result<()> {
     // an unwritable output is refused before the stress tests and LUT tables are computed
     if let Some(t) = &target {
         t.check("--output")?;
+        let fits: Vec<(&Path, &str)> = args.fit.iter().map(|f| (f.as_path(), "--fit")).collect();
+        t.check_not_input(&fits, "--output")?;
     }
     if langs.contains(&Lang::Lut) {
         crate::output::check_dir_creatable(&args.lut_dir, "--lut-dir")?;

@@ -27,7 +27,12 @@ pub fn eval_cmd(args: &EvalArgs) -> Result<()> {
 /// is the emitted code's function in f64 (inputs clamped to the domain, output to [0, 1]), or
 /// with `--raw` the approximant itself at points inside the domain.
 fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
-    Target::from_arg(&args.output).check("--output")?;
+    let target = Target::from_arg(&args.output);
+    target.check("--output")?;
+    target.check_not_input(
+        &[(fit_path, "--fit"), (args.input.as_path(), "--input")],
+        "--output",
+    )?;
     let checked = fitfile::load(fit_path)?;
     let rec = &checked.record;
     let a = &rec.fit.approximant;
@@ -60,7 +65,6 @@ fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
         out.push_str(&raw.join(","));
         out.push_str(&format!(",{e}\n"));
     }
-    let target = Target::from_arg(&args.output);
     target.write(out.as_bytes())?;
     eprintln!(
         "{} points of {} evaluated to {} ({}){}",
@@ -91,7 +95,9 @@ fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
 
 fn eval_model(args: &EvalArgs, name: &str) -> Result<()> {
     // an unwritable output is refused before the quadrature, not after it
-    Target::from_arg(&args.output).check("--output")?;
+    let target = Target::from_arg(&args.output);
+    target.check("--output")?;
+    target.check_not_input(&[(args.input.as_path(), "--input")], "--output")?;
     let settings = args.quadrature.settings()?;
     let model = args.quadrature.model(name)?;
     let axes: Vec<String> = model.axes().iter().map(|a| a.name.clone()).collect();
@@ -128,7 +134,6 @@ fn eval_model(args: &EvalArgs, name: &str) -> Result<()> {
         out.push_str(&format!(",{:.3e}\n", e.error));
         unconverged += usize::from(!e.converged);
     }
-    let target = Target::from_arg(&args.output);
     target.write(out.as_bytes())?;
     eprintln!(
         "{} points of {} evaluated to {}{}",

@@ -272,7 +272,13 @@ fn boxed_name(name: &str, bounds: &[source::AxisDecl]) -> String {
 /// data folder where tables and timings go.
 fn check_outputs(args: &FitArgs) -> Result<()> {
     match &args.output {
-        Some(p) if !args.sweep => Target::from_arg(p).check("--output")?,
+        Some(p) if !args.sweep => {
+            let target = Target::from_arg(p);
+            target.check("--output")?;
+            if let Some(table) = &args.table {
+                target.check_not_input(&[(table.as_path(), "--table")], "--output")?;
+            }
+        }
         _ => output::check_dir_creatable(&args.fits_dir, "--fits-dir")?,
     }
     if args.table.is_none() || args.data_dir.is_some() {

@@ -853,3 +853,24 @@ fn emit_refuses_a_pole_free_fit_whose_f32_code_fails_the_stress_test() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn the_f0_argument_of_every_dielectric_gives_the_range_of_eta_not_of_one_over_eta() {
+    for name in [
+        "ggx-dielectric",
+        "ggx-dielectric-separable",
+        "ggx-dielectric-inv",
+        "ggx-dielectric-inv-separable",
+    ] {
+        let model = furnace::bsdf::find(name).unwrap();
+        let f0 = &model.axes()[0];
+        assert_eq!(f0.name, "f0");
+        // η = (1+√F0)/(1−√F0) spans 1.25 … 3 over the default F0 range; 1/η spans 1/3 … 0.8
+        let d = &f0.description;
+        let range = d.find("(1.25 … 3 by default)").expect(d);
+        assert!(
+            d[..range].trim_end().ends_with("η = (1+√F0)/(1−√F0)"),
+            "{name}: the range follows η itself: {d}"
+        );
+    }
+}

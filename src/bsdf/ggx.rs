@@ -253,7 +253,7 @@ impl Model for GgxModel {
                     (0.0125, 0.25),
                     (0.0, 0.99),
                     if inverse {
-                        "normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR η = (1+√F0)/(1−√F0), so this side sees 1/η (1.25 … 3 by default)"
+                        "normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR η = (1+√F0)/(1−√F0) (1.25 … 3 by default), so this side sees 1/η"
                     } else {
                         "normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR η = (1+√F0)/(1−√F0) (1.25 … 3 by default)"
                     },

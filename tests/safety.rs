@@ -874,3 +874,57 @@ fn the_f0_argument_of_every_dielectric_gives_the_range_of_eta_not_of_one_over_et
         );
     }
 }
+
+#[test]
+fn a_user_tables_fit_is_measured_on_the_tables_points_while_the_table_is_unchanged() {
+    let d = scratch("user-points");
+    let mut csv = String::from("x,E\n");
+    for i in 0..=40 {
+        let x = i as f64 / 40.0;
+        csv.push_str(&format!("{x},{}\n", 1.0 / (1.0 + x)));
+    }
+    std::fs::write(d.join("t.csv"), &csv).unwrap();
+    ok(&furnace(
+        &[
+            "fit",
+            "--table",
+            "t.csv",
+            "--form",
+            "polynomial",
+            "--degree",
+            "3",
+            "--output",
+            "fits/t.json",
+        ],
+        &d,
+    ));
+    let emit = |dir: &Path| {
+        let o = furnace(
+            &[
+                "emit",
+                "--fit",
+                "fits/t.json",
+                "--lang",
+                "glsl",
+                "--output",
+                "-",
+            ],
+            dir,
+        );
+        text(&ok(&o).stdout)
+    };
+    let src = emit(&d);
+    assert!(
+        src.contains("// Error at the 41 points of its table t.csv (output clamp applied)"),
+        "{src}"
+    );
+    assert!(!src.contains("not at hand"), "{src}");
+    // changed, the table is no longer the one fitted: the header falls back to the bound
+    std::fs::write(d.join("t.csv"), csv.replace("x,E\n0,1\n", "x,E\n0,0.9\n")).unwrap();
+    let src = emit(&d);
+    assert!(
+        src.contains("the table was not at hand to measure it"),
+        "{src}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

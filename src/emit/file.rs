@@ -49,6 +49,51 @@ pub fn referenced_table(file: &FitRecord, data_dir: &Path) -> Result<Option<crat
     io::load_cached(&t.spec, &stem)
 }
 
+/// The points of the user's table a fit file was made from, if that file is still there (as
+/// the fit command named it, or beside the fit file) with the content hash the fit recorded;
+/// a fit restricted to a sub-box gets the points inside it. `None` for a furnace table's fit
+/// and for a table that cannot be read as it was (an EXR whose axes were given on the command
+/// line, say): the header then states the fit's own error plus the f32 bound.
+pub fn user_points(file: &FitRecord, fit_path: &Path) -> Option<super::UserPoints> {
+    let src = &file.source;
+    if file.table.is_some() || src.kind == "furnace_table" || src.kind.starts_with("paper") {
+        return None;
+    }
+    let named = PathBuf::from(src.path.as_deref()?);
+    let beside = fit_path.parent().map(|d| d.join(&named));
+    let path = std::iter::once(named.clone())
+        .chain(beside)
+        .find(|p| p.is_file())?;
+    let options = crate::fit::source::UserTableOptions {
+        channel: Some(src.channel.clone()),
+        axes: None,
+    };
+    let input = crate::fit::source::load_user_table(&path, &options).ok()?;
+    let a = &file.fit.approximant;
+    if input.source.content_hash != src.content_hash || input.data.names != a.variables {
+        return None;
+    }
+    let data = &input.data;
+    let inside = |x: &[f64]| {
+        src.restricted_to
+            .as_ref()
+            .is_none_or(|b| x.iter().zip(b).all(|(v, (lo, hi))| (*lo..=*hi).contains(v)))
+    };
+    let (mut coords, mut values) = (Vec::new(), Vec::new());
+    for i in 0..data.len() {
+        let x = data.point(i);
+        if inside(x) {
+            coords.extend_from_slice(x);
+            values.push(data.values[i]);
+        }
+    }
+    (!values.is_empty()).then(|| super::UserPoints {
+        name: named.display().to_string(),
+        coords,
+        values,
+    })
+}
+
 /// Emits the fit file at `path` in `options.langs`: source files next to it (or the one file of
 /// `target`), LUTs under `options.lut_dir`. Every byte is produced (and every shader validated)
 /// before anything is written. `log` gets the notes and accuracy lines `furnace emit` prints.
@@ -68,7 +113,8 @@ pub fn emit_fit_file(
         Some(_) if table.is_none() => Some(format!("note: the table of {} is not in the cache; the header states the fit's error on its data plus the f32 bound instead of measuring the code on the table", path.display())),
         _ => None,
     };
-    let src = SourceFit::new(path, file, table)?;
+    let points = user_points(&file, path);
+    let src = SourceFit::new(path, file, table)?.with_points(points);
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -126,8 +172,17 @@ pub fn emit_fit_file(
         ));
         if let Some(t) = &e.table {
             log(&format!(
-                "    on its table ({} nodes): f64 MAE {:.2e} max {:.2e}; f32 MAE {:.2e} max {:.2e}",
-                t.points, t.f64_mae, t.f64_max, t.f32_mae, t.f32_max
+                "    on its table ({} {}): f64 MAE {:.2e} max {:.2e}; f32 MAE {:.2e} max {:.2e}",
+                t.points,
+                if src.table.is_some() {
+                    "nodes"
+                } else {
+                    "points"
+                },
+                t.f64_mae,
+                t.f64_max,
+                t.f32_mae,
+                t.f32_max
             ));
         }
     }

@@ -183,6 +183,18 @@ pub struct SourceFit {
     pub record: FitRecord,
     pub q_min: Option<f64>,
     pub table: Option<Table>,
+    /// A user's table the fit was made from (no furnace table): its points, on which the f32
+    /// code's error is measured as on a furnace table's nodes.
+    pub points: Option<UserPoints>,
+}
+
+/// The points of a user's table: how the header names it, the coordinates (row-major, in the
+/// fit's variable order) and the values.
+#[derive(Clone, Debug)]
+pub struct UserPoints {
+    pub name: String,
+    pub coords: Vec<f64>,
+    pub values: Vec<f64>,
 }
 
 impl SourceFit {
@@ -209,7 +221,14 @@ impl SourceFit {
             record,
             q_min,
             table,
+            points: None,
         })
+    }
+
+    /// Attaches a user table's points (see [`SourceFit::points`]).
+    pub fn with_points(mut self, points: Option<UserPoints>) -> SourceFit {
+        self.points = points;
+        self
     }
 
     /// The model (or user table) the emitted functions are named after.
@@ -417,6 +436,38 @@ pub fn table_accuracy(
     })
 }
 
+/// [`table_accuracy`] at a user table's points (in order, on one thread: user tables are small).
+pub fn points_accuracy(
+    compiled: &ir::Compiled,
+    record: &FitRecord,
+    points: &UserPoints,
+) -> TableAccuracy {
+    let d = compiled.n_params();
+    let mut acc = ChunkAccuracy::default();
+    let mut x32 = vec![0.0f32; d];
+    let mut regs = Vec::new();
+    for (x, &y) in points.coords.chunks_exact(d).zip(&points.values) {
+        for k in 0..d {
+            x32[k] = x[k] as f32;
+        }
+        let e64 = (record.fit.eval(x).clamp(0.0, 1.0) - y).abs();
+        let e32 = (compiled.eval_f32(&x32, ir::Arith::Ieee, &mut regs) as f64 - y).abs();
+        acc.s64.add(e64);
+        acc.s32.add(e32);
+        acc.m64 = acc.m64.max(e64);
+        acc.m32 = acc.m32.max(e32);
+    }
+    let n = points.values.len().max(1) as f64;
+    TableAccuracy {
+        table: points.name.clone(),
+        points: points.values.len(),
+        f64_mae: acc.s64.value() / n,
+        f64_max: acc.m64,
+        f32_mae: acc.s32.value() / n,
+        f32_max: acc.m32,
+    }
+}
+
 /// The lines saying what each argument means: its model's description, the unit, the fitted
 /// domain (inputs are clamped to it) and the input transform.
 fn argument_doc(src: &SourceFit, params: &[String]) -> Vec<String> {
@@ -528,8 +579,8 @@ fn albedo_doc(src: &SourceFit, name: &str, params: &[String], e: &EmittedFit) ->
     ));
     match &e.table {
         Some(t) => doc.push(format!(
-            "Error at the {} nodes of its table {} (output clamp applied): f64 MAE {:.2e}, max {:.2e}; this f32 code MAE {:.2e}, max {:.2e}.",
-            t.points, t.table, t.f64_mae, t.f64_max, t.f32_mae, t.f32_max
+            "Error at the {} {} of its table {} (output clamp applied): f64 MAE {:.2e}, max {:.2e}; this f32 code MAE {:.2e}, max {:.2e}.",
+            t.points, if src.table.is_none() { "points" } else { "nodes" }, t.table, t.f64_mae, t.f64_max, t.f32_mae, t.f32_max
         )),
         None => doc.push(format!(
             "Error of this f32 code on the fit's data: max <= {:.2e} + {:.2e} (the f64 max plus the bound; the table was not at hand to measure it).",
@@ -716,9 +767,10 @@ pub fn build_unit(
         };
         let compiled =
             ir::Compiled::new(&single, &name).map_err(|e| Error::InvalidInput(e.to_string()))?;
-        let table = match &src.table {
-            Some(t) => Some(table_accuracy(&compiled, r, t)?),
-            None => None,
+        let table = match (&src.table, &src.points) {
+            (Some(t), _) => Some(table_accuracy(&compiled, r, t)?),
+            (None, Some(p)) => Some(points_accuracy(&compiled, r, p)),
+            (None, None) => None,
         };
         let bound =
             bound::albedo_bound(&single, &name, &r.fit, &generate::transformed_lets(&r.fit));

@@ -155,6 +155,12 @@ pub fn stress_cmd(args: &StressArgs) -> Result<()> {
         },
     )?;
     print!("{}", report.render());
+    if args.points < DEFAULT_POINTS {
+        println!(
+            "note: {} random points are fewer than the {DEFAULT_POINTS} that emit and run test before writing code; this verdict is not theirs",
+            args.points
+        );
+    }
     if report.passed() {
         Ok(())
     } else {

@@ -78,13 +78,19 @@ fn eval_fit(args: &EvalArgs, fit_path: &Path) -> Result<()> {
         },
         if outside > 0 {
             format!(
-                "; {outside} points lie outside the domain {} and were clamped into it",
+                "; {outside} {} outside the domain {} and {} clamped into it",
+                if outside == 1 {
+                    "point lies"
+                } else {
+                    "points lie"
+                },
                 a.variables
                     .iter()
                     .zip(&a.domain)
                     .map(|(v, (lo, hi))| format!("{v} in [{lo}, {hi}]"))
                     .collect::<Vec<_>>()
-                    .join(", ")
+                    .join(", "),
+                if outside == 1 { "was" } else { "were" }
             )
         } else {
             String::new()

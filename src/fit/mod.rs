@@ -71,8 +71,8 @@ pub use poles::{CertifyOptions, PoleVerdict};
 pub use polynomial::{fit_polynomial, PolynomialOptions};
 pub use rational::{fit_rational, RationalOptions};
 pub use result::{
-    Approximant, Family, FitResult, Form, FormSpec, Objective, SolverReport, StartReport,
-    Structure, Term,
+    Approximant, Family, FitResult, Form, FormSpec, LawsonPathIterate, Objective, SolverReport,
+    StartReport, Structure, Term,
 };
 pub use structured::{fit_structured, StructuredOptions};
 pub use sweep::{

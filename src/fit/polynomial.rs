@@ -115,18 +115,16 @@ pub(crate) fn fit_polynomial_model(
         converged: rw.converged,
         iterations: 0,
         reweighting_iterations: rw.rounds,
+        lawson_path: None,
         condition: Some(condition),
         exploration_points: prep.len(),
         starts: Vec::new(),
     };
-    let mut result = FitResult::assess(
-        form,
-        approximant,
-        data,
-        objective,
-        Some(solver),
-        &CertifyOptions::default(),
-    )?;
+    let certify = CertifyOptions::default();
+    let mut result = FitResult::assess(form, approximant, data, objective, Some(solver), &certify)?
+        .with_path(&rw.path, data, &certify, &|p| {
+            model.to_approximant(data, transforms, &prep, p)
+        })?;
     result.fit_seconds = start.elapsed().as_secs_f64();
     Ok(result)
 }

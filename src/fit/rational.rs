@@ -390,6 +390,7 @@ pub(crate) fn fit_rational_model(
 
     // 4. other objectives
     let mut rounds = 0;
+    let mut path = Vec::new();
     let mut final_termination = best.termination;
     let mut final_iterations = best.iterations;
     let mut converged = best.termination.converged();
@@ -437,6 +438,7 @@ pub(crate) fn fit_rational_model(
             final_termination = rw.termination.unwrap_or(final_termination);
             final_iterations = rw.lm_iterations;
             params = rw.params;
+            path = rw.path;
         }
     }
 
@@ -457,6 +459,7 @@ pub(crate) fn fit_rational_model(
         converged,
         iterations: final_iterations,
         reweighting_iterations: rounds,
+        lawson_path: None,
         condition: None,
         exploration_points: ex.len(),
         starts: reports,
@@ -468,7 +471,10 @@ pub(crate) fn fit_rational_model(
         objective,
         Some(solver),
         &opts.certify,
-    )?;
+    )?
+    .with_path(&path, data, &opts.certify, &|p| {
+        model.to_approximant(data, transforms, &prep, p)
+    })?;
     result.fit_seconds = start_time.elapsed().as_secs_f64();
     Ok(result)
 }

@@ -704,13 +704,46 @@ pub struct SolverReport {
     pub converged: bool,
     /// Levenberg–Marquardt steps of the final run (0 for a direct solve).
     pub iterations: usize,
-    /// IRLS / Lawson reweighting rounds (0 for least squares).
+    /// IRLS / Lawson reweighting rounds (0 for least squares); for an iterate of the Lawson
+    /// path, the round it stopped at.
     pub reweighting_iterations: usize,
+    /// Set when these coefficients are an iterate of the Lawson path kept beside the
+    /// lowest-max one (absent in fit files of the path's end).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lawson_path: Option<LawsonPathIterate>,
     /// Scaled condition number of the final linear solve, if there was one.
     pub condition: Option<f64>,
     /// Points used for the multi-start exploration (all points if not subsampled).
     pub exploration_points: usize,
     pub starts: Vec<StartReport>,
+}
+
+/// An iterate of the Lawson path (Lawson 1961) kept beside the lowest-max one: the lowest max
+/// error among the path's iterates whose MAE on the fitting points is at most `mae_bound` × the
+/// least-squares start's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LawsonPathIterate {
+    /// The reweighting round it stopped at.
+    pub round: usize,
+    /// Rounds Lawson's own path ran.
+    pub of_rounds: usize,
+    /// Its MAE bound, a multiple of the least-squares start's MAE on the fitting points.
+    pub mae_bound: f64,
+    /// λ of the round's weights (1 − λ)·1 + λ·u, u Lawson's: below 1 for the path's blended
+    /// branch, 1 for Lawson's own iterates.
+    pub blend: f64,
+}
+
+impl LawsonPathIterate {
+    /// `round<sep>7`, or `blend<sep>0.75<gap>round<sep>3` for the blended branch.
+    pub fn label(&self, gap: &str, sep: &str) -> String {
+        let round = format!("round{sep}{}", self.round);
+        if self.blend < 1.0 {
+            format!("blend{sep}{}{gap}{round}", self.blend)
+        } else {
+            round
+        }
+    }
 }
 
 /// The full record of a fit.
@@ -728,6 +761,10 @@ pub struct FitResult {
     /// Wall time of the fit; not serialised, so the JSON is reproducible byte for byte.
     #[serde(skip)]
     pub fit_seconds: f64,
+    /// Other iterates of a minimax fit's Lawson path, each a fit of its own
+    /// ([`SolverReport::lawson_path`]); the sweep measures them as rows. Not serialised.
+    #[serde(skip)]
+    pub path: Vec<FitResult>,
 }
 
 impl FitResult {
@@ -760,6 +797,7 @@ impl FitResult {
             solver,
             poles,
             fit_seconds: 0.0,
+            path: Vec::new(),
         })
     }
 
@@ -771,6 +809,56 @@ impl FitResult {
     /// Proved pole-free on the domain and finite at every data point: safe to emit.
     pub fn is_usable(&self) -> bool {
         self.poles.is_certified() && self.metrics.non_finite == 0
+    }
+
+    /// The fits of `path` (a reweighting loop's [`super::robust::PathIterate`]s) with this fit's
+    /// form, objective and solver report, each recording its round; `to_approximant` turns
+    /// solver parameters into the emitted form.
+    pub(crate) fn with_path(
+        mut self,
+        path: &[super::robust::PathIterate],
+        data: &FitData,
+        certify: &CertifyOptions,
+        to_approximant: &dyn Fn(&[f64]) -> Approximant,
+    ) -> Result<FitResult> {
+        let Some(solver) = self.solver.clone() else {
+            return Ok(self);
+        };
+        let of_rounds = solver.reweighting_iterations;
+        for it in path {
+            let which = if it.blend < 1.0 {
+                format!(
+                    "the iterate of round {} of a branch of the Lawson path solved with weights (1 − λ)·1 + λ·u (u Lawson's), λ = {}",
+                    it.round, it.blend
+                )
+            } else {
+                format!("the Lawson iterate of round {} of {of_rounds}", it.round)
+            };
+            let report = SolverReport {
+                method: format!(
+                    "{}; {which}, the lowest max error among the path's iterates whose MAE on the fitting points is ≤ {}× the least-squares start's",
+                    solver.method, it.mae_bound
+                ),
+                reweighting_iterations: it.round,
+                lawson_path: Some(LawsonPathIterate {
+                    round: it.round,
+                    of_rounds,
+                    mae_bound: it.mae_bound,
+                    blend: it.blend,
+                }),
+                ..solver.clone()
+            };
+            let fit = FitResult::assess(
+                self.form.clone(),
+                to_approximant(&it.params),
+                data,
+                self.objective,
+                Some(report),
+                certify,
+            )?;
+            self.path.push(fit);
+        }
+        Ok(self)
     }
 
     /// Pretty, deterministic JSON.

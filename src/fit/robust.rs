@@ -6,6 +6,13 @@
 //!   problems and is used here as a heuristic for rationals,
 //!
 //! where ρ_i = w_i (f(x_i) − y_i). The best iterate in the target objective is kept.
+//!
+//! Lawson's iterates trade mean error for max error as the weights concentrate on the worst
+//! points, so the path itself is a family of fits: for minimax the loop also keeps a few
+//! iterates of its (max, MAE) Pareto front ([`PathIterate`]), the lowest max error among those
+//! whose MAE stays within each of [`PATH_MAE_BOUNDS`] × the least-squares start's. A short
+//! branch from the same start solves with weights blended towards uniform ([`LAWSON_BLEND`]),
+//! passing through fits of small MAE cost that Lawson's first round jumps over.
 
 use super::error::Result;
 use super::lm::TerminationReason;
@@ -18,6 +25,28 @@ const IRLS_DELTA: f64 = 1e-3;
 const LAWSON_WEIGHT_FLOOR: f64 = 1e-12;
 /// Stop after this many rounds without improving the best objective value.
 const PATIENCE: usize = 8;
+/// The Lawson path iterates kept beside the best one: per bound b, the iterate with the lowest
+/// max error among those whose MAE (on the fitting points) is at most b × the start's.
+pub(crate) const PATH_MAE_BOUNDS: [f64; 3] = [1.15, 1.3, 1.5];
+/// A blended branch of the path: rounds solved with the weights (1 − λ)·1 + λ·u (u Lawson's,
+/// normalised to a largest of 1), λ from this list in turn, u updated as Lawson's: it passes
+/// through fits of small MAE cost that Lawson's own first round jumps over.
+pub(crate) const LAWSON_BLEND: [f64; 3] = [0.25, 0.5, 0.75];
+/// Candidates tried per bound when `accept` (a pole certificate) rejects the first.
+const PATH_TRIES: usize = 3;
+
+/// An iterate of the Lawson path kept beside the lowest-objective one.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct PathIterate {
+    /// The reweighting round that produced it (1 = the first reweighted solve).
+    pub round: usize,
+    /// The MAE bound (a multiple of the least-squares start's MAE) it was kept for.
+    pub mae_bound: f64,
+    /// λ of the weights it was solved with (< 1: the blended branch, [`LAWSON_BLEND`]; 1 =
+    /// Lawson's own).
+    pub blend: f64,
+    pub params: Vec<f64>,
+}
 
 /// The objective's value on weighted residuals ρ_i = w_i e_i.
 pub(crate) fn objective_value(obj: Objective, w: &[f64], e: &[f64]) -> f64 {
@@ -43,10 +72,18 @@ pub(crate) struct Reweighted {
     pub converged: bool,
     pub termination: Option<TerminationReason>,
     pub lm_iterations: usize,
+    /// The round of the kept (lowest-objective) iterate; 0 = the start.
+    pub best_round: usize,
+    /// Minimax only: other iterates of the path ([`PATH_MAE_BOUNDS`]), in the bounds' order,
+    /// each with a lower max error than the start, none the best iterate itself.
+    pub path: Vec<PathIterate>,
 }
 
 /// Reweighting loop for MeanAbsolute / Minimax from a least-squares solution `(p0, e0)`.
 /// `accept` vets a new best candidate (e.g. the pole certificate for rationals).
+///
+/// For minimax, a short branch of [`LAWSON_BLEND`]`.len()` rounds from the same start solves
+/// with blended weights first; its iterates are candidates of the path only.
 pub(crate) fn reweight(
     objective: Objective,
     max_rounds: usize,
@@ -64,18 +101,47 @@ pub(crate) fn reweight(
         converged: false,
         termination: None,
         lm_iterations: 0,
+        best_round: 0,
+        path: Vec::new(),
     };
     if objective == Objective::LeastSquares {
         out.converged = true;
         return Ok(out);
     }
+    // every minimax iterate, for the path
+    let mut iterates: Vec<Iterate> = Vec::new();
+    let start = (max_abs(w, &e0), mean_abs(w, &e0));
+    if objective == Objective::Minimax {
+        let mut u = vec![1.0; n];
+        let (mut p, mut e) = (p0.clone(), e0.clone());
+        for (round, &blend) in (1..).zip(&LAWSON_BLEND) {
+            if !lawson_update(&mut u, w, &e) {
+                break;
+            }
+            let extra: Vec<f64> = u
+                .iter()
+                .map(|x| ((1.0 - blend) + blend * x).sqrt())
+                .collect();
+            let Some((pn, en, _, _)) = solve(&extra, &p)? else {
+                break;
+            };
+            (p, e) = (pn, en);
+            iterates.push(Iterate {
+                round,
+                blend,
+                max: max_abs(w, &e),
+                mae: mean_abs(w, &e),
+                params: p.clone(),
+            });
+        }
+    }
     let mut u = vec![1.0; n];
     let (mut p, mut e) = (p0, e0);
     let mut since_best = 0;
     for round in 1..=max_rounds {
-        let rho: Vec<f64> = w.iter().zip(&e).map(|(w, e)| (w * e).abs()).collect();
         match objective {
             Objective::MeanAbsolute => {
+                let rho: Vec<f64> = w.iter().zip(&e).map(|(w, e)| (w * e).abs()).collect();
                 let mean = rho.iter().sum::<f64>() / n as f64;
                 let delta = (IRLS_DELTA * mean).max(f64::MIN_POSITIVE);
                 for (ui, r) in u.iter_mut().zip(&rho) {
@@ -83,16 +149,9 @@ pub(crate) fn reweight(
                 }
             }
             Objective::Minimax => {
-                for (ui, r) in u.iter_mut().zip(&rho) {
-                    *ui *= r;
-                }
-                let umax = u.iter().fold(0.0f64, |m, &x| m.max(x));
-                if !(umax > 0.0) {
+                if !lawson_update(&mut u, w, &e) {
                     out.converged = true; // exact fit
                     break;
-                }
-                for ui in u.iter_mut() {
-                    *ui = (*ui / umax).max(LAWSON_WEIGHT_FLOOR);
                 }
             }
             Objective::LeastSquares => unreachable!("returned above"),
@@ -107,8 +166,18 @@ pub(crate) fn reweight(
         p = pn;
         e = en;
         let value = objective_value(objective, w, &e);
+        if objective == Objective::Minimax {
+            iterates.push(Iterate {
+                round,
+                blend: 1.0,
+                max: value,
+                mae: mean_abs(w, &e),
+                params: p.clone(),
+            });
+        }
         if value < best.0 * (1.0 - 1e-9) && accept(&p) {
             best = (value, p.clone());
+            out.best_round = round;
             since_best = 0;
         } else {
             since_best += 1;
@@ -119,5 +188,210 @@ pub(crate) fn reweight(
         }
     }
     out.params = best.1;
+    out.path = path_iterates(&iterates, start, out.best_round, accept);
     Ok(out)
+}
+
+/// Lawson's update u_i ← u_i |ρ_i| / max_j u_j |ρ_j| (Lawson 1961), floored at
+/// [`LAWSON_WEIGHT_FLOOR`]; false if every residual is zero (an exact fit).
+fn lawson_update(u: &mut [f64], w: &[f64], e: &[f64]) -> bool {
+    for ((ui, w), e) in u.iter_mut().zip(w).zip(e) {
+        *ui *= (w * e).abs();
+    }
+    let umax = u.iter().fold(0.0f64, |m, &x| m.max(x));
+    if !(umax > 0.0) {
+        return false;
+    }
+    for ui in u.iter_mut() {
+        *ui = (*ui / umax).max(LAWSON_WEIGHT_FLOOR);
+    }
+    true
+}
+
+/// One minimax iterate: its round, the blend λ of its weights, its errors on the fitting points.
+#[derive(Clone, Debug)]
+pub(crate) struct Iterate {
+    pub round: usize,
+    pub blend: f64,
+    pub max: f64,
+    pub mae: f64,
+    pub params: Vec<f64>,
+}
+
+fn max_abs(w: &[f64], e: &[f64]) -> f64 {
+    objective_value(Objective::Minimax, w, e)
+}
+
+fn mean_abs(w: &[f64], e: &[f64]) -> f64 {
+    objective_value(Objective::MeanAbsolute, w, e) / e.len().max(1) as f64
+}
+
+/// The iterates kept beside the best: per bound b of [`PATH_MAE_BOUNDS`], the accepted iterate
+/// with the lowest max error (ties: Lawson's own, then the earlier round) among those with
+/// MAE ≤ b × the start's MAE and a max error below the start's; an iterate is kept once, the
+/// best one (round `best_round` of Lawson's own weights) never.
+pub(crate) fn path_iterates(
+    iterates: &[Iterate],
+    (start_max, start_mae): (f64, f64),
+    best_round: usize,
+    accept: &mut dyn FnMut(&[f64]) -> bool,
+) -> Vec<PathIterate> {
+    let same = |a: &Iterate, round: usize, blend: f64| a.round == round && a.blend == blend;
+    let mut kept: Vec<PathIterate> = Vec::new();
+    let mut rejected: Vec<(usize, f64)> = Vec::new();
+    for bound in PATH_MAE_BOUNDS {
+        let mut c: Vec<&Iterate> = iterates
+            .iter()
+            .filter(|it| {
+                !same(it, best_round, 1.0)
+                    && it.max.is_finite()
+                    && it.max < start_max
+                    && it.mae <= bound * start_mae
+                    && !rejected.iter().any(|&(r, b)| same(it, r, b))
+            })
+            .collect();
+        c.sort_by(|a, b| {
+            a.max
+                .total_cmp(&b.max)
+                .then(b.blend.total_cmp(&a.blend))
+                .then(a.round.cmp(&b.round))
+        });
+        for it in c.into_iter().take(PATH_TRIES) {
+            if kept.iter().any(|k| same(it, k.round, k.blend)) {
+                break; // a tighter bound already kept the best of these
+            }
+            if accept(&it.params) {
+                kept.push(PathIterate {
+                    round: it.round,
+                    mae_bound: bound,
+                    blend: it.blend,
+                    params: it.params.clone(),
+                });
+                break;
+            }
+            rejected.push((it.round, it.blend));
+        }
+    }
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::{fit_polynomial, FitData, InputTransform, PolynomialOptions};
+
+    fn grid() -> FitData {
+        let ax: Vec<f64> = (0..21).map(|i| i as f64 / 20.0).collect();
+        let vals = ax
+            .iter()
+            .flat_map(|&x| ax.iter().map(move |&y| (x, y)))
+            .map(|(x, y)| (1.0 + 3.0 * x * y).sqrt() / (1.1 + x) + (-8.0 * y).exp())
+            .collect();
+        FitData::from_grid(vec!["x".into(), "y".into()], &[ax.clone(), ax], vals).unwrap()
+    }
+
+    #[test]
+    fn the_lawson_path_keeps_iterates_inside_the_mae_bands() {
+        let data = grid();
+        let t = [InputTransform::Identity; 2];
+        let opts = PolynomialOptions::default();
+        let ls = fit_polynomial(&data, &t, 3, Objective::LeastSquares, &opts).unwrap();
+        let mm = fit_polynomial(&data, &t, 3, Objective::Minimax, &opts).unwrap();
+        // the path's end trades MAE for max error beyond the tightest band
+        assert!(mm.metrics.max_abs_error < ls.metrics.max_abs_error);
+        assert!(
+            mm.metrics.mae > PATH_MAE_BOUNDS[0] * ls.metrics.mae,
+            "{mm:?}"
+        );
+        assert!(!mm.path.is_empty());
+        let rounds = mm.solver.as_ref().unwrap().reweighting_iterations;
+        let mut seen = Vec::new();
+        for p in &mm.path {
+            let it = p.solver.as_ref().unwrap().lawson_path.clone().unwrap();
+            assert!(it.round >= 1 && it.round <= rounds && it.of_rounds == rounds);
+            assert_eq!(p.solver.as_ref().unwrap().reweighting_iterations, it.round);
+            assert!(!seen.contains(&it.round));
+            seen.push(it.round);
+            assert!(p.metrics.max_abs_error < ls.metrics.max_abs_error);
+            assert!(p.metrics.max_abs_error > mm.metrics.max_abs_error);
+            // relative slack: the bound is judged on the solver's (Chebyshev) coefficients
+            assert!(
+                p.metrics.mae <= it.mae_bound * ls.metrics.mae * (1.0 + 1e-6),
+                "round {}: MAE {:e} vs start {:e}",
+                it.round,
+                p.metrics.mae,
+                ls.metrics.mae
+            );
+            assert!(p.path.is_empty() && p.is_usable());
+        }
+        // one of them is within the selection's band of the start's MAE
+        assert!(mm
+            .path
+            .iter()
+            .any(|p| p.metrics.mae <= crate::fit::sweep::MAE_TOLERANCE * ls.metrics.mae));
+        // deterministic
+        let again = fit_polynomial(&data, &t, 3, Objective::Minimax, &opts).unwrap();
+        assert_eq!(again.path, mm.path);
+        // least squares and the mean-absolute objective have no path
+        assert!(ls.path.is_empty());
+        let mae = fit_polynomial(&data, &t, 3, Objective::MeanAbsolute, &opts).unwrap();
+        assert!(mae.path.is_empty());
+    }
+
+    #[test]
+    fn path_fits_say_what_they_are_and_old_files_load() {
+        let data = grid();
+        let t = [InputTransform::Identity; 2];
+        let mm = fit_polynomial(
+            &data,
+            &t,
+            3,
+            Objective::Minimax,
+            &PolynomialOptions::default(),
+        )
+        .unwrap();
+        let end = mm.to_json().unwrap();
+        // the path's end carries no field of the path
+        assert!(!end.contains("lawson_path"), "{end}");
+        let back: crate::fit::FitResult = serde_json::from_str(&end).unwrap();
+        assert_eq!(back.solver, mm.solver);
+        let p = &mm.path[0];
+        let json = p.to_json().unwrap();
+        assert!(json.contains("\"lawson_path\"") && json.contains("\"minimax\""));
+        let back: crate::fit::FitResult = serde_json::from_str(&json).unwrap();
+        let it = back.solver.unwrap().lawson_path.unwrap();
+        assert_eq!(Some(&it), p.solver.as_ref().unwrap().lawson_path.as_ref());
+        let label = it.label("-", "");
+        assert!(label.starts_with("round") || label.starts_with("blend"));
+        assert!(label.ends_with(&format!("round{}", it.round)), "{label}");
+    }
+
+    #[test]
+    fn path_selection_per_bound() {
+        // (round, max, MAE): start max 1.0, MAE 1.0
+        let it = |round: usize, max: f64, mae: f64| Iterate {
+            round,
+            blend: 1.0,
+            max,
+            mae,
+            params: vec![round as f64],
+        };
+        let iterates = vec![
+            it(1, 0.8, 1.1),  // ≤ 1.15
+            it(2, 0.7, 1.2),  // ≤ 1.3
+            it(3, 0.75, 1.1), // ≤ 1.15, lower max than round 1
+            it(4, 0.5, 2.0),  // the best (the path's end): never kept here
+            it(5, 1.2, 1.0),  // worse than the start's max
+        ];
+        let mut all = |_: &[f64]| true;
+        let kept = path_iterates(&iterates, (1.0, 1.0), 4, &mut all);
+        let rounds: Vec<(usize, f64)> = kept.iter().map(|k| (k.round, k.mae_bound)).collect();
+        // 1.5 finds round 2 again, kept once
+        assert_eq!(rounds, vec![(3, 1.15), (2, 1.3)]);
+        // a rejected candidate (e.g. no pole certificate) gives way to the next
+        let mut not_3 = |p: &[f64]| p[0] != 3.0;
+        let kept = path_iterates(&iterates, (1.0, 1.0), 4, &mut not_3);
+        let rounds: Vec<usize> = kept.iter().map(|k| k.round).collect();
+        assert_eq!(rounds, vec![1, 2]);
+    }
 }

@@ -34,6 +34,7 @@ use super::poles::CertifyOptions;
 use super::result::{
     Approximant, Family, FitResult, Form, Objective, SolverReport, StartReport, Structure, Term,
 };
+use super::robust::{path_iterates, Iterate};
 
 /// Settings of a structured fit.
 #[derive(Clone, Debug)]
@@ -567,8 +568,10 @@ pub fn fit_structured(
     }
     let mut params = rep.state.params.clone();
 
-    // 3. reweighting for the other objectives, the best iterate on all points kept
+    // 3. reweighting for the other objectives, the best iterate on all points kept (and for
+    //    minimax a few iterates of the Lawson path, `robust::path_iterates`)
     let mut rounds = 0;
+    let mut path = Vec::new();
     if objective != Objective::LeastSquares {
         let score = |p: &[f64], on: &Prepared| -> Option<f64> {
             let e = errors(&layout, on, p)?;
@@ -581,6 +584,18 @@ pub fn fit_structured(
             score(&params, &prep).unwrap_or(f64::INFINITY),
             params.clone(),
         );
+        // (max, MAE) on all points, for the Lawson path's iterates
+        let both = |p: &[f64]| -> Option<(f64, f64)> {
+            let e = errors(&layout, &prep, p)?;
+            let max = e.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            Some((
+                max,
+                e.iter().map(|x| x.abs()).sum::<f64>() / e.len().max(1) as f64,
+            ))
+        };
+        let start = both(&params).unwrap_or((f64::INFINITY, f64::INFINITY));
+        let mut iterates = Vec::new();
+        let mut best_round = 0;
         let lm = opts
             .lm
             .clone()
@@ -617,13 +632,26 @@ pub fn fit_structured(
             }
             p = r.state.params;
             rounds += 1;
+            if objective == Objective::Minimax {
+                if let Some((max, mae)) = both(&p) {
+                    iterates.push(Iterate {
+                        round: rounds,
+                        blend: 1.0,
+                        max,
+                        mae,
+                        params: p.clone(),
+                    });
+                }
+            }
             if let Some(sc) = score(&p, &prep) {
                 if sc < best.0 {
                     best = (sc, p.clone());
+                    best_round = rounds;
                 }
             }
         }
         params = best.1;
+        path = path_iterates(&iterates, start, best_round, &mut |_| true);
     }
 
     // 4. the emitted form
@@ -634,6 +662,7 @@ pub fn fit_structured(
         converged: rep.termination.converged(),
         iterations: rep.state.iterations,
         reweighting_iterations: rounds,
+        lawson_path: None,
         condition: None,
         exploration_points: ex.len(),
         starts,
@@ -645,7 +674,10 @@ pub fn fit_structured(
         objective,
         Some(solver),
         &opts.certify,
-    )?;
+    )?
+    .with_path(&path, data, &opts.certify, &|p| {
+        to_approximant(&layout, data, transforms, &prep, p)
+    })?;
     fit.fit_seconds = start_time.elapsed().as_secs_f64();
     Ok(fit)
 }

@@ -135,7 +135,10 @@ fn progress_line(r: &FitResult) -> String {
             .map(|t| t.label(&r.approximant.variables))
             .collect::<Vec<_>>()
             .join(" "),
-        objective_name(r.objective),
+        match r.solver.as_ref().and_then(|s| s.lawson_path.as_ref()) {
+            Some(it) => format!("{} {}", objective_name(r.objective), it.label(" ", " ")),
+            None => objective_name(r.objective).to_string(),
+        },
         r.n_coefficients,
         r.metrics.mae,
         r.metrics.max_abs_error,
@@ -431,12 +434,18 @@ pub fn sweep_fits_trained(
             match fitted {
                 Ok(mut fit) => {
                     fit.fit_seconds = t.elapsed().as_secs_f64();
-                    progress(&progress_line(&fit));
-                    fit_seconds.push(fit.fit_seconds);
-                    let (fit, on_box) = measured(fit, input, reduced.is_some(), boxed.as_deref());
-                    let rec = FitRecord::new(fit, input, fitted_on.clone()).with_off_grid(check);
-                    rows.push(row_of(&rec, on_box));
-                    records.push(rec);
+                    // the Lawson path's other iterates are rows of their own (solved with it)
+                    let path = std::mem::take(&mut fit.path);
+                    for fit in std::iter::once(fit).chain(path) {
+                        progress(&progress_line(&fit));
+                        fit_seconds.push(fit.fit_seconds);
+                        let (fit, on_box) =
+                            measured(fit, input, reduced.is_some(), boxed.as_deref());
+                        let rec =
+                            FitRecord::new(fit, input, fitted_on.clone()).with_off_grid(check);
+                        rows.push(row_of(&rec, on_box));
+                        records.push(rec);
+                    }
                 }
                 Err(e) => {
                     let s = SkippedFit {

@@ -56,6 +56,10 @@ pub struct SweepRow {
     pub converged: bool,
     /// The file name this fit would have as a single fit (`rational-4-mu_sqrt.json`).
     pub name: String,
+    /// For an iterate of a minimax fit's Lawson path kept beside its end: which
+    /// (`round 7`, `blend 0.75 round 3`; [`crate::fit::LawsonPathIterate`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lawson_iterate: Option<String>,
 }
 
 /// Errors of a fit on the points inside a sub-box.
@@ -164,7 +168,7 @@ impl SweepOutcome {
     /// `sweep.csv`: one line per fit.
     pub fn to_csv(&self) -> String {
         let mut s = String::from(
-            "form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,paper_box_mae,paper_box_max_abs_error,poles,usable,converged,denominator_degree,off_grid_mae,off_grid_max_abs_error,pareto\n",
+            "form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,paper_box_mae,paper_box_max_abs_error,poles,usable,converged,denominator_degree,off_grid_mae,off_grid_max_abs_error,pareto,lawson_iterate\n",
         );
         for r in &self.rows {
             let (bm, bx) = r
@@ -180,7 +184,7 @@ impl SweepOutcome {
                     (format!("{:e}", b.mae), format!("{:e}", b.max_abs_error))
                 });
             s.push_str(&format!(
-                "{},{},{},{},{},{:e},{:e},{:e},{:e},{bm},{bx},{},{},{},{},{om},{ox},{}\n",
+                "{},{},{},{},{},{:e},{:e},{:e},{:e},{bm},{bx},{},{},{},{},{om},{ox},{},{}\n",
                 r.form.name(),
                 r.degree,
                 r.transforms.join(" "),
@@ -195,7 +199,8 @@ impl SweepOutcome {
                 r.converged,
                 r.denominator_degree
                     .map_or(String::new(), |m| m.to_string()),
-                r.pareto
+                r.pareto,
+                r.lawson_iterate.as_deref().unwrap_or("")
             ));
         }
         s
@@ -247,6 +252,11 @@ pub(super) fn row_of(rec: &FitRecord, paper_box: Option<BoxMetrics>) -> SweepRow
         usable: rec.usable,
         converged: f.solver.as_ref().is_none_or(|s| s.converged),
         name: rec.file_name(),
+        lawson_iterate: f
+            .solver
+            .as_ref()
+            .and_then(|s| s.lawson_path.as_ref())
+            .map(|it| it.label(" ", " ")),
     }
 }
 

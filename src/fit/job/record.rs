@@ -255,15 +255,25 @@ impl FitRecord {
             &a.transforms,
             self.fit.objective,
         );
-        if let Form::Exponents { .. } = self.fit.form {
-            return name.replacen("rational-0", &self.fit.form.file_stem(), 1);
+        let name = if let Form::Exponents { .. } = self.fit.form {
+            name.replacen("rational-0", &self.fit.form.file_stem(), 1)
+        } else if denominator == degree {
+            name
+        } else {
+            // unequal degrees: `rational-2_1…`
+            let head = format!("{}-{degree}", kind.name());
+            format!("{head}_{denominator}{}", &name[head.len()..])
+        };
+        // an iterate of the Lawson path: `…-minimax-round7.json`, `…-minimax-blend0.75-round3.json`
+        match self
+            .fit
+            .solver
+            .as_ref()
+            .and_then(|s| s.lawson_path.as_ref())
+        {
+            Some(it) => name.replacen(".json", &format!("-{}.json", it.label("-", "")), 1),
+            None => name,
         }
-        if denominator == degree {
-            return name;
-        }
-        // unequal degrees: `rational-2_1…`
-        let head = format!("{}-{degree}", kind.name());
-        format!("{head}_{denominator}{}", &name[head.len()..])
     }
 }
 

@@ -4,41 +4,38 @@
 // All arithmetic is f32. Each function states what its arguments mean, its domain, evaluation form, measured errors and error bound.
 // Helpers: Sforza & Pellacini 2022, "Enforcing Energy Preservation in Microfacet Models" (eqs. 13, 18, 19).
 
-// Needs only `core`, but for square roots: with std they are f32::sqrt; under #![no_std],
-// give the including crate a `libm` feature that enables a libm dependency (same bits).
+// Needs only `core`: usable under #![no_std].
 
 /// eon_albedo(r, mu): directional albedo E of eon.
 /// Model: energy-preserving Oren-Nayar (EON): FON + exact-albedo multiple-scattering lobe, white albedo (EON paper, eqs. 16, 19).
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: EON roughness r, the FON weight: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-/// Fit: polynomial of degree 1, 3 coefficients (3 monomials); least_squares objective, linear least squares (Chebyshev basis, TSQR + SVD).
-/// Source: fits/eon/best-8.json (furnace 0.1.0), fit SHA-256 2d8ebab72eadf142bb3fb08329fbc56673c357ea18fcec882b9d2d013b6a6912.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
+/// Fit: rational over [x0^1 x x1^4, deg <= 0 where x0 is absent]/[x0^1 x x1^0], 7 coefficients (numerator 6, denominator 1 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+/// Source: fits/eon/best-8.json (furnace 0.1.0), fit SHA-256 5e8b3cfee8120b46f9cc57a1c70ccb5a36dbbbc56e25b6f1f768ea13329209fe.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.1e-12, shifted 2.1e-12, bernstein 2.1e-12.
-/// Error of the f64 fit on its 1048576 data points: MAE 1.37e-11, max 1.24e-9 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 2.12e-12 (every op rounded, as this Rust), 2.12e-12 (fused multiply-add), 2.12e-12 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.79e-7 for every input, in all three rounding models (interval error analysis over the whole domain, 1 boxes).
-/// Error at the 1048576 nodes of its table data/eon/1024x1024 (output clamp applied): f64 MAE 1.32e-11, max 1.24e-9; this f32 code MAE 1.31e-11, max 1.24e-9.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-12 on the measurement grid.
-/// Polynomial: no division.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.2e-7, shifted 1.2e-7, bernstein 1.2e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 1.75e-11, max 1.12e-9 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.25e-10 (every op rounded, as this Rust), 1.25e-10 (fused multiply-add), 1.19e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 4.77e-7 for every input, in all three rounding models (interval error analysis over the whole domain, 1 boxes).
+/// Error at the 1048576 nodes of its table data/eon/1024x1024 (output clamp applied): f64 MAE 1.49e-11, max 1.12e-9; this f32 code MAE 1.31e-11, max 1.24e-9.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-11 on the measurement grid.
+/// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
 pub fn eon_albedo(r: f32, mu: f32) -> f32 {
-    #[cfg(feature = "libm")]
-    use libm::sqrtf;
-    #[cfg(not(feature = "libm"))]
-    fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let r_c = r.min(1.0_f32).max(0.0_f32);
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = sqrt(mu)
-    let mu_t = sqrtf(mu_c);
     // numerator P, grouped by powers of the first variable
-    let p_0 = 3.5728922e-12_f32 * mu_t + 1.0_f32;
-    let p_1 = 1.159361e-12_f32;
+    let p_0 = 1.0_f32;
+    let p_1 = (((-3.023899e-9_f32 * mu_c + 5.2678186e-9_f32) * mu_c - 2.8488425e-9_f32) * mu_c + 4.9521753e-10_f32) * mu_c - 5.042943e-12_f32;
     let p = p_1 * r_c + p_0;
-    let e = p;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    let q_0 = 1.0_f32;
+    let q_1 = 1.280602e-11_f32;
+    let q = q_1 * r_c + q_0;
+    let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

@@ -15,16 +15,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational over [x0^2 x x1^3]/[x0^2 x x1^2], 20 coefficients (numerator 12, denominator 8 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor-separable/best-20.json (furnace 0.1.0), fit SHA-256 b39bbf0406b4d87843f989b07a205a1908d993f62ae3923b795385464eaf8dc1.
+// Fit: rational over [x0^2 x x1^3]/[x0^2 x x1^2], 20 coefficients (numerator 12, denominator 8 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 4 of 11, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-conductor-separable/best-20.json (furnace 0.1.0), fit SHA-256 aa4c8bf4eee2e54c5f68bff9d0bf6f22221a01ad108394de1856edb9943c74cc.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.7e-6, shifted 3.9e-7, bernstein 3.5e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 7.56e-4, max 6.33e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.98e-6 (every op rounded, as this Rust), 1.41e-6 (fused multiply-add), 1.53e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.33e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1611 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.54e-4, max 6.33e-3; this f32 code MAE 7.54e-4, max 6.33e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-4 on the measurement grid.
-// Denominator proved >= 1.413e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.4e-6, shifted 5.5e-7, bernstein 3.5e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.19e-3, max 3.25e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 2.64e-6 (every op rounded, as this Rust), 2.19e-6 (fused multiply-add), 2.20e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 5.67e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1825 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.06e-3, max 3.25e-3; this f32 code MAE 1.06e-3, max 3.25e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-3 on the measurement grid.
+// Denominator proved >= 1.393e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -34,14 +34,14 @@ float ggx_conductor_separable_albedo(float r, float mu) {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((-0.15503183f * mu_t + 1.5010346f) * mu_t - 2.104863f) * mu_t + 0.93893737f;
-    float p_1 = ((0.56614786f * mu_t - 2.354046f) * mu_t + 1.9119501f) * mu_t - 0.24068063f;
-    float p_2 = ((-0.9142999f * mu_t + 2.731098f) * mu_t - 2.0935721f) * mu_t + 0.32340577f;
+    float p_0 = ((-0.15030114f * mu_t + 1.5187908f) * mu_t - 2.1247578f) * mu_t + 0.93913895f;
+    float p_1 = ((0.4970142f * mu_t - 2.2414002f) * mu_t + 1.8592138f) * mu_t - 0.26738033f;
+    float p_2 = ((-0.8175338f * mu_t + 2.5002306f) * mu_t - 1.9152961f) * mu_t + 0.30120414f;
     float p = (p_2 * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = (1.2632167f * mu_t - 2.0830503f) * mu_t + 1.0f;
-    float q_1 = (-1.5821959f * mu_t + 1.6902184f) * mu_t - 0.23023665f;
-    float q_2 = (1.8282658f * mu_t - 2.4071488f) * mu_t + 0.8779925f;
+    float q_0 = (1.2902912f * mu_t - 2.107602f) * mu_t + 1.0f;
+    float q_1 = (-1.5507485f * mu_t + 1.6540618f) * mu_t - 0.25351247f;
+    float q_2 = (1.7103448f * mu_t - 2.25322f) * mu_t + 0.830563f;
     float q = (q_2 * r_t + q_1) * r_t + q_0;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

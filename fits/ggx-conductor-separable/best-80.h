@@ -41,15 +41,15 @@ FURNACE_FN furnace_rgb furnace_rgb_make(float x, float y, float z) {
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 9b20a945f55182de4ed98f45c4aa2e10a1fba9c78c921f3afa294b877f7fac96.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 4 of 16, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 587ac998eba5d54d87922b6f5128e3d529a5864824ad85c5f790a4a4e97bd62d.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.6e-4, shifted 2.1e-5, bernstein 4.5e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 3.05e-7, max 4.28e-6 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.89e-7 (every op rounded, as this Rust), 5.04e-7 (fused multiply-add), 6.24e-7 (GPU division/sqrt error).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 6.2e-4, shifted 3.8e-5, bernstein 5.0e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 3.70e-7, max 3.86e-6 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.54e-7 (every op rounded, as this Rust), 4.56e-7 (fused multiply-add), 6.04e-7 (GPU division/sqrt error).
 // Bound: |f32 - f64| <= 1.09e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 223 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.01e-7, max 4.28e-6; this f32 code MAE 3.07e-7, max 4.33e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-7 on the measurement grid.
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.70e-7, max 3.86e-6; this f32 code MAE 3.74e-7, max 3.93e-6.
+// Output clamped to [0, 1] (the fit stays inside on the measurement grid).
 // Denominator proved >= 2.960e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
@@ -102,24 +102,24 @@ FURNACE_FN float ggx_conductor_separable_albedo(float r, float mu) {
     const float mu_b5 = mu_u5 * mu_v2;
     const float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 0.9361342f * mu_v7 + 1.9200487f * mu_b1 + 2.0141459f * mu_b2 + 1.6602732f * mu_b3 + 0.9778174f * mu_b4 + 0.38743633f * mu_b5 + 0.100069515f * mu_b6 + 0.028538546f * mu_u7;
-    const float p_1 = 10.760968f * mu_v7 + 27.656002f * mu_b1 + 33.1007f * mu_b2 + 26.268335f * mu_b3 + 15.266471f * mu_b4 + 6.2184963f * mu_b5 + 1.5113761f * mu_b6 + 0.27359256f * mu_u7;
-    const float p_2 = 49.853336f * mu_v7 + 150.34183f * mu_b1 + 203.14665f * mu_b2 + 166.13881f * mu_b3 + 93.032814f * mu_b4 + 36.44081f * mu_b5 + 8.711474f * mu_b6 + 1.1535718f * mu_u7;
-    const float p_3 = 123.11982f * mu_v7 + 419.53082f * mu_b1 + 630.028f * mu_b2 + 549.32794f * mu_b3 + 309.315f * mu_b4 + 115.72658f * mu_b5 + 25.981808f * mu_b6 + 2.7438192f * mu_u7;
-    const float p_4 = 178.31142f * mu_v7 + 665.9901f * mu_b1 + 1080.9111f * mu_b2 + 990.4791f * mu_b3 + 560.2174f * mu_b4 + 199.15257f * mu_b5 + 40.97115f * mu_b6 + 3.6738503f * mu_u7;
-    const float p_5 = 151.01793f * mu_v7 + 599.2695f * mu_b1 + 1017.2964f * mu_b2 + 952.1869f * mu_b3 + 530.62805f * mu_b4 + 176.96466f * mu_b5 + 32.66511f * mu_b6 + 2.5171092f * mu_u7;
-    const float p_6 = 68.64233f * mu_v7 + 281.39056f * mu_b1 + 485.59512f * mu_b2 + 452.15503f * mu_b3 + 242.59273f * mu_b4 + 73.97176f * mu_b5 + 11.59261f * mu_b6 + 0.6823628f * mu_u7;
-    const float p_7 = 12.841606f * mu_v7 + 53.165974f * mu_b1 + 91.18122f * mu_b2 + 82.548706f * mu_b3 + 41.509933f * mu_b4 + 10.982056f * mu_b5 + 1.1967505f * mu_b6 + 0.00090819655f * mu_u7;
+    const float p_0 = 0.9361342f * mu_v7 + 1.920049f * mu_b1 + 2.0141423f * mu_b2 + 1.6602669f * mu_b3 + 0.97782487f * mu_b4 + 0.38743407f * mu_b5 + 0.1000696f * mu_b6 + 0.028538536f * mu_u7;
+    const float p_1 = 10.760968f * mu_v7 + 27.656012f * mu_b1 + 33.100716f * mu_b2 + 26.268341f * mu_b3 + 15.2665415f * mu_b4 + 6.218485f * mu_b5 + 1.5113798f * mu_b6 + 0.27359304f * mu_u7;
+    const float p_2 = 49.853333f * mu_v7 + 150.34181f * mu_b1 + 203.14659f * mu_b2 + 166.13861f * mu_b3 + 93.03281f * mu_b4 + 36.44067f * mu_b5 + 8.711456f * mu_b6 + 1.1535687f * mu_u7;
+    const float p_3 = 123.11983f * mu_v7 + 419.53088f * mu_b1 + 630.02814f * mu_b2 + 549.32806f * mu_b3 + 309.31543f * mu_b4 + 115.72663f * mu_b5 + 25.981874f * mu_b6 + 2.743826f * mu_u7;
+    const float p_4 = 178.31142f * mu_v7 + 665.99005f * mu_b1 + 1080.911f * mu_b2 + 990.4788f * mu_b3 + 560.2174f * mu_b4 + 199.15239f * mu_b5 + 40.971134f * mu_b6 + 3.673844f * mu_u7;
+    const float p_5 = 151.01793f * mu_v7 + 599.26953f * mu_b1 + 1017.2964f * mu_b2 + 952.1869f * mu_b3 + 530.62823f * mu_b4 + 176.96465f * mu_b5 + 32.665127f * mu_b6 + 2.51711f * mu_u7;
+    const float p_6 = 68.64233f * mu_v7 + 281.39056f * mu_b1 + 485.59515f * mu_b2 + 452.155f * mu_b3 + 242.59276f * mu_b4 + 73.97174f * mu_b5 + 11.59261f * mu_b6 + 0.68236285f * mu_u7;
+    const float p_7 = 12.841606f * mu_v7 + 53.165974f * mu_b1 + 91.18122f * mu_b2 + 82.5487f * mu_b3 + 41.509937f * mu_b4 + 10.982055f * mu_b5 + 1.1967506f * mu_b6 + 0.00090819143f * mu_u7;
     const float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v7 + 2.1474702f * mu_b1 + 2.3974607f * mu_b2 + 1.9668951f * mu_b3 + 1.0603936f * mu_b4 + 0.40116197f * mu_b5 + 0.1000778f * mu_b6 + 0.028538538f * mu_u7;
-    const float q_1 = 11.495001f * mu_v7 + 30.552198f * mu_b1 + 38.381718f * mu_b2 + 31.26455f * mu_b3 + 17.334864f * mu_b4 + 6.563872f * mu_b5 + 1.539696f * mu_b6 + 0.2735917f * mu_u7;
-    const float q_2 = 54.054283f * mu_v7 + 167.04628f * mu_b1 + 233.27457f * mu_b2 + 197.05984f * mu_b3 + 109.95703f * mu_b4 + 40.878506f * mu_b5 + 9.172014f * mu_b6 + 1.1820703f * mu_u7;
-    const float q_3 = 138.38596f * mu_v7 + 482.15573f * mu_b1 + 740.6852f * mu_b2 + 661.68915f * mu_b3 + 377.22815f * mu_b4 + 138.8429f * mu_b5 + 29.877262f * mu_b6 + 3.0034337f * mu_u7;
-    const float q_4 = 211.96965f * mu_v7 + 814.5679f * mu_b1 + 1353.4293f * mu_b2 + 1267.7085f * mu_b3 + 730.3205f * mu_b4 + 262.07663f * mu_b5 + 53.92109f * mu_b6 + 4.802151f * mu_u7;
-    const float q_5 = 194.53482f * mu_v7 + 809.0494f * mu_b1 + 1431.089f * mu_b2 + 1392.435f * mu_b3 + 806.2256f * mu_b4 + 280.02386f * mu_b5 + 54.537487f * mu_b6 + 4.587392f * mu_u7;
-    const float q_6 = 98.6808f * mu_v7 + 437.6391f * mu_b1 + 815.3641f * mu_b2 + 821.1563f * mu_b3 + 479.4777f * mu_b4 + 161.6198f * mu_b5 + 29.208668f * mu_b6 + 2.2189405f * mu_u7;
-    const float q_7 = 20.924627f * mu_v7 + 97.093155f * mu_b1 + 186.65863f * mu_b2 + 189.75145f * mu_b3 + 107.27568f * mu_b4 + 31.894653f * mu_b5 + 3.8971405f * mu_b6 + 0.0029596945f * mu_u7;
+    const float q_0 = 1.0f * mu_v7 + 2.1474698f * mu_b1 + 2.3974657f * mu_b2 + 1.966901f * mu_b3 + 1.0603869f * mu_b4 + 0.4011638f * mu_b5 + 0.10007773f * mu_b6 + 0.028538544f * mu_u7;
+    const float q_1 = 11.495f * mu_v7 + 30.552187f * mu_b1 + 38.3817f * mu_b2 + 31.264526f * mu_b3 + 17.334791f * mu_b4 + 6.5638785f * mu_b5 + 1.539692f * mu_b6 + 0.27359107f * mu_u7;
+    const float q_2 = 54.054287f * mu_v7 + 167.04631f * mu_b1 + 233.27467f * mu_b2 + 197.06006f * mu_b3 + 109.9571f * mu_b4 + 40.878674f * mu_b5 + 9.172041f * mu_b6 + 1.1820743f * mu_u7;
+    const float q_3 = 138.38596f * mu_v7 + 482.15567f * mu_b1 + 740.685f * mu_b2 + 661.6889f * mu_b3 + 377.22766f * mu_b4 + 138.84277f * mu_b5 + 29.877174f * mu_b6 + 3.003424f * mu_u7;
+    const float q_4 = 211.96965f * mu_v7 + 814.56793f * mu_b1 + 1353.4294f * mu_b2 + 1267.7089f * mu_b3 + 730.3206f * mu_b4 + 262.07684f * mu_b5 + 53.921124f * mu_b6 + 4.8021603f * mu_u7;
+    const float q_5 = 194.53482f * mu_v7 + 809.0494f * mu_b1 + 1431.089f * mu_b2 + 1392.435f * mu_b3 + 806.22546f * mu_b4 + 280.02386f * mu_b5 + 54.537464f * mu_b6 + 4.5873904f * mu_u7;
+    const float q_6 = 98.6808f * mu_v7 + 437.6391f * mu_b1 + 815.3641f * mu_b2 + 821.1564f * mu_b3 + 479.4777f * mu_b4 + 161.61981f * mu_b5 + 29.208668f * mu_b6 + 2.2189405f * mu_u7;
+    const float q_7 = 20.92463f * mu_v7 + 97.093155f * mu_b1 + 186.65863f * mu_b2 + 189.75146f * mu_b3 + 107.27568f * mu_b4 + 31.894655f * mu_b5 + 3.8971405f * mu_b6 + 0.0029596935f * mu_u7;
     const float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

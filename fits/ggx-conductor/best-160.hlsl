@@ -15,16 +15,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 8172047efb105ee755e33f8cc5e89221e39a1f643ce51c506bcf827541b608da.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 f3104ed2a685f1fc24d961c28bc7af8dc38a9033278fff76cfd7c56d9d02c224.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.3e-3, shifted 7.9e-5, bernstein 5.7e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 5.10e-8, max 1.34e-6 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 5.43e-7 (fused multiply-add), 6.80e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.30e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6773 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 5.05e-8, max 1.34e-6; this f32 code MAE 8.83e-8, max 1.45e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-6 on the measurement grid.
-// Denominator proved >= 3.330e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.9e-3, shifted 1.2e-4, bernstein 5.4e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.95e-8, max 1.92e-6 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.93e-7 (every op rounded, as this Rust), 5.11e-7 (fused multiply-add), 6.63e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.30e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6855 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.89e-8, max 1.48e-6; this f32 code MAE 8.70e-8, max 1.57e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-6 on the measurement grid.
+// Denominator proved >= 3.425e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -94,30 +94,30 @@ float ggx_conductor_albedo(float r, float mu) {
     float mu_b8 = mu_u8 * mu_v2;
     float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 1.0000002f * mu_v10 + 31.140892f * mu_b1 + 200.37985f * mu_b2 + 395.5653f * mu_b3 + 322.57327f * mu_b4 + 106.21131f * mu_b5 + 54.325348f * mu_b6 + 10.139369f * mu_b7 + 2.5115964f * mu_b8 + 0.25918648f * mu_b9 + 0.034338754f * mu_u10;
-    float p_1 = 10.721368f * mu_v10 + 398.85156f * mu_b1 + 2534.6433f * mu_b2 + 5154.683f * mu_b3 + 4603.0693f * mu_b4 + 1858.0474f * mu_b5 + 777.5856f * mu_b6 + 172.97768f * mu_b7 + 37.043423f * mu_b8 + 3.8153534f * mu_b9 + 0.3959826f * mu_u10;
-    float p_2 = 60.560562f * mu_v10 + 2284.988f * mu_b1 + 14374.257f * mu_b2 + 29959.625f * mu_b3 + 28642.432f * mu_b4 + 13287.791f * mu_b5 + 5155.2944f * mu_b6 + 1228.6975f * mu_b7 + 240.58185f * mu_b8 + 26.314413f * mu_b9 + 2.1668448f * mu_u10;
-    float p_3 = 214.84479f * mu_v10 + 7644.476f * mu_b1 + 47793.105f * mu_b2 + 101572.14f * mu_b3 + 102065.99f * mu_b4 + 52131.11f * mu_b5 + 19883.553f * mu_b6 + 4934.171f * mu_b7 + 923.1138f * mu_b8 + 105.17155f * mu_b9 + 7.4598927f * mu_u10;
-    float p_4 = 478.95035f * mu_v10 + 16359.236f * mu_b1 + 102557.59f * mu_b2 + 221682.78f * mu_b3 + 231307.83f * mu_b4 + 126835.0f * mu_b5 + 48961.73f * mu_b6 + 12642.34f * mu_b7 + 2345.0405f * mu_b8 + 272.5605f * mu_b9 + 17.527655f * mu_u10;
-    float p_5 = 689.03955f * mu_v10 + 23396.402f * mu_b1 + 148394.98f * mu_b2 + 325953.88f * mu_b3 + 350605.38f * mu_b4 + 203507.72f * mu_b5 + 80775.086f * mu_b6 + 21817.95f * mu_b7 + 4120.881f * mu_b8 + 487.02588f * mu_b9 + 29.715559f * mu_u10;
-    float p_6 = 656.6801f * mu_v10 + 22775.016f * mu_b1 + 147169.97f * mu_b2 + 328637.94f * mu_b3 + 363327.88f * mu_b4 + 222018.19f * mu_b5 + 91761.89f * mu_b6 + 26150.018f * mu_b7 + 5122.413f * mu_b8 + 617.4895f * mu_b9 + 36.58251f * mu_u10;
-    float p_7 = 416.7938f * mu_v10 + 15028.489f * mu_b1 + 99428.52f * mu_b2 + 226191.92f * mu_b3 + 257425.63f * mu_b4 + 166016.67f * mu_b5 + 72512.54f * mu_b6 + 22063.182f * mu_b7 + 4548.8135f * mu_b8 + 563.77264f * mu_b9 + 32.753258f * mu_u10;
-    float p_8 = 172.69098f * mu_v10 + 6516.3154f * mu_b1 + 44234.484f * mu_b2 + 102902.76f * mu_b3 + 121242.08f * mu_b4 + 83173.35f * mu_b5 + 38923.996f * mu_b6 + 12733.567f * mu_b7 + 2774.9282f * mu_b8 + 354.64346f * mu_b9 + 20.326515f * mu_u10;
-    float p_9 = 44.47508f * mu_v10 + 1713.0281f * mu_b1 + 11879.237f * mu_b2 + 28378.232f * mu_b3 + 34881.543f * mu_b4 + 25654.814f * mu_b5 + 12937.967f * mu_b6 + 4528.5537f * mu_b7 + 1034.5118f * mu_b8 + 135.77023f * mu_b9 + 7.7476306f * mu_u10;
-    float p_10 = 5.901002f * mu_v10 + 213.63544f * mu_b1 + 1489.6942f * mu_b2 + 3661.1895f * mu_b3 + 4719.5796f * mu_b4 + 3724.747f * mu_b5 + 2010.2483f * mu_b6 + 741.07916f * mu_b7 + 174.7665f * mu_b8 + 23.372635f * mu_b9 + 1.342863f * mu_u10;
+    float p_0 = 1.0000001f * mu_v10 + 33.947002f * mu_b1 + 216.06003f * mu_b2 + 419.16f * mu_b3 + 338.0955f * mu_b4 + 109.18503f * mu_b5 + 57.281002f * mu_b6 + 10.180451f * mu_b7 + 2.643153f * mu_b8 + 0.25991958f * mu_b9 + 0.035454992f * mu_u10;
+    float p_1 = 11.438648f * mu_v10 + 438.94202f * mu_b1 + 2765.2417f * mu_b2 + 5551.2656f * mu_b3 + 4917.657f * mu_b4 + 1959.7174f * mu_b5 + 825.37067f * mu_b6 + 181.32144f * mu_b7 + 38.9388f * mu_b8 + 3.9877462f * mu_b9 + 0.41398498f * mu_u10;
+    float p_2 = 66.745926f * mu_v10 + 2531.9048f * mu_b1 + 15834.712f * mu_b2 + 32694.678f * mu_b3 + 31071.17f * mu_b4 + 14281.792f * mu_b5 + 5526.446f * mu_b6 + 1313.0234f * mu_b7 + 255.19751f * mu_b8 + 27.92098f * mu_b9 + 2.2694802f * mu_u10;
+    float p_3 = 238.2132f * mu_v10 + 8514.869f * mu_b1 + 53096.297f * mu_b2 + 112124.49f * mu_b3 + 112188.48f * mu_b4 + 56906.355f * mu_b5 + 21560.816f * mu_b6 + 5337.2456f * mu_b7 + 989.35114f * mu_b8 + 112.08223f * mu_b9 + 7.8220315f * mu_u10;
+    float p_4 = 532.60974f * mu_v10 + 18337.783f * mu_b1 + 114932.836f * mu_b2 + 247446.78f * mu_b3 + 257442.5f * mu_b4 + 140393.95f * mu_b5 + 53697.758f * mu_b6 + 13783.639f * mu_b7 + 2528.8486f * mu_b8 + 290.52997f * mu_b9 + 18.503584f * mu_u10;
+    float p_5 = 770.2163f * mu_v10 + 26427.215f * mu_b1 + 167807.95f * mu_b2 + 367779.22f * mu_b3 + 394764.84f * mu_b4 + 227922.3f * mu_b5 + 89374.586f * mu_b6 + 23871.732f * mu_b7 + 4451.2686f * mu_b8 + 519.7033f * mu_b9 + 31.762789f * mu_u10;
+    float p_6 = 740.0469f * mu_v10 + 25951.463f * mu_b1 + 167964.47f * mu_b2 + 374655.0f * mu_b3 + 413372.06f * mu_b4 + 250984.88f * mu_b5 + 102151.16f * mu_b6 + 28658.232f * mu_b7 + 5547.617f * mu_b8 + 665.38525f * mu_b9 + 39.978943f * mu_u10;
+    float p_7 = 475.46695f * mu_v10 + 17292.621f * mu_b1 + 114529.55f * mu_b2 + 260340.64f * mu_b3 + 295454.5f * mu_b4 + 188889.84f * mu_b5 + 80984.29f * mu_b6 + 24207.102f * mu_b7 + 4953.1396f * mu_b8 + 617.5482f * mu_b9 + 36.745296f * mu_u10;
+    float p_8 = 200.13098f * mu_v10 + 7573.3604f * mu_b1 + 51387.08f * mu_b2 + 119375.164f * mu_b3 + 139981.22f * mu_b4 + 94876.47f * mu_b5 + 43476.813f * mu_b6 + 13983.498f * mu_b7 + 3041.9937f * mu_b8 + 394.83478f * mu_b9 + 23.320261f * mu_u10;
+    float p_9 = 52.198853f * mu_v10 + 2006.3473f * mu_b1 + 13883.475f * mu_b2 + 33069.59f * mu_b3 + 40334.48f * mu_b4 + 29203.016f * mu_b5 + 14411.085f * mu_b6 + 4975.414f * mu_b7 + 1140.8467f * mu_b8 + 152.91179f * mu_b9 + 9.017722f * mu_u10;
+    float p_10 = 6.922203f * mu_v10 + 250.7554f * mu_b1 + 1743.8406f * mu_b2 + 4265.039f * mu_b3 + 5438.484f * mu_b4 + 4215.2637f * mu_b5 + 2230.2751f * mu_b6 + 814.86237f * mu_b7 + 193.72626f * mu_b8 + 26.520697f * mu_b9 + 1.5759294f * mu_u10;
     float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v10 + 31.141222f * mu_b1 + 200.58011f * mu_b2 + 401.84396f * mu_b3 + 351.72678f * mu_b4 + 132.46219f * mu_b5 + 63.687847f * mu_b6 + 10.958802f * mu_b7 + 2.5799022f * mu_b8 + 0.2591876f * mu_b9 + 0.034338754f * mu_u10;
-    float q_1 = 10.721373f * mu_v10 + 398.84183f * mu_b1 + 2536.8398f * mu_b2 + 5227.9487f * mu_b3 + 4943.361f * mu_b4 + 2190.466f * mu_b5 + 918.4725f * mu_b6 + 198.07301f * mu_b7 + 38.859135f * mu_b8 + 3.8837545f * mu_b9 + 0.39598364f * mu_u10;
-    float q_2 = 60.5607f * mu_v10 + 2285.0876f * mu_b1 + 14393.997f * mu_b2 + 30533.752f * mu_b3 + 30787.623f * mu_b4 + 15342.408f * mu_b5 + 6063.3584f * mu_b6 + 1452.6346f * mu_b7 + 266.18576f * mu_b8 + 27.58154f * mu_b9 + 2.2010586f * mu_u10;
-    float q_3 = 214.84265f * mu_v10 + 7644.4077f * mu_b1 + 47911.613f * mu_b2 + 104526.19f * mu_b3 + 111146.83f * mu_b4 + 60470.45f * mu_b5 + 23523.678f * mu_b6 + 5976.404f * mu_b7 + 1082.4845f * mu_b8 + 116.60733f * mu_b9 + 7.8393297f * mu_u10;
-    float q_4 = 478.95987f * mu_v10 + 16359.739f * mu_b1 + 103015.15f * mu_b2 + 231315.14f * mu_b3 + 257784.92f * mu_b4 + 150814.63f * mu_b5 + 59429.21f * mu_b6 + 15808.669f * mu_b7 + 2912.599f * mu_b8 + 324.14102f * mu_b9 + 19.633522f * mu_u10;
-    float q_5 = 689.02106f * mu_v10 + 23397.855f * mu_b1 + 149434.23f * mu_b2 + 345879.97f * mu_b3 + 402818.88f * mu_b4 + 251606.97f * mu_b5 + 102491.3f * mu_b6 + 28593.014f * mu_b7 + 5459.052f * mu_b8 + 629.08185f * mu_b9 + 36.21492f * mu_u10;
-    float q_6 = 656.6958f * mu_v10 + 22776.924f * mu_b1 + 148591.86f * mu_b2 + 355172.88f * mu_b3 + 432127.22f * mu_b4 + 287710.38f * mu_b5 + 123218.41f * mu_b6 + 36398.086f * mu_b7 + 7310.503f * mu_b8 + 878.1087f * mu_b9 + 49.856606f * mu_u10;
-    float q_7 = 416.78732f * mu_v10 + 15029.812f * mu_b1 + 100622.586f * mu_b2 + 248984.42f * mu_b3 + 317198.72f * mu_b4 + 225892.27f * mu_b5 + 103455.38f * mu_b6 + 32830.63f * mu_b7 + 7033.764f * mu_b8 + 887.742f * mu_b9 + 50.886703f * mu_u10;
-    float q_8 = 172.69188f * mu_v10 + 6517.1567f * mu_b1 + 44852.016f * mu_b2 + 115258.79f * mu_b3 + 154511.88f * mu_b4 + 118596.98f * mu_b5 + 59083.86f * mu_b6 + 20448.115f * mu_b7 + 4729.103f * mu_b8 + 633.35693f * mu_b9 + 37.31478f * mu_u10;
-    float q_9 = 44.47503f * mu_v10 + 1713.1902f * mu_b1 + 12069.857f * mu_b2 + 32311.18f * mu_b3 + 45882.582f * mu_b4 + 38319.066f * mu_b5 + 21059.943f * mu_b6 + 8034.531f * mu_b7 + 2024.0939f * mu_b8 + 291.66437f * mu_b9 + 18.117805f * mu_u10;
-    float q_10 = 5.9009957f * mu_v10 + 213.67622f * mu_b1 + 1519.8156f * mu_b2 + 4242.7295f * mu_b3 + 6418.9556f * mu_b4 + 5872.7393f * mu_b5 + 3582.231f * mu_b6 + 1509.6046f * mu_b7 + 415.56375f * mu_b8 + 65.15003f * mu_b9 + 4.376247f * mu_u10;
+    float q_0 = 1.0f * mu_v10 + 33.947334f * mu_b1 + 216.25949f * mu_b2 + 426.0471f * mu_b3 + 369.24976f * mu_b4 + 136.61908f * mu_b5 + 66.92446f * mu_b6 + 11.013125f * mu_b7 + 2.7136416f * mu_b8 + 0.25992104f * mu_b9 + 0.035454992f * mu_u10;
+    float q_1 = 11.438641f * mu_v10 + 438.93423f * mu_b1 + 2767.5457f * mu_b2 + 5632.486f * mu_b3 + 5286.295f * mu_b4 + 2315.3245f * mu_b5 + 974.4697f * mu_b6 + 207.21036f * mu_b7 + 40.812763f * mu_b8 + 4.058331f * mu_b9 + 0.413986f * mu_u10;
+    float q_2 = 66.74637f * mu_v10 + 2531.992f * mu_b1 + 15856.016f * mu_b2 + 33329.066f * mu_b3 + 33408.832f * mu_b4 + 16506.117f * mu_b5 + 6503.8555f * mu_b6 + 1549.8197f * mu_b7 + 281.80728f * mu_b8 + 29.232155f * mu_b9 + 2.3048158f * mu_u10;
+    float q_3 = 238.2081f * mu_v10 + 8514.794f * mu_b1 + 53227.2f * mu_b2 + 115397.33f * mu_b3 + 122151.49f * mu_b4 + 66016.61f * mu_b5 + 25521.738f * mu_b6 + 6456.215f * mu_b7 + 1157.687f * mu_b8 + 124.04538f * mu_b9 + 8.218656f * mu_u10;
+    float q_4 = 532.6322f * mu_v10 + 18338.453f * mu_b1 + 115440.6f * mu_b2 + 258182.16f * mu_b3 + 286752.44f * mu_b4 + 166850.03f * mu_b5 + 65189.266f * mu_b6 + 17213.826f * mu_b7 + 3136.016f * mu_b8 + 344.9734f * mu_b9 + 20.710733f * mu_u10;
+    float q_5 = 770.1708f * mu_v10 + 26428.541f * mu_b1 + 168963.97f * mu_b2 + 390165.3f * mu_b3 + 453185.84f * mu_b4 + 281607.8f * mu_b5 + 113451.14f * mu_b6 + 31260.803f * mu_b7 + 5894.28f * mu_b8 + 670.84607f * mu_b9 + 38.577347f * mu_u10;
+    float q_6 = 740.09064f * mu_v10 + 25953.844f * mu_b1 + 169561.19f * mu_b2 + 404763.2f * mu_b3 + 491267.44f * mu_b4 + 325224.63f * mu_b5 + 137386.2f * mu_b6 + 39896.113f * mu_b7 + 7915.9126f * mu_b8 + 944.8586f * mu_b9 + 54.023506f * mu_u10;
+    float q_7 = 475.44617f * mu_v10 + 17293.912f * mu_b1 + 115884.85f * mu_b2 + 286475.4f * mu_b3 + 363923.56f * mu_b4 + 257328.13f * mu_b5 + 115926.805f * mu_b6 + 36051.75f * mu_b7 + 7645.9883f * mu_b8 + 968.25964f * mu_b9 + 56.362995f * mu_u10;
+    float q_8 = 200.13516f * mu_v10 + 7574.327f * mu_b1 + 52100.258f * mu_b2 + 133700.06f * mu_b3 + 178506.61f * mu_b4 + 135738.78f * mu_b5 + 66362.445f * mu_b6 + 22493.537f * mu_b7 + 5169.971f * mu_b8 + 701.8254f * mu_b9 + 42.446396f * mu_u10;
+    float q_9 = 52.198513f * mu_v10 + 2006.5404f * mu_b1 + 14107.071f * mu_b2 + 37669.24f * mu_b3 + 53165.156f * mu_b4 + 43863.9f * mu_b5 + 23622.396f * mu_b6 + 8841.245f * mu_b7 + 2222.8335f * mu_b8 + 326.79233f * mu_b9 + 21.019262f * mu_u10;
+    float q_10 = 6.9221935f * mu_v10 + 250.80241f * mu_b1 + 1779.2177f * mu_b2 + 4946.9893f * mu_b3 + 7421.3394f * mu_b4 + 6691.8564f * mu_b5 + 4001.3904f * mu_b6 + 1660.6455f * mu_b7 + 458.0811f * mu_b8 + 73.49678f * mu_b9 + 5.1357856f * mu_u10;
     float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

@@ -12,16 +12,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 8172047efb105ee755e33f8cc5e89221e39a1f643ce51c506bcf827541b608da.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 f3104ed2a685f1fc24d961c28bc7af8dc38a9033278fff76cfd7c56d9d02c224.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.3e-3, shifted 7.9e-5, bernstein 5.7e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 5.10e-8, max 1.34e-6 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 5.43e-7 (fused multiply-add), 6.80e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.30e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6773 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 5.05e-8, max 1.34e-6; this f32 code MAE 8.83e-8, max 1.45e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-6 on the measurement grid.
-// Denominator proved >= 3.330e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.9e-3, shifted 1.2e-4, bernstein 5.4e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.95e-8, max 1.92e-6 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.93e-7 (every op rounded, as this Rust), 5.11e-7 (fused multiply-add), 6.63e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.30e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6855 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.89e-8, max 1.48e-6; this f32 code MAE 8.70e-8, max 1.57e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-6 on the measurement grid.
+// Denominator proved >= 3.425e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -91,30 +91,30 @@ fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_b8 = mu_u8 * mu_v2;
     let mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0000002 * mu_v10 + 31.140892 * mu_b1 + 200.37985 * mu_b2 + 395.5653 * mu_b3 + 322.57327 * mu_b4 + 106.21131 * mu_b5 + 54.325348 * mu_b6 + 10.139369 * mu_b7 + 2.5115964 * mu_b8 + 0.25918648 * mu_b9 + 0.034338754 * mu_u10;
-    let p_1 = 10.721368 * mu_v10 + 398.85156 * mu_b1 + 2534.6433 * mu_b2 + 5154.683 * mu_b3 + 4603.0693 * mu_b4 + 1858.0474 * mu_b5 + 777.5856 * mu_b6 + 172.97768 * mu_b7 + 37.043423 * mu_b8 + 3.8153534 * mu_b9 + 0.3959826 * mu_u10;
-    let p_2 = 60.560562 * mu_v10 + 2284.988 * mu_b1 + 14374.257 * mu_b2 + 29959.625 * mu_b3 + 28642.432 * mu_b4 + 13287.791 * mu_b5 + 5155.2944 * mu_b6 + 1228.6975 * mu_b7 + 240.58185 * mu_b8 + 26.314413 * mu_b9 + 2.1668448 * mu_u10;
-    let p_3 = 214.84479 * mu_v10 + 7644.476 * mu_b1 + 47793.105 * mu_b2 + 101572.14 * mu_b3 + 102065.99 * mu_b4 + 52131.11 * mu_b5 + 19883.553 * mu_b6 + 4934.171 * mu_b7 + 923.1138 * mu_b8 + 105.17155 * mu_b9 + 7.4598927 * mu_u10;
-    let p_4 = 478.95035 * mu_v10 + 16359.236 * mu_b1 + 102557.59 * mu_b2 + 221682.78 * mu_b3 + 231307.83 * mu_b4 + 126835.0 * mu_b5 + 48961.73 * mu_b6 + 12642.34 * mu_b7 + 2345.0405 * mu_b8 + 272.5605 * mu_b9 + 17.527655 * mu_u10;
-    let p_5 = 689.03955 * mu_v10 + 23396.402 * mu_b1 + 148394.98 * mu_b2 + 325953.88 * mu_b3 + 350605.38 * mu_b4 + 203507.72 * mu_b5 + 80775.086 * mu_b6 + 21817.95 * mu_b7 + 4120.881 * mu_b8 + 487.02588 * mu_b9 + 29.715559 * mu_u10;
-    let p_6 = 656.6801 * mu_v10 + 22775.016 * mu_b1 + 147169.97 * mu_b2 + 328637.94 * mu_b3 + 363327.88 * mu_b4 + 222018.19 * mu_b5 + 91761.89 * mu_b6 + 26150.018 * mu_b7 + 5122.413 * mu_b8 + 617.4895 * mu_b9 + 36.58251 * mu_u10;
-    let p_7 = 416.7938 * mu_v10 + 15028.489 * mu_b1 + 99428.52 * mu_b2 + 226191.92 * mu_b3 + 257425.63 * mu_b4 + 166016.67 * mu_b5 + 72512.54 * mu_b6 + 22063.182 * mu_b7 + 4548.8135 * mu_b8 + 563.77264 * mu_b9 + 32.753258 * mu_u10;
-    let p_8 = 172.69098 * mu_v10 + 6516.3154 * mu_b1 + 44234.484 * mu_b2 + 102902.76 * mu_b3 + 121242.08 * mu_b4 + 83173.35 * mu_b5 + 38923.996 * mu_b6 + 12733.567 * mu_b7 + 2774.9282 * mu_b8 + 354.64346 * mu_b9 + 20.326515 * mu_u10;
-    let p_9 = 44.47508 * mu_v10 + 1713.0281 * mu_b1 + 11879.237 * mu_b2 + 28378.232 * mu_b3 + 34881.543 * mu_b4 + 25654.814 * mu_b5 + 12937.967 * mu_b6 + 4528.5537 * mu_b7 + 1034.5118 * mu_b8 + 135.77023 * mu_b9 + 7.7476306 * mu_u10;
-    let p_10 = 5.901002 * mu_v10 + 213.63544 * mu_b1 + 1489.6942 * mu_b2 + 3661.1895 * mu_b3 + 4719.5796 * mu_b4 + 3724.747 * mu_b5 + 2010.2483 * mu_b6 + 741.07916 * mu_b7 + 174.7665 * mu_b8 + 23.372635 * mu_b9 + 1.342863 * mu_u10;
+    let p_0 = 1.0000001 * mu_v10 + 33.947002 * mu_b1 + 216.06003 * mu_b2 + 419.16 * mu_b3 + 338.0955 * mu_b4 + 109.18503 * mu_b5 + 57.281002 * mu_b6 + 10.180451 * mu_b7 + 2.643153 * mu_b8 + 0.25991958 * mu_b9 + 0.035454992 * mu_u10;
+    let p_1 = 11.438648 * mu_v10 + 438.94202 * mu_b1 + 2765.2417 * mu_b2 + 5551.2656 * mu_b3 + 4917.657 * mu_b4 + 1959.7174 * mu_b5 + 825.37067 * mu_b6 + 181.32144 * mu_b7 + 38.9388 * mu_b8 + 3.9877462 * mu_b9 + 0.41398498 * mu_u10;
+    let p_2 = 66.745926 * mu_v10 + 2531.9048 * mu_b1 + 15834.712 * mu_b2 + 32694.678 * mu_b3 + 31071.17 * mu_b4 + 14281.792 * mu_b5 + 5526.446 * mu_b6 + 1313.0234 * mu_b7 + 255.19751 * mu_b8 + 27.92098 * mu_b9 + 2.2694802 * mu_u10;
+    let p_3 = 238.2132 * mu_v10 + 8514.869 * mu_b1 + 53096.297 * mu_b2 + 112124.49 * mu_b3 + 112188.48 * mu_b4 + 56906.355 * mu_b5 + 21560.816 * mu_b6 + 5337.2456 * mu_b7 + 989.35114 * mu_b8 + 112.08223 * mu_b9 + 7.8220315 * mu_u10;
+    let p_4 = 532.60974 * mu_v10 + 18337.783 * mu_b1 + 114932.836 * mu_b2 + 247446.78 * mu_b3 + 257442.5 * mu_b4 + 140393.95 * mu_b5 + 53697.758 * mu_b6 + 13783.639 * mu_b7 + 2528.8486 * mu_b8 + 290.52997 * mu_b9 + 18.503584 * mu_u10;
+    let p_5 = 770.2163 * mu_v10 + 26427.215 * mu_b1 + 167807.95 * mu_b2 + 367779.22 * mu_b3 + 394764.84 * mu_b4 + 227922.3 * mu_b5 + 89374.586 * mu_b6 + 23871.732 * mu_b7 + 4451.2686 * mu_b8 + 519.7033 * mu_b9 + 31.762789 * mu_u10;
+    let p_6 = 740.0469 * mu_v10 + 25951.463 * mu_b1 + 167964.47 * mu_b2 + 374655.0 * mu_b3 + 413372.06 * mu_b4 + 250984.88 * mu_b5 + 102151.16 * mu_b6 + 28658.232 * mu_b7 + 5547.617 * mu_b8 + 665.38525 * mu_b9 + 39.978943 * mu_u10;
+    let p_7 = 475.46695 * mu_v10 + 17292.621 * mu_b1 + 114529.55 * mu_b2 + 260340.64 * mu_b3 + 295454.5 * mu_b4 + 188889.84 * mu_b5 + 80984.29 * mu_b6 + 24207.102 * mu_b7 + 4953.1396 * mu_b8 + 617.5482 * mu_b9 + 36.745296 * mu_u10;
+    let p_8 = 200.13098 * mu_v10 + 7573.3604 * mu_b1 + 51387.08 * mu_b2 + 119375.164 * mu_b3 + 139981.22 * mu_b4 + 94876.47 * mu_b5 + 43476.813 * mu_b6 + 13983.498 * mu_b7 + 3041.9937 * mu_b8 + 394.83478 * mu_b9 + 23.320261 * mu_u10;
+    let p_9 = 52.198853 * mu_v10 + 2006.3473 * mu_b1 + 13883.475 * mu_b2 + 33069.59 * mu_b3 + 40334.48 * mu_b4 + 29203.016 * mu_b5 + 14411.085 * mu_b6 + 4975.414 * mu_b7 + 1140.8467 * mu_b8 + 152.91179 * mu_b9 + 9.017722 * mu_u10;
+    let p_10 = 6.922203 * mu_v10 + 250.7554 * mu_b1 + 1743.8406 * mu_b2 + 4265.039 * mu_b3 + 5438.484 * mu_b4 + 4215.2637 * mu_b5 + 2230.2751 * mu_b6 + 814.86237 * mu_b7 + 193.72626 * mu_b8 + 26.520697 * mu_b9 + 1.5759294 * mu_u10;
     let p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v10 + 31.141222 * mu_b1 + 200.58011 * mu_b2 + 401.84396 * mu_b3 + 351.72678 * mu_b4 + 132.46219 * mu_b5 + 63.687847 * mu_b6 + 10.958802 * mu_b7 + 2.5799022 * mu_b8 + 0.2591876 * mu_b9 + 0.034338754 * mu_u10;
-    let q_1 = 10.721373 * mu_v10 + 398.84183 * mu_b1 + 2536.8398 * mu_b2 + 5227.9487 * mu_b3 + 4943.361 * mu_b4 + 2190.466 * mu_b5 + 918.4725 * mu_b6 + 198.07301 * mu_b7 + 38.859135 * mu_b8 + 3.8837545 * mu_b9 + 0.39598364 * mu_u10;
-    let q_2 = 60.5607 * mu_v10 + 2285.0876 * mu_b1 + 14393.997 * mu_b2 + 30533.752 * mu_b3 + 30787.623 * mu_b4 + 15342.408 * mu_b5 + 6063.3584 * mu_b6 + 1452.6346 * mu_b7 + 266.18576 * mu_b8 + 27.58154 * mu_b9 + 2.2010586 * mu_u10;
-    let q_3 = 214.84265 * mu_v10 + 7644.4077 * mu_b1 + 47911.613 * mu_b2 + 104526.19 * mu_b3 + 111146.83 * mu_b4 + 60470.45 * mu_b5 + 23523.678 * mu_b6 + 5976.404 * mu_b7 + 1082.4845 * mu_b8 + 116.60733 * mu_b9 + 7.8393297 * mu_u10;
-    let q_4 = 478.95987 * mu_v10 + 16359.739 * mu_b1 + 103015.15 * mu_b2 + 231315.14 * mu_b3 + 257784.92 * mu_b4 + 150814.63 * mu_b5 + 59429.21 * mu_b6 + 15808.669 * mu_b7 + 2912.599 * mu_b8 + 324.14102 * mu_b9 + 19.633522 * mu_u10;
-    let q_5 = 689.02106 * mu_v10 + 23397.855 * mu_b1 + 149434.23 * mu_b2 + 345879.97 * mu_b3 + 402818.88 * mu_b4 + 251606.97 * mu_b5 + 102491.3 * mu_b6 + 28593.014 * mu_b7 + 5459.052 * mu_b8 + 629.08185 * mu_b9 + 36.21492 * mu_u10;
-    let q_6 = 656.6958 * mu_v10 + 22776.924 * mu_b1 + 148591.86 * mu_b2 + 355172.88 * mu_b3 + 432127.22 * mu_b4 + 287710.38 * mu_b5 + 123218.41 * mu_b6 + 36398.086 * mu_b7 + 7310.503 * mu_b8 + 878.1087 * mu_b9 + 49.856606 * mu_u10;
-    let q_7 = 416.78732 * mu_v10 + 15029.812 * mu_b1 + 100622.586 * mu_b2 + 248984.42 * mu_b3 + 317198.72 * mu_b4 + 225892.27 * mu_b5 + 103455.38 * mu_b6 + 32830.63 * mu_b7 + 7033.764 * mu_b8 + 887.742 * mu_b9 + 50.886703 * mu_u10;
-    let q_8 = 172.69188 * mu_v10 + 6517.1567 * mu_b1 + 44852.016 * mu_b2 + 115258.79 * mu_b3 + 154511.88 * mu_b4 + 118596.98 * mu_b5 + 59083.86 * mu_b6 + 20448.115 * mu_b7 + 4729.103 * mu_b8 + 633.35693 * mu_b9 + 37.31478 * mu_u10;
-    let q_9 = 44.47503 * mu_v10 + 1713.1902 * mu_b1 + 12069.857 * mu_b2 + 32311.18 * mu_b3 + 45882.582 * mu_b4 + 38319.066 * mu_b5 + 21059.943 * mu_b6 + 8034.531 * mu_b7 + 2024.0939 * mu_b8 + 291.66437 * mu_b9 + 18.117805 * mu_u10;
-    let q_10 = 5.9009957 * mu_v10 + 213.67622 * mu_b1 + 1519.8156 * mu_b2 + 4242.7295 * mu_b3 + 6418.9556 * mu_b4 + 5872.7393 * mu_b5 + 3582.231 * mu_b6 + 1509.6046 * mu_b7 + 415.56375 * mu_b8 + 65.15003 * mu_b9 + 4.376247 * mu_u10;
+    let q_0 = 1.0 * mu_v10 + 33.947334 * mu_b1 + 216.25949 * mu_b2 + 426.0471 * mu_b3 + 369.24976 * mu_b4 + 136.61908 * mu_b5 + 66.92446 * mu_b6 + 11.013125 * mu_b7 + 2.7136416 * mu_b8 + 0.25992104 * mu_b9 + 0.035454992 * mu_u10;
+    let q_1 = 11.438641 * mu_v10 + 438.93423 * mu_b1 + 2767.5457 * mu_b2 + 5632.486 * mu_b3 + 5286.295 * mu_b4 + 2315.3245 * mu_b5 + 974.4697 * mu_b6 + 207.21036 * mu_b7 + 40.812763 * mu_b8 + 4.058331 * mu_b9 + 0.413986 * mu_u10;
+    let q_2 = 66.74637 * mu_v10 + 2531.992 * mu_b1 + 15856.016 * mu_b2 + 33329.066 * mu_b3 + 33408.832 * mu_b4 + 16506.117 * mu_b5 + 6503.8555 * mu_b6 + 1549.8197 * mu_b7 + 281.80728 * mu_b8 + 29.232155 * mu_b9 + 2.3048158 * mu_u10;
+    let q_3 = 238.2081 * mu_v10 + 8514.794 * mu_b1 + 53227.2 * mu_b2 + 115397.33 * mu_b3 + 122151.49 * mu_b4 + 66016.61 * mu_b5 + 25521.738 * mu_b6 + 6456.215 * mu_b7 + 1157.687 * mu_b8 + 124.04538 * mu_b9 + 8.218656 * mu_u10;
+    let q_4 = 532.6322 * mu_v10 + 18338.453 * mu_b1 + 115440.6 * mu_b2 + 258182.16 * mu_b3 + 286752.44 * mu_b4 + 166850.03 * mu_b5 + 65189.266 * mu_b6 + 17213.826 * mu_b7 + 3136.016 * mu_b8 + 344.9734 * mu_b9 + 20.710733 * mu_u10;
+    let q_5 = 770.1708 * mu_v10 + 26428.541 * mu_b1 + 168963.97 * mu_b2 + 390165.3 * mu_b3 + 453185.84 * mu_b4 + 281607.8 * mu_b5 + 113451.14 * mu_b6 + 31260.803 * mu_b7 + 5894.28 * mu_b8 + 670.84607 * mu_b9 + 38.577347 * mu_u10;
+    let q_6 = 740.09064 * mu_v10 + 25953.844 * mu_b1 + 169561.19 * mu_b2 + 404763.2 * mu_b3 + 491267.44 * mu_b4 + 325224.63 * mu_b5 + 137386.2 * mu_b6 + 39896.113 * mu_b7 + 7915.9126 * mu_b8 + 944.8586 * mu_b9 + 54.023506 * mu_u10;
+    let q_7 = 475.44617 * mu_v10 + 17293.912 * mu_b1 + 115884.85 * mu_b2 + 286475.4 * mu_b3 + 363923.56 * mu_b4 + 257328.13 * mu_b5 + 115926.805 * mu_b6 + 36051.75 * mu_b7 + 7645.9883 * mu_b8 + 968.25964 * mu_b9 + 56.362995 * mu_u10;
+    let q_8 = 200.13516 * mu_v10 + 7574.327 * mu_b1 + 52100.258 * mu_b2 + 133700.06 * mu_b3 + 178506.61 * mu_b4 + 135738.78 * mu_b5 + 66362.445 * mu_b6 + 22493.537 * mu_b7 + 5169.971 * mu_b8 + 701.8254 * mu_b9 + 42.446396 * mu_u10;
+    let q_9 = 52.198513 * mu_v10 + 2006.5404 * mu_b1 + 14107.071 * mu_b2 + 37669.24 * mu_b3 + 53165.156 * mu_b4 + 43863.9 * mu_b5 + 23622.396 * mu_b6 + 8841.245 * mu_b7 + 2222.8335 * mu_b8 + 326.79233 * mu_b9 + 21.019262 * mu_u10;
+    let q_10 = 6.9221935 * mu_v10 + 250.80241 * mu_b1 + 1779.2177 * mu_b2 + 4946.9893 * mu_b3 + 7421.3394 * mu_b4 + 6691.8564 * mu_b5 + 4001.3904 * mu_b6 + 1660.6455 * mu_b7 + 458.0811 * mu_b8 + 73.49678 * mu_b9 + 5.1357856 * mu_u10;
     let q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -12,16 +12,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 2*r*r) + 2^-100)/(mu + 2*r*r + 2^-100).
-// Fit: rational over [x0^2 x x1^3]/[x0^2 x x1^2], 20 coefficients (numerator 12, denominator 8 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 16384 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 ee94b6b83c9eb1aa2c6476740c9c225551abc1f9a7459812f8e6f55caa278782.
+// Fit: rational over [x0^2 x x1^3]/[x0^2 x x1^2], 20 coefficients (numerator 12, denominator 8 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 4 of 16, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-conductor/best-20.json (furnace 0.1.0), fit SHA-256 b95677e20b012262b578ca323fef27a677a730742bca91b9915f24eade54fc41.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 7.6e-7, shifted 3.4e-7, bernstein 3.7e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 9.51e-4, max 8.37e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 8.88e-7 (every op rounded, as this Rust), 6.06e-7 (fused multiply-add), 6.73e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.10e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 431 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 9.48e-4, max 8.37e-3; this f32 code MAE 9.48e-4, max 8.37e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.0e-4 on the measurement grid.
-// Denominator proved >= 3.854e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 6.9e-7, shifted 4.9e-7, bernstein 3.6e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.50e-3, max 4.45e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 8.37e-7 (every op rounded, as this Rust), 7.94e-7 (fused multiply-add), 7.93e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.14e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 329 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.50e-3, max 4.45e-3; this f32 code MAE 1.50e-3, max 4.45e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-4 on the measurement grid.
+// Denominator proved >= 4.041e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -31,14 +31,14 @@ fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // t = (mu*(1 + 2*r*r) + 2^-100)/(mu + 2*r*r + 2^-100)
     let mu_t = (mu_c * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 2.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((-0.434174 * mu_t + 3.3324888) * mu_t - 2.7235227) * mu_t + 0.99871784;
-    let p_1 = ((2.51437 * mu_t - 12.228163) * mu_t + 10.774123) * mu_t - 1.8200889;
-    let p_2 = ((-1.7237242 * mu_t + 7.8325047) * mu_t - 7.132379) * mu_t + 1.3449978;
+    let p_0 = ((-0.42846584 * mu_t + 3.3654513) * mu_t - 2.7062485) * mu_t + 0.99682593;
+    let p_1 = ((2.6724613 * mu_t - 13.063217) * mu_t + 11.416784) * mu_t - 1.6820602;
+    let p_2 = ((-1.4417578 * mu_t + 7.5676975) * mu_t - 7.0656576) * mu_t + 1.1907094;
     let p = (p_2 * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (2.5177193 * mu_t - 2.3431895) * mu_t + 1.0;
-    let q_1 = (-9.112129 * mu_t + 10.104817) * mu_t - 1.8189145;
-    let q_2 = (6.247479 * mu_t - 5.5715523) * mu_t + 1.3457861;
+    let q_0 = (2.5607727 * mu_t - 2.3318734) * mu_t + 1.0;
+    let q_1 = (-9.928134 * mu_t + 10.854161) * mu_t - 1.6881008;
+    let q_2 = (6.4588404 * mu_t - 5.4749217) * mu_t + 1.1954852;
     let q = (q_2 * r_t + q_1) * r_t + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

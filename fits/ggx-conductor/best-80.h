@@ -41,16 +41,16 @@ FURNACE_FN furnace_rgb furnace_rgb_make(float x, float y, float z) {
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 329e62a8d6f62eb1f03622cc126f3a285f5a5f47ded0ab368776ed05afd0d366.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 ca486b6e6edfd2ca71e2c4331a5a2091a9501437e797da8c6a3e600cebfd6350.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.7e-4, shifted 9.7e-6, bernstein 5.6e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 3.98e-6, max 1.04e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.82e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 7.26e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 25385 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 3.79e-6, max 6.80e-5; this f32 code MAE 3.80e-6, max 6.79e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-4 on the measurement grid.
-// Denominator proved >= 3.031e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.5e-4, shifted 7.6e-6, bernstein 5.9e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.21e-6, max 6.89e-5 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 4.93e-7 (fused multiply-add), 6.95e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 23353 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.01e-6, max 5.95e-5; this f32 code MAE 4.01e-6, max 5.94e-5.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.9e-5 on the measurement grid.
+// Denominator proved >= 3.281e-2 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_conductor_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -102,24 +102,24 @@ FURNACE_FN float ggx_conductor_albedo(float r, float mu) {
     const float mu_b5 = mu_u5 * mu_v2;
     const float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 1.0000249f * mu_v7 + 8.584355f * mu_b1 + 14.327413f * mu_b2 + 8.957999f * mu_b3 + 1.2014184f * mu_b4 + 1.5582666f * mu_b5 - 0.024674686f * mu_b6 + 0.050718255f * mu_u7;
-    const float p_1 = 10.237555f * mu_v7 + 78.11286f * mu_b1 + 135.20352f * mu_b2 + 96.54829f * mu_b3 + 21.561197f * mu_b4 + 11.920637f * mu_b5 + 1.2620945f * mu_b6 + 0.21268862f * mu_u7;
-    const float p_2 = 39.019207f * mu_v7 + 295.29602f * mu_b1 + 537.7525f * mu_b2 + 427.5928f * mu_b3 + 126.19242f * mu_b4 + 40.725975f * mu_b5 + 5.6073465f * mu_b6 + 0.5469911f * mu_u7;
-    const float p_3 = 78.1757f * mu_v7 + 608.0514f * mu_b1 + 1154.8354f * mu_b2 + 984.40155f * mu_b3 + 339.91287f * mu_b4 + 82.49757f * mu_b5 + 10.131708f * mu_b6 + 0.7557686f * mu_u7;
-    const float p_4 = 92.942245f * mu_v7 + 746.59125f * mu_b1 + 1457.7762f * mu_b2 + 1291.3499f * mu_b3 + 489.34082f * mu_b4 + 105.1788f * mu_b5 + 11.070814f * mu_b6 + 0.6606835f * mu_u7;
-    const float p_5 = 66.78839f * mu_v7 + 550.5698f * mu_b1 + 1091.2765f * mu_b2 + 981.5734f * mu_b3 + 391.37918f * mu_b4 + 80.11301f * mu_b5 + 7.5978456f * mu_b6 + 0.3759213f * mu_u7;
-    const float p_6 = 26.67012f * mu_v7 + 225.15636f * mu_b1 + 449.95193f * mu_b2 + 405.3277f * mu_b3 + 165.6931f * mu_b4 + 33.236015f * mu_b5 + 3.003233f * mu_b6 + 0.12841876f * mu_u7;
-    const float p_7 = 4.4063582f * mu_v7 + 38.72875f * mu_b1 + 77.99705f * mu_b2 + 69.8792f * mu_b3 + 28.74866f * mu_b4 + 5.6723313f * mu_b5 + 0.4998973f * mu_b6 + 0.018836977f * mu_u7;
+    const float p_0 = 1.0000238f * mu_v7 + 8.511201f * mu_b1 + 13.961206f * mu_b2 + 8.765311f * mu_b3 + 1.1219441f * mu_b4 + 1.528123f * mu_b5 - 0.026836772f * mu_b6 + 0.04936274f * mu_u7;
+    const float p_1 = 9.987119f * mu_v7 + 76.521835f * mu_b1 + 130.73807f * mu_b2 + 93.82596f * mu_b3 + 20.78437f * mu_b4 + 11.717035f * mu_b5 + 1.1896116f * mu_b6 + 0.21796662f * mu_u7;
+    const float p_2 = 37.86983f * mu_v7 + 288.42944f * mu_b1 + 519.6034f * mu_b2 + 414.85934f * mu_b3 + 122.60017f * mu_b4 + 40.46173f * mu_b5 + 5.504864f * mu_b6 + 0.57859445f * mu_u7;
+    const float p_3 = 75.915146f * mu_v7 + 594.4671f * mu_b1 + 1118.9615f * mu_b2 + 957.2918f * mu_b3 + 332.5344f * mu_b4 + 83.25484f * mu_b5 + 10.537825f * mu_b6 + 0.8532754f * mu_u7;
+    const float p_4 = 90.3268f * mu_v7 + 730.7967f * mu_b1 + 1416.3958f * mu_b2 + 1258.375f * mu_b3 + 479.94296f * mu_b4 + 106.56669f * mu_b5 + 11.946087f * mu_b6 + 0.79134345f * mu_u7;
+    const float p_5 = 64.839615f * mu_v7 + 538.7392f * mu_b1 + 1061.0931f * mu_b2 + 956.07294f * mu_b3 + 382.80127f * mu_b4 + 80.37593f * mu_b5 + 8.160409f * mu_b6 + 0.45721f * mu_u7;
+    const float p_6 = 25.821693f * mu_v7 + 219.81938f * mu_b1 + 436.6049f * mu_b2 + 393.12582f * mu_b3 + 160.57388f * mu_b4 + 32.559483f * mu_b5 + 3.0672793f * mu_b6 + 0.14666843f * mu_u7;
+    const float p_7 = 4.2573843f * mu_v7 + 37.69498f * mu_b1 + 75.37174f * mu_b2 + 67.266914f * mu_b3 + 27.451057f * mu_b4 + 5.3674755f * mu_b5 + 0.46996692f * mu_b6 + 0.018434137f * mu_u7;
     const float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v7 + 8.584651f * mu_b1 + 14.5528555f * mu_b2 + 10.21731f * mu_b3 + 1.9136884f * mu_b4 + 1.649156f * mu_b5 - 0.024535362f * mu_b6 + 0.050717887f * mu_u7;
-    const float q_1 = 10.238775f * mu_v7 + 78.07734f * mu_b1 + 137.31847f * mu_b2 + 106.52142f * mu_b3 + 28.01143f * mu_b4 + 13.525918f * mu_b5 + 1.3500063f * mu_b6 + 0.21277894f * mu_u7;
-    const float q_2 = 39.013783f * mu_v7 + 295.28763f * mu_b1 + 553.46375f * mu_b2 + 474.40936f * mu_b3 + 154.78862f * mu_b4 + 47.820812f * mu_b5 + 6.590131f * mu_b6 + 0.5948616f * mu_u7;
-    const float q_3 = 78.17908f * mu_v7 + 608.5782f * mu_b1 + 1215.8649f * mu_b2 + 1131.775f * mu_b3 + 429.1598f * mu_b4 + 102.197495f * mu_b5 + 13.229837f * mu_b6 + 0.97674155f * mu_u7;
-    const float q_4 = 92.96019f * mu_v7 + 747.87463f * mu_b1 + 1580.131f * mu_b2 + 1572.2025f * mu_b3 + 670.46075f * mu_b4 + 145.83356f * mu_b5 + 16.333908f * mu_b6 + 1.0691504f * mu_u7;
-    const float q_5 = 66.75805f * mu_v7 + 551.61523f * mu_b1 + 1221.6168f * mu_b2 + 1283.3547f * mu_b3 + 601.63367f * mu_b4 + 131.55225f * mu_b5 + 12.971274f * mu_b6 + 0.7139293f * mu_u7;
-    const float q_6 = 26.676186f * mu_v7 + 225.86017f * mu_b1 + 521.8938f * mu_b2 + 575.63165f * mu_b3 + 293.5383f * mu_b4 + 68.32128f * mu_b5 + 6.604464f * mu_b6 + 0.318468f * mu_u7;
-    const float q_7 = 4.4059014f * mu_v7 + 38.85781f * mu_b1 + 93.80583f * mu_b2 + 108.41707f * mu_b3 + 59.503983f * mu_b4 + 14.913608f * mu_b5 + 1.4743376f * mu_b6 + 0.061389197f * mu_u7;
+    const float q_0 = 1.0f * mu_v7 + 8.511519f * mu_b1 + 14.186813f * mu_b2 + 10.005143f * mu_b3 + 1.8081083f * mu_b4 + 1.616548f * mu_b5 - 0.026698027f * mu_b6 + 0.04936237f * mu_u7;
+    const float q_1 = 9.98822f * mu_v7 + 76.48452f * mu_b1 + 132.81403f * mu_b2 + 103.53412f * mu_b3 + 26.96838f * mu_b4 + 13.309059f * mu_b5 + 1.2746918f * mu_b6 + 0.21805729f * mu_u7;
+    const float q_2 = 37.865906f * mu_v7 + 288.43744f * mu_b1 + 535.04517f * mu_b2 + 460.35458f * mu_b3 + 150.07652f * mu_b4 + 47.554615f * mu_b5 + 6.4828634f * mu_b6 + 0.625158f * mu_u7;
+    const float q_3 = 75.91423f * mu_v7 + 594.9383f * mu_b1 + 1178.572f * mu_b2 + 1100.2511f * mu_b3 + 418.4963f * mu_b4 + 102.9354f * mu_b5 + 13.719002f * mu_b6 + 1.0789901f * mu_u7;
+    const float q_4 = 90.34409f * mu_v7 + 731.96173f * mu_b1 + 1535.8477f * mu_b2 + 1531.2554f * mu_b3 + 655.3387f * mu_b4 + 147.11131f * mu_b5 + 17.531448f * mu_b6 + 1.2356254f * mu_u7;
+    const float q_5 = 64.8192f * mu_v7 + 539.76086f * mu_b1 + 1188.6396f * mu_b2 + 1250.1486f * mu_b3 + 587.4518f * mu_b4 + 131.666f * mu_b5 + 14.041698f * mu_b6 + 0.8781782f * mu_u7;
+    const float q_6 = 25.823652f * mu_v7 + 220.4716f * mu_b1 + 506.85327f * mu_b2 + 558.81226f * mu_b3 + 284.60867f * mu_b4 + 66.93442f * mu_b5 + 6.812332f * mu_b6 + 0.38007578f * mu_u7;
+    const float q_7 = 4.257091f * mu_v7 + 37.814198f * mu_b1 + 90.75394f * mu_b2 + 104.57142f * mu_b3 + 56.993332f * mu_b4 + 14.15313f * mu_b5 + 1.3801162f * mu_b6 + 0.0600765f * mu_u7;
     const float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -13,16 +13,16 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
-/// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 329e62a8d6f62eb1f03622cc126f3a285f5a5f47ded0ab368776ed05afd0d366.
+/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+/// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 ca486b6e6edfd2ca71e2c4331a5a2091a9501437e797da8c6a3e600cebfd6350.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.7e-4, shifted 9.7e-6, bernstein 5.6e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 3.98e-6, max 1.04e-4 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.82e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 7.26e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 25385 boxes).
-/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 3.79e-6, max 6.80e-5; this f32 code MAE 3.80e-6, max 6.79e-5.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-4 on the measurement grid.
-/// Denominator proved >= 3.031e-2 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.5e-4, shifted 7.6e-6, bernstein 5.9e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 4.21e-6, max 6.89e-5 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 4.93e-7 (fused multiply-add), 6.95e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 23353 boxes).
+/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.01e-6, max 5.95e-5; this f32 code MAE 4.01e-6, max 5.94e-5.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.9e-5 on the measurement grid.
+/// Denominator proved >= 3.281e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -81,24 +81,24 @@ pub fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0000249_f32 * mu_v7 + 8.584355_f32 * mu_b1 + 14.327413_f32 * mu_b2 + 8.957999_f32 * mu_b3 + 1.2014184_f32 * mu_b4 + 1.5582666_f32 * mu_b5 - 0.024674686_f32 * mu_b6 + 0.050718255_f32 * mu_u7;
-    let p_1 = 10.237555_f32 * mu_v7 + 78.11286_f32 * mu_b1 + 135.20352_f32 * mu_b2 + 96.54829_f32 * mu_b3 + 21.561197_f32 * mu_b4 + 11.920637_f32 * mu_b5 + 1.2620945_f32 * mu_b6 + 0.21268862_f32 * mu_u7;
-    let p_2 = 39.019207_f32 * mu_v7 + 295.29602_f32 * mu_b1 + 537.7525_f32 * mu_b2 + 427.5928_f32 * mu_b3 + 126.19242_f32 * mu_b4 + 40.725975_f32 * mu_b5 + 5.6073465_f32 * mu_b6 + 0.5469911_f32 * mu_u7;
-    let p_3 = 78.1757_f32 * mu_v7 + 608.0514_f32 * mu_b1 + 1154.8354_f32 * mu_b2 + 984.40155_f32 * mu_b3 + 339.91287_f32 * mu_b4 + 82.49757_f32 * mu_b5 + 10.131708_f32 * mu_b6 + 0.7557686_f32 * mu_u7;
-    let p_4 = 92.942245_f32 * mu_v7 + 746.59125_f32 * mu_b1 + 1457.7762_f32 * mu_b2 + 1291.3499_f32 * mu_b3 + 489.34082_f32 * mu_b4 + 105.1788_f32 * mu_b5 + 11.070814_f32 * mu_b6 + 0.6606835_f32 * mu_u7;
-    let p_5 = 66.78839_f32 * mu_v7 + 550.5698_f32 * mu_b1 + 1091.2765_f32 * mu_b2 + 981.5734_f32 * mu_b3 + 391.37918_f32 * mu_b4 + 80.11301_f32 * mu_b5 + 7.5978456_f32 * mu_b6 + 0.3759213_f32 * mu_u7;
-    let p_6 = 26.67012_f32 * mu_v7 + 225.15636_f32 * mu_b1 + 449.95193_f32 * mu_b2 + 405.3277_f32 * mu_b3 + 165.6931_f32 * mu_b4 + 33.236015_f32 * mu_b5 + 3.003233_f32 * mu_b6 + 0.12841876_f32 * mu_u7;
-    let p_7 = 4.4063582_f32 * mu_v7 + 38.72875_f32 * mu_b1 + 77.99705_f32 * mu_b2 + 69.8792_f32 * mu_b3 + 28.74866_f32 * mu_b4 + 5.6723313_f32 * mu_b5 + 0.4998973_f32 * mu_b6 + 0.018836977_f32 * mu_u7;
+    let p_0 = 1.0000238_f32 * mu_v7 + 8.511201_f32 * mu_b1 + 13.961206_f32 * mu_b2 + 8.765311_f32 * mu_b3 + 1.1219441_f32 * mu_b4 + 1.528123_f32 * mu_b5 - 0.026836772_f32 * mu_b6 + 0.04936274_f32 * mu_u7;
+    let p_1 = 9.987119_f32 * mu_v7 + 76.521835_f32 * mu_b1 + 130.73807_f32 * mu_b2 + 93.82596_f32 * mu_b3 + 20.78437_f32 * mu_b4 + 11.717035_f32 * mu_b5 + 1.1896116_f32 * mu_b6 + 0.21796662_f32 * mu_u7;
+    let p_2 = 37.86983_f32 * mu_v7 + 288.42944_f32 * mu_b1 + 519.6034_f32 * mu_b2 + 414.85934_f32 * mu_b3 + 122.60017_f32 * mu_b4 + 40.46173_f32 * mu_b5 + 5.504864_f32 * mu_b6 + 0.57859445_f32 * mu_u7;
+    let p_3 = 75.915146_f32 * mu_v7 + 594.4671_f32 * mu_b1 + 1118.9615_f32 * mu_b2 + 957.2918_f32 * mu_b3 + 332.5344_f32 * mu_b4 + 83.25484_f32 * mu_b5 + 10.537825_f32 * mu_b6 + 0.8532754_f32 * mu_u7;
+    let p_4 = 90.3268_f32 * mu_v7 + 730.7967_f32 * mu_b1 + 1416.3958_f32 * mu_b2 + 1258.375_f32 * mu_b3 + 479.94296_f32 * mu_b4 + 106.56669_f32 * mu_b5 + 11.946087_f32 * mu_b6 + 0.79134345_f32 * mu_u7;
+    let p_5 = 64.839615_f32 * mu_v7 + 538.7392_f32 * mu_b1 + 1061.0931_f32 * mu_b2 + 956.07294_f32 * mu_b3 + 382.80127_f32 * mu_b4 + 80.37593_f32 * mu_b5 + 8.160409_f32 * mu_b6 + 0.45721_f32 * mu_u7;
+    let p_6 = 25.821693_f32 * mu_v7 + 219.81938_f32 * mu_b1 + 436.6049_f32 * mu_b2 + 393.12582_f32 * mu_b3 + 160.57388_f32 * mu_b4 + 32.559483_f32 * mu_b5 + 3.0672793_f32 * mu_b6 + 0.14666843_f32 * mu_u7;
+    let p_7 = 4.2573843_f32 * mu_v7 + 37.69498_f32 * mu_b1 + 75.37174_f32 * mu_b2 + 67.266914_f32 * mu_b3 + 27.451057_f32 * mu_b4 + 5.3674755_f32 * mu_b5 + 0.46996692_f32 * mu_b6 + 0.018434137_f32 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v7 + 8.584651_f32 * mu_b1 + 14.5528555_f32 * mu_b2 + 10.21731_f32 * mu_b3 + 1.9136884_f32 * mu_b4 + 1.649156_f32 * mu_b5 - 0.024535362_f32 * mu_b6 + 0.050717887_f32 * mu_u7;
-    let q_1 = 10.238775_f32 * mu_v7 + 78.07734_f32 * mu_b1 + 137.31847_f32 * mu_b2 + 106.52142_f32 * mu_b3 + 28.01143_f32 * mu_b4 + 13.525918_f32 * mu_b5 + 1.3500063_f32 * mu_b6 + 0.21277894_f32 * mu_u7;
-    let q_2 = 39.013783_f32 * mu_v7 + 295.28763_f32 * mu_b1 + 553.46375_f32 * mu_b2 + 474.40936_f32 * mu_b3 + 154.78862_f32 * mu_b4 + 47.820812_f32 * mu_b5 + 6.590131_f32 * mu_b6 + 0.5948616_f32 * mu_u7;
-    let q_3 = 78.17908_f32 * mu_v7 + 608.5782_f32 * mu_b1 + 1215.8649_f32 * mu_b2 + 1131.775_f32 * mu_b3 + 429.1598_f32 * mu_b4 + 102.197495_f32 * mu_b5 + 13.229837_f32 * mu_b6 + 0.97674155_f32 * mu_u7;
-    let q_4 = 92.96019_f32 * mu_v7 + 747.87463_f32 * mu_b1 + 1580.131_f32 * mu_b2 + 1572.2025_f32 * mu_b3 + 670.46075_f32 * mu_b4 + 145.83356_f32 * mu_b5 + 16.333908_f32 * mu_b6 + 1.0691504_f32 * mu_u7;
-    let q_5 = 66.75805_f32 * mu_v7 + 551.61523_f32 * mu_b1 + 1221.6168_f32 * mu_b2 + 1283.3547_f32 * mu_b3 + 601.63367_f32 * mu_b4 + 131.55225_f32 * mu_b5 + 12.971274_f32 * mu_b6 + 0.7139293_f32 * mu_u7;
-    let q_6 = 26.676186_f32 * mu_v7 + 225.86017_f32 * mu_b1 + 521.8938_f32 * mu_b2 + 575.63165_f32 * mu_b3 + 293.5383_f32 * mu_b4 + 68.32128_f32 * mu_b5 + 6.604464_f32 * mu_b6 + 0.318468_f32 * mu_u7;
-    let q_7 = 4.4059014_f32 * mu_v7 + 38.85781_f32 * mu_b1 + 93.80583_f32 * mu_b2 + 108.41707_f32 * mu_b3 + 59.503983_f32 * mu_b4 + 14.913608_f32 * mu_b5 + 1.4743376_f32 * mu_b6 + 0.061389197_f32 * mu_u7;
+    let q_0 = 1.0_f32 * mu_v7 + 8.511519_f32 * mu_b1 + 14.186813_f32 * mu_b2 + 10.005143_f32 * mu_b3 + 1.8081083_f32 * mu_b4 + 1.616548_f32 * mu_b5 - 0.026698027_f32 * mu_b6 + 0.04936237_f32 * mu_u7;
+    let q_1 = 9.98822_f32 * mu_v7 + 76.48452_f32 * mu_b1 + 132.81403_f32 * mu_b2 + 103.53412_f32 * mu_b3 + 26.96838_f32 * mu_b4 + 13.309059_f32 * mu_b5 + 1.2746918_f32 * mu_b6 + 0.21805729_f32 * mu_u7;
+    let q_2 = 37.865906_f32 * mu_v7 + 288.43744_f32 * mu_b1 + 535.04517_f32 * mu_b2 + 460.35458_f32 * mu_b3 + 150.07652_f32 * mu_b4 + 47.554615_f32 * mu_b5 + 6.4828634_f32 * mu_b6 + 0.625158_f32 * mu_u7;
+    let q_3 = 75.91423_f32 * mu_v7 + 594.9383_f32 * mu_b1 + 1178.572_f32 * mu_b2 + 1100.2511_f32 * mu_b3 + 418.4963_f32 * mu_b4 + 102.9354_f32 * mu_b5 + 13.719002_f32 * mu_b6 + 1.0789901_f32 * mu_u7;
+    let q_4 = 90.34409_f32 * mu_v7 + 731.96173_f32 * mu_b1 + 1535.8477_f32 * mu_b2 + 1531.2554_f32 * mu_b3 + 655.3387_f32 * mu_b4 + 147.11131_f32 * mu_b5 + 17.531448_f32 * mu_b6 + 1.2356254_f32 * mu_u7;
+    let q_5 = 64.8192_f32 * mu_v7 + 539.76086_f32 * mu_b1 + 1188.6396_f32 * mu_b2 + 1250.1486_f32 * mu_b3 + 587.4518_f32 * mu_b4 + 131.666_f32 * mu_b5 + 14.041698_f32 * mu_b6 + 0.8781782_f32 * mu_u7;
+    let q_6 = 25.823652_f32 * mu_v7 + 220.4716_f32 * mu_b1 + 506.85327_f32 * mu_b2 + 558.81226_f32 * mu_b3 + 284.60867_f32 * mu_b4 + 66.93442_f32 * mu_b5 + 6.812332_f32 * mu_b6 + 0.38007578_f32 * mu_u7;
+    let q_7 = 4.257091_f32 * mu_v7 + 37.814198_f32 * mu_b1 + 90.75394_f32 * mu_b2 + 104.57142_f32 * mu_b3 + 56.993332_f32 * mu_b4 + 14.15313_f32 * mu_b5 + 1.3801162_f32 * mu_b6 + 0.0600765_f32 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

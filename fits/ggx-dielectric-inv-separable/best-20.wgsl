@@ -9,19 +9,19 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 6c6c8c54c28a35c36c8b63083bd2e58e5ab4679eef8cf5238b6c7624b4fcb61c.
+// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 2cd7d2a1e7fb77f7bc8ad17d64206f150a6d22784c429da1962ae8b98bb1d18e.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-6, shifted 1.1e-6, bernstein 1.1e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.33e-2, max 5.57e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.53e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 1.23e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.23e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 711 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.18e-2, max 5.57e-2; this f32 code MAE 1.18e-2, max 5.57e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-2 on the measurement grid.
-// Denominator proved >= 2.859e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-6, shifted 1.0e-6, bernstein 1.1e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.26e-2, max 6.12e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.20e-7 (every op rounded, as this Rust), 4.61e-7 (fused multiply-add), 1.17e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 5.36e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 769 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.11e-2, max 6.12e-2; this f32 code MAE 1.11e-2, max 6.12e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-2 on the measurement grid.
+// Denominator proved >= 2.731e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -34,14 +34,14 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
     // numerator P, grouped by powers of the first variable
-    let p_0 = (0.29142016 * r_t + (0.9740547 * mu_t - 0.93709105)) * r_t + ((0.19908197 * mu_t - 0.87887615) * mu_t + 0.9699172);
-    let p_1 = -1.0299091 * r_t + (-3.4104908 * mu_t + 3.5567718);
-    let p_2 = 0.49856588;
+    let p_0 = (0.33173543 * r_t + (0.9850626 * mu_t - 0.9834428)) * r_t + ((0.26145846 * mu_t - 0.95641875) * mu_t + 0.97238946);
+    let p_1 = -1.0478973 * r_t + (-3.3912401 * mu_t + 3.5851374);
+    let p_2 = 0.4627694;
     let p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (0.68402505 * r_t + (-0.105492376 * mu_t + 0.11734156)) * r_t + ((-0.10226422 * mu_t - 0.61179096) * mu_t + 1.0);
-    let q_1 = -0.7269682 * r_t + (-3.7974863 * mu_t + 3.9114687);
-    let q_2 = 0.5349391;
+    let q_0 = (0.7187921 * r_t + (-0.08352191 * mu_t + 0.052348558)) * r_t + ((-0.0141697 * mu_t - 0.7124091) * mu_t + 1.0);
+    let q_1 = -0.75139725 * r_t + (-3.8012092 * mu_t + 3.9674852);
+    let q_2 = 0.49151185;
     let q = (q_2 * f0_t + q_1) * f0_t + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -13,19 +13,19 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 d9400d4614b3f88a8843429311a473fda45821d483be7028389c31d71ae789bd.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 6089c538784e31feb6100d99590d40fa2b79adf5dc5d6d4817a6b8571260bcb3.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-5, shifted 1.1e-5, bernstein 5.7e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 4.29e-3, max 4.12e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.32e-6 (every op rounded, as this Rust), 4.48e-6 (fused multiply-add), 7.52e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.03e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17569 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.15e-3, max 4.12e-2; this f32 code MAE 4.15e-3, max 4.12e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.1e-3 on the measurement grid.
-// Denominator proved >= 1.261e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.1e-5, shifted 9.2e-6, bernstein 6.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.98e-3, max 2.65e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.53e-6 (every op rounded, as this Rust), 4.85e-6 (fused multiply-add), 7.47e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.12e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 19675 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.70e-3, max 2.65e-2; this f32 code MAE 4.70e-3, max 2.65e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
+// Denominator proved >= 1.098e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -62,11 +62,11 @@ highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, h
     highp float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     highp float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    highp float p0_0_0 = -0.018748738 * mu_b4_v4 + 0.89886916 * mu_b4_b1 - 0.5032516 * mu_b4_b2 + 0.22391097 * mu_b4_b3 + 0.0011804242 * mu_b4_u4;
-    highp float p0_0_1 = -2.6540704 * mu_b4_v4 - 7.085195 * mu_b4_b1 - 12.496501 * mu_b4_b2 - 1.5106876 * mu_b4_b3 - 0.019711433 * mu_b4_u4;
-    highp float p0_0_2 = -6.861356 * mu_b4_v4 - 22.47685 * mu_b4_b1 - 28.682877 * mu_b4_b2 - 2.863693 * mu_b4_b3 + 0.3420887 * mu_b4_u4;
-    highp float p0_0_3 = -5.2411675 * mu_b4_v4 - 18.26838 * mu_b4_b1 - 19.952444 * mu_b4_b2 + 0.44847623 * mu_b4_b3 + 0.7993092 * mu_b4_u4;
-    highp float p0_0_4 = -1.2002466 * mu_b4_v4 - 4.516045 * mu_b4_b1 - 4.3734965 * mu_b4_b2 + 0.8371179 * mu_b4_b3 + 0.25121543 * mu_b4_u4;
+    highp float p0_0_0 = -0.118105136 * mu_b4_v4 + 0.75881714 * mu_b4_b1 - 0.61277395 * mu_b4_b2 + 0.19313987 * mu_b4_b3 - 0.0067239534 * mu_b4_u4;
+    highp float p0_0_1 = -2.743829 * mu_b4_v4 - 7.5714917 * mu_b4_b1 - 13.226677 * mu_b4_b2 - 1.681934 * mu_b4_b3 - 0.0411597 * mu_b4_u4;
+    highp float p0_0_2 = -6.877387 * mu_b4_v4 - 23.394064 * mu_b4_b1 - 29.794537 * mu_b4_b2 - 2.8250015 * mu_b4_b3 + 0.315497 * mu_b4_u4;
+    highp float p0_0_3 = -5.1524553 * mu_b4_v4 - 18.433743 * mu_b4_b1 - 19.60572 * mu_b4_b2 + 1.2362694 * mu_b4_b3 + 0.8024635 * mu_b4_u4;
+    highp float p0_0_4 = -1.1728991 * mu_b4_v4 - 4.458415 * mu_b4_b1 - 4.057731 * mu_b4_b2 + 1.0977683 * mu_b4_b3 + 0.18042348 * mu_b4_u4;
     highp float p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
     highp float p0 = p0_0 * 1.0;
     // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
@@ -75,11 +75,11 @@ highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, h
     highp float f0_b2_v2 = f0_b2_v * f0_b2_v;
     highp float f0_b2_b1 = f0_t * f0_b2_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    highp float u0_0_0 = 8.003702 * 1.0;
+    highp float u0_0_0 = 8.566358 * 1.0;
     highp float u0_0 = u0_0_0 * 1.0;
-    highp float u0_1_0 = 15.46229 * 1.0;
+    highp float u0_1_0 = 16.215538 * 1.0;
     highp float u0_1 = u0_1_0 * 1.0;
-    highp float u0_2_0 = 7.7392864 * 1.0;
+    highp float u0_2_0 = 8.175602 * 1.0;
     highp float u0_2 = u0_2_0 * 1.0;
     highp float u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
     // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
@@ -87,30 +87,30 @@ highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, h
     // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
     highp float mu_b1_v = 1.0 - mu_u;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q0_0_0 = 1.0 * mu_b1_v + 0.12610653 * mu_u;
-    highp float q0_0_1 = 1.0915419 * mu_b1_v + 0.21764848 * mu_u;
+    highp float q0_0_0 = 1.0 * mu_b1_v + 0.109763734 * mu_u;
+    highp float q0_0_1 = 1.0859368 * mu_b1_v + 0.19570053 * mu_u;
     highp float q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
     highp float q0 = q0_0 * 1.0;
     highp float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    highp float p1_0_0 = -0.105771385 * mu_b4_v4 + 0.38953093 * mu_b4_b1 - 0.65484256 * mu_b4_b2 + 0.046665266 * mu_b4_b3 - 0.013474081 * mu_b4_u4;
-    highp float p1_0_1 = -2.3654811 * mu_b4_v4 - 6.6010594 * mu_b4_b1 - 10.829835 * mu_b4_b2 - 1.8379376 * mu_b4_b3 - 0.08481743 * mu_b4_u4;
-    highp float p1_0_2 = -5.6037207 * mu_b4_v4 - 18.450583 * mu_b4_b1 - 23.350073 * mu_b4_b2 - 3.0100145 * mu_b4_b3 + 0.23149109 * mu_b4_u4;
-    highp float p1_0_3 = -4.184149 * mu_b4_v4 - 14.549504 * mu_b4_b1 - 15.95854 * mu_b4_b2 - 0.14795358 * mu_b4_b3 + 0.6040937 * mu_b4_u4;
-    highp float p1_0_4 = -0.9527095 * mu_b4_v4 - 3.539798 * mu_b4_b1 - 3.458889 * mu_b4_b2 + 0.52717143 * mu_b4_b3 + 0.1886876 * mu_b4_u4;
+    highp float p1_0_0 = -0.17564772 * mu_b4_v4 + 0.2991006 * mu_b4_b1 - 0.717726 * mu_b4_b2 + 0.034179553 * mu_b4_b3 - 0.017276566 * mu_b4_u4;
+    highp float p1_0_1 = -2.405098 * mu_b4_v4 - 6.8584347 * mu_b4_b1 - 11.197416 * mu_b4_b2 - 1.857284 * mu_b4_b3 - 0.088926345 * mu_b4_u4;
+    highp float p1_0_2 = -5.5754356 * mu_b4_v4 - 18.991894 * mu_b4_b1 - 23.91229 * mu_b4_b2 - 2.819884 * mu_b4_b3 + 0.21236701 * mu_b4_u4;
+    highp float p1_0_3 = -4.094307 * mu_b4_v4 - 14.606492 * mu_b4_b1 - 15.549647 * mu_b4_b2 + 0.53466845 * mu_b4_b3 + 0.5964083 * mu_b4_u4;
+    highp float p1_0_4 = -0.92808944 * mu_b4_v4 - 3.4912071 * mu_b4_b1 - 3.195655 * mu_b4_b2 + 0.7440165 * mu_b4_b3 + 0.13262345 * mu_b4_u4;
     highp float p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
     highp float p1 = p1_0 * 1.0;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    highp float u1_0_0 = -10.200564 * 1.0;
+    highp float u1_0_0 = -10.9828825 * 1.0;
     highp float u1_0 = u1_0_0 * 1.0;
-    highp float u1_1_0 = -20.405533 * 1.0;
+    highp float u1_1_0 = -21.519672 * 1.0;
     highp float u1_1 = u1_1_0 * 1.0;
-    highp float u1_2_0 = -10.261158 * 1.0;
+    highp float u1_2_0 = -10.885022 * 1.0;
     highp float u1_2 = u1_2_0 * 1.0;
     highp float u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q1_0_0 = 1.0 * mu_b1_v + 0.14903119 * mu_u;
-    highp float q1_0_1 = 1.0742697 * mu_b1_v + 0.22330086 * mu_u;
+    highp float q1_0_0 = 1.0 * mu_b1_v + 0.12507248 * mu_u;
+    highp float q1_0_1 = 1.0739042 * mu_b1_v + 0.19897667 * mu_u;
     highp float q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
     highp float q1 = q1_0 * 1.0;
     highp float e1 = p1 * u1 / q1;

@@ -12,19 +12,19 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 d9400d4614b3f88a8843429311a473fda45821d483be7028389c31d71ae789bd.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 6089c538784e31feb6100d99590d40fa2b79adf5dc5d6d4817a6b8571260bcb3.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-5, shifted 1.1e-5, bernstein 5.7e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 4.29e-3, max 4.12e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.32e-6 (every op rounded, as this Rust), 4.48e-6 (fused multiply-add), 7.52e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.03e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17569 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.15e-3, max 4.12e-2; this f32 code MAE 4.15e-3, max 4.12e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.1e-3 on the measurement grid.
-// Denominator proved >= 1.261e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.1e-5, shifted 9.2e-6, bernstein 6.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.98e-3, max 2.65e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.53e-6 (every op rounded, as this Rust), 4.85e-6 (fused multiply-add), 7.47e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.12e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 19675 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.70e-3, max 2.65e-2; this f32 code MAE 4.70e-3, max 2.65e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
+// Denominator proved >= 1.098e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -61,11 +61,11 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    float p0_0_0 = -0.018748738f * mu_b4_v4 + 0.89886916f * mu_b4_b1 - 0.5032516f * mu_b4_b2 + 0.22391097f * mu_b4_b3 + 0.0011804242f * mu_b4_u4;
-    float p0_0_1 = -2.6540704f * mu_b4_v4 - 7.085195f * mu_b4_b1 - 12.496501f * mu_b4_b2 - 1.5106876f * mu_b4_b3 - 0.019711433f * mu_b4_u4;
-    float p0_0_2 = -6.861356f * mu_b4_v4 - 22.47685f * mu_b4_b1 - 28.682877f * mu_b4_b2 - 2.863693f * mu_b4_b3 + 0.3420887f * mu_b4_u4;
-    float p0_0_3 = -5.2411675f * mu_b4_v4 - 18.26838f * mu_b4_b1 - 19.952444f * mu_b4_b2 + 0.44847623f * mu_b4_b3 + 0.7993092f * mu_b4_u4;
-    float p0_0_4 = -1.2002466f * mu_b4_v4 - 4.516045f * mu_b4_b1 - 4.3734965f * mu_b4_b2 + 0.8371179f * mu_b4_b3 + 0.25121543f * mu_b4_u4;
+    float p0_0_0 = -0.118105136f * mu_b4_v4 + 0.75881714f * mu_b4_b1 - 0.61277395f * mu_b4_b2 + 0.19313987f * mu_b4_b3 - 0.0067239534f * mu_b4_u4;
+    float p0_0_1 = -2.743829f * mu_b4_v4 - 7.5714917f * mu_b4_b1 - 13.226677f * mu_b4_b2 - 1.681934f * mu_b4_b3 - 0.0411597f * mu_b4_u4;
+    float p0_0_2 = -6.877387f * mu_b4_v4 - 23.394064f * mu_b4_b1 - 29.794537f * mu_b4_b2 - 2.8250015f * mu_b4_b3 + 0.315497f * mu_b4_u4;
+    float p0_0_3 = -5.1524553f * mu_b4_v4 - 18.433743f * mu_b4_b1 - 19.60572f * mu_b4_b2 + 1.2362694f * mu_b4_b3 + 0.8024635f * mu_b4_u4;
+    float p0_0_4 = -1.1728991f * mu_b4_v4 - 4.458415f * mu_b4_b1 - 4.057731f * mu_b4_b2 + 1.0977683f * mu_b4_b3 + 0.18042348f * mu_b4_u4;
     float p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
     float p0 = p0_0 * 1.0f;
     // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
@@ -74,11 +74,11 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float f0_b2_v2 = f0_b2_v * f0_b2_v;
     float f0_b2_b1 = f0_t * f0_b2_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    float u0_0_0 = 8.003702f * 1.0f;
+    float u0_0_0 = 8.566358f * 1.0f;
     float u0_0 = u0_0_0 * 1.0f;
-    float u0_1_0 = 15.46229f * 1.0f;
+    float u0_1_0 = 16.215538f * 1.0f;
     float u0_1 = u0_1_0 * 1.0f;
-    float u0_2_0 = 7.7392864f * 1.0f;
+    float u0_2_0 = 8.175602f * 1.0f;
     float u0_2 = u0_2_0 * 1.0f;
     float u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
     // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
@@ -86,30 +86,30 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
     float mu_b1_v = 1.0f - mu_u;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q0_0_0 = 1.0f * mu_b1_v + 0.12610653f * mu_u;
-    float q0_0_1 = 1.0915419f * mu_b1_v + 0.21764848f * mu_u;
+    float q0_0_0 = 1.0f * mu_b1_v + 0.109763734f * mu_u;
+    float q0_0_1 = 1.0859368f * mu_b1_v + 0.19570053f * mu_u;
     float q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
     float q0 = q0_0 * 1.0f;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    float p1_0_0 = -0.105771385f * mu_b4_v4 + 0.38953093f * mu_b4_b1 - 0.65484256f * mu_b4_b2 + 0.046665266f * mu_b4_b3 - 0.013474081f * mu_b4_u4;
-    float p1_0_1 = -2.3654811f * mu_b4_v4 - 6.6010594f * mu_b4_b1 - 10.829835f * mu_b4_b2 - 1.8379376f * mu_b4_b3 - 0.08481743f * mu_b4_u4;
-    float p1_0_2 = -5.6037207f * mu_b4_v4 - 18.450583f * mu_b4_b1 - 23.350073f * mu_b4_b2 - 3.0100145f * mu_b4_b3 + 0.23149109f * mu_b4_u4;
-    float p1_0_3 = -4.184149f * mu_b4_v4 - 14.549504f * mu_b4_b1 - 15.95854f * mu_b4_b2 - 0.14795358f * mu_b4_b3 + 0.6040937f * mu_b4_u4;
-    float p1_0_4 = -0.9527095f * mu_b4_v4 - 3.539798f * mu_b4_b1 - 3.458889f * mu_b4_b2 + 0.52717143f * mu_b4_b3 + 0.1886876f * mu_b4_u4;
+    float p1_0_0 = -0.17564772f * mu_b4_v4 + 0.2991006f * mu_b4_b1 - 0.717726f * mu_b4_b2 + 0.034179553f * mu_b4_b3 - 0.017276566f * mu_b4_u4;
+    float p1_0_1 = -2.405098f * mu_b4_v4 - 6.8584347f * mu_b4_b1 - 11.197416f * mu_b4_b2 - 1.857284f * mu_b4_b3 - 0.088926345f * mu_b4_u4;
+    float p1_0_2 = -5.5754356f * mu_b4_v4 - 18.991894f * mu_b4_b1 - 23.91229f * mu_b4_b2 - 2.819884f * mu_b4_b3 + 0.21236701f * mu_b4_u4;
+    float p1_0_3 = -4.094307f * mu_b4_v4 - 14.606492f * mu_b4_b1 - 15.549647f * mu_b4_b2 + 0.53466845f * mu_b4_b3 + 0.5964083f * mu_b4_u4;
+    float p1_0_4 = -0.92808944f * mu_b4_v4 - 3.4912071f * mu_b4_b1 - 3.195655f * mu_b4_b2 + 0.7440165f * mu_b4_b3 + 0.13262345f * mu_b4_u4;
     float p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
     float p1 = p1_0 * 1.0f;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    float u1_0_0 = -10.200564f * 1.0f;
+    float u1_0_0 = -10.9828825f * 1.0f;
     float u1_0 = u1_0_0 * 1.0f;
-    float u1_1_0 = -20.405533f * 1.0f;
+    float u1_1_0 = -21.519672f * 1.0f;
     float u1_1 = u1_1_0 * 1.0f;
-    float u1_2_0 = -10.261158f * 1.0f;
+    float u1_2_0 = -10.885022f * 1.0f;
     float u1_2 = u1_2_0 * 1.0f;
     float u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q1_0_0 = 1.0f * mu_b1_v + 0.14903119f * mu_u;
-    float q1_0_1 = 1.0742697f * mu_b1_v + 0.22330086f * mu_u;
+    float q1_0_0 = 1.0f * mu_b1_v + 0.12507248f * mu_u;
+    float q1_0_1 = 1.0739042f * mu_b1_v + 0.19897667f * mu_u;
     float q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
     float q1 = q1_0 * 1.0f;
     float e1 = p1 * u1 / q1;

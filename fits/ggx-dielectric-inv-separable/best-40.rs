@@ -10,19 +10,19 @@
 /// ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-/// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 d9400d4614b3f88a8843429311a473fda45821d483be7028389c31d71ae789bd.
+/// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 6089c538784e31feb6100d99590d40fa2b79adf5dc5d6d4817a6b8571260bcb3.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-5, shifted 1.1e-5, bernstein 5.7e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 4.29e-3, max 4.12e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.32e-6 (every op rounded, as this Rust), 4.48e-6 (fused multiply-add), 7.52e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.03e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17569 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.15e-3, max 4.12e-2; this f32 code MAE 4.15e-3, max 4.12e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.1e-3 on the measurement grid.
-/// Denominator proved >= 1.261e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.1e-5, shifted 9.2e-6, bernstein 6.4e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 4.98e-3, max 2.65e-2 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.53e-6 (every op rounded, as this Rust), 4.85e-6 (fused multiply-add), 7.47e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.12e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 19675 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.70e-3, max 2.65e-2; this f32 code MAE 4.70e-3, max 2.65e-2.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
+/// Denominator proved >= 1.098e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -66,11 +66,11 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = -0.018748738_f32 * mu_b4_v4 + 0.89886916_f32 * mu_b4_b1 - 0.5032516_f32 * mu_b4_b2 + 0.22391097_f32 * mu_b4_b3 + 0.0011804242_f32 * mu_b4_u4;
-    let p0_0_1 = -2.6540704_f32 * mu_b4_v4 - 7.085195_f32 * mu_b4_b1 - 12.496501_f32 * mu_b4_b2 - 1.5106876_f32 * mu_b4_b3 - 0.019711433_f32 * mu_b4_u4;
-    let p0_0_2 = -6.861356_f32 * mu_b4_v4 - 22.47685_f32 * mu_b4_b1 - 28.682877_f32 * mu_b4_b2 - 2.863693_f32 * mu_b4_b3 + 0.3420887_f32 * mu_b4_u4;
-    let p0_0_3 = -5.2411675_f32 * mu_b4_v4 - 18.26838_f32 * mu_b4_b1 - 19.952444_f32 * mu_b4_b2 + 0.44847623_f32 * mu_b4_b3 + 0.7993092_f32 * mu_b4_u4;
-    let p0_0_4 = -1.2002466_f32 * mu_b4_v4 - 4.516045_f32 * mu_b4_b1 - 4.3734965_f32 * mu_b4_b2 + 0.8371179_f32 * mu_b4_b3 + 0.25121543_f32 * mu_b4_u4;
+    let p0_0_0 = -0.118105136_f32 * mu_b4_v4 + 0.75881714_f32 * mu_b4_b1 - 0.61277395_f32 * mu_b4_b2 + 0.19313987_f32 * mu_b4_b3 - 0.0067239534_f32 * mu_b4_u4;
+    let p0_0_1 = -2.743829_f32 * mu_b4_v4 - 7.5714917_f32 * mu_b4_b1 - 13.226677_f32 * mu_b4_b2 - 1.681934_f32 * mu_b4_b3 - 0.0411597_f32 * mu_b4_u4;
+    let p0_0_2 = -6.877387_f32 * mu_b4_v4 - 23.394064_f32 * mu_b4_b1 - 29.794537_f32 * mu_b4_b2 - 2.8250015_f32 * mu_b4_b3 + 0.315497_f32 * mu_b4_u4;
+    let p0_0_3 = -5.1524553_f32 * mu_b4_v4 - 18.433743_f32 * mu_b4_b1 - 19.60572_f32 * mu_b4_b2 + 1.2362694_f32 * mu_b4_b3 + 0.8024635_f32 * mu_b4_u4;
+    let p0_0_4 = -1.1728991_f32 * mu_b4_v4 - 4.458415_f32 * mu_b4_b1 - 4.057731_f32 * mu_b4_b2 + 1.0977683_f32 * mu_b4_b3 + 0.18042348_f32 * mu_b4_u4;
     let p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
@@ -79,11 +79,11 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b2_v2 = f0_b2_v * f0_b2_v;
     let f0_b2_b1 = f0_t * f0_b2_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 8.003702_f32 * 1.0_f32;
+    let u0_0_0 = 8.566358_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 15.46229_f32 * 1.0_f32;
+    let u0_1_0 = 16.215538_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 7.7392864_f32 * 1.0_f32;
+    let u0_2_0 = 8.175602_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
     let u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
     // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
@@ -91,30 +91,30 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
     let mu_b1_v = 1.0_f32 - mu_u;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b1_v + 0.12610653_f32 * mu_u;
-    let q0_0_1 = 1.0915419_f32 * mu_b1_v + 0.21764848_f32 * mu_u;
+    let q0_0_0 = 1.0_f32 * mu_b1_v + 0.109763734_f32 * mu_u;
+    let q0_0_1 = 1.0859368_f32 * mu_b1_v + 0.19570053_f32 * mu_u;
     let q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = -0.105771385_f32 * mu_b4_v4 + 0.38953093_f32 * mu_b4_b1 - 0.65484256_f32 * mu_b4_b2 + 0.046665266_f32 * mu_b4_b3 - 0.013474081_f32 * mu_b4_u4;
-    let p1_0_1 = -2.3654811_f32 * mu_b4_v4 - 6.6010594_f32 * mu_b4_b1 - 10.829835_f32 * mu_b4_b2 - 1.8379376_f32 * mu_b4_b3 - 0.08481743_f32 * mu_b4_u4;
-    let p1_0_2 = -5.6037207_f32 * mu_b4_v4 - 18.450583_f32 * mu_b4_b1 - 23.350073_f32 * mu_b4_b2 - 3.0100145_f32 * mu_b4_b3 + 0.23149109_f32 * mu_b4_u4;
-    let p1_0_3 = -4.184149_f32 * mu_b4_v4 - 14.549504_f32 * mu_b4_b1 - 15.95854_f32 * mu_b4_b2 - 0.14795358_f32 * mu_b4_b3 + 0.6040937_f32 * mu_b4_u4;
-    let p1_0_4 = -0.9527095_f32 * mu_b4_v4 - 3.539798_f32 * mu_b4_b1 - 3.458889_f32 * mu_b4_b2 + 0.52717143_f32 * mu_b4_b3 + 0.1886876_f32 * mu_b4_u4;
+    let p1_0_0 = -0.17564772_f32 * mu_b4_v4 + 0.2991006_f32 * mu_b4_b1 - 0.717726_f32 * mu_b4_b2 + 0.034179553_f32 * mu_b4_b3 - 0.017276566_f32 * mu_b4_u4;
+    let p1_0_1 = -2.405098_f32 * mu_b4_v4 - 6.8584347_f32 * mu_b4_b1 - 11.197416_f32 * mu_b4_b2 - 1.857284_f32 * mu_b4_b3 - 0.088926345_f32 * mu_b4_u4;
+    let p1_0_2 = -5.5754356_f32 * mu_b4_v4 - 18.991894_f32 * mu_b4_b1 - 23.91229_f32 * mu_b4_b2 - 2.819884_f32 * mu_b4_b3 + 0.21236701_f32 * mu_b4_u4;
+    let p1_0_3 = -4.094307_f32 * mu_b4_v4 - 14.606492_f32 * mu_b4_b1 - 15.549647_f32 * mu_b4_b2 + 0.53466845_f32 * mu_b4_b3 + 0.5964083_f32 * mu_b4_u4;
+    let p1_0_4 = -0.92808944_f32 * mu_b4_v4 - 3.4912071_f32 * mu_b4_b1 - 3.195655_f32 * mu_b4_b2 + 0.7440165_f32 * mu_b4_b3 + 0.13262345_f32 * mu_b4_u4;
     let p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = -10.200564_f32 * 1.0_f32;
+    let u1_0_0 = -10.9828825_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = -20.405533_f32 * 1.0_f32;
+    let u1_1_0 = -21.519672_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = -10.261158_f32 * 1.0_f32;
+    let u1_2_0 = -10.885022_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
     let u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b1_v + 0.14903119_f32 * mu_u;
-    let q1_0_1 = 1.0742697_f32 * mu_b1_v + 0.22330086_f32 * mu_u;
+    let q1_0_0 = 1.0_f32 * mu_b1_v + 0.12507248_f32 * mu_u;
+    let q1_0_1 = 1.0739042_f32 * mu_b1_v + 0.19897667_f32 * mu_u;
     let q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;

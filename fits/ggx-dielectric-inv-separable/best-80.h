@@ -25,50 +25,111 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 f017df35bfed8ec8e9d51065756708bfe19203dc4b2ed2a976bbb50a8491324c.
-// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.0e-6, shifted 9.0e-7, bernstein 4.3e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.75e-3, max 1.60e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.24e-6 (every op rounded, as this Rust), 1.01e-6 (fused multiply-add), 1.08e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.44e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 25689 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.74e-3, max 1.60e-2; this f32 code MAE 1.74e-3, max 1.60e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.8e-4 on the measurement grid.
-// Denominator proved >= 2.118e0 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 04d9ef752d10d3a20f3267e7b725f46b0f0e52a322f37f2f30dcc6ce72b2bf58.
+// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-4, shifted 1.2e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.43e-3, max 1.27e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 1.93e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.12e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.43e-3, max 1.27e-2; this f32 code MAE 1.43e-3, max 1.27e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-3 on the measurement grid.
+// Denominator proved >= 4.354e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
-    // t = sqrt(f0)
-    const float f0_t = sqrtf(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    const float f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017f) * 2.6828594f;
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // s = (t - 0.30590169943749473)/0.19409830056250527 in [-1, 1]
-    const float f0_s = f0_t * 5.1520286f - 1.5760143f;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    const float r_s = r_t * 2.0f - 1.0f;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    const float mu_s = mu_t * 2.0f - 1.0f;
-    // numerator P, grouped by powers of the first variable
-    const float p_0 = (((0.24196784f * r_s + (-1.6941894f * mu_s + 0.90283054f)) * r_s + ((-1.6799304f * mu_s + 3.3496218f) * mu_s - 0.43654948f)) * r_s + (((-1.4794472f * mu_s + 1.0439156f) * mu_s - 1.5189086f) * mu_s + 1.9133208f)) * r_s + ((((3.459204f * mu_s - 8.253649f) * mu_s + 15.842328f) * mu_s - 17.311275f) * mu_s + 9.469822f);
-    const float p_1 = ((-0.1378852f * r_s + (0.94505554f * mu_s - 1.187204f)) * r_s + ((2.6953332f * mu_s - 3.2308538f) * mu_s + 0.4347605f)) * r_s + (((-4.9060674f * mu_s + 10.500192f) * mu_s - 8.752789f) * mu_s + 3.4721203f);
-    const float p_2 = (0.22539398f * r_s + (0.96288097f * mu_s - 0.060718946f)) * r_s + ((-1.7754376f * mu_s + 2.2516677f) * mu_s - 0.73489416f);
-    const float p_3 = -0.2916345f * r_s + (-0.016154654f * mu_s - 0.080823615f);
-    const float p_4 = 0.10038421f;
-    const float p = (((p_4 * f0_s + p_3) * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
-    // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = (((0.5473754f * r_s + (-1.3578328f * mu_s + 1.560791f)) * r_s + ((1.4821867f * mu_s - 1.1717622f) * mu_s + 3.1424005f)) * r_s + (((-3.776307f * mu_s + 10.546506f) * mu_s - 12.803786f) * mu_s + 8.873105f)) * r_s + ((((3.5426114f * mu_s - 10.364743f) * mu_s + 22.602293f) * mu_s - 25.316181f) * mu_s + 14.091731f);
-    const float q_1 = ((0.06670443f * r_s + (1.5199486f * mu_s - 0.7955496f)) * r_s + ((1.9722996f * mu_s - 1.1274799f) * mu_s + 0.31484303f)) * r_s + (((-4.8595963f * mu_s + 10.052679f) * mu_s - 7.859133f) * mu_s + 3.4777231f);
-    const float q_2 = (0.07199601f * r_s + (0.3073002f * mu_s + 0.09884975f)) * r_s + ((-1.8981692f * mu_s + 1.813843f) * mu_s - 0.5169999f);
-    const float q_3 = -0.25368705f * r_s + (-0.022503769f * mu_s - 0.03564968f);
-    const float q_4 = 0.10362632f;
-    const float q = (((q_4 * f0_s + q_3) * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
+    const float f0_v = 1.0f - f0_t;
+    const float f0_u2 = f0_t * f0_t;
+    const float f0_v2 = f0_v * f0_v;
+    const float f0_b1 = f0_t * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    const float r_v = 1.0f - r_t;
+    const float r_u2 = r_t * r_t;
+    const float r_v2 = r_v * r_v;
+    const float r_u3 = r_u2 * r_t;
+    const float r_v3 = r_v2 * r_v;
+    const float r_u4 = r_u3 * r_t;
+    const float r_v4 = r_v3 * r_v;
+    const float r_u5 = r_u4 * r_t;
+    const float r_v5 = r_v4 * r_v;
+    const float r_b1 = r_t * r_v4;
+    const float r_b2 = r_u2 * r_v3;
+    const float r_b3 = r_u3 * r_v2;
+    const float r_b4 = r_u4 * r_v;
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    const float mu_v = 1.0f - mu_u;
+    const float mu_u2 = mu_u * mu_u;
+    const float mu_v2 = mu_v * mu_v;
+    const float mu_u3 = mu_u2 * mu_u;
+    const float mu_v3 = mu_v2 * mu_v;
+    const float mu_u4 = mu_u3 * mu_u;
+    const float mu_v4 = mu_v3 * mu_v;
+    const float mu_u5 = mu_u4 * mu_u;
+    const float mu_v5 = mu_v4 * mu_v;
+    const float mu_b1 = mu_u * mu_v4;
+    const float mu_b2 = mu_u2 * mu_v3;
+    const float mu_b3 = mu_u3 * mu_v2;
+    const float mu_b4 = mu_u4 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    const float p_0_0 = 0.9382778f * mu_v5 + 1.5333221f * mu_b1 + 0.6026139f * mu_b2 + 0.09413675f * mu_b3 + 0.030491726f * mu_b4 + 0.005371799f * mu_u5;
+    const float p_0_1 = 4.0834255f * mu_v5 + 6.922914f * mu_b1 + 3.0355437f * mu_b2 + 0.44868615f * mu_b3 - 0.038875654f * mu_b4 + 0.015729567f * mu_u5;
+    const float p_0_2 = 6.650712f * mu_v5 + 11.340487f * mu_b1 + 5.3794656f * mu_b2 + 1.2739154f * mu_b3 + 0.019637408f * mu_b4 + 0.049884923f * mu_u5;
+    const float p_0_3 = 5.1658254f * mu_v5 + 8.652399f * mu_b1 + 4.4129233f * mu_b2 + 1.7593898f * mu_b3 + 0.2724007f * mu_b4 + 0.05383274f * mu_u5;
+    const float p_0_4 = 2.0075898f * mu_v5 + 3.288277f * mu_b1 + 1.8785158f * mu_b2 + 1.1852279f * mu_b3 + 0.3110811f * mu_b4 + 0.030917872f * mu_u5;
+    const float p_0_5 = 0.34218824f * mu_v5 + 0.5610708f * mu_b1 + 0.3607239f * mu_b2 + 0.29379964f * mu_b3 + 0.10198295f * mu_b4 + 0.011471837f * mu_u5;
+    const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
+    const float p_1_0 = 1.8706145f * mu_v5 + 3.2166333f * mu_b1 + 1.0450833f * mu_b2 + 0.22851147f * mu_b3 + 0.058655363f * mu_b4 + 0.010745676f * mu_u5;
+    const float p_1_1 = 9.639175f * mu_v5 + 16.707085f * mu_b1 + 5.5070953f * mu_b2 + 0.770265f * mu_b3 - 0.044286605f * mu_b4 + 0.032321308f * mu_u5;
+    const float p_1_2 = 19.51827f * mu_v5 + 34.71787f * mu_b1 + 13.615708f * mu_b2 + 3.4411366f * mu_b3 + 0.2970917f * mu_b4 + 0.08743844f * mu_u5;
+    const float p_1_3 = 18.795357f * mu_v5 + 33.2771f * mu_b1 + 13.5352545f * mu_b2 + 4.323074f * mu_b3 + 0.52762365f * mu_b4 + 0.07343429f * mu_u5;
+    const float p_1_4 = 8.6228285f * mu_v5 + 14.761588f * mu_b1 + 5.656684f * mu_b2 + 2.290268f * mu_b3 + 0.40740794f * mu_b4 + 0.042750992f * mu_u5;
+    const float p_1_5 = 1.5514362f * mu_v5 + 2.583185f * mu_b1 + 1.0176857f * mu_b2 + 0.60913664f * mu_b3 + 0.15109783f * mu_b4 + 0.009435484f * mu_u5;
+    const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
+    const float p_2_0 = 0.9366952f * mu_v5 + 1.5589913f * mu_b1 + 0.5734941f * mu_b2 + 0.1060588f * mu_b3 + 0.029574126f * mu_b4 + 0.0053732134f * mu_u5;
+    const float p_2_1 = 4.9408903f * mu_v5 + 8.316672f * mu_b1 + 2.997075f * mu_b2 + 0.24470599f * mu_b3 - 0.01388036f * mu_b4 + 0.016005345f * mu_u5;
+    const float p_2_2 = 10.093759f * mu_v5 + 17.462736f * mu_b1 + 7.2012568f * mu_b2 + 1.2804123f * mu_b3 + 0.18747726f * mu_b4 + 0.0459427f * mu_u5;
+    const float p_2_3 = 9.888593f * mu_v5 + 17.31656f * mu_b1 + 7.7007f * mu_b2 + 1.8930943f * mu_b3 + 0.3525307f * mu_b4 + 0.038765818f * mu_u5;
+    const float p_2_4 = 4.6953f * mu_v5 + 8.238372f * mu_b1 + 3.8122828f * mu_b2 + 1.1376821f * mu_b3 + 0.23652631f * mu_b4 + 0.021354292f * mu_u5;
+    const float p_2_5 = 0.88438153f * mu_v5 + 1.567416f * mu_b1 + 0.7703598f * mu_b2 + 0.26745403f * mu_b3 + 0.05547791f * mu_b4 + 0.0060091545f * mu_u5;
+    const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
+    const float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q_0_0 = 1.0f * mu_v5 + 1.6474696f * mu_b1 + 0.7424482f * mu_b2 + 0.11884893f * mu_b3 + 0.02924407f * mu_b4 + 0.005373727f * mu_u5;
+    const float q_0_1 = 5.414281f * mu_v5 + 8.96052f * mu_b1 + 3.8063047f * mu_b2 + 0.25912052f * mu_b3 + 0.01506622f * mu_b4 + 0.016010826f * mu_u5;
+    const float q_0_2 = 11.882311f * mu_v5 + 20.385622f * mu_b1 + 9.545005f * mu_b2 + 1.2232538f * mu_b3 + 0.23255035f * mu_b4 + 0.050990257f * mu_u5;
+    const float q_0_3 = 12.996841f * mu_v5 + 23.162088f * mu_b1 + 12.040324f * mu_b2 + 2.353542f * mu_b3 + 0.5403806f * mu_b4 + 0.061916117f * mu_u5;
+    const float q_0_4 = 7.0364094f * mu_v5 + 12.934721f * mu_b1 + 7.283964f * mu_b2 + 1.8049115f * mu_b3 + 0.45983043f * mu_b4 + 0.040571272f * mu_u5;
+    const float q_0_5 = 1.5075977f * mu_v5 + 2.8452036f * mu_b1 + 1.724788f * mu_b2 + 0.5343517f * mu_b3 + 0.16617803f * mu_b4 + 0.019008316f * mu_u5;
+    const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
+    const float q_1_0 = 2.0f * mu_v5 + 3.2949393f * mu_b1 + 1.4848964f * mu_b2 + 0.23769785f * mu_b3 + 0.05848814f * mu_b4 + 0.010747454f * mu_u5;
+    const float q_1_1 = 10.828562f * mu_v5 + 17.92104f * mu_b1 + 7.6126094f * mu_b2 + 0.51824105f * mu_b3 + 0.03013244f * mu_b4 + 0.032021653f * mu_u5;
+    const float q_1_2 = 23.764622f * mu_v5 + 40.771244f * mu_b1 + 19.09001f * mu_b2 + 2.4465077f * mu_b3 + 0.4651007f * mu_b4 + 0.101980515f * mu_u5;
+    const float q_1_3 = 25.993683f * mu_v5 + 46.324177f * mu_b1 + 24.080648f * mu_b2 + 4.707084f * mu_b3 + 1.0807612f * mu_b4 + 0.12383223f * mu_u5;
+    const float q_1_4 = 14.072819f * mu_v5 + 25.869442f * mu_b1 + 14.567928f * mu_b2 + 3.609823f * mu_b3 + 0.91966087f * mu_b4 + 0.081142545f * mu_u5;
+    const float q_1_5 = 3.0151954f * mu_v5 + 5.6904073f * mu_b1 + 3.449576f * mu_b2 + 1.0687034f * mu_b3 + 0.33235607f * mu_b4 + 0.038016632f * mu_u5;
+    const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
+    const float q_2_0 = 1.0f * mu_v5 + 1.6474696f * mu_b1 + 0.7424482f * mu_b2 + 0.11884893f * mu_b3 + 0.02924407f * mu_b4 + 0.005373727f * mu_u5;
+    const float q_2_1 = 5.414281f * mu_v5 + 8.96052f * mu_b1 + 3.8063047f * mu_b2 + 0.25912052f * mu_b3 + 0.01506622f * mu_b4 + 0.016010826f * mu_u5;
+    const float q_2_2 = 11.882311f * mu_v5 + 20.385622f * mu_b1 + 9.545005f * mu_b2 + 1.2232538f * mu_b3 + 0.23255035f * mu_b4 + 0.050990257f * mu_u5;
+    const float q_2_3 = 12.996841f * mu_v5 + 23.162088f * mu_b1 + 12.040324f * mu_b2 + 2.353542f * mu_b3 + 0.5403806f * mu_b4 + 0.061916117f * mu_u5;
+    const float q_2_4 = 7.0364094f * mu_v5 + 12.934721f * mu_b1 + 7.283964f * mu_b2 + 1.8049115f * mu_b3 + 0.45983043f * mu_b4 + 0.040571272f * mu_u5;
+    const float q_2_5 = 1.5075977f * mu_v5 + 2.8452036f * mu_b1 + 1.724788f * mu_b2 + 0.5343517f * mu_b3 + 0.16617803f * mu_b4 + 0.019008316f * mu_u5;
+    const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
+    const float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }

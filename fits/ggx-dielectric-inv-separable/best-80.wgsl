@@ -9,50 +9,111 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 f017df35bfed8ec8e9d51065756708bfe19203dc4b2ed2a976bbb50a8491324c.
-// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.0e-6, shifted 9.0e-7, bernstein 4.3e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.75e-3, max 1.60e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.24e-6 (every op rounded, as this Rust), 1.01e-6 (fused multiply-add), 1.08e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.44e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 25689 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.74e-3, max 1.60e-2; this f32 code MAE 1.74e-3, max 1.60e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.8e-4 on the measurement grid.
-// Denominator proved >= 2.118e0 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 04d9ef752d10d3a20f3267e7b725f46b0f0e52a322f37f2f30dcc6ce72b2bf58.
+// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-4, shifted 1.2e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.43e-3, max 1.27e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 1.93e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.12e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.43e-3, max 1.27e-2; this f32 code MAE 1.43e-3, max 1.27e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-3 on the measurement grid.
+// Denominator proved >= 4.354e-3 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
-    // t = sqrt(f0)
-    let f0_t = sqrt(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    let f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
     let r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    let mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // s = (t - 0.30590169943749473)/0.19409830056250527 in [-1, 1]
-    let f0_s = f0_t * 5.1520286 - 1.5760143;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let r_s = r_t * 2.0 - 1.0;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let mu_s = mu_t * 2.0 - 1.0;
-    // numerator P, grouped by powers of the first variable
-    let p_0 = (((0.24196784 * r_s + (-1.6941894 * mu_s + 0.90283054)) * r_s + ((-1.6799304 * mu_s + 3.3496218) * mu_s - 0.43654948)) * r_s + (((-1.4794472 * mu_s + 1.0439156) * mu_s - 1.5189086) * mu_s + 1.9133208)) * r_s + ((((3.459204 * mu_s - 8.253649) * mu_s + 15.842328) * mu_s - 17.311275) * mu_s + 9.469822);
-    let p_1 = ((-0.1378852 * r_s + (0.94505554 * mu_s - 1.187204)) * r_s + ((2.6953332 * mu_s - 3.2308538) * mu_s + 0.4347605)) * r_s + (((-4.9060674 * mu_s + 10.500192) * mu_s - 8.752789) * mu_s + 3.4721203);
-    let p_2 = (0.22539398 * r_s + (0.96288097 * mu_s - 0.060718946)) * r_s + ((-1.7754376 * mu_s + 2.2516677) * mu_s - 0.73489416);
-    let p_3 = -0.2916345 * r_s + (-0.016154654 * mu_s - 0.080823615);
-    let p_4 = 0.10038421;
-    let p = (((p_4 * f0_s + p_3) * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
-    // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (((0.5473754 * r_s + (-1.3578328 * mu_s + 1.560791)) * r_s + ((1.4821867 * mu_s - 1.1717622) * mu_s + 3.1424005)) * r_s + (((-3.776307 * mu_s + 10.546506) * mu_s - 12.803786) * mu_s + 8.873105)) * r_s + ((((3.5426114 * mu_s - 10.364743) * mu_s + 22.602293) * mu_s - 25.316181) * mu_s + 14.091731);
-    let q_1 = ((0.06670443 * r_s + (1.5199486 * mu_s - 0.7955496)) * r_s + ((1.9722996 * mu_s - 1.1274799) * mu_s + 0.31484303)) * r_s + (((-4.8595963 * mu_s + 10.052679) * mu_s - 7.859133) * mu_s + 3.4777231);
-    let q_2 = (0.07199601 * r_s + (0.3073002 * mu_s + 0.09884975)) * r_s + ((-1.8981692 * mu_s + 1.813843) * mu_s - 0.5169999);
-    let q_3 = -0.25368705 * r_s + (-0.022503769 * mu_s - 0.03564968);
-    let q_4 = 0.10362632;
-    let q = (((q_4 * f0_s + q_3) * f0_s + q_2) * f0_s + q_1) * f0_s + q_0;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    let mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
+    let f0_v = 1.0 - f0_t;
+    let f0_u2 = f0_t * f0_t;
+    let f0_v2 = f0_v * f0_v;
+    let f0_b1 = f0_t * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    let r_v = 1.0 - r_t;
+    let r_u2 = r_t * r_t;
+    let r_v2 = r_v * r_v;
+    let r_u3 = r_u2 * r_t;
+    let r_v3 = r_v2 * r_v;
+    let r_u4 = r_u3 * r_t;
+    let r_v4 = r_v3 * r_v;
+    let r_u5 = r_u4 * r_t;
+    let r_v5 = r_v4 * r_v;
+    let r_b1 = r_t * r_v4;
+    let r_b2 = r_u2 * r_v3;
+    let r_b3 = r_u3 * r_v2;
+    let r_b4 = r_u4 * r_v;
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    let mu_u = (mu_t - 8.881784e-16) * 1.0;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    let mu_v = 1.0 - mu_u;
+    let mu_u2 = mu_u * mu_u;
+    let mu_v2 = mu_v * mu_v;
+    let mu_u3 = mu_u2 * mu_u;
+    let mu_v3 = mu_v2 * mu_v;
+    let mu_u4 = mu_u3 * mu_u;
+    let mu_v4 = mu_v3 * mu_v;
+    let mu_u5 = mu_u4 * mu_u;
+    let mu_v5 = mu_v4 * mu_v;
+    let mu_b1 = mu_u * mu_v4;
+    let mu_b2 = mu_u2 * mu_v3;
+    let mu_b3 = mu_u3 * mu_v2;
+    let mu_b4 = mu_u4 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    let p_0_0 = 0.9382778 * mu_v5 + 1.5333221 * mu_b1 + 0.6026139 * mu_b2 + 0.09413675 * mu_b3 + 0.030491726 * mu_b4 + 0.005371799 * mu_u5;
+    let p_0_1 = 4.0834255 * mu_v5 + 6.922914 * mu_b1 + 3.0355437 * mu_b2 + 0.44868615 * mu_b3 - 0.038875654 * mu_b4 + 0.015729567 * mu_u5;
+    let p_0_2 = 6.650712 * mu_v5 + 11.340487 * mu_b1 + 5.3794656 * mu_b2 + 1.2739154 * mu_b3 + 0.019637408 * mu_b4 + 0.049884923 * mu_u5;
+    let p_0_3 = 5.1658254 * mu_v5 + 8.652399 * mu_b1 + 4.4129233 * mu_b2 + 1.7593898 * mu_b3 + 0.2724007 * mu_b4 + 0.05383274 * mu_u5;
+    let p_0_4 = 2.0075898 * mu_v5 + 3.288277 * mu_b1 + 1.8785158 * mu_b2 + 1.1852279 * mu_b3 + 0.3110811 * mu_b4 + 0.030917872 * mu_u5;
+    let p_0_5 = 0.34218824 * mu_v5 + 0.5610708 * mu_b1 + 0.3607239 * mu_b2 + 0.29379964 * mu_b3 + 0.10198295 * mu_b4 + 0.011471837 * mu_u5;
+    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
+    let p_1_0 = 1.8706145 * mu_v5 + 3.2166333 * mu_b1 + 1.0450833 * mu_b2 + 0.22851147 * mu_b3 + 0.058655363 * mu_b4 + 0.010745676 * mu_u5;
+    let p_1_1 = 9.639175 * mu_v5 + 16.707085 * mu_b1 + 5.5070953 * mu_b2 + 0.770265 * mu_b3 - 0.044286605 * mu_b4 + 0.032321308 * mu_u5;
+    let p_1_2 = 19.51827 * mu_v5 + 34.71787 * mu_b1 + 13.615708 * mu_b2 + 3.4411366 * mu_b3 + 0.2970917 * mu_b4 + 0.08743844 * mu_u5;
+    let p_1_3 = 18.795357 * mu_v5 + 33.2771 * mu_b1 + 13.5352545 * mu_b2 + 4.323074 * mu_b3 + 0.52762365 * mu_b4 + 0.07343429 * mu_u5;
+    let p_1_4 = 8.6228285 * mu_v5 + 14.761588 * mu_b1 + 5.656684 * mu_b2 + 2.290268 * mu_b3 + 0.40740794 * mu_b4 + 0.042750992 * mu_u5;
+    let p_1_5 = 1.5514362 * mu_v5 + 2.583185 * mu_b1 + 1.0176857 * mu_b2 + 0.60913664 * mu_b3 + 0.15109783 * mu_b4 + 0.009435484 * mu_u5;
+    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
+    let p_2_0 = 0.9366952 * mu_v5 + 1.5589913 * mu_b1 + 0.5734941 * mu_b2 + 0.1060588 * mu_b3 + 0.029574126 * mu_b4 + 0.0053732134 * mu_u5;
+    let p_2_1 = 4.9408903 * mu_v5 + 8.316672 * mu_b1 + 2.997075 * mu_b2 + 0.24470599 * mu_b3 - 0.01388036 * mu_b4 + 0.016005345 * mu_u5;
+    let p_2_2 = 10.093759 * mu_v5 + 17.462736 * mu_b1 + 7.2012568 * mu_b2 + 1.2804123 * mu_b3 + 0.18747726 * mu_b4 + 0.0459427 * mu_u5;
+    let p_2_3 = 9.888593 * mu_v5 + 17.31656 * mu_b1 + 7.7007 * mu_b2 + 1.8930943 * mu_b3 + 0.3525307 * mu_b4 + 0.038765818 * mu_u5;
+    let p_2_4 = 4.6953 * mu_v5 + 8.238372 * mu_b1 + 3.8122828 * mu_b2 + 1.1376821 * mu_b3 + 0.23652631 * mu_b4 + 0.021354292 * mu_u5;
+    let p_2_5 = 0.88438153 * mu_v5 + 1.567416 * mu_b1 + 0.7703598 * mu_b2 + 0.26745403 * mu_b3 + 0.05547791 * mu_b4 + 0.0060091545 * mu_u5;
+    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
+    let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q_0_0 = 1.0 * mu_v5 + 1.6474696 * mu_b1 + 0.7424482 * mu_b2 + 0.11884893 * mu_b3 + 0.02924407 * mu_b4 + 0.005373727 * mu_u5;
+    let q_0_1 = 5.414281 * mu_v5 + 8.96052 * mu_b1 + 3.8063047 * mu_b2 + 0.25912052 * mu_b3 + 0.01506622 * mu_b4 + 0.016010826 * mu_u5;
+    let q_0_2 = 11.882311 * mu_v5 + 20.385622 * mu_b1 + 9.545005 * mu_b2 + 1.2232538 * mu_b3 + 0.23255035 * mu_b4 + 0.050990257 * mu_u5;
+    let q_0_3 = 12.996841 * mu_v5 + 23.162088 * mu_b1 + 12.040324 * mu_b2 + 2.353542 * mu_b3 + 0.5403806 * mu_b4 + 0.061916117 * mu_u5;
+    let q_0_4 = 7.0364094 * mu_v5 + 12.934721 * mu_b1 + 7.283964 * mu_b2 + 1.8049115 * mu_b3 + 0.45983043 * mu_b4 + 0.040571272 * mu_u5;
+    let q_0_5 = 1.5075977 * mu_v5 + 2.8452036 * mu_b1 + 1.724788 * mu_b2 + 0.5343517 * mu_b3 + 0.16617803 * mu_b4 + 0.019008316 * mu_u5;
+    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
+    let q_1_0 = 2.0 * mu_v5 + 3.2949393 * mu_b1 + 1.4848964 * mu_b2 + 0.23769785 * mu_b3 + 0.05848814 * mu_b4 + 0.010747454 * mu_u5;
+    let q_1_1 = 10.828562 * mu_v5 + 17.92104 * mu_b1 + 7.6126094 * mu_b2 + 0.51824105 * mu_b3 + 0.03013244 * mu_b4 + 0.032021653 * mu_u5;
+    let q_1_2 = 23.764622 * mu_v5 + 40.771244 * mu_b1 + 19.09001 * mu_b2 + 2.4465077 * mu_b3 + 0.4651007 * mu_b4 + 0.101980515 * mu_u5;
+    let q_1_3 = 25.993683 * mu_v5 + 46.324177 * mu_b1 + 24.080648 * mu_b2 + 4.707084 * mu_b3 + 1.0807612 * mu_b4 + 0.12383223 * mu_u5;
+    let q_1_4 = 14.072819 * mu_v5 + 25.869442 * mu_b1 + 14.567928 * mu_b2 + 3.609823 * mu_b3 + 0.91966087 * mu_b4 + 0.081142545 * mu_u5;
+    let q_1_5 = 3.0151954 * mu_v5 + 5.6904073 * mu_b1 + 3.449576 * mu_b2 + 1.0687034 * mu_b3 + 0.33235607 * mu_b4 + 0.038016632 * mu_u5;
+    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
+    let q_2_0 = 1.0 * mu_v5 + 1.6474696 * mu_b1 + 0.7424482 * mu_b2 + 0.11884893 * mu_b3 + 0.02924407 * mu_b4 + 0.005373727 * mu_u5;
+    let q_2_1 = 5.414281 * mu_v5 + 8.96052 * mu_b1 + 3.8063047 * mu_b2 + 0.25912052 * mu_b3 + 0.01506622 * mu_b4 + 0.016010826 * mu_u5;
+    let q_2_2 = 11.882311 * mu_v5 + 20.385622 * mu_b1 + 9.545005 * mu_b2 + 1.2232538 * mu_b3 + 0.23255035 * mu_b4 + 0.050990257 * mu_u5;
+    let q_2_3 = 12.996841 * mu_v5 + 23.162088 * mu_b1 + 12.040324 * mu_b2 + 2.353542 * mu_b3 + 0.5403806 * mu_b4 + 0.061916117 * mu_u5;
+    let q_2_4 = 7.0364094 * mu_v5 + 12.934721 * mu_b1 + 7.283964 * mu_b2 + 1.8049115 * mu_b3 + 0.45983043 * mu_b4 + 0.040571272 * mu_u5;
+    let q_2_5 = 1.5075977 * mu_v5 + 2.8452036 * mu_b1 + 1.724788 * mu_b2 + 0.5343517 * mu_b3 + 0.16617803 * mu_b4 + 0.019008316 * mu_u5;
+    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
+    let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     let e = p / q;
     return max(min(e, 1.0), 0.0);
 }

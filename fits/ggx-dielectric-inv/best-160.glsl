@@ -13,19 +13,19 @@
 // ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 43bb877a63c37b7d5b9a30656df90d83205120fb1746c7dd5f10b8ac1092be53.
+// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 7cd5b1b50df62f9eb11e7af840ab2194a9a8c4dab90bba806fb1b85511a3972f.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.6e-4, shifted 9.4e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 7.39e-4, max 1.11e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 9.25e-7 (every op rounded, as this Rust), 9.24e-7 (fused multiply-add), 1.88e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.35e-4, max 1.11e-2; this f32 code MAE 7.35e-4, max 1.11e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.1e-4 on the measurement grid.
-// Denominator proved >= 7.614e-5 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.4e-4, shifted 3.2e-5, bernstein 1.6e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.38e-4, max 9.11e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.33e-7 (every op rounded, as this Rust), 4.68e-7 (fused multiply-add), 1.90e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.04e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 8.37e-4, max 9.11e-3; this f32 code MAE 8.37e-4, max 9.11e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
+// Denominator proved >= 2.798e-3 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -37,181 +37,119 @@ highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float
     highp float mu_c = max(min(mu, 1.0), 0.0);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
+    highp float f0_v = 1.0 - f0_t;
+    highp float f0_u2 = f0_t * f0_t;
+    highp float f0_v2 = f0_v * f0_v;
+    highp float f0_u3 = f0_u2 * f0_t;
+    highp float f0_v3 = f0_v2 * f0_v;
+    highp float f0_b1 = f0_t * f0_v2;
+    highp float f0_b2 = f0_u2 * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
+    highp float r_v = 1.0 - r_t;
+    highp float r_u2 = r_t * r_t;
+    highp float r_v2 = r_v * r_v;
+    highp float r_u3 = r_u2 * r_t;
+    highp float r_v3 = r_v2 * r_v;
+    highp float r_u4 = r_u3 * r_t;
+    highp float r_v4 = r_v3 * r_v;
+    highp float r_u5 = r_u4 * r_t;
+    highp float r_v5 = r_v4 * r_v;
+    highp float r_u6 = r_u5 * r_t;
+    highp float r_v6 = r_v5 * r_v;
+    highp float r_b1 = r_t * r_v5;
+    highp float r_b2 = r_u2 * r_v4;
+    highp float r_b3 = r_u3 * r_v3;
+    highp float r_b4 = r_u4 * r_v2;
+    highp float r_b5 = r_u5 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
-    highp float r_b5_v = 1.0 - r_t;
-    highp float r_b5_u2 = r_t * r_t;
-    highp float r_b5_v2 = r_b5_v * r_b5_v;
-    highp float r_b5_u3 = r_b5_u2 * r_t;
-    highp float r_b5_v3 = r_b5_v2 * r_b5_v;
-    highp float r_b5_u4 = r_b5_u3 * r_t;
-    highp float r_b5_v4 = r_b5_v3 * r_b5_v;
-    highp float r_b5_u5 = r_b5_u4 * r_t;
-    highp float r_b5_v5 = r_b5_v4 * r_b5_v;
-    highp float r_b5_b1 = r_t * r_b5_v4;
-    highp float r_b5_b2 = r_b5_u2 * r_b5_v3;
-    highp float r_b5_b3 = r_b5_u3 * r_b5_v2;
-    highp float r_b5_b4 = r_b5_u4 * r_b5_v;
-    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
-    highp float mu_b5_v = 1.0 - mu_u;
-    highp float mu_b5_u2 = mu_u * mu_u;
-    highp float mu_b5_v2 = mu_b5_v * mu_b5_v;
-    highp float mu_b5_u3 = mu_b5_u2 * mu_u;
-    highp float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
-    highp float mu_b5_u4 = mu_b5_u3 * mu_u;
-    highp float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
-    highp float mu_b5_u5 = mu_b5_u4 * mu_u;
-    highp float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
-    highp float mu_b5_b1 = mu_u * mu_b5_v4;
-    highp float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
-    highp float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
-    highp float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    highp float p0_0_0 = 1.6818 * mu_b5_v5 + 11.377676 * mu_b5_b1 + 10.189635 * mu_b5_b2 + 12.696712 * mu_b5_b3 + 2.2255917 * mu_b5_b4 + 0.21794945 * mu_b5_u5;
-    highp float p0_0_1 = 3.9466972 * mu_b5_v5 + 23.870731 * mu_b5_b1 + 26.156363 * mu_b5_b2 + 75.799095 * mu_b5_b3 + 20.273315 * mu_b5_b4 + 1.6831049 * mu_b5_u5;
-    highp float p0_0_2 = 1.2936034 * mu_b5_v5 + 13.422764 * mu_b5_b1 + 62.81112 * mu_b5_b2 + 210.27165 * mu_b5_b3 + 61.918423 * mu_b5_b4 + 4.281839 * mu_b5_u5;
-    highp float p0_0_3 = -0.7073781 * mu_b5_v5 + 9.848942 * mu_b5_b1 + 115.01962 * mu_b5_b2 + 276.4421 * mu_b5_b3 + 73.13931 * mu_b5_b4 + 3.1136231 * mu_b5_u5;
-    highp float p0_0_4 = 0.11487696 * mu_b5_v5 + 10.811374 * mu_b5_b1 + 86.105576 * mu_b5_b2 + 157.8524 * mu_b5_b3 + 31.14779 * mu_b5_b4 - 0.31897697 * mu_b5_u5;
-    highp float p0_0_5 = 0.1045675 * mu_b5_v5 + 3.160172 * mu_b5_b1 + 20.466404 * mu_b5_b2 + 31.115633 * mu_b5_b3 + 3.1472113 * mu_b5_b4 - 0.36231056 * mu_b5_u5;
-    highp float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
-    highp float p0 = p0_0 * 1.0;
-    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
-    highp float f0_b4_v = 1.0 - f0_t;
-    highp float f0_b4_u2 = f0_t * f0_t;
-    highp float f0_b4_v2 = f0_b4_v * f0_b4_v;
-    highp float f0_b4_u3 = f0_b4_u2 * f0_t;
-    highp float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
-    highp float f0_b4_u4 = f0_b4_u3 * f0_t;
-    highp float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
-    highp float f0_b4_b1 = f0_t * f0_b4_v3;
-    highp float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
-    highp float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    highp float u0_0_0 = 1.014124 * 1.0;
-    highp float u0_0 = u0_0_0 * 1.0;
-    highp float u0_1_0 = 4.449831 * 1.0;
-    highp float u0_1 = u0_1_0 * 1.0;
-    highp float u0_2_0 = 7.1663713 * 1.0;
-    highp float u0_2 = u0_2_0 * 1.0;
-    highp float u0_3_0 = 5.014802 * 1.0;
-    highp float u0_3 = u0_3_0 * 1.0;
-    highp float u0_4_0 = 1.2870095 * 1.0;
-    highp float u0_4 = u0_4_0 * 1.0;
-    highp float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
-    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
-    highp float r_b3_v = 1.0 - r_t;
-    highp float r_b3_u2 = r_t * r_t;
-    highp float r_b3_v2 = r_b3_v * r_b3_v;
-    highp float r_b3_u3 = r_b3_u2 * r_t;
-    highp float r_b3_v3 = r_b3_v2 * r_b3_v;
-    highp float r_b3_b1 = r_t * r_b3_v2;
-    highp float r_b3_b2 = r_b3_u2 * r_b3_v;
-    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
-    highp float mu_b3_v = 1.0 - mu_u;
-    highp float mu_b3_u2 = mu_u * mu_u;
-    highp float mu_b3_v2 = mu_b3_v * mu_b3_v;
-    highp float mu_b3_u3 = mu_b3_u2 * mu_u;
-    highp float mu_b3_v3 = mu_b3_v2 * mu_b3_v;
-    highp float mu_b3_b1 = mu_u * mu_b3_v2;
-    highp float mu_b3_b2 = mu_b3_u2 * mu_b3_v;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q0_0_0 = 1.0 * mu_b3_v3 + 6.2004137 * mu_b3_b1 + 1.170888 * mu_b3_b2 + 0.15695085 * mu_b3_u3;
-    highp float q0_0_1 = 3.8500752 * mu_b3_v3 + 23.165506 * mu_b3_b1 + 7.720306 * mu_b3_b2 + 0.9643049 * mu_b3_u3;
-    highp float q0_0_2 = 4.429608 * mu_b3_v3 + 27.584967 * mu_b3_b1 + 12.449967 * mu_b3_b2 + 1.8540384 * mu_b3_u3;
-    highp float q0_0_3 = 1.0764453 * mu_b3_v3 + 9.110613 * mu_b3_b1 + 4.391288 * mu_b3_b2 + 0.54359716 * mu_b3_u3;
-    highp float q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
-    highp float q0 = q0_0 * 1.0;
-    highp float e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    highp float p1_0_0 = 0.24540247 * mu_b5_v5 + 1.5781301 * mu_b5_b1 + 1.8151569 * mu_b5_b2 + 1.2316706 * mu_b5_b3 + 0.041021947 * mu_b5_b4 + 0.00045068478 * mu_b5_u5;
-    highp float p1_0_1 = -0.42915264 * mu_b5_v5 - 3.2102087 * mu_b5_b1 - 3.7375302 * mu_b5_b2 + 2.3467088 * mu_b5_b3 - 0.24995886 * mu_b5_b4 - 0.009791324 * mu_b5_u5;
-    highp float p1_0_2 = -1.8019457 * mu_b5_v5 - 15.68482 * mu_b5_b1 - 13.93115 * mu_b5_b2 + 6.150875 * mu_b5_b3 - 0.85436624 * mu_b5_b4 + 0.033184264 * mu_b5_u5;
-    highp float p1_0_3 = -2.2403834 * mu_b5_v5 - 19.912947 * mu_b5_b1 - 13.646063 * mu_b5_b2 + 8.172362 * mu_b5_b3 - 2.6851935 * mu_b5_b4 + 0.25564525 * mu_b5_u5;
-    highp float p1_0_4 = -1.1729181 * mu_b5_v5 - 9.670602 * mu_b5_b1 - 2.6516566 * mu_b5_b2 + 7.2017984 * mu_b5_b3 - 1.3674804 * mu_b5_b4 + 0.8200987 * mu_b5_u5;
-    highp float p1_0_5 = -0.30032262 * mu_b5_v5 - 1.8561227 * mu_b5_b1 + 0.21197058 * mu_b5_b2 + 1.6612997 * mu_b5_b3 - 0.44765866 * mu_b5_b4 + 0.36748242 * mu_b5_u5;
-    highp float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
-    highp float p1 = p1_0 * 1.0;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    highp float u1_0_0 = 0.5702372 * 1.0;
-    highp float u1_0 = u1_0_0 * 1.0;
-    highp float u1_1_0 = 0.77727765 * 1.0;
-    highp float u1_1 = u1_1_0 * 1.0;
-    highp float u1_2_0 = -0.8001668 * 1.0;
-    highp float u1_2 = u1_2_0 * 1.0;
-    highp float u1_3_0 = -1.0279833 * 1.0;
-    highp float u1_3 = u1_3_0 * 1.0;
-    highp float u1_4_0 = -0.3292523 * 1.0;
-    highp float u1_4 = u1_4_0 * 1.0;
-    highp float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q1_0_0 = 1.0 * mu_b3_v3 + 4.625543 * mu_b3_b1 + 0.17963918 * mu_b3_b2 + 0.0019694008 * mu_b3_u3;
-    highp float q1_0_1 = 2.2616916 * mu_b3_v3 + 11.175309 * mu_b3_b1 - 1.4781957 * mu_b3_b2 - 0.048193216 * mu_b3_u3;
-    highp float q1_0_2 = 1.8258256 * mu_b3_v3 + 9.4459915 * mu_b3_b1 - 2.4586303 * mu_b3_b2 + 0.2648235 * mu_b3_u3;
-    highp float q1_0_3 = 0.94523185 * mu_b3_v3 + 4.0395193 * mu_b3_b1 + 0.34249824 * mu_b3_b2 + 0.696084 * mu_b3_u3;
-    highp float q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
-    highp float q1 = q1_0 * 1.0;
-    highp float e1 = p1 * u1 / q1;
-    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    highp float p2_0_0 = 0.05580612 * mu_b5_v5 + 0.22641385 * mu_b5_b1 + 0.1318353 * mu_b5_b2 + 0.09332001 * mu_b5_b3 - 0.0017314168 * mu_b5_b4 + 0.000458191 * mu_b5_u5;
-    highp float p2_0_1 = 0.20747547 * mu_b5_v5 + 1.2550974 * mu_b5_b1 + 1.0552676 * mu_b5_b2 + 0.6683324 * mu_b5_b3 - 0.010905951 * mu_b5_b4 - 0.00018238563 * mu_b5_u5;
-    highp float p2_0_2 = 0.108344585 * mu_b5_v5 + 1.5597241 * mu_b5_b1 + 0.8629077 * mu_b5_b2 + 0.6007037 * mu_b5_b3 - 0.1543589 * mu_b5_b4 - 0.0007139133 * mu_b5_u5;
-    highp float p2_0_3 = -0.10840547 * mu_b5_v5 + 0.4877684 * mu_b5_b1 - 0.7175686 * mu_b5_b2 - 0.070526764 * mu_b5_b3 - 0.09412011 * mu_b5_b4 + 0.005484699 * mu_b5_u5;
-    highp float p2_0_4 = -0.08104714 * mu_b5_v5 - 0.196999 * mu_b5_b1 - 1.0879637 * mu_b5_b2 - 0.22506218 * mu_b5_b3 + 0.064241365 * mu_b5_b4 - 0.011298015 * mu_b5_u5;
-    highp float p2_0_5 = -0.004828938 * mu_b5_v5 - 0.09803929 * mu_b5_b1 - 0.3195446 * mu_b5_b2 - 0.017469032 * mu_b5_b3 + 0.06886462 * mu_b5_b4 - 0.0057185492 * mu_b5_u5;
-    highp float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
-    highp float p2 = p2_0 * 1.0;
-    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    highp float u2_0_0 = 0.40346384 * 1.0;
-    highp float u2_0 = u2_0_0 * 1.0;
-    highp float u2_1_0 = 2.1391003 * 1.0;
-    highp float u2_1 = u2_1_0 * 1.0;
-    highp float u2_2_0 = 0.41216505 * 1.0;
-    highp float u2_2 = u2_2_0 * 1.0;
-    highp float u2_3_0 = -1.1428729 * 1.0;
-    highp float u2_3 = u2_3_0 * 1.0;
-    highp float u2_4_0 = -0.49810582 * 1.0;
-    highp float u2_4 = u2_4_0 * 1.0;
-    highp float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
-    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q2_0_0 = 1.0 * mu_b3_v3 + 1.8551881 * mu_b3_b1 - 0.043757312 * mu_b3_b2 + 0.008336884 * mu_b3_u3;
-    highp float q2_0_1 = 1.5591007 * mu_b3_v3 + 3.6183083 * mu_b3_b1 - 0.66100836 * mu_b3_b2 + 0.0016310882 * mu_b3_u3;
-    highp float q2_0_2 = 0.64692104 * mu_b3_v3 + 2.8244894 * mu_b3_b1 - 0.47002894 * mu_b3_b2 + 0.0742497 * mu_b3_u3;
-    highp float q2_0_3 = 0.045673203 * mu_b3_v3 + 0.934928 * mu_b3_b1 + 0.020780956 * mu_b3_b2 + 0.038808446 * mu_b3_u3;
-    highp float q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
-    highp float q2 = q2_0 * 1.0;
-    highp float e2 = p2 * u2 / q2;
-    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    highp float p3_0_0 = 0.744252 * mu_b5_v5 - 0.518746 * mu_b5_b1 + 1.08865 * mu_b5_b2 + 0.07836499 * mu_b5_b3 + 0.11207676 * mu_b5_b4 + 0.017467197 * mu_b5_u5;
-    highp float p3_0_1 = -0.9310276 * mu_b5_v5 - 7.0639715 * mu_b5_b1 + 5.2021565 * mu_b5_b2 + 0.45056275 * mu_b5_b3 + 0.98426634 * mu_b5_b4 + 0.029340927 * mu_b5_u5;
-    highp float p3_0_2 = -6.4088907 * mu_b5_v5 - 13.8411875 * mu_b5_b1 + 14.756985 * mu_b5_b2 + 2.1837163 * mu_b5_b3 + 3.7622054 * mu_b5_b4 + 0.08884474 * mu_b5_u5;
-    highp float p3_0_3 = -7.3378024 * mu_b5_v5 - 7.069175 * mu_b5_b1 + 22.449951 * mu_b5_b2 + 5.20145 * mu_b5_b3 + 6.8566933 * mu_b5_b4 + 0.15764043 * mu_b5_u5;
-    highp float p3_0_4 = -3.1727424 * mu_b5_v5 + 0.36307135 * mu_b5_b1 + 13.338764 * mu_b5_b2 + 2.6710308 * mu_b5_b3 + 4.5400853 * mu_b5_b4 - 0.16745771 * mu_b5_u5;
-    highp float p3_0_5 = -0.4718404 * mu_b5_v5 + 0.6198355 * mu_b5_b1 + 2.499395 * mu_b5_b2 + 0.24820243 * mu_b5_b3 + 1.0569593 * mu_b5_b4 - 0.15141687 * mu_b5_u5;
-    highp float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
-    highp float p3 = p3_0 * 1.0;
-    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    highp float u3_0_0 = -1.164495 * 1.0;
-    highp float u3_0 = u3_0_0 * 1.0;
-    highp float u3_1_0 = -5.1253433 * 1.0;
-    highp float u3_1 = u3_1_0 * 1.0;
-    highp float u3_2_0 = -7.8623743 * 1.0;
-    highp float u3_2 = u3_2_0 * 1.0;
-    highp float u3_3_0 = -5.530996 * 1.0;
-    highp float u3_3 = u3_3_0 * 1.0;
-    highp float u3_4_0 = -1.4202172 * 1.0;
-    highp float u3_4 = u3_4_0 * 1.0;
-    highp float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
-    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q3_0_0 = 1.0 * mu_b3_v3 + 0.17871301 * mu_b3_b1 + 0.085942835 * mu_b3_b2 + 0.03623221 * mu_b3_u3;
-    highp float q3_0_1 = 3.4206154 * mu_b3_v3 + 1.3859322 * mu_b3_b1 + 0.60689026 * mu_b3_b2 + 0.02858061 * mu_b3_u3;
-    highp float q3_0_2 = 3.6034389 * mu_b3_v3 + 2.101294 * mu_b3_b1 + 1.4004653 * mu_b3_b2 + 0.28961718 * mu_b3_u3;
-    highp float q3_0_3 = 1.0552826 * mu_b3_v3 + 0.5114522 * mu_b3_b1 + 0.49689513 * mu_b3_b2 + 0.16972788 * mu_b3_u3;
-    highp float q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
-    highp float q3 = q3_0 * 1.0;
-    highp float e3 = p3 * u3 / q3;
-    // the sum of the 4 terms
-    highp float e = e0 + e1 + e2 + e3;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
+    highp float mu_v = 1.0 - mu_u;
+    highp float mu_u2 = mu_u * mu_u;
+    highp float mu_v2 = mu_v * mu_v;
+    highp float mu_u3 = mu_u2 * mu_u;
+    highp float mu_v3 = mu_v2 * mu_v;
+    highp float mu_u4 = mu_u3 * mu_u;
+    highp float mu_v4 = mu_v3 * mu_v;
+    highp float mu_u5 = mu_u4 * mu_u;
+    highp float mu_v5 = mu_v4 * mu_v;
+    highp float mu_u6 = mu_u5 * mu_u;
+    highp float mu_v6 = mu_v5 * mu_v;
+    highp float mu_b1 = mu_u * mu_v5;
+    highp float mu_b2 = mu_u2 * mu_v4;
+    highp float mu_b3 = mu_u3 * mu_v3;
+    highp float mu_b4 = mu_u4 * mu_v2;
+    highp float mu_b5 = mu_u5 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    highp float p_0_0 = 0.99911106 * mu_v6 + 3.5830736 * mu_b1 + 3.511219 * mu_b2 + 1.6409106 * mu_b3 + 0.14308986 * mu_b4 + 0.13781443 * mu_b5 + 0.009083314 * mu_u6;
+    highp float p_0_1 = 7.3364053 * mu_v6 + 25.526796 * mu_b1 + 27.478909 * mu_b2 + 14.07118 * mu_b3 + 0.51391673 * mu_b4 - 0.1037334 * mu_b5 - 0.03075895 * mu_u6;
+    highp float p_0_2 = 15.910813 * mu_v6 + 53.26811 * mu_b1 + 57.400246 * mu_b2 + 31.553919 * mu_b3 + 0.850745 * mu_b4 - 0.07837471 * mu_b5 + 0.092419274 * mu_u6;
+    highp float p_0_3 = 16.581652 * mu_v6 + 54.412758 * mu_b1 + 61.343006 * mu_b2 + 40.067627 * mu_b3 + 3.1865237 * mu_b4 + 0.77955294 * mu_b5 + 0.16284719 * mu_u6;
+    highp float p_0_4 = 9.520822 * mu_v6 + 32.022415 * mu_b1 + 41.357807 * mu_b2 + 33.97313 * mu_b3 + 6.5370126 * mu_b4 + 2.158996 * mu_b5 + 0.2494692 * mu_u6;
+    highp float p_0_5 = 2.5555794 * mu_v6 + 8.72921 * mu_b1 + 12.344153 * mu_b2 + 11.186243 * mu_b3 + 1.4290236 * mu_b4 + 0.6682087 * mu_b5 + 0.059133157 * mu_u6;
+    highp float p_0_6 = 0.21544045 * mu_v6 + 0.8304682 * mu_b1 + 1.485053 * mu_b2 + 1.6080992 * mu_b3 + 0.18687402 * mu_b4 + 0.16089548 * mu_b5 + 0.012800126 * mu_u6;
+    highp float p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
+    highp float p_1_0 = 3.0133765 * mu_v6 + 10.246637 * mu_b1 + 11.964242 * mu_b2 + 4.031902 * mu_b3 + 0.5667651 * mu_b4 + 0.40871733 * mu_b5 + 0.027252587 * mu_u6;
+    highp float p_1_1 = 23.594309 * mu_v6 + 79.4684 * mu_b1 + 95.17822 * mu_b2 + 36.844265 * mu_b3 + 2.6627603 * mu_b4 - 0.27492747 * mu_b5 - 0.091275 * mu_u6;
+    highp float p_1_2 = 60.733124 * mu_v6 + 200.60042 * mu_b1 + 239.02328 * mu_b2 + 94.6019 * mu_b3 + 7.88334 * mu_b4 - 0.5740002 * mu_b5 + 0.2542718 * mu_u6;
+    highp float p_1_3 = 73.938034 * mu_v6 + 241.99745 * mu_b1 + 290.68863 * mu_b2 + 120.69552 * mu_b3 + 17.215212 * mu_b4 + 2.0212877 * mu_b5 + 0.559987 * mu_u6;
+    highp float p_1_4 = 44.80252 * mu_v6 + 147.63614 * mu_b1 + 182.5334 * mu_b2 + 81.869705 * mu_b3 + 19.978949 * mu_b4 + 5.064569 * mu_b5 + 0.5212376 * mu_u6;
+    highp float p_1_5 = 11.79049 * mu_v6 + 39.718044 * mu_b1 + 50.106495 * mu_b2 + 20.683392 * mu_b3 + 5.7935963 * mu_b4 + 2.0893123 * mu_b5 + 0.106445014 * mu_u6;
+    highp float p_1_6 = 1.0219826 * mu_v6 + 4.189741 * mu_b1 + 6.1750183 * mu_b2 + 2.683145 * mu_b3 + 0.96512574 * mu_b4 + 0.42543033 * mu_b5 + 0.020569032 * mu_u6;
+    highp float p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
+    highp float p_2_0 = 2.9989703 * mu_v6 + 10.365781 * mu_b1 + 11.535779 * mu_b2 + 4.39658 * mu_b3 + 0.51240754 * mu_b4 + 0.4093443 * mu_b5 + 0.027253876 * mu_u6;
+    highp float p_2_1 = 24.544775 * mu_v6 + 83.0254 * mu_b1 + 94.198586 * mu_b2 + 38.30001 * mu_b3 + 1.9059471 * mu_b4 - 0.18346037 * mu_b5 - 0.09113118 * mu_u6;
+    highp float p_2_2 = 64.453064 * mu_v6 + 212.64624 * mu_b1 + 236.64552 * mu_b2 + 95.09207 * mu_b3 + 4.4230027 * mu_b4 - 0.51122504 * mu_b5 + 0.24608816 * mu_u6;
+    highp float p_2_3 = 83.10856 * mu_v6 + 275.1735 * mu_b1 + 314.2276 * mu_b2 + 142.68823 * mu_b3 + 21.350119 * mu_b4 + 3.3669212 * mu_b5 + 0.5964904 * mu_u6;
+    highp float p_2_4 = 54.319157 * mu_v6 + 183.39172 * mu_b1 + 216.6291 * mu_b2 + 109.203575 * mu_b3 + 24.668367 * mu_b4 + 4.904707 * mu_b5 + 0.4239647 * mu_u6;
+    highp float p_2_5 = 15.372941 * mu_v6 + 53.254864 * mu_b1 + 62.40386 * mu_b2 + 29.85835 * mu_b3 + 5.9007077 * mu_b4 + 1.258753 * mu_b5 + 0.110694535 * mu_u6;
+    highp float p_2_6 = 1.3558664 * mu_v6 + 5.6547008 * mu_b1 + 7.531348 * mu_b2 + 4.1699653 * mu_b3 + 1.0646979 * mu_b4 + 0.24406828 * mu_b5 + 0.019527126 * mu_u6;
+    highp float p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
+    highp float p_3_0 = 0.9998972 * mu_v6 + 3.4913776 * mu_b1 + 3.7646081 * mu_b2 + 1.4848875 * mu_b3 + 0.17071457 * mu_b4 + 0.13635834 * mu_b5 + 0.009084243 * mu_u6;
+    highp float p_3_1 = 8.273418 * mu_v6 + 28.158367 * mu_b1 + 31.527056 * mu_b2 + 13.267536 * mu_b3 + 0.58658826 * mu_b4 - 0.059226125 * mu_b5 - 0.030300291 * mu_u6;
+    highp float p_3_2 = 22.259 * mu_v6 + 73.523834 * mu_b1 + 80.982895 * mu_b2 + 33.40059 * mu_b3 + 0.92308605 * mu_b4 - 0.15259898 * mu_b5 + 0.082056075 * mu_u6;
+    highp float p_3_3 = 29.371561 * mu_v6 + 96.71207 * mu_b1 + 109.00515 * mu_b2 + 49.646748 * mu_b3 + 5.6464205 * mu_b4 + 1.2287954 * mu_b5 + 0.19809018 * mu_u6;
+    highp float p_3_4 = 19.550097 * mu_v6 + 65.18849 * mu_b1 + 75.79357 * mu_b2 + 37.685776 * mu_b3 + 6.7202773 * mu_b4 + 1.8588915 * mu_b5 + 0.14441916 * mu_u6;
+    highp float p_3_5 = 5.623221 * mu_v6 + 19.145782 * mu_b1 + 22.180485 * mu_b2 + 10.360787 * mu_b3 + 1.193365 * mu_b4 + 0.5353456 * mu_b5 + 0.034928195 * mu_u6;
+    highp float p_3_6 = 0.49847847 * mu_v6 + 2.0481408 * mu_b1 + 2.7606864 * mu_b2 + 1.4892516 * mu_b3 + 0.20137234 * mu_b4 + 0.0978946 * mu_b5 + 0.0064303675 * mu_u6;
+    highp float p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
+    highp float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q_0_0 = 1.0 * mu_v6 + 3.5016685 * mu_b1 + 3.8918588 * mu_b2 + 1.9779538 * mu_b3 + 0.19887516 * mu_b4 + 0.13582075 * mu_b5 + 0.009085543 * mu_u6;
+    highp float q_0_1 = 8.358247 * mu_v6 + 28.361902 * mu_b1 + 32.96552 * mu_b2 + 16.504745 * mu_b3 + 0.45970848 * mu_b4 - 0.019865975 * mu_b5 - 0.030433757 * mu_u6;
+    highp float q_0_2 = 22.86828 * mu_v6 + 76.016266 * mu_b1 + 89.86883 * mu_b2 + 45.14867 * mu_b3 + 0.57209593 * mu_b4 - 0.026200145 * mu_b5 + 0.09517686 * mu_u6;
+    highp float q_0_3 = 30.6304 * mu_v6 + 102.899704 * mu_b1 + 128.9234 * mu_b2 + 71.048874 * mu_b3 + 5.006653 * mu_b4 + 1.0596552 * mu_b5 + 0.13531218 * mu_u6;
+    highp float q_0_4 = 20.88899 * mu_v6 + 72.767365 * mu_b1 + 99.814865 * mu_b2 + 63.335575 * mu_b3 + 10.771327 * mu_b4 + 3.443773 * mu_b5 + 0.33718687 * mu_u6;
+    highp float q_0_5 = 6.0352545 * mu_v6 + 21.660547 * mu_b1 + 31.656385 * mu_b2 + 20.393282 * mu_b3 + 2.3029187 * mu_b4 + 1.1167142 * mu_b5 + 0.08224473 * mu_u6;
+    highp float q_0_6 = 0.54209095 * mu_v6 + 2.2896085 * mu_b1 + 4.101642 * mu_b2 + 2.993885 * mu_b3 + 0.3588689 * mu_b4 + 0.25586483 * mu_b5 + 0.021133024 * mu_u6;
+    highp float q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
+    highp float q_1_0 = 3.0 * mu_v6 + 10.505006 * mu_b1 + 11.675576 * mu_b2 + 5.9338617 * mu_b3 + 0.59662545 * mu_b4 + 0.40746224 * mu_b5 + 0.02725663 * mu_u6;
+    highp float q_1_1 = 25.074741 * mu_v6 + 85.08571 * mu_b1 + 98.89655 * mu_b2 + 49.514236 * mu_b3 + 1.3791255 * mu_b4 - 0.05959792 * mu_b5 - 0.09130127 * mu_u6;
+    highp float q_1_2 = 68.60484 * mu_v6 + 228.0488 * mu_b1 + 269.60648 * mu_b2 + 135.446 * mu_b3 + 1.7162877 * mu_b4 - 0.07860044 * mu_b5 + 0.2855306 * mu_u6;
+    highp float q_1_3 = 91.8912 * mu_v6 + 308.69913 * mu_b1 + 386.7702 * mu_b2 + 213.14662 * mu_b3 + 15.0199585 * mu_b4 + 3.1789658 * mu_b5 + 0.40593654 * mu_u6;
+    highp float q_1_4 = 62.66697 * mu_v6 + 218.30211 * mu_b1 + 299.44458 * mu_b2 + 190.00673 * mu_b3 + 32.31398 * mu_b4 + 10.331319 * mu_b5 + 1.0115606 * mu_u6;
+    highp float q_1_5 = 18.105764 * mu_v6 + 64.98164 * mu_b1 + 94.969154 * mu_b2 + 61.179844 * mu_b3 + 6.908756 * mu_b4 + 3.3501427 * mu_b5 + 0.2467342 * mu_u6;
+    highp float q_1_6 = 1.6262729 * mu_v6 + 6.868826 * mu_b1 + 12.304927 * mu_b2 + 8.981655 * mu_b3 + 1.0766066 * mu_b4 + 0.76759446 * mu_b5 + 0.06339908 * mu_u6;
+    highp float q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
+    highp float q_2_0 = 3.0 * mu_v6 + 10.505006 * mu_b1 + 11.675576 * mu_b2 + 5.9338617 * mu_b3 + 0.59662545 * mu_b4 + 0.40746224 * mu_b5 + 0.02725663 * mu_u6;
+    highp float q_2_1 = 25.074741 * mu_v6 + 85.08571 * mu_b1 + 98.89655 * mu_b2 + 49.514236 * mu_b3 + 1.3791255 * mu_b4 - 0.05959792 * mu_b5 - 0.09130127 * mu_u6;
+    highp float q_2_2 = 68.60484 * mu_v6 + 228.0488 * mu_b1 + 269.60648 * mu_b2 + 135.446 * mu_b3 + 1.7162877 * mu_b4 - 0.07860044 * mu_b5 + 0.2855306 * mu_u6;
+    highp float q_2_3 = 91.8912 * mu_v6 + 308.69913 * mu_b1 + 386.7702 * mu_b2 + 213.14662 * mu_b3 + 15.0199585 * mu_b4 + 3.1789658 * mu_b5 + 0.40593654 * mu_u6;
+    highp float q_2_4 = 62.66697 * mu_v6 + 218.30211 * mu_b1 + 299.44458 * mu_b2 + 190.00673 * mu_b3 + 32.31398 * mu_b4 + 10.331319 * mu_b5 + 1.0115606 * mu_u6;
+    highp float q_2_5 = 18.105764 * mu_v6 + 64.98164 * mu_b1 + 94.969154 * mu_b2 + 61.179844 * mu_b3 + 6.908756 * mu_b4 + 3.3501427 * mu_b5 + 0.2467342 * mu_u6;
+    highp float q_2_6 = 1.6262729 * mu_v6 + 6.868826 * mu_b1 + 12.304927 * mu_b2 + 8.981655 * mu_b3 + 1.0766066 * mu_b4 + 0.76759446 * mu_b5 + 0.06339908 * mu_u6;
+    highp float q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
+    highp float q_3_0 = 1.0 * mu_v6 + 3.5016685 * mu_b1 + 3.8918588 * mu_b2 + 1.9779538 * mu_b3 + 0.19887516 * mu_b4 + 0.13582075 * mu_b5 + 0.009085543 * mu_u6;
+    highp float q_3_1 = 8.358247 * mu_v6 + 28.361902 * mu_b1 + 32.96552 * mu_b2 + 16.504745 * mu_b3 + 0.45970848 * mu_b4 - 0.019865975 * mu_b5 - 0.030433757 * mu_u6;
+    highp float q_3_2 = 22.86828 * mu_v6 + 76.016266 * mu_b1 + 89.86883 * mu_b2 + 45.14867 * mu_b3 + 0.57209593 * mu_b4 - 0.026200145 * mu_b5 + 0.09517686 * mu_u6;
+    highp float q_3_3 = 30.6304 * mu_v6 + 102.899704 * mu_b1 + 128.9234 * mu_b2 + 71.048874 * mu_b3 + 5.006653 * mu_b4 + 1.0596552 * mu_b5 + 0.13531218 * mu_u6;
+    highp float q_3_4 = 20.88899 * mu_v6 + 72.767365 * mu_b1 + 99.814865 * mu_b2 + 63.335575 * mu_b3 + 10.771327 * mu_b4 + 3.443773 * mu_b5 + 0.33718687 * mu_u6;
+    highp float q_3_5 = 6.0352545 * mu_v6 + 21.660547 * mu_b1 + 31.656385 * mu_b2 + 20.393282 * mu_b3 + 2.3029187 * mu_b4 + 1.1167142 * mu_b5 + 0.08224473 * mu_u6;
+    highp float q_3_6 = 0.54209095 * mu_v6 + 2.2896085 * mu_b1 + 4.101642 * mu_b2 + 2.993885 * mu_b3 + 0.3588689 * mu_b4 + 0.25586483 * mu_b5 + 0.021133024 * mu_u6;
+    highp float q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
+    highp float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
+    highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }
 

@@ -25,19 +25,19 @@
 // ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 43bb877a63c37b7d5b9a30656df90d83205120fb1746c7dd5f10b8ac1092be53.
+// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 7cd5b1b50df62f9eb11e7af840ab2194a9a8c4dab90bba806fb1b85511a3972f.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.6e-4, shifted 9.4e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 7.39e-4, max 1.11e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 9.25e-7 (every op rounded, as this Rust), 9.24e-7 (fused multiply-add), 1.88e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.35e-4, max 1.11e-2; this f32 code MAE 7.35e-4, max 1.11e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.1e-4 on the measurement grid.
-// Denominator proved >= 7.614e-5 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.4e-4, shifted 3.2e-5, bernstein 1.6e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.38e-4, max 9.11e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.33e-7 (every op rounded, as this Rust), 4.68e-7 (fused multiply-add), 1.90e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.04e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 8.37e-4, max 9.11e-3; this f32 code MAE 8.37e-4, max 9.11e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
+// Denominator proved >= 2.798e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -49,181 +49,119 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
+    const float f0_v = 1.0f - f0_t;
+    const float f0_u2 = f0_t * f0_t;
+    const float f0_v2 = f0_v * f0_v;
+    const float f0_u3 = f0_u2 * f0_t;
+    const float f0_v3 = f0_v2 * f0_v;
+    const float f0_b1 = f0_t * f0_v2;
+    const float f0_b2 = f0_u2 * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
+    const float r_v = 1.0f - r_t;
+    const float r_u2 = r_t * r_t;
+    const float r_v2 = r_v * r_v;
+    const float r_u3 = r_u2 * r_t;
+    const float r_v3 = r_v2 * r_v;
+    const float r_u4 = r_u3 * r_t;
+    const float r_v4 = r_v3 * r_v;
+    const float r_u5 = r_u4 * r_t;
+    const float r_v5 = r_v4 * r_v;
+    const float r_u6 = r_u5 * r_t;
+    const float r_v6 = r_v5 * r_v;
+    const float r_b1 = r_t * r_v5;
+    const float r_b2 = r_u2 * r_v4;
+    const float r_b3 = r_u3 * r_v3;
+    const float r_b4 = r_u4 * r_v2;
+    const float r_b5 = r_u5 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
-    const float r_b5_v = 1.0f - r_t;
-    const float r_b5_u2 = r_t * r_t;
-    const float r_b5_v2 = r_b5_v * r_b5_v;
-    const float r_b5_u3 = r_b5_u2 * r_t;
-    const float r_b5_v3 = r_b5_v2 * r_b5_v;
-    const float r_b5_u4 = r_b5_u3 * r_t;
-    const float r_b5_v4 = r_b5_v3 * r_b5_v;
-    const float r_b5_u5 = r_b5_u4 * r_t;
-    const float r_b5_v5 = r_b5_v4 * r_b5_v;
-    const float r_b5_b1 = r_t * r_b5_v4;
-    const float r_b5_b2 = r_b5_u2 * r_b5_v3;
-    const float r_b5_b3 = r_b5_u3 * r_b5_v2;
-    const float r_b5_b4 = r_b5_u4 * r_b5_v;
-    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
-    const float mu_b5_v = 1.0f - mu_u;
-    const float mu_b5_u2 = mu_u * mu_u;
-    const float mu_b5_v2 = mu_b5_v * mu_b5_v;
-    const float mu_b5_u3 = mu_b5_u2 * mu_u;
-    const float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
-    const float mu_b5_u4 = mu_b5_u3 * mu_u;
-    const float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
-    const float mu_b5_u5 = mu_b5_u4 * mu_u;
-    const float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
-    const float mu_b5_b1 = mu_u * mu_b5_v4;
-    const float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
-    const float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
-    const float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    const float p0_0_0 = 1.6818f * mu_b5_v5 + 11.377676f * mu_b5_b1 + 10.189635f * mu_b5_b2 + 12.696712f * mu_b5_b3 + 2.2255917f * mu_b5_b4 + 0.21794945f * mu_b5_u5;
-    const float p0_0_1 = 3.9466972f * mu_b5_v5 + 23.870731f * mu_b5_b1 + 26.156363f * mu_b5_b2 + 75.799095f * mu_b5_b3 + 20.273315f * mu_b5_b4 + 1.6831049f * mu_b5_u5;
-    const float p0_0_2 = 1.2936034f * mu_b5_v5 + 13.422764f * mu_b5_b1 + 62.81112f * mu_b5_b2 + 210.27165f * mu_b5_b3 + 61.918423f * mu_b5_b4 + 4.281839f * mu_b5_u5;
-    const float p0_0_3 = -0.7073781f * mu_b5_v5 + 9.848942f * mu_b5_b1 + 115.01962f * mu_b5_b2 + 276.4421f * mu_b5_b3 + 73.13931f * mu_b5_b4 + 3.1136231f * mu_b5_u5;
-    const float p0_0_4 = 0.11487696f * mu_b5_v5 + 10.811374f * mu_b5_b1 + 86.105576f * mu_b5_b2 + 157.8524f * mu_b5_b3 + 31.14779f * mu_b5_b4 - 0.31897697f * mu_b5_u5;
-    const float p0_0_5 = 0.1045675f * mu_b5_v5 + 3.160172f * mu_b5_b1 + 20.466404f * mu_b5_b2 + 31.115633f * mu_b5_b3 + 3.1472113f * mu_b5_b4 - 0.36231056f * mu_b5_u5;
-    const float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
-    const float p0 = p0_0 * 1.0f;
-    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
-    const float f0_b4_v = 1.0f - f0_t;
-    const float f0_b4_u2 = f0_t * f0_t;
-    const float f0_b4_v2 = f0_b4_v * f0_b4_v;
-    const float f0_b4_u3 = f0_b4_u2 * f0_t;
-    const float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
-    const float f0_b4_u4 = f0_b4_u3 * f0_t;
-    const float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
-    const float f0_b4_b1 = f0_t * f0_b4_v3;
-    const float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
-    const float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    const float u0_0_0 = 1.014124f * 1.0f;
-    const float u0_0 = u0_0_0 * 1.0f;
-    const float u0_1_0 = 4.449831f * 1.0f;
-    const float u0_1 = u0_1_0 * 1.0f;
-    const float u0_2_0 = 7.1663713f * 1.0f;
-    const float u0_2 = u0_2_0 * 1.0f;
-    const float u0_3_0 = 5.014802f * 1.0f;
-    const float u0_3 = u0_3_0 * 1.0f;
-    const float u0_4_0 = 1.2870095f * 1.0f;
-    const float u0_4 = u0_4_0 * 1.0f;
-    const float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
-    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
-    const float r_b3_v = 1.0f - r_t;
-    const float r_b3_u2 = r_t * r_t;
-    const float r_b3_v2 = r_b3_v * r_b3_v;
-    const float r_b3_u3 = r_b3_u2 * r_t;
-    const float r_b3_v3 = r_b3_v2 * r_b3_v;
-    const float r_b3_b1 = r_t * r_b3_v2;
-    const float r_b3_b2 = r_b3_u2 * r_b3_v;
-    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
-    const float mu_b3_v = 1.0f - mu_u;
-    const float mu_b3_u2 = mu_u * mu_u;
-    const float mu_b3_v2 = mu_b3_v * mu_b3_v;
-    const float mu_b3_u3 = mu_b3_u2 * mu_u;
-    const float mu_b3_v3 = mu_b3_v2 * mu_b3_v;
-    const float mu_b3_b1 = mu_u * mu_b3_v2;
-    const float mu_b3_b2 = mu_b3_u2 * mu_b3_v;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q0_0_0 = 1.0f * mu_b3_v3 + 6.2004137f * mu_b3_b1 + 1.170888f * mu_b3_b2 + 0.15695085f * mu_b3_u3;
-    const float q0_0_1 = 3.8500752f * mu_b3_v3 + 23.165506f * mu_b3_b1 + 7.720306f * mu_b3_b2 + 0.9643049f * mu_b3_u3;
-    const float q0_0_2 = 4.429608f * mu_b3_v3 + 27.584967f * mu_b3_b1 + 12.449967f * mu_b3_b2 + 1.8540384f * mu_b3_u3;
-    const float q0_0_3 = 1.0764453f * mu_b3_v3 + 9.110613f * mu_b3_b1 + 4.391288f * mu_b3_b2 + 0.54359716f * mu_b3_u3;
-    const float q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
-    const float q0 = q0_0 * 1.0f;
-    const float e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    const float p1_0_0 = 0.24540247f * mu_b5_v5 + 1.5781301f * mu_b5_b1 + 1.8151569f * mu_b5_b2 + 1.2316706f * mu_b5_b3 + 0.041021947f * mu_b5_b4 + 0.00045068478f * mu_b5_u5;
-    const float p1_0_1 = -0.42915264f * mu_b5_v5 - 3.2102087f * mu_b5_b1 - 3.7375302f * mu_b5_b2 + 2.3467088f * mu_b5_b3 - 0.24995886f * mu_b5_b4 - 0.009791324f * mu_b5_u5;
-    const float p1_0_2 = -1.8019457f * mu_b5_v5 - 15.68482f * mu_b5_b1 - 13.93115f * mu_b5_b2 + 6.150875f * mu_b5_b3 - 0.85436624f * mu_b5_b4 + 0.033184264f * mu_b5_u5;
-    const float p1_0_3 = -2.2403834f * mu_b5_v5 - 19.912947f * mu_b5_b1 - 13.646063f * mu_b5_b2 + 8.172362f * mu_b5_b3 - 2.6851935f * mu_b5_b4 + 0.25564525f * mu_b5_u5;
-    const float p1_0_4 = -1.1729181f * mu_b5_v5 - 9.670602f * mu_b5_b1 - 2.6516566f * mu_b5_b2 + 7.2017984f * mu_b5_b3 - 1.3674804f * mu_b5_b4 + 0.8200987f * mu_b5_u5;
-    const float p1_0_5 = -0.30032262f * mu_b5_v5 - 1.8561227f * mu_b5_b1 + 0.21197058f * mu_b5_b2 + 1.6612997f * mu_b5_b3 - 0.44765866f * mu_b5_b4 + 0.36748242f * mu_b5_u5;
-    const float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
-    const float p1 = p1_0 * 1.0f;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    const float u1_0_0 = 0.5702372f * 1.0f;
-    const float u1_0 = u1_0_0 * 1.0f;
-    const float u1_1_0 = 0.77727765f * 1.0f;
-    const float u1_1 = u1_1_0 * 1.0f;
-    const float u1_2_0 = -0.8001668f * 1.0f;
-    const float u1_2 = u1_2_0 * 1.0f;
-    const float u1_3_0 = -1.0279833f * 1.0f;
-    const float u1_3 = u1_3_0 * 1.0f;
-    const float u1_4_0 = -0.3292523f * 1.0f;
-    const float u1_4 = u1_4_0 * 1.0f;
-    const float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q1_0_0 = 1.0f * mu_b3_v3 + 4.625543f * mu_b3_b1 + 0.17963918f * mu_b3_b2 + 0.0019694008f * mu_b3_u3;
-    const float q1_0_1 = 2.2616916f * mu_b3_v3 + 11.175309f * mu_b3_b1 - 1.4781957f * mu_b3_b2 - 0.048193216f * mu_b3_u3;
-    const float q1_0_2 = 1.8258256f * mu_b3_v3 + 9.4459915f * mu_b3_b1 - 2.4586303f * mu_b3_b2 + 0.2648235f * mu_b3_u3;
-    const float q1_0_3 = 0.94523185f * mu_b3_v3 + 4.0395193f * mu_b3_b1 + 0.34249824f * mu_b3_b2 + 0.696084f * mu_b3_u3;
-    const float q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
-    const float q1 = q1_0 * 1.0f;
-    const float e1 = p1 * u1 / q1;
-    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    const float p2_0_0 = 0.05580612f * mu_b5_v5 + 0.22641385f * mu_b5_b1 + 0.1318353f * mu_b5_b2 + 0.09332001f * mu_b5_b3 - 0.0017314168f * mu_b5_b4 + 0.000458191f * mu_b5_u5;
-    const float p2_0_1 = 0.20747547f * mu_b5_v5 + 1.2550974f * mu_b5_b1 + 1.0552676f * mu_b5_b2 + 0.6683324f * mu_b5_b3 - 0.010905951f * mu_b5_b4 - 0.00018238563f * mu_b5_u5;
-    const float p2_0_2 = 0.108344585f * mu_b5_v5 + 1.5597241f * mu_b5_b1 + 0.8629077f * mu_b5_b2 + 0.6007037f * mu_b5_b3 - 0.1543589f * mu_b5_b4 - 0.0007139133f * mu_b5_u5;
-    const float p2_0_3 = -0.10840547f * mu_b5_v5 + 0.4877684f * mu_b5_b1 - 0.7175686f * mu_b5_b2 - 0.070526764f * mu_b5_b3 - 0.09412011f * mu_b5_b4 + 0.005484699f * mu_b5_u5;
-    const float p2_0_4 = -0.08104714f * mu_b5_v5 - 0.196999f * mu_b5_b1 - 1.0879637f * mu_b5_b2 - 0.22506218f * mu_b5_b3 + 0.064241365f * mu_b5_b4 - 0.011298015f * mu_b5_u5;
-    const float p2_0_5 = -0.004828938f * mu_b5_v5 - 0.09803929f * mu_b5_b1 - 0.3195446f * mu_b5_b2 - 0.017469032f * mu_b5_b3 + 0.06886462f * mu_b5_b4 - 0.0057185492f * mu_b5_u5;
-    const float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
-    const float p2 = p2_0 * 1.0f;
-    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    const float u2_0_0 = 0.40346384f * 1.0f;
-    const float u2_0 = u2_0_0 * 1.0f;
-    const float u2_1_0 = 2.1391003f * 1.0f;
-    const float u2_1 = u2_1_0 * 1.0f;
-    const float u2_2_0 = 0.41216505f * 1.0f;
-    const float u2_2 = u2_2_0 * 1.0f;
-    const float u2_3_0 = -1.1428729f * 1.0f;
-    const float u2_3 = u2_3_0 * 1.0f;
-    const float u2_4_0 = -0.49810582f * 1.0f;
-    const float u2_4 = u2_4_0 * 1.0f;
-    const float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
-    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q2_0_0 = 1.0f * mu_b3_v3 + 1.8551881f * mu_b3_b1 - 0.043757312f * mu_b3_b2 + 0.008336884f * mu_b3_u3;
-    const float q2_0_1 = 1.5591007f * mu_b3_v3 + 3.6183083f * mu_b3_b1 - 0.66100836f * mu_b3_b2 + 0.0016310882f * mu_b3_u3;
-    const float q2_0_2 = 0.64692104f * mu_b3_v3 + 2.8244894f * mu_b3_b1 - 0.47002894f * mu_b3_b2 + 0.0742497f * mu_b3_u3;
-    const float q2_0_3 = 0.045673203f * mu_b3_v3 + 0.934928f * mu_b3_b1 + 0.020780956f * mu_b3_b2 + 0.038808446f * mu_b3_u3;
-    const float q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
-    const float q2 = q2_0 * 1.0f;
-    const float e2 = p2 * u2 / q2;
-    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    const float p3_0_0 = 0.744252f * mu_b5_v5 - 0.518746f * mu_b5_b1 + 1.08865f * mu_b5_b2 + 0.07836499f * mu_b5_b3 + 0.11207676f * mu_b5_b4 + 0.017467197f * mu_b5_u5;
-    const float p3_0_1 = -0.9310276f * mu_b5_v5 - 7.0639715f * mu_b5_b1 + 5.2021565f * mu_b5_b2 + 0.45056275f * mu_b5_b3 + 0.98426634f * mu_b5_b4 + 0.029340927f * mu_b5_u5;
-    const float p3_0_2 = -6.4088907f * mu_b5_v5 - 13.8411875f * mu_b5_b1 + 14.756985f * mu_b5_b2 + 2.1837163f * mu_b5_b3 + 3.7622054f * mu_b5_b4 + 0.08884474f * mu_b5_u5;
-    const float p3_0_3 = -7.3378024f * mu_b5_v5 - 7.069175f * mu_b5_b1 + 22.449951f * mu_b5_b2 + 5.20145f * mu_b5_b3 + 6.8566933f * mu_b5_b4 + 0.15764043f * mu_b5_u5;
-    const float p3_0_4 = -3.1727424f * mu_b5_v5 + 0.36307135f * mu_b5_b1 + 13.338764f * mu_b5_b2 + 2.6710308f * mu_b5_b3 + 4.5400853f * mu_b5_b4 - 0.16745771f * mu_b5_u5;
-    const float p3_0_5 = -0.4718404f * mu_b5_v5 + 0.6198355f * mu_b5_b1 + 2.499395f * mu_b5_b2 + 0.24820243f * mu_b5_b3 + 1.0569593f * mu_b5_b4 - 0.15141687f * mu_b5_u5;
-    const float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
-    const float p3 = p3_0 * 1.0f;
-    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    const float u3_0_0 = -1.164495f * 1.0f;
-    const float u3_0 = u3_0_0 * 1.0f;
-    const float u3_1_0 = -5.1253433f * 1.0f;
-    const float u3_1 = u3_1_0 * 1.0f;
-    const float u3_2_0 = -7.8623743f * 1.0f;
-    const float u3_2 = u3_2_0 * 1.0f;
-    const float u3_3_0 = -5.530996f * 1.0f;
-    const float u3_3 = u3_3_0 * 1.0f;
-    const float u3_4_0 = -1.4202172f * 1.0f;
-    const float u3_4 = u3_4_0 * 1.0f;
-    const float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
-    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q3_0_0 = 1.0f * mu_b3_v3 + 0.17871301f * mu_b3_b1 + 0.085942835f * mu_b3_b2 + 0.03623221f * mu_b3_u3;
-    const float q3_0_1 = 3.4206154f * mu_b3_v3 + 1.3859322f * mu_b3_b1 + 0.60689026f * mu_b3_b2 + 0.02858061f * mu_b3_u3;
-    const float q3_0_2 = 3.6034389f * mu_b3_v3 + 2.101294f * mu_b3_b1 + 1.4004653f * mu_b3_b2 + 0.28961718f * mu_b3_u3;
-    const float q3_0_3 = 1.0552826f * mu_b3_v3 + 0.5114522f * mu_b3_b1 + 0.49689513f * mu_b3_b2 + 0.16972788f * mu_b3_u3;
-    const float q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
-    const float q3 = q3_0 * 1.0f;
-    const float e3 = p3 * u3 / q3;
-    // the sum of the 4 terms
-    const float e = e0 + e1 + e2 + e3;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
+    const float mu_v = 1.0f - mu_u;
+    const float mu_u2 = mu_u * mu_u;
+    const float mu_v2 = mu_v * mu_v;
+    const float mu_u3 = mu_u2 * mu_u;
+    const float mu_v3 = mu_v2 * mu_v;
+    const float mu_u4 = mu_u3 * mu_u;
+    const float mu_v4 = mu_v3 * mu_v;
+    const float mu_u5 = mu_u4 * mu_u;
+    const float mu_v5 = mu_v4 * mu_v;
+    const float mu_u6 = mu_u5 * mu_u;
+    const float mu_v6 = mu_v5 * mu_v;
+    const float mu_b1 = mu_u * mu_v5;
+    const float mu_b2 = mu_u2 * mu_v4;
+    const float mu_b3 = mu_u3 * mu_v3;
+    const float mu_b4 = mu_u4 * mu_v2;
+    const float mu_b5 = mu_u5 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    const float p_0_0 = 0.99911106f * mu_v6 + 3.5830736f * mu_b1 + 3.511219f * mu_b2 + 1.6409106f * mu_b3 + 0.14308986f * mu_b4 + 0.13781443f * mu_b5 + 0.009083314f * mu_u6;
+    const float p_0_1 = 7.3364053f * mu_v6 + 25.526796f * mu_b1 + 27.478909f * mu_b2 + 14.07118f * mu_b3 + 0.51391673f * mu_b4 - 0.1037334f * mu_b5 - 0.03075895f * mu_u6;
+    const float p_0_2 = 15.910813f * mu_v6 + 53.26811f * mu_b1 + 57.400246f * mu_b2 + 31.553919f * mu_b3 + 0.850745f * mu_b4 - 0.07837471f * mu_b5 + 0.092419274f * mu_u6;
+    const float p_0_3 = 16.581652f * mu_v6 + 54.412758f * mu_b1 + 61.343006f * mu_b2 + 40.067627f * mu_b3 + 3.1865237f * mu_b4 + 0.77955294f * mu_b5 + 0.16284719f * mu_u6;
+    const float p_0_4 = 9.520822f * mu_v6 + 32.022415f * mu_b1 + 41.357807f * mu_b2 + 33.97313f * mu_b3 + 6.5370126f * mu_b4 + 2.158996f * mu_b5 + 0.2494692f * mu_u6;
+    const float p_0_5 = 2.5555794f * mu_v6 + 8.72921f * mu_b1 + 12.344153f * mu_b2 + 11.186243f * mu_b3 + 1.4290236f * mu_b4 + 0.6682087f * mu_b5 + 0.059133157f * mu_u6;
+    const float p_0_6 = 0.21544045f * mu_v6 + 0.8304682f * mu_b1 + 1.485053f * mu_b2 + 1.6080992f * mu_b3 + 0.18687402f * mu_b4 + 0.16089548f * mu_b5 + 0.012800126f * mu_u6;
+    const float p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
+    const float p_1_0 = 3.0133765f * mu_v6 + 10.246637f * mu_b1 + 11.964242f * mu_b2 + 4.031902f * mu_b3 + 0.5667651f * mu_b4 + 0.40871733f * mu_b5 + 0.027252587f * mu_u6;
+    const float p_1_1 = 23.594309f * mu_v6 + 79.4684f * mu_b1 + 95.17822f * mu_b2 + 36.844265f * mu_b3 + 2.6627603f * mu_b4 - 0.27492747f * mu_b5 - 0.091275f * mu_u6;
+    const float p_1_2 = 60.733124f * mu_v6 + 200.60042f * mu_b1 + 239.02328f * mu_b2 + 94.6019f * mu_b3 + 7.88334f * mu_b4 - 0.5740002f * mu_b5 + 0.2542718f * mu_u6;
+    const float p_1_3 = 73.938034f * mu_v6 + 241.99745f * mu_b1 + 290.68863f * mu_b2 + 120.69552f * mu_b3 + 17.215212f * mu_b4 + 2.0212877f * mu_b5 + 0.559987f * mu_u6;
+    const float p_1_4 = 44.80252f * mu_v6 + 147.63614f * mu_b1 + 182.5334f * mu_b2 + 81.869705f * mu_b3 + 19.978949f * mu_b4 + 5.064569f * mu_b5 + 0.5212376f * mu_u6;
+    const float p_1_5 = 11.79049f * mu_v6 + 39.718044f * mu_b1 + 50.106495f * mu_b2 + 20.683392f * mu_b3 + 5.7935963f * mu_b4 + 2.0893123f * mu_b5 + 0.106445014f * mu_u6;
+    const float p_1_6 = 1.0219826f * mu_v6 + 4.189741f * mu_b1 + 6.1750183f * mu_b2 + 2.683145f * mu_b3 + 0.96512574f * mu_b4 + 0.42543033f * mu_b5 + 0.020569032f * mu_u6;
+    const float p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
+    const float p_2_0 = 2.9989703f * mu_v6 + 10.365781f * mu_b1 + 11.535779f * mu_b2 + 4.39658f * mu_b3 + 0.51240754f * mu_b4 + 0.4093443f * mu_b5 + 0.027253876f * mu_u6;
+    const float p_2_1 = 24.544775f * mu_v6 + 83.0254f * mu_b1 + 94.198586f * mu_b2 + 38.30001f * mu_b3 + 1.9059471f * mu_b4 - 0.18346037f * mu_b5 - 0.09113118f * mu_u6;
+    const float p_2_2 = 64.453064f * mu_v6 + 212.64624f * mu_b1 + 236.64552f * mu_b2 + 95.09207f * mu_b3 + 4.4230027f * mu_b4 - 0.51122504f * mu_b5 + 0.24608816f * mu_u6;
+    const float p_2_3 = 83.10856f * mu_v6 + 275.1735f * mu_b1 + 314.2276f * mu_b2 + 142.68823f * mu_b3 + 21.350119f * mu_b4 + 3.3669212f * mu_b5 + 0.5964904f * mu_u6;
+    const float p_2_4 = 54.319157f * mu_v6 + 183.39172f * mu_b1 + 216.6291f * mu_b2 + 109.203575f * mu_b3 + 24.668367f * mu_b4 + 4.904707f * mu_b5 + 0.4239647f * mu_u6;
+    const float p_2_5 = 15.372941f * mu_v6 + 53.254864f * mu_b1 + 62.40386f * mu_b2 + 29.85835f * mu_b3 + 5.9007077f * mu_b4 + 1.258753f * mu_b5 + 0.110694535f * mu_u6;
+    const float p_2_6 = 1.3558664f * mu_v6 + 5.6547008f * mu_b1 + 7.531348f * mu_b2 + 4.1699653f * mu_b3 + 1.0646979f * mu_b4 + 0.24406828f * mu_b5 + 0.019527126f * mu_u6;
+    const float p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
+    const float p_3_0 = 0.9998972f * mu_v6 + 3.4913776f * mu_b1 + 3.7646081f * mu_b2 + 1.4848875f * mu_b3 + 0.17071457f * mu_b4 + 0.13635834f * mu_b5 + 0.009084243f * mu_u6;
+    const float p_3_1 = 8.273418f * mu_v6 + 28.158367f * mu_b1 + 31.527056f * mu_b2 + 13.267536f * mu_b3 + 0.58658826f * mu_b4 - 0.059226125f * mu_b5 - 0.030300291f * mu_u6;
+    const float p_3_2 = 22.259f * mu_v6 + 73.523834f * mu_b1 + 80.982895f * mu_b2 + 33.40059f * mu_b3 + 0.92308605f * mu_b4 - 0.15259898f * mu_b5 + 0.082056075f * mu_u6;
+    const float p_3_3 = 29.371561f * mu_v6 + 96.71207f * mu_b1 + 109.00515f * mu_b2 + 49.646748f * mu_b3 + 5.6464205f * mu_b4 + 1.2287954f * mu_b5 + 0.19809018f * mu_u6;
+    const float p_3_4 = 19.550097f * mu_v6 + 65.18849f * mu_b1 + 75.79357f * mu_b2 + 37.685776f * mu_b3 + 6.7202773f * mu_b4 + 1.8588915f * mu_b5 + 0.14441916f * mu_u6;
+    const float p_3_5 = 5.623221f * mu_v6 + 19.145782f * mu_b1 + 22.180485f * mu_b2 + 10.360787f * mu_b3 + 1.193365f * mu_b4 + 0.5353456f * mu_b5 + 0.034928195f * mu_u6;
+    const float p_3_6 = 0.49847847f * mu_v6 + 2.0481408f * mu_b1 + 2.7606864f * mu_b2 + 1.4892516f * mu_b3 + 0.20137234f * mu_b4 + 0.0978946f * mu_b5 + 0.0064303675f * mu_u6;
+    const float p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
+    const float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q_0_0 = 1.0f * mu_v6 + 3.5016685f * mu_b1 + 3.8918588f * mu_b2 + 1.9779538f * mu_b3 + 0.19887516f * mu_b4 + 0.13582075f * mu_b5 + 0.009085543f * mu_u6;
+    const float q_0_1 = 8.358247f * mu_v6 + 28.361902f * mu_b1 + 32.96552f * mu_b2 + 16.504745f * mu_b3 + 0.45970848f * mu_b4 - 0.019865975f * mu_b5 - 0.030433757f * mu_u6;
+    const float q_0_2 = 22.86828f * mu_v6 + 76.016266f * mu_b1 + 89.86883f * mu_b2 + 45.14867f * mu_b3 + 0.57209593f * mu_b4 - 0.026200145f * mu_b5 + 0.09517686f * mu_u6;
+    const float q_0_3 = 30.6304f * mu_v6 + 102.899704f * mu_b1 + 128.9234f * mu_b2 + 71.048874f * mu_b3 + 5.006653f * mu_b4 + 1.0596552f * mu_b5 + 0.13531218f * mu_u6;
+    const float q_0_4 = 20.88899f * mu_v6 + 72.767365f * mu_b1 + 99.814865f * mu_b2 + 63.335575f * mu_b3 + 10.771327f * mu_b4 + 3.443773f * mu_b5 + 0.33718687f * mu_u6;
+    const float q_0_5 = 6.0352545f * mu_v6 + 21.660547f * mu_b1 + 31.656385f * mu_b2 + 20.393282f * mu_b3 + 2.3029187f * mu_b4 + 1.1167142f * mu_b5 + 0.08224473f * mu_u6;
+    const float q_0_6 = 0.54209095f * mu_v6 + 2.2896085f * mu_b1 + 4.101642f * mu_b2 + 2.993885f * mu_b3 + 0.3588689f * mu_b4 + 0.25586483f * mu_b5 + 0.021133024f * mu_u6;
+    const float q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
+    const float q_1_0 = 3.0f * mu_v6 + 10.505006f * mu_b1 + 11.675576f * mu_b2 + 5.9338617f * mu_b3 + 0.59662545f * mu_b4 + 0.40746224f * mu_b5 + 0.02725663f * mu_u6;
+    const float q_1_1 = 25.074741f * mu_v6 + 85.08571f * mu_b1 + 98.89655f * mu_b2 + 49.514236f * mu_b3 + 1.3791255f * mu_b4 - 0.05959792f * mu_b5 - 0.09130127f * mu_u6;
+    const float q_1_2 = 68.60484f * mu_v6 + 228.0488f * mu_b1 + 269.60648f * mu_b2 + 135.446f * mu_b3 + 1.7162877f * mu_b4 - 0.07860044f * mu_b5 + 0.2855306f * mu_u6;
+    const float q_1_3 = 91.8912f * mu_v6 + 308.69913f * mu_b1 + 386.7702f * mu_b2 + 213.14662f * mu_b3 + 15.0199585f * mu_b4 + 3.1789658f * mu_b5 + 0.40593654f * mu_u6;
+    const float q_1_4 = 62.66697f * mu_v6 + 218.30211f * mu_b1 + 299.44458f * mu_b2 + 190.00673f * mu_b3 + 32.31398f * mu_b4 + 10.331319f * mu_b5 + 1.0115606f * mu_u6;
+    const float q_1_5 = 18.105764f * mu_v6 + 64.98164f * mu_b1 + 94.969154f * mu_b2 + 61.179844f * mu_b3 + 6.908756f * mu_b4 + 3.3501427f * mu_b5 + 0.2467342f * mu_u6;
+    const float q_1_6 = 1.6262729f * mu_v6 + 6.868826f * mu_b1 + 12.304927f * mu_b2 + 8.981655f * mu_b3 + 1.0766066f * mu_b4 + 0.76759446f * mu_b5 + 0.06339908f * mu_u6;
+    const float q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
+    const float q_2_0 = 3.0f * mu_v6 + 10.505006f * mu_b1 + 11.675576f * mu_b2 + 5.9338617f * mu_b3 + 0.59662545f * mu_b4 + 0.40746224f * mu_b5 + 0.02725663f * mu_u6;
+    const float q_2_1 = 25.074741f * mu_v6 + 85.08571f * mu_b1 + 98.89655f * mu_b2 + 49.514236f * mu_b3 + 1.3791255f * mu_b4 - 0.05959792f * mu_b5 - 0.09130127f * mu_u6;
+    const float q_2_2 = 68.60484f * mu_v6 + 228.0488f * mu_b1 + 269.60648f * mu_b2 + 135.446f * mu_b3 + 1.7162877f * mu_b4 - 0.07860044f * mu_b5 + 0.2855306f * mu_u6;
+    const float q_2_3 = 91.8912f * mu_v6 + 308.69913f * mu_b1 + 386.7702f * mu_b2 + 213.14662f * mu_b3 + 15.0199585f * mu_b4 + 3.1789658f * mu_b5 + 0.40593654f * mu_u6;
+    const float q_2_4 = 62.66697f * mu_v6 + 218.30211f * mu_b1 + 299.44458f * mu_b2 + 190.00673f * mu_b3 + 32.31398f * mu_b4 + 10.331319f * mu_b5 + 1.0115606f * mu_u6;
+    const float q_2_5 = 18.105764f * mu_v6 + 64.98164f * mu_b1 + 94.969154f * mu_b2 + 61.179844f * mu_b3 + 6.908756f * mu_b4 + 3.3501427f * mu_b5 + 0.2467342f * mu_u6;
+    const float q_2_6 = 1.6262729f * mu_v6 + 6.868826f * mu_b1 + 12.304927f * mu_b2 + 8.981655f * mu_b3 + 1.0766066f * mu_b4 + 0.76759446f * mu_b5 + 0.06339908f * mu_u6;
+    const float q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
+    const float q_3_0 = 1.0f * mu_v6 + 3.5016685f * mu_b1 + 3.8918588f * mu_b2 + 1.9779538f * mu_b3 + 0.19887516f * mu_b4 + 0.13582075f * mu_b5 + 0.009085543f * mu_u6;
+    const float q_3_1 = 8.358247f * mu_v6 + 28.361902f * mu_b1 + 32.96552f * mu_b2 + 16.504745f * mu_b3 + 0.45970848f * mu_b4 - 0.019865975f * mu_b5 - 0.030433757f * mu_u6;
+    const float q_3_2 = 22.86828f * mu_v6 + 76.016266f * mu_b1 + 89.86883f * mu_b2 + 45.14867f * mu_b3 + 0.57209593f * mu_b4 - 0.026200145f * mu_b5 + 0.09517686f * mu_u6;
+    const float q_3_3 = 30.6304f * mu_v6 + 102.899704f * mu_b1 + 128.9234f * mu_b2 + 71.048874f * mu_b3 + 5.006653f * mu_b4 + 1.0596552f * mu_b5 + 0.13531218f * mu_u6;
+    const float q_3_4 = 20.88899f * mu_v6 + 72.767365f * mu_b1 + 99.814865f * mu_b2 + 63.335575f * mu_b3 + 10.771327f * mu_b4 + 3.443773f * mu_b5 + 0.33718687f * mu_u6;
+    const float q_3_5 = 6.0352545f * mu_v6 + 21.660547f * mu_b1 + 31.656385f * mu_b2 + 20.393282f * mu_b3 + 2.3029187f * mu_b4 + 1.1167142f * mu_b5 + 0.08224473f * mu_u6;
+    const float q_3_6 = 0.54209095f * mu_v6 + 2.2896085f * mu_b1 + 4.101642f * mu_b2 + 2.993885f * mu_b3 + 0.3588689f * mu_b4 + 0.25586483f * mu_b5 + 0.021133024f * mu_u6;
+    const float q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
+    const float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
+    const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }
 

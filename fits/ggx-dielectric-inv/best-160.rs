@@ -10,19 +10,19 @@
 /// ggx_dielectric_inv_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; height-correlated Smith G2.
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)), so this side sees 1/eta (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 43bb877a63c37b7d5b9a30656df90d83205120fb1746c7dd5f10b8ac1092be53.
+/// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 7cd5b1b50df62f9eb11e7af840ab2194a9a8c4dab90bba806fb1b85511a3972f.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.6e-4, shifted 9.4e-5, bernstein 1.4e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 7.39e-4, max 1.11e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 9.25e-7 (every op rounded, as this Rust), 9.24e-7 (fused multiply-add), 1.88e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.35e-4, max 1.11e-2; this f32 code MAE 7.35e-4, max 1.11e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.1e-4 on the measurement grid.
-/// Denominator proved >= 7.614e-5 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.4e-4, shifted 3.2e-5, bernstein 1.6e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 8.38e-4, max 9.11e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.33e-7 (every op rounded, as this Rust), 4.68e-7 (fused multiply-add), 1.90e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 4.04e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 8.37e-4, max 9.11e-3; this f32 code MAE 8.37e-4, max 9.11e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
+/// Denominator proved >= 2.798e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -41,181 +41,119 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
+    let f0_v = 1.0_f32 - f0_t;
+    let f0_u2 = f0_t * f0_t;
+    let f0_v2 = f0_v * f0_v;
+    let f0_u3 = f0_u2 * f0_t;
+    let f0_v3 = f0_v2 * f0_v;
+    let f0_b1 = f0_t * f0_v2;
+    let f0_b2 = f0_u2 * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
+    let r_v = 1.0_f32 - r_t;
+    let r_u2 = r_t * r_t;
+    let r_v2 = r_v * r_v;
+    let r_u3 = r_u2 * r_t;
+    let r_v3 = r_v2 * r_v;
+    let r_u4 = r_u3 * r_t;
+    let r_v4 = r_v3 * r_v;
+    let r_u5 = r_u4 * r_t;
+    let r_v5 = r_v4 * r_v;
+    let r_u6 = r_u5 * r_t;
+    let r_v6 = r_v5 * r_v;
+    let r_b1 = r_t * r_v5;
+    let r_b2 = r_u2 * r_v4;
+    let r_b3 = r_u3 * r_v3;
+    let r_b4 = r_u4 * r_v2;
+    let r_b5 = r_u5 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
-    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
-    let r_b5_v = 1.0_f32 - r_t;
-    let r_b5_u2 = r_t * r_t;
-    let r_b5_v2 = r_b5_v * r_b5_v;
-    let r_b5_u3 = r_b5_u2 * r_t;
-    let r_b5_v3 = r_b5_v2 * r_b5_v;
-    let r_b5_u4 = r_b5_u3 * r_t;
-    let r_b5_v4 = r_b5_v3 * r_b5_v;
-    let r_b5_u5 = r_b5_u4 * r_t;
-    let r_b5_v5 = r_b5_v4 * r_b5_v;
-    let r_b5_b1 = r_t * r_b5_v4;
-    let r_b5_b2 = r_b5_u2 * r_b5_v3;
-    let r_b5_b3 = r_b5_u3 * r_b5_v2;
-    let r_b5_b4 = r_b5_u4 * r_b5_v;
-    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
-    let mu_b5_v = 1.0_f32 - mu_u;
-    let mu_b5_u2 = mu_u * mu_u;
-    let mu_b5_v2 = mu_b5_v * mu_b5_v;
-    let mu_b5_u3 = mu_b5_u2 * mu_u;
-    let mu_b5_v3 = mu_b5_v2 * mu_b5_v;
-    let mu_b5_u4 = mu_b5_u3 * mu_u;
-    let mu_b5_v4 = mu_b5_v3 * mu_b5_v;
-    let mu_b5_u5 = mu_b5_u4 * mu_u;
-    let mu_b5_v5 = mu_b5_v4 * mu_b5_v;
-    let mu_b5_b1 = mu_u * mu_b5_v4;
-    let mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
-    let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
-    let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 1.6818_f32 * mu_b5_v5 + 11.377676_f32 * mu_b5_b1 + 10.189635_f32 * mu_b5_b2 + 12.696712_f32 * mu_b5_b3 + 2.2255917_f32 * mu_b5_b4 + 0.21794945_f32 * mu_b5_u5;
-    let p0_0_1 = 3.9466972_f32 * mu_b5_v5 + 23.870731_f32 * mu_b5_b1 + 26.156363_f32 * mu_b5_b2 + 75.799095_f32 * mu_b5_b3 + 20.273315_f32 * mu_b5_b4 + 1.6831049_f32 * mu_b5_u5;
-    let p0_0_2 = 1.2936034_f32 * mu_b5_v5 + 13.422764_f32 * mu_b5_b1 + 62.81112_f32 * mu_b5_b2 + 210.27165_f32 * mu_b5_b3 + 61.918423_f32 * mu_b5_b4 + 4.281839_f32 * mu_b5_u5;
-    let p0_0_3 = -0.7073781_f32 * mu_b5_v5 + 9.848942_f32 * mu_b5_b1 + 115.01962_f32 * mu_b5_b2 + 276.4421_f32 * mu_b5_b3 + 73.13931_f32 * mu_b5_b4 + 3.1136231_f32 * mu_b5_u5;
-    let p0_0_4 = 0.11487696_f32 * mu_b5_v5 + 10.811374_f32 * mu_b5_b1 + 86.105576_f32 * mu_b5_b2 + 157.8524_f32 * mu_b5_b3 + 31.14779_f32 * mu_b5_b4 - 0.31897697_f32 * mu_b5_u5;
-    let p0_0_5 = 0.1045675_f32 * mu_b5_v5 + 3.160172_f32 * mu_b5_b1 + 20.466404_f32 * mu_b5_b2 + 31.115633_f32 * mu_b5_b3 + 3.1472113_f32 * mu_b5_b4 - 0.36231056_f32 * mu_b5_u5;
-    let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
-    let p0 = p0_0 * 1.0_f32;
-    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
-    let f0_b4_v = 1.0_f32 - f0_t;
-    let f0_b4_u2 = f0_t * f0_t;
-    let f0_b4_v2 = f0_b4_v * f0_b4_v;
-    let f0_b4_u3 = f0_b4_u2 * f0_t;
-    let f0_b4_v3 = f0_b4_v2 * f0_b4_v;
-    let f0_b4_u4 = f0_b4_u3 * f0_t;
-    let f0_b4_v4 = f0_b4_v3 * f0_b4_v;
-    let f0_b4_b1 = f0_t * f0_b4_v3;
-    let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
-    let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 1.014124_f32 * 1.0_f32;
-    let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 4.449831_f32 * 1.0_f32;
-    let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 7.1663713_f32 * 1.0_f32;
-    let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 5.014802_f32 * 1.0_f32;
-    let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 1.2870095_f32 * 1.0_f32;
-    let u0_4 = u0_4_0 * 1.0_f32;
-    let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
-    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
-    let r_b3_v = 1.0_f32 - r_t;
-    let r_b3_u2 = r_t * r_t;
-    let r_b3_v2 = r_b3_v * r_b3_v;
-    let r_b3_u3 = r_b3_u2 * r_t;
-    let r_b3_v3 = r_b3_v2 * r_b3_v;
-    let r_b3_b1 = r_t * r_b3_v2;
-    let r_b3_b2 = r_b3_u2 * r_b3_v;
-    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
-    let mu_b3_v = 1.0_f32 - mu_u;
-    let mu_b3_u2 = mu_u * mu_u;
-    let mu_b3_v2 = mu_b3_v * mu_b3_v;
-    let mu_b3_u3 = mu_b3_u2 * mu_u;
-    let mu_b3_v3 = mu_b3_v2 * mu_b3_v;
-    let mu_b3_b1 = mu_u * mu_b3_v2;
-    let mu_b3_b2 = mu_b3_u2 * mu_b3_v;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b3_v3 + 6.2004137_f32 * mu_b3_b1 + 1.170888_f32 * mu_b3_b2 + 0.15695085_f32 * mu_b3_u3;
-    let q0_0_1 = 3.8500752_f32 * mu_b3_v3 + 23.165506_f32 * mu_b3_b1 + 7.720306_f32 * mu_b3_b2 + 0.9643049_f32 * mu_b3_u3;
-    let q0_0_2 = 4.429608_f32 * mu_b3_v3 + 27.584967_f32 * mu_b3_b1 + 12.449967_f32 * mu_b3_b2 + 1.8540384_f32 * mu_b3_u3;
-    let q0_0_3 = 1.0764453_f32 * mu_b3_v3 + 9.110613_f32 * mu_b3_b1 + 4.391288_f32 * mu_b3_b2 + 0.54359716_f32 * mu_b3_u3;
-    let q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
-    let q0 = q0_0 * 1.0_f32;
-    let e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.24540247_f32 * mu_b5_v5 + 1.5781301_f32 * mu_b5_b1 + 1.8151569_f32 * mu_b5_b2 + 1.2316706_f32 * mu_b5_b3 + 0.041021947_f32 * mu_b5_b4 + 0.00045068478_f32 * mu_b5_u5;
-    let p1_0_1 = -0.42915264_f32 * mu_b5_v5 - 3.2102087_f32 * mu_b5_b1 - 3.7375302_f32 * mu_b5_b2 + 2.3467088_f32 * mu_b5_b3 - 0.24995886_f32 * mu_b5_b4 - 0.009791324_f32 * mu_b5_u5;
-    let p1_0_2 = -1.8019457_f32 * mu_b5_v5 - 15.68482_f32 * mu_b5_b1 - 13.93115_f32 * mu_b5_b2 + 6.150875_f32 * mu_b5_b3 - 0.85436624_f32 * mu_b5_b4 + 0.033184264_f32 * mu_b5_u5;
-    let p1_0_3 = -2.2403834_f32 * mu_b5_v5 - 19.912947_f32 * mu_b5_b1 - 13.646063_f32 * mu_b5_b2 + 8.172362_f32 * mu_b5_b3 - 2.6851935_f32 * mu_b5_b4 + 0.25564525_f32 * mu_b5_u5;
-    let p1_0_4 = -1.1729181_f32 * mu_b5_v5 - 9.670602_f32 * mu_b5_b1 - 2.6516566_f32 * mu_b5_b2 + 7.2017984_f32 * mu_b5_b3 - 1.3674804_f32 * mu_b5_b4 + 0.8200987_f32 * mu_b5_u5;
-    let p1_0_5 = -0.30032262_f32 * mu_b5_v5 - 1.8561227_f32 * mu_b5_b1 + 0.21197058_f32 * mu_b5_b2 + 1.6612997_f32 * mu_b5_b3 - 0.44765866_f32 * mu_b5_b4 + 0.36748242_f32 * mu_b5_u5;
-    let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
-    let p1 = p1_0 * 1.0_f32;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 0.5702372_f32 * 1.0_f32;
-    let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = 0.77727765_f32 * 1.0_f32;
-    let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = -0.8001668_f32 * 1.0_f32;
-    let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = -1.0279833_f32 * 1.0_f32;
-    let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = -0.3292523_f32 * 1.0_f32;
-    let u1_4 = u1_4_0 * 1.0_f32;
-    let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b3_v3 + 4.625543_f32 * mu_b3_b1 + 0.17963918_f32 * mu_b3_b2 + 0.0019694008_f32 * mu_b3_u3;
-    let q1_0_1 = 2.2616916_f32 * mu_b3_v3 + 11.175309_f32 * mu_b3_b1 - 1.4781957_f32 * mu_b3_b2 - 0.048193216_f32 * mu_b3_u3;
-    let q1_0_2 = 1.8258256_f32 * mu_b3_v3 + 9.4459915_f32 * mu_b3_b1 - 2.4586303_f32 * mu_b3_b2 + 0.2648235_f32 * mu_b3_u3;
-    let q1_0_3 = 0.94523185_f32 * mu_b3_v3 + 4.0395193_f32 * mu_b3_b1 + 0.34249824_f32 * mu_b3_b2 + 0.696084_f32 * mu_b3_u3;
-    let q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
-    let q1 = q1_0 * 1.0_f32;
-    let e1 = p1 * u1 / q1;
-    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = 0.05580612_f32 * mu_b5_v5 + 0.22641385_f32 * mu_b5_b1 + 0.1318353_f32 * mu_b5_b2 + 0.09332001_f32 * mu_b5_b3 - 0.0017314168_f32 * mu_b5_b4 + 0.000458191_f32 * mu_b5_u5;
-    let p2_0_1 = 0.20747547_f32 * mu_b5_v5 + 1.2550974_f32 * mu_b5_b1 + 1.0552676_f32 * mu_b5_b2 + 0.6683324_f32 * mu_b5_b3 - 0.010905951_f32 * mu_b5_b4 - 0.00018238563_f32 * mu_b5_u5;
-    let p2_0_2 = 0.108344585_f32 * mu_b5_v5 + 1.5597241_f32 * mu_b5_b1 + 0.8629077_f32 * mu_b5_b2 + 0.6007037_f32 * mu_b5_b3 - 0.1543589_f32 * mu_b5_b4 - 0.0007139133_f32 * mu_b5_u5;
-    let p2_0_3 = -0.10840547_f32 * mu_b5_v5 + 0.4877684_f32 * mu_b5_b1 - 0.7175686_f32 * mu_b5_b2 - 0.070526764_f32 * mu_b5_b3 - 0.09412011_f32 * mu_b5_b4 + 0.005484699_f32 * mu_b5_u5;
-    let p2_0_4 = -0.08104714_f32 * mu_b5_v5 - 0.196999_f32 * mu_b5_b1 - 1.0879637_f32 * mu_b5_b2 - 0.22506218_f32 * mu_b5_b3 + 0.064241365_f32 * mu_b5_b4 - 0.011298015_f32 * mu_b5_u5;
-    let p2_0_5 = -0.004828938_f32 * mu_b5_v5 - 0.09803929_f32 * mu_b5_b1 - 0.3195446_f32 * mu_b5_b2 - 0.017469032_f32 * mu_b5_b3 + 0.06886462_f32 * mu_b5_b4 - 0.0057185492_f32 * mu_b5_u5;
-    let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
-    let p2 = p2_0 * 1.0_f32;
-    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = 0.40346384_f32 * 1.0_f32;
-    let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = 2.1391003_f32 * 1.0_f32;
-    let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = 0.41216505_f32 * 1.0_f32;
-    let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = -1.1428729_f32 * 1.0_f32;
-    let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = -0.49810582_f32 * 1.0_f32;
-    let u2_4 = u2_4_0 * 1.0_f32;
-    let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
-    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b3_v3 + 1.8551881_f32 * mu_b3_b1 - 0.043757312_f32 * mu_b3_b2 + 0.008336884_f32 * mu_b3_u3;
-    let q2_0_1 = 1.5591007_f32 * mu_b3_v3 + 3.6183083_f32 * mu_b3_b1 - 0.66100836_f32 * mu_b3_b2 + 0.0016310882_f32 * mu_b3_u3;
-    let q2_0_2 = 0.64692104_f32 * mu_b3_v3 + 2.8244894_f32 * mu_b3_b1 - 0.47002894_f32 * mu_b3_b2 + 0.0742497_f32 * mu_b3_u3;
-    let q2_0_3 = 0.045673203_f32 * mu_b3_v3 + 0.934928_f32 * mu_b3_b1 + 0.020780956_f32 * mu_b3_b2 + 0.038808446_f32 * mu_b3_u3;
-    let q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
-    let q2 = q2_0 * 1.0_f32;
-    let e2 = p2 * u2 / q2;
-    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = 0.744252_f32 * mu_b5_v5 - 0.518746_f32 * mu_b5_b1 + 1.08865_f32 * mu_b5_b2 + 0.07836499_f32 * mu_b5_b3 + 0.11207676_f32 * mu_b5_b4 + 0.017467197_f32 * mu_b5_u5;
-    let p3_0_1 = -0.9310276_f32 * mu_b5_v5 - 7.0639715_f32 * mu_b5_b1 + 5.2021565_f32 * mu_b5_b2 + 0.45056275_f32 * mu_b5_b3 + 0.98426634_f32 * mu_b5_b4 + 0.029340927_f32 * mu_b5_u5;
-    let p3_0_2 = -6.4088907_f32 * mu_b5_v5 - 13.8411875_f32 * mu_b5_b1 + 14.756985_f32 * mu_b5_b2 + 2.1837163_f32 * mu_b5_b3 + 3.7622054_f32 * mu_b5_b4 + 0.08884474_f32 * mu_b5_u5;
-    let p3_0_3 = -7.3378024_f32 * mu_b5_v5 - 7.069175_f32 * mu_b5_b1 + 22.449951_f32 * mu_b5_b2 + 5.20145_f32 * mu_b5_b3 + 6.8566933_f32 * mu_b5_b4 + 0.15764043_f32 * mu_b5_u5;
-    let p3_0_4 = -3.1727424_f32 * mu_b5_v5 + 0.36307135_f32 * mu_b5_b1 + 13.338764_f32 * mu_b5_b2 + 2.6710308_f32 * mu_b5_b3 + 4.5400853_f32 * mu_b5_b4 - 0.16745771_f32 * mu_b5_u5;
-    let p3_0_5 = -0.4718404_f32 * mu_b5_v5 + 0.6198355_f32 * mu_b5_b1 + 2.499395_f32 * mu_b5_b2 + 0.24820243_f32 * mu_b5_b3 + 1.0569593_f32 * mu_b5_b4 - 0.15141687_f32 * mu_b5_u5;
-    let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
-    let p3 = p3_0 * 1.0_f32;
-    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = -1.164495_f32 * 1.0_f32;
-    let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = -5.1253433_f32 * 1.0_f32;
-    let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -7.8623743_f32 * 1.0_f32;
-    let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = -5.530996_f32 * 1.0_f32;
-    let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = -1.4202172_f32 * 1.0_f32;
-    let u3_4 = u3_4_0 * 1.0_f32;
-    let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
-    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b3_v3 + 0.17871301_f32 * mu_b3_b1 + 0.085942835_f32 * mu_b3_b2 + 0.03623221_f32 * mu_b3_u3;
-    let q3_0_1 = 3.4206154_f32 * mu_b3_v3 + 1.3859322_f32 * mu_b3_b1 + 0.60689026_f32 * mu_b3_b2 + 0.02858061_f32 * mu_b3_u3;
-    let q3_0_2 = 3.6034389_f32 * mu_b3_v3 + 2.101294_f32 * mu_b3_b1 + 1.4004653_f32 * mu_b3_b2 + 0.28961718_f32 * mu_b3_u3;
-    let q3_0_3 = 1.0552826_f32 * mu_b3_v3 + 0.5114522_f32 * mu_b3_b1 + 0.49689513_f32 * mu_b3_b2 + 0.16972788_f32 * mu_b3_u3;
-    let q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
-    let q3 = q3_0 * 1.0_f32;
-    let e3 = p3 * u3 / q3;
-    // the sum of the 4 terms
-    let e = e0 + e1 + e2 + e3;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
+    let mu_v = 1.0_f32 - mu_u;
+    let mu_u2 = mu_u * mu_u;
+    let mu_v2 = mu_v * mu_v;
+    let mu_u3 = mu_u2 * mu_u;
+    let mu_v3 = mu_v2 * mu_v;
+    let mu_u4 = mu_u3 * mu_u;
+    let mu_v4 = mu_v3 * mu_v;
+    let mu_u5 = mu_u4 * mu_u;
+    let mu_v5 = mu_v4 * mu_v;
+    let mu_u6 = mu_u5 * mu_u;
+    let mu_v6 = mu_v5 * mu_v;
+    let mu_b1 = mu_u * mu_v5;
+    let mu_b2 = mu_u2 * mu_v4;
+    let mu_b3 = mu_u3 * mu_v3;
+    let mu_b4 = mu_u4 * mu_v2;
+    let mu_b5 = mu_u5 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    let p_0_0 = 0.99911106_f32 * mu_v6 + 3.5830736_f32 * mu_b1 + 3.511219_f32 * mu_b2 + 1.6409106_f32 * mu_b3 + 0.14308986_f32 * mu_b4 + 0.13781443_f32 * mu_b5 + 0.009083314_f32 * mu_u6;
+    let p_0_1 = 7.3364053_f32 * mu_v6 + 25.526796_f32 * mu_b1 + 27.478909_f32 * mu_b2 + 14.07118_f32 * mu_b3 + 0.51391673_f32 * mu_b4 - 0.1037334_f32 * mu_b5 - 0.03075895_f32 * mu_u6;
+    let p_0_2 = 15.910813_f32 * mu_v6 + 53.26811_f32 * mu_b1 + 57.400246_f32 * mu_b2 + 31.553919_f32 * mu_b3 + 0.850745_f32 * mu_b4 - 0.07837471_f32 * mu_b5 + 0.092419274_f32 * mu_u6;
+    let p_0_3 = 16.581652_f32 * mu_v6 + 54.412758_f32 * mu_b1 + 61.343006_f32 * mu_b2 + 40.067627_f32 * mu_b3 + 3.1865237_f32 * mu_b4 + 0.77955294_f32 * mu_b5 + 0.16284719_f32 * mu_u6;
+    let p_0_4 = 9.520822_f32 * mu_v6 + 32.022415_f32 * mu_b1 + 41.357807_f32 * mu_b2 + 33.97313_f32 * mu_b3 + 6.5370126_f32 * mu_b4 + 2.158996_f32 * mu_b5 + 0.2494692_f32 * mu_u6;
+    let p_0_5 = 2.5555794_f32 * mu_v6 + 8.72921_f32 * mu_b1 + 12.344153_f32 * mu_b2 + 11.186243_f32 * mu_b3 + 1.4290236_f32 * mu_b4 + 0.6682087_f32 * mu_b5 + 0.059133157_f32 * mu_u6;
+    let p_0_6 = 0.21544045_f32 * mu_v6 + 0.8304682_f32 * mu_b1 + 1.485053_f32 * mu_b2 + 1.6080992_f32 * mu_b3 + 0.18687402_f32 * mu_b4 + 0.16089548_f32 * mu_b5 + 0.012800126_f32 * mu_u6;
+    let p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
+    let p_1_0 = 3.0133765_f32 * mu_v6 + 10.246637_f32 * mu_b1 + 11.964242_f32 * mu_b2 + 4.031902_f32 * mu_b3 + 0.5667651_f32 * mu_b4 + 0.40871733_f32 * mu_b5 + 0.027252587_f32 * mu_u6;
+    let p_1_1 = 23.594309_f32 * mu_v6 + 79.4684_f32 * mu_b1 + 95.17822_f32 * mu_b2 + 36.844265_f32 * mu_b3 + 2.6627603_f32 * mu_b4 - 0.27492747_f32 * mu_b5 - 0.091275_f32 * mu_u6;
+    let p_1_2 = 60.733124_f32 * mu_v6 + 200.60042_f32 * mu_b1 + 239.02328_f32 * mu_b2 + 94.6019_f32 * mu_b3 + 7.88334_f32 * mu_b4 - 0.5740002_f32 * mu_b5 + 0.2542718_f32 * mu_u6;
+    let p_1_3 = 73.938034_f32 * mu_v6 + 241.99745_f32 * mu_b1 + 290.68863_f32 * mu_b2 + 120.69552_f32 * mu_b3 + 17.215212_f32 * mu_b4 + 2.0212877_f32 * mu_b5 + 0.559987_f32 * mu_u6;
+    let p_1_4 = 44.80252_f32 * mu_v6 + 147.63614_f32 * mu_b1 + 182.5334_f32 * mu_b2 + 81.869705_f32 * mu_b3 + 19.978949_f32 * mu_b4 + 5.064569_f32 * mu_b5 + 0.5212376_f32 * mu_u6;
+    let p_1_5 = 11.79049_f32 * mu_v6 + 39.718044_f32 * mu_b1 + 50.106495_f32 * mu_b2 + 20.683392_f32 * mu_b3 + 5.7935963_f32 * mu_b4 + 2.0893123_f32 * mu_b5 + 0.106445014_f32 * mu_u6;
+    let p_1_6 = 1.0219826_f32 * mu_v6 + 4.189741_f32 * mu_b1 + 6.1750183_f32 * mu_b2 + 2.683145_f32 * mu_b3 + 0.96512574_f32 * mu_b4 + 0.42543033_f32 * mu_b5 + 0.020569032_f32 * mu_u6;
+    let p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
+    let p_2_0 = 2.9989703_f32 * mu_v6 + 10.365781_f32 * mu_b1 + 11.535779_f32 * mu_b2 + 4.39658_f32 * mu_b3 + 0.51240754_f32 * mu_b4 + 0.4093443_f32 * mu_b5 + 0.027253876_f32 * mu_u6;
+    let p_2_1 = 24.544775_f32 * mu_v6 + 83.0254_f32 * mu_b1 + 94.198586_f32 * mu_b2 + 38.30001_f32 * mu_b3 + 1.9059471_f32 * mu_b4 - 0.18346037_f32 * mu_b5 - 0.09113118_f32 * mu_u6;
+    let p_2_2 = 64.453064_f32 * mu_v6 + 212.64624_f32 * mu_b1 + 236.64552_f32 * mu_b2 + 95.09207_f32 * mu_b3 + 4.4230027_f32 * mu_b4 - 0.51122504_f32 * mu_b5 + 0.24608816_f32 * mu_u6;
+    let p_2_3 = 83.10856_f32 * mu_v6 + 275.1735_f32 * mu_b1 + 314.2276_f32 * mu_b2 + 142.68823_f32 * mu_b3 + 21.350119_f32 * mu_b4 + 3.3669212_f32 * mu_b5 + 0.5964904_f32 * mu_u6;
+    let p_2_4 = 54.319157_f32 * mu_v6 + 183.39172_f32 * mu_b1 + 216.6291_f32 * mu_b2 + 109.203575_f32 * mu_b3 + 24.668367_f32 * mu_b4 + 4.904707_f32 * mu_b5 + 0.4239647_f32 * mu_u6;
+    let p_2_5 = 15.372941_f32 * mu_v6 + 53.254864_f32 * mu_b1 + 62.40386_f32 * mu_b2 + 29.85835_f32 * mu_b3 + 5.9007077_f32 * mu_b4 + 1.258753_f32 * mu_b5 + 0.110694535_f32 * mu_u6;
+    let p_2_6 = 1.3558664_f32 * mu_v6 + 5.6547008_f32 * mu_b1 + 7.531348_f32 * mu_b2 + 4.1699653_f32 * mu_b3 + 1.0646979_f32 * mu_b4 + 0.24406828_f32 * mu_b5 + 0.019527126_f32 * mu_u6;
+    let p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
+    let p_3_0 = 0.9998972_f32 * mu_v6 + 3.4913776_f32 * mu_b1 + 3.7646081_f32 * mu_b2 + 1.4848875_f32 * mu_b3 + 0.17071457_f32 * mu_b4 + 0.13635834_f32 * mu_b5 + 0.009084243_f32 * mu_u6;
+    let p_3_1 = 8.273418_f32 * mu_v6 + 28.158367_f32 * mu_b1 + 31.527056_f32 * mu_b2 + 13.267536_f32 * mu_b3 + 0.58658826_f32 * mu_b4 - 0.059226125_f32 * mu_b5 - 0.030300291_f32 * mu_u6;
+    let p_3_2 = 22.259_f32 * mu_v6 + 73.523834_f32 * mu_b1 + 80.982895_f32 * mu_b2 + 33.40059_f32 * mu_b3 + 0.92308605_f32 * mu_b4 - 0.15259898_f32 * mu_b5 + 0.082056075_f32 * mu_u6;
+    let p_3_3 = 29.371561_f32 * mu_v6 + 96.71207_f32 * mu_b1 + 109.00515_f32 * mu_b2 + 49.646748_f32 * mu_b3 + 5.6464205_f32 * mu_b4 + 1.2287954_f32 * mu_b5 + 0.19809018_f32 * mu_u6;
+    let p_3_4 = 19.550097_f32 * mu_v6 + 65.18849_f32 * mu_b1 + 75.79357_f32 * mu_b2 + 37.685776_f32 * mu_b3 + 6.7202773_f32 * mu_b4 + 1.8588915_f32 * mu_b5 + 0.14441916_f32 * mu_u6;
+    let p_3_5 = 5.623221_f32 * mu_v6 + 19.145782_f32 * mu_b1 + 22.180485_f32 * mu_b2 + 10.360787_f32 * mu_b3 + 1.193365_f32 * mu_b4 + 0.5353456_f32 * mu_b5 + 0.034928195_f32 * mu_u6;
+    let p_3_6 = 0.49847847_f32 * mu_v6 + 2.0481408_f32 * mu_b1 + 2.7606864_f32 * mu_b2 + 1.4892516_f32 * mu_b3 + 0.20137234_f32 * mu_b4 + 0.0978946_f32 * mu_b5 + 0.0064303675_f32 * mu_u6;
+    let p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
+    let p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q_0_0 = 1.0_f32 * mu_v6 + 3.5016685_f32 * mu_b1 + 3.8918588_f32 * mu_b2 + 1.9779538_f32 * mu_b3 + 0.19887516_f32 * mu_b4 + 0.13582075_f32 * mu_b5 + 0.009085543_f32 * mu_u6;
+    let q_0_1 = 8.358247_f32 * mu_v6 + 28.361902_f32 * mu_b1 + 32.96552_f32 * mu_b2 + 16.504745_f32 * mu_b3 + 0.45970848_f32 * mu_b4 - 0.019865975_f32 * mu_b5 - 0.030433757_f32 * mu_u6;
+    let q_0_2 = 22.86828_f32 * mu_v6 + 76.016266_f32 * mu_b1 + 89.86883_f32 * mu_b2 + 45.14867_f32 * mu_b3 + 0.57209593_f32 * mu_b4 - 0.026200145_f32 * mu_b5 + 0.09517686_f32 * mu_u6;
+    let q_0_3 = 30.6304_f32 * mu_v6 + 102.899704_f32 * mu_b1 + 128.9234_f32 * mu_b2 + 71.048874_f32 * mu_b3 + 5.006653_f32 * mu_b4 + 1.0596552_f32 * mu_b5 + 0.13531218_f32 * mu_u6;
+    let q_0_4 = 20.88899_f32 * mu_v6 + 72.767365_f32 * mu_b1 + 99.814865_f32 * mu_b2 + 63.335575_f32 * mu_b3 + 10.771327_f32 * mu_b4 + 3.443773_f32 * mu_b5 + 0.33718687_f32 * mu_u6;
+    let q_0_5 = 6.0352545_f32 * mu_v6 + 21.660547_f32 * mu_b1 + 31.656385_f32 * mu_b2 + 20.393282_f32 * mu_b3 + 2.3029187_f32 * mu_b4 + 1.1167142_f32 * mu_b5 + 0.08224473_f32 * mu_u6;
+    let q_0_6 = 0.54209095_f32 * mu_v6 + 2.2896085_f32 * mu_b1 + 4.101642_f32 * mu_b2 + 2.993885_f32 * mu_b3 + 0.3588689_f32 * mu_b4 + 0.25586483_f32 * mu_b5 + 0.021133024_f32 * mu_u6;
+    let q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
+    let q_1_0 = 3.0_f32 * mu_v6 + 10.505006_f32 * mu_b1 + 11.675576_f32 * mu_b2 + 5.9338617_f32 * mu_b3 + 0.59662545_f32 * mu_b4 + 0.40746224_f32 * mu_b5 + 0.02725663_f32 * mu_u6;
+    let q_1_1 = 25.074741_f32 * mu_v6 + 85.08571_f32 * mu_b1 + 98.89655_f32 * mu_b2 + 49.514236_f32 * mu_b3 + 1.3791255_f32 * mu_b4 - 0.05959792_f32 * mu_b5 - 0.09130127_f32 * mu_u6;
+    let q_1_2 = 68.60484_f32 * mu_v6 + 228.0488_f32 * mu_b1 + 269.60648_f32 * mu_b2 + 135.446_f32 * mu_b3 + 1.7162877_f32 * mu_b4 - 0.07860044_f32 * mu_b5 + 0.2855306_f32 * mu_u6;
+    let q_1_3 = 91.8912_f32 * mu_v6 + 308.69913_f32 * mu_b1 + 386.7702_f32 * mu_b2 + 213.14662_f32 * mu_b3 + 15.0199585_f32 * mu_b4 + 3.1789658_f32 * mu_b5 + 0.40593654_f32 * mu_u6;
+    let q_1_4 = 62.66697_f32 * mu_v6 + 218.30211_f32 * mu_b1 + 299.44458_f32 * mu_b2 + 190.00673_f32 * mu_b3 + 32.31398_f32 * mu_b4 + 10.331319_f32 * mu_b5 + 1.0115606_f32 * mu_u6;
+    let q_1_5 = 18.105764_f32 * mu_v6 + 64.98164_f32 * mu_b1 + 94.969154_f32 * mu_b2 + 61.179844_f32 * mu_b3 + 6.908756_f32 * mu_b4 + 3.3501427_f32 * mu_b5 + 0.2467342_f32 * mu_u6;
+    let q_1_6 = 1.6262729_f32 * mu_v6 + 6.868826_f32 * mu_b1 + 12.304927_f32 * mu_b2 + 8.981655_f32 * mu_b3 + 1.0766066_f32 * mu_b4 + 0.76759446_f32 * mu_b5 + 0.06339908_f32 * mu_u6;
+    let q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
+    let q_2_0 = 3.0_f32 * mu_v6 + 10.505006_f32 * mu_b1 + 11.675576_f32 * mu_b2 + 5.9338617_f32 * mu_b3 + 0.59662545_f32 * mu_b4 + 0.40746224_f32 * mu_b5 + 0.02725663_f32 * mu_u6;
+    let q_2_1 = 25.074741_f32 * mu_v6 + 85.08571_f32 * mu_b1 + 98.89655_f32 * mu_b2 + 49.514236_f32 * mu_b3 + 1.3791255_f32 * mu_b4 - 0.05959792_f32 * mu_b5 - 0.09130127_f32 * mu_u6;
+    let q_2_2 = 68.60484_f32 * mu_v6 + 228.0488_f32 * mu_b1 + 269.60648_f32 * mu_b2 + 135.446_f32 * mu_b3 + 1.7162877_f32 * mu_b4 - 0.07860044_f32 * mu_b5 + 0.2855306_f32 * mu_u6;
+    let q_2_3 = 91.8912_f32 * mu_v6 + 308.69913_f32 * mu_b1 + 386.7702_f32 * mu_b2 + 213.14662_f32 * mu_b3 + 15.0199585_f32 * mu_b4 + 3.1789658_f32 * mu_b5 + 0.40593654_f32 * mu_u6;
+    let q_2_4 = 62.66697_f32 * mu_v6 + 218.30211_f32 * mu_b1 + 299.44458_f32 * mu_b2 + 190.00673_f32 * mu_b3 + 32.31398_f32 * mu_b4 + 10.331319_f32 * mu_b5 + 1.0115606_f32 * mu_u6;
+    let q_2_5 = 18.105764_f32 * mu_v6 + 64.98164_f32 * mu_b1 + 94.969154_f32 * mu_b2 + 61.179844_f32 * mu_b3 + 6.908756_f32 * mu_b4 + 3.3501427_f32 * mu_b5 + 0.2467342_f32 * mu_u6;
+    let q_2_6 = 1.6262729_f32 * mu_v6 + 6.868826_f32 * mu_b1 + 12.304927_f32 * mu_b2 + 8.981655_f32 * mu_b3 + 1.0766066_f32 * mu_b4 + 0.76759446_f32 * mu_b5 + 0.06339908_f32 * mu_u6;
+    let q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
+    let q_3_0 = 1.0_f32 * mu_v6 + 3.5016685_f32 * mu_b1 + 3.8918588_f32 * mu_b2 + 1.9779538_f32 * mu_b3 + 0.19887516_f32 * mu_b4 + 0.13582075_f32 * mu_b5 + 0.009085543_f32 * mu_u6;
+    let q_3_1 = 8.358247_f32 * mu_v6 + 28.361902_f32 * mu_b1 + 32.96552_f32 * mu_b2 + 16.504745_f32 * mu_b3 + 0.45970848_f32 * mu_b4 - 0.019865975_f32 * mu_b5 - 0.030433757_f32 * mu_u6;
+    let q_3_2 = 22.86828_f32 * mu_v6 + 76.016266_f32 * mu_b1 + 89.86883_f32 * mu_b2 + 45.14867_f32 * mu_b3 + 0.57209593_f32 * mu_b4 - 0.026200145_f32 * mu_b5 + 0.09517686_f32 * mu_u6;
+    let q_3_3 = 30.6304_f32 * mu_v6 + 102.899704_f32 * mu_b1 + 128.9234_f32 * mu_b2 + 71.048874_f32 * mu_b3 + 5.006653_f32 * mu_b4 + 1.0596552_f32 * mu_b5 + 0.13531218_f32 * mu_u6;
+    let q_3_4 = 20.88899_f32 * mu_v6 + 72.767365_f32 * mu_b1 + 99.814865_f32 * mu_b2 + 63.335575_f32 * mu_b3 + 10.771327_f32 * mu_b4 + 3.443773_f32 * mu_b5 + 0.33718687_f32 * mu_u6;
+    let q_3_5 = 6.0352545_f32 * mu_v6 + 21.660547_f32 * mu_b1 + 31.656385_f32 * mu_b2 + 20.393282_f32 * mu_b3 + 2.3029187_f32 * mu_b4 + 1.1167142_f32 * mu_b5 + 0.08224473_f32 * mu_u6;
+    let q_3_6 = 0.54209095_f32 * mu_v6 + 2.2896085_f32 * mu_b1 + 4.101642_f32 * mu_b2 + 2.993885_f32 * mu_b3 + 0.3588689_f32 * mu_b4 + 0.25586483_f32 * mu_b5 + 0.021133024_f32 * mu_u6;
+    let q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
+    let q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
+    let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }
 

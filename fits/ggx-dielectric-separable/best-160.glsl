@@ -16,16 +16,16 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 27800 of 40960 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c5ae3dc67603ee989731afaec8540408da7ec3dc9347614329c716ed3f170201.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-5, shifted 1.5e-5, bernstein 9.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.12e-4, max 1.71e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.54e-7 (every op rounded, as this Rust), 3.93e-7 (fused multiply-add), 9.46e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.19e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.12e-4, max 1.71e-3; this f32 code MAE 1.12e-4, max 1.71e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.8e-5 on the measurement grid.
-// Denominator proved >= 2.861e-2 on the domain (Bernstein certificate), so the division is safe.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c0a9deee457136d24d4ad50a3f716911db831a26038485e2e31ba0a3ab22b87d.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.0e-6, shifted 9.5e-7, bernstein 9.5e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 1.46e-4, max 9.15e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.62e-7 (every op rounded, as this Rust), 5.55e-7 (fused multiply-add), 9.89e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 7.39e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1661 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.41e-4, max 9.15e-4; this f32 code MAE 1.41e-4, max 9.15e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-4 on the measurement grid.
+// Denominator proved >= 5.314e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -37,119 +37,70 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     highp float mu_c = max(min(mu, 1.0), 0.0);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    highp float f0_v = 1.0 - f0_t;
-    highp float f0_u2 = f0_t * f0_t;
-    highp float f0_v2 = f0_v * f0_v;
-    highp float f0_u3 = f0_u2 * f0_t;
-    highp float f0_v3 = f0_v2 * f0_v;
-    highp float f0_b1 = f0_t * f0_v2;
-    highp float f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
-    highp float r_v = 1.0 - r_t;
-    highp float r_u2 = r_t * r_t;
-    highp float r_v2 = r_v * r_v;
-    highp float r_u3 = r_u2 * r_t;
-    highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_t;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_u5 = r_u4 * r_t;
-    highp float r_v5 = r_v4 * r_v;
-    highp float r_u6 = r_u5 * r_t;
-    highp float r_v6 = r_v5 * r_v;
-    highp float r_b1 = r_t * r_v5;
-    highp float r_b2 = r_u2 * r_v4;
-    highp float r_b3 = r_u3 * r_v3;
-    highp float r_b4 = r_u4 * r_v2;
-    highp float r_b5 = r_u5 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
-    highp float mu_v = 1.0 - mu_u;
-    highp float mu_u2 = mu_u * mu_u;
-    highp float mu_v2 = mu_v * mu_v;
-    highp float mu_u3 = mu_u2 * mu_u;
-    highp float mu_v3 = mu_v2 * mu_v;
-    highp float mu_u4 = mu_u3 * mu_u;
-    highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_u5 = mu_u4 * mu_u;
-    highp float mu_v5 = mu_v4 * mu_v;
-    highp float mu_u6 = mu_u5 * mu_u;
-    highp float mu_v6 = mu_v5 * mu_v;
-    highp float mu_b1 = mu_u * mu_v5;
-    highp float mu_b2 = mu_u2 * mu_v4;
-    highp float mu_b3 = mu_u3 * mu_v3;
-    highp float mu_b4 = mu_u4 * mu_v2;
-    highp float mu_b5 = mu_u5 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0_0 = 0.93607944 * mu_v6 + 4.276971 * mu_b1 + 4.671561 * mu_b2 + 1.237638 * mu_b3 + 0.7565281 * mu_b4 - 0.00045736984 * mu_b5 + 0.041204974 * mu_u6;
-    highp float p_0_1 = 7.3018694 * mu_v6 + 31.601591 * mu_b1 + 40.871502 * mu_b2 + 19.215446 * mu_b3 + 7.83249 * mu_b4 + 0.37280545 * mu_b5 + 0.53130776 * mu_u6;
-    highp float p_0_2 = 24.326128 * mu_v6 + 103.634544 * mu_b1 + 160.60657 * mu_b2 + 111.61355 * mu_b3 + 46.86836 * mu_b4 + 5.2078037 * mu_b5 + 2.023157 * mu_u6;
-    highp float p_0_3 = 41.52221 * mu_v6 + 175.02039 * mu_b1 + 310.0935 * mu_b2 + 267.61722 * mu_b3 + 124.132126 * mu_b4 + 19.205301 * mu_b5 + 3.9195051 * mu_u6;
-    highp float p_0_4 = 40.489876 * mu_v6 + 170.17023 * mu_b1 + 336.24097 * mu_b2 + 338.09387 * mu_b3 + 173.42645 * mu_b4 + 32.602943 * mu_b5 + 4.078084 * mu_u6;
-    highp float p_0_5 = 21.311096 * mu_v6 + 89.60737 * mu_b1 + 191.68472 * mu_b2 + 213.04584 * mu_b3 + 116.781975 * mu_b4 + 23.562584 * mu_b5 + 1.7853353 * mu_u6;
-    highp float p_0_6 = 4.577083 * mu_v6 + 19.31154 * mu_b1 + 44.04047 * mu_b2 + 52.813248 * mu_b3 + 30.605104 * mu_b4 + 6.4943376 * mu_b5 + 0.28769225 * mu_u6;
-    highp float p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
-    highp float p_1_0 = 2.8092215 * mu_v6 + 12.826797 * mu_b1 + 13.997221 * mu_b2 + 3.8520787 * mu_b3 + 2.2290678 * mu_b4 - 0.0006784443 * mu_b5 + 0.123628736 * mu_u6;
-    highp float p_1_1 = 21.585995 * mu_v6 + 94.24952 * mu_b1 + 118.93173 * mu_b2 + 55.066 * mu_b3 + 23.256723 * mu_b4 + 1.1634198 * mu_b5 + 1.5901468 * mu_u6;
-    highp float p_1_2 = 81.27708 * mu_v6 + 345.15494 * mu_b1 + 505.8872 * mu_b2 + 332.15482 * mu_b3 + 136.31575 * mu_b4 + 15.059143 * mu_b5 + 6.1030145 * mu_u6;
-    highp float p_1_3 = 159.63144 * mu_v6 + 671.12463 * mu_b1 + 1086.0133 * mu_b2 + 854.3885 * mu_b3 + 376.07718 * mu_b4 + 58.246784 * mu_b5 + 11.656832 * mu_u6;
-    highp float p_1_4 = 169.43886 * mu_v6 + 714.52814 * mu_b1 + 1244.7385 * mu_b2 + 1103.567 * mu_b3 + 527.4726 * mu_b4 + 98.29372 * mu_b5 + 11.953093 * mu_u6;
-    highp float p_1_5 = 91.80351 * mu_v6 + 389.99985 * mu_b1 + 717.436 * mu_b2 + 688.75635 * mu_b3 + 348.52115 * mu_b4 + 69.30968 * mu_b5 + 5.1909347 * mu_u6;
-    highp float p_1_6 = 20.060051 * mu_v6 + 86.24966 * mu_b1 + 166.22194 * mu_b2 + 169.92212 * mu_b3 + 90.301544 * mu_b4 + 18.753256 * mu_b5 + 0.8224361 * mu_u6;
-    highp float p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
-    highp float p_2_0 = 2.8084059 * mu_v6 + 12.8289175 * mu_b1 + 13.990036 * mu_b2 + 3.8141396 * mu_b3 + 2.229337 * mu_b4 + 0.0007925067 * mu_b5 + 0.12361612 * mu_u6;
-    highp float p_2_1 = 21.65069 * mu_v6 + 94.53376 * mu_b1 + 119.45417 * mu_b2 + 55.89972 * mu_b3 + 23.78038 * mu_b4 + 0.99863505 * mu_b5 + 1.5921412 * mu_u6;
-    highp float p_2_2 = 80.02531 * mu_v6 + 340.49738 * mu_b1 + 494.54852 * mu_b2 + 321.75528 * mu_b3 + 134.57222 * mu_b4 + 15.384401 * mu_b5 + 6.104196 * mu_u6;
-    highp float p_2_3 = 165.5895 * mu_v6 + 697.5254 * mu_b1 + 1107.5475 * mu_b2 + 849.6338 * mu_b3 + 372.03235 * mu_b4 + 59.371174 * mu_b5 + 11.51197 * mu_u6;
-    highp float p_2_4 = 191.02365 * mu_v6 + 806.274 * mu_b1 + 1354.6107 * mu_b2 + 1141.1698 * mu_b3 + 526.052 * mu_b4 + 98.324745 * mu_b5 + 11.695343 * mu_u6;
-    highp float p_2_5 = 111.33328 * mu_v6 + 471.9153 * mu_b1 + 819.34534 * mu_b2 + 726.0887 * mu_b3 + 344.23178 * mu_b4 + 66.78174 * mu_b5 + 4.9206233 * mu_u6;
-    highp float p_2_6 = 25.38325 * mu_v6 + 108.37706 * mu_b1 + 193.20486 * mu_b2 + 178.22594 * mu_b3 + 87.19821 * mu_b4 + 17.444504 * mu_b5 + 0.76872814 * mu_u6;
-    highp float p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
-    highp float p_3_0 = 0.9361512 * mu_v6 + 4.2720704 * mu_b1 + 4.69293 * mu_b2 + 1.2414238 * mu_b3 + 0.7508569 * mu_b4 + 0.0001282566 * mu_b5 + 0.04120334 * mu_u6;
-    highp float p_3_1 = 7.2759047 * mu_v6 + 31.726307 * mu_b1 + 40.228897 * mu_b2 + 18.859993 * mu_b3 + 8.303067 * mu_b4 + 0.30792683 * mu_b5 + 0.53147036 * mu_u6;
-    highp float p_3_2 = 27.078222 * mu_v6 + 114.98914 * mu_b1 + 165.0413 * mu_b2 + 105.42009 * mu_b3 + 44.897453 * mu_b4 + 5.018746 * mu_b5 + 2.0237792 * mu_u6;
-    highp float p_3_3 = 57.569542 * mu_v6 + 243.06499 * mu_b1 + 379.23376 * mu_b2 + 283.90927 * mu_b3 + 124.4946 * mu_b4 + 19.935104 * mu_b5 + 3.7618475 * mu_u6;
-    highp float p_3_4 = 68.721466 * mu_v6 + 291.25674 * mu_b1 + 476.70697 * mu_b2 + 385.7818 * mu_b3 + 173.16878 * mu_b4 + 31.539473 * mu_b5 + 3.5935888 * mu_u6;
-    highp float p_3_5 = 41.69687 * mu_v6 + 177.20613 * mu_b1 + 296.35757 * mu_b2 + 247.47505 * mu_b3 + 111.18227 * mu_b4 + 20.56578 * mu_b5 + 1.4553703 * mu_u6;
-    highp float p_3_6 = 9.939859 * mu_v6 + 42.279797 * mu_b1 + 71.37983 * mu_b2 + 60.46876 * mu_b3 + 27.163675 * mu_b4 + 5.050795 * mu_b5 + 0.22350495 * mu_u6;
-    highp float p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
-    highp float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = 1.0 * mu_v6 + 4.568857 * mu_b1 + 5.040267 * mu_b2 + 1.6843363 * mu_b3 + 0.8409333 * mu_b4 - 0.0005688092 * mu_b5 + 0.04120637 * mu_u6;
-    highp float q_0_1 = 7.495099 * mu_v6 + 32.942654 * mu_b1 + 41.15573 * mu_b2 + 20.772064 * mu_b3 + 8.873614 * mu_b4 + 0.3221194 * mu_b5 + 0.53108215 * mu_u6;
-    highp float q_0_2 = 29.47367 * mu_v6 + 125.9019 * mu_b1 + 177.82973 * mu_b2 + 116.95558 * mu_b3 + 49.403835 * mu_b4 + 5.8395805 * mu_b5 + 2.036561 * mu_u6;
-    highp float q_0_3 = 65.33347 * mu_v6 + 275.70377 * mu_b1 + 417.06235 * mu_b2 + 306.55536 * mu_b3 + 130.6347 * mu_b4 + 21.291296 * mu_b5 + 3.9155402 * mu_u6;
-    highp float q_0_4 = 89.00653 * mu_v6 + 376.5045 * mu_b1 + 596.7913 * mu_b2 + 465.73843 * mu_b3 + 198.53064 * mu_b4 + 36.21554 * mu_b5 + 4.176717 * mu_u6;
-    highp float q_0_5 = 66.79348 * mu_v6 + 283.53558 * mu_b1 + 459.40433 * mu_b2 + 364.71588 * mu_b3 + 150.47876 * mu_b4 + 26.273354 * mu_b5 + 1.8669173 * mu_u6;
-    highp float q_0_6 = 20.389359 * mu_v6 + 86.69174 * mu_b1 + 141.67358 * mu_b2 + 112.61491 * mu_b3 + 44.924133 * mu_b4 + 7.3171997 * mu_b5 + 0.30655327 * mu_u6;
-    highp float q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
-    highp float q_1_0 = 3.0 * mu_v6 + 13.706572 * mu_b1 + 15.120801 * mu_b2 + 5.053009 * mu_b3 + 2.5228 * mu_b4 - 0.0017064275 * mu_b5 + 0.12361912 * mu_u6;
-    highp float q_1_1 = 22.485298 * mu_v6 + 98.82796 * mu_b1 + 123.46719 * mu_b2 + 62.316193 * mu_b3 + 26.620844 * mu_b4 + 0.96635824 * mu_b5 + 1.5932465 * mu_u6;
-    highp float q_1_2 = 88.421005 * mu_v6 + 377.70572 * mu_b1 + 533.4892 * mu_b2 + 350.86676 * mu_b3 + 148.21152 * mu_b4 + 17.518742 * mu_b5 + 6.1096826 * mu_u6;
-    highp float q_1_3 = 196.00043 * mu_v6 + 827.1113 * mu_b1 + 1251.1871 * mu_b2 + 919.6661 * mu_b3 + 391.90408 * mu_b4 + 63.873886 * mu_b5 + 11.74662 * mu_u6;
-    highp float q_1_4 = 267.0196 * mu_v6 + 1129.5135 * mu_b1 + 1790.3739 * mu_b2 + 1397.2152 * mu_b3 + 595.5919 * mu_b4 + 108.64662 * mu_b5 + 12.530149 * mu_u6;
-    highp float q_1_5 = 200.38045 * mu_v6 + 850.60675 * mu_b1 + 1378.213 * mu_b2 + 1094.1476 * mu_b3 + 451.43628 * mu_b4 + 78.82006 * mu_b5 + 5.600752 * mu_u6;
-    highp float q_1_6 = 61.16807 * mu_v6 + 260.07523 * mu_b1 + 425.02075 * mu_b2 + 337.84473 * mu_b3 + 134.7724 * mu_b4 + 21.9516 * mu_b5 + 0.91965985 * mu_u6;
-    highp float q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
-    highp float q_2_0 = 3.0 * mu_v6 + 13.706572 * mu_b1 + 15.120801 * mu_b2 + 5.053009 * mu_b3 + 2.5228 * mu_b4 - 0.0017064275 * mu_b5 + 0.12361912 * mu_u6;
-    highp float q_2_1 = 22.485298 * mu_v6 + 98.82796 * mu_b1 + 123.46719 * mu_b2 + 62.316193 * mu_b3 + 26.620844 * mu_b4 + 0.96635824 * mu_b5 + 1.5932465 * mu_u6;
-    highp float q_2_2 = 88.421005 * mu_v6 + 377.70572 * mu_b1 + 533.4892 * mu_b2 + 350.86676 * mu_b3 + 148.21152 * mu_b4 + 17.518742 * mu_b5 + 6.1096826 * mu_u6;
-    highp float q_2_3 = 196.00043 * mu_v6 + 827.1113 * mu_b1 + 1251.1871 * mu_b2 + 919.6661 * mu_b3 + 391.90408 * mu_b4 + 63.873886 * mu_b5 + 11.74662 * mu_u6;
-    highp float q_2_4 = 267.0196 * mu_v6 + 1129.5135 * mu_b1 + 1790.3739 * mu_b2 + 1397.2152 * mu_b3 + 595.5919 * mu_b4 + 108.64662 * mu_b5 + 12.530149 * mu_u6;
-    highp float q_2_5 = 200.38045 * mu_v6 + 850.60675 * mu_b1 + 1378.213 * mu_b2 + 1094.1476 * mu_b3 + 451.43628 * mu_b4 + 78.82006 * mu_b5 + 5.600752 * mu_u6;
-    highp float q_2_6 = 61.16807 * mu_v6 + 260.07523 * mu_b1 + 425.02075 * mu_b2 + 337.84473 * mu_b3 + 134.7724 * mu_b4 + 21.9516 * mu_b5 + 0.91965985 * mu_u6;
-    highp float q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
-    highp float q_3_0 = 1.0 * mu_v6 + 4.568857 * mu_b1 + 5.040267 * mu_b2 + 1.6843363 * mu_b3 + 0.8409333 * mu_b4 - 0.0005688092 * mu_b5 + 0.04120637 * mu_u6;
-    highp float q_3_1 = 7.495099 * mu_v6 + 32.942654 * mu_b1 + 41.15573 * mu_b2 + 20.772064 * mu_b3 + 8.873614 * mu_b4 + 0.3221194 * mu_b5 + 0.53108215 * mu_u6;
-    highp float q_3_2 = 29.47367 * mu_v6 + 125.9019 * mu_b1 + 177.82973 * mu_b2 + 116.95558 * mu_b3 + 49.403835 * mu_b4 + 5.8395805 * mu_b5 + 2.036561 * mu_u6;
-    highp float q_3_3 = 65.33347 * mu_v6 + 275.70377 * mu_b1 + 417.06235 * mu_b2 + 306.55536 * mu_b3 + 130.6347 * mu_b4 + 21.291296 * mu_b5 + 3.9155402 * mu_u6;
-    highp float q_3_4 = 89.00653 * mu_v6 + 376.5045 * mu_b1 + 596.7913 * mu_b2 + 465.73843 * mu_b3 + 198.53064 * mu_b4 + 36.21554 * mu_b5 + 4.176717 * mu_u6;
-    highp float q_3_5 = 66.79348 * mu_v6 + 283.53558 * mu_b1 + 459.40433 * mu_b2 + 364.71588 * mu_b3 + 150.47876 * mu_b4 + 26.273354 * mu_b5 + 1.8669173 * mu_u6;
-    highp float q_3_6 = 20.389359 * mu_v6 + 86.69174 * mu_b1 + 141.67358 * mu_b2 + 112.61491 * mu_b3 + 44.924133 * mu_b4 + 7.3171997 * mu_b5 + 0.30655327 * mu_u6;
-    highp float q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
-    highp float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    highp float e = p / q;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float f0_s = f0_t * 2.0 - 1.0;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float r_s = r_t * 2.0 - 1.0;
+    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
+    highp float mu_s = mu_t * 2.0 - 1.0;
+    // term 0: numerator P_0, grouped by powers of the first variable
+    highp float p0_0 = ((((-0.011802445 * r_s + (0.018372837 * mu_s + 0.047161505)) * r_s + ((-0.06862088 * mu_s - 0.020304171) * mu_s - 0.15484764)) * r_s + (((-0.014922514 * mu_s - 0.036258213) * mu_s - 0.19177465) * mu_s - 0.1212157)) * r_s + ((((0.00026650092 * mu_s - 0.027538996) * mu_s + 0.07369759) * mu_s + 0.21778667) * mu_s + 0.06601311)) * r_s + (((((0.044829898 * mu_s + 0.032732476) * mu_s + 0.1566574) * mu_s + 0.12228777) * mu_s - 0.024386363) * mu_s + 0.69853216);
+    highp float p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    highp float u0_0 = 0.89351034;
+    highp float u0_1 = 0.0060840053;
+    highp float u0_2 = 0.037160896;
+    highp float u0_3 = -0.008512376;
+    highp float u0_4 = 0.0038654064;
+    highp float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    highp float q0_0 = ((-0.21734254 * r_s + (-0.099105604 * mu_s - 0.101834)) * r_s + ((-0.042912718 * mu_s + 0.07647618) * mu_s + 0.24932104)) * r_s + (((0.19107722 * mu_s + 0.019478481) * mu_s - 0.2221612) * mu_s + 0.8647555);
+    highp float q0 = q0_0;
+    highp float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    highp float p1_0 = ((((-0.002670027 * r_s + (0.0124726845 * mu_s - 0.012819941)) * r_s + ((0.008708758 * mu_s - 0.059242398) * mu_s + 0.044396337)) * r_s + (((-0.04952836 * mu_s - 0.044867273) * mu_s + 0.07481787) * mu_s + 0.014998966)) * r_s + ((((-0.024858486 * mu_s - 0.11073491) * mu_s - 0.09199332) * mu_s + 0.39577812) * mu_s - 0.15668382)) * r_s + (((((0.001312519 * mu_s - 0.023063628) * mu_s - 0.06598371) * mu_s - 0.040313013) * mu_s + 0.24593632) * mu_s - 0.10274755);
+    highp float p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    highp float u1_0 = 0.8455194;
+    highp float u1_1 = -0.51103777;
+    highp float u1_2 = -0.23264371;
+    highp float u1_3 = 0.07251571;
+    highp float u1_4 = -0.039413434;
+    highp float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    highp float q1_0 = ((-0.055811536 * r_s + (-0.3616812 * mu_s + 0.40773183)) * r_s + ((0.03307428 * mu_s - 0.7726508) * mu_s + 0.6674496)) * r_s + (((-0.14589235 * mu_s - 0.02080803) * mu_s - 0.61057115) * mu_s + 0.91229457);
+    highp float q1 = q1_0;
+    highp float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2, grouped by powers of the first variable
+    highp float p2_0 = ((((-0.007144771 * r_s + (0.010868645 * mu_s + 0.0052246526)) * r_s + ((-0.041799016 * mu_s + 0.08681248) * mu_s - 0.06359613)) * r_s + (((0.026826689 * mu_s - 0.045403127) * mu_s - 0.16202094) * mu_s + 0.13485467)) * r_s + ((((-0.05598736 * mu_s - 0.04903985) * mu_s + 0.057367846) * mu_s - 0.042300683) * mu_s + 0.1446058)) * r_s + (((((0.07858849 * mu_s - 0.020601295) * mu_s - 0.19142868) * mu_s + 0.028724736) * mu_s + 0.22003596) * mu_s - 0.043088943);
+    highp float p2 = p2_0;
+    // term 2: factor u_2, grouped by powers of the first variable
+    highp float u2_0 = -0.6860497;
+    highp float u2_1 = 0.024201553;
+    highp float u2_2 = 0.033561666;
+    highp float u2_3 = -0.033431653;
+    highp float u2_4 = 0.01211087;
+    highp float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
+    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
+    highp float q2_0 = ((-0.021690462 * r_s + (-0.0023969878 * mu_s - 0.04418393)) * r_s + ((-0.2773876 * mu_s - 0.08302387) * mu_s + 0.3691272)) * r_s + (((0.32612514 * mu_s - 0.21362408) * mu_s - 0.82902455) * mu_s + 0.90558463);
+    highp float q2 = q2_0;
+    highp float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3, grouped by powers of the first variable
+    highp float p3_0 = ((((0.0010761922 * r_s + (0.0072841696 * mu_s - 0.006374959)) * r_s + ((0.014043629 * mu_s - 0.024873486) * mu_s + 0.017748542)) * r_s + (((0.0013076393 * mu_s + 0.005110025) * mu_s + 0.060738724) * mu_s - 0.06242132)) * r_s + ((((0.0068122856 * mu_s - 0.02789639) * mu_s - 0.0559375) * mu_s + 0.20731713) * mu_s - 0.18057929)) * r_s + (((((-0.0067199585 * mu_s + 0.0040988945) * mu_s - 0.025576148) * mu_s - 0.049213786) * mu_s + 0.12603363) * mu_s - 0.10925054);
+    highp float p3 = p3_0;
+    // term 3: factor u_3, grouped by powers of the first variable
+    highp float u3_0 = -1.1454282;
+    highp float u3_1 = -0.11919021;
+    highp float u3_2 = 1.1611599;
+    highp float u3_3 = -0.2994607;
+    highp float u3_4 = 0.13011816;
+    highp float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
+    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
+    highp float q3_0 = ((0.33485466 * r_s + (-0.8175776 * mu_s + 1.5341119)) * r_s + ((0.36776486 * mu_s - 1.040668) * mu_s + 2.2826717)) * r_s + (((0.20763953 * mu_s + 0.49301398) * mu_s - 0.7421311) * mu_s + 1.6467642);
+    highp float q3 = q3_0;
+    highp float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    highp float e = e0 + e1 + e2 + e3;
     return max(min(e, 1.0), 0.0);
 }
 

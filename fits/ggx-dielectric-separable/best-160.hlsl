@@ -15,16 +15,16 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 27800 of 40960 points; best pole-certified start refined on all points.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c5ae3dc67603ee989731afaec8540408da7ec3dc9347614329c716ed3f170201.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-5, shifted 1.5e-5, bernstein 9.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.12e-4, max 1.71e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.54e-7 (every op rounded, as this Rust), 3.93e-7 (fused multiply-add), 9.46e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.19e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.12e-4, max 1.71e-3; this f32 code MAE 1.12e-4, max 1.71e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.8e-5 on the measurement grid.
-// Denominator proved >= 2.861e-2 on the domain (Bernstein certificate), so the division is safe.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c0a9deee457136d24d4ad50a3f716911db831a26038485e2e31ba0a3ab22b87d.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.0e-6, shifted 9.5e-7, bernstein 9.5e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 1.46e-4, max 9.15e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.62e-7 (every op rounded, as this Rust), 5.55e-7 (fused multiply-add), 9.89e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 7.39e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1661 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.41e-4, max 9.15e-4; this f32 code MAE 1.41e-4, max 9.15e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-4 on the measurement grid.
+// Denominator proved >= 5.314e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -36,119 +36,70 @@ float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     float mu_c = max(min(mu, 1.0f), 0.0f);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    float f0_v = 1.0f - f0_t;
-    float f0_u2 = f0_t * f0_t;
-    float f0_v2 = f0_v * f0_v;
-    float f0_u3 = f0_u2 * f0_t;
-    float f0_v3 = f0_v2 * f0_v;
-    float f0_b1 = f0_t * f0_v2;
-    float f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
-    float r_v = 1.0f - r_t;
-    float r_u2 = r_t * r_t;
-    float r_v2 = r_v * r_v;
-    float r_u3 = r_u2 * r_t;
-    float r_v3 = r_v2 * r_v;
-    float r_u4 = r_u3 * r_t;
-    float r_v4 = r_v3 * r_v;
-    float r_u5 = r_u4 * r_t;
-    float r_v5 = r_v4 * r_v;
-    float r_u6 = r_u5 * r_t;
-    float r_v6 = r_v5 * r_v;
-    float r_b1 = r_t * r_v5;
-    float r_b2 = r_u2 * r_v4;
-    float r_b3 = r_u3 * r_v3;
-    float r_b4 = r_u4 * r_v2;
-    float r_b5 = r_u5 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
-    float mu_v = 1.0f - mu_u;
-    float mu_u2 = mu_u * mu_u;
-    float mu_v2 = mu_v * mu_v;
-    float mu_u3 = mu_u2 * mu_u;
-    float mu_v3 = mu_v2 * mu_v;
-    float mu_u4 = mu_u3 * mu_u;
-    float mu_v4 = mu_v3 * mu_v;
-    float mu_u5 = mu_u4 * mu_u;
-    float mu_v5 = mu_v4 * mu_v;
-    float mu_u6 = mu_u5 * mu_u;
-    float mu_v6 = mu_v5 * mu_v;
-    float mu_b1 = mu_u * mu_v5;
-    float mu_b2 = mu_u2 * mu_v4;
-    float mu_b3 = mu_u3 * mu_v3;
-    float mu_b4 = mu_u4 * mu_v2;
-    float mu_b5 = mu_u5 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0_0 = 0.93607944f * mu_v6 + 4.276971f * mu_b1 + 4.671561f * mu_b2 + 1.237638f * mu_b3 + 0.7565281f * mu_b4 - 0.00045736984f * mu_b5 + 0.041204974f * mu_u6;
-    float p_0_1 = 7.3018694f * mu_v6 + 31.601591f * mu_b1 + 40.871502f * mu_b2 + 19.215446f * mu_b3 + 7.83249f * mu_b4 + 0.37280545f * mu_b5 + 0.53130776f * mu_u6;
-    float p_0_2 = 24.326128f * mu_v6 + 103.634544f * mu_b1 + 160.60657f * mu_b2 + 111.61355f * mu_b3 + 46.86836f * mu_b4 + 5.2078037f * mu_b5 + 2.023157f * mu_u6;
-    float p_0_3 = 41.52221f * mu_v6 + 175.02039f * mu_b1 + 310.0935f * mu_b2 + 267.61722f * mu_b3 + 124.132126f * mu_b4 + 19.205301f * mu_b5 + 3.9195051f * mu_u6;
-    float p_0_4 = 40.489876f * mu_v6 + 170.17023f * mu_b1 + 336.24097f * mu_b2 + 338.09387f * mu_b3 + 173.42645f * mu_b4 + 32.602943f * mu_b5 + 4.078084f * mu_u6;
-    float p_0_5 = 21.311096f * mu_v6 + 89.60737f * mu_b1 + 191.68472f * mu_b2 + 213.04584f * mu_b3 + 116.781975f * mu_b4 + 23.562584f * mu_b5 + 1.7853353f * mu_u6;
-    float p_0_6 = 4.577083f * mu_v6 + 19.31154f * mu_b1 + 44.04047f * mu_b2 + 52.813248f * mu_b3 + 30.605104f * mu_b4 + 6.4943376f * mu_b5 + 0.28769225f * mu_u6;
-    float p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
-    float p_1_0 = 2.8092215f * mu_v6 + 12.826797f * mu_b1 + 13.997221f * mu_b2 + 3.8520787f * mu_b3 + 2.2290678f * mu_b4 - 0.0006784443f * mu_b5 + 0.123628736f * mu_u6;
-    float p_1_1 = 21.585995f * mu_v6 + 94.24952f * mu_b1 + 118.93173f * mu_b2 + 55.066f * mu_b3 + 23.256723f * mu_b4 + 1.1634198f * mu_b5 + 1.5901468f * mu_u6;
-    float p_1_2 = 81.27708f * mu_v6 + 345.15494f * mu_b1 + 505.8872f * mu_b2 + 332.15482f * mu_b3 + 136.31575f * mu_b4 + 15.059143f * mu_b5 + 6.1030145f * mu_u6;
-    float p_1_3 = 159.63144f * mu_v6 + 671.12463f * mu_b1 + 1086.0133f * mu_b2 + 854.3885f * mu_b3 + 376.07718f * mu_b4 + 58.246784f * mu_b5 + 11.656832f * mu_u6;
-    float p_1_4 = 169.43886f * mu_v6 + 714.52814f * mu_b1 + 1244.7385f * mu_b2 + 1103.567f * mu_b3 + 527.4726f * mu_b4 + 98.29372f * mu_b5 + 11.953093f * mu_u6;
-    float p_1_5 = 91.80351f * mu_v6 + 389.99985f * mu_b1 + 717.436f * mu_b2 + 688.75635f * mu_b3 + 348.52115f * mu_b4 + 69.30968f * mu_b5 + 5.1909347f * mu_u6;
-    float p_1_6 = 20.060051f * mu_v6 + 86.24966f * mu_b1 + 166.22194f * mu_b2 + 169.92212f * mu_b3 + 90.301544f * mu_b4 + 18.753256f * mu_b5 + 0.8224361f * mu_u6;
-    float p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
-    float p_2_0 = 2.8084059f * mu_v6 + 12.8289175f * mu_b1 + 13.990036f * mu_b2 + 3.8141396f * mu_b3 + 2.229337f * mu_b4 + 0.0007925067f * mu_b5 + 0.12361612f * mu_u6;
-    float p_2_1 = 21.65069f * mu_v6 + 94.53376f * mu_b1 + 119.45417f * mu_b2 + 55.89972f * mu_b3 + 23.78038f * mu_b4 + 0.99863505f * mu_b5 + 1.5921412f * mu_u6;
-    float p_2_2 = 80.02531f * mu_v6 + 340.49738f * mu_b1 + 494.54852f * mu_b2 + 321.75528f * mu_b3 + 134.57222f * mu_b4 + 15.384401f * mu_b5 + 6.104196f * mu_u6;
-    float p_2_3 = 165.5895f * mu_v6 + 697.5254f * mu_b1 + 1107.5475f * mu_b2 + 849.6338f * mu_b3 + 372.03235f * mu_b4 + 59.371174f * mu_b5 + 11.51197f * mu_u6;
-    float p_2_4 = 191.02365f * mu_v6 + 806.274f * mu_b1 + 1354.6107f * mu_b2 + 1141.1698f * mu_b3 + 526.052f * mu_b4 + 98.324745f * mu_b5 + 11.695343f * mu_u6;
-    float p_2_5 = 111.33328f * mu_v6 + 471.9153f * mu_b1 + 819.34534f * mu_b2 + 726.0887f * mu_b3 + 344.23178f * mu_b4 + 66.78174f * mu_b5 + 4.9206233f * mu_u6;
-    float p_2_6 = 25.38325f * mu_v6 + 108.37706f * mu_b1 + 193.20486f * mu_b2 + 178.22594f * mu_b3 + 87.19821f * mu_b4 + 17.444504f * mu_b5 + 0.76872814f * mu_u6;
-    float p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
-    float p_3_0 = 0.9361512f * mu_v6 + 4.2720704f * mu_b1 + 4.69293f * mu_b2 + 1.2414238f * mu_b3 + 0.7508569f * mu_b4 + 0.0001282566f * mu_b5 + 0.04120334f * mu_u6;
-    float p_3_1 = 7.2759047f * mu_v6 + 31.726307f * mu_b1 + 40.228897f * mu_b2 + 18.859993f * mu_b3 + 8.303067f * mu_b4 + 0.30792683f * mu_b5 + 0.53147036f * mu_u6;
-    float p_3_2 = 27.078222f * mu_v6 + 114.98914f * mu_b1 + 165.0413f * mu_b2 + 105.42009f * mu_b3 + 44.897453f * mu_b4 + 5.018746f * mu_b5 + 2.0237792f * mu_u6;
-    float p_3_3 = 57.569542f * mu_v6 + 243.06499f * mu_b1 + 379.23376f * mu_b2 + 283.90927f * mu_b3 + 124.4946f * mu_b4 + 19.935104f * mu_b5 + 3.7618475f * mu_u6;
-    float p_3_4 = 68.721466f * mu_v6 + 291.25674f * mu_b1 + 476.70697f * mu_b2 + 385.7818f * mu_b3 + 173.16878f * mu_b4 + 31.539473f * mu_b5 + 3.5935888f * mu_u6;
-    float p_3_5 = 41.69687f * mu_v6 + 177.20613f * mu_b1 + 296.35757f * mu_b2 + 247.47505f * mu_b3 + 111.18227f * mu_b4 + 20.56578f * mu_b5 + 1.4553703f * mu_u6;
-    float p_3_6 = 9.939859f * mu_v6 + 42.279797f * mu_b1 + 71.37983f * mu_b2 + 60.46876f * mu_b3 + 27.163675f * mu_b4 + 5.050795f * mu_b5 + 0.22350495f * mu_u6;
-    float p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
-    float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0_0 = 1.0f * mu_v6 + 4.568857f * mu_b1 + 5.040267f * mu_b2 + 1.6843363f * mu_b3 + 0.8409333f * mu_b4 - 0.0005688092f * mu_b5 + 0.04120637f * mu_u6;
-    float q_0_1 = 7.495099f * mu_v6 + 32.942654f * mu_b1 + 41.15573f * mu_b2 + 20.772064f * mu_b3 + 8.873614f * mu_b4 + 0.3221194f * mu_b5 + 0.53108215f * mu_u6;
-    float q_0_2 = 29.47367f * mu_v6 + 125.9019f * mu_b1 + 177.82973f * mu_b2 + 116.95558f * mu_b3 + 49.403835f * mu_b4 + 5.8395805f * mu_b5 + 2.036561f * mu_u6;
-    float q_0_3 = 65.33347f * mu_v6 + 275.70377f * mu_b1 + 417.06235f * mu_b2 + 306.55536f * mu_b3 + 130.6347f * mu_b4 + 21.291296f * mu_b5 + 3.9155402f * mu_u6;
-    float q_0_4 = 89.00653f * mu_v6 + 376.5045f * mu_b1 + 596.7913f * mu_b2 + 465.73843f * mu_b3 + 198.53064f * mu_b4 + 36.21554f * mu_b5 + 4.176717f * mu_u6;
-    float q_0_5 = 66.79348f * mu_v6 + 283.53558f * mu_b1 + 459.40433f * mu_b2 + 364.71588f * mu_b3 + 150.47876f * mu_b4 + 26.273354f * mu_b5 + 1.8669173f * mu_u6;
-    float q_0_6 = 20.389359f * mu_v6 + 86.69174f * mu_b1 + 141.67358f * mu_b2 + 112.61491f * mu_b3 + 44.924133f * mu_b4 + 7.3171997f * mu_b5 + 0.30655327f * mu_u6;
-    float q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
-    float q_1_0 = 3.0f * mu_v6 + 13.706572f * mu_b1 + 15.120801f * mu_b2 + 5.053009f * mu_b3 + 2.5228f * mu_b4 - 0.0017064275f * mu_b5 + 0.12361912f * mu_u6;
-    float q_1_1 = 22.485298f * mu_v6 + 98.82796f * mu_b1 + 123.46719f * mu_b2 + 62.316193f * mu_b3 + 26.620844f * mu_b4 + 0.96635824f * mu_b5 + 1.5932465f * mu_u6;
-    float q_1_2 = 88.421005f * mu_v6 + 377.70572f * mu_b1 + 533.4892f * mu_b2 + 350.86676f * mu_b3 + 148.21152f * mu_b4 + 17.518742f * mu_b5 + 6.1096826f * mu_u6;
-    float q_1_3 = 196.00043f * mu_v6 + 827.1113f * mu_b1 + 1251.1871f * mu_b2 + 919.6661f * mu_b3 + 391.90408f * mu_b4 + 63.873886f * mu_b5 + 11.74662f * mu_u6;
-    float q_1_4 = 267.0196f * mu_v6 + 1129.5135f * mu_b1 + 1790.3739f * mu_b2 + 1397.2152f * mu_b3 + 595.5919f * mu_b4 + 108.64662f * mu_b5 + 12.530149f * mu_u6;
-    float q_1_5 = 200.38045f * mu_v6 + 850.60675f * mu_b1 + 1378.213f * mu_b2 + 1094.1476f * mu_b3 + 451.43628f * mu_b4 + 78.82006f * mu_b5 + 5.600752f * mu_u6;
-    float q_1_6 = 61.16807f * mu_v6 + 260.07523f * mu_b1 + 425.02075f * mu_b2 + 337.84473f * mu_b3 + 134.7724f * mu_b4 + 21.9516f * mu_b5 + 0.91965985f * mu_u6;
-    float q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
-    float q_2_0 = 3.0f * mu_v6 + 13.706572f * mu_b1 + 15.120801f * mu_b2 + 5.053009f * mu_b3 + 2.5228f * mu_b4 - 0.0017064275f * mu_b5 + 0.12361912f * mu_u6;
-    float q_2_1 = 22.485298f * mu_v6 + 98.82796f * mu_b1 + 123.46719f * mu_b2 + 62.316193f * mu_b3 + 26.620844f * mu_b4 + 0.96635824f * mu_b5 + 1.5932465f * mu_u6;
-    float q_2_2 = 88.421005f * mu_v6 + 377.70572f * mu_b1 + 533.4892f * mu_b2 + 350.86676f * mu_b3 + 148.21152f * mu_b4 + 17.518742f * mu_b5 + 6.1096826f * mu_u6;
-    float q_2_3 = 196.00043f * mu_v6 + 827.1113f * mu_b1 + 1251.1871f * mu_b2 + 919.6661f * mu_b3 + 391.90408f * mu_b4 + 63.873886f * mu_b5 + 11.74662f * mu_u6;
-    float q_2_4 = 267.0196f * mu_v6 + 1129.5135f * mu_b1 + 1790.3739f * mu_b2 + 1397.2152f * mu_b3 + 595.5919f * mu_b4 + 108.64662f * mu_b5 + 12.530149f * mu_u6;
-    float q_2_5 = 200.38045f * mu_v6 + 850.60675f * mu_b1 + 1378.213f * mu_b2 + 1094.1476f * mu_b3 + 451.43628f * mu_b4 + 78.82006f * mu_b5 + 5.600752f * mu_u6;
-    float q_2_6 = 61.16807f * mu_v6 + 260.07523f * mu_b1 + 425.02075f * mu_b2 + 337.84473f * mu_b3 + 134.7724f * mu_b4 + 21.9516f * mu_b5 + 0.91965985f * mu_u6;
-    float q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
-    float q_3_0 = 1.0f * mu_v6 + 4.568857f * mu_b1 + 5.040267f * mu_b2 + 1.6843363f * mu_b3 + 0.8409333f * mu_b4 - 0.0005688092f * mu_b5 + 0.04120637f * mu_u6;
-    float q_3_1 = 7.495099f * mu_v6 + 32.942654f * mu_b1 + 41.15573f * mu_b2 + 20.772064f * mu_b3 + 8.873614f * mu_b4 + 0.3221194f * mu_b5 + 0.53108215f * mu_u6;
-    float q_3_2 = 29.47367f * mu_v6 + 125.9019f * mu_b1 + 177.82973f * mu_b2 + 116.95558f * mu_b3 + 49.403835f * mu_b4 + 5.8395805f * mu_b5 + 2.036561f * mu_u6;
-    float q_3_3 = 65.33347f * mu_v6 + 275.70377f * mu_b1 + 417.06235f * mu_b2 + 306.55536f * mu_b3 + 130.6347f * mu_b4 + 21.291296f * mu_b5 + 3.9155402f * mu_u6;
-    float q_3_4 = 89.00653f * mu_v6 + 376.5045f * mu_b1 + 596.7913f * mu_b2 + 465.73843f * mu_b3 + 198.53064f * mu_b4 + 36.21554f * mu_b5 + 4.176717f * mu_u6;
-    float q_3_5 = 66.79348f * mu_v6 + 283.53558f * mu_b1 + 459.40433f * mu_b2 + 364.71588f * mu_b3 + 150.47876f * mu_b4 + 26.273354f * mu_b5 + 1.8669173f * mu_u6;
-    float q_3_6 = 20.389359f * mu_v6 + 86.69174f * mu_b1 + 141.67358f * mu_b2 + 112.61491f * mu_b3 + 44.924133f * mu_b4 + 7.3171997f * mu_b5 + 0.30655327f * mu_u6;
-    float q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
-    float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    float e = p / q;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    float f0_s = f0_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    float r_s = r_t * 2.0f - 1.0f;
+    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
+    float mu_s = mu_t * 2.0f - 1.0f;
+    // term 0: numerator P_0, grouped by powers of the first variable
+    float p0_0 = ((((-0.011802445f * r_s + (0.018372837f * mu_s + 0.047161505f)) * r_s + ((-0.06862088f * mu_s - 0.020304171f) * mu_s - 0.15484764f)) * r_s + (((-0.014922514f * mu_s - 0.036258213f) * mu_s - 0.19177465f) * mu_s - 0.1212157f)) * r_s + ((((0.00026650092f * mu_s - 0.027538996f) * mu_s + 0.07369759f) * mu_s + 0.21778667f) * mu_s + 0.06601311f)) * r_s + (((((0.044829898f * mu_s + 0.032732476f) * mu_s + 0.1566574f) * mu_s + 0.12228777f) * mu_s - 0.024386363f) * mu_s + 0.69853216f);
+    float p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    float u0_0 = 0.89351034f;
+    float u0_1 = 0.0060840053f;
+    float u0_2 = 0.037160896f;
+    float u0_3 = -0.008512376f;
+    float u0_4 = 0.0038654064f;
+    float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    float q0_0 = ((-0.21734254f * r_s + (-0.099105604f * mu_s - 0.101834f)) * r_s + ((-0.042912718f * mu_s + 0.07647618f) * mu_s + 0.24932104f)) * r_s + (((0.19107722f * mu_s + 0.019478481f) * mu_s - 0.2221612f) * mu_s + 0.8647555f);
+    float q0 = q0_0;
+    float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    float p1_0 = ((((-0.002670027f * r_s + (0.0124726845f * mu_s - 0.012819941f)) * r_s + ((0.008708758f * mu_s - 0.059242398f) * mu_s + 0.044396337f)) * r_s + (((-0.04952836f * mu_s - 0.044867273f) * mu_s + 0.07481787f) * mu_s + 0.014998966f)) * r_s + ((((-0.024858486f * mu_s - 0.11073491f) * mu_s - 0.09199332f) * mu_s + 0.39577812f) * mu_s - 0.15668382f)) * r_s + (((((0.001312519f * mu_s - 0.023063628f) * mu_s - 0.06598371f) * mu_s - 0.040313013f) * mu_s + 0.24593632f) * mu_s - 0.10274755f);
+    float p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    float u1_0 = 0.8455194f;
+    float u1_1 = -0.51103777f;
+    float u1_2 = -0.23264371f;
+    float u1_3 = 0.07251571f;
+    float u1_4 = -0.039413434f;
+    float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    float q1_0 = ((-0.055811536f * r_s + (-0.3616812f * mu_s + 0.40773183f)) * r_s + ((0.03307428f * mu_s - 0.7726508f) * mu_s + 0.6674496f)) * r_s + (((-0.14589235f * mu_s - 0.02080803f) * mu_s - 0.61057115f) * mu_s + 0.91229457f);
+    float q1 = q1_0;
+    float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2, grouped by powers of the first variable
+    float p2_0 = ((((-0.007144771f * r_s + (0.010868645f * mu_s + 0.0052246526f)) * r_s + ((-0.041799016f * mu_s + 0.08681248f) * mu_s - 0.06359613f)) * r_s + (((0.026826689f * mu_s - 0.045403127f) * mu_s - 0.16202094f) * mu_s + 0.13485467f)) * r_s + ((((-0.05598736f * mu_s - 0.04903985f) * mu_s + 0.057367846f) * mu_s - 0.042300683f) * mu_s + 0.1446058f)) * r_s + (((((0.07858849f * mu_s - 0.020601295f) * mu_s - 0.19142868f) * mu_s + 0.028724736f) * mu_s + 0.22003596f) * mu_s - 0.043088943f);
+    float p2 = p2_0;
+    // term 2: factor u_2, grouped by powers of the first variable
+    float u2_0 = -0.6860497f;
+    float u2_1 = 0.024201553f;
+    float u2_2 = 0.033561666f;
+    float u2_3 = -0.033431653f;
+    float u2_4 = 0.01211087f;
+    float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
+    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
+    float q2_0 = ((-0.021690462f * r_s + (-0.0023969878f * mu_s - 0.04418393f)) * r_s + ((-0.2773876f * mu_s - 0.08302387f) * mu_s + 0.3691272f)) * r_s + (((0.32612514f * mu_s - 0.21362408f) * mu_s - 0.82902455f) * mu_s + 0.90558463f);
+    float q2 = q2_0;
+    float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3, grouped by powers of the first variable
+    float p3_0 = ((((0.0010761922f * r_s + (0.0072841696f * mu_s - 0.006374959f)) * r_s + ((0.014043629f * mu_s - 0.024873486f) * mu_s + 0.017748542f)) * r_s + (((0.0013076393f * mu_s + 0.005110025f) * mu_s + 0.060738724f) * mu_s - 0.06242132f)) * r_s + ((((0.0068122856f * mu_s - 0.02789639f) * mu_s - 0.0559375f) * mu_s + 0.20731713f) * mu_s - 0.18057929f)) * r_s + (((((-0.0067199585f * mu_s + 0.0040988945f) * mu_s - 0.025576148f) * mu_s - 0.049213786f) * mu_s + 0.12603363f) * mu_s - 0.10925054f);
+    float p3 = p3_0;
+    // term 3: factor u_3, grouped by powers of the first variable
+    float u3_0 = -1.1454282f;
+    float u3_1 = -0.11919021f;
+    float u3_2 = 1.1611599f;
+    float u3_3 = -0.2994607f;
+    float u3_4 = 0.13011816f;
+    float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
+    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
+    float q3_0 = ((0.33485466f * r_s + (-0.8175776f * mu_s + 1.5341119f)) * r_s + ((0.36776486f * mu_s - 1.040668f) * mu_s + 2.2826717f)) * r_s + (((0.20763953f * mu_s + 0.49301398f) * mu_s - 0.7421311f) * mu_s + 1.6467642f);
+    float q3 = q3_0;
+    float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    float e = e0 + e1 + e2 + e3;
     return max(min(e, 1.0f), 0.0f);
 }
 

@@ -13,16 +13,16 @@
 ///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial) on 27800 of 40960 points; best pole-certified start refined on all points.
-/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c5ae3dc67603ee989731afaec8540408da7ec3dc9347614329c716ed3f170201.
-/// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-5, shifted 1.5e-5, bernstein 9.6e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.12e-4, max 1.71e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.54e-7 (every op rounded, as this Rust), 3.93e-7 (fused multiply-add), 9.46e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 3.19e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.12e-4, max 1.71e-3; this f32 code MAE 1.12e-4, max 1.71e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.8e-5 on the measurement grid.
-/// Denominator proved >= 2.861e-2 on the domain (Bernstein certificate), so the division is safe.
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c0a9deee457136d24d4ad50a3f716911db831a26038485e2e31ba0a3ab22b87d.
+/// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.0e-6, shifted 9.5e-7, bernstein 9.5e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 1.46e-4, max 9.15e-4 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.62e-7 (every op rounded, as this Rust), 5.55e-7 (fused multiply-add), 9.89e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 7.39e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1661 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.41e-4, max 9.15e-4; this f32 code MAE 1.41e-4, max 9.15e-4.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-4 on the measurement grid.
+/// Denominator proved >= 5.314e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -41,119 +41,70 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    let f0_v = 1.0_f32 - f0_t;
-    let f0_u2 = f0_t * f0_t;
-    let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_t;
-    let f0_v3 = f0_v2 * f0_v;
-    let f0_b1 = f0_t * f0_v2;
-    let f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
-    let r_v = 1.0_f32 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_t;
-    let r_v4 = r_v3 * r_v;
-    let r_u5 = r_u4 * r_t;
-    let r_v5 = r_v4 * r_v;
-    let r_u6 = r_u5 * r_t;
-    let r_v6 = r_v5 * r_v;
-    let r_b1 = r_t * r_v5;
-    let r_b2 = r_u2 * r_v4;
-    let r_b3 = r_u3 * r_v3;
-    let r_b4 = r_u4 * r_v2;
-    let r_b5 = r_u5 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
-    let mu_v = 1.0_f32 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_u6 = mu_u5 * mu_u;
-    let mu_v6 = mu_v5 * mu_v;
-    let mu_b1 = mu_u * mu_v5;
-    let mu_b2 = mu_u2 * mu_v4;
-    let mu_b3 = mu_u3 * mu_v3;
-    let mu_b4 = mu_u4 * mu_v2;
-    let mu_b5 = mu_u5 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.93607944_f32 * mu_v6 + 4.276971_f32 * mu_b1 + 4.671561_f32 * mu_b2 + 1.237638_f32 * mu_b3 + 0.7565281_f32 * mu_b4 - 0.00045736984_f32 * mu_b5 + 0.041204974_f32 * mu_u6;
-    let p_0_1 = 7.3018694_f32 * mu_v6 + 31.601591_f32 * mu_b1 + 40.871502_f32 * mu_b2 + 19.215446_f32 * mu_b3 + 7.83249_f32 * mu_b4 + 0.37280545_f32 * mu_b5 + 0.53130776_f32 * mu_u6;
-    let p_0_2 = 24.326128_f32 * mu_v6 + 103.634544_f32 * mu_b1 + 160.60657_f32 * mu_b2 + 111.61355_f32 * mu_b3 + 46.86836_f32 * mu_b4 + 5.2078037_f32 * mu_b5 + 2.023157_f32 * mu_u6;
-    let p_0_3 = 41.52221_f32 * mu_v6 + 175.02039_f32 * mu_b1 + 310.0935_f32 * mu_b2 + 267.61722_f32 * mu_b3 + 124.132126_f32 * mu_b4 + 19.205301_f32 * mu_b5 + 3.9195051_f32 * mu_u6;
-    let p_0_4 = 40.489876_f32 * mu_v6 + 170.17023_f32 * mu_b1 + 336.24097_f32 * mu_b2 + 338.09387_f32 * mu_b3 + 173.42645_f32 * mu_b4 + 32.602943_f32 * mu_b5 + 4.078084_f32 * mu_u6;
-    let p_0_5 = 21.311096_f32 * mu_v6 + 89.60737_f32 * mu_b1 + 191.68472_f32 * mu_b2 + 213.04584_f32 * mu_b3 + 116.781975_f32 * mu_b4 + 23.562584_f32 * mu_b5 + 1.7853353_f32 * mu_u6;
-    let p_0_6 = 4.577083_f32 * mu_v6 + 19.31154_f32 * mu_b1 + 44.04047_f32 * mu_b2 + 52.813248_f32 * mu_b3 + 30.605104_f32 * mu_b4 + 6.4943376_f32 * mu_b5 + 0.28769225_f32 * mu_u6;
-    let p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
-    let p_1_0 = 2.8092215_f32 * mu_v6 + 12.826797_f32 * mu_b1 + 13.997221_f32 * mu_b2 + 3.8520787_f32 * mu_b3 + 2.2290678_f32 * mu_b4 - 0.0006784443_f32 * mu_b5 + 0.123628736_f32 * mu_u6;
-    let p_1_1 = 21.585995_f32 * mu_v6 + 94.24952_f32 * mu_b1 + 118.93173_f32 * mu_b2 + 55.066_f32 * mu_b3 + 23.256723_f32 * mu_b4 + 1.1634198_f32 * mu_b5 + 1.5901468_f32 * mu_u6;
-    let p_1_2 = 81.27708_f32 * mu_v6 + 345.15494_f32 * mu_b1 + 505.8872_f32 * mu_b2 + 332.15482_f32 * mu_b3 + 136.31575_f32 * mu_b4 + 15.059143_f32 * mu_b5 + 6.1030145_f32 * mu_u6;
-    let p_1_3 = 159.63144_f32 * mu_v6 + 671.12463_f32 * mu_b1 + 1086.0133_f32 * mu_b2 + 854.3885_f32 * mu_b3 + 376.07718_f32 * mu_b4 + 58.246784_f32 * mu_b5 + 11.656832_f32 * mu_u6;
-    let p_1_4 = 169.43886_f32 * mu_v6 + 714.52814_f32 * mu_b1 + 1244.7385_f32 * mu_b2 + 1103.567_f32 * mu_b3 + 527.4726_f32 * mu_b4 + 98.29372_f32 * mu_b5 + 11.953093_f32 * mu_u6;
-    let p_1_5 = 91.80351_f32 * mu_v6 + 389.99985_f32 * mu_b1 + 717.436_f32 * mu_b2 + 688.75635_f32 * mu_b3 + 348.52115_f32 * mu_b4 + 69.30968_f32 * mu_b5 + 5.1909347_f32 * mu_u6;
-    let p_1_6 = 20.060051_f32 * mu_v6 + 86.24966_f32 * mu_b1 + 166.22194_f32 * mu_b2 + 169.92212_f32 * mu_b3 + 90.301544_f32 * mu_b4 + 18.753256_f32 * mu_b5 + 0.8224361_f32 * mu_u6;
-    let p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
-    let p_2_0 = 2.8084059_f32 * mu_v6 + 12.8289175_f32 * mu_b1 + 13.990036_f32 * mu_b2 + 3.8141396_f32 * mu_b3 + 2.229337_f32 * mu_b4 + 0.0007925067_f32 * mu_b5 + 0.12361612_f32 * mu_u6;
-    let p_2_1 = 21.65069_f32 * mu_v6 + 94.53376_f32 * mu_b1 + 119.45417_f32 * mu_b2 + 55.89972_f32 * mu_b3 + 23.78038_f32 * mu_b4 + 0.99863505_f32 * mu_b5 + 1.5921412_f32 * mu_u6;
-    let p_2_2 = 80.02531_f32 * mu_v6 + 340.49738_f32 * mu_b1 + 494.54852_f32 * mu_b2 + 321.75528_f32 * mu_b3 + 134.57222_f32 * mu_b4 + 15.384401_f32 * mu_b5 + 6.104196_f32 * mu_u6;
-    let p_2_3 = 165.5895_f32 * mu_v6 + 697.5254_f32 * mu_b1 + 1107.5475_f32 * mu_b2 + 849.6338_f32 * mu_b3 + 372.03235_f32 * mu_b4 + 59.371174_f32 * mu_b5 + 11.51197_f32 * mu_u6;
-    let p_2_4 = 191.02365_f32 * mu_v6 + 806.274_f32 * mu_b1 + 1354.6107_f32 * mu_b2 + 1141.1698_f32 * mu_b3 + 526.052_f32 * mu_b4 + 98.324745_f32 * mu_b5 + 11.695343_f32 * mu_u6;
-    let p_2_5 = 111.33328_f32 * mu_v6 + 471.9153_f32 * mu_b1 + 819.34534_f32 * mu_b2 + 726.0887_f32 * mu_b3 + 344.23178_f32 * mu_b4 + 66.78174_f32 * mu_b5 + 4.9206233_f32 * mu_u6;
-    let p_2_6 = 25.38325_f32 * mu_v6 + 108.37706_f32 * mu_b1 + 193.20486_f32 * mu_b2 + 178.22594_f32 * mu_b3 + 87.19821_f32 * mu_b4 + 17.444504_f32 * mu_b5 + 0.76872814_f32 * mu_u6;
-    let p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
-    let p_3_0 = 0.9361512_f32 * mu_v6 + 4.2720704_f32 * mu_b1 + 4.69293_f32 * mu_b2 + 1.2414238_f32 * mu_b3 + 0.7508569_f32 * mu_b4 + 0.0001282566_f32 * mu_b5 + 0.04120334_f32 * mu_u6;
-    let p_3_1 = 7.2759047_f32 * mu_v6 + 31.726307_f32 * mu_b1 + 40.228897_f32 * mu_b2 + 18.859993_f32 * mu_b3 + 8.303067_f32 * mu_b4 + 0.30792683_f32 * mu_b5 + 0.53147036_f32 * mu_u6;
-    let p_3_2 = 27.078222_f32 * mu_v6 + 114.98914_f32 * mu_b1 + 165.0413_f32 * mu_b2 + 105.42009_f32 * mu_b3 + 44.897453_f32 * mu_b4 + 5.018746_f32 * mu_b5 + 2.0237792_f32 * mu_u6;
-    let p_3_3 = 57.569542_f32 * mu_v6 + 243.06499_f32 * mu_b1 + 379.23376_f32 * mu_b2 + 283.90927_f32 * mu_b3 + 124.4946_f32 * mu_b4 + 19.935104_f32 * mu_b5 + 3.7618475_f32 * mu_u6;
-    let p_3_4 = 68.721466_f32 * mu_v6 + 291.25674_f32 * mu_b1 + 476.70697_f32 * mu_b2 + 385.7818_f32 * mu_b3 + 173.16878_f32 * mu_b4 + 31.539473_f32 * mu_b5 + 3.5935888_f32 * mu_u6;
-    let p_3_5 = 41.69687_f32 * mu_v6 + 177.20613_f32 * mu_b1 + 296.35757_f32 * mu_b2 + 247.47505_f32 * mu_b3 + 111.18227_f32 * mu_b4 + 20.56578_f32 * mu_b5 + 1.4553703_f32 * mu_u6;
-    let p_3_6 = 9.939859_f32 * mu_v6 + 42.279797_f32 * mu_b1 + 71.37983_f32 * mu_b2 + 60.46876_f32 * mu_b3 + 27.163675_f32 * mu_b4 + 5.050795_f32 * mu_b5 + 0.22350495_f32 * mu_u6;
-    let p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
-    let p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0_f32 * mu_v6 + 4.568857_f32 * mu_b1 + 5.040267_f32 * mu_b2 + 1.6843363_f32 * mu_b3 + 0.8409333_f32 * mu_b4 - 0.0005688092_f32 * mu_b5 + 0.04120637_f32 * mu_u6;
-    let q_0_1 = 7.495099_f32 * mu_v6 + 32.942654_f32 * mu_b1 + 41.15573_f32 * mu_b2 + 20.772064_f32 * mu_b3 + 8.873614_f32 * mu_b4 + 0.3221194_f32 * mu_b5 + 0.53108215_f32 * mu_u6;
-    let q_0_2 = 29.47367_f32 * mu_v6 + 125.9019_f32 * mu_b1 + 177.82973_f32 * mu_b2 + 116.95558_f32 * mu_b3 + 49.403835_f32 * mu_b4 + 5.8395805_f32 * mu_b5 + 2.036561_f32 * mu_u6;
-    let q_0_3 = 65.33347_f32 * mu_v6 + 275.70377_f32 * mu_b1 + 417.06235_f32 * mu_b2 + 306.55536_f32 * mu_b3 + 130.6347_f32 * mu_b4 + 21.291296_f32 * mu_b5 + 3.9155402_f32 * mu_u6;
-    let q_0_4 = 89.00653_f32 * mu_v6 + 376.5045_f32 * mu_b1 + 596.7913_f32 * mu_b2 + 465.73843_f32 * mu_b3 + 198.53064_f32 * mu_b4 + 36.21554_f32 * mu_b5 + 4.176717_f32 * mu_u6;
-    let q_0_5 = 66.79348_f32 * mu_v6 + 283.53558_f32 * mu_b1 + 459.40433_f32 * mu_b2 + 364.71588_f32 * mu_b3 + 150.47876_f32 * mu_b4 + 26.273354_f32 * mu_b5 + 1.8669173_f32 * mu_u6;
-    let q_0_6 = 20.389359_f32 * mu_v6 + 86.69174_f32 * mu_b1 + 141.67358_f32 * mu_b2 + 112.61491_f32 * mu_b3 + 44.924133_f32 * mu_b4 + 7.3171997_f32 * mu_b5 + 0.30655327_f32 * mu_u6;
-    let q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
-    let q_1_0 = 3.0_f32 * mu_v6 + 13.706572_f32 * mu_b1 + 15.120801_f32 * mu_b2 + 5.053009_f32 * mu_b3 + 2.5228_f32 * mu_b4 - 0.0017064275_f32 * mu_b5 + 0.12361912_f32 * mu_u6;
-    let q_1_1 = 22.485298_f32 * mu_v6 + 98.82796_f32 * mu_b1 + 123.46719_f32 * mu_b2 + 62.316193_f32 * mu_b3 + 26.620844_f32 * mu_b4 + 0.96635824_f32 * mu_b5 + 1.5932465_f32 * mu_u6;
-    let q_1_2 = 88.421005_f32 * mu_v6 + 377.70572_f32 * mu_b1 + 533.4892_f32 * mu_b2 + 350.86676_f32 * mu_b3 + 148.21152_f32 * mu_b4 + 17.518742_f32 * mu_b5 + 6.1096826_f32 * mu_u6;
-    let q_1_3 = 196.00043_f32 * mu_v6 + 827.1113_f32 * mu_b1 + 1251.1871_f32 * mu_b2 + 919.6661_f32 * mu_b3 + 391.90408_f32 * mu_b4 + 63.873886_f32 * mu_b5 + 11.74662_f32 * mu_u6;
-    let q_1_4 = 267.0196_f32 * mu_v6 + 1129.5135_f32 * mu_b1 + 1790.3739_f32 * mu_b2 + 1397.2152_f32 * mu_b3 + 595.5919_f32 * mu_b4 + 108.64662_f32 * mu_b5 + 12.530149_f32 * mu_u6;
-    let q_1_5 = 200.38045_f32 * mu_v6 + 850.60675_f32 * mu_b1 + 1378.213_f32 * mu_b2 + 1094.1476_f32 * mu_b3 + 451.43628_f32 * mu_b4 + 78.82006_f32 * mu_b5 + 5.600752_f32 * mu_u6;
-    let q_1_6 = 61.16807_f32 * mu_v6 + 260.07523_f32 * mu_b1 + 425.02075_f32 * mu_b2 + 337.84473_f32 * mu_b3 + 134.7724_f32 * mu_b4 + 21.9516_f32 * mu_b5 + 0.91965985_f32 * mu_u6;
-    let q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
-    let q_2_0 = 3.0_f32 * mu_v6 + 13.706572_f32 * mu_b1 + 15.120801_f32 * mu_b2 + 5.053009_f32 * mu_b3 + 2.5228_f32 * mu_b4 - 0.0017064275_f32 * mu_b5 + 0.12361912_f32 * mu_u6;
-    let q_2_1 = 22.485298_f32 * mu_v6 + 98.82796_f32 * mu_b1 + 123.46719_f32 * mu_b2 + 62.316193_f32 * mu_b3 + 26.620844_f32 * mu_b4 + 0.96635824_f32 * mu_b5 + 1.5932465_f32 * mu_u6;
-    let q_2_2 = 88.421005_f32 * mu_v6 + 377.70572_f32 * mu_b1 + 533.4892_f32 * mu_b2 + 350.86676_f32 * mu_b3 + 148.21152_f32 * mu_b4 + 17.518742_f32 * mu_b5 + 6.1096826_f32 * mu_u6;
-    let q_2_3 = 196.00043_f32 * mu_v6 + 827.1113_f32 * mu_b1 + 1251.1871_f32 * mu_b2 + 919.6661_f32 * mu_b3 + 391.90408_f32 * mu_b4 + 63.873886_f32 * mu_b5 + 11.74662_f32 * mu_u6;
-    let q_2_4 = 267.0196_f32 * mu_v6 + 1129.5135_f32 * mu_b1 + 1790.3739_f32 * mu_b2 + 1397.2152_f32 * mu_b3 + 595.5919_f32 * mu_b4 + 108.64662_f32 * mu_b5 + 12.530149_f32 * mu_u6;
-    let q_2_5 = 200.38045_f32 * mu_v6 + 850.60675_f32 * mu_b1 + 1378.213_f32 * mu_b2 + 1094.1476_f32 * mu_b3 + 451.43628_f32 * mu_b4 + 78.82006_f32 * mu_b5 + 5.600752_f32 * mu_u6;
-    let q_2_6 = 61.16807_f32 * mu_v6 + 260.07523_f32 * mu_b1 + 425.02075_f32 * mu_b2 + 337.84473_f32 * mu_b3 + 134.7724_f32 * mu_b4 + 21.9516_f32 * mu_b5 + 0.91965985_f32 * mu_u6;
-    let q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
-    let q_3_0 = 1.0_f32 * mu_v6 + 4.568857_f32 * mu_b1 + 5.040267_f32 * mu_b2 + 1.6843363_f32 * mu_b3 + 0.8409333_f32 * mu_b4 - 0.0005688092_f32 * mu_b5 + 0.04120637_f32 * mu_u6;
-    let q_3_1 = 7.495099_f32 * mu_v6 + 32.942654_f32 * mu_b1 + 41.15573_f32 * mu_b2 + 20.772064_f32 * mu_b3 + 8.873614_f32 * mu_b4 + 0.3221194_f32 * mu_b5 + 0.53108215_f32 * mu_u6;
-    let q_3_2 = 29.47367_f32 * mu_v6 + 125.9019_f32 * mu_b1 + 177.82973_f32 * mu_b2 + 116.95558_f32 * mu_b3 + 49.403835_f32 * mu_b4 + 5.8395805_f32 * mu_b5 + 2.036561_f32 * mu_u6;
-    let q_3_3 = 65.33347_f32 * mu_v6 + 275.70377_f32 * mu_b1 + 417.06235_f32 * mu_b2 + 306.55536_f32 * mu_b3 + 130.6347_f32 * mu_b4 + 21.291296_f32 * mu_b5 + 3.9155402_f32 * mu_u6;
-    let q_3_4 = 89.00653_f32 * mu_v6 + 376.5045_f32 * mu_b1 + 596.7913_f32 * mu_b2 + 465.73843_f32 * mu_b3 + 198.53064_f32 * mu_b4 + 36.21554_f32 * mu_b5 + 4.176717_f32 * mu_u6;
-    let q_3_5 = 66.79348_f32 * mu_v6 + 283.53558_f32 * mu_b1 + 459.40433_f32 * mu_b2 + 364.71588_f32 * mu_b3 + 150.47876_f32 * mu_b4 + 26.273354_f32 * mu_b5 + 1.8669173_f32 * mu_u6;
-    let q_3_6 = 20.389359_f32 * mu_v6 + 86.69174_f32 * mu_b1 + 141.67358_f32 * mu_b2 + 112.61491_f32 * mu_b3 + 44.924133_f32 * mu_b4 + 7.3171997_f32 * mu_b5 + 0.30655327_f32 * mu_u6;
-    let q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
-    let q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    let e = p / q;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let f0_s = f0_t * 2.0_f32 - 1.0_f32;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let r_s = r_t * 2.0_f32 - 1.0_f32;
+    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
+    let mu_s = mu_t * 2.0_f32 - 1.0_f32;
+    // term 0: numerator P_0, grouped by powers of the first variable
+    let p0_0 = ((((-0.011802445_f32 * r_s + (0.018372837_f32 * mu_s + 0.047161505_f32)) * r_s + ((-0.06862088_f32 * mu_s - 0.020304171_f32) * mu_s - 0.15484764_f32)) * r_s + (((-0.014922514_f32 * mu_s - 0.036258213_f32) * mu_s - 0.19177465_f32) * mu_s - 0.1212157_f32)) * r_s + ((((0.00026650092_f32 * mu_s - 0.027538996_f32) * mu_s + 0.07369759_f32) * mu_s + 0.21778667_f32) * mu_s + 0.06601311_f32)) * r_s + (((((0.044829898_f32 * mu_s + 0.032732476_f32) * mu_s + 0.1566574_f32) * mu_s + 0.12228777_f32) * mu_s - 0.024386363_f32) * mu_s + 0.69853216_f32);
+    let p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    let u0_0 = 0.89351034_f32;
+    let u0_1 = 0.0060840053_f32;
+    let u0_2 = 0.037160896_f32;
+    let u0_3 = -0.008512376_f32;
+    let u0_4 = 0.0038654064_f32;
+    let u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    let q0_0 = ((-0.21734254_f32 * r_s + (-0.099105604_f32 * mu_s - 0.101834_f32)) * r_s + ((-0.042912718_f32 * mu_s + 0.07647618_f32) * mu_s + 0.24932104_f32)) * r_s + (((0.19107722_f32 * mu_s + 0.019478481_f32) * mu_s - 0.2221612_f32) * mu_s + 0.8647555_f32);
+    let q0 = q0_0;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    let p1_0 = ((((-0.002670027_f32 * r_s + (0.0124726845_f32 * mu_s - 0.012819941_f32)) * r_s + ((0.008708758_f32 * mu_s - 0.059242398_f32) * mu_s + 0.044396337_f32)) * r_s + (((-0.04952836_f32 * mu_s - 0.044867273_f32) * mu_s + 0.07481787_f32) * mu_s + 0.014998966_f32)) * r_s + ((((-0.024858486_f32 * mu_s - 0.11073491_f32) * mu_s - 0.09199332_f32) * mu_s + 0.39577812_f32) * mu_s - 0.15668382_f32)) * r_s + (((((0.001312519_f32 * mu_s - 0.023063628_f32) * mu_s - 0.06598371_f32) * mu_s - 0.040313013_f32) * mu_s + 0.24593632_f32) * mu_s - 0.10274755_f32);
+    let p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    let u1_0 = 0.8455194_f32;
+    let u1_1 = -0.51103777_f32;
+    let u1_2 = -0.23264371_f32;
+    let u1_3 = 0.07251571_f32;
+    let u1_4 = -0.039413434_f32;
+    let u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    let q1_0 = ((-0.055811536_f32 * r_s + (-0.3616812_f32 * mu_s + 0.40773183_f32)) * r_s + ((0.03307428_f32 * mu_s - 0.7726508_f32) * mu_s + 0.6674496_f32)) * r_s + (((-0.14589235_f32 * mu_s - 0.02080803_f32) * mu_s - 0.61057115_f32) * mu_s + 0.91229457_f32);
+    let q1 = q1_0;
+    let e1 = p1 * u1 / q1;
+    // term 2: numerator P_2, grouped by powers of the first variable
+    let p2_0 = ((((-0.007144771_f32 * r_s + (0.010868645_f32 * mu_s + 0.0052246526_f32)) * r_s + ((-0.041799016_f32 * mu_s + 0.08681248_f32) * mu_s - 0.06359613_f32)) * r_s + (((0.026826689_f32 * mu_s - 0.045403127_f32) * mu_s - 0.16202094_f32) * mu_s + 0.13485467_f32)) * r_s + ((((-0.05598736_f32 * mu_s - 0.04903985_f32) * mu_s + 0.057367846_f32) * mu_s - 0.042300683_f32) * mu_s + 0.1446058_f32)) * r_s + (((((0.07858849_f32 * mu_s - 0.020601295_f32) * mu_s - 0.19142868_f32) * mu_s + 0.028724736_f32) * mu_s + 0.22003596_f32) * mu_s - 0.043088943_f32);
+    let p2 = p2_0;
+    // term 2: factor u_2, grouped by powers of the first variable
+    let u2_0 = -0.6860497_f32;
+    let u2_1 = 0.024201553_f32;
+    let u2_2 = 0.033561666_f32;
+    let u2_3 = -0.033431653_f32;
+    let u2_4 = 0.01211087_f32;
+    let u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
+    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
+    let q2_0 = ((-0.021690462_f32 * r_s + (-0.0023969878_f32 * mu_s - 0.04418393_f32)) * r_s + ((-0.2773876_f32 * mu_s - 0.08302387_f32) * mu_s + 0.3691272_f32)) * r_s + (((0.32612514_f32 * mu_s - 0.21362408_f32) * mu_s - 0.82902455_f32) * mu_s + 0.90558463_f32);
+    let q2 = q2_0;
+    let e2 = p2 * u2 / q2;
+    // term 3: numerator P_3, grouped by powers of the first variable
+    let p3_0 = ((((0.0010761922_f32 * r_s + (0.0072841696_f32 * mu_s - 0.006374959_f32)) * r_s + ((0.014043629_f32 * mu_s - 0.024873486_f32) * mu_s + 0.017748542_f32)) * r_s + (((0.0013076393_f32 * mu_s + 0.005110025_f32) * mu_s + 0.060738724_f32) * mu_s - 0.06242132_f32)) * r_s + ((((0.0068122856_f32 * mu_s - 0.02789639_f32) * mu_s - 0.0559375_f32) * mu_s + 0.20731713_f32) * mu_s - 0.18057929_f32)) * r_s + (((((-0.0067199585_f32 * mu_s + 0.0040988945_f32) * mu_s - 0.025576148_f32) * mu_s - 0.049213786_f32) * mu_s + 0.12603363_f32) * mu_s - 0.10925054_f32);
+    let p3 = p3_0;
+    // term 3: factor u_3, grouped by powers of the first variable
+    let u3_0 = -1.1454282_f32;
+    let u3_1 = -0.11919021_f32;
+    let u3_2 = 1.1611599_f32;
+    let u3_3 = -0.2994607_f32;
+    let u3_4 = 0.13011816_f32;
+    let u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
+    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
+    let q3_0 = ((0.33485466_f32 * r_s + (-0.8175776_f32 * mu_s + 1.5341119_f32)) * r_s + ((0.36776486_f32 * mu_s - 1.040668_f32) * mu_s + 2.2826717_f32)) * r_s + (((0.20763953_f32 * mu_s + 0.49301398_f32) * mu_s - 0.7421311_f32) * mu_s + 1.6467642_f32);
+    let q3 = q3_0;
+    let e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    let e = e0 + e1 + e2 + e3;
     e.min(1.0_f32).max(0.0_f32)
 }
 

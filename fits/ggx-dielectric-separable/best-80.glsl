@@ -13,111 +13,44 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 d3396c265b203f6ca687d94e8bd84409805c780cd95e4b079a8f0eed91493c9a.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-5, shifted 2.6e-6, bernstein 8.0e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 5.47e-4, max 4.25e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.04e-7 (every op rounded, as this Rust), 4.37e-7 (fused multiply-add), 1.00e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.06e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 30899 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.29e-4, max 4.25e-3; this f32 code MAE 5.29e-4, max 4.25e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.0e-4 on the measurement grid.
-// Denominator proved >= 5.719e-2 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
+// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 1 of 11, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 62994645930e20d9bbe0d55821341b463836d5c12d2e0d0897b852cad314e8b5.
+// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.3e-6, bernstein 4.6e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 5.50e-4, max 3.99e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.43e-6 (every op rounded, as this Rust), 2.11e-6 (fused multiply-add), 2.01e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.44e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 9027 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.13e-4, max 3.99e-3; this f32 code MAE 5.13e-4, max 3.99e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.6e-4 on the measurement grid.
+// Denominator proved >= 9.491e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
-    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
-    highp float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
+    // t = sqrt(f0)
+    highp float f0_t = sqrt(f0_c);
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
-    highp float f0_v = 1.0 - f0_t;
-    highp float f0_u2 = f0_t * f0_t;
-    highp float f0_v2 = f0_v * f0_v;
-    highp float f0_b1 = f0_t * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    highp float r_v = 1.0 - r_t;
-    highp float r_u2 = r_t * r_t;
-    highp float r_v2 = r_v * r_v;
-    highp float r_u3 = r_u2 * r_t;
-    highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_t;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_u5 = r_u4 * r_t;
-    highp float r_v5 = r_v4 * r_v;
-    highp float r_b1 = r_t * r_v4;
-    highp float r_b2 = r_u2 * r_v3;
-    highp float r_b3 = r_u3 * r_v2;
-    highp float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    highp float mu_v = 1.0 - mu_u;
-    highp float mu_u2 = mu_u * mu_u;
-    highp float mu_v2 = mu_v * mu_v;
-    highp float mu_u3 = mu_u2 * mu_u;
-    highp float mu_v3 = mu_v2 * mu_v;
-    highp float mu_u4 = mu_u3 * mu_u;
-    highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_u5 = mu_u4 * mu_u;
-    highp float mu_v5 = mu_v4 * mu_v;
-    highp float mu_b1 = mu_u * mu_v4;
-    highp float mu_b2 = mu_u2 * mu_v3;
-    highp float mu_b3 = mu_u3 * mu_v2;
-    highp float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0_0 = 0.93834114 * mu_v5 + 2.752445 * mu_b1 + 2.8215103 * mu_b2 + 0.7353958 * mu_b3 - 0.012548755 * mu_b4 + 0.09579852 * mu_u5;
-    highp float p_0_1 = 5.397399 * mu_v5 + 16.132448 * mu_b1 + 20.485802 * mu_b2 + 10.659643 * mu_b3 + 2.0815337 * mu_b4 + 0.3543267 * mu_u5;
-    highp float p_0_2 = 11.192373 * mu_v5 + 32.737263 * mu_b1 + 46.463394 * mu_b2 + 29.555159 * mu_b3 + 6.7835956 * mu_b4 + 0.5103037 * mu_u5;
-    highp float p_0_3 = 11.811167 * mu_v5 + 34.48979 * mu_b1 + 54.066887 * mu_b2 + 39.251713 * mu_b3 + 10.0049095 * mu_b4 + 0.50482583 * mu_u5;
-    highp float p_0_4 = 6.452918 * mu_v5 + 19.45679 * mu_b1 + 33.16685 * mu_b2 + 26.131872 * mu_b3 + 7.086447 * mu_b4 + 0.29923543 * mu_u5;
-    highp float p_0_5 = 1.3888412 * mu_v5 + 4.3931336 * mu_b1 + 8.036814 * mu_b2 + 6.648823 * mu_b3 + 1.839925 * mu_b4 + 0.059960023 * mu_u5;
-    highp float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    highp float p_1_0 = 1.8640639 * mu_v5 + 5.447284 * mu_b1 + 5.7040014 * mu_b2 + 1.4880549 * mu_b3 - 0.029499862 * mu_b4 + 0.19147341 * mu_u5;
-    highp float p_1_1 = 10.840413 * mu_v5 + 32.10041 * mu_b1 + 39.227802 * mu_b2 + 19.31544 * mu_b3 + 4.1231594 * mu_b4 + 0.7167617 * mu_u5;
-    highp float p_1_2 = 28.747425 * mu_v5 + 84.71976 * mu_b1 + 106.77849 * mu_b2 + 59.949593 * mu_b3 + 14.234311 * mu_b4 + 0.9733471 * mu_u5;
-    highp float p_1_3 = 36.56415 * mu_v5 + 107.39139 * mu_b1 + 136.22925 * mu_b2 + 80.56516 * mu_b3 + 20.292553 * mu_b4 + 1.0118679 * mu_u5;
-    highp float p_1_4 = 21.422485 * mu_v5 + 63.340775 * mu_b1 + 81.77115 * mu_b2 + 50.51279 * mu_b3 + 13.303613 * mu_b4 + 0.584918 * mu_u5;
-    highp float p_1_5 = 4.7205734 * mu_v5 + 14.47183 * mu_b1 + 19.708223 * mu_b2 + 12.981467 * mu_b3 + 3.5485249 * mu_b4 + 0.11227186 * mu_u5;
-    highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    highp float p_2_0 = 0.93828344 * mu_v5 + 2.7307012 * mu_b1 + 2.8405032 * mu_b2 + 0.76655984 * mu_b3 - 0.019148706 * mu_b4 + 0.09591226 * mu_u5;
-    highp float p_2_1 = 5.3477206 * mu_v5 + 16.016973 * mu_b1 + 19.711714 * mu_b2 + 10.017284 * mu_b3 + 2.1607897 * mu_b4 + 0.3536436 * mu_u5;
-    highp float p_2_2 = 14.287544 * mu_v5 + 42.14296 * mu_b1 + 52.32975 * mu_b2 + 29.168472 * mu_b3 + 6.8315806 * mu_b4 + 0.47279334 * mu_u5;
-    highp float p_2_3 = 19.638838 * mu_v5 + 57.547356 * mu_b1 + 70.19053 * mu_b2 + 39.584064 * mu_b3 + 9.427147 * mu_b4 + 0.4604466 * mu_u5;
-    highp float p_2_4 = 12.764267 * mu_v5 + 37.49156 * mu_b1 + 45.183964 * mu_b2 + 25.37198 * mu_b3 + 5.99748 * mu_b4 + 0.24984333 * mu_u5;
-    highp float p_2_5 = 3.0457528 * mu_v5 + 9.011982 * mu_b1 + 10.8741455 * mu_b2 + 6.1278377 * mu_b3 + 1.4330621 * mu_b4 + 0.046676066 * mu_u5;
-    highp float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    highp float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = 1.0 * mu_v5 + 2.9177928 * mu_b1 + 3.0679436 * mu_b2 + 1.0339799 * mu_b3 - 0.020314833 * mu_b4 + 0.095856085 * mu_u5;
-    highp float q_0_1 = 5.5586567 * mu_v5 + 16.71685 * mu_b1 + 20.415504 * mu_b2 + 11.046425 * mu_b3 + 2.1423817 * mu_b4 + 0.35326707 * mu_u5;
-    highp float q_0_2 = 15.705264 * mu_v5 + 46.401604 * mu_b1 + 56.358654 * mu_b2 + 32.407715 * mu_b3 + 7.26342 * mu_b4 + 0.5180169 * mu_u5;
-    highp float q_0_3 = 25.068562 * mu_v5 + 73.41865 * mu_b1 + 85.563324 * mu_b2 + 47.212288 * mu_b3 + 10.510234 * mu_b4 + 0.51118463 * mu_u5;
-    highp float q_0_4 = 20.168322 * mu_v5 + 59.472748 * mu_b1 + 67.49664 * mu_b2 + 35.340878 * mu_b3 + 7.463132 * mu_b4 + 0.31447133 * mu_u5;
-    highp float q_0_5 = 6.246368 * mu_v5 + 18.656645 * mu_b1 + 20.944408 * mu_b2 + 10.52386 * mu_b3 + 2.053622 * mu_b4 + 0.06389261 * mu_u5;
-    highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    highp float q_1_0 = 2.0 * mu_v5 + 5.8355856 * mu_b1 + 6.135887 * mu_b2 + 2.0679598 * mu_b3 - 0.040629666 * mu_b4 + 0.19171217 * mu_u5;
-    highp float q_1_1 = 11.117313 * mu_v5 + 33.4337 * mu_b1 + 40.83101 * mu_b2 + 22.09285 * mu_b3 + 4.2847633 * mu_b4 + 0.70653415 * mu_u5;
-    highp float q_1_2 = 31.410528 * mu_v5 + 92.80321 * mu_b1 + 112.71731 * mu_b2 + 64.81543 * mu_b3 + 14.52684 * mu_b4 + 1.0360337 * mu_u5;
-    highp float q_1_3 = 50.137123 * mu_v5 + 146.8373 * mu_b1 + 171.12665 * mu_b2 + 94.424576 * mu_b3 + 21.020468 * mu_b4 + 1.0223693 * mu_u5;
-    highp float q_1_4 = 40.336643 * mu_v5 + 118.945496 * mu_b1 + 134.99329 * mu_b2 + 70.681755 * mu_b3 + 14.926264 * mu_b4 + 0.62894267 * mu_u5;
-    highp float q_1_5 = 12.492736 * mu_v5 + 37.31329 * mu_b1 + 41.888817 * mu_b2 + 21.04772 * mu_b3 + 4.107244 * mu_b4 + 0.12778522 * mu_u5;
-    highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    highp float q_2_0 = 1.0 * mu_v5 + 2.9177928 * mu_b1 + 3.0679436 * mu_b2 + 1.0339799 * mu_b3 - 0.020314833 * mu_b4 + 0.095856085 * mu_u5;
-    highp float q_2_1 = 5.5586567 * mu_v5 + 16.71685 * mu_b1 + 20.415504 * mu_b2 + 11.046425 * mu_b3 + 2.1423817 * mu_b4 + 0.35326707 * mu_u5;
-    highp float q_2_2 = 15.705264 * mu_v5 + 46.401604 * mu_b1 + 56.358654 * mu_b2 + 32.407715 * mu_b3 + 7.26342 * mu_b4 + 0.5180169 * mu_u5;
-    highp float q_2_3 = 25.068562 * mu_v5 + 73.41865 * mu_b1 + 85.563324 * mu_b2 + 47.212288 * mu_b3 + 10.510234 * mu_b4 + 0.51118463 * mu_u5;
-    highp float q_2_4 = 20.168322 * mu_v5 + 59.472748 * mu_b1 + 67.49664 * mu_b2 + 35.340878 * mu_b3 + 7.463132 * mu_b4 + 0.31447133 * mu_u5;
-    highp float q_2_5 = 6.246368 * mu_v5 + 18.656645 * mu_b1 + 20.944408 * mu_b2 + 10.52386 * mu_b3 + 2.053622 * mu_b4 + 0.06389261 * mu_u5;
-    highp float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    highp float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
+    // numerator P, grouped by powers of the first variable
+    highp float p_0 = (((1.6010329 * r_t + (5.3134766 * mu_t - 5.1356378)) * r_t + ((4.742528 * mu_t - 1.5870534) * mu_t + 7.593337)) * r_t + (((2.3034735 * mu_t - 20.586288) * mu_t + 20.765184) * mu_t - 4.2846603)) * r_t + ((((7.593393 * mu_t - 11.029002) * mu_t + 8.108045) * mu_t - 3.7342536) * mu_t + 0.92479575);
+    highp float p_1 = ((0.41366777 * r_t + (-24.481539 * mu_t - 4.052495)) * r_t + ((25.110685 * mu_t - 36.490604) * mu_t + 35.76306)) * r_t + (((-2.1905172 * mu_t + 24.587221) * mu_t - 42.012207) * mu_t + 25.738184);
+    highp float p_2 = (11.498116 * r_t + (10.434557 * mu_t - 25.459406)) * r_t + ((-22.851313 * mu_t + 70.88399) * mu_t - 66.78734);
+    highp float p_3 = 7.513987 * r_t + (-48.174156 * mu_t + 87.64881);
+    highp float p_4 = -41.60541;
+    highp float p = (((p_4 * f0_t + p_3) * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    highp float q_0 = (((3.2257607 * r_t + (-4.798776 * mu_t + 2.7961671)) * r_t + ((17.230299 * mu_t - 26.504242) * mu_t + 20.93811)) * r_t + (((-1.174302 * mu_t - 14.600066) * mu_t + 18.579939) * mu_t - 4.7492967)) * r_t + ((((8.722987 * mu_t - 13.173746) * mu_t + 9.273296) * mu_t - 3.9565244) * mu_t + 1.0);
+    highp float q_1 = ((5.7857943 * r_t + (-10.569114 * mu_t - 18.960371)) * r_t + ((20.561409 * mu_t - 31.004574) * mu_t + 35.300434)) * r_t + (((-1.3044823 * mu_t + 22.743351) * mu_t - 42.544716) * mu_t + 27.276789);
+    highp float q_2 = (19.39476 * r_t + (8.858702 * mu_t - 24.748747)) * r_t + ((-21.875647 * mu_t + 72.89411) * mu_t - 70.416405);
+    highp float q_3 = 6.919798 * r_t + (-50.508537 * mu_t + 91.990715);
+    highp float q_4 = -43.442997;
+    highp float q = (((q_4 * f0_t + q_3) * f0_t + q_2) * f0_t + q_1) * f0_t + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

@@ -25,111 +25,44 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 d3396c265b203f6ca687d94e8bd84409805c780cd95e4b079a8f0eed91493c9a.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-5, shifted 2.6e-6, bernstein 8.0e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 5.47e-4, max 4.25e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.04e-7 (every op rounded, as this Rust), 4.37e-7 (fused multiply-add), 1.00e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.06e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 30899 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.29e-4, max 4.25e-3; this f32 code MAE 5.29e-4, max 4.25e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.0e-4 on the measurement grid.
-// Denominator proved >= 5.719e-2 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
+// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 1 of 11, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 62994645930e20d9bbe0d55821341b463836d5c12d2e0d0897b852cad314e8b5.
+// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.3e-6, bernstein 4.6e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 5.50e-4, max 3.99e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.43e-6 (every op rounded, as this Rust), 2.11e-6 (fused multiply-add), 2.01e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.44e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 9027 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.13e-4, max 3.99e-3; this f32 code MAE 5.13e-4, max 3.99e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.6e-4 on the measurement grid.
+// Denominator proved >= 9.491e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
-    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
-    const float f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017f) * 2.6828594f;
+    // t = sqrt(f0)
+    const float f0_t = sqrtf(f0_c);
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
-    const float f0_v = 1.0f - f0_t;
-    const float f0_u2 = f0_t * f0_t;
-    const float f0_v2 = f0_v * f0_v;
-    const float f0_b1 = f0_t * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    const float r_v = 1.0f - r_t;
-    const float r_u2 = r_t * r_t;
-    const float r_v2 = r_v * r_v;
-    const float r_u3 = r_u2 * r_t;
-    const float r_v3 = r_v2 * r_v;
-    const float r_u4 = r_u3 * r_t;
-    const float r_v4 = r_v3 * r_v;
-    const float r_u5 = r_u4 * r_t;
-    const float r_v5 = r_v4 * r_v;
-    const float r_b1 = r_t * r_v4;
-    const float r_b2 = r_u2 * r_v3;
-    const float r_b3 = r_u3 * r_v2;
-    const float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    const float mu_v = 1.0f - mu_u;
-    const float mu_u2 = mu_u * mu_u;
-    const float mu_v2 = mu_v * mu_v;
-    const float mu_u3 = mu_u2 * mu_u;
-    const float mu_v3 = mu_v2 * mu_v;
-    const float mu_u4 = mu_u3 * mu_u;
-    const float mu_v4 = mu_v3 * mu_v;
-    const float mu_u5 = mu_u4 * mu_u;
-    const float mu_v5 = mu_v4 * mu_v;
-    const float mu_b1 = mu_u * mu_v4;
-    const float mu_b2 = mu_u2 * mu_v3;
-    const float mu_b3 = mu_u3 * mu_v2;
-    const float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = 0.93834114f * mu_v5 + 2.752445f * mu_b1 + 2.8215103f * mu_b2 + 0.7353958f * mu_b3 - 0.012548755f * mu_b4 + 0.09579852f * mu_u5;
-    const float p_0_1 = 5.397399f * mu_v5 + 16.132448f * mu_b1 + 20.485802f * mu_b2 + 10.659643f * mu_b3 + 2.0815337f * mu_b4 + 0.3543267f * mu_u5;
-    const float p_0_2 = 11.192373f * mu_v5 + 32.737263f * mu_b1 + 46.463394f * mu_b2 + 29.555159f * mu_b3 + 6.7835956f * mu_b4 + 0.5103037f * mu_u5;
-    const float p_0_3 = 11.811167f * mu_v5 + 34.48979f * mu_b1 + 54.066887f * mu_b2 + 39.251713f * mu_b3 + 10.0049095f * mu_b4 + 0.50482583f * mu_u5;
-    const float p_0_4 = 6.452918f * mu_v5 + 19.45679f * mu_b1 + 33.16685f * mu_b2 + 26.131872f * mu_b3 + 7.086447f * mu_b4 + 0.29923543f * mu_u5;
-    const float p_0_5 = 1.3888412f * mu_v5 + 4.3931336f * mu_b1 + 8.036814f * mu_b2 + 6.648823f * mu_b3 + 1.839925f * mu_b4 + 0.059960023f * mu_u5;
-    const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    const float p_1_0 = 1.8640639f * mu_v5 + 5.447284f * mu_b1 + 5.7040014f * mu_b2 + 1.4880549f * mu_b3 - 0.029499862f * mu_b4 + 0.19147341f * mu_u5;
-    const float p_1_1 = 10.840413f * mu_v5 + 32.10041f * mu_b1 + 39.227802f * mu_b2 + 19.31544f * mu_b3 + 4.1231594f * mu_b4 + 0.7167617f * mu_u5;
-    const float p_1_2 = 28.747425f * mu_v5 + 84.71976f * mu_b1 + 106.77849f * mu_b2 + 59.949593f * mu_b3 + 14.234311f * mu_b4 + 0.9733471f * mu_u5;
-    const float p_1_3 = 36.56415f * mu_v5 + 107.39139f * mu_b1 + 136.22925f * mu_b2 + 80.56516f * mu_b3 + 20.292553f * mu_b4 + 1.0118679f * mu_u5;
-    const float p_1_4 = 21.422485f * mu_v5 + 63.340775f * mu_b1 + 81.77115f * mu_b2 + 50.51279f * mu_b3 + 13.303613f * mu_b4 + 0.584918f * mu_u5;
-    const float p_1_5 = 4.7205734f * mu_v5 + 14.47183f * mu_b1 + 19.708223f * mu_b2 + 12.981467f * mu_b3 + 3.5485249f * mu_b4 + 0.11227186f * mu_u5;
-    const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    const float p_2_0 = 0.93828344f * mu_v5 + 2.7307012f * mu_b1 + 2.8405032f * mu_b2 + 0.76655984f * mu_b3 - 0.019148706f * mu_b4 + 0.09591226f * mu_u5;
-    const float p_2_1 = 5.3477206f * mu_v5 + 16.016973f * mu_b1 + 19.711714f * mu_b2 + 10.017284f * mu_b3 + 2.1607897f * mu_b4 + 0.3536436f * mu_u5;
-    const float p_2_2 = 14.287544f * mu_v5 + 42.14296f * mu_b1 + 52.32975f * mu_b2 + 29.168472f * mu_b3 + 6.8315806f * mu_b4 + 0.47279334f * mu_u5;
-    const float p_2_3 = 19.638838f * mu_v5 + 57.547356f * mu_b1 + 70.19053f * mu_b2 + 39.584064f * mu_b3 + 9.427147f * mu_b4 + 0.4604466f * mu_u5;
-    const float p_2_4 = 12.764267f * mu_v5 + 37.49156f * mu_b1 + 45.183964f * mu_b2 + 25.37198f * mu_b3 + 5.99748f * mu_b4 + 0.24984333f * mu_u5;
-    const float p_2_5 = 3.0457528f * mu_v5 + 9.011982f * mu_b1 + 10.8741455f * mu_b2 + 6.1278377f * mu_b3 + 1.4330621f * mu_b4 + 0.046676066f * mu_u5;
-    const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    const float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = 1.0f * mu_v5 + 2.9177928f * mu_b1 + 3.0679436f * mu_b2 + 1.0339799f * mu_b3 - 0.020314833f * mu_b4 + 0.095856085f * mu_u5;
-    const float q_0_1 = 5.5586567f * mu_v5 + 16.71685f * mu_b1 + 20.415504f * mu_b2 + 11.046425f * mu_b3 + 2.1423817f * mu_b4 + 0.35326707f * mu_u5;
-    const float q_0_2 = 15.705264f * mu_v5 + 46.401604f * mu_b1 + 56.358654f * mu_b2 + 32.407715f * mu_b3 + 7.26342f * mu_b4 + 0.5180169f * mu_u5;
-    const float q_0_3 = 25.068562f * mu_v5 + 73.41865f * mu_b1 + 85.563324f * mu_b2 + 47.212288f * mu_b3 + 10.510234f * mu_b4 + 0.51118463f * mu_u5;
-    const float q_0_4 = 20.168322f * mu_v5 + 59.472748f * mu_b1 + 67.49664f * mu_b2 + 35.340878f * mu_b3 + 7.463132f * mu_b4 + 0.31447133f * mu_u5;
-    const float q_0_5 = 6.246368f * mu_v5 + 18.656645f * mu_b1 + 20.944408f * mu_b2 + 10.52386f * mu_b3 + 2.053622f * mu_b4 + 0.06389261f * mu_u5;
-    const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    const float q_1_0 = 2.0f * mu_v5 + 5.8355856f * mu_b1 + 6.135887f * mu_b2 + 2.0679598f * mu_b3 - 0.040629666f * mu_b4 + 0.19171217f * mu_u5;
-    const float q_1_1 = 11.117313f * mu_v5 + 33.4337f * mu_b1 + 40.83101f * mu_b2 + 22.09285f * mu_b3 + 4.2847633f * mu_b4 + 0.70653415f * mu_u5;
-    const float q_1_2 = 31.410528f * mu_v5 + 92.80321f * mu_b1 + 112.71731f * mu_b2 + 64.81543f * mu_b3 + 14.52684f * mu_b4 + 1.0360337f * mu_u5;
-    const float q_1_3 = 50.137123f * mu_v5 + 146.8373f * mu_b1 + 171.12665f * mu_b2 + 94.424576f * mu_b3 + 21.020468f * mu_b4 + 1.0223693f * mu_u5;
-    const float q_1_4 = 40.336643f * mu_v5 + 118.945496f * mu_b1 + 134.99329f * mu_b2 + 70.681755f * mu_b3 + 14.926264f * mu_b4 + 0.62894267f * mu_u5;
-    const float q_1_5 = 12.492736f * mu_v5 + 37.31329f * mu_b1 + 41.888817f * mu_b2 + 21.04772f * mu_b3 + 4.107244f * mu_b4 + 0.12778522f * mu_u5;
-    const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    const float q_2_0 = 1.0f * mu_v5 + 2.9177928f * mu_b1 + 3.0679436f * mu_b2 + 1.0339799f * mu_b3 - 0.020314833f * mu_b4 + 0.095856085f * mu_u5;
-    const float q_2_1 = 5.5586567f * mu_v5 + 16.71685f * mu_b1 + 20.415504f * mu_b2 + 11.046425f * mu_b3 + 2.1423817f * mu_b4 + 0.35326707f * mu_u5;
-    const float q_2_2 = 15.705264f * mu_v5 + 46.401604f * mu_b1 + 56.358654f * mu_b2 + 32.407715f * mu_b3 + 7.26342f * mu_b4 + 0.5180169f * mu_u5;
-    const float q_2_3 = 25.068562f * mu_v5 + 73.41865f * mu_b1 + 85.563324f * mu_b2 + 47.212288f * mu_b3 + 10.510234f * mu_b4 + 0.51118463f * mu_u5;
-    const float q_2_4 = 20.168322f * mu_v5 + 59.472748f * mu_b1 + 67.49664f * mu_b2 + 35.340878f * mu_b3 + 7.463132f * mu_b4 + 0.31447133f * mu_u5;
-    const float q_2_5 = 6.246368f * mu_v5 + 18.656645f * mu_b1 + 20.944408f * mu_b2 + 10.52386f * mu_b3 + 2.053622f * mu_b4 + 0.06389261f * mu_u5;
-    const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    const float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
+    // numerator P, grouped by powers of the first variable
+    const float p_0 = (((1.6010329f * r_t + (5.3134766f * mu_t - 5.1356378f)) * r_t + ((4.742528f * mu_t - 1.5870534f) * mu_t + 7.593337f)) * r_t + (((2.3034735f * mu_t - 20.586288f) * mu_t + 20.765184f) * mu_t - 4.2846603f)) * r_t + ((((7.593393f * mu_t - 11.029002f) * mu_t + 8.108045f) * mu_t - 3.7342536f) * mu_t + 0.92479575f);
+    const float p_1 = ((0.41366777f * r_t + (-24.481539f * mu_t - 4.052495f)) * r_t + ((25.110685f * mu_t - 36.490604f) * mu_t + 35.76306f)) * r_t + (((-2.1905172f * mu_t + 24.587221f) * mu_t - 42.012207f) * mu_t + 25.738184f);
+    const float p_2 = (11.498116f * r_t + (10.434557f * mu_t - 25.459406f)) * r_t + ((-22.851313f * mu_t + 70.88399f) * mu_t - 66.78734f);
+    const float p_3 = 7.513987f * r_t + (-48.174156f * mu_t + 87.64881f);
+    const float p_4 = -41.60541f;
+    const float p = (((p_4 * f0_t + p_3) * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    const float q_0 = (((3.2257607f * r_t + (-4.798776f * mu_t + 2.7961671f)) * r_t + ((17.230299f * mu_t - 26.504242f) * mu_t + 20.93811f)) * r_t + (((-1.174302f * mu_t - 14.600066f) * mu_t + 18.579939f) * mu_t - 4.7492967f)) * r_t + ((((8.722987f * mu_t - 13.173746f) * mu_t + 9.273296f) * mu_t - 3.9565244f) * mu_t + 1.0f);
+    const float q_1 = ((5.7857943f * r_t + (-10.569114f * mu_t - 18.960371f)) * r_t + ((20.561409f * mu_t - 31.004574f) * mu_t + 35.300434f)) * r_t + (((-1.3044823f * mu_t + 22.743351f) * mu_t - 42.544716f) * mu_t + 27.276789f);
+    const float q_2 = (19.39476f * r_t + (8.858702f * mu_t - 24.748747f)) * r_t + ((-21.875647f * mu_t + 72.89411f) * mu_t - 70.416405f);
+    const float q_3 = 6.919798f * r_t + (-50.508537f * mu_t + 91.990715f);
+    const float q_4 = -43.442997f;
+    const float q = (((q_4 * f0_t + q_3) * f0_t + q_2) * f0_t + q_1) * f0_t + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }

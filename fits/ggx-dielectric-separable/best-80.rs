@@ -10,19 +10,19 @@
 /// ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 /// Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 d3396c265b203f6ca687d94e8bd84409805c780cd95e4b079a8f0eed91493c9a.
-/// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-5, shifted 2.6e-6, bernstein 8.0e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 5.47e-4, max 4.25e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.04e-7 (every op rounded, as this Rust), 4.37e-7 (fused multiply-add), 1.00e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 3.06e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 30899 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.29e-4, max 4.25e-3; this f32 code MAE 5.29e-4, max 4.25e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.0e-4 on the measurement grid.
-/// Denominator proved >= 5.719e-2 on the domain (Bernstein certificate), so the division is safe.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
+/// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 1 of 11, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+/// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 62994645930e20d9bbe0d55821341b463836d5c12d2e0d0897b852cad314e8b5.
+/// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.3e-6, bernstein 4.6e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 5.50e-4, max 3.99e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.43e-6 (every op rounded, as this Rust), 2.11e-6 (fused multiply-add), 2.01e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.44e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 9027 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.13e-4, max 3.99e-3; this f32 code MAE 5.13e-4, max 3.99e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.6e-4 on the measurement grid.
+/// Denominator proved >= 9.491e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -33,95 +33,28 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
-    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
-    let f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017_f32) * 2.6828594_f32;
+    // t = sqrt(f0)
+    let f0_t = sqrtf(f0_c);
     let r_c = r.min(1.0_f32).max(0.0_f32);
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
-    let f0_v = 1.0_f32 - f0_t;
-    let f0_u2 = f0_t * f0_t;
-    let f0_v2 = f0_v * f0_v;
-    let f0_b1 = f0_t * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    let r_v = 1.0_f32 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_t;
-    let r_v4 = r_v3 * r_v;
-    let r_u5 = r_u4 * r_t;
-    let r_v5 = r_v4 * r_v;
-    let r_b1 = r_t * r_v4;
-    let r_b2 = r_u2 * r_v3;
-    let r_b3 = r_u3 * r_v2;
-    let r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    let mu_v = 1.0_f32 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_b1 = mu_u * mu_v4;
-    let mu_b2 = mu_u2 * mu_v3;
-    let mu_b3 = mu_u3 * mu_v2;
-    let mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.93834114_f32 * mu_v5 + 2.752445_f32 * mu_b1 + 2.8215103_f32 * mu_b2 + 0.7353958_f32 * mu_b3 - 0.012548755_f32 * mu_b4 + 0.09579852_f32 * mu_u5;
-    let p_0_1 = 5.397399_f32 * mu_v5 + 16.132448_f32 * mu_b1 + 20.485802_f32 * mu_b2 + 10.659643_f32 * mu_b3 + 2.0815337_f32 * mu_b4 + 0.3543267_f32 * mu_u5;
-    let p_0_2 = 11.192373_f32 * mu_v5 + 32.737263_f32 * mu_b1 + 46.463394_f32 * mu_b2 + 29.555159_f32 * mu_b3 + 6.7835956_f32 * mu_b4 + 0.5103037_f32 * mu_u5;
-    let p_0_3 = 11.811167_f32 * mu_v5 + 34.48979_f32 * mu_b1 + 54.066887_f32 * mu_b2 + 39.251713_f32 * mu_b3 + 10.0049095_f32 * mu_b4 + 0.50482583_f32 * mu_u5;
-    let p_0_4 = 6.452918_f32 * mu_v5 + 19.45679_f32 * mu_b1 + 33.16685_f32 * mu_b2 + 26.131872_f32 * mu_b3 + 7.086447_f32 * mu_b4 + 0.29923543_f32 * mu_u5;
-    let p_0_5 = 1.3888412_f32 * mu_v5 + 4.3931336_f32 * mu_b1 + 8.036814_f32 * mu_b2 + 6.648823_f32 * mu_b3 + 1.839925_f32 * mu_b4 + 0.059960023_f32 * mu_u5;
-    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 1.8640639_f32 * mu_v5 + 5.447284_f32 * mu_b1 + 5.7040014_f32 * mu_b2 + 1.4880549_f32 * mu_b3 - 0.029499862_f32 * mu_b4 + 0.19147341_f32 * mu_u5;
-    let p_1_1 = 10.840413_f32 * mu_v5 + 32.10041_f32 * mu_b1 + 39.227802_f32 * mu_b2 + 19.31544_f32 * mu_b3 + 4.1231594_f32 * mu_b4 + 0.7167617_f32 * mu_u5;
-    let p_1_2 = 28.747425_f32 * mu_v5 + 84.71976_f32 * mu_b1 + 106.77849_f32 * mu_b2 + 59.949593_f32 * mu_b3 + 14.234311_f32 * mu_b4 + 0.9733471_f32 * mu_u5;
-    let p_1_3 = 36.56415_f32 * mu_v5 + 107.39139_f32 * mu_b1 + 136.22925_f32 * mu_b2 + 80.56516_f32 * mu_b3 + 20.292553_f32 * mu_b4 + 1.0118679_f32 * mu_u5;
-    let p_1_4 = 21.422485_f32 * mu_v5 + 63.340775_f32 * mu_b1 + 81.77115_f32 * mu_b2 + 50.51279_f32 * mu_b3 + 13.303613_f32 * mu_b4 + 0.584918_f32 * mu_u5;
-    let p_1_5 = 4.7205734_f32 * mu_v5 + 14.47183_f32 * mu_b1 + 19.708223_f32 * mu_b2 + 12.981467_f32 * mu_b3 + 3.5485249_f32 * mu_b4 + 0.11227186_f32 * mu_u5;
-    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 0.93828344_f32 * mu_v5 + 2.7307012_f32 * mu_b1 + 2.8405032_f32 * mu_b2 + 0.76655984_f32 * mu_b3 - 0.019148706_f32 * mu_b4 + 0.09591226_f32 * mu_u5;
-    let p_2_1 = 5.3477206_f32 * mu_v5 + 16.016973_f32 * mu_b1 + 19.711714_f32 * mu_b2 + 10.017284_f32 * mu_b3 + 2.1607897_f32 * mu_b4 + 0.3536436_f32 * mu_u5;
-    let p_2_2 = 14.287544_f32 * mu_v5 + 42.14296_f32 * mu_b1 + 52.32975_f32 * mu_b2 + 29.168472_f32 * mu_b3 + 6.8315806_f32 * mu_b4 + 0.47279334_f32 * mu_u5;
-    let p_2_3 = 19.638838_f32 * mu_v5 + 57.547356_f32 * mu_b1 + 70.19053_f32 * mu_b2 + 39.584064_f32 * mu_b3 + 9.427147_f32 * mu_b4 + 0.4604466_f32 * mu_u5;
-    let p_2_4 = 12.764267_f32 * mu_v5 + 37.49156_f32 * mu_b1 + 45.183964_f32 * mu_b2 + 25.37198_f32 * mu_b3 + 5.99748_f32 * mu_b4 + 0.24984333_f32 * mu_u5;
-    let p_2_5 = 3.0457528_f32 * mu_v5 + 9.011982_f32 * mu_b1 + 10.8741455_f32 * mu_b2 + 6.1278377_f32 * mu_b3 + 1.4330621_f32 * mu_b4 + 0.046676066_f32 * mu_u5;
-    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0_f32 * mu_v5 + 2.9177928_f32 * mu_b1 + 3.0679436_f32 * mu_b2 + 1.0339799_f32 * mu_b3 - 0.020314833_f32 * mu_b4 + 0.095856085_f32 * mu_u5;
-    let q_0_1 = 5.5586567_f32 * mu_v5 + 16.71685_f32 * mu_b1 + 20.415504_f32 * mu_b2 + 11.046425_f32 * mu_b3 + 2.1423817_f32 * mu_b4 + 0.35326707_f32 * mu_u5;
-    let q_0_2 = 15.705264_f32 * mu_v5 + 46.401604_f32 * mu_b1 + 56.358654_f32 * mu_b2 + 32.407715_f32 * mu_b3 + 7.26342_f32 * mu_b4 + 0.5180169_f32 * mu_u5;
-    let q_0_3 = 25.068562_f32 * mu_v5 + 73.41865_f32 * mu_b1 + 85.563324_f32 * mu_b2 + 47.212288_f32 * mu_b3 + 10.510234_f32 * mu_b4 + 0.51118463_f32 * mu_u5;
-    let q_0_4 = 20.168322_f32 * mu_v5 + 59.472748_f32 * mu_b1 + 67.49664_f32 * mu_b2 + 35.340878_f32 * mu_b3 + 7.463132_f32 * mu_b4 + 0.31447133_f32 * mu_u5;
-    let q_0_5 = 6.246368_f32 * mu_v5 + 18.656645_f32 * mu_b1 + 20.944408_f32 * mu_b2 + 10.52386_f32 * mu_b3 + 2.053622_f32 * mu_b4 + 0.06389261_f32 * mu_u5;
-    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 2.0_f32 * mu_v5 + 5.8355856_f32 * mu_b1 + 6.135887_f32 * mu_b2 + 2.0679598_f32 * mu_b3 - 0.040629666_f32 * mu_b4 + 0.19171217_f32 * mu_u5;
-    let q_1_1 = 11.117313_f32 * mu_v5 + 33.4337_f32 * mu_b1 + 40.83101_f32 * mu_b2 + 22.09285_f32 * mu_b3 + 4.2847633_f32 * mu_b4 + 0.70653415_f32 * mu_u5;
-    let q_1_2 = 31.410528_f32 * mu_v5 + 92.80321_f32 * mu_b1 + 112.71731_f32 * mu_b2 + 64.81543_f32 * mu_b3 + 14.52684_f32 * mu_b4 + 1.0360337_f32 * mu_u5;
-    let q_1_3 = 50.137123_f32 * mu_v5 + 146.8373_f32 * mu_b1 + 171.12665_f32 * mu_b2 + 94.424576_f32 * mu_b3 + 21.020468_f32 * mu_b4 + 1.0223693_f32 * mu_u5;
-    let q_1_4 = 40.336643_f32 * mu_v5 + 118.945496_f32 * mu_b1 + 134.99329_f32 * mu_b2 + 70.681755_f32 * mu_b3 + 14.926264_f32 * mu_b4 + 0.62894267_f32 * mu_u5;
-    let q_1_5 = 12.492736_f32 * mu_v5 + 37.31329_f32 * mu_b1 + 41.888817_f32 * mu_b2 + 21.04772_f32 * mu_b3 + 4.107244_f32 * mu_b4 + 0.12778522_f32 * mu_u5;
-    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 1.0_f32 * mu_v5 + 2.9177928_f32 * mu_b1 + 3.0679436_f32 * mu_b2 + 1.0339799_f32 * mu_b3 - 0.020314833_f32 * mu_b4 + 0.095856085_f32 * mu_u5;
-    let q_2_1 = 5.5586567_f32 * mu_v5 + 16.71685_f32 * mu_b1 + 20.415504_f32 * mu_b2 + 11.046425_f32 * mu_b3 + 2.1423817_f32 * mu_b4 + 0.35326707_f32 * mu_u5;
-    let q_2_2 = 15.705264_f32 * mu_v5 + 46.401604_f32 * mu_b1 + 56.358654_f32 * mu_b2 + 32.407715_f32 * mu_b3 + 7.26342_f32 * mu_b4 + 0.5180169_f32 * mu_u5;
-    let q_2_3 = 25.068562_f32 * mu_v5 + 73.41865_f32 * mu_b1 + 85.563324_f32 * mu_b2 + 47.212288_f32 * mu_b3 + 10.510234_f32 * mu_b4 + 0.51118463_f32 * mu_u5;
-    let q_2_4 = 20.168322_f32 * mu_v5 + 59.472748_f32 * mu_b1 + 67.49664_f32 * mu_b2 + 35.340878_f32 * mu_b3 + 7.463132_f32 * mu_b4 + 0.31447133_f32 * mu_u5;
-    let q_2_5 = 6.246368_f32 * mu_v5 + 18.656645_f32 * mu_b1 + 20.944408_f32 * mu_b2 + 10.52386_f32 * mu_b3 + 2.053622_f32 * mu_b4 + 0.06389261_f32 * mu_u5;
-    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
+    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // numerator P, grouped by powers of the first variable
+    let p_0 = (((1.6010329_f32 * r_t + (5.3134766_f32 * mu_t - 5.1356378_f32)) * r_t + ((4.742528_f32 * mu_t - 1.5870534_f32) * mu_t + 7.593337_f32)) * r_t + (((2.3034735_f32 * mu_t - 20.586288_f32) * mu_t + 20.765184_f32) * mu_t - 4.2846603_f32)) * r_t + ((((7.593393_f32 * mu_t - 11.029002_f32) * mu_t + 8.108045_f32) * mu_t - 3.7342536_f32) * mu_t + 0.92479575_f32);
+    let p_1 = ((0.41366777_f32 * r_t + (-24.481539_f32 * mu_t - 4.052495_f32)) * r_t + ((25.110685_f32 * mu_t - 36.490604_f32) * mu_t + 35.76306_f32)) * r_t + (((-2.1905172_f32 * mu_t + 24.587221_f32) * mu_t - 42.012207_f32) * mu_t + 25.738184_f32);
+    let p_2 = (11.498116_f32 * r_t + (10.434557_f32 * mu_t - 25.459406_f32)) * r_t + ((-22.851313_f32 * mu_t + 70.88399_f32) * mu_t - 66.78734_f32);
+    let p_3 = 7.513987_f32 * r_t + (-48.174156_f32 * mu_t + 87.64881_f32);
+    let p_4 = -41.60541_f32;
+    let p = (((p_4 * f0_t + p_3) * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    let q_0 = (((3.2257607_f32 * r_t + (-4.798776_f32 * mu_t + 2.7961671_f32)) * r_t + ((17.230299_f32 * mu_t - 26.504242_f32) * mu_t + 20.93811_f32)) * r_t + (((-1.174302_f32 * mu_t - 14.600066_f32) * mu_t + 18.579939_f32) * mu_t - 4.7492967_f32)) * r_t + ((((8.722987_f32 * mu_t - 13.173746_f32) * mu_t + 9.273296_f32) * mu_t - 3.9565244_f32) * mu_t + 1.0_f32);
+    let q_1 = ((5.7857943_f32 * r_t + (-10.569114_f32 * mu_t - 18.960371_f32)) * r_t + ((20.561409_f32 * mu_t - 31.004574_f32) * mu_t + 35.300434_f32)) * r_t + (((-1.3044823_f32 * mu_t + 22.743351_f32) * mu_t - 42.544716_f32) * mu_t + 27.276789_f32);
+    let q_2 = (19.39476_f32 * r_t + (8.858702_f32 * mu_t - 24.748747_f32)) * r_t + ((-21.875647_f32 * mu_t + 72.89411_f32) * mu_t - 70.416405_f32);
+    let q_3 = 6.919798_f32 * r_t + (-50.508537_f32 * mu_t + 91.990715_f32);
+    let q_4 = -43.442997_f32;
+    let q = (((q_4 * f0_t + q_3) * f0_t + q_2) * f0_t + q_1) * f0_t + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

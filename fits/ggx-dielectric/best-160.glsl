@@ -16,16 +16,16 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 84da806cfe8973df273ba2d1d934eda2273d597dc5c90fb1c3a3c4458326ed93.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-5, shifted 1.5e-5, bernstein 6.9e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.61e-4, max 3.44e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.88e-7 (every op rounded, as this Rust), 6.01e-7 (fused multiply-add), 8.47e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 855 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 1.59e-4, max 3.44e-3; this f32 code MAE 1.59e-4, max 3.44e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 7.7e-4 on the measurement grid.
-// Denominator proved >= 2.099e-4 on the domain (Bernstein certificate), so the division is safe.
+// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 1 of 15, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 48bad54ddf27ca26f651d6e6508d1aa014a51a4f7b5cf69e6558bc0a655f159a.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.5e-5, shifted 9.0e-7, bernstein 7.6e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.46e-4, max 3.24e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.13e-6 (every op rounded, as this Rust), 7.82e-7 (fused multiply-add), 1.13e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.00e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6449 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.42e-4, max 2.14e-3; this f32 code MAE 2.42e-4, max 2.14e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
+// Denominator proved >= 1.156e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -37,181 +37,22 @@ highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu)
     highp float mu_c = max(min(mu, 1.0), 0.0);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
-    highp float r_b5_v = 1.0 - r_t;
-    highp float r_b5_u2 = r_t * r_t;
-    highp float r_b5_v2 = r_b5_v * r_b5_v;
-    highp float r_b5_u3 = r_b5_u2 * r_t;
-    highp float r_b5_v3 = r_b5_v2 * r_b5_v;
-    highp float r_b5_u4 = r_b5_u3 * r_t;
-    highp float r_b5_v4 = r_b5_v3 * r_b5_v;
-    highp float r_b5_u5 = r_b5_u4 * r_t;
-    highp float r_b5_v5 = r_b5_v4 * r_b5_v;
-    highp float r_b5_b1 = r_t * r_b5_v4;
-    highp float r_b5_b2 = r_b5_u2 * r_b5_v3;
-    highp float r_b5_b3 = r_b5_u3 * r_b5_v2;
-    highp float r_b5_b4 = r_b5_u4 * r_b5_v;
-    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
-    highp float mu_b5_v = 1.0 - mu_u;
-    highp float mu_b5_u2 = mu_u * mu_u;
-    highp float mu_b5_v2 = mu_b5_v * mu_b5_v;
-    highp float mu_b5_u3 = mu_b5_u2 * mu_u;
-    highp float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
-    highp float mu_b5_u4 = mu_b5_u3 * mu_u;
-    highp float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
-    highp float mu_b5_u5 = mu_b5_u4 * mu_u;
-    highp float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
-    highp float mu_b5_b1 = mu_u * mu_b5_v4;
-    highp float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
-    highp float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
-    highp float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    highp float p0_0_0 = 1.0446216 * mu_b5_v5 + 2.8327286 * mu_b5_b1 + 4.23537 * mu_b5_b2 + 4.4216375 * mu_b5_b3 + 2.409289 * mu_b5_b4 + 0.4707715 * mu_b5_u5;
-    highp float p0_0_1 = 3.8460364 * mu_b5_v5 + 9.613821 * mu_b5_b1 + 14.881187 * mu_b5_b2 + 17.014557 * mu_b5_b3 + 9.503986 * mu_b5_b4 + 1.7821182 * mu_b5_u5;
-    highp float p0_0_2 = 8.082927 * mu_b5_v5 + 23.886833 * mu_b5_b1 + 42.409687 * mu_b5_b2 + 48.81016 * mu_b5_b3 + 27.454123 * mu_b5_b4 + 5.608313 * mu_b5_u5;
-    highp float p0_0_3 = 9.056891 * mu_b5_v5 + 30.100973 * mu_b5_b1 + 55.64993 * mu_b5_b2 + 62.226883 * mu_b5_b3 + 34.69706 * mu_b5_b4 + 7.4345965 * mu_b5_u5;
-    highp float p0_0_4 = 4.7219276 * mu_b5_v5 + 16.890701 * mu_b5_b1 + 31.6903 * mu_b5_b2 + 34.40129 * mu_b5_b3 + 18.793415 * mu_b5_b4 + 4.0929384 * mu_b5_u5;
-    highp float p0_0_5 = 0.7252805 * mu_b5_v5 + 2.7891324 * mu_b5_b1 + 5.591563 * mu_b5_b2 + 6.178972 * mu_b5_b3 + 3.3494437 * mu_b5_b4 + 0.7340407 * mu_b5_u5;
-    highp float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
-    highp float p0 = p0_0 * 1.0;
-    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
-    highp float f0_b4_v = 1.0 - f0_t;
-    highp float f0_b4_u2 = f0_t * f0_t;
-    highp float f0_b4_v2 = f0_b4_v * f0_b4_v;
-    highp float f0_b4_u3 = f0_b4_u2 * f0_t;
-    highp float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
-    highp float f0_b4_u4 = f0_b4_u3 * f0_t;
-    highp float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
-    highp float f0_b4_b1 = f0_t * f0_b4_v3;
-    highp float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
-    highp float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    highp float u0_0_0 = 0.9688588 * 1.0;
-    highp float u0_0 = u0_0_0 * 1.0;
-    highp float u0_1_0 = 3.8857048 * 1.0;
-    highp float u0_1 = u0_1_0 * 1.0;
-    highp float u0_2_0 = 5.8255453 * 1.0;
-    highp float u0_2 = u0_2_0 * 1.0;
-    highp float u0_3_0 = 3.8790407 * 1.0;
-    highp float u0_3 = u0_3_0 * 1.0;
-    highp float u0_4_0 = 0.9665532 * 1.0;
-    highp float u0_4 = u0_4_0 * 1.0;
-    highp float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
-    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
-    highp float r_b3_v = 1.0 - r_t;
-    highp float r_b3_u2 = r_t * r_t;
-    highp float r_b3_v2 = r_b3_v * r_b3_v;
-    highp float r_b3_u3 = r_b3_u2 * r_t;
-    highp float r_b3_v3 = r_b3_v2 * r_b3_v;
-    highp float r_b3_b1 = r_t * r_b3_v2;
-    highp float r_b3_b2 = r_b3_u2 * r_b3_v;
-    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
-    highp float mu_b3_v = 1.0 - mu_u;
-    highp float mu_b3_u2 = mu_u * mu_u;
-    highp float mu_b3_v2 = mu_b3_v * mu_b3_v;
-    highp float mu_b3_u3 = mu_b3_u2 * mu_u;
-    highp float mu_b3_v3 = mu_b3_v2 * mu_b3_v;
-    highp float mu_b3_b1 = mu_u * mu_b3_v2;
-    highp float mu_b3_b2 = mu_b3_u2 * mu_b3_v;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q0_0_0 = 1.0 * mu_b3_v3 + 0.7941126 * mu_b3_b1 + 1.49409 * mu_b3_b2 + 0.47088614 * mu_b3_u3;
-    highp float q0_0_1 = 1.8508276 * mu_b3_v3 + 0.90402293 * mu_b3_b1 + 3.6351173 * mu_b3_b2 + 0.8946482 * mu_b3_u3;
-    highp float q0_0_2 = 3.0384896 * mu_b3_v3 + 6.4872427 * mu_b3_b1 + 9.900531 * mu_b3_b2 + 2.7645037 * mu_b3_u3;
-    highp float q0_0_3 = 0.674473 * mu_b3_v3 + 1.8377651 * mu_b3_b1 + 3.219936 * mu_b3_b2 + 0.82755244 * mu_b3_u3;
-    highp float q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
-    highp float q0 = q0_0 * 1.0;
-    highp float e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    highp float p1_0_0 = -0.0066998173 * mu_b5_v5 - 0.0739373 * mu_b5_b1 + 0.0015443506 * mu_b5_b2 + 0.1365536 * mu_b5_b3 - 0.03796058 * mu_b5_b4 - 0.0057024905 * mu_b5_u5;
-    highp float p1_0_1 = -0.09702963 * mu_b5_v5 - 0.05489818 * mu_b5_b1 - 2.2600248 * mu_b5_b2 - 1.1546863 * mu_b5_b3 + 0.6313044 * mu_b5_b4 - 0.016016103 * mu_b5_u5;
-    highp float p1_0_2 = 0.08161949 * mu_b5_v5 - 0.16936503 * mu_b5_b1 - 13.049628 * mu_b5_b2 - 10.138471 * mu_b5_b3 + 1.808422 * mu_b5_b4 + 0.1485475 * mu_b5_u5;
-    highp float p1_0_3 = -0.10833581 * mu_b5_v5 - 2.4633956 * mu_b5_b1 - 24.821465 * mu_b5_b2 - 19.278114 * mu_b5_b3 + 2.8502402 * mu_b5_b4 + 0.6622481 * mu_b5_u5;
-    highp float p1_0_4 = 0.0035538385 * mu_b5_v5 - 0.84028363 * mu_b5_b1 - 14.025624 * mu_b5_b2 - 9.266485 * mu_b5_b3 + 4.40796 * mu_b5_b4 + 0.9928071 * mu_b5_u5;
-    highp float p1_0_5 = -7.9052813e-7 * mu_b5_v5 + 0.015509179 * mu_b5_b1 - 2.8306162 * mu_b5_b2 - 1.6739986 * mu_b5_b3 + 1.277678 * mu_b5_b4 + 0.2055804 * mu_b5_u5;
-    highp float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
-    highp float p1 = p1_0 * 1.0;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    highp float u1_0_0 = 0.19870521 * 1.0;
-    highp float u1_0 = u1_0_0 * 1.0;
-    highp float u1_1_0 = 0.022827258 * 1.0;
-    highp float u1_1 = u1_1_0 * 1.0;
-    highp float u1_2_0 = -0.5740331 * 1.0;
-    highp float u1_2 = u1_2_0 * 1.0;
-    highp float u1_3_0 = -0.7417778 * 1.0;
-    highp float u1_3 = u1_3_0 * 1.0;
-    highp float u1_4_0 = -0.27181685 * 1.0;
-    highp float u1_4 = u1_4_0 * 1.0;
-    highp float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q1_0_0 = 1.0 * mu_b3_v3 + 1.9703398 * mu_b3_b1 + 1.7306992 * mu_b3_b2 + 0.37571213 * mu_b3_u3;
-    highp float q1_0_1 = 1.3198324 * mu_b3_v3 + 3.9177718 * mu_b3_b1 + 3.9465742 * mu_b3_b2 + 0.19469279 * mu_b3_u3;
-    highp float q1_0_2 = 1.6004367 * mu_b3_v3 + 8.076382 * mu_b3_b1 + 9.12245 * mu_b3_b2 + 1.4925627 * mu_b3_u3;
-    highp float q1_0_3 = 0.0002098652 * mu_b3_v3 + 2.2877662 * mu_b3_b1 + 3.0653915 * mu_b3_b2 + 0.39318764 * mu_b3_u3;
-    highp float q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
-    highp float q1 = q1_0 * 1.0;
-    highp float e1 = p1 * u1 / q1;
-    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    highp float p2_0_0 = 0.09408264 * mu_b5_v5 - 0.21747984 * mu_b5_b1 + 0.70436597 * mu_b5_b2 + 8.287047 * mu_b5_b3 - 0.24396615 * mu_b5_b4 - 0.08669282 * mu_b5_u5;
-    highp float p2_0_1 = -1.3623254 * mu_b5_v5 - 12.893283 * mu_b5_b1 - 25.655682 * mu_b5_b2 + 15.861788 * mu_b5_b3 - 7.778573 * mu_b5_b4 - 0.62312406 * mu_b5_u5;
-    highp float p2_0_2 = 1.0421314 * mu_b5_v5 - 9.313084 * mu_b5_b1 - 27.464895 * mu_b5_b2 + 58.934963 * mu_b5_b3 + 4.617175 * mu_b5_b4 + 2.8564513 * mu_b5_u5;
-    highp float p2_0_3 = 0.8784802 * mu_b5_v5 - 11.277035 * mu_b5_b1 - 39.160786 * mu_b5_b2 + 48.782272 * mu_b5_b3 + 2.5928416 * mu_b5_b4 + 1.0892179 * mu_b5_u5;
-    highp float p2_0_4 = 1.3514245 * mu_b5_v5 - 1.6715329 * mu_b5_b1 - 14.761094 * mu_b5_b2 + 30.534222 * mu_b5_b3 + 5.547175 * mu_b5_b4 + 0.4167764 * mu_b5_u5;
-    highp float p2_0_5 = 0.2613836 * mu_b5_v5 - 0.5822793 * mu_b5_b1 - 3.8061597 * mu_b5_b2 + 6.0111685 * mu_b5_b3 + 1.5556139 * mu_b5_b4 + 0.0103406105 * mu_b5_u5;
-    highp float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
-    highp float p2 = p2_0 * 1.0;
-    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    highp float u2_0_0 = -0.1076685 * 1.0;
-    highp float u2_0 = u2_0_0 * 1.0;
-    highp float u2_1_0 = -0.45437267 * 1.0;
-    highp float u2_1 = u2_1_0 * 1.0;
-    highp float u2_2_0 = -0.6851935 * 1.0;
-    highp float u2_2 = u2_2_0 * 1.0;
-    highp float u2_3_0 = -0.44776344 * 1.0;
-    highp float u2_3 = u2_3_0 * 1.0;
-    highp float u2_4_0 = -0.10472869 * 1.0;
-    highp float u2_4 = u2_4_0 * 1.0;
-    highp float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
-    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q2_0_0 = 1.0 * mu_b3_v3 + 3.736942 * mu_b3_b1 - 0.5214807 * mu_b3_b2 + 0.26556766 * mu_b3_u3;
-    highp float q2_0_1 = 1.5017265 * mu_b3_v3 + 15.427376 * mu_b3_b1 + 3.951541 * mu_b3_b2 + 0.5978629 * mu_b3_u3;
-    highp float q2_0_2 = 2.1810303 * mu_b3_v3 + 24.960747 * mu_b3_b1 + 13.568435 * mu_b3_b2 + 1.3606898 * mu_b3_u3;
-    highp float q2_0_3 = 0.6851988 * mu_b3_v3 + 10.287998 * mu_b3_b1 + 6.1130986 * mu_b3_b2 + 0.03428955 * mu_b3_u3;
-    highp float q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
-    highp float q2 = q2_0 * 1.0;
-    highp float e2 = p2 * u2 / q2;
-    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    highp float p3_0_0 = 0.03022213 * mu_b5_v5 + 0.05637892 * mu_b5_b1 - 0.0027464726 * mu_b5_b2 - 0.060758304 * mu_b5_b3 + 0.011770681 * mu_b5_b4 + 0.00017945612 * mu_b5_u5;
-    highp float p3_0_1 = 0.46869823 * mu_b5_v5 + 0.20278288 * mu_b5_b1 + 0.36624336 * mu_b5_b2 + 0.52546096 * mu_b5_b3 + 0.1111648 * mu_b5_b4 + 0.0006312639 * mu_b5_u5;
-    highp float p3_0_2 = 0.5316589 * mu_b5_v5 - 2.7733502 * mu_b5_b1 - 2.2021332 * mu_b5_b2 + 0.21210046 * mu_b5_b3 - 0.4621927 * mu_b5_b4 - 0.005879851 * mu_b5_u5;
-    highp float p3_0_3 = 0.30837423 * mu_b5_v5 - 4.208184 * mu_b5_b1 - 1.8157393 * mu_b5_b2 + 1.5677153 * mu_b5_b3 - 0.65681905 * mu_b5_b4 + 0.041821815 * mu_b5_u5;
-    highp float p3_0_4 = 0.11576535 * mu_b5_v5 - 2.3365853 * mu_b5_b1 - 0.32750663 * mu_b5_b2 + 0.88150805 * mu_b5_b3 - 1.173944 * mu_b5_b4 - 0.14783932 * mu_b5_u5;
-    highp float p3_0_5 = 0.010338299 * mu_b5_v5 - 0.49933365 * mu_b5_b1 + 0.01475358 * mu_b5_b2 + 0.037317872 * mu_b5_b3 - 0.5298898 * mu_b5_b4 - 0.08622841 * mu_b5_u5;
-    highp float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
-    highp float p3 = p3_0 * 1.0;
-    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    highp float u3_0_0 = -0.013902096 * 1.0;
-    highp float u3_0 = u3_0_0 * 1.0;
-    highp float u3_1_0 = -0.44809154 * 1.0;
-    highp float u3_1 = u3_1_0 * 1.0;
-    highp float u3_2_0 = -0.7968706 * 1.0;
-    highp float u3_2 = u3_2_0 * 1.0;
-    highp float u3_3_0 = -0.49300697 * 1.0;
-    highp float u3_3 = u3_3_0 * 1.0;
-    highp float u3_4_0 = -0.06343154 * 1.0;
-    highp float u3_4 = u3_4_0 * 1.0;
-    highp float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
-    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q3_0_0 = 1.0 * mu_b3_v3 - 0.5154201 * mu_b3_b1 + 0.13535374 * mu_b3_b2 + 0.0024995937 * mu_b3_u3;
-    highp float q3_0_1 = 3.1190207 * mu_b3_v3 - 1.2371483 * mu_b3_b1 + 0.5942361 * mu_b3_b2 + 0.0055822316 * mu_b3_u3;
-    highp float q3_0_2 = 3.5103664 * mu_b3_v3 - 0.36163118 * mu_b3_b1 + 1.0982454 * mu_b3_b2 + 0.025420249 * mu_b3_u3;
-    highp float q3_0_3 = 1.4991364 * mu_b3_v3 + 0.6834687 * mu_b3_b1 + 0.9627347 * mu_b3_b2 + 0.13012818 * mu_b3_u3;
-    highp float q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
-    highp float q3 = q3_0 * 1.0;
-    highp float e3 = p3 * u3 / q3;
-    // the sum of the 4 terms
-    highp float e = e0 + e1 + e2 + e3;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float f0_s = f0_t * 2.0 - 1.0;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float r_s = r_t * 2.0 - 1.0;
+    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
+    highp float mu_s = mu_t * 2.0 - 1.0;
+    // numerator P, grouped by powers of the first variable
+    highp float p_0 = (((((0.00024173163 * r_s + (0.026224084 * mu_s + 0.0068178475)) * r_s + ((0.039292976 * mu_s - 0.04438877) * mu_s + 0.004724622)) * r_s + (((-0.07931555 * mu_s + 0.002630403) * mu_s + 0.044279918) * mu_s + 0.00028820755)) * r_s + ((((0.0022786488 * mu_s + 0.15009439) * mu_s - 0.14565407) * mu_s - 0.059433322) * mu_s + 0.07002376)) * r_s + (((((-0.03983728 * mu_s - 0.025395537) * mu_s + 0.08651616) * mu_s - 0.13036157) * mu_s - 0.20086807) * mu_s + 0.22985369)) * r_s + ((((((0.24938114 * mu_s - 0.20811) * mu_s - 0.12369521) * mu_s + 0.21950978) * mu_s + 0.09594075) * mu_s - 0.59124005) * mu_s + 0.5212108);
+    highp float p_1 = (((((-0.0011774064 * r_s + (-0.003536406 * mu_s + 0.0013284809)) * r_s + ((-0.0047842665 * mu_s - 0.0019911735) * mu_s + 0.0058438387)) * r_s + (((-0.0014632435 * mu_s + 0.009898857) * mu_s + 0.005454053) * mu_s - 0.009052619)) * r_s + ((((-0.0051930347 * mu_s + 0.019650782) * mu_s + 0.011061044) * mu_s - 0.016853942) * mu_s - 0.0061741835)) * r_s + (((((-0.02628951 * mu_s + 0.009426128) * mu_s + 0.07227801) * mu_s - 0.038659465) * mu_s - 0.049683686) * mu_s + 0.024312286)) * r_s + ((((((0.001507303 * mu_s - 0.024216352) * mu_s + 0.010072314) * mu_s + 0.049708445) * mu_s - 0.032376725) * mu_s - 0.028980158) * mu_s + 0.017945299);
+    highp float p_2 = (((((-0.0012605082 * r_s + (-0.0031987415 * mu_s + 0.0026716865)) * r_s + ((0.003393697 * mu_s + 7.820123e-5) * mu_s - 0.0019946883)) * r_s + (((0.0029036428 * mu_s - 0.0010744896) * mu_s + 0.0014680614) * mu_s - 0.0017338863)) * r_s + ((((0.0043082684 * mu_s + 0.0007855209) * mu_s - 0.00764685) * mu_s - 0.000342461) * mu_s + 0.0034042192)) * r_s + (((((0.0030410807 * mu_s + 0.004114041) * mu_s - 0.015664414) * mu_s + 0.004759792) * mu_s + 0.010427751) * mu_s - 0.0090339715)) * r_s + ((((((-0.0033971057 * mu_s + 0.00680967) * mu_s + 0.003658741) * mu_s - 0.018373022) * mu_s + 0.0071576373) * mu_s + 0.010453669) * mu_s - 0.008372603);
+    highp float p_3 = (((((-0.00033833124 * r_s + (0.0022662506 * mu_s - 0.0020357182)) * r_s + ((-0.0011184512 * mu_s + 0.0005099021) * mu_s + 0.00082839193)) * r_s + (((0.0024267575 * mu_s - 0.0021235375) * mu_s - 0.00304471) * mu_s + 0.0028041308)) * r_s + ((((-0.0028883894 * mu_s + 0.0016288796) * mu_s + 0.0048827324) * mu_s - 0.0013200718) * mu_s - 0.0019220238)) * r_s + (((((-0.00039345594 * mu_s - 0.004210797) * mu_s + 0.004041403) * mu_s + 0.0042053745) * mu_s - 0.004208915) * mu_s + 7.431525e-5)) * r_s + ((((((0.001876396 * mu_s - 0.0010137202) * mu_s - 0.003754791) * mu_s + 0.0049387654) * mu_s - 0.0006009942) * mu_s - 0.004073072) * mu_s + 0.002161645);
+    highp float p = ((p_3 * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    highp float q_0 = (((((0.0035928015 * r_s + (0.026852742 * mu_s + 0.008906791)) * r_s + ((0.032194432 * mu_s - 0.042574) * mu_s + 0.007823077)) * r_s + (((-0.09242746 * mu_s - 0.00048069842) * mu_s + 0.055190682) * mu_s + 7.096622e-5)) * r_s + ((((0.076176554 * mu_s + 0.14995857) * mu_s - 0.29586893) * mu_s - 0.06060944) * mu_s + 0.14741193)) * r_s + (((((-0.08674176 * mu_s + 0.084680796) * mu_s + 0.19046251) * mu_s - 0.37455586) * mu_s - 0.2521929) * mu_s + 0.36946607)) * r_s + ((((((0.25017747 * mu_s - 0.23524307) * mu_s - 0.06781631) * mu_s + 0.27470356) * mu_s - 0.037556157) * mu_s - 0.6153864) * mu_s + 0.60165864);
+    highp float q = q_0;
+    highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }
 

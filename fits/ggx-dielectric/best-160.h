@@ -28,16 +28,16 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 84da806cfe8973df273ba2d1d934eda2273d597dc5c90fb1c3a3c4458326ed93.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-5, shifted 1.5e-5, bernstein 6.9e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.61e-4, max 3.44e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.88e-7 (every op rounded, as this Rust), 6.01e-7 (fused multiply-add), 8.47e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 855 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 1.59e-4, max 3.44e-3; this f32 code MAE 1.59e-4, max 3.44e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 7.7e-4 on the measurement grid.
-// Denominator proved >= 2.099e-4 on the domain (Bernstein certificate), so the division is safe.
+// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 1 of 15, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 48bad54ddf27ca26f651d6e6508d1aa014a51a4f7b5cf69e6558bc0a655f159a.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.5e-5, shifted 9.0e-7, bernstein 7.6e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.46e-4, max 3.24e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.13e-6 (every op rounded, as this Rust), 7.82e-7 (fused multiply-add), 1.13e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.00e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6449 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.42e-4, max 2.14e-3; this f32 code MAE 2.42e-4, max 2.14e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
+// Denominator proved >= 1.156e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -49,181 +49,22 @@ FURNACE_FN float ggx_dielectric_albedo(float f0, float r, float mu) {
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
-    const float r_b5_v = 1.0f - r_t;
-    const float r_b5_u2 = r_t * r_t;
-    const float r_b5_v2 = r_b5_v * r_b5_v;
-    const float r_b5_u3 = r_b5_u2 * r_t;
-    const float r_b5_v3 = r_b5_v2 * r_b5_v;
-    const float r_b5_u4 = r_b5_u3 * r_t;
-    const float r_b5_v4 = r_b5_v3 * r_b5_v;
-    const float r_b5_u5 = r_b5_u4 * r_t;
-    const float r_b5_v5 = r_b5_v4 * r_b5_v;
-    const float r_b5_b1 = r_t * r_b5_v4;
-    const float r_b5_b2 = r_b5_u2 * r_b5_v3;
-    const float r_b5_b3 = r_b5_u3 * r_b5_v2;
-    const float r_b5_b4 = r_b5_u4 * r_b5_v;
-    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
-    const float mu_b5_v = 1.0f - mu_u;
-    const float mu_b5_u2 = mu_u * mu_u;
-    const float mu_b5_v2 = mu_b5_v * mu_b5_v;
-    const float mu_b5_u3 = mu_b5_u2 * mu_u;
-    const float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
-    const float mu_b5_u4 = mu_b5_u3 * mu_u;
-    const float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
-    const float mu_b5_u5 = mu_b5_u4 * mu_u;
-    const float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
-    const float mu_b5_b1 = mu_u * mu_b5_v4;
-    const float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
-    const float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
-    const float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    const float p0_0_0 = 1.0446216f * mu_b5_v5 + 2.8327286f * mu_b5_b1 + 4.23537f * mu_b5_b2 + 4.4216375f * mu_b5_b3 + 2.409289f * mu_b5_b4 + 0.4707715f * mu_b5_u5;
-    const float p0_0_1 = 3.8460364f * mu_b5_v5 + 9.613821f * mu_b5_b1 + 14.881187f * mu_b5_b2 + 17.014557f * mu_b5_b3 + 9.503986f * mu_b5_b4 + 1.7821182f * mu_b5_u5;
-    const float p0_0_2 = 8.082927f * mu_b5_v5 + 23.886833f * mu_b5_b1 + 42.409687f * mu_b5_b2 + 48.81016f * mu_b5_b3 + 27.454123f * mu_b5_b4 + 5.608313f * mu_b5_u5;
-    const float p0_0_3 = 9.056891f * mu_b5_v5 + 30.100973f * mu_b5_b1 + 55.64993f * mu_b5_b2 + 62.226883f * mu_b5_b3 + 34.69706f * mu_b5_b4 + 7.4345965f * mu_b5_u5;
-    const float p0_0_4 = 4.7219276f * mu_b5_v5 + 16.890701f * mu_b5_b1 + 31.6903f * mu_b5_b2 + 34.40129f * mu_b5_b3 + 18.793415f * mu_b5_b4 + 4.0929384f * mu_b5_u5;
-    const float p0_0_5 = 0.7252805f * mu_b5_v5 + 2.7891324f * mu_b5_b1 + 5.591563f * mu_b5_b2 + 6.178972f * mu_b5_b3 + 3.3494437f * mu_b5_b4 + 0.7340407f * mu_b5_u5;
-    const float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
-    const float p0 = p0_0 * 1.0f;
-    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
-    const float f0_b4_v = 1.0f - f0_t;
-    const float f0_b4_u2 = f0_t * f0_t;
-    const float f0_b4_v2 = f0_b4_v * f0_b4_v;
-    const float f0_b4_u3 = f0_b4_u2 * f0_t;
-    const float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
-    const float f0_b4_u4 = f0_b4_u3 * f0_t;
-    const float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
-    const float f0_b4_b1 = f0_t * f0_b4_v3;
-    const float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
-    const float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    const float u0_0_0 = 0.9688588f * 1.0f;
-    const float u0_0 = u0_0_0 * 1.0f;
-    const float u0_1_0 = 3.8857048f * 1.0f;
-    const float u0_1 = u0_1_0 * 1.0f;
-    const float u0_2_0 = 5.8255453f * 1.0f;
-    const float u0_2 = u0_2_0 * 1.0f;
-    const float u0_3_0 = 3.8790407f * 1.0f;
-    const float u0_3 = u0_3_0 * 1.0f;
-    const float u0_4_0 = 0.9665532f * 1.0f;
-    const float u0_4 = u0_4_0 * 1.0f;
-    const float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
-    // Bernstein basis of r_b3: u^i (1 - u)^(n - i), n = 3
-    const float r_b3_v = 1.0f - r_t;
-    const float r_b3_u2 = r_t * r_t;
-    const float r_b3_v2 = r_b3_v * r_b3_v;
-    const float r_b3_u3 = r_b3_u2 * r_t;
-    const float r_b3_v3 = r_b3_v2 * r_b3_v;
-    const float r_b3_b1 = r_t * r_b3_v2;
-    const float r_b3_b2 = r_b3_u2 * r_b3_v;
-    // Bernstein basis of mu_b3: u^i (1 - u)^(n - i), n = 3
-    const float mu_b3_v = 1.0f - mu_u;
-    const float mu_b3_u2 = mu_u * mu_u;
-    const float mu_b3_v2 = mu_b3_v * mu_b3_v;
-    const float mu_b3_u3 = mu_b3_u2 * mu_u;
-    const float mu_b3_v3 = mu_b3_v2 * mu_b3_v;
-    const float mu_b3_b1 = mu_u * mu_b3_v2;
-    const float mu_b3_b2 = mu_b3_u2 * mu_b3_v;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q0_0_0 = 1.0f * mu_b3_v3 + 0.7941126f * mu_b3_b1 + 1.49409f * mu_b3_b2 + 0.47088614f * mu_b3_u3;
-    const float q0_0_1 = 1.8508276f * mu_b3_v3 + 0.90402293f * mu_b3_b1 + 3.6351173f * mu_b3_b2 + 0.8946482f * mu_b3_u3;
-    const float q0_0_2 = 3.0384896f * mu_b3_v3 + 6.4872427f * mu_b3_b1 + 9.900531f * mu_b3_b2 + 2.7645037f * mu_b3_u3;
-    const float q0_0_3 = 0.674473f * mu_b3_v3 + 1.8377651f * mu_b3_b1 + 3.219936f * mu_b3_b2 + 0.82755244f * mu_b3_u3;
-    const float q0_0 = q0_0_0 * r_b3_v3 + q0_0_1 * r_b3_b1 + q0_0_2 * r_b3_b2 + q0_0_3 * r_b3_u3;
-    const float q0 = q0_0 * 1.0f;
-    const float e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    const float p1_0_0 = -0.0066998173f * mu_b5_v5 - 0.0739373f * mu_b5_b1 + 0.0015443506f * mu_b5_b2 + 0.1365536f * mu_b5_b3 - 0.03796058f * mu_b5_b4 - 0.0057024905f * mu_b5_u5;
-    const float p1_0_1 = -0.09702963f * mu_b5_v5 - 0.05489818f * mu_b5_b1 - 2.2600248f * mu_b5_b2 - 1.1546863f * mu_b5_b3 + 0.6313044f * mu_b5_b4 - 0.016016103f * mu_b5_u5;
-    const float p1_0_2 = 0.08161949f * mu_b5_v5 - 0.16936503f * mu_b5_b1 - 13.049628f * mu_b5_b2 - 10.138471f * mu_b5_b3 + 1.808422f * mu_b5_b4 + 0.1485475f * mu_b5_u5;
-    const float p1_0_3 = -0.10833581f * mu_b5_v5 - 2.4633956f * mu_b5_b1 - 24.821465f * mu_b5_b2 - 19.278114f * mu_b5_b3 + 2.8502402f * mu_b5_b4 + 0.6622481f * mu_b5_u5;
-    const float p1_0_4 = 0.0035538385f * mu_b5_v5 - 0.84028363f * mu_b5_b1 - 14.025624f * mu_b5_b2 - 9.266485f * mu_b5_b3 + 4.40796f * mu_b5_b4 + 0.9928071f * mu_b5_u5;
-    const float p1_0_5 = -7.9052813e-7f * mu_b5_v5 + 0.015509179f * mu_b5_b1 - 2.8306162f * mu_b5_b2 - 1.6739986f * mu_b5_b3 + 1.277678f * mu_b5_b4 + 0.2055804f * mu_b5_u5;
-    const float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
-    const float p1 = p1_0 * 1.0f;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    const float u1_0_0 = 0.19870521f * 1.0f;
-    const float u1_0 = u1_0_0 * 1.0f;
-    const float u1_1_0 = 0.022827258f * 1.0f;
-    const float u1_1 = u1_1_0 * 1.0f;
-    const float u1_2_0 = -0.5740331f * 1.0f;
-    const float u1_2 = u1_2_0 * 1.0f;
-    const float u1_3_0 = -0.7417778f * 1.0f;
-    const float u1_3 = u1_3_0 * 1.0f;
-    const float u1_4_0 = -0.27181685f * 1.0f;
-    const float u1_4 = u1_4_0 * 1.0f;
-    const float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q1_0_0 = 1.0f * mu_b3_v3 + 1.9703398f * mu_b3_b1 + 1.7306992f * mu_b3_b2 + 0.37571213f * mu_b3_u3;
-    const float q1_0_1 = 1.3198324f * mu_b3_v3 + 3.9177718f * mu_b3_b1 + 3.9465742f * mu_b3_b2 + 0.19469279f * mu_b3_u3;
-    const float q1_0_2 = 1.6004367f * mu_b3_v3 + 8.076382f * mu_b3_b1 + 9.12245f * mu_b3_b2 + 1.4925627f * mu_b3_u3;
-    const float q1_0_3 = 0.0002098652f * mu_b3_v3 + 2.2877662f * mu_b3_b1 + 3.0653915f * mu_b3_b2 + 0.39318764f * mu_b3_u3;
-    const float q1_0 = q1_0_0 * r_b3_v3 + q1_0_1 * r_b3_b1 + q1_0_2 * r_b3_b2 + q1_0_3 * r_b3_u3;
-    const float q1 = q1_0 * 1.0f;
-    const float e1 = p1 * u1 / q1;
-    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    const float p2_0_0 = 0.09408264f * mu_b5_v5 - 0.21747984f * mu_b5_b1 + 0.70436597f * mu_b5_b2 + 8.287047f * mu_b5_b3 - 0.24396615f * mu_b5_b4 - 0.08669282f * mu_b5_u5;
-    const float p2_0_1 = -1.3623254f * mu_b5_v5 - 12.893283f * mu_b5_b1 - 25.655682f * mu_b5_b2 + 15.861788f * mu_b5_b3 - 7.778573f * mu_b5_b4 - 0.62312406f * mu_b5_u5;
-    const float p2_0_2 = 1.0421314f * mu_b5_v5 - 9.313084f * mu_b5_b1 - 27.464895f * mu_b5_b2 + 58.934963f * mu_b5_b3 + 4.617175f * mu_b5_b4 + 2.8564513f * mu_b5_u5;
-    const float p2_0_3 = 0.8784802f * mu_b5_v5 - 11.277035f * mu_b5_b1 - 39.160786f * mu_b5_b2 + 48.782272f * mu_b5_b3 + 2.5928416f * mu_b5_b4 + 1.0892179f * mu_b5_u5;
-    const float p2_0_4 = 1.3514245f * mu_b5_v5 - 1.6715329f * mu_b5_b1 - 14.761094f * mu_b5_b2 + 30.534222f * mu_b5_b3 + 5.547175f * mu_b5_b4 + 0.4167764f * mu_b5_u5;
-    const float p2_0_5 = 0.2613836f * mu_b5_v5 - 0.5822793f * mu_b5_b1 - 3.8061597f * mu_b5_b2 + 6.0111685f * mu_b5_b3 + 1.5556139f * mu_b5_b4 + 0.0103406105f * mu_b5_u5;
-    const float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
-    const float p2 = p2_0 * 1.0f;
-    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    const float u2_0_0 = -0.1076685f * 1.0f;
-    const float u2_0 = u2_0_0 * 1.0f;
-    const float u2_1_0 = -0.45437267f * 1.0f;
-    const float u2_1 = u2_1_0 * 1.0f;
-    const float u2_2_0 = -0.6851935f * 1.0f;
-    const float u2_2 = u2_2_0 * 1.0f;
-    const float u2_3_0 = -0.44776344f * 1.0f;
-    const float u2_3 = u2_3_0 * 1.0f;
-    const float u2_4_0 = -0.10472869f * 1.0f;
-    const float u2_4 = u2_4_0 * 1.0f;
-    const float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
-    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q2_0_0 = 1.0f * mu_b3_v3 + 3.736942f * mu_b3_b1 - 0.5214807f * mu_b3_b2 + 0.26556766f * mu_b3_u3;
-    const float q2_0_1 = 1.5017265f * mu_b3_v3 + 15.427376f * mu_b3_b1 + 3.951541f * mu_b3_b2 + 0.5978629f * mu_b3_u3;
-    const float q2_0_2 = 2.1810303f * mu_b3_v3 + 24.960747f * mu_b3_b1 + 13.568435f * mu_b3_b2 + 1.3606898f * mu_b3_u3;
-    const float q2_0_3 = 0.6851988f * mu_b3_v3 + 10.287998f * mu_b3_b1 + 6.1130986f * mu_b3_b2 + 0.03428955f * mu_b3_u3;
-    const float q2_0 = q2_0_0 * r_b3_v3 + q2_0_1 * r_b3_b1 + q2_0_2 * r_b3_b2 + q2_0_3 * r_b3_u3;
-    const float q2 = q2_0 * 1.0f;
-    const float e2 = p2 * u2 / q2;
-    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    const float p3_0_0 = 0.03022213f * mu_b5_v5 + 0.05637892f * mu_b5_b1 - 0.0027464726f * mu_b5_b2 - 0.060758304f * mu_b5_b3 + 0.011770681f * mu_b5_b4 + 0.00017945612f * mu_b5_u5;
-    const float p3_0_1 = 0.46869823f * mu_b5_v5 + 0.20278288f * mu_b5_b1 + 0.36624336f * mu_b5_b2 + 0.52546096f * mu_b5_b3 + 0.1111648f * mu_b5_b4 + 0.0006312639f * mu_b5_u5;
-    const float p3_0_2 = 0.5316589f * mu_b5_v5 - 2.7733502f * mu_b5_b1 - 2.2021332f * mu_b5_b2 + 0.21210046f * mu_b5_b3 - 0.4621927f * mu_b5_b4 - 0.005879851f * mu_b5_u5;
-    const float p3_0_3 = 0.30837423f * mu_b5_v5 - 4.208184f * mu_b5_b1 - 1.8157393f * mu_b5_b2 + 1.5677153f * mu_b5_b3 - 0.65681905f * mu_b5_b4 + 0.041821815f * mu_b5_u5;
-    const float p3_0_4 = 0.11576535f * mu_b5_v5 - 2.3365853f * mu_b5_b1 - 0.32750663f * mu_b5_b2 + 0.88150805f * mu_b5_b3 - 1.173944f * mu_b5_b4 - 0.14783932f * mu_b5_u5;
-    const float p3_0_5 = 0.010338299f * mu_b5_v5 - 0.49933365f * mu_b5_b1 + 0.01475358f * mu_b5_b2 + 0.037317872f * mu_b5_b3 - 0.5298898f * mu_b5_b4 - 0.08622841f * mu_b5_u5;
-    const float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
-    const float p3 = p3_0 * 1.0f;
-    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    const float u3_0_0 = -0.013902096f * 1.0f;
-    const float u3_0 = u3_0_0 * 1.0f;
-    const float u3_1_0 = -0.44809154f * 1.0f;
-    const float u3_1 = u3_1_0 * 1.0f;
-    const float u3_2_0 = -0.7968706f * 1.0f;
-    const float u3_2 = u3_2_0 * 1.0f;
-    const float u3_3_0 = -0.49300697f * 1.0f;
-    const float u3_3 = u3_3_0 * 1.0f;
-    const float u3_4_0 = -0.06343154f * 1.0f;
-    const float u3_4 = u3_4_0 * 1.0f;
-    const float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
-    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q3_0_0 = 1.0f * mu_b3_v3 - 0.5154201f * mu_b3_b1 + 0.13535374f * mu_b3_b2 + 0.0024995937f * mu_b3_u3;
-    const float q3_0_1 = 3.1190207f * mu_b3_v3 - 1.2371483f * mu_b3_b1 + 0.5942361f * mu_b3_b2 + 0.0055822316f * mu_b3_u3;
-    const float q3_0_2 = 3.5103664f * mu_b3_v3 - 0.36163118f * mu_b3_b1 + 1.0982454f * mu_b3_b2 + 0.025420249f * mu_b3_u3;
-    const float q3_0_3 = 1.4991364f * mu_b3_v3 + 0.6834687f * mu_b3_b1 + 0.9627347f * mu_b3_b2 + 0.13012818f * mu_b3_u3;
-    const float q3_0 = q3_0_0 * r_b3_v3 + q3_0_1 * r_b3_b1 + q3_0_2 * r_b3_b2 + q3_0_3 * r_b3_u3;
-    const float q3 = q3_0 * 1.0f;
-    const float e3 = p3 * u3 / q3;
-    // the sum of the 4 terms
-    const float e = e0 + e1 + e2 + e3;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float f0_s = f0_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float r_s = r_t * 2.0f - 1.0f;
+    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
+    const float mu_s = mu_t * 2.0f - 1.0f;
+    // numerator P, grouped by powers of the first variable
+    const float p_0 = (((((0.00024173163f * r_s + (0.026224084f * mu_s + 0.0068178475f)) * r_s + ((0.039292976f * mu_s - 0.04438877f) * mu_s + 0.004724622f)) * r_s + (((-0.07931555f * mu_s + 0.002630403f) * mu_s + 0.044279918f) * mu_s + 0.00028820755f)) * r_s + ((((0.0022786488f * mu_s + 0.15009439f) * mu_s - 0.14565407f) * mu_s - 0.059433322f) * mu_s + 0.07002376f)) * r_s + (((((-0.03983728f * mu_s - 0.025395537f) * mu_s + 0.08651616f) * mu_s - 0.13036157f) * mu_s - 0.20086807f) * mu_s + 0.22985369f)) * r_s + ((((((0.24938114f * mu_s - 0.20811f) * mu_s - 0.12369521f) * mu_s + 0.21950978f) * mu_s + 0.09594075f) * mu_s - 0.59124005f) * mu_s + 0.5212108f);
+    const float p_1 = (((((-0.0011774064f * r_s + (-0.003536406f * mu_s + 0.0013284809f)) * r_s + ((-0.0047842665f * mu_s - 0.0019911735f) * mu_s + 0.0058438387f)) * r_s + (((-0.0014632435f * mu_s + 0.009898857f) * mu_s + 0.005454053f) * mu_s - 0.009052619f)) * r_s + ((((-0.0051930347f * mu_s + 0.019650782f) * mu_s + 0.011061044f) * mu_s - 0.016853942f) * mu_s - 0.0061741835f)) * r_s + (((((-0.02628951f * mu_s + 0.009426128f) * mu_s + 0.07227801f) * mu_s - 0.038659465f) * mu_s - 0.049683686f) * mu_s + 0.024312286f)) * r_s + ((((((0.001507303f * mu_s - 0.024216352f) * mu_s + 0.010072314f) * mu_s + 0.049708445f) * mu_s - 0.032376725f) * mu_s - 0.028980158f) * mu_s + 0.017945299f);
+    const float p_2 = (((((-0.0012605082f * r_s + (-0.0031987415f * mu_s + 0.0026716865f)) * r_s + ((0.003393697f * mu_s + 7.820123e-5f) * mu_s - 0.0019946883f)) * r_s + (((0.0029036428f * mu_s - 0.0010744896f) * mu_s + 0.0014680614f) * mu_s - 0.0017338863f)) * r_s + ((((0.0043082684f * mu_s + 0.0007855209f) * mu_s - 0.00764685f) * mu_s - 0.000342461f) * mu_s + 0.0034042192f)) * r_s + (((((0.0030410807f * mu_s + 0.004114041f) * mu_s - 0.015664414f) * mu_s + 0.004759792f) * mu_s + 0.010427751f) * mu_s - 0.0090339715f)) * r_s + ((((((-0.0033971057f * mu_s + 0.00680967f) * mu_s + 0.003658741f) * mu_s - 0.018373022f) * mu_s + 0.0071576373f) * mu_s + 0.010453669f) * mu_s - 0.008372603f);
+    const float p_3 = (((((-0.00033833124f * r_s + (0.0022662506f * mu_s - 0.0020357182f)) * r_s + ((-0.0011184512f * mu_s + 0.0005099021f) * mu_s + 0.00082839193f)) * r_s + (((0.0024267575f * mu_s - 0.0021235375f) * mu_s - 0.00304471f) * mu_s + 0.0028041308f)) * r_s + ((((-0.0028883894f * mu_s + 0.0016288796f) * mu_s + 0.0048827324f) * mu_s - 0.0013200718f) * mu_s - 0.0019220238f)) * r_s + (((((-0.00039345594f * mu_s - 0.004210797f) * mu_s + 0.004041403f) * mu_s + 0.0042053745f) * mu_s - 0.004208915f) * mu_s + 7.431525e-5f)) * r_s + ((((((0.001876396f * mu_s - 0.0010137202f) * mu_s - 0.003754791f) * mu_s + 0.0049387654f) * mu_s - 0.0006009942f) * mu_s - 0.004073072f) * mu_s + 0.002161645f);
+    const float p = ((p_3 * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    const float q_0 = (((((0.0035928015f * r_s + (0.026852742f * mu_s + 0.008906791f)) * r_s + ((0.032194432f * mu_s - 0.042574f) * mu_s + 0.007823077f)) * r_s + (((-0.09242746f * mu_s - 0.00048069842f) * mu_s + 0.055190682f) * mu_s + 7.096622e-5f)) * r_s + ((((0.076176554f * mu_s + 0.14995857f) * mu_s - 0.29586893f) * mu_s - 0.06060944f) * mu_s + 0.14741193f)) * r_s + (((((-0.08674176f * mu_s + 0.084680796f) * mu_s + 0.19046251f) * mu_s - 0.37455586f) * mu_s - 0.2521929f) * mu_s + 0.36946607f)) * r_s + ((((((0.25017747f * mu_s - 0.23524307f) * mu_s - 0.06781631f) * mu_s + 0.27470356f) * mu_s - 0.037556157f) * mu_s - 0.6153864f) * mu_s + 0.60165864f);
+    const float q = q_0;
+    const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }
 

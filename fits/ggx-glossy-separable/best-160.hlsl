@@ -15,16 +15,16 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 87faca3f1d1b09a439997969e27174cdd5277f2368122012521313206038a7be.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 df3a937764f55d510f813a4068ae49d9b59c75ae1d4f42c25e5850e929270ef3.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.2e-5, bernstein 6.8e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.34e-4, max 3.79e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.94e-6 (every op rounded, as this Rust), 2.32e-6 (fused multiply-add), 2.26e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.01e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 25773 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 1.34e-4, max 3.79e-3; this f32 code MAE 1.34e-4, max 3.79e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-3 on the measurement grid.
-// Denominator proved >= 3.340e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-6, shifted 1.1e-5, bernstein 6.2e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.11e-4, max 2.07e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.45e-6 (every op rounded, as this Rust), 2.85e-6 (fused multiply-add), 2.27e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.06e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 35843 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-4, max 2.07e-3; this f32 code MAE 2.11e-4, max 2.07e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-3 on the measurement grid.
+// Denominator proved >= 2.174e-3 on the domain (Bernstein certificate), so the division is safe.
 float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -35,59 +35,59 @@ float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     float mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    float p0_0 = ((((-12.445715f * r_c + (-25.875774f * mu_t + 32.733982f)) * r_c + ((12.040334f * mu_t + 34.593647f) * mu_t - 29.029325f)) * r_c + (((2.5029352f * mu_t - 19.613928f) * mu_t - 11.075432f) * mu_t + 13.6537075f)) * r_c + ((((-12.126581f * mu_t + 22.744448f) * mu_t - 13.796054f) * mu_t + 11.16014f) * mu_t - 6.2853856f)) * r_c + (((((5.9529266f * mu_t - 7.109308f) * mu_t - 0.19083762f) * mu_t + 7.332671f) * mu_t - 6.668299f) * mu_t + 2.0958076f);
+    float p0_0 = ((((-12.999557f * r_c + (-27.002766f * mu_t + 34.300724f)) * r_c + ((12.341216f * mu_t + 36.42689f) * mu_t - 30.60814f)) * r_c + (((2.7060878f * mu_t - 20.477213f) * mu_t - 11.7002125f) * mu_t + 14.372335f)) * r_c + ((((-12.445711f * mu_t + 23.325317f) * mu_t - 13.897768f) * mu_t + 11.238086f) * mu_t - 6.413701f)) * r_c + (((((5.8766694f * mu_t - 6.6221156f) * mu_t - 0.9037057f) * mu_t + 7.727992f) * mu_t - 6.7062206f) * mu_t + 2.0649385f);
     float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    float u0_0 = 0.6494595f;
-    float u0_1 = -0.26098716f;
-    float u0_2 = 0.16287418f;
-    float u0_3 = 0.10150619f;
-    float u0_4 = -0.06952657f;
+    float u0_0 = 0.6508343f;
+    float u0_1 = -0.29189625f;
+    float u0_2 = 0.2088498f;
+    float u0_3 = 0.07094076f;
+    float u0_4 = -0.05415143f;
     float u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    float q0_0 = ((-9.009416f * r_c + (5.701266f * mu_t + 10.734868f)) * r_c + ((-0.79023093f * mu_t - 7.896912f) * mu_t - 0.209015f)) * r_c + (((-0.50060886f * mu_t + 5.1504507f) * mu_t - 1.8026055f) * mu_t + 1.0f);
+    float q0_0 = ((-9.219861f * r_c + (5.7342863f * mu_t + 11.029042f)) * r_c + ((-0.94070184f * mu_t - 7.750092f) * mu_t - 0.33895013f)) * r_c + (((-0.40652835f * mu_t + 5.078679f) * mu_t - 1.7895069f) * mu_t + 1.0f);
     float q0 = q0_0;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    float p1_0 = ((((1.3903699f * r_c + (-0.54367626f * mu_t - 2.5816107f)) * r_c + ((-0.4585788f * mu_t + 2.0843866f) * mu_t - 7.6409497f)) * r_c + (((0.758631f * mu_t - 0.7390585f) * mu_t + 3.9907365f) * mu_t - 0.6109858f)) * r_c + ((((-0.8018529f * mu_t + 0.6500007f) * mu_t + 0.11380355f) * mu_t - 0.3466503f) * mu_t + 0.086750105f)) * r_c + (((((-2.2740736f * mu_t + 6.200911f) * mu_t - 6.7830234f) * mu_t + 1.3557059f) * mu_t + 0.07761361f) * mu_t - 0.09818355f);
+    float p1_0 = ((((1.2151661f * r_c + (-0.1899415f * mu_t - 2.264238f)) * r_c + ((-0.75418216f * mu_t + 1.6597778f) * mu_t - 8.335117f)) * r_c + (((0.34316087f * mu_t + 0.2855805f) * mu_t + 4.445948f) * mu_t - 0.7491528f)) * r_c + ((((-0.2501897f * mu_t - 0.030182896f) * mu_t - 0.2533415f) * mu_t - 0.24289592f) * mu_t + 0.07135345f)) * r_c + (((((-2.4416096f * mu_t + 6.372526f) * mu_t - 6.880079f) * mu_t + 1.3876938f) * mu_t + 0.08054735f) * mu_t - 0.1077185f);
     float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    float u1_0 = 0.91224885f;
-    float u1_1 = -0.2647223f;
-    float u1_2 = -0.5754533f;
-    float u1_3 = 0.049503088f;
-    float u1_4 = -0.23588982f;
+    float u1_0 = 0.9328409f;
+    float u1_1 = -0.31337735f;
+    float u1_2 = -0.56614625f;
+    float u1_3 = 0.100894816f;
+    float u1_4 = -0.26144806f;
     float u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    float q1_0 = ((33.40089f * r_c + (-20.794003f * mu_t + 4.4115252f)) * r_c + ((2.347407f * mu_t - 0.84015125f) * mu_t - 0.11073593f)) * r_c + (((5.8466377f * mu_t - 0.12702456f) * mu_t - 0.6906554f) * mu_t + 1.0f);
+    float q1_0 = ((35.66784f * r_c + (-23.121347f * mu_t + 4.787847f)) * r_c + ((3.4648013f * mu_t - 0.83405286f) * mu_t + 0.12339186f)) * r_c + (((6.36513f * mu_t - 0.30026767f) * mu_t - 0.7568775f) * mu_t + 1.0f);
     float q1 = q1_0;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    float p2_0 = ((((-17.783749f * r_c + (-32.06717f * mu_t + 50.477016f)) * r_c + ((16.689f * mu_t + 38.838184f) * mu_t - 43.70254f)) * r_c + (((6.829113f * mu_t - 40.35696f) * mu_t + 5.0983872f) * mu_t + 11.371945f)) * r_c + ((((-16.283531f * mu_t + 24.003199f) * mu_t + 5.67222f) * mu_t - 8.890963f) * mu_t - 0.28562352f)) * r_c + (((((7.6058373f * mu_t - 7.1526175f) * mu_t - 1.7951778f) * mu_t + 1.1941632f) * mu_t + 0.4034265f) * mu_t + 0.0077133668f);
+    float p2_0 = ((((-17.554438f * r_c + (-32.043617f * mu_t + 49.90711f)) * r_c + ((16.76994f * mu_t + 38.68799f) * mu_t - 43.182262f)) * r_c + (((6.7491236f * mu_t - 40.362335f) * mu_t + 5.2451224f) * mu_t + 11.157399f)) * r_c + ((((-16.289942f * mu_t + 24.093124f) * mu_t + 5.5975795f) * mu_t - 8.917347f) * mu_t - 0.24786606f)) * r_c + (((((7.537825f * mu_t - 7.019577f) * mu_t - 1.8715698f) * mu_t + 1.2009686f) * mu_t + 0.4091049f) * mu_t + 0.0056480966f);
     float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    float u2_0 = -0.36387953f;
-    float u2_1 = 0.15461227f;
-    float u2_2 = -0.12645823f;
-    float u2_3 = -0.018097846f;
-    float u2_4 = 0.025882171f;
+    float u2_0 = -0.377575f;
+    float u2_1 = 0.16733286f;
+    float u2_2 = -0.11789154f;
+    float u2_3 = -0.056520093f;
+    float u2_4 = 0.04321115f;
     float u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    float q2_0 = ((-5.330402f * r_c + (2.7096858f * mu_t + 6.9863515f)) * r_c + ((0.42892924f * mu_t - 5.285275f) * mu_t - 0.16966274f)) * r_c + (((-0.054744884f * mu_t + 1.9532193f) * mu_t + 0.2861427f) * mu_t + 0.005107787f);
+    float q2_0 = ((-5.305678f * r_c + (2.714171f * mu_t + 6.944426f)) * r_c + ((0.4284458f * mu_t - 5.2894363f) * mu_t - 0.15068132f)) * r_c + (((-0.051548753f * mu_t + 1.9500158f) * mu_t + 0.28686604f) * mu_t + 0.003743737f);
     float q2 = q2_0;
     float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    float p3_0 = ((((66.60253f * r_c + (37.79431f * mu_t - 197.41548f)) * r_c + ((-79.29201f * mu_t + 40.413017f) * mu_t + 167.13792f)) * r_c + (((21.814594f * mu_t + 117.113396f) * mu_t - 175.69615f) * mu_t - 25.627441f)) * r_c + ((((93.18441f * mu_t - 216.17476f) * mu_t + 66.943054f) * mu_t + 105.660126f) * mu_t - 37.916916f)) * r_c + (((((-100.16475f * mu_t + 161.6102f) * mu_t - 39.17908f) * mu_t - 20.180386f) * mu_t - 7.9967346f) * mu_t - 1.5557526f);
+    float p3_0 = ((((123.316574f * r_c + (79.0997f * mu_t - 358.92822f)) * r_c + ((-134.63322f * mu_t + 47.763115f) * mu_t + 296.48938f)) * r_c + (((53.58353f * mu_t + 182.70366f) * mu_t - 295.86578f) * mu_t - 36.334415f)) * r_c + ((((176.6199f * mu_t - 406.02832f) * mu_t + 130.60239f) * mu_t + 187.05997f) * mu_t - 70.315414f)) * r_c + (((((-179.71297f * mu_t + 294.15475f) * mu_t - 88.36722f) * mu_t - 16.763868f) * mu_t - 20.220406f) * mu_t - 1.7392691f);
     float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    float u3_0 = -0.18005225f;
-    float u3_1 = -0.19314604f;
-    float u3_2 = 0.19973423f;
-    float u3_3 = 0.0035110714f;
-    float u3_4 = 0.0007620204f;
+    float u3_0 = -0.1886304f;
+    float u3_1 = -0.1818253f;
+    float u3_2 = 0.20064692f;
+    float u3_3 = -0.009921245f;
+    float u3_4 = 0.008625439f;
     float u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    float q3_0 = ((25.472292f * r_c + (47.33704f * mu_t + 5.5335455f)) * r_c + ((15.362445f * mu_t - 62.07171f) * mu_t + 21.322582f)) * r_c + (((24.59645f * mu_t - 4.391639f) * mu_t + 6.1811533f) * mu_t + 1.0f);
+    float q3_0 = ((43.785816f * r_c + (81.47616f * mu_t + 6.025371f)) * r_c + ((27.17763f * mu_t - 107.947586f) * mu_t + 37.66675f)) * r_c + (((43.433933f * mu_t - 11.7445965f) * mu_t + 13.015665f) * mu_t + 1.0f);
     float q3 = q3_0;
     float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

@@ -13,16 +13,16 @@
 ///   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-/// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 87faca3f1d1b09a439997969e27174cdd5277f2368122012521313206038a7be.
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+/// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 df3a937764f55d510f813a4068ae49d9b59c75ae1d4f42c25e5850e929270ef3.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.2e-5, bernstein 6.8e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.34e-4, max 3.79e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.94e-6 (every op rounded, as this Rust), 2.32e-6 (fused multiply-add), 2.26e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.01e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 25773 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 1.34e-4, max 3.79e-3; this f32 code MAE 1.34e-4, max 3.79e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-3 on the measurement grid.
-/// Denominator proved >= 3.340e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-6, shifted 1.1e-5, bernstein 6.2e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 2.11e-4, max 2.07e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.45e-6 (every op rounded, as this Rust), 2.85e-6 (fused multiply-add), 2.27e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.06e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 35843 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-4, max 2.07e-3; this f32 code MAE 2.11e-4, max 2.07e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-3 on the measurement grid.
+/// Denominator proved >= 2.174e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -40,59 +40,59 @@ pub fn ggx_glossy_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((-12.445715_f32 * r_c + (-25.875774_f32 * mu_t + 32.733982_f32)) * r_c + ((12.040334_f32 * mu_t + 34.593647_f32) * mu_t - 29.029325_f32)) * r_c + (((2.5029352_f32 * mu_t - 19.613928_f32) * mu_t - 11.075432_f32) * mu_t + 13.6537075_f32)) * r_c + ((((-12.126581_f32 * mu_t + 22.744448_f32) * mu_t - 13.796054_f32) * mu_t + 11.16014_f32) * mu_t - 6.2853856_f32)) * r_c + (((((5.9529266_f32 * mu_t - 7.109308_f32) * mu_t - 0.19083762_f32) * mu_t + 7.332671_f32) * mu_t - 6.668299_f32) * mu_t + 2.0958076_f32);
+    let p0_0 = ((((-12.999557_f32 * r_c + (-27.002766_f32 * mu_t + 34.300724_f32)) * r_c + ((12.341216_f32 * mu_t + 36.42689_f32) * mu_t - 30.60814_f32)) * r_c + (((2.7060878_f32 * mu_t - 20.477213_f32) * mu_t - 11.7002125_f32) * mu_t + 14.372335_f32)) * r_c + ((((-12.445711_f32 * mu_t + 23.325317_f32) * mu_t - 13.897768_f32) * mu_t + 11.238086_f32) * mu_t - 6.413701_f32)) * r_c + (((((5.8766694_f32 * mu_t - 6.6221156_f32) * mu_t - 0.9037057_f32) * mu_t + 7.727992_f32) * mu_t - 6.7062206_f32) * mu_t + 2.0649385_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.6494595_f32;
-    let u0_1 = -0.26098716_f32;
-    let u0_2 = 0.16287418_f32;
-    let u0_3 = 0.10150619_f32;
-    let u0_4 = -0.06952657_f32;
+    let u0_0 = 0.6508343_f32;
+    let u0_1 = -0.29189625_f32;
+    let u0_2 = 0.2088498_f32;
+    let u0_3 = 0.07094076_f32;
+    let u0_4 = -0.05415143_f32;
     let u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = ((-9.009416_f32 * r_c + (5.701266_f32 * mu_t + 10.734868_f32)) * r_c + ((-0.79023093_f32 * mu_t - 7.896912_f32) * mu_t - 0.209015_f32)) * r_c + (((-0.50060886_f32 * mu_t + 5.1504507_f32) * mu_t - 1.8026055_f32) * mu_t + 1.0_f32);
+    let q0_0 = ((-9.219861_f32 * r_c + (5.7342863_f32 * mu_t + 11.029042_f32)) * r_c + ((-0.94070184_f32 * mu_t - 7.750092_f32) * mu_t - 0.33895013_f32)) * r_c + (((-0.40652835_f32 * mu_t + 5.078679_f32) * mu_t - 1.7895069_f32) * mu_t + 1.0_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((1.3903699_f32 * r_c + (-0.54367626_f32 * mu_t - 2.5816107_f32)) * r_c + ((-0.4585788_f32 * mu_t + 2.0843866_f32) * mu_t - 7.6409497_f32)) * r_c + (((0.758631_f32 * mu_t - 0.7390585_f32) * mu_t + 3.9907365_f32) * mu_t - 0.6109858_f32)) * r_c + ((((-0.8018529_f32 * mu_t + 0.6500007_f32) * mu_t + 0.11380355_f32) * mu_t - 0.3466503_f32) * mu_t + 0.086750105_f32)) * r_c + (((((-2.2740736_f32 * mu_t + 6.200911_f32) * mu_t - 6.7830234_f32) * mu_t + 1.3557059_f32) * mu_t + 0.07761361_f32) * mu_t - 0.09818355_f32);
+    let p1_0 = ((((1.2151661_f32 * r_c + (-0.1899415_f32 * mu_t - 2.264238_f32)) * r_c + ((-0.75418216_f32 * mu_t + 1.6597778_f32) * mu_t - 8.335117_f32)) * r_c + (((0.34316087_f32 * mu_t + 0.2855805_f32) * mu_t + 4.445948_f32) * mu_t - 0.7491528_f32)) * r_c + ((((-0.2501897_f32 * mu_t - 0.030182896_f32) * mu_t - 0.2533415_f32) * mu_t - 0.24289592_f32) * mu_t + 0.07135345_f32)) * r_c + (((((-2.4416096_f32 * mu_t + 6.372526_f32) * mu_t - 6.880079_f32) * mu_t + 1.3876938_f32) * mu_t + 0.08054735_f32) * mu_t - 0.1077185_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 0.91224885_f32;
-    let u1_1 = -0.2647223_f32;
-    let u1_2 = -0.5754533_f32;
-    let u1_3 = 0.049503088_f32;
-    let u1_4 = -0.23588982_f32;
+    let u1_0 = 0.9328409_f32;
+    let u1_1 = -0.31337735_f32;
+    let u1_2 = -0.56614625_f32;
+    let u1_3 = 0.100894816_f32;
+    let u1_4 = -0.26144806_f32;
     let u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = ((33.40089_f32 * r_c + (-20.794003_f32 * mu_t + 4.4115252_f32)) * r_c + ((2.347407_f32 * mu_t - 0.84015125_f32) * mu_t - 0.11073593_f32)) * r_c + (((5.8466377_f32 * mu_t - 0.12702456_f32) * mu_t - 0.6906554_f32) * mu_t + 1.0_f32);
+    let q1_0 = ((35.66784_f32 * r_c + (-23.121347_f32 * mu_t + 4.787847_f32)) * r_c + ((3.4648013_f32 * mu_t - 0.83405286_f32) * mu_t + 0.12339186_f32)) * r_c + (((6.36513_f32 * mu_t - 0.30026767_f32) * mu_t - 0.7568775_f32) * mu_t + 1.0_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((-17.783749_f32 * r_c + (-32.06717_f32 * mu_t + 50.477016_f32)) * r_c + ((16.689_f32 * mu_t + 38.838184_f32) * mu_t - 43.70254_f32)) * r_c + (((6.829113_f32 * mu_t - 40.35696_f32) * mu_t + 5.0983872_f32) * mu_t + 11.371945_f32)) * r_c + ((((-16.283531_f32 * mu_t + 24.003199_f32) * mu_t + 5.67222_f32) * mu_t - 8.890963_f32) * mu_t - 0.28562352_f32)) * r_c + (((((7.6058373_f32 * mu_t - 7.1526175_f32) * mu_t - 1.7951778_f32) * mu_t + 1.1941632_f32) * mu_t + 0.4034265_f32) * mu_t + 0.0077133668_f32);
+    let p2_0 = ((((-17.554438_f32 * r_c + (-32.043617_f32 * mu_t + 49.90711_f32)) * r_c + ((16.76994_f32 * mu_t + 38.68799_f32) * mu_t - 43.182262_f32)) * r_c + (((6.7491236_f32 * mu_t - 40.362335_f32) * mu_t + 5.2451224_f32) * mu_t + 11.157399_f32)) * r_c + ((((-16.289942_f32 * mu_t + 24.093124_f32) * mu_t + 5.5975795_f32) * mu_t - 8.917347_f32) * mu_t - 0.24786606_f32)) * r_c + (((((7.537825_f32 * mu_t - 7.019577_f32) * mu_t - 1.8715698_f32) * mu_t + 1.2009686_f32) * mu_t + 0.4091049_f32) * mu_t + 0.0056480966_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.36387953_f32;
-    let u2_1 = 0.15461227_f32;
-    let u2_2 = -0.12645823_f32;
-    let u2_3 = -0.018097846_f32;
-    let u2_4 = 0.025882171_f32;
+    let u2_0 = -0.377575_f32;
+    let u2_1 = 0.16733286_f32;
+    let u2_2 = -0.11789154_f32;
+    let u2_3 = -0.056520093_f32;
+    let u2_4 = 0.04321115_f32;
     let u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = ((-5.330402_f32 * r_c + (2.7096858_f32 * mu_t + 6.9863515_f32)) * r_c + ((0.42892924_f32 * mu_t - 5.285275_f32) * mu_t - 0.16966274_f32)) * r_c + (((-0.054744884_f32 * mu_t + 1.9532193_f32) * mu_t + 0.2861427_f32) * mu_t + 0.005107787_f32);
+    let q2_0 = ((-5.305678_f32 * r_c + (2.714171_f32 * mu_t + 6.944426_f32)) * r_c + ((0.4284458_f32 * mu_t - 5.2894363_f32) * mu_t - 0.15068132_f32)) * r_c + (((-0.051548753_f32 * mu_t + 1.9500158_f32) * mu_t + 0.28686604_f32) * mu_t + 0.003743737_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((66.60253_f32 * r_c + (37.79431_f32 * mu_t - 197.41548_f32)) * r_c + ((-79.29201_f32 * mu_t + 40.413017_f32) * mu_t + 167.13792_f32)) * r_c + (((21.814594_f32 * mu_t + 117.113396_f32) * mu_t - 175.69615_f32) * mu_t - 25.627441_f32)) * r_c + ((((93.18441_f32 * mu_t - 216.17476_f32) * mu_t + 66.943054_f32) * mu_t + 105.660126_f32) * mu_t - 37.916916_f32)) * r_c + (((((-100.16475_f32 * mu_t + 161.6102_f32) * mu_t - 39.17908_f32) * mu_t - 20.180386_f32) * mu_t - 7.9967346_f32) * mu_t - 1.5557526_f32);
+    let p3_0 = ((((123.316574_f32 * r_c + (79.0997_f32 * mu_t - 358.92822_f32)) * r_c + ((-134.63322_f32 * mu_t + 47.763115_f32) * mu_t + 296.48938_f32)) * r_c + (((53.58353_f32 * mu_t + 182.70366_f32) * mu_t - 295.86578_f32) * mu_t - 36.334415_f32)) * r_c + ((((176.6199_f32 * mu_t - 406.02832_f32) * mu_t + 130.60239_f32) * mu_t + 187.05997_f32) * mu_t - 70.315414_f32)) * r_c + (((((-179.71297_f32 * mu_t + 294.15475_f32) * mu_t - 88.36722_f32) * mu_t - 16.763868_f32) * mu_t - 20.220406_f32) * mu_t - 1.7392691_f32);
     let p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = -0.18005225_f32;
-    let u3_1 = -0.19314604_f32;
-    let u3_2 = 0.19973423_f32;
-    let u3_3 = 0.0035110714_f32;
-    let u3_4 = 0.0007620204_f32;
+    let u3_0 = -0.1886304_f32;
+    let u3_1 = -0.1818253_f32;
+    let u3_2 = 0.20064692_f32;
+    let u3_3 = -0.009921245_f32;
+    let u3_4 = 0.008625439_f32;
     let u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = ((25.472292_f32 * r_c + (47.33704_f32 * mu_t + 5.5335455_f32)) * r_c + ((15.362445_f32 * mu_t - 62.07171_f32) * mu_t + 21.322582_f32)) * r_c + (((24.59645_f32 * mu_t - 4.391639_f32) * mu_t + 6.1811533_f32) * mu_t + 1.0_f32);
+    let q3_0 = ((43.785816_f32 * r_c + (81.47616_f32 * mu_t + 6.025371_f32)) * r_c + ((27.17763_f32 * mu_t - 107.947586_f32) * mu_t + 37.66675_f32)) * r_c + (((43.433933_f32 * mu_t - 11.7445965_f32) * mu_t + 13.015665_f32) * mu_t + 1.0_f32);
     let q3 = q3_0;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms

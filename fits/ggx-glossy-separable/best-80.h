@@ -28,16 +28,16 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 e7a16965a2924b991923c94d6ae46d14693c21c45125f620f42f22d5319856a2.
+// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 dcd0d25e9197503b970aed22ee3be1a556eeb8e1eed12f7d89b6966ce9210f4b.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.5e-6, shifted 2.9e-6, bernstein 9.9e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 4.84e-4, max 1.41e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.53e-6 (every op rounded, as this Rust), 1.15e-6 (fused multiply-add), 1.69e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 7.05e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 20627 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 4.84e-4, max 9.00e-3; this f32 code MAE 4.84e-4, max 9.00e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-// Denominator proved >= 7.362e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 6.0e-6, bernstein 1.1e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.19e-4, max 5.88e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.40e-6 (every op rounded, as this Rust), 1.08e-6 (fused multiply-add), 1.53e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.63e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 34929 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 8.19e-4, max 5.50e-3; this f32 code MAE 8.19e-4, max 5.50e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.9e-3 on the measurement grid.
+// Denominator proved >= 6.820e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -48,42 +48,42 @@ FURNACE_FN float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     const float mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    const float p0_0 = (((-0.85060847f * r_c + (-0.6945893f * mu_t + 2.2096884f)) * r_c + ((2.335582f * mu_t - 2.0787747f) * mu_t - 3.3037977f)) * r_c + (((-1.6407096f * mu_t - 0.5187059f) * mu_t + 4.702493f) * mu_t - 0.72727203f)) * r_c + ((((-0.113308445f * mu_t + 2.0060701f) * mu_t - 3.3690772f) * mu_t + 0.13365403f) * mu_t - 0.12649903f);
+    const float p0_0 = (((-1.3962878f * r_c + (-0.49735415f * mu_t + 3.0505917f)) * r_c + ((2.4664638f * mu_t - 2.3944201f) * mu_t - 4.049333f)) * r_c + (((-1.3966255f * mu_t - 0.90385276f) * mu_t + 4.933641f) * mu_t - 0.6180842f)) * r_c + ((((-0.30946267f * mu_t + 2.4112334f) * mu_t - 3.7336142f) * mu_t + 0.2417191f) * mu_t - 0.117688514f);
     const float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    const float u0_0 = 0.2861878f;
-    const float u0_1 = -7.851049f;
-    const float u0_2 = 9.412102f;
-    const float u0_3 = 1.1122493f;
+    const float u0_0 = -0.23599152f;
+    const float u0_1 = -7.333519f;
+    const float u0_2 = 8.907212f;
+    const float u0_3 = 1.1328572f;
     const float u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    const float q0_0 = (6.4276004f * r_c + (-5.1075277f * mu_t + 0.006251606f)) * r_c + ((4.4108787f * mu_t - 1.1321222f) * mu_t + 1.0f);
+    const float q0_0 = (7.572578f * r_c + (-5.3392215f * mu_t - 0.16198945f)) * r_c + ((4.8195415f * mu_t - 1.3433154f) * mu_t + 1.0f);
     const float q0 = q0_0;
     const float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    const float p1_0 = (((-0.73040956f * r_c + (-0.6096236f * mu_t + 1.9207996f)) * r_c + ((2.255258f * mu_t - 2.1235538f) * mu_t - 3.3171458f)) * r_c + (((-1.4490398f * mu_t - 0.6292864f) * mu_t + 4.7123895f) * mu_t - 0.66935027f)) * r_c + ((((-0.09410017f * mu_t + 1.7518185f) * mu_t - 3.0961723f) * mu_t + 0.17217554f) * mu_t - 0.16021454f);
+    const float p1_0 = (((-1.2792143f * r_c + (-0.3989824f * mu_t + 2.752893f)) * r_c + ((2.377576f * mu_t - 2.4538627f) * mu_t - 4.0573087f)) * r_c + (((-1.3233174f * mu_t - 0.84766424f) * mu_t + 4.8579626f) * mu_t - 0.553193f)) * r_c + ((((-0.14867622f * mu_t + 1.987234f) * mu_t - 3.5587056f) * mu_t + 0.3103782f) * mu_t - 0.16465637f);
     const float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    const float u1_0 = 1.4546566f;
-    const float u1_1 = 6.2577534f;
-    const float u1_2 = -7.9450707f;
-    const float u1_3 = -1.21764f;
+    const float u1_0 = 1.8370216f;
+    const float u1_1 = 5.827149f;
+    const float u1_2 = -7.531888f;
+    const float u1_3 = -1.197112f;
     const float u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    const float q1_0 = (5.7806325f * r_c + (-4.242346f * mu_t - 0.24900006f)) * r_c + ((3.548934f * mu_t - 1.1732783f) * mu_t + 1.0f);
+    const float q1_0 = (6.5917683f * r_c + (-4.246831f * mu_t - 0.39866728f)) * r_c + ((4.0624976f * mu_t - 1.3620676f) * mu_t + 1.0f);
     const float q1 = q1_0;
     const float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    const float p2_0 = (((-5.94284f * r_c + (-8.741863f * mu_t + 19.237835f)) * r_c + ((17.15773f * mu_t - 7.0021095f) * mu_t - 39.678177f)) * r_c + (((-12.312571f * mu_t - 3.491425f) * mu_t + 39.795284f) * mu_t + 0.4540251f)) * r_c + ((((-0.040110026f * mu_t + 12.248827f) * mu_t - 27.617094f) * mu_t + 0.5433902f) * mu_t - 0.2762796f);
+    const float p2_0 = (((-10.910807f * r_c + (-8.268369f * mu_t + 28.155968f)) * r_c + ((21.271198f * mu_t - 11.8119135f) * mu_t - 49.67516f)) * r_c + (((-13.587264f * mu_t - 6.036749f) * mu_t + 49.670033f) * mu_t + 0.25793248f)) * r_c + ((((-0.7492716f * mu_t + 16.040087f) * mu_t - 34.674294f) * mu_t + 0.9851072f) * mu_t - 0.28204095f);
     const float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    const float u2_0 = -4.6451015f;
-    const float u2_1 = 0.13806686f;
-    const float u2_2 = 0.115122005f;
-    const float u2_3 = 0.24300069f;
+    const float u2_0 = -4.540414f;
+    const float u2_1 = -0.26048216f;
+    const float u2_2 = 0.59797996f;
+    const float u2_3 = 0.24020356f;
     const float u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    const float q2_0 = (151.23201f * r_c + (-150.26137f * mu_t - 1.975296f)) * r_c + ((96.916115f * mu_t - 1.7694569f) * mu_t + 1.0f);
+    const float q2_0 = (185.17882f * r_c + (-182.7535f * mu_t - 1.2058603f)) * r_c + ((120.35306f * mu_t - 3.2606404f) * mu_t + 1.0f);
     const float q2 = q2_0;
     const float e2 = p2 * u2 / q2;
     // the sum of the 3 terms

@@ -13,16 +13,16 @@
 ///   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-/// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-/// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 e7a16965a2924b991923c94d6ae46d14693c21c45125f620f42f22d5319856a2.
+/// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+/// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 dcd0d25e9197503b970aed22ee3be1a556eeb8e1eed12f7d89b6966ce9210f4b.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.5e-6, shifted 2.9e-6, bernstein 9.9e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 4.84e-4, max 1.41e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.53e-6 (every op rounded, as this Rust), 1.15e-6 (fused multiply-add), 1.69e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 7.05e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 20627 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 4.84e-4, max 9.00e-3; this f32 code MAE 4.84e-4, max 9.00e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-/// Denominator proved >= 7.362e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 6.0e-6, bernstein 1.1e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 8.19e-4, max 5.88e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.40e-6 (every op rounded, as this Rust), 1.08e-6 (fused multiply-add), 1.53e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 6.63e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 34929 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 8.19e-4, max 5.50e-3; this f32 code MAE 8.19e-4, max 5.50e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.9e-3 on the measurement grid.
+/// Denominator proved >= 6.820e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -40,42 +40,42 @@ pub fn ggx_glossy_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = (((-0.85060847_f32 * r_c + (-0.6945893_f32 * mu_t + 2.2096884_f32)) * r_c + ((2.335582_f32 * mu_t - 2.0787747_f32) * mu_t - 3.3037977_f32)) * r_c + (((-1.6407096_f32 * mu_t - 0.5187059_f32) * mu_t + 4.702493_f32) * mu_t - 0.72727203_f32)) * r_c + ((((-0.113308445_f32 * mu_t + 2.0060701_f32) * mu_t - 3.3690772_f32) * mu_t + 0.13365403_f32) * mu_t - 0.12649903_f32);
+    let p0_0 = (((-1.3962878_f32 * r_c + (-0.49735415_f32 * mu_t + 3.0505917_f32)) * r_c + ((2.4664638_f32 * mu_t - 2.3944201_f32) * mu_t - 4.049333_f32)) * r_c + (((-1.3966255_f32 * mu_t - 0.90385276_f32) * mu_t + 4.933641_f32) * mu_t - 0.6180842_f32)) * r_c + ((((-0.30946267_f32 * mu_t + 2.4112334_f32) * mu_t - 3.7336142_f32) * mu_t + 0.2417191_f32) * mu_t - 0.117688514_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.2861878_f32;
-    let u0_1 = -7.851049_f32;
-    let u0_2 = 9.412102_f32;
-    let u0_3 = 1.1122493_f32;
+    let u0_0 = -0.23599152_f32;
+    let u0_1 = -7.333519_f32;
+    let u0_2 = 8.907212_f32;
+    let u0_3 = 1.1328572_f32;
     let u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (6.4276004_f32 * r_c + (-5.1075277_f32 * mu_t + 0.006251606_f32)) * r_c + ((4.4108787_f32 * mu_t - 1.1321222_f32) * mu_t + 1.0_f32);
+    let q0_0 = (7.572578_f32 * r_c + (-5.3392215_f32 * mu_t - 0.16198945_f32)) * r_c + ((4.8195415_f32 * mu_t - 1.3433154_f32) * mu_t + 1.0_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = (((-0.73040956_f32 * r_c + (-0.6096236_f32 * mu_t + 1.9207996_f32)) * r_c + ((2.255258_f32 * mu_t - 2.1235538_f32) * mu_t - 3.3171458_f32)) * r_c + (((-1.4490398_f32 * mu_t - 0.6292864_f32) * mu_t + 4.7123895_f32) * mu_t - 0.66935027_f32)) * r_c + ((((-0.09410017_f32 * mu_t + 1.7518185_f32) * mu_t - 3.0961723_f32) * mu_t + 0.17217554_f32) * mu_t - 0.16021454_f32);
+    let p1_0 = (((-1.2792143_f32 * r_c + (-0.3989824_f32 * mu_t + 2.752893_f32)) * r_c + ((2.377576_f32 * mu_t - 2.4538627_f32) * mu_t - 4.0573087_f32)) * r_c + (((-1.3233174_f32 * mu_t - 0.84766424_f32) * mu_t + 4.8579626_f32) * mu_t - 0.553193_f32)) * r_c + ((((-0.14867622_f32 * mu_t + 1.987234_f32) * mu_t - 3.5587056_f32) * mu_t + 0.3103782_f32) * mu_t - 0.16465637_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 1.4546566_f32;
-    let u1_1 = 6.2577534_f32;
-    let u1_2 = -7.9450707_f32;
-    let u1_3 = -1.21764_f32;
+    let u1_0 = 1.8370216_f32;
+    let u1_1 = 5.827149_f32;
+    let u1_2 = -7.531888_f32;
+    let u1_3 = -1.197112_f32;
     let u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (5.7806325_f32 * r_c + (-4.242346_f32 * mu_t - 0.24900006_f32)) * r_c + ((3.548934_f32 * mu_t - 1.1732783_f32) * mu_t + 1.0_f32);
+    let q1_0 = (6.5917683_f32 * r_c + (-4.246831_f32 * mu_t - 0.39866728_f32)) * r_c + ((4.0624976_f32 * mu_t - 1.3620676_f32) * mu_t + 1.0_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = (((-5.94284_f32 * r_c + (-8.741863_f32 * mu_t + 19.237835_f32)) * r_c + ((17.15773_f32 * mu_t - 7.0021095_f32) * mu_t - 39.678177_f32)) * r_c + (((-12.312571_f32 * mu_t - 3.491425_f32) * mu_t + 39.795284_f32) * mu_t + 0.4540251_f32)) * r_c + ((((-0.040110026_f32 * mu_t + 12.248827_f32) * mu_t - 27.617094_f32) * mu_t + 0.5433902_f32) * mu_t - 0.2762796_f32);
+    let p2_0 = (((-10.910807_f32 * r_c + (-8.268369_f32 * mu_t + 28.155968_f32)) * r_c + ((21.271198_f32 * mu_t - 11.8119135_f32) * mu_t - 49.67516_f32)) * r_c + (((-13.587264_f32 * mu_t - 6.036749_f32) * mu_t + 49.670033_f32) * mu_t + 0.25793248_f32)) * r_c + ((((-0.7492716_f32 * mu_t + 16.040087_f32) * mu_t - 34.674294_f32) * mu_t + 0.9851072_f32) * mu_t - 0.28204095_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -4.6451015_f32;
-    let u2_1 = 0.13806686_f32;
-    let u2_2 = 0.115122005_f32;
-    let u2_3 = 0.24300069_f32;
+    let u2_0 = -4.540414_f32;
+    let u2_1 = -0.26048216_f32;
+    let u2_2 = 0.59797996_f32;
+    let u2_3 = 0.24020356_f32;
     let u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (151.23201_f32 * r_c + (-150.26137_f32 * mu_t - 1.975296_f32)) * r_c + ((96.916115_f32 * mu_t - 1.7694569_f32) * mu_t + 1.0_f32);
+    let q2_0 = (185.17882_f32 * r_c + (-182.7535_f32 * mu_t - 1.2058603_f32)) * r_c + ((120.35306_f32 * mu_t - 3.2606404_f32) * mu_t + 1.0_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // the sum of the 3 terms

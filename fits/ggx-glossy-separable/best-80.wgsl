@@ -12,16 +12,16 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 e7a16965a2924b991923c94d6ae46d14693c21c45125f620f42f22d5319856a2.
+// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 dcd0d25e9197503b970aed22ee3be1a556eeb8e1eed12f7d89b6966ce9210f4b.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.5e-6, shifted 2.9e-6, bernstein 9.9e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 4.84e-4, max 1.41e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.53e-6 (every op rounded, as this Rust), 1.15e-6 (fused multiply-add), 1.69e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 7.05e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 20627 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 4.84e-4, max 9.00e-3; this f32 code MAE 4.84e-4, max 9.00e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-// Denominator proved >= 7.362e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 6.0e-6, bernstein 1.1e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.19e-4, max 5.88e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.40e-6 (every op rounded, as this Rust), 1.08e-6 (fused multiply-add), 1.53e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.63e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 34929 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 8.19e-4, max 5.50e-3; this f32 code MAE 8.19e-4, max 5.50e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.9e-3 on the measurement grid.
+// Denominator proved >= 6.820e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_glossy_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -32,42 +32,42 @@ fn ggx_glossy_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = (((-0.85060847 * r_c + (-0.6945893 * mu_t + 2.2096884)) * r_c + ((2.335582 * mu_t - 2.0787747) * mu_t - 3.3037977)) * r_c + (((-1.6407096 * mu_t - 0.5187059) * mu_t + 4.702493) * mu_t - 0.72727203)) * r_c + ((((-0.113308445 * mu_t + 2.0060701) * mu_t - 3.3690772) * mu_t + 0.13365403) * mu_t - 0.12649903);
+    let p0_0 = (((-1.3962878 * r_c + (-0.49735415 * mu_t + 3.0505917)) * r_c + ((2.4664638 * mu_t - 2.3944201) * mu_t - 4.049333)) * r_c + (((-1.3966255 * mu_t - 0.90385276) * mu_t + 4.933641) * mu_t - 0.6180842)) * r_c + ((((-0.30946267 * mu_t + 2.4112334) * mu_t - 3.7336142) * mu_t + 0.2417191) * mu_t - 0.117688514);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.2861878;
-    let u0_1 = -7.851049;
-    let u0_2 = 9.412102;
-    let u0_3 = 1.1122493;
+    let u0_0 = -0.23599152;
+    let u0_1 = -7.333519;
+    let u0_2 = 8.907212;
+    let u0_3 = 1.1328572;
     let u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (6.4276004 * r_c + (-5.1075277 * mu_t + 0.006251606)) * r_c + ((4.4108787 * mu_t - 1.1321222) * mu_t + 1.0);
+    let q0_0 = (7.572578 * r_c + (-5.3392215 * mu_t - 0.16198945)) * r_c + ((4.8195415 * mu_t - 1.3433154) * mu_t + 1.0);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = (((-0.73040956 * r_c + (-0.6096236 * mu_t + 1.9207996)) * r_c + ((2.255258 * mu_t - 2.1235538) * mu_t - 3.3171458)) * r_c + (((-1.4490398 * mu_t - 0.6292864) * mu_t + 4.7123895) * mu_t - 0.66935027)) * r_c + ((((-0.09410017 * mu_t + 1.7518185) * mu_t - 3.0961723) * mu_t + 0.17217554) * mu_t - 0.16021454);
+    let p1_0 = (((-1.2792143 * r_c + (-0.3989824 * mu_t + 2.752893)) * r_c + ((2.377576 * mu_t - 2.4538627) * mu_t - 4.0573087)) * r_c + (((-1.3233174 * mu_t - 0.84766424) * mu_t + 4.8579626) * mu_t - 0.553193)) * r_c + ((((-0.14867622 * mu_t + 1.987234) * mu_t - 3.5587056) * mu_t + 0.3103782) * mu_t - 0.16465637);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 1.4546566;
-    let u1_1 = 6.2577534;
-    let u1_2 = -7.9450707;
-    let u1_3 = -1.21764;
+    let u1_0 = 1.8370216;
+    let u1_1 = 5.827149;
+    let u1_2 = -7.531888;
+    let u1_3 = -1.197112;
     let u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (5.7806325 * r_c + (-4.242346 * mu_t - 0.24900006)) * r_c + ((3.548934 * mu_t - 1.1732783) * mu_t + 1.0);
+    let q1_0 = (6.5917683 * r_c + (-4.246831 * mu_t - 0.39866728)) * r_c + ((4.0624976 * mu_t - 1.3620676) * mu_t + 1.0);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = (((-5.94284 * r_c + (-8.741863 * mu_t + 19.237835)) * r_c + ((17.15773 * mu_t - 7.0021095) * mu_t - 39.678177)) * r_c + (((-12.312571 * mu_t - 3.491425) * mu_t + 39.795284) * mu_t + 0.4540251)) * r_c + ((((-0.040110026 * mu_t + 12.248827) * mu_t - 27.617094) * mu_t + 0.5433902) * mu_t - 0.2762796);
+    let p2_0 = (((-10.910807 * r_c + (-8.268369 * mu_t + 28.155968)) * r_c + ((21.271198 * mu_t - 11.8119135) * mu_t - 49.67516)) * r_c + (((-13.587264 * mu_t - 6.036749) * mu_t + 49.670033) * mu_t + 0.25793248)) * r_c + ((((-0.7492716 * mu_t + 16.040087) * mu_t - 34.674294) * mu_t + 0.9851072) * mu_t - 0.28204095);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -4.6451015;
-    let u2_1 = 0.13806686;
-    let u2_2 = 0.115122005;
-    let u2_3 = 0.24300069;
+    let u2_0 = -4.540414;
+    let u2_1 = -0.26048216;
+    let u2_2 = 0.59797996;
+    let u2_3 = 0.24020356;
     let u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (151.23201 * r_c + (-150.26137 * mu_t - 1.975296)) * r_c + ((96.916115 * mu_t - 1.7694569) * mu_t + 1.0);
+    let q2_0 = (185.17882 * r_c + (-182.7535 * mu_t - 1.2058603)) * r_c + ((120.35306 * mu_t - 3.2606404) * mu_t + 1.0);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // the sum of the 3 terms

@@ -16,16 +16,16 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 3c18c64979066d36467d7c3469228435bf7d4a3160e7f2334032d22e231f4d27.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 3b176238b1f9d1da0a6e71691a97a42ecc32db07ec9de2f21538ee000aafb461.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-6, shifted 7.4e-6, bernstein 6.3e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.27e-4, max 2.89e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.43e-6 (every op rounded, as this Rust), 1.28e-6 (fused multiply-add), 1.48e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.60e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 26585 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 1.27e-4, max 2.89e-3; this f32 code MAE 1.27e-4, max 2.89e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.0e-3 on the measurement grid.
-// Denominator proved >= 1.286e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 1.0e-5, bernstein 6.0e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.01e-4, max 1.69e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.22e-6 (fused multiply-add), 1.55e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.31e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 24615 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.01e-4, max 1.69e-3; this f32 code MAE 2.01e-4, max 1.69e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-3 on the measurement grid.
+// Denominator proved >= 5.886e-4 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_glossy_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -36,59 +36,59 @@ highp float ggx_glossy_albedo(highp float f0, highp float r, highp float mu) {
     // t = sqrt(mu)
     highp float mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    highp float p0_0 = ((((-0.18283139 * r_c + (-8.659322 * mu_t + 0.1345401)) * r_c + ((5.9675174 * mu_t + 12.548349) * mu_t - 1.2153146)) * r_c + (((2.3710952 * mu_t - 9.560058) * mu_t - 6.5956497) * mu_t + 4.1316123)) * r_c + ((((-6.2695756 * mu_t + 6.920843) * mu_t - 3.6339998) * mu_t + 6.7001443) * mu_t - 3.5173693)) * r_c + (((((5.261179 * mu_t - 8.791078) * mu_t + 8.030671) * mu_t - 1.5736017) * mu_t - 2.5924292) * mu_t + 1.1705545);
+    highp float p0_0 = ((((0.542951 * r_c + (-8.586605 * mu_t - 2.0543315)) * r_c + ((6.9268723 * mu_t + 11.172109) * mu_t + 1.1653869)) * r_c + (((2.6589653 * mu_t - 11.776362) * mu_t - 3.9086628) * mu_t + 2.870944)) * r_c + ((((-6.676469 * mu_t + 7.245712) * mu_t - 2.7904541) * mu_t + 5.091804) * mu_t - 2.9230185)) * r_c + (((((5.7034183 * mu_t - 9.612123) * mu_t + 8.911564) * mu_t - 2.0223515) * mu_t - 2.237271) * mu_t + 1.046212);
     highp float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    highp float u0_0 = 0.5968666;
-    highp float u0_1 = -0.5293603;
-    highp float u0_2 = 0.44929442;
-    highp float u0_3 = 0.08544752;
-    highp float u0_4 = -0.0634996;
+    highp float u0_0 = 0.62028056;
+    highp float u0_1 = -0.6041401;
+    highp float u0_2 = 0.6076107;
+    highp float u0_3 = -0.053592127;
+    highp float u0_4 = 0.0057759914;
     highp float u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    highp float q0_0 = ((-8.07203 * r_c + (6.261161 * mu_t + 10.631145)) * r_c + ((-4.786085 * mu_t - 6.6126037) * mu_t - 0.46134037)) * r_c + (((1.9682285 * mu_t + 4.203905) * mu_t - 1.3649398) * mu_t + 1.0);
+    highp float q0_0 = ((-8.989494 * r_c + (6.5417156 * mu_t + 11.851045)) * r_c + ((-5.834017 * mu_t - 6.7621417) * mu_t - 0.37899318)) * r_c + (((2.8516452 * mu_t + 4.024934) * mu_t - 1.3231983) * mu_t + 1.0);
     highp float q0 = q0_0;
     highp float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    highp float p1_0 = ((((1.5645933 * r_c + (-0.6793109 * mu_t - 2.5983374)) * r_c + ((-1.2177205 * mu_t + 3.2324655) * mu_t - 8.556959)) * r_c + (((0.5534895 * mu_t + 0.9570046) * mu_t + 3.692087) * mu_t - 1.0212873)) * r_c + ((((-0.3005662 * mu_t - 0.5874916) * mu_t + 0.41134226) * mu_t - 0.30934405) * mu_t + 0.25639477)) * r_c + (((((-3.1587944 * mu_t + 7.7219014) * mu_t - 7.229161) * mu_t + 1.3796424) * mu_t + 0.053605832) * mu_t - 0.12876242);
+    highp float p1_0 = ((((1.907799 * r_c + (-0.3902504 * mu_t - 3.3765345)) * r_c + ((-1.5287853 * mu_t + 2.8310602) * mu_t - 10.463065)) * r_c + (((-0.10560665 * mu_t + 2.511859) * mu_t + 6.082503) * mu_t - 1.4656507)) * r_c + ((((0.7822139 * mu_t - 2.4460642) * mu_t - 0.25144958) * mu_t - 0.4112809) * mu_t + 0.3548339)) * r_c + (((((-3.4141603 * mu_t + 7.685082) * mu_t - 7.316363) * mu_t + 1.7125392) * mu_t - 0.039946295) * mu_t - 0.15762377);
     highp float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    highp float u1_0 = 0.5104297;
-    highp float u1_1 = -0.6195158;
-    highp float u1_2 = -0.22207361;
-    highp float u1_3 = 0.0020396302;
-    highp float u1_4 = -0.22056209;
+    highp float u1_0 = 0.5995943;
+    highp float u1_1 = -0.74899507;
+    highp float u1_2 = -0.07728812;
+    highp float u1_3 = -0.055129815;
+    highp float u1_4 = -0.19994311;
     highp float u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    highp float q1_0 = ((36.65604 * r_c + (-28.863276 * mu_t + 9.624198)) * r_c + ((3.3909283 * mu_t + 0.18315285) * mu_t - 1.5928149)) * r_c + (((5.467689 * mu_t - 0.45225838) * mu_t - 0.26960957) * mu_t + 1.0);
+    highp float q1_0 = ((48.691257 * r_c + (-40.88161 * mu_t + 9.939983)) * r_c + ((8.865399 * mu_t + 0.9197293) * mu_t - 1.818689)) * r_c + (((8.962781 * mu_t - 3.8616655) * mu_t + 0.48102197) * mu_t + 1.0);
     highp float q1 = q1_0;
     highp float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    highp float p2_0 = ((((-6.6434274 * r_c + (-16.991325 * mu_t + 18.758747)) * r_c + ((13.882326 * mu_t + 18.455948) * mu_t - 15.343696)) * r_c + (((3.242631 * mu_t - 27.558207) * mu_t + 4.833804) * mu_t + 3.2278013)) * r_c + ((((-18.090452 * mu_t + 29.677296) * mu_t - 4.80381) * mu_t - 2.7960386) * mu_t - 0.07205673)) * r_c + (((((12.623341 * mu_t - 16.824839) * mu_t + 4.8201528) * mu_t - 0.3634777) * mu_t + 0.12700416) * mu_t + 0.0015375641);
+    highp float p2_0 = ((((-6.4082894 * r_c + (-16.938074 * mu_t + 18.143356)) * r_c + ((13.764908 * mu_t + 18.469824) * mu_t - 14.789674)) * r_c + (((3.2518241 * mu_t - 27.386093) * mu_t + 4.7157583) * mu_t + 3.032533)) * r_c + ((((-18.077038 * mu_t + 29.604761) * mu_t - 4.7939014) * mu_t - 2.7616553) * mu_t - 0.049442288)) * r_c + (((((12.387365 * mu_t - 16.216774) * mu_t + 4.299622) * mu_t - 0.20168793) * mu_t + 0.11495155) * mu_t + 0.0008625643);
     highp float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    highp float u2_0 = -0.2260126;
-    highp float u2_1 = 0.08743571;
-    highp float u2_2 = -0.1129996;
-    highp float u2_3 = 0.054126106;
-    highp float u2_4 = -0.010782213;
+    highp float u2_0 = -0.23084056;
+    highp float u2_1 = 0.09623895;
+    highp float u2_2 = -0.13454744;
+    highp float u2_3 = 0.080642395;
+    highp float u2_4 = -0.023585863;
     highp float u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    highp float q2_0 = ((-2.4832687 * r_c + (1.6661432 * mu_t + 4.446582)) * r_c + ((-0.6274171 * mu_t - 3.30414) * mu_t - 0.09601409)) * r_c + (((1.0280176 * mu_t + 0.963234) * mu_t + 0.20615926) * mu_t + 0.0022863299);
+    highp float q2_0 = ((-2.442528 * r_c + (1.6615406 * mu_t + 4.381782)) * r_c + ((-0.6283849 * mu_t - 3.2984827) * mu_t - 0.06797808)) * r_c + (((1.0015712 * mu_t + 1.010707) * mu_t + 0.18342371) * mu_t + 0.0012967238);
     highp float q2 = q2_0;
     highp float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    highp float p3_0 = ((((288.4166 * r_c + (351.7152 * mu_t - 789.16016)) * r_c + ((-437.1592 * mu_t - 115.70737) * mu_t + 592.60095)) * r_c + (((-18.266579 * mu_t + 834.689) * mu_t - 635.4763) * mu_t - 17.38076)) * r_c + ((((495.5808 * mu_t - 973.57385) * mu_t + 150.45767) * mu_t + 385.89957) * mu_t - 116.404594)) * r_c + (((((-411.6219 * mu_t + 642.6596) * mu_t - 247.01979) * mu_t + 69.67274) * mu_t - 58.577583) * mu_t - 3.5307958);
+    highp float p3_0 = ((((361.50314 * r_c + (417.05548 * mu_t - 977.82)) * r_c + ((-496.51776 * mu_t - 169.80788) * mu_t + 745.7977)) * r_c + (((-37.847977 * mu_t + 983.0823) * mu_t - 715.05975) * mu_t - 47.933746)) * r_c + ((((564.8033 * mu_t - 1076.5059) * mu_t + 116.5405) * mu_t + 456.64215) * mu_t - 127.40062)) * r_c + (((((-447.658 * mu_t + 674.72174) * mu_t - 244.65298) * mu_t + 83.40349) * mu_t - 72.37961) * mu_t - 3.7406726);
     highp float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    highp float u3_0 = -0.14745724;
-    highp float u3_1 = -0.14001691;
-    highp float u3_2 = 0.16531639;
-    highp float u3_3 = -0.011562472;
-    highp float u3_4 = 0.009211199;
+    highp float u3_0 = -0.1603616;
+    highp float u3_1 = -0.12237434;
+    highp float u3_2 = 0.16523837;
+    highp float u3_3 = -0.025339339;
+    highp float u3_4 = 0.018995076;
     highp float u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    highp float q3_0 = ((32.606514 * r_c + (25.66286 * mu_t + 43.675182)) * r_c + ((-9.878355 * mu_t - 79.64633) * mu_t + 31.998297)) * r_c + (((66.174194 * mu_t - 21.264698) * mu_t + 17.864328) * mu_t + 1.0);
+    highp float q3_0 = ((32.05144 * r_c + (31.644182 * mu_t + 53.1115)) * r_c + ((-12.968734 * mu_t - 89.036095) * mu_t + 33.676273)) * r_c + (((71.9122 * mu_t - 23.105791) * mu_t + 20.612938) * mu_t + 1.0);
     highp float q3 = q3_0;
     highp float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

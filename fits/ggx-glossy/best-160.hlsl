@@ -15,16 +15,16 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 3c18c64979066d36467d7c3469228435bf7d4a3160e7f2334032d22e231f4d27.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 3b176238b1f9d1da0a6e71691a97a42ecc32db07ec9de2f21538ee000aafb461.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-6, shifted 7.4e-6, bernstein 6.3e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.27e-4, max 2.89e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.43e-6 (every op rounded, as this Rust), 1.28e-6 (fused multiply-add), 1.48e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.60e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 26585 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 1.27e-4, max 2.89e-3; this f32 code MAE 1.27e-4, max 2.89e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.0e-3 on the measurement grid.
-// Denominator proved >= 1.286e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 1.0e-5, bernstein 6.0e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.01e-4, max 1.69e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.22e-6 (fused multiply-add), 1.55e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.31e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 24615 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.01e-4, max 1.69e-3; this f32 code MAE 2.01e-4, max 1.69e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-3 on the measurement grid.
+// Denominator proved >= 5.886e-4 on the domain (Bernstein certificate), so the division is safe.
 float ggx_glossy_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -35,59 +35,59 @@ float ggx_glossy_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     float mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    float p0_0 = ((((-0.18283139f * r_c + (-8.659322f * mu_t + 0.1345401f)) * r_c + ((5.9675174f * mu_t + 12.548349f) * mu_t - 1.2153146f)) * r_c + (((2.3710952f * mu_t - 9.560058f) * mu_t - 6.5956497f) * mu_t + 4.1316123f)) * r_c + ((((-6.2695756f * mu_t + 6.920843f) * mu_t - 3.6339998f) * mu_t + 6.7001443f) * mu_t - 3.5173693f)) * r_c + (((((5.261179f * mu_t - 8.791078f) * mu_t + 8.030671f) * mu_t - 1.5736017f) * mu_t - 2.5924292f) * mu_t + 1.1705545f);
+    float p0_0 = ((((0.542951f * r_c + (-8.586605f * mu_t - 2.0543315f)) * r_c + ((6.9268723f * mu_t + 11.172109f) * mu_t + 1.1653869f)) * r_c + (((2.6589653f * mu_t - 11.776362f) * mu_t - 3.9086628f) * mu_t + 2.870944f)) * r_c + ((((-6.676469f * mu_t + 7.245712f) * mu_t - 2.7904541f) * mu_t + 5.091804f) * mu_t - 2.9230185f)) * r_c + (((((5.7034183f * mu_t - 9.612123f) * mu_t + 8.911564f) * mu_t - 2.0223515f) * mu_t - 2.237271f) * mu_t + 1.046212f);
     float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    float u0_0 = 0.5968666f;
-    float u0_1 = -0.5293603f;
-    float u0_2 = 0.44929442f;
-    float u0_3 = 0.08544752f;
-    float u0_4 = -0.0634996f;
+    float u0_0 = 0.62028056f;
+    float u0_1 = -0.6041401f;
+    float u0_2 = 0.6076107f;
+    float u0_3 = -0.053592127f;
+    float u0_4 = 0.0057759914f;
     float u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    float q0_0 = ((-8.07203f * r_c + (6.261161f * mu_t + 10.631145f)) * r_c + ((-4.786085f * mu_t - 6.6126037f) * mu_t - 0.46134037f)) * r_c + (((1.9682285f * mu_t + 4.203905f) * mu_t - 1.3649398f) * mu_t + 1.0f);
+    float q0_0 = ((-8.989494f * r_c + (6.5417156f * mu_t + 11.851045f)) * r_c + ((-5.834017f * mu_t - 6.7621417f) * mu_t - 0.37899318f)) * r_c + (((2.8516452f * mu_t + 4.024934f) * mu_t - 1.3231983f) * mu_t + 1.0f);
     float q0 = q0_0;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    float p1_0 = ((((1.5645933f * r_c + (-0.6793109f * mu_t - 2.5983374f)) * r_c + ((-1.2177205f * mu_t + 3.2324655f) * mu_t - 8.556959f)) * r_c + (((0.5534895f * mu_t + 0.9570046f) * mu_t + 3.692087f) * mu_t - 1.0212873f)) * r_c + ((((-0.3005662f * mu_t - 0.5874916f) * mu_t + 0.41134226f) * mu_t - 0.30934405f) * mu_t + 0.25639477f)) * r_c + (((((-3.1587944f * mu_t + 7.7219014f) * mu_t - 7.229161f) * mu_t + 1.3796424f) * mu_t + 0.053605832f) * mu_t - 0.12876242f);
+    float p1_0 = ((((1.907799f * r_c + (-0.3902504f * mu_t - 3.3765345f)) * r_c + ((-1.5287853f * mu_t + 2.8310602f) * mu_t - 10.463065f)) * r_c + (((-0.10560665f * mu_t + 2.511859f) * mu_t + 6.082503f) * mu_t - 1.4656507f)) * r_c + ((((0.7822139f * mu_t - 2.4460642f) * mu_t - 0.25144958f) * mu_t - 0.4112809f) * mu_t + 0.3548339f)) * r_c + (((((-3.4141603f * mu_t + 7.685082f) * mu_t - 7.316363f) * mu_t + 1.7125392f) * mu_t - 0.039946295f) * mu_t - 0.15762377f);
     float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    float u1_0 = 0.5104297f;
-    float u1_1 = -0.6195158f;
-    float u1_2 = -0.22207361f;
-    float u1_3 = 0.0020396302f;
-    float u1_4 = -0.22056209f;
+    float u1_0 = 0.5995943f;
+    float u1_1 = -0.74899507f;
+    float u1_2 = -0.07728812f;
+    float u1_3 = -0.055129815f;
+    float u1_4 = -0.19994311f;
     float u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    float q1_0 = ((36.65604f * r_c + (-28.863276f * mu_t + 9.624198f)) * r_c + ((3.3909283f * mu_t + 0.18315285f) * mu_t - 1.5928149f)) * r_c + (((5.467689f * mu_t - 0.45225838f) * mu_t - 0.26960957f) * mu_t + 1.0f);
+    float q1_0 = ((48.691257f * r_c + (-40.88161f * mu_t + 9.939983f)) * r_c + ((8.865399f * mu_t + 0.9197293f) * mu_t - 1.818689f)) * r_c + (((8.962781f * mu_t - 3.8616655f) * mu_t + 0.48102197f) * mu_t + 1.0f);
     float q1 = q1_0;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    float p2_0 = ((((-6.6434274f * r_c + (-16.991325f * mu_t + 18.758747f)) * r_c + ((13.882326f * mu_t + 18.455948f) * mu_t - 15.343696f)) * r_c + (((3.242631f * mu_t - 27.558207f) * mu_t + 4.833804f) * mu_t + 3.2278013f)) * r_c + ((((-18.090452f * mu_t + 29.677296f) * mu_t - 4.80381f) * mu_t - 2.7960386f) * mu_t - 0.07205673f)) * r_c + (((((12.623341f * mu_t - 16.824839f) * mu_t + 4.8201528f) * mu_t - 0.3634777f) * mu_t + 0.12700416f) * mu_t + 0.0015375641f);
+    float p2_0 = ((((-6.4082894f * r_c + (-16.938074f * mu_t + 18.143356f)) * r_c + ((13.764908f * mu_t + 18.469824f) * mu_t - 14.789674f)) * r_c + (((3.2518241f * mu_t - 27.386093f) * mu_t + 4.7157583f) * mu_t + 3.032533f)) * r_c + ((((-18.077038f * mu_t + 29.604761f) * mu_t - 4.7939014f) * mu_t - 2.7616553f) * mu_t - 0.049442288f)) * r_c + (((((12.387365f * mu_t - 16.216774f) * mu_t + 4.299622f) * mu_t - 0.20168793f) * mu_t + 0.11495155f) * mu_t + 0.0008625643f);
     float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    float u2_0 = -0.2260126f;
-    float u2_1 = 0.08743571f;
-    float u2_2 = -0.1129996f;
-    float u2_3 = 0.054126106f;
-    float u2_4 = -0.010782213f;
+    float u2_0 = -0.23084056f;
+    float u2_1 = 0.09623895f;
+    float u2_2 = -0.13454744f;
+    float u2_3 = 0.080642395f;
+    float u2_4 = -0.023585863f;
     float u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    float q2_0 = ((-2.4832687f * r_c + (1.6661432f * mu_t + 4.446582f)) * r_c + ((-0.6274171f * mu_t - 3.30414f) * mu_t - 0.09601409f)) * r_c + (((1.0280176f * mu_t + 0.963234f) * mu_t + 0.20615926f) * mu_t + 0.0022863299f);
+    float q2_0 = ((-2.442528f * r_c + (1.6615406f * mu_t + 4.381782f)) * r_c + ((-0.6283849f * mu_t - 3.2984827f) * mu_t - 0.06797808f)) * r_c + (((1.0015712f * mu_t + 1.010707f) * mu_t + 0.18342371f) * mu_t + 0.0012967238f);
     float q2 = q2_0;
     float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    float p3_0 = ((((288.4166f * r_c + (351.7152f * mu_t - 789.16016f)) * r_c + ((-437.1592f * mu_t - 115.70737f) * mu_t + 592.60095f)) * r_c + (((-18.266579f * mu_t + 834.689f) * mu_t - 635.4763f) * mu_t - 17.38076f)) * r_c + ((((495.5808f * mu_t - 973.57385f) * mu_t + 150.45767f) * mu_t + 385.89957f) * mu_t - 116.404594f)) * r_c + (((((-411.6219f * mu_t + 642.6596f) * mu_t - 247.01979f) * mu_t + 69.67274f) * mu_t - 58.577583f) * mu_t - 3.5307958f);
+    float p3_0 = ((((361.50314f * r_c + (417.05548f * mu_t - 977.82f)) * r_c + ((-496.51776f * mu_t - 169.80788f) * mu_t + 745.7977f)) * r_c + (((-37.847977f * mu_t + 983.0823f) * mu_t - 715.05975f) * mu_t - 47.933746f)) * r_c + ((((564.8033f * mu_t - 1076.5059f) * mu_t + 116.5405f) * mu_t + 456.64215f) * mu_t - 127.40062f)) * r_c + (((((-447.658f * mu_t + 674.72174f) * mu_t - 244.65298f) * mu_t + 83.40349f) * mu_t - 72.37961f) * mu_t - 3.7406726f);
     float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    float u3_0 = -0.14745724f;
-    float u3_1 = -0.14001691f;
-    float u3_2 = 0.16531639f;
-    float u3_3 = -0.011562472f;
-    float u3_4 = 0.009211199f;
+    float u3_0 = -0.1603616f;
+    float u3_1 = -0.12237434f;
+    float u3_2 = 0.16523837f;
+    float u3_3 = -0.025339339f;
+    float u3_4 = 0.018995076f;
     float u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    float q3_0 = ((32.606514f * r_c + (25.66286f * mu_t + 43.675182f)) * r_c + ((-9.878355f * mu_t - 79.64633f) * mu_t + 31.998297f)) * r_c + (((66.174194f * mu_t - 21.264698f) * mu_t + 17.864328f) * mu_t + 1.0f);
+    float q3_0 = ((32.05144f * r_c + (31.644182f * mu_t + 53.1115f)) * r_c + ((-12.968734f * mu_t - 89.036095f) * mu_t + 33.676273f)) * r_c + (((71.9122f * mu_t - 23.105791f) * mu_t + 20.612938f) * mu_t + 1.0f);
     float q3 = q3_0;
     float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

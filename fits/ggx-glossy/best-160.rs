@@ -13,16 +13,16 @@
 ///   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-/// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 3c18c64979066d36467d7c3469228435bf7d4a3160e7f2334032d22e231f4d27.
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+/// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 3b176238b1f9d1da0a6e71691a97a42ecc32db07ec9de2f21538ee000aafb461.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-6, shifted 7.4e-6, bernstein 6.3e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.27e-4, max 2.89e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.43e-6 (every op rounded, as this Rust), 1.28e-6 (fused multiply-add), 1.48e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 4.60e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 26585 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 1.27e-4, max 2.89e-3; this f32 code MAE 1.27e-4, max 2.89e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.0e-3 on the measurement grid.
-/// Denominator proved >= 1.286e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 1.0e-5, bernstein 6.0e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 2.01e-4, max 1.69e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.22e-6 (fused multiply-add), 1.55e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 6.31e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 24615 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.01e-4, max 1.69e-3; this f32 code MAE 2.01e-4, max 1.69e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-3 on the measurement grid.
+/// Denominator proved >= 5.886e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -40,59 +40,59 @@ pub fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((-0.18283139_f32 * r_c + (-8.659322_f32 * mu_t + 0.1345401_f32)) * r_c + ((5.9675174_f32 * mu_t + 12.548349_f32) * mu_t - 1.2153146_f32)) * r_c + (((2.3710952_f32 * mu_t - 9.560058_f32) * mu_t - 6.5956497_f32) * mu_t + 4.1316123_f32)) * r_c + ((((-6.2695756_f32 * mu_t + 6.920843_f32) * mu_t - 3.6339998_f32) * mu_t + 6.7001443_f32) * mu_t - 3.5173693_f32)) * r_c + (((((5.261179_f32 * mu_t - 8.791078_f32) * mu_t + 8.030671_f32) * mu_t - 1.5736017_f32) * mu_t - 2.5924292_f32) * mu_t + 1.1705545_f32);
+    let p0_0 = ((((0.542951_f32 * r_c + (-8.586605_f32 * mu_t - 2.0543315_f32)) * r_c + ((6.9268723_f32 * mu_t + 11.172109_f32) * mu_t + 1.1653869_f32)) * r_c + (((2.6589653_f32 * mu_t - 11.776362_f32) * mu_t - 3.9086628_f32) * mu_t + 2.870944_f32)) * r_c + ((((-6.676469_f32 * mu_t + 7.245712_f32) * mu_t - 2.7904541_f32) * mu_t + 5.091804_f32) * mu_t - 2.9230185_f32)) * r_c + (((((5.7034183_f32 * mu_t - 9.612123_f32) * mu_t + 8.911564_f32) * mu_t - 2.0223515_f32) * mu_t - 2.237271_f32) * mu_t + 1.046212_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.5968666_f32;
-    let u0_1 = -0.5293603_f32;
-    let u0_2 = 0.44929442_f32;
-    let u0_3 = 0.08544752_f32;
-    let u0_4 = -0.0634996_f32;
+    let u0_0 = 0.62028056_f32;
+    let u0_1 = -0.6041401_f32;
+    let u0_2 = 0.6076107_f32;
+    let u0_3 = -0.053592127_f32;
+    let u0_4 = 0.0057759914_f32;
     let u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = ((-8.07203_f32 * r_c + (6.261161_f32 * mu_t + 10.631145_f32)) * r_c + ((-4.786085_f32 * mu_t - 6.6126037_f32) * mu_t - 0.46134037_f32)) * r_c + (((1.9682285_f32 * mu_t + 4.203905_f32) * mu_t - 1.3649398_f32) * mu_t + 1.0_f32);
+    let q0_0 = ((-8.989494_f32 * r_c + (6.5417156_f32 * mu_t + 11.851045_f32)) * r_c + ((-5.834017_f32 * mu_t - 6.7621417_f32) * mu_t - 0.37899318_f32)) * r_c + (((2.8516452_f32 * mu_t + 4.024934_f32) * mu_t - 1.3231983_f32) * mu_t + 1.0_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((1.5645933_f32 * r_c + (-0.6793109_f32 * mu_t - 2.5983374_f32)) * r_c + ((-1.2177205_f32 * mu_t + 3.2324655_f32) * mu_t - 8.556959_f32)) * r_c + (((0.5534895_f32 * mu_t + 0.9570046_f32) * mu_t + 3.692087_f32) * mu_t - 1.0212873_f32)) * r_c + ((((-0.3005662_f32 * mu_t - 0.5874916_f32) * mu_t + 0.41134226_f32) * mu_t - 0.30934405_f32) * mu_t + 0.25639477_f32)) * r_c + (((((-3.1587944_f32 * mu_t + 7.7219014_f32) * mu_t - 7.229161_f32) * mu_t + 1.3796424_f32) * mu_t + 0.053605832_f32) * mu_t - 0.12876242_f32);
+    let p1_0 = ((((1.907799_f32 * r_c + (-0.3902504_f32 * mu_t - 3.3765345_f32)) * r_c + ((-1.5287853_f32 * mu_t + 2.8310602_f32) * mu_t - 10.463065_f32)) * r_c + (((-0.10560665_f32 * mu_t + 2.511859_f32) * mu_t + 6.082503_f32) * mu_t - 1.4656507_f32)) * r_c + ((((0.7822139_f32 * mu_t - 2.4460642_f32) * mu_t - 0.25144958_f32) * mu_t - 0.4112809_f32) * mu_t + 0.3548339_f32)) * r_c + (((((-3.4141603_f32 * mu_t + 7.685082_f32) * mu_t - 7.316363_f32) * mu_t + 1.7125392_f32) * mu_t - 0.039946295_f32) * mu_t - 0.15762377_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 0.5104297_f32;
-    let u1_1 = -0.6195158_f32;
-    let u1_2 = -0.22207361_f32;
-    let u1_3 = 0.0020396302_f32;
-    let u1_4 = -0.22056209_f32;
+    let u1_0 = 0.5995943_f32;
+    let u1_1 = -0.74899507_f32;
+    let u1_2 = -0.07728812_f32;
+    let u1_3 = -0.055129815_f32;
+    let u1_4 = -0.19994311_f32;
     let u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = ((36.65604_f32 * r_c + (-28.863276_f32 * mu_t + 9.624198_f32)) * r_c + ((3.3909283_f32 * mu_t + 0.18315285_f32) * mu_t - 1.5928149_f32)) * r_c + (((5.467689_f32 * mu_t - 0.45225838_f32) * mu_t - 0.26960957_f32) * mu_t + 1.0_f32);
+    let q1_0 = ((48.691257_f32 * r_c + (-40.88161_f32 * mu_t + 9.939983_f32)) * r_c + ((8.865399_f32 * mu_t + 0.9197293_f32) * mu_t - 1.818689_f32)) * r_c + (((8.962781_f32 * mu_t - 3.8616655_f32) * mu_t + 0.48102197_f32) * mu_t + 1.0_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((-6.6434274_f32 * r_c + (-16.991325_f32 * mu_t + 18.758747_f32)) * r_c + ((13.882326_f32 * mu_t + 18.455948_f32) * mu_t - 15.343696_f32)) * r_c + (((3.242631_f32 * mu_t - 27.558207_f32) * mu_t + 4.833804_f32) * mu_t + 3.2278013_f32)) * r_c + ((((-18.090452_f32 * mu_t + 29.677296_f32) * mu_t - 4.80381_f32) * mu_t - 2.7960386_f32) * mu_t - 0.07205673_f32)) * r_c + (((((12.623341_f32 * mu_t - 16.824839_f32) * mu_t + 4.8201528_f32) * mu_t - 0.3634777_f32) * mu_t + 0.12700416_f32) * mu_t + 0.0015375641_f32);
+    let p2_0 = ((((-6.4082894_f32 * r_c + (-16.938074_f32 * mu_t + 18.143356_f32)) * r_c + ((13.764908_f32 * mu_t + 18.469824_f32) * mu_t - 14.789674_f32)) * r_c + (((3.2518241_f32 * mu_t - 27.386093_f32) * mu_t + 4.7157583_f32) * mu_t + 3.032533_f32)) * r_c + ((((-18.077038_f32 * mu_t + 29.604761_f32) * mu_t - 4.7939014_f32) * mu_t - 2.7616553_f32) * mu_t - 0.049442288_f32)) * r_c + (((((12.387365_f32 * mu_t - 16.216774_f32) * mu_t + 4.299622_f32) * mu_t - 0.20168793_f32) * mu_t + 0.11495155_f32) * mu_t + 0.0008625643_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.2260126_f32;
-    let u2_1 = 0.08743571_f32;
-    let u2_2 = -0.1129996_f32;
-    let u2_3 = 0.054126106_f32;
-    let u2_4 = -0.010782213_f32;
+    let u2_0 = -0.23084056_f32;
+    let u2_1 = 0.09623895_f32;
+    let u2_2 = -0.13454744_f32;
+    let u2_3 = 0.080642395_f32;
+    let u2_4 = -0.023585863_f32;
     let u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = ((-2.4832687_f32 * r_c + (1.6661432_f32 * mu_t + 4.446582_f32)) * r_c + ((-0.6274171_f32 * mu_t - 3.30414_f32) * mu_t - 0.09601409_f32)) * r_c + (((1.0280176_f32 * mu_t + 0.963234_f32) * mu_t + 0.20615926_f32) * mu_t + 0.0022863299_f32);
+    let q2_0 = ((-2.442528_f32 * r_c + (1.6615406_f32 * mu_t + 4.381782_f32)) * r_c + ((-0.6283849_f32 * mu_t - 3.2984827_f32) * mu_t - 0.06797808_f32)) * r_c + (((1.0015712_f32 * mu_t + 1.010707_f32) * mu_t + 0.18342371_f32) * mu_t + 0.0012967238_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((288.4166_f32 * r_c + (351.7152_f32 * mu_t - 789.16016_f32)) * r_c + ((-437.1592_f32 * mu_t - 115.70737_f32) * mu_t + 592.60095_f32)) * r_c + (((-18.266579_f32 * mu_t + 834.689_f32) * mu_t - 635.4763_f32) * mu_t - 17.38076_f32)) * r_c + ((((495.5808_f32 * mu_t - 973.57385_f32) * mu_t + 150.45767_f32) * mu_t + 385.89957_f32) * mu_t - 116.404594_f32)) * r_c + (((((-411.6219_f32 * mu_t + 642.6596_f32) * mu_t - 247.01979_f32) * mu_t + 69.67274_f32) * mu_t - 58.577583_f32) * mu_t - 3.5307958_f32);
+    let p3_0 = ((((361.50314_f32 * r_c + (417.05548_f32 * mu_t - 977.82_f32)) * r_c + ((-496.51776_f32 * mu_t - 169.80788_f32) * mu_t + 745.7977_f32)) * r_c + (((-37.847977_f32 * mu_t + 983.0823_f32) * mu_t - 715.05975_f32) * mu_t - 47.933746_f32)) * r_c + ((((564.8033_f32 * mu_t - 1076.5059_f32) * mu_t + 116.5405_f32) * mu_t + 456.64215_f32) * mu_t - 127.40062_f32)) * r_c + (((((-447.658_f32 * mu_t + 674.72174_f32) * mu_t - 244.65298_f32) * mu_t + 83.40349_f32) * mu_t - 72.37961_f32) * mu_t - 3.7406726_f32);
     let p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = -0.14745724_f32;
-    let u3_1 = -0.14001691_f32;
-    let u3_2 = 0.16531639_f32;
-    let u3_3 = -0.011562472_f32;
-    let u3_4 = 0.009211199_f32;
+    let u3_0 = -0.1603616_f32;
+    let u3_1 = -0.12237434_f32;
+    let u3_2 = 0.16523837_f32;
+    let u3_3 = -0.025339339_f32;
+    let u3_4 = 0.018995076_f32;
     let u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = ((32.606514_f32 * r_c + (25.66286_f32 * mu_t + 43.675182_f32)) * r_c + ((-9.878355_f32 * mu_t - 79.64633_f32) * mu_t + 31.998297_f32)) * r_c + (((66.174194_f32 * mu_t - 21.264698_f32) * mu_t + 17.864328_f32) * mu_t + 1.0_f32);
+    let q3_0 = ((32.05144_f32 * r_c + (31.644182_f32 * mu_t + 53.1115_f32)) * r_c + ((-12.968734_f32 * mu_t - 89.036095_f32) * mu_t + 33.676273_f32)) * r_c + (((71.9122_f32 * mu_t - 23.105791_f32) * mu_t + 20.612938_f32) * mu_t + 1.0_f32);
     let q3 = q3_0;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms

@@ -17,7 +17,7 @@ use crate::fit::source::{self, FitInput, FittedOn, UserTableOptions};
 use crate::fit::{LsqMethod, Objective, RationalOptions};
 use crate::output;
 use crate::output::Target;
-use crate::pipeline::sweeps::write_sweep_files;
+use crate::pipeline::sweeps::{stress_checked_best, write_sweep_files};
 use crate::quadrature::QuadratureSettings;
 use crate::table::TableSpec;
 use clap::{Args, ValueEnum};
@@ -355,9 +355,10 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         let training_data = training.as_ref().map(CheckSet::data).transpose()?;
         let training_on = training.as_ref().map(CheckSet::training_description);
         let trained = training_data.as_ref().zip(training_on.as_deref());
-        let outcome = job::sweep_fits_trained(&input, &plan, checked, trained, &mut |line| {
+        let mut outcome = job::sweep_fits_trained(&input, &plan, checked, trained, &mut |line| {
             eprintln!("  {line}")
         })?;
+        stress_checked_best(&mut outcome);
         write_sweep(&outcome, &dir, timing_dir.as_deref(), &clock)?;
         for b in &outcome.best {
             if let Some(rec) = outcome.best_record(b.budget).filter(|_| args.worst > 0) {
@@ -745,7 +746,8 @@ fn best_40(
     );
     let plan = default_plan(&input.data, None, None, Objective::LeastSquares, true);
     let clock = Stopwatch::start();
-    let outcome = job::sweep_fits(input, &plan, &mut |line| eprintln!("    {line}"))?;
+    let mut outcome = job::sweep_fits(input, &plan, &mut |line| eprintln!("    {line}"))?;
+    stress_checked_best(&mut outcome);
     write_sweep(&outcome, dir, Some(timing_dir), &clock)?;
     Ok(outcome.best_record(40).cloned())
 }

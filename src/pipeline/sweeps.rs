@@ -233,7 +233,8 @@ pub fn sweep_or_reuse(
         },
     );
     progress.end();
-    let outcome = outcome?;
+    let mut outcome = outcome?;
+    stress_checked_best(&mut outcome);
     let (files, _) = write_sweep_files(
         &outcome,
         &dir,
@@ -275,6 +276,46 @@ pub fn sweep_or_reuse(
         files,
         note,
     })
+}
+
+/// Makes every best fit one whose f32 code passes the stress test that every emitted fit must
+/// pass ([`crate::emit::stress_gate`], all evaluation forms, at the emit's number of points): a
+/// best fit that fails it is counted as unusable and its budget chosen again, until each best
+/// fit passes or none is left. So each `best-<N>.json` gets its emitted code.
+pub fn stress_checked_best(outcome: &mut SweepOutcome) {
+    let mut passed: Vec<usize> = Vec::new();
+    let mut failed: Vec<usize> = Vec::new();
+    loop {
+        let mut untested: Vec<usize> = outcome
+            .best
+            .iter()
+            .filter_map(|b| b.index)
+            .filter(|i| !passed.contains(i) && !failed.contains(i))
+            .collect();
+        untested.sort_unstable();
+        untested.dedup();
+        if untested.is_empty() {
+            return;
+        }
+        let mut newly_failed = false;
+        for i in untested {
+            match crate::emit::stress_gate(
+                &outcome.records[i].fit,
+                "albedo",
+                crate::emit::generate::FormChoice::Auto,
+                crate::emit::stress::DEFAULT_POINTS,
+            ) {
+                Ok(_) => passed.push(i),
+                Err(_) => {
+                    failed.push(i);
+                    newly_failed = true;
+                }
+            }
+        }
+        if newly_failed {
+            outcome.choose_best_excluding(&failed);
+        }
+    }
 }
 
 /// Writes `sweep.json`, `sweep.csv` and `best-<budget>.json` (removing a stale best file when a

@@ -23,8 +23,7 @@ use super::rational::{fit_rational, RationalOptions};
 use super::result::{FitResult, Form, Objective};
 use super::source::{FitInput, FittedOn};
 use super::sweep::{
-    pareto_front, select_under_budget, sweep_with_progress, Score, SkippedFit, SweepEvent,
-    SweepOptions,
+    pareto_front, sweep_with_progress, Score, SkippedFit, SweepEvent, SweepOptions,
 };
 use crate::error::{Error, Result};
 
@@ -459,18 +458,6 @@ pub fn sweep_fits_trained(
             }
         }
     }
-    let scores: Vec<Score> = records
-        .iter()
-        .map(|r| {
-            let (max_abs_error, mae) = r.headline();
-            Score {
-                n_coefficients: r.fit.n_coefficients,
-                max_abs_error,
-                mae,
-                usable: r.usable,
-            }
-        })
-        .collect();
     let paper_refit = records.iter().position(|r| {
         r.fit.objective == Objective::LeastSquares
             && r.fit.form
@@ -484,17 +471,17 @@ pub fn sweep_fits_trained(
                 .iter()
                 .all(|t| *t == InputTransform::Identity)
     });
-    let paper_count = paper_coefficients(d);
-    let best = plan
-        .budgets
+    let best = best_under_budgets(&records, &plan.budgets, paper_refit, d, &[]);
+    let scores: Vec<Score> = records
         .iter()
-        .map(|&budget| BestUnderBudget {
-            budget,
-            index: select_under_budget(
-                &scores,
-                budget,
-                paper_refit.filter(|_| budget >= paper_count),
-            ),
+        .map(|r| {
+            let (max_abs_error, mae) = r.headline();
+            Score {
+                n_coefficients: r.fit.n_coefficients,
+                max_abs_error,
+                mae,
+                usable: r.usable,
+            }
         })
         .collect();
     let pareto = pareto_front(&scores);

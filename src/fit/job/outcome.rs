@@ -3,12 +3,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::plan::paper_coefficients;
 use super::record::{pole_word, FitRecord, FormKind};
 use crate::error::Result;
 use crate::fit::error::FitError;
 use crate::fit::result::{Approximant, Form, Objective};
 use crate::fit::source::{FittedOn, Source};
-use crate::fit::sweep::SkippedFit;
+use crate::fit::sweep::{select_under_budget, Score, SkippedFit};
 
 /// The paper's box of a sweep.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -128,6 +129,59 @@ struct SweepJson<'a> {
     paper_refit: Option<usize>,
     skipped: &'a [SkippedFit],
     fits: Vec<&'a Approximant>,
+}
+
+/// The best fit under each of `budgets` ([`select_under_budget`]), the fits `excluded` counted
+/// as unusable; at budgets of at least [`paper_coefficients`] (of `d` variables) only among
+/// fits no worse than `paper_refit` on either metric.
+pub fn best_under_budgets(
+    records: &[FitRecord],
+    budgets: &[usize],
+    paper_refit: Option<usize>,
+    d: usize,
+    excluded: &[usize],
+) -> Vec<BestUnderBudget> {
+    let scores: Vec<Score> = records
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let (max_abs_error, mae) = r.headline();
+            Score {
+                n_coefficients: r.fit.n_coefficients,
+                max_abs_error,
+                mae,
+                usable: r.usable && !excluded.contains(&i),
+            }
+        })
+        .collect();
+    let paper_count = paper_coefficients(d);
+    budgets
+        .iter()
+        .map(|&budget| BestUnderBudget {
+            budget,
+            index: select_under_budget(
+                &scores,
+                budget,
+                paper_refit.filter(|_| budget >= paper_count),
+            ),
+        })
+        .collect()
+}
+
+impl SweepOutcome {
+    /// Chooses the best fits again with the fits `excluded` counted as unusable (e.g. those
+    /// whose f32 code fails the stress test every emitted fit must pass); `sweep.json`'s best
+    /// entries and the `best-<N>.json` files written from this outcome follow.
+    pub fn choose_best_excluding(&mut self, excluded: &[usize]) {
+        let budgets: Vec<usize> = self.best.iter().map(|b| b.budget).collect();
+        self.best = best_under_budgets(
+            &self.records,
+            &budgets,
+            self.paper_refit,
+            self.variables.len(),
+            excluded,
+        );
+    }
 }
 
 impl SweepOutcome {

@@ -665,6 +665,66 @@ mod tests {
             .contains("training set's variables"));
     }
 
+    /// A best fit counted unusable afterwards (its f32 code failed the stress test) gives way to
+    /// the next under the rule, and a budget whose every fit is excluded has none.
+    #[test]
+    fn excluded_best_fits_give_way() {
+        let ax: Vec<f64> = (0..9).map(|i| i as f64 / 8.0).collect();
+        let mut values = Vec::new();
+        for &r in &ax {
+            for &mu in &ax {
+                values.push(1.0 / (1.2 + r * mu) + 0.1 * r * r);
+            }
+        }
+        let data = FitData::from_grid(
+            vec!["r".into(), "mu".into()],
+            &[ax.clone(), ax.clone()],
+            values,
+        )
+        .unwrap();
+        let input = FitInput {
+            source: Source {
+                kind: "json_grid".into(),
+                model: None,
+                path: None,
+                content_hash: "test".into(),
+                resolution: Some(vec![9; 2]),
+                channel: "E".into(),
+                points: data.len(),
+                restricted_to: None,
+            },
+            data,
+            grid: Some(vec![ax.clone(), ax]),
+            table: None,
+        };
+        let plan = SweepPlan {
+            polynomial_degrees: vec![1, 2, 3, 4],
+            rational_degrees: Vec::new(),
+            rational_pairs: Vec::new(),
+            forms: Vec::new(),
+            transform_sets: vec![vec![InputTransform::Identity; 2]],
+            objective: Objective::LeastSquares,
+            max_fit_points: 0,
+            fit_grading: Vec::new(),
+            training_points: 0,
+            budgets: vec![20],
+            minimax_refits: false,
+        };
+        let mut outcome = sweep_fits(&input, &plan, &mut |_| {}).unwrap();
+        let first = outcome.best[0].index.unwrap();
+        outcome.choose_best_excluding(&[first]);
+        let second = outcome.best[0].index.unwrap();
+        assert_ne!(first, second);
+        assert!(
+            outcome.records[second].headline().0 >= outcome.records[first].headline().0,
+            "the rule's first choice had the lowest max error"
+        );
+        let all: Vec<usize> = (0..outcome.records.len()).collect();
+        outcome.choose_best_excluding(&all);
+        assert_eq!(outcome.best[0].index, None);
+        assert!(outcome.best_record(20).is_none());
+    }
+
     /// A solver that stopped short is reported as what it was: Lawson reweighting of a
     /// polynomial fit has no Levenberg–Marquardt run to name.
     #[test]

@@ -15,6 +15,16 @@
 //! BRDF here is even in φ, so φ runs over [0, π] and the result is doubled. There
 //! s = ωi·ωo − μi μo = sinθi sinθo cos φ (the `s` of EON paper eq. 3).
 //!
+//! # Terms shared by a column
+//! Each BRDF is a sum f = Σ_k c_k(r, μo)·b_k(μi, μo, s) of terms b_k that do not depend on r
+//! ([`DiffuseModel::coefficients`], [`diffuse_terms`]): QON and FON are A/π + B·(s/t)/π with
+//! (A, B) functions of r alone (EON paper, eqs. 3, 10), and the EON lobe is
+//! r a(μo)/((1 + c₁ r)(c₁ − c₂)) · a(μi)/π (eq. 19 at ρ = 1, see [`eon_ms_brdf`]). So
+//! E(r, μo) = Σ_k c_k(r, μo) I_k(μo) with I_k = ∫ b_k μi dωi: one quadrature of the terms per μo
+//! serves every r, and a table's column along r ([`Model::integrate_column`]) costs one
+//! quadrature instead of one per cell. A single point takes the same path, so a cell has the
+//! same bits whichever way it is computed.
+//!
 //! # Kinks
 //! s/t changes branch at s = 0, i.e. at φ = π/2 (the cos⁺ of eq. 2, the cases of eqs. 4 and 11),
 //! and t = max(μi, μo) changes branch at μi = μo. Both are panel ends: φ ∈ [0, π/2] ∪ [π/2, π]
@@ -29,7 +39,7 @@
 //! from the BRDFs and serve as test oracles; the models themselves integrate the BRDF.
 
 use super::{AxisSpec, Family, Model, ModelId, MAX_OUTPUTS};
-use crate::quadrature::{integrate_2d, Integrand2D, Rules, CHANNELS};
+use crate::quadrature::{integrate_2d_into, Integrand2D, Rules, CHANNELS};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// A_q = 1 − 0.5 σ²/(σ² + 0.33): the 0.5 (EON paper, §2.1, below eq. 1).
@@ -92,10 +102,65 @@ impl DiffuseModel {
         }
     }
 
-    /// E(r, μo) by quadrature of the BRDF with `rules`.
-    pub fn albedo(&self, r: f64, mu_o: f64, rules: &Rules) -> f64 {
-        integrate_2d(&DiffuseIntegrand::new(self.clone(), r, mu_o), rules)[0]
+    /// The coefficients c_k(r, μo) of the BRDF's terms, f = Σ_k c_k(r, μo)·b_k(μi, μo, s)
+    /// with b_k = [`diffuse_terms`] (module docs, "Terms shared by a column").
+    pub fn coefficients(&self, r: f64, mu_o: f64) -> [f64; DIFFUSE_TERMS] {
+        match self.kind {
+            DiffuseKind::Qon => {
+                let (a, b) = qon_coefficients(qon_sigma_from_r(r)); // EON paper, eq. 3
+                [a, b, 0.0]
+            }
+            DiffuseKind::Fon => {
+                let (a, b) = fon_coefficients(r); // EON paper, eq. 10
+                [a, b, 0.0]
+            }
+            DiffuseKind::Eon => {
+                let (a, b) = fon_coefficients(r);
+                // EON paper, eq. 19 at ρ = 1 (see eon_ms_brdf): the lobe's factors but a(μi)
+                let ms = r * fon_albedo_complement_per_r(mu_o)
+                    / ((1.0 + FON_C1 * r) * (FON_C1 - FON_C2));
+                [a, b, ms]
+            }
+        }
     }
+
+    /// I_k(μo) = ∫ b_k(μi, μo, s) μi dωi of the BRDF's terms, by quadrature with `rules`.
+    pub fn term_integrals(&self, mu_o: f64, rules: &Rules) -> [f64; DIFFUSE_TERMS] {
+        let mut total = [0.0; DIFFUSE_TERMS];
+        integrate_2d_into(&DiffuseIntegrand::new(self.kind, mu_o), rules, &mut total);
+        total
+    }
+
+    /// E(r, μo) by quadrature of the BRDF with `rules`: Σ_k c_k(r, μo) I_k(μo).
+    pub fn albedo(&self, r: f64, mu_o: f64, rules: &Rules) -> f64 {
+        combine(
+            &self.coefficients(r, mu_o),
+            &self.term_integrals(mu_o, rules),
+        )
+    }
+}
+
+/// Number of terms in the split f = Σ_k c_k b_k of a rough-diffuse BRDF.
+pub const DIFFUSE_TERMS: usize = 3;
+
+/// Σ_k c_k I_k, in term order.
+fn combine(c: &[f64; DIFFUSE_TERMS], integrals: &[f64; DIFFUSE_TERMS]) -> f64 {
+    c.iter().zip(integrals).map(|(c, i)| c * i).sum()
+}
+
+/// The r-free terms b_k(μi, μo, s) of a rough-diffuse BRDF at ρ = 1 (module docs): 1/π, the
+/// s/t term over π (EON paper, eq. 4 for QON, eq. 11 for FON and EON) and, for EON, the lobe's
+/// a(μi)/π (eq. 19); f = Σ_k c_k b_k with c_k = [`DiffuseModel::coefficients`].
+pub fn diffuse_terms(kind: DiffuseKind, mu_i: f64, mu_o: f64, s: f64) -> [f64; DIFFUSE_TERMS] {
+    let s_over_t = match kind {
+        DiffuseKind::Qon => qon_s_over_t(mu_i, mu_o, s),
+        DiffuseKind::Fon | DiffuseKind::Eon => fon_s_over_t(mu_i, mu_o, s),
+    };
+    let lobe = match kind {
+        DiffuseKind::Eon => fon_albedo_complement_per_r(mu_i) / PI, // EON paper, eq. 19
+        DiffuseKind::Qon | DiffuseKind::Fon => 0.0,
+    };
+    [1.0 / PI, s_over_t / PI, lobe]
 }
 
 impl Model for DiffuseModel {
@@ -155,6 +220,28 @@ impl Model for DiffuseModel {
     fn integrate(&self, x: &[f64], rules: &Rules) -> [f64; MAX_OUTPUTS] {
         [self.albedo(x[0], x[1], rules), 0.0, 0.0]
     }
+
+    /// A column along r at one μo: the terms' integrals once, then Σ_k c_k(r, μo) I_k(μo) per
+    /// cell (the same arithmetic as [`DiffuseModel::albedo`], so the same bits).
+    fn integrate_column(&self, xs: &[Vec<f64>], rules: &Rules, out: &mut [[f64; MAX_OUTPUTS]]) {
+        let Some(first) = xs.first() else {
+            return;
+        };
+        let mu_o = first[1];
+        let integrals = self.term_integrals(mu_o, rules);
+        for (x, o) in xs.iter().zip(out.iter_mut()) {
+            debug_assert_eq!(x[1], mu_o, "a column shares μo");
+            *o = [
+                combine(&self.coefficients(x[0], mu_o), &integrals),
+                0.0,
+                0.0,
+            ];
+        }
+    }
+
+    fn shares_column_geometry(&self) -> bool {
+        true
+    }
 }
 
 /// The QON roughness angle σ for the axis value r ∈ [0, 1]: σ = (π/2) r, so that r = 1/2 is the
@@ -189,22 +276,30 @@ fn t_max(mu_i: f64, mu_o: f64) -> Option<f64> {
 /// `s` = ωi·ωo − μi μo.
 pub fn qon_brdf(sigma: f64, mu_i: f64, mu_o: f64, s: f64) -> f64 {
     let (a, b) = qon_coefficients(sigma);
-    let s_over_t = match t_max(mu_i, mu_o) {
+    (a + b * qon_s_over_t(mu_i, mu_o, s)) / PI // EON paper, eq. 3
+}
+
+/// QON's s/t_q: s/max(μi, μo) for s > 0, 0 for s ≤ 0 (EON paper, eq. 4).
+fn qon_s_over_t(mu_i: f64, mu_o: f64, s: f64) -> f64 {
+    match t_max(mu_i, mu_o) {
         Some(t) if s > 0.0 => s / t, // EON paper, eq. 4 (s > 0)
         _ => 0.0,                    // EON paper, eq. 4 (s ≤ 0)
-    };
-    (a + b * s_over_t) / PI // EON paper, eq. 3
+    }
+}
+
+/// FON's s/t_F: s/max(μi, μo) for s > 0, s for s ≤ 0 (t_F = 1; EON paper, eq. 11).
+fn fon_s_over_t(mu_i: f64, mu_o: f64, s: f64) -> f64 {
+    if s <= 0.0 {
+        s // EON paper, eq. 11 (s ≤ 0: t_F = 1)
+    } else {
+        t_max(mu_i, mu_o).map_or(0.0, |t| s / t) // EON paper, eq. 11 (s > 0)
+    }
 }
 
 /// FON BRDF at ρ = 1 (EON paper, eqs. 10–11): f = (A_F + B_F s/t_F)/π with t_F = 1 for s ≤ 0.
 pub fn fon_brdf(r: f64, mu_i: f64, mu_o: f64, s: f64) -> f64 {
     let (a, b) = fon_coefficients(r);
-    let s_over_t = if s <= 0.0 {
-        s // EON paper, eq. 11 (s ≤ 0: t_F = 1)
-    } else {
-        t_max(mu_i, mu_o).map_or(0.0, |t| s / t) // EON paper, eq. 11 (s > 0)
-    };
-    (a + b * s_over_t) / PI // EON paper, eq. 10
+    (a + b * fon_s_over_t(mu_i, mu_o, s)) / PI // EON paper, eq. 10
 }
 
 /// 1 − E_F(μ) at ρ = 1, cancellation-free: from eq. 12 with A_F = 1/(1 + c₁ r),
@@ -300,10 +395,10 @@ pub fn fon_albedo_fit(r: f64, mu_o: f64) -> f64 {
     (1.0 + r * g_over_pi) / (1.0 + FON_C1 * r) // EON paper, eq. 12
 }
 
-/// The albedo integrand of one (r, μo) cell over (μi, φ) (see the module docs).
+/// The integrand of the terms' integrals I_k(μo) over (μi, φ), one channel per term (see the
+/// module docs); it does not depend on r.
 pub struct DiffuseIntegrand {
-    model: DiffuseModel,
-    r: f64,
+    kind: DiffuseKind,
     mu_o: f64,
     sin_o: f64,
 }
@@ -315,14 +410,17 @@ pub struct DiffuseLine {
 }
 
 impl DiffuseIntegrand {
-    pub fn new(model: DiffuseModel, r: f64, mu_o: f64) -> DiffuseIntegrand {
+    pub fn new(kind: DiffuseKind, mu_o: f64) -> DiffuseIntegrand {
         let sin_o = ((1.0 - mu_o) * (1.0 + mu_o)).max(0.0).sqrt();
-        DiffuseIntegrand {
-            model,
-            r,
-            mu_o,
-            sin_o,
-        }
+        DiffuseIntegrand { kind, mu_o, sin_o }
+    }
+
+    /// The terms times the measure at (line, φ).
+    #[inline]
+    fn terms_at(&self, line: &DiffuseLine, phi: f64) -> [f64; DIFFUSE_TERMS] {
+        let s = line.sin_i * self.sin_o * phi.cos(); // EON paper, eq. 3: s = ωi·ωo − μi μo
+                                                     // ×2: the BRDF is even in φ, so [−π, π] folds onto [0, π]; dωi = dμi dφ
+        diffuse_terms(self.kind, line.mu_i, self.mu_o, s).map(|b| 2.0 * b * line.mu_i)
     }
 }
 
@@ -341,12 +439,24 @@ impl Integrand2D for DiffuseIntegrand {
         }
     }
 
+    /// The first two terms (the trait's fixed width); [`Self::accumulate`] adds all of them.
     #[inline]
     fn eval(&self, line: &DiffuseLine, phi: f64) -> [f64; CHANNELS] {
-        let s = line.sin_i * self.sin_o * phi.cos(); // EON paper, eq. 3: s = ωi·ωo − μi μo
-        let f = self.model.brdf(self.r, line.mu_i, self.mu_o, s);
-        // ×2: the BRDF is even in φ, so [−π, π] folds onto [0, π]; dωi = dμi dφ
-        [2.0 * f * line.mu_i, 0.0]
+        let t = self.terms_at(line, phi);
+        [t[0], t[1]]
+    }
+
+    fn channels(&self) -> usize {
+        DIFFUSE_TERMS
+    }
+
+    #[inline]
+    fn accumulate(&self, line: &DiffuseLine, phi: f64, w: f64, acc: &mut [f64]) -> bool {
+        let t = self.terms_at(line, phi);
+        for (a, t) in acc.iter_mut().zip(t) {
+            *a += w * t;
+        }
+        t.iter().any(|&c| c != 0.0)
     }
 }
 
@@ -496,6 +606,52 @@ mod tests {
             assert!((below - above).abs() < 1e-10, "{:?}", m.kind);
             // both directions grazing: finite
             assert!(m.brdf(1.0, 0.0, 0.0, 1.0).is_finite());
+        }
+    }
+
+    /// The term split reproduces each BRDF as written in the paper (eqs. 3–4, 10–11, 16, 19).
+    #[test]
+    fn terms_sum_to_the_brdf() {
+        for m in models() {
+            for r in R_GRID {
+                for (mu_i, mu_o, s) in [
+                    (0.2, 0.7, 0.3),
+                    (0.9, 0.1, -0.05),
+                    (0.5, 0.5, 0.6),
+                    (0.0, 0.3, 0.0),
+                    (1.0, 0.0, 0.0),
+                    (0.3, 0.8, -0.4),
+                ] {
+                    let c = m.coefficients(r, mu_o);
+                    let split = combine(&c, &diffuse_terms(m.kind, mu_i, mu_o, s));
+                    let direct = m.brdf(r, mu_i, mu_o, s);
+                    assert!(
+                        (split - direct).abs() <= 4e-16 * direct.abs().max(1.0),
+                        "{:?} r={r} ({mu_i}, {mu_o}, {s}): {split} vs {direct}",
+                        m.kind
+                    );
+                }
+            }
+        }
+    }
+
+    /// A column along r gives every cell the bits of the cell computed on its own, and the
+    /// closed form to 1e-9.
+    #[test]
+    fn columns_have_the_bits_of_single_cells() {
+        let rules = Rules::new(16);
+        for m in models() {
+            for mu in [0.0, 0.013, 0.5, 0.97, 1.0] {
+                let xs: Vec<Vec<f64>> = R_GRID.iter().map(|&r| vec![r, mu]).collect();
+                let mut col = vec![[0.0; MAX_OUTPUTS]; xs.len()];
+                m.integrate_column(&xs, &rules, &mut col);
+                for (x, c) in xs.iter().zip(&col) {
+                    let single = m.integrate(x, &rules);
+                    assert_eq!(c[0].to_bits(), single[0].to_bits(), "{:?} {x:?}", m.kind);
+                    let exact = m.albedo_analytic(x[0], x[1]);
+                    assert!((c[0] - exact).abs() < ORACLE_TOL, "{:?} {x:?}", m.kind);
+                }
+            }
         }
     }
 

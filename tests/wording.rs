@@ -3,9 +3,15 @@
 
 use std::path::{Path, PathBuf};
 
-/// Case-insensitive, anywhere in a line (as `grep -iE 'sessions?|agents?|the issue|issue [0-9]'`),
-/// plus process words that should read as product words.
-const FORBIDDEN: &[&str] = &["session", "agent", "the issue", "main job"];
+/// Case-insensitive, anywhere in a line: words of how the product was made, and process words
+/// that should read as product words (plus "issue" followed by a digit, checked below). Each is
+/// spelt in two pieces so that this file passes its own test.
+const FORBIDDEN: &[&str] = &[
+    concat!("ses", "sion"),
+    concat!("ag", "ent"),
+    concat!("the is", "sue"),
+    concat!("main ", "job"),
+];
 
 fn files(dir: &Path, out: &mut Vec<PathBuf>) {
     let Ok(entries) = std::fs::read_dir(dir) else {
@@ -31,16 +37,12 @@ fn no_development_history_in_the_product() {
     for d in ["docs", "src", "tests", "examples", "reports"] {
         files(&root.join(d), &mut paths);
     }
-    let this = root.join(file!());
     let mut found = Vec::new();
-    for path in paths
-        .iter()
-        .filter(|p| !this.ends_with(p.strip_prefix(&root).unwrap()))
-    {
+    for path in &paths {
         let text = std::fs::read_to_string(path).unwrap();
         for (n, line) in text.lines().enumerate() {
             let lower = line.to_lowercase();
-            let issue_number = lower.match_indices("issue ").any(|(i, m)| {
+            let issue_number = lower.match_indices(concat!("is", "sue ")).any(|(i, m)| {
                 lower[i + m.len()..]
                     .chars()
                     .next()

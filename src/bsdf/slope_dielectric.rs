@@ -739,7 +739,9 @@ impl SlopeDielectric {
                 n += 1;
             }
         }
-        cand[..n].sort_by(|a, b| a.at.rho.total_cmp(&b.at.rho));
+        if !cand[..n].is_sorted_by(|a, b| a.at.rho.total_cmp(&b.at.rho).is_le()) {
+            cand[..n].sort_by(|a, b| a.at.rho.total_cmp(&b.at.rho));
+        }
         let rho_max = if reflects { h.rho_max } else { 0.0 };
         let (cap_lo, cap_hi) = match (self.leaving(), q2) {
             (false, _) => (0.0, f64::INFINITY),
@@ -870,15 +872,20 @@ impl SlopeDielectric {
         let s_end = line.s_end;
         let s_of = |rho: f64| asinh_pos(rho / alpha);
         let ds = |k: &Kink| k.delta_rho / (alpha * alpha + k.at.rho * k.at.rho).sqrt();
+        // s of the kinks below the switch (NaN: not computed)
+        let mut s_at = [f64::NAN; MAX_SEGMENTS + 1];
         if rho_sw > start.at.rho {
             // s part: the start (unless it is the peak), the kinks below the switch, s_end
             let mut sb: [Break; MAX_SEGMENTS + 2] = [Break::regular(0.0); MAX_SEGMENTS + 2];
             let mut ns = 0;
             let from_peak = start.at.rho == 0.0;
             let first = if from_peak { 1 } else { 0 };
-            for k in kinks[first..n].iter().filter(|k| k.at.rho < rho_sw) {
-                sb[ns] = k.at_x(s_of(k.at.rho), ds(k).max(MIN_DELTA));
-                ns += 1;
+            for (i, k) in kinks.iter().enumerate().take(n).skip(first) {
+                if k.at.rho < rho_sw {
+                    s_at[i] = s_of(k.at.rho);
+                    sb[ns] = k.at_x(s_at[i], ds(k).max(MIN_DELTA));
+                    ns += 1;
+                }
             }
             if !from_peak {
                 // a line starting off the peak still sees the poles of sech² s at ±iπ/2
@@ -952,7 +959,15 @@ impl SlopeDielectric {
         for i in 1..n {
             let k = &kinks[i];
             line.seg_end[i - 1] = if k.at.rho <= rho_sw {
-                s_of(k.at.rho).min(s_end)
+                // s_of(ρsw) is s_end itself
+                let s = if k.at.rho == rho_sw {
+                    s_end
+                } else if s_at[i].is_nan() {
+                    s_of(k.at.rho)
+                } else {
+                    s_at[i]
+                };
+                s.min(s_end)
             } else {
                 s_end + (line.u_tail - k.at.u)
             };

@@ -395,39 +395,40 @@ impl SlopeDielectric {
         y
     }
 
-    /// The integrand at [`LANES`] nodes of one panel ([`Self::node`], [`Self::lobes`]).
+    /// The integrand at `W` nodes of one panel ([`Self::node`], [`Self::lobes`]; W =
+    /// [`LANES`] but in [`CapLine`]'s narrow loop).
     #[inline(always)]
-    fn block<const PART: u8, const LOBE: u8>(
+    fn block<const PART: u8, const LOBE: u8, const W: usize>(
         &self,
         line: &DielectricLine,
-        v: &[f64; LANES],
-    ) -> [[f64; CHANNELS]; LANES] {
-        let (mut r, mut t) = ([0.0; LANES], [0.0; LANES]);
-        for j in 0..LANES {
+        v: &[f64; W],
+    ) -> [[f64; CHANNELS]; W] {
+        let (mut r, mut t) = ([0.0; W], [0.0; W]);
+        for j in 0..W {
             let nd = self.node::<PART>(line, v[j]);
             [r[j], t[j]] = self.lobes::<LOBE>(&nd, self.eta, self.eta2, self.c0);
         }
-        let mut out = [[0.0; CHANNELS]; LANES];
-        for j in 0..LANES {
+        let mut out = [[0.0; CHANNELS]; W];
+        for j in 0..W {
             out[j] = [r[j], t[j]];
         }
         out
     }
 
-    /// The cap's integrand ([`Lobe::DeficitBoth`]) at [`LANES`] nodes of one line part, lane j
+    /// The cap's integrand ([`Lobe::DeficitBoth`]) at `W` nodes of one line part, lane j
     /// keeping its reflection deficit where `r_on[j]` and its transmission where `t_on[j]`, so
     /// that one block serves nodes of [`Lobe::Deficit`], [`Lobe::DeficitBoth`] and
     /// [`Lobe::Transmit`] panels with the bits of [`Self::block`] for each.
     #[inline(always)]
-    fn block_masked<const PART: u8>(
+    fn block_masked<const PART: u8, const W: usize>(
         &self,
         line: &DielectricLine,
-        v: &[f64; LANES],
-        r_on: &[bool; LANES],
-        t_on: &[bool; LANES],
-    ) -> ([f64; LANES], [f64; LANES]) {
-        let (mut r, mut t) = ([0.0; LANES], [0.0; LANES]);
-        for j in 0..LANES {
+        v: &[f64; W],
+        r_on: &[bool; W],
+        t_on: &[bool; W],
+    ) -> ([f64; W], [f64; W]) {
+        let (mut r, mut t) = ([0.0; W], [0.0; W]);
+        for j in 0..W {
             let nd = self.node::<PART>(line, v[j]);
             let [yr, yt] = self.lobes::<5>(&nd, self.eta, self.eta2, self.c0);
             r[j] = if r_on[j] { yr } else { 0.0 };
@@ -436,39 +437,42 @@ impl SlopeDielectric {
         (r, t)
     }
 
-    /// Deficit mode: the integrand at the nodes `vs` of one line part (`PART`) into `r_out`
-    /// and `t_out`, [`LANES`] nodes at a time across panel ends: by [`Self::block`] of `LOBE`,
-    /// or, `LOBE` = [`MASKED`], by [`Self::block_masked`] with the lobes `r_on`, `t_on` of each
-    /// node's panel.
+    /// Deficit mode: the integrand at the nodes `vs[first..last]` of one line part (`PART`) into
+    /// `r_out` and `t_out`, `W` ≤ [`LANES`] nodes at a time across panel ends: by
+    /// [`Self::block`] of `LOBE`, or, `LOBE` = [`MASKED`], by [`Self::block_masked`] with the
+    /// lobes `on` of each node's panel. The last block reads and writes up to `W` − 1 entries
+    /// past `last` (the buffers are that much longer; what it writes there is overwritten or
+    /// unused).
     #[inline(always)]
-    fn deficit_run<const PART: u8, const LOBE: u8>(
+    #[allow(clippy::too_many_arguments)]
+    fn deficit_run<const PART: u8, const LOBE: u8, const W: usize>(
         &self,
         line: &DielectricLine,
         vs: &[f64],
         on: (&[bool], &[bool]),
         r_out: &mut [f64],
         t_out: &mut [f64],
+        first: usize,
+        last: usize,
     ) {
-        for (k, vc) in vs.chunks(LANES).enumerate() {
-            let len = vc.len();
-            let at = k * LANES;
-            let mut v = [vc[0]; LANES];
-            v[..len].copy_from_slice(vc);
+        let mut at = first;
+        while at < last {
+            let v: &[f64; W] = vs[at..at + W].try_into().unwrap();
             let (r, t) = if LOBE == MASKED {
-                let (mut ron, mut ton) = ([false; LANES], [false; LANES]);
-                ron[..len].copy_from_slice(&on.0[at..at + len]);
-                ton[..len].copy_from_slice(&on.1[at..at + len]);
-                self.block_masked::<PART>(line, &v, &ron, &ton)
+                let ron: &[bool; W] = on.0[at..at + W].try_into().unwrap();
+                let ton: &[bool; W] = on.1[at..at + W].try_into().unwrap();
+                self.block_masked::<PART, W>(line, v, ron, ton)
             } else {
-                let y = self.block::<PART, LOBE>(line, &v);
-                let (mut r, mut t) = ([0.0; LANES], [0.0; LANES]);
-                for j in 0..LANES {
+                let y = self.block::<PART, LOBE, W>(line, v);
+                let (mut r, mut t) = ([0.0; W], [0.0; W]);
+                for j in 0..W {
                     [r[j], t[j]] = y[j];
                 }
                 (r, t)
             };
-            r_out[at..at + len].copy_from_slice(&r[..len]);
-            t_out[at..at + len].copy_from_slice(&t[..len]);
+            r_out[at..at + W].copy_from_slice(&r);
+            t_out[at..at + W].copy_from_slice(&t);
+            at += W;
         }
     }
 
@@ -735,7 +739,9 @@ impl SlopeDielectric {
                 n += 1;
             }
         }
-        cand[..n].sort_by(|a, b| a.at.rho.total_cmp(&b.at.rho));
+        if !cand[..n].is_sorted_by(|a, b| a.at.rho.total_cmp(&b.at.rho).is_le()) {
+            cand[..n].sort_by(|a, b| a.at.rho.total_cmp(&b.at.rho));
+        }
         let rho_max = if reflects { h.rho_max } else { 0.0 };
         let (cap_lo, cap_hi) = match (self.leaving(), q2) {
             (false, _) => (0.0, f64::INFINITY),
@@ -866,15 +872,20 @@ impl SlopeDielectric {
         let s_end = line.s_end;
         let s_of = |rho: f64| asinh_pos(rho / alpha);
         let ds = |k: &Kink| k.delta_rho / (alpha * alpha + k.at.rho * k.at.rho).sqrt();
+        // s of the kinks below the switch (NaN: not computed)
+        let mut s_at = [f64::NAN; MAX_SEGMENTS + 1];
         if rho_sw > start.at.rho {
             // s part: the start (unless it is the peak), the kinks below the switch, s_end
             let mut sb: [Break; MAX_SEGMENTS + 2] = [Break::regular(0.0); MAX_SEGMENTS + 2];
             let mut ns = 0;
             let from_peak = start.at.rho == 0.0;
             let first = if from_peak { 1 } else { 0 };
-            for k in kinks[first..n].iter().filter(|k| k.at.rho < rho_sw) {
-                sb[ns] = k.at_x(s_of(k.at.rho), ds(k).max(MIN_DELTA));
-                ns += 1;
+            for (i, k) in kinks.iter().enumerate().take(n).skip(first) {
+                if k.at.rho < rho_sw {
+                    s_at[i] = s_of(k.at.rho);
+                    sb[ns] = k.at_x(s_at[i], ds(k).max(MIN_DELTA));
+                    ns += 1;
+                }
             }
             if !from_peak {
                 // a line starting off the peak still sees the poles of sech² s at ±iπ/2
@@ -948,7 +959,15 @@ impl SlopeDielectric {
         for i in 1..n {
             let k = &kinks[i];
             line.seg_end[i - 1] = if k.at.rho <= rho_sw {
-                s_of(k.at.rho).min(s_end)
+                // s_of(ρsw) is s_end itself
+                let s = if k.at.rho == rho_sw {
+                    s_end
+                } else if s_at[i].is_nan() {
+                    s_of(k.at.rho)
+                } else {
+                    s_at[i]
+                };
+                s.min(s_end)
             } else {
                 s_end + (line.u_tail - k.at.u)
             };
@@ -968,35 +987,162 @@ struct DielectricBlock<'a, const PART: u8, const LOBE: u8> {
 impl<const PART: u8, const LOBE: u8> vector::Block<CHANNELS> for DielectricBlock<'_, PART, LOBE> {
     #[inline(always)]
     fn block(&self, v: &[f64; LANES]) -> [[f64; CHANNELS]; LANES] {
-        self.f.block::<PART, LOBE>(self.line, v)
+        self.f.block::<PART, LOBE, LANES>(self.line, v)
     }
 }
 
-/// One line part's [`SlopeDielectric::deficit_run`] as a [`vector::Kernel`].
-struct DeficitRun<'a, const PART: u8, const LOBE: u8> {
+/// Nodes [`LineBuf`] makes room for at once: a line of 8 panels of 24 nodes and their spare.
+const LINE_ROOM: usize = 8 * 24 + LANES;
+
+/// Most panels a cap line takes through [`CapLine`] (more go panel by panel).
+const MAX_PANELS: usize = 32;
+
+/// Deficit mode: one line of the cap as a [`vector::Kernel`] — its panels' nodes
+/// ([`crate::quadrature::NodeMap::fill`]), their values ([`SlopeDielectric::deficit_run`])
+/// and each panel's sums in node order, added to `acc`. Returns false, having added nothing,
+/// if a panel carries a lobe the cap does not have (the caller then goes panel by panel).
+struct CapLine<'a> {
     f: &'a SlopeDielectric,
     line: &'a DielectricLine,
-    vs: &'a [f64],
-    on: (&'a [bool], &'a [bool]),
-    r_out: &'a mut [f64],
-    t_out: &'a mut [f64],
+    panels: &'a [Panel],
+    rule: &'a DimRules,
+    buf: &'a mut LineBuf,
+    acc: &'a mut [f64],
 }
 
-impl<const PART: u8, const LOBE: u8> vector::Kernel for DeficitRun<'_, PART, LOBE> {
-    type Output = ();
+impl vector::Kernel for CapLine<'_> {
+    type Output = bool;
     #[inline(always)]
-    fn run(&mut self) {
-        self.f
-            .deficit_run::<PART, LOBE>(self.line, self.vs, self.on, self.r_out, self.t_out)
+    fn run(&mut self) -> bool {
+        self.eval_line::<LANES>()
+    }
+    /// Blocks of 4 on AVX2 and SSE2: 8 lanes of the cap's integrand hold more values than
+    /// their 16 registers, and spill.
+    #[inline(always)]
+    fn run_narrow(&mut self) -> bool {
+        self.eval_line::<4>()
+    }
+}
+
+impl CapLine<'_> {
+    /// The line by blocks of `W` ≤ [`LANES`] nodes.
+    #[inline(always)]
+    fn eval_line<const W: usize>(&mut self) -> bool {
+        let (f, line, panels) = (self.f, self.line, self.panels);
+        let n = panels.len();
+        let LineBuf {
+            vs,
+            ws,
+            r,
+            t,
+            r_on,
+            t_on,
+        } = &mut *self.buf;
+        let mut ends = [0usize; MAX_PANELS];
+        let (mut pr, mut pt) = ([false; MAX_PANELS], [false; MAX_PANELS]);
+        let mut part = [0u8; MAX_PANELS];
+        let mut len = 0;
+        for (i, seg) in panels.iter().enumerate() {
+            let map = self.rule.map(seg);
+            let m = map.len();
+            // LANES spare entries: the last block of a run reads past its end
+            if vs.len() < len + m + LANES {
+                // room for a typical line at once (a cell's lines reuse it)
+                let room = (len + m + LANES).max(LINE_ROOM);
+                vs.resize(room, 0.0);
+                ws.resize(room, 0.0);
+            }
+            map.fill(&mut vs[len..len + m], &mut ws[len..len + m]);
+            let (lobe, p) = SlopeDielectric::segment(line, &vs[len..len + m]);
+            (pr[i], pt[i]) = match lobe {
+                Lobe::Deficit => (true, false),
+                Lobe::DeficitBoth => (true, true),
+                Lobe::Transmit => (false, true),
+                _ => return false,
+            };
+            part[i] = p;
+            len += m;
+            ends[i] = len;
+        }
+        if r.len() < vs.len() {
+            r.resize(vs.len(), 0.0);
+            t.resize(vs.len(), 0.0);
+            r_on.resize(vs.len(), false);
+            t_on.resize(vs.len(), false);
+        }
+        let mut i = 0;
+        while i < n {
+            // a run of panels in one line part, of one lobe or several
+            let mut j = i + 1;
+            let mut one_lobe = true;
+            while j < n && part[j] == part[i] {
+                one_lobe &= pr[j] == pr[i] && pt[j] == pt[i];
+                j += 1;
+            }
+            let first = if i == 0 { 0 } else { ends[i - 1] };
+            let last = ends[j - 1];
+            if !one_lobe {
+                let mut from = first;
+                for k in i..j {
+                    r_on[from..ends[k]].fill(pr[k]);
+                    t_on[from..ends[k]].fill(pt[k]);
+                    from = ends[k];
+                }
+            }
+            let lobe = match (one_lobe, pr[i], pt[i]) {
+                (false, _, _) => MASKED,
+                (true, true, false) => 4,
+                (true, true, true) => 5,
+                _ => 3,
+            };
+            let on = (&r_on[..], &t_on[..]);
+            macro_rules! run {
+                ($part:literal, $lobe:expr) => {
+                    f.deficit_run::<$part, { $lobe }, W>(line, vs, on, r, t, first, last)
+                };
+            }
+            macro_rules! by_lobe {
+                ($part:literal) => {
+                    match lobe {
+                        3 => run!($part, 3),
+                        4 => run!($part, 4),
+                        5 => run!($part, 5),
+                        _ => run!($part, MASKED),
+                    }
+                };
+            }
+            match part[i] {
+                0 => by_lobe!(0),
+                1 => by_lobe!(1),
+                _ => by_lobe!(2),
+            }
+            i = j;
+        }
+        // each panel summed from zero in node order, then added: the bits of `sum_panel`
+        let mut from = 0;
+        for &end in &ends[..n] {
+            let (mut sr, mut st) = (0.0, 0.0);
+            for ((&w, &yr), &yt) in ws[from..end].iter().zip(&r[from..end]).zip(&t[from..end]) {
+                sr += w * yr;
+                st += w * yt;
+            }
+            self.acc[0] += sr;
+            self.acc[1] += st;
+            from = end;
+        }
+        true
     }
 }
 
 /// The lobe index of [`SlopeDielectric::deficit_run`] whose nodes carry their own lobes.
 const MASKED: u8 = 6;
 
-/// Deficit mode: one line's integrand values and the lobes of its nodes, reused.
+/// Deficit mode: one line's nodes, weights, integrand values and the lobes of its nodes,
+/// reused.
 #[derive(Default)]
 struct LineBuf {
+    vs: Vec<f64>,
+    ws: Vec<f64>,
     r: Vec<f64>,
     t: Vec<f64>,
     r_on: Vec<bool>,
@@ -1102,8 +1248,9 @@ impl Integrand2D for SlopeDielectric {
         true
     }
 
-    /// Deficit mode: the nodes of all the line's panels in one buffer, each line part (s, u)
-    /// evaluated by one branch-free loop across panel ends ([`Self::deficit_run`]) with the
+    /// Deficit mode: the whole line in one kernel on the widest vector unit ([`CapLine`]): the
+    /// nodes of all its panels mapped into one buffer, each line part (s, u) evaluated by one
+    /// branch-free loop across panel ends, each panel summed from zero in node order — the
     /// bits of one panel at a time; the other modes panel by panel.
     fn accumulate_line(
         &self,
@@ -1114,7 +1261,6 @@ impl Integrand2D for SlopeDielectric {
         ws: &mut Vec<f64>,
         acc: &mut [f64],
     ) {
-        const MAX_PANELS: usize = 32;
         let by_panel = |vs: &mut Vec<f64>, ws: &mut Vec<f64>, acc: &mut [f64]| {
             for seg in panels {
                 vs.clear();
@@ -1126,105 +1272,17 @@ impl Integrand2D for SlopeDielectric {
         if !self.deficit || !self.column.eta.is_empty() || panels.len() > MAX_PANELS {
             return by_panel(vs, ws, acc);
         }
-        vs.clear();
-        ws.clear();
-        let mut ends = [0usize; MAX_PANELS];
-        let (mut r_on, mut t_on) = ([false; MAX_PANELS], [false; MAX_PANELS]);
-        let mut part = [0u8; MAX_PANELS];
-        for (i, seg) in panels.iter().enumerate() {
-            let start = vs.len();
-            rule.nodes_into(seg, vs, ws);
-            ends[i] = vs.len();
-            let (lobe, p) = Self::segment(line, &vs[start..]);
-            (r_on[i], t_on[i]) = match lobe {
-                Lobe::Deficit => (true, false),
-                Lobe::DeficitBoth => (true, true),
-                Lobe::Transmit => (false, true),
-                _ => return by_panel(vs, ws, acc),
-            };
-            part[i] = p;
-        }
-        let n = panels.len();
-        let nodes = vs.len();
         let mut buf = self.line_buf.borrow_mut();
-        let LineBuf {
-            r,
-            t,
-            r_on: ron,
-            t_on: ton,
-        } = &mut *buf;
-        r.resize(nodes, 0.0);
-        t.resize(nodes, 0.0);
-        ron.resize(nodes, false);
-        ton.resize(nodes, false);
-        let mut i = 0;
-        while i < n {
-            // a run of panels in one line part, of one lobe or several
-            let mut j = i + 1;
-            let mut one_lobe = true;
-            while j < n && part[j] == part[i] {
-                one_lobe &= r_on[j] == r_on[i] && t_on[j] == t_on[i];
-                j += 1;
-            }
-            let first = if i == 0 { 0 } else { ends[i - 1] };
-            let last = ends[j - 1];
-            if !one_lobe {
-                let mut from = first;
-                for k in i..j {
-                    ron[from..ends[k]].fill(r_on[k]);
-                    ton[from..ends[k]].fill(t_on[k]);
-                    from = ends[k];
-                }
-            }
-            let lobe = match (one_lobe, r_on[i], t_on[i]) {
-                (false, _, _) => MASKED,
-                (true, true, false) => 4,
-                (true, true, true) => 5,
-                _ => 3,
-            };
-            let v = &vs[first..last];
-            let on = (&ron[first..last], &ton[first..last]);
-            let (r_out, t_out) = (&mut r[first..last], &mut t[first..last]);
-            macro_rules! run {
-                ($part:literal, $lobe:expr) => {
-                    vector::run(DeficitRun::<$part, { $lobe }> {
-                        f: self,
-                        line,
-                        vs: v,
-                        on,
-                        r_out,
-                        t_out,
-                    })
-                };
-            }
-            macro_rules! by_lobe {
-                ($part:literal) => {
-                    match lobe {
-                        3 => run!($part, 3),
-                        4 => run!($part, 4),
-                        5 => run!($part, 5),
-                        _ => run!($part, MASKED),
-                    }
-                };
-            }
-            match part[i] {
-                0 => by_lobe!(0),
-                1 => by_lobe!(1),
-                _ => by_lobe!(2),
-            }
-            i = j;
-        }
-        // each panel summed from zero in node order, then added: the bits of `sum_panel`
-        let mut from = 0;
-        for &end in &ends[..n] {
-            let (mut sr, mut st) = (0.0, 0.0);
-            for ((&w, &yr), &yt) in ws[from..end].iter().zip(&r[from..end]).zip(&t[from..end]) {
-                sr += w * yr;
-                st += w * yt;
-            }
-            acc[0] += sr;
-            acc[1] += st;
-            from = end;
+        let done = vector::run(CapLine {
+            f: self,
+            line,
+            panels,
+            rule,
+            buf: &mut buf,
+            acc: &mut *acc,
+        });
+        if !done {
+            by_panel(vs, ws, acc);
         }
     }
 

@@ -160,7 +160,10 @@ fn end_map(b: &Break, toward: f64, len: f64) -> Option<PanelMap> {
 /// panels between them. A panel with one special end is mapped towards it; a panel with two is
 /// split at its midpoint so that each half is mapped towards its own end.
 pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
-    breaks.sort_by(|p, q| p.x.total_cmp(&q.x));
+    // (callers mostly pass them sorted: a check is cheaper than the sort's own)
+    if !breaks.is_sorted_by(|p, q| p.x.total_cmp(&q.x).is_le()) {
+        breaks.sort_by(|p, q| p.x.total_cmp(&q.x));
+    }
     // merge in place
     let mut n = 0;
     for i in 0..breaks.len() {
@@ -415,22 +418,37 @@ impl DimRules {
     /// vectorises.
     #[inline]
     pub fn nodes_into(&self, panel: &Panel, xs: &mut Vec<f64>, ws: &mut Vec<f64>) {
+        let map = self.map(panel);
+        let start = xs.len();
+        let n = map.len();
+        xs.resize(start + n, 0.0);
+        ws.resize(start + n, 0.0);
+        map.fill_dispatch(&mut xs[start..], &mut ws[start..]);
+    }
+
+    /// How the rule is placed on `panel` ([`NodeMap::fill`] writes the nodes): the one
+    /// logarithm a sinh-mapped end takes is here, the per-node arithmetic there.
+    #[inline]
+    pub fn map<'a>(&'a self, panel: &Panel) -> NodeMap<'a> {
         let (a, b) = (panel.a, panel.b);
-        let rule = &self.plain;
-        let n = rule.nodes.len();
-        let affine = |rule: &UnitRule, xs: &mut Vec<f64>, ws: &mut Vec<f64>| {
-            xs.extend(rule.nodes.iter().map(|&t| a + (b - a) * t));
-            ws.extend(rule.weights.iter().map(|&w| w * (b - a)));
-        };
         match panel.map {
-            PanelMap::Plain => affine(rule, xs, ws),
-            PanelMap::Smooth => affine(&self.smooth, xs, ws),
+            PanelMap::Plain => NodeMap::Affine {
+                rule: &self.plain,
+                a,
+                b,
+            },
+            PanelMap::Smooth => NodeMap::Affine {
+                rule: &self.smooth,
+                a,
+                b,
+            },
             PanelMap::End {
                 at,
                 toward,
                 sqrt,
                 delta,
             } => {
+                let rule = &self.plain;
                 let len = (toward - at).abs();
                 let sign = if toward > at { 1.0 } else { -1.0 };
                 let (lo, hi) = (a.min(b), a.max(b));
@@ -439,38 +457,25 @@ impl DimRules {
                     let span = crate::math::asinh_pos(len / delta);
                     let pieces = (span / SINH_MAX_SPAN).ceil().max(1.0) as usize;
                     let dw = span / pieces as f64;
-                    let start = xs.len();
-                    xs.resize(start + n * pieces, 0.0);
-                    ws.resize(start + n * pieces, 0.0);
-                    let map = SinhPieces {
+                    NodeMap::Sinh {
+                        rule,
+                        map: SinhPieces {
+                            at,
+                            sign,
+                            delta,
+                            lo,
+                            hi,
+                            dw,
+                            pieces,
+                            sqrt,
+                        },
+                    }
+                } else {
+                    NodeMap::Sqrt {
+                        rule,
                         at,
                         sign,
-                        delta,
-                        lo,
-                        hi,
-                        dw,
-                        pieces,
-                        sqrt,
-                    };
-                    map.fill_dispatch(
-                        &rule.nodes,
-                        &rule.weights,
-                        &mut xs[start..],
-                        &mut ws[start..],
-                    );
-                } else {
-                    // y = L·t²(2 − t)
-                    let start = xs.len();
-                    xs.resize(start + n, 0.0);
-                    ws.resize(start + n, 0.0);
-                    for ((x, w), (&t, &wt)) in xs[start..]
-                        .iter_mut()
-                        .zip(&mut ws[start..])
-                        .zip(rule.nodes.iter().zip(&rule.weights))
-                    {
-                        let (q, dq) = sqrt_map(t);
-                        *x = at + sign * len * q;
-                        *w = wt * len * dq;
+                        len,
                     }
                 }
             }
@@ -478,9 +483,89 @@ impl DimRules {
     }
 }
 
+/// The rule of one panel as placed by its [`PanelMap`] ([`DimRules::map`]).
+pub enum NodeMap<'a> {
+    /// x = a + (b − a)·t.
+    Affine { rule: &'a UnitRule, a: f64, b: f64 },
+    /// y = L·t²(2 − t) from `at` (see [`sqrt_map`]).
+    Sqrt {
+        rule: &'a UnitRule,
+        at: f64,
+        sign: f64,
+        len: f64,
+    },
+    /// The sinh map in pieces.
+    Sinh { rule: &'a UnitRule, map: SinhPieces },
+}
+
+impl NodeMap<'_> {
+    /// How many nodes the panel has.
+    #[inline(always)]
+    pub fn len(&self) -> usize {
+        match self {
+            NodeMap::Affine { rule, .. } | NodeMap::Sqrt { rule, .. } => rule.nodes.len(),
+            NodeMap::Sinh { rule, map } => rule.nodes.len() * map.pieces,
+        }
+    }
+
+    /// Whether the panel has no nodes (a rule of order 0).
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Writes the nodes into `xs` and their weights (the map's Jacobian included) into `ws`,
+    /// both of length [`Self::len`]: loops without calls or branches, inlined into the caller
+    /// (a [`vector::Kernel`] compiles them for its vector unit; the operations, and so the bits,
+    /// are the same on every unit).
+    #[inline(always)]
+    pub fn fill(&self, xs: &mut [f64], ws: &mut [f64]) {
+        match self {
+            NodeMap::Affine { rule, a, b } => {
+                let (a, b) = (*a, *b);
+                for ((x, w), (&t, &wt)) in xs
+                    .iter_mut()
+                    .zip(ws.iter_mut())
+                    .zip(rule.nodes.iter().zip(&rule.weights))
+                {
+                    *x = a + (b - a) * t;
+                    *w = wt * (b - a);
+                }
+            }
+            NodeMap::Sqrt {
+                rule,
+                at,
+                sign,
+                len,
+            } => {
+                let (at, sign, len) = (*at, *sign, *len);
+                for ((x, w), (&t, &wt)) in xs
+                    .iter_mut()
+                    .zip(ws.iter_mut())
+                    .zip(rule.nodes.iter().zip(&rule.weights))
+                {
+                    let (q, dq) = sqrt_map(t);
+                    *x = at + sign * len * q;
+                    *w = wt * len * dq;
+                }
+            }
+            NodeMap::Sinh { rule, map } => map.fill(&rule.nodes, &rule.weights, xs, ws),
+        }
+    }
+
+    /// [`Self::fill`], the sinh map on the widest vector unit ([`vector::run`]).
+    #[inline]
+    fn fill_dispatch(&self, xs: &mut [f64], ws: &mut [f64]) {
+        match self {
+            NodeMap::Sinh { rule, map } => map.fill_dispatch(&rule.nodes, &rule.weights, xs, ws),
+            _ => self.fill(xs, ws),
+        }
+    }
+}
+
 /// The pieces of a sinh-mapped end (see [`PanelMap::End`]): node x = at + sign·δ·sinh(w),
 /// w = dw·(k + q(t)) on piece k, q(t) = t except on the first piece of a square-root end.
-struct SinhPieces {
+pub struct SinhPieces {
     at: f64,
     sign: f64,
     delta: f64,

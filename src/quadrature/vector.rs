@@ -17,6 +17,14 @@ pub trait Kernel {
     /// The loop itself. Implementations mark it `#[inline(always)]`, so that it is compiled
     /// inside each of [`run`]'s target-feature functions.
     fn run(&mut self) -> Self::Output;
+    /// The loop for a vector unit of 256 bits or less (AVX2, and the SSE2 baseline): by
+    /// default [`Self::run`]. A kernel whose blocks of [`LANES`] nodes hold more values than
+    /// those units have registers may use narrower blocks here, with the same arithmetic per
+    /// node (and so the same bits).
+    #[inline(always)]
+    fn run_narrow(&mut self) -> Self::Output {
+        self.run()
+    }
 }
 
 /// Runs `kernel` compiled for AVX-512 or AVX2 where the CPU has them, else for the baseline.
@@ -34,7 +42,7 @@ pub fn run<K: Kernel>(mut kernel: K) -> K::Output {
         }
         #[target_feature(enable = "avx2")]
         unsafe fn avx2<K: Kernel>(kernel: &mut K) -> K::Output {
-            kernel.run()
+            kernel.run_narrow()
         }
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU supports AVX-512F (checked just above).
@@ -51,7 +59,7 @@ pub fn run<K: Kernel>(mut kernel: K) -> K::Output {
 /// The baseline build, out of line like the others (so that the dispatch stays small).
 #[inline(never)]
 fn baseline<K: Kernel>(kernel: &mut K) -> K::Output {
-    kernel.run()
+    kernel.run_narrow()
 }
 
 #[cfg(test)]

@@ -213,3 +213,49 @@ fn every_kind_in_one_scene_emits_valid_shaders_with_only_the_needed_helpers() {
     naga_ok(&wgsl, &glsl);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_scene_job_can_sweep_its_tables_and_emit_the_best_fits_in_one_file() {
+    let dir = scratch("swept");
+    let manifest = Manifest::parse(
+        r#"{"name": "swept", "resolution": {"2d": 17}, "materials": [
+            {"name": "gold", "kind": "conductor", "r": [0.2, 0.6]}]}"#,
+        std::path::Path::new("swept.json"),
+    )
+    .unwrap();
+    let opts = RunOptions {
+        data_dir: dir.join("data"),
+        fits_dir: dir.join("fits"),
+        lut_dir: dir.join("data/lut"),
+        force: false,
+        quadrature: QuadratureSettings::default(),
+        langs: vec![Lang::Rust],
+        lut_resolution: 8,
+        stress_points: 0,
+        command: "furnace run --scene swept.json".into(),
+    };
+    let mut job = Job::scene(&manifest, &opts).unwrap();
+    job.fit = pipeline::FitStage::Sweep {
+        max_degree: Some(2),
+    };
+    let out = pipeline::run(&job, &furnace::progress::Quiet).unwrap();
+    let sweep = out.rows[0].sweep().expect("a sweep");
+    let (budget, best) = sweep
+        .best
+        .iter()
+        .rev()
+        .find(|b| b.1.is_some())
+        .expect("a best fit");
+    let folder = dir.join("fits/swept/ggx-conductor");
+    assert!(folder.join("sweep.json").is_file() && folder.join("off-grid.json").is_file());
+    // the one file holds the largest-budget best fit, over the scene's narrower domain
+    let rs = std::fs::read_to_string(dir.join("fits/swept/swept.rs")).unwrap();
+    assert!(rs.contains(&format!("best-{budget}.json")), "{rs}");
+    assert!(rs.contains("fitted domain [0.2, 0.6]"), "{rs}");
+    assert!(rs.contains("pub fn ggx_conductor_turquin_scale("), "{rs}");
+    assert_eq!(
+        out.functions[0].n_coefficients,
+        best.as_ref().unwrap().n_coefficients
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -21,13 +21,17 @@
 //! line:
 //!
 //! ```no_run
-//! use furnace::pipeline::{self, Job};
+//! use furnace::pipeline::{self, FitStage, Job};
 //! use furnace::progress::Quiet;
 //!
 //! let mut job = Job::default_set(std::path::Path::new("out"));
 //! job.only(&["ggx-conductor".to_string()])?;
+//! job.set_resolution(65, 17);
+//! job.fit = FitStage::Sweep { max_degree: Some(4) };
 //! let outcome = pipeline::run(&job, &Quiet)?;
-//! println!("{} files", outcome.rows[0].emitted.len());
+//! for row in &outcome.rows {
+//!     println!("{}: {} files emitted", row.name, row.emitted.len());
+//! }
 //! # Ok::<(), furnace::Error>(())
 //! ```
 //!

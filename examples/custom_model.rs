@@ -12,10 +12,11 @@
 //! `1/E` helper is emitted next to the albedo fit for it. Once both are registered
 //! ([`furnace::bsdf::register_in_default_set`], which also puts the model in the default set of
 //! `furnace run` and the report, and [`furnace::material::register`]), the library's pipeline
-//! ([`furnace::pipeline::run`]: table → degree sweep → Rust/WGSL/GLSL and a LUT → report with
-//! the white furnace test of the new class) and a scene whose material is of the new kind
-//! ([`furnace::pipeline::scene::run`]) take them with no other change. The example runs both at small
-//! sizes into a temporary folder and checks what they wrote.
+//! ([`furnace::pipeline::run`] on the default set's job: table → degree sweep → Rust/WGSL/GLSL
+//! and a LUT → report with the white furnace test of the new class) and a scene whose material
+//! is of the new kind (the same `run` on [`furnace::pipeline::Job::scene`]) take them with no
+//! other change. The example runs both at small sizes into a temporary folder and checks what
+//! they wrote.
 //!
 //! Run: `cargo run --release --example custom_model`
 
@@ -25,7 +26,7 @@ use furnace::material::{
     CompensatedBsdf, Compensation, Helper, HelperUse, Lobe, MaterialClass, Prepared, TableUse,
 };
 use furnace::math::SmithForm;
-use furnace::pipeline::{self, Job};
+use furnace::pipeline::{self, FitStage, Job};
 use furnace::progress::Quiet;
 use furnace::quadrature::{
     integrate_2d, Integrand2D, QuadratureSettings, RuleCache, Rules, CHANNELS,
@@ -207,11 +208,13 @@ fn run_everything(root: &Path) -> furnace::Result<f64> {
     // tables → degree sweep → emitted code and LUT → report (small sizes); the default set
     // now ends with the model, so `furnace run`'s job has it with no other change
     let mut job = Job::default_set(root);
-    assert!(job.models.contains(&id));
+    assert!(job.tables.iter().any(|t| t.model == id));
     assert_eq!(furnace::bsdf::default_set().last(), Some(&id));
     job.only(&[id.key()])?;
-    job.resolution_2d = 33;
-    job.max_degree = Some(4);
+    job.set_resolution(33, 17);
+    job.fit = FitStage::Sweep {
+        max_degree: Some(4),
+    };
     job.quick_report();
     let outcome = pipeline::run(&job, &Quiet)?;
     let row = &outcome.rows[0];
@@ -219,7 +222,7 @@ fn run_everything(root: &Path) -> furnace::Result<f64> {
         "pipeline: {} table {}, {} fit files, {} emitted files, {} report files",
         row.name,
         row.resolution,
-        row.fit.files.len(),
+        row.sweep().map_or(0, |s| s.files.len()),
         row.emitted.len(),
         row.report_files
     );
@@ -262,15 +265,20 @@ fn run_everything(root: &Path) -> furnace::Result<f64> {
         stress_points: 1000,
         command: "cargo run --example custom_model".into(),
     };
-    let out = pipeline::scene::run(&manifest, &opts, &|_| {})?;
-    assert_eq!(out.plan.tables.len(), 1);
-    assert_eq!(out.plan.tables[0].model, id);
+    let out = pipeline::run(&Job::scene(&manifest, &opts)?, &Quiet)?;
+    assert_eq!(out.rows.len(), 1);
+    assert_eq!(out.rows[0].id, id);
     let wgsl = std::fs::read_to_string(root.join("fits/studio/studio.wgsl")).expect("scene WGSL");
     assert!(wgsl.contains("fn coated_lambert_normalization("), "{wgsl}");
     println!(
         "scene studio: {} files, fit max error {:.1e}",
         out.written.len(),
-        out.fitted[0].fit.metrics.max_abs_error
+        out.rows[0]
+            .one()
+            .expect("the scene's one fit")
+            .fit
+            .metrics
+            .max_abs_error
     );
     Ok(furnace)
 }

@@ -20,8 +20,8 @@
 //! share a model share one table over the union of their ranges; μ always spans [0, 1].
 //! A scene of conductors, thin dielectrics and rough-diffuse materials needs no 3-D table.
 //!
-//! This module parses and plans ([`plan`] → [`Plan`]); [`crate::pipeline::scene::run`] runs a
-//! plan: tables, fits and the emitted files.
+//! This module parses and plans ([`plan`] → [`Plan`]); [`crate::pipeline::Job::scene`] makes a
+//! plan a job of the pipeline: tables, fits and the emitted files.
 
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -4,7 +4,8 @@
 use std::path::PathBuf;
 
 use furnace::emit::Lang;
-use furnace::pipeline::scene::{run, RunOptions};
+use furnace::pipeline::scene::RunOptions;
+use furnace::pipeline::{self, Job, Outcome};
 use furnace::quadrature::QuadratureSettings;
 use furnace::scene::Manifest;
 
@@ -14,6 +15,19 @@ fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+/// The scene's job through the pipeline, its log on stderr.
+fn run(manifest: &Manifest, opts: &RunOptions, quiet: bool) -> furnace::Result<Outcome> {
+    struct Log(bool);
+    impl furnace::progress::Observer for Log {
+        fn line(&self, text: &str) {
+            if !self.0 {
+                eprintln!("{text}");
+            }
+        }
+    }
+    pipeline::run(&Job::scene(manifest, opts)?, &Log(quiet))
 }
 
 fn walk(dir: &std::path::Path, out: &mut Vec<PathBuf>) {
@@ -50,12 +64,13 @@ fn conductor_only_scene_tabulates_fits_and_emits_only_2d_conductor_code() {
         stress_points: 5_000,
         command: "furnace run --scene metals.json".into(),
     };
-    let out = run(&manifest, &opts, &|l| eprintln!("{l}")).unwrap();
+    let out = run(&manifest, &opts, false).unwrap();
     // one table: ggx-conductor over r ∈ [0.2, 0.6] (the union of [0.2, 0.6] and √[0.04, 0.09])
-    assert_eq!(out.plan.tables.len(), 1);
-    let t = &out.fitted[0];
-    assert_eq!(t.need.model.key(), "ggx-conductor");
-    assert_eq!(t.need.ranges[0], (0.2, 0.6));
+    assert_eq!(out.rows.len(), 1);
+    let row = &out.rows[0];
+    assert_eq!(row.id.key(), "ggx-conductor");
+    assert_eq!(row.ranges[0], (0.2, 0.6));
+    let t = row.one().unwrap();
     assert_eq!(
         t.fit.approximant.domain[0],
         (0.2, 0.6),
@@ -117,8 +132,8 @@ fn conductor_only_scene_tabulates_fits_and_emits_only_2d_conductor_code() {
     assert_eq!(desc["axes"][0]["lo"], 0.2);
     assert!(desc["comparison"]["fit_f32_max"].as_f64().unwrap() < 0.05);
     // a second run reads the table from the cache and writes identical code
-    let again = run(&manifest, &opts, &|_| {}).unwrap();
-    assert!(again.fitted[0].table_cached);
+    let again = run(&manifest, &opts, true).unwrap();
+    assert!(again.rows[0].cached);
     assert_eq!(
         std::fs::read_to_string(dir.join("fits/metals/metals.rs")).unwrap(),
         rs
@@ -161,8 +176,8 @@ fn every_kind_in_one_scene_emits_valid_shaders_with_only_the_needed_helpers() {
         stress_points: 2_000,
         command: "furnace run --scene all-kinds.json".into(),
     };
-    let out = run(&manifest, &opts, &|l| eprintln!("{l}")).unwrap();
-    let models: Vec<String> = out.fitted.iter().map(|f| f.need.model.key()).collect();
+    let out = run(&manifest, &opts, false).unwrap();
+    let models: Vec<String> = out.rows.iter().map(|r| r.id.key()).collect();
     assert_eq!(
         models,
         [
@@ -196,5 +211,51 @@ fn every_kind_in_one_scene_emits_valid_shaders_with_only_the_needed_helpers() {
     let wgsl = std::fs::read_to_string(dir.join("fits/all-kinds/all-kinds.wgsl")).unwrap();
     let glsl = std::fs::read_to_string(dir.join("fits/all-kinds/all-kinds.glsl")).unwrap();
     naga_ok(&wgsl, &glsl);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_scene_job_can_sweep_its_tables_and_emit_the_best_fits_in_one_file() {
+    let dir = scratch("swept");
+    let manifest = Manifest::parse(
+        r#"{"name": "swept", "resolution": {"2d": 17}, "materials": [
+            {"name": "gold", "kind": "conductor", "r": [0.2, 0.6]}]}"#,
+        std::path::Path::new("swept.json"),
+    )
+    .unwrap();
+    let opts = RunOptions {
+        data_dir: dir.join("data"),
+        fits_dir: dir.join("fits"),
+        lut_dir: dir.join("data/lut"),
+        force: false,
+        quadrature: QuadratureSettings::default(),
+        langs: vec![Lang::Rust],
+        lut_resolution: 8,
+        stress_points: 0,
+        command: "furnace run --scene swept.json".into(),
+    };
+    let mut job = Job::scene(&manifest, &opts).unwrap();
+    job.fit = pipeline::FitStage::Sweep {
+        max_degree: Some(2),
+    };
+    let out = pipeline::run(&job, &furnace::progress::Quiet).unwrap();
+    let sweep = out.rows[0].sweep().expect("a sweep");
+    let (budget, best) = sweep
+        .best
+        .iter()
+        .rev()
+        .find(|b| b.1.is_some())
+        .expect("a best fit");
+    let folder = dir.join("fits/swept/ggx-conductor");
+    assert!(folder.join("sweep.json").is_file() && folder.join("off-grid.json").is_file());
+    // the one file holds the largest-budget best fit, over the scene's narrower domain
+    let rs = std::fs::read_to_string(dir.join("fits/swept/swept.rs")).unwrap();
+    assert!(rs.contains(&format!("best-{budget}.json")), "{rs}");
+    assert!(rs.contains("fitted domain [0.2, 0.6]"), "{rs}");
+    assert!(rs.contains("pub fn ggx_conductor_turquin_scale("), "{rs}");
+    assert_eq!(
+        out.functions[0].n_coefficients,
+        best.as_ref().unwrap().n_coefficients
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -249,10 +249,7 @@ pub fn run(cli: Cli) -> Result<()> {
             BenchWhat::Eval(a) => bench_eval::bench_eval_cmd(&a),
             BenchWhat::Fit(a) => bench_fit::bench_fit(&a),
         },
-        Command::Run(args) if args.scene.scene.is_some() => {
-            scene::run_scene(&args.scene, &args.data_dir, args.force)
-        }
-        Command::Run(args) => run::run_default(&args),
+        Command::Run(args) => run::run_cmd(&args),
         Command::Emit(args) => emit::emit_cmd(&args),
         Command::Stress(args) => emit::stress_cmd(&args),
         Command::Report(args) => report::report_cmd(&args),

@@ -1,10 +1,10 @@
-//! `furnace run` without a scene: the pipeline ([`crate::pipeline`]) on the built-in default
-//! set, with progress bars and a summary table.
+//! `furnace run`: the arguments → a [`Job`] (the built-in default set, or a scene with
+//! `--scene`) → [`crate::pipeline::run`] with progress bars → a summary table.
 
 use super::scene::SceneArgs;
 use super::Bars;
 use crate::error::Result;
-use crate::pipeline::{self, Job, Row};
+use crate::pipeline::{self, FitStage, Job, Row};
 use crate::report::model::fmt_e;
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -54,49 +54,63 @@ pub struct RunArgs {
     pub scene: SceneArgs,
 }
 
-/// The run `args` ask for.
-fn job(args: &RunArgs) -> Result<Job> {
+/// The default set's job `args` ask for.
+fn default_job(args: &RunArgs) -> Result<Job> {
     let mut job = Job::default_set(Path::new("."));
     job.data_dir = args.data_dir.clone();
     job.fits_dir = args.scene.fits_dir.clone();
+    job.lut_dir = args.data_dir.join("lut");
     job.force = args.force;
     job.refit = args.refit;
     job.tables_only = args.tables_only;
-    job.no_report = args.no_report;
-    if let Some(n) = args.resolution_2d {
-        job.resolution_2d = n;
-    }
-    if let Some(n) = args.resolution_3d {
-        job.resolution_3d = n;
-        job.resolution_radiance = n.min(pipeline::RUN_RESOLUTION_PAPER_RADIANCE);
-    }
-    job.max_degree = args.max_degree;
+    let three_d = args
+        .resolution_3d
+        .unwrap_or(crate::scene::DEFAULT_RESOLUTION_3D);
+    let two_d = args
+        .resolution_2d
+        .unwrap_or(crate::scene::DEFAULT_RESOLUTION_2D);
+    job.set_resolution(two_d, three_d);
+    job.fit = FitStage::Sweep {
+        max_degree: args.max_degree,
+    };
     if !args.models.is_empty() {
         job.only(&args.models)?;
     }
-    job.report.reports_dir = args.reports_dir.clone();
-    job.report.fits_dir = args.scene.fits_dir.clone();
-    job.report.bench_dir = args.reports_dir.join("bench");
-    job.report.paper_dir = super::report::default_paper_dir();
+    if let Some(report) = &mut job.report {
+        report.reports_dir = args.reports_dir.clone();
+        report.fits_dir = args.scene.fits_dir.clone();
+        report.bench_dir = args.reports_dir.join("bench");
+        report.paper_dir = super::report::default_paper_dir();
+    }
     if args.quick_report {
         job.quick_report();
+    }
+    if args.no_report {
+        job.report = None;
     }
     Ok(job)
 }
 
-/// `furnace run` on the default set.
-pub fn run_default(args: &RunArgs) -> Result<()> {
+/// `furnace run`: the default set, or the scene of `--scene`.
+pub fn run_cmd(args: &RunArgs) -> Result<()> {
     let start = Instant::now();
-    let job = job(args)?;
+    let job = match &args.scene.scene {
+        Some(path) => super::scene::scene_job(&args.scene, path, &args.data_dir, args.force)?,
+        None => default_job(args)?,
+    };
     let outcome = pipeline::run(&job, &Bars::default())?;
-    print_summary(&outcome.rows, args, start);
+    match &args.scene.scene {
+        Some(_) => super::scene::print_summary(&outcome, start),
+        None => print_summary(&outcome.rows, args, start),
+    }
     Ok(())
 }
 
 fn print_summary(rows: &[Row], args: &RunArgs, start: Instant) {
     let mut budgets: Vec<usize> = rows
         .iter()
-        .flat_map(|r| r.fit.best.iter().map(|b| b.0))
+        .filter_map(Row::sweep)
+        .flat_map(|s| s.best.iter().map(|b| b.0))
         .collect();
     budgets.sort_unstable();
     budgets.dedup();
@@ -118,22 +132,22 @@ fn print_summary(rows: &[Row], args: &RunArgs, start: Instant) {
     let mut files = 0;
     let mut losses = Vec::new();
     for r in rows {
+        let sweep = r.sweep();
         let best = |b: usize| {
-            r.fit
-                .best
-                .iter()
-                .find(|x| x.0 == b)
+            sweep
+                .and_then(|s| s.best.iter().find(|x| x.0 == b))
                 .and_then(|x| x.1.as_ref())
                 .map_or("–".to_string(), |s| fmt_e(s.max_abs_error))
         };
-        let fits = if args.tables_only {
-            "–"
-        } else if r.fit.reused {
-            "reused"
-        } else {
-            "fitted"
+        let fits = match sweep {
+            None => "–",
+            Some(s) if s.reused => "reused",
+            Some(_) => "fitted",
         };
-        let n = r.fit.files.len() + r.emitted.len() + r.report_files + if r.cached { 0 } else { 3 };
+        let n = sweep.map_or(0, |s| s.files.len())
+            + r.emitted.len()
+            + r.report_files
+            + if r.cached { 0 } else { 3 };
         files += n;
         let mut line = format!(
             "{:<38} {:>12} {:>7} {:>9.1} {:>7}",

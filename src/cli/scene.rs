@@ -1,13 +1,15 @@
-//! `furnace run --scene scene.json`: the scene options of the `run` command and its wrapper
-//! over [`crate::pipeline::scene::run`].
+//! `furnace run --scene scene.json`: the scene options of the `run` command, the scene's
+//! [`Job`] and its summary table.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use clap::Args;
 
 use crate::emit::parse_langs;
 use crate::error::Result;
-use crate::pipeline::scene::{self, RunOptions};
+use crate::pipeline::scene::RunOptions;
+use crate::pipeline::{Job, Outcome};
 use crate::quadrature::QuadratureSettings;
 use crate::scene::Manifest;
 
@@ -37,25 +39,17 @@ pub struct SceneArgs {
     pub stress_points: usize,
 }
 
-/// Runs the scene of `args.scene` (which must be set).
-pub fn run_scene(args: &SceneArgs, data_dir: &std::path::Path, force: bool) -> Result<()> {
-    let path = args.scene.as_ref().expect("called with --scene");
+/// The job of the scene manifest at `path`, with the options of `args`.
+pub fn scene_job(args: &SceneArgs, path: &Path, data_dir: &Path, force: bool) -> Result<Job> {
     crate::emit::check_stress_points(args.stress_points)?;
     let manifest = Manifest::read(path)?;
-    let langs = parse_langs(&args.lang)?;
-    // every output folder is writable before anything is computed
-    crate::output::check_writable_dir(data_dir, "--data-dir")?;
-    crate::output::check_writable_dir(&args.fits_dir.join(&manifest.name), "--fits-dir")?;
-    if langs.contains(&crate::emit::Lang::Lut) {
-        crate::output::check_writable_dir(&args.lut_dir, "--lut-dir")?;
-    }
     let opts = RunOptions {
         data_dir: data_dir.to_path_buf(),
         fits_dir: args.fits_dir.clone(),
         lut_dir: args.lut_dir.clone(),
         force,
         quadrature: QuadratureSettings::default(),
-        langs,
+        langs: parse_langs(&args.lang)?,
         lut_resolution: args.lut_resolution,
         stress_points: args.stress_points,
         command: format!(
@@ -64,23 +58,22 @@ pub fn run_scene(args: &SceneArgs, data_dir: &std::path::Path, force: bool) -> R
             args.lang
         ),
     };
-    let start = std::time::Instant::now();
-    let out = scene::run(&manifest, &opts, &|line| eprintln!("{}", line.trim_end()))?;
+    Job::scene(&manifest, &opts)
+}
+
+/// The table of a scene's fits and the files written.
+pub fn print_summary(out: &Outcome, start: Instant) {
     println!(
         "{:<30} {:>12} {:>8} {:>10} {:>10} {:>10} {:>12}",
         "model", "table", "cached", "fit MAE", "fit max", "f32 max Δ", "stress"
     );
-    for (f, e) in out.fitted.iter().zip(&out.emitted) {
+    for (r, e) in out.rows.iter().zip(&out.functions) {
+        let Some(f) = r.one() else { continue };
         println!(
             "{:<30} {:>12} {:>8} {:>10.2e} {:>10.2e} {:>10.1e} {:>12}",
-            f.need.model,
-            f.need
-                .resolution
-                .iter()
-                .map(|n| n.to_string())
-                .collect::<Vec<_>>()
-                .join("x"),
-            if f.table_cached { "yes" } else { "no" },
+            r.id,
+            r.resolution,
+            if r.cached { "yes" } else { "no" },
             f.fit.metrics.mae,
             f.fit.metrics.max_abs_error,
             e.form.chosen().max_diff(),
@@ -97,5 +90,4 @@ pub fn run_scene(args: &SceneArgs, data_dir: &std::path::Path, force: bool) -> R
         println!("wrote {}", w.display());
     }
     println!("total {:.1} s", start.elapsed().as_secs_f64());
-    Ok(())
 }

@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use super::FileHash;
+use super::sweeps::FileHash;
 
 /// What one fit file's emitted files were made from, and what came of it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -1,186 +1,73 @@
-//! The pipeline: tables → fits → emitted code and LUTs → report, for a set of models.
+//! The pipeline: tables → fits → emitted code and LUTs → report, for any [`Job`].
 //!
-//! 1. **Tables** ([`crate::table::get_or_tabulate`], cached under `data/`): every model of the
-//!    job at [`Job::resolution_2d`]² (2-D) or [`Job::resolution_3d`]³ — radiance-form
-//!    models at [`Job::resolution_radiance`]³ — and the small tables the LUTs and the report
-//!    read.
-//! 2. **Fits**: the degree sweep of every table (`fits/<model>/sweep.{json,csv}`, `best-20.json`,
-//!    `best-40.json`), reused rather than redone when its inputs are unchanged ([`sweeps`]).
-//! 3. **Emit** ([`crate::emit::file::emit_fit_file`]): Rust, WGSL, GLSL, HLSL and C/C++ next to each best
-//!    fit, and a [`RUN_LUT_RESOLUTION`]-per-axis LUT under `data/lut/<model>/` (not for the
-//!    radiance-form tables, which only serve the comparison with the paper).
+//! A job ([`job`]) lists its tables and says how each stage runs; [`run`] runs any job through
+//! the same four stages, reporting to one [`Observer`]:
+//!
+//! 1. **Tables** ([`crate::table::get_or_tabulate`], cached under `data/`): every table of the
+//!    job over its ranges, and the small tables the LUTs and the report read.
+//! 2. **Fits** ([`FitStage`]): the degree sweep of every table (`fits/<model>/sweep.{json,csv}`,
+//!    `best-<N>.json`), reused rather than redone when its inputs are unchanged ([`sweeps`]);
+//!    or one stress-tested rational per table ([`scene::fit_one`]).
+//! 3. **Emit** ([`EmitStage`]): Rust, WGSL, GLSL, HLSL and C/C++ next to each fit and a LUT per
+//!    table ([`crate::emit::file::emit_fit_file`], kept when unchanged: [`emits`]); or one file
+//!    per language with only the helpers the job names ([`crate::emit::build_unit`]).
 //! 4. **Report** ([`crate::report`]): `reports/`, one section per model.
 //!
-//! [`Job::default_set`] is the default set (`furnace run`): the registry's
+//! [`Job::default_set`] is `furnace run`'s job: the registry's default set
 //! ([`crate::bsdf::default_set`], which [`crate::bsdf::register_in_default_set`] extends) and
-//! [`PAPER_RADIANCE_MODELS`]. A library user runs it, or the same job on models of their own,
-//! without the command line:
+//! [`PAPER_RADIANCE_MODELS`], swept, emitted per fit and reported. [`Job::scene`] is
+//! `furnace run --scene`'s: a manifest's tables ([`crate::scene::plan`]), one fit each, one
+//! file per language. A library user runs either, or a job of their own, without the command
+//! line:
 //!
 //! ```no_run
-//! use furnace::pipeline::{self, Job};
+//! use furnace::pipeline::{self, FitStage, Job};
 //! use furnace::progress::Quiet;
 //!
 //! let mut job = Job::default_set(std::path::Path::new("out"));
 //! job.only(&["ggx-conductor".to_string()])?;
+//! job.set_resolution(65, 17);
+//! job.fit = FitStage::Sweep { max_degree: Some(4) };
 //! let outcome = pipeline::run(&job, &Quiet)?;
-//! println!("{} files", outcome.rows[0].emitted.len());
+//! for row in &outcome.rows {
+//!     println!("{}: {} files emitted", row.name, row.emitted.len());
+//! }
 //! # Ok::<(), furnace::Error>(())
 //! ```
-//!
-//! A scene manifest ([`crate::scene`]) is planned into the tables its materials need and run by
-//! [`scene::run`] through the same table cache and emitters, with one stress-tested rational fit
-//! per table instead of a sweep.
 //!
 //! Everything written under `fits/`, `reports/` and `data/lut/` is a function of the inputs
 //! (no wall times, dates, absolute paths or thread counts), written through a temporary file
 //! and a rename; wall times go to the observer only.
 
 pub mod emits;
+pub mod job;
 pub mod offgrid;
 pub mod scene;
 pub mod sweeps;
 
+pub use job::{
+    EmitStage, FitStage, Job, PlannedTable, PAPER_RADIANCE_MODELS, RUN_LUT_RESOLUTION,
+    RUN_RESOLUTION_PAPER_RADIANCE,
+};
 pub use offgrid::{OffGridSummary, LUT_CHECK_RESOLUTIONS, LUT_TO_BEAT};
-pub use sweeps::{sweep_or_reuse, BestSummary, FileHash, FitStep, SweepInputs};
+pub use scene::OneFit;
+pub use sweeps::{sweep_or_reuse, BestSummary, FileHash, FitStep, SweepInputs, SweepPlace};
 
-use crate::bsdf::{self, Model, ModelId, Side, Transmission};
+use crate::bsdf::{self, Model, ModelId};
 use crate::emit::file::{emit_fit_file, EmitFileOptions};
 use crate::emit::generate::FormChoice;
-use crate::emit::parse_langs;
+use crate::emit::{self, parse_langs, EmitOptions, EmittedFit, Lang, SourceFit};
 use crate::error::{Error, Result};
-use crate::math::SmithForm;
+use crate::fit::file as fitfile;
 use crate::output;
 use crate::progress::Observer;
 use crate::quadrature::QuadratureSettings;
 use crate::report::inputs::TableProvider;
 use crate::report::model::{fmt_e, ModelSummary, ReportOptions, Reporter};
-use crate::scene::{DEFAULT_RESOLUTION_2D, DEFAULT_RESOLUTION_3D};
 use crate::table::{get_or_tabulate, Table, TableSpec, Tabulated};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
-
-/// 3-D resolution of the radiance-form tables, which exist only to set furnace's fit beside the
-/// paper's published one: 32³ is what a sweep fits on anyway (`job::default_sweep_points`).
-pub const RUN_RESOLUTION_PAPER_RADIANCE: usize = 32;
-
-/// Nodes per axis of the LUTs `furnace run` emits.
-pub const RUN_LUT_RESOLUTION: usize = 32;
-
-/// Models also tabulated and fitted with radiance-form transmission (×1/η² entering, ×η²
-/// leaving): the paper's two dielectric tables are in that form, and its published fits are
-/// compared with furnace's on the same convention.
-pub const PAPER_RADIANCE_MODELS: &[ModelId] = &[
-    ModelId::ggx_dielectric(Side::Entering, SmithForm::Separable)
-        .with_transmission(Transmission::Radiance),
-    ModelId::ggx_dielectric(Side::Leaving, SmithForm::Separable)
-        .with_transmission(Transmission::Radiance),
-];
-
-/// What a run of the pipeline does and where it reads and writes.
-#[derive(Clone, Debug)]
-pub struct Job {
-    /// The models, in order (registered ones: [`crate::bsdf::register`] adds a user's).
-    pub models: Vec<ModelId>,
-    /// Table cache (`data`); LUTs go to `<data_dir>/lut`, sweep timings to `<data_dir>/timing`.
-    pub data_dir: PathBuf,
-    /// Fits and emitted code, one folder per model (`fits`).
-    pub fits_dir: PathBuf,
-    /// Recompute tables even when cached (implies [`Job::refit`]).
-    pub force: bool,
-    /// Redo every sweep even when its inputs are unchanged.
-    pub refit: bool,
-    /// Stop after the tables.
-    pub tables_only: bool,
-    /// Skip the report.
-    pub no_report: bool,
-    /// Nodes per axis of 2-D tables, 3-D tables and 3-D radiance-form tables.
-    pub resolution_2d: usize,
-    pub resolution_3d: usize,
-    pub resolution_radiance: usize,
-    /// Highest degree of the sweeps (default: the paper's).
-    pub max_degree: Option<u32>,
-    /// The report's folders and grids.
-    pub report: ReportOptions,
-}
-
-impl Job {
-    /// The default set ([`crate::bsdf::default_set`], then [`PAPER_RADIANCE_MODELS`]) at full
-    /// size, reading and writing `data/`, `fits/` and `reports/` under `root` (the paper's data from `root/data/paper` when it is there).
-    pub fn default_set(root: &Path) -> Job {
-        let mut report = ReportOptions::new(root);
-        let paper = root.join("data").join("paper");
-        report.paper_dir = paper.join("coefficients").is_dir().then_some(paper);
-        Job {
-            models: bsdf::default_set()
-                .into_iter()
-                .chain(PAPER_RADIANCE_MODELS.iter().copied())
-                .collect(),
-            data_dir: root.join("data"),
-            fits_dir: root.join("fits"),
-            force: false,
-            refit: false,
-            tables_only: false,
-            no_report: false,
-            resolution_2d: DEFAULT_RESOLUTION_2D,
-            resolution_3d: DEFAULT_RESOLUTION_3D,
-            resolution_radiance: RUN_RESOLUTION_PAPER_RADIANCE,
-            max_degree: None,
-            report,
-        }
-    }
-
-    /// Keeps only the models named (by their cache names, `ggx-dielectric-separable-radiance`);
-    /// refused for a name not in the job.
-    pub fn only(&mut self, names: &[String]) -> Result<()> {
-        for m in names {
-            if !self.models.iter().any(|id| &id.key() == m) {
-                let known: Vec<String> = self.models.iter().map(|id| id.key()).collect();
-                return Err(Error::InvalidInput(format!(
-                    "--models: '{m}' is not in the default set; choose from {}",
-                    known.join(", ")
-                )));
-            }
-        }
-        self.models.retain(|id| names.contains(&id.key()));
-        Ok(())
-    }
-
-    /// The report on tiny grids (9² / 5³ tables, 3- and 5-per-axis LUTs, 2 sphere columns): for
-    /// tests and trials.
-    pub fn quick_report(&mut self) {
-        let o = &mut self.report;
-        o.resolution_2d = 9;
-        o.resolution_3d = 5;
-        o.lut_2d = 5;
-        o.lut_3d = 3;
-        o.furnace_luts = vec![3];
-        o.furnace_nodes = 9;
-        o.furnace_f0_slices = 2;
-        o.sphere_roughness = vec![0.3, 1.0];
-    }
-
-    /// The number of stages the job runs (1 tables only, 3 without the report, else 4).
-    pub fn stages(&self) -> usize {
-        if self.tables_only {
-            1
-        } else if self.no_report {
-            3
-        } else {
-            4
-        }
-    }
-
-    fn resolution(&self, model: &dyn Model) -> Vec<usize> {
-        let dims = model.axes().len();
-        let n = match (dims, model.id().is_radiance()) {
-            (2, _) => self.resolution_2d,
-            (_, false) => self.resolution_3d,
-            (_, true) => self.resolution_radiance,
-        };
-        vec![n; dims]
-    }
-}
 
 /// Tables from the cache under `data_dir`, tabulated (reporting to `progress`) when missing:
 /// the report's [`TableProvider`].
@@ -196,52 +83,191 @@ impl TableProvider for CachedTables<'_> {
     }
 }
 
-/// What the pipeline did for one model.
+/// What the fit stage made of one table.
+// one value per table of a run: the variants' sizes do not matter
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, Default)]
+pub enum Fitted {
+    /// Nothing yet: the job stopped after the tables.
+    #[default]
+    None,
+    /// The degree sweep ([`FitStage::Sweep`]).
+    Sweep(FitStep),
+    /// The one fit ([`FitStage::OnePerTable`]).
+    One(OneFit),
+}
+
+/// What the pipeline did for one table.
 #[derive(Clone, Debug)]
 pub struct Row {
     pub id: ModelId,
     /// The cache name: folder under `data/`, `fits/` and `reports/`.
     pub name: String,
+    /// The table's box, one (lo, hi) per axis.
+    pub ranges: Vec<(f64, f64)>,
     pub resolution: String,
+    /// What reads the table ([`PlannedTable::used_by`]).
+    pub used_by: Vec<String>,
     pub cached: bool,
     pub table_seconds: f64,
-    pub fit: FitStep,
+    pub fit: Fitted,
+    /// Files emitted next to the table's fits ([`EmitStage::EachFit`]; the files of
+    /// [`EmitStage::OneFilePerLanguage`] are [`Outcome::written`]) and `off-grid.json`.
     pub emitted: Vec<PathBuf>,
     /// Files of the model's report section (0 without a report).
     pub report_files: usize,
     /// max |1 − E| of the BSDF compensated with the report's chosen fit.
     pub furnace: Option<f64>,
-    /// The best fits and the 16/32/64-per-axis LUTs at the off-grid check points (not for the
-    /// radiance-form tables).
+    /// The best fits and the 16/32/64-per-axis LUTs at the off-grid check points (sweeps of
+    /// energy-form tables only).
     pub off_grid: Option<OffGridSummary>,
+}
+
+impl Row {
+    /// The sweep of the table, if the job swept it.
+    pub fn sweep(&self) -> Option<&FitStep> {
+        match &self.fit {
+            Fitted::Sweep(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// The one fit of the table, if the job made one.
+    pub fn one(&self) -> Option<&OneFit> {
+        match &self.fit {
+            Fitted::One(f) => Some(f),
+            _ => None,
+        }
+    }
+
+    /// The fit files to emit, in order: a sweep's best files, or the one fit's.
+    fn fit_files(&self, fits_dir: &Path) -> Vec<PathBuf> {
+        match &self.fit {
+            Fitted::None => Vec::new(),
+            Fitted::Sweep(s) => {
+                let dir = fits_dir.join(&self.name);
+                s.best
+                    .iter()
+                    .filter(|b| b.1.is_some())
+                    .map(|(b, _)| dir.join(format!("best-{b}.json")))
+                    .collect()
+            }
+            Fitted::One(f) => vec![f.path.clone()],
+        }
+    }
 }
 
 /// What the pipeline did.
 #[derive(Clone, Debug)]
 pub struct Outcome {
-    /// One row per model, in the job's order.
+    /// One row per table, in the job's order.
     pub rows: Vec<Row>,
+    /// The functions of [`EmitStage::OneFilePerLanguage`]'s files, one per table (empty for
+    /// [`EmitStage::EachFit`]).
+    pub functions: Vec<EmittedFit>,
+    /// The files of [`EmitStage::OneFilePerLanguage`] (code and LUTs).
+    pub written: Vec<PathBuf>,
 }
 
-/// Runs the pipeline; `progress` gets its log lines and progress (nothing of it reaches a file).
+/// Runs `job`; `progress` gets its log lines and progress (nothing of it reaches a file).
 pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
     let models: Vec<Arc<dyn Model>> = job
-        .models
+        .tables
         .iter()
-        .map(|&id| bsdf::get(id))
+        .map(|t| bsdf::get(t.model))
         .collect::<Result<_>>()?;
-    // every output folder is writable before anything is computed
-    output::check_writable_dir(&job.data_dir, "--data-dir")?;
-    if !job.tables_only {
-        output::check_writable_dir(&job.fits_dir, "--fits-dir")?;
-        output::check_writable_dir(&job.data_dir.join("lut"), "--data-dir")?;
-        if !job.no_report {
-            output::check_writable_dir(&job.report.reports_dir, "--reports-dir")?;
-        }
+    check_outputs(job)?;
+    // a table that holds a degenerate slice is refused before anything is computed
+    for (model, t) in models.iter().zip(&job.tables) {
+        bsdf::check_no_degenerate_slice(model.as_ref(), &t.ranges, &|a, (lo, hi)| {
+            format!("narrow the materials' {a} range in the manifest to leave the slice out (the model's default range is [{lo}, {hi}])")
+        })?;
     }
-    let steps = job.stages();
+    progress.line(job.human().trim_end());
+    let (mut rows, tables) = tabulate(job, &models, progress)?;
+    if job.tables_only {
+        return Ok(Outcome {
+            rows,
+            functions: Vec::new(),
+            written: Vec::new(),
+        });
+    }
+    let sources = fit(job, &models, &tables, &mut rows, progress)?;
+    let (functions, written) = match &job.emit {
+        EmitStage::EachFit { lut_resolution } => {
+            emit_each_fit(job, *lut_resolution, &mut rows, progress)?;
+            (Vec::new(), Vec::new())
+        }
+        EmitStage::OneFilePerLanguage {
+            langs,
+            helpers,
+            lut_resolution,
+            command,
+        } => {
+            let sources = match sources {
+                Some(s) => s,
+                None => best_sources(job, &rows, &tables)?,
+            };
+            emit_one_file_per_language(
+                job,
+                &sources,
+                langs,
+                helpers,
+                *lut_resolution,
+                command,
+                progress,
+            )?
+        }
+    };
+    if let Some(options) = &job.report {
+        report(job, options, &mut rows, progress)?;
+    }
+    Ok(Outcome {
+        rows,
+        functions,
+        written,
+    })
+}
 
-    // 1. tables
+/// Every output folder of `job` is writable (checked before anything is computed).
+fn check_outputs(job: &Job) -> Result<()> {
+    output::check_writable_dir(&job.data_dir, "--data-dir")?;
+    if job.tables_only {
+        return Ok(());
+    }
+    output::check_writable_dir(&job.fits_dir, "--fits-dir")?;
+    match &job.emit {
+        // `furnace run` puts these LUTs under its data folder
+        EmitStage::EachFit { .. } => output::check_writable_dir(&job.lut_dir, "--data-dir")?,
+        EmitStage::OneFilePerLanguage { langs, .. } if langs.contains(&Lang::Lut) => {
+            output::check_writable_dir(&job.lut_dir, "--lut-dir")?
+        }
+        EmitStage::OneFilePerLanguage { .. } => {}
+    }
+    if let Some(r) = &job.report {
+        output::check_writable_dir(&r.reports_dir, "--reports-dir")?;
+    }
+    Ok(())
+}
+
+/// The table's spec at `resolution` nodes per axis over its box.
+fn spec_of(
+    model: &dyn Model,
+    t: &PlannedTable,
+    resolution: &[usize],
+    job: &Job,
+) -> Result<TableSpec> {
+    TableSpec::with_ranges(model, resolution, &t.ranges, job.quadrature.clone())
+}
+
+/// Stage 1: every table of the job, then the small tables of the LUTs and the report (so that
+/// later stages only read the cache).
+fn tabulate(
+    job: &Job,
+    models: &[Arc<dyn Model>],
+    progress: &dyn Observer,
+) -> Result<(Vec<Row>, Vec<Tabulated>)> {
+    let steps = job.stages();
     let stage = Instant::now();
     progress.line(&format!(
         "[1/{steps}] tables ({} models; cached under {})",
@@ -250,12 +276,8 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
     ));
     let mut rows = Vec::new();
     let mut tables: Vec<Tabulated> = Vec::new();
-    for (k, model) in models.iter().enumerate() {
-        let spec = TableSpec::new(
-            model.as_ref(),
-            &job.resolution(model.as_ref()),
-            QuadratureSettings::default(),
-        )?;
+    for (k, (model, planned)) in models.iter().zip(&job.tables).enumerate() {
+        let spec = spec_of(model.as_ref(), planned, &planned.resolution, job)?;
         let t = get_or_tabulate(model.as_ref(), &spec, &job.data_dir, job.force, progress)?;
         let name = model.id().key();
         progress.line(&format!(
@@ -283,10 +305,12 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
         rows.push(Row {
             id: model.id(),
             name,
+            ranges: planned.ranges.clone(),
             resolution: spec.resolution_name(),
+            used_by: planned.used_by.clone(),
             cached: t.cached,
             table_seconds: t.seconds,
-            fit: FitStep::default(),
+            fit: Fitted::None,
             emitted: Vec::new(),
             report_files: 0,
             furnace: None,
@@ -295,37 +319,42 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
         tables.push(t);
     }
     if !job.tables_only {
-        // the small tables of the LUTs and the report, so that later steps only read the cache
-        let mut small: Vec<(&dyn Model, usize)> = Vec::new();
-        for model in &models {
-            if !model.id().is_radiance() {
-                small.push((model.as_ref(), RUN_LUT_RESOLUTION));
-            }
-            if !job.no_report {
-                let dims = model.axes().len();
-                small.push((
+        let mut small: Vec<TableSpec> = Vec::new();
+        for (model, planned) in models.iter().zip(&job.tables) {
+            let dims = planned.ranges.len();
+            if let (EmitStage::EachFit { lut_resolution }, false) =
+                (&job.emit, model.id().is_radiance())
+            {
+                small.push(spec_of(
                     model.as_ref(),
-                    if dims <= 2 {
-                        job.report.resolution_2d
-                    } else {
-                        job.report.resolution_3d
-                    },
-                ));
+                    planned,
+                    &vec![*lut_resolution; dims],
+                    job,
+                )?);
+            }
+            if let Some(report) = &job.report {
+                // the report measures on the model's default domain
+                let mut sizes = vec![if dims <= 2 {
+                    report.resolution_2d
+                } else {
+                    report.resolution_3d
+                }];
                 if !model.id().is_radiance() {
-                    for &n in &job.report.furnace_luts {
-                        small.push((model.as_ref(), n));
-                    }
+                    sizes.extend(&report.furnace_luts);
+                }
+                for n in sizes {
+                    small.push(TableSpec::new(
+                        model.as_ref(),
+                        &vec![n; dims],
+                        QuadratureSettings::default(),
+                    )?);
                 }
             }
         }
         let mut computed = 0;
-        for (model, n) in small {
-            let spec = TableSpec::new(
-                model,
-                &vec![n; model.axes().len()],
-                QuadratureSettings::default(),
-            )?;
-            if !get_or_tabulate(model, &spec, &job.data_dir, false, progress)?.cached {
+        for spec in small {
+            let model = bsdf::get(spec.model_id()?)?;
+            if !get_or_tabulate(model.as_ref(), &spec, &job.data_dir, false, progress)?.cached {
                 computed += 1;
             }
         }
@@ -336,85 +365,139 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
         }
     }
     progress.line(&format!("  tables: {:.1} s", stage.elapsed().as_secs_f64()));
-    if job.tables_only {
-        return Ok(Outcome { rows });
-    }
+    Ok((rows, tables))
+}
 
-    // 2. fits
+/// Stage 2: the fits of every table; for [`FitStage::OnePerTable`], the emitter's view of
+/// each fit.
+fn fit(
+    job: &Job,
+    models: &[Arc<dyn Model>],
+    tables: &[Tabulated],
+    rows: &mut [Row],
+    progress: &dyn Observer,
+) -> Result<Option<Vec<SourceFit>>> {
+    let steps = job.stages();
     let stage = Instant::now();
-    progress.line(&format!(
-        "[2/{steps}] fits (degree sweeps into {})",
-        job.fits_dir.display()
-    ));
-    for ((model, t), row) in models.iter().zip(&tables).zip(rows.iter_mut()) {
-        row.fit = sweep_or_reuse(model.as_ref(), &row.name, t, job, progress)?;
-        let best: Vec<String> = row
-            .fit
-            .best
-            .iter()
-            .map(|(b, e)| {
-                format!(
-                    "best-{b} {}",
-                    e.as_ref().map_or("none".into(), |s| format!(
-                        "max {} MAE {}",
-                        fmt_e(s.max_abs_error),
-                        fmt_e(s.mae)
-                    ))
-                )
-            })
-            .collect();
-        progress.line(&format!(
-            "  {:<38} {}: {}",
-            row.name,
-            if row.fit.reused {
-                "reused (same table values and options)"
-            } else {
-                "fitted"
-            },
-            best.join(", ")
-        ));
-        if let Some(n) = &row.fit.note {
-            progress.line(&format!("    {n}"));
-        }
-        if let (Some(check), false) = (&row.fit.check, row.id.is_radiance()) {
-            let luts = offgrid::lut_errors(model.as_ref(), check, &job.data_dir, progress)?;
-            let s = offgrid::summary(&row.name, check, &row.fit.best, luts);
-            row.emitted.push(s.write(&job.fits_dir.join(&row.name))?);
-            for l in s.losses() {
-                progress.line(&format!("    warning: {l}"));
+    let mut sources = None;
+    match &job.fit {
+        FitStage::Sweep { max_degree } => {
+            progress.line(&format!(
+                "[2/{steps}] fits (degree sweeps into {})",
+                job.fits_dir.display()
+            ));
+            for ((model, t), row) in models.iter().zip(tables).zip(rows.iter_mut()) {
+                let dir = job.fits_dir.join(&row.name);
+                let timing = job.data_dir.join("timing").join(&row.name);
+                let place = SweepPlace {
+                    dir: &dir,
+                    timing: &timing,
+                    max_degree: *max_degree,
+                    refit: job.refit || job.force,
+                };
+                let step = sweep_or_reuse(model.as_ref(), t, place, progress)?;
+                log_sweep(&row.name, &step, progress);
+                if let (Some(check), false) = (&step.check, row.id.is_radiance()) {
+                    let luts = offgrid::lut_errors(model.as_ref(), check, &job.data_dir, progress)?;
+                    let s = offgrid::summary(&row.name, check, &step.best, luts);
+                    row.emitted.push(s.write(&dir)?);
+                    for l in s.losses() {
+                        progress.line(&format!("    warning: {l}"));
+                    }
+                    row.off_grid = Some(s);
+                }
+                row.fit = Fitted::Sweep(step);
             }
-            row.off_grid = Some(s);
+        }
+        FitStage::OnePerTable {
+            degrees,
+            stress_points,
+        } => {
+            progress.line(&format!(
+                "[2/{steps}] fits ({} per table into {})",
+                crate::fit::Form::Rational {
+                    numerator_degree: degrees.numerator_degree,
+                    denominator_degree: degrees.denominator_degree
+                }
+                .label(),
+                job.fits_dir.display()
+            ));
+            let mut all = Vec::new();
+            for (t, row) in tables.iter().zip(rows.iter_mut()) {
+                let (one, source) =
+                    scene::fit_one(row.id, t, degrees, *stress_points, &job.fits_dir, progress)?;
+                row.fit = Fitted::One(one);
+                all.push(source);
+            }
+            sources = Some(all);
         }
     }
     progress.line(&format!("  fits: {:.1} s", stage.elapsed().as_secs_f64()));
+    Ok(sources)
+}
 
-    // 3. emit
+fn log_sweep(name: &str, step: &FitStep, progress: &dyn Observer) {
+    let best: Vec<String> = step
+        .best
+        .iter()
+        .map(|(b, e)| {
+            format!(
+                "best-{b} {}",
+                e.as_ref().map_or("none".into(), |s| format!(
+                    "max {} MAE {}",
+                    fmt_e(s.max_abs_error),
+                    fmt_e(s.mae)
+                ))
+            )
+        })
+        .collect();
+    progress.line(&format!(
+        "  {:<38} {}: {}",
+        name,
+        if step.reused {
+            "reused (same table values and options)"
+        } else {
+            "fitted"
+        },
+        best.join(", ")
+    ));
+    if let Some(n) = &step.note {
+        progress.line(&format!("    {n}"));
+    }
+}
+
+/// Stage 3 of [`EmitStage::EachFit`]: every fit file's code next to it, and a LUT per table
+/// with its last fit; files of an emit with the same inputs are kept ([`emits`]).
+fn emit_each_fit(
+    job: &Job,
+    lut_resolution: usize,
+    rows: &mut [Row],
+    progress: &dyn Observer,
+) -> Result<()> {
+    let steps = job.stages();
     let stage = Instant::now();
-    let lut_dir = job.data_dir.join("lut");
     progress.line(&format!(
         "[3/{steps}] emit (Rust, WGSL, GLSL, HLSL, C/C++ next to each best fit; LUTs under {})",
-        lut_dir.display()
+        job.lut_dir.display()
     ));
-    let total: usize = rows
+    let fits: Vec<Vec<PathBuf>> = rows
         .iter()
-        .filter(|r| !r.id.is_radiance())
-        .map(|r| r.fit.best.iter().filter(|b| b.1.is_some()).count())
-        .sum();
+        .map(|r| {
+            if r.id.is_radiance() {
+                Vec::new()
+            } else {
+                r.fit_files(&job.fits_dir)
+            }
+        })
+        .collect();
+    let total: usize = fits.iter().map(Vec::len).sum();
     progress.begin("emit", total as u64);
     let mut kept = 0;
-    for row in rows.iter_mut().filter(|r| !r.id.is_radiance()) {
-        let dir = job.fits_dir.join(&row.name);
-        let best: Vec<PathBuf> = row
-            .fit
-            .best
-            .iter()
-            .filter(|b| b.1.is_some())
-            .map(|(b, _)| dir.join(format!("best-{b}.json")))
-            .collect();
-        for (k, fit) in best.iter().enumerate() {
+    for (row, files) in rows.iter_mut().zip(fits) {
+        for (k, fit) in files.iter().enumerate() {
             progress.message(&format!("emit {}", row.name));
             // one LUT per model, compared with the largest-budget fit
-            let lang = if k + 1 == best.len() {
+            let lang = if k + 1 == files.len() {
                 "all"
             } else {
                 "rust,wgsl,glsl,hlsl,cpp"
@@ -425,13 +508,13 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
                 form: FormChoice::Auto,
                 suffix: String::new(),
                 data_dir: job.data_dir.clone(),
-                lut_dir: lut_dir.clone(),
-                lut_resolution: RUN_LUT_RESOLUTION,
+                lut_dir: job.lut_dir.clone(),
+                lut_resolution,
                 force: false,
             };
             // the files of an emit with the same inputs are kept (emits::reusable)
             let cache = emits::cache_path(&job.data_dir, &row.name, fit);
-            let inputs = emits::emit_inputs(fit, &job.data_dir, lang, RUN_LUT_RESOLUTION);
+            let inputs = emits::emit_inputs(fit, &job.data_dir, lang, lut_resolution);
             let previous = if job.force || job.refit {
                 None
             } else {
@@ -476,49 +559,136 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
         rows.iter().map(|r| r.emitted.len()).sum::<usize>(),
         stage.elapsed().as_secs_f64()
     ));
+    Ok(())
+}
 
-    // 4. report
-    if !job.no_report {
-        let stage = Instant::now();
-        progress.line(&format!(
-            "[4/{steps}] report ({})",
-            job.report.reports_dir.join("README.md").display()
-        ));
-        // the radiance-form tables are reported beside their energy-form models
-        let selected: Vec<ModelId> = job
-            .models
+/// The emitter's view of each table's largest-budget best fit (a swept job emitted as one file
+/// per language).
+fn best_sources(job: &Job, rows: &[Row], tables: &[Tabulated]) -> Result<Vec<SourceFit>> {
+    rows.iter()
+        .zip(tables)
+        .map(|(row, t)| {
+            let path = row.fit_files(&job.fits_dir).pop().ok_or_else(|| {
+                Error::InvalidInput(format!(
+                    "{}: the sweep has no usable best fit to emit; see {}",
+                    row.name,
+                    job.fits_dir.join(&row.name).join("sweep.csv").display()
+                ))
+            })?;
+            SourceFit::new(&path, fitfile::read(&path)?, Some(t.table.clone()))
+        })
+        .collect()
+}
+
+/// Stage 3 of [`EmitStage::OneFilePerLanguage`]: one unit with every fit's function and the
+/// helpers named, `<fits>/<job name>.<ext>` per language, and LUTs with [`Lang::Lut`].
+fn emit_one_file_per_language(
+    job: &Job,
+    sources: &[SourceFit],
+    langs: &[Lang],
+    helpers: &[String],
+    lut_resolution: usize,
+    command: &str,
+    progress: &dyn Observer,
+) -> Result<(Vec<EmittedFit>, Vec<PathBuf>)> {
+    let stage = Instant::now();
+    progress.line(&format!(
+        "[3/{}] emit ({} into {})",
+        job.stages(),
+        langs
             .iter()
-            .filter(|m| !m.is_radiance())
-            .copied()
-            .collect();
-        let provider = CachedTables {
-            data_dir: &job.data_dir,
-            progress,
-        };
-        progress.begin("report", selected.len() as u64);
-        let message =
-            |m: &str| progress.message(&format!("report {}", m.split(':').next().unwrap_or(m)));
-        let reporter = Reporter::new(job.report.clone(), &provider, &message);
-        let outcome =
-            reporter.generate_each(Some(&selected), !job.force, &mut |_, _| progress.advance(1));
-        progress.end();
-        let outcome = outcome?;
-        for row in rows.iter_mut() {
-            row.furnace = furnace_of(row.id, &outcome.regenerated);
-            if let Some(s) = outcome.regenerated.iter().find(|s| s.model == row.name) {
-                row.report_files = s.files.len() + 2;
-            }
+            .map(|l| format!("{l:?}").to_lowercase())
+            .collect::<Vec<_>>()
+            .join(", "),
+        job.fits_dir.display()
+    ));
+    let stress_points = match job.fit {
+        FitStage::OnePerTable { stress_points, .. } => stress_points,
+        FitStage::Sweep { .. } => 0,
+    };
+    let (mut unit, functions) = emit::build_unit(
+        &job.name,
+        &emit::guard_macro(&format!("scene {}", job.name)),
+        sources,
+        command,
+        &EmitOptions {
+            helpers: Some(helpers.to_vec()),
+            stress_points: stress_points.max(emit::stress::DEFAULT_POINTS),
+            ..EmitOptions::default()
+        },
+    )?;
+    if langs.contains(&Lang::Lut) {
+        for (src, e) in sources.iter().zip(&functions) {
+            let lut = emit::lut_for_fit(
+                src,
+                &unit,
+                &e.function,
+                lut_resolution,
+                &job.data_dir,
+                job.force,
+            )?;
+            unit.luts.push(lut);
         }
-        progress.line(&format!(
-            "  report: {} sections ({} regenerated, {} unchanged inputs: kept), {} linked files in {:.1} s",
-            outcome.regenerated.len(),
-            outcome.regenerated.len() - outcome.reused.len(),
-            outcome.reused.len(),
-            outcome.linked.len(),
-            stage.elapsed().as_secs_f64()
-        ));
     }
-    Ok(Outcome { rows })
+    let mut artifacts = Vec::new();
+    for &lang in langs {
+        artifacts.extend(emit::emitter(lang).produce(&unit)?);
+    }
+    let written = emit::write_artifacts(&artifacts, &job.fits_dir, &job.lut_dir)?;
+    progress.line(&format!(
+        "  emit: {} files in {:.1} s",
+        written.len(),
+        stage.elapsed().as_secs_f64()
+    ));
+    Ok((functions, written))
+}
+
+/// Stage 4: the report's sections of the job's energy-form models (the radiance-form tables
+/// are reported beside them).
+fn report(
+    job: &Job,
+    options: &ReportOptions,
+    rows: &mut [Row],
+    progress: &dyn Observer,
+) -> Result<()> {
+    let stage = Instant::now();
+    progress.line(&format!(
+        "[4/{}] report ({})",
+        job.stages(),
+        options.reports_dir.join("README.md").display()
+    ));
+    let selected: Vec<ModelId> = rows
+        .iter()
+        .map(|r| r.id)
+        .filter(|m| !m.is_radiance())
+        .collect();
+    let provider = CachedTables {
+        data_dir: &job.data_dir,
+        progress,
+    };
+    progress.begin("report", selected.len() as u64);
+    let message =
+        |m: &str| progress.message(&format!("report {}", m.split(':').next().unwrap_or(m)));
+    let reporter = Reporter::new(options.clone(), &provider, &message);
+    let outcome =
+        reporter.generate_each(Some(&selected), !job.force, &mut |_, _| progress.advance(1));
+    progress.end();
+    let outcome = outcome?;
+    for row in rows.iter_mut() {
+        row.furnace = furnace_of(row.id, &outcome.regenerated);
+        if let Some(s) = outcome.regenerated.iter().find(|s| s.model == row.name) {
+            row.report_files = s.files.len() + 2;
+        }
+    }
+    progress.line(&format!(
+        "  report: {} sections ({} regenerated, {} unchanged inputs: kept), {} linked files in {:.1} s",
+        outcome.regenerated.len(),
+        outcome.regenerated.len() - outcome.reused.len(),
+        outcome.reused.len(),
+        outcome.linked.len(),
+        stage.elapsed().as_secs_f64()
+    ));
+    Ok(())
 }
 
 /// max |1 − E| of the BSDF compensated with furnace's chosen fit: the model's first furnace

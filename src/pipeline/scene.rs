@@ -1,31 +1,31 @@
-//! The scene job: a manifest's plan ([`crate::scene::plan`]) through the pipeline's stages —
-//! the tables from the cache ([`crate::table::get_or_tabulate`]), one stress-tested rational fit
-//! per table ([`fit_table`], in place of the default set's degree sweep), and one emitted file per
-//! language with only the functions and helpers the scene's materials use.
+//! What a scene adds to the pipeline: its options ([`RunOptions`], made into a job by
+//! [`super::Job::scene`]) and the one fit per table of [`super::FitStage::OnePerTable`]
+//! ([`fit_table`], [`fit_one`]). The scene runs through [`super::run`] like any job:
 //!
 //! ```no_run
-//! use furnace::pipeline::scene::{self, RunOptions};
+//! use furnace::pipeline::{self, scene::RunOptions, Job};
+//! use furnace::progress::Quiet;
 //! use furnace::scene::Manifest;
 //! # fn options() -> RunOptions { unimplemented!() }
 //! let manifest = Manifest::read(std::path::Path::new("scene.json"))?;
-//! let outcome = scene::run(&manifest, &options(), &|line| eprintln!("{line}"))?;
+//! let outcome = pipeline::run(&Job::scene(&manifest, &options())?, &Quiet)?;
 //! println!("{} files", outcome.written.len());
 //! # Ok::<(), furnace::Error>(())
 //! ```
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use crate::bsdf;
 use crate::emit::generate::albedo_function_name;
 use crate::emit::stress::StressReport;
-use crate::emit::{self, build_unit, EmitOptions, Lang, SourceFit};
+use crate::emit::{self, Lang, SourceFit};
 use crate::error::{Error, Result};
 use crate::fit::job::FitRecord;
 use crate::fit::source::FittedOn;
 use crate::fit::{fit_rational, FitData, FitResult, InputTransform, Objective, RationalOptions};
+use crate::progress::Observer;
 use crate::quadrature::QuadratureSettings;
-use crate::scene::{plan, FitSettings, Manifest, Plan, TableNeed};
-use crate::table::{Table, TableSpec};
+use crate::scene::FitSettings;
+use crate::table::{Table, Tabulated};
 
 /// Where and how to run a scene.
 #[derive(Clone, Debug)]
@@ -44,23 +44,15 @@ pub struct RunOptions {
     pub command: String,
 }
 
-/// One fitted table of a scene run.
+/// The one fit of a table ([`super::FitStage::OnePerTable`]).
 #[derive(Clone, Debug)]
-pub struct FittedTable {
-    pub need: TableNeed,
-    pub table_cached: bool,
-    pub fit_path: PathBuf,
+pub struct OneFit {
+    /// The fit file written (`<fits>/<model>.json`).
+    pub path: PathBuf,
     pub fit: FitResult,
+    /// The denominator margin of the fit (one of [`DENOMINATOR_MARGINS`]).
+    pub margin: f64,
     pub stress: Option<StressReport>,
-}
-
-/// What a scene run did.
-#[derive(Clone, Debug)]
-pub struct SceneOutcome {
-    pub plan: Plan,
-    pub fitted: Vec<FittedTable>,
-    pub emitted: Vec<emit::EmittedFit>,
-    pub written: Vec<PathBuf>,
 }
 
 /// Denominator margins tried in turn (see `RationalOptions::denominator_margin`): the fitter's
@@ -153,133 +145,59 @@ pub fn fit_table(
     )))
 }
 
-/// Runs a scene: plan, tabulate (cached) and fit only what it needs, stress-test the fits in
-/// f32, and emit one file per language with only the needed functions.
-pub fn run(manifest: &Manifest, opts: &RunOptions, log: &dyn Fn(&str)) -> Result<SceneOutcome> {
-    let plan = plan(manifest)?;
-    log(&plan.human());
-    let out_dir = opts.fits_dir.join(&plan.scene);
-    let mut fitted = Vec::new();
-    let mut sources = Vec::new();
-    for need in &plan.tables {
-        let model = bsdf::get(need.model)?;
-        bsdf::check_no_degenerate_slice(model.as_ref(), &need.ranges, &|a, (lo, hi)| {
-            format!("narrow the materials' {a} range in the manifest to leave the slice out (the model's default range is [{lo}, {hi}])")
-        })?;
-        let spec = TableSpec::with_ranges(
-            model.as_ref(),
-            &need.resolution,
-            &need.ranges,
-            opts.quadrature.clone(),
-        )?;
-        log(&format!(
-            "  {} {}: tabulating {} cells (or reading them from the cache) …",
-            need.model,
-            spec.resolution_name(),
-            spec.cells()
+/// Fits table `t` of `model` with a rational of `degrees` ([`fit_table`], stress-tested at
+/// `stress_points` but at least the emit's own number of points, so that what passes here is
+/// emitted; 0 skips the test), writes the fit file `<dir>/<model>.json` and returns it with the
+/// emitter's view of it.
+pub fn fit_one(
+    model: crate::bsdf::ModelId,
+    t: &Tabulated,
+    degrees: &FitSettings,
+    stress_points: usize,
+    dir: &Path,
+    progress: &dyn Observer,
+) -> Result<(OneFit, SourceFit)> {
+    let points = match stress_points {
+        0 => 0,
+        n => n.max(emit::stress::DEFAULT_POINTS),
+    };
+    let stable = fit_table(&t.table, degrees, &model.name(), points)?;
+    for (m, why) in &stable.rejected {
+        progress.line(&format!(
+            "  {model}: denominator margin {m} rejected: {why}"
         ));
-        let crate::table::Tabulated {
-            table,
-            stem,
-            cached,
-            ..
-        } = crate::table::get_or_tabulate(
-            model.as_ref(),
-            &spec,
-            &opts.data_dir,
-            opts.force,
-            &crate::progress::Quiet,
-        )?;
-        log(&format!(
-            "  {} {}: table {}",
-            need.model,
-            spec.resolution_name(),
-            if cached {
-                "read from cache"
-            } else {
-                "computed"
-            }
-        ));
-        // the emit gate's own number of points, so what passes here is emitted
-        let points = match opts.stress_points {
-            0 => 0,
-            n => n.max(emit::stress::DEFAULT_POINTS),
-        };
-        let stable = fit_table(&table, &plan.fit, &need.model.name(), points)?;
-        for (m, why) in &stable.rejected {
-            log(&format!(
-                "  {}: denominator margin {m} rejected: {why}",
-                need.model
-            ));
-        }
-        let fit = stable.fit;
-        log(&format!(
-            "  {}: {} (denominator margin {}) MAE {:.2e}, max {:.2e}{}",
-            need.model,
-            fit.form.label(),
-            stable.margin,
-            fit.metrics.mae,
-            fit.metrics.max_abs_error,
-            stable.stress.as_ref().map_or(String::new(), |r| format!(
-                "; f32 stress passed at {} points",
-                r.random_points + r.edge_points
-            ))
-        ));
-        let stress_report = stable.stress;
-        let input = crate::fit::source::from_table(&table, "E", Some(&stem))?;
-        let file = FitRecord::new(
-            fit.clone(),
-            &input,
-            FittedOn {
-                points: input.data.len(),
-                selection: "all points".into(),
-            },
-        );
-        let fit_path = out_dir.join(format!("{}.json", need.model.key()));
-        crate::output::write(&fit_path, file.to_json()?.as_bytes())?;
-        sources.push(SourceFit::new(&fit_path, file, Some(table.clone()))?);
-        fitted.push(FittedTable {
-            need: need.clone(),
-            table_cached: cached,
-            fit_path,
-            fit,
-            stress: stress_report,
-        });
     }
-    let keep = plan.helper_names();
-    let (mut unit, emitted) = build_unit(
-        &plan.scene,
-        &emit::guard_macro(&format!("scene {}", plan.scene)),
-        &sources,
-        &opts.command,
-        &EmitOptions {
-            helpers: Some(keep),
-            stress_points: opts.stress_points.max(emit::stress::DEFAULT_POINTS),
-            ..EmitOptions::default()
+    let fit = stable.fit;
+    progress.line(&format!(
+        "  {model}: {} (denominator margin {}) MAE {:.2e}, max {:.2e}{}",
+        fit.form.label(),
+        stable.margin,
+        fit.metrics.mae,
+        fit.metrics.max_abs_error,
+        stable.stress.as_ref().map_or(String::new(), |r| format!(
+            "; f32 stress passed at {} points",
+            r.random_points + r.edge_points
+        ))
+    ));
+    let input = crate::fit::source::from_table(&t.table, "E", Some(&t.stem))?;
+    let file = FitRecord::new(
+        fit.clone(),
+        &input,
+        FittedOn {
+            points: input.data.len(),
+            selection: "all points".into(),
         },
-    )?;
-    if opts.langs.contains(&Lang::Lut) {
-        for (src, e) in sources.iter().zip(&emitted) {
-            let lut = emit::lut_for_fit(
-                src,
-                &unit,
-                &e.function,
-                opts.lut_resolution,
-                &opts.data_dir,
-                opts.force,
-            )?;
-            unit.luts.push(lut);
-        }
-    }
-    let mut artifacts = Vec::new();
-    for &lang in &opts.langs {
-        artifacts.extend(emit::emitter(lang).produce(&unit)?);
-    }
-    let written = emit::write_artifacts(&artifacts, &out_dir, &opts.lut_dir)?;
-    Ok(SceneOutcome {
-        plan,
-        fitted,
-        emitted,
-        written,
-    })
+    );
+    let path = dir.join(format!("{}.json", model.key()));
+    crate::output::write(&path, file.to_json()?.as_bytes())?;
+    let source = SourceFit::new(&path, file, Some(t.table.clone()))?;
+    Ok((
+        OneFit {
+            path,
+            fit,
+            margin: stable.margin,
+            stress: stable.stress,
+        },
+        source,
+    ))
 }

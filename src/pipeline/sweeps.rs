@@ -2,7 +2,6 @@
 //! made from (the table's values, the sweep options, the furnace version) and the SHA-256 of
 //! every file it wrote; a later run with the same inputs reuses those files instead of refitting.
 
-use super::Job;
 use crate::bsdf::Model;
 use crate::digest::{sha256_hex, values_sha256};
 use crate::error::{Error, Result};
@@ -167,32 +166,45 @@ fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<BestS
         .collect()
 }
 
-/// The degree sweep of `t`'s table into `<fits_dir>/<name>/`, or the files of a previous sweep
-/// with the same inputs (unless `job.refit` or `job.force`).
+/// Where a sweep writes, and whether it may reuse a previous one.
+#[derive(Clone, Copy, Debug)]
+pub struct SweepPlace<'a> {
+    /// The sweep's folder (`fits/<model>`).
+    pub dir: &'a Path,
+    /// Where `sweep-timing.json` goes (`data/timing/<model>`).
+    pub timing: &'a Path,
+    /// Highest degree (default: the paper's).
+    pub max_degree: Option<u32>,
+    /// Redo the sweep even when its inputs are unchanged.
+    pub refit: bool,
+}
+
+/// The degree sweep of `t`'s table into `place.dir`, or the files of a previous sweep with the
+/// same inputs (unless `place.refit`).
 pub fn sweep_or_reuse(
     model: &dyn Model,
-    name: &str,
     t: &Tabulated,
-    job: &Job,
+    place: SweepPlace,
     progress: &dyn Observer,
 ) -> Result<FitStep> {
+    let name = model.id().key();
     let input = source::from_table(&t.table, "E", Some(&t.stem))?;
     let plan = default_plan(
         &input.data,
-        job.max_degree,
+        place.max_degree,
         None,
         Objective::LeastSquares,
         model.grazing_boundary_layer(),
     );
     plan.validate(&input.data)?;
     let check = check::get_or_compute(model, &t.table.spec, &t.stem)?;
-    let dir = job.fits_dir.join(name);
+    let dir = place.dir;
     let mut inputs = sweep_inputs(t, &plan, Some(&check));
-    if !job.refit && !job.force {
-        if let Some(files) = reusable(&dir, &inputs) {
+    if !place.refit {
+        if let Some(files) = reusable(dir, &inputs) {
             return Ok(FitStep {
                 reused: true,
-                best: best_errors(&dir, &plan.budgets)?,
+                best: best_errors(dir, &plan.budgets)?,
                 check: Some(check),
                 files,
                 note: None,
@@ -235,12 +247,7 @@ pub fn sweep_or_reuse(
     progress.end();
     let mut outcome = outcome?;
     stress_checked_best(&mut outcome);
-    let (files, _) = write_sweep_files(
-        &outcome,
-        &dir,
-        Some(&job.data_dir.join("timing").join(name)),
-        &clock,
-    )?;
+    let (files, _) = write_sweep_files(&outcome, dir, Some(place.timing), &clock)?;
     inputs.files = files
         .iter()
         .map(|p| {

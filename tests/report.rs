@@ -249,6 +249,7 @@ fn tiny_options(root: &Path) -> ReportOptions {
     o.furnace_nodes = 9;
     o.furnace_f0_slices = 2;
     o.sphere_roughness = vec![0.3, 1.0];
+    o.anisotropy = Some(furnace::report::aniso::QUICK_RESOLUTION.to_vec());
     let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/paper");
     assert!(
         paper.join("coefficients").is_dir(),

@@ -158,6 +158,7 @@ impl Job {
         o.furnace_nodes = 9;
         o.furnace_f0_slices = 2;
         o.sphere_roughness = vec![0.3, 1.0];
+        o.anisotropy = Some(crate::report::aniso::QUICK_RESOLUTION.to_vec());
     }
 
     /// The number of stages the job runs (1 tables only, 3 without the report, else 4).

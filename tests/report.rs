@@ -420,6 +420,7 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
             (300 + 2 * 132 + 160, 84 + 3 * 132 + 46),
         ),
         ("benchmarks/eval-cost.png", (900, 600)),
+        ("anisotropy/shortcuts.png", (1500, 520)),
     ];
     for (f, size) in expect {
         let bytes = std::fs::read(reports.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
@@ -461,6 +462,22 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
         furnace_fit.stats.as_ref().map(|s| s.max_deviation),
         "best-20.json is the chosen fit"
     );
+    // the anisotropic conductor's section: the exact table passes the furnace test, every
+    // shortcut is off (aniso up to 0.95 on the 5x3x5x3 table), the uncompensated lobe loses energy
+    assert!(readme.contains("## Anisotropic conductor: the isotropic shortcuts"));
+    let cell = |row: &str| -> f64 {
+        let line = readme
+            .lines()
+            .find(|l| l.starts_with(row))
+            .unwrap_or_else(|| panic!("no row {row}"));
+        line.split('|').nth(2).unwrap().trim().parse().unwrap()
+    };
+    assert!(cell("| exact table 5x3x5x3 |") < 1e-6);
+    assert!(cell("| none |") > 0.3);
+    for s in ["geometric mean", "projected", "larger α"] {
+        assert!(cell(&format!("| isotropic, {s} |")) > 0.1, "{s}");
+    }
+    assert!(cell("| geometric mean √(α_t α_b) |") > 0.1);
     // the off-grid table sets each budget beside the LUTs, the loss in bold
     assert!(readme.contains("## Off-grid errors: fits against LUTs"));
     assert!(

@@ -177,6 +177,8 @@ pub struct AnisoSummary {
     pub furnace: Vec<FurnaceVariant>,
     pub furnace_points: usize,
     pub lobe_error: f64,
+    /// The fit's form and errors (absent when no certified fit came out).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<String>,
     pub files: Vec<String>,
     pub inputs_sha256: String,

@@ -14,7 +14,8 @@
 //!
 //! Ranges: `r` ∈ [0, 1] is the tables' `r` axis (α = r² for GGX; the FON roughness for
 //! rough-diffuse), or `alpha` (converted by r = √α); `ior` ≥ 1 is converted to
-//! F0 = ((η − 1)/(η + 1))² (the normal-incidence Fresnel reflectance) on the tables' `f0` axes.
+//! F0 = ((η − 1)/(η + 1))² (the normal-incidence Fresnel reflectance) on the tables' `f0` axes;
+//! `aniso` is the `aniso` axis of an anisotropic conductor (OpenPBR's, α_b/α_t = 1 − aniso).
 //! Missing ranges, and every other axis, mean the model's default domain. One
 //! number instead of a pair means a fixed value, widened to [`MIN_RANGE_WIDTH`]. Materials that
 //! share a model share one table over the union of their ranges; μ always spans [0, 1].
@@ -66,6 +67,9 @@ pub struct Material {
     pub alpha: Option<RangeSpec>,
     #[serde(default)]
     pub ior: Option<RangeSpec>,
+    /// OpenPBR's anisotropy, α_b/α_t = 1 − aniso (an `aniso` axis: anisotropic conductors).
+    #[serde(default)]
+    pub aniso: Option<RangeSpec>,
 }
 
 /// Table resolutions.
@@ -76,6 +80,10 @@ pub struct Resolution {
     pub two_d: usize,
     #[serde(rename = "3d", default = "default_3d")]
     pub three_d: usize,
+    /// Nodes of each axis of a 4-D table (r, aniso, mu, phi); absent: the model's default
+    /// resolution (64 × 16 × 64 × 16 for `ggx-conductor-aniso`).
+    #[serde(rename = "4d", default)]
+    pub four_d: Option<Vec<usize>>,
 }
 
 fn default_2d() -> usize {
@@ -90,6 +98,7 @@ impl Default for Resolution {
         Resolution {
             two_d: DEFAULT_RESOLUTION_2D,
             three_d: DEFAULT_RESOLUTION_3D,
+            four_d: None,
         }
     }
 }
@@ -170,6 +179,13 @@ impl Manifest {
             if n < 2 {
                 return Err(format!(
                     "resolution.{what} = {n}: a table needs at least 2 nodes per axis"
+                ));
+            }
+        }
+        if let Some(n) = &self.resolution.four_d {
+            if n.len() != 4 || n.iter().any(|&k| k < 2) {
+                return Err(format!(
+                    "resolution.4d = {n:?}: give the nodes of the four axes (r, aniso, mu, phi), each at least 2, e.g. [16, 8, 16, 8]"
                 ));
             }
         }
@@ -305,6 +321,14 @@ fn material_needs(m: &Material, smith: SmithForm) -> std::result::Result<Vec<Nee
         }
         (Some(a), None, None) => Some(a.default_range),
     };
+    let aniso = match (axis("aniso"), &m.aniso) {
+        (None, Some(_)) => return Err(absent("aniso", "anisotropy")),
+        (Some(a), Some(spec)) => Some(widen(
+            resolve(&m.name, "aniso", spec, a.valid_range)?,
+            a.valid_range,
+        )),
+        (_, None) => None,
+    };
     if m.ior.is_some() && axis("f0").is_none() {
         return Err(format!(
             "material '{}': a {} has no IOR axis (its F0 is applied at render time); remove 'ior'",
@@ -331,6 +355,7 @@ fn material_needs(m: &Material, smith: SmithForm) -> std::result::Result<Vec<Nee
                 .map(|a| match a.name.as_str() {
                     "r" => Ok(r.unwrap_or(a.default_range)),
                     "f0" => f0(a),
+                    "aniso" => Ok(aniso.unwrap_or(a.default_range)),
                     _ => Ok(a.default_range),
                 })
                 .collect::<std::result::Result<_, String>>()?;
@@ -407,15 +432,18 @@ pub fn plan(m: &Manifest) -> Result<Plan> {
     for mat in &m.materials {
         for (model, ranges, helpers) in material_needs(mat, m.smith).map_err(Error::InvalidInput)? {
             let dims = ranges.len();
-            let res = if dims <= 2 {
-                m.resolution.two_d
-            } else {
-                m.resolution.three_d
+            let resolution = match dims {
+                0..=2 => vec![m.resolution.two_d; dims],
+                3 => vec![m.resolution.three_d; dims],
+                _ => match &m.resolution.four_d {
+                    Some(n) if n.len() == dims => n.clone(),
+                    _ => bsdf::get(model)?.default_resolution(),
+                },
             };
             let entry = by_model.entry(model.key()).or_insert_with(|| TableNeed {
                 model,
                 ranges: ranges.clone(),
-                resolution: vec![res; dims],
+                resolution,
                 used_by: vec![],
                 helpers: vec![],
             });
@@ -533,6 +561,51 @@ mod tests {
     }
 
     #[test]
+    fn an_anisotropic_conductor_plans_a_4d_table_over_its_ranges() {
+        let m = manifest(
+            r#"{"name": "brushed", "resolution": {"4d": [8, 4, 8, 4]}, "materials": [
+            {"name": "steel", "kind": "anisotropic-conductor", "r": [0.3, 0.6], "aniso": [0.2, 0.8]},
+            {"name": "alu", "kind": "anisotropic-conductor", "r": 0.5, "aniso": 0.9}]}"#,
+        )
+        .unwrap();
+        let p = plan(&m).unwrap();
+        assert_eq!(p.tables.len(), 1, "{p:?}");
+        let t = &p.tables[0];
+        assert_eq!(t.model.key(), "ggx-conductor-aniso");
+        assert_eq!(t.resolution, [8, 4, 8, 4]);
+        let want = [
+            (0.3, 0.6),
+            (0.2, 0.91),
+            (0.0, 1.0),
+            (0.0, std::f64::consts::FRAC_PI_2),
+        ];
+        for (got, want) in t.ranges.iter().zip(want) {
+            assert!(
+                (got.0 - want.0).abs() < 1e-12 && (got.1 - want.1).abs() < 1e-12,
+                "{:?}",
+                t.ranges
+            );
+        }
+        assert_eq!(
+            p.helper_names(),
+            [
+                "ggx_conductor_aniso_direction_albedo",
+                "ggx_conductor_aniso_turquin_scale",
+                "ggx_conductor_aniso_turquin_scale_rgb"
+            ]
+        );
+        // without resolution.4d: the model's default resolution
+        let m = manifest(
+            r#"{"name": "b", "smith": "separable", "materials": [{"name": "s", "kind": "anisotropic-conductor"}]}"#,
+        )
+        .unwrap();
+        let t = &plan(&m).unwrap().tables[0];
+        assert_eq!(t.model.key(), "ggx-conductor-aniso-separable");
+        assert_eq!(t.resolution, [64, 16, 64, 16]);
+        assert_eq!(t.ranges[1], (0.0, 0.95));
+    }
+
+    #[test]
     fn bad_manifests_are_refused_with_the_fix() {
         let cases = [
             (
@@ -568,6 +641,26 @@ mod tests {
                 "unknown field `roughness`",
             ),
             (r#"{"name": "x", "materials": []}"#, "lists no materials"),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "anisotropic-conductor", "aniso": [0.5, 1.0]}]}"#,
+                "aniso range [0.5, 1] leaves the valid range [0, 0.99]",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "anisotropic-conductor", "aniso": [0.8, 0.2]}]}"#,
+                "aniso range [0.8, 0.2] is inverted",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "anisotropic-conductor", "alpha": 0.2}]}"#,
+                "anisotropic-conductor takes r (OpenPBR's roughness",
+            ),
+            (
+                r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor", "aniso": 0.5}]}"#,
+                "a conductor has no anisotropy axis; remove 'aniso'",
+            ),
+            (
+                r#"{"name": "x", "resolution": {"4d": [8, 8, 1]}, "materials": [{"name": "a", "kind": "anisotropic-conductor"}]}"#,
+                "resolution.4d = [8, 8, 1]: give the nodes of the four axes",
+            ),
             (
                 r#"{"name": "x", "materials": [{"name": "a", "kind": "conductor"}, {"name": "a", "kind": "rough-diffuse"}]}"#,
                 "materials 1 and 2 are both named 'a'",

@@ -24,6 +24,10 @@ mod emitted_conductor {
 mod emitted_dielectric {
     include!("snapshots/dielectric-pair.rs");
 }
+#[allow(dead_code)]
+mod emitted_aniso {
+    include!("snapshots/aniso-conductor.rs");
+}
 
 use common::repository as root;
 
@@ -216,6 +220,63 @@ fn emitted_helpers_compute_the_papers_factors() {
     }
 }
 
+/// The tangent-frame helpers of the anisotropic conductor: E at a view direction equals the
+/// albedo called with μ = ωo·n and the azimuth reduced to [0, π/2], at that azimuth and at its
+/// mirror images and rotations by π (φ, −φ, π − φ, π + φ, φ ± 2π: both orientations of the
+/// tangent and of the bitangent); Turquin's scale is 1 + F0(1 − E)/E of that E.
+#[test]
+fn emitted_tangent_frame_helpers_equal_the_direct_call_at_mirrored_directions() {
+    use emitted_aniso as a;
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let mut worst = 0.0f32;
+    let mut checked = 0;
+    for &(r, aniso) in &[(0.25f32, 0.0f32), (0.5, 0.5), (0.8, 0.9), (0.6, 0.95)] {
+        for &mu in &[0.05f64, 0.4, 0.85, 0.995] {
+            for k in 0..=12 {
+                let phi = FRAC_PI_2 * k as f64 / 12.0;
+                let direct = a::ggx_conductor_aniso_albedo(r, aniso, mu as f32, phi as f32);
+                let sin = (1.0 - mu * mu).sqrt();
+                for az in [
+                    phi,
+                    -phi,
+                    PI - phi,
+                    PI + phi,
+                    phi - PI,
+                    phi + 2.0 * PI,
+                    -phi - 2.0 * PI,
+                ] {
+                    let wo = [(sin * az.cos()) as f32, (sin * az.sin()) as f32, mu as f32];
+                    let e = a::ggx_conductor_aniso_direction_albedo(r, aniso, wo);
+                    worst = worst.max((e - direct).abs());
+                    checked += 1;
+                    for f0 in [0.0f32, 0.3, 1.0] {
+                        // Sforza & Pellacini 2022, eq. 13
+                        let want = 1.0 + f0 * ((1.0 - e.max(1e-3)) / e.max(1e-3));
+                        assert_eq!(a::ggx_conductor_aniso_turquin_scale(f0, r, aniso, wo), want);
+                    }
+                    let rgb =
+                        a::ggx_conductor_aniso_turquin_scale_rgb([0.0, 0.3, 1.0], r, aniso, wo);
+                    assert_eq!(
+                        rgb,
+                        [0.0f32, 0.3, 1.0]
+                            .map(|f0| a::ggx_conductor_aniso_turquin_scale(f0, r, aniso, wo))
+                    );
+                }
+            }
+        }
+    }
+    // the helper's φ differs from the f64 azimuth by the f32 rounding of the direction and A&S
+    // 4.4.49's 2e-8; E moves by less than that times |∂E/∂φ| ≤ 1
+    assert!(
+        worst < 2e-6,
+        "max |E(direction) − E(μ, φ)| {worst:e} over {checked} directions"
+    );
+    eprintln!("tangent-frame helper: {checked} directions, max |difference| {worst:.1e}");
+    // normal incidence: any tangent, no NaN
+    let e = a::ggx_conductor_aniso_direction_albedo(0.7, 0.8, [0.0, 0.0, 1.0]);
+    assert_eq!(e, a::ggx_conductor_aniso_albedo(0.7, 0.8, 1.0, 0.0));
+}
+
 fn naga_wgsl(src: &str) -> Result<(), String> {
     furnace::emit::validate::wgsl(src).map_err(|e| e.to_string())
 }
@@ -242,7 +303,7 @@ fn wgsl_and_glsl_pass_naga() {
             checked += 1;
         }
     }
-    assert_eq!(checked, 4);
+    assert_eq!(checked, 6);
     // the validators are not vacuous
     assert!(naga_wgsl("fn f(x: f32) -> f32 { return x + y; }").is_err());
     assert!(naga_glsl("float f(float x) { return x + undefined_name; }").is_err());
@@ -569,7 +630,15 @@ fn snapshot_units() -> Vec<furnace::emit::Unit> {
         &opts,
     )
     .unwrap();
-    vec![a, b]
+    let (c, _) = furnace::emit::build_unit(
+        "aniso-conductor",
+        "FURNACE_ANISO_CONDUCTOR_GLSL",
+        &[src("ggx-conductor-aniso.json")],
+        "furnace emit --fit tests/fixtures/ggx-conductor-aniso.json --lang all",
+        &opts,
+    )
+    .unwrap();
+    vec![a, b, c]
 }
 
 /// Deterministic arguments: values over [−0.25, 1.25] (outside every fitted domain on both

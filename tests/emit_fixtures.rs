@@ -12,7 +12,10 @@
 //!   and passing the f32 stress test;
 //! * `ggx-dielectric-inv-nearpole.json`: the fitter's first, default-margin fit of the same
 //!   leaving table — certified, but its denominator comes within 8e-4 of zero and the f32 stress
-//!   test fails it (the scene pipeline rejected it for the one above).
+//!   test fails it (the scene pipeline rejected it for the one above);
+//! * `ggx-conductor-aniso.json` (`regenerate_aniso_fixture`): a degree-3/1 rational of the
+//!   anisotropic conductor over r ∈ [0.2, 0.8] and the default aniso, μ and φ, fitted to a
+//!   10 × 5 × 10 × 5 table as `furnace run --scene` fits an anisotropic conductor.
 //!
 //! Run: `cargo test --test emit_fixtures -- --ignored --nocapture`.
 
@@ -126,6 +129,48 @@ fn regenerate_fixtures() {
             .unwrap();
         }
     }
+}
+
+/// Run: `cargo test --release --test emit_fixtures -- --ignored --nocapture regenerate_aniso_fixture`.
+#[test]
+#[ignore = "regenerates a committed fixture"]
+fn regenerate_aniso_fixture() {
+    let model_name = "ggx-conductor-aniso";
+    let model = bsdf::find(model_name).unwrap();
+    let spec = TableSpec::with_ranges(
+        model.as_ref(),
+        &[10, 5, 10, 5],
+        &[
+            (0.2, 0.8),
+            (0.0, 0.95),
+            (0.0, 1.0),
+            (0.0, std::f64::consts::FRAC_PI_2),
+        ],
+        QuadratureSettings::default(),
+    )
+    .unwrap();
+    let table = table::tabulate(model.as_ref(), &spec, &|_| {}).unwrap();
+    let stem = table::io::table_stem(Path::new("data"), model.as_ref(), &spec);
+    let input = from_table(&table, "E", Some(&stem)).unwrap();
+    let all = FittedOn {
+        points: input.data.len(),
+        selection: "all points".into(),
+    };
+    let settings = FitSettings {
+        numerator_degree: 3,
+        denominator_degree: 1,
+    };
+    let stable = fit_table(&table, &settings, model_name, 100_000).unwrap();
+    eprintln!(
+        "{model_name}: margin {}, MAE {:.2e}, max {:.2e}, poles {:?}",
+        stable.margin, stable.fit.metrics.mae, stable.fit.metrics.max_abs_error, stable.fit.poles
+    );
+    let f = FitRecord::new(stable.fit, &input, all);
+    std::fs::write(
+        fixtures().join(format!("{model_name}.json")),
+        f.to_json().unwrap(),
+    )
+    .unwrap();
 }
 
 /// The measurement behind `pipeline::scene::DENOMINATOR_MARGINS`: accuracy, denominator bound and f32

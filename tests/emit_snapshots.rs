@@ -18,7 +18,7 @@ fn source(name: &str) -> SourceFit {
     SourceFit::new(format!("tests/fixtures/{name}"), file, None).unwrap()
 }
 
-/// The two units the snapshots pin.
+/// The units the snapshots pin.
 fn units() -> Vec<Unit> {
     let (a, _) = build_unit(
         "paper-conductors",
@@ -39,7 +39,15 @@ fn units() -> Vec<Unit> {
         &EmitOptions::default(),
     )
     .unwrap();
-    vec![a, b]
+    let (c, _) = build_unit(
+        "aniso-conductor",
+        "FURNACE_ANISO_CONDUCTOR_GLSL",
+        &[source("ggx-conductor-aniso.json")],
+        "furnace emit --fit tests/fixtures/ggx-conductor-aniso.json --lang all",
+        &EmitOptions::default(),
+    )
+    .unwrap();
+    vec![a, b, c]
 }
 
 fn generated() -> Vec<(String, String)> {

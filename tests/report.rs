@@ -249,6 +249,7 @@ fn tiny_options(root: &Path) -> ReportOptions {
     o.furnace_nodes = 9;
     o.furnace_f0_slices = 2;
     o.sphere_roughness = vec![0.3, 1.0];
+    o.anisotropy = Some(furnace::report::aniso::QUICK_RESOLUTION.to_vec());
     let paper = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/paper");
     assert!(
         paper.join("coefficients").is_dir(),
@@ -419,6 +420,7 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
             (300 + 2 * 132 + 160, 84 + 3 * 132 + 46),
         ),
         ("benchmarks/eval-cost.png", (900, 600)),
+        ("anisotropy/shortcuts.png", (1500, 520)),
     ];
     for (f, size) in expect {
         let bytes = std::fs::read(reports.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
@@ -460,6 +462,22 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
         furnace_fit.stats.as_ref().map(|s| s.max_deviation),
         "best-20.json is the chosen fit"
     );
+    // the anisotropic conductor's section: the exact table passes the furnace test, every
+    // shortcut is off (aniso up to 0.95 on the 5x3x5x3 table), the uncompensated lobe loses energy
+    assert!(readme.contains("## Anisotropic conductor: the isotropic shortcuts"));
+    let cell = |row: &str| -> f64 {
+        let line = readme
+            .lines()
+            .find(|l| l.starts_with(row))
+            .unwrap_or_else(|| panic!("no row {row}"));
+        line.split('|').nth(2).unwrap().trim().parse().unwrap()
+    };
+    assert!(cell("| exact table 5x3x5x3 |") < 1e-6);
+    assert!(cell("| none |") > 0.3);
+    for s in ["geometric mean", "projected", "larger α"] {
+        assert!(cell(&format!("| isotropic, {s} |")) > 0.1, "{s}");
+    }
+    assert!(cell("| geometric mean √(α_t α_b) |") > 0.1);
     // the off-grid table sets each budget beside the LUTs, the loss in bold
     assert!(readme.contains("## Off-grid errors: fits against LUTs"));
     assert!(

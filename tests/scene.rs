@@ -259,3 +259,58 @@ fn a_scene_job_can_sweep_its_tables_and_emit_the_best_fits_in_one_file() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// An anisotropic conductor end to end: a 4-D `ggx-conductor-aniso` table over the material's r
+/// and aniso ranges only, a certified and stress-tested rational fit, and emitted code with the
+/// tangent-frame helpers, which validate in WGSL and GLSL.
+#[test]
+fn anisotropic_conductor_scene_tabulates_a_4d_table_over_its_ranges_and_emits_its_helpers() {
+    let dir = scratch("brushed");
+    let manifest = Manifest::parse(
+        r#"{"name": "brushed", "resolution": {"4d": [7, 4, 7, 4]},
+            "fit": {"numerator_degree": 2, "denominator_degree": 1}, "materials": [
+            {"name": "steel", "kind": "anisotropic-conductor", "r": [0.3, 0.6], "aniso": [0.2, 0.8]}]}"#,
+        std::path::Path::new("brushed.json"),
+    )
+    .unwrap();
+    let opts = RunOptions {
+        data_dir: dir.join("data"),
+        fits_dir: dir.join("fits"),
+        lut_dir: dir.join("data/lut"),
+        force: false,
+        quadrature: QuadratureSettings::default(),
+        langs: vec![Lang::Rust, Lang::Wgsl, Lang::Glsl],
+        lut_resolution: 8,
+        stress_points: 5_000,
+        command: "furnace run --scene brushed.json".into(),
+    };
+    let out = run(&manifest, &opts, false).unwrap();
+    assert_eq!(out.rows.len(), 1);
+    let row = &out.rows[0];
+    assert_eq!(row.id.key(), "ggx-conductor-aniso");
+    assert_eq!(row.resolution, "7x4x7x4");
+    let t = row.one().unwrap();
+    let domain = &t.fit.approximant.domain;
+    assert_eq!(domain[0], (0.3, 0.6));
+    assert_eq!(domain[1], (0.2, 0.8));
+    assert_eq!(domain[3], (0.0, std::f64::consts::FRAC_PI_2));
+    assert!(t.fit.is_usable() && t.stress.as_ref().unwrap().passed());
+    // a degree-2/1 rational follows the table to a few per cent (every node)
+    assert!(t.fit.metrics.max_abs_error < 0.1, "{:?}", t.fit.metrics);
+    let read = |ext: &str| {
+        std::fs::read_to_string(dir.join(format!("fits/brushed/brushed.{ext}"))).unwrap()
+    };
+    let rs = read("rs");
+    for f in [
+        "pub fn ggx_conductor_aniso_albedo(r: f32, aniso: f32, mu: f32, phi: f32) -> f32",
+        "pub fn ggx_conductor_aniso_direction_albedo(r: f32, aniso: f32, wo: [f32; 3]) -> f32",
+        "pub fn ggx_conductor_aniso_turquin_scale(f0: f32, r: f32, aniso: f32, wo: [f32; 3]) -> f32",
+        "pub fn ggx_conductor_aniso_turquin_scale_rgb(f0: [f32; 3], r: f32, aniso: f32, wo: [f32; 3]) -> [f32; 3]",
+    ] {
+        assert!(rs.contains(f), "no `{f}` in\n{rs}");
+    }
+    furnace::emit::validate::wgsl(&read("wgsl")).unwrap();
+    furnace::emit::validate::glsl(&read("glsl")).unwrap();
+    assert!(read("wgsl").contains("fn ggx_conductor_aniso_turquin_scale_rgb(f0: vec3<f32>, r: f32, aniso: f32, wo: vec3<f32>) -> vec3<f32>"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -49,6 +49,10 @@ pub struct ReportArgs {
     /// White furnace: F0 slices of 3-D tables (default 3: both ends and one between).
     #[arg(long)]
     pub furnace_f0_slices: Option<usize>,
+    /// Table of the anisotropic conductor's section, nodes of r x aniso x mu x phi (default
+    /// 16x8x16x8), or `none` to leave the section out.
+    #[arg(long)]
+    pub anisotropy: Option<String>,
 }
 
 pub(super) fn default_paper_dir() -> Option<PathBuf> {
@@ -100,6 +104,24 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
             return Err(crate::Error::InvalidInput(format!(
                 "{flag} {v}: a grid needs at least 2 nodes per axis"
             )));
+        }
+    }
+    match args.anisotropy.as_deref() {
+        None => {}
+        Some("none") => options.anisotropy = None,
+        Some(text) => {
+            let n = super::parse_resolution(Some(text), &crate::report::aniso::DEFAULT_RESOLUTION)
+                .map_err(|e| {
+                    crate::Error::InvalidInput(format!(
+                        "--anisotropy: {e}; or `none` to leave the section out"
+                    ))
+                })?;
+            if n.iter().any(|&k| k < 2) {
+                return Err(crate::Error::InvalidInput(format!(
+                    "--anisotropy {text}: a grid needs at least 2 nodes per axis"
+                )));
+            }
+            options.anisotropy = Some(n);
         }
     }
     let bars = Bars::default();

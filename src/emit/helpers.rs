@@ -80,6 +80,11 @@ fn names(prefix: &str, helper: Helper) -> Vec<String> {
             format!("{prefix}_sided_albedo"),
             format!("{prefix}_sided_normalization"),
         ],
+        Helper::TangentFrameTurquin => vec![
+            format!("{prefix}_direction_albedo"),
+            format!("{prefix}_turquin_scale"),
+            format!("{prefix}_turquin_scale_rgb"),
+        ],
     }
 }
 
@@ -164,6 +169,7 @@ pub fn helpers(albedos: &[AlbedoRef], suffix: &str) -> Vec<Function> {
                     result: sub(lit(1.0), call_albedo(a)), // paper eq. 18
                 }),
                 Helper::Sided { leaving } => pairs.push((a, leaving)),
+                Helper::TangentFrameTurquin => out.extend(tangent_frame(a, &prefix, suffix)),
             }
         }
     }
@@ -171,6 +177,135 @@ pub fn helpers(albedos: &[AlbedoRef], suffix: &str) -> Vec<Function> {
         out.extend(sided(albedos, enter, leaving, suffix));
     }
     out
+}
+
+/// Coefficients a_0 … a_16 (even powers) of Abramowitz & Stegun 1964, eq. 4.4.49:
+/// atan(t) = t·(a_0 + a_2 t² + … + a_16 t¹⁶) + ε(t) on 0 ≤ t ≤ 1, |ε| ≤ 2e-8 (1.4e-8 measured on
+/// 10⁵ points; the test below).
+pub const ATAN_COEFFICIENTS: [f64; 9] = [
+    1.0,
+    -0.333_331_452_8,
+    0.199_935_508_5,
+    -0.142_088_994_4,
+    0.106_562_639_3,
+    -0.075_289_640_0,
+    0.042_909_613_8,
+    -0.016_165_736_7,
+    0.002_866_225_7,
+];
+
+/// Smallest max(|ωo·t|, |ωo·b|) the azimuth divides by: at normal incidence both vanish, the
+/// quotient is then 0 and φ = 0 (E does not depend on φ at μ = 1).
+pub const AZIMUTH_FLOOR: f64 = 1e-30;
+
+/// The helpers of an albedo over (…, mu, phi) that take the view direction `wo` in the tangent
+/// frame (x along the tangent, y along the bitangent, z along the normal; unit length):
+/// E at that direction, and Turquin's scale from it (scalar and RGB F0). μ = wo.z (the albedo
+/// clamps it to [0, 1]); φ = atan2(|wo.y|, |wo.x|) ∈ [0, π/2], which is the azimuth reduced by
+/// the mirror symmetries E(φ) = E(−φ) = E(π − φ) (docs/anisotropy.md), with the arctangent of
+/// Abramowitz & Stegun eq. 4.4.49 on the quotient of the smaller by the larger component, so the
+/// same f32 operations run in every language.
+fn tangent_frame(a: &AlbedoRef, prefix: &str, suffix: &str) -> Vec<Function> {
+    if !(a.params.iter().any(|p| p == "mu") && a.params.iter().any(|p| p == "phi")) {
+        return vec![];
+    }
+    let others: Vec<String> = a
+        .params
+        .iter()
+        .filter(|p| *p != "mu" && *p != "phi")
+        .cloned()
+        .collect();
+    let mut params = others.clone();
+    params.push("wo".into());
+    let abs = |e: super::ir::Expr| max(e.clone(), sub(lit(0.0), e));
+    // Horner in t² (Abramowitz & Stegun 1964, eq. 4.4.49)
+    let mut poly = lit(ATAN_COEFFICIENTS[8]);
+    for &c in ATAN_COEFFICIENTS[..8].iter().rev() {
+        poly = add(mul(poly, var("t2")), lit(c));
+    }
+    let stmt = |name: &str, value, comment: Option<&str>| Stmt {
+        name: name.into(),
+        value,
+        comment: comment.map(str::to_string),
+    };
+    // φ from wo, the same statements in each function (the IR passes no vectors to calls)
+    let angles = vec![
+        stmt("ax", abs(component("wo", 0)), Some("|ωo·t| and |ωo·b|: the mirror images t → −t, b → −b leave E unchanged")),
+        stmt("ay", abs(component("wo", 1)), None),
+        stmt(
+            "t",
+            div(min(var("ax"), var("ay")), max(max(var("ax"), var("ay")), lit(AZIMUTH_FLOOR))),
+            Some("tan of the angle to the nearer axis, in [0, 1]; guard: 0 at normal incidence, where E does not depend on φ"),
+        ),
+        stmt("t2", mul(var("t"), var("t")), None),
+        stmt("a", mul(var("t"), poly), Some("atan(t) (Abramowitz & Stegun 1964, eq. 4.4.49)")),
+        stmt(
+            "phi",
+            select_ge(var("ax"), var("ay"), var("a"), sub(lit(std::f64::consts::FRAC_PI_2), var("a"))),
+            Some("atan2(|ωo·b|, |ωo·t|) in [0, π/2]"),
+        ),
+    ];
+    let e_at = call(
+        &a.function,
+        a.params
+            .iter()
+            .map(|p| match p.as_str() {
+                "mu" => component("wo", 2),
+                _ => var(p),
+            })
+            .collect(),
+    );
+    let direction_name = format!("{prefix}_direction_albedo{suffix}");
+    let direction = Function {
+        name: direction_name.clone(),
+        doc: vec![
+            format!("E = {}({}) at the view direction wo in the tangent frame: wo.x along the", a.function, a.params.join(", ")),
+            "tangent, wo.y along the bitangent, wo.z along the normal, unit length. mu = wo.z; phi = atan2(|wo.y|, |wo.x|)".into(),
+            "in [0, π/2], the azimuth reduced by the mirror symmetries E(φ) = E(−φ) = E(π − φ), so any azimuth and".into(),
+            "either orientation of the tangent give the same E (arctangent: Abramowitz & Stegun 1964, eq. 4.4.49, |error| ≤ 2e-8).".into(),
+        ],
+        params: params.clone(),
+        body: angles.clone(),
+        result: e_at.clone(),
+    };
+    let with_e = |extra: Vec<Stmt>| {
+        let mut body = angles.clone();
+        body.push(floor_stmt(e_at.clone()));
+        body.extend(extra);
+        body
+    };
+    let mut turquin_params = vec!["f0".to_string()];
+    turquin_params.extend(params.iter().cloned());
+    let scalar_name = format!("{prefix}_turquin_scale{suffix}");
+    let args = params.join(", ");
+    let scalar = Function {
+        name: scalar_name.clone(),
+        doc: vec![
+            format!("Turquin's multiple-scattering scale 1 + F0·(1 − E)/E with E = {direction_name}({args}):"),
+            "multiply the single-scattering anisotropic conductor BRDF by it (Sforza & Pellacini 2022, eq. 13; Turquin 2019).".into(),
+            "F0 is the normal-incidence reflectance of one colour channel, in [0, 1]; wo is the view direction in the".into(),
+            format!("tangent frame, unit length. For RGB use {prefix}_turquin_scale_rgb{suffix}, which evaluates the albedo once."),
+        ],
+        params: turquin_params.clone(),
+        body: with_e(vec![]),
+        result: add(lit(1.0), mul(var("f0"), div(sub(lit(1.0), var("e")), var("e")))), // paper eq. 13
+    };
+    let channel = |i: u8| add(lit(1.0), mul(component("f0", i), var("k"))); // paper eq. 13
+    let rgb = Function {
+        name: format!("{prefix}_turquin_scale_rgb{suffix}"),
+        doc: vec![
+            format!("Turquin's scale 1 + F0·(1 − E)/E for an RGB F0 (each channel in [0, 1]), E = {direction_name}({args})"),
+            format!("evaluated once: channel by channel the same value as {scalar_name}."),
+        ],
+        params: turquin_params,
+        body: with_e(vec![Stmt {
+            name: "k".into(),
+            value: div(sub(lit(1.0), var("e")), var("e")),
+            comment: Some("(1 − E)/E, shared by the three channels".into()),
+        }]),
+        result: vec3(channel(0), channel(1), channel(2)),
+    };
+    vec![direction, scalar, rgb]
 }
 
 /// Below this 1 − E_avg the Kulla–Conty lobe is off: the average energy it would restore is
@@ -358,4 +493,115 @@ fn sided(
         ],
     ));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::emit::ir::{Arith, Compiled, Program};
+    use std::f64::consts::{FRAC_PI_2, PI};
+
+    /// A stand-in albedo over (r, aniso, mu, phi) that returns `pick` of its arguments, and the
+    /// tangent-frame helpers calling it.
+    fn program(pick: &str) -> Program {
+        let params: Vec<String> = ["r", "aniso", "mu", "phi"].map(String::from).to_vec();
+        let albedo = Function {
+            name: "f".into(),
+            doc: vec![],
+            params: params.clone(),
+            body: vec![],
+            result: var(pick),
+        };
+        let a = AlbedoRef {
+            model: "ggx-conductor-aniso".into(),
+            id: None,
+            function: "f".into(),
+            params,
+        };
+        let mut functions = vec![albedo];
+        functions.extend(tangent_frame(&a, "p", ""));
+        Program { functions }
+    }
+
+    #[test]
+    fn the_tangent_frame_helpers_form_mu_and_the_reduced_azimuth() {
+        let phi = program("phi");
+        let mu = program("mu");
+        let names: Vec<&str> = phi.functions.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "f",
+                "p_direction_albedo",
+                "p_turquin_scale",
+                "p_turquin_scale_rgb"
+            ]
+        );
+        assert_eq!(names[1..], super::names("p", Helper::TangentFrameTurquin));
+        let at_phi = Compiled::new(&phi, "p_direction_albedo").unwrap();
+        let at_mu = Compiled::new(&mu, "p_direction_albedo").unwrap();
+        let mut regs = Vec::new();
+        let mut worst = 0.0f64;
+        // every quadrant, both orientations of the tangent, the axes and the diagonals
+        for k in 0..=720 {
+            let az = -2.0 * PI + 4.0 * PI * k as f64 / 720.0;
+            for theta in [0.05f64, 0.7, 1.3, FRAC_PI_2] {
+                let wo = [theta.sin() * az.cos(), theta.sin() * az.sin(), theta.cos()];
+                let x = [0.5f32, 0.3, wo[0] as f32, wo[1] as f32, wo[2] as f32];
+                // the azimuth reduced by E(φ) = E(−φ) = E(π − φ)
+                let p = az.rem_euclid(PI);
+                let want = p.min(PI - p);
+                let got = at_phi.eval_f32(&x, Arith::Ieee, &mut regs) as f64;
+                worst = worst.max((got - want).abs());
+                assert!((0.0..=FRAC_PI_2 as f32 as f64).contains(&got), "{got}");
+                assert_eq!(at_mu.eval_f32(&x, Arith::Ieee, &mut regs), wo[2] as f32);
+            }
+        }
+        // A&S 4.4.49's 2e-8 and f32 rounding of the inputs and the operations
+        assert!(worst < 1e-6, "max |φ − reduced azimuth| {worst:e}");
+        // normal incidence: φ = 0, no NaN
+        let x = [0.5f32, 0.3, 0.0, -0.0, 1.0];
+        assert_eq!(at_phi.eval_f32(&x, Arith::Ieee, &mut regs), 0.0);
+        // Turquin's scale and its RGB form from the same E (Sforza & Pellacini 2022, eq. 13)
+        let e = 0.25f32; // mu of the stand-in
+        let wo = [0.6f32, -0.7, e];
+        let scalar = Compiled::new(&mu, "p_turquin_scale").unwrap();
+        let rgb = Compiled::new(&mu, "p_turquin_scale_rgb").unwrap();
+        for f0 in [0.0f32, 0.5, 1.0] {
+            let got = scalar.eval_f32(&[f0, 0.5, 0.3, wo[0], wo[1], wo[2]], Arith::Ieee, &mut regs);
+            assert_eq!(got, 1.0 + f0 * ((1.0 - e) / e));
+        }
+        rgb.eval_f32(
+            &[0.0, 0.5, 1.0, 0.5, 0.3, wo[0], wo[1], wo[2]],
+            Arith::Ieee,
+            &mut regs,
+        );
+        let out: Vec<f32> = rgb.results().iter().map(|&r| regs[r]).collect();
+        assert_eq!(out, [1.0, 1.0 + 0.5 * ((1.0 - e) / e), 1.0 + (1.0 - e) / e]);
+    }
+
+    #[test]
+    fn abramowitz_and_stegun_4_4_49_is_within_its_bound() {
+        let mut worst = 0.0f64;
+        for k in 0..=100_000 {
+            let t = k as f64 / 100_000.0;
+            let p = ATAN_COEFFICIENTS
+                .iter()
+                .rev()
+                .fold(0.0, |acc, &c| acc * t * t + c);
+            worst = worst.max((t * p - t.atan()).abs());
+        }
+        assert!(worst <= 2e-8, "{worst:e}");
+    }
+
+    #[test]
+    fn an_albedo_without_an_azimuth_gets_no_tangent_frame_helpers() {
+        let a = AlbedoRef {
+            model: "ggx-conductor".into(),
+            id: None,
+            function: "f".into(),
+            params: vec!["r".into(), "mu".into()],
+        };
+        assert!(tangent_frame(&a, "p", "").is_empty());
+    }
 }

@@ -11,7 +11,9 @@
 //! lobes over microfacet normals with every kink an interval end ([`super::microfacet`]),
 //! diffuse lobes over (μi, φ) with kinks at μi = μo and φ = π/2, any other BSDF over (μi, φ)
 //! directly. None of the engine's machinery ([`crate::quadrature`]) is used, so agreement with the
-//! tables is evidence, not an identity.
+//! tables is evidence, not an identity — except for a [`Lobe::Model`] (the anisotropic
+//! conductor), integrated by its model's own integrand at fixed orders, not the tables' refined
+//! estimate.
 //!
 //! The compensations of the paper are scalings that depend on ωo only, so the integral of a
 //! compensated lobe is the compensation factor times the integral of the uncompensated lobe; the
@@ -114,6 +116,25 @@ fn directional_albedo(
     )
 }
 
+/// E of `model` at `x` by its integrand at each of `orders`: (value at the last, the largest
+/// difference from the others, true); an unknown model gives NaN, unconverged.
+fn model_albedo(model: crate::bsdf::ModelId, x: &[f64], orders: &[usize]) -> (f64, f64, bool) {
+    let Ok(m) = crate::bsdf::get(model) else {
+        return (f64::NAN, f64::INFINITY, false);
+    };
+    let rules: Vec<crate::quadrature::Rules> = orders
+        .iter()
+        .map(|&n| crate::quadrature::Rules::new(n))
+        .collect();
+    let refs: Vec<&crate::quadrature::Rules> = rules.iter().collect();
+    let values: Vec<f64> = m.integrate_orders(x, &refs).iter().map(|v| v[0]).collect();
+    let Some(&last) = values.last() else {
+        return (f64::NAN, f64::INFINITY, false);
+    };
+    let error = values.iter().map(|v| (v - last).abs()).fold(0.0, f64::max);
+    (last, error, true)
+}
+
 /// The lobe integrals of `material` at `x` (its primary albedo model's axes).
 pub fn lobe_integrals(material: &dyn CompensatedBsdf, x: &[f64]) -> LobeIntegrals {
     let mut out = LobeIntegrals {
@@ -131,6 +152,7 @@ pub fn lobe_integrals(material: &dyn CompensatedBsdf, x: &[f64]) -> LobeIntegral
                 lobe,
             } => microfacet_albedo(alpha, mu_o, smith, lobe, &OUTER_TOLERANCE, &INNER_TOLERANCE),
             Lobe::Diffuse { mu_o, brdf } => diffuse_albedo(mu_o, &*brdf),
+            Lobe::Model { model, x, orders } => model_albedo(model, &x, &orders),
             Lobe::Directional {
                 f,
                 transmits,

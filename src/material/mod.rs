@@ -22,10 +22,12 @@
 //! | thin-dielectric | ggx-conductor (r, μ) | 1/E | (ρ_R + ρ_T)/E_ss | §3.4, eq. 19 |
 //! | dielectric | ggx-dielectric, ggx-dielectric-inv (f0, r, μ) | 1/E, by side of the surface | (ρ_R + ρ_T)/E | eq. 19, §3.3 |
 //! | rough-diffuse | oren-nayar-fon (r, μ) | — | FON + Kulla–Conty lobe from E | EON eqs. 16, 19 |
+//! | anisotropic-conductor | ggx-conductor-aniso (r, aniso, μ, φ) | E and Turquin scale at the view direction in the tangent frame | ρ_ss/E at F0 = 1 ([`anisotropic`]) | eq. 13 |
 //!
 //! `examples/custom_model.rs` registers a model and a material class of its own and runs them
 //! through tables, fits, emitted code, the report and a scene.
 
+pub mod anisotropic;
 pub mod builtin;
 pub mod furnace;
 pub mod kulla_conty;
@@ -67,6 +69,10 @@ pub enum Helper {
     /// E and 1/E for the side of the surface ωo is on, from this table (entering) and the
     /// `leaving` one (§3.3: one table per direction of travel).
     Sided { leaving: ModelId },
+    /// Turquin's scale 1 + F0·(1 − E)/E of an albedo over (…, μ, φ) (an anisotropic lobe) at a
+    /// view direction given in the tangent frame: μ and φ (reduced by the lobe's mirror
+    /// symmetries to [0, π/2]) are formed from it, and E at them is emitted too.
+    TangentFrameTurquin,
 }
 
 /// A helper a material needs for one of its tables, and what the material does with it: the
@@ -146,6 +152,14 @@ pub enum Lobe {
     Diffuse {
         mu_o: f64,
         brdf: Arc<dyn Fn(f64, f64, f64) -> f64 + Send + Sync>,
+    },
+    /// The albedo of a registered model at `x` by its own integrand at fixed quadrature
+    /// `orders` (the value at the last, the error estimate the spread): for lobes this module
+    /// has no rule of its own for (the anisotropic GGX conductor, [`anisotropic`]).
+    Model {
+        model: ModelId,
+        x: Vec<f64>,
+        orders: Vec<usize>,
     },
     /// Any BSDF: `f(ωi)` = f(ωo, ωi) for ωo = (sin θo, 0, μo), over the upper hemisphere (or
     /// the whole sphere when `transmits`), with optional kinks in μi = n·ωi.

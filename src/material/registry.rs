@@ -1,5 +1,6 @@
 //! The one list of material classes: the built-in ones, then any a program [`register`]s.
 
+use super::anisotropic::AnisotropicConductor;
 use super::builtin::Kind;
 use super::{CompensatedBsdf, Helper, MaterialClass};
 use crate::bsdf::ModelId;
@@ -10,12 +11,12 @@ use std::sync::{Arc, OnceLock, RwLock, RwLockReadGuard};
 fn registry() -> &'static RwLock<Vec<Arc<dyn MaterialClass>>> {
     static REGISTRY: OnceLock<RwLock<Vec<Arc<dyn MaterialClass>>>> = OnceLock::new();
     REGISTRY.get_or_init(|| {
-        RwLock::new(
-            Kind::ALL
-                .iter()
-                .map(|&k| Arc::new(k) as Arc<dyn MaterialClass>)
-                .collect(),
-        )
+        let mut list: Vec<Arc<dyn MaterialClass>> = Kind::ALL
+            .iter()
+            .map(|&k| Arc::new(k) as Arc<dyn MaterialClass>)
+            .collect();
+        list.push(Arc::new(AnisotropicConductor));
+        RwLock::new(list)
     })
 }
 
@@ -140,7 +141,7 @@ mod tests {
     fn the_builtin_classes_name_their_tables_helpers_and_furnace_materials() {
         assert_eq!(
             known_kinds(),
-            "conductor, thin-dielectric, glossy, dielectric, rough-diffuse"
+            "conductor, thin-dielectric, glossy, dielectric, rough-diffuse, anisotropic-conductor"
         );
         let sep = SmithForm::Separable;
         let kinds =
@@ -184,6 +185,9 @@ mod tests {
             ["rough-diffuse"]
         );
         assert!(ids(crate::bsdf::lookup("eon").unwrap()).is_empty());
+        let aniso = crate::bsdf::lookup("ggx-conductor-aniso-separable").unwrap();
+        assert_eq!(kinds(aniso), [Helper::TangentFrameTurquin]);
+        assert_eq!(ids(aniso), ["anisotropic-conductor-separable"]);
         let e = find("velvet").map(|_| ()).unwrap_err().to_string();
         assert!(
             e.contains("unknown kind 'velvet'; known kinds: conductor"),

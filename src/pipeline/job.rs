@@ -211,13 +211,14 @@ impl Job {
     }
 
     /// Nodes per axis: `two_d` for 2-D tables, `three_d` for 3-D ones (radiance-form tables:
-    /// at most [`RUN_RESOLUTION_PAPER_RADIANCE`]).
+    /// at most [`RUN_RESOLUTION_PAPER_RADIANCE`]); tables of more axes keep theirs.
     pub fn set_resolution(&mut self, two_d: usize, three_d: usize) {
         for t in &mut self.tables {
             let n = match (t.resolution.len(), t.model.is_radiance()) {
                 (2, _) => two_d,
-                (_, false) => three_d,
-                (_, true) => three_d.min(RUN_RESOLUTION_PAPER_RADIANCE),
+                (3, false) => three_d,
+                (3, true) => three_d.min(RUN_RESOLUTION_PAPER_RADIANCE),
+                _ => continue,
             };
             t.resolution.fill(n);
         }
@@ -252,6 +253,7 @@ impl Job {
             o.furnace_nodes = 9;
             o.furnace_f0_slices = 2;
             o.sphere_roughness = vec![0.3, 1.0];
+            o.anisotropy = Some(crate::report::aniso::QUICK_RESOLUTION.to_vec());
         }
     }
 

@@ -8,7 +8,11 @@ use crate::fit::{Approximant, FitResult};
 pub use crate::material::Albedo;
 use crate::table::Table;
 
-/// Multilinear interpolation of output `E` of a table: bilinear in 2-D, trilinear in 3-D, exact
+/// Most axes of a source: the 4-D anisotropic conductor's (r, aniso, mu, phi).
+pub const MAX_AXES: usize = 4;
+
+/// Multilinear interpolation of output `E` of a table: bilinear in 2-D, trilinear in 3-D,
+/// quadrilinear in 4-D, exact
 /// at the nodes. With a coarse table this is the classic LUT (e.g. 32² bilinear).
 #[derive(Clone, Debug)]
 pub struct TableAlbedo {
@@ -55,7 +59,7 @@ fn locate(x: f64, lo: f64, hi: f64, n: usize) -> (usize, f64) {
 impl Albedo for TableAlbedo {
     fn albedo(&self, x: &[f64]) -> f64 {
         let d = self.axes.len();
-        let mut cell = [(0usize, 0.0f64); 3];
+        let mut cell = [(0usize, 0.0f64); MAX_AXES];
         for k in 0..d {
             let (lo, hi, n) = self.axes[k];
             cell[k] = locate(x[k], lo, hi, n);
@@ -125,7 +129,7 @@ impl FitAlbedo {
 
 impl Albedo for FitAlbedo {
     fn albedo(&self, x: &[f64]) -> f64 {
-        let mut y = [0.0; 3];
+        let mut y = [0.0; MAX_AXES];
         for (k, &a) in self.order.iter().enumerate() {
             let (lo, hi) = self.approximant.domain[k];
             y[k] = x[a].clamp(lo, hi);

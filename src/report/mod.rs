@@ -17,6 +17,8 @@
 //!   furnace table and spheres.
 //! - [`offgrid`]: the best fits' and the LUTs' errors at the off-grid check points, and every
 //!   sweep fit's, by form family.
+//! - [`aniso`]: the anisotropic conductor's section: the isotropic shortcuts against the 4-D
+//!   albedo, and the white furnace test of the compensated anisotropic conductor.
 //! - [`readme`]: `reports/README.md` from every section, with the summary tables.
 //!
 //! Same inputs give the same bytes: no timestamps, fixed evaluation and summation order.
@@ -38,6 +40,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod albedo;
+pub mod aniso;
 pub mod inputs;
 pub mod model;
 pub mod offgrid;

@@ -104,7 +104,8 @@ impl Reporter<'_> {
                 order.push(m.key());
             }
         }
-        let (readme, linked) = self.assemble(&order)?;
+        let anisotropy = self.anisotropy_section(reuse)?;
+        let (readme, linked) = self.assemble(&order, anisotropy.as_ref())?;
         Ok(ReportOutcome {
             regenerated,
             reused,
@@ -134,7 +135,11 @@ impl Reporter<'_> {
 
     /// Writes `reports/README.md` from the models' summaries and sections; returns its path and
     /// the files it links.
-    fn assemble(&self, order: &[String]) -> Result<(PathBuf, Vec<String>)> {
+    fn assemble(
+        &self,
+        order: &[String],
+        anisotropy: Option<&(String, Vec<String>)>,
+    ) -> Result<(PathBuf, Vec<String>)> {
         let mut sections: Vec<(String, Option<(ModelSummary, String)>)> = Vec::new();
         for m in order {
             sections.push((m.clone(), self.load_summary(m)?));
@@ -152,7 +157,8 @@ gives the same bytes.\n",
             crate::VERSION,
             display_rel(&self.options.bench_dir)
         );
-        let _ = writeln!(md, "- [Summary](#summary)\n- [Off-grid errors: fits against LUTs](#off-grid-errors-fits-against-luts)\n- [Furnace and the paper, side by side](#furnace-and-the-paper-side-by-side)\n- [White furnace test](#white-furnace-test)\n- [Run time against error](#run-time-against-error)\n- [Models](#models): {}\n",
+        let _ = writeln!(md, "- [Summary](#summary)\n- [Off-grid errors: fits against LUTs](#off-grid-errors-fits-against-luts)\n- [Furnace and the paper, side by side](#furnace-and-the-paper-side-by-side)\n- [White furnace test](#white-furnace-test)\n{}- [Run time against error](#run-time-against-error)\n- [Models](#models): {}\n",
+            if anisotropy.is_some() { "- [Anisotropic conductor: the isotropic shortcuts](#anisotropic-conductor-the-isotropic-shortcuts)\n" } else { "" },
             order.iter().map(|m| format!("[{m}](#{})", anchor(m))).collect::<Vec<_>>().join(", "));
 
         // Summary
@@ -379,6 +385,13 @@ thin and thick dielectrics (ρ_R + ρ_T)/E (§3.4, eq. 19); rough diffuse is Fuj
                     }
                 }
             }
+        }
+
+        // the anisotropic conductor
+        if let Some((section, files)) = anisotropy {
+            md.push_str(section.trim_end());
+            md.push_str("\n\n");
+            linked.extend(files.iter().cloned());
         }
 
         // Benchmarks

@@ -69,6 +69,9 @@ pub struct ReportOptions {
     pub furnace_nodes: usize,
     /// …and this many F0 slices of 3-D tables.
     pub furnace_f0_slices: usize,
+    /// Nodes of (r, aniso, mu, phi) of the anisotropic conductor's section
+    /// ([`crate::report::aniso`]); None leaves the section out.
+    pub anisotropy: Option<Vec<usize>>,
     /// Roughness of the spheres, left to right.
     pub sphere_roughness: Vec<f64>,
     /// F0 of the spheres of 3-D classes (glossy, dielectrics): 0.04, η = 1.5.
@@ -91,6 +94,7 @@ impl ReportOptions {
             furnace_luts: super::offgrid::LUT_CHECK_RESOLUTIONS.to_vec(),
             furnace_nodes: 33,
             furnace_f0_slices: 3,
+            anisotropy: Some(crate::report::aniso::DEFAULT_RESOLUTION.to_vec()),
             sphere_roughness: vec![0.0, 0.2, 0.4, 0.6, 0.8, 1.0],
             sphere_f0: 0.04,
         }
@@ -139,6 +143,14 @@ impl<'a> Reporter<'a> {
             loaded: RefCell::new(BTreeMap::new()),
             used: RefCell::new(Default::default()),
         }
+    }
+    /// The table source.
+    pub(crate) fn tables(&self) -> &dyn TableProvider {
+        self.tables
+    }
+    /// Where progress messages go.
+    pub(crate) fn progress(&self) -> &dyn Fn(&str) {
+        self.progress
     }
     fn model_dir(&self, name: &str) -> PathBuf {
         self.options.reports_dir.join(name)

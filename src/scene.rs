@@ -400,29 +400,6 @@ impl Plan {
             })
             .collect()
     }
-
-    /// A table of the plan.
-    pub fn human(&self) -> String {
-        let mut s = format!("scene {}: {} table(s)\n", self.scene, self.tables.len());
-        for t in &self.tables {
-            s.push_str(&format!(
-                "  {:<28} {:>12}  {}  for {}\n",
-                t.model,
-                t.resolution
-                    .iter()
-                    .map(|n| n.to_string())
-                    .collect::<Vec<_>>()
-                    .join("x"),
-                t.ranges
-                    .iter()
-                    .map(|(a, b)| format!("[{a:.4}, {b:.4}]"))
-                    .collect::<Vec<_>>()
-                    .join(" × "),
-                t.used_by.join(", ")
-            ));
-        }
-        s
-    }
 }
 
 /// Works out the tables, ranges and helpers of a manifest.

@@ -273,7 +273,7 @@ impl Job {
         let mut s = format!("{}: {} table(s)\n", self.name, self.tables.len());
         for t in &self.tables {
             s.push_str(&format!(
-                "  {:<28} {:>12}  {}  for {}\n",
+                "  {:<38} {:>12}  {}  for {}\n",
                 t.model,
                 t.resolution
                     .iter()
@@ -286,7 +286,7 @@ impl Job {
                     .collect::<Vec<_>>()
                     .join(" × "),
                 if t.used_by.is_empty() {
-                    "the comparison with the paper".to_string()
+                    "the report".to_string()
                 } else {
                     t.used_by.join(", ")
                 }

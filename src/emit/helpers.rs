@@ -405,8 +405,8 @@ fn kulla_conty_dielectric(
         name: split_name.clone(),
         doc: vec![
             "Kulla & Conty's reciprocity factor x of a rough dielectric interface (Kulla & Conty 2017, \"Revisiting".into(),
-            "Physically Based Shading at Imageworks\"): x = η²(1 − F_avg(1/η))(1 − E_avg,1/η) / ((1 − F_avg(η))(1 − E_avg,η)".into(),
-            "+ η²(1 − F_avg(1/η))(1 − E_avg,1/η)), which the smooth interface's balance η²(1 − F_avg(1/η)) = 1 − F_avg(η)".into(),
+            "Physically Based Shading at Imageworks\"): x = η²(1 − F_avg(1/η))(1 − E_avg,1/η) / ((1 − F_avg(η))(1 − E_avg,η) +".into(),
+            "η²(1 − F_avg(1/η))(1 − E_avg,1/η)), which the smooth interface's balance η²(1 − F_avg(1/η)) = 1 − F_avg(η)".into(),
             "reduces to (1 − E_avg,1/η) / ((1 − E_avg,η) + (1 − E_avg,1/η)). e_avg = E_avg,η and e_avg_inv = E_avg,1/η".into(),
             format!("are 2 ∫ E(μ) μ dμ of {} and {} at the same f0 and r (the `-avg` models).", enter.function, albedos.iter().find(|a| a.id == Some(leaving)).map_or(String::new(), |a| a.function.clone())),
             format!("Returns 1/2 where both 1 − E_avg are below {KULLA_CONTY_FLOOR:e} (no lobe is on there)."),

@@ -237,8 +237,8 @@ highp float ggx_dielectric_sided_normalization(highp float f0, highp float r, hi
 }
 
 // Kulla & Conty's reciprocity factor x of a rough dielectric interface (Kulla & Conty 2017, "Revisiting
-// Physically Based Shading at Imageworks"): x = eta^2(1 - F_avg(1/eta))(1 - E_avg,1/eta) / ((1 - F_avg(eta))(1 - E_avg,eta)
-// + eta^2(1 - F_avg(1/eta))(1 - E_avg,1/eta)), which the smooth interface's balance eta^2(1 - F_avg(1/eta)) = 1 - F_avg(eta)
+// Physically Based Shading at Imageworks"): x = eta^2(1 - F_avg(1/eta))(1 - E_avg,1/eta) / ((1 - F_avg(eta))(1 - E_avg,eta) +
+// eta^2(1 - F_avg(1/eta))(1 - E_avg,1/eta)), which the smooth interface's balance eta^2(1 - F_avg(1/eta)) = 1 - F_avg(eta)
 // reduces to (1 - E_avg,1/eta) / ((1 - E_avg,eta) + (1 - E_avg,1/eta)). e_avg = E_avg,eta and e_avg_inv = E_avg,1/eta
 // are 2 integral  E(mu) mu dmu of ggx_dielectric_albedo and ggx_dielectric_inv_albedo at the same f0 and r (the `-avg` models).
 // Returns 1/2 where both 1 - E_avg are below 1e-6 (no lobe is on there).

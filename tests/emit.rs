@@ -217,6 +217,44 @@ fn emitted_helpers_compute_the_papers_factors() {
             d::ggx_dielectric_normalization(f0, r, cos_o.abs()),
             1.0 / d::ggx_dielectric_albedo(f0, r, cos_o.abs()).max(1e-3)
         );
+        // Kulla & Conty 2017, rough dielectric: the lobe by side, and its reciprocal split
+        let (f_avg, e_avg, e_avg_inv) = (0.08f32, 0.93f32, 0.81f32);
+        let x = d::ggx_dielectric_kulla_conty_split(e_avg, e_avg_inv);
+        assert_eq!(x, (1.0 - e_avg_inv) / ((1.0 - e_avg) + (1.0 - e_avg_inv)));
+        let q = (1.0 - f0.sqrt()) / (1.0 + f0.sqrt()); // 1/η
+        let t_out = d::ggx_dielectric_kulla_conty_transmission(f_avg, e_avg, e_avg_inv, f0, 0.5);
+        let t_in = d::ggx_dielectric_kulla_conty_transmission(f_avg, e_avg, e_avg_inv, f0, -0.5);
+        assert_eq!(t_out, (1.0 - f_avg) * x);
+        // t_out (1 − E_avg,η) = η² t_in (1 − E_avg,1/η)
+        let balance = t_out * (1.0 - e_avg) - t_in * (1.0 - e_avg_inv) / (q * q);
+        assert!(balance.abs() < 1e-6, "{balance}");
+        for cos_i in [0.6f32, -0.6, 0.0, -1.0] {
+            let e_o = d::ggx_dielectric_sided_albedo(f0, r, cos_o);
+            let e_i = d::ggx_dielectric_sided_albedo(f0, r, cos_i);
+            let t = if cos_o >= 0.0 { t_out } else { t_in };
+            let share = if (cos_o >= 0.0) == (cos_i >= 0.0) {
+                1.0 - t
+            } else {
+                t
+            };
+            let norm = if cos_i >= 0.0 {
+                1.0 - e_avg
+            } else {
+                1.0 - e_avg_inv
+            };
+            let want = share * ((1.0 - e_o) * (1.0 - e_i)) / (std::f32::consts::PI * norm);
+            let got =
+                d::ggx_dielectric_kulla_conty_bsdf(f_avg, e_avg, e_avg_inv, f0, r, cos_o, cos_i);
+            assert!(
+                (got - want).abs() <= 1e-6 * want.abs().max(1e-3),
+                "{cos_o} {cos_i}: {got} vs {want}"
+            );
+        }
+        // off where 1 − E_avg of ωi's side is below the floor
+        assert_eq!(
+            d::ggx_dielectric_kulla_conty_bsdf(f_avg, 1.0, e_avg_inv, f0, r, cos_o, 0.5),
+            0.0
+        );
     }
 }
 

@@ -454,7 +454,7 @@ fn emitted_glsl_passes_glslang_and_spirv_val_and_rust_compiles_under_no_std() {
     if tool("glslangValidator") && tool("spirv-val") {
         for (name, src) in files.iter().filter(|(n, _)| n.ends_with(".glsl")) {
             let body = if name.starts_with("dielectric") {
-                "    color = vec4(ggx_dielectric_sided_albedo(x.x, x.y, x.z), ggx_dielectric_normalization(x.x, x.y, x.z), 0.0, 1.0);"
+                "    color = vec4(ggx_dielectric_sided_albedo(x.x, x.y, x.z), ggx_dielectric_normalization(x.x, x.y, x.z), ggx_dielectric_kulla_conty_bsdf(0.08, 0.9, 0.8, x.x, x.y, x.z, -x.z), 1.0);"
             } else if name.starts_with("two-budgets") {
                 "    color = vec4(ggx_conductor_separable_turquin_scale_rgb_a(x, x.y, x.z) + ggx_conductor_separable_turquin_scale_rgb_b(x, x.y, x.z), 1.0);"
             } else {

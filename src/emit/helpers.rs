@@ -15,7 +15,10 @@
 //! * dielectric: the normalisation 1/E (paper eq. 19), and — when the entering and leaving fits
 //!   are emitted together — the choice of table by the side of the surface ωo is on: the
 //!   entering table (relative IOR η) when n·ωo ≥ 0, the leaving one (1/η) otherwise, at
-//!   μ = |n·ωo| (paper §3.3, "it is necessary to store two tables").
+//!   μ = |n·ωo| (paper §3.3, "it is necessary to store two tables"); and with the same pair,
+//!   Kulla & Conty's multiple-scattering lobes of the rough interface in reflection and
+//!   transmission from either side, with their reciprocal energy split (Kulla & Conty 2017; the
+//!   derivation in [`crate::material::kulla_conty_dielectric`]).
 
 use super::generate::{ident, ALBEDO_FLOOR};
 use super::ir::build::*;
@@ -85,6 +88,11 @@ fn names(prefix: &str, helper: Helper) -> Vec<String> {
             format!("{prefix}_turquin_scale"),
             format!("{prefix}_turquin_scale_rgb"),
         ],
+        Helper::KullaContyDielectric { .. } => vec![
+            format!("{prefix}_kulla_conty_split"),
+            format!("{prefix}_kulla_conty_transmission"),
+            format!("{prefix}_kulla_conty_bsdf"),
+        ],
     }
 }
 
@@ -113,6 +121,7 @@ fn normalization_doc(a: &AlbedoRef, args: &str, purposes: &[Vec<String>]) -> Vec
 pub fn helpers(albedos: &[AlbedoRef], suffix: &str) -> Vec<Function> {
     let mut out = Vec::new();
     let mut pairs = Vec::new();
+    let mut glass = Vec::new();
     for a in albedos {
         let Some(id) = a.id else { continue };
         let prefix = ident(&a.model);
@@ -170,11 +179,15 @@ pub fn helpers(albedos: &[AlbedoRef], suffix: &str) -> Vec<Function> {
                 }),
                 Helper::Sided { leaving } => pairs.push((a, leaving)),
                 Helper::TangentFrameTurquin => out.extend(tangent_frame(a, &prefix, suffix)),
+                Helper::KullaContyDielectric { leaving } => glass.push((a, leaving)),
             }
         }
     }
     for (enter, leaving) in pairs {
         out.extend(sided(albedos, enter, leaving, suffix));
+    }
+    for (enter, leaving) in glass {
+        out.extend(kulla_conty_dielectric(albedos, enter, leaving, suffix));
     }
     out
 }
@@ -494,6 +507,171 @@ fn sided(
     ));
     out
 }
+
+/// The Kulla–Conty helpers of a rough dielectric interface (Kulla & Conty 2017, "Revisiting
+/// Physically Based Shading at Imageworks", the dielectric slides; derivation and furnace test in
+/// [`crate::material::kulla_conty_dielectric`]), when the entering albedo `enter` and the
+/// `leaving` one are emitted together with the side-of-surface albedo they call: the reciprocity
+/// factor x, the share t of the lost energy transmitted from ωo's side, and the lobe for any
+/// pair of directions.
+fn kulla_conty_dielectric(
+    albedos: &[AlbedoRef],
+    enter: &AlbedoRef,
+    leaving: ModelId,
+    suffix: &str,
+) -> Vec<Function> {
+    let paired = albedos
+        .iter()
+        .any(|a| a.id == Some(leaving) && a.params == enter.params);
+    let has = |p: &str| enter.params.iter().any(|q| q == p);
+    if !paired || !has("mu") || !has("f0") {
+        return vec![];
+    }
+    let prefix = ident(&enter.model);
+    let sided_name = format!("{prefix}_sided_albedo{suffix}");
+    let split_name = format!("{prefix}_kulla_conty_split{suffix}");
+    let share_name = format!("{prefix}_kulla_conty_transmission{suffix}");
+    let averages = [
+        "f_avg".to_string(),
+        "e_avg".to_string(),
+        "e_avg_inv".to_string(),
+    ];
+    let split = Function {
+        name: split_name.clone(),
+        doc: vec![
+            "Kulla & Conty's reciprocity factor x of a rough dielectric interface (Kulla & Conty 2017, \"Revisiting".into(),
+            "Physically Based Shading at Imageworks\"): x = η²(1 − F_avg(1/η))(1 − E_avg,1/η) / ((1 − F_avg(η))(1 − E_avg,η) +".into(),
+            "η²(1 − F_avg(1/η))(1 − E_avg,1/η)), which the smooth interface's balance η²(1 − F_avg(1/η)) = 1 − F_avg(η)".into(),
+            "reduces to (1 − E_avg,1/η) / ((1 − E_avg,η) + (1 − E_avg,1/η)). e_avg = E_avg,η and e_avg_inv = E_avg,1/η".into(),
+            format!("are 2 ∫ E(μ) μ dμ of {} and {} at the same f0 and r (the `-avg` models).", enter.function, albedos.iter().find(|a| a.id == Some(leaving)).map_or(String::new(), |a| a.function.clone())),
+            format!("Returns 1/2 where both 1 − E_avg are below {KULLA_CONTY_FLOOR:e} (no lobe is on there)."),
+        ],
+        params: vec!["e_avg".into(), "e_avg_inv".into()],
+        body: vec![Stmt {
+            name: "lost".into(),
+            value: add(sub(lit(1.0), var("e_avg")), sub(lit(1.0), var("e_avg_inv"))),
+            comment: Some("(1 − E_avg,η) + (1 − E_avg,1/η)".into()),
+        }],
+        result: select_ge(
+            var("lost"),
+            lit(KULLA_CONTY_FLOOR),
+            div(sub(lit(1.0), var("e_avg_inv")), var("lost")), // Kulla & Conty 2017, x
+            lit(0.5),
+        ),
+    };
+    let mut share_params = averages.to_vec();
+    share_params.extend(["f0".to_string(), "cos_o".to_string()]);
+    let share = Function {
+        name: share_name.clone(),
+        doc: vec![
+            "Share t of the energy single scattering loses that Kulla & Conty's lobes transmit, for cos_o = n·ωo".into(),
+            "(Kulla & Conty 2017): t = (1 − F_avg(η)) x from outside (cos_o ≥ 0), t = (1 − F_avg(1/η))(1 − x) =".into(),
+            "(1 − F_avg(η))(1 − x)/η² from inside, η = (1 + √f0)/(1 − √f0); 1 − t is reflected. f_avg = F_avg(η) = 2 ∫ F μ dμ".into(),
+            format!("of the interface's Fresnel from outside (the `fresnel-dielectric` model at f0); x from {split_name}."),
+            "With this split the transmitted energy balances both ways, t_out (1 − E_avg,η) = η² t_in (1 − E_avg,1/η).".into(),
+        ],
+        params: share_params,
+        body: vec![
+            Stmt {
+                name: "x".into(),
+                value: call(&split_name, vec![var("e_avg"), var("e_avg_inv")]),
+                comment: None,
+            },
+            Stmt {
+                name: "s".into(),
+                value: sqrt(max(var("f0"), lit(0.0))),
+                comment: Some("√F0; the clamp keeps the square root real".into()),
+            },
+            Stmt {
+                name: "q".into(),
+                value: div(sub(lit(1.0), var("s")), add(lit(1.0), var("s"))),
+                comment: Some("1/η = (1 − √F0)/(1 + √F0)".into()),
+            },
+        ],
+        result: select_ge(
+            var("cos_o"),
+            lit(0.0),
+            mul(sub(lit(1.0), var("f_avg")), var("x")), // Kulla & Conty 2017, from outside
+            mul(
+                mul(sub(lit(1.0), var("f_avg")), sub(lit(1.0), var("x"))),
+                mul(var("q"), var("q")),
+            ), // (1 − F_avg(1/η))(1 − x), 1 − F_avg(1/η) = (1 − F_avg(η))/η²
+        ),
+    };
+    let at = |cos: &str| {
+        call(
+            &sided_name,
+            enter
+                .params
+                .iter()
+                .map(|p| if p == "mu" { var(cos) } else { var(p) })
+                .collect(),
+        )
+    };
+    let mut params = averages.to_vec();
+    params.extend(enter.params.iter().map(|p| {
+        if p == "mu" {
+            "cos_o".to_string()
+        } else {
+            p.clone()
+        }
+    }));
+    params.push("cos_i".into());
+    let mut share_args: Vec<super::ir::Expr> = averages.iter().map(|p| var(p)).collect();
+    share_args.extend([var("f0"), var("cos_o")]);
+    let bsdf = Function {
+        name: format!("{prefix}_kulla_conty_bsdf{suffix}"),
+        doc: vec![
+            "Kulla & Conty's multiple-scattering lobe of a rough dielectric interface (Kulla & Conty 2017; Kelemen &".into(),
+            "Szirmay-Kalos 2001), cos_o = n·ωo and cos_i = n·ωi signed, the normal pointing outside: in reflection".into(),
+            "(1 − t)(1 − E_s(μo))(1 − E_s(μi)) / (π(1 − E_avg,s)), in transmission t (1 − E_s(μo))(1 − E_s'(μi)) / (π(1 − E_avg,s')),".into(),
+            format!("s the side of ωo, s' the other one, E by side from {sided_name}, t from {share_name}."),
+            "Add it to the single-scattering BSDF ρ_R + ρ_T: from either side it restores 1 − E(μo), so a white interface".into(),
+            "keeps all its energy, and its transmission is reciprocal. Energy form, as the tables: for radiance transport".into(),
+            "multiply a transmission value by 1/η² when ωo is outside and by η² when it is inside (furnace's radiance form).".into(),
+            format!("Returns 0 where the 1 − E_avg of ωi's side is below {KULLA_CONTY_FLOOR:e}; arguments as for {share_name}."),
+        ],
+        params,
+        body: vec![
+            Stmt { name: "e_o".into(), value: at("cos_o"), comment: None },
+            Stmt { name: "e_i".into(), value: at("cos_i"), comment: None },
+            Stmt {
+                name: "t".into(),
+                value: call(&share_name, share_args),
+                comment: None,
+            },
+            Stmt {
+                name: "share".into(),
+                value: select_ge(
+                    var("cos_o"),
+                    lit(0.0),
+                    select_ge(var("cos_i"), lit(0.0), sub(lit(1.0), var("t")), var("t")),
+                    select_ge(var("cos_i"), lit(0.0), var("t"), sub(lit(1.0), var("t"))),
+                ),
+                comment: Some("1 − t when ωi is on ωo's side (reflection), t across (transmission)".into()),
+            },
+            Stmt {
+                name: "one_minus_e_avg".into(),
+                value: select_ge(
+                    var("cos_i"),
+                    lit(0.0),
+                    sub(lit(1.0), var("e_avg")),
+                    sub(lit(1.0), var("e_avg_inv")),
+                ),
+                comment: Some(format!("1 − E_avg of ωi's side; guard: below {KULLA_CONTY_FLOOR:e} the lobe is off")),
+            },
+        ],
+        result: select_ge(
+            var("one_minus_e_avg"),
+            lit(KULLA_CONTY_FLOOR),
+            div(
+                mul(var("share"), mul(sub(lit(1.0), var("e_o")), sub(lit(1.0), var("e_i")))),
+                mul(lit(std::f64::consts::PI), var("one_minus_e_avg")),
+            ), // Kulla & Conty 2017, f_R and f_T
+            lit(0.0),
+        ),
+    };
+    vec![split, share, bsdf]
 
 #[cfg(test)]
 mod tests {

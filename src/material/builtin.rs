@@ -6,7 +6,7 @@
 //! | conductor | ρ_ss = D G2 / (4 μo μi), F = 1 | ρ_ss·(1 + F0(1−E)/E) = ρ_ss/E at F0 = 1; ρ_ss + f_ms (Kulla–Conty, [`super::kulla_conty`]) | eqs. 7–9, 13 |
 //! | glossy | F ρ_ss* + (1 − F(μo)) / π | F ρ_ss*/E_ss + (1 − E_spec)/π | eqs. 16–18 |
 //! | thin dielectric | F ρ_ss* + (1 − F) ρ_ss*(mirrored) | (ρ_R + ρ_T)/E_ss | §3.4, eq. 19 |
-//! | dielectric | F ρ_ss* + ρ_T (Walter eq. 21) | (ρ_R + ρ_T)/E | eq. 19 |
+//! | dielectric | F ρ_ss* + ρ_T (Walter eq. 21) | (ρ_R + ρ_T)/E; ρ_R + ρ_T + f_R + f_T (Kulla–Conty, [`super::kulla_conty_dielectric`]) | eq. 19 |
 //! | rough diffuse | FON (EON paper eq. 10) | FON + Kulla–Conty lobe from E (EON eqs. 16, 19) | — |
 //!
 //! Glossy uses two albedos: the glossy E_spec(F0, r, μ) (eq. 17) and the conductor E_ss(r, μ) of
@@ -26,6 +26,7 @@
 
 use super::furnace::average_albedo;
 use super::kulla_conty::KullaConty;
+use super::kulla_conty_dielectric::KullaContyDielectric;
 use super::{
     CompensatedBsdf, Compensation, Helper, HelperUse, Lobe, MaterialClass, MicrofacetLobe,
     Prepared, TableUse,
@@ -146,7 +147,11 @@ impl MaterialClass for Kind {
                 vec![
                     TableUse::new(
                         ModelId::ggx_dielectric(Side::Entering, smith),
-                        vec![normalization.clone(), use_(Helper::Sided { leaving }, &[])],
+                        vec![
+                            normalization.clone(),
+                            use_(Helper::Sided { leaving }, &[]),
+                            use_(Helper::KullaContyDielectric { leaving }, &[]),
+                        ],
                     ),
                     TableUse::new(leaving, vec![normalization]),
                 ]
@@ -164,10 +169,19 @@ impl MaterialClass for Kind {
     ) -> Vec<Arc<dyn CompensatedBsdf>> {
         let m = Material::new(*self, smith);
         match self {
-            Kind::Dielectric => vec![
-                Arc::new(m.with_transmission(transmission)),
-                Arc::new(m.leaving().with_transmission(transmission)),
-            ],
+            // the paper's 1/E, then Kulla & Conty's lobes (energy form only: in the radiance
+            // form no white furnace applies to transmission)
+            Kind::Dielectric => {
+                let mut v: Vec<Arc<dyn CompensatedBsdf>> = vec![
+                    Arc::new(m.with_transmission(transmission)),
+                    Arc::new(m.leaving().with_transmission(transmission)),
+                ];
+                if transmission == Transmission::Energy {
+                    v.push(Arc::new(KullaContyDielectric::new(Side::Entering, smith)));
+                    v.push(Arc::new(KullaContyDielectric::new(Side::Leaving, smith)));
+                }
+                v
+            }
             Kind::RoughDiffuse => vec![Arc::new(Material::new(
                 Kind::RoughDiffuse,
                 SmithForm::HeightCorrelated,

@@ -180,8 +180,21 @@ pub fn lobe_integrals_at(
 
 /// ⟨E⟩ = 2∫ E(r, μ) μ dμ of a 2-D (r, μ) source (Kulla & Conty 2017; paper eq. 5).
 pub fn average_albedo(albedo: &dyn Albedo, r: f64) -> f64 {
+    average_albedo_at(albedo, &[r])
+}
+
+/// ⟨E⟩ = 2∫ E(lead, μ) μ dμ of a source whose last axis is μ, the others fixed at `lead`
+/// ((r) of a 2-D source, (F0, r) of a 3-D one; Kulla & Conty 2017), by adaptive Gauss–Kronrod.
+pub fn average_albedo_at(albedo: &dyn Albedo, lead: &[f64]) -> f64 {
+    let mut x = lead.to_vec();
+    x.push(0.0);
+    let last = lead.len();
     let res = integrate(
-        |mu: f64| 2.0 * albedo.albedo(&[r, mu]) * mu,
+        |mu: f64| {
+            let mut x = x.clone();
+            x[last] = mu;
+            2.0 * albedo.albedo(&x) * mu
+        },
         &[0.0, 1.0],
         &OUTER_TOLERANCE,
     );

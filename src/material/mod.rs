@@ -20,7 +20,7 @@
 //! | conductor | ggx-conductor (r, μ) | Turquin scale; Kulla–Conty lobe, colour, diffuse weight | ρ_ss·(1 + F0(1−E)/E) = ρ_ss/E at F0 = 1; ρ_ss + F_ms f_ms ([`kulla_conty`]) | eqs. 7–9, 13; Kulla & Conty 2017 |
 //! | glossy | ggx-glossy (f0, r, μ), ggx-conductor | 1 − E_spec; 1/E_ss | F ρ_ss*/E_ss + (1 − E_spec)/π | eqs. 16–18 |
 //! | thin-dielectric | ggx-conductor (r, μ) | 1/E | (ρ_R + ρ_T)/E_ss | §3.4, eq. 19 |
-//! | dielectric | ggx-dielectric, ggx-dielectric-inv (f0, r, μ) | 1/E, by side of the surface | (ρ_R + ρ_T)/E | eq. 19, §3.3 |
+//! | dielectric | ggx-dielectric, ggx-dielectric-inv (f0, r, μ) | 1/E, by side of the surface; Kulla–Conty reflection and transmission lobes | (ρ_R + ρ_T)/E; ρ_R + ρ_T + f_R + f_T ([`kulla_conty_dielectric`]) | eq. 19, §3.3; Kulla & Conty 2017 |
 //! | rough-diffuse | oren-nayar-fon (r, μ) | — | FON + Kulla–Conty lobe from E | EON eqs. 16, 19 |
 //! | anisotropic-conductor | ggx-conductor-aniso (r, aniso, μ, φ) | E and Turquin scale at the view direction in the tangent frame | ρ_ss/E at F0 = 1 ([`anisotropic`]) | eq. 13 |
 //!
@@ -31,6 +31,7 @@ pub mod anisotropic;
 pub mod builtin;
 pub mod furnace;
 pub mod kulla_conty;
+pub mod kulla_conty_dielectric;
 pub mod microfacet;
 pub mod quad;
 mod registry;
@@ -73,6 +74,11 @@ pub enum Helper {
     /// view direction given in the tangent frame: μ and φ (reduced by the lobe's mirror
     /// symmetries to [0, π/2]) are formed from it, and E at them is emitted too.
     TangentFrameTurquin,
+    /// Kulla & Conty 2017's multiple-scattering lobe of a rough dielectric interface, in
+    /// reflection and transmission on both sides, from this table (entering) and the `leaving`
+    /// one, with the energy split that keeps the transmission reciprocal
+    /// ([`kulla_conty_dielectric`]).
+    KullaContyDielectric { leaving: ModelId },
 }
 
 /// A helper a material needs for one of its tables, and what the material does with it: the
@@ -185,13 +191,45 @@ pub enum Compensation<'a> {
 pub struct Prepared {
     /// (key, value) pairs sorted by key.
     values: Vec<(f64, f64)>,
+    /// (key, values) pairs with keys of several coordinates, sorted lexicographically.
+    keyed: Vec<(Vec<f64>, Vec<f64>)>,
+}
+
+/// Lexicographic total order of two keys.
+fn key_order(a: &[f64], b: &[f64]) -> std::cmp::Ordering {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| x.total_cmp(y))
+        .find(|o| o.is_ne())
+        .unwrap_or_else(|| a.len().cmp(&b.len()))
 }
 
 impl Prepared {
     /// From (key, value) pairs; keys are sorted and must be distinct.
     pub fn new(mut values: Vec<(f64, f64)>) -> Prepared {
         values.sort_by(|a, b| a.0.total_cmp(&b.0));
-        Prepared { values }
+        Prepared {
+            values,
+            keyed: Vec::new(),
+        }
+    }
+
+    /// From (key, values) pairs whose keys have several coordinates (e.g. (F0, r)); keys must
+    /// be distinct.
+    pub fn keyed(mut keyed: Vec<(Vec<f64>, Vec<f64>)>) -> Prepared {
+        keyed.sort_by(|a, b| key_order(&a.0, &b.0));
+        Prepared {
+            values: Vec::new(),
+            keyed,
+        }
+    }
+
+    /// The values stored for a key of several coordinates, if any.
+    pub fn get_keyed(&self, key: &[f64]) -> Option<&[f64]> {
+        self.keyed
+            .binary_search_by(|p| key_order(&p.0, key))
+            .ok()
+            .map(|k| self.keyed[k].1.as_slice())
     }
 
     /// The value stored for `key`, if any.

@@ -161,7 +161,11 @@ mod tests {
         let leave = ModelId::ggx_dielectric(Side::Leaving, sep);
         assert_eq!(
             kinds(enter),
-            [Helper::Normalization, Helper::Sided { leaving: leave }]
+            [
+                Helper::Normalization,
+                Helper::Sided { leaving: leave },
+                Helper::KullaContyDielectric { leaving: leave }
+            ]
         );
         assert_eq!(kinds(leave), [Helper::Normalization]);
         let ids =
@@ -175,7 +179,14 @@ mod tests {
                 "thin-dielectric-separable"
             ]
         );
-        assert_eq!(ids(leave), ["dielectric-inv-separable"]);
+        assert_eq!(
+            ids(leave),
+            [
+                "dielectric-inv-separable",
+                "dielectric-inv-kulla-conty-separable"
+            ]
+        );
+        // Kulla–Conty's lobes only in the energy form: no white furnace in the radiance form
         assert_eq!(
             ids(leave.with_transmission(crate::bsdf::Transmission::Radiance)),
             ["dielectric-inv-separable-radiance"]

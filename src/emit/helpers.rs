@@ -672,6 +672,7 @@ fn kulla_conty_dielectric(
         ),
     };
     vec![split, share, bsdf]
+}
 
 #[cfg(test)]
 mod tests {

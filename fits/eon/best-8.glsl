@@ -16,7 +16,7 @@
 //   r: EON roughness r, the FON weight: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational over [x0^1 x x1^4, deg <= 0 where x0 is absent]/[x0^1 x x1^0], 7 coefficients (numerator 6, denominator 1 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/eon/best-8.json (furnace 0.1.0), fit SHA-256 5e8b3cfee8120b46f9cc57a1c70ccb5a36dbbbc56e25b6f1f768ea13329209fe.
+// Source: fits/eon/best-8.json (furnace 0.1.0), fit SHA-256 0ec6641d6db35d136b115c3dd9d35938c967dbf883f19d6bc118833648106a40.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
 //   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.2e-7, shifted 1.2e-7, bernstein 1.2e-7.
 // Error of the f64 fit on its 1048576 data points: MAE 1.75e-11, max 1.12e-9 (recorded by the fitter).
@@ -31,11 +31,11 @@ highp float eon_albedo(highp float r, highp float mu) {
     highp float mu_c = max(min(mu, 1.0), 0.0);
     // numerator P, grouped by powers of the first variable
     highp float p_0 = 1.0;
-    highp float p_1 = (((-3.023899e-9 * mu_c + 5.2678186e-9) * mu_c - 2.8488425e-9) * mu_c + 4.9521753e-10) * mu_c - 5.042943e-12;
+    highp float p_1 = (((-3.023898e-9 * mu_c + 5.267817e-9) * mu_c - 2.8488412e-9) * mu_c + 4.952172e-10) * mu_c - 5.0428494e-12;
     highp float p = p_1 * r_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
     highp float q_0 = 1.0;
-    highp float q_1 = 1.280602e-11;
+    highp float q_1 = 1.2806093e-11;
     highp float q = q_1 * r_c + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -16,7 +16,7 @@
 //   r: EON roughness r, the FON weight: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
 // Fit: polynomial of degree 1, 3 coefficients (3 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD); the iterate of round 2 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.5, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/eon/best-80.json (furnace 0.1.0), fit SHA-256 6467064f43fa8f963640dd61e23877142771d07b6475be4c6f472b2fc7cd1319.
+// Source: fits/eon/best-80.json (furnace 0.1.0), fit SHA-256 6db76e9963550fe3985e599d2b7d2588d534ff6a1eb5bce2b2cfb6c1e217bc0d.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
 //   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.8e-12, shifted 1.8e-12, bernstein 1.8e-12.
 // Error of the f64 fit on its 1048576 data points: MAE 1.35e-11, max 1.24e-9 (recorded by the fitter).
@@ -32,8 +32,8 @@ highp float eon_albedo(highp float r, highp float mu) {
     // t = sqrt(mu)
     highp float mu_t = sqrt(mu_c);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = -1.3779334e-12 * mu_t + 1.0;
-    highp float p_1 = -1.950205e-12;
+    highp float p_0 = -1.3774389e-12 * mu_t + 1.0;
+    highp float p_1 = -1.948275e-12;
     highp float p = p_1 * r_c + p_0;
     highp float e = p;
     return max(min(e, 1.0), 0.0);

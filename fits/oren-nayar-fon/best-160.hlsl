@@ -15,15 +15,15 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 ecd5b7f507a8d6a61dd32c466e5f92543799059d3636af8022fdda5a737ee5ec.
+// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 7b2d5d52194eccb029ab5ec568e021c8e6b723b096934559653228f57fd7acb8.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.0e-2, shifted 9.7e-5, bernstein 5.4e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.82e-9, max 5.38e-7 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.46e-7 (every op rounded, as this Rust), 5.46e-7 (fused multiply-add), 6.65e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.19e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 5105 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.81e-9, max 5.38e-7; this f32 code MAE 6.87e-8, max 6.46e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.5e-9 on the measurement grid.
-// Denominator proved >= 1.269e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.0e-2, shifted 2.4e-4, bernstein 4.8e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.28e-9, max 4.91e-7 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.41e-7 (every op rounded, as this Rust), 5.03e-7 (fused multiply-add), 6.00e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.22e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 4111 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.28e-9, max 4.91e-7; this f32 code MAE 6.85e-8, max 5.76e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.3e-9 on the measurement grid.
+// Denominator proved >= 3.320e-3 on the domain (Bernstein certificate), so the division is safe.
 float oren_nayar_fon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -87,30 +87,30 @@ float oren_nayar_fon_albedo(float r, float mu) {
     float mu_b8 = mu_u8 * mu_v2;
     float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 1.0f * mu_v10 + 139.08817f * mu_b1 + 186.78807f * mu_b2 - 257.8611f * mu_b3 + 285.62708f * mu_b4 + 2113.1812f * mu_b5 + 2454.84f * mu_b6 + 1042.0208f * mu_b7 + 151.08752f * mu_b8 + 6.0365486f * mu_b9 + 0.038154967f * mu_u10;
-    float p_1 = 13.99034f * mu_v10 + 1413.742f * mu_b1 + 1699.7977f * mu_b2 - 3264.9827f * mu_b3 + 1830.6329f * mu_b4 + 19721.736f * mu_b5 + 23021.736f * mu_b6 + 9599.16f * mu_b7 + 1320.8505f * mu_b8 + 48.473663f * mu_b9 + 0.27473512f * mu_u10;
-    float p_2 = 87.01405f * mu_v10 + 6536.2295f * mu_b1 + 7407.3677f * mu_b2 - 15880.283f * mu_b3 + 7443.77f * mu_b4 + 86924.97f * mu_b5 + 99942.82f * mu_b6 + 40796.535f * mu_b7 + 5337.027f * mu_b8 + 180.28444f * mu_b9 + 0.92514795f * mu_u10;
-    float p_3 = 302.79837f * mu_v10 + 17958.023f * mu_b1 + 19874.506f * mu_b2 - 41989.957f * mu_b3 + 25473.553f * mu_b4 + 236465.5f * mu_b5 + 263670.44f * mu_b6 + 105194.95f * mu_b7 + 13145.727f * mu_b8 + 410.58173f * mu_b9 + 1.9469452f * mu_u10;
-    float p_4 = 652.292f * mu_v10 + 32262.28f * mu_b1 + 35358.47f * mu_b2 - 69157.99f * mu_b3 + 64138.03f * mu_b4 + 434804.66f * mu_b5 + 466067.0f * mu_b6 + 181781.42f * mu_b7 + 21859.95f * mu_b8 + 635.9243f * mu_b9 + 2.7759411f * mu_u10;
-    float p_5 = 917.85126f * mu_v10 + 39405.453f * mu_b1 + 42488.1f * mu_b2 - 76098.695f * mu_b3 + 107933.79f * mu_b4 + 558282.56f * mu_b5 + 573890.56f * mu_b6 + 219249.64f * mu_b7 + 25611.639f * mu_b8 + 703.14197f * mu_b9 + 2.7936027f * mu_u10;
-    float p_6 = 863.49084f * mu_v10 + 33000.86f * mu_b1 + 34066.414f * mu_b2 - 58472.66f * mu_b3 + 118669.7f * mu_b4 + 501946.84f * mu_b5 + 496062.6f * mu_b6 + 186226.5f * mu_b7 + 21354.28f * mu_b8 + 564.7696f * mu_b9 + 2.0704167f * mu_u10;
-    float p_7 = 540.8886f * mu_v10 + 18628.533f * mu_b1 + 17390.62f * mu_b2 - 32392.547f * mu_b3 + 83889.836f * mu_b4 + 309531.3f * mu_b5 + 295788.03f * mu_b6 + 109544.19f * mu_b7 + 12456.253f * mu_b8 + 325.42828f * mu_b9 + 1.1571199f * mu_u10;
-    float p_8 = 216.86467f * mu_v10 + 6740.4717f * mu_b1 + 5022.4067f * mu_b2 - 13037.039f * mu_b3 + 36484.504f * mu_b4 + 124430.92f * mu_b5 + 115880.52f * mu_b6 + 42516.02f * mu_b7 + 4834.4097f * mu_b8 + 127.61399f * mu_b9 + 0.4697148f * mu_u10;
-    float p_9 = 50.128654f * mu_v10 + 1396.0265f * mu_b1 + 555.8506f * mu_b2 - 3548.24f * mu_b3 + 8752.923f * mu_b4 + 29247.262f * mu_b5 + 26798.482f * mu_b6 + 9781.1455f * mu_b7 + 1118.0085f * mu_b8 + 30.165525f * mu_b9 + 0.11959141f * mu_u10;
-    float p_10 = 4.99567f * mu_v10 + 122.84999f * mu_b1 - 32.569275f * mu_b2 - 488.59143f * mu_b3 + 859.08826f * mu_b4 + 3027.811f * mu_b5 + 2761.4683f * mu_b6 + 1006.5722f * mu_b7 + 115.72374f * mu_b8 + 3.1619296f * mu_b9 + 0.0125862425f * mu_u10;
+    float p_0 = 1.0f * mu_v10 + 29.472298f * mu_b1 + 17.42078f * mu_b2 - 99.2155f * mu_b3 + 82.41676f * mu_b4 + 562.7477f * mu_b5 + 611.93677f * mu_b6 + 237.34694f * mu_b7 + 28.617155f * mu_b8 + 0.8717732f * mu_b9 + 0.0041753766f * mu_u10;
+    float p_1 = 10.074699f * mu_v10 + 309.68967f * mu_b1 + 208.79898f * mu_b2 - 922.17883f * mu_b3 + 1018.6601f * mu_b4 + 5824.4844f * mu_b5 + 6172.004f * mu_b6 + 2368.9688f * mu_b7 + 281.3929f * mu_b8 + 8.278815f * mu_b9 + 0.036900256f * mu_u10;
+    float p_2 = 43.16623f * mu_v10 + 1434.8835f * mu_b1 + 991.6529f * mu_b2 - 4046.4607f * mu_b3 + 5213.6216f * mu_b4 + 26936.281f * mu_b5 + 27962.31f * mu_b6 + 10641.091f * mu_b7 + 1248.4657f * mu_b8 + 35.813805f * mu_b9 + 0.15369304f * mu_u10;
+    float p_3 = 108.31072f * mu_v10 + 3911.5725f * mu_b1 + 2663.3943f * mu_b2 - 10764.367f * mu_b3 + 15316.921f * mu_b4 + 73634.39f * mu_b5 + 75067.28f * mu_b6 + 28352.785f * mu_b7 + 3291.1526f * mu_b8 + 92.37364f * mu_b9 + 0.39035517f * mu_u10;
+    float p_4 = 184.14827f * mu_v10 + 7015.435f * mu_b1 + 4709.0054f * mu_b2 - 18776.256f * mu_b3 + 29382.004f * mu_b4 + 132232.39f * mu_b5 + 132453.0f * mu_b6 + 49677.664f * mu_b7 + 5713.5586f * mu_b8 + 156.9134f * mu_b9 + 0.645634f * mu_u10;
+    float p_5 = 228.77025f * mu_v10 + 8697.758f * mu_b1 + 5899.2144f * mu_b2 - 22085.367f * mu_b3 + 38933.992f * mu_b4 + 163364.56f * mu_b5 + 160694.28f * mu_b6 + 59868.363f * mu_b7 + 6835.7354f * mu_b8 + 183.94075f * mu_b9 + 0.7233917f * mu_u10;
+    float p_6 = 209.88216f * mu_v10 + 7548.7935f * mu_b1 + 5301.8403f * mu_b2 - 17669.7f * mu_b3 + 36085.46f * mu_b4 + 140674.77f * mu_b5 + 135813.19f * mu_b6 + 50285.113f * mu_b7 + 5715.869f * mu_b8 + 151.61896f * mu_b9 + 0.5689914f * mu_u10;
+    float p_7 = 134.90994f * mu_v10 + 4497.2f * mu_b1 + 3259.7112f * mu_b2 - 9643.013f * mu_b3 + 22834.941f * mu_b4 + 83203.52f * mu_b5 + 78890.45f * mu_b6 + 29053.53f * mu_b7 + 3298.8018f * mu_b8 + 87.204895f * mu_b9 + 0.3204215f * mu_u10;
+    float p_8 = 54.476467f * mu_v10 + 1733.7609f * mu_b1 + 1222.9948f * mu_b2 - 3605.229f * mu_b3 + 9238.75f * mu_b4 + 32185.617f * mu_b5 + 30062.924f * mu_b6 + 11028.475f * mu_b7 + 1254.5452f * mu_b8 + 33.431126f * mu_b9 + 0.12596709f * mu_u10;
+    float p_9 = 11.271313f * mu_v10 + 380.4813f * mu_b1 + 216.61617f * mu_b2 - 904.6802f * mu_b3 + 2083.181f * mu_b4 + 7287.7183f * mu_b5 + 6752.55f * mu_b6 + 2472.9229f * mu_b7 + 282.1217f * mu_b8 + 7.603053f * mu_b9 + 0.030281048f * mu_u10;
+    float p_10 = 0.663796f * mu_v10 + 34.356155f * mu_b1 + 4.8199186f * mu_b2 - 122.74685f * mu_b3 + 185.44096f * mu_b4 + 722.8793f * mu_b5 + 673.21686f * mu_b6 + 246.87949f * mu_b7 + 28.148146f * mu_b8 + 0.7519824f * mu_b9 + 0.0028794864f * mu_u10;
     float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v10 + 139.08817f * mu_b1 + 186.78807f * mu_b2 - 257.86118f * mu_b3 + 285.62726f * mu_b4 + 2113.181f * mu_b5 + 2454.8403f * mu_b6 + 1042.0206f * mu_b7 + 151.08752f * mu_b8 + 6.036548f * mu_b9 + 0.038154967f * mu_u10;
-    float q_1 = 13.99034f * mu_v10 + 1414.0603f * mu_b1 + 1743.8958f * mu_b2 - 3229.9214f * mu_b3 + 1694.9156f * mu_b4 + 19926.357f * mu_b5 + 23600.947f * mu_b6 + 9888.306f * mu_b7 + 1364.1401f * mu_b8 + 50.210663f * mu_b9 + 0.28571588f * mu_u10;
-    float q_2 = 87.01405f * mu_v10 + 6540.273f * mu_b1 + 7798.2383f * mu_b2 - 15618.947f * mu_b3 + 6074.95f * mu_b4 + 88480.62f * mu_b5 + 104798.58f * mu_b6 + 43176.453f * mu_b7 + 5672.3477f * mu_b8 + 192.49583f * mu_b9 + 0.99323434f * mu_u10;
-    float q_3 = 302.79834f * mu_v10 + 17980.516f * mu_b1 + 21437.76f * mu_b2 - 40997.617f * mu_b3 + 19943.408f * mu_b4 + 242436.61f * mu_b5 + 282453.9f * mu_b6 + 114181.12f * mu_b7 + 14340.8f * mu_b8 + 450.24854f * mu_b9 + 2.1451101f * mu_u10;
-    float q_4 = 652.292f * mu_v10 + 32329.701f * mu_b1 + 39015.77f * mu_b2 - 66792.914f * mu_b3 + 51875.07f * mu_b4 + 449622.94f * mu_b5 + 509798.94f * mu_b6 + 202154.31f * mu_b7 + 24435.656f * mu_b8 + 714.4065f * mu_b9 + 3.1380925f * mu_u10;
-    float q_5 = 917.8512f * mu_v10 + 39526.26f * mu_b1 + 47955.152f * mu_b2 - 72461.63f * mu_b3 + 91072.81f * mu_b4 + 583300.56f * mu_b5 + 640898.5f * mu_b6 + 249679.95f * mu_b7 + 29308.117f * mu_b8 + 807.6546f * mu_b9 + 3.2303545f * mu_u10;
-    float q_6 = 863.49084f * mu_v10 + 33137.445f * mu_b1 + 39447.27f * mu_b2 - 54924.176f * mu_b3 + 103435.06f * mu_b4 + 530592.8f * mu_b5 + 565589.3f * mu_b6 + 217124.56f * mu_b7 + 25008.121f * mu_b8 + 662.59766f * mu_b9 + 2.4376411f * mu_u10;
-    float q_7 = 540.8886f * mu_v10 + 18727.498f * mu_b1 + 20858.389f * mu_b2 - 30316.531f * mu_b3 + 74589.86f * mu_b4 + 331223.1f * mu_b5 + 344285.47f * mu_b6 + 130753.586f * mu_b7 + 14931.746f * mu_b8 + 390.124f * mu_b9 + 1.3857473f * mu_u10;
-    float q_8 = 216.86467f * mu_v10 + 6785.1987f * mu_b1 + 6423.368f * mu_b2 - 12420.075f * mu_b3 + 32638.234f * mu_b4 + 134741.77f * mu_b5 + 137661.05f * mu_b6 + 51949.68f * mu_b7 + 5934.2764f * mu_b8 + 156.56676f * mu_b9 + 0.5740999f * mu_u10;
-    float q_9 = 50.128654f * mu_v10 + 1407.4581f * mu_b1 + 873.6583f * mu_b2 - 3514.9275f * mu_b3 + 7729.9263f * mu_b4 + 32002.033f * mu_b5 + 32473.55f * mu_b6 + 12231.356f * mu_b7 + 1405.6052f * mu_b8 + 37.936172f * mu_b9 + 0.15038681f * mu_u10;
-    float q_10 = 4.9956703f * mu_v10 + 124.084785f * mu_b1 - 2.5749786f * mu_b2 - 506.6379f * mu_b3 + 722.0021f * mu_b4 + 3337.341f * mu_b5 + 3409.717f * mu_b6 + 1287.305f * mu_b7 + 148.9249f * mu_b8 + 4.071817f * mu_b9 + 0.01620848f * mu_u10;
+    float q_0 = 1.0f * mu_v10 + 29.472298f * mu_b1 + 17.42078f * mu_b2 - 99.2155f * mu_b3 + 82.41679f * mu_b4 + 562.7476f * mu_b5 + 611.9368f * mu_b6 + 237.34694f * mu_b7 + 28.617157f * mu_b8 + 0.8717732f * mu_b9 + 0.0041753766f * mu_u10;
+    float q_1 = 10.074699f * mu_v10 + 310.008f * mu_b1 + 218.00558f * mu_b2 - 921.9234f * mu_b3 + 980.12354f * mu_b4 + 5884.853f * mu_b5 + 6320.827f * mu_b6 + 2435.481f * mu_b7 + 289.60464f * mu_b8 + 8.529678f * mu_b9 + 0.0381019f * mu_u10;
+    float q_2 = 43.16623f * mu_v10 + 1437.6805f * mu_b1 + 1076.7151f * mu_b2 - 4032.9766f * mu_b3 + 4890.3223f * mu_b4 + 27503.33f * mu_b5 + 29310.793f * mu_b6 + 11238.424f * mu_b7 + 1321.0083f * mu_b8 + 37.94529f * mu_b9 + 0.16311105f * mu_u10;
+    float q_3 = 108.31072f * mu_v10 + 3921.7112f * mu_b1 + 3003.9392f * mu_b2 - 10696.239f * mu_b3 + 14067.242f * mu_b4 + 75956.11f * mu_b5 + 80482.98f * mu_b6 + 30736.963f * mu_b7 + 3576.91f * mu_b8 + 100.54815f * mu_b9 + 0.4251691f * mu_u10;
+    float q_4 = 184.14827f * mu_v10 + 7036.8555f * mu_b1 + 5499.856f * mu_b2 - 18608.102f * mu_b3 + 26526.021f * mu_b4 + 137747.58f * mu_b5 + 145140.95f * mu_b6 + 55236.164f * mu_b7 + 6372.3535f * mu_b8 + 175.32083f * mu_b9 + 0.723161f * mu_u10;
+    float q_5 = 228.77025f * mu_v10 + 8728.789f * mu_b1 + 7088.503f * mu_b2 - 21806.342f * mu_b3 + 34760.285f * mu_b4 + 171824.16f * mu_b5 + 179849.06f * mu_b6 + 68223.43f * mu_b7 + 7816.759f * mu_b8 + 210.68748f * mu_b9 + 0.83167547f * mu_u10;
+    float q_6 = 209.88216f * mu_v10 + 7581.652f * mu_b1 + 6508.795f * mu_b2 - 17329.723f * mu_b3 + 32081.975f * mu_b4 + 149404.89f * mu_b5 + 155165.8f * mu_b6 + 58693.066f * mu_b7 + 6696.809f * mu_b8 + 177.80429f * mu_b9 + 0.6688941f * mu_u10;
+    float q_7 = 134.90994f * mu_v10 + 4521.694f * mu_b1 + 4082.0764f * mu_b2 - 9363.28f * mu_b3 + 20305.057f * mu_b4 + 89249.77f * mu_b5 + 91972.125f * mu_b6 + 34719.45f * mu_b7 + 3958.445f * mu_b8 + 104.650795f * mu_b9 + 0.38427058f * mu_u10;
+    float q_8 = 54.476467f * mu_v10 + 1745.1617f * mu_b1 + 1579.7108f * mu_b2 - 3475.3655f * mu_b3 + 8195.067f * mu_b4 + 34864.574f * mu_b5 + 35751.176f * mu_b6 + 13489.071f * mu_b7 + 1541.701f * mu_b8 + 41.080063f * mu_b9 + 0.1543335f * mu_u10;
+    float q_9 = 11.271313f * mu_v10 + 383.1399f * mu_b1 + 303.23578f * mu_b2 - 881.8189f * mu_b3 + 1812.2329f * mu_b4 + 7961.392f * mu_b5 + 8186.762f * mu_b6 + 3094.5227f * mu_b7 + 354.9957f * mu_b8 + 9.574537f * mu_b9 + 0.03816704f * mu_u10;
+    float q_10 = 0.663796f * mu_v10 + 34.52023f * mu_b1 + 13.262521f * mu_b2 - 124.223236f * mu_b3 + 149.13557f * mu_b4 + 793.1697f * mu_b5 + 831.0891f * mu_b6 + 315.77194f * mu_b7 + 36.22483f * mu_b8 + 0.9683767f * mu_b9 + 0.0037081835f * mu_u10;
     float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

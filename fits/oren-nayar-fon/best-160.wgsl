@@ -12,15 +12,15 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 ecd5b7f507a8d6a61dd32c466e5f92543799059d3636af8022fdda5a737ee5ec.
+// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 7b2d5d52194eccb029ab5ec568e021c8e6b723b096934559653228f57fd7acb8.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.0e-2, shifted 9.7e-5, bernstein 5.4e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.82e-9, max 5.38e-7 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.46e-7 (every op rounded, as this Rust), 5.46e-7 (fused multiply-add), 6.65e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.19e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 5105 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.81e-9, max 5.38e-7; this f32 code MAE 6.87e-8, max 6.46e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.5e-9 on the measurement grid.
-// Denominator proved >= 1.269e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.0e-2, shifted 2.4e-4, bernstein 4.8e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.28e-9, max 4.91e-7 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.41e-7 (every op rounded, as this Rust), 5.03e-7 (fused multiply-add), 6.00e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.22e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 4111 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.28e-9, max 4.91e-7; this f32 code MAE 6.85e-8, max 5.76e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.3e-9 on the measurement grid.
+// Denominator proved >= 3.320e-3 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -84,30 +84,30 @@ fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b8 = mu_u8 * mu_v2;
     let mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0 * mu_v10 + 139.08817 * mu_b1 + 186.78807 * mu_b2 - 257.8611 * mu_b3 + 285.62708 * mu_b4 + 2113.1812 * mu_b5 + 2454.84 * mu_b6 + 1042.0208 * mu_b7 + 151.08752 * mu_b8 + 6.0365486 * mu_b9 + 0.038154967 * mu_u10;
-    let p_1 = 13.99034 * mu_v10 + 1413.742 * mu_b1 + 1699.7977 * mu_b2 - 3264.9827 * mu_b3 + 1830.6329 * mu_b4 + 19721.736 * mu_b5 + 23021.736 * mu_b6 + 9599.16 * mu_b7 + 1320.8505 * mu_b8 + 48.473663 * mu_b9 + 0.27473512 * mu_u10;
-    let p_2 = 87.01405 * mu_v10 + 6536.2295 * mu_b1 + 7407.3677 * mu_b2 - 15880.283 * mu_b3 + 7443.77 * mu_b4 + 86924.97 * mu_b5 + 99942.82 * mu_b6 + 40796.535 * mu_b7 + 5337.027 * mu_b8 + 180.28444 * mu_b9 + 0.92514795 * mu_u10;
-    let p_3 = 302.79837 * mu_v10 + 17958.023 * mu_b1 + 19874.506 * mu_b2 - 41989.957 * mu_b3 + 25473.553 * mu_b4 + 236465.5 * mu_b5 + 263670.44 * mu_b6 + 105194.95 * mu_b7 + 13145.727 * mu_b8 + 410.58173 * mu_b9 + 1.9469452 * mu_u10;
-    let p_4 = 652.292 * mu_v10 + 32262.28 * mu_b1 + 35358.47 * mu_b2 - 69157.99 * mu_b3 + 64138.03 * mu_b4 + 434804.66 * mu_b5 + 466067.0 * mu_b6 + 181781.42 * mu_b7 + 21859.95 * mu_b8 + 635.9243 * mu_b9 + 2.7759411 * mu_u10;
-    let p_5 = 917.85126 * mu_v10 + 39405.453 * mu_b1 + 42488.1 * mu_b2 - 76098.695 * mu_b3 + 107933.79 * mu_b4 + 558282.56 * mu_b5 + 573890.56 * mu_b6 + 219249.64 * mu_b7 + 25611.639 * mu_b8 + 703.14197 * mu_b9 + 2.7936027 * mu_u10;
-    let p_6 = 863.49084 * mu_v10 + 33000.86 * mu_b1 + 34066.414 * mu_b2 - 58472.66 * mu_b3 + 118669.7 * mu_b4 + 501946.84 * mu_b5 + 496062.6 * mu_b6 + 186226.5 * mu_b7 + 21354.28 * mu_b8 + 564.7696 * mu_b9 + 2.0704167 * mu_u10;
-    let p_7 = 540.8886 * mu_v10 + 18628.533 * mu_b1 + 17390.62 * mu_b2 - 32392.547 * mu_b3 + 83889.836 * mu_b4 + 309531.3 * mu_b5 + 295788.03 * mu_b6 + 109544.19 * mu_b7 + 12456.253 * mu_b8 + 325.42828 * mu_b9 + 1.1571199 * mu_u10;
-    let p_8 = 216.86467 * mu_v10 + 6740.4717 * mu_b1 + 5022.4067 * mu_b2 - 13037.039 * mu_b3 + 36484.504 * mu_b4 + 124430.92 * mu_b5 + 115880.52 * mu_b6 + 42516.02 * mu_b7 + 4834.4097 * mu_b8 + 127.61399 * mu_b9 + 0.4697148 * mu_u10;
-    let p_9 = 50.128654 * mu_v10 + 1396.0265 * mu_b1 + 555.8506 * mu_b2 - 3548.24 * mu_b3 + 8752.923 * mu_b4 + 29247.262 * mu_b5 + 26798.482 * mu_b6 + 9781.1455 * mu_b7 + 1118.0085 * mu_b8 + 30.165525 * mu_b9 + 0.11959141 * mu_u10;
-    let p_10 = 4.99567 * mu_v10 + 122.84999 * mu_b1 - 32.569275 * mu_b2 - 488.59143 * mu_b3 + 859.08826 * mu_b4 + 3027.811 * mu_b5 + 2761.4683 * mu_b6 + 1006.5722 * mu_b7 + 115.72374 * mu_b8 + 3.1619296 * mu_b9 + 0.0125862425 * mu_u10;
+    let p_0 = 1.0 * mu_v10 + 29.472298 * mu_b1 + 17.42078 * mu_b2 - 99.2155 * mu_b3 + 82.41676 * mu_b4 + 562.7477 * mu_b5 + 611.93677 * mu_b6 + 237.34694 * mu_b7 + 28.617155 * mu_b8 + 0.8717732 * mu_b9 + 0.0041753766 * mu_u10;
+    let p_1 = 10.074699 * mu_v10 + 309.68967 * mu_b1 + 208.79898 * mu_b2 - 922.17883 * mu_b3 + 1018.6601 * mu_b4 + 5824.4844 * mu_b5 + 6172.004 * mu_b6 + 2368.9688 * mu_b7 + 281.3929 * mu_b8 + 8.278815 * mu_b9 + 0.036900256 * mu_u10;
+    let p_2 = 43.16623 * mu_v10 + 1434.8835 * mu_b1 + 991.6529 * mu_b2 - 4046.4607 * mu_b3 + 5213.6216 * mu_b4 + 26936.281 * mu_b5 + 27962.31 * mu_b6 + 10641.091 * mu_b7 + 1248.4657 * mu_b8 + 35.813805 * mu_b9 + 0.15369304 * mu_u10;
+    let p_3 = 108.31072 * mu_v10 + 3911.5725 * mu_b1 + 2663.3943 * mu_b2 - 10764.367 * mu_b3 + 15316.921 * mu_b4 + 73634.39 * mu_b5 + 75067.28 * mu_b6 + 28352.785 * mu_b7 + 3291.1526 * mu_b8 + 92.37364 * mu_b9 + 0.39035517 * mu_u10;
+    let p_4 = 184.14827 * mu_v10 + 7015.435 * mu_b1 + 4709.0054 * mu_b2 - 18776.256 * mu_b3 + 29382.004 * mu_b4 + 132232.39 * mu_b5 + 132453.0 * mu_b6 + 49677.664 * mu_b7 + 5713.5586 * mu_b8 + 156.9134 * mu_b9 + 0.645634 * mu_u10;
+    let p_5 = 228.77025 * mu_v10 + 8697.758 * mu_b1 + 5899.2144 * mu_b2 - 22085.367 * mu_b3 + 38933.992 * mu_b4 + 163364.56 * mu_b5 + 160694.28 * mu_b6 + 59868.363 * mu_b7 + 6835.7354 * mu_b8 + 183.94075 * mu_b9 + 0.7233917 * mu_u10;
+    let p_6 = 209.88216 * mu_v10 + 7548.7935 * mu_b1 + 5301.8403 * mu_b2 - 17669.7 * mu_b3 + 36085.46 * mu_b4 + 140674.77 * mu_b5 + 135813.19 * mu_b6 + 50285.113 * mu_b7 + 5715.869 * mu_b8 + 151.61896 * mu_b9 + 0.5689914 * mu_u10;
+    let p_7 = 134.90994 * mu_v10 + 4497.2 * mu_b1 + 3259.7112 * mu_b2 - 9643.013 * mu_b3 + 22834.941 * mu_b4 + 83203.52 * mu_b5 + 78890.45 * mu_b6 + 29053.53 * mu_b7 + 3298.8018 * mu_b8 + 87.204895 * mu_b9 + 0.3204215 * mu_u10;
+    let p_8 = 54.476467 * mu_v10 + 1733.7609 * mu_b1 + 1222.9948 * mu_b2 - 3605.229 * mu_b3 + 9238.75 * mu_b4 + 32185.617 * mu_b5 + 30062.924 * mu_b6 + 11028.475 * mu_b7 + 1254.5452 * mu_b8 + 33.431126 * mu_b9 + 0.12596709 * mu_u10;
+    let p_9 = 11.271313 * mu_v10 + 380.4813 * mu_b1 + 216.61617 * mu_b2 - 904.6802 * mu_b3 + 2083.181 * mu_b4 + 7287.7183 * mu_b5 + 6752.55 * mu_b6 + 2472.9229 * mu_b7 + 282.1217 * mu_b8 + 7.603053 * mu_b9 + 0.030281048 * mu_u10;
+    let p_10 = 0.663796 * mu_v10 + 34.356155 * mu_b1 + 4.8199186 * mu_b2 - 122.74685 * mu_b3 + 185.44096 * mu_b4 + 722.8793 * mu_b5 + 673.21686 * mu_b6 + 246.87949 * mu_b7 + 28.148146 * mu_b8 + 0.7519824 * mu_b9 + 0.0028794864 * mu_u10;
     let p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v10 + 139.08817 * mu_b1 + 186.78807 * mu_b2 - 257.86118 * mu_b3 + 285.62726 * mu_b4 + 2113.181 * mu_b5 + 2454.8403 * mu_b6 + 1042.0206 * mu_b7 + 151.08752 * mu_b8 + 6.036548 * mu_b9 + 0.038154967 * mu_u10;
-    let q_1 = 13.99034 * mu_v10 + 1414.0603 * mu_b1 + 1743.8958 * mu_b2 - 3229.9214 * mu_b3 + 1694.9156 * mu_b4 + 19926.357 * mu_b5 + 23600.947 * mu_b6 + 9888.306 * mu_b7 + 1364.1401 * mu_b8 + 50.210663 * mu_b9 + 0.28571588 * mu_u10;
-    let q_2 = 87.01405 * mu_v10 + 6540.273 * mu_b1 + 7798.2383 * mu_b2 - 15618.947 * mu_b3 + 6074.95 * mu_b4 + 88480.62 * mu_b5 + 104798.58 * mu_b6 + 43176.453 * mu_b7 + 5672.3477 * mu_b8 + 192.49583 * mu_b9 + 0.99323434 * mu_u10;
-    let q_3 = 302.79834 * mu_v10 + 17980.516 * mu_b1 + 21437.76 * mu_b2 - 40997.617 * mu_b3 + 19943.408 * mu_b4 + 242436.61 * mu_b5 + 282453.9 * mu_b6 + 114181.12 * mu_b7 + 14340.8 * mu_b8 + 450.24854 * mu_b9 + 2.1451101 * mu_u10;
-    let q_4 = 652.292 * mu_v10 + 32329.701 * mu_b1 + 39015.77 * mu_b2 - 66792.914 * mu_b3 + 51875.07 * mu_b4 + 449622.94 * mu_b5 + 509798.94 * mu_b6 + 202154.31 * mu_b7 + 24435.656 * mu_b8 + 714.4065 * mu_b9 + 3.1380925 * mu_u10;
-    let q_5 = 917.8512 * mu_v10 + 39526.26 * mu_b1 + 47955.152 * mu_b2 - 72461.63 * mu_b3 + 91072.81 * mu_b4 + 583300.56 * mu_b5 + 640898.5 * mu_b6 + 249679.95 * mu_b7 + 29308.117 * mu_b8 + 807.6546 * mu_b9 + 3.2303545 * mu_u10;
-    let q_6 = 863.49084 * mu_v10 + 33137.445 * mu_b1 + 39447.27 * mu_b2 - 54924.176 * mu_b3 + 103435.06 * mu_b4 + 530592.8 * mu_b5 + 565589.3 * mu_b6 + 217124.56 * mu_b7 + 25008.121 * mu_b8 + 662.59766 * mu_b9 + 2.4376411 * mu_u10;
-    let q_7 = 540.8886 * mu_v10 + 18727.498 * mu_b1 + 20858.389 * mu_b2 - 30316.531 * mu_b3 + 74589.86 * mu_b4 + 331223.1 * mu_b5 + 344285.47 * mu_b6 + 130753.586 * mu_b7 + 14931.746 * mu_b8 + 390.124 * mu_b9 + 1.3857473 * mu_u10;
-    let q_8 = 216.86467 * mu_v10 + 6785.1987 * mu_b1 + 6423.368 * mu_b2 - 12420.075 * mu_b3 + 32638.234 * mu_b4 + 134741.77 * mu_b5 + 137661.05 * mu_b6 + 51949.68 * mu_b7 + 5934.2764 * mu_b8 + 156.56676 * mu_b9 + 0.5740999 * mu_u10;
-    let q_9 = 50.128654 * mu_v10 + 1407.4581 * mu_b1 + 873.6583 * mu_b2 - 3514.9275 * mu_b3 + 7729.9263 * mu_b4 + 32002.033 * mu_b5 + 32473.55 * mu_b6 + 12231.356 * mu_b7 + 1405.6052 * mu_b8 + 37.936172 * mu_b9 + 0.15038681 * mu_u10;
-    let q_10 = 4.9956703 * mu_v10 + 124.084785 * mu_b1 - 2.5749786 * mu_b2 - 506.6379 * mu_b3 + 722.0021 * mu_b4 + 3337.341 * mu_b5 + 3409.717 * mu_b6 + 1287.305 * mu_b7 + 148.9249 * mu_b8 + 4.071817 * mu_b9 + 0.01620848 * mu_u10;
+    let q_0 = 1.0 * mu_v10 + 29.472298 * mu_b1 + 17.42078 * mu_b2 - 99.2155 * mu_b3 + 82.41679 * mu_b4 + 562.7476 * mu_b5 + 611.9368 * mu_b6 + 237.34694 * mu_b7 + 28.617157 * mu_b8 + 0.8717732 * mu_b9 + 0.0041753766 * mu_u10;
+    let q_1 = 10.074699 * mu_v10 + 310.008 * mu_b1 + 218.00558 * mu_b2 - 921.9234 * mu_b3 + 980.12354 * mu_b4 + 5884.853 * mu_b5 + 6320.827 * mu_b6 + 2435.481 * mu_b7 + 289.60464 * mu_b8 + 8.529678 * mu_b9 + 0.0381019 * mu_u10;
+    let q_2 = 43.16623 * mu_v10 + 1437.6805 * mu_b1 + 1076.7151 * mu_b2 - 4032.9766 * mu_b3 + 4890.3223 * mu_b4 + 27503.33 * mu_b5 + 29310.793 * mu_b6 + 11238.424 * mu_b7 + 1321.0083 * mu_b8 + 37.94529 * mu_b9 + 0.16311105 * mu_u10;
+    let q_3 = 108.31072 * mu_v10 + 3921.7112 * mu_b1 + 3003.9392 * mu_b2 - 10696.239 * mu_b3 + 14067.242 * mu_b4 + 75956.11 * mu_b5 + 80482.98 * mu_b6 + 30736.963 * mu_b7 + 3576.91 * mu_b8 + 100.54815 * mu_b9 + 0.4251691 * mu_u10;
+    let q_4 = 184.14827 * mu_v10 + 7036.8555 * mu_b1 + 5499.856 * mu_b2 - 18608.102 * mu_b3 + 26526.021 * mu_b4 + 137747.58 * mu_b5 + 145140.95 * mu_b6 + 55236.164 * mu_b7 + 6372.3535 * mu_b8 + 175.32083 * mu_b9 + 0.723161 * mu_u10;
+    let q_5 = 228.77025 * mu_v10 + 8728.789 * mu_b1 + 7088.503 * mu_b2 - 21806.342 * mu_b3 + 34760.285 * mu_b4 + 171824.16 * mu_b5 + 179849.06 * mu_b6 + 68223.43 * mu_b7 + 7816.759 * mu_b8 + 210.68748 * mu_b9 + 0.83167547 * mu_u10;
+    let q_6 = 209.88216 * mu_v10 + 7581.652 * mu_b1 + 6508.795 * mu_b2 - 17329.723 * mu_b3 + 32081.975 * mu_b4 + 149404.89 * mu_b5 + 155165.8 * mu_b6 + 58693.066 * mu_b7 + 6696.809 * mu_b8 + 177.80429 * mu_b9 + 0.6688941 * mu_u10;
+    let q_7 = 134.90994 * mu_v10 + 4521.694 * mu_b1 + 4082.0764 * mu_b2 - 9363.28 * mu_b3 + 20305.057 * mu_b4 + 89249.77 * mu_b5 + 91972.125 * mu_b6 + 34719.45 * mu_b7 + 3958.445 * mu_b8 + 104.650795 * mu_b9 + 0.38427058 * mu_u10;
+    let q_8 = 54.476467 * mu_v10 + 1745.1617 * mu_b1 + 1579.7108 * mu_b2 - 3475.3655 * mu_b3 + 8195.067 * mu_b4 + 34864.574 * mu_b5 + 35751.176 * mu_b6 + 13489.071 * mu_b7 + 1541.701 * mu_b8 + 41.080063 * mu_b9 + 0.1543335 * mu_u10;
+    let q_9 = 11.271313 * mu_v10 + 383.1399 * mu_b1 + 303.23578 * mu_b2 - 881.8189 * mu_b3 + 1812.2329 * mu_b4 + 7961.392 * mu_b5 + 8186.762 * mu_b6 + 3094.5227 * mu_b7 + 354.9957 * mu_b8 + 9.574537 * mu_b9 + 0.03816704 * mu_u10;
+    let q_10 = 0.663796 * mu_v10 + 34.52023 * mu_b1 + 13.262521 * mu_b2 - 124.223236 * mu_b3 + 149.13557 * mu_b4 + 793.1697 * mu_b5 + 831.0891 * mu_b6 + 315.77194 * mu_b7 + 36.22483 * mu_b8 + 0.9683767 * mu_b9 + 0.0037081835 * mu_u10;
     let q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

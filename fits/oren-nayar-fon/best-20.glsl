@@ -16,7 +16,7 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-fon/best-20.json (furnace 0.1.0), fit SHA-256 dbb6370d5d101e18874b917b5576a615d82f123bf43826888b35bae80b24590d.
+// Source: fits/oren-nayar-fon/best-20.json (furnace 0.1.0), fit SHA-256 6ef6db93abe7e96caa5b0869ce0301b82d7bcc19ae974b79ba0549ef0aec67f7.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
 //   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 7.1e-7, shifted 8.3e-7, bernstein 4.5e-7.
 // Error of the f64 fit on its 1048576 data points: MAE 1.43e-5, max 1.84e-4 (recorded by the fitter).

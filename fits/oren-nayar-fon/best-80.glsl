@@ -16,15 +16,15 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 6a49d36188c6eab3f79902b78868c1edc889e26765dcbc84f292f4d8d58761f4.
+// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 1eaa6c5653889cf15f692b1a8e6dd6d238bedc265a93c1bb2f84b1ce6529e2c3.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.6e-4, shifted 6.6e-5, bernstein 5.8e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.01e-8, max 1.12e-6 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 4.92e-7 (fused multiply-add), 6.05e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 241 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.00e-8, max 1.12e-6; this f32 code MAE 7.03e-8, max 1.23e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.1e-8 on the measurement grid.
-// Denominator proved >= 4.651e-4 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.3e-4, shifted 2.7e-5, bernstein 4.6e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.99e-8, max 1.12e-6 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.25e-7 (every op rounded, as this Rust), 5.27e-7 (fused multiply-add), 6.46e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 231 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.99e-8, max 1.12e-6; this f32 code MAE 6.98e-8, max 1.20e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-8 on the measurement grid.
+// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
 highp float oren_nayar_fon_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
@@ -70,24 +70,24 @@ highp float oren_nayar_fon_albedo(highp float r, highp float mu) {
     highp float mu_b5 = mu_u5 * mu_v2;
     highp float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 1.0 * mu_v7 + 5.1074085 * mu_b1 + 10.664439 * mu_b2 + 11.019307 * mu_b3 + 5.7433047 * mu_b4 + 1.2289469 * mu_b5 + 0.0653104 * mu_b6 + 0.00046513107 * mu_u7;
-    highp float p_1 = 7.36704 * mu_v7 + 37.439198 * mu_b1 + 77.53326 * mu_b2 + 79.46028 * mu_b3 + 41.201393 * mu_b4 + 8.855341 * mu_b5 + 0.4750904 * mu_b6 + 0.0034735105 * mu_u7;
-    highp float p_2 = 23.214985 * mu_v7 + 117.469765 * mu_b1 + 241.40561 * mu_b2 + 245.45839 * mu_b3 + 126.62505 * mu_b4 + 27.3326 * mu_b5 + 1.4813868 * mu_b6 + 0.010846535 * mu_u7;
-    highp float p_3 = 40.577446 * mu_v7 + 204.5639 * mu_b1 + 417.38287 * mu_b2 + 421.17957 * mu_b3 + 216.1949 * mu_b4 + 46.870785 * mu_b5 + 2.5702786 * mu_b6 + 0.018835777 * mu_u7;
-    highp float p_4 = 42.50412 * mu_v7 + 213.59615 * mu_b1 + 432.90567 * mu_b2 + 433.67874 * mu_b3 + 221.54546 * mu_b4 + 48.25082 * mu_b5 + 2.6828315 * mu_b6 + 0.01992927 * mu_u7;
-    highp float p_5 = 26.691914 * mu_v7 + 133.77026 * mu_b1 + 269.4302 * mu_b2 + 268.04367 * mu_b3 + 136.30563 * mu_b4 + 29.831266 * mu_b5 + 1.685754 * mu_b6 + 0.012887578 * mu_u7;
-    highp float p_6 = 9.308569 * mu_v7 + 46.542133 * mu_b1 + 93.19513 * mu_b2 + 92.10371 * mu_b3 + 46.634285 * mu_b4 + 10.259524 * mu_b5 + 0.5905347 * mu_b6 + 0.004679618 * mu_u7;
-    highp float p_7 = 1.3912727 * mu_v7 + 6.9421024 * mu_b1 + 13.824535 * mu_b2 + 13.576675 * mu_b3 + 6.846193 * mu_b4 + 1.5145189 * mu_b5 + 0.088946655 * mu_b6 + 0.00072458276 * mu_u7;
+    highp float p_0 = 1.0 * mu_v7 + 5.1011095 * mu_b1 + 10.647227 * mu_b2 + 10.999072 * mu_b3 + 5.732346 * mu_b4 + 1.226235 * mu_b5 + 0.06514031 * mu_b6 + 0.00046473462 * mu_u7;
+    highp float p_1 = 7.361943 * mu_v7 + 37.377716 * mu_b1 + 77.38827 * mu_b2 + 79.30011 * mu_b3 + 41.11573 * mu_b4 + 8.833261 * mu_b5 + 0.47342497 * mu_b6 + 0.0034550254 * mu_u7;
+    highp float p_2 = 23.19012 * mu_v7 + 117.261024 * mu_b1 + 240.95193 * mu_b2 + 244.9778 * mu_b3 + 126.37144 * mu_b4 + 27.265232 * mu_b5 + 1.4758053 * mu_b6 + 0.01078305 * mu_u7;
+    highp float p_3 = 40.529556 * mu_v7 + 204.21931 * mu_b1 + 416.6769 * mu_b2 + 420.45633 * mu_b3 + 215.81833 * mu_b4 + 46.767445 * mu_b5 + 2.561131 * mu_b6 + 0.018724384 * mu_u7;
+    highp float p_4 = 42.45836 * mu_v7 + 213.29225 * mu_b1 + 432.31454 * mu_b2 + 433.09018 * mu_b3 + 221.24219 * mu_b4 + 48.16336 * mu_b5 + 2.6746392 * mu_b6 + 0.019820683 * mu_u7;
+    highp float p_5 = 26.669676 * mu_v7 + 133.62798 * mu_b1 + 269.1679 * mu_b2 + 267.78757 * mu_b3 + 136.17274 * mu_b4 + 29.788954 * mu_b5 + 1.6814866 * mu_b6 + 0.01283601 * mu_u7;
+    highp float p_6 = 9.303553 * mu_v7 + 46.509846 * mu_b1 + 93.13894 * mu_b2 + 92.04779 * mu_b3 + 46.60279 * mu_b4 + 10.247245 * mu_b5 + 0.58908623 * mu_b6 + 0.004665278 * mu_u7;
+    highp float p_7 = 1.390856 * mu_v7 + 6.93922 * mu_b1 + 13.819602 * mu_b2 + 13.570889 * mu_b3 + 6.8420086 * mu_b4 + 1.5124452 * mu_b5 + 0.088639595 * mu_b6 + 0.00071990927 * mu_u7;
     highp float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v7 + 5.107409 * mu_b1 + 10.664435 * mu_b2 + 11.019314 * mu_b3 + 5.7433014 * mu_b4 + 1.2289473 * mu_b5 + 0.065310396 * mu_b6 + 0.0004651312 * mu_u7;
-    highp float q_1 = 7.3670406 * mu_v7 + 37.7575 * mu_b1 + 78.984474 * mu_b2 + 81.81086 * mu_b3 + 42.75172 * mu_b4 + 9.206768 * mu_b5 + 0.49388286 * mu_b6 + 0.0036073697 * mu_u7;
-    highp float q_2 = 23.214985 * mu_v7 + 119.40486 * mu_b1 + 250.26918 * mu_b2 + 259.85944 * mu_b3 + 136.16023 * mu_b4 + 29.512537 * mu_b5 + 1.5992942 * mu_b6 + 0.011712337 * mu_u7;
-    highp float q_3 = 40.577446 * mu_v7 + 209.46162 * mu_b1 + 439.92233 * mu_b2 + 457.917 * mu_b3 + 240.61453 * mu_b4 + 52.50132 * mu_b5 + 2.8786135 * mu_b6 + 0.021091599 * mu_u7;
-    highp float q_4 = 42.504116 * mu_v7 + 220.20554 * mu_b1 + 463.4669 * mu_b2 + 483.6525 * mu_b3 + 254.89673 * mu_b4 + 56.00874 * mu_b5 + 3.1140432 * mu_b6 + 0.023094129 * mu_u7;
-    highp float q_5 = 26.691912 * mu_v7 + 138.78868 * mu_b1 + 292.74475 * mu_b2 + 306.29312 * mu_b3 + 161.93916 * mu_b4 + 35.849873 * mu_b5 + 2.0264695 * mu_b6 + 0.015458314 * mu_u7;
-    highp float q_6 = 9.308569 * mu_v7 + 48.57598 * mu_b1 + 102.6879 * mu_b2 + 107.72914 * mu_b3 + 57.151913 * mu_b4 + 12.753901 * mu_b5 + 0.7348488 * mu_b6 + 0.005817853 * mu_u7;
-    highp float q_7 = 1.3912725 * mu_v7 + 7.285997 * mu_b1 + 15.436853 * mu_b2 + 16.239447 * mu_b3 + 8.646806 * mu_b4 + 1.9461801 * mu_b5 + 0.1145374 * mu_b6 + 0.00093311333 * mu_u7;
+    highp float q_0 = 1.0 * mu_v7 + 5.10111 * mu_b1 + 10.6472225 * mu_b2 + 10.999079 * mu_b3 + 5.7323427 * mu_b4 + 1.2262354 * mu_b5 + 0.0651403 * mu_b6 + 0.00046473468 * mu_u7;
+    highp float q_1 = 7.3619432 * mu_v7 + 37.696022 * mu_b1 + 78.83745 * mu_b2 + 81.64647 * mu_b3 + 42.663155 * mu_b4 + 9.183913 * mu_b5 + 0.49216852 * mu_b6 + 0.0035887728 * mu_u7;
+    highp float q_2 = 23.19012 * mu_v7 + 119.19451 * mu_b1 + 249.79927 * mu_b2 + 259.3498 * mu_b3 + 135.8871 * mu_b4 + 29.439657 * mu_b5 + 1.5932821 * mu_b6 + 0.011643623 * mu_u7;
+    highp float q_3 = 40.529556 * mu_v7 + 209.11122 * mu_b1 + 439.17432 * mu_b2 + 457.1239 * mu_b3 + 240.19186 * mu_b4 + 52.38437 * mu_b5 + 2.8682914 * mu_b6 + 0.020967225 * mu_u7;
+    highp float q_4 = 42.458355 * mu_v7 + 219.89389 * mu_b1 + 462.82642 * mu_b2 + 482.98645 * mu_b3 + 254.54338 * mu_b4 + 55.905624 * mu_b5 + 3.104394 * mu_b6 + 0.022966392 * mu_u7;
+    highp float q_5 = 26.669674 * mu_v7 + 138.6418 * mu_b1 + 292.4546 * mu_b2 + 305.99588 * mu_b3 + 161.7802 * mu_b4 + 35.798496 * mu_b5 + 2.0213025 * mu_b6 + 0.015394681 * mu_u7;
+    highp float q_6 = 9.303553 * mu_v7 + 48.542534 * mu_b1 + 102.624626 * mu_b2 + 107.66357 * mu_b3 + 57.114105 * mu_b4 + 12.738742 * mu_b5 + 0.733072 * mu_b6 + 0.0058007305 * mu_u7;
+    highp float q_7 = 1.390856 * mu_v7 + 7.283011 * mu_b1 + 15.431238 * mu_b2 + 16.23274 * mu_b3 + 8.64179 * mu_b4 + 1.9435301 * mu_b5 + 0.11414203 * mu_b6 + 0.00092709484 * mu_u7;
     highp float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

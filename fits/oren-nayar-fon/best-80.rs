@@ -12,15 +12,15 @@
 ///   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 /// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 6a49d36188c6eab3f79902b78868c1edc889e26765dcbc84f292f4d8d58761f4.
+/// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 1eaa6c5653889cf15f692b1a8e6dd6d238bedc265a93c1bb2f84b1ce6529e2c3.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.6e-4, shifted 6.6e-5, bernstein 5.8e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 2.01e-8, max 1.12e-6 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 4.92e-7 (fused multiply-add), 6.05e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 241 boxes).
-/// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.00e-8, max 1.12e-6; this f32 code MAE 7.03e-8, max 1.23e-6.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.1e-8 on the measurement grid.
-/// Denominator proved >= 4.651e-4 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.3e-4, shifted 2.7e-5, bernstein 4.6e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 1.99e-8, max 1.12e-6 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.25e-7 (every op rounded, as this Rust), 5.27e-7 (fused multiply-add), 6.46e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 231 boxes).
+/// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.99e-8, max 1.12e-6; this f32 code MAE 6.98e-8, max 1.20e-6.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-8 on the measurement grid.
+/// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -69,24 +69,24 @@ pub fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0_f32 * mu_v7 + 5.1074085_f32 * mu_b1 + 10.664439_f32 * mu_b2 + 11.019307_f32 * mu_b3 + 5.7433047_f32 * mu_b4 + 1.2289469_f32 * mu_b5 + 0.0653104_f32 * mu_b6 + 0.00046513107_f32 * mu_u7;
-    let p_1 = 7.36704_f32 * mu_v7 + 37.439198_f32 * mu_b1 + 77.53326_f32 * mu_b2 + 79.46028_f32 * mu_b3 + 41.201393_f32 * mu_b4 + 8.855341_f32 * mu_b5 + 0.4750904_f32 * mu_b6 + 0.0034735105_f32 * mu_u7;
-    let p_2 = 23.214985_f32 * mu_v7 + 117.469765_f32 * mu_b1 + 241.40561_f32 * mu_b2 + 245.45839_f32 * mu_b3 + 126.62505_f32 * mu_b4 + 27.3326_f32 * mu_b5 + 1.4813868_f32 * mu_b6 + 0.010846535_f32 * mu_u7;
-    let p_3 = 40.577446_f32 * mu_v7 + 204.5639_f32 * mu_b1 + 417.38287_f32 * mu_b2 + 421.17957_f32 * mu_b3 + 216.1949_f32 * mu_b4 + 46.870785_f32 * mu_b5 + 2.5702786_f32 * mu_b6 + 0.018835777_f32 * mu_u7;
-    let p_4 = 42.50412_f32 * mu_v7 + 213.59615_f32 * mu_b1 + 432.90567_f32 * mu_b2 + 433.67874_f32 * mu_b3 + 221.54546_f32 * mu_b4 + 48.25082_f32 * mu_b5 + 2.6828315_f32 * mu_b6 + 0.01992927_f32 * mu_u7;
-    let p_5 = 26.691914_f32 * mu_v7 + 133.77026_f32 * mu_b1 + 269.4302_f32 * mu_b2 + 268.04367_f32 * mu_b3 + 136.30563_f32 * mu_b4 + 29.831266_f32 * mu_b5 + 1.685754_f32 * mu_b6 + 0.012887578_f32 * mu_u7;
-    let p_6 = 9.308569_f32 * mu_v7 + 46.542133_f32 * mu_b1 + 93.19513_f32 * mu_b2 + 92.10371_f32 * mu_b3 + 46.634285_f32 * mu_b4 + 10.259524_f32 * mu_b5 + 0.5905347_f32 * mu_b6 + 0.004679618_f32 * mu_u7;
-    let p_7 = 1.3912727_f32 * mu_v7 + 6.9421024_f32 * mu_b1 + 13.824535_f32 * mu_b2 + 13.576675_f32 * mu_b3 + 6.846193_f32 * mu_b4 + 1.5145189_f32 * mu_b5 + 0.088946655_f32 * mu_b6 + 0.00072458276_f32 * mu_u7;
+    let p_0 = 1.0_f32 * mu_v7 + 5.1011095_f32 * mu_b1 + 10.647227_f32 * mu_b2 + 10.999072_f32 * mu_b3 + 5.732346_f32 * mu_b4 + 1.226235_f32 * mu_b5 + 0.06514031_f32 * mu_b6 + 0.00046473462_f32 * mu_u7;
+    let p_1 = 7.361943_f32 * mu_v7 + 37.377716_f32 * mu_b1 + 77.38827_f32 * mu_b2 + 79.30011_f32 * mu_b3 + 41.11573_f32 * mu_b4 + 8.833261_f32 * mu_b5 + 0.47342497_f32 * mu_b6 + 0.0034550254_f32 * mu_u7;
+    let p_2 = 23.19012_f32 * mu_v7 + 117.261024_f32 * mu_b1 + 240.95193_f32 * mu_b2 + 244.9778_f32 * mu_b3 + 126.37144_f32 * mu_b4 + 27.265232_f32 * mu_b5 + 1.4758053_f32 * mu_b6 + 0.01078305_f32 * mu_u7;
+    let p_3 = 40.529556_f32 * mu_v7 + 204.21931_f32 * mu_b1 + 416.6769_f32 * mu_b2 + 420.45633_f32 * mu_b3 + 215.81833_f32 * mu_b4 + 46.767445_f32 * mu_b5 + 2.561131_f32 * mu_b6 + 0.018724384_f32 * mu_u7;
+    let p_4 = 42.45836_f32 * mu_v7 + 213.29225_f32 * mu_b1 + 432.31454_f32 * mu_b2 + 433.09018_f32 * mu_b3 + 221.24219_f32 * mu_b4 + 48.16336_f32 * mu_b5 + 2.6746392_f32 * mu_b6 + 0.019820683_f32 * mu_u7;
+    let p_5 = 26.669676_f32 * mu_v7 + 133.62798_f32 * mu_b1 + 269.1679_f32 * mu_b2 + 267.78757_f32 * mu_b3 + 136.17274_f32 * mu_b4 + 29.788954_f32 * mu_b5 + 1.6814866_f32 * mu_b6 + 0.01283601_f32 * mu_u7;
+    let p_6 = 9.303553_f32 * mu_v7 + 46.509846_f32 * mu_b1 + 93.13894_f32 * mu_b2 + 92.04779_f32 * mu_b3 + 46.60279_f32 * mu_b4 + 10.247245_f32 * mu_b5 + 0.58908623_f32 * mu_b6 + 0.004665278_f32 * mu_u7;
+    let p_7 = 1.390856_f32 * mu_v7 + 6.93922_f32 * mu_b1 + 13.819602_f32 * mu_b2 + 13.570889_f32 * mu_b3 + 6.8420086_f32 * mu_b4 + 1.5124452_f32 * mu_b5 + 0.088639595_f32 * mu_b6 + 0.00071990927_f32 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v7 + 5.107409_f32 * mu_b1 + 10.664435_f32 * mu_b2 + 11.019314_f32 * mu_b3 + 5.7433014_f32 * mu_b4 + 1.2289473_f32 * mu_b5 + 0.065310396_f32 * mu_b6 + 0.0004651312_f32 * mu_u7;
-    let q_1 = 7.3670406_f32 * mu_v7 + 37.7575_f32 * mu_b1 + 78.984474_f32 * mu_b2 + 81.81086_f32 * mu_b3 + 42.75172_f32 * mu_b4 + 9.206768_f32 * mu_b5 + 0.49388286_f32 * mu_b6 + 0.0036073697_f32 * mu_u7;
-    let q_2 = 23.214985_f32 * mu_v7 + 119.40486_f32 * mu_b1 + 250.26918_f32 * mu_b2 + 259.85944_f32 * mu_b3 + 136.16023_f32 * mu_b4 + 29.512537_f32 * mu_b5 + 1.5992942_f32 * mu_b6 + 0.011712337_f32 * mu_u7;
-    let q_3 = 40.577446_f32 * mu_v7 + 209.46162_f32 * mu_b1 + 439.92233_f32 * mu_b2 + 457.917_f32 * mu_b3 + 240.61453_f32 * mu_b4 + 52.50132_f32 * mu_b5 + 2.8786135_f32 * mu_b6 + 0.021091599_f32 * mu_u7;
-    let q_4 = 42.504116_f32 * mu_v7 + 220.20554_f32 * mu_b1 + 463.4669_f32 * mu_b2 + 483.6525_f32 * mu_b3 + 254.89673_f32 * mu_b4 + 56.00874_f32 * mu_b5 + 3.1140432_f32 * mu_b6 + 0.023094129_f32 * mu_u7;
-    let q_5 = 26.691912_f32 * mu_v7 + 138.78868_f32 * mu_b1 + 292.74475_f32 * mu_b2 + 306.29312_f32 * mu_b3 + 161.93916_f32 * mu_b4 + 35.849873_f32 * mu_b5 + 2.0264695_f32 * mu_b6 + 0.015458314_f32 * mu_u7;
-    let q_6 = 9.308569_f32 * mu_v7 + 48.57598_f32 * mu_b1 + 102.6879_f32 * mu_b2 + 107.72914_f32 * mu_b3 + 57.151913_f32 * mu_b4 + 12.753901_f32 * mu_b5 + 0.7348488_f32 * mu_b6 + 0.005817853_f32 * mu_u7;
-    let q_7 = 1.3912725_f32 * mu_v7 + 7.285997_f32 * mu_b1 + 15.436853_f32 * mu_b2 + 16.239447_f32 * mu_b3 + 8.646806_f32 * mu_b4 + 1.9461801_f32 * mu_b5 + 0.1145374_f32 * mu_b6 + 0.00093311333_f32 * mu_u7;
+    let q_0 = 1.0_f32 * mu_v7 + 5.10111_f32 * mu_b1 + 10.6472225_f32 * mu_b2 + 10.999079_f32 * mu_b3 + 5.7323427_f32 * mu_b4 + 1.2262354_f32 * mu_b5 + 0.0651403_f32 * mu_b6 + 0.00046473468_f32 * mu_u7;
+    let q_1 = 7.3619432_f32 * mu_v7 + 37.696022_f32 * mu_b1 + 78.83745_f32 * mu_b2 + 81.64647_f32 * mu_b3 + 42.663155_f32 * mu_b4 + 9.183913_f32 * mu_b5 + 0.49216852_f32 * mu_b6 + 0.0035887728_f32 * mu_u7;
+    let q_2 = 23.19012_f32 * mu_v7 + 119.19451_f32 * mu_b1 + 249.79927_f32 * mu_b2 + 259.3498_f32 * mu_b3 + 135.8871_f32 * mu_b4 + 29.439657_f32 * mu_b5 + 1.5932821_f32 * mu_b6 + 0.011643623_f32 * mu_u7;
+    let q_3 = 40.529556_f32 * mu_v7 + 209.11122_f32 * mu_b1 + 439.17432_f32 * mu_b2 + 457.1239_f32 * mu_b3 + 240.19186_f32 * mu_b4 + 52.38437_f32 * mu_b5 + 2.8682914_f32 * mu_b6 + 0.020967225_f32 * mu_u7;
+    let q_4 = 42.458355_f32 * mu_v7 + 219.89389_f32 * mu_b1 + 462.82642_f32 * mu_b2 + 482.98645_f32 * mu_b3 + 254.54338_f32 * mu_b4 + 55.905624_f32 * mu_b5 + 3.104394_f32 * mu_b6 + 0.022966392_f32 * mu_u7;
+    let q_5 = 26.669674_f32 * mu_v7 + 138.6418_f32 * mu_b1 + 292.4546_f32 * mu_b2 + 305.99588_f32 * mu_b3 + 161.7802_f32 * mu_b4 + 35.798496_f32 * mu_b5 + 2.0213025_f32 * mu_b6 + 0.015394681_f32 * mu_u7;
+    let q_6 = 9.303553_f32 * mu_v7 + 48.542534_f32 * mu_b1 + 102.624626_f32 * mu_b2 + 107.66357_f32 * mu_b3 + 57.114105_f32 * mu_b4 + 12.738742_f32 * mu_b5 + 0.733072_f32 * mu_b6 + 0.0058007305_f32 * mu_u7;
+    let q_7 = 1.390856_f32 * mu_v7 + 7.283011_f32 * mu_b1 + 15.431238_f32 * mu_b2 + 16.23274_f32 * mu_b3 + 8.64179_f32 * mu_b4 + 1.9435301_f32 * mu_b5 + 0.11414203_f32 * mu_b6 + 0.00092709484_f32 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

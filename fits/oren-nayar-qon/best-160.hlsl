@@ -15,15 +15,15 @@
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 7c94e41b26a8cfd6ff4554b6f800854bf1a9a1903a1447bc917de55f763d6f07.
+// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 6c94ded3eaf9351f4993f05bb783c301dfef3ae67e98a6a0c21aab824a1ecb4f.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.5e-2, shifted 5.5e-4, bernstein 5.3e-7.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 8.2e-2, shifted 1.4e-4, bernstein 5.2e-7.
 // Error of the f64 fit on its 1048576 data points: MAE 2.74e-6, max 5.08e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.20e-7 (every op rounded, as this Rust), 5.25e-7 (fused multiply-add), 5.77e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.83e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2661 boxes).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.42e-7 (every op rounded, as this Rust), 6.18e-7 (fused multiply-add), 6.50e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.83e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2663 boxes).
 // Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.79e-4, max 1.52e-2; this f32 code MAE 2.79e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 9.453e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 9.457e-4 on the domain (Bernstein certificate), so the division is safe.
 float oren_nayar_qon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -87,30 +87,30 @@ float oren_nayar_qon_albedo(float r, float mu) {
     float mu_b8 = mu_u8 * mu_v2;
     float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 0.9999927f * mu_v10 + 10.063863f * mu_b1 + 47.193584f * mu_b2 + 120.01701f * mu_b3 + 181.43074f * mu_b4 + 270.3968f * mu_b5 + 223.26996f * mu_b6 + 110.464325f * mu_b7 + 22.251532f * mu_b8 + 2.169459f * mu_b9 + 0.010311128f * mu_u10;
-    float p_1 = 5.7301044f * mu_v10 + 61.40375f * mu_b1 + 285.47018f * mu_b2 + 738.6787f * mu_b3 + 1012.09076f * mu_b4 + 1685.5204f * mu_b5 + 1415.9052f * mu_b6 + 706.4554f * mu_b7 + 91.44938f * mu_b8 - 1.8953946f * mu_b9 - 0.036170084f * mu_u10;
-    float p_2 = 50.17764f * mu_v10 + 538.51465f * mu_b1 + 2432.7183f * mu_b2 + 6383.9834f * mu_b3 + 9777.494f * mu_b4 + 13451.7295f * mu_b5 + 10837.917f * mu_b6 + 5305.5806f * mu_b7 + 894.9414f * mu_b8 + 21.51673f * mu_b9 + 0.08570758f * mu_u10;
-    float p_3 = 146.20288f * mu_v10 + 1661.2759f * mu_b1 + 7598.812f * mu_b2 + 20083.99f * mu_b3 + 32115.348f * mu_b4 + 44305.305f * mu_b5 + 36477.55f * mu_b6 + 17859.9f * mu_b7 + 3078.7434f * mu_b8 + 60.723995f * mu_b9 - 0.10144976f * mu_u10;
-    float p_4 = 315.91904f * mu_v10 + 3768.1738f * mu_b1 + 17401.879f * mu_b2 + 45495.055f * mu_b3 + 75299.13f * mu_b4 + 103469.55f * mu_b5 + 86351.375f * mu_b6 + 41961.773f * mu_b7 + 7573.18f * mu_b8 + 218.32211f * mu_b9 + 0.7637018f * mu_u10;
-    float p_5 = 272.45807f * mu_v10 + 3967.9587f * mu_b1 + 19331.918f * mu_b2 + 51208.547f * mu_b3 + 90688.164f * mu_b4 + 136555.0f * mu_b5 + 121284.73f * mu_b6 + 60123.336f * mu_b7 + 11050.614f * mu_b8 + 337.67996f * mu_b9 - 0.099213f * mu_u10;
-    float p_6 = 31.912298f * mu_v10 + 1602.9585f * mu_b1 + 8482.009f * mu_b2 + 21874.97f * mu_b3 + 46587.28f * mu_b4 + 95636.07f * mu_b5 + 98440.305f * mu_b6 + 51577.16f * mu_b7 + 9426.203f * mu_b8 + 248.36708f * mu_b9 + 1.1934961f * mu_u10;
-    float p_7 = 18.64887f * mu_v10 + 695.244f * mu_b1 + 2192.7588f * mu_b2 + 1383.6718f * mu_b3 + 7650.7437f * mu_b4 + 39911.383f * mu_b5 + 51172.832f * mu_b6 + 28617.684f * mu_b7 + 5127.564f * mu_b8 + 108.8736f * mu_b9 - 0.33373192f * mu_u10;
-    float p_8 = 62.936096f * mu_v10 + 668.78467f * mu_b1 + 1539.1251f * mu_b2 - 505.476f * mu_b3 - 685.46387f * mu_b4 + 12064.338f * mu_b5 + 18433.498f * mu_b6 + 10655.37f * mu_b7 + 1875.4286f * mu_b8 + 50.639748f * mu_b9 + 0.14137837f * mu_u10;
-    float p_9 = 16.882408f * mu_v10 + 194.04553f * mu_b1 + 423.45593f * mu_b2 - 393.7427f * mu_b3 - 933.39825f * mu_b4 + 2016.8412f * mu_b5 + 3783.7097f * mu_b6 + 2191.9824f * mu_b7 + 347.50214f * mu_b8 + 8.590509f * mu_b9 + 0.011543624f * mu_u10;
-    float p_10 = 0.73140407f * mu_v10 + 18.974003f * mu_b1 + 53.426f * mu_b2 - 16.908216f * mu_b3 - 48.556885f * mu_b4 + 276.0165f * mu_b5 + 426.72772f * mu_b6 + 219.50757f * mu_b7 + 27.804768f * mu_b8 + 0.49901262f * mu_b9 + 0.0005300216f * mu_u10;
+    float p_0 = 0.9999927f * mu_v10 + 10.065746f * mu_b1 + 47.213024f * mu_b2 + 120.03619f * mu_b3 + 181.51901f * mu_b4 + 270.47495f * mu_b5 + 223.34532f * mu_b6 + 110.515015f * mu_b7 + 22.26286f * mu_b8 + 2.1706314f * mu_b9 + 0.010305284f * mu_u10;
+    float p_1 = 5.7304115f * mu_v10 + 61.419155f * mu_b1 + 285.62994f * mu_b2 + 738.794f * mu_b3 + 1012.72107f * mu_b4 + 1685.902f * mu_b5 + 1416.331f * mu_b6 + 706.7659f * mu_b7 + 91.48886f * mu_b8 - 1.8959898f * mu_b9 - 0.03633815f * mu_u10;
+    float p_2 = 50.17952f * mu_v10 + 538.6206f * mu_b1 + 2433.6333f * mu_b2 + 6385.391f * mu_b3 + 9782.001f * mu_b4 + 13455.701f * mu_b5 + 10841.972f * mu_b6 + 5308.0356f * mu_b7 + 895.3779f * mu_b8 + 21.54095f * mu_b9 + 0.086524956f * mu_u10;
+    float p_3 = 146.2215f * mu_v10 + 1661.7953f * mu_b1 + 7602.073f * mu_b2 + 20089.951f * mu_b3 + 32130.592f * mu_b4 + 44320.035f * mu_b5 + 36492.305f * mu_b6 + 17868.113f * mu_b7 + 3080.1282f * mu_b8 + 60.761246f * mu_b9 - 0.10225384f * mu_u10;
+    float p_4 = 315.95554f * mu_v10 + 3769.4434f * mu_b1 + 17409.047f * mu_b2 + 45509.684f * mu_b3 + 75332.96f * mu_b4 + 103505.77f * mu_b5 + 86387.414f * mu_b6 + 41980.875f * mu_b7 + 7576.559f * mu_b8 + 218.4486f * mu_b9 + 0.76659626f * mu_u10;
+    float p_5 = 272.50504f * mu_v10 + 3969.7085f * mu_b1 + 19341.178f * mu_b2 + 51228.33f * mu_b3 + 90733.695f * mu_b4 + 136608.73f * mu_b5 + 121339.48f * mu_b6 + 60151.527f * mu_b7 + 11055.553f * mu_b8 + 337.82144f * mu_b9 - 0.10694969f * mu_u10;
+    float p_6 = 32.00871f * mu_v10 + 1604.5731f * mu_b1 + 8489.263f * mu_b2 + 21889.982f * mu_b3 + 46624.367f * mu_b4 + 95685.8f * mu_b5 + 98494.56f * mu_b6 + 51605.49f * mu_b7 + 9431.623f * mu_b8 + 248.70547f * mu_b9 + 1.2020265f * mu_u10;
+    float p_7 = 18.736595f * mu_v10 + 695.8365f * mu_b1 + 2194.2412f * mu_b2 + 1384.7206f * mu_b3 + 7660.1616f * mu_b4 + 39930.207f * mu_b5 + 51199.5f * mu_b6 + 28632.027f * mu_b7 + 5130.0464f * mu_b8 + 108.99789f * mu_b9 - 0.33606556f * mu_u10;
+    float p_8 = 62.98797f * mu_v10 + 668.86847f * mu_b1 + 1538.7048f * mu_b2 - 507.6057f * mu_b3 - 685.70276f * mu_b4 + 12068.419f * mu_b5 + 18442.104f * mu_b6 + 10660.058f * mu_b7 + 1876.1604f * mu_b8 + 50.696514f * mu_b9 + 0.14193358f * mu_u10;
+    float p_9 = 16.892342f * mu_v10 + 194.00217f * mu_b1 + 423.16617f * mu_b2 - 394.47723f * mu_b3 - 933.67975f * mu_b4 + 2017.6278f * mu_b5 + 3785.4731f * mu_b6 + 2192.7979f * mu_b7 + 347.56406f * mu_b8 + 8.596948f * mu_b9 + 0.0115514565f * mu_u10;
+    float p_10 = 0.73213327f * mu_v10 + 18.970074f * mu_b1 + 53.4364f * mu_b2 - 16.816317f * mu_b3 - 48.283848f * mu_b4 + 276.39917f * mu_b5 + 427.0653f * mu_b6 + 219.61649f * mu_b7 + 27.80597f * mu_b8 + 0.49910644f * mu_b9 + 0.000530254f * mu_u10;
     float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v10 + 10.063305f * mu_b1 + 47.195427f * mu_b2 + 120.049576f * mu_b3 + 181.30281f * mu_b4 + 270.52905f * mu_b5 + 223.24753f * mu_b6 + 110.44496f * mu_b7 + 22.256012f * mu_b8 + 2.1693168f * mu_b9 + 0.010311268f * mu_u10;
-    float q_1 = 5.7294154f * mu_v10 + 61.452305f * mu_b1 + 284.99857f * mu_b2 + 738.7295f * mu_b3 + 1013.5731f * mu_b4 + 1684.6292f * mu_b5 + 1414.0448f * mu_b6 + 708.8282f * mu_b7 + 91.00805f * mu_b8 - 1.8799877f * mu_b9 - 0.036182277f * mu_u10;
-    float q_2 = 47.765785f * mu_v10 + 517.7032f * mu_b1 + 2362.128f * mu_b2 + 6282.2173f * mu_b3 + 9684.845f * mu_b4 + 13407.762f * mu_b5 + 10962.085f * mu_b6 + 5493.084f * mu_b7 + 951.1624f * mu_b8 + 28.33101f * mu_b9 + 0.1243677f * mu_u10;
-    float q_3 = 136.76486f * mu_v10 + 1567.5431f * mu_b1 + 7255.9287f * mu_b2 + 19517.941f * mu_b3 + 31487.377f * mu_b4 + 44149.242f * mu_b5 + 37500.453f * mu_b6 + 18973.818f * mu_b7 + 3284.6782f * mu_b8 + 45.644703f * mu_b9 - 0.31333306f * mu_u10;
-    float q_4 = 366.80447f * mu_v10 + 4315.5625f * mu_b1 + 20086.299f * mu_b2 + 53261.492f * mu_b3 + 89221.16f * mu_b4 + 121472.42f * mu_b5 + 103860.125f * mu_b6 + 51964.54f * mu_b7 + 9728.271f * mu_b8 + 281.22244f * mu_b9 + 1.3153138f * mu_u10;
-    float q_5 = 348.38168f * mu_v10 + 4947.4253f * mu_b1 + 24479.611f * mu_b2 + 66389.46f * mu_b3 + 119035.32f * mu_b4 + 175734.66f * mu_b5 + 160541.11f * mu_b6 + 82416.16f * mu_b7 + 15957.392f * mu_b8 + 511.1146f * mu_b9 - 0.5378198f * mu_u10;
-    float q_6 = 37.497932f * mu_v10 + 1962.3136f * mu_b1 + 10920.326f * mu_b2 + 29758.34f * mu_b3 + 63481.53f * mu_b4 + 125940.625f * mu_b5 + 135681.58f * mu_b6 + 74595.09f * mu_b7 + 14504.297f * mu_b8 + 402.36548f * mu_b9 + 2.2363658f * mu_u10;
-    float q_7 = 14.612465f * mu_v10 + 794.6333f * mu_b1 + 2701.482f * mu_b2 + 2240.6028f * mu_b3 + 10162.771f * mu_b4 + 51281.04f * mu_b5 + 71537.22f * mu_b6 + 42690.914f * mu_b7 + 8179.4277f * mu_b8 + 176.97198f * mu_b9 - 0.64291674f * mu_u10;
-    float q_8 = 78.57141f * mu_v10 + 846.2864f * mu_b1 + 2058.8083f * mu_b2 - 288.19098f * mu_b3 - 990.9141f * mu_b4 + 15147.392f * mu_b5 + 26205.322f * mu_b6 + 16369.506f * mu_b7 + 3088.294f * mu_b8 + 86.32489f * mu_b9 + 0.24893321f * mu_u10;
-    float q_9 = 21.647617f * mu_v10 + 251.03291f * mu_b1 + 580.83545f * mu_b2 - 416.0107f * mu_b3 - 1337.5978f * mu_b4 + 2361.4817f * mu_b5 + 5423.6694f * mu_b6 + 3443.9668f * mu_b7 + 584.4375f * mu_b8 + 14.983742f * mu_b9 + 0.020478474f * mu_u10;
-    float q_10 = 0.94243175f * mu_v10 + 24.61791f * mu_b1 + 73.16971f * mu_b2 - 9.668109f * mu_b3 - 72.811874f * mu_b4 + 344.71396f * mu_b5 + 627.80133f * mu_b6 + 354.53378f * mu_b7 + 47.73287f * mu_b8 + 0.88199997f * mu_b9 + 0.0009481697f * mu_u10;
+    float q_0 = 1.0f * mu_v10 + 10.065195f * mu_b1 + 47.214687f * mu_b2 + 120.06985f * mu_b3 + 181.38885f * mu_b4 + 270.60934f * mu_b5 + 223.32181f * mu_b6 + 110.495895f * mu_b7 + 22.267324f * mu_b8 + 2.170489f * mu_b9 + 0.010305426f * mu_u10;
+    float q_1 = 5.7297163f * mu_v10 + 61.467827f * mu_b1 + 285.15732f * mu_b2 + 738.8458f * mu_b3 + 1014.1867f * mu_b4 + 1685.0387f * mu_b5 + 1414.4537f * mu_b6 + 709.1443f * mu_b7 + 91.04681f * mu_b8 - 1.8805333f * mu_b9 - 0.036350474f * mu_u10;
+    float q_2 = 47.767834f * mu_v10 + 517.804f * mu_b1 + 2363.0278f * mu_b2 + 6283.604f * mu_b3 + 9689.315f * mu_b4 + 13411.851f * mu_b5 + 10966.051f * mu_b6 + 5495.6416f * mu_b7 + 951.62067f * mu_b8 + 28.359009f * mu_b9 + 0.12516598f * mu_u10;
+    float q_3 = 136.78064f * mu_v10 + 1568.0161f * mu_b1 + 7259.046f * mu_b2 + 19523.57f * mu_b3 + 31502.234f * mu_b4 + 44163.945f * mu_b5 + 37514.977f * mu_b6 + 18982.604f * mu_b7 + 3286.1506f * mu_b8 + 45.6772f * mu_b9 - 0.31473833f * mu_u10;
+    float q_4 = 366.8491f * mu_v10 + 4316.9805f * mu_b1 + 20094.418f * mu_b2 + 53278.773f * mu_b3 + 89260.19f * mu_b4 + 121515.77f * mu_b5 + 103902.305f * mu_b6 + 51988.477f * mu_b7 + 9732.703f * mu_b8 + 281.4146f * mu_b9 + 1.3225598f * mu_u10;
+    float q_5 = 348.4262f * mu_v10 + 4949.411f * mu_b1 + 24490.549f * mu_b2 + 66414.0f * mu_b3 + 119090.586f * mu_b4 + 175802.38f * mu_b5 + 160609.39f * mu_b6 + 82453.836f * mu_b7 + 15964.112f * mu_b8 + 511.25754f * mu_b9 - 0.5543173f * mu_u10;
+    float q_6 = 37.610065f * mu_v10 + 1964.332f * mu_b1 + 10929.812f * mu_b2 + 29779.291f * mu_b3 + 63530.82f * mu_b4 + 126008.9f * mu_b5 + 135755.39f * mu_b6 + 74636.71f * mu_b7 + 14512.617f * mu_b8 + 402.9105f * mu_b9 + 2.252351f * mu_u10;
+    float q_7 = 14.716966f * mu_v10 + 795.39825f * mu_b1 + 2703.5776f * mu_b2 + 2242.687f * mu_b3 + 10175.116f * mu_b4 + 51306.934f * mu_b5 + 71573.98f * mu_b6 + 42712.86f * mu_b7 + 8183.3745f * mu_b8 + 177.17488f * mu_b9 - 0.6472672f * mu_u10;
+    float q_8 = 78.636925f * mu_v10 + 846.413f * mu_b1 + 2058.329f * mu_b2 - 290.90787f * mu_b3 - 991.6916f * mu_b4 + 15152.668f * mu_b5 + 26217.15f * mu_b6 + 16376.915f * mu_b7 + 3089.4834f * mu_b8 + 86.42163f * mu_b9 + 0.24992286f * mu_u10;
+    float q_9 = 21.6603f * mu_v10 + 250.97974f * mu_b1 + 580.4502f * mu_b2 - 417.03485f * mu_b3 - 1338.1686f * mu_b4 + 2362.43f * mu_b5 + 5426.098f * mu_b6 + 3445.3064f * mu_b7 + 584.53754f * mu_b8 + 14.994969f * mu_b9 + 0.020492442f * mu_u10;
+    float q_10 = 0.9433714f * mu_v10 + 24.613022f * mu_b1 + 73.182144f * mu_b2 - 9.546943f * mu_b3 - 72.43957f * mu_b4 + 345.26614f * mu_b5 + 628.3052f * mu_b6 + 354.7204f * mu_b7 + 47.734905f * mu_b8 + 0.8821646f * mu_b9 + 0.00094858516f * mu_u10;
     float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

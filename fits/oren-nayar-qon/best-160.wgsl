@@ -12,15 +12,15 @@
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 7c94e41b26a8cfd6ff4554b6f800854bf1a9a1903a1447bc917de55f763d6f07.
+// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 6c94ded3eaf9351f4993f05bb783c301dfef3ae67e98a6a0c21aab824a1ecb4f.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.5e-2, shifted 5.5e-4, bernstein 5.3e-7.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 8.2e-2, shifted 1.4e-4, bernstein 5.2e-7.
 // Error of the f64 fit on its 1048576 data points: MAE 2.74e-6, max 5.08e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.20e-7 (every op rounded, as this Rust), 5.25e-7 (fused multiply-add), 5.77e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.83e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2661 boxes).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.42e-7 (every op rounded, as this Rust), 6.18e-7 (fused multiply-add), 6.50e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.83e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2663 boxes).
 // Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.79e-4, max 1.52e-2; this f32 code MAE 2.79e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 9.453e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 9.457e-4 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -84,30 +84,30 @@ fn oren_nayar_qon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b8 = mu_u8 * mu_v2;
     let mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9999927 * mu_v10 + 10.063863 * mu_b1 + 47.193584 * mu_b2 + 120.01701 * mu_b3 + 181.43074 * mu_b4 + 270.3968 * mu_b5 + 223.26996 * mu_b6 + 110.464325 * mu_b7 + 22.251532 * mu_b8 + 2.169459 * mu_b9 + 0.010311128 * mu_u10;
-    let p_1 = 5.7301044 * mu_v10 + 61.40375 * mu_b1 + 285.47018 * mu_b2 + 738.6787 * mu_b3 + 1012.09076 * mu_b4 + 1685.5204 * mu_b5 + 1415.9052 * mu_b6 + 706.4554 * mu_b7 + 91.44938 * mu_b8 - 1.8953946 * mu_b9 - 0.036170084 * mu_u10;
-    let p_2 = 50.17764 * mu_v10 + 538.51465 * mu_b1 + 2432.7183 * mu_b2 + 6383.9834 * mu_b3 + 9777.494 * mu_b4 + 13451.7295 * mu_b5 + 10837.917 * mu_b6 + 5305.5806 * mu_b7 + 894.9414 * mu_b8 + 21.51673 * mu_b9 + 0.08570758 * mu_u10;
-    let p_3 = 146.20288 * mu_v10 + 1661.2759 * mu_b1 + 7598.812 * mu_b2 + 20083.99 * mu_b3 + 32115.348 * mu_b4 + 44305.305 * mu_b5 + 36477.55 * mu_b6 + 17859.9 * mu_b7 + 3078.7434 * mu_b8 + 60.723995 * mu_b9 - 0.10144976 * mu_u10;
-    let p_4 = 315.91904 * mu_v10 + 3768.1738 * mu_b1 + 17401.879 * mu_b2 + 45495.055 * mu_b3 + 75299.13 * mu_b4 + 103469.55 * mu_b5 + 86351.375 * mu_b6 + 41961.773 * mu_b7 + 7573.18 * mu_b8 + 218.32211 * mu_b9 + 0.7637018 * mu_u10;
-    let p_5 = 272.45807 * mu_v10 + 3967.9587 * mu_b1 + 19331.918 * mu_b2 + 51208.547 * mu_b3 + 90688.164 * mu_b4 + 136555.0 * mu_b5 + 121284.73 * mu_b6 + 60123.336 * mu_b7 + 11050.614 * mu_b8 + 337.67996 * mu_b9 - 0.099213 * mu_u10;
-    let p_6 = 31.912298 * mu_v10 + 1602.9585 * mu_b1 + 8482.009 * mu_b2 + 21874.97 * mu_b3 + 46587.28 * mu_b4 + 95636.07 * mu_b5 + 98440.305 * mu_b6 + 51577.16 * mu_b7 + 9426.203 * mu_b8 + 248.36708 * mu_b9 + 1.1934961 * mu_u10;
-    let p_7 = 18.64887 * mu_v10 + 695.244 * mu_b1 + 2192.7588 * mu_b2 + 1383.6718 * mu_b3 + 7650.7437 * mu_b4 + 39911.383 * mu_b5 + 51172.832 * mu_b6 + 28617.684 * mu_b7 + 5127.564 * mu_b8 + 108.8736 * mu_b9 - 0.33373192 * mu_u10;
-    let p_8 = 62.936096 * mu_v10 + 668.78467 * mu_b1 + 1539.1251 * mu_b2 - 505.476 * mu_b3 - 685.46387 * mu_b4 + 12064.338 * mu_b5 + 18433.498 * mu_b6 + 10655.37 * mu_b7 + 1875.4286 * mu_b8 + 50.639748 * mu_b9 + 0.14137837 * mu_u10;
-    let p_9 = 16.882408 * mu_v10 + 194.04553 * mu_b1 + 423.45593 * mu_b2 - 393.7427 * mu_b3 - 933.39825 * mu_b4 + 2016.8412 * mu_b5 + 3783.7097 * mu_b6 + 2191.9824 * mu_b7 + 347.50214 * mu_b8 + 8.590509 * mu_b9 + 0.011543624 * mu_u10;
-    let p_10 = 0.73140407 * mu_v10 + 18.974003 * mu_b1 + 53.426 * mu_b2 - 16.908216 * mu_b3 - 48.556885 * mu_b4 + 276.0165 * mu_b5 + 426.72772 * mu_b6 + 219.50757 * mu_b7 + 27.804768 * mu_b8 + 0.49901262 * mu_b9 + 0.0005300216 * mu_u10;
+    let p_0 = 0.9999927 * mu_v10 + 10.065746 * mu_b1 + 47.213024 * mu_b2 + 120.03619 * mu_b3 + 181.51901 * mu_b4 + 270.47495 * mu_b5 + 223.34532 * mu_b6 + 110.515015 * mu_b7 + 22.26286 * mu_b8 + 2.1706314 * mu_b9 + 0.010305284 * mu_u10;
+    let p_1 = 5.7304115 * mu_v10 + 61.419155 * mu_b1 + 285.62994 * mu_b2 + 738.794 * mu_b3 + 1012.72107 * mu_b4 + 1685.902 * mu_b5 + 1416.331 * mu_b6 + 706.7659 * mu_b7 + 91.48886 * mu_b8 - 1.8959898 * mu_b9 - 0.03633815 * mu_u10;
+    let p_2 = 50.17952 * mu_v10 + 538.6206 * mu_b1 + 2433.6333 * mu_b2 + 6385.391 * mu_b3 + 9782.001 * mu_b4 + 13455.701 * mu_b5 + 10841.972 * mu_b6 + 5308.0356 * mu_b7 + 895.3779 * mu_b8 + 21.54095 * mu_b9 + 0.086524956 * mu_u10;
+    let p_3 = 146.2215 * mu_v10 + 1661.7953 * mu_b1 + 7602.073 * mu_b2 + 20089.951 * mu_b3 + 32130.592 * mu_b4 + 44320.035 * mu_b5 + 36492.305 * mu_b6 + 17868.113 * mu_b7 + 3080.1282 * mu_b8 + 60.761246 * mu_b9 - 0.10225384 * mu_u10;
+    let p_4 = 315.95554 * mu_v10 + 3769.4434 * mu_b1 + 17409.047 * mu_b2 + 45509.684 * mu_b3 + 75332.96 * mu_b4 + 103505.77 * mu_b5 + 86387.414 * mu_b6 + 41980.875 * mu_b7 + 7576.559 * mu_b8 + 218.4486 * mu_b9 + 0.76659626 * mu_u10;
+    let p_5 = 272.50504 * mu_v10 + 3969.7085 * mu_b1 + 19341.178 * mu_b2 + 51228.33 * mu_b3 + 90733.695 * mu_b4 + 136608.73 * mu_b5 + 121339.48 * mu_b6 + 60151.527 * mu_b7 + 11055.553 * mu_b8 + 337.82144 * mu_b9 - 0.10694969 * mu_u10;
+    let p_6 = 32.00871 * mu_v10 + 1604.5731 * mu_b1 + 8489.263 * mu_b2 + 21889.982 * mu_b3 + 46624.367 * mu_b4 + 95685.8 * mu_b5 + 98494.56 * mu_b6 + 51605.49 * mu_b7 + 9431.623 * mu_b8 + 248.70547 * mu_b9 + 1.2020265 * mu_u10;
+    let p_7 = 18.736595 * mu_v10 + 695.8365 * mu_b1 + 2194.2412 * mu_b2 + 1384.7206 * mu_b3 + 7660.1616 * mu_b4 + 39930.207 * mu_b5 + 51199.5 * mu_b6 + 28632.027 * mu_b7 + 5130.0464 * mu_b8 + 108.99789 * mu_b9 - 0.33606556 * mu_u10;
+    let p_8 = 62.98797 * mu_v10 + 668.86847 * mu_b1 + 1538.7048 * mu_b2 - 507.6057 * mu_b3 - 685.70276 * mu_b4 + 12068.419 * mu_b5 + 18442.104 * mu_b6 + 10660.058 * mu_b7 + 1876.1604 * mu_b8 + 50.696514 * mu_b9 + 0.14193358 * mu_u10;
+    let p_9 = 16.892342 * mu_v10 + 194.00217 * mu_b1 + 423.16617 * mu_b2 - 394.47723 * mu_b3 - 933.67975 * mu_b4 + 2017.6278 * mu_b5 + 3785.4731 * mu_b6 + 2192.7979 * mu_b7 + 347.56406 * mu_b8 + 8.596948 * mu_b9 + 0.0115514565 * mu_u10;
+    let p_10 = 0.73213327 * mu_v10 + 18.970074 * mu_b1 + 53.4364 * mu_b2 - 16.816317 * mu_b3 - 48.283848 * mu_b4 + 276.39917 * mu_b5 + 427.0653 * mu_b6 + 219.61649 * mu_b7 + 27.80597 * mu_b8 + 0.49910644 * mu_b9 + 0.000530254 * mu_u10;
     let p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v10 + 10.063305 * mu_b1 + 47.195427 * mu_b2 + 120.049576 * mu_b3 + 181.30281 * mu_b4 + 270.52905 * mu_b5 + 223.24753 * mu_b6 + 110.44496 * mu_b7 + 22.256012 * mu_b8 + 2.1693168 * mu_b9 + 0.010311268 * mu_u10;
-    let q_1 = 5.7294154 * mu_v10 + 61.452305 * mu_b1 + 284.99857 * mu_b2 + 738.7295 * mu_b3 + 1013.5731 * mu_b4 + 1684.6292 * mu_b5 + 1414.0448 * mu_b6 + 708.8282 * mu_b7 + 91.00805 * mu_b8 - 1.8799877 * mu_b9 - 0.036182277 * mu_u10;
-    let q_2 = 47.765785 * mu_v10 + 517.7032 * mu_b1 + 2362.128 * mu_b2 + 6282.2173 * mu_b3 + 9684.845 * mu_b4 + 13407.762 * mu_b5 + 10962.085 * mu_b6 + 5493.084 * mu_b7 + 951.1624 * mu_b8 + 28.33101 * mu_b9 + 0.1243677 * mu_u10;
-    let q_3 = 136.76486 * mu_v10 + 1567.5431 * mu_b1 + 7255.9287 * mu_b2 + 19517.941 * mu_b3 + 31487.377 * mu_b4 + 44149.242 * mu_b5 + 37500.453 * mu_b6 + 18973.818 * mu_b7 + 3284.6782 * mu_b8 + 45.644703 * mu_b9 - 0.31333306 * mu_u10;
-    let q_4 = 366.80447 * mu_v10 + 4315.5625 * mu_b1 + 20086.299 * mu_b2 + 53261.492 * mu_b3 + 89221.16 * mu_b4 + 121472.42 * mu_b5 + 103860.125 * mu_b6 + 51964.54 * mu_b7 + 9728.271 * mu_b8 + 281.22244 * mu_b9 + 1.3153138 * mu_u10;
-    let q_5 = 348.38168 * mu_v10 + 4947.4253 * mu_b1 + 24479.611 * mu_b2 + 66389.46 * mu_b3 + 119035.32 * mu_b4 + 175734.66 * mu_b5 + 160541.11 * mu_b6 + 82416.16 * mu_b7 + 15957.392 * mu_b8 + 511.1146 * mu_b9 - 0.5378198 * mu_u10;
-    let q_6 = 37.497932 * mu_v10 + 1962.3136 * mu_b1 + 10920.326 * mu_b2 + 29758.34 * mu_b3 + 63481.53 * mu_b4 + 125940.625 * mu_b5 + 135681.58 * mu_b6 + 74595.09 * mu_b7 + 14504.297 * mu_b8 + 402.36548 * mu_b9 + 2.2363658 * mu_u10;
-    let q_7 = 14.612465 * mu_v10 + 794.6333 * mu_b1 + 2701.482 * mu_b2 + 2240.6028 * mu_b3 + 10162.771 * mu_b4 + 51281.04 * mu_b5 + 71537.22 * mu_b6 + 42690.914 * mu_b7 + 8179.4277 * mu_b8 + 176.97198 * mu_b9 - 0.64291674 * mu_u10;
-    let q_8 = 78.57141 * mu_v10 + 846.2864 * mu_b1 + 2058.8083 * mu_b2 - 288.19098 * mu_b3 - 990.9141 * mu_b4 + 15147.392 * mu_b5 + 26205.322 * mu_b6 + 16369.506 * mu_b7 + 3088.294 * mu_b8 + 86.32489 * mu_b9 + 0.24893321 * mu_u10;
-    let q_9 = 21.647617 * mu_v10 + 251.03291 * mu_b1 + 580.83545 * mu_b2 - 416.0107 * mu_b3 - 1337.5978 * mu_b4 + 2361.4817 * mu_b5 + 5423.6694 * mu_b6 + 3443.9668 * mu_b7 + 584.4375 * mu_b8 + 14.983742 * mu_b9 + 0.020478474 * mu_u10;
-    let q_10 = 0.94243175 * mu_v10 + 24.61791 * mu_b1 + 73.16971 * mu_b2 - 9.668109 * mu_b3 - 72.811874 * mu_b4 + 344.71396 * mu_b5 + 627.80133 * mu_b6 + 354.53378 * mu_b7 + 47.73287 * mu_b8 + 0.88199997 * mu_b9 + 0.0009481697 * mu_u10;
+    let q_0 = 1.0 * mu_v10 + 10.065195 * mu_b1 + 47.214687 * mu_b2 + 120.06985 * mu_b3 + 181.38885 * mu_b4 + 270.60934 * mu_b5 + 223.32181 * mu_b6 + 110.495895 * mu_b7 + 22.267324 * mu_b8 + 2.170489 * mu_b9 + 0.010305426 * mu_u10;
+    let q_1 = 5.7297163 * mu_v10 + 61.467827 * mu_b1 + 285.15732 * mu_b2 + 738.8458 * mu_b3 + 1014.1867 * mu_b4 + 1685.0387 * mu_b5 + 1414.4537 * mu_b6 + 709.1443 * mu_b7 + 91.04681 * mu_b8 - 1.8805333 * mu_b9 - 0.036350474 * mu_u10;
+    let q_2 = 47.767834 * mu_v10 + 517.804 * mu_b1 + 2363.0278 * mu_b2 + 6283.604 * mu_b3 + 9689.315 * mu_b4 + 13411.851 * mu_b5 + 10966.051 * mu_b6 + 5495.6416 * mu_b7 + 951.62067 * mu_b8 + 28.359009 * mu_b9 + 0.12516598 * mu_u10;
+    let q_3 = 136.78064 * mu_v10 + 1568.0161 * mu_b1 + 7259.046 * mu_b2 + 19523.57 * mu_b3 + 31502.234 * mu_b4 + 44163.945 * mu_b5 + 37514.977 * mu_b6 + 18982.604 * mu_b7 + 3286.1506 * mu_b8 + 45.6772 * mu_b9 - 0.31473833 * mu_u10;
+    let q_4 = 366.8491 * mu_v10 + 4316.9805 * mu_b1 + 20094.418 * mu_b2 + 53278.773 * mu_b3 + 89260.19 * mu_b4 + 121515.77 * mu_b5 + 103902.305 * mu_b6 + 51988.477 * mu_b7 + 9732.703 * mu_b8 + 281.4146 * mu_b9 + 1.3225598 * mu_u10;
+    let q_5 = 348.4262 * mu_v10 + 4949.411 * mu_b1 + 24490.549 * mu_b2 + 66414.0 * mu_b3 + 119090.586 * mu_b4 + 175802.38 * mu_b5 + 160609.39 * mu_b6 + 82453.836 * mu_b7 + 15964.112 * mu_b8 + 511.25754 * mu_b9 - 0.5543173 * mu_u10;
+    let q_6 = 37.610065 * mu_v10 + 1964.332 * mu_b1 + 10929.812 * mu_b2 + 29779.291 * mu_b3 + 63530.82 * mu_b4 + 126008.9 * mu_b5 + 135755.39 * mu_b6 + 74636.71 * mu_b7 + 14512.617 * mu_b8 + 402.9105 * mu_b9 + 2.252351 * mu_u10;
+    let q_7 = 14.716966 * mu_v10 + 795.39825 * mu_b1 + 2703.5776 * mu_b2 + 2242.687 * mu_b3 + 10175.116 * mu_b4 + 51306.934 * mu_b5 + 71573.98 * mu_b6 + 42712.86 * mu_b7 + 8183.3745 * mu_b8 + 177.17488 * mu_b9 - 0.6472672 * mu_u10;
+    let q_8 = 78.636925 * mu_v10 + 846.413 * mu_b1 + 2058.329 * mu_b2 - 290.90787 * mu_b3 - 991.6916 * mu_b4 + 15152.668 * mu_b5 + 26217.15 * mu_b6 + 16376.915 * mu_b7 + 3089.4834 * mu_b8 + 86.42163 * mu_b9 + 0.24992286 * mu_u10;
+    let q_9 = 21.6603 * mu_v10 + 250.97974 * mu_b1 + 580.4502 * mu_b2 - 417.03485 * mu_b3 - 1338.1686 * mu_b4 + 2362.43 * mu_b5 + 5426.098 * mu_b6 + 3445.3064 * mu_b7 + 584.53754 * mu_b8 + 14.994969 * mu_b9 + 0.020492442 * mu_u10;
+    let q_10 = 0.9433714 * mu_v10 + 24.613022 * mu_b1 + 73.182144 * mu_b2 - 9.546943 * mu_b3 - 72.43957 * mu_b4 + 345.26614 * mu_b5 + 628.3052 * mu_b6 + 354.7204 * mu_b7 + 47.734905 * mu_b8 + 0.8821646 * mu_b9 + 0.00094858516 * mu_u10;
     let q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -15,7 +15,7 @@
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 4a48654327c0f44cd822bca0cd899ea91ef6a9dad9fd07e72e2e4aa6155d2eaf.
+// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 f1f9e0d027ac78c19a0dec5f2d0a894464043e1603e25e287730c5076346b517.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
 //   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.1e-7, shifted 6.9e-7, bernstein 3.1e-7.
 // Error of the f64 fit on its 1048576 data points: MAE 8.70e-4, max 1.53e-2 (recorded by the fitter).

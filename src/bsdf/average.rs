@@ -22,6 +22,14 @@ use std::sync::Arc;
 /// The name of the axis an average integrates out.
 pub const MU_AXIS: &str = "mu";
 
+/// The loosest tolerance an average is refined to, whatever looser one is asked for. E_avg
+/// enters the Kulla–Conty lobe as 1/(1 − E_avg), which amplifies its error where E_avg → 1
+/// (r → 0), and its estimate |Q(order) − Q(companion)| sums the μ rule's and every E's: at the
+/// engine's default 1e-7 the leaving dielectric's average is 1.3e-8 from an independent
+/// integration (F0 = 0.04, r = 0.5), at 1e-10 within 1e-9 everywhere tested
+/// (`averages_match_an_independent_integration_to_1e_9`).
+pub const AVERAGE_TOLERANCE: f64 = 1e-9;
+
 /// E_avg of `base`: see the module documentation.
 pub struct AverageAlbedo {
     base: Arc<dyn Model>,
@@ -126,7 +134,14 @@ impl Model for AverageAlbedo {
     }
 
     fn parameters(&self) -> serde_json::Value {
-        self.base.parameters()
+        serde_json::json!({
+            "base": self.base.parameters(),
+            "tolerance_at_most": AVERAGE_TOLERANCE,
+        })
+    }
+
+    fn tolerance(&self, requested: f64) -> f64 {
+        requested.min(AVERAGE_TOLERANCE)
     }
 
     /// The base model's column sharing carries over when its μ breakpoints do not depend on
@@ -261,9 +276,9 @@ mod tests {
 
     /// E_avg against an independent integration of E over μ: adaptive Gauss–Kronrod
     /// (`material::quad`, not the engine's rules) of 2 E(μ) μ with the critical angle as an
-    /// interval end, E by the engine at tolerance 1e-12, against the `-avg` model at tolerance
-    /// 1e-10: within 1e-9 (1.9e-10 measured for the leaving dielectric, whose average the furnace
-    /// test's plain [0, 1] rule misses by 1.6e-9 without that break).
+    /// interval end, E by the engine at tolerance 1e-12, against the `-avg` model at the
+    /// engine's default settings: within 1e-9 (the leaving dielectric's average, which the
+    /// furnace test's plain [0, 1] rule misses by 1.6e-9 without that break, is the hardest).
     #[test]
     fn averages_match_an_independent_integration_to_1e_9() {
         use crate::material::quad::{integrate, Tolerance};
@@ -271,15 +286,17 @@ mod tests {
             tolerance: 1e-12,
             ..QuadratureSettings::default()
         };
-        let avg_settings = QuadratureSettings {
-            tolerance: 1e-10,
-            ..QuadratureSettings::default()
-        };
+        let avg_settings = QuadratureSettings::default();
         let (c1, c2) = (RuleCache::new(&tight), RuleCache::new(&avg_settings));
         for (name, lead) in [
             ("ggx-conductor", vec![0.5]),
+            ("ggx-conductor", vec![0.07]),
+            ("ggx-conductor-separable", vec![0.93]),
             ("ggx-dielectric", vec![0.04, 0.5]),
+            ("ggx-dielectric", vec![0.21, 0.13]),
             ("ggx-dielectric-inv", vec![0.04, 0.5]),
+            ("ggx-dielectric-inv", vec![0.0125, 0.9]),
+            ("ggx-dielectric-inv-separable", vec![0.25, 0.07]),
         ] {
             let base = crate::bsdf::find(name).unwrap();
             let avg = average_of(name);
@@ -301,7 +318,12 @@ mod tests {
                     max_intervals: 2000,
                 },
             );
-            let engine = crate::bsdf::albedo(&avg, &lead, &avg_settings, &c2).value[0];
+            let estimate = crate::bsdf::albedo(&avg, &lead, &avg_settings, &c2);
+            assert!(
+                estimate.converged && estimate.error <= AVERAGE_TOLERANCE,
+                "{name}"
+            );
+            let engine = estimate.value[0];
             eprintln!(
                 "{name} at {lead:?}: E_avg {engine:.13}, independent {:.13}, |diff| {:.1e}",
                 independent.value,

@@ -142,6 +142,12 @@ pub trait Model: Send + Sync {
     fn shares_column_geometry(&self) -> bool {
         false
     }
+    /// The tolerance [`albedo`] and [`albedo_column`] refine this model's estimates to when
+    /// `requested` is asked for: `requested`, unless the model needs a tighter one (the
+    /// averages, [`average::AVERAGE_TOLERANCE`]).
+    fn tolerance(&self, requested: f64) -> f64 {
+        requested
+    }
     /// Whether E has a boundary layer at grazing μ whose width shrinks with roughness (GGX:
     /// E(r, μ) → g(μ/r²) as r → 0). Degree sweeps of such a model also try the boundary-layer
     /// input transform ([`crate::fit::InputTransform::BoundaryLayer`]); for the others it only
@@ -171,7 +177,8 @@ pub trait Model: Send + Sync {
     }
 }
 
-/// E at one point with its error estimate, refined until it meets `settings.tolerance`
+/// E at one point with its error estimate, refined until it meets `settings.tolerance` (or the
+/// model's tighter [`Model::tolerance`])
 /// ([`refine`]; both orders of the first estimate through [`Model::integrate_orders`]).
 pub fn albedo(
     model: &dyn Model,
@@ -179,6 +186,10 @@ pub fn albedo(
     settings: &QuadratureSettings,
     cache: &RuleCache,
 ) -> Estimate<MAX_OUTPUTS> {
+    let settings = &QuadratureSettings {
+        tolerance: model.tolerance(settings.tolerance),
+        ..*settings
+    };
     let first = model.integrate_orders(
         x,
         &[cache.get(settings.companion), cache.get(settings.order)],
@@ -204,6 +215,10 @@ pub fn albedo_column(
     settings: &QuadratureSettings,
     cache: &RuleCache,
 ) -> Vec<Estimate<MAX_OUTPUTS>> {
+    let settings = &QuadratureSettings {
+        tolerance: model.tolerance(settings.tolerance),
+        ..*settings
+    };
     if !model.shares_column_geometry() {
         return xs
             .iter()

@@ -34,6 +34,11 @@
 // Index loops mirror the formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
+/// Version of the fitter's arithmetic: the same table, options and version give the same fits
+/// bit for bit. Raised whenever a change to the solvers, forms or selection changes any fit for
+/// unchanged inputs, so that `furnace run` refits instead of reusing a previous sweep's files.
+pub const FITTER_VERSION: u32 = 1;
+
 pub mod basis;
 pub mod check;
 pub mod compare;

@@ -72,6 +72,9 @@ pub struct SweepInputs {
     pub what: String,
     pub tool: String,
     pub tool_version: String,
+    /// [`crate::fit::FITTER_VERSION`] of the fitter that wrote the files.
+    #[serde(default)]
+    pub fitter_version: u32,
     /// The table's cache stem as given to `furnace run` (relative to the working folder).
     pub table_stem: String,
     /// Cache key of the table's spec ([`TableSpec::content_hash`]).
@@ -102,6 +105,7 @@ fn sweep_inputs(t: &Tabulated, plan: &SweepPlan, check: Option<&CheckSet>) -> Sw
         what: "inputs of the sweep files in this folder, written by `furnace run` after them: a run whose table values and sweep options are the same reuses the files listed here (if their SHA-256 still match) instead of refitting; `furnace run --refit` refits".into(),
         tool: "furnace".into(),
         tool_version: crate::VERSION.into(),
+        fitter_version: crate::fit::FITTER_VERSION,
         table_stem: t.stem.to_string_lossy().replace('\\', "/"),
         table_content_hash: t.table.spec.content_hash(),
         table_values_sha256: values_sha256(&t.table.values),
@@ -371,4 +375,64 @@ pub fn write_sweep_files(
         )?;
     }
     Ok((written, times))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::job::SweepPlan;
+
+    fn inputs() -> SweepInputs {
+        SweepInputs {
+            what: "test".into(),
+            tool: "furnace".into(),
+            tool_version: crate::VERSION.into(),
+            fitter_version: crate::fit::FITTER_VERSION,
+            table_stem: "data/m/9x9".into(),
+            table_content_hash: "abc".into(),
+            table_values_sha256: "def".into(),
+            channel: "E".into(),
+            plan: SweepPlan {
+                polynomial_degrees: vec![2],
+                rational_degrees: vec![],
+                rational_pairs: vec![],
+                forms: vec![],
+                transform_sets: vec![],
+                objective: Objective::LeastSquares,
+                max_fit_points: 0,
+                fit_grading: vec![],
+                training_points: 0,
+                budgets: vec![20],
+                minimax_refits: false,
+            },
+            check_set: None,
+            files: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_sweep_is_reused_only_with_the_same_fitter_and_intact_files() {
+        let dir = std::env::temp_dir().join(format!("furnace-sweep-reuse-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("best-20.json"), "{}").unwrap();
+        let mut written = inputs();
+        written.files = vec![FileHash {
+            file: "best-20.json".into(),
+            sha256: sha256_hex(b"{}"),
+        }];
+        std::fs::write(
+            dir.join(SWEEP_INPUTS),
+            serde_json::to_string(&written).unwrap(),
+        )
+        .unwrap();
+        assert!(reusable(&dir, &inputs()).is_some());
+        let newer_fitter = SweepInputs {
+            fitter_version: crate::fit::FITTER_VERSION + 1,
+            ..inputs()
+        };
+        assert!(reusable(&dir, &newer_fitter).is_none());
+        std::fs::write(dir.join("best-20.json"), "{ }").unwrap();
+        assert!(reusable(&dir, &inputs()).is_none());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -739,8 +739,13 @@ impl SlopeDielectric {
                 n += 1;
             }
         }
-        if !cand[..n].is_sorted_by(|a, b| a.at.rho.total_cmp(&b.at.rho).is_le()) {
-            cand[..n].sort_by(|a, b| a.at.rho.total_cmp(&b.at.rho));
+        // insertion sort: stable like `sort_by`, without its call for a handful of kinks
+        for i in 1..n {
+            let mut j = i;
+            while j > 0 && cand[j - 1].at.rho.total_cmp(&cand[j].at.rho).is_gt() {
+                cand.swap(j - 1, j);
+                j -= 1;
+            }
         }
         let rho_max = if reflects { h.rho_max } else { 0.0 };
         let (cap_lo, cap_hi) = match (self.leaving(), q2) {
@@ -1246,6 +1251,13 @@ impl Integrand2D for SlopeDielectric {
 
     fn panels_all_active(&self) -> bool {
         true
+    }
+
+    /// The cap's ψ converges far faster than its radial variable (at order 9, the other at
+    /// 40: at most 1.3e-7 against 2.8e-5; `examples/lean_cap.rs`), so in deficit mode it takes
+    /// [`crate::quadrature::lean_order`] points, as the conductor's ψ does.
+    fn lean_outer(&self) -> bool {
+        self.deficit
     }
 
     /// Deficit mode: the whole line in one kernel on the widest vector unit ([`CapLine`]): the

@@ -195,8 +195,6 @@ pub struct SlopeDielectric {
     column: Column,
     /// Column mode: one panel's sums, reused.
     scratch: std::cell::RefCell<Vec<f64>>,
-    /// Deficit mode: one line's values, reused.
-    line_buf: std::cell::RefCell<LineBuf>,
     /// Deficit mode ([`SlopeDielectric::deficit`]): only the critical-angle cap, channels
     /// [∫(1 − F)·R, E_T].
     deficit: bool,
@@ -248,7 +246,6 @@ impl SlopeDielectric {
             mask_scale: alpha,
             column: Column::default(),
             scratch: std::cell::RefCell::new(Vec::new()),
-            line_buf: std::cell::RefCell::new(LineBuf::default()),
             deficit: false,
         }
     }
@@ -1143,7 +1140,7 @@ impl CapLine<'_> {
 const MASKED: u8 = 6;
 
 /// Deficit mode: one line's nodes, weights, integrand values and the lobes of its nodes,
-/// reused.
+/// reused by every line and cell on a thread ([`LINE_BUF`]).
 #[derive(Default)]
 struct LineBuf {
     vs: Vec<f64>,
@@ -1152,6 +1149,13 @@ struct LineBuf {
     t: Vec<f64>,
     r_on: Vec<bool>,
     t_on: Vec<bool>,
+}
+
+thread_local! {
+    /// The cap's line buffers, one set per thread: a table's cells then allocate none (every
+    /// entry a line reads is one it wrote, but for the spare lanes of its last block, whose
+    /// values are discarded).
+    static LINE_BUF: std::cell::RefCell<LineBuf> = std::cell::RefCell::new(LineBuf::default());
 }
 
 impl Integrand2D for SlopeDielectric {
@@ -1284,14 +1288,15 @@ impl Integrand2D for SlopeDielectric {
         if !self.deficit || !self.column.eta.is_empty() || panels.len() > MAX_PANELS {
             return by_panel(vs, ws, acc);
         }
-        let mut buf = self.line_buf.borrow_mut();
-        let done = vector::run(CapLine {
-            f: self,
-            line,
-            panels,
-            rule,
-            buf: &mut buf,
-            acc: &mut *acc,
+        let done = LINE_BUF.with(|buf| {
+            vector::run(CapLine {
+                f: self,
+                line,
+                panels,
+                rule,
+                buf: &mut buf.borrow_mut(),
+                acc: &mut *acc,
+            })
         });
         if !done {
             by_panel(vs, ws, acc);

@@ -696,7 +696,8 @@ pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]
     // A panel between kinks on which the integrand vanishes at the midpoint vanishes throughout
     // (kinks are its only way to switch on); likewise an outer panel whose middle line vanishes
     // at every inner midpoint (e.g. beyond the latitude where the reflection horizon closes).
-    let (mut mids, mut active) = (Vec::with_capacity(16), Vec::with_capacity(16));
+    // (allocated on first use: integrands whose panels are all active never use them)
+    let (mut mids, mut active) = (Vec::new(), Vec::new());
     let all_active = f.panels_all_active();
     let mut activity =
         |line: &I::Line, inner: &[Panel], mids: &mut Vec<f64>, active: &mut Vec<bool>| {

@@ -1,5 +1,5 @@
 //! The leaving dielectric's critical-angle cap ([`SlopeDielectric::deficit`]) with its outer
-//! variable ψ at the full order against `lean_order` (what it uses): first the error of each
+//! variable ψ at the full order (what it uses) against `lean_order`: first the error of each
 //! variable's rule alone at order 9 (the other at 40) over 5 IORs × 16 × 17 cells of (F0, r, μ),
 //! then, on a 5 × 23 × 24 grid, the cells whose estimate |Q(12) − Q(9)| misses 1e-7 (refined
 //! ×1.25 until it meets it) and the worst error after that against order 36.

@@ -1257,13 +1257,6 @@ impl Integrand2D for SlopeDielectric {
         true
     }
 
-    /// The cap's ψ converges far faster than its radial variable (at order 9, the other at
-    /// 40: at most 1.3e-7 against 2.8e-5; `examples/lean_cap.rs`), so in deficit mode it takes
-    /// [`crate::quadrature::lean_order`] points, as the conductor's ψ does.
-    fn lean_outer(&self) -> bool {
-        self.deficit
-    }
-
     /// Deficit mode: the whole line in one kernel on the widest vector unit ([`CapLine`]): the
     /// nodes of all its panels mapped into one buffer, each line part (s, u) evaluated by one
     /// branch-free loop across panel ends, each panel summed from zero in node order — the

@@ -774,7 +774,7 @@ impl Default for QuadratureSettings {
 /// Default base order. With the panel maps above the bare order-12 rule is within 2.4e-8
 /// (conductor) and 9.5e-10 (entering dielectric) of the reference albedos, and
 /// |Q(12) − Q(9)| ≤ 1e-7 holds for 77 % of the cells of a 1024² conductor table and 95 % of a
-/// 128³ entering dielectric one (86 % leaving, whose ψ takes `lean_order`), the rest being refined (`furnace bench tabulate`, `furnace tabulate`;
+/// 128³ entering dielectric one (90 % leaving), the rest being refined (`furnace bench tabulate`, `furnace tabulate`;
 /// see docs/quadrature.md).
 pub const DEFAULT_ORDER: usize = 12;
 

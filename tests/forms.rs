@@ -207,6 +207,29 @@ fn low_rank_round_trips() {
 }
 
 #[test]
+fn split_form_in_the_critical_angle_variable_round_trips() {
+    let dir = scratch("critical");
+    let path = round_trip(
+        &dir,
+        "ggx-dielectric-inv",
+        "6x8x8",
+        "split:f0:4:2/1",
+        "f0=critical:0.0125:0.25,r=square,mu=glayer:r:1:0:2",
+    );
+    let fit = fitfile::load(&path).unwrap().record.fit;
+    assert_eq!(
+        fit.approximant.transforms[0],
+        furnace::fit::InputTransform::CriticalAngle {
+            lo: 0.0125,
+            hi: 0.25
+        }
+    );
+    // five powers of t_f0 times total degree 2 in (r, μ), Q of degree 1 without f0
+    assert_eq!(fit.n_coefficients, 5 * 6 + 2);
+    assert!(fit.metrics.max_abs_error < 0.1, "{:?}", fit.metrics);
+}
+
+#[test]
 fn forms_the_data_cannot_determine_are_refused() {
     let dir = scratch("refused");
     let base = |spec: &str| {

@@ -882,6 +882,27 @@ pub fn albedo_function(
                 let shifted = if ra == 0.0 { x } else { sub(x, lit(ra)) };
                 Some(mul(shifted, lit(1.0 / (rb - ra))))
             }
+            // (2q/(1 + q²) − μ_c(lo))·(1/(μ_c(hi) − μ_c(lo))), q = clamp(x, lo, hi)^¼ as two
+            // square roots of a non-negative number
+            InputTransform::CriticalAngle { lo: a0, hi: b0 } => {
+                let x = if lo >= a0 && hi <= b0 {
+                    var(&c)
+                } else {
+                    clamp(var(&c), lit(a0), lit(b0))
+                };
+                let q = format!("{p}_q");
+                body.push(Stmt {
+                    name: q.clone(),
+                    value: sqrt(sqrt(x)),
+                    comment: Some(format!("q = {p}^(1/4)")),
+                });
+                let (ma, mb) = (
+                    crate::fit::data::critical_cosine(a0),
+                    crate::fit::data::critical_cosine(b0),
+                );
+                let mc = div(mul(lit(2.0), var(&q)), add(lit(1.0), mul(var(&q), var(&q))));
+                Some(mul(sub(mc, lit(ma)), lit(1.0 / (mb - ma))))
+            }
             // ((1 − w)·(x(1 + k y²) + τ)/(x + k y² + τ) + w·x)^(1/n), y = an earlier clamped
             // argument, the root as repeated square roots of a non-negative number
             InputTransform::GrazingLayer {

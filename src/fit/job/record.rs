@@ -296,6 +296,7 @@ pub fn fit_file_name(
                     variables.get(by).map_or("x", String::as_str)
                 ),
                 InputTransform::RootNormalize { lo, hi, root } => format!("root{root}_{lo}_{hi}"),
+                InputTransform::CriticalAngle { lo, hi } => format!("critical_{lo}_{hi}"),
                 InputTransform::GrazingLayer { by, k, w, root } => format!(
                     "glayer_{}_{k}_{w}_{root}",
                     variables.get(by).map_or("x", String::as_str)

@@ -387,7 +387,8 @@ mod tests {
         assert_eq!(full.transform_sets.last(), Some(&t));
         assert!(physics_transforms(&data(&["x", "y"]), true).is_none());
         // 4-D anisotropic: μ in the projected-roughness layer, φ as sin²φ (φ ∈ [0, 1] ⊂ [0, π/2])
-        let d4 = data(&["r", "aniso", "mu", "phi"]);
+        let mut d4 = data(&["r", "aniso", "mu", "phi"]);
+        d4.domain[1] = (0.0, 0.95);
         let t4 = physics_transforms(&d4, true).unwrap();
         assert_eq!(
             t4,

@@ -811,6 +811,32 @@ pub fn transformed_lets(fit: &FitResult) -> Vec<String> {
         .collect()
 }
 
+/// sin²x of x ∈ [0, π/2] without a sine ([`InputTransform::SinSquared`]): (1 + sin u)/2 with
+/// u = 2x − π/2 and sin u = u·Σ_j c_j u^(2j) by Horner in u² (Taylor to u¹⁵,
+/// [`crate::fit::sin_squared_series`]). Pushes u and u² as `{prefix}u`, `{prefix}u2`.
+fn sin_squared(x: Expr, prefix: &str, body: &mut Vec<Stmt>) -> Expr {
+    let u = format!("{prefix}u");
+    let u2 = format!("{prefix}u2");
+    body.push(Stmt {
+        name: u.clone(),
+        value: sub(mul(x, lit(2.0)), lit(std::f64::consts::FRAC_PI_2)),
+        comment: Some(
+            "sin²φ = (1 + sin u)/2, u = 2φ − π/2 (Taylor series of sin to u¹⁵)".to_string(),
+        ),
+    });
+    body.push(Stmt {
+        name: u2.clone(),
+        value: mul(var(&u), var(&u)),
+        comment: None,
+    });
+    let c = crate::fit::sin_squared_series();
+    let mut h = lit(c[c.len() - 1]);
+    for &cj in c[..c.len() - 1].iter().rev() {
+        h = add(mul(h, var(&u2)), lit(cj));
+    }
+    add(lit(0.5), mul(lit(0.5), mul(var(&u), h)))
+}
+
 /// The albedo function of a fit: `name(x_1, …, x_d) -> f32`.
 ///
 /// Body: clamp each input to the f32-rounded domain; apply the input transforms; shift (for
@@ -924,6 +950,54 @@ pub fn albedo_function(
                     add(mul(lit(1.0 - w), l), mul(lit(w), var(&c)))
                 };
                 Some((0..root.trailing_zeros()).fold(blend, |e, _| sqrt(e)))
+            }
+            InputTransform::SinSquared => Some(sin_squared(var(&c), &format!("{p}_"), &mut body)),
+            // ((x(1 + k α_o) + τ)/(x + k α_o + τ))^(1/n), α_o the projected roughness of the
+            // clamped r, aniso and φ (φ clamped here: it may come after this variable)
+            InputTransform::ProjectedLayer {
+                r,
+                aniso,
+                phi,
+                k: scale,
+                root,
+            } => {
+                let dom_phi = (
+                    Expr::Lit(Lit::exact(dom[phi].0)),
+                    Expr::Lit(Lit::exact(dom[phi].1)),
+                );
+                let phi_c = clamp(var(&params[phi]), dom_phi.0, dom_phi.1);
+                let s2 = sin_squared(phi_c, &format!("{p}_phi_"), &mut body);
+                let b = format!("{p}_b");
+                body.push(Stmt {
+                    name: b.clone(),
+                    value: sub(lit(1.0), var(&format!("{}_c", params[aniso]))),
+                    comment: Some("1 − aniso = α_b/α_t".to_string()),
+                });
+                let rc = var(&format!("{}_c", params[r]));
+                let bb = || mul(var(&b), var(&b));
+                // α_t = r²·√(2/(1 + b²)) (OpenPBR, "Microfacet model"); α_o = α_t·√(1 − (1 − b²)·sin²φ)
+                let alpha_t = mul(
+                    mul(rc.clone(), rc),
+                    sqrt(div(lit(2.0), add(lit(1.0), bb()))),
+                );
+                let ao = format!("{p}_alpha_o");
+                body.push(Stmt {
+                    name: ao.clone(),
+                    value: mul(
+                        alpha_t,
+                        sqrt(max(sub(lit(1.0), mul(sub(lit(1.0), bb()), s2)), lit(0.0))),
+                    ),
+                    comment: Some(
+                        "projected roughness of the azimuth (Heitz 2014, eq. 80)".to_string(),
+                    ),
+                });
+                let s = || mul(lit(scale), var(&ao));
+                let tau = || lit(crate::fit::data::LAYER_TAU);
+                let l = div(
+                    add(mul(var(&c), add(lit(1.0), s())), tau()),
+                    add(add(var(&c), s()), tau()),
+                );
+                Some((0..root.trailing_zeros()).fold(l, |e, _| sqrt(e)))
             }
         };
         let tname = match t {

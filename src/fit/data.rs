@@ -87,6 +87,36 @@ pub enum InputTransform {
         #[serde(default = "one")]
         root: u32,
     },
+    /// t = sin²x on x ∈ [0, π/2] (an azimuth): increasing there, 0 at 0, 1 at π/2.
+    ///
+    /// Why: an albedo of a surface whose roughness is mirror-symmetric about its tangent and
+    /// bitangent is even in φ and in π − φ (docs/anisotropy.md, "Symmetries of φ"), so it is a
+    /// function of cos 2φ = 1 − 2 sin²φ, and the projected roughness of a direction is
+    /// α_t²(1 − (1 − (α_b/α_t)²)·sin²φ) (Heitz 2014, "Understanding the Masking-Shadowing
+    /// Function", eq. 80): a polynomial in sin²φ follows both where one in φ needs a degree
+    /// per flat end. Emitted code forms it without a sine: (1 + sin u)/2 with u = 2x − π/2 and
+    /// sin u by its Taylor series to u¹⁵ ([`sin_squared_series`], within 1e-11 of sin²x).
+    SinSquared,
+    /// t = L^(1/n), L = (x(1 + k α_o) + τ)/(x + k α_o + τ), the boundary-layer coordinate of
+    /// [`InputTransform::BoundaryLayer`] scaled by the projected roughness α_o of the direction
+    /// (x = μ = cos θ, azimuth φ = variable `phi`) on an anisotropic GGX surface in OpenPBR's
+    /// parametrisation (variables `r` and `aniso`, all three untransformed):
+    /// α_t = r²·√(2/(1 + (1 − aniso)²)) (OpenPBR specification, "Microfacet model") and
+    /// α_o = α_t·√(1 − (1 − (1 − aniso)²)·sin²φ) (α_o² = α_t² cos²φ + α_b² sin²φ, the projected roughness of Heitz
+    /// 2014, eq. 80), n = `root` ∈ {1, 2, 4}.
+    ///
+    /// Why: Smith masking depends on ωo only through a = μ/(α_o √(1 − μ²)) (Heitz 2014,
+    /// eqs. 72 and 86), so the grazing layer of the albedo has the width α_o of the *projected*
+    /// roughness, which at strong anisotropy ranges from α_t (φ = 0) to α_b = (1 − aniso)·α_t
+    /// (φ = π/2). A layer scaled by r² alone is 20 times too wide along the bitangent at
+    /// aniso = 0.95. t increases with x (on [0, 1]) and decreases with α_o.
+    ProjectedLayer {
+        r: usize,
+        aniso: usize,
+        phi: usize,
+        k: f64,
+        root: u32,
+    },
 }
 
 impl InputTransform {
@@ -119,12 +149,25 @@ impl InputTransform {
                 (critical_cosine(v.clamp(lo, hi)) - critical_cosine(lo))
                     / (critical_cosine(hi) - critical_cosine(lo))
             }
+            // guard: x may lie a rounding error outside [0, π/2]
+            InputTransform::SinSquared => sin_squared(v),
+            InputTransform::ProjectedLayer {
+                r,
+                aniso,
+                phi,
+                k: scale,
+                root,
+            } => {
+                let at = |i: usize| x.get(i).copied().unwrap_or(f64::NAN);
+                let alpha = projected_alpha(at(r), at(aniso), at(phi));
+                nth_root(layer_scaled(v, scale * alpha), root)
+            }
         }
     }
 
     /// The variable `k` with transform(x)_k = t, given the other variables of x already in
-    /// original form (only `by` of a boundary layer is read); used to report locations.
-    pub fn inverse(&self, t: f64, x: &[f64]) -> f64 {
+    /// original form (only those a layer scales by are read); used to report locations.
+    pub fn inverse(&self, k: usize, t: f64, x: &[f64]) -> f64 {
         match *self {
             InputTransform::Identity => t,
             InputTransform::Sqrt => t * t,
@@ -172,17 +215,40 @@ impl InputTransform {
                 };
                 q.powi(4)
             }
+            InputTransform::SinSquared => t.clamp(0.0, 1.0).sqrt().asin(),
+            InputTransform::ProjectedLayer { .. } => {
+                // t is increasing in x on [0, 1]: bisection (only to report locations)
+                let (mut a, mut b) = (0.0f64, 1.0f64);
+                let mut y = [0.0; MAX_DIM];
+                let n = x.len().min(MAX_DIM);
+                y[..n].copy_from_slice(&x[..n]);
+                if k >= MAX_DIM {
+                    return f64::NAN;
+                }
+                for _ in 0..60 {
+                    let m = 0.5 * (a + b);
+                    y[k] = m;
+                    if self.apply(k, &y) < t {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+                0.5 * (a + b)
+            }
         }
     }
 
     /// The `--transform` syntax of the transforms [`InputTransform::parse_more`] reads.
     pub const MORE_SYNTAX: &'static str =
-        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>] (0 ≤ w < 1, n = 1, 2, 4), critical:lo:hi (0 ≤ lo < hi ≤ 1)";
+        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>] (0 ≤ w < 1, n = 1, 2, 4), critical:lo:hi (0 ≤ lo < hi ≤ 1), sin2 (an azimuth in [0, π/2]), player:<r>:<aniso>:<phi>:<k>[:<n>] (n = 1, 2, 4)";
 
     /// Parses `root:<n>:lo:hi` ([`InputTransform::RootNormalize`]),
-    /// `glayer:<variable>:<k>:<w>[:<n>]` ([`InputTransform::GrazingLayer`]) and `critical:lo:hi`
-    /// ([`InputTransform::CriticalAngle`]) for variable number `k`
-    /// of `names`; None if `text` is neither kind, an error naming the syntax if it is malformed.
+    /// `glayer:<variable>:<k>:<w>[:<n>]` ([`InputTransform::GrazingLayer`]), `critical:lo:hi`
+    /// ([`InputTransform::CriticalAngle`]), `sin2` ([`InputTransform::SinSquared`]) and
+    /// `player:<r>:<aniso>:<phi>:<k>[:<n>]` ([`InputTransform::ProjectedLayer`]) for variable
+    /// number `k` of `names`; None if `text` is none of these, an error naming the syntax if
+    /// it is malformed.
     pub fn parse_more(
         text: &str,
         names: &[String],
@@ -247,6 +313,41 @@ impl InputTransform {
                 "write glayer:<variable>:<k>:<w>[:<n>] with a variable before this one, a finite k > 0, 0 ≤ w < 1 and n = 1, 2 or 4, e.g. mu=glayer:r:1:0.5".to_string()
             }));
         }
+        if text == "sin2" {
+            return Some(Ok(InputTransform::SinSquared));
+        }
+        if let Some(rest) = text.strip_prefix("player:") {
+            let f: Vec<&str> = rest.split(':').collect();
+            let find = |v: &str| names.iter().position(|n| n == v.trim()).filter(|&i| i != k);
+            let parsed = match f.as_slice() {
+                [r, a, p, scale, more @ ..] if more.len() <= 1 => {
+                    let root = match more {
+                        [n] => n.trim().parse::<u32>().ok(),
+                        _ => Some(1),
+                    };
+                    match (find(r), find(a), find(p), num(scale), root) {
+                        (
+                            Some(r),
+                            Some(aniso),
+                            Some(phi),
+                            Some(scale),
+                            Some(root @ (1 | 2 | 4)),
+                        ) if scale > 0.0 => Some(InputTransform::ProjectedLayer {
+                            r,
+                            aniso,
+                            phi,
+                            k: scale,
+                            root,
+                        }),
+                        _ => None,
+                    }
+                }
+                _ => None,
+            };
+            return Some(parsed.ok_or_else(|| {
+                "write player:<r>:<aniso>:<phi>:<k>[:<n>] with three other variables, a finite k > 0 and n = 1, 2 or 4, e.g. mu=player:r:aniso:phi:2:2".to_string()
+            }));
+        }
         None
     }
 
@@ -265,6 +366,14 @@ impl InputTransform {
                 format!("glayer:#{by}:{k}:{w}:{root}")
             }
             InputTransform::CriticalAngle { lo, hi } => format!("critical:{lo}:{hi}"),
+            InputTransform::SinSquared => "sin2".into(),
+            InputTransform::ProjectedLayer {
+                r,
+                aniso,
+                phi,
+                k,
+                root,
+            } => format!("player:#{r}:#{aniso}:#{phi}:{k}:{root}"),
         }
     }
 
@@ -278,6 +387,16 @@ impl InputTransform {
             InputTransform::GrazingLayer { by, k, w, root } => match names.get(by) {
                 Some(n) => format!("glayer:{n}:{k}:{w}:{root}"),
                 None => self.name(),
+            },
+            InputTransform::ProjectedLayer {
+                r,
+                aniso,
+                phi,
+                k,
+                root,
+            } => match (names.get(r), names.get(aniso), names.get(phi)) {
+                (Some(r), Some(a), Some(p)) => format!("player:{r}:{a}:{p}:{k}:{root}"),
+                _ => self.name(),
             },
             _ => self.name(),
         }
@@ -320,6 +439,23 @@ impl InputTransform {
                 format!(
                     "({}*({x}*(1 + {scale}*{y}*{y}) + 2^-100)/({x} + {scale}*{y}*{y} + 2^-100) + {w}*{x})^(1/{root})",
                     1.0 - w
+                )
+            }
+            InputTransform::SinSquared => format!("sin({x})^2"),
+            InputTransform::ProjectedLayer {
+                r,
+                aniso,
+                phi,
+                k: scale,
+                root,
+            } => {
+                let n = |i: usize| names.get(i).map_or("y", String::as_str);
+                let (r, a, p) = (n(r), n(aniso), n(phi));
+                let alpha = format!(
+                    "{r}*{r}*sqrt(2/(1 + (1 - {a})^2))*sqrt(1 - (1 - (1 - {a})^2)*sin({p})^2)"
+                );
+                format!(
+                    "(({x}*(1 + {scale}*{alpha}) + 2^-100)/({x} + {scale}*{alpha} + 2^-100))^(1/{root})"
                 )
             }
             _ => format!("{}({x})", self.name()),
@@ -388,6 +524,69 @@ impl InputTransform {
                     grazing(hi, ylo, scale, w, root),
                 )
             }
+            InputTransform::SinSquared => {
+                if !(lo >= 0.0 && hi <= std::f64::consts::FRAC_PI_2) {
+                    return Err(bad(
+                        "sin² is increasing only on [0, π/2]; reduce the azimuth to it by its symmetries",
+                    ));
+                }
+                (sin_squared(lo), sin_squared(hi))
+            }
+            InputTransform::ProjectedLayer {
+                r,
+                aniso,
+                phi,
+                k: scale,
+                root,
+            } => {
+                let d = domain.len();
+                if [r, aniso, phi].iter().any(|&i| i >= d || i == k)
+                    || r == aniso
+                    || r == phi
+                    || aniso == phi
+                {
+                    return Err(bad(
+                        "a projected layer needs three other, distinct variables r, aniso and phi",
+                    ));
+                }
+                if !(scale > 0.0 && scale.is_finite()) {
+                    return Err(bad("a projected layer needs a finite scale k > 0"));
+                }
+                if !matches!(root, 1 | 2 | 4) {
+                    return Err(bad("a projected layer takes the root n = 1, 2 or 4"));
+                }
+                if !(lo >= 0.0 && hi <= 1.0) {
+                    return Err(bad(
+                        "a projected layer needs 0 ≤ x ≤ 1 (it is monotone there)",
+                    ));
+                }
+                let (rl, rh) = domain[r];
+                let (al, ah) = domain[aniso];
+                let (pl, ph) = domain[phi];
+                if !(rl >= 0.0 && rh.is_finite() && al >= 0.0 && ah < 1.0 && pl >= 0.0)
+                    || ph > std::f64::consts::FRAC_PI_2
+                {
+                    return Err(bad(
+                        "a projected layer needs r ≥ 0, 0 ≤ aniso < 1 and phi in [0, π/2]",
+                    ));
+                }
+                // α_o is monotone in each of r, aniso and φ: its extremes lie at corners
+                let mut amin = f64::INFINITY;
+                let mut amax = 0.0f64;
+                for rr in [rl, rh] {
+                    for aa in [al, ah] {
+                        for pp in [pl, ph] {
+                            let a = projected_alpha(rr, aa, pp);
+                            amin = amin.min(a);
+                            amax = amax.max(a);
+                        }
+                    }
+                }
+                (
+                    nth_root(layer_scaled(lo, scale * amax), root),
+                    nth_root(layer_scaled(hi, scale * amin), root),
+                )
+            }
             InputTransform::BoundaryLayer { by, k: scale } => {
                 if by >= k {
                     return Err(bad(
@@ -441,6 +640,43 @@ fn grazing(x: f64, y: f64, k: f64, w: f64, n: u32) -> f64 {
     nth_root((1.0 - w) * layer(x, y, k) + w * x, n)
 }
 
+/// The boundary-layer coordinate with the scale s given: (x(1 + s) + τ)/(x + s + τ).
+#[inline]
+fn layer_scaled(x: f64, s: f64) -> f64 {
+    (x * (1.0 + s) + LAYER_TAU) / (x + s + LAYER_TAU)
+}
+
+/// sin²φ with φ clamped to [0, π/2] (the transform [`InputTransform::SinSquared`]).
+#[inline]
+fn sin_squared(phi: f64) -> f64 {
+    phi.clamp(0.0, std::f64::consts::FRAC_PI_2).sin().powi(2)
+}
+
+/// Coefficients c_j = (−1)^j/(2j + 1)! of sin u = u·Σ_j c_j u^(2j), j = 0 … 7 (the Taylor
+/// series to u¹⁵; on |u| ≤ π/2 the remainder is below (π/2)¹⁷/17! = 6.0e-12): with
+/// u = 2φ − π/2, sin²φ = (1 + sin u)/2, how emitted code forms [`InputTransform::SinSquared`].
+pub fn sin_squared_series() -> [f64; 8] {
+    let mut c = [0.0; 8];
+    let mut f = 1.0;
+    for (j, cj) in c.iter_mut().enumerate() {
+        if j > 0 {
+            f *= ((2 * j) * (2 * j + 1)) as f64;
+        }
+        *cj = if j % 2 == 0 { 1.0 / f } else { -1.0 / f };
+    }
+    c
+}
+
+/// The projected roughness α_o of the azimuth φ on OpenPBR's anisotropic GGX:
+/// α_t = r²·√(2/(1 + (1 − aniso)²)) (OpenPBR specification, "Microfacet model") and
+/// α_o = α_t·√(1 − (1 − (1 − aniso)²)·sin²φ) (the projected roughness, Heitz 2014, eq. 80).
+#[inline]
+fn projected_alpha(r: f64, aniso: f64, phi: f64) -> f64 {
+    let b = 1.0 - aniso;
+    let alpha_t = r * r * (2.0 / (1.0 + b * b)).sqrt();
+    alpha_t * (1.0 - (1.0 - b * b) * sin_squared(phi)).max(0.0).sqrt()
+}
+
 fn one() -> u32 {
     1
 }
@@ -472,8 +708,14 @@ pub fn transform_point(transforms: &[InputTransform], x: &[f64], t: &mut [f64]) 
 /// so a boundary layer finds the variable it scales by already inverted).
 pub fn inverse_point(transforms: &[InputTransform], t: &[f64]) -> Vec<f64> {
     let mut x = vec![0.0; t.len()];
-    for (k, tr) in transforms.iter().enumerate() {
-        x[k] = tr.inverse(t[k], &x);
+    // a projected layer reads its azimuth, which may come after it: inverted last
+    let last = |tr: &InputTransform| matches!(tr, InputTransform::ProjectedLayer { .. });
+    for pass in [false, true] {
+        for (k, tr) in transforms.iter().enumerate() {
+            if last(tr) == pass {
+                x[k] = tr.inverse(k, t[k], &x);
+            }
+        }
     }
     x
 }
@@ -910,7 +1152,7 @@ mod tests {
         assert_eq!(f.apply(0, &[0.0125]), 0.0);
         assert_eq!(f.apply(0, &[0.25]), 1.0);
         assert_eq!(f.apply(0, &[0.5]), 1.0);
-        assert!((f.inverse(f.apply(0, &[0.1]), &[0.0]) - 0.1).abs() < 1e-15);
+        assert!((f.inverse(0, f.apply(0, &[0.1]), &[0.0]) - 0.1).abs() < 1e-15);
         let x = vec!["x".to_string()];
         assert_eq!(
             InputTransform::OneMinus
@@ -919,6 +1161,124 @@ mod tests {
             (0.5, 1.0)
         );
         assert!(InputTransform::Sqrt.image(0, &x, &[(-1.0, 1.0)]).is_err());
+    }
+
+    #[test]
+    fn sin_squared_series_and_transform() {
+        // the series the emitted code uses, (1 + u·Σ c_j u^(2j))/2, u = 2φ − π/2, is within
+        // 1e-11 of sin²φ on [0, π/2] (remainder ≤ (π/2)¹⁷/17! = 6.0e-12)
+        let c = sin_squared_series();
+        assert_eq!(c[0], 1.0);
+        assert_eq!(c[1], -1.0 / 6.0);
+        assert_eq!(c[7], -1.0 / 1_307_674_368_000.0);
+        let mut worst = 0.0f64;
+        for i in 0..=1000 {
+            let phi = std::f64::consts::FRAC_PI_2 * i as f64 / 1000.0;
+            let u = 2.0 * phi - std::f64::consts::FRAC_PI_2;
+            let h = c.iter().rev().fold(0.0, |h, &cj| h * u * u + cj);
+            let series = 0.5 + 0.5 * u * h;
+            let t = InputTransform::SinSquared.apply(0, &[phi]);
+            assert_eq!(t, phi.sin().powi(2));
+            worst = worst.max((series - t).abs());
+        }
+        assert!(worst < 1e-11, "{worst:e}");
+        let names = vec!["phi".to_string()];
+        let tr = InputTransform::SinSquared;
+        assert_eq!(
+            tr.image(0, &names, &[(0.0, std::f64::consts::FRAC_PI_2)])
+                .unwrap(),
+            (0.0, 1.0)
+        );
+        // sin² is not monotone past π/2: refused with the fix
+        let e = tr.image(0, &names, &[(0.0, 3.0)]).unwrap_err().to_string();
+        assert!(e.contains("[0, π/2]"), "{e}");
+        let phi = 0.7;
+        assert!((tr.inverse(0, tr.apply(0, &[phi]), &[0.0]) - phi).abs() < 1e-12);
+        assert_eq!(
+            InputTransform::parse_more("sin2", &names, 0),
+            Some(Ok(InputTransform::SinSquared))
+        );
+    }
+
+    #[test]
+    fn projected_layer_transform() {
+        let names: Vec<String> = ["r", "aniso", "mu", "phi"].map(String::from).to_vec();
+        let tr = InputTransform::parse_more("player:r:aniso:phi:2:2", &names, 2)
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            tr,
+            InputTransform::ProjectedLayer {
+                r: 0,
+                aniso: 1,
+                phi: 3,
+                k: 2.0,
+                root: 2
+            }
+        );
+        assert_eq!(tr.label(&names), "player:r:aniso:phi:2:2");
+        assert!(InputTransform::parse_more("player:r:aniso:mu:2", &names, 2)
+            .unwrap()
+            .is_err());
+        // aniso = 0: the isotropic layer √L(μ; r) with k·α = k·r² (BoundaryLayer scales by k·y²)
+        let iso = InputTransform::GrazingLayer {
+            by: 0,
+            k: 2.0,
+            w: 0.0,
+            root: 2,
+        };
+        for (r, mu, phi) in [(0.3, 0.1, 0.0), (0.7, 0.02, 1.2), (1.0, 0.5, 0.4)] {
+            let x = [r, 0.0, mu, phi];
+            assert!((tr.apply(2, &x) - iso.apply(2, &x)).abs() < 1e-15);
+        }
+        // α_o = α_t along the tangent, α_b = (1 − aniso)·α_t along the bitangent (OpenPBR axes)
+        let (r, a) = (0.8, 0.9);
+        let alpha_t = r * r * (2.0 / (1.0 + 0.1f64 * 0.1)).sqrt();
+        assert!((projected_alpha(r, a, 0.0) - alpha_t).abs() < 1e-15);
+        let along_b = projected_alpha(r, a, std::f64::consts::FRAC_PI_2);
+        assert!((along_b - 0.1 * alpha_t).abs() < 1e-12, "{along_b}");
+        // α_o² = α_t² cos²φ + α_b² sin²φ at an off-axis azimuth
+        let phi: f64 = 0.61;
+        let want = (alpha_t.powi(2) * phi.cos().powi(2)
+            + (0.1 * alpha_t).powi(2) * phi.sin().powi(2))
+        .sqrt();
+        assert!((projected_alpha(r, a, phi) - want).abs() < 1e-14);
+        // the image on the box contains every value on it, and the inverse finds μ again
+        let dom = [
+            (0.0, 1.0),
+            (0.0, 0.95),
+            (0.0, 1.0),
+            (0.0, std::f64::consts::FRAC_PI_2),
+        ];
+        let (lo, hi) = tr.image(2, &names, &dom).unwrap();
+        assert!(
+            lo >= 0.0 && hi <= 1.0 && lo < 0.01 && hi == 1.0,
+            "{lo} {hi}"
+        );
+        let mut rng = SplitMix64(7);
+        for _ in 0..200 {
+            let x: Vec<f64> = dom
+                .iter()
+                .map(|&(a, b)| a + (b - a) * rng.next_f64())
+                .collect();
+            let t = tr.apply(2, &x);
+            assert!((lo..=hi).contains(&t), "{x:?} {t}");
+            let back = inverse_point(
+                &[
+                    InputTransform::Identity,
+                    InputTransform::Identity,
+                    tr,
+                    InputTransform::SinSquared,
+                ],
+                &[x[0], x[1], t, InputTransform::SinSquared.apply(3, &x)],
+            );
+            assert!((back[2] - x[2]).abs() < 1e-9 && (back[3] - x[3]).abs() < 1e-9);
+        }
+        // a domain the layer is not monotone on is refused with the fix
+        let mut wide = dom;
+        wide[3] = (0.0, 3.0);
+        let e = tr.image(2, &names, &wide).unwrap_err().to_string();
+        assert!(e.contains("phi in [0, π/2]"), "{e}");
     }
 
     #[test]
@@ -984,7 +1344,7 @@ mod tests {
         let want = (0.1f64.powf(0.25) - 0.0125f64.powf(0.25))
             / (0.25f64.powf(0.25) - 0.0125f64.powf(0.25));
         assert!((f.apply(0, &[0.1]) - want).abs() < 1e-15);
-        assert!((f.inverse(f.apply(0, &[0.1]), &[0.0]) - 0.1).abs() < 1e-15);
+        assert!((f.inverse(0, f.apply(0, &[0.1]), &[0.0]) - 0.1).abs() < 1e-15);
         let x = vec!["f0".to_string()];
         assert_eq!(f.image(0, &x, &[(0.0125, 0.25)]).unwrap(), (0.0, 1.0));
         for bad in [
@@ -1039,7 +1399,10 @@ mod tests {
             let t = f.apply(0, &[f0]);
             assert!(t > last, "increasing at {f0}");
             last = t;
-            assert!((f.inverse(t, &[0.0]) - f0).abs() < 1e-14, "inverse at {f0}");
+            assert!(
+                (f.inverse(0, t, &[0.0]) - f0).abs() < 1e-14,
+                "inverse at {f0}"
+            );
         }
         let x = vec!["f0".to_string()];
         assert_eq!(f.image(0, &x, &[(0.0125, 0.25)]).unwrap(), (0.0, 1.0));

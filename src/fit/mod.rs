@@ -64,7 +64,7 @@ pub mod sweep;
 pub mod trust_region;
 
 pub use basis::{exponents, n_terms, ExponentSet, Polynomial};
-pub use data::{FitData, InputTransform};
+pub use data::{sin_squared_series, FitData, InputTransform};
 pub use error::{FitError, Result};
 pub use form::{fit_form, parse_form, split_form, tensor_form, FitOptions};
 pub use lm::{

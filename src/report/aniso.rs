@@ -19,6 +19,7 @@ use super::plot::{self, ColorScale, Formats, HeatFigure, HeatPanel};
 use crate::bsdf::{self, ModelId};
 use crate::digest::sha256_hex;
 use crate::error::{Error, Result};
+use crate::fit::defaults::physics_transforms;
 use crate::fit::{fit_rational, FitData, FitResult, InputTransform, Objective, RationalOptions};
 use crate::material::anisotropic::{albedo_model, Compensated};
 use crate::material::furnace::{furnace_stats, furnace_values, lobe_integrals_at, FurnaceStats};
@@ -40,6 +41,8 @@ pub const DEFAULT_RESOLUTION: [usize; 4] = [16, 8, 16, 8];
 pub const QUICK_RESOLUTION: [usize; 4] = [5, 3, 5, 3];
 /// Degrees of the section's fit: the rational `furnace run --scene` fits by default.
 pub const FIT_DEGREES: (u32, u32) = (3, 3);
+/// The variables of the section's fit ([`physics_transforms`]), part of the section's digest.
+pub const FIT_VARIABLES: &str = "r², aniso, √L(μ; α_o), sin²φ";
 /// The furnace grid takes at most this many nodes of r and of μ (every aniso and φ node).
 pub const FURNACE_NODES: usize = 9;
 /// The Smith form of the section's tables.
@@ -202,9 +205,11 @@ fn fit(table: &Table) -> Option<FitResult> {
     let names: Vec<String> = table.spec.axes.iter().map(|a| a.name.clone()).collect();
     let axes: Vec<Vec<f64>> = table.spec.axes.iter().map(|a| a.nodes()).collect();
     let data = FitData::from_grid(names, &axes, table.output(0).to_vec()).ok()?;
+    // r², the layer of μ scaled by the projected roughness, sin²φ (docs/anisotropy.md, "Fits")
+    let transforms = physics_transforms(&data, true).unwrap_or(vec![InputTransform::Identity; 4]);
     let f = fit_rational(
         &data,
-        &[InputTransform::Identity; 4],
+        &transforms,
         FIT_DEGREES.0,
         FIT_DEGREES.1,
         Objective::LeastSquares,
@@ -229,7 +234,10 @@ impl Reporter<'_> {
         let digest = {
             let mut bytes: Vec<u8> = Vec::new();
             bytes.extend(crate::VERSION.as_bytes());
-            bytes.extend(format!("{resolution:?} {FIT_DEGREES:?} {FURNACE_NODES}").as_bytes());
+            bytes.extend(
+                format!("{resolution:?} {FIT_DEGREES:?} {FURNACE_NODES} {FIT_VARIABLES}")
+                    .as_bytes(),
+            );
             for v in table.output(0) {
                 bytes.extend(v.to_le_bytes());
             }

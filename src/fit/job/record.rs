@@ -301,6 +301,16 @@ pub fn fit_file_name(
                     "glayer_{}_{k}_{w}_{root}",
                     variables.get(by).map_or("x", String::as_str)
                 ),
+                InputTransform::ProjectedLayer {
+                    r,
+                    aniso,
+                    phi,
+                    k,
+                    root,
+                } => {
+                    let n = |i: usize| variables.get(i).map_or("x", String::as_str);
+                    format!("player_{}_{}_{}_{k}_{root}", n(r), n(aniso), n(phi))
+                }
                 other => other.name(),
             };
             s.push_str(&format!("-{v}_{t}"));

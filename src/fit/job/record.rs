@@ -296,9 +296,20 @@ pub fn fit_file_name(
                     variables.get(by).map_or("x", String::as_str)
                 ),
                 InputTransform::RootNormalize { lo, hi, root } => format!("root{root}_{lo}_{hi}"),
-                InputTransform::GrazingLayer { by, k, w, root } => format!(
-                    "glayer_{}_{k}_{w}_{root}",
-                    variables.get(by).map_or("x", String::as_str)
+                InputTransform::GrazingLayer {
+                    by,
+                    k,
+                    w,
+                    root,
+                    beta,
+                } => format!(
+                    "glayer_{}_{k}_{w}_{root}{}",
+                    variables.get(by).map_or("x", String::as_str),
+                    if beta > 0.0 {
+                        format!("_{beta}")
+                    } else {
+                        String::new()
+                    }
                 ),
                 other => other.name(),
             };

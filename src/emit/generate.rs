@@ -936,18 +936,68 @@ pub fn albedo_function(
                 k: scale,
                 w,
                 root,
+                beta,
             } => {
                 let y = var(&format!("{}_c", params[by]));
                 let s = || mul(lit(scale), mul(y.clone(), y.clone()));
                 let tau = || lit(crate::fit::data::LAYER_TAU);
+                // with β > 0, x is first the log-corrected v = (x + b·λ(x))/(1 + b·λ(1)),
+                // b = β y⁴, λ(x) = 16·x^(15/16)·((1 + x)^(1/16) − x^(1/16)) as in fit::data::log_term
+                let x = if beta > 0.0 {
+                    let n = crate::fit::data::LOG_ROOT_ORDER;
+                    let roots = |e: Expr| (0..n.trailing_zeros()).fold(e, |e, _| sqrt(e));
+                    let r = format!("{p}_logs");
+                    body.push(Stmt {
+                        name: r.clone(),
+                        value: roots(max(var(&c), lit(crate::fit::data::LOG_FLOOR))),
+                        comment: Some(format!(
+                            "log-corrected {p}: v = ({p} + b*l({p}))/(1 + b*l(1)), b = {beta}*{y}^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)",
+                            y = params[by]
+                        )),
+                    });
+                    let qn = format!("{p}_logq");
+                    body.push(Stmt {
+                        name: qn.clone(),
+                        value: roots(add(lit(1.0), var(&c))),
+                        comment: None,
+                    });
+                    let (s1, q1) = (var(&r), var(&qn));
+                    let s2 = mul(s1.clone(), s1.clone());
+                    let q2 = mul(q1.clone(), q1.clone());
+                    let s4 = mul(s2.clone(), s2.clone());
+                    let q4 = mul(q2.clone(), q2.clone());
+                    let s8 = mul(s4.clone(), s4.clone());
+                    let q8 = mul(q4.clone(), q4.clone());
+                    let sums = mul(
+                        mul(mul(mul(s1.clone(), add(q1, s1)), add(q2, s2)), add(q4, s4)),
+                        add(q8, s8),
+                    );
+                    let lam = div(mul(lit(n as f64), var(&c)), sums);
+                    let b = mul(
+                        lit(beta),
+                        mul(mul(y.clone(), y.clone()), mul(y.clone(), y.clone())),
+                    );
+                    let v = format!("{p}_logv");
+                    body.push(Stmt {
+                        name: v.clone(),
+                        value: div(
+                            add(var(&c), mul(b.clone(), lam)),
+                            add(lit(1.0), mul(b, lit(crate::fit::data::log_term(1.0)))),
+                        ),
+                        comment: None,
+                    });
+                    v
+                } else {
+                    c.clone()
+                };
                 let l = div(
-                    add(mul(var(&c), add(lit(1.0), s())), tau()),
-                    add(add(var(&c), s()), tau()),
+                    add(mul(var(&x), add(lit(1.0), s())), tau()),
+                    add(add(var(&x), s()), tau()),
                 );
                 let blend = if w == 0.0 {
                     l
                 } else {
-                    add(mul(lit(1.0 - w), l), mul(lit(w), var(&c)))
+                    add(mul(lit(1.0 - w), l), mul(lit(w), var(&x)))
                 };
                 Some((0..root.trailing_zeros()).fold(blend, |e, _| sqrt(e)))
             }

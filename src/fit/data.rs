@@ -80,12 +80,25 @@ pub enum InputTransform {
     /// with y, onto [0, 1] for x, y ∈ [0, 1]. In f32 every step adds, multiplies, divides or
     /// takes the square root of non-negative numbers, so t carries a few ulp of relative error
     /// (emit's stress test and bound measure it).
+    ///
+    /// With β = `beta` > 0, x is first replaced by the log-corrected
+    /// v = (x + b·λ(x))/(1 + b·λ(1)), b = β y⁴ (β α² for y = r), λ(x) ≈ x·ln(1 + 1/x)
+    /// ([`log_term`]). Why: with the height-correlated masking-shadowing
+    /// G2 = 1/(1 + Λ(ωo) + Λ(ωi)) (Heitz 2014, eq. 99) and Λ(a) ≈ 1/(2a) as a → 0 (eq. 86 for
+    /// GGX), the grazing outgoing direction couples to the grazing incident ones and the albedo
+    /// falls like 1 − E ≈ μ·(α ln(1/μ) + D(α)) as μ → 0 (measured with `furnace eval --model
+    /// ggx-conductor`: D(1) ≈ 0, D → 0.21/α as α → 0; docs/fitting.md, "The logarithmic
+    /// grazing term"), a μ ln μ singularity no polynomial or rational in μ or L follows. v
+    /// carries it: v ∝ μ(1 + β α² ln(1/μ)) as μ → 0, and v → x as α → 0, where the layer is
+    /// linear in μ/α. v increases with x, v(0) = 0, v(1) = 1.
     GrazingLayer {
         by: usize,
         k: f64,
         w: f64,
         #[serde(default = "one")]
         root: u32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        beta: f64,
     },
     /// t = sin²x on x ∈ [0, π/2] (an azimuth): increasing there, 0 at 0, 1 at π/2.
     ///
@@ -144,7 +157,15 @@ impl InputTransform {
                 k: scale,
                 w,
                 root,
-            } => grazing(v, x.get(by).copied().unwrap_or(f64::NAN), scale, w, root),
+                beta,
+            } => grazing(
+                v,
+                x.get(by).copied().unwrap_or(f64::NAN),
+                scale,
+                w,
+                root,
+                beta,
+            ),
             InputTransform::CriticalAngle { lo, hi } => {
                 (critical_cosine(v.clamp(lo, hi)) - critical_cosine(lo))
                     / (critical_cosine(hi) - critical_cosine(lo))
@@ -190,13 +211,19 @@ impl InputTransform {
                 let u = a + t * (b - a);
                 (0..root.trailing_zeros()).fold(u, |v, _| v * v)
             }
-            InputTransform::GrazingLayer { by, k, w, root } => {
+            InputTransform::GrazingLayer {
+                by,
+                k,
+                w,
+                root,
+                beta,
+            } => {
                 // t is increasing in x on [0, 1]: bisection (only to report locations)
                 let y = x.get(by).copied().unwrap_or(f64::NAN);
                 let (mut a, mut b) = (0.0f64, 1.0f64);
                 for _ in 0..60 {
                     let m = 0.5 * (a + b);
-                    if grazing(m, y, k, w, root) < t {
+                    if grazing(m, y, k, w, root, beta) < t {
                         a = m;
                     } else {
                         b = m;
@@ -241,14 +268,14 @@ impl InputTransform {
 
     /// The `--transform` syntax of the transforms [`InputTransform::parse_more`] reads.
     pub const MORE_SYNTAX: &'static str =
-        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>] (0 ≤ w < 1, n = 1, 2, 4), critical:lo:hi (0 ≤ lo < hi ≤ 1), sin2 (an azimuth in [0, π/2]), player:<r>:<aniso>:<phi>:<k>[:<n>] (n = 1, 2, 4)";
+        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>[:<beta>]] (0 ≤ w < 1, n = 1, 2, 4, beta ≥ 0), critical:lo:hi (0 ≤ lo < hi ≤ 1), sin2 (an azimuth in [0, π/2]), player:<r>:<aniso>:<phi>:<k>[:<n>] (n = 1, 2, 4)";
 
     /// Parses `root:<n>:lo:hi` ([`InputTransform::RootNormalize`]),
-    /// `glayer:<variable>:<k>:<w>[:<n>]` ([`InputTransform::GrazingLayer`]), `critical:lo:hi`
-    /// ([`InputTransform::CriticalAngle`]), `sin2` ([`InputTransform::SinSquared`]) and
-    /// `player:<r>:<aniso>:<phi>:<k>[:<n>]` ([`InputTransform::ProjectedLayer`]) for variable
-    /// number `k` of `names`; None if `text` is none of these, an error naming the syntax if
-    /// it is malformed.
+    /// `glayer:<variable>:<k>:<w>[:<n>[:<beta>]]` ([`InputTransform::GrazingLayer`]),
+    /// `critical:lo:hi` ([`InputTransform::CriticalAngle`]), `sin2`
+    /// ([`InputTransform::SinSquared`]) and `player:<r>:<aniso>:<phi>:<k>[:<n>]`
+    /// ([`InputTransform::ProjectedLayer`]) for variable number `k` of `names`; None if `text`
+    /// is none of these, an error naming the syntax if it is malformed.
     pub fn parse_more(
         text: &str,
         names: &[String],
@@ -287,21 +314,23 @@ impl InputTransform {
         if let Some(rest) = text.strip_prefix("glayer:") {
             let f: Vec<&str> = rest.split(':').collect();
             let parsed = match f.as_slice() {
-                [by, scale, w, more @ ..] if more.len() <= 1 => {
+                [by, scale, w, more @ ..] if more.len() <= 2 => {
                     let by = names.iter().position(|n| n == by.trim()).filter(|&b| b < k);
-                    let root = match more {
-                        [n] => n.trim().parse::<u32>().ok(),
-                        _ => Some(1),
+                    let root = match more.first() {
+                        Some(n) => n.trim().parse::<u32>().ok(),
+                        None => Some(1),
                     };
-                    match (by, num(scale), num(w), root) {
-                        (Some(by), Some(scale), Some(w), Some(root @ (1 | 2 | 4)))
-                            if scale > 0.0 && (0.0..1.0).contains(&w) =>
+                    let beta = more.get(1).map_or(Some(0.0), |b| num(b));
+                    match (by, num(scale), num(w), root, beta) {
+                        (Some(by), Some(scale), Some(w), Some(root @ (1 | 2 | 4)), Some(beta))
+                            if scale > 0.0 && (0.0..1.0).contains(&w) && beta >= 0.0 =>
                         {
                             Some(InputTransform::GrazingLayer {
                                 by,
                                 k: scale,
                                 w,
                                 root,
+                                beta,
                             })
                         }
                         _ => None,
@@ -310,7 +339,7 @@ impl InputTransform {
                 _ => None,
             };
             return Some(parsed.ok_or_else(|| {
-                "write glayer:<variable>:<k>:<w>[:<n>] with a variable before this one, a finite k > 0, 0 ≤ w < 1 and n = 1, 2 or 4, e.g. mu=glayer:r:1:0.5".to_string()
+                "write glayer:<variable>:<k>:<w>[:<n>[:<beta>]] with a variable before this one, a finite k > 0, 0 ≤ w < 1, n = 1, 2 or 4 and a finite beta ≥ 0, e.g. mu=glayer:r:1:0.5 or mu=glayer:r:1:0:1:3".to_string()
             }));
         }
         if text == "sin2" {
@@ -362,9 +391,13 @@ impl InputTransform {
             InputTransform::ClampNormalize { lo, hi } => format!("clamp_normalize({lo}, {hi})"),
             InputTransform::BoundaryLayer { by, k } => format!("layer:#{by}:{k}"),
             InputTransform::RootNormalize { lo, hi, root } => format!("root:{root}:{lo}:{hi}"),
-            InputTransform::GrazingLayer { by, k, w, root } => {
-                format!("glayer:#{by}:{k}:{w}:{root}")
-            }
+            InputTransform::GrazingLayer {
+                by,
+                k,
+                w,
+                root,
+                beta,
+            } => format!("glayer:#{by}:{k}:{w}:{root}{}", beta_suffix(beta)),
             InputTransform::CriticalAngle { lo, hi } => format!("critical:{lo}:{hi}"),
             InputTransform::SinSquared => "sin2".into(),
             InputTransform::ProjectedLayer {
@@ -384,8 +417,14 @@ impl InputTransform {
                 Some(n) => format!("layer:{n}:{k}"),
                 None => self.name(),
             },
-            InputTransform::GrazingLayer { by, k, w, root } => match names.get(by) {
-                Some(n) => format!("glayer:{n}:{k}:{w}:{root}"),
+            InputTransform::GrazingLayer {
+                by,
+                k,
+                w,
+                root,
+                beta,
+            } => match names.get(by) {
+                Some(n) => format!("glayer:{n}:{k}:{w}:{root}{}", beta_suffix(beta)),
                 None => self.name(),
             },
             InputTransform::ProjectedLayer {
@@ -434,10 +473,23 @@ impl InputTransform {
                 k: scale,
                 w,
                 root,
+                beta,
             } => {
                 let y = names.get(by).map_or("y", String::as_str);
+                let (v, def) = if beta > 0.0 {
+                    let n = LOG_ROOT_ORDER;
+                    (
+                        "v".to_string(),
+                        format!(
+                            " with v = ({x} + b*l({x}))/(1 + b*l(1)), b = {beta}*{y}^4, l(z) = {n}*z^({m}/{n})*((1 + z)^(1/{n}) - z^(1/{n}))",
+                            m = n - 1
+                        ),
+                    )
+                } else {
+                    (x.to_string(), String::new())
+                };
                 format!(
-                    "({}*({x}*(1 + {scale}*{y}*{y}) + 2^-100)/({x} + {scale}*{y}*{y} + 2^-100) + {w}*{x})^(1/{root})",
+                    "({}*({v}*(1 + {scale}*{y}*{y}) + 2^-100)/({v} + {scale}*{y}*{y} + 2^-100) + {w}*{v})^(1/{root}){def}",
                     1.0 - w
                 )
             }
@@ -509,6 +561,7 @@ impl InputTransform {
                 k: scale,
                 w,
                 root,
+                beta,
             } => {
                 if !(0.0..1.0).contains(&w) {
                     return Err(bad("a grazing layer needs a blend weight 0 ≤ w < 1"));
@@ -516,12 +569,24 @@ impl InputTransform {
                 if !matches!(root, 1 | 2 | 4) {
                     return Err(bad("a grazing layer takes the root n = 1, 2 or 4"));
                 }
+                if !(beta >= 0.0 && beta.is_finite()) {
+                    return Err(bad("a grazing layer needs a finite log weight beta ≥ 0"));
+                }
                 let inner = InputTransform::BoundaryLayer { by, k: scale };
                 inner.image(k, names, domain)?;
                 let (ylo, yhi) = domain[by];
+                // v increases with x and with b = β y⁴ (for x ≤ 1), the rest increases with v
+                // and decreases with y: bounds from the smallest and largest b on the box
+                let y4 = |y: f64| y.powi(4);
+                let (b_min, b_max) = if ylo <= 0.0 && yhi >= 0.0 {
+                    (0.0, beta * y4(ylo).max(y4(yhi)))
+                } else {
+                    let (a, b) = (beta * y4(ylo), beta * y4(yhi));
+                    (a.min(b), a.max(b))
+                };
                 (
-                    grazing(lo, yhi, scale, w, root),
-                    grazing(hi, ylo, scale, w, root),
+                    grazing_of(log_corrected(lo, b_min), yhi, scale, w, root),
+                    grazing_of(log_corrected(hi, b_max), ylo, scale, w, root),
                 )
             }
             InputTransform::SinSquared => {
@@ -634,10 +699,73 @@ fn layer(x: f64, y: f64, k: f64) -> f64 {
     (x * (1.0 + s) + LAYER_TAU) / (x + s + LAYER_TAU)
 }
 
-/// [`InputTransform::GrazingLayer`]: t = ((1 − w)·L(x, y) + w·x)^(1/n).
+/// [`InputTransform::GrazingLayer`]: t = ((1 − w)·L(v, y) + w·v)^(1/n), v the log-corrected x
+/// ([`log_corrected`], b = β y⁴; v = x for β = 0).
 #[inline]
-fn grazing(x: f64, y: f64, k: f64, w: f64, n: u32) -> f64 {
-    nth_root((1.0 - w) * layer(x, y, k) + w * x, n)
+fn grazing(x: f64, y: f64, k: f64, w: f64, n: u32, beta: f64) -> f64 {
+    let v = if beta > 0.0 {
+        log_corrected(x, beta * (y * y) * (y * y))
+    } else {
+        x
+    };
+    grazing_of(v, y, k, w, n)
+}
+
+/// ((1 − w)·L(v, y) + w·v)^(1/n).
+#[inline]
+fn grazing_of(v: f64, y: f64, k: f64, w: f64, n: u32) -> f64 {
+    nth_root((1.0 - w) * layer(v, y, k) + w * v, n)
+}
+
+/// Order n of the logarithm in [`log_term`]: ln z ≈ n·(z^(1/n) − 1) (the Box–Cox transform,
+/// → ln z as n → ∞), z^(1/16) by four square roots. Measured on the height-correlated
+/// conductor's tensor 2,3/2,2 (docs/fitting.md, "The logarithmic grazing term"): the same
+/// off-grid max as the exact logarithm within 4 %.
+pub const LOG_ROOT_ORDER: u32 = 16;
+
+/// Below this x, [`log_term`] takes its root s = x^(1/16) at x = 2⁻⁶⁴ (s = 1/16) and is linear
+/// in x, λ(x) = x·λ(2⁻⁶⁴)/2⁻⁶⁴ to 1e-19: keeps s ≥ 1/16 so that in f32 a flushed subnormal x
+/// (an absolute error < 2⁻¹²⁶) moves s by a relative 2⁻⁵⁸, not by its 16th root (emit's error
+/// bound follows it). The albedo differs from 1 by ~1e-18 there.
+pub const LOG_FLOOR: f64 = 5.421010862427522e-20;
+
+/// λ(x) = n·x^((n−1)/n)·((1 + x)^(1/n) − x^(1/n)) = n·x·((1 + 1/x)^(1/n) − 1), n =
+/// [`LOG_ROOT_ORDER`]: x·ln(1 + 1/x) with the logarithm in Box–Cox form, by square roots,
+/// products and one division only (no logarithm, and no 0·∞ at x = 0: λ(0) = 0). Increasing
+/// on [0, ∞): the secant slope ((1 + z)^(1/n) − 1)/z of a concave power decreases with
+/// z = 1/x. With q = (1 + x)^(1/16), s = x^(1/16) and q¹⁶ − s¹⁶ = 1, it is
+/// λ(x) = 16·x/(s·(q + s)(q² + s²)(q⁴ + s⁴)(q⁸ + s⁸)): products and sums of non-negative terms
+/// only (no cancellation), so in f32 λ keeps a small relative error down to x = 0; s is taken
+/// at max(x, [`LOG_FLOOR`]).
+#[inline]
+pub fn log_term(x: f64) -> f64 {
+    let x = x.max(0.0);
+    let s = nth_root(x.max(LOG_FLOOR), LOG_ROOT_ORDER);
+    let q = nth_root(1.0 + x, LOG_ROOT_ORDER);
+    let (s2, q2) = (s * s, q * q);
+    let (s4, q4) = (s2 * s2, q2 * q2);
+    let (s8, q8) = (s4 * s4, q4 * q4);
+    LOG_ROOT_ORDER as f64 * x / (s * (q + s) * (q2 + s2) * (q4 + s4) * (q8 + s8))
+}
+
+/// v = (x + b·λ(x))/(1 + b·λ(1)) ([`log_term`]): 0 at x = 0, 1 at x = 1, increasing in x, and
+/// for x ≤ 1 in b.
+#[inline]
+pub fn log_corrected(x: f64, b: f64) -> f64 {
+    (x + b * log_term(x)) / (1.0 + b * log_term(1.0))
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+/// `:<beta>` after a grazing layer's name when β > 0 (nothing otherwise, as before β existed).
+fn beta_suffix(beta: f64) -> String {
+    if beta > 0.0 {
+        format!(":{beta}")
+    } else {
+        String::new()
+    }
 }
 
 /// The boundary-layer coordinate with the scale s given: (x(1 + s) + τ)/(x + s + τ).
@@ -1226,6 +1354,7 @@ mod tests {
             k: 2.0,
             w: 0.0,
             root: 2,
+            beta: 0.0,
         };
         for (r, mu, phi) in [(0.3, 0.1, 0.0), (0.7, 0.02, 1.2), (1.0, 0.5, 0.4)] {
             let x = [r, 0.0, mu, phi];
@@ -1437,6 +1566,7 @@ mod tests {
             k: 1.0,
             w: 0.5,
             root: 1,
+            beta: 0.0,
         };
         let t = |r: f64, mu: f64| g.apply(1, &[r, mu]);
         // the row r = 0 maps one to one onto [1 − w, 1]: t = 1 − w + w μ
@@ -1457,6 +1587,7 @@ mod tests {
             k: 1.0,
             w: 0.0,
             root: 2,
+            beta: 0.0,
         };
         let l = InputTransform::BoundaryLayer { by: 0, k: 1.0 };
         assert_eq!(s.apply(1, &[0.7, 0.3]), l.apply(1, &[0.7, 0.3]).sqrt());
@@ -1471,7 +1602,8 @@ mod tests {
             by: 0,
             k: 1.0,
             w: 1.0,
-            root: 1
+            root: 1,
+            beta: 0.0,
         }
         .image(1, &names, &[(0.0, 1.0), (0.0, 1.0)])
         .is_err());
@@ -1479,7 +1611,8 @@ mod tests {
             by: 0,
             k: 1.0,
             w: 0.5,
-            root: 3
+            root: 3,
+            beta: 0.0,
         }
         .image(1, &names, &[(0.0, 1.0), (0.0, 1.0)])
         .is_err());
@@ -1493,6 +1626,93 @@ mod tests {
         );
         assert!(InputTransform::parse_more("glayer:mu:1:0.5", &names, 1)
             .unwrap()
+            .is_err());
+    }
+
+    #[test]
+    fn log_corrected_layer_follows_mu_log_mu_and_keeps_the_layer() {
+        let names = vec!["r".to_string(), "mu".to_string()];
+        // λ(x) = 16·x·((1 + 1/x)^(1/16) − 1) (an independent computation by powf), which is
+        // x ln(1 + 1/x) in Box–Cox form: ≥ it, within 40 % for 1/x ≤ 1e4
+        assert_eq!(log_term(0.0), 0.0);
+        for x in [1e-8f64, 1e-4, 1e-2, 0.3, 1.0] {
+            let box_cox = 16.0 * x * ((1.0 + 1.0 / x).powf(1.0 / 16.0) - 1.0);
+            assert!(
+                (log_term(x) - box_cox).abs() < 1e-12 * box_cox,
+                "x = {x}: {} vs {box_cox}",
+                log_term(x)
+            );
+            let ratio = log_term(x) / (x * (1.0 + 1.0 / x).ln());
+            assert!(x < 1e-4 || (1.0..1.4).contains(&ratio), "x = {x}: {ratio}");
+        }
+        // below the floor: linear in x
+        let y = LOG_FLOOR / 8.0;
+        assert!((log_term(y) - log_term(LOG_FLOOR) / 8.0).abs() < 1e-6 * log_term(y));
+        // increasing, v(0) = 0, v(1) = 1, v = x without the correction
+        let mut prev = -1.0;
+        for i in 0..=1000 {
+            let x = (i as f64 / 1000.0).powi(4);
+            let v = log_corrected(x, 4.0);
+            assert!(v > prev && (0.0..=1.0).contains(&v), "x = {x}");
+            prev = v;
+        }
+        assert_eq!(log_corrected(1.0, 4.0), 1.0);
+        assert_eq!(log_corrected(0.37, 0.0), 0.37);
+        let g = |beta: f64| InputTransform::GrazingLayer {
+            by: 0,
+            k: 1.0,
+            w: 0.0,
+            root: 1,
+            beta,
+        };
+        let (plain, logc) = (g(0.0), g(3.0));
+        // α → 0: the plain layer variable of μ/α (the correction vanishes like α²)
+        for c in [0.1, 1.0, 10.0] {
+            let (a, b) = (
+                logc.apply(1, &[1e-3, c * 1e-6]),
+                plain.apply(1, &[1e-3, c * 1e-6]),
+            );
+            assert!((a - b).abs() < 1e-9, "c = {c}: {a} {b}");
+        }
+        // α = 1: v/μ grows like 1 + β λ(μ)/μ ≈ 1 + β ln(1/μ) as μ → 0
+        let v = |mu: f64| log_corrected(mu, 3.0);
+        assert!(v(1e-6) / 1e-6 > 3.0 * v(1e-2) / 1e-2);
+        // image of the unit square, inverse, the serialised name and the file of β = 0
+        let (lo, hi) = logc.image(1, &names, &[(0.0, 1.0), (0.0, 1.0)]).unwrap();
+        assert!(lo <= LAYER_TAU && (hi - 1.0).abs() < 1e-15, "({lo}, {hi})");
+        let (lo, hi) = logc.image(1, &names, &[(0.1, 0.9), (0.01, 0.5)]).unwrap();
+        for (r, mu) in [(0.1, 0.01), (0.9, 0.01), (0.5, 0.2), (0.1, 0.5), (0.9, 0.5)] {
+            let t = logc.apply(1, &[r, mu]);
+            assert!(lo <= t && t <= hi, "({r}, {mu}): {t} not in [{lo}, {hi}]");
+        }
+        for (r, mu) in [(0.2, 0.3), (1.0, 0.001), (0.05, 0.9)] {
+            let x = inverse_point(
+                &[InputTransform::Identity, logc],
+                &[r, logc.apply(1, &[r, mu])],
+            );
+            assert!((x[1] - mu).abs() < 1e-12, "{x:?}");
+        }
+        assert_eq!(
+            InputTransform::parse_more("glayer:r:1:0:1:3", &names, 1).unwrap(),
+            Ok(logc)
+        );
+        assert_eq!(logc.label(&names), "glayer:r:1:0:1:3");
+        assert_eq!(plain.label(&names), "glayer:r:1:0:1");
+        assert!(!serde_json::to_string(&plain).unwrap().contains("beta"));
+        let json = serde_json::to_string(&logc).unwrap();
+        assert_eq!(serde_json::from_str::<InputTransform>(&json).unwrap(), logc);
+        for bad in [
+            "glayer:r:1:0:1:-1",
+            "glayer:r:1:0:1:x",
+            "glayer:r:1:0:1:3:4",
+        ] {
+            assert!(
+                InputTransform::parse_more(bad, &names, 1).unwrap().is_err(),
+                "{bad}"
+            );
+        }
+        assert!(g(f64::NAN)
+            .image(1, &names, &[(0.0, 1.0), (0.0, 1.0)])
             .is_err());
     }
 

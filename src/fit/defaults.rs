@@ -129,6 +129,7 @@ pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<Inp
             k: 1.0,
             w: 0.0,
             root: 2,
+            beta: 0.0,
         };
     } else {
         t[mu] = InputTransform::Sqrt;
@@ -194,8 +195,18 @@ pub const LAYER_TENSOR_FORMS: [(&str, f64); 3] = [
     ("tensor:3,4/3,3", 1.0),
 ];
 
+/// Per-variable degrees (r, μ) over (r, μ) a 2-D sweep fits in the log-corrected layer variable
+/// `glayer:r:1:0:1:β` ([`InputTransform::GrazingLayer`] with β > 0: the μ ln μ fall of a
+/// height-correlated albedo at grazing angles), with β. Measured on the height-correlated
+/// conductor (`furnace fit --model ggx-conductor --sweep`, off-grid at 23 552 check points;
+/// docs/fitting.md, "The logarithmic grazing term"): 2,3/2,2 (20 coefficients) minimax
+/// 1.16e-3 / MAE 5.9e-4, where the same form in `layer:r:2` has 4.4e-3 / 1.5e-3; 3,5/3,3 (39)
+/// 2.1e-4 / 8.2e-5, where the best in √L (40) has 6.2e-4 / 2.1e-4.
+pub const LOG_LAYER_FORMS: [(&str, f64); 2] = [("tensor:2,3/2,2", 3.0), ("tensor:3,5/3,3", 3.0)];
+
 /// Structured forms a default sweep fits in `transforms` ([`physics_transforms`]):
-/// - 2-D with a grazing layer: [`LAYER_TENSOR_FORMS`] with μ in the boundary-layer variable;
+/// - 2-D with a grazing layer: [`LAYER_TENSOR_FORMS`] with μ in the boundary-layer variable,
+///   and [`LOG_LAYER_FORMS`] with μ in the log-corrected one;
 /// - 2-D: per-variable degrees 4,4 over 3,3 (40 coefficients) and 1,3 over 1,0 (9), and
 ///   [`linear_in_r_form`] (8) and [`vanishing_in_r_forms`] (7 and 8) in the untransformed
 ///   variables;
@@ -224,6 +235,20 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                 for (f, k) in LAYER_TENSOR_FORMS {
                     let mut t = transforms.to_vec();
                     t[mu] = InputTransform::BoundaryLayer { by, k };
+                    out.extend(tensor(f).map(|form| PlannedForm {
+                        form,
+                        transforms: t,
+                    }));
+                }
+                for (f, beta) in LOG_LAYER_FORMS {
+                    let mut t = transforms.to_vec();
+                    t[mu] = InputTransform::GrazingLayer {
+                        by,
+                        k: 1.0,
+                        w: 0.0,
+                        root: 1,
+                        beta,
+                    };
                     out.extend(tensor(f).map(|form| PlannedForm {
                         form,
                         transforms: t,
@@ -430,7 +455,19 @@ mod tests {
                 .collect::<Vec<_>>()
         };
         let with = forms2(&p);
-        assert_eq!(with.len(), LAYER_TENSOR_FORMS.len() + 5);
+        assert_eq!(
+            with.len(),
+            LAYER_TENSOR_FORMS.len() + LOG_LAYER_FORMS.len() + 5
+        );
+        let log = |beta| InputTransform::GrazingLayer {
+            by: 0,
+            k: 1.0,
+            w: 0.0,
+            root: 1,
+            beta,
+        };
+        assert!(with.contains(&(20, log(3.0))));
+        assert!(with.contains(&(39, log(3.0))));
         assert!(with.contains(&(20, InputTransform::BoundaryLayer { by: 0, k: 2.0 })));
         assert!(with.contains(&(35, InputTransform::BoundaryLayer { by: 0, k: 1.0 })));
         assert!(with.contains(&(8, InputTransform::Identity)));

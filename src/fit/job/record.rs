@@ -297,9 +297,20 @@ pub fn fit_file_name(
                 ),
                 InputTransform::RootNormalize { lo, hi, root } => format!("root{root}_{lo}_{hi}"),
                 InputTransform::CriticalAngle { lo, hi } => format!("critical_{lo}_{hi}"),
-                InputTransform::GrazingLayer { by, k, w, root } => format!(
-                    "glayer_{}_{k}_{w}_{root}",
-                    variables.get(by).map_or("x", String::as_str)
+                InputTransform::GrazingLayer {
+                    by,
+                    k,
+                    w,
+                    root,
+                    beta,
+                } => format!(
+                    "glayer_{}_{k}_{w}_{root}{}",
+                    variables.get(by).map_or("x", String::as_str),
+                    if beta > 0.0 {
+                        format!("_{beta}")
+                    } else {
+                        String::new()
+                    }
                 ),
                 InputTransform::ProjectedLayer {
                     r,

@@ -15,39 +15,40 @@
 // Model: GGX white conductor (F = 1), E(r, mu); height-correlated Smith G2.
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 2478a3b6bb7119896ecf4a78932635a0e98586850b4d549cab2b596cebf26e60.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: rational over [x0^3 x x1^5]/[x0^3 x x1^3], 39 coefficients (numerator 24, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 e5c0cb27c80909a9eb8b9c4a9e9ecc18531ea181e559da80f036442f564555b4.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.3e-5, shifted 3.9e-6, bernstein 5.1e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.01e-4, max 6.17e-4 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.92e-7 (every op rounded, as this Rust), 3.37e-7 (fused multiply-add), 5.53e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.63e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 6595 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 2.01e-4, max 6.17e-4; this f32 code MAE 2.01e-4, max 6.17e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.6e-4 on the measurement grid.
-// Denominator proved >= 4.614e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.3e-6, shifted 2.8e-6, bernstein 2.8e-6.
+// Error of the f64 fit on its 1048576 data points: MAE 8.35e-5, max 2.14e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.85e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 3.47e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 9.83e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 8019 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 8.35e-5, max 2.14e-4; this f32 code MAE 8.35e-5, max 2.14e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-4 on the measurement grid.
+// Denominator proved >= 1.402e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_conductor_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 4
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    highp float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
+    highp float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
+    highp float mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    highp float mu_t = (mu_logv * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.0 * (r_c * r_c) + 7.888609e-31);
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 3
     highp float r_v = 1.0 - r_t;
     highp float r_u2 = r_t * r_t;
     highp float r_v2 = r_v * r_v;
     highp float r_u3 = r_u2 * r_t;
     highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_t;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_b1 = r_t * r_v3;
-    highp float r_b2 = r_u2 * r_v2;
-    highp float r_b3 = r_u3 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 4
+    highp float r_b1 = r_t * r_v2;
+    highp float r_b2 = r_u2 * r_v;
+    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
+    highp float mu_u = (mu_t - 7.888609e-31) * 1.0;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
     highp float mu_v = 1.0 - mu_u;
     highp float mu_u2 = mu_u * mu_u;
     highp float mu_v2 = mu_v * mu_v;
@@ -55,23 +56,24 @@ highp float ggx_conductor_albedo(highp float r, highp float mu) {
     highp float mu_v3 = mu_v2 * mu_v;
     highp float mu_u4 = mu_u3 * mu_u;
     highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_b1 = mu_u * mu_v3;
-    highp float mu_b2 = mu_u2 * mu_v2;
-    highp float mu_b3 = mu_u3 * mu_v;
+    highp float mu_u5 = mu_u4 * mu_u;
+    highp float mu_v5 = mu_v4 * mu_v;
+    highp float mu_b1 = mu_u * mu_v4;
+    highp float mu_b2 = mu_u2 * mu_v3;
+    highp float mu_b3 = mu_u3 * mu_v2;
+    highp float mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 1.0001837 * mu_v4 + 1.7274417 * mu_b1 + 0.44595733 * mu_b2 - 0.0037075896 * mu_b3 + 0.060975723 * mu_u4;
-    highp float p_1 = 6.339172 * mu_v4 + 10.632754 * mu_b1 + 4.100181 * mu_b2 + 1.1466777 * mu_b3 + 0.15485911 * mu_u4;
-    highp float p_2 = 8.763397 * mu_v4 + 22.860092 * mu_b1 + 15.884985 * mu_b2 + 2.5367243 * mu_b3 + 0.19969314 * mu_u4;
-    highp float p_3 = 4.546386 * mu_v4 + 22.777508 * mu_b1 + 12.171347 * mu_b2 + 1.5949744 * mu_b3 + 0.10092493 * mu_u4;
-    highp float p_4 = 1.1868364 * mu_v4 + 7.2677426 * mu_b1 + 2.9464905 * mu_b2 + 0.38894823 * mu_b3 + 0.017682103 * mu_u4;
-    highp float p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
+    highp float p_0 = 0.99983656 * mu_v5 + 2.452617 * mu_b1 + 1.8977016 * mu_b2 + 1.0509777 * mu_b3 + 0.5124717 * mu_b4 + 0.17882615 * mu_u5;
+    highp float p_1 = 2.9605312 * mu_v5 + 11.210494 * mu_b1 + 14.905102 * mu_b2 + 7.063261 * mu_b3 + 3.044847 * mu_b4 + 0.6471165 * mu_u5;
+    highp float p_2 = 9.754206 * mu_v5 + 27.083826 * mu_b1 + 30.588537 * mu_b2 + 20.517063 * mu_b3 + 5.4327564 * mu_b4 + 0.88075817 * mu_u5;
+    highp float p_3 = 3.9927533 * mu_v5 + 16.95137 * mu_b1 + 21.260094 * mu_b2 + 9.3853 * mu_b3 + 2.5681465 * mu_b4 + 0.3420423 * mu_u5;
+    highp float p = p_0 * r_v3 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_u3;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v4 + 1.7266618 * mu_b1 + 0.6582656 * mu_b2 - 0.0074009397 * mu_b3 + 0.060995314 * mu_u4;
-    highp float q_1 = 6.351084 * mu_v4 + 10.458096 * mu_b1 + 5.289566 * mu_b2 + 1.3361945 * mu_b3 + 0.15363942 * mu_u4;
-    highp float q_2 = 8.725371 * mu_v4 + 24.192991 * mu_b1 + 18.34827 * mu_b2 + 3.1503055 * mu_b3 + 0.26965505 * mu_u4;
-    highp float q_3 = 4.5608215 * mu_v4 + 22.747303 * mu_b1 + 20.86673 * mu_b2 + 2.9149926 * mu_b3 + 0.23474346 * mu_u4;
-    highp float q_4 = 1.186535 * mu_v4 + 7.285746 * mu_b1 + 7.149761 * mu_b2 + 1.1082826 * mu_b3 + 0.057732496 * mu_u4;
-    highp float q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
+    highp float q_0 = 1.0 * mu_v5 + 2.654342 * mu_b1 + 2.4629464 * mu_b2 + 1.1417022 * mu_b3 + 0.51193285 * mu_b4 + 0.17883515 * mu_u5;
+    highp float q_1 = 2.9607606 * mu_v5 + 11.610488 * mu_b1 + 16.147995 * mu_b2 + 9.956027 * mu_b3 + 3.1062145 * mu_b4 + 0.64845616 * mu_u5;
+    highp float q_2 = 9.752011 * mu_v5 + 29.520048 * mu_b1 + 36.15143 * mu_b2 + 23.786865 * mu_b3 + 8.439576 * mu_b4 + 1.0361042 * mu_u5;
+    highp float q_3 = 3.992142 * mu_v5 + 18.616497 * mu_b1 + 28.534695 * mu_b2 + 18.303919 * mu_b3 + 5.509034 * mu_b4 + 1.1154547 * mu_u5;
+    highp float q = q_0 * r_v3 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_u3;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

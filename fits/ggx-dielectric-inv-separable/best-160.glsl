@@ -13,163 +13,215 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25].
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 52bd940f61e0261938ddf076ad25af3f1c3f38d5ffa0cbaf28388d91f26916b1.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 539af3c5f9915d2538652de58b0234c441d6e4a0939ac496ae5bed3aca518d85.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.8e-5, shifted 4.4e-6, bernstein 4.2e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.06e-3, max 8.16e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.77e-7 (every op rounded, as this Rust), 5.13e-7 (fused multiply-add), 6.32e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.08e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.06e-3, max 8.16e-3; this f32 code MAE 1.06e-3, max 8.16e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
-// Denominator proved >= 7.281e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-3, shifted 7.1e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.23e-4, max 7.77e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.04e-7 (every op rounded, as this Rust), 6.23e-7 (fused multiply-add), 1.52e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 8.11e-4, max 7.77e-3; this f32 code MAE 8.11e-4, max 7.77e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.0e-4 on the measurement grid.
+// Denominator proved >= 1.222e-5 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    highp float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // u = (t - 0.0125)/(0.25 - 0.0125) in [0, 1]
-    highp float f0_u = (f0_c - 0.0125) * 4.2105265;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    highp float f0_v = 1.0 - f0_u;
-    highp float f0_u2 = f0_u * f0_u;
-    highp float f0_v2 = f0_v * f0_v;
-    highp float f0_u3 = f0_u2 * f0_u;
-    highp float f0_v3 = f0_v2 * f0_v;
-    highp float f0_u4 = f0_u3 * f0_u;
-    highp float f0_v4 = f0_v3 * f0_v;
-    highp float f0_u5 = f0_u4 * f0_u;
-    highp float f0_v5 = f0_v4 * f0_v;
-    highp float f0_b1 = f0_u * f0_v4;
-    highp float f0_b2 = f0_u2 * f0_v3;
-    highp float f0_b3 = f0_u3 * f0_v2;
-    highp float f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    highp float r_v = 1.0 - r_t;
-    highp float r_u2 = r_t * r_t;
-    highp float r_v2 = r_v * r_v;
-    highp float r_u3 = r_u2 * r_t;
-    highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_t;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_u5 = r_u4 * r_t;
-    highp float r_v5 = r_v4 * r_v;
-    highp float r_b1 = r_t * r_v4;
-    highp float r_b2 = r_u2 * r_v3;
-    highp float r_b3 = r_u3 * r_v2;
-    highp float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    highp float mu_u = (mu_t - 7.888609e-31) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    highp float mu_v = 1.0 - mu_u;
-    highp float mu_u2 = mu_u * mu_u;
-    highp float mu_v2 = mu_v * mu_v;
-    highp float mu_u3 = mu_u2 * mu_u;
-    highp float mu_v3 = mu_v2 * mu_v;
-    highp float mu_u4 = mu_u3 * mu_u;
-    highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_u5 = mu_u4 * mu_u;
-    highp float mu_v5 = mu_v4 * mu_v;
-    highp float mu_b1 = mu_u * mu_v4;
-    highp float mu_b2 = mu_u2 * mu_v3;
-    highp float mu_b3 = mu_u3 * mu_v2;
-    highp float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0_0 = 1.8217045 * mu_v5 + 5.983894 * mu_b1 + 9.096758 * mu_b2 + 2.6654856 * mu_b3 + 1.3072432 * mu_b4 + 0.20696895 * mu_u5;
-    highp float p_0_1 = 8.518971 * mu_v5 + 18.297178 * mu_b1 + 17.084295 * mu_b2 - 16.795162 * mu_b3 - 7.3981647 * mu_b4 - 0.1437017 * mu_u5;
-    highp float p_0_2 = 20.856354 * mu_v5 + 50.352257 * mu_b1 + 68.67248 * mu_b2 + 3.664689 * mu_b3 + 1.4490258 * mu_b4 + 3.2673342 * mu_u5;
-    highp float p_0_3 = 18.689728 * mu_v5 + 41.611786 * mu_b1 + 70.74646 * mu_b2 + 14.401159 * mu_b3 + 1.8787043 * mu_b4 + 1.60837 * mu_u5;
-    highp float p_0_4 = 9.278083 * mu_v5 + 23.46311 * mu_b1 + 55.43387 * mu_b2 + 35.456024 * mu_b3 + 12.884813 * mu_b4 + 1.8308438 * mu_u5;
-    highp float p_0_5 = 1.4126229 * mu_v5 + 3.2162 * mu_b1 + 12.024159 * mu_b2 + 10.832015 * mu_b3 + 4.48645 * mu_b4 + 0.50566024 * mu_u5;
-    highp float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    highp float p_1_0 = 25.297815 * mu_v5 + 59.052658 * mu_b1 + 59.421696 * mu_b2 + 19.402338 * mu_b3 + 12.457288 * mu_b4 + 1.8750151 * mu_u5;
-    highp float p_1_1 = 144.95773 * mu_v5 + 320.37622 * mu_b1 + 258.1423 * mu_b2 - 13.963733 * mu_b3 - 11.388846 * mu_b4 + 1.0647669 * mu_u5;
-    highp float p_1_2 = 320.26144 * mu_v5 + 764.9453 * mu_b1 + 755.2463 * mu_b2 + 169.24483 * mu_b3 + 46.260704 * mu_b4 + 19.11041 * mu_u5;
-    highp float p_1_3 = 298.13226 * mu_v5 + 698.949 * mu_b1 + 735.54047 * mu_b2 + 184.95522 * mu_b3 + 29.99655 * mu_b4 + 11.297237 * mu_u5;
-    highp float p_1_4 = 137.04681 * mu_v5 + 333.05426 * mu_b1 + 433.55844 * mu_b2 + 207.31924 * mu_b3 + 65.00129 * mu_b4 + 10.999092 * mu_u5;
-    highp float p_1_5 = 22.841953 * mu_v5 + 54.356564 * mu_b1 + 87.80271 * mu_b2 + 58.234005 * mu_b3 + 21.741117 * mu_b4 + 2.948422 * mu_u5;
-    highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    highp float p_2_0 = 74.161026 * mu_v5 + 158.05334 * mu_b1 + 137.50745 * mu_b2 + 51.3308 * mu_b3 + 35.93712 * mu_b4 + 4.52788 * mu_u5;
-    highp float p_2_1 = 429.2637 * mu_v5 + 926.3615 * mu_b1 + 700.1948 * mu_b2 + 37.923336 * mu_b3 + 2.8751523 * mu_b4 - 0.41904566 * mu_u5;
-    highp float p_2_2 = 912.406 * mu_v5 + 2109.442 * mu_b1 + 1881.9756 * mu_b2 + 425.95105 * mu_b3 + 111.75744 * mu_b4 + 33.81051 * mu_u5;
-    highp float p_2_3 = 828.4344 * mu_v5 + 1883.5625 * mu_b1 + 1743.8922 * mu_b2 + 390.44638 * mu_b3 + 64.41348 * mu_b4 + 25.795553 * mu_u5;
-    highp float p_2_4 = 363.79587 * mu_v5 + 848.7109 * mu_b1 + 955.07227 * mu_b2 + 408.56018 * mu_b3 + 135.86462 * mu_b4 + 28.993847 * mu_u5;
-    highp float p_2_5 = 59.31666 * mu_v5 + 139.54109 * mu_b1 + 196.98639 * mu_b2 + 123.99046 * mu_b3 + 49.529613 * mu_b4 + 8.607546 * mu_u5;
-    highp float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    highp float p_3_0 = 89.93891 * mu_v5 + 178.28845 * mu_b1 + 136.09026 * mu_b2 + 50.248867 * mu_b3 + 40.073215 * mu_b4 + 3.871487 * mu_u5;
-    highp float p_3_1 = 514.6219 * mu_v5 + 1058.566 * mu_b1 + 708.59467 * mu_b2 - 11.063693 * mu_b3 - 18.28432 * mu_b4 - 11.038034 * mu_u5;
-    highp float p_3_2 = 1056.7097 * mu_v5 + 2317.208 * mu_b1 + 1825.989 * mu_b2 + 248.25252 * mu_b3 + 33.83988 * mu_b4 + 14.142392 * mu_u5;
-    highp float p_3_3 = 922.82886 * mu_v5 + 1971.6588 * mu_b1 + 1575.5222 * mu_b2 + 157.4271 * mu_b3 - 16.128407 * mu_b4 + 16.201046 * mu_u5;
-    highp float p_3_4 = 383.66312 * mu_v5 + 836.4785 * mu_b1 + 841.4389 * mu_b2 + 299.5401 * mu_b3 + 110.44582 * mu_b4 + 31.061338 * mu_u5;
-    highp float p_3_5 = 59.512848 * mu_v5 + 135.0091 * mu_b1 + 185.91936 * mu_b2 + 118.19624 * mu_b3 + 52.030716 * mu_b4 + 10.56402 * mu_u5;
-    highp float p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    highp float p_4_0 = 52.29189 * mu_v5 + 101.832436 * mu_b1 + 76.21464 * mu_b2 + 33.245453 * mu_b3 + 25.909454 * mu_b4 + 2.491309 * mu_u5;
-    highp float p_4_1 = 293.6706 * mu_v5 + 598.2374 * mu_b1 + 394.61774 * mu_b2 + 13.612194 * mu_b3 + 2.1974564 * mu_b4 - 5.5977793 * mu_u5;
-    highp float p_4_2 = 584.7486 * mu_v5 + 1263.5498 * mu_b1 + 963.5997 * mu_b2 + 138.28073 * mu_b3 + 31.21516 * mu_b4 + 9.264938 * mu_u5;
-    highp float p_4_3 = 493.03778 * mu_v5 + 1038.9044 * mu_b1 + 805.91876 * mu_b2 + 90.49866 * mu_b3 + 15.203228 * mu_b4 + 16.288805 * mu_u5;
-    highp float p_4_4 = 195.44656 * mu_v5 + 425.5435 * mu_b1 + 432.88397 * mu_b2 + 174.07861 * mu_b3 + 78.48169 * mu_b4 + 22.956198 * mu_u5;
-    highp float p_4_5 = 29.104595 * mu_v5 + 70.41347 * mu_b1 + 105.42085 * mu_b2 + 74.75302 * mu_b3 + 34.83516 * mu_b4 + 7.347327 * mu_u5;
-    highp float p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    highp float p_5_0 = 12.180376 * mu_v5 + 24.240974 * mu_b1 + 18.731728 * mu_b2 + 9.015363 * mu_b3 + 6.33573 * mu_b4 + 0.62213933 * mu_u5;
-    highp float p_5_1 = 67.58604 * mu_v5 + 142.51591 * mu_b1 + 102.28408 * mu_b2 + 16.891964 * mu_b3 + 5.909697 * mu_b4 - 0.4748418 * mu_u5;
-    highp float p_5_2 = 132.4646 * mu_v5 + 298.31485 * mu_b1 + 247.26088 * mu_b2 + 64.64747 * mu_b3 + 21.44521 * mu_b4 + 4.514814 * mu_u5;
-    highp float p_5_3 = 110.62559 * mu_v5 + 250.59505 * mu_b1 + 223.7431 * mu_b2 + 67.212234 * mu_b3 + 24.751444 * mu_b4 + 7.619277 * mu_u5;
-    highp float p_5_4 = 43.523026 * mu_v5 + 106.74675 * mu_b1 + 125.51693 * mu_b2 + 68.35964 * mu_b3 + 30.346096 * mu_b4 + 7.4328756 * mu_u5;
-    highp float p_5_5 = 6.621563 * mu_v5 + 19.517513 * mu_b1 + 32.134167 * mu_b2 + 24.570086 * mu_b3 + 10.791802 * mu_b4 + 2.090575 * mu_u5;
-    highp float p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    highp float p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = 1.9428728 * mu_v5 + 6.4115367 * mu_b1 + 11.464447 * mu_b2 + 2.5304713 * mu_b3 + 1.3095434 * mu_b4 + 0.20697571 * mu_u5;
-    highp float q_0_1 = 11.225136 * mu_v5 + 23.769955 * mu_b1 + 26.049717 * mu_b2 - 20.057817 * mu_b3 - 5.869587 * mu_b4 - 0.1462697 * mu_u5;
-    highp float q_0_2 = 33.117706 * mu_v5 + 76.98346 * mu_b1 + 85.50444 * mu_b2 - 15.180296 * mu_b3 + 2.1340544 * mu_b4 + 3.2742345 * mu_u5;
-    highp float q_0_3 = 44.6024 * mu_v5 + 115.30335 * mu_b1 + 133.59023 * mu_b2 + 10.87274 * mu_b3 + 5.619347 * mu_b4 + 1.9570881 * mu_u5;
-    highp float q_0_4 = 30.034105 * mu_v5 + 92.52758 * mu_b1 + 126.97792 * mu_b2 + 53.57279 * mu_b3 + 19.263437 * mu_b4 + 2.3356981 * mu_u5;
-    highp float q_0_5 = 6.1036625 * mu_v5 + 21.031858 * mu_b1 + 32.67203 * mu_b2 + 18.47321 * mu_b3 + 7.139858 * mu_b4 + 0.8426069 * mu_u5;
-    highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    highp float q_1_0 = 27.113085 * mu_v5 + 64.87417 * mu_b1 + 74.89423 * mu_b2 + 19.824944 * mu_b3 + 12.405729 * mu_b4 + 1.8745397 * mu_u5;
-    highp float q_1_1 = 166.73401 * mu_v5 + 372.1928 * mu_b1 + 326.77505 * mu_b2 - 22.866846 * mu_b3 - 3.9699 * mu_b4 + 1.0162164 * mu_u5;
-    highp float q_1_2 = 412.87207 * mu_v5 + 1000.73737 * mu_b1 + 963.0442 * mu_b2 + 142.16737 * mu_b3 + 66.66952 * mu_b4 + 21.287048 * mu_u5;
-    highp float q_1_3 = 469.17215 * mu_v5 + 1202.0753 * mu_b1 + 1211.322 * mu_b2 + 256.26666 * mu_b3 + 72.78853 * mu_b4 + 16.546747 * mu_u5;
-    highp float q_1_4 = 262.1438 * mu_v5 + 745.9039 * mu_b1 + 873.94995 * mu_b2 + 351.92804 * mu_b3 + 120.24446 * mu_b4 + 19.309301 * mu_u5;
-    highp float q_1_5 = 50.40536 * mu_v5 + 158.16023 * mu_b1 + 215.61717 * mu_b2 + 122.3464 * mu_b3 + 51.414005 * mu_b4 + 9.09051 * mu_u5;
-    highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    highp float q_2_0 = 79.28551 * mu_v5 + 174.6091 * mu_b1 + 173.64444 * mu_b2 + 53.889805 * mu_b3 + 35.782753 * mu_b4 + 4.5350003 * mu_u5;
-    highp float q_2_1 = 480.0516 * mu_v5 + 1051.4282 * mu_b1 + 857.01294 * mu_b2 + 24.403248 * mu_b3 + 16.763195 * mu_b4 - 0.39770848 * mu_u5;
-    highp float q_2_2 = 1126.1406 * mu_v5 + 2669.9902 * mu_b1 + 2392.7527 * mu_b2 + 409.44174 * mu_b3 + 154.76921 * mu_b4 + 37.44276 * mu_u5;
-    highp float q_2_3 = 1199.4763 * mu_v5 + 2960.5623 * mu_b1 + 2729.9673 * mu_b2 + 499.49988 * mu_b3 + 116.65689 * mu_b4 + 29.25046 * mu_u5;
-    highp float q_2_4 = 618.5275 * mu_v5 + 1663.5902 * mu_b1 + 1778.4023 * mu_b2 + 633.0939 * mu_b3 + 222.9523 * mu_b4 + 44.804123 * mu_u5;
-    highp float q_2_5 = 112.7909 * mu_v5 + 338.0248 * mu_b1 + 441.47098 * mu_b2 + 256.17398 * mu_b3 + 121.91003 * mu_b4 + 26.294302 * mu_u5;
-    highp float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    highp float q_3_0 = 95.96514 * mu_v5 + 198.12866 * mu_b1 + 175.79248 * mu_b2 + 53.76259 * mu_b3 + 39.677364 * mu_b4 + 3.8649213 * mu_u5;
-    highp float q_3_1 = 566.96124 * mu_v5 + 1189.451 * mu_b1 + 870.9885 * mu_b2 - 24.00929 * mu_b3 - 4.880335 * mu_b4 - 10.766331 * mu_u5;
-    highp float q_3_2 = 1279.5316 * mu_v5 + 2908.128 * mu_b1 + 2368.773 * mu_b2 + 239.89412 * mu_b3 + 72.339355 * mu_b4 + 15.833986 * mu_u5;
-    highp float q_3_3 = 1294.7446 * mu_v5 + 3031.0776 * mu_b1 + 2494.2625 * mu_b2 + 179.18826 * mu_b3 - 12.001013 * mu_b4 + 9.95202 * mu_u5;
-    highp float q_3_4 = 625.25916 * mu_v5 + 1585.3401 * mu_b1 + 1545.3713 * mu_b2 + 429.37692 * mu_b3 + 167.51761 * mu_b4 + 45.037212 * mu_u5;
-    highp float q_3_5 = 107.41524 * mu_v5 + 312.8937 * mu_b1 + 408.33768 * mu_b2 + 251.50633 * mu_b3 + 138.24153 * mu_b4 + 33.9156 * mu_u5;
-    highp float q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    highp float q_4_0 = 55.749367 * mu_v5 + 113.5234 * mu_b1 + 98.14739 * mu_b2 + 35.67654 * mu_b3 + 25.634506 * mu_b4 + 2.491922 * mu_u5;
-    highp float q_4_1 = 319.98096 * mu_v5 + 666.3844 * mu_b1 + 481.1425 * mu_b2 + 10.607622 * mu_b3 + 9.756001 * mu_b4 - 5.309577 * mu_u5;
-    highp float q_4_2 = 698.7766 * mu_v5 + 1575.1559 * mu_b1 + 1264.9423 * mu_b2 + 156.35736 * mu_b3 + 56.202152 * mu_b4 + 10.013694 * mu_u5;
-    highp float q_4_3 = 678.4018 * mu_v5 + 1570.2389 * mu_b1 + 1271.2544 * mu_b2 + 105.198044 * mu_b3 + 16.055378 * mu_b4 + 11.880668 * mu_u5;
-    highp float q_4_4 = 310.8875 * mu_v5 + 783.45374 * mu_b1 + 771.24084 * mu_b2 + 243.77695 * mu_b3 + 117.89807 * mu_b4 + 33.59874 * mu_u5;
-    highp float q_4_5 = 51.2133 * mu_v5 + 156.42271 * mu_b1 + 223.75941 * mu_b2 + 161.83102 * mu_b3 + 94.836266 * mu_b4 + 23.71585 * mu_u5;
-    highp float q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    highp float q_5_0 = 13.027412 * mu_v5 + 27.180635 * mu_b1 + 23.84844 * mu_b2 + 9.788163 * mu_b3 + 6.2831507 * mu_b4 + 0.6223249 * mu_u5;
-    highp float q_5_1 = 73.20191 * mu_v5 + 158.13593 * mu_b1 + 122.83595 * mu_b2 + 18.223581 * mu_b3 + 7.697041 * mu_b4 - 0.46400154 * mu_u5;
-    highp float q_5_2 = 156.91008 * mu_v5 + 369.65866 * mu_b1 + 324.17108 * mu_b2 + 81.34609 * mu_b3 + 30.490938 * mu_b4 + 4.888531 * mu_u5;
-    highp float q_5_3 = 149.8426 * mu_v5 + 369.3459 * mu_b1 + 342.01645 * mu_b2 + 92.904526 * mu_b3 + 33.938496 * mu_b4 + 7.8683286 * mu_u5;
-    highp float q_5_4 = 67.685646 * mu_v5 + 186.52481 * mu_b1 + 213.69418 * mu_b2 + 105.53306 * mu_b3 + 50.548923 * mu_b4 + 12.031488 * mu_u5;
-    highp float q_5_5 = 11.415148 * mu_v5 + 40.064873 * mu_b1 + 65.226456 * mu_b2 + 53.904377 * mu_b3 + 29.870058 * mu_b4 + 6.9745345 * mu_u5;
-    highp float q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    highp float q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
-    highp float e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    highp float r_b5_v = 1.0 - r_t;
+    highp float r_b5_u2 = r_t * r_t;
+    highp float r_b5_v2 = r_b5_v * r_b5_v;
+    highp float r_b5_u3 = r_b5_u2 * r_t;
+    highp float r_b5_v3 = r_b5_v2 * r_b5_v;
+    highp float r_b5_u4 = r_b5_u3 * r_t;
+    highp float r_b5_v4 = r_b5_v3 * r_b5_v;
+    highp float r_b5_u5 = r_b5_u4 * r_t;
+    highp float r_b5_v5 = r_b5_v4 * r_b5_v;
+    highp float r_b5_b1 = r_t * r_b5_v4;
+    highp float r_b5_b2 = r_b5_u2 * r_b5_v3;
+    highp float r_b5_b3 = r_b5_u3 * r_b5_v2;
+    highp float r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    highp float mu_b5_v = 1.0 - mu_u;
+    highp float mu_b5_u2 = mu_u * mu_u;
+    highp float mu_b5_v2 = mu_b5_v * mu_b5_v;
+    highp float mu_b5_u3 = mu_b5_u2 * mu_u;
+    highp float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    highp float mu_b5_u4 = mu_b5_u3 * mu_u;
+    highp float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    highp float mu_b5_u5 = mu_b5_u4 * mu_u;
+    highp float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    highp float mu_b5_b1 = mu_u * mu_b5_v4;
+    highp float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    highp float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    highp float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    highp float p0_0_0 = 0.8639747 * mu_b5_v5 + 7.0251594 * mu_b5_b1 + 17.58542 * mu_b5_b2 + 11.080812 * mu_b5_b3 + 2.49544 * mu_b5_b4 + 0.24962045 * mu_b5_u5;
+    highp float p0_0_1 = 6.522816 * mu_b5_v5 + 43.874973 * mu_b5_b1 + 88.225464 * mu_b5_b2 + 45.15564 * mu_b5_b3 + 7.509284 * mu_b5_b4 + 0.28073627 * mu_b5_u5;
+    highp float p0_0_2 = 14.189588 * mu_b5_v5 + 89.64239 * mu_b5_b1 + 151.54633 * mu_b5_b2 + 54.680214 * mu_b5_b3 + 5.204264 * mu_b5_b4 + 0.7251504 * mu_b5_u5;
+    highp float p0_0_3 = 12.796177 * mu_b5_v5 + 80.40038 * mu_b5_b1 + 110.19537 * mu_b5_b2 + 11.496674 * mu_b5_b3 - 2.226869 * mu_b5_b4 + 2.975195 * mu_b5_u5;
+    highp float p0_0_4 = 5.024444 * mu_b5_v5 + 33.55135 * mu_b5_b1 + 33.646496 * mu_b5_b2 - 12.596129 * mu_b5_b3 - 0.73392004 * mu_b5_b4 + 4.035585 * mu_b5_u5;
+    highp float p0_0_5 = 0.6812315 * mu_b5_v5 + 5.5546317 * mu_b5_b1 + 3.5795927 * mu_b5_b2 - 4.265231 * mu_b5_b3 + 1.2944626 * mu_b5_b4 + 1.6766434 * mu_b5_u5;
+    highp float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    highp float p0 = p0_0 * 1.0;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    highp float f0_b4_v = 1.0 - f0_t;
+    highp float f0_b4_u2 = f0_t * f0_t;
+    highp float f0_b4_v2 = f0_b4_v * f0_b4_v;
+    highp float f0_b4_u3 = f0_b4_u2 * f0_t;
+    highp float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    highp float f0_b4_u4 = f0_b4_u3 * f0_t;
+    highp float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    highp float f0_b4_b1 = f0_t * f0_b4_v3;
+    highp float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    highp float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    highp float u0_0_0 = 0.84304595 * 1.0;
+    highp float u0_0 = u0_0_0 * 1.0;
+    highp float u0_1_0 = 3.63265 * 1.0;
+    highp float u0_1 = u0_1_0 * 1.0;
+    highp float u0_2_0 = 5.639264 * 1.0;
+    highp float u0_2 = u0_2_0 * 1.0;
+    highp float u0_3_0 = 3.8360329 * 1.0;
+    highp float u0_3 = u0_3_0 * 1.0;
+    highp float u0_4_0 = 0.97067744 * 1.0;
+    highp float u0_4 = u0_4_0 * 1.0;
+    highp float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    highp float r_b4_v = 1.0 - r_t;
+    highp float r_b4_u2 = r_t * r_t;
+    highp float r_b4_v2 = r_b4_v * r_b4_v;
+    highp float r_b4_u3 = r_b4_u2 * r_t;
+    highp float r_b4_v3 = r_b4_v2 * r_b4_v;
+    highp float r_b4_u4 = r_b4_u3 * r_t;
+    highp float r_b4_v4 = r_b4_v3 * r_b4_v;
+    highp float r_b4_b1 = r_t * r_b4_v3;
+    highp float r_b4_b2 = r_b4_u2 * r_b4_v2;
+    highp float r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    highp float mu_b4_v = 1.0 - mu_u;
+    highp float mu_b4_u2 = mu_u * mu_u;
+    highp float mu_b4_v2 = mu_b4_v * mu_b4_v;
+    highp float mu_b4_u3 = mu_b4_u2 * mu_u;
+    highp float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    highp float mu_b4_u4 = mu_b4_u3 * mu_u;
+    highp float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    highp float mu_b4_b1 = mu_u * mu_b4_v3;
+    highp float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    highp float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q0_0_0 = 1.0 * mu_b4_v4 + 6.1108694 * mu_b4_b1 + 11.255864 * mu_b4_b2 + 2.7731547 * mu_b4_b3 + 0.24950081 * mu_b4_u4;
+    highp float q0_0_1 = 5.70744 * mu_b4_v4 + 28.337236 * mu_b4_b1 + 43.504646 * mu_b4_b2 + 6.31464 * mu_b4_b3 - 0.07484833 * mu_b4_u4;
+    highp float q0_0_2 = 9.955664 * mu_b4_v4 + 46.983543 * mu_b4_b1 + 66.3086 * mu_b4_b2 + 8.386891 * mu_b4_b3 + 0.8342169 * mu_b4_u4;
+    highp float q0_0_3 = 5.727087 * mu_b4_v4 + 29.154245 * mu_b4_b1 + 40.764397 * mu_b4_b2 + 4.6840034 * mu_b4_b3 + 1.8321292 * mu_b4_u4;
+    highp float q0_0_4 = 1.4415598 * mu_b4_v4 + 8.247853 * mu_b4_b1 + 12.480757 * mu_b4_b2 + 3.689382 * mu_b4_b3 + 1.6362593 * mu_b4_u4;
+    highp float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
+    highp float q0 = q0_0 * 1.0;
+    highp float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    highp float p1_0_0 = 0.0983654 * mu_b5_v5 + 0.5197744 * mu_b5_b1 + 0.08195282 * mu_b5_b2 + 0.06944342 * mu_b5_b3 + 0.0014795461 * mu_b5_b4 + 7.253105e-5 * mu_b5_u5;
+    highp float p1_0_1 = -0.66745746 * mu_b5_v5 - 0.68268955 * mu_b5_b1 - 2.3023493 * mu_b5_b2 - 0.25361368 * mu_b5_b3 - 0.005094492 * mu_b5_b4 - 0.0011352117 * mu_b5_u5;
+    highp float p1_0_2 = -1.3353486 * mu_b5_v5 - 1.1263427 * mu_b5_b1 - 3.3650753 * mu_b5_b2 + 0.4910185 * mu_b5_b3 - 0.008948032 * mu_b5_b4 + 0.0008780024 * mu_b5_u5;
+    highp float p1_0_3 = -0.9236833 * mu_b5_v5 - 0.73400307 * mu_b5_b1 - 3.9283988 * mu_b5_b2 - 0.87844425 * mu_b5_b3 - 0.7815657 * mu_b5_b4 + 0.053725224 * mu_b5_u5;
+    highp float p1_0_4 = -0.41802764 * mu_b5_v5 - 0.95963633 * mu_b5_b1 - 3.3943446 * mu_b5_b2 - 1.5367818 * mu_b5_b3 - 0.5024235 * mu_b5_b4 + 0.21908534 * mu_b5_u5;
+    highp float p1_0_5 = -0.12562543 * mu_b5_v5 - 0.45828858 * mu_b5_b1 - 1.0642719 * mu_b5_b2 - 0.4618152 * mu_b5_b3 - 0.032008458 * mu_b5_b4 + 0.105690524 * mu_b5_u5;
+    highp float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    highp float p1 = p1_0 * 1.0;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    highp float u1_0_0 = 0.57598245 * 1.0;
+    highp float u1_0 = u1_0_0 * 1.0;
+    highp float u1_1_0 = 0.9580119 * 1.0;
+    highp float u1_1 = u1_1_0 * 1.0;
+    highp float u1_2_0 = -0.5309796 * 1.0;
+    highp float u1_2 = u1_2_0 * 1.0;
+    highp float u1_3_0 = -1.1824393 * 1.0;
+    highp float u1_3 = u1_3_0 * 1.0;
+    highp float u1_4_0 = -0.3779858 * 1.0;
+    highp float u1_4 = u1_4_0 * 1.0;
+    highp float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q1_0_0 = 1.0 * mu_b4_v4 + 0.6006096 * mu_b4_b1 + 0.69205064 * mu_b4_b2 + 0.020734744 * mu_b4_b3 + 0.00046946784 * mu_b4_u4;
+    highp float q1_0_1 = 2.3937235 * mu_b4_v4 - 0.2844031 * mu_b4_b1 + 1.2894084 * mu_b4_b2 - 0.32783243 * mu_b4_b3 - 0.010664528 * mu_b4_u4;
+    highp float q1_0_2 = 2.4212685 * mu_b4_v4 - 1.2530234 * mu_b4_b1 + 2.512193 * mu_b4_b2 - 0.1665014 * mu_b4_b3 + 0.07406805 * mu_b4_u4;
+    highp float q1_0_3 = 1.4548957 * mu_b4_v4 + 0.031784173 * mu_b4_b1 + 3.0097377 * mu_b4_b2 + 0.23174982 * mu_b4_b3 + 0.083603285 * mu_b4_u4;
+    highp float q1_0_4 = 0.50265294 * mu_b4_v4 + 0.70100385 * mu_b4_b1 + 1.5467162 * mu_b4_b2 + 0.35089308 * mu_b4_b3 + 0.073703505 * mu_b4_u4;
+    highp float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
+    highp float q1 = q1_0 * 1.0;
+    highp float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    highp float p2_0_0 = 0.026707659 * mu_b5_v5 - 0.5734284 * mu_b5_b1 + 0.09704371 * mu_b5_b2 + 0.016306203 * mu_b5_b3 + 0.0012250146 * mu_b5_b4 - 1.3951041e-5 * mu_b5_u5;
+    highp float p2_0_1 = 0.37824443 * mu_b5_v5 - 0.35981217 * mu_b5_b1 + 3.1082144 * mu_b5_b2 + 0.39798185 * mu_b5_b3 - 0.037954073 * mu_b5_b4 - 0.00022751556 * mu_b5_u5;
+    highp float p2_0_2 = 0.30950984 * mu_b5_v5 + 0.36617553 * mu_b5_b1 + 6.5804105 * mu_b5_b2 - 0.2836402 * mu_b5_b3 + 0.023470256 * mu_b5_b4 + 0.009730112 * mu_b5_u5;
+    highp float p2_0_3 = -0.23914397 * mu_b5_v5 + 0.48991084 * mu_b5_b1 + 5.863247 * mu_b5_b2 - 1.126761 * mu_b5_b3 + 0.49936685 * mu_b5_b4 - 0.060805347 * mu_b5_u5;
+    highp float p2_0_4 = -0.24803168 * mu_b5_v5 + 0.43952072 * mu_b5_b1 + 2.6607676 * mu_b5_b2 - 0.69713664 * mu_b5_b3 + 0.6015166 * mu_b5_b4 - 0.13869415 * mu_b5_u5;
+    highp float p2_0_5 = -0.04356793 * mu_b5_v5 + 0.13890277 * mu_b5_b1 + 0.44022775 * mu_b5_b2 - 0.16222437 * mu_b5_b3 + 0.20153268 * mu_b5_b4 - 0.06059841 * mu_b5_u5;
+    highp float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    highp float p2 = p2_0 * 1.0;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    highp float u2_0_0 = 0.24863714 * 1.0;
+    highp float u2_0 = u2_0_0 * 1.0;
+    highp float u2_1_0 = 0.76001894 * 1.0;
+    highp float u2_1 = u2_1_0 * 1.0;
+    highp float u2_2_0 = 0.016775174 * 1.0;
+    highp float u2_2 = u2_2_0 * 1.0;
+    highp float u2_3_0 = -0.6016453 * 1.0;
+    highp float u2_3 = u2_3_0 * 1.0;
+    highp float u2_4_0 = -0.20125854 * 1.0;
+    highp float u2_4 = u2_4_0 * 1.0;
+    highp float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q2_0_0 = 1.0 * mu_b4_v4 + 0.83942246 * mu_b4_b1 + 0.44334182 * mu_b4_b2 + 0.010069753 * mu_b4_b3 + 0.00027604427 * mu_b4_u4;
+    highp float q2_0_1 = 2.3388953 * mu_b4_v4 + 0.8386251 * mu_b4_b1 + 0.68279856 * mu_b4_b2 - 0.19981192 * mu_b4_b3 - 0.0063782386 * mu_b4_u4;
+    highp float q2_0_2 = 2.1740265 * mu_b4_v4 + 0.17841579 * mu_b4_b1 + 1.3841336 * mu_b4_b2 - 0.13614139 * mu_b4_b3 + 0.048868116 * mu_b4_u4;
+    highp float q2_0_3 = 1.2025218 * mu_b4_v4 + 0.73613423 * mu_b4_b1 + 1.8787737 * mu_b4_b2 + 0.010657078 * mu_b4_b3 + 0.041998528 * mu_b4_u4;
+    highp float q2_0_4 = 0.41077074 * mu_b4_v4 + 0.7304416 * mu_b4_b1 + 0.99437755 * mu_b4_b2 + 0.110437304 * mu_b4_b3 + 0.029856257 * mu_b4_u4;
+    highp float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
+    highp float q2 = q2_0 * 1.0;
+    highp float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    highp float p3_0_0 = -0.19764897 * mu_b5_v5 + 0.3935479 * mu_b5_b1 - 1.303168 * mu_b5_b2 + 0.4242268 * mu_b5_b3 - 0.13403675 * mu_b5_b4 - 0.004560415 * mu_b5_u5;
+    highp float p3_0_1 = 0.31663522 * mu_b5_v5 + 5.394918 * mu_b5_b1 - 7.023657 * mu_b5_b2 - 0.09658489 * mu_b5_b3 - 0.20520376 * mu_b5_b4 + 0.029781567 * mu_b5_u5;
+    highp float p3_0_2 = 1.9227616 * mu_b5_v5 + 14.684894 * mu_b5_b1 - 17.140568 * mu_b5_b2 - 5.358134 * mu_b5_b3 + 0.057506155 * mu_b5_b4 - 0.0063788462 * mu_b5_u5;
+    highp float p3_0_3 = 2.1450202 * mu_b5_v5 + 15.533738 * mu_b5_b1 - 23.914036 * mu_b5_b2 - 13.008559 * mu_b5_b3 - 0.25355136 * mu_b5_b4 - 0.067063995 * mu_b5_u5;
+    highp float p3_0_4 = 0.6922625 * mu_b5_v5 + 6.395854 * mu_b5_b1 - 18.057858 * mu_b5_b2 - 12.137849 * mu_b5_b3 - 0.48155993 * mu_b5_b4 + 0.13517982 * mu_b5_u5;
+    highp float p3_0_5 = -0.006778178 * mu_b5_v5 + 0.7331511 * mu_b5_b1 - 5.188879 * mu_b5_b2 - 3.5915895 * mu_b5_b3 + 0.08817597 * mu_b5_b4 + 0.19902526 * mu_b5_u5;
+    highp float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    highp float p3 = p3_0 * 1.0;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    highp float u3_0_0 = -0.74000376 * 1.0;
+    highp float u3_0 = u3_0_0 * 1.0;
+    highp float u3_1_0 = -2.3745086 * 1.0;
+    highp float u3_1 = u3_1_0 * 1.0;
+    highp float u3_2_0 = -4.094202 * 1.0;
+    highp float u3_2 = u3_2_0 * 1.0;
+    highp float u3_3_0 = -2.8152761 * 1.0;
+    highp float u3_3 = u3_3_0 * 1.0;
+    highp float u3_4_0 = -0.70499045 * 1.0;
+    highp float u3_4 = u3_4_0 * 1.0;
+    highp float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q3_0_0 = 1.0 * mu_b4_v4 + 3.2905173 * mu_b4_b1 + 0.48786473 * mu_b4_b2 + 0.10704597 * mu_b4_b3 + 0.041731592 * mu_b4_u4;
+    highp float q3_0_1 = 4.8160224 * mu_b4_v4 + 16.602255 * mu_b4_b1 + 4.72389 * mu_b4_b2 + 0.32401404 * mu_b4_b3 - 0.08551172 * mu_b4_u4;
+    highp float q3_0_2 = 6.637267 * mu_b4_v4 + 26.124155 * mu_b4_b1 + 9.41957 * mu_b4_b2 + 1.2552559 * mu_b4_b3 + 0.11477197 * mu_b4_u4;
+    highp float q3_0_3 = 3.1259248 * mu_b4_v4 + 15.875714 * mu_b4_b1 + 5.6384783 * mu_b4_b2 + 0.38728726 * mu_b4_b3 + 0.026730957 * mu_b4_u4;
+    highp float q3_0_4 = 0.7728027 * mu_b4_v4 + 4.9357877 * mu_b4_b1 + 3.2636704 * mu_b4_b2 + 1.2214911 * mu_b4_b3 + 0.2528386 * mu_b4_u4;
+    highp float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
+    highp float q3 = q3_0 * 1.0;
+    highp float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    highp float e = e0 + e1 + e2 + e3;
     return max(min(e, 1.0), 0.0);
 }
 

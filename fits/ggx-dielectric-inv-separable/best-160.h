@@ -25,163 +25,215 @@
 // ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 // Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25].
+//   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 52bd940f61e0261938ddf076ad25af3f1c3f38d5ffa0cbaf28388d91f26916b1.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 539af3c5f9915d2538652de58b0234c441d6e4a0939ac496ae5bed3aca518d85.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.8e-5, shifted 4.4e-6, bernstein 4.2e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.06e-3, max 8.16e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.77e-7 (every op rounded, as this Rust), 5.13e-7 (fused multiply-add), 6.32e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.08e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.06e-3, max 8.16e-3; this f32 code MAE 1.06e-3, max 8.16e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
-// Denominator proved >= 7.281e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-3, shifted 7.1e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.23e-4, max 7.77e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.04e-7 (every op rounded, as this Rust), 6.23e-7 (fused multiply-add), 1.52e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 8.11e-4, max 7.77e-3; this f32 code MAE 8.11e-4, max 7.77e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.0e-4 on the measurement grid.
+// Denominator proved >= 1.222e-5 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    const float f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017f) * 2.6828594f;
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // u = (t - 0.0125)/(0.25 - 0.0125) in [0, 1]
-    const float f0_u = (f0_c - 0.0125f) * 4.2105265f;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    const float f0_v = 1.0f - f0_u;
-    const float f0_u2 = f0_u * f0_u;
-    const float f0_v2 = f0_v * f0_v;
-    const float f0_u3 = f0_u2 * f0_u;
-    const float f0_v3 = f0_v2 * f0_v;
-    const float f0_u4 = f0_u3 * f0_u;
-    const float f0_v4 = f0_v3 * f0_v;
-    const float f0_u5 = f0_u4 * f0_u;
-    const float f0_v5 = f0_v4 * f0_v;
-    const float f0_b1 = f0_u * f0_v4;
-    const float f0_b2 = f0_u2 * f0_v3;
-    const float f0_b3 = f0_u3 * f0_v2;
-    const float f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    const float r_v = 1.0f - r_t;
-    const float r_u2 = r_t * r_t;
-    const float r_v2 = r_v * r_v;
-    const float r_u3 = r_u2 * r_t;
-    const float r_v3 = r_v2 * r_v;
-    const float r_u4 = r_u3 * r_t;
-    const float r_v4 = r_v3 * r_v;
-    const float r_u5 = r_u4 * r_t;
-    const float r_v5 = r_v4 * r_v;
-    const float r_b1 = r_t * r_v4;
-    const float r_b2 = r_u2 * r_v3;
-    const float r_b3 = r_u3 * r_v2;
-    const float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    const float mu_u = (mu_t - 7.888609e-31f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    const float mu_v = 1.0f - mu_u;
-    const float mu_u2 = mu_u * mu_u;
-    const float mu_v2 = mu_v * mu_v;
-    const float mu_u3 = mu_u2 * mu_u;
-    const float mu_v3 = mu_v2 * mu_v;
-    const float mu_u4 = mu_u3 * mu_u;
-    const float mu_v4 = mu_v3 * mu_v;
-    const float mu_u5 = mu_u4 * mu_u;
-    const float mu_v5 = mu_v4 * mu_v;
-    const float mu_b1 = mu_u * mu_v4;
-    const float mu_b2 = mu_u2 * mu_v3;
-    const float mu_b3 = mu_u3 * mu_v2;
-    const float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = 1.8217045f * mu_v5 + 5.983894f * mu_b1 + 9.096758f * mu_b2 + 2.6654856f * mu_b3 + 1.3072432f * mu_b4 + 0.20696895f * mu_u5;
-    const float p_0_1 = 8.518971f * mu_v5 + 18.297178f * mu_b1 + 17.084295f * mu_b2 - 16.795162f * mu_b3 - 7.3981647f * mu_b4 - 0.1437017f * mu_u5;
-    const float p_0_2 = 20.856354f * mu_v5 + 50.352257f * mu_b1 + 68.67248f * mu_b2 + 3.664689f * mu_b3 + 1.4490258f * mu_b4 + 3.2673342f * mu_u5;
-    const float p_0_3 = 18.689728f * mu_v5 + 41.611786f * mu_b1 + 70.74646f * mu_b2 + 14.401159f * mu_b3 + 1.8787043f * mu_b4 + 1.60837f * mu_u5;
-    const float p_0_4 = 9.278083f * mu_v5 + 23.46311f * mu_b1 + 55.43387f * mu_b2 + 35.456024f * mu_b3 + 12.884813f * mu_b4 + 1.8308438f * mu_u5;
-    const float p_0_5 = 1.4126229f * mu_v5 + 3.2162f * mu_b1 + 12.024159f * mu_b2 + 10.832015f * mu_b3 + 4.48645f * mu_b4 + 0.50566024f * mu_u5;
-    const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    const float p_1_0 = 25.297815f * mu_v5 + 59.052658f * mu_b1 + 59.421696f * mu_b2 + 19.402338f * mu_b3 + 12.457288f * mu_b4 + 1.8750151f * mu_u5;
-    const float p_1_1 = 144.95773f * mu_v5 + 320.37622f * mu_b1 + 258.1423f * mu_b2 - 13.963733f * mu_b3 - 11.388846f * mu_b4 + 1.0647669f * mu_u5;
-    const float p_1_2 = 320.26144f * mu_v5 + 764.9453f * mu_b1 + 755.2463f * mu_b2 + 169.24483f * mu_b3 + 46.260704f * mu_b4 + 19.11041f * mu_u5;
-    const float p_1_3 = 298.13226f * mu_v5 + 698.949f * mu_b1 + 735.54047f * mu_b2 + 184.95522f * mu_b3 + 29.99655f * mu_b4 + 11.297237f * mu_u5;
-    const float p_1_4 = 137.04681f * mu_v5 + 333.05426f * mu_b1 + 433.55844f * mu_b2 + 207.31924f * mu_b3 + 65.00129f * mu_b4 + 10.999092f * mu_u5;
-    const float p_1_5 = 22.841953f * mu_v5 + 54.356564f * mu_b1 + 87.80271f * mu_b2 + 58.234005f * mu_b3 + 21.741117f * mu_b4 + 2.948422f * mu_u5;
-    const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    const float p_2_0 = 74.161026f * mu_v5 + 158.05334f * mu_b1 + 137.50745f * mu_b2 + 51.3308f * mu_b3 + 35.93712f * mu_b4 + 4.52788f * mu_u5;
-    const float p_2_1 = 429.2637f * mu_v5 + 926.3615f * mu_b1 + 700.1948f * mu_b2 + 37.923336f * mu_b3 + 2.8751523f * mu_b4 - 0.41904566f * mu_u5;
-    const float p_2_2 = 912.406f * mu_v5 + 2109.442f * mu_b1 + 1881.9756f * mu_b2 + 425.95105f * mu_b3 + 111.75744f * mu_b4 + 33.81051f * mu_u5;
-    const float p_2_3 = 828.4344f * mu_v5 + 1883.5625f * mu_b1 + 1743.8922f * mu_b2 + 390.44638f * mu_b3 + 64.41348f * mu_b4 + 25.795553f * mu_u5;
-    const float p_2_4 = 363.79587f * mu_v5 + 848.7109f * mu_b1 + 955.07227f * mu_b2 + 408.56018f * mu_b3 + 135.86462f * mu_b4 + 28.993847f * mu_u5;
-    const float p_2_5 = 59.31666f * mu_v5 + 139.54109f * mu_b1 + 196.98639f * mu_b2 + 123.99046f * mu_b3 + 49.529613f * mu_b4 + 8.607546f * mu_u5;
-    const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    const float p_3_0 = 89.93891f * mu_v5 + 178.28845f * mu_b1 + 136.09026f * mu_b2 + 50.248867f * mu_b3 + 40.073215f * mu_b4 + 3.871487f * mu_u5;
-    const float p_3_1 = 514.6219f * mu_v5 + 1058.566f * mu_b1 + 708.59467f * mu_b2 - 11.063693f * mu_b3 - 18.28432f * mu_b4 - 11.038034f * mu_u5;
-    const float p_3_2 = 1056.7097f * mu_v5 + 2317.208f * mu_b1 + 1825.989f * mu_b2 + 248.25252f * mu_b3 + 33.83988f * mu_b4 + 14.142392f * mu_u5;
-    const float p_3_3 = 922.82886f * mu_v5 + 1971.6588f * mu_b1 + 1575.5222f * mu_b2 + 157.4271f * mu_b3 - 16.128407f * mu_b4 + 16.201046f * mu_u5;
-    const float p_3_4 = 383.66312f * mu_v5 + 836.4785f * mu_b1 + 841.4389f * mu_b2 + 299.5401f * mu_b3 + 110.44582f * mu_b4 + 31.061338f * mu_u5;
-    const float p_3_5 = 59.512848f * mu_v5 + 135.0091f * mu_b1 + 185.91936f * mu_b2 + 118.19624f * mu_b3 + 52.030716f * mu_b4 + 10.56402f * mu_u5;
-    const float p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    const float p_4_0 = 52.29189f * mu_v5 + 101.832436f * mu_b1 + 76.21464f * mu_b2 + 33.245453f * mu_b3 + 25.909454f * mu_b4 + 2.491309f * mu_u5;
-    const float p_4_1 = 293.6706f * mu_v5 + 598.2374f * mu_b1 + 394.61774f * mu_b2 + 13.612194f * mu_b3 + 2.1974564f * mu_b4 - 5.5977793f * mu_u5;
-    const float p_4_2 = 584.7486f * mu_v5 + 1263.5498f * mu_b1 + 963.5997f * mu_b2 + 138.28073f * mu_b3 + 31.21516f * mu_b4 + 9.264938f * mu_u5;
-    const float p_4_3 = 493.03778f * mu_v5 + 1038.9044f * mu_b1 + 805.91876f * mu_b2 + 90.49866f * mu_b3 + 15.203228f * mu_b4 + 16.288805f * mu_u5;
-    const float p_4_4 = 195.44656f * mu_v5 + 425.5435f * mu_b1 + 432.88397f * mu_b2 + 174.07861f * mu_b3 + 78.48169f * mu_b4 + 22.956198f * mu_u5;
-    const float p_4_5 = 29.104595f * mu_v5 + 70.41347f * mu_b1 + 105.42085f * mu_b2 + 74.75302f * mu_b3 + 34.83516f * mu_b4 + 7.347327f * mu_u5;
-    const float p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    const float p_5_0 = 12.180376f * mu_v5 + 24.240974f * mu_b1 + 18.731728f * mu_b2 + 9.015363f * mu_b3 + 6.33573f * mu_b4 + 0.62213933f * mu_u5;
-    const float p_5_1 = 67.58604f * mu_v5 + 142.51591f * mu_b1 + 102.28408f * mu_b2 + 16.891964f * mu_b3 + 5.909697f * mu_b4 - 0.4748418f * mu_u5;
-    const float p_5_2 = 132.4646f * mu_v5 + 298.31485f * mu_b1 + 247.26088f * mu_b2 + 64.64747f * mu_b3 + 21.44521f * mu_b4 + 4.514814f * mu_u5;
-    const float p_5_3 = 110.62559f * mu_v5 + 250.59505f * mu_b1 + 223.7431f * mu_b2 + 67.212234f * mu_b3 + 24.751444f * mu_b4 + 7.619277f * mu_u5;
-    const float p_5_4 = 43.523026f * mu_v5 + 106.74675f * mu_b1 + 125.51693f * mu_b2 + 68.35964f * mu_b3 + 30.346096f * mu_b4 + 7.4328756f * mu_u5;
-    const float p_5_5 = 6.621563f * mu_v5 + 19.517513f * mu_b1 + 32.134167f * mu_b2 + 24.570086f * mu_b3 + 10.791802f * mu_b4 + 2.090575f * mu_u5;
-    const float p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    const float p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = 1.9428728f * mu_v5 + 6.4115367f * mu_b1 + 11.464447f * mu_b2 + 2.5304713f * mu_b3 + 1.3095434f * mu_b4 + 0.20697571f * mu_u5;
-    const float q_0_1 = 11.225136f * mu_v5 + 23.769955f * mu_b1 + 26.049717f * mu_b2 - 20.057817f * mu_b3 - 5.869587f * mu_b4 - 0.1462697f * mu_u5;
-    const float q_0_2 = 33.117706f * mu_v5 + 76.98346f * mu_b1 + 85.50444f * mu_b2 - 15.180296f * mu_b3 + 2.1340544f * mu_b4 + 3.2742345f * mu_u5;
-    const float q_0_3 = 44.6024f * mu_v5 + 115.30335f * mu_b1 + 133.59023f * mu_b2 + 10.87274f * mu_b3 + 5.619347f * mu_b4 + 1.9570881f * mu_u5;
-    const float q_0_4 = 30.034105f * mu_v5 + 92.52758f * mu_b1 + 126.97792f * mu_b2 + 53.57279f * mu_b3 + 19.263437f * mu_b4 + 2.3356981f * mu_u5;
-    const float q_0_5 = 6.1036625f * mu_v5 + 21.031858f * mu_b1 + 32.67203f * mu_b2 + 18.47321f * mu_b3 + 7.139858f * mu_b4 + 0.8426069f * mu_u5;
-    const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    const float q_1_0 = 27.113085f * mu_v5 + 64.87417f * mu_b1 + 74.89423f * mu_b2 + 19.824944f * mu_b3 + 12.405729f * mu_b4 + 1.8745397f * mu_u5;
-    const float q_1_1 = 166.73401f * mu_v5 + 372.1928f * mu_b1 + 326.77505f * mu_b2 - 22.866846f * mu_b3 - 3.9699f * mu_b4 + 1.0162164f * mu_u5;
-    const float q_1_2 = 412.87207f * mu_v5 + 1000.73737f * mu_b1 + 963.0442f * mu_b2 + 142.16737f * mu_b3 + 66.66952f * mu_b4 + 21.287048f * mu_u5;
-    const float q_1_3 = 469.17215f * mu_v5 + 1202.0753f * mu_b1 + 1211.322f * mu_b2 + 256.26666f * mu_b3 + 72.78853f * mu_b4 + 16.546747f * mu_u5;
-    const float q_1_4 = 262.1438f * mu_v5 + 745.9039f * mu_b1 + 873.94995f * mu_b2 + 351.92804f * mu_b3 + 120.24446f * mu_b4 + 19.309301f * mu_u5;
-    const float q_1_5 = 50.40536f * mu_v5 + 158.16023f * mu_b1 + 215.61717f * mu_b2 + 122.3464f * mu_b3 + 51.414005f * mu_b4 + 9.09051f * mu_u5;
-    const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    const float q_2_0 = 79.28551f * mu_v5 + 174.6091f * mu_b1 + 173.64444f * mu_b2 + 53.889805f * mu_b3 + 35.782753f * mu_b4 + 4.5350003f * mu_u5;
-    const float q_2_1 = 480.0516f * mu_v5 + 1051.4282f * mu_b1 + 857.01294f * mu_b2 + 24.403248f * mu_b3 + 16.763195f * mu_b4 - 0.39770848f * mu_u5;
-    const float q_2_2 = 1126.1406f * mu_v5 + 2669.9902f * mu_b1 + 2392.7527f * mu_b2 + 409.44174f * mu_b3 + 154.76921f * mu_b4 + 37.44276f * mu_u5;
-    const float q_2_3 = 1199.4763f * mu_v5 + 2960.5623f * mu_b1 + 2729.9673f * mu_b2 + 499.49988f * mu_b3 + 116.65689f * mu_b4 + 29.25046f * mu_u5;
-    const float q_2_4 = 618.5275f * mu_v5 + 1663.5902f * mu_b1 + 1778.4023f * mu_b2 + 633.0939f * mu_b3 + 222.9523f * mu_b4 + 44.804123f * mu_u5;
-    const float q_2_5 = 112.7909f * mu_v5 + 338.0248f * mu_b1 + 441.47098f * mu_b2 + 256.17398f * mu_b3 + 121.91003f * mu_b4 + 26.294302f * mu_u5;
-    const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    const float q_3_0 = 95.96514f * mu_v5 + 198.12866f * mu_b1 + 175.79248f * mu_b2 + 53.76259f * mu_b3 + 39.677364f * mu_b4 + 3.8649213f * mu_u5;
-    const float q_3_1 = 566.96124f * mu_v5 + 1189.451f * mu_b1 + 870.9885f * mu_b2 - 24.00929f * mu_b3 - 4.880335f * mu_b4 - 10.766331f * mu_u5;
-    const float q_3_2 = 1279.5316f * mu_v5 + 2908.128f * mu_b1 + 2368.773f * mu_b2 + 239.89412f * mu_b3 + 72.339355f * mu_b4 + 15.833986f * mu_u5;
-    const float q_3_3 = 1294.7446f * mu_v5 + 3031.0776f * mu_b1 + 2494.2625f * mu_b2 + 179.18826f * mu_b3 - 12.001013f * mu_b4 + 9.95202f * mu_u5;
-    const float q_3_4 = 625.25916f * mu_v5 + 1585.3401f * mu_b1 + 1545.3713f * mu_b2 + 429.37692f * mu_b3 + 167.51761f * mu_b4 + 45.037212f * mu_u5;
-    const float q_3_5 = 107.41524f * mu_v5 + 312.8937f * mu_b1 + 408.33768f * mu_b2 + 251.50633f * mu_b3 + 138.24153f * mu_b4 + 33.9156f * mu_u5;
-    const float q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    const float q_4_0 = 55.749367f * mu_v5 + 113.5234f * mu_b1 + 98.14739f * mu_b2 + 35.67654f * mu_b3 + 25.634506f * mu_b4 + 2.491922f * mu_u5;
-    const float q_4_1 = 319.98096f * mu_v5 + 666.3844f * mu_b1 + 481.1425f * mu_b2 + 10.607622f * mu_b3 + 9.756001f * mu_b4 - 5.309577f * mu_u5;
-    const float q_4_2 = 698.7766f * mu_v5 + 1575.1559f * mu_b1 + 1264.9423f * mu_b2 + 156.35736f * mu_b3 + 56.202152f * mu_b4 + 10.013694f * mu_u5;
-    const float q_4_3 = 678.4018f * mu_v5 + 1570.2389f * mu_b1 + 1271.2544f * mu_b2 + 105.198044f * mu_b3 + 16.055378f * mu_b4 + 11.880668f * mu_u5;
-    const float q_4_4 = 310.8875f * mu_v5 + 783.45374f * mu_b1 + 771.24084f * mu_b2 + 243.77695f * mu_b3 + 117.89807f * mu_b4 + 33.59874f * mu_u5;
-    const float q_4_5 = 51.2133f * mu_v5 + 156.42271f * mu_b1 + 223.75941f * mu_b2 + 161.83102f * mu_b3 + 94.836266f * mu_b4 + 23.71585f * mu_u5;
-    const float q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    const float q_5_0 = 13.027412f * mu_v5 + 27.180635f * mu_b1 + 23.84844f * mu_b2 + 9.788163f * mu_b3 + 6.2831507f * mu_b4 + 0.6223249f * mu_u5;
-    const float q_5_1 = 73.20191f * mu_v5 + 158.13593f * mu_b1 + 122.83595f * mu_b2 + 18.223581f * mu_b3 + 7.697041f * mu_b4 - 0.46400154f * mu_u5;
-    const float q_5_2 = 156.91008f * mu_v5 + 369.65866f * mu_b1 + 324.17108f * mu_b2 + 81.34609f * mu_b3 + 30.490938f * mu_b4 + 4.888531f * mu_u5;
-    const float q_5_3 = 149.8426f * mu_v5 + 369.3459f * mu_b1 + 342.01645f * mu_b2 + 92.904526f * mu_b3 + 33.938496f * mu_b4 + 7.8683286f * mu_u5;
-    const float q_5_4 = 67.685646f * mu_v5 + 186.52481f * mu_b1 + 213.69418f * mu_b2 + 105.53306f * mu_b3 + 50.548923f * mu_b4 + 12.031488f * mu_u5;
-    const float q_5_5 = 11.415148f * mu_v5 + 40.064873f * mu_b1 + 65.226456f * mu_b2 + 53.904377f * mu_b3 + 29.870058f * mu_b4 + 6.9745345f * mu_u5;
-    const float q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    const float q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
-    const float e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    const float r_b5_v = 1.0f - r_t;
+    const float r_b5_u2 = r_t * r_t;
+    const float r_b5_v2 = r_b5_v * r_b5_v;
+    const float r_b5_u3 = r_b5_u2 * r_t;
+    const float r_b5_v3 = r_b5_v2 * r_b5_v;
+    const float r_b5_u4 = r_b5_u3 * r_t;
+    const float r_b5_v4 = r_b5_v3 * r_b5_v;
+    const float r_b5_u5 = r_b5_u4 * r_t;
+    const float r_b5_v5 = r_b5_v4 * r_b5_v;
+    const float r_b5_b1 = r_t * r_b5_v4;
+    const float r_b5_b2 = r_b5_u2 * r_b5_v3;
+    const float r_b5_b3 = r_b5_u3 * r_b5_v2;
+    const float r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    const float mu_b5_v = 1.0f - mu_u;
+    const float mu_b5_u2 = mu_u * mu_u;
+    const float mu_b5_v2 = mu_b5_v * mu_b5_v;
+    const float mu_b5_u3 = mu_b5_u2 * mu_u;
+    const float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    const float mu_b5_u4 = mu_b5_u3 * mu_u;
+    const float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    const float mu_b5_u5 = mu_b5_u4 * mu_u;
+    const float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    const float mu_b5_b1 = mu_u * mu_b5_v4;
+    const float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    const float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    const float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    const float p0_0_0 = 0.8639747f * mu_b5_v5 + 7.0251594f * mu_b5_b1 + 17.58542f * mu_b5_b2 + 11.080812f * mu_b5_b3 + 2.49544f * mu_b5_b4 + 0.24962045f * mu_b5_u5;
+    const float p0_0_1 = 6.522816f * mu_b5_v5 + 43.874973f * mu_b5_b1 + 88.225464f * mu_b5_b2 + 45.15564f * mu_b5_b3 + 7.509284f * mu_b5_b4 + 0.28073627f * mu_b5_u5;
+    const float p0_0_2 = 14.189588f * mu_b5_v5 + 89.64239f * mu_b5_b1 + 151.54633f * mu_b5_b2 + 54.680214f * mu_b5_b3 + 5.204264f * mu_b5_b4 + 0.7251504f * mu_b5_u5;
+    const float p0_0_3 = 12.796177f * mu_b5_v5 + 80.40038f * mu_b5_b1 + 110.19537f * mu_b5_b2 + 11.496674f * mu_b5_b3 - 2.226869f * mu_b5_b4 + 2.975195f * mu_b5_u5;
+    const float p0_0_4 = 5.024444f * mu_b5_v5 + 33.55135f * mu_b5_b1 + 33.646496f * mu_b5_b2 - 12.596129f * mu_b5_b3 - 0.73392004f * mu_b5_b4 + 4.035585f * mu_b5_u5;
+    const float p0_0_5 = 0.6812315f * mu_b5_v5 + 5.5546317f * mu_b5_b1 + 3.5795927f * mu_b5_b2 - 4.265231f * mu_b5_b3 + 1.2944626f * mu_b5_b4 + 1.6766434f * mu_b5_u5;
+    const float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    const float p0 = p0_0 * 1.0f;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    const float f0_b4_v = 1.0f - f0_t;
+    const float f0_b4_u2 = f0_t * f0_t;
+    const float f0_b4_v2 = f0_b4_v * f0_b4_v;
+    const float f0_b4_u3 = f0_b4_u2 * f0_t;
+    const float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    const float f0_b4_u4 = f0_b4_u3 * f0_t;
+    const float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    const float f0_b4_b1 = f0_t * f0_b4_v3;
+    const float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    const float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    const float u0_0_0 = 0.84304595f * 1.0f;
+    const float u0_0 = u0_0_0 * 1.0f;
+    const float u0_1_0 = 3.63265f * 1.0f;
+    const float u0_1 = u0_1_0 * 1.0f;
+    const float u0_2_0 = 5.639264f * 1.0f;
+    const float u0_2 = u0_2_0 * 1.0f;
+    const float u0_3_0 = 3.8360329f * 1.0f;
+    const float u0_3 = u0_3_0 * 1.0f;
+    const float u0_4_0 = 0.97067744f * 1.0f;
+    const float u0_4 = u0_4_0 * 1.0f;
+    const float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    const float r_b4_v = 1.0f - r_t;
+    const float r_b4_u2 = r_t * r_t;
+    const float r_b4_v2 = r_b4_v * r_b4_v;
+    const float r_b4_u3 = r_b4_u2 * r_t;
+    const float r_b4_v3 = r_b4_v2 * r_b4_v;
+    const float r_b4_u4 = r_b4_u3 * r_t;
+    const float r_b4_v4 = r_b4_v3 * r_b4_v;
+    const float r_b4_b1 = r_t * r_b4_v3;
+    const float r_b4_b2 = r_b4_u2 * r_b4_v2;
+    const float r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    const float mu_b4_v = 1.0f - mu_u;
+    const float mu_b4_u2 = mu_u * mu_u;
+    const float mu_b4_v2 = mu_b4_v * mu_b4_v;
+    const float mu_b4_u3 = mu_b4_u2 * mu_u;
+    const float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    const float mu_b4_u4 = mu_b4_u3 * mu_u;
+    const float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    const float mu_b4_b1 = mu_u * mu_b4_v3;
+    const float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    const float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q0_0_0 = 1.0f * mu_b4_v4 + 6.1108694f * mu_b4_b1 + 11.255864f * mu_b4_b2 + 2.7731547f * mu_b4_b3 + 0.24950081f * mu_b4_u4;
+    const float q0_0_1 = 5.70744f * mu_b4_v4 + 28.337236f * mu_b4_b1 + 43.504646f * mu_b4_b2 + 6.31464f * mu_b4_b3 - 0.07484833f * mu_b4_u4;
+    const float q0_0_2 = 9.955664f * mu_b4_v4 + 46.983543f * mu_b4_b1 + 66.3086f * mu_b4_b2 + 8.386891f * mu_b4_b3 + 0.8342169f * mu_b4_u4;
+    const float q0_0_3 = 5.727087f * mu_b4_v4 + 29.154245f * mu_b4_b1 + 40.764397f * mu_b4_b2 + 4.6840034f * mu_b4_b3 + 1.8321292f * mu_b4_u4;
+    const float q0_0_4 = 1.4415598f * mu_b4_v4 + 8.247853f * mu_b4_b1 + 12.480757f * mu_b4_b2 + 3.689382f * mu_b4_b3 + 1.6362593f * mu_b4_u4;
+    const float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
+    const float q0 = q0_0 * 1.0f;
+    const float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    const float p1_0_0 = 0.0983654f * mu_b5_v5 + 0.5197744f * mu_b5_b1 + 0.08195282f * mu_b5_b2 + 0.06944342f * mu_b5_b3 + 0.0014795461f * mu_b5_b4 + 7.253105e-5f * mu_b5_u5;
+    const float p1_0_1 = -0.66745746f * mu_b5_v5 - 0.68268955f * mu_b5_b1 - 2.3023493f * mu_b5_b2 - 0.25361368f * mu_b5_b3 - 0.005094492f * mu_b5_b4 - 0.0011352117f * mu_b5_u5;
+    const float p1_0_2 = -1.3353486f * mu_b5_v5 - 1.1263427f * mu_b5_b1 - 3.3650753f * mu_b5_b2 + 0.4910185f * mu_b5_b3 - 0.008948032f * mu_b5_b4 + 0.0008780024f * mu_b5_u5;
+    const float p1_0_3 = -0.9236833f * mu_b5_v5 - 0.73400307f * mu_b5_b1 - 3.9283988f * mu_b5_b2 - 0.87844425f * mu_b5_b3 - 0.7815657f * mu_b5_b4 + 0.053725224f * mu_b5_u5;
+    const float p1_0_4 = -0.41802764f * mu_b5_v5 - 0.95963633f * mu_b5_b1 - 3.3943446f * mu_b5_b2 - 1.5367818f * mu_b5_b3 - 0.5024235f * mu_b5_b4 + 0.21908534f * mu_b5_u5;
+    const float p1_0_5 = -0.12562543f * mu_b5_v5 - 0.45828858f * mu_b5_b1 - 1.0642719f * mu_b5_b2 - 0.4618152f * mu_b5_b3 - 0.032008458f * mu_b5_b4 + 0.105690524f * mu_b5_u5;
+    const float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    const float p1 = p1_0 * 1.0f;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    const float u1_0_0 = 0.57598245f * 1.0f;
+    const float u1_0 = u1_0_0 * 1.0f;
+    const float u1_1_0 = 0.9580119f * 1.0f;
+    const float u1_1 = u1_1_0 * 1.0f;
+    const float u1_2_0 = -0.5309796f * 1.0f;
+    const float u1_2 = u1_2_0 * 1.0f;
+    const float u1_3_0 = -1.1824393f * 1.0f;
+    const float u1_3 = u1_3_0 * 1.0f;
+    const float u1_4_0 = -0.3779858f * 1.0f;
+    const float u1_4 = u1_4_0 * 1.0f;
+    const float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q1_0_0 = 1.0f * mu_b4_v4 + 0.6006096f * mu_b4_b1 + 0.69205064f * mu_b4_b2 + 0.020734744f * mu_b4_b3 + 0.00046946784f * mu_b4_u4;
+    const float q1_0_1 = 2.3937235f * mu_b4_v4 - 0.2844031f * mu_b4_b1 + 1.2894084f * mu_b4_b2 - 0.32783243f * mu_b4_b3 - 0.010664528f * mu_b4_u4;
+    const float q1_0_2 = 2.4212685f * mu_b4_v4 - 1.2530234f * mu_b4_b1 + 2.512193f * mu_b4_b2 - 0.1665014f * mu_b4_b3 + 0.07406805f * mu_b4_u4;
+    const float q1_0_3 = 1.4548957f * mu_b4_v4 + 0.031784173f * mu_b4_b1 + 3.0097377f * mu_b4_b2 + 0.23174982f * mu_b4_b3 + 0.083603285f * mu_b4_u4;
+    const float q1_0_4 = 0.50265294f * mu_b4_v4 + 0.70100385f * mu_b4_b1 + 1.5467162f * mu_b4_b2 + 0.35089308f * mu_b4_b3 + 0.073703505f * mu_b4_u4;
+    const float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
+    const float q1 = q1_0 * 1.0f;
+    const float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    const float p2_0_0 = 0.026707659f * mu_b5_v5 - 0.5734284f * mu_b5_b1 + 0.09704371f * mu_b5_b2 + 0.016306203f * mu_b5_b3 + 0.0012250146f * mu_b5_b4 - 1.3951041e-5f * mu_b5_u5;
+    const float p2_0_1 = 0.37824443f * mu_b5_v5 - 0.35981217f * mu_b5_b1 + 3.1082144f * mu_b5_b2 + 0.39798185f * mu_b5_b3 - 0.037954073f * mu_b5_b4 - 0.00022751556f * mu_b5_u5;
+    const float p2_0_2 = 0.30950984f * mu_b5_v5 + 0.36617553f * mu_b5_b1 + 6.5804105f * mu_b5_b2 - 0.2836402f * mu_b5_b3 + 0.023470256f * mu_b5_b4 + 0.009730112f * mu_b5_u5;
+    const float p2_0_3 = -0.23914397f * mu_b5_v5 + 0.48991084f * mu_b5_b1 + 5.863247f * mu_b5_b2 - 1.126761f * mu_b5_b3 + 0.49936685f * mu_b5_b4 - 0.060805347f * mu_b5_u5;
+    const float p2_0_4 = -0.24803168f * mu_b5_v5 + 0.43952072f * mu_b5_b1 + 2.6607676f * mu_b5_b2 - 0.69713664f * mu_b5_b3 + 0.6015166f * mu_b5_b4 - 0.13869415f * mu_b5_u5;
+    const float p2_0_5 = -0.04356793f * mu_b5_v5 + 0.13890277f * mu_b5_b1 + 0.44022775f * mu_b5_b2 - 0.16222437f * mu_b5_b3 + 0.20153268f * mu_b5_b4 - 0.06059841f * mu_b5_u5;
+    const float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    const float p2 = p2_0 * 1.0f;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    const float u2_0_0 = 0.24863714f * 1.0f;
+    const float u2_0 = u2_0_0 * 1.0f;
+    const float u2_1_0 = 0.76001894f * 1.0f;
+    const float u2_1 = u2_1_0 * 1.0f;
+    const float u2_2_0 = 0.016775174f * 1.0f;
+    const float u2_2 = u2_2_0 * 1.0f;
+    const float u2_3_0 = -0.6016453f * 1.0f;
+    const float u2_3 = u2_3_0 * 1.0f;
+    const float u2_4_0 = -0.20125854f * 1.0f;
+    const float u2_4 = u2_4_0 * 1.0f;
+    const float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q2_0_0 = 1.0f * mu_b4_v4 + 0.83942246f * mu_b4_b1 + 0.44334182f * mu_b4_b2 + 0.010069753f * mu_b4_b3 + 0.00027604427f * mu_b4_u4;
+    const float q2_0_1 = 2.3388953f * mu_b4_v4 + 0.8386251f * mu_b4_b1 + 0.68279856f * mu_b4_b2 - 0.19981192f * mu_b4_b3 - 0.0063782386f * mu_b4_u4;
+    const float q2_0_2 = 2.1740265f * mu_b4_v4 + 0.17841579f * mu_b4_b1 + 1.3841336f * mu_b4_b2 - 0.13614139f * mu_b4_b3 + 0.048868116f * mu_b4_u4;
+    const float q2_0_3 = 1.2025218f * mu_b4_v4 + 0.73613423f * mu_b4_b1 + 1.8787737f * mu_b4_b2 + 0.010657078f * mu_b4_b3 + 0.041998528f * mu_b4_u4;
+    const float q2_0_4 = 0.41077074f * mu_b4_v4 + 0.7304416f * mu_b4_b1 + 0.99437755f * mu_b4_b2 + 0.110437304f * mu_b4_b3 + 0.029856257f * mu_b4_u4;
+    const float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
+    const float q2 = q2_0 * 1.0f;
+    const float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    const float p3_0_0 = -0.19764897f * mu_b5_v5 + 0.3935479f * mu_b5_b1 - 1.303168f * mu_b5_b2 + 0.4242268f * mu_b5_b3 - 0.13403675f * mu_b5_b4 - 0.004560415f * mu_b5_u5;
+    const float p3_0_1 = 0.31663522f * mu_b5_v5 + 5.394918f * mu_b5_b1 - 7.023657f * mu_b5_b2 - 0.09658489f * mu_b5_b3 - 0.20520376f * mu_b5_b4 + 0.029781567f * mu_b5_u5;
+    const float p3_0_2 = 1.9227616f * mu_b5_v5 + 14.684894f * mu_b5_b1 - 17.140568f * mu_b5_b2 - 5.358134f * mu_b5_b3 + 0.057506155f * mu_b5_b4 - 0.0063788462f * mu_b5_u5;
+    const float p3_0_3 = 2.1450202f * mu_b5_v5 + 15.533738f * mu_b5_b1 - 23.914036f * mu_b5_b2 - 13.008559f * mu_b5_b3 - 0.25355136f * mu_b5_b4 - 0.067063995f * mu_b5_u5;
+    const float p3_0_4 = 0.6922625f * mu_b5_v5 + 6.395854f * mu_b5_b1 - 18.057858f * mu_b5_b2 - 12.137849f * mu_b5_b3 - 0.48155993f * mu_b5_b4 + 0.13517982f * mu_b5_u5;
+    const float p3_0_5 = -0.006778178f * mu_b5_v5 + 0.7331511f * mu_b5_b1 - 5.188879f * mu_b5_b2 - 3.5915895f * mu_b5_b3 + 0.08817597f * mu_b5_b4 + 0.19902526f * mu_b5_u5;
+    const float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    const float p3 = p3_0 * 1.0f;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    const float u3_0_0 = -0.74000376f * 1.0f;
+    const float u3_0 = u3_0_0 * 1.0f;
+    const float u3_1_0 = -2.3745086f * 1.0f;
+    const float u3_1 = u3_1_0 * 1.0f;
+    const float u3_2_0 = -4.094202f * 1.0f;
+    const float u3_2 = u3_2_0 * 1.0f;
+    const float u3_3_0 = -2.8152761f * 1.0f;
+    const float u3_3 = u3_3_0 * 1.0f;
+    const float u3_4_0 = -0.70499045f * 1.0f;
+    const float u3_4 = u3_4_0 * 1.0f;
+    const float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q3_0_0 = 1.0f * mu_b4_v4 + 3.2905173f * mu_b4_b1 + 0.48786473f * mu_b4_b2 + 0.10704597f * mu_b4_b3 + 0.041731592f * mu_b4_u4;
+    const float q3_0_1 = 4.8160224f * mu_b4_v4 + 16.602255f * mu_b4_b1 + 4.72389f * mu_b4_b2 + 0.32401404f * mu_b4_b3 - 0.08551172f * mu_b4_u4;
+    const float q3_0_2 = 6.637267f * mu_b4_v4 + 26.124155f * mu_b4_b1 + 9.41957f * mu_b4_b2 + 1.2552559f * mu_b4_b3 + 0.11477197f * mu_b4_u4;
+    const float q3_0_3 = 3.1259248f * mu_b4_v4 + 15.875714f * mu_b4_b1 + 5.6384783f * mu_b4_b2 + 0.38728726f * mu_b4_b3 + 0.026730957f * mu_b4_u4;
+    const float q3_0_4 = 0.7728027f * mu_b4_v4 + 4.9357877f * mu_b4_b1 + 3.2636704f * mu_b4_b2 + 1.2214911f * mu_b4_b3 + 0.2528386f * mu_b4_u4;
+    const float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
+    const float q3 = q3_0 * 1.0f;
+    const float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    const float e = e0 + e1 + e2 + e3;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }
 

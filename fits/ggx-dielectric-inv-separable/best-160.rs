@@ -4,171 +4,228 @@
 // All arithmetic is f32. Each function states what its arguments mean, its domain, evaluation form, measured errors and error bound.
 // Helpers: Sforza & Pellacini 2022, "Enforcing Energy Preservation in Microfacet Models" (eqs. 13, 18, 19).
 
-// Needs only `core`: usable under #![no_std].
+// Needs only `core`, but for square roots: with std they are f32::sqrt; under #![no_std],
+// give the including crate a `libm` feature that enables a libm dependency (same bits).
 
 /// ggx_dielectric_inv_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-inv-separable.
 /// Model: GGX rough dielectric seen from inside (relative IOR 1/eta, total internal reflection), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25].
+///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational of degree 5/5, 111 coefficients (numerator 56, denominator 55 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 22200 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 52bd940f61e0261938ddf076ad25af3f1c3f38d5ffa0cbaf28388d91f26916b1.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 539af3c5f9915d2538652de58b0234c441d6e4a0939ac496ae5bed3aca518d85.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.8e-5, shifted 4.4e-6, bernstein 4.2e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.06e-3, max 8.16e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.77e-7 (every op rounded, as this Rust), 5.13e-7 (fused multiply-add), 6.32e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.08e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.06e-3, max 8.16e-3; this f32 code MAE 1.06e-3, max 8.16e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
-/// Denominator proved >= 7.281e-2 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-3, shifted 7.1e-5, bernstein 1.4e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 8.23e-4, max 7.77e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.04e-7 (every op rounded, as this Rust), 6.23e-7 (fused multiply-add), 1.52e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 8.11e-4, max 7.77e-3; this f32 code MAE 8.11e-4, max 7.77e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.0e-4 on the measurement grid.
+/// Denominator proved >= 1.222e-5 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
 pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
+    #[cfg(feature = "libm")]
+    use libm::sqrtf;
+    #[cfg(not(feature = "libm"))]
+    fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    let f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017_f32) * 2.6828594_f32;
     let r_c = r.min(1.0_f32).max(0.0_f32);
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // u = (t - 0.0125)/(0.25 - 0.0125) in [0, 1]
-    let f0_u = (f0_c - 0.0125_f32) * 4.2105265_f32;
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 5
-    let f0_v = 1.0_f32 - f0_u;
-    let f0_u2 = f0_u * f0_u;
-    let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_u;
-    let f0_v3 = f0_v2 * f0_v;
-    let f0_u4 = f0_u3 * f0_u;
-    let f0_v4 = f0_v3 * f0_v;
-    let f0_u5 = f0_u4 * f0_u;
-    let f0_v5 = f0_v4 * f0_v;
-    let f0_b1 = f0_u * f0_v4;
-    let f0_b2 = f0_u2 * f0_v3;
-    let f0_b3 = f0_u3 * f0_v2;
-    let f0_b4 = f0_u4 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    let r_v = 1.0_f32 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_t;
-    let r_v4 = r_v3 * r_v;
-    let r_u5 = r_u4 * r_t;
-    let r_v5 = r_v4 * r_v;
-    let r_b1 = r_t * r_v4;
-    let r_b2 = r_u2 * r_v3;
-    let r_b3 = r_u3 * r_v2;
-    let r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    let mu_u = (mu_t - 7.888609e-31_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    let mu_v = 1.0_f32 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_b1 = mu_u * mu_v4;
-    let mu_b2 = mu_u2 * mu_v3;
-    let mu_b3 = mu_u3 * mu_v2;
-    let mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 1.8217045_f32 * mu_v5 + 5.983894_f32 * mu_b1 + 9.096758_f32 * mu_b2 + 2.6654856_f32 * mu_b3 + 1.3072432_f32 * mu_b4 + 0.20696895_f32 * mu_u5;
-    let p_0_1 = 8.518971_f32 * mu_v5 + 18.297178_f32 * mu_b1 + 17.084295_f32 * mu_b2 - 16.795162_f32 * mu_b3 - 7.3981647_f32 * mu_b4 - 0.1437017_f32 * mu_u5;
-    let p_0_2 = 20.856354_f32 * mu_v5 + 50.352257_f32 * mu_b1 + 68.67248_f32 * mu_b2 + 3.664689_f32 * mu_b3 + 1.4490258_f32 * mu_b4 + 3.2673342_f32 * mu_u5;
-    let p_0_3 = 18.689728_f32 * mu_v5 + 41.611786_f32 * mu_b1 + 70.74646_f32 * mu_b2 + 14.401159_f32 * mu_b3 + 1.8787043_f32 * mu_b4 + 1.60837_f32 * mu_u5;
-    let p_0_4 = 9.278083_f32 * mu_v5 + 23.46311_f32 * mu_b1 + 55.43387_f32 * mu_b2 + 35.456024_f32 * mu_b3 + 12.884813_f32 * mu_b4 + 1.8308438_f32 * mu_u5;
-    let p_0_5 = 1.4126229_f32 * mu_v5 + 3.2162_f32 * mu_b1 + 12.024159_f32 * mu_b2 + 10.832015_f32 * mu_b3 + 4.48645_f32 * mu_b4 + 0.50566024_f32 * mu_u5;
-    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 25.297815_f32 * mu_v5 + 59.052658_f32 * mu_b1 + 59.421696_f32 * mu_b2 + 19.402338_f32 * mu_b3 + 12.457288_f32 * mu_b4 + 1.8750151_f32 * mu_u5;
-    let p_1_1 = 144.95773_f32 * mu_v5 + 320.37622_f32 * mu_b1 + 258.1423_f32 * mu_b2 - 13.963733_f32 * mu_b3 - 11.388846_f32 * mu_b4 + 1.0647669_f32 * mu_u5;
-    let p_1_2 = 320.26144_f32 * mu_v5 + 764.9453_f32 * mu_b1 + 755.2463_f32 * mu_b2 + 169.24483_f32 * mu_b3 + 46.260704_f32 * mu_b4 + 19.11041_f32 * mu_u5;
-    let p_1_3 = 298.13226_f32 * mu_v5 + 698.949_f32 * mu_b1 + 735.54047_f32 * mu_b2 + 184.95522_f32 * mu_b3 + 29.99655_f32 * mu_b4 + 11.297237_f32 * mu_u5;
-    let p_1_4 = 137.04681_f32 * mu_v5 + 333.05426_f32 * mu_b1 + 433.55844_f32 * mu_b2 + 207.31924_f32 * mu_b3 + 65.00129_f32 * mu_b4 + 10.999092_f32 * mu_u5;
-    let p_1_5 = 22.841953_f32 * mu_v5 + 54.356564_f32 * mu_b1 + 87.80271_f32 * mu_b2 + 58.234005_f32 * mu_b3 + 21.741117_f32 * mu_b4 + 2.948422_f32 * mu_u5;
-    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 74.161026_f32 * mu_v5 + 158.05334_f32 * mu_b1 + 137.50745_f32 * mu_b2 + 51.3308_f32 * mu_b3 + 35.93712_f32 * mu_b4 + 4.52788_f32 * mu_u5;
-    let p_2_1 = 429.2637_f32 * mu_v5 + 926.3615_f32 * mu_b1 + 700.1948_f32 * mu_b2 + 37.923336_f32 * mu_b3 + 2.8751523_f32 * mu_b4 - 0.41904566_f32 * mu_u5;
-    let p_2_2 = 912.406_f32 * mu_v5 + 2109.442_f32 * mu_b1 + 1881.9756_f32 * mu_b2 + 425.95105_f32 * mu_b3 + 111.75744_f32 * mu_b4 + 33.81051_f32 * mu_u5;
-    let p_2_3 = 828.4344_f32 * mu_v5 + 1883.5625_f32 * mu_b1 + 1743.8922_f32 * mu_b2 + 390.44638_f32 * mu_b3 + 64.41348_f32 * mu_b4 + 25.795553_f32 * mu_u5;
-    let p_2_4 = 363.79587_f32 * mu_v5 + 848.7109_f32 * mu_b1 + 955.07227_f32 * mu_b2 + 408.56018_f32 * mu_b3 + 135.86462_f32 * mu_b4 + 28.993847_f32 * mu_u5;
-    let p_2_5 = 59.31666_f32 * mu_v5 + 139.54109_f32 * mu_b1 + 196.98639_f32 * mu_b2 + 123.99046_f32 * mu_b3 + 49.529613_f32 * mu_b4 + 8.607546_f32 * mu_u5;
-    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    let p_3_0 = 89.93891_f32 * mu_v5 + 178.28845_f32 * mu_b1 + 136.09026_f32 * mu_b2 + 50.248867_f32 * mu_b3 + 40.073215_f32 * mu_b4 + 3.871487_f32 * mu_u5;
-    let p_3_1 = 514.6219_f32 * mu_v5 + 1058.566_f32 * mu_b1 + 708.59467_f32 * mu_b2 - 11.063693_f32 * mu_b3 - 18.28432_f32 * mu_b4 - 11.038034_f32 * mu_u5;
-    let p_3_2 = 1056.7097_f32 * mu_v5 + 2317.208_f32 * mu_b1 + 1825.989_f32 * mu_b2 + 248.25252_f32 * mu_b3 + 33.83988_f32 * mu_b4 + 14.142392_f32 * mu_u5;
-    let p_3_3 = 922.82886_f32 * mu_v5 + 1971.6588_f32 * mu_b1 + 1575.5222_f32 * mu_b2 + 157.4271_f32 * mu_b3 - 16.128407_f32 * mu_b4 + 16.201046_f32 * mu_u5;
-    let p_3_4 = 383.66312_f32 * mu_v5 + 836.4785_f32 * mu_b1 + 841.4389_f32 * mu_b2 + 299.5401_f32 * mu_b3 + 110.44582_f32 * mu_b4 + 31.061338_f32 * mu_u5;
-    let p_3_5 = 59.512848_f32 * mu_v5 + 135.0091_f32 * mu_b1 + 185.91936_f32 * mu_b2 + 118.19624_f32 * mu_b3 + 52.030716_f32 * mu_b4 + 10.56402_f32 * mu_u5;
-    let p_3 = p_3_0 * r_v5 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_u5;
-    let p_4_0 = 52.29189_f32 * mu_v5 + 101.832436_f32 * mu_b1 + 76.21464_f32 * mu_b2 + 33.245453_f32 * mu_b3 + 25.909454_f32 * mu_b4 + 2.491309_f32 * mu_u5;
-    let p_4_1 = 293.6706_f32 * mu_v5 + 598.2374_f32 * mu_b1 + 394.61774_f32 * mu_b2 + 13.612194_f32 * mu_b3 + 2.1974564_f32 * mu_b4 - 5.5977793_f32 * mu_u5;
-    let p_4_2 = 584.7486_f32 * mu_v5 + 1263.5498_f32 * mu_b1 + 963.5997_f32 * mu_b2 + 138.28073_f32 * mu_b3 + 31.21516_f32 * mu_b4 + 9.264938_f32 * mu_u5;
-    let p_4_3 = 493.03778_f32 * mu_v5 + 1038.9044_f32 * mu_b1 + 805.91876_f32 * mu_b2 + 90.49866_f32 * mu_b3 + 15.203228_f32 * mu_b4 + 16.288805_f32 * mu_u5;
-    let p_4_4 = 195.44656_f32 * mu_v5 + 425.5435_f32 * mu_b1 + 432.88397_f32 * mu_b2 + 174.07861_f32 * mu_b3 + 78.48169_f32 * mu_b4 + 22.956198_f32 * mu_u5;
-    let p_4_5 = 29.104595_f32 * mu_v5 + 70.41347_f32 * mu_b1 + 105.42085_f32 * mu_b2 + 74.75302_f32 * mu_b3 + 34.83516_f32 * mu_b4 + 7.347327_f32 * mu_u5;
-    let p_4 = p_4_0 * r_v5 + p_4_1 * r_b1 + p_4_2 * r_b2 + p_4_3 * r_b3 + p_4_4 * r_b4 + p_4_5 * r_u5;
-    let p_5_0 = 12.180376_f32 * mu_v5 + 24.240974_f32 * mu_b1 + 18.731728_f32 * mu_b2 + 9.015363_f32 * mu_b3 + 6.33573_f32 * mu_b4 + 0.62213933_f32 * mu_u5;
-    let p_5_1 = 67.58604_f32 * mu_v5 + 142.51591_f32 * mu_b1 + 102.28408_f32 * mu_b2 + 16.891964_f32 * mu_b3 + 5.909697_f32 * mu_b4 - 0.4748418_f32 * mu_u5;
-    let p_5_2 = 132.4646_f32 * mu_v5 + 298.31485_f32 * mu_b1 + 247.26088_f32 * mu_b2 + 64.64747_f32 * mu_b3 + 21.44521_f32 * mu_b4 + 4.514814_f32 * mu_u5;
-    let p_5_3 = 110.62559_f32 * mu_v5 + 250.59505_f32 * mu_b1 + 223.7431_f32 * mu_b2 + 67.212234_f32 * mu_b3 + 24.751444_f32 * mu_b4 + 7.619277_f32 * mu_u5;
-    let p_5_4 = 43.523026_f32 * mu_v5 + 106.74675_f32 * mu_b1 + 125.51693_f32 * mu_b2 + 68.35964_f32 * mu_b3 + 30.346096_f32 * mu_b4 + 7.4328756_f32 * mu_u5;
-    let p_5_5 = 6.621563_f32 * mu_v5 + 19.517513_f32 * mu_b1 + 32.134167_f32 * mu_b2 + 24.570086_f32 * mu_b3 + 10.791802_f32 * mu_b4 + 2.090575_f32 * mu_u5;
-    let p_5 = p_5_0 * r_v5 + p_5_1 * r_b1 + p_5_2 * r_b2 + p_5_3 * r_b3 + p_5_4 * r_b4 + p_5_5 * r_u5;
-    let p = p_0 * f0_v5 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_b3 + p_4 * f0_b4 + p_5 * f0_u5;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.9428728_f32 * mu_v5 + 6.4115367_f32 * mu_b1 + 11.464447_f32 * mu_b2 + 2.5304713_f32 * mu_b3 + 1.3095434_f32 * mu_b4 + 0.20697571_f32 * mu_u5;
-    let q_0_1 = 11.225136_f32 * mu_v5 + 23.769955_f32 * mu_b1 + 26.049717_f32 * mu_b2 - 20.057817_f32 * mu_b3 - 5.869587_f32 * mu_b4 - 0.1462697_f32 * mu_u5;
-    let q_0_2 = 33.117706_f32 * mu_v5 + 76.98346_f32 * mu_b1 + 85.50444_f32 * mu_b2 - 15.180296_f32 * mu_b3 + 2.1340544_f32 * mu_b4 + 3.2742345_f32 * mu_u5;
-    let q_0_3 = 44.6024_f32 * mu_v5 + 115.30335_f32 * mu_b1 + 133.59023_f32 * mu_b2 + 10.87274_f32 * mu_b3 + 5.619347_f32 * mu_b4 + 1.9570881_f32 * mu_u5;
-    let q_0_4 = 30.034105_f32 * mu_v5 + 92.52758_f32 * mu_b1 + 126.97792_f32 * mu_b2 + 53.57279_f32 * mu_b3 + 19.263437_f32 * mu_b4 + 2.3356981_f32 * mu_u5;
-    let q_0_5 = 6.1036625_f32 * mu_v5 + 21.031858_f32 * mu_b1 + 32.67203_f32 * mu_b2 + 18.47321_f32 * mu_b3 + 7.139858_f32 * mu_b4 + 0.8426069_f32 * mu_u5;
-    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 27.113085_f32 * mu_v5 + 64.87417_f32 * mu_b1 + 74.89423_f32 * mu_b2 + 19.824944_f32 * mu_b3 + 12.405729_f32 * mu_b4 + 1.8745397_f32 * mu_u5;
-    let q_1_1 = 166.73401_f32 * mu_v5 + 372.1928_f32 * mu_b1 + 326.77505_f32 * mu_b2 - 22.866846_f32 * mu_b3 - 3.9699_f32 * mu_b4 + 1.0162164_f32 * mu_u5;
-    let q_1_2 = 412.87207_f32 * mu_v5 + 1000.73737_f32 * mu_b1 + 963.0442_f32 * mu_b2 + 142.16737_f32 * mu_b3 + 66.66952_f32 * mu_b4 + 21.287048_f32 * mu_u5;
-    let q_1_3 = 469.17215_f32 * mu_v5 + 1202.0753_f32 * mu_b1 + 1211.322_f32 * mu_b2 + 256.26666_f32 * mu_b3 + 72.78853_f32 * mu_b4 + 16.546747_f32 * mu_u5;
-    let q_1_4 = 262.1438_f32 * mu_v5 + 745.9039_f32 * mu_b1 + 873.94995_f32 * mu_b2 + 351.92804_f32 * mu_b3 + 120.24446_f32 * mu_b4 + 19.309301_f32 * mu_u5;
-    let q_1_5 = 50.40536_f32 * mu_v5 + 158.16023_f32 * mu_b1 + 215.61717_f32 * mu_b2 + 122.3464_f32 * mu_b3 + 51.414005_f32 * mu_b4 + 9.09051_f32 * mu_u5;
-    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 79.28551_f32 * mu_v5 + 174.6091_f32 * mu_b1 + 173.64444_f32 * mu_b2 + 53.889805_f32 * mu_b3 + 35.782753_f32 * mu_b4 + 4.5350003_f32 * mu_u5;
-    let q_2_1 = 480.0516_f32 * mu_v5 + 1051.4282_f32 * mu_b1 + 857.01294_f32 * mu_b2 + 24.403248_f32 * mu_b3 + 16.763195_f32 * mu_b4 - 0.39770848_f32 * mu_u5;
-    let q_2_2 = 1126.1406_f32 * mu_v5 + 2669.9902_f32 * mu_b1 + 2392.7527_f32 * mu_b2 + 409.44174_f32 * mu_b3 + 154.76921_f32 * mu_b4 + 37.44276_f32 * mu_u5;
-    let q_2_3 = 1199.4763_f32 * mu_v5 + 2960.5623_f32 * mu_b1 + 2729.9673_f32 * mu_b2 + 499.49988_f32 * mu_b3 + 116.65689_f32 * mu_b4 + 29.25046_f32 * mu_u5;
-    let q_2_4 = 618.5275_f32 * mu_v5 + 1663.5902_f32 * mu_b1 + 1778.4023_f32 * mu_b2 + 633.0939_f32 * mu_b3 + 222.9523_f32 * mu_b4 + 44.804123_f32 * mu_u5;
-    let q_2_5 = 112.7909_f32 * mu_v5 + 338.0248_f32 * mu_b1 + 441.47098_f32 * mu_b2 + 256.17398_f32 * mu_b3 + 121.91003_f32 * mu_b4 + 26.294302_f32 * mu_u5;
-    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    let q_3_0 = 95.96514_f32 * mu_v5 + 198.12866_f32 * mu_b1 + 175.79248_f32 * mu_b2 + 53.76259_f32 * mu_b3 + 39.677364_f32 * mu_b4 + 3.8649213_f32 * mu_u5;
-    let q_3_1 = 566.96124_f32 * mu_v5 + 1189.451_f32 * mu_b1 + 870.9885_f32 * mu_b2 - 24.00929_f32 * mu_b3 - 4.880335_f32 * mu_b4 - 10.766331_f32 * mu_u5;
-    let q_3_2 = 1279.5316_f32 * mu_v5 + 2908.128_f32 * mu_b1 + 2368.773_f32 * mu_b2 + 239.89412_f32 * mu_b3 + 72.339355_f32 * mu_b4 + 15.833986_f32 * mu_u5;
-    let q_3_3 = 1294.7446_f32 * mu_v5 + 3031.0776_f32 * mu_b1 + 2494.2625_f32 * mu_b2 + 179.18826_f32 * mu_b3 - 12.001013_f32 * mu_b4 + 9.95202_f32 * mu_u5;
-    let q_3_4 = 625.25916_f32 * mu_v5 + 1585.3401_f32 * mu_b1 + 1545.3713_f32 * mu_b2 + 429.37692_f32 * mu_b3 + 167.51761_f32 * mu_b4 + 45.037212_f32 * mu_u5;
-    let q_3_5 = 107.41524_f32 * mu_v5 + 312.8937_f32 * mu_b1 + 408.33768_f32 * mu_b2 + 251.50633_f32 * mu_b3 + 138.24153_f32 * mu_b4 + 33.9156_f32 * mu_u5;
-    let q_3 = q_3_0 * r_v5 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_u5;
-    let q_4_0 = 55.749367_f32 * mu_v5 + 113.5234_f32 * mu_b1 + 98.14739_f32 * mu_b2 + 35.67654_f32 * mu_b3 + 25.634506_f32 * mu_b4 + 2.491922_f32 * mu_u5;
-    let q_4_1 = 319.98096_f32 * mu_v5 + 666.3844_f32 * mu_b1 + 481.1425_f32 * mu_b2 + 10.607622_f32 * mu_b3 + 9.756001_f32 * mu_b4 - 5.309577_f32 * mu_u5;
-    let q_4_2 = 698.7766_f32 * mu_v5 + 1575.1559_f32 * mu_b1 + 1264.9423_f32 * mu_b2 + 156.35736_f32 * mu_b3 + 56.202152_f32 * mu_b4 + 10.013694_f32 * mu_u5;
-    let q_4_3 = 678.4018_f32 * mu_v5 + 1570.2389_f32 * mu_b1 + 1271.2544_f32 * mu_b2 + 105.198044_f32 * mu_b3 + 16.055378_f32 * mu_b4 + 11.880668_f32 * mu_u5;
-    let q_4_4 = 310.8875_f32 * mu_v5 + 783.45374_f32 * mu_b1 + 771.24084_f32 * mu_b2 + 243.77695_f32 * mu_b3 + 117.89807_f32 * mu_b4 + 33.59874_f32 * mu_u5;
-    let q_4_5 = 51.2133_f32 * mu_v5 + 156.42271_f32 * mu_b1 + 223.75941_f32 * mu_b2 + 161.83102_f32 * mu_b3 + 94.836266_f32 * mu_b4 + 23.71585_f32 * mu_u5;
-    let q_4 = q_4_0 * r_v5 + q_4_1 * r_b1 + q_4_2 * r_b2 + q_4_3 * r_b3 + q_4_4 * r_b4 + q_4_5 * r_u5;
-    let q_5_0 = 13.027412_f32 * mu_v5 + 27.180635_f32 * mu_b1 + 23.84844_f32 * mu_b2 + 9.788163_f32 * mu_b3 + 6.2831507_f32 * mu_b4 + 0.6223249_f32 * mu_u5;
-    let q_5_1 = 73.20191_f32 * mu_v5 + 158.13593_f32 * mu_b1 + 122.83595_f32 * mu_b2 + 18.223581_f32 * mu_b3 + 7.697041_f32 * mu_b4 - 0.46400154_f32 * mu_u5;
-    let q_5_2 = 156.91008_f32 * mu_v5 + 369.65866_f32 * mu_b1 + 324.17108_f32 * mu_b2 + 81.34609_f32 * mu_b3 + 30.490938_f32 * mu_b4 + 4.888531_f32 * mu_u5;
-    let q_5_3 = 149.8426_f32 * mu_v5 + 369.3459_f32 * mu_b1 + 342.01645_f32 * mu_b2 + 92.904526_f32 * mu_b3 + 33.938496_f32 * mu_b4 + 7.8683286_f32 * mu_u5;
-    let q_5_4 = 67.685646_f32 * mu_v5 + 186.52481_f32 * mu_b1 + 213.69418_f32 * mu_b2 + 105.53306_f32 * mu_b3 + 50.548923_f32 * mu_b4 + 12.031488_f32 * mu_u5;
-    let q_5_5 = 11.415148_f32 * mu_v5 + 40.064873_f32 * mu_b1 + 65.226456_f32 * mu_b2 + 53.904377_f32 * mu_b3 + 29.870058_f32 * mu_b4 + 6.9745345_f32 * mu_u5;
-    let q_5 = q_5_0 * r_v5 + q_5_1 * r_b1 + q_5_2 * r_b2 + q_5_3 * r_b3 + q_5_4 * r_b4 + q_5_5 * r_u5;
-    let q = q_0 * f0_v5 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_b3 + q_4 * f0_b4 + q_5 * f0_u5;
-    let e = p / q;
+    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
+    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    let r_b5_v = 1.0_f32 - r_t;
+    let r_b5_u2 = r_t * r_t;
+    let r_b5_v2 = r_b5_v * r_b5_v;
+    let r_b5_u3 = r_b5_u2 * r_t;
+    let r_b5_v3 = r_b5_v2 * r_b5_v;
+    let r_b5_u4 = r_b5_u3 * r_t;
+    let r_b5_v4 = r_b5_v3 * r_b5_v;
+    let r_b5_u5 = r_b5_u4 * r_t;
+    let r_b5_v5 = r_b5_v4 * r_b5_v;
+    let r_b5_b1 = r_t * r_b5_v4;
+    let r_b5_b2 = r_b5_u2 * r_b5_v3;
+    let r_b5_b3 = r_b5_u3 * r_b5_v2;
+    let r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    let mu_b5_v = 1.0_f32 - mu_u;
+    let mu_b5_u2 = mu_u * mu_u;
+    let mu_b5_v2 = mu_b5_v * mu_b5_v;
+    let mu_b5_u3 = mu_b5_u2 * mu_u;
+    let mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    let mu_b5_u4 = mu_b5_u3 * mu_u;
+    let mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    let mu_b5_u5 = mu_b5_u4 * mu_u;
+    let mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    let mu_b5_b1 = mu_u * mu_b5_v4;
+    let mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    let p0_0_0 = 0.8639747_f32 * mu_b5_v5 + 7.0251594_f32 * mu_b5_b1 + 17.58542_f32 * mu_b5_b2 + 11.080812_f32 * mu_b5_b3 + 2.49544_f32 * mu_b5_b4 + 0.24962045_f32 * mu_b5_u5;
+    let p0_0_1 = 6.522816_f32 * mu_b5_v5 + 43.874973_f32 * mu_b5_b1 + 88.225464_f32 * mu_b5_b2 + 45.15564_f32 * mu_b5_b3 + 7.509284_f32 * mu_b5_b4 + 0.28073627_f32 * mu_b5_u5;
+    let p0_0_2 = 14.189588_f32 * mu_b5_v5 + 89.64239_f32 * mu_b5_b1 + 151.54633_f32 * mu_b5_b2 + 54.680214_f32 * mu_b5_b3 + 5.204264_f32 * mu_b5_b4 + 0.7251504_f32 * mu_b5_u5;
+    let p0_0_3 = 12.796177_f32 * mu_b5_v5 + 80.40038_f32 * mu_b5_b1 + 110.19537_f32 * mu_b5_b2 + 11.496674_f32 * mu_b5_b3 - 2.226869_f32 * mu_b5_b4 + 2.975195_f32 * mu_b5_u5;
+    let p0_0_4 = 5.024444_f32 * mu_b5_v5 + 33.55135_f32 * mu_b5_b1 + 33.646496_f32 * mu_b5_b2 - 12.596129_f32 * mu_b5_b3 - 0.73392004_f32 * mu_b5_b4 + 4.035585_f32 * mu_b5_u5;
+    let p0_0_5 = 0.6812315_f32 * mu_b5_v5 + 5.5546317_f32 * mu_b5_b1 + 3.5795927_f32 * mu_b5_b2 - 4.265231_f32 * mu_b5_b3 + 1.2944626_f32 * mu_b5_b4 + 1.6766434_f32 * mu_b5_u5;
+    let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    let p0 = p0_0 * 1.0_f32;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    let f0_b4_v = 1.0_f32 - f0_t;
+    let f0_b4_u2 = f0_t * f0_t;
+    let f0_b4_v2 = f0_b4_v * f0_b4_v;
+    let f0_b4_u3 = f0_b4_u2 * f0_t;
+    let f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    let f0_b4_u4 = f0_b4_u3 * f0_t;
+    let f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    let f0_b4_b1 = f0_t * f0_b4_v3;
+    let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    let u0_0_0 = 0.84304595_f32 * 1.0_f32;
+    let u0_0 = u0_0_0 * 1.0_f32;
+    let u0_1_0 = 3.63265_f32 * 1.0_f32;
+    let u0_1 = u0_1_0 * 1.0_f32;
+    let u0_2_0 = 5.639264_f32 * 1.0_f32;
+    let u0_2 = u0_2_0 * 1.0_f32;
+    let u0_3_0 = 3.8360329_f32 * 1.0_f32;
+    let u0_3 = u0_3_0 * 1.0_f32;
+    let u0_4_0 = 0.97067744_f32 * 1.0_f32;
+    let u0_4 = u0_4_0 * 1.0_f32;
+    let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    let r_b4_v = 1.0_f32 - r_t;
+    let r_b4_u2 = r_t * r_t;
+    let r_b4_v2 = r_b4_v * r_b4_v;
+    let r_b4_u3 = r_b4_u2 * r_t;
+    let r_b4_v3 = r_b4_v2 * r_b4_v;
+    let r_b4_u4 = r_b4_u3 * r_t;
+    let r_b4_v4 = r_b4_v3 * r_b4_v;
+    let r_b4_b1 = r_t * r_b4_v3;
+    let r_b4_b2 = r_b4_u2 * r_b4_v2;
+    let r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    let mu_b4_v = 1.0_f32 - mu_u;
+    let mu_b4_u2 = mu_u * mu_u;
+    let mu_b4_v2 = mu_b4_v * mu_b4_v;
+    let mu_b4_u3 = mu_b4_u2 * mu_u;
+    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    let mu_b4_u4 = mu_b4_u3 * mu_u;
+    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    let mu_b4_b1 = mu_u * mu_b4_v3;
+    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 6.1108694_f32 * mu_b4_b1 + 11.255864_f32 * mu_b4_b2 + 2.7731547_f32 * mu_b4_b3 + 0.24950081_f32 * mu_b4_u4;
+    let q0_0_1 = 5.70744_f32 * mu_b4_v4 + 28.337236_f32 * mu_b4_b1 + 43.504646_f32 * mu_b4_b2 + 6.31464_f32 * mu_b4_b3 - 0.07484833_f32 * mu_b4_u4;
+    let q0_0_2 = 9.955664_f32 * mu_b4_v4 + 46.983543_f32 * mu_b4_b1 + 66.3086_f32 * mu_b4_b2 + 8.386891_f32 * mu_b4_b3 + 0.8342169_f32 * mu_b4_u4;
+    let q0_0_3 = 5.727087_f32 * mu_b4_v4 + 29.154245_f32 * mu_b4_b1 + 40.764397_f32 * mu_b4_b2 + 4.6840034_f32 * mu_b4_b3 + 1.8321292_f32 * mu_b4_u4;
+    let q0_0_4 = 1.4415598_f32 * mu_b4_v4 + 8.247853_f32 * mu_b4_b1 + 12.480757_f32 * mu_b4_b2 + 3.689382_f32 * mu_b4_b3 + 1.6362593_f32 * mu_b4_u4;
+    let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
+    let q0 = q0_0 * 1.0_f32;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    let p1_0_0 = 0.0983654_f32 * mu_b5_v5 + 0.5197744_f32 * mu_b5_b1 + 0.08195282_f32 * mu_b5_b2 + 0.06944342_f32 * mu_b5_b3 + 0.0014795461_f32 * mu_b5_b4 + 7.253105e-5_f32 * mu_b5_u5;
+    let p1_0_1 = -0.66745746_f32 * mu_b5_v5 - 0.68268955_f32 * mu_b5_b1 - 2.3023493_f32 * mu_b5_b2 - 0.25361368_f32 * mu_b5_b3 - 0.005094492_f32 * mu_b5_b4 - 0.0011352117_f32 * mu_b5_u5;
+    let p1_0_2 = -1.3353486_f32 * mu_b5_v5 - 1.1263427_f32 * mu_b5_b1 - 3.3650753_f32 * mu_b5_b2 + 0.4910185_f32 * mu_b5_b3 - 0.008948032_f32 * mu_b5_b4 + 0.0008780024_f32 * mu_b5_u5;
+    let p1_0_3 = -0.9236833_f32 * mu_b5_v5 - 0.73400307_f32 * mu_b5_b1 - 3.9283988_f32 * mu_b5_b2 - 0.87844425_f32 * mu_b5_b3 - 0.7815657_f32 * mu_b5_b4 + 0.053725224_f32 * mu_b5_u5;
+    let p1_0_4 = -0.41802764_f32 * mu_b5_v5 - 0.95963633_f32 * mu_b5_b1 - 3.3943446_f32 * mu_b5_b2 - 1.5367818_f32 * mu_b5_b3 - 0.5024235_f32 * mu_b5_b4 + 0.21908534_f32 * mu_b5_u5;
+    let p1_0_5 = -0.12562543_f32 * mu_b5_v5 - 0.45828858_f32 * mu_b5_b1 - 1.0642719_f32 * mu_b5_b2 - 0.4618152_f32 * mu_b5_b3 - 0.032008458_f32 * mu_b5_b4 + 0.105690524_f32 * mu_b5_u5;
+    let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    let p1 = p1_0 * 1.0_f32;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    let u1_0_0 = 0.57598245_f32 * 1.0_f32;
+    let u1_0 = u1_0_0 * 1.0_f32;
+    let u1_1_0 = 0.9580119_f32 * 1.0_f32;
+    let u1_1 = u1_1_0 * 1.0_f32;
+    let u1_2_0 = -0.5309796_f32 * 1.0_f32;
+    let u1_2 = u1_2_0 * 1.0_f32;
+    let u1_3_0 = -1.1824393_f32 * 1.0_f32;
+    let u1_3 = u1_3_0 * 1.0_f32;
+    let u1_4_0 = -0.3779858_f32 * 1.0_f32;
+    let u1_4 = u1_4_0 * 1.0_f32;
+    let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 0.6006096_f32 * mu_b4_b1 + 0.69205064_f32 * mu_b4_b2 + 0.020734744_f32 * mu_b4_b3 + 0.00046946784_f32 * mu_b4_u4;
+    let q1_0_1 = 2.3937235_f32 * mu_b4_v4 - 0.2844031_f32 * mu_b4_b1 + 1.2894084_f32 * mu_b4_b2 - 0.32783243_f32 * mu_b4_b3 - 0.010664528_f32 * mu_b4_u4;
+    let q1_0_2 = 2.4212685_f32 * mu_b4_v4 - 1.2530234_f32 * mu_b4_b1 + 2.512193_f32 * mu_b4_b2 - 0.1665014_f32 * mu_b4_b3 + 0.07406805_f32 * mu_b4_u4;
+    let q1_0_3 = 1.4548957_f32 * mu_b4_v4 + 0.031784173_f32 * mu_b4_b1 + 3.0097377_f32 * mu_b4_b2 + 0.23174982_f32 * mu_b4_b3 + 0.083603285_f32 * mu_b4_u4;
+    let q1_0_4 = 0.50265294_f32 * mu_b4_v4 + 0.70100385_f32 * mu_b4_b1 + 1.5467162_f32 * mu_b4_b2 + 0.35089308_f32 * mu_b4_b3 + 0.073703505_f32 * mu_b4_u4;
+    let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
+    let q1 = q1_0 * 1.0_f32;
+    let e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    let p2_0_0 = 0.026707659_f32 * mu_b5_v5 - 0.5734284_f32 * mu_b5_b1 + 0.09704371_f32 * mu_b5_b2 + 0.016306203_f32 * mu_b5_b3 + 0.0012250146_f32 * mu_b5_b4 - 1.3951041e-5_f32 * mu_b5_u5;
+    let p2_0_1 = 0.37824443_f32 * mu_b5_v5 - 0.35981217_f32 * mu_b5_b1 + 3.1082144_f32 * mu_b5_b2 + 0.39798185_f32 * mu_b5_b3 - 0.037954073_f32 * mu_b5_b4 - 0.00022751556_f32 * mu_b5_u5;
+    let p2_0_2 = 0.30950984_f32 * mu_b5_v5 + 0.36617553_f32 * mu_b5_b1 + 6.5804105_f32 * mu_b5_b2 - 0.2836402_f32 * mu_b5_b3 + 0.023470256_f32 * mu_b5_b4 + 0.009730112_f32 * mu_b5_u5;
+    let p2_0_3 = -0.23914397_f32 * mu_b5_v5 + 0.48991084_f32 * mu_b5_b1 + 5.863247_f32 * mu_b5_b2 - 1.126761_f32 * mu_b5_b3 + 0.49936685_f32 * mu_b5_b4 - 0.060805347_f32 * mu_b5_u5;
+    let p2_0_4 = -0.24803168_f32 * mu_b5_v5 + 0.43952072_f32 * mu_b5_b1 + 2.6607676_f32 * mu_b5_b2 - 0.69713664_f32 * mu_b5_b3 + 0.6015166_f32 * mu_b5_b4 - 0.13869415_f32 * mu_b5_u5;
+    let p2_0_5 = -0.04356793_f32 * mu_b5_v5 + 0.13890277_f32 * mu_b5_b1 + 0.44022775_f32 * mu_b5_b2 - 0.16222437_f32 * mu_b5_b3 + 0.20153268_f32 * mu_b5_b4 - 0.06059841_f32 * mu_b5_u5;
+    let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    let p2 = p2_0 * 1.0_f32;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    let u2_0_0 = 0.24863714_f32 * 1.0_f32;
+    let u2_0 = u2_0_0 * 1.0_f32;
+    let u2_1_0 = 0.76001894_f32 * 1.0_f32;
+    let u2_1 = u2_1_0 * 1.0_f32;
+    let u2_2_0 = 0.016775174_f32 * 1.0_f32;
+    let u2_2 = u2_2_0 * 1.0_f32;
+    let u2_3_0 = -0.6016453_f32 * 1.0_f32;
+    let u2_3 = u2_3_0 * 1.0_f32;
+    let u2_4_0 = -0.20125854_f32 * 1.0_f32;
+    let u2_4 = u2_4_0 * 1.0_f32;
+    let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 0.83942246_f32 * mu_b4_b1 + 0.44334182_f32 * mu_b4_b2 + 0.010069753_f32 * mu_b4_b3 + 0.00027604427_f32 * mu_b4_u4;
+    let q2_0_1 = 2.3388953_f32 * mu_b4_v4 + 0.8386251_f32 * mu_b4_b1 + 0.68279856_f32 * mu_b4_b2 - 0.19981192_f32 * mu_b4_b3 - 0.0063782386_f32 * mu_b4_u4;
+    let q2_0_2 = 2.1740265_f32 * mu_b4_v4 + 0.17841579_f32 * mu_b4_b1 + 1.3841336_f32 * mu_b4_b2 - 0.13614139_f32 * mu_b4_b3 + 0.048868116_f32 * mu_b4_u4;
+    let q2_0_3 = 1.2025218_f32 * mu_b4_v4 + 0.73613423_f32 * mu_b4_b1 + 1.8787737_f32 * mu_b4_b2 + 0.010657078_f32 * mu_b4_b3 + 0.041998528_f32 * mu_b4_u4;
+    let q2_0_4 = 0.41077074_f32 * mu_b4_v4 + 0.7304416_f32 * mu_b4_b1 + 0.99437755_f32 * mu_b4_b2 + 0.110437304_f32 * mu_b4_b3 + 0.029856257_f32 * mu_b4_u4;
+    let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
+    let q2 = q2_0 * 1.0_f32;
+    let e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    let p3_0_0 = -0.19764897_f32 * mu_b5_v5 + 0.3935479_f32 * mu_b5_b1 - 1.303168_f32 * mu_b5_b2 + 0.4242268_f32 * mu_b5_b3 - 0.13403675_f32 * mu_b5_b4 - 0.004560415_f32 * mu_b5_u5;
+    let p3_0_1 = 0.31663522_f32 * mu_b5_v5 + 5.394918_f32 * mu_b5_b1 - 7.023657_f32 * mu_b5_b2 - 0.09658489_f32 * mu_b5_b3 - 0.20520376_f32 * mu_b5_b4 + 0.029781567_f32 * mu_b5_u5;
+    let p3_0_2 = 1.9227616_f32 * mu_b5_v5 + 14.684894_f32 * mu_b5_b1 - 17.140568_f32 * mu_b5_b2 - 5.358134_f32 * mu_b5_b3 + 0.057506155_f32 * mu_b5_b4 - 0.0063788462_f32 * mu_b5_u5;
+    let p3_0_3 = 2.1450202_f32 * mu_b5_v5 + 15.533738_f32 * mu_b5_b1 - 23.914036_f32 * mu_b5_b2 - 13.008559_f32 * mu_b5_b3 - 0.25355136_f32 * mu_b5_b4 - 0.067063995_f32 * mu_b5_u5;
+    let p3_0_4 = 0.6922625_f32 * mu_b5_v5 + 6.395854_f32 * mu_b5_b1 - 18.057858_f32 * mu_b5_b2 - 12.137849_f32 * mu_b5_b3 - 0.48155993_f32 * mu_b5_b4 + 0.13517982_f32 * mu_b5_u5;
+    let p3_0_5 = -0.006778178_f32 * mu_b5_v5 + 0.7331511_f32 * mu_b5_b1 - 5.188879_f32 * mu_b5_b2 - 3.5915895_f32 * mu_b5_b3 + 0.08817597_f32 * mu_b5_b4 + 0.19902526_f32 * mu_b5_u5;
+    let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    let p3 = p3_0 * 1.0_f32;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    let u3_0_0 = -0.74000376_f32 * 1.0_f32;
+    let u3_0 = u3_0_0 * 1.0_f32;
+    let u3_1_0 = -2.3745086_f32 * 1.0_f32;
+    let u3_1 = u3_1_0 * 1.0_f32;
+    let u3_2_0 = -4.094202_f32 * 1.0_f32;
+    let u3_2 = u3_2_0 * 1.0_f32;
+    let u3_3_0 = -2.8152761_f32 * 1.0_f32;
+    let u3_3 = u3_3_0 * 1.0_f32;
+    let u3_4_0 = -0.70499045_f32 * 1.0_f32;
+    let u3_4 = u3_4_0 * 1.0_f32;
+    let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 3.2905173_f32 * mu_b4_b1 + 0.48786473_f32 * mu_b4_b2 + 0.10704597_f32 * mu_b4_b3 + 0.041731592_f32 * mu_b4_u4;
+    let q3_0_1 = 4.8160224_f32 * mu_b4_v4 + 16.602255_f32 * mu_b4_b1 + 4.72389_f32 * mu_b4_b2 + 0.32401404_f32 * mu_b4_b3 - 0.08551172_f32 * mu_b4_u4;
+    let q3_0_2 = 6.637267_f32 * mu_b4_v4 + 26.124155_f32 * mu_b4_b1 + 9.41957_f32 * mu_b4_b2 + 1.2552559_f32 * mu_b4_b3 + 0.11477197_f32 * mu_b4_u4;
+    let q3_0_3 = 3.1259248_f32 * mu_b4_v4 + 15.875714_f32 * mu_b4_b1 + 5.6384783_f32 * mu_b4_b2 + 0.38728726_f32 * mu_b4_b3 + 0.026730957_f32 * mu_b4_u4;
+    let q3_0_4 = 0.7728027_f32 * mu_b4_v4 + 4.9357877_f32 * mu_b4_b1 + 3.2636704_f32 * mu_b4_b2 + 1.2214911_f32 * mu_b4_b3 + 0.2528386_f32 * mu_b4_u4;
+    let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
+    let q3 = q3_0 * 1.0_f32;
+    let e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    let e = e0 + e1 + e2 + e3;
     e.min(1.0_f32).max(0.0_f32)
 }
 

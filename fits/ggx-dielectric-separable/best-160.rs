@@ -13,16 +13,16 @@
 ///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 140 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c0a9deee457136d24d4ad50a3f716911db831a26038485e2e31ba0a3ab22b87d.
-/// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.0e-6, shifted 9.5e-7, bernstein 9.5e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.46e-4, max 9.15e-4 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.62e-7 (every op rounded, as this Rust), 5.55e-7 (fused multiply-add), 9.89e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 7.39e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1661 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.41e-4, max 9.15e-4; this f32 code MAE 1.41e-4, max 9.15e-4.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-4 on the measurement grid.
-/// Denominator proved >= 5.314e-2 on the domain (Bernstein certificate), so the division is safe.
+/// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 4464a8691c7b40194204c1a116d371ce413d45692f90176b323ae99566a6c0f1.
+/// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-5, shifted 1.3e-5, bernstein 7.6e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 1.17e-4, max 1.27e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.63e-7 (every op rounded, as this Rust), 4.55e-7 (fused multiply-add), 8.58e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 3.27e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.17e-4, max 1.27e-3; this f32 code MAE 1.17e-4, max 1.27e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.1e-5 on the measurement grid.
+/// Denominator proved >= 3.080e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -41,70 +41,119 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let f0_s = f0_t * 2.0_f32 - 1.0_f32;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let r_s = r_t * 2.0_f32 - 1.0_f32;
-    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
-    let mu_s = mu_t * 2.0_f32 - 1.0_f32;
-    // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((-0.011802445_f32 * r_s + (0.018372837_f32 * mu_s + 0.047161505_f32)) * r_s + ((-0.06862088_f32 * mu_s - 0.020304171_f32) * mu_s - 0.15484764_f32)) * r_s + (((-0.014922514_f32 * mu_s - 0.036258213_f32) * mu_s - 0.19177465_f32) * mu_s - 0.1212157_f32)) * r_s + ((((0.00026650092_f32 * mu_s - 0.027538996_f32) * mu_s + 0.07369759_f32) * mu_s + 0.21778667_f32) * mu_s + 0.06601311_f32)) * r_s + (((((0.044829898_f32 * mu_s + 0.032732476_f32) * mu_s + 0.1566574_f32) * mu_s + 0.12228777_f32) * mu_s - 0.024386363_f32) * mu_s + 0.69853216_f32);
-    let p0 = p0_0;
-    // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.89351034_f32;
-    let u0_1 = 0.0060840053_f32;
-    let u0_2 = 0.037160896_f32;
-    let u0_3 = -0.008512376_f32;
-    let u0_4 = 0.0038654064_f32;
-    let u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
-    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = ((-0.21734254_f32 * r_s + (-0.099105604_f32 * mu_s - 0.101834_f32)) * r_s + ((-0.042912718_f32 * mu_s + 0.07647618_f32) * mu_s + 0.24932104_f32)) * r_s + (((0.19107722_f32 * mu_s + 0.019478481_f32) * mu_s - 0.2221612_f32) * mu_s + 0.8647555_f32);
-    let q0 = q0_0;
-    let e0 = p0 * u0 / q0;
-    // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((-0.002670027_f32 * r_s + (0.0124726845_f32 * mu_s - 0.012819941_f32)) * r_s + ((0.008708758_f32 * mu_s - 0.059242398_f32) * mu_s + 0.044396337_f32)) * r_s + (((-0.04952836_f32 * mu_s - 0.044867273_f32) * mu_s + 0.07481787_f32) * mu_s + 0.014998966_f32)) * r_s + ((((-0.024858486_f32 * mu_s - 0.11073491_f32) * mu_s - 0.09199332_f32) * mu_s + 0.39577812_f32) * mu_s - 0.15668382_f32)) * r_s + (((((0.001312519_f32 * mu_s - 0.023063628_f32) * mu_s - 0.06598371_f32) * mu_s - 0.040313013_f32) * mu_s + 0.24593632_f32) * mu_s - 0.10274755_f32);
-    let p1 = p1_0;
-    // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 0.8455194_f32;
-    let u1_1 = -0.51103777_f32;
-    let u1_2 = -0.23264371_f32;
-    let u1_3 = 0.07251571_f32;
-    let u1_4 = -0.039413434_f32;
-    let u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
-    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = ((-0.055811536_f32 * r_s + (-0.3616812_f32 * mu_s + 0.40773183_f32)) * r_s + ((0.03307428_f32 * mu_s - 0.7726508_f32) * mu_s + 0.6674496_f32)) * r_s + (((-0.14589235_f32 * mu_s - 0.02080803_f32) * mu_s - 0.61057115_f32) * mu_s + 0.91229457_f32);
-    let q1 = q1_0;
-    let e1 = p1 * u1 / q1;
-    // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((-0.007144771_f32 * r_s + (0.010868645_f32 * mu_s + 0.0052246526_f32)) * r_s + ((-0.041799016_f32 * mu_s + 0.08681248_f32) * mu_s - 0.06359613_f32)) * r_s + (((0.026826689_f32 * mu_s - 0.045403127_f32) * mu_s - 0.16202094_f32) * mu_s + 0.13485467_f32)) * r_s + ((((-0.05598736_f32 * mu_s - 0.04903985_f32) * mu_s + 0.057367846_f32) * mu_s - 0.042300683_f32) * mu_s + 0.1446058_f32)) * r_s + (((((0.07858849_f32 * mu_s - 0.020601295_f32) * mu_s - 0.19142868_f32) * mu_s + 0.028724736_f32) * mu_s + 0.22003596_f32) * mu_s - 0.043088943_f32);
-    let p2 = p2_0;
-    // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.6860497_f32;
-    let u2_1 = 0.024201553_f32;
-    let u2_2 = 0.033561666_f32;
-    let u2_3 = -0.033431653_f32;
-    let u2_4 = 0.01211087_f32;
-    let u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
-    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = ((-0.021690462_f32 * r_s + (-0.0023969878_f32 * mu_s - 0.04418393_f32)) * r_s + ((-0.2773876_f32 * mu_s - 0.08302387_f32) * mu_s + 0.3691272_f32)) * r_s + (((0.32612514_f32 * mu_s - 0.21362408_f32) * mu_s - 0.82902455_f32) * mu_s + 0.90558463_f32);
-    let q2 = q2_0;
-    let e2 = p2 * u2 / q2;
-    // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((0.0010761922_f32 * r_s + (0.0072841696_f32 * mu_s - 0.006374959_f32)) * r_s + ((0.014043629_f32 * mu_s - 0.024873486_f32) * mu_s + 0.017748542_f32)) * r_s + (((0.0013076393_f32 * mu_s + 0.005110025_f32) * mu_s + 0.060738724_f32) * mu_s - 0.06242132_f32)) * r_s + ((((0.0068122856_f32 * mu_s - 0.02789639_f32) * mu_s - 0.0559375_f32) * mu_s + 0.20731713_f32) * mu_s - 0.18057929_f32)) * r_s + (((((-0.0067199585_f32 * mu_s + 0.0040988945_f32) * mu_s - 0.025576148_f32) * mu_s - 0.049213786_f32) * mu_s + 0.12603363_f32) * mu_s - 0.10925054_f32);
-    let p3 = p3_0;
-    // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = -1.1454282_f32;
-    let u3_1 = -0.11919021_f32;
-    let u3_2 = 1.1611599_f32;
-    let u3_3 = -0.2994607_f32;
-    let u3_4 = 0.13011816_f32;
-    let u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
-    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = ((0.33485466_f32 * r_s + (-0.8175776_f32 * mu_s + 1.5341119_f32)) * r_s + ((0.36776486_f32 * mu_s - 1.040668_f32) * mu_s + 2.2826717_f32)) * r_s + (((0.20763953_f32 * mu_s + 0.49301398_f32) * mu_s - 0.7421311_f32) * mu_s + 1.6467642_f32);
-    let q3 = q3_0;
-    let e3 = p3 * u3 / q3;
-    // the sum of the 4 terms
-    let e = e0 + e1 + e2 + e3;
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
+    let f0_v = 1.0_f32 - f0_t;
+    let f0_u2 = f0_t * f0_t;
+    let f0_v2 = f0_v * f0_v;
+    let f0_u3 = f0_u2 * f0_t;
+    let f0_v3 = f0_v2 * f0_v;
+    let f0_b1 = f0_t * f0_v2;
+    let f0_b2 = f0_u2 * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
+    let r_v = 1.0_f32 - r_t;
+    let r_u2 = r_t * r_t;
+    let r_v2 = r_v * r_v;
+    let r_u3 = r_u2 * r_t;
+    let r_v3 = r_v2 * r_v;
+    let r_u4 = r_u3 * r_t;
+    let r_v4 = r_v3 * r_v;
+    let r_u5 = r_u4 * r_t;
+    let r_v5 = r_v4 * r_v;
+    let r_u6 = r_u5 * r_t;
+    let r_v6 = r_v5 * r_v;
+    let r_b1 = r_t * r_v5;
+    let r_b2 = r_u2 * r_v4;
+    let r_b3 = r_u3 * r_v3;
+    let r_b4 = r_u4 * r_v2;
+    let r_b5 = r_u5 * r_v;
+    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
+    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
+    let mu_v = 1.0_f32 - mu_u;
+    let mu_u2 = mu_u * mu_u;
+    let mu_v2 = mu_v * mu_v;
+    let mu_u3 = mu_u2 * mu_u;
+    let mu_v3 = mu_v2 * mu_v;
+    let mu_u4 = mu_u3 * mu_u;
+    let mu_v4 = mu_v3 * mu_v;
+    let mu_u5 = mu_u4 * mu_u;
+    let mu_v5 = mu_v4 * mu_v;
+    let mu_u6 = mu_u5 * mu_u;
+    let mu_v6 = mu_v5 * mu_v;
+    let mu_b1 = mu_u * mu_v5;
+    let mu_b2 = mu_u2 * mu_v4;
+    let mu_b3 = mu_u3 * mu_v3;
+    let mu_b4 = mu_u4 * mu_v2;
+    let mu_b5 = mu_u5 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    let p_0_0 = 0.9359483_f32 * mu_v6 + 4.3583055_f32 * mu_b1 + 4.817302_f32 * mu_b2 + 1.4754292_f32 * mu_b3 + 0.7477944_f32 * mu_b4 + 0.009265867_f32 * mu_b5 + 0.04392019_f32 * mu_u6;
+    let p_0_1 = 7.2878284_f32 * mu_v6 + 31.849533_f32 * mu_b1 + 41.507603_f32 * mu_b2 + 20.662998_f32 * mu_b3 + 7.858791_f32 * mu_b4 + 0.47131443_f32 * mu_b5 + 0.5414116_f32 * mu_u6;
+    let p_0_2 = 24.844515_f32 * mu_v6 + 105.690605_f32 * mu_b1 + 164.23378_f32 * mu_b2 + 116.71565_f32 * mu_b3 + 47.289833_f32 * mu_b4 + 5.448066_f32 * mu_b5 + 2.0156627_f32 * mu_u6;
+    let p_0_3 = 43.06924_f32 * mu_v6 + 180.01123_f32 * mu_b1 + 317.97498_f32 * mu_b2 + 276.31094_f32 * mu_b3 + 124.64046_f32 * mu_b4 + 19.073631_f32 * mu_b5 + 3.750435_f32 * mu_u6;
+    let p_0_4 = 42.339264_f32 * mu_v6 + 176.21152_f32 * mu_b1 + 346.47253_f32 * mu_b2 + 348.8573_f32 * mu_b3 + 175.5233_f32 * mu_b4 + 32.57625_f32 * mu_b5 + 3.8394463_f32 * mu_u6;
+    let p_0_5 = 22.319235_f32 * mu_v6 + 93.09824_f32 * mu_b1 + 198.13544_f32 * mu_b2 + 219.87251_f32 * mu_b3 + 118.698845_f32 * mu_b4 + 23.592907_f32 * mu_b5 + 1.6219406_f32 * mu_u6;
+    let p_0_6 = 4.7891173_f32 * mu_v6 + 20.093832_f32 * mu_b1 + 45.58252_f32 * mu_b2 + 54.448914_f32 * mu_b3 + 31.125294_f32 * mu_b4 + 6.4995217_f32 * mu_b5 + 0.24729978_f32 * mu_u6;
+    let p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
+    let p_1_0 = 2.8096366_f32 * mu_v6 + 13.069463_f32 * mu_b1 + 14.436797_f32 * mu_b2 + 4.584405_f32 * mu_b3 + 2.1962776_f32 * mu_b4 + 0.028659591_f32 * mu_b5 + 0.13177687_f32 * mu_u6;
+    let p_1_1 = 21.46432_f32 * mu_v6 + 94.90107_f32 * mu_b1 + 120.46758_f32 * mu_b2 + 59.169334_f32 * mu_b3 + 23.3416_f32 * mu_b4 + 1.4712031_f32 * mu_b5 + 1.6198722_f32 * mu_u6;
+    let p_1_2 = 83.152534_f32 * mu_v6 + 353.41992_f32 * mu_b1 + 518.109_f32 * mu_b2 + 347.65112_f32 * mu_b3 + 137.8443_f32 * mu_b4 + 15.738096_f32 * mu_b5 + 6.0827036_f32 * mu_u6;
+    let p_1_3 = 165.56323_f32 * mu_v6 + 692.07025_f32 * mu_b1 + 1113.7322_f32 * mu_b2 + 880.6483_f32 * mu_b3 + 377.68478_f32 * mu_b4 + 57.56755_f32 * mu_b5 + 11.145183_f32 * mu_u6;
+    let p_1_4 = 176.75774_f32 * mu_v6 + 739.75256_f32 * mu_b1 + 1280.3047_f32 * mu_b2 + 1136.2847_f32 * mu_b3 + 534.24457_f32 * mu_b4 + 98.16542_f32 * mu_b5 + 11.275113_f32 * mu_u6;
+    let p_1_5 = 96.02113_f32 * mu_v6 + 404.7011_f32 * mu_b1 + 739.4744_f32 * mu_b2 + 709.0835_f32 * mu_b3 + 354.23138_f32 * mu_b4 + 69.29784_f32 * mu_b5 + 4.7072554_f32 * mu_u6;
+    let p_1_6 = 21.05281_f32 * mu_v6 + 89.77463_f32 * mu_b1 + 171.68404_f32 * mu_b2 + 174.86145_f32 * mu_b3 + 91.83302_f32 * mu_b4 + 18.748579_f32 * mu_b5 + 0.70674264_f32 * mu_u6;
+    let p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
+    let p_2_0 = 2.8085597_f32 * mu_v6 + 13.065863_f32 * mu_b1 + 14.444112_f32 * mu_b2 + 4.5209208_f32 * mu_b3 + 2.2029884_f32 * mu_b4 + 0.030016879_f32 * mu_b5 + 0.131762_f32 * mu_u6;
+    let p_2_1 = 21.576958_f32 * mu_v6 + 95.258316_f32 * mu_b1 + 121.40003_f32 * mu_b2 + 60.09989_f32 * mu_b3 + 23.866468_f32 * mu_b4 + 1.2839837_f32 * mu_b5 + 1.6224585_f32 * mu_u6;
+    let p_2_2 = 81.55664_f32 * mu_v6 + 347.16986_f32 * mu_b1 + 505.91238_f32 * mu_b2 + 336.7139_f32 * mu_b3 + 136.03102_f32 * mu_b4 + 16.137836_f32 * mu_b5 + 6.080865_f32 * mu_u6;
+    let p_2_3 = 171.2409_f32 * mu_v6 + 716.9824_f32 * mu_b1 + 1135.3486_f32 * mu_b2 + 875.7067_f32 * mu_b3 + 373.4091_f32 * mu_b4 + 58.897305_f32 * mu_b5 + 11.000303_f32 * mu_u6;
+    let p_2_4 = 199.21176_f32 * mu_v6 + 834.15735_f32 * mu_b1 + 1394.816_f32 * mu_b2 + 1175.0594_f32 * mu_b3 + 531.863_f32 * mu_b4 + 98.12533_f32 * mu_b5 + 11.010791_f32 * mu_u6;
+    let p_2_5 = 116.57145_f32 * mu_v6 + 489.97433_f32 * mu_b1 + 845.857_f32 * mu_b2 + 747.61884_f32 * mu_b3 + 349.25912_f32 * mu_b4 + 66.72941_f32 * mu_b5 + 4.458739_f32 * mu_u6;
+    let p_2_6 = 26.615286_f32 * mu_v6 + 112.63961_f32 * mu_b1 + 199.47717_f32 * mu_b2 + 183.18987_f32 * mu_b3 + 88.48175_f32 * mu_b4 + 17.435137_f32 * mu_b5 + 0.6610188_f32 * mu_u6;
+    let p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
+    let p_3_0 = 0.93613523_f32 * mu_v6 + 4.35221_f32 * mu_b1 + 4.8412704_f32 * mu_b2 + 1.4798193_f32 * mu_b3 + 0.7416688_f32 * mu_b4 + 0.009875053_f32 * mu_b5 + 0.04391852_f32 * mu_u6;
+    let p_3_1 = 7.2518272_f32 * mu_v6 + 31.978323_f32 * mu_b1 + 40.851017_f32 * mu_b2 + 20.275639_f32 * mu_b3 + 8.3409195_f32 * mu_b4 + 0.40487352_f32 * mu_b5 + 0.5416039_f32 * mu_u6;
+    let p_3_2 = 27.58853_f32 * mu_v6 + 117.28371_f32 * mu_b1 + 168.80026_f32 * mu_b2 + 110.41715_f32 * mu_b3 + 45.368748_f32 * mu_b4 + 5.255119_f32 * mu_b5 + 2.0147698_f32 * mu_u6;
+    let p_3_3 = 59.54221_f32 * mu_v6 + 250.07436_f32 * mu_b1 + 389.0342_f32 * mu_b2 + 292.89825_f32 * mu_b3 + 124.99128_f32 * mu_b4 + 19.765352_f32 * mu_b5 + 3.5920427_f32 * mu_u6;
+    let p_3_4 = 71.64762_f32 * mu_v6 + 301.374_f32 * mu_b1 + 490.7753_f32 * mu_b2 + 397.07092_f32 * mu_b3 + 174.89877_f32 * mu_b4 + 31.43512_f32 * mu_b5 + 3.374703_f32 * mu_u6;
+    let p_3_5 = 43.630955_f32 * mu_v6 + 183.8652_f32 * mu_b1 + 305.6021_f32 * mu_b2 + 254.43192_f32 * mu_b3 + 112.606766_f32 * mu_b4 + 20.535025_f32 * mu_b5 + 1.3188326_f32 * mu_u6;
+    let p_3_6 = 10.425596_f32 * mu_v6 + 43.945263_f32 * mu_b1 + 73.663765_f32 * mu_b2 + 62.09557_f32 * mu_b3 + 27.523026_f32 * mu_b4 + 5.0424356_f32 * mu_b5 + 0.19197102_f32 * mu_u6;
+    let p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
+    let p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q_0_0 = 1.0_f32 * mu_v6 + 4.654749_f32 * mu_b1 + 5.1947904_f32 * mu_b2 + 1.9518769_f32 * mu_b3 + 0.83982813_f32 * mu_b4 + 0.009065715_f32 * mu_b5 + 0.043922022_f32 * mu_u6;
+    let q_0_1 = 7.4699388_f32 * mu_v6 + 33.198925_f32 * mu_b1 + 41.74445_f32 * mu_b2 + 22.252274_f32 * mu_b3 + 8.8945875_f32 * mu_b4 + 0.42183217_f32 * mu_b5 + 0.54114854_f32 * mu_u6;
+    let q_0_2 = 30.003647_f32 * mu_v6 + 128.41289_f32 * mu_b1 + 182.11353_f32 * mu_b2 + 122.666985_f32 * mu_b3 + 49.974026_f32 * mu_b4 + 6.0976286_f32 * mu_b5 + 2.0290413_f32 * mu_u6;
+    let q_0_3 = 67.37431_f32 * mu_v6 + 283.04993_f32 * mu_b1 + 427.67035_f32 * mu_b2 + 316.4789_f32 * mu_b3 + 131.08533_f32 * mu_b4 + 21.093304_f32 * mu_b5 + 3.7491448_f32 * mu_u6;
+    let q_0_4 = 92.61841_f32 * mu_v6 + 388.88818_f32 * mu_b1 + 613.9767_f32 * mu_b2 + 479.0578_f32 * mu_b3 + 200.35852_f32 * mu_b4 + 36.003494_f32 * mu_b5 + 3.938619_f32 * mu_u6;
+    let q_0_5 = 69.872894_f32 * mu_v6 + 294.07608_f32 * mu_b1 + 473.75122_f32 * mu_b2 + 374.67203_f32 * mu_b3 + 152.3279_f32 * mu_b4 + 26.123964_f32 * mu_b5 + 1.6971586_f32 * mu_u6;
+    let q_0_6 = 21.382719_f32 * mu_v6 + 90.09486_f32 * mu_b1 + 146.1954_f32 * mu_b2 + 115.479034_f32 * mu_b3 + 45.449776_f32 * mu_b4 + 7.2546506_f32 * mu_b5 + 0.26349285_f32 * mu_u6;
+    let q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
+    let q_1_0 = 3.0_f32 * mu_v6 + 13.964247_f32 * mu_b1 + 15.584371_f32 * mu_b2 + 5.8556304_f32 * mu_b3 + 2.5194843_f32 * mu_b4 + 0.027197145_f32 * mu_b5 + 0.13176607_f32 * mu_u6;
+    let q_1_1 = 22.409817_f32 * mu_v6 + 99.59678_f32 * mu_b1 + 125.233345_f32 * mu_b2 + 66.75682_f32 * mu_b3 + 26.683764_f32 * mu_b4 + 1.2654965_f32 * mu_b5 + 1.6234456_f32 * mu_u6;
+    let q_1_2 = 90.01094_f32 * mu_v6 + 385.23868_f32 * mu_b1 + 546.3406_f32 * mu_b2 + 368.00095_f32 * mu_b3 + 149.92209_f32 * mu_b4 + 18.292885_f32 * mu_b5 + 6.087124_f32 * mu_u6;
+    let q_1_3 = 202.12294_f32 * mu_v6 + 849.1498_f32 * mu_b1 + 1283.011_f32 * mu_b2 + 949.43677_f32 * mu_b3 + 393.25598_f32 * mu_b4 + 63.27991_f32 * mu_b5 + 11.247435_f32 * mu_u6;
+    let q_1_4 = 277.85522_f32 * mu_v6 + 1166.6646_f32 * mu_b1 + 1841.93_f32 * mu_b2 + 1437.1735_f32 * mu_b3 + 601.07556_f32 * mu_b4 + 108.01048_f32 * mu_b5 + 11.815857_f32 * mu_u6;
+    let q_1_5 = 209.61868_f32 * mu_v6 + 882.2283_f32 * mu_b1 + 1421.2537_f32 * mu_b2 + 1124.0161_f32 * mu_b3 + 456.98367_f32 * mu_b4 + 78.371895_f32 * mu_b5 + 5.091476_f32 * mu_u6;
+    let q_1_6 = 64.14816_f32 * mu_v6 + 270.28458_f32 * mu_b1 + 438.5862_f32 * mu_b2 + 346.4371_f32 * mu_b3 + 136.34932_f32 * mu_b4 + 21.763952_f32 * mu_b5 + 0.7904785_f32 * mu_u6;
+    let q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
+    let q_2_0 = 3.0_f32 * mu_v6 + 13.964247_f32 * mu_b1 + 15.584371_f32 * mu_b2 + 5.8556304_f32 * mu_b3 + 2.5194843_f32 * mu_b4 + 0.027197145_f32 * mu_b5 + 0.13176607_f32 * mu_u6;
+    let q_2_1 = 22.409817_f32 * mu_v6 + 99.59678_f32 * mu_b1 + 125.233345_f32 * mu_b2 + 66.75682_f32 * mu_b3 + 26.683764_f32 * mu_b4 + 1.2654965_f32 * mu_b5 + 1.6234456_f32 * mu_u6;
+    let q_2_2 = 90.01094_f32 * mu_v6 + 385.23868_f32 * mu_b1 + 546.3406_f32 * mu_b2 + 368.00095_f32 * mu_b3 + 149.92209_f32 * mu_b4 + 18.292885_f32 * mu_b5 + 6.087124_f32 * mu_u6;
+    let q_2_3 = 202.12294_f32 * mu_v6 + 849.1498_f32 * mu_b1 + 1283.011_f32 * mu_b2 + 949.43677_f32 * mu_b3 + 393.25598_f32 * mu_b4 + 63.27991_f32 * mu_b5 + 11.247435_f32 * mu_u6;
+    let q_2_4 = 277.85522_f32 * mu_v6 + 1166.6646_f32 * mu_b1 + 1841.93_f32 * mu_b2 + 1437.1735_f32 * mu_b3 + 601.07556_f32 * mu_b4 + 108.01048_f32 * mu_b5 + 11.815857_f32 * mu_u6;
+    let q_2_5 = 209.61868_f32 * mu_v6 + 882.2283_f32 * mu_b1 + 1421.2537_f32 * mu_b2 + 1124.0161_f32 * mu_b3 + 456.98367_f32 * mu_b4 + 78.371895_f32 * mu_b5 + 5.091476_f32 * mu_u6;
+    let q_2_6 = 64.14816_f32 * mu_v6 + 270.28458_f32 * mu_b1 + 438.5862_f32 * mu_b2 + 346.4371_f32 * mu_b3 + 136.34932_f32 * mu_b4 + 21.763952_f32 * mu_b5 + 0.7904785_f32 * mu_u6;
+    let q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
+    let q_3_0 = 1.0_f32 * mu_v6 + 4.654749_f32 * mu_b1 + 5.1947904_f32 * mu_b2 + 1.9518769_f32 * mu_b3 + 0.83982813_f32 * mu_b4 + 0.009065715_f32 * mu_b5 + 0.043922022_f32 * mu_u6;
+    let q_3_1 = 7.4699388_f32 * mu_v6 + 33.198925_f32 * mu_b1 + 41.74445_f32 * mu_b2 + 22.252274_f32 * mu_b3 + 8.8945875_f32 * mu_b4 + 0.42183217_f32 * mu_b5 + 0.54114854_f32 * mu_u6;
+    let q_3_2 = 30.003647_f32 * mu_v6 + 128.41289_f32 * mu_b1 + 182.11353_f32 * mu_b2 + 122.666985_f32 * mu_b3 + 49.974026_f32 * mu_b4 + 6.0976286_f32 * mu_b5 + 2.0290413_f32 * mu_u6;
+    let q_3_3 = 67.37431_f32 * mu_v6 + 283.04993_f32 * mu_b1 + 427.67035_f32 * mu_b2 + 316.4789_f32 * mu_b3 + 131.08533_f32 * mu_b4 + 21.093304_f32 * mu_b5 + 3.7491448_f32 * mu_u6;
+    let q_3_4 = 92.61841_f32 * mu_v6 + 388.88818_f32 * mu_b1 + 613.9767_f32 * mu_b2 + 479.0578_f32 * mu_b3 + 200.35852_f32 * mu_b4 + 36.003494_f32 * mu_b5 + 3.938619_f32 * mu_u6;
+    let q_3_5 = 69.872894_f32 * mu_v6 + 294.07608_f32 * mu_b1 + 473.75122_f32 * mu_b2 + 374.67203_f32 * mu_b3 + 152.3279_f32 * mu_b4 + 26.123964_f32 * mu_b5 + 1.6971586_f32 * mu_u6;
+    let q_3_6 = 21.382719_f32 * mu_v6 + 90.09486_f32 * mu_b1 + 146.1954_f32 * mu_b2 + 115.479034_f32 * mu_b3 + 45.449776_f32 * mu_b4 + 7.2546506_f32 * mu_b5 + 0.26349285_f32 * mu_u6;
+    let q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
+    let q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
+    let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }
 

@@ -13,16 +13,16 @@
 ///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 1 of 15, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 48bad54ddf27ca26f651d6e6508d1aa014a51a4f7b5cf69e6558bc0a655f159a.
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+/// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 7c3cae98b7349c18636d06e707255fc6920efc08bdafd1d652707dade9834e08.
 /// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.5e-5, shifted 9.0e-7, bernstein 7.6e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 2.46e-4, max 3.24e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.13e-6 (every op rounded, as this Rust), 7.82e-7 (fused multiply-add), 1.13e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 4.00e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6449 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.42e-4, max 2.14e-3; this f32 code MAE 2.42e-4, max 2.14e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
-/// Denominator proved >= 1.156e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-5, shifted 1.1e-6, bernstein 8.6e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 1.55e-4, max 1.50e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.06e-6 (fused multiply-add), 1.15e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 6.03e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 28929 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 1.52e-4, max 1.50e-3; this f32 code MAE 1.52e-4, max 1.50e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
+/// Denominator proved >= 5.036e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -47,16 +47,64 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let r_s = r_t * 2.0_f32 - 1.0_f32;
     // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
     let mu_s = mu_t * 2.0_f32 - 1.0_f32;
-    // numerator P, grouped by powers of the first variable
-    let p_0 = (((((0.00024173163_f32 * r_s + (0.026224084_f32 * mu_s + 0.0068178475_f32)) * r_s + ((0.039292976_f32 * mu_s - 0.04438877_f32) * mu_s + 0.004724622_f32)) * r_s + (((-0.07931555_f32 * mu_s + 0.002630403_f32) * mu_s + 0.044279918_f32) * mu_s + 0.00028820755_f32)) * r_s + ((((0.0022786488_f32 * mu_s + 0.15009439_f32) * mu_s - 0.14565407_f32) * mu_s - 0.059433322_f32) * mu_s + 0.07002376_f32)) * r_s + (((((-0.03983728_f32 * mu_s - 0.025395537_f32) * mu_s + 0.08651616_f32) * mu_s - 0.13036157_f32) * mu_s - 0.20086807_f32) * mu_s + 0.22985369_f32)) * r_s + ((((((0.24938114_f32 * mu_s - 0.20811_f32) * mu_s - 0.12369521_f32) * mu_s + 0.21950978_f32) * mu_s + 0.09594075_f32) * mu_s - 0.59124005_f32) * mu_s + 0.5212108_f32);
-    let p_1 = (((((-0.0011774064_f32 * r_s + (-0.003536406_f32 * mu_s + 0.0013284809_f32)) * r_s + ((-0.0047842665_f32 * mu_s - 0.0019911735_f32) * mu_s + 0.0058438387_f32)) * r_s + (((-0.0014632435_f32 * mu_s + 0.009898857_f32) * mu_s + 0.005454053_f32) * mu_s - 0.009052619_f32)) * r_s + ((((-0.0051930347_f32 * mu_s + 0.019650782_f32) * mu_s + 0.011061044_f32) * mu_s - 0.016853942_f32) * mu_s - 0.0061741835_f32)) * r_s + (((((-0.02628951_f32 * mu_s + 0.009426128_f32) * mu_s + 0.07227801_f32) * mu_s - 0.038659465_f32) * mu_s - 0.049683686_f32) * mu_s + 0.024312286_f32)) * r_s + ((((((0.001507303_f32 * mu_s - 0.024216352_f32) * mu_s + 0.010072314_f32) * mu_s + 0.049708445_f32) * mu_s - 0.032376725_f32) * mu_s - 0.028980158_f32) * mu_s + 0.017945299_f32);
-    let p_2 = (((((-0.0012605082_f32 * r_s + (-0.0031987415_f32 * mu_s + 0.0026716865_f32)) * r_s + ((0.003393697_f32 * mu_s + 7.820123e-5_f32) * mu_s - 0.0019946883_f32)) * r_s + (((0.0029036428_f32 * mu_s - 0.0010744896_f32) * mu_s + 0.0014680614_f32) * mu_s - 0.0017338863_f32)) * r_s + ((((0.0043082684_f32 * mu_s + 0.0007855209_f32) * mu_s - 0.00764685_f32) * mu_s - 0.000342461_f32) * mu_s + 0.0034042192_f32)) * r_s + (((((0.0030410807_f32 * mu_s + 0.004114041_f32) * mu_s - 0.015664414_f32) * mu_s + 0.004759792_f32) * mu_s + 0.010427751_f32) * mu_s - 0.0090339715_f32)) * r_s + ((((((-0.0033971057_f32 * mu_s + 0.00680967_f32) * mu_s + 0.003658741_f32) * mu_s - 0.018373022_f32) * mu_s + 0.0071576373_f32) * mu_s + 0.010453669_f32) * mu_s - 0.008372603_f32);
-    let p_3 = (((((-0.00033833124_f32 * r_s + (0.0022662506_f32 * mu_s - 0.0020357182_f32)) * r_s + ((-0.0011184512_f32 * mu_s + 0.0005099021_f32) * mu_s + 0.00082839193_f32)) * r_s + (((0.0024267575_f32 * mu_s - 0.0021235375_f32) * mu_s - 0.00304471_f32) * mu_s + 0.0028041308_f32)) * r_s + ((((-0.0028883894_f32 * mu_s + 0.0016288796_f32) * mu_s + 0.0048827324_f32) * mu_s - 0.0013200718_f32) * mu_s - 0.0019220238_f32)) * r_s + (((((-0.00039345594_f32 * mu_s - 0.004210797_f32) * mu_s + 0.004041403_f32) * mu_s + 0.0042053745_f32) * mu_s - 0.004208915_f32) * mu_s + 7.431525e-5_f32)) * r_s + ((((((0.001876396_f32 * mu_s - 0.0010137202_f32) * mu_s - 0.003754791_f32) * mu_s + 0.0049387654_f32) * mu_s - 0.0006009942_f32) * mu_s - 0.004073072_f32) * mu_s + 0.002161645_f32);
-    let p = ((p_3 * f0_s + p_2) * f0_s + p_1) * f0_s + p_0;
-    // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (((((0.0035928015_f32 * r_s + (0.026852742_f32 * mu_s + 0.008906791_f32)) * r_s + ((0.032194432_f32 * mu_s - 0.042574_f32) * mu_s + 0.007823077_f32)) * r_s + (((-0.09242746_f32 * mu_s - 0.00048069842_f32) * mu_s + 0.055190682_f32) * mu_s + 7.096622e-5_f32)) * r_s + ((((0.076176554_f32 * mu_s + 0.14995857_f32) * mu_s - 0.29586893_f32) * mu_s - 0.06060944_f32) * mu_s + 0.14741193_f32)) * r_s + (((((-0.08674176_f32 * mu_s + 0.084680796_f32) * mu_s + 0.19046251_f32) * mu_s - 0.37455586_f32) * mu_s - 0.2521929_f32) * mu_s + 0.36946607_f32)) * r_s + ((((((0.25017747_f32 * mu_s - 0.23524307_f32) * mu_s - 0.06781631_f32) * mu_s + 0.27470356_f32) * mu_s - 0.037556157_f32) * mu_s - 0.6153864_f32) * mu_s + 0.60165864_f32);
-    let q = q_0;
-    let e = p / q;
+    // term 0: numerator P_0, grouped by powers of the first variable
+    let p0_0 = ((((-0.011918166_f32 * r_s + (-0.021823648_f32 * mu_s - 0.016255371_f32)) * r_s + ((-0.12458967_f32 * mu_s - 0.06258053_f32) * mu_s - 0.16454485_f32)) * r_s + (((-0.08568799_f32 * mu_s - 0.37621802_f32) * mu_s + 0.16160116_f32) * mu_s + 0.19405559_f32)) * r_s + ((((-0.065356284_f32 * mu_s - 0.09956811_f32) * mu_s + 0.345191_f32) * mu_s + 0.23570438_f32) * mu_s - 0.06925018_f32)) * r_s + (((((0.0069459947_f32 * mu_s + 0.16597004_f32) * mu_s - 0.13487074_f32) * mu_s + 0.2986323_f32) * mu_s - 0.033305265_f32) * mu_s + 0.694115_f32);
+    let p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    let u0_0 = 0.9330575_f32;
+    let u0_1 = 0.00082670763_f32;
+    let u0_2 = -0.00303093_f32;
+    let u0_3 = 0.0006978481_f32;
+    let u0_4 = -0.000373876_f32;
+    let u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    let q0_0 = (((-0.026517436_f32 * r_s + (-0.21078819_f32 * mu_s - 0.2510877_f32)) * r_s + ((-0.19878437_f32 * mu_s + 0.017584944_f32) * mu_s - 0.000806248_f32)) * r_s + (((-0.18818024_f32 * mu_s - 0.17874087_f32) * mu_s + 0.4217664_f32) * mu_s + 0.354793_f32)) * r_s + ((((0.22625028_f32 * mu_s - 0.13750286_f32) * mu_s - 0.1483733_f32) * mu_s + 0.11537787_f32) * mu_s + 1.0458575_f32);
+    let q0 = q0_0;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    let p1_0 = ((((-0.021729324_f32 * r_s + (-0.05822918_f32 * mu_s - 0.072261445_f32)) * r_s + ((-0.27179855_f32 * mu_s - 0.033633742_f32) * mu_s + 0.26026702_f32)) * r_s + (((0.014744899_f32 * mu_s + 0.05029476_f32) * mu_s + 0.22867452_f32) * mu_s + 0.17556673_f32)) * r_s + ((((-0.22847997_f32 * mu_s - 0.14082979_f32) * mu_s + 1.0805737_f32) * mu_s + 0.45448166_f32) * mu_s - 0.517771_f32)) * r_s + (((((0.020731727_f32 * mu_s - 0.22385739_f32) * mu_s - 0.16984013_f32) * mu_s + 0.75953645_f32) * mu_s + 0.25097284_f32) * mu_s - 0.36605296_f32);
+    let p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    let u1_0 = -1.0127523_f32;
+    let u1_1 = -0.1817477_f32;
+    let u1_2 = 0.046532534_f32;
+    let u1_3 = -0.018409317_f32;
+    let u1_4 = 0.0052718776_f32;
+    let u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    let q1_0 = (((-0.09017574_f32 * r_s + (-0.19689734_f32 * mu_s - 0.41591614_f32)) * r_s + ((-0.55491817_f32 * mu_s + 0.8553671_f32) * mu_s + 0.19609447_f32)) * r_s + (((-0.8989049_f32 * mu_s - 0.35715997_f32) * mu_s + 1.1060119_f32) * mu_s + 1.5838997_f32)) * r_s + ((((0.7868654_f32 * mu_s - 0.4565476_f32) * mu_s - 0.48917234_f32) * mu_s - 0.16882423_f32) * mu_s + 2.1819158_f32);
+    let q1 = q1_0;
+    let e1 = p1 * u1 / q1;
+    // term 2: numerator P_2, grouped by powers of the first variable
+    let p2_0 = ((((-0.04562524_f32 * r_s + (-0.14063303_f32 * mu_s + 0.19078374_f32)) * r_s + ((-0.41651148_f32 * mu_s + 0.61939013_f32) * mu_s - 0.18233001_f32)) * r_s + (((-0.3131555_f32 * mu_s - 0.2646746_f32) * mu_s + 0.40479606_f32) * mu_s + 0.19496003_f32)) * r_s + ((((-0.4716104_f32 * mu_s + 0.18990342_f32) * mu_s + 1.0475239_f32) * mu_s - 0.5344758_f32) * mu_s - 0.022045935_f32)) * r_s + (((((-0.17044036_f32 * mu_s + 0.0128048975_f32) * mu_s + 0.31504098_f32) * mu_s + 0.2470755_f32) * mu_s - 0.25731543_f32) * mu_s - 0.23794325_f32);
+    let p2 = p2_0;
+    // term 2: factor u_2, grouped by powers of the first variable
+    let u2_0 = -0.3561137_f32;
+    let u2_1 = 0.0119602_f32;
+    let u2_2 = 0.016951038_f32;
+    let u2_3 = -4.6904424e-5_f32;
+    let u2_4 = 0.0011768044_f32;
+    let u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
+    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
+    let q2_0 = (((-0.058968723_f32 * r_s + (0.033622395_f32 * mu_s - 0.0021322076_f32)) * r_s + ((-0.13527624_f32 * mu_s + 0.13241054_f32) * mu_s + 0.043948658_f32)) * r_s + (((0.13550016_f32 * mu_s - 0.40503645_f32) * mu_s - 0.16192777_f32) * mu_s + 0.4152175_f32)) * r_s + ((((0.08516806_f32 * mu_s + 0.18569285_f32) * mu_s - 0.17741652_f32) * mu_s - 0.72404045_f32) * mu_s + 0.8374617_f32);
+    let q2 = q2_0;
+    let e2 = p2 * u2 / q2;
+    // term 3: numerator P_3, grouped by powers of the first variable
+    let p3_0 = ((((0.014670452_f32 * r_s + (0.08574407_f32 * mu_s - 0.05890083_f32)) * r_s + ((0.0673135_f32 * mu_s - 0.11388636_f32) * mu_s + 0.0345713_f32)) * r_s + (((0.112274565_f32 * mu_s + 0.012842538_f32) * mu_s - 0.18526927_f32) * mu_s - 0.0020659312_f32)) * r_s + ((((0.17672148_f32 * mu_s - 0.0043243156_f32) * mu_s - 0.25638682_f32) * mu_s + 0.053568847_f32) * mu_s - 0.031654593_f32)) * r_s + (((((0.06569903_f32 * mu_s + 0.040345777_f32) * mu_s - 0.1401804_f32) * mu_s - 0.056554653_f32) * mu_s + 0.06030726_f32) * mu_s + 0.020297589_f32);
+    let p3 = p3_0;
+    // term 3: factor u_3, grouped by powers of the first variable
+    let u3_0 = -0.93599737_f32;
+    let u3_1 = 0.06260903_f32;
+    let u3_2 = 0.08030373_f32;
+    let u3_3 = -0.0019345675_f32;
+    let u3_4 = 0.0049963305_f32;
+    let u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
+    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
+    let q3_0 = (((-0.022384174_f32 * r_s + (-0.0500167_f32 * mu_s + 0.008819765_f32)) * r_s + ((-0.031134857_f32 * mu_s + 0.1723501_f32) * mu_s - 0.10456457_f32)) * r_s + (((0.13191207_f32 * mu_s - 0.40827698_f32) * mu_s + 0.06151665_f32) * mu_s + 0.3109084_f32)) * r_s + ((((0.028115839_f32 * mu_s + 0.141441_f32) * mu_s - 0.21836732_f32) * mu_s - 0.6446953_f32) * mu_s + 0.78547007_f32);
+    let q3 = q3_0;
+    let e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    let e = e0 + e1 + e2 + e3;
     e.min(1.0_f32).max(0.0_f32)
 }
 

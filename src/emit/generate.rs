@@ -1430,6 +1430,27 @@ pub fn reference(fit: &FitResult, x: &[f32]) -> (f64, f64) {
     clamped(fit, &buf[..x.len()])
 }
 
+/// [`reference`] at every point of `xs` (row-major f32 coordinates, `d` per point), evaluated a
+/// block at a time: the same bits as point by point.
+pub fn references(fit: &FitResult, d: usize, xs: &[f32]) -> Vec<(f64, f64)> {
+    let domain = &fit.approximant.domain;
+    let mut buf = vec![0.0f64; xs.len()];
+    for (p, x) in buf
+        .chunks_exact_mut(d.max(1))
+        .zip(xs.chunks_exact(d.max(1)))
+    {
+        for (k, (b, &v)) in p.iter_mut().zip(x).enumerate() {
+            *b = match domain.get(k) {
+                Some(&(lo, hi)) => (v as f64).clamp(lo, hi),
+                None => v as f64,
+            };
+        }
+    }
+    let mut raw = vec![0.0; xs.len() / d.max(1)];
+    fit.approximant.eval_many(d, &buf, &mut raw);
+    raw.into_iter().map(|r| (r.clamp(0.0, 1.0), r)).collect()
+}
+
 /// Measures `compiled` (an albedo function of `fit`) at `points` (row-major f32 coordinates).
 pub fn measure(compiled: &Compiled, fit: &FitResult, points: &[f32]) -> F32Accuracy {
     use super::ir::BLOCK;
@@ -1441,10 +1462,9 @@ pub fn measure(compiled: &Compiled, fit: &FitResult, points: &[f32]) -> F32Accur
     let result = compiled.results()[0];
     let mut regs = Vec::new();
     for (b, xs) in points.chunks(BLOCK * d).enumerate() {
-        let refs: Vec<f64> = xs
-            .chunks_exact(d)
-            .map(|x| {
-                let (reference, raw) = reference(fit, x);
+        let refs: Vec<f64> = references(fit, d, xs)
+            .into_iter()
+            .map(|(reference, raw)| {
                 acc.max_overshoot = acc.max_overshoot.max(raw - 1.0).max(-raw);
                 reference
             })

@@ -502,14 +502,44 @@ impl Compiled {
     /// Register r of point j is `regs[r * BLOCK + j]` afterwards. One pass over the registers
     /// serves the whole block, so the dispatch on each operation is paid once per block.
     pub fn eval_block(&self, xs: &[f32], arith: Arith, seeds: &[u64], regs: &mut Vec<f32>) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx2,fma")]
+            unsafe fn wide(
+                c: &Compiled,
+                xs: &[f32],
+                arith: Arith,
+                seeds: &[u64],
+                regs: &mut Vec<f32>,
+            ) {
+                c.eval_block_impl(xs, arith, seeds, regs)
+            }
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
+                // SAFETY: the CPU has AVX2 and FMA (checked just above). Every operation is
+                // IEEE-rounded the same way with or without them (a fused multiply–add rounds
+                // once either way), so the bits do not depend on the path.
+                return unsafe { wide(self, xs, arith, seeds, regs) };
+            }
+        }
+        self.eval_block_impl(xs, arith, seeds, regs)
+    }
+
+    /// The body of [`Compiled::eval_block`], compiled once per instruction set.
+    #[inline(always)]
+    fn eval_block_impl(&self, xs: &[f32], arith: Arith, seeds: &[u64], regs: &mut Vec<f32>) {
         let d = self.n_params;
         let n = xs.len().checked_div(d).unwrap_or(0);
         assert!(
             n <= BLOCK && xs.len() == n * d,
             "at most BLOCK whole points"
         );
-        regs.clear();
-        regs.resize(self.nodes.len() * BLOCK, 0.0);
+        // every register of points 0..n is written before it is read: no need to clear
+        if regs.len() != self.nodes.len() * BLOCK {
+            regs.clear();
+            regs.resize(self.nodes.len() * BLOCK, 0.0);
+        }
         let gpu = matches!(arith, Arith::Gpu { .. });
         let mut rng = [0u64; BLOCK];
         if gpu {
@@ -609,6 +639,30 @@ impl Compiled {
                     }
                 }
             }
+        }
+    }
+
+    /// [`Compiled::eval_f32`] of the first result at many points, [`BLOCK`] at a time through
+    /// [`Compiled::eval_block`] (bit for bit the same as point by point): `xs` holds the points
+    /// row-major (`n_params` values each), `out[j]` receives point j's value. In the GPU model
+    /// every point uses the one seed, as `eval_f32` with that `arith` would.
+    pub fn eval_f32_points(&self, xs: &[f32], arith: Arith, out: &mut [f32], regs: &mut Vec<f32>) {
+        let d = self.n_params;
+        assert_eq!(xs.len(), out.len() * d, "one point per output");
+        if d == 0 {
+            let v = self.eval_f32(&[], arith, regs);
+            out.fill(v);
+            return;
+        }
+        let seed = match arith {
+            Arith::Gpu { seed } => seed,
+            _ => 0,
+        };
+        let seeds = [seed; BLOCK];
+        let r = self.results[0];
+        for (block, o) in xs.chunks(BLOCK * d).zip(out.chunks_mut(BLOCK)) {
+            self.eval_block(block, arith, &seeds[..o.len()], regs);
+            o.copy_from_slice(&regs[r * BLOCK..r * BLOCK + o.len()]);
         }
     }
 
@@ -971,6 +1025,26 @@ mod tests {
                 };
                 let want = c.eval_f32(&xs[2 * j..2 * j + 2], a, &mut one);
                 let got = block[c.results()[0] * BLOCK + j];
+                assert_eq!(got.to_bits(), want.to_bits(), "{arith:?} point {j}");
+            }
+        }
+    }
+
+    #[test]
+    fn many_points_match_one_at_a_time() {
+        let p = program(div(
+            add(mul(var("t"), lit(0.3)), sqrt(var("x"))),
+            sub(var("y"), lit(2.5)),
+        ));
+        let c = Compiled::new(&p, "f").unwrap();
+        let n = 2 * BLOCK + 13;
+        let xs: Vec<f32> = (0..2 * n).map(|i| 0.21 * i as f32 - 7.3).collect();
+        let (mut one, mut many) = (Vec::new(), Vec::new());
+        for arith in [Arith::Ieee, Arith::Fused, Arith::Gpu { seed: 77 }] {
+            let mut out = vec![f32::NAN; n];
+            c.eval_f32_points(&xs, arith, &mut out, &mut many);
+            for (j, got) in out.iter().enumerate() {
+                let want = c.eval_f32(&xs[2 * j..2 * j + 2], arith, &mut one);
                 assert_eq!(got.to_bits(), want.to_bits(), "{arith:?} point {j}");
             }
         }

@@ -10,6 +10,7 @@
 
 use crate::digest::sha256_hex;
 use exr::prelude::f16;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{Artifact, Emitter, Place, Unit};
@@ -172,6 +173,9 @@ impl Sampler {
     }
 }
 
+/// Table nodes per work item of [`compare`].
+const COMPARE_CHUNK: usize = 1 << 14;
+
 /// Errors of the LUT (f32 and f16 values, multilinear in f32) and of the emitted f32 fit
 /// (`function`, flattened as `compiled`, of `n_coefficients` coefficients) at every node of
 /// `reference` (a finer table of the same model and domain).
@@ -192,25 +196,46 @@ pub fn compare(
         ));
     }
     let (s32, s16) = (lut.sampler_f32(), lut.sampler_f16());
+    let values = reference.output(o);
+    // fixed chunks, each summed in order and the chunks combined in order: the same bits for
+    // any number of threads
+    let chunks: Vec<([crate::math::CompensatedSum; 3], [f64; 3])> = values
+        .par_chunks(COMPARE_CHUNK)
+        .enumerate()
+        .map(|(c, chunk)| {
+            let mut sums = [crate::math::CompensatedSum::default(); 3];
+            let mut maxes = [0.0f64; 3];
+            let mut x = vec![0.0; d];
+            let mut x32 = vec![0.0f32; d * chunk.len()];
+            for i in 0..chunk.len() {
+                reference.spec.point(c * COMPARE_CHUNK + i, &mut x);
+                for k in 0..d {
+                    x32[i * d + k] = x[k] as f32;
+                }
+            }
+            let mut fit32 = vec![0.0f32; chunk.len()];
+            compiled.eval_f32_points(&x32, super::ir::Arith::Ieee, &mut fit32, &mut Vec::new());
+            for (i, &y) in chunk.iter().enumerate() {
+                let p = &x32[i * d..(i + 1) * d];
+                let errs = [
+                    (s32.sample(p) as f64 - y).abs(),
+                    (s16.sample(p) as f64 - y).abs(),
+                    (fit32[i] as f64 - y).abs(),
+                ];
+                for k in 0..3 {
+                    sums[k].add(errs[k]);
+                    maxes[k] = maxes[k].max(errs[k]);
+                }
+            }
+            (sums, maxes)
+        })
+        .collect();
     let mut sums = [crate::math::CompensatedSum::default(); 3];
     let mut maxes = [0.0f64; 3];
-    let mut x = vec![0.0; d];
-    let mut x32 = vec![0.0f32; d];
-    let mut regs = Vec::new();
-    let values = reference.output(o);
-    for (cell, &y) in values.iter().enumerate() {
-        reference.spec.point(cell, &mut x);
-        for k in 0..d {
-            x32[k] = x[k] as f32;
-        }
-        let errs = [
-            (s32.sample(&x32) as f64 - y).abs(),
-            (s16.sample(&x32) as f64 - y).abs(),
-            (compiled.eval_f32(&x32, super::ir::Arith::Ieee, &mut regs) as f64 - y).abs(),
-        ];
-        for i in 0..3 {
-            sums[i].add(errs[i]);
-            maxes[i] = maxes[i].max(errs[i]);
+    for (s, m) in &chunks {
+        for k in 0..3 {
+            sums[k].add(s[k].value());
+            maxes[k] = maxes[k].max(m[k]);
         }
     }
     let n = values.len().max(1) as f64;

@@ -393,16 +393,21 @@ pub fn table_accuracy(
         .enumerate()
         .map(|(c, chunk)| {
             let mut acc = ChunkAccuracy::default();
-            let mut x = vec![0.0; d];
-            let mut x32 = vec![0.0f32; d];
-            let mut regs = Vec::new();
-            for (i, &y) in chunk.iter().enumerate() {
-                table.spec.point(c * ACCURACY_CHUNK + i, &mut x);
-                for k in 0..d {
-                    x32[k] = x[k] as f32;
-                }
-                let e64 = (record.fit.eval(&x).clamp(0.0, 1.0) - y).abs();
-                let e32 = (compiled.eval_f32(&x32, ir::Arith::Ieee, &mut regs) as f64 - y).abs();
+            let mut x = vec![0.0; d * chunk.len()];
+            let mut x32 = vec![0.0f32; d * chunk.len()];
+            for (i, p) in x.chunks_exact_mut(d.max(1)).enumerate() {
+                table.spec.point(c * ACCURACY_CHUNK + i, p);
+            }
+            for (a, &b) in x32.iter_mut().zip(&x) {
+                *a = b as f32;
+            }
+            let mut f64s = vec![0.0f64; chunk.len()];
+            record.fit.approximant.eval_many(d, &x, &mut f64s);
+            let mut f32s = vec![0.0f32; chunk.len()];
+            compiled.eval_f32_points(&x32, ir::Arith::Ieee, &mut f32s, &mut Vec::new());
+            for ((&y, &v64), &v32) in chunk.iter().zip(&f64s).zip(&f32s) {
+                let e64 = (v64.clamp(0.0, 1.0) - y).abs();
+                let e32 = (v32 as f64 - y).abs();
                 acc.s64.add(e64);
                 acc.s32.add(e32);
                 acc.m64 = acc.m64.max(e64);

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::generate::{
-    choose_form, condition, form_polynomials, form_variables, reference, EvalForm, FormChoice,
+    choose_form, condition, form_polynomials, form_variables, references, EvalForm, FormChoice,
 };
 use super::ir::{Arith, Compiled, Program, BLOCK};
 use crate::error::{Error, Result};
@@ -305,7 +305,7 @@ pub fn stress(fit: &FitResult, name: &str, opts: &StressOptions) -> Result<Stres
                 let b1 = (b0 + BLOCK).min(end);
                 let xs = &points[b0 * d..b1 * d];
                 let seeds: Vec<u64> = (b0..b1).map(|i| i as u64 ^ opts.seed).collect();
-                let refs: Vec<(f64, f64)> = xs.chunks_exact(d).map(|x| reference(fit, x)).collect();
+                let refs = references(fit, d, xs);
                 for &(_, raw) in &refs {
                     part.overshoot = part.overshoot.max(raw - 1.0).max(-raw);
                 }

@@ -375,6 +375,25 @@ impl Polynomial {
     /// coefficient order), so the values are the same to the bit; the loops run across a block
     /// of points, which vectorises.
     pub fn eval_many(&self, d: usize, ts: &[f64], out: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx2")]
+            unsafe fn wide(p: &Polynomial, d: usize, ts: &[f64], out: &mut [f64]) {
+                p.eval_many_impl(d, ts, out)
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2 (checked just above). Wider vectors do the same
+                // IEEE operations in the same order (nothing is fused or reassociated), so the
+                // bits do not depend on the path.
+                return unsafe { wide(self, d, ts, out) };
+            }
+        }
+        self.eval_many_impl(d, ts, out)
+    }
+
+    /// The body of [`Self::eval_many`], compiled once per instruction set.
+    #[inline(always)]
+    fn eval_many_impl(&self, d: usize, ts: &[f64], out: &mut [f64]) {
         const BLOCK: usize = 32;
         debug_assert_eq!(ts.len(), d * out.len());
         let deg = self.degree() as usize;

@@ -594,8 +594,29 @@ impl Approximant {
             tp.copy_from_slice(&t[..d]);
         }
         if self.is_structured() {
-            for (o, t) in out.iter_mut().zip(ts.chunks_exact(d)) {
-                *o = self.eval_terms(t);
+            // the operations of `eval_terms`, each across all points
+            let mut part = vec![0.0; out.len()];
+            self.numerator.eval_many(d, &ts, out);
+            if let Some(u) = &self.factor {
+                u.eval_many(d, &ts, &mut part);
+                out.iter_mut().zip(&part).for_each(|(o, u)| *o *= u);
+            }
+            if let Some(q) = &self.denominator {
+                q.eval_many(d, &ts, &mut part);
+                out.iter_mut().zip(&part).for_each(|(o, q)| *o /= q);
+            }
+            let mut den = vec![0.0; out.len()];
+            for term in &self.terms {
+                term.numerator.eval_many(d, &ts, &mut part);
+                if let Some(u) = &term.factor {
+                    u.eval_many(d, &ts, &mut den);
+                    part.iter_mut().zip(&den).for_each(|(v, u)| *v *= u);
+                }
+                if let Some(q) = &term.denominator {
+                    q.eval_many(d, &ts, &mut den);
+                    part.iter_mut().zip(&den).for_each(|(v, q)| *v /= q);
+                }
+                out.iter_mut().zip(&part).for_each(|(o, v)| *o += v);
             }
             return;
         }

@@ -454,10 +454,11 @@ fn log_sweep(name: &str, step: &FitStep, progress: &dyn Observer) {
     progress.line(&format!(
         "  {:<38} {}: {}",
         name,
-        if step.reused {
-            "reused (same table values and options)"
-        } else {
-            "fitted"
+        match step.seconds {
+            _ if step.reused => "reused (same table values and options)".to_string(),
+            Some((wall, Some(cpu))) => format!("fitted in {wall:.1} s (CPU {cpu:.1} s)"),
+            Some((wall, None)) => format!("fitted in {wall:.1} s"),
+            None => "fitted".to_string(),
         },
         best.join(", ")
     ));

@@ -454,13 +454,17 @@ fn log_sweep(name: &str, step: &FitStep, progress: &dyn Observer) {
     progress.line(&format!(
         "  {:<38} {}: {}",
         name,
-        match step.seconds {
-            _ if step.reused => "reused (same table values and options)".to_string(),
-            Some((wall, Some(cpu))) => format!("fitted in {wall:.1} s (CPU {cpu:.1} s)"),
-            Some((wall, None)) => format!("fitted in {wall:.1} s"),
-            None => "fitted".to_string(),
+        if step.reused {
+            "reused (same table values and options)"
+        } else {
+            "fitted"
         },
         best.join(", ")
+            + &match step.seconds {
+                Some((wall, Some(cpu))) => format!("; {wall:.1} s wall, {cpu:.1} s CPU"),
+                Some((wall, None)) => format!("; {wall:.1} s wall"),
+                None => String::new(),
+            }
     ));
     if let Some(n) = &step.note {
         progress.line(&format!("    {n}"));

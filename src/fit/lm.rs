@@ -797,6 +797,60 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     (s0 + s1) + (s2 + s3)
 }
 
+/// Rows of JᵀJ per matrix product in [`upper_gram`]: a multiple of the 8 rows of
+/// matrixmultiply's f64 micro-kernel.
+const GRAM_BLOCK_ROWS: usize = 24;
+
+/// Below this many rows or columns nalgebra's `gemm` does not call matrixmultiply (its
+/// `SMALL_DIM` is 5): [`upper_gram`] then takes the one full product, as every block must go
+/// through the same kernel for the sums to be the same bit for bit.
+const GRAM_MIN_DIM: usize = 6;
+
+/// The upper triangle of JᵀJ, packed row by row ((0,0), (0,1), …, (0,n−1), (1,1), …), for
+/// `jt` = Jᵀ (n × len) and `jv` = J (len × n).
+///
+/// Row block [a0, a1) of JᵀJ is needed only from column a0 on, so it is one product
+/// Jᵀ[a0..a1, :] · J[:, a0..n]: about (n + GRAM_BLOCK_ROWS)/(2n) of the full product's
+/// multiply-adds (58 % at n = 139). Each entry is the same sum as in the full product
+/// (matrixmultiply adds over the len rows in the same fixed order whatever the entry's place:
+/// kc-blocks in turn, one fused multiply-add per row within a block), so the result is the
+/// full product's bit for bit; `upper_gram_is_the_full_product_bit_for_bit` checks it.
+fn upper_gram(jt: &DMatrixView<'_, f64>, jv: &DMatrixView<'_, f64, Dyn, Dyn>) -> Vec<f64> {
+    let n = jt.nrows();
+    let len = jt.ncols();
+    let mut packed = Vec::with_capacity(n * (n + 1) / 2);
+    if n < 2 * GRAM_BLOCK_ROWS || len < GRAM_MIN_DIM {
+        let mut block = DMatrix::zeros(n, n);
+        block.gemm(1.0, jt, jv, 0.0);
+        for a in 0..n {
+            for b in a..n {
+                packed.push(block[(a, b)]);
+            }
+        }
+        return packed;
+    }
+    let mut a0 = 0;
+    while a0 < n {
+        // the last block takes a remainder too short for the kernel's path
+        let a1 = if n - a0 < GRAM_BLOCK_ROWS + GRAM_MIN_DIM {
+            n
+        } else {
+            a0 + GRAM_BLOCK_ROWS
+        };
+        let rows = jt.rows(a0, a1 - a0);
+        let cols = jv.columns(a0, n - a0);
+        let mut block = DMatrix::zeros(a1 - a0, n - a0);
+        block.gemm(1.0, &rows, &cols, 0.0);
+        for a in a0..a1 {
+            for b in a..n {
+                packed.push(block[(a - a0, b - a0)]);
+            }
+        }
+        a0 = a1;
+    }
+    packed
+}
+
 /// Per-chunk partial sums: packed upper JᵀJ, Jᵀr, Σr².
 struct Partial {
     jtj: Vec<f64>,
@@ -823,10 +877,9 @@ pub(crate) fn normal_equations<P: LeastSquaresProblem + ?Sized>(
                 if !problem.jacobian(p, rows, r, jac) {
                     return None;
                 }
-                // JᵀJ of the block by one blocked matrix product (matrixmultiply through
-                // nalgebra's gemm: single-threaded, fixed blocking → deterministic). The
-                // row-major block is Jᵀ in column-major (n × len), and J the same memory read
-                // with swapped strides, so nothing is copied.
+                // JᵀJ of the block: its upper triangle by blocked matrix products
+                // ([`upper_gram`]). The row-major block is Jᵀ in column-major (n × len), and J
+                // the same memory read with swapped strides, so nothing is copied.
                 let jt = DMatrixView::from_slice(jac, n, len);
                 let jv = DMatrixView::from_slice_with_strides_generic(
                     jac,
@@ -835,16 +888,9 @@ pub(crate) fn normal_equations<P: LeastSquaresProblem + ?Sized>(
                     Dyn(n),
                     Dyn(1),
                 );
-                let mut block = DMatrix::zeros(n, n);
-                block.gemm(1.0, &jt, &jv, 0.0);
+                let jtj = upper_gram(&jt, &jv);
                 let mut jtr_block = DVector::zeros(n);
                 jtr_block.gemv(1.0, &jt, &DVectorView::from_slice(r, len), 0.0);
-                let mut jtj = Vec::with_capacity(n * (n + 1) / 2);
-                for a in 0..n {
-                    for b in a..n {
-                        jtj.push(block[(a, b)]);
-                    }
-                }
                 let jtr = jtr_block.as_slice().to_vec();
                 Some(Partial {
                     jtj,
@@ -912,6 +958,74 @@ pub(crate) fn cost<P: LeastSquaresProblem + ?Sized>(problem: &P, p: &[f64]) -> O
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The full product's upper triangle, packed as [`upper_gram`] packs it.
+    fn full_gram(jac: &[f64], n: usize, len: usize) -> Vec<f64> {
+        let jt = DMatrixView::from_slice(jac, n, len);
+        let jv =
+            DMatrixView::from_slice_with_strides_generic(jac, Dyn(len), Dyn(n), Dyn(n), Dyn(1));
+        let mut block = DMatrix::zeros(n, n);
+        block.gemm(1.0, &jt, &jv, 0.0);
+        (0..n)
+            .flat_map(|a| (a..n).map(move |b| (a, b)))
+            .map(|(a, b)| block[(a, b)])
+            .collect()
+    }
+
+    #[test]
+    fn upper_gram_is_the_full_product_bit_for_bit() {
+        // values of mixed signs and magnitudes (a fixed linear congruential sequence), so
+        // that a different order of the additions would show in the last bits
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            let u = (state >> 11) as f64 / (1u64 << 53) as f64;
+            (u - 0.4) * 10f64.powi((state % 7) as i32 - 3)
+        };
+        let sizes = [
+            (139, 4096),
+            (160, 1000),
+            (48, 4096),
+            (49, 300),
+            (53, 6),
+            (77, 5),
+            (30, 4096),
+            (1, 10),
+        ];
+        for (n, len) in sizes {
+            let jac: Vec<f64> = (0..n * len).map(|_| next()).collect();
+            let jt = DMatrixView::from_slice(&jac, n, len);
+            let jv = DMatrixView::from_slice_with_strides_generic(
+                &jac,
+                Dyn(len),
+                Dyn(n),
+                Dyn(n),
+                Dyn(1),
+            );
+            let got = upper_gram(&jt, &jv);
+            let want = full_gram(&jac, n, len);
+            assert_eq!(got.len(), n * (n + 1) / 2);
+            let differ = got
+                .iter()
+                .zip(&want)
+                .filter(|(a, b)| a.to_bits() != b.to_bits())
+                .count();
+            assert_eq!(differ, 0, "n = {n}, len = {len}");
+            // and it is JᵀJ: one entry against a plain sum
+            let (a, b) = (n / 2, n - 1);
+            let terms = (0..len).map(|k| jac[k * n + a] * jac[k * n + b]);
+            let exact: f64 = terms.clone().sum();
+            let scale: f64 = terms.map(f64::abs).sum();
+            let idx = (0..a).map(|x| n - x).sum::<usize>() + (b - a);
+            assert!(
+                (got[idx] - exact).abs() <= 1e-12 * scale,
+                "{} vs {exact}",
+                got[idx]
+            );
+        }
+    }
 
     /// A one-variable model y ≈ f(x; b) with its gradient, as NIST StRD states them.
     struct Curve {

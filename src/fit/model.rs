@@ -267,14 +267,15 @@ impl Model {
         Some(all)
     }
 
-    /// Q at every point (rational only).
-    pub fn denominators(&self, data: &Prepared, p: &[f64]) -> Vec<f64> {
+    /// Q at every point (rational only). `cached`: a [`Model::basis_table`] of `data`, if
+    /// there is one (the same values as evaluating the basis again, read instead).
+    pub fn denominators(&self, data: &Prepared, cached: Option<&[f64]>, p: &[f64]) -> Vec<f64> {
         let mut table = vec![0.0; self.basis.table_len()];
-        let mut phi = vec![0.0; self.basis.len()];
+        let mut buf = vec![0.0; self.basis.len()];
         (0..data.len())
             .map(|i| {
-                self.basis.eval(data.point(i), &mut table, &mut phi);
-                self.pq(p, &phi).1
+                let phi = self.basis_at(data, cached, i, &mut table, &mut buf);
+                self.pq(p, phi).1
             })
             .collect()
     }
@@ -332,6 +333,9 @@ pub(crate) struct LinearisedRows<'a> {
     pub data: &'a Prepared,
     /// Extra per-point row weights (reweighting, Sanathanan–Koerner 1/|Q|).
     pub extra: Option<&'a [f64]>,
+    /// A [`Model::basis_table`] of `data`, if there is one: the rows read the basis values
+    /// from it instead of evaluating the Chebyshev recurrences again (the same values).
+    pub phi: Option<&'a [f64]>,
 }
 
 impl LinearRows for LinearisedRows<'_> {
@@ -345,9 +349,9 @@ impl LinearRows for LinearisedRows<'_> {
         let len = rows.len();
         let m = self.model;
         let mut table = vec![0.0; m.basis.table_len()];
-        let mut phi = vec![0.0; m.basis.len()];
+        let mut buf = vec![0.0; m.basis.len()];
         for (k, i) in rows.enumerate() {
-            m.basis.eval(self.data.point(i), &mut table, &mut phi);
+            let phi = m.basis_at(self.data, self.phi, i, &mut table, &mut buf);
             let v = self.data.w[i] * self.extra.map_or(1.0, |e| e[i]);
             let y = self.data.y[i];
             for j in 0..m.n_num {
@@ -512,9 +516,24 @@ mod tests {
         );
         // the row-major layout: ∂r_i/∂a_0 = T_0/Q = 1/Q at every point
         let (_, jac) = run(Some(&table));
-        let q = model.denominators(&prep, &p);
+        let q = model.denominators(&prep, None, &p);
+        assert_eq!(q, model.denominators(&prep, Some(&table), &p));
         for i in [0, 17, n - 1] {
             assert!((jac[i * np] - 1.0 / q[i]).abs() < 1e-15);
         }
+        // the linearised rows (Levy, Sanathanan–Koerner) read the same values from the cache
+        let extra: Vec<f64> = q.iter().map(|q| 1.0 / q.abs()).collect();
+        let fill = |phi: Option<&[f64]>| {
+            let rows = LinearisedRows {
+                model: &model,
+                data: &prep,
+                extra: Some(&extra),
+                phi,
+            };
+            let (mut a, mut b) = (vec![0.0; n * np], vec![0.0; n]);
+            rows.fill(0..n, &mut a, &mut b);
+            (a, b)
+        };
+        assert_eq!(fill(None), fill(Some(&table)));
     }
 }

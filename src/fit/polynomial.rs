@@ -34,7 +34,15 @@ pub(crate) fn solve_polynomial(
     extra: Option<&[f64]>,
     what: &str,
 ) -> Result<(Vec<f64>, f64)> {
-    let s = solve_lstsq(&LinearisedRows { model, data, extra }, what)?;
+    let s = solve_lstsq(
+        &LinearisedRows {
+            model,
+            data,
+            extra,
+            phi: None,
+        },
+        what,
+    )?;
     Ok((s.x, s.condition))
 }
 

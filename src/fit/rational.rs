@@ -93,10 +93,17 @@ impl Default for RationalOptions {
 fn linearised(
     model: &Model,
     data: &Prepared,
+    phi: Option<&[f64]>,
     extra: Option<&[f64]>,
     what: &str,
 ) -> Result<Vec<f64>> {
-    Ok(solve_lstsq(&LinearisedRows { model, data, extra }, what)?.x)
+    let rows = LinearisedRows {
+        model,
+        data,
+        extra,
+        phi,
+    };
+    Ok(solve_lstsq(&rows, what)?.x)
 }
 
 /// Converts an approximant to this model's Chebyshev parameters, or says why not.
@@ -232,14 +239,14 @@ pub(crate) fn fit_rational_model(
 
     // 1. starts
     let mut starts: Vec<(String, std::result::Result<Vec<f64>, String>)> = Vec::new();
-    let lin = linearised(model, ex, None, &label).map_err(|e| e.to_string());
+    let lin = linearised(model, ex, phi_ex, None, &label).map_err(|e| e.to_string());
     starts.push(("linearised".into(), lin.clone()));
     if let Ok(mut p) = lin {
         let mut ok = true;
         for _ in 0..opts.sk_iterations {
-            let q = model.denominators(ex, &p);
+            let q = model.denominators(ex, phi_ex, &p);
             let extra: Vec<f64> = q.iter().map(|q| 1.0 / q.abs().max(Q_FLOOR)).collect();
-            match linearised(model, ex, Some(&extra), &label) {
+            match linearised(model, ex, phi_ex, Some(&extra), &label) {
                 Ok(next) => p = next,
                 Err(e) => {
                     starts.push(("sanathanan_koerner".into(), Err(e.to_string())));

@@ -460,6 +460,11 @@ fn log_sweep(name: &str, step: &FitStep, progress: &dyn Observer) {
             "fitted"
         },
         best.join(", ")
+            + &match step.seconds {
+                Some((wall, Some(cpu))) => format!("; {wall:.1} s wall, {cpu:.1} s CPU"),
+                Some((wall, None)) => format!("; {wall:.1} s wall"),
+                None => String::new(),
+            }
     ));
     if let Some(n) = &step.note {
         progress.line(&format!("    {n}"));

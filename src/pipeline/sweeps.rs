@@ -28,6 +28,9 @@ pub struct FitStep {
     pub files: Vec<PathBuf>,
     /// Fits not usable or skipped, if any.
     pub note: Option<String>,
+    /// Wall and CPU seconds of the sweep (fits, their metrics, the best fits' stress tests and
+    /// the files; None when reused): for the terminal only, never written under `fits/`.
+    pub seconds: Option<(f64, Option<f64>)>,
 }
 
 /// The headline errors of a `best-<N>.json` (off-grid when measured, see [`FitRecord::headline`]).
@@ -212,6 +215,7 @@ pub fn sweep_or_reuse(
                 check: Some(check),
                 files,
                 note: None,
+                seconds: None,
             });
         }
     }
@@ -286,6 +290,7 @@ pub fn sweep_or_reuse(
         check: Some(check),
         files,
         note,
+        seconds: Some((clock.wall_seconds(), clock.cpu_seconds())),
     })
 }
 

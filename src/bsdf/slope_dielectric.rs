@@ -146,11 +146,8 @@ impl Kink {
 /// The η-independent part of the integrand at one node ([`SlopeDielectric::node`]).
 #[derive(Clone, Copy, Default)]
 struct Node {
-    /// Measure × projected area × the Smith form's constant, but for the measure's
-    /// denominator `jden` (cosh³ s in the s part, (1 + α²u²)² in the u part), which joins each
-    /// channel's one division (one division per node fewer).
+    /// Measure × projected area × the Smith form's constant.
     base: f64,
-    jden: f64,
     d2: f64,
     g: f64,
     /// Numerator of μi and the reflection masking weight's denominator.
@@ -303,14 +300,14 @@ impl SlopeDielectric {
         // the measure and projected area, and the line's polynomials, either in ρ (s part) or
         // multiplied by u² (u part; every weight is homogeneous in them); `u_t` puts √Q on the
         // scale of A in the transmitted z (u in the u part, 1 in the s part)
-        let (jnum, jden, d2, g, n, a, c_rest, c_w, u_t) = if PART == 2 {
+        let (jac, d2, g, n, a, c_rest, c_w, u_t) = if PART == 2 {
             let u = line.u_tail - (v - line.s_end);
             let au2 = 1.0 + alpha2 * u * u;
             let g = mu_o * u - sc;
             let n = (u - h.u_max) * (h.k_prime + mu_o * u);
             let a = -(sc * u + mu_o);
             let c_rest = mu_o * (mu_o + 2.0 * sc * u);
-            (alpha2, au2 * au2, 1.0 + u * u, g, n, a, c_rest, u * u, u)
+            (alpha2 / (au2 * au2), 1.0 + u * u, g, n, a, c_rest, u * u, u)
         } else {
             let e = exp_poly(v);
             let inv = 1.0 / e;
@@ -324,8 +321,7 @@ impl SlopeDielectric {
             let a = -rho * (sc + mu_o * rho);
             let c_rest = rho * (2.0 * mu_o * sc + mu_o * mu_o * rho);
             (
-                sinh,
-                cosh * cosh * cosh,
+                sinh / (cosh * cosh * cosh),
                 1.0 + rho * rho,
                 mu_o - sc * rho,
                 n,
@@ -337,8 +333,7 @@ impl SlopeDielectric {
         };
         let a_d = (n * n * (1.0 - alpha2) + alpha2 * d2 * d2).max(0.0).sqrt();
         Node {
-            base: scale * jnum * g,
-            jden,
+            base: scale * jac * g,
             d2,
             g,
             n,
@@ -377,7 +372,7 @@ impl SlopeDielectric {
         };
         if reflect {
             let num = if deficit { num_t } else { num_r };
-            let r = nd.base * 2.0 * nd.n * num / (nd.jden * nd.den_r * den_f);
+            let r = nd.base * 2.0 * nd.n * num / (nd.den_r * den_f);
             y[0] = if nd.n > 0.0 { r } else { 0.0 };
         }
         if transmit {
@@ -391,7 +386,7 @@ impl SlopeDielectric {
             let e = eta * d2 * dm;
             let a_t = (m * m * (1.0 - alpha2) + alpha2 * e * e).max(0.0).sqrt();
             let den = m * self.p + self.q * a_t;
-            let t = nd.base * 2.0 * m * num_t / (nd.jden * den * den_f);
+            let t = nd.base * 2.0 * m * num_t / (den * den_f);
             y[1] = if m > 0.0 { t } else { 0.0 };
         }
         y

@@ -36,7 +36,7 @@ pub(crate) type CellResult = ([f64; MAX_OUTPUTS], f64, usize, bool);
 
 /// Bumped whenever a change to the engine can change a table value: it is hashed into every
 /// cache key, so stale tables are recomputed rather than trusted.
-pub const ENGINE_VERSION: u32 = 8;
+pub const ENGINE_VERSION: u32 = 6;
 
 /// Refuse tables whose values and error estimates would need more memory than this.
 pub const MAX_TABLE_BYTES: u128 = 8 << 30;

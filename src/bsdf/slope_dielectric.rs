@@ -919,16 +919,19 @@ impl SlopeDielectric {
                 let first = sb[0];
                 let first_delta = if ns > 1 {
                     // a neighbour's singularities are near too
-                    let mut d = first.delta();
+                    // (the smallest squared distance, then one square root: the bits of the
+                    // smallest distance, a correctly rounded square root being monotone)
+                    let mut d2 = f64::INFINITY;
                     for b in &sb[1..ns] {
                         let own = if b.sqrt_below || b.sqrt_above {
                             0.0
                         } else {
                             b.delta()
                         };
-                        d = d.min(hyp(b.x - first.x, own));
+                        let dx = b.x - first.x;
+                        d2 = d2.min(dx * dx + own * own);
                     }
-                    d.max(MIN_DELTA)
+                    first.delta().min(d2.sqrt()).max(MIN_DELTA)
                 } else {
                     first.delta()
                 };

@@ -202,13 +202,17 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
         };
     }
     for (k, b) in merged.iter_mut().enumerate() {
-        let mut near = f64::INFINITY;
+        // the smallest squared distance, then one square root: the same bits as the smallest
+        // of the distances (a correctly rounded square root is monotone), with one square root
+        // per break instead of one per pair
+        let mut near2 = f64::INFINITY;
         for (j, &(x, below, above)) in own.iter().enumerate() {
             let d = if x < b.x { above } else { below };
             if j != k && d.is_finite() {
-                near = near.min(((x - b.x) * (x - b.x) + d * d).sqrt());
+                near2 = near2.min((x - b.x) * (x - b.x) + d * d);
             }
         }
+        let near = near2.sqrt();
         b.delta_below = b.delta_below.min(near).max(MIN_DELTA);
         b.delta_above = b.delta_above.min(near).max(MIN_DELTA);
     }

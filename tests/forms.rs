@@ -207,6 +207,33 @@ fn low_rank_round_trips() {
 }
 
 #[test]
+fn low_rank_in_the_log_corrected_layer_round_trips() {
+    // the default 3-D sweep's 40-coefficient separation in glayer:r:k:0:1:β
+    let dir = scratch("lowrank-log");
+    let (k, beta) = furnace::fit::defaults::LOG_LAYER_LOWRANK;
+    let path = round_trip(
+        &dir,
+        "ggx-dielectric",
+        "6x8x8",
+        "lowrank:f0:2:2:2/1",
+        &format!("f0=root:4:0.0125:0.25,r=square,mu=glayer:r:{k}:0:1:{beta}"),
+    );
+    let fit = fitfile::load(&path).unwrap().record.fit;
+    assert_eq!(fit.n_coefficients, 2 * (3 + 6 + 2));
+    assert_eq!(
+        fit.approximant.transforms[2],
+        furnace::fit::InputTransform::GrazingLayer {
+            by: 1,
+            k,
+            w: 0.0,
+            root: 1,
+            beta
+        }
+    );
+    assert!(fit.metrics.max_abs_error < 0.1, "{:?}", fit.metrics);
+}
+
+#[test]
 fn split_form_in_the_critical_angle_variable_round_trips() {
     let dir = scratch("critical");
     let path = round_trip(

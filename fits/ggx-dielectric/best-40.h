@@ -27,17 +27,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 5f6cd466e36c1f6bc29d158ced8bf34552025a81c14f6431e9d942f59d741eec.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.2e-6, shifted 7.5e-6, bernstein 4.1e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 2.64e-3, max 1.93e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.57e-6 (every op rounded, as this Rust), 3.02e-6 (fused multiply-add), 5.89e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.32e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 3673 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.40e-3, max 1.93e-2; this f32 code MAE 2.40e-3, max 1.93e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-// Denominator proved >= 2.380e-1 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 c05b4b67253665fa62e7f29454d329d300f6fa38795fa7da6a8bd11ea504c31b.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-6, shifted 5.8e-6, bernstein 6.0e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 3.04e-3, max 1.14e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.18e-6 (every op rounded, as this Rust), 3.00e-6 (fused multiply-add), 6.90e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.31e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 195 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.72e-3, max 1.14e-2; this f32 code MAE 2.72e-3, max 1.14e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.7e-3 on the measurement grid.
+// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -47,84 +47,41 @@ FURNACE_FN float ggx_dielectric_albedo(float f0, float r, float mu) {
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
-    const float r_b4_v = 1.0f - r_t;
-    const float r_b4_u2 = r_t * r_t;
-    const float r_b4_v2 = r_b4_v * r_b4_v;
-    const float r_b4_u3 = r_b4_u2 * r_t;
-    const float r_b4_v3 = r_b4_v2 * r_b4_v;
-    const float r_b4_u4 = r_b4_u3 * r_t;
-    const float r_b4_v4 = r_b4_v3 * r_b4_v;
-    const float r_b4_b1 = r_t * r_b4_v3;
-    const float r_b4_b2 = r_b4_u2 * r_b4_v2;
-    const float r_b4_b3 = r_b4_u3 * r_b4_v;
-    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
-    const float mu_b4_v = 1.0f - mu_u;
-    const float mu_b4_u2 = mu_u * mu_u;
-    const float mu_b4_v2 = mu_b4_v * mu_b4_v;
-    const float mu_b4_u3 = mu_b4_u2 * mu_u;
-    const float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
-    const float mu_b4_u4 = mu_b4_u3 * mu_u;
-    const float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
-    const float mu_b4_b1 = mu_u * mu_b4_v3;
-    const float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
-    const float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    const float p0_0_0 = 0.79537183f * mu_b4_v4 + 2.8126645f * mu_b4_b1 + 1.9054898f * mu_b4_b2 + 1.4149513f * mu_b4_b3 + 0.17969841f * mu_b4_u4;
-    const float p0_0_1 = 4.8369436f * mu_b4_v4 + 13.157804f * mu_b4_b1 + 11.957377f * mu_b4_b2 + 11.240974f * mu_b4_b3 + 2.2162337f * mu_b4_u4;
-    const float p0_0_2 = 8.569919f * mu_b4_v4 + 10.509911f * mu_b4_b1 + 5.5242977f * mu_b4_b2 + 18.991234f * mu_b4_b3 + 7.324595f * mu_b4_u4;
-    const float p0_0_3 = 6.527018f * mu_b4_v4 - 4.258104f * mu_b4_b1 - 12.666245f * mu_b4_b2 + 13.021634f * mu_b4_b3 + 9.514535f * mu_b4_u4;
-    const float p0_0_4 = 2.3895764f * mu_b4_v4 - 2.8592558f * mu_b4_b1 - 5.7932262f * mu_b4_b2 + 5.420042f * mu_b4_b3 + 4.61738f * mu_b4_u4;
-    const float p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
-    const float p0 = p0_0 * 1.0f;
-    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
-    const float f0_b2_v = 1.0f - f0_t;
-    const float f0_b2_u2 = f0_t * f0_t;
-    const float f0_b2_v2 = f0_b2_v * f0_b2_v;
-    const float f0_b2_b1 = f0_t * f0_b2_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    const float u0_0_0 = 3.5971122f * 1.0f;
-    const float u0_0 = u0_0_0 * 1.0f;
-    const float u0_1_0 = 7.5722275f * 1.0f;
-    const float u0_1 = u0_1_0 * 1.0f;
-    const float u0_2_0 = 3.881835f * 1.0f;
-    const float u0_2 = u0_2_0 * 1.0f;
-    const float u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
-    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
-    const float r_b1_v = 1.0f - r_t;
-    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
-    const float mu_b1_v = 1.0f - mu_u;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q0_0_0 = 1.0f * mu_b1_v + 0.2380123f * mu_u;
-    const float q0_0_1 = 2.8310204f * mu_b1_v + 2.0690327f * mu_u;
-    const float q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
-    const float q0 = q0_0 * 1.0f;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    const float mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(fmaxf(mu_c, 5.421011e-20f)))));
+    const float mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0f + mu_c))));
+    const float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    const float mu_t = (mu_logv * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 2.0f * (r_c * r_c) + 7.888609e-31f);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float f0_s = f0_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float r_s = r_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float mu_s = mu_t * 2.0f - 1.0f;
+    // term 0: numerator P_0, grouped by powers of the first variable
+    const float p0_0 = (((-0.09554119f * r_s + (0.1353469f * mu_s - 0.30908543f)) * r_s + ((-1.8631829f * mu_s - 1.0992597f) * mu_s + 0.38005334f)) * r_s + (((0.3388636f * mu_s - 5.1723647f) * mu_s - 4.0884924f) * mu_s + 1.4514378f)) * r_s + ((((0.30419737f * mu_s + 0.6414591f) * mu_s - 3.7907739f) * mu_s - 3.5768266f) * mu_s - 0.064079f);
+    const float p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    const float u0_0 = 2.5602138f;
+    const float u0_1 = 0.09174656f;
+    const float u0_2 = -0.012021045f;
+    const float u0 = (u0_2 * f0_s + u0_1) * f0_s + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    const float q0_0 = 1.1014322f * r_s + (1.0746762f * mu_s + 3.1761084f);
+    const float q0 = q0_0;
     const float e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    const float p1_0_0 = 0.15636645f * mu_b4_v4 + 0.64878565f * mu_b4_b1 + 0.405669f * mu_b4_b2 + 0.4777837f * mu_b4_b3 + 0.08716713f * mu_b4_u4;
-    const float p1_0_1 = 1.0898695f * mu_b4_v4 + 3.0298972f * mu_b4_b1 + 2.1930914f * mu_b4_b2 + 2.970196f * mu_b4_b3 + 0.807665f * mu_b4_u4;
-    const float p1_0_2 = 1.9283696f * mu_b4_v4 + 0.6763599f * mu_b4_b1 - 2.872595f * mu_b4_b2 + 3.957867f * mu_b4_b3 + 2.7142515f * mu_b4_u4;
-    const float p1_0_3 = 1.4307404f * mu_b4_v4 - 4.161022f * mu_b4_b1 - 9.06823f * mu_b4_b2 + 2.1135519f * mu_b4_b3 + 3.6805522f * mu_b4_u4;
-    const float p1_0_4 = 0.59722763f * mu_b4_v4 - 1.8108547f * mu_b4_b1 - 3.440089f * mu_b4_b2 + 1.2935128f * mu_b4_b3 + 1.8481525f * mu_b4_u4;
-    const float p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
-    const float p1 = p1_0 * 1.0f;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    const float u1_0_0 = -11.889888f * 1.0f;
-    const float u1_0 = u1_0_0 * 1.0f;
-    const float u1_1_0 = -25.5496f * 1.0f;
-    const float u1_1 = u1_1_0 * 1.0f;
-    const float u1_2_0 = -13.346641f * 1.0f;
-    const float u1_2 = u1_2_0 * 1.0f;
-    const float u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q1_0_0 = 1.0f * mu_b1_v + 0.60214263f * mu_u;
-    const float q1_0_1 = 3.5059137f * mu_b1_v + 3.1080563f * mu_u;
-    const float q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
-    const float q1 = q1_0 * 1.0f;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    const float p1_0 = (((-0.018298283f * r_s + (0.02393504f * mu_s - 0.069359004f)) * r_s + ((-0.40475044f * mu_s - 0.24097943f) * mu_s + 0.10708883f)) * r_s + (((0.035214674f * mu_s - 1.0775529f) * mu_s - 0.773708f) * mu_s + 0.2254874f)) * r_s + ((((0.07617214f * mu_s + 0.08581665f) * mu_s - 0.7838853f) * mu_s - 0.75506926f) * mu_s - 0.20979553f);
+    const float p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    const float u1_0 = -23.577793f;
+    const float u1_1 = -0.4749569f;
+    const float u1_2 = 0.13565488f;
+    const float u1 = (u1_2 * f0_s + u1_1) * f0_s + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    const float q1_0 = 2.3353486f * r_s + (2.1770558f * mu_s + 5.5124044f);
+    const float q1 = q1_0;
     const float e1 = p1 * u1 / q1;
     // the sum of the 2 terms
     const float e = e0 + e1;

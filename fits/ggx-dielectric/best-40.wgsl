@@ -11,17 +11,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 5f6cd466e36c1f6bc29d158ced8bf34552025a81c14f6431e9d942f59d741eec.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.2e-6, shifted 7.5e-6, bernstein 4.1e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 2.64e-3, max 1.93e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.57e-6 (every op rounded, as this Rust), 3.02e-6 (fused multiply-add), 5.89e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.32e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 3673 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.40e-3, max 1.93e-2; this f32 code MAE 2.40e-3, max 1.93e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-// Denominator proved >= 2.380e-1 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 c05b4b67253665fa62e7f29454d329d300f6fa38795fa7da6a8bd11ea504c31b.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-6, shifted 5.8e-6, bernstein 6.0e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 3.04e-3, max 1.14e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.18e-6 (every op rounded, as this Rust), 3.00e-6 (fused multiply-add), 6.90e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.31e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 195 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.72e-3, max 1.14e-2; this f32 code MAE 2.72e-3, max 1.14e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.7e-3 on the measurement grid.
+// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -31,84 +31,41 @@ fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    let mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    let mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
-    let r_b4_v = 1.0 - r_t;
-    let r_b4_u2 = r_t * r_t;
-    let r_b4_v2 = r_b4_v * r_b4_v;
-    let r_b4_u3 = r_b4_u2 * r_t;
-    let r_b4_v3 = r_b4_v2 * r_b4_v;
-    let r_b4_u4 = r_b4_u3 * r_t;
-    let r_b4_v4 = r_b4_v3 * r_b4_v;
-    let r_b4_b1 = r_t * r_b4_v3;
-    let r_b4_b2 = r_b4_u2 * r_b4_v2;
-    let r_b4_b3 = r_b4_u3 * r_b4_v;
-    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
-    let mu_b4_v = 1.0 - mu_u;
-    let mu_b4_u2 = mu_u * mu_u;
-    let mu_b4_v2 = mu_b4_v * mu_b4_v;
-    let mu_b4_u3 = mu_b4_u2 * mu_u;
-    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
-    let mu_b4_u4 = mu_b4_u3 * mu_u;
-    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
-    let mu_b4_b1 = mu_u * mu_b4_v3;
-    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
-    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.79537183 * mu_b4_v4 + 2.8126645 * mu_b4_b1 + 1.9054898 * mu_b4_b2 + 1.4149513 * mu_b4_b3 + 0.17969841 * mu_b4_u4;
-    let p0_0_1 = 4.8369436 * mu_b4_v4 + 13.157804 * mu_b4_b1 + 11.957377 * mu_b4_b2 + 11.240974 * mu_b4_b3 + 2.2162337 * mu_b4_u4;
-    let p0_0_2 = 8.569919 * mu_b4_v4 + 10.509911 * mu_b4_b1 + 5.5242977 * mu_b4_b2 + 18.991234 * mu_b4_b3 + 7.324595 * mu_b4_u4;
-    let p0_0_3 = 6.527018 * mu_b4_v4 - 4.258104 * mu_b4_b1 - 12.666245 * mu_b4_b2 + 13.021634 * mu_b4_b3 + 9.514535 * mu_b4_u4;
-    let p0_0_4 = 2.3895764 * mu_b4_v4 - 2.8592558 * mu_b4_b1 - 5.7932262 * mu_b4_b2 + 5.420042 * mu_b4_b3 + 4.61738 * mu_b4_u4;
-    let p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
-    let p0 = p0_0 * 1.0;
-    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
-    let f0_b2_v = 1.0 - f0_t;
-    let f0_b2_u2 = f0_t * f0_t;
-    let f0_b2_v2 = f0_b2_v * f0_b2_v;
-    let f0_b2_b1 = f0_t * f0_b2_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 3.5971122 * 1.0;
-    let u0_0 = u0_0_0 * 1.0;
-    let u0_1_0 = 7.5722275 * 1.0;
-    let u0_1 = u0_1_0 * 1.0;
-    let u0_2_0 = 3.881835 * 1.0;
-    let u0_2 = u0_2_0 * 1.0;
-    let u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
-    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
-    let r_b1_v = 1.0 - r_t;
-    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
-    let mu_b1_v = 1.0 - mu_u;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0 * mu_b1_v + 0.2380123 * mu_u;
-    let q0_0_1 = 2.8310204 * mu_b1_v + 2.0690327 * mu_u;
-    let q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
-    let q0 = q0_0 * 1.0;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    let mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
+    let mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
+    let mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 2.0 * (r_c * r_c) + 7.888609e-31);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let f0_s = f0_t * 2.0 - 1.0;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let r_s = r_t * 2.0 - 1.0;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let mu_s = mu_t * 2.0 - 1.0;
+    // term 0: numerator P_0, grouped by powers of the first variable
+    let p0_0 = (((-0.09554119 * r_s + (0.1353469 * mu_s - 0.30908543)) * r_s + ((-1.8631829 * mu_s - 1.0992597) * mu_s + 0.38005334)) * r_s + (((0.3388636 * mu_s - 5.1723647) * mu_s - 4.0884924) * mu_s + 1.4514378)) * r_s + ((((0.30419737 * mu_s + 0.6414591) * mu_s - 3.7907739) * mu_s - 3.5768266) * mu_s - 0.064079);
+    let p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    let u0_0 = 2.5602138;
+    let u0_1 = 0.09174656;
+    let u0_2 = -0.012021045;
+    let u0 = (u0_2 * f0_s + u0_1) * f0_s + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    let q0_0 = 1.1014322 * r_s + (1.0746762 * mu_s + 3.1761084);
+    let q0 = q0_0;
     let e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.15636645 * mu_b4_v4 + 0.64878565 * mu_b4_b1 + 0.405669 * mu_b4_b2 + 0.4777837 * mu_b4_b3 + 0.08716713 * mu_b4_u4;
-    let p1_0_1 = 1.0898695 * mu_b4_v4 + 3.0298972 * mu_b4_b1 + 2.1930914 * mu_b4_b2 + 2.970196 * mu_b4_b3 + 0.807665 * mu_b4_u4;
-    let p1_0_2 = 1.9283696 * mu_b4_v4 + 0.6763599 * mu_b4_b1 - 2.872595 * mu_b4_b2 + 3.957867 * mu_b4_b3 + 2.7142515 * mu_b4_u4;
-    let p1_0_3 = 1.4307404 * mu_b4_v4 - 4.161022 * mu_b4_b1 - 9.06823 * mu_b4_b2 + 2.1135519 * mu_b4_b3 + 3.6805522 * mu_b4_u4;
-    let p1_0_4 = 0.59722763 * mu_b4_v4 - 1.8108547 * mu_b4_b1 - 3.440089 * mu_b4_b2 + 1.2935128 * mu_b4_b3 + 1.8481525 * mu_b4_u4;
-    let p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
-    let p1 = p1_0 * 1.0;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = -11.889888 * 1.0;
-    let u1_0 = u1_0_0 * 1.0;
-    let u1_1_0 = -25.5496 * 1.0;
-    let u1_1 = u1_1_0 * 1.0;
-    let u1_2_0 = -13.346641 * 1.0;
-    let u1_2 = u1_2_0 * 1.0;
-    let u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0 * mu_b1_v + 0.60214263 * mu_u;
-    let q1_0_1 = 3.5059137 * mu_b1_v + 3.1080563 * mu_u;
-    let q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
-    let q1 = q1_0 * 1.0;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    let p1_0 = (((-0.018298283 * r_s + (0.02393504 * mu_s - 0.069359004)) * r_s + ((-0.40475044 * mu_s - 0.24097943) * mu_s + 0.10708883)) * r_s + (((0.035214674 * mu_s - 1.0775529) * mu_s - 0.773708) * mu_s + 0.2254874)) * r_s + ((((0.07617214 * mu_s + 0.08581665) * mu_s - 0.7838853) * mu_s - 0.75506926) * mu_s - 0.20979553);
+    let p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    let u1_0 = -23.577793;
+    let u1_1 = -0.4749569;
+    let u1_2 = 0.13565488;
+    let u1 = (u1_2 * f0_s + u1_1) * f0_s + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    let q1_0 = 2.3353486 * r_s + (2.1770558 * mu_s + 5.5124044);
+    let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // the sum of the 2 terms
     let e = e0 + e1;

@@ -1410,14 +1410,21 @@ impl F32Accuracy {
     }
 }
 
+/// x clamped to the fit's domain into `out` (a coordinate without a domain interval gives 0).
+fn clamp_to_domain(fit: &FitResult, x: impl Iterator<Item = f64>, out: &mut [f64]) {
+    out.fill(0.0);
+    for ((o, v), &(lo, hi)) in out.iter_mut().zip(x).zip(&fit.approximant.domain) {
+        *o = v.clamp(lo, hi);
+    }
+}
+
 /// The function every emitted albedo computes, in f64: the fit at the input clamped to its
 /// domain, clamped to [0, 1]. Also returns the value before the output clamp.
 pub fn clamped(fit: &FitResult, x: &[f64]) -> (f64, f64) {
     let mut buf = [0.0f64; crate::fit::data::MAX_DIM];
-    for (k, (&v, &(lo, hi))) in x.iter().zip(&fit.approximant.domain).enumerate() {
-        buf[k] = v.clamp(lo, hi);
-    }
-    let raw = fit.eval(&buf[..x.len()]);
+    let buf = &mut buf[..x.len()];
+    clamp_to_domain(fit, x.iter().copied(), buf);
+    let raw = fit.eval(buf);
     (raw.clamp(0.0, 1.0), raw)
 }
 
@@ -1433,18 +1440,12 @@ pub fn reference(fit: &FitResult, x: &[f32]) -> (f64, f64) {
 /// [`reference`] at every point of `xs` (row-major f32 coordinates, `d` per point), evaluated a
 /// block at a time: the same bits as point by point.
 pub fn references(fit: &FitResult, d: usize, xs: &[f32]) -> Vec<(f64, f64)> {
-    let domain = &fit.approximant.domain;
     let mut buf = vec![0.0f64; xs.len()];
     for (p, x) in buf
         .chunks_exact_mut(d.max(1))
         .zip(xs.chunks_exact(d.max(1)))
     {
-        for (k, (b, &v)) in p.iter_mut().zip(x).enumerate() {
-            *b = match domain.get(k) {
-                Some(&(lo, hi)) => (v as f64).clamp(lo, hi),
-                None => v as f64,
-            };
-        }
+        clamp_to_domain(fit, x.iter().map(|&v| v as f64), p);
     }
     let mut raw = vec![0.0; xs.len() / d.max(1)];
     fit.approximant.eval_many(d, &buf, &mut raw);

@@ -52,6 +52,9 @@ pub struct AnisoSlopeIntegrand {
     g1_o_over_mu_o: f64,
     /// Start of the outer range [chi0, chi0 + 2π], midway between branch points.
     chi0: f64,
+    /// The outer panels ([`Self::find_outer_panels`]), found once for every order the cell's
+    /// estimate integrates at.
+    outer: Vec<Panel>,
 }
 
 /// Per-line data of [`AnisoSlopeIntegrand`].
@@ -96,9 +99,31 @@ impl AnisoSlopeIntegrand {
             a_o,
             g1_o_over_mu_o: 2.0 / (mu_o + a_o),
             chi0: 0.0,
+            outer: Vec::new(),
         };
         f.chi0 = f.branch_points().map_or(0.0, |(re, _)| re + FRAC_PI_2);
+        let mut outer = Vec::with_capacity(8);
+        f.find_outer_panels(&mut outer);
+        f.outer = outer;
         f
+    }
+
+    /// χ ∈ [χ0, χ0 + 2π] with the branch points of ρmax at χ0 + π/2 and χ0 + 3π/2, each a
+    /// near-singular break at the distance of its imaginary part, and the masking breaks.
+    fn find_outer_panels(&self, out: &mut Vec<Panel>) {
+        let c0 = self.chi0;
+        let delta = self
+            .branch_points()
+            .map_or(f64::INFINITY, |(_, im)| im)
+            .max(crate::quadrature::MIN_DELTA);
+        let mut breaks = vec![
+            Break::regular(c0),
+            Break::near_singular(c0 + FRAC_PI_2, delta),
+            Break::near_singular(c0 + 1.5 * PI, delta),
+            Break::regular(c0 + 2.0 * PI),
+        ];
+        self.masking_breaks(&mut breaks);
+        panels_from_breaks(&mut breaks, out);
     }
 
     /// The branch points of ρmax(χ), where g² + μo²A = 0: as a quadratic form in
@@ -176,7 +201,8 @@ impl AnisoSlopeIntegrand {
         let mut prev: Option<(f64, f64)> = None;
         for k in 0..=SCAN {
             let chi = c0 + step * k as f64;
-            let here = azimuth(chi).map(|(x, y)| (chi, x / x.hypot(y)));
+            // only the sign of ωi's component along the rougher axis is compared
+            let here = azimuth(chi).map(|(x, _)| (chi, x));
             if let (Some((c_lo, f_lo)), Some((c_hi, f_hi))) = (prev, here) {
                 if (f_lo > 0.0) != (f_hi > 0.0) {
                     let (mut lo, mut hi) = (c_lo, c_hi);
@@ -345,22 +371,9 @@ impl Integrand2D for AnisoSlopeIntegrand {
         line
     }
 
-    /// χ ∈ [χ0, χ0 + 2π] with the branch points of ρmax at χ0 + π/2 and χ0 + 3π/2, each a
-    /// near-singular break at the distance of its imaginary part.
+    /// The panels [`AnisoSlopeIntegrand::conductor`] found ([`AnisoSlopeIntegrand::find_outer_panels`]).
     fn outer_panels(&self, out: &mut Vec<Panel>) {
-        let c0 = self.chi0;
-        let delta = self
-            .branch_points()
-            .map_or(f64::INFINITY, |(_, im)| im)
-            .max(crate::quadrature::MIN_DELTA);
-        let mut breaks = vec![
-            Break::regular(c0),
-            Break::near_singular(c0 + FRAC_PI_2, delta),
-            Break::near_singular(c0 + 1.5 * PI, delta),
-            Break::regular(c0 + 2.0 * PI),
-        ];
-        self.masking_breaks(&mut breaks);
-        panels_from_breaks(&mut breaks, out);
+        out.extend_from_slice(&self.outer);
     }
 
     fn line_panels(&self, chi: f64, out: &mut Vec<Panel>) -> AnisoLine {

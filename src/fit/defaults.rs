@@ -144,6 +144,7 @@ pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<Inp
             phi,
             k: PROJECTED_LAYER_SCALE,
             root: 2,
+            beta: 0.0,
         };
         t[phi] = InputTransform::SinSquared;
     }
@@ -482,7 +483,8 @@ mod tests {
                     aniso: 1,
                     phi: 3,
                     k: PROJECTED_LAYER_SCALE,
-                    root: 2
+                    root: 2,
+                    beta: 0.0
                 },
                 InputTransform::SinSquared
             ]

@@ -112,7 +112,8 @@ fn top_degree(form: &Form) -> u32 {
 /// ([`InputTransform::RootNormalize`]) for a variable `f0` whose domain starts at ≥ 0. In 4-D
 /// with variables `aniso` and `phi` (anisotropic GGX), the layer of μ is scaled by the
 /// projected roughness instead ([`InputTransform::ProjectedLayer`], k =
-/// [`PROJECTED_LAYER_SCALE`], n = 2, log term β = [`PROJECTED_LAYER_BETA`]) and φ becomes α_o/α_t, the projected roughness relative
+/// [`PROJECTED_LAYER_SCALE`], n = 2, no log term: β = 3 wins only for the rational 4/4, not at
+/// 69, 74 or 150 coefficients, docs/anisotropy.md, "Fits") and φ becomes α_o/α_t, the projected roughness relative
 /// to the tangent's ([`InputTransform::ProjectedRatio`]).
 /// None for data without variables `r` and `mu` (r before mu, both within [0, 1]).
 pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<InputTransform>> {
@@ -145,7 +146,7 @@ pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<Inp
             phi,
             k: PROJECTED_LAYER_SCALE,
             root: 2,
-            beta: PROJECTED_LAYER_BETA,
+            beta: 0.0,
         };
         t[phi] = InputTransform::ProjectedRatio { aniso };
     }
@@ -165,14 +166,6 @@ pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<Inp
 /// against 8.2e-2 (MAE 7.1e-3) with the isotropic layer √L(μ; r²) and φ untransformed
 /// (docs/anisotropy.md, "Fits").
 pub const PROJECTED_LAYER_SCALE: f64 = 2.0;
-
-/// β of the log term of the projected layer ([`physics_transforms`]; b = β α_o², the isotropic
-/// layer's β α² at the projected roughness). Measured minimax on the layer-resolving points of
-/// docs/aniso_points.py (training 28 × 10 × 32 × 10, 10 000 check points; docs/anisotropy.md,
-/// "Fits"): the rational 4/4 (139 coefficients) in (r², aniso, √L, α_o/α_t) has a check max of
-/// 1.28e-2 (MAE 1.48e-3) at β = 3 against 1.98e-2 (1.51e-3) at β = 0; 3 is the isotropic
-/// layer's β ([`LOG_LAYER_FORMS`]).
-pub const PROJECTED_LAYER_BETA: f64 = 3.0;
 
 /// The variables `aniso` and `phi` of an anisotropic albedo E(r, aniso, μ, φ) (besides r and μ),
 /// when their domains suit [`InputTransform::ProjectedLayer`]: 0 ≤ aniso < 1, φ ⊂ [0, π/2].
@@ -541,7 +534,7 @@ mod tests {
                     phi: 3,
                     k: PROJECTED_LAYER_SCALE,
                     root: 2,
-                    beta: PROJECTED_LAYER_BETA
+                    beta: 0.0
                 },
                 InputTransform::ProjectedRatio { aniso: 1 }
             ]

@@ -1072,7 +1072,8 @@ pub fn albedo_function(
                     Expr::Lit(Lit::exact(dom[aniso].1)),
                 );
                 let a_c = clamp(var(&params[aniso]), dom_a.0, dom_a.1);
-                let s2 = sin_squared(var(&c), &format!("{p}_"), &mut body);
+                // (`{p}_s_` keeps its steps apart from `{p}_u`, the shifted coordinate below)
+                let s2 = sin_squared(var(&c), &format!("{p}_s_"), &mut body);
                 let b = format!("{p}_b");
                 body.push(Stmt {
                     name: b.clone(),

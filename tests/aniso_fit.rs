@@ -88,6 +88,57 @@ fn a_four_variable_rational_is_certified_measured_off_grid_and_emitted() {
 }
 
 #[test]
+fn the_projected_ratio_and_the_projected_log_layer_are_fitted_and_emitted() {
+    let dir = scratch("pratio");
+    let fit = [
+        "fit",
+        "--model",
+        "ggx-conductor-aniso",
+        "--resolution",
+        "6x3x5x3",
+        "--form",
+        "rational",
+        "--degree",
+        "1",
+        "--transform",
+        "r=square,mu=player:r:aniso:phi:2:2:3,phi=pratio:aniso",
+        "--output",
+        "fit.json",
+    ];
+    let o = furnace(&fit, &dir);
+    let err = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("player:r:aniso:phi:2:2:3, pratio:aniso"),
+        "{err}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("fit.json")).unwrap()).unwrap();
+    let t = &json["fit"]["approximant"]["transforms"];
+    assert_eq!(t[2]["beta"], 3.0, "{t}");
+    assert_eq!(t[3]["kind"], "projected_ratio", "{t}");
+    assert_eq!(t[3]["aniso"], 1, "{t}");
+    // emitted in every language; the f32 stress test compares the emitted operations with the
+    // f64 transforms over the 4-D box and gates the emission
+    let emit = [
+        "emit",
+        "--fit",
+        "fit.json",
+        "--lang",
+        "rust,wgsl,glsl,hlsl,cpp",
+    ];
+    let o = furnace(&emit, &dir);
+    let err = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("stress points"), "{err}");
+    let rs = std::fs::read_to_string(dir.join("fit.rs")).unwrap();
+    for step in ["let phi_b", "let mu_logv", "let mu_alpha_o"] {
+        assert!(rs.contains(step), "no `{step}` in\n{rs}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn five_variables_are_refused_with_the_limit() {
     let dir = scratch("five");
     let csv = "a,b,c,d,e,E\n0,0,0,0,0,0.5\n1,1,1,1,1,0.6\n";

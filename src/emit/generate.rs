@@ -811,6 +811,51 @@ pub fn transformed_lets(fit: &FitResult) -> Vec<String> {
         .collect()
 }
 
+/// The log-corrected `x`: v = (x + b·λ(x))/(1 + b·λ(1)), λ(x) = 16·x^(15/16)·((1 + x)^(1/16) −
+/// x^(1/16)) as in [`crate::fit::data::log_term`] (by square roots, products and one division),
+/// b the expression given (`b_text` for the comment). Pushes its steps as `{p}_logs`,
+/// `{p}_logq`, `{p}_logv` and returns the name of v.
+fn log_corrected(x: &str, b: Expr, b_text: &str, p: &str, body: &mut Vec<Stmt>) -> String {
+    let n = crate::fit::data::LOG_ROOT_ORDER;
+    let roots = |e: Expr| (0..n.trailing_zeros()).fold(e, |e, _| sqrt(e));
+    let r = format!("{p}_logs");
+    body.push(Stmt {
+        name: r.clone(),
+        value: roots(max(var(x), lit(crate::fit::data::LOG_FLOOR))),
+        comment: Some(format!(
+            "log-corrected {p}: v = ({p} + b*l({p}))/(1 + b*l(1)), b = {b_text}, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)"
+        )),
+    });
+    let qn = format!("{p}_logq");
+    body.push(Stmt {
+        name: qn.clone(),
+        value: roots(add(lit(1.0), var(x))),
+        comment: None,
+    });
+    let (s1, q1) = (var(&r), var(&qn));
+    let s2 = mul(s1.clone(), s1.clone());
+    let q2 = mul(q1.clone(), q1.clone());
+    let s4 = mul(s2.clone(), s2.clone());
+    let q4 = mul(q2.clone(), q2.clone());
+    let s8 = mul(s4.clone(), s4.clone());
+    let q8 = mul(q4.clone(), q4.clone());
+    let sums = mul(
+        mul(mul(mul(s1.clone(), add(q1, s1)), add(q2, s2)), add(q4, s4)),
+        add(q8, s8),
+    );
+    let lam = div(mul(lit(n as f64), var(x)), sums);
+    let v = format!("{p}_logv");
+    body.push(Stmt {
+        name: v.clone(),
+        value: div(
+            add(var(x), mul(b.clone(), lam)),
+            add(lit(1.0), mul(b, lit(crate::fit::data::log_term(1.0)))),
+        ),
+        comment: None,
+    });
+    v
+}
+
 /// sin²x of x ∈ [0, π/2] without a sine ([`InputTransform::SinSquared`]): (1 + sin u)/2 with
 /// u = 2x − π/2 and sin u = u·Σ_j c_j u^(2j) by Horner in u² (Taylor to u¹⁵,
 /// [`crate::fit::sin_squared_series`]). Pushes u and u² as `{prefix}u`, `{prefix}u2`.
@@ -944,49 +989,11 @@ pub fn albedo_function(
                 // with β > 0, x is first the log-corrected v = (x + b·λ(x))/(1 + b·λ(1)),
                 // b = β y⁴, λ(x) = 16·x^(15/16)·((1 + x)^(1/16) − x^(1/16)) as in fit::data::log_term
                 let x = if beta > 0.0 {
-                    let n = crate::fit::data::LOG_ROOT_ORDER;
-                    let roots = |e: Expr| (0..n.trailing_zeros()).fold(e, |e, _| sqrt(e));
-                    let r = format!("{p}_logs");
-                    body.push(Stmt {
-                        name: r.clone(),
-                        value: roots(max(var(&c), lit(crate::fit::data::LOG_FLOOR))),
-                        comment: Some(format!(
-                            "log-corrected {p}: v = ({p} + b*l({p}))/(1 + b*l(1)), b = {beta}*{y}^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)",
-                            y = params[by]
-                        )),
-                    });
-                    let qn = format!("{p}_logq");
-                    body.push(Stmt {
-                        name: qn.clone(),
-                        value: roots(add(lit(1.0), var(&c))),
-                        comment: None,
-                    });
-                    let (s1, q1) = (var(&r), var(&qn));
-                    let s2 = mul(s1.clone(), s1.clone());
-                    let q2 = mul(q1.clone(), q1.clone());
-                    let s4 = mul(s2.clone(), s2.clone());
-                    let q4 = mul(q2.clone(), q2.clone());
-                    let s8 = mul(s4.clone(), s4.clone());
-                    let q8 = mul(q4.clone(), q4.clone());
-                    let sums = mul(
-                        mul(mul(mul(s1.clone(), add(q1, s1)), add(q2, s2)), add(q4, s4)),
-                        add(q8, s8),
-                    );
-                    let lam = div(mul(lit(n as f64), var(&c)), sums);
                     let b = mul(
                         lit(beta),
                         mul(mul(y.clone(), y.clone()), mul(y.clone(), y.clone())),
                     );
-                    let v = format!("{p}_logv");
-                    body.push(Stmt {
-                        name: v.clone(),
-                        value: div(
-                            add(var(&c), mul(b.clone(), lam)),
-                            add(lit(1.0), mul(b, lit(crate::fit::data::log_term(1.0)))),
-                        ),
-                        comment: None,
-                    });
-                    v
+                    log_corrected(&c, b, &format!("{beta}*{}^4", params[by]), p, &mut body)
                 } else {
                     c.clone()
                 };
@@ -1010,6 +1017,7 @@ pub fn albedo_function(
                 phi,
                 k: scale,
                 root,
+                beta,
             } => {
                 let dom_phi = (
                     Expr::Lit(Lit::exact(dom[phi].0)),
@@ -1043,11 +1051,37 @@ pub fn albedo_function(
                 });
                 let s = || mul(lit(scale), var(&ao));
                 let tau = || lit(crate::fit::data::LAYER_TAU);
+                // with β > 0, μ is first the log-corrected v of the grazing layer, b = β α_o²
+                let x = if beta > 0.0 {
+                    let b = mul(lit(beta), mul(var(&ao), var(&ao)));
+                    log_corrected(&c, b, &format!("{beta}*{p}_alpha_o^2"), p, &mut body)
+                } else {
+                    c.clone()
+                };
                 let l = div(
-                    add(mul(var(&c), add(lit(1.0), s())), tau()),
-                    add(add(var(&c), s()), tau()),
+                    add(mul(var(&x), add(lit(1.0), s())), tau()),
+                    add(add(var(&x), s()), tau()),
                 );
                 Some((0..root.trailing_zeros()).fold(l, |e, _| sqrt(e)))
+            }
+            // √(max(1 − (1 − b²)·sin²φ, b²)), b = 1 − aniso (aniso an earlier or later argument,
+            // clamped here): the argument of the root never falls below its exact bound b²
+            InputTransform::ProjectedRatio { aniso } => {
+                let dom_a = (
+                    Expr::Lit(Lit::exact(dom[aniso].0)),
+                    Expr::Lit(Lit::exact(dom[aniso].1)),
+                );
+                let a_c = clamp(var(&params[aniso]), dom_a.0, dom_a.1);
+                // (`{p}_s_` keeps its steps apart from `{p}_u`, the shifted coordinate below)
+                let s2 = sin_squared(var(&c), &format!("{p}_s_"), &mut body);
+                let b = format!("{p}_b");
+                body.push(Stmt {
+                    name: b.clone(),
+                    value: sub(lit(1.0), a_c),
+                    comment: Some("1 − aniso = α_b/α_t".to_string()),
+                });
+                let bb = || mul(var(&b), var(&b));
+                Some(sqrt(max(sub(lit(1.0), mul(sub(lit(1.0), bb()), s2)), bb())))
             }
         };
         let tname = match t {

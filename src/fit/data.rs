@@ -123,13 +123,36 @@ pub enum InputTransform {
     /// roughness, which at strong anisotropy ranges from α_t (φ = 0) to α_b = (1 − aniso)·α_t
     /// (φ = π/2). A layer scaled by r² alone is 20 times too wide along the bitangent at
     /// aniso = 0.95. t increases with x (on [0, 1]) and decreases with α_o.
+    ///
+    /// With β = `beta` > 0, x is first replaced by the log-corrected
+    /// v = (x + b·λ(x))/(1 + b·λ(1)) of [`InputTransform::GrazingLayer`] with b = β α_o² (the
+    /// isotropic layer's β α² with α the projected roughness): the μ ln μ fall of the
+    /// height-correlated albedo at grazing angles (Heitz 2014, eq. 99), whose weight follows the
+    /// roughness the grazing direction sees.
     ProjectedLayer {
         r: usize,
         aniso: usize,
         phi: usize,
         k: f64,
         root: u32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        beta: f64,
     },
+    /// t = α_o/α_t = √(max(1 − (1 − (1 − aniso)²)·sin²x, (1 − aniso)²)) for an azimuth
+    /// x = φ ∈ [0, π/2] (variable `aniso` another, untransformed variable in [0, 1)): the
+    /// projected roughness of the direction relative to the tangent's on an anisotropic GGX
+    /// surface, α_o² = α_t² cos²φ + α_b² sin²φ with α_b = (1 − aniso)·α_t (Heitz 2014,
+    /// "Understanding the Masking-Shadowing Function", eq. 80; OpenPBR specification,
+    /// "Microfacet model").
+    ///
+    /// Why: the albedo follows α_o, and at strong anisotropy α_o/α_t = √(cos²φ + (1 − aniso)² sin²φ)
+    /// has a corner of width ~(1 − aniso) at φ = π/2 (it tends to cos φ = √(1 − sin²φ) as
+    /// aniso → 1, a square-root end point in sin²φ) that no low-degree polynomial in sin²φ
+    /// follows; in t it is linear. t decreases with x from 1 (φ = 0) to 1 − aniso (φ = π/2) and
+    /// is 1 at aniso = 0, where the albedo does not depend on φ. The argument of the root is
+    /// held ≥ (1 − aniso)², its exact lower bound, so that f32 rounding of sin²φ near 1 never
+    /// takes it to 0 or below: t carries a relative error of a few ulp/(1 − aniso)².
+    ProjectedRatio { aniso: usize },
 }
 
 impl InputTransform {
@@ -178,10 +201,19 @@ impl InputTransform {
                 phi,
                 k: scale,
                 root,
+                beta,
             } => {
                 let at = |i: usize| x.get(i).copied().unwrap_or(f64::NAN);
                 let alpha = projected_alpha(at(r), at(aniso), at(phi));
+                let v = if beta > 0.0 {
+                    log_corrected(v, beta * alpha * alpha)
+                } else {
+                    v
+                };
                 nth_root(layer_scaled(v, scale * alpha), root)
+            }
+            InputTransform::ProjectedRatio { aniso } => {
+                projected_ratio(x.get(aniso).copied().unwrap_or(f64::NAN), v)
             }
         }
     }
@@ -243,6 +275,16 @@ impl InputTransform {
                 q.powi(4)
             }
             InputTransform::SinSquared => t.clamp(0.0, 1.0).sqrt().asin(),
+            InputTransform::ProjectedRatio { aniso } => {
+                // t² = 1 − (1 − b²) sin²φ ⇒ sin²φ = (1 − t²)/(1 − b²); any φ at aniso = 0
+                let b = 1.0 - x.get(aniso).copied().unwrap_or(f64::NAN);
+                let c = 1.0 - b * b;
+                if c > 0.0 {
+                    ((1.0 - t * t) / c).clamp(0.0, 1.0).sqrt().asin()
+                } else {
+                    0.0
+                }
+            }
             InputTransform::ProjectedLayer { .. } => {
                 // t is increasing in x on [0, 1]: bisection (only to report locations)
                 let (mut a, mut b) = (0.0f64, 1.0f64);
@@ -268,13 +310,14 @@ impl InputTransform {
 
     /// The `--transform` syntax of the transforms [`InputTransform::parse_more`] reads.
     pub const MORE_SYNTAX: &'static str =
-        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>[:<beta>]] (0 ≤ w < 1, n = 1, 2, 4, beta ≥ 0), critical:lo:hi (0 ≤ lo < hi ≤ 1), sin2 (an azimuth in [0, π/2]), player:<r>:<aniso>:<phi>:<k>[:<n>] (n = 1, 2, 4)";
+        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>[:<beta>]] (0 ≤ w < 1, n = 1, 2, 4, beta ≥ 0), critical:lo:hi (0 ≤ lo < hi ≤ 1), sin2 (an azimuth in [0, π/2]), player:<r>:<aniso>:<phi>:<k>[:<n>[:<beta>]] (n = 1, 2, 4, beta ≥ 0), pratio:<aniso> (an azimuth in [0, π/2])";
 
     /// Parses `root:<n>:lo:hi` ([`InputTransform::RootNormalize`]),
     /// `glayer:<variable>:<k>:<w>[:<n>[:<beta>]]` ([`InputTransform::GrazingLayer`]),
     /// `critical:lo:hi` ([`InputTransform::CriticalAngle`]), `sin2`
-    /// ([`InputTransform::SinSquared`]) and `player:<r>:<aniso>:<phi>:<k>[:<n>]`
-    /// ([`InputTransform::ProjectedLayer`]) for variable number `k` of `names`; None if `text`
+    /// ([`InputTransform::SinSquared`]), `player:<r>:<aniso>:<phi>:<k>[:<n>[:<beta>]]`
+    /// ([`InputTransform::ProjectedLayer`]) and `pratio:<aniso>`
+    /// ([`InputTransform::ProjectedRatio`]) for variable number `k` of `names`; None if `text`
     /// is none of these, an error naming the syntax if it is malformed.
     pub fn parse_more(
         text: &str,
@@ -349,24 +392,27 @@ impl InputTransform {
             let f: Vec<&str> = rest.split(':').collect();
             let find = |v: &str| names.iter().position(|n| n == v.trim()).filter(|&i| i != k);
             let parsed = match f.as_slice() {
-                [r, a, p, scale, more @ ..] if more.len() <= 1 => {
-                    let root = match more {
-                        [n] => n.trim().parse::<u32>().ok(),
-                        _ => Some(1),
+                [r, a, p, scale, more @ ..] if more.len() <= 2 => {
+                    let root = match more.first() {
+                        Some(n) => n.trim().parse::<u32>().ok(),
+                        None => Some(1),
                     };
-                    match (find(r), find(a), find(p), num(scale), root) {
+                    let beta = more.get(1).map_or(Some(0.0), |b| num(b));
+                    match (find(r), find(a), find(p), num(scale), root, beta) {
                         (
                             Some(r),
                             Some(aniso),
                             Some(phi),
                             Some(scale),
                             Some(root @ (1 | 2 | 4)),
-                        ) if scale > 0.0 => Some(InputTransform::ProjectedLayer {
+                            Some(beta),
+                        ) if scale > 0.0 && beta >= 0.0 => Some(InputTransform::ProjectedLayer {
                             r,
                             aniso,
                             phi,
                             k: scale,
                             root,
+                            beta,
                         }),
                         _ => None,
                     }
@@ -374,7 +420,16 @@ impl InputTransform {
                 _ => None,
             };
             return Some(parsed.ok_or_else(|| {
-                "write player:<r>:<aniso>:<phi>:<k>[:<n>] with three other variables, a finite k > 0 and n = 1, 2 or 4, e.g. mu=player:r:aniso:phi:2:2".to_string()
+                "write player:<r>:<aniso>:<phi>:<k>[:<n>[:<beta>]] with three other variables, a finite k > 0, n = 1, 2 or 4 and a finite beta ≥ 0, e.g. mu=player:r:aniso:phi:2:2 or mu=player:r:aniso:phi:2:2:3".to_string()
+            }));
+        }
+        if let Some(rest) = text.strip_prefix("pratio:") {
+            let aniso = names
+                .iter()
+                .position(|n| n == rest.trim())
+                .filter(|&i| i != k);
+            return Some(aniso.map(|aniso| InputTransform::ProjectedRatio { aniso }).ok_or_else(|| {
+                "write pratio:<aniso> with another variable, the anisotropy in [0, 1), e.g. phi=pratio:aniso".to_string()
             }));
         }
         None
@@ -406,7 +461,12 @@ impl InputTransform {
                 phi,
                 k,
                 root,
-            } => format!("player:#{r}:#{aniso}:#{phi}:{k}:{root}"),
+                beta,
+            } => format!(
+                "player:#{r}:#{aniso}:#{phi}:{k}:{root}{}",
+                beta_suffix(beta)
+            ),
+            InputTransform::ProjectedRatio { aniso } => format!("pratio:#{aniso}"),
         }
     }
 
@@ -433,9 +493,16 @@ impl InputTransform {
                 phi,
                 k,
                 root,
+                beta,
             } => match (names.get(r), names.get(aniso), names.get(phi)) {
-                (Some(r), Some(a), Some(p)) => format!("player:{r}:{a}:{p}:{k}:{root}"),
+                (Some(r), Some(a), Some(p)) => {
+                    format!("player:{r}:{a}:{p}:{k}:{root}{}", beta_suffix(beta))
+                }
                 _ => self.name(),
+            },
+            InputTransform::ProjectedRatio { aniso } => match names.get(aniso) {
+                Some(a) => format!("pratio:{a}"),
+                None => self.name(),
             },
             _ => self.name(),
         }
@@ -500,15 +567,28 @@ impl InputTransform {
                 phi,
                 k: scale,
                 root,
+                beta,
             } => {
                 let n = |i: usize| names.get(i).map_or("y", String::as_str);
                 let (r, a, p) = (n(r), n(aniso), n(phi));
                 let alpha = format!(
                     "{r}*{r}*sqrt(2/(1 + (1 - {a})^2))*sqrt(1 - (1 - (1 - {a})^2)*sin({p})^2)"
                 );
-                format!(
-                    "(({x}*(1 + {scale}*{alpha}) + 2^-100)/({x} + {scale}*{alpha} + 2^-100))^(1/{root})"
-                )
+                if beta > 0.0 {
+                    let n = LOG_ROOT_ORDER;
+                    format!(
+                        "((v*(1 + {scale}*a_o) + 2^-100)/(v + {scale}*a_o + 2^-100))^(1/{root}) with a_o = {alpha}, v = ({x} + b*l({x}))/(1 + b*l(1)), b = {beta}*a_o^2, l(z) = {n}*z^({m}/{n})*((1 + z)^(1/{n}) - z^(1/{n}))",
+                        m = n - 1
+                    )
+                } else {
+                    format!(
+                        "(({x}*(1 + {scale}*{alpha}) + 2^-100)/({x} + {scale}*{alpha} + 2^-100))^(1/{root})"
+                    )
+                }
+            }
+            InputTransform::ProjectedRatio { aniso } => {
+                let a = names.get(aniso).map_or("y", String::as_str);
+                format!("sqrt(max(1 - (1 - (1 - {a})^2)*sin({x})^2, (1 - {a})^2))")
             }
             _ => format!("{}({x})", self.name()),
         }
@@ -603,6 +683,7 @@ impl InputTransform {
                 phi,
                 k: scale,
                 root,
+                beta,
             } => {
                 let d = domain.len();
                 if [r, aniso, phi].iter().any(|&i| i >= d || i == k)
@@ -619,6 +700,9 @@ impl InputTransform {
                 }
                 if !matches!(root, 1 | 2 | 4) {
                     return Err(bad("a projected layer takes the root n = 1, 2 or 4"));
+                }
+                if !(beta >= 0.0 && beta.is_finite()) {
+                    return Err(bad("a projected layer needs a finite log weight beta ≥ 0"));
                 }
                 if !(lo >= 0.0 && hi <= 1.0) {
                     return Err(bad(
@@ -647,10 +731,40 @@ impl InputTransform {
                         }
                     }
                 }
+                // v increases with x and with b = β α_o² (for x ≤ 1), t increases with v and
+                // decreases with α_o: bounds from the smallest v at the largest α_o and back
+                let v = |x: f64, a: f64| {
+                    if beta > 0.0 {
+                        log_corrected(x, beta * a * a)
+                    } else {
+                        x
+                    }
+                };
+                let (vlo, vhi) = (v(lo, amin), v(hi, amax));
                 (
-                    nth_root(layer_scaled(lo, scale * amax), root),
-                    nth_root(layer_scaled(hi, scale * amin), root),
+                    nth_root(layer_scaled(vlo, scale * amax), root),
+                    nth_root(layer_scaled(vhi, scale * amin), root),
                 )
+            }
+            InputTransform::ProjectedRatio { aniso } => {
+                if aniso >= domain.len() || aniso == k {
+                    return Err(bad(
+                        "a projected ratio needs another variable, the anisotropy aniso",
+                    ));
+                }
+                let (al, ah) = domain[aniso];
+                if !(al >= 0.0 && ah < 1.0) {
+                    return Err(bad(
+                        "a projected ratio needs 0 ≤ aniso < 1 (α_b = (1 − aniso)·α_t > 0)",
+                    ));
+                }
+                if !(lo >= 0.0 && hi <= std::f64::consts::FRAC_PI_2) {
+                    return Err(bad(
+                        "a projected ratio is monotone only for an azimuth in [0, π/2]; reduce the azimuth to it by its symmetries",
+                    ));
+                }
+                // decreasing in φ and in aniso: extremes at opposite corners
+                (projected_ratio(ah, hi), projected_ratio(al, lo))
             }
             InputTransform::BoundaryLayer { by, k: scale } => {
                 if by >= k {
@@ -795,6 +909,14 @@ pub fn sin_squared_series() -> [f64; 8] {
     c
 }
 
+/// α_o/α_t = √(max(1 − (1 − b²)·sin²φ, b²)), b = 1 − aniso ([`InputTransform::ProjectedRatio`]):
+/// the projected roughness relative to the tangent's (Heitz 2014, eq. 80).
+#[inline]
+pub fn projected_ratio(aniso: f64, phi: f64) -> f64 {
+    let b = 1.0 - aniso;
+    (1.0 - (1.0 - b * b) * sin_squared(phi)).max(b * b).sqrt()
+}
+
 /// The projected roughness α_o of the azimuth φ on OpenPBR's anisotropic GGX:
 /// α_t = r²·√(2/(1 + (1 − aniso)²)) (OpenPBR specification, "Microfacet model") and
 /// α_o = α_t·√(1 − (1 − (1 − aniso)²)·sin²φ) (the projected roughness, Heitz 2014, eq. 80).
@@ -836,11 +958,16 @@ pub fn transform_point(transforms: &[InputTransform], x: &[f64], t: &mut [f64]) 
 /// so a boundary layer finds the variable it scales by already inverted).
 pub fn inverse_point(transforms: &[InputTransform], t: &[f64]) -> Vec<f64> {
     let mut x = vec![0.0; t.len()];
-    // a projected layer reads its azimuth, which may come after it: inverted last
-    let last = |tr: &InputTransform| matches!(tr, InputTransform::ProjectedLayer { .. });
-    for pass in [false, true] {
+    // a projected layer reads its azimuth, which may come after it: inverted last; a projected
+    // ratio (an azimuth) reads its anisotropy: inverted after the plain variables
+    let pass_of = |tr: &InputTransform| match tr {
+        InputTransform::ProjectedLayer { .. } => 2,
+        InputTransform::ProjectedRatio { .. } => 1,
+        _ => 0,
+    };
+    for pass in 0..3 {
         for (k, tr) in transforms.iter().enumerate() {
-            if last(tr) == pass {
+            if pass_of(tr) == pass {
                 x[k] = tr.inverse(k, t[k], &x);
             }
         }
@@ -1341,7 +1468,8 @@ mod tests {
                 aniso: 1,
                 phi: 3,
                 k: 2.0,
-                root: 2
+                root: 2,
+                beta: 0.0
             }
         );
         assert_eq!(tr.label(&names), "player:r:aniso:phi:2:2");
@@ -1408,6 +1536,169 @@ mod tests {
         wide[3] = (0.0, 3.0);
         let e = tr.image(2, &names, &wide).unwrap_err().to_string();
         assert!(e.contains("phi in [0, π/2]"), "{e}");
+    }
+
+    #[test]
+    fn projected_layer_log_term() {
+        let names: Vec<String> = ["r", "aniso", "mu", "phi"].map(String::from).to_vec();
+        let tr = InputTransform::parse_more("player:r:aniso:phi:2:2:3", &names, 2)
+            .unwrap()
+            .unwrap();
+        assert_eq!(tr.label(&names), "player:r:aniso:phi:2:2:3");
+        let plain = InputTransform::parse_more("player:r:aniso:phi:2:2", &names, 2)
+            .unwrap()
+            .unwrap();
+        assert!(
+            InputTransform::parse_more("player:r:aniso:phi:2:2:-1", &names, 2)
+                .unwrap()
+                .is_err()
+        );
+        // aniso = 0: the isotropic grazing layer with the same β (b = β α², α = r²)
+        let iso = InputTransform::GrazingLayer {
+            by: 0,
+            k: 2.0,
+            w: 0.0,
+            root: 2,
+            beta: 3.0,
+        };
+        for (r, mu, phi) in [(0.3, 0.1, 0.0), (0.7, 0.002, 1.2), (1.0, 0.5, 0.4)] {
+            let x = [r, 0.0, mu, phi];
+            assert!((tr.apply(2, &x) - iso.apply(2, &x)).abs() < 1e-14);
+        }
+        // the weight follows α_o: along the smooth bitangent at strong anisotropy b = β α_b²
+        // is small, and the log-corrected μ is v = (μ + b λ(μ))/(1 + b λ(1)) there
+        let x = [1.0, 0.9, 1e-3, std::f64::consts::FRAC_PI_2];
+        let ao = projected_alpha(1.0, 0.9, x[3]);
+        let v = log_corrected(1e-3, 3.0 * ao * ao);
+        let want = layer_scaled(v, 2.0 * ao).sqrt();
+        assert!((tr.apply(2, &x) - want).abs() < 1e-15);
+        // μ ln μ: the slope of t² near μ = 0 grows like ln(1/μ) relative to the plain layer
+        let x1 = [1.0, 0.5, 1e-6, 0.3];
+        let x2 = [1.0, 0.5, 1e-8, 0.3];
+        let ratio = |x: &[f64]| tr.apply(2, x).powi(2) / plain.apply(2, x).powi(2);
+        assert!(ratio(&x2) > ratio(&x1) && ratio(&x1) > 1.0);
+        // β = 0 is the plain layer, and serialises without the field
+        assert_eq!(
+            serde_json::to_string(&plain).unwrap(),
+            r#"{"kind":"projected_layer","r":0,"aniso":1,"phi":3,"k":2.0,"root":2}"#
+        );
+        // the image holds every value on the box, and the ends μ = 0, 1 map to the image's ends
+        let dom = [
+            (0.0, 1.0),
+            (0.0, 0.95),
+            (0.0, 1.0),
+            (0.0, std::f64::consts::FRAC_PI_2),
+        ];
+        let (lo, hi) = tr.image(2, &names, &dom).unwrap();
+        assert_eq!(hi, 1.0);
+        let mut rng = SplitMix64(11);
+        for _ in 0..400 {
+            let mut x: Vec<f64> = dom
+                .iter()
+                .map(|&(a, b)| a + (b - a) * rng.next_f64())
+                .collect();
+            x[2] = x[2].powi(6); // into the layer
+            let t = tr.apply(2, &x);
+            assert!((lo..=hi).contains(&t), "{x:?} {t}");
+            let back = inverse_point(
+                &[
+                    InputTransform::Identity,
+                    InputTransform::Identity,
+                    tr,
+                    InputTransform::Identity,
+                ],
+                &[x[0], x[1], t, x[3]],
+            );
+            assert!((back[2] - x[2]).abs() < 1e-12, "{x:?} {back:?}");
+        }
+    }
+
+    #[test]
+    fn projected_ratio_transform() {
+        let names: Vec<String> = ["r", "aniso", "mu", "phi"].map(String::from).to_vec();
+        let tr = InputTransform::parse_more("pratio:aniso", &names, 3)
+            .unwrap()
+            .unwrap();
+        assert_eq!(tr, InputTransform::ProjectedRatio { aniso: 1 });
+        assert_eq!(tr.label(&names), "pratio:aniso");
+        assert!(InputTransform::parse_more("pratio:phi", &names, 3)
+            .unwrap()
+            .is_err());
+        assert!(InputTransform::parse_more("pratio:nope", &names, 3)
+            .unwrap()
+            .is_err());
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        // exactly α_o/α_t: 1 along the tangent, 1 − aniso along the bitangent, and
+        // √(cos²φ + (1 − aniso)² sin²φ) between (Heitz 2014, eq. 80)
+        for a in [0.0, 0.3, 0.9, 0.95, 0.99] {
+            assert_eq!(tr.apply(3, &[0.5, a, 0.5, 0.0]), 1.0);
+            let b = 1.0 - a;
+            assert!((tr.apply(3, &[0.5, a, 0.5, half_pi]) - b).abs() < 1e-15);
+            for phi in [0.2f64, 0.8, 1.37, 1.5] {
+                let want = (phi.cos().powi(2) + b * b * phi.sin().powi(2)).sqrt();
+                let t = tr.apply(3, &[0.5, a, 0.5, phi]);
+                assert!((t - want).abs() < 1e-15, "{a} {phi}");
+                let alpha_t = projected_alpha(0.5, a, 0.0);
+                assert!((t * alpha_t - projected_alpha(0.5, a, phi)).abs() < 1e-15);
+            }
+        }
+        // aniso = 0: no dependence on φ
+        assert_eq!(tr.apply(3, &[0.5, 0.0, 0.5, 1.1]), 1.0);
+        // the argument of the root stays ≥ (1 − aniso)² when sin²φ is rounded above 1 (as f32
+        // code may round it): here with sin²φ = 1 + 2⁻²³ the plain formula gives a negative
+        // argument at aniso → 1 but the transform gives 1 − aniso
+        let (a, s) = (0.999f64, 1.0 + f64::from(f32::EPSILON));
+        let b = 1.0 - a;
+        assert!(1.0 - (1.0 - b * b) * s < b * b);
+        assert_eq!((1.0 - (1.0 - b * b) * s).max(b * b).sqrt(), b);
+        // decreasing in φ and in aniso; the image is [1 − max aniso, 1] on [0, π/2]
+        let dom = [(0.0, 1.0), (0.0, 0.95), (0.0, 1.0), (0.0, half_pi)];
+        let (lo, hi) = tr.image(3, &names, &dom).unwrap();
+        assert!((lo - 0.05).abs() < 1e-15 && hi == 1.0, "{lo} {hi}");
+        let mut rng = SplitMix64(5);
+        for _ in 0..500 {
+            let (a, p) = (0.95 * rng.next_f64(), half_pi * rng.next_f64());
+            let t = tr.apply(3, &[0.5, a, 0.5, p]);
+            assert!((lo..=hi).contains(&t));
+            assert!(tr.apply(3, &[0.5, a, 0.5, p + 1e-3]) < t);
+            assert!(tr.apply(3, &[0.5, a + 1e-3, 0.5, p]) < t);
+            // the inverse finds φ again, with a projected layer of μ read after it
+            let trs = [
+                InputTransform::Identity,
+                InputTransform::Identity,
+                InputTransform::ProjectedLayer {
+                    r: 0,
+                    aniso: 1,
+                    phi: 3,
+                    k: 2.0,
+                    root: 2,
+                    beta: 0.0,
+                },
+                tr,
+            ];
+            let x = [0.6, a, 0.2, p];
+            let mut t4 = [0.0; 4];
+            transform_point(&trs, &x, &mut t4);
+            let back = inverse_point(&trs, &t4);
+            assert!(
+                (back[3] - p).abs() < 1e-6 && (back[2] - 0.2).abs() < 1e-6,
+                "{back:?}"
+            );
+        }
+        // refused: an azimuth beyond π/2, aniso reaching 1, or no anisotropy variable
+        let mut wide = dom;
+        wide[3] = (0.0, 3.0);
+        let e = tr.image(3, &names, &wide).unwrap_err().to_string();
+        assert!(e.contains("[0, π/2]"), "{e}");
+        let mut one = dom;
+        one[1] = (0.0, 1.0);
+        let e = tr.image(3, &names, &one).unwrap_err().to_string();
+        assert!(e.contains("aniso < 1"), "{e}");
+        let e = InputTransform::ProjectedRatio { aniso: 3 }
+            .image(3, &names, &dom)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("another variable"), "{e}");
     }
 
     #[test]

@@ -112,7 +112,9 @@ fn top_degree(form: &Form) -> u32 {
 /// ([`InputTransform::RootNormalize`]) for a variable `f0` whose domain starts at ≥ 0. In 4-D
 /// with variables `aniso` and `phi` (anisotropic GGX), the layer of μ is scaled by the
 /// projected roughness instead ([`InputTransform::ProjectedLayer`], k =
-/// [`PROJECTED_LAYER_SCALE`], n = 2) and φ becomes sin²φ ([`InputTransform::SinSquared`]).
+/// [`PROJECTED_LAYER_SCALE`], n = 2, no log term: β = 3 wins only for the rational 4/4, not at
+/// 69, 74 or 150 coefficients, docs/anisotropy.md, "Fits") and φ becomes α_o/α_t, the projected roughness relative
+/// to the tangent's ([`InputTransform::ProjectedRatio`]).
 /// None for data without variables `r` and `mu` (r before mu, both within [0, 1]).
 pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<InputTransform>> {
     let find = |n: &str| data.names.iter().position(|x| x.eq_ignore_ascii_case(n));
@@ -144,8 +146,9 @@ pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<Inp
             phi,
             k: PROJECTED_LAYER_SCALE,
             root: 2,
+            beta: 0.0,
         };
-        t[phi] = InputTransform::SinSquared;
+        t[phi] = InputTransform::ProjectedRatio { aniso };
     }
     if let Some(f) = find("f0").filter(|&f| data.domain[f].0 >= 0.0) {
         t[f] = InputTransform::RootNormalize {
@@ -211,6 +214,18 @@ pub const LOG_LAYER_FORMS: [(&str, f64); 2] = [("tensor:2,3/2,2", 3.0), ("tensor
 /// 3-D"): minimax 9.99e-3 / 3.07e-3, where the same form in √L has 1.61e-2 / 2.70e-3.
 pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 
+/// Unequal degrees a 4-D sweep of an anisotropic albedo fits in (r², aniso, √L(μ; α_o), α_o/α_t)
+/// ([`physics_transforms`]): numerator total degree n with caps (r, aniso, μ, φ), denominator
+/// total degree m with caps — high in r and μ, low in aniso and the azimuth. Measured minimax on
+/// the layer-resolving points of docs/aniso_points.py (training 28 × 10 × 32 × 10, check at its
+/// 10 000 independent points; docs/anisotropy.md, "Fits"): 4 (4, 2, 4, 1) / 3 (3, 1, 3, 1),
+/// 74 coefficients, 2.2e-2 (MAE 1.8e-3) with β = 0, where sin²φ for the azimuth gives 3.3e-2
+/// (3.8e-3); 5 (5, 2, 5, 2) / 3 (3, 1, 3, 1), 120 coefficients, 1.6e-2 (2.6e-2 in sin²φ).
+pub const ANISO_EXPONENT_FORMS: [(u32, [u32; 4], u32, [u32; 4]); 2] = [
+    (4, [4, 2, 4, 1], 3, [3, 1, 3, 1]),
+    (5, [5, 2, 5, 2], 3, [3, 1, 3, 1]),
+];
+
 /// Structured forms a default sweep fits in `transforms` ([`physics_transforms`]):
 /// - 2-D with a grazing layer: [`LAYER_TENSOR_FORMS`] with μ in the boundary-layer variable,
 ///   and [`LOG_LAYER_FORMS`] with μ in the log-corrected one;
@@ -224,7 +239,8 @@ pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 ///   P_k/Q_k of degrees n/m: (K, p, n, m) = (2, 2, 4, 1) (40), (3, 3, 4, 2) (72) and
 ///   (4, 4, 5, 4) (160) where μ is in the grazing-layer variable, else (4, 4, 5, 3) (140);
 ///   where it is, (2, 2, 4, 1) also with μ in the log-corrected layer variable
-///   ([`LOG_LAYER_LOWRANK`]).
+///   ([`LOG_LAYER_LOWRANK`]);
+/// - 4-D with μ in the projected layer: [`ANISO_EXPONENT_FORMS`] (74 and 120 coefficients).
 pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<PlannedForm> {
     let d = data.dim();
     let planned = |form| PlannedForm {
@@ -330,6 +346,41 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
             }
             None => Vec::new(),
         },
+        4 => {
+            // caps in the order (r, aniso, μ, φ) of the projected layer's variables
+            let Some((r, aniso, mu, phi)) =
+                transforms.iter().enumerate().find_map(|(k, t)| match *t {
+                    InputTransform::ProjectedLayer { r, aniso, phi, .. } => {
+                        Some((r, aniso, k, phi))
+                    }
+                    _ => None,
+                })
+            else {
+                return Vec::new();
+            };
+            let set = |total: u32, c: [u32; 4]| {
+                let mut caps = vec![0; 4];
+                for (i, v) in [r, aniso, mu, phi].into_iter().zip(c) {
+                    caps[i] = v;
+                }
+                ExponentSet {
+                    total,
+                    caps,
+                    in_total: vec![true; 4],
+                    free_of: None,
+                }
+            };
+            ANISO_EXPONENT_FORMS
+                .iter()
+                .map(|&(n, cn, m, cm)| {
+                    planned(Form::Exponents {
+                        numerator: set(n, cn),
+                        denominator: Some(set(m, cm)),
+                        structure: None,
+                    })
+                })
+                .collect()
+        }
         _ => Vec::new(),
     }
 }
@@ -468,7 +519,7 @@ mod tests {
         assert_eq!(last.transforms[2], InputTransform::Sqrt);
         assert_eq!(full.transform_sets.last(), Some(&t));
         assert!(physics_transforms(&data(&["x", "y"]), true).is_none());
-        // 4-D anisotropic: μ in the projected-roughness layer, φ as sin²φ (φ ∈ [0, 1] ⊂ [0, π/2])
+        // 4-D anisotropic: μ in the projected-roughness layer, φ as α_o/α_t (φ ∈ [0, 1] ⊂ [0, π/2])
         let mut d4 = data(&["r", "aniso", "mu", "phi"]);
         d4.domain[1] = (0.0, 0.95);
         let t4 = physics_transforms(&d4, true).unwrap();
@@ -482,11 +533,17 @@ mod tests {
                     aniso: 1,
                     phi: 3,
                     k: PROJECTED_LAYER_SCALE,
-                    root: 2
+                    root: 2,
+                    beta: 0.0
                 },
-                InputTransform::SinSquared
+                InputTransform::ProjectedRatio { aniso: 1 }
             ]
         );
+        // and the unequal-degree forms in them: 74 and 120 coefficients
+        let f4 = structured_forms(&d4, &t4);
+        let sizes: Vec<usize> = f4.iter().map(|f| f.form.n_coefficients(4)).collect();
+        assert_eq!(sizes, [74, 120]);
+        assert!(f4.iter().all(|f| f.transforms == t4));
         // aniso = 1 (α_b = 0) is outside the layer's domain: the isotropic layer instead
         let mut d4b = d4.clone();
         d4b.domain[1] = (0.0, 1.0);

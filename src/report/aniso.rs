@@ -42,7 +42,7 @@ pub const QUICK_RESOLUTION: [usize; 4] = [5, 3, 5, 3];
 /// Degrees of the section's fit: the rational `furnace run --scene` fits by default.
 pub const FIT_DEGREES: (u32, u32) = (3, 3);
 /// The variables of the section's fit ([`physics_transforms`]), part of the section's digest.
-pub const FIT_VARIABLES: &str = "r², aniso, √L(μ; α_o), sin²φ";
+pub const FIT_VARIABLES: &str = "r², aniso, √L(μ; α_o), α_o/α_t";
 /// The furnace grid takes at most this many nodes of r and of μ (every aniso and φ node).
 pub const FURNACE_NODES: usize = 9;
 /// The Smith form of the section's tables.
@@ -205,7 +205,7 @@ fn fit(table: &Table) -> Option<FitResult> {
     let names: Vec<String> = table.spec.axes.iter().map(|a| a.name.clone()).collect();
     let axes: Vec<Vec<f64>> = table.spec.axes.iter().map(|a| a.nodes()).collect();
     let data = FitData::from_grid(names, &axes, table.output(0).to_vec()).ok()?;
-    // r², the layer of μ scaled by the projected roughness, sin²φ (docs/anisotropy.md, "Fits")
+    // r², the layer of μ scaled by the projected roughness, α_o/α_t (docs/anisotropy.md, "Fits")
     let transforms = physics_transforms(&data, true).unwrap_or(vec![InputTransform::Identity; 4]);
     let f = fit_rational(
         &data,

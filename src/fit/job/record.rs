@@ -318,9 +318,26 @@ pub fn fit_file_name(
                     phi,
                     k,
                     root,
+                    beta,
                 } => {
                     let n = |i: usize| variables.get(i).map_or("x", String::as_str);
-                    format!("player_{}_{}_{}_{k}_{root}", n(r), n(aniso), n(phi))
+                    format!(
+                        "player_{}_{}_{}_{k}_{root}{}",
+                        n(r),
+                        n(aniso),
+                        n(phi),
+                        if beta > 0.0 {
+                            format!("_{beta}")
+                        } else {
+                            String::new()
+                        }
+                    )
+                }
+                InputTransform::ProjectedRatio { aniso } => {
+                    format!(
+                        "pratio_{}",
+                        variables.get(aniso).map_or("x", String::as_str)
+                    )
                 }
                 other => other.name(),
             };

@@ -211,6 +211,16 @@ pub const LOG_LAYER_FORMS: [(&str, f64); 2] = [("tensor:2,3/2,2", 3.0), ("tensor
 /// 3-D"): minimax 9.99e-3 / 3.07e-3, where the same form in √L has 1.61e-2 / 2.70e-3.
 pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 
+/// k of the root-layer variable `slayer:r:k` ([`InputTransform::RootLayer`]: √μ outside the
+/// layer μ ≲ k·r², linear in μ inside it) in which a 3-D sweep without a grazing boundary layer
+/// (the glossy albedo, whose row r = 0 is F(η, μ)) fits `split:f0:2:3/3` (39 coefficients) a
+/// second time, besides √μ ([`structured_forms`]). Measured on the 128³ `ggx-glossy` table
+/// (one form per sweep, off-grid at the 26 112 check points; docs/fitting.md, "The glossy
+/// grazing layer"): minimax 1.24e-2 / MAE 3.75e-3 at k = 3, 1.45e-2 / 4.07e-3 at k = 1,
+/// 1.08e-2 / 4.11e-3 at k = 0.3, where the same form in √μ has 1.22e-2 / 4.31e-3 and the
+/// rational 3/3 1.35e-2 / 4.60e-3.
+pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 3.0;
+
 /// Structured forms a default sweep fits in `transforms` ([`physics_transforms`]):
 /// - 2-D with a grazing layer: [`LAYER_TENSOR_FORMS`] with μ in the boundary-layer variable,
 ///   and [`LOG_LAYER_FORMS`] with μ in the log-corrected one;
@@ -224,7 +234,9 @@ pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 ///   P_k/Q_k of degrees n/m: (K, p, n, m) = (2, 2, 4, 1) (40), (3, 3, 4, 2) (72) and
 ///   (4, 4, 5, 4) (160) where μ is in the grazing-layer variable, else (4, 4, 5, 3) (140);
 ///   where it is, (2, 2, 4, 1) also with μ in the log-corrected layer variable
-///   ([`LOG_LAYER_LOWRANK`]).
+///   ([`LOG_LAYER_LOWRANK`]); where μ is in √μ (no boundary layer: the glossy albedo),
+///   (k, n, m) = (2, 3, 3) also with μ in the root-layer variable
+///   ([`GLOSSY_ROOT_LAYER_SCALE`]).
 pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<PlannedForm> {
     let d = data.dim();
     let planned = |form| PlannedForm {
@@ -325,6 +337,22 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                                 transforms: t,
                             }),
                     );
+                }
+                // the 39-coefficient split sum once more with √μ replaced by the root-layer
+                // variable (docs/fitting.md, "The glossy grazing layer")
+                let find = |n: &str| data.names.iter().position(|x| x.eq_ignore_ascii_case(n));
+                if let (Some(r), Some(mu)) = (find("r"), find("mu")) {
+                    if transforms.get(mu) == Some(&InputTransform::Sqrt) && r < mu {
+                        let mut t = transforms.to_vec();
+                        t[mu] = InputTransform::RootLayer {
+                            by: r,
+                            k: GLOSSY_ROOT_LAYER_SCALE,
+                        };
+                        v.push(PlannedForm {
+                            form: split_form(3, f, 2, 3, 3),
+                            transforms: t,
+                        });
+                    }
                 }
                 v
             }

@@ -491,9 +491,25 @@ mod tests {
         );
         assert_eq!(full.forms[4].transforms, t);
         let glossy3 = default_plan(&d3, None, None, Objective::LeastSquares, false);
+        let sizes: Vec<usize> = glossy3
+            .forms
+            .iter()
+            .map(|f| f.form.n_coefficients(3))
+            .collect();
+        assert_eq!(sizes, vec![39, 54, 77, 139, 40, 72, 140, 39]);
+        let low_rank = &glossy3.forms[6];
+        assert_eq!(low_rank.transforms[2], InputTransform::Sqrt);
+        // the last: the 39-coefficient split sum in the root-layer variable, the rest as √μ's
         let last = glossy3.forms.last().unwrap();
-        assert_eq!(last.form.n_coefficients(3), 140);
-        assert_eq!(last.transforms[2], InputTransform::Sqrt);
+        assert_eq!(last.form, glossy3.forms[0].form);
+        assert_eq!(
+            last.transforms[2],
+            InputTransform::RootLayer {
+                by: 1,
+                k: GLOSSY_ROOT_LAYER_SCALE
+            }
+        );
+        assert_eq!(last.transforms[..2], low_rank.transforms[..2]);
         assert_eq!(full.transform_sets.last(), Some(&t));
         assert!(physics_transforms(&data(&["x", "y"]), true).is_none());
         // 4-D anisotropic: μ in the projected-roughness layer, φ as sin²φ (φ ∈ [0, 1] ⊂ [0, π/2])

@@ -234,6 +234,26 @@ fn low_rank_in_the_log_corrected_layer_round_trips() {
 }
 
 #[test]
+fn split_form_in_the_root_layer_variable_round_trips() {
+    let dir = scratch("root-layer");
+    let path = round_trip(
+        &dir,
+        "ggx-glossy",
+        "6x8x8",
+        "split:f0:2:2/1",
+        "f0=root:4:0.0125:0.25,mu=slayer:r:3",
+    );
+    let fit = fitfile::load(&path).unwrap().record.fit;
+    assert_eq!(
+        fit.approximant.transforms[2],
+        furnace::fit::InputTransform::RootLayer { by: 1, k: 3.0 }
+    );
+    // three powers of t_f0 times total degree 2 in (r, μ), Q of degree 1 without f0
+    assert_eq!(fit.n_coefficients, 3 * 6 + 2);
+    assert!(fit.metrics.max_abs_error < 0.1, "{:?}", fit.metrics);
+}
+
+#[test]
 fn split_form_in_the_critical_angle_variable_round_trips() {
     let dir = scratch("critical");
     let path = round_trip(

@@ -1008,6 +1008,30 @@ pub fn albedo_function(
                 };
                 Some((0..root.trailing_zeros()).fold(blend, |e, _| sqrt(e)))
             }
+            // x·(√(1 + s) + √s)/(√(x + s) + √s + τ), s = k y², y = an earlier clamped argument
+            // (x ≥ 0 after the clamp: the transform is valid on the domain)
+            InputTransform::RootLayer { by, k: scale } => {
+                let y = var(&format!("{}_c", params[by]));
+                let s = format!("{p}_s");
+                body.push(Stmt {
+                    name: s.clone(),
+                    value: mul(lit(scale), mul(y.clone(), y)),
+                    comment: None,
+                });
+                let rs = format!("{p}_rs");
+                body.push(Stmt {
+                    name: rs.clone(),
+                    value: sqrt(var(&s)),
+                    comment: None,
+                });
+                Some(div(
+                    mul(var(&c), add(sqrt(add(lit(1.0), var(&s))), var(&rs))),
+                    add(
+                        add(sqrt(add(var(&c), var(&s))), var(&rs)),
+                        lit(crate::fit::data::LAYER_TAU),
+                    ),
+                ))
+            }
             InputTransform::SinSquared => Some(sin_squared(var(&c), &format!("{p}_"), &mut body)),
             // ((x(1 + k α_o) + τ)/(x + k α_o + τ))^(1/n), α_o the projected roughness of the
             // clamped r, aniso and φ (φ clamped here: it may come after this variable)

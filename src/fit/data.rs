@@ -100,6 +100,21 @@ pub enum InputTransform {
         #[serde(default, skip_serializing_if = "is_zero")]
         beta: f64,
     },
+    /// t = (√(x + s) − √s)/(√(1 + s) − √s), s = k·y² (y = variable number `by`, earlier in
+    /// the list, untransformed: α = r² for y = r), computed without cancellation as
+    /// t = x·(√(1 + s) + √s)/(√(x + s) + √s + τ), τ = [`LAYER_TAU`] (only decides 0/0 at
+    /// x = y = 0, where t = 0): the grazing-layer variable of a glossy albedo, `slayer:<y>:<k>`.
+    ///
+    /// Why: a glossy albedo's row r = 0 is the Fresnel factor E(0, μ) = F(η, μ)
+    /// (Sforza & Pellacini 2022, eq. 17, with a mirror lobe), smooth in √μ, while at small
+    /// r > 0 it bends away from F in a layer μ ≲ α (masking depends on μ/α only; Heitz 2014,
+    /// eqs. 72 and 86). Unlike the boundary-layer coordinate L, whose departure from μ reaches
+    /// far outside the layer (L → 1 only like 1 − kα/μ), t departs from √μ only where μ ≲ s:
+    /// t = √μ exactly at y = 0, t ≈ x·(1 + O(√s))/(2√s) (linear in μ/√α) for x ≪ s, and
+    /// t − √x = O(√s) for x ≫ s. t increases with x, decreases with y (from √x to x as
+    /// s → ∞), t(0) = 0, t(1) = 1; onto [0, 1] for x ∈ [0, 1]. In f32 every step adds,
+    /// multiplies, divides or takes the square root of non-negative numbers.
+    RootLayer { by: usize, k: f64 },
     /// t = sin²x on x ∈ [0, π/2] (an azimuth): increasing there, 0 at 0, 1 at π/2.
     ///
     /// Why: an albedo of a surface whose roughness is mirror-symmetric about its tangent and
@@ -189,6 +204,9 @@ impl InputTransform {
                 root,
                 beta,
             ),
+            InputTransform::RootLayer { by, k: scale } => {
+                root_layer(v, x.get(by).copied().unwrap_or(f64::NAN), scale)
+            }
             InputTransform::CriticalAngle { lo, hi } => {
                 (critical_cosine(v.clamp(lo, hi)) - critical_cosine(lo))
                     / (critical_cosine(hi) - critical_cosine(lo))
@@ -263,6 +281,13 @@ impl InputTransform {
                 }
                 0.5 * (a + b)
             }
+            InputTransform::RootLayer { by, k } => {
+                // √(x + s) = √s + t·(√(1 + s) − √s) ⇒ x = u² − s, u that root
+                let y = x.get(by).copied().unwrap_or(f64::NAN);
+                let s = k * y * y;
+                let u = s.sqrt() + t.clamp(0.0, 1.0) * ((1.0 + s).sqrt() - s.sqrt());
+                (u * u - s).clamp(0.0, 1.0)
+            }
             InputTransform::CriticalAngle { lo, hi } => {
                 // μ_c = 2q/(1 + q²), q = F0^¼ ∈ [0, 1] ⇒ q = (1 − √(1 − μ_c²))/μ_c
                 let (a, b) = (critical_cosine(lo), critical_cosine(hi));
@@ -310,14 +335,14 @@ impl InputTransform {
 
     /// The `--transform` syntax of the transforms [`InputTransform::parse_more`] reads.
     pub const MORE_SYNTAX: &'static str =
-        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>[:<beta>]] (0 ≤ w < 1, n = 1, 2, 4, beta ≥ 0), critical:lo:hi (0 ≤ lo < hi ≤ 1), sin2 (an azimuth in [0, π/2]), player:<r>:<aniso>:<phi>:<k>[:<n>[:<beta>]] (n = 1, 2, 4, beta ≥ 0), pratio:<aniso> (an azimuth in [0, π/2])";
+        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>[:<beta>]] (0 ≤ w < 1, n = 1, 2, 4, beta ≥ 0), critical:lo:hi (0 ≤ lo < hi ≤ 1), slayer:<variable>:<k> (k > 0), sin2 (an azimuth in [0, π/2]), player:<r>:<aniso>:<phi>:<k>[:<n>[:<beta>]] (n = 1, 2, 4, beta ≥ 0), pratio:<aniso> (an azimuth in [0, π/2])";
 
     /// Parses `root:<n>:lo:hi` ([`InputTransform::RootNormalize`]),
     /// `glayer:<variable>:<k>:<w>[:<n>[:<beta>]]` ([`InputTransform::GrazingLayer`]),
-    /// `critical:lo:hi` ([`InputTransform::CriticalAngle`]), `sin2`
-    /// ([`InputTransform::SinSquared`]), `player:<r>:<aniso>:<phi>:<k>[:<n>[:<beta>]]`
-    /// ([`InputTransform::ProjectedLayer`]) and `pratio:<aniso>`
-    /// ([`InputTransform::ProjectedRatio`]) for variable number `k` of `names`; None if `text`
+    /// `critical:lo:hi` ([`InputTransform::CriticalAngle`]), `slayer:<variable>:<k>`
+    /// ([`InputTransform::RootLayer`]), `sin2` ([`InputTransform::SinSquared`]),
+    /// `player:<r>:<aniso>:<phi>:<k>[:<n>[:<beta>]]` ([`InputTransform::ProjectedLayer`]) and
+    /// `pratio:<aniso>` ([`InputTransform::ProjectedRatio`]) for variable number `k` of `names`; None if `text`
     /// is none of these, an error naming the syntax if it is malformed.
     pub fn parse_more(
         text: &str,
@@ -383,6 +408,23 @@ impl InputTransform {
             };
             return Some(parsed.ok_or_else(|| {
                 "write glayer:<variable>:<k>:<w>[:<n>[:<beta>]] with a variable before this one, a finite k > 0, 0 ≤ w < 1, n = 1, 2 or 4 and a finite beta ≥ 0, e.g. mu=glayer:r:1:0.5 or mu=glayer:r:1:0:1:3".to_string()
+            }));
+        }
+        if let Some(rest) = text.strip_prefix("slayer:") {
+            let parsed = match rest.split(':').collect::<Vec<_>>().as_slice() {
+                [by, scale] => {
+                    let by = names.iter().position(|n| n == by.trim()).filter(|&b| b < k);
+                    match (by, num(scale)) {
+                        (Some(by), Some(scale)) if scale > 0.0 => {
+                            Some(InputTransform::RootLayer { by, k: scale })
+                        }
+                        _ => None,
+                    }
+                }
+                _ => None,
+            };
+            return Some(parsed.ok_or_else(|| {
+                "write slayer:<variable>:<k> with a variable before this one and a finite k > 0, e.g. mu=slayer:r:1".to_string()
             }));
         }
         if text == "sin2" {
@@ -454,6 +496,7 @@ impl InputTransform {
                 beta,
             } => format!("glayer:#{by}:{k}:{w}:{root}{}", beta_suffix(beta)),
             InputTransform::CriticalAngle { lo, hi } => format!("critical:{lo}:{hi}"),
+            InputTransform::RootLayer { by, k } => format!("slayer:#{by}:{k}"),
             InputTransform::SinSquared => "sin2".into(),
             InputTransform::ProjectedLayer {
                 r,
@@ -485,6 +528,10 @@ impl InputTransform {
                 beta,
             } => match names.get(by) {
                 Some(n) => format!("glayer:{n}:{k}:{w}:{root}{}", beta_suffix(beta)),
+                None => self.name(),
+            },
+            InputTransform::RootLayer { by, k } => match names.get(by) {
+                Some(n) => format!("slayer:{n}:{k}"),
                 None => self.name(),
             },
             InputTransform::ProjectedLayer {
@@ -559,6 +606,10 @@ impl InputTransform {
                     "({}*({v}*(1 + {scale}*{y}*{y}) + 2^-100)/({v} + {scale}*{y}*{y} + 2^-100) + {w}*{v})^(1/{root}){def}",
                     1.0 - w
                 )
+            }
+            InputTransform::RootLayer { by, k: scale } => {
+                let y = names.get(by).map_or("y", String::as_str);
+                format!("{x}*(sqrt(1 + s) + sqrt(s))/(sqrt({x} + s) + sqrt(s) + 2^-100), s = {scale}*{y}*{y}")
             }
             InputTransform::SinSquared => format!("sin({x})^2"),
             InputTransform::ProjectedLayer {
@@ -667,6 +718,31 @@ impl InputTransform {
                 (
                     grazing_of(log_corrected(lo, b_min), yhi, scale, w, root),
                     grazing_of(log_corrected(hi, b_max), ylo, scale, w, root),
+                )
+            }
+            InputTransform::RootLayer { by, k: scale } => {
+                if by >= domain.len() || by == k {
+                    return Err(bad("a root layer needs another variable to scale by"));
+                }
+                if !(scale > 0.0 && scale.is_finite()) {
+                    return Err(bad("a root layer needs a finite scale k > 0"));
+                }
+                let (ylo, yhi) = domain[by];
+                if !(lo >= 0.0 && hi.is_finite() && ylo.is_finite() && yhi.is_finite()) {
+                    return Err(bad(
+                        "a root layer needs x ≥ 0 and a finite variable to scale by",
+                    ));
+                }
+                // t increases with x and decreases with s = k y²: bounds at the extreme s
+                let (y2min, y2max) = if ylo <= 0.0 && yhi >= 0.0 {
+                    (0.0, (ylo * ylo).max(yhi * yhi))
+                } else {
+                    let (a, b) = (ylo * ylo, yhi * yhi);
+                    (a.min(b), a.max(b))
+                };
+                (
+                    root_layer_of(lo, scale * y2max),
+                    root_layer_of(hi, scale * y2min),
                 )
             }
             InputTransform::SinSquared => {
@@ -811,6 +887,21 @@ impl InputTransform {
 fn layer(x: f64, y: f64, k: f64) -> f64 {
     let s = k * y * y;
     (x * (1.0 + s) + LAYER_TAU) / (x + s + LAYER_TAU)
+}
+
+/// [`InputTransform::RootLayer`]: t = x·(√(1 + s) + √s)/(√(x + s) + √s + τ), s = k y².
+#[inline]
+fn root_layer(x: f64, y: f64, k: f64) -> f64 {
+    root_layer_of(x, k * y * y)
+}
+
+/// (√(x + s) − √s)/(√(1 + s) − √s) without cancellation, x clamped to ≥ 0, τ =
+/// [`LAYER_TAU`] deciding 0/0 at x = s = 0.
+#[inline]
+fn root_layer_of(x: f64, s: f64) -> f64 {
+    let x = x.max(0.0);
+    let rs = s.sqrt();
+    x * ((1.0 + s).sqrt() + rs) / ((x + s).sqrt() + rs + LAYER_TAU)
 }
 
 /// [`InputTransform::GrazingLayer`]: t = ((1 − w)·L(v, y) + w·v)^(1/n), v the log-corrected x
@@ -1847,6 +1938,91 @@ mod tests {
             assert!(e.contains("critical:lo:hi"), "{bad}: {e}");
         }
         assert_eq!(f.label(&names), "critical:0.0125:0.25");
+    }
+
+    #[test]
+    fn root_layer_is_sqrt_mu_on_the_mirror_row_and_linear_inside_the_layer() {
+        let names = ["f0", "r", "mu"].map(String::from).to_vec();
+        let g = InputTransform::RootLayer { by: 1, k: 1.0 };
+        let t = |r: f64, mu: f64| g.apply(2, &[0.1, r, mu]);
+        // r = 0: √μ to rounding (τ = 2⁻¹⁰⁰ is below √μ's last bit for μ ≥ 1e-12)
+        for mu in [1e-12, 1e-4, 0.01, 0.3, 0.5, 1.0] {
+            assert!(
+                (t(0.0, mu) - mu.sqrt()).abs() <= 1e-15 * mu.sqrt(),
+                "μ = {mu}"
+            );
+        }
+        assert_eq!(t(0.0, 0.0), 0.0, "0/0 at the corner decided by τ");
+        // the definition (√(μ + s) − √s)/(√(1 + s) − √s), s = k r², where it does not cancel
+        for (r, mu) in [(0.3, 0.2), (1.0, 0.5), (0.1, 0.05), (0.7, 1.0)] {
+            let s: f64 = r * r;
+            let want = ((mu + s).sqrt() - s.sqrt()) / ((1.0 + s).sqrt() - s.sqrt());
+            assert!((t(r, mu) - want).abs() < 1e-14, "r {r}, μ {mu}");
+        }
+        // onto [0, 1] at every r; increasing in μ, decreasing in r
+        for r in [0.0, 0.01, 0.1, 0.5, 1.0] {
+            assert_eq!(t(r, 0.0), 0.0);
+            assert!((t(r, 1.0) - 1.0).abs() < 1e-15, "r {r}");
+            let mut last = -1.0;
+            for i in 0..=200 {
+                let mu = (i as f64 / 200.0).powi(3);
+                let v = t(r, mu);
+                assert!(
+                    v > last || (i == 0 && v == 0.0),
+                    "increasing at r {r}, μ {mu}"
+                );
+                assert!(t(r + 0.01, mu) <= v + 1e-16, "decreasing in r at {r}, {mu}");
+                last = v;
+                assert!(
+                    (g.inverse(2, v, &[0.1, r, 0.0]) - mu).abs() < 1e-12,
+                    "inverse"
+                );
+            }
+        }
+        // inside the layer μ ≪ α = r²: linear in μ, slope (√(1 + s) + √s)/(2√s)
+        for r in [0.01, 0.05] {
+            let s: f64 = r * r;
+            let slope = ((1.0 + s).sqrt() + s.sqrt()) / (2.0 * s.sqrt());
+            let mu = 1e-3 * s;
+            assert!((t(r, mu) / mu - slope).abs() < 1e-3 * slope, "r {r}");
+        }
+        // outside it, within O(√α) of √μ
+        for (r, mu) in [(0.01, 0.2), (0.03, 0.5), (0.05, 0.9)] {
+            assert!((t(r, mu) - mu.sqrt()).abs() < 2.0 * r, "r {r}, μ {mu}");
+        }
+        let dom = [(0.0125, 0.25), (0.0, 1.0), (0.0, 1.0)];
+        assert_eq!(g.image(2, &names, &dom).unwrap(), (0.0, 1.0));
+        let (lo, hi) = g
+            .image(2, &names, &[(0.0125, 0.25), (0.5, 1.0), (0.25, 1.0)])
+            .unwrap();
+        assert!((lo - t(1.0, 0.25)).abs() < 1e-15 && (hi - 1.0).abs() < 1e-15);
+        for bad in [
+            InputTransform::RootLayer { by: 1, k: 0.0 },
+            InputTransform::RootLayer { by: 2, k: 1.0 },
+            InputTransform::RootLayer { by: 7, k: 1.0 },
+        ] {
+            assert!(bad.image(2, &names, &dom).is_err(), "{bad:?}");
+        }
+        assert!(g
+            .image(2, &names, &[(0.0125, 0.25), (0.0, 1.0), (-0.1, 1.0)])
+            .is_err());
+        assert_eq!(
+            InputTransform::parse_more("slayer:r:1", &names, 2).unwrap(),
+            Ok(g)
+        );
+        for bad in [
+            "slayer:r:0",
+            "slayer:mu:1",
+            "slayer:q:1",
+            "slayer:r",
+            "slayer:r:x",
+        ] {
+            let e = InputTransform::parse_more(bad, &names, 2)
+                .unwrap()
+                .unwrap_err();
+            assert!(e.contains("slayer:<variable>:<k>"), "{bad}: {e}");
+        }
+        assert_eq!(g.label(&names), "slayer:r:1");
     }
 
     #[test]

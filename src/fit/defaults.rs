@@ -226,6 +226,16 @@ pub const ANISO_EXPONENT_FORMS: [(u32, [u32; 4], u32, [u32; 4]); 2] = [
     (5, [5, 2, 5, 2], 3, [3, 1, 3, 1]),
 ];
 
+/// k of the root-layer variable `slayer:r:k` ([`InputTransform::RootLayer`]: √μ outside the
+/// layer μ ≲ k·r², linear in μ inside it) in which a 3-D sweep without a grazing boundary layer
+/// (the glossy albedo, whose row r = 0 is F(η, μ)) fits `split:f0:2:3/3` (39 coefficients) a
+/// second time, besides √μ ([`structured_forms`]). Measured on the 128³ `ggx-glossy` table
+/// (one form per sweep, off-grid at the 26 112 check points; docs/fitting.md, "The glossy
+/// grazing layer"): minimax 1.24e-2 / MAE 3.75e-3 at k = 3, 1.45e-2 / 4.07e-3 at k = 1,
+/// 1.08e-2 / 4.11e-3 at k = 0.3, where the same form in √μ has 1.22e-2 / 4.31e-3 and the
+/// rational 3/3 1.35e-2 / 4.60e-3.
+pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 3.0;
+
 /// Structured forms a default sweep fits in `transforms` ([`physics_transforms`]):
 /// - 2-D with a grazing layer: [`LAYER_TENSOR_FORMS`] with μ in the boundary-layer variable,
 ///   and [`LOG_LAYER_FORMS`] with μ in the log-corrected one;
@@ -239,7 +249,9 @@ pub const ANISO_EXPONENT_FORMS: [(u32, [u32; 4], u32, [u32; 4]); 2] = [
 ///   P_k/Q_k of degrees n/m: (K, p, n, m) = (2, 2, 4, 1) (40), (3, 3, 4, 2) (72) and
 ///   (4, 4, 5, 4) (160) where μ is in the grazing-layer variable, else (4, 4, 5, 3) (140);
 ///   where it is, (2, 2, 4, 1) also with μ in the log-corrected layer variable
-///   ([`LOG_LAYER_LOWRANK`]);
+///   ([`LOG_LAYER_LOWRANK`]); where μ is in √μ (no boundary layer: the glossy albedo),
+///   (k, n, m) = (2, 3, 3) also with μ in the root-layer variable
+///   ([`GLOSSY_ROOT_LAYER_SCALE`]);
 /// - 4-D with μ in the projected layer: [`ANISO_EXPONENT_FORMS`] (74 and 120 coefficients).
 pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<PlannedForm> {
     let d = data.dim();
@@ -341,6 +353,22 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                                 transforms: t,
                             }),
                     );
+                }
+                // the 39-coefficient split sum once more with √μ replaced by the root-layer
+                // variable (docs/fitting.md, "The glossy grazing layer")
+                let find = |n: &str| data.names.iter().position(|x| x.eq_ignore_ascii_case(n));
+                if let (Some(r), Some(mu)) = (find("r"), find("mu")) {
+                    if transforms.get(mu) == Some(&InputTransform::Sqrt) && r < mu {
+                        let mut t = transforms.to_vec();
+                        t[mu] = InputTransform::RootLayer {
+                            by: r,
+                            k: GLOSSY_ROOT_LAYER_SCALE,
+                        };
+                        v.push(PlannedForm {
+                            form: split_form(3, f, 2, 3, 3),
+                            transforms: t,
+                        });
+                    }
                 }
                 v
             }
@@ -514,9 +542,25 @@ mod tests {
         );
         assert_eq!(full.forms[4].transforms, t);
         let glossy3 = default_plan(&d3, None, None, Objective::LeastSquares, false);
+        let sizes: Vec<usize> = glossy3
+            .forms
+            .iter()
+            .map(|f| f.form.n_coefficients(3))
+            .collect();
+        assert_eq!(sizes, vec![39, 54, 77, 139, 40, 72, 140, 39]);
+        let low_rank = &glossy3.forms[6];
+        assert_eq!(low_rank.transforms[2], InputTransform::Sqrt);
+        // the last: the 39-coefficient split sum in the root-layer variable, the rest as √μ's
         let last = glossy3.forms.last().unwrap();
-        assert_eq!(last.form.n_coefficients(3), 140);
-        assert_eq!(last.transforms[2], InputTransform::Sqrt);
+        assert_eq!(last.form, glossy3.forms[0].form);
+        assert_eq!(
+            last.transforms[2],
+            InputTransform::RootLayer {
+                by: 1,
+                k: GLOSSY_ROOT_LAYER_SCALE
+            }
+        );
+        assert_eq!(last.transforms[..2], low_rank.transforms[..2]);
         assert_eq!(full.transform_sets.last(), Some(&t));
         assert!(physics_transforms(&data(&["x", "y"]), true).is_none());
         // 4-D anisotropic: μ in the projected-roughness layer, φ as α_o/α_t (φ ∈ [0, 1] ⊂ [0, π/2])

@@ -881,13 +881,143 @@ fn sin_squared(x: Expr, prefix: &str, body: &mut Vec<Stmt>) -> Expr {
     }
     add(lit(0.5), mul(lit(0.5), mul(var(&u), h)))
 }
+/// Terms of a structured form cancel when, somewhere on the measurement grid, Σ_k |e_k| exceeds
+/// this multiple of max(1, |Σ_k e_k|): each term's f32 rounding error is relative to |e_k|, so
+/// the sum's error grows by that factor over one quotient's ([`one_quotient`]).
+pub const TERM_CANCELLATION: f64 = 8.0;
+
+/// One quotient may store at most this multiple of the structured form's numbers.
+pub const ONE_QUOTIENT_GROWTH: usize = 2;
+
+/// Σ_k |e_k| / max(1, |Σ_k e_k|), largest over the emitter's measurement grid
+/// ([`measurement_nodes`] per axis), of a structured approximant's terms e_k = (u_k·P_k)/Q_k;
+/// 1 for an approximant of one term.
+pub fn term_cancellation(fit: &FitResult) -> f64 {
+    let a = &fit.approximant;
+    if a.terms.is_empty() {
+        return 1.0;
+    }
+    let d = a.variables.len();
+    let terms = a.all_terms();
+    let points = grid_points(&domain_f32(fit), measurement_nodes(d));
+    points
+        .chunks(d)
+        .map(|x| {
+            let x: Vec<f64> = x.iter().map(|&v| v as f64).collect();
+            let t = a.transform(&x);
+            let (sum, abs) = terms.iter().fold((0.0, 0.0), |(s, m), term| {
+                let e = term.eval(&t);
+                (s + e, m + e.abs())
+            });
+            abs / f64::max(1.0, sum.abs())
+        })
+        .fold(1.0, f64::max)
+}
+
+/// Product of two polynomials in the same variables (exponents in lexicographic order).
+fn poly_product(p: &Polynomial, q: &Polynomial) -> Polynomial {
+    let mut out: std::collections::BTreeMap<Vec<u32>, CompensatedSum> = Default::default();
+    for (e, &c) in p.exponents.iter().zip(&p.coefficients) {
+        for (f, &b) in q.exponents.iter().zip(&q.coefficients) {
+            let k: Vec<u32> = e.iter().zip(f).map(|(x, y)| x + y).collect();
+            out.entry(k).or_default().add(c * b);
+        }
+    }
+    Polynomial {
+        exponents: out.keys().cloned().collect(),
+        coefficients: out.values().map(|s| s.value()).collect(),
+    }
+}
+
+/// Sum of polynomials in the same variables (exponents in lexicographic order).
+fn poly_sum(ps: &[Polynomial]) -> Polynomial {
+    let mut out: std::collections::BTreeMap<Vec<u32>, CompensatedSum> = Default::default();
+    for p in ps {
+        for (e, &c) in p.exponents.iter().zip(&p.coefficients) {
+            out.entry(e.clone()).or_default().add(c);
+        }
+    }
+    Polynomial {
+        exponents: out.keys().cloned().collect(),
+        coefficients: out.values().map(|s| s.value()).collect(),
+    }
+}
+
+/// A structured fit Σ_k (u_k·P_k)/Q_k written as one quotient N/D over the product of its
+/// denominators, N = Σ_k u_k·P_k·Π_{j≠k} Q_j, D = Π_k Q_k (coefficients multiplied out in f64
+/// with compensated sums; the same function to rounding), for the emitters to evaluate when the
+/// terms cancel: at the leaving dielectric's low-rank fits two terms of size ~16 add up to an
+/// albedo of ~0.5, and each term's f32 rounding error (relative to the term) becomes ~30× the
+/// albedo's, where N's coefficients carry the cancellation out in f64 already.
+/// None when the fit is not structured, its terms do not cancel ([`term_cancellation`] below
+/// [`TERM_CANCELLATION`]) or N/D would store more than [`ONE_QUOTIENT_GROWTH`] times its numbers.
+pub fn one_quotient(fit: &FitResult) -> Option<FitResult> {
+    let a = &fit.approximant;
+    if a.terms.is_empty() || term_cancellation(fit) < TERM_CANCELLATION {
+        return None;
+    }
+    let d = a.variables.len();
+    let one = Polynomial {
+        exponents: vec![vec![0; d]],
+        coefficients: vec![1.0],
+    };
+    let terms = a.all_terms();
+    let den_of =
+        |t: &crate::fit::result::Term| t.denominator.clone().unwrap_or_else(|| one.clone());
+    let den = terms
+        .iter()
+        .fold(one.clone(), |acc, t| poly_product(&acc, &den_of(t)));
+    let parts: Vec<Polynomial> = terms
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            let mut p = t.numerator.clone();
+            if let Some(u) = &t.factor {
+                p = poly_product(&p, u);
+            }
+            for (j, s) in terms.iter().enumerate() {
+                if j != k {
+                    p = poly_product(&p, &den_of(s));
+                }
+            }
+            p
+        })
+        .collect();
+    let num = poly_sum(&parts);
+    let stored = num.coefficients.len() + den.coefficients.len() - 1;
+    if stored > ONE_QUOTIENT_GROWTH * fit.n_coefficients {
+        return None;
+    }
+    let mut out = fit.clone();
+    out.approximant.numerator = num;
+    out.approximant.denominator = Some(den);
+    out.approximant.factor = None;
+    out.approximant.terms = Vec::new();
+    Some(out)
+}
 
 /// The albedo function of a fit: `name(x_1, …, x_d) -> f32`.
 ///
 /// Body: clamp each input to the f32-rounded domain; apply the input transforms; shift (for
 /// [`EvalForm::Shifted`]); `p`, `q` by Horner; `e = p / q` (the unclamped value, which the
 /// stress test inspects); result `clamp(e, 0, 1)` — an albedo of an energy-conserving BSDF.
+/// A structured form's terms are evaluated each as (u_k·P_k)/Q_k and added, or as one quotient
+/// where they cancel ([`one_quotient`]).
 pub fn albedo_function(
+    name: &str,
+    doc: Vec<String>,
+    fit: &FitResult,
+    form: EvalForm,
+) -> crate::fit::Result<Function> {
+    fit.approximant.validate()?;
+    match one_quotient(fit) {
+        Some(one) => albedo_function_of(name, doc, &one, form),
+        None => albedo_function_of(name, doc, fit, form),
+    }
+}
+
+/// [`albedo_function`] with a structured form's terms evaluated one by one.
+fn albedo_function_of(
     name: &str,
     doc: Vec<String>,
     fit: &FitResult,
@@ -1696,6 +1826,106 @@ pub fn choose_form(
 mod tests {
     use super::*;
     use crate::fit::basis::exponents;
+
+    /// u_0·P_0/Q_0 + u_1·P_1/Q_1 in (f0, r, μ) on [0, 1]³ with u_0 = s·(1 + x/5), u_1 = −s·(1 +
+    /// x/5 − x²/50) and P_1/Q_1 close to P_0/Q_0: for s = 20 the terms are ~±20 about an albedo
+    /// ~0.3, as in the leaving dielectric's low-rank fits; for s = 0.5 they do not cancel.
+    fn cancelling_fit(s: f64) -> FitResult {
+        let poly = |exponents: Vec<Vec<u32>>, coefficients: Vec<f64>| Polynomial {
+            exponents,
+            coefficients,
+        };
+        let rm = vec![vec![0, 0, 0], vec![0, 1, 0], vec![0, 0, 1]];
+        let f0 = vec![vec![0, 0, 0], vec![1, 0, 0], vec![2, 0, 0]];
+        let approximant = crate::fit::result::Approximant {
+            variables: vec!["f0".into(), "r".into(), "mu".into()],
+            transforms: vec![InputTransform::Identity; 3],
+            domain: vec![(0.0, 1.0); 3],
+            numerator: poly(rm.clone(), vec![0.5, 0.2, 0.3]),
+            denominator: Some(poly(rm.clone(), vec![1.0, 0.1, 0.5])),
+            factor: Some(poly(f0.clone(), vec![s, s / 5.0, 0.0])),
+            terms: vec![crate::fit::result::Term {
+                factor: Some(poly(f0, vec![-s, -s / 5.0, s / 50.0])),
+                numerator: poly(rm.clone(), vec![0.48, 0.2, 0.31]),
+                denominator: Some(poly(rm, vec![1.0, 0.12, 0.45])),
+            }],
+        };
+        let ax: Vec<f64> = (0..5).map(|i| i as f64 / 4.0).collect();
+        let mut values = Vec::new();
+        for &x in &ax {
+            for &r in &ax {
+                for &m in &ax {
+                    values.push(approximant.eval(&[x, r, m]));
+                }
+            }
+        }
+        let data = crate::fit::FitData::from_grid(
+            approximant.variables.clone(),
+            &[ax.clone(), ax.clone(), ax],
+            values,
+        )
+        .unwrap();
+        FitResult::assess(
+            crate::fit::result::Form::Polynomial { degree: 1 },
+            approximant,
+            &data,
+            crate::fit::result::Objective::LeastSquares,
+            None,
+            &crate::fit::CertifyOptions::default(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn cancelling_terms_are_evaluated_as_one_quotient() {
+        let fit = cancelling_fit(20.0);
+        let c = term_cancellation(&fit);
+        assert!(c > TERM_CANCELLATION, "{c}");
+        let one = one_quotient(&fit).expect("the terms cancel");
+        assert!(!one.approximant.is_structured());
+        // N = Σ u_k·P_k·Q_j: f0^0..2 times the 6 monomials of degree ≤ 2 in (r, μ); D = Q_0·Q_1:
+        // 18 + 6 − 1 numbers, within twice the 16 stored
+        assert_eq!(one.approximant.numerator.coefficients.len(), 18);
+        assert_eq!(
+            one.approximant
+                .denominator
+                .as_ref()
+                .unwrap()
+                .coefficients
+                .len(),
+            6
+        );
+        // the same function in f64 at points off any grid
+        let mut rng = crate::fit::data::SplitMix64(7);
+        let mut worst: f64 = 0.0;
+        for _ in 0..2000 {
+            let x: Vec<f64> = (0..3).map(|_| rng.next_f64()).collect();
+            worst = worst.max((one.eval(&x) - fit.eval(&x)).abs());
+        }
+        assert!(worst < 1e-13, "{worst}");
+        // the emitted code evaluates N/D: one e, no per-term e0, e1
+        let f = albedo_function("a", vec![], &fit, EvalForm::Bernstein).unwrap();
+        assert!(f.body.iter().all(|s| s.name != "e0" && s.name != "e1"));
+        assert!(f.body.iter().any(|s| s.name == "q"));
+        // in f32 one quotient errs far less than the sum of the ±20 terms, each rounded alone
+        let points = grid_points(&domain_f32(&fit), 17);
+        let err = |f: Function| {
+            let program = super::super::ir::Program { functions: vec![f] };
+            measure(&Compiled::new(&program, "a").unwrap(), &fit, &points).max_diff()
+        };
+        let one_err = err(albedo_function("a", vec![], &fit, EvalForm::Bernstein).unwrap());
+        let sum_err = err(albedo_function_of("a", vec![], &fit, EvalForm::Bernstein).unwrap());
+        assert!(
+            one_err < 3e-7 && 5.0 * one_err < sum_err,
+            "{one_err} {sum_err}"
+        );
+        // terms that do not cancel keep their own quotients
+        let mild = cancelling_fit(0.5);
+        assert!(term_cancellation(&mild) < TERM_CANCELLATION);
+        assert!(one_quotient(&mild).is_none());
+        let f = albedo_function("a", vec![], &mild, EvalForm::Bernstein).unwrap();
+        assert!(f.body.iter().any(|s| s.name == "e1"));
+    }
 
     #[test]
     fn shifting_preserves_the_polynomial() {

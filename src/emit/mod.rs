@@ -568,6 +568,13 @@ fn albedo_doc(src: &SourceFit, name: &str, params: &[String], e: &EmittedFit) ->
         e.fit_hash
     ));
     doc.extend(e.form.explain());
+    if generate::one_quotient(&r.fit).is_some() {
+        doc.push(format!(
+            "Its {} terms cancel (sum of |term| up to {:.0}x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.",
+            a.terms.len() + 1,
+            generate::term_cancellation(&r.fit)
+        ));
+    }
     let m = &r.fit.metrics;
     doc.push(format!(
         "Error of the f64 fit on its {} data points: MAE {:.2e}, max {:.2e} (recorded by the fitter).",

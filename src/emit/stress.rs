@@ -271,7 +271,10 @@ pub fn stress(fit: &FitResult, name: &str, opts: &StressOptions) -> Result<Stres
     };
     let compiled =
         Compiled::new(&program, &name).map_err(|e| Error::InvalidInput(e.to_string()))?;
-    let (p_poly, q_poly) = form_polynomials(fit, form)?;
+    // the quotient the emitted code evaluates: one over the product of the denominators where a
+    // structured form's terms cancel (generate::one_quotient), else the first term's
+    let evaluated = super::generate::one_quotient(fit);
+    let (p_poly, q_poly) = form_polynomials(evaluated.as_ref().unwrap_or(fit), form)?;
     let domain = super::generate::domain_f32(fit);
     let d = domain.len();
 
@@ -377,7 +380,13 @@ pub fn stress(fit: &FitResult, name: &str, opts: &StressOptions) -> Result<Stres
         total.bound = total.bound.max(p.bound);
         total.overshoot = total.overshoot.max(p.overshoot);
     }
-    let verdict = fit.approximant.certify_poles(&CertifyOptions::default());
+    // each Q_k of a structured fit, or the one quotient's denominator Π_k Q_k where the emitted
+    // code evaluates that (positive where every Q_k is: its certificate states the product's bound)
+    let verdict = evaluated
+        .as_ref()
+        .unwrap_or(fit)
+        .approximant
+        .certify_poles(&CertifyOptions::default());
     let q_lower_bound = match verdict {
         PoleVerdict::Certified {
             min_lower_bound, ..

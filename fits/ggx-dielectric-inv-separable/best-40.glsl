@@ -19,10 +19,11 @@
 // Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
 // Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 6089c538784e31feb6100d99590d40fa2b79adf5dc5d6d4817a6b8571260bcb3.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.1e-5, shifted 9.2e-6, bernstein 6.4e-6.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-5, shifted 3.3e-6, bernstein 1.2e-6.
+// Its 2 terms cancel (sum of |term| up to 20x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
 // Error of the f64 fit on its 2097152 data points: MAE 4.98e-3, max 2.65e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.53e-6 (every op rounded, as this Rust), 4.85e-6 (fused multiply-add), 7.47e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.12e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 19675 boxes).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.74e-7 (every op rounded, as this Rust), 4.46e-7 (fused multiply-add), 1.72e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
 // Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.70e-3, max 2.65e-2; this f32 code MAE 4.70e-3, max 2.65e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
 // Denominator proved >= 1.098e-1 on the domain (Bernstein certificate), so the division is safe.
@@ -37,85 +38,88 @@ highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, h
     highp float mu_c = max(min(mu, 1.0), 0.0);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
+    highp float f0_v = 1.0 - f0_t;
+    highp float f0_u2 = f0_t * f0_t;
+    highp float f0_v2 = f0_v * f0_v;
+    highp float f0_b1 = f0_t * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    highp float r_v = 1.0 - r_t;
+    highp float r_u2 = r_t * r_t;
+    highp float r_v2 = r_v * r_v;
+    highp float r_u3 = r_u2 * r_t;
+    highp float r_v3 = r_v2 * r_v;
+    highp float r_u4 = r_u3 * r_t;
+    highp float r_v4 = r_v3 * r_v;
+    highp float r_u5 = r_u4 * r_t;
+    highp float r_v5 = r_v4 * r_v;
+    highp float r_b1 = r_t * r_v4;
+    highp float r_b2 = r_u2 * r_v3;
+    highp float r_b3 = r_u3 * r_v2;
+    highp float r_b4 = r_u4 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
-    highp float r_b4_v = 1.0 - r_t;
-    highp float r_b4_u2 = r_t * r_t;
-    highp float r_b4_v2 = r_b4_v * r_b4_v;
-    highp float r_b4_u3 = r_b4_u2 * r_t;
-    highp float r_b4_v3 = r_b4_v2 * r_b4_v;
-    highp float r_b4_u4 = r_b4_u3 * r_t;
-    highp float r_b4_v4 = r_b4_v3 * r_b4_v;
-    highp float r_b4_b1 = r_t * r_b4_v3;
-    highp float r_b4_b2 = r_b4_u2 * r_b4_v2;
-    highp float r_b4_b3 = r_b4_u3 * r_b4_v;
-    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
-    highp float mu_b4_v = 1.0 - mu_u;
-    highp float mu_b4_u2 = mu_u * mu_u;
-    highp float mu_b4_v2 = mu_b4_v * mu_b4_v;
-    highp float mu_b4_u3 = mu_b4_u2 * mu_u;
-    highp float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
-    highp float mu_b4_u4 = mu_b4_u3 * mu_u;
-    highp float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
-    highp float mu_b4_b1 = mu_u * mu_b4_v3;
-    highp float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
-    highp float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    highp float p0_0_0 = -0.118105136 * mu_b4_v4 + 0.75881714 * mu_b4_b1 - 0.61277395 * mu_b4_b2 + 0.19313987 * mu_b4_b3 - 0.0067239534 * mu_b4_u4;
-    highp float p0_0_1 = -2.743829 * mu_b4_v4 - 7.5714917 * mu_b4_b1 - 13.226677 * mu_b4_b2 - 1.681934 * mu_b4_b3 - 0.0411597 * mu_b4_u4;
-    highp float p0_0_2 = -6.877387 * mu_b4_v4 - 23.394064 * mu_b4_b1 - 29.794537 * mu_b4_b2 - 2.8250015 * mu_b4_b3 + 0.315497 * mu_b4_u4;
-    highp float p0_0_3 = -5.1524553 * mu_b4_v4 - 18.433743 * mu_b4_b1 - 19.60572 * mu_b4_b2 + 1.2362694 * mu_b4_b3 + 0.8024635 * mu_b4_u4;
-    highp float p0_0_4 = -1.1728991 * mu_b4_v4 - 4.458415 * mu_b4_b1 - 4.057731 * mu_b4_b2 + 1.0977683 * mu_b4_b3 + 0.18042348 * mu_b4_u4;
-    highp float p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
-    highp float p0 = p0_0 * 1.0;
-    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
-    highp float f0_b2_v = 1.0 - f0_t;
-    highp float f0_b2_u2 = f0_t * f0_t;
-    highp float f0_b2_v2 = f0_b2_v * f0_b2_v;
-    highp float f0_b2_b1 = f0_t * f0_b2_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    highp float u0_0_0 = 8.566358 * 1.0;
-    highp float u0_0 = u0_0_0 * 1.0;
-    highp float u0_1_0 = 16.215538 * 1.0;
-    highp float u0_1 = u0_1_0 * 1.0;
-    highp float u0_2_0 = 8.175602 * 1.0;
-    highp float u0_2 = u0_2_0 * 1.0;
-    highp float u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
-    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
-    highp float r_b1_v = 1.0 - r_t;
-    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
-    highp float mu_b1_v = 1.0 - mu_u;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q0_0_0 = 1.0 * mu_b1_v + 0.109763734 * mu_u;
-    highp float q0_0_1 = 1.0859368 * mu_b1_v + 0.19570053 * mu_u;
-    highp float q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
-    highp float q0 = q0_0 * 1.0;
-    highp float e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    highp float p1_0_0 = -0.17564772 * mu_b4_v4 + 0.2991006 * mu_b4_b1 - 0.717726 * mu_b4_b2 + 0.034179553 * mu_b4_b3 - 0.017276566 * mu_b4_u4;
-    highp float p1_0_1 = -2.405098 * mu_b4_v4 - 6.8584347 * mu_b4_b1 - 11.197416 * mu_b4_b2 - 1.857284 * mu_b4_b3 - 0.088926345 * mu_b4_u4;
-    highp float p1_0_2 = -5.5754356 * mu_b4_v4 - 18.991894 * mu_b4_b1 - 23.91229 * mu_b4_b2 - 2.819884 * mu_b4_b3 + 0.21236701 * mu_b4_u4;
-    highp float p1_0_3 = -4.094307 * mu_b4_v4 - 14.606492 * mu_b4_b1 - 15.549647 * mu_b4_b2 + 0.53466845 * mu_b4_b3 + 0.5964083 * mu_b4_u4;
-    highp float p1_0_4 = -0.92808944 * mu_b4_v4 - 3.4912071 * mu_b4_b1 - 3.195655 * mu_b4_b2 + 0.7440165 * mu_b4_b3 + 0.13262345 * mu_b4_u4;
-    highp float p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
-    highp float p1 = p1_0 * 1.0;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    highp float u1_0_0 = -10.9828825 * 1.0;
-    highp float u1_0 = u1_0_0 * 1.0;
-    highp float u1_1_0 = -21.519672 * 1.0;
-    highp float u1_1 = u1_1_0 * 1.0;
-    highp float u1_2_0 = -10.885022 * 1.0;
-    highp float u1_2 = u1_2_0 * 1.0;
-    highp float u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q1_0_0 = 1.0 * mu_b1_v + 0.12507248 * mu_u;
-    highp float q1_0_1 = 1.0739042 * mu_b1_v + 0.19897667 * mu_u;
-    highp float q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
-    highp float q1 = q1_0 * 1.0;
-    highp float e1 = p1 * u1 / q1;
-    // the sum of the 2 terms
-    highp float e = e0 + e1;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    highp float mu_v = 1.0 - mu_u;
+    highp float mu_u2 = mu_u * mu_u;
+    highp float mu_v2 = mu_v * mu_v;
+    highp float mu_u3 = mu_u2 * mu_u;
+    highp float mu_v3 = mu_v2 * mu_v;
+    highp float mu_u4 = mu_u3 * mu_u;
+    highp float mu_v4 = mu_v3 * mu_v;
+    highp float mu_u5 = mu_u4 * mu_u;
+    highp float mu_v5 = mu_v4 * mu_v;
+    highp float mu_b1 = mu_u * mu_v4;
+    highp float mu_b2 = mu_u2 * mu_v3;
+    highp float mu_b3 = mu_u3 * mu_v2;
+    highp float mu_b4 = mu_u4 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    highp float p_0_0 = 0.9173875 * mu_v5 + 3.3005197 * mu_b1 + 3.0858958 * mu_b2 + 1.4878142 * mu_b3 + 0.29787558 * mu_b4 + 0.013623137 * mu_u5;
+    highp float p_0_1 = 3.918686 * mu_v5 + 14.014527 * mu_b1 + 13.404713 * mu_b2 + 7.1850514 * mu_b3 + 1.4609655 * mu_b4 + 0.088776015 * mu_u5;
+    highp float p_0_2 = 5.763407 * mu_v5 + 20.174189 * mu_b1 + 18.931475 * mu_b2 + 11.875673 * mu_b3 + 2.5499916 * mu_b4 + 0.20299272 * mu_u5;
+    highp float p_0_3 = 4.0579953 * mu_v5 + 13.486228 * mu_b1 + 12.735456 * mu_b2 + 10.712275 * mu_b3 + 2.6191711 * mu_b4 + 0.22210248 * mu_u5;
+    highp float p_0_4 = 1.5775193 * mu_v5 + 4.658299 * mu_b1 + 4.838014 * mu_b2 + 5.737172 * mu_b3 + 1.5952845 * mu_b4 + 0.11933754 * mu_u5;
+    highp float p_0_5 = 0.27903566 * mu_v5 + 0.61926675 * mu_b1 + 0.6892445 * mu_b2 + 1.1773635 * mu_b3 + 0.3500298 * mu_b4 + 0.022477822 * mu_u5;
+    highp float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
+    highp float p_1_0 = 1.8647432 * mu_v5 + 6.0434437 * mu_b1 + 6.3412404 * mu_b2 + 2.8488824 * mu_b3 + 0.5737291 * mu_b4 + 0.02717166 * mu_u5;
+    highp float p_1_1 = 9.312294 * mu_v5 + 31.514658 * mu_b1 + 34.621784 * mu_b2 + 15.92871 * mu_b3 + 2.9880018 * mu_b4 + 0.1776382 * mu_u5;
+    highp float p_1_2 = 16.884907 * mu_v5 + 58.274654 * mu_b1 + 64.662865 * mu_b2 + 29.524633 * mu_b3 + 5.2336116 * mu_b4 + 0.37994033 * mu_u5;
+    highp float p_1_3 = 15.088325 * mu_v5 + 52.364594 * mu_b1 + 58.289658 * mu_b2 + 26.78318 * mu_b3 + 4.714258 * mu_b4 + 0.34231696 * mu_u5;
+    highp float p_1_4 = 6.90835 * mu_v5 + 23.601046 * mu_b1 + 26.179749 * mu_b2 + 12.370222 * mu_b3 + 2.314336 * mu_b4 + 0.13009156 * mu_u5;
+    highp float p_1_5 = 1.2637382 * mu_v5 + 4.0716853 * mu_b1 + 4.335992 * mu_b2 + 2.095432 * mu_b3 + 0.45120978 * mu_b4 + 0.02360701 * mu_u5;
+    highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
+    highp float p_2_0 = 0.94634867 * mu_v5 + 3.0371637 * mu_b1 + 3.2212305 * mu_b2 + 1.4379271 * mu_b3 + 0.28974018 * mu_b4 + 0.013766178 * mu_u5;
+    highp float p_2_1 = 4.7863812 * mu_v5 + 16.129398 * mu_b1 + 17.901281 * mu_b2 + 8.143149 * mu_b3 + 1.5172204 * mu_b4 + 0.090024315 * mu_u5;
+    highp float p_2_2 = 8.800977 * mu_v5 + 30.348883 * mu_b1 + 33.99084 * mu_b2 + 15.22525 * mu_b3 + 2.658292 * mu_b4 + 0.19135183 * mu_u5;
+    highp float p_2_3 = 7.964149 * mu_v5 + 27.69434 * mu_b1 + 31.03561 * mu_b2 + 13.817077 * mu_b3 + 2.3651104 * mu_b4 + 0.16882715 * mu_u5;
+    highp float p_2_4 = 3.6720507 * mu_v5 + 12.611522 * mu_b1 + 14.019515 * mu_b2 + 6.309619 * mu_b3 + 1.1328611 * mu_b4 + 0.060973935 * mu_u5;
+    highp float p_2_5 = 0.67259485 * mu_v5 + 2.1925745 * mu_b1 + 2.3321855 * mu_b2 + 1.0500622 * mu_b3 + 0.21730824 * mu_b4 + 0.010989614 * mu_u5;
+    highp float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
+    highp float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    highp float q_0_0 = 1.0 * mu_v5 + 3.234836 * mu_b1 + 3.7182372 * mu_b2 + 1.7456939 * mu_b3 + 0.27602148 * mu_b4 + 0.013728423 * mu_u5;
+    highp float q_0_1 = 5.159841 * mu_v5 + 16.832405 * mu_b1 + 19.625673 * mu_b2 + 9.480995 * mu_b3 + 1.6153897 * mu_b4 + 0.08750244 * mu_u5;
+    highp float q_0_2 = 10.645715 * mu_v5 + 35.013016 * mu_b1 + 41.38383 * mu_b2 + 20.530554 * mu_b3 + 3.7330995 * mu_b4 + 0.21907663 * mu_u5;
+    highp float q_0_3 = 10.978099 * mu_v5 + 36.392975 * mu_b1 + 43.579826 * mu_b2 + 22.162626 * mu_b3 + 4.2671747 * mu_b4 + 0.26949945 * mu_u5;
+    highp float q_0_4 = 5.658417 * mu_v5 + 18.902344 * mu_b1 + 22.919666 * mu_b2 + 11.929106 * mu_b3 + 2.416503 * mu_b4 + 0.16313669 * mu_u5;
+    highp float q_0_5 = 1.166192 * mu_v5 + 3.924816 * mu_b1 + 4.816235 * mu_b2 + 2.5617306 * mu_b3 + 0.54305923 * mu_b4 + 0.038939837 * mu_u5;
+    highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
+    highp float q_1_0 = 2.0 * mu_v5 + 6.469672 * mu_b1 + 7.4364743 * mu_b2 + 3.4913878 * mu_b3 + 0.55204296 * mu_b4 + 0.027456846 * mu_u5;
+    highp float q_1_1 = 10.319682 * mu_v5 + 33.66481 * mu_b1 + 39.251347 * mu_b2 + 18.96199 * mu_b3 + 3.2307794 * mu_b4 + 0.17500488 * mu_u5;
+    highp float q_1_2 = 21.29143 * mu_v5 + 70.02603 * mu_b1 + 82.76766 * mu_b2 + 41.061108 * mu_b3 + 7.466199 * mu_b4 + 0.43815327 * mu_u5;
+    highp float q_1_3 = 21.956198 * mu_v5 + 72.78595 * mu_b1 + 87.15965 * mu_b2 + 44.325253 * mu_b3 + 8.534349 * mu_b4 + 0.5389989 * mu_u5;
+    highp float q_1_4 = 11.316834 * mu_v5 + 37.804688 * mu_b1 + 45.839333 * mu_b2 + 23.858212 * mu_b3 + 4.833006 * mu_b4 + 0.32627338 * mu_u5;
+    highp float q_1_5 = 2.332384 * mu_v5 + 7.849632 * mu_b1 + 9.63247 * mu_b2 + 5.1234612 * mu_b3 + 1.0861185 * mu_b4 + 0.077879675 * mu_u5;
+    highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
+    highp float q_2_0 = 1.0 * mu_v5 + 3.234836 * mu_b1 + 3.7182372 * mu_b2 + 1.7456939 * mu_b3 + 0.27602148 * mu_b4 + 0.013728423 * mu_u5;
+    highp float q_2_1 = 5.159841 * mu_v5 + 16.832405 * mu_b1 + 19.625673 * mu_b2 + 9.480995 * mu_b3 + 1.6153897 * mu_b4 + 0.08750244 * mu_u5;
+    highp float q_2_2 = 10.645715 * mu_v5 + 35.013016 * mu_b1 + 41.38383 * mu_b2 + 20.530554 * mu_b3 + 3.7330995 * mu_b4 + 0.21907663 * mu_u5;
+    highp float q_2_3 = 10.978099 * mu_v5 + 36.392975 * mu_b1 + 43.579826 * mu_b2 + 22.162626 * mu_b3 + 4.2671747 * mu_b4 + 0.26949945 * mu_u5;
+    highp float q_2_4 = 5.658417 * mu_v5 + 18.902344 * mu_b1 + 22.919666 * mu_b2 + 11.929106 * mu_b3 + 2.416503 * mu_b4 + 0.16313669 * mu_u5;
+    highp float q_2_5 = 1.166192 * mu_v5 + 3.924816 * mu_b1 + 4.816235 * mu_b2 + 2.5617306 * mu_b3 + 0.54305923 * mu_b4 + 0.038939837 * mu_u5;
+    highp float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
+    highp float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }
 

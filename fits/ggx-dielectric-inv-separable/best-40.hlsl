@@ -18,10 +18,11 @@
 // Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
 // Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 6089c538784e31feb6100d99590d40fa2b79adf5dc5d6d4817a6b8571260bcb3.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.1e-5, shifted 9.2e-6, bernstein 6.4e-6.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-5, shifted 3.3e-6, bernstein 1.2e-6.
+// Its 2 terms cancel (sum of |term| up to 20x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
 // Error of the f64 fit on its 2097152 data points: MAE 4.98e-3, max 2.65e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.53e-6 (every op rounded, as this Rust), 4.85e-6 (fused multiply-add), 7.47e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.12e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 19675 boxes).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.74e-7 (every op rounded, as this Rust), 4.46e-7 (fused multiply-add), 1.72e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
 // Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.70e-3, max 2.65e-2; this f32 code MAE 4.70e-3, max 2.65e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
 // Denominator proved >= 1.098e-1 on the domain (Bernstein certificate), so the division is safe.
@@ -36,85 +37,88 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float mu_c = max(min(mu, 1.0f), 0.0f);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
+    float f0_v = 1.0f - f0_t;
+    float f0_u2 = f0_t * f0_t;
+    float f0_v2 = f0_v * f0_v;
+    float f0_b1 = f0_t * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    float r_v = 1.0f - r_t;
+    float r_u2 = r_t * r_t;
+    float r_v2 = r_v * r_v;
+    float r_u3 = r_u2 * r_t;
+    float r_v3 = r_v2 * r_v;
+    float r_u4 = r_u3 * r_t;
+    float r_v4 = r_v3 * r_v;
+    float r_u5 = r_u4 * r_t;
+    float r_v5 = r_v4 * r_v;
+    float r_b1 = r_t * r_v4;
+    float r_b2 = r_u2 * r_v3;
+    float r_b3 = r_u3 * r_v2;
+    float r_b4 = r_u4 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
-    float r_b4_v = 1.0f - r_t;
-    float r_b4_u2 = r_t * r_t;
-    float r_b4_v2 = r_b4_v * r_b4_v;
-    float r_b4_u3 = r_b4_u2 * r_t;
-    float r_b4_v3 = r_b4_v2 * r_b4_v;
-    float r_b4_u4 = r_b4_u3 * r_t;
-    float r_b4_v4 = r_b4_v3 * r_b4_v;
-    float r_b4_b1 = r_t * r_b4_v3;
-    float r_b4_b2 = r_b4_u2 * r_b4_v2;
-    float r_b4_b3 = r_b4_u3 * r_b4_v;
-    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
-    float mu_b4_v = 1.0f - mu_u;
-    float mu_b4_u2 = mu_u * mu_u;
-    float mu_b4_v2 = mu_b4_v * mu_b4_v;
-    float mu_b4_u3 = mu_b4_u2 * mu_u;
-    float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
-    float mu_b4_u4 = mu_b4_u3 * mu_u;
-    float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
-    float mu_b4_b1 = mu_u * mu_b4_v3;
-    float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
-    float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    float p0_0_0 = -0.118105136f * mu_b4_v4 + 0.75881714f * mu_b4_b1 - 0.61277395f * mu_b4_b2 + 0.19313987f * mu_b4_b3 - 0.0067239534f * mu_b4_u4;
-    float p0_0_1 = -2.743829f * mu_b4_v4 - 7.5714917f * mu_b4_b1 - 13.226677f * mu_b4_b2 - 1.681934f * mu_b4_b3 - 0.0411597f * mu_b4_u4;
-    float p0_0_2 = -6.877387f * mu_b4_v4 - 23.394064f * mu_b4_b1 - 29.794537f * mu_b4_b2 - 2.8250015f * mu_b4_b3 + 0.315497f * mu_b4_u4;
-    float p0_0_3 = -5.1524553f * mu_b4_v4 - 18.433743f * mu_b4_b1 - 19.60572f * mu_b4_b2 + 1.2362694f * mu_b4_b3 + 0.8024635f * mu_b4_u4;
-    float p0_0_4 = -1.1728991f * mu_b4_v4 - 4.458415f * mu_b4_b1 - 4.057731f * mu_b4_b2 + 1.0977683f * mu_b4_b3 + 0.18042348f * mu_b4_u4;
-    float p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
-    float p0 = p0_0 * 1.0f;
-    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
-    float f0_b2_v = 1.0f - f0_t;
-    float f0_b2_u2 = f0_t * f0_t;
-    float f0_b2_v2 = f0_b2_v * f0_b2_v;
-    float f0_b2_b1 = f0_t * f0_b2_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    float u0_0_0 = 8.566358f * 1.0f;
-    float u0_0 = u0_0_0 * 1.0f;
-    float u0_1_0 = 16.215538f * 1.0f;
-    float u0_1 = u0_1_0 * 1.0f;
-    float u0_2_0 = 8.175602f * 1.0f;
-    float u0_2 = u0_2_0 * 1.0f;
-    float u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
-    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
-    float r_b1_v = 1.0f - r_t;
-    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
-    float mu_b1_v = 1.0f - mu_u;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q0_0_0 = 1.0f * mu_b1_v + 0.109763734f * mu_u;
-    float q0_0_1 = 1.0859368f * mu_b1_v + 0.19570053f * mu_u;
-    float q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
-    float q0 = q0_0 * 1.0f;
-    float e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    float p1_0_0 = -0.17564772f * mu_b4_v4 + 0.2991006f * mu_b4_b1 - 0.717726f * mu_b4_b2 + 0.034179553f * mu_b4_b3 - 0.017276566f * mu_b4_u4;
-    float p1_0_1 = -2.405098f * mu_b4_v4 - 6.8584347f * mu_b4_b1 - 11.197416f * mu_b4_b2 - 1.857284f * mu_b4_b3 - 0.088926345f * mu_b4_u4;
-    float p1_0_2 = -5.5754356f * mu_b4_v4 - 18.991894f * mu_b4_b1 - 23.91229f * mu_b4_b2 - 2.819884f * mu_b4_b3 + 0.21236701f * mu_b4_u4;
-    float p1_0_3 = -4.094307f * mu_b4_v4 - 14.606492f * mu_b4_b1 - 15.549647f * mu_b4_b2 + 0.53466845f * mu_b4_b3 + 0.5964083f * mu_b4_u4;
-    float p1_0_4 = -0.92808944f * mu_b4_v4 - 3.4912071f * mu_b4_b1 - 3.195655f * mu_b4_b2 + 0.7440165f * mu_b4_b3 + 0.13262345f * mu_b4_u4;
-    float p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
-    float p1 = p1_0 * 1.0f;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    float u1_0_0 = -10.9828825f * 1.0f;
-    float u1_0 = u1_0_0 * 1.0f;
-    float u1_1_0 = -21.519672f * 1.0f;
-    float u1_1 = u1_1_0 * 1.0f;
-    float u1_2_0 = -10.885022f * 1.0f;
-    float u1_2 = u1_2_0 * 1.0f;
-    float u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q1_0_0 = 1.0f * mu_b1_v + 0.12507248f * mu_u;
-    float q1_0_1 = 1.0739042f * mu_b1_v + 0.19897667f * mu_u;
-    float q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
-    float q1 = q1_0 * 1.0f;
-    float e1 = p1 * u1 / q1;
-    // the sum of the 2 terms
-    float e = e0 + e1;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    float mu_v = 1.0f - mu_u;
+    float mu_u2 = mu_u * mu_u;
+    float mu_v2 = mu_v * mu_v;
+    float mu_u3 = mu_u2 * mu_u;
+    float mu_v3 = mu_v2 * mu_v;
+    float mu_u4 = mu_u3 * mu_u;
+    float mu_v4 = mu_v3 * mu_v;
+    float mu_u5 = mu_u4 * mu_u;
+    float mu_v5 = mu_v4 * mu_v;
+    float mu_b1 = mu_u * mu_v4;
+    float mu_b2 = mu_u2 * mu_v3;
+    float mu_b3 = mu_u3 * mu_v2;
+    float mu_b4 = mu_u4 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    float p_0_0 = 0.9173875f * mu_v5 + 3.3005197f * mu_b1 + 3.0858958f * mu_b2 + 1.4878142f * mu_b3 + 0.29787558f * mu_b4 + 0.013623137f * mu_u5;
+    float p_0_1 = 3.918686f * mu_v5 + 14.014527f * mu_b1 + 13.404713f * mu_b2 + 7.1850514f * mu_b3 + 1.4609655f * mu_b4 + 0.088776015f * mu_u5;
+    float p_0_2 = 5.763407f * mu_v5 + 20.174189f * mu_b1 + 18.931475f * mu_b2 + 11.875673f * mu_b3 + 2.5499916f * mu_b4 + 0.20299272f * mu_u5;
+    float p_0_3 = 4.0579953f * mu_v5 + 13.486228f * mu_b1 + 12.735456f * mu_b2 + 10.712275f * mu_b3 + 2.6191711f * mu_b4 + 0.22210248f * mu_u5;
+    float p_0_4 = 1.5775193f * mu_v5 + 4.658299f * mu_b1 + 4.838014f * mu_b2 + 5.737172f * mu_b3 + 1.5952845f * mu_b4 + 0.11933754f * mu_u5;
+    float p_0_5 = 0.27903566f * mu_v5 + 0.61926675f * mu_b1 + 0.6892445f * mu_b2 + 1.1773635f * mu_b3 + 0.3500298f * mu_b4 + 0.022477822f * mu_u5;
+    float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
+    float p_1_0 = 1.8647432f * mu_v5 + 6.0434437f * mu_b1 + 6.3412404f * mu_b2 + 2.8488824f * mu_b3 + 0.5737291f * mu_b4 + 0.02717166f * mu_u5;
+    float p_1_1 = 9.312294f * mu_v5 + 31.514658f * mu_b1 + 34.621784f * mu_b2 + 15.92871f * mu_b3 + 2.9880018f * mu_b4 + 0.1776382f * mu_u5;
+    float p_1_2 = 16.884907f * mu_v5 + 58.274654f * mu_b1 + 64.662865f * mu_b2 + 29.524633f * mu_b3 + 5.2336116f * mu_b4 + 0.37994033f * mu_u5;
+    float p_1_3 = 15.088325f * mu_v5 + 52.364594f * mu_b1 + 58.289658f * mu_b2 + 26.78318f * mu_b3 + 4.714258f * mu_b4 + 0.34231696f * mu_u5;
+    float p_1_4 = 6.90835f * mu_v5 + 23.601046f * mu_b1 + 26.179749f * mu_b2 + 12.370222f * mu_b3 + 2.314336f * mu_b4 + 0.13009156f * mu_u5;
+    float p_1_5 = 1.2637382f * mu_v5 + 4.0716853f * mu_b1 + 4.335992f * mu_b2 + 2.095432f * mu_b3 + 0.45120978f * mu_b4 + 0.02360701f * mu_u5;
+    float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
+    float p_2_0 = 0.94634867f * mu_v5 + 3.0371637f * mu_b1 + 3.2212305f * mu_b2 + 1.4379271f * mu_b3 + 0.28974018f * mu_b4 + 0.013766178f * mu_u5;
+    float p_2_1 = 4.7863812f * mu_v5 + 16.129398f * mu_b1 + 17.901281f * mu_b2 + 8.143149f * mu_b3 + 1.5172204f * mu_b4 + 0.090024315f * mu_u5;
+    float p_2_2 = 8.800977f * mu_v5 + 30.348883f * mu_b1 + 33.99084f * mu_b2 + 15.22525f * mu_b3 + 2.658292f * mu_b4 + 0.19135183f * mu_u5;
+    float p_2_3 = 7.964149f * mu_v5 + 27.69434f * mu_b1 + 31.03561f * mu_b2 + 13.817077f * mu_b3 + 2.3651104f * mu_b4 + 0.16882715f * mu_u5;
+    float p_2_4 = 3.6720507f * mu_v5 + 12.611522f * mu_b1 + 14.019515f * mu_b2 + 6.309619f * mu_b3 + 1.1328611f * mu_b4 + 0.060973935f * mu_u5;
+    float p_2_5 = 0.67259485f * mu_v5 + 2.1925745f * mu_b1 + 2.3321855f * mu_b2 + 1.0500622f * mu_b3 + 0.21730824f * mu_b4 + 0.010989614f * mu_u5;
+    float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
+    float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q_0_0 = 1.0f * mu_v5 + 3.234836f * mu_b1 + 3.7182372f * mu_b2 + 1.7456939f * mu_b3 + 0.27602148f * mu_b4 + 0.013728423f * mu_u5;
+    float q_0_1 = 5.159841f * mu_v5 + 16.832405f * mu_b1 + 19.625673f * mu_b2 + 9.480995f * mu_b3 + 1.6153897f * mu_b4 + 0.08750244f * mu_u5;
+    float q_0_2 = 10.645715f * mu_v5 + 35.013016f * mu_b1 + 41.38383f * mu_b2 + 20.530554f * mu_b3 + 3.7330995f * mu_b4 + 0.21907663f * mu_u5;
+    float q_0_3 = 10.978099f * mu_v5 + 36.392975f * mu_b1 + 43.579826f * mu_b2 + 22.162626f * mu_b3 + 4.2671747f * mu_b4 + 0.26949945f * mu_u5;
+    float q_0_4 = 5.658417f * mu_v5 + 18.902344f * mu_b1 + 22.919666f * mu_b2 + 11.929106f * mu_b3 + 2.416503f * mu_b4 + 0.16313669f * mu_u5;
+    float q_0_5 = 1.166192f * mu_v5 + 3.924816f * mu_b1 + 4.816235f * mu_b2 + 2.5617306f * mu_b3 + 0.54305923f * mu_b4 + 0.038939837f * mu_u5;
+    float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
+    float q_1_0 = 2.0f * mu_v5 + 6.469672f * mu_b1 + 7.4364743f * mu_b2 + 3.4913878f * mu_b3 + 0.55204296f * mu_b4 + 0.027456846f * mu_u5;
+    float q_1_1 = 10.319682f * mu_v5 + 33.66481f * mu_b1 + 39.251347f * mu_b2 + 18.96199f * mu_b3 + 3.2307794f * mu_b4 + 0.17500488f * mu_u5;
+    float q_1_2 = 21.29143f * mu_v5 + 70.02603f * mu_b1 + 82.76766f * mu_b2 + 41.061108f * mu_b3 + 7.466199f * mu_b4 + 0.43815327f * mu_u5;
+    float q_1_3 = 21.956198f * mu_v5 + 72.78595f * mu_b1 + 87.15965f * mu_b2 + 44.325253f * mu_b3 + 8.534349f * mu_b4 + 0.5389989f * mu_u5;
+    float q_1_4 = 11.316834f * mu_v5 + 37.804688f * mu_b1 + 45.839333f * mu_b2 + 23.858212f * mu_b3 + 4.833006f * mu_b4 + 0.32627338f * mu_u5;
+    float q_1_5 = 2.332384f * mu_v5 + 7.849632f * mu_b1 + 9.63247f * mu_b2 + 5.1234612f * mu_b3 + 1.0861185f * mu_b4 + 0.077879675f * mu_u5;
+    float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
+    float q_2_0 = 1.0f * mu_v5 + 3.234836f * mu_b1 + 3.7182372f * mu_b2 + 1.7456939f * mu_b3 + 0.27602148f * mu_b4 + 0.013728423f * mu_u5;
+    float q_2_1 = 5.159841f * mu_v5 + 16.832405f * mu_b1 + 19.625673f * mu_b2 + 9.480995f * mu_b3 + 1.6153897f * mu_b4 + 0.08750244f * mu_u5;
+    float q_2_2 = 10.645715f * mu_v5 + 35.013016f * mu_b1 + 41.38383f * mu_b2 + 20.530554f * mu_b3 + 3.7330995f * mu_b4 + 0.21907663f * mu_u5;
+    float q_2_3 = 10.978099f * mu_v5 + 36.392975f * mu_b1 + 43.579826f * mu_b2 + 22.162626f * mu_b3 + 4.2671747f * mu_b4 + 0.26949945f * mu_u5;
+    float q_2_4 = 5.658417f * mu_v5 + 18.902344f * mu_b1 + 22.919666f * mu_b2 + 11.929106f * mu_b3 + 2.416503f * mu_b4 + 0.16313669f * mu_u5;
+    float q_2_5 = 1.166192f * mu_v5 + 3.924816f * mu_b1 + 4.816235f * mu_b2 + 2.5617306f * mu_b3 + 0.54305923f * mu_b4 + 0.038939837f * mu_u5;
+    float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
+    float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    float e = p / q;
     return max(min(e, 1.0f), 0.0f);
 }
 

@@ -16,10 +16,11 @@
 /// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
 /// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 6089c538784e31feb6100d99590d40fa2b79adf5dc5d6d4817a6b8571260bcb3.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.1e-5, shifted 9.2e-6, bernstein 6.4e-6.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-5, shifted 3.3e-6, bernstein 1.2e-6.
+/// Its 2 terms cancel (sum of |term| up to 20x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
 /// Error of the f64 fit on its 2097152 data points: MAE 4.98e-3, max 2.65e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.53e-6 (every op rounded, as this Rust), 4.85e-6 (fused multiply-add), 7.47e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.12e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 19675 boxes).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.74e-7 (every op rounded, as this Rust), 4.46e-7 (fused multiply-add), 1.72e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 2.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
 /// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.70e-3, max 2.65e-2; this f32 code MAE 4.70e-3, max 2.65e-2.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
 /// Denominator proved >= 1.098e-1 on the domain (Bernstein certificate), so the division is safe.
@@ -41,85 +42,88 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
+    let f0_v = 1.0_f32 - f0_t;
+    let f0_u2 = f0_t * f0_t;
+    let f0_v2 = f0_v * f0_v;
+    let f0_b1 = f0_t * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    let r_v = 1.0_f32 - r_t;
+    let r_u2 = r_t * r_t;
+    let r_v2 = r_v * r_v;
+    let r_u3 = r_u2 * r_t;
+    let r_v3 = r_v2 * r_v;
+    let r_u4 = r_u3 * r_t;
+    let r_v4 = r_v3 * r_v;
+    let r_u5 = r_u4 * r_t;
+    let r_v5 = r_v4 * r_v;
+    let r_b1 = r_t * r_v4;
+    let r_b2 = r_u2 * r_v3;
+    let r_b3 = r_u3 * r_v2;
+    let r_b4 = r_u4 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
-    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
-    let r_b4_v = 1.0_f32 - r_t;
-    let r_b4_u2 = r_t * r_t;
-    let r_b4_v2 = r_b4_v * r_b4_v;
-    let r_b4_u3 = r_b4_u2 * r_t;
-    let r_b4_v3 = r_b4_v2 * r_b4_v;
-    let r_b4_u4 = r_b4_u3 * r_t;
-    let r_b4_v4 = r_b4_v3 * r_b4_v;
-    let r_b4_b1 = r_t * r_b4_v3;
-    let r_b4_b2 = r_b4_u2 * r_b4_v2;
-    let r_b4_b3 = r_b4_u3 * r_b4_v;
-    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
-    let mu_b4_v = 1.0_f32 - mu_u;
-    let mu_b4_u2 = mu_u * mu_u;
-    let mu_b4_v2 = mu_b4_v * mu_b4_v;
-    let mu_b4_u3 = mu_b4_u2 * mu_u;
-    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
-    let mu_b4_u4 = mu_b4_u3 * mu_u;
-    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
-    let mu_b4_b1 = mu_u * mu_b4_v3;
-    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
-    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = -0.118105136_f32 * mu_b4_v4 + 0.75881714_f32 * mu_b4_b1 - 0.61277395_f32 * mu_b4_b2 + 0.19313987_f32 * mu_b4_b3 - 0.0067239534_f32 * mu_b4_u4;
-    let p0_0_1 = -2.743829_f32 * mu_b4_v4 - 7.5714917_f32 * mu_b4_b1 - 13.226677_f32 * mu_b4_b2 - 1.681934_f32 * mu_b4_b3 - 0.0411597_f32 * mu_b4_u4;
-    let p0_0_2 = -6.877387_f32 * mu_b4_v4 - 23.394064_f32 * mu_b4_b1 - 29.794537_f32 * mu_b4_b2 - 2.8250015_f32 * mu_b4_b3 + 0.315497_f32 * mu_b4_u4;
-    let p0_0_3 = -5.1524553_f32 * mu_b4_v4 - 18.433743_f32 * mu_b4_b1 - 19.60572_f32 * mu_b4_b2 + 1.2362694_f32 * mu_b4_b3 + 0.8024635_f32 * mu_b4_u4;
-    let p0_0_4 = -1.1728991_f32 * mu_b4_v4 - 4.458415_f32 * mu_b4_b1 - 4.057731_f32 * mu_b4_b2 + 1.0977683_f32 * mu_b4_b3 + 0.18042348_f32 * mu_b4_u4;
-    let p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
-    let p0 = p0_0 * 1.0_f32;
-    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
-    let f0_b2_v = 1.0_f32 - f0_t;
-    let f0_b2_u2 = f0_t * f0_t;
-    let f0_b2_v2 = f0_b2_v * f0_b2_v;
-    let f0_b2_b1 = f0_t * f0_b2_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 8.566358_f32 * 1.0_f32;
-    let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 16.215538_f32 * 1.0_f32;
-    let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 8.175602_f32 * 1.0_f32;
-    let u0_2 = u0_2_0 * 1.0_f32;
-    let u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
-    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
-    let r_b1_v = 1.0_f32 - r_t;
-    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
-    let mu_b1_v = 1.0_f32 - mu_u;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b1_v + 0.109763734_f32 * mu_u;
-    let q0_0_1 = 1.0859368_f32 * mu_b1_v + 0.19570053_f32 * mu_u;
-    let q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
-    let q0 = q0_0 * 1.0_f32;
-    let e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = -0.17564772_f32 * mu_b4_v4 + 0.2991006_f32 * mu_b4_b1 - 0.717726_f32 * mu_b4_b2 + 0.034179553_f32 * mu_b4_b3 - 0.017276566_f32 * mu_b4_u4;
-    let p1_0_1 = -2.405098_f32 * mu_b4_v4 - 6.8584347_f32 * mu_b4_b1 - 11.197416_f32 * mu_b4_b2 - 1.857284_f32 * mu_b4_b3 - 0.088926345_f32 * mu_b4_u4;
-    let p1_0_2 = -5.5754356_f32 * mu_b4_v4 - 18.991894_f32 * mu_b4_b1 - 23.91229_f32 * mu_b4_b2 - 2.819884_f32 * mu_b4_b3 + 0.21236701_f32 * mu_b4_u4;
-    let p1_0_3 = -4.094307_f32 * mu_b4_v4 - 14.606492_f32 * mu_b4_b1 - 15.549647_f32 * mu_b4_b2 + 0.53466845_f32 * mu_b4_b3 + 0.5964083_f32 * mu_b4_u4;
-    let p1_0_4 = -0.92808944_f32 * mu_b4_v4 - 3.4912071_f32 * mu_b4_b1 - 3.195655_f32 * mu_b4_b2 + 0.7440165_f32 * mu_b4_b3 + 0.13262345_f32 * mu_b4_u4;
-    let p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
-    let p1 = p1_0 * 1.0_f32;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = -10.9828825_f32 * 1.0_f32;
-    let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = -21.519672_f32 * 1.0_f32;
-    let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = -10.885022_f32 * 1.0_f32;
-    let u1_2 = u1_2_0 * 1.0_f32;
-    let u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b1_v + 0.12507248_f32 * mu_u;
-    let q1_0_1 = 1.0739042_f32 * mu_b1_v + 0.19897667_f32 * mu_u;
-    let q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
-    let q1 = q1_0 * 1.0_f32;
-    let e1 = p1 * u1 / q1;
-    // the sum of the 2 terms
-    let e = e0 + e1;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    let mu_v = 1.0_f32 - mu_u;
+    let mu_u2 = mu_u * mu_u;
+    let mu_v2 = mu_v * mu_v;
+    let mu_u3 = mu_u2 * mu_u;
+    let mu_v3 = mu_v2 * mu_v;
+    let mu_u4 = mu_u3 * mu_u;
+    let mu_v4 = mu_v3 * mu_v;
+    let mu_u5 = mu_u4 * mu_u;
+    let mu_v5 = mu_v4 * mu_v;
+    let mu_b1 = mu_u * mu_v4;
+    let mu_b2 = mu_u2 * mu_v3;
+    let mu_b3 = mu_u3 * mu_v2;
+    let mu_b4 = mu_u4 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    let p_0_0 = 0.9173875_f32 * mu_v5 + 3.3005197_f32 * mu_b1 + 3.0858958_f32 * mu_b2 + 1.4878142_f32 * mu_b3 + 0.29787558_f32 * mu_b4 + 0.013623137_f32 * mu_u5;
+    let p_0_1 = 3.918686_f32 * mu_v5 + 14.014527_f32 * mu_b1 + 13.404713_f32 * mu_b2 + 7.1850514_f32 * mu_b3 + 1.4609655_f32 * mu_b4 + 0.088776015_f32 * mu_u5;
+    let p_0_2 = 5.763407_f32 * mu_v5 + 20.174189_f32 * mu_b1 + 18.931475_f32 * mu_b2 + 11.875673_f32 * mu_b3 + 2.5499916_f32 * mu_b4 + 0.20299272_f32 * mu_u5;
+    let p_0_3 = 4.0579953_f32 * mu_v5 + 13.486228_f32 * mu_b1 + 12.735456_f32 * mu_b2 + 10.712275_f32 * mu_b3 + 2.6191711_f32 * mu_b4 + 0.22210248_f32 * mu_u5;
+    let p_0_4 = 1.5775193_f32 * mu_v5 + 4.658299_f32 * mu_b1 + 4.838014_f32 * mu_b2 + 5.737172_f32 * mu_b3 + 1.5952845_f32 * mu_b4 + 0.11933754_f32 * mu_u5;
+    let p_0_5 = 0.27903566_f32 * mu_v5 + 0.61926675_f32 * mu_b1 + 0.6892445_f32 * mu_b2 + 1.1773635_f32 * mu_b3 + 0.3500298_f32 * mu_b4 + 0.022477822_f32 * mu_u5;
+    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
+    let p_1_0 = 1.8647432_f32 * mu_v5 + 6.0434437_f32 * mu_b1 + 6.3412404_f32 * mu_b2 + 2.8488824_f32 * mu_b3 + 0.5737291_f32 * mu_b4 + 0.02717166_f32 * mu_u5;
+    let p_1_1 = 9.312294_f32 * mu_v5 + 31.514658_f32 * mu_b1 + 34.621784_f32 * mu_b2 + 15.92871_f32 * mu_b3 + 2.9880018_f32 * mu_b4 + 0.1776382_f32 * mu_u5;
+    let p_1_2 = 16.884907_f32 * mu_v5 + 58.274654_f32 * mu_b1 + 64.662865_f32 * mu_b2 + 29.524633_f32 * mu_b3 + 5.2336116_f32 * mu_b4 + 0.37994033_f32 * mu_u5;
+    let p_1_3 = 15.088325_f32 * mu_v5 + 52.364594_f32 * mu_b1 + 58.289658_f32 * mu_b2 + 26.78318_f32 * mu_b3 + 4.714258_f32 * mu_b4 + 0.34231696_f32 * mu_u5;
+    let p_1_4 = 6.90835_f32 * mu_v5 + 23.601046_f32 * mu_b1 + 26.179749_f32 * mu_b2 + 12.370222_f32 * mu_b3 + 2.314336_f32 * mu_b4 + 0.13009156_f32 * mu_u5;
+    let p_1_5 = 1.2637382_f32 * mu_v5 + 4.0716853_f32 * mu_b1 + 4.335992_f32 * mu_b2 + 2.095432_f32 * mu_b3 + 0.45120978_f32 * mu_b4 + 0.02360701_f32 * mu_u5;
+    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
+    let p_2_0 = 0.94634867_f32 * mu_v5 + 3.0371637_f32 * mu_b1 + 3.2212305_f32 * mu_b2 + 1.4379271_f32 * mu_b3 + 0.28974018_f32 * mu_b4 + 0.013766178_f32 * mu_u5;
+    let p_2_1 = 4.7863812_f32 * mu_v5 + 16.129398_f32 * mu_b1 + 17.901281_f32 * mu_b2 + 8.143149_f32 * mu_b3 + 1.5172204_f32 * mu_b4 + 0.090024315_f32 * mu_u5;
+    let p_2_2 = 8.800977_f32 * mu_v5 + 30.348883_f32 * mu_b1 + 33.99084_f32 * mu_b2 + 15.22525_f32 * mu_b3 + 2.658292_f32 * mu_b4 + 0.19135183_f32 * mu_u5;
+    let p_2_3 = 7.964149_f32 * mu_v5 + 27.69434_f32 * mu_b1 + 31.03561_f32 * mu_b2 + 13.817077_f32 * mu_b3 + 2.3651104_f32 * mu_b4 + 0.16882715_f32 * mu_u5;
+    let p_2_4 = 3.6720507_f32 * mu_v5 + 12.611522_f32 * mu_b1 + 14.019515_f32 * mu_b2 + 6.309619_f32 * mu_b3 + 1.1328611_f32 * mu_b4 + 0.060973935_f32 * mu_u5;
+    let p_2_5 = 0.67259485_f32 * mu_v5 + 2.1925745_f32 * mu_b1 + 2.3321855_f32 * mu_b2 + 1.0500622_f32 * mu_b3 + 0.21730824_f32 * mu_b4 + 0.010989614_f32 * mu_u5;
+    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
+    let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q_0_0 = 1.0_f32 * mu_v5 + 3.234836_f32 * mu_b1 + 3.7182372_f32 * mu_b2 + 1.7456939_f32 * mu_b3 + 0.27602148_f32 * mu_b4 + 0.013728423_f32 * mu_u5;
+    let q_0_1 = 5.159841_f32 * mu_v5 + 16.832405_f32 * mu_b1 + 19.625673_f32 * mu_b2 + 9.480995_f32 * mu_b3 + 1.6153897_f32 * mu_b4 + 0.08750244_f32 * mu_u5;
+    let q_0_2 = 10.645715_f32 * mu_v5 + 35.013016_f32 * mu_b1 + 41.38383_f32 * mu_b2 + 20.530554_f32 * mu_b3 + 3.7330995_f32 * mu_b4 + 0.21907663_f32 * mu_u5;
+    let q_0_3 = 10.978099_f32 * mu_v5 + 36.392975_f32 * mu_b1 + 43.579826_f32 * mu_b2 + 22.162626_f32 * mu_b3 + 4.2671747_f32 * mu_b4 + 0.26949945_f32 * mu_u5;
+    let q_0_4 = 5.658417_f32 * mu_v5 + 18.902344_f32 * mu_b1 + 22.919666_f32 * mu_b2 + 11.929106_f32 * mu_b3 + 2.416503_f32 * mu_b4 + 0.16313669_f32 * mu_u5;
+    let q_0_5 = 1.166192_f32 * mu_v5 + 3.924816_f32 * mu_b1 + 4.816235_f32 * mu_b2 + 2.5617306_f32 * mu_b3 + 0.54305923_f32 * mu_b4 + 0.038939837_f32 * mu_u5;
+    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
+    let q_1_0 = 2.0_f32 * mu_v5 + 6.469672_f32 * mu_b1 + 7.4364743_f32 * mu_b2 + 3.4913878_f32 * mu_b3 + 0.55204296_f32 * mu_b4 + 0.027456846_f32 * mu_u5;
+    let q_1_1 = 10.319682_f32 * mu_v5 + 33.66481_f32 * mu_b1 + 39.251347_f32 * mu_b2 + 18.96199_f32 * mu_b3 + 3.2307794_f32 * mu_b4 + 0.17500488_f32 * mu_u5;
+    let q_1_2 = 21.29143_f32 * mu_v5 + 70.02603_f32 * mu_b1 + 82.76766_f32 * mu_b2 + 41.061108_f32 * mu_b3 + 7.466199_f32 * mu_b4 + 0.43815327_f32 * mu_u5;
+    let q_1_3 = 21.956198_f32 * mu_v5 + 72.78595_f32 * mu_b1 + 87.15965_f32 * mu_b2 + 44.325253_f32 * mu_b3 + 8.534349_f32 * mu_b4 + 0.5389989_f32 * mu_u5;
+    let q_1_4 = 11.316834_f32 * mu_v5 + 37.804688_f32 * mu_b1 + 45.839333_f32 * mu_b2 + 23.858212_f32 * mu_b3 + 4.833006_f32 * mu_b4 + 0.32627338_f32 * mu_u5;
+    let q_1_5 = 2.332384_f32 * mu_v5 + 7.849632_f32 * mu_b1 + 9.63247_f32 * mu_b2 + 5.1234612_f32 * mu_b3 + 1.0861185_f32 * mu_b4 + 0.077879675_f32 * mu_u5;
+    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
+    let q_2_0 = 1.0_f32 * mu_v5 + 3.234836_f32 * mu_b1 + 3.7182372_f32 * mu_b2 + 1.7456939_f32 * mu_b3 + 0.27602148_f32 * mu_b4 + 0.013728423_f32 * mu_u5;
+    let q_2_1 = 5.159841_f32 * mu_v5 + 16.832405_f32 * mu_b1 + 19.625673_f32 * mu_b2 + 9.480995_f32 * mu_b3 + 1.6153897_f32 * mu_b4 + 0.08750244_f32 * mu_u5;
+    let q_2_2 = 10.645715_f32 * mu_v5 + 35.013016_f32 * mu_b1 + 41.38383_f32 * mu_b2 + 20.530554_f32 * mu_b3 + 3.7330995_f32 * mu_b4 + 0.21907663_f32 * mu_u5;
+    let q_2_3 = 10.978099_f32 * mu_v5 + 36.392975_f32 * mu_b1 + 43.579826_f32 * mu_b2 + 22.162626_f32 * mu_b3 + 4.2671747_f32 * mu_b4 + 0.26949945_f32 * mu_u5;
+    let q_2_4 = 5.658417_f32 * mu_v5 + 18.902344_f32 * mu_b1 + 22.919666_f32 * mu_b2 + 11.929106_f32 * mu_b3 + 2.416503_f32 * mu_b4 + 0.16313669_f32 * mu_u5;
+    let q_2_5 = 1.166192_f32 * mu_v5 + 3.924816_f32 * mu_b1 + 4.816235_f32 * mu_b2 + 2.5617306_f32 * mu_b3 + 0.54305923_f32 * mu_b4 + 0.038939837_f32 * mu_u5;
+    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
+    let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }
 

@@ -15,16 +15,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 19726b7802040d72d7a12b4dfe2a8d27f4904549569a75c21ee00b52d1457689.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 710b8e052b984824fc02a79d6f4ad9d9a892c474092e6dbddc08fd0f4262d2e6.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-5, shifted 1.1e-5, bernstein 6.6e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 4.42e-3, max 4.34e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.83e-6 (every op rounded, as this Rust), 5.53e-6 (fused multiply-add), 7.86e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.15e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17865 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 4.26e-3, max 4.34e-2; this f32 code MAE 4.26e-3, max 4.34e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
-// Denominator proved >= 1.289e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.7e-5, shifted 4.3e-6, bernstein 1.3e-6.
+// Its 2 terms cancel (sum of |term| up to 35x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+// Error of the f64 fit on its 2097152 data points: MAE 5.91e-3, max 3.76e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.70e-7 (every op rounded, as this Rust), 4.89e-7 (fused multiply-add), 1.81e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.47e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.21e-3, max 3.76e-2; this f32 code MAE 5.21e-3, max 3.76e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
+// Denominator proved >= 9.852e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -36,85 +37,88 @@ float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     float mu_c = max(min(mu, 1.0f), 0.0f);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
+    float f0_v = 1.0f - f0_t;
+    float f0_u2 = f0_t * f0_t;
+    float f0_v2 = f0_v * f0_v;
+    float f0_b1 = f0_t * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    float r_v = 1.0f - r_t;
+    float r_u2 = r_t * r_t;
+    float r_v2 = r_v * r_v;
+    float r_u3 = r_u2 * r_t;
+    float r_v3 = r_v2 * r_v;
+    float r_u4 = r_u3 * r_t;
+    float r_v4 = r_v3 * r_v;
+    float r_u5 = r_u4 * r_t;
+    float r_v5 = r_v4 * r_v;
+    float r_b1 = r_t * r_v4;
+    float r_b2 = r_u2 * r_v3;
+    float r_b3 = r_u3 * r_v2;
+    float r_b4 = r_u4 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
-    float r_b4_v = 1.0f - r_t;
-    float r_b4_u2 = r_t * r_t;
-    float r_b4_v2 = r_b4_v * r_b4_v;
-    float r_b4_u3 = r_b4_u2 * r_t;
-    float r_b4_v3 = r_b4_v2 * r_b4_v;
-    float r_b4_u4 = r_b4_u3 * r_t;
-    float r_b4_v4 = r_b4_v3 * r_b4_v;
-    float r_b4_b1 = r_t * r_b4_v3;
-    float r_b4_b2 = r_b4_u2 * r_b4_v2;
-    float r_b4_b3 = r_b4_u3 * r_b4_v;
-    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
-    float mu_b4_v = 1.0f - mu_u;
-    float mu_b4_u2 = mu_u * mu_u;
-    float mu_b4_v2 = mu_b4_v * mu_b4_v;
-    float mu_b4_u3 = mu_b4_u2 * mu_u;
-    float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
-    float mu_b4_u4 = mu_b4_u3 * mu_u;
-    float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
-    float mu_b4_b1 = mu_u * mu_b4_v3;
-    float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
-    float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    float p0_0_0 = -0.3752686f * mu_b4_v4 - 0.85907274f * mu_b4_b1 - 1.3257005f * mu_b4_b2 - 0.34294236f * mu_b4_b3 - 0.048734017f * mu_b4_u4;
-    float p0_0_1 = -3.0796092f * mu_b4_v4 - 9.381838f * mu_b4_b1 - 11.19182f * mu_b4_b2 - 2.9741814f * mu_b4_b3 - 0.27534202f * mu_b4_u4;
-    float p0_0_2 = -7.2487216f * mu_b4_v4 - 22.401209f * mu_b4_b1 - 23.327688f * mu_b4_b2 - 5.093376f * mu_b4_b3 - 0.20430396f * mu_b4_u4;
-    float p0_0_3 = -5.9385414f * mu_b4_v4 - 17.41527f * mu_b4_b1 - 15.275833f * mu_b4_b2 - 1.1713903f * mu_b4_b3 + 0.4369614f * mu_b4_u4;
-    float p0_0_4 = -1.6415193f * mu_b4_v4 - 4.526263f * mu_b4_b1 - 3.2984204f * mu_b4_b2 + 0.30130962f * mu_b4_b3 + 0.16729808f * mu_b4_u4;
-    float p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
-    float p0 = p0_0 * 1.0f;
-    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
-    float f0_b2_v = 1.0f - f0_t;
-    float f0_b2_u2 = f0_t * f0_t;
-    float f0_b2_v2 = f0_b2_v * f0_b2_v;
-    float f0_b2_b1 = f0_t * f0_b2_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    float u0_0_0 = 11.04088f * 1.0f;
-    float u0_0 = u0_0_0 * 1.0f;
-    float u0_1_0 = 18.289953f * 1.0f;
-    float u0_1 = u0_1_0 * 1.0f;
-    float u0_2_0 = 8.812249f * 1.0f;
-    float u0_2 = u0_2_0 * 1.0f;
-    float u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
-    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
-    float r_b1_v = 1.0f - r_t;
-    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
-    float mu_b1_v = 1.0f - mu_u;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q0_0_0 = 1.0f * mu_b1_v + 0.12890857f * mu_u;
-    float q0_0_1 = 1.1776302f * mu_b1_v + 0.3065387f * mu_u;
-    float q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
-    float q0 = q0_0 * 1.0f;
-    float e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    float p1_0_0 = -0.38732168f * mu_b4_v4 - 0.9779952f * mu_b4_b1 - 1.3504157f * mu_b4_b2 - 0.40778446f * mu_b4_b3 - 0.063809544f * mu_b4_u4;
-    float p1_0_1 = -2.801529f * mu_b4_v4 - 8.726374f * mu_b4_b1 - 10.350458f * mu_b4_b2 - 3.093102f * mu_b4_b3 - 0.33055824f * mu_b4_u4;
-    float p1_0_2 = -6.2298675f * mu_b4_v4 - 19.470436f * mu_b4_b1 - 20.44709f * mu_b4_b2 - 4.94801f * mu_b4_b3 - 0.23609158f * mu_b4_u4;
-    float p1_0_3 = -5.0155554f * mu_b4_v4 - 14.838866f * mu_b4_b1 - 13.273156f * mu_b4_b2 - 1.4542986f * mu_b4_b3 + 0.33247796f * mu_b4_u4;
-    float p1_0_4 = -1.3714166f * mu_b4_v4 - 3.8028953f * mu_b4_b1 - 2.8552372f * mu_b4_b2 + 0.12230801f * mu_b4_b3 + 0.13029934f * mu_b4_u4;
-    float p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
-    float p1 = p1_0 * 1.0f;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    float u1_0_0 = -13.275268f * 1.0f;
-    float u1_0 = u1_0_0 * 1.0f;
-    float u1_1_0 = -22.867315f * 1.0f;
-    float u1_1 = u1_1_0 * 1.0f;
-    float u1_2_0 = -11.125329f * 1.0f;
-    float u1_2 = u1_2_0 * 1.0f;
-    float u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q1_0_0 = 1.0f * mu_b1_v + 0.16386534f * mu_u;
-    float q1_0_1 = 1.1547776f * mu_b1_v + 0.31864294f * mu_u;
-    float q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
-    float q1 = q1_0 * 1.0f;
-    float e1 = p1 * u1 / q1;
-    // the sum of the 2 terms
-    float e = e0 + e1;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    float mu_v = 1.0f - mu_u;
+    float mu_u2 = mu_u * mu_u;
+    float mu_v2 = mu_v * mu_v;
+    float mu_u3 = mu_u2 * mu_u;
+    float mu_v3 = mu_v2 * mu_v;
+    float mu_u4 = mu_u3 * mu_u;
+    float mu_v4 = mu_v3 * mu_v;
+    float mu_u5 = mu_u4 * mu_u;
+    float mu_v5 = mu_v4 * mu_v;
+    float mu_b1 = mu_u * mu_v4;
+    float mu_b2 = mu_u2 * mu_v3;
+    float mu_b3 = mu_u3 * mu_v2;
+    float mu_b4 = mu_u4 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    float p_0_0 = 0.99565077f * mu_v5 + 3.3924441f * mu_b1 + 3.1144326f * mu_b2 + 1.4422028f * mu_b3 + 0.2839311f * mu_b4 + 0.012133276f * mu_u5;
+    float p_0_1 = 4.5728846f * mu_v5 + 16.253712f * mu_b1 + 16.318886f * mu_b2 + 8.563906f * mu_b3 + 1.7787242f * mu_b4 + 0.11670485f * mu_u5;
+    float p_0_2 = 7.6395164f * mu_v5 + 27.453737f * mu_b1 + 28.335716f * mu_b2 + 16.409075f * mu_b3 + 3.7439282f * mu_b4 + 0.38400748f * mu_u5;
+    float p_0_3 = 6.443032f * mu_v5 + 22.866104f * mu_b1 + 24.435787f * mu_b2 + 16.295155f * mu_b3 + 4.249049f * mu_b4 + 0.49426627f * mu_u5;
+    float p_0_4 = 3.0004432f * mu_v5 + 10.381581f * mu_b1 + 12.203184f * mu_b2 + 9.76255f * mu_b3 + 2.998719f * mu_b4 + 0.32204324f * mu_u5;
+    float p_0_5 = 0.57888275f * mu_v5 + 1.9038911f * mu_b1 + 2.4905515f * mu_b2 + 2.3466568f * mu_b3 + 0.7947496f * mu_b4 + 0.0664018f * mu_u5;
+    float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
+    float p_1_0 = 1.9790473f * mu_v5 + 6.6090746f * mu_b1 + 6.119147f * mu_b2 + 2.829212f * mu_b3 + 0.5323971f * mu_b4 + 0.024280459f * mu_u5;
+    float p_1_1 = 10.306315f * mu_v5 + 36.513012f * mu_b1 + 36.89327f * mu_b2 + 18.208721f * mu_b3 + 3.590553f * mu_b4 + 0.22828245f * mu_u5;
+    float p_1_2 = 21.287514f * mu_v5 + 76.67484f * mu_b1 + 79.31072f * mu_b2 + 39.72086f * mu_b3 + 8.197628f * mu_b4 + 0.7199147f * mu_u5;
+    float p_1_3 = 22.364965f * mu_v5 + 79.65206f * mu_b1 + 82.107445f * mu_b2 + 41.04194f * mu_b3 + 8.732605f * mu_b4 + 0.8307685f * mu_u5;
+    float p_1_4 = 11.882352f * mu_v5 + 41.110718f * mu_b1 + 41.70848f * mu_b2 + 20.858053f * mu_b3 + 4.596277f * mu_b4 + 0.37821668f * mu_u5;
+    float p_1_5 = 2.4883041f * mu_v5 + 8.282919f * mu_b1 + 8.244351f * mu_b2 + 4.2641816f * mu_b3 + 1.0565019f * mu_b4 + 0.07403245f * mu_u5;
+    float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
+    float p_2_0 = 1.0119287f * mu_v5 + 3.369643f * mu_b1 + 3.123675f * mu_b2 + 1.443922f * mu_b3 + 0.2699087f * mu_b4 + 0.012426943f * mu_u5;
+    float p_2_1 = 5.358031f * mu_v5 + 18.974691f * mu_b1 + 19.187296f * mu_b2 + 9.396485f * mu_b3 + 1.8399117f * mu_b4 + 0.11645813f * mu_u5;
+    float p_2_2 = 11.327056f * mu_v5 + 40.807625f * mu_b1 + 42.219387f * mu_b2 + 20.82505f * mu_b3 + 4.246403f * mu_b4 + 0.3649639f * mu_u5;
+    float p_2_3 = 12.128443f * mu_v5 + 43.206642f * mu_b1 + 44.413956f * mu_b2 + 21.612709f * mu_b3 + 4.4859524f * mu_b4 + 0.41379592f * mu_u5;
+    float p_2_4 = 6.5046535f * mu_v5 + 22.504799f * mu_b1 + 22.591343f * mu_b2 + 10.770482f * mu_b3 + 2.2512946f * mu_b4 + 0.17440762f * mu_u5;
+    float p_2_5 = 1.3692743f * mu_v5 + 4.561281f * mu_b1 + 4.454248f * mu_b2 + 2.1513567f * mu_b3 + 0.5022899f * mu_b4 + 0.033653945f * mu_u5;
+    float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
+    float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q_0_0 = 1.0f * mu_v5 + 3.2232351f * mu_b1 + 3.6819923f * mu_b2 + 1.7065663f * mu_b3 + 0.2600962f * mu_b4 + 0.012287051f * mu_u5;
+    float q_0_1 = 5.463638f * mu_v5 + 18.02261f * mu_b1 + 21.399324f * mu_b2 + 10.698688f * mu_b3 + 1.9716555f * mu_b4 + 0.11331946f * mu_u5;
+    float q_0_2 = 11.908265f * mu_v5 + 40.12666f * mu_b1 + 49.314514f * mu_b2 + 26.266226f * mu_b3 + 5.554229f * mu_b4 + 0.38412106f * mu_u5;
+    float q_0_3 = 12.942967f * mu_v5 + 44.47667f * mu_b1 + 56.367516f * mu_b2 + 31.672213f * mu_b3 + 7.433716f * mu_b4 + 0.595317f * mu_u5;
+    float q_0_4 = 7.015692f * mu_v5 + 24.547623f * mu_b1 + 31.978827f * mu_b2 + 18.807669f * mu_b3 + 4.7908854f * mu_b4 + 0.43011335f * mu_u5;
+    float q_0_5 = 1.5173515f * mu_v5 + 5.398239f * mu_b1 + 7.2084928f * mu_b2 + 4.40956f * mu_b3 + 1.1998395f * mu_b4 + 0.11788501f * mu_u5;
+    float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
+    float q_1_0 = 2.0f * mu_v5 + 6.4464703f * mu_b1 + 7.3639846f * mu_b2 + 3.4131327f * mu_b3 + 0.5201924f * mu_b4 + 0.024574103f * mu_u5;
+    float q_1_1 = 10.927276f * mu_v5 + 36.04522f * mu_b1 + 42.79865f * mu_b2 + 21.397375f * mu_b3 + 3.943311f * mu_b4 + 0.22663891f * mu_u5;
+    float q_1_2 = 23.81653f * mu_v5 + 80.25332f * mu_b1 + 98.62903f * mu_b2 + 52.53245f * mu_b3 + 11.108458f * mu_b4 + 0.7682421f * mu_u5;
+    float q_1_3 = 25.885935f * mu_v5 + 88.95334f * mu_b1 + 112.73503f * mu_b2 + 63.344425f * mu_b3 + 14.867432f * mu_b4 + 1.190634f * mu_u5;
+    float q_1_4 = 14.031384f * mu_v5 + 49.095245f * mu_b1 + 63.957653f * mu_b2 + 37.615337f * mu_b3 + 9.581771f * mu_b4 + 0.8602267f * mu_u5;
+    float q_1_5 = 3.034703f * mu_v5 + 10.796478f * mu_b1 + 14.4169855f * mu_b2 + 8.81912f * mu_b3 + 2.399679f * mu_b4 + 0.23577002f * mu_u5;
+    float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
+    float q_2_0 = 1.0f * mu_v5 + 3.2232351f * mu_b1 + 3.6819923f * mu_b2 + 1.7065663f * mu_b3 + 0.2600962f * mu_b4 + 0.012287051f * mu_u5;
+    float q_2_1 = 5.463638f * mu_v5 + 18.02261f * mu_b1 + 21.399324f * mu_b2 + 10.698688f * mu_b3 + 1.9716555f * mu_b4 + 0.11331946f * mu_u5;
+    float q_2_2 = 11.908265f * mu_v5 + 40.12666f * mu_b1 + 49.314514f * mu_b2 + 26.266226f * mu_b3 + 5.554229f * mu_b4 + 0.38412106f * mu_u5;
+    float q_2_3 = 12.942967f * mu_v5 + 44.47667f * mu_b1 + 56.367516f * mu_b2 + 31.672213f * mu_b3 + 7.433716f * mu_b4 + 0.595317f * mu_u5;
+    float q_2_4 = 7.015692f * mu_v5 + 24.547623f * mu_b1 + 31.978827f * mu_b2 + 18.807669f * mu_b3 + 4.7908854f * mu_b4 + 0.43011335f * mu_u5;
+    float q_2_5 = 1.5173515f * mu_v5 + 5.398239f * mu_b1 + 7.2084928f * mu_b2 + 4.40956f * mu_b3 + 1.1998395f * mu_b4 + 0.11788501f * mu_u5;
+    float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
+    float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    float e = p / q;
     return max(min(e, 1.0f), 0.0f);
 }
 

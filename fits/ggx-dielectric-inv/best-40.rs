@@ -13,16 +13,17 @@
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 19726b7802040d72d7a12b4dfe2a8d27f4904549569a75c21ee00b52d1457689.
+/// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 710b8e052b984824fc02a79d6f4ad9d9a892c474092e6dbddc08fd0f4262d2e6.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-5, shifted 1.1e-5, bernstein 6.6e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 4.42e-3, max 4.34e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.83e-6 (every op rounded, as this Rust), 5.53e-6 (fused multiply-add), 7.86e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.15e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17865 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 4.26e-3, max 4.34e-2; this f32 code MAE 4.26e-3, max 4.34e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
-/// Denominator proved >= 1.289e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.7e-5, shifted 4.3e-6, bernstein 1.3e-6.
+/// Its 2 terms cancel (sum of |term| up to 35x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+/// Error of the f64 fit on its 2097152 data points: MAE 5.91e-3, max 3.76e-2 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.70e-7 (every op rounded, as this Rust), 4.89e-7 (fused multiply-add), 1.81e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 2.47e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.21e-3, max 3.76e-2; this f32 code MAE 5.21e-3, max 3.76e-2.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
+/// Denominator proved >= 9.852e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -41,85 +42,88 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
+    let f0_v = 1.0_f32 - f0_t;
+    let f0_u2 = f0_t * f0_t;
+    let f0_v2 = f0_v * f0_v;
+    let f0_b1 = f0_t * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    let r_v = 1.0_f32 - r_t;
+    let r_u2 = r_t * r_t;
+    let r_v2 = r_v * r_v;
+    let r_u3 = r_u2 * r_t;
+    let r_v3 = r_v2 * r_v;
+    let r_u4 = r_u3 * r_t;
+    let r_v4 = r_v3 * r_v;
+    let r_u5 = r_u4 * r_t;
+    let r_v5 = r_v4 * r_v;
+    let r_b1 = r_t * r_v4;
+    let r_b2 = r_u2 * r_v3;
+    let r_b3 = r_u3 * r_v2;
+    let r_b4 = r_u4 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
-    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
-    let r_b4_v = 1.0_f32 - r_t;
-    let r_b4_u2 = r_t * r_t;
-    let r_b4_v2 = r_b4_v * r_b4_v;
-    let r_b4_u3 = r_b4_u2 * r_t;
-    let r_b4_v3 = r_b4_v2 * r_b4_v;
-    let r_b4_u4 = r_b4_u3 * r_t;
-    let r_b4_v4 = r_b4_v3 * r_b4_v;
-    let r_b4_b1 = r_t * r_b4_v3;
-    let r_b4_b2 = r_b4_u2 * r_b4_v2;
-    let r_b4_b3 = r_b4_u3 * r_b4_v;
-    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
-    let mu_b4_v = 1.0_f32 - mu_u;
-    let mu_b4_u2 = mu_u * mu_u;
-    let mu_b4_v2 = mu_b4_v * mu_b4_v;
-    let mu_b4_u3 = mu_b4_u2 * mu_u;
-    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
-    let mu_b4_u4 = mu_b4_u3 * mu_u;
-    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
-    let mu_b4_b1 = mu_u * mu_b4_v3;
-    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
-    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = -0.3752686_f32 * mu_b4_v4 - 0.85907274_f32 * mu_b4_b1 - 1.3257005_f32 * mu_b4_b2 - 0.34294236_f32 * mu_b4_b3 - 0.048734017_f32 * mu_b4_u4;
-    let p0_0_1 = -3.0796092_f32 * mu_b4_v4 - 9.381838_f32 * mu_b4_b1 - 11.19182_f32 * mu_b4_b2 - 2.9741814_f32 * mu_b4_b3 - 0.27534202_f32 * mu_b4_u4;
-    let p0_0_2 = -7.2487216_f32 * mu_b4_v4 - 22.401209_f32 * mu_b4_b1 - 23.327688_f32 * mu_b4_b2 - 5.093376_f32 * mu_b4_b3 - 0.20430396_f32 * mu_b4_u4;
-    let p0_0_3 = -5.9385414_f32 * mu_b4_v4 - 17.41527_f32 * mu_b4_b1 - 15.275833_f32 * mu_b4_b2 - 1.1713903_f32 * mu_b4_b3 + 0.4369614_f32 * mu_b4_u4;
-    let p0_0_4 = -1.6415193_f32 * mu_b4_v4 - 4.526263_f32 * mu_b4_b1 - 3.2984204_f32 * mu_b4_b2 + 0.30130962_f32 * mu_b4_b3 + 0.16729808_f32 * mu_b4_u4;
-    let p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
-    let p0 = p0_0 * 1.0_f32;
-    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
-    let f0_b2_v = 1.0_f32 - f0_t;
-    let f0_b2_u2 = f0_t * f0_t;
-    let f0_b2_v2 = f0_b2_v * f0_b2_v;
-    let f0_b2_b1 = f0_t * f0_b2_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 11.04088_f32 * 1.0_f32;
-    let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 18.289953_f32 * 1.0_f32;
-    let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 8.812249_f32 * 1.0_f32;
-    let u0_2 = u0_2_0 * 1.0_f32;
-    let u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
-    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
-    let r_b1_v = 1.0_f32 - r_t;
-    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
-    let mu_b1_v = 1.0_f32 - mu_u;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b1_v + 0.12890857_f32 * mu_u;
-    let q0_0_1 = 1.1776302_f32 * mu_b1_v + 0.3065387_f32 * mu_u;
-    let q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
-    let q0 = q0_0 * 1.0_f32;
-    let e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = -0.38732168_f32 * mu_b4_v4 - 0.9779952_f32 * mu_b4_b1 - 1.3504157_f32 * mu_b4_b2 - 0.40778446_f32 * mu_b4_b3 - 0.063809544_f32 * mu_b4_u4;
-    let p1_0_1 = -2.801529_f32 * mu_b4_v4 - 8.726374_f32 * mu_b4_b1 - 10.350458_f32 * mu_b4_b2 - 3.093102_f32 * mu_b4_b3 - 0.33055824_f32 * mu_b4_u4;
-    let p1_0_2 = -6.2298675_f32 * mu_b4_v4 - 19.470436_f32 * mu_b4_b1 - 20.44709_f32 * mu_b4_b2 - 4.94801_f32 * mu_b4_b3 - 0.23609158_f32 * mu_b4_u4;
-    let p1_0_3 = -5.0155554_f32 * mu_b4_v4 - 14.838866_f32 * mu_b4_b1 - 13.273156_f32 * mu_b4_b2 - 1.4542986_f32 * mu_b4_b3 + 0.33247796_f32 * mu_b4_u4;
-    let p1_0_4 = -1.3714166_f32 * mu_b4_v4 - 3.8028953_f32 * mu_b4_b1 - 2.8552372_f32 * mu_b4_b2 + 0.12230801_f32 * mu_b4_b3 + 0.13029934_f32 * mu_b4_u4;
-    let p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
-    let p1 = p1_0 * 1.0_f32;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = -13.275268_f32 * 1.0_f32;
-    let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = -22.867315_f32 * 1.0_f32;
-    let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = -11.125329_f32 * 1.0_f32;
-    let u1_2 = u1_2_0 * 1.0_f32;
-    let u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b1_v + 0.16386534_f32 * mu_u;
-    let q1_0_1 = 1.1547776_f32 * mu_b1_v + 0.31864294_f32 * mu_u;
-    let q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
-    let q1 = q1_0 * 1.0_f32;
-    let e1 = p1 * u1 / q1;
-    // the sum of the 2 terms
-    let e = e0 + e1;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    let mu_v = 1.0_f32 - mu_u;
+    let mu_u2 = mu_u * mu_u;
+    let mu_v2 = mu_v * mu_v;
+    let mu_u3 = mu_u2 * mu_u;
+    let mu_v3 = mu_v2 * mu_v;
+    let mu_u4 = mu_u3 * mu_u;
+    let mu_v4 = mu_v3 * mu_v;
+    let mu_u5 = mu_u4 * mu_u;
+    let mu_v5 = mu_v4 * mu_v;
+    let mu_b1 = mu_u * mu_v4;
+    let mu_b2 = mu_u2 * mu_v3;
+    let mu_b3 = mu_u3 * mu_v2;
+    let mu_b4 = mu_u4 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    let p_0_0 = 0.99565077_f32 * mu_v5 + 3.3924441_f32 * mu_b1 + 3.1144326_f32 * mu_b2 + 1.4422028_f32 * mu_b3 + 0.2839311_f32 * mu_b4 + 0.012133276_f32 * mu_u5;
+    let p_0_1 = 4.5728846_f32 * mu_v5 + 16.253712_f32 * mu_b1 + 16.318886_f32 * mu_b2 + 8.563906_f32 * mu_b3 + 1.7787242_f32 * mu_b4 + 0.11670485_f32 * mu_u5;
+    let p_0_2 = 7.6395164_f32 * mu_v5 + 27.453737_f32 * mu_b1 + 28.335716_f32 * mu_b2 + 16.409075_f32 * mu_b3 + 3.7439282_f32 * mu_b4 + 0.38400748_f32 * mu_u5;
+    let p_0_3 = 6.443032_f32 * mu_v5 + 22.866104_f32 * mu_b1 + 24.435787_f32 * mu_b2 + 16.295155_f32 * mu_b3 + 4.249049_f32 * mu_b4 + 0.49426627_f32 * mu_u5;
+    let p_0_4 = 3.0004432_f32 * mu_v5 + 10.381581_f32 * mu_b1 + 12.203184_f32 * mu_b2 + 9.76255_f32 * mu_b3 + 2.998719_f32 * mu_b4 + 0.32204324_f32 * mu_u5;
+    let p_0_5 = 0.57888275_f32 * mu_v5 + 1.9038911_f32 * mu_b1 + 2.4905515_f32 * mu_b2 + 2.3466568_f32 * mu_b3 + 0.7947496_f32 * mu_b4 + 0.0664018_f32 * mu_u5;
+    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
+    let p_1_0 = 1.9790473_f32 * mu_v5 + 6.6090746_f32 * mu_b1 + 6.119147_f32 * mu_b2 + 2.829212_f32 * mu_b3 + 0.5323971_f32 * mu_b4 + 0.024280459_f32 * mu_u5;
+    let p_1_1 = 10.306315_f32 * mu_v5 + 36.513012_f32 * mu_b1 + 36.89327_f32 * mu_b2 + 18.208721_f32 * mu_b3 + 3.590553_f32 * mu_b4 + 0.22828245_f32 * mu_u5;
+    let p_1_2 = 21.287514_f32 * mu_v5 + 76.67484_f32 * mu_b1 + 79.31072_f32 * mu_b2 + 39.72086_f32 * mu_b3 + 8.197628_f32 * mu_b4 + 0.7199147_f32 * mu_u5;
+    let p_1_3 = 22.364965_f32 * mu_v5 + 79.65206_f32 * mu_b1 + 82.107445_f32 * mu_b2 + 41.04194_f32 * mu_b3 + 8.732605_f32 * mu_b4 + 0.8307685_f32 * mu_u5;
+    let p_1_4 = 11.882352_f32 * mu_v5 + 41.110718_f32 * mu_b1 + 41.70848_f32 * mu_b2 + 20.858053_f32 * mu_b3 + 4.596277_f32 * mu_b4 + 0.37821668_f32 * mu_u5;
+    let p_1_5 = 2.4883041_f32 * mu_v5 + 8.282919_f32 * mu_b1 + 8.244351_f32 * mu_b2 + 4.2641816_f32 * mu_b3 + 1.0565019_f32 * mu_b4 + 0.07403245_f32 * mu_u5;
+    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
+    let p_2_0 = 1.0119287_f32 * mu_v5 + 3.369643_f32 * mu_b1 + 3.123675_f32 * mu_b2 + 1.443922_f32 * mu_b3 + 0.2699087_f32 * mu_b4 + 0.012426943_f32 * mu_u5;
+    let p_2_1 = 5.358031_f32 * mu_v5 + 18.974691_f32 * mu_b1 + 19.187296_f32 * mu_b2 + 9.396485_f32 * mu_b3 + 1.8399117_f32 * mu_b4 + 0.11645813_f32 * mu_u5;
+    let p_2_2 = 11.327056_f32 * mu_v5 + 40.807625_f32 * mu_b1 + 42.219387_f32 * mu_b2 + 20.82505_f32 * mu_b3 + 4.246403_f32 * mu_b4 + 0.3649639_f32 * mu_u5;
+    let p_2_3 = 12.128443_f32 * mu_v5 + 43.206642_f32 * mu_b1 + 44.413956_f32 * mu_b2 + 21.612709_f32 * mu_b3 + 4.4859524_f32 * mu_b4 + 0.41379592_f32 * mu_u5;
+    let p_2_4 = 6.5046535_f32 * mu_v5 + 22.504799_f32 * mu_b1 + 22.591343_f32 * mu_b2 + 10.770482_f32 * mu_b3 + 2.2512946_f32 * mu_b4 + 0.17440762_f32 * mu_u5;
+    let p_2_5 = 1.3692743_f32 * mu_v5 + 4.561281_f32 * mu_b1 + 4.454248_f32 * mu_b2 + 2.1513567_f32 * mu_b3 + 0.5022899_f32 * mu_b4 + 0.033653945_f32 * mu_u5;
+    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
+    let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q_0_0 = 1.0_f32 * mu_v5 + 3.2232351_f32 * mu_b1 + 3.6819923_f32 * mu_b2 + 1.7065663_f32 * mu_b3 + 0.2600962_f32 * mu_b4 + 0.012287051_f32 * mu_u5;
+    let q_0_1 = 5.463638_f32 * mu_v5 + 18.02261_f32 * mu_b1 + 21.399324_f32 * mu_b2 + 10.698688_f32 * mu_b3 + 1.9716555_f32 * mu_b4 + 0.11331946_f32 * mu_u5;
+    let q_0_2 = 11.908265_f32 * mu_v5 + 40.12666_f32 * mu_b1 + 49.314514_f32 * mu_b2 + 26.266226_f32 * mu_b3 + 5.554229_f32 * mu_b4 + 0.38412106_f32 * mu_u5;
+    let q_0_3 = 12.942967_f32 * mu_v5 + 44.47667_f32 * mu_b1 + 56.367516_f32 * mu_b2 + 31.672213_f32 * mu_b3 + 7.433716_f32 * mu_b4 + 0.595317_f32 * mu_u5;
+    let q_0_4 = 7.015692_f32 * mu_v5 + 24.547623_f32 * mu_b1 + 31.978827_f32 * mu_b2 + 18.807669_f32 * mu_b3 + 4.7908854_f32 * mu_b4 + 0.43011335_f32 * mu_u5;
+    let q_0_5 = 1.5173515_f32 * mu_v5 + 5.398239_f32 * mu_b1 + 7.2084928_f32 * mu_b2 + 4.40956_f32 * mu_b3 + 1.1998395_f32 * mu_b4 + 0.11788501_f32 * mu_u5;
+    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
+    let q_1_0 = 2.0_f32 * mu_v5 + 6.4464703_f32 * mu_b1 + 7.3639846_f32 * mu_b2 + 3.4131327_f32 * mu_b3 + 0.5201924_f32 * mu_b4 + 0.024574103_f32 * mu_u5;
+    let q_1_1 = 10.927276_f32 * mu_v5 + 36.04522_f32 * mu_b1 + 42.79865_f32 * mu_b2 + 21.397375_f32 * mu_b3 + 3.943311_f32 * mu_b4 + 0.22663891_f32 * mu_u5;
+    let q_1_2 = 23.81653_f32 * mu_v5 + 80.25332_f32 * mu_b1 + 98.62903_f32 * mu_b2 + 52.53245_f32 * mu_b3 + 11.108458_f32 * mu_b4 + 0.7682421_f32 * mu_u5;
+    let q_1_3 = 25.885935_f32 * mu_v5 + 88.95334_f32 * mu_b1 + 112.73503_f32 * mu_b2 + 63.344425_f32 * mu_b3 + 14.867432_f32 * mu_b4 + 1.190634_f32 * mu_u5;
+    let q_1_4 = 14.031384_f32 * mu_v5 + 49.095245_f32 * mu_b1 + 63.957653_f32 * mu_b2 + 37.615337_f32 * mu_b3 + 9.581771_f32 * mu_b4 + 0.8602267_f32 * mu_u5;
+    let q_1_5 = 3.034703_f32 * mu_v5 + 10.796478_f32 * mu_b1 + 14.4169855_f32 * mu_b2 + 8.81912_f32 * mu_b3 + 2.399679_f32 * mu_b4 + 0.23577002_f32 * mu_u5;
+    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
+    let q_2_0 = 1.0_f32 * mu_v5 + 3.2232351_f32 * mu_b1 + 3.6819923_f32 * mu_b2 + 1.7065663_f32 * mu_b3 + 0.2600962_f32 * mu_b4 + 0.012287051_f32 * mu_u5;
+    let q_2_1 = 5.463638_f32 * mu_v5 + 18.02261_f32 * mu_b1 + 21.399324_f32 * mu_b2 + 10.698688_f32 * mu_b3 + 1.9716555_f32 * mu_b4 + 0.11331946_f32 * mu_u5;
+    let q_2_2 = 11.908265_f32 * mu_v5 + 40.12666_f32 * mu_b1 + 49.314514_f32 * mu_b2 + 26.266226_f32 * mu_b3 + 5.554229_f32 * mu_b4 + 0.38412106_f32 * mu_u5;
+    let q_2_3 = 12.942967_f32 * mu_v5 + 44.47667_f32 * mu_b1 + 56.367516_f32 * mu_b2 + 31.672213_f32 * mu_b3 + 7.433716_f32 * mu_b4 + 0.595317_f32 * mu_u5;
+    let q_2_4 = 7.015692_f32 * mu_v5 + 24.547623_f32 * mu_b1 + 31.978827_f32 * mu_b2 + 18.807669_f32 * mu_b3 + 4.7908854_f32 * mu_b4 + 0.43011335_f32 * mu_u5;
+    let q_2_5 = 1.5173515_f32 * mu_v5 + 5.398239_f32 * mu_b1 + 7.2084928_f32 * mu_b2 + 4.40956_f32 * mu_b3 + 1.1998395_f32 * mu_b4 + 0.11788501_f32 * mu_u5;
+    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
+    let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }
 

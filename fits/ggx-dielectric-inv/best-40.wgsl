@@ -12,16 +12,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 19726b7802040d72d7a12b4dfe2a8d27f4904549569a75c21ee00b52d1457689.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 710b8e052b984824fc02a79d6f4ad9d9a892c474092e6dbddc08fd0f4262d2e6.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-5, shifted 1.1e-5, bernstein 6.6e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 4.42e-3, max 4.34e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.83e-6 (every op rounded, as this Rust), 5.53e-6 (fused multiply-add), 7.86e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.15e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17865 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 4.26e-3, max 4.34e-2; this f32 code MAE 4.26e-3, max 4.34e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
-// Denominator proved >= 1.289e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.7e-5, shifted 4.3e-6, bernstein 1.3e-6.
+// Its 2 terms cancel (sum of |term| up to 35x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+// Error of the f64 fit on its 2097152 data points: MAE 5.91e-3, max 3.76e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.70e-7 (every op rounded, as this Rust), 4.89e-7 (fused multiply-add), 1.81e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.47e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.21e-3, max 3.76e-2; this f32 code MAE 5.21e-3, max 3.76e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
+// Denominator proved >= 9.852e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -33,85 +34,88 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_c = max(min(mu, 1.0), 0.0);
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
+    let f0_v = 1.0 - f0_t;
+    let f0_u2 = f0_t * f0_t;
+    let f0_v2 = f0_v * f0_v;
+    let f0_b1 = f0_t * f0_v;
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
+    let r_v = 1.0 - r_t;
+    let r_u2 = r_t * r_t;
+    let r_v2 = r_v * r_v;
+    let r_u3 = r_u2 * r_t;
+    let r_v3 = r_v2 * r_v;
+    let r_u4 = r_u3 * r_t;
+    let r_v4 = r_v3 * r_v;
+    let r_u5 = r_u4 * r_t;
+    let r_v5 = r_v4 * r_v;
+    let r_b1 = r_t * r_v4;
+    let r_b2 = r_u2 * r_v3;
+    let r_b3 = r_u3 * r_v2;
+    let r_b4 = r_u4 * r_v;
     // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
     let mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
-    let r_b4_v = 1.0 - r_t;
-    let r_b4_u2 = r_t * r_t;
-    let r_b4_v2 = r_b4_v * r_b4_v;
-    let r_b4_u3 = r_b4_u2 * r_t;
-    let r_b4_v3 = r_b4_v2 * r_b4_v;
-    let r_b4_u4 = r_b4_u3 * r_t;
-    let r_b4_v4 = r_b4_v3 * r_b4_v;
-    let r_b4_b1 = r_t * r_b4_v3;
-    let r_b4_b2 = r_b4_u2 * r_b4_v2;
-    let r_b4_b3 = r_b4_u3 * r_b4_v;
-    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
-    let mu_b4_v = 1.0 - mu_u;
-    let mu_b4_u2 = mu_u * mu_u;
-    let mu_b4_v2 = mu_b4_v * mu_b4_v;
-    let mu_b4_u3 = mu_b4_u2 * mu_u;
-    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
-    let mu_b4_u4 = mu_b4_u3 * mu_u;
-    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
-    let mu_b4_b1 = mu_u * mu_b4_v3;
-    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
-    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
-    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = -0.3752686 * mu_b4_v4 - 0.85907274 * mu_b4_b1 - 1.3257005 * mu_b4_b2 - 0.34294236 * mu_b4_b3 - 0.048734017 * mu_b4_u4;
-    let p0_0_1 = -3.0796092 * mu_b4_v4 - 9.381838 * mu_b4_b1 - 11.19182 * mu_b4_b2 - 2.9741814 * mu_b4_b3 - 0.27534202 * mu_b4_u4;
-    let p0_0_2 = -7.2487216 * mu_b4_v4 - 22.401209 * mu_b4_b1 - 23.327688 * mu_b4_b2 - 5.093376 * mu_b4_b3 - 0.20430396 * mu_b4_u4;
-    let p0_0_3 = -5.9385414 * mu_b4_v4 - 17.41527 * mu_b4_b1 - 15.275833 * mu_b4_b2 - 1.1713903 * mu_b4_b3 + 0.4369614 * mu_b4_u4;
-    let p0_0_4 = -1.6415193 * mu_b4_v4 - 4.526263 * mu_b4_b1 - 3.2984204 * mu_b4_b2 + 0.30130962 * mu_b4_b3 + 0.16729808 * mu_b4_u4;
-    let p0_0 = p0_0_0 * r_b4_v4 + p0_0_1 * r_b4_b1 + p0_0_2 * r_b4_b2 + p0_0_3 * r_b4_b3 + p0_0_4 * r_b4_u4;
-    let p0 = p0_0 * 1.0;
-    // Bernstein basis of f0_b2: u^i (1 - u)^(n - i), n = 2
-    let f0_b2_v = 1.0 - f0_t;
-    let f0_b2_u2 = f0_t * f0_t;
-    let f0_b2_v2 = f0_b2_v * f0_b2_v;
-    let f0_b2_b1 = f0_t * f0_b2_v;
-    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 11.04088 * 1.0;
-    let u0_0 = u0_0_0 * 1.0;
-    let u0_1_0 = 18.289953 * 1.0;
-    let u0_1 = u0_1_0 * 1.0;
-    let u0_2_0 = 8.812249 * 1.0;
-    let u0_2 = u0_2_0 * 1.0;
-    let u0 = u0_0 * f0_b2_v2 + u0_1 * f0_b2_b1 + u0_2 * f0_b2_u2;
-    // Bernstein basis of r_b1: u^i (1 - u)^(n - i), n = 1
-    let r_b1_v = 1.0 - r_t;
-    // Bernstein basis of mu_b1: u^i (1 - u)^(n - i), n = 1
-    let mu_b1_v = 1.0 - mu_u;
-    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0 * mu_b1_v + 0.12890857 * mu_u;
-    let q0_0_1 = 1.1776302 * mu_b1_v + 0.3065387 * mu_u;
-    let q0_0 = q0_0_0 * r_b1_v + q0_0_1 * r_t;
-    let q0 = q0_0 * 1.0;
-    let e0 = p0 * u0 / q0;
-    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = -0.38732168 * mu_b4_v4 - 0.9779952 * mu_b4_b1 - 1.3504157 * mu_b4_b2 - 0.40778446 * mu_b4_b3 - 0.063809544 * mu_b4_u4;
-    let p1_0_1 = -2.801529 * mu_b4_v4 - 8.726374 * mu_b4_b1 - 10.350458 * mu_b4_b2 - 3.093102 * mu_b4_b3 - 0.33055824 * mu_b4_u4;
-    let p1_0_2 = -6.2298675 * mu_b4_v4 - 19.470436 * mu_b4_b1 - 20.44709 * mu_b4_b2 - 4.94801 * mu_b4_b3 - 0.23609158 * mu_b4_u4;
-    let p1_0_3 = -5.0155554 * mu_b4_v4 - 14.838866 * mu_b4_b1 - 13.273156 * mu_b4_b2 - 1.4542986 * mu_b4_b3 + 0.33247796 * mu_b4_u4;
-    let p1_0_4 = -1.3714166 * mu_b4_v4 - 3.8028953 * mu_b4_b1 - 2.8552372 * mu_b4_b2 + 0.12230801 * mu_b4_b3 + 0.13029934 * mu_b4_u4;
-    let p1_0 = p1_0_0 * r_b4_v4 + p1_0_1 * r_b4_b1 + p1_0_2 * r_b4_b2 + p1_0_3 * r_b4_b3 + p1_0_4 * r_b4_u4;
-    let p1 = p1_0 * 1.0;
-    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = -13.275268 * 1.0;
-    let u1_0 = u1_0_0 * 1.0;
-    let u1_1_0 = -22.867315 * 1.0;
-    let u1_1 = u1_1_0 * 1.0;
-    let u1_2_0 = -11.125329 * 1.0;
-    let u1_2 = u1_2_0 * 1.0;
-    let u1 = u1_0 * f0_b2_v2 + u1_1 * f0_b2_b1 + u1_2 * f0_b2_u2;
-    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0 * mu_b1_v + 0.16386534 * mu_u;
-    let q1_0_1 = 1.1547776 * mu_b1_v + 0.31864294 * mu_u;
-    let q1_0 = q1_0_0 * r_b1_v + q1_0_1 * r_t;
-    let q1 = q1_0 * 1.0;
-    let e1 = p1 * u1 / q1;
-    // the sum of the 2 terms
-    let e = e0 + e1;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
+    let mu_v = 1.0 - mu_u;
+    let mu_u2 = mu_u * mu_u;
+    let mu_v2 = mu_v * mu_v;
+    let mu_u3 = mu_u2 * mu_u;
+    let mu_v3 = mu_v2 * mu_v;
+    let mu_u4 = mu_u3 * mu_u;
+    let mu_v4 = mu_v3 * mu_v;
+    let mu_u5 = mu_u4 * mu_u;
+    let mu_v5 = mu_v4 * mu_v;
+    let mu_b1 = mu_u * mu_v4;
+    let mu_b2 = mu_u2 * mu_v3;
+    let mu_b3 = mu_u3 * mu_v2;
+    let mu_b4 = mu_u4 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    let p_0_0 = 0.99565077 * mu_v5 + 3.3924441 * mu_b1 + 3.1144326 * mu_b2 + 1.4422028 * mu_b3 + 0.2839311 * mu_b4 + 0.012133276 * mu_u5;
+    let p_0_1 = 4.5728846 * mu_v5 + 16.253712 * mu_b1 + 16.318886 * mu_b2 + 8.563906 * mu_b3 + 1.7787242 * mu_b4 + 0.11670485 * mu_u5;
+    let p_0_2 = 7.6395164 * mu_v5 + 27.453737 * mu_b1 + 28.335716 * mu_b2 + 16.409075 * mu_b3 + 3.7439282 * mu_b4 + 0.38400748 * mu_u5;
+    let p_0_3 = 6.443032 * mu_v5 + 22.866104 * mu_b1 + 24.435787 * mu_b2 + 16.295155 * mu_b3 + 4.249049 * mu_b4 + 0.49426627 * mu_u5;
+    let p_0_4 = 3.0004432 * mu_v5 + 10.381581 * mu_b1 + 12.203184 * mu_b2 + 9.76255 * mu_b3 + 2.998719 * mu_b4 + 0.32204324 * mu_u5;
+    let p_0_5 = 0.57888275 * mu_v5 + 1.9038911 * mu_b1 + 2.4905515 * mu_b2 + 2.3466568 * mu_b3 + 0.7947496 * mu_b4 + 0.0664018 * mu_u5;
+    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
+    let p_1_0 = 1.9790473 * mu_v5 + 6.6090746 * mu_b1 + 6.119147 * mu_b2 + 2.829212 * mu_b3 + 0.5323971 * mu_b4 + 0.024280459 * mu_u5;
+    let p_1_1 = 10.306315 * mu_v5 + 36.513012 * mu_b1 + 36.89327 * mu_b2 + 18.208721 * mu_b3 + 3.590553 * mu_b4 + 0.22828245 * mu_u5;
+    let p_1_2 = 21.287514 * mu_v5 + 76.67484 * mu_b1 + 79.31072 * mu_b2 + 39.72086 * mu_b3 + 8.197628 * mu_b4 + 0.7199147 * mu_u5;
+    let p_1_3 = 22.364965 * mu_v5 + 79.65206 * mu_b1 + 82.107445 * mu_b2 + 41.04194 * mu_b3 + 8.732605 * mu_b4 + 0.8307685 * mu_u5;
+    let p_1_4 = 11.882352 * mu_v5 + 41.110718 * mu_b1 + 41.70848 * mu_b2 + 20.858053 * mu_b3 + 4.596277 * mu_b4 + 0.37821668 * mu_u5;
+    let p_1_5 = 2.4883041 * mu_v5 + 8.282919 * mu_b1 + 8.244351 * mu_b2 + 4.2641816 * mu_b3 + 1.0565019 * mu_b4 + 0.07403245 * mu_u5;
+    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
+    let p_2_0 = 1.0119287 * mu_v5 + 3.369643 * mu_b1 + 3.123675 * mu_b2 + 1.443922 * mu_b3 + 0.2699087 * mu_b4 + 0.012426943 * mu_u5;
+    let p_2_1 = 5.358031 * mu_v5 + 18.974691 * mu_b1 + 19.187296 * mu_b2 + 9.396485 * mu_b3 + 1.8399117 * mu_b4 + 0.11645813 * mu_u5;
+    let p_2_2 = 11.327056 * mu_v5 + 40.807625 * mu_b1 + 42.219387 * mu_b2 + 20.82505 * mu_b3 + 4.246403 * mu_b4 + 0.3649639 * mu_u5;
+    let p_2_3 = 12.128443 * mu_v5 + 43.206642 * mu_b1 + 44.413956 * mu_b2 + 21.612709 * mu_b3 + 4.4859524 * mu_b4 + 0.41379592 * mu_u5;
+    let p_2_4 = 6.5046535 * mu_v5 + 22.504799 * mu_b1 + 22.591343 * mu_b2 + 10.770482 * mu_b3 + 2.2512946 * mu_b4 + 0.17440762 * mu_u5;
+    let p_2_5 = 1.3692743 * mu_v5 + 4.561281 * mu_b1 + 4.454248 * mu_b2 + 2.1513567 * mu_b3 + 0.5022899 * mu_b4 + 0.033653945 * mu_u5;
+    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
+    let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q_0_0 = 1.0 * mu_v5 + 3.2232351 * mu_b1 + 3.6819923 * mu_b2 + 1.7065663 * mu_b3 + 0.2600962 * mu_b4 + 0.012287051 * mu_u5;
+    let q_0_1 = 5.463638 * mu_v5 + 18.02261 * mu_b1 + 21.399324 * mu_b2 + 10.698688 * mu_b3 + 1.9716555 * mu_b4 + 0.11331946 * mu_u5;
+    let q_0_2 = 11.908265 * mu_v5 + 40.12666 * mu_b1 + 49.314514 * mu_b2 + 26.266226 * mu_b3 + 5.554229 * mu_b4 + 0.38412106 * mu_u5;
+    let q_0_3 = 12.942967 * mu_v5 + 44.47667 * mu_b1 + 56.367516 * mu_b2 + 31.672213 * mu_b3 + 7.433716 * mu_b4 + 0.595317 * mu_u5;
+    let q_0_4 = 7.015692 * mu_v5 + 24.547623 * mu_b1 + 31.978827 * mu_b2 + 18.807669 * mu_b3 + 4.7908854 * mu_b4 + 0.43011335 * mu_u5;
+    let q_0_5 = 1.5173515 * mu_v5 + 5.398239 * mu_b1 + 7.2084928 * mu_b2 + 4.40956 * mu_b3 + 1.1998395 * mu_b4 + 0.11788501 * mu_u5;
+    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
+    let q_1_0 = 2.0 * mu_v5 + 6.4464703 * mu_b1 + 7.3639846 * mu_b2 + 3.4131327 * mu_b3 + 0.5201924 * mu_b4 + 0.024574103 * mu_u5;
+    let q_1_1 = 10.927276 * mu_v5 + 36.04522 * mu_b1 + 42.79865 * mu_b2 + 21.397375 * mu_b3 + 3.943311 * mu_b4 + 0.22663891 * mu_u5;
+    let q_1_2 = 23.81653 * mu_v5 + 80.25332 * mu_b1 + 98.62903 * mu_b2 + 52.53245 * mu_b3 + 11.108458 * mu_b4 + 0.7682421 * mu_u5;
+    let q_1_3 = 25.885935 * mu_v5 + 88.95334 * mu_b1 + 112.73503 * mu_b2 + 63.344425 * mu_b3 + 14.867432 * mu_b4 + 1.190634 * mu_u5;
+    let q_1_4 = 14.031384 * mu_v5 + 49.095245 * mu_b1 + 63.957653 * mu_b2 + 37.615337 * mu_b3 + 9.581771 * mu_b4 + 0.8602267 * mu_u5;
+    let q_1_5 = 3.034703 * mu_v5 + 10.796478 * mu_b1 + 14.4169855 * mu_b2 + 8.81912 * mu_b3 + 2.399679 * mu_b4 + 0.23577002 * mu_u5;
+    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
+    let q_2_0 = 1.0 * mu_v5 + 3.2232351 * mu_b1 + 3.6819923 * mu_b2 + 1.7065663 * mu_b3 + 0.2600962 * mu_b4 + 0.012287051 * mu_u5;
+    let q_2_1 = 5.463638 * mu_v5 + 18.02261 * mu_b1 + 21.399324 * mu_b2 + 10.698688 * mu_b3 + 1.9716555 * mu_b4 + 0.11331946 * mu_u5;
+    let q_2_2 = 11.908265 * mu_v5 + 40.12666 * mu_b1 + 49.314514 * mu_b2 + 26.266226 * mu_b3 + 5.554229 * mu_b4 + 0.38412106 * mu_u5;
+    let q_2_3 = 12.942967 * mu_v5 + 44.47667 * mu_b1 + 56.367516 * mu_b2 + 31.672213 * mu_b3 + 7.433716 * mu_b4 + 0.595317 * mu_u5;
+    let q_2_4 = 7.015692 * mu_v5 + 24.547623 * mu_b1 + 31.978827 * mu_b2 + 18.807669 * mu_b3 + 4.7908854 * mu_b4 + 0.43011335 * mu_u5;
+    let q_2_5 = 1.5173515 * mu_v5 + 5.398239 * mu_b1 + 7.2084928 * mu_b2 + 4.40956 * mu_b3 + 1.1998395 * mu_b4 + 0.11788501 * mu_u5;
+    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
+    let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    let e = p / q;
     return max(min(e, 1.0), 0.0);
 }
 

@@ -220,10 +220,13 @@ pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 /// the layer-resolving points of docs/aniso_points.py (training 28 × 10 × 32 × 10, check at its
 /// 10 000 independent points; docs/anisotropy.md, "Fits"): 4 (4, 2, 4, 1) / 3 (3, 1, 3, 1),
 /// 74 coefficients, 2.2e-2 (MAE 1.8e-3) with β = 0, where sin²φ for the azimuth gives 3.3e-2
-/// (3.8e-3); 5 (5, 2, 5, 2) / 3 (3, 1, 3, 1), 120 coefficients, 1.6e-2 (2.6e-2 in sin²φ).
-pub const ANISO_EXPONENT_FORMS: [(u32, [u32; 4], u32, [u32; 4]); 2] = [
+/// (3.8e-3); 5 (5, 2, 5, 2) / 3 (3, 1, 3, 1), 120 coefficients, 1.6e-2 (2.6e-2 in sin²φ);
+/// 6 (6, 2, 6, 1) / 4 (4, 1, 4, 1), 150 coefficients, 1.2e-2 (MAE 1.3e-3), the lowest measured
+/// at ≤ 160.
+pub const ANISO_EXPONENT_FORMS: [(u32, [u32; 4], u32, [u32; 4]); 3] = [
     (4, [4, 2, 4, 1], 3, [3, 1, 3, 1]),
     (5, [5, 2, 5, 2], 3, [3, 1, 3, 1]),
+    (6, [6, 2, 6, 1], 4, [4, 1, 4, 1]),
 ];
 
 /// k of the root-layer variable `slayer:r:k` ([`InputTransform::RootLayer`]: √μ outside the
@@ -252,7 +255,7 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 3.0;
 ///   ([`LOG_LAYER_LOWRANK`]); where μ is in √μ (no boundary layer: the glossy albedo),
 ///   (k, n, m) = (2, 3, 3) also with μ in the root-layer variable
 ///   ([`GLOSSY_ROOT_LAYER_SCALE`]);
-/// - 4-D with μ in the projected layer: [`ANISO_EXPONENT_FORMS`] (74 and 120 coefficients).
+/// - 4-D with μ in the projected layer: [`ANISO_EXPONENT_FORMS`] (74, 120 and 150 coefficients).
 pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<PlannedForm> {
     let d = data.dim();
     let planned = |form| PlannedForm {
@@ -583,10 +586,10 @@ mod tests {
                 InputTransform::ProjectedRatio { aniso: 1 }
             ]
         );
-        // and the unequal-degree forms in them: 74 and 120 coefficients
+        // and the unequal-degree forms in them: 74, 120 and 150 coefficients
         let f4 = structured_forms(&d4, &t4);
         let sizes: Vec<usize> = f4.iter().map(|f| f.form.n_coefficients(4)).collect();
-        assert_eq!(sizes, [74, 120]);
+        assert_eq!(sizes, [74, 120, 150]);
         assert!(f4.iter().all(|f| f.transforms == t4));
         // aniso = 1 (α_b = 0) is outside the layer's domain: the isotropic layer instead
         let mut d4b = d4.clone();

@@ -3,6 +3,7 @@
     python3 docs/aniso_points.py train 20 8 24 8 > train.in.csv   # grid, layer-resolving
     python3 docs/aniso_points.py check > check.in.csv              # 10 000 independent points
     python3 docs/aniso_points.py compare check.csv fit.csv         # max and mean |fit - exact|
+    python3 docs/aniso_points.py svd grid.csv 32 12 32 12          # separability of a train grid
 
 Columns r, aniso, mu, phi (OpenPBR's r and aniso; mu = cos(theta_o); phi the azimuth from the
 tangent), to be evaluated with `furnace eval --model ggx-conductor-aniso`.
@@ -69,6 +70,23 @@ def compare(exact_csv, fit_csv):
     print("max %.3e at %s; mean %.3e; over %d points" % (e.max(), at, e.mean(), len(e)))
 
 
+def svd(grid_csv, shape):
+    """Largest residual of the best rank-K approximation (truncated SVD, Eckart-Young in the
+    Frobenius norm) of the train grid's E, reshaped as a matrix over two groups of the fit
+    variables (r^2, aniso, t, sin^2 phi): what a low-rank form with exact factors could reach."""
+    e = np.genfromtxt(grid_csv, delimiter=",", names=True)["E"].reshape(shape)
+    names = ("r", "aniso", "t", "phi")
+    groups = (((1, 3), (0, 2)), ((1,), (0, 2, 3)), ((3,), (0, 1, 2)), ((0,), (1, 2, 3)), ((2,), (0, 1, 3)))
+    for rows, cols in groups:
+        m = e.transpose(rows + cols).reshape(int(np.prod([shape[i] for i in rows])), -1)
+        u, s, vt = np.linalg.svd(m, full_matrices=False)
+        res = []
+        for k in range(1, 9):
+            res.append("%.1e" % np.abs(m - (u[:, :k] * s[:k]) @ vt[:k]).max())
+        label = "(%s) x (%s)" % (", ".join(names[i] for i in rows), ", ".join(names[i] for i in cols))
+        print("%-24s rank 1..8: %s" % (label, " ".join(res)))
+
+
 if __name__ == "__main__":
     if sys.argv[1:2] == ["train"]:
         write(grid(*[int(v) for v in sys.argv[2:6]]))
@@ -76,5 +94,7 @@ if __name__ == "__main__":
         write(check())
     elif sys.argv[1:2] == ["compare"]:
         compare(sys.argv[2], sys.argv[3])
+    elif sys.argv[1:2] == ["svd"]:
+        svd(sys.argv[2], tuple(int(v) for v in sys.argv[3:7]))
     else:
-        sys.exit("usage: aniso_points.py train NR NA NMU NPHI | check | compare EXACT FIT")
+        sys.exit("usage: aniso_points.py train NR NA NMU NPHI | check | compare EXACT FIT | svd GRID NR NA NMU NPHI")

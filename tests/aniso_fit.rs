@@ -160,3 +160,52 @@ fn five_variables_are_refused_with_the_limit() {
     assert!(err.contains("1 to 4"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn azimuth_transforms_on_part_of_the_quadrant_are_emitted_in_every_form() {
+    // φ ∈ [0.2, 1.2]: the transformed variables' ranges are not [0, 1], so the Bernstein form
+    // maps them to u = (t − lo)/(hi − lo) next to the steps of sin²φ
+    let dir = scratch("azimuth-forms");
+    let mut csv = String::from("aniso,phi,E\n");
+    for i in 0..9 {
+        for j in 0..9 {
+            let (aniso, phi) = (0.9 * i as f64 / 8.0, 0.2 + j as f64 / 8.0);
+            let u2 = 1.0 - (1.0 - (1.0 - aniso) * (1.0 - aniso)) * phi.sin().powi(2);
+            csv.push_str(&format!("{aniso},{phi},{}\n", 0.4 + 0.3 * u2.sqrt()));
+        }
+    }
+    std::fs::write(dir.join("t.csv"), csv).unwrap();
+    for (transform, name) in [("phi=sin2", "sin2"), ("phi=pratio:aniso", "pratio")] {
+        let out = format!("{name}.json");
+        let fit = [
+            "fit",
+            "--table",
+            "t.csv",
+            "--form",
+            "rational",
+            "--degree",
+            "2",
+            "--transform",
+            transform,
+            "--output",
+            &out,
+        ];
+        let o = furnace(&fit, &dir);
+        assert!(o.status.success(), "{}", stderr(&o));
+        for form in ["monomial", "shifted", "bernstein"] {
+            let emit = [
+                "emit",
+                "--fit",
+                &out,
+                "--lang",
+                "rust,wgsl,glsl,hlsl,cpp",
+                "--form",
+                form,
+            ];
+            let o = furnace(&emit, &dir);
+            let err = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+            assert!(o.status.success(), "{transform}, {form}: {err}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1162,7 +1162,10 @@ fn albedo_function_of(
                     ),
                 ))
             }
-            InputTransform::SinSquared => Some(sin_squared(var(&c), &format!("{p}_"), &mut body)),
+            // (`{p}_sin_` keeps its steps apart from `{p}_u`, the Bernstein form's coordinate)
+            InputTransform::SinSquared => {
+                Some(sin_squared(var(&c), &format!("{p}_sin_"), &mut body))
+            }
             // ((x(1 + k α_o) + τ)/(x + k α_o + τ))^(1/n), α_o the projected roughness of the
             // clamped r, aniso and φ (φ clamped here: it may come after this variable)
             InputTransform::ProjectedLayer {

@@ -597,6 +597,7 @@ pub fn fit_structured(
         };
         let start = both(&params).unwrap_or((f64::INFINITY, f64::INFINITY));
         let mut iterates = Vec::new();
+        let mut blended = Vec::new();
         let mut best_round = 0;
         let lm = opts
             .lm
@@ -605,7 +606,8 @@ pub fn fit_structured(
         // minimax: first a short branch from the same start with Lawson's weights blended
         // towards uniform, (1 − λ)·1 + λ·u for λ in LAWSON_BLEND (u normalised to a largest of
         // 1), whose iterates are candidates of the path only: it passes through fits of small
-        // MAE cost that Lawson's own first round jumps over (`robust::reweight` does the same)
+        // MAE cost that Lawson's own first round jumps over (`robust::reweight` does the same).
+        // Its iterates are kept per band beside Lawson's own, not instead of them.
         if objective == Objective::Minimax {
             let mut u = vec![1.0; ex.len()];
             let mut p = params.clone();
@@ -632,7 +634,7 @@ pub fn fit_structured(
                 }
                 p = r.state.params;
                 if let Some((max, mae)) = both(&p) {
-                    iterates.push(Iterate {
+                    blended.push(Iterate {
                         round,
                         blend,
                         max,
@@ -693,7 +695,9 @@ pub fn fit_structured(
             }
         }
         params = best.1;
+        // Lawson's own iterates per band as without the branch, and the branch's beside them
         path = path_iterates(&iterates, start, best_round, &mut |_| true);
+        path.extend(path_iterates(&blended, start, best_round, &mut |_| true));
     }
 
     // 4. the emitted form

@@ -1,8 +1,8 @@
 //! One form fitted as a default 3-D sweep fits it: the sweep's fitting points (graded nodes and
 //! exact training points), least squares, then the minimax refit with its Lawson path, every
 //! iterate measured at the table's off-grid check points. What docs/fitting.md's one-form
-//! measurements ("Budget 160: the logarithmic layer") come from; the model's table, check set and
-//! training set must be in `data/` already (`furnace fit --model M --sweep` makes them).
+//! measurements ("Budget 160: the logarithmic layer") come from; the model's 128³ table, check
+//! set and training set are read from `data/` (computed there when missing, as a sweep does).
 //!
 //! `cargo run --release --example one_form_sweep -- MODEL SPEC TRANSFORMS [OUT_DIR]`, e.g.
 //! `… ggx-dielectric-inv lowrank:f0:4:4:5/4 f0=root:4:0.0125:0.25,r=square,mu=glayer:r:2:0:1:3`;

@@ -214,6 +214,15 @@ pub const LOG_LAYER_FORMS: [(&str, f64); 2] = [("tensor:2,3/2,2", 3.0), ("tensor
 /// 3-D"): minimax 9.99e-3 / 3.07e-3, where the same form in √L has 1.61e-2 / 2.70e-3.
 pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 
+/// The low-rank separations `lowrank:f0:<K>:<p>:<n>/<m>` a 3-D sweep fits a second time with μ
+/// in the log-corrected layer variable of [`LOG_LAYER_LOWRANK`], where μ is in the
+/// grazing-layer variable: 40 coefficients (K, p, n, m) = (2, 2, 4, 1), and 160, (4, 4, 5, 4).
+/// Measured on the 128³ `ggx-dielectric-inv` table (the sweep's fitting points, off-grid at the
+/// 26 112 check points; docs/fitting.md, "Budget 160: the logarithmic layer"): the 160-term
+/// form's minimax fit, the blended branch of its Lawson path, has 5.51e-3 / MAE 4.86e-4, where
+/// the sweep's best-160 in √L had 8.71e-3 / 7.91e-4.
+pub const LOG_LAYER_LOWRANK_FORMS: [&str; 2] = ["2:2:4/1", "4:4:5/4"];
+
 /// Unequal degrees a 4-D sweep of an anisotropic albedo fits in (r², aniso, √L(μ; α_o), α_o/α_t)
 /// ([`physics_transforms`]): numerator total degree n with caps (r, aniso, μ, φ), denominator
 /// total degree m with caps — high in r and μ, low in aniso and the azimuth. Measured minimax on
@@ -251,8 +260,8 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 3.0;
 ///   low-rank separations Σ_k u_k(f0)·P_k(r, μ)/Q_k(r, μ) with K terms, u_k of degree p,
 ///   P_k/Q_k of degrees n/m: (K, p, n, m) = (2, 2, 4, 1) (40), (3, 3, 4, 2) (72) and
 ///   (4, 4, 5, 4) (160) where μ is in the grazing-layer variable, else (4, 4, 5, 3) (140);
-///   where it is, (2, 2, 4, 1) also with μ in the log-corrected layer variable
-///   ([`LOG_LAYER_LOWRANK`]); where μ is in √μ (no boundary layer: the glossy albedo),
+///   where it is, (2, 2, 4, 1) and (4, 4, 5, 4) also with μ in the log-corrected layer
+///   variable ([`LOG_LAYER_LOWRANK`], [`LOG_LAYER_LOWRANK_FORMS`]); where μ is in √μ (no boundary layer: the glossy albedo),
 ///   (k, n, m) = (2, 3, 3) also with μ in the root-layer variable
 ///   ([`GLOSSY_ROOT_LAYER_SCALE`]);
 /// - 4-D with μ in the projected layer: [`ANISO_EXPONENT_FORMS`] (74, 120 and 150 coefficients).
@@ -332,8 +341,9 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                 ] {
                     v.extend(parse_form(&spec, &data.names).ok().map(planned));
                 }
-                // the 40-coefficient separation once more with μ in the log-corrected layer
-                // variable (docs/fitting.md, "Budget 40: the logarithmic layer in 3-D")
+                // the 40- and 160-coefficient separations once more with μ in the
+                // log-corrected layer variable (docs/fitting.md, "Budget 40: the logarithmic
+                // layer in 3-D", "Budget 160: the logarithmic layer")
                 let log_layer = transforms.iter().enumerate().find_map(|(k, t)| match *t {
                     InputTransform::GrazingLayer { by, .. } => Some((k, by)),
                     _ => None,
@@ -348,14 +358,16 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                         root: 1,
                         beta,
                     };
-                    v.extend(
-                        parse_form(&format!("lowrank:{x}:2:2:4/1"), &data.names)
-                            .ok()
-                            .map(|form| PlannedForm {
-                                form,
-                                transforms: t,
-                            }),
-                    );
+                    for spec in LOG_LAYER_LOWRANK_FORMS {
+                        v.extend(
+                            parse_form(&format!("lowrank:{x}:{spec}"), &data.names)
+                                .ok()
+                                .map(|form| PlannedForm {
+                                    form,
+                                    transforms: t.clone(),
+                                }),
+                        );
+                    }
                 }
                 // the 39-coefficient split sum once more with √μ replaced by the root-layer
                 // variable (docs/fitting.md, "The glossy grazing layer")
@@ -530,19 +542,23 @@ mod tests {
             .iter()
             .map(|f| f.form.n_coefficients(3))
             .collect();
-        assert_eq!(sizes, vec![39, 54, 77, 139, 40, 72, 160, 40]);
-        // the last: the 40-coefficient separation in the log-corrected layer variable
+        assert_eq!(sizes, vec![39, 54, 77, 139, 40, 72, 160, 40, 160]);
+        // the last two: the 40- and 160-coefficient separations in the log-corrected layer
+        // variable, the same forms as the √L ones
         let (k, beta) = LOG_LAYER_LOWRANK;
-        assert_eq!(
-            full.forms.last().unwrap().transforms[2],
-            InputTransform::GrazingLayer {
-                by: 1,
-                k,
-                w: 0.0,
-                root: 1,
-                beta
-            }
-        );
+        for (i, j) in [(7, 4), (8, 6)] {
+            assert_eq!(full.forms[i].form, full.forms[j].form);
+            assert_eq!(
+                full.forms[i].transforms[2],
+                InputTransform::GrazingLayer {
+                    by: 1,
+                    k,
+                    w: 0.0,
+                    root: 1,
+                    beta
+                }
+            );
+        }
         assert_eq!(full.forms[4].transforms, t);
         let glossy3 = default_plan(&d3, None, None, Objective::LeastSquares, false);
         let sizes: Vec<usize> = glossy3

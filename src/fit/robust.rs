@@ -22,7 +22,7 @@ use super::result::Objective;
 const IRLS_DELTA: f64 = 1e-3;
 /// Lawson weights below this fraction of the largest are raised to it, so no point drops out
 /// entirely and the weighted system stays full rank.
-const LAWSON_WEIGHT_FLOOR: f64 = 1e-12;
+pub(crate) const LAWSON_WEIGHT_FLOOR: f64 = 1e-12;
 /// Stop after this many rounds without improving the best objective value.
 const PATIENCE: usize = 8;
 /// The Lawson path iterates kept beside the best one: per bound b, the iterate with the lowest

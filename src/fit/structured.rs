@@ -18,7 +18,9 @@
 //! Every term starts with Q_k = 1 from the least-squares polynomial solution; the joint run then
 //! explores on a deterministic random subset of the points and refines on all of them. For the
 //! mean-absolute and minimax objectives, Lawson-style reweighted runs (Lawson 1961) follow and the
-//! iterate with the best objective on all points is kept.
+//! iterate with the best objective on all points is kept; for minimax a short branch with the
+//! weights blended towards uniform comes first, and iterates of both are kept as the Lawson
+//! path's candidates ([`super::robust::path_iterates`]).
 
 use std::ops::Range;
 use std::time::Instant;
@@ -34,7 +36,7 @@ use super::poles::CertifyOptions;
 use super::result::{
     Approximant, Family, FitResult, Form, Objective, SolverReport, StartReport, Structure, Term,
 };
-use super::robust::{path_iterates, Iterate};
+use super::robust::{path_iterates, Iterate, LAWSON_BLEND, LAWSON_WEIGHT_FLOOR};
 
 /// Settings of a structured fit.
 #[derive(Clone, Debug)]
@@ -595,11 +597,53 @@ pub fn fit_structured(
         };
         let start = both(&params).unwrap_or((f64::INFINITY, f64::INFINITY));
         let mut iterates = Vec::new();
+        let mut blended = Vec::new();
         let mut best_round = 0;
         let lm = opts
             .lm
             .clone()
             .with_max_iterations(opts.reweight_lm_iterations.max(1))?;
+        // minimax: first a short branch from the same start with Lawson's weights blended
+        // towards uniform, (1 − λ)·1 + λ·u for λ in LAWSON_BLEND (u normalised to a largest of
+        // 1), whose iterates are candidates of the path only: it passes through fits of small
+        // MAE cost that Lawson's own first round jumps over (`robust::reweight` does the same).
+        // Its iterates are kept per band beside Lawson's own, not instead of them.
+        if objective == Objective::Minimax {
+            let mut u = vec![1.0; ex.len()];
+            let mut p = params.clone();
+            for (round, &blend) in (1..).zip(&LAWSON_BLEND) {
+                let Some(e) = errors(&layout, ex, &p) else {
+                    break;
+                };
+                for (ui, e) in u.iter_mut().zip(&e) {
+                    *ui *= e.abs();
+                }
+                let top = u.iter().fold(0.0f64, |m, &x| m.max(x));
+                if !(top > 0.0) {
+                    break;
+                }
+                u.iter_mut()
+                    .for_each(|x| *x = (*x / top).max(LAWSON_WEIGHT_FLOOR));
+                let extra: Vec<f64> = u
+                    .iter()
+                    .map(|x| ((1.0 - blend) + blend * x).sqrt())
+                    .collect();
+                let r = run(ex, Some(&extra), &lm, p.clone())?;
+                if r.termination == TerminationReason::InfeasibleStart {
+                    break;
+                }
+                p = r.state.params;
+                if let Some((max, mae)) = both(&p) {
+                    blended.push(Iterate {
+                        round,
+                        blend,
+                        max,
+                        mae,
+                        params: p.clone(),
+                    });
+                }
+            }
+        }
         let mut u = vec![1.0; ex.len()];
         let mut p = params.clone();
         for _ in 0..opts.reweight_iterations {
@@ -651,7 +695,9 @@ pub fn fit_structured(
             }
         }
         params = best.1;
+        // Lawson's own iterates per band as without the branch, and the branch's beside them
         path = path_iterates(&iterates, start, best_round, &mut |_| true);
+        path.extend(path_iterates(&blended, start, best_round, &mut |_| true));
     }
 
     // 4. the emitted form
@@ -1012,6 +1058,72 @@ mod tests {
             ls.metrics
         );
         assert!(mm.solver.as_ref().unwrap().reweighting_iterations > 0);
+        // the Lawson path's kept iterates: each below the least-squares fit's max error with an
+        // MAE inside the widest band, and the blended branch (λ < 1) among them
+        let band = crate::fit::robust::PATH_MAE_BOUNDS[2];
+        let blends: Vec<f64> = mm
+            .path
+            .iter()
+            .map(|p| {
+                assert!(p.metrics.max_abs_error < ls.metrics.max_abs_error);
+                assert!(p.metrics.mae <= band * ls.metrics.mae * (1.0 + 1e-9));
+                p.solver
+                    .as_ref()
+                    .unwrap()
+                    .lawson_path
+                    .as_ref()
+                    .unwrap()
+                    .blend
+            })
+            .collect();
+        assert!(blends.iter().all(|&b| b > 0.0 && b <= 1.0), "{blends:?}");
+    }
+
+    #[test]
+    fn the_blended_branch_keeps_a_fit_of_least_squares_mae() {
+        // a front that moves with x (as the leaving dielectric's critical angle moves with F0):
+        // Lawson's own rounds trade MAE for max error beyond the path's bands; the branch with
+        // weights blended towards uniform keeps a fit of lower max error and nearly the
+        // least-squares MAE
+        let f = |x: f64, r: f64, m: f64| {
+            1.0 / (1.0 + (-(m - 0.4 - 0.3 * x) / (0.05 + 0.2 * r)).exp()) // logistic front
+        };
+        let data = grid3(9, f);
+        let form = parse_form("lowrank:f0:2:2:3/2", &data.names).unwrap();
+        let run = |o| {
+            fit_form(
+                &data,
+                &[InputTransform::Identity; 3],
+                &form,
+                o,
+                &FitOptions::default(),
+            )
+            .unwrap()
+        };
+        let (ls, mm) = (run(Objective::LeastSquares), run(Objective::Minimax));
+        let bands = crate::fit::robust::PATH_MAE_BOUNDS;
+        assert!(
+            mm.metrics.mae > bands[2] * ls.metrics.mae,
+            "{:?}",
+            mm.metrics
+        );
+        let blended = mm
+            .path
+            .iter()
+            .find(|p| {
+                p.solver
+                    .as_ref()
+                    .unwrap()
+                    .lawson_path
+                    .as_ref()
+                    .unwrap()
+                    .blend
+                    < 1.0
+            })
+            .expect("an iterate of the blended branch");
+        assert!(blended.metrics.max_abs_error < 0.9 * ls.metrics.max_abs_error);
+        assert!(blended.metrics.mae <= bands[0] * ls.metrics.mae);
+        assert!(blended.is_usable());
     }
 
     #[test]

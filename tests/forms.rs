@@ -238,12 +238,13 @@ fn split_form_in_the_boundary_layer_variable_round_trips() {
     // the default 3-D sweep's 39-coefficient split sum in layer:r:k (smaller degrees here)
     let dir = scratch("split-layer");
     let k = furnace::fit::defaults::SPLIT_LAYER_SCALE;
+    let n = furnace::fit::defaults::SPLIT_LAYER_F0_ROOT;
     let path = round_trip(
         &dir,
         "ggx-dielectric-separable",
         "6x8x8",
         "split:f0:2:2/1",
-        &format!("f0=root:4:0.0125:0.25,r=square,mu=layer:r:{k}"),
+        &format!("f0=root:{n}:0.0125:0.25,r=square,mu=layer:r:{k}"),
     );
     let fit = fitfile::load(&path).unwrap().record.fit;
     assert_eq!(

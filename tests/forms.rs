@@ -234,6 +234,29 @@ fn low_rank_in_the_log_corrected_layer_round_trips() {
 }
 
 #[test]
+fn split_form_in_the_boundary_layer_variable_round_trips() {
+    // the default 3-D sweep's 39-coefficient split sum in layer:r:k (smaller degrees here)
+    let dir = scratch("split-layer");
+    let k = furnace::fit::defaults::SPLIT_LAYER_SCALE;
+    let n = furnace::fit::defaults::SPLIT_LAYER_F0_ROOT;
+    let path = round_trip(
+        &dir,
+        "ggx-dielectric-separable",
+        "6x8x8",
+        "split:f0:2:2/1",
+        &format!("f0=root:{n}:0.0125:0.25,r=square,mu=layer:r:{k}"),
+    );
+    let fit = fitfile::load(&path).unwrap().record.fit;
+    assert_eq!(
+        fit.approximant.transforms[2],
+        furnace::fit::InputTransform::BoundaryLayer { by: 1, k }
+    );
+    // three powers of t_f0 times total degree 2 in (r, μ), Q of degree 1 without f0
+    assert_eq!(fit.n_coefficients, 3 * 6 + 2);
+    assert!(fit.metrics.max_abs_error < 0.1, "{:?}", fit.metrics);
+}
+
+#[test]
 fn split_form_in_the_root_layer_variable_round_trips() {
     let dir = scratch("root-layer");
     let path = round_trip(

@@ -14,17 +14,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 539af3c5f9915d2538652de58b0234c441d6e4a0939ac496ae5bed3aca518d85.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7b7bef6b5b288efdabc2ad62d5df38d435014944452f5397a011aaa288754375.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-3, shifted 7.1e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.23e-4, max 7.77e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.04e-7 (every op rounded, as this Rust), 6.23e-7 (fused multiply-add), 1.52e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 8.11e-4, max 7.77e-3; this f32 code MAE 8.11e-4, max 7.77e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.0e-4 on the measurement grid.
-// Denominator proved >= 1.222e-5 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 2.4e-5, bernstein 2.6e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.12e-4, max 5.77e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.91e-7 (every op rounded, as this Rust), 9.21e-7 (fused multiply-add), 3.83e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.11e-4, max 5.77e-3; this f32 code MAE 4.11e-4, max 5.77e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-4 on the measurement grid.
+// Denominator proved >= 3.810e-4 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -34,10 +34,14 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20f)))));
+    float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0f + mu_c))));
+    float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    float mu_t = (mu_logv * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 2.0f * (r_c * r_c) + 7.888609e-31f);
+    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
+    float mu_u = (mu_t - 3.9443045e-31f) * 1.0f;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     float r_b5_v = 1.0f - r_t;
     float r_b5_u2 = r_t * r_t;
@@ -67,12 +71,12 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    float p0_0_0 = 0.8639747f * mu_b5_v5 + 7.0251594f * mu_b5_b1 + 17.58542f * mu_b5_b2 + 11.080812f * mu_b5_b3 + 2.49544f * mu_b5_b4 + 0.24962045f * mu_b5_u5;
-    float p0_0_1 = 6.522816f * mu_b5_v5 + 43.874973f * mu_b5_b1 + 88.225464f * mu_b5_b2 + 45.15564f * mu_b5_b3 + 7.509284f * mu_b5_b4 + 0.28073627f * mu_b5_u5;
-    float p0_0_2 = 14.189588f * mu_b5_v5 + 89.64239f * mu_b5_b1 + 151.54633f * mu_b5_b2 + 54.680214f * mu_b5_b3 + 5.204264f * mu_b5_b4 + 0.7251504f * mu_b5_u5;
-    float p0_0_3 = 12.796177f * mu_b5_v5 + 80.40038f * mu_b5_b1 + 110.19537f * mu_b5_b2 + 11.496674f * mu_b5_b3 - 2.226869f * mu_b5_b4 + 2.975195f * mu_b5_u5;
-    float p0_0_4 = 5.024444f * mu_b5_v5 + 33.55135f * mu_b5_b1 + 33.646496f * mu_b5_b2 - 12.596129f * mu_b5_b3 - 0.73392004f * mu_b5_b4 + 4.035585f * mu_b5_u5;
-    float p0_0_5 = 0.6812315f * mu_b5_v5 + 5.5546317f * mu_b5_b1 + 3.5795927f * mu_b5_b2 - 4.265231f * mu_b5_b3 + 1.2944626f * mu_b5_b4 + 1.6766434f * mu_b5_u5;
+    float p0_0_0 = 1.0263472f * mu_b5_v5 + 2.8474064f * mu_b5_b1 + 3.2723126f * mu_b5_b2 + 4.5863547f * mu_b5_b3 + 3.7876291f * mu_b5_b4 + 1.2305033f * mu_b5_u5;
+    float p0_0_1 = 6.5473666f * mu_b5_v5 + 24.568962f * mu_b5_b1 + 24.708412f * mu_b5_b2 + 12.129614f * mu_b5_b3 + 6.6733274f * mu_b5_b4 + 4.120409f * mu_b5_u5;
+    float p0_0_2 = 18.319838f * mu_b5_v5 + 91.19754f * mu_b5_b1 + 127.83154f * mu_b5_b2 + 79.095566f * mu_b5_b3 + 30.149103f * mu_b5_b4 + 11.78713f * mu_b5_u5;
+    float p0_0_3 = 25.550339f * mu_b5_v5 + 143.32875f * mu_b5_b1 + 228.07669f * mu_b5_b2 + 154.76135f * mu_b5_b3 + 53.378532f * mu_b5_b4 + 14.695211f * mu_b5_u5;
+    float p0_0_4 = 20.965357f * mu_b5_v5 + 116.96536f * mu_b5_b1 + 196.91293f * mu_b5_b2 + 141.66353f * mu_b5_b3 + 47.014698f * mu_b5_b4 + 9.153979f * mu_b5_u5;
+    float p0_0_5 = 7.0485973f * mu_b5_v5 + 37.28641f * mu_b5_b1 + 63.5793f * mu_b5_b2 + 46.802086f * mu_b5_b3 + 15.073378f * mu_b5_b4 + 2.1907542f * mu_b5_u5;
     float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     float p0 = p0_0 * 1.0f;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -87,15 +91,15 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    float u0_0_0 = 0.84304595f * 1.0f;
+    float u0_0_0 = 0.8759763f * 1.0f;
     float u0_0 = u0_0_0 * 1.0f;
-    float u0_1_0 = 3.63265f * 1.0f;
+    float u0_1_0 = 3.481989f * 1.0f;
     float u0_1 = u0_1_0 * 1.0f;
-    float u0_2_0 = 5.639264f * 1.0f;
+    float u0_2_0 = 5.3803253f * 1.0f;
     float u0_2 = u0_2_0 * 1.0f;
-    float u0_3_0 = 3.8360329f * 1.0f;
+    float u0_3_0 = 3.6305473f * 1.0f;
     float u0_3 = u0_3_0 * 1.0f;
-    float u0_4_0 = 0.97067744f * 1.0f;
+    float u0_4_0 = 0.91246367f * 1.0f;
     float u0_4 = u0_4_0 * 1.0f;
     float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -121,101 +125,101 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q0_0_0 = 1.0f * mu_b4_v4 + 6.1108694f * mu_b4_b1 + 11.255864f * mu_b4_b2 + 2.7731547f * mu_b4_b3 + 0.24950081f * mu_b4_u4;
-    float q0_0_1 = 5.70744f * mu_b4_v4 + 28.337236f * mu_b4_b1 + 43.504646f * mu_b4_b2 + 6.31464f * mu_b4_b3 - 0.07484833f * mu_b4_u4;
-    float q0_0_2 = 9.955664f * mu_b4_v4 + 46.983543f * mu_b4_b1 + 66.3086f * mu_b4_b2 + 8.386891f * mu_b4_b3 + 0.8342169f * mu_b4_u4;
-    float q0_0_3 = 5.727087f * mu_b4_v4 + 29.154245f * mu_b4_b1 + 40.764397f * mu_b4_b2 + 4.6840034f * mu_b4_b3 + 1.8321292f * mu_b4_u4;
-    float q0_0_4 = 1.4415598f * mu_b4_v4 + 8.247853f * mu_b4_b1 + 12.480757f * mu_b4_b2 + 3.689382f * mu_b4_b3 + 1.6362593f * mu_b4_u4;
+    float q0_0_0 = 1.0f * mu_b4_v4 + 1.9746711f * mu_b4_b1 + 1.9611895f * mu_b4_b2 + 2.3145638f * mu_b4_b3 + 1.1225393f * mu_b4_u4;
+    float q0_0_1 = 5.4177837f * mu_b4_v4 + 16.158821f * mu_b4_b1 + 8.687934f * mu_b4_b2 + 1.4170105f * mu_b4_b3 + 2.6480894f * mu_b4_u4;
+    float q0_0_2 = 13.119993f * mu_b4_v4 + 57.207714f * mu_b4_b1 + 54.696243f * mu_b4_b2 + 20.891537f * mu_b4_b3 + 9.049978f * mu_b4_u4;
+    float q0_0_3 = 14.477814f * mu_b4_v4 + 70.11961f * mu_b4_b1 + 77.07226f * mu_b4_b2 + 31.706757f * mu_b4_b3 + 9.454274f * mu_b4_u4;
+    float q0_0_4 = 10.693698f * mu_b4_v4 + 46.76842f * mu_b4_b1 + 58.61132f * mu_b4_b2 + 29.590038f * mu_b4_b3 + 6.847938f * mu_b4_u4;
     float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     float q0 = q0_0 * 1.0f;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    float p1_0_0 = 0.0983654f * mu_b5_v5 + 0.5197744f * mu_b5_b1 + 0.08195282f * mu_b5_b2 + 0.06944342f * mu_b5_b3 + 0.0014795461f * mu_b5_b4 + 7.253105e-5f * mu_b5_u5;
-    float p1_0_1 = -0.66745746f * mu_b5_v5 - 0.68268955f * mu_b5_b1 - 2.3023493f * mu_b5_b2 - 0.25361368f * mu_b5_b3 - 0.005094492f * mu_b5_b4 - 0.0011352117f * mu_b5_u5;
-    float p1_0_2 = -1.3353486f * mu_b5_v5 - 1.1263427f * mu_b5_b1 - 3.3650753f * mu_b5_b2 + 0.4910185f * mu_b5_b3 - 0.008948032f * mu_b5_b4 + 0.0008780024f * mu_b5_u5;
-    float p1_0_3 = -0.9236833f * mu_b5_v5 - 0.73400307f * mu_b5_b1 - 3.9283988f * mu_b5_b2 - 0.87844425f * mu_b5_b3 - 0.7815657f * mu_b5_b4 + 0.053725224f * mu_b5_u5;
-    float p1_0_4 = -0.41802764f * mu_b5_v5 - 0.95963633f * mu_b5_b1 - 3.3943446f * mu_b5_b2 - 1.5367818f * mu_b5_b3 - 0.5024235f * mu_b5_b4 + 0.21908534f * mu_b5_u5;
-    float p1_0_5 = -0.12562543f * mu_b5_v5 - 0.45828858f * mu_b5_b1 - 1.0642719f * mu_b5_b2 - 0.4618152f * mu_b5_b3 - 0.032008458f * mu_b5_b4 + 0.105690524f * mu_b5_u5;
+    float p1_0_0 = 0.025681257f * mu_b5_v5 + 0.08703007f * mu_b5_b1 + 0.10387288f * mu_b5_b2 + 0.06954192f * mu_b5_b3 - 0.00834216f * mu_b5_b4 + 0.0010922314f * mu_b5_u5;
+    float p1_0_1 = -0.29837272f * mu_b5_v5 - 0.3466557f * mu_b5_b1 + 0.37880194f * mu_b5_b2 + 0.6092589f * mu_b5_b3 + 4.2021875e-5f * mu_b5_b4 + 0.00012927962f * mu_b5_u5;
+    float p1_0_2 = -2.2251384f * mu_b5_v5 - 4.7833605f * mu_b5_b1 - 2.7514489f * mu_b5_b2 - 0.2198343f * mu_b5_b3 - 0.38710058f * mu_b5_b4 + 0.0040292405f * mu_b5_u5;
+    float p1_0_3 = -3.8937593f * mu_b5_v5 - 8.091756f * mu_b5_b1 - 3.8753972f * mu_b5_b2 + 0.71699286f * mu_b5_b3 + 0.1485113f * mu_b5_b4 + 0.118640706f * mu_b5_u5;
+    float p1_0_4 = -2.9735f * mu_b5_v5 - 5.9951973f * mu_b5_b1 - 2.4655766f * mu_b5_b2 + 0.93285644f * mu_b5_b3 + 0.23273131f * mu_b5_b4 + 0.038256682f * mu_b5_u5;
+    float p1_0_5 = -0.89389735f * mu_b5_v5 - 1.8184757f * mu_b5_b1 - 0.74727714f * mu_b5_b2 + 0.3255926f * mu_b5_b3 + 0.12337537f * mu_b5_b4 + 0.011536196f * mu_b5_u5;
     float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     float p1 = p1_0 * 1.0f;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    float u1_0_0 = 0.57598245f * 1.0f;
+    float u1_0_0 = 2.1076326f * 1.0f;
     float u1_0 = u1_0_0 * 1.0f;
-    float u1_1_0 = 0.9580119f * 1.0f;
+    float u1_1_0 = 3.1250165f * 1.0f;
     float u1_1 = u1_1_0 * 1.0f;
-    float u1_2_0 = -0.5309796f * 1.0f;
+    float u1_2_0 = 3.007334f * 1.0f;
     float u1_2 = u1_2_0 * 1.0f;
-    float u1_3_0 = -1.1824393f * 1.0f;
+    float u1_3_0 = 1.2393388f * 1.0f;
     float u1_3 = u1_3_0 * 1.0f;
-    float u1_4_0 = -0.3779858f * 1.0f;
+    float u1_4_0 = 0.18004328f * 1.0f;
     float u1_4 = u1_4_0 * 1.0f;
     float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q1_0_0 = 1.0f * mu_b4_v4 + 0.6006096f * mu_b4_b1 + 0.69205064f * mu_b4_b2 + 0.020734744f * mu_b4_b3 + 0.00046946784f * mu_b4_u4;
-    float q1_0_1 = 2.3937235f * mu_b4_v4 - 0.2844031f * mu_b4_b1 + 1.2894084f * mu_b4_b2 - 0.32783243f * mu_b4_b3 - 0.010664528f * mu_b4_u4;
-    float q1_0_2 = 2.4212685f * mu_b4_v4 - 1.2530234f * mu_b4_b1 + 2.512193f * mu_b4_b2 - 0.1665014f * mu_b4_b3 + 0.07406805f * mu_b4_u4;
-    float q1_0_3 = 1.4548957f * mu_b4_v4 + 0.031784173f * mu_b4_b1 + 3.0097377f * mu_b4_b2 + 0.23174982f * mu_b4_b3 + 0.083603285f * mu_b4_u4;
-    float q1_0_4 = 0.50265294f * mu_b4_v4 + 0.70100385f * mu_b4_b1 + 1.5467162f * mu_b4_b2 + 0.35089308f * mu_b4_b3 + 0.073703505f * mu_b4_u4;
+    float q1_0_0 = 1.0f * mu_b4_v4 + 2.4777102f * mu_b4_b1 + 2.6211631f * mu_b4_b2 - 0.30737042f * mu_b4_b3 + 0.038899954f * mu_b4_u4;
+    float q1_0_1 = 4.822585f * mu_b4_v4 + 6.457433f * mu_b4_b1 + 7.596187f * mu_b4_b2 - 0.047161788f * mu_b4_b3 - 0.049607735f * mu_b4_u4;
+    float q1_0_2 = 11.232356f * mu_b4_v4 + 10.124042f * mu_b4_b1 + 10.995365f * mu_b4_b2 + 3.7746966f * mu_b4_b3 + 0.609356f * mu_b4_u4;
+    float q1_0_3 = 11.447953f * mu_b4_v4 + 7.846183f * mu_b4_b1 + 4.159523f * mu_b4_b2 + 2.032106f * mu_b4_b3 + 0.22970599f * mu_b4_u4;
+    float q1_0_4 = 4.5957627f * mu_b4_v4 + 3.9321883f * mu_b4_b1 + 1.4846673f * mu_b4_b2 + 0.74794185f * mu_b4_b3 + 0.08942334f * mu_b4_u4;
     float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     float q1 = q1_0 * 1.0f;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    float p2_0_0 = 0.026707659f * mu_b5_v5 - 0.5734284f * mu_b5_b1 + 0.09704371f * mu_b5_b2 + 0.016306203f * mu_b5_b3 + 0.0012250146f * mu_b5_b4 - 1.3951041e-5f * mu_b5_u5;
-    float p2_0_1 = 0.37824443f * mu_b5_v5 - 0.35981217f * mu_b5_b1 + 3.1082144f * mu_b5_b2 + 0.39798185f * mu_b5_b3 - 0.037954073f * mu_b5_b4 - 0.00022751556f * mu_b5_u5;
-    float p2_0_2 = 0.30950984f * mu_b5_v5 + 0.36617553f * mu_b5_b1 + 6.5804105f * mu_b5_b2 - 0.2836402f * mu_b5_b3 + 0.023470256f * mu_b5_b4 + 0.009730112f * mu_b5_u5;
-    float p2_0_3 = -0.23914397f * mu_b5_v5 + 0.48991084f * mu_b5_b1 + 5.863247f * mu_b5_b2 - 1.126761f * mu_b5_b3 + 0.49936685f * mu_b5_b4 - 0.060805347f * mu_b5_u5;
-    float p2_0_4 = -0.24803168f * mu_b5_v5 + 0.43952072f * mu_b5_b1 + 2.6607676f * mu_b5_b2 - 0.69713664f * mu_b5_b3 + 0.6015166f * mu_b5_b4 - 0.13869415f * mu_b5_u5;
-    float p2_0_5 = -0.04356793f * mu_b5_v5 + 0.13890277f * mu_b5_b1 + 0.44022775f * mu_b5_b2 - 0.16222437f * mu_b5_b3 + 0.20153268f * mu_b5_b4 - 0.06059841f * mu_b5_u5;
+    float p2_0_0 = 0.0031457744f * mu_b5_v5 + 0.079124585f * mu_b5_b1 + 0.36193612f * mu_b5_b2 + 0.04293511f * mu_b5_b3 - 0.0005743127f * mu_b5_b4 + 2.4742798e-5f * mu_b5_u5;
+    float p2_0_1 = 0.42395407f * mu_b5_v5 + 0.104514256f * mu_b5_b1 - 1.5179144f * mu_b5_b2 - 2.4519196f * mu_b5_b3 - 0.040656995f * mu_b5_b4 + 0.0006721243f * mu_b5_u5;
+    float p2_0_2 = 0.5920509f * mu_b5_v5 + 0.8290085f * mu_b5_b1 - 2.365881f * mu_b5_b2 - 3.4879112f * mu_b5_b3 + 1.5362641f * mu_b5_b4 - 0.002894654f * mu_b5_u5;
+    float p2_0_3 = -0.5876823f * mu_b5_v5 + 0.5029192f * mu_b5_b1 - 1.718581f * mu_b5_b2 - 2.9923072f * mu_b5_b3 + 2.2162416f * mu_b5_b4 - 0.024865162f * mu_b5_u5;
+    float p2_0_4 = -0.7327731f * mu_b5_v5 + 0.8087267f * mu_b5_b1 - 0.5375059f * mu_b5_b2 - 2.7114902f * mu_b5_b3 + 0.65400267f * mu_b5_b4 + 0.07437127f * mu_b5_u5;
+    float p2_0_5 = 0.0048499336f * mu_b5_v5 + 1.0029173f * mu_b5_b1 + 0.48202652f * mu_b5_b2 - 0.9252578f * mu_b5_b3 - 0.09240128f * mu_b5_b4 + 0.07439257f * mu_b5_u5;
     float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     float p2 = p2_0 * 1.0f;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    float u2_0_0 = 0.24863714f * 1.0f;
+    float u2_0_0 = -0.8180324f * 1.0f;
     float u2_0 = u2_0_0 * 1.0f;
-    float u2_1_0 = 0.76001894f * 1.0f;
+    float u2_1_0 = 4.0035195f * 1.0f;
     float u2_1 = u2_1_0 * 1.0f;
-    float u2_2_0 = 0.016775174f * 1.0f;
+    float u2_2_0 = 0.79912764f * 1.0f;
     float u2_2 = u2_2_0 * 1.0f;
-    float u2_3_0 = -0.6016453f * 1.0f;
+    float u2_3_0 = -0.6307313f * 1.0f;
     float u2_3 = u2_3_0 * 1.0f;
-    float u2_4_0 = -0.20125854f * 1.0f;
+    float u2_4_0 = -0.22418651f * 1.0f;
     float u2_4 = u2_4_0 * 1.0f;
     float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q2_0_0 = 1.0f * mu_b4_v4 + 0.83942246f * mu_b4_b1 + 0.44334182f * mu_b4_b2 + 0.010069753f * mu_b4_b3 + 0.00027604427f * mu_b4_u4;
-    float q2_0_1 = 2.3388953f * mu_b4_v4 + 0.8386251f * mu_b4_b1 + 0.68279856f * mu_b4_b2 - 0.19981192f * mu_b4_b3 - 0.0063782386f * mu_b4_u4;
-    float q2_0_2 = 2.1740265f * mu_b4_v4 + 0.17841579f * mu_b4_b1 + 1.3841336f * mu_b4_b2 - 0.13614139f * mu_b4_b3 + 0.048868116f * mu_b4_u4;
-    float q2_0_3 = 1.2025218f * mu_b4_v4 + 0.73613423f * mu_b4_b1 + 1.8787737f * mu_b4_b2 + 0.010657078f * mu_b4_b3 + 0.041998528f * mu_b4_u4;
-    float q2_0_4 = 0.41077074f * mu_b4_v4 + 0.7304416f * mu_b4_b1 + 0.99437755f * mu_b4_b2 + 0.110437304f * mu_b4_b3 + 0.029856257f * mu_b4_u4;
+    float q2_0_0 = 1.0f * mu_b4_v4 + 2.0176563f * mu_b4_b1 + 0.60691696f * mu_b4_b2 - 0.015078716f * mu_b4_b3 + 0.0011088412f * mu_b4_u4;
+    float q2_0_1 = 0.9557597f * mu_b4_v4 + 1.5980793f * mu_b4_b1 - 1.0715935f * mu_b4_b2 - 0.14378649f * mu_b4_b3 - 0.008080639f * mu_b4_u4;
+    float q2_0_2 = 0.5825367f * mu_b4_v4 + 1.2141804f * mu_b4_b1 - 0.84736234f * mu_b4_b2 + 0.96034193f * mu_b4_b3 + 0.07203702f * mu_b4_u4;
+    float q2_0_3 = 1.0510663f * mu_b4_v4 + 1.7634609f * mu_b4_b1 - 0.39577037f * mu_b4_b2 + 0.44169033f * mu_b4_b3 - 0.028352084f * mu_b4_u4;
+    float q2_0_4 = 0.5870901f * mu_b4_v4 + 0.78090644f * mu_b4_b1 - 0.25011402f * mu_b4_b2 + 0.0038436023f * mu_b4_b3 + 0.05322216f * mu_b4_u4;
     float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     float q2 = q2_0 * 1.0f;
     float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    float p3_0_0 = -0.19764897f * mu_b5_v5 + 0.3935479f * mu_b5_b1 - 1.303168f * mu_b5_b2 + 0.4242268f * mu_b5_b3 - 0.13403675f * mu_b5_b4 - 0.004560415f * mu_b5_u5;
-    float p3_0_1 = 0.31663522f * mu_b5_v5 + 5.394918f * mu_b5_b1 - 7.023657f * mu_b5_b2 - 0.09658489f * mu_b5_b3 - 0.20520376f * mu_b5_b4 + 0.029781567f * mu_b5_u5;
-    float p3_0_2 = 1.9227616f * mu_b5_v5 + 14.684894f * mu_b5_b1 - 17.140568f * mu_b5_b2 - 5.358134f * mu_b5_b3 + 0.057506155f * mu_b5_b4 - 0.0063788462f * mu_b5_u5;
-    float p3_0_3 = 2.1450202f * mu_b5_v5 + 15.533738f * mu_b5_b1 - 23.914036f * mu_b5_b2 - 13.008559f * mu_b5_b3 - 0.25355136f * mu_b5_b4 - 0.067063995f * mu_b5_u5;
-    float p3_0_4 = 0.6922625f * mu_b5_v5 + 6.395854f * mu_b5_b1 - 18.057858f * mu_b5_b2 - 12.137849f * mu_b5_b3 - 0.48155993f * mu_b5_b4 + 0.13517982f * mu_b5_u5;
-    float p3_0_5 = -0.006778178f * mu_b5_v5 + 0.7331511f * mu_b5_b1 - 5.188879f * mu_b5_b2 - 3.5915895f * mu_b5_b3 + 0.08817597f * mu_b5_b4 + 0.19902526f * mu_b5_u5;
+    float p3_0_0 = -0.018109558f * mu_b5_v5 + 0.01874168f * mu_b5_b1 + 0.29740757f * mu_b5_b2 + 0.029457645f * mu_b5_b3 - 0.00025031884f * mu_b5_b4 - 1.3630249e-6f * mu_b5_u5;
+    float p3_0_1 = 0.45749643f * mu_b5_v5 + 0.16084501f * mu_b5_b1 - 1.5844073f * mu_b5_b2 - 2.4809701f * mu_b5_b3 - 0.038131814f * mu_b5_b4 + 0.0008337194f * mu_b5_u5;
+    float p3_0_2 = 0.6837977f * mu_b5_v5 + 1.0453402f * mu_b5_b1 - 2.4022732f * mu_b5_b2 - 3.484077f * mu_b5_b3 + 1.5843662f * mu_b5_b4 - 0.0038698064f * mu_b5_u5;
+    float p3_0_3 = -0.54317075f * mu_b5_v5 + 0.6696605f * mu_b5_b1 - 1.7937163f * mu_b5_b2 - 3.0267386f * mu_b5_b3 + 2.2594466f * mu_b5_b4 - 0.028859433f * mu_b5_u5;
+    float p3_0_4 = -0.6742208f * mu_b5_v5 + 1.0490848f * mu_b5_b1 - 0.45063263f * mu_b5_b2 - 2.7553458f * mu_b5_b3 + 0.6542645f * mu_b5_b4 + 0.08142354f * mu_b5_u5;
+    float p3_0_5 = 0.0504267f * mu_b5_v5 + 1.1490862f * mu_b5_b1 + 0.5554754f * mu_b5_b2 - 0.9694063f * mu_b5_b3 - 0.11650943f * mu_b5_b4 + 0.07886309f * mu_b5_u5;
     float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     float p3 = p3_0 * 1.0f;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    float u3_0_0 = -0.74000376f * 1.0f;
+    float u3_0_0 = 0.8672729f * 1.0f;
     float u3_0 = u3_0_0 * 1.0f;
-    float u3_1_0 = -2.3745086f * 1.0f;
+    float u3_1_0 = -3.9778173f * 1.0f;
     float u3_1 = u3_1_0 * 1.0f;
-    float u3_2_0 = -4.094202f * 1.0f;
+    float u3_2_0 = -0.9956416f * 1.0f;
     float u3_2 = u3_2_0 * 1.0f;
-    float u3_3_0 = -2.8152761f * 1.0f;
+    float u3_3_0 = 0.5771737f * 1.0f;
     float u3_3 = u3_3_0 * 1.0f;
-    float u3_4_0 = -0.70499045f * 1.0f;
+    float u3_4_0 = 0.21992482f * 1.0f;
     float u3_4 = u3_4_0 * 1.0f;
     float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q3_0_0 = 1.0f * mu_b4_v4 + 3.2905173f * mu_b4_b1 + 0.48786473f * mu_b4_b2 + 0.10704597f * mu_b4_b3 + 0.041731592f * mu_b4_u4;
-    float q3_0_1 = 4.8160224f * mu_b4_v4 + 16.602255f * mu_b4_b1 + 4.72389f * mu_b4_b2 + 0.32401404f * mu_b4_b3 - 0.08551172f * mu_b4_u4;
-    float q3_0_2 = 6.637267f * mu_b4_v4 + 26.124155f * mu_b4_b1 + 9.41957f * mu_b4_b2 + 1.2552559f * mu_b4_b3 + 0.11477197f * mu_b4_u4;
-    float q3_0_3 = 3.1259248f * mu_b4_v4 + 15.875714f * mu_b4_b1 + 5.6384783f * mu_b4_b2 + 0.38728726f * mu_b4_b3 + 0.026730957f * mu_b4_u4;
-    float q3_0_4 = 0.7728027f * mu_b4_v4 + 4.9357877f * mu_b4_b1 + 3.2636704f * mu_b4_b2 + 1.2214911f * mu_b4_b3 + 0.2528386f * mu_b4_u4;
+    float q3_0_0 = 1.0f * mu_b4_v4 + 2.054517f * mu_b4_b1 + 0.6182714f * mu_b4_b2 - 0.015702242f * mu_b4_b3 + 0.0011440584f * mu_b4_u4;
+    float q3_0_1 = 0.9265979f * mu_b4_v4 + 1.6377676f * mu_b4_b1 - 1.1080649f * mu_b4_b2 - 0.14948778f * mu_b4_b3 - 0.007850734f * mu_b4_u4;
+    float q3_0_2 = 0.58890754f * mu_b4_v4 + 1.3303697f * mu_b4_b1 - 0.866676f * mu_b4_b2 + 0.9839913f * mu_b4_b3 + 0.075733185f * mu_b4_u4;
+    float q3_0_3 = 1.1115221f * mu_b4_v4 + 1.8982751f * mu_b4_b1 - 0.4187655f * mu_b4_b2 + 0.4439418f * mu_b4_b3 - 0.028137155f * mu_b4_u4;
+    float q3_0_4 = 0.61953723f * mu_b4_v4 + 0.8324549f * mu_b4_b1 - 0.25647733f * mu_b4_b2 + 0.0074639427f * mu_b4_b3 + 0.057459615f * mu_b4_u4;
     float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     float q3 = q3_0 * 1.0f;
     float e3 = p3 * u3 / q3;

@@ -12,17 +12,17 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 539af3c5f9915d2538652de58b0234c441d6e4a0939ac496ae5bed3aca518d85.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7b7bef6b5b288efdabc2ad62d5df38d435014944452f5397a011aaa288754375.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-3, shifted 7.1e-5, bernstein 1.4e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 8.23e-4, max 7.77e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.04e-7 (every op rounded, as this Rust), 6.23e-7 (fused multiply-add), 1.52e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 8.11e-4, max 7.77e-3; this f32 code MAE 8.11e-4, max 7.77e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.0e-4 on the measurement grid.
-/// Denominator proved >= 1.222e-5 on the domain (Bernstein certificate), so the division is safe.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 2.4e-5, bernstein 2.6e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 4.12e-4, max 5.77e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.91e-7 (every op rounded, as this Rust), 9.21e-7 (fused multiply-add), 3.83e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.11e-4, max 5.77e-3; this f32 code MAE 4.11e-4, max 5.77e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-4 on the measurement grid.
+/// Denominator proved >= 3.810e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -39,10 +39,14 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
+    let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
+    let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 2.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 2.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
+    let mu_u = (mu_t - 3.9443045e-31_f32) * 1.0_f32;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     let r_b5_v = 1.0_f32 - r_t;
     let r_b5_u2 = r_t * r_t;
@@ -72,12 +76,12 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.8639747_f32 * mu_b5_v5 + 7.0251594_f32 * mu_b5_b1 + 17.58542_f32 * mu_b5_b2 + 11.080812_f32 * mu_b5_b3 + 2.49544_f32 * mu_b5_b4 + 0.24962045_f32 * mu_b5_u5;
-    let p0_0_1 = 6.522816_f32 * mu_b5_v5 + 43.874973_f32 * mu_b5_b1 + 88.225464_f32 * mu_b5_b2 + 45.15564_f32 * mu_b5_b3 + 7.509284_f32 * mu_b5_b4 + 0.28073627_f32 * mu_b5_u5;
-    let p0_0_2 = 14.189588_f32 * mu_b5_v5 + 89.64239_f32 * mu_b5_b1 + 151.54633_f32 * mu_b5_b2 + 54.680214_f32 * mu_b5_b3 + 5.204264_f32 * mu_b5_b4 + 0.7251504_f32 * mu_b5_u5;
-    let p0_0_3 = 12.796177_f32 * mu_b5_v5 + 80.40038_f32 * mu_b5_b1 + 110.19537_f32 * mu_b5_b2 + 11.496674_f32 * mu_b5_b3 - 2.226869_f32 * mu_b5_b4 + 2.975195_f32 * mu_b5_u5;
-    let p0_0_4 = 5.024444_f32 * mu_b5_v5 + 33.55135_f32 * mu_b5_b1 + 33.646496_f32 * mu_b5_b2 - 12.596129_f32 * mu_b5_b3 - 0.73392004_f32 * mu_b5_b4 + 4.035585_f32 * mu_b5_u5;
-    let p0_0_5 = 0.6812315_f32 * mu_b5_v5 + 5.5546317_f32 * mu_b5_b1 + 3.5795927_f32 * mu_b5_b2 - 4.265231_f32 * mu_b5_b3 + 1.2944626_f32 * mu_b5_b4 + 1.6766434_f32 * mu_b5_u5;
+    let p0_0_0 = 1.0263472_f32 * mu_b5_v5 + 2.8474064_f32 * mu_b5_b1 + 3.2723126_f32 * mu_b5_b2 + 4.5863547_f32 * mu_b5_b3 + 3.7876291_f32 * mu_b5_b4 + 1.2305033_f32 * mu_b5_u5;
+    let p0_0_1 = 6.5473666_f32 * mu_b5_v5 + 24.568962_f32 * mu_b5_b1 + 24.708412_f32 * mu_b5_b2 + 12.129614_f32 * mu_b5_b3 + 6.6733274_f32 * mu_b5_b4 + 4.120409_f32 * mu_b5_u5;
+    let p0_0_2 = 18.319838_f32 * mu_b5_v5 + 91.19754_f32 * mu_b5_b1 + 127.83154_f32 * mu_b5_b2 + 79.095566_f32 * mu_b5_b3 + 30.149103_f32 * mu_b5_b4 + 11.78713_f32 * mu_b5_u5;
+    let p0_0_3 = 25.550339_f32 * mu_b5_v5 + 143.32875_f32 * mu_b5_b1 + 228.07669_f32 * mu_b5_b2 + 154.76135_f32 * mu_b5_b3 + 53.378532_f32 * mu_b5_b4 + 14.695211_f32 * mu_b5_u5;
+    let p0_0_4 = 20.965357_f32 * mu_b5_v5 + 116.96536_f32 * mu_b5_b1 + 196.91293_f32 * mu_b5_b2 + 141.66353_f32 * mu_b5_b3 + 47.014698_f32 * mu_b5_b4 + 9.153979_f32 * mu_b5_u5;
+    let p0_0_5 = 7.0485973_f32 * mu_b5_v5 + 37.28641_f32 * mu_b5_b1 + 63.5793_f32 * mu_b5_b2 + 46.802086_f32 * mu_b5_b3 + 15.073378_f32 * mu_b5_b4 + 2.1907542_f32 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -92,15 +96,15 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 0.84304595_f32 * 1.0_f32;
+    let u0_0_0 = 0.8759763_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 3.63265_f32 * 1.0_f32;
+    let u0_1_0 = 3.481989_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 5.639264_f32 * 1.0_f32;
+    let u0_2_0 = 5.3803253_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 3.8360329_f32 * 1.0_f32;
+    let u0_3_0 = 3.6305473_f32 * 1.0_f32;
     let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 0.97067744_f32 * 1.0_f32;
+    let u0_4_0 = 0.91246367_f32 * 1.0_f32;
     let u0_4 = u0_4_0 * 1.0_f32;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -126,101 +130,101 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 6.1108694_f32 * mu_b4_b1 + 11.255864_f32 * mu_b4_b2 + 2.7731547_f32 * mu_b4_b3 + 0.24950081_f32 * mu_b4_u4;
-    let q0_0_1 = 5.70744_f32 * mu_b4_v4 + 28.337236_f32 * mu_b4_b1 + 43.504646_f32 * mu_b4_b2 + 6.31464_f32 * mu_b4_b3 - 0.07484833_f32 * mu_b4_u4;
-    let q0_0_2 = 9.955664_f32 * mu_b4_v4 + 46.983543_f32 * mu_b4_b1 + 66.3086_f32 * mu_b4_b2 + 8.386891_f32 * mu_b4_b3 + 0.8342169_f32 * mu_b4_u4;
-    let q0_0_3 = 5.727087_f32 * mu_b4_v4 + 29.154245_f32 * mu_b4_b1 + 40.764397_f32 * mu_b4_b2 + 4.6840034_f32 * mu_b4_b3 + 1.8321292_f32 * mu_b4_u4;
-    let q0_0_4 = 1.4415598_f32 * mu_b4_v4 + 8.247853_f32 * mu_b4_b1 + 12.480757_f32 * mu_b4_b2 + 3.689382_f32 * mu_b4_b3 + 1.6362593_f32 * mu_b4_u4;
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 1.9746711_f32 * mu_b4_b1 + 1.9611895_f32 * mu_b4_b2 + 2.3145638_f32 * mu_b4_b3 + 1.1225393_f32 * mu_b4_u4;
+    let q0_0_1 = 5.4177837_f32 * mu_b4_v4 + 16.158821_f32 * mu_b4_b1 + 8.687934_f32 * mu_b4_b2 + 1.4170105_f32 * mu_b4_b3 + 2.6480894_f32 * mu_b4_u4;
+    let q0_0_2 = 13.119993_f32 * mu_b4_v4 + 57.207714_f32 * mu_b4_b1 + 54.696243_f32 * mu_b4_b2 + 20.891537_f32 * mu_b4_b3 + 9.049978_f32 * mu_b4_u4;
+    let q0_0_3 = 14.477814_f32 * mu_b4_v4 + 70.11961_f32 * mu_b4_b1 + 77.07226_f32 * mu_b4_b2 + 31.706757_f32 * mu_b4_b3 + 9.454274_f32 * mu_b4_u4;
+    let q0_0_4 = 10.693698_f32 * mu_b4_v4 + 46.76842_f32 * mu_b4_b1 + 58.61132_f32 * mu_b4_b2 + 29.590038_f32 * mu_b4_b3 + 6.847938_f32 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.0983654_f32 * mu_b5_v5 + 0.5197744_f32 * mu_b5_b1 + 0.08195282_f32 * mu_b5_b2 + 0.06944342_f32 * mu_b5_b3 + 0.0014795461_f32 * mu_b5_b4 + 7.253105e-5_f32 * mu_b5_u5;
-    let p1_0_1 = -0.66745746_f32 * mu_b5_v5 - 0.68268955_f32 * mu_b5_b1 - 2.3023493_f32 * mu_b5_b2 - 0.25361368_f32 * mu_b5_b3 - 0.005094492_f32 * mu_b5_b4 - 0.0011352117_f32 * mu_b5_u5;
-    let p1_0_2 = -1.3353486_f32 * mu_b5_v5 - 1.1263427_f32 * mu_b5_b1 - 3.3650753_f32 * mu_b5_b2 + 0.4910185_f32 * mu_b5_b3 - 0.008948032_f32 * mu_b5_b4 + 0.0008780024_f32 * mu_b5_u5;
-    let p1_0_3 = -0.9236833_f32 * mu_b5_v5 - 0.73400307_f32 * mu_b5_b1 - 3.9283988_f32 * mu_b5_b2 - 0.87844425_f32 * mu_b5_b3 - 0.7815657_f32 * mu_b5_b4 + 0.053725224_f32 * mu_b5_u5;
-    let p1_0_4 = -0.41802764_f32 * mu_b5_v5 - 0.95963633_f32 * mu_b5_b1 - 3.3943446_f32 * mu_b5_b2 - 1.5367818_f32 * mu_b5_b3 - 0.5024235_f32 * mu_b5_b4 + 0.21908534_f32 * mu_b5_u5;
-    let p1_0_5 = -0.12562543_f32 * mu_b5_v5 - 0.45828858_f32 * mu_b5_b1 - 1.0642719_f32 * mu_b5_b2 - 0.4618152_f32 * mu_b5_b3 - 0.032008458_f32 * mu_b5_b4 + 0.105690524_f32 * mu_b5_u5;
+    let p1_0_0 = 0.025681257_f32 * mu_b5_v5 + 0.08703007_f32 * mu_b5_b1 + 0.10387288_f32 * mu_b5_b2 + 0.06954192_f32 * mu_b5_b3 - 0.00834216_f32 * mu_b5_b4 + 0.0010922314_f32 * mu_b5_u5;
+    let p1_0_1 = -0.29837272_f32 * mu_b5_v5 - 0.3466557_f32 * mu_b5_b1 + 0.37880194_f32 * mu_b5_b2 + 0.6092589_f32 * mu_b5_b3 + 4.2021875e-5_f32 * mu_b5_b4 + 0.00012927962_f32 * mu_b5_u5;
+    let p1_0_2 = -2.2251384_f32 * mu_b5_v5 - 4.7833605_f32 * mu_b5_b1 - 2.7514489_f32 * mu_b5_b2 - 0.2198343_f32 * mu_b5_b3 - 0.38710058_f32 * mu_b5_b4 + 0.0040292405_f32 * mu_b5_u5;
+    let p1_0_3 = -3.8937593_f32 * mu_b5_v5 - 8.091756_f32 * mu_b5_b1 - 3.8753972_f32 * mu_b5_b2 + 0.71699286_f32 * mu_b5_b3 + 0.1485113_f32 * mu_b5_b4 + 0.118640706_f32 * mu_b5_u5;
+    let p1_0_4 = -2.9735_f32 * mu_b5_v5 - 5.9951973_f32 * mu_b5_b1 - 2.4655766_f32 * mu_b5_b2 + 0.93285644_f32 * mu_b5_b3 + 0.23273131_f32 * mu_b5_b4 + 0.038256682_f32 * mu_b5_u5;
+    let p1_0_5 = -0.89389735_f32 * mu_b5_v5 - 1.8184757_f32 * mu_b5_b1 - 0.74727714_f32 * mu_b5_b2 + 0.3255926_f32 * mu_b5_b3 + 0.12337537_f32 * mu_b5_b4 + 0.011536196_f32 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 0.57598245_f32 * 1.0_f32;
+    let u1_0_0 = 2.1076326_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = 0.9580119_f32 * 1.0_f32;
+    let u1_1_0 = 3.1250165_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = -0.5309796_f32 * 1.0_f32;
+    let u1_2_0 = 3.007334_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = -1.1824393_f32 * 1.0_f32;
+    let u1_3_0 = 1.2393388_f32 * 1.0_f32;
     let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = -0.3779858_f32 * 1.0_f32;
+    let u1_4_0 = 0.18004328_f32 * 1.0_f32;
     let u1_4 = u1_4_0 * 1.0_f32;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 0.6006096_f32 * mu_b4_b1 + 0.69205064_f32 * mu_b4_b2 + 0.020734744_f32 * mu_b4_b3 + 0.00046946784_f32 * mu_b4_u4;
-    let q1_0_1 = 2.3937235_f32 * mu_b4_v4 - 0.2844031_f32 * mu_b4_b1 + 1.2894084_f32 * mu_b4_b2 - 0.32783243_f32 * mu_b4_b3 - 0.010664528_f32 * mu_b4_u4;
-    let q1_0_2 = 2.4212685_f32 * mu_b4_v4 - 1.2530234_f32 * mu_b4_b1 + 2.512193_f32 * mu_b4_b2 - 0.1665014_f32 * mu_b4_b3 + 0.07406805_f32 * mu_b4_u4;
-    let q1_0_3 = 1.4548957_f32 * mu_b4_v4 + 0.031784173_f32 * mu_b4_b1 + 3.0097377_f32 * mu_b4_b2 + 0.23174982_f32 * mu_b4_b3 + 0.083603285_f32 * mu_b4_u4;
-    let q1_0_4 = 0.50265294_f32 * mu_b4_v4 + 0.70100385_f32 * mu_b4_b1 + 1.5467162_f32 * mu_b4_b2 + 0.35089308_f32 * mu_b4_b3 + 0.073703505_f32 * mu_b4_u4;
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.4777102_f32 * mu_b4_b1 + 2.6211631_f32 * mu_b4_b2 - 0.30737042_f32 * mu_b4_b3 + 0.038899954_f32 * mu_b4_u4;
+    let q1_0_1 = 4.822585_f32 * mu_b4_v4 + 6.457433_f32 * mu_b4_b1 + 7.596187_f32 * mu_b4_b2 - 0.047161788_f32 * mu_b4_b3 - 0.049607735_f32 * mu_b4_u4;
+    let q1_0_2 = 11.232356_f32 * mu_b4_v4 + 10.124042_f32 * mu_b4_b1 + 10.995365_f32 * mu_b4_b2 + 3.7746966_f32 * mu_b4_b3 + 0.609356_f32 * mu_b4_u4;
+    let q1_0_3 = 11.447953_f32 * mu_b4_v4 + 7.846183_f32 * mu_b4_b1 + 4.159523_f32 * mu_b4_b2 + 2.032106_f32 * mu_b4_b3 + 0.22970599_f32 * mu_b4_u4;
+    let q1_0_4 = 4.5957627_f32 * mu_b4_v4 + 3.9321883_f32 * mu_b4_b1 + 1.4846673_f32 * mu_b4_b2 + 0.74794185_f32 * mu_b4_b3 + 0.08942334_f32 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = 0.026707659_f32 * mu_b5_v5 - 0.5734284_f32 * mu_b5_b1 + 0.09704371_f32 * mu_b5_b2 + 0.016306203_f32 * mu_b5_b3 + 0.0012250146_f32 * mu_b5_b4 - 1.3951041e-5_f32 * mu_b5_u5;
-    let p2_0_1 = 0.37824443_f32 * mu_b5_v5 - 0.35981217_f32 * mu_b5_b1 + 3.1082144_f32 * mu_b5_b2 + 0.39798185_f32 * mu_b5_b3 - 0.037954073_f32 * mu_b5_b4 - 0.00022751556_f32 * mu_b5_u5;
-    let p2_0_2 = 0.30950984_f32 * mu_b5_v5 + 0.36617553_f32 * mu_b5_b1 + 6.5804105_f32 * mu_b5_b2 - 0.2836402_f32 * mu_b5_b3 + 0.023470256_f32 * mu_b5_b4 + 0.009730112_f32 * mu_b5_u5;
-    let p2_0_3 = -0.23914397_f32 * mu_b5_v5 + 0.48991084_f32 * mu_b5_b1 + 5.863247_f32 * mu_b5_b2 - 1.126761_f32 * mu_b5_b3 + 0.49936685_f32 * mu_b5_b4 - 0.060805347_f32 * mu_b5_u5;
-    let p2_0_4 = -0.24803168_f32 * mu_b5_v5 + 0.43952072_f32 * mu_b5_b1 + 2.6607676_f32 * mu_b5_b2 - 0.69713664_f32 * mu_b5_b3 + 0.6015166_f32 * mu_b5_b4 - 0.13869415_f32 * mu_b5_u5;
-    let p2_0_5 = -0.04356793_f32 * mu_b5_v5 + 0.13890277_f32 * mu_b5_b1 + 0.44022775_f32 * mu_b5_b2 - 0.16222437_f32 * mu_b5_b3 + 0.20153268_f32 * mu_b5_b4 - 0.06059841_f32 * mu_b5_u5;
+    let p2_0_0 = 0.0031457744_f32 * mu_b5_v5 + 0.079124585_f32 * mu_b5_b1 + 0.36193612_f32 * mu_b5_b2 + 0.04293511_f32 * mu_b5_b3 - 0.0005743127_f32 * mu_b5_b4 + 2.4742798e-5_f32 * mu_b5_u5;
+    let p2_0_1 = 0.42395407_f32 * mu_b5_v5 + 0.104514256_f32 * mu_b5_b1 - 1.5179144_f32 * mu_b5_b2 - 2.4519196_f32 * mu_b5_b3 - 0.040656995_f32 * mu_b5_b4 + 0.0006721243_f32 * mu_b5_u5;
+    let p2_0_2 = 0.5920509_f32 * mu_b5_v5 + 0.8290085_f32 * mu_b5_b1 - 2.365881_f32 * mu_b5_b2 - 3.4879112_f32 * mu_b5_b3 + 1.5362641_f32 * mu_b5_b4 - 0.002894654_f32 * mu_b5_u5;
+    let p2_0_3 = -0.5876823_f32 * mu_b5_v5 + 0.5029192_f32 * mu_b5_b1 - 1.718581_f32 * mu_b5_b2 - 2.9923072_f32 * mu_b5_b3 + 2.2162416_f32 * mu_b5_b4 - 0.024865162_f32 * mu_b5_u5;
+    let p2_0_4 = -0.7327731_f32 * mu_b5_v5 + 0.8087267_f32 * mu_b5_b1 - 0.5375059_f32 * mu_b5_b2 - 2.7114902_f32 * mu_b5_b3 + 0.65400267_f32 * mu_b5_b4 + 0.07437127_f32 * mu_b5_u5;
+    let p2_0_5 = 0.0048499336_f32 * mu_b5_v5 + 1.0029173_f32 * mu_b5_b1 + 0.48202652_f32 * mu_b5_b2 - 0.9252578_f32 * mu_b5_b3 - 0.09240128_f32 * mu_b5_b4 + 0.07439257_f32 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0_f32;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = 0.24863714_f32 * 1.0_f32;
+    let u2_0_0 = -0.8180324_f32 * 1.0_f32;
     let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = 0.76001894_f32 * 1.0_f32;
+    let u2_1_0 = 4.0035195_f32 * 1.0_f32;
     let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = 0.016775174_f32 * 1.0_f32;
+    let u2_2_0 = 0.79912764_f32 * 1.0_f32;
     let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = -0.6016453_f32 * 1.0_f32;
+    let u2_3_0 = -0.6307313_f32 * 1.0_f32;
     let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = -0.20125854_f32 * 1.0_f32;
+    let u2_4_0 = -0.22418651_f32 * 1.0_f32;
     let u2_4 = u2_4_0 * 1.0_f32;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 0.83942246_f32 * mu_b4_b1 + 0.44334182_f32 * mu_b4_b2 + 0.010069753_f32 * mu_b4_b3 + 0.00027604427_f32 * mu_b4_u4;
-    let q2_0_1 = 2.3388953_f32 * mu_b4_v4 + 0.8386251_f32 * mu_b4_b1 + 0.68279856_f32 * mu_b4_b2 - 0.19981192_f32 * mu_b4_b3 - 0.0063782386_f32 * mu_b4_u4;
-    let q2_0_2 = 2.1740265_f32 * mu_b4_v4 + 0.17841579_f32 * mu_b4_b1 + 1.3841336_f32 * mu_b4_b2 - 0.13614139_f32 * mu_b4_b3 + 0.048868116_f32 * mu_b4_u4;
-    let q2_0_3 = 1.2025218_f32 * mu_b4_v4 + 0.73613423_f32 * mu_b4_b1 + 1.8787737_f32 * mu_b4_b2 + 0.010657078_f32 * mu_b4_b3 + 0.041998528_f32 * mu_b4_u4;
-    let q2_0_4 = 0.41077074_f32 * mu_b4_v4 + 0.7304416_f32 * mu_b4_b1 + 0.99437755_f32 * mu_b4_b2 + 0.110437304_f32 * mu_b4_b3 + 0.029856257_f32 * mu_b4_u4;
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 2.0176563_f32 * mu_b4_b1 + 0.60691696_f32 * mu_b4_b2 - 0.015078716_f32 * mu_b4_b3 + 0.0011088412_f32 * mu_b4_u4;
+    let q2_0_1 = 0.9557597_f32 * mu_b4_v4 + 1.5980793_f32 * mu_b4_b1 - 1.0715935_f32 * mu_b4_b2 - 0.14378649_f32 * mu_b4_b3 - 0.008080639_f32 * mu_b4_u4;
+    let q2_0_2 = 0.5825367_f32 * mu_b4_v4 + 1.2141804_f32 * mu_b4_b1 - 0.84736234_f32 * mu_b4_b2 + 0.96034193_f32 * mu_b4_b3 + 0.07203702_f32 * mu_b4_u4;
+    let q2_0_3 = 1.0510663_f32 * mu_b4_v4 + 1.7634609_f32 * mu_b4_b1 - 0.39577037_f32 * mu_b4_b2 + 0.44169033_f32 * mu_b4_b3 - 0.028352084_f32 * mu_b4_u4;
+    let q2_0_4 = 0.5870901_f32 * mu_b4_v4 + 0.78090644_f32 * mu_b4_b1 - 0.25011402_f32 * mu_b4_b2 + 0.0038436023_f32 * mu_b4_b3 + 0.05322216_f32 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.19764897_f32 * mu_b5_v5 + 0.3935479_f32 * mu_b5_b1 - 1.303168_f32 * mu_b5_b2 + 0.4242268_f32 * mu_b5_b3 - 0.13403675_f32 * mu_b5_b4 - 0.004560415_f32 * mu_b5_u5;
-    let p3_0_1 = 0.31663522_f32 * mu_b5_v5 + 5.394918_f32 * mu_b5_b1 - 7.023657_f32 * mu_b5_b2 - 0.09658489_f32 * mu_b5_b3 - 0.20520376_f32 * mu_b5_b4 + 0.029781567_f32 * mu_b5_u5;
-    let p3_0_2 = 1.9227616_f32 * mu_b5_v5 + 14.684894_f32 * mu_b5_b1 - 17.140568_f32 * mu_b5_b2 - 5.358134_f32 * mu_b5_b3 + 0.057506155_f32 * mu_b5_b4 - 0.0063788462_f32 * mu_b5_u5;
-    let p3_0_3 = 2.1450202_f32 * mu_b5_v5 + 15.533738_f32 * mu_b5_b1 - 23.914036_f32 * mu_b5_b2 - 13.008559_f32 * mu_b5_b3 - 0.25355136_f32 * mu_b5_b4 - 0.067063995_f32 * mu_b5_u5;
-    let p3_0_4 = 0.6922625_f32 * mu_b5_v5 + 6.395854_f32 * mu_b5_b1 - 18.057858_f32 * mu_b5_b2 - 12.137849_f32 * mu_b5_b3 - 0.48155993_f32 * mu_b5_b4 + 0.13517982_f32 * mu_b5_u5;
-    let p3_0_5 = -0.006778178_f32 * mu_b5_v5 + 0.7331511_f32 * mu_b5_b1 - 5.188879_f32 * mu_b5_b2 - 3.5915895_f32 * mu_b5_b3 + 0.08817597_f32 * mu_b5_b4 + 0.19902526_f32 * mu_b5_u5;
+    let p3_0_0 = -0.018109558_f32 * mu_b5_v5 + 0.01874168_f32 * mu_b5_b1 + 0.29740757_f32 * mu_b5_b2 + 0.029457645_f32 * mu_b5_b3 - 0.00025031884_f32 * mu_b5_b4 - 1.3630249e-6_f32 * mu_b5_u5;
+    let p3_0_1 = 0.45749643_f32 * mu_b5_v5 + 0.16084501_f32 * mu_b5_b1 - 1.5844073_f32 * mu_b5_b2 - 2.4809701_f32 * mu_b5_b3 - 0.038131814_f32 * mu_b5_b4 + 0.0008337194_f32 * mu_b5_u5;
+    let p3_0_2 = 0.6837977_f32 * mu_b5_v5 + 1.0453402_f32 * mu_b5_b1 - 2.4022732_f32 * mu_b5_b2 - 3.484077_f32 * mu_b5_b3 + 1.5843662_f32 * mu_b5_b4 - 0.0038698064_f32 * mu_b5_u5;
+    let p3_0_3 = -0.54317075_f32 * mu_b5_v5 + 0.6696605_f32 * mu_b5_b1 - 1.7937163_f32 * mu_b5_b2 - 3.0267386_f32 * mu_b5_b3 + 2.2594466_f32 * mu_b5_b4 - 0.028859433_f32 * mu_b5_u5;
+    let p3_0_4 = -0.6742208_f32 * mu_b5_v5 + 1.0490848_f32 * mu_b5_b1 - 0.45063263_f32 * mu_b5_b2 - 2.7553458_f32 * mu_b5_b3 + 0.6542645_f32 * mu_b5_b4 + 0.08142354_f32 * mu_b5_u5;
+    let p3_0_5 = 0.0504267_f32 * mu_b5_v5 + 1.1490862_f32 * mu_b5_b1 + 0.5554754_f32 * mu_b5_b2 - 0.9694063_f32 * mu_b5_b3 - 0.11650943_f32 * mu_b5_b4 + 0.07886309_f32 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0_f32;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = -0.74000376_f32 * 1.0_f32;
+    let u3_0_0 = 0.8672729_f32 * 1.0_f32;
     let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = -2.3745086_f32 * 1.0_f32;
+    let u3_1_0 = -3.9778173_f32 * 1.0_f32;
     let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -4.094202_f32 * 1.0_f32;
+    let u3_2_0 = -0.9956416_f32 * 1.0_f32;
     let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = -2.8152761_f32 * 1.0_f32;
+    let u3_3_0 = 0.5771737_f32 * 1.0_f32;
     let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = -0.70499045_f32 * 1.0_f32;
+    let u3_4_0 = 0.21992482_f32 * 1.0_f32;
     let u3_4 = u3_4_0 * 1.0_f32;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 3.2905173_f32 * mu_b4_b1 + 0.48786473_f32 * mu_b4_b2 + 0.10704597_f32 * mu_b4_b3 + 0.041731592_f32 * mu_b4_u4;
-    let q3_0_1 = 4.8160224_f32 * mu_b4_v4 + 16.602255_f32 * mu_b4_b1 + 4.72389_f32 * mu_b4_b2 + 0.32401404_f32 * mu_b4_b3 - 0.08551172_f32 * mu_b4_u4;
-    let q3_0_2 = 6.637267_f32 * mu_b4_v4 + 26.124155_f32 * mu_b4_b1 + 9.41957_f32 * mu_b4_b2 + 1.2552559_f32 * mu_b4_b3 + 0.11477197_f32 * mu_b4_u4;
-    let q3_0_3 = 3.1259248_f32 * mu_b4_v4 + 15.875714_f32 * mu_b4_b1 + 5.6384783_f32 * mu_b4_b2 + 0.38728726_f32 * mu_b4_b3 + 0.026730957_f32 * mu_b4_u4;
-    let q3_0_4 = 0.7728027_f32 * mu_b4_v4 + 4.9357877_f32 * mu_b4_b1 + 3.2636704_f32 * mu_b4_b2 + 1.2214911_f32 * mu_b4_b3 + 0.2528386_f32 * mu_b4_u4;
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 2.054517_f32 * mu_b4_b1 + 0.6182714_f32 * mu_b4_b2 - 0.015702242_f32 * mu_b4_b3 + 0.0011440584_f32 * mu_b4_u4;
+    let q3_0_1 = 0.9265979_f32 * mu_b4_v4 + 1.6377676_f32 * mu_b4_b1 - 1.1080649_f32 * mu_b4_b2 - 0.14948778_f32 * mu_b4_b3 - 0.007850734_f32 * mu_b4_u4;
+    let q3_0_2 = 0.58890754_f32 * mu_b4_v4 + 1.3303697_f32 * mu_b4_b1 - 0.866676_f32 * mu_b4_b2 + 0.9839913_f32 * mu_b4_b3 + 0.075733185_f32 * mu_b4_u4;
+    let q3_0_3 = 1.1115221_f32 * mu_b4_v4 + 1.8982751_f32 * mu_b4_b1 - 0.4187655_f32 * mu_b4_b2 + 0.4439418_f32 * mu_b4_b3 - 0.028137155_f32 * mu_b4_u4;
+    let q3_0_4 = 0.61953723_f32 * mu_b4_v4 + 0.8324549_f32 * mu_b4_b1 - 0.25647733_f32 * mu_b4_b2 + 0.0074639427_f32 * mu_b4_b3 + 0.057459615_f32 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;

@@ -11,17 +11,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 539af3c5f9915d2538652de58b0234c441d6e4a0939ac496ae5bed3aca518d85.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7b7bef6b5b288efdabc2ad62d5df38d435014944452f5397a011aaa288754375.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-3, shifted 7.1e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.23e-4, max 7.77e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.04e-7 (every op rounded, as this Rust), 6.23e-7 (fused multiply-add), 1.52e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 8.11e-4, max 7.77e-3; this f32 code MAE 8.11e-4, max 7.77e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.0e-4 on the measurement grid.
-// Denominator proved >= 1.222e-5 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 2.4e-5, bernstein 2.6e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.12e-4, max 5.77e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.91e-7 (every op rounded, as this Rust), 9.21e-7 (fused multiply-add), 3.83e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.11e-4, max 5.77e-3; this f32 code MAE 4.11e-4, max 5.77e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-4 on the measurement grid.
+// Denominator proved >= 3.810e-4 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -31,10 +31,14 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    let mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    let mu_u = (mu_t - 8.881784e-16) * 1.0;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    let mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
+    let mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
+    let mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 2.0 * (r_c * r_c) + 7.888609e-31);
+    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
+    let mu_u = (mu_t - 3.9443045e-31) * 1.0;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     let r_b5_v = 1.0 - r_t;
     let r_b5_u2 = r_t * r_t;
@@ -64,12 +68,12 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.8639747 * mu_b5_v5 + 7.0251594 * mu_b5_b1 + 17.58542 * mu_b5_b2 + 11.080812 * mu_b5_b3 + 2.49544 * mu_b5_b4 + 0.24962045 * mu_b5_u5;
-    let p0_0_1 = 6.522816 * mu_b5_v5 + 43.874973 * mu_b5_b1 + 88.225464 * mu_b5_b2 + 45.15564 * mu_b5_b3 + 7.509284 * mu_b5_b4 + 0.28073627 * mu_b5_u5;
-    let p0_0_2 = 14.189588 * mu_b5_v5 + 89.64239 * mu_b5_b1 + 151.54633 * mu_b5_b2 + 54.680214 * mu_b5_b3 + 5.204264 * mu_b5_b4 + 0.7251504 * mu_b5_u5;
-    let p0_0_3 = 12.796177 * mu_b5_v5 + 80.40038 * mu_b5_b1 + 110.19537 * mu_b5_b2 + 11.496674 * mu_b5_b3 - 2.226869 * mu_b5_b4 + 2.975195 * mu_b5_u5;
-    let p0_0_4 = 5.024444 * mu_b5_v5 + 33.55135 * mu_b5_b1 + 33.646496 * mu_b5_b2 - 12.596129 * mu_b5_b3 - 0.73392004 * mu_b5_b4 + 4.035585 * mu_b5_u5;
-    let p0_0_5 = 0.6812315 * mu_b5_v5 + 5.5546317 * mu_b5_b1 + 3.5795927 * mu_b5_b2 - 4.265231 * mu_b5_b3 + 1.2944626 * mu_b5_b4 + 1.6766434 * mu_b5_u5;
+    let p0_0_0 = 1.0263472 * mu_b5_v5 + 2.8474064 * mu_b5_b1 + 3.2723126 * mu_b5_b2 + 4.5863547 * mu_b5_b3 + 3.7876291 * mu_b5_b4 + 1.2305033 * mu_b5_u5;
+    let p0_0_1 = 6.5473666 * mu_b5_v5 + 24.568962 * mu_b5_b1 + 24.708412 * mu_b5_b2 + 12.129614 * mu_b5_b3 + 6.6733274 * mu_b5_b4 + 4.120409 * mu_b5_u5;
+    let p0_0_2 = 18.319838 * mu_b5_v5 + 91.19754 * mu_b5_b1 + 127.83154 * mu_b5_b2 + 79.095566 * mu_b5_b3 + 30.149103 * mu_b5_b4 + 11.78713 * mu_b5_u5;
+    let p0_0_3 = 25.550339 * mu_b5_v5 + 143.32875 * mu_b5_b1 + 228.07669 * mu_b5_b2 + 154.76135 * mu_b5_b3 + 53.378532 * mu_b5_b4 + 14.695211 * mu_b5_u5;
+    let p0_0_4 = 20.965357 * mu_b5_v5 + 116.96536 * mu_b5_b1 + 196.91293 * mu_b5_b2 + 141.66353 * mu_b5_b3 + 47.014698 * mu_b5_b4 + 9.153979 * mu_b5_u5;
+    let p0_0_5 = 7.0485973 * mu_b5_v5 + 37.28641 * mu_b5_b1 + 63.5793 * mu_b5_b2 + 46.802086 * mu_b5_b3 + 15.073378 * mu_b5_b4 + 2.1907542 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -84,15 +88,15 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 0.84304595 * 1.0;
+    let u0_0_0 = 0.8759763 * 1.0;
     let u0_0 = u0_0_0 * 1.0;
-    let u0_1_0 = 3.63265 * 1.0;
+    let u0_1_0 = 3.481989 * 1.0;
     let u0_1 = u0_1_0 * 1.0;
-    let u0_2_0 = 5.639264 * 1.0;
+    let u0_2_0 = 5.3803253 * 1.0;
     let u0_2 = u0_2_0 * 1.0;
-    let u0_3_0 = 3.8360329 * 1.0;
+    let u0_3_0 = 3.6305473 * 1.0;
     let u0_3 = u0_3_0 * 1.0;
-    let u0_4_0 = 0.97067744 * 1.0;
+    let u0_4_0 = 0.91246367 * 1.0;
     let u0_4 = u0_4_0 * 1.0;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -118,101 +122,101 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0 * mu_b4_v4 + 6.1108694 * mu_b4_b1 + 11.255864 * mu_b4_b2 + 2.7731547 * mu_b4_b3 + 0.24950081 * mu_b4_u4;
-    let q0_0_1 = 5.70744 * mu_b4_v4 + 28.337236 * mu_b4_b1 + 43.504646 * mu_b4_b2 + 6.31464 * mu_b4_b3 - 0.07484833 * mu_b4_u4;
-    let q0_0_2 = 9.955664 * mu_b4_v4 + 46.983543 * mu_b4_b1 + 66.3086 * mu_b4_b2 + 8.386891 * mu_b4_b3 + 0.8342169 * mu_b4_u4;
-    let q0_0_3 = 5.727087 * mu_b4_v4 + 29.154245 * mu_b4_b1 + 40.764397 * mu_b4_b2 + 4.6840034 * mu_b4_b3 + 1.8321292 * mu_b4_u4;
-    let q0_0_4 = 1.4415598 * mu_b4_v4 + 8.247853 * mu_b4_b1 + 12.480757 * mu_b4_b2 + 3.689382 * mu_b4_b3 + 1.6362593 * mu_b4_u4;
+    let q0_0_0 = 1.0 * mu_b4_v4 + 1.9746711 * mu_b4_b1 + 1.9611895 * mu_b4_b2 + 2.3145638 * mu_b4_b3 + 1.1225393 * mu_b4_u4;
+    let q0_0_1 = 5.4177837 * mu_b4_v4 + 16.158821 * mu_b4_b1 + 8.687934 * mu_b4_b2 + 1.4170105 * mu_b4_b3 + 2.6480894 * mu_b4_u4;
+    let q0_0_2 = 13.119993 * mu_b4_v4 + 57.207714 * mu_b4_b1 + 54.696243 * mu_b4_b2 + 20.891537 * mu_b4_b3 + 9.049978 * mu_b4_u4;
+    let q0_0_3 = 14.477814 * mu_b4_v4 + 70.11961 * mu_b4_b1 + 77.07226 * mu_b4_b2 + 31.706757 * mu_b4_b3 + 9.454274 * mu_b4_u4;
+    let q0_0_4 = 10.693698 * mu_b4_v4 + 46.76842 * mu_b4_b1 + 58.61132 * mu_b4_b2 + 29.590038 * mu_b4_b3 + 6.847938 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.0983654 * mu_b5_v5 + 0.5197744 * mu_b5_b1 + 0.08195282 * mu_b5_b2 + 0.06944342 * mu_b5_b3 + 0.0014795461 * mu_b5_b4 + 7.253105e-5 * mu_b5_u5;
-    let p1_0_1 = -0.66745746 * mu_b5_v5 - 0.68268955 * mu_b5_b1 - 2.3023493 * mu_b5_b2 - 0.25361368 * mu_b5_b3 - 0.005094492 * mu_b5_b4 - 0.0011352117 * mu_b5_u5;
-    let p1_0_2 = -1.3353486 * mu_b5_v5 - 1.1263427 * mu_b5_b1 - 3.3650753 * mu_b5_b2 + 0.4910185 * mu_b5_b3 - 0.008948032 * mu_b5_b4 + 0.0008780024 * mu_b5_u5;
-    let p1_0_3 = -0.9236833 * mu_b5_v5 - 0.73400307 * mu_b5_b1 - 3.9283988 * mu_b5_b2 - 0.87844425 * mu_b5_b3 - 0.7815657 * mu_b5_b4 + 0.053725224 * mu_b5_u5;
-    let p1_0_4 = -0.41802764 * mu_b5_v5 - 0.95963633 * mu_b5_b1 - 3.3943446 * mu_b5_b2 - 1.5367818 * mu_b5_b3 - 0.5024235 * mu_b5_b4 + 0.21908534 * mu_b5_u5;
-    let p1_0_5 = -0.12562543 * mu_b5_v5 - 0.45828858 * mu_b5_b1 - 1.0642719 * mu_b5_b2 - 0.4618152 * mu_b5_b3 - 0.032008458 * mu_b5_b4 + 0.105690524 * mu_b5_u5;
+    let p1_0_0 = 0.025681257 * mu_b5_v5 + 0.08703007 * mu_b5_b1 + 0.10387288 * mu_b5_b2 + 0.06954192 * mu_b5_b3 - 0.00834216 * mu_b5_b4 + 0.0010922314 * mu_b5_u5;
+    let p1_0_1 = -0.29837272 * mu_b5_v5 - 0.3466557 * mu_b5_b1 + 0.37880194 * mu_b5_b2 + 0.6092589 * mu_b5_b3 + 4.2021875e-5 * mu_b5_b4 + 0.00012927962 * mu_b5_u5;
+    let p1_0_2 = -2.2251384 * mu_b5_v5 - 4.7833605 * mu_b5_b1 - 2.7514489 * mu_b5_b2 - 0.2198343 * mu_b5_b3 - 0.38710058 * mu_b5_b4 + 0.0040292405 * mu_b5_u5;
+    let p1_0_3 = -3.8937593 * mu_b5_v5 - 8.091756 * mu_b5_b1 - 3.8753972 * mu_b5_b2 + 0.71699286 * mu_b5_b3 + 0.1485113 * mu_b5_b4 + 0.118640706 * mu_b5_u5;
+    let p1_0_4 = -2.9735 * mu_b5_v5 - 5.9951973 * mu_b5_b1 - 2.4655766 * mu_b5_b2 + 0.93285644 * mu_b5_b3 + 0.23273131 * mu_b5_b4 + 0.038256682 * mu_b5_u5;
+    let p1_0_5 = -0.89389735 * mu_b5_v5 - 1.8184757 * mu_b5_b1 - 0.74727714 * mu_b5_b2 + 0.3255926 * mu_b5_b3 + 0.12337537 * mu_b5_b4 + 0.011536196 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 0.57598245 * 1.0;
+    let u1_0_0 = 2.1076326 * 1.0;
     let u1_0 = u1_0_0 * 1.0;
-    let u1_1_0 = 0.9580119 * 1.0;
+    let u1_1_0 = 3.1250165 * 1.0;
     let u1_1 = u1_1_0 * 1.0;
-    let u1_2_0 = -0.5309796 * 1.0;
+    let u1_2_0 = 3.007334 * 1.0;
     let u1_2 = u1_2_0 * 1.0;
-    let u1_3_0 = -1.1824393 * 1.0;
+    let u1_3_0 = 1.2393388 * 1.0;
     let u1_3 = u1_3_0 * 1.0;
-    let u1_4_0 = -0.3779858 * 1.0;
+    let u1_4_0 = 0.18004328 * 1.0;
     let u1_4 = u1_4_0 * 1.0;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0 * mu_b4_v4 + 0.6006096 * mu_b4_b1 + 0.69205064 * mu_b4_b2 + 0.020734744 * mu_b4_b3 + 0.00046946784 * mu_b4_u4;
-    let q1_0_1 = 2.3937235 * mu_b4_v4 - 0.2844031 * mu_b4_b1 + 1.2894084 * mu_b4_b2 - 0.32783243 * mu_b4_b3 - 0.010664528 * mu_b4_u4;
-    let q1_0_2 = 2.4212685 * mu_b4_v4 - 1.2530234 * mu_b4_b1 + 2.512193 * mu_b4_b2 - 0.1665014 * mu_b4_b3 + 0.07406805 * mu_b4_u4;
-    let q1_0_3 = 1.4548957 * mu_b4_v4 + 0.031784173 * mu_b4_b1 + 3.0097377 * mu_b4_b2 + 0.23174982 * mu_b4_b3 + 0.083603285 * mu_b4_u4;
-    let q1_0_4 = 0.50265294 * mu_b4_v4 + 0.70100385 * mu_b4_b1 + 1.5467162 * mu_b4_b2 + 0.35089308 * mu_b4_b3 + 0.073703505 * mu_b4_u4;
+    let q1_0_0 = 1.0 * mu_b4_v4 + 2.4777102 * mu_b4_b1 + 2.6211631 * mu_b4_b2 - 0.30737042 * mu_b4_b3 + 0.038899954 * mu_b4_u4;
+    let q1_0_1 = 4.822585 * mu_b4_v4 + 6.457433 * mu_b4_b1 + 7.596187 * mu_b4_b2 - 0.047161788 * mu_b4_b3 - 0.049607735 * mu_b4_u4;
+    let q1_0_2 = 11.232356 * mu_b4_v4 + 10.124042 * mu_b4_b1 + 10.995365 * mu_b4_b2 + 3.7746966 * mu_b4_b3 + 0.609356 * mu_b4_u4;
+    let q1_0_3 = 11.447953 * mu_b4_v4 + 7.846183 * mu_b4_b1 + 4.159523 * mu_b4_b2 + 2.032106 * mu_b4_b3 + 0.22970599 * mu_b4_u4;
+    let q1_0_4 = 4.5957627 * mu_b4_v4 + 3.9321883 * mu_b4_b1 + 1.4846673 * mu_b4_b2 + 0.74794185 * mu_b4_b3 + 0.08942334 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = 0.026707659 * mu_b5_v5 - 0.5734284 * mu_b5_b1 + 0.09704371 * mu_b5_b2 + 0.016306203 * mu_b5_b3 + 0.0012250146 * mu_b5_b4 - 1.3951041e-5 * mu_b5_u5;
-    let p2_0_1 = 0.37824443 * mu_b5_v5 - 0.35981217 * mu_b5_b1 + 3.1082144 * mu_b5_b2 + 0.39798185 * mu_b5_b3 - 0.037954073 * mu_b5_b4 - 0.00022751556 * mu_b5_u5;
-    let p2_0_2 = 0.30950984 * mu_b5_v5 + 0.36617553 * mu_b5_b1 + 6.5804105 * mu_b5_b2 - 0.2836402 * mu_b5_b3 + 0.023470256 * mu_b5_b4 + 0.009730112 * mu_b5_u5;
-    let p2_0_3 = -0.23914397 * mu_b5_v5 + 0.48991084 * mu_b5_b1 + 5.863247 * mu_b5_b2 - 1.126761 * mu_b5_b3 + 0.49936685 * mu_b5_b4 - 0.060805347 * mu_b5_u5;
-    let p2_0_4 = -0.24803168 * mu_b5_v5 + 0.43952072 * mu_b5_b1 + 2.6607676 * mu_b5_b2 - 0.69713664 * mu_b5_b3 + 0.6015166 * mu_b5_b4 - 0.13869415 * mu_b5_u5;
-    let p2_0_5 = -0.04356793 * mu_b5_v5 + 0.13890277 * mu_b5_b1 + 0.44022775 * mu_b5_b2 - 0.16222437 * mu_b5_b3 + 0.20153268 * mu_b5_b4 - 0.06059841 * mu_b5_u5;
+    let p2_0_0 = 0.0031457744 * mu_b5_v5 + 0.079124585 * mu_b5_b1 + 0.36193612 * mu_b5_b2 + 0.04293511 * mu_b5_b3 - 0.0005743127 * mu_b5_b4 + 2.4742798e-5 * mu_b5_u5;
+    let p2_0_1 = 0.42395407 * mu_b5_v5 + 0.104514256 * mu_b5_b1 - 1.5179144 * mu_b5_b2 - 2.4519196 * mu_b5_b3 - 0.040656995 * mu_b5_b4 + 0.0006721243 * mu_b5_u5;
+    let p2_0_2 = 0.5920509 * mu_b5_v5 + 0.8290085 * mu_b5_b1 - 2.365881 * mu_b5_b2 - 3.4879112 * mu_b5_b3 + 1.5362641 * mu_b5_b4 - 0.002894654 * mu_b5_u5;
+    let p2_0_3 = -0.5876823 * mu_b5_v5 + 0.5029192 * mu_b5_b1 - 1.718581 * mu_b5_b2 - 2.9923072 * mu_b5_b3 + 2.2162416 * mu_b5_b4 - 0.024865162 * mu_b5_u5;
+    let p2_0_4 = -0.7327731 * mu_b5_v5 + 0.8087267 * mu_b5_b1 - 0.5375059 * mu_b5_b2 - 2.7114902 * mu_b5_b3 + 0.65400267 * mu_b5_b4 + 0.07437127 * mu_b5_u5;
+    let p2_0_5 = 0.0048499336 * mu_b5_v5 + 1.0029173 * mu_b5_b1 + 0.48202652 * mu_b5_b2 - 0.9252578 * mu_b5_b3 - 0.09240128 * mu_b5_b4 + 0.07439257 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = 0.24863714 * 1.0;
+    let u2_0_0 = -0.8180324 * 1.0;
     let u2_0 = u2_0_0 * 1.0;
-    let u2_1_0 = 0.76001894 * 1.0;
+    let u2_1_0 = 4.0035195 * 1.0;
     let u2_1 = u2_1_0 * 1.0;
-    let u2_2_0 = 0.016775174 * 1.0;
+    let u2_2_0 = 0.79912764 * 1.0;
     let u2_2 = u2_2_0 * 1.0;
-    let u2_3_0 = -0.6016453 * 1.0;
+    let u2_3_0 = -0.6307313 * 1.0;
     let u2_3 = u2_3_0 * 1.0;
-    let u2_4_0 = -0.20125854 * 1.0;
+    let u2_4_0 = -0.22418651 * 1.0;
     let u2_4 = u2_4_0 * 1.0;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0 * mu_b4_v4 + 0.83942246 * mu_b4_b1 + 0.44334182 * mu_b4_b2 + 0.010069753 * mu_b4_b3 + 0.00027604427 * mu_b4_u4;
-    let q2_0_1 = 2.3388953 * mu_b4_v4 + 0.8386251 * mu_b4_b1 + 0.68279856 * mu_b4_b2 - 0.19981192 * mu_b4_b3 - 0.0063782386 * mu_b4_u4;
-    let q2_0_2 = 2.1740265 * mu_b4_v4 + 0.17841579 * mu_b4_b1 + 1.3841336 * mu_b4_b2 - 0.13614139 * mu_b4_b3 + 0.048868116 * mu_b4_u4;
-    let q2_0_3 = 1.2025218 * mu_b4_v4 + 0.73613423 * mu_b4_b1 + 1.8787737 * mu_b4_b2 + 0.010657078 * mu_b4_b3 + 0.041998528 * mu_b4_u4;
-    let q2_0_4 = 0.41077074 * mu_b4_v4 + 0.7304416 * mu_b4_b1 + 0.99437755 * mu_b4_b2 + 0.110437304 * mu_b4_b3 + 0.029856257 * mu_b4_u4;
+    let q2_0_0 = 1.0 * mu_b4_v4 + 2.0176563 * mu_b4_b1 + 0.60691696 * mu_b4_b2 - 0.015078716 * mu_b4_b3 + 0.0011088412 * mu_b4_u4;
+    let q2_0_1 = 0.9557597 * mu_b4_v4 + 1.5980793 * mu_b4_b1 - 1.0715935 * mu_b4_b2 - 0.14378649 * mu_b4_b3 - 0.008080639 * mu_b4_u4;
+    let q2_0_2 = 0.5825367 * mu_b4_v4 + 1.2141804 * mu_b4_b1 - 0.84736234 * mu_b4_b2 + 0.96034193 * mu_b4_b3 + 0.07203702 * mu_b4_u4;
+    let q2_0_3 = 1.0510663 * mu_b4_v4 + 1.7634609 * mu_b4_b1 - 0.39577037 * mu_b4_b2 + 0.44169033 * mu_b4_b3 - 0.028352084 * mu_b4_u4;
+    let q2_0_4 = 0.5870901 * mu_b4_v4 + 0.78090644 * mu_b4_b1 - 0.25011402 * mu_b4_b2 + 0.0038436023 * mu_b4_b3 + 0.05322216 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.19764897 * mu_b5_v5 + 0.3935479 * mu_b5_b1 - 1.303168 * mu_b5_b2 + 0.4242268 * mu_b5_b3 - 0.13403675 * mu_b5_b4 - 0.004560415 * mu_b5_u5;
-    let p3_0_1 = 0.31663522 * mu_b5_v5 + 5.394918 * mu_b5_b1 - 7.023657 * mu_b5_b2 - 0.09658489 * mu_b5_b3 - 0.20520376 * mu_b5_b4 + 0.029781567 * mu_b5_u5;
-    let p3_0_2 = 1.9227616 * mu_b5_v5 + 14.684894 * mu_b5_b1 - 17.140568 * mu_b5_b2 - 5.358134 * mu_b5_b3 + 0.057506155 * mu_b5_b4 - 0.0063788462 * mu_b5_u5;
-    let p3_0_3 = 2.1450202 * mu_b5_v5 + 15.533738 * mu_b5_b1 - 23.914036 * mu_b5_b2 - 13.008559 * mu_b5_b3 - 0.25355136 * mu_b5_b4 - 0.067063995 * mu_b5_u5;
-    let p3_0_4 = 0.6922625 * mu_b5_v5 + 6.395854 * mu_b5_b1 - 18.057858 * mu_b5_b2 - 12.137849 * mu_b5_b3 - 0.48155993 * mu_b5_b4 + 0.13517982 * mu_b5_u5;
-    let p3_0_5 = -0.006778178 * mu_b5_v5 + 0.7331511 * mu_b5_b1 - 5.188879 * mu_b5_b2 - 3.5915895 * mu_b5_b3 + 0.08817597 * mu_b5_b4 + 0.19902526 * mu_b5_u5;
+    let p3_0_0 = -0.018109558 * mu_b5_v5 + 0.01874168 * mu_b5_b1 + 0.29740757 * mu_b5_b2 + 0.029457645 * mu_b5_b3 - 0.00025031884 * mu_b5_b4 - 1.3630249e-6 * mu_b5_u5;
+    let p3_0_1 = 0.45749643 * mu_b5_v5 + 0.16084501 * mu_b5_b1 - 1.5844073 * mu_b5_b2 - 2.4809701 * mu_b5_b3 - 0.038131814 * mu_b5_b4 + 0.0008337194 * mu_b5_u5;
+    let p3_0_2 = 0.6837977 * mu_b5_v5 + 1.0453402 * mu_b5_b1 - 2.4022732 * mu_b5_b2 - 3.484077 * mu_b5_b3 + 1.5843662 * mu_b5_b4 - 0.0038698064 * mu_b5_u5;
+    let p3_0_3 = -0.54317075 * mu_b5_v5 + 0.6696605 * mu_b5_b1 - 1.7937163 * mu_b5_b2 - 3.0267386 * mu_b5_b3 + 2.2594466 * mu_b5_b4 - 0.028859433 * mu_b5_u5;
+    let p3_0_4 = -0.6742208 * mu_b5_v5 + 1.0490848 * mu_b5_b1 - 0.45063263 * mu_b5_b2 - 2.7553458 * mu_b5_b3 + 0.6542645 * mu_b5_b4 + 0.08142354 * mu_b5_u5;
+    let p3_0_5 = 0.0504267 * mu_b5_v5 + 1.1490862 * mu_b5_b1 + 0.5554754 * mu_b5_b2 - 0.9694063 * mu_b5_b3 - 0.11650943 * mu_b5_b4 + 0.07886309 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = -0.74000376 * 1.0;
+    let u3_0_0 = 0.8672729 * 1.0;
     let u3_0 = u3_0_0 * 1.0;
-    let u3_1_0 = -2.3745086 * 1.0;
+    let u3_1_0 = -3.9778173 * 1.0;
     let u3_1 = u3_1_0 * 1.0;
-    let u3_2_0 = -4.094202 * 1.0;
+    let u3_2_0 = -0.9956416 * 1.0;
     let u3_2 = u3_2_0 * 1.0;
-    let u3_3_0 = -2.8152761 * 1.0;
+    let u3_3_0 = 0.5771737 * 1.0;
     let u3_3 = u3_3_0 * 1.0;
-    let u3_4_0 = -0.70499045 * 1.0;
+    let u3_4_0 = 0.21992482 * 1.0;
     let u3_4 = u3_4_0 * 1.0;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0 * mu_b4_v4 + 3.2905173 * mu_b4_b1 + 0.48786473 * mu_b4_b2 + 0.10704597 * mu_b4_b3 + 0.041731592 * mu_b4_u4;
-    let q3_0_1 = 4.8160224 * mu_b4_v4 + 16.602255 * mu_b4_b1 + 4.72389 * mu_b4_b2 + 0.32401404 * mu_b4_b3 - 0.08551172 * mu_b4_u4;
-    let q3_0_2 = 6.637267 * mu_b4_v4 + 26.124155 * mu_b4_b1 + 9.41957 * mu_b4_b2 + 1.2552559 * mu_b4_b3 + 0.11477197 * mu_b4_u4;
-    let q3_0_3 = 3.1259248 * mu_b4_v4 + 15.875714 * mu_b4_b1 + 5.6384783 * mu_b4_b2 + 0.38728726 * mu_b4_b3 + 0.026730957 * mu_b4_u4;
-    let q3_0_4 = 0.7728027 * mu_b4_v4 + 4.9357877 * mu_b4_b1 + 3.2636704 * mu_b4_b2 + 1.2214911 * mu_b4_b3 + 0.2528386 * mu_b4_u4;
+    let q3_0_0 = 1.0 * mu_b4_v4 + 2.054517 * mu_b4_b1 + 0.6182714 * mu_b4_b2 - 0.015702242 * mu_b4_b3 + 0.0011440584 * mu_b4_u4;
+    let q3_0_1 = 0.9265979 * mu_b4_v4 + 1.6377676 * mu_b4_b1 - 1.1080649 * mu_b4_b2 - 0.14948778 * mu_b4_b3 - 0.007850734 * mu_b4_u4;
+    let q3_0_2 = 0.58890754 * mu_b4_v4 + 1.3303697 * mu_b4_b1 - 0.866676 * mu_b4_b2 + 0.9839913 * mu_b4_b3 + 0.075733185 * mu_b4_u4;
+    let q3_0_3 = 1.1115221 * mu_b4_v4 + 1.8982751 * mu_b4_b1 - 0.4187655 * mu_b4_b2 + 0.4439418 * mu_b4_b3 - 0.028137155 * mu_b4_u4;
+    let q3_0_4 = 0.61953723 * mu_b4_v4 + 0.8324549 * mu_b4_b1 - 0.25647733 * mu_b4_b2 + 0.0074639427 * mu_b4_b3 + 0.057459615 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0;
     let e3 = p3 * u3 / q3;

@@ -27,17 +27,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 7cd5b1b50df62f9eb11e7af840ab2194a9a8c4dab90bba806fb1b85511a3972f.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 4a9d606b2259ad3bcff4977616b9ff00b9e1b98a998577794ed3c92b51e97cfc.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.4e-4, shifted 3.2e-5, bernstein 1.6e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.38e-4, max 9.11e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.33e-7 (every op rounded, as this Rust), 4.68e-7 (fused multiply-add), 1.90e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.04e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 8.37e-4, max 9.11e-3; this f32 code MAE 8.37e-4, max 9.11e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
-// Denominator proved >= 2.798e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 1.5e-5, bernstein 2.8e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 5.32e-4, max 5.67e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.72e-7 (every op rounded, as this Rust), 6.37e-7 (fused multiply-add), 3.85e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.30e-4, max 5.67e-3; this f32 code MAE 5.30e-4, max 5.67e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
+// Denominator proved >= 4.031e-4 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -47,121 +47,197 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    const float f0_v = 1.0f - f0_t;
-    const float f0_u2 = f0_t * f0_t;
-    const float f0_v2 = f0_v * f0_v;
-    const float f0_u3 = f0_u2 * f0_t;
-    const float f0_v3 = f0_v2 * f0_v;
-    const float f0_b1 = f0_t * f0_v2;
-    const float f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
-    const float r_v = 1.0f - r_t;
-    const float r_u2 = r_t * r_t;
-    const float r_v2 = r_v * r_v;
-    const float r_u3 = r_u2 * r_t;
-    const float r_v3 = r_v2 * r_v;
-    const float r_u4 = r_u3 * r_t;
-    const float r_v4 = r_v3 * r_v;
-    const float r_u5 = r_u4 * r_t;
-    const float r_v5 = r_v4 * r_v;
-    const float r_u6 = r_u5 * r_t;
-    const float r_v6 = r_v5 * r_v;
-    const float r_b1 = r_t * r_v5;
-    const float r_b2 = r_u2 * r_v4;
-    const float r_b3 = r_u3 * r_v3;
-    const float r_b4 = r_u4 * r_v2;
-    const float r_b5 = r_u5 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
-    const float mu_v = 1.0f - mu_u;
-    const float mu_u2 = mu_u * mu_u;
-    const float mu_v2 = mu_v * mu_v;
-    const float mu_u3 = mu_u2 * mu_u;
-    const float mu_v3 = mu_v2 * mu_v;
-    const float mu_u4 = mu_u3 * mu_u;
-    const float mu_v4 = mu_v3 * mu_v;
-    const float mu_u5 = mu_u4 * mu_u;
-    const float mu_v5 = mu_v4 * mu_v;
-    const float mu_u6 = mu_u5 * mu_u;
-    const float mu_v6 = mu_v5 * mu_v;
-    const float mu_b1 = mu_u * mu_v5;
-    const float mu_b2 = mu_u2 * mu_v4;
-    const float mu_b3 = mu_u3 * mu_v3;
-    const float mu_b4 = mu_u4 * mu_v2;
-    const float mu_b5 = mu_u5 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = 0.99911106f * mu_v6 + 3.5830736f * mu_b1 + 3.511219f * mu_b2 + 1.6409106f * mu_b3 + 0.14308986f * mu_b4 + 0.13781443f * mu_b5 + 0.009083314f * mu_u6;
-    const float p_0_1 = 7.3364053f * mu_v6 + 25.526796f * mu_b1 + 27.478909f * mu_b2 + 14.07118f * mu_b3 + 0.51391673f * mu_b4 - 0.1037334f * mu_b5 - 0.03075895f * mu_u6;
-    const float p_0_2 = 15.910813f * mu_v6 + 53.26811f * mu_b1 + 57.400246f * mu_b2 + 31.553919f * mu_b3 + 0.850745f * mu_b4 - 0.07837471f * mu_b5 + 0.092419274f * mu_u6;
-    const float p_0_3 = 16.581652f * mu_v6 + 54.412758f * mu_b1 + 61.343006f * mu_b2 + 40.067627f * mu_b3 + 3.1865237f * mu_b4 + 0.77955294f * mu_b5 + 0.16284719f * mu_u6;
-    const float p_0_4 = 9.520822f * mu_v6 + 32.022415f * mu_b1 + 41.357807f * mu_b2 + 33.97313f * mu_b3 + 6.5370126f * mu_b4 + 2.158996f * mu_b5 + 0.2494692f * mu_u6;
-    const float p_0_5 = 2.5555794f * mu_v6 + 8.72921f * mu_b1 + 12.344153f * mu_b2 + 11.186243f * mu_b3 + 1.4290236f * mu_b4 + 0.6682087f * mu_b5 + 0.059133157f * mu_u6;
-    const float p_0_6 = 0.21544045f * mu_v6 + 0.8304682f * mu_b1 + 1.485053f * mu_b2 + 1.6080992f * mu_b3 + 0.18687402f * mu_b4 + 0.16089548f * mu_b5 + 0.012800126f * mu_u6;
-    const float p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
-    const float p_1_0 = 3.0133765f * mu_v6 + 10.246637f * mu_b1 + 11.964242f * mu_b2 + 4.031902f * mu_b3 + 0.5667651f * mu_b4 + 0.40871733f * mu_b5 + 0.027252587f * mu_u6;
-    const float p_1_1 = 23.594309f * mu_v6 + 79.4684f * mu_b1 + 95.17822f * mu_b2 + 36.844265f * mu_b3 + 2.6627603f * mu_b4 - 0.27492747f * mu_b5 - 0.091275f * mu_u6;
-    const float p_1_2 = 60.733124f * mu_v6 + 200.60042f * mu_b1 + 239.02328f * mu_b2 + 94.6019f * mu_b3 + 7.88334f * mu_b4 - 0.5740002f * mu_b5 + 0.2542718f * mu_u6;
-    const float p_1_3 = 73.938034f * mu_v6 + 241.99745f * mu_b1 + 290.68863f * mu_b2 + 120.69552f * mu_b3 + 17.215212f * mu_b4 + 2.0212877f * mu_b5 + 0.559987f * mu_u6;
-    const float p_1_4 = 44.80252f * mu_v6 + 147.63614f * mu_b1 + 182.5334f * mu_b2 + 81.869705f * mu_b3 + 19.978949f * mu_b4 + 5.064569f * mu_b5 + 0.5212376f * mu_u6;
-    const float p_1_5 = 11.79049f * mu_v6 + 39.718044f * mu_b1 + 50.106495f * mu_b2 + 20.683392f * mu_b3 + 5.7935963f * mu_b4 + 2.0893123f * mu_b5 + 0.106445014f * mu_u6;
-    const float p_1_6 = 1.0219826f * mu_v6 + 4.189741f * mu_b1 + 6.1750183f * mu_b2 + 2.683145f * mu_b3 + 0.96512574f * mu_b4 + 0.42543033f * mu_b5 + 0.020569032f * mu_u6;
-    const float p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
-    const float p_2_0 = 2.9989703f * mu_v6 + 10.365781f * mu_b1 + 11.535779f * mu_b2 + 4.39658f * mu_b3 + 0.51240754f * mu_b4 + 0.4093443f * mu_b5 + 0.027253876f * mu_u6;
-    const float p_2_1 = 24.544775f * mu_v6 + 83.0254f * mu_b1 + 94.198586f * mu_b2 + 38.30001f * mu_b3 + 1.9059471f * mu_b4 - 0.18346037f * mu_b5 - 0.09113118f * mu_u6;
-    const float p_2_2 = 64.453064f * mu_v6 + 212.64624f * mu_b1 + 236.64552f * mu_b2 + 95.09207f * mu_b3 + 4.4230027f * mu_b4 - 0.51122504f * mu_b5 + 0.24608816f * mu_u6;
-    const float p_2_3 = 83.10856f * mu_v6 + 275.1735f * mu_b1 + 314.2276f * mu_b2 + 142.68823f * mu_b3 + 21.350119f * mu_b4 + 3.3669212f * mu_b5 + 0.5964904f * mu_u6;
-    const float p_2_4 = 54.319157f * mu_v6 + 183.39172f * mu_b1 + 216.6291f * mu_b2 + 109.203575f * mu_b3 + 24.668367f * mu_b4 + 4.904707f * mu_b5 + 0.4239647f * mu_u6;
-    const float p_2_5 = 15.372941f * mu_v6 + 53.254864f * mu_b1 + 62.40386f * mu_b2 + 29.85835f * mu_b3 + 5.9007077f * mu_b4 + 1.258753f * mu_b5 + 0.110694535f * mu_u6;
-    const float p_2_6 = 1.3558664f * mu_v6 + 5.6547008f * mu_b1 + 7.531348f * mu_b2 + 4.1699653f * mu_b3 + 1.0646979f * mu_b4 + 0.24406828f * mu_b5 + 0.019527126f * mu_u6;
-    const float p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
-    const float p_3_0 = 0.9998972f * mu_v6 + 3.4913776f * mu_b1 + 3.7646081f * mu_b2 + 1.4848875f * mu_b3 + 0.17071457f * mu_b4 + 0.13635834f * mu_b5 + 0.009084243f * mu_u6;
-    const float p_3_1 = 8.273418f * mu_v6 + 28.158367f * mu_b1 + 31.527056f * mu_b2 + 13.267536f * mu_b3 + 0.58658826f * mu_b4 - 0.059226125f * mu_b5 - 0.030300291f * mu_u6;
-    const float p_3_2 = 22.259f * mu_v6 + 73.523834f * mu_b1 + 80.982895f * mu_b2 + 33.40059f * mu_b3 + 0.92308605f * mu_b4 - 0.15259898f * mu_b5 + 0.082056075f * mu_u6;
-    const float p_3_3 = 29.371561f * mu_v6 + 96.71207f * mu_b1 + 109.00515f * mu_b2 + 49.646748f * mu_b3 + 5.6464205f * mu_b4 + 1.2287954f * mu_b5 + 0.19809018f * mu_u6;
-    const float p_3_4 = 19.550097f * mu_v6 + 65.18849f * mu_b1 + 75.79357f * mu_b2 + 37.685776f * mu_b3 + 6.7202773f * mu_b4 + 1.8588915f * mu_b5 + 0.14441916f * mu_u6;
-    const float p_3_5 = 5.623221f * mu_v6 + 19.145782f * mu_b1 + 22.180485f * mu_b2 + 10.360787f * mu_b3 + 1.193365f * mu_b4 + 0.5353456f * mu_b5 + 0.034928195f * mu_u6;
-    const float p_3_6 = 0.49847847f * mu_v6 + 2.0481408f * mu_b1 + 2.7606864f * mu_b2 + 1.4892516f * mu_b3 + 0.20137234f * mu_b4 + 0.0978946f * mu_b5 + 0.0064303675f * mu_u6;
-    const float p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
-    const float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = 1.0f * mu_v6 + 3.5016685f * mu_b1 + 3.8918588f * mu_b2 + 1.9779538f * mu_b3 + 0.19887516f * mu_b4 + 0.13582075f * mu_b5 + 0.009085543f * mu_u6;
-    const float q_0_1 = 8.358247f * mu_v6 + 28.361902f * mu_b1 + 32.96552f * mu_b2 + 16.504745f * mu_b3 + 0.45970848f * mu_b4 - 0.019865975f * mu_b5 - 0.030433757f * mu_u6;
-    const float q_0_2 = 22.86828f * mu_v6 + 76.016266f * mu_b1 + 89.86883f * mu_b2 + 45.14867f * mu_b3 + 0.57209593f * mu_b4 - 0.026200145f * mu_b5 + 0.09517686f * mu_u6;
-    const float q_0_3 = 30.6304f * mu_v6 + 102.899704f * mu_b1 + 128.9234f * mu_b2 + 71.048874f * mu_b3 + 5.006653f * mu_b4 + 1.0596552f * mu_b5 + 0.13531218f * mu_u6;
-    const float q_0_4 = 20.88899f * mu_v6 + 72.767365f * mu_b1 + 99.814865f * mu_b2 + 63.335575f * mu_b3 + 10.771327f * mu_b4 + 3.443773f * mu_b5 + 0.33718687f * mu_u6;
-    const float q_0_5 = 6.0352545f * mu_v6 + 21.660547f * mu_b1 + 31.656385f * mu_b2 + 20.393282f * mu_b3 + 2.3029187f * mu_b4 + 1.1167142f * mu_b5 + 0.08224473f * mu_u6;
-    const float q_0_6 = 0.54209095f * mu_v6 + 2.2896085f * mu_b1 + 4.101642f * mu_b2 + 2.993885f * mu_b3 + 0.3588689f * mu_b4 + 0.25586483f * mu_b5 + 0.021133024f * mu_u6;
-    const float q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
-    const float q_1_0 = 3.0f * mu_v6 + 10.505006f * mu_b1 + 11.675576f * mu_b2 + 5.9338617f * mu_b3 + 0.59662545f * mu_b4 + 0.40746224f * mu_b5 + 0.02725663f * mu_u6;
-    const float q_1_1 = 25.074741f * mu_v6 + 85.08571f * mu_b1 + 98.89655f * mu_b2 + 49.514236f * mu_b3 + 1.3791255f * mu_b4 - 0.05959792f * mu_b5 - 0.09130127f * mu_u6;
-    const float q_1_2 = 68.60484f * mu_v6 + 228.0488f * mu_b1 + 269.60648f * mu_b2 + 135.446f * mu_b3 + 1.7162877f * mu_b4 - 0.07860044f * mu_b5 + 0.2855306f * mu_u6;
-    const float q_1_3 = 91.8912f * mu_v6 + 308.69913f * mu_b1 + 386.7702f * mu_b2 + 213.14662f * mu_b3 + 15.0199585f * mu_b4 + 3.1789658f * mu_b5 + 0.40593654f * mu_u6;
-    const float q_1_4 = 62.66697f * mu_v6 + 218.30211f * mu_b1 + 299.44458f * mu_b2 + 190.00673f * mu_b3 + 32.31398f * mu_b4 + 10.331319f * mu_b5 + 1.0115606f * mu_u6;
-    const float q_1_5 = 18.105764f * mu_v6 + 64.98164f * mu_b1 + 94.969154f * mu_b2 + 61.179844f * mu_b3 + 6.908756f * mu_b4 + 3.3501427f * mu_b5 + 0.2467342f * mu_u6;
-    const float q_1_6 = 1.6262729f * mu_v6 + 6.868826f * mu_b1 + 12.304927f * mu_b2 + 8.981655f * mu_b3 + 1.0766066f * mu_b4 + 0.76759446f * mu_b5 + 0.06339908f * mu_u6;
-    const float q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
-    const float q_2_0 = 3.0f * mu_v6 + 10.505006f * mu_b1 + 11.675576f * mu_b2 + 5.9338617f * mu_b3 + 0.59662545f * mu_b4 + 0.40746224f * mu_b5 + 0.02725663f * mu_u6;
-    const float q_2_1 = 25.074741f * mu_v6 + 85.08571f * mu_b1 + 98.89655f * mu_b2 + 49.514236f * mu_b3 + 1.3791255f * mu_b4 - 0.05959792f * mu_b5 - 0.09130127f * mu_u6;
-    const float q_2_2 = 68.60484f * mu_v6 + 228.0488f * mu_b1 + 269.60648f * mu_b2 + 135.446f * mu_b3 + 1.7162877f * mu_b4 - 0.07860044f * mu_b5 + 0.2855306f * mu_u6;
-    const float q_2_3 = 91.8912f * mu_v6 + 308.69913f * mu_b1 + 386.7702f * mu_b2 + 213.14662f * mu_b3 + 15.0199585f * mu_b4 + 3.1789658f * mu_b5 + 0.40593654f * mu_u6;
-    const float q_2_4 = 62.66697f * mu_v6 + 218.30211f * mu_b1 + 299.44458f * mu_b2 + 190.00673f * mu_b3 + 32.31398f * mu_b4 + 10.331319f * mu_b5 + 1.0115606f * mu_u6;
-    const float q_2_5 = 18.105764f * mu_v6 + 64.98164f * mu_b1 + 94.969154f * mu_b2 + 61.179844f * mu_b3 + 6.908756f * mu_b4 + 3.3501427f * mu_b5 + 0.2467342f * mu_u6;
-    const float q_2_6 = 1.6262729f * mu_v6 + 6.868826f * mu_b1 + 12.304927f * mu_b2 + 8.981655f * mu_b3 + 1.0766066f * mu_b4 + 0.76759446f * mu_b5 + 0.06339908f * mu_u6;
-    const float q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
-    const float q_3_0 = 1.0f * mu_v6 + 3.5016685f * mu_b1 + 3.8918588f * mu_b2 + 1.9779538f * mu_b3 + 0.19887516f * mu_b4 + 0.13582075f * mu_b5 + 0.009085543f * mu_u6;
-    const float q_3_1 = 8.358247f * mu_v6 + 28.361902f * mu_b1 + 32.96552f * mu_b2 + 16.504745f * mu_b3 + 0.45970848f * mu_b4 - 0.019865975f * mu_b5 - 0.030433757f * mu_u6;
-    const float q_3_2 = 22.86828f * mu_v6 + 76.016266f * mu_b1 + 89.86883f * mu_b2 + 45.14867f * mu_b3 + 0.57209593f * mu_b4 - 0.026200145f * mu_b5 + 0.09517686f * mu_u6;
-    const float q_3_3 = 30.6304f * mu_v6 + 102.899704f * mu_b1 + 128.9234f * mu_b2 + 71.048874f * mu_b3 + 5.006653f * mu_b4 + 1.0596552f * mu_b5 + 0.13531218f * mu_u6;
-    const float q_3_4 = 20.88899f * mu_v6 + 72.767365f * mu_b1 + 99.814865f * mu_b2 + 63.335575f * mu_b3 + 10.771327f * mu_b4 + 3.443773f * mu_b5 + 0.33718687f * mu_u6;
-    const float q_3_5 = 6.0352545f * mu_v6 + 21.660547f * mu_b1 + 31.656385f * mu_b2 + 20.393282f * mu_b3 + 2.3029187f * mu_b4 + 1.1167142f * mu_b5 + 0.08224473f * mu_u6;
-    const float q_3_6 = 0.54209095f * mu_v6 + 2.2896085f * mu_b1 + 4.101642f * mu_b2 + 2.993885f * mu_b3 + 0.3588689f * mu_b4 + 0.25586483f * mu_b5 + 0.021133024f * mu_u6;
-    const float q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
-    const float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    const float e = p / q;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    const float mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(fmaxf(mu_c, 5.421011e-20f)))));
+    const float mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0f + mu_c))));
+    const float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    const float mu_t = (mu_logv * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 2.0f * (r_c * r_c) + 7.888609e-31f);
+    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
+    const float mu_u = (mu_t - 3.9443045e-31f) * 1.0f;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    const float r_b5_v = 1.0f - r_t;
+    const float r_b5_u2 = r_t * r_t;
+    const float r_b5_v2 = r_b5_v * r_b5_v;
+    const float r_b5_u3 = r_b5_u2 * r_t;
+    const float r_b5_v3 = r_b5_v2 * r_b5_v;
+    const float r_b5_u4 = r_b5_u3 * r_t;
+    const float r_b5_v4 = r_b5_v3 * r_b5_v;
+    const float r_b5_u5 = r_b5_u4 * r_t;
+    const float r_b5_v5 = r_b5_v4 * r_b5_v;
+    const float r_b5_b1 = r_t * r_b5_v4;
+    const float r_b5_b2 = r_b5_u2 * r_b5_v3;
+    const float r_b5_b3 = r_b5_u3 * r_b5_v2;
+    const float r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    const float mu_b5_v = 1.0f - mu_u;
+    const float mu_b5_u2 = mu_u * mu_u;
+    const float mu_b5_v2 = mu_b5_v * mu_b5_v;
+    const float mu_b5_u3 = mu_b5_u2 * mu_u;
+    const float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    const float mu_b5_u4 = mu_b5_u3 * mu_u;
+    const float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    const float mu_b5_u5 = mu_b5_u4 * mu_u;
+    const float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    const float mu_b5_b1 = mu_u * mu_b5_v4;
+    const float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    const float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    const float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    const float p0_0_0 = 0.42251676f * mu_b5_v5 + 1.5494201f * mu_b5_b1 + 1.0676113f * mu_b5_b2 + 2.6101022f * mu_b5_b3 + 1.7058989f * mu_b5_b4 + 0.19269456f * mu_b5_u5;
+    const float p0_0_1 = 5.314443f * mu_b5_v5 + 19.894299f * mu_b5_b1 + 14.152598f * mu_b5_b2 + 11.188069f * mu_b5_b3 + 6.582242f * mu_b5_b4 + 0.7478644f * mu_b5_u5;
+    const float p0_0_2 = 24.094683f * mu_b5_v5 + 83.17202f * mu_b5_b1 + 61.6263f * mu_b5_b2 + 22.208715f * mu_b5_b3 + 10.354558f * mu_b5_b4 + 2.2567003f * mu_b5_u5;
+    const float p0_0_3 = 39.64194f * mu_b5_v5 + 137.53185f * mu_b5_b1 + 114.83151f * mu_b5_b2 + 37.044643f * mu_b5_b3 + 11.397275f * mu_b5_b4 + 2.8561425f * mu_b5_u5;
+    const float p0_0_4 = 20.720503f * mu_b5_v5 + 74.62696f * mu_b5_b1 + 59.298653f * mu_b5_b2 + 11.150789f * mu_b5_b3 - 0.10485666f * mu_b5_b4 - 0.082503036f * mu_b5_u5;
+    const float p0_0_5 = 1.4906797f * mu_b5_v5 + 7.969072f * mu_b5_b1 + 5.1020722f * mu_b5_b2 - 0.16948374f * mu_b5_b3 + 0.022893105f * mu_b5_b4 - 0.027752917f * mu_b5_u5;
+    const float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    const float p0 = p0_0 * 1.0f;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    const float f0_b4_v = 1.0f - f0_t;
+    const float f0_b4_u2 = f0_t * f0_t;
+    const float f0_b4_v2 = f0_b4_v * f0_b4_v;
+    const float f0_b4_u3 = f0_b4_u2 * f0_t;
+    const float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    const float f0_b4_u4 = f0_b4_u3 * f0_t;
+    const float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    const float f0_b4_b1 = f0_t * f0_b4_v3;
+    const float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    const float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    const float u0_0_0 = 1.0875299f * 1.0f;
+    const float u0_0 = u0_0_0 * 1.0f;
+    const float u0_1_0 = 5.0004525f * 1.0f;
+    const float u0_1 = u0_1_0 * 1.0f;
+    const float u0_2_0 = 8.383372f * 1.0f;
+    const float u0_2 = u0_2_0 * 1.0f;
+    const float u0_3_0 = 5.7883806f * 1.0f;
+    const float u0_3 = u0_3_0 * 1.0f;
+    const float u0_4_0 = 1.4767529f * 1.0f;
+    const float u0_4 = u0_4_0 * 1.0f;
+    const float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    const float r_b4_v = 1.0f - r_t;
+    const float r_b4_u2 = r_t * r_t;
+    const float r_b4_v2 = r_b4_v * r_b4_v;
+    const float r_b4_u3 = r_b4_u2 * r_t;
+    const float r_b4_v3 = r_b4_v2 * r_b4_v;
+    const float r_b4_u4 = r_b4_u3 * r_t;
+    const float r_b4_v4 = r_b4_v3 * r_b4_v;
+    const float r_b4_b1 = r_t * r_b4_v3;
+    const float r_b4_b2 = r_b4_u2 * r_b4_v2;
+    const float r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    const float mu_b4_v = 1.0f - mu_u;
+    const float mu_b4_u2 = mu_u * mu_u;
+    const float mu_b4_v2 = mu_b4_v * mu_b4_v;
+    const float mu_b4_u3 = mu_b4_u2 * mu_u;
+    const float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    const float mu_b4_u4 = mu_b4_u3 * mu_u;
+    const float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    const float mu_b4_b1 = mu_u * mu_b4_v3;
+    const float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    const float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q0_0_0 = 1.0f * mu_b4_v4 + 3.3188403f * mu_b4_b1 + 2.0115695f * mu_b4_b2 + 3.4824371f * mu_b4_b3 + 0.46005243f * mu_b4_u4;
+    const float q0_0_1 = 8.594341f * mu_b4_v4 + 22.678228f * mu_b4_b1 + 9.588259f * mu_b4_b2 + 10.247166f * mu_b4_b3 + 1.4241732f * mu_b4_u4;
+    const float q0_0_2 = 21.704052f * mu_b4_v4 + 63.29071f * mu_b4_b1 + 43.967373f * mu_b4_b2 + 26.567816f * mu_b4_b3 + 4.2091694f * mu_b4_u4;
+    const float q0_0_3 = 16.793427f * mu_b4_v4 + 56.356037f * mu_b4_b1 + 49.807987f * mu_b4_b2 + 28.578924f * mu_b4_b3 + 5.014928f * mu_b4_u4;
+    const float q0_0_4 = 1.2898176f * mu_b4_v4 + 6.8491206f * mu_b4_b1 + 5.053911f * mu_b4_b2 + 3.2002447f * mu_b4_b3 + 0.37598094f * mu_b4_u4;
+    const float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
+    const float q0 = q0_0 * 1.0f;
+    const float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    const float p1_0_0 = 0.19364321f * mu_b5_v5 + 0.27174398f * mu_b5_b1 + 0.30285886f * mu_b5_b2 + 0.1953025f * mu_b5_b3 + 0.0035222464f * mu_b5_b4 + 0.001782788f * mu_b5_u5;
+    const float p1_0_1 = 0.060958993f * mu_b5_v5 + 0.1803817f * mu_b5_b1 + 0.6950535f * mu_b5_b2 + 0.18753618f * mu_b5_b3 - 0.24552085f * mu_b5_b4 - 0.013401351f * mu_b5_u5;
+    const float p1_0_2 = -1.2268941f * mu_b5_v5 - 0.43122786f * mu_b5_b1 + 2.0460858f * mu_b5_b2 + 0.7077474f * mu_b5_b3 - 0.14919992f * mu_b5_b4 + 0.081521854f * mu_b5_u5;
+    const float p1_0_3 = -2.385682f * mu_b5_v5 - 1.0531065f * mu_b5_b1 + 2.3846886f * mu_b5_b2 + 0.7262f * mu_b5_b3 + 0.24665396f * mu_b5_b4 + 0.2606167f * mu_b5_u5;
+    const float p1_0_4 = -1.6562701f * mu_b5_v5 - 0.76595724f * mu_b5_b1 + 1.0441835f * mu_b5_b2 + 0.029546412f * mu_b5_b3 + 0.29439762f * mu_b5_b4 + 0.26274666f * mu_b5_u5;
+    const float p1_0_5 = -0.36731794f * mu_b5_v5 - 0.06531659f * mu_b5_b1 + 0.2881852f * mu_b5_b2 - 0.006340579f * mu_b5_b3 + 0.13498648f * mu_b5_b4 + 0.09631589f * mu_b5_u5;
+    const float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    const float p1 = p1_0 * 1.0f;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    const float u1_0_0 = 2.5028586f * 1.0f;
+    const float u1_0 = u1_0_0 * 1.0f;
+    const float u1_1_0 = 3.233201f * 1.0f;
+    const float u1_1 = u1_1_0 * 1.0f;
+    const float u1_2_0 = -6.19396f * 1.0f;
+    const float u1_2 = u1_2_0 * 1.0f;
+    const float u1_3_0 = -3.5859609f * 1.0f;
+    const float u1_3 = u1_3_0 * 1.0f;
+    const float u1_4_0 = -0.85438186f * 1.0f;
+    const float u1_4 = u1_4_0 * 1.0f;
+    const float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q1_0_0 = 1.0f * mu_b4_v4 + 0.6203024f * mu_b4_b1 + 1.0012269f * mu_b4_b2 + 0.01159849f * mu_b4_b3 + 0.0091587445f * mu_b4_u4;
+    const float q1_0_1 = 3.9055452f * mu_b4_v4 + 1.0516697f * mu_b4_b1 + 1.519699f * mu_b4_b2 - 1.2196487f * mu_b4_b3 - 0.07928396f * mu_b4_u4;
+    const float q1_0_2 = 6.6777315f * mu_b4_v4 + 3.0977879f * mu_b4_b1 + 3.8005097f * mu_b4_b2 - 0.3803855f * mu_b4_b3 + 0.51007044f * mu_b4_u4;
+    const float q1_0_3 = 4.8735003f * mu_b4_v4 + 2.7557795f * mu_b4_b1 + 3.3407981f * mu_b4_b2 + 0.7691898f * mu_b4_b3 + 0.8246101f * mu_b4_u4;
+    const float q1_0_4 = 1.2471166f * mu_b4_v4 + 0.67256725f * mu_b4_b1 + 0.93357295f * mu_b4_b2 + 0.5015363f * mu_b4_b3 + 0.37189898f * mu_b4_u4;
+    const float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
+    const float q1 = q1_0 * 1.0f;
+    const float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    const float p2_0_0 = -0.0041594314f * mu_b5_v5 - 0.026336052f * mu_b5_b1 + 0.008833147f * mu_b5_b2 - 0.0019305374f * mu_b5_b3 + 0.00025948f * mu_b5_b4 - 8.64582e-6f * mu_b5_u5;
+    const float p2_0_1 = 0.32895225f * mu_b5_v5 + 0.012752087f * mu_b5_b1 - 0.04803978f * mu_b5_b2 + 0.1038596f * mu_b5_b3 + 0.0015623108f * mu_b5_b4 - 0.00017906413f * mu_b5_u5;
+    const float p2_0_2 = 1.2587852f * mu_b5_v5 + 0.24749266f * mu_b5_b1 - 0.27611572f * mu_b5_b2 + 0.25120875f * mu_b5_b3 - 0.1509548f * mu_b5_b4 + 0.00092901115f * mu_b5_u5;
+    const float p2_0_3 = 1.3492767f * mu_b5_v5 - 0.6193205f * mu_b5_b1 - 1.0601232f * mu_b5_b2 + 0.2999647f * mu_b5_b3 - 0.2858476f * mu_b5_b4 - 0.009422563f * mu_b5_u5;
+    const float p2_0_4 = 0.2771794f * mu_b5_v5 - 1.7069573f * mu_b5_b1 - 1.3460883f * mu_b5_b2 + 0.4527196f * mu_b5_b3 - 0.023621466f * mu_b5_b4 - 0.004334729f * mu_b5_u5;
+    const float p2_0_5 = -0.15891136f * mu_b5_v5 - 0.94167054f * mu_b5_b1 - 0.6300844f * mu_b5_b2 + 0.17329699f * mu_b5_b3 + 0.047530234f * mu_b5_b4 - 0.0063003893f * mu_b5_u5;
+    const float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    const float p2 = p2_0 * 1.0f;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    const float u2_0_0 = 0.29027507f * 1.0f;
+    const float u2_0 = u2_0_0 * 1.0f;
+    const float u2_1_0 = 2.0832062f * 1.0f;
+    const float u2_1 = u2_1_0 * 1.0f;
+    const float u2_2_0 = 0.0673326f * 1.0f;
+    const float u2_2 = u2_2_0 * 1.0f;
+    const float u2_3_0 = -0.67637604f * 1.0f;
+    const float u2_3 = u2_3_0 * 1.0f;
+    const float u2_4_0 = -0.2728908f * 1.0f;
+    const float u2_4 = u2_4_0 * 1.0f;
+    const float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q2_0_0 = 1.0f * mu_b4_v4 - 1.1327289f * mu_b4_b1 + 2.006306f * mu_b4_b2 - 0.109121054f * mu_b4_b3 + 0.0030923337f * mu_b4_u4;
+    const float q2_0_1 = 5.1074867f * mu_b4_v4 - 7.2816806f * mu_b4_b1 + 3.2975862f * mu_b4_b2 - 1.2975976f * mu_b4_b3 + 0.020642472f * mu_b4_u4;
+    const float q2_0_2 = 11.839078f * mu_b4_v4 - 7.94809f * mu_b4_b1 + 4.818931f * mu_b4_b2 - 0.5453127f * mu_b4_b3 + 0.35607904f * mu_b4_u4;
+    const float q2_0_3 = 11.195382f * mu_b4_v4 - 2.649976f * mu_b4_b1 + 2.5284405f * mu_b4_b2 - 0.5555775f * mu_b4_b3 + 0.07561742f * mu_b4_u4;
+    const float q2_0_4 = 3.7820485f * mu_b4_v4 + 0.42219183f * mu_b4_b1 + 0.9103338f * mu_b4_b2 + 0.07428799f * mu_b4_b3 + 0.055345863f * mu_b4_u4;
+    const float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
+    const float q2 = q2_0 * 1.0f;
+    const float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    const float p3_0_0 = -0.16016702f * mu_b5_v5 - 1.1701951f * mu_b5_b1 - 2.0814555f * mu_b5_b2 - 2.0905023f * mu_b5_b3 - 1.0885553f * mu_b5_b4 - 0.3537523f * mu_b5_u5;
+    const float p3_0_1 = -0.43754447f * mu_b5_v5 - 0.6315003f * mu_b5_b1 - 2.3888981f * mu_b5_b2 - 7.102437f * mu_b5_b3 - 5.265995f * mu_b5_b4 - 1.7798588f * mu_b5_u5;
+    const float p3_0_2 = 1.7178113f * mu_b5_v5 + 9.037618f * mu_b5_b1 + 3.8819904f * mu_b5_b2 - 13.188545f * mu_b5_b3 - 9.300072f * mu_b5_b4 - 2.3920596f * mu_b5_u5;
+    const float p3_0_3 = 5.7585487f * mu_b5_v5 + 20.525227f * mu_b5_b1 + 9.9609375f * mu_b5_b2 - 15.6044035f * mu_b5_b3 - 9.681226f * mu_b5_b4 - 1.7252814f * mu_b5_u5;
+    const float p3_0_4 = 4.274226f * mu_b5_v5 + 13.439737f * mu_b5_b1 + 5.237173f * mu_b5_b2 - 9.735561f * mu_b5_b3 - 5.2733855f * mu_b5_b4 - 0.8875207f * mu_b5_u5;
+    const float p3_0_5 = 0.5728186f * mu_b5_v5 + 1.7231934f * mu_b5_b1 + 0.08518965f * mu_b5_b2 - 1.6882476f * mu_b5_b3 - 0.40503103f * mu_b5_b4 - 0.06624026f * mu_b5_u5;
+    const float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    const float p3 = p3_0 * 1.0f;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    const float u3_0_0 = -0.35957968f * 1.0f;
+    const float u3_0 = u3_0_0 * 1.0f;
+    const float u3_1_0 = -7.916403f * 1.0f;
+    const float u3_1 = u3_1_0 * 1.0f;
+    const float u3_2_0 = -22.812872f * 1.0f;
+    const float u3_2 = u3_2_0 * 1.0f;
+    const float u3_3_0 = -14.021359f * 1.0f;
+    const float u3_3 = u3_3_0 * 1.0f;
+    const float u3_4_0 = -3.3763933f * 1.0f;
+    const float u3_4 = u3_4_0 * 1.0f;
+    const float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    const float q3_0_0 = 1.0f * mu_b4_v4 + 6.393725f * mu_b4_b1 + 7.3105783f * mu_b4_b2 + 5.4180493f * mu_b4_b3 + 2.1836126f * mu_b4_u4;
+    const float q3_0_1 = 6.613993f * mu_b4_v4 + 29.11735f * mu_b4_b1 + 30.27681f * mu_b4_b2 + 21.341589f * mu_b4_b3 + 8.297803f * mu_b4_u4;
+    const float q3_0_2 = 15.138117f * mu_b4_v4 + 53.489273f * mu_b4_b1 + 49.69633f * mu_b4_b2 + 28.661047f * mu_b4_b3 + 9.410372f * mu_b4_u4;
+    const float q3_0_3 = 12.7331f * mu_b4_v4 + 42.47134f * mu_b4_b1 + 39.821304f * mu_b4_b2 + 20.388586f * mu_b4_b3 + 5.0351896f * mu_b4_u4;
+    const float q3_0_4 = 1.8405087f * mu_b4_v4 + 6.231821f * mu_b4_b1 + 4.880395f * mu_b4_b2 + 2.1772063f * mu_b4_b3 + 0.37054035f * mu_b4_u4;
+    const float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
+    const float q3 = q3_0 * 1.0f;
+    const float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    const float e = e0 + e1 + e2 + e3;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }
 

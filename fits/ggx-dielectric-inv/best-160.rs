@@ -12,17 +12,17 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 7cd5b1b50df62f9eb11e7af840ab2194a9a8c4dab90bba806fb1b85511a3972f.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 4a9d606b2259ad3bcff4977616b9ff00b9e1b98a998577794ed3c92b51e97cfc.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.4e-4, shifted 3.2e-5, bernstein 1.6e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 8.38e-4, max 9.11e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.33e-7 (every op rounded, as this Rust), 4.68e-7 (fused multiply-add), 1.90e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 4.04e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 8.37e-4, max 9.11e-3; this f32 code MAE 8.37e-4, max 9.11e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
-/// Denominator proved >= 2.798e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 1.5e-5, bernstein 2.8e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 5.32e-4, max 5.67e-3 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.72e-7 (every op rounded, as this Rust), 6.37e-7 (fused multiply-add), 3.85e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.30e-4, max 5.67e-3; this f32 code MAE 5.30e-4, max 5.67e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
+/// Denominator proved >= 4.031e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -39,121 +39,197 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    let f0_v = 1.0_f32 - f0_t;
-    let f0_u2 = f0_t * f0_t;
-    let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_t;
-    let f0_v3 = f0_v2 * f0_v;
-    let f0_b1 = f0_t * f0_v2;
-    let f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
-    let r_v = 1.0_f32 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_t;
-    let r_v4 = r_v3 * r_v;
-    let r_u5 = r_u4 * r_t;
-    let r_v5 = r_v4 * r_v;
-    let r_u6 = r_u5 * r_t;
-    let r_v6 = r_v5 * r_v;
-    let r_b1 = r_t * r_v5;
-    let r_b2 = r_u2 * r_v4;
-    let r_b3 = r_u3 * r_v3;
-    let r_b4 = r_u4 * r_v2;
-    let r_b5 = r_u5 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
-    let mu_v = 1.0_f32 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_u6 = mu_u5 * mu_u;
-    let mu_v6 = mu_v5 * mu_v;
-    let mu_b1 = mu_u * mu_v5;
-    let mu_b2 = mu_u2 * mu_v4;
-    let mu_b3 = mu_u3 * mu_v3;
-    let mu_b4 = mu_u4 * mu_v2;
-    let mu_b5 = mu_u5 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.99911106_f32 * mu_v6 + 3.5830736_f32 * mu_b1 + 3.511219_f32 * mu_b2 + 1.6409106_f32 * mu_b3 + 0.14308986_f32 * mu_b4 + 0.13781443_f32 * mu_b5 + 0.009083314_f32 * mu_u6;
-    let p_0_1 = 7.3364053_f32 * mu_v6 + 25.526796_f32 * mu_b1 + 27.478909_f32 * mu_b2 + 14.07118_f32 * mu_b3 + 0.51391673_f32 * mu_b4 - 0.1037334_f32 * mu_b5 - 0.03075895_f32 * mu_u6;
-    let p_0_2 = 15.910813_f32 * mu_v6 + 53.26811_f32 * mu_b1 + 57.400246_f32 * mu_b2 + 31.553919_f32 * mu_b3 + 0.850745_f32 * mu_b4 - 0.07837471_f32 * mu_b5 + 0.092419274_f32 * mu_u6;
-    let p_0_3 = 16.581652_f32 * mu_v6 + 54.412758_f32 * mu_b1 + 61.343006_f32 * mu_b2 + 40.067627_f32 * mu_b3 + 3.1865237_f32 * mu_b4 + 0.77955294_f32 * mu_b5 + 0.16284719_f32 * mu_u6;
-    let p_0_4 = 9.520822_f32 * mu_v6 + 32.022415_f32 * mu_b1 + 41.357807_f32 * mu_b2 + 33.97313_f32 * mu_b3 + 6.5370126_f32 * mu_b4 + 2.158996_f32 * mu_b5 + 0.2494692_f32 * mu_u6;
-    let p_0_5 = 2.5555794_f32 * mu_v6 + 8.72921_f32 * mu_b1 + 12.344153_f32 * mu_b2 + 11.186243_f32 * mu_b3 + 1.4290236_f32 * mu_b4 + 0.6682087_f32 * mu_b5 + 0.059133157_f32 * mu_u6;
-    let p_0_6 = 0.21544045_f32 * mu_v6 + 0.8304682_f32 * mu_b1 + 1.485053_f32 * mu_b2 + 1.6080992_f32 * mu_b3 + 0.18687402_f32 * mu_b4 + 0.16089548_f32 * mu_b5 + 0.012800126_f32 * mu_u6;
-    let p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
-    let p_1_0 = 3.0133765_f32 * mu_v6 + 10.246637_f32 * mu_b1 + 11.964242_f32 * mu_b2 + 4.031902_f32 * mu_b3 + 0.5667651_f32 * mu_b4 + 0.40871733_f32 * mu_b5 + 0.027252587_f32 * mu_u6;
-    let p_1_1 = 23.594309_f32 * mu_v6 + 79.4684_f32 * mu_b1 + 95.17822_f32 * mu_b2 + 36.844265_f32 * mu_b3 + 2.6627603_f32 * mu_b4 - 0.27492747_f32 * mu_b5 - 0.091275_f32 * mu_u6;
-    let p_1_2 = 60.733124_f32 * mu_v6 + 200.60042_f32 * mu_b1 + 239.02328_f32 * mu_b2 + 94.6019_f32 * mu_b3 + 7.88334_f32 * mu_b4 - 0.5740002_f32 * mu_b5 + 0.2542718_f32 * mu_u6;
-    let p_1_3 = 73.938034_f32 * mu_v6 + 241.99745_f32 * mu_b1 + 290.68863_f32 * mu_b2 + 120.69552_f32 * mu_b3 + 17.215212_f32 * mu_b4 + 2.0212877_f32 * mu_b5 + 0.559987_f32 * mu_u6;
-    let p_1_4 = 44.80252_f32 * mu_v6 + 147.63614_f32 * mu_b1 + 182.5334_f32 * mu_b2 + 81.869705_f32 * mu_b3 + 19.978949_f32 * mu_b4 + 5.064569_f32 * mu_b5 + 0.5212376_f32 * mu_u6;
-    let p_1_5 = 11.79049_f32 * mu_v6 + 39.718044_f32 * mu_b1 + 50.106495_f32 * mu_b2 + 20.683392_f32 * mu_b3 + 5.7935963_f32 * mu_b4 + 2.0893123_f32 * mu_b5 + 0.106445014_f32 * mu_u6;
-    let p_1_6 = 1.0219826_f32 * mu_v6 + 4.189741_f32 * mu_b1 + 6.1750183_f32 * mu_b2 + 2.683145_f32 * mu_b3 + 0.96512574_f32 * mu_b4 + 0.42543033_f32 * mu_b5 + 0.020569032_f32 * mu_u6;
-    let p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
-    let p_2_0 = 2.9989703_f32 * mu_v6 + 10.365781_f32 * mu_b1 + 11.535779_f32 * mu_b2 + 4.39658_f32 * mu_b3 + 0.51240754_f32 * mu_b4 + 0.4093443_f32 * mu_b5 + 0.027253876_f32 * mu_u6;
-    let p_2_1 = 24.544775_f32 * mu_v6 + 83.0254_f32 * mu_b1 + 94.198586_f32 * mu_b2 + 38.30001_f32 * mu_b3 + 1.9059471_f32 * mu_b4 - 0.18346037_f32 * mu_b5 - 0.09113118_f32 * mu_u6;
-    let p_2_2 = 64.453064_f32 * mu_v6 + 212.64624_f32 * mu_b1 + 236.64552_f32 * mu_b2 + 95.09207_f32 * mu_b3 + 4.4230027_f32 * mu_b4 - 0.51122504_f32 * mu_b5 + 0.24608816_f32 * mu_u6;
-    let p_2_3 = 83.10856_f32 * mu_v6 + 275.1735_f32 * mu_b1 + 314.2276_f32 * mu_b2 + 142.68823_f32 * mu_b3 + 21.350119_f32 * mu_b4 + 3.3669212_f32 * mu_b5 + 0.5964904_f32 * mu_u6;
-    let p_2_4 = 54.319157_f32 * mu_v6 + 183.39172_f32 * mu_b1 + 216.6291_f32 * mu_b2 + 109.203575_f32 * mu_b3 + 24.668367_f32 * mu_b4 + 4.904707_f32 * mu_b5 + 0.4239647_f32 * mu_u6;
-    let p_2_5 = 15.372941_f32 * mu_v6 + 53.254864_f32 * mu_b1 + 62.40386_f32 * mu_b2 + 29.85835_f32 * mu_b3 + 5.9007077_f32 * mu_b4 + 1.258753_f32 * mu_b5 + 0.110694535_f32 * mu_u6;
-    let p_2_6 = 1.3558664_f32 * mu_v6 + 5.6547008_f32 * mu_b1 + 7.531348_f32 * mu_b2 + 4.1699653_f32 * mu_b3 + 1.0646979_f32 * mu_b4 + 0.24406828_f32 * mu_b5 + 0.019527126_f32 * mu_u6;
-    let p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
-    let p_3_0 = 0.9998972_f32 * mu_v6 + 3.4913776_f32 * mu_b1 + 3.7646081_f32 * mu_b2 + 1.4848875_f32 * mu_b3 + 0.17071457_f32 * mu_b4 + 0.13635834_f32 * mu_b5 + 0.009084243_f32 * mu_u6;
-    let p_3_1 = 8.273418_f32 * mu_v6 + 28.158367_f32 * mu_b1 + 31.527056_f32 * mu_b2 + 13.267536_f32 * mu_b3 + 0.58658826_f32 * mu_b4 - 0.059226125_f32 * mu_b5 - 0.030300291_f32 * mu_u6;
-    let p_3_2 = 22.259_f32 * mu_v6 + 73.523834_f32 * mu_b1 + 80.982895_f32 * mu_b2 + 33.40059_f32 * mu_b3 + 0.92308605_f32 * mu_b4 - 0.15259898_f32 * mu_b5 + 0.082056075_f32 * mu_u6;
-    let p_3_3 = 29.371561_f32 * mu_v6 + 96.71207_f32 * mu_b1 + 109.00515_f32 * mu_b2 + 49.646748_f32 * mu_b3 + 5.6464205_f32 * mu_b4 + 1.2287954_f32 * mu_b5 + 0.19809018_f32 * mu_u6;
-    let p_3_4 = 19.550097_f32 * mu_v6 + 65.18849_f32 * mu_b1 + 75.79357_f32 * mu_b2 + 37.685776_f32 * mu_b3 + 6.7202773_f32 * mu_b4 + 1.8588915_f32 * mu_b5 + 0.14441916_f32 * mu_u6;
-    let p_3_5 = 5.623221_f32 * mu_v6 + 19.145782_f32 * mu_b1 + 22.180485_f32 * mu_b2 + 10.360787_f32 * mu_b3 + 1.193365_f32 * mu_b4 + 0.5353456_f32 * mu_b5 + 0.034928195_f32 * mu_u6;
-    let p_3_6 = 0.49847847_f32 * mu_v6 + 2.0481408_f32 * mu_b1 + 2.7606864_f32 * mu_b2 + 1.4892516_f32 * mu_b3 + 0.20137234_f32 * mu_b4 + 0.0978946_f32 * mu_b5 + 0.0064303675_f32 * mu_u6;
-    let p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
-    let p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0_f32 * mu_v6 + 3.5016685_f32 * mu_b1 + 3.8918588_f32 * mu_b2 + 1.9779538_f32 * mu_b3 + 0.19887516_f32 * mu_b4 + 0.13582075_f32 * mu_b5 + 0.009085543_f32 * mu_u6;
-    let q_0_1 = 8.358247_f32 * mu_v6 + 28.361902_f32 * mu_b1 + 32.96552_f32 * mu_b2 + 16.504745_f32 * mu_b3 + 0.45970848_f32 * mu_b4 - 0.019865975_f32 * mu_b5 - 0.030433757_f32 * mu_u6;
-    let q_0_2 = 22.86828_f32 * mu_v6 + 76.016266_f32 * mu_b1 + 89.86883_f32 * mu_b2 + 45.14867_f32 * mu_b3 + 0.57209593_f32 * mu_b4 - 0.026200145_f32 * mu_b5 + 0.09517686_f32 * mu_u6;
-    let q_0_3 = 30.6304_f32 * mu_v6 + 102.899704_f32 * mu_b1 + 128.9234_f32 * mu_b2 + 71.048874_f32 * mu_b3 + 5.006653_f32 * mu_b4 + 1.0596552_f32 * mu_b5 + 0.13531218_f32 * mu_u6;
-    let q_0_4 = 20.88899_f32 * mu_v6 + 72.767365_f32 * mu_b1 + 99.814865_f32 * mu_b2 + 63.335575_f32 * mu_b3 + 10.771327_f32 * mu_b4 + 3.443773_f32 * mu_b5 + 0.33718687_f32 * mu_u6;
-    let q_0_5 = 6.0352545_f32 * mu_v6 + 21.660547_f32 * mu_b1 + 31.656385_f32 * mu_b2 + 20.393282_f32 * mu_b3 + 2.3029187_f32 * mu_b4 + 1.1167142_f32 * mu_b5 + 0.08224473_f32 * mu_u6;
-    let q_0_6 = 0.54209095_f32 * mu_v6 + 2.2896085_f32 * mu_b1 + 4.101642_f32 * mu_b2 + 2.993885_f32 * mu_b3 + 0.3588689_f32 * mu_b4 + 0.25586483_f32 * mu_b5 + 0.021133024_f32 * mu_u6;
-    let q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
-    let q_1_0 = 3.0_f32 * mu_v6 + 10.505006_f32 * mu_b1 + 11.675576_f32 * mu_b2 + 5.9338617_f32 * mu_b3 + 0.59662545_f32 * mu_b4 + 0.40746224_f32 * mu_b5 + 0.02725663_f32 * mu_u6;
-    let q_1_1 = 25.074741_f32 * mu_v6 + 85.08571_f32 * mu_b1 + 98.89655_f32 * mu_b2 + 49.514236_f32 * mu_b3 + 1.3791255_f32 * mu_b4 - 0.05959792_f32 * mu_b5 - 0.09130127_f32 * mu_u6;
-    let q_1_2 = 68.60484_f32 * mu_v6 + 228.0488_f32 * mu_b1 + 269.60648_f32 * mu_b2 + 135.446_f32 * mu_b3 + 1.7162877_f32 * mu_b4 - 0.07860044_f32 * mu_b5 + 0.2855306_f32 * mu_u6;
-    let q_1_3 = 91.8912_f32 * mu_v6 + 308.69913_f32 * mu_b1 + 386.7702_f32 * mu_b2 + 213.14662_f32 * mu_b3 + 15.0199585_f32 * mu_b4 + 3.1789658_f32 * mu_b5 + 0.40593654_f32 * mu_u6;
-    let q_1_4 = 62.66697_f32 * mu_v6 + 218.30211_f32 * mu_b1 + 299.44458_f32 * mu_b2 + 190.00673_f32 * mu_b3 + 32.31398_f32 * mu_b4 + 10.331319_f32 * mu_b5 + 1.0115606_f32 * mu_u6;
-    let q_1_5 = 18.105764_f32 * mu_v6 + 64.98164_f32 * mu_b1 + 94.969154_f32 * mu_b2 + 61.179844_f32 * mu_b3 + 6.908756_f32 * mu_b4 + 3.3501427_f32 * mu_b5 + 0.2467342_f32 * mu_u6;
-    let q_1_6 = 1.6262729_f32 * mu_v6 + 6.868826_f32 * mu_b1 + 12.304927_f32 * mu_b2 + 8.981655_f32 * mu_b3 + 1.0766066_f32 * mu_b4 + 0.76759446_f32 * mu_b5 + 0.06339908_f32 * mu_u6;
-    let q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
-    let q_2_0 = 3.0_f32 * mu_v6 + 10.505006_f32 * mu_b1 + 11.675576_f32 * mu_b2 + 5.9338617_f32 * mu_b3 + 0.59662545_f32 * mu_b4 + 0.40746224_f32 * mu_b5 + 0.02725663_f32 * mu_u6;
-    let q_2_1 = 25.074741_f32 * mu_v6 + 85.08571_f32 * mu_b1 + 98.89655_f32 * mu_b2 + 49.514236_f32 * mu_b3 + 1.3791255_f32 * mu_b4 - 0.05959792_f32 * mu_b5 - 0.09130127_f32 * mu_u6;
-    let q_2_2 = 68.60484_f32 * mu_v6 + 228.0488_f32 * mu_b1 + 269.60648_f32 * mu_b2 + 135.446_f32 * mu_b3 + 1.7162877_f32 * mu_b4 - 0.07860044_f32 * mu_b5 + 0.2855306_f32 * mu_u6;
-    let q_2_3 = 91.8912_f32 * mu_v6 + 308.69913_f32 * mu_b1 + 386.7702_f32 * mu_b2 + 213.14662_f32 * mu_b3 + 15.0199585_f32 * mu_b4 + 3.1789658_f32 * mu_b5 + 0.40593654_f32 * mu_u6;
-    let q_2_4 = 62.66697_f32 * mu_v6 + 218.30211_f32 * mu_b1 + 299.44458_f32 * mu_b2 + 190.00673_f32 * mu_b3 + 32.31398_f32 * mu_b4 + 10.331319_f32 * mu_b5 + 1.0115606_f32 * mu_u6;
-    let q_2_5 = 18.105764_f32 * mu_v6 + 64.98164_f32 * mu_b1 + 94.969154_f32 * mu_b2 + 61.179844_f32 * mu_b3 + 6.908756_f32 * mu_b4 + 3.3501427_f32 * mu_b5 + 0.2467342_f32 * mu_u6;
-    let q_2_6 = 1.6262729_f32 * mu_v6 + 6.868826_f32 * mu_b1 + 12.304927_f32 * mu_b2 + 8.981655_f32 * mu_b3 + 1.0766066_f32 * mu_b4 + 0.76759446_f32 * mu_b5 + 0.06339908_f32 * mu_u6;
-    let q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
-    let q_3_0 = 1.0_f32 * mu_v6 + 3.5016685_f32 * mu_b1 + 3.8918588_f32 * mu_b2 + 1.9779538_f32 * mu_b3 + 0.19887516_f32 * mu_b4 + 0.13582075_f32 * mu_b5 + 0.009085543_f32 * mu_u6;
-    let q_3_1 = 8.358247_f32 * mu_v6 + 28.361902_f32 * mu_b1 + 32.96552_f32 * mu_b2 + 16.504745_f32 * mu_b3 + 0.45970848_f32 * mu_b4 - 0.019865975_f32 * mu_b5 - 0.030433757_f32 * mu_u6;
-    let q_3_2 = 22.86828_f32 * mu_v6 + 76.016266_f32 * mu_b1 + 89.86883_f32 * mu_b2 + 45.14867_f32 * mu_b3 + 0.57209593_f32 * mu_b4 - 0.026200145_f32 * mu_b5 + 0.09517686_f32 * mu_u6;
-    let q_3_3 = 30.6304_f32 * mu_v6 + 102.899704_f32 * mu_b1 + 128.9234_f32 * mu_b2 + 71.048874_f32 * mu_b3 + 5.006653_f32 * mu_b4 + 1.0596552_f32 * mu_b5 + 0.13531218_f32 * mu_u6;
-    let q_3_4 = 20.88899_f32 * mu_v6 + 72.767365_f32 * mu_b1 + 99.814865_f32 * mu_b2 + 63.335575_f32 * mu_b3 + 10.771327_f32 * mu_b4 + 3.443773_f32 * mu_b5 + 0.33718687_f32 * mu_u6;
-    let q_3_5 = 6.0352545_f32 * mu_v6 + 21.660547_f32 * mu_b1 + 31.656385_f32 * mu_b2 + 20.393282_f32 * mu_b3 + 2.3029187_f32 * mu_b4 + 1.1167142_f32 * mu_b5 + 0.08224473_f32 * mu_u6;
-    let q_3_6 = 0.54209095_f32 * mu_v6 + 2.2896085_f32 * mu_b1 + 4.101642_f32 * mu_b2 + 2.993885_f32 * mu_b3 + 0.3588689_f32 * mu_b4 + 0.25586483_f32 * mu_b5 + 0.021133024_f32 * mu_u6;
-    let q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
-    let q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    let e = p / q;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
+    let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
+    let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 2.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 2.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
+    let mu_u = (mu_t - 3.9443045e-31_f32) * 1.0_f32;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    let r_b5_v = 1.0_f32 - r_t;
+    let r_b5_u2 = r_t * r_t;
+    let r_b5_v2 = r_b5_v * r_b5_v;
+    let r_b5_u3 = r_b5_u2 * r_t;
+    let r_b5_v3 = r_b5_v2 * r_b5_v;
+    let r_b5_u4 = r_b5_u3 * r_t;
+    let r_b5_v4 = r_b5_v3 * r_b5_v;
+    let r_b5_u5 = r_b5_u4 * r_t;
+    let r_b5_v5 = r_b5_v4 * r_b5_v;
+    let r_b5_b1 = r_t * r_b5_v4;
+    let r_b5_b2 = r_b5_u2 * r_b5_v3;
+    let r_b5_b3 = r_b5_u3 * r_b5_v2;
+    let r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    let mu_b5_v = 1.0_f32 - mu_u;
+    let mu_b5_u2 = mu_u * mu_u;
+    let mu_b5_v2 = mu_b5_v * mu_b5_v;
+    let mu_b5_u3 = mu_b5_u2 * mu_u;
+    let mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    let mu_b5_u4 = mu_b5_u3 * mu_u;
+    let mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    let mu_b5_u5 = mu_b5_u4 * mu_u;
+    let mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    let mu_b5_b1 = mu_u * mu_b5_v4;
+    let mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    let p0_0_0 = 0.42251676_f32 * mu_b5_v5 + 1.5494201_f32 * mu_b5_b1 + 1.0676113_f32 * mu_b5_b2 + 2.6101022_f32 * mu_b5_b3 + 1.7058989_f32 * mu_b5_b4 + 0.19269456_f32 * mu_b5_u5;
+    let p0_0_1 = 5.314443_f32 * mu_b5_v5 + 19.894299_f32 * mu_b5_b1 + 14.152598_f32 * mu_b5_b2 + 11.188069_f32 * mu_b5_b3 + 6.582242_f32 * mu_b5_b4 + 0.7478644_f32 * mu_b5_u5;
+    let p0_0_2 = 24.094683_f32 * mu_b5_v5 + 83.17202_f32 * mu_b5_b1 + 61.6263_f32 * mu_b5_b2 + 22.208715_f32 * mu_b5_b3 + 10.354558_f32 * mu_b5_b4 + 2.2567003_f32 * mu_b5_u5;
+    let p0_0_3 = 39.64194_f32 * mu_b5_v5 + 137.53185_f32 * mu_b5_b1 + 114.83151_f32 * mu_b5_b2 + 37.044643_f32 * mu_b5_b3 + 11.397275_f32 * mu_b5_b4 + 2.8561425_f32 * mu_b5_u5;
+    let p0_0_4 = 20.720503_f32 * mu_b5_v5 + 74.62696_f32 * mu_b5_b1 + 59.298653_f32 * mu_b5_b2 + 11.150789_f32 * mu_b5_b3 - 0.10485666_f32 * mu_b5_b4 - 0.082503036_f32 * mu_b5_u5;
+    let p0_0_5 = 1.4906797_f32 * mu_b5_v5 + 7.969072_f32 * mu_b5_b1 + 5.1020722_f32 * mu_b5_b2 - 0.16948374_f32 * mu_b5_b3 + 0.022893105_f32 * mu_b5_b4 - 0.027752917_f32 * mu_b5_u5;
+    let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    let p0 = p0_0 * 1.0_f32;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    let f0_b4_v = 1.0_f32 - f0_t;
+    let f0_b4_u2 = f0_t * f0_t;
+    let f0_b4_v2 = f0_b4_v * f0_b4_v;
+    let f0_b4_u3 = f0_b4_u2 * f0_t;
+    let f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    let f0_b4_u4 = f0_b4_u3 * f0_t;
+    let f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    let f0_b4_b1 = f0_t * f0_b4_v3;
+    let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    let u0_0_0 = 1.0875299_f32 * 1.0_f32;
+    let u0_0 = u0_0_0 * 1.0_f32;
+    let u0_1_0 = 5.0004525_f32 * 1.0_f32;
+    let u0_1 = u0_1_0 * 1.0_f32;
+    let u0_2_0 = 8.383372_f32 * 1.0_f32;
+    let u0_2 = u0_2_0 * 1.0_f32;
+    let u0_3_0 = 5.7883806_f32 * 1.0_f32;
+    let u0_3 = u0_3_0 * 1.0_f32;
+    let u0_4_0 = 1.4767529_f32 * 1.0_f32;
+    let u0_4 = u0_4_0 * 1.0_f32;
+    let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    let r_b4_v = 1.0_f32 - r_t;
+    let r_b4_u2 = r_t * r_t;
+    let r_b4_v2 = r_b4_v * r_b4_v;
+    let r_b4_u3 = r_b4_u2 * r_t;
+    let r_b4_v3 = r_b4_v2 * r_b4_v;
+    let r_b4_u4 = r_b4_u3 * r_t;
+    let r_b4_v4 = r_b4_v3 * r_b4_v;
+    let r_b4_b1 = r_t * r_b4_v3;
+    let r_b4_b2 = r_b4_u2 * r_b4_v2;
+    let r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    let mu_b4_v = 1.0_f32 - mu_u;
+    let mu_b4_u2 = mu_u * mu_u;
+    let mu_b4_v2 = mu_b4_v * mu_b4_v;
+    let mu_b4_u3 = mu_b4_u2 * mu_u;
+    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    let mu_b4_u4 = mu_b4_u3 * mu_u;
+    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    let mu_b4_b1 = mu_u * mu_b4_v3;
+    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 3.3188403_f32 * mu_b4_b1 + 2.0115695_f32 * mu_b4_b2 + 3.4824371_f32 * mu_b4_b3 + 0.46005243_f32 * mu_b4_u4;
+    let q0_0_1 = 8.594341_f32 * mu_b4_v4 + 22.678228_f32 * mu_b4_b1 + 9.588259_f32 * mu_b4_b2 + 10.247166_f32 * mu_b4_b3 + 1.4241732_f32 * mu_b4_u4;
+    let q0_0_2 = 21.704052_f32 * mu_b4_v4 + 63.29071_f32 * mu_b4_b1 + 43.967373_f32 * mu_b4_b2 + 26.567816_f32 * mu_b4_b3 + 4.2091694_f32 * mu_b4_u4;
+    let q0_0_3 = 16.793427_f32 * mu_b4_v4 + 56.356037_f32 * mu_b4_b1 + 49.807987_f32 * mu_b4_b2 + 28.578924_f32 * mu_b4_b3 + 5.014928_f32 * mu_b4_u4;
+    let q0_0_4 = 1.2898176_f32 * mu_b4_v4 + 6.8491206_f32 * mu_b4_b1 + 5.053911_f32 * mu_b4_b2 + 3.2002447_f32 * mu_b4_b3 + 0.37598094_f32 * mu_b4_u4;
+    let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
+    let q0 = q0_0 * 1.0_f32;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    let p1_0_0 = 0.19364321_f32 * mu_b5_v5 + 0.27174398_f32 * mu_b5_b1 + 0.30285886_f32 * mu_b5_b2 + 0.1953025_f32 * mu_b5_b3 + 0.0035222464_f32 * mu_b5_b4 + 0.001782788_f32 * mu_b5_u5;
+    let p1_0_1 = 0.060958993_f32 * mu_b5_v5 + 0.1803817_f32 * mu_b5_b1 + 0.6950535_f32 * mu_b5_b2 + 0.18753618_f32 * mu_b5_b3 - 0.24552085_f32 * mu_b5_b4 - 0.013401351_f32 * mu_b5_u5;
+    let p1_0_2 = -1.2268941_f32 * mu_b5_v5 - 0.43122786_f32 * mu_b5_b1 + 2.0460858_f32 * mu_b5_b2 + 0.7077474_f32 * mu_b5_b3 - 0.14919992_f32 * mu_b5_b4 + 0.081521854_f32 * mu_b5_u5;
+    let p1_0_3 = -2.385682_f32 * mu_b5_v5 - 1.0531065_f32 * mu_b5_b1 + 2.3846886_f32 * mu_b5_b2 + 0.7262_f32 * mu_b5_b3 + 0.24665396_f32 * mu_b5_b4 + 0.2606167_f32 * mu_b5_u5;
+    let p1_0_4 = -1.6562701_f32 * mu_b5_v5 - 0.76595724_f32 * mu_b5_b1 + 1.0441835_f32 * mu_b5_b2 + 0.029546412_f32 * mu_b5_b3 + 0.29439762_f32 * mu_b5_b4 + 0.26274666_f32 * mu_b5_u5;
+    let p1_0_5 = -0.36731794_f32 * mu_b5_v5 - 0.06531659_f32 * mu_b5_b1 + 0.2881852_f32 * mu_b5_b2 - 0.006340579_f32 * mu_b5_b3 + 0.13498648_f32 * mu_b5_b4 + 0.09631589_f32 * mu_b5_u5;
+    let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    let p1 = p1_0 * 1.0_f32;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    let u1_0_0 = 2.5028586_f32 * 1.0_f32;
+    let u1_0 = u1_0_0 * 1.0_f32;
+    let u1_1_0 = 3.233201_f32 * 1.0_f32;
+    let u1_1 = u1_1_0 * 1.0_f32;
+    let u1_2_0 = -6.19396_f32 * 1.0_f32;
+    let u1_2 = u1_2_0 * 1.0_f32;
+    let u1_3_0 = -3.5859609_f32 * 1.0_f32;
+    let u1_3 = u1_3_0 * 1.0_f32;
+    let u1_4_0 = -0.85438186_f32 * 1.0_f32;
+    let u1_4 = u1_4_0 * 1.0_f32;
+    let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 0.6203024_f32 * mu_b4_b1 + 1.0012269_f32 * mu_b4_b2 + 0.01159849_f32 * mu_b4_b3 + 0.0091587445_f32 * mu_b4_u4;
+    let q1_0_1 = 3.9055452_f32 * mu_b4_v4 + 1.0516697_f32 * mu_b4_b1 + 1.519699_f32 * mu_b4_b2 - 1.2196487_f32 * mu_b4_b3 - 0.07928396_f32 * mu_b4_u4;
+    let q1_0_2 = 6.6777315_f32 * mu_b4_v4 + 3.0977879_f32 * mu_b4_b1 + 3.8005097_f32 * mu_b4_b2 - 0.3803855_f32 * mu_b4_b3 + 0.51007044_f32 * mu_b4_u4;
+    let q1_0_3 = 4.8735003_f32 * mu_b4_v4 + 2.7557795_f32 * mu_b4_b1 + 3.3407981_f32 * mu_b4_b2 + 0.7691898_f32 * mu_b4_b3 + 0.8246101_f32 * mu_b4_u4;
+    let q1_0_4 = 1.2471166_f32 * mu_b4_v4 + 0.67256725_f32 * mu_b4_b1 + 0.93357295_f32 * mu_b4_b2 + 0.5015363_f32 * mu_b4_b3 + 0.37189898_f32 * mu_b4_u4;
+    let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
+    let q1 = q1_0 * 1.0_f32;
+    let e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    let p2_0_0 = -0.0041594314_f32 * mu_b5_v5 - 0.026336052_f32 * mu_b5_b1 + 0.008833147_f32 * mu_b5_b2 - 0.0019305374_f32 * mu_b5_b3 + 0.00025948_f32 * mu_b5_b4 - 8.64582e-6_f32 * mu_b5_u5;
+    let p2_0_1 = 0.32895225_f32 * mu_b5_v5 + 0.012752087_f32 * mu_b5_b1 - 0.04803978_f32 * mu_b5_b2 + 0.1038596_f32 * mu_b5_b3 + 0.0015623108_f32 * mu_b5_b4 - 0.00017906413_f32 * mu_b5_u5;
+    let p2_0_2 = 1.2587852_f32 * mu_b5_v5 + 0.24749266_f32 * mu_b5_b1 - 0.27611572_f32 * mu_b5_b2 + 0.25120875_f32 * mu_b5_b3 - 0.1509548_f32 * mu_b5_b4 + 0.00092901115_f32 * mu_b5_u5;
+    let p2_0_3 = 1.3492767_f32 * mu_b5_v5 - 0.6193205_f32 * mu_b5_b1 - 1.0601232_f32 * mu_b5_b2 + 0.2999647_f32 * mu_b5_b3 - 0.2858476_f32 * mu_b5_b4 - 0.009422563_f32 * mu_b5_u5;
+    let p2_0_4 = 0.2771794_f32 * mu_b5_v5 - 1.7069573_f32 * mu_b5_b1 - 1.3460883_f32 * mu_b5_b2 + 0.4527196_f32 * mu_b5_b3 - 0.023621466_f32 * mu_b5_b4 - 0.004334729_f32 * mu_b5_u5;
+    let p2_0_5 = -0.15891136_f32 * mu_b5_v5 - 0.94167054_f32 * mu_b5_b1 - 0.6300844_f32 * mu_b5_b2 + 0.17329699_f32 * mu_b5_b3 + 0.047530234_f32 * mu_b5_b4 - 0.0063003893_f32 * mu_b5_u5;
+    let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    let p2 = p2_0 * 1.0_f32;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    let u2_0_0 = 0.29027507_f32 * 1.0_f32;
+    let u2_0 = u2_0_0 * 1.0_f32;
+    let u2_1_0 = 2.0832062_f32 * 1.0_f32;
+    let u2_1 = u2_1_0 * 1.0_f32;
+    let u2_2_0 = 0.0673326_f32 * 1.0_f32;
+    let u2_2 = u2_2_0 * 1.0_f32;
+    let u2_3_0 = -0.67637604_f32 * 1.0_f32;
+    let u2_3 = u2_3_0 * 1.0_f32;
+    let u2_4_0 = -0.2728908_f32 * 1.0_f32;
+    let u2_4 = u2_4_0 * 1.0_f32;
+    let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 - 1.1327289_f32 * mu_b4_b1 + 2.006306_f32 * mu_b4_b2 - 0.109121054_f32 * mu_b4_b3 + 0.0030923337_f32 * mu_b4_u4;
+    let q2_0_1 = 5.1074867_f32 * mu_b4_v4 - 7.2816806_f32 * mu_b4_b1 + 3.2975862_f32 * mu_b4_b2 - 1.2975976_f32 * mu_b4_b3 + 0.020642472_f32 * mu_b4_u4;
+    let q2_0_2 = 11.839078_f32 * mu_b4_v4 - 7.94809_f32 * mu_b4_b1 + 4.818931_f32 * mu_b4_b2 - 0.5453127_f32 * mu_b4_b3 + 0.35607904_f32 * mu_b4_u4;
+    let q2_0_3 = 11.195382_f32 * mu_b4_v4 - 2.649976_f32 * mu_b4_b1 + 2.5284405_f32 * mu_b4_b2 - 0.5555775_f32 * mu_b4_b3 + 0.07561742_f32 * mu_b4_u4;
+    let q2_0_4 = 3.7820485_f32 * mu_b4_v4 + 0.42219183_f32 * mu_b4_b1 + 0.9103338_f32 * mu_b4_b2 + 0.07428799_f32 * mu_b4_b3 + 0.055345863_f32 * mu_b4_u4;
+    let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
+    let q2 = q2_0 * 1.0_f32;
+    let e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    let p3_0_0 = -0.16016702_f32 * mu_b5_v5 - 1.1701951_f32 * mu_b5_b1 - 2.0814555_f32 * mu_b5_b2 - 2.0905023_f32 * mu_b5_b3 - 1.0885553_f32 * mu_b5_b4 - 0.3537523_f32 * mu_b5_u5;
+    let p3_0_1 = -0.43754447_f32 * mu_b5_v5 - 0.6315003_f32 * mu_b5_b1 - 2.3888981_f32 * mu_b5_b2 - 7.102437_f32 * mu_b5_b3 - 5.265995_f32 * mu_b5_b4 - 1.7798588_f32 * mu_b5_u5;
+    let p3_0_2 = 1.7178113_f32 * mu_b5_v5 + 9.037618_f32 * mu_b5_b1 + 3.8819904_f32 * mu_b5_b2 - 13.188545_f32 * mu_b5_b3 - 9.300072_f32 * mu_b5_b4 - 2.3920596_f32 * mu_b5_u5;
+    let p3_0_3 = 5.7585487_f32 * mu_b5_v5 + 20.525227_f32 * mu_b5_b1 + 9.9609375_f32 * mu_b5_b2 - 15.6044035_f32 * mu_b5_b3 - 9.681226_f32 * mu_b5_b4 - 1.7252814_f32 * mu_b5_u5;
+    let p3_0_4 = 4.274226_f32 * mu_b5_v5 + 13.439737_f32 * mu_b5_b1 + 5.237173_f32 * mu_b5_b2 - 9.735561_f32 * mu_b5_b3 - 5.2733855_f32 * mu_b5_b4 - 0.8875207_f32 * mu_b5_u5;
+    let p3_0_5 = 0.5728186_f32 * mu_b5_v5 + 1.7231934_f32 * mu_b5_b1 + 0.08518965_f32 * mu_b5_b2 - 1.6882476_f32 * mu_b5_b3 - 0.40503103_f32 * mu_b5_b4 - 0.06624026_f32 * mu_b5_u5;
+    let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    let p3 = p3_0 * 1.0_f32;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    let u3_0_0 = -0.35957968_f32 * 1.0_f32;
+    let u3_0 = u3_0_0 * 1.0_f32;
+    let u3_1_0 = -7.916403_f32 * 1.0_f32;
+    let u3_1 = u3_1_0 * 1.0_f32;
+    let u3_2_0 = -22.812872_f32 * 1.0_f32;
+    let u3_2 = u3_2_0 * 1.0_f32;
+    let u3_3_0 = -14.021359_f32 * 1.0_f32;
+    let u3_3 = u3_3_0 * 1.0_f32;
+    let u3_4_0 = -3.3763933_f32 * 1.0_f32;
+    let u3_4 = u3_4_0 * 1.0_f32;
+    let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 6.393725_f32 * mu_b4_b1 + 7.3105783_f32 * mu_b4_b2 + 5.4180493_f32 * mu_b4_b3 + 2.1836126_f32 * mu_b4_u4;
+    let q3_0_1 = 6.613993_f32 * mu_b4_v4 + 29.11735_f32 * mu_b4_b1 + 30.27681_f32 * mu_b4_b2 + 21.341589_f32 * mu_b4_b3 + 8.297803_f32 * mu_b4_u4;
+    let q3_0_2 = 15.138117_f32 * mu_b4_v4 + 53.489273_f32 * mu_b4_b1 + 49.69633_f32 * mu_b4_b2 + 28.661047_f32 * mu_b4_b3 + 9.410372_f32 * mu_b4_u4;
+    let q3_0_3 = 12.7331_f32 * mu_b4_v4 + 42.47134_f32 * mu_b4_b1 + 39.821304_f32 * mu_b4_b2 + 20.388586_f32 * mu_b4_b3 + 5.0351896_f32 * mu_b4_u4;
+    let q3_0_4 = 1.8405087_f32 * mu_b4_v4 + 6.231821_f32 * mu_b4_b1 + 4.880395_f32 * mu_b4_b2 + 2.1772063_f32 * mu_b4_b3 + 0.37054035_f32 * mu_b4_u4;
+    let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
+    let q3 = q3_0 * 1.0_f32;
+    let e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    let e = e0 + e1 + e2 + e3;
     e.min(1.0_f32).max(0.0_f32)
 }
 

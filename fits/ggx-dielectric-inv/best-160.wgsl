@@ -11,17 +11,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 7cd5b1b50df62f9eb11e7af840ab2194a9a8c4dab90bba806fb1b85511a3972f.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 4a9d606b2259ad3bcff4977616b9ff00b9e1b98a998577794ed3c92b51e97cfc.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 5.4e-4, shifted 3.2e-5, bernstein 1.6e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.38e-4, max 9.11e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.33e-7 (every op rounded, as this Rust), 4.68e-7 (fused multiply-add), 1.90e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.04e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 8.37e-4, max 9.11e-3; this f32 code MAE 8.37e-4, max 9.11e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
-// Denominator proved >= 2.798e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 1.5e-5, bernstein 2.8e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 5.32e-4, max 5.67e-3 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.72e-7 (every op rounded, as this Rust), 6.37e-7 (fused multiply-add), 3.85e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.30e-4, max 5.67e-3; this f32 code MAE 5.30e-4, max 5.67e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
+// Denominator proved >= 4.031e-4 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -31,121 +31,197 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    let mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    let f0_v = 1.0 - f0_t;
-    let f0_u2 = f0_t * f0_t;
-    let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_t;
-    let f0_v3 = f0_v2 * f0_v;
-    let f0_b1 = f0_t * f0_v2;
-    let f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
-    let r_v = 1.0 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_t;
-    let r_v4 = r_v3 * r_v;
-    let r_u5 = r_u4 * r_t;
-    let r_v5 = r_v4 * r_v;
-    let r_u6 = r_u5 * r_t;
-    let r_v6 = r_v5 * r_v;
-    let r_b1 = r_t * r_v5;
-    let r_b2 = r_u2 * r_v4;
-    let r_b3 = r_u3 * r_v3;
-    let r_b4 = r_u4 * r_v2;
-    let r_b5 = r_u5 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    let mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
-    let mu_v = 1.0 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_u6 = mu_u5 * mu_u;
-    let mu_v6 = mu_v5 * mu_v;
-    let mu_b1 = mu_u * mu_v5;
-    let mu_b2 = mu_u2 * mu_v4;
-    let mu_b3 = mu_u3 * mu_v3;
-    let mu_b4 = mu_u4 * mu_v2;
-    let mu_b5 = mu_u5 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.99911106 * mu_v6 + 3.5830736 * mu_b1 + 3.511219 * mu_b2 + 1.6409106 * mu_b3 + 0.14308986 * mu_b4 + 0.13781443 * mu_b5 + 0.009083314 * mu_u6;
-    let p_0_1 = 7.3364053 * mu_v6 + 25.526796 * mu_b1 + 27.478909 * mu_b2 + 14.07118 * mu_b3 + 0.51391673 * mu_b4 - 0.1037334 * mu_b5 - 0.03075895 * mu_u6;
-    let p_0_2 = 15.910813 * mu_v6 + 53.26811 * mu_b1 + 57.400246 * mu_b2 + 31.553919 * mu_b3 + 0.850745 * mu_b4 - 0.07837471 * mu_b5 + 0.092419274 * mu_u6;
-    let p_0_3 = 16.581652 * mu_v6 + 54.412758 * mu_b1 + 61.343006 * mu_b2 + 40.067627 * mu_b3 + 3.1865237 * mu_b4 + 0.77955294 * mu_b5 + 0.16284719 * mu_u6;
-    let p_0_4 = 9.520822 * mu_v6 + 32.022415 * mu_b1 + 41.357807 * mu_b2 + 33.97313 * mu_b3 + 6.5370126 * mu_b4 + 2.158996 * mu_b5 + 0.2494692 * mu_u6;
-    let p_0_5 = 2.5555794 * mu_v6 + 8.72921 * mu_b1 + 12.344153 * mu_b2 + 11.186243 * mu_b3 + 1.4290236 * mu_b4 + 0.6682087 * mu_b5 + 0.059133157 * mu_u6;
-    let p_0_6 = 0.21544045 * mu_v6 + 0.8304682 * mu_b1 + 1.485053 * mu_b2 + 1.6080992 * mu_b3 + 0.18687402 * mu_b4 + 0.16089548 * mu_b5 + 0.012800126 * mu_u6;
-    let p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
-    let p_1_0 = 3.0133765 * mu_v6 + 10.246637 * mu_b1 + 11.964242 * mu_b2 + 4.031902 * mu_b3 + 0.5667651 * mu_b4 + 0.40871733 * mu_b5 + 0.027252587 * mu_u6;
-    let p_1_1 = 23.594309 * mu_v6 + 79.4684 * mu_b1 + 95.17822 * mu_b2 + 36.844265 * mu_b3 + 2.6627603 * mu_b4 - 0.27492747 * mu_b5 - 0.091275 * mu_u6;
-    let p_1_2 = 60.733124 * mu_v6 + 200.60042 * mu_b1 + 239.02328 * mu_b2 + 94.6019 * mu_b3 + 7.88334 * mu_b4 - 0.5740002 * mu_b5 + 0.2542718 * mu_u6;
-    let p_1_3 = 73.938034 * mu_v6 + 241.99745 * mu_b1 + 290.68863 * mu_b2 + 120.69552 * mu_b3 + 17.215212 * mu_b4 + 2.0212877 * mu_b5 + 0.559987 * mu_u6;
-    let p_1_4 = 44.80252 * mu_v6 + 147.63614 * mu_b1 + 182.5334 * mu_b2 + 81.869705 * mu_b3 + 19.978949 * mu_b4 + 5.064569 * mu_b5 + 0.5212376 * mu_u6;
-    let p_1_5 = 11.79049 * mu_v6 + 39.718044 * mu_b1 + 50.106495 * mu_b2 + 20.683392 * mu_b3 + 5.7935963 * mu_b4 + 2.0893123 * mu_b5 + 0.106445014 * mu_u6;
-    let p_1_6 = 1.0219826 * mu_v6 + 4.189741 * mu_b1 + 6.1750183 * mu_b2 + 2.683145 * mu_b3 + 0.96512574 * mu_b4 + 0.42543033 * mu_b5 + 0.020569032 * mu_u6;
-    let p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
-    let p_2_0 = 2.9989703 * mu_v6 + 10.365781 * mu_b1 + 11.535779 * mu_b2 + 4.39658 * mu_b3 + 0.51240754 * mu_b4 + 0.4093443 * mu_b5 + 0.027253876 * mu_u6;
-    let p_2_1 = 24.544775 * mu_v6 + 83.0254 * mu_b1 + 94.198586 * mu_b2 + 38.30001 * mu_b3 + 1.9059471 * mu_b4 - 0.18346037 * mu_b5 - 0.09113118 * mu_u6;
-    let p_2_2 = 64.453064 * mu_v6 + 212.64624 * mu_b1 + 236.64552 * mu_b2 + 95.09207 * mu_b3 + 4.4230027 * mu_b4 - 0.51122504 * mu_b5 + 0.24608816 * mu_u6;
-    let p_2_3 = 83.10856 * mu_v6 + 275.1735 * mu_b1 + 314.2276 * mu_b2 + 142.68823 * mu_b3 + 21.350119 * mu_b4 + 3.3669212 * mu_b5 + 0.5964904 * mu_u6;
-    let p_2_4 = 54.319157 * mu_v6 + 183.39172 * mu_b1 + 216.6291 * mu_b2 + 109.203575 * mu_b3 + 24.668367 * mu_b4 + 4.904707 * mu_b5 + 0.4239647 * mu_u6;
-    let p_2_5 = 15.372941 * mu_v6 + 53.254864 * mu_b1 + 62.40386 * mu_b2 + 29.85835 * mu_b3 + 5.9007077 * mu_b4 + 1.258753 * mu_b5 + 0.110694535 * mu_u6;
-    let p_2_6 = 1.3558664 * mu_v6 + 5.6547008 * mu_b1 + 7.531348 * mu_b2 + 4.1699653 * mu_b3 + 1.0646979 * mu_b4 + 0.24406828 * mu_b5 + 0.019527126 * mu_u6;
-    let p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
-    let p_3_0 = 0.9998972 * mu_v6 + 3.4913776 * mu_b1 + 3.7646081 * mu_b2 + 1.4848875 * mu_b3 + 0.17071457 * mu_b4 + 0.13635834 * mu_b5 + 0.009084243 * mu_u6;
-    let p_3_1 = 8.273418 * mu_v6 + 28.158367 * mu_b1 + 31.527056 * mu_b2 + 13.267536 * mu_b3 + 0.58658826 * mu_b4 - 0.059226125 * mu_b5 - 0.030300291 * mu_u6;
-    let p_3_2 = 22.259 * mu_v6 + 73.523834 * mu_b1 + 80.982895 * mu_b2 + 33.40059 * mu_b3 + 0.92308605 * mu_b4 - 0.15259898 * mu_b5 + 0.082056075 * mu_u6;
-    let p_3_3 = 29.371561 * mu_v6 + 96.71207 * mu_b1 + 109.00515 * mu_b2 + 49.646748 * mu_b3 + 5.6464205 * mu_b4 + 1.2287954 * mu_b5 + 0.19809018 * mu_u6;
-    let p_3_4 = 19.550097 * mu_v6 + 65.18849 * mu_b1 + 75.79357 * mu_b2 + 37.685776 * mu_b3 + 6.7202773 * mu_b4 + 1.8588915 * mu_b5 + 0.14441916 * mu_u6;
-    let p_3_5 = 5.623221 * mu_v6 + 19.145782 * mu_b1 + 22.180485 * mu_b2 + 10.360787 * mu_b3 + 1.193365 * mu_b4 + 0.5353456 * mu_b5 + 0.034928195 * mu_u6;
-    let p_3_6 = 0.49847847 * mu_v6 + 2.0481408 * mu_b1 + 2.7606864 * mu_b2 + 1.4892516 * mu_b3 + 0.20137234 * mu_b4 + 0.0978946 * mu_b5 + 0.0064303675 * mu_u6;
-    let p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
-    let p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0 * mu_v6 + 3.5016685 * mu_b1 + 3.8918588 * mu_b2 + 1.9779538 * mu_b3 + 0.19887516 * mu_b4 + 0.13582075 * mu_b5 + 0.009085543 * mu_u6;
-    let q_0_1 = 8.358247 * mu_v6 + 28.361902 * mu_b1 + 32.96552 * mu_b2 + 16.504745 * mu_b3 + 0.45970848 * mu_b4 - 0.019865975 * mu_b5 - 0.030433757 * mu_u6;
-    let q_0_2 = 22.86828 * mu_v6 + 76.016266 * mu_b1 + 89.86883 * mu_b2 + 45.14867 * mu_b3 + 0.57209593 * mu_b4 - 0.026200145 * mu_b5 + 0.09517686 * mu_u6;
-    let q_0_3 = 30.6304 * mu_v6 + 102.899704 * mu_b1 + 128.9234 * mu_b2 + 71.048874 * mu_b3 + 5.006653 * mu_b4 + 1.0596552 * mu_b5 + 0.13531218 * mu_u6;
-    let q_0_4 = 20.88899 * mu_v6 + 72.767365 * mu_b1 + 99.814865 * mu_b2 + 63.335575 * mu_b3 + 10.771327 * mu_b4 + 3.443773 * mu_b5 + 0.33718687 * mu_u6;
-    let q_0_5 = 6.0352545 * mu_v6 + 21.660547 * mu_b1 + 31.656385 * mu_b2 + 20.393282 * mu_b3 + 2.3029187 * mu_b4 + 1.1167142 * mu_b5 + 0.08224473 * mu_u6;
-    let q_0_6 = 0.54209095 * mu_v6 + 2.2896085 * mu_b1 + 4.101642 * mu_b2 + 2.993885 * mu_b3 + 0.3588689 * mu_b4 + 0.25586483 * mu_b5 + 0.021133024 * mu_u6;
-    let q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
-    let q_1_0 = 3.0 * mu_v6 + 10.505006 * mu_b1 + 11.675576 * mu_b2 + 5.9338617 * mu_b3 + 0.59662545 * mu_b4 + 0.40746224 * mu_b5 + 0.02725663 * mu_u6;
-    let q_1_1 = 25.074741 * mu_v6 + 85.08571 * mu_b1 + 98.89655 * mu_b2 + 49.514236 * mu_b3 + 1.3791255 * mu_b4 - 0.05959792 * mu_b5 - 0.09130127 * mu_u6;
-    let q_1_2 = 68.60484 * mu_v6 + 228.0488 * mu_b1 + 269.60648 * mu_b2 + 135.446 * mu_b3 + 1.7162877 * mu_b4 - 0.07860044 * mu_b5 + 0.2855306 * mu_u6;
-    let q_1_3 = 91.8912 * mu_v6 + 308.69913 * mu_b1 + 386.7702 * mu_b2 + 213.14662 * mu_b3 + 15.0199585 * mu_b4 + 3.1789658 * mu_b5 + 0.40593654 * mu_u6;
-    let q_1_4 = 62.66697 * mu_v6 + 218.30211 * mu_b1 + 299.44458 * mu_b2 + 190.00673 * mu_b3 + 32.31398 * mu_b4 + 10.331319 * mu_b5 + 1.0115606 * mu_u6;
-    let q_1_5 = 18.105764 * mu_v6 + 64.98164 * mu_b1 + 94.969154 * mu_b2 + 61.179844 * mu_b3 + 6.908756 * mu_b4 + 3.3501427 * mu_b5 + 0.2467342 * mu_u6;
-    let q_1_6 = 1.6262729 * mu_v6 + 6.868826 * mu_b1 + 12.304927 * mu_b2 + 8.981655 * mu_b3 + 1.0766066 * mu_b4 + 0.76759446 * mu_b5 + 0.06339908 * mu_u6;
-    let q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
-    let q_2_0 = 3.0 * mu_v6 + 10.505006 * mu_b1 + 11.675576 * mu_b2 + 5.9338617 * mu_b3 + 0.59662545 * mu_b4 + 0.40746224 * mu_b5 + 0.02725663 * mu_u6;
-    let q_2_1 = 25.074741 * mu_v6 + 85.08571 * mu_b1 + 98.89655 * mu_b2 + 49.514236 * mu_b3 + 1.3791255 * mu_b4 - 0.05959792 * mu_b5 - 0.09130127 * mu_u6;
-    let q_2_2 = 68.60484 * mu_v6 + 228.0488 * mu_b1 + 269.60648 * mu_b2 + 135.446 * mu_b3 + 1.7162877 * mu_b4 - 0.07860044 * mu_b5 + 0.2855306 * mu_u6;
-    let q_2_3 = 91.8912 * mu_v6 + 308.69913 * mu_b1 + 386.7702 * mu_b2 + 213.14662 * mu_b3 + 15.0199585 * mu_b4 + 3.1789658 * mu_b5 + 0.40593654 * mu_u6;
-    let q_2_4 = 62.66697 * mu_v6 + 218.30211 * mu_b1 + 299.44458 * mu_b2 + 190.00673 * mu_b3 + 32.31398 * mu_b4 + 10.331319 * mu_b5 + 1.0115606 * mu_u6;
-    let q_2_5 = 18.105764 * mu_v6 + 64.98164 * mu_b1 + 94.969154 * mu_b2 + 61.179844 * mu_b3 + 6.908756 * mu_b4 + 3.3501427 * mu_b5 + 0.2467342 * mu_u6;
-    let q_2_6 = 1.6262729 * mu_v6 + 6.868826 * mu_b1 + 12.304927 * mu_b2 + 8.981655 * mu_b3 + 1.0766066 * mu_b4 + 0.76759446 * mu_b5 + 0.06339908 * mu_u6;
-    let q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
-    let q_3_0 = 1.0 * mu_v6 + 3.5016685 * mu_b1 + 3.8918588 * mu_b2 + 1.9779538 * mu_b3 + 0.19887516 * mu_b4 + 0.13582075 * mu_b5 + 0.009085543 * mu_u6;
-    let q_3_1 = 8.358247 * mu_v6 + 28.361902 * mu_b1 + 32.96552 * mu_b2 + 16.504745 * mu_b3 + 0.45970848 * mu_b4 - 0.019865975 * mu_b5 - 0.030433757 * mu_u6;
-    let q_3_2 = 22.86828 * mu_v6 + 76.016266 * mu_b1 + 89.86883 * mu_b2 + 45.14867 * mu_b3 + 0.57209593 * mu_b4 - 0.026200145 * mu_b5 + 0.09517686 * mu_u6;
-    let q_3_3 = 30.6304 * mu_v6 + 102.899704 * mu_b1 + 128.9234 * mu_b2 + 71.048874 * mu_b3 + 5.006653 * mu_b4 + 1.0596552 * mu_b5 + 0.13531218 * mu_u6;
-    let q_3_4 = 20.88899 * mu_v6 + 72.767365 * mu_b1 + 99.814865 * mu_b2 + 63.335575 * mu_b3 + 10.771327 * mu_b4 + 3.443773 * mu_b5 + 0.33718687 * mu_u6;
-    let q_3_5 = 6.0352545 * mu_v6 + 21.660547 * mu_b1 + 31.656385 * mu_b2 + 20.393282 * mu_b3 + 2.3029187 * mu_b4 + 1.1167142 * mu_b5 + 0.08224473 * mu_u6;
-    let q_3_6 = 0.54209095 * mu_v6 + 2.2896085 * mu_b1 + 4.101642 * mu_b2 + 2.993885 * mu_b3 + 0.3588689 * mu_b4 + 0.25586483 * mu_b5 + 0.021133024 * mu_u6;
-    let q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
-    let q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    let e = p / q;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    let mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
+    let mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
+    let mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 2.0 * (r_c * r_c) + 7.888609e-31);
+    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
+    let mu_u = (mu_t - 3.9443045e-31) * 1.0;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    let r_b5_v = 1.0 - r_t;
+    let r_b5_u2 = r_t * r_t;
+    let r_b5_v2 = r_b5_v * r_b5_v;
+    let r_b5_u3 = r_b5_u2 * r_t;
+    let r_b5_v3 = r_b5_v2 * r_b5_v;
+    let r_b5_u4 = r_b5_u3 * r_t;
+    let r_b5_v4 = r_b5_v3 * r_b5_v;
+    let r_b5_u5 = r_b5_u4 * r_t;
+    let r_b5_v5 = r_b5_v4 * r_b5_v;
+    let r_b5_b1 = r_t * r_b5_v4;
+    let r_b5_b2 = r_b5_u2 * r_b5_v3;
+    let r_b5_b3 = r_b5_u3 * r_b5_v2;
+    let r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    let mu_b5_v = 1.0 - mu_u;
+    let mu_b5_u2 = mu_u * mu_u;
+    let mu_b5_v2 = mu_b5_v * mu_b5_v;
+    let mu_b5_u3 = mu_b5_u2 * mu_u;
+    let mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    let mu_b5_u4 = mu_b5_u3 * mu_u;
+    let mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    let mu_b5_u5 = mu_b5_u4 * mu_u;
+    let mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    let mu_b5_b1 = mu_u * mu_b5_v4;
+    let mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    let p0_0_0 = 0.42251676 * mu_b5_v5 + 1.5494201 * mu_b5_b1 + 1.0676113 * mu_b5_b2 + 2.6101022 * mu_b5_b3 + 1.7058989 * mu_b5_b4 + 0.19269456 * mu_b5_u5;
+    let p0_0_1 = 5.314443 * mu_b5_v5 + 19.894299 * mu_b5_b1 + 14.152598 * mu_b5_b2 + 11.188069 * mu_b5_b3 + 6.582242 * mu_b5_b4 + 0.7478644 * mu_b5_u5;
+    let p0_0_2 = 24.094683 * mu_b5_v5 + 83.17202 * mu_b5_b1 + 61.6263 * mu_b5_b2 + 22.208715 * mu_b5_b3 + 10.354558 * mu_b5_b4 + 2.2567003 * mu_b5_u5;
+    let p0_0_3 = 39.64194 * mu_b5_v5 + 137.53185 * mu_b5_b1 + 114.83151 * mu_b5_b2 + 37.044643 * mu_b5_b3 + 11.397275 * mu_b5_b4 + 2.8561425 * mu_b5_u5;
+    let p0_0_4 = 20.720503 * mu_b5_v5 + 74.62696 * mu_b5_b1 + 59.298653 * mu_b5_b2 + 11.150789 * mu_b5_b3 - 0.10485666 * mu_b5_b4 - 0.082503036 * mu_b5_u5;
+    let p0_0_5 = 1.4906797 * mu_b5_v5 + 7.969072 * mu_b5_b1 + 5.1020722 * mu_b5_b2 - 0.16948374 * mu_b5_b3 + 0.022893105 * mu_b5_b4 - 0.027752917 * mu_b5_u5;
+    let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    let p0 = p0_0 * 1.0;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    let f0_b4_v = 1.0 - f0_t;
+    let f0_b4_u2 = f0_t * f0_t;
+    let f0_b4_v2 = f0_b4_v * f0_b4_v;
+    let f0_b4_u3 = f0_b4_u2 * f0_t;
+    let f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    let f0_b4_u4 = f0_b4_u3 * f0_t;
+    let f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    let f0_b4_b1 = f0_t * f0_b4_v3;
+    let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    let u0_0_0 = 1.0875299 * 1.0;
+    let u0_0 = u0_0_0 * 1.0;
+    let u0_1_0 = 5.0004525 * 1.0;
+    let u0_1 = u0_1_0 * 1.0;
+    let u0_2_0 = 8.383372 * 1.0;
+    let u0_2 = u0_2_0 * 1.0;
+    let u0_3_0 = 5.7883806 * 1.0;
+    let u0_3 = u0_3_0 * 1.0;
+    let u0_4_0 = 1.4767529 * 1.0;
+    let u0_4 = u0_4_0 * 1.0;
+    let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    let r_b4_v = 1.0 - r_t;
+    let r_b4_u2 = r_t * r_t;
+    let r_b4_v2 = r_b4_v * r_b4_v;
+    let r_b4_u3 = r_b4_u2 * r_t;
+    let r_b4_v3 = r_b4_v2 * r_b4_v;
+    let r_b4_u4 = r_b4_u3 * r_t;
+    let r_b4_v4 = r_b4_v3 * r_b4_v;
+    let r_b4_b1 = r_t * r_b4_v3;
+    let r_b4_b2 = r_b4_u2 * r_b4_v2;
+    let r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    let mu_b4_v = 1.0 - mu_u;
+    let mu_b4_u2 = mu_u * mu_u;
+    let mu_b4_v2 = mu_b4_v * mu_b4_v;
+    let mu_b4_u3 = mu_b4_u2 * mu_u;
+    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    let mu_b4_u4 = mu_b4_u3 * mu_u;
+    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    let mu_b4_b1 = mu_u * mu_b4_v3;
+    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q0_0_0 = 1.0 * mu_b4_v4 + 3.3188403 * mu_b4_b1 + 2.0115695 * mu_b4_b2 + 3.4824371 * mu_b4_b3 + 0.46005243 * mu_b4_u4;
+    let q0_0_1 = 8.594341 * mu_b4_v4 + 22.678228 * mu_b4_b1 + 9.588259 * mu_b4_b2 + 10.247166 * mu_b4_b3 + 1.4241732 * mu_b4_u4;
+    let q0_0_2 = 21.704052 * mu_b4_v4 + 63.29071 * mu_b4_b1 + 43.967373 * mu_b4_b2 + 26.567816 * mu_b4_b3 + 4.2091694 * mu_b4_u4;
+    let q0_0_3 = 16.793427 * mu_b4_v4 + 56.356037 * mu_b4_b1 + 49.807987 * mu_b4_b2 + 28.578924 * mu_b4_b3 + 5.014928 * mu_b4_u4;
+    let q0_0_4 = 1.2898176 * mu_b4_v4 + 6.8491206 * mu_b4_b1 + 5.053911 * mu_b4_b2 + 3.2002447 * mu_b4_b3 + 0.37598094 * mu_b4_u4;
+    let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
+    let q0 = q0_0 * 1.0;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    let p1_0_0 = 0.19364321 * mu_b5_v5 + 0.27174398 * mu_b5_b1 + 0.30285886 * mu_b5_b2 + 0.1953025 * mu_b5_b3 + 0.0035222464 * mu_b5_b4 + 0.001782788 * mu_b5_u5;
+    let p1_0_1 = 0.060958993 * mu_b5_v5 + 0.1803817 * mu_b5_b1 + 0.6950535 * mu_b5_b2 + 0.18753618 * mu_b5_b3 - 0.24552085 * mu_b5_b4 - 0.013401351 * mu_b5_u5;
+    let p1_0_2 = -1.2268941 * mu_b5_v5 - 0.43122786 * mu_b5_b1 + 2.0460858 * mu_b5_b2 + 0.7077474 * mu_b5_b3 - 0.14919992 * mu_b5_b4 + 0.081521854 * mu_b5_u5;
+    let p1_0_3 = -2.385682 * mu_b5_v5 - 1.0531065 * mu_b5_b1 + 2.3846886 * mu_b5_b2 + 0.7262 * mu_b5_b3 + 0.24665396 * mu_b5_b4 + 0.2606167 * mu_b5_u5;
+    let p1_0_4 = -1.6562701 * mu_b5_v5 - 0.76595724 * mu_b5_b1 + 1.0441835 * mu_b5_b2 + 0.029546412 * mu_b5_b3 + 0.29439762 * mu_b5_b4 + 0.26274666 * mu_b5_u5;
+    let p1_0_5 = -0.36731794 * mu_b5_v5 - 0.06531659 * mu_b5_b1 + 0.2881852 * mu_b5_b2 - 0.006340579 * mu_b5_b3 + 0.13498648 * mu_b5_b4 + 0.09631589 * mu_b5_u5;
+    let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    let p1 = p1_0 * 1.0;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    let u1_0_0 = 2.5028586 * 1.0;
+    let u1_0 = u1_0_0 * 1.0;
+    let u1_1_0 = 3.233201 * 1.0;
+    let u1_1 = u1_1_0 * 1.0;
+    let u1_2_0 = -6.19396 * 1.0;
+    let u1_2 = u1_2_0 * 1.0;
+    let u1_3_0 = -3.5859609 * 1.0;
+    let u1_3 = u1_3_0 * 1.0;
+    let u1_4_0 = -0.85438186 * 1.0;
+    let u1_4 = u1_4_0 * 1.0;
+    let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q1_0_0 = 1.0 * mu_b4_v4 + 0.6203024 * mu_b4_b1 + 1.0012269 * mu_b4_b2 + 0.01159849 * mu_b4_b3 + 0.0091587445 * mu_b4_u4;
+    let q1_0_1 = 3.9055452 * mu_b4_v4 + 1.0516697 * mu_b4_b1 + 1.519699 * mu_b4_b2 - 1.2196487 * mu_b4_b3 - 0.07928396 * mu_b4_u4;
+    let q1_0_2 = 6.6777315 * mu_b4_v4 + 3.0977879 * mu_b4_b1 + 3.8005097 * mu_b4_b2 - 0.3803855 * mu_b4_b3 + 0.51007044 * mu_b4_u4;
+    let q1_0_3 = 4.8735003 * mu_b4_v4 + 2.7557795 * mu_b4_b1 + 3.3407981 * mu_b4_b2 + 0.7691898 * mu_b4_b3 + 0.8246101 * mu_b4_u4;
+    let q1_0_4 = 1.2471166 * mu_b4_v4 + 0.67256725 * mu_b4_b1 + 0.93357295 * mu_b4_b2 + 0.5015363 * mu_b4_b3 + 0.37189898 * mu_b4_u4;
+    let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
+    let q1 = q1_0 * 1.0;
+    let e1 = p1 * u1 / q1;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    let p2_0_0 = -0.0041594314 * mu_b5_v5 - 0.026336052 * mu_b5_b1 + 0.008833147 * mu_b5_b2 - 0.0019305374 * mu_b5_b3 + 0.00025948 * mu_b5_b4 - 8.64582e-6 * mu_b5_u5;
+    let p2_0_1 = 0.32895225 * mu_b5_v5 + 0.012752087 * mu_b5_b1 - 0.04803978 * mu_b5_b2 + 0.1038596 * mu_b5_b3 + 0.0015623108 * mu_b5_b4 - 0.00017906413 * mu_b5_u5;
+    let p2_0_2 = 1.2587852 * mu_b5_v5 + 0.24749266 * mu_b5_b1 - 0.27611572 * mu_b5_b2 + 0.25120875 * mu_b5_b3 - 0.1509548 * mu_b5_b4 + 0.00092901115 * mu_b5_u5;
+    let p2_0_3 = 1.3492767 * mu_b5_v5 - 0.6193205 * mu_b5_b1 - 1.0601232 * mu_b5_b2 + 0.2999647 * mu_b5_b3 - 0.2858476 * mu_b5_b4 - 0.009422563 * mu_b5_u5;
+    let p2_0_4 = 0.2771794 * mu_b5_v5 - 1.7069573 * mu_b5_b1 - 1.3460883 * mu_b5_b2 + 0.4527196 * mu_b5_b3 - 0.023621466 * mu_b5_b4 - 0.004334729 * mu_b5_u5;
+    let p2_0_5 = -0.15891136 * mu_b5_v5 - 0.94167054 * mu_b5_b1 - 0.6300844 * mu_b5_b2 + 0.17329699 * mu_b5_b3 + 0.047530234 * mu_b5_b4 - 0.0063003893 * mu_b5_u5;
+    let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    let p2 = p2_0 * 1.0;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    let u2_0_0 = 0.29027507 * 1.0;
+    let u2_0 = u2_0_0 * 1.0;
+    let u2_1_0 = 2.0832062 * 1.0;
+    let u2_1 = u2_1_0 * 1.0;
+    let u2_2_0 = 0.0673326 * 1.0;
+    let u2_2 = u2_2_0 * 1.0;
+    let u2_3_0 = -0.67637604 * 1.0;
+    let u2_3 = u2_3_0 * 1.0;
+    let u2_4_0 = -0.2728908 * 1.0;
+    let u2_4 = u2_4_0 * 1.0;
+    let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q2_0_0 = 1.0 * mu_b4_v4 - 1.1327289 * mu_b4_b1 + 2.006306 * mu_b4_b2 - 0.109121054 * mu_b4_b3 + 0.0030923337 * mu_b4_u4;
+    let q2_0_1 = 5.1074867 * mu_b4_v4 - 7.2816806 * mu_b4_b1 + 3.2975862 * mu_b4_b2 - 1.2975976 * mu_b4_b3 + 0.020642472 * mu_b4_u4;
+    let q2_0_2 = 11.839078 * mu_b4_v4 - 7.94809 * mu_b4_b1 + 4.818931 * mu_b4_b2 - 0.5453127 * mu_b4_b3 + 0.35607904 * mu_b4_u4;
+    let q2_0_3 = 11.195382 * mu_b4_v4 - 2.649976 * mu_b4_b1 + 2.5284405 * mu_b4_b2 - 0.5555775 * mu_b4_b3 + 0.07561742 * mu_b4_u4;
+    let q2_0_4 = 3.7820485 * mu_b4_v4 + 0.42219183 * mu_b4_b1 + 0.9103338 * mu_b4_b2 + 0.07428799 * mu_b4_b3 + 0.055345863 * mu_b4_u4;
+    let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
+    let q2 = q2_0 * 1.0;
+    let e2 = p2 * u2 / q2;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    let p3_0_0 = -0.16016702 * mu_b5_v5 - 1.1701951 * mu_b5_b1 - 2.0814555 * mu_b5_b2 - 2.0905023 * mu_b5_b3 - 1.0885553 * mu_b5_b4 - 0.3537523 * mu_b5_u5;
+    let p3_0_1 = -0.43754447 * mu_b5_v5 - 0.6315003 * mu_b5_b1 - 2.3888981 * mu_b5_b2 - 7.102437 * mu_b5_b3 - 5.265995 * mu_b5_b4 - 1.7798588 * mu_b5_u5;
+    let p3_0_2 = 1.7178113 * mu_b5_v5 + 9.037618 * mu_b5_b1 + 3.8819904 * mu_b5_b2 - 13.188545 * mu_b5_b3 - 9.300072 * mu_b5_b4 - 2.3920596 * mu_b5_u5;
+    let p3_0_3 = 5.7585487 * mu_b5_v5 + 20.525227 * mu_b5_b1 + 9.9609375 * mu_b5_b2 - 15.6044035 * mu_b5_b3 - 9.681226 * mu_b5_b4 - 1.7252814 * mu_b5_u5;
+    let p3_0_4 = 4.274226 * mu_b5_v5 + 13.439737 * mu_b5_b1 + 5.237173 * mu_b5_b2 - 9.735561 * mu_b5_b3 - 5.2733855 * mu_b5_b4 - 0.8875207 * mu_b5_u5;
+    let p3_0_5 = 0.5728186 * mu_b5_v5 + 1.7231934 * mu_b5_b1 + 0.08518965 * mu_b5_b2 - 1.6882476 * mu_b5_b3 - 0.40503103 * mu_b5_b4 - 0.06624026 * mu_b5_u5;
+    let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    let p3 = p3_0 * 1.0;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    let u3_0_0 = -0.35957968 * 1.0;
+    let u3_0 = u3_0_0 * 1.0;
+    let u3_1_0 = -7.916403 * 1.0;
+    let u3_1 = u3_1_0 * 1.0;
+    let u3_2_0 = -22.812872 * 1.0;
+    let u3_2 = u3_2_0 * 1.0;
+    let u3_3_0 = -14.021359 * 1.0;
+    let u3_3 = u3_3_0 * 1.0;
+    let u3_4_0 = -3.3763933 * 1.0;
+    let u3_4 = u3_4_0 * 1.0;
+    let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q3_0_0 = 1.0 * mu_b4_v4 + 6.393725 * mu_b4_b1 + 7.3105783 * mu_b4_b2 + 5.4180493 * mu_b4_b3 + 2.1836126 * mu_b4_u4;
+    let q3_0_1 = 6.613993 * mu_b4_v4 + 29.11735 * mu_b4_b1 + 30.27681 * mu_b4_b2 + 21.341589 * mu_b4_b3 + 8.297803 * mu_b4_u4;
+    let q3_0_2 = 15.138117 * mu_b4_v4 + 53.489273 * mu_b4_b1 + 49.69633 * mu_b4_b2 + 28.661047 * mu_b4_b3 + 9.410372 * mu_b4_u4;
+    let q3_0_3 = 12.7331 * mu_b4_v4 + 42.47134 * mu_b4_b1 + 39.821304 * mu_b4_b2 + 20.388586 * mu_b4_b3 + 5.0351896 * mu_b4_u4;
+    let q3_0_4 = 1.8405087 * mu_b4_v4 + 6.231821 * mu_b4_b1 + 4.880395 * mu_b4_b2 + 2.1772063 * mu_b4_b3 + 0.37054035 * mu_b4_u4;
+    let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
+    let q3 = q3_0 * 1.0;
+    let e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    let e = e0 + e1 + e2 + e3;
     return max(min(e, 1.0), 0.0);
 }
 

@@ -15,17 +15,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 4464a8691c7b40194204c1a116d371ce413d45692f90176b323ae99566a6c0f1.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-5, shifted 1.3e-5, bernstein 7.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.17e-4, max 1.27e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.63e-7 (every op rounded, as this Rust), 4.55e-7 (fused multiply-add), 8.58e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.27e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.17e-4, max 1.27e-3; this f32 code MAE 1.17e-4, max 1.27e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.1e-5 on the measurement grid.
-// Denominator proved >= 3.080e-2 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 dabc570b8d333e0a53add7ccfd2de811529a9b9c46afb56c1388b1b4a778907c.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.9e-6, shifted 4.3e-6, bernstein 4.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 9.42e-5, max 9.12e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.01e-6 (every op rounded, as this Rust), 8.71e-7 (fused multiply-add), 4.68e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.15e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1279 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.28e-5, max 9.12e-4; this f32 code MAE 9.28e-5, max 9.12e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.2e-4 on the measurement grid.
+// Denominator proved >= 3.220e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -35,121 +35,76 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    highp float f0_v = 1.0 - f0_t;
-    highp float f0_u2 = f0_t * f0_t;
-    highp float f0_v2 = f0_v * f0_v;
-    highp float f0_u3 = f0_u2 * f0_t;
-    highp float f0_v3 = f0_v2 * f0_v;
-    highp float f0_b1 = f0_t * f0_v2;
-    highp float f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
-    highp float r_v = 1.0 - r_t;
-    highp float r_u2 = r_t * r_t;
-    highp float r_v2 = r_v * r_v;
-    highp float r_u3 = r_u2 * r_t;
-    highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_t;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_u5 = r_u4 * r_t;
-    highp float r_v5 = r_v4 * r_v;
-    highp float r_u6 = r_u5 * r_t;
-    highp float r_v6 = r_v5 * r_v;
-    highp float r_b1 = r_t * r_v5;
-    highp float r_b2 = r_u2 * r_v4;
-    highp float r_b3 = r_u3 * r_v3;
-    highp float r_b4 = r_u4 * r_v2;
-    highp float r_b5 = r_u5 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
-    highp float mu_v = 1.0 - mu_u;
-    highp float mu_u2 = mu_u * mu_u;
-    highp float mu_v2 = mu_v * mu_v;
-    highp float mu_u3 = mu_u2 * mu_u;
-    highp float mu_v3 = mu_v2 * mu_v;
-    highp float mu_u4 = mu_u3 * mu_u;
-    highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_u5 = mu_u4 * mu_u;
-    highp float mu_v5 = mu_v4 * mu_v;
-    highp float mu_u6 = mu_u5 * mu_u;
-    highp float mu_v6 = mu_v5 * mu_v;
-    highp float mu_b1 = mu_u * mu_v5;
-    highp float mu_b2 = mu_u2 * mu_v4;
-    highp float mu_b3 = mu_u3 * mu_v3;
-    highp float mu_b4 = mu_u4 * mu_v2;
-    highp float mu_b5 = mu_u5 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0_0 = 0.9359483 * mu_v6 + 4.3583055 * mu_b1 + 4.817302 * mu_b2 + 1.4754292 * mu_b3 + 0.7477944 * mu_b4 + 0.009265867 * mu_b5 + 0.04392019 * mu_u6;
-    highp float p_0_1 = 7.2878284 * mu_v6 + 31.849533 * mu_b1 + 41.507603 * mu_b2 + 20.662998 * mu_b3 + 7.858791 * mu_b4 + 0.47131443 * mu_b5 + 0.5414116 * mu_u6;
-    highp float p_0_2 = 24.844515 * mu_v6 + 105.690605 * mu_b1 + 164.23378 * mu_b2 + 116.71565 * mu_b3 + 47.289833 * mu_b4 + 5.448066 * mu_b5 + 2.0156627 * mu_u6;
-    highp float p_0_3 = 43.06924 * mu_v6 + 180.01123 * mu_b1 + 317.97498 * mu_b2 + 276.31094 * mu_b3 + 124.64046 * mu_b4 + 19.073631 * mu_b5 + 3.750435 * mu_u6;
-    highp float p_0_4 = 42.339264 * mu_v6 + 176.21152 * mu_b1 + 346.47253 * mu_b2 + 348.8573 * mu_b3 + 175.5233 * mu_b4 + 32.57625 * mu_b5 + 3.8394463 * mu_u6;
-    highp float p_0_5 = 22.319235 * mu_v6 + 93.09824 * mu_b1 + 198.13544 * mu_b2 + 219.87251 * mu_b3 + 118.698845 * mu_b4 + 23.592907 * mu_b5 + 1.6219406 * mu_u6;
-    highp float p_0_6 = 4.7891173 * mu_v6 + 20.093832 * mu_b1 + 45.58252 * mu_b2 + 54.448914 * mu_b3 + 31.125294 * mu_b4 + 6.4995217 * mu_b5 + 0.24729978 * mu_u6;
-    highp float p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
-    highp float p_1_0 = 2.8096366 * mu_v6 + 13.069463 * mu_b1 + 14.436797 * mu_b2 + 4.584405 * mu_b3 + 2.1962776 * mu_b4 + 0.028659591 * mu_b5 + 0.13177687 * mu_u6;
-    highp float p_1_1 = 21.46432 * mu_v6 + 94.90107 * mu_b1 + 120.46758 * mu_b2 + 59.169334 * mu_b3 + 23.3416 * mu_b4 + 1.4712031 * mu_b5 + 1.6198722 * mu_u6;
-    highp float p_1_2 = 83.152534 * mu_v6 + 353.41992 * mu_b1 + 518.109 * mu_b2 + 347.65112 * mu_b3 + 137.8443 * mu_b4 + 15.738096 * mu_b5 + 6.0827036 * mu_u6;
-    highp float p_1_3 = 165.56323 * mu_v6 + 692.07025 * mu_b1 + 1113.7322 * mu_b2 + 880.6483 * mu_b3 + 377.68478 * mu_b4 + 57.56755 * mu_b5 + 11.145183 * mu_u6;
-    highp float p_1_4 = 176.75774 * mu_v6 + 739.75256 * mu_b1 + 1280.3047 * mu_b2 + 1136.2847 * mu_b3 + 534.24457 * mu_b4 + 98.16542 * mu_b5 + 11.275113 * mu_u6;
-    highp float p_1_5 = 96.02113 * mu_v6 + 404.7011 * mu_b1 + 739.4744 * mu_b2 + 709.0835 * mu_b3 + 354.23138 * mu_b4 + 69.29784 * mu_b5 + 4.7072554 * mu_u6;
-    highp float p_1_6 = 21.05281 * mu_v6 + 89.77463 * mu_b1 + 171.68404 * mu_b2 + 174.86145 * mu_b3 + 91.83302 * mu_b4 + 18.748579 * mu_b5 + 0.70674264 * mu_u6;
-    highp float p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
-    highp float p_2_0 = 2.8085597 * mu_v6 + 13.065863 * mu_b1 + 14.444112 * mu_b2 + 4.5209208 * mu_b3 + 2.2029884 * mu_b4 + 0.030016879 * mu_b5 + 0.131762 * mu_u6;
-    highp float p_2_1 = 21.576958 * mu_v6 + 95.258316 * mu_b1 + 121.40003 * mu_b2 + 60.09989 * mu_b3 + 23.866468 * mu_b4 + 1.2839837 * mu_b5 + 1.6224585 * mu_u6;
-    highp float p_2_2 = 81.55664 * mu_v6 + 347.16986 * mu_b1 + 505.91238 * mu_b2 + 336.7139 * mu_b3 + 136.03102 * mu_b4 + 16.137836 * mu_b5 + 6.080865 * mu_u6;
-    highp float p_2_3 = 171.2409 * mu_v6 + 716.9824 * mu_b1 + 1135.3486 * mu_b2 + 875.7067 * mu_b3 + 373.4091 * mu_b4 + 58.897305 * mu_b5 + 11.000303 * mu_u6;
-    highp float p_2_4 = 199.21176 * mu_v6 + 834.15735 * mu_b1 + 1394.816 * mu_b2 + 1175.0594 * mu_b3 + 531.863 * mu_b4 + 98.12533 * mu_b5 + 11.010791 * mu_u6;
-    highp float p_2_5 = 116.57145 * mu_v6 + 489.97433 * mu_b1 + 845.857 * mu_b2 + 747.61884 * mu_b3 + 349.25912 * mu_b4 + 66.72941 * mu_b5 + 4.458739 * mu_u6;
-    highp float p_2_6 = 26.615286 * mu_v6 + 112.63961 * mu_b1 + 199.47717 * mu_b2 + 183.18987 * mu_b3 + 88.48175 * mu_b4 + 17.435137 * mu_b5 + 0.6610188 * mu_u6;
-    highp float p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
-    highp float p_3_0 = 0.93613523 * mu_v6 + 4.35221 * mu_b1 + 4.8412704 * mu_b2 + 1.4798193 * mu_b3 + 0.7416688 * mu_b4 + 0.009875053 * mu_b5 + 0.04391852 * mu_u6;
-    highp float p_3_1 = 7.2518272 * mu_v6 + 31.978323 * mu_b1 + 40.851017 * mu_b2 + 20.275639 * mu_b3 + 8.3409195 * mu_b4 + 0.40487352 * mu_b5 + 0.5416039 * mu_u6;
-    highp float p_3_2 = 27.58853 * mu_v6 + 117.28371 * mu_b1 + 168.80026 * mu_b2 + 110.41715 * mu_b3 + 45.368748 * mu_b4 + 5.255119 * mu_b5 + 2.0147698 * mu_u6;
-    highp float p_3_3 = 59.54221 * mu_v6 + 250.07436 * mu_b1 + 389.0342 * mu_b2 + 292.89825 * mu_b3 + 124.99128 * mu_b4 + 19.765352 * mu_b5 + 3.5920427 * mu_u6;
-    highp float p_3_4 = 71.64762 * mu_v6 + 301.374 * mu_b1 + 490.7753 * mu_b2 + 397.07092 * mu_b3 + 174.89877 * mu_b4 + 31.43512 * mu_b5 + 3.374703 * mu_u6;
-    highp float p_3_5 = 43.630955 * mu_v6 + 183.8652 * mu_b1 + 305.6021 * mu_b2 + 254.43192 * mu_b3 + 112.606766 * mu_b4 + 20.535025 * mu_b5 + 1.3188326 * mu_u6;
-    highp float p_3_6 = 10.425596 * mu_v6 + 43.945263 * mu_b1 + 73.663765 * mu_b2 + 62.09557 * mu_b3 + 27.523026 * mu_b4 + 5.0424356 * mu_b5 + 0.19197102 * mu_u6;
-    highp float p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
-    highp float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = 1.0 * mu_v6 + 4.654749 * mu_b1 + 5.1947904 * mu_b2 + 1.9518769 * mu_b3 + 0.83982813 * mu_b4 + 0.009065715 * mu_b5 + 0.043922022 * mu_u6;
-    highp float q_0_1 = 7.4699388 * mu_v6 + 33.198925 * mu_b1 + 41.74445 * mu_b2 + 22.252274 * mu_b3 + 8.8945875 * mu_b4 + 0.42183217 * mu_b5 + 0.54114854 * mu_u6;
-    highp float q_0_2 = 30.003647 * mu_v6 + 128.41289 * mu_b1 + 182.11353 * mu_b2 + 122.666985 * mu_b3 + 49.974026 * mu_b4 + 6.0976286 * mu_b5 + 2.0290413 * mu_u6;
-    highp float q_0_3 = 67.37431 * mu_v6 + 283.04993 * mu_b1 + 427.67035 * mu_b2 + 316.4789 * mu_b3 + 131.08533 * mu_b4 + 21.093304 * mu_b5 + 3.7491448 * mu_u6;
-    highp float q_0_4 = 92.61841 * mu_v6 + 388.88818 * mu_b1 + 613.9767 * mu_b2 + 479.0578 * mu_b3 + 200.35852 * mu_b4 + 36.003494 * mu_b5 + 3.938619 * mu_u6;
-    highp float q_0_5 = 69.872894 * mu_v6 + 294.07608 * mu_b1 + 473.75122 * mu_b2 + 374.67203 * mu_b3 + 152.3279 * mu_b4 + 26.123964 * mu_b5 + 1.6971586 * mu_u6;
-    highp float q_0_6 = 21.382719 * mu_v6 + 90.09486 * mu_b1 + 146.1954 * mu_b2 + 115.479034 * mu_b3 + 45.449776 * mu_b4 + 7.2546506 * mu_b5 + 0.26349285 * mu_u6;
-    highp float q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
-    highp float q_1_0 = 3.0 * mu_v6 + 13.964247 * mu_b1 + 15.584371 * mu_b2 + 5.8556304 * mu_b3 + 2.5194843 * mu_b4 + 0.027197145 * mu_b5 + 0.13176607 * mu_u6;
-    highp float q_1_1 = 22.409817 * mu_v6 + 99.59678 * mu_b1 + 125.233345 * mu_b2 + 66.75682 * mu_b3 + 26.683764 * mu_b4 + 1.2654965 * mu_b5 + 1.6234456 * mu_u6;
-    highp float q_1_2 = 90.01094 * mu_v6 + 385.23868 * mu_b1 + 546.3406 * mu_b2 + 368.00095 * mu_b3 + 149.92209 * mu_b4 + 18.292885 * mu_b5 + 6.087124 * mu_u6;
-    highp float q_1_3 = 202.12294 * mu_v6 + 849.1498 * mu_b1 + 1283.011 * mu_b2 + 949.43677 * mu_b3 + 393.25598 * mu_b4 + 63.27991 * mu_b5 + 11.247435 * mu_u6;
-    highp float q_1_4 = 277.85522 * mu_v6 + 1166.6646 * mu_b1 + 1841.93 * mu_b2 + 1437.1735 * mu_b3 + 601.07556 * mu_b4 + 108.01048 * mu_b5 + 11.815857 * mu_u6;
-    highp float q_1_5 = 209.61868 * mu_v6 + 882.2283 * mu_b1 + 1421.2537 * mu_b2 + 1124.0161 * mu_b3 + 456.98367 * mu_b4 + 78.371895 * mu_b5 + 5.091476 * mu_u6;
-    highp float q_1_6 = 64.14816 * mu_v6 + 270.28458 * mu_b1 + 438.5862 * mu_b2 + 346.4371 * mu_b3 + 136.34932 * mu_b4 + 21.763952 * mu_b5 + 0.7904785 * mu_u6;
-    highp float q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
-    highp float q_2_0 = 3.0 * mu_v6 + 13.964247 * mu_b1 + 15.584371 * mu_b2 + 5.8556304 * mu_b3 + 2.5194843 * mu_b4 + 0.027197145 * mu_b5 + 0.13176607 * mu_u6;
-    highp float q_2_1 = 22.409817 * mu_v6 + 99.59678 * mu_b1 + 125.233345 * mu_b2 + 66.75682 * mu_b3 + 26.683764 * mu_b4 + 1.2654965 * mu_b5 + 1.6234456 * mu_u6;
-    highp float q_2_2 = 90.01094 * mu_v6 + 385.23868 * mu_b1 + 546.3406 * mu_b2 + 368.00095 * mu_b3 + 149.92209 * mu_b4 + 18.292885 * mu_b5 + 6.087124 * mu_u6;
-    highp float q_2_3 = 202.12294 * mu_v6 + 849.1498 * mu_b1 + 1283.011 * mu_b2 + 949.43677 * mu_b3 + 393.25598 * mu_b4 + 63.27991 * mu_b5 + 11.247435 * mu_u6;
-    highp float q_2_4 = 277.85522 * mu_v6 + 1166.6646 * mu_b1 + 1841.93 * mu_b2 + 1437.1735 * mu_b3 + 601.07556 * mu_b4 + 108.01048 * mu_b5 + 11.815857 * mu_u6;
-    highp float q_2_5 = 209.61868 * mu_v6 + 882.2283 * mu_b1 + 1421.2537 * mu_b2 + 1124.0161 * mu_b3 + 456.98367 * mu_b4 + 78.371895 * mu_b5 + 5.091476 * mu_u6;
-    highp float q_2_6 = 64.14816 * mu_v6 + 270.28458 * mu_b1 + 438.5862 * mu_b2 + 346.4371 * mu_b3 + 136.34932 * mu_b4 + 21.763952 * mu_b5 + 0.7904785 * mu_u6;
-    highp float q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
-    highp float q_3_0 = 1.0 * mu_v6 + 4.654749 * mu_b1 + 5.1947904 * mu_b2 + 1.9518769 * mu_b3 + 0.83982813 * mu_b4 + 0.009065715 * mu_b5 + 0.043922022 * mu_u6;
-    highp float q_3_1 = 7.4699388 * mu_v6 + 33.198925 * mu_b1 + 41.74445 * mu_b2 + 22.252274 * mu_b3 + 8.8945875 * mu_b4 + 0.42183217 * mu_b5 + 0.54114854 * mu_u6;
-    highp float q_3_2 = 30.003647 * mu_v6 + 128.41289 * mu_b1 + 182.11353 * mu_b2 + 122.666985 * mu_b3 + 49.974026 * mu_b4 + 6.0976286 * mu_b5 + 2.0290413 * mu_u6;
-    highp float q_3_3 = 67.37431 * mu_v6 + 283.04993 * mu_b1 + 427.67035 * mu_b2 + 316.4789 * mu_b3 + 131.08533 * mu_b4 + 21.093304 * mu_b5 + 3.7491448 * mu_u6;
-    highp float q_3_4 = 92.61841 * mu_v6 + 388.88818 * mu_b1 + 613.9767 * mu_b2 + 479.0578 * mu_b3 + 200.35852 * mu_b4 + 36.003494 * mu_b5 + 3.938619 * mu_u6;
-    highp float q_3_5 = 69.872894 * mu_v6 + 294.07608 * mu_b1 + 473.75122 * mu_b2 + 374.67203 * mu_b3 + 152.3279 * mu_b4 + 26.123964 * mu_b5 + 1.6971586 * mu_u6;
-    highp float q_3_6 = 21.382719 * mu_v6 + 90.09486 * mu_b1 + 146.1954 * mu_b2 + 115.479034 * mu_b3 + 45.449776 * mu_b4 + 7.2546506 * mu_b5 + 0.26349285 * mu_u6;
-    highp float q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
-    highp float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    highp float e = p / q;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    highp float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
+    highp float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
+    highp float mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    highp float mu_t = (mu_logv * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 2.0 * (r_c * r_c) + 7.888609e-31);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float f0_s = f0_t * 2.0 - 1.0;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float r_s = r_t * 2.0 - 1.0;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float mu_s = mu_t * 2.0 - 1.0;
+    // term 0: numerator P_0, grouped by powers of the first variable
+    highp float p0_0 = ((((0.039107174 * r_s + (0.10300391 * mu_s - 0.3569073)) * r_s + ((0.0005524761 * mu_s - 0.29786614) * mu_s + 0.6482558)) * r_s + (((-0.07225095 * mu_s + 0.29820192) * mu_s + 0.12447093) * mu_s - 0.18748178)) * r_s + ((((-0.015515809 * mu_s + 0.03992242) * mu_s - 0.45290625) * mu_s + 0.07234853) * mu_s - 0.7169846)) * r_s + (((((-0.0040250663 * mu_s - 0.08098172) * mu_s + 0.0040610027) * mu_s + 0.02525576) * mu_s - 0.10100101) * mu_s + 1.3170125);
+    highp float p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    highp float u0_0 = 0.9556599;
+    highp float u0_1 = 0.017231217;
+    highp float u0_2 = -0.0058352225;
+    highp float u0_3 = -0.00520988;
+    highp float u0_4 = 0.0014192578;
+    highp float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    highp float q0_0 = (((-0.16560692 * r_s + (-0.09984621 * mu_s + 0.17427923)) * r_s + ((0.19207232 * mu_s + 0.16135833) * mu_s - 0.23146012)) * r_s + (((0.0017188239 * mu_s - 0.23674777) * mu_s + 0.09188825) * mu_s + 0.1734782)) * r_s + ((((-0.07976491 * mu_s - 0.035582088) * mu_s + 0.14475337) * mu_s + 0.0057690768) * mu_s + 1.3888004);
+    highp float q0 = q0_0;
+    highp float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    highp float p1_0 = ((((-0.006023788 * r_s + (-0.02680116 * mu_s - 0.010060194)) * r_s + ((0.06106134 * mu_s + 0.06565007) * mu_s - 0.041165788)) * r_s + (((0.16906697 * mu_s + 0.033554964) * mu_s - 0.29801947) * mu_s + 0.06314747)) * r_s + ((((-0.016174663 * mu_s + 0.20171313) * mu_s - 0.0025778778) * mu_s - 0.5428041) * mu_s + 0.29104578)) * r_s + (((((0.0026990199 * mu_s + 0.0022859802) * mu_s + 0.11921809) * mu_s + 0.072281584) * mu_s - 0.25409392) * mu_s - 0.03394093);
+    highp float p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    highp float u1_0 = -0.74525213;
+    highp float u1_1 = 0.3975174;
+    highp float u1_2 = -0.087401405;
+    highp float u1_3 = 0.043519553;
+    highp float u1_4 = -0.009426171;
+    highp float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    highp float q1_0 = (((0.17894422 * r_s + (-0.22389144 * mu_s - 0.09830829)) * r_s + ((-0.2611816 * mu_s - 0.2095898) * mu_s + 0.6078879)) * r_s + (((0.42120087 * mu_s + 0.0028463323) * mu_s - 0.660126) * mu_s + 0.19152094)) * r_s + ((((-0.0777127 * mu_s - 0.041520867) * mu_s - 0.22849253) * mu_s - 0.18396047) * mu_s + 0.9043591);
+    highp float q1 = q1_0;
+    highp float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2, grouped by powers of the first variable
+    highp float p2_0 = ((((0.02260377 * r_s + (-0.36472723 * mu_s + 0.15283959)) * r_s + ((0.21279956 * mu_s - 0.6548035) * mu_s + 0.55147403)) * r_s + (((0.02739059 * mu_s + 0.0873412) * mu_s + 0.578328) * mu_s - 0.4792539)) * r_s + ((((-0.06899969 * mu_s + 0.17428301) * mu_s - 0.54294944) * mu_s + 0.5555385) * mu_s - 0.82904273)) * r_s + (((((-0.03643871 * mu_s - 0.029638905) * mu_s + 0.17502558) * mu_s - 0.19616893) * mu_s - 0.21532373) * mu_s + 0.25939208);
+    highp float p2 = p2_0;
+    // term 2: factor u_2, grouped by powers of the first variable
+    highp float u2_0 = -0.9923536;
+    highp float u2_1 = -0.011658018;
+    highp float u2_2 = 0.05286856;
+    highp float u2_3 = 0.006634478;
+    highp float u2_4 = -0.00019772346;
+    highp float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
+    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
+    highp float q2_0 = (((0.04674238 * r_s + (-0.05956752 * mu_s + 0.5044997)) * r_s + ((-0.41404626 * mu_s - 0.23080887) * mu_s + 0.8432872)) * r_s + (((0.29946655 * mu_s - 0.94293475) * mu_s - 1.5512251) * mu_s + 2.0347562)) * r_s + ((((-0.06738006 * mu_s + 0.28176853) * mu_s + 0.18173099) * mu_s - 1.1911479) * mu_s + 2.1771245);
+    highp float q2 = q2_0;
+    highp float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3, grouped by powers of the first variable
+    highp float p3_0 = ((((-0.0043863663 * r_s + (-0.015469411 * mu_s - 0.029561168)) * r_s + ((0.06826351 * mu_s + 0.01916218) * mu_s - 0.0021923669)) * r_s + (((0.13811481 * mu_s + 0.043455515) * mu_s - 0.21596879) * mu_s + 0.032797374)) * r_s + ((((0.0048403107 * mu_s + 0.08301751) * mu_s - 0.108733706) * mu_s - 0.18900181) * mu_s + 0.15075615)) * r_s + (((((0.005136038 * mu_s + 0.0063718674) * mu_s - 0.0001869835) * mu_s + 0.032490898) * mu_s - 0.023691729) * mu_s - 0.08121501);
+    highp float p3 = p3_0;
+    // term 3: factor u_3, grouped by powers of the first variable
+    highp float u3_0 = 0.4117819;
+    highp float u3_1 = -0.51334536;
+    highp float u3_2 = 0.30684632;
+    highp float u3_3 = -0.13293613;
+    highp float u3_4 = 0.039991822;
+    highp float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
+    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
+    highp float q3_0 = (((0.535473 * r_s + (-0.5096454 * mu_s - 0.22742318)) * r_s + ((-0.8428942 * mu_s - 0.4339264) * mu_s + 1.0918931)) * r_s + (((0.65302926 * mu_s + 0.18128537) * mu_s - 0.7547047) * mu_s + 0.21620527)) * r_s + ((((0.12880196 * mu_s + 0.13552296) * mu_s - 0.8055357) * mu_s - 0.07931767) * mu_s + 1.2959291);
+    highp float q3 = q3_0;
+    highp float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    highp float e = e0 + e1 + e2 + e3;
     return max(min(e, 1.0), 0.0);
 }
 

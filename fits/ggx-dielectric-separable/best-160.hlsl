@@ -14,17 +14,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 4464a8691c7b40194204c1a116d371ce413d45692f90176b323ae99566a6c0f1.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-5, shifted 1.3e-5, bernstein 7.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.17e-4, max 1.27e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.63e-7 (every op rounded, as this Rust), 4.55e-7 (fused multiply-add), 8.58e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.27e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.17e-4, max 1.27e-3; this f32 code MAE 1.17e-4, max 1.27e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.1e-5 on the measurement grid.
-// Denominator proved >= 3.080e-2 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 dabc570b8d333e0a53add7ccfd2de811529a9b9c46afb56c1388b1b4a778907c.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.9e-6, shifted 4.3e-6, bernstein 4.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 9.42e-5, max 9.12e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.01e-6 (every op rounded, as this Rust), 8.71e-7 (fused multiply-add), 4.68e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.15e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1279 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.28e-5, max 9.12e-4; this f32 code MAE 9.28e-5, max 9.12e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.2e-4 on the measurement grid.
+// Denominator proved >= 3.220e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -34,121 +34,76 @@ float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    float f0_v = 1.0f - f0_t;
-    float f0_u2 = f0_t * f0_t;
-    float f0_v2 = f0_v * f0_v;
-    float f0_u3 = f0_u2 * f0_t;
-    float f0_v3 = f0_v2 * f0_v;
-    float f0_b1 = f0_t * f0_v2;
-    float f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
-    float r_v = 1.0f - r_t;
-    float r_u2 = r_t * r_t;
-    float r_v2 = r_v * r_v;
-    float r_u3 = r_u2 * r_t;
-    float r_v3 = r_v2 * r_v;
-    float r_u4 = r_u3 * r_t;
-    float r_v4 = r_v3 * r_v;
-    float r_u5 = r_u4 * r_t;
-    float r_v5 = r_v4 * r_v;
-    float r_u6 = r_u5 * r_t;
-    float r_v6 = r_v5 * r_v;
-    float r_b1 = r_t * r_v5;
-    float r_b2 = r_u2 * r_v4;
-    float r_b3 = r_u3 * r_v3;
-    float r_b4 = r_u4 * r_v2;
-    float r_b5 = r_u5 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
-    float mu_v = 1.0f - mu_u;
-    float mu_u2 = mu_u * mu_u;
-    float mu_v2 = mu_v * mu_v;
-    float mu_u3 = mu_u2 * mu_u;
-    float mu_v3 = mu_v2 * mu_v;
-    float mu_u4 = mu_u3 * mu_u;
-    float mu_v4 = mu_v3 * mu_v;
-    float mu_u5 = mu_u4 * mu_u;
-    float mu_v5 = mu_v4 * mu_v;
-    float mu_u6 = mu_u5 * mu_u;
-    float mu_v6 = mu_v5 * mu_v;
-    float mu_b1 = mu_u * mu_v5;
-    float mu_b2 = mu_u2 * mu_v4;
-    float mu_b3 = mu_u3 * mu_v3;
-    float mu_b4 = mu_u4 * mu_v2;
-    float mu_b5 = mu_u5 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0_0 = 0.9359483f * mu_v6 + 4.3583055f * mu_b1 + 4.817302f * mu_b2 + 1.4754292f * mu_b3 + 0.7477944f * mu_b4 + 0.009265867f * mu_b5 + 0.04392019f * mu_u6;
-    float p_0_1 = 7.2878284f * mu_v6 + 31.849533f * mu_b1 + 41.507603f * mu_b2 + 20.662998f * mu_b3 + 7.858791f * mu_b4 + 0.47131443f * mu_b5 + 0.5414116f * mu_u6;
-    float p_0_2 = 24.844515f * mu_v6 + 105.690605f * mu_b1 + 164.23378f * mu_b2 + 116.71565f * mu_b3 + 47.289833f * mu_b4 + 5.448066f * mu_b5 + 2.0156627f * mu_u6;
-    float p_0_3 = 43.06924f * mu_v6 + 180.01123f * mu_b1 + 317.97498f * mu_b2 + 276.31094f * mu_b3 + 124.64046f * mu_b4 + 19.073631f * mu_b5 + 3.750435f * mu_u6;
-    float p_0_4 = 42.339264f * mu_v6 + 176.21152f * mu_b1 + 346.47253f * mu_b2 + 348.8573f * mu_b3 + 175.5233f * mu_b4 + 32.57625f * mu_b5 + 3.8394463f * mu_u6;
-    float p_0_5 = 22.319235f * mu_v6 + 93.09824f * mu_b1 + 198.13544f * mu_b2 + 219.87251f * mu_b3 + 118.698845f * mu_b4 + 23.592907f * mu_b5 + 1.6219406f * mu_u6;
-    float p_0_6 = 4.7891173f * mu_v6 + 20.093832f * mu_b1 + 45.58252f * mu_b2 + 54.448914f * mu_b3 + 31.125294f * mu_b4 + 6.4995217f * mu_b5 + 0.24729978f * mu_u6;
-    float p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
-    float p_1_0 = 2.8096366f * mu_v6 + 13.069463f * mu_b1 + 14.436797f * mu_b2 + 4.584405f * mu_b3 + 2.1962776f * mu_b4 + 0.028659591f * mu_b5 + 0.13177687f * mu_u6;
-    float p_1_1 = 21.46432f * mu_v6 + 94.90107f * mu_b1 + 120.46758f * mu_b2 + 59.169334f * mu_b3 + 23.3416f * mu_b4 + 1.4712031f * mu_b5 + 1.6198722f * mu_u6;
-    float p_1_2 = 83.152534f * mu_v6 + 353.41992f * mu_b1 + 518.109f * mu_b2 + 347.65112f * mu_b3 + 137.8443f * mu_b4 + 15.738096f * mu_b5 + 6.0827036f * mu_u6;
-    float p_1_3 = 165.56323f * mu_v6 + 692.07025f * mu_b1 + 1113.7322f * mu_b2 + 880.6483f * mu_b3 + 377.68478f * mu_b4 + 57.56755f * mu_b5 + 11.145183f * mu_u6;
-    float p_1_4 = 176.75774f * mu_v6 + 739.75256f * mu_b1 + 1280.3047f * mu_b2 + 1136.2847f * mu_b3 + 534.24457f * mu_b4 + 98.16542f * mu_b5 + 11.275113f * mu_u6;
-    float p_1_5 = 96.02113f * mu_v6 + 404.7011f * mu_b1 + 739.4744f * mu_b2 + 709.0835f * mu_b3 + 354.23138f * mu_b4 + 69.29784f * mu_b5 + 4.7072554f * mu_u6;
-    float p_1_6 = 21.05281f * mu_v6 + 89.77463f * mu_b1 + 171.68404f * mu_b2 + 174.86145f * mu_b3 + 91.83302f * mu_b4 + 18.748579f * mu_b5 + 0.70674264f * mu_u6;
-    float p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
-    float p_2_0 = 2.8085597f * mu_v6 + 13.065863f * mu_b1 + 14.444112f * mu_b2 + 4.5209208f * mu_b3 + 2.2029884f * mu_b4 + 0.030016879f * mu_b5 + 0.131762f * mu_u6;
-    float p_2_1 = 21.576958f * mu_v6 + 95.258316f * mu_b1 + 121.40003f * mu_b2 + 60.09989f * mu_b3 + 23.866468f * mu_b4 + 1.2839837f * mu_b5 + 1.6224585f * mu_u6;
-    float p_2_2 = 81.55664f * mu_v6 + 347.16986f * mu_b1 + 505.91238f * mu_b2 + 336.7139f * mu_b3 + 136.03102f * mu_b4 + 16.137836f * mu_b5 + 6.080865f * mu_u6;
-    float p_2_3 = 171.2409f * mu_v6 + 716.9824f * mu_b1 + 1135.3486f * mu_b2 + 875.7067f * mu_b3 + 373.4091f * mu_b4 + 58.897305f * mu_b5 + 11.000303f * mu_u6;
-    float p_2_4 = 199.21176f * mu_v6 + 834.15735f * mu_b1 + 1394.816f * mu_b2 + 1175.0594f * mu_b3 + 531.863f * mu_b4 + 98.12533f * mu_b5 + 11.010791f * mu_u6;
-    float p_2_5 = 116.57145f * mu_v6 + 489.97433f * mu_b1 + 845.857f * mu_b2 + 747.61884f * mu_b3 + 349.25912f * mu_b4 + 66.72941f * mu_b5 + 4.458739f * mu_u6;
-    float p_2_6 = 26.615286f * mu_v6 + 112.63961f * mu_b1 + 199.47717f * mu_b2 + 183.18987f * mu_b3 + 88.48175f * mu_b4 + 17.435137f * mu_b5 + 0.6610188f * mu_u6;
-    float p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
-    float p_3_0 = 0.93613523f * mu_v6 + 4.35221f * mu_b1 + 4.8412704f * mu_b2 + 1.4798193f * mu_b3 + 0.7416688f * mu_b4 + 0.009875053f * mu_b5 + 0.04391852f * mu_u6;
-    float p_3_1 = 7.2518272f * mu_v6 + 31.978323f * mu_b1 + 40.851017f * mu_b2 + 20.275639f * mu_b3 + 8.3409195f * mu_b4 + 0.40487352f * mu_b5 + 0.5416039f * mu_u6;
-    float p_3_2 = 27.58853f * mu_v6 + 117.28371f * mu_b1 + 168.80026f * mu_b2 + 110.41715f * mu_b3 + 45.368748f * mu_b4 + 5.255119f * mu_b5 + 2.0147698f * mu_u6;
-    float p_3_3 = 59.54221f * mu_v6 + 250.07436f * mu_b1 + 389.0342f * mu_b2 + 292.89825f * mu_b3 + 124.99128f * mu_b4 + 19.765352f * mu_b5 + 3.5920427f * mu_u6;
-    float p_3_4 = 71.64762f * mu_v6 + 301.374f * mu_b1 + 490.7753f * mu_b2 + 397.07092f * mu_b3 + 174.89877f * mu_b4 + 31.43512f * mu_b5 + 3.374703f * mu_u6;
-    float p_3_5 = 43.630955f * mu_v6 + 183.8652f * mu_b1 + 305.6021f * mu_b2 + 254.43192f * mu_b3 + 112.606766f * mu_b4 + 20.535025f * mu_b5 + 1.3188326f * mu_u6;
-    float p_3_6 = 10.425596f * mu_v6 + 43.945263f * mu_b1 + 73.663765f * mu_b2 + 62.09557f * mu_b3 + 27.523026f * mu_b4 + 5.0424356f * mu_b5 + 0.19197102f * mu_u6;
-    float p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
-    float p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0_0 = 1.0f * mu_v6 + 4.654749f * mu_b1 + 5.1947904f * mu_b2 + 1.9518769f * mu_b3 + 0.83982813f * mu_b4 + 0.009065715f * mu_b5 + 0.043922022f * mu_u6;
-    float q_0_1 = 7.4699388f * mu_v6 + 33.198925f * mu_b1 + 41.74445f * mu_b2 + 22.252274f * mu_b3 + 8.8945875f * mu_b4 + 0.42183217f * mu_b5 + 0.54114854f * mu_u6;
-    float q_0_2 = 30.003647f * mu_v6 + 128.41289f * mu_b1 + 182.11353f * mu_b2 + 122.666985f * mu_b3 + 49.974026f * mu_b4 + 6.0976286f * mu_b5 + 2.0290413f * mu_u6;
-    float q_0_3 = 67.37431f * mu_v6 + 283.04993f * mu_b1 + 427.67035f * mu_b2 + 316.4789f * mu_b3 + 131.08533f * mu_b4 + 21.093304f * mu_b5 + 3.7491448f * mu_u6;
-    float q_0_4 = 92.61841f * mu_v6 + 388.88818f * mu_b1 + 613.9767f * mu_b2 + 479.0578f * mu_b3 + 200.35852f * mu_b4 + 36.003494f * mu_b5 + 3.938619f * mu_u6;
-    float q_0_5 = 69.872894f * mu_v6 + 294.07608f * mu_b1 + 473.75122f * mu_b2 + 374.67203f * mu_b3 + 152.3279f * mu_b4 + 26.123964f * mu_b5 + 1.6971586f * mu_u6;
-    float q_0_6 = 21.382719f * mu_v6 + 90.09486f * mu_b1 + 146.1954f * mu_b2 + 115.479034f * mu_b3 + 45.449776f * mu_b4 + 7.2546506f * mu_b5 + 0.26349285f * mu_u6;
-    float q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
-    float q_1_0 = 3.0f * mu_v6 + 13.964247f * mu_b1 + 15.584371f * mu_b2 + 5.8556304f * mu_b3 + 2.5194843f * mu_b4 + 0.027197145f * mu_b5 + 0.13176607f * mu_u6;
-    float q_1_1 = 22.409817f * mu_v6 + 99.59678f * mu_b1 + 125.233345f * mu_b2 + 66.75682f * mu_b3 + 26.683764f * mu_b4 + 1.2654965f * mu_b5 + 1.6234456f * mu_u6;
-    float q_1_2 = 90.01094f * mu_v6 + 385.23868f * mu_b1 + 546.3406f * mu_b2 + 368.00095f * mu_b3 + 149.92209f * mu_b4 + 18.292885f * mu_b5 + 6.087124f * mu_u6;
-    float q_1_3 = 202.12294f * mu_v6 + 849.1498f * mu_b1 + 1283.011f * mu_b2 + 949.43677f * mu_b3 + 393.25598f * mu_b4 + 63.27991f * mu_b5 + 11.247435f * mu_u6;
-    float q_1_4 = 277.85522f * mu_v6 + 1166.6646f * mu_b1 + 1841.93f * mu_b2 + 1437.1735f * mu_b3 + 601.07556f * mu_b4 + 108.01048f * mu_b5 + 11.815857f * mu_u6;
-    float q_1_5 = 209.61868f * mu_v6 + 882.2283f * mu_b1 + 1421.2537f * mu_b2 + 1124.0161f * mu_b3 + 456.98367f * mu_b4 + 78.371895f * mu_b5 + 5.091476f * mu_u6;
-    float q_1_6 = 64.14816f * mu_v6 + 270.28458f * mu_b1 + 438.5862f * mu_b2 + 346.4371f * mu_b3 + 136.34932f * mu_b4 + 21.763952f * mu_b5 + 0.7904785f * mu_u6;
-    float q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
-    float q_2_0 = 3.0f * mu_v6 + 13.964247f * mu_b1 + 15.584371f * mu_b2 + 5.8556304f * mu_b3 + 2.5194843f * mu_b4 + 0.027197145f * mu_b5 + 0.13176607f * mu_u6;
-    float q_2_1 = 22.409817f * mu_v6 + 99.59678f * mu_b1 + 125.233345f * mu_b2 + 66.75682f * mu_b3 + 26.683764f * mu_b4 + 1.2654965f * mu_b5 + 1.6234456f * mu_u6;
-    float q_2_2 = 90.01094f * mu_v6 + 385.23868f * mu_b1 + 546.3406f * mu_b2 + 368.00095f * mu_b3 + 149.92209f * mu_b4 + 18.292885f * mu_b5 + 6.087124f * mu_u6;
-    float q_2_3 = 202.12294f * mu_v6 + 849.1498f * mu_b1 + 1283.011f * mu_b2 + 949.43677f * mu_b3 + 393.25598f * mu_b4 + 63.27991f * mu_b5 + 11.247435f * mu_u6;
-    float q_2_4 = 277.85522f * mu_v6 + 1166.6646f * mu_b1 + 1841.93f * mu_b2 + 1437.1735f * mu_b3 + 601.07556f * mu_b4 + 108.01048f * mu_b5 + 11.815857f * mu_u6;
-    float q_2_5 = 209.61868f * mu_v6 + 882.2283f * mu_b1 + 1421.2537f * mu_b2 + 1124.0161f * mu_b3 + 456.98367f * mu_b4 + 78.371895f * mu_b5 + 5.091476f * mu_u6;
-    float q_2_6 = 64.14816f * mu_v6 + 270.28458f * mu_b1 + 438.5862f * mu_b2 + 346.4371f * mu_b3 + 136.34932f * mu_b4 + 21.763952f * mu_b5 + 0.7904785f * mu_u6;
-    float q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
-    float q_3_0 = 1.0f * mu_v6 + 4.654749f * mu_b1 + 5.1947904f * mu_b2 + 1.9518769f * mu_b3 + 0.83982813f * mu_b4 + 0.009065715f * mu_b5 + 0.043922022f * mu_u6;
-    float q_3_1 = 7.4699388f * mu_v6 + 33.198925f * mu_b1 + 41.74445f * mu_b2 + 22.252274f * mu_b3 + 8.8945875f * mu_b4 + 0.42183217f * mu_b5 + 0.54114854f * mu_u6;
-    float q_3_2 = 30.003647f * mu_v6 + 128.41289f * mu_b1 + 182.11353f * mu_b2 + 122.666985f * mu_b3 + 49.974026f * mu_b4 + 6.0976286f * mu_b5 + 2.0290413f * mu_u6;
-    float q_3_3 = 67.37431f * mu_v6 + 283.04993f * mu_b1 + 427.67035f * mu_b2 + 316.4789f * mu_b3 + 131.08533f * mu_b4 + 21.093304f * mu_b5 + 3.7491448f * mu_u6;
-    float q_3_4 = 92.61841f * mu_v6 + 388.88818f * mu_b1 + 613.9767f * mu_b2 + 479.0578f * mu_b3 + 200.35852f * mu_b4 + 36.003494f * mu_b5 + 3.938619f * mu_u6;
-    float q_3_5 = 69.872894f * mu_v6 + 294.07608f * mu_b1 + 473.75122f * mu_b2 + 374.67203f * mu_b3 + 152.3279f * mu_b4 + 26.123964f * mu_b5 + 1.6971586f * mu_u6;
-    float q_3_6 = 21.382719f * mu_v6 + 90.09486f * mu_b1 + 146.1954f * mu_b2 + 115.479034f * mu_b3 + 45.449776f * mu_b4 + 7.2546506f * mu_b5 + 0.26349285f * mu_u6;
-    float q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
-    float q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    float e = p / q;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20f)))));
+    float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0f + mu_c))));
+    float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    float mu_t = (mu_logv * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 2.0f * (r_c * r_c) + 7.888609e-31f);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    float f0_s = f0_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    float r_s = r_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    float mu_s = mu_t * 2.0f - 1.0f;
+    // term 0: numerator P_0, grouped by powers of the first variable
+    float p0_0 = ((((0.039107174f * r_s + (0.10300391f * mu_s - 0.3569073f)) * r_s + ((0.0005524761f * mu_s - 0.29786614f) * mu_s + 0.6482558f)) * r_s + (((-0.07225095f * mu_s + 0.29820192f) * mu_s + 0.12447093f) * mu_s - 0.18748178f)) * r_s + ((((-0.015515809f * mu_s + 0.03992242f) * mu_s - 0.45290625f) * mu_s + 0.07234853f) * mu_s - 0.7169846f)) * r_s + (((((-0.0040250663f * mu_s - 0.08098172f) * mu_s + 0.0040610027f) * mu_s + 0.02525576f) * mu_s - 0.10100101f) * mu_s + 1.3170125f);
+    float p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    float u0_0 = 0.9556599f;
+    float u0_1 = 0.017231217f;
+    float u0_2 = -0.0058352225f;
+    float u0_3 = -0.00520988f;
+    float u0_4 = 0.0014192578f;
+    float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    float q0_0 = (((-0.16560692f * r_s + (-0.09984621f * mu_s + 0.17427923f)) * r_s + ((0.19207232f * mu_s + 0.16135833f) * mu_s - 0.23146012f)) * r_s + (((0.0017188239f * mu_s - 0.23674777f) * mu_s + 0.09188825f) * mu_s + 0.1734782f)) * r_s + ((((-0.07976491f * mu_s - 0.035582088f) * mu_s + 0.14475337f) * mu_s + 0.0057690768f) * mu_s + 1.3888004f);
+    float q0 = q0_0;
+    float e0 = p0 * u0 / q0;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    float p1_0 = ((((-0.006023788f * r_s + (-0.02680116f * mu_s - 0.010060194f)) * r_s + ((0.06106134f * mu_s + 0.06565007f) * mu_s - 0.041165788f)) * r_s + (((0.16906697f * mu_s + 0.033554964f) * mu_s - 0.29801947f) * mu_s + 0.06314747f)) * r_s + ((((-0.016174663f * mu_s + 0.20171313f) * mu_s - 0.0025778778f) * mu_s - 0.5428041f) * mu_s + 0.29104578f)) * r_s + (((((0.0026990199f * mu_s + 0.0022859802f) * mu_s + 0.11921809f) * mu_s + 0.072281584f) * mu_s - 0.25409392f) * mu_s - 0.03394093f);
+    float p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    float u1_0 = -0.74525213f;
+    float u1_1 = 0.3975174f;
+    float u1_2 = -0.087401405f;
+    float u1_3 = 0.043519553f;
+    float u1_4 = -0.009426171f;
+    float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    float q1_0 = (((0.17894422f * r_s + (-0.22389144f * mu_s - 0.09830829f)) * r_s + ((-0.2611816f * mu_s - 0.2095898f) * mu_s + 0.6078879f)) * r_s + (((0.42120087f * mu_s + 0.0028463323f) * mu_s - 0.660126f) * mu_s + 0.19152094f)) * r_s + ((((-0.0777127f * mu_s - 0.041520867f) * mu_s - 0.22849253f) * mu_s - 0.18396047f) * mu_s + 0.9043591f);
+    float q1 = q1_0;
+    float e1 = p1 * u1 / q1;
+    // term 2: numerator P_2, grouped by powers of the first variable
+    float p2_0 = ((((0.02260377f * r_s + (-0.36472723f * mu_s + 0.15283959f)) * r_s + ((0.21279956f * mu_s - 0.6548035f) * mu_s + 0.55147403f)) * r_s + (((0.02739059f * mu_s + 0.0873412f) * mu_s + 0.578328f) * mu_s - 0.4792539f)) * r_s + ((((-0.06899969f * mu_s + 0.17428301f) * mu_s - 0.54294944f) * mu_s + 0.5555385f) * mu_s - 0.82904273f)) * r_s + (((((-0.03643871f * mu_s - 0.029638905f) * mu_s + 0.17502558f) * mu_s - 0.19616893f) * mu_s - 0.21532373f) * mu_s + 0.25939208f);
+    float p2 = p2_0;
+    // term 2: factor u_2, grouped by powers of the first variable
+    float u2_0 = -0.9923536f;
+    float u2_1 = -0.011658018f;
+    float u2_2 = 0.05286856f;
+    float u2_3 = 0.006634478f;
+    float u2_4 = -0.00019772346f;
+    float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
+    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
+    float q2_0 = (((0.04674238f * r_s + (-0.05956752f * mu_s + 0.5044997f)) * r_s + ((-0.41404626f * mu_s - 0.23080887f) * mu_s + 0.8432872f)) * r_s + (((0.29946655f * mu_s - 0.94293475f) * mu_s - 1.5512251f) * mu_s + 2.0347562f)) * r_s + ((((-0.06738006f * mu_s + 0.28176853f) * mu_s + 0.18173099f) * mu_s - 1.1911479f) * mu_s + 2.1771245f);
+    float q2 = q2_0;
+    float e2 = p2 * u2 / q2;
+    // term 3: numerator P_3, grouped by powers of the first variable
+    float p3_0 = ((((-0.0043863663f * r_s + (-0.015469411f * mu_s - 0.029561168f)) * r_s + ((0.06826351f * mu_s + 0.01916218f) * mu_s - 0.0021923669f)) * r_s + (((0.13811481f * mu_s + 0.043455515f) * mu_s - 0.21596879f) * mu_s + 0.032797374f)) * r_s + ((((0.0048403107f * mu_s + 0.08301751f) * mu_s - 0.108733706f) * mu_s - 0.18900181f) * mu_s + 0.15075615f)) * r_s + (((((0.005136038f * mu_s + 0.0063718674f) * mu_s - 0.0001869835f) * mu_s + 0.032490898f) * mu_s - 0.023691729f) * mu_s - 0.08121501f);
+    float p3 = p3_0;
+    // term 3: factor u_3, grouped by powers of the first variable
+    float u3_0 = 0.4117819f;
+    float u3_1 = -0.51334536f;
+    float u3_2 = 0.30684632f;
+    float u3_3 = -0.13293613f;
+    float u3_4 = 0.039991822f;
+    float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
+    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
+    float q3_0 = (((0.535473f * r_s + (-0.5096454f * mu_s - 0.22742318f)) * r_s + ((-0.8428942f * mu_s - 0.4339264f) * mu_s + 1.0918931f)) * r_s + (((0.65302926f * mu_s + 0.18128537f) * mu_s - 0.7547047f) * mu_s + 0.21620527f)) * r_s + ((((0.12880196f * mu_s + 0.13552296f) * mu_s - 0.8055357f) * mu_s - 0.07931767f) * mu_s + 1.2959291f);
+    float q3 = q3_0;
+    float e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    float e = e0 + e1 + e2 + e3;
     return max(min(e, 1.0f), 0.0f);
 }
 

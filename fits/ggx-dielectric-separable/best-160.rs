@@ -12,17 +12,17 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational over [x0^3 x deg(x1, x2) <= 6]/[x0^0 x deg(x1, x2) <= 6], 139 coefficients (numerator 112, denominator 27 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 27800 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 4464a8691c7b40194204c1a116d371ce413d45692f90176b323ae99566a6c0f1.
-/// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-5, shifted 1.3e-5, bernstein 7.6e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.17e-4, max 1.27e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.63e-7 (every op rounded, as this Rust), 4.55e-7 (fused multiply-add), 8.58e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 3.27e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.17e-4, max 1.27e-3; this f32 code MAE 1.17e-4, max 1.27e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.1e-5 on the measurement grid.
-/// Denominator proved >= 3.080e-2 on the domain (Bernstein certificate), so the division is safe.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
+/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 dabc570b8d333e0a53add7ccfd2de811529a9b9c46afb56c1388b1b4a778907c.
+/// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.9e-6, shifted 4.3e-6, bernstein 4.4e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 9.42e-5, max 9.12e-4 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.01e-6 (every op rounded, as this Rust), 8.71e-7 (fused multiply-add), 4.68e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 3.15e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1279 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.28e-5, max 9.12e-4; this f32 code MAE 9.28e-5, max 9.12e-4.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.2e-4 on the measurement grid.
+/// Denominator proved >= 3.220e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -39,121 +39,76 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 3
-    let f0_v = 1.0_f32 - f0_t;
-    let f0_u2 = f0_t * f0_t;
-    let f0_v2 = f0_v * f0_v;
-    let f0_u3 = f0_u2 * f0_t;
-    let f0_v3 = f0_v2 * f0_v;
-    let f0_b1 = f0_t * f0_v2;
-    let f0_b2 = f0_u2 * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 6
-    let r_v = 1.0_f32 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_t;
-    let r_v4 = r_v3 * r_v;
-    let r_u5 = r_u4 * r_t;
-    let r_v5 = r_v4 * r_v;
-    let r_u6 = r_u5 * r_t;
-    let r_v6 = r_v5 * r_v;
-    let r_b1 = r_t * r_v5;
-    let r_b2 = r_u2 * r_v4;
-    let r_b3 = r_u3 * r_v3;
-    let r_b4 = r_u4 * r_v2;
-    let r_b5 = r_u5 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 6
-    let mu_v = 1.0_f32 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_u6 = mu_u5 * mu_u;
-    let mu_v6 = mu_v5 * mu_v;
-    let mu_b1 = mu_u * mu_v5;
-    let mu_b2 = mu_u2 * mu_v4;
-    let mu_b3 = mu_u3 * mu_v3;
-    let mu_b4 = mu_u4 * mu_v2;
-    let mu_b5 = mu_u5 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.9359483_f32 * mu_v6 + 4.3583055_f32 * mu_b1 + 4.817302_f32 * mu_b2 + 1.4754292_f32 * mu_b3 + 0.7477944_f32 * mu_b4 + 0.009265867_f32 * mu_b5 + 0.04392019_f32 * mu_u6;
-    let p_0_1 = 7.2878284_f32 * mu_v6 + 31.849533_f32 * mu_b1 + 41.507603_f32 * mu_b2 + 20.662998_f32 * mu_b3 + 7.858791_f32 * mu_b4 + 0.47131443_f32 * mu_b5 + 0.5414116_f32 * mu_u6;
-    let p_0_2 = 24.844515_f32 * mu_v6 + 105.690605_f32 * mu_b1 + 164.23378_f32 * mu_b2 + 116.71565_f32 * mu_b3 + 47.289833_f32 * mu_b4 + 5.448066_f32 * mu_b5 + 2.0156627_f32 * mu_u6;
-    let p_0_3 = 43.06924_f32 * mu_v6 + 180.01123_f32 * mu_b1 + 317.97498_f32 * mu_b2 + 276.31094_f32 * mu_b3 + 124.64046_f32 * mu_b4 + 19.073631_f32 * mu_b5 + 3.750435_f32 * mu_u6;
-    let p_0_4 = 42.339264_f32 * mu_v6 + 176.21152_f32 * mu_b1 + 346.47253_f32 * mu_b2 + 348.8573_f32 * mu_b3 + 175.5233_f32 * mu_b4 + 32.57625_f32 * mu_b5 + 3.8394463_f32 * mu_u6;
-    let p_0_5 = 22.319235_f32 * mu_v6 + 93.09824_f32 * mu_b1 + 198.13544_f32 * mu_b2 + 219.87251_f32 * mu_b3 + 118.698845_f32 * mu_b4 + 23.592907_f32 * mu_b5 + 1.6219406_f32 * mu_u6;
-    let p_0_6 = 4.7891173_f32 * mu_v6 + 20.093832_f32 * mu_b1 + 45.58252_f32 * mu_b2 + 54.448914_f32 * mu_b3 + 31.125294_f32 * mu_b4 + 6.4995217_f32 * mu_b5 + 0.24729978_f32 * mu_u6;
-    let p_0 = p_0_0 * r_v6 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_b5 + p_0_6 * r_u6;
-    let p_1_0 = 2.8096366_f32 * mu_v6 + 13.069463_f32 * mu_b1 + 14.436797_f32 * mu_b2 + 4.584405_f32 * mu_b3 + 2.1962776_f32 * mu_b4 + 0.028659591_f32 * mu_b5 + 0.13177687_f32 * mu_u6;
-    let p_1_1 = 21.46432_f32 * mu_v6 + 94.90107_f32 * mu_b1 + 120.46758_f32 * mu_b2 + 59.169334_f32 * mu_b3 + 23.3416_f32 * mu_b4 + 1.4712031_f32 * mu_b5 + 1.6198722_f32 * mu_u6;
-    let p_1_2 = 83.152534_f32 * mu_v6 + 353.41992_f32 * mu_b1 + 518.109_f32 * mu_b2 + 347.65112_f32 * mu_b3 + 137.8443_f32 * mu_b4 + 15.738096_f32 * mu_b5 + 6.0827036_f32 * mu_u6;
-    let p_1_3 = 165.56323_f32 * mu_v6 + 692.07025_f32 * mu_b1 + 1113.7322_f32 * mu_b2 + 880.6483_f32 * mu_b3 + 377.68478_f32 * mu_b4 + 57.56755_f32 * mu_b5 + 11.145183_f32 * mu_u6;
-    let p_1_4 = 176.75774_f32 * mu_v6 + 739.75256_f32 * mu_b1 + 1280.3047_f32 * mu_b2 + 1136.2847_f32 * mu_b3 + 534.24457_f32 * mu_b4 + 98.16542_f32 * mu_b5 + 11.275113_f32 * mu_u6;
-    let p_1_5 = 96.02113_f32 * mu_v6 + 404.7011_f32 * mu_b1 + 739.4744_f32 * mu_b2 + 709.0835_f32 * mu_b3 + 354.23138_f32 * mu_b4 + 69.29784_f32 * mu_b5 + 4.7072554_f32 * mu_u6;
-    let p_1_6 = 21.05281_f32 * mu_v6 + 89.77463_f32 * mu_b1 + 171.68404_f32 * mu_b2 + 174.86145_f32 * mu_b3 + 91.83302_f32 * mu_b4 + 18.748579_f32 * mu_b5 + 0.70674264_f32 * mu_u6;
-    let p_1 = p_1_0 * r_v6 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_b5 + p_1_6 * r_u6;
-    let p_2_0 = 2.8085597_f32 * mu_v6 + 13.065863_f32 * mu_b1 + 14.444112_f32 * mu_b2 + 4.5209208_f32 * mu_b3 + 2.2029884_f32 * mu_b4 + 0.030016879_f32 * mu_b5 + 0.131762_f32 * mu_u6;
-    let p_2_1 = 21.576958_f32 * mu_v6 + 95.258316_f32 * mu_b1 + 121.40003_f32 * mu_b2 + 60.09989_f32 * mu_b3 + 23.866468_f32 * mu_b4 + 1.2839837_f32 * mu_b5 + 1.6224585_f32 * mu_u6;
-    let p_2_2 = 81.55664_f32 * mu_v6 + 347.16986_f32 * mu_b1 + 505.91238_f32 * mu_b2 + 336.7139_f32 * mu_b3 + 136.03102_f32 * mu_b4 + 16.137836_f32 * mu_b5 + 6.080865_f32 * mu_u6;
-    let p_2_3 = 171.2409_f32 * mu_v6 + 716.9824_f32 * mu_b1 + 1135.3486_f32 * mu_b2 + 875.7067_f32 * mu_b3 + 373.4091_f32 * mu_b4 + 58.897305_f32 * mu_b5 + 11.000303_f32 * mu_u6;
-    let p_2_4 = 199.21176_f32 * mu_v6 + 834.15735_f32 * mu_b1 + 1394.816_f32 * mu_b2 + 1175.0594_f32 * mu_b3 + 531.863_f32 * mu_b4 + 98.12533_f32 * mu_b5 + 11.010791_f32 * mu_u6;
-    let p_2_5 = 116.57145_f32 * mu_v6 + 489.97433_f32 * mu_b1 + 845.857_f32 * mu_b2 + 747.61884_f32 * mu_b3 + 349.25912_f32 * mu_b4 + 66.72941_f32 * mu_b5 + 4.458739_f32 * mu_u6;
-    let p_2_6 = 26.615286_f32 * mu_v6 + 112.63961_f32 * mu_b1 + 199.47717_f32 * mu_b2 + 183.18987_f32 * mu_b3 + 88.48175_f32 * mu_b4 + 17.435137_f32 * mu_b5 + 0.6610188_f32 * mu_u6;
-    let p_2 = p_2_0 * r_v6 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_b5 + p_2_6 * r_u6;
-    let p_3_0 = 0.93613523_f32 * mu_v6 + 4.35221_f32 * mu_b1 + 4.8412704_f32 * mu_b2 + 1.4798193_f32 * mu_b3 + 0.7416688_f32 * mu_b4 + 0.009875053_f32 * mu_b5 + 0.04391852_f32 * mu_u6;
-    let p_3_1 = 7.2518272_f32 * mu_v6 + 31.978323_f32 * mu_b1 + 40.851017_f32 * mu_b2 + 20.275639_f32 * mu_b3 + 8.3409195_f32 * mu_b4 + 0.40487352_f32 * mu_b5 + 0.5416039_f32 * mu_u6;
-    let p_3_2 = 27.58853_f32 * mu_v6 + 117.28371_f32 * mu_b1 + 168.80026_f32 * mu_b2 + 110.41715_f32 * mu_b3 + 45.368748_f32 * mu_b4 + 5.255119_f32 * mu_b5 + 2.0147698_f32 * mu_u6;
-    let p_3_3 = 59.54221_f32 * mu_v6 + 250.07436_f32 * mu_b1 + 389.0342_f32 * mu_b2 + 292.89825_f32 * mu_b3 + 124.99128_f32 * mu_b4 + 19.765352_f32 * mu_b5 + 3.5920427_f32 * mu_u6;
-    let p_3_4 = 71.64762_f32 * mu_v6 + 301.374_f32 * mu_b1 + 490.7753_f32 * mu_b2 + 397.07092_f32 * mu_b3 + 174.89877_f32 * mu_b4 + 31.43512_f32 * mu_b5 + 3.374703_f32 * mu_u6;
-    let p_3_5 = 43.630955_f32 * mu_v6 + 183.8652_f32 * mu_b1 + 305.6021_f32 * mu_b2 + 254.43192_f32 * mu_b3 + 112.606766_f32 * mu_b4 + 20.535025_f32 * mu_b5 + 1.3188326_f32 * mu_u6;
-    let p_3_6 = 10.425596_f32 * mu_v6 + 43.945263_f32 * mu_b1 + 73.663765_f32 * mu_b2 + 62.09557_f32 * mu_b3 + 27.523026_f32 * mu_b4 + 5.0424356_f32 * mu_b5 + 0.19197102_f32 * mu_u6;
-    let p_3 = p_3_0 * r_v6 + p_3_1 * r_b1 + p_3_2 * r_b2 + p_3_3 * r_b3 + p_3_4 * r_b4 + p_3_5 * r_b5 + p_3_6 * r_u6;
-    let p = p_0 * f0_v3 + p_1 * f0_b1 + p_2 * f0_b2 + p_3 * f0_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0_f32 * mu_v6 + 4.654749_f32 * mu_b1 + 5.1947904_f32 * mu_b2 + 1.9518769_f32 * mu_b3 + 0.83982813_f32 * mu_b4 + 0.009065715_f32 * mu_b5 + 0.043922022_f32 * mu_u6;
-    let q_0_1 = 7.4699388_f32 * mu_v6 + 33.198925_f32 * mu_b1 + 41.74445_f32 * mu_b2 + 22.252274_f32 * mu_b3 + 8.8945875_f32 * mu_b4 + 0.42183217_f32 * mu_b5 + 0.54114854_f32 * mu_u6;
-    let q_0_2 = 30.003647_f32 * mu_v6 + 128.41289_f32 * mu_b1 + 182.11353_f32 * mu_b2 + 122.666985_f32 * mu_b3 + 49.974026_f32 * mu_b4 + 6.0976286_f32 * mu_b5 + 2.0290413_f32 * mu_u6;
-    let q_0_3 = 67.37431_f32 * mu_v6 + 283.04993_f32 * mu_b1 + 427.67035_f32 * mu_b2 + 316.4789_f32 * mu_b3 + 131.08533_f32 * mu_b4 + 21.093304_f32 * mu_b5 + 3.7491448_f32 * mu_u6;
-    let q_0_4 = 92.61841_f32 * mu_v6 + 388.88818_f32 * mu_b1 + 613.9767_f32 * mu_b2 + 479.0578_f32 * mu_b3 + 200.35852_f32 * mu_b4 + 36.003494_f32 * mu_b5 + 3.938619_f32 * mu_u6;
-    let q_0_5 = 69.872894_f32 * mu_v6 + 294.07608_f32 * mu_b1 + 473.75122_f32 * mu_b2 + 374.67203_f32 * mu_b3 + 152.3279_f32 * mu_b4 + 26.123964_f32 * mu_b5 + 1.6971586_f32 * mu_u6;
-    let q_0_6 = 21.382719_f32 * mu_v6 + 90.09486_f32 * mu_b1 + 146.1954_f32 * mu_b2 + 115.479034_f32 * mu_b3 + 45.449776_f32 * mu_b4 + 7.2546506_f32 * mu_b5 + 0.26349285_f32 * mu_u6;
-    let q_0 = q_0_0 * r_v6 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_b5 + q_0_6 * r_u6;
-    let q_1_0 = 3.0_f32 * mu_v6 + 13.964247_f32 * mu_b1 + 15.584371_f32 * mu_b2 + 5.8556304_f32 * mu_b3 + 2.5194843_f32 * mu_b4 + 0.027197145_f32 * mu_b5 + 0.13176607_f32 * mu_u6;
-    let q_1_1 = 22.409817_f32 * mu_v6 + 99.59678_f32 * mu_b1 + 125.233345_f32 * mu_b2 + 66.75682_f32 * mu_b3 + 26.683764_f32 * mu_b4 + 1.2654965_f32 * mu_b5 + 1.6234456_f32 * mu_u6;
-    let q_1_2 = 90.01094_f32 * mu_v6 + 385.23868_f32 * mu_b1 + 546.3406_f32 * mu_b2 + 368.00095_f32 * mu_b3 + 149.92209_f32 * mu_b4 + 18.292885_f32 * mu_b5 + 6.087124_f32 * mu_u6;
-    let q_1_3 = 202.12294_f32 * mu_v6 + 849.1498_f32 * mu_b1 + 1283.011_f32 * mu_b2 + 949.43677_f32 * mu_b3 + 393.25598_f32 * mu_b4 + 63.27991_f32 * mu_b5 + 11.247435_f32 * mu_u6;
-    let q_1_4 = 277.85522_f32 * mu_v6 + 1166.6646_f32 * mu_b1 + 1841.93_f32 * mu_b2 + 1437.1735_f32 * mu_b3 + 601.07556_f32 * mu_b4 + 108.01048_f32 * mu_b5 + 11.815857_f32 * mu_u6;
-    let q_1_5 = 209.61868_f32 * mu_v6 + 882.2283_f32 * mu_b1 + 1421.2537_f32 * mu_b2 + 1124.0161_f32 * mu_b3 + 456.98367_f32 * mu_b4 + 78.371895_f32 * mu_b5 + 5.091476_f32 * mu_u6;
-    let q_1_6 = 64.14816_f32 * mu_v6 + 270.28458_f32 * mu_b1 + 438.5862_f32 * mu_b2 + 346.4371_f32 * mu_b3 + 136.34932_f32 * mu_b4 + 21.763952_f32 * mu_b5 + 0.7904785_f32 * mu_u6;
-    let q_1 = q_1_0 * r_v6 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_b5 + q_1_6 * r_u6;
-    let q_2_0 = 3.0_f32 * mu_v6 + 13.964247_f32 * mu_b1 + 15.584371_f32 * mu_b2 + 5.8556304_f32 * mu_b3 + 2.5194843_f32 * mu_b4 + 0.027197145_f32 * mu_b5 + 0.13176607_f32 * mu_u6;
-    let q_2_1 = 22.409817_f32 * mu_v6 + 99.59678_f32 * mu_b1 + 125.233345_f32 * mu_b2 + 66.75682_f32 * mu_b3 + 26.683764_f32 * mu_b4 + 1.2654965_f32 * mu_b5 + 1.6234456_f32 * mu_u6;
-    let q_2_2 = 90.01094_f32 * mu_v6 + 385.23868_f32 * mu_b1 + 546.3406_f32 * mu_b2 + 368.00095_f32 * mu_b3 + 149.92209_f32 * mu_b4 + 18.292885_f32 * mu_b5 + 6.087124_f32 * mu_u6;
-    let q_2_3 = 202.12294_f32 * mu_v6 + 849.1498_f32 * mu_b1 + 1283.011_f32 * mu_b2 + 949.43677_f32 * mu_b3 + 393.25598_f32 * mu_b4 + 63.27991_f32 * mu_b5 + 11.247435_f32 * mu_u6;
-    let q_2_4 = 277.85522_f32 * mu_v6 + 1166.6646_f32 * mu_b1 + 1841.93_f32 * mu_b2 + 1437.1735_f32 * mu_b3 + 601.07556_f32 * mu_b4 + 108.01048_f32 * mu_b5 + 11.815857_f32 * mu_u6;
-    let q_2_5 = 209.61868_f32 * mu_v6 + 882.2283_f32 * mu_b1 + 1421.2537_f32 * mu_b2 + 1124.0161_f32 * mu_b3 + 456.98367_f32 * mu_b4 + 78.371895_f32 * mu_b5 + 5.091476_f32 * mu_u6;
-    let q_2_6 = 64.14816_f32 * mu_v6 + 270.28458_f32 * mu_b1 + 438.5862_f32 * mu_b2 + 346.4371_f32 * mu_b3 + 136.34932_f32 * mu_b4 + 21.763952_f32 * mu_b5 + 0.7904785_f32 * mu_u6;
-    let q_2 = q_2_0 * r_v6 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_b5 + q_2_6 * r_u6;
-    let q_3_0 = 1.0_f32 * mu_v6 + 4.654749_f32 * mu_b1 + 5.1947904_f32 * mu_b2 + 1.9518769_f32 * mu_b3 + 0.83982813_f32 * mu_b4 + 0.009065715_f32 * mu_b5 + 0.043922022_f32 * mu_u6;
-    let q_3_1 = 7.4699388_f32 * mu_v6 + 33.198925_f32 * mu_b1 + 41.74445_f32 * mu_b2 + 22.252274_f32 * mu_b3 + 8.8945875_f32 * mu_b4 + 0.42183217_f32 * mu_b5 + 0.54114854_f32 * mu_u6;
-    let q_3_2 = 30.003647_f32 * mu_v6 + 128.41289_f32 * mu_b1 + 182.11353_f32 * mu_b2 + 122.666985_f32 * mu_b3 + 49.974026_f32 * mu_b4 + 6.0976286_f32 * mu_b5 + 2.0290413_f32 * mu_u6;
-    let q_3_3 = 67.37431_f32 * mu_v6 + 283.04993_f32 * mu_b1 + 427.67035_f32 * mu_b2 + 316.4789_f32 * mu_b3 + 131.08533_f32 * mu_b4 + 21.093304_f32 * mu_b5 + 3.7491448_f32 * mu_u6;
-    let q_3_4 = 92.61841_f32 * mu_v6 + 388.88818_f32 * mu_b1 + 613.9767_f32 * mu_b2 + 479.0578_f32 * mu_b3 + 200.35852_f32 * mu_b4 + 36.003494_f32 * mu_b5 + 3.938619_f32 * mu_u6;
-    let q_3_5 = 69.872894_f32 * mu_v6 + 294.07608_f32 * mu_b1 + 473.75122_f32 * mu_b2 + 374.67203_f32 * mu_b3 + 152.3279_f32 * mu_b4 + 26.123964_f32 * mu_b5 + 1.6971586_f32 * mu_u6;
-    let q_3_6 = 21.382719_f32 * mu_v6 + 90.09486_f32 * mu_b1 + 146.1954_f32 * mu_b2 + 115.479034_f32 * mu_b3 + 45.449776_f32 * mu_b4 + 7.2546506_f32 * mu_b5 + 0.26349285_f32 * mu_u6;
-    let q_3 = q_3_0 * r_v6 + q_3_1 * r_b1 + q_3_2 * r_b2 + q_3_3 * r_b3 + q_3_4 * r_b4 + q_3_5 * r_b5 + q_3_6 * r_u6;
-    let q = q_0 * f0_v3 + q_1 * f0_b1 + q_2 * f0_b2 + q_3 * f0_u3;
-    let e = p / q;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
+    let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
+    let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 2.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 2.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let f0_s = f0_t * 2.0_f32 - 1.0_f32;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let r_s = r_t * 2.0_f32 - 1.0_f32;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let mu_s = mu_t * 2.0_f32 - 1.0_f32;
+    // term 0: numerator P_0, grouped by powers of the first variable
+    let p0_0 = ((((0.039107174_f32 * r_s + (0.10300391_f32 * mu_s - 0.3569073_f32)) * r_s + ((0.0005524761_f32 * mu_s - 0.29786614_f32) * mu_s + 0.6482558_f32)) * r_s + (((-0.07225095_f32 * mu_s + 0.29820192_f32) * mu_s + 0.12447093_f32) * mu_s - 0.18748178_f32)) * r_s + ((((-0.015515809_f32 * mu_s + 0.03992242_f32) * mu_s - 0.45290625_f32) * mu_s + 0.07234853_f32) * mu_s - 0.7169846_f32)) * r_s + (((((-0.0040250663_f32 * mu_s - 0.08098172_f32) * mu_s + 0.0040610027_f32) * mu_s + 0.02525576_f32) * mu_s - 0.10100101_f32) * mu_s + 1.3170125_f32);
+    let p0 = p0_0;
+    // term 0: factor u_0, grouped by powers of the first variable
+    let u0_0 = 0.9556599_f32;
+    let u0_1 = 0.017231217_f32;
+    let u0_2 = -0.0058352225_f32;
+    let u0_3 = -0.00520988_f32;
+    let u0_4 = 0.0014192578_f32;
+    let u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
+    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
+    let q0_0 = (((-0.16560692_f32 * r_s + (-0.09984621_f32 * mu_s + 0.17427923_f32)) * r_s + ((0.19207232_f32 * mu_s + 0.16135833_f32) * mu_s - 0.23146012_f32)) * r_s + (((0.0017188239_f32 * mu_s - 0.23674777_f32) * mu_s + 0.09188825_f32) * mu_s + 0.1734782_f32)) * r_s + ((((-0.07976491_f32 * mu_s - 0.035582088_f32) * mu_s + 0.14475337_f32) * mu_s + 0.0057690768_f32) * mu_s + 1.3888004_f32);
+    let q0 = q0_0;
+    let e0 = p0 * u0 / q0;
+    // term 1: numerator P_1, grouped by powers of the first variable
+    let p1_0 = ((((-0.006023788_f32 * r_s + (-0.02680116_f32 * mu_s - 0.010060194_f32)) * r_s + ((0.06106134_f32 * mu_s + 0.06565007_f32) * mu_s - 0.041165788_f32)) * r_s + (((0.16906697_f32 * mu_s + 0.033554964_f32) * mu_s - 0.29801947_f32) * mu_s + 0.06314747_f32)) * r_s + ((((-0.016174663_f32 * mu_s + 0.20171313_f32) * mu_s - 0.0025778778_f32) * mu_s - 0.5428041_f32) * mu_s + 0.29104578_f32)) * r_s + (((((0.0026990199_f32 * mu_s + 0.0022859802_f32) * mu_s + 0.11921809_f32) * mu_s + 0.072281584_f32) * mu_s - 0.25409392_f32) * mu_s - 0.03394093_f32);
+    let p1 = p1_0;
+    // term 1: factor u_1, grouped by powers of the first variable
+    let u1_0 = -0.74525213_f32;
+    let u1_1 = 0.3975174_f32;
+    let u1_2 = -0.087401405_f32;
+    let u1_3 = 0.043519553_f32;
+    let u1_4 = -0.009426171_f32;
+    let u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
+    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
+    let q1_0 = (((0.17894422_f32 * r_s + (-0.22389144_f32 * mu_s - 0.09830829_f32)) * r_s + ((-0.2611816_f32 * mu_s - 0.2095898_f32) * mu_s + 0.6078879_f32)) * r_s + (((0.42120087_f32 * mu_s + 0.0028463323_f32) * mu_s - 0.660126_f32) * mu_s + 0.19152094_f32)) * r_s + ((((-0.0777127_f32 * mu_s - 0.041520867_f32) * mu_s - 0.22849253_f32) * mu_s - 0.18396047_f32) * mu_s + 0.9043591_f32);
+    let q1 = q1_0;
+    let e1 = p1 * u1 / q1;
+    // term 2: numerator P_2, grouped by powers of the first variable
+    let p2_0 = ((((0.02260377_f32 * r_s + (-0.36472723_f32 * mu_s + 0.15283959_f32)) * r_s + ((0.21279956_f32 * mu_s - 0.6548035_f32) * mu_s + 0.55147403_f32)) * r_s + (((0.02739059_f32 * mu_s + 0.0873412_f32) * mu_s + 0.578328_f32) * mu_s - 0.4792539_f32)) * r_s + ((((-0.06899969_f32 * mu_s + 0.17428301_f32) * mu_s - 0.54294944_f32) * mu_s + 0.5555385_f32) * mu_s - 0.82904273_f32)) * r_s + (((((-0.03643871_f32 * mu_s - 0.029638905_f32) * mu_s + 0.17502558_f32) * mu_s - 0.19616893_f32) * mu_s - 0.21532373_f32) * mu_s + 0.25939208_f32);
+    let p2 = p2_0;
+    // term 2: factor u_2, grouped by powers of the first variable
+    let u2_0 = -0.9923536_f32;
+    let u2_1 = -0.011658018_f32;
+    let u2_2 = 0.05286856_f32;
+    let u2_3 = 0.006634478_f32;
+    let u2_4 = -0.00019772346_f32;
+    let u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
+    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
+    let q2_0 = (((0.04674238_f32 * r_s + (-0.05956752_f32 * mu_s + 0.5044997_f32)) * r_s + ((-0.41404626_f32 * mu_s - 0.23080887_f32) * mu_s + 0.8432872_f32)) * r_s + (((0.29946655_f32 * mu_s - 0.94293475_f32) * mu_s - 1.5512251_f32) * mu_s + 2.0347562_f32)) * r_s + ((((-0.06738006_f32 * mu_s + 0.28176853_f32) * mu_s + 0.18173099_f32) * mu_s - 1.1911479_f32) * mu_s + 2.1771245_f32);
+    let q2 = q2_0;
+    let e2 = p2 * u2 / q2;
+    // term 3: numerator P_3, grouped by powers of the first variable
+    let p3_0 = ((((-0.0043863663_f32 * r_s + (-0.015469411_f32 * mu_s - 0.029561168_f32)) * r_s + ((0.06826351_f32 * mu_s + 0.01916218_f32) * mu_s - 0.0021923669_f32)) * r_s + (((0.13811481_f32 * mu_s + 0.043455515_f32) * mu_s - 0.21596879_f32) * mu_s + 0.032797374_f32)) * r_s + ((((0.0048403107_f32 * mu_s + 0.08301751_f32) * mu_s - 0.108733706_f32) * mu_s - 0.18900181_f32) * mu_s + 0.15075615_f32)) * r_s + (((((0.005136038_f32 * mu_s + 0.0063718674_f32) * mu_s - 0.0001869835_f32) * mu_s + 0.032490898_f32) * mu_s - 0.023691729_f32) * mu_s - 0.08121501_f32);
+    let p3 = p3_0;
+    // term 3: factor u_3, grouped by powers of the first variable
+    let u3_0 = 0.4117819_f32;
+    let u3_1 = -0.51334536_f32;
+    let u3_2 = 0.30684632_f32;
+    let u3_3 = -0.13293613_f32;
+    let u3_4 = 0.039991822_f32;
+    let u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
+    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
+    let q3_0 = (((0.535473_f32 * r_s + (-0.5096454_f32 * mu_s - 0.22742318_f32)) * r_s + ((-0.8428942_f32 * mu_s - 0.4339264_f32) * mu_s + 1.0918931_f32)) * r_s + (((0.65302926_f32 * mu_s + 0.18128537_f32) * mu_s - 0.7547047_f32) * mu_s + 0.21620527_f32)) * r_s + ((((0.12880196_f32 * mu_s + 0.13552296_f32) * mu_s - 0.8055357_f32) * mu_s - 0.07931767_f32) * mu_s + 1.2959291_f32);
+    let q3 = q3_0;
+    let e3 = p3 * u3 / q3;
+    // the sum of the 4 terms
+    let e = e0 + e1 + e2 + e3;
     e.min(1.0_f32).max(0.0_f32)
 }
 

@@ -13,40 +13,38 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
+//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/8) - 0.0125^(1/8))/(0.25^(1/8) - 0.0125^(1/8)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 b2954f733f19412d1f78b779b1c75b024534e1b90563f575284e3c2fe939d40c.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1.5*r*r) + 2^-100)/(mu + 1.5*r*r + 2^-100).
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 8eba44384ccece2f2669edb991537da37e0187881fff5439401d7bc503f64336.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.6e-7, shifted 8.5e-7, bernstein 3.7e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 3.22e-3, max 1.31e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.00e-7 (every op rounded, as this Rust), 7.53e-7 (fused multiply-add), 8.73e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.72e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1785 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.60e-3, max 1.31e-2; this f32 code MAE 2.60e-3, max 1.31e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 7.0e-3 on the measurement grid.
-// Denominator proved >= 6.847e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-6, shifted 7.3e-7, bernstein 6.1e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.95e-3, max 1.15e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.16e-6 (every op rounded, as this Rust), 9.49e-7 (fused multiply-add), 1.07e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.35e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1887 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.68e-3, max 1.15e-2; this f32 code MAE 2.68e-3, max 1.15e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
+// Denominator proved >= 7.478e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/8) - 0.0125^(1/8))/(0.25^(1/8) - 0.0125^(1/8))
+    highp float f0_t = (sqrt(sqrt(sqrt(f0_c))) - 0.5782475) * 3.8073637;
     highp float r_c = max(min(r, 1.0), 0.0);
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
+    // t = (mu*(1 + 1.5*r*r) + 2^-100)/(mu + 1.5*r*r + 2^-100)
+    highp float mu_t = (mu_c * (1.0 + 1.5 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.5 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = ((-0.2961582 * r_t + (-0.47996578 * mu_t + 1.0462347)) * r_t + ((-5.285737 * mu_t + 5.790607) * mu_t - 0.9444727)) * r_t + (((5.092481 * mu_t - 0.44939378) * mu_t - 1.8993179) * mu_t + 0.9558262);
-    highp float p_1 = (-11.6603775 * r_t + (-1.086359 * mu_t + 19.803333)) * r_t + ((10.310927 * mu_t - 16.881783) * mu_t + 17.94597);
-    highp float p_2 = 6.08574 * r_t + (17.774738 * mu_t - 81.59018);
-    highp float p_3 = 159.6954;
-    highp float p = ((p_3 * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
+    highp float p_0 = ((1.3847153 * r_t + (2.511699 * mu_t - 2.8701715)) * r_t + ((1.4871862 * mu_t + 3.4391294) * mu_t + 2.1943557)) * r_t + (((6.313897 * mu_t - 7.260784) * mu_t + 1.6903505) * mu_t + 0.9366144);
+    highp float p_1 = ((-2.885848 * r_t + (-1.2299104 * mu_t + 4.177865)) * r_t + ((1.9646544 * mu_t - 3.5171685) * mu_t + 0.8221295)) * r_t + (((-0.073115915 * mu_t + 0.09682189) * mu_t + 0.007117499) * mu_t - 0.022108082);
+    highp float p_2 = ((1.360101 * r_t + (-2.9319818 * mu_t - 0.56786)) * r_t + ((-1.4126517 * mu_t + 2.798307) * mu_t - 0.7628633)) * r_t + (((0.027375007 * mu_t - 0.009514788) * mu_t - 0.0507308) * mu_t + 0.02631972);
+    highp float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = ((-0.33652592 * r_t + (-4.0533857 * mu_t + 4.5794687)) * r_t + ((-3.4270813 * mu_t + 4.1472206) * mu_t - 0.89263934)) * r_t + (((4.5453 * mu_t + 0.078592084) * mu_t - 1.9559065) * mu_t + 1.0);
-    highp float q_1 = (-2.1182334 * r_t + (1.469576 * mu_t + 15.883793)) * r_t + ((9.63394 * mu_t - 17.395592) * mu_t + 19.58707);
-    highp float q_2 = 11.567648 * r_t + (20.350061 * mu_t - 88.595505);
-    highp float q_3 = 170.6403;
-    highp float q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
+    highp float q_0 = ((2.0333188 * r_t + (-2.8467445 * mu_t + 2.5689383)) * r_t + ((2.4361417 * mu_t + 2.5914502) * mu_t + 2.1244152)) * r_t + (((6.854448 * mu_t - 8.2939205) * mu_t + 2.117156) * mu_t + 1.0);
+    highp float q = q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

@@ -25,40 +25,38 @@
 // ggx_dielectric_separable_albedo(f0, r, mu): directional albedo E of ggx-dielectric-separable.
 // Model: GGX rough dielectric seen from outside (eta = (1+sqrt(F0))/(1-sqrt(F0))), E = E_R + E_T; separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25].
+//   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/8) - 0.0125^(1/8))/(0.25^(1/8) - 0.0125^(1/8)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 b2954f733f19412d1f78b779b1c75b024534e1b90563f575284e3c2fe939d40c.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1.5*r*r) + 2^-100)/(mu + 1.5*r*r + 2^-100).
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 8eba44384ccece2f2669edb991537da37e0187881fff5439401d7bc503f64336.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.6e-7, shifted 8.5e-7, bernstein 3.7e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 3.22e-3, max 1.31e-2 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.00e-7 (every op rounded, as this Rust), 7.53e-7 (fused multiply-add), 8.73e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.72e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1785 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.60e-3, max 1.31e-2; this f32 code MAE 2.60e-3, max 1.31e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 7.0e-3 on the measurement grid.
-// Denominator proved >= 6.847e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-6, shifted 7.3e-7, bernstein 6.1e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.95e-3, max 1.15e-2 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.16e-6 (every op rounded, as this Rust), 9.49e-7 (fused multiply-add), 1.07e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.35e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1887 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.68e-3, max 1.15e-2; this f32 code MAE 2.68e-3, max 1.15e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
+// Denominator proved >= 7.478e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/8) - 0.0125^(1/8))/(0.25^(1/8) - 0.0125^(1/8))
+    const float f0_t = (sqrtf(sqrtf(sqrtf(f0_c))) - 0.5782475f) * 3.8073637f;
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
-    const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
+    // t = (mu*(1 + 1.5*r*r) + 2^-100)/(mu + 1.5*r*r + 2^-100)
+    const float mu_t = (mu_c * (1.0f + 1.5f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.5f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    const float p_0 = ((-0.2961582f * r_t + (-0.47996578f * mu_t + 1.0462347f)) * r_t + ((-5.285737f * mu_t + 5.790607f) * mu_t - 0.9444727f)) * r_t + (((5.092481f * mu_t - 0.44939378f) * mu_t - 1.8993179f) * mu_t + 0.9558262f);
-    const float p_1 = (-11.6603775f * r_t + (-1.086359f * mu_t + 19.803333f)) * r_t + ((10.310927f * mu_t - 16.881783f) * mu_t + 17.94597f);
-    const float p_2 = 6.08574f * r_t + (17.774738f * mu_t - 81.59018f);
-    const float p_3 = 159.6954f;
-    const float p = ((p_3 * f0_c + p_2) * f0_c + p_1) * f0_c + p_0;
+    const float p_0 = ((1.3847153f * r_t + (2.511699f * mu_t - 2.8701715f)) * r_t + ((1.4871862f * mu_t + 3.4391294f) * mu_t + 2.1943557f)) * r_t + (((6.313897f * mu_t - 7.260784f) * mu_t + 1.6903505f) * mu_t + 0.9366144f);
+    const float p_1 = ((-2.885848f * r_t + (-1.2299104f * mu_t + 4.177865f)) * r_t + ((1.9646544f * mu_t - 3.5171685f) * mu_t + 0.8221295f)) * r_t + (((-0.073115915f * mu_t + 0.09682189f) * mu_t + 0.007117499f) * mu_t - 0.022108082f);
+    const float p_2 = ((1.360101f * r_t + (-2.9319818f * mu_t - 0.56786f)) * r_t + ((-1.4126517f * mu_t + 2.798307f) * mu_t - 0.7628633f)) * r_t + (((0.027375007f * mu_t - 0.009514788f) * mu_t - 0.0507308f) * mu_t + 0.02631972f);
+    const float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = ((-0.33652592f * r_t + (-4.0533857f * mu_t + 4.5794687f)) * r_t + ((-3.4270813f * mu_t + 4.1472206f) * mu_t - 0.89263934f)) * r_t + (((4.5453f * mu_t + 0.078592084f) * mu_t - 1.9559065f) * mu_t + 1.0f);
-    const float q_1 = (-2.1182334f * r_t + (1.469576f * mu_t + 15.883793f)) * r_t + ((9.63394f * mu_t - 17.395592f) * mu_t + 19.58707f);
-    const float q_2 = 11.567648f * r_t + (20.350061f * mu_t - 88.595505f);
-    const float q_3 = 170.6403f;
-    const float q = ((q_3 * f0_c + q_2) * f0_c + q_1) * f0_c + q_0;
+    const float q_0 = ((2.0333188f * r_t + (-2.8467445f * mu_t + 2.5689383f)) * r_t + ((2.4361417f * mu_t + 2.5914502f) * mu_t + 2.1244152f)) * r_t + (((6.854448f * mu_t - 8.2939205f) * mu_t + 2.117156f) * mu_t + 1.0f);
+    const float q = q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }

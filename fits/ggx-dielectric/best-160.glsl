@@ -15,17 +15,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 7c3cae98b7349c18636d06e707255fc6920efc08bdafd1d652707dade9834e08.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 25642503dd03806086a4b9547b18c4b04d9f4af10384165ad0b73f4f37ca1868.
 // Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-5, shifted 1.1e-6, bernstein 8.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.55e-4, max 1.50e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.06e-6 (fused multiply-add), 1.15e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.03e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 28929 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 1.52e-4, max 1.50e-3; this f32 code MAE 1.52e-4, max 1.50e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
-// Denominator proved >= 5.036e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-5, shifted 3.0e-6, bernstein 3.0e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.91e-5, max 8.20e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.04e-6 (every op rounded, as this Rust), 8.51e-7 (fused multiply-add), 3.73e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.49e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 3299 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.75e-5, max 8.20e-4; this f32 code MAE 8.75e-5, max 8.19e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-4 on the measurement grid.
+// Denominator proved >= 1.347e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -35,68 +35,72 @@ highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu)
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    highp float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
+    highp float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
+    highp float mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    highp float mu_t = (mu_logv * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 2.0 * (r_c * r_c) + 7.888609e-31);
     // s = (t - 0.5)/0.5 in [-1, 1]
     highp float f0_s = f0_t * 2.0 - 1.0;
     // s = (t - 0.5)/0.5 in [-1, 1]
     highp float r_s = r_t * 2.0 - 1.0;
-    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
+    // s = (t - 0.5)/0.5 in [-1, 1]
     highp float mu_s = mu_t * 2.0 - 1.0;
     // term 0: numerator P_0, grouped by powers of the first variable
-    highp float p0_0 = ((((-0.011918166 * r_s + (-0.021823648 * mu_s - 0.016255371)) * r_s + ((-0.12458967 * mu_s - 0.06258053) * mu_s - 0.16454485)) * r_s + (((-0.08568799 * mu_s - 0.37621802) * mu_s + 0.16160116) * mu_s + 0.19405559)) * r_s + ((((-0.065356284 * mu_s - 0.09956811) * mu_s + 0.345191) * mu_s + 0.23570438) * mu_s - 0.06925018)) * r_s + (((((0.0069459947 * mu_s + 0.16597004) * mu_s - 0.13487074) * mu_s + 0.2986323) * mu_s - 0.033305265) * mu_s + 0.694115);
+    highp float p0_0 = ((((0.33335447 * r_s + (0.07371933 * mu_s - 0.42454994)) * r_s + ((-0.73698896 * mu_s + 0.63987875) * mu_s + 0.113817416)) * r_s + (((-0.32094058 * mu_s + 0.37167257) * mu_s + 0.32806653) * mu_s - 0.0788688)) * r_s + ((((0.13181043 * mu_s + 0.2660395) * mu_s + 0.9655379) * mu_s - 1.0861851) * mu_s - 0.654594)) * r_s + (((((0.16196369 * mu_s - 0.38695154) * mu_s + 0.26297393) * mu_s + 0.482042) * mu_s - 0.51348513) * mu_s + 1.4359372);
     highp float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    highp float u0_0 = 0.9330575;
-    highp float u0_1 = 0.00082670763;
-    highp float u0_2 = -0.00303093;
-    highp float u0_3 = 0.0006978481;
-    highp float u0_4 = -0.000373876;
+    highp float u0_0 = 0.9547888;
+    highp float u0_1 = -0.011291153;
+    highp float u0_2 = -0.0025394345;
+    highp float u0_3 = -0.0010632311;
+    highp float u0_4 = -2.7616383e-5;
     highp float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    highp float q0_0 = (((-0.026517436 * r_s + (-0.21078819 * mu_s - 0.2510877)) * r_s + ((-0.19878437 * mu_s + 0.017584944) * mu_s - 0.000806248)) * r_s + (((-0.18818024 * mu_s - 0.17874087) * mu_s + 0.4217664) * mu_s + 0.354793)) * r_s + ((((0.22625028 * mu_s - 0.13750286) * mu_s - 0.1483733) * mu_s + 0.11537787) * mu_s + 1.0458575);
+    highp float q0_0 = (((-0.25055903 * r_s + (0.5469865 * mu_s - 0.10558576)) * r_s + ((0.095531665 * mu_s - 0.21004725) * mu_s - 0.07742821)) * r_s + (((0.28392085 * mu_s - 0.04992009) * mu_s - 0.866443) * mu_s + 0.38577425)) * r_s + ((((-0.43112373 * mu_s + 0.27833188) * mu_s + 0.30367115) * mu_s - 0.014644185) * mu_s + 1.6793526);
     highp float q0 = q0_0;
     highp float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    highp float p1_0 = ((((-0.021729324 * r_s + (-0.05822918 * mu_s - 0.072261445)) * r_s + ((-0.27179855 * mu_s - 0.033633742) * mu_s + 0.26026702)) * r_s + (((0.014744899 * mu_s + 0.05029476) * mu_s + 0.22867452) * mu_s + 0.17556673)) * r_s + ((((-0.22847997 * mu_s - 0.14082979) * mu_s + 1.0805737) * mu_s + 0.45448166) * mu_s - 0.517771)) * r_s + (((((0.020731727 * mu_s - 0.22385739) * mu_s - 0.16984013) * mu_s + 0.75953645) * mu_s + 0.25097284) * mu_s - 0.36605296);
+    highp float p1_0 = ((((-0.008705628 * r_s + (-0.029660663 * mu_s + 0.012573171)) * r_s + ((0.3379427 * mu_s + 0.11719814) * mu_s - 0.23153281)) * r_s + (((0.6216278 * mu_s - 0.04990316) * mu_s - 0.5391234) * mu_s + 0.1585658)) * r_s + ((((-0.10440767 * mu_s + 1.4055612) * mu_s - 0.5904922) * mu_s - 1.6496449) * mu_s + 0.631014)) * r_s + (((((-0.013205541 * mu_s - 0.14781879) * mu_s + 0.7570896) * mu_s - 0.22340289) * mu_s - 0.891861) * mu_s + 0.37616372);
     highp float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    highp float u1_0 = -1.0127523;
-    highp float u1_1 = -0.1817477;
-    highp float u1_2 = 0.046532534;
-    highp float u1_3 = -0.018409317;
-    highp float u1_4 = 0.0052718776;
+    highp float u1_0 = -0.43483567;
+    highp float u1_1 = 0.19660808;
+    highp float u1_2 = 0.109569505;
+    highp float u1_3 = -0.0015595648;
+    highp float u1_4 = 0.0070178434;
     highp float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    highp float q1_0 = (((-0.09017574 * r_s + (-0.19689734 * mu_s - 0.41591614)) * r_s + ((-0.55491817 * mu_s + 0.8553671) * mu_s + 0.19609447)) * r_s + (((-0.8989049 * mu_s - 0.35715997) * mu_s + 1.1060119) * mu_s + 1.5838997)) * r_s + ((((0.7868654 * mu_s - 0.4565476) * mu_s - 0.48917234) * mu_s - 0.16882423) * mu_s + 2.1819158);
+    highp float q1_0 = (((0.15039541 * r_s + (0.29179302 * mu_s - 0.7329295)) * r_s + ((-1.1361289 * mu_s - 0.3163867) * mu_s + 1.4197218)) * r_s + (((1.1134998 * mu_s - 0.80638224) * mu_s - 3.364875) * mu_s + 2.381366)) * r_s + ((((-0.469609 * mu_s + 0.41266924) * mu_s - 0.5129985) * mu_s - 1.3710092) * mu_s + 3.0755289);
     highp float q1 = q1_0;
     highp float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    highp float p2_0 = ((((-0.04562524 * r_s + (-0.14063303 * mu_s + 0.19078374)) * r_s + ((-0.41651148 * mu_s + 0.61939013) * mu_s - 0.18233001)) * r_s + (((-0.3131555 * mu_s - 0.2646746) * mu_s + 0.40479606) * mu_s + 0.19496003)) * r_s + ((((-0.4716104 * mu_s + 0.18990342) * mu_s + 1.0475239) * mu_s - 0.5344758) * mu_s - 0.022045935)) * r_s + (((((-0.17044036 * mu_s + 0.0128048975) * mu_s + 0.31504098) * mu_s + 0.2470755) * mu_s - 0.25731543) * mu_s - 0.23794325);
+    highp float p2_0 = ((((0.09571051 * r_s + (0.039238703 * mu_s + 0.009427909)) * r_s + ((-0.4724739 * mu_s - 0.012444769) * mu_s + 0.30114862)) * r_s + (((0.06484887 * mu_s + 0.51684535) * mu_s + 0.26675856) * mu_s - 0.20912619)) * r_s + ((((0.14404105 * mu_s - 0.33133748) * mu_s + 1.3250424) * mu_s + 0.6928982) * mu_s - 1.0512934)) * r_s + (((((0.027275689 * mu_s + 0.15833986) * mu_s - 0.4243694) * mu_s + 0.31927297) * mu_s + 0.38897684) * mu_s - 0.46021104);
     highp float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    highp float u2_0 = -0.3561137;
-    highp float u2_1 = 0.0119602;
-    highp float u2_2 = 0.016951038;
-    highp float u2_3 = -4.6904424e-5;
-    highp float u2_4 = 0.0011768044;
+    highp float u2_0 = -1.1098754;
+    highp float u2_1 = -0.0026267788;
+    highp float u2_2 = 0.17669584;
+    highp float u2_3 = -0.023533214;
+    highp float u2_4 = 0.01294627;
     highp float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    highp float q2_0 = (((-0.058968723 * r_s + (0.033622395 * mu_s - 0.0021322076)) * r_s + ((-0.13527624 * mu_s + 0.13241054) * mu_s + 0.043948658)) * r_s + (((0.13550016 * mu_s - 0.40503645) * mu_s - 0.16192777) * mu_s + 0.4152175)) * r_s + ((((0.08516806 * mu_s + 0.18569285) * mu_s - 0.17741652) * mu_s - 0.72404045) * mu_s + 0.8374617);
+    highp float q2_0 = (((-0.5767159 * r_s + (0.6889603 * mu_s - 0.551217)) * r_s + ((-0.40583792 * mu_s + 0.022969864) * mu_s + 1.0918705)) * r_s + (((-0.3618391 * mu_s - 1.8322991) * mu_s - 0.5032351) * mu_s + 3.6213076)) * r_s + ((((-0.058054265 * mu_s + 1.2627492) * mu_s + 0.8515883) * mu_s + 1.1100582) * mu_s + 3.9068317);
     highp float q2 = q2_0;
     highp float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    highp float p3_0 = ((((0.014670452 * r_s + (0.08574407 * mu_s - 0.05890083)) * r_s + ((0.0673135 * mu_s - 0.11388636) * mu_s + 0.0345713)) * r_s + (((0.112274565 * mu_s + 0.012842538) * mu_s - 0.18526927) * mu_s - 0.0020659312)) * r_s + ((((0.17672148 * mu_s - 0.0043243156) * mu_s - 0.25638682) * mu_s + 0.053568847) * mu_s - 0.031654593)) * r_s + (((((0.06569903 * mu_s + 0.040345777) * mu_s - 0.1401804) * mu_s - 0.056554653) * mu_s + 0.06030726) * mu_s + 0.020297589);
+    highp float p3_0 = ((((-0.18788671 * r_s + (-0.096109 * mu_s + 0.14645235)) * r_s + ((0.43792704 * mu_s - 0.052885793) * mu_s - 0.117859356)) * r_s + (((0.38707227 * mu_s - 0.19143292) * mu_s - 0.45855218) * mu_s - 0.013633327)) * r_s + ((((0.012374544 * mu_s - 0.019984117) * mu_s - 0.63129365) * mu_s + 0.13689952) * mu_s + 0.47507778)) * r_s + (((((-0.040834073 * mu_s + 0.010545125) * mu_s - 0.35695112) * mu_s + 0.057565454) * mu_s + 0.5946967) * mu_s - 0.07753923);
     highp float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    highp float u3_0 = -0.93599737;
-    highp float u3_1 = 0.06260903;
-    highp float u3_2 = 0.08030373;
-    highp float u3_3 = -0.0019345675;
-    highp float u3_4 = 0.0049963305;
+    highp float u3_0 = 1.0315391;
+    highp float u3_1 = -0.02460231;
+    highp float u3_2 = 0.023144905;
+    highp float u3_3 = -0.0137099335;
+    highp float u3_4 = 0.003905646;
     highp float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    highp float q3_0 = (((-0.022384174 * r_s + (-0.0500167 * mu_s + 0.008819765)) * r_s + ((-0.031134857 * mu_s + 0.1723501) * mu_s - 0.10456457)) * r_s + (((0.13191207 * mu_s - 0.40827698) * mu_s + 0.06151665) * mu_s + 0.3109084)) * r_s + ((((0.028115839 * mu_s + 0.141441) * mu_s - 0.21836732) * mu_s - 0.6446953) * mu_s + 0.78547007);
+    highp float q3_0 = (((-0.11477527 * r_s + (0.2798702 * mu_s - 0.029123247)) * r_s + ((0.45777768 * mu_s - 0.44324878) * mu_s - 0.28838927)) * r_s + (((-0.1580609 * mu_s + 0.48392653) * mu_s - 0.40369853) * mu_s + 0.03864094)) * r_s + ((((-0.29677197 * mu_s + 0.07395432) * mu_s - 0.19916129) * mu_s - 0.039197963) * mu_s + 1.8081611);
     highp float q3 = q3_0;
     highp float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

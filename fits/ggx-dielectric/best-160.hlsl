@@ -14,17 +14,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 7c3cae98b7349c18636d06e707255fc6920efc08bdafd1d652707dade9834e08.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
+// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 25642503dd03806086a4b9547b18c4b04d9f4af10384165ad0b73f4f37ca1868.
 // Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-5, shifted 1.1e-6, bernstein 8.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.55e-4, max 1.50e-3 (recorded by the fitter).
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.06e-6 (fused multiply-add), 1.15e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.03e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 28929 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 1.52e-4, max 1.50e-3; this f32 code MAE 1.52e-4, max 1.50e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
-// Denominator proved >= 5.036e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-5, shifted 3.0e-6, bernstein 3.0e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.91e-5, max 8.20e-4 (recorded by the fitter).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.04e-6 (every op rounded, as this Rust), 8.51e-7 (fused multiply-add), 3.73e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.49e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 3299 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.75e-5, max 8.20e-4; this f32 code MAE 8.75e-5, max 8.19e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-4 on the measurement grid.
+// Denominator proved >= 1.347e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -34,68 +34,72 @@ float ggx_dielectric_albedo(float f0, float r, float mu) {
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20f)))));
+    float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0f + mu_c))));
+    float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    float mu_t = (mu_logv * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 2.0f * (r_c * r_c) + 7.888609e-31f);
     // s = (t - 0.5)/0.5 in [-1, 1]
     float f0_s = f0_t * 2.0f - 1.0f;
     // s = (t - 0.5)/0.5 in [-1, 1]
     float r_s = r_t * 2.0f - 1.0f;
-    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
+    // s = (t - 0.5)/0.5 in [-1, 1]
     float mu_s = mu_t * 2.0f - 1.0f;
     // term 0: numerator P_0, grouped by powers of the first variable
-    float p0_0 = ((((-0.011918166f * r_s + (-0.021823648f * mu_s - 0.016255371f)) * r_s + ((-0.12458967f * mu_s - 0.06258053f) * mu_s - 0.16454485f)) * r_s + (((-0.08568799f * mu_s - 0.37621802f) * mu_s + 0.16160116f) * mu_s + 0.19405559f)) * r_s + ((((-0.065356284f * mu_s - 0.09956811f) * mu_s + 0.345191f) * mu_s + 0.23570438f) * mu_s - 0.06925018f)) * r_s + (((((0.0069459947f * mu_s + 0.16597004f) * mu_s - 0.13487074f) * mu_s + 0.2986323f) * mu_s - 0.033305265f) * mu_s + 0.694115f);
+    float p0_0 = ((((0.33335447f * r_s + (0.07371933f * mu_s - 0.42454994f)) * r_s + ((-0.73698896f * mu_s + 0.63987875f) * mu_s + 0.113817416f)) * r_s + (((-0.32094058f * mu_s + 0.37167257f) * mu_s + 0.32806653f) * mu_s - 0.0788688f)) * r_s + ((((0.13181043f * mu_s + 0.2660395f) * mu_s + 0.9655379f) * mu_s - 1.0861851f) * mu_s - 0.654594f)) * r_s + (((((0.16196369f * mu_s - 0.38695154f) * mu_s + 0.26297393f) * mu_s + 0.482042f) * mu_s - 0.51348513f) * mu_s + 1.4359372f);
     float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    float u0_0 = 0.9330575f;
-    float u0_1 = 0.00082670763f;
-    float u0_2 = -0.00303093f;
-    float u0_3 = 0.0006978481f;
-    float u0_4 = -0.000373876f;
+    float u0_0 = 0.9547888f;
+    float u0_1 = -0.011291153f;
+    float u0_2 = -0.0025394345f;
+    float u0_3 = -0.0010632311f;
+    float u0_4 = -2.7616383e-5f;
     float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    float q0_0 = (((-0.026517436f * r_s + (-0.21078819f * mu_s - 0.2510877f)) * r_s + ((-0.19878437f * mu_s + 0.017584944f) * mu_s - 0.000806248f)) * r_s + (((-0.18818024f * mu_s - 0.17874087f) * mu_s + 0.4217664f) * mu_s + 0.354793f)) * r_s + ((((0.22625028f * mu_s - 0.13750286f) * mu_s - 0.1483733f) * mu_s + 0.11537787f) * mu_s + 1.0458575f);
+    float q0_0 = (((-0.25055903f * r_s + (0.5469865f * mu_s - 0.10558576f)) * r_s + ((0.095531665f * mu_s - 0.21004725f) * mu_s - 0.07742821f)) * r_s + (((0.28392085f * mu_s - 0.04992009f) * mu_s - 0.866443f) * mu_s + 0.38577425f)) * r_s + ((((-0.43112373f * mu_s + 0.27833188f) * mu_s + 0.30367115f) * mu_s - 0.014644185f) * mu_s + 1.6793526f);
     float q0 = q0_0;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    float p1_0 = ((((-0.021729324f * r_s + (-0.05822918f * mu_s - 0.072261445f)) * r_s + ((-0.27179855f * mu_s - 0.033633742f) * mu_s + 0.26026702f)) * r_s + (((0.014744899f * mu_s + 0.05029476f) * mu_s + 0.22867452f) * mu_s + 0.17556673f)) * r_s + ((((-0.22847997f * mu_s - 0.14082979f) * mu_s + 1.0805737f) * mu_s + 0.45448166f) * mu_s - 0.517771f)) * r_s + (((((0.020731727f * mu_s - 0.22385739f) * mu_s - 0.16984013f) * mu_s + 0.75953645f) * mu_s + 0.25097284f) * mu_s - 0.36605296f);
+    float p1_0 = ((((-0.008705628f * r_s + (-0.029660663f * mu_s + 0.012573171f)) * r_s + ((0.3379427f * mu_s + 0.11719814f) * mu_s - 0.23153281f)) * r_s + (((0.6216278f * mu_s - 0.04990316f) * mu_s - 0.5391234f) * mu_s + 0.1585658f)) * r_s + ((((-0.10440767f * mu_s + 1.4055612f) * mu_s - 0.5904922f) * mu_s - 1.6496449f) * mu_s + 0.631014f)) * r_s + (((((-0.013205541f * mu_s - 0.14781879f) * mu_s + 0.7570896f) * mu_s - 0.22340289f) * mu_s - 0.891861f) * mu_s + 0.37616372f);
     float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    float u1_0 = -1.0127523f;
-    float u1_1 = -0.1817477f;
-    float u1_2 = 0.046532534f;
-    float u1_3 = -0.018409317f;
-    float u1_4 = 0.0052718776f;
+    float u1_0 = -0.43483567f;
+    float u1_1 = 0.19660808f;
+    float u1_2 = 0.109569505f;
+    float u1_3 = -0.0015595648f;
+    float u1_4 = 0.0070178434f;
     float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    float q1_0 = (((-0.09017574f * r_s + (-0.19689734f * mu_s - 0.41591614f)) * r_s + ((-0.55491817f * mu_s + 0.8553671f) * mu_s + 0.19609447f)) * r_s + (((-0.8989049f * mu_s - 0.35715997f) * mu_s + 1.1060119f) * mu_s + 1.5838997f)) * r_s + ((((0.7868654f * mu_s - 0.4565476f) * mu_s - 0.48917234f) * mu_s - 0.16882423f) * mu_s + 2.1819158f);
+    float q1_0 = (((0.15039541f * r_s + (0.29179302f * mu_s - 0.7329295f)) * r_s + ((-1.1361289f * mu_s - 0.3163867f) * mu_s + 1.4197218f)) * r_s + (((1.1134998f * mu_s - 0.80638224f) * mu_s - 3.364875f) * mu_s + 2.381366f)) * r_s + ((((-0.469609f * mu_s + 0.41266924f) * mu_s - 0.5129985f) * mu_s - 1.3710092f) * mu_s + 3.0755289f);
     float q1 = q1_0;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    float p2_0 = ((((-0.04562524f * r_s + (-0.14063303f * mu_s + 0.19078374f)) * r_s + ((-0.41651148f * mu_s + 0.61939013f) * mu_s - 0.18233001f)) * r_s + (((-0.3131555f * mu_s - 0.2646746f) * mu_s + 0.40479606f) * mu_s + 0.19496003f)) * r_s + ((((-0.4716104f * mu_s + 0.18990342f) * mu_s + 1.0475239f) * mu_s - 0.5344758f) * mu_s - 0.022045935f)) * r_s + (((((-0.17044036f * mu_s + 0.0128048975f) * mu_s + 0.31504098f) * mu_s + 0.2470755f) * mu_s - 0.25731543f) * mu_s - 0.23794325f);
+    float p2_0 = ((((0.09571051f * r_s + (0.039238703f * mu_s + 0.009427909f)) * r_s + ((-0.4724739f * mu_s - 0.012444769f) * mu_s + 0.30114862f)) * r_s + (((0.06484887f * mu_s + 0.51684535f) * mu_s + 0.26675856f) * mu_s - 0.20912619f)) * r_s + ((((0.14404105f * mu_s - 0.33133748f) * mu_s + 1.3250424f) * mu_s + 0.6928982f) * mu_s - 1.0512934f)) * r_s + (((((0.027275689f * mu_s + 0.15833986f) * mu_s - 0.4243694f) * mu_s + 0.31927297f) * mu_s + 0.38897684f) * mu_s - 0.46021104f);
     float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    float u2_0 = -0.3561137f;
-    float u2_1 = 0.0119602f;
-    float u2_2 = 0.016951038f;
-    float u2_3 = -4.6904424e-5f;
-    float u2_4 = 0.0011768044f;
+    float u2_0 = -1.1098754f;
+    float u2_1 = -0.0026267788f;
+    float u2_2 = 0.17669584f;
+    float u2_3 = -0.023533214f;
+    float u2_4 = 0.01294627f;
     float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    float q2_0 = (((-0.058968723f * r_s + (0.033622395f * mu_s - 0.0021322076f)) * r_s + ((-0.13527624f * mu_s + 0.13241054f) * mu_s + 0.043948658f)) * r_s + (((0.13550016f * mu_s - 0.40503645f) * mu_s - 0.16192777f) * mu_s + 0.4152175f)) * r_s + ((((0.08516806f * mu_s + 0.18569285f) * mu_s - 0.17741652f) * mu_s - 0.72404045f) * mu_s + 0.8374617f);
+    float q2_0 = (((-0.5767159f * r_s + (0.6889603f * mu_s - 0.551217f)) * r_s + ((-0.40583792f * mu_s + 0.022969864f) * mu_s + 1.0918705f)) * r_s + (((-0.3618391f * mu_s - 1.8322991f) * mu_s - 0.5032351f) * mu_s + 3.6213076f)) * r_s + ((((-0.058054265f * mu_s + 1.2627492f) * mu_s + 0.8515883f) * mu_s + 1.1100582f) * mu_s + 3.9068317f);
     float q2 = q2_0;
     float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    float p3_0 = ((((0.014670452f * r_s + (0.08574407f * mu_s - 0.05890083f)) * r_s + ((0.0673135f * mu_s - 0.11388636f) * mu_s + 0.0345713f)) * r_s + (((0.112274565f * mu_s + 0.012842538f) * mu_s - 0.18526927f) * mu_s - 0.0020659312f)) * r_s + ((((0.17672148f * mu_s - 0.0043243156f) * mu_s - 0.25638682f) * mu_s + 0.053568847f) * mu_s - 0.031654593f)) * r_s + (((((0.06569903f * mu_s + 0.040345777f) * mu_s - 0.1401804f) * mu_s - 0.056554653f) * mu_s + 0.06030726f) * mu_s + 0.020297589f);
+    float p3_0 = ((((-0.18788671f * r_s + (-0.096109f * mu_s + 0.14645235f)) * r_s + ((0.43792704f * mu_s - 0.052885793f) * mu_s - 0.117859356f)) * r_s + (((0.38707227f * mu_s - 0.19143292f) * mu_s - 0.45855218f) * mu_s - 0.013633327f)) * r_s + ((((0.012374544f * mu_s - 0.019984117f) * mu_s - 0.63129365f) * mu_s + 0.13689952f) * mu_s + 0.47507778f)) * r_s + (((((-0.040834073f * mu_s + 0.010545125f) * mu_s - 0.35695112f) * mu_s + 0.057565454f) * mu_s + 0.5946967f) * mu_s - 0.07753923f);
     float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    float u3_0 = -0.93599737f;
-    float u3_1 = 0.06260903f;
-    float u3_2 = 0.08030373f;
-    float u3_3 = -0.0019345675f;
-    float u3_4 = 0.0049963305f;
+    float u3_0 = 1.0315391f;
+    float u3_1 = -0.02460231f;
+    float u3_2 = 0.023144905f;
+    float u3_3 = -0.0137099335f;
+    float u3_4 = 0.003905646f;
     float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    float q3_0 = (((-0.022384174f * r_s + (-0.0500167f * mu_s + 0.008819765f)) * r_s + ((-0.031134857f * mu_s + 0.1723501f) * mu_s - 0.10456457f)) * r_s + (((0.13191207f * mu_s - 0.40827698f) * mu_s + 0.06151665f) * mu_s + 0.3109084f)) * r_s + ((((0.028115839f * mu_s + 0.141441f) * mu_s - 0.21836732f) * mu_s - 0.6446953f) * mu_s + 0.78547007f);
+    float q3_0 = (((-0.11477527f * r_s + (0.2798702f * mu_s - 0.029123247f)) * r_s + ((0.45777768f * mu_s - 0.44324878f) * mu_s - 0.28838927f)) * r_s + (((-0.1580609f * mu_s + 0.48392653f) * mu_s - 0.40369853f) * mu_s + 0.03864094f)) * r_s + ((((-0.29677197f * mu_s + 0.07395432f) * mu_s - 0.19916129f) * mu_s - 0.039197963f) * mu_s + 1.8081611f);
     float q3 = q3_0;
     float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

@@ -12,17 +12,17 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 7c3cae98b7349c18636d06e707255fc6920efc08bdafd1d652707dade9834e08.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
+/// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 25642503dd03806086a4b9547b18c4b04d9f4af10384165ad0b73f4f37ca1868.
 /// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-5, shifted 1.1e-6, bernstein 8.6e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.55e-4, max 1.50e-3 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.06e-6 (fused multiply-add), 1.15e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 6.03e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 28929 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 1.52e-4, max 1.50e-3; this f32 code MAE 1.52e-4, max 1.50e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
-/// Denominator proved >= 5.036e-2 on the domain (Bernstein certificate), so the division is safe.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-5, shifted 3.0e-6, bernstein 3.0e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 8.91e-5, max 8.20e-4 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.04e-6 (every op rounded, as this Rust), 8.51e-7 (fused multiply-add), 3.73e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.49e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 3299 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.75e-5, max 8.20e-4; this f32 code MAE 8.75e-5, max 8.19e-4.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-4 on the measurement grid.
+/// Denominator proved >= 1.347e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -39,68 +39,72 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
+    let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
+    let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 2.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 2.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
     // s = (t - 0.5)/0.5 in [-1, 1]
     let f0_s = f0_t * 2.0_f32 - 1.0_f32;
     // s = (t - 0.5)/0.5 in [-1, 1]
     let r_s = r_t * 2.0_f32 - 1.0_f32;
-    // s = (t - 0.5000000000000004)/0.49999999999999956 in [-1, 1]
+    // s = (t - 0.5)/0.5 in [-1, 1]
     let mu_s = mu_t * 2.0_f32 - 1.0_f32;
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((-0.011918166_f32 * r_s + (-0.021823648_f32 * mu_s - 0.016255371_f32)) * r_s + ((-0.12458967_f32 * mu_s - 0.06258053_f32) * mu_s - 0.16454485_f32)) * r_s + (((-0.08568799_f32 * mu_s - 0.37621802_f32) * mu_s + 0.16160116_f32) * mu_s + 0.19405559_f32)) * r_s + ((((-0.065356284_f32 * mu_s - 0.09956811_f32) * mu_s + 0.345191_f32) * mu_s + 0.23570438_f32) * mu_s - 0.06925018_f32)) * r_s + (((((0.0069459947_f32 * mu_s + 0.16597004_f32) * mu_s - 0.13487074_f32) * mu_s + 0.2986323_f32) * mu_s - 0.033305265_f32) * mu_s + 0.694115_f32);
+    let p0_0 = ((((0.33335447_f32 * r_s + (0.07371933_f32 * mu_s - 0.42454994_f32)) * r_s + ((-0.73698896_f32 * mu_s + 0.63987875_f32) * mu_s + 0.113817416_f32)) * r_s + (((-0.32094058_f32 * mu_s + 0.37167257_f32) * mu_s + 0.32806653_f32) * mu_s - 0.0788688_f32)) * r_s + ((((0.13181043_f32 * mu_s + 0.2660395_f32) * mu_s + 0.9655379_f32) * mu_s - 1.0861851_f32) * mu_s - 0.654594_f32)) * r_s + (((((0.16196369_f32 * mu_s - 0.38695154_f32) * mu_s + 0.26297393_f32) * mu_s + 0.482042_f32) * mu_s - 0.51348513_f32) * mu_s + 1.4359372_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.9330575_f32;
-    let u0_1 = 0.00082670763_f32;
-    let u0_2 = -0.00303093_f32;
-    let u0_3 = 0.0006978481_f32;
-    let u0_4 = -0.000373876_f32;
+    let u0_0 = 0.9547888_f32;
+    let u0_1 = -0.011291153_f32;
+    let u0_2 = -0.0025394345_f32;
+    let u0_3 = -0.0010632311_f32;
+    let u0_4 = -2.7616383e-5_f32;
     let u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (((-0.026517436_f32 * r_s + (-0.21078819_f32 * mu_s - 0.2510877_f32)) * r_s + ((-0.19878437_f32 * mu_s + 0.017584944_f32) * mu_s - 0.000806248_f32)) * r_s + (((-0.18818024_f32 * mu_s - 0.17874087_f32) * mu_s + 0.4217664_f32) * mu_s + 0.354793_f32)) * r_s + ((((0.22625028_f32 * mu_s - 0.13750286_f32) * mu_s - 0.1483733_f32) * mu_s + 0.11537787_f32) * mu_s + 1.0458575_f32);
+    let q0_0 = (((-0.25055903_f32 * r_s + (0.5469865_f32 * mu_s - 0.10558576_f32)) * r_s + ((0.095531665_f32 * mu_s - 0.21004725_f32) * mu_s - 0.07742821_f32)) * r_s + (((0.28392085_f32 * mu_s - 0.04992009_f32) * mu_s - 0.866443_f32) * mu_s + 0.38577425_f32)) * r_s + ((((-0.43112373_f32 * mu_s + 0.27833188_f32) * mu_s + 0.30367115_f32) * mu_s - 0.014644185_f32) * mu_s + 1.6793526_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((-0.021729324_f32 * r_s + (-0.05822918_f32 * mu_s - 0.072261445_f32)) * r_s + ((-0.27179855_f32 * mu_s - 0.033633742_f32) * mu_s + 0.26026702_f32)) * r_s + (((0.014744899_f32 * mu_s + 0.05029476_f32) * mu_s + 0.22867452_f32) * mu_s + 0.17556673_f32)) * r_s + ((((-0.22847997_f32 * mu_s - 0.14082979_f32) * mu_s + 1.0805737_f32) * mu_s + 0.45448166_f32) * mu_s - 0.517771_f32)) * r_s + (((((0.020731727_f32 * mu_s - 0.22385739_f32) * mu_s - 0.16984013_f32) * mu_s + 0.75953645_f32) * mu_s + 0.25097284_f32) * mu_s - 0.36605296_f32);
+    let p1_0 = ((((-0.008705628_f32 * r_s + (-0.029660663_f32 * mu_s + 0.012573171_f32)) * r_s + ((0.3379427_f32 * mu_s + 0.11719814_f32) * mu_s - 0.23153281_f32)) * r_s + (((0.6216278_f32 * mu_s - 0.04990316_f32) * mu_s - 0.5391234_f32) * mu_s + 0.1585658_f32)) * r_s + ((((-0.10440767_f32 * mu_s + 1.4055612_f32) * mu_s - 0.5904922_f32) * mu_s - 1.6496449_f32) * mu_s + 0.631014_f32)) * r_s + (((((-0.013205541_f32 * mu_s - 0.14781879_f32) * mu_s + 0.7570896_f32) * mu_s - 0.22340289_f32) * mu_s - 0.891861_f32) * mu_s + 0.37616372_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = -1.0127523_f32;
-    let u1_1 = -0.1817477_f32;
-    let u1_2 = 0.046532534_f32;
-    let u1_3 = -0.018409317_f32;
-    let u1_4 = 0.0052718776_f32;
+    let u1_0 = -0.43483567_f32;
+    let u1_1 = 0.19660808_f32;
+    let u1_2 = 0.109569505_f32;
+    let u1_3 = -0.0015595648_f32;
+    let u1_4 = 0.0070178434_f32;
     let u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (((-0.09017574_f32 * r_s + (-0.19689734_f32 * mu_s - 0.41591614_f32)) * r_s + ((-0.55491817_f32 * mu_s + 0.8553671_f32) * mu_s + 0.19609447_f32)) * r_s + (((-0.8989049_f32 * mu_s - 0.35715997_f32) * mu_s + 1.1060119_f32) * mu_s + 1.5838997_f32)) * r_s + ((((0.7868654_f32 * mu_s - 0.4565476_f32) * mu_s - 0.48917234_f32) * mu_s - 0.16882423_f32) * mu_s + 2.1819158_f32);
+    let q1_0 = (((0.15039541_f32 * r_s + (0.29179302_f32 * mu_s - 0.7329295_f32)) * r_s + ((-1.1361289_f32 * mu_s - 0.3163867_f32) * mu_s + 1.4197218_f32)) * r_s + (((1.1134998_f32 * mu_s - 0.80638224_f32) * mu_s - 3.364875_f32) * mu_s + 2.381366_f32)) * r_s + ((((-0.469609_f32 * mu_s + 0.41266924_f32) * mu_s - 0.5129985_f32) * mu_s - 1.3710092_f32) * mu_s + 3.0755289_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((-0.04562524_f32 * r_s + (-0.14063303_f32 * mu_s + 0.19078374_f32)) * r_s + ((-0.41651148_f32 * mu_s + 0.61939013_f32) * mu_s - 0.18233001_f32)) * r_s + (((-0.3131555_f32 * mu_s - 0.2646746_f32) * mu_s + 0.40479606_f32) * mu_s + 0.19496003_f32)) * r_s + ((((-0.4716104_f32 * mu_s + 0.18990342_f32) * mu_s + 1.0475239_f32) * mu_s - 0.5344758_f32) * mu_s - 0.022045935_f32)) * r_s + (((((-0.17044036_f32 * mu_s + 0.0128048975_f32) * mu_s + 0.31504098_f32) * mu_s + 0.2470755_f32) * mu_s - 0.25731543_f32) * mu_s - 0.23794325_f32);
+    let p2_0 = ((((0.09571051_f32 * r_s + (0.039238703_f32 * mu_s + 0.009427909_f32)) * r_s + ((-0.4724739_f32 * mu_s - 0.012444769_f32) * mu_s + 0.30114862_f32)) * r_s + (((0.06484887_f32 * mu_s + 0.51684535_f32) * mu_s + 0.26675856_f32) * mu_s - 0.20912619_f32)) * r_s + ((((0.14404105_f32 * mu_s - 0.33133748_f32) * mu_s + 1.3250424_f32) * mu_s + 0.6928982_f32) * mu_s - 1.0512934_f32)) * r_s + (((((0.027275689_f32 * mu_s + 0.15833986_f32) * mu_s - 0.4243694_f32) * mu_s + 0.31927297_f32) * mu_s + 0.38897684_f32) * mu_s - 0.46021104_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.3561137_f32;
-    let u2_1 = 0.0119602_f32;
-    let u2_2 = 0.016951038_f32;
-    let u2_3 = -4.6904424e-5_f32;
-    let u2_4 = 0.0011768044_f32;
+    let u2_0 = -1.1098754_f32;
+    let u2_1 = -0.0026267788_f32;
+    let u2_2 = 0.17669584_f32;
+    let u2_3 = -0.023533214_f32;
+    let u2_4 = 0.01294627_f32;
     let u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (((-0.058968723_f32 * r_s + (0.033622395_f32 * mu_s - 0.0021322076_f32)) * r_s + ((-0.13527624_f32 * mu_s + 0.13241054_f32) * mu_s + 0.043948658_f32)) * r_s + (((0.13550016_f32 * mu_s - 0.40503645_f32) * mu_s - 0.16192777_f32) * mu_s + 0.4152175_f32)) * r_s + ((((0.08516806_f32 * mu_s + 0.18569285_f32) * mu_s - 0.17741652_f32) * mu_s - 0.72404045_f32) * mu_s + 0.8374617_f32);
+    let q2_0 = (((-0.5767159_f32 * r_s + (0.6889603_f32 * mu_s - 0.551217_f32)) * r_s + ((-0.40583792_f32 * mu_s + 0.022969864_f32) * mu_s + 1.0918705_f32)) * r_s + (((-0.3618391_f32 * mu_s - 1.8322991_f32) * mu_s - 0.5032351_f32) * mu_s + 3.6213076_f32)) * r_s + ((((-0.058054265_f32 * mu_s + 1.2627492_f32) * mu_s + 0.8515883_f32) * mu_s + 1.1100582_f32) * mu_s + 3.9068317_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((0.014670452_f32 * r_s + (0.08574407_f32 * mu_s - 0.05890083_f32)) * r_s + ((0.0673135_f32 * mu_s - 0.11388636_f32) * mu_s + 0.0345713_f32)) * r_s + (((0.112274565_f32 * mu_s + 0.012842538_f32) * mu_s - 0.18526927_f32) * mu_s - 0.0020659312_f32)) * r_s + ((((0.17672148_f32 * mu_s - 0.0043243156_f32) * mu_s - 0.25638682_f32) * mu_s + 0.053568847_f32) * mu_s - 0.031654593_f32)) * r_s + (((((0.06569903_f32 * mu_s + 0.040345777_f32) * mu_s - 0.1401804_f32) * mu_s - 0.056554653_f32) * mu_s + 0.06030726_f32) * mu_s + 0.020297589_f32);
+    let p3_0 = ((((-0.18788671_f32 * r_s + (-0.096109_f32 * mu_s + 0.14645235_f32)) * r_s + ((0.43792704_f32 * mu_s - 0.052885793_f32) * mu_s - 0.117859356_f32)) * r_s + (((0.38707227_f32 * mu_s - 0.19143292_f32) * mu_s - 0.45855218_f32) * mu_s - 0.013633327_f32)) * r_s + ((((0.012374544_f32 * mu_s - 0.019984117_f32) * mu_s - 0.63129365_f32) * mu_s + 0.13689952_f32) * mu_s + 0.47507778_f32)) * r_s + (((((-0.040834073_f32 * mu_s + 0.010545125_f32) * mu_s - 0.35695112_f32) * mu_s + 0.057565454_f32) * mu_s + 0.5946967_f32) * mu_s - 0.07753923_f32);
     let p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = -0.93599737_f32;
-    let u3_1 = 0.06260903_f32;
-    let u3_2 = 0.08030373_f32;
-    let u3_3 = -0.0019345675_f32;
-    let u3_4 = 0.0049963305_f32;
+    let u3_0 = 1.0315391_f32;
+    let u3_1 = -0.02460231_f32;
+    let u3_2 = 0.023144905_f32;
+    let u3_3 = -0.0137099335_f32;
+    let u3_4 = 0.003905646_f32;
     let u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = (((-0.022384174_f32 * r_s + (-0.0500167_f32 * mu_s + 0.008819765_f32)) * r_s + ((-0.031134857_f32 * mu_s + 0.1723501_f32) * mu_s - 0.10456457_f32)) * r_s + (((0.13191207_f32 * mu_s - 0.40827698_f32) * mu_s + 0.06151665_f32) * mu_s + 0.3109084_f32)) * r_s + ((((0.028115839_f32 * mu_s + 0.141441_f32) * mu_s - 0.21836732_f32) * mu_s - 0.6446953_f32) * mu_s + 0.78547007_f32);
+    let q3_0 = (((-0.11477527_f32 * r_s + (0.2798702_f32 * mu_s - 0.029123247_f32)) * r_s + ((0.45777768_f32 * mu_s - 0.44324878_f32) * mu_s - 0.28838927_f32)) * r_s + (((-0.1580609_f32 * mu_s + 0.48392653_f32) * mu_s - 0.40369853_f32) * mu_s + 0.03864094_f32)) * r_s + ((((-0.29677197_f32 * mu_s + 0.07395432_f32) * mu_s - 0.19916129_f32) * mu_s - 0.039197963_f32) * mu_s + 1.8081611_f32);
     let q3 = q3_0;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms

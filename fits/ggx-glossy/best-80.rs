@@ -13,16 +13,16 @@
 ///   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-/// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); least_squares objective, levenberg-marquardt.
-/// Source: fits/ggx-glossy/best-80.json (furnace 0.1.0), fit SHA-256 553a86510f5813fccc2de3496e56447aed51b7d57d730f0bf4db0fd734aa06db.
+/// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
+/// Source: fits/ggx-glossy/best-80.json (furnace 0.1.0), fit SHA-256 8d4d76cb9928a0af79a34398392e0d1d8ec41ced06d4422a2e0d3d79ccb117b5.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.5e-6, shifted 2.7e-6, bernstein 1.0e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 4.49e-4, max 1.38e-2 (recorded by the fitter).
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.56e-6 (every op rounded, as this Rust), 1.42e-6 (fused multiply-add), 1.81e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 7.19e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 22625 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 4.49e-4, max 9.86e-3; this f32 code MAE 4.49e-4, max 9.86e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-/// Denominator proved >= 7.778e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.2e-5, bernstein 1.4e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 4.55e-4, max 1.11e-2 (recorded by the fitter).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.97e-6 (every op rounded, as this Rust), 1.69e-6 (fused multiply-add), 2.20e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 9.10e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 16811 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 4.55e-4, max 7.78e-3; this f32 code MAE 4.55e-4, max 7.78e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-2 on the measurement grid.
+/// Denominator proved >= 7.837e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -40,42 +40,42 @@ pub fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = (((-0.41119108_f32 * r_c + (-0.90588146_f32 * mu_t + 1.5600442_f32)) * r_c + ((2.1153212_f32 * mu_t - 1.6775163_f32) * mu_t - 2.9792972_f32)) * r_c + (((-1.4859242_f32 * mu_t - 0.49325994_f32) * mu_t + 4.424864_f32) * mu_t - 0.73973346_f32)) * r_c + ((((-0.029701702_f32 * mu_t + 1.8042635_f32) * mu_t - 3.2337828_f32) * mu_t + 0.08036348_f32) * mu_t - 0.12013968_f32);
+    let p0_0 = (((-0.34739077_f32 * r_c + (-0.91631144_f32 * mu_t + 1.4563439_f32)) * r_c + ((2.0049744_f32 * mu_t - 1.4810222_f32) * mu_t - 3.0541217_f32)) * r_c + (((-1.4141896_f32 * mu_t - 0.3603125_f32) * mu_t + 4.108343_f32) * mu_t - 0.58803505_f32)) * r_c + ((((0.051203758_f32 * mu_t + 1.5271472_f32) * mu_t - 3.081692_f32) * mu_t + 0.18863441_f32) * mu_t - 0.20156707_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.779435_f32;
-    let u0_1 = -7.3737683_f32;
-    let u0_2 = 8.721294_f32;
-    let u0_3 = 0.95088655_f32;
+    let u0_0 = 1.1858519_f32;
+    let u0_1 = -9.145399_f32;
+    let u0_2 = 10.663764_f32;
+    let u0_3 = 1.2948135_f32;
     let u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (5.9170575_f32 * r_c + (-4.5566688_f32 * mu_t - 0.026410446_f32)) * r_c + ((4.1839504_f32 * mu_t - 1.0820391_f32) * mu_t + 1.0_f32);
+    let q0_0 = (5.739857_f32 * r_c + (-4.3752832_f32 * mu_t - 0.07030342_f32)) * r_c + ((4.01243_f32 * mu_t - 1.0891274_f32) * mu_t + 1.0_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = (((-0.298366_f32 * r_c + (-0.74133635_f32 * mu_t + 1.2141583_f32)) * r_c + ((1.9071211_f32 * mu_t - 1.6319401_f32) * mu_t - 2.7706816_f32)) * r_c + (((-1.1447481_f32 * mu_t - 0.64967394_f32) * mu_t + 4.1017833_f32) * mu_t - 0.62336826_f32)) * r_c + ((((-0.052845743_f32 * mu_t + 1.4581608_f32) * mu_t - 2.66361_f32) * mu_t + 0.10515715_f32) * mu_t - 0.13558233_f32);
+    let p1_0 = (((-0.2553217_f32 * r_c + (-0.7667283_f32 * mu_t + 1.160192_f32)) * r_c + ((1.8088714_f32 * mu_t - 1.4279904_f32) * mu_t - 2.8361866_f32)) * r_c + (((-1.0986303_f32 * mu_t - 0.5149589_f32) * mu_t + 3.7644396_f32) * mu_t - 0.47113106_f32)) * r_c + ((((0.017145475_f32 * mu_t + 1.2388225_f32) * mu_t - 2.546054_f32) * mu_t + 0.2154828_f32) * mu_t - 0.20864202_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 1.0561855_f32;
-    let u1_1 = 6.3787575_f32;
-    let u1_2 = -7.988394_f32;
-    let u1_3 = -1.1557778_f32;
+    let u1_0 = 0.92303026_f32;
+    let u1_1 = 8.058173_f32;
+    let u1_2 = -9.89617_f32;
+    let u1_3 = -1.5049897_f32;
     let u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (5.3874474_f32 * r_c + (-3.745511_f32 * mu_t - 0.28787503_f32)) * r_c + ((3.3006523_f32 * mu_t - 1.1638278_f32) * mu_t + 1.0_f32);
+    let q1_0 = (5.2971206_f32 * r_c + (-3.627569_f32 * mu_t - 0.32117793_f32)) * r_c + ((3.245834_f32 * mu_t - 1.1866579_f32) * mu_t + 1.0_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = (((-2.8634875_f32 * r_c + (-9.801966_f32 * mu_t + 14.438416_f32)) * r_c + ((16.532257_f32 * mu_t - 5.2378726_f32) * mu_t - 36.766125_f32)) * r_c + (((-11.231445_f32 * mu_t - 4.530827_f32) * mu_t + 40.83173_f32) * mu_t + 0.058899887_f32)) * r_c + ((((0.6279221_f32 * mu_t + 10.079976_f32) * mu_t - 25.100344_f32) * mu_t + 0.2943425_f32) * mu_t - 0.24600652_f32);
+    let p2_0 = (((-2.5794477_f32 * r_c + (-9.944693_f32 * mu_t + 14.057678_f32)) * r_c + ((16.7946_f32 * mu_t - 5.4394774_f32) * mu_t - 36.712532_f32)) * r_c + (((-11.5602045_f32 * mu_t - 3.8605433_f32) * mu_t + 40.65409_f32) * mu_t + 0.058744397_f32)) * r_c + ((((1.099018_f32 * mu_t + 9.217602_f32) * mu_t - 24.796371_f32) * mu_t + 0.25648344_f32) * mu_t - 0.24337177_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -5.083965_f32;
-    let u2_1 = 0.28944963_f32;
-    let u2_2 = -0.07125901_f32;
-    let u2_3 = 0.22613135_f32;
+    let u2_0 = -5.9278297_f32;
+    let u2_1 = 0.82883453_f32;
+    let u2_2 = -0.50198585_f32;
+    let u2_3 = 0.24290727_f32;
     let u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (158.08646_f32 * r_c + (-170.93372_f32 * mu_t - 0.7148333_f32)) * r_c + ((98.99503_f32 * mu_t - 1.0551691_f32) * mu_t + 1.0_f32);
+    let q2_0 = (158.60431_f32 * r_c + (-171.44734_f32 * mu_t - 0.6429318_f32)) * r_c + ((99.231224_f32 * mu_t - 0.92043895_f32) * mu_t + 1.0_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // the sum of the 3 terms

@@ -1035,22 +1035,27 @@ mod tests {
         }
     }
 
-    #[test]
-    fn minimax_lowers_the_max_error() {
-        let f = |x: f64, r: f64, m: f64| (1.0 + x).sqrt() * (r * m + 0.1).ln().exp() / (1.2 + m);
-        let data = grid3(9, f);
-        let form = parse_form("lowrank:f0:2:2:2/1", &data.names).unwrap();
+    /// The least-squares and the minimax fit of `form` in the identity variables.
+    fn least_squares_and_minimax(data: &FitData, form: &Form) -> (FitResult, FitResult) {
         let run = |o| {
             fit_form(
-                &data,
+                data,
                 &[InputTransform::Identity; 3],
-                &form,
+                form,
                 o,
                 &FitOptions::default(),
             )
             .unwrap()
         };
-        let (ls, mm) = (run(Objective::LeastSquares), run(Objective::Minimax));
+        (run(Objective::LeastSquares), run(Objective::Minimax))
+    }
+
+    #[test]
+    fn minimax_lowers_the_max_error() {
+        let f = |x: f64, r: f64, m: f64| (1.0 + x).sqrt() * (r * m + 0.1).ln().exp() / (1.2 + m);
+        let data = grid3(9, f);
+        let form = parse_form("lowrank:f0:2:2:2/1", &data.names).unwrap();
+        let (ls, mm) = least_squares_and_minimax(&data, &form);
         assert!(
             mm.metrics.max_abs_error < ls.metrics.max_abs_error,
             "{:?} {:?}",
@@ -1090,17 +1095,7 @@ mod tests {
         };
         let data = grid3(9, f);
         let form = parse_form("lowrank:f0:2:2:3/2", &data.names).unwrap();
-        let run = |o| {
-            fit_form(
-                &data,
-                &[InputTransform::Identity; 3],
-                &form,
-                o,
-                &FitOptions::default(),
-            )
-            .unwrap()
-        };
-        let (ls, mm) = (run(Objective::LeastSquares), run(Objective::Minimax));
+        let (ls, mm) = least_squares_and_minimax(&data, &form);
         let bands = crate::fit::robust::PATH_MAE_BOUNDS;
         assert!(
             mm.metrics.mae > bands[2] * ls.metrics.mae,

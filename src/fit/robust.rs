@@ -22,7 +22,7 @@ use super::result::Objective;
 const IRLS_DELTA: f64 = 1e-3;
 /// Lawson weights below this fraction of the largest are raised to it, so no point drops out
 /// entirely and the weighted system stays full rank.
-pub(crate) const LAWSON_WEIGHT_FLOOR: f64 = 1e-12;
+const LAWSON_WEIGHT_FLOOR: f64 = 1e-12;
 /// Stop after this many rounds without improving the best objective value.
 const PATIENCE: usize = 8;
 /// The Lawson path iterates kept beside the best one: per bound b, the iterate with the lowest
@@ -118,11 +118,7 @@ pub(crate) fn reweight(
             if !lawson_update(&mut u, w, &e) {
                 break;
             }
-            let extra: Vec<f64> = u
-                .iter()
-                .map(|x| ((1.0 - blend) + blend * x).sqrt())
-                .collect();
-            let Some((pn, en, _, _)) = solve(&extra, &p)? else {
+            let Some((pn, en, _, _)) = solve(&blended_roots(&u, blend), &p)? else {
                 break;
             };
             (p, e) = (pn, en);
@@ -194,7 +190,7 @@ pub(crate) fn reweight(
 
 /// Lawson's update u_i ← u_i |ρ_i| / max_j u_j |ρ_j| (Lawson 1961), floored at
 /// [`LAWSON_WEIGHT_FLOOR`]; false if every residual is zero (an exact fit).
-fn lawson_update(u: &mut [f64], w: &[f64], e: &[f64]) -> bool {
+pub(crate) fn lawson_update(u: &mut [f64], w: &[f64], e: &[f64]) -> bool {
     for ((ui, w), e) in u.iter_mut().zip(w).zip(e) {
         *ui *= (w * e).abs();
     }
@@ -206,6 +202,14 @@ fn lawson_update(u: &mut [f64], w: &[f64], e: &[f64]) -> bool {
         *ui = (*ui / umax).max(LAWSON_WEIGHT_FLOOR);
     }
     true
+}
+
+/// The square roots of the blended weights (1 − λ)·1 + λ·u of the branch ([`LAWSON_BLEND`]),
+/// the factors a weighted solve multiplies the residuals by.
+pub(crate) fn blended_roots(u: &[f64], blend: f64) -> Vec<f64> {
+    u.iter()
+        .map(|x| ((1.0 - blend) + blend * x).sqrt())
+        .collect()
 }
 
 /// One minimax iterate: its round, the blend λ of its weights, its errors on the fitting points.

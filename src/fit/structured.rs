@@ -36,7 +36,7 @@ use super::poles::CertifyOptions;
 use super::result::{
     Approximant, Family, FitResult, Form, Objective, SolverReport, StartReport, Structure, Term,
 };
-use super::robust::{path_iterates, Iterate, LAWSON_BLEND, LAWSON_WEIGHT_FLOOR};
+use super::robust::{blended_roots, lawson_update, path_iterates, Iterate, LAWSON_BLEND};
 
 /// Settings of a structured fit.
 #[derive(Clone, Debug)]
@@ -610,25 +610,16 @@ pub fn fit_structured(
         // Its iterates are kept per band beside Lawson's own, not instead of them.
         if objective == Objective::Minimax {
             let mut u = vec![1.0; ex.len()];
+            let unit = vec![1.0; ex.len()];
             let mut p = params.clone();
             for (round, &blend) in (1..).zip(&LAWSON_BLEND) {
                 let Some(e) = errors(&layout, ex, &p) else {
                     break;
                 };
-                for (ui, e) in u.iter_mut().zip(&e) {
-                    *ui *= e.abs();
-                }
-                let top = u.iter().fold(0.0f64, |m, &x| m.max(x));
-                if !(top > 0.0) {
+                if !lawson_update(&mut u, &unit, &e) {
                     break;
                 }
-                u.iter_mut()
-                    .for_each(|x| *x = (*x / top).max(LAWSON_WEIGHT_FLOOR));
-                let extra: Vec<f64> = u
-                    .iter()
-                    .map(|x| ((1.0 - blend) + blend * x).sqrt())
-                    .collect();
-                let r = run(ex, Some(&extra), &lm, p.clone())?;
+                let r = run(ex, Some(&blended_roots(&u, blend)), &lm, p.clone())?;
                 if r.termination == TerminationReason::InfeasibleStart {
                     break;
                 }

@@ -4,9 +4,13 @@
 //! measurements ("Budget 160: the logarithmic layer") come from; the model's 128³ table, check
 //! set and training set are read from `data/` (computed there when missing, as a sweep does).
 //!
-//! `cargo run --release --example one_form_sweep -- MODEL SPEC TRANSFORMS [OUT_DIR]`, e.g.
+//! `cargo run --release --example one_form_sweep -- MODEL SPEC TRANSFORMS [OUT_DIR] [--lp P,…]
+//! [--grading G,…]`, e.g.
 //! `… ggx-dielectric-inv lowrank:f0:4:4:5/4 f0=root:4:0.0125:0.25,r=square,mu=glayer:r:2:0:1:3`;
-//! with OUT_DIR every fit is written there as a fit file (for `furnace stress --fit`).
+//! with OUT_DIR every fit is written there as a fit file (for `furnace stress --fit`); `--lp`
+//! adds an L_p polish with these p to the minimax refit (`SweepPlan::lp_polish`), `--grading`
+//! replaces the plan's grading exponents of the fitting nodes, one per variable
+//! (`SweepPlan::fit_grading`).
 use furnace::fit::check;
 use furnace::fit::defaults::{default_plan, default_training_points};
 use furnace::fit::job;
@@ -17,9 +21,23 @@ use furnace::table::TableSpec;
 use std::path::Path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let a: Vec<String> = std::env::args().collect();
+    let mut a: Vec<String> = std::env::args().collect();
+    let usage = "usage: one_form_sweep MODEL SPEC TRANSFORMS [OUT_DIR] [--lp P,…] [--grading G,…]";
+    // the flags and their comma-separated values, taken out of the positional arguments
+    let mut flag = |name: &str| -> Result<Vec<f64>, Box<dyn std::error::Error>> {
+        let Some(k) = a.iter().position(|x| x == name) else {
+            return Ok(Vec::new());
+        };
+        let v = a.get(k + 1).ok_or(usage)?.clone();
+        a.drain(k..k + 2);
+        Ok(v.split(',')
+            .map(|x| x.parse::<f64>())
+            .collect::<Result<_, _>>()?)
+    };
+    let lp = flag("--lp")?;
+    let grading = flag("--grading")?;
     if a.len() < 4 {
-        return Err("usage: one_form_sweep MODEL SPEC TRANSFORMS [OUT_DIR]".into());
+        return Err(usage.into());
     }
     let model = furnace::bsdf::find(&a[1])?;
     let spec = TableSpec::new(
@@ -50,6 +68,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     plan.transform_sets = vec![transforms.clone()];
     plan.forms = vec![job::PlannedForm { form, transforms }];
     plan.budgets = vec![size];
+    plan.lp_polish = lp;
+    if !grading.is_empty() {
+        plan.fit_grading = grading;
+    }
     let (check_data, training_data) = (checks.data()?, training.data()?);
     let (check_on, training_on) = (checks.description(), training.training_description());
     let out = job::sweep_fits_trained(
@@ -69,7 +91,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .solver
             .as_ref()
             .and_then(|s| s.lawson_path.as_ref())
-            .map(|p| format!(", blend {} round {}", p.blend, p.round))
+            .map(|p| format!(", {}", p.label(" ", " ")))
             .unwrap_or_default();
         let at = r
             .off_grid

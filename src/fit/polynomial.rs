@@ -103,9 +103,9 @@ pub(crate) fn fit_polynomial_model(
         objective,
         opts.reweight_iterations,
         &prep.w,
-        p0,
-        e0,
+        (p0, e0),
         &mut solve as &mut Solve<'_>,
+        None,
         &mut |_| true,
     )?;
     let approximant = model.to_approximant(data, transforms, &prep, &rw.params);

@@ -30,7 +30,7 @@ use super::model::{LinearisedRows, Model, RationalProblem, Q_FLOOR};
 use super::poles::CertifyOptions;
 use super::polynomial::solve_polynomial;
 use super::result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
-use super::robust::{reweight, Solve, Solved};
+use super::robust::{check_lp_polish, reweight, PnormProblem, PnormSolve, Solve, Solved};
 
 /// Settings of a rational fit.
 #[derive(Clone, Debug)]
@@ -65,6 +65,11 @@ pub struct RationalOptions {
     /// Extra starting points, in monomial form with the same variables and transforms
     /// (lower degrees are padded with zeros; mismatching ones are skipped and reported).
     pub extra_starts: Vec<(String, Approximant)>,
+    /// Minimax only: the p values of an L_p polish from the least-squares fit (Levenberg–
+    /// Marquardt on Σ |e_i|^p for each p in turn, [`super::robust::PnormProblem`]); every
+    /// solve is one more iterate of the path ([`FitResult::path`]). Empty (the default): none.
+    /// Each p must be finite and ≥ 2.
+    pub lp_polish: Vec<f64>,
 }
 
 impl Default for RationalOptions {
@@ -85,6 +90,7 @@ impl Default for RationalOptions {
             },
             denominator_margin: 1e-3,
             extra_starts: Vec::new(),
+            lp_polish: Vec::new(),
         }
     }
 }
@@ -199,6 +205,7 @@ pub(crate) fn fit_rational_model(
     opts: &RationalOptions,
 ) -> Result<FitResult> {
     let start_time = Instant::now();
+    check_lp_polish(&opts.lp_polish)?;
     let prep = Prepared::new(data, transforms)?;
     let model = &model.clone().with_scales(&prep.scales);
     let poly_model = &poly_model.clone().with_scales(&prep.scales);
@@ -430,14 +437,48 @@ pub(crate) fn fit_rational_model(
                     )
                 }))
             };
+            let mut pnorm_solve = |pn: f64, warm: &[f64]| -> Result<Option<Solved>> {
+                let Some(e) = model.errors(&prep, phi_all, warm) else {
+                    return Ok(None);
+                };
+                let scale = e
+                    .iter()
+                    .zip(&prep.w)
+                    .fold(0.0f64, |m, (e, w)| m.max((w * e).abs()));
+                let inner = RationalProblem {
+                    model,
+                    data: &prep,
+                    phi: phi_all,
+                    extra: None,
+                    certified_steps: constrained.then_some(guard),
+                };
+                let problem = PnormProblem {
+                    inner: &inner,
+                    p: pn,
+                    scale,
+                };
+                let rep = opts.method.solve(&lm, &problem, warm.to_vec())?;
+                if rep.termination == TerminationReason::InfeasibleStart {
+                    return Ok(None);
+                }
+                Ok(model.errors(&prep, phi_all, &rep.state.params).map(|e| {
+                    (
+                        rep.state.params,
+                        e,
+                        Some(rep.termination),
+                        rep.state.iterations,
+                    )
+                }))
+            };
             let mut accept = |p: &[f64]| !best.certified || safe(p);
             let rw = reweight(
                 objective,
                 opts.reweight_iterations,
                 &prep.w,
-                params.clone(),
-                e0,
+                (params.clone(), e0),
                 &mut solve as &mut Solve<'_>,
+                (!opts.lp_polish.is_empty())
+                    .then_some((&opts.lp_polish[..], &mut pnorm_solve as &mut PnormSolve<'_>)),
                 &mut accept,
             )?;
             rounds = rw.rounds;

@@ -748,18 +748,25 @@ pub struct LawsonPathIterate {
     pub round: usize,
     /// Rounds Lawson's own path ran.
     pub of_rounds: usize,
-    /// Its MAE bound, a multiple of the least-squares start's MAE on the fitting points.
+    /// Its MAE bound, a multiple of the least-squares start's MAE on the fitting points (for
+    /// an iterate of the L_p polish: its own MAE there as such a multiple).
     pub mae_bound: f64,
     /// λ of the round's weights (1 − λ)·1 + λ·u, u Lawson's: below 1 for the path's blended
     /// branch, 1 for Lawson's own iterates.
     pub blend: f64,
+    /// p of the L_p polish (IRLS for Σ |e_i|^p) the iterate came from; absent for Lawson's path.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pnorm: Option<f64>,
 }
 
 impl LawsonPathIterate {
-    /// `round<sep>7`, or `blend<sep>0.75<gap>round<sep>3` for the blended branch.
+    /// `round<sep>7`, `blend<sep>0.75<gap>round<sep>3` for the blended branch, or `p<sep>16`
+    /// for the L_p polish.
     pub fn label(&self, gap: &str, sep: &str) -> String {
         let round = format!("round{sep}{}", self.round);
-        if self.blend < 1.0 {
+        if let Some(p) = self.pnorm {
+            format!("p{sep}{p}")
+        } else if self.blend < 1.0 {
             format!("blend{sep}{}{gap}{round}", self.blend)
         } else {
             round
@@ -847,7 +854,12 @@ impl FitResult {
         };
         let of_rounds = solver.reweighting_iterations;
         for it in path {
-            let which = if it.blend < 1.0 {
+            let which = if let Some(p) = it.pnorm {
+                format!(
+                    "then an L_p polish from the least-squares fit: Levenberg–Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = {p} (step {} of the polish), its MAE on the fitting points {:.3}× the least-squares start's",
+                    it.round, it.mae_bound
+                )
+            } else if it.blend < 1.0 {
                 format!(
                     "the iterate of round {} of a branch of the Lawson path solved with weights (1 − λ)·1 + λ·u (u Lawson's), λ = {}",
                     it.round, it.blend
@@ -855,17 +867,23 @@ impl FitResult {
             } else {
                 format!("the Lawson iterate of round {} of {of_rounds}", it.round)
             };
-            let report = SolverReport {
-                method: format!(
+            let method = if it.pnorm.is_some() {
+                format!("{}; {which}", solver.method)
+            } else {
+                format!(
                     "{}; {which}, the lowest max error among the path's iterates whose MAE on the fitting points is ≤ {}× the least-squares start's",
                     solver.method, it.mae_bound
-                ),
+                )
+            };
+            let report = SolverReport {
+                method,
                 reweighting_iterations: it.round,
                 lawson_path: Some(LawsonPathIterate {
                     round: it.round,
                     of_rounds,
                     mae_bound: it.mae_bound,
                     blend: it.blend,
+                    pnorm: it.pnorm,
                 }),
                 ..solver.clone()
             };

@@ -13,10 +13,15 @@
 //! whose MAE stays within each of [`PATH_MAE_BOUNDS`] × the least-squares start's. A short
 //! branch from the same start solves with weights blended towards uniform ([`LAWSON_BLEND`]),
 //! passing through fits of small MAE cost that Lawson's first round jumps over.
+//!
+//! On request (`lp_polish`, empty by default) a minimax refit also runs an L_p polish from the
+//! least-squares fit: Levenberg–Marquardt on Σ |ρ_i|^p ([`PnormProblem`]) for a rising list of
+//! p, each solve warm-started from the previous one, every solve one more iterate of the path.
 
 use super::error::Result;
-use super::lm::TerminationReason;
+use super::lm::{LeastSquaresProblem, TerminationReason};
 use super::result::Objective;
+use std::ops::Range;
 
 /// IRLS smoothing δ relative to the current mean |ρ|.
 const IRLS_DELTA: f64 = 1e-3;
@@ -45,6 +50,8 @@ pub(crate) struct PathIterate {
     /// λ of the weights it was solved with (< 1: the blended branch, [`LAWSON_BLEND`]; 1 =
     /// Lawson's own).
     pub blend: f64,
+    /// p of the L_p polish it came from ([`pnorm_branch`]); None for Lawson's path.
+    pub pnorm: Option<f64>,
     pub params: Vec<f64>,
 }
 
@@ -83,14 +90,16 @@ pub(crate) struct Reweighted {
 /// `accept` vets a new best candidate (e.g. the pole certificate for rationals).
 ///
 /// For minimax, a short branch of [`LAWSON_BLEND`]`.len()` rounds from the same start solves
-/// with blended weights first; its iterates are candidates of the path only.
+/// with blended weights first; its iterates are candidates of the path only. With
+/// `lp_polish` (its p values and an L_p solve), the polish of [`pnorm_branch`] runs from the
+/// same start last, each of its accepted solves a path iterate ([`pnorm_path`]).
 pub(crate) fn reweight(
     objective: Objective,
     max_rounds: usize,
     w: &[f64],
-    p0: Vec<f64>,
-    e0: Vec<f64>,
+    (p0, e0): (Vec<f64>, Vec<f64>),
     solve: &mut Solve<'_>,
+    lp_polish: Option<(&[f64], &mut PnormSolve<'_>)>,
     accept: &mut dyn FnMut(&[f64]) -> bool,
 ) -> Result<Reweighted> {
     let n = w.len();
@@ -125,12 +134,14 @@ pub(crate) fn reweight(
             iterates.push(Iterate {
                 round,
                 blend,
+                pnorm: None,
                 max: max_abs(w, &e),
                 mae: mean_abs(w, &e),
                 params: p.clone(),
             });
         }
     }
+    let ls_start = (p0.clone(), e0.clone());
     let mut u = vec![1.0; n];
     let (mut p, mut e) = (p0, e0);
     let mut since_best = 0;
@@ -166,6 +177,7 @@ pub(crate) fn reweight(
             iterates.push(Iterate {
                 round,
                 blend: 1.0,
+                pnorm: None,
                 max: value,
                 mae: mean_abs(w, &e),
                 params: p.clone(),
@@ -185,7 +197,127 @@ pub(crate) fn reweight(
     }
     out.params = best.1;
     out.path = path_iterates(&iterates, start, out.best_round, accept);
+    if let (Objective::Minimax, Some((ps, pnorm_solve))) = (objective, lp_polish) {
+        let polished = pnorm_branch(w, ls_start, ps, pnorm_solve)?;
+        out.path.extend(pnorm_path(&polished, start.1, accept));
+    }
     Ok(out)
+}
+
+/// A least-squares problem's residuals r_i turned into R_i = s·sign(r_i)·|r_i/s|^(p/2), so
+/// that ½ Σ R_i² = ½ s² Σ |r_i/s|^p: Levenberg–Marquardt on it minimises the L_p norm of the
+/// residuals (p ≥ 2; the smoothed max norm of Lawson 1961 and Rice & Usow 1968 as p grows),
+/// with the Jacobian rows scaled by ∂R_i/∂r_i = (p/2)·|r_i/s|^(p/2 − 1). s (the start's largest
+/// |r_i|) keeps the powers in range.
+pub(crate) struct PnormProblem<'a, P: LeastSquaresProblem + ?Sized> {
+    pub inner: &'a P,
+    pub p: f64,
+    pub scale: f64,
+}
+
+impl<P: LeastSquaresProblem + ?Sized> PnormProblem<'_, P> {
+    fn power(&self, r: f64) -> (f64, f64) {
+        let h = 0.5 * self.p;
+        let a = (r / self.scale).abs();
+        (self.scale * r.signum() * a.powf(h), h * a.powf(h - 1.0))
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> LeastSquaresProblem for PnormProblem<'_, P> {
+    fn n_params(&self) -> usize {
+        self.inner.n_params()
+    }
+    fn n_residuals(&self) -> usize {
+        self.inner.n_residuals()
+    }
+    fn residuals(&self, p: &[f64], rows: Range<usize>, r: &mut [f64]) -> bool {
+        if !self.inner.residuals(p, rows, r) {
+            return false;
+        }
+        for x in r.iter_mut() {
+            *x = self.power(*x).0;
+        }
+        true
+    }
+    fn jacobian(&self, p: &[f64], rows: Range<usize>, r: &mut [f64], jac: &mut [f64]) -> bool {
+        if !self.inner.jacobian(p, rows, r, jac) {
+            return false;
+        }
+        let n = self.n_params();
+        for (x, row) in r.iter_mut().zip(jac.chunks_mut(n)) {
+            let (v, d) = self.power(*x);
+            *x = v;
+            row.iter_mut().for_each(|j| *j *= d);
+        }
+        true
+    }
+    fn admissible(&self, p: &[f64]) -> bool {
+        self.inner.admissible(p)
+    }
+}
+
+/// One L_p solve from warm parameters: (p, warm) → the solved parameters and their errors.
+pub(crate) type PnormSolve<'a> = dyn FnMut(f64, &[f64]) -> Result<Option<Solved>> + 'a;
+
+/// The L_p polish of a minimax refit: from the least-squares fit `start` (parameters,
+/// errors), Levenberg–Marquardt on Σ |ρ_i|^p ([`PnormProblem`]) for each p of `ps` in turn,
+/// each solve warm-started from the previous one (a homotopy from L_2 towards the max norm);
+/// every solve an iterate, with its max and MAE on `w` and its errors.
+pub(crate) fn pnorm_branch(
+    w: &[f64],
+    start: (Vec<f64>, Vec<f64>),
+    ps: &[f64],
+    solve: &mut PnormSolve<'_>,
+) -> Result<Vec<Iterate>> {
+    let mut out = Vec::new();
+    let mut p = start.0;
+    for &pn in ps {
+        let Some((np, ne, _, _)) = solve(pn, &p)? else {
+            break;
+        };
+        p = np;
+        out.push(Iterate {
+            round: out.len() + 1,
+            blend: 1.0,
+            pnorm: Some(pn),
+            max: max_abs(w, &ne),
+            mae: mean_abs(w, &ne),
+            params: p.clone(),
+        });
+    }
+    Ok(out)
+}
+
+/// Every accepted iterate of the L_p polish as a path iterate, its `mae_bound` its own MAE on
+/// the fitting points as a multiple of the least-squares start's.
+pub(crate) fn pnorm_path(
+    iterates: &[Iterate],
+    start_mae: f64,
+    accept: &mut dyn FnMut(&[f64]) -> bool,
+) -> Vec<PathIterate> {
+    iterates
+        .iter()
+        .filter(|it| it.max.is_finite() && accept(&it.params))
+        .map(|it| PathIterate {
+            round: it.round,
+            mae_bound: it.mae / start_mae,
+            blend: it.blend,
+            pnorm: it.pnorm,
+            params: it.params.clone(),
+        })
+        .collect()
+}
+
+/// Checks the p values of an L_p polish: each finite and ≥ 2.
+pub(crate) fn check_lp_polish(ps: &[f64]) -> Result<()> {
+    match ps.iter().find(|p| !(p.is_finite() && **p >= 2.0)) {
+        Some(p) => Err(super::error::FitError::InvalidSetting {
+            name: "lp_polish",
+            value: p.to_string(),
+            expected: "every p of the L_p polish must be a finite number ≥ 2 (p = 2 is least squares; larger p approach the max norm)",
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Lawson's update u_i ← u_i |ρ_i| / max_j u_j |ρ_j| (Lawson 1961), floored at
@@ -217,6 +349,8 @@ pub(crate) fn blended_roots(u: &[f64], blend: f64) -> Vec<f64> {
 pub(crate) struct Iterate {
     pub round: usize,
     pub blend: f64,
+    /// p of the L_p polish it came from ([`pnorm_branch`]); None for Lawson's path.
+    pub pnorm: Option<f64>,
     pub max: f64,
     pub mae: f64,
     pub params: Vec<f64>,
@@ -240,18 +374,19 @@ pub(crate) fn path_iterates(
     best_round: usize,
     accept: &mut dyn FnMut(&[f64]) -> bool,
 ) -> Vec<PathIterate> {
-    let same = |a: &Iterate, round: usize, blend: f64| a.round == round && a.blend == blend;
+    let key = |a: &Iterate| (a.round, a.blend, a.pnorm);
+    let same = |a: &Iterate, k: (usize, f64, Option<f64>)| key(a) == k;
     let mut kept: Vec<PathIterate> = Vec::new();
-    let mut rejected: Vec<(usize, f64)> = Vec::new();
+    let mut rejected: Vec<(usize, f64, Option<f64>)> = Vec::new();
     for bound in PATH_MAE_BOUNDS {
         let mut c: Vec<&Iterate> = iterates
             .iter()
             .filter(|it| {
-                !same(it, best_round, 1.0)
+                !same(it, (best_round, 1.0, None))
                     && it.max.is_finite()
                     && it.max < start_max
                     && it.mae <= bound * start_mae
-                    && !rejected.iter().any(|&(r, b)| same(it, r, b))
+                    && !rejected.iter().any(|&k| same(it, k))
             })
             .collect();
         c.sort_by(|a, b| {
@@ -261,7 +396,7 @@ pub(crate) fn path_iterates(
                 .then(a.round.cmp(&b.round))
         });
         for it in c.into_iter().take(PATH_TRIES) {
-            if kept.iter().any(|k| same(it, k.round, k.blend)) {
+            if kept.iter().any(|k| same(it, (k.round, k.blend, k.pnorm))) {
                 break; // a tighter bound already kept the best of these
             }
             if accept(&it.params) {
@@ -269,11 +404,12 @@ pub(crate) fn path_iterates(
                     round: it.round,
                     mae_bound: bound,
                     blend: it.blend,
+                    pnorm: it.pnorm,
                     params: it.params.clone(),
                 });
                 break;
             }
-            rejected.push((it.round, it.blend));
+            rejected.push(key(it));
         }
     }
     kept
@@ -370,12 +506,112 @@ mod tests {
         assert!(label.ends_with(&format!("round{}", it.round)), "{label}");
     }
 
+    /// r_i = a + b x_i − x_i² at 201 points of [0, 1]: the line nearest x².
+    struct Line(Vec<f64>);
+
+    impl LeastSquaresProblem for Line {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            self.0.len()
+        }
+        fn residuals(&self, p: &[f64], rows: Range<usize>, r: &mut [f64]) -> bool {
+            for (k, i) in rows.enumerate() {
+                let x = self.0[i];
+                r[k] = p[0] + p[1] * x - x * x;
+            }
+            true
+        }
+        fn jacobian(&self, p: &[f64], rows: Range<usize>, r: &mut [f64], jac: &mut [f64]) -> bool {
+            for (k, i) in rows.clone().enumerate() {
+                jac[2 * k] = 1.0;
+                jac[2 * k + 1] = self.0[i];
+            }
+            self.residuals(p, rows, r)
+        }
+    }
+
+    #[test]
+    fn the_lp_polish_approaches_the_minimax_line() {
+        let line = Line((0..=200).map(|i| i as f64 / 200.0).collect());
+        let max_err = |p: &[f64]| {
+            line.0
+                .iter()
+                .map(|&x| (p[0] + p[1] * x - x * x).abs())
+                .fold(0.0f64, f64::max)
+        };
+        // the Jacobian of |r/s|^(p/2) against central differences
+        let pn = PnormProblem {
+            inner: &line,
+            p: 7.0,
+            scale: 0.2,
+        };
+        let at = [-0.1, 0.9];
+        let (mut r, mut jac) = (vec![0.0; 201], vec![0.0; 402]);
+        assert!(pn.jacobian(&at, 0..201, &mut r, &mut jac));
+        for j in 0..2 {
+            let h = 1e-6;
+            let (mut up, mut down) = (at, at);
+            up[j] += h;
+            down[j] -= h;
+            let (mut ru, mut rd) = (vec![0.0; 201], vec![0.0; 201]);
+            assert!(pn.residuals(&up, 0..201, &mut ru) && pn.residuals(&down, 0..201, &mut rd));
+            for i in 0..201 {
+                let fd = (ru[i] - rd[i]) / (2.0 * h);
+                assert!(
+                    (fd - jac[2 * i + j]).abs() < 1e-6,
+                    "{i} {j}: {fd} vs {}",
+                    jac[2 * i + j]
+                );
+            }
+        }
+        // least squares: x − 1/6 on [0, 1] (max error 1/6 at x = 0; the 201 points shift it by
+        // O(1/n)); minimax (Chebyshev equioscillation at 0, 1/2, 1): x − 1/8, max error 1/8
+        let lm = crate::fit::lm::LevenbergMarquardt::new();
+        let ls = lm.solve(&line, vec![0.0, 0.0]).unwrap().state.params;
+        assert!(
+            (ls[0] + 1.0 / 6.0).abs() < 5e-3 && (ls[1] - 1.0).abs() < 5e-3,
+            "{ls:?}"
+        );
+        let mut warm = ls.clone();
+        let mut maxima = Vec::new();
+        for p in [4.0, 16.0, 64.0] {
+            let problem = PnormProblem {
+                inner: &line,
+                p,
+                scale: max_err(&warm),
+            };
+            warm = lm.solve(&problem, warm).unwrap().state.params;
+            maxima.push(max_err(&warm));
+        }
+        eprintln!("max error after p = 4, 16, 64: {maxima:?}, line {warm:?}");
+        assert!(maxima.windows(2).all(|m| m[1] < m[0]), "{maxima:?}");
+        assert!(maxima[0] < 1.0 / 6.0);
+        let end = maxima[2];
+        assert!(end > 0.125 - 1e-9 && end < 0.125 * 1.03, "{end}");
+        assert!(
+            (warm[1] - 1.0).abs() < 0.02 && (warm[0] + 0.125).abs() < 0.005,
+            "{warm:?}"
+        );
+    }
+
+    #[test]
+    fn lp_polish_settings_are_checked() {
+        assert!(check_lp_polish(&[]).is_ok() && check_lp_polish(&[2.0, 8.0]).is_ok());
+        for bad in [1.5, f64::NAN, f64::INFINITY] {
+            let e = check_lp_polish(&[8.0, bad]).unwrap_err().to_string();
+            assert!(e.contains("lp_polish") && e.contains("≥ 2"), "{e}");
+        }
+    }
+
     #[test]
     fn path_selection_per_bound() {
         // (round, max, MAE): start max 1.0, MAE 1.0
         let it = |round: usize, max: f64, mae: f64| Iterate {
             round,
             blend: 1.0,
+            pnorm: None,
             max,
             mae,
             params: vec![round as f64],

@@ -36,7 +36,10 @@ use super::poles::CertifyOptions;
 use super::result::{
     Approximant, Family, FitResult, Form, Objective, SolverReport, StartReport, Structure, Term,
 };
-use super::robust::{blended_roots, lawson_update, path_iterates, Iterate, LAWSON_BLEND};
+use super::robust::{
+    blended_roots, check_lp_polish, lawson_update, path_iterates, pnorm_branch, pnorm_path,
+    Iterate, PnormProblem, Solved, LAWSON_BLEND,
+};
 
 /// Settings of a structured fit.
 #[derive(Clone, Debug)]
@@ -53,6 +56,9 @@ pub struct StructuredOptions {
     pub reweight_lm_iterations: usize,
     /// Pole certificate of the result.
     pub certify: CertifyOptions,
+    /// Minimax only: the p values of an L_p polish from the least-squares fit, as
+    /// [`super::RationalOptions::lp_polish`]. Empty (the default): none.
+    pub lp_polish: Vec<f64>,
 }
 
 impl Default for StructuredOptions {
@@ -64,6 +70,7 @@ impl Default for StructuredOptions {
             reweight_iterations: 12,
             reweight_lm_iterations: 15,
             certify: CertifyOptions::default(),
+            lp_polish: Vec::new(),
         }
     }
 }
@@ -433,6 +440,7 @@ pub fn fit_structured(
     let d = data.dim();
     check_structure(d, &data.names, numerator, denominator.as_ref(), st)?;
     let label = form.label_with(&data.names);
+    check_lp_polish(&opts.lp_polish)?;
     let prep = Prepared::new(data, transforms)?;
     let x = st.variable();
     let k = st.terms() as usize;
@@ -628,6 +636,7 @@ pub fn fit_structured(
                     blended.push(Iterate {
                         round,
                         blend,
+                        pnorm: None,
                         max,
                         mae,
                         params: p.clone(),
@@ -672,6 +681,7 @@ pub fn fit_structured(
                     iterates.push(Iterate {
                         round: rounds,
                         blend: 1.0,
+                        pnorm: None,
                         max,
                         mae,
                         params: p.clone(),
@@ -689,6 +699,45 @@ pub fn fit_structured(
         // Lawson's own iterates per band as without the branch, and the branch's beside them
         path = path_iterates(&iterates, start, best_round, &mut |_| true);
         path.extend(path_iterates(&blended, start, best_round, &mut |_| true));
+        // the L_p polish from the least-squares fit (`robust::pnorm_branch`)
+        if objective == Objective::Minimax && !opts.lp_polish.is_empty() {
+            let from = rep.state.params.clone();
+            if let Some(e) = errors(&layout, ex, &from) {
+                let unit = vec![1.0; ex.len()];
+                let mut solve = |pn: f64, warm: &[f64]| -> Result<Option<Solved>> {
+                    let Some(e) = errors(&layout, ex, warm) else {
+                        return Ok(None);
+                    };
+                    let scale = e.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                    let inner = Problem {
+                        layout: &layout,
+                        data: ex,
+                        extra: None,
+                    };
+                    let problem = PnormProblem {
+                        inner: &inner,
+                        p: pn,
+                        scale,
+                    };
+                    let r = lm.solve(&problem, warm.to_vec())?;
+                    if r.termination == TerminationReason::InfeasibleStart {
+                        return Ok(None);
+                    }
+                    Ok(errors(&layout, ex, &r.state.params)
+                        .map(|e| (r.state.params, e, Some(r.termination), r.state.iterations)))
+                };
+                let mut polished = pnorm_branch(&unit, (from, e), &opts.lp_polish, &mut solve)?;
+                // max and MAE on all points, as the Lawson path's
+                polished.retain_mut(|it| match both(&it.params) {
+                    Some((max, mae)) => {
+                        (it.max, it.mae) = (max, mae);
+                        true
+                    }
+                    None => false,
+                });
+                path.extend(pnorm_path(&polished, start.1, &mut |_| true));
+            }
+        }
     }
 
     // 4. the emitted form
@@ -1039,6 +1088,97 @@ mod tests {
             .unwrap()
         };
         (run(Objective::LeastSquares), run(Objective::Minimax))
+    }
+
+    #[test]
+    fn the_lp_polish_adds_one_fit_per_p() {
+        let f = |x: f64, r: f64, m: f64| (1.0 + x).sqrt() * (r * m + 0.1).ln().exp() / (1.2 + m);
+        let n = 9;
+        let data = grid3(n, f);
+        let ax: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
+        let lp_norm = |fit: &FitResult, p: f64| -> f64 {
+            let mut s = 0.0;
+            for &x in &ax {
+                for &r in &ax {
+                    for &m in &ax {
+                        s += (fit.eval(&[x, r, m]) - f(x, r, m)).abs().powf(p);
+                    }
+                }
+            }
+            s
+        };
+        let t = [InputTransform::Identity; 3];
+        // a low-rank form (the structured fitter) and a split sum (the rational one)
+        for spec in ["lowrank:f0:2:2:2/1", "split:f0:1:2/1"] {
+            let form = parse_form(spec, &data.names).unwrap();
+            let mut opts = FitOptions::default();
+            opts.rational.lp_polish = vec![4.0, 16.0];
+            opts.structured.lp_polish = vec![4.0, 16.0];
+            let ls = fit_form(&data, &t, &form, Objective::LeastSquares, &opts).unwrap();
+            let mm = fit_form(&data, &t, &form, Objective::Minimax, &opts).unwrap();
+            let polished: Vec<&FitResult> = mm
+                .path
+                .iter()
+                .filter(|p| {
+                    let it = p.solver.as_ref().unwrap().lawson_path.as_ref().unwrap();
+                    it.pnorm.is_some()
+                })
+                .collect();
+            let ps: Vec<Option<f64>> = polished
+                .iter()
+                .map(|p| {
+                    p.solver
+                        .as_ref()
+                        .unwrap()
+                        .lawson_path
+                        .as_ref()
+                        .unwrap()
+                        .pnorm
+                })
+                .collect();
+            assert_eq!(ps, [Some(4.0), Some(16.0)], "{spec}");
+            // Levenberg–Marquardt from the least-squares fit lowers Σ|e|⁴; p = 16 lowers the
+            // max error below the least-squares fit's
+            assert!(polished.iter().all(|p| p.is_usable()));
+            assert!(
+                lp_norm(polished[0], 4.0) <= lp_norm(&ls, 4.0) * (1.0 + 1e-9),
+                "{spec}: {} vs {}",
+                lp_norm(polished[0], 4.0),
+                lp_norm(&ls, 4.0)
+            );
+            assert!(polished[1].metrics.max_abs_error < ls.metrics.max_abs_error);
+            // the fit file says what it is and loads back
+            let it = polished[1]
+                .solver
+                .as_ref()
+                .unwrap()
+                .lawson_path
+                .clone()
+                .unwrap();
+            assert_eq!(it.label("-", ""), "p16");
+            let json = polished[1].to_json().unwrap();
+            assert!(
+                json.contains("\"pnorm\": 16.0") && json.contains("L_p polish"),
+                "{json}"
+            );
+            let back = FitResult::from_json(&json).unwrap();
+            assert_eq!(back.solver.unwrap().lawson_path, Some(it));
+            // none by default
+            let plain =
+                fit_form(&data, &t, &form, Objective::Minimax, &FitOptions::default()).unwrap();
+            assert!(plain.path.iter().all(|p| {
+                let it = p.solver.as_ref().unwrap().lawson_path.as_ref().unwrap();
+                it.pnorm.is_none()
+            }));
+            // p < 2 is refused, naming the setting
+            let mut bad = FitOptions::default();
+            bad.rational.lp_polish = vec![1.0];
+            bad.structured.lp_polish = vec![1.0];
+            let e = fit_form(&data, &t, &form, Objective::Minimax, &bad)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("lp_polish"), "{e}");
+        }
     }
 
     #[test]

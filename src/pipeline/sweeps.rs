@@ -409,6 +409,7 @@ mod tests {
                 training_points: 0,
                 budgets: vec![20],
                 minimax_refits: false,
+                lp_polish: Vec::new(),
             },
             check_set: None,
             files: Vec::new(),

@@ -407,7 +407,10 @@ pub fn sweep_fits_trained(
                     numerator_degree,
                     denominator_degree,
                 } => {
-                    let mut ro = RationalOptions::default();
+                    let mut ro = RationalOptions {
+                        lp_polish: plan.lp_polish.clone(),
+                        ..RationalOptions::default()
+                    };
                     ro.extra_starts.push((
                         "least-squares fit of the sweep".into(),
                         ls.approximant.clone(),
@@ -423,6 +426,8 @@ pub fn sweep_fits_trained(
                 }
                 form @ Form::Exponents { .. } => {
                     let mut opts = super::FitOptions::default();
+                    opts.rational.lp_polish = plan.lp_polish.clone();
+                    opts.structured.lp_polish = plan.lp_polish.clone();
                     opts.rational.extra_starts.push((
                         "least-squares fit of the sweep".into(),
                         ls.approximant.clone(),
@@ -610,6 +615,7 @@ mod tests {
             training_points: 400,
             budgets: vec![40],
             minimax_refits: false,
+            lp_polish: Vec::new(),
         };
         let run = |training: Option<(&FitData, &str)>, grading: Vec<f64>| {
             let plan = SweepPlan {
@@ -709,6 +715,7 @@ mod tests {
             training_points: 0,
             budgets: vec![20],
             minimax_refits: false,
+            lp_polish: Vec::new(),
         };
         let mut outcome = sweep_fits(&input, &plan, &mut |_| {}).unwrap();
         let first = outcome.best[0].index.unwrap();

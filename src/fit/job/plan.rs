@@ -36,6 +36,10 @@ pub struct SweepPlan {
     /// After a least-squares sweep, refit the most promising fits of each budget with the
     /// minimax objective (see [`sweep_fits`]).
     pub minimax_refits: bool,
+    /// The p values of an L_p polish every minimax refit adds to its path
+    /// ([`crate::fit::RationalOptions::lp_polish`]); empty (the default plan's): none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lp_polish: Vec<f64>,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -189,6 +193,7 @@ impl SweepPlan {
             training_points: 0,
             budgets: default_budgets(d),
             minimax_refits: true,
+            lp_polish: Vec::new(),
         }
     }
 

@@ -478,6 +478,16 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
         assert!(cell(&format!("| isotropic, {s} |")) > 0.1, "{s}");
     }
     assert!(cell("| geometric mean √(α_t α_b) |") > 0.1);
+    // furnace's fits under both budgets, fitted on the layer grid, certified, and each a far
+    // better compensation than none
+    assert!(readme.contains("furnace's fits: under each budget, of the rational 3/3"));
+    for budget in [80, 160] {
+        let fit = cell(&format!("| furnace fit ≤ {budget} ("));
+        assert!(
+            fit.is_finite() && fit < 0.5 * cell("| none |"),
+            "{budget}: {fit}"
+        );
+    }
     // the off-grid table sets each budget beside the LUTs, the loss in bold
     assert!(readme.contains("## Off-grid errors: fits against LUTs"));
     assert!(

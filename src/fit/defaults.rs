@@ -427,43 +427,45 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
             }
             None => Vec::new(),
         },
-        4 => {
-            // caps in the order (r, aniso, μ, φ) of the projected layer's variables
-            let Some((r, aniso, mu, phi)) =
-                transforms.iter().enumerate().find_map(|(k, t)| match *t {
-                    InputTransform::ProjectedLayer { r, aniso, phi, .. } => {
-                        Some((r, aniso, k, phi))
-                    }
-                    _ => None,
-                })
-            else {
-                return Vec::new();
-            };
-            let set = |total: u32, c: [u32; 4]| {
-                let mut caps = vec![0; 4];
-                for (i, v) in [r, aniso, mu, phi].into_iter().zip(c) {
-                    caps[i] = v;
-                }
-                ExponentSet {
-                    total,
-                    caps,
-                    in_total: vec![true; 4],
-                    free_of: None,
-                }
-            };
-            ANISO_EXPONENT_FORMS
-                .iter()
-                .map(|&(n, cn, m, cm)| {
-                    planned(Form::Exponents {
-                        numerator: set(n, cn),
-                        denominator: Some(set(m, cm)),
-                        structure: None,
-                    })
-                })
-                .collect()
-        }
+        4 => aniso_exponent_forms(transforms)
+            .into_iter()
+            .map(planned)
+            .collect(),
         _ => Vec::new(),
     }
+}
+
+/// The [`ANISO_EXPONENT_FORMS`] of a 4-D albedo whose μ is in the projected layer
+/// ([`InputTransform::ProjectedLayer`], which names the r, aniso and φ variables), their caps
+/// placed on those variables; none without a projected layer.
+pub fn aniso_exponent_forms(transforms: &[InputTransform]) -> Vec<Form> {
+    // caps in the order (r, aniso, μ, φ) of the projected layer's variables
+    let Some((r, aniso, mu, phi)) = transforms.iter().enumerate().find_map(|(k, t)| match *t {
+        InputTransform::ProjectedLayer { r, aniso, phi, .. } => Some((r, aniso, k, phi)),
+        _ => None,
+    }) else {
+        return Vec::new();
+    };
+    let set = |total: u32, c: [u32; 4]| {
+        let mut caps = vec![0; transforms.len()];
+        for (i, v) in [r, aniso, mu, phi].into_iter().zip(c) {
+            caps[i] = v;
+        }
+        ExponentSet {
+            total,
+            caps,
+            in_total: vec![true; transforms.len()],
+            free_of: None,
+        }
+    };
+    ANISO_EXPONENT_FORMS
+        .iter()
+        .map(|&(n, cn, m, cm)| Form::Exponents {
+            numerator: set(n, cn),
+            denominator: Some(set(m, cm)),
+            structure: None,
+        })
+        .collect()
 }
 
 /// P/Q with P of degree ≤ 1 in r and total degree ≤ 3 (a cubic in μ plus r times a quadratic),

@@ -25,7 +25,7 @@ use super::basis::{check_degree, monomial_to_chebyshev};
 use super::data::{FitData, InputTransform, Prepared};
 use super::error::{FitError, Result};
 use super::linear::solve_lstsq;
-use super::lm::{cost, LevenbergMarquardt, LsqMethod, TerminationReason};
+use super::lm::{cost, LeastSquaresProblem, LevenbergMarquardt, LsqMethod, TerminationReason};
 use super::model::{LinearisedRows, Model, RationalProblem, Q_FLOOR};
 use super::poles::CertifyOptions;
 use super::polynomial::solve_polynomial;
@@ -416,15 +416,9 @@ pub(crate) fn fit_rational_model(
                 .clone()
                 .with_max_iterations(opts.reweight_lm_iterations.max(1))?;
             let constrained = best.certified;
-            let mut solve = |extra: &[f64], warm: &[f64]| -> Result<Option<Solved>> {
-                let problem = RationalProblem {
-                    model,
-                    data: &prep,
-                    phi: phi_all,
-                    extra: Some(extra),
-                    certified_steps: constrained.then_some(guard),
-                };
-                let rep = opts.method.solve(&lm, &problem, warm.to_vec())?;
+            // one solve from `warm` and the errors of its parameters (None: infeasible start)
+            let run = |problem: &dyn LeastSquaresProblem, warm: &[f64]| -> Result<Option<Solved>> {
+                let rep = opts.method.solve(&lm, problem, warm.to_vec())?;
                 if rep.termination == TerminationReason::InfeasibleStart {
                     return Ok(None);
                 }
@@ -436,6 +430,16 @@ pub(crate) fn fit_rational_model(
                         rep.state.iterations,
                     )
                 }))
+            };
+            let mut solve = |extra: &[f64], warm: &[f64]| -> Result<Option<Solved>> {
+                let problem = RationalProblem {
+                    model,
+                    data: &prep,
+                    phi: phi_all,
+                    extra: Some(extra),
+                    certified_steps: constrained.then_some(guard),
+                };
+                run(&problem, warm)
             };
             let mut pnorm_solve = |pn: f64, warm: &[f64]| -> Result<Option<Solved>> {
                 let Some(e) = model.errors(&prep, phi_all, warm) else {
@@ -457,18 +461,7 @@ pub(crate) fn fit_rational_model(
                     p: pn,
                     scale,
                 };
-                let rep = opts.method.solve(&lm, &problem, warm.to_vec())?;
-                if rep.termination == TerminationReason::InfeasibleStart {
-                    return Ok(None);
-                }
-                Ok(model.errors(&prep, phi_all, &rep.state.params).map(|e| {
-                    (
-                        rep.state.params,
-                        e,
-                        Some(rep.termination),
-                        rep.state.iterations,
-                    )
-                }))
+                run(&problem, warm)
             };
             let mut accept = |p: &[f64]| !best.certified || safe(p);
             let rw = reweight(

@@ -948,6 +948,12 @@ const NORMALISE_MIN_RATIO: f64 = 1e-3;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::result::LawsonPathIterate;
+
+    /// The Lawson-path record of an iterate of a minimax fit's path.
+    fn iterate(p: &FitResult) -> &LawsonPathIterate {
+        p.solver.as_ref().unwrap().lawson_path.as_ref().unwrap()
+    }
     use crate::fit::{fit_form, parse_form, FitOptions, PoleVerdict};
 
     fn grid3(n: usize, f: impl Fn(f64, f64, f64) -> f64) -> FitData {
@@ -1119,23 +1125,9 @@ mod tests {
             let polished: Vec<&FitResult> = mm
                 .path
                 .iter()
-                .filter(|p| {
-                    let it = p.solver.as_ref().unwrap().lawson_path.as_ref().unwrap();
-                    it.pnorm.is_some()
-                })
+                .filter(|p| iterate(p).pnorm.is_some())
                 .collect();
-            let ps: Vec<Option<f64>> = polished
-                .iter()
-                .map(|p| {
-                    p.solver
-                        .as_ref()
-                        .unwrap()
-                        .lawson_path
-                        .as_ref()
-                        .unwrap()
-                        .pnorm
-                })
-                .collect();
+            let ps: Vec<Option<f64>> = polished.iter().map(|p| iterate(p).pnorm).collect();
             assert_eq!(ps, [Some(4.0), Some(16.0)], "{spec}");
             // Levenberg–Marquardt from the least-squares fit lowers Σ|e|⁴; p = 16 lowers the
             // max error below the least-squares fit's
@@ -1148,13 +1140,7 @@ mod tests {
             );
             assert!(polished[1].metrics.max_abs_error < ls.metrics.max_abs_error);
             // the fit file says what it is and loads back
-            let it = polished[1]
-                .solver
-                .as_ref()
-                .unwrap()
-                .lawson_path
-                .clone()
-                .unwrap();
+            let it = iterate(polished[1]).clone();
             assert_eq!(it.label("-", ""), "p16");
             let json = polished[1].to_json().unwrap();
             assert!(
@@ -1166,10 +1152,7 @@ mod tests {
             // none by default
             let plain =
                 fit_form(&data, &t, &form, Objective::Minimax, &FitOptions::default()).unwrap();
-            assert!(plain.path.iter().all(|p| {
-                let it = p.solver.as_ref().unwrap().lawson_path.as_ref().unwrap();
-                it.pnorm.is_none()
-            }));
+            assert!(plain.path.iter().all(|p| iterate(p).pnorm.is_none()));
             // p < 2 is refused, naming the setting
             let mut bad = FitOptions::default();
             bad.rational.lp_polish = vec![1.0];
@@ -1203,13 +1186,7 @@ mod tests {
             .map(|p| {
                 assert!(p.metrics.max_abs_error < ls.metrics.max_abs_error);
                 assert!(p.metrics.mae <= band * ls.metrics.mae * (1.0 + 1e-9));
-                p.solver
-                    .as_ref()
-                    .unwrap()
-                    .lawson_path
-                    .as_ref()
-                    .unwrap()
-                    .blend
+                iterate(p).blend
             })
             .collect();
         assert!(blends.iter().all(|&b| b > 0.0 && b <= 1.0), "{blends:?}");
@@ -1236,16 +1213,7 @@ mod tests {
         let blended = mm
             .path
             .iter()
-            .find(|p| {
-                p.solver
-                    .as_ref()
-                    .unwrap()
-                    .lawson_path
-                    .as_ref()
-                    .unwrap()
-                    .blend
-                    < 1.0
-            })
+            .find(|p| iterate(p).blend < 1.0)
             .expect("an iterate of the blended branch");
         assert!(blended.metrics.max_abs_error < 0.9 * ls.metrics.max_abs_error);
         assert!(blended.metrics.mae <= bands[0] * ls.metrics.mae);

@@ -340,6 +340,16 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
         luts: vec![lut(16, 3e-2), lut(32, 1e-2), lut(64, 5e-3)],
     };
     off_grid.write(&best_dir).unwrap();
+    // the anisotropic conductor's budget fits, as `furnace run` writes them
+    let mut job = furnace::pipeline::Job::default_set(&root);
+    job.quick_report();
+    let aniso = furnace::pipeline::aniso::fits_or_reuse(
+        &job,
+        &furnace::report::aniso::QUICK_RESOLUTION,
+        &furnace::progress::Quiet,
+    )
+    .unwrap();
+    assert!(!aniso.reused && aniso.best.iter().all(|b| b.1.is_some()));
     std::fs::create_dir_all(root.join("reports/bench")).unwrap();
     std::fs::write(root.join("reports/bench/eval-cost.csv"), "# title: Evaluation cost\n# x: ns per call (log)\n# y: max error (log)\nseries,ns,err\nfit,2.5,1e-3\nfit,4,2e-4\nLUT,1.5,3e-3\n").unwrap();
 
@@ -478,10 +488,16 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
         assert!(cell(&format!("| isotropic, {s} |")) > 0.1, "{s}");
     }
     assert!(cell("| geometric mean √(α_t α_b) |") > 0.1);
-    // furnace's fits under both budgets, fitted on the layer grid, certified, and each a far
-    // better compensation than none
-    assert!(readme.contains("furnace's fits: under each budget, of the rational 3/3"));
+    // furnace's fits under both budgets, read from their files, and each a far better
+    // compensation than none
+    assert!(readme.contains("furnace's fits, written by `furnace run` to `fits/`"));
     for budget in [80, 160] {
+        assert!(
+            readme.contains(&format!(
+                "| {budget} | `fits/ggx-conductor-aniso/best-{budget}.json` |"
+            )),
+            "{budget}"
+        );
         let fit = cell(&format!("| furnace fit ≤ {budget} ("));
         assert!(
             fit.is_finite() && fit < 0.5 * cell("| none |"),

@@ -136,6 +136,8 @@ fn run_end_to_end_is_reproducible_and_resumes() {
     ] {
         assert!(d.join(f).is_file(), "{f} missing:\n{out}");
     }
+    // the anisotropic fits come only when their model is named
+    assert!(!d.join("fits/ggx-conductor-aniso").exists());
     // the report reads what `run` wrote: the sweep's fits and the chosen best file
     let readme = std::fs::read_to_string(d.join("reports/README.md")).unwrap();
     assert!(
@@ -371,5 +373,56 @@ fn unknown_models_are_refused_with_the_choices() {
         "{err}"
     );
     assert!(!d.join("data").exists());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn run_writes_the_anisotropic_budget_fits_with_their_code_and_reuses_them() {
+    let d = scratch("aniso");
+    let args = &["run", "--models", "ggx-conductor-aniso", "--quick-report"];
+    let o = furnace(args, &d, None);
+    assert!(o.status.success(), "{}", text(&o));
+    let out = text(&o);
+    assert!(
+        out.contains("ggx-conductor-aniso") && out.contains("4-D fits fitted: best-80 max"),
+        "{out}"
+    );
+    let dir = d.join("fits/ggx-conductor-aniso");
+    for budget in [80, 160] {
+        let rec: FitRecord = serde_json::from_str(
+            &std::fs::read_to_string(dir.join(format!("best-{budget}.json"))).unwrap(),
+        )
+        .unwrap();
+        // certified, within its budget, fitted on the layer grid (5x3x5x3 table: 13x5x15x5),
+        // measured at the table's nodes and at its off-grid check points
+        assert!(rec.usable, "{}", rec.verdict);
+        assert!(rec.fit.n_coefficients <= budget);
+        assert_eq!(rec.fitted_on.points, 13 * 5 * 15 * 5);
+        assert_eq!(rec.fit.metrics.n_points, 5 * 3 * 5 * 3);
+        let off = rec.off_grid.as_ref().expect("off-grid errors");
+        assert!(off.metrics.n_points > 10_000 && off.metrics.max_abs_error < 0.2);
+        for ext in ["rs", "wgsl", "glsl", "hlsl", "h"] {
+            let code = std::fs::read_to_string(dir.join(format!("best-{budget}.{ext}"))).unwrap();
+            assert!(
+                code.contains("ggx_conductor_aniso_albedo"),
+                "best-{budget}.{ext}"
+            );
+        }
+    }
+    let readme = std::fs::read_to_string(d.join("reports/README.md")).unwrap();
+    assert!(readme.contains("| 160 | `fits/ggx-conductor-aniso/best-160.json` |"));
+    // a re-run keeps the fits, their code and the report's section, byte for byte
+    let first = outputs(&d);
+    let o = furnace(args, &d, None);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("4-D fits reused"), "{}", text(&o));
+    assert_same(&first, &outputs(&d), "re-run");
+    // an edited fit file is refitted, and the section follows
+    let best = dir.join("best-80.json");
+    let bytes = std::fs::read(&best).unwrap();
+    std::fs::write(&best, [&bytes[..], b" "].concat()).unwrap();
+    let o = furnace(args, &d, None);
+    assert!(text(&o).contains("4-D fits fitted"), "{}", text(&o));
+    assert_same(&first, &outputs(&d), "refit");
     let _ = std::fs::remove_dir_all(&d);
 }

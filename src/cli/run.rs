@@ -101,12 +101,13 @@ pub fn run_cmd(args: &RunArgs) -> Result<()> {
     let outcome = pipeline::run(&job, &Bars::default())?;
     match &args.scene.scene {
         Some(_) => super::scene::print_summary(&outcome, start),
-        None => print_summary(&outcome.rows, args, start),
+        None => print_summary(&outcome, args, start),
     }
     Ok(())
 }
 
-fn print_summary(rows: &[Row], args: &RunArgs, start: Instant) {
+fn print_summary(outcome: &pipeline::Outcome, args: &RunArgs, start: Instant) {
+    let rows = &outcome.rows;
     let mut budgets: Vec<usize> = rows
         .iter()
         .filter_map(Row::sweep)
@@ -175,6 +176,30 @@ fn print_summary(rows: &[Row], args: &RunArgs, start: Instant) {
         if let Some(o) = &r.off_grid {
             losses.extend(o.losses());
         }
+    }
+    if let Some(a) = &outcome.anisotropic {
+        let n = a.files.len() + outcome.anisotropic_emitted.len();
+        files += n;
+        let best: Vec<String> = a
+            .best
+            .iter()
+            .map(|(b, s)| {
+                format!(
+                    "best-{b} {}",
+                    s.as_ref().map_or("–".to_string(), |s| format!(
+                        "max {} MAE {}",
+                        fmt_e(s.max_abs_error),
+                        fmt_e(s.mae)
+                    ))
+                )
+            })
+            .collect();
+        println!(
+            "{:<38} 4-D fits {}: {}; {n} files",
+            a.name,
+            if a.reused { "reused" } else { "fitted" },
+            best.join(", ")
+        );
     }
     println!(
         "best-N, LUT-{}: max |E − exact| at the off-grid check points of each table (fits/<model>/off-grid.json; at the table nodes for a table without check points); furnace: max |1 − E| of the BSDF compensated with the report's chosen fit (reports/README.md)",

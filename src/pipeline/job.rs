@@ -129,6 +129,9 @@ pub struct Job {
     pub refit: bool,
     /// Stop after the tables.
     pub tables_only: bool,
+    /// The anisotropic conductor's budget fits ([`super::aniso`]) on a table of these nodes per
+    /// axis (the report's section reads them); None leaves them out.
+    pub anisotropic_fits: Option<Vec<usize>>,
 }
 
 impl Job {
@@ -166,6 +169,7 @@ impl Job {
             force: false,
             refit: false,
             tables_only: false,
+            anisotropic_fits: Some(crate::report::aniso::DEFAULT_RESOLUTION.to_vec()),
         };
         job.set_resolution(DEFAULT_RESOLUTION_2D, DEFAULT_RESOLUTION_3D);
         job
@@ -207,6 +211,7 @@ impl Job {
             force: opts.force,
             refit: false,
             tables_only: false,
+            anisotropic_fits: None,
         })
     }
 
@@ -225,11 +230,21 @@ impl Job {
     }
 
     /// Keeps only the tables of the models named (by their cache names,
-    /// `ggx-dielectric-separable-radiance`); refused for a name not in the job.
+    /// `ggx-dielectric-separable-radiance`), and the anisotropic fits if their model is named;
+    /// refused for a name not in the job.
     pub fn only(&mut self, names: &[String]) -> Result<()> {
+        let aniso = self
+            .anisotropic_fits
+            .as_ref()
+            .map(|_| super::aniso::model().key());
         for m in names {
-            if !self.tables.iter().any(|t| &t.model.key() == m) {
-                let known: Vec<String> = self.tables.iter().map(|t| t.model.key()).collect();
+            if !self.tables.iter().any(|t| &t.model.key() == m) && aniso.as_ref() != Some(m) {
+                let known: Vec<String> = self
+                    .tables
+                    .iter()
+                    .map(|t| t.model.key())
+                    .chain(aniso.clone())
+                    .collect();
                 return Err(Error::InvalidInput(format!(
                     "--models: '{m}' is not in the {}; choose from {}",
                     self.name,
@@ -238,6 +253,9 @@ impl Job {
             }
         }
         self.tables.retain(|t| names.contains(&t.model.key()));
+        if aniso.is_some_and(|a| !names.contains(&a)) {
+            self.anisotropic_fits = None;
+        }
         Ok(())
     }
 
@@ -254,6 +272,9 @@ impl Job {
             o.furnace_f0_slices = 2;
             o.sphere_roughness = vec![0.3, 1.0];
             o.anisotropy = Some(crate::report::aniso::QUICK_RESOLUTION.to_vec());
+        }
+        if self.anisotropic_fits.is_some() {
+            self.anisotropic_fits = Some(crate::report::aniso::QUICK_RESOLUTION.to_vec());
         }
     }
 
@@ -367,6 +388,24 @@ mod tests {
         assert_eq!(job.tables[2].resolution, vec![32; 3]);
         let e = job.only(&["ggx-metal".into()]).unwrap_err().to_string();
         assert!(e.contains("'ggx-metal' is not in the default set; choose from ggx-conductor"));
+    }
+
+    #[test]
+    fn the_anisotropic_fits_run_only_when_their_model_is_named() {
+        let root = Path::new("root");
+        let mut job = Job::default_set(root);
+        assert_eq!(job.anisotropic_fits, Some(vec![16, 8, 16, 8]));
+        job.only(&["ggx-conductor-aniso".into(), "eon".into()])
+            .unwrap();
+        assert_eq!(job.tables.len(), 1);
+        assert!(job.anisotropic_fits.is_some());
+        job.quick_report();
+        assert_eq!(job.anisotropic_fits, Some(vec![5, 3, 5, 3]));
+        let mut job = Job::default_set(root);
+        job.only(&["eon".into()]).unwrap();
+        assert_eq!(job.anisotropic_fits, None);
+        let e = job.only(&["ggx-conductor-aniso".into()]).unwrap_err();
+        assert!(e.to_string().contains("is not in the default set"), "{e}");
     }
 
     #[test]

@@ -39,6 +39,7 @@
 //! (no wall times, dates, absolute paths or thread counts), written through a temporary file
 //! and a rename; wall times go to the observer only.
 
+pub mod aniso;
 pub mod emits;
 pub mod job;
 pub mod offgrid;
@@ -167,6 +168,10 @@ pub struct Outcome {
     pub functions: Vec<EmittedFit>,
     /// The files of [`EmitStage::OneFilePerLanguage`] (code and LUTs).
     pub written: Vec<PathBuf>,
+    /// The anisotropic conductor's budget fits ([`Job::anisotropic_fits`]).
+    pub anisotropic: Option<aniso::AnisoFits>,
+    /// The code emitted next to them.
+    pub anisotropic_emitted: Vec<PathBuf>,
 }
 
 /// Runs `job`; `progress` gets its log lines and progress (nothing of it reaches a file).
@@ -190,12 +195,21 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
             rows,
             functions: Vec::new(),
             written: Vec::new(),
+            anisotropic: None,
+            anisotropic_emitted: Vec::new(),
         });
     }
-    let sources = fit(job, &models, &tables, &mut rows, progress)?;
+    let (sources, anisotropic) = fit(job, &models, &tables, &mut rows, progress)?;
+    let mut anisotropic_emitted = Vec::new();
     let (functions, written) = match &job.emit {
         EmitStage::EachFit { lut_resolution } => {
-            emit_each_fit(job, *lut_resolution, &mut rows, progress)?;
+            anisotropic_emitted = emit_each_fit(
+                job,
+                *lut_resolution,
+                &mut rows,
+                anisotropic.as_ref(),
+                progress,
+            )?;
             (Vec::new(), Vec::new())
         }
         EmitStage::OneFilePerLanguage {
@@ -226,6 +240,8 @@ pub fn run(job: &Job, progress: &dyn Observer) -> Result<Outcome> {
         rows,
         functions,
         written,
+        anisotropic,
+        anisotropic_emitted,
     })
 }
 
@@ -368,18 +384,19 @@ fn tabulate(
     Ok((rows, tables))
 }
 
-/// Stage 2: the fits of every table; for [`FitStage::OnePerTable`], the emitter's view of
-/// each fit.
+/// Stage 2: the fits of every table and, for a sweep, the anisotropic conductor's budget fits
+/// ([`Job::anisotropic_fits`]); for [`FitStage::OnePerTable`], the emitter's view of each fit.
 fn fit(
     job: &Job,
     models: &[Arc<dyn Model>],
     tables: &[Tabulated],
     rows: &mut [Row],
     progress: &dyn Observer,
-) -> Result<Option<Vec<SourceFit>>> {
+) -> Result<(Option<Vec<SourceFit>>, Option<aniso::AnisoFits>)> {
     let steps = job.stages();
     let stage = Instant::now();
     let mut sources = None;
+    let mut anisotropic = None;
     match &job.fit {
         FitStage::Sweep { max_degree } => {
             progress.line(&format!(
@@ -408,6 +425,17 @@ fn fit(
                 }
                 row.fit = Fitted::Sweep(step);
             }
+            if let Some(resolution) = &job.anisotropic_fits {
+                let a = aniso::fits_or_reuse(job, resolution, progress)?;
+                log_best(
+                    &a.name,
+                    a.reused,
+                    &a.best,
+                    a.seconds.map(|w| (w, None)),
+                    progress,
+                );
+                anisotropic = Some(a);
+            }
         }
         FitStage::OnePerTable {
             degrees,
@@ -433,12 +461,25 @@ fn fit(
         }
     }
     progress.line(&format!("  fits: {:.1} s", stage.elapsed().as_secs_f64()));
-    Ok(sources)
+    Ok((sources, anisotropic))
 }
 
 fn log_sweep(name: &str, step: &FitStep, progress: &dyn Observer) {
-    let best: Vec<String> = step
-        .best
+    log_best(name, step.reused, &step.best, step.seconds, progress);
+    if let Some(n) = &step.note {
+        progress.line(&format!("    {n}"));
+    }
+}
+
+/// One line: each budget's best fit, and whether it was fitted or kept.
+fn log_best(
+    name: &str,
+    reused: bool,
+    best: &[(usize, Option<sweeps::BestSummary>)],
+    seconds: Option<(f64, Option<f64>)>,
+    progress: &dyn Observer,
+) {
+    let best: Vec<String> = best
         .iter()
         .map(|(b, e)| {
             format!(
@@ -454,31 +495,30 @@ fn log_sweep(name: &str, step: &FitStep, progress: &dyn Observer) {
     progress.line(&format!(
         "  {:<38} {}: {}",
         name,
-        if step.reused {
+        if reused {
             "reused (same table values and options)"
         } else {
             "fitted"
         },
         best.join(", ")
-            + &match step.seconds {
+            + &match seconds {
                 Some((wall, Some(cpu))) => format!("; {wall:.1} s wall, {cpu:.1} s CPU"),
                 Some((wall, None)) => format!("; {wall:.1} s wall"),
                 None => String::new(),
             }
     ));
-    if let Some(n) = &step.note {
-        progress.line(&format!("    {n}"));
-    }
 }
 
 /// Stage 3 of [`EmitStage::EachFit`]: every fit file's code next to it, and a LUT per table
-/// with its last fit; files of an emit with the same inputs are kept ([`emits`]).
+/// with its last fit; files of an emit with the same inputs are kept ([`emits`]). The
+/// anisotropic fits get code only (a LUT of four axes is a table); their files are returned.
 fn emit_each_fit(
     job: &Job,
     lut_resolution: usize,
     rows: &mut [Row],
+    anisotropic: Option<&aniso::AnisoFits>,
     progress: &dyn Observer,
-) -> Result<()> {
+) -> Result<Vec<PathBuf>> {
     let steps = job.stages();
     let stage = Instant::now();
     progress.line(&format!(
@@ -495,76 +535,112 @@ fn emit_each_fit(
             }
         })
         .collect();
-    let total: usize = fits.iter().map(Vec::len).sum();
+    let aniso_fits = anisotropic.map_or(Vec::new(), |a| a.best_files(&job.fits_dir));
+    let total: usize = fits.iter().map(Vec::len).sum::<usize>() + aniso_fits.len();
     progress.begin("emit", total as u64);
     let mut kept = 0;
+    const CODE: &str = "rust,wgsl,glsl,hlsl,cpp";
     for (row, files) in rows.iter_mut().zip(fits) {
         for (k, fit) in files.iter().enumerate() {
             progress.message(&format!("emit {}", row.name));
             // one LUT per model, compared with the largest-budget fit
-            let lang = if k + 1 == files.len() {
-                "all"
-            } else {
-                "rust,wgsl,glsl,hlsl,cpp"
-            };
-            let options = EmitFileOptions {
-                langs: parse_langs(lang)?,
-                lang_arg: lang.into(),
-                form: FormChoice::Auto,
-                suffix: String::new(),
-                data_dir: job.data_dir.clone(),
-                lut_dir: job.lut_dir.clone(),
+            let lang = if k + 1 == files.len() { "all" } else { CODE };
+            let written = emit_kept(
+                job,
+                &row.name,
+                fit,
+                lang,
                 lut_resolution,
-                force: false,
-            };
-            // the files of an emit with the same inputs are kept (emits::reusable)
-            let cache = emits::cache_path(&job.data_dir, &row.name, fit);
-            let inputs = emits::emit_inputs(fit, &job.data_dir, lang, lut_resolution);
-            let previous = if job.force || job.refit {
-                None
-            } else {
-                inputs.as_ref().and_then(|i| emits::reusable(&cache, i))
-            };
-            let outcome = match previous {
-                Some(p) => {
-                    kept += 1;
-                    p
-                }
-                None => {
-                    let outcome = match emit_fit_file(fit, &options, None, &mut |_| {}) {
-                        Ok(written) => Ok(written),
-                        // a file that cannot be written stops the run; a fit that cannot be
-                        // emitted (e.g. not proved pole-free) is reported and skipped
-                        Err(e @ Error::Io { .. }) => {
-                            progress.end();
-                            return Err(e);
-                        }
-                        Err(e) => Err(e.to_string()),
-                    };
-                    if let Some(i) = inputs {
-                        emits::record(&cache, i, outcome.as_deref().map_err(Clone::clone))?;
-                    }
-                    outcome
-                }
-            };
-            match outcome {
-                Ok(written) => row.emitted.extend(written),
-                Err(e) => progress.line(&format!(
-                    "  {}: {} not emitted: {e}",
-                    row.name,
-                    fit.display()
-                )),
-            }
+                &mut kept,
+                progress,
+            )?;
+            row.emitted.extend(written);
+            progress.advance(1);
+        }
+    }
+    let mut aniso_emitted = Vec::new();
+    if let Some(a) = anisotropic {
+        for fit in &aniso_fits {
+            progress.message(&format!("emit {}", a.name));
+            aniso_emitted.extend(emit_kept(
+                job,
+                &a.name,
+                fit,
+                CODE,
+                lut_resolution,
+                &mut kept,
+                progress,
+            )?);
             progress.advance(1);
         }
     }
     progress.end();
     progress.line(&format!(
         "  emit: {} files in {:.1} s ({kept} of {total} fits kept: same inputs)",
-        rows.iter().map(|r| r.emitted.len()).sum::<usize>(),
+        rows.iter().map(|r| r.emitted.len()).sum::<usize>() + aniso_emitted.len(),
         stage.elapsed().as_secs_f64()
     ));
-    Ok(())
+    Ok(aniso_emitted)
+}
+
+/// The files emitted for `fit` of model folder `name` in `lang`, or those of an emit with the
+/// same inputs (counted in `kept`); a fit that cannot be emitted is reported and skipped.
+fn emit_kept(
+    job: &Job,
+    name: &str,
+    fit: &Path,
+    lang: &str,
+    lut_resolution: usize,
+    kept: &mut usize,
+    progress: &dyn Observer,
+) -> Result<Vec<PathBuf>> {
+    let options = EmitFileOptions {
+        langs: parse_langs(lang)?,
+        lang_arg: lang.into(),
+        form: FormChoice::Auto,
+        suffix: String::new(),
+        data_dir: job.data_dir.clone(),
+        lut_dir: job.lut_dir.clone(),
+        lut_resolution,
+        force: false,
+    };
+    // the files of an emit with the same inputs are kept (emits::reusable)
+    let cache = emits::cache_path(&job.data_dir, name, fit);
+    let inputs = emits::emit_inputs(fit, &job.data_dir, lang, lut_resolution);
+    let previous = if job.force || job.refit {
+        None
+    } else {
+        inputs.as_ref().and_then(|i| emits::reusable(&cache, i))
+    };
+    let outcome = match previous {
+        Some(p) => {
+            *kept += 1;
+            p
+        }
+        None => {
+            let outcome = match emit_fit_file(fit, &options, None, &mut |_| {}) {
+                Ok(written) => Ok(written),
+                // a file that cannot be written stops the run; a fit that cannot be
+                // emitted (e.g. not proved pole-free) is reported and skipped
+                Err(e @ Error::Io { .. }) => {
+                    progress.end();
+                    return Err(e);
+                }
+                Err(e) => Err(e.to_string()),
+            };
+            if let Some(i) = inputs {
+                emits::record(&cache, i, outcome.as_deref().map_err(Clone::clone))?;
+            }
+            outcome
+        }
+    };
+    Ok(match outcome {
+        Ok(written) => written,
+        Err(e) => {
+            progress.line(&format!("  {name}: {} not emitted: {e}", fit.display()));
+            Vec::new()
+        }
+    })
 }
 
 /// The emitter's view of each table's largest-budget best fit (a swept job emitted as one file

@@ -130,30 +130,49 @@ fn reusable(dir: &Path, expected: &SweepInputs) -> Option<Vec<PathBuf>> {
     if found != same {
         return None;
     }
-    let mut files = Vec::new();
-    for f in &found.files {
+    intact(dir, &found.files)
+}
+
+/// The paths of `files` under `dir` if each still has its SHA-256 and no other `best-*.json`
+/// is there (a best file the step did not write would be a stale one).
+pub fn intact(dir: &Path, files: &[FileHash]) -> Option<Vec<PathBuf>> {
+    let mut paths = Vec::new();
+    for f in files {
         let p = dir.join(&f.file);
         let bytes = std::fs::read(&p).ok()?;
         if sha256_hex(&bytes) != f.sha256 {
             return None;
         }
-        files.push(p);
+        paths.push(p);
     }
-    // a best file the sweep did not write must not be there (it would be a stale one)
     for e in std::fs::read_dir(dir).ok()?.flatten() {
         let n = e.file_name().to_string_lossy().into_owned();
-        if n.starts_with("best-")
-            && n.ends_with(".json")
-            && !found.files.iter().any(|f| f.file == n)
-        {
+        if n.starts_with("best-") && n.ends_with(".json") && !files.iter().any(|f| f.file == n) {
             return None;
         }
     }
-    Some(files)
+    Some(paths)
+}
+
+/// Each file's name and SHA-256.
+pub fn file_hashes(files: &[PathBuf]) -> Result<Vec<FileHash>> {
+    files
+        .iter()
+        .map(|p| {
+            let bytes = std::fs::read(p).map_err(|e| Error::io(p, e))?;
+            Ok(FileHash {
+                file: p
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                sha256: sha256_hex(&bytes),
+            })
+        })
+        .collect()
 }
 
 /// The headline errors of each best file of a sweep folder.
-fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<BestSummary>)>> {
+pub fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<BestSummary>)>> {
     budgets
         .iter()
         .map(|&b| {
@@ -256,19 +275,7 @@ pub fn sweep_or_reuse(
     let mut outcome = outcome?;
     stress_checked_best(&mut outcome);
     let (files, _) = write_sweep_files(&outcome, dir, Some(place.timing), &clock)?;
-    inputs.files = files
-        .iter()
-        .map(|p| {
-            let bytes = std::fs::read(p).map_err(|e| Error::io(p, e))?;
-            Ok(FileHash {
-                file: p
-                    .file_name()
-                    .map(|n| n.to_string_lossy().into_owned())
-                    .unwrap_or_default(),
-                sha256: sha256_hex(&bytes),
-            })
-        })
-        .collect::<Result<_>>()?;
+    inputs.files = file_hashes(&files)?;
     let json = serde_json::to_string_pretty(&inputs)
         .map_err(|e| Error::file(dir.join(SWEEP_INPUTS), e.to_string()))?;
     // written last: it commits the sweep's files

@@ -180,25 +180,11 @@ fn print_summary(outcome: &pipeline::Outcome, args: &RunArgs, start: Instant) {
     if let Some(a) = &outcome.anisotropic {
         let n = a.files.len() + outcome.anisotropic_emitted.len();
         files += n;
-        let best: Vec<String> = a
-            .best
-            .iter()
-            .map(|(b, s)| {
-                format!(
-                    "best-{b} {}",
-                    s.as_ref().map_or("–".to_string(), |s| format!(
-                        "max {} MAE {}",
-                        fmt_e(s.max_abs_error),
-                        fmt_e(s.mae)
-                    ))
-                )
-            })
-            .collect();
         println!(
             "{:<38} 4-D fits {}: {}; {n} files",
             a.name,
             if a.reused { "reused" } else { "fitted" },
-            best.join(", ")
+            pipeline::sweeps::best_line(&a.best)
         );
     }
     println!(

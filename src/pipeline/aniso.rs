@@ -4,7 +4,7 @@
 //! source) and at the table's off-grid check set, and written with `fit-inputs.json` last; a run
 //! with the same inputs keeps the files (if they are intact) instead of refitting.
 
-use super::sweeps::{best_errors, file_hashes, intact, BestSummary, FileHash};
+use super::sweeps::{best_errors, best_paths, file_hashes, intact, BestSummary, FileHash};
 use super::Job;
 use crate::bsdf::{self, ModelId};
 use crate::digest::values_sha256;
@@ -70,12 +70,7 @@ pub struct AnisoFits {
 impl AnisoFits {
     /// The best files, in budget order (what the emit stage emits).
     pub fn best_files(&self, fits_dir: &std::path::Path) -> Vec<PathBuf> {
-        let dir = fits_dir.join(&self.name);
-        self.best
-            .iter()
-            .filter(|b| b.1.is_some())
-            .map(|(b, _)| dir.join(format!("best-{b}.json")))
-            .collect()
+        best_paths(&fits_dir.join(&self.name), &self.best)
     }
 }
 

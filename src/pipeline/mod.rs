@@ -64,7 +64,7 @@ use crate::output;
 use crate::progress::Observer;
 use crate::quadrature::QuadratureSettings;
 use crate::report::inputs::TableProvider;
-use crate::report::model::{fmt_e, ModelSummary, ReportOptions, Reporter};
+use crate::report::model::{ModelSummary, ReportOptions, Reporter};
 use crate::table::{get_or_tabulate, Table, TableSpec, Tabulated};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -145,14 +145,7 @@ impl Row {
     fn fit_files(&self, fits_dir: &Path) -> Vec<PathBuf> {
         match &self.fit {
             Fitted::None => Vec::new(),
-            Fitted::Sweep(s) => {
-                let dir = fits_dir.join(&self.name);
-                s.best
-                    .iter()
-                    .filter(|b| b.1.is_some())
-                    .map(|(b, _)| dir.join(format!("best-{b}.json")))
-                    .collect()
-            }
+            Fitted::Sweep(s) => sweeps::best_paths(&fits_dir.join(&self.name), &s.best),
             Fitted::One(f) => vec![f.path.clone()],
         }
     }
@@ -479,19 +472,6 @@ fn log_best(
     seconds: Option<(f64, Option<f64>)>,
     progress: &dyn Observer,
 ) {
-    let best: Vec<String> = best
-        .iter()
-        .map(|(b, e)| {
-            format!(
-                "best-{b} {}",
-                e.as_ref().map_or("none".into(), |s| format!(
-                    "max {} MAE {}",
-                    fmt_e(s.max_abs_error),
-                    fmt_e(s.mae)
-                ))
-            )
-        })
-        .collect();
     progress.line(&format!(
         "  {:<38} {}: {}",
         name,
@@ -500,7 +480,7 @@ fn log_best(
         } else {
             "fitted"
         },
-        best.join(", ")
+        sweeps::best_line(best)
             + &match seconds {
                 Some((wall, Some(cpu))) => format!("; {wall:.1} s wall, {cpu:.1} s CPU"),
                 Some((wall, None)) => format!("; {wall:.1} s wall"),

@@ -50,7 +50,8 @@ pub struct ReportArgs {
     #[arg(long)]
     pub furnace_f0_slices: Option<usize>,
     /// Table of the anisotropic conductor's section, nodes of r x aniso x mu x phi (default
-    /// 16x8x16x8), or `none` to leave the section out.
+    /// 16x8x16x8), or `none` to leave the section out; its fits are the ones `furnace run` wrote
+    /// under `--fits-dir`.
     #[arg(long)]
     pub anisotropy: Option<String>,
 }

@@ -34,7 +34,8 @@ pub struct RunArgs {
     pub reports_dir: PathBuf,
     /// Only these models of the default set, comma-separated (their cache names: the paper's
     /// radiance-form dielectrics are `ggx-dielectric-separable-radiance` and
-    /// `ggx-dielectric-inv-separable-radiance`).
+    /// `ggx-dielectric-inv-separable-radiance`; `ggx-conductor-aniso` for the anisotropic
+    /// conductor's budget fits).
     #[arg(long, value_delimiter = ',')]
     pub models: Vec<String>,
     /// Development: nodes per axis of the 2-D tables instead of 1024.

@@ -488,6 +488,10 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
         assert!(cell(&format!("| isotropic, {s} |")) > 0.1, "{s}");
     }
     assert!(cell("| geometric mean √(α_t α_b) |") > 0.1);
+    // the section's table as a LUT at the check points, beside the fits' errors there
+    assert!(readme.contains(
+        " check points the table above as a LUT (multilinear, 225 values) errs by up to "
+    ));
     // furnace's fits under both budgets, read from their files, and each a far better
     // compensation than none
     assert!(readme.contains("furnace's fits, written by `furnace run` to `fits/`"));

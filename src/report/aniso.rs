@@ -26,6 +26,7 @@ use crate::bsdf::{self, ModelId};
 use crate::digest::sha256_hex;
 use crate::error::{Error, Result};
 use crate::fit::aniso::BUDGETS;
+use crate::fit::check::CheckSet;
 use crate::fit::job::FitRecord;
 use crate::fit::metrics::{measure, Metrics};
 use crate::fit::FitData;
@@ -194,6 +195,16 @@ pub struct FitErrors {
     pub mean_abs: f64,
 }
 
+/// A LUT's errors at the off-grid check points.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LutOffGrid {
+    pub values: usize,
+    pub points: usize,
+    pub max_abs: f64,
+    pub at: Vec<f64>,
+    pub mean_abs: f64,
+}
+
 /// What the section computed (`summary.json`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AnisoSummary {
@@ -203,6 +214,9 @@ pub struct AnisoSummary {
     pub furnace: Vec<FurnaceVariant>,
     pub furnace_points: usize,
     pub lobe_error: f64,
+    /// The section's table as a LUT (multilinear) at the model's off-grid check points: values
+    /// stored, max and mean |LUT − E|, and (r, aniso, mu, phi) of the max.
+    pub lut_off_grid: LutOffGrid,
     /// The fits, by budget.
     pub fits: Vec<FitErrors>,
     pub files: Vec<String>,
@@ -272,7 +286,13 @@ impl Reporter<'_> {
         let digest = {
             let mut bytes: Vec<u8> = Vec::new();
             bytes.extend(crate::VERSION.as_bytes());
-            bytes.extend(format!("{resolution:?} {FURNACE_NODES}").as_bytes());
+            bytes.extend(
+                format!(
+                    "{resolution:?} {FURNACE_NODES} {}",
+                    crate::fit::check::CHECK_SET_VERSION
+                )
+                .as_bytes(),
+            );
             for v in table.output(0) {
                 bytes.extend(v.to_le_bytes());
             }
@@ -391,6 +411,26 @@ impl Reporter<'_> {
         let lobes = lobe_integrals_at(&material, &points);
         let lobe_error = lobes.iter().map(|l| l.error).fold(0.0, f64::max);
         let exact = TableAlbedo::new(&table);
+        // the table as a LUT at the check points the fit files are measured on
+        (self.progress())("anisotropy: check points");
+        let check = CheckSet::compute(model.as_ref(), &table.spec)?;
+        let check_n = check.names.len();
+        let (mut lut_max, mut lut_at, mut lut_sum) = (0.0f64, Vec::new(), 0.0);
+        for (x, v) in check.coords.chunks(check_n).zip(&check.values) {
+            let d = (exact.albedo(x) - v).abs();
+            lut_sum += d;
+            if d > lut_max || lut_at.is_empty() {
+                lut_max = d;
+                lut_at = x.to_vec();
+            }
+        }
+        let lut_off_grid = LutOffGrid {
+            values: values.len(),
+            points: check.values.len(),
+            max_abs: lut_max,
+            at: lut_at,
+            mean_abs: lut_sum / check.values.len().max(1) as f64,
+        };
         let shortcut_sources: Vec<ShortcutAlbedo> = Shortcut::ALL
             .iter()
             .map(|&shortcut| ShortcutAlbedo {
@@ -443,6 +483,7 @@ impl Reporter<'_> {
             furnace,
             furnace_points: points.len(),
             lobe_error,
+            lut_off_grid,
             fits: fitted
                 .iter()
                 .map(|f| FitErrors {
@@ -614,6 +655,16 @@ each certified pole-free on the box, and measured at its table's off-grid check 
             let _ = writeln!(md, "\nOff grid: {on}.");
         }
     }
+    let l = &s.lut_off_grid;
+    let _ = writeln!(
+        md,
+        "\nAt the {} check points the table above as a LUT (multilinear, {} values) errs by up to {} (mean {}), at {}.",
+        l.points,
+        l.values,
+        fmt_e(l.max_abs),
+        fmt_e(l.mean_abs),
+        point(&l.at)
+    );
     md
 }
 

@@ -407,6 +407,14 @@ fn run_writes_the_anisotropic_budget_fits_with_their_code_and_reuses_them() {
                 code.contains("ggx_conductor_aniso_albedo"),
                 "best-{budget}.{ext}"
             );
+            // the header states the error between the nodes, not only at them
+            assert!(
+                code.contains(&format!(
+                    "at {} off-grid check points",
+                    off.metrics.n_points
+                )),
+                "best-{budget}.{ext}"
+            );
         }
     }
     let readme = std::fs::read_to_string(d.join("reports/README.md")).unwrap();

@@ -20,6 +20,7 @@
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
 //   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 8.9e-5, shifted 2.1e-5, bernstein 5.2e-7.
 // Error of the f64 fit on its 1048576 data points: MAE 1.36e-8, max 4.65e-8 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.38e-8, max 4.65e-8.
 // f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.96e-7 (every op rounded, as this Rust), 4.90e-7 (fused multiply-add), 5.77e-7 (GPU division/sqrt error).
 // Bound: |f32 - f64| <= 1.12e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 5765 boxes).
 // Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.34e-8, max 4.65e-8; this f32 code MAE 6.65e-8, max 5.23e-7.

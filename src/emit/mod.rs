@@ -580,6 +580,12 @@ fn albedo_doc(src: &SourceFit, name: &str, params: &[String], e: &EmittedFit) ->
         "Error of the f64 fit on its {} data points: MAE {:.2e}, max {:.2e} (recorded by the fitter).",
         m.n_points, m.mae, m.max_abs_error
     ));
+    if let Some(o) = &r.off_grid {
+        doc.push(format!(
+            "Error of the f64 fit between the nodes, at {} off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE {:.2e}, max {:.2e}.",
+            o.metrics.n_points, o.metrics.mae, o.metrics.max_abs_error
+        ));
+    }
     let st = &e.stress;
     doc.push(format!(
         "f32 - f64, measured at the stress test's {} random + {} edge points (`furnace stress`, seed {:#x}): max {:.2e} (every op rounded, as this Rust), {:.2e} (fused multiply-add), {:.2e} (GPU division/sqrt error).",

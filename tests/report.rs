@@ -494,8 +494,10 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
     ));
     // furnace's fits under both budgets, read from their files, and each a far better
     // compensation than none
-    assert!(readme.contains("furnace's fits, written by `furnace run` to `fits/`"));
-    for budget in [80, 160] {
+    assert!(
+        readme.contains("furnace's fits: the best fits of the degree sweep `furnace run` makes")
+    );
+    for budget in [20, 40, 80, 160] {
         assert!(
             readme.contains(&format!(
                 "| {budget} | `fits/ggx-conductor-aniso/best-{budget}.json` |"

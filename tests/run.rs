@@ -380,11 +380,12 @@ fn unknown_models_are_refused_with_the_choices() {
 fn run_writes_the_anisotropic_budget_fits_with_their_code_and_reuses_them() {
     let d = scratch("aniso");
     let args = &["run", "--models", "ggx-conductor-aniso", "--quick-report"];
+    // (the sweep's best files for every budget, its sweep.{json,csv} and sweep-inputs.json)
     let o = furnace(args, &d, None);
     assert!(o.status.success(), "{}", text(&o));
     let out = text(&o);
     assert!(
-        out.contains("ggx-conductor-aniso") && out.contains("4-D fits fitted: best-80 max"),
+        out.contains("ggx-conductor-aniso") && out.contains("4-D fits fitted: best-20 max"),
         "{out}"
     );
     let dir = d.join("fits/ggx-conductor-aniso");
@@ -393,11 +394,11 @@ fn run_writes_the_anisotropic_budget_fits_with_their_code_and_reuses_them() {
             &std::fs::read_to_string(dir.join(format!("best-{budget}.json"))).unwrap(),
         )
         .unwrap();
-        // certified, within its budget, fitted on the layer grid (5x3x5x3 table: 13x5x15x5),
-        // measured at the table's nodes and at its off-grid check points
+        // certified, within its budget, fitted on the 5x3x5x3 table's nodes and twice as many
+        // exact training points, measured at the nodes and at the off-grid check points
         assert!(rec.usable, "{}", rec.verdict);
         assert!(rec.fit.n_coefficients <= budget);
-        assert_eq!(rec.fitted_on.points, 13 * 5 * 15 * 5);
+        assert_eq!(rec.fitted_on.points, 3 * 225, "{}", rec.fitted_on.selection);
         assert_eq!(rec.fit.metrics.n_points, 5 * 3 * 5 * 3);
         let off = rec.off_grid.as_ref().expect("off-grid errors");
         assert!(off.metrics.n_points > 10_000 && off.metrics.max_abs_error < 0.2);
@@ -423,7 +424,11 @@ fn run_writes_the_anisotropic_budget_fits_with_their_code_and_reuses_them() {
     let first = outputs(&d);
     let o = furnace(args, &d, None);
     assert!(o.status.success(), "{}", text(&o));
-    assert!(text(&o).contains("4-D fits reused"), "{}", text(&o));
+    assert!(
+        text(&o).contains("4-D fits reused: best-20"),
+        "{}",
+        text(&o)
+    );
     assert_same(&first, &outputs(&d), "re-run");
     // an edited fit file is refitted, and the section follows
     let best = dir.join("best-80.json");

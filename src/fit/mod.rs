@@ -39,7 +39,6 @@
 /// unchanged inputs, so that `furnace run` refits instead of reusing a previous sweep's files.
 pub const FITTER_VERSION: u32 = 2;
 
-pub mod aniso;
 pub mod basis;
 pub mod check;
 pub mod compare;

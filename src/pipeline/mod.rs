@@ -420,13 +420,7 @@ fn fit(
             }
             if let Some(resolution) = &job.anisotropic_fits {
                 let a = aniso::fits_or_reuse(job, resolution, progress)?;
-                log_best(
-                    &a.name,
-                    a.reused,
-                    &a.best,
-                    a.seconds.map(|w| (w, None)),
-                    progress,
-                );
+                log_best(&a.name, a.reused, &a.best, a.seconds, progress);
                 anisotropic = Some(a);
             }
         }

@@ -161,7 +161,7 @@ fn reusable(dir: &Path, expected: &SweepInputs) -> Option<Vec<PathBuf>> {
 
 /// The paths of `files` under `dir` if each still has its SHA-256 and no other `best-*.json`
 /// is there (a best file the step did not write would be a stale one).
-pub fn intact(dir: &Path, files: &[FileHash]) -> Option<Vec<PathBuf>> {
+fn intact(dir: &Path, files: &[FileHash]) -> Option<Vec<PathBuf>> {
     let mut paths = Vec::new();
     for f in files {
         let p = dir.join(&f.file);
@@ -181,7 +181,7 @@ pub fn intact(dir: &Path, files: &[FileHash]) -> Option<Vec<PathBuf>> {
 }
 
 /// Each file's name and SHA-256.
-pub fn file_hashes(files: &[PathBuf]) -> Result<Vec<FileHash>> {
+fn file_hashes(files: &[PathBuf]) -> Result<Vec<FileHash>> {
     files
         .iter()
         .map(|p| {
@@ -198,7 +198,7 @@ pub fn file_hashes(files: &[PathBuf]) -> Result<Vec<FileHash>> {
 }
 
 /// The headline errors of each best file of a sweep folder.
-pub fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<BestSummary>)>> {
+fn best_errors(dir: &Path, budgets: &[usize]) -> Result<Vec<(usize, Option<BestSummary>)>> {
     budgets
         .iter()
         .map(|&b| {

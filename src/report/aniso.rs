@@ -14,18 +14,15 @@
 //! Written under `reports/anisotropy/`: `shortcuts.{png,svg}`, `section.md` and `summary.json`
 //! (the digest of the inputs, so `furnace run` keeps an unchanged section as it is).
 //!
-//! The fits are the budget fits `furnace run` writes to `fits/<model>/best-<N>.json`
-//! ([`crate::fit::aniso`], [`crate::pipeline::aniso`]), fitted for minimax error on a grid
-//! uniform in the fit variables (docs/anisotropy.md, "Fits on points that resolve the layer");
-//! the section reads them and measures each at every node of its table, points it was not
-//! fitted on. Their files are part of the section's digest.
+//! The fits are the best fits of the degree sweep `furnace run` makes of the model's table
+//! (`fits/<model>/best-<N>.json`, [`crate::pipeline::aniso`]); the section reads them and
+//! measures each at every node of its table. Their files are part of the section's digest.
 use super::albedo::{Albedo, FitAlbedo, TableAlbedo};
 use super::model::{fmt_e, furnace_axis, Reporter};
 use super::plot::{self, ColorScale, Formats, HeatFigure, HeatPanel};
 use crate::bsdf::{self, ModelId};
 use crate::digest::sha256_hex;
 use crate::error::{Error, Result};
-use crate::fit::aniso::BUDGETS;
 use crate::fit::check::CheckSet;
 use crate::fit::job::FitRecord;
 use crate::fit::metrics::{measure, Metrics};
@@ -245,15 +242,15 @@ struct SectionFit {
     at_nodes: Metrics,
 }
 
-/// The budget fits `furnace run` wrote for the section's model (`<fits>/<model>/best-<N>.json`,
-/// [`crate::fit::aniso`]) that are there, each measured at every node of `table`.
+/// The best fits `furnace run` wrote for the section's model (`<fits>/<model>/best-<N>.json`,
+/// [`crate::pipeline::aniso`]) that are there, each measured at every node of `table`.
 fn fits(fits_dir: &Path, table: &Table) -> Result<Vec<SectionFit>> {
     let names: Vec<String> = table.spec.axes.iter().map(|a| a.name.clone()).collect();
     let axes: Vec<Vec<f64>> = table.spec.axes.iter().map(|a| a.nodes()).collect();
     let at_nodes = FitData::from_grid(names, &axes, table.output(0).to_vec())?;
     let model = albedo_model(SMITH).key();
     let mut out = Vec::new();
-    for budget in BUDGETS {
+    for budget in crate::fit::job::default_budgets(4) {
         let file = format!("{model}/best-{budget}.json");
         let path = fits_dir.join(&file);
         if !path.is_file() {
@@ -496,7 +493,7 @@ impl Reporter<'_> {
                         .label_with(&f.record.fit.approximant.variables),
                     coefficients: f.record.fit.n_coefficients,
                     fitted_on: format!(
-                        "{} points of a {}",
+                        "{} points: {}",
                         f.record.fitted_on.points, f.record.fitted_on.selection
                     ),
                     off_grid: f
@@ -612,10 +609,10 @@ so the differences are the shortcut's own error, not a LUT's. Over every node of
     }
     let _ = writeln!(
         md,
-        "\nfurnace's fits, written by `furnace run` to `fits/` with their code (Rust, WGSL, GLSL, HLSL, C/C++): under each budget, of the rational 3/3 and the largest of a sweep's 4-D forms under it \
-(rationals with degree caps on (r², aniso, √L(μ; α_o), α_o/α_t), `fit::defaults::ANISO_EXPONENT_FORMS`), the one with the lowest max at its points, each fitted for minimax error \
-on a grid uniform in r², aniso, √L(μ; α_o) and sin²φ (E there by quadrature: a grid uniform in μ would leave the grazing layer μ ≲ α_o unsampled at small r), \
-each certified pole-free on the box, and measured at its table's off-grid check points and at the {} nodes of the table above, which it was not fitted on:\n",
+        "\nfurnace's fits: the best fits of the degree sweep `furnace run` makes of the model's 16 × 8 × 16 × 8 table (written to `fits/` with their code: Rust, WGSL, GLSL, HLSL, C/C++), \
+fitted on the table's nodes and exact training points in the grazing and low-roughness layers, in the variables r², aniso, √L(μ; α_o), α_o/α_t; \
+under each budget the lowest max error at the table's off-grid check points among the fits within 1.5× of the lowest MAE there, each certified pole-free on the box, \
+and measured here at the {} nodes of the table above:\n",
         n.iter().product::<usize>()
     );
     if s.fits.is_empty() {

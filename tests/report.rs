@@ -349,7 +349,7 @@ fn report_links_every_file_it_writes_and_reruns_byte_identically() {
         &furnace::progress::Quiet,
     )
     .unwrap();
-    assert!(!aniso.reused && aniso.best.iter().all(|b| b.1.is_some()));
+    assert!(!aniso.step.reused && aniso.step.best.iter().all(|b| b.1.is_some()));
     std::fs::create_dir_all(root.join("reports/bench")).unwrap();
     std::fs::write(root.join("reports/bench/eval-cost.csv"), "# title: Evaluation cost\n# x: ns per call (log)\n# y: max error (log)\nseries,ns,err\nfit,2.5,1e-3\nfit,4,2e-4\nLUT,1.5,3e-3\n").unwrap();
 

@@ -179,13 +179,13 @@ fn print_summary(outcome: &pipeline::Outcome, args: &RunArgs, start: Instant) {
         }
     }
     if let Some(a) = &outcome.anisotropic {
-        let n = a.files.len() + outcome.anisotropic_emitted.len();
+        let n = a.step.files.len() + outcome.anisotropic_emitted.len();
         files += n;
         println!(
             "{:<38} 4-D fits {}: {}; {n} files",
             a.name,
-            if a.reused { "reused" } else { "fitted" },
-            pipeline::sweeps::best_line(&a.best)
+            if a.step.reused { "reused" } else { "fitted" },
+            pipeline::sweeps::best_line(&a.step.best)
         );
     }
     println!(

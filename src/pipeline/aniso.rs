@@ -5,7 +5,7 @@
 //! model is not a table of the job's default set: its 4-D LUTs and per-model report section
 //! would be tables of their own, and the report's anisotropic section reads these fits.
 
-use super::sweeps::{best_paths, sweep_or_reuse, BestSummary, SweepPlace};
+use super::sweeps::{best_paths, sweep_or_reuse, FitStep, SweepPlace};
 use super::Job;
 use crate::bsdf::{self, ModelId};
 use crate::error::Result;
@@ -18,25 +18,17 @@ pub fn model() -> ModelId {
     crate::material::anisotropic::albedo_model(crate::report::aniso::SMITH)
 }
 
-/// What the step did.
+/// What the step did: the model's fit folder name and its sweep.
 #[derive(Clone, Debug)]
 pub struct AnisoFits {
-    /// The model's fit folder name.
     pub name: String,
-    /// The files of a previous sweep with the same inputs were kept.
-    pub reused: bool,
-    /// Each budget's best file, if there is one.
-    pub best: Vec<(usize, Option<BestSummary>)>,
-    /// Every file of the sweep, `sweep-inputs.json` last.
-    pub files: Vec<PathBuf>,
-    /// Wall and CPU seconds of the sweep (None when reused): for the terminal only.
-    pub seconds: Option<(f64, Option<f64>)>,
+    pub step: FitStep,
 }
 
 impl AnisoFits {
     /// The best files, in budget order (what the emit stage emits).
     pub fn best_files(&self, fits_dir: &Path) -> Vec<PathBuf> {
-        best_paths(&fits_dir.join(&self.name), &self.best)
+        best_paths(&fits_dir.join(&self.name), &self.step.best)
     }
 }
 
@@ -60,11 +52,5 @@ pub fn fits_or_reuse(
         refit: job.refit || job.force,
     };
     let step = sweep_or_reuse(model.as_ref(), &t, place, progress)?;
-    Ok(AnisoFits {
-        name,
-        reused: step.reused,
-        best: step.best,
-        files: step.files,
-        seconds: step.seconds,
-    })
+    Ok(AnisoFits { name, step })
 }

@@ -420,7 +420,7 @@ fn fit(
             }
             if let Some(resolution) = &job.anisotropic_fits {
                 let a = aniso::fits_or_reuse(job, resolution, progress)?;
-                log_best(&a.name, a.reused, &a.best, a.seconds, progress);
+                log_sweep(&a.name, &a.step, progress);
                 anisotropic = Some(a);
             }
         }
@@ -452,35 +452,24 @@ fn fit(
 }
 
 fn log_sweep(name: &str, step: &FitStep, progress: &dyn Observer) {
-    log_best(name, step.reused, &step.best, step.seconds, progress);
-    if let Some(n) = &step.note {
-        progress.line(&format!("    {n}"));
-    }
-}
-
-/// One line: each budget's best fit, and whether it was fitted or kept.
-fn log_best(
-    name: &str,
-    reused: bool,
-    best: &[(usize, Option<sweeps::BestSummary>)],
-    seconds: Option<(f64, Option<f64>)>,
-    progress: &dyn Observer,
-) {
     progress.line(&format!(
         "  {:<38} {}: {}",
         name,
-        if reused {
+        if step.reused {
             "reused (same table values and options)"
         } else {
             "fitted"
         },
-        sweeps::best_line(best)
-            + &match seconds {
+        sweeps::best_line(&step.best)
+            + &match step.seconds {
                 Some((wall, Some(cpu))) => format!("; {wall:.1} s wall, {cpu:.1} s CPU"),
                 Some((wall, None)) => format!("; {wall:.1} s wall"),
                 None => String::new(),
             }
     ));
+    if let Some(n) = &step.note {
+        progress.line(&format!("    {n}"));
+    }
 }
 
 /// Stage 3 of [`EmitStage::EachFit`]: every fit file's code next to it, and a LUT per table

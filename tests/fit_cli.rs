@@ -401,6 +401,32 @@ fn sweep_writes_summary_and_best_fits_under_budget() {
     let sweep: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("sweep.json")).unwrap()).unwrap();
     assert_eq!(sweep["rows"].as_array().unwrap().len(), rows.len());
+    // each line names its fit file and ends in the form's label, quoted: the per-variable
+    // degrees of a tensor form (CSV and JSON alike), which `rational` and its degree do not tell
+    assert!(header.ends_with(",name,label"), "{header}");
+    let (name, label) = (col("name"), col("label"));
+    for (line, (r, j)) in csv
+        .lines()
+        .skip(1)
+        .zip(rows.iter().zip(sweep["rows"].as_array().unwrap()))
+    {
+        assert!(r[name].ends_with(".json"), "{line}");
+        assert_eq!(r[name], j["name"].as_str().unwrap());
+        let l = j["label"].as_str().unwrap();
+        assert!(line.ends_with(&format!(",\"{l}\"")), "{line}");
+        assert!(r[label].starts_with('"'), "{line}");
+    }
+    let labels: Vec<&str> = sweep["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| j["label"].as_str().unwrap())
+        .collect();
+    assert!(labels.contains(&"rational of degree 3/3"), "{labels:?}");
+    assert!(
+        labels.iter().any(|l| l.starts_with("rational over [")),
+        "{labels:?}"
+    );
     assert_eq!(sweep["fits"].as_array().unwrap().len(), rows.len());
     // every fit is measured at the off-grid check points; the best fits are chosen there
     let (off_mae, off_max) = (col("off_grid_mae"), col("off_grid_max_abs_error"));

@@ -57,6 +57,10 @@ pub struct SweepRow {
     pub converged: bool,
     /// The file name this fit would have as a single fit (`rational-4-mu_sqrt.json`).
     pub name: String,
+    /// The form in words, with the variables' names ([`crate::fit::Form::label_with`]): what
+    /// tells a low-rank sum or an exponent set apart from the plain rational of its degree.
+    #[serde(default)]
+    pub label: String,
     /// For an iterate of a minimax fit's Lawson path kept beside its end: which
     /// (`round 7`, `blend 0.75 round 3`; [`crate::fit::LawsonPathIterate`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -219,10 +223,11 @@ impl SweepOutcome {
         ))
     }
 
-    /// `sweep.csv`: one line per fit.
+    /// `sweep.csv`: one line per fit; the last column, the form's label, is quoted (it holds
+    /// commas).
     pub fn to_csv(&self) -> String {
         let mut s = String::from(
-            "form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,paper_box_mae,paper_box_max_abs_error,poles,usable,converged,denominator_degree,off_grid_mae,off_grid_max_abs_error,pareto,lawson_iterate\n",
+            "form,degree,transforms,objective,n_coefficients,mae,rmse,max_abs_error,max_rel_error,paper_box_mae,paper_box_max_abs_error,poles,usable,converged,denominator_degree,off_grid_mae,off_grid_max_abs_error,pareto,lawson_iterate,name,label\n",
         );
         for r in &self.rows {
             let (bm, bx) = r
@@ -238,7 +243,7 @@ impl SweepOutcome {
                     (format!("{:e}", b.mae), format!("{:e}", b.max_abs_error))
                 });
             s.push_str(&format!(
-                "{},{},{},{},{},{:e},{:e},{:e},{:e},{bm},{bx},{},{},{},{},{om},{ox},{},{}\n",
+                "{},{},{},{},{},{:e},{:e},{:e},{:e},{bm},{bx},{},{},{},{},{om},{ox},{},{},{},\"{}\"\n",
                 r.form.name(),
                 r.degree,
                 r.transforms.join(" "),
@@ -254,7 +259,9 @@ impl SweepOutcome {
                 r.denominator_degree
                     .map_or(String::new(), |m| m.to_string()),
                 r.pareto,
-                r.lawson_iterate.as_deref().unwrap_or("")
+                r.lawson_iterate.as_deref().unwrap_or(""),
+                r.name,
+                r.label.replace('"', "\"\"")
             ));
         }
         s
@@ -306,6 +313,7 @@ pub(super) fn row_of(rec: &FitRecord, paper_box: Option<BoxMetrics>) -> SweepRow
         usable: rec.usable,
         converged: f.solver.as_ref().is_none_or(|s| s.converged),
         name: rec.file_name(),
+        label: f.form.label_with(&f.approximant.variables),
         lawson_iterate: f
             .solver
             .as_ref()

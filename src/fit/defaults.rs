@@ -227,6 +227,14 @@ pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 /// the sweep's best-160 in √L had 8.71e-3 / 7.91e-4.
 pub const LOG_LAYER_LOWRANK_FORMS: [&str; 2] = ["2:2:4/1", "4:4:5/4"];
 
+/// The low-rank separations `lowrank:aniso:<K>:<p>:<n>/<m>`, Σ_k u_k(aniso)·P_k/Q_k over
+/// (r², √L(μ; α_o), α_o/α_t), a 4-D sweep of an anisotropic albedo fits besides
+/// [`ANISO_EXPONENT_FORMS`]: (K, p, n, m) = (2, 2, 3, 2) (64 coefficients) and (3, 3, 4, 2)
+/// (144). The anisotropy separates best after the azimuth: the truncated SVD of E over
+/// aniso × (r, μ, φ) leaves 7.4e-3 at rank 3 and 2.3e-3 at rank 4 (docs/anisotropy.md, "How
+/// separable the albedo is").
+pub const ANISO_LOWRANK_FORMS: [&str; 2] = ["2:2:3/2", "3:3:4/2"];
+
 /// Unequal degrees a 4-D sweep of an anisotropic albedo fits in (r², aniso, √L(μ; α_o), α_o/α_t)
 /// ([`physics_transforms`]): numerator total degree n with caps (r, aniso, μ, φ), denominator
 /// total degree m with caps — high in r and μ, low in aniso and the azimuth. Measured minimax on
@@ -288,7 +296,8 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 3.0;
 ///   where μ is in √μ (no boundary layer: the glossy albedo),
 ///   (k, n, m) = (2, 3, 3) also with μ in the root-layer variable
 ///   ([`GLOSSY_ROOT_LAYER_SCALE`]);
-/// - 4-D with μ in the projected layer: [`ANISO_EXPONENT_FORMS`] (74, 120 and 150 coefficients).
+/// - 4-D with μ in the projected layer: [`ANISO_EXPONENT_FORMS`] (74, 120 and 150 coefficients)
+///   and [`ANISO_LOWRANK_FORMS`] (64 and 144).
 pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<PlannedForm> {
     let d = data.dim();
     let planned = |form| PlannedForm {
@@ -431,10 +440,29 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
             }
             None => Vec::new(),
         },
-        4 => aniso_exponent_forms(transforms)
-            .into_iter()
-            .map(planned)
-            .collect(),
+        4 => {
+            let mut v: Vec<PlannedForm> = aniso_exponent_forms(transforms)
+                .into_iter()
+                .map(planned)
+                .collect();
+            // the low-rank separations in the anisotropy (docs/anisotropy.md, "Low-rank forms in
+            // the anisotropy"), beside the exponent forms
+            let aniso = transforms.iter().find_map(|t| match *t {
+                InputTransform::ProjectedLayer { aniso, .. } => Some(aniso),
+                _ => None,
+            });
+            if let Some(a) = aniso {
+                let x = &data.names[a];
+                for spec in ANISO_LOWRANK_FORMS {
+                    v.extend(
+                        parse_form(&format!("lowrank:{x}:{spec}"), &data.names)
+                            .ok()
+                            .map(planned),
+                    );
+                }
+            }
+            v
+        }
         _ => Vec::new(),
     }
 }
@@ -523,6 +551,7 @@ pub fn vanishing_in_r_forms(data: &FitData) -> Vec<Form> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::result::Structure;
 
     fn data(names: &[&str]) -> FitData {
         let ax: Vec<f64> = (0..5).map(|i| i as f64 / 4.0).collect();
@@ -669,10 +698,18 @@ mod tests {
                 InputTransform::ProjectedRatio { aniso: 1 }
             ]
         );
-        // and the unequal-degree forms in them: 74, 120 and 150 coefficients
+        // and the unequal-degree forms in them, 74, 120 and 150 coefficients, then the low-rank
+        // separations in aniso, 64 and 144
         let f4 = structured_forms(&d4, &t4);
         let sizes: Vec<usize> = f4.iter().map(|f| f.form.n_coefficients(4)).collect();
-        assert_eq!(sizes, [74, 120, 150]);
+        assert_eq!(sizes, [74, 120, 150, 64, 144]);
+        assert!(f4[3..].iter().all(|f| matches!(
+            f.form,
+            Form::Exponents {
+                structure: Some(Structure::LowRank { variable: 1, .. }),
+                ..
+            }
+        )));
         assert!(f4.iter().all(|f| f.transforms == t4));
         // aniso = 1 (α_b = 0) is outside the layer's domain: the isotropic layer instead
         let mut d4b = d4.clone();

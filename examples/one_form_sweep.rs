@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     plan.rational_degrees.clear();
     plan.rational_pairs.clear();
     plan.transform_sets = vec![transforms.clone()];
-    plan.forms = vec![job::PlannedForm { form, transforms }];
+    plan.forms = vec![job::PlannedForm::new(form, transforms)];
     plan.budgets = vec![size];
     plan.lp_polish = lp;
     if !grading.is_empty() {

@@ -219,13 +219,29 @@ pub const LOG_LAYER_FORMS: [(&str, f64); 2] = [("tensor:2,3/2,2", 3.0), ("tensor
 pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 
 /// The low-rank separations `lowrank:f0:<K>:<p>:<n>/<m>` a 3-D sweep fits a second time with μ
-/// in the log-corrected layer variable of [`LOG_LAYER_LOWRANK`], where μ is in the
-/// grazing-layer variable: 40 coefficients (K, p, n, m) = (2, 2, 4, 1), and 160, (4, 4, 5, 4).
-/// Measured on the 128³ `ggx-dielectric-inv` table (the sweep's fitting points, off-grid at the
-/// 26 112 check points; docs/fitting.md, "Budget 160: the logarithmic layer"): the 160-term
-/// form's minimax fit, the blended branch of its Lawson path, has 5.51e-3 / MAE 4.86e-4, where
-/// the sweep's best-160 in √L had 8.71e-3 / 7.91e-4.
-pub const LOG_LAYER_LOWRANK_FORMS: [&str; 2] = ["2:2:4/1", "4:4:5/4"];
+/// in the log-corrected layer variable `glayer:r:k:0:1:β` (β of [`LOG_LAYER_LOWRANK`]), where μ
+/// is in the grazing-layer variable, each with its k and whether its minimax refit adds the
+/// L_p polish [`LOWRANK_LP_POLISH`]: 40 coefficients (K, p, n, m) = (2, 2, 4, 1) at k = 2, and
+/// 160, (4, 4, 5, 4), at k = 2 and at k = 1, polished. Measured on the 128³
+/// `ggx-dielectric-inv` table (the sweep's fitting points, off-grid at the 26 112 check points;
+/// docs/fitting.md, "Budget 160: the logarithmic layer"): the 160-term form's Lawson path at
+/// k = 2 keeps 5.51e-3 / MAE 4.86e-4 (blended branch) and ends at 3.84e-3 / 1.08e-3; its L_p
+/// polish at p = 4 / 6 has 4.92e-3 / 6.05e-4 and 4.43e-3 / 7.18e-4, at k = 1 4.55e-3 / 5.88e-4
+/// and 3.59e-3 / 6.94e-4, where the sweep's best-160 in √L had 8.71e-3 / 7.91e-4.
+pub const LOG_LAYER_LOWRANK_FORMS: [(&str, f64, bool); 3] = [
+    ("2:2:4/1", LOG_LAYER_LOWRANK.0, false),
+    ("4:4:5/4", LOG_LAYER_LOWRANK.0, true),
+    ("4:4:5/4", 1.0, true),
+];
+
+/// The p values of the L_p polish ([`crate::fit::RationalOptions::lp_polish`]) of the 160-term
+/// separations of [`LOG_LAYER_LOWRANK_FORMS`]. Their Lawson paths have no iterate between the
+/// least-squares fit and the minimax end on the off-grid front (docs/fitting.md, "Budget 160:
+/// the L_p polish"); the polish fills it: on the 128³ `ggx-dielectric-inv-separable` table
+/// (k = 2) p = 4 / 5 / 6 / 8 give 4.20e-3 / 4.82e-4, 3.72e-3 / 5.22e-4, 3.23e-3 / 5.60e-4 and
+/// 3.03e-3 / 6.18e-4, against the blended branch's 5.37e-3 / 3.77e-4 and Lawson's end
+/// 5.32e-3 / 7.17e-4.
+pub const LOWRANK_LP_POLISH: [f64; 4] = [4.0, 5.0, 6.0, 8.0];
 
 /// The low-rank separations `lowrank:aniso:<K>:<p>:<n>/<m>`, Σ_k u_k(aniso)·P_k/Q_k over
 /// (r², √L(μ; α_o), α_o/α_t), a 4-D sweep of an anisotropic albedo fits besides
@@ -290,8 +306,9 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 3.0;
 ///   low-rank separations Σ_k u_k(f0)·P_k(r, μ)/Q_k(r, μ) with K terms, u_k of degree p,
 ///   P_k/Q_k of degrees n/m: (K, p, n, m) = (2, 2, 4, 1) (40), (3, 3, 4, 2) (72) and
 ///   (4, 4, 5, 4) (160) where μ is in the grazing-layer variable, else (4, 4, 5, 3) (140);
-///   where it is, (2, 2, 4, 1) and (4, 4, 5, 4) also with μ in the log-corrected layer
-///   variable ([`LOG_LAYER_LOWRANK`], [`LOG_LAYER_LOWRANK_FORMS`]) and (k, n, m) = (2, 3, 3)
+///   where it is, (2, 2, 4, 1) and (4, 4, 5, 4) (the latter at two scales, with an L_p
+///   polish) also with μ in the log-corrected layer variable ([`LOG_LAYER_LOWRANK`],
+///   [`LOG_LAYER_LOWRANK_FORMS`]) and (k, n, m) = (2, 3, 3)
 ///   also with μ in the plain boundary-layer variable and F0 as F0^⅛ ([`SPLIT_LAYER_SCALE`]);
 ///   where μ is in √μ (no boundary layer: the glossy albedo),
 ///   (k, n, m) = (2, 3, 3) also with μ in the root-layer variable
@@ -300,10 +317,7 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 3.0;
 ///   and [`ANISO_LOWRANK_FORMS`] (64 and 144).
 pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<PlannedForm> {
     let d = data.dim();
-    let planned = |form| PlannedForm {
-        form,
-        transforms: transforms.to_vec(),
-    };
+    let planned = |form| PlannedForm::new(form, transforms.to_vec());
     match d {
         2 => {
             let tensor = |t: &str| parse_form(t, &data.names).ok();
@@ -317,10 +331,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                 for (f, k) in LAYER_TENSOR_FORMS {
                     let mut t = transforms.to_vec();
                     t[mu] = InputTransform::BoundaryLayer { by, k };
-                    out.extend(tensor(f).map(|form| PlannedForm {
-                        form,
-                        transforms: t,
-                    }));
+                    out.extend(tensor(f).map(|form| PlannedForm::new(form, t)));
                 }
                 for (f, beta) in LOG_LAYER_FORMS {
                     let mut t = transforms.to_vec();
@@ -331,10 +342,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                         root: 1,
                         beta,
                     };
-                    out.extend(tensor(f).map(|form| PlannedForm {
-                        form,
-                        transforms: t,
-                    }));
+                    out.extend(tensor(f).map(|form| PlannedForm::new(form, t)));
                 }
             }
             out.extend(tensor("tensor:4,4/3,3").map(planned));
@@ -343,10 +351,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                 .into_iter()
                 .chain(vanishing_in_r_forms(data))
             {
-                out.push(PlannedForm {
-                    form,
-                    transforms: vec![InputTransform::Identity; 2],
-                });
+                out.push(PlannedForm::new(form, vec![InputTransform::Identity; 2]));
             }
             out
         }
@@ -382,23 +387,21 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                     _ => None,
                 });
                 if let Some((mu, by)) = log_layer {
-                    let (k, beta) = LOG_LAYER_LOWRANK;
-                    let mut t = transforms.to_vec();
-                    t[mu] = InputTransform::GrazingLayer {
-                        by,
-                        k,
-                        w: 0.0,
-                        root: 1,
-                        beta,
-                    };
-                    for spec in LOG_LAYER_LOWRANK_FORMS {
+                    let beta = LOG_LAYER_LOWRANK.1;
+                    for (spec, k, polish) in LOG_LAYER_LOWRANK_FORMS {
+                        let mut t = transforms.to_vec();
+                        t[mu] = InputTransform::GrazingLayer {
+                            by,
+                            k,
+                            w: 0.0,
+                            root: 1,
+                            beta,
+                        };
+                        let polish: &[f64] = if polish { &LOWRANK_LP_POLISH } else { &[] };
                         v.extend(
                             parse_form(&format!("lowrank:{x}:{spec}"), &data.names)
                                 .ok()
-                                .map(|form| PlannedForm {
-                                    form,
-                                    transforms: t.clone(),
-                                }),
+                                .map(|form| PlannedForm::new(form, t).with_lp_polish(polish)),
                         );
                     }
                     // the 39-coefficient split sum once more with μ in the plain boundary-layer
@@ -415,10 +418,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                             root: SPLIT_LAYER_F0_ROOT,
                         };
                     }
-                    v.push(PlannedForm {
-                        form: split_form(3, f, 2, 3, 3),
-                        transforms: t,
-                    });
+                    v.push(PlannedForm::new(split_form(3, f, 2, 3, 3), t));
                 }
                 // the 39-coefficient split sum once more with √μ replaced by the root-layer
                 // variable (docs/fitting.md, "The glossy grazing layer")
@@ -430,10 +430,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                             by: r,
                             k: GLOSSY_ROOT_LAYER_SCALE,
                         };
-                        v.push(PlannedForm {
-                            form: split_form(3, f, 2, 3, 3),
-                            transforms: t,
-                        });
+                        v.push(PlannedForm::new(split_form(3, f, 2, 3, 3), t));
                     }
                 }
                 v
@@ -597,6 +594,10 @@ mod tests {
         let json = serde_json::to_string(&p3).unwrap();
         let back: SweepPlan = serde_json::from_str(&json).unwrap();
         assert_eq!(back, p3);
+        assert!(
+            !json.contains("lp_polish")
+                && !serde_json::to_string(&p).unwrap().contains("lp_polish")
+        );
         assert_ne!(json, serde_json::to_string(&p).unwrap());
         // the physics transforms: r², √L with a grazing layer, √μ without; F0^¼ in 3-D
         let t = physics_transforms(&d3, true).unwrap();
@@ -615,12 +616,22 @@ mod tests {
             .iter()
             .map(|f| f.form.n_coefficients(3))
             .collect();
-        assert_eq!(sizes, vec![39, 54, 77, 139, 40, 72, 160, 40, 160, 39]);
+        assert_eq!(sizes, vec![39, 54, 77, 139, 40, 72, 160, 40, 160, 160, 39]);
+        let json = serde_json::to_string(&full).unwrap();
+        assert_eq!(json.matches("\"lp_polish\"").count(), 2, "{json}");
         // then the 40- and 160-coefficient separations in the log-corrected layer
-        // variable, the same forms as the √L ones
-        let (k, beta) = LOG_LAYER_LOWRANK;
-        for (i, j) in [(7, 4), (8, 6)] {
+        // variable, the same forms as the √L ones, the 160-term one at two k and polished
+        let beta = LOG_LAYER_LOWRANK.1;
+        for (i, j, k, polish) in [(7, 4, 2.0, false), (8, 6, 2.0, true), (9, 6, 1.0, true)] {
             assert_eq!(full.forms[i].form, full.forms[j].form);
+            assert_eq!(full.forms[i].lp_polish.is_empty(), !polish);
+            assert!(full.forms[j].lp_polish.is_empty());
+            // a refit looks its polish up by form and transforms; forms without one keep the
+            // plan's (none), and a plan's JSON names the polish only where a form has one
+            let (f, t) = (&full.forms[i].form, &full.forms[i].transforms);
+            let want: &[f64] = if polish { &LOWRANK_LP_POLISH } else { &[] };
+            assert_eq!(full.lp_polish_for(f, t), want);
+            assert!(full.lp_polish_for(f, &full.forms[j].transforms).is_empty());
             assert_eq!(
                 full.forms[i].transforms[2],
                 InputTransform::GrazingLayer {

@@ -408,7 +408,7 @@ pub fn sweep_fits_trained(
                     denominator_degree,
                 } => {
                     let mut ro = RationalOptions {
-                        lp_polish: plan.lp_polish.clone(),
+                        lp_polish: plan.lp_polish_for(&ls.form, &transforms).to_vec(),
                         ..RationalOptions::default()
                     };
                     ro.extra_starts.push((
@@ -426,8 +426,9 @@ pub fn sweep_fits_trained(
                 }
                 form @ Form::Exponents { .. } => {
                     let mut opts = super::FitOptions::default();
-                    opts.rational.lp_polish = plan.lp_polish.clone();
-                    opts.structured.lp_polish = plan.lp_polish.clone();
+                    let polish = plan.lp_polish_for(&form, &transforms);
+                    opts.rational.lp_polish = polish.to_vec();
+                    opts.structured.lp_polish = polish.to_vec();
                     opts.rational.extra_starts.push((
                         "least-squares fit of the sweep".into(),
                         ls.approximant.clone(),

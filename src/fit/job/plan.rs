@@ -51,6 +51,27 @@ fn is_zero(n: &usize) -> bool {
 pub struct PlannedForm {
     pub form: Form,
     pub transforms: Vec<InputTransform>,
+    /// The p values of an L_p polish this form's minimax refit adds to its path in place of the
+    /// plan's ([`SweepPlan::lp_polish`]); empty: the plan's.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lp_polish: Vec<f64>,
+}
+
+impl PlannedForm {
+    /// `form` in `transforms`, with the plan's L_p polish.
+    pub fn new(form: Form, transforms: Vec<InputTransform>) -> PlannedForm {
+        PlannedForm {
+            form,
+            transforms,
+            lp_polish: Vec::new(),
+        }
+    }
+
+    /// The same form with an L_p polish of its own.
+    pub fn with_lp_polish(mut self, ps: &[f64]) -> PlannedForm {
+        self.lp_polish = ps.to_vec();
+        self
+    }
 }
 
 /// Least-squares fits per budget refitted for minimax error: the best by max error, and the
@@ -195,6 +216,15 @@ impl SweepPlan {
             minimax_refits: true,
             lp_polish: Vec::new(),
         }
+    }
+
+    /// The p values of the L_p polish of a minimax refit of `form` in `transforms`: the planned
+    /// form's own, else the plan's.
+    pub fn lp_polish_for(&self, form: &Form, transforms: &[InputTransform]) -> &[f64] {
+        self.forms
+            .iter()
+            .find(|f| !f.lp_polish.is_empty() && &f.form == form && f.transforms == transforms)
+            .map_or(&self.lp_polish, |f| &f.lp_polish)
     }
 
     /// Refuses a plan the data cannot support, naming the cause: a transform set of the wrong

@@ -28,17 +28,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7b7bef6b5b288efdabc2ad62d5df38d435014944452f5397a011aaa288754375.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.714x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 5c3bb5457beb3ac7080adbe572fa29d8fcbf4a150d99d6403fc27e8b7f5b6b7c.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 2.4e-5, bernstein 2.6e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 4.12e-4, max 5.77e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 3.77e-4, max 5.36e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.91e-7 (every op rounded, as this Rust), 9.21e-7 (fused multiply-add), 3.83e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.11e-4, max 5.77e-3; this f32 code MAE 4.11e-4, max 5.77e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-4 on the measurement grid.
-// Denominator proved >= 3.810e-4 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-4, shifted 2.1e-5, bernstein 2.8e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 5.88e-4, max 3.70e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.60e-4, max 3.23e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.21e-7 (every op rounded, as this Rust), 8.91e-7 (fused multiply-add), 3.89e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.00e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.70e-3; this f32 code MAE 5.74e-4, max 3.70e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
+// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -85,12 +85,12 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     const float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     const float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    const float p0_0_0 = 1.0263472f * mu_b5_v5 + 2.8474064f * mu_b5_b1 + 3.2723126f * mu_b5_b2 + 4.5863547f * mu_b5_b3 + 3.7876291f * mu_b5_b4 + 1.2305033f * mu_b5_u5;
-    const float p0_0_1 = 6.5473666f * mu_b5_v5 + 24.568962f * mu_b5_b1 + 24.708412f * mu_b5_b2 + 12.129614f * mu_b5_b3 + 6.6733274f * mu_b5_b4 + 4.120409f * mu_b5_u5;
-    const float p0_0_2 = 18.319838f * mu_b5_v5 + 91.19754f * mu_b5_b1 + 127.83154f * mu_b5_b2 + 79.095566f * mu_b5_b3 + 30.149103f * mu_b5_b4 + 11.78713f * mu_b5_u5;
-    const float p0_0_3 = 25.550339f * mu_b5_v5 + 143.32875f * mu_b5_b1 + 228.07669f * mu_b5_b2 + 154.76135f * mu_b5_b3 + 53.378532f * mu_b5_b4 + 14.695211f * mu_b5_u5;
-    const float p0_0_4 = 20.965357f * mu_b5_v5 + 116.96536f * mu_b5_b1 + 196.91293f * mu_b5_b2 + 141.66353f * mu_b5_b3 + 47.014698f * mu_b5_b4 + 9.153979f * mu_b5_u5;
-    const float p0_0_5 = 7.0485973f * mu_b5_v5 + 37.28641f * mu_b5_b1 + 63.5793f * mu_b5_b2 + 46.802086f * mu_b5_b3 + 15.073378f * mu_b5_b4 + 2.1907542f * mu_b5_u5;
+    const float p0_0_0 = 1.0183631f * mu_b5_v5 + 3.753903f * mu_b5_b1 + 3.8113945f * mu_b5_b2 + 5.022521f * mu_b5_b3 + 4.4284167f * mu_b5_b4 + 1.271587f * mu_b5_u5;
+    const float p0_0_1 = 8.733559f * mu_b5_v5 + 32.79162f * mu_b5_b1 + 28.068712f * mu_b5_b2 + 11.671402f * mu_b5_b3 + 7.0383143f * mu_b5_b4 + 3.3267493f * mu_b5_u5;
+    const float p0_0_2 = 24.560802f * mu_b5_v5 + 112.77992f * mu_b5_b1 + 145.86597f * mu_b5_b2 + 92.04437f * mu_b5_b3 + 37.48077f * mu_b5_b4 + 10.981617f * mu_b5_u5;
+    const float p0_0_3 = 29.451221f * mu_b5_v5 + 153.2942f * mu_b5_b1 + 227.8105f * mu_b5_b2 + 152.73735f * mu_b5_b3 + 52.506485f * mu_b5_b4 + 11.635022f * mu_b5_u5;
+    const float p0_0_4 = 23.83875f * mu_b5_v5 + 126.18583f * mu_b5_b1 + 205.63895f * mu_b5_b2 + 148.63008f * mu_b5_b3 + 49.098335f * mu_b5_b4 + 7.7093062f * mu_b5_u5;
+    const float p0_0_5 = 8.358978f * mu_b5_v5 + 42.263042f * mu_b5_b1 + 70.69551f * mu_b5_b2 + 52.54664f * mu_b5_b3 + 17.091932f * mu_b5_b4 + 2.126581f * mu_b5_u5;
     const float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     const float p0 = p0_0 * 1.0f;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -105,15 +105,15 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     const float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     const float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    const float u0_0_0 = 0.8759763f * 1.0f;
+    const float u0_0_0 = 0.87858367f * 1.0f;
     const float u0_0 = u0_0_0 * 1.0f;
-    const float u0_1_0 = 3.481989f * 1.0f;
+    const float u0_1_0 = 3.584189f * 1.0f;
     const float u0_1 = u0_1_0 * 1.0f;
-    const float u0_2_0 = 5.3803253f * 1.0f;
+    const float u0_2_0 = 5.465496f * 1.0f;
     const float u0_2 = u0_2_0 * 1.0f;
-    const float u0_3_0 = 3.6305473f * 1.0f;
+    const float u0_3_0 = 3.660079f * 1.0f;
     const float u0_3 = u0_3_0 * 1.0f;
-    const float u0_4_0 = 0.91246367f * 1.0f;
+    const float u0_4_0 = 0.91966933f * 1.0f;
     const float u0_4 = u0_4_0 * 1.0f;
     const float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -139,101 +139,101 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     const float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     const float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q0_0_0 = 1.0f * mu_b4_v4 + 1.9746711f * mu_b4_b1 + 1.9611895f * mu_b4_b2 + 2.3145638f * mu_b4_b3 + 1.1225393f * mu_b4_u4;
-    const float q0_0_1 = 5.4177837f * mu_b4_v4 + 16.158821f * mu_b4_b1 + 8.687934f * mu_b4_b2 + 1.4170105f * mu_b4_b3 + 2.6480894f * mu_b4_u4;
-    const float q0_0_2 = 13.119993f * mu_b4_v4 + 57.207714f * mu_b4_b1 + 54.696243f * mu_b4_b2 + 20.891537f * mu_b4_b3 + 9.049978f * mu_b4_u4;
-    const float q0_0_3 = 14.477814f * mu_b4_v4 + 70.11961f * mu_b4_b1 + 77.07226f * mu_b4_b2 + 31.706757f * mu_b4_b3 + 9.454274f * mu_b4_u4;
-    const float q0_0_4 = 10.693698f * mu_b4_v4 + 46.76842f * mu_b4_b1 + 58.61132f * mu_b4_b2 + 29.590038f * mu_b4_b3 + 6.847938f * mu_b4_u4;
+    const float q0_0_0 = 1.0f * mu_b4_v4 + 2.9129713f * mu_b4_b1 + 1.7565323f * mu_b4_b2 + 2.8867123f * mu_b4_b3 + 1.1705463f * mu_b4_u4;
+    const float q0_0_1 = 7.6608095f * mu_b4_v4 + 21.836224f * mu_b4_b1 + 6.84856f * mu_b4_b2 + 2.0803416f * mu_b4_b3 + 1.9167775f * mu_b4_u4;
+    const float q0_0_2 = 17.722824f * mu_b4_v4 + 69.098564f * mu_b4_b1 + 60.242485f * mu_b4_b2 + 29.151182f * mu_b4_b3 + 9.048808f * mu_b4_u4;
+    const float q0_0_3 = 15.857692f * mu_b4_v4 + 71.78123f * mu_b4_b1 + 72.92125f * mu_b4_b2 + 30.775078f * mu_b4_b3 + 6.2869406f * mu_b4_u4;
+    const float q0_0_4 = 13.259141f * mu_b4_v4 + 55.45977f * mu_b4_b1 + 68.551575f * mu_b4_b2 + 34.67138f * mu_b4_b3 + 6.4478273f * mu_b4_u4;
     const float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     const float q0 = q0_0 * 1.0f;
     const float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    const float p1_0_0 = 0.025681257f * mu_b5_v5 + 0.08703007f * mu_b5_b1 + 0.10387288f * mu_b5_b2 + 0.06954192f * mu_b5_b3 - 0.00834216f * mu_b5_b4 + 0.0010922314f * mu_b5_u5;
-    const float p1_0_1 = -0.29837272f * mu_b5_v5 - 0.3466557f * mu_b5_b1 + 0.37880194f * mu_b5_b2 + 0.6092589f * mu_b5_b3 + 4.2021875e-5f * mu_b5_b4 + 0.00012927962f * mu_b5_u5;
-    const float p1_0_2 = -2.2251384f * mu_b5_v5 - 4.7833605f * mu_b5_b1 - 2.7514489f * mu_b5_b2 - 0.2198343f * mu_b5_b3 - 0.38710058f * mu_b5_b4 + 0.0040292405f * mu_b5_u5;
-    const float p1_0_3 = -3.8937593f * mu_b5_v5 - 8.091756f * mu_b5_b1 - 3.8753972f * mu_b5_b2 + 0.71699286f * mu_b5_b3 + 0.1485113f * mu_b5_b4 + 0.118640706f * mu_b5_u5;
-    const float p1_0_4 = -2.9735f * mu_b5_v5 - 5.9951973f * mu_b5_b1 - 2.4655766f * mu_b5_b2 + 0.93285644f * mu_b5_b3 + 0.23273131f * mu_b5_b4 + 0.038256682f * mu_b5_u5;
-    const float p1_0_5 = -0.89389735f * mu_b5_v5 - 1.8184757f * mu_b5_b1 - 0.74727714f * mu_b5_b2 + 0.3255926f * mu_b5_b3 + 0.12337537f * mu_b5_b4 + 0.011536196f * mu_b5_u5;
+    const float p1_0_0 = 0.023859385f * mu_b5_v5 + 0.08513728f * mu_b5_b1 + 0.04218392f * mu_b5_b2 + 0.05596471f * mu_b5_b3 - 0.007890692f * mu_b5_b4 + 0.00054207665f * mu_b5_u5;
+    const float p1_0_1 = -0.34439534f * mu_b5_v5 - 0.3911174f * mu_b5_b1 + 0.059636295f * mu_b5_b2 + 0.51599604f * mu_b5_b3 - 0.006453505f * mu_b5_b4 + 0.001366066f * mu_b5_u5;
+    const float p1_0_2 = -1.8825688f * mu_b5_v5 - 3.5036204f * mu_b5_b1 - 1.9609222f * mu_b5_b2 + 0.15171923f * mu_b5_b3 - 0.3384021f * mu_b5_b4 + 0.00492251f * mu_b5_u5;
+    const float p1_0_3 = -3.0153406f * mu_b5_v5 - 5.5496583f * mu_b5_b1 - 2.4153585f * mu_b5_b2 + 0.824234f * mu_b5_b3 - 0.039238308f * mu_b5_b4 + 0.09040126f * mu_b5_u5;
+    const float p1_0_4 = -2.230655f * mu_b5_v5 - 4.117494f * mu_b5_b1 - 1.5678375f * mu_b5_b2 + 0.7602117f * mu_b5_b3 + 0.056866217f * mu_b5_b4 + 0.033113644f * mu_b5_u5;
+    const float p1_0_5 = -0.6669095f * mu_b5_v5 - 1.2816072f * mu_b5_b1 - 0.5036643f * mu_b5_b2 + 0.2548548f * mu_b5_b3 + 0.06985985f * mu_b5_b4 + 0.009529822f * mu_b5_u5;
     const float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     const float p1 = p1_0 * 1.0f;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    const float u1_0_0 = 2.1076326f * 1.0f;
+    const float u1_0_0 = 1.9373827f * 1.0f;
     const float u1_0 = u1_0_0 * 1.0f;
-    const float u1_1_0 = 3.1250165f * 1.0f;
+    const float u1_1_0 = 3.2423635f * 1.0f;
     const float u1_1 = u1_1_0 * 1.0f;
-    const float u1_2_0 = 3.007334f * 1.0f;
+    const float u1_2_0 = 1.967861f * 1.0f;
     const float u1_2 = u1_2_0 * 1.0f;
-    const float u1_3_0 = 1.2393388f * 1.0f;
+    const float u1_3_0 = 0.8106889f * 1.0f;
     const float u1_3 = u1_3_0 * 1.0f;
-    const float u1_4_0 = 0.18004328f * 1.0f;
+    const float u1_4_0 = 0.052868403f * 1.0f;
     const float u1_4 = u1_4_0 * 1.0f;
     const float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q1_0_0 = 1.0f * mu_b4_v4 + 2.4777102f * mu_b4_b1 + 2.6211631f * mu_b4_b2 - 0.30737042f * mu_b4_b3 + 0.038899954f * mu_b4_u4;
-    const float q1_0_1 = 4.822585f * mu_b4_v4 + 6.457433f * mu_b4_b1 + 7.596187f * mu_b4_b2 - 0.047161788f * mu_b4_b3 - 0.049607735f * mu_b4_u4;
-    const float q1_0_2 = 11.232356f * mu_b4_v4 + 10.124042f * mu_b4_b1 + 10.995365f * mu_b4_b2 + 3.7746966f * mu_b4_b3 + 0.609356f * mu_b4_u4;
-    const float q1_0_3 = 11.447953f * mu_b4_v4 + 7.846183f * mu_b4_b1 + 4.159523f * mu_b4_b2 + 2.032106f * mu_b4_b3 + 0.22970599f * mu_b4_u4;
-    const float q1_0_4 = 4.5957627f * mu_b4_v4 + 3.9321883f * mu_b4_b1 + 1.4846673f * mu_b4_b2 + 0.74794185f * mu_b4_b3 + 0.08942334f * mu_b4_u4;
+    const float q1_0_0 = 1.0f * mu_b4_v4 + 2.0273602f * mu_b4_b1 + 2.0595322f * mu_b4_b2 - 0.2853565f * mu_b4_b3 + 0.019864704f * mu_b4_u4;
+    const float q1_0_1 = 3.8695903f * mu_b4_v4 + 4.2521696f * mu_b4_b1 + 5.4107995f * mu_b4_b2 - 0.29556113f * mu_b4_b3 + 0.025790777f * mu_b4_u4;
+    const float q1_0_2 = 8.1737175f * mu_b4_v4 + 5.869553f * mu_b4_b1 + 7.235814f * mu_b4_b2 + 1.974842f * mu_b4_b3 + 0.45922118f * mu_b4_u4;
+    const float q1_0_3 = 8.259595f * mu_b4_v4 + 4.9144006f * mu_b4_b1 + 2.8188589f * mu_b4_b2 + 0.99457973f * mu_b4_b3 + 0.18009794f * mu_b4_u4;
+    const float q1_0_4 = 3.302272f * mu_b4_v4 + 2.6568725f * mu_b4_b1 + 1.0151353f * mu_b4_b2 + 0.3967486f * mu_b4_b3 + 0.07360671f * mu_b4_u4;
     const float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     const float q1 = q1_0 * 1.0f;
     const float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    const float p2_0_0 = 0.0031457744f * mu_b5_v5 + 0.079124585f * mu_b5_b1 + 0.36193612f * mu_b5_b2 + 0.04293511f * mu_b5_b3 - 0.0005743127f * mu_b5_b4 + 2.4742798e-5f * mu_b5_u5;
-    const float p2_0_1 = 0.42395407f * mu_b5_v5 + 0.104514256f * mu_b5_b1 - 1.5179144f * mu_b5_b2 - 2.4519196f * mu_b5_b3 - 0.040656995f * mu_b5_b4 + 0.0006721243f * mu_b5_u5;
-    const float p2_0_2 = 0.5920509f * mu_b5_v5 + 0.8290085f * mu_b5_b1 - 2.365881f * mu_b5_b2 - 3.4879112f * mu_b5_b3 + 1.5362641f * mu_b5_b4 - 0.002894654f * mu_b5_u5;
-    const float p2_0_3 = -0.5876823f * mu_b5_v5 + 0.5029192f * mu_b5_b1 - 1.718581f * mu_b5_b2 - 2.9923072f * mu_b5_b3 + 2.2162416f * mu_b5_b4 - 0.024865162f * mu_b5_u5;
-    const float p2_0_4 = -0.7327731f * mu_b5_v5 + 0.8087267f * mu_b5_b1 - 0.5375059f * mu_b5_b2 - 2.7114902f * mu_b5_b3 + 0.65400267f * mu_b5_b4 + 0.07437127f * mu_b5_u5;
-    const float p2_0_5 = 0.0048499336f * mu_b5_v5 + 1.0029173f * mu_b5_b1 + 0.48202652f * mu_b5_b2 - 0.9252578f * mu_b5_b3 - 0.09240128f * mu_b5_b4 + 0.07439257f * mu_b5_u5;
+    const float p2_0_0 = -0.03129679f * mu_b5_v5 - 0.07842191f * mu_b5_b1 + 0.68254f * mu_b5_b2 - 0.0035869484f * mu_b5_b3 + 0.0003026823f * mu_b5_b4 - 0.0001249558f * mu_b5_u5;
+    const float p2_0_1 = 0.7749647f * mu_b5_v5 + 0.28331858f * mu_b5_b1 + 0.03766238f * mu_b5_b2 - 3.1582801f * mu_b5_b3 - 0.01504579f * mu_b5_b4 + 0.004144292f * mu_b5_u5;
+    const float p2_0_2 = 1.4662138f * mu_b5_v5 + 1.0796883f * mu_b5_b1 - 0.79451716f * mu_b5_b2 - 6.161122f * mu_b5_b3 + 1.5501918f * mu_b5_b4 - 0.033474926f * mu_b5_u5;
+    const float p2_0_3 = 0.03777242f * mu_b5_v5 + 0.22597374f * mu_b5_b1 - 0.8259381f * mu_b5_b2 - 5.502359f * mu_b5_b3 + 2.8784287f * mu_b5_b4 + 0.029851057f * mu_b5_u5;
+    const float p2_0_4 = -0.7058654f * mu_b5_v5 + 0.08624678f * mu_b5_b1 - 0.7473394f * mu_b5_b2 - 4.266426f * mu_b5_b3 + 1.0231788f * mu_b5_b4 + 0.08175495f * mu_b5_u5;
+    const float p2_0_5 = -0.029955734f * mu_b5_v5 + 0.8468695f * mu_b5_b1 + 0.46625653f * mu_b5_b2 - 1.233199f * mu_b5_b3 - 0.021061093f * mu_b5_b4 + 0.06788946f * mu_b5_u5;
     const float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     const float p2 = p2_0 * 1.0f;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    const float u2_0_0 = -0.8180324f * 1.0f;
+    const float u2_0_0 = -0.93370694f * 1.0f;
     const float u2_0 = u2_0_0 * 1.0f;
-    const float u2_1_0 = 4.0035195f * 1.0f;
+    const float u2_1_0 = 2.835681f * 1.0f;
     const float u2_1 = u2_1_0 * 1.0f;
-    const float u2_2_0 = 0.79912764f * 1.0f;
+    const float u2_2_0 = 2.3082945f * 1.0f;
     const float u2_2 = u2_2_0 * 1.0f;
-    const float u2_3_0 = -0.6307313f * 1.0f;
+    const float u2_3_0 = -0.8008376f * 1.0f;
     const float u2_3 = u2_3_0 * 1.0f;
-    const float u2_4_0 = -0.22418651f * 1.0f;
+    const float u2_4_0 = -0.19204387f * 1.0f;
     const float u2_4 = u2_4_0 * 1.0f;
     const float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q2_0_0 = 1.0f * mu_b4_v4 + 2.0176563f * mu_b4_b1 + 0.60691696f * mu_b4_b2 - 0.015078716f * mu_b4_b3 + 0.0011088412f * mu_b4_u4;
-    const float q2_0_1 = 0.9557597f * mu_b4_v4 + 1.5980793f * mu_b4_b1 - 1.0715935f * mu_b4_b2 - 0.14378649f * mu_b4_b3 - 0.008080639f * mu_b4_u4;
-    const float q2_0_2 = 0.5825367f * mu_b4_v4 + 1.2141804f * mu_b4_b1 - 0.84736234f * mu_b4_b2 + 0.96034193f * mu_b4_b3 + 0.07203702f * mu_b4_u4;
-    const float q2_0_3 = 1.0510663f * mu_b4_v4 + 1.7634609f * mu_b4_b1 - 0.39577037f * mu_b4_b2 + 0.44169033f * mu_b4_b3 - 0.028352084f * mu_b4_u4;
-    const float q2_0_4 = 0.5870901f * mu_b4_v4 + 0.78090644f * mu_b4_b1 - 0.25011402f * mu_b4_b2 + 0.0038436023f * mu_b4_b3 + 0.05322216f * mu_b4_u4;
+    const float q2_0_0 = 1.0f * mu_b4_v4 + 2.0816576f * mu_b4_b1 + 0.60862553f * mu_b4_b2 - 0.027175575f * mu_b4_b3 + 0.0018937663f * mu_b4_u4;
+    const float q2_0_1 = 0.79342824f * mu_b4_v4 + 1.3241973f * mu_b4_b1 - 1.3233895f * mu_b4_b2 - 0.092451975f * mu_b4_b3 - 0.0141448155f * mu_b4_u4;
+    const float q2_0_2 = 0.67109567f * mu_b4_v4 + 1.1542805f * mu_b4_b1 - 1.0173401f * mu_b4_b2 + 1.2431995f * mu_b4_b3 + 0.07994736f * mu_b4_u4;
+    const float q2_0_3 = 1.6051017f * mu_b4_v4 + 2.37897f * mu_b4_b1 - 0.3400707f * mu_b4_b2 + 0.6586012f * mu_b4_b3 - 0.0033112643f * mu_b4_u4;
+    const float q2_0_4 = 0.88740635f * mu_b4_v4 + 1.1071172f * mu_b4_b1 - 0.29491323f * mu_b4_b2 - 0.00998638f * mu_b4_b3 + 0.060674872f * mu_b4_u4;
     const float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     const float q2 = q2_0 * 1.0f;
     const float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    const float p3_0_0 = -0.018109558f * mu_b5_v5 + 0.01874168f * mu_b5_b1 + 0.29740757f * mu_b5_b2 + 0.029457645f * mu_b5_b3 - 0.00025031884f * mu_b5_b4 - 1.3630249e-6f * mu_b5_u5;
-    const float p3_0_1 = 0.45749643f * mu_b5_v5 + 0.16084501f * mu_b5_b1 - 1.5844073f * mu_b5_b2 - 2.4809701f * mu_b5_b3 - 0.038131814f * mu_b5_b4 + 0.0008337194f * mu_b5_u5;
-    const float p3_0_2 = 0.6837977f * mu_b5_v5 + 1.0453402f * mu_b5_b1 - 2.4022732f * mu_b5_b2 - 3.484077f * mu_b5_b3 + 1.5843662f * mu_b5_b4 - 0.0038698064f * mu_b5_u5;
-    const float p3_0_3 = -0.54317075f * mu_b5_v5 + 0.6696605f * mu_b5_b1 - 1.7937163f * mu_b5_b2 - 3.0267386f * mu_b5_b3 + 2.2594466f * mu_b5_b4 - 0.028859433f * mu_b5_u5;
-    const float p3_0_4 = -0.6742208f * mu_b5_v5 + 1.0490848f * mu_b5_b1 - 0.45063263f * mu_b5_b2 - 2.7553458f * mu_b5_b3 + 0.6542645f * mu_b5_b4 + 0.08142354f * mu_b5_u5;
-    const float p3_0_5 = 0.0504267f * mu_b5_v5 + 1.1490862f * mu_b5_b1 + 0.5554754f * mu_b5_b2 - 0.9694063f * mu_b5_b3 - 0.11650943f * mu_b5_b4 + 0.07886309f * mu_b5_u5;
+    const float p3_0_0 = -0.038238376f * mu_b5_v5 - 0.08404912f * mu_b5_b1 + 0.6802718f * mu_b5_b2 - 0.0065011415f * mu_b5_b3 + 0.00045211398f * mu_b5_b4 - 0.00013443196f * mu_b5_u5;
+    const float p3_0_1 = 0.8445542f * mu_b5_v5 + 0.3803082f * mu_b5_b1 - 0.074190356f * mu_b5_b2 - 3.2967305f * mu_b5_b3 - 0.01672192f * mu_b5_b4 + 0.00421303f * mu_b5_u5;
+    const float p3_0_2 = 1.5967968f * mu_b5_v5 + 1.2558259f * mu_b5_b1 - 0.9738715f * mu_b5_b2 - 6.260106f * mu_b5_b3 + 1.6708025f * mu_b5_b4 - 0.033694416f * mu_b5_u5;
+    const float p3_0_3 = 0.10339712f * mu_b5_v5 + 0.36201593f * mu_b5_b1 - 0.94655013f * mu_b5_b2 - 5.55745f * mu_b5_b3 + 3.0045776f * mu_b5_b4 + 0.025156187f * mu_b5_u5;
+    const float p3_0_4 = -0.6214147f * mu_b5_v5 + 0.39525017f * mu_b5_b1 - 0.60846424f * mu_b5_b2 - 4.361149f * mu_b5_b3 + 1.0248774f * mu_b5_b4 + 0.09504616f * mu_b5_u5;
+    const float p3_0_5 = 0.03506837f * mu_b5_v5 + 1.0540825f * mu_b5_b1 + 0.5774361f * mu_b5_b2 - 1.3148162f * mu_b5_b3 - 0.06234389f * mu_b5_b4 + 0.077724054f * mu_b5_u5;
     const float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     const float p3 = p3_0 * 1.0f;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    const float u3_0_0 = 0.8672729f * 1.0f;
+    const float u3_0_0 = 0.93471575f * 1.0f;
     const float u3_0 = u3_0_0 * 1.0f;
-    const float u3_1_0 = -3.9778173f * 1.0f;
+    const float u3_1_0 = -2.6241758f * 1.0f;
     const float u3_1 = u3_1_0 * 1.0f;
-    const float u3_2_0 = -0.9956416f * 1.0f;
+    const float u3_2_0 = -2.4214365f * 1.0f;
     const float u3_2 = u3_2_0 * 1.0f;
-    const float u3_3_0 = 0.5771737f * 1.0f;
+    const float u3_3_0 = 0.71408254f * 1.0f;
     const float u3_3 = u3_3_0 * 1.0f;
-    const float u3_4_0 = 0.21992482f * 1.0f;
+    const float u3_4_0 = 0.17667177f * 1.0f;
     const float u3_4 = u3_4_0 * 1.0f;
     const float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q3_0_0 = 1.0f * mu_b4_v4 + 2.054517f * mu_b4_b1 + 0.6182714f * mu_b4_b2 - 0.015702242f * mu_b4_b3 + 0.0011440584f * mu_b4_u4;
-    const float q3_0_1 = 0.9265979f * mu_b4_v4 + 1.6377676f * mu_b4_b1 - 1.1080649f * mu_b4_b2 - 0.14948778f * mu_b4_b3 - 0.007850734f * mu_b4_u4;
-    const float q3_0_2 = 0.58890754f * mu_b4_v4 + 1.3303697f * mu_b4_b1 - 0.866676f * mu_b4_b2 + 0.9839913f * mu_b4_b3 + 0.075733185f * mu_b4_u4;
-    const float q3_0_3 = 1.1115221f * mu_b4_v4 + 1.8982751f * mu_b4_b1 - 0.4187655f * mu_b4_b2 + 0.4439418f * mu_b4_b3 - 0.028137155f * mu_b4_u4;
-    const float q3_0_4 = 0.61953723f * mu_b4_v4 + 0.8324549f * mu_b4_b1 - 0.25647733f * mu_b4_b2 + 0.0074639427f * mu_b4_b3 + 0.057459615f * mu_b4_u4;
+    const float q3_0_0 = 1.0f * mu_b4_v4 + 2.0592158f * mu_b4_b1 + 0.5950426f * mu_b4_b2 - 0.026542306f * mu_b4_b3 + 0.001836347f * mu_b4_u4;
+    const float q3_0_1 = 0.7887667f * mu_b4_v4 + 1.2766672f * mu_b4_b1 - 1.3290743f * mu_b4_b2 - 0.08703977f * mu_b4_b3 - 0.013243323f * mu_b4_u4;
+    const float q3_0_2 = 0.67876685f * mu_b4_v4 + 1.1684657f * mu_b4_b1 - 0.9763773f * mu_b4_b2 + 1.2289265f * mu_b4_b3 + 0.08023526f * mu_b4_u4;
+    const float q3_0_3 = 1.6279651f * mu_b4_v4 + 2.4454744f * mu_b4_b1 - 0.30070677f * mu_b4_b2 + 0.62399495f * mu_b4_b3 - 0.00096736266f * mu_b4_u4;
+    const float q3_0_4 = 0.90006554f * mu_b4_v4 + 1.1428624f * mu_b4_b1 - 0.2758426f * mu_b4_b2 - 0.017026594f * mu_b4_b3 + 0.065818325f * mu_b4_u4;
     const float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     const float q3 = q3_0 * 1.0f;
     const float e3 = p3 * u3 / q3;

@@ -13,17 +13,17 @@
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7b7bef6b5b288efdabc2ad62d5df38d435014944452f5397a011aaa288754375.
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.714x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 5c3bb5457beb3ac7080adbe572fa29d8fcbf4a150d99d6403fc27e8b7f5b6b7c.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 2.4e-5, bernstein 2.6e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 4.12e-4, max 5.77e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 3.77e-4, max 5.36e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.91e-7 (every op rounded, as this Rust), 9.21e-7 (fused multiply-add), 3.83e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.11e-4, max 5.77e-3; this f32 code MAE 4.11e-4, max 5.77e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-4 on the measurement grid.
-/// Denominator proved >= 3.810e-4 on the domain (Bernstein certificate), so the division is safe.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-4, shifted 2.1e-5, bernstein 2.8e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 5.88e-4, max 3.70e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.60e-4, max 3.23e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.21e-7 (every op rounded, as this Rust), 8.91e-7 (fused multiply-add), 3.89e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 2.00e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.70e-3; this f32 code MAE 5.74e-4, max 3.70e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
+/// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -77,12 +77,12 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 1.0263472_f32 * mu_b5_v5 + 2.8474064_f32 * mu_b5_b1 + 3.2723126_f32 * mu_b5_b2 + 4.5863547_f32 * mu_b5_b3 + 3.7876291_f32 * mu_b5_b4 + 1.2305033_f32 * mu_b5_u5;
-    let p0_0_1 = 6.5473666_f32 * mu_b5_v5 + 24.568962_f32 * mu_b5_b1 + 24.708412_f32 * mu_b5_b2 + 12.129614_f32 * mu_b5_b3 + 6.6733274_f32 * mu_b5_b4 + 4.120409_f32 * mu_b5_u5;
-    let p0_0_2 = 18.319838_f32 * mu_b5_v5 + 91.19754_f32 * mu_b5_b1 + 127.83154_f32 * mu_b5_b2 + 79.095566_f32 * mu_b5_b3 + 30.149103_f32 * mu_b5_b4 + 11.78713_f32 * mu_b5_u5;
-    let p0_0_3 = 25.550339_f32 * mu_b5_v5 + 143.32875_f32 * mu_b5_b1 + 228.07669_f32 * mu_b5_b2 + 154.76135_f32 * mu_b5_b3 + 53.378532_f32 * mu_b5_b4 + 14.695211_f32 * mu_b5_u5;
-    let p0_0_4 = 20.965357_f32 * mu_b5_v5 + 116.96536_f32 * mu_b5_b1 + 196.91293_f32 * mu_b5_b2 + 141.66353_f32 * mu_b5_b3 + 47.014698_f32 * mu_b5_b4 + 9.153979_f32 * mu_b5_u5;
-    let p0_0_5 = 7.0485973_f32 * mu_b5_v5 + 37.28641_f32 * mu_b5_b1 + 63.5793_f32 * mu_b5_b2 + 46.802086_f32 * mu_b5_b3 + 15.073378_f32 * mu_b5_b4 + 2.1907542_f32 * mu_b5_u5;
+    let p0_0_0 = 1.0183631_f32 * mu_b5_v5 + 3.753903_f32 * mu_b5_b1 + 3.8113945_f32 * mu_b5_b2 + 5.022521_f32 * mu_b5_b3 + 4.4284167_f32 * mu_b5_b4 + 1.271587_f32 * mu_b5_u5;
+    let p0_0_1 = 8.733559_f32 * mu_b5_v5 + 32.79162_f32 * mu_b5_b1 + 28.068712_f32 * mu_b5_b2 + 11.671402_f32 * mu_b5_b3 + 7.0383143_f32 * mu_b5_b4 + 3.3267493_f32 * mu_b5_u5;
+    let p0_0_2 = 24.560802_f32 * mu_b5_v5 + 112.77992_f32 * mu_b5_b1 + 145.86597_f32 * mu_b5_b2 + 92.04437_f32 * mu_b5_b3 + 37.48077_f32 * mu_b5_b4 + 10.981617_f32 * mu_b5_u5;
+    let p0_0_3 = 29.451221_f32 * mu_b5_v5 + 153.2942_f32 * mu_b5_b1 + 227.8105_f32 * mu_b5_b2 + 152.73735_f32 * mu_b5_b3 + 52.506485_f32 * mu_b5_b4 + 11.635022_f32 * mu_b5_u5;
+    let p0_0_4 = 23.83875_f32 * mu_b5_v5 + 126.18583_f32 * mu_b5_b1 + 205.63895_f32 * mu_b5_b2 + 148.63008_f32 * mu_b5_b3 + 49.098335_f32 * mu_b5_b4 + 7.7093062_f32 * mu_b5_u5;
+    let p0_0_5 = 8.358978_f32 * mu_b5_v5 + 42.263042_f32 * mu_b5_b1 + 70.69551_f32 * mu_b5_b2 + 52.54664_f32 * mu_b5_b3 + 17.091932_f32 * mu_b5_b4 + 2.126581_f32 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -97,15 +97,15 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 0.8759763_f32 * 1.0_f32;
+    let u0_0_0 = 0.87858367_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 3.481989_f32 * 1.0_f32;
+    let u0_1_0 = 3.584189_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 5.3803253_f32 * 1.0_f32;
+    let u0_2_0 = 5.465496_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 3.6305473_f32 * 1.0_f32;
+    let u0_3_0 = 3.660079_f32 * 1.0_f32;
     let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 0.91246367_f32 * 1.0_f32;
+    let u0_4_0 = 0.91966933_f32 * 1.0_f32;
     let u0_4 = u0_4_0 * 1.0_f32;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -131,101 +131,101 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 1.9746711_f32 * mu_b4_b1 + 1.9611895_f32 * mu_b4_b2 + 2.3145638_f32 * mu_b4_b3 + 1.1225393_f32 * mu_b4_u4;
-    let q0_0_1 = 5.4177837_f32 * mu_b4_v4 + 16.158821_f32 * mu_b4_b1 + 8.687934_f32 * mu_b4_b2 + 1.4170105_f32 * mu_b4_b3 + 2.6480894_f32 * mu_b4_u4;
-    let q0_0_2 = 13.119993_f32 * mu_b4_v4 + 57.207714_f32 * mu_b4_b1 + 54.696243_f32 * mu_b4_b2 + 20.891537_f32 * mu_b4_b3 + 9.049978_f32 * mu_b4_u4;
-    let q0_0_3 = 14.477814_f32 * mu_b4_v4 + 70.11961_f32 * mu_b4_b1 + 77.07226_f32 * mu_b4_b2 + 31.706757_f32 * mu_b4_b3 + 9.454274_f32 * mu_b4_u4;
-    let q0_0_4 = 10.693698_f32 * mu_b4_v4 + 46.76842_f32 * mu_b4_b1 + 58.61132_f32 * mu_b4_b2 + 29.590038_f32 * mu_b4_b3 + 6.847938_f32 * mu_b4_u4;
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 2.9129713_f32 * mu_b4_b1 + 1.7565323_f32 * mu_b4_b2 + 2.8867123_f32 * mu_b4_b3 + 1.1705463_f32 * mu_b4_u4;
+    let q0_0_1 = 7.6608095_f32 * mu_b4_v4 + 21.836224_f32 * mu_b4_b1 + 6.84856_f32 * mu_b4_b2 + 2.0803416_f32 * mu_b4_b3 + 1.9167775_f32 * mu_b4_u4;
+    let q0_0_2 = 17.722824_f32 * mu_b4_v4 + 69.098564_f32 * mu_b4_b1 + 60.242485_f32 * mu_b4_b2 + 29.151182_f32 * mu_b4_b3 + 9.048808_f32 * mu_b4_u4;
+    let q0_0_3 = 15.857692_f32 * mu_b4_v4 + 71.78123_f32 * mu_b4_b1 + 72.92125_f32 * mu_b4_b2 + 30.775078_f32 * mu_b4_b3 + 6.2869406_f32 * mu_b4_u4;
+    let q0_0_4 = 13.259141_f32 * mu_b4_v4 + 55.45977_f32 * mu_b4_b1 + 68.551575_f32 * mu_b4_b2 + 34.67138_f32 * mu_b4_b3 + 6.4478273_f32 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.025681257_f32 * mu_b5_v5 + 0.08703007_f32 * mu_b5_b1 + 0.10387288_f32 * mu_b5_b2 + 0.06954192_f32 * mu_b5_b3 - 0.00834216_f32 * mu_b5_b4 + 0.0010922314_f32 * mu_b5_u5;
-    let p1_0_1 = -0.29837272_f32 * mu_b5_v5 - 0.3466557_f32 * mu_b5_b1 + 0.37880194_f32 * mu_b5_b2 + 0.6092589_f32 * mu_b5_b3 + 4.2021875e-5_f32 * mu_b5_b4 + 0.00012927962_f32 * mu_b5_u5;
-    let p1_0_2 = -2.2251384_f32 * mu_b5_v5 - 4.7833605_f32 * mu_b5_b1 - 2.7514489_f32 * mu_b5_b2 - 0.2198343_f32 * mu_b5_b3 - 0.38710058_f32 * mu_b5_b4 + 0.0040292405_f32 * mu_b5_u5;
-    let p1_0_3 = -3.8937593_f32 * mu_b5_v5 - 8.091756_f32 * mu_b5_b1 - 3.8753972_f32 * mu_b5_b2 + 0.71699286_f32 * mu_b5_b3 + 0.1485113_f32 * mu_b5_b4 + 0.118640706_f32 * mu_b5_u5;
-    let p1_0_4 = -2.9735_f32 * mu_b5_v5 - 5.9951973_f32 * mu_b5_b1 - 2.4655766_f32 * mu_b5_b2 + 0.93285644_f32 * mu_b5_b3 + 0.23273131_f32 * mu_b5_b4 + 0.038256682_f32 * mu_b5_u5;
-    let p1_0_5 = -0.89389735_f32 * mu_b5_v5 - 1.8184757_f32 * mu_b5_b1 - 0.74727714_f32 * mu_b5_b2 + 0.3255926_f32 * mu_b5_b3 + 0.12337537_f32 * mu_b5_b4 + 0.011536196_f32 * mu_b5_u5;
+    let p1_0_0 = 0.023859385_f32 * mu_b5_v5 + 0.08513728_f32 * mu_b5_b1 + 0.04218392_f32 * mu_b5_b2 + 0.05596471_f32 * mu_b5_b3 - 0.007890692_f32 * mu_b5_b4 + 0.00054207665_f32 * mu_b5_u5;
+    let p1_0_1 = -0.34439534_f32 * mu_b5_v5 - 0.3911174_f32 * mu_b5_b1 + 0.059636295_f32 * mu_b5_b2 + 0.51599604_f32 * mu_b5_b3 - 0.006453505_f32 * mu_b5_b4 + 0.001366066_f32 * mu_b5_u5;
+    let p1_0_2 = -1.8825688_f32 * mu_b5_v5 - 3.5036204_f32 * mu_b5_b1 - 1.9609222_f32 * mu_b5_b2 + 0.15171923_f32 * mu_b5_b3 - 0.3384021_f32 * mu_b5_b4 + 0.00492251_f32 * mu_b5_u5;
+    let p1_0_3 = -3.0153406_f32 * mu_b5_v5 - 5.5496583_f32 * mu_b5_b1 - 2.4153585_f32 * mu_b5_b2 + 0.824234_f32 * mu_b5_b3 - 0.039238308_f32 * mu_b5_b4 + 0.09040126_f32 * mu_b5_u5;
+    let p1_0_4 = -2.230655_f32 * mu_b5_v5 - 4.117494_f32 * mu_b5_b1 - 1.5678375_f32 * mu_b5_b2 + 0.7602117_f32 * mu_b5_b3 + 0.056866217_f32 * mu_b5_b4 + 0.033113644_f32 * mu_b5_u5;
+    let p1_0_5 = -0.6669095_f32 * mu_b5_v5 - 1.2816072_f32 * mu_b5_b1 - 0.5036643_f32 * mu_b5_b2 + 0.2548548_f32 * mu_b5_b3 + 0.06985985_f32 * mu_b5_b4 + 0.009529822_f32 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 2.1076326_f32 * 1.0_f32;
+    let u1_0_0 = 1.9373827_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = 3.1250165_f32 * 1.0_f32;
+    let u1_1_0 = 3.2423635_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = 3.007334_f32 * 1.0_f32;
+    let u1_2_0 = 1.967861_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = 1.2393388_f32 * 1.0_f32;
+    let u1_3_0 = 0.8106889_f32 * 1.0_f32;
     let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = 0.18004328_f32 * 1.0_f32;
+    let u1_4_0 = 0.052868403_f32 * 1.0_f32;
     let u1_4 = u1_4_0 * 1.0_f32;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.4777102_f32 * mu_b4_b1 + 2.6211631_f32 * mu_b4_b2 - 0.30737042_f32 * mu_b4_b3 + 0.038899954_f32 * mu_b4_u4;
-    let q1_0_1 = 4.822585_f32 * mu_b4_v4 + 6.457433_f32 * mu_b4_b1 + 7.596187_f32 * mu_b4_b2 - 0.047161788_f32 * mu_b4_b3 - 0.049607735_f32 * mu_b4_u4;
-    let q1_0_2 = 11.232356_f32 * mu_b4_v4 + 10.124042_f32 * mu_b4_b1 + 10.995365_f32 * mu_b4_b2 + 3.7746966_f32 * mu_b4_b3 + 0.609356_f32 * mu_b4_u4;
-    let q1_0_3 = 11.447953_f32 * mu_b4_v4 + 7.846183_f32 * mu_b4_b1 + 4.159523_f32 * mu_b4_b2 + 2.032106_f32 * mu_b4_b3 + 0.22970599_f32 * mu_b4_u4;
-    let q1_0_4 = 4.5957627_f32 * mu_b4_v4 + 3.9321883_f32 * mu_b4_b1 + 1.4846673_f32 * mu_b4_b2 + 0.74794185_f32 * mu_b4_b3 + 0.08942334_f32 * mu_b4_u4;
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.0273602_f32 * mu_b4_b1 + 2.0595322_f32 * mu_b4_b2 - 0.2853565_f32 * mu_b4_b3 + 0.019864704_f32 * mu_b4_u4;
+    let q1_0_1 = 3.8695903_f32 * mu_b4_v4 + 4.2521696_f32 * mu_b4_b1 + 5.4107995_f32 * mu_b4_b2 - 0.29556113_f32 * mu_b4_b3 + 0.025790777_f32 * mu_b4_u4;
+    let q1_0_2 = 8.1737175_f32 * mu_b4_v4 + 5.869553_f32 * mu_b4_b1 + 7.235814_f32 * mu_b4_b2 + 1.974842_f32 * mu_b4_b3 + 0.45922118_f32 * mu_b4_u4;
+    let q1_0_3 = 8.259595_f32 * mu_b4_v4 + 4.9144006_f32 * mu_b4_b1 + 2.8188589_f32 * mu_b4_b2 + 0.99457973_f32 * mu_b4_b3 + 0.18009794_f32 * mu_b4_u4;
+    let q1_0_4 = 3.302272_f32 * mu_b4_v4 + 2.6568725_f32 * mu_b4_b1 + 1.0151353_f32 * mu_b4_b2 + 0.3967486_f32 * mu_b4_b3 + 0.07360671_f32 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = 0.0031457744_f32 * mu_b5_v5 + 0.079124585_f32 * mu_b5_b1 + 0.36193612_f32 * mu_b5_b2 + 0.04293511_f32 * mu_b5_b3 - 0.0005743127_f32 * mu_b5_b4 + 2.4742798e-5_f32 * mu_b5_u5;
-    let p2_0_1 = 0.42395407_f32 * mu_b5_v5 + 0.104514256_f32 * mu_b5_b1 - 1.5179144_f32 * mu_b5_b2 - 2.4519196_f32 * mu_b5_b3 - 0.040656995_f32 * mu_b5_b4 + 0.0006721243_f32 * mu_b5_u5;
-    let p2_0_2 = 0.5920509_f32 * mu_b5_v5 + 0.8290085_f32 * mu_b5_b1 - 2.365881_f32 * mu_b5_b2 - 3.4879112_f32 * mu_b5_b3 + 1.5362641_f32 * mu_b5_b4 - 0.002894654_f32 * mu_b5_u5;
-    let p2_0_3 = -0.5876823_f32 * mu_b5_v5 + 0.5029192_f32 * mu_b5_b1 - 1.718581_f32 * mu_b5_b2 - 2.9923072_f32 * mu_b5_b3 + 2.2162416_f32 * mu_b5_b4 - 0.024865162_f32 * mu_b5_u5;
-    let p2_0_4 = -0.7327731_f32 * mu_b5_v5 + 0.8087267_f32 * mu_b5_b1 - 0.5375059_f32 * mu_b5_b2 - 2.7114902_f32 * mu_b5_b3 + 0.65400267_f32 * mu_b5_b4 + 0.07437127_f32 * mu_b5_u5;
-    let p2_0_5 = 0.0048499336_f32 * mu_b5_v5 + 1.0029173_f32 * mu_b5_b1 + 0.48202652_f32 * mu_b5_b2 - 0.9252578_f32 * mu_b5_b3 - 0.09240128_f32 * mu_b5_b4 + 0.07439257_f32 * mu_b5_u5;
+    let p2_0_0 = -0.03129679_f32 * mu_b5_v5 - 0.07842191_f32 * mu_b5_b1 + 0.68254_f32 * mu_b5_b2 - 0.0035869484_f32 * mu_b5_b3 + 0.0003026823_f32 * mu_b5_b4 - 0.0001249558_f32 * mu_b5_u5;
+    let p2_0_1 = 0.7749647_f32 * mu_b5_v5 + 0.28331858_f32 * mu_b5_b1 + 0.03766238_f32 * mu_b5_b2 - 3.1582801_f32 * mu_b5_b3 - 0.01504579_f32 * mu_b5_b4 + 0.004144292_f32 * mu_b5_u5;
+    let p2_0_2 = 1.4662138_f32 * mu_b5_v5 + 1.0796883_f32 * mu_b5_b1 - 0.79451716_f32 * mu_b5_b2 - 6.161122_f32 * mu_b5_b3 + 1.5501918_f32 * mu_b5_b4 - 0.033474926_f32 * mu_b5_u5;
+    let p2_0_3 = 0.03777242_f32 * mu_b5_v5 + 0.22597374_f32 * mu_b5_b1 - 0.8259381_f32 * mu_b5_b2 - 5.502359_f32 * mu_b5_b3 + 2.8784287_f32 * mu_b5_b4 + 0.029851057_f32 * mu_b5_u5;
+    let p2_0_4 = -0.7058654_f32 * mu_b5_v5 + 0.08624678_f32 * mu_b5_b1 - 0.7473394_f32 * mu_b5_b2 - 4.266426_f32 * mu_b5_b3 + 1.0231788_f32 * mu_b5_b4 + 0.08175495_f32 * mu_b5_u5;
+    let p2_0_5 = -0.029955734_f32 * mu_b5_v5 + 0.8468695_f32 * mu_b5_b1 + 0.46625653_f32 * mu_b5_b2 - 1.233199_f32 * mu_b5_b3 - 0.021061093_f32 * mu_b5_b4 + 0.06788946_f32 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0_f32;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = -0.8180324_f32 * 1.0_f32;
+    let u2_0_0 = -0.93370694_f32 * 1.0_f32;
     let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = 4.0035195_f32 * 1.0_f32;
+    let u2_1_0 = 2.835681_f32 * 1.0_f32;
     let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = 0.79912764_f32 * 1.0_f32;
+    let u2_2_0 = 2.3082945_f32 * 1.0_f32;
     let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = -0.6307313_f32 * 1.0_f32;
+    let u2_3_0 = -0.8008376_f32 * 1.0_f32;
     let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = -0.22418651_f32 * 1.0_f32;
+    let u2_4_0 = -0.19204387_f32 * 1.0_f32;
     let u2_4 = u2_4_0 * 1.0_f32;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 2.0176563_f32 * mu_b4_b1 + 0.60691696_f32 * mu_b4_b2 - 0.015078716_f32 * mu_b4_b3 + 0.0011088412_f32 * mu_b4_u4;
-    let q2_0_1 = 0.9557597_f32 * mu_b4_v4 + 1.5980793_f32 * mu_b4_b1 - 1.0715935_f32 * mu_b4_b2 - 0.14378649_f32 * mu_b4_b3 - 0.008080639_f32 * mu_b4_u4;
-    let q2_0_2 = 0.5825367_f32 * mu_b4_v4 + 1.2141804_f32 * mu_b4_b1 - 0.84736234_f32 * mu_b4_b2 + 0.96034193_f32 * mu_b4_b3 + 0.07203702_f32 * mu_b4_u4;
-    let q2_0_3 = 1.0510663_f32 * mu_b4_v4 + 1.7634609_f32 * mu_b4_b1 - 0.39577037_f32 * mu_b4_b2 + 0.44169033_f32 * mu_b4_b3 - 0.028352084_f32 * mu_b4_u4;
-    let q2_0_4 = 0.5870901_f32 * mu_b4_v4 + 0.78090644_f32 * mu_b4_b1 - 0.25011402_f32 * mu_b4_b2 + 0.0038436023_f32 * mu_b4_b3 + 0.05322216_f32 * mu_b4_u4;
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 2.0816576_f32 * mu_b4_b1 + 0.60862553_f32 * mu_b4_b2 - 0.027175575_f32 * mu_b4_b3 + 0.0018937663_f32 * mu_b4_u4;
+    let q2_0_1 = 0.79342824_f32 * mu_b4_v4 + 1.3241973_f32 * mu_b4_b1 - 1.3233895_f32 * mu_b4_b2 - 0.092451975_f32 * mu_b4_b3 - 0.0141448155_f32 * mu_b4_u4;
+    let q2_0_2 = 0.67109567_f32 * mu_b4_v4 + 1.1542805_f32 * mu_b4_b1 - 1.0173401_f32 * mu_b4_b2 + 1.2431995_f32 * mu_b4_b3 + 0.07994736_f32 * mu_b4_u4;
+    let q2_0_3 = 1.6051017_f32 * mu_b4_v4 + 2.37897_f32 * mu_b4_b1 - 0.3400707_f32 * mu_b4_b2 + 0.6586012_f32 * mu_b4_b3 - 0.0033112643_f32 * mu_b4_u4;
+    let q2_0_4 = 0.88740635_f32 * mu_b4_v4 + 1.1071172_f32 * mu_b4_b1 - 0.29491323_f32 * mu_b4_b2 - 0.00998638_f32 * mu_b4_b3 + 0.060674872_f32 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.018109558_f32 * mu_b5_v5 + 0.01874168_f32 * mu_b5_b1 + 0.29740757_f32 * mu_b5_b2 + 0.029457645_f32 * mu_b5_b3 - 0.00025031884_f32 * mu_b5_b4 - 1.3630249e-6_f32 * mu_b5_u5;
-    let p3_0_1 = 0.45749643_f32 * mu_b5_v5 + 0.16084501_f32 * mu_b5_b1 - 1.5844073_f32 * mu_b5_b2 - 2.4809701_f32 * mu_b5_b3 - 0.038131814_f32 * mu_b5_b4 + 0.0008337194_f32 * mu_b5_u5;
-    let p3_0_2 = 0.6837977_f32 * mu_b5_v5 + 1.0453402_f32 * mu_b5_b1 - 2.4022732_f32 * mu_b5_b2 - 3.484077_f32 * mu_b5_b3 + 1.5843662_f32 * mu_b5_b4 - 0.0038698064_f32 * mu_b5_u5;
-    let p3_0_3 = -0.54317075_f32 * mu_b5_v5 + 0.6696605_f32 * mu_b5_b1 - 1.7937163_f32 * mu_b5_b2 - 3.0267386_f32 * mu_b5_b3 + 2.2594466_f32 * mu_b5_b4 - 0.028859433_f32 * mu_b5_u5;
-    let p3_0_4 = -0.6742208_f32 * mu_b5_v5 + 1.0490848_f32 * mu_b5_b1 - 0.45063263_f32 * mu_b5_b2 - 2.7553458_f32 * mu_b5_b3 + 0.6542645_f32 * mu_b5_b4 + 0.08142354_f32 * mu_b5_u5;
-    let p3_0_5 = 0.0504267_f32 * mu_b5_v5 + 1.1490862_f32 * mu_b5_b1 + 0.5554754_f32 * mu_b5_b2 - 0.9694063_f32 * mu_b5_b3 - 0.11650943_f32 * mu_b5_b4 + 0.07886309_f32 * mu_b5_u5;
+    let p3_0_0 = -0.038238376_f32 * mu_b5_v5 - 0.08404912_f32 * mu_b5_b1 + 0.6802718_f32 * mu_b5_b2 - 0.0065011415_f32 * mu_b5_b3 + 0.00045211398_f32 * mu_b5_b4 - 0.00013443196_f32 * mu_b5_u5;
+    let p3_0_1 = 0.8445542_f32 * mu_b5_v5 + 0.3803082_f32 * mu_b5_b1 - 0.074190356_f32 * mu_b5_b2 - 3.2967305_f32 * mu_b5_b3 - 0.01672192_f32 * mu_b5_b4 + 0.00421303_f32 * mu_b5_u5;
+    let p3_0_2 = 1.5967968_f32 * mu_b5_v5 + 1.2558259_f32 * mu_b5_b1 - 0.9738715_f32 * mu_b5_b2 - 6.260106_f32 * mu_b5_b3 + 1.6708025_f32 * mu_b5_b4 - 0.033694416_f32 * mu_b5_u5;
+    let p3_0_3 = 0.10339712_f32 * mu_b5_v5 + 0.36201593_f32 * mu_b5_b1 - 0.94655013_f32 * mu_b5_b2 - 5.55745_f32 * mu_b5_b3 + 3.0045776_f32 * mu_b5_b4 + 0.025156187_f32 * mu_b5_u5;
+    let p3_0_4 = -0.6214147_f32 * mu_b5_v5 + 0.39525017_f32 * mu_b5_b1 - 0.60846424_f32 * mu_b5_b2 - 4.361149_f32 * mu_b5_b3 + 1.0248774_f32 * mu_b5_b4 + 0.09504616_f32 * mu_b5_u5;
+    let p3_0_5 = 0.03506837_f32 * mu_b5_v5 + 1.0540825_f32 * mu_b5_b1 + 0.5774361_f32 * mu_b5_b2 - 1.3148162_f32 * mu_b5_b3 - 0.06234389_f32 * mu_b5_b4 + 0.077724054_f32 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0_f32;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = 0.8672729_f32 * 1.0_f32;
+    let u3_0_0 = 0.93471575_f32 * 1.0_f32;
     let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = -3.9778173_f32 * 1.0_f32;
+    let u3_1_0 = -2.6241758_f32 * 1.0_f32;
     let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -0.9956416_f32 * 1.0_f32;
+    let u3_2_0 = -2.4214365_f32 * 1.0_f32;
     let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = 0.5771737_f32 * 1.0_f32;
+    let u3_3_0 = 0.71408254_f32 * 1.0_f32;
     let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = 0.21992482_f32 * 1.0_f32;
+    let u3_4_0 = 0.17667177_f32 * 1.0_f32;
     let u3_4 = u3_4_0 * 1.0_f32;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 2.054517_f32 * mu_b4_b1 + 0.6182714_f32 * mu_b4_b2 - 0.015702242_f32 * mu_b4_b3 + 0.0011440584_f32 * mu_b4_u4;
-    let q3_0_1 = 0.9265979_f32 * mu_b4_v4 + 1.6377676_f32 * mu_b4_b1 - 1.1080649_f32 * mu_b4_b2 - 0.14948778_f32 * mu_b4_b3 - 0.007850734_f32 * mu_b4_u4;
-    let q3_0_2 = 0.58890754_f32 * mu_b4_v4 + 1.3303697_f32 * mu_b4_b1 - 0.866676_f32 * mu_b4_b2 + 0.9839913_f32 * mu_b4_b3 + 0.075733185_f32 * mu_b4_u4;
-    let q3_0_3 = 1.1115221_f32 * mu_b4_v4 + 1.8982751_f32 * mu_b4_b1 - 0.4187655_f32 * mu_b4_b2 + 0.4439418_f32 * mu_b4_b3 - 0.028137155_f32 * mu_b4_u4;
-    let q3_0_4 = 0.61953723_f32 * mu_b4_v4 + 0.8324549_f32 * mu_b4_b1 - 0.25647733_f32 * mu_b4_b2 + 0.0074639427_f32 * mu_b4_b3 + 0.057459615_f32 * mu_b4_u4;
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 2.0592158_f32 * mu_b4_b1 + 0.5950426_f32 * mu_b4_b2 - 0.026542306_f32 * mu_b4_b3 + 0.001836347_f32 * mu_b4_u4;
+    let q3_0_1 = 0.7887667_f32 * mu_b4_v4 + 1.2766672_f32 * mu_b4_b1 - 1.3290743_f32 * mu_b4_b2 - 0.08703977_f32 * mu_b4_b3 - 0.013243323_f32 * mu_b4_u4;
+    let q3_0_2 = 0.67876685_f32 * mu_b4_v4 + 1.1684657_f32 * mu_b4_b1 - 0.9763773_f32 * mu_b4_b2 + 1.2289265_f32 * mu_b4_b3 + 0.08023526_f32 * mu_b4_u4;
+    let q3_0_3 = 1.6279651_f32 * mu_b4_v4 + 2.4454744_f32 * mu_b4_b1 - 0.30070677_f32 * mu_b4_b2 + 0.62399495_f32 * mu_b4_b3 - 0.00096736266_f32 * mu_b4_u4;
+    let q3_0_4 = 0.90006554_f32 * mu_b4_v4 + 1.1428624_f32 * mu_b4_b1 - 0.2758426_f32 * mu_b4_b2 - 0.017026594_f32 * mu_b4_b3 + 0.065818325_f32 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;

@@ -27,18 +27,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 4a9d606b2259ad3bcff4977616b9ff00b9e1b98a998577794ed3c92b51e97cfc.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.834x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 a4754d4e825539c03bfa236c8c73e5e564833d5a80879b0de77d63dcb5d32a02.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 1.5e-5, bernstein 2.8e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 5.32e-4, max 5.67e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.86e-4, max 5.51e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.72e-7 (every op rounded, as this Rust), 6.37e-7 (fused multiply-add), 3.85e-6 (GPU division/sqrt error).
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-4, shifted 2.1e-4, bernstein 2.9e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 7.50e-4, max 3.89e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.14e-4, max 3.63e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.53e-7 (every op rounded, as this Rust), 7.87e-7 (fused multiply-add), 4.15e-6 (GPU division/sqrt error).
 // Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.30e-4, max 5.67e-3; this f32 code MAE 5.30e-4, max 5.67e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
-// Denominator proved >= 4.031e-4 on the domain (Bernstein certificate), so the division is safe.
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.31e-4, max 3.89e-3; this f32 code MAE 7.31e-4, max 3.89e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
+// Denominator proved >= 6.068e-5 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -52,10 +52,10 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(fmaxf(mu_c, 5.421011e-20f)))));
     const float mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0f + mu_c))));
     const float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    const float mu_t = (mu_logv * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 2.0f * (r_c * r_c) + 7.888609e-31f);
-    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
-    const float mu_u = (mu_t - 3.9443045e-31f) * 1.0f;
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    const float mu_t = (mu_logv * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.0f * (r_c * r_c) + 7.888609e-31f);
+    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
+    const float mu_u = (mu_t - 7.888609e-31f) * 1.0f;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     const float r_b5_v = 1.0f - r_t;
     const float r_b5_u2 = r_t * r_t;
@@ -85,12 +85,12 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     const float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    const float p0_0_0 = 0.42251676f * mu_b5_v5 + 1.5494201f * mu_b5_b1 + 1.0676113f * mu_b5_b2 + 2.6101022f * mu_b5_b3 + 1.7058989f * mu_b5_b4 + 0.19269456f * mu_b5_u5;
-    const float p0_0_1 = 5.314443f * mu_b5_v5 + 19.894299f * mu_b5_b1 + 14.152598f * mu_b5_b2 + 11.188069f * mu_b5_b3 + 6.582242f * mu_b5_b4 + 0.7478644f * mu_b5_u5;
-    const float p0_0_2 = 24.094683f * mu_b5_v5 + 83.17202f * mu_b5_b1 + 61.6263f * mu_b5_b2 + 22.208715f * mu_b5_b3 + 10.354558f * mu_b5_b4 + 2.2567003f * mu_b5_u5;
-    const float p0_0_3 = 39.64194f * mu_b5_v5 + 137.53185f * mu_b5_b1 + 114.83151f * mu_b5_b2 + 37.044643f * mu_b5_b3 + 11.397275f * mu_b5_b4 + 2.8561425f * mu_b5_u5;
-    const float p0_0_4 = 20.720503f * mu_b5_v5 + 74.62696f * mu_b5_b1 + 59.298653f * mu_b5_b2 + 11.150789f * mu_b5_b3 - 0.10485666f * mu_b5_b4 - 0.082503036f * mu_b5_u5;
-    const float p0_0_5 = 1.4906797f * mu_b5_v5 + 7.969072f * mu_b5_b1 + 5.1020722f * mu_b5_b2 - 0.16948374f * mu_b5_b3 + 0.022893105f * mu_b5_b4 - 0.027752917f * mu_b5_u5;
+    const float p0_0_0 = 0.95430404f * mu_b5_v5 + 2.6347384f * mu_b5_b1 + 3.1616054f * mu_b5_b2 + 1.6149682f * mu_b5_b3 + 0.39776903f * mu_b5_b4 + 0.45818815f * mu_b5_u5;
+    const float p0_0_1 = 7.2822657f * mu_b5_v5 + 14.63266f * mu_b5_b1 + 15.758569f * mu_b5_b2 + 11.114296f * mu_b5_b3 + 3.3767316f * mu_b5_b4 + 1.6416929f * mu_b5_u5;
+    const float p0_0_2 = 18.343884f * mu_b5_v5 + 31.72453f * mu_b5_b1 + 37.014023f * mu_b5_b2 + 37.21432f * mu_b5_b3 + 14.931273f * mu_b5_b4 + 3.2924938f * mu_b5_u5;
+    const float p0_0_3 = 21.271671f * mu_b5_v5 + 33.100056f * mu_b5_b1 + 42.45124f * mu_b5_b2 + 51.795982f * mu_b5_b3 + 22.40304f * mu_b5_b4 + 3.172075f * mu_b5_u5;
+    const float p0_0_4 = 12.321766f * mu_b5_v5 + 18.953901f * mu_b5_b1 + 26.843103f * mu_b5_b2 + 34.703377f * mu_b5_b3 + 15.024147f * mu_b5_b4 + 1.502819f * mu_b5_u5;
+    const float p0_0_5 = 2.928552f * mu_b5_v5 + 4.8931384f * mu_b5_b1 + 7.4342933f * mu_b5_b2 + 9.247756f * mu_b5_b3 + 3.8861024f * mu_b5_b4 + 0.30227005f * mu_b5_u5;
     const float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     const float p0 = p0_0 * 1.0f;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -105,15 +105,15 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     const float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    const float u0_0_0 = 1.0875299f * 1.0f;
+    const float u0_0_0 = 0.95867306f * 1.0f;
     const float u0_0 = u0_0_0 * 1.0f;
-    const float u0_1_0 = 5.0004525f * 1.0f;
+    const float u0_1_0 = 4.1011333f * 1.0f;
     const float u0_1 = u0_1_0 * 1.0f;
-    const float u0_2_0 = 8.383372f * 1.0f;
+    const float u0_2_0 = 6.417385f * 1.0f;
     const float u0_2 = u0_2_0 * 1.0f;
-    const float u0_3_0 = 5.7883806f * 1.0f;
+    const float u0_3_0 = 4.2989097f * 1.0f;
     const float u0_3 = u0_3_0 * 1.0f;
-    const float u0_4_0 = 1.4767529f * 1.0f;
+    const float u0_4_0 = 1.086472f * 1.0f;
     const float u0_4 = u0_4_0 * 1.0f;
     const float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -139,101 +139,101 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     const float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q0_0_0 = 1.0f * mu_b4_v4 + 3.3188403f * mu_b4_b1 + 2.0115695f * mu_b4_b2 + 3.4824371f * mu_b4_b3 + 0.46005243f * mu_b4_u4;
-    const float q0_0_1 = 8.594341f * mu_b4_v4 + 22.678228f * mu_b4_b1 + 9.588259f * mu_b4_b2 + 10.247166f * mu_b4_b3 + 1.4241732f * mu_b4_u4;
-    const float q0_0_2 = 21.704052f * mu_b4_v4 + 63.29071f * mu_b4_b1 + 43.967373f * mu_b4_b2 + 26.567816f * mu_b4_b3 + 4.2091694f * mu_b4_u4;
-    const float q0_0_3 = 16.793427f * mu_b4_v4 + 56.356037f * mu_b4_b1 + 49.807987f * mu_b4_b2 + 28.578924f * mu_b4_b3 + 5.014928f * mu_b4_u4;
-    const float q0_0_4 = 1.2898176f * mu_b4_v4 + 6.8491206f * mu_b4_b1 + 5.053911f * mu_b4_b2 + 3.2002447f * mu_b4_b3 + 0.37598094f * mu_b4_u4;
+    const float q0_0_0 = 1.0f * mu_b4_v4 + 1.9615376f * mu_b4_b1 + 2.0603478f * mu_b4_b2 - 0.07514187f * mu_b4_b3 + 0.48064256f * mu_b4_u4;
+    const float q0_0_1 = 6.9929843f * mu_b4_v4 + 7.163899f * mu_b4_b1 + 8.392078f * mu_b4_b2 + 2.8540833f * mu_b4_b3 + 1.2512972f * mu_b4_u4;
+    const float q0_0_2 = 14.734106f * mu_b4_v4 + 12.230142f * mu_b4_b1 + 20.326908f * mu_b4_b2 + 15.536217f * mu_b4_b3 + 2.6329114f * mu_b4_u4;
+    const float q0_0_3 = 12.395373f * mu_b4_v4 + 9.324005f * mu_b4_b1 + 19.810087f * mu_b4_b2 + 18.488503f * mu_b4_b3 + 2.2254252f * mu_b4_u4;
+    const float q0_0_4 = 4.1167727f * mu_b4_v4 + 4.1463075f * mu_b4_b1 + 8.590034f * mu_b4_b2 + 7.731593f * mu_b4_b3 + 0.825689f * mu_b4_u4;
     const float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     const float q0 = q0_0 * 1.0f;
     const float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    const float p1_0_0 = 0.19364321f * mu_b5_v5 + 0.27174398f * mu_b5_b1 + 0.30285886f * mu_b5_b2 + 0.1953025f * mu_b5_b3 + 0.0035222464f * mu_b5_b4 + 0.001782788f * mu_b5_u5;
-    const float p1_0_1 = 0.060958993f * mu_b5_v5 + 0.1803817f * mu_b5_b1 + 0.6950535f * mu_b5_b2 + 0.18753618f * mu_b5_b3 - 0.24552085f * mu_b5_b4 - 0.013401351f * mu_b5_u5;
-    const float p1_0_2 = -1.2268941f * mu_b5_v5 - 0.43122786f * mu_b5_b1 + 2.0460858f * mu_b5_b2 + 0.7077474f * mu_b5_b3 - 0.14919992f * mu_b5_b4 + 0.081521854f * mu_b5_u5;
-    const float p1_0_3 = -2.385682f * mu_b5_v5 - 1.0531065f * mu_b5_b1 + 2.3846886f * mu_b5_b2 + 0.7262f * mu_b5_b3 + 0.24665396f * mu_b5_b4 + 0.2606167f * mu_b5_u5;
-    const float p1_0_4 = -1.6562701f * mu_b5_v5 - 0.76595724f * mu_b5_b1 + 1.0441835f * mu_b5_b2 + 0.029546412f * mu_b5_b3 + 0.29439762f * mu_b5_b4 + 0.26274666f * mu_b5_u5;
-    const float p1_0_5 = -0.36731794f * mu_b5_v5 - 0.06531659f * mu_b5_b1 + 0.2881852f * mu_b5_b2 - 0.006340579f * mu_b5_b3 + 0.13498648f * mu_b5_b4 + 0.09631589f * mu_b5_u5;
+    const float p1_0_0 = 0.11915953f * mu_b5_v5 + 0.8764722f * mu_b5_b1 + 0.47104028f * mu_b5_b2 + 0.05957853f * mu_b5_b3 + 0.0028697362f * mu_b5_b4 + 0.00047502457f * mu_b5_u5;
+    const float p1_0_1 = -0.8355232f * mu_b5_v5 - 2.99905f * mu_b5_b1 - 2.7407596f * mu_b5_b2 + 1.0988854f * mu_b5_b3 - 0.03421355f * mu_b5_b4 + 0.006948992f * mu_b5_u5;
+    const float p1_0_2 = -2.6628568f * mu_b5_v5 - 13.652117f * mu_b5_b1 - 7.5174847f * mu_b5_b2 + 6.276729f * mu_b5_b3 - 0.5984146f * mu_b5_b4 + 0.031193541f * mu_b5_u5;
+    const float p1_0_3 = -2.6731975f * mu_b5_v5 - 16.855453f * mu_b5_b1 - 3.9783134f * mu_b5_b2 + 12.1453285f * mu_b5_b3 - 1.379155f * mu_b5_b4 + 0.11402042f * mu_b5_u5;
+    const float p1_0_4 = -1.3628162f * mu_b5_v5 - 9.474806f * mu_b5_b1 + 0.581843f * mu_b5_b2 + 8.850012f * mu_b5_b3 - 1.4745044f * mu_b5_b4 + 0.086597644f * mu_b5_u5;
+    const float p1_0_5 = -0.35022777f * mu_b5_v5 - 2.158122f * mu_b5_b1 + 0.73012334f * mu_b5_b2 + 2.4177568f * mu_b5_b3 - 0.418855f * mu_b5_b4 + 0.04486194f * mu_b5_u5;
     const float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     const float p1 = p1_0 * 1.0f;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    const float u1_0_0 = 2.5028586f * 1.0f;
+    const float u1_0_0 = 1.3346801f * 1.0f;
     const float u1_0 = u1_0_0 * 1.0f;
-    const float u1_1_0 = 3.233201f * 1.0f;
+    const float u1_1_0 = 1.1264191f * 1.0f;
     const float u1_1 = u1_1_0 * 1.0f;
-    const float u1_2_0 = -6.19396f * 1.0f;
+    const float u1_2_0 = -3.8509786f * 1.0f;
     const float u1_2 = u1_2_0 * 1.0f;
-    const float u1_3_0 = -3.5859609f * 1.0f;
+    const float u1_3_0 = -2.0842366f * 1.0f;
     const float u1_3 = u1_3_0 * 1.0f;
-    const float u1_4_0 = -0.85438186f * 1.0f;
+    const float u1_4_0 = -0.5206012f * 1.0f;
     const float u1_4 = u1_4_0 * 1.0f;
     const float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q1_0_0 = 1.0f * mu_b4_v4 + 0.6203024f * mu_b4_b1 + 1.0012269f * mu_b4_b2 + 0.01159849f * mu_b4_b3 + 0.0091587445f * mu_b4_u4;
-    const float q1_0_1 = 3.9055452f * mu_b4_v4 + 1.0516697f * mu_b4_b1 + 1.519699f * mu_b4_b2 - 1.2196487f * mu_b4_b3 - 0.07928396f * mu_b4_u4;
-    const float q1_0_2 = 6.6777315f * mu_b4_v4 + 3.0977879f * mu_b4_b1 + 3.8005097f * mu_b4_b2 - 0.3803855f * mu_b4_b3 + 0.51007044f * mu_b4_u4;
-    const float q1_0_3 = 4.8735003f * mu_b4_v4 + 2.7557795f * mu_b4_b1 + 3.3407981f * mu_b4_b2 + 0.7691898f * mu_b4_b3 + 0.8246101f * mu_b4_u4;
-    const float q1_0_4 = 1.2471166f * mu_b4_v4 + 0.67256725f * mu_b4_b1 + 0.93357295f * mu_b4_b2 + 0.5015363f * mu_b4_b3 + 0.37189898f * mu_b4_u4;
+    const float q1_0_0 = 1.0f * mu_b4_v4 + 3.575506f * mu_b4_b1 + 0.3316202f * mu_b4_b2 + 0.015578714f * mu_b4_b3 + 0.0033729093f * mu_b4_u4;
+    const float q1_0_1 = 3.309286f * mu_b4_v4 + 13.371998f * mu_b4_b1 + 0.69685894f * mu_b4_b2 - 0.30375662f * mu_b4_b3 + 0.037730116f * mu_b4_u4;
+    const float q1_0_2 = 4.625728f * mu_b4_v4 + 20.553331f * mu_b4_b1 + 1.8714675f * mu_b4_b2 - 0.34315693f * mu_b4_b3 + 0.17642905f * mu_b4_u4;
+    const float q1_0_3 = 3.2771456f * mu_b4_v4 + 15.037245f * mu_b4_b1 + 2.4912112f * mu_b4_b2 - 0.10745219f * mu_b4_b3 + 0.1370691f * mu_b4_u4;
+    const float q1_0_4 = 1.077583f * mu_b4_v4 + 4.747923f * mu_b4_b1 + 1.6862587f * mu_b4_b2 + 0.38388675f * mu_b4_b3 + 0.11187661f * mu_b4_u4;
     const float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     const float q1 = q1_0 * 1.0f;
     const float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    const float p2_0_0 = -0.0041594314f * mu_b5_v5 - 0.026336052f * mu_b5_b1 + 0.008833147f * mu_b5_b2 - 0.0019305374f * mu_b5_b3 + 0.00025948f * mu_b5_b4 - 8.64582e-6f * mu_b5_u5;
-    const float p2_0_1 = 0.32895225f * mu_b5_v5 + 0.012752087f * mu_b5_b1 - 0.04803978f * mu_b5_b2 + 0.1038596f * mu_b5_b3 + 0.0015623108f * mu_b5_b4 - 0.00017906413f * mu_b5_u5;
-    const float p2_0_2 = 1.2587852f * mu_b5_v5 + 0.24749266f * mu_b5_b1 - 0.27611572f * mu_b5_b2 + 0.25120875f * mu_b5_b3 - 0.1509548f * mu_b5_b4 + 0.00092901115f * mu_b5_u5;
-    const float p2_0_3 = 1.3492767f * mu_b5_v5 - 0.6193205f * mu_b5_b1 - 1.0601232f * mu_b5_b2 + 0.2999647f * mu_b5_b3 - 0.2858476f * mu_b5_b4 - 0.009422563f * mu_b5_u5;
-    const float p2_0_4 = 0.2771794f * mu_b5_v5 - 1.7069573f * mu_b5_b1 - 1.3460883f * mu_b5_b2 + 0.4527196f * mu_b5_b3 - 0.023621466f * mu_b5_b4 - 0.004334729f * mu_b5_u5;
-    const float p2_0_5 = -0.15891136f * mu_b5_v5 - 0.94167054f * mu_b5_b1 - 0.6300844f * mu_b5_b2 + 0.17329699f * mu_b5_b3 + 0.047530234f * mu_b5_b4 - 0.0063003893f * mu_b5_u5;
+    const float p2_0_0 = -0.043704253f * mu_b5_v5 - 0.67836124f * mu_b5_b1 - 0.109239355f * mu_b5_b2 - 0.05228491f * mu_b5_b3 - 0.012101583f * mu_b5_b4 - 6.838825e-5f * mu_b5_u5;
+    const float p2_0_1 = 0.66696215f * mu_b5_v5 + 2.5417325f * mu_b5_b1 + 4.2703323f * mu_b5_b2 - 0.4690186f * mu_b5_b3 - 0.034658417f * mu_b5_b4 + 0.0015754085f * mu_b5_u5;
+    const float p2_0_2 = 1.3320571f * mu_b5_v5 + 8.549544f * mu_b5_b1 + 6.9691453f * mu_b5_b2 - 5.661295f * mu_b5_b3 + 0.24015163f * mu_b5_b4 - 0.0035882434f * mu_b5_u5;
+    const float p2_0_3 = 0.32335627f * mu_b5_v5 + 6.33507f * mu_b5_b1 - 2.3169923f * mu_b5_b2 - 12.885412f * mu_b5_b3 + 1.003713f * mu_b5_b4 - 0.09627435f * mu_b5_u5;
+    const float p2_0_4 = -0.38265374f * mu_b5_v5 + 1.0257056f * mu_b5_b1 - 6.9363985f * mu_b5_b2 - 9.337519f * mu_b5_b3 + 1.7841672f * mu_b5_b4 - 0.05141874f * mu_b5_u5;
+    const float p2_0_5 = -0.15227154f * mu_b5_v5 - 0.318175f * mu_b5_b1 - 2.7063541f * mu_b5_b2 - 2.37319f * mu_b5_b3 + 0.7049016f * mu_b5_b4 - 0.028028624f * mu_b5_u5;
     const float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     const float p2 = p2_0 * 1.0f;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    const float u2_0_0 = 0.29027507f * 1.0f;
+    const float u2_0_0 = -0.780217f * 1.0f;
     const float u2_0 = u2_0_0 * 1.0f;
-    const float u2_1_0 = 2.0832062f * 1.0f;
+    const float u2_1_0 = 1.8956915f * 1.0f;
     const float u2_1 = u2_1_0 * 1.0f;
-    const float u2_2_0 = 0.0673326f * 1.0f;
+    const float u2_2_0 = 7.6932955f * 1.0f;
     const float u2_2 = u2_2_0 * 1.0f;
-    const float u2_3_0 = -0.67637604f * 1.0f;
+    const float u2_3_0 = 1.6918272f * 1.0f;
     const float u2_3 = u2_3_0 * 1.0f;
-    const float u2_4_0 = -0.2728908f * 1.0f;
+    const float u2_4_0 = 0.11273346f * 1.0f;
     const float u2_4 = u2_4_0 * 1.0f;
     const float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q2_0_0 = 1.0f * mu_b4_v4 - 1.1327289f * mu_b4_b1 + 2.006306f * mu_b4_b2 - 0.109121054f * mu_b4_b3 + 0.0030923337f * mu_b4_u4;
-    const float q2_0_1 = 5.1074867f * mu_b4_v4 - 7.2816806f * mu_b4_b1 + 3.2975862f * mu_b4_b2 - 1.2975976f * mu_b4_b3 + 0.020642472f * mu_b4_u4;
-    const float q2_0_2 = 11.839078f * mu_b4_v4 - 7.94809f * mu_b4_b1 + 4.818931f * mu_b4_b2 - 0.5453127f * mu_b4_b3 + 0.35607904f * mu_b4_u4;
-    const float q2_0_3 = 11.195382f * mu_b4_v4 - 2.649976f * mu_b4_b1 + 2.5284405f * mu_b4_b2 - 0.5555775f * mu_b4_b3 + 0.07561742f * mu_b4_u4;
-    const float q2_0_4 = 3.7820485f * mu_b4_v4 + 0.42219183f * mu_b4_b1 + 0.9103338f * mu_b4_b2 + 0.07428799f * mu_b4_b3 + 0.055345863f * mu_b4_u4;
+    const float q2_0_0 = 1.0f * mu_b4_v4 + 3.3031359f * mu_b4_b1 + 0.0425095f * mu_b4_b2 + 0.16443937f * mu_b4_b3 + 0.0010008487f * mu_b4_u4;
+    const float q2_0_1 = 3.343399f * mu_b4_v4 + 12.641705f * mu_b4_b1 - 0.7028243f * mu_b4_b2 - 0.3335434f * mu_b4_b3 - 0.028673226f * mu_b4_u4;
+    const float q2_0_2 = 5.02441f * mu_b4_v4 + 21.380611f * mu_b4_b1 + 1.507725f * mu_b4_b2 - 0.09084698f * mu_b4_b3 + 0.21324079f * mu_b4_u4;
+    const float q2_0_3 = 3.464347f * mu_b4_v4 + 16.067f * mu_b4_b1 + 2.6746516f * mu_b4_b2 - 0.034064066f * mu_b4_b3 + 0.19767734f * mu_b4_u4;
+    const float q2_0_4 = 0.9336244f * mu_b4_v4 + 4.626109f * mu_b4_b1 + 1.3233228f * mu_b4_b2 + 0.15995349f * mu_b4_b3 + 0.1050508f * mu_b4_u4;
     const float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     const float q2 = q2_0 * 1.0f;
     const float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    const float p3_0_0 = -0.16016702f * mu_b5_v5 - 1.1701951f * mu_b5_b1 - 2.0814555f * mu_b5_b2 - 2.0905023f * mu_b5_b3 - 1.0885553f * mu_b5_b4 - 0.3537523f * mu_b5_u5;
-    const float p3_0_1 = -0.43754447f * mu_b5_v5 - 0.6315003f * mu_b5_b1 - 2.3888981f * mu_b5_b2 - 7.102437f * mu_b5_b3 - 5.265995f * mu_b5_b4 - 1.7798588f * mu_b5_u5;
-    const float p3_0_2 = 1.7178113f * mu_b5_v5 + 9.037618f * mu_b5_b1 + 3.8819904f * mu_b5_b2 - 13.188545f * mu_b5_b3 - 9.300072f * mu_b5_b4 - 2.3920596f * mu_b5_u5;
-    const float p3_0_3 = 5.7585487f * mu_b5_v5 + 20.525227f * mu_b5_b1 + 9.9609375f * mu_b5_b2 - 15.6044035f * mu_b5_b3 - 9.681226f * mu_b5_b4 - 1.7252814f * mu_b5_u5;
-    const float p3_0_4 = 4.274226f * mu_b5_v5 + 13.439737f * mu_b5_b1 + 5.237173f * mu_b5_b2 - 9.735561f * mu_b5_b3 - 5.2733855f * mu_b5_b4 - 0.8875207f * mu_b5_u5;
-    const float p3_0_5 = 0.5728186f * mu_b5_v5 + 1.7231934f * mu_b5_b1 + 0.08518965f * mu_b5_b2 - 1.6882476f * mu_b5_b3 - 0.40503103f * mu_b5_b4 - 0.06624026f * mu_b5_u5;
+    const float p3_0_0 = -0.05741002f * mu_b5_v5 - 0.64621407f * mu_b5_b1 - 0.16592616f * mu_b5_b2 - 0.019592423f * mu_b5_b3 - 0.008755254f * mu_b5_b4 - 9.8389675e-5f * mu_b5_u5;
+    const float p3_0_1 = 0.71082795f * mu_b5_v5 + 2.529445f * mu_b5_b1 + 3.355157f * mu_b5_b2 - 0.6508657f * mu_b5_b3 - 0.018114567f * mu_b5_b4 + 0.00022378622f * mu_b5_u5;
+    const float p3_0_2 = 1.6836157f * mu_b5_v5 + 9.311844f * mu_b5_b1 + 6.079239f * mu_b5_b2 - 5.55142f * mu_b5_b3 + 0.3259602f * mu_b5_b4 - 0.009744174f * mu_b5_u5;
+    const float p3_0_3 = 1.0368036f * mu_b5_v5 + 9.015318f * mu_b5_b1 - 0.3965488f * mu_b5_b2 - 11.538503f * mu_b5_b3 + 1.0934359f * mu_b5_b4 - 0.08125952f * mu_b5_u5;
+    const float p3_0_4 = 0.17633805f * mu_b5_v5 + 3.6183228f * mu_b5_b1 - 4.3152356f * mu_b5_b2 - 8.346345f * mu_b5_b3 + 1.5295492f * mu_b5_b4 - 0.050393425f * mu_b5_u5;
+    const float p3_0_5 = 0.009692236f * mu_b5_v5 + 0.51309067f * mu_b5_b1 - 1.8127303f * mu_b5_b2 - 2.1801887f * mu_b5_b3 + 0.5453333f * mu_b5_b4 - 0.024420151f * mu_b5_u5;
     const float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     const float p3 = p3_0 * 1.0f;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    const float u3_0_0 = -0.35957968f * 1.0f;
+    const float u3_0_0 = 1.8966728f * 1.0f;
     const float u3_0 = u3_0_0 * 1.0f;
-    const float u3_1_0 = -7.916403f * 1.0f;
+    const float u3_1_0 = -0.8087356f * 1.0f;
     const float u3_1 = u3_1_0 * 1.0f;
-    const float u3_2_0 = -22.812872f * 1.0f;
+    const float u3_2_0 = -11.77127f * 1.0f;
     const float u3_2 = u3_2_0 * 1.0f;
-    const float u3_3_0 = -14.021359f * 1.0f;
+    const float u3_3_0 = -3.708086f * 1.0f;
     const float u3_3 = u3_3_0 * 1.0f;
-    const float u3_4_0 = -3.3763933f * 1.0f;
+    const float u3_4_0 = -0.5485883f * 1.0f;
     const float u3_4 = u3_4_0 * 1.0f;
     const float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q3_0_0 = 1.0f * mu_b4_v4 + 6.393725f * mu_b4_b1 + 7.3105783f * mu_b4_b2 + 5.4180493f * mu_b4_b3 + 2.1836126f * mu_b4_u4;
-    const float q3_0_1 = 6.613993f * mu_b4_v4 + 29.11735f * mu_b4_b1 + 30.27681f * mu_b4_b2 + 21.341589f * mu_b4_b3 + 8.297803f * mu_b4_u4;
-    const float q3_0_2 = 15.138117f * mu_b4_v4 + 53.489273f * mu_b4_b1 + 49.69633f * mu_b4_b2 + 28.661047f * mu_b4_b3 + 9.410372f * mu_b4_u4;
-    const float q3_0_3 = 12.7331f * mu_b4_v4 + 42.47134f * mu_b4_b1 + 39.821304f * mu_b4_b2 + 20.388586f * mu_b4_b3 + 5.0351896f * mu_b4_u4;
-    const float q3_0_4 = 1.8405087f * mu_b4_v4 + 6.231821f * mu_b4_b1 + 4.880395f * mu_b4_b2 + 2.1772063f * mu_b4_b3 + 0.37054035f * mu_b4_u4;
+    const float q3_0_0 = 1.0f * mu_b4_v4 + 3.0231829f * mu_b4_b1 - 0.036364686f * mu_b4_b2 + 0.09825386f * mu_b4_b3 + 0.0012035472f * mu_b4_u4;
+    const float q3_0_1 = 3.4514813f * mu_b4_v4 + 12.14341f * mu_b4_b1 - 0.1237932f * mu_b4_b2 - 0.19817072f * mu_b4_b3 - 0.008840887f * mu_b4_u4;
+    const float q3_0_2 = 4.7774262f * mu_b4_v4 + 19.724924f * mu_b4_b1 + 1.6528406f * mu_b4_b2 - 0.1814235f * mu_b4_b3 + 0.17364728f * mu_b4_u4;
+    const float q3_0_3 = 3.0829837f * mu_b4_v4 + 14.560363f * mu_b4_b1 + 2.5801795f * mu_b4_b2 - 0.09189274f * mu_b4_b3 + 0.17891517f * mu_b4_u4;
+    const float q3_0_4 = 0.85577506f * mu_b4_v4 + 4.3506093f * mu_b4_b1 + 1.4323276f * mu_b4_b2 + 0.18805104f * mu_b4_b3 + 0.093959674f * mu_b4_u4;
     const float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     const float q3 = q3_0 * 1.0f;
     const float e3 = p3 * u3 / q3;

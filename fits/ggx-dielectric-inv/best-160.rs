@@ -12,18 +12,18 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 4a9d606b2259ad3bcff4977616b9ff00b9e1b98a998577794ed3c92b51e97cfc.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.834x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 a4754d4e825539c03bfa236c8c73e5e564833d5a80879b0de77d63dcb5d32a02.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 1.5e-5, bernstein 2.8e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 5.32e-4, max 5.67e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.86e-4, max 5.51e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.72e-7 (every op rounded, as this Rust), 6.37e-7 (fused multiply-add), 3.85e-6 (GPU division/sqrt error).
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-4, shifted 2.1e-4, bernstein 2.9e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 7.50e-4, max 3.89e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.14e-4, max 3.63e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.53e-7 (every op rounded, as this Rust), 7.87e-7 (fused multiply-add), 4.15e-6 (GPU division/sqrt error).
 /// Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.30e-4, max 5.67e-3; this f32 code MAE 5.30e-4, max 5.67e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
-/// Denominator proved >= 4.031e-4 on the domain (Bernstein certificate), so the division is safe.
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.31e-4, max 3.89e-3; this f32 code MAE 7.31e-4, max 3.89e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
+/// Denominator proved >= 6.068e-5 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -44,10 +44,10 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
     let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
     let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0_f32 + 2.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 2.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
-    let mu_u = (mu_t - 3.9443045e-31_f32) * 1.0_f32;
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
+    let mu_u = (mu_t - 7.888609e-31_f32) * 1.0_f32;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     let r_b5_v = 1.0_f32 - r_t;
     let r_b5_u2 = r_t * r_t;
@@ -77,12 +77,12 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.42251676_f32 * mu_b5_v5 + 1.5494201_f32 * mu_b5_b1 + 1.0676113_f32 * mu_b5_b2 + 2.6101022_f32 * mu_b5_b3 + 1.7058989_f32 * mu_b5_b4 + 0.19269456_f32 * mu_b5_u5;
-    let p0_0_1 = 5.314443_f32 * mu_b5_v5 + 19.894299_f32 * mu_b5_b1 + 14.152598_f32 * mu_b5_b2 + 11.188069_f32 * mu_b5_b3 + 6.582242_f32 * mu_b5_b4 + 0.7478644_f32 * mu_b5_u5;
-    let p0_0_2 = 24.094683_f32 * mu_b5_v5 + 83.17202_f32 * mu_b5_b1 + 61.6263_f32 * mu_b5_b2 + 22.208715_f32 * mu_b5_b3 + 10.354558_f32 * mu_b5_b4 + 2.2567003_f32 * mu_b5_u5;
-    let p0_0_3 = 39.64194_f32 * mu_b5_v5 + 137.53185_f32 * mu_b5_b1 + 114.83151_f32 * mu_b5_b2 + 37.044643_f32 * mu_b5_b3 + 11.397275_f32 * mu_b5_b4 + 2.8561425_f32 * mu_b5_u5;
-    let p0_0_4 = 20.720503_f32 * mu_b5_v5 + 74.62696_f32 * mu_b5_b1 + 59.298653_f32 * mu_b5_b2 + 11.150789_f32 * mu_b5_b3 - 0.10485666_f32 * mu_b5_b4 - 0.082503036_f32 * mu_b5_u5;
-    let p0_0_5 = 1.4906797_f32 * mu_b5_v5 + 7.969072_f32 * mu_b5_b1 + 5.1020722_f32 * mu_b5_b2 - 0.16948374_f32 * mu_b5_b3 + 0.022893105_f32 * mu_b5_b4 - 0.027752917_f32 * mu_b5_u5;
+    let p0_0_0 = 0.95430404_f32 * mu_b5_v5 + 2.6347384_f32 * mu_b5_b1 + 3.1616054_f32 * mu_b5_b2 + 1.6149682_f32 * mu_b5_b3 + 0.39776903_f32 * mu_b5_b4 + 0.45818815_f32 * mu_b5_u5;
+    let p0_0_1 = 7.2822657_f32 * mu_b5_v5 + 14.63266_f32 * mu_b5_b1 + 15.758569_f32 * mu_b5_b2 + 11.114296_f32 * mu_b5_b3 + 3.3767316_f32 * mu_b5_b4 + 1.6416929_f32 * mu_b5_u5;
+    let p0_0_2 = 18.343884_f32 * mu_b5_v5 + 31.72453_f32 * mu_b5_b1 + 37.014023_f32 * mu_b5_b2 + 37.21432_f32 * mu_b5_b3 + 14.931273_f32 * mu_b5_b4 + 3.2924938_f32 * mu_b5_u5;
+    let p0_0_3 = 21.271671_f32 * mu_b5_v5 + 33.100056_f32 * mu_b5_b1 + 42.45124_f32 * mu_b5_b2 + 51.795982_f32 * mu_b5_b3 + 22.40304_f32 * mu_b5_b4 + 3.172075_f32 * mu_b5_u5;
+    let p0_0_4 = 12.321766_f32 * mu_b5_v5 + 18.953901_f32 * mu_b5_b1 + 26.843103_f32 * mu_b5_b2 + 34.703377_f32 * mu_b5_b3 + 15.024147_f32 * mu_b5_b4 + 1.502819_f32 * mu_b5_u5;
+    let p0_0_5 = 2.928552_f32 * mu_b5_v5 + 4.8931384_f32 * mu_b5_b1 + 7.4342933_f32 * mu_b5_b2 + 9.247756_f32 * mu_b5_b3 + 3.8861024_f32 * mu_b5_b4 + 0.30227005_f32 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -97,15 +97,15 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 1.0875299_f32 * 1.0_f32;
+    let u0_0_0 = 0.95867306_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 5.0004525_f32 * 1.0_f32;
+    let u0_1_0 = 4.1011333_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 8.383372_f32 * 1.0_f32;
+    let u0_2_0 = 6.417385_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 5.7883806_f32 * 1.0_f32;
+    let u0_3_0 = 4.2989097_f32 * 1.0_f32;
     let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 1.4767529_f32 * 1.0_f32;
+    let u0_4_0 = 1.086472_f32 * 1.0_f32;
     let u0_4 = u0_4_0 * 1.0_f32;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -131,101 +131,101 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 3.3188403_f32 * mu_b4_b1 + 2.0115695_f32 * mu_b4_b2 + 3.4824371_f32 * mu_b4_b3 + 0.46005243_f32 * mu_b4_u4;
-    let q0_0_1 = 8.594341_f32 * mu_b4_v4 + 22.678228_f32 * mu_b4_b1 + 9.588259_f32 * mu_b4_b2 + 10.247166_f32 * mu_b4_b3 + 1.4241732_f32 * mu_b4_u4;
-    let q0_0_2 = 21.704052_f32 * mu_b4_v4 + 63.29071_f32 * mu_b4_b1 + 43.967373_f32 * mu_b4_b2 + 26.567816_f32 * mu_b4_b3 + 4.2091694_f32 * mu_b4_u4;
-    let q0_0_3 = 16.793427_f32 * mu_b4_v4 + 56.356037_f32 * mu_b4_b1 + 49.807987_f32 * mu_b4_b2 + 28.578924_f32 * mu_b4_b3 + 5.014928_f32 * mu_b4_u4;
-    let q0_0_4 = 1.2898176_f32 * mu_b4_v4 + 6.8491206_f32 * mu_b4_b1 + 5.053911_f32 * mu_b4_b2 + 3.2002447_f32 * mu_b4_b3 + 0.37598094_f32 * mu_b4_u4;
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 1.9615376_f32 * mu_b4_b1 + 2.0603478_f32 * mu_b4_b2 - 0.07514187_f32 * mu_b4_b3 + 0.48064256_f32 * mu_b4_u4;
+    let q0_0_1 = 6.9929843_f32 * mu_b4_v4 + 7.163899_f32 * mu_b4_b1 + 8.392078_f32 * mu_b4_b2 + 2.8540833_f32 * mu_b4_b3 + 1.2512972_f32 * mu_b4_u4;
+    let q0_0_2 = 14.734106_f32 * mu_b4_v4 + 12.230142_f32 * mu_b4_b1 + 20.326908_f32 * mu_b4_b2 + 15.536217_f32 * mu_b4_b3 + 2.6329114_f32 * mu_b4_u4;
+    let q0_0_3 = 12.395373_f32 * mu_b4_v4 + 9.324005_f32 * mu_b4_b1 + 19.810087_f32 * mu_b4_b2 + 18.488503_f32 * mu_b4_b3 + 2.2254252_f32 * mu_b4_u4;
+    let q0_0_4 = 4.1167727_f32 * mu_b4_v4 + 4.1463075_f32 * mu_b4_b1 + 8.590034_f32 * mu_b4_b2 + 7.731593_f32 * mu_b4_b3 + 0.825689_f32 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.19364321_f32 * mu_b5_v5 + 0.27174398_f32 * mu_b5_b1 + 0.30285886_f32 * mu_b5_b2 + 0.1953025_f32 * mu_b5_b3 + 0.0035222464_f32 * mu_b5_b4 + 0.001782788_f32 * mu_b5_u5;
-    let p1_0_1 = 0.060958993_f32 * mu_b5_v5 + 0.1803817_f32 * mu_b5_b1 + 0.6950535_f32 * mu_b5_b2 + 0.18753618_f32 * mu_b5_b3 - 0.24552085_f32 * mu_b5_b4 - 0.013401351_f32 * mu_b5_u5;
-    let p1_0_2 = -1.2268941_f32 * mu_b5_v5 - 0.43122786_f32 * mu_b5_b1 + 2.0460858_f32 * mu_b5_b2 + 0.7077474_f32 * mu_b5_b3 - 0.14919992_f32 * mu_b5_b4 + 0.081521854_f32 * mu_b5_u5;
-    let p1_0_3 = -2.385682_f32 * mu_b5_v5 - 1.0531065_f32 * mu_b5_b1 + 2.3846886_f32 * mu_b5_b2 + 0.7262_f32 * mu_b5_b3 + 0.24665396_f32 * mu_b5_b4 + 0.2606167_f32 * mu_b5_u5;
-    let p1_0_4 = -1.6562701_f32 * mu_b5_v5 - 0.76595724_f32 * mu_b5_b1 + 1.0441835_f32 * mu_b5_b2 + 0.029546412_f32 * mu_b5_b3 + 0.29439762_f32 * mu_b5_b4 + 0.26274666_f32 * mu_b5_u5;
-    let p1_0_5 = -0.36731794_f32 * mu_b5_v5 - 0.06531659_f32 * mu_b5_b1 + 0.2881852_f32 * mu_b5_b2 - 0.006340579_f32 * mu_b5_b3 + 0.13498648_f32 * mu_b5_b4 + 0.09631589_f32 * mu_b5_u5;
+    let p1_0_0 = 0.11915953_f32 * mu_b5_v5 + 0.8764722_f32 * mu_b5_b1 + 0.47104028_f32 * mu_b5_b2 + 0.05957853_f32 * mu_b5_b3 + 0.0028697362_f32 * mu_b5_b4 + 0.00047502457_f32 * mu_b5_u5;
+    let p1_0_1 = -0.8355232_f32 * mu_b5_v5 - 2.99905_f32 * mu_b5_b1 - 2.7407596_f32 * mu_b5_b2 + 1.0988854_f32 * mu_b5_b3 - 0.03421355_f32 * mu_b5_b4 + 0.006948992_f32 * mu_b5_u5;
+    let p1_0_2 = -2.6628568_f32 * mu_b5_v5 - 13.652117_f32 * mu_b5_b1 - 7.5174847_f32 * mu_b5_b2 + 6.276729_f32 * mu_b5_b3 - 0.5984146_f32 * mu_b5_b4 + 0.031193541_f32 * mu_b5_u5;
+    let p1_0_3 = -2.6731975_f32 * mu_b5_v5 - 16.855453_f32 * mu_b5_b1 - 3.9783134_f32 * mu_b5_b2 + 12.1453285_f32 * mu_b5_b3 - 1.379155_f32 * mu_b5_b4 + 0.11402042_f32 * mu_b5_u5;
+    let p1_0_4 = -1.3628162_f32 * mu_b5_v5 - 9.474806_f32 * mu_b5_b1 + 0.581843_f32 * mu_b5_b2 + 8.850012_f32 * mu_b5_b3 - 1.4745044_f32 * mu_b5_b4 + 0.086597644_f32 * mu_b5_u5;
+    let p1_0_5 = -0.35022777_f32 * mu_b5_v5 - 2.158122_f32 * mu_b5_b1 + 0.73012334_f32 * mu_b5_b2 + 2.4177568_f32 * mu_b5_b3 - 0.418855_f32 * mu_b5_b4 + 0.04486194_f32 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 2.5028586_f32 * 1.0_f32;
+    let u1_0_0 = 1.3346801_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = 3.233201_f32 * 1.0_f32;
+    let u1_1_0 = 1.1264191_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = -6.19396_f32 * 1.0_f32;
+    let u1_2_0 = -3.8509786_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = -3.5859609_f32 * 1.0_f32;
+    let u1_3_0 = -2.0842366_f32 * 1.0_f32;
     let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = -0.85438186_f32 * 1.0_f32;
+    let u1_4_0 = -0.5206012_f32 * 1.0_f32;
     let u1_4 = u1_4_0 * 1.0_f32;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 0.6203024_f32 * mu_b4_b1 + 1.0012269_f32 * mu_b4_b2 + 0.01159849_f32 * mu_b4_b3 + 0.0091587445_f32 * mu_b4_u4;
-    let q1_0_1 = 3.9055452_f32 * mu_b4_v4 + 1.0516697_f32 * mu_b4_b1 + 1.519699_f32 * mu_b4_b2 - 1.2196487_f32 * mu_b4_b3 - 0.07928396_f32 * mu_b4_u4;
-    let q1_0_2 = 6.6777315_f32 * mu_b4_v4 + 3.0977879_f32 * mu_b4_b1 + 3.8005097_f32 * mu_b4_b2 - 0.3803855_f32 * mu_b4_b3 + 0.51007044_f32 * mu_b4_u4;
-    let q1_0_3 = 4.8735003_f32 * mu_b4_v4 + 2.7557795_f32 * mu_b4_b1 + 3.3407981_f32 * mu_b4_b2 + 0.7691898_f32 * mu_b4_b3 + 0.8246101_f32 * mu_b4_u4;
-    let q1_0_4 = 1.2471166_f32 * mu_b4_v4 + 0.67256725_f32 * mu_b4_b1 + 0.93357295_f32 * mu_b4_b2 + 0.5015363_f32 * mu_b4_b3 + 0.37189898_f32 * mu_b4_u4;
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 3.575506_f32 * mu_b4_b1 + 0.3316202_f32 * mu_b4_b2 + 0.015578714_f32 * mu_b4_b3 + 0.0033729093_f32 * mu_b4_u4;
+    let q1_0_1 = 3.309286_f32 * mu_b4_v4 + 13.371998_f32 * mu_b4_b1 + 0.69685894_f32 * mu_b4_b2 - 0.30375662_f32 * mu_b4_b3 + 0.037730116_f32 * mu_b4_u4;
+    let q1_0_2 = 4.625728_f32 * mu_b4_v4 + 20.553331_f32 * mu_b4_b1 + 1.8714675_f32 * mu_b4_b2 - 0.34315693_f32 * mu_b4_b3 + 0.17642905_f32 * mu_b4_u4;
+    let q1_0_3 = 3.2771456_f32 * mu_b4_v4 + 15.037245_f32 * mu_b4_b1 + 2.4912112_f32 * mu_b4_b2 - 0.10745219_f32 * mu_b4_b3 + 0.1370691_f32 * mu_b4_u4;
+    let q1_0_4 = 1.077583_f32 * mu_b4_v4 + 4.747923_f32 * mu_b4_b1 + 1.6862587_f32 * mu_b4_b2 + 0.38388675_f32 * mu_b4_b3 + 0.11187661_f32 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.0041594314_f32 * mu_b5_v5 - 0.026336052_f32 * mu_b5_b1 + 0.008833147_f32 * mu_b5_b2 - 0.0019305374_f32 * mu_b5_b3 + 0.00025948_f32 * mu_b5_b4 - 8.64582e-6_f32 * mu_b5_u5;
-    let p2_0_1 = 0.32895225_f32 * mu_b5_v5 + 0.012752087_f32 * mu_b5_b1 - 0.04803978_f32 * mu_b5_b2 + 0.1038596_f32 * mu_b5_b3 + 0.0015623108_f32 * mu_b5_b4 - 0.00017906413_f32 * mu_b5_u5;
-    let p2_0_2 = 1.2587852_f32 * mu_b5_v5 + 0.24749266_f32 * mu_b5_b1 - 0.27611572_f32 * mu_b5_b2 + 0.25120875_f32 * mu_b5_b3 - 0.1509548_f32 * mu_b5_b4 + 0.00092901115_f32 * mu_b5_u5;
-    let p2_0_3 = 1.3492767_f32 * mu_b5_v5 - 0.6193205_f32 * mu_b5_b1 - 1.0601232_f32 * mu_b5_b2 + 0.2999647_f32 * mu_b5_b3 - 0.2858476_f32 * mu_b5_b4 - 0.009422563_f32 * mu_b5_u5;
-    let p2_0_4 = 0.2771794_f32 * mu_b5_v5 - 1.7069573_f32 * mu_b5_b1 - 1.3460883_f32 * mu_b5_b2 + 0.4527196_f32 * mu_b5_b3 - 0.023621466_f32 * mu_b5_b4 - 0.004334729_f32 * mu_b5_u5;
-    let p2_0_5 = -0.15891136_f32 * mu_b5_v5 - 0.94167054_f32 * mu_b5_b1 - 0.6300844_f32 * mu_b5_b2 + 0.17329699_f32 * mu_b5_b3 + 0.047530234_f32 * mu_b5_b4 - 0.0063003893_f32 * mu_b5_u5;
+    let p2_0_0 = -0.043704253_f32 * mu_b5_v5 - 0.67836124_f32 * mu_b5_b1 - 0.109239355_f32 * mu_b5_b2 - 0.05228491_f32 * mu_b5_b3 - 0.012101583_f32 * mu_b5_b4 - 6.838825e-5_f32 * mu_b5_u5;
+    let p2_0_1 = 0.66696215_f32 * mu_b5_v5 + 2.5417325_f32 * mu_b5_b1 + 4.2703323_f32 * mu_b5_b2 - 0.4690186_f32 * mu_b5_b3 - 0.034658417_f32 * mu_b5_b4 + 0.0015754085_f32 * mu_b5_u5;
+    let p2_0_2 = 1.3320571_f32 * mu_b5_v5 + 8.549544_f32 * mu_b5_b1 + 6.9691453_f32 * mu_b5_b2 - 5.661295_f32 * mu_b5_b3 + 0.24015163_f32 * mu_b5_b4 - 0.0035882434_f32 * mu_b5_u5;
+    let p2_0_3 = 0.32335627_f32 * mu_b5_v5 + 6.33507_f32 * mu_b5_b1 - 2.3169923_f32 * mu_b5_b2 - 12.885412_f32 * mu_b5_b3 + 1.003713_f32 * mu_b5_b4 - 0.09627435_f32 * mu_b5_u5;
+    let p2_0_4 = -0.38265374_f32 * mu_b5_v5 + 1.0257056_f32 * mu_b5_b1 - 6.9363985_f32 * mu_b5_b2 - 9.337519_f32 * mu_b5_b3 + 1.7841672_f32 * mu_b5_b4 - 0.05141874_f32 * mu_b5_u5;
+    let p2_0_5 = -0.15227154_f32 * mu_b5_v5 - 0.318175_f32 * mu_b5_b1 - 2.7063541_f32 * mu_b5_b2 - 2.37319_f32 * mu_b5_b3 + 0.7049016_f32 * mu_b5_b4 - 0.028028624_f32 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0_f32;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = 0.29027507_f32 * 1.0_f32;
+    let u2_0_0 = -0.780217_f32 * 1.0_f32;
     let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = 2.0832062_f32 * 1.0_f32;
+    let u2_1_0 = 1.8956915_f32 * 1.0_f32;
     let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = 0.0673326_f32 * 1.0_f32;
+    let u2_2_0 = 7.6932955_f32 * 1.0_f32;
     let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = -0.67637604_f32 * 1.0_f32;
+    let u2_3_0 = 1.6918272_f32 * 1.0_f32;
     let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = -0.2728908_f32 * 1.0_f32;
+    let u2_4_0 = 0.11273346_f32 * 1.0_f32;
     let u2_4 = u2_4_0 * 1.0_f32;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b4_v4 - 1.1327289_f32 * mu_b4_b1 + 2.006306_f32 * mu_b4_b2 - 0.109121054_f32 * mu_b4_b3 + 0.0030923337_f32 * mu_b4_u4;
-    let q2_0_1 = 5.1074867_f32 * mu_b4_v4 - 7.2816806_f32 * mu_b4_b1 + 3.2975862_f32 * mu_b4_b2 - 1.2975976_f32 * mu_b4_b3 + 0.020642472_f32 * mu_b4_u4;
-    let q2_0_2 = 11.839078_f32 * mu_b4_v4 - 7.94809_f32 * mu_b4_b1 + 4.818931_f32 * mu_b4_b2 - 0.5453127_f32 * mu_b4_b3 + 0.35607904_f32 * mu_b4_u4;
-    let q2_0_3 = 11.195382_f32 * mu_b4_v4 - 2.649976_f32 * mu_b4_b1 + 2.5284405_f32 * mu_b4_b2 - 0.5555775_f32 * mu_b4_b3 + 0.07561742_f32 * mu_b4_u4;
-    let q2_0_4 = 3.7820485_f32 * mu_b4_v4 + 0.42219183_f32 * mu_b4_b1 + 0.9103338_f32 * mu_b4_b2 + 0.07428799_f32 * mu_b4_b3 + 0.055345863_f32 * mu_b4_u4;
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 3.3031359_f32 * mu_b4_b1 + 0.0425095_f32 * mu_b4_b2 + 0.16443937_f32 * mu_b4_b3 + 0.0010008487_f32 * mu_b4_u4;
+    let q2_0_1 = 3.343399_f32 * mu_b4_v4 + 12.641705_f32 * mu_b4_b1 - 0.7028243_f32 * mu_b4_b2 - 0.3335434_f32 * mu_b4_b3 - 0.028673226_f32 * mu_b4_u4;
+    let q2_0_2 = 5.02441_f32 * mu_b4_v4 + 21.380611_f32 * mu_b4_b1 + 1.507725_f32 * mu_b4_b2 - 0.09084698_f32 * mu_b4_b3 + 0.21324079_f32 * mu_b4_u4;
+    let q2_0_3 = 3.464347_f32 * mu_b4_v4 + 16.067_f32 * mu_b4_b1 + 2.6746516_f32 * mu_b4_b2 - 0.034064066_f32 * mu_b4_b3 + 0.19767734_f32 * mu_b4_u4;
+    let q2_0_4 = 0.9336244_f32 * mu_b4_v4 + 4.626109_f32 * mu_b4_b1 + 1.3233228_f32 * mu_b4_b2 + 0.15995349_f32 * mu_b4_b3 + 0.1050508_f32 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.16016702_f32 * mu_b5_v5 - 1.1701951_f32 * mu_b5_b1 - 2.0814555_f32 * mu_b5_b2 - 2.0905023_f32 * mu_b5_b3 - 1.0885553_f32 * mu_b5_b4 - 0.3537523_f32 * mu_b5_u5;
-    let p3_0_1 = -0.43754447_f32 * mu_b5_v5 - 0.6315003_f32 * mu_b5_b1 - 2.3888981_f32 * mu_b5_b2 - 7.102437_f32 * mu_b5_b3 - 5.265995_f32 * mu_b5_b4 - 1.7798588_f32 * mu_b5_u5;
-    let p3_0_2 = 1.7178113_f32 * mu_b5_v5 + 9.037618_f32 * mu_b5_b1 + 3.8819904_f32 * mu_b5_b2 - 13.188545_f32 * mu_b5_b3 - 9.300072_f32 * mu_b5_b4 - 2.3920596_f32 * mu_b5_u5;
-    let p3_0_3 = 5.7585487_f32 * mu_b5_v5 + 20.525227_f32 * mu_b5_b1 + 9.9609375_f32 * mu_b5_b2 - 15.6044035_f32 * mu_b5_b3 - 9.681226_f32 * mu_b5_b4 - 1.7252814_f32 * mu_b5_u5;
-    let p3_0_4 = 4.274226_f32 * mu_b5_v5 + 13.439737_f32 * mu_b5_b1 + 5.237173_f32 * mu_b5_b2 - 9.735561_f32 * mu_b5_b3 - 5.2733855_f32 * mu_b5_b4 - 0.8875207_f32 * mu_b5_u5;
-    let p3_0_5 = 0.5728186_f32 * mu_b5_v5 + 1.7231934_f32 * mu_b5_b1 + 0.08518965_f32 * mu_b5_b2 - 1.6882476_f32 * mu_b5_b3 - 0.40503103_f32 * mu_b5_b4 - 0.06624026_f32 * mu_b5_u5;
+    let p3_0_0 = -0.05741002_f32 * mu_b5_v5 - 0.64621407_f32 * mu_b5_b1 - 0.16592616_f32 * mu_b5_b2 - 0.019592423_f32 * mu_b5_b3 - 0.008755254_f32 * mu_b5_b4 - 9.8389675e-5_f32 * mu_b5_u5;
+    let p3_0_1 = 0.71082795_f32 * mu_b5_v5 + 2.529445_f32 * mu_b5_b1 + 3.355157_f32 * mu_b5_b2 - 0.6508657_f32 * mu_b5_b3 - 0.018114567_f32 * mu_b5_b4 + 0.00022378622_f32 * mu_b5_u5;
+    let p3_0_2 = 1.6836157_f32 * mu_b5_v5 + 9.311844_f32 * mu_b5_b1 + 6.079239_f32 * mu_b5_b2 - 5.55142_f32 * mu_b5_b3 + 0.3259602_f32 * mu_b5_b4 - 0.009744174_f32 * mu_b5_u5;
+    let p3_0_3 = 1.0368036_f32 * mu_b5_v5 + 9.015318_f32 * mu_b5_b1 - 0.3965488_f32 * mu_b5_b2 - 11.538503_f32 * mu_b5_b3 + 1.0934359_f32 * mu_b5_b4 - 0.08125952_f32 * mu_b5_u5;
+    let p3_0_4 = 0.17633805_f32 * mu_b5_v5 + 3.6183228_f32 * mu_b5_b1 - 4.3152356_f32 * mu_b5_b2 - 8.346345_f32 * mu_b5_b3 + 1.5295492_f32 * mu_b5_b4 - 0.050393425_f32 * mu_b5_u5;
+    let p3_0_5 = 0.009692236_f32 * mu_b5_v5 + 0.51309067_f32 * mu_b5_b1 - 1.8127303_f32 * mu_b5_b2 - 2.1801887_f32 * mu_b5_b3 + 0.5453333_f32 * mu_b5_b4 - 0.024420151_f32 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0_f32;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = -0.35957968_f32 * 1.0_f32;
+    let u3_0_0 = 1.8966728_f32 * 1.0_f32;
     let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = -7.916403_f32 * 1.0_f32;
+    let u3_1_0 = -0.8087356_f32 * 1.0_f32;
     let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -22.812872_f32 * 1.0_f32;
+    let u3_2_0 = -11.77127_f32 * 1.0_f32;
     let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = -14.021359_f32 * 1.0_f32;
+    let u3_3_0 = -3.708086_f32 * 1.0_f32;
     let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = -3.3763933_f32 * 1.0_f32;
+    let u3_4_0 = -0.5485883_f32 * 1.0_f32;
     let u3_4 = u3_4_0 * 1.0_f32;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 6.393725_f32 * mu_b4_b1 + 7.3105783_f32 * mu_b4_b2 + 5.4180493_f32 * mu_b4_b3 + 2.1836126_f32 * mu_b4_u4;
-    let q3_0_1 = 6.613993_f32 * mu_b4_v4 + 29.11735_f32 * mu_b4_b1 + 30.27681_f32 * mu_b4_b2 + 21.341589_f32 * mu_b4_b3 + 8.297803_f32 * mu_b4_u4;
-    let q3_0_2 = 15.138117_f32 * mu_b4_v4 + 53.489273_f32 * mu_b4_b1 + 49.69633_f32 * mu_b4_b2 + 28.661047_f32 * mu_b4_b3 + 9.410372_f32 * mu_b4_u4;
-    let q3_0_3 = 12.7331_f32 * mu_b4_v4 + 42.47134_f32 * mu_b4_b1 + 39.821304_f32 * mu_b4_b2 + 20.388586_f32 * mu_b4_b3 + 5.0351896_f32 * mu_b4_u4;
-    let q3_0_4 = 1.8405087_f32 * mu_b4_v4 + 6.231821_f32 * mu_b4_b1 + 4.880395_f32 * mu_b4_b2 + 2.1772063_f32 * mu_b4_b3 + 0.37054035_f32 * mu_b4_u4;
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 3.0231829_f32 * mu_b4_b1 - 0.036364686_f32 * mu_b4_b2 + 0.09825386_f32 * mu_b4_b3 + 0.0012035472_f32 * mu_b4_u4;
+    let q3_0_1 = 3.4514813_f32 * mu_b4_v4 + 12.14341_f32 * mu_b4_b1 - 0.1237932_f32 * mu_b4_b2 - 0.19817072_f32 * mu_b4_b3 - 0.008840887_f32 * mu_b4_u4;
+    let q3_0_2 = 4.7774262_f32 * mu_b4_v4 + 19.724924_f32 * mu_b4_b1 + 1.6528406_f32 * mu_b4_b2 - 0.1814235_f32 * mu_b4_b3 + 0.17364728_f32 * mu_b4_u4;
+    let q3_0_3 = 3.0829837_f32 * mu_b4_v4 + 14.560363_f32 * mu_b4_b1 + 2.5801795_f32 * mu_b4_b2 - 0.09189274_f32 * mu_b4_b3 + 0.17891517_f32 * mu_b4_u4;
+    let q3_0_4 = 0.85577506_f32 * mu_b4_v4 + 4.3506093_f32 * mu_b4_b1 + 1.4323276_f32 * mu_b4_b2 + 0.18805104_f32 * mu_b4_b3 + 0.093959674_f32 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;

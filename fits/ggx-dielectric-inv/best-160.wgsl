@@ -11,18 +11,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 4a9d606b2259ad3bcff4977616b9ff00b9e1b98a998577794ed3c92b51e97cfc.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.834x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 a4754d4e825539c03bfa236c8c73e5e564833d5a80879b0de77d63dcb5d32a02.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.2e-4, shifted 1.5e-5, bernstein 2.8e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 5.32e-4, max 5.67e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.86e-4, max 5.51e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.72e-7 (every op rounded, as this Rust), 6.37e-7 (fused multiply-add), 3.85e-6 (GPU division/sqrt error).
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-4, shifted 2.1e-4, bernstein 2.9e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 7.50e-4, max 3.89e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.14e-4, max 3.63e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.53e-7 (every op rounded, as this Rust), 7.87e-7 (fused multiply-add), 4.15e-6 (GPU division/sqrt error).
 // Bound: |f32 - f64| <= inf for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.30e-4, max 5.67e-3; this f32 code MAE 5.30e-4, max 5.67e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
-// Denominator proved >= 4.031e-4 on the domain (Bernstein certificate), so the division is safe.
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.31e-4, max 3.89e-3; this f32 code MAE 7.31e-4, max 3.89e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
+// Denominator proved >= 6.068e-5 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -36,10 +36,10 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
     let mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
     let mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 2.0 * (r_c * r_c) + 7.888609e-31);
-    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
-    let mu_u = (mu_t - 3.9443045e-31) * 1.0;
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.0 * (r_c * r_c) + 7.888609e-31);
+    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
+    let mu_u = (mu_t - 7.888609e-31) * 1.0;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     let r_b5_v = 1.0 - r_t;
     let r_b5_u2 = r_t * r_t;
@@ -69,12 +69,12 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.42251676 * mu_b5_v5 + 1.5494201 * mu_b5_b1 + 1.0676113 * mu_b5_b2 + 2.6101022 * mu_b5_b3 + 1.7058989 * mu_b5_b4 + 0.19269456 * mu_b5_u5;
-    let p0_0_1 = 5.314443 * mu_b5_v5 + 19.894299 * mu_b5_b1 + 14.152598 * mu_b5_b2 + 11.188069 * mu_b5_b3 + 6.582242 * mu_b5_b4 + 0.7478644 * mu_b5_u5;
-    let p0_0_2 = 24.094683 * mu_b5_v5 + 83.17202 * mu_b5_b1 + 61.6263 * mu_b5_b2 + 22.208715 * mu_b5_b3 + 10.354558 * mu_b5_b4 + 2.2567003 * mu_b5_u5;
-    let p0_0_3 = 39.64194 * mu_b5_v5 + 137.53185 * mu_b5_b1 + 114.83151 * mu_b5_b2 + 37.044643 * mu_b5_b3 + 11.397275 * mu_b5_b4 + 2.8561425 * mu_b5_u5;
-    let p0_0_4 = 20.720503 * mu_b5_v5 + 74.62696 * mu_b5_b1 + 59.298653 * mu_b5_b2 + 11.150789 * mu_b5_b3 - 0.10485666 * mu_b5_b4 - 0.082503036 * mu_b5_u5;
-    let p0_0_5 = 1.4906797 * mu_b5_v5 + 7.969072 * mu_b5_b1 + 5.1020722 * mu_b5_b2 - 0.16948374 * mu_b5_b3 + 0.022893105 * mu_b5_b4 - 0.027752917 * mu_b5_u5;
+    let p0_0_0 = 0.95430404 * mu_b5_v5 + 2.6347384 * mu_b5_b1 + 3.1616054 * mu_b5_b2 + 1.6149682 * mu_b5_b3 + 0.39776903 * mu_b5_b4 + 0.45818815 * mu_b5_u5;
+    let p0_0_1 = 7.2822657 * mu_b5_v5 + 14.63266 * mu_b5_b1 + 15.758569 * mu_b5_b2 + 11.114296 * mu_b5_b3 + 3.3767316 * mu_b5_b4 + 1.6416929 * mu_b5_u5;
+    let p0_0_2 = 18.343884 * mu_b5_v5 + 31.72453 * mu_b5_b1 + 37.014023 * mu_b5_b2 + 37.21432 * mu_b5_b3 + 14.931273 * mu_b5_b4 + 3.2924938 * mu_b5_u5;
+    let p0_0_3 = 21.271671 * mu_b5_v5 + 33.100056 * mu_b5_b1 + 42.45124 * mu_b5_b2 + 51.795982 * mu_b5_b3 + 22.40304 * mu_b5_b4 + 3.172075 * mu_b5_u5;
+    let p0_0_4 = 12.321766 * mu_b5_v5 + 18.953901 * mu_b5_b1 + 26.843103 * mu_b5_b2 + 34.703377 * mu_b5_b3 + 15.024147 * mu_b5_b4 + 1.502819 * mu_b5_u5;
+    let p0_0_5 = 2.928552 * mu_b5_v5 + 4.8931384 * mu_b5_b1 + 7.4342933 * mu_b5_b2 + 9.247756 * mu_b5_b3 + 3.8861024 * mu_b5_b4 + 0.30227005 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -89,15 +89,15 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 1.0875299 * 1.0;
+    let u0_0_0 = 0.95867306 * 1.0;
     let u0_0 = u0_0_0 * 1.0;
-    let u0_1_0 = 5.0004525 * 1.0;
+    let u0_1_0 = 4.1011333 * 1.0;
     let u0_1 = u0_1_0 * 1.0;
-    let u0_2_0 = 8.383372 * 1.0;
+    let u0_2_0 = 6.417385 * 1.0;
     let u0_2 = u0_2_0 * 1.0;
-    let u0_3_0 = 5.7883806 * 1.0;
+    let u0_3_0 = 4.2989097 * 1.0;
     let u0_3 = u0_3_0 * 1.0;
-    let u0_4_0 = 1.4767529 * 1.0;
+    let u0_4_0 = 1.086472 * 1.0;
     let u0_4 = u0_4_0 * 1.0;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -123,101 +123,101 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0 * mu_b4_v4 + 3.3188403 * mu_b4_b1 + 2.0115695 * mu_b4_b2 + 3.4824371 * mu_b4_b3 + 0.46005243 * mu_b4_u4;
-    let q0_0_1 = 8.594341 * mu_b4_v4 + 22.678228 * mu_b4_b1 + 9.588259 * mu_b4_b2 + 10.247166 * mu_b4_b3 + 1.4241732 * mu_b4_u4;
-    let q0_0_2 = 21.704052 * mu_b4_v4 + 63.29071 * mu_b4_b1 + 43.967373 * mu_b4_b2 + 26.567816 * mu_b4_b3 + 4.2091694 * mu_b4_u4;
-    let q0_0_3 = 16.793427 * mu_b4_v4 + 56.356037 * mu_b4_b1 + 49.807987 * mu_b4_b2 + 28.578924 * mu_b4_b3 + 5.014928 * mu_b4_u4;
-    let q0_0_4 = 1.2898176 * mu_b4_v4 + 6.8491206 * mu_b4_b1 + 5.053911 * mu_b4_b2 + 3.2002447 * mu_b4_b3 + 0.37598094 * mu_b4_u4;
+    let q0_0_0 = 1.0 * mu_b4_v4 + 1.9615376 * mu_b4_b1 + 2.0603478 * mu_b4_b2 - 0.07514187 * mu_b4_b3 + 0.48064256 * mu_b4_u4;
+    let q0_0_1 = 6.9929843 * mu_b4_v4 + 7.163899 * mu_b4_b1 + 8.392078 * mu_b4_b2 + 2.8540833 * mu_b4_b3 + 1.2512972 * mu_b4_u4;
+    let q0_0_2 = 14.734106 * mu_b4_v4 + 12.230142 * mu_b4_b1 + 20.326908 * mu_b4_b2 + 15.536217 * mu_b4_b3 + 2.6329114 * mu_b4_u4;
+    let q0_0_3 = 12.395373 * mu_b4_v4 + 9.324005 * mu_b4_b1 + 19.810087 * mu_b4_b2 + 18.488503 * mu_b4_b3 + 2.2254252 * mu_b4_u4;
+    let q0_0_4 = 4.1167727 * mu_b4_v4 + 4.1463075 * mu_b4_b1 + 8.590034 * mu_b4_b2 + 7.731593 * mu_b4_b3 + 0.825689 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.19364321 * mu_b5_v5 + 0.27174398 * mu_b5_b1 + 0.30285886 * mu_b5_b2 + 0.1953025 * mu_b5_b3 + 0.0035222464 * mu_b5_b4 + 0.001782788 * mu_b5_u5;
-    let p1_0_1 = 0.060958993 * mu_b5_v5 + 0.1803817 * mu_b5_b1 + 0.6950535 * mu_b5_b2 + 0.18753618 * mu_b5_b3 - 0.24552085 * mu_b5_b4 - 0.013401351 * mu_b5_u5;
-    let p1_0_2 = -1.2268941 * mu_b5_v5 - 0.43122786 * mu_b5_b1 + 2.0460858 * mu_b5_b2 + 0.7077474 * mu_b5_b3 - 0.14919992 * mu_b5_b4 + 0.081521854 * mu_b5_u5;
-    let p1_0_3 = -2.385682 * mu_b5_v5 - 1.0531065 * mu_b5_b1 + 2.3846886 * mu_b5_b2 + 0.7262 * mu_b5_b3 + 0.24665396 * mu_b5_b4 + 0.2606167 * mu_b5_u5;
-    let p1_0_4 = -1.6562701 * mu_b5_v5 - 0.76595724 * mu_b5_b1 + 1.0441835 * mu_b5_b2 + 0.029546412 * mu_b5_b3 + 0.29439762 * mu_b5_b4 + 0.26274666 * mu_b5_u5;
-    let p1_0_5 = -0.36731794 * mu_b5_v5 - 0.06531659 * mu_b5_b1 + 0.2881852 * mu_b5_b2 - 0.006340579 * mu_b5_b3 + 0.13498648 * mu_b5_b4 + 0.09631589 * mu_b5_u5;
+    let p1_0_0 = 0.11915953 * mu_b5_v5 + 0.8764722 * mu_b5_b1 + 0.47104028 * mu_b5_b2 + 0.05957853 * mu_b5_b3 + 0.0028697362 * mu_b5_b4 + 0.00047502457 * mu_b5_u5;
+    let p1_0_1 = -0.8355232 * mu_b5_v5 - 2.99905 * mu_b5_b1 - 2.7407596 * mu_b5_b2 + 1.0988854 * mu_b5_b3 - 0.03421355 * mu_b5_b4 + 0.006948992 * mu_b5_u5;
+    let p1_0_2 = -2.6628568 * mu_b5_v5 - 13.652117 * mu_b5_b1 - 7.5174847 * mu_b5_b2 + 6.276729 * mu_b5_b3 - 0.5984146 * mu_b5_b4 + 0.031193541 * mu_b5_u5;
+    let p1_0_3 = -2.6731975 * mu_b5_v5 - 16.855453 * mu_b5_b1 - 3.9783134 * mu_b5_b2 + 12.1453285 * mu_b5_b3 - 1.379155 * mu_b5_b4 + 0.11402042 * mu_b5_u5;
+    let p1_0_4 = -1.3628162 * mu_b5_v5 - 9.474806 * mu_b5_b1 + 0.581843 * mu_b5_b2 + 8.850012 * mu_b5_b3 - 1.4745044 * mu_b5_b4 + 0.086597644 * mu_b5_u5;
+    let p1_0_5 = -0.35022777 * mu_b5_v5 - 2.158122 * mu_b5_b1 + 0.73012334 * mu_b5_b2 + 2.4177568 * mu_b5_b3 - 0.418855 * mu_b5_b4 + 0.04486194 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 2.5028586 * 1.0;
+    let u1_0_0 = 1.3346801 * 1.0;
     let u1_0 = u1_0_0 * 1.0;
-    let u1_1_0 = 3.233201 * 1.0;
+    let u1_1_0 = 1.1264191 * 1.0;
     let u1_1 = u1_1_0 * 1.0;
-    let u1_2_0 = -6.19396 * 1.0;
+    let u1_2_0 = -3.8509786 * 1.0;
     let u1_2 = u1_2_0 * 1.0;
-    let u1_3_0 = -3.5859609 * 1.0;
+    let u1_3_0 = -2.0842366 * 1.0;
     let u1_3 = u1_3_0 * 1.0;
-    let u1_4_0 = -0.85438186 * 1.0;
+    let u1_4_0 = -0.5206012 * 1.0;
     let u1_4 = u1_4_0 * 1.0;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0 * mu_b4_v4 + 0.6203024 * mu_b4_b1 + 1.0012269 * mu_b4_b2 + 0.01159849 * mu_b4_b3 + 0.0091587445 * mu_b4_u4;
-    let q1_0_1 = 3.9055452 * mu_b4_v4 + 1.0516697 * mu_b4_b1 + 1.519699 * mu_b4_b2 - 1.2196487 * mu_b4_b3 - 0.07928396 * mu_b4_u4;
-    let q1_0_2 = 6.6777315 * mu_b4_v4 + 3.0977879 * mu_b4_b1 + 3.8005097 * mu_b4_b2 - 0.3803855 * mu_b4_b3 + 0.51007044 * mu_b4_u4;
-    let q1_0_3 = 4.8735003 * mu_b4_v4 + 2.7557795 * mu_b4_b1 + 3.3407981 * mu_b4_b2 + 0.7691898 * mu_b4_b3 + 0.8246101 * mu_b4_u4;
-    let q1_0_4 = 1.2471166 * mu_b4_v4 + 0.67256725 * mu_b4_b1 + 0.93357295 * mu_b4_b2 + 0.5015363 * mu_b4_b3 + 0.37189898 * mu_b4_u4;
+    let q1_0_0 = 1.0 * mu_b4_v4 + 3.575506 * mu_b4_b1 + 0.3316202 * mu_b4_b2 + 0.015578714 * mu_b4_b3 + 0.0033729093 * mu_b4_u4;
+    let q1_0_1 = 3.309286 * mu_b4_v4 + 13.371998 * mu_b4_b1 + 0.69685894 * mu_b4_b2 - 0.30375662 * mu_b4_b3 + 0.037730116 * mu_b4_u4;
+    let q1_0_2 = 4.625728 * mu_b4_v4 + 20.553331 * mu_b4_b1 + 1.8714675 * mu_b4_b2 - 0.34315693 * mu_b4_b3 + 0.17642905 * mu_b4_u4;
+    let q1_0_3 = 3.2771456 * mu_b4_v4 + 15.037245 * mu_b4_b1 + 2.4912112 * mu_b4_b2 - 0.10745219 * mu_b4_b3 + 0.1370691 * mu_b4_u4;
+    let q1_0_4 = 1.077583 * mu_b4_v4 + 4.747923 * mu_b4_b1 + 1.6862587 * mu_b4_b2 + 0.38388675 * mu_b4_b3 + 0.11187661 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.0041594314 * mu_b5_v5 - 0.026336052 * mu_b5_b1 + 0.008833147 * mu_b5_b2 - 0.0019305374 * mu_b5_b3 + 0.00025948 * mu_b5_b4 - 8.64582e-6 * mu_b5_u5;
-    let p2_0_1 = 0.32895225 * mu_b5_v5 + 0.012752087 * mu_b5_b1 - 0.04803978 * mu_b5_b2 + 0.1038596 * mu_b5_b3 + 0.0015623108 * mu_b5_b4 - 0.00017906413 * mu_b5_u5;
-    let p2_0_2 = 1.2587852 * mu_b5_v5 + 0.24749266 * mu_b5_b1 - 0.27611572 * mu_b5_b2 + 0.25120875 * mu_b5_b3 - 0.1509548 * mu_b5_b4 + 0.00092901115 * mu_b5_u5;
-    let p2_0_3 = 1.3492767 * mu_b5_v5 - 0.6193205 * mu_b5_b1 - 1.0601232 * mu_b5_b2 + 0.2999647 * mu_b5_b3 - 0.2858476 * mu_b5_b4 - 0.009422563 * mu_b5_u5;
-    let p2_0_4 = 0.2771794 * mu_b5_v5 - 1.7069573 * mu_b5_b1 - 1.3460883 * mu_b5_b2 + 0.4527196 * mu_b5_b3 - 0.023621466 * mu_b5_b4 - 0.004334729 * mu_b5_u5;
-    let p2_0_5 = -0.15891136 * mu_b5_v5 - 0.94167054 * mu_b5_b1 - 0.6300844 * mu_b5_b2 + 0.17329699 * mu_b5_b3 + 0.047530234 * mu_b5_b4 - 0.0063003893 * mu_b5_u5;
+    let p2_0_0 = -0.043704253 * mu_b5_v5 - 0.67836124 * mu_b5_b1 - 0.109239355 * mu_b5_b2 - 0.05228491 * mu_b5_b3 - 0.012101583 * mu_b5_b4 - 6.838825e-5 * mu_b5_u5;
+    let p2_0_1 = 0.66696215 * mu_b5_v5 + 2.5417325 * mu_b5_b1 + 4.2703323 * mu_b5_b2 - 0.4690186 * mu_b5_b3 - 0.034658417 * mu_b5_b4 + 0.0015754085 * mu_b5_u5;
+    let p2_0_2 = 1.3320571 * mu_b5_v5 + 8.549544 * mu_b5_b1 + 6.9691453 * mu_b5_b2 - 5.661295 * mu_b5_b3 + 0.24015163 * mu_b5_b4 - 0.0035882434 * mu_b5_u5;
+    let p2_0_3 = 0.32335627 * mu_b5_v5 + 6.33507 * mu_b5_b1 - 2.3169923 * mu_b5_b2 - 12.885412 * mu_b5_b3 + 1.003713 * mu_b5_b4 - 0.09627435 * mu_b5_u5;
+    let p2_0_4 = -0.38265374 * mu_b5_v5 + 1.0257056 * mu_b5_b1 - 6.9363985 * mu_b5_b2 - 9.337519 * mu_b5_b3 + 1.7841672 * mu_b5_b4 - 0.05141874 * mu_b5_u5;
+    let p2_0_5 = -0.15227154 * mu_b5_v5 - 0.318175 * mu_b5_b1 - 2.7063541 * mu_b5_b2 - 2.37319 * mu_b5_b3 + 0.7049016 * mu_b5_b4 - 0.028028624 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = 0.29027507 * 1.0;
+    let u2_0_0 = -0.780217 * 1.0;
     let u2_0 = u2_0_0 * 1.0;
-    let u2_1_0 = 2.0832062 * 1.0;
+    let u2_1_0 = 1.8956915 * 1.0;
     let u2_1 = u2_1_0 * 1.0;
-    let u2_2_0 = 0.0673326 * 1.0;
+    let u2_2_0 = 7.6932955 * 1.0;
     let u2_2 = u2_2_0 * 1.0;
-    let u2_3_0 = -0.67637604 * 1.0;
+    let u2_3_0 = 1.6918272 * 1.0;
     let u2_3 = u2_3_0 * 1.0;
-    let u2_4_0 = -0.2728908 * 1.0;
+    let u2_4_0 = 0.11273346 * 1.0;
     let u2_4 = u2_4_0 * 1.0;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0 * mu_b4_v4 - 1.1327289 * mu_b4_b1 + 2.006306 * mu_b4_b2 - 0.109121054 * mu_b4_b3 + 0.0030923337 * mu_b4_u4;
-    let q2_0_1 = 5.1074867 * mu_b4_v4 - 7.2816806 * mu_b4_b1 + 3.2975862 * mu_b4_b2 - 1.2975976 * mu_b4_b3 + 0.020642472 * mu_b4_u4;
-    let q2_0_2 = 11.839078 * mu_b4_v4 - 7.94809 * mu_b4_b1 + 4.818931 * mu_b4_b2 - 0.5453127 * mu_b4_b3 + 0.35607904 * mu_b4_u4;
-    let q2_0_3 = 11.195382 * mu_b4_v4 - 2.649976 * mu_b4_b1 + 2.5284405 * mu_b4_b2 - 0.5555775 * mu_b4_b3 + 0.07561742 * mu_b4_u4;
-    let q2_0_4 = 3.7820485 * mu_b4_v4 + 0.42219183 * mu_b4_b1 + 0.9103338 * mu_b4_b2 + 0.07428799 * mu_b4_b3 + 0.055345863 * mu_b4_u4;
+    let q2_0_0 = 1.0 * mu_b4_v4 + 3.3031359 * mu_b4_b1 + 0.0425095 * mu_b4_b2 + 0.16443937 * mu_b4_b3 + 0.0010008487 * mu_b4_u4;
+    let q2_0_1 = 3.343399 * mu_b4_v4 + 12.641705 * mu_b4_b1 - 0.7028243 * mu_b4_b2 - 0.3335434 * mu_b4_b3 - 0.028673226 * mu_b4_u4;
+    let q2_0_2 = 5.02441 * mu_b4_v4 + 21.380611 * mu_b4_b1 + 1.507725 * mu_b4_b2 - 0.09084698 * mu_b4_b3 + 0.21324079 * mu_b4_u4;
+    let q2_0_3 = 3.464347 * mu_b4_v4 + 16.067 * mu_b4_b1 + 2.6746516 * mu_b4_b2 - 0.034064066 * mu_b4_b3 + 0.19767734 * mu_b4_u4;
+    let q2_0_4 = 0.9336244 * mu_b4_v4 + 4.626109 * mu_b4_b1 + 1.3233228 * mu_b4_b2 + 0.15995349 * mu_b4_b3 + 0.1050508 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.16016702 * mu_b5_v5 - 1.1701951 * mu_b5_b1 - 2.0814555 * mu_b5_b2 - 2.0905023 * mu_b5_b3 - 1.0885553 * mu_b5_b4 - 0.3537523 * mu_b5_u5;
-    let p3_0_1 = -0.43754447 * mu_b5_v5 - 0.6315003 * mu_b5_b1 - 2.3888981 * mu_b5_b2 - 7.102437 * mu_b5_b3 - 5.265995 * mu_b5_b4 - 1.7798588 * mu_b5_u5;
-    let p3_0_2 = 1.7178113 * mu_b5_v5 + 9.037618 * mu_b5_b1 + 3.8819904 * mu_b5_b2 - 13.188545 * mu_b5_b3 - 9.300072 * mu_b5_b4 - 2.3920596 * mu_b5_u5;
-    let p3_0_3 = 5.7585487 * mu_b5_v5 + 20.525227 * mu_b5_b1 + 9.9609375 * mu_b5_b2 - 15.6044035 * mu_b5_b3 - 9.681226 * mu_b5_b4 - 1.7252814 * mu_b5_u5;
-    let p3_0_4 = 4.274226 * mu_b5_v5 + 13.439737 * mu_b5_b1 + 5.237173 * mu_b5_b2 - 9.735561 * mu_b5_b3 - 5.2733855 * mu_b5_b4 - 0.8875207 * mu_b5_u5;
-    let p3_0_5 = 0.5728186 * mu_b5_v5 + 1.7231934 * mu_b5_b1 + 0.08518965 * mu_b5_b2 - 1.6882476 * mu_b5_b3 - 0.40503103 * mu_b5_b4 - 0.06624026 * mu_b5_u5;
+    let p3_0_0 = -0.05741002 * mu_b5_v5 - 0.64621407 * mu_b5_b1 - 0.16592616 * mu_b5_b2 - 0.019592423 * mu_b5_b3 - 0.008755254 * mu_b5_b4 - 9.8389675e-5 * mu_b5_u5;
+    let p3_0_1 = 0.71082795 * mu_b5_v5 + 2.529445 * mu_b5_b1 + 3.355157 * mu_b5_b2 - 0.6508657 * mu_b5_b3 - 0.018114567 * mu_b5_b4 + 0.00022378622 * mu_b5_u5;
+    let p3_0_2 = 1.6836157 * mu_b5_v5 + 9.311844 * mu_b5_b1 + 6.079239 * mu_b5_b2 - 5.55142 * mu_b5_b3 + 0.3259602 * mu_b5_b4 - 0.009744174 * mu_b5_u5;
+    let p3_0_3 = 1.0368036 * mu_b5_v5 + 9.015318 * mu_b5_b1 - 0.3965488 * mu_b5_b2 - 11.538503 * mu_b5_b3 + 1.0934359 * mu_b5_b4 - 0.08125952 * mu_b5_u5;
+    let p3_0_4 = 0.17633805 * mu_b5_v5 + 3.6183228 * mu_b5_b1 - 4.3152356 * mu_b5_b2 - 8.346345 * mu_b5_b3 + 1.5295492 * mu_b5_b4 - 0.050393425 * mu_b5_u5;
+    let p3_0_5 = 0.009692236 * mu_b5_v5 + 0.51309067 * mu_b5_b1 - 1.8127303 * mu_b5_b2 - 2.1801887 * mu_b5_b3 + 0.5453333 * mu_b5_b4 - 0.024420151 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = -0.35957968 * 1.0;
+    let u3_0_0 = 1.8966728 * 1.0;
     let u3_0 = u3_0_0 * 1.0;
-    let u3_1_0 = -7.916403 * 1.0;
+    let u3_1_0 = -0.8087356 * 1.0;
     let u3_1 = u3_1_0 * 1.0;
-    let u3_2_0 = -22.812872 * 1.0;
+    let u3_2_0 = -11.77127 * 1.0;
     let u3_2 = u3_2_0 * 1.0;
-    let u3_3_0 = -14.021359 * 1.0;
+    let u3_3_0 = -3.708086 * 1.0;
     let u3_3 = u3_3_0 * 1.0;
-    let u3_4_0 = -3.3763933 * 1.0;
+    let u3_4_0 = -0.5485883 * 1.0;
     let u3_4 = u3_4_0 * 1.0;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0 * mu_b4_v4 + 6.393725 * mu_b4_b1 + 7.3105783 * mu_b4_b2 + 5.4180493 * mu_b4_b3 + 2.1836126 * mu_b4_u4;
-    let q3_0_1 = 6.613993 * mu_b4_v4 + 29.11735 * mu_b4_b1 + 30.27681 * mu_b4_b2 + 21.341589 * mu_b4_b3 + 8.297803 * mu_b4_u4;
-    let q3_0_2 = 15.138117 * mu_b4_v4 + 53.489273 * mu_b4_b1 + 49.69633 * mu_b4_b2 + 28.661047 * mu_b4_b3 + 9.410372 * mu_b4_u4;
-    let q3_0_3 = 12.7331 * mu_b4_v4 + 42.47134 * mu_b4_b1 + 39.821304 * mu_b4_b2 + 20.388586 * mu_b4_b3 + 5.0351896 * mu_b4_u4;
-    let q3_0_4 = 1.8405087 * mu_b4_v4 + 6.231821 * mu_b4_b1 + 4.880395 * mu_b4_b2 + 2.1772063 * mu_b4_b3 + 0.37054035 * mu_b4_u4;
+    let q3_0_0 = 1.0 * mu_b4_v4 + 3.0231829 * mu_b4_b1 - 0.036364686 * mu_b4_b2 + 0.09825386 * mu_b4_b3 + 0.0012035472 * mu_b4_u4;
+    let q3_0_1 = 3.4514813 * mu_b4_v4 + 12.14341 * mu_b4_b1 - 0.1237932 * mu_b4_b2 - 0.19817072 * mu_b4_b3 - 0.008840887 * mu_b4_u4;
+    let q3_0_2 = 4.7774262 * mu_b4_v4 + 19.724924 * mu_b4_b1 + 1.6528406 * mu_b4_b2 - 0.1814235 * mu_b4_b3 + 0.17364728 * mu_b4_u4;
+    let q3_0_3 = 3.0829837 * mu_b4_v4 + 14.560363 * mu_b4_b1 + 2.5801795 * mu_b4_b2 - 0.09189274 * mu_b4_b3 + 0.17891517 * mu_b4_u4;
+    let q3_0_4 = 0.85577506 * mu_b4_v4 + 4.3506093 * mu_b4_b1 + 1.4323276 * mu_b4_b2 + 0.18805104 * mu_b4_b3 + 0.093959674 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0;
     let e3 = p3 * u3 / q3;

@@ -15,18 +15,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 dabc570b8d333e0a53add7ccfd2de811529a9b9c46afb56c1388b1b4a778907c.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 8 (step 4 of the polish), its MAE on the fitting points 1.556x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c3e3fd8a8c7029d6d260c91e5861054fba2e928f75ad5f0dbca50ed03391fa93.
 // Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.9e-6, shifted 4.3e-6, bernstein 4.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 9.42e-5, max 9.12e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.62e-5, max 8.27e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.01e-6 (every op rounded, as this Rust), 8.71e-7 (fused multiply-add), 4.68e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.15e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1279 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.28e-5, max 9.12e-4; this f32 code MAE 9.28e-5, max 9.12e-4.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.4e-5, shifted 4.4e-6, bernstein 4.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.09e-4, max 8.58e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.10e-4, max 7.74e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.30e-6 (every op rounded, as this Rust), 3.21e-6 (fused multiply-add), 5.83e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.04e0 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.06e-4, max 8.58e-4; this f32 code MAE 1.06e-4, max 8.58e-4.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.2e-4 on the measurement grid.
-// Denominator proved >= 3.220e-1 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 5.589e-3 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -40,8 +40,8 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     highp float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
     highp float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
     highp float mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    highp float mu_t = (mu_logv * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 2.0 * (r_c * r_c) + 7.888609e-31);
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    highp float mu_t = (mu_logv * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.0 * (r_c * r_c) + 7.888609e-31);
     // s = (t - 0.5)/0.5 in [-1, 1]
     highp float f0_s = f0_t * 2.0 - 1.0;
     // s = (t - 0.5)/0.5 in [-1, 1]
@@ -49,59 +49,59 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     // s = (t - 0.5)/0.5 in [-1, 1]
     highp float mu_s = mu_t * 2.0 - 1.0;
     // term 0: numerator P_0, grouped by powers of the first variable
-    highp float p0_0 = ((((0.039107174 * r_s + (0.10300391 * mu_s - 0.3569073)) * r_s + ((0.0005524761 * mu_s - 0.29786614) * mu_s + 0.6482558)) * r_s + (((-0.07225095 * mu_s + 0.29820192) * mu_s + 0.12447093) * mu_s - 0.18748178)) * r_s + ((((-0.015515809 * mu_s + 0.03992242) * mu_s - 0.45290625) * mu_s + 0.07234853) * mu_s - 0.7169846)) * r_s + (((((-0.0040250663 * mu_s - 0.08098172) * mu_s + 0.0040610027) * mu_s + 0.02525576) * mu_s - 0.10100101) * mu_s + 1.3170125);
+    highp float p0_0 = ((((0.030080194 * r_s + (-0.114870094 * mu_s - 0.020844648)) * r_s + ((0.037244916 * mu_s - 0.015845407) * mu_s + 0.31698146)) * r_s + (((-0.009272043 * mu_s + 0.13690244) * mu_s + 0.04534846) * mu_s - 0.3209004)) * r_s + ((((0.028126838 * mu_s - 0.13698372) * mu_s - 0.34340793) * mu_s + 0.19217883) * mu_s - 0.43901148)) * r_s + (((((-0.034017257 * mu_s + 0.058468662) * mu_s + 0.3511284) * mu_s - 0.010986629) * mu_s - 0.16747543) * mu_s + 1.0628918);
     highp float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    highp float u0_0 = 0.9556599;
-    highp float u0_1 = 0.017231217;
-    highp float u0_2 = -0.0058352225;
-    highp float u0_3 = -0.00520988;
-    highp float u0_4 = 0.0014192578;
+    highp float u0_0 = 0.9287135;
+    highp float u0_1 = -0.050082978;
+    highp float u0_2 = 0.015244549;
+    highp float u0_3 = -0.008996861;
+    highp float u0_4 = 0.0022064145;
     highp float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    highp float q0_0 = (((-0.16560692 * r_s + (-0.09984621 * mu_s + 0.17427923)) * r_s + ((0.19207232 * mu_s + 0.16135833) * mu_s - 0.23146012)) * r_s + (((0.0017188239 * mu_s - 0.23674777) * mu_s + 0.09188825) * mu_s + 0.1734782)) * r_s + ((((-0.07976491 * mu_s - 0.035582088) * mu_s + 0.14475337) * mu_s + 0.0057690768) * mu_s + 1.3888004);
+    highp float q0_0 = (((-0.0104241865 * r_s + (0.2023716 * mu_s - 0.031886663)) * r_s + ((-0.045406863 * mu_s - 0.23870832) * mu_s - 0.041184314)) * r_s + (((0.0149774235 * mu_s - 0.2593987) * mu_s - 0.29189897) * mu_s + 0.37005115)) * r_s + ((((-0.0075147157 * mu_s + 0.35090092) * mu_s + 0.08418315) * mu_s - 0.21259847) * mu_s + 1.0732567);
     highp float q0 = q0_0;
     highp float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    highp float p1_0 = ((((-0.006023788 * r_s + (-0.02680116 * mu_s - 0.010060194)) * r_s + ((0.06106134 * mu_s + 0.06565007) * mu_s - 0.041165788)) * r_s + (((0.16906697 * mu_s + 0.033554964) * mu_s - 0.29801947) * mu_s + 0.06314747)) * r_s + ((((-0.016174663 * mu_s + 0.20171313) * mu_s - 0.0025778778) * mu_s - 0.5428041) * mu_s + 0.29104578)) * r_s + (((((0.0026990199 * mu_s + 0.0022859802) * mu_s + 0.11921809) * mu_s + 0.072281584) * mu_s - 0.25409392) * mu_s - 0.03394093);
+    highp float p1_0 = ((((0.0018008607 * r_s + (0.043598633 * mu_s - 0.032040562)) * r_s + ((0.031802278 * mu_s - 0.07380327) * mu_s + 0.03571849)) * r_s + (((0.015782556 * mu_s - 0.02815886) * mu_s - 0.071844816) * mu_s + 0.039845143)) * r_s + ((((0.0059884093 * mu_s + 0.033011537) * mu_s - 0.18254997) * mu_s + 0.25293773) * mu_s - 0.05675541)) * r_s + (((((0.004016871 * mu_s + 0.008986701) * mu_s - 0.0015248543) * mu_s - 0.13633803) * mu_s + 0.24158838) * mu_s - 0.13168924);
     highp float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    highp float u1_0 = -0.74525213;
-    highp float u1_1 = 0.3975174;
-    highp float u1_2 = -0.087401405;
-    highp float u1_3 = 0.043519553;
-    highp float u1_4 = -0.009426171;
+    highp float u1_0 = 0.53727263;
+    highp float u1_1 = -0.46373218;
+    highp float u1_2 = 0.10895478;
+    highp float u1_3 = -0.04361907;
+    highp float u1_4 = 0.009145155;
     highp float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    highp float q1_0 = (((0.17894422 * r_s + (-0.22389144 * mu_s - 0.09830829)) * r_s + ((-0.2611816 * mu_s - 0.2095898) * mu_s + 0.6078879)) * r_s + (((0.42120087 * mu_s + 0.0028463323) * mu_s - 0.660126) * mu_s + 0.19152094)) * r_s + ((((-0.0777127 * mu_s - 0.041520867) * mu_s - 0.22849253) * mu_s - 0.18396047) * mu_s + 0.9043591);
+    highp float q1_0 = (((0.04819088 * r_s + (0.14476734 * mu_s - 0.13258924)) * r_s + ((0.16987613 * mu_s - 0.25505528) * mu_s + 0.13650762)) * r_s + (((-0.15071349 * mu_s + 0.3788192) * mu_s - 0.63145196) * mu_s + 0.06552949)) * r_s + ((((0.014057838 * mu_s - 0.0321929) * mu_s + 0.21039602) * mu_s - 0.52171683) * mu_s + 0.561164);
     highp float q1 = q1_0;
     highp float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    highp float p2_0 = ((((0.02260377 * r_s + (-0.36472723 * mu_s + 0.15283959)) * r_s + ((0.21279956 * mu_s - 0.6548035) * mu_s + 0.55147403)) * r_s + (((0.02739059 * mu_s + 0.0873412) * mu_s + 0.578328) * mu_s - 0.4792539)) * r_s + ((((-0.06899969 * mu_s + 0.17428301) * mu_s - 0.54294944) * mu_s + 0.5555385) * mu_s - 0.82904273)) * r_s + (((((-0.03643871 * mu_s - 0.029638905) * mu_s + 0.17502558) * mu_s - 0.19616893) * mu_s - 0.21532373) * mu_s + 0.25939208);
+    highp float p2_0 = ((((0.017298404 * r_s + (-0.076852076 * mu_s + 0.04517472)) * r_s + ((0.050107043 * mu_s - 0.26266512) * mu_s + 0.18161014)) * r_s + (((-1.9903803e-6 * mu_s + 0.062784284) * mu_s + 0.12307378) * mu_s - 0.13390104)) * r_s + ((((0.07933127 * mu_s - 0.003947566) * mu_s - 0.11400673) * mu_s + 0.35006946) * mu_s - 0.3237685)) * r_s + (((((-0.027202515 * mu_s + 0.09293901) * mu_s + 0.037322704) * mu_s - 0.117511086) * mu_s - 0.008965695) * mu_s + 0.00841785);
     highp float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    highp float u2_0 = -0.9923536;
-    highp float u2_1 = -0.011658018;
-    highp float u2_2 = 0.05286856;
-    highp float u2_3 = 0.006634478;
-    highp float u2_4 = -0.00019772346;
+    highp float u2_0 = -0.8429516;
+    highp float u2_1 = 0.13394795;
+    highp float u2_2 = 0.14352892;
+    highp float u2_3 = -0.01521835;
+    highp float u2_4 = 0.011178513;
     highp float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    highp float q2_0 = (((0.04674238 * r_s + (-0.05956752 * mu_s + 0.5044997)) * r_s + ((-0.41404626 * mu_s - 0.23080887) * mu_s + 0.8432872)) * r_s + (((0.29946655 * mu_s - 0.94293475) * mu_s - 1.5512251) * mu_s + 2.0347562)) * r_s + ((((-0.06738006 * mu_s + 0.28176853) * mu_s + 0.18173099) * mu_s - 1.1911479) * mu_s + 2.1771245);
+    highp float q2_0 = (((-0.014376003 * r_s + (0.25752535 * mu_s - 0.14142452)) * r_s + ((-0.069811136 * mu_s - 0.0059679467) * mu_s + 0.10521878)) * r_s + (((0.24104531 * mu_s - 0.62183) * mu_s - 0.7709273) * mu_s + 0.9695088)) * r_s + ((((-0.17760324 * mu_s + 0.34023726) * mu_s - 0.17551026) * mu_s - 0.9989423) * mu_s + 1.1460198);
     highp float q2 = q2_0;
     highp float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    highp float p3_0 = ((((-0.0043863663 * r_s + (-0.015469411 * mu_s - 0.029561168)) * r_s + ((0.06826351 * mu_s + 0.01916218) * mu_s - 0.0021923669)) * r_s + (((0.13811481 * mu_s + 0.043455515) * mu_s - 0.21596879) * mu_s + 0.032797374)) * r_s + ((((0.0048403107 * mu_s + 0.08301751) * mu_s - 0.108733706) * mu_s - 0.18900181) * mu_s + 0.15075615)) * r_s + (((((0.005136038 * mu_s + 0.0063718674) * mu_s - 0.0001869835) * mu_s + 0.032490898) * mu_s - 0.023691729) * mu_s - 0.08121501);
+    highp float p3_0 = ((((-0.00083445857 * r_s + (0.054493558 * mu_s - 0.050607953)) * r_s + ((-0.050634697 * mu_s + 0.16164872) * mu_s - 0.11906722)) * r_s + (((0.01164547 * mu_s - 0.0058973795) * mu_s - 0.14526959) * mu_s + 0.12549607)) * r_s + ((((0.0015800643 * mu_s + 0.027689647) * mu_s + 0.076520234) * mu_s - 0.29520437) * mu_s + 0.20449458)) * r_s + (((((0.029277597 * mu_s - 0.029089425) * mu_s - 0.033914454) * mu_s + 0.047964398) * mu_s + 0.018791767) * mu_s - 0.042714305);
     highp float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    highp float u3_0 = 0.4117819;
-    highp float u3_1 = -0.51334536;
-    highp float u3_2 = 0.30684632;
-    highp float u3_3 = -0.13293613;
-    highp float u3_4 = 0.039991822;
+    highp float u3_0 = 0.55141443;
+    highp float u3_1 = 0.12877369;
+    highp float u3_2 = 0.17684194;
+    highp float u3_3 = -0.06048392;
+    highp float u3_4 = 0.024840917;
     highp float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    highp float q3_0 = (((0.535473 * r_s + (-0.5096454 * mu_s - 0.22742318)) * r_s + ((-0.8428942 * mu_s - 0.4339264) * mu_s + 1.0918931)) * r_s + (((0.65302926 * mu_s + 0.18128537) * mu_s - 0.7547047) * mu_s + 0.21620527)) * r_s + ((((0.12880196 * mu_s + 0.13552296) * mu_s - 0.8055357) * mu_s - 0.07931767) * mu_s + 1.2959291);
+    highp float q3_0 = (((0.010500048 * r_s + (0.060041282 * mu_s - 0.16452327)) * r_s + ((0.114316925 * mu_s - 0.20393424) * mu_s - 0.013447056)) * r_s + (((0.040400002 * mu_s - 0.09040512) * mu_s - 0.18921106) * mu_s + 0.49753457)) * r_s + ((((-0.023039082 * mu_s + 0.21041968) * mu_s - 0.056732606) * mu_s - 0.50485903) * mu_s + 0.8014041);
     highp float q3 = q3_0;
     highp float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

@@ -27,18 +27,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 dabc570b8d333e0a53add7ccfd2de811529a9b9c46afb56c1388b1b4a778907c.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 8 (step 4 of the polish), its MAE on the fitting points 1.556x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c3e3fd8a8c7029d6d260c91e5861054fba2e928f75ad5f0dbca50ed03391fa93.
 // Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.9e-6, shifted 4.3e-6, bernstein 4.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 9.42e-5, max 9.12e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.62e-5, max 8.27e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.01e-6 (every op rounded, as this Rust), 8.71e-7 (fused multiply-add), 4.68e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.15e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1279 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.28e-5, max 9.12e-4; this f32 code MAE 9.28e-5, max 9.12e-4.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.4e-5, shifted 4.4e-6, bernstein 4.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.09e-4, max 8.58e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.10e-4, max 7.74e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.30e-6 (every op rounded, as this Rust), 3.21e-6 (fused multiply-add), 5.83e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.04e0 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.06e-4, max 8.58e-4; this f32 code MAE 1.06e-4, max 8.58e-4.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.2e-4 on the measurement grid.
-// Denominator proved >= 3.220e-1 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 5.589e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -52,8 +52,8 @@ FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     const float mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(fmaxf(mu_c, 5.421011e-20f)))));
     const float mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0f + mu_c))));
     const float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    const float mu_t = (mu_logv * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 2.0f * (r_c * r_c) + 7.888609e-31f);
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    const float mu_t = (mu_logv * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.0f * (r_c * r_c) + 7.888609e-31f);
     // s = (t - 0.5)/0.5 in [-1, 1]
     const float f0_s = f0_t * 2.0f - 1.0f;
     // s = (t - 0.5)/0.5 in [-1, 1]
@@ -61,59 +61,59 @@ FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // s = (t - 0.5)/0.5 in [-1, 1]
     const float mu_s = mu_t * 2.0f - 1.0f;
     // term 0: numerator P_0, grouped by powers of the first variable
-    const float p0_0 = ((((0.039107174f * r_s + (0.10300391f * mu_s - 0.3569073f)) * r_s + ((0.0005524761f * mu_s - 0.29786614f) * mu_s + 0.6482558f)) * r_s + (((-0.07225095f * mu_s + 0.29820192f) * mu_s + 0.12447093f) * mu_s - 0.18748178f)) * r_s + ((((-0.015515809f * mu_s + 0.03992242f) * mu_s - 0.45290625f) * mu_s + 0.07234853f) * mu_s - 0.7169846f)) * r_s + (((((-0.0040250663f * mu_s - 0.08098172f) * mu_s + 0.0040610027f) * mu_s + 0.02525576f) * mu_s - 0.10100101f) * mu_s + 1.3170125f);
+    const float p0_0 = ((((0.030080194f * r_s + (-0.114870094f * mu_s - 0.020844648f)) * r_s + ((0.037244916f * mu_s - 0.015845407f) * mu_s + 0.31698146f)) * r_s + (((-0.009272043f * mu_s + 0.13690244f) * mu_s + 0.04534846f) * mu_s - 0.3209004f)) * r_s + ((((0.028126838f * mu_s - 0.13698372f) * mu_s - 0.34340793f) * mu_s + 0.19217883f) * mu_s - 0.43901148f)) * r_s + (((((-0.034017257f * mu_s + 0.058468662f) * mu_s + 0.3511284f) * mu_s - 0.010986629f) * mu_s - 0.16747543f) * mu_s + 1.0628918f);
     const float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    const float u0_0 = 0.9556599f;
-    const float u0_1 = 0.017231217f;
-    const float u0_2 = -0.0058352225f;
-    const float u0_3 = -0.00520988f;
-    const float u0_4 = 0.0014192578f;
+    const float u0_0 = 0.9287135f;
+    const float u0_1 = -0.050082978f;
+    const float u0_2 = 0.015244549f;
+    const float u0_3 = -0.008996861f;
+    const float u0_4 = 0.0022064145f;
     const float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    const float q0_0 = (((-0.16560692f * r_s + (-0.09984621f * mu_s + 0.17427923f)) * r_s + ((0.19207232f * mu_s + 0.16135833f) * mu_s - 0.23146012f)) * r_s + (((0.0017188239f * mu_s - 0.23674777f) * mu_s + 0.09188825f) * mu_s + 0.1734782f)) * r_s + ((((-0.07976491f * mu_s - 0.035582088f) * mu_s + 0.14475337f) * mu_s + 0.0057690768f) * mu_s + 1.3888004f);
+    const float q0_0 = (((-0.0104241865f * r_s + (0.2023716f * mu_s - 0.031886663f)) * r_s + ((-0.045406863f * mu_s - 0.23870832f) * mu_s - 0.041184314f)) * r_s + (((0.0149774235f * mu_s - 0.2593987f) * mu_s - 0.29189897f) * mu_s + 0.37005115f)) * r_s + ((((-0.0075147157f * mu_s + 0.35090092f) * mu_s + 0.08418315f) * mu_s - 0.21259847f) * mu_s + 1.0732567f);
     const float q0 = q0_0;
     const float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    const float p1_0 = ((((-0.006023788f * r_s + (-0.02680116f * mu_s - 0.010060194f)) * r_s + ((0.06106134f * mu_s + 0.06565007f) * mu_s - 0.041165788f)) * r_s + (((0.16906697f * mu_s + 0.033554964f) * mu_s - 0.29801947f) * mu_s + 0.06314747f)) * r_s + ((((-0.016174663f * mu_s + 0.20171313f) * mu_s - 0.0025778778f) * mu_s - 0.5428041f) * mu_s + 0.29104578f)) * r_s + (((((0.0026990199f * mu_s + 0.0022859802f) * mu_s + 0.11921809f) * mu_s + 0.072281584f) * mu_s - 0.25409392f) * mu_s - 0.03394093f);
+    const float p1_0 = ((((0.0018008607f * r_s + (0.043598633f * mu_s - 0.032040562f)) * r_s + ((0.031802278f * mu_s - 0.07380327f) * mu_s + 0.03571849f)) * r_s + (((0.015782556f * mu_s - 0.02815886f) * mu_s - 0.071844816f) * mu_s + 0.039845143f)) * r_s + ((((0.0059884093f * mu_s + 0.033011537f) * mu_s - 0.18254997f) * mu_s + 0.25293773f) * mu_s - 0.05675541f)) * r_s + (((((0.004016871f * mu_s + 0.008986701f) * mu_s - 0.0015248543f) * mu_s - 0.13633803f) * mu_s + 0.24158838f) * mu_s - 0.13168924f);
     const float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    const float u1_0 = -0.74525213f;
-    const float u1_1 = 0.3975174f;
-    const float u1_2 = -0.087401405f;
-    const float u1_3 = 0.043519553f;
-    const float u1_4 = -0.009426171f;
+    const float u1_0 = 0.53727263f;
+    const float u1_1 = -0.46373218f;
+    const float u1_2 = 0.10895478f;
+    const float u1_3 = -0.04361907f;
+    const float u1_4 = 0.009145155f;
     const float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    const float q1_0 = (((0.17894422f * r_s + (-0.22389144f * mu_s - 0.09830829f)) * r_s + ((-0.2611816f * mu_s - 0.2095898f) * mu_s + 0.6078879f)) * r_s + (((0.42120087f * mu_s + 0.0028463323f) * mu_s - 0.660126f) * mu_s + 0.19152094f)) * r_s + ((((-0.0777127f * mu_s - 0.041520867f) * mu_s - 0.22849253f) * mu_s - 0.18396047f) * mu_s + 0.9043591f);
+    const float q1_0 = (((0.04819088f * r_s + (0.14476734f * mu_s - 0.13258924f)) * r_s + ((0.16987613f * mu_s - 0.25505528f) * mu_s + 0.13650762f)) * r_s + (((-0.15071349f * mu_s + 0.3788192f) * mu_s - 0.63145196f) * mu_s + 0.06552949f)) * r_s + ((((0.014057838f * mu_s - 0.0321929f) * mu_s + 0.21039602f) * mu_s - 0.52171683f) * mu_s + 0.561164f);
     const float q1 = q1_0;
     const float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    const float p2_0 = ((((0.02260377f * r_s + (-0.36472723f * mu_s + 0.15283959f)) * r_s + ((0.21279956f * mu_s - 0.6548035f) * mu_s + 0.55147403f)) * r_s + (((0.02739059f * mu_s + 0.0873412f) * mu_s + 0.578328f) * mu_s - 0.4792539f)) * r_s + ((((-0.06899969f * mu_s + 0.17428301f) * mu_s - 0.54294944f) * mu_s + 0.5555385f) * mu_s - 0.82904273f)) * r_s + (((((-0.03643871f * mu_s - 0.029638905f) * mu_s + 0.17502558f) * mu_s - 0.19616893f) * mu_s - 0.21532373f) * mu_s + 0.25939208f);
+    const float p2_0 = ((((0.017298404f * r_s + (-0.076852076f * mu_s + 0.04517472f)) * r_s + ((0.050107043f * mu_s - 0.26266512f) * mu_s + 0.18161014f)) * r_s + (((-1.9903803e-6f * mu_s + 0.062784284f) * mu_s + 0.12307378f) * mu_s - 0.13390104f)) * r_s + ((((0.07933127f * mu_s - 0.003947566f) * mu_s - 0.11400673f) * mu_s + 0.35006946f) * mu_s - 0.3237685f)) * r_s + (((((-0.027202515f * mu_s + 0.09293901f) * mu_s + 0.037322704f) * mu_s - 0.117511086f) * mu_s - 0.008965695f) * mu_s + 0.00841785f);
     const float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    const float u2_0 = -0.9923536f;
-    const float u2_1 = -0.011658018f;
-    const float u2_2 = 0.05286856f;
-    const float u2_3 = 0.006634478f;
-    const float u2_4 = -0.00019772346f;
+    const float u2_0 = -0.8429516f;
+    const float u2_1 = 0.13394795f;
+    const float u2_2 = 0.14352892f;
+    const float u2_3 = -0.01521835f;
+    const float u2_4 = 0.011178513f;
     const float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    const float q2_0 = (((0.04674238f * r_s + (-0.05956752f * mu_s + 0.5044997f)) * r_s + ((-0.41404626f * mu_s - 0.23080887f) * mu_s + 0.8432872f)) * r_s + (((0.29946655f * mu_s - 0.94293475f) * mu_s - 1.5512251f) * mu_s + 2.0347562f)) * r_s + ((((-0.06738006f * mu_s + 0.28176853f) * mu_s + 0.18173099f) * mu_s - 1.1911479f) * mu_s + 2.1771245f);
+    const float q2_0 = (((-0.014376003f * r_s + (0.25752535f * mu_s - 0.14142452f)) * r_s + ((-0.069811136f * mu_s - 0.0059679467f) * mu_s + 0.10521878f)) * r_s + (((0.24104531f * mu_s - 0.62183f) * mu_s - 0.7709273f) * mu_s + 0.9695088f)) * r_s + ((((-0.17760324f * mu_s + 0.34023726f) * mu_s - 0.17551026f) * mu_s - 0.9989423f) * mu_s + 1.1460198f);
     const float q2 = q2_0;
     const float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    const float p3_0 = ((((-0.0043863663f * r_s + (-0.015469411f * mu_s - 0.029561168f)) * r_s + ((0.06826351f * mu_s + 0.01916218f) * mu_s - 0.0021923669f)) * r_s + (((0.13811481f * mu_s + 0.043455515f) * mu_s - 0.21596879f) * mu_s + 0.032797374f)) * r_s + ((((0.0048403107f * mu_s + 0.08301751f) * mu_s - 0.108733706f) * mu_s - 0.18900181f) * mu_s + 0.15075615f)) * r_s + (((((0.005136038f * mu_s + 0.0063718674f) * mu_s - 0.0001869835f) * mu_s + 0.032490898f) * mu_s - 0.023691729f) * mu_s - 0.08121501f);
+    const float p3_0 = ((((-0.00083445857f * r_s + (0.054493558f * mu_s - 0.050607953f)) * r_s + ((-0.050634697f * mu_s + 0.16164872f) * mu_s - 0.11906722f)) * r_s + (((0.01164547f * mu_s - 0.0058973795f) * mu_s - 0.14526959f) * mu_s + 0.12549607f)) * r_s + ((((0.0015800643f * mu_s + 0.027689647f) * mu_s + 0.076520234f) * mu_s - 0.29520437f) * mu_s + 0.20449458f)) * r_s + (((((0.029277597f * mu_s - 0.029089425f) * mu_s - 0.033914454f) * mu_s + 0.047964398f) * mu_s + 0.018791767f) * mu_s - 0.042714305f);
     const float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    const float u3_0 = 0.4117819f;
-    const float u3_1 = -0.51334536f;
-    const float u3_2 = 0.30684632f;
-    const float u3_3 = -0.13293613f;
-    const float u3_4 = 0.039991822f;
+    const float u3_0 = 0.55141443f;
+    const float u3_1 = 0.12877369f;
+    const float u3_2 = 0.17684194f;
+    const float u3_3 = -0.06048392f;
+    const float u3_4 = 0.024840917f;
     const float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    const float q3_0 = (((0.535473f * r_s + (-0.5096454f * mu_s - 0.22742318f)) * r_s + ((-0.8428942f * mu_s - 0.4339264f) * mu_s + 1.0918931f)) * r_s + (((0.65302926f * mu_s + 0.18128537f) * mu_s - 0.7547047f) * mu_s + 0.21620527f)) * r_s + ((((0.12880196f * mu_s + 0.13552296f) * mu_s - 0.8055357f) * mu_s - 0.07931767f) * mu_s + 1.2959291f);
+    const float q3_0 = (((0.010500048f * r_s + (0.060041282f * mu_s - 0.16452327f)) * r_s + ((0.114316925f * mu_s - 0.20393424f) * mu_s - 0.013447056f)) * r_s + (((0.040400002f * mu_s - 0.09040512f) * mu_s - 0.18921106f) * mu_s + 0.49753457f)) * r_s + ((((-0.023039082f * mu_s + 0.21041968f) * mu_s - 0.056732606f) * mu_s - 0.50485903f) * mu_s + 0.8014041f);
     const float q3 = q3_0;
     const float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

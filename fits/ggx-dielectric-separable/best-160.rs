@@ -12,18 +12,18 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
-/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 dabc570b8d333e0a53add7ccfd2de811529a9b9c46afb56c1388b1b4a778907c.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 8 (step 4 of the polish), its MAE on the fitting points 1.556x the least-squares start's.
+/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c3e3fd8a8c7029d6d260c91e5861054fba2e928f75ad5f0dbca50ed03391fa93.
 /// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 4.9e-6, shifted 4.3e-6, bernstein 4.4e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 9.42e-5, max 9.12e-4 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.62e-5, max 8.27e-4.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.01e-6 (every op rounded, as this Rust), 8.71e-7 (fused multiply-add), 4.68e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 3.15e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1279 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.28e-5, max 9.12e-4; this f32 code MAE 9.28e-5, max 9.12e-4.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.4e-5, shifted 4.4e-6, bernstein 4.4e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 1.09e-4, max 8.58e-4 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.10e-4, max 7.74e-4.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.30e-6 (every op rounded, as this Rust), 3.21e-6 (fused multiply-add), 5.83e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 3.04e0 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.06e-4, max 8.58e-4; this f32 code MAE 1.06e-4, max 8.58e-4.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.2e-4 on the measurement grid.
-/// Denominator proved >= 3.220e-1 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 5.589e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -44,8 +44,8 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
     let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
     let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0_f32 + 2.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 2.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
     // s = (t - 0.5)/0.5 in [-1, 1]
     let f0_s = f0_t * 2.0_f32 - 1.0_f32;
     // s = (t - 0.5)/0.5 in [-1, 1]
@@ -53,59 +53,59 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // s = (t - 0.5)/0.5 in [-1, 1]
     let mu_s = mu_t * 2.0_f32 - 1.0_f32;
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((0.039107174_f32 * r_s + (0.10300391_f32 * mu_s - 0.3569073_f32)) * r_s + ((0.0005524761_f32 * mu_s - 0.29786614_f32) * mu_s + 0.6482558_f32)) * r_s + (((-0.07225095_f32 * mu_s + 0.29820192_f32) * mu_s + 0.12447093_f32) * mu_s - 0.18748178_f32)) * r_s + ((((-0.015515809_f32 * mu_s + 0.03992242_f32) * mu_s - 0.45290625_f32) * mu_s + 0.07234853_f32) * mu_s - 0.7169846_f32)) * r_s + (((((-0.0040250663_f32 * mu_s - 0.08098172_f32) * mu_s + 0.0040610027_f32) * mu_s + 0.02525576_f32) * mu_s - 0.10100101_f32) * mu_s + 1.3170125_f32);
+    let p0_0 = ((((0.030080194_f32 * r_s + (-0.114870094_f32 * mu_s - 0.020844648_f32)) * r_s + ((0.037244916_f32 * mu_s - 0.015845407_f32) * mu_s + 0.31698146_f32)) * r_s + (((-0.009272043_f32 * mu_s + 0.13690244_f32) * mu_s + 0.04534846_f32) * mu_s - 0.3209004_f32)) * r_s + ((((0.028126838_f32 * mu_s - 0.13698372_f32) * mu_s - 0.34340793_f32) * mu_s + 0.19217883_f32) * mu_s - 0.43901148_f32)) * r_s + (((((-0.034017257_f32 * mu_s + 0.058468662_f32) * mu_s + 0.3511284_f32) * mu_s - 0.010986629_f32) * mu_s - 0.16747543_f32) * mu_s + 1.0628918_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.9556599_f32;
-    let u0_1 = 0.017231217_f32;
-    let u0_2 = -0.0058352225_f32;
-    let u0_3 = -0.00520988_f32;
-    let u0_4 = 0.0014192578_f32;
+    let u0_0 = 0.9287135_f32;
+    let u0_1 = -0.050082978_f32;
+    let u0_2 = 0.015244549_f32;
+    let u0_3 = -0.008996861_f32;
+    let u0_4 = 0.0022064145_f32;
     let u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (((-0.16560692_f32 * r_s + (-0.09984621_f32 * mu_s + 0.17427923_f32)) * r_s + ((0.19207232_f32 * mu_s + 0.16135833_f32) * mu_s - 0.23146012_f32)) * r_s + (((0.0017188239_f32 * mu_s - 0.23674777_f32) * mu_s + 0.09188825_f32) * mu_s + 0.1734782_f32)) * r_s + ((((-0.07976491_f32 * mu_s - 0.035582088_f32) * mu_s + 0.14475337_f32) * mu_s + 0.0057690768_f32) * mu_s + 1.3888004_f32);
+    let q0_0 = (((-0.0104241865_f32 * r_s + (0.2023716_f32 * mu_s - 0.031886663_f32)) * r_s + ((-0.045406863_f32 * mu_s - 0.23870832_f32) * mu_s - 0.041184314_f32)) * r_s + (((0.0149774235_f32 * mu_s - 0.2593987_f32) * mu_s - 0.29189897_f32) * mu_s + 0.37005115_f32)) * r_s + ((((-0.0075147157_f32 * mu_s + 0.35090092_f32) * mu_s + 0.08418315_f32) * mu_s - 0.21259847_f32) * mu_s + 1.0732567_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((-0.006023788_f32 * r_s + (-0.02680116_f32 * mu_s - 0.010060194_f32)) * r_s + ((0.06106134_f32 * mu_s + 0.06565007_f32) * mu_s - 0.041165788_f32)) * r_s + (((0.16906697_f32 * mu_s + 0.033554964_f32) * mu_s - 0.29801947_f32) * mu_s + 0.06314747_f32)) * r_s + ((((-0.016174663_f32 * mu_s + 0.20171313_f32) * mu_s - 0.0025778778_f32) * mu_s - 0.5428041_f32) * mu_s + 0.29104578_f32)) * r_s + (((((0.0026990199_f32 * mu_s + 0.0022859802_f32) * mu_s + 0.11921809_f32) * mu_s + 0.072281584_f32) * mu_s - 0.25409392_f32) * mu_s - 0.03394093_f32);
+    let p1_0 = ((((0.0018008607_f32 * r_s + (0.043598633_f32 * mu_s - 0.032040562_f32)) * r_s + ((0.031802278_f32 * mu_s - 0.07380327_f32) * mu_s + 0.03571849_f32)) * r_s + (((0.015782556_f32 * mu_s - 0.02815886_f32) * mu_s - 0.071844816_f32) * mu_s + 0.039845143_f32)) * r_s + ((((0.0059884093_f32 * mu_s + 0.033011537_f32) * mu_s - 0.18254997_f32) * mu_s + 0.25293773_f32) * mu_s - 0.05675541_f32)) * r_s + (((((0.004016871_f32 * mu_s + 0.008986701_f32) * mu_s - 0.0015248543_f32) * mu_s - 0.13633803_f32) * mu_s + 0.24158838_f32) * mu_s - 0.13168924_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = -0.74525213_f32;
-    let u1_1 = 0.3975174_f32;
-    let u1_2 = -0.087401405_f32;
-    let u1_3 = 0.043519553_f32;
-    let u1_4 = -0.009426171_f32;
+    let u1_0 = 0.53727263_f32;
+    let u1_1 = -0.46373218_f32;
+    let u1_2 = 0.10895478_f32;
+    let u1_3 = -0.04361907_f32;
+    let u1_4 = 0.009145155_f32;
     let u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (((0.17894422_f32 * r_s + (-0.22389144_f32 * mu_s - 0.09830829_f32)) * r_s + ((-0.2611816_f32 * mu_s - 0.2095898_f32) * mu_s + 0.6078879_f32)) * r_s + (((0.42120087_f32 * mu_s + 0.0028463323_f32) * mu_s - 0.660126_f32) * mu_s + 0.19152094_f32)) * r_s + ((((-0.0777127_f32 * mu_s - 0.041520867_f32) * mu_s - 0.22849253_f32) * mu_s - 0.18396047_f32) * mu_s + 0.9043591_f32);
+    let q1_0 = (((0.04819088_f32 * r_s + (0.14476734_f32 * mu_s - 0.13258924_f32)) * r_s + ((0.16987613_f32 * mu_s - 0.25505528_f32) * mu_s + 0.13650762_f32)) * r_s + (((-0.15071349_f32 * mu_s + 0.3788192_f32) * mu_s - 0.63145196_f32) * mu_s + 0.06552949_f32)) * r_s + ((((0.014057838_f32 * mu_s - 0.0321929_f32) * mu_s + 0.21039602_f32) * mu_s - 0.52171683_f32) * mu_s + 0.561164_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((0.02260377_f32 * r_s + (-0.36472723_f32 * mu_s + 0.15283959_f32)) * r_s + ((0.21279956_f32 * mu_s - 0.6548035_f32) * mu_s + 0.55147403_f32)) * r_s + (((0.02739059_f32 * mu_s + 0.0873412_f32) * mu_s + 0.578328_f32) * mu_s - 0.4792539_f32)) * r_s + ((((-0.06899969_f32 * mu_s + 0.17428301_f32) * mu_s - 0.54294944_f32) * mu_s + 0.5555385_f32) * mu_s - 0.82904273_f32)) * r_s + (((((-0.03643871_f32 * mu_s - 0.029638905_f32) * mu_s + 0.17502558_f32) * mu_s - 0.19616893_f32) * mu_s - 0.21532373_f32) * mu_s + 0.25939208_f32);
+    let p2_0 = ((((0.017298404_f32 * r_s + (-0.076852076_f32 * mu_s + 0.04517472_f32)) * r_s + ((0.050107043_f32 * mu_s - 0.26266512_f32) * mu_s + 0.18161014_f32)) * r_s + (((-1.9903803e-6_f32 * mu_s + 0.062784284_f32) * mu_s + 0.12307378_f32) * mu_s - 0.13390104_f32)) * r_s + ((((0.07933127_f32 * mu_s - 0.003947566_f32) * mu_s - 0.11400673_f32) * mu_s + 0.35006946_f32) * mu_s - 0.3237685_f32)) * r_s + (((((-0.027202515_f32 * mu_s + 0.09293901_f32) * mu_s + 0.037322704_f32) * mu_s - 0.117511086_f32) * mu_s - 0.008965695_f32) * mu_s + 0.00841785_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.9923536_f32;
-    let u2_1 = -0.011658018_f32;
-    let u2_2 = 0.05286856_f32;
-    let u2_3 = 0.006634478_f32;
-    let u2_4 = -0.00019772346_f32;
+    let u2_0 = -0.8429516_f32;
+    let u2_1 = 0.13394795_f32;
+    let u2_2 = 0.14352892_f32;
+    let u2_3 = -0.01521835_f32;
+    let u2_4 = 0.011178513_f32;
     let u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (((0.04674238_f32 * r_s + (-0.05956752_f32 * mu_s + 0.5044997_f32)) * r_s + ((-0.41404626_f32 * mu_s - 0.23080887_f32) * mu_s + 0.8432872_f32)) * r_s + (((0.29946655_f32 * mu_s - 0.94293475_f32) * mu_s - 1.5512251_f32) * mu_s + 2.0347562_f32)) * r_s + ((((-0.06738006_f32 * mu_s + 0.28176853_f32) * mu_s + 0.18173099_f32) * mu_s - 1.1911479_f32) * mu_s + 2.1771245_f32);
+    let q2_0 = (((-0.014376003_f32 * r_s + (0.25752535_f32 * mu_s - 0.14142452_f32)) * r_s + ((-0.069811136_f32 * mu_s - 0.0059679467_f32) * mu_s + 0.10521878_f32)) * r_s + (((0.24104531_f32 * mu_s - 0.62183_f32) * mu_s - 0.7709273_f32) * mu_s + 0.9695088_f32)) * r_s + ((((-0.17760324_f32 * mu_s + 0.34023726_f32) * mu_s - 0.17551026_f32) * mu_s - 0.9989423_f32) * mu_s + 1.1460198_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((-0.0043863663_f32 * r_s + (-0.015469411_f32 * mu_s - 0.029561168_f32)) * r_s + ((0.06826351_f32 * mu_s + 0.01916218_f32) * mu_s - 0.0021923669_f32)) * r_s + (((0.13811481_f32 * mu_s + 0.043455515_f32) * mu_s - 0.21596879_f32) * mu_s + 0.032797374_f32)) * r_s + ((((0.0048403107_f32 * mu_s + 0.08301751_f32) * mu_s - 0.108733706_f32) * mu_s - 0.18900181_f32) * mu_s + 0.15075615_f32)) * r_s + (((((0.005136038_f32 * mu_s + 0.0063718674_f32) * mu_s - 0.0001869835_f32) * mu_s + 0.032490898_f32) * mu_s - 0.023691729_f32) * mu_s - 0.08121501_f32);
+    let p3_0 = ((((-0.00083445857_f32 * r_s + (0.054493558_f32 * mu_s - 0.050607953_f32)) * r_s + ((-0.050634697_f32 * mu_s + 0.16164872_f32) * mu_s - 0.11906722_f32)) * r_s + (((0.01164547_f32 * mu_s - 0.0058973795_f32) * mu_s - 0.14526959_f32) * mu_s + 0.12549607_f32)) * r_s + ((((0.0015800643_f32 * mu_s + 0.027689647_f32) * mu_s + 0.076520234_f32) * mu_s - 0.29520437_f32) * mu_s + 0.20449458_f32)) * r_s + (((((0.029277597_f32 * mu_s - 0.029089425_f32) * mu_s - 0.033914454_f32) * mu_s + 0.047964398_f32) * mu_s + 0.018791767_f32) * mu_s - 0.042714305_f32);
     let p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = 0.4117819_f32;
-    let u3_1 = -0.51334536_f32;
-    let u3_2 = 0.30684632_f32;
-    let u3_3 = -0.13293613_f32;
-    let u3_4 = 0.039991822_f32;
+    let u3_0 = 0.55141443_f32;
+    let u3_1 = 0.12877369_f32;
+    let u3_2 = 0.17684194_f32;
+    let u3_3 = -0.06048392_f32;
+    let u3_4 = 0.024840917_f32;
     let u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = (((0.535473_f32 * r_s + (-0.5096454_f32 * mu_s - 0.22742318_f32)) * r_s + ((-0.8428942_f32 * mu_s - 0.4339264_f32) * mu_s + 1.0918931_f32)) * r_s + (((0.65302926_f32 * mu_s + 0.18128537_f32) * mu_s - 0.7547047_f32) * mu_s + 0.21620527_f32)) * r_s + ((((0.12880196_f32 * mu_s + 0.13552296_f32) * mu_s - 0.8055357_f32) * mu_s - 0.07931767_f32) * mu_s + 1.2959291_f32);
+    let q3_0 = (((0.010500048_f32 * r_s + (0.060041282_f32 * mu_s - 0.16452327_f32)) * r_s + ((0.114316925_f32 * mu_s - 0.20393424_f32) * mu_s - 0.013447056_f32)) * r_s + (((0.040400002_f32 * mu_s - 0.09040512_f32) * mu_s - 0.18921106_f32) * mu_s + 0.49753457_f32)) * r_s + ((((-0.023039082_f32 * mu_s + 0.21041968_f32) * mu_s - 0.056732606_f32) * mu_s - 0.50485903_f32) * mu_s + 0.8014041_f32);
     let q3 = q3_0;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms

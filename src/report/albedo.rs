@@ -93,10 +93,29 @@ pub struct FitAlbedo {
     approximant: Approximant,
     /// `order[k]` = the model axis feeding the fit's variable k.
     order: Vec<usize>,
+    /// Whether E is clamped to [0, 1], as every emitted albedo is
+    /// ([`crate::emit::generate::clamped`]).
+    clamp_output: bool,
 }
 
 impl FitAlbedo {
+    /// The fit as furnace's emitted code evaluates it: inputs clamped to the fit's domain, E to
+    /// [0, 1]. A renderer's Kulla–Conty lobes divide by 1 − E_avg, which a fit's overshoot
+    /// above 1 at low roughness (a few 1e-4) would make negative.
     pub fn new(fit: &FitResult, axes: &[String]) -> Result<FitAlbedo> {
+        FitAlbedo::with_output_clamp(fit, axes, true)
+    }
+
+    /// A published fit as written: inputs clamped to its domain, E as it comes.
+    pub fn unclamped(fit: &FitResult, axes: &[String]) -> Result<FitAlbedo> {
+        FitAlbedo::with_output_clamp(fit, axes, false)
+    }
+
+    fn with_output_clamp(
+        fit: &FitResult,
+        axes: &[String],
+        clamp_output: bool,
+    ) -> Result<FitAlbedo> {
         let vars = &fit.approximant.variables;
         if vars.len() != axes.len() {
             return Err(Error::InvalidInput(format!(
@@ -123,6 +142,7 @@ impl FitAlbedo {
         Ok(FitAlbedo {
             approximant: fit.approximant.clone(),
             order,
+            clamp_output,
         })
     }
 }
@@ -134,7 +154,12 @@ impl Albedo for FitAlbedo {
             let (lo, hi) = self.approximant.domain[k];
             y[k] = x[a].clamp(lo, hi);
         }
-        self.approximant.eval(&y[..self.order.len()])
+        let e = self.approximant.eval(&y[..self.order.len()]);
+        if self.clamp_output {
+            e.clamp(0.0, 1.0)
+        } else {
+            e
+        }
     }
 
     fn dim(&self) -> usize {

@@ -191,7 +191,7 @@ impl Reporter<'_> {
         let paper = match (&self.options.paper_dir, paper_link(id)) {
             (Some(dir), Some(link)) if link.model == id => {
                 let fit = inputs::load_paper_fit(dir, &link)?;
-                let albedo = FitAlbedo::new(&fit, &axes)?;
+                let albedo = FitAlbedo::unclamped(&fit, &axes)?;
                 let m = measure(&albedo, &table);
                 Some((fit, albedo, m))
             }

@@ -9,6 +9,11 @@ use crate::report::inputs::paper_link;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// The revision of what a section computes from its inputs, part of their digest: raised when
+/// the same inputs give other numbers (2: furnace's fits evaluated as their emitted code, E
+/// clamped to [0, 1]), so that no section written by an earlier revision is reused.
+pub const REPORT_REVISION: u32 = 2;
+
 impl Reporter<'_> {
     /// SHA-256 of everything a section computed from `deps` reads: the report options, the
     /// furnace version, and per model its report table's and LUT's values, every file under its
@@ -16,8 +21,9 @@ impl Reporter<'_> {
     pub fn inputs_digest(&self, deps: &[Dependency]) -> Result<String> {
         let o = &self.options;
         let mut text = format!(
-            "furnace {}\nresolution {} {} lut {} {} furnace luts {:?} nodes {} f0 slices {} spheres {:?} f0 {} paper {}\n",
+            "furnace {} report {}\nresolution {} {} lut {} {} furnace luts {:?} nodes {} f0 slices {} spheres {:?} f0 {} paper {}\n",
             crate::VERSION,
+            REPORT_REVISION,
             o.resolution_2d,
             o.resolution_3d,
             o.lut_2d,

@@ -142,6 +142,7 @@ pub fn emit_cmd(args: &EmitArgs) -> Result<()> {
 
 /// `furnace stress`: exit status 1 if the test fails.
 pub fn stress_cmd(args: &StressArgs) -> Result<()> {
+    crate::emit::stress::check_points(args.points, "--points")?;
     let file = fitfile::read(&args.fit)?;
     let name = albedo_function_name(&fitfile::subject_name(&file), &file.source.channel);
     let report = stress(

@@ -238,6 +238,7 @@ pub fn bench_eval(
             "--points and --passes must be positive".into(),
         ));
     }
+    super::stress::check_points(opts.points, "--points")?;
     let work = WorkDir {
         path: std::env::temp_dir().join(format!("furnace-bench-eval-{}", std::process::id())),
         keep: opts.keep,

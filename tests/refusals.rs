@@ -1,0 +1,75 @@
+//! Input `furnace` refuses before it works, with a message that names the option or value at
+//! fault and the fix.
+
+mod common;
+
+use common::{furnace, repository, scratch, stderr};
+use std::path::Path;
+
+/// The committed 20-coefficient conductor fit.
+fn conductor_fit() -> String {
+    repository()
+        .join("fits/ggx-conductor/best-20.json")
+        .display()
+        .to_string()
+}
+
+/// Runs `furnace` and checks that it failed with status 1 (not a usage error, not a panic)
+/// and that its message contains every one of `want`; returns the message.
+fn refused(args: &[&str], dir: &Path, want: &[&str]) -> String {
+    let o = furnace(args, dir);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+    assert!(!e.contains("panicked"), "{args:?}: {e}");
+    for w in want {
+        assert!(e.contains(w), "{args:?}: no '{w}' in: {e}");
+    }
+    e
+}
+
+#[test]
+fn point_counts_above_the_memory_limit_are_refused_before_anything_is_allocated() {
+    let d = scratch("points");
+    let fit = conductor_fit();
+    let max = furnace::emit::stress::MAX_POINTS.to_string();
+    for n in ["18446744073709551615", "1000000000000"] {
+        refused(
+            &["stress", "--fit", &fit, "--points", n],
+            &d,
+            &[
+                &format!("--points {n} is above the limit of {max} random points"),
+                "8.0 GiB",
+            ],
+        );
+        refused(
+            &[
+                "bench", "eval", "--fit", &fit, "--points", n, "--passes", "1",
+            ],
+            &d,
+            &[&format!("--points {n} is above the limit of {max}")],
+        );
+        // checked before the scene's tables are computed
+        refused(
+            &[
+                "run",
+                "--scene",
+                &repository()
+                    .join("examples/scene.json")
+                    .display()
+                    .to_string(),
+                "--data-dir",
+                "data",
+                "--fits-dir",
+                "x",
+                "--stress-points",
+                n,
+            ],
+            &d,
+            &[&format!("--stress-points {n} is above the limit of {max}")],
+        );
+    }
+    assert!(
+        !d.join("data").exists() && !d.join("x").exists(),
+        "nothing is computed"
+    );
+}

@@ -97,7 +97,7 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
             "{:<24} {:>12} {:<11} {:<13} {:>6} {:>5} {:>10} {:>10} {:>10} {:>6}  stopped by",
             "model", "table", "form", "solver", "degree", "n", "seconds", "MAE", "max", "steps"
         ),
-    );
+    )?;
     for name in &args.models {
         let model = bsdf::find(name)?;
         let d = model.axes().len();
@@ -162,7 +162,7 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
                         .and_then(|s| s.termination)
                         .map_or("direct solve", |t| t.text()),
                     if rec.usable { "" } else { "  (not usable)" }
-                ));
+                ))?;
                 if rec.usable && m.max_abs_error.is_finite() {
                     plot.push(
                         &series,

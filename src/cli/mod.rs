@@ -1,5 +1,27 @@
 //! Command-line interface: clap arguments → checked configuration → one library call per
 //! subcommand. Nothing here computes; it only parses, reports and writes.
+//!
+//! Everything printed on standard output goes through `out!` and `outln!`: a failed write
+//! (a full disk, a closed pipe) is the I/O error on standard output, exit status 1, as for
+//! `--output -`.
+
+/// `print!` that returns the error of a failed write to standard output
+/// ([`crate::output::write_stdout`]) instead of panicking.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::output::write_stdout(format!($($arg)*).as_bytes())
+    };
+}
+
+/// `println!` that returns the error of a failed write to standard output, as `out!`.
+macro_rules! outln {
+    () => {
+        $crate::output::write_stdout(b"\n")
+    };
+    ($($arg:tt)*) => {
+        $crate::output::write_stdout(format!("{}\n", format_args!($($arg)*)).as_bytes())
+    };
+}
 
 mod bench;
 mod bench_eval;
@@ -235,10 +257,7 @@ pub enum BenchWhat {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Models => {
-            print!("{}", models_listing());
-            Ok(())
-        }
+        Command::Models => out!("{}", models_listing()),
         Command::Tabulate(args) => tabulate_cmd(&args),
         Command::Merge(args) => merge_cmd(&args),
         Command::Eval(args) => eval::eval_cmd(&args),

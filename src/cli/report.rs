@@ -137,10 +137,10 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
         None => None,
     };
     let outcome = reporter.generate(models.as_deref())?;
-    println!(
+    outln!(
         "{:<30} {:<22} {:>6} {:>10} {:>10}   furnace max |1 − E|: none / table / LUT {LUT_TO_BEAT} / fit",
         "model", "chosen fit", "coeffs", "MAE", "max err"
-    );
+    )?;
     for s in &outcome.regenerated {
         let (form, n, mae, max) = match s.chosen.and_then(|k| s.fits.get(k)) {
             Some(f) => (
@@ -176,7 +176,7 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
                 format!("{}: {}", r.id, v.join(" / "))
             })
             .collect();
-        println!(
+        outln!(
             "{:<30} {:<22} {:>6} {:>10} {:>10}   {}",
             s.model,
             form,
@@ -184,12 +184,12 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
             mae,
             max,
             furnace.join("; ")
-        );
+        )?;
     }
-    println!(
+    outln!(
         "wrote {} ({} linked files)",
         outcome.readme.display(),
         outcome.linked.len()
-    );
+    )?;
     Ok(())
 }

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{furnace, repository, scratch, stderr};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 /// The committed 20-coefficient conductor fit.
@@ -120,4 +120,99 @@ fn a_failed_write_to_standard_output_is_an_error_with_status_1() {
             "{args:?}: {e}"
         );
     }
+}
+
+/// A 10 × 10 CSV table on [0, 1]² of 0.5 with `value` at row 7 (the sixth data row).
+fn csv_with(d: &Path, name: &str, value: &str) -> PathBuf {
+    let mut text = String::from("r,mu,E\n");
+    for i in 0..10 {
+        for j in 0..10 {
+            let v = if i * 10 + j == 5 { value } else { "0.5" };
+            text.push_str(&format!("{},{},{v}\n", i as f64 / 9.0, j as f64 / 9.0));
+        }
+    }
+    let p = d.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn values_too_large_to_measure_a_fit_on_are_refused_naming_the_value() {
+    let d = scratch("huge-values");
+    let table = csv_with(&d, "u3.csv", "1e300");
+    let fit = |table: &Path| {
+        vec![
+            "fit".to_string(),
+            "--table".into(),
+            table.display().to_string(),
+            "--form".into(),
+            "polynomial".into(),
+            "--degree".into(),
+            "2".into(),
+            "--output".into(),
+            "out.json".into(),
+        ]
+    };
+    let args = fit(&table);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    refused(
+        &args,
+        &d,
+        &[
+            "u3.csv: row 7, column 'E' is 1e300, beyond the largest magnitude a fit accepts, ±1e100",
+            "rescale the values",
+        ],
+    );
+    for v in ["1e308", "-1e308"] {
+        let grid = d.join("big.json");
+        std::fs::write(
+            &grid,
+            format!(
+                r#"{{"axes":[{{"name":"r","nodes":[0,0.5,1]}},{{"name":"mu","nodes":[0,0.5,1]}}],"values":[0.1,0.2,0.3,0.2,{v},0.4,0.3,0.4,0.5]}}"#
+            ),
+        )
+        .unwrap();
+        let args = fit(&grid);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        refused(
+            &args,
+            &d,
+            &["value 4 is", "beyond the largest magnitude", "rescale"],
+        );
+    }
+    assert!(!d.join("out.json").exists());
+    // a value at the bound is fitted, and every metric is a number
+    let table = csv_with(&d, "bound.csv", "1e100");
+    let args = fit(&table);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = furnace(&args, &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json = std::fs::read_to_string(d.join("out.json")).unwrap();
+    assert!(!json.to_lowercase().contains("nan"), "{json}");
+}
+
+#[test]
+fn a_json_grid_naming_a_variable_twice_is_refused() {
+    let d = scratch("duplicate-axes");
+    std::fs::write(
+        d.join("j4.json"),
+        r#"{"axes":[{"name":"r","nodes":[0,0.5,1]},{"name":"r","nodes":[0,0.5,1]}],"values":[0.1,0.2,0.3,0.2,0.3,0.4,0.3,0.4,0.5]}"#,
+    )
+    .unwrap();
+    refused(
+        &[
+            "fit",
+            "--table",
+            "j4.json",
+            "--form",
+            "polynomial",
+            "--degree",
+            "1",
+            "--output",
+            "j4fit.json",
+        ],
+        &d,
+        &["j4.json: variable 'r' is named twice; give every variable its own name"],
+    );
+    assert!(!d.join("j4fit.json").exists());
 }

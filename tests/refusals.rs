@@ -216,3 +216,24 @@ fn a_json_grid_naming_a_variable_twice_is_refused() {
     );
     assert!(!d.join("j4fit.json").exists());
 }
+
+#[test]
+fn a_tolerance_the_table_cache_cannot_record_is_refused() {
+    let d = scratch("tolerance");
+    for t in ["inf", "NaN"] {
+        refused(
+            &[
+                "tabulate",
+                "--model",
+                "ggx-conductor",
+                "--resolution",
+                "8",
+                "--tolerance",
+                t,
+            ],
+            &d,
+            &[&format!("tolerance {t} must be a positive finite number")],
+        );
+    }
+    assert!(!d.join("data").exists());
+}

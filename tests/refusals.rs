@@ -237,3 +237,19 @@ fn a_tolerance_the_table_cache_cannot_record_is_refused() {
     }
     assert!(!d.join("data").exists());
 }
+
+#[test]
+fn bench_fit_refuses_a_sweep_without_degrees() {
+    refused(
+        &[
+            "bench",
+            "fit",
+            "--models",
+            "ggx-conductor",
+            "--max-degree",
+            "0",
+        ],
+        &scratch("max-degree"),
+        &["--max-degree 0", "give --max-degree 1 or more"],
+    );
+}

@@ -4,7 +4,7 @@ use super::bench::{csv_to_stdout, machine_note, table_line, write_bench};
 use super::fit::SolverArg;
 use super::get_table;
 use crate::bsdf;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::fit::job::{self, default_sweep_points, FitRequest, FormKind, SweepPlan};
 use crate::fit::{source, InputTransform, LsqMethod, Objective, RationalOptions};
 use crate::quadrature::QuadratureSettings;
@@ -56,6 +56,11 @@ pub struct BenchFitArgs {
 /// the points a sweep fits (an even subset of large tables), and measures each on every node.
 pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
     super::bench::check_output(&args.output)?;
+    if args.max_degree == Some(0) {
+        return Err(Error::InvalidInput(
+            "--max-degree 0 leaves no fit to time: the sweep's degrees start at 1; give --max-degree 1 or more".into(),
+        ));
+    }
     let csv_to_stdout = csv_to_stdout(&args.output);
     // MAE, not the max error: over the whole box every fit's max error sits at the
     // discontinuous corner r = μ = 0 (≈ 0.09 for the conductor at every degree)

@@ -253,3 +253,20 @@ fn bench_fit_refuses_a_sweep_without_degrees() {
         &["--max-degree 0", "give --max-degree 1 or more"],
     );
 }
+
+#[test]
+fn report_refuses_a_fits_folder_that_does_not_exist() {
+    let d = scratch("fits-dir");
+    refused(
+        &[
+            "report",
+            "--fits-dir",
+            "nonexist",
+            "--model",
+            "ggx-conductor",
+        ],
+        &d,
+        &["nonexist: no such folder; point --fits-dir at"],
+    );
+    assert!(!d.join("reports").exists());
+}

@@ -66,6 +66,12 @@ pub(super) fn default_paper_dir() -> Option<PathBuf> {
 pub fn report_cmd(args: &ReportArgs) -> Result<()> {
     // an unwritable report folder is refused before any table is computed or measured
     crate::output::check_dir_creatable(&args.reports_dir, "--reports-dir")?;
+    if !args.fits_dir.is_dir() {
+        return Err(crate::Error::file(
+            &args.fits_dir,
+            "no such folder; point --fits-dir at the folder of fit files, one subfolder per model (`furnace run` writes fits/)",
+        ));
+    }
     let mut options = ReportOptions::new(Path::new("."));
     options.reports_dir = args.reports_dir.clone();
     options.fits_dir = args.fits_dir.clone();

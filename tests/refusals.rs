@@ -270,3 +270,44 @@ fn report_refuses_a_fits_folder_that_does_not_exist() {
     );
     assert!(!d.join("reports").exists());
 }
+
+#[test]
+fn size_errors_name_the_option_that_sets_the_size() {
+    let d = scratch("size-options");
+    std::fs::create_dir_all(d.join("fits")).unwrap();
+    let e = refused(
+        &["report", "--anisotropy", "bogus"],
+        &d,
+        &[
+            "--anisotropy 'bogus': 'bogus' is not a whole number",
+            "`none`",
+        ],
+    );
+    assert!(!e.contains("--resolution"), "{e}");
+    refused(
+        &[
+            "report",
+            "--model",
+            "ggx-conductor",
+            "--resolution-2d",
+            "100000",
+        ],
+        &d,
+        &["over the limit of 8.0 GiB; choose a smaller --resolution-2d"],
+    );
+    std::fs::copy(conductor_fit(), d.join("best-20.json")).unwrap();
+    refused(
+        &[
+            "emit",
+            "--fit",
+            "best-20.json",
+            "--lang",
+            "lut",
+            "--lut-resolution",
+            "100000",
+        ],
+        &d,
+        &["over the limit of 8.0 GiB; choose a smaller --lut-resolution"],
+    );
+    assert!(!d.join("data").exists() && !d.join("reports").exists());
+}

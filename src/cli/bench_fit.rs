@@ -111,7 +111,14 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
         } else {
             args.resolution_3d.unwrap_or(DEFAULT_RESOLUTION_3D)
         };
-        let spec = TableSpec::new(model.as_ref(), &vec![n; d], QuadratureSettings::default())?;
+        let spec = TableSpec::new(model.as_ref(), &vec![n; d], QuadratureSettings::default())
+            .map_err(|e| {
+                e.for_option(if d <= 2 {
+                    "--resolution-2d"
+                } else {
+                    "--resolution-3d"
+                })
+            })?;
         let t = get_table(model.as_ref(), &spec, &args.data_dir, false)?;
         let input = source::from_table(&t.table, "E", Some(&t.stem))?;
         let plan = SweepPlan::paper(&input.data, args.max_degree, None, Objective::LeastSquares);

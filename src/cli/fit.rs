@@ -213,7 +213,11 @@ fn fit_input(args: &FitArgs) -> Result<Input> {
         .as_deref()
         .ok_or_else(|| Error::InvalidInput("give --model or --table".into()))?;
     let model = args.quadrature.model(name)?;
-    let resolution = parse_resolution(args.resolution.as_deref(), &model.default_resolution())?;
+    let resolution = parse_resolution(
+        "--resolution",
+        args.resolution.as_deref(),
+        &model.default_resolution(),
+    )?;
     let spec = TableSpec::new(model.as_ref(), &resolution, args.quadrature.settings()?)?;
     let t = get_table(model.as_ref(), &spec, &args.data_dir(), args.force)?;
     eprintln!(
@@ -762,12 +766,12 @@ fn compare_one(
 ) -> Result<crate::fit::compare::CompareEntry> {
     let model = bsdf::get(pair.table_model())?;
     let d = model.axes().len();
-    let n = if d >= 3 {
-        args.resolution_3d.or(args.resolution)
-    } else {
-        args.resolution
+    let (n, option) = match (d >= 3, args.resolution_3d) {
+        (true, Some(n)) => (Some(n), "--resolution-3d"),
+        _ => (args.resolution, "--resolution"),
     };
     let resolution = parse_resolution(
+        option,
         n.map(|n| n.to_string()).as_deref(),
         &model.default_resolution(),
     )?;
@@ -780,15 +784,16 @@ fn compare_one(
         .zip(&ranges)
         .all(|(a, &r)| a.default_range == r);
     let spec = if default_domain {
-        TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())?
+        TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())
     } else {
         TableSpec::with_ranges(
             model.as_ref(),
             &resolution,
             &ranges,
             QuadratureSettings::default(),
-        )?
-    };
+        )
+    }
+    .map_err(|e| e.for_option(option))?;
     let fits_name = if default_domain {
         model.id().key()
     } else {

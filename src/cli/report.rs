@@ -117,12 +117,14 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
         None => {}
         Some("none") => options.anisotropy = None,
         Some(text) => {
-            let n = super::parse_resolution(Some(text), &crate::report::aniso::DEFAULT_RESOLUTION)
-                .map_err(|e| {
-                    crate::Error::InvalidInput(format!(
-                        "--anisotropy: {e}; or `none` to leave the section out"
-                    ))
-                })?;
+            let n = super::parse_resolution(
+                "--anisotropy",
+                Some(text),
+                &crate::report::aniso::DEFAULT_RESOLUTION,
+            )
+            .map_err(|e| {
+                crate::Error::InvalidInput(format!("{e}; or `none` to leave the section out"))
+            })?;
             if n.iter().any(|&k| k < 2) {
                 return Err(crate::Error::InvalidInput(format!(
                     "--anisotropy {text}: a grid needs at least 2 nodes per axis"

@@ -262,7 +262,13 @@ pub fn bench_eval(
         } else {
             opts.reference_3d
         };
-        let (model, ref_spec) = lut_spec(file, n_ref)?;
+        let (model, ref_spec) = lut_spec(file, n_ref).map_err(|e| {
+            e.for_option(if d == 2 {
+                "--reference-2d"
+            } else {
+                "--reference-3d"
+            })
+        })?;
         let src = SourceFit::new(path, file.clone(), None)?;
         let subject = src.subject();
         let output = src.output().to_string();

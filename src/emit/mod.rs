@@ -941,7 +941,7 @@ pub fn lut_for_fit(
     data_dir: &Path,
     force: bool,
 ) -> Result<lut::Lut> {
-    let (model, spec) = lut_spec(&src.record, n)?;
+    let (model, spec) = lut_spec(&src.record, n).map_err(|e| e.for_option("--lut-resolution"))?;
     if spec.cells() > lut::MAX_LUT_CELLS {
         return Err(Error::InvalidInput(format!(
             "a {} LUT has {} cells, over the limit of {}; choose a smaller --lut-resolution",

@@ -218,6 +218,31 @@ fn a_json_grid_naming_a_variable_twice_is_refused() {
 }
 
 #[test]
+fn a_csv_table_may_start_with_a_byte_order_mark() {
+    let d = scratch("bom");
+    let plain = csv_with(&d, "plain.csv", "0.5");
+    let text = std::fs::read_to_string(&plain).unwrap();
+    std::fs::write(d.join("bom.csv"), format!("\u{feff}{text}")).unwrap();
+    let o = furnace(
+        &[
+            "fit",
+            "--table",
+            "bom.csv",
+            "--form",
+            "polynomial",
+            "--degree",
+            "1",
+            "--output",
+            "bom.json",
+        ],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json = std::fs::read_to_string(d.join("bom.json")).unwrap();
+    assert!(json.contains("\"mu\"") && !json.contains('\u{feff}'));
+}
+
+#[test]
 fn a_tolerance_the_table_cache_cannot_record_is_refused() {
     let d = scratch("tolerance");
     for t in ["inf", "NaN"] {

@@ -552,6 +552,7 @@ pub type CsvTable = (Vec<String>, Vec<f64>, Vec<f64>);
 /// Parses a CSV table: header = variables + the value column `channel`. Errors name the row
 /// (1-based, header = row 1) and the column.
 pub fn parse_csv_table(text: &str, channel: &str) -> std::result::Result<CsvTable, String> {
+    let text = crate::table::points::strip_bom(text);
     let mut lines = text
         .lines()
         .enumerate()
@@ -871,6 +872,20 @@ mod tests {
                 "row 4, column 'E' is 1e300, beyond the largest magnitude a fit accepts, ±1e100"
             ) && e.contains("rescale the values"),
             "{e}"
+        );
+    }
+
+    #[test]
+    fn a_csv_may_start_with_a_byte_order_mark() {
+        let (names, coords, values) =
+            parse_csv_table("\u{feff}r,mu,E\n0.1,0.2,0.5\n", "E").unwrap();
+        assert_eq!(
+            (names, coords, values),
+            (
+                vec!["r".to_string(), "mu".to_string()],
+                vec![0.1, 0.2],
+                vec![0.5]
+            )
         );
     }
 

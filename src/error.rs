@@ -8,13 +8,15 @@ pub enum Error {
     UnknownModel { name: String, known: String },
     #[error("{0}")]
     InvalidInput(String),
-    #[error("table of {cells} cells × {channels} channels would need {bytes} bytes ({human}), over the limit of {limit_human}; choose a smaller --resolution")]
+    #[error("table of {cells} cells × {channels} channels would need {bytes} bytes ({human}), over the limit of {limit_human}; choose a smaller {option}")]
     TooLarge {
         cells: u128,
         channels: usize,
         bytes: u128,
         human: String,
         limit_human: String,
+        /// The option that sets the table's size (`--resolution`, `--lut-resolution`, …).
+        option: String,
     },
     #[error("{path}: {message}")]
     File { path: PathBuf, message: String },
@@ -40,6 +42,29 @@ impl Error {
         Error::File {
             path: path.into(),
             message: message.into(),
+        }
+    }
+
+    /// A table too large for memory ([`Error::TooLarge`]) names `option` as the one to lower,
+    /// where the caller knows which option set the table's size; other errors are unchanged.
+    pub fn for_option(self, option: &str) -> Error {
+        match self {
+            Error::TooLarge {
+                cells,
+                channels,
+                bytes,
+                human,
+                limit_human,
+                ..
+            } => Error::TooLarge {
+                cells,
+                channels,
+                bytes,
+                human,
+                limit_human,
+                option: option.to_string(),
+            },
+            e => e,
         }
     }
 }

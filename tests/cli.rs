@@ -378,7 +378,8 @@ fn negative_numbers_reach_the_check_that_names_the_fix() {
     let e = stderr(&o);
     assert!(!o.status.success());
     assert!(
-        e.contains("tolerance -1 must be a positive number") && !e.contains("unexpected argument"),
+        e.contains("tolerance -1 must be a positive finite number")
+            && !e.contains("unexpected argument"),
         "{e}"
     );
     let o = furnace(

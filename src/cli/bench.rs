@@ -50,11 +50,12 @@ pub fn machine_note(command: &str) -> String {
 
 /// A line of a benchmark's table: on standard output, or on standard error when the CSV goes
 /// to standard output (`--output -`).
-pub fn table_line(csv_to_stdout: bool, line: String) {
+pub fn table_line(csv_to_stdout: bool, line: String) -> Result<()> {
     if csv_to_stdout {
         eprintln!("{line}");
+        Ok(())
     } else {
-        println!("{line}");
+        outln!("{line}")
     }
 }
 
@@ -159,7 +160,7 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
             "{:<22} {:>12} {:>6} {:>9} {:>9} {:>13} {:>13}",
             "model", "table", "order", "wall s", "µs/cell", "max |ΔE| ref", "max est."
         ),
-    );
+    )?;
     for name in &args.models {
         let model = bsdf::find(name)?;
         let dims = model.axes().len();
@@ -226,7 +227,7 @@ pub fn bench_tabulate(args: &BenchTabulateArgs) -> Result<()> {
                         .unwrap_or_else(|| "-".into()),
                     t.summary.max_error_estimate
                 ),
-            );
+            )?;
         }
     }
     if let Some(path) = &args.output {

@@ -57,7 +57,7 @@ pub fn bench_eval_cmd(args: &BenchEvalArgs) -> Result<()> {
     super::bench::table_line(
         super::bench::csv_to_stdout(&args.output),
         render(&rows).trim_end().to_string(),
-    );
+    )?;
     if let Some(path) = &args.output {
         let mut plot = crate::report::inputs::BenchPlot::new(
             "eval",

@@ -4,7 +4,7 @@ use super::bench::{csv_to_stdout, machine_note, table_line, write_bench};
 use super::fit::SolverArg;
 use super::get_table;
 use crate::bsdf;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::fit::job::{self, default_sweep_points, FitRequest, FormKind, SweepPlan};
 use crate::fit::{source, InputTransform, LsqMethod, Objective, RationalOptions};
 use crate::quadrature::QuadratureSettings;
@@ -56,6 +56,11 @@ pub struct BenchFitArgs {
 /// the points a sweep fits (an even subset of large tables), and measures each on every node.
 pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
     super::bench::check_output(&args.output)?;
+    if args.max_degree == Some(0) {
+        return Err(Error::InvalidInput(
+            "--max-degree 0 leaves no fit to time: the sweep's degrees start at 1; give --max-degree 1 or more".into(),
+        ));
+    }
     let csv_to_stdout = csv_to_stdout(&args.output);
     // MAE, not the max error: over the whole box every fit's max error sits at the
     // discontinuous corner r = μ = 0 (≈ 0.09 for the conductor at every degree)
@@ -97,7 +102,7 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
             "{:<24} {:>12} {:<11} {:<13} {:>6} {:>5} {:>10} {:>10} {:>10} {:>6}  stopped by",
             "model", "table", "form", "solver", "degree", "n", "seconds", "MAE", "max", "steps"
         ),
-    );
+    )?;
     for name in &args.models {
         let model = bsdf::find(name)?;
         let d = model.axes().len();
@@ -106,7 +111,14 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
         } else {
             args.resolution_3d.unwrap_or(DEFAULT_RESOLUTION_3D)
         };
-        let spec = TableSpec::new(model.as_ref(), &vec![n; d], QuadratureSettings::default())?;
+        let spec = TableSpec::new(model.as_ref(), &vec![n; d], QuadratureSettings::default())
+            .map_err(|e| {
+                e.for_option(if d <= 2 {
+                    "--resolution-2d"
+                } else {
+                    "--resolution-3d"
+                })
+            })?;
         let t = get_table(model.as_ref(), &spec, &args.data_dir, false)?;
         let input = source::from_table(&t.table, "E", Some(&t.stem))?;
         let plan = SweepPlan::paper(&input.data, args.max_degree, None, Objective::LeastSquares);
@@ -162,7 +174,7 @@ pub fn bench_fit(args: &BenchFitArgs) -> Result<()> {
                         .and_then(|s| s.termination)
                         .map_or("direct solve", |t| t.text()),
                     if rec.usable { "" } else { "  (not usable)" }
-                ));
+                ))?;
                 if rec.usable && m.max_abs_error.is_finite() {
                     plot.push(
                         &series,

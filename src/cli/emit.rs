@@ -110,13 +110,15 @@ pub fn emit_cmd(args: &EmitArgs) -> Result<()> {
     if langs.contains(&Lang::Lut) {
         crate::output::check_dir_creatable(&args.lut_dir, "--lut-dir")?;
     }
-    // with the code on standard output, the notes go to standard error
+    // with the code on standard output, the notes go to standard error; the first failed
+    // write to standard output is kept and returned
     let to_stdout = target.as_ref().is_some_and(Target::is_stdout);
+    let mut failed: Option<Error> = None;
     let mut log = |line: &str| {
         if to_stdout {
             eprintln!("{line}")
-        } else {
-            println!("{line}")
+        } else if failed.is_none() {
+            failed = outln!("{line}").err();
         }
     };
     for path in &args.fit {
@@ -137,11 +139,12 @@ pub fn emit_cmd(args: &EmitArgs) -> Result<()> {
             }
         }
     }
-    Ok(())
+    failed.map_or(Ok(()), Err)
 }
 
 /// `furnace stress`: exit status 1 if the test fails.
 pub fn stress_cmd(args: &StressArgs) -> Result<()> {
+    crate::emit::stress::check_points(args.points, "--points")?;
     let file = fitfile::read(&args.fit)?;
     let name = albedo_function_name(&fitfile::subject_name(&file), &file.source.channel);
     let report = stress(
@@ -154,12 +157,12 @@ pub fn stress_cmd(args: &StressArgs) -> Result<()> {
             diagnostics: true,
         },
     )?;
-    print!("{}", report.render());
+    out!("{}", report.render())?;
     if args.points < DEFAULT_POINTS {
-        println!(
+        outln!(
             "note: {} random points are fewer than the {DEFAULT_POINTS} that emit and run test before writing code; this verdict is not theirs",
             args.points
-        );
+        )?;
     }
     if report.passed() {
         Ok(())

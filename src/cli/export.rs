@@ -184,8 +184,11 @@ pub fn export_cmd(args: &ExportArgs) -> Result<()> {
                 Error::InvalidInput("--format generic needs --model (see `furnace models`)".into())
             })?;
             let model = args.quadrature.model(name)?;
-            let resolution =
-                parse_resolution(args.resolution.as_deref(), &vec![64; model.axes().len()])?;
+            let resolution = parse_resolution(
+                "--resolution",
+                args.resolution.as_deref(),
+                &vec![64; model.axes().len()],
+            )?;
             generic::export(&compute, model.as_ref(), &resolution, &args.output)?
         }
     };

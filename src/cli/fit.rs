@@ -213,7 +213,11 @@ fn fit_input(args: &FitArgs) -> Result<Input> {
         .as_deref()
         .ok_or_else(|| Error::InvalidInput("give --model or --table".into()))?;
     let model = args.quadrature.model(name)?;
-    let resolution = parse_resolution(args.resolution.as_deref(), &model.default_resolution())?;
+    let resolution = parse_resolution(
+        "--resolution",
+        args.resolution.as_deref(),
+        &model.default_resolution(),
+    )?;
     let spec = TableSpec::new(model.as_ref(), &resolution, args.quadrature.settings()?)?;
     let t = get_table(model.as_ref(), &spec, &args.data_dir(), args.force)?;
     eprintln!(
@@ -363,8 +367,8 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         write_sweep(&outcome, &dir, timing_dir.as_deref(), &clock)?;
         for b in &outcome.best {
             if let Some(rec) = outcome.best_record(b.budget).filter(|_| args.worst > 0) {
-                println!("worst points of best-{}.json:", b.budget);
-                print!("{}", worst_text(rec, &input, args.worst));
+                outln!("worst points of best-{}.json:", b.budget)?;
+                out!("{}", worst_text(rec, &input, args.worst))?;
             }
         }
         return Ok(());
@@ -403,7 +407,7 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
         if target.is_stdout() {
             eprint!("{text}");
         } else {
-            print!("{text}");
+            out!("{text}")?;
         }
         for w in &rec.warnings {
             eprintln!("warning: {w}");
@@ -480,7 +484,7 @@ pub fn fit_cmd(args: &FitArgs) -> Result<()> {
     if target.is_stdout() {
         eprint!("{text}");
     } else {
-        print!("{text}");
+        out!("{text}")?;
     }
     for w in &rec.warnings {
         eprintln!("warning: {w}");
@@ -558,11 +562,12 @@ fn record_text(rec: &FitRecord, path: &str, timing: Option<&Timing>) -> String {
     ) + &off_grid
 }
 
-fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) {
-    print!("{}", record_text(rec, &path.display().to_string(), timing));
+fn print_record(rec: &FitRecord, path: &Path, timing: Option<&Timing>) -> Result<()> {
+    out!("{}", record_text(rec, &path.display().to_string(), timing))?;
     for w in &rec.warnings {
         eprintln!("warning: {w}");
     }
+    Ok(())
 }
 
 /// Writes a sweep's files ([`write_sweep_files`]) and prints its table.
@@ -576,14 +581,14 @@ fn write_sweep(
     let timing_note = timing_dir.map_or(String::new(), |d| {
         format!(", timings to {}", d.join("sweep-timing.json").display())
     });
-    println!("MAE and max: on {}", outcome.metrics_on);
+    outln!("MAE and max: on {}", outcome.metrics_on)?;
     if let Some(b) = &outcome.paper_box {
-        println!("box MAE, box max: on {}", b.metrics_on);
+        outln!("box MAE, box max: on {}", b.metrics_on)?;
     }
     if let Some(c) = &outcome.check {
-        println!("off MAE, off max: on {c}; * = on the Pareto front");
+        outln!("off MAE, off max: on {c}; * = on the Pareto front")?;
     }
-    println!(
+    outln!(
         "{:<11} {:>5} {:<32} {:<8} {:>4} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>8} poles",
         "form",
         "deg",
@@ -597,7 +602,7 @@ fn write_sweep(
         "off MAE",
         "off max",
         "seconds"
-    );
+    )?;
     let cell = |b: Option<&job::BoxMetrics>| {
         b.map_or(("-".to_string(), "-".to_string()), |b| {
             (format!("{:.3e}", b.mae), format!("{:.3e}", b.max_abs_error))
@@ -610,7 +615,7 @@ fn write_sweep(
             Some(m) => format!("{}/{m}", r.degree),
             None => r.degree.to_string(),
         };
-        println!(
+        outln!(
             "{:<11} {:>5} {:<32} {:<8} {:>4} {:>10.3e} {:>10.3e} {:>10} {:>10} {:>10} {:>10} {:>8.2} {}{}",
             r.form.name(),
             degree,
@@ -626,14 +631,14 @@ fn write_sweep(
             secs,
             r.poles,
             if r.pareto { " *" } else { "" }
-        );
+        )?;
     }
     for b in &outcome.best {
         let path = dir.join(format!("best-{}.json", b.budget));
         match outcome.best_record(b.budget) {
             Some(rec) => {
                 let (max, mae) = rec.headline();
-                println!(
+                outln!(
                     "best with ≤ {} coefficients (lowest max error among the fits within {}× of the lowest MAE{}, {}): max {max:.3e}, MAE {mae:.3e}",
                     b.budget,
                     crate::fit::sweep::MAE_TOLERANCE,
@@ -643,13 +648,15 @@ fn write_sweep(
                         ""
                     },
                     if rec.off_grid.is_some() { "off-grid" } else { "at the nodes" },
-                );
-                print_record(rec, &path, None);
+                )?;
+                print_record(rec, &path, None)?;
                 if let Some(bm) = b.index.and_then(|i| outcome.rows[i].paper_box.as_ref()) {
-                    println!(
+                    outln!(
                         "    on the paper's box: MAE {:.3e}, max {:.3e} at {:?}",
-                        bm.mae, bm.max_abs_error, bm.max_abs_error_at
-                    );
+                        bm.mae,
+                        bm.max_abs_error,
+                        bm.max_abs_error_at
+                    )?;
                 }
             }
             None => eprintln!(
@@ -676,13 +683,13 @@ fn write_sweep(
     if not_usable > 0 {
         eprintln!("warning: {not_usable} fits are not usable (pole or uncertified); they are listed with usable = false and never chosen as best");
     }
-    println!(
+    outln!(
         "sweep of {} fits in {} ({}); wrote {}/sweep.{{json,csv}}{timing_note}",
         outcome.rows.len(),
         timing_text(&timing),
         outcome.fitted_on.selection,
         dir.display(),
-    );
+    )?;
     Ok(())
 }
 
@@ -759,12 +766,12 @@ fn compare_one(
 ) -> Result<crate::fit::compare::CompareEntry> {
     let model = bsdf::get(pair.table_model())?;
     let d = model.axes().len();
-    let n = if d >= 3 {
-        args.resolution_3d.or(args.resolution)
-    } else {
-        args.resolution
+    let (n, option) = match (d >= 3, args.resolution_3d) {
+        (true, Some(n)) => (Some(n), "--resolution-3d"),
+        _ => (args.resolution, "--resolution"),
     };
     let resolution = parse_resolution(
+        option,
         n.map(|n| n.to_string()).as_deref(),
         &model.default_resolution(),
     )?;
@@ -777,15 +784,16 @@ fn compare_one(
         .zip(&ranges)
         .all(|(a, &r)| a.default_range == r);
     let spec = if default_domain {
-        TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())?
+        TableSpec::new(model.as_ref(), &resolution, QuadratureSettings::default())
     } else {
         TableSpec::with_ranges(
             model.as_ref(),
             &resolution,
             &ranges,
             QuadratureSettings::default(),
-        )?
-    };
+        )
+    }
+    .map_err(|e| e.for_option(option))?;
     let fits_name = if default_domain {
         model.id().key()
     } else {
@@ -856,7 +864,7 @@ pub fn compare_paper_cmd(args: &ComparePaperArgs) -> Result<()> {
         &args.reports_dir.join("compare-paper.json"),
         report.to_json()?.as_bytes(),
     )?;
-    print!("{md}");
+    out!("{md}")?;
     eprintln!(
         "wrote {}/compare-paper.{{md,json}}",
         args.reports_dir.display()

@@ -1,5 +1,27 @@
 //! Command-line interface: clap arguments → checked configuration → one library call per
 //! subcommand. Nothing here computes; it only parses, reports and writes.
+//!
+//! Everything printed on standard output goes through `out!` and `outln!`: a failed write
+//! (a full disk, a closed pipe) is the I/O error on standard output, exit status 1, as for
+//! `--output -`.
+
+/// `print!` that returns the error of a failed write to standard output
+/// ([`crate::output::write_stdout`]) instead of panicking.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::output::write_stdout(format!($($arg)*).as_bytes())
+    };
+}
+
+/// `println!` that returns the error of a failed write to standard output, as `out!`.
+macro_rules! outln {
+    () => {
+        $crate::output::write_stdout(b"\n")
+    };
+    ($($arg:tt)*) => {
+        $crate::output::write_stdout(format!("{}\n", format_args!($($arg)*)).as_bytes())
+    };
+}
 
 mod bench;
 mod bench_eval;
@@ -235,10 +257,7 @@ pub enum BenchWhat {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Models => {
-            print!("{}", models_listing());
-            Ok(())
-        }
+        Command::Models => out!("{}", models_listing()),
         Command::Tabulate(args) => tabulate_cmd(&args),
         Command::Merge(args) => merge_cmd(&args),
         Command::Eval(args) => eval::eval_cmd(&args),
@@ -287,9 +306,10 @@ pub fn models_listing() -> String {
     s
 }
 
-/// Parses `1024` or `128x64x32` for a model whose default resolution is `default` (one count per
-/// axis, [`bsdf::Model::default_resolution`]).
-pub fn parse_resolution(text: Option<&str>, default: &[usize]) -> Result<Vec<usize>> {
+/// Parses `1024` or `128x64x32`, given by `option` (`--resolution`, named in the errors), for a
+/// model whose default resolution is `default` (one count per axis,
+/// [`bsdf::Model::default_resolution`]).
+pub fn parse_resolution(option: &str, text: Option<&str>, default: &[usize]) -> Result<Vec<usize>> {
     let dims = default.len();
     let Some(text) = text else {
         return Ok(default.to_vec());
@@ -299,7 +319,9 @@ pub fn parse_resolution(text: Option<&str>, default: &[usize]) -> Result<Vec<usi
         .iter()
         .map(|p| {
             p.trim().parse::<usize>().map_err(|_| {
-                Error::InvalidInput(format!("--resolution '{text}': '{p}' is not a whole number; use e.g. 1024 or 128x128x128"))
+                Error::InvalidInput(format!(
+                    "{option} '{text}': '{p}' is not a whole number; use e.g. 1024 or 128x128x128"
+                ))
             })
         })
         .collect::<Result<_>>()?;
@@ -307,7 +329,7 @@ pub fn parse_resolution(text: Option<&str>, default: &[usize]) -> Result<Vec<usi
         1 => Ok(vec![counts[0]; dims]),
         n if n == dims => Ok(counts),
         n => Err(Error::InvalidInput(format!(
-            "--resolution '{text}' gives {n} counts but the model has {dims} axes; give one count or {dims}"
+            "{option} '{text}' gives {n} counts but the model has {dims} axes; give one count or {dims}"
         ))),
     }
 }
@@ -384,7 +406,11 @@ pub fn get_table(
 fn tabulate_cmd(args: &TabulateArgs) -> Result<()> {
     let settings = args.quadrature.settings()?;
     let model = args.quadrature.model(&args.model)?;
-    let resolution = parse_resolution(args.resolution.as_deref(), &model.default_resolution())?;
+    let resolution = parse_resolution(
+        "--resolution",
+        args.resolution.as_deref(),
+        &model.default_resolution(),
+    )?;
     let spec = TableSpec::new(model.as_ref(), &resolution, settings)?;
     if let Some(text) = &args.shard {
         let id = table::shard::ShardId::parse(text)?;
@@ -415,7 +441,11 @@ fn tabulate_cmd(args: &TabulateArgs) -> Result<()> {
 fn merge_cmd(args: &MergeArgs) -> Result<()> {
     let settings = args.quadrature.settings()?;
     let model = args.quadrature.model(&args.model)?;
-    let resolution = parse_resolution(args.resolution.as_deref(), &model.default_resolution())?;
+    let resolution = parse_resolution(
+        "--resolution",
+        args.resolution.as_deref(),
+        &model.default_resolution(),
+    )?;
     let spec = TableSpec::new(model.as_ref(), &resolution, settings)?;
     let stem = io::table_stem(&args.data_dir, model.as_ref(), &spec);
     let start = Instant::now();

@@ -66,6 +66,12 @@ pub(super) fn default_paper_dir() -> Option<PathBuf> {
 pub fn report_cmd(args: &ReportArgs) -> Result<()> {
     // an unwritable report folder is refused before any table is computed or measured
     crate::output::check_dir_creatable(&args.reports_dir, "--reports-dir")?;
+    if !args.fits_dir.is_dir() {
+        return Err(crate::Error::file(
+            &args.fits_dir,
+            "no such folder; point --fits-dir at the folder of fit files, one subfolder per model (`furnace run` writes fits/)",
+        ));
+    }
     let mut options = ReportOptions::new(Path::new("."));
     options.reports_dir = args.reports_dir.clone();
     options.fits_dir = args.fits_dir.clone();
@@ -111,12 +117,14 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
         None => {}
         Some("none") => options.anisotropy = None,
         Some(text) => {
-            let n = super::parse_resolution(Some(text), &crate::report::aniso::DEFAULT_RESOLUTION)
-                .map_err(|e| {
-                    crate::Error::InvalidInput(format!(
-                        "--anisotropy: {e}; or `none` to leave the section out"
-                    ))
-                })?;
+            let n = super::parse_resolution(
+                "--anisotropy",
+                Some(text),
+                &crate::report::aniso::DEFAULT_RESOLUTION,
+            )
+            .map_err(|e| {
+                crate::Error::InvalidInput(format!("{e}; or `none` to leave the section out"))
+            })?;
             if n.iter().any(|&k| k < 2) {
                 return Err(crate::Error::InvalidInput(format!(
                     "--anisotropy {text}: a grid needs at least 2 nodes per axis"
@@ -137,10 +145,10 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
         None => None,
     };
     let outcome = reporter.generate(models.as_deref())?;
-    println!(
+    outln!(
         "{:<30} {:<22} {:>6} {:>10} {:>10}   furnace max |1 − E|: none / table / LUT {LUT_TO_BEAT} / fit",
         "model", "chosen fit", "coeffs", "MAE", "max err"
-    );
+    )?;
     for s in &outcome.regenerated {
         let (form, n, mae, max) = match s.chosen.and_then(|k| s.fits.get(k)) {
             Some(f) => (
@@ -176,7 +184,7 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
                 format!("{}: {}", r.id, v.join(" / "))
             })
             .collect();
-        println!(
+        outln!(
             "{:<30} {:<22} {:>6} {:>10} {:>10}   {}",
             s.model,
             form,
@@ -184,12 +192,12 @@ pub fn report_cmd(args: &ReportArgs) -> Result<()> {
             mae,
             max,
             furnace.join("; ")
-        );
+        )?;
     }
-    println!(
+    outln!(
         "wrote {} ({} linked files)",
         outcome.readme.display(),
         outcome.linked.len()
-    );
+    )?;
     Ok(())
 }

@@ -104,10 +104,9 @@ pub fn run_cmd(args: &RunArgs) -> Result<()> {
         Some(_) => super::scene::print_summary(&outcome, start),
         None => print_summary(&outcome, args, start),
     }
-    Ok(())
 }
 
-fn print_summary(outcome: &pipeline::Outcome, args: &RunArgs, start: Instant) {
+fn print_summary(outcome: &pipeline::Outcome, args: &RunArgs, start: Instant) -> Result<()> {
     let rows = &outcome.rows;
     let mut budgets: Vec<usize> = rows
         .iter()
@@ -116,7 +115,7 @@ fn print_summary(outcome: &pipeline::Outcome, args: &RunArgs, start: Instant) {
         .collect();
     budgets.sort_unstable();
     budgets.dedup();
-    println!();
+    outln!()?;
     let mut head = format!(
         "{:<38} {:>12} {:>7} {:>9} {:>7}",
         "model", "table", "cached", "table s", "fits"
@@ -130,7 +129,7 @@ fn print_summary(outcome: &pipeline::Outcome, args: &RunArgs, start: Instant) {
         "furnace |1−E|",
         "files"
     ));
-    println!("{head}");
+    outln!("{head}")?;
     let mut files = 0;
     let mut losses = Vec::new();
     for r in rows {
@@ -173,7 +172,7 @@ fn print_summary(outcome: &pipeline::Outcome, args: &RunArgs, start: Instant) {
             r.furnace.map_or("–".to_string(), fmt_e),
             n
         ));
-        println!("{line}");
+        outln!("{line}")?;
         if let Some(o) = &r.off_grid {
             losses.extend(o.losses());
         }
@@ -181,40 +180,40 @@ fn print_summary(outcome: &pipeline::Outcome, args: &RunArgs, start: Instant) {
     if let Some(a) = &outcome.anisotropic {
         let n = a.step.files.len() + outcome.anisotropic_emitted.len();
         files += n;
-        println!(
+        outln!(
             "{:<38} 4-D fits {}: {}; {n} files",
             a.name,
             if a.step.reused { "reused" } else { "fitted" },
             pipeline::sweeps::best_line(&a.step.best)
-        );
+        )?;
     }
-    println!(
+    outln!(
         "best-N, LUT-{}: max |E − exact| at the off-grid check points of each table (fits/<model>/off-grid.json; at the table nodes for a table without check points); furnace: max |1 − E| of the BSDF compensated with the report's chosen fit (reports/README.md)",
         pipeline::LUT_TO_BEAT
-    );
+    )?;
     if losses.is_empty() {
         if rows.iter().any(|r| r.off_grid.is_some()) {
-            println!(
+            outln!(
                 "every best fit beats the {}-per-axis LUT on max error and MAE",
                 pipeline::LUT_TO_BEAT
-            );
+            )?;
         }
     } else {
-        println!(
+        outln!(
             "WARNING: {} best fits lose to the {}-per-axis LUT (a renderer would rather use the LUT):",
             losses.len(),
             pipeline::LUT_TO_BEAT
-        );
+        )?;
         for l in &losses {
-            println!("  {l}");
+            outln!("  {l}")?;
         }
     }
-    println!(
+    outln!(
         "{files} files written or confirmed under {}, {}, {} and {}; total {:.1} s",
         args.data_dir.display(),
         args.scene.fits_dir.display(),
         args.data_dir.join("lut").display(),
         args.reports_dir.display(),
         start.elapsed().as_secs_f64()
-    );
+    )
 }

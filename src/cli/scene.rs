@@ -62,14 +62,20 @@ pub fn scene_job(args: &SceneArgs, path: &Path, data_dir: &Path, force: bool) ->
 }
 
 /// The table of a scene's fits and the files written.
-pub fn print_summary(out: &Outcome, start: Instant) {
-    println!(
+pub fn print_summary(out: &Outcome, start: Instant) -> Result<()> {
+    outln!(
         "{:<30} {:>12} {:>8} {:>10} {:>10} {:>10} {:>12}",
-        "model", "table", "cached", "fit MAE", "fit max", "f32 max Δ", "stress"
-    );
+        "model",
+        "table",
+        "cached",
+        "fit MAE",
+        "fit max",
+        "f32 max Δ",
+        "stress"
+    )?;
     for (r, e) in out.rows.iter().zip(&out.functions) {
         let Some(f) = r.one() else { continue };
-        println!(
+        outln!(
             "{:<30} {:>12} {:>8} {:>10.2e} {:>10.2e} {:>10.1e} {:>12}",
             r.id,
             r.resolution,
@@ -84,10 +90,10 @@ pub fn print_summary(out: &Outcome, start: Instant) {
                 } else {
                     "FAIL".into()
                 })
-        );
+        )?;
     }
     for w in &out.written {
-        println!("wrote {}", w.display());
+        outln!("wrote {}", w.display())?;
     }
-    println!("total {:.1} s", start.elapsed().as_secs_f64());
+    outln!("total {:.1} s", start.elapsed().as_secs_f64())
 }

@@ -238,6 +238,7 @@ pub fn bench_eval(
             "--points and --passes must be positive".into(),
         ));
     }
+    super::stress::check_points(opts.points, "--points")?;
     let work = WorkDir {
         path: std::env::temp_dir().join(format!("furnace-bench-eval-{}", std::process::id())),
         keep: opts.keep,
@@ -261,7 +262,13 @@ pub fn bench_eval(
         } else {
             opts.reference_3d
         };
-        let (model, ref_spec) = lut_spec(file, n_ref)?;
+        let (model, ref_spec) = lut_spec(file, n_ref).map_err(|e| {
+            e.for_option(if d == 2 {
+                "--reference-2d"
+            } else {
+                "--reference-3d"
+            })
+        })?;
         let src = SourceFit::new(path, file.clone(), None)?;
         let subject = src.subject();
         let output = src.output().to_string();

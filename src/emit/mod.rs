@@ -338,10 +338,10 @@ pub fn check_suffix(suffix: &str) -> Result<()> {
 }
 
 /// The stress test of emitted code uses at least [`stress::DEFAULT_POINTS`] random points (rare
-/// bad points are met only among many), besides the edges.
+/// bad points are met only among many), besides the edges, and at most [`stress::MAX_POINTS`].
 pub fn check_stress_points(n: usize) -> Result<()> {
     if n >= stress::DEFAULT_POINTS {
-        Ok(())
+        stress::check_points(n, "--stress-points")
     } else {
         Err(Error::InvalidInput(format!(
             "--stress-points {n}: emitted code is stress-tested at at least {} random points (and the edges); give a larger number",
@@ -941,7 +941,7 @@ pub fn lut_for_fit(
     data_dir: &Path,
     force: bool,
 ) -> Result<lut::Lut> {
-    let (model, spec) = lut_spec(&src.record, n)?;
+    let (model, spec) = lut_spec(&src.record, n).map_err(|e| e.for_option("--lut-resolution"))?;
     if spec.cells() > lut::MAX_LUT_CELLS {
         return Err(Error::InvalidInput(format!(
             "a {} LUT has {} cells, over the limit of {}; choose a smaller --lut-resolution",

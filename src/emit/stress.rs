@@ -20,8 +20,9 @@ use super::generate::{
 };
 use super::ir::{Arith, Compiled, Program, BLOCK};
 use crate::error::{Error, Result};
-use crate::fit::data::SplitMix64;
+use crate::fit::data::{SplitMix64, MAX_DIM};
 use crate::fit::{CertifyOptions, FitResult, PoleVerdict};
+use crate::table::MAX_TABLE_BYTES;
 
 /// Largest |f32 − f64| allowed.
 pub const MAX_ABS_DIFF: f64 = 1e-5;
@@ -34,6 +35,23 @@ pub const RELATIVE_FLOOR: f64 = 1e-3;
 pub const EDGE_REPEATS: usize = 16;
 /// Default number of random points: 10⁶, enough to meet the rare f32 cancellations.
 pub const DEFAULT_POINTS: usize = 1_000_000;
+/// Most random points of a stress test or of a timing pass of `bench eval`: their f32
+/// coordinates (up to [`MAX_DIM`] per point, held twice while the point list is assembled)
+/// stay within the memory limit of a table, [`MAX_TABLE_BYTES`] (8 GiB / 32 B = 2²⁸ points).
+pub const MAX_POINTS: usize = (MAX_TABLE_BYTES / (2 * 4 * MAX_DIM as u128)) as usize;
+
+/// Refuses, before anything is allocated, more random points than [`MAX_POINTS`]; `option`
+/// names the option that gave them (`--points`, `--stress-points`).
+pub fn check_points(n: usize, option: &str) -> Result<()> {
+    if n <= MAX_POINTS {
+        Ok(())
+    } else {
+        Err(Error::InvalidInput(format!(
+            "{option} {n} is above the limit of {MAX_POINTS} random points (their coordinates would need more than {}); give a smaller number",
+            crate::error::human_bytes(MAX_TABLE_BYTES)
+        )))
+    }
+}
 
 /// Stress-test settings.
 #[derive(Clone, Debug)]
@@ -255,6 +273,7 @@ fn merge(a: &mut ModeStats, b: ModeStats) {
 /// Runs the stress test on `fit`, with the albedo function `name` the emitters would write for it
 /// (in the form `opts.form` picks).
 pub fn stress(fit: &FitResult, name: &str, opts: &StressOptions) -> Result<StressReport> {
+    check_points(opts.random_points, "--points")?;
     let name = name.to_string();
     let (function, form) = match opts.form {
         FormChoice::Force(form) => (
@@ -454,4 +473,37 @@ pub fn stress(fit: &FitResult, name: &str, opts: &StressOptions) -> Result<Stres
         max_overshoot: total.overshoot,
         failures,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn more_random_points_than_the_memory_limit_allows_are_refused_naming_the_option() {
+        assert_eq!(MAX_POINTS, 1 << 28);
+        assert!(check_points(MAX_POINTS, "--points").is_ok());
+        for n in [MAX_POINTS + 1, 1_000_000_000_000, usize::MAX] {
+            let e = check_points(n, "--points").unwrap_err().to_string();
+            assert!(e.starts_with(&format!("--points {n} is above the limit of {MAX_POINTS}")));
+            assert!(
+                e.contains("8.0 GiB") && e.contains("give a smaller number"),
+                "{e}"
+            );
+        }
+        let e = crate::emit::check_stress_points(usize::MAX).unwrap_err();
+        assert!(e.to_string().starts_with("--stress-points "), "{e}");
+        // the stress test itself refuses before allocating its points
+        let fit = crate::fit::file::read(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/fits/ggx-conductor/best-20.json"
+        )))
+        .unwrap()
+        .fit;
+        let opts = StressOptions {
+            random_points: usize::MAX,
+            ..StressOptions::default()
+        };
+        assert!(stress(&fit, "e", &opts).is_err());
+    }
 }

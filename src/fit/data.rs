@@ -8,6 +8,11 @@ use super::error::{FitError, Result};
 /// Most variables a fit may have (the paper's tables have 2 or 3; the anisotropic conductor 4).
 pub const MAX_DIM: usize = 4;
 
+/// Largest |value| a fit accepts (10¹⁰⁰): far beyond any albedo, and small enough that the
+/// squares of the errors, their sums over every point and the normal equations stay finite in
+/// f64. Larger values are refused with the advice to rescale them.
+pub const MAX_VALUE: f64 = 1e100;
+
 /// τ of [`InputTransform::BoundaryLayer`]: 2⁻¹⁰⁰, exact in f32 and f64. It only decides the
 /// corner x = y = 0 (t = τ/τ = 1) and changes t by less than τ/(x + k y²) elsewhere, i.e.
 /// nowhere a table node or an f32 input away from the corner can see.
@@ -1261,6 +1266,11 @@ impl FitData {
                 fix: "give one [lo, hi] interval per variable",
             });
         }
+        if let Some(k) = (1..d).find(|&k| self.names[..k].contains(&self.names[k])) {
+            return Err(FitError::DuplicateVariable {
+                name: self.names[k].clone(),
+            });
+        }
         for (k, &(lo, hi)) in self.domain.iter().enumerate() {
             if !(lo.is_finite() && hi.is_finite() && lo < hi) {
                 return Err(FitError::InvalidDomain {
@@ -1275,6 +1285,14 @@ impl FitData {
                 what: "value",
                 index: i,
                 value: self.values[i],
+            });
+        }
+        if let Some(i) = self.values.iter().position(|v| v.abs() > MAX_VALUE) {
+            return Err(FitError::ValueTooLarge {
+                what: "value",
+                index: i,
+                value: self.values[i],
+                max: MAX_VALUE,
             });
         }
         for (j, &x) in self.coords.iter().enumerate() {
@@ -1487,6 +1505,28 @@ mod tests {
             .with_weights(vec![-1.0])
             .unwrap_err();
         assert!(matches!(e, FitError::InvalidWeight { .. }));
+    }
+
+    #[test]
+    fn values_beyond_the_largest_magnitude_and_repeated_names_are_refused() {
+        let grid = |names: [&str; 2], values: Vec<f64>| {
+            FitData::from_grid(
+                names.iter().map(|n| n.to_string()).collect(),
+                &[vec![0.0, 1.0], vec![0.0, 1.0]],
+                values,
+            )
+        };
+        assert!(grid(["r", "mu"], vec![0.5, -MAX_VALUE, MAX_VALUE, 0.5]).is_ok());
+        for v in [1e300, -1e308, 1.0001e100] {
+            let e = grid(["r", "mu"], vec![0.5, 0.5, v, 0.5]).unwrap_err();
+            assert!(matches!(e, FitError::ValueTooLarge { index: 2, .. }), "{e}");
+            assert!(e.to_string().contains("rescale the values"), "{e}");
+        }
+        let e = grid(["r", "r"], vec![0.5; 4]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "variable 'r' is named twice; give every variable its own name"
+        );
     }
 
     #[test]

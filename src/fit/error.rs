@@ -19,6 +19,17 @@ pub enum FitError {
         value: f64,
     },
 
+    #[error("{what} {index} is {value}, beyond the largest magnitude a fit accepts, ±{max:e}: the squared errors of such values overflow f64; rescale the values (e.g. divide them by their largest magnitude) before fitting")]
+    ValueTooLarge {
+        what: &'static str,
+        index: usize,
+        value: f64,
+        max: f64,
+    },
+
+    #[error("variable '{name}' is named twice; give every variable its own name")]
+    DuplicateVariable { name: String },
+
     #[error("a fit needs between 1 and {max} variables, got {got}; fit fewer variables at a time")]
     BadDimension { got: usize, max: usize },
 

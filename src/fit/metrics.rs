@@ -15,6 +15,11 @@ pub const RELATIVE_ERROR_FLOOR: f64 = 1e-6;
 
 const CHUNK: usize = 4096;
 
+/// 2⁻⁶⁰⁰, exact: errors are also summed multiplied by it, so that the sums of |e| and e² stay
+/// finite when the plain sums overflow (errors near the top of the f64 range; the plain sums
+/// give the metrics whenever they are finite).
+const SCALE: f64 = f64::from_bits((1023 - 600) << 52);
+
 /// Unweighted error statistics of f(x_i) − y_i over all points of a data set.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
@@ -38,6 +43,9 @@ pub struct Metrics {
 struct Partial {
     abs: f64,
     sq: f64,
+    /// Σ |e|·[`SCALE`] and Σ (e·[`SCALE`])².
+    abs_scaled: f64,
+    sq_scaled: f64,
     max_abs: (f64, usize),
     max_rel: (f64, usize),
     non_finite: usize,
@@ -48,6 +56,8 @@ impl Partial {
     const EMPTY: Partial = Partial {
         abs: 0.0,
         sq: 0.0,
+        abs_scaled: 0.0,
+        sq_scaled: 0.0,
         max_abs: (-1.0, usize::MAX),
         max_rel: (-1.0, usize::MAX),
         non_finite: 0,
@@ -81,6 +91,9 @@ impl Running {
         }
         self.abs.add(e);
         self.sq.add(e * e);
+        let scaled = e * SCALE;
+        self.p.abs_scaled += scaled;
+        self.p.sq_scaled += scaled * scaled;
         if e > self.p.max_abs.0 {
             self.p.max_abs = (e, i);
         }
@@ -100,11 +113,14 @@ impl Running {
 fn combine(parts: impl Iterator<Item = Partial>, data: &FitData) -> Metrics {
     let mut abs = CompensatedSum::default();
     let mut sq = CompensatedSum::default();
+    let (mut abs_scaled, mut sq_scaled) = (0.0, 0.0);
     let (mut max_abs, mut max_rel, mut non_finite, mut n) =
         ((-1.0f64, usize::MAX), (-1.0f64, usize::MAX), 0usize, 0usize);
     for p in parts {
         abs.add(p.abs);
         sq.add(p.sq);
+        abs_scaled += p.abs_scaled;
+        sq_scaled += p.sq_scaled;
         if p.max_abs.0 > max_abs.0 {
             max_abs = p.max_abs;
         }
@@ -125,10 +141,26 @@ fn combine(parts: impl Iterator<Item = Partial>, data: &FitData) -> Metrics {
     let (mae, rmse, max_abs_error) = if non_finite > 0 || n == 0 {
         (f64::INFINITY, f64::INFINITY, f64::INFINITY)
     } else {
+        // every error is finite, so are the means: from the scaled sums where the plain ones
+        // overflow (they are at most the largest error)
+        let max_abs_error = max_abs.0.max(0.0);
+        let mean = |plain: f64, scaled: f64| {
+            if plain.is_finite() {
+                plain
+            } else {
+                scaled.min(max_abs_error)
+            }
+        };
         (
-            abs.value() / finite as f64,
-            (sq.value() / finite as f64).sqrt(),
-            max_abs.0.max(0.0),
+            mean(
+                abs.value() / finite as f64,
+                abs_scaled / finite as f64 / SCALE,
+            ),
+            mean(
+                (sq.value() / finite as f64).sqrt(),
+                (sq_scaled / finite as f64).sqrt() / SCALE,
+            ),
+            max_abs_error,
         )
     };
     Metrics {
@@ -305,5 +337,35 @@ mod tests {
         );
         assert_eq!(w[2].abs_error, measure(&zero, &data).max_abs_error - 1.0);
         assert_eq!(worst_points(&zero, &data, 10).len(), 5);
+    }
+
+    #[test]
+    fn errors_near_the_top_of_the_f64_range_give_finite_metrics() {
+        assert_eq!(SCALE, 2f64.powi(-600));
+        // f = 10³⁰⁰ against values 0 and 1: every e² overflows, the sums of |e| too
+        let data = FitData::new(
+            vec!["x".into()],
+            (0..10_000).map(|i| i as f64 / 9_999.0).collect(),
+            (0..10_000).map(|i| (i % 2) as f64).collect(),
+            vec![(0.0, 1.0)],
+        )
+        .unwrap();
+        let huge = Approximant {
+            variables: vec!["x".into()],
+            transforms: vec![InputTransform::Identity],
+            domain: vec![(0.0, 1.0)],
+            numerator: Polynomial {
+                exponents: vec![vec![0]],
+                coefficients: vec![1e300],
+            },
+            denominator: None,
+            factor: None,
+            terms: Vec::new(),
+        };
+        let m = measure(&huge, &data);
+        assert_eq!(m.non_finite, 0);
+        for v in [m.mae, m.rmse, m.max_abs_error] {
+            assert!((v / 1e300 - 1.0).abs() < 1e-12, "{m:?}");
+        }
     }
 }

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::data::{FitData, MAX_DIM};
+use super::data::{FitData, MAX_DIM, MAX_VALUE};
 use crate::error::{Error, Result};
 use crate::table::io::{self, Sidecar};
 use crate::table::{GridAxis, Table, TableSpec};
@@ -428,7 +428,7 @@ fn sha256_file(path: &Path) -> Result<String> {
     Ok(crate::digest::sha256_hex(&bytes))
 }
 
-/// Rejects NaN / infinite values, naming the first one.
+/// Rejects NaN / infinite values and values beyond ±[`MAX_VALUE`], naming the first one.
 fn check_values(values: &[f64], name: impl Fn(usize) -> String, path: &Path) -> Result<()> {
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {
         return Err(Error::file(
@@ -440,7 +440,15 @@ fn check_values(values: &[f64], name: impl Fn(usize) -> String, path: &Path) -> 
             ),
         ));
     }
+    if let Some(i) = values.iter().position(|v| v.abs() > MAX_VALUE) {
+        return Err(Error::file(path, too_large(&name(i), values[i])));
+    }
     Ok(())
+}
+
+/// Why a value beyond ±[`MAX_VALUE`] is refused, and the fix.
+fn too_large(what: &str, value: f64) -> String {
+    format!("{what} is {value:e}, beyond the largest magnitude a fit accepts, ±{MAX_VALUE:e}: the squared errors of such values overflow f64; rescale the values (e.g. divide them by their largest magnitude) before fitting")
 }
 
 fn with_ext(stem: &Path, ext: &str) -> PathBuf {
@@ -544,6 +552,7 @@ pub type CsvTable = (Vec<String>, Vec<f64>, Vec<f64>);
 /// Parses a CSV table: header = variables + the value column `channel`. Errors name the row
 /// (1-based, header = row 1) and the column.
 pub fn parse_csv_table(text: &str, channel: &str) -> std::result::Result<CsvTable, String> {
+    let text = crate::table::points::strip_bom(text);
     let mut lines = text
         .lines()
         .enumerate()
@@ -605,7 +614,11 @@ pub fn parse_csv_table(text: &str, channel: &str) -> std::result::Result<CsvTabl
         for &c in &vars {
             coords.push(num(c)?);
         }
-        values.push(num(vcol)?);
+        let v = num(vcol)?;
+        if v.abs() > MAX_VALUE {
+            return Err(too_large(&format!("row {row}, column '{channel}'"), v));
+        }
+        values.push(v);
     }
     if values.is_empty() {
         return Err("no data rows after the header".into());
@@ -848,6 +861,32 @@ mod tests {
         assert!(e.contains("row 2, column 'mu'"), "{e}");
         let e = parse_csv_table("a,b,c,d,e,E\n1,2,3,4,5,6\n", "E").unwrap_err();
         assert!(e.contains("5 variable columns"), "{e}");
+    }
+
+    #[test]
+    fn csv_values_beyond_the_largest_magnitude_are_refused_naming_the_row() {
+        assert!(parse_csv_table("r,mu,E\n0.1,0.2,1e100\n0.2,0.2,-1e100\n", "E").is_ok());
+        let e = parse_csv_table("r,mu,E\n0.1,0.2,0.5\n\n0.1,0.3,1e300\n", "E").unwrap_err();
+        assert!(
+            e.starts_with(
+                "row 4, column 'E' is 1e300, beyond the largest magnitude a fit accepts, ±1e100"
+            ) && e.contains("rescale the values"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_csv_may_start_with_a_byte_order_mark() {
+        let (names, coords, values) =
+            parse_csv_table("\u{feff}r,mu,E\n0.1,0.2,0.5\n", "E").unwrap();
+        assert_eq!(
+            (names, coords, values),
+            (
+                vec!["r".to_string(), "mu".to_string()],
+                vec![0.1, 0.2],
+                vec![0.5]
+            )
+        );
     }
 
     #[test]

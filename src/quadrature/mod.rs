@@ -820,9 +820,9 @@ impl QuadratureSettings {
                 self.companion, self.order
             ));
         }
-        if self.tolerance.is_nan() || self.tolerance <= 0.0 {
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             return Err(format!(
-                "tolerance {} must be a positive number",
+                "tolerance {} must be a positive finite number, e.g. 1e-7",
                 self.tolerance
             ));
         }
@@ -958,6 +958,17 @@ impl RuleCache {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_tolerance_must_be_positive_and_finite() {
+        let mut q = QuadratureSettings::default();
+        assert!(q.validate().is_ok());
+        for t in [0.0, -1.0, f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            q.tolerance = t;
+            let e = q.validate().unwrap_err();
+            assert!(e.contains("must be a positive finite number"), "{e}");
+        }
+    }
 
     /// ∫_0^1 ∫_0^1 |x − y| dy dx = 1/3, with the kink at y = x given as a breakpoint.
     struct Kinked;

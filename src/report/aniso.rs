@@ -278,7 +278,10 @@ impl Reporter<'_> {
         let dir = self.options.reports_dir.join(DIR);
         let model = bsdf::get(albedo_model(SMITH))?;
         (self.progress())("anisotropy: table");
-        let table = self.tables().table(model.as_ref(), &resolution)?;
+        let table = self
+            .tables()
+            .table(model.as_ref(), &resolution)
+            .map_err(|e| e.for_option("--anisotropy"))?;
         let fitted = fits(&self.options.fits_dir, &table)?;
         let digest = {
             let mut bytes: Vec<u8> = Vec::new();

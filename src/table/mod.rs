@@ -265,6 +265,7 @@ impl TableSpec {
                 bytes,
                 human: human_bytes(bytes),
                 limit_human: human_bytes(MAX_TABLE_BYTES),
+                option: "--resolution".into(),
             });
         }
         Ok(())

@@ -18,6 +18,12 @@ pub struct Points {
 /// Refuse point files with more rows than this before parsing them all.
 pub const MAX_POINTS: usize = 50_000_000;
 
+/// `text` without a leading UTF-8 byte-order mark (U+FEFF), which spreadsheet programs write
+/// at the start of a CSV file and which is not part of the first column's name.
+pub fn strip_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
 /// Reads `path`, whose header must name exactly the `axes` (any order). Each value must be a
 /// finite number inside `ranges[axis]`.
 pub fn read_points(path: &Path, axes: &[String], ranges: &[(f64, f64)]) -> Result<Points> {
@@ -30,6 +36,7 @@ pub fn parse_points(
     axes: &[String],
     ranges: &[(f64, f64)],
 ) -> std::result::Result<Points, String> {
+    let text = strip_bom(text);
     let mut lines = text
         .lines()
         .enumerate()
@@ -127,6 +134,14 @@ mod tests {
     fn any_column_order() {
         let (a, r) = axes();
         let p = parse_points("mu,r\n0.25,0.5\n", &a, &r).unwrap();
+        assert_eq!(p.coords, vec![vec![0.5, 0.25]]);
+    }
+
+    #[test]
+    fn a_leading_byte_order_mark_is_not_part_of_the_header() {
+        let (a, r) = axes();
+        let p = parse_points("\u{feff}mu,r\n0.25,0.5\n", &a, &r).unwrap();
+        assert_eq!(p.header, vec!["mu", "r"]);
         assert_eq!(p.coords, vec![vec![0.5, 0.25]]);
     }
 

@@ -1,6 +1,6 @@
 //! A model's table, LUTs, fits and paper fit, loaded once per report run.
 
-use super::{Dependency, FitRow, Reporter};
+use super::{Dependency, FitRow, ReportOptions, Reporter};
 use crate::bsdf::{self, Model, ModelId};
 use crate::error::Result;
 use crate::fit::FitResult;
@@ -127,14 +127,16 @@ impl Reporter<'_> {
         (self.progress)(&format!("{k}: table"));
         let table = self
             .tables
-            .table(model.as_ref(), &self.options.resolution(axes.len()))?;
+            .table(model.as_ref(), &self.options.resolution(axes.len()))
+            .map_err(|e| e.for_option(ReportOptions::resolution_option(axes.len())))?;
         let lut_n = self.options.lut(axes.len());
         let lut_table = match subsample_lut(&table, lut_n) {
             Some(t) => t,
             None => {
                 (self.progress)(&format!("{k}: LUT {lut_n}"));
                 self.tables
-                    .table(model.as_ref(), &vec![lut_n; axes.len()])?
+                    .table(model.as_ref(), &vec![lut_n; axes.len()])
+                    .map_err(|e| e.for_option(ReportOptions::lut_option(axes.len())))?
             }
         };
         let mut luts = Vec::new();

@@ -111,6 +111,24 @@ impl ReportOptions {
         ]
     }
 
+    /// The option of `furnace report` that sets [`Self::resolution`].
+    fn resolution_option(dims: usize) -> &'static str {
+        if dims <= 2 {
+            "--resolution-2d"
+        } else {
+            "--resolution-3d"
+        }
+    }
+
+    /// The option of `furnace report` that sets [`Self::lut`].
+    fn lut_option(dims: usize) -> &'static str {
+        if dims <= 2 {
+            "--lut-2d"
+        } else {
+            "--lut-3d"
+        }
+    }
+
     fn lut(&self, dims: usize) -> usize {
         if dims <= 2 {
             self.lut_2d

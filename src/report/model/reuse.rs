@@ -1,7 +1,7 @@
 //! The digest of everything a section reads, and whether a written section can be reused.
 
 use super::data::subsample_lut;
-use super::{Dependency, ModelSummary, Reporter};
+use super::{Dependency, ModelSummary, ReportOptions, Reporter};
 use crate::bsdf::{self, ModelId};
 use crate::digest::{sha256_hex, values_sha256};
 use crate::error::{Error, Result};
@@ -41,7 +41,8 @@ impl Reporter<'_> {
             let dims = model.axes().len();
             let table = self
                 .tables
-                .table(model.as_ref(), &self.options.resolution(dims))?;
+                .table(model.as_ref(), &self.options.resolution(dims))
+                .map_err(|e| e.for_option(ReportOptions::resolution_option(dims)))?;
             let _ = writeln!(
                 text,
                 "model {} table {} {}",
@@ -52,7 +53,8 @@ impl Reporter<'_> {
             if subsample_lut(&table, self.options.lut(dims)).is_none() {
                 let lut = self
                     .tables
-                    .table(model.as_ref(), &vec![self.options.lut(dims); dims])?;
+                    .table(model.as_ref(), &vec![self.options.lut(dims); dims])
+                    .map_err(|e| e.for_option(ReportOptions::lut_option(dims)))?;
                 let _ = writeln!(text, "lut {}", values_sha256(&lut.values));
             }
             for &n in &self.options.furnace_luts {

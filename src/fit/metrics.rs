@@ -307,6 +307,22 @@ mod tests {
     use crate::fit::basis::Polynomial;
     use crate::fit::data::InputTransform;
 
+    /// The constant `c` on x ∈ [0, 1].
+    fn constant(c: f64) -> Approximant {
+        Approximant {
+            variables: vec!["x".into()],
+            transforms: vec![InputTransform::Identity],
+            domain: vec![(0.0, 1.0)],
+            numerator: Polynomial {
+                exponents: vec![vec![0]],
+                coefficients: vec![c],
+            },
+            denominator: None,
+            factor: None,
+            terms: Vec::new(),
+        }
+    }
+
     #[test]
     fn worst_points_are_sorted_and_located() {
         // f = 0 against values 0, 3, 1, 3, 2: the worst are index 1 and 3 (tie: lower index first), then 4
@@ -317,18 +333,7 @@ mod tests {
             vec![(0.0, 1.0)],
         )
         .unwrap();
-        let zero = Approximant {
-            variables: vec!["x".into()],
-            transforms: vec![InputTransform::Identity],
-            domain: vec![(0.0, 1.0)],
-            numerator: Polynomial {
-                exponents: vec![vec![0]],
-                coefficients: vec![0.0],
-            },
-            denominator: None,
-            factor: None,
-            terms: Vec::new(),
-        };
+        let zero = constant(0.0);
         let w = worst_points(&zero, &data, 3);
         assert_eq!(w.iter().map(|p| p.index).collect::<Vec<_>>(), vec![1, 3, 4]);
         assert_eq!(
@@ -350,18 +355,7 @@ mod tests {
             vec![(0.0, 1.0)],
         )
         .unwrap();
-        let huge = Approximant {
-            variables: vec!["x".into()],
-            transforms: vec![InputTransform::Identity],
-            domain: vec![(0.0, 1.0)],
-            numerator: Polynomial {
-                exponents: vec![vec![0]],
-                coefficients: vec![1e300],
-            },
-            denominator: None,
-            factor: None,
-            terms: Vec::new(),
-        };
+        let huge = constant(1e300);
         let m = measure(&huge, &data);
         assert_eq!(m.non_finite, 0);
         for v in [m.mae, m.rmse, m.max_abs_error] {

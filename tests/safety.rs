@@ -928,3 +928,26 @@ fn a_user_tables_fit_is_measured_on_the_tables_points_while_the_table_is_unchang
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A fit for which the interval error analysis gives no finite bound (the committed glossy
+/// best-40) says that no bound was proved, never "<= inf".
+#[test]
+fn an_unproved_bound_is_said_so() {
+    let d = scratch("unproved-bound");
+    let fit = root().join("fits/ggx-glossy/best-40.json");
+    let o = furnace(
+        &[
+            "emit",
+            "--fit",
+            fit.to_str().unwrap(),
+            "--lang",
+            "rust",
+            "--output",
+            "-",
+        ],
+        &d,
+    );
+    let h = text(&ok(&o).stdout);
+    assert!(h.contains("Bound: none proved"), "{h}");
+    assert!(!h.contains("<= inf") && !h.contains("+ inf"), "{h}");
+}

@@ -167,8 +167,13 @@ pub fn emit_fit_file(
     for e in &emitted {
         let st = &e.stress;
         log(&format!(
-            "{}: {:?} form, {} coefficients; f32 − f64 at {} stress points max {:.1e} (IEEE) / {:.1e} (FMA) / {:.1e} (GPU model); bound {:.1e} over the whole domain",
-            e.function, e.form.form, e.n_coefficients, st.random_points + st.edge_points, st.max_diff_ieee, st.max_diff_fused, st.max_diff_gpu, e.bound.max_error
+            "{}: {:?} form, {} coefficients; f32 − f64 at {} stress points max {:.1e} (IEEE) / {:.1e} (FMA) / {:.1e} (GPU model); {}",
+            e.function, e.form.form, e.n_coefficients, st.random_points + st.edge_points, st.max_diff_ieee, st.max_diff_fused, st.max_diff_gpu,
+            if e.bound.max_error.is_finite() {
+                format!("bound {:.1e} over the whole domain", e.bound.max_error)
+            } else {
+                "no bound proved over the whole domain".into()
+            }
         ));
         if let Some(t) = &e.table {
             log(&format!(

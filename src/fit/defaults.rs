@@ -219,20 +219,37 @@ pub const LOG_LAYER_FORMS: [(&str, f64); 2] = [("tensor:2,3/2,2", 3.0), ("tensor
 pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 
 /// The low-rank separations `lowrank:f0:<K>:<p>:<n>/<m>` a 3-D sweep fits a second time with μ
-/// in the log-corrected layer variable `glayer:r:k:0:1:β` (β of [`LOG_LAYER_LOWRANK`]), where μ
-/// is in the grazing-layer variable, each with its k and whether its minimax refit adds the
-/// L_p polish [`LOWRANK_LP_POLISH`]: 40 coefficients (K, p, n, m) = (2, 2, 4, 1) at k = 2, and
-/// 160, (4, 4, 5, 4), at k = 2 and at k = 1, polished. Measured on the 128³
+/// in the log-corrected layer variable `glayer:r:k:0:1:β`, where μ is in the grazing-layer
+/// variable, each with its (k, β) and the p values of the L_p polish its minimax refit adds
+/// (none, [`LOWRANK_LP_POLISH`] or [`LOWRANK_40_LP_POLISH`]): 40 coefficients (K, p, n, m) =
+/// (2, 2, 4, 1) at (k, β) = (2, 3) ([`LOG_LAYER_LOWRANK`]) and, polished, at (1.25, 2); 160,
+/// (4, 4, 5, 4), at (2, 3) and at (1, 3), polished. Measured on the 128³
 /// `ggx-dielectric-inv` table (the sweep's fitting points, off-grid at the 26 112 check points;
 /// docs/fitting.md, "Budget 160: the logarithmic layer"): the 160-term form's Lawson path at
 /// k = 2 keeps 5.51e-3 / MAE 4.86e-4 (blended branch) and ends at 3.84e-3 / 1.08e-3; its L_p
 /// polish at p = 4 / 6 has 4.92e-3 / 6.05e-4 and 4.43e-3 / 7.18e-4, at k = 1 4.55e-3 / 5.88e-4
-/// and 3.59e-3 / 6.94e-4, where the sweep's best-160 in √L had 8.71e-3 / 7.91e-4.
-pub const LOG_LAYER_LOWRANK_FORMS: [(&str, f64, bool); 3] = [
-    ("2:2:4/1", LOG_LAYER_LOWRANK.0, false),
-    ("4:4:5/4", LOG_LAYER_LOWRANK.0, true),
-    ("4:4:5/4", 1.0, true),
+/// and 3.59e-3 / 6.94e-4, where the sweep's best-160 in √L had 8.71e-3 / 7.91e-4. The
+/// polished 40-term form: [`LOWRANK_40_LP_POLISH`].
+pub const LOG_LAYER_LOWRANK_FORMS: [(&str, f64, f64, &[f64]); 4] = [
+    ("2:2:4/1", LOG_LAYER_LOWRANK.0, LOG_LAYER_LOWRANK.1, &[]),
+    ("2:2:4/1", 1.25, 2.0, &LOWRANK_40_LP_POLISH),
+    (
+        "4:4:5/4",
+        LOG_LAYER_LOWRANK.0,
+        LOG_LAYER_LOWRANK.1,
+        &LOWRANK_LP_POLISH,
+    ),
+    ("4:4:5/4", 1.0, LOG_LAYER_LOWRANK.1, &LOWRANK_LP_POLISH),
 ];
+
+/// The p values of the L_p polish of the 40-term separation of [`LOG_LAYER_LOWRANK_FORMS`] at
+/// (k, β) = (1.25, 2). On the 128³ `ggx-dielectric` table (one form per sweep, off-grid at the
+/// 26 112 check points; docs/fitting.md, "Budget 40: the L_p polish in the log-corrected
+/// layer"): least squares 2.11e-2 / 1.87e-3, minimax 1.03e-2 / 2.86e-3, the polish at p = 8 …
+/// 12 from 1.07e-2 / 2.63e-3 to 9.56e-3 / 2.85e-3 (p = 10, 11: 9.91e-3 / 2.76e-3, 9.71e-3 /
+/// 2.80e-3), where the unpolished form at (2, 3) has 9.99e-3 / 3.07e-3 and its polish at
+/// p = 12 1.07e-2 / 2.98e-3.
+pub const LOWRANK_40_LP_POLISH: [f64; 5] = [8.0, 9.0, 10.0, 11.0, 12.0];
 
 /// The p values of the L_p polish ([`crate::fit::RationalOptions::lp_polish`]) of the 160-term
 /// separations of [`LOG_LAYER_LOWRANK_FORMS`]. Their Lawson paths have no iterate between the
@@ -306,8 +323,8 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 3.0;
 ///   low-rank separations Σ_k u_k(f0)·P_k(r, μ)/Q_k(r, μ) with K terms, u_k of degree p,
 ///   P_k/Q_k of degrees n/m: (K, p, n, m) = (2, 2, 4, 1) (40), (3, 3, 4, 2) (72) and
 ///   (4, 4, 5, 4) (160) where μ is in the grazing-layer variable, else (4, 4, 5, 3) (140);
-///   where it is, (2, 2, 4, 1) and (4, 4, 5, 4) (the latter at two scales, with an L_p
-///   polish) also with μ in the log-corrected layer variable ([`LOG_LAYER_LOWRANK`],
+///   where it is, (2, 2, 4, 1) and (4, 4, 5, 4) (each at two scales, three of the four with
+///   an L_p polish) also with μ in the log-corrected layer variable ([`LOG_LAYER_LOWRANK`],
 ///   [`LOG_LAYER_LOWRANK_FORMS`]) and (k, n, m) = (2, 3, 3)
 ///   also with μ in the plain boundary-layer variable and F0 as F0^⅛ ([`SPLIT_LAYER_SCALE`]);
 ///   where μ is in √μ (no boundary layer: the glossy albedo),
@@ -387,8 +404,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                     _ => None,
                 });
                 if let Some((mu, by)) = log_layer {
-                    let beta = LOG_LAYER_LOWRANK.1;
-                    for (spec, k, polish) in LOG_LAYER_LOWRANK_FORMS {
+                    for (spec, k, beta, polish) in LOG_LAYER_LOWRANK_FORMS {
                         let mut t = transforms.to_vec();
                         t[mu] = InputTransform::GrazingLayer {
                             by,
@@ -397,7 +413,6 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                             root: 1,
                             beta,
                         };
-                        let polish: &[f64] = if polish { &LOWRANK_LP_POLISH } else { &[] };
                         v.extend(
                             parse_form(&format!("lowrank:{x}:{spec}"), &data.names)
                                 .ok()
@@ -594,10 +609,9 @@ mod tests {
         let json = serde_json::to_string(&p3).unwrap();
         let back: SweepPlan = serde_json::from_str(&json).unwrap();
         assert_eq!(back, p3);
-        assert!(
-            !json.contains("lp_polish")
-                && !serde_json::to_string(&p).unwrap().contains("lp_polish")
-        );
+        // the degree cap 4 keeps the polished 40-term separation, not the 160-term ones
+        assert_eq!(json.matches("\"lp_polish\"").count(), 1, "{json}");
+        assert!(!serde_json::to_string(&p).unwrap().contains("lp_polish"));
         assert_ne!(json, serde_json::to_string(&p).unwrap());
         // the physics transforms: r², √L with a grazing layer, √μ without; F0^¼ in 3-D
         let t = physics_transforms(&d3, true).unwrap();
@@ -616,21 +630,30 @@ mod tests {
             .iter()
             .map(|f| f.form.n_coefficients(3))
             .collect();
-        assert_eq!(sizes, vec![39, 54, 77, 139, 40, 72, 160, 40, 160, 160, 39]);
+        assert_eq!(
+            sizes,
+            vec![39, 54, 77, 139, 40, 72, 160, 40, 40, 160, 160, 39]
+        );
         let json = serde_json::to_string(&full).unwrap();
-        assert_eq!(json.matches("\"lp_polish\"").count(), 2, "{json}");
+        assert_eq!(json.matches("\"lp_polish\"").count(), 3, "{json}");
         // then the 40- and 160-coefficient separations in the log-corrected layer
-        // variable, the same forms as the √L ones, the 160-term one at two k and polished
-        let beta = LOG_LAYER_LOWRANK.1;
-        for (i, j, k, polish) in [(7, 4, 2.0, false), (8, 6, 2.0, true), (9, 6, 1.0, true)] {
+        // variable, the same forms as the √L ones, each at two (k, β), three polished
+        let (k0, b0) = LOG_LAYER_LOWRANK;
+        let p40: &[f64] = &LOWRANK_40_LP_POLISH;
+        let p160: &[f64] = &LOWRANK_LP_POLISH;
+        for (i, j, k, beta, polish) in [
+            (7, 4, k0, b0, &[][..]),
+            (8, 4, 1.25, 2.0, p40),
+            (9, 6, k0, b0, p160),
+            (10, 6, 1.0, b0, p160),
+        ] {
             assert_eq!(full.forms[i].form, full.forms[j].form);
-            assert_eq!(full.forms[i].lp_polish.is_empty(), !polish);
+            assert_eq!(full.forms[i].lp_polish, polish);
             assert!(full.forms[j].lp_polish.is_empty());
             // a refit looks its polish up by form and transforms; forms without one keep the
             // plan's (none), and a plan's JSON names the polish only where a form has one
             let (f, t) = (&full.forms[i].form, &full.forms[i].transforms);
-            let want: &[f64] = if polish { &LOWRANK_LP_POLISH } else { &[] };
-            assert_eq!(full.lp_polish_for(f, t), want);
+            assert_eq!(full.lp_polish_for(f, t), polish);
             assert!(full.lp_polish_for(f, &full.forms[j].transforms).is_empty());
             assert_eq!(
                 full.forms[i].transforms[2],

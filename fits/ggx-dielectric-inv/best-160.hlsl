@@ -14,18 +14,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.834x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 a4754d4e825539c03bfa236c8c73e5e564833d5a80879b0de77d63dcb5d32a02.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.803x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 21b3d01c1dbaa865ee878109432abed65e218f0abb77273b45b843116148426e.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-4, shifted 2.1e-4, bernstein 2.9e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 7.50e-4, max 3.89e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.14e-4, max 3.63e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.53e-7 (every op rounded, as this Rust), 7.87e-7 (fused multiply-add), 4.15e-6 (GPU division/sqrt error).
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-4, shifted 2.8e-5, bernstein 2.7e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 6.93e-4, max 4.17e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.60e-4, max 3.57e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.24e-7 (every op rounded, as this Rust), 6.43e-7 (fused multiply-add), 3.21e-6 (GPU division/sqrt error).
 // Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.31e-4, max 3.89e-3; this f32 code MAE 7.31e-4, max 3.89e-3.
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 6.72e-4, max 4.17e-3; this f32 code MAE 6.72e-4, max 4.17e-3.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
-// Denominator proved >= 6.068e-5 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 1.132e-4 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -35,14 +35,14 @@ float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20f)))));
     float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0f + mu_c))));
-    float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
-    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    float mu_t = (mu_logv * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    float mu_u = (mu_t - 7.888609e-31f) * 1.0f;
+    float mu_logv = (mu_c + 2.5f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 2.5f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    float mu_t = (mu_logv * (1.0f + 1.5f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.5f * (r_c * r_c) + 7.888609e-31f);
+    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
+    float mu_u = (mu_t - 5.259073e-31f) * 1.0f;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     float r_b5_v = 1.0f - r_t;
     float r_b5_u2 = r_t * r_t;
@@ -72,12 +72,12 @@ float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    float p0_0_0 = 0.95430404f * mu_b5_v5 + 2.6347384f * mu_b5_b1 + 3.1616054f * mu_b5_b2 + 1.6149682f * mu_b5_b3 + 0.39776903f * mu_b5_b4 + 0.45818815f * mu_b5_u5;
-    float p0_0_1 = 7.2822657f * mu_b5_v5 + 14.63266f * mu_b5_b1 + 15.758569f * mu_b5_b2 + 11.114296f * mu_b5_b3 + 3.3767316f * mu_b5_b4 + 1.6416929f * mu_b5_u5;
-    float p0_0_2 = 18.343884f * mu_b5_v5 + 31.72453f * mu_b5_b1 + 37.014023f * mu_b5_b2 + 37.21432f * mu_b5_b3 + 14.931273f * mu_b5_b4 + 3.2924938f * mu_b5_u5;
-    float p0_0_3 = 21.271671f * mu_b5_v5 + 33.100056f * mu_b5_b1 + 42.45124f * mu_b5_b2 + 51.795982f * mu_b5_b3 + 22.40304f * mu_b5_b4 + 3.172075f * mu_b5_u5;
-    float p0_0_4 = 12.321766f * mu_b5_v5 + 18.953901f * mu_b5_b1 + 26.843103f * mu_b5_b2 + 34.703377f * mu_b5_b3 + 15.024147f * mu_b5_b4 + 1.502819f * mu_b5_u5;
-    float p0_0_5 = 2.928552f * mu_b5_v5 + 4.8931384f * mu_b5_b1 + 7.4342933f * mu_b5_b2 + 9.247756f * mu_b5_b3 + 3.8861024f * mu_b5_b4 + 0.30227005f * mu_b5_u5;
+    float p0_0_0 = 0.8816601f * mu_b5_v5 + 2.27601f * mu_b5_b1 + 2.773457f * mu_b5_b2 + 2.2008116f * mu_b5_b3 + 1.2676498f * mu_b5_b4 + 0.70426005f * mu_b5_u5;
+    float p0_0_1 = 12.648688f * mu_b5_v5 + 23.086245f * mu_b5_b1 + 15.874822f * mu_b5_b2 + 8.315408f * mu_b5_b3 + 4.2658534f * mu_b5_b4 + 2.6792853f * mu_b5_u5;
+    float p0_0_2 = 35.747112f * mu_b5_v5 + 62.909054f * mu_b5_b1 + 52.20951f * mu_b5_b2 + 43.12621f * mu_b5_b3 + 22.249819f * mu_b5_b4 + 6.7543287f * mu_b5_u5;
+    float p0_0_3 = 43.198418f * mu_b5_v5 + 77.1063f * mu_b5_b1 + 79.4703f * mu_b5_b2 + 78.0697f * mu_b5_b3 + 37.296265f * mu_b5_b4 + 7.3721237f * mu_b5_u5;
+    float p0_0_4 = 28.600496f * mu_b5_v5 + 62.42341f * mu_b5_b1 + 83.25074f * mu_b5_b2 + 79.685616f * mu_b5_b3 + 33.58216f * mu_b5_b4 + 4.615946f * mu_b5_u5;
+    float p0_0_5 = 8.617089f * mu_b5_v5 + 23.59055f * mu_b5_b1 + 35.23783f * mu_b5_b2 + 30.976767f * mu_b5_b3 + 11.712132f * mu_b5_b4 + 1.2580496f * mu_b5_u5;
     float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     float p0 = p0_0 * 1.0f;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -92,15 +92,15 @@ float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    float u0_0_0 = 0.95867306f * 1.0f;
+    float u0_0_0 = 1.0139333f * 1.0f;
     float u0_0 = u0_0_0 * 1.0f;
-    float u0_1_0 = 4.1011333f * 1.0f;
+    float u0_1_0 = 4.334496f * 1.0f;
     float u0_1 = u0_1_0 * 1.0f;
-    float u0_2_0 = 6.417385f * 1.0f;
+    float u0_2_0 = 6.8029203f * 1.0f;
     float u0_2 = u0_2_0 * 1.0f;
-    float u0_3_0 = 4.2989097f * 1.0f;
+    float u0_3_0 = 4.599383f * 1.0f;
     float u0_3 = u0_3_0 * 1.0f;
-    float u0_4_0 = 1.086472f * 1.0f;
+    float u0_4_0 = 1.1656648f * 1.0f;
     float u0_4 = u0_4_0 * 1.0f;
     float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -126,101 +126,101 @@ float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q0_0_0 = 1.0f * mu_b4_v4 + 1.9615376f * mu_b4_b1 + 2.0603478f * mu_b4_b2 - 0.07514187f * mu_b4_b3 + 0.48064256f * mu_b4_u4;
-    float q0_0_1 = 6.9929843f * mu_b4_v4 + 7.163899f * mu_b4_b1 + 8.392078f * mu_b4_b2 + 2.8540833f * mu_b4_b3 + 1.2512972f * mu_b4_u4;
-    float q0_0_2 = 14.734106f * mu_b4_v4 + 12.230142f * mu_b4_b1 + 20.326908f * mu_b4_b2 + 15.536217f * mu_b4_b3 + 2.6329114f * mu_b4_u4;
-    float q0_0_3 = 12.395373f * mu_b4_v4 + 9.324005f * mu_b4_b1 + 19.810087f * mu_b4_b2 + 18.488503f * mu_b4_b3 + 2.2254252f * mu_b4_u4;
-    float q0_0_4 = 4.1167727f * mu_b4_v4 + 4.1463075f * mu_b4_b1 + 8.590034f * mu_b4_b2 + 7.731593f * mu_b4_b3 + 0.825689f * mu_b4_u4;
+    float q0_0_0 = 1.0f * mu_b4_v4 + 1.9257212f * mu_b4_b1 + 2.0515904f * mu_b4_b2 + 0.6237384f * mu_b4_b3 + 0.8003819f * mu_b4_u4;
+    float q0_0_1 = 13.627321f * mu_b4_v4 + 13.503388f * mu_b4_b1 + 5.360722f * mu_b4_b2 + 2.5168562f * mu_b4_b3 + 2.2422523f * mu_b4_u4;
+    float q0_0_2 = 30.270359f * mu_b4_v4 + 30.022375f * mu_b4_b1 + 24.01048f * mu_b4_b2 + 22.637825f * mu_b4_b3 + 6.194436f * mu_b4_u4;
+    float q0_0_3 = 26.37158f * mu_b4_v4 + 31.827707f * mu_b4_b1 + 37.638927f * mu_b4_b2 + 32.28816f * mu_b4_b3 + 5.315409f * mu_b4_u4;
+    float q0_0_4 = 12.183023f * mu_b4_v4 + 27.200928f * mu_b4_b1 + 37.66447f * mu_b4_b2 + 25.361378f * mu_b4_b3 + 4.0173254f * mu_b4_u4;
     float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     float q0 = q0_0 * 1.0f;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    float p1_0_0 = 0.11915953f * mu_b5_v5 + 0.8764722f * mu_b5_b1 + 0.47104028f * mu_b5_b2 + 0.05957853f * mu_b5_b3 + 0.0028697362f * mu_b5_b4 + 0.00047502457f * mu_b5_u5;
-    float p1_0_1 = -0.8355232f * mu_b5_v5 - 2.99905f * mu_b5_b1 - 2.7407596f * mu_b5_b2 + 1.0988854f * mu_b5_b3 - 0.03421355f * mu_b5_b4 + 0.006948992f * mu_b5_u5;
-    float p1_0_2 = -2.6628568f * mu_b5_v5 - 13.652117f * mu_b5_b1 - 7.5174847f * mu_b5_b2 + 6.276729f * mu_b5_b3 - 0.5984146f * mu_b5_b4 + 0.031193541f * mu_b5_u5;
-    float p1_0_3 = -2.6731975f * mu_b5_v5 - 16.855453f * mu_b5_b1 - 3.9783134f * mu_b5_b2 + 12.1453285f * mu_b5_b3 - 1.379155f * mu_b5_b4 + 0.11402042f * mu_b5_u5;
-    float p1_0_4 = -1.3628162f * mu_b5_v5 - 9.474806f * mu_b5_b1 + 0.581843f * mu_b5_b2 + 8.850012f * mu_b5_b3 - 1.4745044f * mu_b5_b4 + 0.086597644f * mu_b5_u5;
-    float p1_0_5 = -0.35022777f * mu_b5_v5 - 2.158122f * mu_b5_b1 + 0.73012334f * mu_b5_b2 + 2.4177568f * mu_b5_b3 - 0.418855f * mu_b5_b4 + 0.04486194f * mu_b5_u5;
+    float p1_0_0 = 0.11548767f * mu_b5_v5 + 0.5460936f * mu_b5_b1 + 0.37825385f * mu_b5_b2 + 0.14644757f * mu_b5_b3 - 0.005053142f * mu_b5_b4 + 0.00032533804f * mu_b5_u5;
+    float p1_0_1 = -0.6701454f * mu_b5_v5 - 1.673059f * mu_b5_b1 - 1.8095297f * mu_b5_b2 + 0.15228201f * mu_b5_b3 - 0.06347115f * mu_b5_b4 - 0.0014787238f * mu_b5_u5;
+    float p1_0_2 = -1.5894156f * mu_b5_v5 - 3.907708f * mu_b5_b1 - 1.1995398f * mu_b5_b2 + 3.0536554f * mu_b5_b3 - 0.09705791f * mu_b5_b4 + 0.009820312f * mu_b5_u5;
+    float p1_0_3 = -1.7660092f * mu_b5_v5 - 3.7142136f * mu_b5_b1 + 1.6299002f * mu_b5_b2 + 4.68532f * mu_b5_b3 - 0.8741069f * mu_b5_b4 + 0.060458723f * mu_b5_u5;
+    float p1_0_4 = -1.3911157f * mu_b5_v5 - 2.5626655f * mu_b5_b1 + 1.6836401f * mu_b5_b2 + 2.8650978f * mu_b5_b3 - 0.88442934f * mu_b5_b4 + 0.1265534f * mu_b5_u5;
+    float p1_0_5 = -0.45734996f * mu_b5_v5 - 0.6793118f * mu_b5_b1 + 0.7573749f * mu_b5_b2 + 0.94298995f * mu_b5_b3 - 0.19126669f * mu_b5_b4 + 0.049258195f * mu_b5_u5;
     float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     float p1 = p1_0 * 1.0f;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    float u1_0_0 = 1.3346801f * 1.0f;
+    float u1_0_0 = 1.1998538f * 1.0f;
     float u1_0 = u1_0_0 * 1.0f;
-    float u1_1_0 = 1.1264191f * 1.0f;
+    float u1_1_0 = 2.9623969f * 1.0f;
     float u1_1 = u1_1_0 * 1.0f;
-    float u1_2_0 = -3.8509786f * 1.0f;
+    float u1_2_0 = 1.2562336f * 1.0f;
     float u1_2 = u1_2_0 * 1.0f;
-    float u1_3_0 = -2.0842366f * 1.0f;
+    float u1_3_0 = -0.6669742f * 1.0f;
     float u1_3 = u1_3_0 * 1.0f;
-    float u1_4_0 = -0.5206012f * 1.0f;
+    float u1_4_0 = -0.35760128f * 1.0f;
     float u1_4 = u1_4_0 * 1.0f;
     float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q1_0_0 = 1.0f * mu_b4_v4 + 3.575506f * mu_b4_b1 + 0.3316202f * mu_b4_b2 + 0.015578714f * mu_b4_b3 + 0.0033729093f * mu_b4_u4;
-    float q1_0_1 = 3.309286f * mu_b4_v4 + 13.371998f * mu_b4_b1 + 0.69685894f * mu_b4_b2 - 0.30375662f * mu_b4_b3 + 0.037730116f * mu_b4_u4;
-    float q1_0_2 = 4.625728f * mu_b4_v4 + 20.553331f * mu_b4_b1 + 1.8714675f * mu_b4_b2 - 0.34315693f * mu_b4_b3 + 0.17642905f * mu_b4_u4;
-    float q1_0_3 = 3.2771456f * mu_b4_v4 + 15.037245f * mu_b4_b1 + 2.4912112f * mu_b4_b2 - 0.10745219f * mu_b4_b3 + 0.1370691f * mu_b4_u4;
-    float q1_0_4 = 1.077583f * mu_b4_v4 + 4.747923f * mu_b4_b1 + 1.6862587f * mu_b4_b2 + 0.38388675f * mu_b4_b3 + 0.11187661f * mu_b4_u4;
+    float q1_0_0 = 1.0f * mu_b4_v4 + 2.3915231f * mu_b4_b1 + 1.0447582f * mu_b4_b2 - 0.03278164f * mu_b4_b3 + 0.0024496869f * mu_b4_u4;
+    float q1_0_1 = 2.6500227f * mu_b4_v4 + 5.29975f * mu_b4_b1 + 0.8304947f * mu_b4_b2 - 0.58875746f * mu_b4_b3 - 0.015659858f * mu_b4_u4;
+    float q1_0_2 = 4.1894984f * mu_b4_v4 + 6.959586f * mu_b4_b1 + 0.5398458f * mu_b4_b2 - 0.20647033f * mu_b4_b3 + 0.15457009f * mu_b4_u4;
+    float q1_0_3 = 3.9367678f * mu_b4_v4 + 5.900845f * mu_b4_b1 + 0.66468805f * mu_b4_b2 + 0.103973225f * mu_b4_b3 + 0.1572279f * mu_b4_u4;
+    float q1_0_4 = 1.5645765f * mu_b4_v4 + 2.5186217f * mu_b4_b1 + 0.9142832f * mu_b4_b2 + 0.42360404f * mu_b4_b3 + 0.15183234f * mu_b4_u4;
     float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     float q1 = q1_0 * 1.0f;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    float p2_0_0 = -0.043704253f * mu_b5_v5 - 0.67836124f * mu_b5_b1 - 0.109239355f * mu_b5_b2 - 0.05228491f * mu_b5_b3 - 0.012101583f * mu_b5_b4 - 6.838825e-5f * mu_b5_u5;
-    float p2_0_1 = 0.66696215f * mu_b5_v5 + 2.5417325f * mu_b5_b1 + 4.2703323f * mu_b5_b2 - 0.4690186f * mu_b5_b3 - 0.034658417f * mu_b5_b4 + 0.0015754085f * mu_b5_u5;
-    float p2_0_2 = 1.3320571f * mu_b5_v5 + 8.549544f * mu_b5_b1 + 6.9691453f * mu_b5_b2 - 5.661295f * mu_b5_b3 + 0.24015163f * mu_b5_b4 - 0.0035882434f * mu_b5_u5;
-    float p2_0_3 = 0.32335627f * mu_b5_v5 + 6.33507f * mu_b5_b1 - 2.3169923f * mu_b5_b2 - 12.885412f * mu_b5_b3 + 1.003713f * mu_b5_b4 - 0.09627435f * mu_b5_u5;
-    float p2_0_4 = -0.38265374f * mu_b5_v5 + 1.0257056f * mu_b5_b1 - 6.9363985f * mu_b5_b2 - 9.337519f * mu_b5_b3 + 1.7841672f * mu_b5_b4 - 0.05141874f * mu_b5_u5;
-    float p2_0_5 = -0.15227154f * mu_b5_v5 - 0.318175f * mu_b5_b1 - 2.7063541f * mu_b5_b2 - 2.37319f * mu_b5_b3 + 0.7049016f * mu_b5_b4 - 0.028028624f * mu_b5_u5;
+    float p2_0_0 = -0.09641866f * mu_b5_v5 - 0.59505796f * mu_b5_b1 - 0.23275119f * mu_b5_b2 - 0.086636566f * mu_b5_b3 + 0.0037113582f * mu_b5_b4 - 0.00018950606f * mu_b5_u5;
+    float p2_0_1 = 0.96710175f * mu_b5_v5 + 2.3697777f * mu_b5_b1 + 3.0850992f * mu_b5_b2 - 0.07264186f * mu_b5_b3 + 0.027319109f * mu_b5_b4 + 0.00025653193f * mu_b5_u5;
+    float p2_0_2 = 1.6011974f * mu_b5_v5 + 4.1792755f * mu_b5_b1 + 1.7985802f * mu_b5_b2 - 4.3347516f * mu_b5_b3 + 0.014371363f * mu_b5_b4 + 0.0053695566f * mu_b5_u5;
+    float p2_0_3 = 0.7545321f * mu_b5_v5 + 1.8797516f * mu_b5_b1 - 3.2989976f * mu_b5_b2 - 6.8943124f * mu_b5_b3 + 1.0231158f * mu_b5_b4 - 0.07104427f * mu_b5_u5;
+    float p2_0_4 = 0.22251098f * mu_b5_v5 + 0.35311782f * mu_b5_b1 - 3.4468045f * mu_b5_b2 - 3.9102802f * mu_b5_b3 + 1.3039217f * mu_b5_b4 - 0.1453371f * mu_b5_u5;
+    float p2_0_5 = 0.03584279f * mu_b5_v5 - 0.16125923f * mu_b5_b1 - 1.3652084f * mu_b5_b2 - 1.0628456f * mu_b5_b3 + 0.42250398f * mu_b5_b4 - 0.03918242f * mu_b5_u5;
     float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     float p2 = p2_0 * 1.0f;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    float u2_0_0 = -0.780217f * 1.0f;
+    float u2_0_0 = 0.13482416f * 1.0f;
     float u2_0 = u2_0_0 * 1.0f;
-    float u2_1_0 = 1.8956915f * 1.0f;
+    float u2_1_0 = 1.4899869f * 1.0f;
     float u2_1 = u2_1_0 * 1.0f;
-    float u2_2_0 = 7.6932955f * 1.0f;
+    float u2_2_0 = 2.5049727f * 1.0f;
     float u2_2 = u2_2_0 * 1.0f;
-    float u2_3_0 = 1.6918272f * 1.0f;
+    float u2_3_0 = 0.15282436f * 1.0f;
     float u2_3 = u2_3_0 * 1.0f;
-    float u2_4_0 = 0.11273346f * 1.0f;
+    float u2_4_0 = -0.112659946f * 1.0f;
     float u2_4 = u2_4_0 * 1.0f;
     float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q2_0_0 = 1.0f * mu_b4_v4 + 3.3031359f * mu_b4_b1 + 0.0425095f * mu_b4_b2 + 0.16443937f * mu_b4_b3 + 0.0010008487f * mu_b4_u4;
-    float q2_0_1 = 3.343399f * mu_b4_v4 + 12.641705f * mu_b4_b1 - 0.7028243f * mu_b4_b2 - 0.3335434f * mu_b4_b3 - 0.028673226f * mu_b4_u4;
-    float q2_0_2 = 5.02441f * mu_b4_v4 + 21.380611f * mu_b4_b1 + 1.507725f * mu_b4_b2 - 0.09084698f * mu_b4_b3 + 0.21324079f * mu_b4_u4;
-    float q2_0_3 = 3.464347f * mu_b4_v4 + 16.067f * mu_b4_b1 + 2.6746516f * mu_b4_b2 - 0.034064066f * mu_b4_b3 + 0.19767734f * mu_b4_u4;
-    float q2_0_4 = 0.9336244f * mu_b4_v4 + 4.626109f * mu_b4_b1 + 1.3233228f * mu_b4_b2 + 0.15995349f * mu_b4_b3 + 0.1050508f * mu_b4_u4;
+    float q2_0_0 = 1.0f * mu_b4_v4 + 1.8898808f * mu_b4_b1 + 0.60851634f * mu_b4_b2 - 0.022300214f * mu_b4_b3 + 0.0015244124f * mu_b4_u4;
+    float q2_0_1 = 2.8089526f * mu_b4_v4 + 4.778417f * mu_b4_b1 + 0.6014778f * mu_b4_b2 - 0.3476483f * mu_b4_b3 - 0.009821196f * mu_b4_u4;
+    float q2_0_2 = 3.8090484f * mu_b4_v4 + 6.145067f * mu_b4_b1 + 0.43849608f * mu_b4_b2 - 0.25736302f * mu_b4_b3 + 0.09492047f * mu_b4_u4;
+    float q2_0_3 = 3.036708f * mu_b4_v4 + 5.033649f * mu_b4_b1 + 0.99153626f * mu_b4_b2 + 0.23299256f * mu_b4_b3 + 0.20823741f * mu_b4_u4;
+    float q2_0_4 = 1.030975f * mu_b4_v4 + 1.7545683f * mu_b4_b1 + 0.5121777f * mu_b4_b2 + 0.14245816f * mu_b4_b3 + 0.096333995f * mu_b4_u4;
     float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     float q2 = q2_0 * 1.0f;
     float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    float p3_0_0 = -0.05741002f * mu_b5_v5 - 0.64621407f * mu_b5_b1 - 0.16592616f * mu_b5_b2 - 0.019592423f * mu_b5_b3 - 0.008755254f * mu_b5_b4 - 9.8389675e-5f * mu_b5_u5;
-    float p3_0_1 = 0.71082795f * mu_b5_v5 + 2.529445f * mu_b5_b1 + 3.355157f * mu_b5_b2 - 0.6508657f * mu_b5_b3 - 0.018114567f * mu_b5_b4 + 0.00022378622f * mu_b5_u5;
-    float p3_0_2 = 1.6836157f * mu_b5_v5 + 9.311844f * mu_b5_b1 + 6.079239f * mu_b5_b2 - 5.55142f * mu_b5_b3 + 0.3259602f * mu_b5_b4 - 0.009744174f * mu_b5_u5;
-    float p3_0_3 = 1.0368036f * mu_b5_v5 + 9.015318f * mu_b5_b1 - 0.3965488f * mu_b5_b2 - 11.538503f * mu_b5_b3 + 1.0934359f * mu_b5_b4 - 0.08125952f * mu_b5_u5;
-    float p3_0_4 = 0.17633805f * mu_b5_v5 + 3.6183228f * mu_b5_b1 - 4.3152356f * mu_b5_b2 - 8.346345f * mu_b5_b3 + 1.5295492f * mu_b5_b4 - 0.050393425f * mu_b5_u5;
-    float p3_0_5 = 0.009692236f * mu_b5_v5 + 0.51309067f * mu_b5_b1 - 1.8127303f * mu_b5_b2 - 2.1801887f * mu_b5_b3 + 0.5453333f * mu_b5_b4 - 0.024420151f * mu_b5_u5;
+    float p3_0_0 = -0.041320346f * mu_b5_v5 - 0.35645524f * mu_b5_b1 - 0.029195871f * mu_b5_b2 - 0.03647027f * mu_b5_b3 + 0.0025102342f * mu_b5_b4 - 0.00010654717f * mu_b5_u5;
+    float p3_0_1 = 0.6662848f * mu_b5_v5 + 1.4910331f * mu_b5_b1 + 2.229426f * mu_b5_b2 - 0.22387275f * mu_b5_b3 - 0.0028195805f * mu_b5_b4 + 0.0006005064f * mu_b5_u5;
+    float p3_0_2 = 0.8984597f * mu_b5_v5 + 2.1305256f * mu_b5_b1 + 1.0580858f * mu_b5_b2 - 3.3604815f * mu_b5_b3 + 0.06574197f * mu_b5_b4 + 0.0019826738f * mu_b5_u5;
+    float p3_0_3 = 0.22894864f * mu_b5_v5 + 0.44112563f * mu_b5_b1 - 2.5127158f * mu_b5_b2 - 5.075266f * mu_b5_b3 + 0.8687009f * mu_b5_b4 - 0.031186737f * mu_b5_u5;
+    float p3_0_4 = 0.079322964f * mu_b5_v5 + 0.028811483f * mu_b5_b1 - 2.4197295f * mu_b5_b2 - 2.933131f * mu_b5_b3 + 1.007304f * mu_b5_b4 - 0.053913314f * mu_b5_u5;
+    float p3_0_5 = 0.054277625f * mu_b5_v5 - 0.064033024f * mu_b5_b1 - 0.97706205f * mu_b5_b2 - 0.90045667f * mu_b5_b3 + 0.2749186f * mu_b5_b4 - 0.008402202f * mu_b5_u5;
     float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     float p3 = p3_0 * 1.0f;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    float u3_0_0 = 1.8966728f * 1.0f;
+    float u3_0_0 = 0.5023948f * 1.0f;
     float u3_0 = u3_0_0 * 1.0f;
-    float u3_1_0 = -0.8087356f * 1.0f;
+    float u3_1_0 = 0.36806798f * 1.0f;
     float u3_1 = u3_1_0 * 1.0f;
-    float u3_2_0 = -11.77127f * 1.0f;
+    float u3_2_0 = -2.614401f * 1.0f;
     float u3_2 = u3_2_0 * 1.0f;
-    float u3_3_0 = -3.708086f * 1.0f;
+    float u3_3_0 = -0.85594773f * 1.0f;
     float u3_3 = u3_3_0 * 1.0f;
-    float u3_4_0 = -0.5485883f * 1.0f;
+    float u3_4_0 = -0.099962905f * 1.0f;
     float u3_4 = u3_4_0 * 1.0f;
     float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q3_0_0 = 1.0f * mu_b4_v4 + 3.0231829f * mu_b4_b1 - 0.036364686f * mu_b4_b2 + 0.09825386f * mu_b4_b3 + 0.0012035472f * mu_b4_u4;
-    float q3_0_1 = 3.4514813f * mu_b4_v4 + 12.14341f * mu_b4_b1 - 0.1237932f * mu_b4_b2 - 0.19817072f * mu_b4_b3 - 0.008840887f * mu_b4_u4;
-    float q3_0_2 = 4.7774262f * mu_b4_v4 + 19.724924f * mu_b4_b1 + 1.6528406f * mu_b4_b2 - 0.1814235f * mu_b4_b3 + 0.17364728f * mu_b4_u4;
-    float q3_0_3 = 3.0829837f * mu_b4_v4 + 14.560363f * mu_b4_b1 + 2.5801795f * mu_b4_b2 - 0.09189274f * mu_b4_b3 + 0.17891517f * mu_b4_u4;
-    float q3_0_4 = 0.85577506f * mu_b4_v4 + 4.3506093f * mu_b4_b1 + 1.4323276f * mu_b4_b2 + 0.18805104f * mu_b4_b3 + 0.093959674f * mu_b4_u4;
+    float q3_0_0 = 1.0f * mu_b4_v4 + 1.2602885f * mu_b4_b1 + 0.4298195f * mu_b4_b2 - 0.029419413f * mu_b4_b3 + 0.0015686603f * mu_b4_u4;
+    float q3_0_1 = 3.133609f * mu_b4_v4 + 3.8977485f * mu_b4_b1 + 1.483757f * mu_b4_b2 - 0.094333045f * mu_b4_b3 - 0.011874449f * mu_b4_u4;
+    float q3_0_2 = 3.9177148f * mu_b4_v4 + 4.517664f * mu_b4_b1 + 1.2002283f * mu_b4_b2 - 0.54163176f * mu_b4_b3 + 0.061203267f * mu_b4_u4;
+    float q3_0_3 = 3.0413268f * mu_b4_v4 + 4.2821074f * mu_b4_b1 + 1.7247334f * mu_b4_b2 - 0.07511949f * mu_b4_b3 + 0.24300416f * mu_b4_u4;
+    float q3_0_4 = 1.1719743f * mu_b4_v4 + 2.0609179f * mu_b4_b1 + 1.0669643f * mu_b4_b2 + 0.060613126f * mu_b4_b3 + 0.083111405f * mu_b4_u4;
     float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     float q3 = q3_0 * 1.0f;
     float e3 = p3 * u3 / q3;

@@ -12,18 +12,18 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.834x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 a4754d4e825539c03bfa236c8c73e5e564833d5a80879b0de77d63dcb5d32a02.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.803x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 21b3d01c1dbaa865ee878109432abed65e218f0abb77273b45b843116148426e.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-4, shifted 2.1e-4, bernstein 2.9e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 7.50e-4, max 3.89e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.14e-4, max 3.63e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.53e-7 (every op rounded, as this Rust), 7.87e-7 (fused multiply-add), 4.15e-6 (GPU division/sqrt error).
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-4, shifted 2.8e-5, bernstein 2.7e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 6.93e-4, max 4.17e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.60e-4, max 3.57e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.24e-7 (every op rounded, as this Rust), 6.43e-7 (fused multiply-add), 3.21e-6 (GPU division/sqrt error).
 /// Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.31e-4, max 3.89e-3; this f32 code MAE 7.31e-4, max 3.89e-3.
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 6.72e-4, max 4.17e-3; this f32 code MAE 6.72e-4, max 4.17e-3.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
-/// Denominator proved >= 6.068e-5 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 1.132e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -40,14 +40,14 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
     let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
-    let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
-    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    let mu_u = (mu_t - 7.888609e-31_f32) * 1.0_f32;
+    let mu_logv = (mu_c + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 1.5_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.5_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
+    let mu_u = (mu_t - 5.259073e-31_f32) * 1.0_f32;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     let r_b5_v = 1.0_f32 - r_t;
     let r_b5_u2 = r_t * r_t;
@@ -77,12 +77,12 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.95430404_f32 * mu_b5_v5 + 2.6347384_f32 * mu_b5_b1 + 3.1616054_f32 * mu_b5_b2 + 1.6149682_f32 * mu_b5_b3 + 0.39776903_f32 * mu_b5_b4 + 0.45818815_f32 * mu_b5_u5;
-    let p0_0_1 = 7.2822657_f32 * mu_b5_v5 + 14.63266_f32 * mu_b5_b1 + 15.758569_f32 * mu_b5_b2 + 11.114296_f32 * mu_b5_b3 + 3.3767316_f32 * mu_b5_b4 + 1.6416929_f32 * mu_b5_u5;
-    let p0_0_2 = 18.343884_f32 * mu_b5_v5 + 31.72453_f32 * mu_b5_b1 + 37.014023_f32 * mu_b5_b2 + 37.21432_f32 * mu_b5_b3 + 14.931273_f32 * mu_b5_b4 + 3.2924938_f32 * mu_b5_u5;
-    let p0_0_3 = 21.271671_f32 * mu_b5_v5 + 33.100056_f32 * mu_b5_b1 + 42.45124_f32 * mu_b5_b2 + 51.795982_f32 * mu_b5_b3 + 22.40304_f32 * mu_b5_b4 + 3.172075_f32 * mu_b5_u5;
-    let p0_0_4 = 12.321766_f32 * mu_b5_v5 + 18.953901_f32 * mu_b5_b1 + 26.843103_f32 * mu_b5_b2 + 34.703377_f32 * mu_b5_b3 + 15.024147_f32 * mu_b5_b4 + 1.502819_f32 * mu_b5_u5;
-    let p0_0_5 = 2.928552_f32 * mu_b5_v5 + 4.8931384_f32 * mu_b5_b1 + 7.4342933_f32 * mu_b5_b2 + 9.247756_f32 * mu_b5_b3 + 3.8861024_f32 * mu_b5_b4 + 0.30227005_f32 * mu_b5_u5;
+    let p0_0_0 = 0.8816601_f32 * mu_b5_v5 + 2.27601_f32 * mu_b5_b1 + 2.773457_f32 * mu_b5_b2 + 2.2008116_f32 * mu_b5_b3 + 1.2676498_f32 * mu_b5_b4 + 0.70426005_f32 * mu_b5_u5;
+    let p0_0_1 = 12.648688_f32 * mu_b5_v5 + 23.086245_f32 * mu_b5_b1 + 15.874822_f32 * mu_b5_b2 + 8.315408_f32 * mu_b5_b3 + 4.2658534_f32 * mu_b5_b4 + 2.6792853_f32 * mu_b5_u5;
+    let p0_0_2 = 35.747112_f32 * mu_b5_v5 + 62.909054_f32 * mu_b5_b1 + 52.20951_f32 * mu_b5_b2 + 43.12621_f32 * mu_b5_b3 + 22.249819_f32 * mu_b5_b4 + 6.7543287_f32 * mu_b5_u5;
+    let p0_0_3 = 43.198418_f32 * mu_b5_v5 + 77.1063_f32 * mu_b5_b1 + 79.4703_f32 * mu_b5_b2 + 78.0697_f32 * mu_b5_b3 + 37.296265_f32 * mu_b5_b4 + 7.3721237_f32 * mu_b5_u5;
+    let p0_0_4 = 28.600496_f32 * mu_b5_v5 + 62.42341_f32 * mu_b5_b1 + 83.25074_f32 * mu_b5_b2 + 79.685616_f32 * mu_b5_b3 + 33.58216_f32 * mu_b5_b4 + 4.615946_f32 * mu_b5_u5;
+    let p0_0_5 = 8.617089_f32 * mu_b5_v5 + 23.59055_f32 * mu_b5_b1 + 35.23783_f32 * mu_b5_b2 + 30.976767_f32 * mu_b5_b3 + 11.712132_f32 * mu_b5_b4 + 1.2580496_f32 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -97,15 +97,15 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 0.95867306_f32 * 1.0_f32;
+    let u0_0_0 = 1.0139333_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 4.1011333_f32 * 1.0_f32;
+    let u0_1_0 = 4.334496_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 6.417385_f32 * 1.0_f32;
+    let u0_2_0 = 6.8029203_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 4.2989097_f32 * 1.0_f32;
+    let u0_3_0 = 4.599383_f32 * 1.0_f32;
     let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 1.086472_f32 * 1.0_f32;
+    let u0_4_0 = 1.1656648_f32 * 1.0_f32;
     let u0_4 = u0_4_0 * 1.0_f32;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -131,101 +131,101 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 1.9615376_f32 * mu_b4_b1 + 2.0603478_f32 * mu_b4_b2 - 0.07514187_f32 * mu_b4_b3 + 0.48064256_f32 * mu_b4_u4;
-    let q0_0_1 = 6.9929843_f32 * mu_b4_v4 + 7.163899_f32 * mu_b4_b1 + 8.392078_f32 * mu_b4_b2 + 2.8540833_f32 * mu_b4_b3 + 1.2512972_f32 * mu_b4_u4;
-    let q0_0_2 = 14.734106_f32 * mu_b4_v4 + 12.230142_f32 * mu_b4_b1 + 20.326908_f32 * mu_b4_b2 + 15.536217_f32 * mu_b4_b3 + 2.6329114_f32 * mu_b4_u4;
-    let q0_0_3 = 12.395373_f32 * mu_b4_v4 + 9.324005_f32 * mu_b4_b1 + 19.810087_f32 * mu_b4_b2 + 18.488503_f32 * mu_b4_b3 + 2.2254252_f32 * mu_b4_u4;
-    let q0_0_4 = 4.1167727_f32 * mu_b4_v4 + 4.1463075_f32 * mu_b4_b1 + 8.590034_f32 * mu_b4_b2 + 7.731593_f32 * mu_b4_b3 + 0.825689_f32 * mu_b4_u4;
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 1.9257212_f32 * mu_b4_b1 + 2.0515904_f32 * mu_b4_b2 + 0.6237384_f32 * mu_b4_b3 + 0.8003819_f32 * mu_b4_u4;
+    let q0_0_1 = 13.627321_f32 * mu_b4_v4 + 13.503388_f32 * mu_b4_b1 + 5.360722_f32 * mu_b4_b2 + 2.5168562_f32 * mu_b4_b3 + 2.2422523_f32 * mu_b4_u4;
+    let q0_0_2 = 30.270359_f32 * mu_b4_v4 + 30.022375_f32 * mu_b4_b1 + 24.01048_f32 * mu_b4_b2 + 22.637825_f32 * mu_b4_b3 + 6.194436_f32 * mu_b4_u4;
+    let q0_0_3 = 26.37158_f32 * mu_b4_v4 + 31.827707_f32 * mu_b4_b1 + 37.638927_f32 * mu_b4_b2 + 32.28816_f32 * mu_b4_b3 + 5.315409_f32 * mu_b4_u4;
+    let q0_0_4 = 12.183023_f32 * mu_b4_v4 + 27.200928_f32 * mu_b4_b1 + 37.66447_f32 * mu_b4_b2 + 25.361378_f32 * mu_b4_b3 + 4.0173254_f32 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.11915953_f32 * mu_b5_v5 + 0.8764722_f32 * mu_b5_b1 + 0.47104028_f32 * mu_b5_b2 + 0.05957853_f32 * mu_b5_b3 + 0.0028697362_f32 * mu_b5_b4 + 0.00047502457_f32 * mu_b5_u5;
-    let p1_0_1 = -0.8355232_f32 * mu_b5_v5 - 2.99905_f32 * mu_b5_b1 - 2.7407596_f32 * mu_b5_b2 + 1.0988854_f32 * mu_b5_b3 - 0.03421355_f32 * mu_b5_b4 + 0.006948992_f32 * mu_b5_u5;
-    let p1_0_2 = -2.6628568_f32 * mu_b5_v5 - 13.652117_f32 * mu_b5_b1 - 7.5174847_f32 * mu_b5_b2 + 6.276729_f32 * mu_b5_b3 - 0.5984146_f32 * mu_b5_b4 + 0.031193541_f32 * mu_b5_u5;
-    let p1_0_3 = -2.6731975_f32 * mu_b5_v5 - 16.855453_f32 * mu_b5_b1 - 3.9783134_f32 * mu_b5_b2 + 12.1453285_f32 * mu_b5_b3 - 1.379155_f32 * mu_b5_b4 + 0.11402042_f32 * mu_b5_u5;
-    let p1_0_4 = -1.3628162_f32 * mu_b5_v5 - 9.474806_f32 * mu_b5_b1 + 0.581843_f32 * mu_b5_b2 + 8.850012_f32 * mu_b5_b3 - 1.4745044_f32 * mu_b5_b4 + 0.086597644_f32 * mu_b5_u5;
-    let p1_0_5 = -0.35022777_f32 * mu_b5_v5 - 2.158122_f32 * mu_b5_b1 + 0.73012334_f32 * mu_b5_b2 + 2.4177568_f32 * mu_b5_b3 - 0.418855_f32 * mu_b5_b4 + 0.04486194_f32 * mu_b5_u5;
+    let p1_0_0 = 0.11548767_f32 * mu_b5_v5 + 0.5460936_f32 * mu_b5_b1 + 0.37825385_f32 * mu_b5_b2 + 0.14644757_f32 * mu_b5_b3 - 0.005053142_f32 * mu_b5_b4 + 0.00032533804_f32 * mu_b5_u5;
+    let p1_0_1 = -0.6701454_f32 * mu_b5_v5 - 1.673059_f32 * mu_b5_b1 - 1.8095297_f32 * mu_b5_b2 + 0.15228201_f32 * mu_b5_b3 - 0.06347115_f32 * mu_b5_b4 - 0.0014787238_f32 * mu_b5_u5;
+    let p1_0_2 = -1.5894156_f32 * mu_b5_v5 - 3.907708_f32 * mu_b5_b1 - 1.1995398_f32 * mu_b5_b2 + 3.0536554_f32 * mu_b5_b3 - 0.09705791_f32 * mu_b5_b4 + 0.009820312_f32 * mu_b5_u5;
+    let p1_0_3 = -1.7660092_f32 * mu_b5_v5 - 3.7142136_f32 * mu_b5_b1 + 1.6299002_f32 * mu_b5_b2 + 4.68532_f32 * mu_b5_b3 - 0.8741069_f32 * mu_b5_b4 + 0.060458723_f32 * mu_b5_u5;
+    let p1_0_4 = -1.3911157_f32 * mu_b5_v5 - 2.5626655_f32 * mu_b5_b1 + 1.6836401_f32 * mu_b5_b2 + 2.8650978_f32 * mu_b5_b3 - 0.88442934_f32 * mu_b5_b4 + 0.1265534_f32 * mu_b5_u5;
+    let p1_0_5 = -0.45734996_f32 * mu_b5_v5 - 0.6793118_f32 * mu_b5_b1 + 0.7573749_f32 * mu_b5_b2 + 0.94298995_f32 * mu_b5_b3 - 0.19126669_f32 * mu_b5_b4 + 0.049258195_f32 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 1.3346801_f32 * 1.0_f32;
+    let u1_0_0 = 1.1998538_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = 1.1264191_f32 * 1.0_f32;
+    let u1_1_0 = 2.9623969_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = -3.8509786_f32 * 1.0_f32;
+    let u1_2_0 = 1.2562336_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = -2.0842366_f32 * 1.0_f32;
+    let u1_3_0 = -0.6669742_f32 * 1.0_f32;
     let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = -0.5206012_f32 * 1.0_f32;
+    let u1_4_0 = -0.35760128_f32 * 1.0_f32;
     let u1_4 = u1_4_0 * 1.0_f32;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 3.575506_f32 * mu_b4_b1 + 0.3316202_f32 * mu_b4_b2 + 0.015578714_f32 * mu_b4_b3 + 0.0033729093_f32 * mu_b4_u4;
-    let q1_0_1 = 3.309286_f32 * mu_b4_v4 + 13.371998_f32 * mu_b4_b1 + 0.69685894_f32 * mu_b4_b2 - 0.30375662_f32 * mu_b4_b3 + 0.037730116_f32 * mu_b4_u4;
-    let q1_0_2 = 4.625728_f32 * mu_b4_v4 + 20.553331_f32 * mu_b4_b1 + 1.8714675_f32 * mu_b4_b2 - 0.34315693_f32 * mu_b4_b3 + 0.17642905_f32 * mu_b4_u4;
-    let q1_0_3 = 3.2771456_f32 * mu_b4_v4 + 15.037245_f32 * mu_b4_b1 + 2.4912112_f32 * mu_b4_b2 - 0.10745219_f32 * mu_b4_b3 + 0.1370691_f32 * mu_b4_u4;
-    let q1_0_4 = 1.077583_f32 * mu_b4_v4 + 4.747923_f32 * mu_b4_b1 + 1.6862587_f32 * mu_b4_b2 + 0.38388675_f32 * mu_b4_b3 + 0.11187661_f32 * mu_b4_u4;
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.3915231_f32 * mu_b4_b1 + 1.0447582_f32 * mu_b4_b2 - 0.03278164_f32 * mu_b4_b3 + 0.0024496869_f32 * mu_b4_u4;
+    let q1_0_1 = 2.6500227_f32 * mu_b4_v4 + 5.29975_f32 * mu_b4_b1 + 0.8304947_f32 * mu_b4_b2 - 0.58875746_f32 * mu_b4_b3 - 0.015659858_f32 * mu_b4_u4;
+    let q1_0_2 = 4.1894984_f32 * mu_b4_v4 + 6.959586_f32 * mu_b4_b1 + 0.5398458_f32 * mu_b4_b2 - 0.20647033_f32 * mu_b4_b3 + 0.15457009_f32 * mu_b4_u4;
+    let q1_0_3 = 3.9367678_f32 * mu_b4_v4 + 5.900845_f32 * mu_b4_b1 + 0.66468805_f32 * mu_b4_b2 + 0.103973225_f32 * mu_b4_b3 + 0.1572279_f32 * mu_b4_u4;
+    let q1_0_4 = 1.5645765_f32 * mu_b4_v4 + 2.5186217_f32 * mu_b4_b1 + 0.9142832_f32 * mu_b4_b2 + 0.42360404_f32 * mu_b4_b3 + 0.15183234_f32 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.043704253_f32 * mu_b5_v5 - 0.67836124_f32 * mu_b5_b1 - 0.109239355_f32 * mu_b5_b2 - 0.05228491_f32 * mu_b5_b3 - 0.012101583_f32 * mu_b5_b4 - 6.838825e-5_f32 * mu_b5_u5;
-    let p2_0_1 = 0.66696215_f32 * mu_b5_v5 + 2.5417325_f32 * mu_b5_b1 + 4.2703323_f32 * mu_b5_b2 - 0.4690186_f32 * mu_b5_b3 - 0.034658417_f32 * mu_b5_b4 + 0.0015754085_f32 * mu_b5_u5;
-    let p2_0_2 = 1.3320571_f32 * mu_b5_v5 + 8.549544_f32 * mu_b5_b1 + 6.9691453_f32 * mu_b5_b2 - 5.661295_f32 * mu_b5_b3 + 0.24015163_f32 * mu_b5_b4 - 0.0035882434_f32 * mu_b5_u5;
-    let p2_0_3 = 0.32335627_f32 * mu_b5_v5 + 6.33507_f32 * mu_b5_b1 - 2.3169923_f32 * mu_b5_b2 - 12.885412_f32 * mu_b5_b3 + 1.003713_f32 * mu_b5_b4 - 0.09627435_f32 * mu_b5_u5;
-    let p2_0_4 = -0.38265374_f32 * mu_b5_v5 + 1.0257056_f32 * mu_b5_b1 - 6.9363985_f32 * mu_b5_b2 - 9.337519_f32 * mu_b5_b3 + 1.7841672_f32 * mu_b5_b4 - 0.05141874_f32 * mu_b5_u5;
-    let p2_0_5 = -0.15227154_f32 * mu_b5_v5 - 0.318175_f32 * mu_b5_b1 - 2.7063541_f32 * mu_b5_b2 - 2.37319_f32 * mu_b5_b3 + 0.7049016_f32 * mu_b5_b4 - 0.028028624_f32 * mu_b5_u5;
+    let p2_0_0 = -0.09641866_f32 * mu_b5_v5 - 0.59505796_f32 * mu_b5_b1 - 0.23275119_f32 * mu_b5_b2 - 0.086636566_f32 * mu_b5_b3 + 0.0037113582_f32 * mu_b5_b4 - 0.00018950606_f32 * mu_b5_u5;
+    let p2_0_1 = 0.96710175_f32 * mu_b5_v5 + 2.3697777_f32 * mu_b5_b1 + 3.0850992_f32 * mu_b5_b2 - 0.07264186_f32 * mu_b5_b3 + 0.027319109_f32 * mu_b5_b4 + 0.00025653193_f32 * mu_b5_u5;
+    let p2_0_2 = 1.6011974_f32 * mu_b5_v5 + 4.1792755_f32 * mu_b5_b1 + 1.7985802_f32 * mu_b5_b2 - 4.3347516_f32 * mu_b5_b3 + 0.014371363_f32 * mu_b5_b4 + 0.0053695566_f32 * mu_b5_u5;
+    let p2_0_3 = 0.7545321_f32 * mu_b5_v5 + 1.8797516_f32 * mu_b5_b1 - 3.2989976_f32 * mu_b5_b2 - 6.8943124_f32 * mu_b5_b3 + 1.0231158_f32 * mu_b5_b4 - 0.07104427_f32 * mu_b5_u5;
+    let p2_0_4 = 0.22251098_f32 * mu_b5_v5 + 0.35311782_f32 * mu_b5_b1 - 3.4468045_f32 * mu_b5_b2 - 3.9102802_f32 * mu_b5_b3 + 1.3039217_f32 * mu_b5_b4 - 0.1453371_f32 * mu_b5_u5;
+    let p2_0_5 = 0.03584279_f32 * mu_b5_v5 - 0.16125923_f32 * mu_b5_b1 - 1.3652084_f32 * mu_b5_b2 - 1.0628456_f32 * mu_b5_b3 + 0.42250398_f32 * mu_b5_b4 - 0.03918242_f32 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0_f32;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = -0.780217_f32 * 1.0_f32;
+    let u2_0_0 = 0.13482416_f32 * 1.0_f32;
     let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = 1.8956915_f32 * 1.0_f32;
+    let u2_1_0 = 1.4899869_f32 * 1.0_f32;
     let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = 7.6932955_f32 * 1.0_f32;
+    let u2_2_0 = 2.5049727_f32 * 1.0_f32;
     let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = 1.6918272_f32 * 1.0_f32;
+    let u2_3_0 = 0.15282436_f32 * 1.0_f32;
     let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = 0.11273346_f32 * 1.0_f32;
+    let u2_4_0 = -0.112659946_f32 * 1.0_f32;
     let u2_4 = u2_4_0 * 1.0_f32;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 3.3031359_f32 * mu_b4_b1 + 0.0425095_f32 * mu_b4_b2 + 0.16443937_f32 * mu_b4_b3 + 0.0010008487_f32 * mu_b4_u4;
-    let q2_0_1 = 3.343399_f32 * mu_b4_v4 + 12.641705_f32 * mu_b4_b1 - 0.7028243_f32 * mu_b4_b2 - 0.3335434_f32 * mu_b4_b3 - 0.028673226_f32 * mu_b4_u4;
-    let q2_0_2 = 5.02441_f32 * mu_b4_v4 + 21.380611_f32 * mu_b4_b1 + 1.507725_f32 * mu_b4_b2 - 0.09084698_f32 * mu_b4_b3 + 0.21324079_f32 * mu_b4_u4;
-    let q2_0_3 = 3.464347_f32 * mu_b4_v4 + 16.067_f32 * mu_b4_b1 + 2.6746516_f32 * mu_b4_b2 - 0.034064066_f32 * mu_b4_b3 + 0.19767734_f32 * mu_b4_u4;
-    let q2_0_4 = 0.9336244_f32 * mu_b4_v4 + 4.626109_f32 * mu_b4_b1 + 1.3233228_f32 * mu_b4_b2 + 0.15995349_f32 * mu_b4_b3 + 0.1050508_f32 * mu_b4_u4;
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 1.8898808_f32 * mu_b4_b1 + 0.60851634_f32 * mu_b4_b2 - 0.022300214_f32 * mu_b4_b3 + 0.0015244124_f32 * mu_b4_u4;
+    let q2_0_1 = 2.8089526_f32 * mu_b4_v4 + 4.778417_f32 * mu_b4_b1 + 0.6014778_f32 * mu_b4_b2 - 0.3476483_f32 * mu_b4_b3 - 0.009821196_f32 * mu_b4_u4;
+    let q2_0_2 = 3.8090484_f32 * mu_b4_v4 + 6.145067_f32 * mu_b4_b1 + 0.43849608_f32 * mu_b4_b2 - 0.25736302_f32 * mu_b4_b3 + 0.09492047_f32 * mu_b4_u4;
+    let q2_0_3 = 3.036708_f32 * mu_b4_v4 + 5.033649_f32 * mu_b4_b1 + 0.99153626_f32 * mu_b4_b2 + 0.23299256_f32 * mu_b4_b3 + 0.20823741_f32 * mu_b4_u4;
+    let q2_0_4 = 1.030975_f32 * mu_b4_v4 + 1.7545683_f32 * mu_b4_b1 + 0.5121777_f32 * mu_b4_b2 + 0.14245816_f32 * mu_b4_b3 + 0.096333995_f32 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.05741002_f32 * mu_b5_v5 - 0.64621407_f32 * mu_b5_b1 - 0.16592616_f32 * mu_b5_b2 - 0.019592423_f32 * mu_b5_b3 - 0.008755254_f32 * mu_b5_b4 - 9.8389675e-5_f32 * mu_b5_u5;
-    let p3_0_1 = 0.71082795_f32 * mu_b5_v5 + 2.529445_f32 * mu_b5_b1 + 3.355157_f32 * mu_b5_b2 - 0.6508657_f32 * mu_b5_b3 - 0.018114567_f32 * mu_b5_b4 + 0.00022378622_f32 * mu_b5_u5;
-    let p3_0_2 = 1.6836157_f32 * mu_b5_v5 + 9.311844_f32 * mu_b5_b1 + 6.079239_f32 * mu_b5_b2 - 5.55142_f32 * mu_b5_b3 + 0.3259602_f32 * mu_b5_b4 - 0.009744174_f32 * mu_b5_u5;
-    let p3_0_3 = 1.0368036_f32 * mu_b5_v5 + 9.015318_f32 * mu_b5_b1 - 0.3965488_f32 * mu_b5_b2 - 11.538503_f32 * mu_b5_b3 + 1.0934359_f32 * mu_b5_b4 - 0.08125952_f32 * mu_b5_u5;
-    let p3_0_4 = 0.17633805_f32 * mu_b5_v5 + 3.6183228_f32 * mu_b5_b1 - 4.3152356_f32 * mu_b5_b2 - 8.346345_f32 * mu_b5_b3 + 1.5295492_f32 * mu_b5_b4 - 0.050393425_f32 * mu_b5_u5;
-    let p3_0_5 = 0.009692236_f32 * mu_b5_v5 + 0.51309067_f32 * mu_b5_b1 - 1.8127303_f32 * mu_b5_b2 - 2.1801887_f32 * mu_b5_b3 + 0.5453333_f32 * mu_b5_b4 - 0.024420151_f32 * mu_b5_u5;
+    let p3_0_0 = -0.041320346_f32 * mu_b5_v5 - 0.35645524_f32 * mu_b5_b1 - 0.029195871_f32 * mu_b5_b2 - 0.03647027_f32 * mu_b5_b3 + 0.0025102342_f32 * mu_b5_b4 - 0.00010654717_f32 * mu_b5_u5;
+    let p3_0_1 = 0.6662848_f32 * mu_b5_v5 + 1.4910331_f32 * mu_b5_b1 + 2.229426_f32 * mu_b5_b2 - 0.22387275_f32 * mu_b5_b3 - 0.0028195805_f32 * mu_b5_b4 + 0.0006005064_f32 * mu_b5_u5;
+    let p3_0_2 = 0.8984597_f32 * mu_b5_v5 + 2.1305256_f32 * mu_b5_b1 + 1.0580858_f32 * mu_b5_b2 - 3.3604815_f32 * mu_b5_b3 + 0.06574197_f32 * mu_b5_b4 + 0.0019826738_f32 * mu_b5_u5;
+    let p3_0_3 = 0.22894864_f32 * mu_b5_v5 + 0.44112563_f32 * mu_b5_b1 - 2.5127158_f32 * mu_b5_b2 - 5.075266_f32 * mu_b5_b3 + 0.8687009_f32 * mu_b5_b4 - 0.031186737_f32 * mu_b5_u5;
+    let p3_0_4 = 0.079322964_f32 * mu_b5_v5 + 0.028811483_f32 * mu_b5_b1 - 2.4197295_f32 * mu_b5_b2 - 2.933131_f32 * mu_b5_b3 + 1.007304_f32 * mu_b5_b4 - 0.053913314_f32 * mu_b5_u5;
+    let p3_0_5 = 0.054277625_f32 * mu_b5_v5 - 0.064033024_f32 * mu_b5_b1 - 0.97706205_f32 * mu_b5_b2 - 0.90045667_f32 * mu_b5_b3 + 0.2749186_f32 * mu_b5_b4 - 0.008402202_f32 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0_f32;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = 1.8966728_f32 * 1.0_f32;
+    let u3_0_0 = 0.5023948_f32 * 1.0_f32;
     let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = -0.8087356_f32 * 1.0_f32;
+    let u3_1_0 = 0.36806798_f32 * 1.0_f32;
     let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -11.77127_f32 * 1.0_f32;
+    let u3_2_0 = -2.614401_f32 * 1.0_f32;
     let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = -3.708086_f32 * 1.0_f32;
+    let u3_3_0 = -0.85594773_f32 * 1.0_f32;
     let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = -0.5485883_f32 * 1.0_f32;
+    let u3_4_0 = -0.099962905_f32 * 1.0_f32;
     let u3_4 = u3_4_0 * 1.0_f32;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 3.0231829_f32 * mu_b4_b1 - 0.036364686_f32 * mu_b4_b2 + 0.09825386_f32 * mu_b4_b3 + 0.0012035472_f32 * mu_b4_u4;
-    let q3_0_1 = 3.4514813_f32 * mu_b4_v4 + 12.14341_f32 * mu_b4_b1 - 0.1237932_f32 * mu_b4_b2 - 0.19817072_f32 * mu_b4_b3 - 0.008840887_f32 * mu_b4_u4;
-    let q3_0_2 = 4.7774262_f32 * mu_b4_v4 + 19.724924_f32 * mu_b4_b1 + 1.6528406_f32 * mu_b4_b2 - 0.1814235_f32 * mu_b4_b3 + 0.17364728_f32 * mu_b4_u4;
-    let q3_0_3 = 3.0829837_f32 * mu_b4_v4 + 14.560363_f32 * mu_b4_b1 + 2.5801795_f32 * mu_b4_b2 - 0.09189274_f32 * mu_b4_b3 + 0.17891517_f32 * mu_b4_u4;
-    let q3_0_4 = 0.85577506_f32 * mu_b4_v4 + 4.3506093_f32 * mu_b4_b1 + 1.4323276_f32 * mu_b4_b2 + 0.18805104_f32 * mu_b4_b3 + 0.093959674_f32 * mu_b4_u4;
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 1.2602885_f32 * mu_b4_b1 + 0.4298195_f32 * mu_b4_b2 - 0.029419413_f32 * mu_b4_b3 + 0.0015686603_f32 * mu_b4_u4;
+    let q3_0_1 = 3.133609_f32 * mu_b4_v4 + 3.8977485_f32 * mu_b4_b1 + 1.483757_f32 * mu_b4_b2 - 0.094333045_f32 * mu_b4_b3 - 0.011874449_f32 * mu_b4_u4;
+    let q3_0_2 = 3.9177148_f32 * mu_b4_v4 + 4.517664_f32 * mu_b4_b1 + 1.2002283_f32 * mu_b4_b2 - 0.54163176_f32 * mu_b4_b3 + 0.061203267_f32 * mu_b4_u4;
+    let q3_0_3 = 3.0413268_f32 * mu_b4_v4 + 4.2821074_f32 * mu_b4_b1 + 1.7247334_f32 * mu_b4_b2 - 0.07511949_f32 * mu_b4_b3 + 0.24300416_f32 * mu_b4_u4;
+    let q3_0_4 = 1.1719743_f32 * mu_b4_v4 + 2.0609179_f32 * mu_b4_b1 + 1.0669643_f32 * mu_b4_b2 + 0.060613126_f32 * mu_b4_b3 + 0.083111405_f32 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;

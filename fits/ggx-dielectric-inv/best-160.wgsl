@@ -11,18 +11,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.834x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 a4754d4e825539c03bfa236c8c73e5e564833d5a80879b0de77d63dcb5d32a02.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.803x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 21b3d01c1dbaa865ee878109432abed65e218f0abb77273b45b843116148426e.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-4, shifted 2.1e-4, bernstein 2.9e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 7.50e-4, max 3.89e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.14e-4, max 3.63e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.53e-7 (every op rounded, as this Rust), 7.87e-7 (fused multiply-add), 4.15e-6 (GPU division/sqrt error).
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-4, shifted 2.8e-5, bernstein 2.7e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 6.93e-4, max 4.17e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.60e-4, max 3.57e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.24e-7 (every op rounded, as this Rust), 6.43e-7 (fused multiply-add), 3.21e-6 (GPU division/sqrt error).
 // Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.31e-4, max 3.89e-3; this f32 code MAE 7.31e-4, max 3.89e-3.
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 6.72e-4, max 4.17e-3; this f32 code MAE 6.72e-4, max 4.17e-3.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
-// Denominator proved >= 6.068e-5 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 1.132e-4 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -32,14 +32,14 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     let mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
     let mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
-    let mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
-    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.0 * (r_c * r_c) + 7.888609e-31);
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    let mu_u = (mu_t - 7.888609e-31) * 1.0;
+    let mu_logv = (mu_c + 2.5 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 2.5 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0 + 1.5 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.5 * (r_c * r_c) + 7.888609e-31);
+    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
+    let mu_u = (mu_t - 5.259073e-31) * 1.0;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     let r_b5_v = 1.0 - r_t;
     let r_b5_u2 = r_t * r_t;
@@ -69,12 +69,12 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.95430404 * mu_b5_v5 + 2.6347384 * mu_b5_b1 + 3.1616054 * mu_b5_b2 + 1.6149682 * mu_b5_b3 + 0.39776903 * mu_b5_b4 + 0.45818815 * mu_b5_u5;
-    let p0_0_1 = 7.2822657 * mu_b5_v5 + 14.63266 * mu_b5_b1 + 15.758569 * mu_b5_b2 + 11.114296 * mu_b5_b3 + 3.3767316 * mu_b5_b4 + 1.6416929 * mu_b5_u5;
-    let p0_0_2 = 18.343884 * mu_b5_v5 + 31.72453 * mu_b5_b1 + 37.014023 * mu_b5_b2 + 37.21432 * mu_b5_b3 + 14.931273 * mu_b5_b4 + 3.2924938 * mu_b5_u5;
-    let p0_0_3 = 21.271671 * mu_b5_v5 + 33.100056 * mu_b5_b1 + 42.45124 * mu_b5_b2 + 51.795982 * mu_b5_b3 + 22.40304 * mu_b5_b4 + 3.172075 * mu_b5_u5;
-    let p0_0_4 = 12.321766 * mu_b5_v5 + 18.953901 * mu_b5_b1 + 26.843103 * mu_b5_b2 + 34.703377 * mu_b5_b3 + 15.024147 * mu_b5_b4 + 1.502819 * mu_b5_u5;
-    let p0_0_5 = 2.928552 * mu_b5_v5 + 4.8931384 * mu_b5_b1 + 7.4342933 * mu_b5_b2 + 9.247756 * mu_b5_b3 + 3.8861024 * mu_b5_b4 + 0.30227005 * mu_b5_u5;
+    let p0_0_0 = 0.8816601 * mu_b5_v5 + 2.27601 * mu_b5_b1 + 2.773457 * mu_b5_b2 + 2.2008116 * mu_b5_b3 + 1.2676498 * mu_b5_b4 + 0.70426005 * mu_b5_u5;
+    let p0_0_1 = 12.648688 * mu_b5_v5 + 23.086245 * mu_b5_b1 + 15.874822 * mu_b5_b2 + 8.315408 * mu_b5_b3 + 4.2658534 * mu_b5_b4 + 2.6792853 * mu_b5_u5;
+    let p0_0_2 = 35.747112 * mu_b5_v5 + 62.909054 * mu_b5_b1 + 52.20951 * mu_b5_b2 + 43.12621 * mu_b5_b3 + 22.249819 * mu_b5_b4 + 6.7543287 * mu_b5_u5;
+    let p0_0_3 = 43.198418 * mu_b5_v5 + 77.1063 * mu_b5_b1 + 79.4703 * mu_b5_b2 + 78.0697 * mu_b5_b3 + 37.296265 * mu_b5_b4 + 7.3721237 * mu_b5_u5;
+    let p0_0_4 = 28.600496 * mu_b5_v5 + 62.42341 * mu_b5_b1 + 83.25074 * mu_b5_b2 + 79.685616 * mu_b5_b3 + 33.58216 * mu_b5_b4 + 4.615946 * mu_b5_u5;
+    let p0_0_5 = 8.617089 * mu_b5_v5 + 23.59055 * mu_b5_b1 + 35.23783 * mu_b5_b2 + 30.976767 * mu_b5_b3 + 11.712132 * mu_b5_b4 + 1.2580496 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -89,15 +89,15 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 0.95867306 * 1.0;
+    let u0_0_0 = 1.0139333 * 1.0;
     let u0_0 = u0_0_0 * 1.0;
-    let u0_1_0 = 4.1011333 * 1.0;
+    let u0_1_0 = 4.334496 * 1.0;
     let u0_1 = u0_1_0 * 1.0;
-    let u0_2_0 = 6.417385 * 1.0;
+    let u0_2_0 = 6.8029203 * 1.0;
     let u0_2 = u0_2_0 * 1.0;
-    let u0_3_0 = 4.2989097 * 1.0;
+    let u0_3_0 = 4.599383 * 1.0;
     let u0_3 = u0_3_0 * 1.0;
-    let u0_4_0 = 1.086472 * 1.0;
+    let u0_4_0 = 1.1656648 * 1.0;
     let u0_4 = u0_4_0 * 1.0;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -123,101 +123,101 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0 * mu_b4_v4 + 1.9615376 * mu_b4_b1 + 2.0603478 * mu_b4_b2 - 0.07514187 * mu_b4_b3 + 0.48064256 * mu_b4_u4;
-    let q0_0_1 = 6.9929843 * mu_b4_v4 + 7.163899 * mu_b4_b1 + 8.392078 * mu_b4_b2 + 2.8540833 * mu_b4_b3 + 1.2512972 * mu_b4_u4;
-    let q0_0_2 = 14.734106 * mu_b4_v4 + 12.230142 * mu_b4_b1 + 20.326908 * mu_b4_b2 + 15.536217 * mu_b4_b3 + 2.6329114 * mu_b4_u4;
-    let q0_0_3 = 12.395373 * mu_b4_v4 + 9.324005 * mu_b4_b1 + 19.810087 * mu_b4_b2 + 18.488503 * mu_b4_b3 + 2.2254252 * mu_b4_u4;
-    let q0_0_4 = 4.1167727 * mu_b4_v4 + 4.1463075 * mu_b4_b1 + 8.590034 * mu_b4_b2 + 7.731593 * mu_b4_b3 + 0.825689 * mu_b4_u4;
+    let q0_0_0 = 1.0 * mu_b4_v4 + 1.9257212 * mu_b4_b1 + 2.0515904 * mu_b4_b2 + 0.6237384 * mu_b4_b3 + 0.8003819 * mu_b4_u4;
+    let q0_0_1 = 13.627321 * mu_b4_v4 + 13.503388 * mu_b4_b1 + 5.360722 * mu_b4_b2 + 2.5168562 * mu_b4_b3 + 2.2422523 * mu_b4_u4;
+    let q0_0_2 = 30.270359 * mu_b4_v4 + 30.022375 * mu_b4_b1 + 24.01048 * mu_b4_b2 + 22.637825 * mu_b4_b3 + 6.194436 * mu_b4_u4;
+    let q0_0_3 = 26.37158 * mu_b4_v4 + 31.827707 * mu_b4_b1 + 37.638927 * mu_b4_b2 + 32.28816 * mu_b4_b3 + 5.315409 * mu_b4_u4;
+    let q0_0_4 = 12.183023 * mu_b4_v4 + 27.200928 * mu_b4_b1 + 37.66447 * mu_b4_b2 + 25.361378 * mu_b4_b3 + 4.0173254 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.11915953 * mu_b5_v5 + 0.8764722 * mu_b5_b1 + 0.47104028 * mu_b5_b2 + 0.05957853 * mu_b5_b3 + 0.0028697362 * mu_b5_b4 + 0.00047502457 * mu_b5_u5;
-    let p1_0_1 = -0.8355232 * mu_b5_v5 - 2.99905 * mu_b5_b1 - 2.7407596 * mu_b5_b2 + 1.0988854 * mu_b5_b3 - 0.03421355 * mu_b5_b4 + 0.006948992 * mu_b5_u5;
-    let p1_0_2 = -2.6628568 * mu_b5_v5 - 13.652117 * mu_b5_b1 - 7.5174847 * mu_b5_b2 + 6.276729 * mu_b5_b3 - 0.5984146 * mu_b5_b4 + 0.031193541 * mu_b5_u5;
-    let p1_0_3 = -2.6731975 * mu_b5_v5 - 16.855453 * mu_b5_b1 - 3.9783134 * mu_b5_b2 + 12.1453285 * mu_b5_b3 - 1.379155 * mu_b5_b4 + 0.11402042 * mu_b5_u5;
-    let p1_0_4 = -1.3628162 * mu_b5_v5 - 9.474806 * mu_b5_b1 + 0.581843 * mu_b5_b2 + 8.850012 * mu_b5_b3 - 1.4745044 * mu_b5_b4 + 0.086597644 * mu_b5_u5;
-    let p1_0_5 = -0.35022777 * mu_b5_v5 - 2.158122 * mu_b5_b1 + 0.73012334 * mu_b5_b2 + 2.4177568 * mu_b5_b3 - 0.418855 * mu_b5_b4 + 0.04486194 * mu_b5_u5;
+    let p1_0_0 = 0.11548767 * mu_b5_v5 + 0.5460936 * mu_b5_b1 + 0.37825385 * mu_b5_b2 + 0.14644757 * mu_b5_b3 - 0.005053142 * mu_b5_b4 + 0.00032533804 * mu_b5_u5;
+    let p1_0_1 = -0.6701454 * mu_b5_v5 - 1.673059 * mu_b5_b1 - 1.8095297 * mu_b5_b2 + 0.15228201 * mu_b5_b3 - 0.06347115 * mu_b5_b4 - 0.0014787238 * mu_b5_u5;
+    let p1_0_2 = -1.5894156 * mu_b5_v5 - 3.907708 * mu_b5_b1 - 1.1995398 * mu_b5_b2 + 3.0536554 * mu_b5_b3 - 0.09705791 * mu_b5_b4 + 0.009820312 * mu_b5_u5;
+    let p1_0_3 = -1.7660092 * mu_b5_v5 - 3.7142136 * mu_b5_b1 + 1.6299002 * mu_b5_b2 + 4.68532 * mu_b5_b3 - 0.8741069 * mu_b5_b4 + 0.060458723 * mu_b5_u5;
+    let p1_0_4 = -1.3911157 * mu_b5_v5 - 2.5626655 * mu_b5_b1 + 1.6836401 * mu_b5_b2 + 2.8650978 * mu_b5_b3 - 0.88442934 * mu_b5_b4 + 0.1265534 * mu_b5_u5;
+    let p1_0_5 = -0.45734996 * mu_b5_v5 - 0.6793118 * mu_b5_b1 + 0.7573749 * mu_b5_b2 + 0.94298995 * mu_b5_b3 - 0.19126669 * mu_b5_b4 + 0.049258195 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 1.3346801 * 1.0;
+    let u1_0_0 = 1.1998538 * 1.0;
     let u1_0 = u1_0_0 * 1.0;
-    let u1_1_0 = 1.1264191 * 1.0;
+    let u1_1_0 = 2.9623969 * 1.0;
     let u1_1 = u1_1_0 * 1.0;
-    let u1_2_0 = -3.8509786 * 1.0;
+    let u1_2_0 = 1.2562336 * 1.0;
     let u1_2 = u1_2_0 * 1.0;
-    let u1_3_0 = -2.0842366 * 1.0;
+    let u1_3_0 = -0.6669742 * 1.0;
     let u1_3 = u1_3_0 * 1.0;
-    let u1_4_0 = -0.5206012 * 1.0;
+    let u1_4_0 = -0.35760128 * 1.0;
     let u1_4 = u1_4_0 * 1.0;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0 * mu_b4_v4 + 3.575506 * mu_b4_b1 + 0.3316202 * mu_b4_b2 + 0.015578714 * mu_b4_b3 + 0.0033729093 * mu_b4_u4;
-    let q1_0_1 = 3.309286 * mu_b4_v4 + 13.371998 * mu_b4_b1 + 0.69685894 * mu_b4_b2 - 0.30375662 * mu_b4_b3 + 0.037730116 * mu_b4_u4;
-    let q1_0_2 = 4.625728 * mu_b4_v4 + 20.553331 * mu_b4_b1 + 1.8714675 * mu_b4_b2 - 0.34315693 * mu_b4_b3 + 0.17642905 * mu_b4_u4;
-    let q1_0_3 = 3.2771456 * mu_b4_v4 + 15.037245 * mu_b4_b1 + 2.4912112 * mu_b4_b2 - 0.10745219 * mu_b4_b3 + 0.1370691 * mu_b4_u4;
-    let q1_0_4 = 1.077583 * mu_b4_v4 + 4.747923 * mu_b4_b1 + 1.6862587 * mu_b4_b2 + 0.38388675 * mu_b4_b3 + 0.11187661 * mu_b4_u4;
+    let q1_0_0 = 1.0 * mu_b4_v4 + 2.3915231 * mu_b4_b1 + 1.0447582 * mu_b4_b2 - 0.03278164 * mu_b4_b3 + 0.0024496869 * mu_b4_u4;
+    let q1_0_1 = 2.6500227 * mu_b4_v4 + 5.29975 * mu_b4_b1 + 0.8304947 * mu_b4_b2 - 0.58875746 * mu_b4_b3 - 0.015659858 * mu_b4_u4;
+    let q1_0_2 = 4.1894984 * mu_b4_v4 + 6.959586 * mu_b4_b1 + 0.5398458 * mu_b4_b2 - 0.20647033 * mu_b4_b3 + 0.15457009 * mu_b4_u4;
+    let q1_0_3 = 3.9367678 * mu_b4_v4 + 5.900845 * mu_b4_b1 + 0.66468805 * mu_b4_b2 + 0.103973225 * mu_b4_b3 + 0.1572279 * mu_b4_u4;
+    let q1_0_4 = 1.5645765 * mu_b4_v4 + 2.5186217 * mu_b4_b1 + 0.9142832 * mu_b4_b2 + 0.42360404 * mu_b4_b3 + 0.15183234 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.043704253 * mu_b5_v5 - 0.67836124 * mu_b5_b1 - 0.109239355 * mu_b5_b2 - 0.05228491 * mu_b5_b3 - 0.012101583 * mu_b5_b4 - 6.838825e-5 * mu_b5_u5;
-    let p2_0_1 = 0.66696215 * mu_b5_v5 + 2.5417325 * mu_b5_b1 + 4.2703323 * mu_b5_b2 - 0.4690186 * mu_b5_b3 - 0.034658417 * mu_b5_b4 + 0.0015754085 * mu_b5_u5;
-    let p2_0_2 = 1.3320571 * mu_b5_v5 + 8.549544 * mu_b5_b1 + 6.9691453 * mu_b5_b2 - 5.661295 * mu_b5_b3 + 0.24015163 * mu_b5_b4 - 0.0035882434 * mu_b5_u5;
-    let p2_0_3 = 0.32335627 * mu_b5_v5 + 6.33507 * mu_b5_b1 - 2.3169923 * mu_b5_b2 - 12.885412 * mu_b5_b3 + 1.003713 * mu_b5_b4 - 0.09627435 * mu_b5_u5;
-    let p2_0_4 = -0.38265374 * mu_b5_v5 + 1.0257056 * mu_b5_b1 - 6.9363985 * mu_b5_b2 - 9.337519 * mu_b5_b3 + 1.7841672 * mu_b5_b4 - 0.05141874 * mu_b5_u5;
-    let p2_0_5 = -0.15227154 * mu_b5_v5 - 0.318175 * mu_b5_b1 - 2.7063541 * mu_b5_b2 - 2.37319 * mu_b5_b3 + 0.7049016 * mu_b5_b4 - 0.028028624 * mu_b5_u5;
+    let p2_0_0 = -0.09641866 * mu_b5_v5 - 0.59505796 * mu_b5_b1 - 0.23275119 * mu_b5_b2 - 0.086636566 * mu_b5_b3 + 0.0037113582 * mu_b5_b4 - 0.00018950606 * mu_b5_u5;
+    let p2_0_1 = 0.96710175 * mu_b5_v5 + 2.3697777 * mu_b5_b1 + 3.0850992 * mu_b5_b2 - 0.07264186 * mu_b5_b3 + 0.027319109 * mu_b5_b4 + 0.00025653193 * mu_b5_u5;
+    let p2_0_2 = 1.6011974 * mu_b5_v5 + 4.1792755 * mu_b5_b1 + 1.7985802 * mu_b5_b2 - 4.3347516 * mu_b5_b3 + 0.014371363 * mu_b5_b4 + 0.0053695566 * mu_b5_u5;
+    let p2_0_3 = 0.7545321 * mu_b5_v5 + 1.8797516 * mu_b5_b1 - 3.2989976 * mu_b5_b2 - 6.8943124 * mu_b5_b3 + 1.0231158 * mu_b5_b4 - 0.07104427 * mu_b5_u5;
+    let p2_0_4 = 0.22251098 * mu_b5_v5 + 0.35311782 * mu_b5_b1 - 3.4468045 * mu_b5_b2 - 3.9102802 * mu_b5_b3 + 1.3039217 * mu_b5_b4 - 0.1453371 * mu_b5_u5;
+    let p2_0_5 = 0.03584279 * mu_b5_v5 - 0.16125923 * mu_b5_b1 - 1.3652084 * mu_b5_b2 - 1.0628456 * mu_b5_b3 + 0.42250398 * mu_b5_b4 - 0.03918242 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = -0.780217 * 1.0;
+    let u2_0_0 = 0.13482416 * 1.0;
     let u2_0 = u2_0_0 * 1.0;
-    let u2_1_0 = 1.8956915 * 1.0;
+    let u2_1_0 = 1.4899869 * 1.0;
     let u2_1 = u2_1_0 * 1.0;
-    let u2_2_0 = 7.6932955 * 1.0;
+    let u2_2_0 = 2.5049727 * 1.0;
     let u2_2 = u2_2_0 * 1.0;
-    let u2_3_0 = 1.6918272 * 1.0;
+    let u2_3_0 = 0.15282436 * 1.0;
     let u2_3 = u2_3_0 * 1.0;
-    let u2_4_0 = 0.11273346 * 1.0;
+    let u2_4_0 = -0.112659946 * 1.0;
     let u2_4 = u2_4_0 * 1.0;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0 * mu_b4_v4 + 3.3031359 * mu_b4_b1 + 0.0425095 * mu_b4_b2 + 0.16443937 * mu_b4_b3 + 0.0010008487 * mu_b4_u4;
-    let q2_0_1 = 3.343399 * mu_b4_v4 + 12.641705 * mu_b4_b1 - 0.7028243 * mu_b4_b2 - 0.3335434 * mu_b4_b3 - 0.028673226 * mu_b4_u4;
-    let q2_0_2 = 5.02441 * mu_b4_v4 + 21.380611 * mu_b4_b1 + 1.507725 * mu_b4_b2 - 0.09084698 * mu_b4_b3 + 0.21324079 * mu_b4_u4;
-    let q2_0_3 = 3.464347 * mu_b4_v4 + 16.067 * mu_b4_b1 + 2.6746516 * mu_b4_b2 - 0.034064066 * mu_b4_b3 + 0.19767734 * mu_b4_u4;
-    let q2_0_4 = 0.9336244 * mu_b4_v4 + 4.626109 * mu_b4_b1 + 1.3233228 * mu_b4_b2 + 0.15995349 * mu_b4_b3 + 0.1050508 * mu_b4_u4;
+    let q2_0_0 = 1.0 * mu_b4_v4 + 1.8898808 * mu_b4_b1 + 0.60851634 * mu_b4_b2 - 0.022300214 * mu_b4_b3 + 0.0015244124 * mu_b4_u4;
+    let q2_0_1 = 2.8089526 * mu_b4_v4 + 4.778417 * mu_b4_b1 + 0.6014778 * mu_b4_b2 - 0.3476483 * mu_b4_b3 - 0.009821196 * mu_b4_u4;
+    let q2_0_2 = 3.8090484 * mu_b4_v4 + 6.145067 * mu_b4_b1 + 0.43849608 * mu_b4_b2 - 0.25736302 * mu_b4_b3 + 0.09492047 * mu_b4_u4;
+    let q2_0_3 = 3.036708 * mu_b4_v4 + 5.033649 * mu_b4_b1 + 0.99153626 * mu_b4_b2 + 0.23299256 * mu_b4_b3 + 0.20823741 * mu_b4_u4;
+    let q2_0_4 = 1.030975 * mu_b4_v4 + 1.7545683 * mu_b4_b1 + 0.5121777 * mu_b4_b2 + 0.14245816 * mu_b4_b3 + 0.096333995 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.05741002 * mu_b5_v5 - 0.64621407 * mu_b5_b1 - 0.16592616 * mu_b5_b2 - 0.019592423 * mu_b5_b3 - 0.008755254 * mu_b5_b4 - 9.8389675e-5 * mu_b5_u5;
-    let p3_0_1 = 0.71082795 * mu_b5_v5 + 2.529445 * mu_b5_b1 + 3.355157 * mu_b5_b2 - 0.6508657 * mu_b5_b3 - 0.018114567 * mu_b5_b4 + 0.00022378622 * mu_b5_u5;
-    let p3_0_2 = 1.6836157 * mu_b5_v5 + 9.311844 * mu_b5_b1 + 6.079239 * mu_b5_b2 - 5.55142 * mu_b5_b3 + 0.3259602 * mu_b5_b4 - 0.009744174 * mu_b5_u5;
-    let p3_0_3 = 1.0368036 * mu_b5_v5 + 9.015318 * mu_b5_b1 - 0.3965488 * mu_b5_b2 - 11.538503 * mu_b5_b3 + 1.0934359 * mu_b5_b4 - 0.08125952 * mu_b5_u5;
-    let p3_0_4 = 0.17633805 * mu_b5_v5 + 3.6183228 * mu_b5_b1 - 4.3152356 * mu_b5_b2 - 8.346345 * mu_b5_b3 + 1.5295492 * mu_b5_b4 - 0.050393425 * mu_b5_u5;
-    let p3_0_5 = 0.009692236 * mu_b5_v5 + 0.51309067 * mu_b5_b1 - 1.8127303 * mu_b5_b2 - 2.1801887 * mu_b5_b3 + 0.5453333 * mu_b5_b4 - 0.024420151 * mu_b5_u5;
+    let p3_0_0 = -0.041320346 * mu_b5_v5 - 0.35645524 * mu_b5_b1 - 0.029195871 * mu_b5_b2 - 0.03647027 * mu_b5_b3 + 0.0025102342 * mu_b5_b4 - 0.00010654717 * mu_b5_u5;
+    let p3_0_1 = 0.6662848 * mu_b5_v5 + 1.4910331 * mu_b5_b1 + 2.229426 * mu_b5_b2 - 0.22387275 * mu_b5_b3 - 0.0028195805 * mu_b5_b4 + 0.0006005064 * mu_b5_u5;
+    let p3_0_2 = 0.8984597 * mu_b5_v5 + 2.1305256 * mu_b5_b1 + 1.0580858 * mu_b5_b2 - 3.3604815 * mu_b5_b3 + 0.06574197 * mu_b5_b4 + 0.0019826738 * mu_b5_u5;
+    let p3_0_3 = 0.22894864 * mu_b5_v5 + 0.44112563 * mu_b5_b1 - 2.5127158 * mu_b5_b2 - 5.075266 * mu_b5_b3 + 0.8687009 * mu_b5_b4 - 0.031186737 * mu_b5_u5;
+    let p3_0_4 = 0.079322964 * mu_b5_v5 + 0.028811483 * mu_b5_b1 - 2.4197295 * mu_b5_b2 - 2.933131 * mu_b5_b3 + 1.007304 * mu_b5_b4 - 0.053913314 * mu_b5_u5;
+    let p3_0_5 = 0.054277625 * mu_b5_v5 - 0.064033024 * mu_b5_b1 - 0.97706205 * mu_b5_b2 - 0.90045667 * mu_b5_b3 + 0.2749186 * mu_b5_b4 - 0.008402202 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = 1.8966728 * 1.0;
+    let u3_0_0 = 0.5023948 * 1.0;
     let u3_0 = u3_0_0 * 1.0;
-    let u3_1_0 = -0.8087356 * 1.0;
+    let u3_1_0 = 0.36806798 * 1.0;
     let u3_1 = u3_1_0 * 1.0;
-    let u3_2_0 = -11.77127 * 1.0;
+    let u3_2_0 = -2.614401 * 1.0;
     let u3_2 = u3_2_0 * 1.0;
-    let u3_3_0 = -3.708086 * 1.0;
+    let u3_3_0 = -0.85594773 * 1.0;
     let u3_3 = u3_3_0 * 1.0;
-    let u3_4_0 = -0.5485883 * 1.0;
+    let u3_4_0 = -0.099962905 * 1.0;
     let u3_4 = u3_4_0 * 1.0;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0 * mu_b4_v4 + 3.0231829 * mu_b4_b1 - 0.036364686 * mu_b4_b2 + 0.09825386 * mu_b4_b3 + 0.0012035472 * mu_b4_u4;
-    let q3_0_1 = 3.4514813 * mu_b4_v4 + 12.14341 * mu_b4_b1 - 0.1237932 * mu_b4_b2 - 0.19817072 * mu_b4_b3 - 0.008840887 * mu_b4_u4;
-    let q3_0_2 = 4.7774262 * mu_b4_v4 + 19.724924 * mu_b4_b1 + 1.6528406 * mu_b4_b2 - 0.1814235 * mu_b4_b3 + 0.17364728 * mu_b4_u4;
-    let q3_0_3 = 3.0829837 * mu_b4_v4 + 14.560363 * mu_b4_b1 + 2.5801795 * mu_b4_b2 - 0.09189274 * mu_b4_b3 + 0.17891517 * mu_b4_u4;
-    let q3_0_4 = 0.85577506 * mu_b4_v4 + 4.3506093 * mu_b4_b1 + 1.4323276 * mu_b4_b2 + 0.18805104 * mu_b4_b3 + 0.093959674 * mu_b4_u4;
+    let q3_0_0 = 1.0 * mu_b4_v4 + 1.2602885 * mu_b4_b1 + 0.4298195 * mu_b4_b2 - 0.029419413 * mu_b4_b3 + 0.0015686603 * mu_b4_u4;
+    let q3_0_1 = 3.133609 * mu_b4_v4 + 3.8977485 * mu_b4_b1 + 1.483757 * mu_b4_b2 - 0.094333045 * mu_b4_b3 - 0.011874449 * mu_b4_u4;
+    let q3_0_2 = 3.9177148 * mu_b4_v4 + 4.517664 * mu_b4_b1 + 1.2002283 * mu_b4_b2 - 0.54163176 * mu_b4_b3 + 0.061203267 * mu_b4_u4;
+    let q3_0_3 = 3.0413268 * mu_b4_v4 + 4.2821074 * mu_b4_b1 + 1.7247334 * mu_b4_b2 - 0.07511949 * mu_b4_b3 + 0.24300416 * mu_b4_u4;
+    let q3_0_4 = 1.1719743 * mu_b4_v4 + 2.0609179 * mu_b4_b1 + 1.0669643 * mu_b4_b2 + 0.060613126 * mu_b4_b3 + 0.083111405 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0;
     let e3 = p3 * u3 / q3;

@@ -14,18 +14,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 25642503dd03806086a4b9547b18c4b04d9f4af10384165ad0b73f4f37ca1868.
-// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-5, shifted 3.0e-6, bernstein 3.0e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.91e-5, max 8.20e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.14e-5, max 7.25e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.04e-6 (every op rounded, as this Rust), 8.51e-7 (fused multiply-add), 3.73e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.49e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 3299 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.75e-5, max 8.20e-4; this f32 code MAE 8.75e-5, max 8.19e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-4 on the measurement grid.
-// Denominator proved >= 1.347e-1 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.498x the least-squares start's.
+// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 b586b7894feac5c989a0d72c2a672a76cacbf3f59d7279e0fff03e7b477634d2.
+// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.3e-6, shifted 2.6e-6, bernstein 2.5e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.28e-5, max 7.39e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.48e-5, max 5.93e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.55e-7 (every op rounded, as this Rust), 7.25e-7 (fused multiply-add), 3.32e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 9.32e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6459 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.12e-5, max 7.39e-4; this f32 code MAE 8.12e-5, max 7.39e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
+// Denominator proved >= 6.359e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -35,73 +35,194 @@ float ggx_dielectric_albedo(float f0, float r, float mu) {
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20f)))));
     float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0f + mu_c))));
-    float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    float mu_t = (mu_logv * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 2.0f * (r_c * r_c) + 7.888609e-31f);
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    float f0_s = f0_t * 2.0f - 1.0f;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    float r_s = r_t * 2.0f - 1.0f;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    float mu_s = mu_t * 2.0f - 1.0f;
-    // term 0: numerator P_0, grouped by powers of the first variable
-    float p0_0 = ((((0.33335447f * r_s + (0.07371933f * mu_s - 0.42454994f)) * r_s + ((-0.73698896f * mu_s + 0.63987875f) * mu_s + 0.113817416f)) * r_s + (((-0.32094058f * mu_s + 0.37167257f) * mu_s + 0.32806653f) * mu_s - 0.0788688f)) * r_s + ((((0.13181043f * mu_s + 0.2660395f) * mu_s + 0.9655379f) * mu_s - 1.0861851f) * mu_s - 0.654594f)) * r_s + (((((0.16196369f * mu_s - 0.38695154f) * mu_s + 0.26297393f) * mu_s + 0.482042f) * mu_s - 0.51348513f) * mu_s + 1.4359372f);
-    float p0 = p0_0;
-    // term 0: factor u_0, grouped by powers of the first variable
-    float u0_0 = 0.9547888f;
-    float u0_1 = -0.011291153f;
-    float u0_2 = -0.0025394345f;
-    float u0_3 = -0.0010632311f;
-    float u0_4 = -2.7616383e-5f;
-    float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
-    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    float q0_0 = (((-0.25055903f * r_s + (0.5469865f * mu_s - 0.10558576f)) * r_s + ((0.095531665f * mu_s - 0.21004725f) * mu_s - 0.07742821f)) * r_s + (((0.28392085f * mu_s - 0.04992009f) * mu_s - 0.866443f) * mu_s + 0.38577425f)) * r_s + ((((-0.43112373f * mu_s + 0.27833188f) * mu_s + 0.30367115f) * mu_s - 0.014644185f) * mu_s + 1.6793526f);
-    float q0 = q0_0;
+    float mu_logv = (mu_c + 2.5f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 2.5f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    float mu_t = (mu_logv * (1.0f + 1.5f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.5f * (r_c * r_c) + 7.888609e-31f);
+    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
+    float mu_u = (mu_t - 5.259073e-31f) * 1.0f;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    float r_b5_v = 1.0f - r_t;
+    float r_b5_u2 = r_t * r_t;
+    float r_b5_v2 = r_b5_v * r_b5_v;
+    float r_b5_u3 = r_b5_u2 * r_t;
+    float r_b5_v3 = r_b5_v2 * r_b5_v;
+    float r_b5_u4 = r_b5_u3 * r_t;
+    float r_b5_v4 = r_b5_v3 * r_b5_v;
+    float r_b5_u5 = r_b5_u4 * r_t;
+    float r_b5_v5 = r_b5_v4 * r_b5_v;
+    float r_b5_b1 = r_t * r_b5_v4;
+    float r_b5_b2 = r_b5_u2 * r_b5_v3;
+    float r_b5_b3 = r_b5_u3 * r_b5_v2;
+    float r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    float mu_b5_v = 1.0f - mu_u;
+    float mu_b5_u2 = mu_u * mu_u;
+    float mu_b5_v2 = mu_b5_v * mu_b5_v;
+    float mu_b5_u3 = mu_b5_u2 * mu_u;
+    float mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    float mu_b5_u4 = mu_b5_u3 * mu_u;
+    float mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    float mu_b5_u5 = mu_b5_u4 * mu_u;
+    float mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    float mu_b5_b1 = mu_u * mu_b5_v4;
+    float mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    float p0_0_0 = 1.0162344f * mu_b5_v5 + 4.4736357f * mu_b5_b1 + 3.9708667f * mu_b5_b2 + 5.9722705f * mu_b5_b3 + 2.5582027f * mu_b5_b4 + 1.2185494f * mu_b5_u5;
+    float p0_0_1 = 8.129941f * mu_b5_v5 + 47.83675f * mu_b5_b1 + 71.79555f * mu_b5_b2 + 77.865555f * mu_b5_b3 + 35.29779f * mu_b5_b4 + 10.116731f * mu_b5_u5;
+    float p0_0_2 = 16.577013f * mu_b5_v5 + 102.450066f * mu_b5_b1 + 140.98352f * mu_b5_b2 + 136.67961f * mu_b5_b3 + 57.219017f * mu_b5_b4 + 16.841404f * mu_b5_u5;
+    float p0_0_3 = 15.580376f * mu_b5_v5 + 98.793976f * mu_b5_b1 + 117.00543f * mu_b5_b2 + 100.22544f * mu_b5_b3 + 37.986958f * mu_b5_b4 + 12.744862f * mu_b5_u5;
+    float p0_0_4 = 7.033678f * mu_b5_v5 + 48.0007f * mu_b5_b1 + 51.870888f * mu_b5_b2 + 41.410206f * mu_b5_b3 + 15.372893f * mu_b5_b4 + 5.4623127f * mu_b5_u5;
+    float p0_0_5 = 0.98975754f * mu_b5_v5 + 8.659418f * mu_b5_b1 + 8.755791f * mu_b5_b2 + 6.702567f * mu_b5_b3 + 2.231108f * mu_b5_b4 + 0.7338227f * mu_b5_u5;
+    float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    float p0 = p0_0 * 1.0f;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    float f0_b4_v = 1.0f - f0_t;
+    float f0_b4_u2 = f0_t * f0_t;
+    float f0_b4_v2 = f0_b4_v * f0_b4_v;
+    float f0_b4_u3 = f0_b4_u2 * f0_t;
+    float f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    float f0_b4_u4 = f0_b4_u3 * f0_t;
+    float f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    float f0_b4_b1 = f0_t * f0_b4_v3;
+    float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    float u0_0_0 = 0.97053736f * 1.0f;
+    float u0_0 = u0_0_0 * 1.0f;
+    float u0_1_0 = 3.8348455f * 1.0f;
+    float u0_1 = u0_1_0 * 1.0f;
+    float u0_2_0 = 5.6900406f * 1.0f;
+    float u0_2 = u0_2_0 * 1.0f;
+    float u0_3_0 = 3.7498703f * 1.0f;
+    float u0_3 = u0_3_0 * 1.0f;
+    float u0_4_0 = 0.923711f * 1.0f;
+    float u0_4 = u0_4_0 * 1.0f;
+    float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    float r_b4_v = 1.0f - r_t;
+    float r_b4_u2 = r_t * r_t;
+    float r_b4_v2 = r_b4_v * r_b4_v;
+    float r_b4_u3 = r_b4_u2 * r_t;
+    float r_b4_v3 = r_b4_v2 * r_b4_v;
+    float r_b4_u4 = r_b4_u3 * r_t;
+    float r_b4_v4 = r_b4_v3 * r_b4_v;
+    float r_b4_b1 = r_t * r_b4_v3;
+    float r_b4_b2 = r_b4_u2 * r_b4_v2;
+    float r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    float mu_b4_v = 1.0f - mu_u;
+    float mu_b4_u2 = mu_u * mu_u;
+    float mu_b4_v2 = mu_b4_v * mu_b4_v;
+    float mu_b4_u3 = mu_b4_u2 * mu_u;
+    float mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    float mu_b4_u4 = mu_b4_u3 * mu_u;
+    float mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    float mu_b4_b1 = mu_u * mu_b4_v3;
+    float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q0_0_0 = 1.0f * mu_b4_v4 + 3.145864f * mu_b4_b1 + 3.0277724f * mu_b4_b2 + 1.6133788f * mu_b4_b3 + 1.0877806f * mu_b4_u4;
+    float q0_0_1 = 6.259094f * mu_b4_v4 + 24.364012f * mu_b4_b1 + 31.635311f * mu_b4_b2 + 20.71224f * mu_b4_b3 + 8.607087f * mu_b4_u4;
+    float q0_0_2 = 7.840843f * mu_b4_v4 + 34.89055f * mu_b4_b1 + 45.500614f * mu_b4_b2 + 28.212233f * mu_b4_b3 + 11.899182f * mu_b4_u4;
+    float q0_0_3 = 5.855884f * mu_b4_v4 + 29.793024f * mu_b4_b1 + 40.059025f * mu_b4_b2 + 22.690931f * mu_b4_b3 + 7.9942884f * mu_b4_u4;
+    float q0_0_4 = 0.8819122f * mu_b4_v4 + 6.55173f * mu_b4_b1 + 8.812605f * mu_b4_b2 + 4.0086665f * mu_b4_b3 + 1.2221894f * mu_b4_u4;
+    float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
+    float q0 = q0_0 * 1.0f;
     float e0 = p0 * u0 / q0;
-    // term 1: numerator P_1, grouped by powers of the first variable
-    float p1_0 = ((((-0.008705628f * r_s + (-0.029660663f * mu_s + 0.012573171f)) * r_s + ((0.3379427f * mu_s + 0.11719814f) * mu_s - 0.23153281f)) * r_s + (((0.6216278f * mu_s - 0.04990316f) * mu_s - 0.5391234f) * mu_s + 0.1585658f)) * r_s + ((((-0.10440767f * mu_s + 1.4055612f) * mu_s - 0.5904922f) * mu_s - 1.6496449f) * mu_s + 0.631014f)) * r_s + (((((-0.013205541f * mu_s - 0.14781879f) * mu_s + 0.7570896f) * mu_s - 0.22340289f) * mu_s - 0.891861f) * mu_s + 0.37616372f);
-    float p1 = p1_0;
-    // term 1: factor u_1, grouped by powers of the first variable
-    float u1_0 = -0.43483567f;
-    float u1_1 = 0.19660808f;
-    float u1_2 = 0.109569505f;
-    float u1_3 = -0.0015595648f;
-    float u1_4 = 0.0070178434f;
-    float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
-    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    float q1_0 = (((0.15039541f * r_s + (0.29179302f * mu_s - 0.7329295f)) * r_s + ((-1.1361289f * mu_s - 0.3163867f) * mu_s + 1.4197218f)) * r_s + (((1.1134998f * mu_s - 0.80638224f) * mu_s - 3.364875f) * mu_s + 2.381366f)) * r_s + ((((-0.469609f * mu_s + 0.41266924f) * mu_s - 0.5129985f) * mu_s - 1.3710092f) * mu_s + 3.0755289f);
-    float q1 = q1_0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    float p1_0_0 = 0.09647274f * mu_b5_v5 + 0.8781565f * mu_b5_b1 + 1.8363549f * mu_b5_b2 + 1.8992183f * mu_b5_b3 + 1.4951116f * mu_b5_b4 + 0.2723391f * mu_b5_u5;
+    float p1_0_1 = 0.32235637f * mu_b5_v5 + 3.7656176f * mu_b5_b1 + 2.8573322f * mu_b5_b2 - 0.65418893f * mu_b5_b3 + 2.8361342f * mu_b5_b4 + 1.0132675f * mu_b5_u5;
+    float p1_0_2 = 1.6231837f * mu_b5_v5 + 30.35185f * mu_b5_b1 + 46.0422f * mu_b5_b2 + 16.295033f * mu_b5_b3 + 3.0634584f * mu_b5_b4 + 0.29970416f * mu_b5_u5;
+    float p1_0_3 = 3.0062795f * mu_b5_v5 + 62.874084f * mu_b5_b1 + 101.52118f * mu_b5_b2 + 35.60485f * mu_b5_b3 - 4.8035355f * mu_b5_b4 - 2.5372617f * mu_b5_u5;
+    float p1_0_4 = 2.0858004f * mu_b5_v5 + 47.109856f * mu_b5_b1 + 72.78821f * mu_b5_b2 + 17.970425f * mu_b5_b3 - 9.98224f * mu_b5_b4 - 2.079637f * mu_b5_u5;
+    float p1_0_5 = 0.44026604f * mu_b5_v5 + 11.517384f * mu_b5_b1 + 15.922695f * mu_b5_b2 + 0.84846216f * mu_b5_b3 - 3.639044f * mu_b5_b4 - 0.020154685f * mu_b5_u5;
+    float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    float p1 = p1_0 * 1.0f;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    float u1_0_0 = -0.30203885f * 1.0f;
+    float u1_0 = u1_0_0 * 1.0f;
+    float u1_1_0 = -0.9333914f * 1.0f;
+    float u1_1 = u1_1_0 * 1.0f;
+    float u1_2_0 = -0.67660177f * 1.0f;
+    float u1_2 = u1_2_0 * 1.0f;
+    float u1_3_0 = 0.09384288f * 1.0f;
+    float u1_3 = u1_3_0 * 1.0f;
+    float u1_4_0 = 0.22160204f * 1.0f;
+    float u1_4 = u1_4_0 * 1.0f;
+    float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q1_0_0 = 1.0f * mu_b4_v4 + 8.657395f * mu_b4_b1 + 12.777618f * mu_b4_b2 + 11.822208f * mu_b4_b3 + 2.8701522f * mu_b4_u4;
+    float q1_0_1 = 2.2953598f * mu_b4_v4 + 24.631987f * mu_b4_b1 + 24.508755f * mu_b4_b2 + 24.226818f * mu_b4_b3 + 6.7273555f * mu_b4_u4;
+    float q1_0_2 = 14.7501335f * mu_b4_v4 + 83.40107f * mu_b4_b1 + 86.67938f * mu_b4_b2 + 52.492626f * mu_b4_b3 + 11.473177f * mu_b4_u4;
+    float q1_0_3 = 16.922028f * mu_b4_v4 + 90.77715f * mu_b4_b1 + 98.8201f * mu_b4_b2 + 46.855076f * mu_b4_b3 + 6.5627637f * mu_b4_u4;
+    float q1_0_4 = 4.584057f * mu_b4_v4 + 27.817883f * mu_b4_b1 + 30.57267f * mu_b4_b2 + 11.23427f * mu_b4_b3 + 0.0635934f * mu_b4_u4;
+    float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
+    float q1 = q1_0 * 1.0f;
     float e1 = p1 * u1 / q1;
-    // term 2: numerator P_2, grouped by powers of the first variable
-    float p2_0 = ((((0.09571051f * r_s + (0.039238703f * mu_s + 0.009427909f)) * r_s + ((-0.4724739f * mu_s - 0.012444769f) * mu_s + 0.30114862f)) * r_s + (((0.06484887f * mu_s + 0.51684535f) * mu_s + 0.26675856f) * mu_s - 0.20912619f)) * r_s + ((((0.14404105f * mu_s - 0.33133748f) * mu_s + 1.3250424f) * mu_s + 0.6928982f) * mu_s - 1.0512934f)) * r_s + (((((0.027275689f * mu_s + 0.15833986f) * mu_s - 0.4243694f) * mu_s + 0.31927297f) * mu_s + 0.38897684f) * mu_s - 0.46021104f);
-    float p2 = p2_0;
-    // term 2: factor u_2, grouped by powers of the first variable
-    float u2_0 = -1.1098754f;
-    float u2_1 = -0.0026267788f;
-    float u2_2 = 0.17669584f;
-    float u2_3 = -0.023533214f;
-    float u2_4 = 0.01294627f;
-    float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
-    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    float q2_0 = (((-0.5767159f * r_s + (0.6889603f * mu_s - 0.551217f)) * r_s + ((-0.40583792f * mu_s + 0.022969864f) * mu_s + 1.0918705f)) * r_s + (((-0.3618391f * mu_s - 1.8322991f) * mu_s - 0.5032351f) * mu_s + 3.6213076f)) * r_s + ((((-0.058054265f * mu_s + 1.2627492f) * mu_s + 0.8515883f) * mu_s + 1.1100582f) * mu_s + 3.9068317f);
-    float q2 = q2_0;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    float p2_0_0 = -0.040102724f * mu_b5_v5 + 0.19178766f * mu_b5_b1 - 0.8368772f * mu_b5_b2 + 0.8980312f * mu_b5_b3 - 0.29945505f * mu_b5_b4 + 0.025050469f * mu_b5_u5;
+    float p2_0_1 = 0.013297097f * mu_b5_v5 + 6.639678f * mu_b5_b1 + 7.817308f * mu_b5_b2 + 14.143945f * mu_b5_b3 + 1.1073527f * mu_b5_b4 - 0.38914356f * mu_b5_u5;
+    float p2_0_2 = 1.037497f * mu_b5_v5 + 12.012423f * mu_b5_b1 - 3.0034528f * mu_b5_b2 + 1.2439462f * mu_b5_b3 - 10.784769f * mu_b5_b4 - 3.094051f * mu_b5_u5;
+    float p2_0_3 = 2.1864839f * mu_b5_v5 + 9.269218f * mu_b5_b1 - 22.321037f * mu_b5_b2 - 17.630522f * mu_b5_b3 - 12.002251f * mu_b5_b4 - 0.86245686f * mu_b5_u5;
+    float p2_0_4 = -0.7849974f * mu_b5_v5 - 7.257294f * mu_b5_b1 - 38.61929f * mu_b5_b2 - 33.073166f * mu_b5_b3 - 12.668819f * mu_b5_b4 - 0.2861219f * mu_b5_u5;
+    float p2_0_5 = 0.06027567f * mu_b5_v5 - 0.72368246f * mu_b5_b1 - 7.4792933f * mu_b5_b2 - 6.9680166f * mu_b5_b3 - 2.619848f * mu_b5_b4 - 0.055862263f * mu_b5_u5;
+    float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    float p2 = p2_0 * 1.0f;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    float u2_0_0 = -0.9296301f * 1.0f;
+    float u2_0 = u2_0_0 * 1.0f;
+    float u2_1_0 = -4.2776785f * 1.0f;
+    float u2_1 = u2_1_0 * 1.0f;
+    float u2_2_0 = -6.4291754f * 1.0f;
+    float u2_2 = u2_2_0 * 1.0f;
+    float u2_3_0 = -4.059894f * 1.0f;
+    float u2_3 = u2_3_0 * 1.0f;
+    float u2_4_0 = -0.84883404f * 1.0f;
+    float u2_4 = u2_4_0 * 1.0f;
+    float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q2_0_0 = 1.0f * mu_b4_v4 + 3.1782312f * mu_b4_b1 + 1.95995f * mu_b4_b2 + 1.4936684f * mu_b4_b3 + 1.4911876f * mu_b4_u4;
+    float q2_0_1 = 9.532073f * mu_b4_v4 + 27.309004f * mu_b4_b1 + 27.448544f * mu_b4_b2 + 18.75498f * mu_b4_b3 + 8.200319f * mu_b4_u4;
+    float q2_0_2 = 22.492985f * mu_b4_v4 + 65.57639f * mu_b4_b1 + 65.12582f * mu_b4_b2 + 27.813456f * mu_b4_b3 + 4.446476f * mu_b4_u4;
+    float q2_0_3 = 20.114452f * mu_b4_v4 + 71.77271f * mu_b4_b1 + 86.89965f * mu_b4_b2 + 37.041092f * mu_b4_b3 + 0.9166609f * mu_b4_u4;
+    float q2_0_4 = 3.3283787f * mu_b4_v4 + 19.026451f * mu_b4_b1 + 30.311459f * mu_b4_b2 + 15.188303f * mu_b4_b3 + 0.35415503f * mu_b4_u4;
+    float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
+    float q2 = q2_0 * 1.0f;
     float e2 = p2 * u2 / q2;
-    // term 3: numerator P_3, grouped by powers of the first variable
-    float p3_0 = ((((-0.18788671f * r_s + (-0.096109f * mu_s + 0.14645235f)) * r_s + ((0.43792704f * mu_s - 0.052885793f) * mu_s - 0.117859356f)) * r_s + (((0.38707227f * mu_s - 0.19143292f) * mu_s - 0.45855218f) * mu_s - 0.013633327f)) * r_s + ((((0.012374544f * mu_s - 0.019984117f) * mu_s - 0.63129365f) * mu_s + 0.13689952f) * mu_s + 0.47507778f)) * r_s + (((((-0.040834073f * mu_s + 0.010545125f) * mu_s - 0.35695112f) * mu_s + 0.057565454f) * mu_s + 0.5946967f) * mu_s - 0.07753923f);
-    float p3 = p3_0;
-    // term 3: factor u_3, grouped by powers of the first variable
-    float u3_0 = 1.0315391f;
-    float u3_1 = -0.02460231f;
-    float u3_2 = 0.023144905f;
-    float u3_3 = -0.0137099335f;
-    float u3_4 = 0.003905646f;
-    float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
-    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    float q3_0 = (((-0.11477527f * r_s + (0.2798702f * mu_s - 0.029123247f)) * r_s + ((0.45777768f * mu_s - 0.44324878f) * mu_s - 0.28838927f)) * r_s + (((-0.1580609f * mu_s + 0.48392653f) * mu_s - 0.40369853f) * mu_s + 0.03864094f)) * r_s + ((((-0.29677197f * mu_s + 0.07395432f) * mu_s - 0.19916129f) * mu_s - 0.039197963f) * mu_s + 1.8081611f);
-    float q3 = q3_0;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    float p3_0_0 = -0.004851262f * mu_b5_v5 + 0.17766273f * mu_b5_b1 - 0.12758593f * mu_b5_b2 + 0.7648201f * mu_b5_b3 - 0.0711408f * mu_b5_b4 + 0.060724724f * mu_b5_u5;
+    float p3_0_1 = 0.2536607f * mu_b5_v5 + 5.711465f * mu_b5_b1 + 5.338416f * mu_b5_b2 + 6.9932933f * mu_b5_b3 + 0.9939476f * mu_b5_b4 - 0.08480599f * mu_b5_u5;
+    float p3_0_2 = 0.15675429f * mu_b5_v5 + 13.606451f * mu_b5_b1 + 3.6325378f * mu_b5_b2 + 0.33906865f * mu_b5_b3 - 3.612769f * mu_b5_b4 - 1.7011411f * mu_b5_u5;
+    float p3_0_3 = 0.96919835f * mu_b5_v5 + 21.764172f * mu_b5_b1 + 8.877133f * mu_b5_b2 + 0.63552034f * mu_b5_b3 - 0.11042441f * mu_b5_b4 - 0.59592897f * mu_b5_u5;
+    float p3_0_4 = -0.012470674f * mu_b5_v5 + 11.07795f * mu_b5_b1 - 0.3110576f * mu_b5_b2 - 6.738531f * mu_b5_b3 - 1.6128336f * mu_b5_b4 - 0.24185269f * mu_b5_u5;
+    float p3_0_5 = 0.06286549f * mu_b5_v5 + 3.1178882f * mu_b5_b1 + 0.44126692f * mu_b5_b2 - 1.8005339f * mu_b5_b3 - 0.4488055f * mu_b5_b4 - 0.055241913f * mu_b5_u5;
+    float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    float p3 = p3_0 * 1.0f;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    float u3_0_0 = -1.196201f * 1.0f;
+    float u3_0 = u3_0_0 * 1.0f;
+    float u3_1_0 = -3.732997f * 1.0f;
+    float u3_1 = u3_1_0 * 1.0f;
+    float u3_2_0 = -5.6556067f * 1.0f;
+    float u3_2 = u3_2_0 * 1.0f;
+    float u3_3_0 = -3.9752557f * 1.0f;
+    float u3_3 = u3_3_0 * 1.0f;
+    float u3_4_0 = -1.1577096f * 1.0f;
+    float u3_4 = u3_4_0 * 1.0f;
+    float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    float q3_0_0 = 1.0f * mu_b4_v4 + 5.5136786f * mu_b4_b1 + 7.77073f * mu_b4_b2 + 4.251388f * mu_b4_b3 + 1.6942191f * mu_b4_u4;
+    float q3_0_1 = 2.8764992f * mu_b4_v4 + 15.325624f * mu_b4_b1 + 20.095743f * mu_b4_b2 + 13.475571f * mu_b4_b3 + 8.628482f * mu_b4_u4;
+    float q3_0_2 = 5.552222f * mu_b4_v4 + 24.114697f * mu_b4_b1 + 17.955091f * mu_b4_b2 + 1.5340728f * mu_b4_b3 + 6.3407497f * mu_b4_u4;
+    float q3_0_3 = 6.940413f * mu_b4_v4 + 33.663815f * mu_b4_b1 + 31.98281f * mu_b4_b2 + 3.9929864f * mu_b4_b3 + 1.5331093f * mu_b4_u4;
+    float q3_0_4 = 1.7220893f * mu_b4_v4 + 13.1906595f * mu_b4_b1 + 17.097124f * mu_b4_b2 + 5.512693f * mu_b4_b3 + 0.5840212f * mu_b4_u4;
+    float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
+    float q3 = q3_0 * 1.0f;
     float e3 = p3 * u3 / q3;
     // the sum of the 4 terms
     float e = e0 + e1 + e2 + e3;

@@ -12,18 +12,18 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
-/// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 25642503dd03806086a4b9547b18c4b04d9f4af10384165ad0b73f4f37ca1868.
-/// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-5, shifted 3.0e-6, bernstein 3.0e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 8.91e-5, max 8.20e-4 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.14e-5, max 7.25e-4.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.04e-6 (every op rounded, as this Rust), 8.51e-7 (fused multiply-add), 3.73e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.49e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 3299 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.75e-5, max 8.20e-4; this f32 code MAE 8.75e-5, max 8.19e-4.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-4 on the measurement grid.
-/// Denominator proved >= 1.347e-1 on the domain (Bernstein certificate), so the division is safe.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.498x the least-squares start's.
+/// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 b586b7894feac5c989a0d72c2a672a76cacbf3f59d7279e0fff03e7b477634d2.
+/// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.3e-6, shifted 2.6e-6, bernstein 2.5e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 8.28e-5, max 7.39e-4 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.48e-5, max 5.93e-4.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.55e-7 (every op rounded, as this Rust), 7.25e-7 (fused multiply-add), 3.32e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 9.32e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6459 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.12e-5, max 7.39e-4; this f32 code MAE 8.12e-5, max 7.39e-4.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
+/// Denominator proved >= 6.359e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -40,73 +40,194 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
     let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
-    let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0_f32 + 2.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 2.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let f0_s = f0_t * 2.0_f32 - 1.0_f32;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let r_s = r_t * 2.0_f32 - 1.0_f32;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let mu_s = mu_t * 2.0_f32 - 1.0_f32;
-    // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((0.33335447_f32 * r_s + (0.07371933_f32 * mu_s - 0.42454994_f32)) * r_s + ((-0.73698896_f32 * mu_s + 0.63987875_f32) * mu_s + 0.113817416_f32)) * r_s + (((-0.32094058_f32 * mu_s + 0.37167257_f32) * mu_s + 0.32806653_f32) * mu_s - 0.0788688_f32)) * r_s + ((((0.13181043_f32 * mu_s + 0.2660395_f32) * mu_s + 0.9655379_f32) * mu_s - 1.0861851_f32) * mu_s - 0.654594_f32)) * r_s + (((((0.16196369_f32 * mu_s - 0.38695154_f32) * mu_s + 0.26297393_f32) * mu_s + 0.482042_f32) * mu_s - 0.51348513_f32) * mu_s + 1.4359372_f32);
-    let p0 = p0_0;
-    // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.9547888_f32;
-    let u0_1 = -0.011291153_f32;
-    let u0_2 = -0.0025394345_f32;
-    let u0_3 = -0.0010632311_f32;
-    let u0_4 = -2.7616383e-5_f32;
-    let u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
-    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (((-0.25055903_f32 * r_s + (0.5469865_f32 * mu_s - 0.10558576_f32)) * r_s + ((0.095531665_f32 * mu_s - 0.21004725_f32) * mu_s - 0.07742821_f32)) * r_s + (((0.28392085_f32 * mu_s - 0.04992009_f32) * mu_s - 0.866443_f32) * mu_s + 0.38577425_f32)) * r_s + ((((-0.43112373_f32 * mu_s + 0.27833188_f32) * mu_s + 0.30367115_f32) * mu_s - 0.014644185_f32) * mu_s + 1.6793526_f32);
-    let q0 = q0_0;
+    let mu_logv = (mu_c + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 1.5_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.5_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
+    let mu_u = (mu_t - 5.259073e-31_f32) * 1.0_f32;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    let r_b5_v = 1.0_f32 - r_t;
+    let r_b5_u2 = r_t * r_t;
+    let r_b5_v2 = r_b5_v * r_b5_v;
+    let r_b5_u3 = r_b5_u2 * r_t;
+    let r_b5_v3 = r_b5_v2 * r_b5_v;
+    let r_b5_u4 = r_b5_u3 * r_t;
+    let r_b5_v4 = r_b5_v3 * r_b5_v;
+    let r_b5_u5 = r_b5_u4 * r_t;
+    let r_b5_v5 = r_b5_v4 * r_b5_v;
+    let r_b5_b1 = r_t * r_b5_v4;
+    let r_b5_b2 = r_b5_u2 * r_b5_v3;
+    let r_b5_b3 = r_b5_u3 * r_b5_v2;
+    let r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    let mu_b5_v = 1.0_f32 - mu_u;
+    let mu_b5_u2 = mu_u * mu_u;
+    let mu_b5_v2 = mu_b5_v * mu_b5_v;
+    let mu_b5_u3 = mu_b5_u2 * mu_u;
+    let mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    let mu_b5_u4 = mu_b5_u3 * mu_u;
+    let mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    let mu_b5_u5 = mu_b5_u4 * mu_u;
+    let mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    let mu_b5_b1 = mu_u * mu_b5_v4;
+    let mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    let p0_0_0 = 1.0162344_f32 * mu_b5_v5 + 4.4736357_f32 * mu_b5_b1 + 3.9708667_f32 * mu_b5_b2 + 5.9722705_f32 * mu_b5_b3 + 2.5582027_f32 * mu_b5_b4 + 1.2185494_f32 * mu_b5_u5;
+    let p0_0_1 = 8.129941_f32 * mu_b5_v5 + 47.83675_f32 * mu_b5_b1 + 71.79555_f32 * mu_b5_b2 + 77.865555_f32 * mu_b5_b3 + 35.29779_f32 * mu_b5_b4 + 10.116731_f32 * mu_b5_u5;
+    let p0_0_2 = 16.577013_f32 * mu_b5_v5 + 102.450066_f32 * mu_b5_b1 + 140.98352_f32 * mu_b5_b2 + 136.67961_f32 * mu_b5_b3 + 57.219017_f32 * mu_b5_b4 + 16.841404_f32 * mu_b5_u5;
+    let p0_0_3 = 15.580376_f32 * mu_b5_v5 + 98.793976_f32 * mu_b5_b1 + 117.00543_f32 * mu_b5_b2 + 100.22544_f32 * mu_b5_b3 + 37.986958_f32 * mu_b5_b4 + 12.744862_f32 * mu_b5_u5;
+    let p0_0_4 = 7.033678_f32 * mu_b5_v5 + 48.0007_f32 * mu_b5_b1 + 51.870888_f32 * mu_b5_b2 + 41.410206_f32 * mu_b5_b3 + 15.372893_f32 * mu_b5_b4 + 5.4623127_f32 * mu_b5_u5;
+    let p0_0_5 = 0.98975754_f32 * mu_b5_v5 + 8.659418_f32 * mu_b5_b1 + 8.755791_f32 * mu_b5_b2 + 6.702567_f32 * mu_b5_b3 + 2.231108_f32 * mu_b5_b4 + 0.7338227_f32 * mu_b5_u5;
+    let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    let p0 = p0_0 * 1.0_f32;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    let f0_b4_v = 1.0_f32 - f0_t;
+    let f0_b4_u2 = f0_t * f0_t;
+    let f0_b4_v2 = f0_b4_v * f0_b4_v;
+    let f0_b4_u3 = f0_b4_u2 * f0_t;
+    let f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    let f0_b4_u4 = f0_b4_u3 * f0_t;
+    let f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    let f0_b4_b1 = f0_t * f0_b4_v3;
+    let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    let u0_0_0 = 0.97053736_f32 * 1.0_f32;
+    let u0_0 = u0_0_0 * 1.0_f32;
+    let u0_1_0 = 3.8348455_f32 * 1.0_f32;
+    let u0_1 = u0_1_0 * 1.0_f32;
+    let u0_2_0 = 5.6900406_f32 * 1.0_f32;
+    let u0_2 = u0_2_0 * 1.0_f32;
+    let u0_3_0 = 3.7498703_f32 * 1.0_f32;
+    let u0_3 = u0_3_0 * 1.0_f32;
+    let u0_4_0 = 0.923711_f32 * 1.0_f32;
+    let u0_4 = u0_4_0 * 1.0_f32;
+    let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    let r_b4_v = 1.0_f32 - r_t;
+    let r_b4_u2 = r_t * r_t;
+    let r_b4_v2 = r_b4_v * r_b4_v;
+    let r_b4_u3 = r_b4_u2 * r_t;
+    let r_b4_v3 = r_b4_v2 * r_b4_v;
+    let r_b4_u4 = r_b4_u3 * r_t;
+    let r_b4_v4 = r_b4_v3 * r_b4_v;
+    let r_b4_b1 = r_t * r_b4_v3;
+    let r_b4_b2 = r_b4_u2 * r_b4_v2;
+    let r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    let mu_b4_v = 1.0_f32 - mu_u;
+    let mu_b4_u2 = mu_u * mu_u;
+    let mu_b4_v2 = mu_b4_v * mu_b4_v;
+    let mu_b4_u3 = mu_b4_u2 * mu_u;
+    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    let mu_b4_u4 = mu_b4_u3 * mu_u;
+    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    let mu_b4_b1 = mu_u * mu_b4_v3;
+    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 3.145864_f32 * mu_b4_b1 + 3.0277724_f32 * mu_b4_b2 + 1.6133788_f32 * mu_b4_b3 + 1.0877806_f32 * mu_b4_u4;
+    let q0_0_1 = 6.259094_f32 * mu_b4_v4 + 24.364012_f32 * mu_b4_b1 + 31.635311_f32 * mu_b4_b2 + 20.71224_f32 * mu_b4_b3 + 8.607087_f32 * mu_b4_u4;
+    let q0_0_2 = 7.840843_f32 * mu_b4_v4 + 34.89055_f32 * mu_b4_b1 + 45.500614_f32 * mu_b4_b2 + 28.212233_f32 * mu_b4_b3 + 11.899182_f32 * mu_b4_u4;
+    let q0_0_3 = 5.855884_f32 * mu_b4_v4 + 29.793024_f32 * mu_b4_b1 + 40.059025_f32 * mu_b4_b2 + 22.690931_f32 * mu_b4_b3 + 7.9942884_f32 * mu_b4_u4;
+    let q0_0_4 = 0.8819122_f32 * mu_b4_v4 + 6.55173_f32 * mu_b4_b1 + 8.812605_f32 * mu_b4_b2 + 4.0086665_f32 * mu_b4_b3 + 1.2221894_f32 * mu_b4_u4;
+    let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
+    let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
-    // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((-0.008705628_f32 * r_s + (-0.029660663_f32 * mu_s + 0.012573171_f32)) * r_s + ((0.3379427_f32 * mu_s + 0.11719814_f32) * mu_s - 0.23153281_f32)) * r_s + (((0.6216278_f32 * mu_s - 0.04990316_f32) * mu_s - 0.5391234_f32) * mu_s + 0.1585658_f32)) * r_s + ((((-0.10440767_f32 * mu_s + 1.4055612_f32) * mu_s - 0.5904922_f32) * mu_s - 1.6496449_f32) * mu_s + 0.631014_f32)) * r_s + (((((-0.013205541_f32 * mu_s - 0.14781879_f32) * mu_s + 0.7570896_f32) * mu_s - 0.22340289_f32) * mu_s - 0.891861_f32) * mu_s + 0.37616372_f32);
-    let p1 = p1_0;
-    // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = -0.43483567_f32;
-    let u1_1 = 0.19660808_f32;
-    let u1_2 = 0.109569505_f32;
-    let u1_3 = -0.0015595648_f32;
-    let u1_4 = 0.0070178434_f32;
-    let u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
-    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (((0.15039541_f32 * r_s + (0.29179302_f32 * mu_s - 0.7329295_f32)) * r_s + ((-1.1361289_f32 * mu_s - 0.3163867_f32) * mu_s + 1.4197218_f32)) * r_s + (((1.1134998_f32 * mu_s - 0.80638224_f32) * mu_s - 3.364875_f32) * mu_s + 2.381366_f32)) * r_s + ((((-0.469609_f32 * mu_s + 0.41266924_f32) * mu_s - 0.5129985_f32) * mu_s - 1.3710092_f32) * mu_s + 3.0755289_f32);
-    let q1 = q1_0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    let p1_0_0 = 0.09647274_f32 * mu_b5_v5 + 0.8781565_f32 * mu_b5_b1 + 1.8363549_f32 * mu_b5_b2 + 1.8992183_f32 * mu_b5_b3 + 1.4951116_f32 * mu_b5_b4 + 0.2723391_f32 * mu_b5_u5;
+    let p1_0_1 = 0.32235637_f32 * mu_b5_v5 + 3.7656176_f32 * mu_b5_b1 + 2.8573322_f32 * mu_b5_b2 - 0.65418893_f32 * mu_b5_b3 + 2.8361342_f32 * mu_b5_b4 + 1.0132675_f32 * mu_b5_u5;
+    let p1_0_2 = 1.6231837_f32 * mu_b5_v5 + 30.35185_f32 * mu_b5_b1 + 46.0422_f32 * mu_b5_b2 + 16.295033_f32 * mu_b5_b3 + 3.0634584_f32 * mu_b5_b4 + 0.29970416_f32 * mu_b5_u5;
+    let p1_0_3 = 3.0062795_f32 * mu_b5_v5 + 62.874084_f32 * mu_b5_b1 + 101.52118_f32 * mu_b5_b2 + 35.60485_f32 * mu_b5_b3 - 4.8035355_f32 * mu_b5_b4 - 2.5372617_f32 * mu_b5_u5;
+    let p1_0_4 = 2.0858004_f32 * mu_b5_v5 + 47.109856_f32 * mu_b5_b1 + 72.78821_f32 * mu_b5_b2 + 17.970425_f32 * mu_b5_b3 - 9.98224_f32 * mu_b5_b4 - 2.079637_f32 * mu_b5_u5;
+    let p1_0_5 = 0.44026604_f32 * mu_b5_v5 + 11.517384_f32 * mu_b5_b1 + 15.922695_f32 * mu_b5_b2 + 0.84846216_f32 * mu_b5_b3 - 3.639044_f32 * mu_b5_b4 - 0.020154685_f32 * mu_b5_u5;
+    let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    let p1 = p1_0 * 1.0_f32;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    let u1_0_0 = -0.30203885_f32 * 1.0_f32;
+    let u1_0 = u1_0_0 * 1.0_f32;
+    let u1_1_0 = -0.9333914_f32 * 1.0_f32;
+    let u1_1 = u1_1_0 * 1.0_f32;
+    let u1_2_0 = -0.67660177_f32 * 1.0_f32;
+    let u1_2 = u1_2_0 * 1.0_f32;
+    let u1_3_0 = 0.09384288_f32 * 1.0_f32;
+    let u1_3 = u1_3_0 * 1.0_f32;
+    let u1_4_0 = 0.22160204_f32 * 1.0_f32;
+    let u1_4 = u1_4_0 * 1.0_f32;
+    let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 8.657395_f32 * mu_b4_b1 + 12.777618_f32 * mu_b4_b2 + 11.822208_f32 * mu_b4_b3 + 2.8701522_f32 * mu_b4_u4;
+    let q1_0_1 = 2.2953598_f32 * mu_b4_v4 + 24.631987_f32 * mu_b4_b1 + 24.508755_f32 * mu_b4_b2 + 24.226818_f32 * mu_b4_b3 + 6.7273555_f32 * mu_b4_u4;
+    let q1_0_2 = 14.7501335_f32 * mu_b4_v4 + 83.40107_f32 * mu_b4_b1 + 86.67938_f32 * mu_b4_b2 + 52.492626_f32 * mu_b4_b3 + 11.473177_f32 * mu_b4_u4;
+    let q1_0_3 = 16.922028_f32 * mu_b4_v4 + 90.77715_f32 * mu_b4_b1 + 98.8201_f32 * mu_b4_b2 + 46.855076_f32 * mu_b4_b3 + 6.5627637_f32 * mu_b4_u4;
+    let q1_0_4 = 4.584057_f32 * mu_b4_v4 + 27.817883_f32 * mu_b4_b1 + 30.57267_f32 * mu_b4_b2 + 11.23427_f32 * mu_b4_b3 + 0.0635934_f32 * mu_b4_u4;
+    let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
+    let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
-    // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((0.09571051_f32 * r_s + (0.039238703_f32 * mu_s + 0.009427909_f32)) * r_s + ((-0.4724739_f32 * mu_s - 0.012444769_f32) * mu_s + 0.30114862_f32)) * r_s + (((0.06484887_f32 * mu_s + 0.51684535_f32) * mu_s + 0.26675856_f32) * mu_s - 0.20912619_f32)) * r_s + ((((0.14404105_f32 * mu_s - 0.33133748_f32) * mu_s + 1.3250424_f32) * mu_s + 0.6928982_f32) * mu_s - 1.0512934_f32)) * r_s + (((((0.027275689_f32 * mu_s + 0.15833986_f32) * mu_s - 0.4243694_f32) * mu_s + 0.31927297_f32) * mu_s + 0.38897684_f32) * mu_s - 0.46021104_f32);
-    let p2 = p2_0;
-    // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -1.1098754_f32;
-    let u2_1 = -0.0026267788_f32;
-    let u2_2 = 0.17669584_f32;
-    let u2_3 = -0.023533214_f32;
-    let u2_4 = 0.01294627_f32;
-    let u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
-    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (((-0.5767159_f32 * r_s + (0.6889603_f32 * mu_s - 0.551217_f32)) * r_s + ((-0.40583792_f32 * mu_s + 0.022969864_f32) * mu_s + 1.0918705_f32)) * r_s + (((-0.3618391_f32 * mu_s - 1.8322991_f32) * mu_s - 0.5032351_f32) * mu_s + 3.6213076_f32)) * r_s + ((((-0.058054265_f32 * mu_s + 1.2627492_f32) * mu_s + 0.8515883_f32) * mu_s + 1.1100582_f32) * mu_s + 3.9068317_f32);
-    let q2 = q2_0;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    let p2_0_0 = -0.040102724_f32 * mu_b5_v5 + 0.19178766_f32 * mu_b5_b1 - 0.8368772_f32 * mu_b5_b2 + 0.8980312_f32 * mu_b5_b3 - 0.29945505_f32 * mu_b5_b4 + 0.025050469_f32 * mu_b5_u5;
+    let p2_0_1 = 0.013297097_f32 * mu_b5_v5 + 6.639678_f32 * mu_b5_b1 + 7.817308_f32 * mu_b5_b2 + 14.143945_f32 * mu_b5_b3 + 1.1073527_f32 * mu_b5_b4 - 0.38914356_f32 * mu_b5_u5;
+    let p2_0_2 = 1.037497_f32 * mu_b5_v5 + 12.012423_f32 * mu_b5_b1 - 3.0034528_f32 * mu_b5_b2 + 1.2439462_f32 * mu_b5_b3 - 10.784769_f32 * mu_b5_b4 - 3.094051_f32 * mu_b5_u5;
+    let p2_0_3 = 2.1864839_f32 * mu_b5_v5 + 9.269218_f32 * mu_b5_b1 - 22.321037_f32 * mu_b5_b2 - 17.630522_f32 * mu_b5_b3 - 12.002251_f32 * mu_b5_b4 - 0.86245686_f32 * mu_b5_u5;
+    let p2_0_4 = -0.7849974_f32 * mu_b5_v5 - 7.257294_f32 * mu_b5_b1 - 38.61929_f32 * mu_b5_b2 - 33.073166_f32 * mu_b5_b3 - 12.668819_f32 * mu_b5_b4 - 0.2861219_f32 * mu_b5_u5;
+    let p2_0_5 = 0.06027567_f32 * mu_b5_v5 - 0.72368246_f32 * mu_b5_b1 - 7.4792933_f32 * mu_b5_b2 - 6.9680166_f32 * mu_b5_b3 - 2.619848_f32 * mu_b5_b4 - 0.055862263_f32 * mu_b5_u5;
+    let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    let p2 = p2_0 * 1.0_f32;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    let u2_0_0 = -0.9296301_f32 * 1.0_f32;
+    let u2_0 = u2_0_0 * 1.0_f32;
+    let u2_1_0 = -4.2776785_f32 * 1.0_f32;
+    let u2_1 = u2_1_0 * 1.0_f32;
+    let u2_2_0 = -6.4291754_f32 * 1.0_f32;
+    let u2_2 = u2_2_0 * 1.0_f32;
+    let u2_3_0 = -4.059894_f32 * 1.0_f32;
+    let u2_3 = u2_3_0 * 1.0_f32;
+    let u2_4_0 = -0.84883404_f32 * 1.0_f32;
+    let u2_4 = u2_4_0 * 1.0_f32;
+    let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 3.1782312_f32 * mu_b4_b1 + 1.95995_f32 * mu_b4_b2 + 1.4936684_f32 * mu_b4_b3 + 1.4911876_f32 * mu_b4_u4;
+    let q2_0_1 = 9.532073_f32 * mu_b4_v4 + 27.309004_f32 * mu_b4_b1 + 27.448544_f32 * mu_b4_b2 + 18.75498_f32 * mu_b4_b3 + 8.200319_f32 * mu_b4_u4;
+    let q2_0_2 = 22.492985_f32 * mu_b4_v4 + 65.57639_f32 * mu_b4_b1 + 65.12582_f32 * mu_b4_b2 + 27.813456_f32 * mu_b4_b3 + 4.446476_f32 * mu_b4_u4;
+    let q2_0_3 = 20.114452_f32 * mu_b4_v4 + 71.77271_f32 * mu_b4_b1 + 86.89965_f32 * mu_b4_b2 + 37.041092_f32 * mu_b4_b3 + 0.9166609_f32 * mu_b4_u4;
+    let q2_0_4 = 3.3283787_f32 * mu_b4_v4 + 19.026451_f32 * mu_b4_b1 + 30.311459_f32 * mu_b4_b2 + 15.188303_f32 * mu_b4_b3 + 0.35415503_f32 * mu_b4_u4;
+    let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
+    let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
-    // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((-0.18788671_f32 * r_s + (-0.096109_f32 * mu_s + 0.14645235_f32)) * r_s + ((0.43792704_f32 * mu_s - 0.052885793_f32) * mu_s - 0.117859356_f32)) * r_s + (((0.38707227_f32 * mu_s - 0.19143292_f32) * mu_s - 0.45855218_f32) * mu_s - 0.013633327_f32)) * r_s + ((((0.012374544_f32 * mu_s - 0.019984117_f32) * mu_s - 0.63129365_f32) * mu_s + 0.13689952_f32) * mu_s + 0.47507778_f32)) * r_s + (((((-0.040834073_f32 * mu_s + 0.010545125_f32) * mu_s - 0.35695112_f32) * mu_s + 0.057565454_f32) * mu_s + 0.5946967_f32) * mu_s - 0.07753923_f32);
-    let p3 = p3_0;
-    // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = 1.0315391_f32;
-    let u3_1 = -0.02460231_f32;
-    let u3_2 = 0.023144905_f32;
-    let u3_3 = -0.0137099335_f32;
-    let u3_4 = 0.003905646_f32;
-    let u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
-    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = (((-0.11477527_f32 * r_s + (0.2798702_f32 * mu_s - 0.029123247_f32)) * r_s + ((0.45777768_f32 * mu_s - 0.44324878_f32) * mu_s - 0.28838927_f32)) * r_s + (((-0.1580609_f32 * mu_s + 0.48392653_f32) * mu_s - 0.40369853_f32) * mu_s + 0.03864094_f32)) * r_s + ((((-0.29677197_f32 * mu_s + 0.07395432_f32) * mu_s - 0.19916129_f32) * mu_s - 0.039197963_f32) * mu_s + 1.8081611_f32);
-    let q3 = q3_0;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    let p3_0_0 = -0.004851262_f32 * mu_b5_v5 + 0.17766273_f32 * mu_b5_b1 - 0.12758593_f32 * mu_b5_b2 + 0.7648201_f32 * mu_b5_b3 - 0.0711408_f32 * mu_b5_b4 + 0.060724724_f32 * mu_b5_u5;
+    let p3_0_1 = 0.2536607_f32 * mu_b5_v5 + 5.711465_f32 * mu_b5_b1 + 5.338416_f32 * mu_b5_b2 + 6.9932933_f32 * mu_b5_b3 + 0.9939476_f32 * mu_b5_b4 - 0.08480599_f32 * mu_b5_u5;
+    let p3_0_2 = 0.15675429_f32 * mu_b5_v5 + 13.606451_f32 * mu_b5_b1 + 3.6325378_f32 * mu_b5_b2 + 0.33906865_f32 * mu_b5_b3 - 3.612769_f32 * mu_b5_b4 - 1.7011411_f32 * mu_b5_u5;
+    let p3_0_3 = 0.96919835_f32 * mu_b5_v5 + 21.764172_f32 * mu_b5_b1 + 8.877133_f32 * mu_b5_b2 + 0.63552034_f32 * mu_b5_b3 - 0.11042441_f32 * mu_b5_b4 - 0.59592897_f32 * mu_b5_u5;
+    let p3_0_4 = -0.012470674_f32 * mu_b5_v5 + 11.07795_f32 * mu_b5_b1 - 0.3110576_f32 * mu_b5_b2 - 6.738531_f32 * mu_b5_b3 - 1.6128336_f32 * mu_b5_b4 - 0.24185269_f32 * mu_b5_u5;
+    let p3_0_5 = 0.06286549_f32 * mu_b5_v5 + 3.1178882_f32 * mu_b5_b1 + 0.44126692_f32 * mu_b5_b2 - 1.8005339_f32 * mu_b5_b3 - 0.4488055_f32 * mu_b5_b4 - 0.055241913_f32 * mu_b5_u5;
+    let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    let p3 = p3_0 * 1.0_f32;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    let u3_0_0 = -1.196201_f32 * 1.0_f32;
+    let u3_0 = u3_0_0 * 1.0_f32;
+    let u3_1_0 = -3.732997_f32 * 1.0_f32;
+    let u3_1 = u3_1_0 * 1.0_f32;
+    let u3_2_0 = -5.6556067_f32 * 1.0_f32;
+    let u3_2 = u3_2_0 * 1.0_f32;
+    let u3_3_0 = -3.9752557_f32 * 1.0_f32;
+    let u3_3 = u3_3_0 * 1.0_f32;
+    let u3_4_0 = -1.1577096_f32 * 1.0_f32;
+    let u3_4 = u3_4_0 * 1.0_f32;
+    let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 5.5136786_f32 * mu_b4_b1 + 7.77073_f32 * mu_b4_b2 + 4.251388_f32 * mu_b4_b3 + 1.6942191_f32 * mu_b4_u4;
+    let q3_0_1 = 2.8764992_f32 * mu_b4_v4 + 15.325624_f32 * mu_b4_b1 + 20.095743_f32 * mu_b4_b2 + 13.475571_f32 * mu_b4_b3 + 8.628482_f32 * mu_b4_u4;
+    let q3_0_2 = 5.552222_f32 * mu_b4_v4 + 24.114697_f32 * mu_b4_b1 + 17.955091_f32 * mu_b4_b2 + 1.5340728_f32 * mu_b4_b3 + 6.3407497_f32 * mu_b4_u4;
+    let q3_0_3 = 6.940413_f32 * mu_b4_v4 + 33.663815_f32 * mu_b4_b1 + 31.98281_f32 * mu_b4_b2 + 3.9929864_f32 * mu_b4_b3 + 1.5331093_f32 * mu_b4_u4;
+    let q3_0_4 = 1.7220893_f32 * mu_b4_v4 + 13.1906595_f32 * mu_b4_b1 + 17.097124_f32 * mu_b4_b2 + 5.512693_f32 * mu_b4_b3 + 0.5840212_f32 * mu_b4_u4;
+    let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
+    let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms
     let e = e0 + e1 + e2 + e3;

@@ -11,18 +11,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt.
-// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 25642503dd03806086a4b9547b18c4b04d9f4af10384165ad0b73f4f37ca1868.
-// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-5, shifted 3.0e-6, bernstein 3.0e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.91e-5, max 8.20e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.14e-5, max 7.25e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.04e-6 (every op rounded, as this Rust), 8.51e-7 (fused multiply-add), 3.73e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.49e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 3299 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.75e-5, max 8.20e-4; this f32 code MAE 8.75e-5, max 8.19e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-4 on the measurement grid.
-// Denominator proved >= 1.347e-1 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.498x the least-squares start's.
+// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 b586b7894feac5c989a0d72c2a672a76cacbf3f59d7279e0fff03e7b477634d2.
+// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.3e-6, shifted 2.6e-6, bernstein 2.5e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.28e-5, max 7.39e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.48e-5, max 5.93e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.55e-7 (every op rounded, as this Rust), 7.25e-7 (fused multiply-add), 3.32e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 9.32e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6459 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.12e-5, max 7.39e-4; this f32 code MAE 8.12e-5, max 7.39e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
+// Denominator proved >= 6.359e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -32,73 +32,194 @@ fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     let mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
     let mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
-    let mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 2.0 * (r_c * r_c) + 7.888609e-31);
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let f0_s = f0_t * 2.0 - 1.0;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let r_s = r_t * 2.0 - 1.0;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let mu_s = mu_t * 2.0 - 1.0;
-    // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((0.33335447 * r_s + (0.07371933 * mu_s - 0.42454994)) * r_s + ((-0.73698896 * mu_s + 0.63987875) * mu_s + 0.113817416)) * r_s + (((-0.32094058 * mu_s + 0.37167257) * mu_s + 0.32806653) * mu_s - 0.0788688)) * r_s + ((((0.13181043 * mu_s + 0.2660395) * mu_s + 0.9655379) * mu_s - 1.0861851) * mu_s - 0.654594)) * r_s + (((((0.16196369 * mu_s - 0.38695154) * mu_s + 0.26297393) * mu_s + 0.482042) * mu_s - 0.51348513) * mu_s + 1.4359372);
-    let p0 = p0_0;
-    // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.9547888;
-    let u0_1 = -0.011291153;
-    let u0_2 = -0.0025394345;
-    let u0_3 = -0.0010632311;
-    let u0_4 = -2.7616383e-5;
-    let u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
-    // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (((-0.25055903 * r_s + (0.5469865 * mu_s - 0.10558576)) * r_s + ((0.095531665 * mu_s - 0.21004725) * mu_s - 0.07742821)) * r_s + (((0.28392085 * mu_s - 0.04992009) * mu_s - 0.866443) * mu_s + 0.38577425)) * r_s + ((((-0.43112373 * mu_s + 0.27833188) * mu_s + 0.30367115) * mu_s - 0.014644185) * mu_s + 1.6793526);
-    let q0 = q0_0;
+    let mu_logv = (mu_c + 2.5 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 2.5 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0 + 1.5 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.5 * (r_c * r_c) + 7.888609e-31);
+    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
+    let mu_u = (mu_t - 5.259073e-31) * 1.0;
+    // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
+    let r_b5_v = 1.0 - r_t;
+    let r_b5_u2 = r_t * r_t;
+    let r_b5_v2 = r_b5_v * r_b5_v;
+    let r_b5_u3 = r_b5_u2 * r_t;
+    let r_b5_v3 = r_b5_v2 * r_b5_v;
+    let r_b5_u4 = r_b5_u3 * r_t;
+    let r_b5_v4 = r_b5_v3 * r_b5_v;
+    let r_b5_u5 = r_b5_u4 * r_t;
+    let r_b5_v5 = r_b5_v4 * r_b5_v;
+    let r_b5_b1 = r_t * r_b5_v4;
+    let r_b5_b2 = r_b5_u2 * r_b5_v3;
+    let r_b5_b3 = r_b5_u3 * r_b5_v2;
+    let r_b5_b4 = r_b5_u4 * r_b5_v;
+    // Bernstein basis of mu_b5: u^i (1 - u)^(n - i), n = 5
+    let mu_b5_v = 1.0 - mu_u;
+    let mu_b5_u2 = mu_u * mu_u;
+    let mu_b5_v2 = mu_b5_v * mu_b5_v;
+    let mu_b5_u3 = mu_b5_u2 * mu_u;
+    let mu_b5_v3 = mu_b5_v2 * mu_b5_v;
+    let mu_b5_u4 = mu_b5_u3 * mu_u;
+    let mu_b5_v4 = mu_b5_v3 * mu_b5_v;
+    let mu_b5_u5 = mu_b5_u4 * mu_u;
+    let mu_b5_v5 = mu_b5_v4 * mu_b5_v;
+    let mu_b5_b1 = mu_u * mu_b5_v4;
+    let mu_b5_b2 = mu_b5_u2 * mu_b5_v3;
+    let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
+    let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
+    // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
+    let p0_0_0 = 1.0162344 * mu_b5_v5 + 4.4736357 * mu_b5_b1 + 3.9708667 * mu_b5_b2 + 5.9722705 * mu_b5_b3 + 2.5582027 * mu_b5_b4 + 1.2185494 * mu_b5_u5;
+    let p0_0_1 = 8.129941 * mu_b5_v5 + 47.83675 * mu_b5_b1 + 71.79555 * mu_b5_b2 + 77.865555 * mu_b5_b3 + 35.29779 * mu_b5_b4 + 10.116731 * mu_b5_u5;
+    let p0_0_2 = 16.577013 * mu_b5_v5 + 102.450066 * mu_b5_b1 + 140.98352 * mu_b5_b2 + 136.67961 * mu_b5_b3 + 57.219017 * mu_b5_b4 + 16.841404 * mu_b5_u5;
+    let p0_0_3 = 15.580376 * mu_b5_v5 + 98.793976 * mu_b5_b1 + 117.00543 * mu_b5_b2 + 100.22544 * mu_b5_b3 + 37.986958 * mu_b5_b4 + 12.744862 * mu_b5_u5;
+    let p0_0_4 = 7.033678 * mu_b5_v5 + 48.0007 * mu_b5_b1 + 51.870888 * mu_b5_b2 + 41.410206 * mu_b5_b3 + 15.372893 * mu_b5_b4 + 5.4623127 * mu_b5_u5;
+    let p0_0_5 = 0.98975754 * mu_b5_v5 + 8.659418 * mu_b5_b1 + 8.755791 * mu_b5_b2 + 6.702567 * mu_b5_b3 + 2.231108 * mu_b5_b4 + 0.7338227 * mu_b5_u5;
+    let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
+    let p0 = p0_0 * 1.0;
+    // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
+    let f0_b4_v = 1.0 - f0_t;
+    let f0_b4_u2 = f0_t * f0_t;
+    let f0_b4_v2 = f0_b4_v * f0_b4_v;
+    let f0_b4_u3 = f0_b4_u2 * f0_t;
+    let f0_b4_v3 = f0_b4_v2 * f0_b4_v;
+    let f0_b4_u4 = f0_b4_u3 * f0_t;
+    let f0_b4_v4 = f0_b4_v3 * f0_b4_v;
+    let f0_b4_b1 = f0_t * f0_b4_v3;
+    let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
+    let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
+    // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
+    let u0_0_0 = 0.97053736 * 1.0;
+    let u0_0 = u0_0_0 * 1.0;
+    let u0_1_0 = 3.8348455 * 1.0;
+    let u0_1 = u0_1_0 * 1.0;
+    let u0_2_0 = 5.6900406 * 1.0;
+    let u0_2 = u0_2_0 * 1.0;
+    let u0_3_0 = 3.7498703 * 1.0;
+    let u0_3 = u0_3_0 * 1.0;
+    let u0_4_0 = 0.923711 * 1.0;
+    let u0_4 = u0_4_0 * 1.0;
+    let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
+    // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
+    let r_b4_v = 1.0 - r_t;
+    let r_b4_u2 = r_t * r_t;
+    let r_b4_v2 = r_b4_v * r_b4_v;
+    let r_b4_u3 = r_b4_u2 * r_t;
+    let r_b4_v3 = r_b4_v2 * r_b4_v;
+    let r_b4_u4 = r_b4_u3 * r_t;
+    let r_b4_v4 = r_b4_v3 * r_b4_v;
+    let r_b4_b1 = r_t * r_b4_v3;
+    let r_b4_b2 = r_b4_u2 * r_b4_v2;
+    let r_b4_b3 = r_b4_u3 * r_b4_v;
+    // Bernstein basis of mu_b4: u^i (1 - u)^(n - i), n = 4
+    let mu_b4_v = 1.0 - mu_u;
+    let mu_b4_u2 = mu_u * mu_u;
+    let mu_b4_v2 = mu_b4_v * mu_b4_v;
+    let mu_b4_u3 = mu_b4_u2 * mu_u;
+    let mu_b4_v3 = mu_b4_v2 * mu_b4_v;
+    let mu_b4_u4 = mu_b4_u3 * mu_u;
+    let mu_b4_v4 = mu_b4_v3 * mu_b4_v;
+    let mu_b4_b1 = mu_u * mu_b4_v3;
+    let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
+    let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
+    // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q0_0_0 = 1.0 * mu_b4_v4 + 3.145864 * mu_b4_b1 + 3.0277724 * mu_b4_b2 + 1.6133788 * mu_b4_b3 + 1.0877806 * mu_b4_u4;
+    let q0_0_1 = 6.259094 * mu_b4_v4 + 24.364012 * mu_b4_b1 + 31.635311 * mu_b4_b2 + 20.71224 * mu_b4_b3 + 8.607087 * mu_b4_u4;
+    let q0_0_2 = 7.840843 * mu_b4_v4 + 34.89055 * mu_b4_b1 + 45.500614 * mu_b4_b2 + 28.212233 * mu_b4_b3 + 11.899182 * mu_b4_u4;
+    let q0_0_3 = 5.855884 * mu_b4_v4 + 29.793024 * mu_b4_b1 + 40.059025 * mu_b4_b2 + 22.690931 * mu_b4_b3 + 7.9942884 * mu_b4_u4;
+    let q0_0_4 = 0.8819122 * mu_b4_v4 + 6.55173 * mu_b4_b1 + 8.812605 * mu_b4_b2 + 4.0086665 * mu_b4_b3 + 1.2221894 * mu_b4_u4;
+    let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
+    let q0 = q0_0 * 1.0;
     let e0 = p0 * u0 / q0;
-    // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((-0.008705628 * r_s + (-0.029660663 * mu_s + 0.012573171)) * r_s + ((0.3379427 * mu_s + 0.11719814) * mu_s - 0.23153281)) * r_s + (((0.6216278 * mu_s - 0.04990316) * mu_s - 0.5391234) * mu_s + 0.1585658)) * r_s + ((((-0.10440767 * mu_s + 1.4055612) * mu_s - 0.5904922) * mu_s - 1.6496449) * mu_s + 0.631014)) * r_s + (((((-0.013205541 * mu_s - 0.14781879) * mu_s + 0.7570896) * mu_s - 0.22340289) * mu_s - 0.891861) * mu_s + 0.37616372);
-    let p1 = p1_0;
-    // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = -0.43483567;
-    let u1_1 = 0.19660808;
-    let u1_2 = 0.109569505;
-    let u1_3 = -0.0015595648;
-    let u1_4 = 0.0070178434;
-    let u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
-    // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (((0.15039541 * r_s + (0.29179302 * mu_s - 0.7329295)) * r_s + ((-1.1361289 * mu_s - 0.3163867) * mu_s + 1.4197218)) * r_s + (((1.1134998 * mu_s - 0.80638224) * mu_s - 3.364875) * mu_s + 2.381366)) * r_s + ((((-0.469609 * mu_s + 0.41266924) * mu_s - 0.5129985) * mu_s - 1.3710092) * mu_s + 3.0755289);
-    let q1 = q1_0;
+    // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
+    let p1_0_0 = 0.09647274 * mu_b5_v5 + 0.8781565 * mu_b5_b1 + 1.8363549 * mu_b5_b2 + 1.8992183 * mu_b5_b3 + 1.4951116 * mu_b5_b4 + 0.2723391 * mu_b5_u5;
+    let p1_0_1 = 0.32235637 * mu_b5_v5 + 3.7656176 * mu_b5_b1 + 2.8573322 * mu_b5_b2 - 0.65418893 * mu_b5_b3 + 2.8361342 * mu_b5_b4 + 1.0132675 * mu_b5_u5;
+    let p1_0_2 = 1.6231837 * mu_b5_v5 + 30.35185 * mu_b5_b1 + 46.0422 * mu_b5_b2 + 16.295033 * mu_b5_b3 + 3.0634584 * mu_b5_b4 + 0.29970416 * mu_b5_u5;
+    let p1_0_3 = 3.0062795 * mu_b5_v5 + 62.874084 * mu_b5_b1 + 101.52118 * mu_b5_b2 + 35.60485 * mu_b5_b3 - 4.8035355 * mu_b5_b4 - 2.5372617 * mu_b5_u5;
+    let p1_0_4 = 2.0858004 * mu_b5_v5 + 47.109856 * mu_b5_b1 + 72.78821 * mu_b5_b2 + 17.970425 * mu_b5_b3 - 9.98224 * mu_b5_b4 - 2.079637 * mu_b5_u5;
+    let p1_0_5 = 0.44026604 * mu_b5_v5 + 11.517384 * mu_b5_b1 + 15.922695 * mu_b5_b2 + 0.84846216 * mu_b5_b3 - 3.639044 * mu_b5_b4 - 0.020154685 * mu_b5_u5;
+    let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
+    let p1 = p1_0 * 1.0;
+    // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
+    let u1_0_0 = -0.30203885 * 1.0;
+    let u1_0 = u1_0_0 * 1.0;
+    let u1_1_0 = -0.9333914 * 1.0;
+    let u1_1 = u1_1_0 * 1.0;
+    let u1_2_0 = -0.67660177 * 1.0;
+    let u1_2 = u1_2_0 * 1.0;
+    let u1_3_0 = 0.09384288 * 1.0;
+    let u1_3 = u1_3_0 * 1.0;
+    let u1_4_0 = 0.22160204 * 1.0;
+    let u1_4 = u1_4_0 * 1.0;
+    let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
+    // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q1_0_0 = 1.0 * mu_b4_v4 + 8.657395 * mu_b4_b1 + 12.777618 * mu_b4_b2 + 11.822208 * mu_b4_b3 + 2.8701522 * mu_b4_u4;
+    let q1_0_1 = 2.2953598 * mu_b4_v4 + 24.631987 * mu_b4_b1 + 24.508755 * mu_b4_b2 + 24.226818 * mu_b4_b3 + 6.7273555 * mu_b4_u4;
+    let q1_0_2 = 14.7501335 * mu_b4_v4 + 83.40107 * mu_b4_b1 + 86.67938 * mu_b4_b2 + 52.492626 * mu_b4_b3 + 11.473177 * mu_b4_u4;
+    let q1_0_3 = 16.922028 * mu_b4_v4 + 90.77715 * mu_b4_b1 + 98.8201 * mu_b4_b2 + 46.855076 * mu_b4_b3 + 6.5627637 * mu_b4_u4;
+    let q1_0_4 = 4.584057 * mu_b4_v4 + 27.817883 * mu_b4_b1 + 30.57267 * mu_b4_b2 + 11.23427 * mu_b4_b3 + 0.0635934 * mu_b4_u4;
+    let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
+    let q1 = q1_0 * 1.0;
     let e1 = p1 * u1 / q1;
-    // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((0.09571051 * r_s + (0.039238703 * mu_s + 0.009427909)) * r_s + ((-0.4724739 * mu_s - 0.012444769) * mu_s + 0.30114862)) * r_s + (((0.06484887 * mu_s + 0.51684535) * mu_s + 0.26675856) * mu_s - 0.20912619)) * r_s + ((((0.14404105 * mu_s - 0.33133748) * mu_s + 1.3250424) * mu_s + 0.6928982) * mu_s - 1.0512934)) * r_s + (((((0.027275689 * mu_s + 0.15833986) * mu_s - 0.4243694) * mu_s + 0.31927297) * mu_s + 0.38897684) * mu_s - 0.46021104);
-    let p2 = p2_0;
-    // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -1.1098754;
-    let u2_1 = -0.0026267788;
-    let u2_2 = 0.17669584;
-    let u2_3 = -0.023533214;
-    let u2_4 = 0.01294627;
-    let u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
-    // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (((-0.5767159 * r_s + (0.6889603 * mu_s - 0.551217)) * r_s + ((-0.40583792 * mu_s + 0.022969864) * mu_s + 1.0918705)) * r_s + (((-0.3618391 * mu_s - 1.8322991) * mu_s - 0.5032351) * mu_s + 3.6213076)) * r_s + ((((-0.058054265 * mu_s + 1.2627492) * mu_s + 0.8515883) * mu_s + 1.1100582) * mu_s + 3.9068317);
-    let q2 = q2_0;
+    // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
+    let p2_0_0 = -0.040102724 * mu_b5_v5 + 0.19178766 * mu_b5_b1 - 0.8368772 * mu_b5_b2 + 0.8980312 * mu_b5_b3 - 0.29945505 * mu_b5_b4 + 0.025050469 * mu_b5_u5;
+    let p2_0_1 = 0.013297097 * mu_b5_v5 + 6.639678 * mu_b5_b1 + 7.817308 * mu_b5_b2 + 14.143945 * mu_b5_b3 + 1.1073527 * mu_b5_b4 - 0.38914356 * mu_b5_u5;
+    let p2_0_2 = 1.037497 * mu_b5_v5 + 12.012423 * mu_b5_b1 - 3.0034528 * mu_b5_b2 + 1.2439462 * mu_b5_b3 - 10.784769 * mu_b5_b4 - 3.094051 * mu_b5_u5;
+    let p2_0_3 = 2.1864839 * mu_b5_v5 + 9.269218 * mu_b5_b1 - 22.321037 * mu_b5_b2 - 17.630522 * mu_b5_b3 - 12.002251 * mu_b5_b4 - 0.86245686 * mu_b5_u5;
+    let p2_0_4 = -0.7849974 * mu_b5_v5 - 7.257294 * mu_b5_b1 - 38.61929 * mu_b5_b2 - 33.073166 * mu_b5_b3 - 12.668819 * mu_b5_b4 - 0.2861219 * mu_b5_u5;
+    let p2_0_5 = 0.06027567 * mu_b5_v5 - 0.72368246 * mu_b5_b1 - 7.4792933 * mu_b5_b2 - 6.9680166 * mu_b5_b3 - 2.619848 * mu_b5_b4 - 0.055862263 * mu_b5_u5;
+    let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
+    let p2 = p2_0 * 1.0;
+    // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
+    let u2_0_0 = -0.9296301 * 1.0;
+    let u2_0 = u2_0_0 * 1.0;
+    let u2_1_0 = -4.2776785 * 1.0;
+    let u2_1 = u2_1_0 * 1.0;
+    let u2_2_0 = -6.4291754 * 1.0;
+    let u2_2 = u2_2_0 * 1.0;
+    let u2_3_0 = -4.059894 * 1.0;
+    let u2_3 = u2_3_0 * 1.0;
+    let u2_4_0 = -0.84883404 * 1.0;
+    let u2_4 = u2_4_0 * 1.0;
+    let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
+    // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q2_0_0 = 1.0 * mu_b4_v4 + 3.1782312 * mu_b4_b1 + 1.95995 * mu_b4_b2 + 1.4936684 * mu_b4_b3 + 1.4911876 * mu_b4_u4;
+    let q2_0_1 = 9.532073 * mu_b4_v4 + 27.309004 * mu_b4_b1 + 27.448544 * mu_b4_b2 + 18.75498 * mu_b4_b3 + 8.200319 * mu_b4_u4;
+    let q2_0_2 = 22.492985 * mu_b4_v4 + 65.57639 * mu_b4_b1 + 65.12582 * mu_b4_b2 + 27.813456 * mu_b4_b3 + 4.446476 * mu_b4_u4;
+    let q2_0_3 = 20.114452 * mu_b4_v4 + 71.77271 * mu_b4_b1 + 86.89965 * mu_b4_b2 + 37.041092 * mu_b4_b3 + 0.9166609 * mu_b4_u4;
+    let q2_0_4 = 3.3283787 * mu_b4_v4 + 19.026451 * mu_b4_b1 + 30.311459 * mu_b4_b2 + 15.188303 * mu_b4_b3 + 0.35415503 * mu_b4_u4;
+    let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
+    let q2 = q2_0 * 1.0;
     let e2 = p2 * u2 / q2;
-    // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((-0.18788671 * r_s + (-0.096109 * mu_s + 0.14645235)) * r_s + ((0.43792704 * mu_s - 0.052885793) * mu_s - 0.117859356)) * r_s + (((0.38707227 * mu_s - 0.19143292) * mu_s - 0.45855218) * mu_s - 0.013633327)) * r_s + ((((0.012374544 * mu_s - 0.019984117) * mu_s - 0.63129365) * mu_s + 0.13689952) * mu_s + 0.47507778)) * r_s + (((((-0.040834073 * mu_s + 0.010545125) * mu_s - 0.35695112) * mu_s + 0.057565454) * mu_s + 0.5946967) * mu_s - 0.07753923);
-    let p3 = p3_0;
-    // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = 1.0315391;
-    let u3_1 = -0.02460231;
-    let u3_2 = 0.023144905;
-    let u3_3 = -0.0137099335;
-    let u3_4 = 0.003905646;
-    let u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
-    // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = (((-0.11477527 * r_s + (0.2798702 * mu_s - 0.029123247)) * r_s + ((0.45777768 * mu_s - 0.44324878) * mu_s - 0.28838927)) * r_s + (((-0.1580609 * mu_s + 0.48392653) * mu_s - 0.40369853) * mu_s + 0.03864094)) * r_s + ((((-0.29677197 * mu_s + 0.07395432) * mu_s - 0.19916129) * mu_s - 0.039197963) * mu_s + 1.8081611);
-    let q3 = q3_0;
+    // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
+    let p3_0_0 = -0.004851262 * mu_b5_v5 + 0.17766273 * mu_b5_b1 - 0.12758593 * mu_b5_b2 + 0.7648201 * mu_b5_b3 - 0.0711408 * mu_b5_b4 + 0.060724724 * mu_b5_u5;
+    let p3_0_1 = 0.2536607 * mu_b5_v5 + 5.711465 * mu_b5_b1 + 5.338416 * mu_b5_b2 + 6.9932933 * mu_b5_b3 + 0.9939476 * mu_b5_b4 - 0.08480599 * mu_b5_u5;
+    let p3_0_2 = 0.15675429 * mu_b5_v5 + 13.606451 * mu_b5_b1 + 3.6325378 * mu_b5_b2 + 0.33906865 * mu_b5_b3 - 3.612769 * mu_b5_b4 - 1.7011411 * mu_b5_u5;
+    let p3_0_3 = 0.96919835 * mu_b5_v5 + 21.764172 * mu_b5_b1 + 8.877133 * mu_b5_b2 + 0.63552034 * mu_b5_b3 - 0.11042441 * mu_b5_b4 - 0.59592897 * mu_b5_u5;
+    let p3_0_4 = -0.012470674 * mu_b5_v5 + 11.07795 * mu_b5_b1 - 0.3110576 * mu_b5_b2 - 6.738531 * mu_b5_b3 - 1.6128336 * mu_b5_b4 - 0.24185269 * mu_b5_u5;
+    let p3_0_5 = 0.06286549 * mu_b5_v5 + 3.1178882 * mu_b5_b1 + 0.44126692 * mu_b5_b2 - 1.8005339 * mu_b5_b3 - 0.4488055 * mu_b5_b4 - 0.055241913 * mu_b5_u5;
+    let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
+    let p3 = p3_0 * 1.0;
+    // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
+    let u3_0_0 = -1.196201 * 1.0;
+    let u3_0 = u3_0_0 * 1.0;
+    let u3_1_0 = -3.732997 * 1.0;
+    let u3_1 = u3_1_0 * 1.0;
+    let u3_2_0 = -5.6556067 * 1.0;
+    let u3_2 = u3_2_0 * 1.0;
+    let u3_3_0 = -3.9752557 * 1.0;
+    let u3_3 = u3_3_0 * 1.0;
+    let u3_4_0 = -1.1577096 * 1.0;
+    let u3_4 = u3_4_0 * 1.0;
+    let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
+    // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q3_0_0 = 1.0 * mu_b4_v4 + 5.5136786 * mu_b4_b1 + 7.77073 * mu_b4_b2 + 4.251388 * mu_b4_b3 + 1.6942191 * mu_b4_u4;
+    let q3_0_1 = 2.8764992 * mu_b4_v4 + 15.325624 * mu_b4_b1 + 20.095743 * mu_b4_b2 + 13.475571 * mu_b4_b3 + 8.628482 * mu_b4_u4;
+    let q3_0_2 = 5.552222 * mu_b4_v4 + 24.114697 * mu_b4_b1 + 17.955091 * mu_b4_b2 + 1.5340728 * mu_b4_b3 + 6.3407497 * mu_b4_u4;
+    let q3_0_3 = 6.940413 * mu_b4_v4 + 33.663815 * mu_b4_b1 + 31.98281 * mu_b4_b2 + 3.9929864 * mu_b4_b3 + 1.5331093 * mu_b4_u4;
+    let q3_0_4 = 1.7220893 * mu_b4_v4 + 13.1906595 * mu_b4_b1 + 17.097124 * mu_b4_b2 + 5.512693 * mu_b4_b3 + 0.5840212 * mu_b4_u4;
+    let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
+    let q3 = q3_0 * 1.0;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms
     let e = e0 + e1 + e2 + e3;

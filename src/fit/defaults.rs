@@ -221,16 +221,16 @@ pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 /// The low-rank separations `lowrank:f0:<K>:<p>:<n>/<m>` a 3-D sweep fits a second time with μ
 /// in the log-corrected layer variable `glayer:r:k:0:1:β`, where μ is in the grazing-layer
 /// variable, each with its (k, β) and the p values of the L_p polish its minimax refit adds
-/// (none, [`LOWRANK_LP_POLISH`] or [`LOWRANK_40_LP_POLISH`]): 40 coefficients (K, p, n, m) =
-/// (2, 2, 4, 1) at (k, β) = (2, 3) ([`LOG_LAYER_LOWRANK`]) and, polished, at (1.25, 2); 160,
-/// (4, 4, 5, 4), at (2, 3) and at (1, 3), polished. Measured on the 128³
+/// (none, [`LOWRANK_LP_POLISH`], [`LOWRANK_160_LP_POLISH_FINE`] or [`LOWRANK_40_LP_POLISH`]):
+/// 40 coefficients (K, p, n, m) = (2, 2, 4, 1) at (k, β) = (2, 3) ([`LOG_LAYER_LOWRANK`]) and,
+/// polished, at (1.25, 2); 160, (4, 4, 5, 4), at (2, 3), (1, 3) and (1.5, 2.5), polished. Measured on the 128³
 /// `ggx-dielectric-inv` table (the sweep's fitting points, off-grid at the 26 112 check points;
 /// docs/fitting.md, "Budget 160: the logarithmic layer"): the 160-term form's Lawson path at
 /// k = 2 keeps 5.51e-3 / MAE 4.86e-4 (blended branch) and ends at 3.84e-3 / 1.08e-3; its L_p
 /// polish at p = 4 / 6 has 4.92e-3 / 6.05e-4 and 4.43e-3 / 7.18e-4, at k = 1 4.55e-3 / 5.88e-4
 /// and 3.59e-3 / 6.94e-4, where the sweep's best-160 in √L had 8.71e-3 / 7.91e-4. The
 /// polished 40-term form: [`LOWRANK_40_LP_POLISH`].
-pub const LOG_LAYER_LOWRANK_FORMS: [(&str, f64, f64, &[f64]); 4] = [
+pub const LOG_LAYER_LOWRANK_FORMS: [(&str, f64, f64, &[f64]); 5] = [
     ("2:2:4/1", LOG_LAYER_LOWRANK.0, LOG_LAYER_LOWRANK.1, &[]),
     ("2:2:4/1", 1.25, 2.0, &LOWRANK_40_LP_POLISH),
     (
@@ -240,6 +240,7 @@ pub const LOG_LAYER_LOWRANK_FORMS: [(&str, f64, f64, &[f64]); 4] = [
         &LOWRANK_LP_POLISH,
     ),
     ("4:4:5/4", 1.0, LOG_LAYER_LOWRANK.1, &LOWRANK_LP_POLISH),
+    ("4:4:5/4", 1.5, 2.5, &LOWRANK_160_LP_POLISH_FINE),
 ];
 
 /// The p values of the L_p polish of the 40-term separation of [`LOG_LAYER_LOWRANK_FORMS`] at
@@ -259,6 +260,13 @@ pub const LOWRANK_40_LP_POLISH: [f64; 5] = [8.0, 9.0, 10.0, 11.0, 12.0];
 /// 3.03e-3 / 6.18e-4, against the blended branch's 5.37e-3 / 3.77e-4 and Lawson's end
 /// 5.32e-3 / 7.17e-4.
 pub const LOWRANK_LP_POLISH: [f64; 4] = [4.0, 5.0, 6.0, 8.0];
+
+/// The p values of the L_p polish of the 160-term separation of [`LOG_LAYER_LOWRANK_FORMS`] at
+/// (k, β) = (1.5, 2.5). On the 128³ `ggx-dielectric-inv` table (one form per sweep, off-grid at
+/// the 26 112 check points; docs/fitting.md, "Budget 160: the L_p polish"): p = 4 / 4.5 / 5 / 6
+/// give 4.35e-3 / 5.66e-4, 4.10e-3 / 5.90e-4, 3.78e-3 / 6.22e-4 and 3.57e-3 / 6.61e-4, below
+/// the front of (1, 3) (p 5 4.07e-3 / 6.47e-4, p 6 3.63e-3 / 7.14e-4).
+pub const LOWRANK_160_LP_POLISH_FINE: [f64; 4] = [4.0, 4.5, 5.0, 6.0];
 
 /// The low-rank separations `lowrank:aniso:<K>:<p>:<n>/<m>`, Σ_k u_k(aniso)·P_k/Q_k over
 /// (r², √L(μ; α_o), α_o/α_t), a 4-D sweep of an anisotropic albedo fits besides
@@ -323,7 +331,7 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 3.0;
 ///   low-rank separations Σ_k u_k(f0)·P_k(r, μ)/Q_k(r, μ) with K terms, u_k of degree p,
 ///   P_k/Q_k of degrees n/m: (K, p, n, m) = (2, 2, 4, 1) (40), (3, 3, 4, 2) (72) and
 ///   (4, 4, 5, 4) (160) where μ is in the grazing-layer variable, else (4, 4, 5, 3) (140);
-///   where it is, (2, 2, 4, 1) and (4, 4, 5, 4) (each at two scales, three of the four with
+///   where it is, (2, 2, 4, 1) at two scales and (4, 4, 5, 4) at three (four of the five with
 ///   an L_p polish) also with μ in the log-corrected layer variable ([`LOG_LAYER_LOWRANK`],
 ///   [`LOG_LAYER_LOWRANK_FORMS`]) and (k, n, m) = (2, 3, 3)
 ///   also with μ in the plain boundary-layer variable and F0 as F0^⅛ ([`SPLIT_LAYER_SCALE`]);
@@ -632,20 +640,22 @@ mod tests {
             .collect();
         assert_eq!(
             sizes,
-            vec![39, 54, 77, 139, 40, 72, 160, 40, 40, 160, 160, 39]
+            vec![39, 54, 77, 139, 40, 72, 160, 40, 40, 160, 160, 160, 39]
         );
         let json = serde_json::to_string(&full).unwrap();
-        assert_eq!(json.matches("\"lp_polish\"").count(), 3, "{json}");
+        assert_eq!(json.matches("\"lp_polish\"").count(), 4, "{json}");
         // then the 40- and 160-coefficient separations in the log-corrected layer
-        // variable, the same forms as the √L ones, each at two (k, β), three polished
+        // variable, the same forms as the √L ones, at two and three (k, β), four polished
         let (k0, b0) = LOG_LAYER_LOWRANK;
         let p40: &[f64] = &LOWRANK_40_LP_POLISH;
         let p160: &[f64] = &LOWRANK_LP_POLISH;
+        let p160f: &[f64] = &LOWRANK_160_LP_POLISH_FINE;
         for (i, j, k, beta, polish) in [
             (7, 4, k0, b0, &[][..]),
             (8, 4, 1.25, 2.0, p40),
             (9, 6, k0, b0, p160),
             (10, 6, 1.0, b0, p160),
+            (11, 6, 1.5, 2.5, p160f),
         ] {
             assert_eq!(full.forms[i].form, full.forms[j].form);
             assert_eq!(full.forms[i].lp_polish, polish);

@@ -218,18 +218,18 @@ pub const LOG_LAYER_FORMS: [(&str, f64); 2] = [("tensor:2,3/2,2", 3.0), ("tensor
 /// 3-D"): minimax 9.99e-3 / 3.07e-3, where the same form in √L has 1.61e-2 / 2.70e-3.
 pub const LOG_LAYER_LOWRANK: (f64, f64) = (2.0, 3.0);
 
-/// The low-rank separations `lowrank:f0:<K>:<p>:<n>/<m>` a 3-D sweep fits a second time with μ
-/// in the log-corrected layer variable `glayer:r:k:0:1:β`, where μ is in the grazing-layer
-/// variable, each with its (k, β) and the p values of the L_p polish its minimax refit adds
-/// (none, [`LOWRANK_LP_POLISH`], [`LOWRANK_160_LP_POLISH_FINE`] or [`LOWRANK_40_LP_POLISH`]):
-/// 40 coefficients (K, p, n, m) = (2, 2, 4, 1) at (k, β) = (2, 3) ([`LOG_LAYER_LOWRANK`]) and,
-/// polished, at (1.25, 2); 160, (4, 4, 5, 4), at (2, 3), (1, 3) and (1.5, 2.5), polished. Measured on the 128³
-/// `ggx-dielectric-inv` table (the sweep's fitting points, off-grid at the 26 112 check points;
-/// docs/fitting.md, "Budget 160: the logarithmic layer"): the 160-term form's Lawson path at
-/// k = 2 keeps 5.51e-3 / MAE 4.86e-4 (blended branch) and ends at 3.84e-3 / 1.08e-3; its L_p
-/// polish at p = 4 / 6 has 4.92e-3 / 6.05e-4 and 4.43e-3 / 7.18e-4, at k = 1 4.55e-3 / 5.88e-4
-/// and 3.59e-3 / 6.94e-4, where the sweep's best-160 in √L had 8.71e-3 / 7.91e-4. The
-/// polished 40-term form: [`LOWRANK_40_LP_POLISH`].
+/// The low-rank separations `lowrank:f0:<K>:<p>:<n>/<m>` a 3-D sweep fits a second time with μ in
+/// the log-corrected layer variable `glayer:r:k:0:1:β`, where μ is in the grazing-layer variable,
+/// each with its (k, β) and the p values of the L_p polish its minimax refit adds (none,
+/// [`LOWRANK_LP_POLISH`], [`LOWRANK_160_LP_POLISH_FINE`] or [`LOWRANK_40_LP_POLISH`]): 40
+/// coefficients (K, p, n, m) = (2, 2, 4, 1) at (k, β) = (2, 3) ([`LOG_LAYER_LOWRANK`]) and,
+/// polished, at (1.25, 2); 160, (4, 4, 5, 4), at (2, 3), (1, 3) and (1.5, 2.5), polished. Measured
+/// on the 128³ `ggx-dielectric-inv` table (the sweep's fitting points, off-grid at the 26 112 check
+/// points; docs/fitting.md, "Budget 160: the logarithmic layer"): the 160-term form's Lawson path
+/// at k = 2 keeps 5.51e-3 / MAE 4.86e-4 (blended branch) and ends at 3.84e-3 / 1.08e-3; its L_p
+/// polish at p = 4 / 6 has 4.92e-3 / 6.05e-4 and 4.43e-3 / 7.18e-4, at k = 1 4.55e-3 / 5.88e-4 and
+/// 3.59e-3 / 6.94e-4, where the sweep's best-160 in √L had 8.71e-3 / 7.91e-4. The polished 40-term
+/// form: [`LOWRANK_40_LP_POLISH`].
 pub const LOG_LAYER_LOWRANK_FORMS: [(&str, f64, f64, &[f64]); 5] = [
     ("2:2:4/1", LOG_LAYER_LOWRANK.0, LOG_LAYER_LOWRANK.1, &[]),
     ("2:2:4/1", 1.25, 2.0, &LOWRANK_40_LP_POLISH),

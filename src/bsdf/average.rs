@@ -102,6 +102,10 @@ impl Model for AverageAlbedo {
         self.base.id().averaged()
     }
 
+    fn integrator_revision(&self) -> u32 {
+        self.base.integrator_revision()
+    }
+
     fn summary(&self) -> String {
         format!(
             "cosine-weighted average over μ of {}: E_avg = 2∫₀¹ E(μ) μ dμ of each output (Kulla & Conty 2017)",

@@ -188,7 +188,20 @@ fn smooth_interface(lobes: Lobes, mu_o: f64) -> [f64; CHANNELS] {
     }
 }
 
+/// [`Model::integrator_revision`] of the dielectrics seen from inside (the critical-angle cap,
+/// [`SlopeDielectric::deficit`]): its ψ panels map the branch points behind their ends (the
+/// tangent's, the neighbouring square roots') with the longer sinh pieces such singularities
+/// allow.
+pub const LEAVING_INTEGRATOR_REVISION: u32 = 1;
+
 impl Model for GgxModel {
+    fn integrator_revision(&self) -> u32 {
+        match self.kind {
+            GgxKind::Dielectric { inverse: true } => LEAVING_INTEGRATOR_REVISION,
+            _ => 0,
+        }
+    }
+
     fn id(&self) -> ModelId {
         match self.kind {
             GgxKind::Conductor => ModelId::ggx_conductor(self.smith),

@@ -122,6 +122,14 @@ pub trait Model: Send + Sync {
     fn parameters(&self) -> serde_json::Value {
         serde_json::Value::Null
     }
+    /// Revision of how this model's albedo is integrated, raised whenever a change to its
+    /// integrand, panels or maps can change its values: hashed into the cache key of its tables
+    /// when not 0 ([`crate::table::TableSpec::content_hash`]), so that only its own cached
+    /// tables (and what was fitted on them) are recomputed. Changes to the shared engine raise
+    /// [`crate::table::ENGINE_VERSION`] instead.
+    fn integrator_revision(&self) -> u32 {
+        0
+    }
     /// Outputs at `x` for several rule sets (the orders of one error estimate). Models whose
     /// setup is costly (breakpoints found by scanning) override this to set up once.
     fn integrate_orders(&self, x: &[f64], rules: &[&Rules]) -> Vec<[f64; MAX_OUTPUTS]> {

@@ -297,6 +297,7 @@ pub(crate) fn peak_panels(
                 toward: len,
                 sqrt: false,
                 delta: start_delta,
+                beyond: false,
             }
         } else {
             PanelMap::Plain
@@ -328,6 +329,7 @@ pub(crate) fn peak_panels(
                 toward: mid,
                 sqrt,
                 delta: if near { end_delta } else { f64::INFINITY },
+                beyond: false,
             },
         });
     } else {

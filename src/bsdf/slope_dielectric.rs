@@ -49,7 +49,8 @@ use super::slope::{peak_panels, Horizon, RHO_TAIL};
 use crate::math::{asinh_pos, exp_poly, sin_cos_0_pi, smith_a, SmithForm};
 use crate::quadrature::vector::{self, LANES};
 use crate::quadrature::{
-    panels_from_breaks, Break, DimRules, Integrand2D, Panel, CHANNELS, MIN_DELTA,
+    panels_from_breaks, panels_from_breaks_real, Break, DimRules, Integrand2D, Panel, CHANNELS,
+    MIN_DELTA,
 };
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -128,6 +129,8 @@ impl Kink {
             } else {
                 delta
             },
+            beyond_below: false,
+            beyond_above: false,
         }
     }
 
@@ -1208,14 +1211,16 @@ impl Integrand2D for SlopeDielectric {
                 // tangent to the cap and the circle: cos ψ = −√(1 − η² − μo²)/sin θo, where
                 // w² = sc² + μo² − 1 + η² vanishes. The transmitted μt is of order w·cc/η
                 // there, so the masking weight's scale α is reached at w ≈ αη/cc: a
-                // singularity of the cap side's integrand at that w² (on the other side).
+                // singularity of the cap side's integrand at that w² (μt = ±iα/√(1 − α²), the
+                // masking weight's branch points, makes w² real and negative): on the real axis
+                // behind the tangent, so its sinh pieces may be twice as long.
                 let c = (-c0).sqrt() / s;
                 if c < 1.0 {
                     let dw2 = 2.0 * s * s * c * (1.0 - c * c).sqrt(); // |d(w²)/dψ|
                     let wc = self.mask_scale * self.eta / cc;
                     let psi_t = PI - c.acos();
                     push(
-                        Break::one_sided_sqrt(psi_t, true).with_delta_on(true, wc * wc / dw2),
+                        Break::one_sided_sqrt(psi_t, true).with_delta_beyond(true, wc * wc / dw2),
                         &mut n,
                     );
                     if self.deficit {
@@ -1249,7 +1254,9 @@ impl Integrand2D for SlopeDielectric {
                 &mut n,
             );
         }
-        panels_from_breaks(&mut breaks[..n], out);
+        // every break here is a square root on the real axis or near-singular on a line
+        // perpendicular to it (π/2's branch points)
+        panels_from_breaks_real(&mut breaks[..n], out);
     }
 
     fn line_panels(&self, psi: f64, out: &mut Vec<Panel>) -> DielectricLine {

@@ -32,12 +32,16 @@ pub enum PanelMap {
     ///   w-ranges (many decades between δ and L) are covered in pieces of at most
     ///   [`SINH_MAX_SPAN`], each with the full rule, which amounts to geometric grading.
     ///
-    /// Both together compose: y = δ·sinh(W·t²(2 − t)) on the first piece.
+    /// Both together compose: y = δ·sinh(W·t²(2 − t)) on the first piece. With `beyond` the
+    /// singularity lies on the real axis behind `at` (y = −δ), which the map leaves at distance π
+    /// from the w-axis rather than π/2 (sinh w = −1 at w = ±asinh 1 + iπ), so the pieces may be
+    /// twice as long ([`SINH_MAX_SPAN_BEYOND`]).
     End {
         at: f64,
         toward: f64,
         sqrt: bool,
         delta: f64,
+        beyond: bool,
     },
 }
 
@@ -62,6 +66,11 @@ pub struct Break {
     /// is analytic and the other side's continuation is not).
     pub delta_below: f64,
     pub delta_above: f64,
+    /// Whether that side's nearest singularity lies on the real axis on the *other* side of x,
+    /// at distance δ behind the break (a branch point of the neighbouring region's continuation)
+    /// rather than beside the panel.
+    pub beyond_below: bool,
+    pub beyond_above: bool,
 }
 
 impl Break {
@@ -72,6 +81,8 @@ impl Break {
             sqrt_above: false,
             delta_below: f64::INFINITY,
             delta_above: f64::INFINITY,
+            beyond_below: false,
+            beyond_above: false,
         }
     }
     /// Square-root behaviour on both sides.
@@ -95,25 +106,29 @@ impl Break {
     }
     /// Also near-singular at distance `delta` on both sides (keeps the smaller of the two).
     pub fn with_delta(self, delta: f64) -> Break {
-        Break {
-            delta_below: self.delta_below.min(delta),
-            delta_above: self.delta_above.min(delta),
-            ..self
-        }
+        self.with_delta_on(false, delta).with_delta_on(true, delta)
     }
     /// Also near-singular at distance `delta` on one side only.
     pub fn with_delta_on(self, above: bool, delta: f64) -> Break {
-        if above {
-            Break {
-                delta_above: self.delta_above.min(delta),
-                ..self
-            }
+        self.with_singularity(above, delta, false)
+    }
+    /// Also near-singular on one side, from a singularity on the real axis at distance `delta`
+    /// behind the break (see [`PanelMap::End`]).
+    pub fn with_delta_beyond(self, above: bool, delta: f64) -> Break {
+        self.with_singularity(above, delta, true)
+    }
+    /// A singularity at distance `delta` seen from the side `above`, kept if it is the nearest.
+    fn with_singularity(mut self, above: bool, delta: f64, beyond: bool) -> Break {
+        let (d, b) = if above {
+            (&mut self.delta_above, &mut self.beyond_above)
         } else {
-            Break {
-                delta_below: self.delta_below.min(delta),
-                ..self
-            }
+            (&mut self.delta_below, &mut self.beyond_below)
+        };
+        if delta < *d {
+            *d = delta;
+            *b = beyond;
         }
+        self
     }
     /// The smaller of the two distances.
     pub fn delta(&self) -> f64 {
@@ -139,13 +154,17 @@ pub const NEAR_SINGULAR_RATIO: f64 = 0.5;
 /// Longest w-range one rule covers under the sinh map (see [`PanelMap::End`]).
 pub const SINH_MAX_SPAN: f64 = 3.0;
 
+/// Longest w-range one rule covers under the sinh map when the singularity lies on the real axis
+/// behind the mapped end (`beyond` in [`PanelMap::End`]): the same ratio of piece to strip.
+pub const SINH_MAX_SPAN_BEYOND: f64 = 2.0 * SINH_MAX_SPAN;
+
 /// The map an end needs on a panel (or half panel) of length `len` lying on its side
 /// `toward`, if any.
 fn end_map(b: &Break, toward: f64, len: f64) -> Option<PanelMap> {
-    let (sqrt, delta) = if toward > b.x {
-        (b.sqrt_above, b.delta_above)
+    let (sqrt, delta, beyond) = if toward > b.x {
+        (b.sqrt_above, b.delta_above, b.beyond_above)
     } else {
-        (b.sqrt_below, b.delta_below)
+        (b.sqrt_below, b.delta_below, b.beyond_below)
     };
     let near = delta < NEAR_SINGULAR_RATIO * len;
     (sqrt || near).then_some(PanelMap::End {
@@ -153,6 +172,7 @@ fn end_map(b: &Break, toward: f64, len: f64) -> Option<PanelMap> {
         toward,
         sqrt,
         delta: if near { delta } else { f64::INFINITY },
+        beyond: near && beyond,
     })
 }
 
@@ -160,6 +180,17 @@ fn end_map(b: &Break, toward: f64, len: f64) -> Option<PanelMap> {
 /// panels between them. A panel with one special end is mapped towards it; a panel with two is
 /// split at its midpoint so that each half is mapped towards its own end.
 pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
+    panels_between(breaks, out, false)
+}
+
+/// [`panels_from_breaks`] for breaks that are all singular on the real axis or on lines
+/// perpendicular to it through the breaks: a square-root break next to another break is then
+/// near-singular at the other's branch point, behind it on the real axis (`beyond`).
+pub fn panels_from_breaks_real(breaks: &mut [Break], out: &mut Vec<Panel>) {
+    panels_between(breaks, out, true)
+}
+
+fn panels_between(breaks: &mut [Break], out: &mut Vec<Panel>, real: bool) {
     // (callers mostly pass them sorted: a check is cheaper than the sort's own)
     if !breaks.is_sorted_by(|p, q| p.x.total_cmp(&q.x).is_le()) {
         breaks.sort_by(|p, q| p.x.total_cmp(&q.x));
@@ -172,8 +203,9 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
             let last = &mut breaks[n - 1];
             last.sqrt_below |= b.sqrt_below;
             last.sqrt_above |= b.sqrt_above;
-            last.delta_below = last.delta_below.min(b.delta_below);
-            last.delta_above = last.delta_above.min(b.delta_above);
+            *last = last
+                .with_singularity(false, b.delta_below, b.beyond_below)
+                .with_singularity(true, b.delta_above, b.beyond_above);
         } else {
             breaks[n] = b;
             n += 1;
@@ -206,15 +238,23 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
         // of the distances (a correctly rounded square root is monotone), with one square root
         // per break instead of one per pair
         let mut near2 = f64::INFINITY;
+        let mut real_at = f64::NAN;
         for (j, &(x, below, above)) in own.iter().enumerate() {
             let d = if x < b.x { above } else { below };
             if j != k && d.is_finite() {
-                near2 = near2.min((x - b.x) * (x - b.x) + d * d);
+                let d2 = (x - b.x) * (x - b.x) + d * d;
+                if d2 < near2 {
+                    near2 = d2;
+                    real_at = if real && d == 0.0 { x } else { f64::NAN };
+                }
             }
         }
         let near = near2.sqrt();
-        b.delta_below = b.delta_below.min(near).max(MIN_DELTA);
-        b.delta_above = b.delta_above.min(near).max(MIN_DELTA);
+        *b = b
+            .with_singularity(false, near, real_at > b.x)
+            .with_singularity(true, near, real_at < b.x);
+        b.delta_below = b.delta_below.max(MIN_DELTA);
+        b.delta_above = b.delta_above.max(MIN_DELTA);
     }
     for w in merged.windows(2) {
         let (l, r) = (w[0], w[1]);
@@ -274,12 +314,17 @@ pub fn panels_from_breaks(breaks: &mut [Break], out: &mut Vec<Panel>) {
 fn retarget(map: PanelMap, toward: f64) -> PanelMap {
     match map {
         PanelMap::End {
-            at, sqrt, delta, ..
+            at,
+            sqrt,
+            delta,
+            beyond,
+            ..
         } => PanelMap::End {
             at,
             toward,
             sqrt,
             delta,
+            beyond,
         },
         m => m,
     }
@@ -451,6 +496,7 @@ impl DimRules {
                 toward,
                 sqrt,
                 delta,
+                beyond,
             } => {
                 let rule = &self.plain;
                 let len = (toward - at).abs();
@@ -459,7 +505,12 @@ impl DimRules {
                 if delta.is_finite() {
                     // y = δ·sinh(w), w ∈ [0, W], in pieces; the first piece quadratic in t if sqrt.
                     let span = crate::math::asinh_pos(len / delta);
-                    let pieces = (span / SINH_MAX_SPAN).ceil().max(1.0) as usize;
+                    let max_span = if beyond {
+                        SINH_MAX_SPAN_BEYOND
+                    } else {
+                        SINH_MAX_SPAN
+                    };
+                    let pieces = (span / max_span).ceil().max(1.0) as usize;
                     let dw = span / pieces as f64;
                     NodeMap::Sinh {
                         rule,
@@ -1016,6 +1067,67 @@ mod tests {
             assert!(x0.iter().zip(&x1).all(|(a, b)| a.to_bits() == b.to_bits()));
             assert!(w0.iter().zip(&w1).all(|(a, b)| a.to_bits() == b.to_bits()));
         }
+    }
+
+    /// ∫_0^1 ln(x + δ) dx with the branch point on the real axis behind the end: the sinh map
+    /// with `beyond` takes fewer pieces and is as accurate as without.
+    #[test]
+    fn a_singularity_behind_the_end_takes_longer_sinh_pieces() {
+        let delta: f64 = 1e-6;
+        let exact = (1.0 + delta) * (1.0 + delta).ln() - delta * delta.ln() - 1.0;
+        let rules = DimRules::new(12);
+        let mut nodes = [0; 2];
+        for (k, beyond) in [false, true].into_iter().enumerate() {
+            let panel = Panel {
+                a: 0.0,
+                b: 1.0,
+                map: PanelMap::End {
+                    at: 0.0,
+                    toward: 1.0,
+                    sqrt: false,
+                    delta,
+                    beyond,
+                },
+            };
+            let (mut xs, mut ws) = (Vec::new(), Vec::new());
+            rules.nodes_into(&panel, &mut xs, &mut ws);
+            let q: f64 = xs.iter().zip(&ws).map(|(x, w)| w * (x + delta).ln()).sum();
+            assert!((q - exact).abs() < 1e-13, "beyond {beyond}: {q} vs {exact}");
+            nodes[k] = xs.len();
+        }
+        // asinh(1e6) = 14.5: 5 pieces of ≤ 3, 3 of ≤ 6
+        assert_eq!(nodes, [60, 36]);
+    }
+
+    /// A square-root break next to another is near-singular at the other's branch point, on the
+    /// real axis behind it: flagged `beyond` by `panels_from_breaks_real` only, the sides facing
+    /// away from the neighbour only, and the distances are those of `panels_from_breaks`.
+    #[test]
+    fn square_root_neighbours_are_singular_behind_the_break() {
+        let breaks = [
+            Break::regular(0.0),
+            Break::sqrt(0.5),
+            Break::sqrt(0.5 + 1e-4),
+            Break::regular(1.0),
+        ];
+        let (mut plain, mut real) = (Vec::new(), Vec::new());
+        panels_from_breaks(&mut breaks.clone(), &mut plain);
+        panels_from_breaks_real(&mut breaks.clone(), &mut real);
+        assert_eq!(plain.len(), real.len());
+        let beyond = |p: &Panel| match p.map {
+            PanelMap::End { beyond, delta, .. } => (beyond, delta),
+            _ => (false, f64::INFINITY),
+        };
+        for (p, q) in plain.iter().zip(&real) {
+            assert_eq!((p.a, p.b), (q.a, q.b));
+            assert!(!beyond(p).0);
+            assert_eq!(beyond(p).1.to_bits(), beyond(q).1.to_bits());
+        }
+        // [0, 0.5] is mapped towards 0.5 (sqrt) and [0.5 + 1e-4, 1] towards 0.5 + 1e-4: each
+        // near-singular at the other square root, behind it
+        let mapped: Vec<_> = real.iter().filter(|p| beyond(p).1.is_finite()).collect();
+        assert!(!mapped.is_empty());
+        assert!(mapped.iter().all(|p| beyond(p).0), "{real:?}");
     }
 
     #[test]

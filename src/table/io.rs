@@ -17,7 +17,8 @@ pub struct Sidecar {
     pub tool: String,
     pub tool_version: String,
     pub engine_version: u32,
-    /// Cache key: SHA-256 of the spec and engine version ([`TableSpec::content_hash`]).
+    /// Cache key: SHA-256 of the spec, engine version and the model's integrator revision
+    /// ([`TableSpec::content_hash`]).
     pub content_hash: String,
     pub model: String,
     pub model_parameters: serde_json::Value,

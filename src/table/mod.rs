@@ -308,9 +308,18 @@ impl TableSpec {
     }
 
     /// SHA-256 of the canonical JSON of everything that determines the values, plus the
-    /// engine version: the cache key.
+    /// engine version and the model's [`Model::integrator_revision`] (when not 0): the cache
+    /// key.
     pub fn content_hash(&self) -> String {
-        let canonical = serde_json::json!({ "engine": ENGINE_VERSION, "spec": self });
+        let revision = self
+            .model_id()
+            .and_then(crate::bsdf::get)
+            .map_or(0, |m| m.integrator_revision());
+        let canonical = if revision == 0 {
+            serde_json::json!({ "engine": ENGINE_VERSION, "spec": self })
+        } else {
+            serde_json::json!({ "engine": ENGINE_VERSION, "integrator": revision, "spec": self })
+        };
         crate::digest::sha256_hex(canonical.to_string().as_bytes())
     }
 }
@@ -566,4 +575,30 @@ fn assemble(spec: &TableSpec, ordered: Vec<Option<CellResult>>) -> Result<Table>
         errors,
         summary,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::ggx::LEAVING_INTEGRATOR_REVISION;
+
+    /// A model's integrator revision keys its own tables only: the cache keys of the other
+    /// models are those of the engine version alone.
+    #[test]
+    fn the_integrator_revision_keys_only_its_models_tables() {
+        for (name, revision) in [
+            ("ggx-conductor", 0),
+            ("ggx-dielectric", 0),
+            ("ggx-dielectric-inv", LEAVING_INTEGRATOR_REVISION),
+            ("ggx-dielectric-inv-separable", LEAVING_INTEGRATOR_REVISION),
+        ] {
+            let model = crate::bsdf::find(name).unwrap();
+            assert_eq!(model.integrator_revision(), revision, "{name}");
+            let resolution = vec![8; model.axes().len()];
+            let spec = TableSpec::new(&*model, &resolution, QuadratureSettings::default()).unwrap();
+            let bare = serde_json::json!({ "engine": ENGINE_VERSION, "spec": spec });
+            let bare = crate::digest::sha256_hex(bare.to_string().as_bytes());
+            assert_eq!(spec.content_hash() == bare, revision == 0, "{name}");
+        }
+    }
 }

@@ -16,17 +16,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.714x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 5c3bb5457beb3ac7080adbe572fa29d8fcbf4a150d99d6403fc27e8b7f5b6b7c.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.748x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7589f922770ecb0acf5ef09ace1d0ffe6b6e4c14491d812921453b76626c266e.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-4, shifted 2.1e-5, bernstein 2.8e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 5.88e-4, max 3.70e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.60e-4, max 3.23e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.21e-7 (every op rounded, as this Rust), 8.91e-7 (fused multiply-add), 3.89e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.00e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.70e-3; this f32 code MAE 5.74e-4, max 3.70e-3.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-4, shifted 1.9e-5, bernstein 2.8e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 5.90e-4, max 3.75e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.62e-4, max 3.28e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.12e-7 (every op rounded, as this Rust), 7.57e-7 (fused multiply-add), 3.96e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.75e-3; this f32 code MAE 5.74e-4, max 3.75e-3.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
-// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 4.240e-4 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -73,12 +73,12 @@ highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, h
     highp float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     highp float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    highp float p0_0_0 = 1.0183631 * mu_b5_v5 + 3.753903 * mu_b5_b1 + 3.8113945 * mu_b5_b2 + 5.022521 * mu_b5_b3 + 4.4284167 * mu_b5_b4 + 1.271587 * mu_b5_u5;
-    highp float p0_0_1 = 8.733559 * mu_b5_v5 + 32.79162 * mu_b5_b1 + 28.068712 * mu_b5_b2 + 11.671402 * mu_b5_b3 + 7.0383143 * mu_b5_b4 + 3.3267493 * mu_b5_u5;
-    highp float p0_0_2 = 24.560802 * mu_b5_v5 + 112.77992 * mu_b5_b1 + 145.86597 * mu_b5_b2 + 92.04437 * mu_b5_b3 + 37.48077 * mu_b5_b4 + 10.981617 * mu_b5_u5;
-    highp float p0_0_3 = 29.451221 * mu_b5_v5 + 153.2942 * mu_b5_b1 + 227.8105 * mu_b5_b2 + 152.73735 * mu_b5_b3 + 52.506485 * mu_b5_b4 + 11.635022 * mu_b5_u5;
-    highp float p0_0_4 = 23.83875 * mu_b5_v5 + 126.18583 * mu_b5_b1 + 205.63895 * mu_b5_b2 + 148.63008 * mu_b5_b3 + 49.098335 * mu_b5_b4 + 7.7093062 * mu_b5_u5;
-    highp float p0_0_5 = 8.358978 * mu_b5_v5 + 42.263042 * mu_b5_b1 + 70.69551 * mu_b5_b2 + 52.54664 * mu_b5_b3 + 17.091932 * mu_b5_b4 + 2.126581 * mu_b5_u5;
+    highp float p0_0_0 = 1.0279294 * mu_b5_v5 + 3.6115956 * mu_b5_b1 + 3.7978678 * mu_b5_b2 + 5.0368266 * mu_b5_b3 + 4.282365 * mu_b5_b4 + 1.2462618 * mu_b5_u5;
+    highp float p0_0_1 = 8.478233 * mu_b5_v5 + 31.395452 * mu_b5_b1 + 27.055952 * mu_b5_b2 + 10.981996 * mu_b5_b3 + 6.2405853 * mu_b5_b4 + 3.32993 * mu_b5_u5;
+    highp float p0_0_2 = 23.587654 * mu_b5_v5 + 109.84934 * mu_b5_b1 + 144.93141 * mu_b5_b2 + 91.93871 * mu_b5_b3 + 36.601727 * mu_b5_b4 + 11.197945 * mu_b5_u5;
+    highp float p0_0_3 = 27.55418 * mu_b5_v5 + 148.75098 * mu_b5_b1 + 226.3771 * mu_b5_b2 + 153.16722 * mu_b5_b3 + 52.04733 * mu_b5_b4 + 11.925638 * mu_b5_u5;
+    highp float p0_0_4 = 22.174171 * mu_b5_v5 + 122.23782 * mu_b5_b1 + 203.67993 * mu_b5_b2 + 148.71295 * mu_b5_b3 + 49.04806 * mu_b5_b4 + 7.883996 * mu_b5_u5;
+    highp float p0_0_5 = 7.8463573 * mu_b5_v5 + 40.997425 * mu_b5_b1 + 69.86632 * mu_b5_b2 + 52.42944 * mu_b5_b3 + 17.089317 * mu_b5_b4 + 2.1616514 * mu_b5_u5;
     highp float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     highp float p0 = p0_0 * 1.0;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -93,15 +93,15 @@ highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, h
     highp float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     highp float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    highp float u0_0_0 = 0.87858367 * 1.0;
+    highp float u0_0_0 = 0.8729462 * 1.0;
     highp float u0_0 = u0_0_0 * 1.0;
-    highp float u0_1_0 = 3.584189 * 1.0;
+    highp float u0_1_0 = 3.540466 * 1.0;
     highp float u0_1 = u0_1_0 * 1.0;
-    highp float u0_2_0 = 5.465496 * 1.0;
+    highp float u0_2_0 = 5.406802 * 1.0;
     highp float u0_2 = u0_2_0 * 1.0;
-    highp float u0_3_0 = 3.660079 * 1.0;
+    highp float u0_3_0 = 3.6283998 * 1.0;
     highp float u0_3 = u0_3_0 * 1.0;
-    highp float u0_4_0 = 0.91966933 * 1.0;
+    highp float u0_4_0 = 0.9117044 * 1.0;
     highp float u0_4 = u0_4_0 * 1.0;
     highp float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -127,101 +127,101 @@ highp float ggx_dielectric_inv_separable_albedo(highp float f0, highp float r, h
     highp float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     highp float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q0_0_0 = 1.0 * mu_b4_v4 + 2.9129713 * mu_b4_b1 + 1.7565323 * mu_b4_b2 + 2.8867123 * mu_b4_b3 + 1.1705463 * mu_b4_u4;
-    highp float q0_0_1 = 7.6608095 * mu_b4_v4 + 21.836224 * mu_b4_b1 + 6.84856 * mu_b4_b2 + 2.0803416 * mu_b4_b3 + 1.9167775 * mu_b4_u4;
-    highp float q0_0_2 = 17.722824 * mu_b4_v4 + 69.098564 * mu_b4_b1 + 60.242485 * mu_b4_b2 + 29.151182 * mu_b4_b3 + 9.048808 * mu_b4_u4;
-    highp float q0_0_3 = 15.857692 * mu_b4_v4 + 71.78123 * mu_b4_b1 + 72.92125 * mu_b4_b2 + 30.775078 * mu_b4_b3 + 6.2869406 * mu_b4_u4;
-    highp float q0_0_4 = 13.259141 * mu_b4_v4 + 55.45977 * mu_b4_b1 + 68.551575 * mu_b4_b2 + 34.67138 * mu_b4_b3 + 6.4478273 * mu_b4_u4;
+    highp float q0_0_0 = 1.0 * mu_b4_v4 + 2.7370975 * mu_b4_b1 + 1.8603674 * mu_b4_b2 + 2.7513773 * mu_b4_b3 + 1.1363808 * mu_b4_u4;
+    highp float q0_0_1 = 7.3318415 * mu_b4_v4 + 20.605307 * mu_b4_b1 + 6.7779903 * mu_b4_b2 + 1.3989055 * mu_b4_b3 + 1.9274735 * mu_b4_u4;
+    highp float q0_0_2 = 16.833965 * mu_b4_v4 + 67.21114 * mu_b4_b1 + 60.426456 * mu_b4_b2 + 28.098166 * mu_b4_b3 + 9.098528 * mu_b4_u4;
+    highp float q0_0_3 = 14.468753 * mu_b4_v4 + 69.433754 * mu_b4_b1 + 72.81932 * mu_b4_b2 + 30.271338 * mu_b4_b3 + 6.450113 * mu_b4_u4;
+    highp float q0_0_4 = 12.3201065 * mu_b4_v4 + 53.50473 * mu_b4_b1 + 67.43135 * mu_b4_b2 + 34.234604 * mu_b4_b3 + 6.4961543 * mu_b4_u4;
     highp float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     highp float q0 = q0_0 * 1.0;
     highp float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    highp float p1_0_0 = 0.023859385 * mu_b5_v5 + 0.08513728 * mu_b5_b1 + 0.04218392 * mu_b5_b2 + 0.05596471 * mu_b5_b3 - 0.007890692 * mu_b5_b4 + 0.00054207665 * mu_b5_u5;
-    highp float p1_0_1 = -0.34439534 * mu_b5_v5 - 0.3911174 * mu_b5_b1 + 0.059636295 * mu_b5_b2 + 0.51599604 * mu_b5_b3 - 0.006453505 * mu_b5_b4 + 0.001366066 * mu_b5_u5;
-    highp float p1_0_2 = -1.8825688 * mu_b5_v5 - 3.5036204 * mu_b5_b1 - 1.9609222 * mu_b5_b2 + 0.15171923 * mu_b5_b3 - 0.3384021 * mu_b5_b4 + 0.00492251 * mu_b5_u5;
-    highp float p1_0_3 = -3.0153406 * mu_b5_v5 - 5.5496583 * mu_b5_b1 - 2.4153585 * mu_b5_b2 + 0.824234 * mu_b5_b3 - 0.039238308 * mu_b5_b4 + 0.09040126 * mu_b5_u5;
-    highp float p1_0_4 = -2.230655 * mu_b5_v5 - 4.117494 * mu_b5_b1 - 1.5678375 * mu_b5_b2 + 0.7602117 * mu_b5_b3 + 0.056866217 * mu_b5_b4 + 0.033113644 * mu_b5_u5;
-    highp float p1_0_5 = -0.6669095 * mu_b5_v5 - 1.2816072 * mu_b5_b1 - 0.5036643 * mu_b5_b2 + 0.2548548 * mu_b5_b3 + 0.06985985 * mu_b5_b4 + 0.009529822 * mu_b5_u5;
+    highp float p1_0_0 = 0.023927283 * mu_b5_v5 + 0.08666795 * mu_b5_b1 + 0.051048502 * mu_b5_b2 + 0.05712835 * mu_b5_b3 - 0.008128065 * mu_b5_b4 + 0.0005723265 * mu_b5_u5;
+    highp float p1_0_1 = -0.338504 * mu_b5_v5 - 0.40768585 * mu_b5_b1 + 0.09014824 * mu_b5_b2 + 0.53885394 * mu_b5_b3 - 0.0065901005 * mu_b5_b4 + 0.0014906185 * mu_b5_u5;
+    highp float p1_0_2 = -1.9128356 * mu_b5_v5 - 3.7380412 * mu_b5_b1 - 2.0988283 * mu_b5_b2 + 0.13508065 * mu_b5_b3 - 0.36111256 * mu_b5_b4 + 0.005393029 * mu_b5_u5;
+    highp float p1_0_3 = -3.104096 * mu_b5_v5 - 5.9710126 * mu_b5_b1 - 2.6351702 * mu_b5_b2 + 0.8778057 * mu_b5_b3 - 0.030734776 * mu_b5_b4 + 0.09841517 * mu_b5_u5;
+    highp float p1_0_4 = -2.3219392 * mu_b5_v5 - 4.454612 * mu_b5_b1 - 1.7329936 * mu_b5_b2 + 0.8164195 * mu_b5_b3 + 0.0646683 * mu_b5_b4 + 0.035532594 * mu_b5_u5;
+    highp float p1_0_5 = -0.6997852 * mu_b5_v5 - 1.3849747 * mu_b5_b1 - 0.5511279 * mu_b5_b2 + 0.27659225 * mu_b5_b3 + 0.07506427 * mu_b5_b4 + 0.010054504 * mu_b5_u5;
     highp float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     highp float p1 = p1_0 * 1.0;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    highp float u1_0_0 = 1.9373827 * 1.0;
+    highp float u1_0_0 = 1.9657415 * 1.0;
     highp float u1_0 = u1_0_0 * 1.0;
-    highp float u1_1_0 = 3.2423635 * 1.0;
+    highp float u1_1_0 = 3.1616328 * 1.0;
     highp float u1_1 = u1_1_0 * 1.0;
-    highp float u1_2_0 = 1.967861 * 1.0;
+    highp float u1_2_0 = 1.9908692 * 1.0;
     highp float u1_2 = u1_2_0 * 1.0;
-    highp float u1_3_0 = 0.8106889 * 1.0;
+    highp float u1_3_0 = 0.85982996 * 1.0;
     highp float u1_3 = u1_3_0 * 1.0;
-    highp float u1_4_0 = 0.052868403 * 1.0;
+    highp float u1_4_0 = 0.061440498 * 1.0;
     highp float u1_4 = u1_4_0 * 1.0;
     highp float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q1_0_0 = 1.0 * mu_b4_v4 + 2.0273602 * mu_b4_b1 + 2.0595322 * mu_b4_b2 - 0.2853565 * mu_b4_b3 + 0.019864704 * mu_b4_u4;
-    highp float q1_0_1 = 3.8695903 * mu_b4_v4 + 4.2521696 * mu_b4_b1 + 5.4107995 * mu_b4_b2 - 0.29556113 * mu_b4_b3 + 0.025790777 * mu_b4_u4;
-    highp float q1_0_2 = 8.1737175 * mu_b4_v4 + 5.869553 * mu_b4_b1 + 7.235814 * mu_b4_b2 + 1.974842 * mu_b4_b3 + 0.45922118 * mu_b4_u4;
-    highp float q1_0_3 = 8.259595 * mu_b4_v4 + 4.9144006 * mu_b4_b1 + 2.8188589 * mu_b4_b2 + 0.99457973 * mu_b4_b3 + 0.18009794 * mu_b4_u4;
-    highp float q1_0_4 = 3.302272 * mu_b4_v4 + 2.6568725 * mu_b4_b1 + 1.0151353 * mu_b4_b2 + 0.3967486 * mu_b4_b3 + 0.07360671 * mu_b4_u4;
+    highp float q1_0_0 = 1.0 * mu_b4_v4 + 2.149612 * mu_b4_b1 + 2.1403823 * mu_b4_b2 - 0.29732752 * mu_b4_b3 + 0.021139918 * mu_b4_u4;
+    highp float q1_0_1 = 3.9627562 * mu_b4_v4 + 4.7327867 * mu_b4_b1 + 5.6909676 * mu_b4_b2 - 0.29005724 * mu_b4_b3 + 0.025957398 * mu_b4_u4;
+    highp float q1_0_2 = 8.517818 * mu_b4_v4 + 6.693137 * mu_b4_b1 + 7.675742 * mu_b4_b2 + 2.1449134 * mu_b4_b3 + 0.49991795 * mu_b4_u4;
+    highp float q1_0_3 = 8.665108 * mu_b4_v4 + 5.528851 * mu_b4_b1 + 2.9611373 * mu_b4_b2 + 1.0562347 * mu_b4_b3 + 0.19579224 * mu_b4_u4;
+    highp float q1_0_4 = 3.4870028 * mu_b4_v4 + 2.9267163 * mu_b4_b1 + 1.0977222 * mu_b4_b2 + 0.4264195 * mu_b4_b3 + 0.077648714 * mu_b4_u4;
     highp float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     highp float q1 = q1_0 * 1.0;
     highp float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    highp float p2_0_0 = -0.03129679 * mu_b5_v5 - 0.07842191 * mu_b5_b1 + 0.68254 * mu_b5_b2 - 0.0035869484 * mu_b5_b3 + 0.0003026823 * mu_b5_b4 - 0.0001249558 * mu_b5_u5;
-    highp float p2_0_1 = 0.7749647 * mu_b5_v5 + 0.28331858 * mu_b5_b1 + 0.03766238 * mu_b5_b2 - 3.1582801 * mu_b5_b3 - 0.01504579 * mu_b5_b4 + 0.004144292 * mu_b5_u5;
-    highp float p2_0_2 = 1.4662138 * mu_b5_v5 + 1.0796883 * mu_b5_b1 - 0.79451716 * mu_b5_b2 - 6.161122 * mu_b5_b3 + 1.5501918 * mu_b5_b4 - 0.033474926 * mu_b5_u5;
-    highp float p2_0_3 = 0.03777242 * mu_b5_v5 + 0.22597374 * mu_b5_b1 - 0.8259381 * mu_b5_b2 - 5.502359 * mu_b5_b3 + 2.8784287 * mu_b5_b4 + 0.029851057 * mu_b5_u5;
-    highp float p2_0_4 = -0.7058654 * mu_b5_v5 + 0.08624678 * mu_b5_b1 - 0.7473394 * mu_b5_b2 - 4.266426 * mu_b5_b3 + 1.0231788 * mu_b5_b4 + 0.08175495 * mu_b5_u5;
-    highp float p2_0_5 = -0.029955734 * mu_b5_v5 + 0.8468695 * mu_b5_b1 + 0.46625653 * mu_b5_b2 - 1.233199 * mu_b5_b3 - 0.021061093 * mu_b5_b4 + 0.06788946 * mu_b5_u5;
+    highp float p2_0_0 = -0.023015369 * mu_b5_v5 - 0.05811919 * mu_b5_b1 + 0.60886854 * mu_b5_b2 + 0.0072470307 * mu_b5_b3 - 5.574249e-5 * mu_b5_b4 - 8.892457e-5 * mu_b5_u5;
+    highp float p2_0_1 = 0.7201499 * mu_b5_v5 + 0.251972 * mu_b5_b1 - 0.22355045 * mu_b5_b2 - 2.9612658 * mu_b5_b3 - 0.018628256 * mu_b5_b4 + 0.0034724523 * mu_b5_u5;
+    highp float p2_0_2 = 1.2666818 * mu_b5_v5 + 0.93591774 * mu_b5_b1 - 1.0776683 * mu_b5_b2 - 5.5675116 * mu_b5_b3 + 1.5181401 * mu_b5_b4 - 0.02883782 * mu_b5_u5;
+    highp float p2_0_3 = -0.15870906 * mu_b5_v5 + 0.13347422 * mu_b5_b1 - 0.9735456 * mu_b5_b2 - 4.9635415 * mu_b5_b3 + 2.6885612 * mu_b5_b4 + 0.01878891 * mu_b5_u5;
+    highp float p2_0_4 = -0.7403634 * mu_b5_v5 + 0.23161463 * mu_b5_b1 - 0.5711276 * mu_b5_b2 - 3.890712 * mu_b5_b3 + 0.9228521 * mu_b5_b4 + 0.086665794 * mu_b5_u5;
+    highp float p2_0_5 = -0.022695767 * mu_b5_v5 + 0.90117705 * mu_b5_b1 + 0.5115889 * mu_b5_b2 - 1.1717486 * mu_b5_b3 - 0.051786497 * mu_b5_b4 + 0.0709197 * mu_b5_u5;
     highp float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     highp float p2 = p2_0 * 1.0;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    highp float u2_0_0 = -0.93370694 * 1.0;
+    highp float u2_0_0 = -0.9226769 * 1.0;
     highp float u2_0 = u2_0_0 * 1.0;
-    highp float u2_1_0 = 2.835681 * 1.0;
+    highp float u2_1_0 = 2.9907134 * 1.0;
     highp float u2_1 = u2_1_0 * 1.0;
-    highp float u2_2_0 = 2.3082945 * 1.0;
+    highp float u2_2_0 = 2.162519 * 1.0;
     highp float u2_2 = u2_2_0 * 1.0;
-    highp float u2_3_0 = -0.8008376 * 1.0;
+    highp float u2_3_0 = -0.8647126 * 1.0;
     highp float u2_3 = u2_3_0 * 1.0;
-    highp float u2_4_0 = -0.19204387 * 1.0;
+    highp float u2_4_0 = -0.19725056 * 1.0;
     highp float u2_4 = u2_4_0 * 1.0;
     highp float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q2_0_0 = 1.0 * mu_b4_v4 + 2.0816576 * mu_b4_b1 + 0.60862553 * mu_b4_b2 - 0.027175575 * mu_b4_b3 + 0.0018937663 * mu_b4_u4;
-    highp float q2_0_1 = 0.79342824 * mu_b4_v4 + 1.3241973 * mu_b4_b1 - 1.3233895 * mu_b4_b2 - 0.092451975 * mu_b4_b3 - 0.0141448155 * mu_b4_u4;
-    highp float q2_0_2 = 0.67109567 * mu_b4_v4 + 1.1542805 * mu_b4_b1 - 1.0173401 * mu_b4_b2 + 1.2431995 * mu_b4_b3 + 0.07994736 * mu_b4_u4;
-    highp float q2_0_3 = 1.6051017 * mu_b4_v4 + 2.37897 * mu_b4_b1 - 0.3400707 * mu_b4_b2 + 0.6586012 * mu_b4_b3 - 0.0033112643 * mu_b4_u4;
-    highp float q2_0_4 = 0.88740635 * mu_b4_v4 + 1.1071172 * mu_b4_b1 - 0.29491323 * mu_b4_b2 - 0.00998638 * mu_b4_b3 + 0.060674872 * mu_b4_u4;
+    highp float q2_0_0 = 1.0 * mu_b4_v4 + 2.0533614 * mu_b4_b1 + 0.55934227 * mu_b4_b2 - 0.0244591 * mu_b4_b3 + 0.0016561532 * mu_b4_u4;
+    highp float q2_0_1 = 0.8231968 * mu_b4_v4 + 1.4302309 * mu_b4_b1 - 1.335237 * mu_b4_b2 - 0.08291706 * mu_b4_b3 - 0.012261838 * mu_b4_u4;
+    highp float q2_0_2 = 0.5946984 * mu_b4_v4 + 1.2518948 * mu_b4_b1 - 1.0548242 * mu_b4_b2 + 1.1682026 * mu_b4_b3 + 0.07279954 * mu_b4_u4;
+    highp float q2_0_3 = 1.4221404 * mu_b4_v4 + 2.3411555 * mu_b4_b1 - 0.33673525 * mu_b4_b2 + 0.61248505 * mu_b4_b3 - 0.003380522 * mu_b4_u4;
+    highp float q2_0_4 = 0.8010454 * mu_b4_v4 + 1.0677565 * mu_b4_b1 - 0.2740506 * mu_b4_b2 - 0.012549128 * mu_b4_b3 + 0.060308564 * mu_b4_u4;
     highp float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     highp float q2 = q2_0 * 1.0;
     highp float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    highp float p3_0_0 = -0.038238376 * mu_b5_v5 - 0.08404912 * mu_b5_b1 + 0.6802718 * mu_b5_b2 - 0.0065011415 * mu_b5_b3 + 0.00045211398 * mu_b5_b4 - 0.00013443196 * mu_b5_u5;
-    highp float p3_0_1 = 0.8445542 * mu_b5_v5 + 0.3803082 * mu_b5_b1 - 0.074190356 * mu_b5_b2 - 3.2967305 * mu_b5_b3 - 0.01672192 * mu_b5_b4 + 0.00421303 * mu_b5_u5;
-    highp float p3_0_2 = 1.5967968 * mu_b5_v5 + 1.2558259 * mu_b5_b1 - 0.9738715 * mu_b5_b2 - 6.260106 * mu_b5_b3 + 1.6708025 * mu_b5_b4 - 0.033694416 * mu_b5_u5;
-    highp float p3_0_3 = 0.10339712 * mu_b5_v5 + 0.36201593 * mu_b5_b1 - 0.94655013 * mu_b5_b2 - 5.55745 * mu_b5_b3 + 3.0045776 * mu_b5_b4 + 0.025156187 * mu_b5_u5;
-    highp float p3_0_4 = -0.6214147 * mu_b5_v5 + 0.39525017 * mu_b5_b1 - 0.60846424 * mu_b5_b2 - 4.361149 * mu_b5_b3 + 1.0248774 * mu_b5_b4 + 0.09504616 * mu_b5_u5;
-    highp float p3_0_5 = 0.03506837 * mu_b5_v5 + 1.0540825 * mu_b5_b1 + 0.5774361 * mu_b5_b2 - 1.3148162 * mu_b5_b3 - 0.06234389 * mu_b5_b4 + 0.077724054 * mu_b5_u5;
+    highp float p3_0_0 = -0.033494536 * mu_b5_v5 - 0.07179645 * mu_b5_b1 + 0.590686 * mu_b5_b2 + 0.0028464787 * mu_b5_b3 + 0.00016274753 * mu_b5_b4 - 0.00010366873 * mu_b5_u5;
+    highp float p3_0_1 = 0.7828628 * mu_b5_v5 + 0.35548595 * mu_b5_b1 - 0.3499816 * mu_b5_b2 - 3.0781305 * mu_b5_b3 - 0.019917488 * mu_b5_b4 + 0.0035686952 * mu_b5_u5;
+    highp float p3_0_2 = 1.3869923 * mu_b5_v5 + 1.1397799 * mu_b5_b1 - 1.2728674 * mu_b5_b2 - 5.6348815 * mu_b5_b3 + 1.6256609 * mu_b5_b4 - 0.029191433 * mu_b5_u5;
+    highp float p3_0_3 = -0.10716626 * mu_b5_v5 + 0.28535733 * mu_b5_b1 - 1.121544 * mu_b5_b2 - 4.998074 * mu_b5_b3 + 2.7935352 * mu_b5_b4 + 0.0134629235 * mu_b5_u5;
+    highp float p3_0_4 = -0.66676617 * mu_b5_v5 + 0.5408565 * mu_b5_b1 - 0.43981817 * mu_b5_b2 - 3.95932 * mu_b5_b3 + 0.9195299 * mu_b5_b4 + 0.09936973 * mu_b5_u5;
+    highp float p3_0_5 = 0.038081285 * mu_b5_v5 + 1.1032271 * mu_b5_b1 + 0.61998713 * mu_b5_b2 - 1.2446895 * mu_b5_b3 - 0.09303376 * mu_b5_b4 + 0.080089115 * mu_b5_u5;
     highp float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     highp float p3 = p3_0 * 1.0;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    highp float u3_0_0 = 0.93471575 * 1.0;
+    highp float u3_0_0 = 0.9322462 * 1.0;
     highp float u3_0 = u3_0_0 * 1.0;
-    highp float u3_1_0 = -2.6241758 * 1.0;
+    highp float u3_1_0 = -2.8046095 * 1.0;
     highp float u3_1 = u3_1_0 * 1.0;
-    highp float u3_2_0 = -2.4214365 * 1.0;
+    highp float u3_2_0 = -2.305701 * 1.0;
     highp float u3_2 = u3_2_0 * 1.0;
-    highp float u3_3_0 = 0.71408254 * 1.0;
+    highp float u3_3_0 = 0.7835565 * 1.0;
     highp float u3_3 = u3_3_0 * 1.0;
-    highp float u3_4_0 = 0.17667177 * 1.0;
+    highp float u3_4_0 = 0.18367109 * 1.0;
     highp float u3_4 = u3_4_0 * 1.0;
     highp float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q3_0_0 = 1.0 * mu_b4_v4 + 2.0592158 * mu_b4_b1 + 0.5950426 * mu_b4_b2 - 0.026542306 * mu_b4_b3 + 0.001836347 * mu_b4_u4;
-    highp float q3_0_1 = 0.7887667 * mu_b4_v4 + 1.2766672 * mu_b4_b1 - 1.3290743 * mu_b4_b2 - 0.08703977 * mu_b4_b3 - 0.013243323 * mu_b4_u4;
-    highp float q3_0_2 = 0.67876685 * mu_b4_v4 + 1.1684657 * mu_b4_b1 - 0.9763773 * mu_b4_b2 + 1.2289265 * mu_b4_b3 + 0.08023526 * mu_b4_u4;
-    highp float q3_0_3 = 1.6279651 * mu_b4_v4 + 2.4454744 * mu_b4_b1 - 0.30070677 * mu_b4_b2 + 0.62399495 * mu_b4_b3 - 0.00096736266 * mu_b4_u4;
-    highp float q3_0_4 = 0.90006554 * mu_b4_v4 + 1.1428624 * mu_b4_b1 - 0.2758426 * mu_b4_b2 - 0.017026594 * mu_b4_b3 + 0.065818325 * mu_b4_u4;
+    highp float q3_0_0 = 1.0 * mu_b4_v4 + 2.0493348 * mu_b4_b1 + 0.55107784 * mu_b4_b2 - 0.024177462 * mu_b4_b3 + 0.0016214042 * mu_b4_u4;
+    highp float q3_0_1 = 0.8096832 * mu_b4_v4 + 1.4161656 * mu_b4_b1 - 1.3500326 * mu_b4_b2 - 0.07823634 * mu_b4_b3 - 0.011553607 * mu_b4_u4;
+    highp float q3_0_2 = 0.59605837 * mu_b4_v4 + 1.3039631 * mu_b4_b1 - 1.0365897 * mu_b4_b2 + 1.1639162 * mu_b4_b3 + 0.07366229 * mu_b4_u4;
+    highp float q3_0_3 = 1.4527767 * mu_b4_v4 + 2.4362953 * mu_b4_b1 - 0.3184477 * mu_b4_b2 + 0.5867349 * mu_b4_b3 - 0.0011311016 * mu_b4_u4;
+    highp float q3_0_4 = 0.81988734 * mu_b4_v4 + 1.113106 * mu_b4_b1 - 0.26205397 * mu_b4_b2 - 0.017297247 * mu_b4_b3 + 0.06551733 * mu_b4_u4;
     highp float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     highp float q3 = q3_0 * 1.0;
     highp float e3 = p3 * u3 / q3;

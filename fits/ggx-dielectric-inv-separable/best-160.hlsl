@@ -15,17 +15,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.714x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 5c3bb5457beb3ac7080adbe572fa29d8fcbf4a150d99d6403fc27e8b7f5b6b7c.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.748x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7589f922770ecb0acf5ef09ace1d0ffe6b6e4c14491d812921453b76626c266e.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-4, shifted 2.1e-5, bernstein 2.8e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 5.88e-4, max 3.70e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.60e-4, max 3.23e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.21e-7 (every op rounded, as this Rust), 8.91e-7 (fused multiply-add), 3.89e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.00e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.70e-3; this f32 code MAE 5.74e-4, max 3.70e-3.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-4, shifted 1.9e-5, bernstein 2.8e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 5.90e-4, max 3.75e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.62e-4, max 3.28e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.12e-7 (every op rounded, as this Rust), 7.57e-7 (fused multiply-add), 3.96e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.75e-3; this f32 code MAE 5.74e-4, max 3.75e-3.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
-// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 4.240e-4 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -72,12 +72,12 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    float p0_0_0 = 1.0183631f * mu_b5_v5 + 3.753903f * mu_b5_b1 + 3.8113945f * mu_b5_b2 + 5.022521f * mu_b5_b3 + 4.4284167f * mu_b5_b4 + 1.271587f * mu_b5_u5;
-    float p0_0_1 = 8.733559f * mu_b5_v5 + 32.79162f * mu_b5_b1 + 28.068712f * mu_b5_b2 + 11.671402f * mu_b5_b3 + 7.0383143f * mu_b5_b4 + 3.3267493f * mu_b5_u5;
-    float p0_0_2 = 24.560802f * mu_b5_v5 + 112.77992f * mu_b5_b1 + 145.86597f * mu_b5_b2 + 92.04437f * mu_b5_b3 + 37.48077f * mu_b5_b4 + 10.981617f * mu_b5_u5;
-    float p0_0_3 = 29.451221f * mu_b5_v5 + 153.2942f * mu_b5_b1 + 227.8105f * mu_b5_b2 + 152.73735f * mu_b5_b3 + 52.506485f * mu_b5_b4 + 11.635022f * mu_b5_u5;
-    float p0_0_4 = 23.83875f * mu_b5_v5 + 126.18583f * mu_b5_b1 + 205.63895f * mu_b5_b2 + 148.63008f * mu_b5_b3 + 49.098335f * mu_b5_b4 + 7.7093062f * mu_b5_u5;
-    float p0_0_5 = 8.358978f * mu_b5_v5 + 42.263042f * mu_b5_b1 + 70.69551f * mu_b5_b2 + 52.54664f * mu_b5_b3 + 17.091932f * mu_b5_b4 + 2.126581f * mu_b5_u5;
+    float p0_0_0 = 1.0279294f * mu_b5_v5 + 3.6115956f * mu_b5_b1 + 3.7978678f * mu_b5_b2 + 5.0368266f * mu_b5_b3 + 4.282365f * mu_b5_b4 + 1.2462618f * mu_b5_u5;
+    float p0_0_1 = 8.478233f * mu_b5_v5 + 31.395452f * mu_b5_b1 + 27.055952f * mu_b5_b2 + 10.981996f * mu_b5_b3 + 6.2405853f * mu_b5_b4 + 3.32993f * mu_b5_u5;
+    float p0_0_2 = 23.587654f * mu_b5_v5 + 109.84934f * mu_b5_b1 + 144.93141f * mu_b5_b2 + 91.93871f * mu_b5_b3 + 36.601727f * mu_b5_b4 + 11.197945f * mu_b5_u5;
+    float p0_0_3 = 27.55418f * mu_b5_v5 + 148.75098f * mu_b5_b1 + 226.3771f * mu_b5_b2 + 153.16722f * mu_b5_b3 + 52.04733f * mu_b5_b4 + 11.925638f * mu_b5_u5;
+    float p0_0_4 = 22.174171f * mu_b5_v5 + 122.23782f * mu_b5_b1 + 203.67993f * mu_b5_b2 + 148.71295f * mu_b5_b3 + 49.04806f * mu_b5_b4 + 7.883996f * mu_b5_u5;
+    float p0_0_5 = 7.8463573f * mu_b5_v5 + 40.997425f * mu_b5_b1 + 69.86632f * mu_b5_b2 + 52.42944f * mu_b5_b3 + 17.089317f * mu_b5_b4 + 2.1616514f * mu_b5_u5;
     float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     float p0 = p0_0 * 1.0f;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -92,15 +92,15 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    float u0_0_0 = 0.87858367f * 1.0f;
+    float u0_0_0 = 0.8729462f * 1.0f;
     float u0_0 = u0_0_0 * 1.0f;
-    float u0_1_0 = 3.584189f * 1.0f;
+    float u0_1_0 = 3.540466f * 1.0f;
     float u0_1 = u0_1_0 * 1.0f;
-    float u0_2_0 = 5.465496f * 1.0f;
+    float u0_2_0 = 5.406802f * 1.0f;
     float u0_2 = u0_2_0 * 1.0f;
-    float u0_3_0 = 3.660079f * 1.0f;
+    float u0_3_0 = 3.6283998f * 1.0f;
     float u0_3 = u0_3_0 * 1.0f;
-    float u0_4_0 = 0.91966933f * 1.0f;
+    float u0_4_0 = 0.9117044f * 1.0f;
     float u0_4 = u0_4_0 * 1.0f;
     float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -126,101 +126,101 @@ float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q0_0_0 = 1.0f * mu_b4_v4 + 2.9129713f * mu_b4_b1 + 1.7565323f * mu_b4_b2 + 2.8867123f * mu_b4_b3 + 1.1705463f * mu_b4_u4;
-    float q0_0_1 = 7.6608095f * mu_b4_v4 + 21.836224f * mu_b4_b1 + 6.84856f * mu_b4_b2 + 2.0803416f * mu_b4_b3 + 1.9167775f * mu_b4_u4;
-    float q0_0_2 = 17.722824f * mu_b4_v4 + 69.098564f * mu_b4_b1 + 60.242485f * mu_b4_b2 + 29.151182f * mu_b4_b3 + 9.048808f * mu_b4_u4;
-    float q0_0_3 = 15.857692f * mu_b4_v4 + 71.78123f * mu_b4_b1 + 72.92125f * mu_b4_b2 + 30.775078f * mu_b4_b3 + 6.2869406f * mu_b4_u4;
-    float q0_0_4 = 13.259141f * mu_b4_v4 + 55.45977f * mu_b4_b1 + 68.551575f * mu_b4_b2 + 34.67138f * mu_b4_b3 + 6.4478273f * mu_b4_u4;
+    float q0_0_0 = 1.0f * mu_b4_v4 + 2.7370975f * mu_b4_b1 + 1.8603674f * mu_b4_b2 + 2.7513773f * mu_b4_b3 + 1.1363808f * mu_b4_u4;
+    float q0_0_1 = 7.3318415f * mu_b4_v4 + 20.605307f * mu_b4_b1 + 6.7779903f * mu_b4_b2 + 1.3989055f * mu_b4_b3 + 1.9274735f * mu_b4_u4;
+    float q0_0_2 = 16.833965f * mu_b4_v4 + 67.21114f * mu_b4_b1 + 60.426456f * mu_b4_b2 + 28.098166f * mu_b4_b3 + 9.098528f * mu_b4_u4;
+    float q0_0_3 = 14.468753f * mu_b4_v4 + 69.433754f * mu_b4_b1 + 72.81932f * mu_b4_b2 + 30.271338f * mu_b4_b3 + 6.450113f * mu_b4_u4;
+    float q0_0_4 = 12.3201065f * mu_b4_v4 + 53.50473f * mu_b4_b1 + 67.43135f * mu_b4_b2 + 34.234604f * mu_b4_b3 + 6.4961543f * mu_b4_u4;
     float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     float q0 = q0_0 * 1.0f;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    float p1_0_0 = 0.023859385f * mu_b5_v5 + 0.08513728f * mu_b5_b1 + 0.04218392f * mu_b5_b2 + 0.05596471f * mu_b5_b3 - 0.007890692f * mu_b5_b4 + 0.00054207665f * mu_b5_u5;
-    float p1_0_1 = -0.34439534f * mu_b5_v5 - 0.3911174f * mu_b5_b1 + 0.059636295f * mu_b5_b2 + 0.51599604f * mu_b5_b3 - 0.006453505f * mu_b5_b4 + 0.001366066f * mu_b5_u5;
-    float p1_0_2 = -1.8825688f * mu_b5_v5 - 3.5036204f * mu_b5_b1 - 1.9609222f * mu_b5_b2 + 0.15171923f * mu_b5_b3 - 0.3384021f * mu_b5_b4 + 0.00492251f * mu_b5_u5;
-    float p1_0_3 = -3.0153406f * mu_b5_v5 - 5.5496583f * mu_b5_b1 - 2.4153585f * mu_b5_b2 + 0.824234f * mu_b5_b3 - 0.039238308f * mu_b5_b4 + 0.09040126f * mu_b5_u5;
-    float p1_0_4 = -2.230655f * mu_b5_v5 - 4.117494f * mu_b5_b1 - 1.5678375f * mu_b5_b2 + 0.7602117f * mu_b5_b3 + 0.056866217f * mu_b5_b4 + 0.033113644f * mu_b5_u5;
-    float p1_0_5 = -0.6669095f * mu_b5_v5 - 1.2816072f * mu_b5_b1 - 0.5036643f * mu_b5_b2 + 0.2548548f * mu_b5_b3 + 0.06985985f * mu_b5_b4 + 0.009529822f * mu_b5_u5;
+    float p1_0_0 = 0.023927283f * mu_b5_v5 + 0.08666795f * mu_b5_b1 + 0.051048502f * mu_b5_b2 + 0.05712835f * mu_b5_b3 - 0.008128065f * mu_b5_b4 + 0.0005723265f * mu_b5_u5;
+    float p1_0_1 = -0.338504f * mu_b5_v5 - 0.40768585f * mu_b5_b1 + 0.09014824f * mu_b5_b2 + 0.53885394f * mu_b5_b3 - 0.0065901005f * mu_b5_b4 + 0.0014906185f * mu_b5_u5;
+    float p1_0_2 = -1.9128356f * mu_b5_v5 - 3.7380412f * mu_b5_b1 - 2.0988283f * mu_b5_b2 + 0.13508065f * mu_b5_b3 - 0.36111256f * mu_b5_b4 + 0.005393029f * mu_b5_u5;
+    float p1_0_3 = -3.104096f * mu_b5_v5 - 5.9710126f * mu_b5_b1 - 2.6351702f * mu_b5_b2 + 0.8778057f * mu_b5_b3 - 0.030734776f * mu_b5_b4 + 0.09841517f * mu_b5_u5;
+    float p1_0_4 = -2.3219392f * mu_b5_v5 - 4.454612f * mu_b5_b1 - 1.7329936f * mu_b5_b2 + 0.8164195f * mu_b5_b3 + 0.0646683f * mu_b5_b4 + 0.035532594f * mu_b5_u5;
+    float p1_0_5 = -0.6997852f * mu_b5_v5 - 1.3849747f * mu_b5_b1 - 0.5511279f * mu_b5_b2 + 0.27659225f * mu_b5_b3 + 0.07506427f * mu_b5_b4 + 0.010054504f * mu_b5_u5;
     float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     float p1 = p1_0 * 1.0f;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    float u1_0_0 = 1.9373827f * 1.0f;
+    float u1_0_0 = 1.9657415f * 1.0f;
     float u1_0 = u1_0_0 * 1.0f;
-    float u1_1_0 = 3.2423635f * 1.0f;
+    float u1_1_0 = 3.1616328f * 1.0f;
     float u1_1 = u1_1_0 * 1.0f;
-    float u1_2_0 = 1.967861f * 1.0f;
+    float u1_2_0 = 1.9908692f * 1.0f;
     float u1_2 = u1_2_0 * 1.0f;
-    float u1_3_0 = 0.8106889f * 1.0f;
+    float u1_3_0 = 0.85982996f * 1.0f;
     float u1_3 = u1_3_0 * 1.0f;
-    float u1_4_0 = 0.052868403f * 1.0f;
+    float u1_4_0 = 0.061440498f * 1.0f;
     float u1_4 = u1_4_0 * 1.0f;
     float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q1_0_0 = 1.0f * mu_b4_v4 + 2.0273602f * mu_b4_b1 + 2.0595322f * mu_b4_b2 - 0.2853565f * mu_b4_b3 + 0.019864704f * mu_b4_u4;
-    float q1_0_1 = 3.8695903f * mu_b4_v4 + 4.2521696f * mu_b4_b1 + 5.4107995f * mu_b4_b2 - 0.29556113f * mu_b4_b3 + 0.025790777f * mu_b4_u4;
-    float q1_0_2 = 8.1737175f * mu_b4_v4 + 5.869553f * mu_b4_b1 + 7.235814f * mu_b4_b2 + 1.974842f * mu_b4_b3 + 0.45922118f * mu_b4_u4;
-    float q1_0_3 = 8.259595f * mu_b4_v4 + 4.9144006f * mu_b4_b1 + 2.8188589f * mu_b4_b2 + 0.99457973f * mu_b4_b3 + 0.18009794f * mu_b4_u4;
-    float q1_0_4 = 3.302272f * mu_b4_v4 + 2.6568725f * mu_b4_b1 + 1.0151353f * mu_b4_b2 + 0.3967486f * mu_b4_b3 + 0.07360671f * mu_b4_u4;
+    float q1_0_0 = 1.0f * mu_b4_v4 + 2.149612f * mu_b4_b1 + 2.1403823f * mu_b4_b2 - 0.29732752f * mu_b4_b3 + 0.021139918f * mu_b4_u4;
+    float q1_0_1 = 3.9627562f * mu_b4_v4 + 4.7327867f * mu_b4_b1 + 5.6909676f * mu_b4_b2 - 0.29005724f * mu_b4_b3 + 0.025957398f * mu_b4_u4;
+    float q1_0_2 = 8.517818f * mu_b4_v4 + 6.693137f * mu_b4_b1 + 7.675742f * mu_b4_b2 + 2.1449134f * mu_b4_b3 + 0.49991795f * mu_b4_u4;
+    float q1_0_3 = 8.665108f * mu_b4_v4 + 5.528851f * mu_b4_b1 + 2.9611373f * mu_b4_b2 + 1.0562347f * mu_b4_b3 + 0.19579224f * mu_b4_u4;
+    float q1_0_4 = 3.4870028f * mu_b4_v4 + 2.9267163f * mu_b4_b1 + 1.0977222f * mu_b4_b2 + 0.4264195f * mu_b4_b3 + 0.077648714f * mu_b4_u4;
     float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     float q1 = q1_0 * 1.0f;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    float p2_0_0 = -0.03129679f * mu_b5_v5 - 0.07842191f * mu_b5_b1 + 0.68254f * mu_b5_b2 - 0.0035869484f * mu_b5_b3 + 0.0003026823f * mu_b5_b4 - 0.0001249558f * mu_b5_u5;
-    float p2_0_1 = 0.7749647f * mu_b5_v5 + 0.28331858f * mu_b5_b1 + 0.03766238f * mu_b5_b2 - 3.1582801f * mu_b5_b3 - 0.01504579f * mu_b5_b4 + 0.004144292f * mu_b5_u5;
-    float p2_0_2 = 1.4662138f * mu_b5_v5 + 1.0796883f * mu_b5_b1 - 0.79451716f * mu_b5_b2 - 6.161122f * mu_b5_b3 + 1.5501918f * mu_b5_b4 - 0.033474926f * mu_b5_u5;
-    float p2_0_3 = 0.03777242f * mu_b5_v5 + 0.22597374f * mu_b5_b1 - 0.8259381f * mu_b5_b2 - 5.502359f * mu_b5_b3 + 2.8784287f * mu_b5_b4 + 0.029851057f * mu_b5_u5;
-    float p2_0_4 = -0.7058654f * mu_b5_v5 + 0.08624678f * mu_b5_b1 - 0.7473394f * mu_b5_b2 - 4.266426f * mu_b5_b3 + 1.0231788f * mu_b5_b4 + 0.08175495f * mu_b5_u5;
-    float p2_0_5 = -0.029955734f * mu_b5_v5 + 0.8468695f * mu_b5_b1 + 0.46625653f * mu_b5_b2 - 1.233199f * mu_b5_b3 - 0.021061093f * mu_b5_b4 + 0.06788946f * mu_b5_u5;
+    float p2_0_0 = -0.023015369f * mu_b5_v5 - 0.05811919f * mu_b5_b1 + 0.60886854f * mu_b5_b2 + 0.0072470307f * mu_b5_b3 - 5.574249e-5f * mu_b5_b4 - 8.892457e-5f * mu_b5_u5;
+    float p2_0_1 = 0.7201499f * mu_b5_v5 + 0.251972f * mu_b5_b1 - 0.22355045f * mu_b5_b2 - 2.9612658f * mu_b5_b3 - 0.018628256f * mu_b5_b4 + 0.0034724523f * mu_b5_u5;
+    float p2_0_2 = 1.2666818f * mu_b5_v5 + 0.93591774f * mu_b5_b1 - 1.0776683f * mu_b5_b2 - 5.5675116f * mu_b5_b3 + 1.5181401f * mu_b5_b4 - 0.02883782f * mu_b5_u5;
+    float p2_0_3 = -0.15870906f * mu_b5_v5 + 0.13347422f * mu_b5_b1 - 0.9735456f * mu_b5_b2 - 4.9635415f * mu_b5_b3 + 2.6885612f * mu_b5_b4 + 0.01878891f * mu_b5_u5;
+    float p2_0_4 = -0.7403634f * mu_b5_v5 + 0.23161463f * mu_b5_b1 - 0.5711276f * mu_b5_b2 - 3.890712f * mu_b5_b3 + 0.9228521f * mu_b5_b4 + 0.086665794f * mu_b5_u5;
+    float p2_0_5 = -0.022695767f * mu_b5_v5 + 0.90117705f * mu_b5_b1 + 0.5115889f * mu_b5_b2 - 1.1717486f * mu_b5_b3 - 0.051786497f * mu_b5_b4 + 0.0709197f * mu_b5_u5;
     float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     float p2 = p2_0 * 1.0f;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    float u2_0_0 = -0.93370694f * 1.0f;
+    float u2_0_0 = -0.9226769f * 1.0f;
     float u2_0 = u2_0_0 * 1.0f;
-    float u2_1_0 = 2.835681f * 1.0f;
+    float u2_1_0 = 2.9907134f * 1.0f;
     float u2_1 = u2_1_0 * 1.0f;
-    float u2_2_0 = 2.3082945f * 1.0f;
+    float u2_2_0 = 2.162519f * 1.0f;
     float u2_2 = u2_2_0 * 1.0f;
-    float u2_3_0 = -0.8008376f * 1.0f;
+    float u2_3_0 = -0.8647126f * 1.0f;
     float u2_3 = u2_3_0 * 1.0f;
-    float u2_4_0 = -0.19204387f * 1.0f;
+    float u2_4_0 = -0.19725056f * 1.0f;
     float u2_4 = u2_4_0 * 1.0f;
     float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q2_0_0 = 1.0f * mu_b4_v4 + 2.0816576f * mu_b4_b1 + 0.60862553f * mu_b4_b2 - 0.027175575f * mu_b4_b3 + 0.0018937663f * mu_b4_u4;
-    float q2_0_1 = 0.79342824f * mu_b4_v4 + 1.3241973f * mu_b4_b1 - 1.3233895f * mu_b4_b2 - 0.092451975f * mu_b4_b3 - 0.0141448155f * mu_b4_u4;
-    float q2_0_2 = 0.67109567f * mu_b4_v4 + 1.1542805f * mu_b4_b1 - 1.0173401f * mu_b4_b2 + 1.2431995f * mu_b4_b3 + 0.07994736f * mu_b4_u4;
-    float q2_0_3 = 1.6051017f * mu_b4_v4 + 2.37897f * mu_b4_b1 - 0.3400707f * mu_b4_b2 + 0.6586012f * mu_b4_b3 - 0.0033112643f * mu_b4_u4;
-    float q2_0_4 = 0.88740635f * mu_b4_v4 + 1.1071172f * mu_b4_b1 - 0.29491323f * mu_b4_b2 - 0.00998638f * mu_b4_b3 + 0.060674872f * mu_b4_u4;
+    float q2_0_0 = 1.0f * mu_b4_v4 + 2.0533614f * mu_b4_b1 + 0.55934227f * mu_b4_b2 - 0.0244591f * mu_b4_b3 + 0.0016561532f * mu_b4_u4;
+    float q2_0_1 = 0.8231968f * mu_b4_v4 + 1.4302309f * mu_b4_b1 - 1.335237f * mu_b4_b2 - 0.08291706f * mu_b4_b3 - 0.012261838f * mu_b4_u4;
+    float q2_0_2 = 0.5946984f * mu_b4_v4 + 1.2518948f * mu_b4_b1 - 1.0548242f * mu_b4_b2 + 1.1682026f * mu_b4_b3 + 0.07279954f * mu_b4_u4;
+    float q2_0_3 = 1.4221404f * mu_b4_v4 + 2.3411555f * mu_b4_b1 - 0.33673525f * mu_b4_b2 + 0.61248505f * mu_b4_b3 - 0.003380522f * mu_b4_u4;
+    float q2_0_4 = 0.8010454f * mu_b4_v4 + 1.0677565f * mu_b4_b1 - 0.2740506f * mu_b4_b2 - 0.012549128f * mu_b4_b3 + 0.060308564f * mu_b4_u4;
     float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     float q2 = q2_0 * 1.0f;
     float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    float p3_0_0 = -0.038238376f * mu_b5_v5 - 0.08404912f * mu_b5_b1 + 0.6802718f * mu_b5_b2 - 0.0065011415f * mu_b5_b3 + 0.00045211398f * mu_b5_b4 - 0.00013443196f * mu_b5_u5;
-    float p3_0_1 = 0.8445542f * mu_b5_v5 + 0.3803082f * mu_b5_b1 - 0.074190356f * mu_b5_b2 - 3.2967305f * mu_b5_b3 - 0.01672192f * mu_b5_b4 + 0.00421303f * mu_b5_u5;
-    float p3_0_2 = 1.5967968f * mu_b5_v5 + 1.2558259f * mu_b5_b1 - 0.9738715f * mu_b5_b2 - 6.260106f * mu_b5_b3 + 1.6708025f * mu_b5_b4 - 0.033694416f * mu_b5_u5;
-    float p3_0_3 = 0.10339712f * mu_b5_v5 + 0.36201593f * mu_b5_b1 - 0.94655013f * mu_b5_b2 - 5.55745f * mu_b5_b3 + 3.0045776f * mu_b5_b4 + 0.025156187f * mu_b5_u5;
-    float p3_0_4 = -0.6214147f * mu_b5_v5 + 0.39525017f * mu_b5_b1 - 0.60846424f * mu_b5_b2 - 4.361149f * mu_b5_b3 + 1.0248774f * mu_b5_b4 + 0.09504616f * mu_b5_u5;
-    float p3_0_5 = 0.03506837f * mu_b5_v5 + 1.0540825f * mu_b5_b1 + 0.5774361f * mu_b5_b2 - 1.3148162f * mu_b5_b3 - 0.06234389f * mu_b5_b4 + 0.077724054f * mu_b5_u5;
+    float p3_0_0 = -0.033494536f * mu_b5_v5 - 0.07179645f * mu_b5_b1 + 0.590686f * mu_b5_b2 + 0.0028464787f * mu_b5_b3 + 0.00016274753f * mu_b5_b4 - 0.00010366873f * mu_b5_u5;
+    float p3_0_1 = 0.7828628f * mu_b5_v5 + 0.35548595f * mu_b5_b1 - 0.3499816f * mu_b5_b2 - 3.0781305f * mu_b5_b3 - 0.019917488f * mu_b5_b4 + 0.0035686952f * mu_b5_u5;
+    float p3_0_2 = 1.3869923f * mu_b5_v5 + 1.1397799f * mu_b5_b1 - 1.2728674f * mu_b5_b2 - 5.6348815f * mu_b5_b3 + 1.6256609f * mu_b5_b4 - 0.029191433f * mu_b5_u5;
+    float p3_0_3 = -0.10716626f * mu_b5_v5 + 0.28535733f * mu_b5_b1 - 1.121544f * mu_b5_b2 - 4.998074f * mu_b5_b3 + 2.7935352f * mu_b5_b4 + 0.0134629235f * mu_b5_u5;
+    float p3_0_4 = -0.66676617f * mu_b5_v5 + 0.5408565f * mu_b5_b1 - 0.43981817f * mu_b5_b2 - 3.95932f * mu_b5_b3 + 0.9195299f * mu_b5_b4 + 0.09936973f * mu_b5_u5;
+    float p3_0_5 = 0.038081285f * mu_b5_v5 + 1.1032271f * mu_b5_b1 + 0.61998713f * mu_b5_b2 - 1.2446895f * mu_b5_b3 - 0.09303376f * mu_b5_b4 + 0.080089115f * mu_b5_u5;
     float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     float p3 = p3_0 * 1.0f;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    float u3_0_0 = 0.93471575f * 1.0f;
+    float u3_0_0 = 0.9322462f * 1.0f;
     float u3_0 = u3_0_0 * 1.0f;
-    float u3_1_0 = -2.6241758f * 1.0f;
+    float u3_1_0 = -2.8046095f * 1.0f;
     float u3_1 = u3_1_0 * 1.0f;
-    float u3_2_0 = -2.4214365f * 1.0f;
+    float u3_2_0 = -2.305701f * 1.0f;
     float u3_2 = u3_2_0 * 1.0f;
-    float u3_3_0 = 0.71408254f * 1.0f;
+    float u3_3_0 = 0.7835565f * 1.0f;
     float u3_3 = u3_3_0 * 1.0f;
-    float u3_4_0 = 0.17667177f * 1.0f;
+    float u3_4_0 = 0.18367109f * 1.0f;
     float u3_4 = u3_4_0 * 1.0f;
     float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q3_0_0 = 1.0f * mu_b4_v4 + 2.0592158f * mu_b4_b1 + 0.5950426f * mu_b4_b2 - 0.026542306f * mu_b4_b3 + 0.001836347f * mu_b4_u4;
-    float q3_0_1 = 0.7887667f * mu_b4_v4 + 1.2766672f * mu_b4_b1 - 1.3290743f * mu_b4_b2 - 0.08703977f * mu_b4_b3 - 0.013243323f * mu_b4_u4;
-    float q3_0_2 = 0.67876685f * mu_b4_v4 + 1.1684657f * mu_b4_b1 - 0.9763773f * mu_b4_b2 + 1.2289265f * mu_b4_b3 + 0.08023526f * mu_b4_u4;
-    float q3_0_3 = 1.6279651f * mu_b4_v4 + 2.4454744f * mu_b4_b1 - 0.30070677f * mu_b4_b2 + 0.62399495f * mu_b4_b3 - 0.00096736266f * mu_b4_u4;
-    float q3_0_4 = 0.90006554f * mu_b4_v4 + 1.1428624f * mu_b4_b1 - 0.2758426f * mu_b4_b2 - 0.017026594f * mu_b4_b3 + 0.065818325f * mu_b4_u4;
+    float q3_0_0 = 1.0f * mu_b4_v4 + 2.0493348f * mu_b4_b1 + 0.55107784f * mu_b4_b2 - 0.024177462f * mu_b4_b3 + 0.0016214042f * mu_b4_u4;
+    float q3_0_1 = 0.8096832f * mu_b4_v4 + 1.4161656f * mu_b4_b1 - 1.3500326f * mu_b4_b2 - 0.07823634f * mu_b4_b3 - 0.011553607f * mu_b4_u4;
+    float q3_0_2 = 0.59605837f * mu_b4_v4 + 1.3039631f * mu_b4_b1 - 1.0365897f * mu_b4_b2 + 1.1639162f * mu_b4_b3 + 0.07366229f * mu_b4_u4;
+    float q3_0_3 = 1.4527767f * mu_b4_v4 + 2.4362953f * mu_b4_b1 - 0.3184477f * mu_b4_b2 + 0.5867349f * mu_b4_b3 - 0.0011311016f * mu_b4_u4;
+    float q3_0_4 = 0.81988734f * mu_b4_v4 + 1.113106f * mu_b4_b1 - 0.26205397f * mu_b4_b2 - 0.017297247f * mu_b4_b3 + 0.06551733f * mu_b4_u4;
     float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     float q3 = q3_0 * 1.0f;
     float e3 = p3 * u3 / q3;

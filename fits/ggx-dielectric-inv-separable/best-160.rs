@@ -13,17 +13,17 @@
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.714x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 5c3bb5457beb3ac7080adbe572fa29d8fcbf4a150d99d6403fc27e8b7f5b6b7c.
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.748x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7589f922770ecb0acf5ef09ace1d0ffe6b6e4c14491d812921453b76626c266e.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-4, shifted 2.1e-5, bernstein 2.8e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 5.88e-4, max 3.70e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.60e-4, max 3.23e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.21e-7 (every op rounded, as this Rust), 8.91e-7 (fused multiply-add), 3.89e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 2.00e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.70e-3; this f32 code MAE 5.74e-4, max 3.70e-3.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-4, shifted 1.9e-5, bernstein 2.8e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 5.90e-4, max 3.75e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.62e-4, max 3.28e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.12e-7 (every op rounded, as this Rust), 7.57e-7 (fused multiply-add), 3.96e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.75e-3; this f32 code MAE 5.74e-4, max 3.75e-3.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
-/// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 4.240e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -77,12 +77,12 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 1.0183631_f32 * mu_b5_v5 + 3.753903_f32 * mu_b5_b1 + 3.8113945_f32 * mu_b5_b2 + 5.022521_f32 * mu_b5_b3 + 4.4284167_f32 * mu_b5_b4 + 1.271587_f32 * mu_b5_u5;
-    let p0_0_1 = 8.733559_f32 * mu_b5_v5 + 32.79162_f32 * mu_b5_b1 + 28.068712_f32 * mu_b5_b2 + 11.671402_f32 * mu_b5_b3 + 7.0383143_f32 * mu_b5_b4 + 3.3267493_f32 * mu_b5_u5;
-    let p0_0_2 = 24.560802_f32 * mu_b5_v5 + 112.77992_f32 * mu_b5_b1 + 145.86597_f32 * mu_b5_b2 + 92.04437_f32 * mu_b5_b3 + 37.48077_f32 * mu_b5_b4 + 10.981617_f32 * mu_b5_u5;
-    let p0_0_3 = 29.451221_f32 * mu_b5_v5 + 153.2942_f32 * mu_b5_b1 + 227.8105_f32 * mu_b5_b2 + 152.73735_f32 * mu_b5_b3 + 52.506485_f32 * mu_b5_b4 + 11.635022_f32 * mu_b5_u5;
-    let p0_0_4 = 23.83875_f32 * mu_b5_v5 + 126.18583_f32 * mu_b5_b1 + 205.63895_f32 * mu_b5_b2 + 148.63008_f32 * mu_b5_b3 + 49.098335_f32 * mu_b5_b4 + 7.7093062_f32 * mu_b5_u5;
-    let p0_0_5 = 8.358978_f32 * mu_b5_v5 + 42.263042_f32 * mu_b5_b1 + 70.69551_f32 * mu_b5_b2 + 52.54664_f32 * mu_b5_b3 + 17.091932_f32 * mu_b5_b4 + 2.126581_f32 * mu_b5_u5;
+    let p0_0_0 = 1.0279294_f32 * mu_b5_v5 + 3.6115956_f32 * mu_b5_b1 + 3.7978678_f32 * mu_b5_b2 + 5.0368266_f32 * mu_b5_b3 + 4.282365_f32 * mu_b5_b4 + 1.2462618_f32 * mu_b5_u5;
+    let p0_0_1 = 8.478233_f32 * mu_b5_v5 + 31.395452_f32 * mu_b5_b1 + 27.055952_f32 * mu_b5_b2 + 10.981996_f32 * mu_b5_b3 + 6.2405853_f32 * mu_b5_b4 + 3.32993_f32 * mu_b5_u5;
+    let p0_0_2 = 23.587654_f32 * mu_b5_v5 + 109.84934_f32 * mu_b5_b1 + 144.93141_f32 * mu_b5_b2 + 91.93871_f32 * mu_b5_b3 + 36.601727_f32 * mu_b5_b4 + 11.197945_f32 * mu_b5_u5;
+    let p0_0_3 = 27.55418_f32 * mu_b5_v5 + 148.75098_f32 * mu_b5_b1 + 226.3771_f32 * mu_b5_b2 + 153.16722_f32 * mu_b5_b3 + 52.04733_f32 * mu_b5_b4 + 11.925638_f32 * mu_b5_u5;
+    let p0_0_4 = 22.174171_f32 * mu_b5_v5 + 122.23782_f32 * mu_b5_b1 + 203.67993_f32 * mu_b5_b2 + 148.71295_f32 * mu_b5_b3 + 49.04806_f32 * mu_b5_b4 + 7.883996_f32 * mu_b5_u5;
+    let p0_0_5 = 7.8463573_f32 * mu_b5_v5 + 40.997425_f32 * mu_b5_b1 + 69.86632_f32 * mu_b5_b2 + 52.42944_f32 * mu_b5_b3 + 17.089317_f32 * mu_b5_b4 + 2.1616514_f32 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -97,15 +97,15 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 0.87858367_f32 * 1.0_f32;
+    let u0_0_0 = 0.8729462_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 3.584189_f32 * 1.0_f32;
+    let u0_1_0 = 3.540466_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 5.465496_f32 * 1.0_f32;
+    let u0_2_0 = 5.406802_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 3.660079_f32 * 1.0_f32;
+    let u0_3_0 = 3.6283998_f32 * 1.0_f32;
     let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 0.91966933_f32 * 1.0_f32;
+    let u0_4_0 = 0.9117044_f32 * 1.0_f32;
     let u0_4 = u0_4_0 * 1.0_f32;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -131,101 +131,101 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 2.9129713_f32 * mu_b4_b1 + 1.7565323_f32 * mu_b4_b2 + 2.8867123_f32 * mu_b4_b3 + 1.1705463_f32 * mu_b4_u4;
-    let q0_0_1 = 7.6608095_f32 * mu_b4_v4 + 21.836224_f32 * mu_b4_b1 + 6.84856_f32 * mu_b4_b2 + 2.0803416_f32 * mu_b4_b3 + 1.9167775_f32 * mu_b4_u4;
-    let q0_0_2 = 17.722824_f32 * mu_b4_v4 + 69.098564_f32 * mu_b4_b1 + 60.242485_f32 * mu_b4_b2 + 29.151182_f32 * mu_b4_b3 + 9.048808_f32 * mu_b4_u4;
-    let q0_0_3 = 15.857692_f32 * mu_b4_v4 + 71.78123_f32 * mu_b4_b1 + 72.92125_f32 * mu_b4_b2 + 30.775078_f32 * mu_b4_b3 + 6.2869406_f32 * mu_b4_u4;
-    let q0_0_4 = 13.259141_f32 * mu_b4_v4 + 55.45977_f32 * mu_b4_b1 + 68.551575_f32 * mu_b4_b2 + 34.67138_f32 * mu_b4_b3 + 6.4478273_f32 * mu_b4_u4;
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 2.7370975_f32 * mu_b4_b1 + 1.8603674_f32 * mu_b4_b2 + 2.7513773_f32 * mu_b4_b3 + 1.1363808_f32 * mu_b4_u4;
+    let q0_0_1 = 7.3318415_f32 * mu_b4_v4 + 20.605307_f32 * mu_b4_b1 + 6.7779903_f32 * mu_b4_b2 + 1.3989055_f32 * mu_b4_b3 + 1.9274735_f32 * mu_b4_u4;
+    let q0_0_2 = 16.833965_f32 * mu_b4_v4 + 67.21114_f32 * mu_b4_b1 + 60.426456_f32 * mu_b4_b2 + 28.098166_f32 * mu_b4_b3 + 9.098528_f32 * mu_b4_u4;
+    let q0_0_3 = 14.468753_f32 * mu_b4_v4 + 69.433754_f32 * mu_b4_b1 + 72.81932_f32 * mu_b4_b2 + 30.271338_f32 * mu_b4_b3 + 6.450113_f32 * mu_b4_u4;
+    let q0_0_4 = 12.3201065_f32 * mu_b4_v4 + 53.50473_f32 * mu_b4_b1 + 67.43135_f32 * mu_b4_b2 + 34.234604_f32 * mu_b4_b3 + 6.4961543_f32 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.023859385_f32 * mu_b5_v5 + 0.08513728_f32 * mu_b5_b1 + 0.04218392_f32 * mu_b5_b2 + 0.05596471_f32 * mu_b5_b3 - 0.007890692_f32 * mu_b5_b4 + 0.00054207665_f32 * mu_b5_u5;
-    let p1_0_1 = -0.34439534_f32 * mu_b5_v5 - 0.3911174_f32 * mu_b5_b1 + 0.059636295_f32 * mu_b5_b2 + 0.51599604_f32 * mu_b5_b3 - 0.006453505_f32 * mu_b5_b4 + 0.001366066_f32 * mu_b5_u5;
-    let p1_0_2 = -1.8825688_f32 * mu_b5_v5 - 3.5036204_f32 * mu_b5_b1 - 1.9609222_f32 * mu_b5_b2 + 0.15171923_f32 * mu_b5_b3 - 0.3384021_f32 * mu_b5_b4 + 0.00492251_f32 * mu_b5_u5;
-    let p1_0_3 = -3.0153406_f32 * mu_b5_v5 - 5.5496583_f32 * mu_b5_b1 - 2.4153585_f32 * mu_b5_b2 + 0.824234_f32 * mu_b5_b3 - 0.039238308_f32 * mu_b5_b4 + 0.09040126_f32 * mu_b5_u5;
-    let p1_0_4 = -2.230655_f32 * mu_b5_v5 - 4.117494_f32 * mu_b5_b1 - 1.5678375_f32 * mu_b5_b2 + 0.7602117_f32 * mu_b5_b3 + 0.056866217_f32 * mu_b5_b4 + 0.033113644_f32 * mu_b5_u5;
-    let p1_0_5 = -0.6669095_f32 * mu_b5_v5 - 1.2816072_f32 * mu_b5_b1 - 0.5036643_f32 * mu_b5_b2 + 0.2548548_f32 * mu_b5_b3 + 0.06985985_f32 * mu_b5_b4 + 0.009529822_f32 * mu_b5_u5;
+    let p1_0_0 = 0.023927283_f32 * mu_b5_v5 + 0.08666795_f32 * mu_b5_b1 + 0.051048502_f32 * mu_b5_b2 + 0.05712835_f32 * mu_b5_b3 - 0.008128065_f32 * mu_b5_b4 + 0.0005723265_f32 * mu_b5_u5;
+    let p1_0_1 = -0.338504_f32 * mu_b5_v5 - 0.40768585_f32 * mu_b5_b1 + 0.09014824_f32 * mu_b5_b2 + 0.53885394_f32 * mu_b5_b3 - 0.0065901005_f32 * mu_b5_b4 + 0.0014906185_f32 * mu_b5_u5;
+    let p1_0_2 = -1.9128356_f32 * mu_b5_v5 - 3.7380412_f32 * mu_b5_b1 - 2.0988283_f32 * mu_b5_b2 + 0.13508065_f32 * mu_b5_b3 - 0.36111256_f32 * mu_b5_b4 + 0.005393029_f32 * mu_b5_u5;
+    let p1_0_3 = -3.104096_f32 * mu_b5_v5 - 5.9710126_f32 * mu_b5_b1 - 2.6351702_f32 * mu_b5_b2 + 0.8778057_f32 * mu_b5_b3 - 0.030734776_f32 * mu_b5_b4 + 0.09841517_f32 * mu_b5_u5;
+    let p1_0_4 = -2.3219392_f32 * mu_b5_v5 - 4.454612_f32 * mu_b5_b1 - 1.7329936_f32 * mu_b5_b2 + 0.8164195_f32 * mu_b5_b3 + 0.0646683_f32 * mu_b5_b4 + 0.035532594_f32 * mu_b5_u5;
+    let p1_0_5 = -0.6997852_f32 * mu_b5_v5 - 1.3849747_f32 * mu_b5_b1 - 0.5511279_f32 * mu_b5_b2 + 0.27659225_f32 * mu_b5_b3 + 0.07506427_f32 * mu_b5_b4 + 0.010054504_f32 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 1.9373827_f32 * 1.0_f32;
+    let u1_0_0 = 1.9657415_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = 3.2423635_f32 * 1.0_f32;
+    let u1_1_0 = 3.1616328_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = 1.967861_f32 * 1.0_f32;
+    let u1_2_0 = 1.9908692_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = 0.8106889_f32 * 1.0_f32;
+    let u1_3_0 = 0.85982996_f32 * 1.0_f32;
     let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = 0.052868403_f32 * 1.0_f32;
+    let u1_4_0 = 0.061440498_f32 * 1.0_f32;
     let u1_4 = u1_4_0 * 1.0_f32;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.0273602_f32 * mu_b4_b1 + 2.0595322_f32 * mu_b4_b2 - 0.2853565_f32 * mu_b4_b3 + 0.019864704_f32 * mu_b4_u4;
-    let q1_0_1 = 3.8695903_f32 * mu_b4_v4 + 4.2521696_f32 * mu_b4_b1 + 5.4107995_f32 * mu_b4_b2 - 0.29556113_f32 * mu_b4_b3 + 0.025790777_f32 * mu_b4_u4;
-    let q1_0_2 = 8.1737175_f32 * mu_b4_v4 + 5.869553_f32 * mu_b4_b1 + 7.235814_f32 * mu_b4_b2 + 1.974842_f32 * mu_b4_b3 + 0.45922118_f32 * mu_b4_u4;
-    let q1_0_3 = 8.259595_f32 * mu_b4_v4 + 4.9144006_f32 * mu_b4_b1 + 2.8188589_f32 * mu_b4_b2 + 0.99457973_f32 * mu_b4_b3 + 0.18009794_f32 * mu_b4_u4;
-    let q1_0_4 = 3.302272_f32 * mu_b4_v4 + 2.6568725_f32 * mu_b4_b1 + 1.0151353_f32 * mu_b4_b2 + 0.3967486_f32 * mu_b4_b3 + 0.07360671_f32 * mu_b4_u4;
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.149612_f32 * mu_b4_b1 + 2.1403823_f32 * mu_b4_b2 - 0.29732752_f32 * mu_b4_b3 + 0.021139918_f32 * mu_b4_u4;
+    let q1_0_1 = 3.9627562_f32 * mu_b4_v4 + 4.7327867_f32 * mu_b4_b1 + 5.6909676_f32 * mu_b4_b2 - 0.29005724_f32 * mu_b4_b3 + 0.025957398_f32 * mu_b4_u4;
+    let q1_0_2 = 8.517818_f32 * mu_b4_v4 + 6.693137_f32 * mu_b4_b1 + 7.675742_f32 * mu_b4_b2 + 2.1449134_f32 * mu_b4_b3 + 0.49991795_f32 * mu_b4_u4;
+    let q1_0_3 = 8.665108_f32 * mu_b4_v4 + 5.528851_f32 * mu_b4_b1 + 2.9611373_f32 * mu_b4_b2 + 1.0562347_f32 * mu_b4_b3 + 0.19579224_f32 * mu_b4_u4;
+    let q1_0_4 = 3.4870028_f32 * mu_b4_v4 + 2.9267163_f32 * mu_b4_b1 + 1.0977222_f32 * mu_b4_b2 + 0.4264195_f32 * mu_b4_b3 + 0.077648714_f32 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.03129679_f32 * mu_b5_v5 - 0.07842191_f32 * mu_b5_b1 + 0.68254_f32 * mu_b5_b2 - 0.0035869484_f32 * mu_b5_b3 + 0.0003026823_f32 * mu_b5_b4 - 0.0001249558_f32 * mu_b5_u5;
-    let p2_0_1 = 0.7749647_f32 * mu_b5_v5 + 0.28331858_f32 * mu_b5_b1 + 0.03766238_f32 * mu_b5_b2 - 3.1582801_f32 * mu_b5_b3 - 0.01504579_f32 * mu_b5_b4 + 0.004144292_f32 * mu_b5_u5;
-    let p2_0_2 = 1.4662138_f32 * mu_b5_v5 + 1.0796883_f32 * mu_b5_b1 - 0.79451716_f32 * mu_b5_b2 - 6.161122_f32 * mu_b5_b3 + 1.5501918_f32 * mu_b5_b4 - 0.033474926_f32 * mu_b5_u5;
-    let p2_0_3 = 0.03777242_f32 * mu_b5_v5 + 0.22597374_f32 * mu_b5_b1 - 0.8259381_f32 * mu_b5_b2 - 5.502359_f32 * mu_b5_b3 + 2.8784287_f32 * mu_b5_b4 + 0.029851057_f32 * mu_b5_u5;
-    let p2_0_4 = -0.7058654_f32 * mu_b5_v5 + 0.08624678_f32 * mu_b5_b1 - 0.7473394_f32 * mu_b5_b2 - 4.266426_f32 * mu_b5_b3 + 1.0231788_f32 * mu_b5_b4 + 0.08175495_f32 * mu_b5_u5;
-    let p2_0_5 = -0.029955734_f32 * mu_b5_v5 + 0.8468695_f32 * mu_b5_b1 + 0.46625653_f32 * mu_b5_b2 - 1.233199_f32 * mu_b5_b3 - 0.021061093_f32 * mu_b5_b4 + 0.06788946_f32 * mu_b5_u5;
+    let p2_0_0 = -0.023015369_f32 * mu_b5_v5 - 0.05811919_f32 * mu_b5_b1 + 0.60886854_f32 * mu_b5_b2 + 0.0072470307_f32 * mu_b5_b3 - 5.574249e-5_f32 * mu_b5_b4 - 8.892457e-5_f32 * mu_b5_u5;
+    let p2_0_1 = 0.7201499_f32 * mu_b5_v5 + 0.251972_f32 * mu_b5_b1 - 0.22355045_f32 * mu_b5_b2 - 2.9612658_f32 * mu_b5_b3 - 0.018628256_f32 * mu_b5_b4 + 0.0034724523_f32 * mu_b5_u5;
+    let p2_0_2 = 1.2666818_f32 * mu_b5_v5 + 0.93591774_f32 * mu_b5_b1 - 1.0776683_f32 * mu_b5_b2 - 5.5675116_f32 * mu_b5_b3 + 1.5181401_f32 * mu_b5_b4 - 0.02883782_f32 * mu_b5_u5;
+    let p2_0_3 = -0.15870906_f32 * mu_b5_v5 + 0.13347422_f32 * mu_b5_b1 - 0.9735456_f32 * mu_b5_b2 - 4.9635415_f32 * mu_b5_b3 + 2.6885612_f32 * mu_b5_b4 + 0.01878891_f32 * mu_b5_u5;
+    let p2_0_4 = -0.7403634_f32 * mu_b5_v5 + 0.23161463_f32 * mu_b5_b1 - 0.5711276_f32 * mu_b5_b2 - 3.890712_f32 * mu_b5_b3 + 0.9228521_f32 * mu_b5_b4 + 0.086665794_f32 * mu_b5_u5;
+    let p2_0_5 = -0.022695767_f32 * mu_b5_v5 + 0.90117705_f32 * mu_b5_b1 + 0.5115889_f32 * mu_b5_b2 - 1.1717486_f32 * mu_b5_b3 - 0.051786497_f32 * mu_b5_b4 + 0.0709197_f32 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0_f32;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = -0.93370694_f32 * 1.0_f32;
+    let u2_0_0 = -0.9226769_f32 * 1.0_f32;
     let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = 2.835681_f32 * 1.0_f32;
+    let u2_1_0 = 2.9907134_f32 * 1.0_f32;
     let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = 2.3082945_f32 * 1.0_f32;
+    let u2_2_0 = 2.162519_f32 * 1.0_f32;
     let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = -0.8008376_f32 * 1.0_f32;
+    let u2_3_0 = -0.8647126_f32 * 1.0_f32;
     let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = -0.19204387_f32 * 1.0_f32;
+    let u2_4_0 = -0.19725056_f32 * 1.0_f32;
     let u2_4 = u2_4_0 * 1.0_f32;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 2.0816576_f32 * mu_b4_b1 + 0.60862553_f32 * mu_b4_b2 - 0.027175575_f32 * mu_b4_b3 + 0.0018937663_f32 * mu_b4_u4;
-    let q2_0_1 = 0.79342824_f32 * mu_b4_v4 + 1.3241973_f32 * mu_b4_b1 - 1.3233895_f32 * mu_b4_b2 - 0.092451975_f32 * mu_b4_b3 - 0.0141448155_f32 * mu_b4_u4;
-    let q2_0_2 = 0.67109567_f32 * mu_b4_v4 + 1.1542805_f32 * mu_b4_b1 - 1.0173401_f32 * mu_b4_b2 + 1.2431995_f32 * mu_b4_b3 + 0.07994736_f32 * mu_b4_u4;
-    let q2_0_3 = 1.6051017_f32 * mu_b4_v4 + 2.37897_f32 * mu_b4_b1 - 0.3400707_f32 * mu_b4_b2 + 0.6586012_f32 * mu_b4_b3 - 0.0033112643_f32 * mu_b4_u4;
-    let q2_0_4 = 0.88740635_f32 * mu_b4_v4 + 1.1071172_f32 * mu_b4_b1 - 0.29491323_f32 * mu_b4_b2 - 0.00998638_f32 * mu_b4_b3 + 0.060674872_f32 * mu_b4_u4;
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 2.0533614_f32 * mu_b4_b1 + 0.55934227_f32 * mu_b4_b2 - 0.0244591_f32 * mu_b4_b3 + 0.0016561532_f32 * mu_b4_u4;
+    let q2_0_1 = 0.8231968_f32 * mu_b4_v4 + 1.4302309_f32 * mu_b4_b1 - 1.335237_f32 * mu_b4_b2 - 0.08291706_f32 * mu_b4_b3 - 0.012261838_f32 * mu_b4_u4;
+    let q2_0_2 = 0.5946984_f32 * mu_b4_v4 + 1.2518948_f32 * mu_b4_b1 - 1.0548242_f32 * mu_b4_b2 + 1.1682026_f32 * mu_b4_b3 + 0.07279954_f32 * mu_b4_u4;
+    let q2_0_3 = 1.4221404_f32 * mu_b4_v4 + 2.3411555_f32 * mu_b4_b1 - 0.33673525_f32 * mu_b4_b2 + 0.61248505_f32 * mu_b4_b3 - 0.003380522_f32 * mu_b4_u4;
+    let q2_0_4 = 0.8010454_f32 * mu_b4_v4 + 1.0677565_f32 * mu_b4_b1 - 0.2740506_f32 * mu_b4_b2 - 0.012549128_f32 * mu_b4_b3 + 0.060308564_f32 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.038238376_f32 * mu_b5_v5 - 0.08404912_f32 * mu_b5_b1 + 0.6802718_f32 * mu_b5_b2 - 0.0065011415_f32 * mu_b5_b3 + 0.00045211398_f32 * mu_b5_b4 - 0.00013443196_f32 * mu_b5_u5;
-    let p3_0_1 = 0.8445542_f32 * mu_b5_v5 + 0.3803082_f32 * mu_b5_b1 - 0.074190356_f32 * mu_b5_b2 - 3.2967305_f32 * mu_b5_b3 - 0.01672192_f32 * mu_b5_b4 + 0.00421303_f32 * mu_b5_u5;
-    let p3_0_2 = 1.5967968_f32 * mu_b5_v5 + 1.2558259_f32 * mu_b5_b1 - 0.9738715_f32 * mu_b5_b2 - 6.260106_f32 * mu_b5_b3 + 1.6708025_f32 * mu_b5_b4 - 0.033694416_f32 * mu_b5_u5;
-    let p3_0_3 = 0.10339712_f32 * mu_b5_v5 + 0.36201593_f32 * mu_b5_b1 - 0.94655013_f32 * mu_b5_b2 - 5.55745_f32 * mu_b5_b3 + 3.0045776_f32 * mu_b5_b4 + 0.025156187_f32 * mu_b5_u5;
-    let p3_0_4 = -0.6214147_f32 * mu_b5_v5 + 0.39525017_f32 * mu_b5_b1 - 0.60846424_f32 * mu_b5_b2 - 4.361149_f32 * mu_b5_b3 + 1.0248774_f32 * mu_b5_b4 + 0.09504616_f32 * mu_b5_u5;
-    let p3_0_5 = 0.03506837_f32 * mu_b5_v5 + 1.0540825_f32 * mu_b5_b1 + 0.5774361_f32 * mu_b5_b2 - 1.3148162_f32 * mu_b5_b3 - 0.06234389_f32 * mu_b5_b4 + 0.077724054_f32 * mu_b5_u5;
+    let p3_0_0 = -0.033494536_f32 * mu_b5_v5 - 0.07179645_f32 * mu_b5_b1 + 0.590686_f32 * mu_b5_b2 + 0.0028464787_f32 * mu_b5_b3 + 0.00016274753_f32 * mu_b5_b4 - 0.00010366873_f32 * mu_b5_u5;
+    let p3_0_1 = 0.7828628_f32 * mu_b5_v5 + 0.35548595_f32 * mu_b5_b1 - 0.3499816_f32 * mu_b5_b2 - 3.0781305_f32 * mu_b5_b3 - 0.019917488_f32 * mu_b5_b4 + 0.0035686952_f32 * mu_b5_u5;
+    let p3_0_2 = 1.3869923_f32 * mu_b5_v5 + 1.1397799_f32 * mu_b5_b1 - 1.2728674_f32 * mu_b5_b2 - 5.6348815_f32 * mu_b5_b3 + 1.6256609_f32 * mu_b5_b4 - 0.029191433_f32 * mu_b5_u5;
+    let p3_0_3 = -0.10716626_f32 * mu_b5_v5 + 0.28535733_f32 * mu_b5_b1 - 1.121544_f32 * mu_b5_b2 - 4.998074_f32 * mu_b5_b3 + 2.7935352_f32 * mu_b5_b4 + 0.0134629235_f32 * mu_b5_u5;
+    let p3_0_4 = -0.66676617_f32 * mu_b5_v5 + 0.5408565_f32 * mu_b5_b1 - 0.43981817_f32 * mu_b5_b2 - 3.95932_f32 * mu_b5_b3 + 0.9195299_f32 * mu_b5_b4 + 0.09936973_f32 * mu_b5_u5;
+    let p3_0_5 = 0.038081285_f32 * mu_b5_v5 + 1.1032271_f32 * mu_b5_b1 + 0.61998713_f32 * mu_b5_b2 - 1.2446895_f32 * mu_b5_b3 - 0.09303376_f32 * mu_b5_b4 + 0.080089115_f32 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0_f32;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = 0.93471575_f32 * 1.0_f32;
+    let u3_0_0 = 0.9322462_f32 * 1.0_f32;
     let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = -2.6241758_f32 * 1.0_f32;
+    let u3_1_0 = -2.8046095_f32 * 1.0_f32;
     let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -2.4214365_f32 * 1.0_f32;
+    let u3_2_0 = -2.305701_f32 * 1.0_f32;
     let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = 0.71408254_f32 * 1.0_f32;
+    let u3_3_0 = 0.7835565_f32 * 1.0_f32;
     let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = 0.17667177_f32 * 1.0_f32;
+    let u3_4_0 = 0.18367109_f32 * 1.0_f32;
     let u3_4 = u3_4_0 * 1.0_f32;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 2.0592158_f32 * mu_b4_b1 + 0.5950426_f32 * mu_b4_b2 - 0.026542306_f32 * mu_b4_b3 + 0.001836347_f32 * mu_b4_u4;
-    let q3_0_1 = 0.7887667_f32 * mu_b4_v4 + 1.2766672_f32 * mu_b4_b1 - 1.3290743_f32 * mu_b4_b2 - 0.08703977_f32 * mu_b4_b3 - 0.013243323_f32 * mu_b4_u4;
-    let q3_0_2 = 0.67876685_f32 * mu_b4_v4 + 1.1684657_f32 * mu_b4_b1 - 0.9763773_f32 * mu_b4_b2 + 1.2289265_f32 * mu_b4_b3 + 0.08023526_f32 * mu_b4_u4;
-    let q3_0_3 = 1.6279651_f32 * mu_b4_v4 + 2.4454744_f32 * mu_b4_b1 - 0.30070677_f32 * mu_b4_b2 + 0.62399495_f32 * mu_b4_b3 - 0.00096736266_f32 * mu_b4_u4;
-    let q3_0_4 = 0.90006554_f32 * mu_b4_v4 + 1.1428624_f32 * mu_b4_b1 - 0.2758426_f32 * mu_b4_b2 - 0.017026594_f32 * mu_b4_b3 + 0.065818325_f32 * mu_b4_u4;
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 2.0493348_f32 * mu_b4_b1 + 0.55107784_f32 * mu_b4_b2 - 0.024177462_f32 * mu_b4_b3 + 0.0016214042_f32 * mu_b4_u4;
+    let q3_0_1 = 0.8096832_f32 * mu_b4_v4 + 1.4161656_f32 * mu_b4_b1 - 1.3500326_f32 * mu_b4_b2 - 0.07823634_f32 * mu_b4_b3 - 0.011553607_f32 * mu_b4_u4;
+    let q3_0_2 = 0.59605837_f32 * mu_b4_v4 + 1.3039631_f32 * mu_b4_b1 - 1.0365897_f32 * mu_b4_b2 + 1.1639162_f32 * mu_b4_b3 + 0.07366229_f32 * mu_b4_u4;
+    let q3_0_3 = 1.4527767_f32 * mu_b4_v4 + 2.4362953_f32 * mu_b4_b1 - 0.3184477_f32 * mu_b4_b2 + 0.5867349_f32 * mu_b4_b3 - 0.0011311016_f32 * mu_b4_u4;
+    let q3_0_4 = 0.81988734_f32 * mu_b4_v4 + 1.113106_f32 * mu_b4_b1 - 0.26205397_f32 * mu_b4_b2 - 0.017297247_f32 * mu_b4_b3 + 0.06551733_f32 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;

@@ -13,7 +13,7 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 2cd7d2a1e7fb77f7bc8ad17d64206f150a6d22784c429da1962ae8b98bb1d18e.
+// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 e1fa2a3c466b63e740ef50c869d18f56cc9f4d38d40c544c2c3d171e81fc20f3.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
 //   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-6, shifted 1.0e-6, bernstein 1.1e-6.
 // Error of the f64 fit on its 2097152 data points: MAE 1.26e-2, max 6.12e-2 (recorded by the fitter).
@@ -40,7 +40,7 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let p_2 = 0.4627694;
     let p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (0.7187921 * r_t + (-0.08352191 * mu_t + 0.052348558)) * r_t + ((-0.0141697 * mu_t - 0.7124091) * mu_t + 1.0);
+    let q_0 = (0.7187921 * r_t + (-0.08352191 * mu_t + 0.05234856)) * r_t + ((-0.014169698 * mu_t - 0.7124091) * mu_t + 1.0);
     let q_1 = -0.75139725 * r_t + (-3.8012092 * mu_t + 3.9674852);
     let q_2 = 0.49151185;
     let q = (q_2 * f0_t + q_1) * f0_t + q_0;

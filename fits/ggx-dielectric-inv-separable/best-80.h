@@ -29,12 +29,12 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 04d9ef752d10d3a20f3267e7b725f46b0f0e52a322f37f2f30dcc6ce72b2bf58.
+// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 2fc8761546216d6734bd6b49226004e9349a958916b1ecbed665486bb511ffee.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-4, shifted 1.2e-5, bernstein 1.4e-6.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-4, shifted 1.1e-5, bernstein 1.4e-6.
 // Error of the f64 fit on its 2097152 data points: MAE 1.43e-3, max 1.27e-2 (recorded by the fitter).
 // Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-3, max 1.22e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 1.93e-6 (GPU division/sqrt error).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.88e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 2.02e-6 (GPU division/sqrt error).
 // Bound: |f32 - f64| <= 2.12e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
 // Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.43e-3, max 1.27e-2; this f32 code MAE 1.43e-3, max 1.27e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-3 on the measurement grid.
@@ -86,49 +86,49 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     const float mu_b3 = mu_u3 * mu_v2;
     const float mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = 0.9382778f * mu_v5 + 1.5333221f * mu_b1 + 0.6026139f * mu_b2 + 0.09413675f * mu_b3 + 0.030491726f * mu_b4 + 0.005371799f * mu_u5;
-    const float p_0_1 = 4.0834255f * mu_v5 + 6.922914f * mu_b1 + 3.0355437f * mu_b2 + 0.44868615f * mu_b3 - 0.038875654f * mu_b4 + 0.015729567f * mu_u5;
-    const float p_0_2 = 6.650712f * mu_v5 + 11.340487f * mu_b1 + 5.3794656f * mu_b2 + 1.2739154f * mu_b3 + 0.019637408f * mu_b4 + 0.049884923f * mu_u5;
-    const float p_0_3 = 5.1658254f * mu_v5 + 8.652399f * mu_b1 + 4.4129233f * mu_b2 + 1.7593898f * mu_b3 + 0.2724007f * mu_b4 + 0.05383274f * mu_u5;
-    const float p_0_4 = 2.0075898f * mu_v5 + 3.288277f * mu_b1 + 1.8785158f * mu_b2 + 1.1852279f * mu_b3 + 0.3110811f * mu_b4 + 0.030917872f * mu_u5;
-    const float p_0_5 = 0.34218824f * mu_v5 + 0.5610708f * mu_b1 + 0.3607239f * mu_b2 + 0.29379964f * mu_b3 + 0.10198295f * mu_b4 + 0.011471837f * mu_u5;
+    const float p_0_0 = 0.9382778f * mu_v5 + 1.5333221f * mu_b1 + 0.6026139f * mu_b2 + 0.09413675f * mu_b3 + 0.030491725f * mu_b4 + 0.0053717997f * mu_u5;
+    const float p_0_1 = 4.0834255f * mu_v5 + 6.9229136f * mu_b1 + 3.0355434f * mu_b2 + 0.44868618f * mu_b3 - 0.038875654f * mu_b4 + 0.015729567f * mu_u5;
+    const float p_0_2 = 6.650712f * mu_v5 + 11.340487f * mu_b1 + 5.3794656f * mu_b2 + 1.2739155f * mu_b3 + 0.019637415f * mu_b4 + 0.049884927f * mu_u5;
+    const float p_0_3 = 5.1658254f * mu_v5 + 8.652398f * mu_b1 + 4.4129233f * mu_b2 + 1.7593898f * mu_b3 + 0.2724007f * mu_b4 + 0.05383274f * mu_u5;
+    const float p_0_4 = 2.0075898f * mu_v5 + 3.288277f * mu_b1 + 1.8785157f * mu_b2 + 1.1852279f * mu_b3 + 0.3110811f * mu_b4 + 0.030917872f * mu_u5;
+    const float p_0_5 = 0.3421882f * mu_v5 + 0.5610708f * mu_b1 + 0.36072388f * mu_b2 + 0.29379964f * mu_b3 + 0.10198295f * mu_b4 + 0.011471837f * mu_u5;
     const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    const float p_1_0 = 1.8706145f * mu_v5 + 3.2166333f * mu_b1 + 1.0450833f * mu_b2 + 0.22851147f * mu_b3 + 0.058655363f * mu_b4 + 0.010745676f * mu_u5;
-    const float p_1_1 = 9.639175f * mu_v5 + 16.707085f * mu_b1 + 5.5070953f * mu_b2 + 0.770265f * mu_b3 - 0.044286605f * mu_b4 + 0.032321308f * mu_u5;
-    const float p_1_2 = 19.51827f * mu_v5 + 34.71787f * mu_b1 + 13.615708f * mu_b2 + 3.4411366f * mu_b3 + 0.2970917f * mu_b4 + 0.08743844f * mu_u5;
-    const float p_1_3 = 18.795357f * mu_v5 + 33.2771f * mu_b1 + 13.5352545f * mu_b2 + 4.323074f * mu_b3 + 0.52762365f * mu_b4 + 0.07343429f * mu_u5;
-    const float p_1_4 = 8.6228285f * mu_v5 + 14.761588f * mu_b1 + 5.656684f * mu_b2 + 2.290268f * mu_b3 + 0.40740794f * mu_b4 + 0.042750992f * mu_u5;
-    const float p_1_5 = 1.5514362f * mu_v5 + 2.583185f * mu_b1 + 1.0176857f * mu_b2 + 0.60913664f * mu_b3 + 0.15109783f * mu_b4 + 0.009435484f * mu_u5;
+    const float p_1_0 = 1.8706145f * mu_v5 + 3.2166333f * mu_b1 + 1.0450833f * mu_b2 + 0.22851147f * mu_b3 + 0.05865536f * mu_b4 + 0.010745676f * mu_u5;
+    const float p_1_1 = 9.639175f * mu_v5 + 16.707085f * mu_b1 + 5.507095f * mu_b2 + 0.77026504f * mu_b3 - 0.044286605f * mu_b4 + 0.032321308f * mu_u5;
+    const float p_1_2 = 19.51827f * mu_v5 + 34.71787f * mu_b1 + 13.615708f * mu_b2 + 3.4411366f * mu_b3 + 0.29709172f * mu_b4 + 0.08743845f * mu_u5;
+    const float p_1_3 = 18.795357f * mu_v5 + 33.2771f * mu_b1 + 13.535254f * mu_b2 + 4.323074f * mu_b3 + 0.52762365f * mu_b4 + 0.07343429f * mu_u5;
+    const float p_1_4 = 8.622828f * mu_v5 + 14.761587f * mu_b1 + 5.6566834f * mu_b2 + 2.290268f * mu_b3 + 0.4074079f * mu_b4 + 0.042750992f * mu_u5;
+    const float p_1_5 = 1.5514362f * mu_v5 + 2.583185f * mu_b1 + 1.0176855f * mu_b2 + 0.60913664f * mu_b3 + 0.15109782f * mu_b4 + 0.009435484f * mu_u5;
     const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    const float p_2_0 = 0.9366952f * mu_v5 + 1.5589913f * mu_b1 + 0.5734941f * mu_b2 + 0.1060588f * mu_b3 + 0.029574126f * mu_b4 + 0.0053732134f * mu_u5;
-    const float p_2_1 = 4.9408903f * mu_v5 + 8.316672f * mu_b1 + 2.997075f * mu_b2 + 0.24470599f * mu_b3 - 0.01388036f * mu_b4 + 0.016005345f * mu_u5;
-    const float p_2_2 = 10.093759f * mu_v5 + 17.462736f * mu_b1 + 7.2012568f * mu_b2 + 1.2804123f * mu_b3 + 0.18747726f * mu_b4 + 0.0459427f * mu_u5;
-    const float p_2_3 = 9.888593f * mu_v5 + 17.31656f * mu_b1 + 7.7007f * mu_b2 + 1.8930943f * mu_b3 + 0.3525307f * mu_b4 + 0.038765818f * mu_u5;
-    const float p_2_4 = 4.6953f * mu_v5 + 8.238372f * mu_b1 + 3.8122828f * mu_b2 + 1.1376821f * mu_b3 + 0.23652631f * mu_b4 + 0.021354292f * mu_u5;
-    const float p_2_5 = 0.88438153f * mu_v5 + 1.567416f * mu_b1 + 0.7703598f * mu_b2 + 0.26745403f * mu_b3 + 0.05547791f * mu_b4 + 0.0060091545f * mu_u5;
+    const float p_2_0 = 0.9366952f * mu_v5 + 1.5589913f * mu_b1 + 0.5734941f * mu_b2 + 0.1060588f * mu_b3 + 0.029574124f * mu_b4 + 0.0053732134f * mu_u5;
+    const float p_2_1 = 4.9408903f * mu_v5 + 8.316672f * mu_b1 + 2.9970748f * mu_b2 + 0.24470602f * mu_b3 - 0.01388036f * mu_b4 + 0.016005345f * mu_u5;
+    const float p_2_2 = 10.093759f * mu_v5 + 17.462736f * mu_b1 + 7.2012563f * mu_b2 + 1.2804124f * mu_b3 + 0.18747726f * mu_b4 + 0.0459427f * mu_u5;
+    const float p_2_3 = 9.888593f * mu_v5 + 17.31656f * mu_b1 + 7.7006993f * mu_b2 + 1.8930943f * mu_b3 + 0.3525307f * mu_b4 + 0.038765818f * mu_u5;
+    const float p_2_4 = 4.6953f * mu_v5 + 8.238372f * mu_b1 + 3.8122826f * mu_b2 + 1.1376821f * mu_b3 + 0.23652631f * mu_b4 + 0.021354292f * mu_u5;
+    const float p_2_5 = 0.8843815f * mu_v5 + 1.5674158f * mu_b1 + 0.77035975f * mu_b2 + 0.26745403f * mu_b3 + 0.05547791f * mu_b4 + 0.0060091545f * mu_u5;
     const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     const float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = 1.0f * mu_v5 + 1.6474696f * mu_b1 + 0.7424482f * mu_b2 + 0.11884893f * mu_b3 + 0.02924407f * mu_b4 + 0.005373727f * mu_u5;
-    const float q_0_1 = 5.414281f * mu_v5 + 8.96052f * mu_b1 + 3.8063047f * mu_b2 + 0.25912052f * mu_b3 + 0.01506622f * mu_b4 + 0.016010826f * mu_u5;
-    const float q_0_2 = 11.882311f * mu_v5 + 20.385622f * mu_b1 + 9.545005f * mu_b2 + 1.2232538f * mu_b3 + 0.23255035f * mu_b4 + 0.050990257f * mu_u5;
-    const float q_0_3 = 12.996841f * mu_v5 + 23.162088f * mu_b1 + 12.040324f * mu_b2 + 2.353542f * mu_b3 + 0.5403806f * mu_b4 + 0.061916117f * mu_u5;
+    const float q_0_0 = 1.0f * mu_v5 + 1.6474696f * mu_b1 + 0.74244815f * mu_b2 + 0.118848935f * mu_b3 + 0.029244069f * mu_b4 + 0.005373727f * mu_u5;
+    const float q_0_1 = 5.4142804f * mu_v5 + 8.96052f * mu_b1 + 3.8063045f * mu_b2 + 0.25912055f * mu_b3 + 0.0150662195f * mu_b4 + 0.016010826f * mu_u5;
+    const float q_0_2 = 11.88231f * mu_v5 + 20.38562f * mu_b1 + 9.545004f * mu_b2 + 1.223254f * mu_b3 + 0.23255037f * mu_b4 + 0.05099026f * mu_u5;
+    const float q_0_3 = 12.996841f * mu_v5 + 23.162088f * mu_b1 + 12.040324f * mu_b2 + 2.353542f * mu_b3 + 0.54038066f * mu_b4 + 0.061916117f * mu_u5;
     const float q_0_4 = 7.0364094f * mu_v5 + 12.934721f * mu_b1 + 7.283964f * mu_b2 + 1.8049115f * mu_b3 + 0.45983043f * mu_b4 + 0.040571272f * mu_u5;
-    const float q_0_5 = 1.5075977f * mu_v5 + 2.8452036f * mu_b1 + 1.724788f * mu_b2 + 0.5343517f * mu_b3 + 0.16617803f * mu_b4 + 0.019008316f * mu_u5;
+    const float q_0_5 = 1.5075977f * mu_v5 + 2.8452034f * mu_b1 + 1.7247878f * mu_b2 + 0.5343517f * mu_b3 + 0.16617802f * mu_b4 + 0.019008316f * mu_u5;
     const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    const float q_1_0 = 2.0f * mu_v5 + 3.2949393f * mu_b1 + 1.4848964f * mu_b2 + 0.23769785f * mu_b3 + 0.05848814f * mu_b4 + 0.010747454f * mu_u5;
-    const float q_1_1 = 10.828562f * mu_v5 + 17.92104f * mu_b1 + 7.6126094f * mu_b2 + 0.51824105f * mu_b3 + 0.03013244f * mu_b4 + 0.032021653f * mu_u5;
-    const float q_1_2 = 23.764622f * mu_v5 + 40.771244f * mu_b1 + 19.09001f * mu_b2 + 2.4465077f * mu_b3 + 0.4651007f * mu_b4 + 0.101980515f * mu_u5;
-    const float q_1_3 = 25.993683f * mu_v5 + 46.324177f * mu_b1 + 24.080648f * mu_b2 + 4.707084f * mu_b3 + 1.0807612f * mu_b4 + 0.12383223f * mu_u5;
+    const float q_1_0 = 2.0f * mu_v5 + 3.2949393f * mu_b1 + 1.4848963f * mu_b2 + 0.23769787f * mu_b3 + 0.058488138f * mu_b4 + 0.010747454f * mu_u5;
+    const float q_1_1 = 10.828561f * mu_v5 + 17.92104f * mu_b1 + 7.612609f * mu_b2 + 0.5182411f * mu_b3 + 0.030132439f * mu_b4 + 0.032021653f * mu_u5;
+    const float q_1_2 = 23.76462f * mu_v5 + 40.77124f * mu_b1 + 19.090008f * mu_b2 + 2.446508f * mu_b3 + 0.46510074f * mu_b4 + 0.10198052f * mu_u5;
+    const float q_1_3 = 25.993683f * mu_v5 + 46.324177f * mu_b1 + 24.080648f * mu_b2 + 4.707084f * mu_b3 + 1.0807613f * mu_b4 + 0.12383223f * mu_u5;
     const float q_1_4 = 14.072819f * mu_v5 + 25.869442f * mu_b1 + 14.567928f * mu_b2 + 3.609823f * mu_b3 + 0.91966087f * mu_b4 + 0.081142545f * mu_u5;
-    const float q_1_5 = 3.0151954f * mu_v5 + 5.6904073f * mu_b1 + 3.449576f * mu_b2 + 1.0687034f * mu_b3 + 0.33235607f * mu_b4 + 0.038016632f * mu_u5;
+    const float q_1_5 = 3.0151954f * mu_v5 + 5.690407f * mu_b1 + 3.4495757f * mu_b2 + 1.0687034f * mu_b3 + 0.33235604f * mu_b4 + 0.038016632f * mu_u5;
     const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    const float q_2_0 = 1.0f * mu_v5 + 1.6474696f * mu_b1 + 0.7424482f * mu_b2 + 0.11884893f * mu_b3 + 0.02924407f * mu_b4 + 0.005373727f * mu_u5;
-    const float q_2_1 = 5.414281f * mu_v5 + 8.96052f * mu_b1 + 3.8063047f * mu_b2 + 0.25912052f * mu_b3 + 0.01506622f * mu_b4 + 0.016010826f * mu_u5;
-    const float q_2_2 = 11.882311f * mu_v5 + 20.385622f * mu_b1 + 9.545005f * mu_b2 + 1.2232538f * mu_b3 + 0.23255035f * mu_b4 + 0.050990257f * mu_u5;
-    const float q_2_3 = 12.996841f * mu_v5 + 23.162088f * mu_b1 + 12.040324f * mu_b2 + 2.353542f * mu_b3 + 0.5403806f * mu_b4 + 0.061916117f * mu_u5;
+    const float q_2_0 = 1.0f * mu_v5 + 1.6474696f * mu_b1 + 0.74244815f * mu_b2 + 0.118848935f * mu_b3 + 0.029244069f * mu_b4 + 0.005373727f * mu_u5;
+    const float q_2_1 = 5.4142804f * mu_v5 + 8.96052f * mu_b1 + 3.8063045f * mu_b2 + 0.25912055f * mu_b3 + 0.0150662195f * mu_b4 + 0.016010826f * mu_u5;
+    const float q_2_2 = 11.88231f * mu_v5 + 20.38562f * mu_b1 + 9.545004f * mu_b2 + 1.223254f * mu_b3 + 0.23255037f * mu_b4 + 0.05099026f * mu_u5;
+    const float q_2_3 = 12.996841f * mu_v5 + 23.162088f * mu_b1 + 12.040324f * mu_b2 + 2.353542f * mu_b3 + 0.54038066f * mu_b4 + 0.061916117f * mu_u5;
     const float q_2_4 = 7.0364094f * mu_v5 + 12.934721f * mu_b1 + 7.283964f * mu_b2 + 1.8049115f * mu_b3 + 0.45983043f * mu_b4 + 0.040571272f * mu_u5;
-    const float q_2_5 = 1.5075977f * mu_v5 + 2.8452036f * mu_b1 + 1.724788f * mu_b2 + 0.5343517f * mu_b3 + 0.16617803f * mu_b4 + 0.019008316f * mu_u5;
+    const float q_2_5 = 1.5075977f * mu_v5 + 2.8452034f * mu_b1 + 1.7247878f * mu_b2 + 0.5343517f * mu_b3 + 0.16617802f * mu_b4 + 0.019008316f * mu_u5;
     const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     const float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     const float e = p / q;

@@ -14,12 +14,12 @@
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 /// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 04d9ef752d10d3a20f3267e7b725f46b0f0e52a322f37f2f30dcc6ce72b2bf58.
+/// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 2fc8761546216d6734bd6b49226004e9349a958916b1ecbed665486bb511ffee.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-4, shifted 1.2e-5, bernstein 1.4e-6.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-4, shifted 1.1e-5, bernstein 1.4e-6.
 /// Error of the f64 fit on its 2097152 data points: MAE 1.43e-3, max 1.27e-2 (recorded by the fitter).
 /// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-3, max 1.22e-2.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 1.93e-6 (GPU division/sqrt error).
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.88e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 2.02e-6 (GPU division/sqrt error).
 /// Bound: |f32 - f64| <= 2.12e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
 /// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.43e-3, max 1.27e-2; this f32 code MAE 1.43e-3, max 1.27e-2.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-3 on the measurement grid.
@@ -78,49 +78,49 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b3 = mu_u3 * mu_v2;
     let mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.9382778_f32 * mu_v5 + 1.5333221_f32 * mu_b1 + 0.6026139_f32 * mu_b2 + 0.09413675_f32 * mu_b3 + 0.030491726_f32 * mu_b4 + 0.005371799_f32 * mu_u5;
-    let p_0_1 = 4.0834255_f32 * mu_v5 + 6.922914_f32 * mu_b1 + 3.0355437_f32 * mu_b2 + 0.44868615_f32 * mu_b3 - 0.038875654_f32 * mu_b4 + 0.015729567_f32 * mu_u5;
-    let p_0_2 = 6.650712_f32 * mu_v5 + 11.340487_f32 * mu_b1 + 5.3794656_f32 * mu_b2 + 1.2739154_f32 * mu_b3 + 0.019637408_f32 * mu_b4 + 0.049884923_f32 * mu_u5;
-    let p_0_3 = 5.1658254_f32 * mu_v5 + 8.652399_f32 * mu_b1 + 4.4129233_f32 * mu_b2 + 1.7593898_f32 * mu_b3 + 0.2724007_f32 * mu_b4 + 0.05383274_f32 * mu_u5;
-    let p_0_4 = 2.0075898_f32 * mu_v5 + 3.288277_f32 * mu_b1 + 1.8785158_f32 * mu_b2 + 1.1852279_f32 * mu_b3 + 0.3110811_f32 * mu_b4 + 0.030917872_f32 * mu_u5;
-    let p_0_5 = 0.34218824_f32 * mu_v5 + 0.5610708_f32 * mu_b1 + 0.3607239_f32 * mu_b2 + 0.29379964_f32 * mu_b3 + 0.10198295_f32 * mu_b4 + 0.011471837_f32 * mu_u5;
+    let p_0_0 = 0.9382778_f32 * mu_v5 + 1.5333221_f32 * mu_b1 + 0.6026139_f32 * mu_b2 + 0.09413675_f32 * mu_b3 + 0.030491725_f32 * mu_b4 + 0.0053717997_f32 * mu_u5;
+    let p_0_1 = 4.0834255_f32 * mu_v5 + 6.9229136_f32 * mu_b1 + 3.0355434_f32 * mu_b2 + 0.44868618_f32 * mu_b3 - 0.038875654_f32 * mu_b4 + 0.015729567_f32 * mu_u5;
+    let p_0_2 = 6.650712_f32 * mu_v5 + 11.340487_f32 * mu_b1 + 5.3794656_f32 * mu_b2 + 1.2739155_f32 * mu_b3 + 0.019637415_f32 * mu_b4 + 0.049884927_f32 * mu_u5;
+    let p_0_3 = 5.1658254_f32 * mu_v5 + 8.652398_f32 * mu_b1 + 4.4129233_f32 * mu_b2 + 1.7593898_f32 * mu_b3 + 0.2724007_f32 * mu_b4 + 0.05383274_f32 * mu_u5;
+    let p_0_4 = 2.0075898_f32 * mu_v5 + 3.288277_f32 * mu_b1 + 1.8785157_f32 * mu_b2 + 1.1852279_f32 * mu_b3 + 0.3110811_f32 * mu_b4 + 0.030917872_f32 * mu_u5;
+    let p_0_5 = 0.3421882_f32 * mu_v5 + 0.5610708_f32 * mu_b1 + 0.36072388_f32 * mu_b2 + 0.29379964_f32 * mu_b3 + 0.10198295_f32 * mu_b4 + 0.011471837_f32 * mu_u5;
     let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 1.8706145_f32 * mu_v5 + 3.2166333_f32 * mu_b1 + 1.0450833_f32 * mu_b2 + 0.22851147_f32 * mu_b3 + 0.058655363_f32 * mu_b4 + 0.010745676_f32 * mu_u5;
-    let p_1_1 = 9.639175_f32 * mu_v5 + 16.707085_f32 * mu_b1 + 5.5070953_f32 * mu_b2 + 0.770265_f32 * mu_b3 - 0.044286605_f32 * mu_b4 + 0.032321308_f32 * mu_u5;
-    let p_1_2 = 19.51827_f32 * mu_v5 + 34.71787_f32 * mu_b1 + 13.615708_f32 * mu_b2 + 3.4411366_f32 * mu_b3 + 0.2970917_f32 * mu_b4 + 0.08743844_f32 * mu_u5;
-    let p_1_3 = 18.795357_f32 * mu_v5 + 33.2771_f32 * mu_b1 + 13.5352545_f32 * mu_b2 + 4.323074_f32 * mu_b3 + 0.52762365_f32 * mu_b4 + 0.07343429_f32 * mu_u5;
-    let p_1_4 = 8.6228285_f32 * mu_v5 + 14.761588_f32 * mu_b1 + 5.656684_f32 * mu_b2 + 2.290268_f32 * mu_b3 + 0.40740794_f32 * mu_b4 + 0.042750992_f32 * mu_u5;
-    let p_1_5 = 1.5514362_f32 * mu_v5 + 2.583185_f32 * mu_b1 + 1.0176857_f32 * mu_b2 + 0.60913664_f32 * mu_b3 + 0.15109783_f32 * mu_b4 + 0.009435484_f32 * mu_u5;
+    let p_1_0 = 1.8706145_f32 * mu_v5 + 3.2166333_f32 * mu_b1 + 1.0450833_f32 * mu_b2 + 0.22851147_f32 * mu_b3 + 0.05865536_f32 * mu_b4 + 0.010745676_f32 * mu_u5;
+    let p_1_1 = 9.639175_f32 * mu_v5 + 16.707085_f32 * mu_b1 + 5.507095_f32 * mu_b2 + 0.77026504_f32 * mu_b3 - 0.044286605_f32 * mu_b4 + 0.032321308_f32 * mu_u5;
+    let p_1_2 = 19.51827_f32 * mu_v5 + 34.71787_f32 * mu_b1 + 13.615708_f32 * mu_b2 + 3.4411366_f32 * mu_b3 + 0.29709172_f32 * mu_b4 + 0.08743845_f32 * mu_u5;
+    let p_1_3 = 18.795357_f32 * mu_v5 + 33.2771_f32 * mu_b1 + 13.535254_f32 * mu_b2 + 4.323074_f32 * mu_b3 + 0.52762365_f32 * mu_b4 + 0.07343429_f32 * mu_u5;
+    let p_1_4 = 8.622828_f32 * mu_v5 + 14.761587_f32 * mu_b1 + 5.6566834_f32 * mu_b2 + 2.290268_f32 * mu_b3 + 0.4074079_f32 * mu_b4 + 0.042750992_f32 * mu_u5;
+    let p_1_5 = 1.5514362_f32 * mu_v5 + 2.583185_f32 * mu_b1 + 1.0176855_f32 * mu_b2 + 0.60913664_f32 * mu_b3 + 0.15109782_f32 * mu_b4 + 0.009435484_f32 * mu_u5;
     let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 0.9366952_f32 * mu_v5 + 1.5589913_f32 * mu_b1 + 0.5734941_f32 * mu_b2 + 0.1060588_f32 * mu_b3 + 0.029574126_f32 * mu_b4 + 0.0053732134_f32 * mu_u5;
-    let p_2_1 = 4.9408903_f32 * mu_v5 + 8.316672_f32 * mu_b1 + 2.997075_f32 * mu_b2 + 0.24470599_f32 * mu_b3 - 0.01388036_f32 * mu_b4 + 0.016005345_f32 * mu_u5;
-    let p_2_2 = 10.093759_f32 * mu_v5 + 17.462736_f32 * mu_b1 + 7.2012568_f32 * mu_b2 + 1.2804123_f32 * mu_b3 + 0.18747726_f32 * mu_b4 + 0.0459427_f32 * mu_u5;
-    let p_2_3 = 9.888593_f32 * mu_v5 + 17.31656_f32 * mu_b1 + 7.7007_f32 * mu_b2 + 1.8930943_f32 * mu_b3 + 0.3525307_f32 * mu_b4 + 0.038765818_f32 * mu_u5;
-    let p_2_4 = 4.6953_f32 * mu_v5 + 8.238372_f32 * mu_b1 + 3.8122828_f32 * mu_b2 + 1.1376821_f32 * mu_b3 + 0.23652631_f32 * mu_b4 + 0.021354292_f32 * mu_u5;
-    let p_2_5 = 0.88438153_f32 * mu_v5 + 1.567416_f32 * mu_b1 + 0.7703598_f32 * mu_b2 + 0.26745403_f32 * mu_b3 + 0.05547791_f32 * mu_b4 + 0.0060091545_f32 * mu_u5;
+    let p_2_0 = 0.9366952_f32 * mu_v5 + 1.5589913_f32 * mu_b1 + 0.5734941_f32 * mu_b2 + 0.1060588_f32 * mu_b3 + 0.029574124_f32 * mu_b4 + 0.0053732134_f32 * mu_u5;
+    let p_2_1 = 4.9408903_f32 * mu_v5 + 8.316672_f32 * mu_b1 + 2.9970748_f32 * mu_b2 + 0.24470602_f32 * mu_b3 - 0.01388036_f32 * mu_b4 + 0.016005345_f32 * mu_u5;
+    let p_2_2 = 10.093759_f32 * mu_v5 + 17.462736_f32 * mu_b1 + 7.2012563_f32 * mu_b2 + 1.2804124_f32 * mu_b3 + 0.18747726_f32 * mu_b4 + 0.0459427_f32 * mu_u5;
+    let p_2_3 = 9.888593_f32 * mu_v5 + 17.31656_f32 * mu_b1 + 7.7006993_f32 * mu_b2 + 1.8930943_f32 * mu_b3 + 0.3525307_f32 * mu_b4 + 0.038765818_f32 * mu_u5;
+    let p_2_4 = 4.6953_f32 * mu_v5 + 8.238372_f32 * mu_b1 + 3.8122826_f32 * mu_b2 + 1.1376821_f32 * mu_b3 + 0.23652631_f32 * mu_b4 + 0.021354292_f32 * mu_u5;
+    let p_2_5 = 0.8843815_f32 * mu_v5 + 1.5674158_f32 * mu_b1 + 0.77035975_f32 * mu_b2 + 0.26745403_f32 * mu_b3 + 0.05547791_f32 * mu_b4 + 0.0060091545_f32 * mu_u5;
     let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0_f32 * mu_v5 + 1.6474696_f32 * mu_b1 + 0.7424482_f32 * mu_b2 + 0.11884893_f32 * mu_b3 + 0.02924407_f32 * mu_b4 + 0.005373727_f32 * mu_u5;
-    let q_0_1 = 5.414281_f32 * mu_v5 + 8.96052_f32 * mu_b1 + 3.8063047_f32 * mu_b2 + 0.25912052_f32 * mu_b3 + 0.01506622_f32 * mu_b4 + 0.016010826_f32 * mu_u5;
-    let q_0_2 = 11.882311_f32 * mu_v5 + 20.385622_f32 * mu_b1 + 9.545005_f32 * mu_b2 + 1.2232538_f32 * mu_b3 + 0.23255035_f32 * mu_b4 + 0.050990257_f32 * mu_u5;
-    let q_0_3 = 12.996841_f32 * mu_v5 + 23.162088_f32 * mu_b1 + 12.040324_f32 * mu_b2 + 2.353542_f32 * mu_b3 + 0.5403806_f32 * mu_b4 + 0.061916117_f32 * mu_u5;
+    let q_0_0 = 1.0_f32 * mu_v5 + 1.6474696_f32 * mu_b1 + 0.74244815_f32 * mu_b2 + 0.118848935_f32 * mu_b3 + 0.029244069_f32 * mu_b4 + 0.005373727_f32 * mu_u5;
+    let q_0_1 = 5.4142804_f32 * mu_v5 + 8.96052_f32 * mu_b1 + 3.8063045_f32 * mu_b2 + 0.25912055_f32 * mu_b3 + 0.0150662195_f32 * mu_b4 + 0.016010826_f32 * mu_u5;
+    let q_0_2 = 11.88231_f32 * mu_v5 + 20.38562_f32 * mu_b1 + 9.545004_f32 * mu_b2 + 1.223254_f32 * mu_b3 + 0.23255037_f32 * mu_b4 + 0.05099026_f32 * mu_u5;
+    let q_0_3 = 12.996841_f32 * mu_v5 + 23.162088_f32 * mu_b1 + 12.040324_f32 * mu_b2 + 2.353542_f32 * mu_b3 + 0.54038066_f32 * mu_b4 + 0.061916117_f32 * mu_u5;
     let q_0_4 = 7.0364094_f32 * mu_v5 + 12.934721_f32 * mu_b1 + 7.283964_f32 * mu_b2 + 1.8049115_f32 * mu_b3 + 0.45983043_f32 * mu_b4 + 0.040571272_f32 * mu_u5;
-    let q_0_5 = 1.5075977_f32 * mu_v5 + 2.8452036_f32 * mu_b1 + 1.724788_f32 * mu_b2 + 0.5343517_f32 * mu_b3 + 0.16617803_f32 * mu_b4 + 0.019008316_f32 * mu_u5;
+    let q_0_5 = 1.5075977_f32 * mu_v5 + 2.8452034_f32 * mu_b1 + 1.7247878_f32 * mu_b2 + 0.5343517_f32 * mu_b3 + 0.16617802_f32 * mu_b4 + 0.019008316_f32 * mu_u5;
     let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 2.0_f32 * mu_v5 + 3.2949393_f32 * mu_b1 + 1.4848964_f32 * mu_b2 + 0.23769785_f32 * mu_b3 + 0.05848814_f32 * mu_b4 + 0.010747454_f32 * mu_u5;
-    let q_1_1 = 10.828562_f32 * mu_v5 + 17.92104_f32 * mu_b1 + 7.6126094_f32 * mu_b2 + 0.51824105_f32 * mu_b3 + 0.03013244_f32 * mu_b4 + 0.032021653_f32 * mu_u5;
-    let q_1_2 = 23.764622_f32 * mu_v5 + 40.771244_f32 * mu_b1 + 19.09001_f32 * mu_b2 + 2.4465077_f32 * mu_b3 + 0.4651007_f32 * mu_b4 + 0.101980515_f32 * mu_u5;
-    let q_1_3 = 25.993683_f32 * mu_v5 + 46.324177_f32 * mu_b1 + 24.080648_f32 * mu_b2 + 4.707084_f32 * mu_b3 + 1.0807612_f32 * mu_b4 + 0.12383223_f32 * mu_u5;
+    let q_1_0 = 2.0_f32 * mu_v5 + 3.2949393_f32 * mu_b1 + 1.4848963_f32 * mu_b2 + 0.23769787_f32 * mu_b3 + 0.058488138_f32 * mu_b4 + 0.010747454_f32 * mu_u5;
+    let q_1_1 = 10.828561_f32 * mu_v5 + 17.92104_f32 * mu_b1 + 7.612609_f32 * mu_b2 + 0.5182411_f32 * mu_b3 + 0.030132439_f32 * mu_b4 + 0.032021653_f32 * mu_u5;
+    let q_1_2 = 23.76462_f32 * mu_v5 + 40.77124_f32 * mu_b1 + 19.090008_f32 * mu_b2 + 2.446508_f32 * mu_b3 + 0.46510074_f32 * mu_b4 + 0.10198052_f32 * mu_u5;
+    let q_1_3 = 25.993683_f32 * mu_v5 + 46.324177_f32 * mu_b1 + 24.080648_f32 * mu_b2 + 4.707084_f32 * mu_b3 + 1.0807613_f32 * mu_b4 + 0.12383223_f32 * mu_u5;
     let q_1_4 = 14.072819_f32 * mu_v5 + 25.869442_f32 * mu_b1 + 14.567928_f32 * mu_b2 + 3.609823_f32 * mu_b3 + 0.91966087_f32 * mu_b4 + 0.081142545_f32 * mu_u5;
-    let q_1_5 = 3.0151954_f32 * mu_v5 + 5.6904073_f32 * mu_b1 + 3.449576_f32 * mu_b2 + 1.0687034_f32 * mu_b3 + 0.33235607_f32 * mu_b4 + 0.038016632_f32 * mu_u5;
+    let q_1_5 = 3.0151954_f32 * mu_v5 + 5.690407_f32 * mu_b1 + 3.4495757_f32 * mu_b2 + 1.0687034_f32 * mu_b3 + 0.33235604_f32 * mu_b4 + 0.038016632_f32 * mu_u5;
     let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 1.0_f32 * mu_v5 + 1.6474696_f32 * mu_b1 + 0.7424482_f32 * mu_b2 + 0.11884893_f32 * mu_b3 + 0.02924407_f32 * mu_b4 + 0.005373727_f32 * mu_u5;
-    let q_2_1 = 5.414281_f32 * mu_v5 + 8.96052_f32 * mu_b1 + 3.8063047_f32 * mu_b2 + 0.25912052_f32 * mu_b3 + 0.01506622_f32 * mu_b4 + 0.016010826_f32 * mu_u5;
-    let q_2_2 = 11.882311_f32 * mu_v5 + 20.385622_f32 * mu_b1 + 9.545005_f32 * mu_b2 + 1.2232538_f32 * mu_b3 + 0.23255035_f32 * mu_b4 + 0.050990257_f32 * mu_u5;
-    let q_2_3 = 12.996841_f32 * mu_v5 + 23.162088_f32 * mu_b1 + 12.040324_f32 * mu_b2 + 2.353542_f32 * mu_b3 + 0.5403806_f32 * mu_b4 + 0.061916117_f32 * mu_u5;
+    let q_2_0 = 1.0_f32 * mu_v5 + 1.6474696_f32 * mu_b1 + 0.74244815_f32 * mu_b2 + 0.118848935_f32 * mu_b3 + 0.029244069_f32 * mu_b4 + 0.005373727_f32 * mu_u5;
+    let q_2_1 = 5.4142804_f32 * mu_v5 + 8.96052_f32 * mu_b1 + 3.8063045_f32 * mu_b2 + 0.25912055_f32 * mu_b3 + 0.0150662195_f32 * mu_b4 + 0.016010826_f32 * mu_u5;
+    let q_2_2 = 11.88231_f32 * mu_v5 + 20.38562_f32 * mu_b1 + 9.545004_f32 * mu_b2 + 1.223254_f32 * mu_b3 + 0.23255037_f32 * mu_b4 + 0.05099026_f32 * mu_u5;
+    let q_2_3 = 12.996841_f32 * mu_v5 + 23.162088_f32 * mu_b1 + 12.040324_f32 * mu_b2 + 2.353542_f32 * mu_b3 + 0.54038066_f32 * mu_b4 + 0.061916117_f32 * mu_u5;
     let q_2_4 = 7.0364094_f32 * mu_v5 + 12.934721_f32 * mu_b1 + 7.283964_f32 * mu_b2 + 1.8049115_f32 * mu_b3 + 0.45983043_f32 * mu_b4 + 0.040571272_f32 * mu_u5;
-    let q_2_5 = 1.5075977_f32 * mu_v5 + 2.8452036_f32 * mu_b1 + 1.724788_f32 * mu_b2 + 0.5343517_f32 * mu_b3 + 0.16617803_f32 * mu_b4 + 0.019008316_f32 * mu_u5;
+    let q_2_5 = 1.5075977_f32 * mu_v5 + 2.8452034_f32 * mu_b1 + 1.7247878_f32 * mu_b2 + 0.5343517_f32 * mu_b3 + 0.16617802_f32 * mu_b4 + 0.019008316_f32 * mu_u5;
     let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     let e = p / q;

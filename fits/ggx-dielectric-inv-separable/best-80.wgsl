@@ -13,12 +13,12 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 04d9ef752d10d3a20f3267e7b725f46b0f0e52a322f37f2f30dcc6ce72b2bf58.
+// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 2fc8761546216d6734bd6b49226004e9349a958916b1ecbed665486bb511ffee.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-4, shifted 1.2e-5, bernstein 1.4e-6.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-4, shifted 1.1e-5, bernstein 1.4e-6.
 // Error of the f64 fit on its 2097152 data points: MAE 1.43e-3, max 1.27e-2 (recorded by the fitter).
 // Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-3, max 1.22e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.05e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 1.93e-6 (GPU division/sqrt error).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.88e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 2.02e-6 (GPU division/sqrt error).
 // Bound: |f32 - f64| <= 2.12e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
 // Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.43e-3, max 1.27e-2; this f32 code MAE 1.43e-3, max 1.27e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-3 on the measurement grid.
@@ -70,49 +70,49 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b3 = mu_u3 * mu_v2;
     let mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.9382778 * mu_v5 + 1.5333221 * mu_b1 + 0.6026139 * mu_b2 + 0.09413675 * mu_b3 + 0.030491726 * mu_b4 + 0.005371799 * mu_u5;
-    let p_0_1 = 4.0834255 * mu_v5 + 6.922914 * mu_b1 + 3.0355437 * mu_b2 + 0.44868615 * mu_b3 - 0.038875654 * mu_b4 + 0.015729567 * mu_u5;
-    let p_0_2 = 6.650712 * mu_v5 + 11.340487 * mu_b1 + 5.3794656 * mu_b2 + 1.2739154 * mu_b3 + 0.019637408 * mu_b4 + 0.049884923 * mu_u5;
-    let p_0_3 = 5.1658254 * mu_v5 + 8.652399 * mu_b1 + 4.4129233 * mu_b2 + 1.7593898 * mu_b3 + 0.2724007 * mu_b4 + 0.05383274 * mu_u5;
-    let p_0_4 = 2.0075898 * mu_v5 + 3.288277 * mu_b1 + 1.8785158 * mu_b2 + 1.1852279 * mu_b3 + 0.3110811 * mu_b4 + 0.030917872 * mu_u5;
-    let p_0_5 = 0.34218824 * mu_v5 + 0.5610708 * mu_b1 + 0.3607239 * mu_b2 + 0.29379964 * mu_b3 + 0.10198295 * mu_b4 + 0.011471837 * mu_u5;
+    let p_0_0 = 0.9382778 * mu_v5 + 1.5333221 * mu_b1 + 0.6026139 * mu_b2 + 0.09413675 * mu_b3 + 0.030491725 * mu_b4 + 0.0053717997 * mu_u5;
+    let p_0_1 = 4.0834255 * mu_v5 + 6.9229136 * mu_b1 + 3.0355434 * mu_b2 + 0.44868618 * mu_b3 - 0.038875654 * mu_b4 + 0.015729567 * mu_u5;
+    let p_0_2 = 6.650712 * mu_v5 + 11.340487 * mu_b1 + 5.3794656 * mu_b2 + 1.2739155 * mu_b3 + 0.019637415 * mu_b4 + 0.049884927 * mu_u5;
+    let p_0_3 = 5.1658254 * mu_v5 + 8.652398 * mu_b1 + 4.4129233 * mu_b2 + 1.7593898 * mu_b3 + 0.2724007 * mu_b4 + 0.05383274 * mu_u5;
+    let p_0_4 = 2.0075898 * mu_v5 + 3.288277 * mu_b1 + 1.8785157 * mu_b2 + 1.1852279 * mu_b3 + 0.3110811 * mu_b4 + 0.030917872 * mu_u5;
+    let p_0_5 = 0.3421882 * mu_v5 + 0.5610708 * mu_b1 + 0.36072388 * mu_b2 + 0.29379964 * mu_b3 + 0.10198295 * mu_b4 + 0.011471837 * mu_u5;
     let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 1.8706145 * mu_v5 + 3.2166333 * mu_b1 + 1.0450833 * mu_b2 + 0.22851147 * mu_b3 + 0.058655363 * mu_b4 + 0.010745676 * mu_u5;
-    let p_1_1 = 9.639175 * mu_v5 + 16.707085 * mu_b1 + 5.5070953 * mu_b2 + 0.770265 * mu_b3 - 0.044286605 * mu_b4 + 0.032321308 * mu_u5;
-    let p_1_2 = 19.51827 * mu_v5 + 34.71787 * mu_b1 + 13.615708 * mu_b2 + 3.4411366 * mu_b3 + 0.2970917 * mu_b4 + 0.08743844 * mu_u5;
-    let p_1_3 = 18.795357 * mu_v5 + 33.2771 * mu_b1 + 13.5352545 * mu_b2 + 4.323074 * mu_b3 + 0.52762365 * mu_b4 + 0.07343429 * mu_u5;
-    let p_1_4 = 8.6228285 * mu_v5 + 14.761588 * mu_b1 + 5.656684 * mu_b2 + 2.290268 * mu_b3 + 0.40740794 * mu_b4 + 0.042750992 * mu_u5;
-    let p_1_5 = 1.5514362 * mu_v5 + 2.583185 * mu_b1 + 1.0176857 * mu_b2 + 0.60913664 * mu_b3 + 0.15109783 * mu_b4 + 0.009435484 * mu_u5;
+    let p_1_0 = 1.8706145 * mu_v5 + 3.2166333 * mu_b1 + 1.0450833 * mu_b2 + 0.22851147 * mu_b3 + 0.05865536 * mu_b4 + 0.010745676 * mu_u5;
+    let p_1_1 = 9.639175 * mu_v5 + 16.707085 * mu_b1 + 5.507095 * mu_b2 + 0.77026504 * mu_b3 - 0.044286605 * mu_b4 + 0.032321308 * mu_u5;
+    let p_1_2 = 19.51827 * mu_v5 + 34.71787 * mu_b1 + 13.615708 * mu_b2 + 3.4411366 * mu_b3 + 0.29709172 * mu_b4 + 0.08743845 * mu_u5;
+    let p_1_3 = 18.795357 * mu_v5 + 33.2771 * mu_b1 + 13.535254 * mu_b2 + 4.323074 * mu_b3 + 0.52762365 * mu_b4 + 0.07343429 * mu_u5;
+    let p_1_4 = 8.622828 * mu_v5 + 14.761587 * mu_b1 + 5.6566834 * mu_b2 + 2.290268 * mu_b3 + 0.4074079 * mu_b4 + 0.042750992 * mu_u5;
+    let p_1_5 = 1.5514362 * mu_v5 + 2.583185 * mu_b1 + 1.0176855 * mu_b2 + 0.60913664 * mu_b3 + 0.15109782 * mu_b4 + 0.009435484 * mu_u5;
     let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 0.9366952 * mu_v5 + 1.5589913 * mu_b1 + 0.5734941 * mu_b2 + 0.1060588 * mu_b3 + 0.029574126 * mu_b4 + 0.0053732134 * mu_u5;
-    let p_2_1 = 4.9408903 * mu_v5 + 8.316672 * mu_b1 + 2.997075 * mu_b2 + 0.24470599 * mu_b3 - 0.01388036 * mu_b4 + 0.016005345 * mu_u5;
-    let p_2_2 = 10.093759 * mu_v5 + 17.462736 * mu_b1 + 7.2012568 * mu_b2 + 1.2804123 * mu_b3 + 0.18747726 * mu_b4 + 0.0459427 * mu_u5;
-    let p_2_3 = 9.888593 * mu_v5 + 17.31656 * mu_b1 + 7.7007 * mu_b2 + 1.8930943 * mu_b3 + 0.3525307 * mu_b4 + 0.038765818 * mu_u5;
-    let p_2_4 = 4.6953 * mu_v5 + 8.238372 * mu_b1 + 3.8122828 * mu_b2 + 1.1376821 * mu_b3 + 0.23652631 * mu_b4 + 0.021354292 * mu_u5;
-    let p_2_5 = 0.88438153 * mu_v5 + 1.567416 * mu_b1 + 0.7703598 * mu_b2 + 0.26745403 * mu_b3 + 0.05547791 * mu_b4 + 0.0060091545 * mu_u5;
+    let p_2_0 = 0.9366952 * mu_v5 + 1.5589913 * mu_b1 + 0.5734941 * mu_b2 + 0.1060588 * mu_b3 + 0.029574124 * mu_b4 + 0.0053732134 * mu_u5;
+    let p_2_1 = 4.9408903 * mu_v5 + 8.316672 * mu_b1 + 2.9970748 * mu_b2 + 0.24470602 * mu_b3 - 0.01388036 * mu_b4 + 0.016005345 * mu_u5;
+    let p_2_2 = 10.093759 * mu_v5 + 17.462736 * mu_b1 + 7.2012563 * mu_b2 + 1.2804124 * mu_b3 + 0.18747726 * mu_b4 + 0.0459427 * mu_u5;
+    let p_2_3 = 9.888593 * mu_v5 + 17.31656 * mu_b1 + 7.7006993 * mu_b2 + 1.8930943 * mu_b3 + 0.3525307 * mu_b4 + 0.038765818 * mu_u5;
+    let p_2_4 = 4.6953 * mu_v5 + 8.238372 * mu_b1 + 3.8122826 * mu_b2 + 1.1376821 * mu_b3 + 0.23652631 * mu_b4 + 0.021354292 * mu_u5;
+    let p_2_5 = 0.8843815 * mu_v5 + 1.5674158 * mu_b1 + 0.77035975 * mu_b2 + 0.26745403 * mu_b3 + 0.05547791 * mu_b4 + 0.0060091545 * mu_u5;
     let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0 * mu_v5 + 1.6474696 * mu_b1 + 0.7424482 * mu_b2 + 0.11884893 * mu_b3 + 0.02924407 * mu_b4 + 0.005373727 * mu_u5;
-    let q_0_1 = 5.414281 * mu_v5 + 8.96052 * mu_b1 + 3.8063047 * mu_b2 + 0.25912052 * mu_b3 + 0.01506622 * mu_b4 + 0.016010826 * mu_u5;
-    let q_0_2 = 11.882311 * mu_v5 + 20.385622 * mu_b1 + 9.545005 * mu_b2 + 1.2232538 * mu_b3 + 0.23255035 * mu_b4 + 0.050990257 * mu_u5;
-    let q_0_3 = 12.996841 * mu_v5 + 23.162088 * mu_b1 + 12.040324 * mu_b2 + 2.353542 * mu_b3 + 0.5403806 * mu_b4 + 0.061916117 * mu_u5;
+    let q_0_0 = 1.0 * mu_v5 + 1.6474696 * mu_b1 + 0.74244815 * mu_b2 + 0.118848935 * mu_b3 + 0.029244069 * mu_b4 + 0.005373727 * mu_u5;
+    let q_0_1 = 5.4142804 * mu_v5 + 8.96052 * mu_b1 + 3.8063045 * mu_b2 + 0.25912055 * mu_b3 + 0.0150662195 * mu_b4 + 0.016010826 * mu_u5;
+    let q_0_2 = 11.88231 * mu_v5 + 20.38562 * mu_b1 + 9.545004 * mu_b2 + 1.223254 * mu_b3 + 0.23255037 * mu_b4 + 0.05099026 * mu_u5;
+    let q_0_3 = 12.996841 * mu_v5 + 23.162088 * mu_b1 + 12.040324 * mu_b2 + 2.353542 * mu_b3 + 0.54038066 * mu_b4 + 0.061916117 * mu_u5;
     let q_0_4 = 7.0364094 * mu_v5 + 12.934721 * mu_b1 + 7.283964 * mu_b2 + 1.8049115 * mu_b3 + 0.45983043 * mu_b4 + 0.040571272 * mu_u5;
-    let q_0_5 = 1.5075977 * mu_v5 + 2.8452036 * mu_b1 + 1.724788 * mu_b2 + 0.5343517 * mu_b3 + 0.16617803 * mu_b4 + 0.019008316 * mu_u5;
+    let q_0_5 = 1.5075977 * mu_v5 + 2.8452034 * mu_b1 + 1.7247878 * mu_b2 + 0.5343517 * mu_b3 + 0.16617802 * mu_b4 + 0.019008316 * mu_u5;
     let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 2.0 * mu_v5 + 3.2949393 * mu_b1 + 1.4848964 * mu_b2 + 0.23769785 * mu_b3 + 0.05848814 * mu_b4 + 0.010747454 * mu_u5;
-    let q_1_1 = 10.828562 * mu_v5 + 17.92104 * mu_b1 + 7.6126094 * mu_b2 + 0.51824105 * mu_b3 + 0.03013244 * mu_b4 + 0.032021653 * mu_u5;
-    let q_1_2 = 23.764622 * mu_v5 + 40.771244 * mu_b1 + 19.09001 * mu_b2 + 2.4465077 * mu_b3 + 0.4651007 * mu_b4 + 0.101980515 * mu_u5;
-    let q_1_3 = 25.993683 * mu_v5 + 46.324177 * mu_b1 + 24.080648 * mu_b2 + 4.707084 * mu_b3 + 1.0807612 * mu_b4 + 0.12383223 * mu_u5;
+    let q_1_0 = 2.0 * mu_v5 + 3.2949393 * mu_b1 + 1.4848963 * mu_b2 + 0.23769787 * mu_b3 + 0.058488138 * mu_b4 + 0.010747454 * mu_u5;
+    let q_1_1 = 10.828561 * mu_v5 + 17.92104 * mu_b1 + 7.612609 * mu_b2 + 0.5182411 * mu_b3 + 0.030132439 * mu_b4 + 0.032021653 * mu_u5;
+    let q_1_2 = 23.76462 * mu_v5 + 40.77124 * mu_b1 + 19.090008 * mu_b2 + 2.446508 * mu_b3 + 0.46510074 * mu_b4 + 0.10198052 * mu_u5;
+    let q_1_3 = 25.993683 * mu_v5 + 46.324177 * mu_b1 + 24.080648 * mu_b2 + 4.707084 * mu_b3 + 1.0807613 * mu_b4 + 0.12383223 * mu_u5;
     let q_1_4 = 14.072819 * mu_v5 + 25.869442 * mu_b1 + 14.567928 * mu_b2 + 3.609823 * mu_b3 + 0.91966087 * mu_b4 + 0.081142545 * mu_u5;
-    let q_1_5 = 3.0151954 * mu_v5 + 5.6904073 * mu_b1 + 3.449576 * mu_b2 + 1.0687034 * mu_b3 + 0.33235607 * mu_b4 + 0.038016632 * mu_u5;
+    let q_1_5 = 3.0151954 * mu_v5 + 5.690407 * mu_b1 + 3.4495757 * mu_b2 + 1.0687034 * mu_b3 + 0.33235604 * mu_b4 + 0.038016632 * mu_u5;
     let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 1.0 * mu_v5 + 1.6474696 * mu_b1 + 0.7424482 * mu_b2 + 0.11884893 * mu_b3 + 0.02924407 * mu_b4 + 0.005373727 * mu_u5;
-    let q_2_1 = 5.414281 * mu_v5 + 8.96052 * mu_b1 + 3.8063047 * mu_b2 + 0.25912052 * mu_b3 + 0.01506622 * mu_b4 + 0.016010826 * mu_u5;
-    let q_2_2 = 11.882311 * mu_v5 + 20.385622 * mu_b1 + 9.545005 * mu_b2 + 1.2232538 * mu_b3 + 0.23255035 * mu_b4 + 0.050990257 * mu_u5;
-    let q_2_3 = 12.996841 * mu_v5 + 23.162088 * mu_b1 + 12.040324 * mu_b2 + 2.353542 * mu_b3 + 0.5403806 * mu_b4 + 0.061916117 * mu_u5;
+    let q_2_0 = 1.0 * mu_v5 + 1.6474696 * mu_b1 + 0.74244815 * mu_b2 + 0.118848935 * mu_b3 + 0.029244069 * mu_b4 + 0.005373727 * mu_u5;
+    let q_2_1 = 5.4142804 * mu_v5 + 8.96052 * mu_b1 + 3.8063045 * mu_b2 + 0.25912055 * mu_b3 + 0.0150662195 * mu_b4 + 0.016010826 * mu_u5;
+    let q_2_2 = 11.88231 * mu_v5 + 20.38562 * mu_b1 + 9.545004 * mu_b2 + 1.223254 * mu_b3 + 0.23255037 * mu_b4 + 0.05099026 * mu_u5;
+    let q_2_3 = 12.996841 * mu_v5 + 23.162088 * mu_b1 + 12.040324 * mu_b2 + 2.353542 * mu_b3 + 0.54038066 * mu_b4 + 0.061916117 * mu_u5;
     let q_2_4 = 7.0364094 * mu_v5 + 12.934721 * mu_b1 + 7.283964 * mu_b2 + 1.8049115 * mu_b3 + 0.45983043 * mu_b4 + 0.040571272 * mu_u5;
-    let q_2_5 = 1.5075977 * mu_v5 + 2.8452036 * mu_b1 + 1.724788 * mu_b2 + 0.5343517 * mu_b3 + 0.16617803 * mu_b4 + 0.019008316 * mu_u5;
+    let q_2_5 = 1.5075977 * mu_v5 + 2.8452034 * mu_b1 + 1.7247878 * mu_b2 + 0.5343517 * mu_b3 + 0.16617802 * mu_b4 + 0.019008316 * mu_u5;
     let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     let e = p / q;

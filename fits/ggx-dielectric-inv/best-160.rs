@@ -13,17 +13,17 @@
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.803x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 21b3d01c1dbaa865ee878109432abed65e218f0abb77273b45b843116148426e.
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.806x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 422a9d996345fef37e24b06de0ec118a18b696c26fc655ced8b0d86b0dae8987.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-4, shifted 2.8e-5, bernstein 2.7e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 6.93e-4, max 4.17e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.60e-4, max 3.57e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.24e-7 (every op rounded, as this Rust), 6.43e-7 (fused multiply-add), 3.21e-6 (GPU division/sqrt error).
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-4, shifted 3.1e-5, bernstein 2.6e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 6.94e-4, max 4.17e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.61e-4, max 3.57e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.51e-7 (every op rounded, as this Rust), 6.81e-7 (fused multiply-add), 3.19e-6 (GPU division/sqrt error).
 /// Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 6.72e-4, max 4.17e-3; this f32 code MAE 6.72e-4, max 4.17e-3.
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 6.73e-4, max 4.17e-3; this f32 code MAE 6.73e-4, max 4.17e-3.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
-/// Denominator proved >= 1.132e-4 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 1.110e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -77,12 +77,12 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.8816601_f32 * mu_b5_v5 + 2.27601_f32 * mu_b5_b1 + 2.773457_f32 * mu_b5_b2 + 2.2008116_f32 * mu_b5_b3 + 1.2676498_f32 * mu_b5_b4 + 0.70426005_f32 * mu_b5_u5;
-    let p0_0_1 = 12.648688_f32 * mu_b5_v5 + 23.086245_f32 * mu_b5_b1 + 15.874822_f32 * mu_b5_b2 + 8.315408_f32 * mu_b5_b3 + 4.2658534_f32 * mu_b5_b4 + 2.6792853_f32 * mu_b5_u5;
-    let p0_0_2 = 35.747112_f32 * mu_b5_v5 + 62.909054_f32 * mu_b5_b1 + 52.20951_f32 * mu_b5_b2 + 43.12621_f32 * mu_b5_b3 + 22.249819_f32 * mu_b5_b4 + 6.7543287_f32 * mu_b5_u5;
-    let p0_0_3 = 43.198418_f32 * mu_b5_v5 + 77.1063_f32 * mu_b5_b1 + 79.4703_f32 * mu_b5_b2 + 78.0697_f32 * mu_b5_b3 + 37.296265_f32 * mu_b5_b4 + 7.3721237_f32 * mu_b5_u5;
-    let p0_0_4 = 28.600496_f32 * mu_b5_v5 + 62.42341_f32 * mu_b5_b1 + 83.25074_f32 * mu_b5_b2 + 79.685616_f32 * mu_b5_b3 + 33.58216_f32 * mu_b5_b4 + 4.615946_f32 * mu_b5_u5;
-    let p0_0_5 = 8.617089_f32 * mu_b5_v5 + 23.59055_f32 * mu_b5_b1 + 35.23783_f32 * mu_b5_b2 + 30.976767_f32 * mu_b5_b3 + 11.712132_f32 * mu_b5_b4 + 1.2580496_f32 * mu_b5_u5;
+    let p0_0_0 = 0.8806504_f32 * mu_b5_v5 + 2.2905858_f32 * mu_b5_b1 + 2.7900894_f32 * mu_b5_b2 + 2.2057595_f32 * mu_b5_b3 + 1.276387_f32 * mu_b5_b4 + 0.71139264_f32 * mu_b5_u5;
+    let p0_0_1 = 12.630383_f32 * mu_b5_v5 + 23.0704_f32 * mu_b5_b1 + 15.871381_f32 * mu_b5_b2 + 8.340638_f32 * mu_b5_b3 + 4.310749_f32 * mu_b5_b4 + 2.7045302_f32 * mu_b5_u5;
+    let p0_0_2 = 35.732952_f32 * mu_b5_v5 + 62.8233_f32 * mu_b5_b1 + 52.130867_f32 * mu_b5_b2 + 43.212708_f32 * mu_b5_b3 + 22.356516_f32 * mu_b5_b4 + 6.790443_f32 * mu_b5_u5;
+    let p0_0_3 = 43.316433_f32 * mu_b5_v5 + 77.31607_f32 * mu_b5_b1 + 79.745926_f32 * mu_b5_b2 + 78.45143_f32 * mu_b5_b3 + 37.50989_f32 * mu_b5_b4 + 7.410859_f32 * mu_b5_u5;
+    let p0_0_4 = 28.791595_f32 * mu_b5_v5 + 62.87189_f32 * mu_b5_b1 + 83.76516_f32 * mu_b5_b2 + 80.09821_f32 * mu_b5_b3 + 33.745594_f32 * mu_b5_b4 + 4.6352963_f32 * mu_b5_u5;
+    let p0_0_5 = 8.699172_f32 * mu_b5_v5 + 23.803255_f32 * mu_b5_b1 + 35.47671_f32 * mu_b5_b2 + 31.132513_f32 * mu_b5_b3 + 11.761807_f32 * mu_b5_b4 + 1.2625322_f32 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -97,15 +97,15 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 1.0139333_f32 * 1.0_f32;
+    let u0_0_0 = 1.0158439_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 4.334496_f32 * 1.0_f32;
+    let u0_1_0 = 4.3409486_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 6.8029203_f32 * 1.0_f32;
+    let u0_2_0 = 6.810333_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 4.599383_f32 * 1.0_f32;
+    let u0_3_0 = 4.604209_f32 * 1.0_f32;
     let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 1.1656648_f32 * 1.0_f32;
+    let u0_4_0 = 1.1668426_f32 * 1.0_f32;
     let u0_4 = u0_4_0 * 1.0_f32;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -131,101 +131,101 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 1.9257212_f32 * mu_b4_b1 + 2.0515904_f32 * mu_b4_b2 + 0.6237384_f32 * mu_b4_b3 + 0.8003819_f32 * mu_b4_u4;
-    let q0_0_1 = 13.627321_f32 * mu_b4_v4 + 13.503388_f32 * mu_b4_b1 + 5.360722_f32 * mu_b4_b2 + 2.5168562_f32 * mu_b4_b3 + 2.2422523_f32 * mu_b4_u4;
-    let q0_0_2 = 30.270359_f32 * mu_b4_v4 + 30.022375_f32 * mu_b4_b1 + 24.01048_f32 * mu_b4_b2 + 22.637825_f32 * mu_b4_b3 + 6.194436_f32 * mu_b4_u4;
-    let q0_0_3 = 26.37158_f32 * mu_b4_v4 + 31.827707_f32 * mu_b4_b1 + 37.638927_f32 * mu_b4_b2 + 32.28816_f32 * mu_b4_b3 + 5.315409_f32 * mu_b4_u4;
-    let q0_0_4 = 12.183023_f32 * mu_b4_v4 + 27.200928_f32 * mu_b4_b1 + 37.66447_f32 * mu_b4_b2 + 25.361378_f32 * mu_b4_b3 + 4.0173254_f32 * mu_b4_u4;
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 1.9454402_f32 * mu_b4_b1 + 2.060053_f32 * mu_b4_b2 + 0.62611514_f32 * mu_b4_b3 + 0.80941737_f32 * mu_b4_u4;
+    let q0_0_1 = 13.622922_f32 * mu_b4_v4 + 13.501039_f32 * mu_b4_b1 + 5.3608313_f32 * mu_b4_b2 + 2.5561464_f32 * mu_b4_b3 + 2.2650921_f32 * mu_b4_u4;
+    let q0_0_2 = 30.308039_f32 * mu_b4_v4 + 29.982765_f32 * mu_b4_b1 + 24.003136_f32 * mu_b4_b2 + 22.77389_f32 * mu_b4_b3 + 6.2329707_f32 * mu_b4_u4;
+    let q0_0_3 = 26.538568_f32 * mu_b4_v4 + 32.06103_f32 * mu_b4_b1 + 37.86701_f32 * mu_b4_b2 + 32.504307_f32 * mu_b4_b3 + 5.3514175_f32 * mu_b4_u4;
+    let q0_0_4 = 12.314475_f32 * mu_b4_v4 + 27.477955_f32 * mu_b4_b1 + 37.93079_f32 * mu_b4_b2 + 25.50454_f32 * mu_b4_b3 + 4.0351443_f32 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.11548767_f32 * mu_b5_v5 + 0.5460936_f32 * mu_b5_b1 + 0.37825385_f32 * mu_b5_b2 + 0.14644757_f32 * mu_b5_b3 - 0.005053142_f32 * mu_b5_b4 + 0.00032533804_f32 * mu_b5_u5;
-    let p1_0_1 = -0.6701454_f32 * mu_b5_v5 - 1.673059_f32 * mu_b5_b1 - 1.8095297_f32 * mu_b5_b2 + 0.15228201_f32 * mu_b5_b3 - 0.06347115_f32 * mu_b5_b4 - 0.0014787238_f32 * mu_b5_u5;
-    let p1_0_2 = -1.5894156_f32 * mu_b5_v5 - 3.907708_f32 * mu_b5_b1 - 1.1995398_f32 * mu_b5_b2 + 3.0536554_f32 * mu_b5_b3 - 0.09705791_f32 * mu_b5_b4 + 0.009820312_f32 * mu_b5_u5;
-    let p1_0_3 = -1.7660092_f32 * mu_b5_v5 - 3.7142136_f32 * mu_b5_b1 + 1.6299002_f32 * mu_b5_b2 + 4.68532_f32 * mu_b5_b3 - 0.8741069_f32 * mu_b5_b4 + 0.060458723_f32 * mu_b5_u5;
-    let p1_0_4 = -1.3911157_f32 * mu_b5_v5 - 2.5626655_f32 * mu_b5_b1 + 1.6836401_f32 * mu_b5_b2 + 2.8650978_f32 * mu_b5_b3 - 0.88442934_f32 * mu_b5_b4 + 0.1265534_f32 * mu_b5_u5;
-    let p1_0_5 = -0.45734996_f32 * mu_b5_v5 - 0.6793118_f32 * mu_b5_b1 + 0.7573749_f32 * mu_b5_b2 + 0.94298995_f32 * mu_b5_b3 - 0.19126669_f32 * mu_b5_b4 + 0.049258195_f32 * mu_b5_u5;
+    let p1_0_0 = 0.114626125_f32 * mu_b5_v5 + 0.5401561_f32 * mu_b5_b1 + 0.3741077_f32 * mu_b5_b2 + 0.14498872_f32 * mu_b5_b3 - 0.0050040125_f32 * mu_b5_b4 + 0.00032137448_f32 * mu_b5_u5;
+    let p1_0_1 = -0.6684901_f32 * mu_b5_v5 - 1.6672574_f32 * mu_b5_b1 - 1.7965527_f32 * mu_b5_b2 + 0.14943402_f32 * mu_b5_b3 - 0.06292076_f32 * mu_b5_b4 - 0.0014579922_f32 * mu_b5_u5;
+    let p1_0_2 = -1.5886774_f32 * mu_b5_v5 - 3.8844836_f32 * mu_b5_b1 - 1.1817904_f32 * mu_b5_b2 + 3.0254889_f32 * mu_b5_b3 - 0.096146174_f32 * mu_b5_b4 + 0.009745145_f32 * mu_b5_u5;
+    let p1_0_3 = -1.7691114_f32 * mu_b5_v5 - 3.6913311_f32 * mu_b5_b1 + 1.6260946_f32 * mu_b5_b2 + 4.638075_f32 * mu_b5_b3 - 0.8680611_f32 * mu_b5_b4 + 0.059542518_f32 * mu_b5_u5;
+    let p1_0_4 = -1.3922894_f32 * mu_b5_v5 - 2.5481856_f32 * mu_b5_b1 + 1.6742339_f32 * mu_b5_b2 + 2.8376493_f32 * mu_b5_b3 - 0.87588483_f32 * mu_b5_b4 + 0.12527817_f32 * mu_b5_u5;
+    let p1_0_5 = -0.4573552_f32 * mu_b5_v5 - 0.67700464_f32 * mu_b5_b1 + 0.75084925_f32 * mu_b5_b2 + 0.9344578_f32 * mu_b5_b3 - 0.1891332_f32 * mu_b5_b4 + 0.04864416_f32 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 1.1998538_f32 * 1.0_f32;
+    let u1_0_0 = 1.1995744_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = 2.9623969_f32 * 1.0_f32;
+    let u1_1_0 = 2.947519_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = 1.2562336_f32 * 1.0_f32;
+    let u1_2_0 = 1.2266395_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = -0.6669742_f32 * 1.0_f32;
+    let u1_3_0 = -0.67015284_f32 * 1.0_f32;
     let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = -0.35760128_f32 * 1.0_f32;
+    let u1_4_0 = -0.35697094_f32 * 1.0_f32;
     let u1_4 = u1_4_0 * 1.0_f32;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.3915231_f32 * mu_b4_b1 + 1.0447582_f32 * mu_b4_b2 - 0.03278164_f32 * mu_b4_b3 + 0.0024496869_f32 * mu_b4_u4;
-    let q1_0_1 = 2.6500227_f32 * mu_b4_v4 + 5.29975_f32 * mu_b4_b1 + 0.8304947_f32 * mu_b4_b2 - 0.58875746_f32 * mu_b4_b3 - 0.015659858_f32 * mu_b4_u4;
-    let q1_0_2 = 4.1894984_f32 * mu_b4_v4 + 6.959586_f32 * mu_b4_b1 + 0.5398458_f32 * mu_b4_b2 - 0.20647033_f32 * mu_b4_b3 + 0.15457009_f32 * mu_b4_u4;
-    let q1_0_3 = 3.9367678_f32 * mu_b4_v4 + 5.900845_f32 * mu_b4_b1 + 0.66468805_f32 * mu_b4_b2 + 0.103973225_f32 * mu_b4_b3 + 0.1572279_f32 * mu_b4_u4;
-    let q1_0_4 = 1.5645765_f32 * mu_b4_v4 + 2.5186217_f32 * mu_b4_b1 + 0.9142832_f32 * mu_b4_b2 + 0.42360404_f32 * mu_b4_b3 + 0.15183234_f32 * mu_b4_u4;
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.3845723_f32 * mu_b4_b1 + 1.0412741_f32 * mu_b4_b2 - 0.032741953_f32 * mu_b4_b3 + 0.0024370337_f32 * mu_b4_u4;
+    let q1_0_1 = 2.6534324_f32 * mu_b4_v4 + 5.2752533_f32 * mu_b4_b1 + 0.8171997_f32 * mu_b4_b2 - 0.58766496_f32 * mu_b4_b3 - 0.015520265_f32 * mu_b4_u4;
+    let q1_0_2 = 4.198069_f32 * mu_b4_v4 + 6.9265933_f32 * mu_b4_b1 + 0.52213585_f32 * mu_b4_b2 - 0.20389162_f32 * mu_b4_b3 + 0.15378167_f32 * mu_b4_u4;
+    let q1_0_3 = 3.9419034_f32 * mu_b4_v4 + 5.8763013_f32 * mu_b4_b1 + 0.6531541_f32 * mu_b4_b2 + 0.10750484_f32 * mu_b4_b3 + 0.15627189_f32 * mu_b4_u4;
+    let q1_0_4 = 1.563838_f32 * mu_b4_v4 + 2.5066752_f32 * mu_b4_b1 + 0.9063732_f32 * mu_b4_b2 + 0.42275965_f32 * mu_b4_b3 + 0.15110447_f32 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.09641866_f32 * mu_b5_v5 - 0.59505796_f32 * mu_b5_b1 - 0.23275119_f32 * mu_b5_b2 - 0.086636566_f32 * mu_b5_b3 + 0.0037113582_f32 * mu_b5_b4 - 0.00018950606_f32 * mu_b5_u5;
-    let p2_0_1 = 0.96710175_f32 * mu_b5_v5 + 2.3697777_f32 * mu_b5_b1 + 3.0850992_f32 * mu_b5_b2 - 0.07264186_f32 * mu_b5_b3 + 0.027319109_f32 * mu_b5_b4 + 0.00025653193_f32 * mu_b5_u5;
-    let p2_0_2 = 1.6011974_f32 * mu_b5_v5 + 4.1792755_f32 * mu_b5_b1 + 1.7985802_f32 * mu_b5_b2 - 4.3347516_f32 * mu_b5_b3 + 0.014371363_f32 * mu_b5_b4 + 0.0053695566_f32 * mu_b5_u5;
-    let p2_0_3 = 0.7545321_f32 * mu_b5_v5 + 1.8797516_f32 * mu_b5_b1 - 3.2989976_f32 * mu_b5_b2 - 6.8943124_f32 * mu_b5_b3 + 1.0231158_f32 * mu_b5_b4 - 0.07104427_f32 * mu_b5_u5;
-    let p2_0_4 = 0.22251098_f32 * mu_b5_v5 + 0.35311782_f32 * mu_b5_b1 - 3.4468045_f32 * mu_b5_b2 - 3.9102802_f32 * mu_b5_b3 + 1.3039217_f32 * mu_b5_b4 - 0.1453371_f32 * mu_b5_u5;
-    let p2_0_5 = 0.03584279_f32 * mu_b5_v5 - 0.16125923_f32 * mu_b5_b1 - 1.3652084_f32 * mu_b5_b2 - 1.0628456_f32 * mu_b5_b3 + 0.42250398_f32 * mu_b5_b4 - 0.03918242_f32 * mu_b5_u5;
+    let p2_0_0 = -0.095977925_f32 * mu_b5_v5 - 0.59212995_f32 * mu_b5_b1 - 0.23104414_f32 * mu_b5_b2 - 0.08590867_f32 * mu_b5_b3 + 0.003665606_f32 * mu_b5_b4 - 0.00018756092_f32 * mu_b5_u5;
+    let p2_0_1 = 0.9704008_f32 * mu_b5_v5 + 2.3800094_f32 * mu_b5_b1 + 3.0876906_f32 * mu_b5_b2 - 0.06938589_f32 * mu_b5_b3 + 0.027125534_f32 * mu_b5_b4 + 0.00024495486_f32 * mu_b5_u5;
+    let p2_0_2 = 1.604787_f32 * mu_b5_v5 + 4.182576_f32 * mu_b5_b1 + 1.7902478_f32 * mu_b5_b2 - 4.327889_f32 * mu_b5_b3 + 0.013783921_f32 * mu_b5_b4 + 0.0054347995_f32 * mu_b5_u5;
+    let p2_0_3 = 0.7495994_f32 * mu_b5_v5 + 1.8555624_f32 * mu_b5_b1 - 3.3264182_f32 * mu_b5_b2 - 6.889084_f32 * mu_b5_b3 + 1.0213416_f32 * mu_b5_b4 - 0.0706528_f32 * mu_b5_u5;
+    let p2_0_4 = 0.21402915_f32 * mu_b5_v5 + 0.325861_f32 * mu_b5_b1 - 3.4674745_f32 * mu_b5_b2 - 3.90581_f32 * mu_b5_b3 + 1.3031352_f32 * mu_b5_b4 - 0.14470962_f32 * mu_b5_u5;
+    let p2_0_5 = 0.03299927_f32 * mu_b5_v5 - 0.16845861_f32 * mu_b5_b1 - 1.3679309_f32 * mu_b5_b2 - 1.0595257_f32 * mu_b5_b3 + 0.4229237_f32 * mu_b5_b4 - 0.038893297_f32 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0_f32;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = 0.13482416_f32 * 1.0_f32;
+    let u2_0_0 = 0.12964335_f32 * 1.0_f32;
     let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = 1.4899869_f32 * 1.0_f32;
+    let u2_1_0 = 1.4632809_f32 * 1.0_f32;
     let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = 2.5049727_f32 * 1.0_f32;
+    let u2_2_0 = 2.4639997_f32 * 1.0_f32;
     let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = 0.15282436_f32 * 1.0_f32;
+    let u2_3_0 = 0.15150878_f32 * 1.0_f32;
     let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = -0.112659946_f32 * 1.0_f32;
+    let u2_4_0 = -0.11009473_f32 * 1.0_f32;
     let u2_4 = u2_4_0 * 1.0_f32;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 1.8898808_f32 * mu_b4_b1 + 0.60851634_f32 * mu_b4_b2 - 0.022300214_f32 * mu_b4_b3 + 0.0015244124_f32 * mu_b4_u4;
-    let q2_0_1 = 2.8089526_f32 * mu_b4_v4 + 4.778417_f32 * mu_b4_b1 + 0.6014778_f32 * mu_b4_b2 - 0.3476483_f32 * mu_b4_b3 - 0.009821196_f32 * mu_b4_u4;
-    let q2_0_2 = 3.8090484_f32 * mu_b4_v4 + 6.145067_f32 * mu_b4_b1 + 0.43849608_f32 * mu_b4_b2 - 0.25736302_f32 * mu_b4_b3 + 0.09492047_f32 * mu_b4_u4;
-    let q2_0_3 = 3.036708_f32 * mu_b4_v4 + 5.033649_f32 * mu_b4_b1 + 0.99153626_f32 * mu_b4_b2 + 0.23299256_f32 * mu_b4_b3 + 0.20823741_f32 * mu_b4_u4;
-    let q2_0_4 = 1.030975_f32 * mu_b4_v4 + 1.7545683_f32 * mu_b4_b1 + 0.5121777_f32 * mu_b4_b2 + 0.14245816_f32 * mu_b4_b3 + 0.096333995_f32 * mu_b4_u4;
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 1.8839341_f32 * mu_b4_b1 + 0.6041281_f32 * mu_b4_b2 - 0.022075998_f32 * mu_b4_b3 + 0.0015130016_f32 * mu_b4_u4;
+    let q2_0_1 = 2.8113904_f32 * mu_b4_v4 + 4.756544_f32 * mu_b4_b1 + 0.5829771_f32 * mu_b4_b2 - 0.34703603_f32 * mu_b4_b3 - 0.00972763_f32 * mu_b4_u4;
+    let q2_0_2 = 3.8178456_f32 * mu_b4_v4 + 6.123621_f32 * mu_b4_b1 + 0.4209687_f32 * mu_b4_b2 - 0.25312474_f32 * mu_b4_b3 + 0.094380036_f32 * mu_b4_u4;
+    let q2_0_3 = 3.041816_f32 * mu_b4_v4 + 5.017406_f32 * mu_b4_b1 + 0.97991776_f32 * mu_b4_b2 + 0.236361_f32 * mu_b4_b3 + 0.20716496_f32 * mu_b4_u4;
+    let q2_0_4 = 1.0295161_f32 * mu_b4_v4 + 1.7430148_f32 * mu_b4_b1 + 0.5027283_f32 * mu_b4_b2 + 0.14114587_f32 * mu_b4_b3 + 0.09569933_f32 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.041320346_f32 * mu_b5_v5 - 0.35645524_f32 * mu_b5_b1 - 0.029195871_f32 * mu_b5_b2 - 0.03647027_f32 * mu_b5_b3 + 0.0025102342_f32 * mu_b5_b4 - 0.00010654717_f32 * mu_b5_u5;
-    let p3_0_1 = 0.6662848_f32 * mu_b5_v5 + 1.4910331_f32 * mu_b5_b1 + 2.229426_f32 * mu_b5_b2 - 0.22387275_f32 * mu_b5_b3 - 0.0028195805_f32 * mu_b5_b4 + 0.0006005064_f32 * mu_b5_u5;
-    let p3_0_2 = 0.8984597_f32 * mu_b5_v5 + 2.1305256_f32 * mu_b5_b1 + 1.0580858_f32 * mu_b5_b2 - 3.3604815_f32 * mu_b5_b3 + 0.06574197_f32 * mu_b5_b4 + 0.0019826738_f32 * mu_b5_u5;
-    let p3_0_3 = 0.22894864_f32 * mu_b5_v5 + 0.44112563_f32 * mu_b5_b1 - 2.5127158_f32 * mu_b5_b2 - 5.075266_f32 * mu_b5_b3 + 0.8687009_f32 * mu_b5_b4 - 0.031186737_f32 * mu_b5_u5;
-    let p3_0_4 = 0.079322964_f32 * mu_b5_v5 + 0.028811483_f32 * mu_b5_b1 - 2.4197295_f32 * mu_b5_b2 - 2.933131_f32 * mu_b5_b3 + 1.007304_f32 * mu_b5_b4 - 0.053913314_f32 * mu_b5_u5;
-    let p3_0_5 = 0.054277625_f32 * mu_b5_v5 - 0.064033024_f32 * mu_b5_b1 - 0.97706205_f32 * mu_b5_b2 - 0.90045667_f32 * mu_b5_b3 + 0.2749186_f32 * mu_b5_b4 - 0.008402202_f32 * mu_b5_u5;
+    let p3_0_0 = -0.041474536_f32 * mu_b5_v5 - 0.3543456_f32 * mu_b5_b1 - 0.029815663_f32 * mu_b5_b2 - 0.036432862_f32 * mu_b5_b3 + 0.0024902818_f32 * mu_b5_b4 - 0.00010601604_f32 * mu_b5_u5;
+    let p3_0_1 = 0.6659342_f32 * mu_b5_v5 + 1.4919716_f32 * mu_b5_b1 + 2.21789_f32 * mu_b5_b2 - 0.22189493_f32 * mu_b5_b3 - 0.0027239658_f32 * mu_b5_b4 + 0.0006007095_f32 * mu_b5_u5;
+    let p3_0_2 = 0.90082556_f32 * mu_b5_v5 + 2.1284697_f32 * mu_b5_b1 + 1.04191_f32 * mu_b5_b2 - 3.34242_f32 * mu_b5_b3 + 0.066073775_f32 * mu_b5_b4 + 0.0019143639_f32 * mu_b5_u5;
+    let p3_0_3 = 0.23134528_f32 * mu_b5_v5 + 0.42983267_f32 * mu_b5_b1 - 2.5279543_f32 * mu_b5_b2 - 5.050851_f32 * mu_b5_b3 + 0.86551243_f32 * mu_b5_b4 - 0.03092397_f32 * mu_b5_u5;
+    let p3_0_4 = 0.07939742_f32 * mu_b5_v5 + 0.01741475_f32 * mu_b5_b1 - 2.4275672_f32 * mu_b5_b2 - 2.9200776_f32 * mu_b5_b3 + 1.0025188_f32 * mu_b5_b4 - 0.053411033_f32 * mu_b5_u5;
+    let p3_0_5 = 0.054519657_f32 * mu_b5_v5 - 0.06501223_f32 * mu_b5_b1 - 0.974902_f32 * mu_b5_b2 - 0.8956782_f32 * mu_b5_b3 + 0.27354765_f32 * mu_b5_b4 - 0.00822877_f32 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0_f32;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = 0.5023948_f32 * 1.0_f32;
+    let u3_0_0 = 0.50396955_f32 * 1.0_f32;
     let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = 0.36806798_f32 * 1.0_f32;
+    let u3_1_0 = 0.37212738_f32 * 1.0_f32;
     let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -2.614401_f32 * 1.0_f32;
+    let u3_2_0 = -2.600105_f32 * 1.0_f32;
     let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = -0.85594773_f32 * 1.0_f32;
+    let u3_3_0 = -0.85368913_f32 * 1.0_f32;
     let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = -0.099962905_f32 * 1.0_f32;
+    let u3_4_0 = -0.10077795_f32 * 1.0_f32;
     let u3_4 = u3_4_0 * 1.0_f32;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 1.2602885_f32 * mu_b4_b1 + 0.4298195_f32 * mu_b4_b2 - 0.029419413_f32 * mu_b4_b3 + 0.0015686603_f32 * mu_b4_u4;
-    let q3_0_1 = 3.133609_f32 * mu_b4_v4 + 3.8977485_f32 * mu_b4_b1 + 1.483757_f32 * mu_b4_b2 - 0.094333045_f32 * mu_b4_b3 - 0.011874449_f32 * mu_b4_u4;
-    let q3_0_2 = 3.9177148_f32 * mu_b4_v4 + 4.517664_f32 * mu_b4_b1 + 1.2002283_f32 * mu_b4_b2 - 0.54163176_f32 * mu_b4_b3 + 0.061203267_f32 * mu_b4_u4;
-    let q3_0_3 = 3.0413268_f32 * mu_b4_v4 + 4.2821074_f32 * mu_b4_b1 + 1.7247334_f32 * mu_b4_b2 - 0.07511949_f32 * mu_b4_b3 + 0.24300416_f32 * mu_b4_u4;
-    let q3_0_4 = 1.1719743_f32 * mu_b4_v4 + 2.0609179_f32 * mu_b4_b1 + 1.0669643_f32 * mu_b4_b2 + 0.060613126_f32 * mu_b4_b3 + 0.083111405_f32 * mu_b4_u4;
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 1.2570328_f32 * mu_b4_b1 + 0.42894286_f32 * mu_b4_b2 - 0.029151643_f32 * mu_b4_b3 + 0.0015561738_f32 * mu_b4_u4;
+    let q3_0_1 = 3.1400588_f32 * mu_b4_v4 + 3.8786032_f32 * mu_b4_b1 + 1.4640054_f32 * mu_b4_b2 - 0.09674631_f32 * mu_b4_b3 - 0.011735493_f32 * mu_b4_u4;
+    let q3_0_2 = 3.9425719_f32 * mu_b4_v4 + 4.5055923_f32 * mu_b4_b1 + 1.1804875_f32 * mu_b4_b2 - 0.5374276_f32 * mu_b4_b3 + 0.06081312_f32 * mu_b4_u4;
+    let q3_0_3 = 3.0613515_f32 * mu_b4_v4 + 4.271134_f32 * mu_b4_b1 + 1.709309_f32 * mu_b4_b2 - 0.069412276_f32 * mu_b4_b3 + 0.24153294_f32 * mu_b4_u4;
+    let q3_0_4 = 1.1740395_f32 * mu_b4_v4 + 2.0479162_f32 * mu_b4_b1 + 1.0550903_f32 * mu_b4_b2 + 0.061224878_f32 * mu_b4_b3 + 0.0826292_f32 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;

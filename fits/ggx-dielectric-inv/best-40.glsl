@@ -17,7 +17,7 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 710b8e052b984824fc02a79d6f4ad9d9a892c474092e6dbddc08fd0f4262d2e6.
+// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 f4fc6d30f3092757d4a1417914827ad86ebf5c12c6bb055471ef50af8b0baee5.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
 //   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.7e-5, shifted 4.3e-6, bernstein 1.3e-6.
 // Its 2 terms cancel (sum of |term| up to 35x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
@@ -91,7 +91,7 @@ highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float
     highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
     highp float p_2_0 = 1.0119287 * mu_v5 + 3.369643 * mu_b1 + 3.123675 * mu_b2 + 1.443922 * mu_b3 + 0.2699087 * mu_b4 + 0.012426943 * mu_u5;
     highp float p_2_1 = 5.358031 * mu_v5 + 18.974691 * mu_b1 + 19.187296 * mu_b2 + 9.396485 * mu_b3 + 1.8399117 * mu_b4 + 0.11645813 * mu_u5;
-    highp float p_2_2 = 11.327056 * mu_v5 + 40.807625 * mu_b1 + 42.219387 * mu_b2 + 20.82505 * mu_b3 + 4.246403 * mu_b4 + 0.3649639 * mu_u5;
+    highp float p_2_2 = 11.327056 * mu_v5 + 40.807625 * mu_b1 + 42.219387 * mu_b2 + 20.82505 * mu_b3 + 4.246403 * mu_b4 + 0.36496392 * mu_u5;
     highp float p_2_3 = 12.128443 * mu_v5 + 43.206642 * mu_b1 + 44.413956 * mu_b2 + 21.612709 * mu_b3 + 4.4859524 * mu_b4 + 0.41379592 * mu_u5;
     highp float p_2_4 = 6.5046535 * mu_v5 + 22.504799 * mu_b1 + 22.591343 * mu_b2 + 10.770482 * mu_b3 + 2.2512946 * mu_b4 + 0.17440762 * mu_u5;
     highp float p_2_5 = 1.3692743 * mu_v5 + 4.561281 * mu_b1 + 4.454248 * mu_b2 + 2.1513567 * mu_b3 + 0.5022899 * mu_b4 + 0.033653945 * mu_u5;
@@ -99,22 +99,22 @@ highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float
     highp float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
     highp float q_0_0 = 1.0 * mu_v5 + 3.2232351 * mu_b1 + 3.6819923 * mu_b2 + 1.7065663 * mu_b3 + 0.2600962 * mu_b4 + 0.012287051 * mu_u5;
-    highp float q_0_1 = 5.463638 * mu_v5 + 18.02261 * mu_b1 + 21.399324 * mu_b2 + 10.698688 * mu_b3 + 1.9716555 * mu_b4 + 0.11331946 * mu_u5;
-    highp float q_0_2 = 11.908265 * mu_v5 + 40.12666 * mu_b1 + 49.314514 * mu_b2 + 26.266226 * mu_b3 + 5.554229 * mu_b4 + 0.38412106 * mu_u5;
+    highp float q_0_1 = 5.463638 * mu_v5 + 18.02261 * mu_b1 + 21.399324 * mu_b2 + 10.698688 * mu_b3 + 1.9716556 * mu_b4 + 0.11331946 * mu_u5;
+    highp float q_0_2 = 11.908265 * mu_v5 + 40.12666 * mu_b1 + 49.314514 * mu_b2 + 26.266226 * mu_b3 + 5.554229 * mu_b4 + 0.3841211 * mu_u5;
     highp float q_0_3 = 12.942967 * mu_v5 + 44.47667 * mu_b1 + 56.367516 * mu_b2 + 31.672213 * mu_b3 + 7.433716 * mu_b4 + 0.595317 * mu_u5;
     highp float q_0_4 = 7.015692 * mu_v5 + 24.547623 * mu_b1 + 31.978827 * mu_b2 + 18.807669 * mu_b3 + 4.7908854 * mu_b4 + 0.43011335 * mu_u5;
     highp float q_0_5 = 1.5173515 * mu_v5 + 5.398239 * mu_b1 + 7.2084928 * mu_b2 + 4.40956 * mu_b3 + 1.1998395 * mu_b4 + 0.11788501 * mu_u5;
     highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
     highp float q_1_0 = 2.0 * mu_v5 + 6.4464703 * mu_b1 + 7.3639846 * mu_b2 + 3.4131327 * mu_b3 + 0.5201924 * mu_b4 + 0.024574103 * mu_u5;
-    highp float q_1_1 = 10.927276 * mu_v5 + 36.04522 * mu_b1 + 42.79865 * mu_b2 + 21.397375 * mu_b3 + 3.943311 * mu_b4 + 0.22663891 * mu_u5;
-    highp float q_1_2 = 23.81653 * mu_v5 + 80.25332 * mu_b1 + 98.62903 * mu_b2 + 52.53245 * mu_b3 + 11.108458 * mu_b4 + 0.7682421 * mu_u5;
+    highp float q_1_1 = 10.927276 * mu_v5 + 36.04522 * mu_b1 + 42.79865 * mu_b2 + 21.397375 * mu_b3 + 3.9433112 * mu_b4 + 0.22663891 * mu_u5;
+    highp float q_1_2 = 23.81653 * mu_v5 + 80.25332 * mu_b1 + 98.62903 * mu_b2 + 52.53245 * mu_b3 + 11.108458 * mu_b4 + 0.7682422 * mu_u5;
     highp float q_1_3 = 25.885935 * mu_v5 + 88.95334 * mu_b1 + 112.73503 * mu_b2 + 63.344425 * mu_b3 + 14.867432 * mu_b4 + 1.190634 * mu_u5;
     highp float q_1_4 = 14.031384 * mu_v5 + 49.095245 * mu_b1 + 63.957653 * mu_b2 + 37.615337 * mu_b3 + 9.581771 * mu_b4 + 0.8602267 * mu_u5;
     highp float q_1_5 = 3.034703 * mu_v5 + 10.796478 * mu_b1 + 14.4169855 * mu_b2 + 8.81912 * mu_b3 + 2.399679 * mu_b4 + 0.23577002 * mu_u5;
     highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
     highp float q_2_0 = 1.0 * mu_v5 + 3.2232351 * mu_b1 + 3.6819923 * mu_b2 + 1.7065663 * mu_b3 + 0.2600962 * mu_b4 + 0.012287051 * mu_u5;
-    highp float q_2_1 = 5.463638 * mu_v5 + 18.02261 * mu_b1 + 21.399324 * mu_b2 + 10.698688 * mu_b3 + 1.9716555 * mu_b4 + 0.11331946 * mu_u5;
-    highp float q_2_2 = 11.908265 * mu_v5 + 40.12666 * mu_b1 + 49.314514 * mu_b2 + 26.266226 * mu_b3 + 5.554229 * mu_b4 + 0.38412106 * mu_u5;
+    highp float q_2_1 = 5.463638 * mu_v5 + 18.02261 * mu_b1 + 21.399324 * mu_b2 + 10.698688 * mu_b3 + 1.9716556 * mu_b4 + 0.11331946 * mu_u5;
+    highp float q_2_2 = 11.908265 * mu_v5 + 40.12666 * mu_b1 + 49.314514 * mu_b2 + 26.266226 * mu_b3 + 5.554229 * mu_b4 + 0.3841211 * mu_u5;
     highp float q_2_3 = 12.942967 * mu_v5 + 44.47667 * mu_b1 + 56.367516 * mu_b2 + 31.672213 * mu_b3 + 7.433716 * mu_b4 + 0.595317 * mu_u5;
     highp float q_2_4 = 7.015692 * mu_v5 + 24.547623 * mu_b1 + 31.978827 * mu_b2 + 18.807669 * mu_b3 + 4.7908854 * mu_b4 + 0.43011335 * mu_u5;
     highp float q_2_5 = 1.5173515 * mu_v5 + 5.398239 * mu_b1 + 7.2084928 * mu_b2 + 4.40956 * mu_b3 + 1.1998395 * mu_b4 + 0.11788501 * mu_u5;

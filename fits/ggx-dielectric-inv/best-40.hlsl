@@ -16,7 +16,7 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 710b8e052b984824fc02a79d6f4ad9d9a892c474092e6dbddc08fd0f4262d2e6.
+// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 f4fc6d30f3092757d4a1417914827ad86ebf5c12c6bb055471ef50af8b0baee5.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
 //   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.7e-5, shifted 4.3e-6, bernstein 1.3e-6.
 // Its 2 terms cancel (sum of |term| up to 35x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
@@ -90,7 +90,7 @@ float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
     float p_2_0 = 1.0119287f * mu_v5 + 3.369643f * mu_b1 + 3.123675f * mu_b2 + 1.443922f * mu_b3 + 0.2699087f * mu_b4 + 0.012426943f * mu_u5;
     float p_2_1 = 5.358031f * mu_v5 + 18.974691f * mu_b1 + 19.187296f * mu_b2 + 9.396485f * mu_b3 + 1.8399117f * mu_b4 + 0.11645813f * mu_u5;
-    float p_2_2 = 11.327056f * mu_v5 + 40.807625f * mu_b1 + 42.219387f * mu_b2 + 20.82505f * mu_b3 + 4.246403f * mu_b4 + 0.3649639f * mu_u5;
+    float p_2_2 = 11.327056f * mu_v5 + 40.807625f * mu_b1 + 42.219387f * mu_b2 + 20.82505f * mu_b3 + 4.246403f * mu_b4 + 0.36496392f * mu_u5;
     float p_2_3 = 12.128443f * mu_v5 + 43.206642f * mu_b1 + 44.413956f * mu_b2 + 21.612709f * mu_b3 + 4.4859524f * mu_b4 + 0.41379592f * mu_u5;
     float p_2_4 = 6.5046535f * mu_v5 + 22.504799f * mu_b1 + 22.591343f * mu_b2 + 10.770482f * mu_b3 + 2.2512946f * mu_b4 + 0.17440762f * mu_u5;
     float p_2_5 = 1.3692743f * mu_v5 + 4.561281f * mu_b1 + 4.454248f * mu_b2 + 2.1513567f * mu_b3 + 0.5022899f * mu_b4 + 0.033653945f * mu_u5;
@@ -98,22 +98,22 @@ float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
     float q_0_0 = 1.0f * mu_v5 + 3.2232351f * mu_b1 + 3.6819923f * mu_b2 + 1.7065663f * mu_b3 + 0.2600962f * mu_b4 + 0.012287051f * mu_u5;
-    float q_0_1 = 5.463638f * mu_v5 + 18.02261f * mu_b1 + 21.399324f * mu_b2 + 10.698688f * mu_b3 + 1.9716555f * mu_b4 + 0.11331946f * mu_u5;
-    float q_0_2 = 11.908265f * mu_v5 + 40.12666f * mu_b1 + 49.314514f * mu_b2 + 26.266226f * mu_b3 + 5.554229f * mu_b4 + 0.38412106f * mu_u5;
+    float q_0_1 = 5.463638f * mu_v5 + 18.02261f * mu_b1 + 21.399324f * mu_b2 + 10.698688f * mu_b3 + 1.9716556f * mu_b4 + 0.11331946f * mu_u5;
+    float q_0_2 = 11.908265f * mu_v5 + 40.12666f * mu_b1 + 49.314514f * mu_b2 + 26.266226f * mu_b3 + 5.554229f * mu_b4 + 0.3841211f * mu_u5;
     float q_0_3 = 12.942967f * mu_v5 + 44.47667f * mu_b1 + 56.367516f * mu_b2 + 31.672213f * mu_b3 + 7.433716f * mu_b4 + 0.595317f * mu_u5;
     float q_0_4 = 7.015692f * mu_v5 + 24.547623f * mu_b1 + 31.978827f * mu_b2 + 18.807669f * mu_b3 + 4.7908854f * mu_b4 + 0.43011335f * mu_u5;
     float q_0_5 = 1.5173515f * mu_v5 + 5.398239f * mu_b1 + 7.2084928f * mu_b2 + 4.40956f * mu_b3 + 1.1998395f * mu_b4 + 0.11788501f * mu_u5;
     float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
     float q_1_0 = 2.0f * mu_v5 + 6.4464703f * mu_b1 + 7.3639846f * mu_b2 + 3.4131327f * mu_b3 + 0.5201924f * mu_b4 + 0.024574103f * mu_u5;
-    float q_1_1 = 10.927276f * mu_v5 + 36.04522f * mu_b1 + 42.79865f * mu_b2 + 21.397375f * mu_b3 + 3.943311f * mu_b4 + 0.22663891f * mu_u5;
-    float q_1_2 = 23.81653f * mu_v5 + 80.25332f * mu_b1 + 98.62903f * mu_b2 + 52.53245f * mu_b3 + 11.108458f * mu_b4 + 0.7682421f * mu_u5;
+    float q_1_1 = 10.927276f * mu_v5 + 36.04522f * mu_b1 + 42.79865f * mu_b2 + 21.397375f * mu_b3 + 3.9433112f * mu_b4 + 0.22663891f * mu_u5;
+    float q_1_2 = 23.81653f * mu_v5 + 80.25332f * mu_b1 + 98.62903f * mu_b2 + 52.53245f * mu_b3 + 11.108458f * mu_b4 + 0.7682422f * mu_u5;
     float q_1_3 = 25.885935f * mu_v5 + 88.95334f * mu_b1 + 112.73503f * mu_b2 + 63.344425f * mu_b3 + 14.867432f * mu_b4 + 1.190634f * mu_u5;
     float q_1_4 = 14.031384f * mu_v5 + 49.095245f * mu_b1 + 63.957653f * mu_b2 + 37.615337f * mu_b3 + 9.581771f * mu_b4 + 0.8602267f * mu_u5;
     float q_1_5 = 3.034703f * mu_v5 + 10.796478f * mu_b1 + 14.4169855f * mu_b2 + 8.81912f * mu_b3 + 2.399679f * mu_b4 + 0.23577002f * mu_u5;
     float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
     float q_2_0 = 1.0f * mu_v5 + 3.2232351f * mu_b1 + 3.6819923f * mu_b2 + 1.7065663f * mu_b3 + 0.2600962f * mu_b4 + 0.012287051f * mu_u5;
-    float q_2_1 = 5.463638f * mu_v5 + 18.02261f * mu_b1 + 21.399324f * mu_b2 + 10.698688f * mu_b3 + 1.9716555f * mu_b4 + 0.11331946f * mu_u5;
-    float q_2_2 = 11.908265f * mu_v5 + 40.12666f * mu_b1 + 49.314514f * mu_b2 + 26.266226f * mu_b3 + 5.554229f * mu_b4 + 0.38412106f * mu_u5;
+    float q_2_1 = 5.463638f * mu_v5 + 18.02261f * mu_b1 + 21.399324f * mu_b2 + 10.698688f * mu_b3 + 1.9716556f * mu_b4 + 0.11331946f * mu_u5;
+    float q_2_2 = 11.908265f * mu_v5 + 40.12666f * mu_b1 + 49.314514f * mu_b2 + 26.266226f * mu_b3 + 5.554229f * mu_b4 + 0.3841211f * mu_u5;
     float q_2_3 = 12.942967f * mu_v5 + 44.47667f * mu_b1 + 56.367516f * mu_b2 + 31.672213f * mu_b3 + 7.433716f * mu_b4 + 0.595317f * mu_u5;
     float q_2_4 = 7.015692f * mu_v5 + 24.547623f * mu_b1 + 31.978827f * mu_b2 + 18.807669f * mu_b3 + 4.7908854f * mu_b4 + 0.43011335f * mu_u5;
     float q_2_5 = 1.5173515f * mu_v5 + 5.398239f * mu_b1 + 7.2084928f * mu_b2 + 4.40956f * mu_b3 + 1.1998395f * mu_b4 + 0.11788501f * mu_u5;

@@ -14,7 +14,7 @@
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 /// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 710b8e052b984824fc02a79d6f4ad9d9a892c474092e6dbddc08fd0f4262d2e6.
+/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 f4fc6d30f3092757d4a1417914827ad86ebf5c12c6bb055471ef50af8b0baee5.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
 ///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.7e-5, shifted 4.3e-6, bernstein 1.3e-6.
 /// Its 2 terms cancel (sum of |term| up to 35x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
@@ -95,7 +95,7 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
     let p_2_0 = 1.0119287_f32 * mu_v5 + 3.369643_f32 * mu_b1 + 3.123675_f32 * mu_b2 + 1.443922_f32 * mu_b3 + 0.2699087_f32 * mu_b4 + 0.012426943_f32 * mu_u5;
     let p_2_1 = 5.358031_f32 * mu_v5 + 18.974691_f32 * mu_b1 + 19.187296_f32 * mu_b2 + 9.396485_f32 * mu_b3 + 1.8399117_f32 * mu_b4 + 0.11645813_f32 * mu_u5;
-    let p_2_2 = 11.327056_f32 * mu_v5 + 40.807625_f32 * mu_b1 + 42.219387_f32 * mu_b2 + 20.82505_f32 * mu_b3 + 4.246403_f32 * mu_b4 + 0.3649639_f32 * mu_u5;
+    let p_2_2 = 11.327056_f32 * mu_v5 + 40.807625_f32 * mu_b1 + 42.219387_f32 * mu_b2 + 20.82505_f32 * mu_b3 + 4.246403_f32 * mu_b4 + 0.36496392_f32 * mu_u5;
     let p_2_3 = 12.128443_f32 * mu_v5 + 43.206642_f32 * mu_b1 + 44.413956_f32 * mu_b2 + 21.612709_f32 * mu_b3 + 4.4859524_f32 * mu_b4 + 0.41379592_f32 * mu_u5;
     let p_2_4 = 6.5046535_f32 * mu_v5 + 22.504799_f32 * mu_b1 + 22.591343_f32 * mu_b2 + 10.770482_f32 * mu_b3 + 2.2512946_f32 * mu_b4 + 0.17440762_f32 * mu_u5;
     let p_2_5 = 1.3692743_f32 * mu_v5 + 4.561281_f32 * mu_b1 + 4.454248_f32 * mu_b2 + 2.1513567_f32 * mu_b3 + 0.5022899_f32 * mu_b4 + 0.033653945_f32 * mu_u5;
@@ -103,22 +103,22 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
     let q_0_0 = 1.0_f32 * mu_v5 + 3.2232351_f32 * mu_b1 + 3.6819923_f32 * mu_b2 + 1.7065663_f32 * mu_b3 + 0.2600962_f32 * mu_b4 + 0.012287051_f32 * mu_u5;
-    let q_0_1 = 5.463638_f32 * mu_v5 + 18.02261_f32 * mu_b1 + 21.399324_f32 * mu_b2 + 10.698688_f32 * mu_b3 + 1.9716555_f32 * mu_b4 + 0.11331946_f32 * mu_u5;
-    let q_0_2 = 11.908265_f32 * mu_v5 + 40.12666_f32 * mu_b1 + 49.314514_f32 * mu_b2 + 26.266226_f32 * mu_b3 + 5.554229_f32 * mu_b4 + 0.38412106_f32 * mu_u5;
+    let q_0_1 = 5.463638_f32 * mu_v5 + 18.02261_f32 * mu_b1 + 21.399324_f32 * mu_b2 + 10.698688_f32 * mu_b3 + 1.9716556_f32 * mu_b4 + 0.11331946_f32 * mu_u5;
+    let q_0_2 = 11.908265_f32 * mu_v5 + 40.12666_f32 * mu_b1 + 49.314514_f32 * mu_b2 + 26.266226_f32 * mu_b3 + 5.554229_f32 * mu_b4 + 0.3841211_f32 * mu_u5;
     let q_0_3 = 12.942967_f32 * mu_v5 + 44.47667_f32 * mu_b1 + 56.367516_f32 * mu_b2 + 31.672213_f32 * mu_b3 + 7.433716_f32 * mu_b4 + 0.595317_f32 * mu_u5;
     let q_0_4 = 7.015692_f32 * mu_v5 + 24.547623_f32 * mu_b1 + 31.978827_f32 * mu_b2 + 18.807669_f32 * mu_b3 + 4.7908854_f32 * mu_b4 + 0.43011335_f32 * mu_u5;
     let q_0_5 = 1.5173515_f32 * mu_v5 + 5.398239_f32 * mu_b1 + 7.2084928_f32 * mu_b2 + 4.40956_f32 * mu_b3 + 1.1998395_f32 * mu_b4 + 0.11788501_f32 * mu_u5;
     let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
     let q_1_0 = 2.0_f32 * mu_v5 + 6.4464703_f32 * mu_b1 + 7.3639846_f32 * mu_b2 + 3.4131327_f32 * mu_b3 + 0.5201924_f32 * mu_b4 + 0.024574103_f32 * mu_u5;
-    let q_1_1 = 10.927276_f32 * mu_v5 + 36.04522_f32 * mu_b1 + 42.79865_f32 * mu_b2 + 21.397375_f32 * mu_b3 + 3.943311_f32 * mu_b4 + 0.22663891_f32 * mu_u5;
-    let q_1_2 = 23.81653_f32 * mu_v5 + 80.25332_f32 * mu_b1 + 98.62903_f32 * mu_b2 + 52.53245_f32 * mu_b3 + 11.108458_f32 * mu_b4 + 0.7682421_f32 * mu_u5;
+    let q_1_1 = 10.927276_f32 * mu_v5 + 36.04522_f32 * mu_b1 + 42.79865_f32 * mu_b2 + 21.397375_f32 * mu_b3 + 3.9433112_f32 * mu_b4 + 0.22663891_f32 * mu_u5;
+    let q_1_2 = 23.81653_f32 * mu_v5 + 80.25332_f32 * mu_b1 + 98.62903_f32 * mu_b2 + 52.53245_f32 * mu_b3 + 11.108458_f32 * mu_b4 + 0.7682422_f32 * mu_u5;
     let q_1_3 = 25.885935_f32 * mu_v5 + 88.95334_f32 * mu_b1 + 112.73503_f32 * mu_b2 + 63.344425_f32 * mu_b3 + 14.867432_f32 * mu_b4 + 1.190634_f32 * mu_u5;
     let q_1_4 = 14.031384_f32 * mu_v5 + 49.095245_f32 * mu_b1 + 63.957653_f32 * mu_b2 + 37.615337_f32 * mu_b3 + 9.581771_f32 * mu_b4 + 0.8602267_f32 * mu_u5;
     let q_1_5 = 3.034703_f32 * mu_v5 + 10.796478_f32 * mu_b1 + 14.4169855_f32 * mu_b2 + 8.81912_f32 * mu_b3 + 2.399679_f32 * mu_b4 + 0.23577002_f32 * mu_u5;
     let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
     let q_2_0 = 1.0_f32 * mu_v5 + 3.2232351_f32 * mu_b1 + 3.6819923_f32 * mu_b2 + 1.7065663_f32 * mu_b3 + 0.2600962_f32 * mu_b4 + 0.012287051_f32 * mu_u5;
-    let q_2_1 = 5.463638_f32 * mu_v5 + 18.02261_f32 * mu_b1 + 21.399324_f32 * mu_b2 + 10.698688_f32 * mu_b3 + 1.9716555_f32 * mu_b4 + 0.11331946_f32 * mu_u5;
-    let q_2_2 = 11.908265_f32 * mu_v5 + 40.12666_f32 * mu_b1 + 49.314514_f32 * mu_b2 + 26.266226_f32 * mu_b3 + 5.554229_f32 * mu_b4 + 0.38412106_f32 * mu_u5;
+    let q_2_1 = 5.463638_f32 * mu_v5 + 18.02261_f32 * mu_b1 + 21.399324_f32 * mu_b2 + 10.698688_f32 * mu_b3 + 1.9716556_f32 * mu_b4 + 0.11331946_f32 * mu_u5;
+    let q_2_2 = 11.908265_f32 * mu_v5 + 40.12666_f32 * mu_b1 + 49.314514_f32 * mu_b2 + 26.266226_f32 * mu_b3 + 5.554229_f32 * mu_b4 + 0.3841211_f32 * mu_u5;
     let q_2_3 = 12.942967_f32 * mu_v5 + 44.47667_f32 * mu_b1 + 56.367516_f32 * mu_b2 + 31.672213_f32 * mu_b3 + 7.433716_f32 * mu_b4 + 0.595317_f32 * mu_u5;
     let q_2_4 = 7.015692_f32 * mu_v5 + 24.547623_f32 * mu_b1 + 31.978827_f32 * mu_b2 + 18.807669_f32 * mu_b3 + 4.7908854_f32 * mu_b4 + 0.43011335_f32 * mu_u5;
     let q_2_5 = 1.5173515_f32 * mu_v5 + 5.398239_f32 * mu_b1 + 7.2084928_f32 * mu_b2 + 4.40956_f32 * mu_b3 + 1.1998395_f32 * mu_b4 + 0.11788501_f32 * mu_u5;

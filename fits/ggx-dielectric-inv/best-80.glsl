@@ -17,12 +17,12 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 29230c7a8979ed661546886067f8f6280720983ad7490ede0947c60c474e7524.
+// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 0c359de110e7f40024e177499c79a0fe6675ffde0a238c1e19748318c7085a6f.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.5e-4, shifted 8.6e-6, bernstein 1.4e-6.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-4, shifted 1.2e-5, bernstein 1.4e-6.
 // Error of the f64 fit on its 2097152 data points: MAE 1.94e-3, max 1.13e-2 (recorded by the fitter).
 // Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.90e-3, max 9.07e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.57e-7 (every op rounded, as this Rust), 4.79e-7 (fused multiply-add), 1.84e-6 (GPU division/sqrt error).
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.07e-7 (every op rounded, as this Rust), 4.57e-7 (fused multiply-add), 1.78e-6 (GPU division/sqrt error).
 // Bound: |f32 - f64| <= 2.02e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
 // Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.93e-3, max 1.13e-2; this f32 code MAE 1.93e-3, max 1.13e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
@@ -75,48 +75,48 @@ highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float
     highp float mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
     highp float p_0_0 = 0.99603087 * mu_v5 + 1.299391 * mu_b1 + 0.41289765 * mu_b2 + 0.12994254 * mu_b3 + 0.03127232 * mu_b4 + 0.0048000007 * mu_u5;
-    highp float p_0_1 = 3.7568603 * mu_v5 + 4.70099 * mu_b1 + 1.5670979 * mu_b2 + 0.63294715 * mu_b3 + 0.048825394 * mu_b4 + 0.0085099675 * mu_u5;
-    highp float p_0_2 = 5.7092104 * mu_v5 + 6.9993043 * mu_b1 + 2.7422583 * mu_b2 + 1.503148 * mu_b3 + 0.1622464 * mu_b4 + 0.050589725 * mu_u5;
-    highp float p_0_3 = 4.496664 * mu_v5 + 5.6634564 * mu_b1 + 2.810969 * mu_b2 + 1.8180217 * mu_b3 + 0.30762777 * mu_b4 + 0.07311003 * mu_u5;
-    highp float p_0_4 = 1.9189006 * mu_v5 + 2.7109804 * mu_b1 + 1.8398018 * mu_b2 + 1.340193 * mu_b3 + 0.37860683 * mu_b4 + 0.055799156 * mu_u5;
-    highp float p_0_5 = 0.36195505 * mu_v5 + 0.6019172 * mu_b1 + 0.5302661 * mu_b2 + 0.43569025 * mu_b3 + 0.17236009 * mu_b4 + 0.02090643 * mu_u5;
+    highp float p_0_1 = 3.7568603 * mu_v5 + 4.70099 * mu_b1 + 1.5670979 * mu_b2 + 0.6329471 * mu_b3 + 0.048825387 * mu_b4 + 0.008509967 * mu_u5;
+    highp float p_0_2 = 5.7092104 * mu_v5 + 6.9993043 * mu_b1 + 2.742258 * mu_b2 + 1.503148 * mu_b3 + 0.16224639 * mu_b4 + 0.05058972 * mu_u5;
+    highp float p_0_3 = 4.496664 * mu_v5 + 5.6634564 * mu_b1 + 2.810969 * mu_b2 + 1.8180215 * mu_b3 + 0.30762774 * mu_b4 + 0.07311002 * mu_u5;
+    highp float p_0_4 = 1.9189006 * mu_v5 + 2.7109807 * mu_b1 + 1.8398018 * mu_b2 + 1.340193 * mu_b3 + 0.3786068 * mu_b4 + 0.055799156 * mu_u5;
+    highp float p_0_5 = 0.36195505 * mu_v5 + 0.60191727 * mu_b1 + 0.5302661 * mu_b2 + 0.43569025 * mu_b3 + 0.17236008 * mu_b4 + 0.02090643 * mu_u5;
     highp float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
     highp float p_1_0 = 2.0103648 * mu_v5 + 2.815093 * mu_b1 + 0.5458614 * mu_b2 + 0.31140602 * mu_b3 + 0.061856307 * mu_b4 + 0.009571417 * mu_u5;
-    highp float p_1_1 = 8.949925 * mu_v5 + 12.1788645 * mu_b1 + 2.2212627 * mu_b2 + 1.6523465 * mu_b3 + 0.08805608 * mu_b4 + 0.017973233 * mu_u5;
-    highp float p_1_2 = 16.50218 * mu_v5 + 22.391752 * mu_b1 + 5.1050906 * mu_b2 + 4.7139473 * mu_b3 + 0.4132072 * mu_b4 + 0.09465955 * mu_u5;
-    highp float p_1_3 = 15.47605 * mu_v5 + 20.670193 * mu_b1 + 5.1485248 * mu_b2 + 5.5994396 * mu_b3 + 0.5801482 * mu_b4 + 0.11496996 * mu_u5;
-    highp float p_1_4 = 7.4090614 * mu_v5 + 9.771303 * mu_b1 + 2.8459945 * mu_b2 + 3.5939875 * mu_b3 + 0.59397495 * mu_b4 + 0.073680684 * mu_u5;
-    highp float p_1_5 = 1.4680622 * mu_v5 + 1.9912463 * mu_b1 + 0.8514738 * mu_b2 + 1.0918692 * mu_b3 + 0.2629916 * mu_b4 + 0.01739994 * mu_u5;
+    highp float p_1_1 = 8.949925 * mu_v5 + 12.178865 * mu_b1 + 2.2212627 * mu_b2 + 1.6523464 * mu_b3 + 0.08805607 * mu_b4 + 0.017973231 * mu_u5;
+    highp float p_1_2 = 16.50218 * mu_v5 + 22.391752 * mu_b1 + 5.1050906 * mu_b2 + 4.713947 * mu_b3 + 0.41320717 * mu_b4 + 0.09465955 * mu_u5;
+    highp float p_1_3 = 15.47605 * mu_v5 + 20.670195 * mu_b1 + 5.1485248 * mu_b2 + 5.5994396 * mu_b3 + 0.58014816 * mu_b4 + 0.11496996 * mu_u5;
+    highp float p_1_4 = 7.4090614 * mu_v5 + 9.771303 * mu_b1 + 2.8459945 * mu_b2 + 3.5939872 * mu_b3 + 0.59397495 * mu_b4 + 0.073680684 * mu_u5;
+    highp float p_1_5 = 1.4680622 * mu_v5 + 1.9912465 * mu_b1 + 0.8514738 * mu_b2 + 1.0918692 * mu_b3 + 0.26299158 * mu_b4 + 0.01739994 * mu_u5;
     highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    highp float p_2_0 = 0.9964058 * mu_v5 + 1.3379264 * mu_b1 + 0.36887184 * mu_b2 + 0.13771968 * mu_b3 + 0.0312954 * mu_b4 + 0.00478872 * mu_u5;
-    highp float p_2_1 = 4.648939 * mu_v5 + 5.8998823 * mu_b1 + 1.4213539 * mu_b2 + 0.6351263 * mu_b3 + 0.054246385 * mu_b4 + 0.00883956 * mu_u5;
-    highp float p_2_2 = 8.77815 * mu_v5 + 10.755566 * mu_b1 + 2.8713403 * mu_b2 + 1.9540763 * mu_b3 + 0.2705825 * mu_b4 + 0.049048096 * mu_u5;
-    highp float p_2_3 = 8.434971 * mu_v5 + 10.179696 * mu_b1 + 3.3101523 * mu_b2 + 2.7380812 * mu_b3 + 0.39306697 * mu_b4 + 0.05903011 * mu_u5;
-    highp float p_2_4 = 4.19339 * mu_v5 + 5.235257 * mu_b1 + 2.3362973 * mu_b2 + 1.9784253 * mu_b3 + 0.3030015 * mu_b4 + 0.03831469 * mu_u5;
+    highp float p_2_0 = 0.9964058 * mu_v5 + 1.3379264 * mu_b1 + 0.36887184 * mu_b2 + 0.13771968 * mu_b3 + 0.0312954 * mu_b4 + 0.0047887196 * mu_u5;
+    highp float p_2_1 = 4.648939 * mu_v5 + 5.8998823 * mu_b1 + 1.4213539 * mu_b2 + 0.63512623 * mu_b3 + 0.05424638 * mu_b4 + 0.008839559 * mu_u5;
+    highp float p_2_2 = 8.77815 * mu_v5 + 10.755566 * mu_b1 + 2.87134 * mu_b2 + 1.9540762 * mu_b3 + 0.27058247 * mu_b4 + 0.049048096 * mu_u5;
+    highp float p_2_3 = 8.434971 * mu_v5 + 10.179696 * mu_b1 + 3.3101523 * mu_b2 + 2.7380812 * mu_b3 + 0.39306694 * mu_b4 + 0.059030104 * mu_u5;
+    highp float p_2_4 = 4.19339 * mu_v5 + 5.235257 * mu_b1 + 2.3362973 * mu_b2 + 1.9784251 * mu_b3 + 0.3030015 * mu_b4 + 0.038314685 * mu_u5;
     highp float p_2_5 = 0.8706533 * mu_v5 + 1.1822605 * mu_b1 + 0.71118283 * mu_b2 + 0.56319344 * mu_b3 + 0.09065593 * mu_b4 + 0.010899817 * mu_u5;
     highp float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     highp float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = 1.0 * mu_v5 + 1.3552738 * mu_b1 + 0.4956207 * mu_b2 + 0.16557726 * mu_b3 + 0.03002297 * mu_b4 + 0.0047925483 * mu_u5;
-    highp float q_0_1 = 4.710113 * mu_v5 + 6.1571174 * mu_b1 + 2.0642152 * mu_b2 + 0.6836293 * mu_b3 + 0.07569477 * mu_b4 + 0.0092759365 * mu_u5;
-    highp float q_0_2 = 9.064212 * mu_v5 + 11.927741 * mu_b1 + 4.5747404 * mu_b2 + 2.0265558 * mu_b3 + 0.36514655 * mu_b4 + 0.049801763 * mu_u5;
+    highp float q_0_0 = 1.0 * mu_v5 + 1.3552738 * mu_b1 + 0.4956207 * mu_b2 + 0.16557726 * mu_b3 + 0.030022971 * mu_b4 + 0.004792548 * mu_u5;
+    highp float q_0_1 = 4.710113 * mu_v5 + 6.1571174 * mu_b1 + 2.0642152 * mu_b2 + 0.6836292 * mu_b3 + 0.07569477 * mu_b4 + 0.009275936 * mu_u5;
+    highp float q_0_2 = 9.064212 * mu_v5 + 11.927741 * mu_b1 + 4.5747404 * mu_b2 + 2.0265558 * mu_b3 + 0.36514652 * mu_b4 + 0.049801763 * mu_u5;
     highp float q_0_3 = 8.890944 * mu_v5 + 12.167382 * mu_b1 + 5.8017945 * mu_b2 + 3.0987313 * mu_b3 + 0.6532385 * mu_b4 + 0.07986362 * mu_u5;
-    highp float q_0_4 = 4.475618 * mu_v5 + 6.633218 * mu_b1 + 4.11728 * mu_b2 + 2.4835808 * mu_b3 + 0.5932792 * mu_b4 + 0.069378465 * mu_u5;
-    highp float q_0_5 = 0.93877333 * mu_v5 + 1.5917337 * mu_b1 + 1.3216316 * mu_b2 + 0.89335334 * mu_b3 + 0.25951537 * mu_b4 + 0.034833215 * mu_u5;
+    highp float q_0_4 = 4.475618 * mu_v5 + 6.633218 * mu_b1 + 4.11728 * mu_b2 + 2.4835808 * mu_b3 + 0.5932791 * mu_b4 + 0.069378465 * mu_u5;
+    highp float q_0_5 = 0.93877333 * mu_v5 + 1.5917338 * mu_b1 + 1.3216317 * mu_b2 + 0.89335334 * mu_b3 + 0.25951537 * mu_b4 + 0.034833215 * mu_u5;
     highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    highp float q_1_0 = 2.0 * mu_v5 + 2.7105477 * mu_b1 + 0.9912414 * mu_b2 + 0.33115453 * mu_b3 + 0.06004594 * mu_b4 + 0.0095850965 * mu_u5;
-    highp float q_1_1 = 9.420226 * mu_v5 + 12.314235 * mu_b1 + 4.1284304 * mu_b2 + 1.3672585 * mu_b3 + 0.15138954 * mu_b4 + 0.018551873 * mu_u5;
-    highp float q_1_2 = 18.128424 * mu_v5 + 23.855482 * mu_b1 + 9.149481 * mu_b2 + 4.0531116 * mu_b3 + 0.7302931 * mu_b4 + 0.09960353 * mu_u5;
+    highp float q_1_0 = 2.0 * mu_v5 + 2.7105477 * mu_b1 + 0.9912414 * mu_b2 + 0.33115453 * mu_b3 + 0.060045943 * mu_b4 + 0.009585096 * mu_u5;
+    highp float q_1_1 = 9.420226 * mu_v5 + 12.314235 * mu_b1 + 4.1284304 * mu_b2 + 1.3672584 * mu_b3 + 0.15138954 * mu_b4 + 0.018551871 * mu_u5;
+    highp float q_1_2 = 18.128424 * mu_v5 + 23.855482 * mu_b1 + 9.149481 * mu_b2 + 4.0531116 * mu_b3 + 0.73029304 * mu_b4 + 0.09960353 * mu_u5;
     highp float q_1_3 = 17.781887 * mu_v5 + 24.334764 * mu_b1 + 11.603589 * mu_b2 + 6.1974626 * mu_b3 + 1.306477 * mu_b4 + 0.15972725 * mu_u5;
-    highp float q_1_4 = 8.951236 * mu_v5 + 13.266436 * mu_b1 + 8.23456 * mu_b2 + 4.9671617 * mu_b3 + 1.1865584 * mu_b4 + 0.13875693 * mu_u5;
-    highp float q_1_5 = 1.8775467 * mu_v5 + 3.1834674 * mu_b1 + 2.643263 * mu_b2 + 1.7867067 * mu_b3 + 0.51903075 * mu_b4 + 0.06966643 * mu_u5;
+    highp float q_1_4 = 8.951236 * mu_v5 + 13.266436 * mu_b1 + 8.23456 * mu_b2 + 4.9671617 * mu_b3 + 1.1865582 * mu_b4 + 0.13875693 * mu_u5;
+    highp float q_1_5 = 1.8775467 * mu_v5 + 3.1834676 * mu_b1 + 2.6432633 * mu_b2 + 1.7867067 * mu_b3 + 0.51903075 * mu_b4 + 0.06966643 * mu_u5;
     highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    highp float q_2_0 = 1.0 * mu_v5 + 1.3552738 * mu_b1 + 0.4956207 * mu_b2 + 0.16557726 * mu_b3 + 0.03002297 * mu_b4 + 0.0047925483 * mu_u5;
-    highp float q_2_1 = 4.710113 * mu_v5 + 6.1571174 * mu_b1 + 2.0642152 * mu_b2 + 0.6836293 * mu_b3 + 0.07569477 * mu_b4 + 0.0092759365 * mu_u5;
-    highp float q_2_2 = 9.064212 * mu_v5 + 11.927741 * mu_b1 + 4.5747404 * mu_b2 + 2.0265558 * mu_b3 + 0.36514655 * mu_b4 + 0.049801763 * mu_u5;
+    highp float q_2_0 = 1.0 * mu_v5 + 1.3552738 * mu_b1 + 0.4956207 * mu_b2 + 0.16557726 * mu_b3 + 0.030022971 * mu_b4 + 0.004792548 * mu_u5;
+    highp float q_2_1 = 4.710113 * mu_v5 + 6.1571174 * mu_b1 + 2.0642152 * mu_b2 + 0.6836292 * mu_b3 + 0.07569477 * mu_b4 + 0.009275936 * mu_u5;
+    highp float q_2_2 = 9.064212 * mu_v5 + 11.927741 * mu_b1 + 4.5747404 * mu_b2 + 2.0265558 * mu_b3 + 0.36514652 * mu_b4 + 0.049801763 * mu_u5;
     highp float q_2_3 = 8.890944 * mu_v5 + 12.167382 * mu_b1 + 5.8017945 * mu_b2 + 3.0987313 * mu_b3 + 0.6532385 * mu_b4 + 0.07986362 * mu_u5;
-    highp float q_2_4 = 4.475618 * mu_v5 + 6.633218 * mu_b1 + 4.11728 * mu_b2 + 2.4835808 * mu_b3 + 0.5932792 * mu_b4 + 0.069378465 * mu_u5;
-    highp float q_2_5 = 0.93877333 * mu_v5 + 1.5917337 * mu_b1 + 1.3216316 * mu_b2 + 0.89335334 * mu_b3 + 0.25951537 * mu_b4 + 0.034833215 * mu_u5;
+    highp float q_2_4 = 4.475618 * mu_v5 + 6.633218 * mu_b1 + 4.11728 * mu_b2 + 2.4835808 * mu_b3 + 0.5932791 * mu_b4 + 0.069378465 * mu_u5;
+    highp float q_2_5 = 0.93877333 * mu_v5 + 1.5917338 * mu_b1 + 1.3216317 * mu_b2 + 0.89335334 * mu_b3 + 0.25951537 * mu_b4 + 0.034833215 * mu_u5;
     highp float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     highp float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     highp float e = p / q;

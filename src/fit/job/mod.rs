@@ -153,8 +153,14 @@ fn progress_line(r: &FitResult) -> String {
 /// A fit whose MAE is already beyond [`super::sweep::MAE_TOLERANCE`] × the lowest MAE under
 /// the smallest budget it fits in is not refitted: a minimax refit trades MAE for max error
 /// (its MAE is 1.6–3× the least-squares one on the albedo tables), so it could not be chosen
-/// under that budget or any larger one.
-fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
+/// under that budget or any larger one. After these, in record order, every other usable
+/// least-squares fit within that bound that `always` names (the plan's forms marked
+/// [`PlannedForm::minimax_refit`]).
+fn minimax_candidates(
+    records: &[FitRecord],
+    budgets: &[usize],
+    always: impl Fn(&FitRecord) -> bool,
+) -> Vec<usize> {
     let lowest_mae = |budget: usize| {
         records
             .iter()
@@ -197,6 +203,16 @@ fn minimax_candidates(records: &[FitRecord], budgets: &[usize]) -> Vec<usize> {
             if !chosen.contains(&i) {
                 chosen.push(i);
             }
+        }
+    }
+    for (i, r) in records.iter().enumerate() {
+        if r.usable
+            && r.fit.objective == Objective::LeastSquares
+            && hopeful(i)
+            && always(r)
+            && !chosen.contains(&i)
+        {
+            chosen.push(i);
         }
     }
     chosen
@@ -391,7 +407,8 @@ pub fn sweep_fits_trained(
         records.push(rec);
     }
     if plan.minimax_refits && plan.objective == Objective::LeastSquares {
-        for i in minimax_candidates(&records, &plan.budgets) {
+        let always = |r: &FitRecord| plan.always_refit(&r.fit.form, &r.fit.approximant.transforms);
+        for i in minimax_candidates(&records, &plan.budgets, always) {
             let ls = &records[i].fit;
             let transforms = ls.approximant.transforms.clone();
             let t = std::time::Instant::now();
@@ -731,6 +748,97 @@ mod tests {
         outcome.choose_best_excluding(&all);
         assert_eq!(outcome.best[0].index, None);
         assert!(outcome.best_record(20).is_none());
+    }
+
+    /// A planned form marked for its minimax refit gets one whatever its least-squares rank;
+    /// the other refits stay as they were.
+    #[test]
+    fn a_form_marked_for_minimax_is_refitted_whatever_its_rank() {
+        let ax: Vec<f64> = (0..11).map(|i| i as f64 / 10.0).collect();
+        let mut values = Vec::new();
+        for &r in &ax {
+            for &mu in &ax {
+                values.push(1.0 / (1.2 + r * mu) + 0.1 * (2.0 * r).sin() * mu.sqrt());
+            }
+        }
+        let names = vec!["r".to_string(), "mu".to_string()];
+        let data = FitData::from_grid(names.clone(), &[ax.clone(), ax.clone()], values).unwrap();
+        let input = FitInput {
+            source: Source {
+                kind: "json_grid".into(),
+                model: None,
+                path: None,
+                content_hash: "test".into(),
+                resolution: Some(vec![11; 2]),
+                channel: "E".into(),
+                points: data.len(),
+                restricted_to: None,
+            },
+            data,
+            grid: Some(vec![ax.clone(), ax]),
+            table: None,
+        };
+        let identity = vec![InputTransform::Identity; 2];
+        let forms: Vec<PlannedForm> = ["tensor:2,5", "tensor:3,5", "tensor:4,5", "tensor:5,5"]
+            .iter()
+            .map(|s| PlannedForm::new(crate::fit::parse_form(s, &names).unwrap(), identity.clone()))
+            .collect();
+        let plan = SweepPlan {
+            polynomial_degrees: vec![3],
+            rational_degrees: Vec::new(),
+            rational_pairs: Vec::new(),
+            forms,
+            transform_sets: vec![identity.clone()],
+            objective: Objective::LeastSquares,
+            max_fit_points: 0,
+            fit_grading: Vec::new(),
+            training_points: 0,
+            budgets: vec![40],
+            minimax_refits: true,
+            lp_polish: Vec::new(),
+        };
+        let refitted = |o: &SweepOutcome, form: &Form| {
+            o.records
+                .iter()
+                .filter(|r| r.fit.objective == Objective::Minimax && &r.fit.form == form)
+                .count()
+        };
+        let plain = sweep_fits(&input, &plan, &mut |_| {}).unwrap();
+        // a planned form the rank leaves out, though its MAE would let it be chosen
+        let lowest = plain
+            .records
+            .iter()
+            .map(|r| r.fit.metrics.mae)
+            .fold(f64::INFINITY, f64::min);
+        let skipped = plan
+            .forms
+            .iter()
+            .position(|f| {
+                refitted(&plain, &f.form) == 0
+                    && plain.records.iter().any(|r| {
+                        r.fit.form == f.form
+                            && r.fit.metrics.mae <= super::super::sweep::MAE_TOLERANCE * lowest
+                    })
+            })
+            .expect("a hopeful planned form left out by rank");
+        let mut marked = plan.clone();
+        marked.forms[skipped] = marked.forms[skipped].clone().with_minimax_refit();
+        assert!(serde_json::to_string(&marked)
+            .unwrap()
+            .contains("\"minimax_refit\":true"));
+        assert!(!serde_json::to_string(&plan)
+            .unwrap()
+            .contains("\"minimax_refit\":"));
+        let both = sweep_fits(&input, &marked, &mut |_| {}).unwrap();
+        // its minimax fit and the kept iterates of its Lawson path are rows of their own
+        let extra = refitted(&both, &plan.forms[skipped].form);
+        assert!(extra >= 1);
+        assert_eq!(both.records.len(), plain.records.len() + extra);
+        for f in &plan.forms {
+            if f.form != plan.forms[skipped].form {
+                assert_eq!(refitted(&both, &f.form), refitted(&plain, &f.form));
+            }
+        }
     }
 
     /// A solver that stopped short is reported as what it was: Lawson reweighting of a

@@ -55,6 +55,11 @@ pub struct PlannedForm {
     /// plan's ([`SweepPlan::lp_polish`]); empty: the plan's.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub lp_polish: Vec<f64>,
+    /// Refit this form for minimax error whenever its least-squares fit is usable and could be
+    /// chosen under its budget, not only when it ranks among the budget's best least-squares
+    /// fits (a structured form's least-squares rank says little of its minimax error).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub minimax_refit: bool,
 }
 
 impl PlannedForm {
@@ -64,7 +69,14 @@ impl PlannedForm {
             form,
             transforms,
             lp_polish: Vec::new(),
+            minimax_refit: false,
         }
+    }
+
+    /// The same form, always refitted for minimax error ([`Self::minimax_refit`]).
+    pub fn with_minimax_refit(mut self) -> PlannedForm {
+        self.minimax_refit = true;
+        self
     }
 
     /// The same form with an L_p polish of its own.
@@ -216,6 +228,14 @@ impl SweepPlan {
             minimax_refits: true,
             lp_polish: Vec::new(),
         }
+    }
+
+    /// Whether the plan asks for `form` in `transforms` to be refitted for minimax error
+    /// whatever its least-squares rank ([`PlannedForm::minimax_refit`]).
+    pub fn always_refit(&self, form: &Form, transforms: &[InputTransform]) -> bool {
+        self.forms
+            .iter()
+            .any(|f| f.minimax_refit && &f.form == form && f.transforms == transforms)
     }
 
     /// The p values of the L_p polish of a minimax refit of `form` in `transforms`: the planned

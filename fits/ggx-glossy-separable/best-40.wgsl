@@ -9,41 +9,39 @@
 // ggx_glossy_separable_albedo(f0, r, mu): directional albedo E of ggx-glossy-separable.
 // Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-//   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
+//   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: rational of degree 3/3, 39 coefficients (numerator 20, denominator 19 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 1 of 11, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 e62eebf9e1995517a19e1c53819fcfd3c340f08a31436def954716a5c41e0d17.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 1*r*r.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 24 (step 6 of the polish), its MAE on the fitting points 1.271x the least-squares start's.
+// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 727ec8564710a917ae2ded168a7b34df10409b502f10294b5c125c231f3d5166.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-7, shifted 8.0e-7, bernstein 4.4e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 3.07e-3, max 1.93e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 3.63e-3, max 1.79e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.46e-6 (every op rounded, as this Rust), 1.46e-6 (fused multiply-add), 1.28e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.92e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 4009 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 3.07e-3, max 1.93e-2; this f32 code MAE 3.07e-3, max 1.93e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.6e-3 on the measurement grid.
-// Denominator proved >= 5.091e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.7e-7, shifted 6.4e-6, bernstein 8.0e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 3.73e-3, max 1.06e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 3.71e-3, max 1.04e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.80e-7 (every op rounded, as this Rust), 2.14e-7 (fused multiply-add), 8.27e-7 (GPU division/sqrt error).
+// Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 3.73e-3, max 1.06e-2; this f32 code MAE 3.73e-3, max 1.06e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.6e-3 on the measurement grid.
+// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_glossy_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
-    // t = sqrt(f0)
-    let f0_t = sqrt(f0_c);
+    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
+    let f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
     let r_c = max(min(r, 1.0), 0.0);
     let mu_c = max(min(mu, 1.0), 0.0);
-    // t = sqrt(mu)
-    let mu_t = sqrt(mu_c);
+    let mu_s = 1.0 * (r_c * r_c);
+    let mu_rs = sqrt(mu_s);
+    // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 1*r*r
+    let mu_t = mu_c * (sqrt(1.0 + mu_s) + mu_rs) / (sqrt(mu_c + mu_s) + mu_rs + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((-0.44400534 * r_c + (-1.2120248 * mu_t + 1.121663)) * r_c + ((0.46509573 * mu_t + 2.2562258) * mu_t - 1.8465728)) * r_c + (((0.60970163 * mu_t - 0.53495175) * mu_t - 1.5387537) * mu_t + 0.9989089);
-    let p_1 = (5.054239 * r_c + (-8.355259 * mu_t + 0.84722215)) * r_c + ((2.1425068 * mu_t - 1.8868828) * mu_t + 4.030089);
-    let p_2 = 5.0605426 * r_c + (8.509092 * mu_t - 13.090029);
-    let p_3 = 6.250905;
-    let p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
+    let p_0 = ((13.505374 * r_c + (86.18047 * mu_t - 68.04533)) * r_c + ((119.09777 * mu_t - 219.15367) * mu_t + 120.792946)) * r_c + (((92.52229 * mu_t - 171.07346) * mu_t + 81.888245) * mu_t + 0.9903246);
+    let p_1 = ((-113.656456 * r_c + (-264.5541 * mu_t + 255.63853)) * r_c + ((-156.09065 * mu_t + 183.22647) * mu_t - 9.288488)) * r_c + (((-147.0168 * mu_t + 144.31963) * mu_t - 7.5117183) * mu_t + 0.0081617525);
+    let p_2 = ((563.6335 * r_c + (232.73329 * mu_t - 261.2766)) * r_c + ((529.22577 * mu_t - 206.97021) * mu_t + 7.97119)) * r_c + (((225.02481 * mu_t - 147.46234) * mu_t + 5.968375) * mu_t + 0.011089792);
+    let p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((0.4551851 * r_c + (-6.49431 * mu_t + 18.249456)) * r_c + ((1.9160548 * mu_t - 14.450273) * mu_t - 0.2750926)) * r_c + (((0.44551477 * mu_t + 8.473366) * mu_t - 1.5274109) * mu_t + 1.0);
-    let q_1 = (-10.64363 * r_c + (13.998821 * mu_t - 0.04989177)) * r_c + ((-7.621946 * mu_t - 2.3604784) * mu_t + 3.8183243);
-    let q_2 = 1.7862695 * r_c + (9.224326 * mu_t - 12.014254);
-    let q_3 = 4.9029074;
-    let q = ((q_3 * f0_t + q_2) * f0_t + q_1) * f0_t + q_0;
+    let q_0 = ((1795.5273 * r_c + (-208.47517 * mu_t + 57.25113)) * r_c + ((1565.2742 * mu_t - 207.5663) * mu_t + 119.988266)) * r_c + (((332.1869 * mu_t - 112.71459) * mu_t + 78.885796) * mu_t + 1.0);
+    let q = q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);
 }

@@ -689,30 +689,27 @@ mod tests {
             .contains("training set's variables"));
     }
 
-    /// A best fit counted unusable afterwards (its f32 code failed the stress test) gives way to
-    /// the next under the rule, and a budget whose every fit is excluded has none.
-    #[test]
-    fn excluded_best_fits_give_way() {
-        let ax: Vec<f64> = (0..9).map(|i| i as f64 / 8.0).collect();
-        let mut values = Vec::new();
-        for &r in &ax {
-            for &mu in &ax {
-                values.push(1.0 / (1.2 + r * mu) + 0.1 * r * r);
-            }
-        }
+    /// A table over (r, μ) on the n × n grid of [0, 1]² with E = `e(r, μ)`, as a sweep reads it.
+    fn grid_input_2d(n: usize, e: impl Fn(f64, f64) -> f64) -> FitInput {
+        let ax: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
+        let values = ax
+            .iter()
+            .flat_map(|&r| ax.iter().map(move |&mu| (r, mu)))
+            .map(|(r, mu)| e(r, mu))
+            .collect();
         let data = FitData::from_grid(
             vec!["r".into(), "mu".into()],
             &[ax.clone(), ax.clone()],
             values,
         )
         .unwrap();
-        let input = FitInput {
+        FitInput {
             source: Source {
                 kind: "json_grid".into(),
                 model: None,
                 path: None,
                 content_hash: "test".into(),
-                resolution: Some(vec![9; 2]),
+                resolution: Some(vec![n; 2]),
                 channel: "E".into(),
                 points: data.len(),
                 restricted_to: None,
@@ -720,7 +717,14 @@ mod tests {
             data,
             grid: Some(vec![ax.clone(), ax]),
             table: None,
-        };
+        }
+    }
+
+    /// A best fit counted unusable afterwards (its f32 code failed the stress test) gives way to
+    /// the next under the rule, and a budget whose every fit is excluded has none.
+    #[test]
+    fn excluded_best_fits_give_way() {
+        let input = grid_input_2d(9, |r, mu| 1.0 / (1.2 + r * mu) + 0.1 * r * r);
         let plan = SweepPlan {
             polynomial_degrees: vec![1, 2, 3, 4],
             rational_degrees: Vec::new(),
@@ -754,30 +758,10 @@ mod tests {
     /// the other refits stay as they were.
     #[test]
     fn a_form_marked_for_minimax_is_refitted_whatever_its_rank() {
-        let ax: Vec<f64> = (0..11).map(|i| i as f64 / 10.0).collect();
-        let mut values = Vec::new();
-        for &r in &ax {
-            for &mu in &ax {
-                values.push(1.0 / (1.2 + r * mu) + 0.1 * (2.0 * r).sin() * mu.sqrt());
-            }
-        }
-        let names = vec!["r".to_string(), "mu".to_string()];
-        let data = FitData::from_grid(names.clone(), &[ax.clone(), ax.clone()], values).unwrap();
-        let input = FitInput {
-            source: Source {
-                kind: "json_grid".into(),
-                model: None,
-                path: None,
-                content_hash: "test".into(),
-                resolution: Some(vec![11; 2]),
-                channel: "E".into(),
-                points: data.len(),
-                restricted_to: None,
-            },
-            data,
-            grid: Some(vec![ax.clone(), ax]),
-            table: None,
-        };
+        let input = grid_input_2d(11, |r, mu| {
+            1.0 / (1.2 + r * mu) + 0.1 * (2.0 * r).sin() * mu.sqrt()
+        });
+        let names = input.data.names.clone();
         let identity = vec![InputTransform::Identity; 2];
         let forms: Vec<PlannedForm> = ["tensor:2,5", "tensor:3,5", "tensor:4,5", "tensor:5,5"]
             .iter()

@@ -325,11 +325,11 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 1.0;
 /// ([`GLOSSY_ROOT_LAYER_SCALE`]), which a glossy sweep always refits for minimax error
 /// ([`PlannedForm::minimax_refit`]): its least-squares fit need not rank among the two a sweep
 /// refits by rank at 40 coefficients (at k = 3 on `ggx-glossy-separable` it ranks third,
-/// 2.52e-2 / 3.06e-3, and without it the sweep's best-40 is the √μ rational 3/3's first Lawson
-/// round, 1.79e-2 / 3.63e-3), and its polish reaches lower max errors than Lawson's path at the same
-/// MAE: at k = 1 on `ggx-glossy-separable` p = 8 / 12 / 16 / 24 give 1.23e-2 / 3.33e-3,
-/// 1.09e-2 / 3.49e-3, 1.06e-2 / 3.60e-3 and 1.04e-2 / 3.71e-3, against Lawson's end
-/// 1.23e-2 / 3.78e-3.
+/// 2.52e-2 / 3.06e-3, and without it the sweep's best-40 is the √μ rational 3/3's first
+/// Lawson round, 1.79e-2 / 3.63e-3), and its polish reaches lower max errors than Lawson's
+/// path at the same MAE: at k = 1 on `ggx-glossy-separable` p = 8 / 12 / 16 / 24 give
+/// 1.23e-2 / 3.33e-3, 1.09e-2 / 3.49e-3, 1.06e-2 / 3.60e-3 and 1.04e-2 / 3.71e-3, against
+/// Lawson's end 1.23e-2 / 3.78e-3.
 pub const GLOSSY_SPLIT_LP_POLISH: [f64; 6] = [4.0, 6.0, 8.0, 12.0, 16.0, 24.0];
 
 /// Structured forms a default sweep fits in `transforms` ([`physics_transforms`]):

@@ -106,7 +106,8 @@ impl FitAlbedo {
         FitAlbedo::with_output_clamp(fit, axes, true)
     }
 
-    /// A published fit as written: inputs clamped to its domain, E as it comes.
+    /// A published fit as written, or a fit of a radiance-form table (whose values leave
+    /// [0, 1], so that it is never emitted): inputs clamped to its domain, E as it comes.
     pub fn unclamped(fit: &FitResult, axes: &[String]) -> Result<FitAlbedo> {
         FitAlbedo::with_output_clamp(fit, axes, false)
     }

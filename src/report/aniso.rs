@@ -288,8 +288,9 @@ impl Reporter<'_> {
             bytes.extend(crate::VERSION.as_bytes());
             bytes.extend(
                 format!(
-                    "{resolution:?} {FURNACE_NODES} {}",
-                    crate::fit::check::CHECK_SET_VERSION
+                    "{resolution:?} {FURNACE_NODES} {} report {}",
+                    crate::fit::check::CHECK_SET_VERSION,
+                    crate::report::model::reuse::REPORT_REVISION
                 )
                 .as_bytes(),
             );

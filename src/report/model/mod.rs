@@ -23,7 +23,7 @@ mod format;
 mod furnace;
 mod nodes;
 mod paper;
-mod reuse;
+pub(crate) mod reuse;
 mod section;
 mod summary;
 

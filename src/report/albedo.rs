@@ -3,6 +3,7 @@
 //!
 //! Every source is evaluated at a point in its model's axis order (`r, mu` or `f0, r, mu`).
 
+use crate::bsdf::ModelId;
 use crate::error::{Error, Result};
 use crate::fit::{Approximant, FitResult};
 pub use crate::material::Albedo;
@@ -112,6 +113,12 @@ impl FitAlbedo {
         FitAlbedo::with_output_clamp(fit, axes, false)
     }
 
+    /// furnace's fit of model `id`'s table: [`Self::new`], but [`Self::unclamped`] for a
+    /// radiance-form table.
+    pub fn of_model(fit: &FitResult, axes: &[String], id: ModelId) -> Result<FitAlbedo> {
+        FitAlbedo::with_output_clamp(fit, axes, !id.is_radiance())
+    }
+
     fn with_output_clamp(
         fit: &FitResult,
         axes: &[String],
@@ -173,6 +180,34 @@ mod tests {
     use super::*;
     use crate::quadrature::QuadratureSettings;
     use crate::table::{ErrorSummary, GridAxis, TableSpec};
+
+    /// A radiance-form table's fit is read as fitted (its values leave [0, 1]); the energy-form
+    /// model's as its emitted code clamps it.
+    #[test]
+    fn radiance_form_fits_are_not_clamped() {
+        use crate::fit::{fit_polynomial, FitData, InputTransform, Objective, PolynomialOptions};
+        let r: Vec<f64> = (0..9).map(|i| i as f64 / 8.0).collect();
+        let data = FitData::from_grid(
+            vec!["r".into()],
+            std::slice::from_ref(&r),
+            r.iter().map(|x| 2.0 * x).collect(),
+        )
+        .unwrap();
+        let fit = fit_polynomial(
+            &data,
+            &[InputTransform::Identity],
+            1,
+            Objective::LeastSquares,
+            &PolynomialOptions::default(),
+        )
+        .unwrap();
+        let axes = vec!["r".to_string()];
+        let energy: ModelId = "ggx-dielectric-inv-separable".parse().unwrap();
+        let radiance: ModelId = "ggx-dielectric-inv-separable-radiance".parse().unwrap();
+        let at = |id| FitAlbedo::of_model(&fit, &axes, id).unwrap().albedo(&[0.8]);
+        assert!((at(radiance) - 1.6).abs() < 1e-9, "{}", at(radiance));
+        assert_eq!(at(energy), 1.0);
+    }
 
     fn table(axes: Vec<GridAxis>, f: impl Fn(&[f64]) -> f64) -> Table {
         let spec = TableSpec {

@@ -154,14 +154,9 @@ impl Reporter<'_> {
             .fits
             .iter()
             .map(|f| {
-                // a radiance-form table's values leave [0, 1] and its fits are never emitted:
-                // measured as fitted, as the paper's published fits are
-                if id.is_radiance() {
-                    FitAlbedo::unclamped(&f.fit, &axes)
-                } else {
-                    FitAlbedo::new(&f.fit, &axes)
-                }
-                .map_err(|e| format!("cannot evaluate `{}` on {k}: {e}", f.source))
+                // a radiance-form table's fits are measured as fitted, as the paper's are
+                FitAlbedo::of_model(&f.fit, &axes, id)
+                    .map_err(|e| format!("cannot evaluate `{}` on {k}: {e}", f.source))
             })
             .collect::<Vec<_>>()
             .into_iter()

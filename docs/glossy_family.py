@@ -9,10 +9,13 @@ above 0.02 on a 48 x 48 grid of the (r, t) square by a penalty), then an L_p pol
 sum of |e_i|^p minimised for p = 4, 8, 16, 32 in turn, each from the last.
 
 The phi_a: `root` {1, F0^(1/4), F0^(1/2)} (furnace's `split:f0:2:3/3` in F0^(1/4)), `log`
-{1, F0, ln F0}, `power:<p>` {1, F0^p, F0^(2p)}. Needs numpy and scipy; reads data/<model>/128x128x128.{f64,train-v1-8192.json,
-check-v1.json} (made by `furnace run`). About 3 minutes per run.
+{1, F0, ln F0}, `power:<p>` {1, F0^p, F0^(2p)}. An optional fourth argument E widens the layer
+as s = k r^E (furnace's `slayer:r:k`: E = 2). Needs numpy and scipy; reads
+data/<model>/128x128x128.{f64,train-v1-8192.json,check-v1.json} (made by `furnace run`).
+About 3 minutes per run.
 
     python3 docs/glossy_family.py ggx-glossy log 0.5
+    python3 docs/glossy_family.py ggx-glossy root 3 3
 """
 import json
 import sys
@@ -21,6 +24,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 model, family, k = sys.argv[1], sys.argv[2], float(sys.argv[3])
+# the power of r in the layer's width s = k r^e (furnace's `slayer:r:k`: e = 2)
+e_r = float(sys.argv[4]) if len(sys.argv) > 4 else 2.0
 base = f"data/{model}/128x128x128"
 lo, hi = 0.0125, 0.25
 E = np.fromfile(base + ".f64", "<f8")[: 128**3].reshape(128, 128, 128)
@@ -59,7 +64,7 @@ def monomials(r, t):
 
 
 def root_layer(r, mu):
-    s = k * r * r
+    s = k * r**e_r
     return (np.sqrt(mu + s) - np.sqrt(s)) / (np.sqrt(1 + s) - np.sqrt(s))
 
 
@@ -86,7 +91,7 @@ def penalty(c):
 
 def report(tag, c):
     e = np.abs(Nc @ c[:n] / (1 + Dc @ c[n:]) - Yc)
-    print(f"{model} {family} k={k} {tag}: off grid max {e.max():.3e} MAE {e.mean():.3e}", flush=True)
+    print(f"{model} {family} k={k} e={e_r} {tag}: off grid max {e.max():.3e} MAE {e.mean():.3e}", flush=True)
 
 
 c = np.zeros(n + D.shape[1])

@@ -258,22 +258,28 @@ fn split_form_in_the_boundary_layer_variable_round_trips() {
 
 #[test]
 fn split_form_in_the_root_layer_variable_round_trips() {
-    let dir = scratch("root-layer");
-    let path = round_trip(
-        &dir,
-        "ggx-glossy",
-        "6x8x8",
-        "split:f0:2:2/1",
-        "f0=root:4:0.0125:0.25,mu=slayer:r:3",
-    );
-    let fit = fitfile::load(&path).unwrap().record.fit;
-    assert_eq!(
-        fit.approximant.transforms[2],
-        furnace::fit::InputTransform::RootLayer { by: 1, k: 3.0 }
-    );
-    // three powers of t_f0 times total degree 2 in (r, μ), Q of degree 1 without f0
-    assert_eq!(fit.n_coefficients, 3 * 6 + 2);
-    assert!(fit.metrics.max_abs_error < 0.1, "{:?}", fit.metrics);
+    // the width k r² (the default power) and k r³
+    for (name, spec, k, power) in [
+        ("root-layer", "slayer:r:3", 3.0, 2),
+        ("root-layer-3", "slayer:r:10:3", 10.0, 3),
+    ] {
+        let dir = scratch(name);
+        let path = round_trip(
+            &dir,
+            "ggx-glossy",
+            "6x8x8",
+            "split:f0:2:2/1",
+            &format!("f0=root:4:0.0125:0.25,mu={spec}"),
+        );
+        let fit = fitfile::load(&path).unwrap().record.fit;
+        assert_eq!(
+            fit.approximant.transforms[2],
+            furnace::fit::InputTransform::RootLayer { by: 1, k, power }
+        );
+        // three powers of t_f0 times total degree 2 in (r, μ), Q of degree 1 without f0
+        assert_eq!(fit.n_coefficients, 3 * 6 + 2);
+        assert!(fit.metrics.max_abs_error < 0.1, "{:?}", fit.metrics);
+    }
 }
 
 #[test]

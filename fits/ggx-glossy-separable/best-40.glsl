@@ -15,17 +15,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 1*r*r.
-// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 24 (step 6 of the polish), its MAE on the fitting points 1.271x the least-squares start's.
-// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 727ec8564710a917ae2ded168a7b34df10409b502f10294b5c125c231f3d5166.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.334x the least-squares start's.
+// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 56ef1e794643229213544876f0a8272e6dc879f4c0008f6e5ae847b70d1bc013.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.7e-7, shifted 6.4e-6, bernstein 8.0e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 3.73e-3, max 1.06e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 3.71e-3, max 1.04e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.80e-7 (every op rounded, as this Rust), 2.14e-7 (fused multiply-add), 8.27e-7 (GPU division/sqrt error).
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.6e-7, shifted 2.9e-6, bernstein 8.5e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 3.20e-3, max 1.02e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 3.25e-3, max 9.71e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.70e-7 (every op rounded, as this Rust), 2.23e-7 (fused multiply-add), 8.43e-7 (GPU division/sqrt error).
 // Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 3.73e-3, max 1.06e-2; this f32 code MAE 3.73e-3, max 1.06e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.6e-3 on the measurement grid.
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 3.20e-3, max 1.01e-2; this f32 code MAE 3.20e-3, max 1.01e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-2 on the measurement grid.
 // Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_glossy_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
@@ -34,17 +34,17 @@ highp float ggx_glossy_separable_albedo(highp float f0, highp float r, highp flo
     highp float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
     highp float r_c = max(min(r, 1.0), 0.0);
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    highp float mu_s = 1.0 * (r_c * r_c);
+    highp float mu_s = 40.0 * (r_c * r_c * r_c * r_c);
     highp float mu_rs = sqrt(mu_s);
-    // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 1*r*r
+    // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r
     highp float mu_t = mu_c * (sqrt(1.0 + mu_s) + mu_rs) / (sqrt(mu_c + mu_s) + mu_rs + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = ((13.505374 * r_c + (86.18047 * mu_t - 68.04533)) * r_c + ((119.09777 * mu_t - 219.15367) * mu_t + 120.792946)) * r_c + (((92.52229 * mu_t - 171.07346) * mu_t + 81.888245) * mu_t + 0.9903246);
-    highp float p_1 = ((-113.656456 * r_c + (-264.5541 * mu_t + 255.63853)) * r_c + ((-156.09065 * mu_t + 183.22647) * mu_t - 9.288488)) * r_c + (((-147.0168 * mu_t + 144.31963) * mu_t - 7.5117183) * mu_t + 0.0081617525);
-    highp float p_2 = ((563.6335 * r_c + (232.73329 * mu_t - 261.2766)) * r_c + ((529.22577 * mu_t - 206.97021) * mu_t + 7.97119)) * r_c + (((225.02481 * mu_t - 147.46234) * mu_t + 5.968375) * mu_t + 0.011089792);
+    highp float p_0 = ((4.0196576 * r_c + (6.12524 * mu_t - 6.091339)) * r_c + ((7.3795 * mu_t - 8.579612) * mu_t + 3.2849333)) * r_c + (((12.3646755 * mu_t - 21.125738) * mu_t + 8.410185) * mu_t + 0.99634165);
+    highp float p_1 = ((-12.502858 * r_c + (-5.4424343 * mu_t + 12.913844)) * r_c + ((-21.318857 * mu_t + 15.629595) * mu_t + 0.15784293)) * r_c + (((-20.025036 * mu_t + 19.912973) * mu_t - 1.4634166) * mu_t + 0.0024066572);
+    highp float p_2 = ((19.48712 * r_c + (48.845898 * mu_t - 9.022222)) * r_c + ((41.30067 * mu_t - 21.332636) * mu_t - 0.3640763)) * r_c + (((26.544886 * mu_t - 17.349926) * mu_t + 0.80723655) * mu_t + 0.011481453);
     highp float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = ((1795.5273 * r_c + (-208.47517 * mu_t + 57.25113)) * r_c + ((1565.2742 * mu_t - 207.5663) * mu_t + 119.988266)) * r_c + (((332.1869 * mu_t - 112.71459) * mu_t + 78.885796) * mu_t + 1.0);
+    highp float q_0 = ((26.871048 * r_c + (184.99374 * mu_t + 15.287954)) * r_c + ((88.89406 * mu_t - 33.26826) * mu_t + 4.0943704)) * r_c + (((33.924118 * mu_t - 7.546044) * mu_t + 7.892779) * mu_t + 1.0);
     highp float q = q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

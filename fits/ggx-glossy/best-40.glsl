@@ -15,16 +15,16 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 1*r*r.
-// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 16 (step 5 of the polish), its MAE on the fitting points 1.201x the least-squares start's.
-// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 235244f77ce6eda126135ff3154cf9e2b15cb2090d346ab29a8abe2150d21b09.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.332x the least-squares start's.
+// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 206b4a06aa46f6c2bd9bd9c114260734f3fa83a9fd5c5c8ef3654dde60cc9e28.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.4e-7, shifted 7.4e-6, bernstein 7.3e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 3.68e-3, max 1.13e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 3.69e-3, max 1.12e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.78e-7 (every op rounded, as this Rust), 2.38e-7 (fused multiply-add), 8.18e-7 (GPU division/sqrt error).
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.4e-7, shifted 8.3e-6, bernstein 8.7e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 3.20e-3, max 1.03e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 3.23e-3, max 9.64e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.33e-7 (every op rounded, as this Rust), 2.19e-7 (fused multiply-add), 8.52e-7 (GPU division/sqrt error).
 // Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 3.68e-3, max 1.13e-2; this f32 code MAE 3.68e-3, max 1.13e-2.
+// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 3.20e-3, max 1.01e-2; this f32 code MAE 3.20e-3, max 1.01e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-2 on the measurement grid.
 // Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_glossy_albedo(highp float f0, highp float r, highp float mu) {
@@ -34,17 +34,17 @@ highp float ggx_glossy_albedo(highp float f0, highp float r, highp float mu) {
     highp float f0_t = (sqrt(sqrt(f0_c)) - 0.33437017) * 2.6828594;
     highp float r_c = max(min(r, 1.0), 0.0);
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    highp float mu_s = 1.0 * (r_c * r_c);
+    highp float mu_s = 40.0 * (r_c * r_c * r_c * r_c);
     highp float mu_rs = sqrt(mu_s);
-    // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 1*r*r
+    // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r
     highp float mu_t = mu_c * (sqrt(1.0 + mu_s) + mu_rs) / (sqrt(mu_c + mu_s) + mu_rs + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = ((17.82101 * r_c + (39.026875 * mu_t - 40.82359)) * r_c + ((87.62667 * mu_t - 149.20073) * mu_t + 78.2131)) * r_c + (((47.747364 * mu_t - 87.38335) * mu_t + 40.873802) * mu_t + 0.98958814);
-    highp float p_1 = ((-70.25742 * r_c + (-168.6458 * mu_t + 160.28763)) * r_c + ((-100.49749 * mu_t + 111.54228) * mu_t - 6.0137563)) * r_c + (((-77.79637 * mu_t + 75.859604) * mu_t - 3.9941282) * mu_t + 0.009453011);
-    highp float p_2 = ((339.8197 * r_c + (154.00476 * mu_t - 162.82222)) * r_c + ((303.4353 * mu_t - 121.74817) * mu_t + 5.072013)) * r_c + (((114.875305 * mu_t - 74.7497) * mu_t + 2.615227) * mu_t + 0.011278467);
+    highp float p_0 = ((3.5665762 * r_c + (5.341369 * mu_t - 5.1485605)) * r_c + ((7.4130864 * mu_t - 8.671299) * mu_t + 3.1828368)) * r_c + (((11.122101 * mu_t - 18.90535) * mu_t + 7.37868) * mu_t + 0.9954541);
+    highp float p_1 = ((-10.956218 * r_c + (-5.666372 * mu_t + 11.959683)) * r_c + ((-19.63544 * mu_t + 14.397158) * mu_t + 0.19521557)) * r_c + (((-18.259106 * mu_t + 18.118698) * mu_t - 1.2946017) * mu_t - 0.00042494462);
+    highp float p_2 = ((17.390427 * r_c + (46.254337 * mu_t - 8.141113)) * r_c + ((37.246765 * mu_t - 19.466208) * mu_t - 0.40876266)) * r_c + (((24.086449 * mu_t - 15.585848) * mu_t + 0.6491345) * mu_t + 0.015274061);
     highp float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = ((1095.5925 * r_c + (-137.94568 * mu_t + 40.275517)) * r_c + ((886.4332 * mu_t - 136.30276) * mu_t + 77.94904)) * r_c + (((161.88899 * mu_t - 51.07451) * mu_t + 38.7747) * mu_t + 1.0);
+    highp float q_0 = ((25.02058 * r_c + (172.47496 * mu_t + 15.50988)) * r_c + ((79.20848 * mu_t - 30.775364) * mu_t + 3.890986)) * r_c + (((30.694483 * mu_t - 6.2545414) * mu_t + 6.908036) * mu_t + 1.0);
     highp float q = q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -1138,14 +1138,20 @@ fn albedo_function_of(
                 };
                 Some((0..root.trailing_zeros()).fold(blend, |e, _| sqrt(e)))
             }
-            // x·(√(1 + s) + √s)/(√(x + s) + √s + τ), s = k y², y = an earlier clamped argument
-            // (x ≥ 0 after the clamp: the transform is valid on the domain)
-            InputTransform::RootLayer { by, k: scale } => {
+            // x·(√(1 + s) + √s)/(√(x + s) + √s + τ), s = k yᵉ, y = an earlier clamped argument
+            // (x ≥ 0 after the clamp: the transform is valid on the domain); yᵉ multiplied left
+            // to right, as `fit::data::layer_power`
+            InputTransform::RootLayer {
+                by,
+                k: scale,
+                power,
+            } => {
                 let y = var(&format!("{}_c", params[by]));
                 let s = format!("{p}_s");
+                let y_e = (1..power).fold(y.clone(), |acc, _| mul(acc, y.clone()));
                 body.push(Stmt {
                     name: s.clone(),
-                    value: mul(lit(scale), mul(y.clone(), y)),
+                    value: mul(lit(scale), y_e),
                     comment: None,
                 });
                 let rs = format!("{p}_rs");

@@ -105,10 +105,11 @@ pub enum InputTransform {
         #[serde(default, skip_serializing_if = "is_zero")]
         beta: f64,
     },
-    /// t = (√(x + s) − √s)/(√(1 + s) − √s), s = k·y² (y = variable number `by`, earlier in
-    /// the list, untransformed: α = r² for y = r), computed without cancellation as
-    /// t = x·(√(1 + s) + √s)/(√(x + s) + √s + τ), τ = [`LAYER_TAU`] (only decides 0/0 at
-    /// x = y = 0, where t = 0): the grazing-layer variable of a glossy albedo, `slayer:<y>:<k>`.
+    /// t = (√(x + s) − √s)/(√(1 + s) − √s), s = k·yᵉ, e = `power` ∈ {2, 3, 4} (y = variable
+    /// number `by`, earlier in the list, untransformed: s = kα for y = r and e = 2), computed
+    /// without cancellation as t = x·(√(1 + s) + √s)/(√(x + s) + √s + τ), τ = [`LAYER_TAU`]
+    /// (only decides 0/0 at x = y = 0, where t = 0): the grazing-layer variable of a glossy
+    /// albedo, `slayer:<y>:<k>[:<e>]`.
     ///
     /// Why: a glossy albedo's row r = 0 is the Fresnel factor E(0, μ) = F(η, μ)
     /// (Sforza & Pellacini 2022, eq. 17, with a mirror lobe), smooth in √μ, while at small
@@ -119,7 +120,15 @@ pub enum InputTransform {
     /// t − √x = O(√s) for x ≫ s. t increases with x, decreases with y (from √x to x as
     /// s → ∞), t(0) = 0, t(1) = 1; onto [0, 1] for x ∈ [0, 1]. In f32 every step adds,
     /// multiplies, divides or takes the square root of non-negative numbers.
-    RootLayer { by: usize, k: f64 },
+    ///
+    /// A higher e with a larger k keeps the layer thin at small y and widens it at large y
+    /// (s = 40 α² against s = α at y = r; docs/fitting.md, "The glossy grazing layer").
+    RootLayer {
+        by: usize,
+        k: f64,
+        #[serde(default = "two", skip_serializing_if = "is_two")]
+        power: u32,
+    },
     /// t = sin²x on x ∈ [0, π/2] (an azimuth): increasing there, 0 at 0, 1 at π/2.
     ///
     /// Why: an albedo of a surface whose roughness is mirror-symmetric about its tangent and
@@ -209,9 +218,11 @@ impl InputTransform {
                 root,
                 beta,
             ),
-            InputTransform::RootLayer { by, k: scale } => {
-                root_layer(v, x.get(by).copied().unwrap_or(f64::NAN), scale)
-            }
+            InputTransform::RootLayer {
+                by,
+                k: scale,
+                power,
+            } => root_layer(v, x.get(by).copied().unwrap_or(f64::NAN), scale, power),
             InputTransform::CriticalAngle { lo, hi } => {
                 (critical_cosine(v.clamp(lo, hi)) - critical_cosine(lo))
                     / (critical_cosine(hi) - critical_cosine(lo))
@@ -286,10 +297,10 @@ impl InputTransform {
                 }
                 0.5 * (a + b)
             }
-            InputTransform::RootLayer { by, k } => {
+            InputTransform::RootLayer { by, k, power } => {
                 // √(x + s) = √s + t·(√(1 + s) − √s) ⇒ x = u² − s, u that root
                 let y = x.get(by).copied().unwrap_or(f64::NAN);
-                let s = k * y * y;
+                let s = k * layer_power(y, power);
                 let u = s.sqrt() + t.clamp(0.0, 1.0) * ((1.0 + s).sqrt() - s.sqrt());
                 (u * u - s).clamp(0.0, 1.0)
             }
@@ -416,12 +427,21 @@ impl InputTransform {
             }));
         }
         if let Some(rest) = text.strip_prefix("slayer:") {
-            let parsed = match rest.split(':').collect::<Vec<_>>().as_slice() {
-                [by, scale] => {
+            let f: Vec<&str> = rest.split(':').collect();
+            let parsed = match f.as_slice() {
+                [by, scale] | [by, scale, _] => {
                     let by = names.iter().position(|n| n == by.trim()).filter(|&b| b < k);
-                    match (by, num(scale)) {
-                        (Some(by), Some(scale)) if scale > 0.0 => {
-                            Some(InputTransform::RootLayer { by, k: scale })
+                    let power = match f.get(2) {
+                        None => Some(2),
+                        Some(e) => e.trim().parse::<u32>().ok().filter(|e| (2..=4).contains(e)),
+                    };
+                    match (by, num(scale), power) {
+                        (Some(by), Some(scale), Some(power)) if scale > 0.0 => {
+                            Some(InputTransform::RootLayer {
+                                by,
+                                k: scale,
+                                power,
+                            })
                         }
                         _ => None,
                     }
@@ -429,7 +449,7 @@ impl InputTransform {
                 _ => None,
             };
             return Some(parsed.ok_or_else(|| {
-                "write slayer:<variable>:<k> with a variable before this one and a finite k > 0, e.g. mu=slayer:r:1".to_string()
+                "write slayer:<variable>:<k>[:<e>] with a variable before this one, a finite k > 0 and e = 2, 3 or 4 (the layer's width k·yᵉ; 2 when left out), e.g. mu=slayer:r:1".to_string()
             }));
         }
         if text == "sin2" {
@@ -501,7 +521,9 @@ impl InputTransform {
                 beta,
             } => format!("glayer:#{by}:{k}:{w}:{root}{}", beta_suffix(beta)),
             InputTransform::CriticalAngle { lo, hi } => format!("critical:{lo}:{hi}"),
-            InputTransform::RootLayer { by, k } => format!("slayer:#{by}:{k}"),
+            InputTransform::RootLayer { by, k, power } => {
+                format!("slayer:#{by}:{k}{}", power_suffix(power))
+            }
             InputTransform::SinSquared => "sin2".into(),
             InputTransform::ProjectedLayer {
                 r,
@@ -535,8 +557,8 @@ impl InputTransform {
                 Some(n) => format!("glayer:{n}:{k}:{w}:{root}{}", beta_suffix(beta)),
                 None => self.name(),
             },
-            InputTransform::RootLayer { by, k } => match names.get(by) {
-                Some(n) => format!("slayer:{n}:{k}"),
+            InputTransform::RootLayer { by, k, power } => match names.get(by) {
+                Some(n) => format!("slayer:{n}:{k}{}", power_suffix(power)),
                 None => self.name(),
             },
             InputTransform::ProjectedLayer {
@@ -612,9 +634,14 @@ impl InputTransform {
                     1.0 - w
                 )
             }
-            InputTransform::RootLayer { by, k: scale } => {
+            InputTransform::RootLayer {
+                by,
+                k: scale,
+                power,
+            } => {
                 let y = names.get(by).map_or("y", String::as_str);
-                format!("{x}*(sqrt(1 + s) + sqrt(s))/(sqrt({x} + s) + sqrt(s) + 2^-100), s = {scale}*{y}*{y}")
+                let ys = vec![y; power as usize].join("*");
+                format!("{x}*(sqrt(1 + s) + sqrt(s))/(sqrt({x} + s) + sqrt(s) + 2^-100), s = {scale}*{ys}")
             }
             InputTransform::SinSquared => format!("sin({x})^2"),
             InputTransform::ProjectedLayer {
@@ -725,12 +752,19 @@ impl InputTransform {
                     grazing_of(log_corrected(hi, b_max), ylo, scale, w, root),
                 )
             }
-            InputTransform::RootLayer { by, k: scale } => {
+            InputTransform::RootLayer {
+                by,
+                k: scale,
+                power,
+            } => {
                 if by >= domain.len() || by == k {
                     return Err(bad("a root layer needs another variable to scale by"));
                 }
                 if !(scale > 0.0 && scale.is_finite()) {
                     return Err(bad("a root layer needs a finite scale k > 0"));
+                }
+                if !(2..=4).contains(&power) {
+                    return Err(bad("a root layer's width k·yᵉ needs e = 2, 3 or 4"));
                 }
                 let (ylo, yhi) = domain[by];
                 if !(lo >= 0.0 && hi.is_finite() && ylo.is_finite() && yhi.is_finite()) {
@@ -738,11 +772,17 @@ impl InputTransform {
                         "a root layer needs x ≥ 0 and a finite variable to scale by",
                     ));
                 }
-                // t increases with x and decreases with s = k y²: bounds at the extreme s
+                // t increases with x and decreases with s = k yᵉ: bounds at the extreme s (a
+                // root layer over a negative y needs an even e)
+                if power % 2 == 1 && ylo < 0.0 {
+                    return Err(bad(
+                        "a root layer with an odd power e needs a variable to scale by that is ≥ 0",
+                    ));
+                }
                 let (y2min, y2max) = if ylo <= 0.0 && yhi >= 0.0 {
-                    (0.0, (ylo * ylo).max(yhi * yhi))
+                    (0.0, layer_power(ylo, power).max(layer_power(yhi, power)))
                 } else {
-                    let (a, b) = (ylo * ylo, yhi * yhi);
+                    let (a, b) = (layer_power(ylo, power), layer_power(yhi, power));
                     (a.min(b), a.max(b))
                 };
                 (
@@ -894,10 +934,17 @@ fn layer(x: f64, y: f64, k: f64) -> f64 {
     (x * (1.0 + s) + LAYER_TAU) / (x + s + LAYER_TAU)
 }
 
-/// [`InputTransform::RootLayer`]: t = x·(√(1 + s) + √s)/(√(x + s) + √s + τ), s = k y².
+/// [`InputTransform::RootLayer`]: t = x·(√(1 + s) + √s)/(√(x + s) + √s + τ), s = k yᵉ.
 #[inline]
-fn root_layer(x: f64, y: f64, k: f64) -> f64 {
-    root_layer_of(x, k * y * y)
+fn root_layer(x: f64, y: f64, k: f64, e: u32) -> f64 {
+    root_layer_of(x, k * layer_power(y, e))
+}
+
+/// yᵉ of a root layer's width, e ∈ {2, 3, 4}, by multiplications left to right (y·y, y·y·y,
+/// y·y·y·y), as the emitted code forms it.
+#[inline]
+pub(crate) fn layer_power(y: f64, e: u32) -> f64 {
+    (1..e).fold(y, |p, _| p * y)
 }
 
 /// (√(x + s) − √s)/(√(1 + s) − √s) without cancellation, x clamped to ≥ 0, τ =
@@ -1025,6 +1072,23 @@ fn projected_alpha(r: f64, aniso: f64, phi: f64) -> f64 {
 
 fn one() -> u32 {
     1
+}
+
+fn two() -> u32 {
+    2
+}
+
+fn is_two(e: &u32) -> bool {
+    *e == 2
+}
+
+/// `:<e>` after a root layer's name when e ≠ 2 (nothing otherwise, as before e existed).
+fn power_suffix(e: u32) -> String {
+    if e == 2 {
+        String::new()
+    } else {
+        format!(":{e}")
+    }
 }
 
 /// μ_c(F0) = 2q/(1 + q²), q = F0^¼ (two square roots, as emitted code takes it), F0 ∈ [0, 1]:
@@ -1983,7 +2047,11 @@ mod tests {
     #[test]
     fn root_layer_is_sqrt_mu_on_the_mirror_row_and_linear_inside_the_layer() {
         let names = ["f0", "r", "mu"].map(String::from).to_vec();
-        let g = InputTransform::RootLayer { by: 1, k: 1.0 };
+        let g = InputTransform::RootLayer {
+            by: 1,
+            k: 1.0,
+            power: 2,
+        };
         let t = |r: f64, mu: f64| g.apply(2, &[0.1, r, mu]);
         // r = 0: √μ to rounding (τ = 2⁻¹⁰⁰ is below √μ's last bit for μ ≥ 1e-12)
         for mu in [1e-12, 1e-4, 0.01, 0.3, 0.5, 1.0] {
@@ -2037,9 +2105,26 @@ mod tests {
             .unwrap();
         assert!((lo - t(1.0, 0.25)).abs() < 1e-15 && (hi - 1.0).abs() < 1e-15);
         for bad in [
-            InputTransform::RootLayer { by: 1, k: 0.0 },
-            InputTransform::RootLayer { by: 2, k: 1.0 },
-            InputTransform::RootLayer { by: 7, k: 1.0 },
+            InputTransform::RootLayer {
+                by: 1,
+                k: 0.0,
+                power: 2,
+            },
+            InputTransform::RootLayer {
+                by: 2,
+                k: 1.0,
+                power: 2,
+            },
+            InputTransform::RootLayer {
+                by: 7,
+                k: 1.0,
+                power: 2,
+            },
+            InputTransform::RootLayer {
+                by: 1,
+                k: 1.0,
+                power: 5,
+            },
         ] {
             assert!(bad.image(2, &names, &dom).is_err(), "{bad:?}");
         }
@@ -2056,13 +2141,74 @@ mod tests {
             "slayer:q:1",
             "slayer:r",
             "slayer:r:x",
+            "slayer:r:1:1",
+            "slayer:r:1:5",
+            "slayer:r:1:2.5",
+            "slayer:r:1:3:0",
         ] {
             let e = InputTransform::parse_more(bad, &names, 2)
                 .unwrap()
                 .unwrap_err();
-            assert!(e.contains("slayer:<variable>:<k>"), "{bad}: {e}");
+            assert!(e.contains("slayer:<variable>:<k>[:<e>]"), "{bad}: {e}");
         }
         assert_eq!(g.label(&names), "slayer:r:1");
+        // e = 2 written out is the default; it is not written back, nor serialised
+        assert_eq!(
+            InputTransform::parse_more("slayer:r:1:2", &names, 2).unwrap(),
+            Ok(g)
+        );
+        assert_eq!(
+            serde_json::to_string(&g).unwrap(),
+            r#"{"kind":"root_layer","by":1,"k":1.0}"#
+        );
+    }
+
+    #[test]
+    fn root_layer_of_a_higher_power_widens_the_layer_as_k_r_to_the_e() {
+        let names = ["f0", "r", "mu"].map(String::from).to_vec();
+        let g3 = InputTransform::parse_more("slayer:r:3:3", &names, 2)
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            g3,
+            InputTransform::RootLayer {
+                by: 1,
+                k: 3.0,
+                power: 3
+            }
+        );
+        assert_eq!(g3.label(&names), "slayer:r:3:3");
+        let json = serde_json::to_string(&g3).unwrap();
+        assert_eq!(json, r#"{"kind":"root_layer","by":1,"k":3.0,"power":3}"#);
+        assert_eq!(serde_json::from_str::<InputTransform>(&json).unwrap(), g3);
+        // the power-2 layer of the width k r³ at each r: the same t to rounding
+        for r in [0.0, 0.05, 0.3, 0.8, 1.0] {
+            let g2 = InputTransform::RootLayer {
+                by: 1,
+                k: 3.0 * r,
+                power: 2,
+            };
+            for mu in [0.0, 1e-6, 1e-3, 0.1, 0.5, 1.0] {
+                let (a, b) = (g3.apply(2, &[0.1, r, mu]), g2.apply(2, &[0.1, r, mu]));
+                assert!((a - b).abs() <= 4e-16, "r {r}, μ {mu}: {a} {b}");
+                if r > 0.0 {
+                    let back = g3.inverse(2, a, &[0.1, r, 0.0]);
+                    assert!((back - mu).abs() < 1e-12, "inverse at r {r}, μ {mu}");
+                }
+            }
+        }
+        // onto [0, 1]; the image of a sub-box at its corners
+        let dom = [(0.0125, 0.25), (0.0, 1.0), (0.0, 1.0)];
+        assert_eq!(g3.image(2, &names, &dom).unwrap(), (0.0, 1.0));
+        let (lo, hi) = g3
+            .image(2, &names, &[(0.0125, 0.25), (0.5, 1.0), (0.25, 1.0)])
+            .unwrap();
+        let t = |r: f64, mu: f64| g3.apply(2, &[0.1, r, mu]);
+        assert!((lo - t(1.0, 0.25)).abs() < 1e-15 && (hi - 1.0).abs() < 1e-15);
+        // an odd power over a negative variable is refused
+        assert!(g3
+            .image(2, &names, &[(0.0125, 0.25), (-0.5, 1.0), (0.0, 1.0)])
+            .is_err());
     }
 
     #[test]

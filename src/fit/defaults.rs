@@ -309,17 +309,22 @@ pub const SPLIT_LAYER_SCALE: f64 = 1.5;
 /// (± 1 %) for k = 1.25 … 2.
 pub const SPLIT_LAYER_F0_ROOT: u32 = 8;
 
-/// k of the root-layer variable `slayer:r:k` ([`InputTransform::RootLayer`]: √μ outside the
-/// layer μ ≲ k·r², linear in μ inside it) in which a 3-D sweep without a grazing boundary layer
-/// (the glossy albedo, whose row r = 0 is F(η, μ)) fits `split:f0:2:3/3` (39 coefficients) a
-/// second time, besides √μ ([`structured_forms`]), with the L_p polish
-/// [`GLOSSY_SPLIT_LP_POLISH`]. Measured one form per sweep (off-grid max / MAE at the 26 112
-/// check points; docs/fitting.md, "The glossy grazing layer"): on `ggx-glossy` the polish at
-/// p = 16 has 1.12e-2 / 3.69e-3 at k = 1, 1.13e-2 / 3.68e-3 at k = 0.6, 1.14e-2 / 3.78e-3 at
-/// k = 2 and 1.17e-2 / 3.88e-3 at k = 3 (whose unpolished minimax fit has 1.24e-2 / 3.75e-3);
-/// on `ggx-glossy-separable` at p = 24 1.04e-2 / 3.71e-3 at k = 1,
-/// 1.02e-2 / 3.72e-3 at k = 0.6, 1.08e-2 / 3.82e-3 at k = 2 and 1.13e-2 / 4.02e-3 at k = 3.
-pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 1.0;
+/// k of the root-layer variable `slayer:r:k:e` ([`InputTransform::RootLayer`]: √μ outside the
+/// layer μ ≲ k·rᵉ, linear in μ inside it, e = [`GLOSSY_ROOT_LAYER_POWER`]) in which a 3-D sweep
+/// without a grazing boundary layer (the glossy albedo, whose row r = 0 is F(η, μ)) fits
+/// `split:f0:2:3/3` (39 coefficients) a second time, besides √μ ([`structured_forms`]), with
+/// the L_p polish [`GLOSSY_SPLIT_LP_POLISH`]. Measured one form per sweep (off-grid max / MAE at
+/// the 26 112 check points; docs/fitting.md, "The glossy grazing layer"), the polish's lowest
+/// max error: at e = 4, k = 40, on `ggx-glossy` 9.64e-3 / 3.23e-3 (p = 12) and on
+/// `ggx-glossy-separable` 9.71e-3 / 3.25e-3 (p = 12); k = 20, 30 and 80 give 9.80e-3 / 3.51e-3,
+/// 9.89e-3 / 3.46e-3 and 1.08e-2 / 3.63e-3 (`ggx-glossy`, p = 24); e = 3 at k = 3 and 20,
+/// 1.08e-2 / 3.55e-3 and 1.03e-2 / 3.80e-3; e = 2 at k = 1, 1.12e-2 / 3.69e-3 (p = 16) and on
+/// `ggx-glossy-separable` 1.04e-2 / 3.71e-3 (p = 24).
+pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 40.0;
+
+/// e of the root layer's width k·rᵉ ([`GLOSSY_ROOT_LAYER_SCALE`]): r⁴ = α² keeps the layer
+/// thin at small roughness and spreads it over μ at large roughness.
+pub const GLOSSY_ROOT_LAYER_POWER: u32 = 4;
 
 /// The p values of the L_p polish of the split sum in the root-layer variable
 /// ([`GLOSSY_ROOT_LAYER_SCALE`]), which a glossy sweep always refits for minimax error
@@ -327,7 +332,7 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 1.0;
 /// refits by rank at 40 coefficients (at k = 3 on `ggx-glossy-separable` it ranks third,
 /// 2.52e-2 / 3.06e-3, and without it the sweep's best-40 is the √μ rational 3/3's first
 /// Lawson round, 1.79e-2 / 3.63e-3), and its polish reaches lower max errors than Lawson's
-/// path at the same MAE: at k = 1 on `ggx-glossy-separable` p = 8 / 12 / 16 / 24 give
+/// path at the same MAE: at k = 1, e = 2 on `ggx-glossy-separable` p = 8 / 12 / 16 / 24 give
 /// 1.23e-2 / 3.33e-3, 1.09e-2 / 3.49e-3, 1.06e-2 / 3.60e-3 and 1.04e-2 / 3.71e-3, against
 /// Lawson's end 1.23e-2 / 3.78e-3.
 pub const GLOSSY_SPLIT_LP_POLISH: [f64; 6] = [4.0, 6.0, 8.0, 12.0, 16.0, 24.0];
@@ -465,6 +470,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                         t[mu] = InputTransform::RootLayer {
                             by: r,
                             k: GLOSSY_ROOT_LAYER_SCALE,
+                            power: GLOSSY_ROOT_LAYER_POWER,
                         };
                         v.push(
                             PlannedForm::new(split_form(3, f, 2, 3, 3), t)
@@ -733,7 +739,8 @@ mod tests {
             last.transforms[2],
             InputTransform::RootLayer {
                 by: 1,
-                k: GLOSSY_ROOT_LAYER_SCALE
+                k: GLOSSY_ROOT_LAYER_SCALE,
+                power: GLOSSY_ROOT_LAYER_POWER
             }
         );
         assert_eq!(last.transforms[..2], low_rank.transforms[..2]);

@@ -297,9 +297,14 @@ pub fn fit_file_name(
                 ),
                 InputTransform::RootNormalize { lo, hi, root } => format!("root{root}_{lo}_{hi}"),
                 InputTransform::CriticalAngle { lo, hi } => format!("critical_{lo}_{hi}"),
-                InputTransform::RootLayer { by, k } => format!(
-                    "slayer_{}_{k}",
-                    variables.get(by).map_or("x", String::as_str)
+                InputTransform::RootLayer { by, k, power } => format!(
+                    "slayer_{}_{k}{}",
+                    variables.get(by).map_or("x", String::as_str),
+                    if power == 2 {
+                        String::new()
+                    } else {
+                        format!("_{power}")
+                    }
                 ),
                 InputTransform::GrazingLayer {
                     by,

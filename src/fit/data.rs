@@ -943,7 +943,7 @@ fn root_layer(x: f64, y: f64, k: f64, e: u32) -> f64 {
 /// yᵉ of a root layer's width, e ∈ {2, 3, 4}, by multiplications left to right (y·y, y·y·y,
 /// y·y·y·y), as the emitted code forms it.
 #[inline]
-pub(crate) fn layer_power(y: f64, e: u32) -> f64 {
+fn layer_power(y: f64, e: u32) -> f64 {
     (1..e).fold(y, |p, _| p * y)
 }
 

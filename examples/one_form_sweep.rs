@@ -5,12 +5,14 @@
 //! set and training set are read from `data/` (computed there when missing, as a sweep does).
 //!
 //! `cargo run --release --example one_form_sweep -- MODEL SPEC TRANSFORMS [OUT_DIR] [--lp P,…]
-//! [--grading G,…]`, e.g.
+//! [--grading G,…] [--fit-points N] [--training N]`, e.g.
 //! `… ggx-dielectric-inv lowrank:f0:4:4:5/4 f0=root:4:0.0125:0.25,r=square,mu=glayer:r:2:0:1:3`;
 //! with OUT_DIR every fit is written there as a fit file (for `furnace stress --fit`); `--lp`
 //! adds an L_p polish with these p to the minimax refit (`SweepPlan::lp_polish`), `--grading`
 //! replaces the plan's grading exponents of the fitting nodes, one per variable
-//! (`SweepPlan::fit_grading`).
+//! (`SweepPlan::fit_grading`), `--fit-points` the most table nodes the solver sees
+//! (`SweepPlan::max_fit_points`, the graded subset's size) and `--training` the number of exact
+//! training points (`SweepPlan::training_points`; a new count is computed and cached in `data/`).
 use furnace::fit::check;
 use furnace::fit::defaults::{default_plan, default_training_points};
 use furnace::fit::job;
@@ -22,7 +24,8 @@ use std::path::Path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut a: Vec<String> = std::env::args().collect();
-    let usage = "usage: one_form_sweep MODEL SPEC TRANSFORMS [OUT_DIR] [--lp P,…] [--grading G,…]";
+    let usage = "usage: one_form_sweep MODEL SPEC TRANSFORMS [OUT_DIR] [--lp P,…] [--grading G,…] \
+                 [--fit-points N] [--training N]";
     // the flags and their comma-separated values, taken out of the positional arguments
     let mut flag = |name: &str| -> Result<Vec<f64>, Box<dyn std::error::Error>> {
         let Some(k) = a.iter().position(|x| x == name) else {
@@ -36,6 +39,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let lp = flag("--lp")?;
     let grading = flag("--grading")?;
+    let fit_points = flag("--fit-points")?;
+    let training_n = flag("--training")?;
     if a.len() < 4 {
         return Err(usage.into());
     }
@@ -48,7 +53,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t = furnace::cli::get_table(model.as_ref(), &spec, Path::new("data"), false)?;
     let input = furnace::fit::source::from_table(&t.table, "E", Some(&t.stem))?;
     let checks = check::get_or_compute(model.as_ref(), &t.table.spec, &t.stem)?;
-    let n = default_training_points(&input.data);
+    let n = match training_n.first() {
+        Some(&n) => n as usize,
+        None => default_training_points(&input.data),
+    };
     let training = check::training_get_or_compute(model.as_ref(), &t.table.spec, &t.stem, n)?;
     let transforms = job::parse_transforms(&a[3], &input.data.names)?;
     let form = parse_form(&a[2], &input.data.names)?;
@@ -72,6 +80,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if !grading.is_empty() {
         plan.fit_grading = grading;
     }
+    if let Some(&m) = fit_points.first() {
+        plan.max_fit_points = m as usize;
+    }
+    plan.training_points = n;
     let (check_data, training_data) = (checks.data()?, training.data()?);
     let (check_on, training_on) = (checks.description(), training.training_description());
     let out = job::sweep_fits_trained(

@@ -283,6 +283,31 @@ fn split_form_in_the_root_layer_variable_round_trips() {
 }
 
 #[test]
+fn split_form_in_the_root_linear_f0_variable_round_trips() {
+    // t ∝ F0^⅛ + F0/4 (the glossy split sum's F0 variable)
+    let dir = scratch("root-linear");
+    let path = round_trip(
+        &dir,
+        "ggx-glossy",
+        "6x8x8",
+        "split:f0:2:2/1",
+        "f0=root:8:0.0125:0.25:0.25,mu=slayer:r:3",
+    );
+    let fit = fitfile::load(&path).unwrap().record.fit;
+    assert_eq!(
+        fit.approximant.transforms[0],
+        furnace::fit::InputTransform::RootNormalize {
+            lo: 0.0125,
+            hi: 0.25,
+            root: 8,
+            linear: 0.25
+        }
+    );
+    assert_eq!(fit.n_coefficients, 3 * 6 + 2);
+    assert!(fit.metrics.max_abs_error < 0.1, "{:?}", fit.metrics);
+}
+
+#[test]
 fn split_form_in_the_critical_angle_variable_round_trips() {
     let dir = scratch("critical");
     let path = round_trip(

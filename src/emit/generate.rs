@@ -1065,23 +1065,29 @@ fn albedo_function_of(
                     add(add(var(&c), s()), tau()),
                 ))
             }
-            // (clamp(x, lo, hi)^(1/n) − lo^(1/n))·(1/(hi^(1/n) − lo^(1/n))), the root as repeated
-            // square roots of a non-negative number
+            // (q(clamp(x, lo, hi)) − q(lo))·(1/(q(hi) − q(lo))), q(x) = x^(1/n) + b·x, the root
+            // as repeated square roots of a non-negative number
             InputTransform::RootNormalize {
                 lo: a0,
                 hi: b0,
                 root,
+                linear,
             } => {
                 let x = if lo >= a0 && hi <= b0 {
                     var(&c)
                 } else {
                     clamp(var(&c), lit(a0), lit(b0))
                 };
-                let rt = |v: f64| (0..root.trailing_zeros()).fold(v, |v, _| v.sqrt());
-                let x = (0..root.trailing_zeros()).fold(x, |e, _| sqrt(e));
-                let (ra, rb) = (rt(a0), rt(b0));
-                let shifted = if ra == 0.0 { x } else { sub(x, lit(ra)) };
-                Some(mul(shifted, lit(1.0 / (rb - ra))))
+                let q = |v: f64| (0..root.trailing_zeros()).fold(v, |v, _| v.sqrt()) + linear * v;
+                let rx = (0..root.trailing_zeros()).fold(x.clone(), |e, _| sqrt(e));
+                let qx = if linear == 0.0 {
+                    rx
+                } else {
+                    add(rx, mul(lit(linear), x))
+                };
+                let (qa, qb) = (q(a0), q(b0));
+                let shifted = if qa == 0.0 { qx } else { sub(qx, lit(qa)) };
+                Some(mul(shifted, lit(1.0 / (qb - qa))))
             }
             // (2q/(1 + q²) − μ_c(lo))·(1/(μ_c(hi) − μ_c(lo))), q = clamp(x, lo, hi)^¼ as two
             // square roots of a non-negative number

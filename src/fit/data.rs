@@ -47,15 +47,26 @@ pub enum InputTransform {
     /// [0, 1] for x, y ∈ [0, 1]), and the corner takes the r = 0 value t = 1, as the tables do.
     /// t increases with x and, for x ≤ 1, decreases with y.
     BoundaryLayer { by: usize, k: f64 },
-    /// t = (clamp(x, lo, hi)^(1/n) − lo^(1/n))/(hi^(1/n) − lo^(1/n)), n = `root` ∈ {2, 4, 8}
-    /// (the n-th root taken as repeated square roots, in the fit and in emitted code), onto
-    /// [0, 1] on [lo, hi] ⊂ [0, ∞).
+    /// t = (q(clamp(x, lo, hi)) − q(lo))/(q(hi) − q(lo)), q(x) = x^(1/n) + b·x, n = `root` ∈
+    /// {2, 4, 8} (the n-th root taken as repeated square roots, in the fit and in emitted
+    /// code), b = `linear` ≥ 0 (0 by default: t ∝ x^(1/n)), onto [0, 1] on [lo, hi] ⊂ [0, ∞).
     ///
     /// Why: a dielectric's albedo depends on F0 through η = (1 + √F0)/(1 − √F0) and the
     /// Fresnel factor, steepest at small F0; F0^¼ spreads that end out, so a few powers of
     /// t follow the F0 dependence at every (r, μ) (measurements in docs/fitting.md,
-    /// "Structured forms").
-    RootNormalize { lo: f64, hi: f64, root: u32 },
+    /// "Structured forms"). A glossy albedo's F0 dependence at each (r, μ) is close to
+    /// a + c·F0 + d·ln F0: projected on those three functions of F0, every (r, μ) column of
+    /// the 128³ `ggx-glossy` table is off by 4.7e-3 at most (mean 2.0e-4), against 7.9e-3
+    /// (1.3e-3) on 1, F0^¼, √F0. With x^(1/n) ≈ 1 + ln(x)/n, q = F0^⅛ + b·F0 carries both in
+    /// one coordinate: on 1, t, t² at b = 1/4 it is off by 5.3e-3 (7.1e-4), where F0^⅛ alone
+    /// is off by 1.4e-2 (docs/fitting.md, "The F0 variable of the glossy split sum").
+    RootNormalize {
+        lo: f64,
+        hi: f64,
+        root: u32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        linear: f64,
+    },
     /// t = (μ_c(clamp(x, lo, hi)) − μ_c(lo))/(μ_c(hi) − μ_c(lo)), 0 ≤ lo < hi ≤ 1, with
     /// μ_c(F0) = 2·F0^¼/(1 + √F0) the cosine of the critical angle of an interface of normal
     /// reflectance F0 seen from its denser side: with η = (1 + √F0)/(1 − √F0) (Fresnel at
@@ -200,9 +211,19 @@ impl InputTransform {
             InputTransform::BoundaryLayer { by, k: scale } => {
                 layer(v, x.get(by).copied().unwrap_or(f64::NAN), scale)
             }
-            InputTransform::RootNormalize { lo, hi, root } => {
-                (nth_root(v.clamp(lo, hi), root) - nth_root(lo, root))
-                    / (nth_root(hi, root) - nth_root(lo, root))
+            InputTransform::RootNormalize {
+                lo,
+                hi,
+                root,
+                linear,
+            } => {
+                if linear == 0.0 {
+                    (nth_root(v.clamp(lo, hi), root) - nth_root(lo, root))
+                        / (nth_root(hi, root) - nth_root(lo, root))
+                } else {
+                    let q = |x: f64| root_linear(x, root, linear);
+                    (q(v.clamp(lo, hi)) - q(lo)) / (q(hi) - q(lo))
+                }
             }
             InputTransform::GrazingLayer {
                 by,
@@ -272,10 +293,31 @@ impl InputTransform {
                     1.0
                 }
             }
-            InputTransform::RootNormalize { lo, hi, root } => {
-                let (a, b) = (nth_root(lo, root), nth_root(hi, root));
-                let u = a + t * (b - a);
-                (0..root.trailing_zeros()).fold(u, |v, _| v * v)
+            InputTransform::RootNormalize {
+                lo,
+                hi,
+                root,
+                linear,
+            } => {
+                if linear == 0.0 {
+                    let (a, b) = (nth_root(lo, root), nth_root(hi, root));
+                    let u = a + t * (b - a);
+                    (0..root.trailing_zeros()).fold(u, |v, _| v * v)
+                } else {
+                    // q is increasing on [lo, hi]: bisection (only to report locations)
+                    let q = |x: f64| root_linear(x, root, linear);
+                    let want = q(lo) + t.clamp(0.0, 1.0) * (q(hi) - q(lo));
+                    let (mut a, mut b) = (lo, hi);
+                    for _ in 0..60 {
+                        let m = 0.5 * (a + b);
+                        if q(m) < want {
+                            a = m;
+                        } else {
+                            b = m;
+                        }
+                    }
+                    0.5 * (a + b)
+                }
             }
             InputTransform::GrazingLayer {
                 by,
@@ -351,9 +393,9 @@ impl InputTransform {
 
     /// The `--transform` syntax of the transforms [`InputTransform::parse_more`] reads.
     pub const MORE_SYNTAX: &'static str =
-        "root:<n>:lo:hi (n = 2, 4, 8), glayer:<variable>:<k>:<w>[:<n>[:<beta>]] (0 ≤ w < 1, n = 1, 2, 4, beta ≥ 0), critical:lo:hi (0 ≤ lo < hi ≤ 1), slayer:<variable>:<k> (k > 0), sin2 (an azimuth in [0, π/2]), player:<r>:<aniso>:<phi>:<k>[:<n>[:<beta>]] (n = 1, 2, 4, beta ≥ 0), pratio:<aniso> (an azimuth in [0, π/2])";
+        "root:<n>:lo:hi[:<b>] (n = 2, 4, 8; t ∝ x^(1/n) + b·x, b ≥ 0), glayer:<variable>:<k>:<w>[:<n>[:<beta>]] (0 ≤ w < 1, n = 1, 2, 4, beta ≥ 0), critical:lo:hi (0 ≤ lo < hi ≤ 1), slayer:<variable>:<k> (k > 0), sin2 (an azimuth in [0, π/2]), player:<r>:<aniso>:<phi>:<k>[:<n>[:<beta>]] (n = 1, 2, 4, beta ≥ 0), pratio:<aniso> (an azimuth in [0, π/2])";
 
-    /// Parses `root:<n>:lo:hi` ([`InputTransform::RootNormalize`]),
+    /// Parses `root:<n>:lo:hi[:<b>]` ([`InputTransform::RootNormalize`]),
     /// `glayer:<variable>:<k>:<w>[:<n>[:<beta>]]` ([`InputTransform::GrazingLayer`]),
     /// `critical:lo:hi` ([`InputTransform::CriticalAngle`]), `slayer:<variable>:<k>`
     /// ([`InputTransform::RootLayer`]), `sin2` ([`InputTransform::SinSquared`]),
@@ -369,16 +411,26 @@ impl InputTransform {
         if let Some(rest) = text.strip_prefix("root:") {
             let f: Vec<&str> = rest.split(':').collect();
             let parsed = match f.as_slice() {
-                [n, lo, hi] => match (n.trim().parse::<u32>().ok(), num(lo), num(hi)) {
-                    (Some(root @ (2 | 4 | 8)), Some(lo), Some(hi)) if 0.0 <= lo && lo < hi => {
-                        Some(InputTransform::RootNormalize { lo, hi, root })
+                [n, lo, hi, more @ ..] if more.len() <= 1 => {
+                    let linear = more.first().map_or(Some(0.0), |b| num(b));
+                    match (n.trim().parse::<u32>().ok(), num(lo), num(hi), linear) {
+                        (Some(root @ (2 | 4 | 8)), Some(lo), Some(hi), Some(linear))
+                            if 0.0 <= lo && lo < hi && linear >= 0.0 =>
+                        {
+                            Some(InputTransform::RootNormalize {
+                                lo,
+                                hi,
+                                root,
+                                linear,
+                            })
+                        }
+                        _ => None,
                     }
-                    _ => None,
-                },
+                }
                 _ => None,
             };
             return Some(parsed.ok_or_else(|| {
-                "write root:<n>:lo:hi with n = 2, 4 or 8 and finite 0 ≤ lo < hi, e.g. f0=root:4:0.0125:0.25".to_string()
+                "write root:<n>:lo:hi[:<b>] with n = 2, 4 or 8, finite 0 ≤ lo < hi and a finite b ≥ 0, e.g. f0=root:4:0.0125:0.25 or f0=root:8:0.0125:0.25:0.35".to_string()
             }));
         }
         if let Some(rest) = text.strip_prefix("critical:") {
@@ -512,7 +564,18 @@ impl InputTransform {
             InputTransform::Square => "square".into(),
             InputTransform::ClampNormalize { lo, hi } => format!("clamp_normalize({lo}, {hi})"),
             InputTransform::BoundaryLayer { by, k } => format!("layer:#{by}:{k}"),
-            InputTransform::RootNormalize { lo, hi, root } => format!("root:{root}:{lo}:{hi}"),
+            InputTransform::RootNormalize {
+                lo,
+                hi,
+                root,
+                linear,
+            } => {
+                if linear == 0.0 {
+                    format!("root:{root}:{lo}:{hi}")
+                } else {
+                    format!("root:{root}:{lo}:{hi}:{linear}")
+                }
+            }
             InputTransform::GrazingLayer {
                 by,
                 k,
@@ -592,13 +655,22 @@ impl InputTransform {
                 let y = names.get(by).map_or("y", String::as_str);
                 format!("({x}*(1 + {scale}*{y}*{y}) + 2^-100)/({x} + {scale}*{y}*{y} + 2^-100)")
             }
-            InputTransform::RootNormalize { lo, hi, root } => {
+            InputTransform::RootNormalize {
+                lo,
+                hi,
+                root,
+                linear,
+            } => {
                 let x = if x.chars().all(|c| c.is_alphanumeric() || c == '_') {
                     x.to_string()
                 } else {
                     format!("({x})")
                 };
-                format!("(clamp({x}, {lo}, {hi})^(1/{root}) - {lo}^(1/{root}))/({hi}^(1/{root}) - {lo}^(1/{root}))")
+                if linear == 0.0 {
+                    format!("(clamp({x}, {lo}, {hi})^(1/{root}) - {lo}^(1/{root}))/({hi}^(1/{root}) - {lo}^(1/{root}))")
+                } else {
+                    format!("(q(clamp({x}, {lo}, {hi})) - q({lo}))/(q({hi}) - q({lo})), q(z) = z^(1/{root}) + {linear}*z")
+                }
             }
             InputTransform::CriticalAngle { lo, hi } => {
                 let x = if x.chars().all(|c| c.is_alphanumeric() || c == '_') {
@@ -698,9 +770,17 @@ impl InputTransform {
             {
                 return Err(bad("clamp_normalize needs finite bounds lo < hi"))
             }
-            InputTransform::RootNormalize { lo: a, hi: b, root } => {
+            InputTransform::RootNormalize {
+                lo: a,
+                hi: b,
+                root,
+                linear,
+            } => {
                 if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
                     return Err(bad("root_normalize needs finite bounds 0 ≤ lo < hi"));
+                }
+                if !(linear.is_finite() && linear >= 0.0) {
+                    return Err(bad("root_normalize needs a finite linear weight b ≥ 0"));
                 }
                 if !matches!(root, 2 | 4 | 8) {
                     return Err(bad("root_normalize takes the 2nd, 4th or 8th root (repeated square roots); use clamp:lo:hi for the identity"));
@@ -1104,6 +1184,13 @@ pub fn critical_cosine(f0: f64) -> f64 {
 #[inline]
 fn nth_root(x: f64, n: u32) -> f64 {
     (0..n.trailing_zeros()).fold(x.max(0.0), |v, _| v.sqrt())
+}
+
+/// q(x) = x^(1/n) + b·x of [`InputTransform::RootNormalize`] with b = `linear` > 0, in the
+/// order emitted code adds them.
+#[inline]
+fn root_linear(x: f64, n: u32, linear: f64) -> f64 {
+    nth_root(x, n) + linear * x
 }
 
 /// The transformed coordinates t of the point x (original variables) into `t`.
@@ -1946,12 +2033,84 @@ mod tests {
             .is_err());
     }
 
+    /// q = x^(1/n) + b·x: onto [0, 1], clamped, the formula's value, inverted, refused with a
+    /// negative or non-finite b, parsed from its fourth field, and b = 0 neither written nor
+    /// changing a bit of the plain root.
+    #[test]
+    fn root_normalize_with_a_linear_term() {
+        let f = InputTransform::RootNormalize {
+            lo: 0.0125,
+            hi: 0.25,
+            root: 8,
+            linear: 0.25,
+        };
+        assert_eq!(f.apply(0, &[0.0125]), 0.0);
+        assert_eq!(f.apply(0, &[0.25]), 1.0);
+        assert_eq!(f.apply(0, &[0.9]), 1.0, "clamped");
+        let q = |x: f64| x.powf(0.125) + 0.25 * x;
+        let want = (q(0.1) - q(0.0125)) / (q(0.25) - q(0.0125));
+        assert!((f.apply(0, &[0.1]) - want).abs() < 1e-15);
+        for x in [0.0125, 0.02, 0.1, 0.2499] {
+            assert!(
+                (f.inverse(0, f.apply(0, &[x]), &[0.0]) - x).abs() < 1e-14,
+                "{x}"
+            );
+        }
+        let names = ["f0", "r", "mu"].map(String::from).to_vec();
+        assert_eq!(
+            f.image(0, &names, &[(0.0125, 0.25), (0.0, 1.0), (0.0, 1.0)])
+                .unwrap(),
+            (0.0, 1.0)
+        );
+        for linear in [-0.1, f64::NAN, f64::INFINITY] {
+            let bad = InputTransform::RootNormalize {
+                lo: 0.0125,
+                hi: 0.25,
+                root: 8,
+                linear,
+            };
+            assert!(bad.image(0, &names, &[(0.0125, 0.25)]).is_err(), "{bad:?}");
+        }
+        assert_eq!(
+            InputTransform::parse_more("root:8:0.0125:0.25:0.25", &names, 0).unwrap(),
+            Ok(f)
+        );
+        assert_eq!(f.name(), "root:8:0.0125:0.25:0.25");
+        for bad in [
+            "root:8:0.0125:0.25:-1",
+            "root:8:0.0125:0.25:x",
+            "root:8:0:1:1:1",
+        ] {
+            assert!(
+                InputTransform::parse_more(bad, &names, 0).unwrap().is_err(),
+                "{bad}"
+            );
+        }
+        let json = serde_json::to_string(&f).unwrap();
+        assert!(json.contains("\"linear\":0.25"), "{json}");
+        assert_eq!(serde_json::from_str::<InputTransform>(&json).unwrap(), f);
+        // b = 0: the plain root's text, JSON and bits
+        let plain = InputTransform::RootNormalize {
+            lo: 0.0125,
+            hi: 0.25,
+            root: 8,
+            linear: 0.0,
+        };
+        let json = serde_json::to_string(&plain).unwrap();
+        assert!(!json.contains("linear"), "{json}");
+        assert_eq!(plain.name(), "root:8:0.0125:0.25");
+        let r = |x: f64| x.sqrt().sqrt().sqrt();
+        let bits = (r(0.1) - r(0.0125)) / (r(0.25) - r(0.0125));
+        assert_eq!(plain.apply(0, &[0.1]).to_bits(), bits.to_bits());
+    }
+
     #[test]
     fn root_normalize_transform() {
         let f = InputTransform::RootNormalize {
             lo: 0.0125,
             hi: 0.25,
             root: 4,
+            linear: 0.0,
         };
         assert_eq!(f.apply(0, &[0.0125]), 0.0);
         assert_eq!(f.apply(0, &[0.25]), 1.0);
@@ -1967,11 +2126,13 @@ mod tests {
                 lo: 0.0,
                 hi: 1.0,
                 root: 3,
+                linear: 0.0,
             },
             InputTransform::RootNormalize {
                 lo: -0.1,
                 hi: 1.0,
                 root: 2,
+                linear: 0.0,
             },
         ] {
             assert!(bad.image(0, &x, &[(0.0, 1.0)]).is_err(), "{bad:?}");

@@ -159,6 +159,7 @@ pub fn physics_transforms(data: &FitData, grazing_layer: bool) -> Option<Vec<Inp
             lo: data.domain[f].0,
             hi: data.domain[f].1,
             root: 4,
+            linear: 0.0,
         };
     }
     Some(t)
@@ -326,6 +327,21 @@ pub const GLOSSY_ROOT_LAYER_SCALE: f64 = 40.0;
 /// thin at small roughness and spreads it over μ at large roughness.
 pub const GLOSSY_ROOT_LAYER_POWER: u32 = 4;
 
+/// n and b of the glossy split sum's F0 variable, t ∝ F0^(1/n) + b·F0
+/// ([`InputTransform::RootNormalize`]), in the root layer ([`GLOSSY_ROOT_LAYER_SCALE`]): a
+/// glossy albedo's F0 dependence is close to a + c·F0 + d·ln F0, which 1, t, t² follow far
+/// better than powers of F0^¼. Measured one form per sweep with the polish
+/// [`GLOSSY_SPLIT_LP_POLISH`] (off-grid max / MAE at the 26 112 check points; docs/fitting.md,
+/// "The F0 variable of the glossy split sum"), the lowest max error of the polish, on
+/// `ggx-glossy`: b = 0.15, 0.2, 0.25, 0.3, 0.4 and 0.5 give 9.40e-3 / 3.10e-3, 9.38e-3 /
+/// 2.97e-3, 9.51e-3 / 2.91e-3, 9.65e-3 / 2.90e-3, 9.91e-3 / 2.88e-3 (p = 10) and 1.01e-2 /
+/// 3.15e-3 (p = 16, all p = 12 but where named), against 9.64e-3 / 3.23e-3 in F0^¼; on
+/// `ggx-glossy-separable` at b = 0.25 9.52e-3 / 2.91e-3 (F0^¼: 9.71e-3 / 3.25e-3).
+pub const GLOSSY_F0_ROOT: u32 = 8;
+
+/// b of [`GLOSSY_F0_ROOT`].
+pub const GLOSSY_F0_LINEAR: f64 = 0.25;
+
 /// The p values of the L_p polish of the split sum in the root-layer variable
 /// ([`GLOSSY_ROOT_LAYER_SCALE`]), which a glossy sweep always refits for minimax error
 /// ([`PlannedForm::minimax_refit`]): its least-squares fit need not rank among the two a sweep
@@ -355,7 +371,7 @@ pub const GLOSSY_SPLIT_LP_POLISH: [f64; 6] = [4.0, 6.0, 8.0, 12.0, 16.0, 24.0];
 ///   also with μ in the plain boundary-layer variable and F0 as F0^⅛ ([`SPLIT_LAYER_SCALE`]);
 ///   where μ is in √μ (no boundary layer: the glossy albedo),
 ///   (k, n, m) = (2, 3, 3) also with μ in the root-layer variable
-///   ([`GLOSSY_ROOT_LAYER_SCALE`]);
+///   ([`GLOSSY_ROOT_LAYER_SCALE`]) and F0 as F0^⅛ + F0/4 ([`GLOSSY_F0_ROOT`]);
 /// - 4-D with μ in the projected layer: [`ANISO_EXPONENT_FORMS`] (74, 120 and 150 coefficients)
 ///   and [`ANISO_LOWRANK_FORMS`] (64 and 144).
 pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<PlannedForm> {
@@ -457,12 +473,14 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                             lo,
                             hi,
                             root: SPLIT_LAYER_F0_ROOT,
+                            linear: 0.0,
                         };
                     }
                     v.push(PlannedForm::new(split_form(3, f, 2, 3, 3), t));
                 }
                 // the 39-coefficient split sum once more with √μ replaced by the root-layer
-                // variable (docs/fitting.md, "The glossy grazing layer")
+                // variable (docs/fitting.md, "The glossy grazing layer") and F0^¼ by
+                // F0^⅛ + F0/4 ("The F0 variable of the glossy split sum")
                 let find = |n: &str| data.names.iter().position(|x| x.eq_ignore_ascii_case(n));
                 if let (Some(r), Some(mu)) = (find("r"), find("mu")) {
                     if transforms.get(mu) == Some(&InputTransform::Sqrt) && r < mu {
@@ -472,6 +490,14 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                             k: GLOSSY_ROOT_LAYER_SCALE,
                             power: GLOSSY_ROOT_LAYER_POWER,
                         };
+                        if let InputTransform::RootNormalize { lo, hi, .. } = t[f] {
+                            t[f] = InputTransform::RootNormalize {
+                                lo,
+                                hi,
+                                root: GLOSSY_F0_ROOT,
+                                linear: GLOSSY_F0_LINEAR,
+                            };
+                        }
                         v.push(
                             PlannedForm::new(split_form(3, f, 2, 3, 3), t)
                                 .with_lp_polish(&GLOSSY_SPLIT_LP_POLISH)
@@ -718,7 +744,8 @@ mod tests {
             InputTransform::RootNormalize {
                 lo,
                 hi,
-                root: SPLIT_LAYER_F0_ROOT
+                root: SPLIT_LAYER_F0_ROOT,
+                linear: 0.0
             }
         );
         assert_eq!(last.transforms[1], t[1]);
@@ -743,7 +770,20 @@ mod tests {
                 power: GLOSSY_ROOT_LAYER_POWER
             }
         );
-        assert_eq!(last.transforms[..2], low_rank.transforms[..2]);
+        // F0 as F0^⅛ + F0/4 on the same interval, r as in the physics set
+        let InputTransform::RootNormalize { lo, hi, .. } = low_rank.transforms[0] else {
+            panic!("{:?}", low_rank.transforms[0])
+        };
+        assert_eq!(
+            last.transforms[0],
+            InputTransform::RootNormalize {
+                lo,
+                hi,
+                root: GLOSSY_F0_ROOT,
+                linear: GLOSSY_F0_LINEAR
+            }
+        );
+        assert_eq!(last.transforms[1], low_rank.transforms[1]);
         // polished, and refitted for minimax error whatever its least-squares rank; no other
         // planned form of either plan is
         let p_glossy: &[f64] = &GLOSSY_SPLIT_LP_POLISH;

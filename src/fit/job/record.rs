@@ -295,7 +295,18 @@ pub fn fit_file_name(
                     "layer_{}_{k}",
                     variables.get(by).map_or("x", String::as_str)
                 ),
-                InputTransform::RootNormalize { lo, hi, root } => format!("root{root}_{lo}_{hi}"),
+                InputTransform::RootNormalize {
+                    lo,
+                    hi,
+                    root,
+                    linear,
+                } => {
+                    if linear == 0.0 {
+                        format!("root{root}_{lo}_{hi}")
+                    } else {
+                        format!("root{root}_{lo}_{hi}_{linear}")
+                    }
+                }
                 InputTransform::CriticalAngle { lo, hi } => format!("critical_{lo}_{hi}"),
                 InputTransform::RootLayer { by, k, power } => format!(
                     "slayer_{}_{k}{}",

@@ -10,18 +10,18 @@
 /// ggx_glossy_albedo(f0, r, mu): directional albedo E of ggx-glossy.
 /// Model: GGX glossy: Fresnel-weighted specular albedo / conductor albedo (paper eq. 17); height-correlated Smith G2.
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
-///   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
+///   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (q(clamp(f0, 0.0125, 0.25)) - q(0.0125))/(q(0.25) - q(0.0125)), q(z) = z^(1/8) + 0.25*z.
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r.
-/// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.332x the least-squares start's.
-/// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 206b4a06aa46f6c2bd9bd9c114260734f3fa83a9fd5c5c8ef3654dde60cc9e28.
+/// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.345x the least-squares start's.
+/// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 170c36d3a870ad452ea49d9fe6dab7d2f0fc18c13c5e9350b8b81466552629ff.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.4e-7, shifted 8.3e-6, bernstein 8.7e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 3.20e-3, max 1.03e-2 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 3.23e-3, max 9.64e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.33e-7 (every op rounded, as this Rust), 2.19e-7 (fused multiply-add), 8.52e-7 (GPU division/sqrt error).
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-7, shifted 1.8e-6, bernstein 7.4e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 2.79e-3, max 9.97e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.91e-3, max 9.51e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.95e-7 (every op rounded, as this Rust), 2.69e-7 (fused multiply-add), 8.72e-7 (GPU division/sqrt error).
 /// Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 3.20e-3, max 1.01e-2; this f32 code MAE 3.20e-3, max 1.01e-2.
+/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.78e-3, max 9.90e-3; this f32 code MAE 2.78e-3, max 9.90e-3.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-2 on the measurement grid.
 /// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
@@ -34,8 +34,8 @@ pub fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     fn sqrtf(x: f32) -> f32 { x.sqrt() }
     // inputs clamped to the fitted domain
     let f0_c = f0.min(0.25_f32).max(0.0125_f32);
-    // t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4))
-    let f0_t = (sqrtf(sqrtf(f0_c)) - 0.33437017_f32) * 2.6828594_f32;
+    // t = (q(clamp(f0, 0.0125, 0.25)) - q(0.0125))/(q(0.25) - q(0.0125)), q(z) = z^(1/8) + 0.25*z
+    let f0_t = (sqrtf(sqrtf(sqrtf(f0_c))) + 0.25_f32 * f0_c - 0.5813725_f32) * 3.1053593_f32;
     let r_c = r.min(1.0_f32).max(0.0_f32);
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     let mu_s = 40.0_f32 * (r_c * r_c * r_c * r_c);
@@ -43,12 +43,12 @@ pub fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r
     let mu_t = mu_c * (sqrtf(1.0_f32 + mu_s) + mu_rs) / (sqrtf(mu_c + mu_s) + mu_rs + 7.888609e-31_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((3.5665762_f32 * r_c + (5.341369_f32 * mu_t - 5.1485605_f32)) * r_c + ((7.4130864_f32 * mu_t - 8.671299_f32) * mu_t + 3.1828368_f32)) * r_c + (((11.122101_f32 * mu_t - 18.90535_f32) * mu_t + 7.37868_f32) * mu_t + 0.9954541_f32);
-    let p_1 = ((-10.956218_f32 * r_c + (-5.666372_f32 * mu_t + 11.959683_f32)) * r_c + ((-19.63544_f32 * mu_t + 14.397158_f32) * mu_t + 0.19521557_f32)) * r_c + (((-18.259106_f32 * mu_t + 18.118698_f32) * mu_t - 1.2946017_f32) * mu_t - 0.00042494462_f32);
-    let p_2 = ((17.390427_f32 * r_c + (46.254337_f32 * mu_t - 8.141113_f32)) * r_c + ((37.246765_f32 * mu_t - 19.466208_f32) * mu_t - 0.40876266_f32)) * r_c + (((24.086449_f32 * mu_t - 15.585848_f32) * mu_t + 0.6491345_f32) * mu_t + 0.015274061_f32);
+    let p_0 = ((3.773065_f32 * r_c + (5.0841002_f32 * mu_t - 5.5219274_f32)) * r_c + ((7.2081175_f32 * mu_t - 8.926383_f32) * mu_t + 3.445171_f32)) * r_c + (((11.42763_f32 * mu_t - 19.852955_f32) * mu_t + 7.920682_f32) * mu_t + 0.99588805_f32);
+    let p_1 = ((-11.580998_f32 * r_c + (-2.7637038_f32 * mu_t + 12.996512_f32)) * r_c + ((-18.711164_f32 * mu_t + 14.384269_f32) * mu_t + 0.11332484_f32)) * r_c + (((-18.006376_f32 * mu_t + 18.420399_f32) * mu_t - 1.2761017_f32) * mu_t + 0.00070818595_f32);
+    let p_2 = ((18.64065_f32 * r_c + (46.325672_f32 * mu_t - 9.205341_f32)) * r_c + ((38.03028_f32 * mu_t - 20.034407_f32) * mu_t - 0.31528023_f32)) * r_c + (((24.769361_f32 * mu_t - 16.175442_f32) * mu_t + 0.6631969_f32) * mu_t + 0.013372052_f32);
     let p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((25.02058_f32 * r_c + (172.47496_f32 * mu_t + 15.50988_f32)) * r_c + ((79.20848_f32 * mu_t - 30.775364_f32) * mu_t + 3.890986_f32)) * r_c + (((30.694483_f32 * mu_t - 6.2545414_f32) * mu_t + 6.908036_f32) * mu_t + 1.0_f32);
+    let q_0 = ((26.540731_f32 * r_c + (182.17798_f32 * mu_t + 15.822226_f32)) * r_c + ((83.50242_f32 * mu_t - 32.034775_f32) * mu_t + 4.146454_f32)) * r_c + (((33.147434_f32 * mu_t - 7.108034_f32) * mu_t + 7.472199_f32) * mu_t + 1.0_f32);
     let q = q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

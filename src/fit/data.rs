@@ -569,20 +569,14 @@ impl InputTransform {
                 hi,
                 root,
                 linear,
-            } => {
-                if linear == 0.0 {
-                    format!("root:{root}:{lo}:{hi}")
-                } else {
-                    format!("root:{root}:{lo}:{hi}:{linear}")
-                }
-            }
+            } => format!("root:{root}:{lo}:{hi}{}", positive_suffix(linear)),
             InputTransform::GrazingLayer {
                 by,
                 k,
                 w,
                 root,
                 beta,
-            } => format!("glayer:#{by}:{k}:{w}:{root}{}", beta_suffix(beta)),
+            } => format!("glayer:#{by}:{k}:{w}:{root}{}", positive_suffix(beta)),
             InputTransform::CriticalAngle { lo, hi } => format!("critical:{lo}:{hi}"),
             InputTransform::RootLayer { by, k, power } => {
                 format!("slayer:#{by}:{k}{}", power_suffix(power))
@@ -597,7 +591,7 @@ impl InputTransform {
                 beta,
             } => format!(
                 "player:#{r}:#{aniso}:#{phi}:{k}:{root}{}",
-                beta_suffix(beta)
+                positive_suffix(beta)
             ),
             InputTransform::ProjectedRatio { aniso } => format!("pratio:#{aniso}"),
         }
@@ -617,7 +611,7 @@ impl InputTransform {
                 root,
                 beta,
             } => match names.get(by) {
-                Some(n) => format!("glayer:{n}:{k}:{w}:{root}{}", beta_suffix(beta)),
+                Some(n) => format!("glayer:{n}:{k}:{w}:{root}{}", positive_suffix(beta)),
                 None => self.name(),
             },
             InputTransform::RootLayer { by, k, power } => match names.get(by) {
@@ -633,7 +627,7 @@ impl InputTransform {
                 beta,
             } => match (names.get(r), names.get(aniso), names.get(phi)) {
                 (Some(r), Some(a), Some(p)) => {
-                    format!("player:{r}:{a}:{p}:{k}:{root}{}", beta_suffix(beta))
+                    format!("player:{r}:{a}:{p}:{k}:{root}{}", positive_suffix(beta))
                 }
                 _ => self.name(),
             },
@@ -1096,10 +1090,11 @@ fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-/// `:<beta>` after a grazing layer's name when β > 0 (nothing otherwise, as before β existed).
-fn beta_suffix(beta: f64) -> String {
-    if beta > 0.0 {
-        format!(":{beta}")
+/// `:<x>` after a transform's name when its optional weight x (a grazing layer's β, a root's
+/// linear b) is > 0; nothing for 0, the default, so that names without it stay as they are.
+fn positive_suffix(x: f64) -> String {
+    if x > 0.0 {
+        format!(":{x}")
     } else {
         String::new()
     }

@@ -300,13 +300,14 @@ pub fn fit_file_name(
                     hi,
                     root,
                     linear,
-                } => {
-                    if linear == 0.0 {
-                        format!("root{root}_{lo}_{hi}")
+                } => format!(
+                    "root{root}_{lo}_{hi}{}",
+                    if linear > 0.0 {
+                        format!("_{linear}")
                     } else {
-                        format!("root{root}_{lo}_{hi}_{linear}")
+                        String::new()
                     }
-                }
+                ),
                 InputTransform::CriticalAngle { lo, hi } => format!("critical_{lo}_{hi}"),
                 InputTransform::RootLayer { by, k, power } => format!(
                     "slayer_{}_{k}{}",

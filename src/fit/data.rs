@@ -430,7 +430,7 @@ impl InputTransform {
                 _ => None,
             };
             return Some(parsed.ok_or_else(|| {
-                "write root:<n>:lo:hi[:<b>] with n = 2, 4 or 8, finite 0 ≤ lo < hi and a finite b ≥ 0, e.g. f0=root:4:0.0125:0.25 or f0=root:8:0.0125:0.25:0.35".to_string()
+                "write root:<n>:lo:hi[:<b>] with n = 2, 4 or 8, finite 0 ≤ lo < hi and a finite b ≥ 0, e.g. f0=root:4:0.0125:0.25 or f0=root:8:0.0125:0.25:0.25".to_string()
             }));
         }
         if let Some(rest) = text.strip_prefix("critical:") {

@@ -353,6 +353,19 @@ pub const GLOSSY_F0_LINEAR: f64 = 0.25;
 /// Lawson's end 1.23e-2 / 3.78e-3.
 pub const GLOSSY_SPLIT_LP_POLISH: [f64; 6] = [4.0, 6.0, 8.0, 12.0, 16.0, 24.0];
 
+/// A root variable of F0 ([`InputTransform::RootNormalize`]) with another root n and linear
+/// weight b on the same interval; any other transform is left as it is.
+fn with_f0_root(t: &mut InputTransform, root: u32, linear: f64) {
+    if let InputTransform::RootNormalize { lo, hi, .. } = *t {
+        *t = InputTransform::RootNormalize {
+            lo,
+            hi,
+            root,
+            linear,
+        };
+    }
+}
+
 /// Structured forms a default sweep fits in `transforms` ([`physics_transforms`]):
 /// - 2-D with a grazing layer: [`LAYER_TENSOR_FORMS`] with μ in the boundary-layer variable,
 ///   and [`LOG_LAYER_FORMS`] with μ in the log-corrected one;
@@ -468,14 +481,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                         by,
                         k: SPLIT_LAYER_SCALE,
                     };
-                    if let InputTransform::RootNormalize { lo, hi, .. } = t[f] {
-                        t[f] = InputTransform::RootNormalize {
-                            lo,
-                            hi,
-                            root: SPLIT_LAYER_F0_ROOT,
-                            linear: 0.0,
-                        };
-                    }
+                    with_f0_root(&mut t[f], SPLIT_LAYER_F0_ROOT, 0.0);
                     v.push(PlannedForm::new(split_form(3, f, 2, 3, 3), t));
                 }
                 // the 39-coefficient split sum once more with √μ replaced by the root-layer
@@ -490,14 +496,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                             k: GLOSSY_ROOT_LAYER_SCALE,
                             power: GLOSSY_ROOT_LAYER_POWER,
                         };
-                        if let InputTransform::RootNormalize { lo, hi, .. } = t[f] {
-                            t[f] = InputTransform::RootNormalize {
-                                lo,
-                                hi,
-                                root: GLOSSY_F0_ROOT,
-                                linear: GLOSSY_F0_LINEAR,
-                            };
-                        }
+                        with_f0_root(&mut t[f], GLOSSY_F0_ROOT, GLOSSY_F0_LINEAR);
                         v.push(
                             PlannedForm::new(split_form(3, f, 2, 3, 3), t)
                                 .with_lp_polish(&GLOSSY_SPLIT_LP_POLISH)

@@ -334,8 +334,8 @@ pub const GLOSSY_ROOT_LAYER_POWER: u32 = 4;
 /// [`GLOSSY_SPLIT_LP_POLISH`] (off-grid max / MAE at the 26 112 check points; docs/fitting.md,
 /// "The F0 variable of the glossy split sum"), the lowest max error of the polish, on
 /// `ggx-glossy`: b = 0.15, 0.2, 0.25, 0.3, 0.4 and 0.5 give 9.40e-3 / 3.10e-3, 9.38e-3 /
-/// 2.97e-3, 9.51e-3 / 2.91e-3, 9.65e-3 / 2.90e-3, 9.91e-3 / 2.88e-3 (p = 10) and 1.01e-2 /
-/// 3.15e-3 (p = 16, all p = 12 but where named), against 9.64e-3 / 3.23e-3 in F0^¼; on
+/// 2.97e-3, 9.51e-3 / 2.91e-3, 9.64e-3 / 2.83e-3 (p = 10), 9.91e-3 / 2.88e-3 (p = 10) and
+/// 1.01e-2 / 3.15e-3 (p = 16; the others p = 12), against 9.64e-3 / 3.23e-3 in F0^¼; on
 /// `ggx-glossy-separable` at b = 0.25 9.52e-3 / 2.91e-3 (F0^¼: 9.71e-3 / 3.25e-3).
 pub const GLOSSY_F0_ROOT: u32 = 8;
 

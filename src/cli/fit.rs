@@ -97,8 +97,10 @@ pub struct FitArgs {
     /// ends in `-trust-region.json`.
     #[arg(long, value_enum, default_value_t = SolverArg::Lm, conflicts_with = "sweep")]
     pub solver: SolverArg,
-    /// Input transforms, e.g. `mu=sqrt,f0=sqrt` (identity, sqrt, one_minus, square, clamp:lo:hi).
-    /// With --sweep: one more transform set to try.
+    /// Input transforms, e.g. `mu=sqrt,f0=sqrt` (identity, sqrt, one_minus, square, clamp:lo:hi,
+    /// layer:<variable>:<k>, root:<n>:lo:hi[:<b>], glayer:…, slayer:…, critical:lo:hi, sin2,
+    /// player:…, pratio:…; an unknown name prints every syntax; docs/fitting.md). With --sweep:
+    /// one more transform set to try.
     #[arg(long)]
     pub transform: Option<String>,
     /// Table nodes per axis, `256` or `128x64x32` (default 1024² in 2D, 128³ in 3D).

@@ -452,16 +452,6 @@ impl DimRules {
         }
     }
 
-    /// Calls `f(x, w)` for every node of `panel` (weights include the map's Jacobian), in the
-    /// order of [`Self::nodes_into`].
-    pub fn for_each_node(&self, panel: &Panel, mut f: impl FnMut(f64, f64)) {
-        let (mut xs, mut ws) = (Vec::with_capacity(64), Vec::with_capacity(64));
-        self.nodes_into(panel, &mut xs, &mut ws);
-        for (&x, &w) in xs.iter().zip(&ws) {
-            f(x, w);
-        }
-    }
-
     /// Appends the nodes of `panel` to `xs` and their weights (the map's Jacobian included) to
     /// `ws`. Each map is a loop without calls or branches over the rule's nodes, so that it
     /// vectorises.
@@ -740,19 +730,57 @@ pub fn integrate_2d<I: Integrand2D>(f: &I, rules: &Rules) -> [f64; CHANNELS] {
 
 /// Nested product rule over all panels, into `total` (length `f.channels()`, zeroed here).
 pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]) {
+    // the buffers of the thread's previous call (a call nested in an integrand takes new ones)
+    BUFFERS.with(|b| match b.try_borrow_mut() {
+        Ok(mut b) => integrate_with(f, rules, total, &mut b),
+        Err(_) => integrate_with(f, rules, total, &mut Buffers::default()),
+    })
+}
+
+/// The working storage of [`integrate_2d_into`], reused by a thread's calls: every entry a call
+/// reads is one it wrote, so results do not depend on what a previous call left.
+#[derive(Default)]
+struct Buffers {
+    scratch: Vec<f64>,
+    line_sum: Vec<f64>,
+    outer: Vec<Panel>,
+    inner: Vec<Panel>,
+    vs: Vec<f64>,
+    ws: Vec<f64>,
+    us: Vec<f64>,
+    wus: Vec<f64>,
+    mids: Vec<f64>,
+    active: Vec<bool>,
+}
+
+thread_local! {
+    static BUFFERS: std::cell::RefCell<Buffers> = std::cell::RefCell::new(Buffers::default());
+}
+
+fn integrate_with<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64], buf: &mut Buffers) {
+    let Buffers {
+        scratch,
+        line_sum,
+        outer,
+        inner,
+        vs,
+        ws,
+        us,
+        wus,
+        mids,
+        active,
+    } = buf;
     let n = f.channels();
     total.iter_mut().for_each(|t| *t = 0.0);
-    let mut scratch = vec![0.0; n];
-    let mut line_sum = vec![0.0; n];
-    let mut outer = Vec::with_capacity(16);
-    f.outer_panels(&mut outer);
-    let mut inner = Vec::with_capacity(16);
-    let (mut vs, mut ws) = (Vec::with_capacity(64), Vec::with_capacity(64));
+    scratch.clear();
+    scratch.resize(n, 0.0);
+    line_sum.clear();
+    line_sum.resize(n, 0.0);
+    outer.clear();
+    f.outer_panels(outer);
     // A panel between kinks on which the integrand vanishes at the midpoint vanishes throughout
     // (kinks are its only way to switch on); likewise an outer panel whose middle line vanishes
     // at every inner midpoint (e.g. beyond the latitude where the reflection horizon closes).
-    // (allocated on first use: integrands whose panels are all active never use them)
-    let (mut mids, mut active) = (Vec::new(), Vec::new());
     let all_active = f.panels_all_active();
     let mut activity =
         |line: &I::Line, inner: &[Panel], mids: &mut Vec<f64>, active: &mut Vec<bool>| {
@@ -765,13 +793,13 @@ pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]
             mids.extend(inner.iter().map(|seg| 0.5 * (seg.a + seg.b)));
             active.clear();
             active.resize(mids.len(), false);
-            f.nonzero_at(line, mids, active, &mut scratch);
+            f.nonzero_at(line, mids, active, scratch);
         };
-    for panel in &outer {
+    for panel in outer.iter() {
         if !all_active {
             inner.clear();
-            let mid_line = f.line_panels(0.5 * (panel.a + panel.b), &mut inner);
-            activity(&mid_line, &inner, &mut mids, &mut active);
+            let mid_line = f.line_panels(0.5 * (panel.a + panel.b), inner);
+            activity(&mid_line, inner, mids, active);
             if !active.iter().any(|&a| a) {
                 continue;
             }
@@ -781,25 +809,29 @@ pub fn integrate_2d_into<I: Integrand2D>(f: &I, rules: &Rules, total: &mut [f64]
         } else {
             &rules.outer
         };
-        outer_rules.for_each_node(panel, |u, wu| {
+        // the outer rule's nodes and weights on this panel
+        us.clear();
+        wus.clear();
+        outer_rules.nodes_into(panel, us, wus);
+        for (&u, &wu) in us.iter().zip(wus.iter()) {
             inner.clear();
-            let line = f.line_panels(u, &mut inner);
+            let line = f.line_panels(u, inner);
             line_sum.iter_mut().for_each(|t| *t = 0.0);
             if all_active {
-                f.accumulate_line(&line, &inner, &rules.inner, &mut vs, &mut ws, &mut line_sum);
+                f.accumulate_line(&line, inner, &rules.inner, vs, ws, line_sum);
             } else {
-                activity(&line, &inner, &mut mids, &mut active);
-                for (seg, _) in inner.iter().zip(&active).filter(|(_, a)| **a) {
+                activity(&line, inner, mids, active);
+                for (seg, _) in inner.iter().zip(active.iter()).filter(|(_, a)| **a) {
                     vs.clear();
                     ws.clear();
-                    rules.inner.nodes_into(seg, &mut vs, &mut ws);
-                    f.accumulate_nodes(&line, &vs, &ws, &mut line_sum);
+                    rules.inner.nodes_into(seg, vs, ws);
+                    f.accumulate_nodes(&line, vs, ws, line_sum);
                 }
             }
             for k in 0..n {
                 total[k] += wu * line_sum[k];
             }
-        });
+        }
     }
 }
 

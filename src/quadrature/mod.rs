@@ -1076,6 +1076,41 @@ mod tests {
         assert!((q[1] - 1.0).abs() < 1e-14);
     }
 
+    /// An integrand whose value is itself a 2-D integral: the inner call cannot take the
+    /// thread's buffers the outer one holds and takes its own; the result is the product of the
+    /// two integrals, the same bits call after call, and a call after a larger one (more nodes)
+    /// reads nothing the larger one left.
+    struct Nested;
+    impl Integrand2D for Nested {
+        type Line = f64;
+        fn outer_breaks(&self, out: &mut Vec<f64>) {
+            out.extend([0.0, 1.0]);
+        }
+        fn line(&self, u: f64, b: &mut Vec<f64>) -> f64 {
+            b.extend([0.0, 1.0]);
+            u
+        }
+        fn eval(&self, u: &f64, v: f64) -> [f64; CHANNELS] {
+            let inner = integrate_2d(&Kinked, &Rules::new(6));
+            [u * v * inner[0], inner[1]]
+        }
+    }
+
+    #[test]
+    fn nested_and_repeated_calls_give_the_bits_of_separate_ones() {
+        let rules = Rules::new(5);
+        let alone = integrate_2d(&Kinked, &Rules::new(6));
+        let nested = integrate_2d(&Nested, &rules);
+        // ∫∫ u v dv du = 1/4 times the inner integral
+        assert!((nested[0] - 0.25 * alone[0]).abs() < 1e-14, "{nested:?}");
+        assert!((nested[1] - alone[1]).abs() < 1e-14, "{nested:?}");
+        assert_eq!(integrate_2d(&Nested, &rules), nested);
+        assert_eq!(integrate_2d(&Kinked, &Rules::new(6)), alone);
+        let big = integrate_2d(&Kinked, &Rules::new(40));
+        assert_eq!(integrate_2d(&Kinked, &Rules::new(6)), alone);
+        assert!((big[0] - 1.0 / 3.0).abs() < 1e-14);
+    }
+
     /// The AVX2/AVX-512 builds of the sinh map give the bits of the baseline build.
     #[test]
     fn sinh_map_is_the_same_on_every_vector_unit() {

@@ -217,13 +217,9 @@ impl InputTransform {
                 root,
                 linear,
             } => {
-                if linear == 0.0 {
-                    (nth_root(v.clamp(lo, hi), root) - nth_root(lo, root))
-                        / (nth_root(hi, root) - nth_root(lo, root))
-                } else {
-                    let q = |x: f64| root_linear(x, root, linear);
-                    (q(v.clamp(lo, hi)) - q(lo)) / (q(hi) - q(lo))
-                }
+                // (with b = 0, adding 0·x to a root ≥ 0 changes no bit: the plain root's value)
+                let q = |x: f64| root_linear(x, root, linear);
+                (q(v.clamp(lo, hi)) - q(lo)) / (q(hi) - q(lo))
             }
             InputTransform::GrazingLayer {
                 by,
@@ -1181,8 +1177,8 @@ fn nth_root(x: f64, n: u32) -> f64 {
     (0..n.trailing_zeros()).fold(x.max(0.0), |v, _| v.sqrt())
 }
 
-/// q(x) = x^(1/n) + b·x of [`InputTransform::RootNormalize`] with b = `linear` > 0, in the
-/// order emitted code adds them.
+/// q(x) = x^(1/n) + b·x of [`InputTransform::RootNormalize`], b = `linear` ≥ 0, in the order
+/// emitted code adds them.
 #[inline]
 fn root_linear(x: f64, n: u32, linear: f64) -> f64 {
     nth_root(x, n) + linear * x

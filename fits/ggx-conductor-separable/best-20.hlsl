@@ -14,39 +14,41 @@
 // Model: GGX white conductor (F = 1), E(r, mu); separable Smith G1*G1 (the paper's renderer).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: rational over [x0^2 x x1^3]/[x0^2 x x1^2], 20 coefficients (numerator 12, denominator 8 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 6 of 15, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-conductor-separable/best-20.json (furnace 0.1.0), fit SHA-256 b73284ece80c8320cedaa01f31ef71dd30b3150099cc7ffaa6672d235ccafc51.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: rational of degree 4/2, 20 coefficients (numerator 15, denominator 5 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/ggx-conductor-separable/best-20.json (furnace 0.1.0), fit SHA-256 68c020e07d25bbbb1eead97cf83f7628cf77af279ba61ae9453b7077a076e77a.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.0e-6, shifted 1.6e-6, bernstein 1.5e-6.
-// Error of the f64 fit on its 1048576 data points: MAE 7.73e-4, max 2.35e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.85e-4, max 2.35e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.63e-6 (every op rounded, as this Rust), 1.29e-6 (fused multiply-add), 2.52e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.68e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 1679 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.70e-4, max 2.35e-3; this f32 code MAE 7.70e-4, max 2.35e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.1e-4 on the measurement grid.
-// Denominator proved >= 1.394e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.7e-6, shifted 1.3e-6, bernstein 1.2e-6.
+// Error of the f64 fit on its 1048576 data points: MAE 7.03e-4, max 1.41e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.56e-4, max 1.41e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.84e-6 (every op rounded, as this Rust), 1.46e-6 (fused multiply-add), 1.82e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 8.17e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 245 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.02e-4, max 1.41e-3; this f32 code MAE 7.02e-4, max 1.41e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.4e-4 on the measurement grid.
+// Denominator proved >= 1.947e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20f)))));
     float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0f + mu_c))));
-    float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
-    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    float mu_logv = (mu_c + 2.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 2.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
     float mu_t = (mu_logv * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.0f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((-0.12148434f * mu_t + 1.6717917f) * mu_t - 2.2609525f) * mu_t + 0.9382576f;
-    float p_1 = ((0.7722849f * mu_t - 3.71167f) * mu_t + 3.132523f) * mu_t - 0.35002023f;
-    float p_2 = ((-0.7228889f * mu_t + 2.6498222f) * mu_t - 2.1579678f) * mu_t + 0.29897523f;
-    float p = (p_2 * r_t + p_1) * r_t + p_0;
+    float p_0 = (((-0.14062546f * mu_t + 0.18529163f) * mu_t + 1.4749684f) * mu_t - 2.155224f) * mu_t + 0.9374973f;
+    float p_1 = ((0.5073366f * mu_t - 0.68033606f) * mu_t - 2.2766666f) * mu_t + 2.1003706f;
+    float p_2 = (-0.6216764f * mu_t + 1.3073549f) * mu_t + 0.48095164f;
+    float p_3 = -0.00082952593f * mu_t - 1.0143285f;
+    float p_4 = 0.2709381f;
+    float p = (((p_4 * r_t + p_3) * r_t + p_2) * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = (1.4999666f * mu_t - 2.2722824f) * mu_t + 1.0f;
-    float q_1 = (-2.691273f * mu_t + 2.854262f) * mu_t - 0.33005852f;
-    float q_2 = (2.1022651f * mu_t - 2.4846005f) * mu_t + 0.7705888f;
+    float q_0 = (1.4999772f * mu_t - 2.1980524f) * mu_t + 1.0f;
+    float q_1 = -2.6066136f * mu_t + 2.2734475f;
+    float q_2 = 1.2588973f;
     float q = (q_2 * r_t + q_1) * r_t + q_0;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

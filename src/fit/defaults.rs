@@ -382,6 +382,18 @@ fn with_f0_root(t: &mut InputTransform, root: u32, linear: f64) {
     }
 }
 
+/// The log-corrected layer variable `glayer:<by>:k:0:1:β` of μ ([`InputTransform::GrazingLayer`]
+/// with w = 0 and n = 1), scaled by the variable `by`.
+fn log_corrected_layer(by: usize, k: f64, beta: f64) -> InputTransform {
+    InputTransform::GrazingLayer {
+        by,
+        k,
+        w: 0.0,
+        root: 1,
+        beta,
+    }
+}
+
 /// Structured forms a default sweep fits in `transforms` ([`physics_transforms`]):
 /// - 2-D with a grazing layer: [`LAYER_TENSOR_FORMS`] with μ in the boundary-layer variable,
 ///   and [`LOG_LAYER_FORMS`] and [`LOG_LAYER_RATIONAL`] with μ in the log-corrected one;
@@ -423,24 +435,12 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                 }
                 for (f, beta) in LOG_LAYER_FORMS {
                     let mut t = transforms.to_vec();
-                    t[mu] = InputTransform::GrazingLayer {
-                        by,
-                        k: 1.0,
-                        w: 0.0,
-                        root: 1,
-                        beta,
-                    };
+                    t[mu] = log_corrected_layer(by, 1.0, beta);
                     out.extend(tensor(f).map(|form| PlannedForm::new(form, t)));
                 }
                 let (f, k, beta) = LOG_LAYER_RATIONAL;
                 let mut t = transforms.to_vec();
-                t[mu] = InputTransform::GrazingLayer {
-                    by,
-                    k,
-                    w: 0.0,
-                    root: 1,
-                    beta,
-                };
+                t[mu] = log_corrected_layer(by, k, beta);
                 out.extend(tensor(f).map(|form| {
                     PlannedForm::new(form, t)
                         .with_lp_polish(&LAYER_20_LP_POLISH)
@@ -491,13 +491,7 @@ pub fn structured_forms(data: &FitData, transforms: &[InputTransform]) -> Vec<Pl
                 if let Some((mu, by)) = log_layer {
                     for (spec, k, beta, polish) in LOG_LAYER_LOWRANK_FORMS {
                         let mut t = transforms.to_vec();
-                        t[mu] = InputTransform::GrazingLayer {
-                            by,
-                            k,
-                            w: 0.0,
-                            root: 1,
-                            beta,
-                        };
+                        t[mu] = log_corrected_layer(by, k, beta);
                         v.extend(
                             parse_form(&format!("lowrank:{x}:{spec}"), &data.names)
                                 .ok()

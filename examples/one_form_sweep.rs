@@ -38,6 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect::<Result<_, _>>()?)
     };
     let lp = flag("--lp")?;
+    let max_mean = flag("--maxmean")?;
     let grading = flag("--grading")?;
     let fit_points = flag("--fit-points")?;
     let training_n = flag("--training")?;
@@ -77,6 +78,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     plan.forms = vec![job::PlannedForm::new(form, transforms)];
     plan.budgets = vec![size];
     plan.lp_polish = lp;
+    plan.max_mean_polish = max_mean;
     if !grading.is_empty() {
         plan.fit_grading = grading;
     }

@@ -9,7 +9,8 @@
 //! - [`linear`]: tall linear least squares by TSQR (chunked, deterministic).
 //! - [`lm`]: Levenberg–Marquardt with accumulated normal equations, an argmin `Solver` run by argmin's `Executor`.
 //! - [`trust_region`]: argmin's trust-region method (dogleg) on the same problems, the second solver.
-//! - [`polynomial`], [`rational`]: the fits; [`robust`]: mean-absolute and minimax objectives.
+//! - [`polynomial`], [`rational`]: the fits; [`robust`]: mean-absolute and minimax objectives;
+//!   [`maxmean`]: the exact best linear coefficients in max + λ·mean error (a linear program).
 //! - [`metrics`]: MAE, RMSE, max absolute / relative error and where they occur.
 //! - [`poles`]: Bernstein-subdivision proof that the denominator has no zero on the domain.
 //! - [`sweep`]: degree sweeps, their Pareto front and the best certified fit under a coefficient budget.
@@ -50,6 +51,7 @@ pub mod form;
 pub mod job;
 pub mod linear;
 pub mod lm;
+mod maxmean;
 pub mod metrics;
 mod model;
 pub mod paper;

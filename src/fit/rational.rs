@@ -30,7 +30,10 @@ use super::model::{LinearisedRows, Model, RationalProblem, Q_FLOOR};
 use super::poles::CertifyOptions;
 use super::polynomial::solve_polynomial;
 use super::result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
-use super::robust::{check_lp_polish, reweight, PnormProblem, PnormSolve, Solve, Solved};
+use super::robust::{
+    check_lp_polish, check_max_mean, max_abs, max_mean_branch, mean_abs, pnorm_path, reweight,
+    Iterate, PnormProblem, PnormSolve, Solve, Solved,
+};
 
 /// Settings of a rational fit.
 #[derive(Clone, Debug)]
@@ -70,6 +73,11 @@ pub struct RationalOptions {
     /// solve is one more iterate of the path ([`FitResult::path`]). Empty (the default): none.
     /// Each p must be finite and ≥ 2.
     pub lp_polish: Vec<f64>,
+    /// Minimax only: the λ values of a max–mean polish of the minimax fit (its denominator
+    /// held, the numerator set to the exact minimiser of max error + λ·mean error on the fitting
+    /// points, [`super::maxmean`]); every λ one more iterate of the path. Empty (the default):
+    /// none. Each λ must be finite and ≥ 0.
+    pub max_mean_polish: Vec<f64>,
 }
 
 impl Default for RationalOptions {
@@ -91,6 +99,7 @@ impl Default for RationalOptions {
             denominator_margin: 1e-3,
             extra_starts: Vec::new(),
             lp_polish: Vec::new(),
+            max_mean_polish: Vec::new(),
         }
     }
 }
@@ -206,6 +215,7 @@ pub(crate) fn fit_rational_model(
 ) -> Result<FitResult> {
     let start_time = Instant::now();
     check_lp_polish(&opts.lp_polish)?;
+    check_max_mean(&opts.max_mean_polish)?;
     let prep = Prepared::new(data, transforms)?;
     let model = &model.clone().with_scales(&prep.scales);
     let poly_model = &poly_model.clone().with_scales(&prep.scales);
@@ -464,6 +474,7 @@ pub(crate) fn fit_rational_model(
                 run(&problem, warm)
             };
             let mut accept = |p: &[f64]| !best.certified || safe(p);
+            let ls_mae = mean_abs(&prep.w, &e0);
             let rw = reweight(
                 objective,
                 opts.reweight_iterations,
@@ -480,6 +491,39 @@ pub(crate) fn fit_rational_model(
             final_iterations = rw.lm_iterations;
             params = rw.params;
             path = rw.path;
+            if objective == Objective::Minimax && !opts.max_mean_polish.is_empty() {
+                let problem = RationalProblem {
+                    model,
+                    data: &prep,
+                    phi: phi_all,
+                    extra: None,
+                    certified_steps: None,
+                };
+                let linear: Vec<usize> = (0..model.n_num).collect();
+                // from the minimax fit and from the L_p polish's last iterate
+                let mut starts = vec![(None, params.clone())];
+                if let Some(last) = path.iter().rfind(|it| it.pnorm.is_some()) {
+                    starts.push((last.pnorm, last.params.clone()));
+                }
+                let mut polished: Vec<Iterate> = Vec::new();
+                for (pnorm, from) in starts {
+                    for (l, p) in max_mean_branch(&problem, &linear, &from, &opts.max_mean_polish)?
+                    {
+                        if let Some(e) = model.errors(&prep, phi_all, &p) {
+                            polished.push(Iterate {
+                                round: polished.len() + 1,
+                                blend: 1.0,
+                                pnorm,
+                                max_mean: Some(l),
+                                max: max_abs(&prep.w, &e),
+                                mae: mean_abs(&prep.w, &e),
+                                params: p,
+                            });
+                        }
+                    }
+                }
+                path.extend(pnorm_path(&polished, ls_mae, &mut accept));
+            }
         }
     }
 

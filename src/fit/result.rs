@@ -757,14 +757,23 @@ pub struct LawsonPathIterate {
     /// p of the L_p polish (IRLS for Σ |e_i|^p) the iterate came from; absent for Lawson's path.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pnorm: Option<f64>,
+    /// λ of the max–mean polish (the exact best linear coefficients in max + λ·mean error, the
+    /// rest of the minimax fit held) the iterate came from; absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_mean: Option<f64>,
 }
 
 impl LawsonPathIterate {
-    /// `round<sep>7`, `blend<sep>0.75<gap>round<sep>3` for the blended branch, or `p<sep>16`
-    /// for the L_p polish.
+    /// `round<sep>7`, `blend<sep>0.75<gap>round<sep>3` for the blended branch, `p<sep>16`
+    /// for the L_p polish or `maxmean<sep>4` for the max–mean polish.
     pub fn label(&self, gap: &str, sep: &str) -> String {
         let round = format!("round{sep}{}", self.round);
-        if let Some(p) = self.pnorm {
+        if let Some(l) = self.max_mean {
+            match self.pnorm {
+                Some(p) => format!("p{sep}{p}{gap}maxmean{sep}{l}"),
+                None => format!("maxmean{sep}{l}"),
+            }
+        } else if let Some(p) = self.pnorm {
             format!("p{sep}{p}")
         } else if self.blend < 1.0 {
             format!("blend{sep}{}{gap}{round}", self.blend)
@@ -854,7 +863,16 @@ impl FitResult {
         };
         let of_rounds = solver.reweighting_iterations;
         for it in path {
-            let which = if let Some(p) = it.pnorm {
+            let which = if let Some(l) = it.max_mean {
+                let from = match it.pnorm {
+                    Some(p) => format!("the L_p polish's solve of p = {p}"),
+                    None => "the minimax fit".to_string(),
+                };
+                format!(
+                    "then a max–mean polish of {from}: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + λ·mean error on the fitting points (a linear program, primal–dual interior point), λ = {l}, its MAE there {:.3}× the least-squares start's",
+                    it.mae_bound
+                )
+            } else if let Some(p) = it.pnorm {
                 format!(
                     "then an L_p polish from the least-squares fit: Levenberg–Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = {p} (step {} of the polish), its MAE on the fitting points {:.3}× the least-squares start's",
                     it.round, it.mae_bound
@@ -867,7 +885,7 @@ impl FitResult {
             } else {
                 format!("the Lawson iterate of round {} of {of_rounds}", it.round)
             };
-            let method = if it.pnorm.is_some() {
+            let method = if it.pnorm.is_some() || it.max_mean.is_some() {
                 format!("{}; {which}", solver.method)
             } else {
                 format!(
@@ -884,6 +902,7 @@ impl FitResult {
                     mae_bound: it.mae_bound,
                     blend: it.blend,
                     pnorm: it.pnorm,
+                    max_mean: it.max_mean,
                 }),
                 ..solver.clone()
             };

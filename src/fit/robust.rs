@@ -52,6 +52,8 @@ pub(crate) struct PathIterate {
     pub blend: f64,
     /// p of the L_p polish it came from ([`pnorm_branch`]); None for Lawson's path.
     pub pnorm: Option<f64>,
+    /// λ of the max–mean polish it came from ([`max_mean_branch`]); None otherwise.
+    pub max_mean: Option<f64>,
     pub params: Vec<f64>,
 }
 
@@ -135,6 +137,7 @@ pub(crate) fn reweight(
                 round,
                 blend,
                 pnorm: None,
+                max_mean: None,
                 max: max_abs(w, &e),
                 mae: mean_abs(w, &e),
                 params: p.clone(),
@@ -178,6 +181,7 @@ pub(crate) fn reweight(
                 round,
                 blend: 1.0,
                 pnorm: None,
+                max_mean: None,
                 max: value,
                 mae: mean_abs(w, &e),
                 params: p.clone(),
@@ -280,12 +284,71 @@ pub(crate) fn pnorm_branch(
             round: out.len() + 1,
             blend: 1.0,
             pnorm: Some(pn),
+            max_mean: None,
             max: max_abs(w, &ne),
             mae: mean_abs(w, &ne),
             params: p.clone(),
         });
     }
     Ok(out)
+}
+
+/// The max–mean polish of a minimax fit ([`super::maxmean`]): from `start`, for each λ of
+/// `lambdas`, the parameters `linear` (in which `problem`'s residuals ρ are jointly linear when
+/// the others are held, e.g. the numerators of a rational with its denominator held) set to
+/// the exact minimiser of max_i |ρ_i| + λ·mean_i |ρ_i|, the other parameters kept. Returns
+/// (λ, parameters) per λ, in order; None for a λ whose linear program failed.
+pub(crate) fn max_mean_branch(
+    problem: &dyn LeastSquaresProblem,
+    linear: &[usize],
+    start: &[f64],
+    lambdas: &[f64],
+) -> Result<Vec<(f64, Vec<f64>)>> {
+    let (n, np) = (problem.n_residuals(), problem.n_params());
+    if lambdas.is_empty() || linear.is_empty() || n == 0 {
+        return Ok(Vec::new());
+    }
+    let (mut r, mut jac) = (vec![0.0; n], vec![0.0; n * np]);
+    if !problem.jacobian(start, 0..n, &mut r, &mut jac) {
+        return Ok(Vec::new());
+    }
+    // ρ(c) = ρ(start) + J_L (c − c_start): rows J_L, targets J_L c_start − ρ(start)
+    let nl = linear.len();
+    let mut a = vec![0.0; n * nl];
+    let mut b = vec![0.0; n];
+    for i in 0..n {
+        let row = &jac[i * np..(i + 1) * np];
+        let mut dot = 0.0;
+        for (k, &j) in linear.iter().enumerate() {
+            a[i * nl + k] = row[j];
+            dot += row[j] * start[j];
+        }
+        b[i] = dot - r[i];
+    }
+    let mut out = Vec::new();
+    for &lambda in lambdas {
+        let Ok(fit) = super::maxmean::max_mean_fit(&a, &b, lambda) else {
+            continue;
+        };
+        let mut p = start.to_vec();
+        for (k, &j) in linear.iter().enumerate() {
+            p[j] = fit.c[k];
+        }
+        out.push((lambda, p));
+    }
+    Ok(out)
+}
+
+/// Checks the λ values of a max–mean polish: each finite and ≥ 0.
+pub(crate) fn check_max_mean(lambdas: &[f64]) -> Result<()> {
+    match lambdas.iter().find(|l| !(l.is_finite() && **l >= 0.0)) {
+        Some(l) => Err(super::error::FitError::InvalidSetting {
+            name: "max_mean_polish",
+            value: l.to_string(),
+            expected: "every λ of the max–mean polish must be a finite number ≥ 0 (0 is the minimax fit of the linear coefficients; larger λ weigh the mean error more)",
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Every accepted iterate of the L_p polish as a path iterate, its `mae_bound` its own MAE on
@@ -303,6 +366,7 @@ pub(crate) fn pnorm_path(
             mae_bound: it.mae / start_mae,
             blend: it.blend,
             pnorm: it.pnorm,
+            max_mean: it.max_mean,
             params: it.params.clone(),
         })
         .collect()
@@ -351,16 +415,18 @@ pub(crate) struct Iterate {
     pub blend: f64,
     /// p of the L_p polish it came from ([`pnorm_branch`]); None for Lawson's path.
     pub pnorm: Option<f64>,
+    /// λ of the max–mean polish it came from ([`max_mean_branch`]); None otherwise.
+    pub max_mean: Option<f64>,
     pub max: f64,
     pub mae: f64,
     pub params: Vec<f64>,
 }
 
-fn max_abs(w: &[f64], e: &[f64]) -> f64 {
+pub(crate) fn max_abs(w: &[f64], e: &[f64]) -> f64 {
     objective_value(Objective::Minimax, w, e)
 }
 
-fn mean_abs(w: &[f64], e: &[f64]) -> f64 {
+pub(crate) fn mean_abs(w: &[f64], e: &[f64]) -> f64 {
     objective_value(Objective::MeanAbsolute, w, e) / e.len().max(1) as f64
 }
 
@@ -405,6 +471,7 @@ pub(crate) fn path_iterates(
                     mae_bound: bound,
                     blend: it.blend,
                     pnorm: it.pnorm,
+                    max_mean: it.max_mean,
                     params: it.params.clone(),
                 });
                 break;
@@ -612,6 +679,7 @@ mod tests {
             round,
             blend: 1.0,
             pnorm: None,
+            max_mean: None,
             max,
             mae,
             params: vec![round as f64],

@@ -37,8 +37,8 @@ use super::result::{
     Approximant, Family, FitResult, Form, Objective, SolverReport, StartReport, Structure, Term,
 };
 use super::robust::{
-    blended_roots, check_lp_polish, lawson_update, path_iterates, pnorm_branch, pnorm_path,
-    Iterate, PnormProblem, Solved, LAWSON_BLEND,
+    blended_roots, check_lp_polish, check_max_mean, lawson_update, max_mean_branch, path_iterates,
+    pnorm_branch, pnorm_path, Iterate, PnormProblem, Solved, LAWSON_BLEND,
 };
 
 /// Settings of a structured fit.
@@ -59,6 +59,10 @@ pub struct StructuredOptions {
     /// Minimax only: the p values of an L_p polish from the least-squares fit, as
     /// [`super::RationalOptions::lp_polish`]. Empty (the default): none.
     pub lp_polish: Vec<f64>,
+    /// Minimax only: the λ values of a max–mean polish of the minimax fit (factors and
+    /// denominators held, the numerators set to the exact minimiser of max error + λ·mean error,
+    /// [`super::maxmean`]), as [`super::RationalOptions::max_mean_polish`]. Empty: none.
+    pub max_mean_polish: Vec<f64>,
 }
 
 impl Default for StructuredOptions {
@@ -71,6 +75,7 @@ impl Default for StructuredOptions {
             reweight_lm_iterations: 15,
             certify: CertifyOptions::default(),
             lp_polish: Vec::new(),
+            max_mean_polish: Vec::new(),
         }
     }
 }
@@ -441,6 +446,7 @@ pub fn fit_structured(
     check_structure(d, &data.names, numerator, denominator.as_ref(), st)?;
     let label = form.label_with(&data.names);
     check_lp_polish(&opts.lp_polish)?;
+    check_max_mean(&opts.max_mean_polish)?;
     let prep = Prepared::new(data, transforms)?;
     let x = st.variable();
     let k = st.terms() as usize;
@@ -637,6 +643,7 @@ pub fn fit_structured(
                         round,
                         blend,
                         pnorm: None,
+                        max_mean: None,
                         max,
                         mae,
                         params: p.clone(),
@@ -682,6 +689,7 @@ pub fn fit_structured(
                         round: rounds,
                         blend: 1.0,
                         pnorm: None,
+                        max_mean: None,
                         max,
                         mae,
                         params: p.clone(),
@@ -737,6 +745,41 @@ pub fn fit_structured(
                 });
                 path.extend(pnorm_path(&polished, start.1, &mut |_| true));
             }
+        }
+        // the max–mean polish (`robust::max_mean_branch`) of the minimax fit and of the L_p
+        // polish's last iterate: the numerators P_k are jointly linear with the factors and
+        // denominators held
+        if objective == Objective::Minimax && !opts.max_mean_polish.is_empty() {
+            let problem = Problem {
+                layout: &layout,
+                data: &prep,
+                extra: None,
+            };
+            let (pt, nf, np) = (layout.per_term(), layout.n_factor(), layout.num.len());
+            let linear: Vec<usize> = (0..layout.k)
+                .flat_map(|t| t * pt + nf..t * pt + nf + np)
+                .collect();
+            let mut starts = vec![(None, params.clone())];
+            if let Some(last) = path.iter().rfind(|it| it.pnorm.is_some()) {
+                starts.push((last.pnorm, last.params.clone()));
+            }
+            let mut polished: Vec<Iterate> = Vec::new();
+            for (pnorm, from) in starts {
+                for (l, p) in max_mean_branch(&problem, &linear, &from, &opts.max_mean_polish)? {
+                    if let Some((max, mae)) = both(&p) {
+                        polished.push(Iterate {
+                            round: polished.len() + 1,
+                            blend: 1.0,
+                            pnorm,
+                            max_mean: Some(l),
+                            max,
+                            mae,
+                            params: p,
+                        });
+                    }
+                }
+            }
+            path.extend(pnorm_path(&polished, start.1, &mut |_| true));
         }
     }
 
@@ -1082,6 +1125,76 @@ mod tests {
     }
 
     /// The least-squares and the minimax fit of `form` in the identity variables.
+    #[test]
+    fn the_max_mean_polish_adds_exact_numerator_fits() {
+        let f = |x: f64, r: f64, m: f64| (1.0 + x).sqrt() * (r * m + 0.1).ln().exp() / (1.2 + m);
+        let data = grid3(9, f);
+        let t = [InputTransform::Identity; 3];
+        // a low-rank form (the structured fitter) and a split sum (the rational one)
+        for spec in ["lowrank:f0:2:2:2/1", "split:f0:1:2/1"] {
+            let form = parse_form(spec, &data.names).unwrap();
+            let mut opts = FitOptions::default();
+            opts.rational.lp_polish = vec![8.0];
+            opts.structured.lp_polish = vec![8.0];
+            opts.rational.max_mean_polish = vec![0.01, 64.0];
+            opts.structured.max_mean_polish = vec![0.01, 64.0];
+            let mm = fit_form(&data, &t, &form, Objective::Minimax, &opts).unwrap();
+            let polished: Vec<&FitResult> = mm
+                .path
+                .iter()
+                .filter(|p| iterate(p).max_mean.is_some())
+                .collect();
+            let which: Vec<(Option<f64>, Option<f64>)> = polished
+                .iter()
+                .map(|p| (iterate(p).pnorm, iterate(p).max_mean))
+                .collect();
+            // from the minimax fit, then from the L_p polish's last solve
+            assert_eq!(
+                which,
+                [
+                    (None, Some(0.01)),
+                    (None, Some(64.0)),
+                    (Some(8.0), Some(0.01)),
+                    (Some(8.0), Some(64.0))
+                ],
+                "{spec}"
+            );
+            assert!(polished.iter().all(|p| p.is_usable()));
+            // exact in the numerators: with the minimax fit's denominators the linear program's
+            // max + λ·mean is at most the minimax fit's, so at λ = 0.01 its max error is at
+            // most the minimax fit's + 0.01 × its MAE, and at λ = 64 its MAE at most the fit's
+            let (mx, mae) = (mm.metrics.max_abs_error, mm.metrics.mae);
+            let small = &polished[0].metrics;
+            assert!(
+                small.max_abs_error <= mx + 0.01 * mae + 1e-9,
+                "{spec}: {small:?} vs {mx:e}"
+            );
+            assert!(polished[1].metrics.mae <= mae * (1.0 + 1e-9), "{spec}");
+            assert!(polished[1].metrics.max_abs_error >= small.max_abs_error - 1e-9);
+            // the fit file says what it is and loads back
+            let it = iterate(polished[3]).clone();
+            assert_eq!(it.label("-", ""), "p8-maxmean64");
+            let json = polished[3].to_json().unwrap();
+            assert!(
+                json.contains("\"max_mean\": 64.0") && json.contains("max–mean polish"),
+                "{json}"
+            );
+            let back = FitResult::from_json(&json).unwrap();
+            assert_eq!(back.solver.unwrap().lawson_path, Some(it));
+            // deterministic
+            let again = fit_form(&data, &t, &form, Objective::Minimax, &opts).unwrap();
+            assert_eq!(again.path, mm.path);
+            // λ < 0 is refused, naming the setting
+            let mut bad = FitOptions::default();
+            bad.rational.max_mean_polish = vec![-1.0];
+            bad.structured.max_mean_polish = vec![-1.0];
+            let e = fit_form(&data, &t, &form, Objective::Minimax, &bad)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("max_mean_polish"), "{e}");
+        }
+    }
+
     fn least_squares_and_minimax(data: &FitData, form: &Form) -> (FitResult, FitResult) {
         let run = |o| {
             fit_form(

@@ -443,6 +443,7 @@ mod tests {
                 budgets: vec![20],
                 minimax_refits: false,
                 lp_polish: Vec::new(),
+                max_mean_polish: Vec::new(),
             },
             check_set: None,
             files: Vec::new(),

@@ -426,6 +426,7 @@ pub fn sweep_fits_trained(
                 } => {
                     let mut ro = RationalOptions {
                         lp_polish: plan.lp_polish_for(&ls.form, &transforms).to_vec(),
+                        max_mean_polish: plan.max_mean_polish.clone(),
                         ..RationalOptions::default()
                     };
                     ro.extra_starts.push((
@@ -446,6 +447,8 @@ pub fn sweep_fits_trained(
                     let polish = plan.lp_polish_for(&form, &transforms);
                     opts.rational.lp_polish = polish.to_vec();
                     opts.structured.lp_polish = polish.to_vec();
+                    opts.rational.max_mean_polish = plan.max_mean_polish.clone();
+                    opts.structured.max_mean_polish = plan.max_mean_polish.clone();
                     opts.rational.extra_starts.push((
                         "least-squares fit of the sweep".into(),
                         ls.approximant.clone(),
@@ -634,6 +637,7 @@ mod tests {
             budgets: vec![40],
             minimax_refits: false,
             lp_polish: Vec::new(),
+            max_mean_polish: Vec::new(),
         };
         let run = |training: Option<(&FitData, &str)>, grading: Vec<f64>| {
             let plan = SweepPlan {
@@ -738,6 +742,7 @@ mod tests {
             budgets: vec![20],
             minimax_refits: false,
             lp_polish: Vec::new(),
+            max_mean_polish: Vec::new(),
         };
         let mut outcome = sweep_fits(&input, &plan, &mut |_| {}).unwrap();
         let first = outcome.best[0].index.unwrap();
@@ -780,6 +785,7 @@ mod tests {
             budgets: vec![40],
             minimax_refits: true,
             lp_polish: Vec::new(),
+            max_mean_polish: Vec::new(),
         };
         let refitted = |o: &SweepOutcome, form: &Form| {
             o.records

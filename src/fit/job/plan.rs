@@ -40,6 +40,10 @@ pub struct SweepPlan {
     /// ([`crate::fit::RationalOptions::lp_polish`]); empty (the default plan's): none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub lp_polish: Vec<f64>,
+    /// The λ values of a max–mean polish every minimax refit of a rational or structured form
+    /// adds to its path ([`crate::fit::RationalOptions::max_mean_polish`]); empty: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub max_mean_polish: Vec<f64>,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -227,6 +231,7 @@ impl SweepPlan {
             budgets: default_budgets(d),
             minimax_refits: true,
             lp_polish: Vec::new(),
+            max_mean_polish: Vec::new(),
         }
     }
 

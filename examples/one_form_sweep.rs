@@ -5,14 +5,15 @@
 //! set and training set are read from `data/` (computed there when missing, as a sweep does).
 //!
 //! `cargo run --release --example one_form_sweep -- MODEL SPEC TRANSFORMS [OUT_DIR] [--lp P,…]
-//! [--grading G,…] [--fit-points N] [--training N]`, e.g.
+//! [--grading G,…] [--fit-points N] [--training N] [--maxmean λ,…]`, e.g.
 //! `… ggx-dielectric-inv lowrank:f0:4:4:5/4 f0=root:4:0.0125:0.25,r=square,mu=glayer:r:2:0:1:3`;
 //! with OUT_DIR every fit is written there as a fit file (for `furnace stress --fit`); `--lp`
 //! adds an L_p polish with these p to the minimax refit (`SweepPlan::lp_polish`), `--grading`
 //! replaces the plan's grading exponents of the fitting nodes, one per variable
 //! (`SweepPlan::fit_grading`), `--fit-points` the most table nodes the solver sees
 //! (`SweepPlan::max_fit_points`, the graded subset's size) and `--training` the number of exact
-//! training points (`SweepPlan::training_points`; a new count is computed and cached in `data/`).
+//! training points (`SweepPlan::training_points`; a new count is computed and cached in `data/`);
+//! `--maxmean` replaces the λ of the plan's max–mean polish (`SweepPlan::max_mean_polish`).
 use furnace::fit::check;
 use furnace::fit::defaults::{default_plan, default_training_points};
 use furnace::fit::job;
@@ -78,7 +79,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     plan.forms = vec![job::PlannedForm::new(form, transforms)];
     plan.budgets = vec![size];
     plan.lp_polish = lp;
-    plan.max_mean_polish = max_mean;
+    if !max_mean.is_empty() {
+        plan.max_mean_polish = max_mean;
+    }
     if !grading.is_empty() {
         plan.fit_grading = grading;
     }

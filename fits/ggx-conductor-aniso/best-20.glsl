@@ -17,16 +17,16 @@
 //   aniso: OpenPBR anisotropy: alpha_b/alpha_t = 1 - aniso (0: isotropic); fitted domain [0, 0.95].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = ((mu*(1 + 2*r*r*sqrt(2/(1 + (1 - aniso)^2))*sqrt(1 - (1 - (1 - aniso)^2)*sin(phi)^2)) + 2^-100)/(mu + 2*r*r*sqrt(2/(1 + (1 - aniso)^2))*sqrt(1 - (1 - (1 - aniso)^2)*sin(phi)^2) + 2^-100))^(1/2).
 //   phi: azimuth of w_o from the tangent (radians); E(phi) = E(-phi) = E(pi - phi); fitted domain [0, 1.5707963267948966]; evaluated in t = sqrt(max(1 - (1 - (1 - aniso)^2)*sin(phi)^2, (1 - aniso)^2)).
-// Fit: polynomial of degree 2, 15 coefficients (15 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD); the Lawson iterate of round 15 of 26, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-conductor-aniso/best-20.json (furnace 0.1.0), fit SHA-256 921514dd1165415ac8ed5cb65503c9441b6ed8fc6d35982450b6036480d14232.
+// Fit: polynomial of degree 2, 15 coefficients (15 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD); the Lawson iterate of round 4 of 23, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+// Source: fits/ggx-conductor-aniso/best-20.json (furnace 0.1.0), fit SHA-256 988df97d8aedd79331db84613d333b456bf2af3009b5921fe611592a377e49ac.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 1185921 points of the measurement grid: monomial 3.6e-7, shifted 3.5e-7, bernstein 4.2e-7.
-// Error of the f64 fit on its 16384 data points: MAE 2.43e-2, max 7.30e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 24576 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.38e-2, max 6.99e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 1110785 edge points (`furnace stress`, seed 0x5eedf00d): max 1.11e-6 (every op rounded, as this Rust), 6.12e-7 (fused multiply-add), 6.74e-7 (GPU division/sqrt error).
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 1185921 points of the measurement grid: monomial 3.5e-7, shifted 3.2e-7, bernstein 3.7e-7.
+// Error of the f64 fit on its 16384 data points: MAE 2.10e-2, max 8.21e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 24576 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.14e-2, max 6.95e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 1110785 edge points (`furnace stress`, seed 0x5eedf00d): max 1.19e-6 (every op rounded, as this Rust), 6.27e-7 (fused multiply-add), 6.86e-7 (GPU division/sqrt error).
 // Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 16384 nodes of its table data/ggx-conductor-aniso/16x8x16x8 (output clamp applied): f64 MAE 1.79e-2, max 7.30e-2; this f32 code MAE 1.79e-2, max 7.30e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.7e-2 on the measurement grid.
+// Error at the 16384 nodes of its table data/ggx-conductor-aniso/16x8x16x8 (output clamp applied): f64 MAE 1.74e-2, max 8.21e-2; this f32 code MAE 1.74e-2, max 8.21e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.8e-2 on the measurement grid.
 // Polynomial: no division.
 highp float ggx_conductor_aniso_albedo(highp float r, highp float aniso, highp float mu, highp float phi) {
     // inputs clamped to the fitted domain
@@ -53,9 +53,9 @@ highp float ggx_conductor_aniso_albedo(highp float r, highp float aniso, highp f
     // t = sqrt(max(1 - (1 - (1 - aniso)^2)*sin(phi)^2, (1 - aniso)^2))
     highp float phi_t = sqrt(max(1.0 - (1.0 - phi_b * phi_b) * (0.5 + 0.5 * (phi_s_u * (((((((-7.6471636e-13 * phi_s_u2 + 1.6059044e-10) * phi_s_u2 + (-2.5052108e-8)) * phi_s_u2 + 2.7557319e-6) * phi_s_u2 + (-0.0001984127)) * phi_s_u2 + 0.008333334) * phi_s_u2 + (-0.16666667)) * phi_s_u2 + 1.0))), phi_b * phi_b));
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = (-0.020251036 * aniso_c + (0.06884052 * mu_t + (-0.11651746 * phi_t + 0.07198457))) * aniso_c + ((0.34570128 * mu_t + (-0.031236893 * phi_t - 0.36156392)) * mu_t + ((-0.12871283 * phi_t + 0.27612057) * phi_t + 0.9190538));
-    highp float p_1 = 0.07227193 * aniso_c + (-0.66633594 * mu_t + (0.11390958 * phi_t - 0.124187484));
-    highp float p_2 = 0.0014460532;
+    highp float p_0 = (-0.010953463 * aniso_c + (0.029898115 * mu_t + (-0.0764361 * phi_t + 0.05347047))) * aniso_c + ((0.27505493 * mu_t + (-0.05854717 * phi_t - 0.20339136)) * mu_t + ((-0.086293265 * phi_t + 0.19915745) * phi_t + 0.8870752));
+    highp float p_1 = 0.055307023 * aniso_c + (-0.72235453 * mu_t + (0.117486954 * phi_t - 0.003140647));
+    highp float p_2 = -0.067242876;
     highp float p = (p_2 * r_t + p_1) * r_t + p_0;
     highp float e = p;
     return max(min(e, 1.0), 0.0);

@@ -42,17 +42,17 @@ FURNACE_FN furnace_rgb furnace_rgb_make(float x, float y, float z) {
 //   aniso: OpenPBR anisotropy: alpha_b/alpha_t = 1 - aniso (0: isotropic); fitted domain [0, 0.95].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = ((mu*(1 + 2*r*r*sqrt(2/(1 + (1 - aniso)^2))*sqrt(1 - (1 - (1 - aniso)^2)*sin(phi)^2)) + 2^-100)/(mu + 2*r*r*sqrt(2/(1 + (1 - aniso)^2))*sqrt(1 - (1 - (1 - aniso)^2)*sin(phi)^2) + 2^-100))^(1/2).
 //   phi: azimuth of w_o from the tangent (radians); E(phi) = E(-phi) = E(pi - phi); fitted domain [0, 1.5707963267948966]; evaluated in t = sqrt(max(1 - (1 - (1 - aniso)^2)*sin(phi)^2, (1 - aniso)^2)).
-// Fit: rational of degree 2/2, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 49152 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor-aniso/best-40.json (furnace 0.1.0), fit SHA-256 b6f66953699867e7c076ccd1e543a78a1337b6546f86314d4092e10951c37321.
+// Fit: rational of degree 2/2, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 49152 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.292x the least-squares start's.
+// Source: fits/ggx-conductor-aniso/best-40.json (furnace 0.1.0), fit SHA-256 cdd9519ddcba9e603372ad97cec17e5de8db5f935f3fb5140fe4f662a19976eb.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 1185921 points of the measurement grid: monomial 1.7e-6, shifted 7.2e-7, bernstein 6.1e-7.
-// Error of the f64 fit on its 16384 data points: MAE 1.18e-2, max 3.74e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 24576 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.25e-2, max 3.57e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 1110785 edge points (`furnace stress`, seed 0x5eedf00d): max 1.76e-6 (every op rounded, as this Rust), 1.58e-6 (fused multiply-add), 1.75e-6 (GPU division/sqrt error).
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 1185921 points of the measurement grid: monomial 1.5e-6, shifted 6.6e-7, bernstein 6.3e-7.
+// Error of the f64 fit on its 16384 data points: MAE 1.19e-2, max 3.23e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 24576 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.21e-2, max 3.38e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 1110785 edge points (`furnace stress`, seed 0x5eedf00d): max 1.54e-6 (every op rounded, as this Rust), 1.34e-6 (fused multiply-add), 1.45e-6 (GPU division/sqrt error).
 // Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 16384 nodes of its table data/ggx-conductor-aniso/16x8x16x8 (output clamp applied): f64 MAE 8.76e-3, max 3.74e-2; this f32 code MAE 8.76e-3, max 3.74e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.4e-2 on the measurement grid.
-// Denominator proved >= 2.490e-1 on the domain (Bernstein certificate), so the division is safe.
+// Error at the 16384 nodes of its table data/ggx-conductor-aniso/16x8x16x8 (output clamp applied): f64 MAE 9.40e-3, max 3.23e-2; this f32 code MAE 9.40e-3, max 3.23e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-2 on the measurement grid.
+// Denominator proved >= 2.417e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_conductor_aniso_albedo(float r, float aniso, float mu, float phi) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -78,14 +78,14 @@ FURNACE_FN float ggx_conductor_aniso_albedo(float r, float aniso, float mu, floa
     // t = sqrt(max(1 - (1 - (1 - aniso)^2)*sin(phi)^2, (1 - aniso)^2))
     const float phi_t = sqrtf(fmaxf(1.0f - (1.0f - phi_b * phi_b) * (0.5f + 0.5f * (phi_s_u * (((((((-7.6471636e-13f * phi_s_u2 + 1.6059044e-10f) * phi_s_u2 + (-2.5052108e-8f)) * phi_s_u2 + 2.7557319e-6f) * phi_s_u2 + (-0.0001984127f)) * phi_s_u2 + 0.008333334f) * phi_s_u2 + (-0.16666667f)) * phi_s_u2 + 1.0f))), phi_b * phi_b));
     // numerator P, grouped by powers of the first variable
-    const float p_0 = (0.004858411f * aniso_c + (-0.103659146f * mu_t + (-0.028546594f * phi_t + 0.09600294f))) * aniso_c + ((0.47031513f * mu_t + (-0.5706118f * phi_t - 0.86570555f)) * mu_t + ((-0.018203076f * phi_t + 0.55857015f) * phi_t + 1.0043186f));
-    const float p_1 = 0.06032757f * aniso_c + (0.2221298f * mu_t + (0.02543872f * phi_t - 1.2929488f));
-    const float p_2 = 0.56048226f;
+    const float p_0 = (0.012885831f * aniso_c + (-0.09289506f * mu_t + (-0.047648292f * phi_t + 0.095944926f))) * aniso_c + ((0.46053982f * mu_t + (-0.5721179f * phi_t - 0.8770056f)) * mu_t + ((-0.03156588f * phi_t + 0.5940049f) * phi_t + 0.9915918f));
+    const float p_1 = 0.06470054f * aniso_c + (0.2559058f * mu_t + (0.02764346f * phi_t - 1.3181466f));
+    const float p_2 = 0.56174874f;
     const float p = (p_2 * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = (0.008416346f * aniso_c + (-0.10303936f * mu_t + (-0.021411408f * phi_t + 0.08700415f))) * aniso_c + ((0.16605234f * mu_t + (-0.5832747f * phi_t - 0.57142115f)) * mu_t + ((-0.022733543f * phi_t + 0.58061856f) * phi_t + 1.0f));
-    const float q_1 = 0.04912981f * aniso_c + (0.46967596f * mu_t + (-0.025978884f * phi_t - 1.3345239f));
-    const float q_2 = 0.6205285f;
+    const float q_0 = (0.012482967f * aniso_c + (-0.09762138f * mu_t + (-0.020824855f * phi_t + 0.07455625f))) * aniso_c + ((0.16043687f * mu_t + (-0.5802938f * phi_t - 0.5789856f)) * mu_t + ((-0.027816752f * phi_t + 0.5855438f) * phi_t + 1.0f));
+    const float q_1 = 0.05470549f * aniso_c + (0.49032652f * mu_t + (-0.024382547f * phi_t - 1.3511262f));
+    const float q_2 = 0.619188f;
     const float q = (q_2 * r_t + q_1) * r_t + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -16,17 +16,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor-separable/best-160.json (furnace 0.1.0), fit SHA-256 981daaf990387910e407bbeeab3a46c50aeb10694017ed5d24efa4d09c9efcb0.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.202x the least-squares start's.
+// Source: fits/ggx-conductor-separable/best-160.json (furnace 0.1.0), fit SHA-256 daef0c862b6d9f21004db9c72e7686fc14f0d9b9dedede3dcd7649154deb0b35.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 8.9e-5, shifted 2.1e-5, bernstein 5.2e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.36e-8, max 4.65e-8 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.38e-8, max 4.65e-8.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.96e-7 (every op rounded, as this Rust), 4.90e-7 (fused multiply-add), 5.77e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.12e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 5765 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.34e-8, max 4.65e-8; this f32 code MAE 6.65e-8, max 5.23e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.8e-8 on the measurement grid.
-// Denominator proved >= 2.309e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.2e-4, shifted 1.5e-5, bernstein 5.0e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.32e-8, max 3.47e-8 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-8, max 3.51e-8.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.30e-7 (every op rounded, as this Rust), 5.36e-7 (fused multiply-add), 5.97e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.75e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 38459 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.30e-8, max 3.47e-8; this f32 code MAE 6.45e-8, max 5.27e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.4e-8 on the measurement grid.
+// Denominator proved >= 1.857e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_conductor_separable_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
@@ -96,30 +96,30 @@ highp float ggx_conductor_separable_albedo(highp float r, highp float mu) {
     highp float mu_b8 = mu_u8 * mu_v2;
     highp float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 0.9361349 * mu_v10 + 4.165896 * mu_b1 + 7.5929036 * mu_b2 + 10.007209 * mu_b3 + 10.713408 * mu_b4 + 8.264318 * mu_b5 + 4.9496293 * mu_b6 + 2.4828496 * mu_b7 + 0.79667014 * mu_b8 + 0.20738992 * mu_b9 + 0.036289275 * mu_u10;
-    highp float p_1 = 14.871006 * mu_v10 + 70.44386 * mu_b1 + 145.37025 * mu_b2 + 203.80736 * mu_b3 + 218.67184 * mu_b4 + 174.88316 * mu_b5 + 106.04128 * mu_b6 + 49.75184 * mu_b7 + 16.24469 * mu_b8 + 3.8321066 * mu_b9 + 0.49296483 * mu_u10;
-    highp float p_2 = 94.842865 * mu_v10 + 473.32367 * mu_b1 + 1069.9622 * mu_b2 + 1609.1515 * mu_b3 + 1786.8507 * mu_b4 + 1465.6978 * mu_b5 + 894.7163 * mu_b6 + 408.17746 * mu_b7 + 129.63101 * mu_b8 + 27.003002 * mu_b9 + 2.7320585 * mu_u10;
-    highp float p_3 = 329.23236 * mu_v10 + 1725.6423 * mu_b1 + 4223.613 * mu_b2 + 6837.3647 * mu_b3 + 7990.3013 * mu_b4 + 6776.127 * mu_b5 + 4179.372 * mu_b6 + 1867.4098 * mu_b7 + 570.5198 * mu_b8 + 108.274635 * mu_b9 + 9.464702 * mu_u10;
-    highp float p_4 = 697.01654 * mu_v10 + 3835.58 * mu_b1 + 10132.902 * mu_b2 + 17704.107 * mu_b3 + 21935.906 * mu_b4 + 19319.18 * mu_b5 + 12066.238 * mu_b6 + 5295.103 * mu_b7 + 1552.2574 * mu_b8 + 273.8022 * mu_b9 + 21.900059 * mu_u10;
-    highp float p_5 = 943.24695 * mu_v10 + 5472.882 * mu_b1 + 15681.655 * mu_b2 + 29715.914 * mu_b3 + 39167.766 * mu_b4 + 35864.695 * mu_b5 + 22729.396 * mu_b6 + 9860.117 * mu_b7 + 2799.5952 * mu_b8 + 469.5771 * mu_b9 + 35.6645 * mu_u10;
-    highp float p_6 = 822.37305 * mu_v10 + 5095.1826 * mu_b1 + 16051.173 * mu_b2 + 33203.832 * mu_b3 + 46542.14 * mu_b4 + 44174.508 * mu_b5 + 28372.418 * mu_b6 + 12218.401 * mu_b7 + 3393.725 * mu_b8 + 552.2732 * mu_b9 + 40.816658 * mu_u10;
-    highp float p_7 = 449.17908 * mu_v10 + 3061.2498 * mu_b1 + 10870.743 * mu_b2 + 24726.662 * mu_b3 + 36740.813 * mu_b4 + 35952.176 * mu_b5 + 23331.918 * mu_b6 + 9994.899 * mu_b7 + 2736.4949 * mu_b8 + 438.5504 * mu_b9 + 32.071774 * mu_u10;
-    highp float p_8 = 141.33878 * mu_v10 + 1134.5406 * mu_b1 + 4722.9004 * mu_b2 + 11873.617 * mu_b3 + 18582.926 * mu_b4 + 18617.982 * mu_b5 + 12159.544 * mu_b6 + 5183.078 * mu_b7 + 1405.4232 * mu_b8 + 223.92993 * mu_b9 + 16.398203 * mu_u10;
-    highp float p_9 = 20.393343 * mu_v10 + 232.6332 * mu_b1 + 1202.4723 * mu_b2 + 3341.931 * mu_b3 + 5458.228 * mu_b4 + 5556.016 * mu_b5 + 3635.4312 * mu_b6 + 1540.3737 * mu_b7 + 414.49075 * mu_b8 + 65.96481 * mu_b9 + 4.876612 * mu_u10;
-    highp float p_10 = 0.3593938 * mu_v10 + 19.497828 * mu_b1 + 136.80342 * mu_b2 + 418.244 * mu_b3 + 705.4846 * mu_b4 + 724.1525 * mu_b5 + 472.53375 * mu_b6 + 198.58937 * mu_b7 + 52.991978 * mu_b8 + 8.423376 * mu_b9 + 0.6312879 * mu_u10;
+    highp float p_0 = 0.9361349 * mu_v10 + 3.8914351 * mu_b1 + 6.6830335 * mu_b2 + 8.489876 * mu_b3 + 8.872679 * mu_b4 + 6.7004104 * mu_b5 + 3.9759715 * mu_b6 + 1.9945639 * mu_b7 + 0.636199 * mu_b8 + 0.16665107 * mu_b9 + 0.029346168 * mu_u10;
+    highp float p_1 = 14.346864 * mu_v10 + 64.094246 * mu_b1 + 125.46324 * mu_b2 + 169.9634 * mu_b3 + 178.73883 * mu_b4 + 141.09018 * mu_b5 + 85.08115 * mu_b6 + 39.924835 * mu_b7 + 13.043283 * mu_b8 + 3.0964653 * mu_b9 + 0.40004066 * mu_u10;
+    highp float p_2 = 89.53081 * mu_v10 + 422.79242 * mu_b1 + 908.9859 * mu_b2 + 1323.2435 * mu_b3 + 1444.4531 * mu_b4 + 1174.9937 * mu_b5 + 715.66406 * mu_b6 + 327.15115 * mu_b7 + 104.21701 * mu_b8 + 21.812267 * mu_b9 + 2.2112517 * mu_u10;
+    highp float p_3 = 305.72186 * mu_v10 + 1514.0381 * mu_b1 + 3523.3828 * mu_b2 + 5531.1157 * mu_b3 + 6378.5244 * mu_b4 + 5388.6914 * mu_b5 + 3326.945 * mu_b6 + 1492.1254 * mu_b7 + 457.89728 * mu_b8 + 87.290375 * mu_b9 + 7.6407585 * mu_u10;
+    highp float p_4 = 637.7591 * mu_v10 + 3296.8423 * mu_b1 + 8261.942 * mu_b2 + 14036.366 * mu_b3 + 17253.813 * mu_b4 + 15217.928 * mu_b5 + 9549.5205 * mu_b6 + 4214.56 * mu_b7 + 1242.0126 * mu_b8 + 219.96387 * mu_b9 + 17.60365 * mu_u10;
+    highp float p_5 = 850.72894 * mu_v10 + 4590.0947 * mu_b1 + 12439.352 * mu_b2 + 23035.258 * mu_b3 + 30334.285 * mu_b4 + 27973.82 * mu_b5 + 17875.316 * mu_b6 + 7811.8345 * mu_b7 + 2230.58 * mu_b8 + 375.35587 * mu_b9 + 28.490725 * mu_u10;
+    highp float p_6 = 732.0669 * mu_v10 + 4154.671 * mu_b1 + 12360.801 * mu_b2 + 25198.254 * mu_b3 + 35572.18 * mu_b4 + 34168.684 * mu_b5 + 22180.186 * mu_b6 + 9629.102 * mu_b7 + 2688.5127 * mu_b8 + 438.38345 * mu_b9 + 32.33825 * mu_u10;
+    highp float p_7 = 396.8177 * mu_v10 + 2424.1926 * mu_b1 + 8150.443 * mu_b2 + 18480.256 * mu_b3 + 27854.602 * mu_b4 + 27663.762 * mu_b5 + 18154.283 * mu_b6 + 7834.093 * mu_b7 + 2152.962 * mu_b8 + 345.11682 * mu_b9 + 25.163357 * mu_u10;
+    highp float p_8 = 126.21451 * mu_v10 + 877.2961 * mu_b1 + 3483.705 * mu_b2 + 8829.913 * mu_b3 + 14073.067 * mu_b4 + 14310.139 * mu_b5 + 9436.971 * mu_b6 + 4043.7063 * mu_b7 + 1098.0802 * mu_b8 + 174.65776 * mu_b9 + 12.742566 * mu_u10;
+    highp float p_9 = 19.779167 * mu_v10 + 179.49832 * mu_b1 + 890.12115 * mu_b2 + 2506.0657 * mu_b3 + 4162.0674 * mu_b4 + 4286.677 * mu_b5 + 2823.1975 * mu_b6 + 1198.8958 * mu_b7 + 322.20953 * mu_b8 + 51.09646 * mu_b9 + 3.7627301 * mu_u10;
+    highp float p_10 = 0.84103316 * mu_v10 + 15.9648075 * mu_b1 + 104.573265 * mu_b2 + 320.87177 * mu_b3 + 546.1706 * mu_b4 + 564.0014 * mu_b5 + 368.84418 * mu_b6 + 154.83855 * mu_b7 + 41.163284 * mu_b8 + 6.511932 * mu_b9 + 0.48654184 * mu_u10;
     highp float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v10 + 4.546502 * mu_b1 + 8.588279 * mu_b2 + 11.572414 * mu_b3 + 12.33935 * mu_b4 + 9.51321 * mu_b5 + 5.652415 * mu_b6 + 2.6165178 * mu_b7 + 0.814722 * mu_b8 + 0.2073907 * mu_b9 + 0.036289275 * mu_u10;
-    highp float q_1 = 15.88554 * mu_v10 + 76.68479 * mu_b1 + 162.68597 * mu_b2 + 233.11383 * mu_b3 + 252.10205 * mu_b4 + 202.21867 * mu_b5 + 121.820244 * mu_b6 + 54.176697 * mu_b7 + 16.825594 * mu_b8 + 3.8681927 * mu_b9 + 0.49296555 * mu_u10;
-    highp float q_2 = 102.11128 * mu_v10 + 518.19135 * mu_b1 + 1196.3618 * mu_b2 + 1831.3706 * mu_b3 + 2059.3857 * mu_b4 + 1706.8436 * mu_b5 + 1043.9348 * mu_b6 + 460.34366 * mu_b7 + 138.87999 * mu_b8 + 27.81695 * mu_b9 + 2.7682722 * mu_u10;
-    highp float q_3 = 362.0637 * mu_v10 + 1928.2201 * mu_b1 + 4796.651 * mu_b2 + 7864.246 * mu_b3 + 9303.055 * mu_b4 + 7995.7715 * mu_b5 + 4974.267 * mu_b6 + 2186.2314 * mu_b7 + 642.29565 * mu_b8 + 116.798645 * mu_b9 + 9.938195 * mu_u10;
-    highp float q_4 = 794.33185 * mu_v10 + 4447.0767 * mu_b1 + 11903.442 * mu_b2 + 20970.541 * mu_b3 + 26247.13 * mu_b4 + 23436.629 * mu_b5 + 14824.841 * mu_b6 + 6489.142 * mu_b7 + 1861.0294 * mu_b8 + 317.19235 * mu_b9 + 24.55773 * mu_u10;
-    highp float q_5 = 1129.8964 * mu_v10 + 6691.737 * mu_b1 + 19391.533 * mu_b2 + 36939.684 * mu_b3 + 49134.652 * mu_b4 + 45653.64 * mu_b5 + 29403.834 * mu_b6 + 12859.605 * mu_b7 + 3631.9583 * mu_b8 + 597.47705 * mu_b9 + 43.975815 * mu_u10;
-    highp float q_6 = 1048.8031 * mu_v10 + 6658.4644 * mu_b1 + 21176.533 * mu_b2 + 43996.17 * mu_b3 + 62378.195 * mu_b4 + 60328.707 * mu_b5 + 39606.273 * mu_b6 + 17370.936 * mu_b7 + 4873.413 * mu_b8 + 791.37604 * mu_b9 + 57.19186 * mu_u10;
-    highp float q_7 = 616.24866 * mu_v10 + 4310.339 * mu_b1 + 15414.919 * mu_b2 + 35318.184 * mu_b3 + 53492.996 * mu_b4 + 53843.78 * mu_b5 + 36081.535 * mu_b6 + 15936.066 * mu_b7 + 4475.847 * mu_b8 + 729.3285 * mu_b9 + 53.15783 * mu_u10;
-    highp float q_8 = 209.91595 * mu_v10 + 1719.6178 * mu_b1 + 7199.5596 * mu_b2 + 18416.64 * mu_b3 + 29812.928 * mu_b4 + 31192.883 * mu_b5 + 21348.418 * mu_b6 + 9523.131 * mu_b7 + 2691.24 * mu_b8 + 444.19846 * mu_b9 + 33.28578 * mu_u10;
-    highp float q_9 = 32.86124 * mu_v10 + 375.05603 * mu_b1 + 1966.6937 * mu_b2 + 5681.0806 * mu_b3 + 9809.282 * mu_b4 + 10641.767 * mu_b5 + 7436.0767 * mu_b6 + 3356.1663 * mu_b7 + 957.1545 * mu_b8 + 160.78905 * mu_b9 + 12.540097 * mu_u10;
-    highp float q_10 = 0.58561265 * mu_v10 + 32.06347 * mu_b1 + 238.65231 * mu_b2 + 785.0961 * mu_b3 + 1438.5006 * mu_b4 + 1610.2701 * mu_b5 + 1144.8008 * mu_b6 + 521.1575 * mu_b7 + 149.35912 * mu_b8 + 25.39355 * mu_b9 + 2.0572987 * mu_u10;
+    highp float q_0 = 1.0 * mu_v10 + 4.253317 * mu_b1 + 7.5880837 * mu_b2 + 9.843495 * mu_b3 + 10.204513 * mu_b4 + 7.6883383 * mu_b5 + 4.5398436 * mu_b6 + 2.1021073 * mu_b7 + 0.6507978 * mu_b8 + 0.16665168 * mu_b9 + 0.029346166 * mu_u10;
+    highp float q_1 = 15.32564 * mu_v10 + 69.84801 * mu_b1 + 140.76851 * mu_b2 + 194.7941 * mu_b3 + 206.00217 * mu_b4 + 162.8965 * mu_b5 + 97.73388 * mu_b6 + 43.491886 * mu_b7 + 13.512643 * mu_b8 + 3.125649 * mu_b9 + 0.4000412 * mu_u10;
+    highp float q_2 = 96.436806 * mu_v10 + 463.48563 * mu_b1 + 1018.6803 * mu_b2 + 1508.5469 * mu_b3 + 1665.0403 * mu_b4 + 1367.4473 * mu_b5 + 835.1799 * mu_b6 + 369.1761 * mu_b7 + 111.68916 * mu_b8 + 22.470764 * mu_b9 + 2.240538 * mu_u10;
+    highp float q_3 = 336.50262 * mu_v10 + 1695.1294 * mu_b1 + 4012.2842 * mu_b2 + 6373.6255 * mu_b3 + 7429.989 * mu_b4 + 6357.639 * mu_b5 + 3961.2954 * mu_b6 + 1748.3035 * mu_b7 + 515.83105 * mu_b8 + 94.18898 * mu_b9 + 8.025012 * mu_u10;
+    highp float q_4 = 727.7938 * mu_v10 + 3835.2512 * mu_b1 + 9746.548 * mu_b2 + 16673.947 * mu_b3 + 20669.576 * mu_b4 + 18468.373 * mu_b5 + 11739.391 * mu_b6 + 5169.5996 * mu_b7 + 1490.4539 * mu_b8 + 255.02357 * mu_b9 + 19.754782 * mu_u10;
+    highp float q_5 = 1021.00714 * mu_v10 + 5643.2856 * mu_b1 + 15484.061 * mu_b2 + 28761.354 * mu_b3 + 38135.434 * mu_b4 + 35646.44 * mu_b5 + 23144.838 * mu_b6 + 10198.797 * mu_b7 + 2897.1982 * mu_b8 + 478.27136 * mu_b9 + 35.196407 * mu_u10;
+    highp float q_6 = 935.4488 * mu_v10 + 5472.066 * mu_b1 + 16447.684 * mu_b2 + 33552.492 * mu_b3 + 47778.555 * mu_b4 + 46715.285 * mu_b5 + 30993.773 * mu_b6 + 13707.423 * mu_b7 + 3867.346 * mu_b8 + 629.69214 * mu_b9 + 45.471603 * mu_u10;
+    highp float q_7 = 544.61127 * mu_v10 + 3444.2283 * mu_b1 + 11649.711 * mu_b2 + 26469.809 * mu_b3 + 40565.914 * mu_b4 + 41427.105 * mu_b5 + 28087.67 * mu_b6 + 12507.149 * mu_b7 + 3529.446 * mu_b8 + 575.92365 * mu_b9 + 41.905903 * mu_u10;
+    highp float q_8 = 186.60999 * mu_v10 + 1339.9661 * mu_b1 + 5330.562 * mu_b2 + 13674.103 * mu_b3 + 22514.313 * mu_b4 + 23926.576 * mu_b5 + 16557.004 * mu_b6 + 7435.2593 * mu_b7 + 2107.2107 * mu_b8 + 347.6251 * mu_b9 + 25.970848 * mu_u10;
+    highp float q_9 = 31.366486 * mu_v10 + 290.76324 * mu_b1 + 1454.1996 * mu_b2 + 4239.4653 * mu_b3 + 7444.495 * mu_b4 + 8182.944 * mu_b5 + 5764.0737 * mu_b6 + 2610.777 * mu_b7 + 744.3606 * mu_b8 + 124.638405 * mu_b9 + 9.678711 * mu_u10;
+    highp float q_10 = 1.3704177 * mu_v10 + 26.699013 * mu_b1 + 183.0603 * mu_b2 + 601.71234 * mu_b3 + 1111.9352 * mu_b4 + 1253.004 * mu_b5 + 893.517 * mu_b6 + 406.55475 * mu_b7 + 116.09646 * mu_b8 + 19.636076 * mu_b9 + 1.5855869 * mu_u10;
     highp float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

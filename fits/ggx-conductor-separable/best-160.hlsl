@@ -15,17 +15,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor-separable/best-160.json (furnace 0.1.0), fit SHA-256 981daaf990387910e407bbeeab3a46c50aeb10694017ed5d24efa4d09c9efcb0.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.202x the least-squares start's.
+// Source: fits/ggx-conductor-separable/best-160.json (furnace 0.1.0), fit SHA-256 daef0c862b6d9f21004db9c72e7686fc14f0d9b9dedede3dcd7649154deb0b35.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 8.9e-5, shifted 2.1e-5, bernstein 5.2e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.36e-8, max 4.65e-8 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.38e-8, max 4.65e-8.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.96e-7 (every op rounded, as this Rust), 4.90e-7 (fused multiply-add), 5.77e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.12e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 5765 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.34e-8, max 4.65e-8; this f32 code MAE 6.65e-8, max 5.23e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.8e-8 on the measurement grid.
-// Denominator proved >= 2.309e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.2e-4, shifted 1.5e-5, bernstein 5.0e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.32e-8, max 3.47e-8 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-8, max 3.51e-8.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.30e-7 (every op rounded, as this Rust), 5.36e-7 (fused multiply-add), 5.97e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.75e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 38459 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.30e-8, max 3.47e-8; this f32 code MAE 6.45e-8, max 5.27e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.4e-8 on the measurement grid.
+// Denominator proved >= 1.857e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -95,30 +95,30 @@ float ggx_conductor_separable_albedo(float r, float mu) {
     float mu_b8 = mu_u8 * mu_v2;
     float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 0.9361349f * mu_v10 + 4.165896f * mu_b1 + 7.5929036f * mu_b2 + 10.007209f * mu_b3 + 10.713408f * mu_b4 + 8.264318f * mu_b5 + 4.9496293f * mu_b6 + 2.4828496f * mu_b7 + 0.79667014f * mu_b8 + 0.20738992f * mu_b9 + 0.036289275f * mu_u10;
-    float p_1 = 14.871006f * mu_v10 + 70.44386f * mu_b1 + 145.37025f * mu_b2 + 203.80736f * mu_b3 + 218.67184f * mu_b4 + 174.88316f * mu_b5 + 106.04128f * mu_b6 + 49.75184f * mu_b7 + 16.24469f * mu_b8 + 3.8321066f * mu_b9 + 0.49296483f * mu_u10;
-    float p_2 = 94.842865f * mu_v10 + 473.32367f * mu_b1 + 1069.9622f * mu_b2 + 1609.1515f * mu_b3 + 1786.8507f * mu_b4 + 1465.6978f * mu_b5 + 894.7163f * mu_b6 + 408.17746f * mu_b7 + 129.63101f * mu_b8 + 27.003002f * mu_b9 + 2.7320585f * mu_u10;
-    float p_3 = 329.23236f * mu_v10 + 1725.6423f * mu_b1 + 4223.613f * mu_b2 + 6837.3647f * mu_b3 + 7990.3013f * mu_b4 + 6776.127f * mu_b5 + 4179.372f * mu_b6 + 1867.4098f * mu_b7 + 570.5198f * mu_b8 + 108.274635f * mu_b9 + 9.464702f * mu_u10;
-    float p_4 = 697.01654f * mu_v10 + 3835.58f * mu_b1 + 10132.902f * mu_b2 + 17704.107f * mu_b3 + 21935.906f * mu_b4 + 19319.18f * mu_b5 + 12066.238f * mu_b6 + 5295.103f * mu_b7 + 1552.2574f * mu_b8 + 273.8022f * mu_b9 + 21.900059f * mu_u10;
-    float p_5 = 943.24695f * mu_v10 + 5472.882f * mu_b1 + 15681.655f * mu_b2 + 29715.914f * mu_b3 + 39167.766f * mu_b4 + 35864.695f * mu_b5 + 22729.396f * mu_b6 + 9860.117f * mu_b7 + 2799.5952f * mu_b8 + 469.5771f * mu_b9 + 35.6645f * mu_u10;
-    float p_6 = 822.37305f * mu_v10 + 5095.1826f * mu_b1 + 16051.173f * mu_b2 + 33203.832f * mu_b3 + 46542.14f * mu_b4 + 44174.508f * mu_b5 + 28372.418f * mu_b6 + 12218.401f * mu_b7 + 3393.725f * mu_b8 + 552.2732f * mu_b9 + 40.816658f * mu_u10;
-    float p_7 = 449.17908f * mu_v10 + 3061.2498f * mu_b1 + 10870.743f * mu_b2 + 24726.662f * mu_b3 + 36740.813f * mu_b4 + 35952.176f * mu_b5 + 23331.918f * mu_b6 + 9994.899f * mu_b7 + 2736.4949f * mu_b8 + 438.5504f * mu_b9 + 32.071774f * mu_u10;
-    float p_8 = 141.33878f * mu_v10 + 1134.5406f * mu_b1 + 4722.9004f * mu_b2 + 11873.617f * mu_b3 + 18582.926f * mu_b4 + 18617.982f * mu_b5 + 12159.544f * mu_b6 + 5183.078f * mu_b7 + 1405.4232f * mu_b8 + 223.92993f * mu_b9 + 16.398203f * mu_u10;
-    float p_9 = 20.393343f * mu_v10 + 232.6332f * mu_b1 + 1202.4723f * mu_b2 + 3341.931f * mu_b3 + 5458.228f * mu_b4 + 5556.016f * mu_b5 + 3635.4312f * mu_b6 + 1540.3737f * mu_b7 + 414.49075f * mu_b8 + 65.96481f * mu_b9 + 4.876612f * mu_u10;
-    float p_10 = 0.3593938f * mu_v10 + 19.497828f * mu_b1 + 136.80342f * mu_b2 + 418.244f * mu_b3 + 705.4846f * mu_b4 + 724.1525f * mu_b5 + 472.53375f * mu_b6 + 198.58937f * mu_b7 + 52.991978f * mu_b8 + 8.423376f * mu_b9 + 0.6312879f * mu_u10;
+    float p_0 = 0.9361349f * mu_v10 + 3.8914351f * mu_b1 + 6.6830335f * mu_b2 + 8.489876f * mu_b3 + 8.872679f * mu_b4 + 6.7004104f * mu_b5 + 3.9759715f * mu_b6 + 1.9945639f * mu_b7 + 0.636199f * mu_b8 + 0.16665107f * mu_b9 + 0.029346168f * mu_u10;
+    float p_1 = 14.346864f * mu_v10 + 64.094246f * mu_b1 + 125.46324f * mu_b2 + 169.9634f * mu_b3 + 178.73883f * mu_b4 + 141.09018f * mu_b5 + 85.08115f * mu_b6 + 39.924835f * mu_b7 + 13.043283f * mu_b8 + 3.0964653f * mu_b9 + 0.40004066f * mu_u10;
+    float p_2 = 89.53081f * mu_v10 + 422.79242f * mu_b1 + 908.9859f * mu_b2 + 1323.2435f * mu_b3 + 1444.4531f * mu_b4 + 1174.9937f * mu_b5 + 715.66406f * mu_b6 + 327.15115f * mu_b7 + 104.21701f * mu_b8 + 21.812267f * mu_b9 + 2.2112517f * mu_u10;
+    float p_3 = 305.72186f * mu_v10 + 1514.0381f * mu_b1 + 3523.3828f * mu_b2 + 5531.1157f * mu_b3 + 6378.5244f * mu_b4 + 5388.6914f * mu_b5 + 3326.945f * mu_b6 + 1492.1254f * mu_b7 + 457.89728f * mu_b8 + 87.290375f * mu_b9 + 7.6407585f * mu_u10;
+    float p_4 = 637.7591f * mu_v10 + 3296.8423f * mu_b1 + 8261.942f * mu_b2 + 14036.366f * mu_b3 + 17253.813f * mu_b4 + 15217.928f * mu_b5 + 9549.5205f * mu_b6 + 4214.56f * mu_b7 + 1242.0126f * mu_b8 + 219.96387f * mu_b9 + 17.60365f * mu_u10;
+    float p_5 = 850.72894f * mu_v10 + 4590.0947f * mu_b1 + 12439.352f * mu_b2 + 23035.258f * mu_b3 + 30334.285f * mu_b4 + 27973.82f * mu_b5 + 17875.316f * mu_b6 + 7811.8345f * mu_b7 + 2230.58f * mu_b8 + 375.35587f * mu_b9 + 28.490725f * mu_u10;
+    float p_6 = 732.0669f * mu_v10 + 4154.671f * mu_b1 + 12360.801f * mu_b2 + 25198.254f * mu_b3 + 35572.18f * mu_b4 + 34168.684f * mu_b5 + 22180.186f * mu_b6 + 9629.102f * mu_b7 + 2688.5127f * mu_b8 + 438.38345f * mu_b9 + 32.33825f * mu_u10;
+    float p_7 = 396.8177f * mu_v10 + 2424.1926f * mu_b1 + 8150.443f * mu_b2 + 18480.256f * mu_b3 + 27854.602f * mu_b4 + 27663.762f * mu_b5 + 18154.283f * mu_b6 + 7834.093f * mu_b7 + 2152.962f * mu_b8 + 345.11682f * mu_b9 + 25.163357f * mu_u10;
+    float p_8 = 126.21451f * mu_v10 + 877.2961f * mu_b1 + 3483.705f * mu_b2 + 8829.913f * mu_b3 + 14073.067f * mu_b4 + 14310.139f * mu_b5 + 9436.971f * mu_b6 + 4043.7063f * mu_b7 + 1098.0802f * mu_b8 + 174.65776f * mu_b9 + 12.742566f * mu_u10;
+    float p_9 = 19.779167f * mu_v10 + 179.49832f * mu_b1 + 890.12115f * mu_b2 + 2506.0657f * mu_b3 + 4162.0674f * mu_b4 + 4286.677f * mu_b5 + 2823.1975f * mu_b6 + 1198.8958f * mu_b7 + 322.20953f * mu_b8 + 51.09646f * mu_b9 + 3.7627301f * mu_u10;
+    float p_10 = 0.84103316f * mu_v10 + 15.9648075f * mu_b1 + 104.573265f * mu_b2 + 320.87177f * mu_b3 + 546.1706f * mu_b4 + 564.0014f * mu_b5 + 368.84418f * mu_b6 + 154.83855f * mu_b7 + 41.163284f * mu_b8 + 6.511932f * mu_b9 + 0.48654184f * mu_u10;
     float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v10 + 4.546502f * mu_b1 + 8.588279f * mu_b2 + 11.572414f * mu_b3 + 12.33935f * mu_b4 + 9.51321f * mu_b5 + 5.652415f * mu_b6 + 2.6165178f * mu_b7 + 0.814722f * mu_b8 + 0.2073907f * mu_b9 + 0.036289275f * mu_u10;
-    float q_1 = 15.88554f * mu_v10 + 76.68479f * mu_b1 + 162.68597f * mu_b2 + 233.11383f * mu_b3 + 252.10205f * mu_b4 + 202.21867f * mu_b5 + 121.820244f * mu_b6 + 54.176697f * mu_b7 + 16.825594f * mu_b8 + 3.8681927f * mu_b9 + 0.49296555f * mu_u10;
-    float q_2 = 102.11128f * mu_v10 + 518.19135f * mu_b1 + 1196.3618f * mu_b2 + 1831.3706f * mu_b3 + 2059.3857f * mu_b4 + 1706.8436f * mu_b5 + 1043.9348f * mu_b6 + 460.34366f * mu_b7 + 138.87999f * mu_b8 + 27.81695f * mu_b9 + 2.7682722f * mu_u10;
-    float q_3 = 362.0637f * mu_v10 + 1928.2201f * mu_b1 + 4796.651f * mu_b2 + 7864.246f * mu_b3 + 9303.055f * mu_b4 + 7995.7715f * mu_b5 + 4974.267f * mu_b6 + 2186.2314f * mu_b7 + 642.29565f * mu_b8 + 116.798645f * mu_b9 + 9.938195f * mu_u10;
-    float q_4 = 794.33185f * mu_v10 + 4447.0767f * mu_b1 + 11903.442f * mu_b2 + 20970.541f * mu_b3 + 26247.13f * mu_b4 + 23436.629f * mu_b5 + 14824.841f * mu_b6 + 6489.142f * mu_b7 + 1861.0294f * mu_b8 + 317.19235f * mu_b9 + 24.55773f * mu_u10;
-    float q_5 = 1129.8964f * mu_v10 + 6691.737f * mu_b1 + 19391.533f * mu_b2 + 36939.684f * mu_b3 + 49134.652f * mu_b4 + 45653.64f * mu_b5 + 29403.834f * mu_b6 + 12859.605f * mu_b7 + 3631.9583f * mu_b8 + 597.47705f * mu_b9 + 43.975815f * mu_u10;
-    float q_6 = 1048.8031f * mu_v10 + 6658.4644f * mu_b1 + 21176.533f * mu_b2 + 43996.17f * mu_b3 + 62378.195f * mu_b4 + 60328.707f * mu_b5 + 39606.273f * mu_b6 + 17370.936f * mu_b7 + 4873.413f * mu_b8 + 791.37604f * mu_b9 + 57.19186f * mu_u10;
-    float q_7 = 616.24866f * mu_v10 + 4310.339f * mu_b1 + 15414.919f * mu_b2 + 35318.184f * mu_b3 + 53492.996f * mu_b4 + 53843.78f * mu_b5 + 36081.535f * mu_b6 + 15936.066f * mu_b7 + 4475.847f * mu_b8 + 729.3285f * mu_b9 + 53.15783f * mu_u10;
-    float q_8 = 209.91595f * mu_v10 + 1719.6178f * mu_b1 + 7199.5596f * mu_b2 + 18416.64f * mu_b3 + 29812.928f * mu_b4 + 31192.883f * mu_b5 + 21348.418f * mu_b6 + 9523.131f * mu_b7 + 2691.24f * mu_b8 + 444.19846f * mu_b9 + 33.28578f * mu_u10;
-    float q_9 = 32.86124f * mu_v10 + 375.05603f * mu_b1 + 1966.6937f * mu_b2 + 5681.0806f * mu_b3 + 9809.282f * mu_b4 + 10641.767f * mu_b5 + 7436.0767f * mu_b6 + 3356.1663f * mu_b7 + 957.1545f * mu_b8 + 160.78905f * mu_b9 + 12.540097f * mu_u10;
-    float q_10 = 0.58561265f * mu_v10 + 32.06347f * mu_b1 + 238.65231f * mu_b2 + 785.0961f * mu_b3 + 1438.5006f * mu_b4 + 1610.2701f * mu_b5 + 1144.8008f * mu_b6 + 521.1575f * mu_b7 + 149.35912f * mu_b8 + 25.39355f * mu_b9 + 2.0572987f * mu_u10;
+    float q_0 = 1.0f * mu_v10 + 4.253317f * mu_b1 + 7.5880837f * mu_b2 + 9.843495f * mu_b3 + 10.204513f * mu_b4 + 7.6883383f * mu_b5 + 4.5398436f * mu_b6 + 2.1021073f * mu_b7 + 0.6507978f * mu_b8 + 0.16665168f * mu_b9 + 0.029346166f * mu_u10;
+    float q_1 = 15.32564f * mu_v10 + 69.84801f * mu_b1 + 140.76851f * mu_b2 + 194.7941f * mu_b3 + 206.00217f * mu_b4 + 162.8965f * mu_b5 + 97.73388f * mu_b6 + 43.491886f * mu_b7 + 13.512643f * mu_b8 + 3.125649f * mu_b9 + 0.4000412f * mu_u10;
+    float q_2 = 96.436806f * mu_v10 + 463.48563f * mu_b1 + 1018.6803f * mu_b2 + 1508.5469f * mu_b3 + 1665.0403f * mu_b4 + 1367.4473f * mu_b5 + 835.1799f * mu_b6 + 369.1761f * mu_b7 + 111.68916f * mu_b8 + 22.470764f * mu_b9 + 2.240538f * mu_u10;
+    float q_3 = 336.50262f * mu_v10 + 1695.1294f * mu_b1 + 4012.2842f * mu_b2 + 6373.6255f * mu_b3 + 7429.989f * mu_b4 + 6357.639f * mu_b5 + 3961.2954f * mu_b6 + 1748.3035f * mu_b7 + 515.83105f * mu_b8 + 94.18898f * mu_b9 + 8.025012f * mu_u10;
+    float q_4 = 727.7938f * mu_v10 + 3835.2512f * mu_b1 + 9746.548f * mu_b2 + 16673.947f * mu_b3 + 20669.576f * mu_b4 + 18468.373f * mu_b5 + 11739.391f * mu_b6 + 5169.5996f * mu_b7 + 1490.4539f * mu_b8 + 255.02357f * mu_b9 + 19.754782f * mu_u10;
+    float q_5 = 1021.00714f * mu_v10 + 5643.2856f * mu_b1 + 15484.061f * mu_b2 + 28761.354f * mu_b3 + 38135.434f * mu_b4 + 35646.44f * mu_b5 + 23144.838f * mu_b6 + 10198.797f * mu_b7 + 2897.1982f * mu_b8 + 478.27136f * mu_b9 + 35.196407f * mu_u10;
+    float q_6 = 935.4488f * mu_v10 + 5472.066f * mu_b1 + 16447.684f * mu_b2 + 33552.492f * mu_b3 + 47778.555f * mu_b4 + 46715.285f * mu_b5 + 30993.773f * mu_b6 + 13707.423f * mu_b7 + 3867.346f * mu_b8 + 629.69214f * mu_b9 + 45.471603f * mu_u10;
+    float q_7 = 544.61127f * mu_v10 + 3444.2283f * mu_b1 + 11649.711f * mu_b2 + 26469.809f * mu_b3 + 40565.914f * mu_b4 + 41427.105f * mu_b5 + 28087.67f * mu_b6 + 12507.149f * mu_b7 + 3529.446f * mu_b8 + 575.92365f * mu_b9 + 41.905903f * mu_u10;
+    float q_8 = 186.60999f * mu_v10 + 1339.9661f * mu_b1 + 5330.562f * mu_b2 + 13674.103f * mu_b3 + 22514.313f * mu_b4 + 23926.576f * mu_b5 + 16557.004f * mu_b6 + 7435.2593f * mu_b7 + 2107.2107f * mu_b8 + 347.6251f * mu_b9 + 25.970848f * mu_u10;
+    float q_9 = 31.366486f * mu_v10 + 290.76324f * mu_b1 + 1454.1996f * mu_b2 + 4239.4653f * mu_b3 + 7444.495f * mu_b4 + 8182.944f * mu_b5 + 5764.0737f * mu_b6 + 2610.777f * mu_b7 + 744.3606f * mu_b8 + 124.638405f * mu_b9 + 9.678711f * mu_u10;
+    float q_10 = 1.3704177f * mu_v10 + 26.699013f * mu_b1 + 183.0603f * mu_b2 + 601.71234f * mu_b3 + 1111.9352f * mu_b4 + 1253.004f * mu_b5 + 893.517f * mu_b6 + 406.55475f * mu_b7 + 116.09646f * mu_b8 + 19.636076f * mu_b9 + 1.5855869f * mu_u10;
     float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

@@ -12,17 +12,17 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational over [x0^3 x x1^4]/[x0^3 x x1^3], 35 coefficients (numerator 20, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 4a5c490f23e618d06a78db3d09b2e9c9591263c26e2cab4a582b4d4641c8ba3f.
-/// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.9e-6, shifted 1.9e-6, bernstein 3.6e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 1.27e-4, max 2.82e-4 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.31e-4, max 2.87e-4.
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.43e-6 (every op rounded, as this Rust), 2.16e-6 (fused multiply-add), 2.10e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 2.47e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 867 boxes).
-/// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.27e-4, max 2.82e-4; this f32 code MAE 1.27e-4, max 2.82e-4.
+/// Fit: rational over [x0^3 x x1^4]/[x0^3 x x1^3], 35 coefficients (numerator 20, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.532x the least-squares start's.
+/// Source: fits/ggx-conductor-separable/best-40.json (furnace 0.1.0), fit SHA-256 72dd6e1aa2fee621f76e1dcfb1ca0f60e3cc278133a1d48d6656aae058c87a87.
+/// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.0e-6, shifted 2.3e-6, bernstein 3.5e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 1.23e-4, max 2.68e-4 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.26e-4, max 2.74e-4.
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 2.52e-6 (every op rounded, as this Rust), 2.19e-6 (fused multiply-add), 2.12e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.04e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 2401 boxes).
+/// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 1.23e-4, max 2.68e-4; this f32 code MAE 1.23e-4, max 2.68e-4.
 /// Output clamped to [0, 1] (the fit stays inside on the measurement grid).
-/// Denominator proved >= 5.036e-1 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 5.035e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -34,22 +34,18 @@ pub fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     let mu_t = (mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let r_s = r_t * 2.0_f32 - 1.0_f32;
-    // s = (t - 0.5)/0.5 in [-1, 1]
-    let mu_s = mu_t * 2.0_f32 - 1.0_f32;
     // numerator P, grouped by powers of the first variable
-    let p_0 = (((0.05330434_f32 * mu_s - 0.9192566_f32) * mu_s + 3.05539_f32) * mu_s - 4.4000993_f32) * mu_s + 3.0880654_f32;
-    let p_1 = (((0.20676914_f32 * mu_s - 1.4074993_f32) * mu_s + 3.5089912_f32) * mu_s - 4.6403813_f32) * mu_s + 2.3593495_f32;
-    let p_2 = (((0.07862977_f32 * mu_s - 0.08440322_f32) * mu_s + 0.75994176_f32) * mu_s - 0.43394837_f32) * mu_s - 0.23287314_f32;
-    let p_3 = (((-0.045165695_f32 * mu_s - 0.054480147_f32) * mu_s - 0.14813064_f32) * mu_s + 0.23848553_f32) * mu_s - 0.04140105_f32;
-    let p = ((p_3 * r_s + p_2) * r_s + p_1) * r_s + p_0;
+    let p_0 = (((-0.47221288_f32 * mu_t + 4.6111236_f32) * mu_t - 4.3906126_f32) * mu_t + 0.30400422_f32) * mu_t + 0.935921_f32;
+    let p_1 = (((-2.7909746_f32 * mu_t - 16.821075_f32) * mu_t + 41.749283_f32) * mu_t - 39.947803_f32) * mu_t + 17.212717_f32;
+    let p_2 = (((13.854284_f32 * mu_t - 25.1129_f32) * mu_t + 36.074497_f32) * mu_t - 33.36379_f32) * mu_t + 9.504163_f32;
+    let p_3 = (((-5.9154835_f32 * mu_t + 8.286608_f32) * mu_t - 8.240042_f32) * mu_t + 8.808656_f32) * mu_t - 3.344815_f32;
+    let p = ((p_3 * r_t + p_2) * r_t + p_1) * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((-0.9159165_f32 * mu_s + 3.4510663_f32) * mu_s - 5.514548_f32) * mu_s + 4.2550364_f32;
-    let q_1 = ((-1.3364547_f32 * mu_s + 4.8117986_f32) * mu_s - 7.28704_f32) * mu_s + 4.7714825_f32;
-    let q_2 = ((0.15506637_f32 * mu_s + 1.8114171_f32) * mu_s - 2.881205_f32) * mu_s + 1.6683986_f32;
-    let q_3 = ((0.08638955_f32 * mu_s + 0.06580401_f32) * mu_s - 0.6137242_f32) * mu_s + 0.54260695_f32;
-    let q = ((q_3 * r_s + q_2) * r_s + q_1) * r_s + q_0;
+    let q_0 = ((3.9139128_f32 * mu_t - 4.33089_f32) * mu_t + 0.40541136_f32) * mu_t + 1.0_f32;
+    let q_1 = ((-22.16374_f32 * mu_t + 44.298424_f32) * mu_t - 41.119907_f32) * mu_t + 18.378138_f32;
+    let q_2 = ((-3.2809057_f32 * mu_t + 30.698484_f32) * mu_t - 36.550426_f32) * mu_t + 11.172991_f32;
+    let q_3 = ((5.51246_f32 * mu_t - 6.1729174_f32) * mu_t - 7.764603_f32) * mu_t + 9.0746355_f32;
+    let q = ((q_3 * r_t + q_2) * r_t + q_1) * r_t + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

@@ -15,17 +15,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100).
-// Fit: rational of degree 1/2, 8 coefficients (numerator 3, denominator 5 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor-separable/best-8.json (furnace 0.1.0), fit SHA-256 211f7b82a95b24f5ce4044bd70a8bf86b157367ed06fbbe3642b0802f6d78cf7.
+// Fit: rational of degree 1/2, 8 coefficients (numerator 3, denominator 5 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.330x the least-squares start's.
+// Source: fits/ggx-conductor-separable/best-8.json (furnace 0.1.0), fit SHA-256 4eeff4500f9193fdd462aa32f67a02822e19b4729b33cce1d49476dfa07ff9b6.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.9e-7, shifted 3.6e-7, bernstein 3.5e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 9.03e-3, max 1.86e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.38e-3, max 1.87e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.73e-7 (every op rounded, as this Rust), 2.83e-7 (fused multiply-add), 4.72e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.14e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 13 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.42e-3, max 1.86e-2; this f32 code MAE 7.42e-3, max 1.86e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 3.669e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.6e-7, shifted 3.3e-7, bernstein 3.9e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 8.79e-3, max 1.83e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.14e-3, max 1.84e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.27e-7 (every op rounded, as this Rust), 3.35e-7 (fused multiply-add), 5.09e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 5.21e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 13 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 7.32e-3, max 1.83e-2; this f32 code MAE 7.32e-3, max 1.83e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
+// Denominator proved >= 3.651e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -35,13 +35,13 @@ float ggx_conductor_separable_albedo(float r, float mu) {
     // t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100)
     float mu_t = (mu_c * (1.0f + 0.5f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 0.5f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    float p_0 = -0.56991184f * mu_t + 0.94615775f;
-    float p_1 = -0.14463206f;
+    float p_0 = -0.57162935f * mu_t + 0.9460947f;
+    float p_1 = -0.1496625f;
     float p = p_1 * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = (-0.22472277f * mu_t - 0.40465736f) * mu_t + 1.0f;
-    float q_1 = 0.04240145f * mu_t - 0.12410973f;
-    float q_2 = 0.4443377f;
+    float q_0 = (-0.22396535f * mu_t - 0.40684915f) * mu_t + 1.0f;
+    float q_1 = 0.04004313f * mu_t - 0.1252238f;
+    float q_2 = 0.43998864f;
     float q = (q_2 * r_t + q_1) * r_t + q_0;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

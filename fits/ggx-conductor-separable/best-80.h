@@ -41,17 +41,17 @@ FURNACE_FN furnace_rgb furnace_rgb_make(float x, float y, float z) {
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 4 of 16, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 587ac998eba5d54d87922b6f5128e3d529a5864824ad85c5f790a4a4e97bd62d.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.082x the least-squares start's.
+// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 b1685f7c7fb7b4470fe87e231d604b8e57d2cd40b93765d0de074cdb47ea8374.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 6.2e-4, shifted 3.8e-5, bernstein 5.0e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 3.70e-7, max 3.86e-6 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.95e-7, max 3.87e-6.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.54e-7 (every op rounded, as this Rust), 4.56e-7 (fused multiply-add), 6.04e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.09e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 223 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.70e-7, max 3.86e-6; this f32 code MAE 3.74e-7, max 3.93e-6.
-// Output clamped to [0, 1] (the fit stays inside on the measurement grid).
-// Denominator proved >= 2.960e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.1e-4, shifted 1.7e-5, bernstein 4.2e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 3.28e-7, max 2.68e-6 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.77e-7, max 2.74e-6.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 5.05e-7 (fused multiply-add), 5.56e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.08e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 223 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.26e-7, max 2.68e-6; this f32 code MAE 3.35e-7, max 2.94e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-7 on the measurement grid.
+// Denominator proved >= 2.924e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_conductor_separable_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -103,24 +103,24 @@ FURNACE_FN float ggx_conductor_separable_albedo(float r, float mu) {
     const float mu_b5 = mu_u5 * mu_v2;
     const float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 0.9361342f * mu_v7 + 1.920049f * mu_b1 + 2.0141423f * mu_b2 + 1.6602669f * mu_b3 + 0.97782487f * mu_b4 + 0.38743407f * mu_b5 + 0.1000696f * mu_b6 + 0.028538536f * mu_u7;
-    const float p_1 = 10.760968f * mu_v7 + 27.656012f * mu_b1 + 33.100716f * mu_b2 + 26.268341f * mu_b3 + 15.2665415f * mu_b4 + 6.218485f * mu_b5 + 1.5113798f * mu_b6 + 0.27359304f * mu_u7;
-    const float p_2 = 49.853333f * mu_v7 + 150.34181f * mu_b1 + 203.14659f * mu_b2 + 166.13861f * mu_b3 + 93.03281f * mu_b4 + 36.44067f * mu_b5 + 8.711456f * mu_b6 + 1.1535687f * mu_u7;
-    const float p_3 = 123.11983f * mu_v7 + 419.53088f * mu_b1 + 630.02814f * mu_b2 + 549.32806f * mu_b3 + 309.31543f * mu_b4 + 115.72663f * mu_b5 + 25.981874f * mu_b6 + 2.743826f * mu_u7;
-    const float p_4 = 178.31142f * mu_v7 + 665.99005f * mu_b1 + 1080.911f * mu_b2 + 990.4788f * mu_b3 + 560.2174f * mu_b4 + 199.15239f * mu_b5 + 40.971134f * mu_b6 + 3.673844f * mu_u7;
-    const float p_5 = 151.01793f * mu_v7 + 599.26953f * mu_b1 + 1017.2964f * mu_b2 + 952.1869f * mu_b3 + 530.62823f * mu_b4 + 176.96465f * mu_b5 + 32.665127f * mu_b6 + 2.51711f * mu_u7;
-    const float p_6 = 68.64233f * mu_v7 + 281.39056f * mu_b1 + 485.59515f * mu_b2 + 452.155f * mu_b3 + 242.59276f * mu_b4 + 73.97174f * mu_b5 + 11.59261f * mu_b6 + 0.68236285f * mu_u7;
-    const float p_7 = 12.841606f * mu_v7 + 53.165974f * mu_b1 + 91.18122f * mu_b2 + 82.5487f * mu_b3 + 41.509937f * mu_b4 + 10.982055f * mu_b5 + 1.1967506f * mu_b6 + 0.00090819143f * mu_u7;
+    const float p_0 = 0.9361349f * mu_v7 + 1.9278517f * mu_b1 + 2.015164f * mu_b2 + 1.6615647f * mu_b3 + 0.98068297f * mu_b4 + 0.38493967f * mu_b5 + 0.10059791f * mu_b6 + 0.028196631f * mu_u7;
+    const float p_1 = 10.738858f * mu_v7 + 27.644468f * mu_b1 + 33.014862f * mu_b2 + 26.165987f * mu_b3 + 15.203092f * mu_b4 + 6.16587f * mu_b5 + 1.4982055f * mu_b6 + 0.26850334f * mu_u7;
+    const float p_2 = 49.657936f * mu_v7 + 149.7747f * mu_b1 + 201.96318f * mu_b2 + 164.84196f * mu_b3 + 92.15809f * mu_b4 + 35.98474f * mu_b5 + 8.586214f * mu_b6 + 1.1334487f * mu_u7;
+    const float p_3 = 122.43172f * mu_v7 + 416.82425f * mu_b1 + 624.6066f * mu_b2 + 543.44385f * mu_b3 + 305.47668f * mu_b4 + 114.06867f * mu_b5 + 25.571327f * mu_b6 + 2.6986117f * mu_u7;
+    const float p_4 = 177.02193f * mu_v7 + 660.16864f * mu_b1 + 1069.136f * mu_b2 + 977.7975f * mu_b3 + 552.33527f * mu_b4 + 196.21396f * mu_b5 + 40.359924f * mu_b6 + 3.6219776f * mu_u7;
+    const float p_5 = 149.66983f * mu_v7 + 592.7827f * mu_b1 + 1004.11053f * mu_b2 + 938.1326f * mu_b3 + 522.22784f * mu_b4 + 174.15898f * mu_b5 + 32.183617f * mu_b6 + 2.4869227f * mu_u7;
+    const float p_6 = 67.90593f * mu_v7 + 277.76932f * mu_b1 + 478.28638f * mu_b2 + 444.49588f * mu_b3 + 238.1725f * mu_b4 + 72.61527f * mu_b5 + 11.40126f * mu_b6 + 0.6754046f * mu_u7;
+    const float p_7 = 12.6774235f * mu_v7 + 52.360455f * mu_b1 + 89.58269f * mu_b2 + 80.91118f * mu_b3 + 40.59569f * mu_b4 + 10.719437f * mu_b5 + 1.166198f * mu_b6 + 0.0008970925f * mu_u7;
     const float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v7 + 2.1474698f * mu_b1 + 2.3974657f * mu_b2 + 1.966901f * mu_b3 + 1.0603869f * mu_b4 + 0.4011638f * mu_b5 + 0.10007773f * mu_b6 + 0.028538544f * mu_u7;
-    const float q_1 = 11.495f * mu_v7 + 30.552187f * mu_b1 + 38.3817f * mu_b2 + 31.264526f * mu_b3 + 17.334791f * mu_b4 + 6.5638785f * mu_b5 + 1.539692f * mu_b6 + 0.27359107f * mu_u7;
-    const float q_2 = 54.054287f * mu_v7 + 167.04631f * mu_b1 + 233.27467f * mu_b2 + 197.06006f * mu_b3 + 109.9571f * mu_b4 + 40.878674f * mu_b5 + 9.172041f * mu_b6 + 1.1820743f * mu_u7;
-    const float q_3 = 138.38596f * mu_v7 + 482.15567f * mu_b1 + 740.685f * mu_b2 + 661.6889f * mu_b3 + 377.22766f * mu_b4 + 138.84277f * mu_b5 + 29.877174f * mu_b6 + 3.003424f * mu_u7;
-    const float q_4 = 211.96965f * mu_v7 + 814.56793f * mu_b1 + 1353.4294f * mu_b2 + 1267.7089f * mu_b3 + 730.3206f * mu_b4 + 262.07684f * mu_b5 + 53.921124f * mu_b6 + 4.8021603f * mu_u7;
-    const float q_5 = 194.53482f * mu_v7 + 809.0494f * mu_b1 + 1431.089f * mu_b2 + 1392.435f * mu_b3 + 806.22546f * mu_b4 + 280.02386f * mu_b5 + 54.537464f * mu_b6 + 4.5873904f * mu_u7;
-    const float q_6 = 98.6808f * mu_v7 + 437.6391f * mu_b1 + 815.3641f * mu_b2 + 821.1564f * mu_b3 + 479.4777f * mu_b4 + 161.61981f * mu_b5 + 29.208668f * mu_b6 + 2.2189405f * mu_u7;
-    const float q_7 = 20.92463f * mu_v7 + 97.093155f * mu_b1 + 186.65863f * mu_b2 + 189.75146f * mu_b3 + 107.27568f * mu_b4 + 31.894655f * mu_b5 + 3.8971405f * mu_b6 + 0.0029596935f * mu_u7;
+    const float q_0 = 1.0f * mu_v7 + 2.1558008f * mu_b1 + 2.3994665f * mu_b2 + 1.9685088f * mu_b3 + 1.063018f * mu_b4 + 0.39850307f * mu_b5 + 0.1006059f * mu_b6 + 0.028196627f * mu_u7;
+    const float q_1 = 11.471381f * mu_v7 + 30.537544f * mu_b1 + 38.28709f * mu_b2 + 31.14475f * mu_b3 + 17.258453f * mu_b4 + 6.5077515f * mu_b5 + 1.5261927f * mu_b6 + 0.2685025f * mu_u7;
+    const float q_2 = 53.845665f * mu_v7 + 166.42958f * mu_b1 + 231.95657f * mu_b2 + 195.54572f * mu_b3 + 108.919716f * mu_b4 + 40.37269f * mu_b5 + 9.041324f * mu_b6 + 1.1615993f * mu_u7;
+    const float q_3 = 137.63176f * mu_v7 + 479.1635f * mu_b1 + 734.5768f * mu_b2 + 654.8143f * mu_b3 + 372.62277f * mu_b4 + 136.88591f * mu_b5 + 29.408676f * mu_b6 + 2.9534476f * mu_u7;
+    const float q_4 = 210.48297f * mu_v7 + 807.7648f * mu_b1 + 1339.3784f * mu_b2 + 1252.0654f * mu_b3 + 720.26324f * mu_b4 + 258.25317f * mu_b5 + 53.11136f * mu_b6 + 4.729835f * mu_u7;
+    const float q_5 = 192.85245f * mu_v7 + 800.6955f * mu_b1 + 1413.4664f * mu_b2 + 1372.7706f * mu_b3 + 793.87445f * mu_b4 + 275.68246f * mu_b5 + 53.734894f * mu_b6 + 4.525932f * mu_u7;
+    const float q_6 = 97.649185f * mu_v7 + 432.2493f * mu_b1 + 803.7284f * mu_b2 + 808.0047f * mu_b3 + 471.24493f * mu_b4 + 158.85776f * mu_b5 + 28.770073f * mu_b6 + 2.1963158f * mu_u7;
+    const float q_7 = 20.657095f * mu_v7 + 95.64693f * mu_b1 + 183.46469f * mu_b2 + 186.07477f * mu_b3 + 104.95535f * mu_b4 + 31.138042f * mu_b5 + 3.7976139f * mu_b6 + 0.0029235017f * mu_u7;
     const float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

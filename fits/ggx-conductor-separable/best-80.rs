@@ -12,17 +12,17 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 4 of 16, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-/// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 587ac998eba5d54d87922b6f5128e3d529a5864824ad85c5f790a4a4e97bd62d.
+/// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.082x the least-squares start's.
+/// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 b1685f7c7fb7b4470fe87e231d604b8e57d2cd40b93765d0de074cdb47ea8374.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 6.2e-4, shifted 3.8e-5, bernstein 5.0e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 3.70e-7, max 3.86e-6 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.95e-7, max 3.87e-6.
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.54e-7 (every op rounded, as this Rust), 4.56e-7 (fused multiply-add), 6.04e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.09e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 223 boxes).
-/// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.70e-7, max 3.86e-6; this f32 code MAE 3.74e-7, max 3.93e-6.
-/// Output clamped to [0, 1] (the fit stays inside on the measurement grid).
-/// Denominator proved >= 2.960e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.1e-4, shifted 1.7e-5, bernstein 4.2e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 3.28e-7, max 2.68e-6 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.77e-7, max 2.74e-6.
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 5.05e-7 (fused multiply-add), 5.56e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.08e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 223 boxes).
+/// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.26e-7, max 2.68e-6; this f32 code MAE 3.35e-7, max 2.94e-6.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-7 on the measurement grid.
+/// Denominator proved >= 2.924e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -77,24 +77,24 @@ pub fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9361342_f32 * mu_v7 + 1.920049_f32 * mu_b1 + 2.0141423_f32 * mu_b2 + 1.6602669_f32 * mu_b3 + 0.97782487_f32 * mu_b4 + 0.38743407_f32 * mu_b5 + 0.1000696_f32 * mu_b6 + 0.028538536_f32 * mu_u7;
-    let p_1 = 10.760968_f32 * mu_v7 + 27.656012_f32 * mu_b1 + 33.100716_f32 * mu_b2 + 26.268341_f32 * mu_b3 + 15.2665415_f32 * mu_b4 + 6.218485_f32 * mu_b5 + 1.5113798_f32 * mu_b6 + 0.27359304_f32 * mu_u7;
-    let p_2 = 49.853333_f32 * mu_v7 + 150.34181_f32 * mu_b1 + 203.14659_f32 * mu_b2 + 166.13861_f32 * mu_b3 + 93.03281_f32 * mu_b4 + 36.44067_f32 * mu_b5 + 8.711456_f32 * mu_b6 + 1.1535687_f32 * mu_u7;
-    let p_3 = 123.11983_f32 * mu_v7 + 419.53088_f32 * mu_b1 + 630.02814_f32 * mu_b2 + 549.32806_f32 * mu_b3 + 309.31543_f32 * mu_b4 + 115.72663_f32 * mu_b5 + 25.981874_f32 * mu_b6 + 2.743826_f32 * mu_u7;
-    let p_4 = 178.31142_f32 * mu_v7 + 665.99005_f32 * mu_b1 + 1080.911_f32 * mu_b2 + 990.4788_f32 * mu_b3 + 560.2174_f32 * mu_b4 + 199.15239_f32 * mu_b5 + 40.971134_f32 * mu_b6 + 3.673844_f32 * mu_u7;
-    let p_5 = 151.01793_f32 * mu_v7 + 599.26953_f32 * mu_b1 + 1017.2964_f32 * mu_b2 + 952.1869_f32 * mu_b3 + 530.62823_f32 * mu_b4 + 176.96465_f32 * mu_b5 + 32.665127_f32 * mu_b6 + 2.51711_f32 * mu_u7;
-    let p_6 = 68.64233_f32 * mu_v7 + 281.39056_f32 * mu_b1 + 485.59515_f32 * mu_b2 + 452.155_f32 * mu_b3 + 242.59276_f32 * mu_b4 + 73.97174_f32 * mu_b5 + 11.59261_f32 * mu_b6 + 0.68236285_f32 * mu_u7;
-    let p_7 = 12.841606_f32 * mu_v7 + 53.165974_f32 * mu_b1 + 91.18122_f32 * mu_b2 + 82.5487_f32 * mu_b3 + 41.509937_f32 * mu_b4 + 10.982055_f32 * mu_b5 + 1.1967506_f32 * mu_b6 + 0.00090819143_f32 * mu_u7;
+    let p_0 = 0.9361349_f32 * mu_v7 + 1.9278517_f32 * mu_b1 + 2.015164_f32 * mu_b2 + 1.6615647_f32 * mu_b3 + 0.98068297_f32 * mu_b4 + 0.38493967_f32 * mu_b5 + 0.10059791_f32 * mu_b6 + 0.028196631_f32 * mu_u7;
+    let p_1 = 10.738858_f32 * mu_v7 + 27.644468_f32 * mu_b1 + 33.014862_f32 * mu_b2 + 26.165987_f32 * mu_b3 + 15.203092_f32 * mu_b4 + 6.16587_f32 * mu_b5 + 1.4982055_f32 * mu_b6 + 0.26850334_f32 * mu_u7;
+    let p_2 = 49.657936_f32 * mu_v7 + 149.7747_f32 * mu_b1 + 201.96318_f32 * mu_b2 + 164.84196_f32 * mu_b3 + 92.15809_f32 * mu_b4 + 35.98474_f32 * mu_b5 + 8.586214_f32 * mu_b6 + 1.1334487_f32 * mu_u7;
+    let p_3 = 122.43172_f32 * mu_v7 + 416.82425_f32 * mu_b1 + 624.6066_f32 * mu_b2 + 543.44385_f32 * mu_b3 + 305.47668_f32 * mu_b4 + 114.06867_f32 * mu_b5 + 25.571327_f32 * mu_b6 + 2.6986117_f32 * mu_u7;
+    let p_4 = 177.02193_f32 * mu_v7 + 660.16864_f32 * mu_b1 + 1069.136_f32 * mu_b2 + 977.7975_f32 * mu_b3 + 552.33527_f32 * mu_b4 + 196.21396_f32 * mu_b5 + 40.359924_f32 * mu_b6 + 3.6219776_f32 * mu_u7;
+    let p_5 = 149.66983_f32 * mu_v7 + 592.7827_f32 * mu_b1 + 1004.11053_f32 * mu_b2 + 938.1326_f32 * mu_b3 + 522.22784_f32 * mu_b4 + 174.15898_f32 * mu_b5 + 32.183617_f32 * mu_b6 + 2.4869227_f32 * mu_u7;
+    let p_6 = 67.90593_f32 * mu_v7 + 277.76932_f32 * mu_b1 + 478.28638_f32 * mu_b2 + 444.49588_f32 * mu_b3 + 238.1725_f32 * mu_b4 + 72.61527_f32 * mu_b5 + 11.40126_f32 * mu_b6 + 0.6754046_f32 * mu_u7;
+    let p_7 = 12.6774235_f32 * mu_v7 + 52.360455_f32 * mu_b1 + 89.58269_f32 * mu_b2 + 80.91118_f32 * mu_b3 + 40.59569_f32 * mu_b4 + 10.719437_f32 * mu_b5 + 1.166198_f32 * mu_b6 + 0.0008970925_f32 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v7 + 2.1474698_f32 * mu_b1 + 2.3974657_f32 * mu_b2 + 1.966901_f32 * mu_b3 + 1.0603869_f32 * mu_b4 + 0.4011638_f32 * mu_b5 + 0.10007773_f32 * mu_b6 + 0.028538544_f32 * mu_u7;
-    let q_1 = 11.495_f32 * mu_v7 + 30.552187_f32 * mu_b1 + 38.3817_f32 * mu_b2 + 31.264526_f32 * mu_b3 + 17.334791_f32 * mu_b4 + 6.5638785_f32 * mu_b5 + 1.539692_f32 * mu_b6 + 0.27359107_f32 * mu_u7;
-    let q_2 = 54.054287_f32 * mu_v7 + 167.04631_f32 * mu_b1 + 233.27467_f32 * mu_b2 + 197.06006_f32 * mu_b3 + 109.9571_f32 * mu_b4 + 40.878674_f32 * mu_b5 + 9.172041_f32 * mu_b6 + 1.1820743_f32 * mu_u7;
-    let q_3 = 138.38596_f32 * mu_v7 + 482.15567_f32 * mu_b1 + 740.685_f32 * mu_b2 + 661.6889_f32 * mu_b3 + 377.22766_f32 * mu_b4 + 138.84277_f32 * mu_b5 + 29.877174_f32 * mu_b6 + 3.003424_f32 * mu_u7;
-    let q_4 = 211.96965_f32 * mu_v7 + 814.56793_f32 * mu_b1 + 1353.4294_f32 * mu_b2 + 1267.7089_f32 * mu_b3 + 730.3206_f32 * mu_b4 + 262.07684_f32 * mu_b5 + 53.921124_f32 * mu_b6 + 4.8021603_f32 * mu_u7;
-    let q_5 = 194.53482_f32 * mu_v7 + 809.0494_f32 * mu_b1 + 1431.089_f32 * mu_b2 + 1392.435_f32 * mu_b3 + 806.22546_f32 * mu_b4 + 280.02386_f32 * mu_b5 + 54.537464_f32 * mu_b6 + 4.5873904_f32 * mu_u7;
-    let q_6 = 98.6808_f32 * mu_v7 + 437.6391_f32 * mu_b1 + 815.3641_f32 * mu_b2 + 821.1564_f32 * mu_b3 + 479.4777_f32 * mu_b4 + 161.61981_f32 * mu_b5 + 29.208668_f32 * mu_b6 + 2.2189405_f32 * mu_u7;
-    let q_7 = 20.92463_f32 * mu_v7 + 97.093155_f32 * mu_b1 + 186.65863_f32 * mu_b2 + 189.75146_f32 * mu_b3 + 107.27568_f32 * mu_b4 + 31.894655_f32 * mu_b5 + 3.8971405_f32 * mu_b6 + 0.0029596935_f32 * mu_u7;
+    let q_0 = 1.0_f32 * mu_v7 + 2.1558008_f32 * mu_b1 + 2.3994665_f32 * mu_b2 + 1.9685088_f32 * mu_b3 + 1.063018_f32 * mu_b4 + 0.39850307_f32 * mu_b5 + 0.1006059_f32 * mu_b6 + 0.028196627_f32 * mu_u7;
+    let q_1 = 11.471381_f32 * mu_v7 + 30.537544_f32 * mu_b1 + 38.28709_f32 * mu_b2 + 31.14475_f32 * mu_b3 + 17.258453_f32 * mu_b4 + 6.5077515_f32 * mu_b5 + 1.5261927_f32 * mu_b6 + 0.2685025_f32 * mu_u7;
+    let q_2 = 53.845665_f32 * mu_v7 + 166.42958_f32 * mu_b1 + 231.95657_f32 * mu_b2 + 195.54572_f32 * mu_b3 + 108.919716_f32 * mu_b4 + 40.37269_f32 * mu_b5 + 9.041324_f32 * mu_b6 + 1.1615993_f32 * mu_u7;
+    let q_3 = 137.63176_f32 * mu_v7 + 479.1635_f32 * mu_b1 + 734.5768_f32 * mu_b2 + 654.8143_f32 * mu_b3 + 372.62277_f32 * mu_b4 + 136.88591_f32 * mu_b5 + 29.408676_f32 * mu_b6 + 2.9534476_f32 * mu_u7;
+    let q_4 = 210.48297_f32 * mu_v7 + 807.7648_f32 * mu_b1 + 1339.3784_f32 * mu_b2 + 1252.0654_f32 * mu_b3 + 720.26324_f32 * mu_b4 + 258.25317_f32 * mu_b5 + 53.11136_f32 * mu_b6 + 4.729835_f32 * mu_u7;
+    let q_5 = 192.85245_f32 * mu_v7 + 800.6955_f32 * mu_b1 + 1413.4664_f32 * mu_b2 + 1372.7706_f32 * mu_b3 + 793.87445_f32 * mu_b4 + 275.68246_f32 * mu_b5 + 53.734894_f32 * mu_b6 + 4.525932_f32 * mu_u7;
+    let q_6 = 97.649185_f32 * mu_v7 + 432.2493_f32 * mu_b1 + 803.7284_f32 * mu_b2 + 808.0047_f32 * mu_b3 + 471.24493_f32 * mu_b4 + 158.85776_f32 * mu_b5 + 28.770073_f32 * mu_b6 + 2.1963158_f32 * mu_u7;
+    let q_7 = 20.657095_f32 * mu_v7 + 95.64693_f32 * mu_b1 + 183.46469_f32 * mu_b2 + 186.07477_f32 * mu_b3 + 104.95535_f32 * mu_b4 + 31.138042_f32 * mu_b5 + 3.7976139_f32 * mu_b6 + 0.0029235017_f32 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

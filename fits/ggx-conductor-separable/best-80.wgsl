@@ -12,17 +12,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 4 of 16, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 587ac998eba5d54d87922b6f5128e3d529a5864824ad85c5f790a4a4e97bd62d.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.082x the least-squares start's.
+// Source: fits/ggx-conductor-separable/best-80.json (furnace 0.1.0), fit SHA-256 b1685f7c7fb7b4470fe87e231d604b8e57d2cd40b93765d0de074cdb47ea8374.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 6.2e-4, shifted 3.8e-5, bernstein 5.0e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 3.70e-7, max 3.86e-6 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.95e-7, max 3.87e-6.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.54e-7 (every op rounded, as this Rust), 4.56e-7 (fused multiply-add), 6.04e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.09e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 223 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.70e-7, max 3.86e-6; this f32 code MAE 3.74e-7, max 3.93e-6.
-// Output clamped to [0, 1] (the fit stays inside on the measurement grid).
-// Denominator proved >= 2.960e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.1e-4, shifted 1.7e-5, bernstein 4.2e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 3.28e-7, max 2.68e-6 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.77e-7, max 2.74e-6.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 5.05e-7 (fused multiply-add), 5.56e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.08e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 223 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor-separable/1024x1024 (output clamp applied): f64 MAE 3.26e-7, max 2.68e-6; this f32 code MAE 3.35e-7, max 2.94e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-7 on the measurement grid.
+// Denominator proved >= 2.924e-3 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -74,24 +74,24 @@ fn ggx_conductor_separable_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.9361342 * mu_v7 + 1.920049 * mu_b1 + 2.0141423 * mu_b2 + 1.6602669 * mu_b3 + 0.97782487 * mu_b4 + 0.38743407 * mu_b5 + 0.1000696 * mu_b6 + 0.028538536 * mu_u7;
-    let p_1 = 10.760968 * mu_v7 + 27.656012 * mu_b1 + 33.100716 * mu_b2 + 26.268341 * mu_b3 + 15.2665415 * mu_b4 + 6.218485 * mu_b5 + 1.5113798 * mu_b6 + 0.27359304 * mu_u7;
-    let p_2 = 49.853333 * mu_v7 + 150.34181 * mu_b1 + 203.14659 * mu_b2 + 166.13861 * mu_b3 + 93.03281 * mu_b4 + 36.44067 * mu_b5 + 8.711456 * mu_b6 + 1.1535687 * mu_u7;
-    let p_3 = 123.11983 * mu_v7 + 419.53088 * mu_b1 + 630.02814 * mu_b2 + 549.32806 * mu_b3 + 309.31543 * mu_b4 + 115.72663 * mu_b5 + 25.981874 * mu_b6 + 2.743826 * mu_u7;
-    let p_4 = 178.31142 * mu_v7 + 665.99005 * mu_b1 + 1080.911 * mu_b2 + 990.4788 * mu_b3 + 560.2174 * mu_b4 + 199.15239 * mu_b5 + 40.971134 * mu_b6 + 3.673844 * mu_u7;
-    let p_5 = 151.01793 * mu_v7 + 599.26953 * mu_b1 + 1017.2964 * mu_b2 + 952.1869 * mu_b3 + 530.62823 * mu_b4 + 176.96465 * mu_b5 + 32.665127 * mu_b6 + 2.51711 * mu_u7;
-    let p_6 = 68.64233 * mu_v7 + 281.39056 * mu_b1 + 485.59515 * mu_b2 + 452.155 * mu_b3 + 242.59276 * mu_b4 + 73.97174 * mu_b5 + 11.59261 * mu_b6 + 0.68236285 * mu_u7;
-    let p_7 = 12.841606 * mu_v7 + 53.165974 * mu_b1 + 91.18122 * mu_b2 + 82.5487 * mu_b3 + 41.509937 * mu_b4 + 10.982055 * mu_b5 + 1.1967506 * mu_b6 + 0.00090819143 * mu_u7;
+    let p_0 = 0.9361349 * mu_v7 + 1.9278517 * mu_b1 + 2.015164 * mu_b2 + 1.6615647 * mu_b3 + 0.98068297 * mu_b4 + 0.38493967 * mu_b5 + 0.10059791 * mu_b6 + 0.028196631 * mu_u7;
+    let p_1 = 10.738858 * mu_v7 + 27.644468 * mu_b1 + 33.014862 * mu_b2 + 26.165987 * mu_b3 + 15.203092 * mu_b4 + 6.16587 * mu_b5 + 1.4982055 * mu_b6 + 0.26850334 * mu_u7;
+    let p_2 = 49.657936 * mu_v7 + 149.7747 * mu_b1 + 201.96318 * mu_b2 + 164.84196 * mu_b3 + 92.15809 * mu_b4 + 35.98474 * mu_b5 + 8.586214 * mu_b6 + 1.1334487 * mu_u7;
+    let p_3 = 122.43172 * mu_v7 + 416.82425 * mu_b1 + 624.6066 * mu_b2 + 543.44385 * mu_b3 + 305.47668 * mu_b4 + 114.06867 * mu_b5 + 25.571327 * mu_b6 + 2.6986117 * mu_u7;
+    let p_4 = 177.02193 * mu_v7 + 660.16864 * mu_b1 + 1069.136 * mu_b2 + 977.7975 * mu_b3 + 552.33527 * mu_b4 + 196.21396 * mu_b5 + 40.359924 * mu_b6 + 3.6219776 * mu_u7;
+    let p_5 = 149.66983 * mu_v7 + 592.7827 * mu_b1 + 1004.11053 * mu_b2 + 938.1326 * mu_b3 + 522.22784 * mu_b4 + 174.15898 * mu_b5 + 32.183617 * mu_b6 + 2.4869227 * mu_u7;
+    let p_6 = 67.90593 * mu_v7 + 277.76932 * mu_b1 + 478.28638 * mu_b2 + 444.49588 * mu_b3 + 238.1725 * mu_b4 + 72.61527 * mu_b5 + 11.40126 * mu_b6 + 0.6754046 * mu_u7;
+    let p_7 = 12.6774235 * mu_v7 + 52.360455 * mu_b1 + 89.58269 * mu_b2 + 80.91118 * mu_b3 + 40.59569 * mu_b4 + 10.719437 * mu_b5 + 1.166198 * mu_b6 + 0.0008970925 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v7 + 2.1474698 * mu_b1 + 2.3974657 * mu_b2 + 1.966901 * mu_b3 + 1.0603869 * mu_b4 + 0.4011638 * mu_b5 + 0.10007773 * mu_b6 + 0.028538544 * mu_u7;
-    let q_1 = 11.495 * mu_v7 + 30.552187 * mu_b1 + 38.3817 * mu_b2 + 31.264526 * mu_b3 + 17.334791 * mu_b4 + 6.5638785 * mu_b5 + 1.539692 * mu_b6 + 0.27359107 * mu_u7;
-    let q_2 = 54.054287 * mu_v7 + 167.04631 * mu_b1 + 233.27467 * mu_b2 + 197.06006 * mu_b3 + 109.9571 * mu_b4 + 40.878674 * mu_b5 + 9.172041 * mu_b6 + 1.1820743 * mu_u7;
-    let q_3 = 138.38596 * mu_v7 + 482.15567 * mu_b1 + 740.685 * mu_b2 + 661.6889 * mu_b3 + 377.22766 * mu_b4 + 138.84277 * mu_b5 + 29.877174 * mu_b6 + 3.003424 * mu_u7;
-    let q_4 = 211.96965 * mu_v7 + 814.56793 * mu_b1 + 1353.4294 * mu_b2 + 1267.7089 * mu_b3 + 730.3206 * mu_b4 + 262.07684 * mu_b5 + 53.921124 * mu_b6 + 4.8021603 * mu_u7;
-    let q_5 = 194.53482 * mu_v7 + 809.0494 * mu_b1 + 1431.089 * mu_b2 + 1392.435 * mu_b3 + 806.22546 * mu_b4 + 280.02386 * mu_b5 + 54.537464 * mu_b6 + 4.5873904 * mu_u7;
-    let q_6 = 98.6808 * mu_v7 + 437.6391 * mu_b1 + 815.3641 * mu_b2 + 821.1564 * mu_b3 + 479.4777 * mu_b4 + 161.61981 * mu_b5 + 29.208668 * mu_b6 + 2.2189405 * mu_u7;
-    let q_7 = 20.92463 * mu_v7 + 97.093155 * mu_b1 + 186.65863 * mu_b2 + 189.75146 * mu_b3 + 107.27568 * mu_b4 + 31.894655 * mu_b5 + 3.8971405 * mu_b6 + 0.0029596935 * mu_u7;
+    let q_0 = 1.0 * mu_v7 + 2.1558008 * mu_b1 + 2.3994665 * mu_b2 + 1.9685088 * mu_b3 + 1.063018 * mu_b4 + 0.39850307 * mu_b5 + 0.1006059 * mu_b6 + 0.028196627 * mu_u7;
+    let q_1 = 11.471381 * mu_v7 + 30.537544 * mu_b1 + 38.28709 * mu_b2 + 31.14475 * mu_b3 + 17.258453 * mu_b4 + 6.5077515 * mu_b5 + 1.5261927 * mu_b6 + 0.2685025 * mu_u7;
+    let q_2 = 53.845665 * mu_v7 + 166.42958 * mu_b1 + 231.95657 * mu_b2 + 195.54572 * mu_b3 + 108.919716 * mu_b4 + 40.37269 * mu_b5 + 9.041324 * mu_b6 + 1.1615993 * mu_u7;
+    let q_3 = 137.63176 * mu_v7 + 479.1635 * mu_b1 + 734.5768 * mu_b2 + 654.8143 * mu_b3 + 372.62277 * mu_b4 + 136.88591 * mu_b5 + 29.408676 * mu_b6 + 2.9534476 * mu_u7;
+    let q_4 = 210.48297 * mu_v7 + 807.7648 * mu_b1 + 1339.3784 * mu_b2 + 1252.0654 * mu_b3 + 720.26324 * mu_b4 + 258.25317 * mu_b5 + 53.11136 * mu_b6 + 4.729835 * mu_u7;
+    let q_5 = 192.85245 * mu_v7 + 800.6955 * mu_b1 + 1413.4664 * mu_b2 + 1372.7706 * mu_b3 + 793.87445 * mu_b4 + 275.68246 * mu_b5 + 53.734894 * mu_b6 + 4.525932 * mu_u7;
+    let q_6 = 97.649185 * mu_v7 + 432.2493 * mu_b1 + 803.7284 * mu_b2 + 808.0047 * mu_b3 + 471.24493 * mu_b4 + 158.85776 * mu_b5 + 28.770073 * mu_b6 + 2.1963158 * mu_u7;
+    let q_7 = 20.657095 * mu_v7 + 95.64693 * mu_b1 + 183.46469 * mu_b2 + 186.07477 * mu_b3 + 104.95535 * mu_b4 + 31.138042 * mu_b5 + 3.7976139 * mu_b6 + 0.0029235017 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -16,16 +16,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 f3104ed2a685f1fc24d961c28bc7af8dc38a9033278fff76cfd7c56d9d02c224.
+// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 b76023d855790ebe21d2e567b45824299ca3a20e7ed43eb196a295f6768aea05.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.9e-3, shifted 1.2e-4, bernstein 5.4e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 4.95e-8, max 1.92e-6 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.12e-8, max 2.59e-6.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.93e-7 (every op rounded, as this Rust), 5.11e-7 (fused multiply-add), 6.63e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.30e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6855 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.89e-8, max 1.48e-6; this f32 code MAE 8.70e-8, max 1.57e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-6 on the measurement grid.
-// Denominator proved >= 3.425e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.9e-3, shifted 1.2e-4, bernstein 5.2e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.90e-8, max 1.62e-6 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.96e-8, max 2.89e-6.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.23e-7 (every op rounded, as this Rust), 4.85e-7 (fused multiply-add), 6.96e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.35e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6633 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.85e-8, max 1.61e-6; this f32 code MAE 8.75e-8, max 1.74e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.6e-6 on the measurement grid.
+// Denominator proved >= 3.480e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_conductor_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     float r_c = max(min(r, 1.0f), 0.0f);
@@ -95,30 +95,30 @@ float ggx_conductor_albedo(float r, float mu) {
     float mu_b8 = mu_u8 * mu_v2;
     float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    float p_0 = 1.0000001f * mu_v10 + 33.947002f * mu_b1 + 216.06003f * mu_b2 + 419.16f * mu_b3 + 338.0955f * mu_b4 + 109.18503f * mu_b5 + 57.281002f * mu_b6 + 10.180451f * mu_b7 + 2.643153f * mu_b8 + 0.25991958f * mu_b9 + 0.035454992f * mu_u10;
-    float p_1 = 11.438648f * mu_v10 + 438.94202f * mu_b1 + 2765.2417f * mu_b2 + 5551.2656f * mu_b3 + 4917.657f * mu_b4 + 1959.7174f * mu_b5 + 825.37067f * mu_b6 + 181.32144f * mu_b7 + 38.9388f * mu_b8 + 3.9877462f * mu_b9 + 0.41398498f * mu_u10;
-    float p_2 = 66.745926f * mu_v10 + 2531.9048f * mu_b1 + 15834.712f * mu_b2 + 32694.678f * mu_b3 + 31071.17f * mu_b4 + 14281.792f * mu_b5 + 5526.446f * mu_b6 + 1313.0234f * mu_b7 + 255.19751f * mu_b8 + 27.92098f * mu_b9 + 2.2694802f * mu_u10;
-    float p_3 = 238.2132f * mu_v10 + 8514.869f * mu_b1 + 53096.297f * mu_b2 + 112124.49f * mu_b3 + 112188.48f * mu_b4 + 56906.355f * mu_b5 + 21560.816f * mu_b6 + 5337.2456f * mu_b7 + 989.35114f * mu_b8 + 112.08223f * mu_b9 + 7.8220315f * mu_u10;
-    float p_4 = 532.60974f * mu_v10 + 18337.783f * mu_b1 + 114932.836f * mu_b2 + 247446.78f * mu_b3 + 257442.5f * mu_b4 + 140393.95f * mu_b5 + 53697.758f * mu_b6 + 13783.639f * mu_b7 + 2528.8486f * mu_b8 + 290.52997f * mu_b9 + 18.503584f * mu_u10;
-    float p_5 = 770.2163f * mu_v10 + 26427.215f * mu_b1 + 167807.95f * mu_b2 + 367779.22f * mu_b3 + 394764.84f * mu_b4 + 227922.3f * mu_b5 + 89374.586f * mu_b6 + 23871.732f * mu_b7 + 4451.2686f * mu_b8 + 519.7033f * mu_b9 + 31.762789f * mu_u10;
-    float p_6 = 740.0469f * mu_v10 + 25951.463f * mu_b1 + 167964.47f * mu_b2 + 374655.0f * mu_b3 + 413372.06f * mu_b4 + 250984.88f * mu_b5 + 102151.16f * mu_b6 + 28658.232f * mu_b7 + 5547.617f * mu_b8 + 665.38525f * mu_b9 + 39.978943f * mu_u10;
-    float p_7 = 475.46695f * mu_v10 + 17292.621f * mu_b1 + 114529.55f * mu_b2 + 260340.64f * mu_b3 + 295454.5f * mu_b4 + 188889.84f * mu_b5 + 80984.29f * mu_b6 + 24207.102f * mu_b7 + 4953.1396f * mu_b8 + 617.5482f * mu_b9 + 36.745296f * mu_u10;
-    float p_8 = 200.13098f * mu_v10 + 7573.3604f * mu_b1 + 51387.08f * mu_b2 + 119375.164f * mu_b3 + 139981.22f * mu_b4 + 94876.47f * mu_b5 + 43476.813f * mu_b6 + 13983.498f * mu_b7 + 3041.9937f * mu_b8 + 394.83478f * mu_b9 + 23.320261f * mu_u10;
-    float p_9 = 52.198853f * mu_v10 + 2006.3473f * mu_b1 + 13883.475f * mu_b2 + 33069.59f * mu_b3 + 40334.48f * mu_b4 + 29203.016f * mu_b5 + 14411.085f * mu_b6 + 4975.414f * mu_b7 + 1140.8467f * mu_b8 + 152.91179f * mu_b9 + 9.017722f * mu_u10;
-    float p_10 = 6.922203f * mu_v10 + 250.7554f * mu_b1 + 1743.8406f * mu_b2 + 4265.039f * mu_b3 + 5438.484f * mu_b4 + 4215.2637f * mu_b5 + 2230.2751f * mu_b6 + 814.86237f * mu_b7 + 193.72626f * mu_b8 + 26.520697f * mu_b9 + 1.5759294f * mu_u10;
+    float p_0 = 1.0000001f * mu_v10 + 37.58824f * mu_b1 + 239.65434f * mu_b2 + 464.5925f * mu_b3 + 369.6885f * mu_b4 + 114.97089f * mu_b5 + 62.50138f * mu_b6 + 10.4177265f * mu_b7 + 2.8124812f * mu_b8 + 0.26718262f * mu_b9 + 0.035856243f * mu_u10;
+    float p_1 = 12.526655f * mu_v10 + 493.49683f * mu_b1 + 3074.52f * mu_b2 + 6127.102f * mu_b3 + 5344.783f * mu_b4 + 2066.1646f * mu_b5 + 882.3444f * mu_b6 + 186.0707f * mu_b7 + 40.74762f * mu_b8 + 3.9496741f * mu_b9 + 0.4219311f * mu_u10;
+    float p_2 = 77.465515f * mu_v10 + 2866.8564f * mu_b1 + 17599.494f * mu_b2 + 35897.297f * mu_b3 + 33524.08f * mu_b4 + 14986.611f * mu_b5 + 5807.9263f * mu_b6 + 1341.1941f * mu_b7 + 261.86584f * mu_b8 + 27.712841f * mu_b9 + 2.3627474f * mu_u10;
+    float p_3 = 282.2907f * mu_v10 + 9632.529f * mu_b1 + 58767.31f * mu_b2 + 122185.69f * mu_b3 + 119922.12f * mu_b4 + 59213.93f * mu_b5 + 22324.572f * mu_b6 + 5421.6924f * mu_b7 + 1005.7421f * mu_b8 + 113.84034f * mu_b9 + 8.370258f * mu_u10;
+    float p_4 = 628.0577f * mu_v10 + 20578.137f * mu_b1 + 126201.234f * mu_b2 + 267040.38f * mu_b3 + 272287.44f * mu_b4 + 144796.72f * mu_b5 + 55077.883f * mu_b6 + 14043.669f * mu_b7 + 2600.589f * mu_b8 + 306.90503f * mu_b9 + 20.368135f * mu_u10;
+    float p_5 = 889.4272f * mu_v10 + 29263.934f * mu_b1 + 182356.0f * mu_b2 + 392776.9f * mu_b3 + 413601.6f * mu_b4 + 233986.86f * mu_b5 + 91832.47f * mu_b6 + 24785.777f * mu_b7 + 4732.9873f * mu_b8 + 575.1275f * mu_b9 + 35.827557f * mu_u10;
+    float p_6 = 827.3114f * mu_v10 + 28277.926f * mu_b1 + 180583.14f * mu_b2 + 396669.53f * mu_b3 + 431050.7f * mu_b4 + 258931.11f * mu_b5 + 106877.234f * mu_b6 + 30870.697f * mu_b7 + 6181.164f * mu_b8 + 766.0465f * mu_b9 + 45.557617f * mu_u10;
+    float p_7 = 511.34277f * mu_v10 + 18557.76f * mu_b1 + 122160.15f * mu_b2 + 274694.03f * mu_b3 + 309392.7f * mu_b4 + 198575.97f * mu_b5 + 87778.734f * mu_b6 + 27361.756f * mu_b7 + 5773.8804f * mu_b8 + 726.06244f * mu_b9 + 41.501343f * mu_u10;
+    float p_8 = 208.54012f * mu_v10 + 8058.9946f * mu_b1 + 54753.227f * mu_b2 + 126682.586f * mu_b3 + 149050.64f * mu_b4 + 103113.945f * mu_b5 + 49323.824f * mu_b6 + 16540.553f * mu_b7 + 3651.6792f * mu_b8 + 463.99072f * mu_b9 + 25.686787f * mu_u10;
+    float p_9 = 54.539833f * mu_v10 + 2148.4392f * mu_b1 + 14944.698f * mu_b2 + 35727.14f * mu_b3 + 44232.746f * mu_b4 + 33102.6f * mu_b5 + 17079.666f * mu_b6 + 6069.998f * mu_b7 + 1382.4188f * mu_b8 + 176.9441f * mu_b9 + 9.613834f * mu_u10;
+    float p_10 = 7.6542115f * mu_v10 + 275.675f * mu_b1 + 1921.5176f * mu_b2 + 4744.671f * mu_b3 + 6190.763f * mu_b4 + 4977.384f * mu_b5 + 2727.7693f * mu_b6 + 1006.9676f * mu_b7 + 233.2425f * mu_b8 + 30.018774f * mu_b9 + 1.6254762f * mu_u10;
     float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q_0 = 1.0f * mu_v10 + 33.947334f * mu_b1 + 216.25949f * mu_b2 + 426.0471f * mu_b3 + 369.24976f * mu_b4 + 136.61908f * mu_b5 + 66.92446f * mu_b6 + 11.013125f * mu_b7 + 2.7136416f * mu_b8 + 0.25992104f * mu_b9 + 0.035454992f * mu_u10;
-    float q_1 = 11.438641f * mu_v10 + 438.93423f * mu_b1 + 2767.5457f * mu_b2 + 5632.486f * mu_b3 + 5286.295f * mu_b4 + 2315.3245f * mu_b5 + 974.4697f * mu_b6 + 207.21036f * mu_b7 + 40.812763f * mu_b8 + 4.058331f * mu_b9 + 0.413986f * mu_u10;
-    float q_2 = 66.74637f * mu_v10 + 2531.992f * mu_b1 + 15856.016f * mu_b2 + 33329.066f * mu_b3 + 33408.832f * mu_b4 + 16506.117f * mu_b5 + 6503.8555f * mu_b6 + 1549.8197f * mu_b7 + 281.80728f * mu_b8 + 29.232155f * mu_b9 + 2.3048158f * mu_u10;
-    float q_3 = 238.2081f * mu_v10 + 8514.794f * mu_b1 + 53227.2f * mu_b2 + 115397.33f * mu_b3 + 122151.49f * mu_b4 + 66016.61f * mu_b5 + 25521.738f * mu_b6 + 6456.215f * mu_b7 + 1157.687f * mu_b8 + 124.04538f * mu_b9 + 8.218656f * mu_u10;
-    float q_4 = 532.6322f * mu_v10 + 18338.453f * mu_b1 + 115440.6f * mu_b2 + 258182.16f * mu_b3 + 286752.44f * mu_b4 + 166850.03f * mu_b5 + 65189.266f * mu_b6 + 17213.826f * mu_b7 + 3136.016f * mu_b8 + 344.9734f * mu_b9 + 20.710733f * mu_u10;
-    float q_5 = 770.1708f * mu_v10 + 26428.541f * mu_b1 + 168963.97f * mu_b2 + 390165.3f * mu_b3 + 453185.84f * mu_b4 + 281607.8f * mu_b5 + 113451.14f * mu_b6 + 31260.803f * mu_b7 + 5894.28f * mu_b8 + 670.84607f * mu_b9 + 38.577347f * mu_u10;
-    float q_6 = 740.09064f * mu_v10 + 25953.844f * mu_b1 + 169561.19f * mu_b2 + 404763.2f * mu_b3 + 491267.44f * mu_b4 + 325224.63f * mu_b5 + 137386.2f * mu_b6 + 39896.113f * mu_b7 + 7915.9126f * mu_b8 + 944.8586f * mu_b9 + 54.023506f * mu_u10;
-    float q_7 = 475.44617f * mu_v10 + 17293.912f * mu_b1 + 115884.85f * mu_b2 + 286475.4f * mu_b3 + 363923.56f * mu_b4 + 257328.13f * mu_b5 + 115926.805f * mu_b6 + 36051.75f * mu_b7 + 7645.9883f * mu_b8 + 968.25964f * mu_b9 + 56.362995f * mu_u10;
-    float q_8 = 200.13516f * mu_v10 + 7574.327f * mu_b1 + 52100.258f * mu_b2 + 133700.06f * mu_b3 + 178506.61f * mu_b4 + 135738.78f * mu_b5 + 66362.445f * mu_b6 + 22493.537f * mu_b7 + 5169.971f * mu_b8 + 701.8254f * mu_b9 + 42.446396f * mu_u10;
-    float q_9 = 52.198513f * mu_v10 + 2006.5404f * mu_b1 + 14107.071f * mu_b2 + 37669.24f * mu_b3 + 53165.156f * mu_b4 + 43863.9f * mu_b5 + 23622.396f * mu_b6 + 8841.245f * mu_b7 + 2222.8335f * mu_b8 + 326.79233f * mu_b9 + 21.019262f * mu_u10;
-    float q_10 = 6.9221935f * mu_v10 + 250.80241f * mu_b1 + 1779.2177f * mu_b2 + 4946.9893f * mu_b3 + 7421.3394f * mu_b4 + 6691.8564f * mu_b5 + 4001.3904f * mu_b6 + 1660.6455f * mu_b7 + 458.0811f * mu_b8 + 73.49678f * mu_b9 + 5.1357856f * mu_u10;
+    float q_0 = 1.0f * mu_v10 + 37.58858f * mu_b1 + 239.85338f * mu_b2 + 472.25415f * mu_b3 + 404.2412f * mu_b4 + 145.2352f * mu_b5 + 72.54611f * mu_b6 + 11.26845f * mu_b7 + 2.8837786f * mu_b8 + 0.267184f * mu_b9 + 0.03585624f * mu_u10;
+    float q_1 = 12.526648f * mu_v10 + 493.48856f * mu_b1 + 3077.0637f * mu_b2 + 6218.5933f * mu_b3 + 5752.696f * mu_b4 + 2455.2107f * mu_b5 + 1037.9063f * mu_b6 + 212.49043f * mu_b7 + 42.65698f * mu_b8 + 4.021065f * mu_b9 + 0.42193213f * mu_u10;
+    float q_2 = 77.46587f * mu_v10 + 2866.9421f * mu_b1 + 17623.219f * mu_b2 + 36612.227f * mu_b3 + 36102.168f * mu_b4 + 17397.178f * mu_b5 + 6821.9287f * mu_b6 + 1583.1559f * mu_b7 + 288.97897f * mu_b8 + 29.049461f * mu_b9 + 2.3984816f * mu_u10;
+    float q_3 = 282.2866f * mu_v10 + 9632.435f * mu_b1 + 58918.32f * mu_b2 + 125862.31f * mu_b3 + 130852.27f * mu_b4 + 68977.29f * mu_b5 + 26397.656f * mu_b6 + 6565.496f * mu_b7 + 1177.8489f * mu_b8 + 126.01231f * mu_b9 + 8.774669f * mu_u10;
+    float q_4 = 628.0763f * mu_v10 + 20578.94f * mu_b1 + 126798.51f * mu_b2 + 279036.03f * mu_b3 + 304219.2f * mu_b4 + 172846.52f * mu_b5 + 66814.73f * mu_b6 + 17555.78f * mu_b7 + 3225.8506f * mu_b8 + 362.91263f * mu_b9 + 22.665386f * mu_u10;
+    float q_5 = 889.3883f * mu_v10 + 29265.77f * mu_b1 + 183707.28f * mu_b2 + 417546.34f * mu_b3 + 476611.47f * mu_b4 + 290267.0f * mu_b5 + 116296.64f * mu_b6 + 32381.123f * mu_b7 + 6241.9834f * mu_b8 + 735.1109f * mu_b9 + 43.165783f * mu_u10;
+    float q_6 = 827.34973f * mu_v10 + 28280.727f * mu_b1 + 182398.75f * mu_b2 + 429522.8f * mu_b3 + 514066.3f * mu_b4 + 335998.75f * mu_b5 + 142701.6f * mu_b6 + 42578.676f * mu_b7 + 8727.606f * mu_b8 + 1073.0974f * mu_b9 + 61.279755f * mu_u10;
+    float q_7 = 511.32407f * mu_v10 + 18559.365f * mu_b1 + 123641.945f * mu_b2 + 302805.2f * mu_b3 + 381675.06f * mu_b4 + 269473.44f * mu_b5 + 123865.2f * mu_b6 + 40119.93f * mu_b7 + 8801.523f * mu_b8 + 1127.549f * mu_b9 + 64.035286f * mu_u10;
+    float q_8 = 208.54385f * mu_v10 + 8059.977f * mu_b1 + 55503.07f * mu_b2 + 141953.77f * mu_b3 + 189699.23f * mu_b4 + 146013.17f * mu_b5 + 73855.43f * mu_b6 + 26203.166f * mu_b7 + 6170.087f * mu_b8 + 826.1295f * mu_b9 + 47.44442f * mu_u10;
+    float q_9 = 54.539597f * mu_v10 + 2148.5967f * mu_b1 + 15178.207f * mu_b2 + 40655.84f * mu_b3 + 57982.1f * mu_b4 + 49016.297f * mu_b5 + 27501.982f * mu_b6 + 10706.157f * mu_b7 + 2709.8345f * mu_b8 + 383.00604f * mu_b9 + 22.698786f * mu_u10;
+    float q_10 = 7.654201f * mu_v10 + 275.7285f * mu_b1 + 1960.524f * mu_b2 + 5494.1724f * mu_b3 + 8387.667f * mu_b4 + 7794.5903f * mu_b5 + 4838.348f * mu_b6 + 2056.1145f * mu_b7 + 559.5523f * mu_b8 + 84.49009f * mu_b9 + 5.297254f * mu_u10;
     float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

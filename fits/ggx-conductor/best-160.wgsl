@@ -13,16 +13,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 f3104ed2a685f1fc24d961c28bc7af8dc38a9033278fff76cfd7c56d9d02c224.
+// Source: fits/ggx-conductor/best-160.json (furnace 0.1.0), fit SHA-256 b76023d855790ebe21d2e567b45824299ca3a20e7ed43eb196a295f6768aea05.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.9e-3, shifted 1.2e-4, bernstein 5.4e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 4.95e-8, max 1.92e-6 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.12e-8, max 2.59e-6.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.93e-7 (every op rounded, as this Rust), 5.11e-7 (fused multiply-add), 6.63e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.30e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6855 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.89e-8, max 1.48e-6; this f32 code MAE 8.70e-8, max 1.57e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-6 on the measurement grid.
-// Denominator proved >= 3.425e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.9e-3, shifted 1.2e-4, bernstein 5.2e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.90e-8, max 1.62e-6 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.96e-8, max 2.89e-6.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.23e-7 (every op rounded, as this Rust), 4.85e-7 (fused multiply-add), 6.96e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.35e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6633 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.85e-8, max 1.61e-6; this f32 code MAE 8.75e-8, max 1.74e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.6e-6 on the measurement grid.
+// Denominator proved >= 3.480e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -92,30 +92,30 @@ fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_b8 = mu_u8 * mu_v2;
     let mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0000001 * mu_v10 + 33.947002 * mu_b1 + 216.06003 * mu_b2 + 419.16 * mu_b3 + 338.0955 * mu_b4 + 109.18503 * mu_b5 + 57.281002 * mu_b6 + 10.180451 * mu_b7 + 2.643153 * mu_b8 + 0.25991958 * mu_b9 + 0.035454992 * mu_u10;
-    let p_1 = 11.438648 * mu_v10 + 438.94202 * mu_b1 + 2765.2417 * mu_b2 + 5551.2656 * mu_b3 + 4917.657 * mu_b4 + 1959.7174 * mu_b5 + 825.37067 * mu_b6 + 181.32144 * mu_b7 + 38.9388 * mu_b8 + 3.9877462 * mu_b9 + 0.41398498 * mu_u10;
-    let p_2 = 66.745926 * mu_v10 + 2531.9048 * mu_b1 + 15834.712 * mu_b2 + 32694.678 * mu_b3 + 31071.17 * mu_b4 + 14281.792 * mu_b5 + 5526.446 * mu_b6 + 1313.0234 * mu_b7 + 255.19751 * mu_b8 + 27.92098 * mu_b9 + 2.2694802 * mu_u10;
-    let p_3 = 238.2132 * mu_v10 + 8514.869 * mu_b1 + 53096.297 * mu_b2 + 112124.49 * mu_b3 + 112188.48 * mu_b4 + 56906.355 * mu_b5 + 21560.816 * mu_b6 + 5337.2456 * mu_b7 + 989.35114 * mu_b8 + 112.08223 * mu_b9 + 7.8220315 * mu_u10;
-    let p_4 = 532.60974 * mu_v10 + 18337.783 * mu_b1 + 114932.836 * mu_b2 + 247446.78 * mu_b3 + 257442.5 * mu_b4 + 140393.95 * mu_b5 + 53697.758 * mu_b6 + 13783.639 * mu_b7 + 2528.8486 * mu_b8 + 290.52997 * mu_b9 + 18.503584 * mu_u10;
-    let p_5 = 770.2163 * mu_v10 + 26427.215 * mu_b1 + 167807.95 * mu_b2 + 367779.22 * mu_b3 + 394764.84 * mu_b4 + 227922.3 * mu_b5 + 89374.586 * mu_b6 + 23871.732 * mu_b7 + 4451.2686 * mu_b8 + 519.7033 * mu_b9 + 31.762789 * mu_u10;
-    let p_6 = 740.0469 * mu_v10 + 25951.463 * mu_b1 + 167964.47 * mu_b2 + 374655.0 * mu_b3 + 413372.06 * mu_b4 + 250984.88 * mu_b5 + 102151.16 * mu_b6 + 28658.232 * mu_b7 + 5547.617 * mu_b8 + 665.38525 * mu_b9 + 39.978943 * mu_u10;
-    let p_7 = 475.46695 * mu_v10 + 17292.621 * mu_b1 + 114529.55 * mu_b2 + 260340.64 * mu_b3 + 295454.5 * mu_b4 + 188889.84 * mu_b5 + 80984.29 * mu_b6 + 24207.102 * mu_b7 + 4953.1396 * mu_b8 + 617.5482 * mu_b9 + 36.745296 * mu_u10;
-    let p_8 = 200.13098 * mu_v10 + 7573.3604 * mu_b1 + 51387.08 * mu_b2 + 119375.164 * mu_b3 + 139981.22 * mu_b4 + 94876.47 * mu_b5 + 43476.813 * mu_b6 + 13983.498 * mu_b7 + 3041.9937 * mu_b8 + 394.83478 * mu_b9 + 23.320261 * mu_u10;
-    let p_9 = 52.198853 * mu_v10 + 2006.3473 * mu_b1 + 13883.475 * mu_b2 + 33069.59 * mu_b3 + 40334.48 * mu_b4 + 29203.016 * mu_b5 + 14411.085 * mu_b6 + 4975.414 * mu_b7 + 1140.8467 * mu_b8 + 152.91179 * mu_b9 + 9.017722 * mu_u10;
-    let p_10 = 6.922203 * mu_v10 + 250.7554 * mu_b1 + 1743.8406 * mu_b2 + 4265.039 * mu_b3 + 5438.484 * mu_b4 + 4215.2637 * mu_b5 + 2230.2751 * mu_b6 + 814.86237 * mu_b7 + 193.72626 * mu_b8 + 26.520697 * mu_b9 + 1.5759294 * mu_u10;
+    let p_0 = 1.0000001 * mu_v10 + 37.58824 * mu_b1 + 239.65434 * mu_b2 + 464.5925 * mu_b3 + 369.6885 * mu_b4 + 114.97089 * mu_b5 + 62.50138 * mu_b6 + 10.4177265 * mu_b7 + 2.8124812 * mu_b8 + 0.26718262 * mu_b9 + 0.035856243 * mu_u10;
+    let p_1 = 12.526655 * mu_v10 + 493.49683 * mu_b1 + 3074.52 * mu_b2 + 6127.102 * mu_b3 + 5344.783 * mu_b4 + 2066.1646 * mu_b5 + 882.3444 * mu_b6 + 186.0707 * mu_b7 + 40.74762 * mu_b8 + 3.9496741 * mu_b9 + 0.4219311 * mu_u10;
+    let p_2 = 77.465515 * mu_v10 + 2866.8564 * mu_b1 + 17599.494 * mu_b2 + 35897.297 * mu_b3 + 33524.08 * mu_b4 + 14986.611 * mu_b5 + 5807.9263 * mu_b6 + 1341.1941 * mu_b7 + 261.86584 * mu_b8 + 27.712841 * mu_b9 + 2.3627474 * mu_u10;
+    let p_3 = 282.2907 * mu_v10 + 9632.529 * mu_b1 + 58767.31 * mu_b2 + 122185.69 * mu_b3 + 119922.12 * mu_b4 + 59213.93 * mu_b5 + 22324.572 * mu_b6 + 5421.6924 * mu_b7 + 1005.7421 * mu_b8 + 113.84034 * mu_b9 + 8.370258 * mu_u10;
+    let p_4 = 628.0577 * mu_v10 + 20578.137 * mu_b1 + 126201.234 * mu_b2 + 267040.38 * mu_b3 + 272287.44 * mu_b4 + 144796.72 * mu_b5 + 55077.883 * mu_b6 + 14043.669 * mu_b7 + 2600.589 * mu_b8 + 306.90503 * mu_b9 + 20.368135 * mu_u10;
+    let p_5 = 889.4272 * mu_v10 + 29263.934 * mu_b1 + 182356.0 * mu_b2 + 392776.9 * mu_b3 + 413601.6 * mu_b4 + 233986.86 * mu_b5 + 91832.47 * mu_b6 + 24785.777 * mu_b7 + 4732.9873 * mu_b8 + 575.1275 * mu_b9 + 35.827557 * mu_u10;
+    let p_6 = 827.3114 * mu_v10 + 28277.926 * mu_b1 + 180583.14 * mu_b2 + 396669.53 * mu_b3 + 431050.7 * mu_b4 + 258931.11 * mu_b5 + 106877.234 * mu_b6 + 30870.697 * mu_b7 + 6181.164 * mu_b8 + 766.0465 * mu_b9 + 45.557617 * mu_u10;
+    let p_7 = 511.34277 * mu_v10 + 18557.76 * mu_b1 + 122160.15 * mu_b2 + 274694.03 * mu_b3 + 309392.7 * mu_b4 + 198575.97 * mu_b5 + 87778.734 * mu_b6 + 27361.756 * mu_b7 + 5773.8804 * mu_b8 + 726.06244 * mu_b9 + 41.501343 * mu_u10;
+    let p_8 = 208.54012 * mu_v10 + 8058.9946 * mu_b1 + 54753.227 * mu_b2 + 126682.586 * mu_b3 + 149050.64 * mu_b4 + 103113.945 * mu_b5 + 49323.824 * mu_b6 + 16540.553 * mu_b7 + 3651.6792 * mu_b8 + 463.99072 * mu_b9 + 25.686787 * mu_u10;
+    let p_9 = 54.539833 * mu_v10 + 2148.4392 * mu_b1 + 14944.698 * mu_b2 + 35727.14 * mu_b3 + 44232.746 * mu_b4 + 33102.6 * mu_b5 + 17079.666 * mu_b6 + 6069.998 * mu_b7 + 1382.4188 * mu_b8 + 176.9441 * mu_b9 + 9.613834 * mu_u10;
+    let p_10 = 7.6542115 * mu_v10 + 275.675 * mu_b1 + 1921.5176 * mu_b2 + 4744.671 * mu_b3 + 6190.763 * mu_b4 + 4977.384 * mu_b5 + 2727.7693 * mu_b6 + 1006.9676 * mu_b7 + 233.2425 * mu_b8 + 30.018774 * mu_b9 + 1.6254762 * mu_u10;
     let p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v10 + 33.947334 * mu_b1 + 216.25949 * mu_b2 + 426.0471 * mu_b3 + 369.24976 * mu_b4 + 136.61908 * mu_b5 + 66.92446 * mu_b6 + 11.013125 * mu_b7 + 2.7136416 * mu_b8 + 0.25992104 * mu_b9 + 0.035454992 * mu_u10;
-    let q_1 = 11.438641 * mu_v10 + 438.93423 * mu_b1 + 2767.5457 * mu_b2 + 5632.486 * mu_b3 + 5286.295 * mu_b4 + 2315.3245 * mu_b5 + 974.4697 * mu_b6 + 207.21036 * mu_b7 + 40.812763 * mu_b8 + 4.058331 * mu_b9 + 0.413986 * mu_u10;
-    let q_2 = 66.74637 * mu_v10 + 2531.992 * mu_b1 + 15856.016 * mu_b2 + 33329.066 * mu_b3 + 33408.832 * mu_b4 + 16506.117 * mu_b5 + 6503.8555 * mu_b6 + 1549.8197 * mu_b7 + 281.80728 * mu_b8 + 29.232155 * mu_b9 + 2.3048158 * mu_u10;
-    let q_3 = 238.2081 * mu_v10 + 8514.794 * mu_b1 + 53227.2 * mu_b2 + 115397.33 * mu_b3 + 122151.49 * mu_b4 + 66016.61 * mu_b5 + 25521.738 * mu_b6 + 6456.215 * mu_b7 + 1157.687 * mu_b8 + 124.04538 * mu_b9 + 8.218656 * mu_u10;
-    let q_4 = 532.6322 * mu_v10 + 18338.453 * mu_b1 + 115440.6 * mu_b2 + 258182.16 * mu_b3 + 286752.44 * mu_b4 + 166850.03 * mu_b5 + 65189.266 * mu_b6 + 17213.826 * mu_b7 + 3136.016 * mu_b8 + 344.9734 * mu_b9 + 20.710733 * mu_u10;
-    let q_5 = 770.1708 * mu_v10 + 26428.541 * mu_b1 + 168963.97 * mu_b2 + 390165.3 * mu_b3 + 453185.84 * mu_b4 + 281607.8 * mu_b5 + 113451.14 * mu_b6 + 31260.803 * mu_b7 + 5894.28 * mu_b8 + 670.84607 * mu_b9 + 38.577347 * mu_u10;
-    let q_6 = 740.09064 * mu_v10 + 25953.844 * mu_b1 + 169561.19 * mu_b2 + 404763.2 * mu_b3 + 491267.44 * mu_b4 + 325224.63 * mu_b5 + 137386.2 * mu_b6 + 39896.113 * mu_b7 + 7915.9126 * mu_b8 + 944.8586 * mu_b9 + 54.023506 * mu_u10;
-    let q_7 = 475.44617 * mu_v10 + 17293.912 * mu_b1 + 115884.85 * mu_b2 + 286475.4 * mu_b3 + 363923.56 * mu_b4 + 257328.13 * mu_b5 + 115926.805 * mu_b6 + 36051.75 * mu_b7 + 7645.9883 * mu_b8 + 968.25964 * mu_b9 + 56.362995 * mu_u10;
-    let q_8 = 200.13516 * mu_v10 + 7574.327 * mu_b1 + 52100.258 * mu_b2 + 133700.06 * mu_b3 + 178506.61 * mu_b4 + 135738.78 * mu_b5 + 66362.445 * mu_b6 + 22493.537 * mu_b7 + 5169.971 * mu_b8 + 701.8254 * mu_b9 + 42.446396 * mu_u10;
-    let q_9 = 52.198513 * mu_v10 + 2006.5404 * mu_b1 + 14107.071 * mu_b2 + 37669.24 * mu_b3 + 53165.156 * mu_b4 + 43863.9 * mu_b5 + 23622.396 * mu_b6 + 8841.245 * mu_b7 + 2222.8335 * mu_b8 + 326.79233 * mu_b9 + 21.019262 * mu_u10;
-    let q_10 = 6.9221935 * mu_v10 + 250.80241 * mu_b1 + 1779.2177 * mu_b2 + 4946.9893 * mu_b3 + 7421.3394 * mu_b4 + 6691.8564 * mu_b5 + 4001.3904 * mu_b6 + 1660.6455 * mu_b7 + 458.0811 * mu_b8 + 73.49678 * mu_b9 + 5.1357856 * mu_u10;
+    let q_0 = 1.0 * mu_v10 + 37.58858 * mu_b1 + 239.85338 * mu_b2 + 472.25415 * mu_b3 + 404.2412 * mu_b4 + 145.2352 * mu_b5 + 72.54611 * mu_b6 + 11.26845 * mu_b7 + 2.8837786 * mu_b8 + 0.267184 * mu_b9 + 0.03585624 * mu_u10;
+    let q_1 = 12.526648 * mu_v10 + 493.48856 * mu_b1 + 3077.0637 * mu_b2 + 6218.5933 * mu_b3 + 5752.696 * mu_b4 + 2455.2107 * mu_b5 + 1037.9063 * mu_b6 + 212.49043 * mu_b7 + 42.65698 * mu_b8 + 4.021065 * mu_b9 + 0.42193213 * mu_u10;
+    let q_2 = 77.46587 * mu_v10 + 2866.9421 * mu_b1 + 17623.219 * mu_b2 + 36612.227 * mu_b3 + 36102.168 * mu_b4 + 17397.178 * mu_b5 + 6821.9287 * mu_b6 + 1583.1559 * mu_b7 + 288.97897 * mu_b8 + 29.049461 * mu_b9 + 2.3984816 * mu_u10;
+    let q_3 = 282.2866 * mu_v10 + 9632.435 * mu_b1 + 58918.32 * mu_b2 + 125862.31 * mu_b3 + 130852.27 * mu_b4 + 68977.29 * mu_b5 + 26397.656 * mu_b6 + 6565.496 * mu_b7 + 1177.8489 * mu_b8 + 126.01231 * mu_b9 + 8.774669 * mu_u10;
+    let q_4 = 628.0763 * mu_v10 + 20578.94 * mu_b1 + 126798.51 * mu_b2 + 279036.03 * mu_b3 + 304219.2 * mu_b4 + 172846.52 * mu_b5 + 66814.73 * mu_b6 + 17555.78 * mu_b7 + 3225.8506 * mu_b8 + 362.91263 * mu_b9 + 22.665386 * mu_u10;
+    let q_5 = 889.3883 * mu_v10 + 29265.77 * mu_b1 + 183707.28 * mu_b2 + 417546.34 * mu_b3 + 476611.47 * mu_b4 + 290267.0 * mu_b5 + 116296.64 * mu_b6 + 32381.123 * mu_b7 + 6241.9834 * mu_b8 + 735.1109 * mu_b9 + 43.165783 * mu_u10;
+    let q_6 = 827.34973 * mu_v10 + 28280.727 * mu_b1 + 182398.75 * mu_b2 + 429522.8 * mu_b3 + 514066.3 * mu_b4 + 335998.75 * mu_b5 + 142701.6 * mu_b6 + 42578.676 * mu_b7 + 8727.606 * mu_b8 + 1073.0974 * mu_b9 + 61.279755 * mu_u10;
+    let q_7 = 511.32407 * mu_v10 + 18559.365 * mu_b1 + 123641.945 * mu_b2 + 302805.2 * mu_b3 + 381675.06 * mu_b4 + 269473.44 * mu_b5 + 123865.2 * mu_b6 + 40119.93 * mu_b7 + 8801.523 * mu_b8 + 1127.549 * mu_b9 + 64.035286 * mu_u10;
+    let q_8 = 208.54385 * mu_v10 + 8059.977 * mu_b1 + 55503.07 * mu_b2 + 141953.77 * mu_b3 + 189699.23 * mu_b4 + 146013.17 * mu_b5 + 73855.43 * mu_b6 + 26203.166 * mu_b7 + 6170.087 * mu_b8 + 826.1295 * mu_b9 + 47.44442 * mu_u10;
+    let q_9 = 54.539597 * mu_v10 + 2148.5967 * mu_b1 + 15178.207 * mu_b2 + 40655.84 * mu_b3 + 57982.1 * mu_b4 + 49016.297 * mu_b5 + 27501.982 * mu_b6 + 10706.157 * mu_b7 + 2709.8345 * mu_b8 + 383.00604 * mu_b9 + 22.698786 * mu_u10;
+    let q_10 = 7.654201 * mu_v10 + 275.7285 * mu_b1 + 1960.524 * mu_b2 + 5494.1724 * mu_b3 + 8387.667 * mu_b4 + 7794.5903 * mu_b5 + 4838.348 * mu_b6 + 2056.1145 * mu_b7 + 559.5523 * mu_b8 + 84.49009 * mu_b9 + 5.297254 * mu_u10;
     let q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

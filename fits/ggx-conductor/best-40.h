@@ -41,17 +41,17 @@ FURNACE_FN furnace_rgb furnace_rgb_make(float x, float y, float z) {
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: rational over [x0^3 x x1^5]/[x0^3 x x1^3], 39 coefficients (numerator 24, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 e5c0cb27c80909a9eb8b9c4a9e9ecc18531ea181e559da80f036442f564555b4.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.3e-6, shifted 2.8e-6, bernstein 2.8e-6.
-// Error of the f64 fit on its 1048576 data points: MAE 8.35e-5, max 2.14e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.21e-5, max 2.13e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.85e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 3.47e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.83e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 8019 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 8.35e-5, max 2.14e-4; this f32 code MAE 8.35e-5, max 2.14e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-4 on the measurement grid.
-// Denominator proved >= 1.402e-1 on the domain (Bernstein certificate), so the division is safe.
+// Fit: rational over [x0^3 x x1^5]/[x0^3 x x1^3], 39 coefficients (numerator 24, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.412x the least-squares start's.
+// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 236fea2da79c40f3c57135f54691a0a5991085a6db4051630341bec9bf1a173d.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.6e-6, shifted 2.7e-6, bernstein 2.8e-6.
+// Error of the f64 fit on its 1048576 data points: MAE 7.80e-5, max 1.99e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.52e-5, max 1.97e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.64e-6 (every op rounded, as this Rust), 1.18e-6 (fused multiply-add), 3.50e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.51e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 495 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 7.79e-5, max 1.99e-4; this f32 code MAE 7.79e-5, max 1.99e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-4 on the measurement grid.
+// Denominator proved >= 1.410e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_conductor_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -64,42 +64,22 @@ FURNACE_FN float ggx_conductor_albedo(float r, float mu) {
     const float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
     // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
     const float mu_t = (mu_logv * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.0f * (r_c * r_c) + 7.888609e-31f);
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 3
-    const float r_v = 1.0f - r_t;
-    const float r_u2 = r_t * r_t;
-    const float r_v2 = r_v * r_v;
-    const float r_u3 = r_u2 * r_t;
-    const float r_v3 = r_v2 * r_v;
-    const float r_b1 = r_t * r_v2;
-    const float r_b2 = r_u2 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    const float mu_u = (mu_t - 7.888609e-31f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    const float mu_v = 1.0f - mu_u;
-    const float mu_u2 = mu_u * mu_u;
-    const float mu_v2 = mu_v * mu_v;
-    const float mu_u3 = mu_u2 * mu_u;
-    const float mu_v3 = mu_v2 * mu_v;
-    const float mu_u4 = mu_u3 * mu_u;
-    const float mu_v4 = mu_v3 * mu_v;
-    const float mu_u5 = mu_u4 * mu_u;
-    const float mu_v5 = mu_v4 * mu_v;
-    const float mu_b1 = mu_u * mu_v4;
-    const float mu_b2 = mu_u2 * mu_v3;
-    const float mu_b3 = mu_u3 * mu_v2;
-    const float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 0.99983656f * mu_v5 + 2.452617f * mu_b1 + 1.8977016f * mu_b2 + 1.0509777f * mu_b3 + 0.5124717f * mu_b4 + 0.17882615f * mu_u5;
-    const float p_1 = 2.9605312f * mu_v5 + 11.210494f * mu_b1 + 14.905102f * mu_b2 + 7.063261f * mu_b3 + 3.044847f * mu_b4 + 0.6471165f * mu_u5;
-    const float p_2 = 9.754206f * mu_v5 + 27.083826f * mu_b1 + 30.588537f * mu_b2 + 20.517063f * mu_b3 + 5.4327564f * mu_b4 + 0.88075817f * mu_u5;
-    const float p_3 = 3.9927533f * mu_v5 + 16.95137f * mu_b1 + 21.260094f * mu_b2 + 9.3853f * mu_b3 + 2.5681465f * mu_b4 + 0.3420423f * mu_u5;
-    const float p = p_0 * r_v3 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v5 + 2.654342f * mu_b1 + 2.4629464f * mu_b2 + 1.1417022f * mu_b3 + 0.51193285f * mu_b4 + 0.17883515f * mu_u5;
-    const float q_1 = 2.9607606f * mu_v5 + 11.610488f * mu_b1 + 16.147995f * mu_b2 + 9.956027f * mu_b3 + 3.1062145f * mu_b4 + 0.64845616f * mu_u5;
-    const float q_2 = 9.752011f * mu_v5 + 29.520048f * mu_b1 + 36.15143f * mu_b2 + 23.786865f * mu_b3 + 8.439576f * mu_b4 + 1.0361042f * mu_u5;
-    const float q_3 = 3.992142f * mu_v5 + 18.616497f * mu_b1 + 28.534695f * mu_b2 + 18.303919f * mu_b3 + 5.509034f * mu_b4 + 1.1154547f * mu_u5;
-    const float q = q_0 * r_v3 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_u3;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float r_s = r_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float mu_s = mu_t * 2.0f - 1.0f;
+    // numerator P, grouped by powers of the first variable
+    const float p_0 = ((((-3.0417328e-5f * mu_s - 0.00960874f) * mu_s - 0.010365591f) * mu_s + 0.47887188f) * mu_s - 0.9691141f) * mu_s + 0.7693655f;
+    const float p_1 = ((((0.0026681186f * mu_s - 0.036455605f) * mu_s + 0.08587102f) * mu_s + 0.29819292f) * mu_s - 1.0330464f) * mu_s + 0.77476174f;
+    const float p_2 = ((((-0.0135159185f * mu_s - 0.08936401f) * mu_s + 0.22273946f) * mu_s + 0.03415927f) * mu_s - 0.34986344f) * mu_s + 0.20010582f;
+    const float p_3 = ((((-0.02479626f * mu_s - 0.06068586f) * mu_s + 0.2081195f) * mu_s - 0.15482873f) * mu_s + 0.05081196f) * mu_s - 0.02748333f;
+    const float p = ((p_3 * r_s + p_2) * r_s + p_1) * r_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    const float q_0 = ((0.0121035045f * mu_s + 0.36491653f) * mu_s - 0.9326989f) * mu_s + 0.93243665f;
+    const float q_1 = ((0.12294894f * mu_s + 0.13464347f) * mu_s - 0.9106345f) * mu_s + 1.0581896f;
+    const float q_2 = ((0.25137672f * mu_s - 0.10825511f) * mu_s - 0.25492644f) * mu_s + 0.39014575f;
+    const float q_3 = ((0.17987974f * mu_s - 0.21904995f) * mu_s + 0.09353544f) * mu_s + 0.015335403f;
+    const float q = ((q_3 * r_s + q_2) * r_s + q_1) * r_s + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }

@@ -13,17 +13,17 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: rational over [x0^3 x x1^5]/[x0^3 x x1^3], 39 coefficients (numerator 24, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 e5c0cb27c80909a9eb8b9c4a9e9ecc18531ea181e559da80f036442f564555b4.
-/// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.3e-6, shifted 2.8e-6, bernstein 2.8e-6.
-/// Error of the f64 fit on its 1048576 data points: MAE 8.35e-5, max 2.14e-4 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.21e-5, max 2.13e-4.
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.85e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 3.47e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 9.83e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 8019 boxes).
-/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 8.35e-5, max 2.14e-4; this f32 code MAE 8.35e-5, max 2.14e-4.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-4 on the measurement grid.
-/// Denominator proved >= 1.402e-1 on the domain (Bernstein certificate), so the division is safe.
+/// Fit: rational over [x0^3 x x1^5]/[x0^3 x x1^3], 39 coefficients (numerator 24, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.412x the least-squares start's.
+/// Source: fits/ggx-conductor/best-40.json (furnace 0.1.0), fit SHA-256 236fea2da79c40f3c57135f54691a0a5991085a6db4051630341bec9bf1a173d.
+/// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.6e-6, shifted 2.7e-6, bernstein 2.8e-6.
+/// Error of the f64 fit on its 1048576 data points: MAE 7.80e-5, max 1.99e-4 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.52e-5, max 1.97e-4.
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.64e-6 (every op rounded, as this Rust), 1.18e-6 (fused multiply-add), 3.50e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 3.51e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 495 boxes).
+/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 7.79e-5, max 1.99e-4; this f32 code MAE 7.79e-5, max 1.99e-4.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-4 on the measurement grid.
+/// Denominator proved >= 1.410e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -43,42 +43,22 @@ pub fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
     // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
     let mu_t = (mu_logv * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 3
-    let r_v = 1.0_f32 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_b1 = r_t * r_v2;
-    let r_b2 = r_u2 * r_v;
-    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
-    let mu_u = (mu_t - 7.888609e-31_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    let mu_v = 1.0_f32 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_b1 = mu_u * mu_v4;
-    let mu_b2 = mu_u2 * mu_v3;
-    let mu_b3 = mu_u3 * mu_v2;
-    let mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 0.99983656_f32 * mu_v5 + 2.452617_f32 * mu_b1 + 1.8977016_f32 * mu_b2 + 1.0509777_f32 * mu_b3 + 0.5124717_f32 * mu_b4 + 0.17882615_f32 * mu_u5;
-    let p_1 = 2.9605312_f32 * mu_v5 + 11.210494_f32 * mu_b1 + 14.905102_f32 * mu_b2 + 7.063261_f32 * mu_b3 + 3.044847_f32 * mu_b4 + 0.6471165_f32 * mu_u5;
-    let p_2 = 9.754206_f32 * mu_v5 + 27.083826_f32 * mu_b1 + 30.588537_f32 * mu_b2 + 20.517063_f32 * mu_b3 + 5.4327564_f32 * mu_b4 + 0.88075817_f32 * mu_u5;
-    let p_3 = 3.9927533_f32 * mu_v5 + 16.95137_f32 * mu_b1 + 21.260094_f32 * mu_b2 + 9.3853_f32 * mu_b3 + 2.5681465_f32 * mu_b4 + 0.3420423_f32 * mu_u5;
-    let p = p_0 * r_v3 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_u3;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v5 + 2.654342_f32 * mu_b1 + 2.4629464_f32 * mu_b2 + 1.1417022_f32 * mu_b3 + 0.51193285_f32 * mu_b4 + 0.17883515_f32 * mu_u5;
-    let q_1 = 2.9607606_f32 * mu_v5 + 11.610488_f32 * mu_b1 + 16.147995_f32 * mu_b2 + 9.956027_f32 * mu_b3 + 3.1062145_f32 * mu_b4 + 0.64845616_f32 * mu_u5;
-    let q_2 = 9.752011_f32 * mu_v5 + 29.520048_f32 * mu_b1 + 36.15143_f32 * mu_b2 + 23.786865_f32 * mu_b3 + 8.439576_f32 * mu_b4 + 1.0361042_f32 * mu_u5;
-    let q_3 = 3.992142_f32 * mu_v5 + 18.616497_f32 * mu_b1 + 28.534695_f32 * mu_b2 + 18.303919_f32 * mu_b3 + 5.509034_f32 * mu_b4 + 1.1154547_f32 * mu_u5;
-    let q = q_0 * r_v3 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_u3;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let r_s = r_t * 2.0_f32 - 1.0_f32;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let mu_s = mu_t * 2.0_f32 - 1.0_f32;
+    // numerator P, grouped by powers of the first variable
+    let p_0 = ((((-3.0417328e-5_f32 * mu_s - 0.00960874_f32) * mu_s - 0.010365591_f32) * mu_s + 0.47887188_f32) * mu_s - 0.9691141_f32) * mu_s + 0.7693655_f32;
+    let p_1 = ((((0.0026681186_f32 * mu_s - 0.036455605_f32) * mu_s + 0.08587102_f32) * mu_s + 0.29819292_f32) * mu_s - 1.0330464_f32) * mu_s + 0.77476174_f32;
+    let p_2 = ((((-0.0135159185_f32 * mu_s - 0.08936401_f32) * mu_s + 0.22273946_f32) * mu_s + 0.03415927_f32) * mu_s - 0.34986344_f32) * mu_s + 0.20010582_f32;
+    let p_3 = ((((-0.02479626_f32 * mu_s - 0.06068586_f32) * mu_s + 0.2081195_f32) * mu_s - 0.15482873_f32) * mu_s + 0.05081196_f32) * mu_s - 0.02748333_f32;
+    let p = ((p_3 * r_s + p_2) * r_s + p_1) * r_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    let q_0 = ((0.0121035045_f32 * mu_s + 0.36491653_f32) * mu_s - 0.9326989_f32) * mu_s + 0.93243665_f32;
+    let q_1 = ((0.12294894_f32 * mu_s + 0.13464347_f32) * mu_s - 0.9106345_f32) * mu_s + 1.0581896_f32;
+    let q_2 = ((0.25137672_f32 * mu_s - 0.10825511_f32) * mu_s - 0.25492644_f32) * mu_s + 0.39014575_f32;
+    let q_3 = ((0.17987974_f32 * mu_s - 0.21904995_f32) * mu_s + 0.09353544_f32) * mu_s + 0.015335403_f32;
+    let q = ((q_3 * r_s + q_2) * r_s + q_1) * r_s + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

@@ -16,17 +16,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100).
-// Fit: rational of degree 1/2, 8 coefficients (numerator 3, denominator 5 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-conductor/best-8.json (furnace 0.1.0), fit SHA-256 bf6e06ac735caaabb574d2ceb4e8880734fab68545d1f0541264a110cc25a8d3.
+// Fit: rational of degree 1/2, 8 coefficients (numerator 3, denominator 5 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.178x the least-squares start's.
+// Source: fits/ggx-conductor/best-8.json (furnace 0.1.0), fit SHA-256 e717ae186e07e6dc21f716a65605d45ed29b0bc3b865a3c227306b5713210728.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.5e-7, shifted 3.6e-7, bernstein 4.0e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.39e-2, max 3.44e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.50e-2, max 3.42e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.32e-7 (every op rounded, as this Rust), 2.90e-7 (fused multiply-add), 4.41e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.97e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 39 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.09e-2, max 3.44e-2; this f32 code MAE 1.09e-2, max 3.44e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.9e-2 on the measurement grid.
-// Denominator proved >= 4.854e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 4.3e-7, shifted 3.9e-7, bernstein 4.6e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.40e-2, max 3.23e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.49e-2, max 3.23e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.33e-7 (every op rounded, as this Rust), 3.52e-7 (fused multiply-add), 4.98e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.00e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 41 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 1.13e-2, max 3.23e-2; this f32 code MAE 1.13e-2, max 3.23e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.8e-2 on the measurement grid.
+// Denominator proved >= 4.855e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_conductor_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
@@ -36,13 +36,13 @@ highp float ggx_conductor_albedo(highp float r, highp float mu) {
     // t = (mu*(1 + 0.5*r*r) + 2^-100)/(mu + 0.5*r*r + 2^-100)
     highp float mu_t = (mu_c * (1.0 + 0.5 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 0.5 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = -0.45803586 * mu_t + 0.9947295;
-    highp float p_1 = -0.39463148;
+    highp float p_0 = -0.456707 * mu_t + 0.9920327;
+    highp float p_1 = -0.3901145;
     highp float p = p_1 * r_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = (-0.3031055 * mu_t - 0.17393985) * mu_t + 1.0;
-    highp float q_1 = 0.37455118 * mu_t - 0.52060616;
-    highp float q_2 = 0.142103;
+    highp float q_0 = (-0.3025372 * mu_t - 0.1749266) * mu_t + 1.0;
+    highp float q_1 = 0.37509683 * mu_t - 0.5202317;
+    highp float q_2 = 0.14222796;
     highp float q = (q_2 * r_t + q_1) * r_t + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

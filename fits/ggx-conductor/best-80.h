@@ -42,16 +42,16 @@ FURNACE_FN furnace_rgb furnace_rgb_make(float x, float y, float z) {
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 ca486b6e6edfd2ca71e2c4331a5a2091a9501437e797da8c6a3e600cebfd6350.
+// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 ea261856a4b1079e79a1c094617aa049a29c0b0afb99e35b6693f0173a114e94.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.5e-4, shifted 7.6e-6, bernstein 5.9e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 4.21e-6, max 6.89e-5 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.00e-6, max 7.98e-5.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 4.93e-7 (fused multiply-add), 6.95e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 23353 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.01e-6, max 5.95e-5; this f32 code MAE 4.01e-6, max 5.94e-5.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.6e-4, shifted 8.1e-6, bernstein 6.3e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.23e-6, max 6.94e-5 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.98e-6, max 8.20e-5.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.76e-7 (every op rounded, as this Rust), 4.65e-7 (fused multiply-add), 7.06e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 23081 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.04e-6, max 6.01e-5; this f32 code MAE 4.04e-6, max 6.01e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.9e-5 on the measurement grid.
-// Denominator proved >= 3.281e-2 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 3.277e-2 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_conductor_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -103,24 +103,24 @@ FURNACE_FN float ggx_conductor_albedo(float r, float mu) {
     const float mu_b5 = mu_u5 * mu_v2;
     const float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 1.0000238f * mu_v7 + 8.511201f * mu_b1 + 13.961206f * mu_b2 + 8.765311f * mu_b3 + 1.1219441f * mu_b4 + 1.528123f * mu_b5 - 0.026836772f * mu_b6 + 0.04936274f * mu_u7;
-    const float p_1 = 9.987119f * mu_v7 + 76.521835f * mu_b1 + 130.73807f * mu_b2 + 93.82596f * mu_b3 + 20.78437f * mu_b4 + 11.717035f * mu_b5 + 1.1896116f * mu_b6 + 0.21796662f * mu_u7;
-    const float p_2 = 37.86983f * mu_v7 + 288.42944f * mu_b1 + 519.6034f * mu_b2 + 414.85934f * mu_b3 + 122.60017f * mu_b4 + 40.46173f * mu_b5 + 5.504864f * mu_b6 + 0.57859445f * mu_u7;
-    const float p_3 = 75.915146f * mu_v7 + 594.4671f * mu_b1 + 1118.9615f * mu_b2 + 957.2918f * mu_b3 + 332.5344f * mu_b4 + 83.25484f * mu_b5 + 10.537825f * mu_b6 + 0.8532754f * mu_u7;
-    const float p_4 = 90.3268f * mu_v7 + 730.7967f * mu_b1 + 1416.3958f * mu_b2 + 1258.375f * mu_b3 + 479.94296f * mu_b4 + 106.56669f * mu_b5 + 11.946087f * mu_b6 + 0.79134345f * mu_u7;
-    const float p_5 = 64.839615f * mu_v7 + 538.7392f * mu_b1 + 1061.0931f * mu_b2 + 956.07294f * mu_b3 + 382.80127f * mu_b4 + 80.37593f * mu_b5 + 8.160409f * mu_b6 + 0.45721f * mu_u7;
-    const float p_6 = 25.821693f * mu_v7 + 219.81938f * mu_b1 + 436.6049f * mu_b2 + 393.12582f * mu_b3 + 160.57388f * mu_b4 + 32.559483f * mu_b5 + 3.0672793f * mu_b6 + 0.14666843f * mu_u7;
-    const float p_7 = 4.2573843f * mu_v7 + 37.69498f * mu_b1 + 75.37174f * mu_b2 + 67.266914f * mu_b3 + 27.451057f * mu_b4 + 5.3674755f * mu_b5 + 0.46996692f * mu_b6 + 0.018434137f * mu_u7;
+    const float p_0 = 1.0000187f * mu_v7 + 8.486493f * mu_b1 + 13.867824f * mu_b2 + 8.715224f * mu_b3 + 1.1083183f * mu_b4 + 1.5201467f * mu_b5 - 0.02718814f * mu_b6 + 0.049087595f * mu_u7;
+    const float p_1 = 9.943334f * mu_v7 + 76.20215f * mu_b1 + 129.83218f * mu_b2 + 93.21898f * mu_b3 + 20.583403f * mu_b4 + 11.6532755f * mu_b5 + 1.1786491f * mu_b6 + 0.21702895f * mu_u7;
+    const float p_2 = 37.60302f * mu_v7 + 286.96338f * mu_b1 + 516.0099f * mu_b2 + 412.17026f * mu_b3 + 121.614075f * mu_b4 + 40.240814f * mu_b5 + 5.462627f * mu_b6 + 0.57674086f * mu_u7;
+    const float p_3 = 75.25687f * mu_v7 + 591.0808f * mu_b1 + 1111.2256f * mu_b2 + 951.0119f * mu_b3 + 329.96542f * mu_b4 + 82.73208f * mu_b5 + 10.460532f * mu_b6 + 0.85291755f * mu_u7;
+    const float p_4 = 89.47675f * mu_v7 + 726.38214f * mu_b1 + 1406.6761f * mu_b2 + 1250.1309f * mu_b3 + 476.39606f * mu_b4 + 105.89577f * mu_b5 + 11.886535f * mu_b6 + 0.796017f * mu_u7;
+    const float p_5 = 64.23961f * mu_v7 + 535.47314f * mu_b1 + 1054.0875f * mu_b2 + 950.165f * mu_b3 + 380.38565f * mu_b4 + 80.05387f * mu_b5 + 8.184818f * mu_b6 + 0.46717125f * mu_u7;
+    const float p_6 = 25.610844f * mu_v7 + 218.5731f * mu_b1 + 433.99225f * mu_b2 + 391.0579f * mu_b3 + 159.89296f * mu_b4 + 32.58488f * mu_b5 + 3.1203647f * mu_b6 + 0.15439743f * mu_u7;
+    const float p_7 = 4.2322645f * mu_v7 + 37.51907f * mu_b1 + 75.010895f * mu_b2 + 67.02854f * mu_b3 + 27.427185f * mu_b4 + 5.4125366f * mu_b5 + 0.4883884f * mu_b6 + 0.02056092f * mu_u7;
     const float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v7 + 8.511519f * mu_b1 + 14.186813f * mu_b2 + 10.005143f * mu_b3 + 1.8081083f * mu_b4 + 1.616548f * mu_b5 - 0.026698027f * mu_b6 + 0.04936237f * mu_u7;
-    const float q_1 = 9.98822f * mu_v7 + 76.48452f * mu_b1 + 132.81403f * mu_b2 + 103.53412f * mu_b3 + 26.96838f * mu_b4 + 13.309059f * mu_b5 + 1.2746918f * mu_b6 + 0.21805729f * mu_u7;
-    const float q_2 = 37.865906f * mu_v7 + 288.43744f * mu_b1 + 535.04517f * mu_b2 + 460.35458f * mu_b3 + 150.07652f * mu_b4 + 47.554615f * mu_b5 + 6.4828634f * mu_b6 + 0.625158f * mu_u7;
-    const float q_3 = 75.91423f * mu_v7 + 594.9383f * mu_b1 + 1178.572f * mu_b2 + 1100.2511f * mu_b3 + 418.4963f * mu_b4 + 102.9354f * mu_b5 + 13.719002f * mu_b6 + 1.0789901f * mu_u7;
-    const float q_4 = 90.34409f * mu_v7 + 731.96173f * mu_b1 + 1535.8477f * mu_b2 + 1531.2554f * mu_b3 + 655.3387f * mu_b4 + 147.11131f * mu_b5 + 17.531448f * mu_b6 + 1.2356254f * mu_u7;
-    const float q_5 = 64.8192f * mu_v7 + 539.76086f * mu_b1 + 1188.6396f * mu_b2 + 1250.1486f * mu_b3 + 587.4518f * mu_b4 + 131.666f * mu_b5 + 14.041698f * mu_b6 + 0.8781782f * mu_u7;
-    const float q_6 = 25.823652f * mu_v7 + 220.4716f * mu_b1 + 506.85327f * mu_b2 + 558.81226f * mu_b3 + 284.60867f * mu_b4 + 66.93442f * mu_b5 + 6.812332f * mu_b6 + 0.38007578f * mu_u7;
-    const float q_7 = 4.257091f * mu_v7 + 37.814198f * mu_b1 + 90.75394f * mu_b2 + 104.57142f * mu_b3 + 56.993332f * mu_b4 + 14.15313f * mu_b5 + 1.3801162f * mu_b6 + 0.0600765f * mu_u7;
+    const float q_0 = 1.0f * mu_v7 + 8.486785f * mu_b1 + 14.093531f * mu_b2 + 9.949013f * mu_b3 + 1.7886659f * mu_b4 + 1.6081403f * mu_b5 - 0.027051466f * mu_b6 + 0.049087234f * mu_u7;
+    const float q_1 = 9.944241f * mu_v7 + 76.16507f * mu_b1 + 131.9021f * mu_b2 + 102.87123f * mu_b3 + 26.714783f * mu_b4 + 13.236109f * mu_b5 + 1.2632519f * mu_b6 + 0.2171187f * mu_u7;
+    const float q_2 = 37.599506f * mu_v7 + 286.9757f * mu_b1 + 531.3802f * mu_b2 + 457.3956f * mu_b3 + 148.87251f * mu_b4 + 47.288586f * mu_b5 + 6.435283f * mu_b6 + 0.62305284f * mu_u7;
+    const float q_3 = 75.25594f * mu_v7 + 591.5445f * mu_b1 + 1170.4835f * mu_b2 + 1093.0806f * mu_b3 + 415.2836f * mu_b4 + 102.2712f * mu_b5 + 13.624923f * mu_b6 + 1.0775892f * mu_u7;
+    const float q_4 = 89.49411f * mu_v7 + 727.5169f * mu_b1 + 1525.3704f * mu_b2 + 1521.2787f * mu_b3 + 650.5428f * mu_b4 + 146.14447f * mu_b5 + 17.446474f * mu_b6 + 1.2394153f * mu_u7;
+    const float q_5 = 64.219864f * mu_v7 + 536.45447f * mu_b1 + 1180.7848f * mu_b2 + 1242.3284f * mu_b3 + 583.60034f * mu_b4 + 130.97096f * mu_b5 + 14.042279f * mu_b6 + 0.8889071f * mu_u7;
+    const float q_6 = 25.6133f * mu_v7 + 219.206f * mu_b1 + 503.79434f * mu_b2 + 555.7368f * mu_b3 + 283.17978f * mu_b4 + 66.79855f * mu_b5 + 6.8827643f * mu_b6 + 0.39397034f * mu_u7;
+    const float q_7 = 4.231971f * mu_v7 + 37.637085f * mu_b1 + 90.31504f * mu_b2 + 104.158394f * mu_b3 + 56.863422f * mu_b4 + 14.208522f * mu_b5 + 1.4226936f * mu_b6 + 0.06700762f * mu_u7;
     const float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -14,16 +14,16 @@
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 /// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-/// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 ca486b6e6edfd2ca71e2c4331a5a2091a9501437e797da8c6a3e600cebfd6350.
+/// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 ea261856a4b1079e79a1c094617aa049a29c0b0afb99e35b6693f0173a114e94.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.5e-4, shifted 7.6e-6, bernstein 5.9e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 4.21e-6, max 6.89e-5 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.00e-6, max 7.98e-5.
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 4.93e-7 (fused multiply-add), 6.95e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 23353 boxes).
-/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.01e-6, max 5.95e-5; this f32 code MAE 4.01e-6, max 5.94e-5.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.6e-4, shifted 8.1e-6, bernstein 6.3e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 4.23e-6, max 6.94e-5 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.98e-6, max 8.20e-5.
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.76e-7 (every op rounded, as this Rust), 4.65e-7 (fused multiply-add), 7.06e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 23081 boxes).
+/// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.04e-6, max 6.01e-5; this f32 code MAE 4.04e-6, max 6.01e-5.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.9e-5 on the measurement grid.
-/// Denominator proved >= 3.281e-2 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 3.277e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -82,24 +82,24 @@ pub fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0000238_f32 * mu_v7 + 8.511201_f32 * mu_b1 + 13.961206_f32 * mu_b2 + 8.765311_f32 * mu_b3 + 1.1219441_f32 * mu_b4 + 1.528123_f32 * mu_b5 - 0.026836772_f32 * mu_b6 + 0.04936274_f32 * mu_u7;
-    let p_1 = 9.987119_f32 * mu_v7 + 76.521835_f32 * mu_b1 + 130.73807_f32 * mu_b2 + 93.82596_f32 * mu_b3 + 20.78437_f32 * mu_b4 + 11.717035_f32 * mu_b5 + 1.1896116_f32 * mu_b6 + 0.21796662_f32 * mu_u7;
-    let p_2 = 37.86983_f32 * mu_v7 + 288.42944_f32 * mu_b1 + 519.6034_f32 * mu_b2 + 414.85934_f32 * mu_b3 + 122.60017_f32 * mu_b4 + 40.46173_f32 * mu_b5 + 5.504864_f32 * mu_b6 + 0.57859445_f32 * mu_u7;
-    let p_3 = 75.915146_f32 * mu_v7 + 594.4671_f32 * mu_b1 + 1118.9615_f32 * mu_b2 + 957.2918_f32 * mu_b3 + 332.5344_f32 * mu_b4 + 83.25484_f32 * mu_b5 + 10.537825_f32 * mu_b6 + 0.8532754_f32 * mu_u7;
-    let p_4 = 90.3268_f32 * mu_v7 + 730.7967_f32 * mu_b1 + 1416.3958_f32 * mu_b2 + 1258.375_f32 * mu_b3 + 479.94296_f32 * mu_b4 + 106.56669_f32 * mu_b5 + 11.946087_f32 * mu_b6 + 0.79134345_f32 * mu_u7;
-    let p_5 = 64.839615_f32 * mu_v7 + 538.7392_f32 * mu_b1 + 1061.0931_f32 * mu_b2 + 956.07294_f32 * mu_b3 + 382.80127_f32 * mu_b4 + 80.37593_f32 * mu_b5 + 8.160409_f32 * mu_b6 + 0.45721_f32 * mu_u7;
-    let p_6 = 25.821693_f32 * mu_v7 + 219.81938_f32 * mu_b1 + 436.6049_f32 * mu_b2 + 393.12582_f32 * mu_b3 + 160.57388_f32 * mu_b4 + 32.559483_f32 * mu_b5 + 3.0672793_f32 * mu_b6 + 0.14666843_f32 * mu_u7;
-    let p_7 = 4.2573843_f32 * mu_v7 + 37.69498_f32 * mu_b1 + 75.37174_f32 * mu_b2 + 67.266914_f32 * mu_b3 + 27.451057_f32 * mu_b4 + 5.3674755_f32 * mu_b5 + 0.46996692_f32 * mu_b6 + 0.018434137_f32 * mu_u7;
+    let p_0 = 1.0000187_f32 * mu_v7 + 8.486493_f32 * mu_b1 + 13.867824_f32 * mu_b2 + 8.715224_f32 * mu_b3 + 1.1083183_f32 * mu_b4 + 1.5201467_f32 * mu_b5 - 0.02718814_f32 * mu_b6 + 0.049087595_f32 * mu_u7;
+    let p_1 = 9.943334_f32 * mu_v7 + 76.20215_f32 * mu_b1 + 129.83218_f32 * mu_b2 + 93.21898_f32 * mu_b3 + 20.583403_f32 * mu_b4 + 11.6532755_f32 * mu_b5 + 1.1786491_f32 * mu_b6 + 0.21702895_f32 * mu_u7;
+    let p_2 = 37.60302_f32 * mu_v7 + 286.96338_f32 * mu_b1 + 516.0099_f32 * mu_b2 + 412.17026_f32 * mu_b3 + 121.614075_f32 * mu_b4 + 40.240814_f32 * mu_b5 + 5.462627_f32 * mu_b6 + 0.57674086_f32 * mu_u7;
+    let p_3 = 75.25687_f32 * mu_v7 + 591.0808_f32 * mu_b1 + 1111.2256_f32 * mu_b2 + 951.0119_f32 * mu_b3 + 329.96542_f32 * mu_b4 + 82.73208_f32 * mu_b5 + 10.460532_f32 * mu_b6 + 0.85291755_f32 * mu_u7;
+    let p_4 = 89.47675_f32 * mu_v7 + 726.38214_f32 * mu_b1 + 1406.6761_f32 * mu_b2 + 1250.1309_f32 * mu_b3 + 476.39606_f32 * mu_b4 + 105.89577_f32 * mu_b5 + 11.886535_f32 * mu_b6 + 0.796017_f32 * mu_u7;
+    let p_5 = 64.23961_f32 * mu_v7 + 535.47314_f32 * mu_b1 + 1054.0875_f32 * mu_b2 + 950.165_f32 * mu_b3 + 380.38565_f32 * mu_b4 + 80.05387_f32 * mu_b5 + 8.184818_f32 * mu_b6 + 0.46717125_f32 * mu_u7;
+    let p_6 = 25.610844_f32 * mu_v7 + 218.5731_f32 * mu_b1 + 433.99225_f32 * mu_b2 + 391.0579_f32 * mu_b3 + 159.89296_f32 * mu_b4 + 32.58488_f32 * mu_b5 + 3.1203647_f32 * mu_b6 + 0.15439743_f32 * mu_u7;
+    let p_7 = 4.2322645_f32 * mu_v7 + 37.51907_f32 * mu_b1 + 75.010895_f32 * mu_b2 + 67.02854_f32 * mu_b3 + 27.427185_f32 * mu_b4 + 5.4125366_f32 * mu_b5 + 0.4883884_f32 * mu_b6 + 0.02056092_f32 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v7 + 8.511519_f32 * mu_b1 + 14.186813_f32 * mu_b2 + 10.005143_f32 * mu_b3 + 1.8081083_f32 * mu_b4 + 1.616548_f32 * mu_b5 - 0.026698027_f32 * mu_b6 + 0.04936237_f32 * mu_u7;
-    let q_1 = 9.98822_f32 * mu_v7 + 76.48452_f32 * mu_b1 + 132.81403_f32 * mu_b2 + 103.53412_f32 * mu_b3 + 26.96838_f32 * mu_b4 + 13.309059_f32 * mu_b5 + 1.2746918_f32 * mu_b6 + 0.21805729_f32 * mu_u7;
-    let q_2 = 37.865906_f32 * mu_v7 + 288.43744_f32 * mu_b1 + 535.04517_f32 * mu_b2 + 460.35458_f32 * mu_b3 + 150.07652_f32 * mu_b4 + 47.554615_f32 * mu_b5 + 6.4828634_f32 * mu_b6 + 0.625158_f32 * mu_u7;
-    let q_3 = 75.91423_f32 * mu_v7 + 594.9383_f32 * mu_b1 + 1178.572_f32 * mu_b2 + 1100.2511_f32 * mu_b3 + 418.4963_f32 * mu_b4 + 102.9354_f32 * mu_b5 + 13.719002_f32 * mu_b6 + 1.0789901_f32 * mu_u7;
-    let q_4 = 90.34409_f32 * mu_v7 + 731.96173_f32 * mu_b1 + 1535.8477_f32 * mu_b2 + 1531.2554_f32 * mu_b3 + 655.3387_f32 * mu_b4 + 147.11131_f32 * mu_b5 + 17.531448_f32 * mu_b6 + 1.2356254_f32 * mu_u7;
-    let q_5 = 64.8192_f32 * mu_v7 + 539.76086_f32 * mu_b1 + 1188.6396_f32 * mu_b2 + 1250.1486_f32 * mu_b3 + 587.4518_f32 * mu_b4 + 131.666_f32 * mu_b5 + 14.041698_f32 * mu_b6 + 0.8781782_f32 * mu_u7;
-    let q_6 = 25.823652_f32 * mu_v7 + 220.4716_f32 * mu_b1 + 506.85327_f32 * mu_b2 + 558.81226_f32 * mu_b3 + 284.60867_f32 * mu_b4 + 66.93442_f32 * mu_b5 + 6.812332_f32 * mu_b6 + 0.38007578_f32 * mu_u7;
-    let q_7 = 4.257091_f32 * mu_v7 + 37.814198_f32 * mu_b1 + 90.75394_f32 * mu_b2 + 104.57142_f32 * mu_b3 + 56.993332_f32 * mu_b4 + 14.15313_f32 * mu_b5 + 1.3801162_f32 * mu_b6 + 0.0600765_f32 * mu_u7;
+    let q_0 = 1.0_f32 * mu_v7 + 8.486785_f32 * mu_b1 + 14.093531_f32 * mu_b2 + 9.949013_f32 * mu_b3 + 1.7886659_f32 * mu_b4 + 1.6081403_f32 * mu_b5 - 0.027051466_f32 * mu_b6 + 0.049087234_f32 * mu_u7;
+    let q_1 = 9.944241_f32 * mu_v7 + 76.16507_f32 * mu_b1 + 131.9021_f32 * mu_b2 + 102.87123_f32 * mu_b3 + 26.714783_f32 * mu_b4 + 13.236109_f32 * mu_b5 + 1.2632519_f32 * mu_b6 + 0.2171187_f32 * mu_u7;
+    let q_2 = 37.599506_f32 * mu_v7 + 286.9757_f32 * mu_b1 + 531.3802_f32 * mu_b2 + 457.3956_f32 * mu_b3 + 148.87251_f32 * mu_b4 + 47.288586_f32 * mu_b5 + 6.435283_f32 * mu_b6 + 0.62305284_f32 * mu_u7;
+    let q_3 = 75.25594_f32 * mu_v7 + 591.5445_f32 * mu_b1 + 1170.4835_f32 * mu_b2 + 1093.0806_f32 * mu_b3 + 415.2836_f32 * mu_b4 + 102.2712_f32 * mu_b5 + 13.624923_f32 * mu_b6 + 1.0775892_f32 * mu_u7;
+    let q_4 = 89.49411_f32 * mu_v7 + 727.5169_f32 * mu_b1 + 1525.3704_f32 * mu_b2 + 1521.2787_f32 * mu_b3 + 650.5428_f32 * mu_b4 + 146.14447_f32 * mu_b5 + 17.446474_f32 * mu_b6 + 1.2394153_f32 * mu_u7;
+    let q_5 = 64.219864_f32 * mu_v7 + 536.45447_f32 * mu_b1 + 1180.7848_f32 * mu_b2 + 1242.3284_f32 * mu_b3 + 583.60034_f32 * mu_b4 + 130.97096_f32 * mu_b5 + 14.042279_f32 * mu_b6 + 0.8889071_f32 * mu_u7;
+    let q_6 = 25.6133_f32 * mu_v7 + 219.206_f32 * mu_b1 + 503.79434_f32 * mu_b2 + 555.7368_f32 * mu_b3 + 283.17978_f32 * mu_b4 + 66.79855_f32 * mu_b5 + 6.8827643_f32 * mu_b6 + 0.39397034_f32 * mu_u7;
+    let q_7 = 4.231971_f32 * mu_v7 + 37.637085_f32 * mu_b1 + 90.31504_f32 * mu_b2 + 104.158394_f32 * mu_b3 + 56.863422_f32 * mu_b4 + 14.208522_f32 * mu_b5 + 1.4226936_f32 * mu_b6 + 0.06700762_f32 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -13,16 +13,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 ca486b6e6edfd2ca71e2c4331a5a2091a9501437e797da8c6a3e600cebfd6350.
+// Source: fits/ggx-conductor/best-80.json (furnace 0.1.0), fit SHA-256 ea261856a4b1079e79a1c094617aa049a29c0b0afb99e35b6693f0173a114e94.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.5e-4, shifted 7.6e-6, bernstein 5.9e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 4.21e-6, max 6.89e-5 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.00e-6, max 7.98e-5.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.92e-7 (every op rounded, as this Rust), 4.93e-7 (fused multiply-add), 6.95e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 23353 boxes).
-// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.01e-6, max 5.95e-5; this f32 code MAE 4.01e-6, max 5.94e-5.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.6e-4, shifted 8.1e-6, bernstein 6.3e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.23e-6, max 6.94e-5 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.98e-6, max 8.20e-5.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.76e-7 (every op rounded, as this Rust), 4.65e-7 (fused multiply-add), 7.06e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 23081 boxes).
+// Error at the 1048576 nodes of its table data/ggx-conductor/1024x1024 (output clamp applied): f64 MAE 4.04e-6, max 6.01e-5; this f32 code MAE 4.04e-6, max 6.01e-5.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.9e-5 on the measurement grid.
-// Denominator proved >= 3.281e-2 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 3.277e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -74,24 +74,24 @@ fn ggx_conductor_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0000238 * mu_v7 + 8.511201 * mu_b1 + 13.961206 * mu_b2 + 8.765311 * mu_b3 + 1.1219441 * mu_b4 + 1.528123 * mu_b5 - 0.026836772 * mu_b6 + 0.04936274 * mu_u7;
-    let p_1 = 9.987119 * mu_v7 + 76.521835 * mu_b1 + 130.73807 * mu_b2 + 93.82596 * mu_b3 + 20.78437 * mu_b4 + 11.717035 * mu_b5 + 1.1896116 * mu_b6 + 0.21796662 * mu_u7;
-    let p_2 = 37.86983 * mu_v7 + 288.42944 * mu_b1 + 519.6034 * mu_b2 + 414.85934 * mu_b3 + 122.60017 * mu_b4 + 40.46173 * mu_b5 + 5.504864 * mu_b6 + 0.57859445 * mu_u7;
-    let p_3 = 75.915146 * mu_v7 + 594.4671 * mu_b1 + 1118.9615 * mu_b2 + 957.2918 * mu_b3 + 332.5344 * mu_b4 + 83.25484 * mu_b5 + 10.537825 * mu_b6 + 0.8532754 * mu_u7;
-    let p_4 = 90.3268 * mu_v7 + 730.7967 * mu_b1 + 1416.3958 * mu_b2 + 1258.375 * mu_b3 + 479.94296 * mu_b4 + 106.56669 * mu_b5 + 11.946087 * mu_b6 + 0.79134345 * mu_u7;
-    let p_5 = 64.839615 * mu_v7 + 538.7392 * mu_b1 + 1061.0931 * mu_b2 + 956.07294 * mu_b3 + 382.80127 * mu_b4 + 80.37593 * mu_b5 + 8.160409 * mu_b6 + 0.45721 * mu_u7;
-    let p_6 = 25.821693 * mu_v7 + 219.81938 * mu_b1 + 436.6049 * mu_b2 + 393.12582 * mu_b3 + 160.57388 * mu_b4 + 32.559483 * mu_b5 + 3.0672793 * mu_b6 + 0.14666843 * mu_u7;
-    let p_7 = 4.2573843 * mu_v7 + 37.69498 * mu_b1 + 75.37174 * mu_b2 + 67.266914 * mu_b3 + 27.451057 * mu_b4 + 5.3674755 * mu_b5 + 0.46996692 * mu_b6 + 0.018434137 * mu_u7;
+    let p_0 = 1.0000187 * mu_v7 + 8.486493 * mu_b1 + 13.867824 * mu_b2 + 8.715224 * mu_b3 + 1.1083183 * mu_b4 + 1.5201467 * mu_b5 - 0.02718814 * mu_b6 + 0.049087595 * mu_u7;
+    let p_1 = 9.943334 * mu_v7 + 76.20215 * mu_b1 + 129.83218 * mu_b2 + 93.21898 * mu_b3 + 20.583403 * mu_b4 + 11.6532755 * mu_b5 + 1.1786491 * mu_b6 + 0.21702895 * mu_u7;
+    let p_2 = 37.60302 * mu_v7 + 286.96338 * mu_b1 + 516.0099 * mu_b2 + 412.17026 * mu_b3 + 121.614075 * mu_b4 + 40.240814 * mu_b5 + 5.462627 * mu_b6 + 0.57674086 * mu_u7;
+    let p_3 = 75.25687 * mu_v7 + 591.0808 * mu_b1 + 1111.2256 * mu_b2 + 951.0119 * mu_b3 + 329.96542 * mu_b4 + 82.73208 * mu_b5 + 10.460532 * mu_b6 + 0.85291755 * mu_u7;
+    let p_4 = 89.47675 * mu_v7 + 726.38214 * mu_b1 + 1406.6761 * mu_b2 + 1250.1309 * mu_b3 + 476.39606 * mu_b4 + 105.89577 * mu_b5 + 11.886535 * mu_b6 + 0.796017 * mu_u7;
+    let p_5 = 64.23961 * mu_v7 + 535.47314 * mu_b1 + 1054.0875 * mu_b2 + 950.165 * mu_b3 + 380.38565 * mu_b4 + 80.05387 * mu_b5 + 8.184818 * mu_b6 + 0.46717125 * mu_u7;
+    let p_6 = 25.610844 * mu_v7 + 218.5731 * mu_b1 + 433.99225 * mu_b2 + 391.0579 * mu_b3 + 159.89296 * mu_b4 + 32.58488 * mu_b5 + 3.1203647 * mu_b6 + 0.15439743 * mu_u7;
+    let p_7 = 4.2322645 * mu_v7 + 37.51907 * mu_b1 + 75.010895 * mu_b2 + 67.02854 * mu_b3 + 27.427185 * mu_b4 + 5.4125366 * mu_b5 + 0.4883884 * mu_b6 + 0.02056092 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v7 + 8.511519 * mu_b1 + 14.186813 * mu_b2 + 10.005143 * mu_b3 + 1.8081083 * mu_b4 + 1.616548 * mu_b5 - 0.026698027 * mu_b6 + 0.04936237 * mu_u7;
-    let q_1 = 9.98822 * mu_v7 + 76.48452 * mu_b1 + 132.81403 * mu_b2 + 103.53412 * mu_b3 + 26.96838 * mu_b4 + 13.309059 * mu_b5 + 1.2746918 * mu_b6 + 0.21805729 * mu_u7;
-    let q_2 = 37.865906 * mu_v7 + 288.43744 * mu_b1 + 535.04517 * mu_b2 + 460.35458 * mu_b3 + 150.07652 * mu_b4 + 47.554615 * mu_b5 + 6.4828634 * mu_b6 + 0.625158 * mu_u7;
-    let q_3 = 75.91423 * mu_v7 + 594.9383 * mu_b1 + 1178.572 * mu_b2 + 1100.2511 * mu_b3 + 418.4963 * mu_b4 + 102.9354 * mu_b5 + 13.719002 * mu_b6 + 1.0789901 * mu_u7;
-    let q_4 = 90.34409 * mu_v7 + 731.96173 * mu_b1 + 1535.8477 * mu_b2 + 1531.2554 * mu_b3 + 655.3387 * mu_b4 + 147.11131 * mu_b5 + 17.531448 * mu_b6 + 1.2356254 * mu_u7;
-    let q_5 = 64.8192 * mu_v7 + 539.76086 * mu_b1 + 1188.6396 * mu_b2 + 1250.1486 * mu_b3 + 587.4518 * mu_b4 + 131.666 * mu_b5 + 14.041698 * mu_b6 + 0.8781782 * mu_u7;
-    let q_6 = 25.823652 * mu_v7 + 220.4716 * mu_b1 + 506.85327 * mu_b2 + 558.81226 * mu_b3 + 284.60867 * mu_b4 + 66.93442 * mu_b5 + 6.812332 * mu_b6 + 0.38007578 * mu_u7;
-    let q_7 = 4.257091 * mu_v7 + 37.814198 * mu_b1 + 90.75394 * mu_b2 + 104.57142 * mu_b3 + 56.993332 * mu_b4 + 14.15313 * mu_b5 + 1.3801162 * mu_b6 + 0.0600765 * mu_u7;
+    let q_0 = 1.0 * mu_v7 + 8.486785 * mu_b1 + 14.093531 * mu_b2 + 9.949013 * mu_b3 + 1.7886659 * mu_b4 + 1.6081403 * mu_b5 - 0.027051466 * mu_b6 + 0.049087234 * mu_u7;
+    let q_1 = 9.944241 * mu_v7 + 76.16507 * mu_b1 + 131.9021 * mu_b2 + 102.87123 * mu_b3 + 26.714783 * mu_b4 + 13.236109 * mu_b5 + 1.2632519 * mu_b6 + 0.2171187 * mu_u7;
+    let q_2 = 37.599506 * mu_v7 + 286.9757 * mu_b1 + 531.3802 * mu_b2 + 457.3956 * mu_b3 + 148.87251 * mu_b4 + 47.288586 * mu_b5 + 6.435283 * mu_b6 + 0.62305284 * mu_u7;
+    let q_3 = 75.25594 * mu_v7 + 591.5445 * mu_b1 + 1170.4835 * mu_b2 + 1093.0806 * mu_b3 + 415.2836 * mu_b4 + 102.2712 * mu_b5 + 13.624923 * mu_b6 + 1.0775892 * mu_u7;
+    let q_4 = 89.49411 * mu_v7 + 727.5169 * mu_b1 + 1525.3704 * mu_b2 + 1521.2787 * mu_b3 + 650.5428 * mu_b4 + 146.14447 * mu_b5 + 17.446474 * mu_b6 + 1.2394153 * mu_u7;
+    let q_5 = 64.219864 * mu_v7 + 536.45447 * mu_b1 + 1180.7848 * mu_b2 + 1242.3284 * mu_b3 + 583.60034 * mu_b4 + 130.97096 * mu_b5 + 14.042279 * mu_b6 + 0.8889071 * mu_u7;
+    let q_6 = 25.6133 * mu_v7 + 219.206 * mu_b1 + 503.79434 * mu_b2 + 555.7368 * mu_b3 + 283.17978 * mu_b4 + 66.79855 * mu_b5 + 6.8827643 * mu_b6 + 0.39397034 * mu_u7;
+    let q_7 = 4.231971 * mu_v7 + 37.637085 * mu_b1 + 90.31504 * mu_b2 + 104.158394 * mu_b3 + 56.863422 * mu_b4 + 14.208522 * mu_b5 + 1.4226936 * mu_b6 + 0.06700762 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

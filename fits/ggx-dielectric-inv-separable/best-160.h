@@ -27,18 +27,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.748x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7589f922770ecb0acf5ef09ace1d0ffe6b6e4c14491d812921453b76626c266e.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the L_p polish's solve of p = 6: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.546x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 4b388281552164fa65fcb88ccb142b09bcef6116560f02c30f47b9528efd2bd0.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-4, shifted 1.9e-5, bernstein 2.8e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 5.90e-4, max 3.75e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.62e-4, max 3.28e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.12e-7 (every op rounded, as this Rust), 7.57e-7 (fused multiply-add), 3.96e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.75e-3; this f32 code MAE 5.74e-4, max 3.75e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
-// Denominator proved >= 4.240e-4 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.3e-5, shifted 5.8e-6, bernstein 2.7e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 5.97e-4, max 3.17e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.41e-4, max 2.95e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.45e-7 (every op rounded, as this Rust), 6.54e-7 (fused multiply-add), 3.74e-6 (GPU division/sqrt error).
+// Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.94e-4, max 3.17e-3; this f32 code MAE 5.94e-4, max 3.17e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
+// Denominator proved >= 9.159e-6 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -48,14 +48,14 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     const float mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(fmaxf(mu_c, 5.421011e-20f)))));
     const float mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0f + mu_c))));
-    const float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    const float mu_t = (mu_logv * (1.0f + 2.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 2.0f * (r_c * r_c) + 7.888609e-31f);
-    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
-    const float mu_u = (mu_t - 3.9443045e-31f) * 1.0f;
+    const float mu_logv = (mu_c + 2.5f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 2.5f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    const float mu_t = (mu_logv * (1.0f + 1.5f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.5f * (r_c * r_c) + 7.888609e-31f);
+    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
+    const float mu_u = (mu_t - 5.259073e-31f) * 1.0f;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     const float r_b5_v = 1.0f - r_t;
     const float r_b5_u2 = r_t * r_t;
@@ -85,12 +85,12 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     const float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     const float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    const float p0_0_0 = 1.0279294f * mu_b5_v5 + 3.6115956f * mu_b5_b1 + 3.7978678f * mu_b5_b2 + 5.0368266f * mu_b5_b3 + 4.282365f * mu_b5_b4 + 1.2462618f * mu_b5_u5;
-    const float p0_0_1 = 8.478233f * mu_b5_v5 + 31.395452f * mu_b5_b1 + 27.055952f * mu_b5_b2 + 10.981996f * mu_b5_b3 + 6.2405853f * mu_b5_b4 + 3.32993f * mu_b5_u5;
-    const float p0_0_2 = 23.587654f * mu_b5_v5 + 109.84934f * mu_b5_b1 + 144.93141f * mu_b5_b2 + 91.93871f * mu_b5_b3 + 36.601727f * mu_b5_b4 + 11.197945f * mu_b5_u5;
-    const float p0_0_3 = 27.55418f * mu_b5_v5 + 148.75098f * mu_b5_b1 + 226.3771f * mu_b5_b2 + 153.16722f * mu_b5_b3 + 52.04733f * mu_b5_b4 + 11.925638f * mu_b5_u5;
-    const float p0_0_4 = 22.174171f * mu_b5_v5 + 122.23782f * mu_b5_b1 + 203.67993f * mu_b5_b2 + 148.71295f * mu_b5_b3 + 49.04806f * mu_b5_b4 + 7.883996f * mu_b5_u5;
-    const float p0_0_5 = 7.8463573f * mu_b5_v5 + 40.997425f * mu_b5_b1 + 69.86632f * mu_b5_b2 + 52.42944f * mu_b5_b3 + 17.089317f * mu_b5_b4 + 2.1616514f * mu_b5_u5;
+    const float p0_0_0 = 1.0528737f * mu_b5_v5 + 5.75218f * mu_b5_b1 + 4.6021376f * mu_b5_b2 + 3.6215332f * mu_b5_b3 + 3.5102584f * mu_b5_b4 + 0.7328423f * mu_b5_u5;
+    const float p0_0_1 = 7.672459f * mu_b5_v5 + 40.488983f * mu_b5_b1 + 31.375303f * mu_b5_b2 + 5.173241f * mu_b5_b3 + 3.3651853f * mu_b5_b4 + 1.4571527f * mu_b5_u5;
+    const float p0_0_2 = 20.412016f * mu_b5_v5 + 122.21837f * mu_b5_b1 + 144.31216f * mu_b5_b2 + 70.42235f * mu_b5_b3 + 25.63297f * mu_b5_b4 + 7.1292934f * mu_b5_u5;
+    const float p0_0_3 = 19.498417f * mu_b5_v5 + 140.21817f * mu_b5_b1 + 192.1068f * mu_b5_b2 + 104.478065f * mu_b5_b3 + 30.737139f * mu_b5_b4 + 7.058972f * mu_b5_u5;
+    const float p0_0_4 = 13.257703f * mu_b5_v5 + 97.33239f * mu_b5_b1 + 154.47763f * mu_b5_b2 + 100.98215f * mu_b5_b3 + 30.837564f * mu_b5_b4 + 4.964786f * mu_b5_u5;
+    const float p0_0_5 = 4.6347504f * mu_b5_v5 + 30.010952f * mu_b5_b1 + 50.740154f * mu_b5_b2 + 36.20504f * mu_b5_b3 + 11.293628f * mu_b5_b4 + 1.3938292f * mu_b5_u5;
     const float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     const float p0 = p0_0 * 1.0f;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -105,15 +105,15 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     const float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     const float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    const float u0_0_0 = 0.8729462f * 1.0f;
+    const float u0_0_0 = 0.7960611f * 1.0f;
     const float u0_0 = u0_0_0 * 1.0f;
-    const float u0_1_0 = 3.540466f * 1.0f;
+    const float u0_1_0 = 3.446482f * 1.0f;
     const float u0_1 = u0_1_0 * 1.0f;
-    const float u0_2_0 = 5.406802f * 1.0f;
+    const float u0_2_0 = 5.1784935f * 1.0f;
     const float u0_2 = u0_2_0 * 1.0f;
-    const float u0_3_0 = 3.6283998f * 1.0f;
+    const float u0_3_0 = 3.4721053f * 1.0f;
     const float u0_3 = u0_3_0 * 1.0f;
-    const float u0_4_0 = 0.9117044f * 1.0f;
+    const float u0_4_0 = 0.8782581f * 1.0f;
     const float u0_4 = u0_4_0 * 1.0f;
     const float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -139,101 +139,101 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     const float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     const float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q0_0_0 = 1.0f * mu_b4_v4 + 2.7370975f * mu_b4_b1 + 1.8603674f * mu_b4_b2 + 2.7513773f * mu_b4_b3 + 1.1363808f * mu_b4_u4;
-    const float q0_0_1 = 7.3318415f * mu_b4_v4 + 20.605307f * mu_b4_b1 + 6.7779903f * mu_b4_b2 + 1.3989055f * mu_b4_b3 + 1.9274735f * mu_b4_u4;
-    const float q0_0_2 = 16.833965f * mu_b4_v4 + 67.21114f * mu_b4_b1 + 60.426456f * mu_b4_b2 + 28.098166f * mu_b4_b3 + 9.098528f * mu_b4_u4;
-    const float q0_0_3 = 14.468753f * mu_b4_v4 + 69.433754f * mu_b4_b1 + 72.81932f * mu_b4_b2 + 30.271338f * mu_b4_b3 + 6.450113f * mu_b4_u4;
-    const float q0_0_4 = 12.3201065f * mu_b4_v4 + 53.50473f * mu_b4_b1 + 67.43135f * mu_b4_b2 + 34.234604f * mu_b4_b3 + 6.4961543f * mu_b4_u4;
+    const float q0_0_0 = 1.0f * mu_b4_v4 + 4.6121693f * mu_b4_b1 + 0.8748184f * mu_b4_b2 + 2.4495068f * mu_b4_b3 + 0.65149915f * mu_b4_u4;
+    const float q0_0_1 = 6.339882f * mu_b4_v4 + 27.222252f * mu_b4_b1 + 2.5923235f * mu_b4_b2 + 0.5250976f * mu_b4_b3 + 0.67371106f * mu_b4_u4;
+    const float q0_0_2 = 13.843411f * mu_b4_v4 + 73.114f * mu_b4_b1 + 46.106373f * mu_b4_b2 + 19.969162f * mu_b4_b3 + 5.9212275f * mu_b4_u4;
+    const float q0_0_3 = 8.594613f * mu_b4_v4 + 61.713085f * mu_b4_b1 + 48.47991f * mu_b4_b2 + 16.851044f * mu_b4_b3 + 3.3481686f * mu_b4_u4;
+    const float q0_0_4 = 6.9264503f * mu_b4_v4 + 38.550632f * mu_b4_b1 + 45.10324f * mu_b4_b2 + 22.298939f * mu_b4_b3 + 4.284519f * mu_b4_u4;
     const float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     const float q0 = q0_0 * 1.0f;
     const float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    const float p1_0_0 = 0.023927283f * mu_b5_v5 + 0.08666795f * mu_b5_b1 + 0.051048502f * mu_b5_b2 + 0.05712835f * mu_b5_b3 - 0.008128065f * mu_b5_b4 + 0.0005723265f * mu_b5_u5;
-    const float p1_0_1 = -0.338504f * mu_b5_v5 - 0.40768585f * mu_b5_b1 + 0.09014824f * mu_b5_b2 + 0.53885394f * mu_b5_b3 - 0.0065901005f * mu_b5_b4 + 0.0014906185f * mu_b5_u5;
-    const float p1_0_2 = -1.9128356f * mu_b5_v5 - 3.7380412f * mu_b5_b1 - 2.0988283f * mu_b5_b2 + 0.13508065f * mu_b5_b3 - 0.36111256f * mu_b5_b4 + 0.005393029f * mu_b5_u5;
-    const float p1_0_3 = -3.104096f * mu_b5_v5 - 5.9710126f * mu_b5_b1 - 2.6351702f * mu_b5_b2 + 0.8778057f * mu_b5_b3 - 0.030734776f * mu_b5_b4 + 0.09841517f * mu_b5_u5;
-    const float p1_0_4 = -2.3219392f * mu_b5_v5 - 4.454612f * mu_b5_b1 - 1.7329936f * mu_b5_b2 + 0.8164195f * mu_b5_b3 + 0.0646683f * mu_b5_b4 + 0.035532594f * mu_b5_u5;
-    const float p1_0_5 = -0.6997852f * mu_b5_v5 - 1.3849747f * mu_b5_b1 - 0.5511279f * mu_b5_b2 + 0.27659225f * mu_b5_b3 + 0.07506427f * mu_b5_b4 + 0.010054504f * mu_b5_u5;
+    const float p1_0_0 = 0.0540901f * mu_b5_v5 + 0.18777704f * mu_b5_b1 + 0.18129823f * mu_b5_b2 + 0.10665971f * mu_b5_b3 - 0.016916642f * mu_b5_b4 + 0.0022396392f * mu_b5_u5;
+    const float p1_0_1 = -0.17724386f * mu_b5_v5 - 0.13561685f * mu_b5_b1 + 0.4526553f * mu_b5_b2 + 0.7674337f * mu_b5_b3 - 0.033248782f * mu_b5_b4 + 0.001369377f * mu_b5_u5;
+    const float p1_0_2 = -2.065546f * mu_b5_v5 - 4.8805757f * mu_b5_b1 - 2.839857f * mu_b5_b2 + 0.47944722f * mu_b5_b3 - 0.26172394f * mu_b5_b4 + 0.016048377f * mu_b5_u5;
+    const float p1_0_3 = -3.8054016f * mu_b5_v5 - 8.725231f * mu_b5_b1 - 4.4082446f * mu_b5_b2 + 1.4617462f * mu_b5_b3 + 0.290879f * mu_b5_b4 + 0.12276465f * mu_b5_u5;
+    const float p1_0_4 = -2.852746f * mu_b5_v5 - 6.282664f * mu_b5_b1 - 2.771539f * mu_b5_b2 + 1.2492361f * mu_b5_b3 + 0.2355423f * mu_b5_b4 + 0.03570834f * mu_b5_u5;
+    const float p1_0_5 = -0.80254465f * mu_b5_v5 - 1.7195549f * mu_b5_b1 - 0.6843899f * mu_b5_b2 + 0.39628166f * mu_b5_b3 + 0.09433079f * mu_b5_b4 + 0.008874188f * mu_b5_u5;
     const float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     const float p1 = p1_0 * 1.0f;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    const float u1_0_0 = 1.9657415f * 1.0f;
+    const float u1_0_0 = 1.5763111f * 1.0f;
     const float u1_0 = u1_0_0 * 1.0f;
-    const float u1_1_0 = 3.1616328f * 1.0f;
+    const float u1_1_0 = 4.380353f * 1.0f;
     const float u1_1 = u1_1_0 * 1.0f;
-    const float u1_2_0 = 1.9908692f * 1.0f;
+    const float u1_2_0 = 2.9482727f * 1.0f;
     const float u1_2 = u1_2_0 * 1.0f;
-    const float u1_3_0 = 0.85982996f * 1.0f;
+    const float u1_3_0 = 0.6688195f * 1.0f;
     const float u1_3 = u1_3_0 * 1.0f;
-    const float u1_4_0 = 0.061440498f * 1.0f;
+    const float u1_4_0 = 0.034788083f * 1.0f;
     const float u1_4 = u1_4_0 * 1.0f;
     const float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q1_0_0 = 1.0f * mu_b4_v4 + 2.149612f * mu_b4_b1 + 2.1403823f * mu_b4_b2 - 0.29732752f * mu_b4_b3 + 0.021139918f * mu_b4_u4;
-    const float q1_0_1 = 3.9627562f * mu_b4_v4 + 4.7327867f * mu_b4_b1 + 5.6909676f * mu_b4_b2 - 0.29005724f * mu_b4_b3 + 0.025957398f * mu_b4_u4;
-    const float q1_0_2 = 8.517818f * mu_b4_v4 + 6.693137f * mu_b4_b1 + 7.675742f * mu_b4_b2 + 2.1449134f * mu_b4_b3 + 0.49991795f * mu_b4_u4;
-    const float q1_0_3 = 8.665108f * mu_b4_v4 + 5.528851f * mu_b4_b1 + 2.9611373f * mu_b4_b2 + 1.0562347f * mu_b4_b3 + 0.19579224f * mu_b4_u4;
-    const float q1_0_4 = 3.4870028f * mu_b4_v4 + 2.9267163f * mu_b4_b1 + 1.0977222f * mu_b4_b2 + 0.4264195f * mu_b4_b3 + 0.077648714f * mu_b4_u4;
+    const float q1_0_0 = 1.0f * mu_b4_v4 + 2.2878106f * mu_b4_b1 + 1.930646f * mu_b4_b2 - 0.3054976f * mu_b4_b3 + 0.038179345f * mu_b4_u4;
+    const float q1_0_1 = 4.947112f * mu_b4_v4 + 6.987315f * mu_b4_b1 + 5.704507f * mu_b4_b2 - 0.3097809f * mu_b4_b3 - 0.028036145f * mu_b4_u4;
+    const float q1_0_2 = 11.222962f * mu_b4_v4 + 12.3192835f * mu_b4_b1 + 9.373132f * mu_b4_b2 + 2.8645144f * mu_b4_b3 + 0.5067761f * mu_b4_u4;
+    const float q1_0_3 = 10.94696f * mu_b4_v4 + 9.763692f * mu_b4_b1 + 4.108583f * mu_b4_b2 + 1.5048939f * mu_b4_b3 + 0.15909182f * mu_b4_u4;
+    const float q1_0_4 = 4.137705f * mu_b4_v4 + 4.010294f * mu_b4_b1 + 1.3088825f * mu_b4_b2 + 0.5024766f * mu_b4_b3 + 0.052695315f * mu_b4_u4;
     const float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     const float q1 = q1_0 * 1.0f;
     const float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    const float p2_0_0 = -0.023015369f * mu_b5_v5 - 0.05811919f * mu_b5_b1 + 0.60886854f * mu_b5_b2 + 0.0072470307f * mu_b5_b3 - 5.574249e-5f * mu_b5_b4 - 8.892457e-5f * mu_b5_u5;
-    const float p2_0_1 = 0.7201499f * mu_b5_v5 + 0.251972f * mu_b5_b1 - 0.22355045f * mu_b5_b2 - 2.9612658f * mu_b5_b3 - 0.018628256f * mu_b5_b4 + 0.0034724523f * mu_b5_u5;
-    const float p2_0_2 = 1.2666818f * mu_b5_v5 + 0.93591774f * mu_b5_b1 - 1.0776683f * mu_b5_b2 - 5.5675116f * mu_b5_b3 + 1.5181401f * mu_b5_b4 - 0.02883782f * mu_b5_u5;
-    const float p2_0_3 = -0.15870906f * mu_b5_v5 + 0.13347422f * mu_b5_b1 - 0.9735456f * mu_b5_b2 - 4.9635415f * mu_b5_b3 + 2.6885612f * mu_b5_b4 + 0.01878891f * mu_b5_u5;
-    const float p2_0_4 = -0.7403634f * mu_b5_v5 + 0.23161463f * mu_b5_b1 - 0.5711276f * mu_b5_b2 - 3.890712f * mu_b5_b3 + 0.9228521f * mu_b5_b4 + 0.086665794f * mu_b5_u5;
-    const float p2_0_5 = -0.022695767f * mu_b5_v5 + 0.90117705f * mu_b5_b1 + 0.5115889f * mu_b5_b2 - 1.1717486f * mu_b5_b3 - 0.051786497f * mu_b5_b4 + 0.0709197f * mu_b5_u5;
+    const float p2_0_0 = -0.023504397f * mu_b5_v5 - 0.15601662f * mu_b5_b1 - 0.1830444f * mu_b5_b2 - 0.029548377f * mu_b5_b3 + 0.0009959389f * mu_b5_b4 - 2.115275e-5f * mu_b5_u5;
+    const float p2_0_1 = 0.12455663f * mu_b5_v5 - 0.14977297f * mu_b5_b1 + 0.3742214f * mu_b5_b2 + 0.76687837f * mu_b5_b3 + 0.018087784f * mu_b5_b4 - 0.0004059275f * mu_b5_u5;
+    const float p2_0_2 = 1.764101f * mu_b5_v5 + 2.4968278f * mu_b5_b1 + 2.74409f * mu_b5_b2 + 1.71977f * mu_b5_b3 - 0.48548177f * mu_b5_b4 + 0.0057787052f * mu_b5_u5;
+    const float p2_0_3 = 2.6682746f * mu_b5_v5 + 2.594031f * mu_b5_b1 + 1.250782f * mu_b5_b2 + 0.53850645f * mu_b5_b3 - 1.0174378f * mu_b5_b4 - 0.03125165f * mu_b5_u5;
+    const float p2_0_4 = 0.95837563f * mu_b5_v5 - 0.90613884f * mu_b5_b1 - 1.4412444f * mu_b5_b2 + 0.4570839f * mu_b5_b3 - 0.12561041f * mu_b5_b4 - 0.059590522f * mu_b5_u5;
+    const float p2_0_5 = -0.12903814f * mu_b5_v5 - 1.1854819f * mu_b5_b1 - 0.8569944f * mu_b5_b2 + 0.4901284f * mu_b5_b3 + 0.21335766f * mu_b5_b4 - 0.05735462f * mu_b5_u5;
     const float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     const float p2 = p2_0 * 1.0f;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    const float u2_0_0 = -0.9226769f * 1.0f;
+    const float u2_0_0 = -0.08375653f * 1.0f;
     const float u2_0 = u2_0_0 * 1.0f;
-    const float u2_1_0 = 2.9907134f * 1.0f;
+    const float u2_1_0 = 0.52448535f * 1.0f;
     const float u2_1 = u2_1_0 * 1.0f;
-    const float u2_2_0 = 2.162519f * 1.0f;
+    const float u2_2_0 = 0.2204653f * 1.0f;
     const float u2_2 = u2_2_0 * 1.0f;
-    const float u2_3_0 = -0.8647126f * 1.0f;
+    const float u2_3_0 = -0.16786768f * 1.0f;
     const float u2_3 = u2_3_0 * 1.0f;
-    const float u2_4_0 = -0.19725056f * 1.0f;
+    const float u2_4_0 = -0.037908226f * 1.0f;
     const float u2_4 = u2_4_0 * 1.0f;
     const float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q2_0_0 = 1.0f * mu_b4_v4 + 2.0533614f * mu_b4_b1 + 0.55934227f * mu_b4_b2 - 0.0244591f * mu_b4_b3 + 0.0016561532f * mu_b4_u4;
-    const float q2_0_1 = 0.8231968f * mu_b4_v4 + 1.4302309f * mu_b4_b1 - 1.335237f * mu_b4_b2 - 0.08291706f * mu_b4_b3 - 0.012261838f * mu_b4_u4;
-    const float q2_0_2 = 0.5946984f * mu_b4_v4 + 1.2518948f * mu_b4_b1 - 1.0548242f * mu_b4_b2 + 1.1682026f * mu_b4_b3 + 0.07279954f * mu_b4_u4;
-    const float q2_0_3 = 1.4221404f * mu_b4_v4 + 2.3411555f * mu_b4_b1 - 0.33673525f * mu_b4_b2 + 0.61248505f * mu_b4_b3 - 0.003380522f * mu_b4_u4;
-    const float q2_0_4 = 0.8010454f * mu_b4_v4 + 1.0677565f * mu_b4_b1 - 0.2740506f * mu_b4_b2 - 0.012549128f * mu_b4_b3 + 0.060308564f * mu_b4_u4;
+    const float q2_0_0 = 1.0f * mu_b4_v4 + 1.1581638f * mu_b4_b1 + 0.32346153f * mu_b4_b2 - 0.012175675f * mu_b4_b3 + 0.00033538206f * mu_b4_u4;
+    const float q2_0_1 = 2.7958322f * mu_b4_v4 + 1.0031105f * mu_b4_b1 - 1.1864978f * mu_b4_b2 - 0.10675389f * mu_b4_b3 - 0.001742415f * mu_b4_u4;
+    const float q2_0_2 = 5.0625267f * mu_b4_v4 + 2.1664333f * mu_b4_b1 - 1.2624766f * mu_b4_b2 + 0.6102312f * mu_b4_b3 + 0.043467548f * mu_b4_u4;
+    const float q2_0_3 = 4.870515f * mu_b4_v4 + 3.2631128f * mu_b4_b1 - 0.5485948f * mu_b4_b2 + 0.34912357f * mu_b4_b3 + 0.0015518361f * mu_b4_u4;
+    const float q2_0_4 = 1.6903424f * mu_b4_v4 + 1.2877148f * mu_b4_b1 - 0.27694476f * mu_b4_b2 - 0.009597333f * mu_b4_b3 + 0.04252862f * mu_b4_u4;
     const float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     const float q2 = q2_0 * 1.0f;
     const float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    const float p3_0_0 = -0.033494536f * mu_b5_v5 - 0.07179645f * mu_b5_b1 + 0.590686f * mu_b5_b2 + 0.0028464787f * mu_b5_b3 + 0.00016274753f * mu_b5_b4 - 0.00010366873f * mu_b5_u5;
-    const float p3_0_1 = 0.7828628f * mu_b5_v5 + 0.35548595f * mu_b5_b1 - 0.3499816f * mu_b5_b2 - 3.0781305f * mu_b5_b3 - 0.019917488f * mu_b5_b4 + 0.0035686952f * mu_b5_u5;
-    const float p3_0_2 = 1.3869923f * mu_b5_v5 + 1.1397799f * mu_b5_b1 - 1.2728674f * mu_b5_b2 - 5.6348815f * mu_b5_b3 + 1.6256609f * mu_b5_b4 - 0.029191433f * mu_b5_u5;
-    const float p3_0_3 = -0.10716626f * mu_b5_v5 + 0.28535733f * mu_b5_b1 - 1.121544f * mu_b5_b2 - 4.998074f * mu_b5_b3 + 2.7935352f * mu_b5_b4 + 0.0134629235f * mu_b5_u5;
-    const float p3_0_4 = -0.66676617f * mu_b5_v5 + 0.5408565f * mu_b5_b1 - 0.43981817f * mu_b5_b2 - 3.95932f * mu_b5_b3 + 0.9195299f * mu_b5_b4 + 0.09936973f * mu_b5_u5;
-    const float p3_0_5 = 0.038081285f * mu_b5_v5 + 1.1032271f * mu_b5_b1 + 0.61998713f * mu_b5_b2 - 1.2446895f * mu_b5_b3 - 0.09303376f * mu_b5_b4 + 0.080089115f * mu_b5_u5;
+    const float p3_0_0 = -0.10618982f * mu_b5_v5 - 0.22097614f * mu_b5_b1 - 0.10060539f * mu_b5_b2 - 0.023760693f * mu_b5_b3 + 0.00092218275f * mu_b5_b4 - 3.397353e-5f * mu_b5_u5;
+    const float p3_0_1 = -0.01172875f * mu_b5_v5 + 0.040473424f * mu_b5_b1 - 0.17281264f * mu_b5_b2 - 0.41892692f * mu_b5_b3 + 0.00096510025f * mu_b5_b4 + 0.00038826157f * mu_b5_u5;
+    const float p3_0_2 = -0.02469226f * mu_b5_v5 + 0.16323572f * mu_b5_b1 - 0.7435273f * mu_b5_b2 - 1.0953797f * mu_b5_b3 + 0.21977174f * mu_b5_b4 - 0.005281651f * mu_b5_u5;
+    const float p3_0_3 = -0.36847827f * mu_b5_v5 - 0.12501034f * mu_b5_b1 - 0.8472926f * mu_b5_b2 - 1.0088483f * mu_b5_b3 + 0.47393465f * mu_b5_b4 + 0.0030444849f * mu_b5_u5;
+    const float p3_0_4 = -0.2572939f * mu_b5_v5 + 0.20198427f * mu_b5_b1 - 0.16799392f * mu_b5_b2 - 0.6698706f * mu_b5_b3 + 0.16427793f * mu_b5_b4 + 0.012387482f * mu_b5_u5;
+    const float p3_0_5 = 0.003233346f * mu_b5_v5 + 0.28479236f * mu_b5_b1 + 0.12000187f * mu_b5_b2 - 0.24921268f * mu_b5_b3 - 0.033916317f * mu_b5_b4 + 0.01484143f * mu_b5_u5;
     const float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     const float p3 = p3_0 * 1.0f;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    const float u3_0_0 = 0.9322462f * 1.0f;
+    const float u3_0_0 = -0.07609171f * 1.0f;
     const float u3_0 = u3_0_0 * 1.0f;
-    const float u3_1_0 = -2.8046095f * 1.0f;
+    const float u3_1_0 = 1.1082972f * 1.0f;
     const float u3_1 = u3_1_0 * 1.0f;
-    const float u3_2_0 = -2.305701f * 1.0f;
+    const float u3_2_0 = -0.25059426f * 1.0f;
     const float u3_2 = u3_2_0 * 1.0f;
-    const float u3_3_0 = 0.7835565f * 1.0f;
+    const float u3_3_0 = -0.4446055f * 1.0f;
     const float u3_3 = u3_3_0 * 1.0f;
-    const float u3_4_0 = 0.18367109f * 1.0f;
+    const float u3_4_0 = -0.08280608f * 1.0f;
     const float u3_4 = u3_4_0 * 1.0f;
     const float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q3_0_0 = 1.0f * mu_b4_v4 + 2.0493348f * mu_b4_b1 + 0.55107784f * mu_b4_b2 - 0.024177462f * mu_b4_b3 + 0.0016214042f * mu_b4_u4;
-    const float q3_0_1 = 0.8096832f * mu_b4_v4 + 1.4161656f * mu_b4_b1 - 1.3500326f * mu_b4_b2 - 0.07823634f * mu_b4_b3 - 0.011553607f * mu_b4_u4;
-    const float q3_0_2 = 0.59605837f * mu_b4_v4 + 1.3039631f * mu_b4_b1 - 1.0365897f * mu_b4_b2 + 1.1639162f * mu_b4_b3 + 0.07366229f * mu_b4_u4;
-    const float q3_0_3 = 1.4527767f * mu_b4_v4 + 2.4362953f * mu_b4_b1 - 0.3184477f * mu_b4_b2 + 0.5867349f * mu_b4_b3 - 0.0011311016f * mu_b4_u4;
-    const float q3_0_4 = 0.81988734f * mu_b4_v4 + 1.113106f * mu_b4_b1 - 0.26205397f * mu_b4_b2 - 0.017297247f * mu_b4_b3 + 0.06551733f * mu_b4_u4;
+    const float q3_0_0 = 1.0f * mu_b4_v4 + 1.7643796f * mu_b4_b1 + 0.3117221f * mu_b4_b2 - 0.010827947f * mu_b4_b3 + 0.00036013432f * mu_b4_u4;
+    const float q3_0_1 = 1.3344676f * mu_b4_v4 + 1.6846585f * mu_b4_b1 - 1.4680431f * mu_b4_b2 - 0.055306982f * mu_b4_b3 - 0.0029510036f * mu_b4_u4;
+    const float q3_0_2 = 1.1159871f * mu_b4_v4 + 1.4571477f * mu_b4_b1 - 1.5924474f * mu_b4_b2 + 0.74506146f * mu_b4_b3 + 0.029852469f * mu_b4_u4;
+    const float q3_0_3 = 1.339655f * mu_b4_v4 + 2.173778f * mu_b4_b1 - 0.43256226f * mu_b4_b2 + 0.49187896f * mu_b4_b3 - 0.0073138364f * mu_b4_u4;
+    const float q3_0_4 = 0.6298031f * mu_b4_v4 + 0.92357904f * mu_b4_b1 - 0.18987514f * mu_b4_b2 - 0.010991531f * mu_b4_b3 + 0.031190056f * mu_b4_u4;
     const float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     const float q3 = q3_0 * 1.0f;
     const float e3 = p3 * u3 / q3;

@@ -12,18 +12,18 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.748x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7589f922770ecb0acf5ef09ace1d0ffe6b6e4c14491d812921453b76626c266e.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the L_p polish's solve of p = 6: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.546x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 4b388281552164fa65fcb88ccb142b09bcef6116560f02c30f47b9528efd2bd0.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-4, shifted 1.9e-5, bernstein 2.8e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 5.90e-4, max 3.75e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.62e-4, max 3.28e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.12e-7 (every op rounded, as this Rust), 7.57e-7 (fused multiply-add), 3.96e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.75e-3; this f32 code MAE 5.74e-4, max 3.75e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
-/// Denominator proved >= 4.240e-4 on the domain (Bernstein certificate), so the division is safe.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.3e-5, shifted 5.8e-6, bernstein 2.7e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 5.97e-4, max 3.17e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.41e-4, max 2.95e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.45e-7 (every op rounded, as this Rust), 6.54e-7 (fused multiply-add), 3.74e-6 (GPU division/sqrt error).
+/// Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.94e-4, max 3.17e-3; this f32 code MAE 5.94e-4, max 3.17e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
+/// Denominator proved >= 9.159e-6 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -40,14 +40,14 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
     let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
-    let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0_f32 + 2.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 2.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
-    let mu_u = (mu_t - 3.9443045e-31_f32) * 1.0_f32;
+    let mu_logv = (mu_c + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 1.5_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.5_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
+    let mu_u = (mu_t - 5.259073e-31_f32) * 1.0_f32;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     let r_b5_v = 1.0_f32 - r_t;
     let r_b5_u2 = r_t * r_t;
@@ -77,12 +77,12 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 1.0279294_f32 * mu_b5_v5 + 3.6115956_f32 * mu_b5_b1 + 3.7978678_f32 * mu_b5_b2 + 5.0368266_f32 * mu_b5_b3 + 4.282365_f32 * mu_b5_b4 + 1.2462618_f32 * mu_b5_u5;
-    let p0_0_1 = 8.478233_f32 * mu_b5_v5 + 31.395452_f32 * mu_b5_b1 + 27.055952_f32 * mu_b5_b2 + 10.981996_f32 * mu_b5_b3 + 6.2405853_f32 * mu_b5_b4 + 3.32993_f32 * mu_b5_u5;
-    let p0_0_2 = 23.587654_f32 * mu_b5_v5 + 109.84934_f32 * mu_b5_b1 + 144.93141_f32 * mu_b5_b2 + 91.93871_f32 * mu_b5_b3 + 36.601727_f32 * mu_b5_b4 + 11.197945_f32 * mu_b5_u5;
-    let p0_0_3 = 27.55418_f32 * mu_b5_v5 + 148.75098_f32 * mu_b5_b1 + 226.3771_f32 * mu_b5_b2 + 153.16722_f32 * mu_b5_b3 + 52.04733_f32 * mu_b5_b4 + 11.925638_f32 * mu_b5_u5;
-    let p0_0_4 = 22.174171_f32 * mu_b5_v5 + 122.23782_f32 * mu_b5_b1 + 203.67993_f32 * mu_b5_b2 + 148.71295_f32 * mu_b5_b3 + 49.04806_f32 * mu_b5_b4 + 7.883996_f32 * mu_b5_u5;
-    let p0_0_5 = 7.8463573_f32 * mu_b5_v5 + 40.997425_f32 * mu_b5_b1 + 69.86632_f32 * mu_b5_b2 + 52.42944_f32 * mu_b5_b3 + 17.089317_f32 * mu_b5_b4 + 2.1616514_f32 * mu_b5_u5;
+    let p0_0_0 = 1.0528737_f32 * mu_b5_v5 + 5.75218_f32 * mu_b5_b1 + 4.6021376_f32 * mu_b5_b2 + 3.6215332_f32 * mu_b5_b3 + 3.5102584_f32 * mu_b5_b4 + 0.7328423_f32 * mu_b5_u5;
+    let p0_0_1 = 7.672459_f32 * mu_b5_v5 + 40.488983_f32 * mu_b5_b1 + 31.375303_f32 * mu_b5_b2 + 5.173241_f32 * mu_b5_b3 + 3.3651853_f32 * mu_b5_b4 + 1.4571527_f32 * mu_b5_u5;
+    let p0_0_2 = 20.412016_f32 * mu_b5_v5 + 122.21837_f32 * mu_b5_b1 + 144.31216_f32 * mu_b5_b2 + 70.42235_f32 * mu_b5_b3 + 25.63297_f32 * mu_b5_b4 + 7.1292934_f32 * mu_b5_u5;
+    let p0_0_3 = 19.498417_f32 * mu_b5_v5 + 140.21817_f32 * mu_b5_b1 + 192.1068_f32 * mu_b5_b2 + 104.478065_f32 * mu_b5_b3 + 30.737139_f32 * mu_b5_b4 + 7.058972_f32 * mu_b5_u5;
+    let p0_0_4 = 13.257703_f32 * mu_b5_v5 + 97.33239_f32 * mu_b5_b1 + 154.47763_f32 * mu_b5_b2 + 100.98215_f32 * mu_b5_b3 + 30.837564_f32 * mu_b5_b4 + 4.964786_f32 * mu_b5_u5;
+    let p0_0_5 = 4.6347504_f32 * mu_b5_v5 + 30.010952_f32 * mu_b5_b1 + 50.740154_f32 * mu_b5_b2 + 36.20504_f32 * mu_b5_b3 + 11.293628_f32 * mu_b5_b4 + 1.3938292_f32 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -97,15 +97,15 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 0.8729462_f32 * 1.0_f32;
+    let u0_0_0 = 0.7960611_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 3.540466_f32 * 1.0_f32;
+    let u0_1_0 = 3.446482_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 5.406802_f32 * 1.0_f32;
+    let u0_2_0 = 5.1784935_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 3.6283998_f32 * 1.0_f32;
+    let u0_3_0 = 3.4721053_f32 * 1.0_f32;
     let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 0.9117044_f32 * 1.0_f32;
+    let u0_4_0 = 0.8782581_f32 * 1.0_f32;
     let u0_4 = u0_4_0 * 1.0_f32;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -131,101 +131,101 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 2.7370975_f32 * mu_b4_b1 + 1.8603674_f32 * mu_b4_b2 + 2.7513773_f32 * mu_b4_b3 + 1.1363808_f32 * mu_b4_u4;
-    let q0_0_1 = 7.3318415_f32 * mu_b4_v4 + 20.605307_f32 * mu_b4_b1 + 6.7779903_f32 * mu_b4_b2 + 1.3989055_f32 * mu_b4_b3 + 1.9274735_f32 * mu_b4_u4;
-    let q0_0_2 = 16.833965_f32 * mu_b4_v4 + 67.21114_f32 * mu_b4_b1 + 60.426456_f32 * mu_b4_b2 + 28.098166_f32 * mu_b4_b3 + 9.098528_f32 * mu_b4_u4;
-    let q0_0_3 = 14.468753_f32 * mu_b4_v4 + 69.433754_f32 * mu_b4_b1 + 72.81932_f32 * mu_b4_b2 + 30.271338_f32 * mu_b4_b3 + 6.450113_f32 * mu_b4_u4;
-    let q0_0_4 = 12.3201065_f32 * mu_b4_v4 + 53.50473_f32 * mu_b4_b1 + 67.43135_f32 * mu_b4_b2 + 34.234604_f32 * mu_b4_b3 + 6.4961543_f32 * mu_b4_u4;
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 4.6121693_f32 * mu_b4_b1 + 0.8748184_f32 * mu_b4_b2 + 2.4495068_f32 * mu_b4_b3 + 0.65149915_f32 * mu_b4_u4;
+    let q0_0_1 = 6.339882_f32 * mu_b4_v4 + 27.222252_f32 * mu_b4_b1 + 2.5923235_f32 * mu_b4_b2 + 0.5250976_f32 * mu_b4_b3 + 0.67371106_f32 * mu_b4_u4;
+    let q0_0_2 = 13.843411_f32 * mu_b4_v4 + 73.114_f32 * mu_b4_b1 + 46.106373_f32 * mu_b4_b2 + 19.969162_f32 * mu_b4_b3 + 5.9212275_f32 * mu_b4_u4;
+    let q0_0_3 = 8.594613_f32 * mu_b4_v4 + 61.713085_f32 * mu_b4_b1 + 48.47991_f32 * mu_b4_b2 + 16.851044_f32 * mu_b4_b3 + 3.3481686_f32 * mu_b4_u4;
+    let q0_0_4 = 6.9264503_f32 * mu_b4_v4 + 38.550632_f32 * mu_b4_b1 + 45.10324_f32 * mu_b4_b2 + 22.298939_f32 * mu_b4_b3 + 4.284519_f32 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.023927283_f32 * mu_b5_v5 + 0.08666795_f32 * mu_b5_b1 + 0.051048502_f32 * mu_b5_b2 + 0.05712835_f32 * mu_b5_b3 - 0.008128065_f32 * mu_b5_b4 + 0.0005723265_f32 * mu_b5_u5;
-    let p1_0_1 = -0.338504_f32 * mu_b5_v5 - 0.40768585_f32 * mu_b5_b1 + 0.09014824_f32 * mu_b5_b2 + 0.53885394_f32 * mu_b5_b3 - 0.0065901005_f32 * mu_b5_b4 + 0.0014906185_f32 * mu_b5_u5;
-    let p1_0_2 = -1.9128356_f32 * mu_b5_v5 - 3.7380412_f32 * mu_b5_b1 - 2.0988283_f32 * mu_b5_b2 + 0.13508065_f32 * mu_b5_b3 - 0.36111256_f32 * mu_b5_b4 + 0.005393029_f32 * mu_b5_u5;
-    let p1_0_3 = -3.104096_f32 * mu_b5_v5 - 5.9710126_f32 * mu_b5_b1 - 2.6351702_f32 * mu_b5_b2 + 0.8778057_f32 * mu_b5_b3 - 0.030734776_f32 * mu_b5_b4 + 0.09841517_f32 * mu_b5_u5;
-    let p1_0_4 = -2.3219392_f32 * mu_b5_v5 - 4.454612_f32 * mu_b5_b1 - 1.7329936_f32 * mu_b5_b2 + 0.8164195_f32 * mu_b5_b3 + 0.0646683_f32 * mu_b5_b4 + 0.035532594_f32 * mu_b5_u5;
-    let p1_0_5 = -0.6997852_f32 * mu_b5_v5 - 1.3849747_f32 * mu_b5_b1 - 0.5511279_f32 * mu_b5_b2 + 0.27659225_f32 * mu_b5_b3 + 0.07506427_f32 * mu_b5_b4 + 0.010054504_f32 * mu_b5_u5;
+    let p1_0_0 = 0.0540901_f32 * mu_b5_v5 + 0.18777704_f32 * mu_b5_b1 + 0.18129823_f32 * mu_b5_b2 + 0.10665971_f32 * mu_b5_b3 - 0.016916642_f32 * mu_b5_b4 + 0.0022396392_f32 * mu_b5_u5;
+    let p1_0_1 = -0.17724386_f32 * mu_b5_v5 - 0.13561685_f32 * mu_b5_b1 + 0.4526553_f32 * mu_b5_b2 + 0.7674337_f32 * mu_b5_b3 - 0.033248782_f32 * mu_b5_b4 + 0.001369377_f32 * mu_b5_u5;
+    let p1_0_2 = -2.065546_f32 * mu_b5_v5 - 4.8805757_f32 * mu_b5_b1 - 2.839857_f32 * mu_b5_b2 + 0.47944722_f32 * mu_b5_b3 - 0.26172394_f32 * mu_b5_b4 + 0.016048377_f32 * mu_b5_u5;
+    let p1_0_3 = -3.8054016_f32 * mu_b5_v5 - 8.725231_f32 * mu_b5_b1 - 4.4082446_f32 * mu_b5_b2 + 1.4617462_f32 * mu_b5_b3 + 0.290879_f32 * mu_b5_b4 + 0.12276465_f32 * mu_b5_u5;
+    let p1_0_4 = -2.852746_f32 * mu_b5_v5 - 6.282664_f32 * mu_b5_b1 - 2.771539_f32 * mu_b5_b2 + 1.2492361_f32 * mu_b5_b3 + 0.2355423_f32 * mu_b5_b4 + 0.03570834_f32 * mu_b5_u5;
+    let p1_0_5 = -0.80254465_f32 * mu_b5_v5 - 1.7195549_f32 * mu_b5_b1 - 0.6843899_f32 * mu_b5_b2 + 0.39628166_f32 * mu_b5_b3 + 0.09433079_f32 * mu_b5_b4 + 0.008874188_f32 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 1.9657415_f32 * 1.0_f32;
+    let u1_0_0 = 1.5763111_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = 3.1616328_f32 * 1.0_f32;
+    let u1_1_0 = 4.380353_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = 1.9908692_f32 * 1.0_f32;
+    let u1_2_0 = 2.9482727_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = 0.85982996_f32 * 1.0_f32;
+    let u1_3_0 = 0.6688195_f32 * 1.0_f32;
     let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = 0.061440498_f32 * 1.0_f32;
+    let u1_4_0 = 0.034788083_f32 * 1.0_f32;
     let u1_4 = u1_4_0 * 1.0_f32;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.149612_f32 * mu_b4_b1 + 2.1403823_f32 * mu_b4_b2 - 0.29732752_f32 * mu_b4_b3 + 0.021139918_f32 * mu_b4_u4;
-    let q1_0_1 = 3.9627562_f32 * mu_b4_v4 + 4.7327867_f32 * mu_b4_b1 + 5.6909676_f32 * mu_b4_b2 - 0.29005724_f32 * mu_b4_b3 + 0.025957398_f32 * mu_b4_u4;
-    let q1_0_2 = 8.517818_f32 * mu_b4_v4 + 6.693137_f32 * mu_b4_b1 + 7.675742_f32 * mu_b4_b2 + 2.1449134_f32 * mu_b4_b3 + 0.49991795_f32 * mu_b4_u4;
-    let q1_0_3 = 8.665108_f32 * mu_b4_v4 + 5.528851_f32 * mu_b4_b1 + 2.9611373_f32 * mu_b4_b2 + 1.0562347_f32 * mu_b4_b3 + 0.19579224_f32 * mu_b4_u4;
-    let q1_0_4 = 3.4870028_f32 * mu_b4_v4 + 2.9267163_f32 * mu_b4_b1 + 1.0977222_f32 * mu_b4_b2 + 0.4264195_f32 * mu_b4_b3 + 0.077648714_f32 * mu_b4_u4;
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.2878106_f32 * mu_b4_b1 + 1.930646_f32 * mu_b4_b2 - 0.3054976_f32 * mu_b4_b3 + 0.038179345_f32 * mu_b4_u4;
+    let q1_0_1 = 4.947112_f32 * mu_b4_v4 + 6.987315_f32 * mu_b4_b1 + 5.704507_f32 * mu_b4_b2 - 0.3097809_f32 * mu_b4_b3 - 0.028036145_f32 * mu_b4_u4;
+    let q1_0_2 = 11.222962_f32 * mu_b4_v4 + 12.3192835_f32 * mu_b4_b1 + 9.373132_f32 * mu_b4_b2 + 2.8645144_f32 * mu_b4_b3 + 0.5067761_f32 * mu_b4_u4;
+    let q1_0_3 = 10.94696_f32 * mu_b4_v4 + 9.763692_f32 * mu_b4_b1 + 4.108583_f32 * mu_b4_b2 + 1.5048939_f32 * mu_b4_b3 + 0.15909182_f32 * mu_b4_u4;
+    let q1_0_4 = 4.137705_f32 * mu_b4_v4 + 4.010294_f32 * mu_b4_b1 + 1.3088825_f32 * mu_b4_b2 + 0.5024766_f32 * mu_b4_b3 + 0.052695315_f32 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.023015369_f32 * mu_b5_v5 - 0.05811919_f32 * mu_b5_b1 + 0.60886854_f32 * mu_b5_b2 + 0.0072470307_f32 * mu_b5_b3 - 5.574249e-5_f32 * mu_b5_b4 - 8.892457e-5_f32 * mu_b5_u5;
-    let p2_0_1 = 0.7201499_f32 * mu_b5_v5 + 0.251972_f32 * mu_b5_b1 - 0.22355045_f32 * mu_b5_b2 - 2.9612658_f32 * mu_b5_b3 - 0.018628256_f32 * mu_b5_b4 + 0.0034724523_f32 * mu_b5_u5;
-    let p2_0_2 = 1.2666818_f32 * mu_b5_v5 + 0.93591774_f32 * mu_b5_b1 - 1.0776683_f32 * mu_b5_b2 - 5.5675116_f32 * mu_b5_b3 + 1.5181401_f32 * mu_b5_b4 - 0.02883782_f32 * mu_b5_u5;
-    let p2_0_3 = -0.15870906_f32 * mu_b5_v5 + 0.13347422_f32 * mu_b5_b1 - 0.9735456_f32 * mu_b5_b2 - 4.9635415_f32 * mu_b5_b3 + 2.6885612_f32 * mu_b5_b4 + 0.01878891_f32 * mu_b5_u5;
-    let p2_0_4 = -0.7403634_f32 * mu_b5_v5 + 0.23161463_f32 * mu_b5_b1 - 0.5711276_f32 * mu_b5_b2 - 3.890712_f32 * mu_b5_b3 + 0.9228521_f32 * mu_b5_b4 + 0.086665794_f32 * mu_b5_u5;
-    let p2_0_5 = -0.022695767_f32 * mu_b5_v5 + 0.90117705_f32 * mu_b5_b1 + 0.5115889_f32 * mu_b5_b2 - 1.1717486_f32 * mu_b5_b3 - 0.051786497_f32 * mu_b5_b4 + 0.0709197_f32 * mu_b5_u5;
+    let p2_0_0 = -0.023504397_f32 * mu_b5_v5 - 0.15601662_f32 * mu_b5_b1 - 0.1830444_f32 * mu_b5_b2 - 0.029548377_f32 * mu_b5_b3 + 0.0009959389_f32 * mu_b5_b4 - 2.115275e-5_f32 * mu_b5_u5;
+    let p2_0_1 = 0.12455663_f32 * mu_b5_v5 - 0.14977297_f32 * mu_b5_b1 + 0.3742214_f32 * mu_b5_b2 + 0.76687837_f32 * mu_b5_b3 + 0.018087784_f32 * mu_b5_b4 - 0.0004059275_f32 * mu_b5_u5;
+    let p2_0_2 = 1.764101_f32 * mu_b5_v5 + 2.4968278_f32 * mu_b5_b1 + 2.74409_f32 * mu_b5_b2 + 1.71977_f32 * mu_b5_b3 - 0.48548177_f32 * mu_b5_b4 + 0.0057787052_f32 * mu_b5_u5;
+    let p2_0_3 = 2.6682746_f32 * mu_b5_v5 + 2.594031_f32 * mu_b5_b1 + 1.250782_f32 * mu_b5_b2 + 0.53850645_f32 * mu_b5_b3 - 1.0174378_f32 * mu_b5_b4 - 0.03125165_f32 * mu_b5_u5;
+    let p2_0_4 = 0.95837563_f32 * mu_b5_v5 - 0.90613884_f32 * mu_b5_b1 - 1.4412444_f32 * mu_b5_b2 + 0.4570839_f32 * mu_b5_b3 - 0.12561041_f32 * mu_b5_b4 - 0.059590522_f32 * mu_b5_u5;
+    let p2_0_5 = -0.12903814_f32 * mu_b5_v5 - 1.1854819_f32 * mu_b5_b1 - 0.8569944_f32 * mu_b5_b2 + 0.4901284_f32 * mu_b5_b3 + 0.21335766_f32 * mu_b5_b4 - 0.05735462_f32 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0_f32;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = -0.9226769_f32 * 1.0_f32;
+    let u2_0_0 = -0.08375653_f32 * 1.0_f32;
     let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = 2.9907134_f32 * 1.0_f32;
+    let u2_1_0 = 0.52448535_f32 * 1.0_f32;
     let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = 2.162519_f32 * 1.0_f32;
+    let u2_2_0 = 0.2204653_f32 * 1.0_f32;
     let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = -0.8647126_f32 * 1.0_f32;
+    let u2_3_0 = -0.16786768_f32 * 1.0_f32;
     let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = -0.19725056_f32 * 1.0_f32;
+    let u2_4_0 = -0.037908226_f32 * 1.0_f32;
     let u2_4 = u2_4_0 * 1.0_f32;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 2.0533614_f32 * mu_b4_b1 + 0.55934227_f32 * mu_b4_b2 - 0.0244591_f32 * mu_b4_b3 + 0.0016561532_f32 * mu_b4_u4;
-    let q2_0_1 = 0.8231968_f32 * mu_b4_v4 + 1.4302309_f32 * mu_b4_b1 - 1.335237_f32 * mu_b4_b2 - 0.08291706_f32 * mu_b4_b3 - 0.012261838_f32 * mu_b4_u4;
-    let q2_0_2 = 0.5946984_f32 * mu_b4_v4 + 1.2518948_f32 * mu_b4_b1 - 1.0548242_f32 * mu_b4_b2 + 1.1682026_f32 * mu_b4_b3 + 0.07279954_f32 * mu_b4_u4;
-    let q2_0_3 = 1.4221404_f32 * mu_b4_v4 + 2.3411555_f32 * mu_b4_b1 - 0.33673525_f32 * mu_b4_b2 + 0.61248505_f32 * mu_b4_b3 - 0.003380522_f32 * mu_b4_u4;
-    let q2_0_4 = 0.8010454_f32 * mu_b4_v4 + 1.0677565_f32 * mu_b4_b1 - 0.2740506_f32 * mu_b4_b2 - 0.012549128_f32 * mu_b4_b3 + 0.060308564_f32 * mu_b4_u4;
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 1.1581638_f32 * mu_b4_b1 + 0.32346153_f32 * mu_b4_b2 - 0.012175675_f32 * mu_b4_b3 + 0.00033538206_f32 * mu_b4_u4;
+    let q2_0_1 = 2.7958322_f32 * mu_b4_v4 + 1.0031105_f32 * mu_b4_b1 - 1.1864978_f32 * mu_b4_b2 - 0.10675389_f32 * mu_b4_b3 - 0.001742415_f32 * mu_b4_u4;
+    let q2_0_2 = 5.0625267_f32 * mu_b4_v4 + 2.1664333_f32 * mu_b4_b1 - 1.2624766_f32 * mu_b4_b2 + 0.6102312_f32 * mu_b4_b3 + 0.043467548_f32 * mu_b4_u4;
+    let q2_0_3 = 4.870515_f32 * mu_b4_v4 + 3.2631128_f32 * mu_b4_b1 - 0.5485948_f32 * mu_b4_b2 + 0.34912357_f32 * mu_b4_b3 + 0.0015518361_f32 * mu_b4_u4;
+    let q2_0_4 = 1.6903424_f32 * mu_b4_v4 + 1.2877148_f32 * mu_b4_b1 - 0.27694476_f32 * mu_b4_b2 - 0.009597333_f32 * mu_b4_b3 + 0.04252862_f32 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.033494536_f32 * mu_b5_v5 - 0.07179645_f32 * mu_b5_b1 + 0.590686_f32 * mu_b5_b2 + 0.0028464787_f32 * mu_b5_b3 + 0.00016274753_f32 * mu_b5_b4 - 0.00010366873_f32 * mu_b5_u5;
-    let p3_0_1 = 0.7828628_f32 * mu_b5_v5 + 0.35548595_f32 * mu_b5_b1 - 0.3499816_f32 * mu_b5_b2 - 3.0781305_f32 * mu_b5_b3 - 0.019917488_f32 * mu_b5_b4 + 0.0035686952_f32 * mu_b5_u5;
-    let p3_0_2 = 1.3869923_f32 * mu_b5_v5 + 1.1397799_f32 * mu_b5_b1 - 1.2728674_f32 * mu_b5_b2 - 5.6348815_f32 * mu_b5_b3 + 1.6256609_f32 * mu_b5_b4 - 0.029191433_f32 * mu_b5_u5;
-    let p3_0_3 = -0.10716626_f32 * mu_b5_v5 + 0.28535733_f32 * mu_b5_b1 - 1.121544_f32 * mu_b5_b2 - 4.998074_f32 * mu_b5_b3 + 2.7935352_f32 * mu_b5_b4 + 0.0134629235_f32 * mu_b5_u5;
-    let p3_0_4 = -0.66676617_f32 * mu_b5_v5 + 0.5408565_f32 * mu_b5_b1 - 0.43981817_f32 * mu_b5_b2 - 3.95932_f32 * mu_b5_b3 + 0.9195299_f32 * mu_b5_b4 + 0.09936973_f32 * mu_b5_u5;
-    let p3_0_5 = 0.038081285_f32 * mu_b5_v5 + 1.1032271_f32 * mu_b5_b1 + 0.61998713_f32 * mu_b5_b2 - 1.2446895_f32 * mu_b5_b3 - 0.09303376_f32 * mu_b5_b4 + 0.080089115_f32 * mu_b5_u5;
+    let p3_0_0 = -0.10618982_f32 * mu_b5_v5 - 0.22097614_f32 * mu_b5_b1 - 0.10060539_f32 * mu_b5_b2 - 0.023760693_f32 * mu_b5_b3 + 0.00092218275_f32 * mu_b5_b4 - 3.397353e-5_f32 * mu_b5_u5;
+    let p3_0_1 = -0.01172875_f32 * mu_b5_v5 + 0.040473424_f32 * mu_b5_b1 - 0.17281264_f32 * mu_b5_b2 - 0.41892692_f32 * mu_b5_b3 + 0.00096510025_f32 * mu_b5_b4 + 0.00038826157_f32 * mu_b5_u5;
+    let p3_0_2 = -0.02469226_f32 * mu_b5_v5 + 0.16323572_f32 * mu_b5_b1 - 0.7435273_f32 * mu_b5_b2 - 1.0953797_f32 * mu_b5_b3 + 0.21977174_f32 * mu_b5_b4 - 0.005281651_f32 * mu_b5_u5;
+    let p3_0_3 = -0.36847827_f32 * mu_b5_v5 - 0.12501034_f32 * mu_b5_b1 - 0.8472926_f32 * mu_b5_b2 - 1.0088483_f32 * mu_b5_b3 + 0.47393465_f32 * mu_b5_b4 + 0.0030444849_f32 * mu_b5_u5;
+    let p3_0_4 = -0.2572939_f32 * mu_b5_v5 + 0.20198427_f32 * mu_b5_b1 - 0.16799392_f32 * mu_b5_b2 - 0.6698706_f32 * mu_b5_b3 + 0.16427793_f32 * mu_b5_b4 + 0.012387482_f32 * mu_b5_u5;
+    let p3_0_5 = 0.003233346_f32 * mu_b5_v5 + 0.28479236_f32 * mu_b5_b1 + 0.12000187_f32 * mu_b5_b2 - 0.24921268_f32 * mu_b5_b3 - 0.033916317_f32 * mu_b5_b4 + 0.01484143_f32 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0_f32;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = 0.9322462_f32 * 1.0_f32;
+    let u3_0_0 = -0.07609171_f32 * 1.0_f32;
     let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = -2.8046095_f32 * 1.0_f32;
+    let u3_1_0 = 1.1082972_f32 * 1.0_f32;
     let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -2.305701_f32 * 1.0_f32;
+    let u3_2_0 = -0.25059426_f32 * 1.0_f32;
     let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = 0.7835565_f32 * 1.0_f32;
+    let u3_3_0 = -0.4446055_f32 * 1.0_f32;
     let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = 0.18367109_f32 * 1.0_f32;
+    let u3_4_0 = -0.08280608_f32 * 1.0_f32;
     let u3_4 = u3_4_0 * 1.0_f32;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 2.0493348_f32 * mu_b4_b1 + 0.55107784_f32 * mu_b4_b2 - 0.024177462_f32 * mu_b4_b3 + 0.0016214042_f32 * mu_b4_u4;
-    let q3_0_1 = 0.8096832_f32 * mu_b4_v4 + 1.4161656_f32 * mu_b4_b1 - 1.3500326_f32 * mu_b4_b2 - 0.07823634_f32 * mu_b4_b3 - 0.011553607_f32 * mu_b4_u4;
-    let q3_0_2 = 0.59605837_f32 * mu_b4_v4 + 1.3039631_f32 * mu_b4_b1 - 1.0365897_f32 * mu_b4_b2 + 1.1639162_f32 * mu_b4_b3 + 0.07366229_f32 * mu_b4_u4;
-    let q3_0_3 = 1.4527767_f32 * mu_b4_v4 + 2.4362953_f32 * mu_b4_b1 - 0.3184477_f32 * mu_b4_b2 + 0.5867349_f32 * mu_b4_b3 - 0.0011311016_f32 * mu_b4_u4;
-    let q3_0_4 = 0.81988734_f32 * mu_b4_v4 + 1.113106_f32 * mu_b4_b1 - 0.26205397_f32 * mu_b4_b2 - 0.017297247_f32 * mu_b4_b3 + 0.06551733_f32 * mu_b4_u4;
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 1.7643796_f32 * mu_b4_b1 + 0.3117221_f32 * mu_b4_b2 - 0.010827947_f32 * mu_b4_b3 + 0.00036013432_f32 * mu_b4_u4;
+    let q3_0_1 = 1.3344676_f32 * mu_b4_v4 + 1.6846585_f32 * mu_b4_b1 - 1.4680431_f32 * mu_b4_b2 - 0.055306982_f32 * mu_b4_b3 - 0.0029510036_f32 * mu_b4_u4;
+    let q3_0_2 = 1.1159871_f32 * mu_b4_v4 + 1.4571477_f32 * mu_b4_b1 - 1.5924474_f32 * mu_b4_b2 + 0.74506146_f32 * mu_b4_b3 + 0.029852469_f32 * mu_b4_u4;
+    let q3_0_3 = 1.339655_f32 * mu_b4_v4 + 2.173778_f32 * mu_b4_b1 - 0.43256226_f32 * mu_b4_b2 + 0.49187896_f32 * mu_b4_b3 - 0.0073138364_f32 * mu_b4_u4;
+    let q3_0_4 = 0.6298031_f32 * mu_b4_v4 + 0.92357904_f32 * mu_b4_b1 - 0.18987514_f32 * mu_b4_b2 - 0.010991531_f32 * mu_b4_b3 + 0.031190056_f32 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;

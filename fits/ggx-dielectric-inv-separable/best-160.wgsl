@@ -11,18 +11,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 3 of the polish), its MAE on the fitting points 1.748x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 7589f922770ecb0acf5ef09ace1d0ffe6b6e4c14491d812921453b76626c266e.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the L_p polish's solve of p = 6: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.546x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-160.json (furnace 0.1.0), fit SHA-256 4b388281552164fa65fcb88ccb142b09bcef6116560f02c30f47b9528efd2bd0.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.8e-4, shifted 1.9e-5, bernstein 2.8e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 5.90e-4, max 3.75e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.62e-4, max 3.28e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.12e-7 (every op rounded, as this Rust), 7.57e-7 (fused multiply-add), 3.96e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.96e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.74e-4, max 3.75e-3; this f32 code MAE 5.74e-4, max 3.75e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
-// Denominator proved >= 4.240e-4 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.3e-5, shifted 5.8e-6, bernstein 2.7e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 5.97e-4, max 3.17e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.41e-4, max 2.95e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.45e-7 (every op rounded, as this Rust), 6.54e-7 (fused multiply-add), 3.74e-6 (GPU division/sqrt error).
+// Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 5.94e-4, max 3.17e-3; this f32 code MAE 5.94e-4, max 3.17e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-3 on the measurement grid.
+// Denominator proved >= 9.159e-6 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -32,14 +32,14 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = max(min(mu, 1.0), 0.0);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     let mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
     let mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
-    let mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
-    // t = (1*(v*(1 + 2*r*r) + 2^-100)/(v + 2*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0 + 2.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 2.0 * (r_c * r_c) + 7.888609e-31);
-    // u = (t - 0.0000000000000000000000000000003944304526105059)/(1 - 0.0000000000000000000000000000003944304526105059) in [0, 1]
-    let mu_u = (mu_t - 3.9443045e-31) * 1.0;
+    let mu_logv = (mu_c + 2.5 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 2.5 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0 + 1.5 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.5 * (r_c * r_c) + 7.888609e-31);
+    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
+    let mu_u = (mu_t - 5.259073e-31) * 1.0;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     let r_b5_v = 1.0 - r_t;
     let r_b5_u2 = r_t * r_t;
@@ -69,12 +69,12 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 1.0279294 * mu_b5_v5 + 3.6115956 * mu_b5_b1 + 3.7978678 * mu_b5_b2 + 5.0368266 * mu_b5_b3 + 4.282365 * mu_b5_b4 + 1.2462618 * mu_b5_u5;
-    let p0_0_1 = 8.478233 * mu_b5_v5 + 31.395452 * mu_b5_b1 + 27.055952 * mu_b5_b2 + 10.981996 * mu_b5_b3 + 6.2405853 * mu_b5_b4 + 3.32993 * mu_b5_u5;
-    let p0_0_2 = 23.587654 * mu_b5_v5 + 109.84934 * mu_b5_b1 + 144.93141 * mu_b5_b2 + 91.93871 * mu_b5_b3 + 36.601727 * mu_b5_b4 + 11.197945 * mu_b5_u5;
-    let p0_0_3 = 27.55418 * mu_b5_v5 + 148.75098 * mu_b5_b1 + 226.3771 * mu_b5_b2 + 153.16722 * mu_b5_b3 + 52.04733 * mu_b5_b4 + 11.925638 * mu_b5_u5;
-    let p0_0_4 = 22.174171 * mu_b5_v5 + 122.23782 * mu_b5_b1 + 203.67993 * mu_b5_b2 + 148.71295 * mu_b5_b3 + 49.04806 * mu_b5_b4 + 7.883996 * mu_b5_u5;
-    let p0_0_5 = 7.8463573 * mu_b5_v5 + 40.997425 * mu_b5_b1 + 69.86632 * mu_b5_b2 + 52.42944 * mu_b5_b3 + 17.089317 * mu_b5_b4 + 2.1616514 * mu_b5_u5;
+    let p0_0_0 = 1.0528737 * mu_b5_v5 + 5.75218 * mu_b5_b1 + 4.6021376 * mu_b5_b2 + 3.6215332 * mu_b5_b3 + 3.5102584 * mu_b5_b4 + 0.7328423 * mu_b5_u5;
+    let p0_0_1 = 7.672459 * mu_b5_v5 + 40.488983 * mu_b5_b1 + 31.375303 * mu_b5_b2 + 5.173241 * mu_b5_b3 + 3.3651853 * mu_b5_b4 + 1.4571527 * mu_b5_u5;
+    let p0_0_2 = 20.412016 * mu_b5_v5 + 122.21837 * mu_b5_b1 + 144.31216 * mu_b5_b2 + 70.42235 * mu_b5_b3 + 25.63297 * mu_b5_b4 + 7.1292934 * mu_b5_u5;
+    let p0_0_3 = 19.498417 * mu_b5_v5 + 140.21817 * mu_b5_b1 + 192.1068 * mu_b5_b2 + 104.478065 * mu_b5_b3 + 30.737139 * mu_b5_b4 + 7.058972 * mu_b5_u5;
+    let p0_0_4 = 13.257703 * mu_b5_v5 + 97.33239 * mu_b5_b1 + 154.47763 * mu_b5_b2 + 100.98215 * mu_b5_b3 + 30.837564 * mu_b5_b4 + 4.964786 * mu_b5_u5;
+    let p0_0_5 = 4.6347504 * mu_b5_v5 + 30.010952 * mu_b5_b1 + 50.740154 * mu_b5_b2 + 36.20504 * mu_b5_b3 + 11.293628 * mu_b5_b4 + 1.3938292 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -89,15 +89,15 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 0.8729462 * 1.0;
+    let u0_0_0 = 0.7960611 * 1.0;
     let u0_0 = u0_0_0 * 1.0;
-    let u0_1_0 = 3.540466 * 1.0;
+    let u0_1_0 = 3.446482 * 1.0;
     let u0_1 = u0_1_0 * 1.0;
-    let u0_2_0 = 5.406802 * 1.0;
+    let u0_2_0 = 5.1784935 * 1.0;
     let u0_2 = u0_2_0 * 1.0;
-    let u0_3_0 = 3.6283998 * 1.0;
+    let u0_3_0 = 3.4721053 * 1.0;
     let u0_3 = u0_3_0 * 1.0;
-    let u0_4_0 = 0.9117044 * 1.0;
+    let u0_4_0 = 0.8782581 * 1.0;
     let u0_4 = u0_4_0 * 1.0;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -123,101 +123,101 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0 * mu_b4_v4 + 2.7370975 * mu_b4_b1 + 1.8603674 * mu_b4_b2 + 2.7513773 * mu_b4_b3 + 1.1363808 * mu_b4_u4;
-    let q0_0_1 = 7.3318415 * mu_b4_v4 + 20.605307 * mu_b4_b1 + 6.7779903 * mu_b4_b2 + 1.3989055 * mu_b4_b3 + 1.9274735 * mu_b4_u4;
-    let q0_0_2 = 16.833965 * mu_b4_v4 + 67.21114 * mu_b4_b1 + 60.426456 * mu_b4_b2 + 28.098166 * mu_b4_b3 + 9.098528 * mu_b4_u4;
-    let q0_0_3 = 14.468753 * mu_b4_v4 + 69.433754 * mu_b4_b1 + 72.81932 * mu_b4_b2 + 30.271338 * mu_b4_b3 + 6.450113 * mu_b4_u4;
-    let q0_0_4 = 12.3201065 * mu_b4_v4 + 53.50473 * mu_b4_b1 + 67.43135 * mu_b4_b2 + 34.234604 * mu_b4_b3 + 6.4961543 * mu_b4_u4;
+    let q0_0_0 = 1.0 * mu_b4_v4 + 4.6121693 * mu_b4_b1 + 0.8748184 * mu_b4_b2 + 2.4495068 * mu_b4_b3 + 0.65149915 * mu_b4_u4;
+    let q0_0_1 = 6.339882 * mu_b4_v4 + 27.222252 * mu_b4_b1 + 2.5923235 * mu_b4_b2 + 0.5250976 * mu_b4_b3 + 0.67371106 * mu_b4_u4;
+    let q0_0_2 = 13.843411 * mu_b4_v4 + 73.114 * mu_b4_b1 + 46.106373 * mu_b4_b2 + 19.969162 * mu_b4_b3 + 5.9212275 * mu_b4_u4;
+    let q0_0_3 = 8.594613 * mu_b4_v4 + 61.713085 * mu_b4_b1 + 48.47991 * mu_b4_b2 + 16.851044 * mu_b4_b3 + 3.3481686 * mu_b4_u4;
+    let q0_0_4 = 6.9264503 * mu_b4_v4 + 38.550632 * mu_b4_b1 + 45.10324 * mu_b4_b2 + 22.298939 * mu_b4_b3 + 4.284519 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.023927283 * mu_b5_v5 + 0.08666795 * mu_b5_b1 + 0.051048502 * mu_b5_b2 + 0.05712835 * mu_b5_b3 - 0.008128065 * mu_b5_b4 + 0.0005723265 * mu_b5_u5;
-    let p1_0_1 = -0.338504 * mu_b5_v5 - 0.40768585 * mu_b5_b1 + 0.09014824 * mu_b5_b2 + 0.53885394 * mu_b5_b3 - 0.0065901005 * mu_b5_b4 + 0.0014906185 * mu_b5_u5;
-    let p1_0_2 = -1.9128356 * mu_b5_v5 - 3.7380412 * mu_b5_b1 - 2.0988283 * mu_b5_b2 + 0.13508065 * mu_b5_b3 - 0.36111256 * mu_b5_b4 + 0.005393029 * mu_b5_u5;
-    let p1_0_3 = -3.104096 * mu_b5_v5 - 5.9710126 * mu_b5_b1 - 2.6351702 * mu_b5_b2 + 0.8778057 * mu_b5_b3 - 0.030734776 * mu_b5_b4 + 0.09841517 * mu_b5_u5;
-    let p1_0_4 = -2.3219392 * mu_b5_v5 - 4.454612 * mu_b5_b1 - 1.7329936 * mu_b5_b2 + 0.8164195 * mu_b5_b3 + 0.0646683 * mu_b5_b4 + 0.035532594 * mu_b5_u5;
-    let p1_0_5 = -0.6997852 * mu_b5_v5 - 1.3849747 * mu_b5_b1 - 0.5511279 * mu_b5_b2 + 0.27659225 * mu_b5_b3 + 0.07506427 * mu_b5_b4 + 0.010054504 * mu_b5_u5;
+    let p1_0_0 = 0.0540901 * mu_b5_v5 + 0.18777704 * mu_b5_b1 + 0.18129823 * mu_b5_b2 + 0.10665971 * mu_b5_b3 - 0.016916642 * mu_b5_b4 + 0.0022396392 * mu_b5_u5;
+    let p1_0_1 = -0.17724386 * mu_b5_v5 - 0.13561685 * mu_b5_b1 + 0.4526553 * mu_b5_b2 + 0.7674337 * mu_b5_b3 - 0.033248782 * mu_b5_b4 + 0.001369377 * mu_b5_u5;
+    let p1_0_2 = -2.065546 * mu_b5_v5 - 4.8805757 * mu_b5_b1 - 2.839857 * mu_b5_b2 + 0.47944722 * mu_b5_b3 - 0.26172394 * mu_b5_b4 + 0.016048377 * mu_b5_u5;
+    let p1_0_3 = -3.8054016 * mu_b5_v5 - 8.725231 * mu_b5_b1 - 4.4082446 * mu_b5_b2 + 1.4617462 * mu_b5_b3 + 0.290879 * mu_b5_b4 + 0.12276465 * mu_b5_u5;
+    let p1_0_4 = -2.852746 * mu_b5_v5 - 6.282664 * mu_b5_b1 - 2.771539 * mu_b5_b2 + 1.2492361 * mu_b5_b3 + 0.2355423 * mu_b5_b4 + 0.03570834 * mu_b5_u5;
+    let p1_0_5 = -0.80254465 * mu_b5_v5 - 1.7195549 * mu_b5_b1 - 0.6843899 * mu_b5_b2 + 0.39628166 * mu_b5_b3 + 0.09433079 * mu_b5_b4 + 0.008874188 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 1.9657415 * 1.0;
+    let u1_0_0 = 1.5763111 * 1.0;
     let u1_0 = u1_0_0 * 1.0;
-    let u1_1_0 = 3.1616328 * 1.0;
+    let u1_1_0 = 4.380353 * 1.0;
     let u1_1 = u1_1_0 * 1.0;
-    let u1_2_0 = 1.9908692 * 1.0;
+    let u1_2_0 = 2.9482727 * 1.0;
     let u1_2 = u1_2_0 * 1.0;
-    let u1_3_0 = 0.85982996 * 1.0;
+    let u1_3_0 = 0.6688195 * 1.0;
     let u1_3 = u1_3_0 * 1.0;
-    let u1_4_0 = 0.061440498 * 1.0;
+    let u1_4_0 = 0.034788083 * 1.0;
     let u1_4 = u1_4_0 * 1.0;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0 * mu_b4_v4 + 2.149612 * mu_b4_b1 + 2.1403823 * mu_b4_b2 - 0.29732752 * mu_b4_b3 + 0.021139918 * mu_b4_u4;
-    let q1_0_1 = 3.9627562 * mu_b4_v4 + 4.7327867 * mu_b4_b1 + 5.6909676 * mu_b4_b2 - 0.29005724 * mu_b4_b3 + 0.025957398 * mu_b4_u4;
-    let q1_0_2 = 8.517818 * mu_b4_v4 + 6.693137 * mu_b4_b1 + 7.675742 * mu_b4_b2 + 2.1449134 * mu_b4_b3 + 0.49991795 * mu_b4_u4;
-    let q1_0_3 = 8.665108 * mu_b4_v4 + 5.528851 * mu_b4_b1 + 2.9611373 * mu_b4_b2 + 1.0562347 * mu_b4_b3 + 0.19579224 * mu_b4_u4;
-    let q1_0_4 = 3.4870028 * mu_b4_v4 + 2.9267163 * mu_b4_b1 + 1.0977222 * mu_b4_b2 + 0.4264195 * mu_b4_b3 + 0.077648714 * mu_b4_u4;
+    let q1_0_0 = 1.0 * mu_b4_v4 + 2.2878106 * mu_b4_b1 + 1.930646 * mu_b4_b2 - 0.3054976 * mu_b4_b3 + 0.038179345 * mu_b4_u4;
+    let q1_0_1 = 4.947112 * mu_b4_v4 + 6.987315 * mu_b4_b1 + 5.704507 * mu_b4_b2 - 0.3097809 * mu_b4_b3 - 0.028036145 * mu_b4_u4;
+    let q1_0_2 = 11.222962 * mu_b4_v4 + 12.3192835 * mu_b4_b1 + 9.373132 * mu_b4_b2 + 2.8645144 * mu_b4_b3 + 0.5067761 * mu_b4_u4;
+    let q1_0_3 = 10.94696 * mu_b4_v4 + 9.763692 * mu_b4_b1 + 4.108583 * mu_b4_b2 + 1.5048939 * mu_b4_b3 + 0.15909182 * mu_b4_u4;
+    let q1_0_4 = 4.137705 * mu_b4_v4 + 4.010294 * mu_b4_b1 + 1.3088825 * mu_b4_b2 + 0.5024766 * mu_b4_b3 + 0.052695315 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.023015369 * mu_b5_v5 - 0.05811919 * mu_b5_b1 + 0.60886854 * mu_b5_b2 + 0.0072470307 * mu_b5_b3 - 5.574249e-5 * mu_b5_b4 - 8.892457e-5 * mu_b5_u5;
-    let p2_0_1 = 0.7201499 * mu_b5_v5 + 0.251972 * mu_b5_b1 - 0.22355045 * mu_b5_b2 - 2.9612658 * mu_b5_b3 - 0.018628256 * mu_b5_b4 + 0.0034724523 * mu_b5_u5;
-    let p2_0_2 = 1.2666818 * mu_b5_v5 + 0.93591774 * mu_b5_b1 - 1.0776683 * mu_b5_b2 - 5.5675116 * mu_b5_b3 + 1.5181401 * mu_b5_b4 - 0.02883782 * mu_b5_u5;
-    let p2_0_3 = -0.15870906 * mu_b5_v5 + 0.13347422 * mu_b5_b1 - 0.9735456 * mu_b5_b2 - 4.9635415 * mu_b5_b3 + 2.6885612 * mu_b5_b4 + 0.01878891 * mu_b5_u5;
-    let p2_0_4 = -0.7403634 * mu_b5_v5 + 0.23161463 * mu_b5_b1 - 0.5711276 * mu_b5_b2 - 3.890712 * mu_b5_b3 + 0.9228521 * mu_b5_b4 + 0.086665794 * mu_b5_u5;
-    let p2_0_5 = -0.022695767 * mu_b5_v5 + 0.90117705 * mu_b5_b1 + 0.5115889 * mu_b5_b2 - 1.1717486 * mu_b5_b3 - 0.051786497 * mu_b5_b4 + 0.0709197 * mu_b5_u5;
+    let p2_0_0 = -0.023504397 * mu_b5_v5 - 0.15601662 * mu_b5_b1 - 0.1830444 * mu_b5_b2 - 0.029548377 * mu_b5_b3 + 0.0009959389 * mu_b5_b4 - 2.115275e-5 * mu_b5_u5;
+    let p2_0_1 = 0.12455663 * mu_b5_v5 - 0.14977297 * mu_b5_b1 + 0.3742214 * mu_b5_b2 + 0.76687837 * mu_b5_b3 + 0.018087784 * mu_b5_b4 - 0.0004059275 * mu_b5_u5;
+    let p2_0_2 = 1.764101 * mu_b5_v5 + 2.4968278 * mu_b5_b1 + 2.74409 * mu_b5_b2 + 1.71977 * mu_b5_b3 - 0.48548177 * mu_b5_b4 + 0.0057787052 * mu_b5_u5;
+    let p2_0_3 = 2.6682746 * mu_b5_v5 + 2.594031 * mu_b5_b1 + 1.250782 * mu_b5_b2 + 0.53850645 * mu_b5_b3 - 1.0174378 * mu_b5_b4 - 0.03125165 * mu_b5_u5;
+    let p2_0_4 = 0.95837563 * mu_b5_v5 - 0.90613884 * mu_b5_b1 - 1.4412444 * mu_b5_b2 + 0.4570839 * mu_b5_b3 - 0.12561041 * mu_b5_b4 - 0.059590522 * mu_b5_u5;
+    let p2_0_5 = -0.12903814 * mu_b5_v5 - 1.1854819 * mu_b5_b1 - 0.8569944 * mu_b5_b2 + 0.4901284 * mu_b5_b3 + 0.21335766 * mu_b5_b4 - 0.05735462 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = -0.9226769 * 1.0;
+    let u2_0_0 = -0.08375653 * 1.0;
     let u2_0 = u2_0_0 * 1.0;
-    let u2_1_0 = 2.9907134 * 1.0;
+    let u2_1_0 = 0.52448535 * 1.0;
     let u2_1 = u2_1_0 * 1.0;
-    let u2_2_0 = 2.162519 * 1.0;
+    let u2_2_0 = 0.2204653 * 1.0;
     let u2_2 = u2_2_0 * 1.0;
-    let u2_3_0 = -0.8647126 * 1.0;
+    let u2_3_0 = -0.16786768 * 1.0;
     let u2_3 = u2_3_0 * 1.0;
-    let u2_4_0 = -0.19725056 * 1.0;
+    let u2_4_0 = -0.037908226 * 1.0;
     let u2_4 = u2_4_0 * 1.0;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0 * mu_b4_v4 + 2.0533614 * mu_b4_b1 + 0.55934227 * mu_b4_b2 - 0.0244591 * mu_b4_b3 + 0.0016561532 * mu_b4_u4;
-    let q2_0_1 = 0.8231968 * mu_b4_v4 + 1.4302309 * mu_b4_b1 - 1.335237 * mu_b4_b2 - 0.08291706 * mu_b4_b3 - 0.012261838 * mu_b4_u4;
-    let q2_0_2 = 0.5946984 * mu_b4_v4 + 1.2518948 * mu_b4_b1 - 1.0548242 * mu_b4_b2 + 1.1682026 * mu_b4_b3 + 0.07279954 * mu_b4_u4;
-    let q2_0_3 = 1.4221404 * mu_b4_v4 + 2.3411555 * mu_b4_b1 - 0.33673525 * mu_b4_b2 + 0.61248505 * mu_b4_b3 - 0.003380522 * mu_b4_u4;
-    let q2_0_4 = 0.8010454 * mu_b4_v4 + 1.0677565 * mu_b4_b1 - 0.2740506 * mu_b4_b2 - 0.012549128 * mu_b4_b3 + 0.060308564 * mu_b4_u4;
+    let q2_0_0 = 1.0 * mu_b4_v4 + 1.1581638 * mu_b4_b1 + 0.32346153 * mu_b4_b2 - 0.012175675 * mu_b4_b3 + 0.00033538206 * mu_b4_u4;
+    let q2_0_1 = 2.7958322 * mu_b4_v4 + 1.0031105 * mu_b4_b1 - 1.1864978 * mu_b4_b2 - 0.10675389 * mu_b4_b3 - 0.001742415 * mu_b4_u4;
+    let q2_0_2 = 5.0625267 * mu_b4_v4 + 2.1664333 * mu_b4_b1 - 1.2624766 * mu_b4_b2 + 0.6102312 * mu_b4_b3 + 0.043467548 * mu_b4_u4;
+    let q2_0_3 = 4.870515 * mu_b4_v4 + 3.2631128 * mu_b4_b1 - 0.5485948 * mu_b4_b2 + 0.34912357 * mu_b4_b3 + 0.0015518361 * mu_b4_u4;
+    let q2_0_4 = 1.6903424 * mu_b4_v4 + 1.2877148 * mu_b4_b1 - 0.27694476 * mu_b4_b2 - 0.009597333 * mu_b4_b3 + 0.04252862 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.033494536 * mu_b5_v5 - 0.07179645 * mu_b5_b1 + 0.590686 * mu_b5_b2 + 0.0028464787 * mu_b5_b3 + 0.00016274753 * mu_b5_b4 - 0.00010366873 * mu_b5_u5;
-    let p3_0_1 = 0.7828628 * mu_b5_v5 + 0.35548595 * mu_b5_b1 - 0.3499816 * mu_b5_b2 - 3.0781305 * mu_b5_b3 - 0.019917488 * mu_b5_b4 + 0.0035686952 * mu_b5_u5;
-    let p3_0_2 = 1.3869923 * mu_b5_v5 + 1.1397799 * mu_b5_b1 - 1.2728674 * mu_b5_b2 - 5.6348815 * mu_b5_b3 + 1.6256609 * mu_b5_b4 - 0.029191433 * mu_b5_u5;
-    let p3_0_3 = -0.10716626 * mu_b5_v5 + 0.28535733 * mu_b5_b1 - 1.121544 * mu_b5_b2 - 4.998074 * mu_b5_b3 + 2.7935352 * mu_b5_b4 + 0.0134629235 * mu_b5_u5;
-    let p3_0_4 = -0.66676617 * mu_b5_v5 + 0.5408565 * mu_b5_b1 - 0.43981817 * mu_b5_b2 - 3.95932 * mu_b5_b3 + 0.9195299 * mu_b5_b4 + 0.09936973 * mu_b5_u5;
-    let p3_0_5 = 0.038081285 * mu_b5_v5 + 1.1032271 * mu_b5_b1 + 0.61998713 * mu_b5_b2 - 1.2446895 * mu_b5_b3 - 0.09303376 * mu_b5_b4 + 0.080089115 * mu_b5_u5;
+    let p3_0_0 = -0.10618982 * mu_b5_v5 - 0.22097614 * mu_b5_b1 - 0.10060539 * mu_b5_b2 - 0.023760693 * mu_b5_b3 + 0.00092218275 * mu_b5_b4 - 3.397353e-5 * mu_b5_u5;
+    let p3_0_1 = -0.01172875 * mu_b5_v5 + 0.040473424 * mu_b5_b1 - 0.17281264 * mu_b5_b2 - 0.41892692 * mu_b5_b3 + 0.00096510025 * mu_b5_b4 + 0.00038826157 * mu_b5_u5;
+    let p3_0_2 = -0.02469226 * mu_b5_v5 + 0.16323572 * mu_b5_b1 - 0.7435273 * mu_b5_b2 - 1.0953797 * mu_b5_b3 + 0.21977174 * mu_b5_b4 - 0.005281651 * mu_b5_u5;
+    let p3_0_3 = -0.36847827 * mu_b5_v5 - 0.12501034 * mu_b5_b1 - 0.8472926 * mu_b5_b2 - 1.0088483 * mu_b5_b3 + 0.47393465 * mu_b5_b4 + 0.0030444849 * mu_b5_u5;
+    let p3_0_4 = -0.2572939 * mu_b5_v5 + 0.20198427 * mu_b5_b1 - 0.16799392 * mu_b5_b2 - 0.6698706 * mu_b5_b3 + 0.16427793 * mu_b5_b4 + 0.012387482 * mu_b5_u5;
+    let p3_0_5 = 0.003233346 * mu_b5_v5 + 0.28479236 * mu_b5_b1 + 0.12000187 * mu_b5_b2 - 0.24921268 * mu_b5_b3 - 0.033916317 * mu_b5_b4 + 0.01484143 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = 0.9322462 * 1.0;
+    let u3_0_0 = -0.07609171 * 1.0;
     let u3_0 = u3_0_0 * 1.0;
-    let u3_1_0 = -2.8046095 * 1.0;
+    let u3_1_0 = 1.1082972 * 1.0;
     let u3_1 = u3_1_0 * 1.0;
-    let u3_2_0 = -2.305701 * 1.0;
+    let u3_2_0 = -0.25059426 * 1.0;
     let u3_2 = u3_2_0 * 1.0;
-    let u3_3_0 = 0.7835565 * 1.0;
+    let u3_3_0 = -0.4446055 * 1.0;
     let u3_3 = u3_3_0 * 1.0;
-    let u3_4_0 = 0.18367109 * 1.0;
+    let u3_4_0 = -0.08280608 * 1.0;
     let u3_4 = u3_4_0 * 1.0;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0 * mu_b4_v4 + 2.0493348 * mu_b4_b1 + 0.55107784 * mu_b4_b2 - 0.024177462 * mu_b4_b3 + 0.0016214042 * mu_b4_u4;
-    let q3_0_1 = 0.8096832 * mu_b4_v4 + 1.4161656 * mu_b4_b1 - 1.3500326 * mu_b4_b2 - 0.07823634 * mu_b4_b3 - 0.011553607 * mu_b4_u4;
-    let q3_0_2 = 0.59605837 * mu_b4_v4 + 1.3039631 * mu_b4_b1 - 1.0365897 * mu_b4_b2 + 1.1639162 * mu_b4_b3 + 0.07366229 * mu_b4_u4;
-    let q3_0_3 = 1.4527767 * mu_b4_v4 + 2.4362953 * mu_b4_b1 - 0.3184477 * mu_b4_b2 + 0.5867349 * mu_b4_b3 - 0.0011311016 * mu_b4_u4;
-    let q3_0_4 = 0.81988734 * mu_b4_v4 + 1.113106 * mu_b4_b1 - 0.26205397 * mu_b4_b2 - 0.017297247 * mu_b4_b3 + 0.06551733 * mu_b4_u4;
+    let q3_0_0 = 1.0 * mu_b4_v4 + 1.7643796 * mu_b4_b1 + 0.3117221 * mu_b4_b2 - 0.010827947 * mu_b4_b3 + 0.00036013432 * mu_b4_u4;
+    let q3_0_1 = 1.3344676 * mu_b4_v4 + 1.6846585 * mu_b4_b1 - 1.4680431 * mu_b4_b2 - 0.055306982 * mu_b4_b3 - 0.0029510036 * mu_b4_u4;
+    let q3_0_2 = 1.1159871 * mu_b4_v4 + 1.4571477 * mu_b4_b1 - 1.5924474 * mu_b4_b2 + 0.74506146 * mu_b4_b3 + 0.029852469 * mu_b4_u4;
+    let q3_0_3 = 1.339655 * mu_b4_v4 + 2.173778 * mu_b4_b1 - 0.43256226 * mu_b4_b2 + 0.49187896 * mu_b4_b3 - 0.0073138364 * mu_b4_u4;
+    let q3_0_4 = 0.6298031 * mu_b4_v4 + 0.92357904 * mu_b4_b1 - 0.18987514 * mu_b4_b2 - 0.010991531 * mu_b4_b3 + 0.031190056 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0;
     let e3 = p3 * u3 / q3;

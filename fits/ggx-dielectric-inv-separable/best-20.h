@@ -29,16 +29,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 e1fa2a3c466b63e740ef50c869d18f56cc9f4d38d40c544c2c3d171e81fc20f3.
+// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 26fcf1c050a3329640655c2b9c5cd9e7e57ab2e1cc58ff93c8884168520b924c.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-6, shifted 1.0e-6, bernstein 1.1e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.26e-2, max 6.12e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-2, max 5.23e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.20e-7 (every op rounded, as this Rust), 4.61e-7 (fused multiply-add), 1.17e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.36e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 769 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.11e-2, max 6.12e-2; this f32 code MAE 1.11e-2, max 6.12e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-2 on the measurement grid.
-// Denominator proved >= 2.731e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-6, shifted 1.1e-6, bernstein 1.0e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.30e-2, max 5.95e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.37e-2, max 5.31e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.70e-7 (every op rounded, as this Rust), 4.45e-7 (fused multiply-add), 1.37e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 5.23e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 771 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.15e-2, max 5.95e-2; this f32 code MAE 1.15e-2, max 5.95e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-2 on the measurement grid.
+// Denominator proved >= 2.642e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -51,14 +51,14 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
     // numerator P, grouped by powers of the first variable
-    const float p_0 = (0.33173543f * r_t + (0.9850626f * mu_t - 0.9834428f)) * r_t + ((0.26145846f * mu_t - 0.95641875f) * mu_t + 0.97238946f);
-    const float p_1 = -1.0478973f * r_t + (-3.3912401f * mu_t + 3.5851374f);
-    const float p_2 = 0.4627694f;
+    const float p_0 = (0.34017366f * r_t + (0.98332626f * mu_t - 0.9990209f)) * r_t + ((0.23123367f * mu_t - 0.9339961f) * mu_t + 0.97213f);
+    const float p_1 = -1.0713953f * r_t + (-3.3799756f * mu_t + 3.6136305f);
+    const float p_2 = 0.46914914f;
     const float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = (0.7187921f * r_t + (-0.08352191f * mu_t + 0.05234856f)) * r_t + ((-0.014169698f * mu_t - 0.7124091f) * mu_t + 1.0f);
-    const float q_1 = -0.75139725f * r_t + (-3.8012092f * mu_t + 3.9674852f);
-    const float q_2 = 0.49151185f;
+    const float q_0 = (0.7132309f * r_t + (-0.08135697f * mu_t + 0.032135658f)) * r_t + ((-0.04632328f * mu_t - 0.68863106f) * mu_t + 1.0f);
+    const float q_1 = -0.75153023f * r_t + (-3.795197f * mu_t + 4.0009766f);
+    const float q_2 = 0.49927106f;
     const float q = (q_2 * f0_t + q_1) * f0_t + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

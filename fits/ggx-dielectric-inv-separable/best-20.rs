@@ -14,16 +14,16 @@
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 /// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 e1fa2a3c466b63e740ef50c869d18f56cc9f4d38d40c544c2c3d171e81fc20f3.
+/// Source: fits/ggx-dielectric-inv-separable/best-20.json (furnace 0.1.0), fit SHA-256 26fcf1c050a3329640655c2b9c5cd9e7e57ab2e1cc58ff93c8884168520b924c.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-6, shifted 1.0e-6, bernstein 1.1e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.26e-2, max 6.12e-2 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-2, max 5.23e-2.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.20e-7 (every op rounded, as this Rust), 4.61e-7 (fused multiply-add), 1.17e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 5.36e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 769 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.11e-2, max 6.12e-2; this f32 code MAE 1.11e-2, max 6.12e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-2 on the measurement grid.
-/// Denominator proved >= 2.731e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-6, shifted 1.1e-6, bernstein 1.0e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 1.30e-2, max 5.95e-2 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.37e-2, max 5.31e-2.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.70e-7 (every op rounded, as this Rust), 4.45e-7 (fused multiply-add), 1.37e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 5.23e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 771 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.15e-2, max 5.95e-2; this f32 code MAE 1.15e-2, max 5.95e-2.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-2 on the measurement grid.
+/// Denominator proved >= 2.642e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -43,14 +43,14 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
     // numerator P, grouped by powers of the first variable
-    let p_0 = (0.33173543_f32 * r_t + (0.9850626_f32 * mu_t - 0.9834428_f32)) * r_t + ((0.26145846_f32 * mu_t - 0.95641875_f32) * mu_t + 0.97238946_f32);
-    let p_1 = -1.0478973_f32 * r_t + (-3.3912401_f32 * mu_t + 3.5851374_f32);
-    let p_2 = 0.4627694_f32;
+    let p_0 = (0.34017366_f32 * r_t + (0.98332626_f32 * mu_t - 0.9990209_f32)) * r_t + ((0.23123367_f32 * mu_t - 0.9339961_f32) * mu_t + 0.97213_f32);
+    let p_1 = -1.0713953_f32 * r_t + (-3.3799756_f32 * mu_t + 3.6136305_f32);
+    let p_2 = 0.46914914_f32;
     let p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (0.7187921_f32 * r_t + (-0.08352191_f32 * mu_t + 0.05234856_f32)) * r_t + ((-0.014169698_f32 * mu_t - 0.7124091_f32) * mu_t + 1.0_f32);
-    let q_1 = -0.75139725_f32 * r_t + (-3.8012092_f32 * mu_t + 3.9674852_f32);
-    let q_2 = 0.49151185_f32;
+    let q_0 = (0.7132309_f32 * r_t + (-0.08135697_f32 * mu_t + 0.032135658_f32)) * r_t + ((-0.04632328_f32 * mu_t - 0.68863106_f32) * mu_t + 1.0_f32);
+    let q_1 = -0.75153023_f32 * r_t + (-3.795197_f32 * mu_t + 4.0009766_f32);
+    let q_2 = 0.49927106_f32;
     let q = (q_2 * f0_t + q_1) * f0_t + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

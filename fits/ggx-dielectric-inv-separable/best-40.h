@@ -28,18 +28,18 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 6e63bf2040b214ad8744cec63e9b18f7087666c47a7ddcb172231511f1bd7eb6.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 8, its MAE there 1.332x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 7546153288830425d116df790d8c5414651474ddad358794101a44e2c2564e28.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-5, shifted 3.3e-6, bernstein 1.2e-6.
-// Its 2 terms cancel (sum of |term| up to 20x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
-// Error of the f64 fit on its 2097152 data points: MAE 4.98e-3, max 2.65e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.99e-3, max 2.51e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.74e-7 (every op rounded, as this Rust), 4.46e-7 (fused multiply-add), 1.72e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.70e-3, max 2.65e-2; this f32 code MAE 4.70e-3, max 2.65e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
-// Denominator proved >= 1.098e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.8e-5, shifted 7.1e-6, bernstein 1.4e-6.
+// Its 2 terms cancel (sum of |term| up to 25x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+// Error of the f64 fit on its 2097152 data points: MAE 5.06e-3, max 2.16e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.30e-3, max 2.13e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.20e-7 (every op rounded, as this Rust), 4.56e-7 (fused multiply-add), 2.16e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.87e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39053 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.64e-3, max 2.16e-2; this f32 code MAE 4.64e-3, max 2.16e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-2 on the measurement grid.
+// Denominator proved >= 8.132e-2 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -87,49 +87,49 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     const float mu_b3 = mu_u3 * mu_v2;
     const float mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = 0.9173875f * mu_v5 + 3.3005197f * mu_b1 + 3.0858958f * mu_b2 + 1.4878142f * mu_b3 + 0.29787558f * mu_b4 + 0.013623137f * mu_u5;
-    const float p_0_1 = 3.918686f * mu_v5 + 14.014527f * mu_b1 + 13.404713f * mu_b2 + 7.1850514f * mu_b3 + 1.4609655f * mu_b4 + 0.088776015f * mu_u5;
-    const float p_0_2 = 5.763407f * mu_v5 + 20.174189f * mu_b1 + 18.931475f * mu_b2 + 11.875673f * mu_b3 + 2.5499916f * mu_b4 + 0.20299272f * mu_u5;
-    const float p_0_3 = 4.0579953f * mu_v5 + 13.486228f * mu_b1 + 12.735456f * mu_b2 + 10.712275f * mu_b3 + 2.6191711f * mu_b4 + 0.22210248f * mu_u5;
-    const float p_0_4 = 1.5775193f * mu_v5 + 4.658299f * mu_b1 + 4.8380146f * mu_b2 + 5.737172f * mu_b3 + 1.5952845f * mu_b4 + 0.11933754f * mu_u5;
-    const float p_0_5 = 0.27903566f * mu_v5 + 0.61926675f * mu_b1 + 0.6892445f * mu_b2 + 1.1773635f * mu_b3 + 0.3500298f * mu_b4 + 0.022477822f * mu_u5;
+    const float p_0_0 = 0.9240145f * mu_v5 + 3.2817852f * mu_b1 + 2.8985636f * mu_b2 + 1.35317f * mu_b3 + 0.22134621f * mu_b4 + 0.008040583f * mu_u5;
+    const float p_0_1 = 3.9164374f * mu_v5 + 14.084529f * mu_b1 + 13.107621f * mu_b2 + 7.1180925f * mu_b3 + 1.2443911f * mu_b4 + 0.061185267f * mu_u5;
+    const float p_0_2 = 5.8198733f * mu_v5 + 20.660957f * mu_b1 + 19.052492f * mu_b2 + 12.315676f * mu_b3 + 2.2826147f * mu_b4 + 0.16906025f * mu_u5;
+    const float p_0_3 = 4.205926f * mu_v5 + 14.128758f * mu_b1 + 12.950126f * mu_b2 + 11.165003f * mu_b3 + 2.3432982f * mu_b4 + 0.19630316f * mu_u5;
+    const float p_0_4 = 1.6927885f * mu_v5 + 5.011356f * mu_b1 + 4.9617305f * mu_b2 + 6.0370264f * mu_b3 + 1.5164711f * mu_b4 + 0.11796517f * mu_u5;
+    const float p_0_5 = 0.29982862f * mu_v5 + 0.6683885f * mu_b1 + 0.71019334f * mu_b2 + 1.2779323f * mu_b3 + 0.36032042f * mu_b4 + 0.023093095f * mu_u5;
     const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    const float p_1_0 = 1.8647432f * mu_v5 + 6.0434437f * mu_b1 + 6.3412404f * mu_b2 + 2.8488824f * mu_b3 + 0.5737291f * mu_b4 + 0.02717166f * mu_u5;
-    const float p_1_1 = 9.312294f * mu_v5 + 31.514658f * mu_b1 + 34.621784f * mu_b2 + 15.92871f * mu_b3 + 2.9880018f * mu_b4 + 0.1776382f * mu_u5;
-    const float p_1_2 = 16.884907f * mu_v5 + 58.274654f * mu_b1 + 64.662865f * mu_b2 + 29.524633f * mu_b3 + 5.2336116f * mu_b4 + 0.37994033f * mu_u5;
-    const float p_1_3 = 15.088325f * mu_v5 + 52.364594f * mu_b1 + 58.289658f * mu_b2 + 26.78318f * mu_b3 + 4.714258f * mu_b4 + 0.34231696f * mu_u5;
-    const float p_1_4 = 6.90835f * mu_v5 + 23.601046f * mu_b1 + 26.179749f * mu_b2 + 12.370222f * mu_b3 + 2.314336f * mu_b4 + 0.13009156f * mu_u5;
-    const float p_1_5 = 1.2637382f * mu_v5 + 4.0716853f * mu_b1 + 4.335992f * mu_b2 + 2.095432f * mu_b3 + 0.4512098f * mu_b4 + 0.02360701f * mu_u5;
+    const float p_1_0 = 1.8470107f * mu_v5 + 5.9090624f * mu_b1 + 5.8604097f * mu_b2 + 2.6329f * mu_b3 + 0.4140759f * mu_b4 + 0.015769418f * mu_u5;
+    const float p_1_1 = 9.242961f * mu_v5 + 30.873314f * mu_b1 + 32.335777f * mu_b2 + 15.242669f * mu_b3 + 2.4753172f * mu_b4 + 0.11925028f * mu_u5;
+    const float p_1_2 = 17.277552f * mu_v5 + 58.80849f * mu_b1 + 62.269184f * mu_b2 + 29.578436f * mu_b3 + 4.7878637f * mu_b4 + 0.31003264f * mu_u5;
+    const float p_1_3 = 15.846028f * mu_v5 + 54.236465f * mu_b1 + 57.20414f * mu_b2 + 27.27853f * mu_b3 + 4.4073424f * mu_b4 + 0.3048709f * mu_u5;
+    const float p_1_4 = 7.2727246f * mu_v5 + 24.749395f * mu_b1 + 25.892435f * mu_b2 + 12.621263f * mu_b3 + 2.1499865f * mu_b4 + 0.12566614f * mu_u5;
+    const float p_1_5 = 1.3043572f * mu_v5 + 4.33747f * mu_b1 + 4.4427176f * mu_b2 + 2.2720013f * mu_b3 + 0.4495681f * mu_b4 + 0.023407327f * mu_u5;
     const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    const float p_2_0 = 0.94634867f * mu_v5 + 3.0371637f * mu_b1 + 3.2212305f * mu_b2 + 1.4379271f * mu_b3 + 0.28974018f * mu_b4 + 0.013766178f * mu_u5;
-    const float p_2_1 = 4.7863812f * mu_v5 + 16.129398f * mu_b1 + 17.901281f * mu_b2 + 8.143149f * mu_b3 + 1.5172204f * mu_b4 + 0.090024315f * mu_u5;
-    const float p_2_2 = 8.800977f * mu_v5 + 30.348883f * mu_b1 + 33.99084f * mu_b2 + 15.22525f * mu_b3 + 2.658292f * mu_b4 + 0.19135183f * mu_u5;
-    const float p_2_3 = 7.964149f * mu_v5 + 27.69434f * mu_b1 + 31.03561f * mu_b2 + 13.817077f * mu_b3 + 2.3651104f * mu_b4 + 0.16882715f * mu_u5;
-    const float p_2_4 = 3.6720507f * mu_v5 + 12.611522f * mu_b1 + 14.019515f * mu_b2 + 6.309619f * mu_b3 + 1.1328611f * mu_b4 + 0.06097394f * mu_u5;
-    const float p_2_5 = 0.67259485f * mu_v5 + 2.1925745f * mu_b1 + 2.3321855f * mu_b2 + 1.0500622f * mu_b3 + 0.21730825f * mu_b4 + 0.010989614f * mu_u5;
+    const float p_2_0 = 0.9508448f * mu_v5 + 3.0205789f * mu_b1 + 3.0191383f * mu_b2 + 1.3530548f * mu_b3 + 0.21223347f * mu_b4 + 0.008108161f * mu_u5;
+    const float p_2_1 = 4.8048377f * mu_v5 + 15.983143f * mu_b1 + 16.848404f * mu_b2 + 7.880335f * mu_b3 + 1.2739004f * mu_b4 + 0.06128983f * mu_u5;
+    const float p_2_2 = 9.08025f * mu_v5 + 30.8509f * mu_b1 + 32.852154f * mu_b2 + 15.390276f * mu_b3 + 2.472211f * mu_b4 + 0.1586873f * mu_u5;
+    const float p_2_3 = 8.402353f * mu_v5 + 28.776432f * mu_b1 + 30.479378f * mu_b2 + 14.206286f * mu_b3 + 2.2598045f * mu_b4 + 0.1540682f * mu_u5;
+    const float p_2_4 = 3.8719873f * mu_v5 + 13.225825f * mu_b1 + 13.855142f * mu_b2 + 6.5156775f * mu_b3 + 1.0778174f * mu_b4 + 0.061069045f * mu_u5;
+    const float p_2_5 = 0.6946858f * mu_v5 + 2.331705f * mu_b1 + 2.3866003f * mu_b2 + 1.1603363f * mu_b3 + 0.22253156f * mu_b4 + 0.011301404f * mu_u5;
     const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     const float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = 1.0f * mu_v5 + 3.234836f * mu_b1 + 3.7182372f * mu_b2 + 1.7456939f * mu_b3 + 0.27602148f * mu_b4 + 0.013728423f * mu_u5;
-    const float q_0_1 = 5.159841f * mu_v5 + 16.832405f * mu_b1 + 19.625673f * mu_b2 + 9.480995f * mu_b3 + 1.6153897f * mu_b4 + 0.08750244f * mu_u5;
-    const float q_0_2 = 10.645715f * mu_v5 + 35.013016f * mu_b1 + 41.38383f * mu_b2 + 20.530554f * mu_b3 + 3.7330995f * mu_b4 + 0.21907663f * mu_u5;
-    const float q_0_3 = 10.978099f * mu_v5 + 36.392975f * mu_b1 + 43.579826f * mu_b2 + 22.162626f * mu_b3 + 4.2671747f * mu_b4 + 0.26949945f * mu_u5;
-    const float q_0_4 = 5.658417f * mu_v5 + 18.902344f * mu_b1 + 22.919666f * mu_b2 + 11.929106f * mu_b3 + 2.416503f * mu_b4 + 0.16313669f * mu_u5;
-    const float q_0_5 = 1.166192f * mu_v5 + 3.924816f * mu_b1 + 4.816235f * mu_b2 + 2.5617306f * mu_b3 + 0.54305923f * mu_b4 + 0.038939837f * mu_u5;
+    const float q_0_0 = 1.0f * mu_v5 + 3.1801872f * mu_b1 + 3.5486014f * mu_b2 + 1.5646812f * mu_b3 + 0.20430674f * mu_b4 + 0.008039843f * mu_u5;
+    const float q_0_1 = 5.2181907f * mu_v5 + 16.793451f * mu_b1 + 19.131163f * mu_b2 + 8.814686f * mu_b3 + 1.3187361f * mu_b4 + 0.059952162f * mu_u5;
+    const float q_0_2 = 10.884635f * mu_v5 + 35.431293f * mu_b1 + 41.15736f * mu_b2 + 19.730654f * mu_b3 + 3.2912383f * mu_b4 + 0.17128249f * mu_u5;
+    const float q_0_3 = 11.344761f * mu_v5 + 37.33505f * mu_b1 + 44.171116f * mu_b2 + 21.95066f * mu_b3 + 4.004366f * mu_b4 + 0.23453291f * mu_u5;
+    const float q_0_4 = 5.908379f * mu_v5 + 19.649082f * mu_b1 + 23.651796f * mu_b2 + 12.144694f * mu_b3 + 2.3884273f * mu_b4 + 0.15482779f * mu_u5;
+    const float q_0_5 = 1.2300628f * mu_v5 + 4.132064f * mu_b1 + 5.0554795f * mu_b2 + 2.6746838f * mu_b3 + 0.56087047f * mu_b4 + 0.03966505f * mu_u5;
     const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    const float q_1_0 = 2.0f * mu_v5 + 6.469672f * mu_b1 + 7.4364743f * mu_b2 + 3.4913878f * mu_b3 + 0.55204296f * mu_b4 + 0.027456846f * mu_u5;
-    const float q_1_1 = 10.319682f * mu_v5 + 33.66481f * mu_b1 + 39.251347f * mu_b2 + 18.96199f * mu_b3 + 3.2307794f * mu_b4 + 0.17500488f * mu_u5;
-    const float q_1_2 = 21.29143f * mu_v5 + 70.02603f * mu_b1 + 82.76766f * mu_b2 + 41.061108f * mu_b3 + 7.466199f * mu_b4 + 0.43815327f * mu_u5;
-    const float q_1_3 = 21.956198f * mu_v5 + 72.78595f * mu_b1 + 87.15965f * mu_b2 + 44.325253f * mu_b3 + 8.534349f * mu_b4 + 0.5389989f * mu_u5;
-    const float q_1_4 = 11.316834f * mu_v5 + 37.804688f * mu_b1 + 45.839333f * mu_b2 + 23.858212f * mu_b3 + 4.833006f * mu_b4 + 0.32627338f * mu_u5;
-    const float q_1_5 = 2.332384f * mu_v5 + 7.849632f * mu_b1 + 9.63247f * mu_b2 + 5.1234612f * mu_b3 + 1.0861185f * mu_b4 + 0.077879675f * mu_u5;
+    const float q_1_0 = 2.0f * mu_v5 + 6.3603745f * mu_b1 + 7.097203f * mu_b2 + 3.1293623f * mu_b3 + 0.40861347f * mu_b4 + 0.016079687f * mu_u5;
+    const float q_1_1 = 10.436381f * mu_v5 + 33.586903f * mu_b1 + 38.262325f * mu_b2 + 17.629372f * mu_b3 + 2.6374722f * mu_b4 + 0.119904324f * mu_u5;
+    const float q_1_2 = 21.76927f * mu_v5 + 70.86259f * mu_b1 + 82.31472f * mu_b2 + 39.461308f * mu_b3 + 6.5824766f * mu_b4 + 0.34256497f * mu_u5;
+    const float q_1_3 = 22.689522f * mu_v5 + 74.6701f * mu_b1 + 88.34223f * mu_b2 + 43.90132f * mu_b3 + 8.008732f * mu_b4 + 0.46906582f * mu_u5;
+    const float q_1_4 = 11.816758f * mu_v5 + 39.298164f * mu_b1 + 47.303593f * mu_b2 + 24.289389f * mu_b3 + 4.7768545f * mu_b4 + 0.30965558f * mu_u5;
+    const float q_1_5 = 2.4601257f * mu_v5 + 8.264128f * mu_b1 + 10.110959f * mu_b2 + 5.3493676f * mu_b3 + 1.1217409f * mu_b4 + 0.0793301f * mu_u5;
     const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    const float q_2_0 = 1.0f * mu_v5 + 3.234836f * mu_b1 + 3.7182372f * mu_b2 + 1.7456939f * mu_b3 + 0.27602148f * mu_b4 + 0.013728423f * mu_u5;
-    const float q_2_1 = 5.159841f * mu_v5 + 16.832405f * mu_b1 + 19.625673f * mu_b2 + 9.480995f * mu_b3 + 1.6153897f * mu_b4 + 0.08750244f * mu_u5;
-    const float q_2_2 = 10.645715f * mu_v5 + 35.013016f * mu_b1 + 41.38383f * mu_b2 + 20.530554f * mu_b3 + 3.7330995f * mu_b4 + 0.21907663f * mu_u5;
-    const float q_2_3 = 10.978099f * mu_v5 + 36.392975f * mu_b1 + 43.579826f * mu_b2 + 22.162626f * mu_b3 + 4.2671747f * mu_b4 + 0.26949945f * mu_u5;
-    const float q_2_4 = 5.658417f * mu_v5 + 18.902344f * mu_b1 + 22.919666f * mu_b2 + 11.929106f * mu_b3 + 2.416503f * mu_b4 + 0.16313669f * mu_u5;
-    const float q_2_5 = 1.166192f * mu_v5 + 3.924816f * mu_b1 + 4.816235f * mu_b2 + 2.5617306f * mu_b3 + 0.54305923f * mu_b4 + 0.038939837f * mu_u5;
+    const float q_2_0 = 1.0f * mu_v5 + 3.1801872f * mu_b1 + 3.5486014f * mu_b2 + 1.5646812f * mu_b3 + 0.20430674f * mu_b4 + 0.008039843f * mu_u5;
+    const float q_2_1 = 5.2181907f * mu_v5 + 16.793451f * mu_b1 + 19.131163f * mu_b2 + 8.814686f * mu_b3 + 1.3187361f * mu_b4 + 0.059952162f * mu_u5;
+    const float q_2_2 = 10.884635f * mu_v5 + 35.431293f * mu_b1 + 41.15736f * mu_b2 + 19.730654f * mu_b3 + 3.2912383f * mu_b4 + 0.17128249f * mu_u5;
+    const float q_2_3 = 11.344761f * mu_v5 + 37.33505f * mu_b1 + 44.171116f * mu_b2 + 21.95066f * mu_b3 + 4.004366f * mu_b4 + 0.23453291f * mu_u5;
+    const float q_2_4 = 5.908379f * mu_v5 + 19.649082f * mu_b1 + 23.651796f * mu_b2 + 12.144694f * mu_b3 + 2.3884273f * mu_b4 + 0.15482779f * mu_u5;
+    const float q_2_5 = 1.2300628f * mu_v5 + 4.132064f * mu_b1 + 5.0554795f * mu_b2 + 2.6746838f * mu_b3 + 0.56087047f * mu_b4 + 0.03966505f * mu_u5;
     const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     const float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     const float e = p / q;

@@ -13,18 +13,18 @@
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 6e63bf2040b214ad8744cec63e9b18f7087666c47a7ddcb172231511f1bd7eb6.
+/// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 8, its MAE there 1.332x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 7546153288830425d116df790d8c5414651474ddad358794101a44e2c2564e28.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-5, shifted 3.3e-6, bernstein 1.2e-6.
-/// Its 2 terms cancel (sum of |term| up to 20x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
-/// Error of the f64 fit on its 2097152 data points: MAE 4.98e-3, max 2.65e-2 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.99e-3, max 2.51e-2.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.74e-7 (every op rounded, as this Rust), 4.46e-7 (fused multiply-add), 1.72e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 2.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.70e-3, max 2.65e-2; this f32 code MAE 4.70e-3, max 2.65e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
-/// Denominator proved >= 1.098e-1 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.8e-5, shifted 7.1e-6, bernstein 1.4e-6.
+/// Its 2 terms cancel (sum of |term| up to 25x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+/// Error of the f64 fit on its 2097152 data points: MAE 5.06e-3, max 2.16e-2 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.30e-3, max 2.13e-2.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.20e-7 (every op rounded, as this Rust), 4.56e-7 (fused multiply-add), 2.16e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 2.87e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39053 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.64e-3, max 2.16e-2; this f32 code MAE 4.64e-3, max 2.16e-2.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-2 on the measurement grid.
+/// Denominator proved >= 8.132e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -79,49 +79,49 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b3 = mu_u3 * mu_v2;
     let mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.9173875_f32 * mu_v5 + 3.3005197_f32 * mu_b1 + 3.0858958_f32 * mu_b2 + 1.4878142_f32 * mu_b3 + 0.29787558_f32 * mu_b4 + 0.013623137_f32 * mu_u5;
-    let p_0_1 = 3.918686_f32 * mu_v5 + 14.014527_f32 * mu_b1 + 13.404713_f32 * mu_b2 + 7.1850514_f32 * mu_b3 + 1.4609655_f32 * mu_b4 + 0.088776015_f32 * mu_u5;
-    let p_0_2 = 5.763407_f32 * mu_v5 + 20.174189_f32 * mu_b1 + 18.931475_f32 * mu_b2 + 11.875673_f32 * mu_b3 + 2.5499916_f32 * mu_b4 + 0.20299272_f32 * mu_u5;
-    let p_0_3 = 4.0579953_f32 * mu_v5 + 13.486228_f32 * mu_b1 + 12.735456_f32 * mu_b2 + 10.712275_f32 * mu_b3 + 2.6191711_f32 * mu_b4 + 0.22210248_f32 * mu_u5;
-    let p_0_4 = 1.5775193_f32 * mu_v5 + 4.658299_f32 * mu_b1 + 4.8380146_f32 * mu_b2 + 5.737172_f32 * mu_b3 + 1.5952845_f32 * mu_b4 + 0.11933754_f32 * mu_u5;
-    let p_0_5 = 0.27903566_f32 * mu_v5 + 0.61926675_f32 * mu_b1 + 0.6892445_f32 * mu_b2 + 1.1773635_f32 * mu_b3 + 0.3500298_f32 * mu_b4 + 0.022477822_f32 * mu_u5;
+    let p_0_0 = 0.9240145_f32 * mu_v5 + 3.2817852_f32 * mu_b1 + 2.8985636_f32 * mu_b2 + 1.35317_f32 * mu_b3 + 0.22134621_f32 * mu_b4 + 0.008040583_f32 * mu_u5;
+    let p_0_1 = 3.9164374_f32 * mu_v5 + 14.084529_f32 * mu_b1 + 13.107621_f32 * mu_b2 + 7.1180925_f32 * mu_b3 + 1.2443911_f32 * mu_b4 + 0.061185267_f32 * mu_u5;
+    let p_0_2 = 5.8198733_f32 * mu_v5 + 20.660957_f32 * mu_b1 + 19.052492_f32 * mu_b2 + 12.315676_f32 * mu_b3 + 2.2826147_f32 * mu_b4 + 0.16906025_f32 * mu_u5;
+    let p_0_3 = 4.205926_f32 * mu_v5 + 14.128758_f32 * mu_b1 + 12.950126_f32 * mu_b2 + 11.165003_f32 * mu_b3 + 2.3432982_f32 * mu_b4 + 0.19630316_f32 * mu_u5;
+    let p_0_4 = 1.6927885_f32 * mu_v5 + 5.011356_f32 * mu_b1 + 4.9617305_f32 * mu_b2 + 6.0370264_f32 * mu_b3 + 1.5164711_f32 * mu_b4 + 0.11796517_f32 * mu_u5;
+    let p_0_5 = 0.29982862_f32 * mu_v5 + 0.6683885_f32 * mu_b1 + 0.71019334_f32 * mu_b2 + 1.2779323_f32 * mu_b3 + 0.36032042_f32 * mu_b4 + 0.023093095_f32 * mu_u5;
     let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 1.8647432_f32 * mu_v5 + 6.0434437_f32 * mu_b1 + 6.3412404_f32 * mu_b2 + 2.8488824_f32 * mu_b3 + 0.5737291_f32 * mu_b4 + 0.02717166_f32 * mu_u5;
-    let p_1_1 = 9.312294_f32 * mu_v5 + 31.514658_f32 * mu_b1 + 34.621784_f32 * mu_b2 + 15.92871_f32 * mu_b3 + 2.9880018_f32 * mu_b4 + 0.1776382_f32 * mu_u5;
-    let p_1_2 = 16.884907_f32 * mu_v5 + 58.274654_f32 * mu_b1 + 64.662865_f32 * mu_b2 + 29.524633_f32 * mu_b3 + 5.2336116_f32 * mu_b4 + 0.37994033_f32 * mu_u5;
-    let p_1_3 = 15.088325_f32 * mu_v5 + 52.364594_f32 * mu_b1 + 58.289658_f32 * mu_b2 + 26.78318_f32 * mu_b3 + 4.714258_f32 * mu_b4 + 0.34231696_f32 * mu_u5;
-    let p_1_4 = 6.90835_f32 * mu_v5 + 23.601046_f32 * mu_b1 + 26.179749_f32 * mu_b2 + 12.370222_f32 * mu_b3 + 2.314336_f32 * mu_b4 + 0.13009156_f32 * mu_u5;
-    let p_1_5 = 1.2637382_f32 * mu_v5 + 4.0716853_f32 * mu_b1 + 4.335992_f32 * mu_b2 + 2.095432_f32 * mu_b3 + 0.4512098_f32 * mu_b4 + 0.02360701_f32 * mu_u5;
+    let p_1_0 = 1.8470107_f32 * mu_v5 + 5.9090624_f32 * mu_b1 + 5.8604097_f32 * mu_b2 + 2.6329_f32 * mu_b3 + 0.4140759_f32 * mu_b4 + 0.015769418_f32 * mu_u5;
+    let p_1_1 = 9.242961_f32 * mu_v5 + 30.873314_f32 * mu_b1 + 32.335777_f32 * mu_b2 + 15.242669_f32 * mu_b3 + 2.4753172_f32 * mu_b4 + 0.11925028_f32 * mu_u5;
+    let p_1_2 = 17.277552_f32 * mu_v5 + 58.80849_f32 * mu_b1 + 62.269184_f32 * mu_b2 + 29.578436_f32 * mu_b3 + 4.7878637_f32 * mu_b4 + 0.31003264_f32 * mu_u5;
+    let p_1_3 = 15.846028_f32 * mu_v5 + 54.236465_f32 * mu_b1 + 57.20414_f32 * mu_b2 + 27.27853_f32 * mu_b3 + 4.4073424_f32 * mu_b4 + 0.3048709_f32 * mu_u5;
+    let p_1_4 = 7.2727246_f32 * mu_v5 + 24.749395_f32 * mu_b1 + 25.892435_f32 * mu_b2 + 12.621263_f32 * mu_b3 + 2.1499865_f32 * mu_b4 + 0.12566614_f32 * mu_u5;
+    let p_1_5 = 1.3043572_f32 * mu_v5 + 4.33747_f32 * mu_b1 + 4.4427176_f32 * mu_b2 + 2.2720013_f32 * mu_b3 + 0.4495681_f32 * mu_b4 + 0.023407327_f32 * mu_u5;
     let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 0.94634867_f32 * mu_v5 + 3.0371637_f32 * mu_b1 + 3.2212305_f32 * mu_b2 + 1.4379271_f32 * mu_b3 + 0.28974018_f32 * mu_b4 + 0.013766178_f32 * mu_u5;
-    let p_2_1 = 4.7863812_f32 * mu_v5 + 16.129398_f32 * mu_b1 + 17.901281_f32 * mu_b2 + 8.143149_f32 * mu_b3 + 1.5172204_f32 * mu_b4 + 0.090024315_f32 * mu_u5;
-    let p_2_2 = 8.800977_f32 * mu_v5 + 30.348883_f32 * mu_b1 + 33.99084_f32 * mu_b2 + 15.22525_f32 * mu_b3 + 2.658292_f32 * mu_b4 + 0.19135183_f32 * mu_u5;
-    let p_2_3 = 7.964149_f32 * mu_v5 + 27.69434_f32 * mu_b1 + 31.03561_f32 * mu_b2 + 13.817077_f32 * mu_b3 + 2.3651104_f32 * mu_b4 + 0.16882715_f32 * mu_u5;
-    let p_2_4 = 3.6720507_f32 * mu_v5 + 12.611522_f32 * mu_b1 + 14.019515_f32 * mu_b2 + 6.309619_f32 * mu_b3 + 1.1328611_f32 * mu_b4 + 0.06097394_f32 * mu_u5;
-    let p_2_5 = 0.67259485_f32 * mu_v5 + 2.1925745_f32 * mu_b1 + 2.3321855_f32 * mu_b2 + 1.0500622_f32 * mu_b3 + 0.21730825_f32 * mu_b4 + 0.010989614_f32 * mu_u5;
+    let p_2_0 = 0.9508448_f32 * mu_v5 + 3.0205789_f32 * mu_b1 + 3.0191383_f32 * mu_b2 + 1.3530548_f32 * mu_b3 + 0.21223347_f32 * mu_b4 + 0.008108161_f32 * mu_u5;
+    let p_2_1 = 4.8048377_f32 * mu_v5 + 15.983143_f32 * mu_b1 + 16.848404_f32 * mu_b2 + 7.880335_f32 * mu_b3 + 1.2739004_f32 * mu_b4 + 0.06128983_f32 * mu_u5;
+    let p_2_2 = 9.08025_f32 * mu_v5 + 30.8509_f32 * mu_b1 + 32.852154_f32 * mu_b2 + 15.390276_f32 * mu_b3 + 2.472211_f32 * mu_b4 + 0.1586873_f32 * mu_u5;
+    let p_2_3 = 8.402353_f32 * mu_v5 + 28.776432_f32 * mu_b1 + 30.479378_f32 * mu_b2 + 14.206286_f32 * mu_b3 + 2.2598045_f32 * mu_b4 + 0.1540682_f32 * mu_u5;
+    let p_2_4 = 3.8719873_f32 * mu_v5 + 13.225825_f32 * mu_b1 + 13.855142_f32 * mu_b2 + 6.5156775_f32 * mu_b3 + 1.0778174_f32 * mu_b4 + 0.061069045_f32 * mu_u5;
+    let p_2_5 = 0.6946858_f32 * mu_v5 + 2.331705_f32 * mu_b1 + 2.3866003_f32 * mu_b2 + 1.1603363_f32 * mu_b3 + 0.22253156_f32 * mu_b4 + 0.011301404_f32 * mu_u5;
     let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0_f32 * mu_v5 + 3.234836_f32 * mu_b1 + 3.7182372_f32 * mu_b2 + 1.7456939_f32 * mu_b3 + 0.27602148_f32 * mu_b4 + 0.013728423_f32 * mu_u5;
-    let q_0_1 = 5.159841_f32 * mu_v5 + 16.832405_f32 * mu_b1 + 19.625673_f32 * mu_b2 + 9.480995_f32 * mu_b3 + 1.6153897_f32 * mu_b4 + 0.08750244_f32 * mu_u5;
-    let q_0_2 = 10.645715_f32 * mu_v5 + 35.013016_f32 * mu_b1 + 41.38383_f32 * mu_b2 + 20.530554_f32 * mu_b3 + 3.7330995_f32 * mu_b4 + 0.21907663_f32 * mu_u5;
-    let q_0_3 = 10.978099_f32 * mu_v5 + 36.392975_f32 * mu_b1 + 43.579826_f32 * mu_b2 + 22.162626_f32 * mu_b3 + 4.2671747_f32 * mu_b4 + 0.26949945_f32 * mu_u5;
-    let q_0_4 = 5.658417_f32 * mu_v5 + 18.902344_f32 * mu_b1 + 22.919666_f32 * mu_b2 + 11.929106_f32 * mu_b3 + 2.416503_f32 * mu_b4 + 0.16313669_f32 * mu_u5;
-    let q_0_5 = 1.166192_f32 * mu_v5 + 3.924816_f32 * mu_b1 + 4.816235_f32 * mu_b2 + 2.5617306_f32 * mu_b3 + 0.54305923_f32 * mu_b4 + 0.038939837_f32 * mu_u5;
+    let q_0_0 = 1.0_f32 * mu_v5 + 3.1801872_f32 * mu_b1 + 3.5486014_f32 * mu_b2 + 1.5646812_f32 * mu_b3 + 0.20430674_f32 * mu_b4 + 0.008039843_f32 * mu_u5;
+    let q_0_1 = 5.2181907_f32 * mu_v5 + 16.793451_f32 * mu_b1 + 19.131163_f32 * mu_b2 + 8.814686_f32 * mu_b3 + 1.3187361_f32 * mu_b4 + 0.059952162_f32 * mu_u5;
+    let q_0_2 = 10.884635_f32 * mu_v5 + 35.431293_f32 * mu_b1 + 41.15736_f32 * mu_b2 + 19.730654_f32 * mu_b3 + 3.2912383_f32 * mu_b4 + 0.17128249_f32 * mu_u5;
+    let q_0_3 = 11.344761_f32 * mu_v5 + 37.33505_f32 * mu_b1 + 44.171116_f32 * mu_b2 + 21.95066_f32 * mu_b3 + 4.004366_f32 * mu_b4 + 0.23453291_f32 * mu_u5;
+    let q_0_4 = 5.908379_f32 * mu_v5 + 19.649082_f32 * mu_b1 + 23.651796_f32 * mu_b2 + 12.144694_f32 * mu_b3 + 2.3884273_f32 * mu_b4 + 0.15482779_f32 * mu_u5;
+    let q_0_5 = 1.2300628_f32 * mu_v5 + 4.132064_f32 * mu_b1 + 5.0554795_f32 * mu_b2 + 2.6746838_f32 * mu_b3 + 0.56087047_f32 * mu_b4 + 0.03966505_f32 * mu_u5;
     let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 2.0_f32 * mu_v5 + 6.469672_f32 * mu_b1 + 7.4364743_f32 * mu_b2 + 3.4913878_f32 * mu_b3 + 0.55204296_f32 * mu_b4 + 0.027456846_f32 * mu_u5;
-    let q_1_1 = 10.319682_f32 * mu_v5 + 33.66481_f32 * mu_b1 + 39.251347_f32 * mu_b2 + 18.96199_f32 * mu_b3 + 3.2307794_f32 * mu_b4 + 0.17500488_f32 * mu_u5;
-    let q_1_2 = 21.29143_f32 * mu_v5 + 70.02603_f32 * mu_b1 + 82.76766_f32 * mu_b2 + 41.061108_f32 * mu_b3 + 7.466199_f32 * mu_b4 + 0.43815327_f32 * mu_u5;
-    let q_1_3 = 21.956198_f32 * mu_v5 + 72.78595_f32 * mu_b1 + 87.15965_f32 * mu_b2 + 44.325253_f32 * mu_b3 + 8.534349_f32 * mu_b4 + 0.5389989_f32 * mu_u5;
-    let q_1_4 = 11.316834_f32 * mu_v5 + 37.804688_f32 * mu_b1 + 45.839333_f32 * mu_b2 + 23.858212_f32 * mu_b3 + 4.833006_f32 * mu_b4 + 0.32627338_f32 * mu_u5;
-    let q_1_5 = 2.332384_f32 * mu_v5 + 7.849632_f32 * mu_b1 + 9.63247_f32 * mu_b2 + 5.1234612_f32 * mu_b3 + 1.0861185_f32 * mu_b4 + 0.077879675_f32 * mu_u5;
+    let q_1_0 = 2.0_f32 * mu_v5 + 6.3603745_f32 * mu_b1 + 7.097203_f32 * mu_b2 + 3.1293623_f32 * mu_b3 + 0.40861347_f32 * mu_b4 + 0.016079687_f32 * mu_u5;
+    let q_1_1 = 10.436381_f32 * mu_v5 + 33.586903_f32 * mu_b1 + 38.262325_f32 * mu_b2 + 17.629372_f32 * mu_b3 + 2.6374722_f32 * mu_b4 + 0.119904324_f32 * mu_u5;
+    let q_1_2 = 21.76927_f32 * mu_v5 + 70.86259_f32 * mu_b1 + 82.31472_f32 * mu_b2 + 39.461308_f32 * mu_b3 + 6.5824766_f32 * mu_b4 + 0.34256497_f32 * mu_u5;
+    let q_1_3 = 22.689522_f32 * mu_v5 + 74.6701_f32 * mu_b1 + 88.34223_f32 * mu_b2 + 43.90132_f32 * mu_b3 + 8.008732_f32 * mu_b4 + 0.46906582_f32 * mu_u5;
+    let q_1_4 = 11.816758_f32 * mu_v5 + 39.298164_f32 * mu_b1 + 47.303593_f32 * mu_b2 + 24.289389_f32 * mu_b3 + 4.7768545_f32 * mu_b4 + 0.30965558_f32 * mu_u5;
+    let q_1_5 = 2.4601257_f32 * mu_v5 + 8.264128_f32 * mu_b1 + 10.110959_f32 * mu_b2 + 5.3493676_f32 * mu_b3 + 1.1217409_f32 * mu_b4 + 0.0793301_f32 * mu_u5;
     let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 1.0_f32 * mu_v5 + 3.234836_f32 * mu_b1 + 3.7182372_f32 * mu_b2 + 1.7456939_f32 * mu_b3 + 0.27602148_f32 * mu_b4 + 0.013728423_f32 * mu_u5;
-    let q_2_1 = 5.159841_f32 * mu_v5 + 16.832405_f32 * mu_b1 + 19.625673_f32 * mu_b2 + 9.480995_f32 * mu_b3 + 1.6153897_f32 * mu_b4 + 0.08750244_f32 * mu_u5;
-    let q_2_2 = 10.645715_f32 * mu_v5 + 35.013016_f32 * mu_b1 + 41.38383_f32 * mu_b2 + 20.530554_f32 * mu_b3 + 3.7330995_f32 * mu_b4 + 0.21907663_f32 * mu_u5;
-    let q_2_3 = 10.978099_f32 * mu_v5 + 36.392975_f32 * mu_b1 + 43.579826_f32 * mu_b2 + 22.162626_f32 * mu_b3 + 4.2671747_f32 * mu_b4 + 0.26949945_f32 * mu_u5;
-    let q_2_4 = 5.658417_f32 * mu_v5 + 18.902344_f32 * mu_b1 + 22.919666_f32 * mu_b2 + 11.929106_f32 * mu_b3 + 2.416503_f32 * mu_b4 + 0.16313669_f32 * mu_u5;
-    let q_2_5 = 1.166192_f32 * mu_v5 + 3.924816_f32 * mu_b1 + 4.816235_f32 * mu_b2 + 2.5617306_f32 * mu_b3 + 0.54305923_f32 * mu_b4 + 0.038939837_f32 * mu_u5;
+    let q_2_0 = 1.0_f32 * mu_v5 + 3.1801872_f32 * mu_b1 + 3.5486014_f32 * mu_b2 + 1.5646812_f32 * mu_b3 + 0.20430674_f32 * mu_b4 + 0.008039843_f32 * mu_u5;
+    let q_2_1 = 5.2181907_f32 * mu_v5 + 16.793451_f32 * mu_b1 + 19.131163_f32 * mu_b2 + 8.814686_f32 * mu_b3 + 1.3187361_f32 * mu_b4 + 0.059952162_f32 * mu_u5;
+    let q_2_2 = 10.884635_f32 * mu_v5 + 35.431293_f32 * mu_b1 + 41.15736_f32 * mu_b2 + 19.730654_f32 * mu_b3 + 3.2912383_f32 * mu_b4 + 0.17128249_f32 * mu_u5;
+    let q_2_3 = 11.344761_f32 * mu_v5 + 37.33505_f32 * mu_b1 + 44.171116_f32 * mu_b2 + 21.95066_f32 * mu_b3 + 4.004366_f32 * mu_b4 + 0.23453291_f32 * mu_u5;
+    let q_2_4 = 5.908379_f32 * mu_v5 + 19.649082_f32 * mu_b1 + 23.651796_f32 * mu_b2 + 12.144694_f32 * mu_b3 + 2.3884273_f32 * mu_b4 + 0.15482779_f32 * mu_u5;
+    let q_2_5 = 1.2300628_f32 * mu_v5 + 4.132064_f32 * mu_b1 + 5.0554795_f32 * mu_b2 + 2.6746838_f32 * mu_b3 + 0.56087047_f32 * mu_b4 + 0.03966505_f32 * mu_u5;
     let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     let e = p / q;

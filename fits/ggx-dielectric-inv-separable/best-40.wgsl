@@ -12,18 +12,18 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 6e63bf2040b214ad8744cec63e9b18f7087666c47a7ddcb172231511f1bd7eb6.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 8, its MAE there 1.332x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-40.json (furnace 0.1.0), fit SHA-256 7546153288830425d116df790d8c5414651474ddad358794101a44e2c2564e28.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-5, shifted 3.3e-6, bernstein 1.2e-6.
-// Its 2 terms cancel (sum of |term| up to 20x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
-// Error of the f64 fit on its 2097152 data points: MAE 4.98e-3, max 2.65e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.99e-3, max 2.51e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.74e-7 (every op rounded, as this Rust), 4.46e-7 (fused multiply-add), 1.72e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.52e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.70e-3, max 2.65e-2; this f32 code MAE 4.70e-3, max 2.65e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.2e-2 on the measurement grid.
-// Denominator proved >= 1.098e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.8e-5, shifted 7.1e-6, bernstein 1.4e-6.
+// Its 2 terms cancel (sum of |term| up to 25x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+// Error of the f64 fit on its 2097152 data points: MAE 5.06e-3, max 2.16e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.30e-3, max 2.13e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.20e-7 (every op rounded, as this Rust), 4.56e-7 (fused multiply-add), 2.16e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.87e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39053 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 4.64e-3, max 2.16e-2; this f32 code MAE 4.64e-3, max 2.16e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-2 on the measurement grid.
+// Denominator proved >= 8.132e-2 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -71,49 +71,49 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b3 = mu_u3 * mu_v2;
     let mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.9173875 * mu_v5 + 3.3005197 * mu_b1 + 3.0858958 * mu_b2 + 1.4878142 * mu_b3 + 0.29787558 * mu_b4 + 0.013623137 * mu_u5;
-    let p_0_1 = 3.918686 * mu_v5 + 14.014527 * mu_b1 + 13.404713 * mu_b2 + 7.1850514 * mu_b3 + 1.4609655 * mu_b4 + 0.088776015 * mu_u5;
-    let p_0_2 = 5.763407 * mu_v5 + 20.174189 * mu_b1 + 18.931475 * mu_b2 + 11.875673 * mu_b3 + 2.5499916 * mu_b4 + 0.20299272 * mu_u5;
-    let p_0_3 = 4.0579953 * mu_v5 + 13.486228 * mu_b1 + 12.735456 * mu_b2 + 10.712275 * mu_b3 + 2.6191711 * mu_b4 + 0.22210248 * mu_u5;
-    let p_0_4 = 1.5775193 * mu_v5 + 4.658299 * mu_b1 + 4.8380146 * mu_b2 + 5.737172 * mu_b3 + 1.5952845 * mu_b4 + 0.11933754 * mu_u5;
-    let p_0_5 = 0.27903566 * mu_v5 + 0.61926675 * mu_b1 + 0.6892445 * mu_b2 + 1.1773635 * mu_b3 + 0.3500298 * mu_b4 + 0.022477822 * mu_u5;
+    let p_0_0 = 0.9240145 * mu_v5 + 3.2817852 * mu_b1 + 2.8985636 * mu_b2 + 1.35317 * mu_b3 + 0.22134621 * mu_b4 + 0.008040583 * mu_u5;
+    let p_0_1 = 3.9164374 * mu_v5 + 14.084529 * mu_b1 + 13.107621 * mu_b2 + 7.1180925 * mu_b3 + 1.2443911 * mu_b4 + 0.061185267 * mu_u5;
+    let p_0_2 = 5.8198733 * mu_v5 + 20.660957 * mu_b1 + 19.052492 * mu_b2 + 12.315676 * mu_b3 + 2.2826147 * mu_b4 + 0.16906025 * mu_u5;
+    let p_0_3 = 4.205926 * mu_v5 + 14.128758 * mu_b1 + 12.950126 * mu_b2 + 11.165003 * mu_b3 + 2.3432982 * mu_b4 + 0.19630316 * mu_u5;
+    let p_0_4 = 1.6927885 * mu_v5 + 5.011356 * mu_b1 + 4.9617305 * mu_b2 + 6.0370264 * mu_b3 + 1.5164711 * mu_b4 + 0.11796517 * mu_u5;
+    let p_0_5 = 0.29982862 * mu_v5 + 0.6683885 * mu_b1 + 0.71019334 * mu_b2 + 1.2779323 * mu_b3 + 0.36032042 * mu_b4 + 0.023093095 * mu_u5;
     let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 1.8647432 * mu_v5 + 6.0434437 * mu_b1 + 6.3412404 * mu_b2 + 2.8488824 * mu_b3 + 0.5737291 * mu_b4 + 0.02717166 * mu_u5;
-    let p_1_1 = 9.312294 * mu_v5 + 31.514658 * mu_b1 + 34.621784 * mu_b2 + 15.92871 * mu_b3 + 2.9880018 * mu_b4 + 0.1776382 * mu_u5;
-    let p_1_2 = 16.884907 * mu_v5 + 58.274654 * mu_b1 + 64.662865 * mu_b2 + 29.524633 * mu_b3 + 5.2336116 * mu_b4 + 0.37994033 * mu_u5;
-    let p_1_3 = 15.088325 * mu_v5 + 52.364594 * mu_b1 + 58.289658 * mu_b2 + 26.78318 * mu_b3 + 4.714258 * mu_b4 + 0.34231696 * mu_u5;
-    let p_1_4 = 6.90835 * mu_v5 + 23.601046 * mu_b1 + 26.179749 * mu_b2 + 12.370222 * mu_b3 + 2.314336 * mu_b4 + 0.13009156 * mu_u5;
-    let p_1_5 = 1.2637382 * mu_v5 + 4.0716853 * mu_b1 + 4.335992 * mu_b2 + 2.095432 * mu_b3 + 0.4512098 * mu_b4 + 0.02360701 * mu_u5;
+    let p_1_0 = 1.8470107 * mu_v5 + 5.9090624 * mu_b1 + 5.8604097 * mu_b2 + 2.6329 * mu_b3 + 0.4140759 * mu_b4 + 0.015769418 * mu_u5;
+    let p_1_1 = 9.242961 * mu_v5 + 30.873314 * mu_b1 + 32.335777 * mu_b2 + 15.242669 * mu_b3 + 2.4753172 * mu_b4 + 0.11925028 * mu_u5;
+    let p_1_2 = 17.277552 * mu_v5 + 58.80849 * mu_b1 + 62.269184 * mu_b2 + 29.578436 * mu_b3 + 4.7878637 * mu_b4 + 0.31003264 * mu_u5;
+    let p_1_3 = 15.846028 * mu_v5 + 54.236465 * mu_b1 + 57.20414 * mu_b2 + 27.27853 * mu_b3 + 4.4073424 * mu_b4 + 0.3048709 * mu_u5;
+    let p_1_4 = 7.2727246 * mu_v5 + 24.749395 * mu_b1 + 25.892435 * mu_b2 + 12.621263 * mu_b3 + 2.1499865 * mu_b4 + 0.12566614 * mu_u5;
+    let p_1_5 = 1.3043572 * mu_v5 + 4.33747 * mu_b1 + 4.4427176 * mu_b2 + 2.2720013 * mu_b3 + 0.4495681 * mu_b4 + 0.023407327 * mu_u5;
     let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 0.94634867 * mu_v5 + 3.0371637 * mu_b1 + 3.2212305 * mu_b2 + 1.4379271 * mu_b3 + 0.28974018 * mu_b4 + 0.013766178 * mu_u5;
-    let p_2_1 = 4.7863812 * mu_v5 + 16.129398 * mu_b1 + 17.901281 * mu_b2 + 8.143149 * mu_b3 + 1.5172204 * mu_b4 + 0.090024315 * mu_u5;
-    let p_2_2 = 8.800977 * mu_v5 + 30.348883 * mu_b1 + 33.99084 * mu_b2 + 15.22525 * mu_b3 + 2.658292 * mu_b4 + 0.19135183 * mu_u5;
-    let p_2_3 = 7.964149 * mu_v5 + 27.69434 * mu_b1 + 31.03561 * mu_b2 + 13.817077 * mu_b3 + 2.3651104 * mu_b4 + 0.16882715 * mu_u5;
-    let p_2_4 = 3.6720507 * mu_v5 + 12.611522 * mu_b1 + 14.019515 * mu_b2 + 6.309619 * mu_b3 + 1.1328611 * mu_b4 + 0.06097394 * mu_u5;
-    let p_2_5 = 0.67259485 * mu_v5 + 2.1925745 * mu_b1 + 2.3321855 * mu_b2 + 1.0500622 * mu_b3 + 0.21730825 * mu_b4 + 0.010989614 * mu_u5;
+    let p_2_0 = 0.9508448 * mu_v5 + 3.0205789 * mu_b1 + 3.0191383 * mu_b2 + 1.3530548 * mu_b3 + 0.21223347 * mu_b4 + 0.008108161 * mu_u5;
+    let p_2_1 = 4.8048377 * mu_v5 + 15.983143 * mu_b1 + 16.848404 * mu_b2 + 7.880335 * mu_b3 + 1.2739004 * mu_b4 + 0.06128983 * mu_u5;
+    let p_2_2 = 9.08025 * mu_v5 + 30.8509 * mu_b1 + 32.852154 * mu_b2 + 15.390276 * mu_b3 + 2.472211 * mu_b4 + 0.1586873 * mu_u5;
+    let p_2_3 = 8.402353 * mu_v5 + 28.776432 * mu_b1 + 30.479378 * mu_b2 + 14.206286 * mu_b3 + 2.2598045 * mu_b4 + 0.1540682 * mu_u5;
+    let p_2_4 = 3.8719873 * mu_v5 + 13.225825 * mu_b1 + 13.855142 * mu_b2 + 6.5156775 * mu_b3 + 1.0778174 * mu_b4 + 0.061069045 * mu_u5;
+    let p_2_5 = 0.6946858 * mu_v5 + 2.331705 * mu_b1 + 2.3866003 * mu_b2 + 1.1603363 * mu_b3 + 0.22253156 * mu_b4 + 0.011301404 * mu_u5;
     let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0 * mu_v5 + 3.234836 * mu_b1 + 3.7182372 * mu_b2 + 1.7456939 * mu_b3 + 0.27602148 * mu_b4 + 0.013728423 * mu_u5;
-    let q_0_1 = 5.159841 * mu_v5 + 16.832405 * mu_b1 + 19.625673 * mu_b2 + 9.480995 * mu_b3 + 1.6153897 * mu_b4 + 0.08750244 * mu_u5;
-    let q_0_2 = 10.645715 * mu_v5 + 35.013016 * mu_b1 + 41.38383 * mu_b2 + 20.530554 * mu_b3 + 3.7330995 * mu_b4 + 0.21907663 * mu_u5;
-    let q_0_3 = 10.978099 * mu_v5 + 36.392975 * mu_b1 + 43.579826 * mu_b2 + 22.162626 * mu_b3 + 4.2671747 * mu_b4 + 0.26949945 * mu_u5;
-    let q_0_4 = 5.658417 * mu_v5 + 18.902344 * mu_b1 + 22.919666 * mu_b2 + 11.929106 * mu_b3 + 2.416503 * mu_b4 + 0.16313669 * mu_u5;
-    let q_0_5 = 1.166192 * mu_v5 + 3.924816 * mu_b1 + 4.816235 * mu_b2 + 2.5617306 * mu_b3 + 0.54305923 * mu_b4 + 0.038939837 * mu_u5;
+    let q_0_0 = 1.0 * mu_v5 + 3.1801872 * mu_b1 + 3.5486014 * mu_b2 + 1.5646812 * mu_b3 + 0.20430674 * mu_b4 + 0.008039843 * mu_u5;
+    let q_0_1 = 5.2181907 * mu_v5 + 16.793451 * mu_b1 + 19.131163 * mu_b2 + 8.814686 * mu_b3 + 1.3187361 * mu_b4 + 0.059952162 * mu_u5;
+    let q_0_2 = 10.884635 * mu_v5 + 35.431293 * mu_b1 + 41.15736 * mu_b2 + 19.730654 * mu_b3 + 3.2912383 * mu_b4 + 0.17128249 * mu_u5;
+    let q_0_3 = 11.344761 * mu_v5 + 37.33505 * mu_b1 + 44.171116 * mu_b2 + 21.95066 * mu_b3 + 4.004366 * mu_b4 + 0.23453291 * mu_u5;
+    let q_0_4 = 5.908379 * mu_v5 + 19.649082 * mu_b1 + 23.651796 * mu_b2 + 12.144694 * mu_b3 + 2.3884273 * mu_b4 + 0.15482779 * mu_u5;
+    let q_0_5 = 1.2300628 * mu_v5 + 4.132064 * mu_b1 + 5.0554795 * mu_b2 + 2.6746838 * mu_b3 + 0.56087047 * mu_b4 + 0.03966505 * mu_u5;
     let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 2.0 * mu_v5 + 6.469672 * mu_b1 + 7.4364743 * mu_b2 + 3.4913878 * mu_b3 + 0.55204296 * mu_b4 + 0.027456846 * mu_u5;
-    let q_1_1 = 10.319682 * mu_v5 + 33.66481 * mu_b1 + 39.251347 * mu_b2 + 18.96199 * mu_b3 + 3.2307794 * mu_b4 + 0.17500488 * mu_u5;
-    let q_1_2 = 21.29143 * mu_v5 + 70.02603 * mu_b1 + 82.76766 * mu_b2 + 41.061108 * mu_b3 + 7.466199 * mu_b4 + 0.43815327 * mu_u5;
-    let q_1_3 = 21.956198 * mu_v5 + 72.78595 * mu_b1 + 87.15965 * mu_b2 + 44.325253 * mu_b3 + 8.534349 * mu_b4 + 0.5389989 * mu_u5;
-    let q_1_4 = 11.316834 * mu_v5 + 37.804688 * mu_b1 + 45.839333 * mu_b2 + 23.858212 * mu_b3 + 4.833006 * mu_b4 + 0.32627338 * mu_u5;
-    let q_1_5 = 2.332384 * mu_v5 + 7.849632 * mu_b1 + 9.63247 * mu_b2 + 5.1234612 * mu_b3 + 1.0861185 * mu_b4 + 0.077879675 * mu_u5;
+    let q_1_0 = 2.0 * mu_v5 + 6.3603745 * mu_b1 + 7.097203 * mu_b2 + 3.1293623 * mu_b3 + 0.40861347 * mu_b4 + 0.016079687 * mu_u5;
+    let q_1_1 = 10.436381 * mu_v5 + 33.586903 * mu_b1 + 38.262325 * mu_b2 + 17.629372 * mu_b3 + 2.6374722 * mu_b4 + 0.119904324 * mu_u5;
+    let q_1_2 = 21.76927 * mu_v5 + 70.86259 * mu_b1 + 82.31472 * mu_b2 + 39.461308 * mu_b3 + 6.5824766 * mu_b4 + 0.34256497 * mu_u5;
+    let q_1_3 = 22.689522 * mu_v5 + 74.6701 * mu_b1 + 88.34223 * mu_b2 + 43.90132 * mu_b3 + 8.008732 * mu_b4 + 0.46906582 * mu_u5;
+    let q_1_4 = 11.816758 * mu_v5 + 39.298164 * mu_b1 + 47.303593 * mu_b2 + 24.289389 * mu_b3 + 4.7768545 * mu_b4 + 0.30965558 * mu_u5;
+    let q_1_5 = 2.4601257 * mu_v5 + 8.264128 * mu_b1 + 10.110959 * mu_b2 + 5.3493676 * mu_b3 + 1.1217409 * mu_b4 + 0.0793301 * mu_u5;
     let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 1.0 * mu_v5 + 3.234836 * mu_b1 + 3.7182372 * mu_b2 + 1.7456939 * mu_b3 + 0.27602148 * mu_b4 + 0.013728423 * mu_u5;
-    let q_2_1 = 5.159841 * mu_v5 + 16.832405 * mu_b1 + 19.625673 * mu_b2 + 9.480995 * mu_b3 + 1.6153897 * mu_b4 + 0.08750244 * mu_u5;
-    let q_2_2 = 10.645715 * mu_v5 + 35.013016 * mu_b1 + 41.38383 * mu_b2 + 20.530554 * mu_b3 + 3.7330995 * mu_b4 + 0.21907663 * mu_u5;
-    let q_2_3 = 10.978099 * mu_v5 + 36.392975 * mu_b1 + 43.579826 * mu_b2 + 22.162626 * mu_b3 + 4.2671747 * mu_b4 + 0.26949945 * mu_u5;
-    let q_2_4 = 5.658417 * mu_v5 + 18.902344 * mu_b1 + 22.919666 * mu_b2 + 11.929106 * mu_b3 + 2.416503 * mu_b4 + 0.16313669 * mu_u5;
-    let q_2_5 = 1.166192 * mu_v5 + 3.924816 * mu_b1 + 4.816235 * mu_b2 + 2.5617306 * mu_b3 + 0.54305923 * mu_b4 + 0.038939837 * mu_u5;
+    let q_2_0 = 1.0 * mu_v5 + 3.1801872 * mu_b1 + 3.5486014 * mu_b2 + 1.5646812 * mu_b3 + 0.20430674 * mu_b4 + 0.008039843 * mu_u5;
+    let q_2_1 = 5.2181907 * mu_v5 + 16.793451 * mu_b1 + 19.131163 * mu_b2 + 8.814686 * mu_b3 + 1.3187361 * mu_b4 + 0.059952162 * mu_u5;
+    let q_2_2 = 10.884635 * mu_v5 + 35.431293 * mu_b1 + 41.15736 * mu_b2 + 19.730654 * mu_b3 + 3.2912383 * mu_b4 + 0.17128249 * mu_u5;
+    let q_2_3 = 11.344761 * mu_v5 + 37.33505 * mu_b1 + 44.171116 * mu_b2 + 21.95066 * mu_b3 + 4.004366 * mu_b4 + 0.23453291 * mu_u5;
+    let q_2_4 = 5.908379 * mu_v5 + 19.649082 * mu_b1 + 23.651796 * mu_b2 + 12.144694 * mu_b3 + 2.3884273 * mu_b4 + 0.15482779 * mu_u5;
+    let q_2_5 = 1.2300628 * mu_v5 + 4.132064 * mu_b1 + 5.0554795 * mu_b2 + 2.6746838 * mu_b3 + 0.56087047 * mu_b4 + 0.03966505 * mu_u5;
     let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     let e = p / q;

@@ -28,17 +28,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 2fc8761546216d6734bd6b49226004e9349a958916b1ecbed665486bb511ffee.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.360x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 6c1c9ab3bb90223d63dba7d04ea7e9163294266eeec8ef09a6dde1acfc424302.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-4, shifted 1.1e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.43e-3, max 1.27e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-3, max 1.22e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.88e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 2.02e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.12e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.43e-3, max 1.27e-2; this f32 code MAE 1.43e-3, max 1.27e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-3 on the measurement grid.
-// Denominator proved >= 4.354e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.6e-4, shifted 1.2e-5, bernstein 1.5e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.74e-3, max 8.47e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.70e-3, max 8.27e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.56e-7 (every op rounded, as this Rust), 4.34e-7 (fused multiply-add), 1.90e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.14e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.73e-3, max 8.47e-3; this f32 code MAE 1.73e-3, max 8.47e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-3 on the measurement grid.
+// Denominator proved >= 3.287e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -86,49 +86,49 @@ FURNACE_FN float ggx_dielectric_inv_separable_albedo(float f0, float r, float mu
     const float mu_b3 = mu_u3 * mu_v2;
     const float mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = 0.9382778f * mu_v5 + 1.5333221f * mu_b1 + 0.6026139f * mu_b2 + 0.09413675f * mu_b3 + 0.030491725f * mu_b4 + 0.0053717997f * mu_u5;
-    const float p_0_1 = 4.0834255f * mu_v5 + 6.9229136f * mu_b1 + 3.0355434f * mu_b2 + 0.44868618f * mu_b3 - 0.038875654f * mu_b4 + 0.015729567f * mu_u5;
-    const float p_0_2 = 6.650712f * mu_v5 + 11.340487f * mu_b1 + 5.3794656f * mu_b2 + 1.2739155f * mu_b3 + 0.019637415f * mu_b4 + 0.049884927f * mu_u5;
-    const float p_0_3 = 5.1658254f * mu_v5 + 8.652398f * mu_b1 + 4.4129233f * mu_b2 + 1.7593898f * mu_b3 + 0.2724007f * mu_b4 + 0.05383274f * mu_u5;
-    const float p_0_4 = 2.0075898f * mu_v5 + 3.288277f * mu_b1 + 1.8785157f * mu_b2 + 1.1852279f * mu_b3 + 0.3110811f * mu_b4 + 0.030917872f * mu_u5;
-    const float p_0_5 = 0.3421882f * mu_v5 + 0.5610708f * mu_b1 + 0.36072388f * mu_b2 + 0.29379964f * mu_b3 + 0.10198295f * mu_b4 + 0.011471837f * mu_u5;
+    const float p_0_0 = 0.93547165f * mu_v5 + 1.5545523f * mu_b1 + 0.6972183f * mu_b2 + 0.0978534f * mu_b3 + 0.03814226f * mu_b4 + 0.003652441f * mu_u5;
+    const float p_0_1 = 3.6943495f * mu_v5 + 6.098495f * mu_b1 + 2.6994338f * mu_b2 + 0.1894615f * mu_b3 - 0.02016783f * mu_b4 + 0.011788345f * mu_u5;
+    const float p_0_2 = 5.713177f * mu_v5 + 9.523054f * mu_b1 + 4.773998f * mu_b2 + 0.84469837f * mu_b3 + 0.06925014f * mu_b4 + 0.040931176f * mu_u5;
+    const float p_0_3 = 4.3158236f * mu_v5 + 7.2124786f * mu_b1 + 4.2005215f * mu_b2 + 1.4288495f * mu_b3 + 0.3240046f * mu_b4 + 0.05128068f * mu_u5;
+    const float p_0_4 = 1.6480914f * mu_v5 + 2.7304935f * mu_b1 + 1.8452549f * mu_b2 + 0.9943439f * mu_b3 + 0.3437567f * mu_b4 + 0.038395133f * mu_u5;
+    const float p_0_5 = 0.278007f * mu_v5 + 0.45432556f * mu_b1 + 0.33091354f * mu_b2 + 0.2329827f * mu_b3 + 0.104511365f * mu_b4 + 0.011349527f * mu_u5;
     const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    const float p_1_0 = 1.8706145f * mu_v5 + 3.2166333f * mu_b1 + 1.0450833f * mu_b2 + 0.22851147f * mu_b3 + 0.05865536f * mu_b4 + 0.010745676f * mu_u5;
-    const float p_1_1 = 9.639175f * mu_v5 + 16.707085f * mu_b1 + 5.507095f * mu_b2 + 0.77026504f * mu_b3 - 0.044286605f * mu_b4 + 0.032321308f * mu_u5;
-    const float p_1_2 = 19.51827f * mu_v5 + 34.71787f * mu_b1 + 13.615708f * mu_b2 + 3.4411366f * mu_b3 + 0.29709172f * mu_b4 + 0.08743845f * mu_u5;
-    const float p_1_3 = 18.795357f * mu_v5 + 33.2771f * mu_b1 + 13.535254f * mu_b2 + 4.323074f * mu_b3 + 0.52762365f * mu_b4 + 0.07343429f * mu_u5;
-    const float p_1_4 = 8.622828f * mu_v5 + 14.761587f * mu_b1 + 5.6566834f * mu_b2 + 2.290268f * mu_b3 + 0.4074079f * mu_b4 + 0.042750992f * mu_u5;
-    const float p_1_5 = 1.5514362f * mu_v5 + 2.583185f * mu_b1 + 1.0176855f * mu_b2 + 0.60913664f * mu_b3 + 0.15109782f * mu_b4 + 0.009435484f * mu_u5;
+    const float p_1_0 = 1.877812f * mu_v5 + 3.3886328f * mu_b1 + 1.0872412f * mu_b2 + 0.26317883f * mu_b3 + 0.072060004f * mu_b4 + 0.0073036086f * mu_u5;
+    const float p_1_1 = 8.829457f * mu_v5 + 15.7280655f * mu_b1 + 4.5134177f * mu_b2 + 0.67547166f * mu_b3 - 0.024038201f * mu_b4 + 0.025308577f * mu_u5;
+    const float p_1_2 = 16.864567f * mu_v5 + 30.665968f * mu_b1 + 10.425982f * mu_b2 + 2.976808f * mu_b3 + 0.1983262f * mu_b4 + 0.06611893f * mu_u5;
+    const float p_1_3 = 15.721235f * mu_v5 + 28.740637f * mu_b1 + 10.759528f * mu_b2 + 4.49116f * mu_b3 + 0.6227642f * mu_b4 + 0.09174948f * mu_u5;
+    const float p_1_4 = 7.035493f * mu_v5 + 12.477958f * mu_b1 + 4.380967f * mu_b2 + 2.4317024f * mu_b3 + 0.4267147f * mu_b4 + 0.043524053f * mu_u5;
+    const float p_1_5 = 1.2369466f * mu_v5 + 2.1126893f * mu_b1 + 0.71891373f * mu_b2 + 0.6027268f * mu_b3 + 0.14720938f * mu_b4 + 0.009655432f * mu_u5;
     const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    const float p_2_0 = 0.9366952f * mu_v5 + 1.5589913f * mu_b1 + 0.5734941f * mu_b2 + 0.1060588f * mu_b3 + 0.029574124f * mu_b4 + 0.0053732134f * mu_u5;
-    const float p_2_1 = 4.9408903f * mu_v5 + 8.316672f * mu_b1 + 2.9970748f * mu_b2 + 0.24470602f * mu_b3 - 0.01388036f * mu_b4 + 0.016005345f * mu_u5;
-    const float p_2_2 = 10.093759f * mu_v5 + 17.462736f * mu_b1 + 7.2012563f * mu_b2 + 1.2804124f * mu_b3 + 0.18747726f * mu_b4 + 0.0459427f * mu_u5;
-    const float p_2_3 = 9.888593f * mu_v5 + 17.31656f * mu_b1 + 7.7006993f * mu_b2 + 1.8930943f * mu_b3 + 0.3525307f * mu_b4 + 0.038765818f * mu_u5;
-    const float p_2_4 = 4.6953f * mu_v5 + 8.238372f * mu_b1 + 3.8122826f * mu_b2 + 1.1376821f * mu_b3 + 0.23652631f * mu_b4 + 0.021354292f * mu_u5;
-    const float p_2_5 = 0.8843815f * mu_v5 + 1.5674158f * mu_b1 + 0.77035975f * mu_b2 + 0.26745403f * mu_b3 + 0.05547791f * mu_b4 + 0.0060091545f * mu_u5;
+    const float p_2_0 = 0.93640167f * mu_v5 + 1.6193068f * mu_b1 + 0.6316231f * mu_b2 + 0.114165425f * mu_b3 + 0.03697857f * mu_b4 + 0.0036519393f * mu_u5;
+    const float p_2_1 = 4.5411773f * mu_v5 + 7.6957965f * mu_b1 + 2.6251223f * mu_b2 + 0.11833332f * mu_b3 - 0.000507746f * mu_b4 + 0.012266865f * mu_u5;
+    const float p_2_2 = 8.7971115f * mu_v5 + 15.183629f * mu_b1 + 5.875095f * mu_b2 + 0.9428126f * mu_b3 + 0.16989584f * mu_b4 + 0.036870044f * mu_u5;
+    const float p_2_3 = 8.341274f * mu_v5 + 14.676908f * mu_b1 + 6.485493f * mu_b2 + 1.8277127f * mu_b3 + 0.39961356f * mu_b4 + 0.042969745f * mu_u5;
+    const float p_2_4 = 3.8623812f * mu_v5 + 6.861783f * mu_b1 + 3.2922251f * mu_b2 + 1.193386f * mu_b3 + 0.26443362f * mu_b4 + 0.024475023f * mu_u5;
+    const float p_2_5 = 0.709613f * mu_v5 + 1.2728659f * mu_b1 + 0.6500296f * mu_b2 + 0.2660203f * mu_b3 + 0.053053353f * mu_b4 + 0.0059306244f * mu_u5;
     const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     const float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = 1.0f * mu_v5 + 1.6474696f * mu_b1 + 0.74244815f * mu_b2 + 0.118848935f * mu_b3 + 0.029244069f * mu_b4 + 0.005373727f * mu_u5;
-    const float q_0_1 = 5.4142804f * mu_v5 + 8.96052f * mu_b1 + 3.8063045f * mu_b2 + 0.25912055f * mu_b3 + 0.0150662195f * mu_b4 + 0.016010826f * mu_u5;
-    const float q_0_2 = 11.88231f * mu_v5 + 20.38562f * mu_b1 + 9.545004f * mu_b2 + 1.223254f * mu_b3 + 0.23255037f * mu_b4 + 0.05099026f * mu_u5;
-    const float q_0_3 = 12.996841f * mu_v5 + 23.162088f * mu_b1 + 12.040324f * mu_b2 + 2.353542f * mu_b3 + 0.54038066f * mu_b4 + 0.061916117f * mu_u5;
-    const float q_0_4 = 7.0364094f * mu_v5 + 12.934721f * mu_b1 + 7.283964f * mu_b2 + 1.8049115f * mu_b3 + 0.45983043f * mu_b4 + 0.040571272f * mu_u5;
-    const float q_0_5 = 1.5075977f * mu_v5 + 2.8452034f * mu_b1 + 1.7247878f * mu_b2 + 0.5343517f * mu_b3 + 0.16617802f * mu_b4 + 0.019008316f * mu_u5;
+    const float q_0_0 = 1.0f * mu_v5 + 1.7095729f * mu_b1 + 0.8067308f * mu_b2 + 0.12969214f * mu_b3 + 0.036186695f * mu_b4 + 0.003652441f * mu_u5;
+    const float q_0_1 = 5.011445f * mu_v5 + 8.334646f * mu_b1 + 3.4299686f * mu_b2 + 0.120598845f * mu_b3 + 0.026168989f * mu_b4 + 0.012337211f * mu_u5;
+    const float q_0_2 = 10.419162f * mu_v5 + 17.757582f * mu_b1 + 7.982873f * mu_b2 + 0.82186365f * mu_b3 + 0.21665925f * mu_b4 + 0.039248277f * mu_u5;
+    const float q_0_3 = 10.999398f * mu_v5 + 19.582958f * mu_b1 + 10.219737f * mu_b2 + 2.1614404f * mu_b3 + 0.58554053f * mu_b4 + 0.060277767f * mu_u5;
+    const float q_0_4 = 5.8019953f * mu_v5 + 10.758412f * mu_b1 + 6.3261185f * mu_b2 + 1.8402671f * mu_b3 + 0.5193671f * mu_b4 + 0.048801612f * mu_u5;
+    const float q_0_5 = 1.2103138f * mu_v5 + 2.3079631f * mu_b1 + 1.4660168f * mu_b2 + 0.50978374f * mu_b3 + 0.16050357f * mu_b4 + 0.019087354f * mu_u5;
     const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    const float q_1_0 = 2.0f * mu_v5 + 3.2949393f * mu_b1 + 1.4848963f * mu_b2 + 0.23769787f * mu_b3 + 0.058488138f * mu_b4 + 0.010747454f * mu_u5;
-    const float q_1_1 = 10.828561f * mu_v5 + 17.92104f * mu_b1 + 7.612609f * mu_b2 + 0.5182411f * mu_b3 + 0.030132439f * mu_b4 + 0.032021653f * mu_u5;
-    const float q_1_2 = 23.76462f * mu_v5 + 40.77124f * mu_b1 + 19.090008f * mu_b2 + 2.446508f * mu_b3 + 0.46510074f * mu_b4 + 0.10198052f * mu_u5;
-    const float q_1_3 = 25.993683f * mu_v5 + 46.324177f * mu_b1 + 24.080648f * mu_b2 + 4.707084f * mu_b3 + 1.0807613f * mu_b4 + 0.12383223f * mu_u5;
-    const float q_1_4 = 14.072819f * mu_v5 + 25.869442f * mu_b1 + 14.567928f * mu_b2 + 3.609823f * mu_b3 + 0.91966087f * mu_b4 + 0.081142545f * mu_u5;
-    const float q_1_5 = 3.0151954f * mu_v5 + 5.690407f * mu_b1 + 3.4495757f * mu_b2 + 1.0687034f * mu_b3 + 0.33235604f * mu_b4 + 0.038016632f * mu_u5;
+    const float q_1_0 = 2.0f * mu_v5 + 3.4191458f * mu_b1 + 1.6134616f * mu_b2 + 0.25938427f * mu_b3 + 0.07237339f * mu_b4 + 0.007304882f * mu_u5;
+    const float q_1_1 = 10.02289f * mu_v5 + 16.669292f * mu_b1 + 6.859937f * mu_b2 + 0.24119769f * mu_b3 + 0.052337978f * mu_b4 + 0.024674421f * mu_u5;
+    const float q_1_2 = 20.838324f * mu_v5 + 35.515163f * mu_b1 + 15.965746f * mu_b2 + 1.6437273f * mu_b3 + 0.4333185f * mu_b4 + 0.07849655f * mu_u5;
+    const float q_1_3 = 21.998796f * mu_v5 + 39.165916f * mu_b1 + 20.439474f * mu_b2 + 4.3228807f * mu_b3 + 1.1710811f * mu_b4 + 0.120555535f * mu_u5;
+    const float q_1_4 = 11.603991f * mu_v5 + 21.516825f * mu_b1 + 12.652237f * mu_b2 + 3.6805341f * mu_b3 + 1.0387342f * mu_b4 + 0.097603224f * mu_u5;
+    const float q_1_5 = 2.4206276f * mu_v5 + 4.6159263f * mu_b1 + 2.9320335f * mu_b2 + 1.0195675f * mu_b3 + 0.32100713f * mu_b4 + 0.038174707f * mu_u5;
     const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    const float q_2_0 = 1.0f * mu_v5 + 1.6474696f * mu_b1 + 0.74244815f * mu_b2 + 0.118848935f * mu_b3 + 0.029244069f * mu_b4 + 0.005373727f * mu_u5;
-    const float q_2_1 = 5.4142804f * mu_v5 + 8.96052f * mu_b1 + 3.8063045f * mu_b2 + 0.25912055f * mu_b3 + 0.0150662195f * mu_b4 + 0.016010826f * mu_u5;
-    const float q_2_2 = 11.88231f * mu_v5 + 20.38562f * mu_b1 + 9.545004f * mu_b2 + 1.223254f * mu_b3 + 0.23255037f * mu_b4 + 0.05099026f * mu_u5;
-    const float q_2_3 = 12.996841f * mu_v5 + 23.162088f * mu_b1 + 12.040324f * mu_b2 + 2.353542f * mu_b3 + 0.54038066f * mu_b4 + 0.061916117f * mu_u5;
-    const float q_2_4 = 7.0364094f * mu_v5 + 12.934721f * mu_b1 + 7.283964f * mu_b2 + 1.8049115f * mu_b3 + 0.45983043f * mu_b4 + 0.040571272f * mu_u5;
-    const float q_2_5 = 1.5075977f * mu_v5 + 2.8452034f * mu_b1 + 1.7247878f * mu_b2 + 0.5343517f * mu_b3 + 0.16617802f * mu_b4 + 0.019008316f * mu_u5;
+    const float q_2_0 = 1.0f * mu_v5 + 1.7095729f * mu_b1 + 0.8067308f * mu_b2 + 0.12969214f * mu_b3 + 0.036186695f * mu_b4 + 0.003652441f * mu_u5;
+    const float q_2_1 = 5.011445f * mu_v5 + 8.334646f * mu_b1 + 3.4299686f * mu_b2 + 0.120598845f * mu_b3 + 0.026168989f * mu_b4 + 0.012337211f * mu_u5;
+    const float q_2_2 = 10.419162f * mu_v5 + 17.757582f * mu_b1 + 7.982873f * mu_b2 + 0.82186365f * mu_b3 + 0.21665925f * mu_b4 + 0.039248277f * mu_u5;
+    const float q_2_3 = 10.999398f * mu_v5 + 19.582958f * mu_b1 + 10.219737f * mu_b2 + 2.1614404f * mu_b3 + 0.58554053f * mu_b4 + 0.060277767f * mu_u5;
+    const float q_2_4 = 5.8019953f * mu_v5 + 10.758412f * mu_b1 + 6.3261185f * mu_b2 + 1.8402671f * mu_b3 + 0.5193671f * mu_b4 + 0.048801612f * mu_u5;
+    const float q_2_5 = 1.2103138f * mu_v5 + 2.3079631f * mu_b1 + 1.4660168f * mu_b2 + 0.50978374f * mu_b3 + 0.16050357f * mu_b4 + 0.019087354f * mu_u5;
     const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     const float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     const float e = p / q;

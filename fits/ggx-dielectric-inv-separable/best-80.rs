@@ -13,17 +13,17 @@
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 2fc8761546216d6734bd6b49226004e9349a958916b1ecbed665486bb511ffee.
+/// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.360x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 6c1c9ab3bb90223d63dba7d04ea7e9163294266eeec8ef09a6dde1acfc424302.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-4, shifted 1.1e-5, bernstein 1.4e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.43e-3, max 1.27e-2 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-3, max 1.22e-2.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.88e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 2.02e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 2.12e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.43e-3, max 1.27e-2; this f32 code MAE 1.43e-3, max 1.27e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-3 on the measurement grid.
-/// Denominator proved >= 4.354e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.6e-4, shifted 1.2e-5, bernstein 1.5e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 1.74e-3, max 8.47e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.70e-3, max 8.27e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.56e-7 (every op rounded, as this Rust), 4.34e-7 (fused multiply-add), 1.90e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 2.14e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.73e-3, max 8.47e-3; this f32 code MAE 1.73e-3, max 8.47e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-3 on the measurement grid.
+/// Denominator proved >= 3.287e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -78,49 +78,49 @@ pub fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b3 = mu_u3 * mu_v2;
     let mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.9382778_f32 * mu_v5 + 1.5333221_f32 * mu_b1 + 0.6026139_f32 * mu_b2 + 0.09413675_f32 * mu_b3 + 0.030491725_f32 * mu_b4 + 0.0053717997_f32 * mu_u5;
-    let p_0_1 = 4.0834255_f32 * mu_v5 + 6.9229136_f32 * mu_b1 + 3.0355434_f32 * mu_b2 + 0.44868618_f32 * mu_b3 - 0.038875654_f32 * mu_b4 + 0.015729567_f32 * mu_u5;
-    let p_0_2 = 6.650712_f32 * mu_v5 + 11.340487_f32 * mu_b1 + 5.3794656_f32 * mu_b2 + 1.2739155_f32 * mu_b3 + 0.019637415_f32 * mu_b4 + 0.049884927_f32 * mu_u5;
-    let p_0_3 = 5.1658254_f32 * mu_v5 + 8.652398_f32 * mu_b1 + 4.4129233_f32 * mu_b2 + 1.7593898_f32 * mu_b3 + 0.2724007_f32 * mu_b4 + 0.05383274_f32 * mu_u5;
-    let p_0_4 = 2.0075898_f32 * mu_v5 + 3.288277_f32 * mu_b1 + 1.8785157_f32 * mu_b2 + 1.1852279_f32 * mu_b3 + 0.3110811_f32 * mu_b4 + 0.030917872_f32 * mu_u5;
-    let p_0_5 = 0.3421882_f32 * mu_v5 + 0.5610708_f32 * mu_b1 + 0.36072388_f32 * mu_b2 + 0.29379964_f32 * mu_b3 + 0.10198295_f32 * mu_b4 + 0.011471837_f32 * mu_u5;
+    let p_0_0 = 0.93547165_f32 * mu_v5 + 1.5545523_f32 * mu_b1 + 0.6972183_f32 * mu_b2 + 0.0978534_f32 * mu_b3 + 0.03814226_f32 * mu_b4 + 0.003652441_f32 * mu_u5;
+    let p_0_1 = 3.6943495_f32 * mu_v5 + 6.098495_f32 * mu_b1 + 2.6994338_f32 * mu_b2 + 0.1894615_f32 * mu_b3 - 0.02016783_f32 * mu_b4 + 0.011788345_f32 * mu_u5;
+    let p_0_2 = 5.713177_f32 * mu_v5 + 9.523054_f32 * mu_b1 + 4.773998_f32 * mu_b2 + 0.84469837_f32 * mu_b3 + 0.06925014_f32 * mu_b4 + 0.040931176_f32 * mu_u5;
+    let p_0_3 = 4.3158236_f32 * mu_v5 + 7.2124786_f32 * mu_b1 + 4.2005215_f32 * mu_b2 + 1.4288495_f32 * mu_b3 + 0.3240046_f32 * mu_b4 + 0.05128068_f32 * mu_u5;
+    let p_0_4 = 1.6480914_f32 * mu_v5 + 2.7304935_f32 * mu_b1 + 1.8452549_f32 * mu_b2 + 0.9943439_f32 * mu_b3 + 0.3437567_f32 * mu_b4 + 0.038395133_f32 * mu_u5;
+    let p_0_5 = 0.278007_f32 * mu_v5 + 0.45432556_f32 * mu_b1 + 0.33091354_f32 * mu_b2 + 0.2329827_f32 * mu_b3 + 0.104511365_f32 * mu_b4 + 0.011349527_f32 * mu_u5;
     let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 1.8706145_f32 * mu_v5 + 3.2166333_f32 * mu_b1 + 1.0450833_f32 * mu_b2 + 0.22851147_f32 * mu_b3 + 0.05865536_f32 * mu_b4 + 0.010745676_f32 * mu_u5;
-    let p_1_1 = 9.639175_f32 * mu_v5 + 16.707085_f32 * mu_b1 + 5.507095_f32 * mu_b2 + 0.77026504_f32 * mu_b3 - 0.044286605_f32 * mu_b4 + 0.032321308_f32 * mu_u5;
-    let p_1_2 = 19.51827_f32 * mu_v5 + 34.71787_f32 * mu_b1 + 13.615708_f32 * mu_b2 + 3.4411366_f32 * mu_b3 + 0.29709172_f32 * mu_b4 + 0.08743845_f32 * mu_u5;
-    let p_1_3 = 18.795357_f32 * mu_v5 + 33.2771_f32 * mu_b1 + 13.535254_f32 * mu_b2 + 4.323074_f32 * mu_b3 + 0.52762365_f32 * mu_b4 + 0.07343429_f32 * mu_u5;
-    let p_1_4 = 8.622828_f32 * mu_v5 + 14.761587_f32 * mu_b1 + 5.6566834_f32 * mu_b2 + 2.290268_f32 * mu_b3 + 0.4074079_f32 * mu_b4 + 0.042750992_f32 * mu_u5;
-    let p_1_5 = 1.5514362_f32 * mu_v5 + 2.583185_f32 * mu_b1 + 1.0176855_f32 * mu_b2 + 0.60913664_f32 * mu_b3 + 0.15109782_f32 * mu_b4 + 0.009435484_f32 * mu_u5;
+    let p_1_0 = 1.877812_f32 * mu_v5 + 3.3886328_f32 * mu_b1 + 1.0872412_f32 * mu_b2 + 0.26317883_f32 * mu_b3 + 0.072060004_f32 * mu_b4 + 0.0073036086_f32 * mu_u5;
+    let p_1_1 = 8.829457_f32 * mu_v5 + 15.7280655_f32 * mu_b1 + 4.5134177_f32 * mu_b2 + 0.67547166_f32 * mu_b3 - 0.024038201_f32 * mu_b4 + 0.025308577_f32 * mu_u5;
+    let p_1_2 = 16.864567_f32 * mu_v5 + 30.665968_f32 * mu_b1 + 10.425982_f32 * mu_b2 + 2.976808_f32 * mu_b3 + 0.1983262_f32 * mu_b4 + 0.06611893_f32 * mu_u5;
+    let p_1_3 = 15.721235_f32 * mu_v5 + 28.740637_f32 * mu_b1 + 10.759528_f32 * mu_b2 + 4.49116_f32 * mu_b3 + 0.6227642_f32 * mu_b4 + 0.09174948_f32 * mu_u5;
+    let p_1_4 = 7.035493_f32 * mu_v5 + 12.477958_f32 * mu_b1 + 4.380967_f32 * mu_b2 + 2.4317024_f32 * mu_b3 + 0.4267147_f32 * mu_b4 + 0.043524053_f32 * mu_u5;
+    let p_1_5 = 1.2369466_f32 * mu_v5 + 2.1126893_f32 * mu_b1 + 0.71891373_f32 * mu_b2 + 0.6027268_f32 * mu_b3 + 0.14720938_f32 * mu_b4 + 0.009655432_f32 * mu_u5;
     let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 0.9366952_f32 * mu_v5 + 1.5589913_f32 * mu_b1 + 0.5734941_f32 * mu_b2 + 0.1060588_f32 * mu_b3 + 0.029574124_f32 * mu_b4 + 0.0053732134_f32 * mu_u5;
-    let p_2_1 = 4.9408903_f32 * mu_v5 + 8.316672_f32 * mu_b1 + 2.9970748_f32 * mu_b2 + 0.24470602_f32 * mu_b3 - 0.01388036_f32 * mu_b4 + 0.016005345_f32 * mu_u5;
-    let p_2_2 = 10.093759_f32 * mu_v5 + 17.462736_f32 * mu_b1 + 7.2012563_f32 * mu_b2 + 1.2804124_f32 * mu_b3 + 0.18747726_f32 * mu_b4 + 0.0459427_f32 * mu_u5;
-    let p_2_3 = 9.888593_f32 * mu_v5 + 17.31656_f32 * mu_b1 + 7.7006993_f32 * mu_b2 + 1.8930943_f32 * mu_b3 + 0.3525307_f32 * mu_b4 + 0.038765818_f32 * mu_u5;
-    let p_2_4 = 4.6953_f32 * mu_v5 + 8.238372_f32 * mu_b1 + 3.8122826_f32 * mu_b2 + 1.1376821_f32 * mu_b3 + 0.23652631_f32 * mu_b4 + 0.021354292_f32 * mu_u5;
-    let p_2_5 = 0.8843815_f32 * mu_v5 + 1.5674158_f32 * mu_b1 + 0.77035975_f32 * mu_b2 + 0.26745403_f32 * mu_b3 + 0.05547791_f32 * mu_b4 + 0.0060091545_f32 * mu_u5;
+    let p_2_0 = 0.93640167_f32 * mu_v5 + 1.6193068_f32 * mu_b1 + 0.6316231_f32 * mu_b2 + 0.114165425_f32 * mu_b3 + 0.03697857_f32 * mu_b4 + 0.0036519393_f32 * mu_u5;
+    let p_2_1 = 4.5411773_f32 * mu_v5 + 7.6957965_f32 * mu_b1 + 2.6251223_f32 * mu_b2 + 0.11833332_f32 * mu_b3 - 0.000507746_f32 * mu_b4 + 0.012266865_f32 * mu_u5;
+    let p_2_2 = 8.7971115_f32 * mu_v5 + 15.183629_f32 * mu_b1 + 5.875095_f32 * mu_b2 + 0.9428126_f32 * mu_b3 + 0.16989584_f32 * mu_b4 + 0.036870044_f32 * mu_u5;
+    let p_2_3 = 8.341274_f32 * mu_v5 + 14.676908_f32 * mu_b1 + 6.485493_f32 * mu_b2 + 1.8277127_f32 * mu_b3 + 0.39961356_f32 * mu_b4 + 0.042969745_f32 * mu_u5;
+    let p_2_4 = 3.8623812_f32 * mu_v5 + 6.861783_f32 * mu_b1 + 3.2922251_f32 * mu_b2 + 1.193386_f32 * mu_b3 + 0.26443362_f32 * mu_b4 + 0.024475023_f32 * mu_u5;
+    let p_2_5 = 0.709613_f32 * mu_v5 + 1.2728659_f32 * mu_b1 + 0.6500296_f32 * mu_b2 + 0.2660203_f32 * mu_b3 + 0.053053353_f32 * mu_b4 + 0.0059306244_f32 * mu_u5;
     let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0_f32 * mu_v5 + 1.6474696_f32 * mu_b1 + 0.74244815_f32 * mu_b2 + 0.118848935_f32 * mu_b3 + 0.029244069_f32 * mu_b4 + 0.005373727_f32 * mu_u5;
-    let q_0_1 = 5.4142804_f32 * mu_v5 + 8.96052_f32 * mu_b1 + 3.8063045_f32 * mu_b2 + 0.25912055_f32 * mu_b3 + 0.0150662195_f32 * mu_b4 + 0.016010826_f32 * mu_u5;
-    let q_0_2 = 11.88231_f32 * mu_v5 + 20.38562_f32 * mu_b1 + 9.545004_f32 * mu_b2 + 1.223254_f32 * mu_b3 + 0.23255037_f32 * mu_b4 + 0.05099026_f32 * mu_u5;
-    let q_0_3 = 12.996841_f32 * mu_v5 + 23.162088_f32 * mu_b1 + 12.040324_f32 * mu_b2 + 2.353542_f32 * mu_b3 + 0.54038066_f32 * mu_b4 + 0.061916117_f32 * mu_u5;
-    let q_0_4 = 7.0364094_f32 * mu_v5 + 12.934721_f32 * mu_b1 + 7.283964_f32 * mu_b2 + 1.8049115_f32 * mu_b3 + 0.45983043_f32 * mu_b4 + 0.040571272_f32 * mu_u5;
-    let q_0_5 = 1.5075977_f32 * mu_v5 + 2.8452034_f32 * mu_b1 + 1.7247878_f32 * mu_b2 + 0.5343517_f32 * mu_b3 + 0.16617802_f32 * mu_b4 + 0.019008316_f32 * mu_u5;
+    let q_0_0 = 1.0_f32 * mu_v5 + 1.7095729_f32 * mu_b1 + 0.8067308_f32 * mu_b2 + 0.12969214_f32 * mu_b3 + 0.036186695_f32 * mu_b4 + 0.003652441_f32 * mu_u5;
+    let q_0_1 = 5.011445_f32 * mu_v5 + 8.334646_f32 * mu_b1 + 3.4299686_f32 * mu_b2 + 0.120598845_f32 * mu_b3 + 0.026168989_f32 * mu_b4 + 0.012337211_f32 * mu_u5;
+    let q_0_2 = 10.419162_f32 * mu_v5 + 17.757582_f32 * mu_b1 + 7.982873_f32 * mu_b2 + 0.82186365_f32 * mu_b3 + 0.21665925_f32 * mu_b4 + 0.039248277_f32 * mu_u5;
+    let q_0_3 = 10.999398_f32 * mu_v5 + 19.582958_f32 * mu_b1 + 10.219737_f32 * mu_b2 + 2.1614404_f32 * mu_b3 + 0.58554053_f32 * mu_b4 + 0.060277767_f32 * mu_u5;
+    let q_0_4 = 5.8019953_f32 * mu_v5 + 10.758412_f32 * mu_b1 + 6.3261185_f32 * mu_b2 + 1.8402671_f32 * mu_b3 + 0.5193671_f32 * mu_b4 + 0.048801612_f32 * mu_u5;
+    let q_0_5 = 1.2103138_f32 * mu_v5 + 2.3079631_f32 * mu_b1 + 1.4660168_f32 * mu_b2 + 0.50978374_f32 * mu_b3 + 0.16050357_f32 * mu_b4 + 0.019087354_f32 * mu_u5;
     let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 2.0_f32 * mu_v5 + 3.2949393_f32 * mu_b1 + 1.4848963_f32 * mu_b2 + 0.23769787_f32 * mu_b3 + 0.058488138_f32 * mu_b4 + 0.010747454_f32 * mu_u5;
-    let q_1_1 = 10.828561_f32 * mu_v5 + 17.92104_f32 * mu_b1 + 7.612609_f32 * mu_b2 + 0.5182411_f32 * mu_b3 + 0.030132439_f32 * mu_b4 + 0.032021653_f32 * mu_u5;
-    let q_1_2 = 23.76462_f32 * mu_v5 + 40.77124_f32 * mu_b1 + 19.090008_f32 * mu_b2 + 2.446508_f32 * mu_b3 + 0.46510074_f32 * mu_b4 + 0.10198052_f32 * mu_u5;
-    let q_1_3 = 25.993683_f32 * mu_v5 + 46.324177_f32 * mu_b1 + 24.080648_f32 * mu_b2 + 4.707084_f32 * mu_b3 + 1.0807613_f32 * mu_b4 + 0.12383223_f32 * mu_u5;
-    let q_1_4 = 14.072819_f32 * mu_v5 + 25.869442_f32 * mu_b1 + 14.567928_f32 * mu_b2 + 3.609823_f32 * mu_b3 + 0.91966087_f32 * mu_b4 + 0.081142545_f32 * mu_u5;
-    let q_1_5 = 3.0151954_f32 * mu_v5 + 5.690407_f32 * mu_b1 + 3.4495757_f32 * mu_b2 + 1.0687034_f32 * mu_b3 + 0.33235604_f32 * mu_b4 + 0.038016632_f32 * mu_u5;
+    let q_1_0 = 2.0_f32 * mu_v5 + 3.4191458_f32 * mu_b1 + 1.6134616_f32 * mu_b2 + 0.25938427_f32 * mu_b3 + 0.07237339_f32 * mu_b4 + 0.007304882_f32 * mu_u5;
+    let q_1_1 = 10.02289_f32 * mu_v5 + 16.669292_f32 * mu_b1 + 6.859937_f32 * mu_b2 + 0.24119769_f32 * mu_b3 + 0.052337978_f32 * mu_b4 + 0.024674421_f32 * mu_u5;
+    let q_1_2 = 20.838324_f32 * mu_v5 + 35.515163_f32 * mu_b1 + 15.965746_f32 * mu_b2 + 1.6437273_f32 * mu_b3 + 0.4333185_f32 * mu_b4 + 0.07849655_f32 * mu_u5;
+    let q_1_3 = 21.998796_f32 * mu_v5 + 39.165916_f32 * mu_b1 + 20.439474_f32 * mu_b2 + 4.3228807_f32 * mu_b3 + 1.1710811_f32 * mu_b4 + 0.120555535_f32 * mu_u5;
+    let q_1_4 = 11.603991_f32 * mu_v5 + 21.516825_f32 * mu_b1 + 12.652237_f32 * mu_b2 + 3.6805341_f32 * mu_b3 + 1.0387342_f32 * mu_b4 + 0.097603224_f32 * mu_u5;
+    let q_1_5 = 2.4206276_f32 * mu_v5 + 4.6159263_f32 * mu_b1 + 2.9320335_f32 * mu_b2 + 1.0195675_f32 * mu_b3 + 0.32100713_f32 * mu_b4 + 0.038174707_f32 * mu_u5;
     let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 1.0_f32 * mu_v5 + 1.6474696_f32 * mu_b1 + 0.74244815_f32 * mu_b2 + 0.118848935_f32 * mu_b3 + 0.029244069_f32 * mu_b4 + 0.005373727_f32 * mu_u5;
-    let q_2_1 = 5.4142804_f32 * mu_v5 + 8.96052_f32 * mu_b1 + 3.8063045_f32 * mu_b2 + 0.25912055_f32 * mu_b3 + 0.0150662195_f32 * mu_b4 + 0.016010826_f32 * mu_u5;
-    let q_2_2 = 11.88231_f32 * mu_v5 + 20.38562_f32 * mu_b1 + 9.545004_f32 * mu_b2 + 1.223254_f32 * mu_b3 + 0.23255037_f32 * mu_b4 + 0.05099026_f32 * mu_u5;
-    let q_2_3 = 12.996841_f32 * mu_v5 + 23.162088_f32 * mu_b1 + 12.040324_f32 * mu_b2 + 2.353542_f32 * mu_b3 + 0.54038066_f32 * mu_b4 + 0.061916117_f32 * mu_u5;
-    let q_2_4 = 7.0364094_f32 * mu_v5 + 12.934721_f32 * mu_b1 + 7.283964_f32 * mu_b2 + 1.8049115_f32 * mu_b3 + 0.45983043_f32 * mu_b4 + 0.040571272_f32 * mu_u5;
-    let q_2_5 = 1.5075977_f32 * mu_v5 + 2.8452034_f32 * mu_b1 + 1.7247878_f32 * mu_b2 + 0.5343517_f32 * mu_b3 + 0.16617802_f32 * mu_b4 + 0.019008316_f32 * mu_u5;
+    let q_2_0 = 1.0_f32 * mu_v5 + 1.7095729_f32 * mu_b1 + 0.8067308_f32 * mu_b2 + 0.12969214_f32 * mu_b3 + 0.036186695_f32 * mu_b4 + 0.003652441_f32 * mu_u5;
+    let q_2_1 = 5.011445_f32 * mu_v5 + 8.334646_f32 * mu_b1 + 3.4299686_f32 * mu_b2 + 0.120598845_f32 * mu_b3 + 0.026168989_f32 * mu_b4 + 0.012337211_f32 * mu_u5;
+    let q_2_2 = 10.419162_f32 * mu_v5 + 17.757582_f32 * mu_b1 + 7.982873_f32 * mu_b2 + 0.82186365_f32 * mu_b3 + 0.21665925_f32 * mu_b4 + 0.039248277_f32 * mu_u5;
+    let q_2_3 = 10.999398_f32 * mu_v5 + 19.582958_f32 * mu_b1 + 10.219737_f32 * mu_b2 + 2.1614404_f32 * mu_b3 + 0.58554053_f32 * mu_b4 + 0.060277767_f32 * mu_u5;
+    let q_2_4 = 5.8019953_f32 * mu_v5 + 10.758412_f32 * mu_b1 + 6.3261185_f32 * mu_b2 + 1.8402671_f32 * mu_b3 + 0.5193671_f32 * mu_b4 + 0.048801612_f32 * mu_u5;
+    let q_2_5 = 1.2103138_f32 * mu_v5 + 2.3079631_f32 * mu_b1 + 1.4660168_f32 * mu_b2 + 0.50978374_f32 * mu_b3 + 0.16050357_f32 * mu_b4 + 0.019087354_f32 * mu_u5;
     let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     let e = p / q;

@@ -12,17 +12,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 2fc8761546216d6734bd6b49226004e9349a958916b1ecbed665486bb511ffee.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.360x the least-squares start's.
+// Source: fits/ggx-dielectric-inv-separable/best-80.json (furnace 0.1.0), fit SHA-256 6c1c9ab3bb90223d63dba7d04ea7e9163294266eeec8ef09a6dde1acfc424302.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-4, shifted 1.1e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.43e-3, max 1.27e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.34e-3, max 1.22e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.88e-7 (every op rounded, as this Rust), 4.71e-7 (fused multiply-add), 2.02e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.12e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.43e-3, max 1.27e-2; this f32 code MAE 1.43e-3, max 1.27e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-3 on the measurement grid.
-// Denominator proved >= 4.354e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.6e-4, shifted 1.2e-5, bernstein 1.5e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.74e-3, max 8.47e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.70e-3, max 8.27e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.56e-7 (every op rounded, as this Rust), 4.34e-7 (fused multiply-add), 1.90e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.14e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv-separable/128x128x128 (output clamp applied): f64 MAE 1.73e-3, max 8.47e-3; this f32 code MAE 1.73e-3, max 8.47e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-3 on the measurement grid.
+// Denominator proved >= 3.287e-3 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -70,49 +70,49 @@ fn ggx_dielectric_inv_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b3 = mu_u3 * mu_v2;
     let mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.9382778 * mu_v5 + 1.5333221 * mu_b1 + 0.6026139 * mu_b2 + 0.09413675 * mu_b3 + 0.030491725 * mu_b4 + 0.0053717997 * mu_u5;
-    let p_0_1 = 4.0834255 * mu_v5 + 6.9229136 * mu_b1 + 3.0355434 * mu_b2 + 0.44868618 * mu_b3 - 0.038875654 * mu_b4 + 0.015729567 * mu_u5;
-    let p_0_2 = 6.650712 * mu_v5 + 11.340487 * mu_b1 + 5.3794656 * mu_b2 + 1.2739155 * mu_b3 + 0.019637415 * mu_b4 + 0.049884927 * mu_u5;
-    let p_0_3 = 5.1658254 * mu_v5 + 8.652398 * mu_b1 + 4.4129233 * mu_b2 + 1.7593898 * mu_b3 + 0.2724007 * mu_b4 + 0.05383274 * mu_u5;
-    let p_0_4 = 2.0075898 * mu_v5 + 3.288277 * mu_b1 + 1.8785157 * mu_b2 + 1.1852279 * mu_b3 + 0.3110811 * mu_b4 + 0.030917872 * mu_u5;
-    let p_0_5 = 0.3421882 * mu_v5 + 0.5610708 * mu_b1 + 0.36072388 * mu_b2 + 0.29379964 * mu_b3 + 0.10198295 * mu_b4 + 0.011471837 * mu_u5;
+    let p_0_0 = 0.93547165 * mu_v5 + 1.5545523 * mu_b1 + 0.6972183 * mu_b2 + 0.0978534 * mu_b3 + 0.03814226 * mu_b4 + 0.003652441 * mu_u5;
+    let p_0_1 = 3.6943495 * mu_v5 + 6.098495 * mu_b1 + 2.6994338 * mu_b2 + 0.1894615 * mu_b3 - 0.02016783 * mu_b4 + 0.011788345 * mu_u5;
+    let p_0_2 = 5.713177 * mu_v5 + 9.523054 * mu_b1 + 4.773998 * mu_b2 + 0.84469837 * mu_b3 + 0.06925014 * mu_b4 + 0.040931176 * mu_u5;
+    let p_0_3 = 4.3158236 * mu_v5 + 7.2124786 * mu_b1 + 4.2005215 * mu_b2 + 1.4288495 * mu_b3 + 0.3240046 * mu_b4 + 0.05128068 * mu_u5;
+    let p_0_4 = 1.6480914 * mu_v5 + 2.7304935 * mu_b1 + 1.8452549 * mu_b2 + 0.9943439 * mu_b3 + 0.3437567 * mu_b4 + 0.038395133 * mu_u5;
+    let p_0_5 = 0.278007 * mu_v5 + 0.45432556 * mu_b1 + 0.33091354 * mu_b2 + 0.2329827 * mu_b3 + 0.104511365 * mu_b4 + 0.011349527 * mu_u5;
     let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 1.8706145 * mu_v5 + 3.2166333 * mu_b1 + 1.0450833 * mu_b2 + 0.22851147 * mu_b3 + 0.05865536 * mu_b4 + 0.010745676 * mu_u5;
-    let p_1_1 = 9.639175 * mu_v5 + 16.707085 * mu_b1 + 5.507095 * mu_b2 + 0.77026504 * mu_b3 - 0.044286605 * mu_b4 + 0.032321308 * mu_u5;
-    let p_1_2 = 19.51827 * mu_v5 + 34.71787 * mu_b1 + 13.615708 * mu_b2 + 3.4411366 * mu_b3 + 0.29709172 * mu_b4 + 0.08743845 * mu_u5;
-    let p_1_3 = 18.795357 * mu_v5 + 33.2771 * mu_b1 + 13.535254 * mu_b2 + 4.323074 * mu_b3 + 0.52762365 * mu_b4 + 0.07343429 * mu_u5;
-    let p_1_4 = 8.622828 * mu_v5 + 14.761587 * mu_b1 + 5.6566834 * mu_b2 + 2.290268 * mu_b3 + 0.4074079 * mu_b4 + 0.042750992 * mu_u5;
-    let p_1_5 = 1.5514362 * mu_v5 + 2.583185 * mu_b1 + 1.0176855 * mu_b2 + 0.60913664 * mu_b3 + 0.15109782 * mu_b4 + 0.009435484 * mu_u5;
+    let p_1_0 = 1.877812 * mu_v5 + 3.3886328 * mu_b1 + 1.0872412 * mu_b2 + 0.26317883 * mu_b3 + 0.072060004 * mu_b4 + 0.0073036086 * mu_u5;
+    let p_1_1 = 8.829457 * mu_v5 + 15.7280655 * mu_b1 + 4.5134177 * mu_b2 + 0.67547166 * mu_b3 - 0.024038201 * mu_b4 + 0.025308577 * mu_u5;
+    let p_1_2 = 16.864567 * mu_v5 + 30.665968 * mu_b1 + 10.425982 * mu_b2 + 2.976808 * mu_b3 + 0.1983262 * mu_b4 + 0.06611893 * mu_u5;
+    let p_1_3 = 15.721235 * mu_v5 + 28.740637 * mu_b1 + 10.759528 * mu_b2 + 4.49116 * mu_b3 + 0.6227642 * mu_b4 + 0.09174948 * mu_u5;
+    let p_1_4 = 7.035493 * mu_v5 + 12.477958 * mu_b1 + 4.380967 * mu_b2 + 2.4317024 * mu_b3 + 0.4267147 * mu_b4 + 0.043524053 * mu_u5;
+    let p_1_5 = 1.2369466 * mu_v5 + 2.1126893 * mu_b1 + 0.71891373 * mu_b2 + 0.6027268 * mu_b3 + 0.14720938 * mu_b4 + 0.009655432 * mu_u5;
     let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 0.9366952 * mu_v5 + 1.5589913 * mu_b1 + 0.5734941 * mu_b2 + 0.1060588 * mu_b3 + 0.029574124 * mu_b4 + 0.0053732134 * mu_u5;
-    let p_2_1 = 4.9408903 * mu_v5 + 8.316672 * mu_b1 + 2.9970748 * mu_b2 + 0.24470602 * mu_b3 - 0.01388036 * mu_b4 + 0.016005345 * mu_u5;
-    let p_2_2 = 10.093759 * mu_v5 + 17.462736 * mu_b1 + 7.2012563 * mu_b2 + 1.2804124 * mu_b3 + 0.18747726 * mu_b4 + 0.0459427 * mu_u5;
-    let p_2_3 = 9.888593 * mu_v5 + 17.31656 * mu_b1 + 7.7006993 * mu_b2 + 1.8930943 * mu_b3 + 0.3525307 * mu_b4 + 0.038765818 * mu_u5;
-    let p_2_4 = 4.6953 * mu_v5 + 8.238372 * mu_b1 + 3.8122826 * mu_b2 + 1.1376821 * mu_b3 + 0.23652631 * mu_b4 + 0.021354292 * mu_u5;
-    let p_2_5 = 0.8843815 * mu_v5 + 1.5674158 * mu_b1 + 0.77035975 * mu_b2 + 0.26745403 * mu_b3 + 0.05547791 * mu_b4 + 0.0060091545 * mu_u5;
+    let p_2_0 = 0.93640167 * mu_v5 + 1.6193068 * mu_b1 + 0.6316231 * mu_b2 + 0.114165425 * mu_b3 + 0.03697857 * mu_b4 + 0.0036519393 * mu_u5;
+    let p_2_1 = 4.5411773 * mu_v5 + 7.6957965 * mu_b1 + 2.6251223 * mu_b2 + 0.11833332 * mu_b3 - 0.000507746 * mu_b4 + 0.012266865 * mu_u5;
+    let p_2_2 = 8.7971115 * mu_v5 + 15.183629 * mu_b1 + 5.875095 * mu_b2 + 0.9428126 * mu_b3 + 0.16989584 * mu_b4 + 0.036870044 * mu_u5;
+    let p_2_3 = 8.341274 * mu_v5 + 14.676908 * mu_b1 + 6.485493 * mu_b2 + 1.8277127 * mu_b3 + 0.39961356 * mu_b4 + 0.042969745 * mu_u5;
+    let p_2_4 = 3.8623812 * mu_v5 + 6.861783 * mu_b1 + 3.2922251 * mu_b2 + 1.193386 * mu_b3 + 0.26443362 * mu_b4 + 0.024475023 * mu_u5;
+    let p_2_5 = 0.709613 * mu_v5 + 1.2728659 * mu_b1 + 0.6500296 * mu_b2 + 0.2660203 * mu_b3 + 0.053053353 * mu_b4 + 0.0059306244 * mu_u5;
     let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0 * mu_v5 + 1.6474696 * mu_b1 + 0.74244815 * mu_b2 + 0.118848935 * mu_b3 + 0.029244069 * mu_b4 + 0.005373727 * mu_u5;
-    let q_0_1 = 5.4142804 * mu_v5 + 8.96052 * mu_b1 + 3.8063045 * mu_b2 + 0.25912055 * mu_b3 + 0.0150662195 * mu_b4 + 0.016010826 * mu_u5;
-    let q_0_2 = 11.88231 * mu_v5 + 20.38562 * mu_b1 + 9.545004 * mu_b2 + 1.223254 * mu_b3 + 0.23255037 * mu_b4 + 0.05099026 * mu_u5;
-    let q_0_3 = 12.996841 * mu_v5 + 23.162088 * mu_b1 + 12.040324 * mu_b2 + 2.353542 * mu_b3 + 0.54038066 * mu_b4 + 0.061916117 * mu_u5;
-    let q_0_4 = 7.0364094 * mu_v5 + 12.934721 * mu_b1 + 7.283964 * mu_b2 + 1.8049115 * mu_b3 + 0.45983043 * mu_b4 + 0.040571272 * mu_u5;
-    let q_0_5 = 1.5075977 * mu_v5 + 2.8452034 * mu_b1 + 1.7247878 * mu_b2 + 0.5343517 * mu_b3 + 0.16617802 * mu_b4 + 0.019008316 * mu_u5;
+    let q_0_0 = 1.0 * mu_v5 + 1.7095729 * mu_b1 + 0.8067308 * mu_b2 + 0.12969214 * mu_b3 + 0.036186695 * mu_b4 + 0.003652441 * mu_u5;
+    let q_0_1 = 5.011445 * mu_v5 + 8.334646 * mu_b1 + 3.4299686 * mu_b2 + 0.120598845 * mu_b3 + 0.026168989 * mu_b4 + 0.012337211 * mu_u5;
+    let q_0_2 = 10.419162 * mu_v5 + 17.757582 * mu_b1 + 7.982873 * mu_b2 + 0.82186365 * mu_b3 + 0.21665925 * mu_b4 + 0.039248277 * mu_u5;
+    let q_0_3 = 10.999398 * mu_v5 + 19.582958 * mu_b1 + 10.219737 * mu_b2 + 2.1614404 * mu_b3 + 0.58554053 * mu_b4 + 0.060277767 * mu_u5;
+    let q_0_4 = 5.8019953 * mu_v5 + 10.758412 * mu_b1 + 6.3261185 * mu_b2 + 1.8402671 * mu_b3 + 0.5193671 * mu_b4 + 0.048801612 * mu_u5;
+    let q_0_5 = 1.2103138 * mu_v5 + 2.3079631 * mu_b1 + 1.4660168 * mu_b2 + 0.50978374 * mu_b3 + 0.16050357 * mu_b4 + 0.019087354 * mu_u5;
     let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 2.0 * mu_v5 + 3.2949393 * mu_b1 + 1.4848963 * mu_b2 + 0.23769787 * mu_b3 + 0.058488138 * mu_b4 + 0.010747454 * mu_u5;
-    let q_1_1 = 10.828561 * mu_v5 + 17.92104 * mu_b1 + 7.612609 * mu_b2 + 0.5182411 * mu_b3 + 0.030132439 * mu_b4 + 0.032021653 * mu_u5;
-    let q_1_2 = 23.76462 * mu_v5 + 40.77124 * mu_b1 + 19.090008 * mu_b2 + 2.446508 * mu_b3 + 0.46510074 * mu_b4 + 0.10198052 * mu_u5;
-    let q_1_3 = 25.993683 * mu_v5 + 46.324177 * mu_b1 + 24.080648 * mu_b2 + 4.707084 * mu_b3 + 1.0807613 * mu_b4 + 0.12383223 * mu_u5;
-    let q_1_4 = 14.072819 * mu_v5 + 25.869442 * mu_b1 + 14.567928 * mu_b2 + 3.609823 * mu_b3 + 0.91966087 * mu_b4 + 0.081142545 * mu_u5;
-    let q_1_5 = 3.0151954 * mu_v5 + 5.690407 * mu_b1 + 3.4495757 * mu_b2 + 1.0687034 * mu_b3 + 0.33235604 * mu_b4 + 0.038016632 * mu_u5;
+    let q_1_0 = 2.0 * mu_v5 + 3.4191458 * mu_b1 + 1.6134616 * mu_b2 + 0.25938427 * mu_b3 + 0.07237339 * mu_b4 + 0.007304882 * mu_u5;
+    let q_1_1 = 10.02289 * mu_v5 + 16.669292 * mu_b1 + 6.859937 * mu_b2 + 0.24119769 * mu_b3 + 0.052337978 * mu_b4 + 0.024674421 * mu_u5;
+    let q_1_2 = 20.838324 * mu_v5 + 35.515163 * mu_b1 + 15.965746 * mu_b2 + 1.6437273 * mu_b3 + 0.4333185 * mu_b4 + 0.07849655 * mu_u5;
+    let q_1_3 = 21.998796 * mu_v5 + 39.165916 * mu_b1 + 20.439474 * mu_b2 + 4.3228807 * mu_b3 + 1.1710811 * mu_b4 + 0.120555535 * mu_u5;
+    let q_1_4 = 11.603991 * mu_v5 + 21.516825 * mu_b1 + 12.652237 * mu_b2 + 3.6805341 * mu_b3 + 1.0387342 * mu_b4 + 0.097603224 * mu_u5;
+    let q_1_5 = 2.4206276 * mu_v5 + 4.6159263 * mu_b1 + 2.9320335 * mu_b2 + 1.0195675 * mu_b3 + 0.32100713 * mu_b4 + 0.038174707 * mu_u5;
     let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 1.0 * mu_v5 + 1.6474696 * mu_b1 + 0.74244815 * mu_b2 + 0.118848935 * mu_b3 + 0.029244069 * mu_b4 + 0.005373727 * mu_u5;
-    let q_2_1 = 5.4142804 * mu_v5 + 8.96052 * mu_b1 + 3.8063045 * mu_b2 + 0.25912055 * mu_b3 + 0.0150662195 * mu_b4 + 0.016010826 * mu_u5;
-    let q_2_2 = 11.88231 * mu_v5 + 20.38562 * mu_b1 + 9.545004 * mu_b2 + 1.223254 * mu_b3 + 0.23255037 * mu_b4 + 0.05099026 * mu_u5;
-    let q_2_3 = 12.996841 * mu_v5 + 23.162088 * mu_b1 + 12.040324 * mu_b2 + 2.353542 * mu_b3 + 0.54038066 * mu_b4 + 0.061916117 * mu_u5;
-    let q_2_4 = 7.0364094 * mu_v5 + 12.934721 * mu_b1 + 7.283964 * mu_b2 + 1.8049115 * mu_b3 + 0.45983043 * mu_b4 + 0.040571272 * mu_u5;
-    let q_2_5 = 1.5075977 * mu_v5 + 2.8452034 * mu_b1 + 1.7247878 * mu_b2 + 0.5343517 * mu_b3 + 0.16617802 * mu_b4 + 0.019008316 * mu_u5;
+    let q_2_0 = 1.0 * mu_v5 + 1.7095729 * mu_b1 + 0.8067308 * mu_b2 + 0.12969214 * mu_b3 + 0.036186695 * mu_b4 + 0.003652441 * mu_u5;
+    let q_2_1 = 5.011445 * mu_v5 + 8.334646 * mu_b1 + 3.4299686 * mu_b2 + 0.120598845 * mu_b3 + 0.026168989 * mu_b4 + 0.012337211 * mu_u5;
+    let q_2_2 = 10.419162 * mu_v5 + 17.757582 * mu_b1 + 7.982873 * mu_b2 + 0.82186365 * mu_b3 + 0.21665925 * mu_b4 + 0.039248277 * mu_u5;
+    let q_2_3 = 10.999398 * mu_v5 + 19.582958 * mu_b1 + 10.219737 * mu_b2 + 2.1614404 * mu_b3 + 0.58554053 * mu_b4 + 0.060277767 * mu_u5;
+    let q_2_4 = 5.8019953 * mu_v5 + 10.758412 * mu_b1 + 6.3261185 * mu_b2 + 1.8402671 * mu_b3 + 0.5193671 * mu_b4 + 0.048801612 * mu_u5;
+    let q_2_5 = 1.2103138 * mu_v5 + 2.3079631 * mu_b1 + 1.4660168 * mu_b2 + 0.50978374 * mu_b3 + 0.16050357 * mu_b4 + 0.019087354 * mu_u5;
     let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     let e = p / q;

@@ -28,17 +28,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.806x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 422a9d996345fef37e24b06de0ec118a18b696c26fc655ced8b0d86b0dae8987.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.741x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 9541fa856e4009b1a8b31cba07344e3017dff35682b52007821cd27991bb2a9e.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-4, shifted 3.1e-5, bernstein 2.6e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 6.94e-4, max 4.17e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.61e-4, max 3.57e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.51e-7 (every op rounded, as this Rust), 6.81e-7 (fused multiply-add), 3.19e-6 (GPU division/sqrt error).
-// Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 6.73e-4, max 4.17e-3; this f32 code MAE 6.73e-4, max 4.17e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
-// Denominator proved >= 1.110e-4 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.6e-5, shifted 4.4e-6, bernstein 2.6e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 7.61e-4, max 4.45e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.33e-4, max 3.68e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.52e-7 (every op rounded, as this Rust), 6.68e-7 (fused multiply-add), 3.10e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.06e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.42e-4, max 4.45e-3; this f32 code MAE 7.42e-4, max 4.45e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
+// Denominator proved >= 4.246e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -85,12 +85,12 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     const float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    const float p0_0_0 = 0.8806504f * mu_b5_v5 + 2.2905858f * mu_b5_b1 + 2.7900894f * mu_b5_b2 + 2.2057595f * mu_b5_b3 + 1.276387f * mu_b5_b4 + 0.71139264f * mu_b5_u5;
-    const float p0_0_1 = 12.630383f * mu_b5_v5 + 23.0704f * mu_b5_b1 + 15.871381f * mu_b5_b2 + 8.340638f * mu_b5_b3 + 4.310749f * mu_b5_b4 + 2.7045302f * mu_b5_u5;
-    const float p0_0_2 = 35.732952f * mu_b5_v5 + 62.8233f * mu_b5_b1 + 52.130867f * mu_b5_b2 + 43.212708f * mu_b5_b3 + 22.356516f * mu_b5_b4 + 6.790443f * mu_b5_u5;
-    const float p0_0_3 = 43.316433f * mu_b5_v5 + 77.31607f * mu_b5_b1 + 79.745926f * mu_b5_b2 + 78.45143f * mu_b5_b3 + 37.50989f * mu_b5_b4 + 7.410859f * mu_b5_u5;
-    const float p0_0_4 = 28.791595f * mu_b5_v5 + 62.87189f * mu_b5_b1 + 83.76516f * mu_b5_b2 + 80.09821f * mu_b5_b3 + 33.745594f * mu_b5_b4 + 4.6352963f * mu_b5_u5;
-    const float p0_0_5 = 8.699172f * mu_b5_v5 + 23.803255f * mu_b5_b1 + 35.47671f * mu_b5_b2 + 31.132513f * mu_b5_b3 + 11.761807f * mu_b5_b4 + 1.2625322f * mu_b5_u5;
+    const float p0_0_0 = 0.61503667f * mu_b5_v5 + 2.179358f * mu_b5_b1 + 0.57003325f * mu_b5_b2 + 1.6039382f * mu_b5_b3 + 0.75813824f * mu_b5_b4 + 0.08825118f * mu_b5_u5;
+    const float p0_0_1 = 4.3541975f * mu_b5_v5 + 16.703007f * mu_b5_b1 + 7.6317296f * mu_b5_b2 + 7.587678f * mu_b5_b3 + 3.0342047f * mu_b5_b4 + 0.37114337f * mu_b5_u5;
+    const float p0_0_2 = 11.953333f * mu_b5_v5 + 47.429684f * mu_b5_b1 + 28.398943f * mu_b5_b2 + 17.583267f * mu_b5_b3 + 6.592649f * mu_b5_b4 + 1.2153641f * mu_b5_u5;
+    const float p0_0_3 = 15.615702f * mu_b5_v5 + 64.408875f * mu_b5_b1 + 47.475105f * mu_b5_b2 + 24.407618f * mu_b5_b3 + 7.86265f * mu_b5_b4 + 1.4203553f * mu_b5_u5;
+    const float p0_0_4 = 8.051776f * mu_b5_v5 + 35.8716f * mu_b5_b1 + 27.753162f * mu_b5_b2 + 12.187175f * mu_b5_b3 + 2.9226873f * mu_b5_b4 + 0.31054634f * mu_b5_u5;
+    const float p0_0_5 = 0.84293336f * mu_b5_v5 + 5.332197f * mu_b5_b1 + 3.5421743f * mu_b5_b2 + 1.3059543f * mu_b5_b3 + 0.34005424f * mu_b5_b4 + 0.015349774f * mu_b5_u5;
     const float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     const float p0 = p0_0 * 1.0f;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -105,15 +105,15 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     const float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    const float u0_0_0 = 1.0158439f * 1.0f;
+    const float u0_0_0 = 1.0189348f * 1.0f;
     const float u0_0 = u0_0_0 * 1.0f;
-    const float u0_1_0 = 4.3409486f * 1.0f;
+    const float u0_1_0 = 4.9848986f * 1.0f;
     const float u0_1 = u0_1_0 * 1.0f;
-    const float u0_2_0 = 6.810333f * 1.0f;
+    const float u0_2_0 = 9.022746f * 1.0f;
     const float u0_2 = u0_2_0 * 1.0f;
-    const float u0_3_0 = 4.604209f * 1.0f;
+    const float u0_3_0 = 5.9658074f * 1.0f;
     const float u0_3 = u0_3_0 * 1.0f;
-    const float u0_4_0 = 1.1668426f * 1.0f;
+    const float u0_4_0 = 1.5152438f * 1.0f;
     const float u0_4 = u0_4_0 * 1.0f;
     const float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -139,101 +139,101 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     const float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q0_0_0 = 1.0f * mu_b4_v4 + 1.9454402f * mu_b4_b1 + 2.060053f * mu_b4_b2 + 0.62611514f * mu_b4_b3 + 0.80941737f * mu_b4_u4;
-    const float q0_0_1 = 13.622922f * mu_b4_v4 + 13.501039f * mu_b4_b1 + 5.3608313f * mu_b4_b2 + 2.5561464f * mu_b4_b3 + 2.2650921f * mu_b4_u4;
-    const float q0_0_2 = 30.308039f * mu_b4_v4 + 29.982765f * mu_b4_b1 + 24.003136f * mu_b4_b2 + 22.77389f * mu_b4_b3 + 6.2329707f * mu_b4_u4;
-    const float q0_0_3 = 26.538568f * mu_b4_v4 + 32.06103f * mu_b4_b1 + 37.86701f * mu_b4_b2 + 32.504307f * mu_b4_b3 + 5.3514175f * mu_b4_u4;
-    const float q0_0_4 = 12.314475f * mu_b4_v4 + 27.477955f * mu_b4_b1 + 37.93079f * mu_b4_b2 + 25.50454f * mu_b4_b3 + 4.0351443f * mu_b4_u4;
+    const float q0_0_0 = 1.0f * mu_b4_v4 + 2.2727594f * mu_b4_b1 + 1.0057073f * mu_b4_b2 + 1.0636656f * mu_b4_b3 + 0.14144303f * mu_b4_u4;
+    const float q0_0_1 = 4.799157f * mu_b4_v4 + 11.791522f * mu_b4_b1 + 5.3044515f * mu_b4_b2 + 3.611248f * mu_b4_b3 + 0.54206187f * mu_b4_u4;
+    const float q0_0_2 = 9.237598f * mu_b4_v4 + 27.42224f * mu_b4_b1 + 19.451773f * mu_b4_b2 + 9.904891f * mu_b4_b3 + 1.5021092f * mu_b4_u4;
+    const float q0_0_3 = 6.8137136f * mu_b4_v4 + 24.810093f * mu_b4_b1 + 23.344515f * mu_b4_b2 + 12.090217f * mu_b4_b3 + 1.9849808f * mu_b4_u4;
+    const float q0_0_4 = 0.75411695f * mu_b4_v4 + 4.4219937f * mu_b4_b1 + 4.464553f * mu_b4_b2 + 2.2482865f * mu_b4_b3 + 0.26233515f * mu_b4_u4;
     const float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     const float q0 = q0_0 * 1.0f;
     const float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    const float p1_0_0 = 0.114626125f * mu_b5_v5 + 0.5401561f * mu_b5_b1 + 0.3741077f * mu_b5_b2 + 0.14498872f * mu_b5_b3 - 0.0050040125f * mu_b5_b4 + 0.00032137448f * mu_b5_u5;
-    const float p1_0_1 = -0.6684901f * mu_b5_v5 - 1.6672574f * mu_b5_b1 - 1.7965527f * mu_b5_b2 + 0.14943402f * mu_b5_b3 - 0.06292076f * mu_b5_b4 - 0.0014579922f * mu_b5_u5;
-    const float p1_0_2 = -1.5886774f * mu_b5_v5 - 3.8844836f * mu_b5_b1 - 1.1817904f * mu_b5_b2 + 3.0254889f * mu_b5_b3 - 0.096146174f * mu_b5_b4 + 0.009745145f * mu_b5_u5;
-    const float p1_0_3 = -1.7691114f * mu_b5_v5 - 3.6913311f * mu_b5_b1 + 1.6260946f * mu_b5_b2 + 4.638075f * mu_b5_b3 - 0.8680611f * mu_b5_b4 + 0.059542518f * mu_b5_u5;
-    const float p1_0_4 = -1.3922894f * mu_b5_v5 - 2.5481856f * mu_b5_b1 + 1.6742339f * mu_b5_b2 + 2.8376493f * mu_b5_b3 - 0.87588483f * mu_b5_b4 + 0.12527817f * mu_b5_u5;
-    const float p1_0_5 = -0.4573552f * mu_b5_v5 - 0.67700464f * mu_b5_b1 + 0.75084925f * mu_b5_b2 + 0.9344578f * mu_b5_b3 - 0.1891332f * mu_b5_b4 + 0.04864416f * mu_b5_u5;
+    const float p1_0_0 = 0.22491269f * mu_b5_v5 + 0.4527035f * mu_b5_b1 + 1.7415174f * mu_b5_b2 + 0.6107581f * mu_b5_b3 + 0.0029755903f * mu_b5_b4 + 0.003966992f * mu_b5_u5;
+    const float p1_0_1 = -0.21912275f * mu_b5_v5 - 2.9118047f * mu_b5_b1 + 2.600234f * mu_b5_b2 + 0.14610803f * mu_b5_b3 - 0.62463236f * mu_b5_b4 + 0.012290496f * mu_b5_u5;
+    const float p1_0_2 = -1.356161f * mu_b5_v5 - 7.704025f * mu_b5_b1 + 5.6625566f * mu_b5_b2 + 1.7034214f * mu_b5_b3 - 1.0718943f * mu_b5_b4 + 0.21533445f * mu_b5_u5;
+    const float p1_0_3 = -2.0972855f * mu_b5_v5 - 7.2867827f * mu_b5_b1 + 9.845988f * mu_b5_b2 + 4.583616f * mu_b5_b3 - 0.8138996f * mu_b5_b4 + 0.6181994f * mu_b5_u5;
+    const float p1_0_4 = -1.7061013f * mu_b5_v5 - 3.849669f * mu_b5_b1 + 6.277478f * mu_b5_b2 + 2.302137f * mu_b5_b3 - 1.1509073f * mu_b5_b4 + 0.4581163f * mu_b5_u5;
+    const float p1_0_5 = -0.44327146f * mu_b5_v5 - 0.5140536f * mu_b5_b1 + 2.0120282f * mu_b5_b2 + 0.66329074f * mu_b5_b3 - 0.39294493f * mu_b5_b4 + 0.124597654f * mu_b5_u5;
     const float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     const float p1 = p1_0 * 1.0f;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    const float u1_0_0 = 1.1995744f * 1.0f;
+    const float u1_0_0 = 1.8189784f * 1.0f;
     const float u1_0 = u1_0_0 * 1.0f;
-    const float u1_1_0 = 2.947519f * 1.0f;
+    const float u1_1_0 = 2.814904f * 1.0f;
     const float u1_1 = u1_1_0 * 1.0f;
-    const float u1_2_0 = 1.2266395f * 1.0f;
+    const float u1_2_0 = -5.1084685f * 1.0f;
     const float u1_2 = u1_2_0 * 1.0f;
-    const float u1_3_0 = -0.67015284f * 1.0f;
+    const float u1_3_0 = -2.6579652f * 1.0f;
     const float u1_3 = u1_3_0 * 1.0f;
-    const float u1_4_0 = -0.35697094f * 1.0f;
+    const float u1_4_0 = -0.72871286f * 1.0f;
     const float u1_4 = u1_4_0 * 1.0f;
     const float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q1_0_0 = 1.0f * mu_b4_v4 + 2.3845723f * mu_b4_b1 + 1.0412741f * mu_b4_b2 - 0.032741953f * mu_b4_b3 + 0.0024370337f * mu_b4_u4;
-    const float q1_0_1 = 2.6534324f * mu_b4_v4 + 5.2752533f * mu_b4_b1 + 0.8171997f * mu_b4_b2 - 0.58766496f * mu_b4_b3 - 0.015520265f * mu_b4_u4;
-    const float q1_0_2 = 4.198069f * mu_b4_v4 + 6.9265933f * mu_b4_b1 + 0.52213585f * mu_b4_b2 - 0.20389162f * mu_b4_b3 + 0.15378167f * mu_b4_u4;
-    const float q1_0_3 = 3.9419034f * mu_b4_v4 + 5.8763013f * mu_b4_b1 + 0.6531541f * mu_b4_b2 + 0.10750484f * mu_b4_b3 + 0.15627189f * mu_b4_u4;
-    const float q1_0_4 = 1.563838f * mu_b4_v4 + 2.5066752f * mu_b4_b1 + 0.9063732f * mu_b4_b2 + 0.42275965f * mu_b4_b3 + 0.15110447f * mu_b4_u4;
+    const float q1_0_0 = 1.0f * mu_b4_v4 + 2.9776351f * mu_b4_b1 + 3.2981412f * mu_b4_b2 - 0.007930059f * mu_b4_b3 + 0.018505584f * mu_b4_u4;
+    const float q1_0_1 = 2.866448f * mu_b4_v4 + 5.4669056f * mu_b4_b1 + 4.661586f * mu_b4_b2 - 3.3110826f * mu_b4_b3 + 0.015555506f * mu_b4_u4;
+    const float q1_0_2 = 5.6352763f * mu_b4_v4 + 9.267572f * mu_b4_b1 + 7.6256433f * mu_b4_b2 - 3.0804737f * mu_b4_b3 + 1.0078287f * mu_b4_u4;
+    const float q1_0_3 = 4.8478284f * mu_b4_v4 + 7.5300393f * mu_b4_b1 + 5.8545847f * mu_b4_b2 - 1.2171683f * mu_b4_b3 + 0.9982239f * mu_b4_u4;
+    const float q1_0_4 = 1.393646f * mu_b4_v4 + 2.0103202f * mu_b4_b1 + 1.4802608f * mu_b4_b2 - 0.18126407f * mu_b4_b3 + 0.30209085f * mu_b4_u4;
     const float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     const float q1 = q1_0 * 1.0f;
     const float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    const float p2_0_0 = -0.095977925f * mu_b5_v5 - 0.59212995f * mu_b5_b1 - 0.23104414f * mu_b5_b2 - 0.08590867f * mu_b5_b3 + 0.003665606f * mu_b5_b4 - 0.00018756092f * mu_b5_u5;
-    const float p2_0_1 = 0.9704008f * mu_b5_v5 + 2.3800094f * mu_b5_b1 + 3.0876906f * mu_b5_b2 - 0.06938589f * mu_b5_b3 + 0.027125534f * mu_b5_b4 + 0.00024495486f * mu_b5_u5;
-    const float p2_0_2 = 1.604787f * mu_b5_v5 + 4.182576f * mu_b5_b1 + 1.7902478f * mu_b5_b2 - 4.327889f * mu_b5_b3 + 0.013783921f * mu_b5_b4 + 0.0054347995f * mu_b5_u5;
-    const float p2_0_3 = 0.7495994f * mu_b5_v5 + 1.8555624f * mu_b5_b1 - 3.3264182f * mu_b5_b2 - 6.889084f * mu_b5_b3 + 1.0213416f * mu_b5_b4 - 0.0706528f * mu_b5_u5;
-    const float p2_0_4 = 0.21402915f * mu_b5_v5 + 0.325861f * mu_b5_b1 - 3.4674745f * mu_b5_b2 - 3.90581f * mu_b5_b3 + 1.3031352f * mu_b5_b4 - 0.14470962f * mu_b5_u5;
-    const float p2_0_5 = 0.03299927f * mu_b5_v5 - 0.16845861f * mu_b5_b1 - 1.3679309f * mu_b5_b2 - 1.0595257f * mu_b5_b3 + 0.4229237f * mu_b5_b4 - 0.038893297f * mu_b5_u5;
+    const float p2_0_0 = -0.10817572f * mu_b5_v5 + 0.18949065f * mu_b5_b1 - 1.2943561f * mu_b5_b2 - 0.14155115f * mu_b5_b3 + 0.011355619f * mu_b5_b4 - 0.00095487124f * mu_b5_u5;
+    const float p2_0_1 = 0.5577574f * mu_b5_v5 + 4.5492387f * mu_b5_b1 - 2.0359874f * mu_b5_b2 + 1.3216932f * mu_b5_b3 + 0.1450099f * mu_b5_b4 - 0.013347793f * mu_b5_u5;
+    const float p2_0_2 = 1.2038225f * mu_b5_v5 + 7.5878177f * mu_b5_b1 - 7.047426f * mu_b5_b2 + 0.6458256f * mu_b5_b3 - 0.41741863f * mu_b5_b4 - 0.11305812f * mu_b5_u5;
+    const float p2_0_3 = 0.85698885f * mu_b5_v5 + 3.8800275f * mu_b5_b1 - 12.318777f * mu_b5_b2 - 1.119141f * mu_b5_b3 - 0.38478926f * mu_b5_b4 - 0.22585629f * mu_b5_u5;
+    const float p2_0_4 = 0.37313074f * mu_b5_v5 + 0.26983935f * mu_b5_b1 - 8.05962f * mu_b5_b2 - 0.01305543f * mu_b5_b3 + 0.62020177f * mu_b5_b4 - 0.13226743f * mu_b5_u5;
+    const float p2_0_5 = 0.020836323f * mu_b5_v5 - 0.54809296f * mu_b5_b1 - 2.3785872f * mu_b5_b2 - 0.043282554f * mu_b5_b3 + 0.28794336f * mu_b5_b4 - 0.040271275f * mu_b5_u5;
     const float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     const float p2 = p2_0 * 1.0f;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    const float u2_0_0 = 0.12964335f * 1.0f;
+    const float u2_0_0 = 0.6613149f * 1.0f;
     const float u2_0 = u2_0_0 * 1.0f;
-    const float u2_1_0 = 1.4632809f * 1.0f;
+    const float u2_1_0 = 1.6257931f * 1.0f;
     const float u2_1 = u2_1_0 * 1.0f;
-    const float u2_2_0 = 2.4639997f * 1.0f;
+    const float u2_2_0 = -1.4460853f * 1.0f;
     const float u2_2 = u2_2_0 * 1.0f;
-    const float u2_3_0 = 0.15150878f * 1.0f;
+    const float u2_3_0 = -1.1549681f * 1.0f;
     const float u2_3 = u2_3_0 * 1.0f;
-    const float u2_4_0 = -0.11009473f * 1.0f;
+    const float u2_4_0 = -0.3398125f * 1.0f;
     const float u2_4 = u2_4_0 * 1.0f;
     const float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q2_0_0 = 1.0f * mu_b4_v4 + 1.8839341f * mu_b4_b1 + 0.6041281f * mu_b4_b2 - 0.022075998f * mu_b4_b3 + 0.0015130016f * mu_b4_u4;
-    const float q2_0_1 = 2.8113904f * mu_b4_v4 + 4.756544f * mu_b4_b1 + 0.5829771f * mu_b4_b2 - 0.34703603f * mu_b4_b3 - 0.00972763f * mu_b4_u4;
-    const float q2_0_2 = 3.8178456f * mu_b4_v4 + 6.123621f * mu_b4_b1 + 0.4209687f * mu_b4_b2 - 0.25312474f * mu_b4_b3 + 0.094380036f * mu_b4_u4;
-    const float q2_0_3 = 3.041816f * mu_b4_v4 + 5.017406f * mu_b4_b1 + 0.97991776f * mu_b4_b2 + 0.236361f * mu_b4_b3 + 0.20716496f * mu_b4_u4;
-    const float q2_0_4 = 1.0295161f * mu_b4_v4 + 1.7430148f * mu_b4_b1 + 0.5027283f * mu_b4_b2 + 0.14114587f * mu_b4_b3 + 0.09569933f * mu_b4_u4;
+    const float q2_0_0 = 1.0f * mu_b4_v4 + 2.8954077f * mu_b4_b1 + 3.4582143f * mu_b4_b2 - 0.17782134f * mu_b4_b3 + 0.0110241305f * mu_b4_u4;
+    const float q2_0_1 = 2.0660746f * mu_b4_v4 + 2.2763588f * mu_b4_b1 + 4.3065624f * mu_b4_b2 - 2.803335f * mu_b4_b3 + 0.106995516f * mu_b4_u4;
+    const float q2_0_2 = 4.5835032f * mu_b4_v4 + 2.8473868f * mu_b4_b1 + 6.246853f * mu_b4_b2 - 1.8213232f * mu_b4_b3 + 0.70562035f * mu_b4_u4;
+    const float q2_0_3 = 4.6550455f * mu_b4_v4 + 2.7131867f * mu_b4_b1 + 4.0868764f * mu_b4_b2 - 0.6364521f * mu_b4_b3 + 0.3414212f * mu_b4_u4;
+    const float q2_0_4 = 1.5025492f * mu_b4_v4 + 0.70647955f * mu_b4_b1 + 0.8779639f * mu_b4_b2 + 0.019085638f * mu_b4_b3 + 0.0967043f * mu_b4_u4;
     const float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     const float q2 = q2_0 * 1.0f;
     const float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    const float p3_0_0 = -0.041474536f * mu_b5_v5 - 0.3543456f * mu_b5_b1 - 0.029815663f * mu_b5_b2 - 0.036432862f * mu_b5_b3 + 0.0024902818f * mu_b5_b4 - 0.00010601604f * mu_b5_u5;
-    const float p3_0_1 = 0.6659342f * mu_b5_v5 + 1.4919716f * mu_b5_b1 + 2.21789f * mu_b5_b2 - 0.22189493f * mu_b5_b3 - 0.0027239658f * mu_b5_b4 + 0.0006007095f * mu_b5_u5;
-    const float p3_0_2 = 0.90082556f * mu_b5_v5 + 2.1284697f * mu_b5_b1 + 1.04191f * mu_b5_b2 - 3.34242f * mu_b5_b3 + 0.066073775f * mu_b5_b4 + 0.0019143639f * mu_b5_u5;
-    const float p3_0_3 = 0.23134528f * mu_b5_v5 + 0.42983267f * mu_b5_b1 - 2.5279543f * mu_b5_b2 - 5.050851f * mu_b5_b3 + 0.86551243f * mu_b5_b4 - 0.03092397f * mu_b5_u5;
-    const float p3_0_4 = 0.07939742f * mu_b5_v5 + 0.01741475f * mu_b5_b1 - 2.4275672f * mu_b5_b2 - 2.9200776f * mu_b5_b3 + 1.0025188f * mu_b5_b4 - 0.053411033f * mu_b5_u5;
-    const float p3_0_5 = 0.054519657f * mu_b5_v5 - 0.06501223f * mu_b5_b1 - 0.974902f * mu_b5_b2 - 0.8956782f * mu_b5_b3 + 0.27354765f * mu_b5_b4 - 0.00822877f * mu_b5_u5;
+    const float p3_0_0 = -0.035574164f * mu_b5_v5 + 0.0041789096f * mu_b5_b1 - 0.3591235f * mu_b5_b2 - 0.012367859f * mu_b5_b3 - 0.020677203f * mu_b5_b4 - 0.008051924f * mu_b5_u5;
+    const float p3_0_1 = 0.13720722f * mu_b5_v5 + 1.1084944f * mu_b5_b1 - 0.98850006f * mu_b5_b2 - 0.03980939f * mu_b5_b3 - 0.17098036f * mu_b5_b4 - 0.09528813f * mu_b5_u5;
+    const float p3_0_2 = 0.8439499f * mu_b5_v5 + 3.982002f * mu_b5_b1 - 1.2114514f * mu_b5_b2 - 0.61085826f * mu_b5_b3 - 0.4193309f * mu_b5_b4 - 0.16663618f * mu_b5_u5;
+    const float p3_0_3 = 1.3615683f * mu_b5_v5 + 5.6422668f * mu_b5_b1 - 0.5562516f * mu_b5_b2 - 1.2479746f * mu_b5_b3 - 0.5368177f * mu_b5_b4 - 0.1344531f * mu_b5_u5;
+    const float p3_0_4 = 0.8050028f * mu_b5_v5 + 3.3492239f * mu_b5_b1 - 0.11623903f * mu_b5_b2 - 0.9154154f * mu_b5_b3 - 0.31096712f * mu_b5_b4 - 0.06034185f * mu_b5_u5;
+    const float p3_0_5 = 0.11454235f * mu_b5_v5 + 0.5843403f * mu_b5_b1 - 0.14266941f * mu_b5_b2 - 0.2514646f * mu_b5_b3 - 0.043480683f * mu_b5_b4 - 0.0053494363f * mu_b5_u5;
     const float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     const float p3 = p3_0 * 1.0f;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    const float u3_0_0 = 0.50396955f * 1.0f;
+    const float u3_0_0 = -0.9632444f * 1.0f;
     const float u3_0 = u3_0_0 * 1.0f;
-    const float u3_1_0 = 0.37212738f * 1.0f;
+    const float u3_1_0 = -13.216134f * 1.0f;
     const float u3_1 = u3_1_0 * 1.0f;
-    const float u3_2_0 = -2.600105f * 1.0f;
+    const float u3_2_0 = -40.548203f * 1.0f;
     const float u3_2 = u3_2_0 * 1.0f;
-    const float u3_3_0 = -0.85368913f * 1.0f;
+    const float u3_3_0 = -22.416323f * 1.0f;
     const float u3_3 = u3_3_0 * 1.0f;
-    const float u3_4_0 = -0.10077795f * 1.0f;
+    const float u3_4_0 = -5.519651f * 1.0f;
     const float u3_4 = u3_4_0 * 1.0f;
     const float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q3_0_0 = 1.0f * mu_b4_v4 + 1.2570328f * mu_b4_b1 + 0.42894286f * mu_b4_b2 - 0.029151643f * mu_b4_b3 + 0.0015561738f * mu_b4_u4;
-    const float q3_0_1 = 3.1400588f * mu_b4_v4 + 3.8786032f * mu_b4_b1 + 1.4640054f * mu_b4_b2 - 0.09674631f * mu_b4_b3 - 0.011735493f * mu_b4_u4;
-    const float q3_0_2 = 3.9425719f * mu_b4_v4 + 4.5055923f * mu_b4_b1 + 1.1804875f * mu_b4_b2 - 0.5374276f * mu_b4_b3 + 0.06081312f * mu_b4_u4;
-    const float q3_0_3 = 3.0613515f * mu_b4_v4 + 4.271134f * mu_b4_b1 + 1.709309f * mu_b4_b2 - 0.069412276f * mu_b4_b3 + 0.24153294f * mu_b4_u4;
-    const float q3_0_4 = 1.1740395f * mu_b4_v4 + 2.0479162f * mu_b4_b1 + 1.0550903f * mu_b4_b2 + 0.061224878f * mu_b4_b3 + 0.0826292f * mu_b4_u4;
+    const float q3_0_0 = 1.0f * mu_b4_v4 + 2.327484f * mu_b4_b1 + 1.4093077f * mu_b4_b2 + 0.60785204f * mu_b4_b3 + 0.24366963f * mu_b4_u4;
+    const float q3_0_1 = 4.128567f * mu_b4_v4 + 10.576198f * mu_b4_b1 + 7.5280166f * mu_b4_b2 + 3.9706008f * mu_b4_b3 + 1.7607797f * mu_b4_u4;
+    const float q3_0_2 = 6.716627f * mu_b4_v4 + 18.903769f * mu_b4_b1 + 13.697124f * mu_b4_b2 + 5.3059916f * mu_b4_b3 + 2.1018574f * mu_b4_u4;
+    const float q3_0_3 = 4.4736576f * mu_b4_v4 + 14.689032f * mu_b4_b1 + 11.791252f * mu_b4_b2 + 3.6232033f * mu_b4_b3 + 0.9178906f * mu_b4_u4;
+    const float q3_0_4 = 0.6312505f * mu_b4_v4 + 3.0165887f * mu_b4_b1 + 2.686756f * mu_b4_b2 + 0.6625725f * mu_b4_b3 + 0.07879632f * mu_b4_u4;
     const float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     const float q3 = q3_0 * 1.0f;
     const float e3 = p3 * u3 / q3;

@@ -13,17 +13,17 @@
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.806x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 422a9d996345fef37e24b06de0ec118a18b696c26fc655ced8b0d86b0dae8987.
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.741x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 9541fa856e4009b1a8b31cba07344e3017dff35682b52007821cd27991bb2a9e.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-4, shifted 3.1e-5, bernstein 2.6e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 6.94e-4, max 4.17e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.61e-4, max 3.57e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.51e-7 (every op rounded, as this Rust), 6.81e-7 (fused multiply-add), 3.19e-6 (GPU division/sqrt error).
-/// Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 6.73e-4, max 4.17e-3; this f32 code MAE 6.73e-4, max 4.17e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
-/// Denominator proved >= 1.110e-4 on the domain (Bernstein certificate), so the division is safe.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.6e-5, shifted 4.4e-6, bernstein 2.6e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 7.61e-4, max 4.45e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.33e-4, max 3.68e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.52e-7 (every op rounded, as this Rust), 6.68e-7 (fused multiply-add), 3.10e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.06e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.42e-4, max 4.45e-3; this f32 code MAE 7.42e-4, max 4.45e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
+/// Denominator proved >= 4.246e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -77,12 +77,12 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.8806504_f32 * mu_b5_v5 + 2.2905858_f32 * mu_b5_b1 + 2.7900894_f32 * mu_b5_b2 + 2.2057595_f32 * mu_b5_b3 + 1.276387_f32 * mu_b5_b4 + 0.71139264_f32 * mu_b5_u5;
-    let p0_0_1 = 12.630383_f32 * mu_b5_v5 + 23.0704_f32 * mu_b5_b1 + 15.871381_f32 * mu_b5_b2 + 8.340638_f32 * mu_b5_b3 + 4.310749_f32 * mu_b5_b4 + 2.7045302_f32 * mu_b5_u5;
-    let p0_0_2 = 35.732952_f32 * mu_b5_v5 + 62.8233_f32 * mu_b5_b1 + 52.130867_f32 * mu_b5_b2 + 43.212708_f32 * mu_b5_b3 + 22.356516_f32 * mu_b5_b4 + 6.790443_f32 * mu_b5_u5;
-    let p0_0_3 = 43.316433_f32 * mu_b5_v5 + 77.31607_f32 * mu_b5_b1 + 79.745926_f32 * mu_b5_b2 + 78.45143_f32 * mu_b5_b3 + 37.50989_f32 * mu_b5_b4 + 7.410859_f32 * mu_b5_u5;
-    let p0_0_4 = 28.791595_f32 * mu_b5_v5 + 62.87189_f32 * mu_b5_b1 + 83.76516_f32 * mu_b5_b2 + 80.09821_f32 * mu_b5_b3 + 33.745594_f32 * mu_b5_b4 + 4.6352963_f32 * mu_b5_u5;
-    let p0_0_5 = 8.699172_f32 * mu_b5_v5 + 23.803255_f32 * mu_b5_b1 + 35.47671_f32 * mu_b5_b2 + 31.132513_f32 * mu_b5_b3 + 11.761807_f32 * mu_b5_b4 + 1.2625322_f32 * mu_b5_u5;
+    let p0_0_0 = 0.61503667_f32 * mu_b5_v5 + 2.179358_f32 * mu_b5_b1 + 0.57003325_f32 * mu_b5_b2 + 1.6039382_f32 * mu_b5_b3 + 0.75813824_f32 * mu_b5_b4 + 0.08825118_f32 * mu_b5_u5;
+    let p0_0_1 = 4.3541975_f32 * mu_b5_v5 + 16.703007_f32 * mu_b5_b1 + 7.6317296_f32 * mu_b5_b2 + 7.587678_f32 * mu_b5_b3 + 3.0342047_f32 * mu_b5_b4 + 0.37114337_f32 * mu_b5_u5;
+    let p0_0_2 = 11.953333_f32 * mu_b5_v5 + 47.429684_f32 * mu_b5_b1 + 28.398943_f32 * mu_b5_b2 + 17.583267_f32 * mu_b5_b3 + 6.592649_f32 * mu_b5_b4 + 1.2153641_f32 * mu_b5_u5;
+    let p0_0_3 = 15.615702_f32 * mu_b5_v5 + 64.408875_f32 * mu_b5_b1 + 47.475105_f32 * mu_b5_b2 + 24.407618_f32 * mu_b5_b3 + 7.86265_f32 * mu_b5_b4 + 1.4203553_f32 * mu_b5_u5;
+    let p0_0_4 = 8.051776_f32 * mu_b5_v5 + 35.8716_f32 * mu_b5_b1 + 27.753162_f32 * mu_b5_b2 + 12.187175_f32 * mu_b5_b3 + 2.9226873_f32 * mu_b5_b4 + 0.31054634_f32 * mu_b5_u5;
+    let p0_0_5 = 0.84293336_f32 * mu_b5_v5 + 5.332197_f32 * mu_b5_b1 + 3.5421743_f32 * mu_b5_b2 + 1.3059543_f32 * mu_b5_b3 + 0.34005424_f32 * mu_b5_b4 + 0.015349774_f32 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -97,15 +97,15 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 1.0158439_f32 * 1.0_f32;
+    let u0_0_0 = 1.0189348_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 4.3409486_f32 * 1.0_f32;
+    let u0_1_0 = 4.9848986_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 6.810333_f32 * 1.0_f32;
+    let u0_2_0 = 9.022746_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 4.604209_f32 * 1.0_f32;
+    let u0_3_0 = 5.9658074_f32 * 1.0_f32;
     let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 1.1668426_f32 * 1.0_f32;
+    let u0_4_0 = 1.5152438_f32 * 1.0_f32;
     let u0_4 = u0_4_0 * 1.0_f32;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -131,101 +131,101 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 1.9454402_f32 * mu_b4_b1 + 2.060053_f32 * mu_b4_b2 + 0.62611514_f32 * mu_b4_b3 + 0.80941737_f32 * mu_b4_u4;
-    let q0_0_1 = 13.622922_f32 * mu_b4_v4 + 13.501039_f32 * mu_b4_b1 + 5.3608313_f32 * mu_b4_b2 + 2.5561464_f32 * mu_b4_b3 + 2.2650921_f32 * mu_b4_u4;
-    let q0_0_2 = 30.308039_f32 * mu_b4_v4 + 29.982765_f32 * mu_b4_b1 + 24.003136_f32 * mu_b4_b2 + 22.77389_f32 * mu_b4_b3 + 6.2329707_f32 * mu_b4_u4;
-    let q0_0_3 = 26.538568_f32 * mu_b4_v4 + 32.06103_f32 * mu_b4_b1 + 37.86701_f32 * mu_b4_b2 + 32.504307_f32 * mu_b4_b3 + 5.3514175_f32 * mu_b4_u4;
-    let q0_0_4 = 12.314475_f32 * mu_b4_v4 + 27.477955_f32 * mu_b4_b1 + 37.93079_f32 * mu_b4_b2 + 25.50454_f32 * mu_b4_b3 + 4.0351443_f32 * mu_b4_u4;
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 2.2727594_f32 * mu_b4_b1 + 1.0057073_f32 * mu_b4_b2 + 1.0636656_f32 * mu_b4_b3 + 0.14144303_f32 * mu_b4_u4;
+    let q0_0_1 = 4.799157_f32 * mu_b4_v4 + 11.791522_f32 * mu_b4_b1 + 5.3044515_f32 * mu_b4_b2 + 3.611248_f32 * mu_b4_b3 + 0.54206187_f32 * mu_b4_u4;
+    let q0_0_2 = 9.237598_f32 * mu_b4_v4 + 27.42224_f32 * mu_b4_b1 + 19.451773_f32 * mu_b4_b2 + 9.904891_f32 * mu_b4_b3 + 1.5021092_f32 * mu_b4_u4;
+    let q0_0_3 = 6.8137136_f32 * mu_b4_v4 + 24.810093_f32 * mu_b4_b1 + 23.344515_f32 * mu_b4_b2 + 12.090217_f32 * mu_b4_b3 + 1.9849808_f32 * mu_b4_u4;
+    let q0_0_4 = 0.75411695_f32 * mu_b4_v4 + 4.4219937_f32 * mu_b4_b1 + 4.464553_f32 * mu_b4_b2 + 2.2482865_f32 * mu_b4_b3 + 0.26233515_f32 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.114626125_f32 * mu_b5_v5 + 0.5401561_f32 * mu_b5_b1 + 0.3741077_f32 * mu_b5_b2 + 0.14498872_f32 * mu_b5_b3 - 0.0050040125_f32 * mu_b5_b4 + 0.00032137448_f32 * mu_b5_u5;
-    let p1_0_1 = -0.6684901_f32 * mu_b5_v5 - 1.6672574_f32 * mu_b5_b1 - 1.7965527_f32 * mu_b5_b2 + 0.14943402_f32 * mu_b5_b3 - 0.06292076_f32 * mu_b5_b4 - 0.0014579922_f32 * mu_b5_u5;
-    let p1_0_2 = -1.5886774_f32 * mu_b5_v5 - 3.8844836_f32 * mu_b5_b1 - 1.1817904_f32 * mu_b5_b2 + 3.0254889_f32 * mu_b5_b3 - 0.096146174_f32 * mu_b5_b4 + 0.009745145_f32 * mu_b5_u5;
-    let p1_0_3 = -1.7691114_f32 * mu_b5_v5 - 3.6913311_f32 * mu_b5_b1 + 1.6260946_f32 * mu_b5_b2 + 4.638075_f32 * mu_b5_b3 - 0.8680611_f32 * mu_b5_b4 + 0.059542518_f32 * mu_b5_u5;
-    let p1_0_4 = -1.3922894_f32 * mu_b5_v5 - 2.5481856_f32 * mu_b5_b1 + 1.6742339_f32 * mu_b5_b2 + 2.8376493_f32 * mu_b5_b3 - 0.87588483_f32 * mu_b5_b4 + 0.12527817_f32 * mu_b5_u5;
-    let p1_0_5 = -0.4573552_f32 * mu_b5_v5 - 0.67700464_f32 * mu_b5_b1 + 0.75084925_f32 * mu_b5_b2 + 0.9344578_f32 * mu_b5_b3 - 0.1891332_f32 * mu_b5_b4 + 0.04864416_f32 * mu_b5_u5;
+    let p1_0_0 = 0.22491269_f32 * mu_b5_v5 + 0.4527035_f32 * mu_b5_b1 + 1.7415174_f32 * mu_b5_b2 + 0.6107581_f32 * mu_b5_b3 + 0.0029755903_f32 * mu_b5_b4 + 0.003966992_f32 * mu_b5_u5;
+    let p1_0_1 = -0.21912275_f32 * mu_b5_v5 - 2.9118047_f32 * mu_b5_b1 + 2.600234_f32 * mu_b5_b2 + 0.14610803_f32 * mu_b5_b3 - 0.62463236_f32 * mu_b5_b4 + 0.012290496_f32 * mu_b5_u5;
+    let p1_0_2 = -1.356161_f32 * mu_b5_v5 - 7.704025_f32 * mu_b5_b1 + 5.6625566_f32 * mu_b5_b2 + 1.7034214_f32 * mu_b5_b3 - 1.0718943_f32 * mu_b5_b4 + 0.21533445_f32 * mu_b5_u5;
+    let p1_0_3 = -2.0972855_f32 * mu_b5_v5 - 7.2867827_f32 * mu_b5_b1 + 9.845988_f32 * mu_b5_b2 + 4.583616_f32 * mu_b5_b3 - 0.8138996_f32 * mu_b5_b4 + 0.6181994_f32 * mu_b5_u5;
+    let p1_0_4 = -1.7061013_f32 * mu_b5_v5 - 3.849669_f32 * mu_b5_b1 + 6.277478_f32 * mu_b5_b2 + 2.302137_f32 * mu_b5_b3 - 1.1509073_f32 * mu_b5_b4 + 0.4581163_f32 * mu_b5_u5;
+    let p1_0_5 = -0.44327146_f32 * mu_b5_v5 - 0.5140536_f32 * mu_b5_b1 + 2.0120282_f32 * mu_b5_b2 + 0.66329074_f32 * mu_b5_b3 - 0.39294493_f32 * mu_b5_b4 + 0.124597654_f32 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 1.1995744_f32 * 1.0_f32;
+    let u1_0_0 = 1.8189784_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = 2.947519_f32 * 1.0_f32;
+    let u1_1_0 = 2.814904_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = 1.2266395_f32 * 1.0_f32;
+    let u1_2_0 = -5.1084685_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = -0.67015284_f32 * 1.0_f32;
+    let u1_3_0 = -2.6579652_f32 * 1.0_f32;
     let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = -0.35697094_f32 * 1.0_f32;
+    let u1_4_0 = -0.72871286_f32 * 1.0_f32;
     let u1_4 = u1_4_0 * 1.0_f32;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.3845723_f32 * mu_b4_b1 + 1.0412741_f32 * mu_b4_b2 - 0.032741953_f32 * mu_b4_b3 + 0.0024370337_f32 * mu_b4_u4;
-    let q1_0_1 = 2.6534324_f32 * mu_b4_v4 + 5.2752533_f32 * mu_b4_b1 + 0.8171997_f32 * mu_b4_b2 - 0.58766496_f32 * mu_b4_b3 - 0.015520265_f32 * mu_b4_u4;
-    let q1_0_2 = 4.198069_f32 * mu_b4_v4 + 6.9265933_f32 * mu_b4_b1 + 0.52213585_f32 * mu_b4_b2 - 0.20389162_f32 * mu_b4_b3 + 0.15378167_f32 * mu_b4_u4;
-    let q1_0_3 = 3.9419034_f32 * mu_b4_v4 + 5.8763013_f32 * mu_b4_b1 + 0.6531541_f32 * mu_b4_b2 + 0.10750484_f32 * mu_b4_b3 + 0.15627189_f32 * mu_b4_u4;
-    let q1_0_4 = 1.563838_f32 * mu_b4_v4 + 2.5066752_f32 * mu_b4_b1 + 0.9063732_f32 * mu_b4_b2 + 0.42275965_f32 * mu_b4_b3 + 0.15110447_f32 * mu_b4_u4;
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 2.9776351_f32 * mu_b4_b1 + 3.2981412_f32 * mu_b4_b2 - 0.007930059_f32 * mu_b4_b3 + 0.018505584_f32 * mu_b4_u4;
+    let q1_0_1 = 2.866448_f32 * mu_b4_v4 + 5.4669056_f32 * mu_b4_b1 + 4.661586_f32 * mu_b4_b2 - 3.3110826_f32 * mu_b4_b3 + 0.015555506_f32 * mu_b4_u4;
+    let q1_0_2 = 5.6352763_f32 * mu_b4_v4 + 9.267572_f32 * mu_b4_b1 + 7.6256433_f32 * mu_b4_b2 - 3.0804737_f32 * mu_b4_b3 + 1.0078287_f32 * mu_b4_u4;
+    let q1_0_3 = 4.8478284_f32 * mu_b4_v4 + 7.5300393_f32 * mu_b4_b1 + 5.8545847_f32 * mu_b4_b2 - 1.2171683_f32 * mu_b4_b3 + 0.9982239_f32 * mu_b4_u4;
+    let q1_0_4 = 1.393646_f32 * mu_b4_v4 + 2.0103202_f32 * mu_b4_b1 + 1.4802608_f32 * mu_b4_b2 - 0.18126407_f32 * mu_b4_b3 + 0.30209085_f32 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.095977925_f32 * mu_b5_v5 - 0.59212995_f32 * mu_b5_b1 - 0.23104414_f32 * mu_b5_b2 - 0.08590867_f32 * mu_b5_b3 + 0.003665606_f32 * mu_b5_b4 - 0.00018756092_f32 * mu_b5_u5;
-    let p2_0_1 = 0.9704008_f32 * mu_b5_v5 + 2.3800094_f32 * mu_b5_b1 + 3.0876906_f32 * mu_b5_b2 - 0.06938589_f32 * mu_b5_b3 + 0.027125534_f32 * mu_b5_b4 + 0.00024495486_f32 * mu_b5_u5;
-    let p2_0_2 = 1.604787_f32 * mu_b5_v5 + 4.182576_f32 * mu_b5_b1 + 1.7902478_f32 * mu_b5_b2 - 4.327889_f32 * mu_b5_b3 + 0.013783921_f32 * mu_b5_b4 + 0.0054347995_f32 * mu_b5_u5;
-    let p2_0_3 = 0.7495994_f32 * mu_b5_v5 + 1.8555624_f32 * mu_b5_b1 - 3.3264182_f32 * mu_b5_b2 - 6.889084_f32 * mu_b5_b3 + 1.0213416_f32 * mu_b5_b4 - 0.0706528_f32 * mu_b5_u5;
-    let p2_0_4 = 0.21402915_f32 * mu_b5_v5 + 0.325861_f32 * mu_b5_b1 - 3.4674745_f32 * mu_b5_b2 - 3.90581_f32 * mu_b5_b3 + 1.3031352_f32 * mu_b5_b4 - 0.14470962_f32 * mu_b5_u5;
-    let p2_0_5 = 0.03299927_f32 * mu_b5_v5 - 0.16845861_f32 * mu_b5_b1 - 1.3679309_f32 * mu_b5_b2 - 1.0595257_f32 * mu_b5_b3 + 0.4229237_f32 * mu_b5_b4 - 0.038893297_f32 * mu_b5_u5;
+    let p2_0_0 = -0.10817572_f32 * mu_b5_v5 + 0.18949065_f32 * mu_b5_b1 - 1.2943561_f32 * mu_b5_b2 - 0.14155115_f32 * mu_b5_b3 + 0.011355619_f32 * mu_b5_b4 - 0.00095487124_f32 * mu_b5_u5;
+    let p2_0_1 = 0.5577574_f32 * mu_b5_v5 + 4.5492387_f32 * mu_b5_b1 - 2.0359874_f32 * mu_b5_b2 + 1.3216932_f32 * mu_b5_b3 + 0.1450099_f32 * mu_b5_b4 - 0.013347793_f32 * mu_b5_u5;
+    let p2_0_2 = 1.2038225_f32 * mu_b5_v5 + 7.5878177_f32 * mu_b5_b1 - 7.047426_f32 * mu_b5_b2 + 0.6458256_f32 * mu_b5_b3 - 0.41741863_f32 * mu_b5_b4 - 0.11305812_f32 * mu_b5_u5;
+    let p2_0_3 = 0.85698885_f32 * mu_b5_v5 + 3.8800275_f32 * mu_b5_b1 - 12.318777_f32 * mu_b5_b2 - 1.119141_f32 * mu_b5_b3 - 0.38478926_f32 * mu_b5_b4 - 0.22585629_f32 * mu_b5_u5;
+    let p2_0_4 = 0.37313074_f32 * mu_b5_v5 + 0.26983935_f32 * mu_b5_b1 - 8.05962_f32 * mu_b5_b2 - 0.01305543_f32 * mu_b5_b3 + 0.62020177_f32 * mu_b5_b4 - 0.13226743_f32 * mu_b5_u5;
+    let p2_0_5 = 0.020836323_f32 * mu_b5_v5 - 0.54809296_f32 * mu_b5_b1 - 2.3785872_f32 * mu_b5_b2 - 0.043282554_f32 * mu_b5_b3 + 0.28794336_f32 * mu_b5_b4 - 0.040271275_f32 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0_f32;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = 0.12964335_f32 * 1.0_f32;
+    let u2_0_0 = 0.6613149_f32 * 1.0_f32;
     let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = 1.4632809_f32 * 1.0_f32;
+    let u2_1_0 = 1.6257931_f32 * 1.0_f32;
     let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = 2.4639997_f32 * 1.0_f32;
+    let u2_2_0 = -1.4460853_f32 * 1.0_f32;
     let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = 0.15150878_f32 * 1.0_f32;
+    let u2_3_0 = -1.1549681_f32 * 1.0_f32;
     let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = -0.11009473_f32 * 1.0_f32;
+    let u2_4_0 = -0.3398125_f32 * 1.0_f32;
     let u2_4 = u2_4_0 * 1.0_f32;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 1.8839341_f32 * mu_b4_b1 + 0.6041281_f32 * mu_b4_b2 - 0.022075998_f32 * mu_b4_b3 + 0.0015130016_f32 * mu_b4_u4;
-    let q2_0_1 = 2.8113904_f32 * mu_b4_v4 + 4.756544_f32 * mu_b4_b1 + 0.5829771_f32 * mu_b4_b2 - 0.34703603_f32 * mu_b4_b3 - 0.00972763_f32 * mu_b4_u4;
-    let q2_0_2 = 3.8178456_f32 * mu_b4_v4 + 6.123621_f32 * mu_b4_b1 + 0.4209687_f32 * mu_b4_b2 - 0.25312474_f32 * mu_b4_b3 + 0.094380036_f32 * mu_b4_u4;
-    let q2_0_3 = 3.041816_f32 * mu_b4_v4 + 5.017406_f32 * mu_b4_b1 + 0.97991776_f32 * mu_b4_b2 + 0.236361_f32 * mu_b4_b3 + 0.20716496_f32 * mu_b4_u4;
-    let q2_0_4 = 1.0295161_f32 * mu_b4_v4 + 1.7430148_f32 * mu_b4_b1 + 0.5027283_f32 * mu_b4_b2 + 0.14114587_f32 * mu_b4_b3 + 0.09569933_f32 * mu_b4_u4;
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 2.8954077_f32 * mu_b4_b1 + 3.4582143_f32 * mu_b4_b2 - 0.17782134_f32 * mu_b4_b3 + 0.0110241305_f32 * mu_b4_u4;
+    let q2_0_1 = 2.0660746_f32 * mu_b4_v4 + 2.2763588_f32 * mu_b4_b1 + 4.3065624_f32 * mu_b4_b2 - 2.803335_f32 * mu_b4_b3 + 0.106995516_f32 * mu_b4_u4;
+    let q2_0_2 = 4.5835032_f32 * mu_b4_v4 + 2.8473868_f32 * mu_b4_b1 + 6.246853_f32 * mu_b4_b2 - 1.8213232_f32 * mu_b4_b3 + 0.70562035_f32 * mu_b4_u4;
+    let q2_0_3 = 4.6550455_f32 * mu_b4_v4 + 2.7131867_f32 * mu_b4_b1 + 4.0868764_f32 * mu_b4_b2 - 0.6364521_f32 * mu_b4_b3 + 0.3414212_f32 * mu_b4_u4;
+    let q2_0_4 = 1.5025492_f32 * mu_b4_v4 + 0.70647955_f32 * mu_b4_b1 + 0.8779639_f32 * mu_b4_b2 + 0.019085638_f32 * mu_b4_b3 + 0.0967043_f32 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.041474536_f32 * mu_b5_v5 - 0.3543456_f32 * mu_b5_b1 - 0.029815663_f32 * mu_b5_b2 - 0.036432862_f32 * mu_b5_b3 + 0.0024902818_f32 * mu_b5_b4 - 0.00010601604_f32 * mu_b5_u5;
-    let p3_0_1 = 0.6659342_f32 * mu_b5_v5 + 1.4919716_f32 * mu_b5_b1 + 2.21789_f32 * mu_b5_b2 - 0.22189493_f32 * mu_b5_b3 - 0.0027239658_f32 * mu_b5_b4 + 0.0006007095_f32 * mu_b5_u5;
-    let p3_0_2 = 0.90082556_f32 * mu_b5_v5 + 2.1284697_f32 * mu_b5_b1 + 1.04191_f32 * mu_b5_b2 - 3.34242_f32 * mu_b5_b3 + 0.066073775_f32 * mu_b5_b4 + 0.0019143639_f32 * mu_b5_u5;
-    let p3_0_3 = 0.23134528_f32 * mu_b5_v5 + 0.42983267_f32 * mu_b5_b1 - 2.5279543_f32 * mu_b5_b2 - 5.050851_f32 * mu_b5_b3 + 0.86551243_f32 * mu_b5_b4 - 0.03092397_f32 * mu_b5_u5;
-    let p3_0_4 = 0.07939742_f32 * mu_b5_v5 + 0.01741475_f32 * mu_b5_b1 - 2.4275672_f32 * mu_b5_b2 - 2.9200776_f32 * mu_b5_b3 + 1.0025188_f32 * mu_b5_b4 - 0.053411033_f32 * mu_b5_u5;
-    let p3_0_5 = 0.054519657_f32 * mu_b5_v5 - 0.06501223_f32 * mu_b5_b1 - 0.974902_f32 * mu_b5_b2 - 0.8956782_f32 * mu_b5_b3 + 0.27354765_f32 * mu_b5_b4 - 0.00822877_f32 * mu_b5_u5;
+    let p3_0_0 = -0.035574164_f32 * mu_b5_v5 + 0.0041789096_f32 * mu_b5_b1 - 0.3591235_f32 * mu_b5_b2 - 0.012367859_f32 * mu_b5_b3 - 0.020677203_f32 * mu_b5_b4 - 0.008051924_f32 * mu_b5_u5;
+    let p3_0_1 = 0.13720722_f32 * mu_b5_v5 + 1.1084944_f32 * mu_b5_b1 - 0.98850006_f32 * mu_b5_b2 - 0.03980939_f32 * mu_b5_b3 - 0.17098036_f32 * mu_b5_b4 - 0.09528813_f32 * mu_b5_u5;
+    let p3_0_2 = 0.8439499_f32 * mu_b5_v5 + 3.982002_f32 * mu_b5_b1 - 1.2114514_f32 * mu_b5_b2 - 0.61085826_f32 * mu_b5_b3 - 0.4193309_f32 * mu_b5_b4 - 0.16663618_f32 * mu_b5_u5;
+    let p3_0_3 = 1.3615683_f32 * mu_b5_v5 + 5.6422668_f32 * mu_b5_b1 - 0.5562516_f32 * mu_b5_b2 - 1.2479746_f32 * mu_b5_b3 - 0.5368177_f32 * mu_b5_b4 - 0.1344531_f32 * mu_b5_u5;
+    let p3_0_4 = 0.8050028_f32 * mu_b5_v5 + 3.3492239_f32 * mu_b5_b1 - 0.11623903_f32 * mu_b5_b2 - 0.9154154_f32 * mu_b5_b3 - 0.31096712_f32 * mu_b5_b4 - 0.06034185_f32 * mu_b5_u5;
+    let p3_0_5 = 0.11454235_f32 * mu_b5_v5 + 0.5843403_f32 * mu_b5_b1 - 0.14266941_f32 * mu_b5_b2 - 0.2514646_f32 * mu_b5_b3 - 0.043480683_f32 * mu_b5_b4 - 0.0053494363_f32 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0_f32;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = 0.50396955_f32 * 1.0_f32;
+    let u3_0_0 = -0.9632444_f32 * 1.0_f32;
     let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = 0.37212738_f32 * 1.0_f32;
+    let u3_1_0 = -13.216134_f32 * 1.0_f32;
     let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -2.600105_f32 * 1.0_f32;
+    let u3_2_0 = -40.548203_f32 * 1.0_f32;
     let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = -0.85368913_f32 * 1.0_f32;
+    let u3_3_0 = -22.416323_f32 * 1.0_f32;
     let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = -0.10077795_f32 * 1.0_f32;
+    let u3_4_0 = -5.519651_f32 * 1.0_f32;
     let u3_4 = u3_4_0 * 1.0_f32;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 1.2570328_f32 * mu_b4_b1 + 0.42894286_f32 * mu_b4_b2 - 0.029151643_f32 * mu_b4_b3 + 0.0015561738_f32 * mu_b4_u4;
-    let q3_0_1 = 3.1400588_f32 * mu_b4_v4 + 3.8786032_f32 * mu_b4_b1 + 1.4640054_f32 * mu_b4_b2 - 0.09674631_f32 * mu_b4_b3 - 0.011735493_f32 * mu_b4_u4;
-    let q3_0_2 = 3.9425719_f32 * mu_b4_v4 + 4.5055923_f32 * mu_b4_b1 + 1.1804875_f32 * mu_b4_b2 - 0.5374276_f32 * mu_b4_b3 + 0.06081312_f32 * mu_b4_u4;
-    let q3_0_3 = 3.0613515_f32 * mu_b4_v4 + 4.271134_f32 * mu_b4_b1 + 1.709309_f32 * mu_b4_b2 - 0.069412276_f32 * mu_b4_b3 + 0.24153294_f32 * mu_b4_u4;
-    let q3_0_4 = 1.1740395_f32 * mu_b4_v4 + 2.0479162_f32 * mu_b4_b1 + 1.0550903_f32 * mu_b4_b2 + 0.061224878_f32 * mu_b4_b3 + 0.0826292_f32 * mu_b4_u4;
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 2.327484_f32 * mu_b4_b1 + 1.4093077_f32 * mu_b4_b2 + 0.60785204_f32 * mu_b4_b3 + 0.24366963_f32 * mu_b4_u4;
+    let q3_0_1 = 4.128567_f32 * mu_b4_v4 + 10.576198_f32 * mu_b4_b1 + 7.5280166_f32 * mu_b4_b2 + 3.9706008_f32 * mu_b4_b3 + 1.7607797_f32 * mu_b4_u4;
+    let q3_0_2 = 6.716627_f32 * mu_b4_v4 + 18.903769_f32 * mu_b4_b1 + 13.697124_f32 * mu_b4_b2 + 5.3059916_f32 * mu_b4_b3 + 2.1018574_f32 * mu_b4_u4;
+    let q3_0_3 = 4.4736576_f32 * mu_b4_v4 + 14.689032_f32 * mu_b4_b1 + 11.791252_f32 * mu_b4_b2 + 3.6232033_f32 * mu_b4_b3 + 0.9178906_f32 * mu_b4_u4;
+    let q3_0_4 = 0.6312505_f32 * mu_b4_v4 + 3.0165887_f32 * mu_b4_b1 + 2.686756_f32 * mu_b4_b2 + 0.6625725_f32 * mu_b4_b3 + 0.07879632_f32 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;

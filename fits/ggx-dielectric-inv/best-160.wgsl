@@ -12,17 +12,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.806x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 422a9d996345fef37e24b06de0ec118a18b696c26fc655ced8b0d86b0dae8987.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.741x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-160.json (furnace 0.1.0), fit SHA-256 9541fa856e4009b1a8b31cba07344e3017dff35682b52007821cd27991bb2a9e.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-4, shifted 3.1e-5, bernstein 2.6e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 6.94e-4, max 4.17e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.61e-4, max 3.57e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.51e-7 (every op rounded, as this Rust), 6.81e-7 (fused multiply-add), 3.19e-6 (GPU division/sqrt error).
-// Bound: none proved; the interval error analysis over the whole domain (39999 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 6.73e-4, max 4.17e-3; this f32 code MAE 6.73e-4, max 4.17e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
-// Denominator proved >= 1.110e-4 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.6e-5, shifted 4.4e-6, bernstein 2.6e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 7.61e-4, max 4.45e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.33e-4, max 3.68e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 6.52e-7 (every op rounded, as this Rust), 6.68e-7 (fused multiply-add), 3.10e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.06e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 7.42e-4, max 4.45e-3; this f32 code MAE 7.42e-4, max 4.45e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-3 on the measurement grid.
+// Denominator proved >= 4.246e-3 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -69,12 +69,12 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 0.8806504 * mu_b5_v5 + 2.2905858 * mu_b5_b1 + 2.7900894 * mu_b5_b2 + 2.2057595 * mu_b5_b3 + 1.276387 * mu_b5_b4 + 0.71139264 * mu_b5_u5;
-    let p0_0_1 = 12.630383 * mu_b5_v5 + 23.0704 * mu_b5_b1 + 15.871381 * mu_b5_b2 + 8.340638 * mu_b5_b3 + 4.310749 * mu_b5_b4 + 2.7045302 * mu_b5_u5;
-    let p0_0_2 = 35.732952 * mu_b5_v5 + 62.8233 * mu_b5_b1 + 52.130867 * mu_b5_b2 + 43.212708 * mu_b5_b3 + 22.356516 * mu_b5_b4 + 6.790443 * mu_b5_u5;
-    let p0_0_3 = 43.316433 * mu_b5_v5 + 77.31607 * mu_b5_b1 + 79.745926 * mu_b5_b2 + 78.45143 * mu_b5_b3 + 37.50989 * mu_b5_b4 + 7.410859 * mu_b5_u5;
-    let p0_0_4 = 28.791595 * mu_b5_v5 + 62.87189 * mu_b5_b1 + 83.76516 * mu_b5_b2 + 80.09821 * mu_b5_b3 + 33.745594 * mu_b5_b4 + 4.6352963 * mu_b5_u5;
-    let p0_0_5 = 8.699172 * mu_b5_v5 + 23.803255 * mu_b5_b1 + 35.47671 * mu_b5_b2 + 31.132513 * mu_b5_b3 + 11.761807 * mu_b5_b4 + 1.2625322 * mu_b5_u5;
+    let p0_0_0 = 0.61503667 * mu_b5_v5 + 2.179358 * mu_b5_b1 + 0.57003325 * mu_b5_b2 + 1.6039382 * mu_b5_b3 + 0.75813824 * mu_b5_b4 + 0.08825118 * mu_b5_u5;
+    let p0_0_1 = 4.3541975 * mu_b5_v5 + 16.703007 * mu_b5_b1 + 7.6317296 * mu_b5_b2 + 7.587678 * mu_b5_b3 + 3.0342047 * mu_b5_b4 + 0.37114337 * mu_b5_u5;
+    let p0_0_2 = 11.953333 * mu_b5_v5 + 47.429684 * mu_b5_b1 + 28.398943 * mu_b5_b2 + 17.583267 * mu_b5_b3 + 6.592649 * mu_b5_b4 + 1.2153641 * mu_b5_u5;
+    let p0_0_3 = 15.615702 * mu_b5_v5 + 64.408875 * mu_b5_b1 + 47.475105 * mu_b5_b2 + 24.407618 * mu_b5_b3 + 7.86265 * mu_b5_b4 + 1.4203553 * mu_b5_u5;
+    let p0_0_4 = 8.051776 * mu_b5_v5 + 35.8716 * mu_b5_b1 + 27.753162 * mu_b5_b2 + 12.187175 * mu_b5_b3 + 2.9226873 * mu_b5_b4 + 0.31054634 * mu_b5_u5;
+    let p0_0_5 = 0.84293336 * mu_b5_v5 + 5.332197 * mu_b5_b1 + 3.5421743 * mu_b5_b2 + 1.3059543 * mu_b5_b3 + 0.34005424 * mu_b5_b4 + 0.015349774 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -89,15 +89,15 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 1.0158439 * 1.0;
+    let u0_0_0 = 1.0189348 * 1.0;
     let u0_0 = u0_0_0 * 1.0;
-    let u0_1_0 = 4.3409486 * 1.0;
+    let u0_1_0 = 4.9848986 * 1.0;
     let u0_1 = u0_1_0 * 1.0;
-    let u0_2_0 = 6.810333 * 1.0;
+    let u0_2_0 = 9.022746 * 1.0;
     let u0_2 = u0_2_0 * 1.0;
-    let u0_3_0 = 4.604209 * 1.0;
+    let u0_3_0 = 5.9658074 * 1.0;
     let u0_3 = u0_3_0 * 1.0;
-    let u0_4_0 = 1.1668426 * 1.0;
+    let u0_4_0 = 1.5152438 * 1.0;
     let u0_4 = u0_4_0 * 1.0;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -123,101 +123,101 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0 * mu_b4_v4 + 1.9454402 * mu_b4_b1 + 2.060053 * mu_b4_b2 + 0.62611514 * mu_b4_b3 + 0.80941737 * mu_b4_u4;
-    let q0_0_1 = 13.622922 * mu_b4_v4 + 13.501039 * mu_b4_b1 + 5.3608313 * mu_b4_b2 + 2.5561464 * mu_b4_b3 + 2.2650921 * mu_b4_u4;
-    let q0_0_2 = 30.308039 * mu_b4_v4 + 29.982765 * mu_b4_b1 + 24.003136 * mu_b4_b2 + 22.77389 * mu_b4_b3 + 6.2329707 * mu_b4_u4;
-    let q0_0_3 = 26.538568 * mu_b4_v4 + 32.06103 * mu_b4_b1 + 37.86701 * mu_b4_b2 + 32.504307 * mu_b4_b3 + 5.3514175 * mu_b4_u4;
-    let q0_0_4 = 12.314475 * mu_b4_v4 + 27.477955 * mu_b4_b1 + 37.93079 * mu_b4_b2 + 25.50454 * mu_b4_b3 + 4.0351443 * mu_b4_u4;
+    let q0_0_0 = 1.0 * mu_b4_v4 + 2.2727594 * mu_b4_b1 + 1.0057073 * mu_b4_b2 + 1.0636656 * mu_b4_b3 + 0.14144303 * mu_b4_u4;
+    let q0_0_1 = 4.799157 * mu_b4_v4 + 11.791522 * mu_b4_b1 + 5.3044515 * mu_b4_b2 + 3.611248 * mu_b4_b3 + 0.54206187 * mu_b4_u4;
+    let q0_0_2 = 9.237598 * mu_b4_v4 + 27.42224 * mu_b4_b1 + 19.451773 * mu_b4_b2 + 9.904891 * mu_b4_b3 + 1.5021092 * mu_b4_u4;
+    let q0_0_3 = 6.8137136 * mu_b4_v4 + 24.810093 * mu_b4_b1 + 23.344515 * mu_b4_b2 + 12.090217 * mu_b4_b3 + 1.9849808 * mu_b4_u4;
+    let q0_0_4 = 0.75411695 * mu_b4_v4 + 4.4219937 * mu_b4_b1 + 4.464553 * mu_b4_b2 + 2.2482865 * mu_b4_b3 + 0.26233515 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.114626125 * mu_b5_v5 + 0.5401561 * mu_b5_b1 + 0.3741077 * mu_b5_b2 + 0.14498872 * mu_b5_b3 - 0.0050040125 * mu_b5_b4 + 0.00032137448 * mu_b5_u5;
-    let p1_0_1 = -0.6684901 * mu_b5_v5 - 1.6672574 * mu_b5_b1 - 1.7965527 * mu_b5_b2 + 0.14943402 * mu_b5_b3 - 0.06292076 * mu_b5_b4 - 0.0014579922 * mu_b5_u5;
-    let p1_0_2 = -1.5886774 * mu_b5_v5 - 3.8844836 * mu_b5_b1 - 1.1817904 * mu_b5_b2 + 3.0254889 * mu_b5_b3 - 0.096146174 * mu_b5_b4 + 0.009745145 * mu_b5_u5;
-    let p1_0_3 = -1.7691114 * mu_b5_v5 - 3.6913311 * mu_b5_b1 + 1.6260946 * mu_b5_b2 + 4.638075 * mu_b5_b3 - 0.8680611 * mu_b5_b4 + 0.059542518 * mu_b5_u5;
-    let p1_0_4 = -1.3922894 * mu_b5_v5 - 2.5481856 * mu_b5_b1 + 1.6742339 * mu_b5_b2 + 2.8376493 * mu_b5_b3 - 0.87588483 * mu_b5_b4 + 0.12527817 * mu_b5_u5;
-    let p1_0_5 = -0.4573552 * mu_b5_v5 - 0.67700464 * mu_b5_b1 + 0.75084925 * mu_b5_b2 + 0.9344578 * mu_b5_b3 - 0.1891332 * mu_b5_b4 + 0.04864416 * mu_b5_u5;
+    let p1_0_0 = 0.22491269 * mu_b5_v5 + 0.4527035 * mu_b5_b1 + 1.7415174 * mu_b5_b2 + 0.6107581 * mu_b5_b3 + 0.0029755903 * mu_b5_b4 + 0.003966992 * mu_b5_u5;
+    let p1_0_1 = -0.21912275 * mu_b5_v5 - 2.9118047 * mu_b5_b1 + 2.600234 * mu_b5_b2 + 0.14610803 * mu_b5_b3 - 0.62463236 * mu_b5_b4 + 0.012290496 * mu_b5_u5;
+    let p1_0_2 = -1.356161 * mu_b5_v5 - 7.704025 * mu_b5_b1 + 5.6625566 * mu_b5_b2 + 1.7034214 * mu_b5_b3 - 1.0718943 * mu_b5_b4 + 0.21533445 * mu_b5_u5;
+    let p1_0_3 = -2.0972855 * mu_b5_v5 - 7.2867827 * mu_b5_b1 + 9.845988 * mu_b5_b2 + 4.583616 * mu_b5_b3 - 0.8138996 * mu_b5_b4 + 0.6181994 * mu_b5_u5;
+    let p1_0_4 = -1.7061013 * mu_b5_v5 - 3.849669 * mu_b5_b1 + 6.277478 * mu_b5_b2 + 2.302137 * mu_b5_b3 - 1.1509073 * mu_b5_b4 + 0.4581163 * mu_b5_u5;
+    let p1_0_5 = -0.44327146 * mu_b5_v5 - 0.5140536 * mu_b5_b1 + 2.0120282 * mu_b5_b2 + 0.66329074 * mu_b5_b3 - 0.39294493 * mu_b5_b4 + 0.124597654 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = 1.1995744 * 1.0;
+    let u1_0_0 = 1.8189784 * 1.0;
     let u1_0 = u1_0_0 * 1.0;
-    let u1_1_0 = 2.947519 * 1.0;
+    let u1_1_0 = 2.814904 * 1.0;
     let u1_1 = u1_1_0 * 1.0;
-    let u1_2_0 = 1.2266395 * 1.0;
+    let u1_2_0 = -5.1084685 * 1.0;
     let u1_2 = u1_2_0 * 1.0;
-    let u1_3_0 = -0.67015284 * 1.0;
+    let u1_3_0 = -2.6579652 * 1.0;
     let u1_3 = u1_3_0 * 1.0;
-    let u1_4_0 = -0.35697094 * 1.0;
+    let u1_4_0 = -0.72871286 * 1.0;
     let u1_4 = u1_4_0 * 1.0;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0 * mu_b4_v4 + 2.3845723 * mu_b4_b1 + 1.0412741 * mu_b4_b2 - 0.032741953 * mu_b4_b3 + 0.0024370337 * mu_b4_u4;
-    let q1_0_1 = 2.6534324 * mu_b4_v4 + 5.2752533 * mu_b4_b1 + 0.8171997 * mu_b4_b2 - 0.58766496 * mu_b4_b3 - 0.015520265 * mu_b4_u4;
-    let q1_0_2 = 4.198069 * mu_b4_v4 + 6.9265933 * mu_b4_b1 + 0.52213585 * mu_b4_b2 - 0.20389162 * mu_b4_b3 + 0.15378167 * mu_b4_u4;
-    let q1_0_3 = 3.9419034 * mu_b4_v4 + 5.8763013 * mu_b4_b1 + 0.6531541 * mu_b4_b2 + 0.10750484 * mu_b4_b3 + 0.15627189 * mu_b4_u4;
-    let q1_0_4 = 1.563838 * mu_b4_v4 + 2.5066752 * mu_b4_b1 + 0.9063732 * mu_b4_b2 + 0.42275965 * mu_b4_b3 + 0.15110447 * mu_b4_u4;
+    let q1_0_0 = 1.0 * mu_b4_v4 + 2.9776351 * mu_b4_b1 + 3.2981412 * mu_b4_b2 - 0.007930059 * mu_b4_b3 + 0.018505584 * mu_b4_u4;
+    let q1_0_1 = 2.866448 * mu_b4_v4 + 5.4669056 * mu_b4_b1 + 4.661586 * mu_b4_b2 - 3.3110826 * mu_b4_b3 + 0.015555506 * mu_b4_u4;
+    let q1_0_2 = 5.6352763 * mu_b4_v4 + 9.267572 * mu_b4_b1 + 7.6256433 * mu_b4_b2 - 3.0804737 * mu_b4_b3 + 1.0078287 * mu_b4_u4;
+    let q1_0_3 = 4.8478284 * mu_b4_v4 + 7.5300393 * mu_b4_b1 + 5.8545847 * mu_b4_b2 - 1.2171683 * mu_b4_b3 + 0.9982239 * mu_b4_u4;
+    let q1_0_4 = 1.393646 * mu_b4_v4 + 2.0103202 * mu_b4_b1 + 1.4802608 * mu_b4_b2 - 0.18126407 * mu_b4_b3 + 0.30209085 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.095977925 * mu_b5_v5 - 0.59212995 * mu_b5_b1 - 0.23104414 * mu_b5_b2 - 0.08590867 * mu_b5_b3 + 0.003665606 * mu_b5_b4 - 0.00018756092 * mu_b5_u5;
-    let p2_0_1 = 0.9704008 * mu_b5_v5 + 2.3800094 * mu_b5_b1 + 3.0876906 * mu_b5_b2 - 0.06938589 * mu_b5_b3 + 0.027125534 * mu_b5_b4 + 0.00024495486 * mu_b5_u5;
-    let p2_0_2 = 1.604787 * mu_b5_v5 + 4.182576 * mu_b5_b1 + 1.7902478 * mu_b5_b2 - 4.327889 * mu_b5_b3 + 0.013783921 * mu_b5_b4 + 0.0054347995 * mu_b5_u5;
-    let p2_0_3 = 0.7495994 * mu_b5_v5 + 1.8555624 * mu_b5_b1 - 3.3264182 * mu_b5_b2 - 6.889084 * mu_b5_b3 + 1.0213416 * mu_b5_b4 - 0.0706528 * mu_b5_u5;
-    let p2_0_4 = 0.21402915 * mu_b5_v5 + 0.325861 * mu_b5_b1 - 3.4674745 * mu_b5_b2 - 3.90581 * mu_b5_b3 + 1.3031352 * mu_b5_b4 - 0.14470962 * mu_b5_u5;
-    let p2_0_5 = 0.03299927 * mu_b5_v5 - 0.16845861 * mu_b5_b1 - 1.3679309 * mu_b5_b2 - 1.0595257 * mu_b5_b3 + 0.4229237 * mu_b5_b4 - 0.038893297 * mu_b5_u5;
+    let p2_0_0 = -0.10817572 * mu_b5_v5 + 0.18949065 * mu_b5_b1 - 1.2943561 * mu_b5_b2 - 0.14155115 * mu_b5_b3 + 0.011355619 * mu_b5_b4 - 0.00095487124 * mu_b5_u5;
+    let p2_0_1 = 0.5577574 * mu_b5_v5 + 4.5492387 * mu_b5_b1 - 2.0359874 * mu_b5_b2 + 1.3216932 * mu_b5_b3 + 0.1450099 * mu_b5_b4 - 0.013347793 * mu_b5_u5;
+    let p2_0_2 = 1.2038225 * mu_b5_v5 + 7.5878177 * mu_b5_b1 - 7.047426 * mu_b5_b2 + 0.6458256 * mu_b5_b3 - 0.41741863 * mu_b5_b4 - 0.11305812 * mu_b5_u5;
+    let p2_0_3 = 0.85698885 * mu_b5_v5 + 3.8800275 * mu_b5_b1 - 12.318777 * mu_b5_b2 - 1.119141 * mu_b5_b3 - 0.38478926 * mu_b5_b4 - 0.22585629 * mu_b5_u5;
+    let p2_0_4 = 0.37313074 * mu_b5_v5 + 0.26983935 * mu_b5_b1 - 8.05962 * mu_b5_b2 - 0.01305543 * mu_b5_b3 + 0.62020177 * mu_b5_b4 - 0.13226743 * mu_b5_u5;
+    let p2_0_5 = 0.020836323 * mu_b5_v5 - 0.54809296 * mu_b5_b1 - 2.3785872 * mu_b5_b2 - 0.043282554 * mu_b5_b3 + 0.28794336 * mu_b5_b4 - 0.040271275 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = 0.12964335 * 1.0;
+    let u2_0_0 = 0.6613149 * 1.0;
     let u2_0 = u2_0_0 * 1.0;
-    let u2_1_0 = 1.4632809 * 1.0;
+    let u2_1_0 = 1.6257931 * 1.0;
     let u2_1 = u2_1_0 * 1.0;
-    let u2_2_0 = 2.4639997 * 1.0;
+    let u2_2_0 = -1.4460853 * 1.0;
     let u2_2 = u2_2_0 * 1.0;
-    let u2_3_0 = 0.15150878 * 1.0;
+    let u2_3_0 = -1.1549681 * 1.0;
     let u2_3 = u2_3_0 * 1.0;
-    let u2_4_0 = -0.11009473 * 1.0;
+    let u2_4_0 = -0.3398125 * 1.0;
     let u2_4 = u2_4_0 * 1.0;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0 * mu_b4_v4 + 1.8839341 * mu_b4_b1 + 0.6041281 * mu_b4_b2 - 0.022075998 * mu_b4_b3 + 0.0015130016 * mu_b4_u4;
-    let q2_0_1 = 2.8113904 * mu_b4_v4 + 4.756544 * mu_b4_b1 + 0.5829771 * mu_b4_b2 - 0.34703603 * mu_b4_b3 - 0.00972763 * mu_b4_u4;
-    let q2_0_2 = 3.8178456 * mu_b4_v4 + 6.123621 * mu_b4_b1 + 0.4209687 * mu_b4_b2 - 0.25312474 * mu_b4_b3 + 0.094380036 * mu_b4_u4;
-    let q2_0_3 = 3.041816 * mu_b4_v4 + 5.017406 * mu_b4_b1 + 0.97991776 * mu_b4_b2 + 0.236361 * mu_b4_b3 + 0.20716496 * mu_b4_u4;
-    let q2_0_4 = 1.0295161 * mu_b4_v4 + 1.7430148 * mu_b4_b1 + 0.5027283 * mu_b4_b2 + 0.14114587 * mu_b4_b3 + 0.09569933 * mu_b4_u4;
+    let q2_0_0 = 1.0 * mu_b4_v4 + 2.8954077 * mu_b4_b1 + 3.4582143 * mu_b4_b2 - 0.17782134 * mu_b4_b3 + 0.0110241305 * mu_b4_u4;
+    let q2_0_1 = 2.0660746 * mu_b4_v4 + 2.2763588 * mu_b4_b1 + 4.3065624 * mu_b4_b2 - 2.803335 * mu_b4_b3 + 0.106995516 * mu_b4_u4;
+    let q2_0_2 = 4.5835032 * mu_b4_v4 + 2.8473868 * mu_b4_b1 + 6.246853 * mu_b4_b2 - 1.8213232 * mu_b4_b3 + 0.70562035 * mu_b4_u4;
+    let q2_0_3 = 4.6550455 * mu_b4_v4 + 2.7131867 * mu_b4_b1 + 4.0868764 * mu_b4_b2 - 0.6364521 * mu_b4_b3 + 0.3414212 * mu_b4_u4;
+    let q2_0_4 = 1.5025492 * mu_b4_v4 + 0.70647955 * mu_b4_b1 + 0.8779639 * mu_b4_b2 + 0.019085638 * mu_b4_b3 + 0.0967043 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.041474536 * mu_b5_v5 - 0.3543456 * mu_b5_b1 - 0.029815663 * mu_b5_b2 - 0.036432862 * mu_b5_b3 + 0.0024902818 * mu_b5_b4 - 0.00010601604 * mu_b5_u5;
-    let p3_0_1 = 0.6659342 * mu_b5_v5 + 1.4919716 * mu_b5_b1 + 2.21789 * mu_b5_b2 - 0.22189493 * mu_b5_b3 - 0.0027239658 * mu_b5_b4 + 0.0006007095 * mu_b5_u5;
-    let p3_0_2 = 0.90082556 * mu_b5_v5 + 2.1284697 * mu_b5_b1 + 1.04191 * mu_b5_b2 - 3.34242 * mu_b5_b3 + 0.066073775 * mu_b5_b4 + 0.0019143639 * mu_b5_u5;
-    let p3_0_3 = 0.23134528 * mu_b5_v5 + 0.42983267 * mu_b5_b1 - 2.5279543 * mu_b5_b2 - 5.050851 * mu_b5_b3 + 0.86551243 * mu_b5_b4 - 0.03092397 * mu_b5_u5;
-    let p3_0_4 = 0.07939742 * mu_b5_v5 + 0.01741475 * mu_b5_b1 - 2.4275672 * mu_b5_b2 - 2.9200776 * mu_b5_b3 + 1.0025188 * mu_b5_b4 - 0.053411033 * mu_b5_u5;
-    let p3_0_5 = 0.054519657 * mu_b5_v5 - 0.06501223 * mu_b5_b1 - 0.974902 * mu_b5_b2 - 0.8956782 * mu_b5_b3 + 0.27354765 * mu_b5_b4 - 0.00822877 * mu_b5_u5;
+    let p3_0_0 = -0.035574164 * mu_b5_v5 + 0.0041789096 * mu_b5_b1 - 0.3591235 * mu_b5_b2 - 0.012367859 * mu_b5_b3 - 0.020677203 * mu_b5_b4 - 0.008051924 * mu_b5_u5;
+    let p3_0_1 = 0.13720722 * mu_b5_v5 + 1.1084944 * mu_b5_b1 - 0.98850006 * mu_b5_b2 - 0.03980939 * mu_b5_b3 - 0.17098036 * mu_b5_b4 - 0.09528813 * mu_b5_u5;
+    let p3_0_2 = 0.8439499 * mu_b5_v5 + 3.982002 * mu_b5_b1 - 1.2114514 * mu_b5_b2 - 0.61085826 * mu_b5_b3 - 0.4193309 * mu_b5_b4 - 0.16663618 * mu_b5_u5;
+    let p3_0_3 = 1.3615683 * mu_b5_v5 + 5.6422668 * mu_b5_b1 - 0.5562516 * mu_b5_b2 - 1.2479746 * mu_b5_b3 - 0.5368177 * mu_b5_b4 - 0.1344531 * mu_b5_u5;
+    let p3_0_4 = 0.8050028 * mu_b5_v5 + 3.3492239 * mu_b5_b1 - 0.11623903 * mu_b5_b2 - 0.9154154 * mu_b5_b3 - 0.31096712 * mu_b5_b4 - 0.06034185 * mu_b5_u5;
+    let p3_0_5 = 0.11454235 * mu_b5_v5 + 0.5843403 * mu_b5_b1 - 0.14266941 * mu_b5_b2 - 0.2514646 * mu_b5_b3 - 0.043480683 * mu_b5_b4 - 0.0053494363 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = 0.50396955 * 1.0;
+    let u3_0_0 = -0.9632444 * 1.0;
     let u3_0 = u3_0_0 * 1.0;
-    let u3_1_0 = 0.37212738 * 1.0;
+    let u3_1_0 = -13.216134 * 1.0;
     let u3_1 = u3_1_0 * 1.0;
-    let u3_2_0 = -2.600105 * 1.0;
+    let u3_2_0 = -40.548203 * 1.0;
     let u3_2 = u3_2_0 * 1.0;
-    let u3_3_0 = -0.85368913 * 1.0;
+    let u3_3_0 = -22.416323 * 1.0;
     let u3_3 = u3_3_0 * 1.0;
-    let u3_4_0 = -0.10077795 * 1.0;
+    let u3_4_0 = -5.519651 * 1.0;
     let u3_4 = u3_4_0 * 1.0;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0 * mu_b4_v4 + 1.2570328 * mu_b4_b1 + 0.42894286 * mu_b4_b2 - 0.029151643 * mu_b4_b3 + 0.0015561738 * mu_b4_u4;
-    let q3_0_1 = 3.1400588 * mu_b4_v4 + 3.8786032 * mu_b4_b1 + 1.4640054 * mu_b4_b2 - 0.09674631 * mu_b4_b3 - 0.011735493 * mu_b4_u4;
-    let q3_0_2 = 3.9425719 * mu_b4_v4 + 4.5055923 * mu_b4_b1 + 1.1804875 * mu_b4_b2 - 0.5374276 * mu_b4_b3 + 0.06081312 * mu_b4_u4;
-    let q3_0_3 = 3.0613515 * mu_b4_v4 + 4.271134 * mu_b4_b1 + 1.709309 * mu_b4_b2 - 0.069412276 * mu_b4_b3 + 0.24153294 * mu_b4_u4;
-    let q3_0_4 = 1.1740395 * mu_b4_v4 + 2.0479162 * mu_b4_b1 + 1.0550903 * mu_b4_b2 + 0.061224878 * mu_b4_b3 + 0.0826292 * mu_b4_u4;
+    let q3_0_0 = 1.0 * mu_b4_v4 + 2.327484 * mu_b4_b1 + 1.4093077 * mu_b4_b2 + 0.60785204 * mu_b4_b3 + 0.24366963 * mu_b4_u4;
+    let q3_0_1 = 4.128567 * mu_b4_v4 + 10.576198 * mu_b4_b1 + 7.5280166 * mu_b4_b2 + 3.9706008 * mu_b4_b3 + 1.7607797 * mu_b4_u4;
+    let q3_0_2 = 6.716627 * mu_b4_v4 + 18.903769 * mu_b4_b1 + 13.697124 * mu_b4_b2 + 5.3059916 * mu_b4_b3 + 2.1018574 * mu_b4_u4;
+    let q3_0_3 = 4.4736576 * mu_b4_v4 + 14.689032 * mu_b4_b1 + 11.791252 * mu_b4_b2 + 3.6232033 * mu_b4_b3 + 0.9178906 * mu_b4_u4;
+    let q3_0_4 = 0.6312505 * mu_b4_v4 + 3.0165887 * mu_b4_b1 + 2.686756 * mu_b4_b2 + 0.6625725 * mu_b4_b3 + 0.07879632 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0;
     let e3 = p3 * u3 / q3;

@@ -13,14 +13,14 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
 // Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD).
-// Source: fits/ggx-dielectric-inv/best-20.json (furnace 0.1.0), fit SHA-256 031419f36e4c5e3a67c905baf22498ed79a8b34c9822a5dfde6cca2e5abb6776.
+// Source: fits/ggx-dielectric-inv/best-20.json (furnace 0.1.0), fit SHA-256 387a934058b27d0296ab143a72fc8944e388111f56666be75d24beedeb8727fd.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.4e-7, shifted 2.1e-7, bernstein 3.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.73e-2, max 5.10e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.76e-2, max 5.14e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.83e-7 (every op rounded, as this Rust), 3.08e-7 (fused multiply-add), 4.08e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 8.71e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 15 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.46e-2, max 5.10e-2; this f32 code MAE 1.46e-2, max 5.10e-2.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.1e-7, shifted 2.3e-7, bernstein 3.2e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 1.73e-2, max 5.08e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.76e-2, max 5.13e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.32e-7 (every op rounded, as this Rust), 3.05e-7 (fused multiply-add), 3.60e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 8.67e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 15 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.46e-2, max 5.08e-2; this f32 code MAE 1.46e-2, max 5.08e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.0e-2 on the measurement grid.
 // Polynomial: no division.
 fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
@@ -35,10 +35,10 @@ fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     let mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((0.20267186 * r_t + (-0.20903365 * mu_t + 0.10836218)) * r_t + ((-0.4191665 * mu_t + 0.9601106) * mu_t - 0.9156438)) * r_t + (((0.17171353 * mu_t + 0.24906625) * mu_t - 0.12073818) * mu_t + 0.85969424);
-    let p_1 = (-0.9930478 * r_t + (-2.1296792 * mu_t + 1.5509399)) * r_t + ((0.060195684 * mu_t - 2.2785478) * mu_t + 0.8599836);
-    let p_2 = 1.0487998 * r_t + (3.6034553 * mu_t + 0.055557653);
-    let p_3 = -2.7627778;
+    let p_0 = ((0.20346113 * r_t + (-0.20677066 * mu_t + 0.10537343)) * r_t + ((-0.42019182 * mu_t + 0.9589511) * mu_t - 0.9130294)) * r_t + (((0.17675886 * mu_t + 0.24158613) * mu_t - 0.11794388) * mu_t + 0.858503);
+    let p_1 = (-0.99309266 * r_t + (-2.1298554 * mu_t + 1.5474181)) * r_t + ((0.06418357 * mu_t - 2.283209) * mu_t + 0.87218904);
+    let p_2 = 1.0538793 * r_t + (3.603263 * mu_t + 0.016821457);
+    let p_3 = -2.724256;
     let p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     let e = p;
     return max(min(e, 1.0), 0.0);

@@ -15,19 +15,19 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 f4fc6d30f3092757d4a1417914827ad86ebf5c12c6bb055471ef50af8b0baee5.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.7e-5, shifted 4.3e-6, bernstein 1.3e-6.
-// Its 2 terms cancel (sum of |term| up to 35x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
-// Error of the f64 fit on its 2097152 data points: MAE 5.91e-3, max 3.76e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.97e-3, max 2.16e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.70e-7 (every op rounded, as this Rust), 4.89e-7 (fused multiply-add), 1.81e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.47e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.21e-3, max 3.76e-2; this f32 code MAE 5.21e-3, max 3.76e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-// Denominator proved >= 9.852e-2 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the L_p polish's solve of p = 12: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.603x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 15794d2bbc51391973708851251190daccf4afd247d5547e1b149277e3623029.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-6, shifted 2.9e-6, bernstein 2.9e-6.
+// Its 2 terms cancel (sum of |term| up to 18x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+// Error of the f64 fit on its 2097152 data points: MAE 5.68e-3, max 2.32e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.79e-3, max 2.15e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.15e-7 (every op rounded, as this Rust), 7.21e-7 (fused multiply-add), 4.83e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 8.28e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 113 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.25e-3, max 2.32e-2; this f32 code MAE 5.25e-3, max 2.32e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-2 on the measurement grid.
+// Denominator proved >= 3.466e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -37,89 +37,26 @@ highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    highp float mu_t = sqrt((mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
-    highp float f0_v = 1.0 - f0_t;
-    highp float f0_u2 = f0_t * f0_t;
-    highp float f0_v2 = f0_v * f0_v;
-    highp float f0_b1 = f0_t * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    highp float r_v = 1.0 - r_t;
-    highp float r_u2 = r_t * r_t;
-    highp float r_v2 = r_v * r_v;
-    highp float r_u3 = r_u2 * r_t;
-    highp float r_v3 = r_v2 * r_v;
-    highp float r_u4 = r_u3 * r_t;
-    highp float r_v4 = r_v3 * r_v;
-    highp float r_u5 = r_u4 * r_t;
-    highp float r_v5 = r_v4 * r_v;
-    highp float r_b1 = r_t * r_v4;
-    highp float r_b2 = r_u2 * r_v3;
-    highp float r_b3 = r_u3 * r_v2;
-    highp float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    highp float mu_u = (mu_t - 8.881784e-16) * 1.0;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    highp float mu_v = 1.0 - mu_u;
-    highp float mu_u2 = mu_u * mu_u;
-    highp float mu_v2 = mu_v * mu_v;
-    highp float mu_u3 = mu_u2 * mu_u;
-    highp float mu_v3 = mu_v2 * mu_v;
-    highp float mu_u4 = mu_u3 * mu_u;
-    highp float mu_v4 = mu_v3 * mu_v;
-    highp float mu_u5 = mu_u4 * mu_u;
-    highp float mu_v5 = mu_v4 * mu_v;
-    highp float mu_b1 = mu_u * mu_v4;
-    highp float mu_b2 = mu_u2 * mu_v3;
-    highp float mu_b3 = mu_u3 * mu_v2;
-    highp float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0_0 = 0.99565077 * mu_v5 + 3.3924441 * mu_b1 + 3.1144326 * mu_b2 + 1.4422028 * mu_b3 + 0.2839311 * mu_b4 + 0.012133276 * mu_u5;
-    highp float p_0_1 = 4.5728846 * mu_v5 + 16.253712 * mu_b1 + 16.318886 * mu_b2 + 8.563906 * mu_b3 + 1.7787242 * mu_b4 + 0.11670485 * mu_u5;
-    highp float p_0_2 = 7.6395164 * mu_v5 + 27.453737 * mu_b1 + 28.335716 * mu_b2 + 16.409075 * mu_b3 + 3.7439282 * mu_b4 + 0.38400748 * mu_u5;
-    highp float p_0_3 = 6.443032 * mu_v5 + 22.866104 * mu_b1 + 24.435787 * mu_b2 + 16.295155 * mu_b3 + 4.249049 * mu_b4 + 0.49426627 * mu_u5;
-    highp float p_0_4 = 3.0004432 * mu_v5 + 10.381581 * mu_b1 + 12.203184 * mu_b2 + 9.76255 * mu_b3 + 2.998719 * mu_b4 + 0.32204324 * mu_u5;
-    highp float p_0_5 = 0.57888275 * mu_v5 + 1.9038911 * mu_b1 + 2.4905515 * mu_b2 + 2.3466568 * mu_b3 + 0.7947496 * mu_b4 + 0.0664018 * mu_u5;
-    highp float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    highp float p_1_0 = 1.9790473 * mu_v5 + 6.6090746 * mu_b1 + 6.119147 * mu_b2 + 2.829212 * mu_b3 + 0.5323971 * mu_b4 + 0.024280459 * mu_u5;
-    highp float p_1_1 = 10.306315 * mu_v5 + 36.513012 * mu_b1 + 36.89327 * mu_b2 + 18.208721 * mu_b3 + 3.590553 * mu_b4 + 0.22828245 * mu_u5;
-    highp float p_1_2 = 21.287514 * mu_v5 + 76.67484 * mu_b1 + 79.31072 * mu_b2 + 39.72086 * mu_b3 + 8.197628 * mu_b4 + 0.7199147 * mu_u5;
-    highp float p_1_3 = 22.364965 * mu_v5 + 79.65206 * mu_b1 + 82.107445 * mu_b2 + 41.04194 * mu_b3 + 8.732605 * mu_b4 + 0.8307685 * mu_u5;
-    highp float p_1_4 = 11.882352 * mu_v5 + 41.110718 * mu_b1 + 41.70848 * mu_b2 + 20.858053 * mu_b3 + 4.596277 * mu_b4 + 0.37821668 * mu_u5;
-    highp float p_1_5 = 2.4883041 * mu_v5 + 8.282919 * mu_b1 + 8.244351 * mu_b2 + 4.2641816 * mu_b3 + 1.0565019 * mu_b4 + 0.07403245 * mu_u5;
-    highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    highp float p_2_0 = 1.0119287 * mu_v5 + 3.369643 * mu_b1 + 3.123675 * mu_b2 + 1.443922 * mu_b3 + 0.2699087 * mu_b4 + 0.012426943 * mu_u5;
-    highp float p_2_1 = 5.358031 * mu_v5 + 18.974691 * mu_b1 + 19.187296 * mu_b2 + 9.396485 * mu_b3 + 1.8399117 * mu_b4 + 0.11645813 * mu_u5;
-    highp float p_2_2 = 11.327056 * mu_v5 + 40.807625 * mu_b1 + 42.219387 * mu_b2 + 20.82505 * mu_b3 + 4.246403 * mu_b4 + 0.36496392 * mu_u5;
-    highp float p_2_3 = 12.128443 * mu_v5 + 43.206642 * mu_b1 + 44.413956 * mu_b2 + 21.612709 * mu_b3 + 4.4859524 * mu_b4 + 0.41379592 * mu_u5;
-    highp float p_2_4 = 6.5046535 * mu_v5 + 22.504799 * mu_b1 + 22.591343 * mu_b2 + 10.770482 * mu_b3 + 2.2512946 * mu_b4 + 0.17440762 * mu_u5;
-    highp float p_2_5 = 1.3692743 * mu_v5 + 4.561281 * mu_b1 + 4.454248 * mu_b2 + 2.1513567 * mu_b3 + 0.5022899 * mu_b4 + 0.033653945 * mu_u5;
-    highp float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    highp float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = 1.0 * mu_v5 + 3.2232351 * mu_b1 + 3.6819923 * mu_b2 + 1.7065663 * mu_b3 + 0.2600962 * mu_b4 + 0.012287051 * mu_u5;
-    highp float q_0_1 = 5.463638 * mu_v5 + 18.02261 * mu_b1 + 21.399324 * mu_b2 + 10.698688 * mu_b3 + 1.9716556 * mu_b4 + 0.11331946 * mu_u5;
-    highp float q_0_2 = 11.908265 * mu_v5 + 40.12666 * mu_b1 + 49.314514 * mu_b2 + 26.266226 * mu_b3 + 5.554229 * mu_b4 + 0.3841211 * mu_u5;
-    highp float q_0_3 = 12.942967 * mu_v5 + 44.47667 * mu_b1 + 56.367516 * mu_b2 + 31.672213 * mu_b3 + 7.433716 * mu_b4 + 0.595317 * mu_u5;
-    highp float q_0_4 = 7.015692 * mu_v5 + 24.547623 * mu_b1 + 31.978827 * mu_b2 + 18.807669 * mu_b3 + 4.7908854 * mu_b4 + 0.43011335 * mu_u5;
-    highp float q_0_5 = 1.5173515 * mu_v5 + 5.398239 * mu_b1 + 7.2084928 * mu_b2 + 4.40956 * mu_b3 + 1.1998395 * mu_b4 + 0.11788501 * mu_u5;
-    highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    highp float q_1_0 = 2.0 * mu_v5 + 6.4464703 * mu_b1 + 7.3639846 * mu_b2 + 3.4131327 * mu_b3 + 0.5201924 * mu_b4 + 0.024574103 * mu_u5;
-    highp float q_1_1 = 10.927276 * mu_v5 + 36.04522 * mu_b1 + 42.79865 * mu_b2 + 21.397375 * mu_b3 + 3.9433112 * mu_b4 + 0.22663891 * mu_u5;
-    highp float q_1_2 = 23.81653 * mu_v5 + 80.25332 * mu_b1 + 98.62903 * mu_b2 + 52.53245 * mu_b3 + 11.108458 * mu_b4 + 0.7682422 * mu_u5;
-    highp float q_1_3 = 25.885935 * mu_v5 + 88.95334 * mu_b1 + 112.73503 * mu_b2 + 63.344425 * mu_b3 + 14.867432 * mu_b4 + 1.190634 * mu_u5;
-    highp float q_1_4 = 14.031384 * mu_v5 + 49.095245 * mu_b1 + 63.957653 * mu_b2 + 37.615337 * mu_b3 + 9.581771 * mu_b4 + 0.8602267 * mu_u5;
-    highp float q_1_5 = 3.034703 * mu_v5 + 10.796478 * mu_b1 + 14.4169855 * mu_b2 + 8.81912 * mu_b3 + 2.399679 * mu_b4 + 0.23577002 * mu_u5;
-    highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    highp float q_2_0 = 1.0 * mu_v5 + 3.2232351 * mu_b1 + 3.6819923 * mu_b2 + 1.7065663 * mu_b3 + 0.2600962 * mu_b4 + 0.012287051 * mu_u5;
-    highp float q_2_1 = 5.463638 * mu_v5 + 18.02261 * mu_b1 + 21.399324 * mu_b2 + 10.698688 * mu_b3 + 1.9716556 * mu_b4 + 0.11331946 * mu_u5;
-    highp float q_2_2 = 11.908265 * mu_v5 + 40.12666 * mu_b1 + 49.314514 * mu_b2 + 26.266226 * mu_b3 + 5.554229 * mu_b4 + 0.3841211 * mu_u5;
-    highp float q_2_3 = 12.942967 * mu_v5 + 44.47667 * mu_b1 + 56.367516 * mu_b2 + 31.672213 * mu_b3 + 7.433716 * mu_b4 + 0.595317 * mu_u5;
-    highp float q_2_4 = 7.015692 * mu_v5 + 24.547623 * mu_b1 + 31.978827 * mu_b2 + 18.807669 * mu_b3 + 4.7908854 * mu_b4 + 0.43011335 * mu_u5;
-    highp float q_2_5 = 1.5173515 * mu_v5 + 5.398239 * mu_b1 + 7.2084928 * mu_b2 + 4.40956 * mu_b3 + 1.1998395 * mu_b4 + 0.11788501 * mu_u5;
-    highp float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    highp float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    highp float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
+    highp float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
+    highp float mu_logv = (mu_c + 2.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 2.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    highp float mu_t = (mu_logv * (1.0 + 1.25 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.25 * (r_c * r_c) + 7.888609e-31);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float f0_s = f0_t * 2.0 - 1.0;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float r_s = r_t * 2.0 - 1.0;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    highp float mu_s = mu_t * 2.0 - 1.0;
+    // numerator P, grouped by powers of the first variable
+    highp float p_0 = ((((0.0008946179 * r_s + (0.015933132 * mu_s - 0.017505392)) * r_s + ((-0.0025305706 * mu_s + 0.0010740507) * mu_s + 0.016603315)) * r_s + (((-0.043823104 * mu_s + 0.0011760528) * mu_s + 0.0031483907) * mu_s + 0.012437914)) * r_s + ((((-0.017683843 * mu_s + 0.01490164) * mu_s + 0.018793236) * mu_s - 0.027166398) * mu_s - 0.018057188)) * r_s + (((((-0.0025615003 * mu_s - 0.011706344) * mu_s - 0.0014391172) * mu_s + 0.15337348) * mu_s - 0.41016054) * mu_s + 0.42822623);
+    highp float p_1 = ((((0.0005373973 * r_s + (0.0017782523 * mu_s + 0.0018120878)) * r_s + ((-0.0027190943 * mu_s + 0.013736544) * mu_s - 0.0018249841)) * r_s + (((-0.012129504 * mu_s + 0.017114997) * mu_s + 0.017981518) * mu_s - 0.032112546)) * r_s + ((((-0.0076328004 * mu_s + 0.014931741) * mu_s + 0.04897189) * mu_s - 0.12871267) * mu_s + 0.03973518)) * r_s + (((((-0.0008249838 * mu_s - 0.0076839356) * mu_s + 0.024289316) * mu_s + 0.037498895) * mu_s - 0.13626888) * mu_s + 0.06545101);
+    highp float p_2 = ((((-0.00019778316 * r_s + (-0.0004727258 * mu_s - 0.0009544181)) * r_s + ((0.0010286949 * mu_s - 0.0053608953) * mu_s + 0.0009468277)) * r_s + (((0.004133079 * mu_s - 0.0066816597) * mu_s - 0.006993151) * mu_s + 0.012741832)) * r_s + ((((0.002739439 * mu_s - 0.0056349337) * mu_s - 0.018902387) * mu_s + 0.049992487) * mu_s - 0.015803752)) * r_s + (((((0.00028698132 * mu_s + 0.002843192) * mu_s - 0.009526042) * mu_s - 0.012526935) * mu_s + 0.04758421) * mu_s - 0.019615795);
+    highp float p = (p_2 * f0_s + p_1) * f0_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    highp float q_0 = (0.007991812 * r_s + (-0.055673312 * mu_s + 0.13989787)) * r_s + ((0.096761726 * mu_s - 0.4850288) * mu_s + 0.6057888);
+    highp float q = q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);
 }

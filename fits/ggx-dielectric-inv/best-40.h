@@ -27,19 +27,19 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 f4fc6d30f3092757d4a1417914827ad86ebf5c12c6bb055471ef50af8b0baee5.
-// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.7e-5, shifted 4.3e-6, bernstein 1.3e-6.
-// Its 2 terms cancel (sum of |term| up to 35x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
-// Error of the f64 fit on its 2097152 data points: MAE 5.91e-3, max 3.76e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.97e-3, max 2.16e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.70e-7 (every op rounded, as this Rust), 4.89e-7 (fused multiply-add), 1.81e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.47e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.21e-3, max 3.76e-2; this f32 code MAE 5.21e-3, max 3.76e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-// Denominator proved >= 9.852e-2 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the L_p polish's solve of p = 12: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.603x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 15794d2bbc51391973708851251190daccf4afd247d5547e1b149277e3623029.
+// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-6, shifted 2.9e-6, bernstein 2.9e-6.
+// Its 2 terms cancel (sum of |term| up to 18x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+// Error of the f64 fit on its 2097152 data points: MAE 5.68e-3, max 2.32e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.79e-3, max 2.15e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.15e-7 (every op rounded, as this Rust), 7.21e-7 (fused multiply-add), 4.83e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 8.28e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 113 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.25e-3, max 2.32e-2; this f32 code MAE 5.25e-3, max 2.32e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-2 on the measurement grid.
+// Denominator proved >= 3.466e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -49,89 +49,26 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // t = square(r)
     const float r_t = r_c * r_c;
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    const float mu_t = sqrtf((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
-    const float f0_v = 1.0f - f0_t;
-    const float f0_u2 = f0_t * f0_t;
-    const float f0_v2 = f0_v * f0_v;
-    const float f0_b1 = f0_t * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    const float r_v = 1.0f - r_t;
-    const float r_u2 = r_t * r_t;
-    const float r_v2 = r_v * r_v;
-    const float r_u3 = r_u2 * r_t;
-    const float r_v3 = r_v2 * r_v;
-    const float r_u4 = r_u3 * r_t;
-    const float r_v4 = r_v3 * r_v;
-    const float r_u5 = r_u4 * r_t;
-    const float r_v5 = r_v4 * r_v;
-    const float r_b1 = r_t * r_v4;
-    const float r_b2 = r_u2 * r_v3;
-    const float r_b3 = r_u3 * r_v2;
-    const float r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    const float mu_u = (mu_t - 8.881784e-16f) * 1.0f;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    const float mu_v = 1.0f - mu_u;
-    const float mu_u2 = mu_u * mu_u;
-    const float mu_v2 = mu_v * mu_v;
-    const float mu_u3 = mu_u2 * mu_u;
-    const float mu_v3 = mu_v2 * mu_v;
-    const float mu_u4 = mu_u3 * mu_u;
-    const float mu_v4 = mu_v3 * mu_v;
-    const float mu_u5 = mu_u4 * mu_u;
-    const float mu_v5 = mu_v4 * mu_v;
-    const float mu_b1 = mu_u * mu_v4;
-    const float mu_b2 = mu_u2 * mu_v3;
-    const float mu_b3 = mu_u3 * mu_v2;
-    const float mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = 0.99565077f * mu_v5 + 3.3924441f * mu_b1 + 3.1144326f * mu_b2 + 1.4422028f * mu_b3 + 0.2839311f * mu_b4 + 0.012133276f * mu_u5;
-    const float p_0_1 = 4.5728846f * mu_v5 + 16.253712f * mu_b1 + 16.318886f * mu_b2 + 8.563906f * mu_b3 + 1.7787242f * mu_b4 + 0.11670485f * mu_u5;
-    const float p_0_2 = 7.6395164f * mu_v5 + 27.453737f * mu_b1 + 28.335716f * mu_b2 + 16.409075f * mu_b3 + 3.7439282f * mu_b4 + 0.38400748f * mu_u5;
-    const float p_0_3 = 6.443032f * mu_v5 + 22.866104f * mu_b1 + 24.435787f * mu_b2 + 16.295155f * mu_b3 + 4.249049f * mu_b4 + 0.49426627f * mu_u5;
-    const float p_0_4 = 3.0004432f * mu_v5 + 10.381581f * mu_b1 + 12.203184f * mu_b2 + 9.76255f * mu_b3 + 2.998719f * mu_b4 + 0.32204324f * mu_u5;
-    const float p_0_5 = 0.57888275f * mu_v5 + 1.9038911f * mu_b1 + 2.4905515f * mu_b2 + 2.3466568f * mu_b3 + 0.7947496f * mu_b4 + 0.0664018f * mu_u5;
-    const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    const float p_1_0 = 1.9790473f * mu_v5 + 6.6090746f * mu_b1 + 6.119147f * mu_b2 + 2.829212f * mu_b3 + 0.5323971f * mu_b4 + 0.024280459f * mu_u5;
-    const float p_1_1 = 10.306315f * mu_v5 + 36.513012f * mu_b1 + 36.89327f * mu_b2 + 18.208721f * mu_b3 + 3.590553f * mu_b4 + 0.22828245f * mu_u5;
-    const float p_1_2 = 21.287514f * mu_v5 + 76.67484f * mu_b1 + 79.31072f * mu_b2 + 39.72086f * mu_b3 + 8.197628f * mu_b4 + 0.7199147f * mu_u5;
-    const float p_1_3 = 22.364965f * mu_v5 + 79.65206f * mu_b1 + 82.107445f * mu_b2 + 41.04194f * mu_b3 + 8.732605f * mu_b4 + 0.8307685f * mu_u5;
-    const float p_1_4 = 11.882352f * mu_v5 + 41.110718f * mu_b1 + 41.70848f * mu_b2 + 20.858053f * mu_b3 + 4.596277f * mu_b4 + 0.37821668f * mu_u5;
-    const float p_1_5 = 2.4883041f * mu_v5 + 8.282919f * mu_b1 + 8.244351f * mu_b2 + 4.2641816f * mu_b3 + 1.0565019f * mu_b4 + 0.07403245f * mu_u5;
-    const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    const float p_2_0 = 1.0119287f * mu_v5 + 3.369643f * mu_b1 + 3.123675f * mu_b2 + 1.443922f * mu_b3 + 0.2699087f * mu_b4 + 0.012426943f * mu_u5;
-    const float p_2_1 = 5.358031f * mu_v5 + 18.974691f * mu_b1 + 19.187296f * mu_b2 + 9.396485f * mu_b3 + 1.8399117f * mu_b4 + 0.11645813f * mu_u5;
-    const float p_2_2 = 11.327056f * mu_v5 + 40.807625f * mu_b1 + 42.219387f * mu_b2 + 20.82505f * mu_b3 + 4.246403f * mu_b4 + 0.36496392f * mu_u5;
-    const float p_2_3 = 12.128443f * mu_v5 + 43.206642f * mu_b1 + 44.413956f * mu_b2 + 21.612709f * mu_b3 + 4.4859524f * mu_b4 + 0.41379592f * mu_u5;
-    const float p_2_4 = 6.5046535f * mu_v5 + 22.504799f * mu_b1 + 22.591343f * mu_b2 + 10.770482f * mu_b3 + 2.2512946f * mu_b4 + 0.17440762f * mu_u5;
-    const float p_2_5 = 1.3692743f * mu_v5 + 4.561281f * mu_b1 + 4.454248f * mu_b2 + 2.1513567f * mu_b3 + 0.5022899f * mu_b4 + 0.033653945f * mu_u5;
-    const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    const float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = 1.0f * mu_v5 + 3.2232351f * mu_b1 + 3.6819923f * mu_b2 + 1.7065663f * mu_b3 + 0.2600962f * mu_b4 + 0.012287051f * mu_u5;
-    const float q_0_1 = 5.463638f * mu_v5 + 18.02261f * mu_b1 + 21.399324f * mu_b2 + 10.698688f * mu_b3 + 1.9716556f * mu_b4 + 0.11331946f * mu_u5;
-    const float q_0_2 = 11.908265f * mu_v5 + 40.12666f * mu_b1 + 49.314514f * mu_b2 + 26.266226f * mu_b3 + 5.554229f * mu_b4 + 0.3841211f * mu_u5;
-    const float q_0_3 = 12.942967f * mu_v5 + 44.47667f * mu_b1 + 56.367516f * mu_b2 + 31.672213f * mu_b3 + 7.433716f * mu_b4 + 0.595317f * mu_u5;
-    const float q_0_4 = 7.015692f * mu_v5 + 24.547623f * mu_b1 + 31.978827f * mu_b2 + 18.807669f * mu_b3 + 4.7908854f * mu_b4 + 0.43011335f * mu_u5;
-    const float q_0_5 = 1.5173515f * mu_v5 + 5.398239f * mu_b1 + 7.2084928f * mu_b2 + 4.40956f * mu_b3 + 1.1998395f * mu_b4 + 0.11788501f * mu_u5;
-    const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    const float q_1_0 = 2.0f * mu_v5 + 6.4464703f * mu_b1 + 7.3639846f * mu_b2 + 3.4131327f * mu_b3 + 0.5201924f * mu_b4 + 0.024574103f * mu_u5;
-    const float q_1_1 = 10.927276f * mu_v5 + 36.04522f * mu_b1 + 42.79865f * mu_b2 + 21.397375f * mu_b3 + 3.9433112f * mu_b4 + 0.22663891f * mu_u5;
-    const float q_1_2 = 23.81653f * mu_v5 + 80.25332f * mu_b1 + 98.62903f * mu_b2 + 52.53245f * mu_b3 + 11.108458f * mu_b4 + 0.7682422f * mu_u5;
-    const float q_1_3 = 25.885935f * mu_v5 + 88.95334f * mu_b1 + 112.73503f * mu_b2 + 63.344425f * mu_b3 + 14.867432f * mu_b4 + 1.190634f * mu_u5;
-    const float q_1_4 = 14.031384f * mu_v5 + 49.095245f * mu_b1 + 63.957653f * mu_b2 + 37.615337f * mu_b3 + 9.581771f * mu_b4 + 0.8602267f * mu_u5;
-    const float q_1_5 = 3.034703f * mu_v5 + 10.796478f * mu_b1 + 14.4169855f * mu_b2 + 8.81912f * mu_b3 + 2.399679f * mu_b4 + 0.23577002f * mu_u5;
-    const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    const float q_2_0 = 1.0f * mu_v5 + 3.2232351f * mu_b1 + 3.6819923f * mu_b2 + 1.7065663f * mu_b3 + 0.2600962f * mu_b4 + 0.012287051f * mu_u5;
-    const float q_2_1 = 5.463638f * mu_v5 + 18.02261f * mu_b1 + 21.399324f * mu_b2 + 10.698688f * mu_b3 + 1.9716556f * mu_b4 + 0.11331946f * mu_u5;
-    const float q_2_2 = 11.908265f * mu_v5 + 40.12666f * mu_b1 + 49.314514f * mu_b2 + 26.266226f * mu_b3 + 5.554229f * mu_b4 + 0.3841211f * mu_u5;
-    const float q_2_3 = 12.942967f * mu_v5 + 44.47667f * mu_b1 + 56.367516f * mu_b2 + 31.672213f * mu_b3 + 7.433716f * mu_b4 + 0.595317f * mu_u5;
-    const float q_2_4 = 7.015692f * mu_v5 + 24.547623f * mu_b1 + 31.978827f * mu_b2 + 18.807669f * mu_b3 + 4.7908854f * mu_b4 + 0.43011335f * mu_u5;
-    const float q_2_5 = 1.5173515f * mu_v5 + 5.398239f * mu_b1 + 7.2084928f * mu_b2 + 4.40956f * mu_b3 + 1.1998395f * mu_b4 + 0.11788501f * mu_u5;
-    const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    const float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    const float mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(fmaxf(mu_c, 5.421011e-20f)))));
+    const float mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0f + mu_c))));
+    const float mu_logv = (mu_c + 2.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 2.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    const float mu_t = (mu_logv * (1.0f + 1.25f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.25f * (r_c * r_c) + 7.888609e-31f);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float f0_s = f0_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float r_s = r_t * 2.0f - 1.0f;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    const float mu_s = mu_t * 2.0f - 1.0f;
+    // numerator P, grouped by powers of the first variable
+    const float p_0 = ((((0.0008946179f * r_s + (0.015933132f * mu_s - 0.017505392f)) * r_s + ((-0.0025305706f * mu_s + 0.0010740507f) * mu_s + 0.016603315f)) * r_s + (((-0.043823104f * mu_s + 0.0011760528f) * mu_s + 0.0031483907f) * mu_s + 0.012437914f)) * r_s + ((((-0.017683843f * mu_s + 0.01490164f) * mu_s + 0.018793236f) * mu_s - 0.027166398f) * mu_s - 0.018057188f)) * r_s + (((((-0.0025615003f * mu_s - 0.011706344f) * mu_s - 0.0014391172f) * mu_s + 0.15337348f) * mu_s - 0.41016054f) * mu_s + 0.42822623f);
+    const float p_1 = ((((0.0005373973f * r_s + (0.0017782523f * mu_s + 0.0018120878f)) * r_s + ((-0.0027190943f * mu_s + 0.013736544f) * mu_s - 0.0018249841f)) * r_s + (((-0.012129504f * mu_s + 0.017114997f) * mu_s + 0.017981518f) * mu_s - 0.032112546f)) * r_s + ((((-0.0076328004f * mu_s + 0.014931741f) * mu_s + 0.04897189f) * mu_s - 0.12871267f) * mu_s + 0.03973518f)) * r_s + (((((-0.0008249838f * mu_s - 0.0076839356f) * mu_s + 0.024289316f) * mu_s + 0.037498895f) * mu_s - 0.13626888f) * mu_s + 0.06545101f);
+    const float p_2 = ((((-0.00019778316f * r_s + (-0.0004727258f * mu_s - 0.0009544181f)) * r_s + ((0.0010286949f * mu_s - 0.0053608953f) * mu_s + 0.0009468277f)) * r_s + (((0.004133079f * mu_s - 0.0066816597f) * mu_s - 0.006993151f) * mu_s + 0.012741832f)) * r_s + ((((0.002739439f * mu_s - 0.0056349337f) * mu_s - 0.018902387f) * mu_s + 0.049992487f) * mu_s - 0.015803752f)) * r_s + (((((0.00028698132f * mu_s + 0.002843192f) * mu_s - 0.009526042f) * mu_s - 0.012526935f) * mu_s + 0.04758421f) * mu_s - 0.019615795f);
+    const float p = (p_2 * f0_s + p_1) * f0_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    const float q_0 = (0.007991812f * r_s + (-0.055673312f * mu_s + 0.13989787f)) * r_s + ((0.096761726f * mu_s - 0.4850288f) * mu_s + 0.6057888f);
+    const float q = q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);
 }

@@ -12,19 +12,19 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 3 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 f4fc6d30f3092757d4a1417914827ad86ebf5c12c6bb055471ef50af8b0baee5.
-/// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.7e-5, shifted 4.3e-6, bernstein 1.3e-6.
-/// Its 2 terms cancel (sum of |term| up to 35x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
-/// Error of the f64 fit on its 2097152 data points: MAE 5.91e-3, max 3.76e-2 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.97e-3, max 2.16e-2.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 4.70e-7 (every op rounded, as this Rust), 4.89e-7 (fused multiply-add), 1.81e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 2.47e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.21e-3, max 3.76e-2; this f32 code MAE 5.21e-3, max 3.76e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-/// Denominator proved >= 9.852e-2 on the domain (Bernstein certificate), so the division is safe.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the L_p polish's solve of p = 12: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.603x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv/best-40.json (furnace 0.1.0), fit SHA-256 15794d2bbc51391973708851251190daccf4afd247d5547e1b149277e3623029.
+/// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 3.9e-6, shifted 2.9e-6, bernstein 2.9e-6.
+/// Its 2 terms cancel (sum of |term| up to 18x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+/// Error of the f64 fit on its 2097152 data points: MAE 5.68e-3, max 2.32e-2 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.79e-3, max 2.15e-2.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.15e-7 (every op rounded, as this Rust), 7.21e-7 (fused multiply-add), 4.83e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 8.28e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 113 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 5.25e-3, max 2.32e-2; this f32 code MAE 5.25e-3, max 2.32e-2.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.7e-2 on the measurement grid.
+/// Denominator proved >= 3.466e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -41,89 +41,26 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
-    let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
-    // Bernstein basis of f0: u^i (1 - u)^(n - i), n = 2
-    let f0_v = 1.0_f32 - f0_t;
-    let f0_u2 = f0_t * f0_t;
-    let f0_v2 = f0_v * f0_v;
-    let f0_b1 = f0_t * f0_v;
-    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 5
-    let r_v = 1.0_f32 - r_t;
-    let r_u2 = r_t * r_t;
-    let r_v2 = r_v * r_v;
-    let r_u3 = r_u2 * r_t;
-    let r_v3 = r_v2 * r_v;
-    let r_u4 = r_u3 * r_t;
-    let r_v4 = r_v3 * r_v;
-    let r_u5 = r_u4 * r_t;
-    let r_v5 = r_v4 * r_v;
-    let r_b1 = r_t * r_v4;
-    let r_b2 = r_u2 * r_v3;
-    let r_b3 = r_u3 * r_v2;
-    let r_b4 = r_u4 * r_v;
-    // u = (t - 0.0000000000000008881784197001252)/(1 - 0.0000000000000008881784197001252) in [0, 1]
-    let mu_u = (mu_t - 8.881784e-16_f32) * 1.0_f32;
-    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 5
-    let mu_v = 1.0_f32 - mu_u;
-    let mu_u2 = mu_u * mu_u;
-    let mu_v2 = mu_v * mu_v;
-    let mu_u3 = mu_u2 * mu_u;
-    let mu_v3 = mu_v2 * mu_v;
-    let mu_u4 = mu_u3 * mu_u;
-    let mu_v4 = mu_v3 * mu_v;
-    let mu_u5 = mu_u4 * mu_u;
-    let mu_v5 = mu_v4 * mu_v;
-    let mu_b1 = mu_u * mu_v4;
-    let mu_b2 = mu_u2 * mu_v3;
-    let mu_b3 = mu_u3 * mu_v2;
-    let mu_b4 = mu_u4 * mu_v;
-    // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.99565077_f32 * mu_v5 + 3.3924441_f32 * mu_b1 + 3.1144326_f32 * mu_b2 + 1.4422028_f32 * mu_b3 + 0.2839311_f32 * mu_b4 + 0.012133276_f32 * mu_u5;
-    let p_0_1 = 4.5728846_f32 * mu_v5 + 16.253712_f32 * mu_b1 + 16.318886_f32 * mu_b2 + 8.563906_f32 * mu_b3 + 1.7787242_f32 * mu_b4 + 0.11670485_f32 * mu_u5;
-    let p_0_2 = 7.6395164_f32 * mu_v5 + 27.453737_f32 * mu_b1 + 28.335716_f32 * mu_b2 + 16.409075_f32 * mu_b3 + 3.7439282_f32 * mu_b4 + 0.38400748_f32 * mu_u5;
-    let p_0_3 = 6.443032_f32 * mu_v5 + 22.866104_f32 * mu_b1 + 24.435787_f32 * mu_b2 + 16.295155_f32 * mu_b3 + 4.249049_f32 * mu_b4 + 0.49426627_f32 * mu_u5;
-    let p_0_4 = 3.0004432_f32 * mu_v5 + 10.381581_f32 * mu_b1 + 12.203184_f32 * mu_b2 + 9.76255_f32 * mu_b3 + 2.998719_f32 * mu_b4 + 0.32204324_f32 * mu_u5;
-    let p_0_5 = 0.57888275_f32 * mu_v5 + 1.9038911_f32 * mu_b1 + 2.4905515_f32 * mu_b2 + 2.3466568_f32 * mu_b3 + 0.7947496_f32 * mu_b4 + 0.0664018_f32 * mu_u5;
-    let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 1.9790473_f32 * mu_v5 + 6.6090746_f32 * mu_b1 + 6.119147_f32 * mu_b2 + 2.829212_f32 * mu_b3 + 0.5323971_f32 * mu_b4 + 0.024280459_f32 * mu_u5;
-    let p_1_1 = 10.306315_f32 * mu_v5 + 36.513012_f32 * mu_b1 + 36.89327_f32 * mu_b2 + 18.208721_f32 * mu_b3 + 3.590553_f32 * mu_b4 + 0.22828245_f32 * mu_u5;
-    let p_1_2 = 21.287514_f32 * mu_v5 + 76.67484_f32 * mu_b1 + 79.31072_f32 * mu_b2 + 39.72086_f32 * mu_b3 + 8.197628_f32 * mu_b4 + 0.7199147_f32 * mu_u5;
-    let p_1_3 = 22.364965_f32 * mu_v5 + 79.65206_f32 * mu_b1 + 82.107445_f32 * mu_b2 + 41.04194_f32 * mu_b3 + 8.732605_f32 * mu_b4 + 0.8307685_f32 * mu_u5;
-    let p_1_4 = 11.882352_f32 * mu_v5 + 41.110718_f32 * mu_b1 + 41.70848_f32 * mu_b2 + 20.858053_f32 * mu_b3 + 4.596277_f32 * mu_b4 + 0.37821668_f32 * mu_u5;
-    let p_1_5 = 2.4883041_f32 * mu_v5 + 8.282919_f32 * mu_b1 + 8.244351_f32 * mu_b2 + 4.2641816_f32 * mu_b3 + 1.0565019_f32 * mu_b4 + 0.07403245_f32 * mu_u5;
-    let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 1.0119287_f32 * mu_v5 + 3.369643_f32 * mu_b1 + 3.123675_f32 * mu_b2 + 1.443922_f32 * mu_b3 + 0.2699087_f32 * mu_b4 + 0.012426943_f32 * mu_u5;
-    let p_2_1 = 5.358031_f32 * mu_v5 + 18.974691_f32 * mu_b1 + 19.187296_f32 * mu_b2 + 9.396485_f32 * mu_b3 + 1.8399117_f32 * mu_b4 + 0.11645813_f32 * mu_u5;
-    let p_2_2 = 11.327056_f32 * mu_v5 + 40.807625_f32 * mu_b1 + 42.219387_f32 * mu_b2 + 20.82505_f32 * mu_b3 + 4.246403_f32 * mu_b4 + 0.36496392_f32 * mu_u5;
-    let p_2_3 = 12.128443_f32 * mu_v5 + 43.206642_f32 * mu_b1 + 44.413956_f32 * mu_b2 + 21.612709_f32 * mu_b3 + 4.4859524_f32 * mu_b4 + 0.41379592_f32 * mu_u5;
-    let p_2_4 = 6.5046535_f32 * mu_v5 + 22.504799_f32 * mu_b1 + 22.591343_f32 * mu_b2 + 10.770482_f32 * mu_b3 + 2.2512946_f32 * mu_b4 + 0.17440762_f32 * mu_u5;
-    let p_2_5 = 1.3692743_f32 * mu_v5 + 4.561281_f32 * mu_b1 + 4.454248_f32 * mu_b2 + 2.1513567_f32 * mu_b3 + 0.5022899_f32 * mu_b4 + 0.033653945_f32 * mu_u5;
-    let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
-    let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
-    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0_f32 * mu_v5 + 3.2232351_f32 * mu_b1 + 3.6819923_f32 * mu_b2 + 1.7065663_f32 * mu_b3 + 0.2600962_f32 * mu_b4 + 0.012287051_f32 * mu_u5;
-    let q_0_1 = 5.463638_f32 * mu_v5 + 18.02261_f32 * mu_b1 + 21.399324_f32 * mu_b2 + 10.698688_f32 * mu_b3 + 1.9716556_f32 * mu_b4 + 0.11331946_f32 * mu_u5;
-    let q_0_2 = 11.908265_f32 * mu_v5 + 40.12666_f32 * mu_b1 + 49.314514_f32 * mu_b2 + 26.266226_f32 * mu_b3 + 5.554229_f32 * mu_b4 + 0.3841211_f32 * mu_u5;
-    let q_0_3 = 12.942967_f32 * mu_v5 + 44.47667_f32 * mu_b1 + 56.367516_f32 * mu_b2 + 31.672213_f32 * mu_b3 + 7.433716_f32 * mu_b4 + 0.595317_f32 * mu_u5;
-    let q_0_4 = 7.015692_f32 * mu_v5 + 24.547623_f32 * mu_b1 + 31.978827_f32 * mu_b2 + 18.807669_f32 * mu_b3 + 4.7908854_f32 * mu_b4 + 0.43011335_f32 * mu_u5;
-    let q_0_5 = 1.5173515_f32 * mu_v5 + 5.398239_f32 * mu_b1 + 7.2084928_f32 * mu_b2 + 4.40956_f32 * mu_b3 + 1.1998395_f32 * mu_b4 + 0.11788501_f32 * mu_u5;
-    let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 2.0_f32 * mu_v5 + 6.4464703_f32 * mu_b1 + 7.3639846_f32 * mu_b2 + 3.4131327_f32 * mu_b3 + 0.5201924_f32 * mu_b4 + 0.024574103_f32 * mu_u5;
-    let q_1_1 = 10.927276_f32 * mu_v5 + 36.04522_f32 * mu_b1 + 42.79865_f32 * mu_b2 + 21.397375_f32 * mu_b3 + 3.9433112_f32 * mu_b4 + 0.22663891_f32 * mu_u5;
-    let q_1_2 = 23.81653_f32 * mu_v5 + 80.25332_f32 * mu_b1 + 98.62903_f32 * mu_b2 + 52.53245_f32 * mu_b3 + 11.108458_f32 * mu_b4 + 0.7682422_f32 * mu_u5;
-    let q_1_3 = 25.885935_f32 * mu_v5 + 88.95334_f32 * mu_b1 + 112.73503_f32 * mu_b2 + 63.344425_f32 * mu_b3 + 14.867432_f32 * mu_b4 + 1.190634_f32 * mu_u5;
-    let q_1_4 = 14.031384_f32 * mu_v5 + 49.095245_f32 * mu_b1 + 63.957653_f32 * mu_b2 + 37.615337_f32 * mu_b3 + 9.581771_f32 * mu_b4 + 0.8602267_f32 * mu_u5;
-    let q_1_5 = 3.034703_f32 * mu_v5 + 10.796478_f32 * mu_b1 + 14.4169855_f32 * mu_b2 + 8.81912_f32 * mu_b3 + 2.399679_f32 * mu_b4 + 0.23577002_f32 * mu_u5;
-    let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 1.0_f32 * mu_v5 + 3.2232351_f32 * mu_b1 + 3.6819923_f32 * mu_b2 + 1.7065663_f32 * mu_b3 + 0.2600962_f32 * mu_b4 + 0.012287051_f32 * mu_u5;
-    let q_2_1 = 5.463638_f32 * mu_v5 + 18.02261_f32 * mu_b1 + 21.399324_f32 * mu_b2 + 10.698688_f32 * mu_b3 + 1.9716556_f32 * mu_b4 + 0.11331946_f32 * mu_u5;
-    let q_2_2 = 11.908265_f32 * mu_v5 + 40.12666_f32 * mu_b1 + 49.314514_f32 * mu_b2 + 26.266226_f32 * mu_b3 + 5.554229_f32 * mu_b4 + 0.3841211_f32 * mu_u5;
-    let q_2_3 = 12.942967_f32 * mu_v5 + 44.47667_f32 * mu_b1 + 56.367516_f32 * mu_b2 + 31.672213_f32 * mu_b3 + 7.433716_f32 * mu_b4 + 0.595317_f32 * mu_u5;
-    let q_2_4 = 7.015692_f32 * mu_v5 + 24.547623_f32 * mu_b1 + 31.978827_f32 * mu_b2 + 18.807669_f32 * mu_b3 + 4.7908854_f32 * mu_b4 + 0.43011335_f32 * mu_u5;
-    let q_2_5 = 1.5173515_f32 * mu_v5 + 5.398239_f32 * mu_b1 + 7.2084928_f32 * mu_b2 + 4.40956_f32 * mu_b3 + 1.1998395_f32 * mu_b4 + 0.11788501_f32 * mu_u5;
-    let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
-    let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
+    let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
+    let mu_logv = (mu_c + 2.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 2.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 1.25_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.25_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let f0_s = f0_t * 2.0_f32 - 1.0_f32;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let r_s = r_t * 2.0_f32 - 1.0_f32;
+    // s = (t - 0.5)/0.5 in [-1, 1]
+    let mu_s = mu_t * 2.0_f32 - 1.0_f32;
+    // numerator P, grouped by powers of the first variable
+    let p_0 = ((((0.0008946179_f32 * r_s + (0.015933132_f32 * mu_s - 0.017505392_f32)) * r_s + ((-0.0025305706_f32 * mu_s + 0.0010740507_f32) * mu_s + 0.016603315_f32)) * r_s + (((-0.043823104_f32 * mu_s + 0.0011760528_f32) * mu_s + 0.0031483907_f32) * mu_s + 0.012437914_f32)) * r_s + ((((-0.017683843_f32 * mu_s + 0.01490164_f32) * mu_s + 0.018793236_f32) * mu_s - 0.027166398_f32) * mu_s - 0.018057188_f32)) * r_s + (((((-0.0025615003_f32 * mu_s - 0.011706344_f32) * mu_s - 0.0014391172_f32) * mu_s + 0.15337348_f32) * mu_s - 0.41016054_f32) * mu_s + 0.42822623_f32);
+    let p_1 = ((((0.0005373973_f32 * r_s + (0.0017782523_f32 * mu_s + 0.0018120878_f32)) * r_s + ((-0.0027190943_f32 * mu_s + 0.013736544_f32) * mu_s - 0.0018249841_f32)) * r_s + (((-0.012129504_f32 * mu_s + 0.017114997_f32) * mu_s + 0.017981518_f32) * mu_s - 0.032112546_f32)) * r_s + ((((-0.0076328004_f32 * mu_s + 0.014931741_f32) * mu_s + 0.04897189_f32) * mu_s - 0.12871267_f32) * mu_s + 0.03973518_f32)) * r_s + (((((-0.0008249838_f32 * mu_s - 0.0076839356_f32) * mu_s + 0.024289316_f32) * mu_s + 0.037498895_f32) * mu_s - 0.13626888_f32) * mu_s + 0.06545101_f32);
+    let p_2 = ((((-0.00019778316_f32 * r_s + (-0.0004727258_f32 * mu_s - 0.0009544181_f32)) * r_s + ((0.0010286949_f32 * mu_s - 0.0053608953_f32) * mu_s + 0.0009468277_f32)) * r_s + (((0.004133079_f32 * mu_s - 0.0066816597_f32) * mu_s - 0.006993151_f32) * mu_s + 0.012741832_f32)) * r_s + ((((0.002739439_f32 * mu_s - 0.0056349337_f32) * mu_s - 0.018902387_f32) * mu_s + 0.049992487_f32) * mu_s - 0.015803752_f32)) * r_s + (((((0.00028698132_f32 * mu_s + 0.002843192_f32) * mu_s - 0.009526042_f32) * mu_s - 0.012526935_f32) * mu_s + 0.04758421_f32) * mu_s - 0.019615795_f32);
+    let p = (p_2 * f0_s + p_1) * f0_s + p_0;
+    // denominator Q (proved positive on the domain), grouped by powers of the first variable
+    let q_0 = (0.007991812_f32 * r_s + (-0.055673312_f32 * mu_s + 0.13989787_f32)) * r_s + ((0.096761726_f32 * mu_s - 0.4850288_f32) * mu_s + 0.6057888_f32);
+    let q = q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)
 }

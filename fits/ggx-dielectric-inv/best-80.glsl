@@ -16,17 +16,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 0c359de110e7f40024e177499c79a0fe6675ffde0a238c1e19748318c7085a6f.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.382x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 1313a78ef3b06f99a4933f438712847336fcb8551e7dc93f6b6830622b5e44dd.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-4, shifted 1.2e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.94e-3, max 1.13e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.90e-3, max 9.07e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.07e-7 (every op rounded, as this Rust), 4.57e-7 (fused multiply-add), 1.78e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.02e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.93e-3, max 1.13e-2; this f32 code MAE 1.93e-3, max 1.13e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
-// Denominator proved >= 3.757e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.3e-4, shifted 1.3e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.92e-3, max 9.01e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.84e-3, max 8.32e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.41e-7 (every op rounded, as this Rust), 4.83e-7 (fused multiply-add), 1.88e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.01e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.90e-3, max 9.01e-3; this f32 code MAE 1.90e-3, max 9.01e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-3 on the measurement grid.
+// Denominator proved >= 3.803e-3 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -74,49 +74,49 @@ highp float ggx_dielectric_inv_albedo(highp float f0, highp float r, highp float
     highp float mu_b3 = mu_u3 * mu_v2;
     highp float mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0_0 = 0.99603087 * mu_v5 + 1.299391 * mu_b1 + 0.41289765 * mu_b2 + 0.12994254 * mu_b3 + 0.03127232 * mu_b4 + 0.0048000007 * mu_u5;
-    highp float p_0_1 = 3.7568603 * mu_v5 + 4.70099 * mu_b1 + 1.5670979 * mu_b2 + 0.6329471 * mu_b3 + 0.048825387 * mu_b4 + 0.008509967 * mu_u5;
-    highp float p_0_2 = 5.7092104 * mu_v5 + 6.9993043 * mu_b1 + 2.742258 * mu_b2 + 1.503148 * mu_b3 + 0.16224639 * mu_b4 + 0.05058972 * mu_u5;
-    highp float p_0_3 = 4.496664 * mu_v5 + 5.6634564 * mu_b1 + 2.810969 * mu_b2 + 1.8180215 * mu_b3 + 0.30762774 * mu_b4 + 0.07311002 * mu_u5;
-    highp float p_0_4 = 1.9189006 * mu_v5 + 2.7109807 * mu_b1 + 1.8398018 * mu_b2 + 1.340193 * mu_b3 + 0.3786068 * mu_b4 + 0.055799156 * mu_u5;
-    highp float p_0_5 = 0.36195505 * mu_v5 + 0.60191727 * mu_b1 + 0.5302661 * mu_b2 + 0.43569025 * mu_b3 + 0.17236008 * mu_b4 + 0.02090643 * mu_u5;
+    highp float p_0_0 = 0.9989172 * mu_v5 + 1.2840673 * mu_b1 + 0.41834047 * mu_b2 + 0.1264712 * mu_b3 + 0.031222697 * mu_b4 + 0.00480484 * mu_u5;
+    highp float p_0_1 = 3.7276597 * mu_v5 + 4.541093 * mu_b1 + 1.5548795 * mu_b2 + 0.61420727 * mu_b3 + 0.047222316 * mu_b4 + 0.008776177 * mu_u5;
+    highp float p_0_2 = 5.6576266 * mu_v5 + 6.760386 * mu_b1 + 2.8716493 * mu_b2 + 1.562601 * mu_b3 + 0.17697246 * mu_b4 + 0.05189108 * mu_u5;
+    highp float p_0_3 = 4.4650936 * mu_v5 + 5.4666185 * mu_b1 + 2.9517796 * mu_b2 + 1.8573132 * mu_b3 + 0.31216252 * mu_b4 + 0.073733605 * mu_u5;
+    highp float p_0_4 = 1.9104012 * mu_v5 + 2.5989084 * mu_b1 + 1.8571934 * mu_b2 + 1.3272415 * mu_b3 + 0.38174522 * mu_b4 + 0.05750472 * mu_u5;
+    highp float p_0_5 = 0.36329263 * mu_v5 + 0.58115494 * mu_b1 + 0.53153384 * mu_b2 + 0.43580315 * mu_b3 + 0.17606053 * mu_b4 + 0.020791851 * mu_u5;
     highp float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    highp float p_1_0 = 2.0103648 * mu_v5 + 2.815093 * mu_b1 + 0.5458614 * mu_b2 + 0.31140602 * mu_b3 + 0.061856307 * mu_b4 + 0.009571417 * mu_u5;
-    highp float p_1_1 = 8.949925 * mu_v5 + 12.178865 * mu_b1 + 2.2212627 * mu_b2 + 1.6523464 * mu_b3 + 0.08805607 * mu_b4 + 0.017973231 * mu_u5;
-    highp float p_1_2 = 16.50218 * mu_v5 + 22.391752 * mu_b1 + 5.1050906 * mu_b2 + 4.713947 * mu_b3 + 0.41320717 * mu_b4 + 0.09465955 * mu_u5;
-    highp float p_1_3 = 15.47605 * mu_v5 + 20.670195 * mu_b1 + 5.1485248 * mu_b2 + 5.5994396 * mu_b3 + 0.58014816 * mu_b4 + 0.11496996 * mu_u5;
-    highp float p_1_4 = 7.4090614 * mu_v5 + 9.771303 * mu_b1 + 2.8459945 * mu_b2 + 3.5939872 * mu_b3 + 0.59397495 * mu_b4 + 0.073680684 * mu_u5;
-    highp float p_1_5 = 1.4680622 * mu_v5 + 1.9912465 * mu_b1 + 0.8514738 * mu_b2 + 1.0918692 * mu_b3 + 0.26299158 * mu_b4 + 0.01739994 * mu_u5;
+    highp float p_1_0 = 2.0116446 * mu_v5 + 2.7085848 * mu_b1 + 0.6008952 * mu_b2 + 0.3115441 * mu_b3 + 0.05939465 * mu_b4 + 0.009609071 * mu_u5;
+    highp float p_1_1 = 8.995319 * mu_v5 + 11.805341 * mu_b1 + 2.5475087 * mu_b2 + 1.6005021 * mu_b3 + 0.0936377 * mu_b4 + 0.019639729 * mu_u5;
+    highp float p_1_2 = 16.539938 * mu_v5 + 21.627644 * mu_b1 + 5.5666466 * mu_b2 + 4.390495 * mu_b3 + 0.4247382 * mu_b4 + 0.091219194 * mu_u5;
+    highp float p_1_3 = 15.453778 * mu_v5 + 19.999182 * mu_b1 + 5.7440667 * mu_b2 + 5.3642273 * mu_b3 + 0.7089166 * mu_b4 + 0.12138748 * mu_u5;
+    highp float p_1_4 = 7.3601365 * mu_v5 + 9.463215 * mu_b1 + 3.1577199 * mu_b2 + 3.4305103 * mu_b3 + 0.6584654 * mu_b4 + 0.07161335 * mu_u5;
+    highp float p_1_5 = 1.4486446 * mu_v5 + 1.9250368 * mu_b1 + 0.8939187 * mu_b2 + 1.0280526 * mu_b3 + 0.2701602 * mu_b4 + 0.017437652 * mu_u5;
     highp float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    highp float p_2_0 = 0.9964058 * mu_v5 + 1.3379264 * mu_b1 + 0.36887184 * mu_b2 + 0.13771968 * mu_b3 + 0.0312954 * mu_b4 + 0.0047887196 * mu_u5;
-    highp float p_2_1 = 4.648939 * mu_v5 + 5.8998823 * mu_b1 + 1.4213539 * mu_b2 + 0.63512623 * mu_b3 + 0.05424638 * mu_b4 + 0.008839559 * mu_u5;
-    highp float p_2_2 = 8.77815 * mu_v5 + 10.755566 * mu_b1 + 2.87134 * mu_b2 + 1.9540762 * mu_b3 + 0.27058247 * mu_b4 + 0.049048096 * mu_u5;
-    highp float p_2_3 = 8.434971 * mu_v5 + 10.179696 * mu_b1 + 3.3101523 * mu_b2 + 2.7380812 * mu_b3 + 0.39306694 * mu_b4 + 0.059030104 * mu_u5;
-    highp float p_2_4 = 4.19339 * mu_v5 + 5.235257 * mu_b1 + 2.3362973 * mu_b2 + 1.9784251 * mu_b3 + 0.3030015 * mu_b4 + 0.038314685 * mu_u5;
-    highp float p_2_5 = 0.8706533 * mu_v5 + 1.1822605 * mu_b1 + 0.71118283 * mu_b2 + 0.56319344 * mu_b3 + 0.09065593 * mu_b4 + 0.010899817 * mu_u5;
+    highp float p_2_0 = 0.9961724 * mu_v5 + 1.3430972 * mu_b1 + 0.3552757 * mu_b2 + 0.14111017 * mu_b3 + 0.030528564 * mu_b4 + 0.0048044324 * mu_u5;
+    highp float p_2_1 = 4.630105 * mu_v5 + 5.8781404 * mu_b1 + 1.3268242 * mu_b2 + 0.6585097 * mu_b3 + 0.053909544 * mu_b4 + 0.009364253 * mu_u5;
+    highp float p_2_2 = 8.723485 * mu_v5 + 10.667164 * mu_b1 + 2.6728225 * mu_b2 + 2.0216851 * mu_b3 + 0.27135158 * mu_b4 + 0.049161494 * mu_u5;
+    highp float p_2_3 = 8.373172 * mu_v5 + 10.074345 * mu_b1 + 3.134098 * mu_b2 + 2.848436 * mu_b3 + 0.4058864 * mu_b4 + 0.060725946 * mu_u5;
+    highp float p_2_4 = 4.157982 * mu_v5 + 5.1659155 * mu_b1 + 2.2418551 * mu_b2 + 2.0394406 * mu_b3 + 0.30924508 * mu_b4 + 0.038901303 * mu_u5;
+    highp float p_2_5 = 0.8624105 * mu_v5 + 1.1639299 * mu_b1 + 0.6895092 * mu_b2 + 0.57576823 * mu_b3 + 0.09156824 * mu_b4 + 0.0108248275 * mu_u5;
     highp float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     highp float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0_0 = 1.0 * mu_v5 + 1.3552738 * mu_b1 + 0.4956207 * mu_b2 + 0.16557726 * mu_b3 + 0.030022971 * mu_b4 + 0.004792548 * mu_u5;
-    highp float q_0_1 = 4.710113 * mu_v5 + 6.1571174 * mu_b1 + 2.0642152 * mu_b2 + 0.6836292 * mu_b3 + 0.07569477 * mu_b4 + 0.009275936 * mu_u5;
-    highp float q_0_2 = 9.064212 * mu_v5 + 11.927741 * mu_b1 + 4.5747404 * mu_b2 + 2.0265558 * mu_b3 + 0.36514652 * mu_b4 + 0.049801763 * mu_u5;
-    highp float q_0_3 = 8.890944 * mu_v5 + 12.167382 * mu_b1 + 5.8017945 * mu_b2 + 3.0987313 * mu_b3 + 0.6532385 * mu_b4 + 0.07986362 * mu_u5;
-    highp float q_0_4 = 4.475618 * mu_v5 + 6.633218 * mu_b1 + 4.11728 * mu_b2 + 2.4835808 * mu_b3 + 0.5932791 * mu_b4 + 0.069378465 * mu_u5;
-    highp float q_0_5 = 0.93877333 * mu_v5 + 1.5917338 * mu_b1 + 1.3216317 * mu_b2 + 0.89335334 * mu_b3 + 0.25951537 * mu_b4 + 0.034833215 * mu_u5;
+    highp float q_0_0 = 1.0 * mu_v5 + 1.3491771 * mu_b1 + 0.49080184 * mu_b2 + 0.1662757 * mu_b3 + 0.029455816 * mu_b4 + 0.0048047793 * mu_u5;
+    highp float q_0_1 = 4.6994 * mu_v5 + 6.0988464 * mu_b1 + 2.0199919 * mu_b2 + 0.6876685 * mu_b3 + 0.07675431 * mu_b4 + 0.009631047 * mu_u5;
+    highp float q_0_2 = 9.02572 * mu_v5 + 11.771009 * mu_b1 + 4.4652047 * mu_b2 + 2.0445213 * mu_b3 + 0.37487713 * mu_b4 + 0.050271492 * mu_u5;
+    highp float q_0_3 = 8.839181 * mu_v5 + 11.985916 * mu_b1 + 5.696269 * mu_b2 + 3.1470928 * mu_b3 + 0.67915255 * mu_b4 + 0.081593215 * mu_u5;
+    highp float q_0_4 = 4.442866 * mu_v5 + 6.5286303 * mu_b1 + 4.0635314 * mu_b2 + 2.520566 * mu_b3 + 0.6137363 * mu_b4 + 0.070937134 * mu_u5;
+    highp float q_0_5 = 0.9300052 * mu_v5 + 1.5640537 * mu_b1 + 1.303277 * mu_b2 + 0.8966018 * mu_b3 + 0.26216236 * mu_b4 + 0.034789138 * mu_u5;
     highp float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    highp float q_1_0 = 2.0 * mu_v5 + 2.7105477 * mu_b1 + 0.9912414 * mu_b2 + 0.33115453 * mu_b3 + 0.060045943 * mu_b4 + 0.009585096 * mu_u5;
-    highp float q_1_1 = 9.420226 * mu_v5 + 12.314235 * mu_b1 + 4.1284304 * mu_b2 + 1.3672584 * mu_b3 + 0.15138954 * mu_b4 + 0.018551871 * mu_u5;
-    highp float q_1_2 = 18.128424 * mu_v5 + 23.855482 * mu_b1 + 9.149481 * mu_b2 + 4.0531116 * mu_b3 + 0.73029304 * mu_b4 + 0.09960353 * mu_u5;
-    highp float q_1_3 = 17.781887 * mu_v5 + 24.334764 * mu_b1 + 11.603589 * mu_b2 + 6.1974626 * mu_b3 + 1.306477 * mu_b4 + 0.15972725 * mu_u5;
-    highp float q_1_4 = 8.951236 * mu_v5 + 13.266436 * mu_b1 + 8.23456 * mu_b2 + 4.9671617 * mu_b3 + 1.1865582 * mu_b4 + 0.13875693 * mu_u5;
-    highp float q_1_5 = 1.8775467 * mu_v5 + 3.1834676 * mu_b1 + 2.6432633 * mu_b2 + 1.7867067 * mu_b3 + 0.51903075 * mu_b4 + 0.06966643 * mu_u5;
+    highp float q_1_0 = 2.0 * mu_v5 + 2.6983542 * mu_b1 + 0.9816037 * mu_b2 + 0.3325514 * mu_b3 + 0.058911633 * mu_b4 + 0.009609559 * mu_u5;
+    highp float q_1_1 = 9.3988 * mu_v5 + 12.197693 * mu_b1 + 4.0399837 * mu_b2 + 1.375337 * mu_b3 + 0.15350862 * mu_b4 + 0.019262094 * mu_u5;
+    highp float q_1_2 = 18.05144 * mu_v5 + 23.542019 * mu_b1 + 8.930409 * mu_b2 + 4.0890427 * mu_b3 + 0.74975425 * mu_b4 + 0.100542985 * mu_u5;
+    highp float q_1_3 = 17.678362 * mu_v5 + 23.971832 * mu_b1 + 11.392538 * mu_b2 + 6.2941856 * mu_b3 + 1.3583051 * mu_b4 + 0.16318643 * mu_u5;
+    highp float q_1_4 = 8.885732 * mu_v5 + 13.0572605 * mu_b1 + 8.127063 * mu_b2 + 5.041132 * mu_b3 + 1.2274725 * mu_b4 + 0.14187427 * mu_u5;
+    highp float q_1_5 = 1.8600104 * mu_v5 + 3.1281073 * mu_b1 + 2.606554 * mu_b2 + 1.7932036 * mu_b3 + 0.5243247 * mu_b4 + 0.069578275 * mu_u5;
     highp float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    highp float q_2_0 = 1.0 * mu_v5 + 1.3552738 * mu_b1 + 0.4956207 * mu_b2 + 0.16557726 * mu_b3 + 0.030022971 * mu_b4 + 0.004792548 * mu_u5;
-    highp float q_2_1 = 4.710113 * mu_v5 + 6.1571174 * mu_b1 + 2.0642152 * mu_b2 + 0.6836292 * mu_b3 + 0.07569477 * mu_b4 + 0.009275936 * mu_u5;
-    highp float q_2_2 = 9.064212 * mu_v5 + 11.927741 * mu_b1 + 4.5747404 * mu_b2 + 2.0265558 * mu_b3 + 0.36514652 * mu_b4 + 0.049801763 * mu_u5;
-    highp float q_2_3 = 8.890944 * mu_v5 + 12.167382 * mu_b1 + 5.8017945 * mu_b2 + 3.0987313 * mu_b3 + 0.6532385 * mu_b4 + 0.07986362 * mu_u5;
-    highp float q_2_4 = 4.475618 * mu_v5 + 6.633218 * mu_b1 + 4.11728 * mu_b2 + 2.4835808 * mu_b3 + 0.5932791 * mu_b4 + 0.069378465 * mu_u5;
-    highp float q_2_5 = 0.93877333 * mu_v5 + 1.5917338 * mu_b1 + 1.3216317 * mu_b2 + 0.89335334 * mu_b3 + 0.25951537 * mu_b4 + 0.034833215 * mu_u5;
+    highp float q_2_0 = 1.0 * mu_v5 + 1.3491771 * mu_b1 + 0.49080184 * mu_b2 + 0.1662757 * mu_b3 + 0.029455816 * mu_b4 + 0.0048047793 * mu_u5;
+    highp float q_2_1 = 4.6994 * mu_v5 + 6.0988464 * mu_b1 + 2.0199919 * mu_b2 + 0.6876685 * mu_b3 + 0.07675431 * mu_b4 + 0.009631047 * mu_u5;
+    highp float q_2_2 = 9.02572 * mu_v5 + 11.771009 * mu_b1 + 4.4652047 * mu_b2 + 2.0445213 * mu_b3 + 0.37487713 * mu_b4 + 0.050271492 * mu_u5;
+    highp float q_2_3 = 8.839181 * mu_v5 + 11.985916 * mu_b1 + 5.696269 * mu_b2 + 3.1470928 * mu_b3 + 0.67915255 * mu_b4 + 0.081593215 * mu_u5;
+    highp float q_2_4 = 4.442866 * mu_v5 + 6.5286303 * mu_b1 + 4.0635314 * mu_b2 + 2.520566 * mu_b3 + 0.6137363 * mu_b4 + 0.070937134 * mu_u5;
+    highp float q_2_5 = 0.9300052 * mu_v5 + 1.5640537 * mu_b1 + 1.303277 * mu_b2 + 0.8966018 * mu_b3 + 0.26216236 * mu_b4 + 0.034789138 * mu_u5;
     highp float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     highp float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     highp float e = p / q;

@@ -28,17 +28,17 @@
 //   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 0c359de110e7f40024e177499c79a0fe6675ffde0a238c1e19748318c7085a6f.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.382x the least-squares start's.
+// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 1313a78ef3b06f99a4933f438712847336fcb8551e7dc93f6b6830622b5e44dd.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-4, shifted 1.2e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.94e-3, max 1.13e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.90e-3, max 9.07e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.07e-7 (every op rounded, as this Rust), 4.57e-7 (fused multiply-add), 1.78e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.02e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.93e-3, max 1.13e-2; this f32 code MAE 1.93e-3, max 1.13e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
-// Denominator proved >= 3.757e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.3e-4, shifted 1.3e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 1.92e-3, max 9.01e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.84e-3, max 8.32e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.41e-7 (every op rounded, as this Rust), 4.83e-7 (fused multiply-add), 1.88e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.01e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.90e-3, max 9.01e-3; this f32 code MAE 1.90e-3, max 9.01e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-3 on the measurement grid.
+// Denominator proved >= 3.803e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -86,49 +86,49 @@ FURNACE_FN float ggx_dielectric_inv_albedo(float f0, float r, float mu) {
     const float mu_b3 = mu_u3 * mu_v2;
     const float mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0_0 = 0.99603087f * mu_v5 + 1.299391f * mu_b1 + 0.41289765f * mu_b2 + 0.12994254f * mu_b3 + 0.03127232f * mu_b4 + 0.0048000007f * mu_u5;
-    const float p_0_1 = 3.7568603f * mu_v5 + 4.70099f * mu_b1 + 1.5670979f * mu_b2 + 0.6329471f * mu_b3 + 0.048825387f * mu_b4 + 0.008509967f * mu_u5;
-    const float p_0_2 = 5.7092104f * mu_v5 + 6.9993043f * mu_b1 + 2.742258f * mu_b2 + 1.503148f * mu_b3 + 0.16224639f * mu_b4 + 0.05058972f * mu_u5;
-    const float p_0_3 = 4.496664f * mu_v5 + 5.6634564f * mu_b1 + 2.810969f * mu_b2 + 1.8180215f * mu_b3 + 0.30762774f * mu_b4 + 0.07311002f * mu_u5;
-    const float p_0_4 = 1.9189006f * mu_v5 + 2.7109807f * mu_b1 + 1.8398018f * mu_b2 + 1.340193f * mu_b3 + 0.3786068f * mu_b4 + 0.055799156f * mu_u5;
-    const float p_0_5 = 0.36195505f * mu_v5 + 0.60191727f * mu_b1 + 0.5302661f * mu_b2 + 0.43569025f * mu_b3 + 0.17236008f * mu_b4 + 0.02090643f * mu_u5;
+    const float p_0_0 = 0.9989172f * mu_v5 + 1.2840673f * mu_b1 + 0.41834047f * mu_b2 + 0.1264712f * mu_b3 + 0.031222697f * mu_b4 + 0.00480484f * mu_u5;
+    const float p_0_1 = 3.7276597f * mu_v5 + 4.541093f * mu_b1 + 1.5548795f * mu_b2 + 0.61420727f * mu_b3 + 0.047222316f * mu_b4 + 0.008776177f * mu_u5;
+    const float p_0_2 = 5.6576266f * mu_v5 + 6.760386f * mu_b1 + 2.8716493f * mu_b2 + 1.562601f * mu_b3 + 0.17697246f * mu_b4 + 0.05189108f * mu_u5;
+    const float p_0_3 = 4.4650936f * mu_v5 + 5.4666185f * mu_b1 + 2.9517796f * mu_b2 + 1.8573132f * mu_b3 + 0.31216252f * mu_b4 + 0.073733605f * mu_u5;
+    const float p_0_4 = 1.9104012f * mu_v5 + 2.5989084f * mu_b1 + 1.8571934f * mu_b2 + 1.3272415f * mu_b3 + 0.38174522f * mu_b4 + 0.05750472f * mu_u5;
+    const float p_0_5 = 0.36329263f * mu_v5 + 0.58115494f * mu_b1 + 0.53153384f * mu_b2 + 0.43580315f * mu_b3 + 0.17606053f * mu_b4 + 0.020791851f * mu_u5;
     const float p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    const float p_1_0 = 2.0103648f * mu_v5 + 2.815093f * mu_b1 + 0.5458614f * mu_b2 + 0.31140602f * mu_b3 + 0.061856307f * mu_b4 + 0.009571417f * mu_u5;
-    const float p_1_1 = 8.949925f * mu_v5 + 12.178865f * mu_b1 + 2.2212627f * mu_b2 + 1.6523464f * mu_b3 + 0.08805607f * mu_b4 + 0.017973231f * mu_u5;
-    const float p_1_2 = 16.50218f * mu_v5 + 22.391752f * mu_b1 + 5.1050906f * mu_b2 + 4.713947f * mu_b3 + 0.41320717f * mu_b4 + 0.09465955f * mu_u5;
-    const float p_1_3 = 15.47605f * mu_v5 + 20.670195f * mu_b1 + 5.1485248f * mu_b2 + 5.5994396f * mu_b3 + 0.58014816f * mu_b4 + 0.11496996f * mu_u5;
-    const float p_1_4 = 7.4090614f * mu_v5 + 9.771303f * mu_b1 + 2.8459945f * mu_b2 + 3.5939872f * mu_b3 + 0.59397495f * mu_b4 + 0.073680684f * mu_u5;
-    const float p_1_5 = 1.4680622f * mu_v5 + 1.9912465f * mu_b1 + 0.8514738f * mu_b2 + 1.0918692f * mu_b3 + 0.26299158f * mu_b4 + 0.01739994f * mu_u5;
+    const float p_1_0 = 2.0116446f * mu_v5 + 2.7085848f * mu_b1 + 0.6008952f * mu_b2 + 0.3115441f * mu_b3 + 0.05939465f * mu_b4 + 0.009609071f * mu_u5;
+    const float p_1_1 = 8.995319f * mu_v5 + 11.805341f * mu_b1 + 2.5475087f * mu_b2 + 1.6005021f * mu_b3 + 0.0936377f * mu_b4 + 0.019639729f * mu_u5;
+    const float p_1_2 = 16.539938f * mu_v5 + 21.627644f * mu_b1 + 5.5666466f * mu_b2 + 4.390495f * mu_b3 + 0.4247382f * mu_b4 + 0.091219194f * mu_u5;
+    const float p_1_3 = 15.453778f * mu_v5 + 19.999182f * mu_b1 + 5.7440667f * mu_b2 + 5.3642273f * mu_b3 + 0.7089166f * mu_b4 + 0.12138748f * mu_u5;
+    const float p_1_4 = 7.3601365f * mu_v5 + 9.463215f * mu_b1 + 3.1577199f * mu_b2 + 3.4305103f * mu_b3 + 0.6584654f * mu_b4 + 0.07161335f * mu_u5;
+    const float p_1_5 = 1.4486446f * mu_v5 + 1.9250368f * mu_b1 + 0.8939187f * mu_b2 + 1.0280526f * mu_b3 + 0.2701602f * mu_b4 + 0.017437652f * mu_u5;
     const float p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    const float p_2_0 = 0.9964058f * mu_v5 + 1.3379264f * mu_b1 + 0.36887184f * mu_b2 + 0.13771968f * mu_b3 + 0.0312954f * mu_b4 + 0.0047887196f * mu_u5;
-    const float p_2_1 = 4.648939f * mu_v5 + 5.8998823f * mu_b1 + 1.4213539f * mu_b2 + 0.63512623f * mu_b3 + 0.05424638f * mu_b4 + 0.008839559f * mu_u5;
-    const float p_2_2 = 8.77815f * mu_v5 + 10.755566f * mu_b1 + 2.87134f * mu_b2 + 1.9540762f * mu_b3 + 0.27058247f * mu_b4 + 0.049048096f * mu_u5;
-    const float p_2_3 = 8.434971f * mu_v5 + 10.179696f * mu_b1 + 3.3101523f * mu_b2 + 2.7380812f * mu_b3 + 0.39306694f * mu_b4 + 0.059030104f * mu_u5;
-    const float p_2_4 = 4.19339f * mu_v5 + 5.235257f * mu_b1 + 2.3362973f * mu_b2 + 1.9784251f * mu_b3 + 0.3030015f * mu_b4 + 0.038314685f * mu_u5;
-    const float p_2_5 = 0.8706533f * mu_v5 + 1.1822605f * mu_b1 + 0.71118283f * mu_b2 + 0.56319344f * mu_b3 + 0.09065593f * mu_b4 + 0.010899817f * mu_u5;
+    const float p_2_0 = 0.9961724f * mu_v5 + 1.3430972f * mu_b1 + 0.3552757f * mu_b2 + 0.14111017f * mu_b3 + 0.030528564f * mu_b4 + 0.0048044324f * mu_u5;
+    const float p_2_1 = 4.630105f * mu_v5 + 5.8781404f * mu_b1 + 1.3268242f * mu_b2 + 0.6585097f * mu_b3 + 0.053909544f * mu_b4 + 0.009364253f * mu_u5;
+    const float p_2_2 = 8.723485f * mu_v5 + 10.667164f * mu_b1 + 2.6728225f * mu_b2 + 2.0216851f * mu_b3 + 0.27135158f * mu_b4 + 0.049161494f * mu_u5;
+    const float p_2_3 = 8.373172f * mu_v5 + 10.074345f * mu_b1 + 3.134098f * mu_b2 + 2.848436f * mu_b3 + 0.4058864f * mu_b4 + 0.060725946f * mu_u5;
+    const float p_2_4 = 4.157982f * mu_v5 + 5.1659155f * mu_b1 + 2.2418551f * mu_b2 + 2.0394406f * mu_b3 + 0.30924508f * mu_b4 + 0.038901303f * mu_u5;
+    const float p_2_5 = 0.8624105f * mu_v5 + 1.1639299f * mu_b1 + 0.6895092f * mu_b2 + 0.57576823f * mu_b3 + 0.09156824f * mu_b4 + 0.0108248275f * mu_u5;
     const float p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     const float p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0_0 = 1.0f * mu_v5 + 1.3552738f * mu_b1 + 0.4956207f * mu_b2 + 0.16557726f * mu_b3 + 0.030022971f * mu_b4 + 0.004792548f * mu_u5;
-    const float q_0_1 = 4.710113f * mu_v5 + 6.1571174f * mu_b1 + 2.0642152f * mu_b2 + 0.6836292f * mu_b3 + 0.07569477f * mu_b4 + 0.009275936f * mu_u5;
-    const float q_0_2 = 9.064212f * mu_v5 + 11.927741f * mu_b1 + 4.5747404f * mu_b2 + 2.0265558f * mu_b3 + 0.36514652f * mu_b4 + 0.049801763f * mu_u5;
-    const float q_0_3 = 8.890944f * mu_v5 + 12.167382f * mu_b1 + 5.8017945f * mu_b2 + 3.0987313f * mu_b3 + 0.6532385f * mu_b4 + 0.07986362f * mu_u5;
-    const float q_0_4 = 4.475618f * mu_v5 + 6.633218f * mu_b1 + 4.11728f * mu_b2 + 2.4835808f * mu_b3 + 0.5932791f * mu_b4 + 0.069378465f * mu_u5;
-    const float q_0_5 = 0.93877333f * mu_v5 + 1.5917338f * mu_b1 + 1.3216317f * mu_b2 + 0.89335334f * mu_b3 + 0.25951537f * mu_b4 + 0.034833215f * mu_u5;
+    const float q_0_0 = 1.0f * mu_v5 + 1.3491771f * mu_b1 + 0.49080184f * mu_b2 + 0.1662757f * mu_b3 + 0.029455816f * mu_b4 + 0.0048047793f * mu_u5;
+    const float q_0_1 = 4.6994f * mu_v5 + 6.0988464f * mu_b1 + 2.0199919f * mu_b2 + 0.6876685f * mu_b3 + 0.07675431f * mu_b4 + 0.009631047f * mu_u5;
+    const float q_0_2 = 9.02572f * mu_v5 + 11.771009f * mu_b1 + 4.4652047f * mu_b2 + 2.0445213f * mu_b3 + 0.37487713f * mu_b4 + 0.050271492f * mu_u5;
+    const float q_0_3 = 8.839181f * mu_v5 + 11.985916f * mu_b1 + 5.696269f * mu_b2 + 3.1470928f * mu_b3 + 0.67915255f * mu_b4 + 0.081593215f * mu_u5;
+    const float q_0_4 = 4.442866f * mu_v5 + 6.5286303f * mu_b1 + 4.0635314f * mu_b2 + 2.520566f * mu_b3 + 0.6137363f * mu_b4 + 0.070937134f * mu_u5;
+    const float q_0_5 = 0.9300052f * mu_v5 + 1.5640537f * mu_b1 + 1.303277f * mu_b2 + 0.8966018f * mu_b3 + 0.26216236f * mu_b4 + 0.034789138f * mu_u5;
     const float q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    const float q_1_0 = 2.0f * mu_v5 + 2.7105477f * mu_b1 + 0.9912414f * mu_b2 + 0.33115453f * mu_b3 + 0.060045943f * mu_b4 + 0.009585096f * mu_u5;
-    const float q_1_1 = 9.420226f * mu_v5 + 12.314235f * mu_b1 + 4.1284304f * mu_b2 + 1.3672584f * mu_b3 + 0.15138954f * mu_b4 + 0.018551871f * mu_u5;
-    const float q_1_2 = 18.128424f * mu_v5 + 23.855482f * mu_b1 + 9.149481f * mu_b2 + 4.0531116f * mu_b3 + 0.73029304f * mu_b4 + 0.09960353f * mu_u5;
-    const float q_1_3 = 17.781887f * mu_v5 + 24.334764f * mu_b1 + 11.603589f * mu_b2 + 6.1974626f * mu_b3 + 1.306477f * mu_b4 + 0.15972725f * mu_u5;
-    const float q_1_4 = 8.951236f * mu_v5 + 13.266436f * mu_b1 + 8.23456f * mu_b2 + 4.9671617f * mu_b3 + 1.1865582f * mu_b4 + 0.13875693f * mu_u5;
-    const float q_1_5 = 1.8775467f * mu_v5 + 3.1834676f * mu_b1 + 2.6432633f * mu_b2 + 1.7867067f * mu_b3 + 0.51903075f * mu_b4 + 0.06966643f * mu_u5;
+    const float q_1_0 = 2.0f * mu_v5 + 2.6983542f * mu_b1 + 0.9816037f * mu_b2 + 0.3325514f * mu_b3 + 0.058911633f * mu_b4 + 0.009609559f * mu_u5;
+    const float q_1_1 = 9.3988f * mu_v5 + 12.197693f * mu_b1 + 4.0399837f * mu_b2 + 1.375337f * mu_b3 + 0.15350862f * mu_b4 + 0.019262094f * mu_u5;
+    const float q_1_2 = 18.05144f * mu_v5 + 23.542019f * mu_b1 + 8.930409f * mu_b2 + 4.0890427f * mu_b3 + 0.74975425f * mu_b4 + 0.100542985f * mu_u5;
+    const float q_1_3 = 17.678362f * mu_v5 + 23.971832f * mu_b1 + 11.392538f * mu_b2 + 6.2941856f * mu_b3 + 1.3583051f * mu_b4 + 0.16318643f * mu_u5;
+    const float q_1_4 = 8.885732f * mu_v5 + 13.0572605f * mu_b1 + 8.127063f * mu_b2 + 5.041132f * mu_b3 + 1.2274725f * mu_b4 + 0.14187427f * mu_u5;
+    const float q_1_5 = 1.8600104f * mu_v5 + 3.1281073f * mu_b1 + 2.606554f * mu_b2 + 1.7932036f * mu_b3 + 0.5243247f * mu_b4 + 0.069578275f * mu_u5;
     const float q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    const float q_2_0 = 1.0f * mu_v5 + 1.3552738f * mu_b1 + 0.4956207f * mu_b2 + 0.16557726f * mu_b3 + 0.030022971f * mu_b4 + 0.004792548f * mu_u5;
-    const float q_2_1 = 4.710113f * mu_v5 + 6.1571174f * mu_b1 + 2.0642152f * mu_b2 + 0.6836292f * mu_b3 + 0.07569477f * mu_b4 + 0.009275936f * mu_u5;
-    const float q_2_2 = 9.064212f * mu_v5 + 11.927741f * mu_b1 + 4.5747404f * mu_b2 + 2.0265558f * mu_b3 + 0.36514652f * mu_b4 + 0.049801763f * mu_u5;
-    const float q_2_3 = 8.890944f * mu_v5 + 12.167382f * mu_b1 + 5.8017945f * mu_b2 + 3.0987313f * mu_b3 + 0.6532385f * mu_b4 + 0.07986362f * mu_u5;
-    const float q_2_4 = 4.475618f * mu_v5 + 6.633218f * mu_b1 + 4.11728f * mu_b2 + 2.4835808f * mu_b3 + 0.5932791f * mu_b4 + 0.069378465f * mu_u5;
-    const float q_2_5 = 0.93877333f * mu_v5 + 1.5917338f * mu_b1 + 1.3216317f * mu_b2 + 0.89335334f * mu_b3 + 0.25951537f * mu_b4 + 0.034833215f * mu_u5;
+    const float q_2_0 = 1.0f * mu_v5 + 1.3491771f * mu_b1 + 0.49080184f * mu_b2 + 0.1662757f * mu_b3 + 0.029455816f * mu_b4 + 0.0048047793f * mu_u5;
+    const float q_2_1 = 4.6994f * mu_v5 + 6.0988464f * mu_b1 + 2.0199919f * mu_b2 + 0.6876685f * mu_b3 + 0.07675431f * mu_b4 + 0.009631047f * mu_u5;
+    const float q_2_2 = 9.02572f * mu_v5 + 11.771009f * mu_b1 + 4.4652047f * mu_b2 + 2.0445213f * mu_b3 + 0.37487713f * mu_b4 + 0.050271492f * mu_u5;
+    const float q_2_3 = 8.839181f * mu_v5 + 11.985916f * mu_b1 + 5.696269f * mu_b2 + 3.1470928f * mu_b3 + 0.67915255f * mu_b4 + 0.081593215f * mu_u5;
+    const float q_2_4 = 4.442866f * mu_v5 + 6.5286303f * mu_b1 + 4.0635314f * mu_b2 + 2.520566f * mu_b3 + 0.6137363f * mu_b4 + 0.070937134f * mu_u5;
+    const float q_2_5 = 0.9300052f * mu_v5 + 1.5640537f * mu_b1 + 1.303277f * mu_b2 + 0.8966018f * mu_b3 + 0.26216236f * mu_b4 + 0.034789138f * mu_u5;
     const float q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     const float q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     const float e = p / q;

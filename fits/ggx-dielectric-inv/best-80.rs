@@ -13,17 +13,17 @@
 ///   f0: normal-incidence reflectance F0 of the interface (the same from either side: pass the material's F0); the light leaves the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default), so this side sees 1/eta; fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
-/// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 0c359de110e7f40024e177499c79a0fe6675ffde0a238c1e19748318c7085a6f.
+/// Fit: rational over [x0^2 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 77 coefficients (numerator 63, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.382x the least-squares start's.
+/// Source: fits/ggx-dielectric-inv/best-80.json (furnace 0.1.0), fit SHA-256 1313a78ef3b06f99a4933f438712847336fcb8551e7dc93f6b6830622b5e44dd.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-4, shifted 1.2e-5, bernstein 1.4e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.94e-3, max 1.13e-2 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.90e-3, max 9.07e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.07e-7 (every op rounded, as this Rust), 4.57e-7 (fused multiply-add), 1.78e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 2.02e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.93e-3, max 1.13e-2; this f32 code MAE 1.93e-3, max 1.13e-2.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
-/// Denominator proved >= 3.757e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.3e-4, shifted 1.3e-5, bernstein 1.4e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 1.92e-3, max 9.01e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.84e-3, max 8.32e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.41e-7 (every op rounded, as this Rust), 4.83e-7 (fused multiply-add), 1.88e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 2.01e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-inv/128x128x128 (output clamp applied): f64 MAE 1.90e-3, max 9.01e-3; this f32 code MAE 1.90e-3, max 9.01e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.0e-3 on the measurement grid.
+/// Denominator proved >= 3.803e-3 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -78,49 +78,49 @@ pub fn ggx_dielectric_inv_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b3 = mu_u3 * mu_v2;
     let mu_b4 = mu_u4 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0_0 = 0.99603087_f32 * mu_v5 + 1.299391_f32 * mu_b1 + 0.41289765_f32 * mu_b2 + 0.12994254_f32 * mu_b3 + 0.03127232_f32 * mu_b4 + 0.0048000007_f32 * mu_u5;
-    let p_0_1 = 3.7568603_f32 * mu_v5 + 4.70099_f32 * mu_b1 + 1.5670979_f32 * mu_b2 + 0.6329471_f32 * mu_b3 + 0.048825387_f32 * mu_b4 + 0.008509967_f32 * mu_u5;
-    let p_0_2 = 5.7092104_f32 * mu_v5 + 6.9993043_f32 * mu_b1 + 2.742258_f32 * mu_b2 + 1.503148_f32 * mu_b3 + 0.16224639_f32 * mu_b4 + 0.05058972_f32 * mu_u5;
-    let p_0_3 = 4.496664_f32 * mu_v5 + 5.6634564_f32 * mu_b1 + 2.810969_f32 * mu_b2 + 1.8180215_f32 * mu_b3 + 0.30762774_f32 * mu_b4 + 0.07311002_f32 * mu_u5;
-    let p_0_4 = 1.9189006_f32 * mu_v5 + 2.7109807_f32 * mu_b1 + 1.8398018_f32 * mu_b2 + 1.340193_f32 * mu_b3 + 0.3786068_f32 * mu_b4 + 0.055799156_f32 * mu_u5;
-    let p_0_5 = 0.36195505_f32 * mu_v5 + 0.60191727_f32 * mu_b1 + 0.5302661_f32 * mu_b2 + 0.43569025_f32 * mu_b3 + 0.17236008_f32 * mu_b4 + 0.02090643_f32 * mu_u5;
+    let p_0_0 = 0.9989172_f32 * mu_v5 + 1.2840673_f32 * mu_b1 + 0.41834047_f32 * mu_b2 + 0.1264712_f32 * mu_b3 + 0.031222697_f32 * mu_b4 + 0.00480484_f32 * mu_u5;
+    let p_0_1 = 3.7276597_f32 * mu_v5 + 4.541093_f32 * mu_b1 + 1.5548795_f32 * mu_b2 + 0.61420727_f32 * mu_b3 + 0.047222316_f32 * mu_b4 + 0.008776177_f32 * mu_u5;
+    let p_0_2 = 5.6576266_f32 * mu_v5 + 6.760386_f32 * mu_b1 + 2.8716493_f32 * mu_b2 + 1.562601_f32 * mu_b3 + 0.17697246_f32 * mu_b4 + 0.05189108_f32 * mu_u5;
+    let p_0_3 = 4.4650936_f32 * mu_v5 + 5.4666185_f32 * mu_b1 + 2.9517796_f32 * mu_b2 + 1.8573132_f32 * mu_b3 + 0.31216252_f32 * mu_b4 + 0.073733605_f32 * mu_u5;
+    let p_0_4 = 1.9104012_f32 * mu_v5 + 2.5989084_f32 * mu_b1 + 1.8571934_f32 * mu_b2 + 1.3272415_f32 * mu_b3 + 0.38174522_f32 * mu_b4 + 0.05750472_f32 * mu_u5;
+    let p_0_5 = 0.36329263_f32 * mu_v5 + 0.58115494_f32 * mu_b1 + 0.53153384_f32 * mu_b2 + 0.43580315_f32 * mu_b3 + 0.17606053_f32 * mu_b4 + 0.020791851_f32 * mu_u5;
     let p_0 = p_0_0 * r_v5 + p_0_1 * r_b1 + p_0_2 * r_b2 + p_0_3 * r_b3 + p_0_4 * r_b4 + p_0_5 * r_u5;
-    let p_1_0 = 2.0103648_f32 * mu_v5 + 2.815093_f32 * mu_b1 + 0.5458614_f32 * mu_b2 + 0.31140602_f32 * mu_b3 + 0.061856307_f32 * mu_b4 + 0.009571417_f32 * mu_u5;
-    let p_1_1 = 8.949925_f32 * mu_v5 + 12.178865_f32 * mu_b1 + 2.2212627_f32 * mu_b2 + 1.6523464_f32 * mu_b3 + 0.08805607_f32 * mu_b4 + 0.017973231_f32 * mu_u5;
-    let p_1_2 = 16.50218_f32 * mu_v5 + 22.391752_f32 * mu_b1 + 5.1050906_f32 * mu_b2 + 4.713947_f32 * mu_b3 + 0.41320717_f32 * mu_b4 + 0.09465955_f32 * mu_u5;
-    let p_1_3 = 15.47605_f32 * mu_v5 + 20.670195_f32 * mu_b1 + 5.1485248_f32 * mu_b2 + 5.5994396_f32 * mu_b3 + 0.58014816_f32 * mu_b4 + 0.11496996_f32 * mu_u5;
-    let p_1_4 = 7.4090614_f32 * mu_v5 + 9.771303_f32 * mu_b1 + 2.8459945_f32 * mu_b2 + 3.5939872_f32 * mu_b3 + 0.59397495_f32 * mu_b4 + 0.073680684_f32 * mu_u5;
-    let p_1_5 = 1.4680622_f32 * mu_v5 + 1.9912465_f32 * mu_b1 + 0.8514738_f32 * mu_b2 + 1.0918692_f32 * mu_b3 + 0.26299158_f32 * mu_b4 + 0.01739994_f32 * mu_u5;
+    let p_1_0 = 2.0116446_f32 * mu_v5 + 2.7085848_f32 * mu_b1 + 0.6008952_f32 * mu_b2 + 0.3115441_f32 * mu_b3 + 0.05939465_f32 * mu_b4 + 0.009609071_f32 * mu_u5;
+    let p_1_1 = 8.995319_f32 * mu_v5 + 11.805341_f32 * mu_b1 + 2.5475087_f32 * mu_b2 + 1.6005021_f32 * mu_b3 + 0.0936377_f32 * mu_b4 + 0.019639729_f32 * mu_u5;
+    let p_1_2 = 16.539938_f32 * mu_v5 + 21.627644_f32 * mu_b1 + 5.5666466_f32 * mu_b2 + 4.390495_f32 * mu_b3 + 0.4247382_f32 * mu_b4 + 0.091219194_f32 * mu_u5;
+    let p_1_3 = 15.453778_f32 * mu_v5 + 19.999182_f32 * mu_b1 + 5.7440667_f32 * mu_b2 + 5.3642273_f32 * mu_b3 + 0.7089166_f32 * mu_b4 + 0.12138748_f32 * mu_u5;
+    let p_1_4 = 7.3601365_f32 * mu_v5 + 9.463215_f32 * mu_b1 + 3.1577199_f32 * mu_b2 + 3.4305103_f32 * mu_b3 + 0.6584654_f32 * mu_b4 + 0.07161335_f32 * mu_u5;
+    let p_1_5 = 1.4486446_f32 * mu_v5 + 1.9250368_f32 * mu_b1 + 0.8939187_f32 * mu_b2 + 1.0280526_f32 * mu_b3 + 0.2701602_f32 * mu_b4 + 0.017437652_f32 * mu_u5;
     let p_1 = p_1_0 * r_v5 + p_1_1 * r_b1 + p_1_2 * r_b2 + p_1_3 * r_b3 + p_1_4 * r_b4 + p_1_5 * r_u5;
-    let p_2_0 = 0.9964058_f32 * mu_v5 + 1.3379264_f32 * mu_b1 + 0.36887184_f32 * mu_b2 + 0.13771968_f32 * mu_b3 + 0.0312954_f32 * mu_b4 + 0.0047887196_f32 * mu_u5;
-    let p_2_1 = 4.648939_f32 * mu_v5 + 5.8998823_f32 * mu_b1 + 1.4213539_f32 * mu_b2 + 0.63512623_f32 * mu_b3 + 0.05424638_f32 * mu_b4 + 0.008839559_f32 * mu_u5;
-    let p_2_2 = 8.77815_f32 * mu_v5 + 10.755566_f32 * mu_b1 + 2.87134_f32 * mu_b2 + 1.9540762_f32 * mu_b3 + 0.27058247_f32 * mu_b4 + 0.049048096_f32 * mu_u5;
-    let p_2_3 = 8.434971_f32 * mu_v5 + 10.179696_f32 * mu_b1 + 3.3101523_f32 * mu_b2 + 2.7380812_f32 * mu_b3 + 0.39306694_f32 * mu_b4 + 0.059030104_f32 * mu_u5;
-    let p_2_4 = 4.19339_f32 * mu_v5 + 5.235257_f32 * mu_b1 + 2.3362973_f32 * mu_b2 + 1.9784251_f32 * mu_b3 + 0.3030015_f32 * mu_b4 + 0.038314685_f32 * mu_u5;
-    let p_2_5 = 0.8706533_f32 * mu_v5 + 1.1822605_f32 * mu_b1 + 0.71118283_f32 * mu_b2 + 0.56319344_f32 * mu_b3 + 0.09065593_f32 * mu_b4 + 0.010899817_f32 * mu_u5;
+    let p_2_0 = 0.9961724_f32 * mu_v5 + 1.3430972_f32 * mu_b1 + 0.3552757_f32 * mu_b2 + 0.14111017_f32 * mu_b3 + 0.030528564_f32 * mu_b4 + 0.0048044324_f32 * mu_u5;
+    let p_2_1 = 4.630105_f32 * mu_v5 + 5.8781404_f32 * mu_b1 + 1.3268242_f32 * mu_b2 + 0.6585097_f32 * mu_b3 + 0.053909544_f32 * mu_b4 + 0.009364253_f32 * mu_u5;
+    let p_2_2 = 8.723485_f32 * mu_v5 + 10.667164_f32 * mu_b1 + 2.6728225_f32 * mu_b2 + 2.0216851_f32 * mu_b3 + 0.27135158_f32 * mu_b4 + 0.049161494_f32 * mu_u5;
+    let p_2_3 = 8.373172_f32 * mu_v5 + 10.074345_f32 * mu_b1 + 3.134098_f32 * mu_b2 + 2.848436_f32 * mu_b3 + 0.4058864_f32 * mu_b4 + 0.060725946_f32 * mu_u5;
+    let p_2_4 = 4.157982_f32 * mu_v5 + 5.1659155_f32 * mu_b1 + 2.2418551_f32 * mu_b2 + 2.0394406_f32 * mu_b3 + 0.30924508_f32 * mu_b4 + 0.038901303_f32 * mu_u5;
+    let p_2_5 = 0.8624105_f32 * mu_v5 + 1.1639299_f32 * mu_b1 + 0.6895092_f32 * mu_b2 + 0.57576823_f32 * mu_b3 + 0.09156824_f32 * mu_b4 + 0.0108248275_f32 * mu_u5;
     let p_2 = p_2_0 * r_v5 + p_2_1 * r_b1 + p_2_2 * r_b2 + p_2_3 * r_b3 + p_2_4 * r_b4 + p_2_5 * r_u5;
     let p = p_0 * f0_v2 + p_1 * f0_b1 + p_2 * f0_u2;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0_0 = 1.0_f32 * mu_v5 + 1.3552738_f32 * mu_b1 + 0.4956207_f32 * mu_b2 + 0.16557726_f32 * mu_b3 + 0.030022971_f32 * mu_b4 + 0.004792548_f32 * mu_u5;
-    let q_0_1 = 4.710113_f32 * mu_v5 + 6.1571174_f32 * mu_b1 + 2.0642152_f32 * mu_b2 + 0.6836292_f32 * mu_b3 + 0.07569477_f32 * mu_b4 + 0.009275936_f32 * mu_u5;
-    let q_0_2 = 9.064212_f32 * mu_v5 + 11.927741_f32 * mu_b1 + 4.5747404_f32 * mu_b2 + 2.0265558_f32 * mu_b3 + 0.36514652_f32 * mu_b4 + 0.049801763_f32 * mu_u5;
-    let q_0_3 = 8.890944_f32 * mu_v5 + 12.167382_f32 * mu_b1 + 5.8017945_f32 * mu_b2 + 3.0987313_f32 * mu_b3 + 0.6532385_f32 * mu_b4 + 0.07986362_f32 * mu_u5;
-    let q_0_4 = 4.475618_f32 * mu_v5 + 6.633218_f32 * mu_b1 + 4.11728_f32 * mu_b2 + 2.4835808_f32 * mu_b3 + 0.5932791_f32 * mu_b4 + 0.069378465_f32 * mu_u5;
-    let q_0_5 = 0.93877333_f32 * mu_v5 + 1.5917338_f32 * mu_b1 + 1.3216317_f32 * mu_b2 + 0.89335334_f32 * mu_b3 + 0.25951537_f32 * mu_b4 + 0.034833215_f32 * mu_u5;
+    let q_0_0 = 1.0_f32 * mu_v5 + 1.3491771_f32 * mu_b1 + 0.49080184_f32 * mu_b2 + 0.1662757_f32 * mu_b3 + 0.029455816_f32 * mu_b4 + 0.0048047793_f32 * mu_u5;
+    let q_0_1 = 4.6994_f32 * mu_v5 + 6.0988464_f32 * mu_b1 + 2.0199919_f32 * mu_b2 + 0.6876685_f32 * mu_b3 + 0.07675431_f32 * mu_b4 + 0.009631047_f32 * mu_u5;
+    let q_0_2 = 9.02572_f32 * mu_v5 + 11.771009_f32 * mu_b1 + 4.4652047_f32 * mu_b2 + 2.0445213_f32 * mu_b3 + 0.37487713_f32 * mu_b4 + 0.050271492_f32 * mu_u5;
+    let q_0_3 = 8.839181_f32 * mu_v5 + 11.985916_f32 * mu_b1 + 5.696269_f32 * mu_b2 + 3.1470928_f32 * mu_b3 + 0.67915255_f32 * mu_b4 + 0.081593215_f32 * mu_u5;
+    let q_0_4 = 4.442866_f32 * mu_v5 + 6.5286303_f32 * mu_b1 + 4.0635314_f32 * mu_b2 + 2.520566_f32 * mu_b3 + 0.6137363_f32 * mu_b4 + 0.070937134_f32 * mu_u5;
+    let q_0_5 = 0.9300052_f32 * mu_v5 + 1.5640537_f32 * mu_b1 + 1.303277_f32 * mu_b2 + 0.8966018_f32 * mu_b3 + 0.26216236_f32 * mu_b4 + 0.034789138_f32 * mu_u5;
     let q_0 = q_0_0 * r_v5 + q_0_1 * r_b1 + q_0_2 * r_b2 + q_0_3 * r_b3 + q_0_4 * r_b4 + q_0_5 * r_u5;
-    let q_1_0 = 2.0_f32 * mu_v5 + 2.7105477_f32 * mu_b1 + 0.9912414_f32 * mu_b2 + 0.33115453_f32 * mu_b3 + 0.060045943_f32 * mu_b4 + 0.009585096_f32 * mu_u5;
-    let q_1_1 = 9.420226_f32 * mu_v5 + 12.314235_f32 * mu_b1 + 4.1284304_f32 * mu_b2 + 1.3672584_f32 * mu_b3 + 0.15138954_f32 * mu_b4 + 0.018551871_f32 * mu_u5;
-    let q_1_2 = 18.128424_f32 * mu_v5 + 23.855482_f32 * mu_b1 + 9.149481_f32 * mu_b2 + 4.0531116_f32 * mu_b3 + 0.73029304_f32 * mu_b4 + 0.09960353_f32 * mu_u5;
-    let q_1_3 = 17.781887_f32 * mu_v5 + 24.334764_f32 * mu_b1 + 11.603589_f32 * mu_b2 + 6.1974626_f32 * mu_b3 + 1.306477_f32 * mu_b4 + 0.15972725_f32 * mu_u5;
-    let q_1_4 = 8.951236_f32 * mu_v5 + 13.266436_f32 * mu_b1 + 8.23456_f32 * mu_b2 + 4.9671617_f32 * mu_b3 + 1.1865582_f32 * mu_b4 + 0.13875693_f32 * mu_u5;
-    let q_1_5 = 1.8775467_f32 * mu_v5 + 3.1834676_f32 * mu_b1 + 2.6432633_f32 * mu_b2 + 1.7867067_f32 * mu_b3 + 0.51903075_f32 * mu_b4 + 0.06966643_f32 * mu_u5;
+    let q_1_0 = 2.0_f32 * mu_v5 + 2.6983542_f32 * mu_b1 + 0.9816037_f32 * mu_b2 + 0.3325514_f32 * mu_b3 + 0.058911633_f32 * mu_b4 + 0.009609559_f32 * mu_u5;
+    let q_1_1 = 9.3988_f32 * mu_v5 + 12.197693_f32 * mu_b1 + 4.0399837_f32 * mu_b2 + 1.375337_f32 * mu_b3 + 0.15350862_f32 * mu_b4 + 0.019262094_f32 * mu_u5;
+    let q_1_2 = 18.05144_f32 * mu_v5 + 23.542019_f32 * mu_b1 + 8.930409_f32 * mu_b2 + 4.0890427_f32 * mu_b3 + 0.74975425_f32 * mu_b4 + 0.100542985_f32 * mu_u5;
+    let q_1_3 = 17.678362_f32 * mu_v5 + 23.971832_f32 * mu_b1 + 11.392538_f32 * mu_b2 + 6.2941856_f32 * mu_b3 + 1.3583051_f32 * mu_b4 + 0.16318643_f32 * mu_u5;
+    let q_1_4 = 8.885732_f32 * mu_v5 + 13.0572605_f32 * mu_b1 + 8.127063_f32 * mu_b2 + 5.041132_f32 * mu_b3 + 1.2274725_f32 * mu_b4 + 0.14187427_f32 * mu_u5;
+    let q_1_5 = 1.8600104_f32 * mu_v5 + 3.1281073_f32 * mu_b1 + 2.606554_f32 * mu_b2 + 1.7932036_f32 * mu_b3 + 0.5243247_f32 * mu_b4 + 0.069578275_f32 * mu_u5;
     let q_1 = q_1_0 * r_v5 + q_1_1 * r_b1 + q_1_2 * r_b2 + q_1_3 * r_b3 + q_1_4 * r_b4 + q_1_5 * r_u5;
-    let q_2_0 = 1.0_f32 * mu_v5 + 1.3552738_f32 * mu_b1 + 0.4956207_f32 * mu_b2 + 0.16557726_f32 * mu_b3 + 0.030022971_f32 * mu_b4 + 0.004792548_f32 * mu_u5;
-    let q_2_1 = 4.710113_f32 * mu_v5 + 6.1571174_f32 * mu_b1 + 2.0642152_f32 * mu_b2 + 0.6836292_f32 * mu_b3 + 0.07569477_f32 * mu_b4 + 0.009275936_f32 * mu_u5;
-    let q_2_2 = 9.064212_f32 * mu_v5 + 11.927741_f32 * mu_b1 + 4.5747404_f32 * mu_b2 + 2.0265558_f32 * mu_b3 + 0.36514652_f32 * mu_b4 + 0.049801763_f32 * mu_u5;
-    let q_2_3 = 8.890944_f32 * mu_v5 + 12.167382_f32 * mu_b1 + 5.8017945_f32 * mu_b2 + 3.0987313_f32 * mu_b3 + 0.6532385_f32 * mu_b4 + 0.07986362_f32 * mu_u5;
-    let q_2_4 = 4.475618_f32 * mu_v5 + 6.633218_f32 * mu_b1 + 4.11728_f32 * mu_b2 + 2.4835808_f32 * mu_b3 + 0.5932791_f32 * mu_b4 + 0.069378465_f32 * mu_u5;
-    let q_2_5 = 0.93877333_f32 * mu_v5 + 1.5917338_f32 * mu_b1 + 1.3216317_f32 * mu_b2 + 0.89335334_f32 * mu_b3 + 0.25951537_f32 * mu_b4 + 0.034833215_f32 * mu_u5;
+    let q_2_0 = 1.0_f32 * mu_v5 + 1.3491771_f32 * mu_b1 + 0.49080184_f32 * mu_b2 + 0.1662757_f32 * mu_b3 + 0.029455816_f32 * mu_b4 + 0.0048047793_f32 * mu_u5;
+    let q_2_1 = 4.6994_f32 * mu_v5 + 6.0988464_f32 * mu_b1 + 2.0199919_f32 * mu_b2 + 0.6876685_f32 * mu_b3 + 0.07675431_f32 * mu_b4 + 0.009631047_f32 * mu_u5;
+    let q_2_2 = 9.02572_f32 * mu_v5 + 11.771009_f32 * mu_b1 + 4.4652047_f32 * mu_b2 + 2.0445213_f32 * mu_b3 + 0.37487713_f32 * mu_b4 + 0.050271492_f32 * mu_u5;
+    let q_2_3 = 8.839181_f32 * mu_v5 + 11.985916_f32 * mu_b1 + 5.696269_f32 * mu_b2 + 3.1470928_f32 * mu_b3 + 0.67915255_f32 * mu_b4 + 0.081593215_f32 * mu_u5;
+    let q_2_4 = 4.442866_f32 * mu_v5 + 6.5286303_f32 * mu_b1 + 4.0635314_f32 * mu_b2 + 2.520566_f32 * mu_b3 + 0.6137363_f32 * mu_b4 + 0.070937134_f32 * mu_u5;
+    let q_2_5 = 0.9300052_f32 * mu_v5 + 1.5640537_f32 * mu_b1 + 1.303277_f32 * mu_b2 + 0.8966018_f32 * mu_b3 + 0.26216236_f32 * mu_b4 + 0.034789138_f32 * mu_u5;
     let q_2 = q_2_0 * r_v5 + q_2_1 * r_b1 + q_2_2 * r_b2 + q_2_3 * r_b3 + q_2_4 * r_b4 + q_2_5 * r_u5;
     let q = q_0 * f0_v2 + q_1 * f0_b1 + q_2 * f0_u2;
     let e = p / q;

@@ -15,18 +15,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 8 (step 4 of the polish), its MAE on the fitting points 1.556x the least-squares start's.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c3e3fd8a8c7029d6d260c91e5861054fba2e928f75ad5f0dbca50ed03391fa93.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.578x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 ea4b14bd14f9fa3425b02e0271c049a79f19fc15f7d90252321ad9093d6eb3dd.
 // Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.4e-5, shifted 4.4e-6, bernstein 4.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.09e-4, max 8.58e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.10e-4, max 7.74e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.30e-6 (every op rounded, as this Rust), 3.21e-6 (fused multiply-add), 5.83e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.04e0 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.06e-4, max 8.58e-4; this f32 code MAE 1.06e-4, max 8.58e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.2e-4 on the measurement grid.
-// Denominator proved >= 5.589e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 9.0e-6, shifted 4.0e-6, bernstein 4.0e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 9.55e-5, max 7.66e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.58e-5, max 4.30e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.36e-6 (every op rounded, as this Rust), 1.08e-6 (fused multiply-add), 4.17e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.29e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17415 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.43e-5, max 7.66e-4; this f32 code MAE 9.43e-5, max 7.66e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-4 on the measurement grid.
+// Denominator proved >= 1.885e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -36,12 +36,12 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     highp float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
     highp float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
-    highp float mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
-    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    highp float mu_t = (mu_logv * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.0 * (r_c * r_c) + 7.888609e-31);
+    highp float mu_logv = (mu_c + 2.5 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 2.5 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    highp float mu_t = (mu_logv * (1.0 + 1.5 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.5 * (r_c * r_c) + 7.888609e-31);
     // s = (t - 0.5)/0.5 in [-1, 1]
     highp float f0_s = f0_t * 2.0 - 1.0;
     // s = (t - 0.5)/0.5 in [-1, 1]
@@ -49,59 +49,59 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     // s = (t - 0.5)/0.5 in [-1, 1]
     highp float mu_s = mu_t * 2.0 - 1.0;
     // term 0: numerator P_0, grouped by powers of the first variable
-    highp float p0_0 = ((((0.030080194 * r_s + (-0.114870094 * mu_s - 0.020844648)) * r_s + ((0.037244916 * mu_s - 0.015845407) * mu_s + 0.31698146)) * r_s + (((-0.009272043 * mu_s + 0.13690244) * mu_s + 0.04534846) * mu_s - 0.3209004)) * r_s + ((((0.028126838 * mu_s - 0.13698372) * mu_s - 0.34340793) * mu_s + 0.19217883) * mu_s - 0.43901148)) * r_s + (((((-0.034017257 * mu_s + 0.058468662) * mu_s + 0.3511284) * mu_s - 0.010986629) * mu_s - 0.16747543) * mu_s + 1.0628918);
+    highp float p0_0 = ((((0.013381986 * r_s + (-0.048188902 * mu_s - 0.012480647)) * r_s + ((0.043111335 * mu_s - 0.09799625) * mu_s + 0.19031613)) * r_s + (((0.046821997 * mu_s + 0.043431066) * mu_s + 0.20564543) * mu_s - 0.12056176)) * r_s + ((((0.090171635 * mu_s + 0.022139505) * mu_s - 0.3341685) * mu_s + 0.026070029) * mu_s - 0.4025657)) * r_s + (((((-0.036989458 * mu_s - 0.14946635) * mu_s + 0.24257156) * mu_s + 0.39041638) * mu_s - 0.13428111) * mu_s + 0.87031734);
     highp float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    highp float u0_0 = 0.9287135;
-    highp float u0_1 = -0.050082978;
-    highp float u0_2 = 0.015244549;
-    highp float u0_3 = -0.008996861;
-    highp float u0_4 = 0.0022064145;
+    highp float u0_0 = 0.90320843;
+    highp float u0_1 = -0.04126527;
+    highp float u0_2 = -0.006686155;
+    highp float u0_3 = -0.00089721475;
+    highp float u0_4 = -0.00062783324;
     highp float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    highp float q0_0 = (((-0.0104241865 * r_s + (0.2023716 * mu_s - 0.031886663)) * r_s + ((-0.045406863 * mu_s - 0.23870832) * mu_s - 0.041184314)) * r_s + (((0.0149774235 * mu_s - 0.2593987) * mu_s - 0.29189897) * mu_s + 0.37005115)) * r_s + ((((-0.0075147157 * mu_s + 0.35090092) * mu_s + 0.08418315) * mu_s - 0.21259847) * mu_s + 1.0732567);
+    highp float q0_0 = (((-0.032594092 * r_s + (0.09018196 * mu_s - 0.040309362)) * r_s + ((0.013834977 * mu_s - 0.1792143) * mu_s + 0.17474826)) * r_s + (((0.03662517 * mu_s - 0.016739165) * mu_s - 0.39154318) * mu_s + 0.21638027)) * r_s + ((((-0.115316406 * mu_s + 0.24760807) * mu_s + 0.41127348) * mu_s - 0.12074906) * mu_s + 0.9197663);
     highp float q0 = q0_0;
     highp float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    highp float p1_0 = ((((0.0018008607 * r_s + (0.043598633 * mu_s - 0.032040562)) * r_s + ((0.031802278 * mu_s - 0.07380327) * mu_s + 0.03571849)) * r_s + (((0.015782556 * mu_s - 0.02815886) * mu_s - 0.071844816) * mu_s + 0.039845143)) * r_s + ((((0.0059884093 * mu_s + 0.033011537) * mu_s - 0.18254997) * mu_s + 0.25293773) * mu_s - 0.05675541)) * r_s + (((((0.004016871 * mu_s + 0.008986701) * mu_s - 0.0015248543) * mu_s - 0.13633803) * mu_s + 0.24158838) * mu_s - 0.13168924);
+    highp float p1_0 = ((((-0.00078445853 * r_s + (-0.008358721 * mu_s + 0.0059492732)) * r_s + ((-0.031345908 * mu_s + 0.0503349) * mu_s - 0.019233342)) * r_s + (((-0.008580044 * mu_s + 0.05052239) * mu_s - 0.045757283) * mu_s + 0.010145799)) * r_s + ((((-0.00788709 * mu_s - 0.0442837) * mu_s + 0.21169618) * mu_s - 0.23435818) * mu_s + 0.06948329)) * r_s + (((((0.0026819753 * mu_s - 0.0061498554) * mu_s - 0.03571555) * mu_s + 0.13185659) * mu_s - 0.15009232) * mu_s + 0.058070794);
     highp float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    highp float u1_0 = 0.53727263;
-    highp float u1_1 = -0.46373218;
-    highp float u1_2 = 0.10895478;
-    highp float u1_3 = -0.04361907;
-    highp float u1_4 = 0.009145155;
+    highp float u1_0 = 0.102001354;
+    highp float u1_1 = 0.79710084;
+    highp float u1_2 = -0.06875595;
+    highp float u1_3 = 0.017122407;
+    highp float u1_4 = 0.0045459145;
     highp float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    highp float q1_0 = (((0.04819088 * r_s + (0.14476734 * mu_s - 0.13258924)) * r_s + ((0.16987613 * mu_s - 0.25505528) * mu_s + 0.13650762)) * r_s + (((-0.15071349 * mu_s + 0.3788192) * mu_s - 0.63145196) * mu_s + 0.06552949)) * r_s + ((((0.014057838 * mu_s - 0.0321929) * mu_s + 0.21039602) * mu_s - 0.52171683) * mu_s + 0.561164);
+    highp float q1_0 = (((0.025032874 * r_s + (0.013074199 * mu_s - 0.015660882)) * r_s + ((0.40919134 * mu_s - 0.60868806) * mu_s + 0.23997913)) * r_s + (((-0.25694087 * mu_s + 0.665238) * mu_s - 0.84104913) * mu_s + 0.337585)) * r_s + ((((0.058009677 * mu_s - 0.13952559) * mu_s + 0.25173318) * mu_s - 0.72470284) * mu_s + 0.61521524);
     highp float q1 = q1_0;
     highp float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    highp float p2_0 = ((((0.017298404 * r_s + (-0.076852076 * mu_s + 0.04517472)) * r_s + ((0.050107043 * mu_s - 0.26266512) * mu_s + 0.18161014)) * r_s + (((-1.9903803e-6 * mu_s + 0.062784284) * mu_s + 0.12307378) * mu_s - 0.13390104)) * r_s + ((((0.07933127 * mu_s - 0.003947566) * mu_s - 0.11400673) * mu_s + 0.35006946) * mu_s - 0.3237685)) * r_s + (((((-0.027202515 * mu_s + 0.09293901) * mu_s + 0.037322704) * mu_s - 0.117511086) * mu_s - 0.008965695) * mu_s + 0.00841785);
+    highp float p2_0 = ((((0.020821 * r_s + (-0.16498841 * mu_s + 0.14539328)) * r_s + ((-0.053605456 * mu_s - 0.2656484) * mu_s + 0.25382486)) * r_s + (((0.08014346 * mu_s - 0.05196976) * mu_s + 0.43772802) * mu_s - 0.37719882)) * r_s + ((((0.03600157 * mu_s + 0.21357395) * mu_s - 0.034026682) * mu_s + 0.22785164) * mu_s - 0.46420246)) * r_s + (((((-0.018967723 * mu_s + 0.007793017) * mu_s + 0.20006703) * mu_s + 0.0072233253) * mu_s - 0.35828418) * mu_s + 0.12326408);
     highp float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    highp float u2_0 = -0.8429516;
-    highp float u2_1 = 0.13394795;
-    highp float u2_2 = 0.14352892;
-    highp float u2_3 = -0.01521835;
-    highp float u2_4 = 0.011178513;
+    highp float u2_0 = -0.8304814;
+    highp float u2_1 = 0.060253236;
+    highp float u2_2 = 0.052321043;
+    highp float u2_3 = 0.010334179;
+    highp float u2_4 = -0.0007986423;
     highp float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    highp float q2_0 = (((-0.014376003 * r_s + (0.25752535 * mu_s - 0.14142452)) * r_s + ((-0.069811136 * mu_s - 0.0059679467) * mu_s + 0.10521878)) * r_s + (((0.24104531 * mu_s - 0.62183) * mu_s - 0.7709273) * mu_s + 0.9695088)) * r_s + ((((-0.17760324 * mu_s + 0.34023726) * mu_s - 0.17551026) * mu_s - 0.9989423) * mu_s + 1.1460198);
+    highp float q2_0 = (((-0.004667329 * r_s + (-0.025160076 * mu_s + 0.054641854)) * r_s + ((0.078481756 * mu_s - 0.35145718) * mu_s + 0.42717814)) * r_s + (((0.07936832 * mu_s - 0.6023716) * mu_s - 1.1264609) * mu_s + 1.3629336)) * r_s + ((((3.9081937e-5 * mu_s + 0.37344334) * mu_s - 0.6591117) * mu_s - 1.2806007) * mu_s + 1.7869221);
     highp float q2 = q2_0;
     highp float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    highp float p3_0 = ((((-0.00083445857 * r_s + (0.054493558 * mu_s - 0.050607953)) * r_s + ((-0.050634697 * mu_s + 0.16164872) * mu_s - 0.11906722)) * r_s + (((0.01164547 * mu_s - 0.0058973795) * mu_s - 0.14526959) * mu_s + 0.12549607)) * r_s + ((((0.0015800643 * mu_s + 0.027689647) * mu_s + 0.076520234) * mu_s - 0.29520437) * mu_s + 0.20449458)) * r_s + (((((0.029277597 * mu_s - 0.029089425) * mu_s - 0.033914454) * mu_s + 0.047964398) * mu_s + 0.018791767) * mu_s - 0.042714305);
+    highp float p3_0 = ((((0.0042212433 * r_s + (0.1521742 * mu_s - 0.1083051)) * r_s + ((0.033464998 * mu_s - 0.04466041) * mu_s + 0.012996481)) * r_s + (((-0.10668452 * mu_s + 0.14809877) * mu_s - 0.3544563) * mu_s + 0.18539852)) * r_s + ((((0.04003594 * mu_s - 0.08457845) * mu_s - 0.030017354) * mu_s + 0.020103915) * mu_s - 0.00539005)) * r_s + (((((0.0030079633 * mu_s + 0.040315237) * mu_s + 0.015621275) * mu_s - 0.13513379) * mu_s + 0.16543847) * mu_s - 0.05422114);
     highp float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    highp float u3_0 = 0.55141443;
-    highp float u3_1 = 0.12877369;
-    highp float u3_2 = 0.17684194;
-    highp float u3_3 = -0.06048392;
-    highp float u3_4 = 0.024840917;
+    highp float u3_0 = 0.5723359;
+    highp float u3_1 = 0.08590982;
+    highp float u3_2 = 0.15143684;
+    highp float u3_3 = -0.039038915;
+    highp float u3_4 = 0.015978232;
     highp float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    highp float q3_0 = (((0.010500048 * r_s + (0.060041282 * mu_s - 0.16452327)) * r_s + ((0.114316925 * mu_s - 0.20393424) * mu_s - 0.013447056)) * r_s + (((0.040400002 * mu_s - 0.09040512) * mu_s - 0.18921106) * mu_s + 0.49753457)) * r_s + ((((-0.023039082 * mu_s + 0.21041968) * mu_s - 0.056732606) * mu_s - 0.50485903) * mu_s + 0.8014041);
+    highp float q3_0 = (((-0.3003438 * r_s + (-0.38244683 * mu_s - 0.18490984)) * r_s + ((0.866025 * mu_s - 1.1905975) * mu_s + 0.26293784)) * r_s + (((-0.101037584 * mu_s + 1.2649901) * mu_s - 0.62089044) * mu_s + 1.0716912)) * r_s + ((((-0.13326758 * mu_s - 0.015828568) * mu_s + 0.79050654) * mu_s - 0.29602367) * mu_s + 1.2678386);
     highp float q3 = q3_0;
     highp float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

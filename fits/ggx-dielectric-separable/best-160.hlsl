@@ -14,18 +14,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 8 (step 4 of the polish), its MAE on the fitting points 1.556x the least-squares start's.
-// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c3e3fd8a8c7029d6d260c91e5861054fba2e928f75ad5f0dbca50ed03391fa93.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.578x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 ea4b14bd14f9fa3425b02e0271c049a79f19fc15f7d90252321ad9093d6eb3dd.
 // Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.4e-5, shifted 4.4e-6, bernstein 4.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 1.09e-4, max 8.58e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.10e-4, max 7.74e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.30e-6 (every op rounded, as this Rust), 3.21e-6 (fused multiply-add), 5.83e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.04e0 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.06e-4, max 8.58e-4; this f32 code MAE 1.06e-4, max 8.58e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.2e-4 on the measurement grid.
-// Denominator proved >= 5.589e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 9.0e-6, shifted 4.0e-6, bernstein 4.0e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 9.55e-5, max 7.66e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.58e-5, max 4.30e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.36e-6 (every op rounded, as this Rust), 1.08e-6 (fused multiply-add), 4.17e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.29e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17415 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.43e-5, max 7.66e-4; this f32 code MAE 9.43e-5, max 7.66e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-4 on the measurement grid.
+// Denominator proved >= 1.885e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -35,12 +35,12 @@ float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20f)))));
     float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0f + mu_c))));
-    float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
-    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    float mu_t = (mu_logv * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.0f * (r_c * r_c) + 7.888609e-31f);
+    float mu_logv = (mu_c + 2.5f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 2.5f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    float mu_t = (mu_logv * (1.0f + 1.5f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.5f * (r_c * r_c) + 7.888609e-31f);
     // s = (t - 0.5)/0.5 in [-1, 1]
     float f0_s = f0_t * 2.0f - 1.0f;
     // s = (t - 0.5)/0.5 in [-1, 1]
@@ -48,59 +48,59 @@ float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // s = (t - 0.5)/0.5 in [-1, 1]
     float mu_s = mu_t * 2.0f - 1.0f;
     // term 0: numerator P_0, grouped by powers of the first variable
-    float p0_0 = ((((0.030080194f * r_s + (-0.114870094f * mu_s - 0.020844648f)) * r_s + ((0.037244916f * mu_s - 0.015845407f) * mu_s + 0.31698146f)) * r_s + (((-0.009272043f * mu_s + 0.13690244f) * mu_s + 0.04534846f) * mu_s - 0.3209004f)) * r_s + ((((0.028126838f * mu_s - 0.13698372f) * mu_s - 0.34340793f) * mu_s + 0.19217883f) * mu_s - 0.43901148f)) * r_s + (((((-0.034017257f * mu_s + 0.058468662f) * mu_s + 0.3511284f) * mu_s - 0.010986629f) * mu_s - 0.16747543f) * mu_s + 1.0628918f);
+    float p0_0 = ((((0.013381986f * r_s + (-0.048188902f * mu_s - 0.012480647f)) * r_s + ((0.043111335f * mu_s - 0.09799625f) * mu_s + 0.19031613f)) * r_s + (((0.046821997f * mu_s + 0.043431066f) * mu_s + 0.20564543f) * mu_s - 0.12056176f)) * r_s + ((((0.090171635f * mu_s + 0.022139505f) * mu_s - 0.3341685f) * mu_s + 0.026070029f) * mu_s - 0.4025657f)) * r_s + (((((-0.036989458f * mu_s - 0.14946635f) * mu_s + 0.24257156f) * mu_s + 0.39041638f) * mu_s - 0.13428111f) * mu_s + 0.87031734f);
     float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    float u0_0 = 0.9287135f;
-    float u0_1 = -0.050082978f;
-    float u0_2 = 0.015244549f;
-    float u0_3 = -0.008996861f;
-    float u0_4 = 0.0022064145f;
+    float u0_0 = 0.90320843f;
+    float u0_1 = -0.04126527f;
+    float u0_2 = -0.006686155f;
+    float u0_3 = -0.00089721475f;
+    float u0_4 = -0.00062783324f;
     float u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    float q0_0 = (((-0.0104241865f * r_s + (0.2023716f * mu_s - 0.031886663f)) * r_s + ((-0.045406863f * mu_s - 0.23870832f) * mu_s - 0.041184314f)) * r_s + (((0.0149774235f * mu_s - 0.2593987f) * mu_s - 0.29189897f) * mu_s + 0.37005115f)) * r_s + ((((-0.0075147157f * mu_s + 0.35090092f) * mu_s + 0.08418315f) * mu_s - 0.21259847f) * mu_s + 1.0732567f);
+    float q0_0 = (((-0.032594092f * r_s + (0.09018196f * mu_s - 0.040309362f)) * r_s + ((0.013834977f * mu_s - 0.1792143f) * mu_s + 0.17474826f)) * r_s + (((0.03662517f * mu_s - 0.016739165f) * mu_s - 0.39154318f) * mu_s + 0.21638027f)) * r_s + ((((-0.115316406f * mu_s + 0.24760807f) * mu_s + 0.41127348f) * mu_s - 0.12074906f) * mu_s + 0.9197663f);
     float q0 = q0_0;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    float p1_0 = ((((0.0018008607f * r_s + (0.043598633f * mu_s - 0.032040562f)) * r_s + ((0.031802278f * mu_s - 0.07380327f) * mu_s + 0.03571849f)) * r_s + (((0.015782556f * mu_s - 0.02815886f) * mu_s - 0.071844816f) * mu_s + 0.039845143f)) * r_s + ((((0.0059884093f * mu_s + 0.033011537f) * mu_s - 0.18254997f) * mu_s + 0.25293773f) * mu_s - 0.05675541f)) * r_s + (((((0.004016871f * mu_s + 0.008986701f) * mu_s - 0.0015248543f) * mu_s - 0.13633803f) * mu_s + 0.24158838f) * mu_s - 0.13168924f);
+    float p1_0 = ((((-0.00078445853f * r_s + (-0.008358721f * mu_s + 0.0059492732f)) * r_s + ((-0.031345908f * mu_s + 0.0503349f) * mu_s - 0.019233342f)) * r_s + (((-0.008580044f * mu_s + 0.05052239f) * mu_s - 0.045757283f) * mu_s + 0.010145799f)) * r_s + ((((-0.00788709f * mu_s - 0.0442837f) * mu_s + 0.21169618f) * mu_s - 0.23435818f) * mu_s + 0.06948329f)) * r_s + (((((0.0026819753f * mu_s - 0.0061498554f) * mu_s - 0.03571555f) * mu_s + 0.13185659f) * mu_s - 0.15009232f) * mu_s + 0.058070794f);
     float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    float u1_0 = 0.53727263f;
-    float u1_1 = -0.46373218f;
-    float u1_2 = 0.10895478f;
-    float u1_3 = -0.04361907f;
-    float u1_4 = 0.009145155f;
+    float u1_0 = 0.102001354f;
+    float u1_1 = 0.79710084f;
+    float u1_2 = -0.06875595f;
+    float u1_3 = 0.017122407f;
+    float u1_4 = 0.0045459145f;
     float u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    float q1_0 = (((0.04819088f * r_s + (0.14476734f * mu_s - 0.13258924f)) * r_s + ((0.16987613f * mu_s - 0.25505528f) * mu_s + 0.13650762f)) * r_s + (((-0.15071349f * mu_s + 0.3788192f) * mu_s - 0.63145196f) * mu_s + 0.06552949f)) * r_s + ((((0.014057838f * mu_s - 0.0321929f) * mu_s + 0.21039602f) * mu_s - 0.52171683f) * mu_s + 0.561164f);
+    float q1_0 = (((0.025032874f * r_s + (0.013074199f * mu_s - 0.015660882f)) * r_s + ((0.40919134f * mu_s - 0.60868806f) * mu_s + 0.23997913f)) * r_s + (((-0.25694087f * mu_s + 0.665238f) * mu_s - 0.84104913f) * mu_s + 0.337585f)) * r_s + ((((0.058009677f * mu_s - 0.13952559f) * mu_s + 0.25173318f) * mu_s - 0.72470284f) * mu_s + 0.61521524f);
     float q1 = q1_0;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    float p2_0 = ((((0.017298404f * r_s + (-0.076852076f * mu_s + 0.04517472f)) * r_s + ((0.050107043f * mu_s - 0.26266512f) * mu_s + 0.18161014f)) * r_s + (((-1.9903803e-6f * mu_s + 0.062784284f) * mu_s + 0.12307378f) * mu_s - 0.13390104f)) * r_s + ((((0.07933127f * mu_s - 0.003947566f) * mu_s - 0.11400673f) * mu_s + 0.35006946f) * mu_s - 0.3237685f)) * r_s + (((((-0.027202515f * mu_s + 0.09293901f) * mu_s + 0.037322704f) * mu_s - 0.117511086f) * mu_s - 0.008965695f) * mu_s + 0.00841785f);
+    float p2_0 = ((((0.020821f * r_s + (-0.16498841f * mu_s + 0.14539328f)) * r_s + ((-0.053605456f * mu_s - 0.2656484f) * mu_s + 0.25382486f)) * r_s + (((0.08014346f * mu_s - 0.05196976f) * mu_s + 0.43772802f) * mu_s - 0.37719882f)) * r_s + ((((0.03600157f * mu_s + 0.21357395f) * mu_s - 0.034026682f) * mu_s + 0.22785164f) * mu_s - 0.46420246f)) * r_s + (((((-0.018967723f * mu_s + 0.007793017f) * mu_s + 0.20006703f) * mu_s + 0.0072233253f) * mu_s - 0.35828418f) * mu_s + 0.12326408f);
     float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    float u2_0 = -0.8429516f;
-    float u2_1 = 0.13394795f;
-    float u2_2 = 0.14352892f;
-    float u2_3 = -0.01521835f;
-    float u2_4 = 0.011178513f;
+    float u2_0 = -0.8304814f;
+    float u2_1 = 0.060253236f;
+    float u2_2 = 0.052321043f;
+    float u2_3 = 0.010334179f;
+    float u2_4 = -0.0007986423f;
     float u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    float q2_0 = (((-0.014376003f * r_s + (0.25752535f * mu_s - 0.14142452f)) * r_s + ((-0.069811136f * mu_s - 0.0059679467f) * mu_s + 0.10521878f)) * r_s + (((0.24104531f * mu_s - 0.62183f) * mu_s - 0.7709273f) * mu_s + 0.9695088f)) * r_s + ((((-0.17760324f * mu_s + 0.34023726f) * mu_s - 0.17551026f) * mu_s - 0.9989423f) * mu_s + 1.1460198f);
+    float q2_0 = (((-0.004667329f * r_s + (-0.025160076f * mu_s + 0.054641854f)) * r_s + ((0.078481756f * mu_s - 0.35145718f) * mu_s + 0.42717814f)) * r_s + (((0.07936832f * mu_s - 0.6023716f) * mu_s - 1.1264609f) * mu_s + 1.3629336f)) * r_s + ((((3.9081937e-5f * mu_s + 0.37344334f) * mu_s - 0.6591117f) * mu_s - 1.2806007f) * mu_s + 1.7869221f);
     float q2 = q2_0;
     float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    float p3_0 = ((((-0.00083445857f * r_s + (0.054493558f * mu_s - 0.050607953f)) * r_s + ((-0.050634697f * mu_s + 0.16164872f) * mu_s - 0.11906722f)) * r_s + (((0.01164547f * mu_s - 0.0058973795f) * mu_s - 0.14526959f) * mu_s + 0.12549607f)) * r_s + ((((0.0015800643f * mu_s + 0.027689647f) * mu_s + 0.076520234f) * mu_s - 0.29520437f) * mu_s + 0.20449458f)) * r_s + (((((0.029277597f * mu_s - 0.029089425f) * mu_s - 0.033914454f) * mu_s + 0.047964398f) * mu_s + 0.018791767f) * mu_s - 0.042714305f);
+    float p3_0 = ((((0.0042212433f * r_s + (0.1521742f * mu_s - 0.1083051f)) * r_s + ((0.033464998f * mu_s - 0.04466041f) * mu_s + 0.012996481f)) * r_s + (((-0.10668452f * mu_s + 0.14809877f) * mu_s - 0.3544563f) * mu_s + 0.18539852f)) * r_s + ((((0.04003594f * mu_s - 0.08457845f) * mu_s - 0.030017354f) * mu_s + 0.020103915f) * mu_s - 0.00539005f)) * r_s + (((((0.0030079633f * mu_s + 0.040315237f) * mu_s + 0.015621275f) * mu_s - 0.13513379f) * mu_s + 0.16543847f) * mu_s - 0.05422114f);
     float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    float u3_0 = 0.55141443f;
-    float u3_1 = 0.12877369f;
-    float u3_2 = 0.17684194f;
-    float u3_3 = -0.06048392f;
-    float u3_4 = 0.024840917f;
+    float u3_0 = 0.5723359f;
+    float u3_1 = 0.08590982f;
+    float u3_2 = 0.15143684f;
+    float u3_3 = -0.039038915f;
+    float u3_4 = 0.015978232f;
     float u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    float q3_0 = (((0.010500048f * r_s + (0.060041282f * mu_s - 0.16452327f)) * r_s + ((0.114316925f * mu_s - 0.20393424f) * mu_s - 0.013447056f)) * r_s + (((0.040400002f * mu_s - 0.09040512f) * mu_s - 0.18921106f) * mu_s + 0.49753457f)) * r_s + ((((-0.023039082f * mu_s + 0.21041968f) * mu_s - 0.056732606f) * mu_s - 0.50485903f) * mu_s + 0.8014041f);
+    float q3_0 = (((-0.3003438f * r_s + (-0.38244683f * mu_s - 0.18490984f)) * r_s + ((0.866025f * mu_s - 1.1905975f) * mu_s + 0.26293784f)) * r_s + (((-0.101037584f * mu_s + 1.2649901f) * mu_s - 0.62089044f) * mu_s + 1.0716912f)) * r_s + ((((-0.13326758f * mu_s - 0.015828568f) * mu_s + 0.79050654f) * mu_s - 0.29602367f) * mu_s + 1.2678386f);
     float q3 = q3_0;
     float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

@@ -12,18 +12,18 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 8 (step 4 of the polish), its MAE on the fitting points 1.556x the least-squares start's.
-/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 c3e3fd8a8c7029d6d260c91e5861054fba2e928f75ad5f0dbca50ed03391fa93.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.578x the least-squares start's.
+/// Source: fits/ggx-dielectric-separable/best-160.json (furnace 0.1.0), fit SHA-256 ea4b14bd14f9fa3425b02e0271c049a79f19fc15f7d90252321ad9093d6eb3dd.
 /// Evaluation: nested Horner in the shifted variables s = (t - c)/h in [-1, 1] (c, h: centre and half-width of t's range), coefficients re-expanded exactly from the fit's.
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.4e-5, shifted 4.4e-6, bernstein 4.4e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.09e-4, max 8.58e-4 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.10e-4, max 7.74e-4.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.30e-6 (every op rounded, as this Rust), 3.21e-6 (fused multiply-add), 5.83e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 3.04e0 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 1.06e-4, max 8.58e-4; this f32 code MAE 1.06e-4, max 8.58e-4.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.2e-4 on the measurement grid.
-/// Denominator proved >= 5.589e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 9.0e-6, shifted 4.0e-6, bernstein 4.0e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 9.55e-5, max 7.66e-4 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.58e-5, max 4.30e-4.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.36e-6 (every op rounded, as this Rust), 1.08e-6 (fused multiply-add), 4.17e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.29e-1 for every input, in all three rounding models (interval error analysis over the whole domain, 17415 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 9.43e-5, max 7.66e-4; this f32 code MAE 9.43e-5, max 7.66e-4.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-4 on the measurement grid.
+/// Denominator proved >= 1.885e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -40,12 +40,12 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
     let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
-    let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
-    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    let mu_logv = (mu_c + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 1.5_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.5_f32 * (r_c * r_c) + 7.888609e-31_f32);
     // s = (t - 0.5)/0.5 in [-1, 1]
     let f0_s = f0_t * 2.0_f32 - 1.0_f32;
     // s = (t - 0.5)/0.5 in [-1, 1]
@@ -53,59 +53,59 @@ pub fn ggx_dielectric_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // s = (t - 0.5)/0.5 in [-1, 1]
     let mu_s = mu_t * 2.0_f32 - 1.0_f32;
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((0.030080194_f32 * r_s + (-0.114870094_f32 * mu_s - 0.020844648_f32)) * r_s + ((0.037244916_f32 * mu_s - 0.015845407_f32) * mu_s + 0.31698146_f32)) * r_s + (((-0.009272043_f32 * mu_s + 0.13690244_f32) * mu_s + 0.04534846_f32) * mu_s - 0.3209004_f32)) * r_s + ((((0.028126838_f32 * mu_s - 0.13698372_f32) * mu_s - 0.34340793_f32) * mu_s + 0.19217883_f32) * mu_s - 0.43901148_f32)) * r_s + (((((-0.034017257_f32 * mu_s + 0.058468662_f32) * mu_s + 0.3511284_f32) * mu_s - 0.010986629_f32) * mu_s - 0.16747543_f32) * mu_s + 1.0628918_f32);
+    let p0_0 = ((((0.013381986_f32 * r_s + (-0.048188902_f32 * mu_s - 0.012480647_f32)) * r_s + ((0.043111335_f32 * mu_s - 0.09799625_f32) * mu_s + 0.19031613_f32)) * r_s + (((0.046821997_f32 * mu_s + 0.043431066_f32) * mu_s + 0.20564543_f32) * mu_s - 0.12056176_f32)) * r_s + ((((0.090171635_f32 * mu_s + 0.022139505_f32) * mu_s - 0.3341685_f32) * mu_s + 0.026070029_f32) * mu_s - 0.4025657_f32)) * r_s + (((((-0.036989458_f32 * mu_s - 0.14946635_f32) * mu_s + 0.24257156_f32) * mu_s + 0.39041638_f32) * mu_s - 0.13428111_f32) * mu_s + 0.87031734_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.9287135_f32;
-    let u0_1 = -0.050082978_f32;
-    let u0_2 = 0.015244549_f32;
-    let u0_3 = -0.008996861_f32;
-    let u0_4 = 0.0022064145_f32;
+    let u0_0 = 0.90320843_f32;
+    let u0_1 = -0.04126527_f32;
+    let u0_2 = -0.006686155_f32;
+    let u0_3 = -0.00089721475_f32;
+    let u0_4 = -0.00062783324_f32;
     let u0 = (((u0_4 * f0_s + u0_3) * f0_s + u0_2) * f0_s + u0_1) * f0_s + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (((-0.0104241865_f32 * r_s + (0.2023716_f32 * mu_s - 0.031886663_f32)) * r_s + ((-0.045406863_f32 * mu_s - 0.23870832_f32) * mu_s - 0.041184314_f32)) * r_s + (((0.0149774235_f32 * mu_s - 0.2593987_f32) * mu_s - 0.29189897_f32) * mu_s + 0.37005115_f32)) * r_s + ((((-0.0075147157_f32 * mu_s + 0.35090092_f32) * mu_s + 0.08418315_f32) * mu_s - 0.21259847_f32) * mu_s + 1.0732567_f32);
+    let q0_0 = (((-0.032594092_f32 * r_s + (0.09018196_f32 * mu_s - 0.040309362_f32)) * r_s + ((0.013834977_f32 * mu_s - 0.1792143_f32) * mu_s + 0.17474826_f32)) * r_s + (((0.03662517_f32 * mu_s - 0.016739165_f32) * mu_s - 0.39154318_f32) * mu_s + 0.21638027_f32)) * r_s + ((((-0.115316406_f32 * mu_s + 0.24760807_f32) * mu_s + 0.41127348_f32) * mu_s - 0.12074906_f32) * mu_s + 0.9197663_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((0.0018008607_f32 * r_s + (0.043598633_f32 * mu_s - 0.032040562_f32)) * r_s + ((0.031802278_f32 * mu_s - 0.07380327_f32) * mu_s + 0.03571849_f32)) * r_s + (((0.015782556_f32 * mu_s - 0.02815886_f32) * mu_s - 0.071844816_f32) * mu_s + 0.039845143_f32)) * r_s + ((((0.0059884093_f32 * mu_s + 0.033011537_f32) * mu_s - 0.18254997_f32) * mu_s + 0.25293773_f32) * mu_s - 0.05675541_f32)) * r_s + (((((0.004016871_f32 * mu_s + 0.008986701_f32) * mu_s - 0.0015248543_f32) * mu_s - 0.13633803_f32) * mu_s + 0.24158838_f32) * mu_s - 0.13168924_f32);
+    let p1_0 = ((((-0.00078445853_f32 * r_s + (-0.008358721_f32 * mu_s + 0.0059492732_f32)) * r_s + ((-0.031345908_f32 * mu_s + 0.0503349_f32) * mu_s - 0.019233342_f32)) * r_s + (((-0.008580044_f32 * mu_s + 0.05052239_f32) * mu_s - 0.045757283_f32) * mu_s + 0.010145799_f32)) * r_s + ((((-0.00788709_f32 * mu_s - 0.0442837_f32) * mu_s + 0.21169618_f32) * mu_s - 0.23435818_f32) * mu_s + 0.06948329_f32)) * r_s + (((((0.0026819753_f32 * mu_s - 0.0061498554_f32) * mu_s - 0.03571555_f32) * mu_s + 0.13185659_f32) * mu_s - 0.15009232_f32) * mu_s + 0.058070794_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 0.53727263_f32;
-    let u1_1 = -0.46373218_f32;
-    let u1_2 = 0.10895478_f32;
-    let u1_3 = -0.04361907_f32;
-    let u1_4 = 0.009145155_f32;
+    let u1_0 = 0.102001354_f32;
+    let u1_1 = 0.79710084_f32;
+    let u1_2 = -0.06875595_f32;
+    let u1_3 = 0.017122407_f32;
+    let u1_4 = 0.0045459145_f32;
     let u1 = (((u1_4 * f0_s + u1_3) * f0_s + u1_2) * f0_s + u1_1) * f0_s + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (((0.04819088_f32 * r_s + (0.14476734_f32 * mu_s - 0.13258924_f32)) * r_s + ((0.16987613_f32 * mu_s - 0.25505528_f32) * mu_s + 0.13650762_f32)) * r_s + (((-0.15071349_f32 * mu_s + 0.3788192_f32) * mu_s - 0.63145196_f32) * mu_s + 0.06552949_f32)) * r_s + ((((0.014057838_f32 * mu_s - 0.0321929_f32) * mu_s + 0.21039602_f32) * mu_s - 0.52171683_f32) * mu_s + 0.561164_f32);
+    let q1_0 = (((0.025032874_f32 * r_s + (0.013074199_f32 * mu_s - 0.015660882_f32)) * r_s + ((0.40919134_f32 * mu_s - 0.60868806_f32) * mu_s + 0.23997913_f32)) * r_s + (((-0.25694087_f32 * mu_s + 0.665238_f32) * mu_s - 0.84104913_f32) * mu_s + 0.337585_f32)) * r_s + ((((0.058009677_f32 * mu_s - 0.13952559_f32) * mu_s + 0.25173318_f32) * mu_s - 0.72470284_f32) * mu_s + 0.61521524_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((0.017298404_f32 * r_s + (-0.076852076_f32 * mu_s + 0.04517472_f32)) * r_s + ((0.050107043_f32 * mu_s - 0.26266512_f32) * mu_s + 0.18161014_f32)) * r_s + (((-1.9903803e-6_f32 * mu_s + 0.062784284_f32) * mu_s + 0.12307378_f32) * mu_s - 0.13390104_f32)) * r_s + ((((0.07933127_f32 * mu_s - 0.003947566_f32) * mu_s - 0.11400673_f32) * mu_s + 0.35006946_f32) * mu_s - 0.3237685_f32)) * r_s + (((((-0.027202515_f32 * mu_s + 0.09293901_f32) * mu_s + 0.037322704_f32) * mu_s - 0.117511086_f32) * mu_s - 0.008965695_f32) * mu_s + 0.00841785_f32);
+    let p2_0 = ((((0.020821_f32 * r_s + (-0.16498841_f32 * mu_s + 0.14539328_f32)) * r_s + ((-0.053605456_f32 * mu_s - 0.2656484_f32) * mu_s + 0.25382486_f32)) * r_s + (((0.08014346_f32 * mu_s - 0.05196976_f32) * mu_s + 0.43772802_f32) * mu_s - 0.37719882_f32)) * r_s + ((((0.03600157_f32 * mu_s + 0.21357395_f32) * mu_s - 0.034026682_f32) * mu_s + 0.22785164_f32) * mu_s - 0.46420246_f32)) * r_s + (((((-0.018967723_f32 * mu_s + 0.007793017_f32) * mu_s + 0.20006703_f32) * mu_s + 0.0072233253_f32) * mu_s - 0.35828418_f32) * mu_s + 0.12326408_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.8429516_f32;
-    let u2_1 = 0.13394795_f32;
-    let u2_2 = 0.14352892_f32;
-    let u2_3 = -0.01521835_f32;
-    let u2_4 = 0.011178513_f32;
+    let u2_0 = -0.8304814_f32;
+    let u2_1 = 0.060253236_f32;
+    let u2_2 = 0.052321043_f32;
+    let u2_3 = 0.010334179_f32;
+    let u2_4 = -0.0007986423_f32;
     let u2 = (((u2_4 * f0_s + u2_3) * f0_s + u2_2) * f0_s + u2_1) * f0_s + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (((-0.014376003_f32 * r_s + (0.25752535_f32 * mu_s - 0.14142452_f32)) * r_s + ((-0.069811136_f32 * mu_s - 0.0059679467_f32) * mu_s + 0.10521878_f32)) * r_s + (((0.24104531_f32 * mu_s - 0.62183_f32) * mu_s - 0.7709273_f32) * mu_s + 0.9695088_f32)) * r_s + ((((-0.17760324_f32 * mu_s + 0.34023726_f32) * mu_s - 0.17551026_f32) * mu_s - 0.9989423_f32) * mu_s + 1.1460198_f32);
+    let q2_0 = (((-0.004667329_f32 * r_s + (-0.025160076_f32 * mu_s + 0.054641854_f32)) * r_s + ((0.078481756_f32 * mu_s - 0.35145718_f32) * mu_s + 0.42717814_f32)) * r_s + (((0.07936832_f32 * mu_s - 0.6023716_f32) * mu_s - 1.1264609_f32) * mu_s + 1.3629336_f32)) * r_s + ((((3.9081937e-5_f32 * mu_s + 0.37344334_f32) * mu_s - 0.6591117_f32) * mu_s - 1.2806007_f32) * mu_s + 1.7869221_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((-0.00083445857_f32 * r_s + (0.054493558_f32 * mu_s - 0.050607953_f32)) * r_s + ((-0.050634697_f32 * mu_s + 0.16164872_f32) * mu_s - 0.11906722_f32)) * r_s + (((0.01164547_f32 * mu_s - 0.0058973795_f32) * mu_s - 0.14526959_f32) * mu_s + 0.12549607_f32)) * r_s + ((((0.0015800643_f32 * mu_s + 0.027689647_f32) * mu_s + 0.076520234_f32) * mu_s - 0.29520437_f32) * mu_s + 0.20449458_f32)) * r_s + (((((0.029277597_f32 * mu_s - 0.029089425_f32) * mu_s - 0.033914454_f32) * mu_s + 0.047964398_f32) * mu_s + 0.018791767_f32) * mu_s - 0.042714305_f32);
+    let p3_0 = ((((0.0042212433_f32 * r_s + (0.1521742_f32 * mu_s - 0.1083051_f32)) * r_s + ((0.033464998_f32 * mu_s - 0.04466041_f32) * mu_s + 0.012996481_f32)) * r_s + (((-0.10668452_f32 * mu_s + 0.14809877_f32) * mu_s - 0.3544563_f32) * mu_s + 0.18539852_f32)) * r_s + ((((0.04003594_f32 * mu_s - 0.08457845_f32) * mu_s - 0.030017354_f32) * mu_s + 0.020103915_f32) * mu_s - 0.00539005_f32)) * r_s + (((((0.0030079633_f32 * mu_s + 0.040315237_f32) * mu_s + 0.015621275_f32) * mu_s - 0.13513379_f32) * mu_s + 0.16543847_f32) * mu_s - 0.05422114_f32);
     let p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = 0.55141443_f32;
-    let u3_1 = 0.12877369_f32;
-    let u3_2 = 0.17684194_f32;
-    let u3_3 = -0.06048392_f32;
-    let u3_4 = 0.024840917_f32;
+    let u3_0 = 0.5723359_f32;
+    let u3_1 = 0.08590982_f32;
+    let u3_2 = 0.15143684_f32;
+    let u3_3 = -0.039038915_f32;
+    let u3_4 = 0.015978232_f32;
     let u3 = (((u3_4 * f0_s + u3_3) * f0_s + u3_2) * f0_s + u3_1) * f0_s + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = (((0.010500048_f32 * r_s + (0.060041282_f32 * mu_s - 0.16452327_f32)) * r_s + ((0.114316925_f32 * mu_s - 0.20393424_f32) * mu_s - 0.013447056_f32)) * r_s + (((0.040400002_f32 * mu_s - 0.09040512_f32) * mu_s - 0.18921106_f32) * mu_s + 0.49753457_f32)) * r_s + ((((-0.023039082_f32 * mu_s + 0.21041968_f32) * mu_s - 0.056732606_f32) * mu_s - 0.50485903_f32) * mu_s + 0.8014041_f32);
+    let q3_0 = (((-0.3003438_f32 * r_s + (-0.38244683_f32 * mu_s - 0.18490984_f32)) * r_s + ((0.866025_f32 * mu_s - 1.1905975_f32) * mu_s + 0.26293784_f32)) * r_s + (((-0.101037584_f32 * mu_s + 1.2649901_f32) * mu_s - 0.62089044_f32) * mu_s + 1.0716912_f32)) * r_s + ((((-0.13326758_f32 * mu_s - 0.015828568_f32) * mu_s + 0.79050654_f32) * mu_s - 0.29602367_f32) * mu_s + 1.2678386_f32);
     let q3 = q3_0;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms

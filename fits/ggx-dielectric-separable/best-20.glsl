@@ -16,16 +16,16 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD); the Lawson iterate of round 2 of 25, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-dielectric-separable/best-20.json (furnace 0.1.0), fit SHA-256 bb2578b45ba2f8e1e0d2b31d2218e121300b4f92d311f2b536f0bf46155d4da3.
+// Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD); the Lawson iterate of round 2 of 26, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-20.json (furnace 0.1.0), fit SHA-256 d30873222f5c4129c69c7e44f7ea572f096e6bc035ef5cb8a694252940cbb886.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-7, shifted 2.4e-7, bernstein 3.4e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 9.60e-3, max 5.04e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.79e-3, max 4.13e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.64e-7 (every op rounded, as this Rust), 2.32e-7 (fused multiply-add), 3.28e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.75e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 35 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 8.32e-3, max 5.04e-2; this f32 code MAE 8.32e-3, max 5.04e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-2 on the measurement grid.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-7, shifted 2.8e-7, bernstein 3.4e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 9.64e-3, max 5.06e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.83e-3, max 4.15e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.80e-7 (every op rounded, as this Rust), 2.18e-7 (fused multiply-add), 3.31e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.75e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 33 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 8.41e-3, max 5.06e-2; this f32 code MAE 8.41e-3, max 5.06e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-2 on the measurement grid.
 // Polynomial: no division.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
@@ -39,10 +39,10 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = ((0.5804138 * r_t + (-0.02462661 * mu_t - 0.7748747)) * r_t + ((-0.22344427 * mu_t + 1.1411753) * mu_t - 0.6924589)) * r_t + (((0.027061082 * mu_t + 0.14941004) * mu_t - 0.059629805) * mu_t + 0.8882947);
-    highp float p_1 = (-0.689818 * r_t + (-1.5234082 * mu_t + 1.8894938)) * r_t + ((0.22174111 * mu_t - 0.78440505) * mu_t + 0.58493906);
-    highp float p_2 = -0.63633925 * r_t + (0.9528385 * mu_t - 1.3739665);
-    highp float p_3 = 0.8091694;
+    highp float p_0 = ((0.58262455 * r_t + (-0.025502076 * mu_t - 0.77987266)) * r_t + ((-0.21927503 * mu_t + 1.1392027) * mu_t - 0.6883278)) * r_t + (((0.024701735 * mu_t + 0.15095535) * mu_t - 0.05942272) * mu_t + 0.8885344);
+    highp float p_1 = (-0.67962074 * r_t + (-1.5273312 * mu_t + 1.8670721)) * r_t + ((0.22460036 * mu_t - 0.7865661) * mu_t + 0.58014363);
+    highp float p_2 = -0.6082312 * r_t + (0.9525486 * mu_t - 1.3519396);
+    highp float p_3 = 0.7818103;
     highp float p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     highp float e = p;
     return max(min(e, 1.0), 0.0);

@@ -15,16 +15,16 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD); the Lawson iterate of round 2 of 25, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-dielectric-separable/best-20.json (furnace 0.1.0), fit SHA-256 bb2578b45ba2f8e1e0d2b31d2218e121300b4f92d311f2b536f0bf46155d4da3.
+// Fit: polynomial of degree 3, 20 coefficients (20 monomials); minimax objective, Lawson reweighting of linear least squares (Chebyshev basis, TSQR + SVD); the Lawson iterate of round 2 of 26, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-20.json (furnace 0.1.0), fit SHA-256 d30873222f5c4129c69c7e44f7ea572f096e6bc035ef5cb8a694252940cbb886.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-7, shifted 2.4e-7, bernstein 3.4e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 9.60e-3, max 5.04e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.79e-3, max 4.13e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.64e-7 (every op rounded, as this Rust), 2.32e-7 (fused multiply-add), 3.28e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.75e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 35 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 8.32e-3, max 5.04e-2; this f32 code MAE 8.32e-3, max 5.04e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.7e-2 on the measurement grid.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-7, shifted 2.8e-7, bernstein 3.4e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 9.64e-3, max 5.06e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 9.83e-3, max 4.15e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.80e-7 (every op rounded, as this Rust), 2.18e-7 (fused multiply-add), 3.31e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.75e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 33 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 8.41e-3, max 5.06e-2; this f32 code MAE 8.41e-3, max 5.06e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 2.6e-2 on the measurement grid.
 // Polynomial: no division.
 float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
@@ -38,10 +38,10 @@ float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((0.5804138f * r_t + (-0.02462661f * mu_t - 0.7748747f)) * r_t + ((-0.22344427f * mu_t + 1.1411753f) * mu_t - 0.6924589f)) * r_t + (((0.027061082f * mu_t + 0.14941004f) * mu_t - 0.059629805f) * mu_t + 0.8882947f);
-    float p_1 = (-0.689818f * r_t + (-1.5234082f * mu_t + 1.8894938f)) * r_t + ((0.22174111f * mu_t - 0.78440505f) * mu_t + 0.58493906f);
-    float p_2 = -0.63633925f * r_t + (0.9528385f * mu_t - 1.3739665f);
-    float p_3 = 0.8091694f;
+    float p_0 = ((0.58262455f * r_t + (-0.025502076f * mu_t - 0.77987266f)) * r_t + ((-0.21927503f * mu_t + 1.1392027f) * mu_t - 0.6883278f)) * r_t + (((0.024701735f * mu_t + 0.15095535f) * mu_t - 0.05942272f) * mu_t + 0.8885344f);
+    float p_1 = (-0.67962074f * r_t + (-1.5273312f * mu_t + 1.8670721f)) * r_t + ((0.22460036f * mu_t - 0.7865661f) * mu_t + 0.58014363f);
+    float p_2 = -0.6082312f * r_t + (0.9525486f * mu_t - 1.3519396f);
+    float p_3 = 0.7818103f;
     float p = ((p_3 * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     float e = p;
     return max(min(e, 1.0f), 0.0f);

@@ -15,17 +15,17 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/8) - 0.0125^(1/8))/(0.25^(1/8) - 0.0125^(1/8)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1.5*r*r) + 2^-100)/(mu + 1.5*r*r + 2^-100).
-// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 8eba44384ccece2f2669edb991537da37e0187881fff5439401d7bc503f64336.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.134x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-40.json (furnace 0.1.0), fit SHA-256 be31d698bd744d7ac0bd9e58449da64108d14662d8eff29bba40610549db20a2.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.0e-6, shifted 7.3e-7, bernstein 6.1e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.95e-3, max 1.15e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.98e-3, max 1.02e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.16e-6 (every op rounded, as this Rust), 9.49e-7 (fused multiply-add), 1.07e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 2.35e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1887 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.68e-3, max 1.15e-2; this f32 code MAE 2.68e-3, max 1.15e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-3 on the measurement grid.
-// Denominator proved >= 7.478e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.1e-7, shifted 7.3e-7, bernstein 5.9e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.96e-3, max 1.07e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.78e-3, max 9.81e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.31e-7 (every op rounded, as this Rust), 6.33e-7 (fused multiply-add), 7.41e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 2.32e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1827 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 2.95e-3, max 1.07e-2; this f32 code MAE 2.95e-3, max 1.07e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 8.4e-4 on the measurement grid.
+// Denominator proved >= 7.454e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -38,12 +38,12 @@ float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // t = (mu*(1 + 1.5*r*r) + 2^-100)/(mu + 1.5*r*r + 2^-100)
     float mu_t = (mu_c * (1.0f + 1.5f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.5f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((1.3847153f * r_t + (2.511699f * mu_t - 2.8701715f)) * r_t + ((1.4871862f * mu_t + 3.4391294f) * mu_t + 2.1943557f)) * r_t + (((6.313897f * mu_t - 7.260784f) * mu_t + 1.6903505f) * mu_t + 0.9366144f);
-    float p_1 = ((-2.885848f * r_t + (-1.2299104f * mu_t + 4.177865f)) * r_t + ((1.9646544f * mu_t - 3.5171685f) * mu_t + 0.8221295f)) * r_t + (((-0.073115915f * mu_t + 0.09682189f) * mu_t + 0.007117499f) * mu_t - 0.022108082f);
-    float p_2 = ((1.360101f * r_t + (-2.9319818f * mu_t - 0.56786f)) * r_t + ((-1.4126517f * mu_t + 2.798307f) * mu_t - 0.7628633f)) * r_t + (((0.027375007f * mu_t - 0.009514788f) * mu_t - 0.0507308f) * mu_t + 0.02631972f);
+    float p_0 = ((1.3756013f * r_t + (2.4541152f * mu_t - 2.8213303f)) * r_t + ((1.4565125f * mu_t + 3.4938226f) * mu_t + 2.1672509f)) * r_t + (((6.2320757f * mu_t - 7.139036f) * mu_t + 1.6268805f) * mu_t + 0.9458604f);
+    float p_1 = ((-2.6017435f * r_t + (-1.3898772f * mu_t + 3.9056091f)) * r_t + ((1.9207695f * mu_t - 3.467362f) * mu_t + 0.8463908f)) * r_t + (((-0.12716919f * mu_t + 0.12096881f) * mu_t + 0.041033458f) * mu_t - 0.03340176f);
+    float p_2 = ((1.0786718f * r_t + (-2.5089457f * mu_t - 0.4251304f)) * r_t + ((-1.4168267f * mu_t + 2.5779731f) * mu_t - 0.67131996f)) * r_t + (((0.058738593f * mu_t - 0.037720215f) * mu_t - 0.046393324f) * mu_t + 0.024313727f);
     float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = ((2.0333188f * r_t + (-2.8467445f * mu_t + 2.5689383f)) * r_t + ((2.4361417f * mu_t + 2.5914502f) * mu_t + 2.1244152f)) * r_t + (((6.854448f * mu_t - 8.2939205f) * mu_t + 2.117156f) * mu_t + 1.0f);
+    float q_0 = ((2.0342739f * r_t + (-2.8301253f * mu_t + 2.5872579f)) * r_t + ((2.3938534f * mu_t + 2.5567582f) * mu_t + 2.1374f)) * r_t + (((6.811322f * mu_t - 8.246859f) * mu_t + 2.101344f) * mu_t + 1.0f);
     float q = q_0;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

@@ -16,17 +16,17 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 1 of 11, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 62994645930e20d9bbe0d55821341b463836d5c12d2e0d0897b852cad314e8b5.
+// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.338x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 2a7f2e747e7f4854574a8ce39abfef3279abec653fe7650bcb9b10eef06f5525.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.3e-6, bernstein 4.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 5.50e-4, max 3.99e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.35e-4, max 3.49e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.43e-6 (every op rounded, as this Rust), 2.11e-6 (fused multiply-add), 2.01e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.44e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 9027 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.13e-4, max 3.99e-3; this f32 code MAE 5.13e-4, max 3.99e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.6e-4 on the measurement grid.
-// Denominator proved >= 9.491e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.2e-6, shifted 1.0e-6, bernstein 4.1e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 6.02e-4, max 2.15e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.78e-4, max 2.13e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.95e-6 (every op rounded, as this Rust), 2.64e-6 (fused multiply-add), 2.55e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.39e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 9627 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.70e-4, max 2.15e-3; this f32 code MAE 5.70e-4, max 2.15e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.9e-4 on the measurement grid.
+// Denominator proved >= 8.682e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -39,18 +39,18 @@ highp float ggx_dielectric_separable_albedo(highp float f0, highp float r, highp
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = (((1.6010329 * r_t + (5.3134766 * mu_t - 5.1356378)) * r_t + ((4.742528 * mu_t - 1.5870534) * mu_t + 7.593337)) * r_t + (((2.3034735 * mu_t - 20.586288) * mu_t + 20.765184) * mu_t - 4.2846603)) * r_t + ((((7.593393 * mu_t - 11.029002) * mu_t + 8.108045) * mu_t - 3.7342536) * mu_t + 0.92479575);
-    highp float p_1 = ((0.41366777 * r_t + (-24.481539 * mu_t - 4.052495)) * r_t + ((25.110685 * mu_t - 36.490604) * mu_t + 35.76306)) * r_t + (((-2.1905172 * mu_t + 24.587221) * mu_t - 42.012207) * mu_t + 25.738184);
-    highp float p_2 = (11.498116 * r_t + (10.434557 * mu_t - 25.459406)) * r_t + ((-22.851313 * mu_t + 70.88399) * mu_t - 66.78734);
-    highp float p_3 = 7.513987 * r_t + (-48.174156 * mu_t + 87.64881);
-    highp float p_4 = -41.60541;
+    highp float p_0 = (((1.358368 * r_t + (4.121629 * mu_t - 4.351694)) * r_t + ((3.126641 * mu_t - 0.6095244) * mu_t + 6.753635)) * r_t + (((2.7999709 * mu_t - 18.753027) * mu_t + 18.942217) * mu_t - 4.095091)) * r_t + ((((6.2766256 * mu_t - 9.107408) * mu_t + 7.1109614) * mu_t - 3.6049442) * mu_t + 0.93946147);
+    highp float p_1 = ((0.7206182 * r_t + (-18.515366 * mu_t - 7.9820104)) * r_t + ((23.67821 * mu_t - 38.50024) * mu_t + 37.280712)) * r_t + (((-3.345466 * mu_t + 23.100668) * mu_t - 36.679466) * mu_t + 22.662386);
+    highp float p_2 = (14.448433 * r_t + (11.519852 * mu_t - 29.667526)) * r_t + ((-19.037785 * mu_t + 58.97356) * mu_t - 58.92216);
+    highp float p_3 = 6.4814734 * r_t + (-41.44984 * mu_t + 80.74428);
+    highp float p_4 = -39.95621;
     highp float p = (((p_4 * f0_t + p_3) * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = (((3.2257607 * r_t + (-4.798776 * mu_t + 2.7961671)) * r_t + ((17.230299 * mu_t - 26.504242) * mu_t + 20.93811)) * r_t + (((-1.174302 * mu_t - 14.600066) * mu_t + 18.579939) * mu_t - 4.7492967)) * r_t + ((((8.722987 * mu_t - 13.173746) * mu_t + 9.273296) * mu_t - 3.9565244) * mu_t + 1.0);
-    highp float q_1 = ((5.7857943 * r_t + (-10.569114 * mu_t - 18.960371)) * r_t + ((20.561409 * mu_t - 31.004574) * mu_t + 35.300434)) * r_t + (((-1.3044823 * mu_t + 22.743351) * mu_t - 42.544716) * mu_t + 27.276789);
-    highp float q_2 = (19.39476 * r_t + (8.858702 * mu_t - 24.748747)) * r_t + ((-21.875647 * mu_t + 72.89411) * mu_t - 70.416405);
-    highp float q_3 = 6.919798 * r_t + (-50.508537 * mu_t + 91.990715);
-    highp float q_4 = -43.442997;
+    highp float q_0 = (((2.6029332 * r_t + (-4.669162 * mu_t + 2.6823056)) * r_t + ((14.790899 * mu_t - 23.876844) * mu_t + 19.08503)) * r_t + (((-0.54835325 * mu_t - 12.910638) * mu_t + 16.707928) * mu_t - 4.449878)) * r_t + ((((7.26301 * mu_t - 10.996385) * mu_t + 8.146835) * mu_t - 3.7932773) * mu_t + 1.0);
+    highp float q_1 = ((5.351668 * r_t + (-6.1326957 * mu_t - 20.389002)) * r_t + ((19.640713 * mu_t - 33.68719) * mu_t + 36.617844)) * r_t + (((-2.3701603 * mu_t + 21.152792) * mu_t - 37.19615) * mu_t + 24.14662);
+    highp float q_2 = (19.587261 * r_t + (10.300527 * mu_t - 28.539267)) * r_t + ((-18.129263 * mu_t + 61.321533) * mu_t - 62.49147);
+    highp float q_3 = 5.6973643 * r_t + (-44.27413 * mu_t + 84.857895);
+    highp float q_4 = -41.316605;
     highp float q = (((q_4 * f0_t + q_3) * f0_t + q_2) * f0_t + q_1) * f0_t + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

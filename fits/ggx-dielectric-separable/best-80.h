@@ -28,17 +28,17 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = sqrt(f0).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
-// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the Lawson iterate of round 1 of 11, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.3x the least-squares start's.
-// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 62994645930e20d9bbe0d55821341b463836d5c12d2e0d0897b852cad314e8b5.
+// Fit: rational of degree 4/4, 69 coefficients (numerator 35, denominator 34 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.338x the least-squares start's.
+// Source: fits/ggx-dielectric-separable/best-80.json (furnace 0.1.0), fit SHA-256 2a7f2e747e7f4854574a8ce39abfef3279abec653fe7650bcb9b10eef06f5525.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.3e-6, bernstein 4.6e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 5.50e-4, max 3.99e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.35e-4, max 3.49e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.43e-6 (every op rounded, as this Rust), 2.11e-6 (fused multiply-add), 2.01e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.44e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 9027 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.13e-4, max 3.99e-3; this f32 code MAE 5.13e-4, max 3.99e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.6e-4 on the measurement grid.
-// Denominator proved >= 9.491e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.2e-6, shifted 1.0e-6, bernstein 4.1e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 6.02e-4, max 2.15e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.78e-4, max 2.13e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.95e-6 (every op rounded, as this Rust), 2.64e-6 (fused multiply-add), 2.55e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.39e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 9627 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric-separable/128x128x128 (output clamp applied): f64 MAE 5.70e-4, max 2.15e-3; this f32 code MAE 5.70e-4, max 2.15e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.9e-4 on the measurement grid.
+// Denominator proved >= 8.682e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -51,18 +51,18 @@ FURNACE_FN float ggx_dielectric_separable_albedo(float f0, float r, float mu) {
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     const float mu_t = (mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    const float p_0 = (((1.6010329f * r_t + (5.3134766f * mu_t - 5.1356378f)) * r_t + ((4.742528f * mu_t - 1.5870534f) * mu_t + 7.593337f)) * r_t + (((2.3034735f * mu_t - 20.586288f) * mu_t + 20.765184f) * mu_t - 4.2846603f)) * r_t + ((((7.593393f * mu_t - 11.029002f) * mu_t + 8.108045f) * mu_t - 3.7342536f) * mu_t + 0.92479575f);
-    const float p_1 = ((0.41366777f * r_t + (-24.481539f * mu_t - 4.052495f)) * r_t + ((25.110685f * mu_t - 36.490604f) * mu_t + 35.76306f)) * r_t + (((-2.1905172f * mu_t + 24.587221f) * mu_t - 42.012207f) * mu_t + 25.738184f);
-    const float p_2 = (11.498116f * r_t + (10.434557f * mu_t - 25.459406f)) * r_t + ((-22.851313f * mu_t + 70.88399f) * mu_t - 66.78734f);
-    const float p_3 = 7.513987f * r_t + (-48.174156f * mu_t + 87.64881f);
-    const float p_4 = -41.60541f;
+    const float p_0 = (((1.358368f * r_t + (4.121629f * mu_t - 4.351694f)) * r_t + ((3.126641f * mu_t - 0.6095244f) * mu_t + 6.753635f)) * r_t + (((2.7999709f * mu_t - 18.753027f) * mu_t + 18.942217f) * mu_t - 4.095091f)) * r_t + ((((6.2766256f * mu_t - 9.107408f) * mu_t + 7.1109614f) * mu_t - 3.6049442f) * mu_t + 0.93946147f);
+    const float p_1 = ((0.7206182f * r_t + (-18.515366f * mu_t - 7.9820104f)) * r_t + ((23.67821f * mu_t - 38.50024f) * mu_t + 37.280712f)) * r_t + (((-3.345466f * mu_t + 23.100668f) * mu_t - 36.679466f) * mu_t + 22.662386f);
+    const float p_2 = (14.448433f * r_t + (11.519852f * mu_t - 29.667526f)) * r_t + ((-19.037785f * mu_t + 58.97356f) * mu_t - 58.92216f);
+    const float p_3 = 6.4814734f * r_t + (-41.44984f * mu_t + 80.74428f);
+    const float p_4 = -39.95621f;
     const float p = (((p_4 * f0_t + p_3) * f0_t + p_2) * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = (((3.2257607f * r_t + (-4.798776f * mu_t + 2.7961671f)) * r_t + ((17.230299f * mu_t - 26.504242f) * mu_t + 20.93811f)) * r_t + (((-1.174302f * mu_t - 14.600066f) * mu_t + 18.579939f) * mu_t - 4.7492967f)) * r_t + ((((8.722987f * mu_t - 13.173746f) * mu_t + 9.273296f) * mu_t - 3.9565244f) * mu_t + 1.0f);
-    const float q_1 = ((5.7857943f * r_t + (-10.569114f * mu_t - 18.960371f)) * r_t + ((20.561409f * mu_t - 31.004574f) * mu_t + 35.300434f)) * r_t + (((-1.3044823f * mu_t + 22.743351f) * mu_t - 42.544716f) * mu_t + 27.276789f);
-    const float q_2 = (19.39476f * r_t + (8.858702f * mu_t - 24.748747f)) * r_t + ((-21.875647f * mu_t + 72.89411f) * mu_t - 70.416405f);
-    const float q_3 = 6.919798f * r_t + (-50.508537f * mu_t + 91.990715f);
-    const float q_4 = -43.442997f;
+    const float q_0 = (((2.6029332f * r_t + (-4.669162f * mu_t + 2.6823056f)) * r_t + ((14.790899f * mu_t - 23.876844f) * mu_t + 19.08503f)) * r_t + (((-0.54835325f * mu_t - 12.910638f) * mu_t + 16.707928f) * mu_t - 4.449878f)) * r_t + ((((7.26301f * mu_t - 10.996385f) * mu_t + 8.146835f) * mu_t - 3.7932773f) * mu_t + 1.0f);
+    const float q_1 = ((5.351668f * r_t + (-6.1326957f * mu_t - 20.389002f)) * r_t + ((19.640713f * mu_t - 33.68719f) * mu_t + 36.617844f)) * r_t + (((-2.3701603f * mu_t + 21.152792f) * mu_t - 37.19615f) * mu_t + 24.14662f);
+    const float q_2 = (19.587261f * r_t + (10.300527f * mu_t - 28.539267f)) * r_t + ((-18.129263f * mu_t + 61.321533f) * mu_t - 62.49147f);
+    const float q_3 = 5.6973643f * r_t + (-44.27413f * mu_t + 84.857895f);
+    const float q_4 = -41.316605f;
     const float q = (((q_4 * f0_t + q_3) * f0_t + q_2) * f0_t + q_1) * f0_t + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

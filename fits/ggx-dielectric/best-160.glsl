@@ -15,18 +15,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.498x the least-squares start's.
-// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 b586b7894feac5c989a0d72c2a672a76cacbf3f59d7279e0fff03e7b477634d2.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 8, its MAE there 1.325x the least-squares start's.
+// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 ff8082b2780708b1491222d29a9b7fcbcce4e00d13413beba4fd924207cf180f.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.3e-6, shifted 2.6e-6, bernstein 2.5e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.28e-5, max 7.39e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.48e-5, max 5.93e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.55e-7 (every op rounded, as this Rust), 7.25e-7 (fused multiply-add), 3.32e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.32e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6459 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.12e-5, max 7.39e-4; this f32 code MAE 8.12e-5, max 7.39e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
-// Denominator proved >= 6.359e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.3e-6, shifted 3.2e-6, bernstein 2.9e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.17e-5, max 5.71e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.31e-5, max 5.48e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.22e-7 (every op rounded, as this Rust), 7.22e-7 (fused multiply-add), 3.77e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 9.16e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 10949 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.08e-5, max 5.71e-4; this f32 code MAE 8.08e-5, max 5.71e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.7e-4 on the measurement grid.
+// Denominator proved >= 5.572e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -36,14 +36,14 @@ highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu)
     // t = square(r)
     highp float r_t = r_c * r_c;
     highp float mu_c = max(min(mu, 1.0), 0.0);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     highp float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20)))));
     highp float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0 + mu_c))));
-    highp float mu_logv = (mu_c + 2.5 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 2.5 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
-    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    highp float mu_t = (mu_logv * (1.0 + 1.5 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.5 * (r_c * r_c) + 7.888609e-31);
-    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
-    highp float mu_u = (mu_t - 5.259073e-31) * 1.0;
+    highp float mu_logv = (mu_c + 3.0 * (r_c * r_c * (r_c * r_c)) * (16.0 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0 + 3.0 * (r_c * r_c * (r_c * r_c)) * 0.7083805);
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    highp float mu_t = (mu_logv * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.0 * (r_c * r_c) + 7.888609e-31);
+    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
+    highp float mu_u = (mu_t - 7.888609e-31) * 1.0;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     highp float r_b5_v = 1.0 - r_t;
     highp float r_b5_u2 = r_t * r_t;
@@ -73,12 +73,12 @@ highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu)
     highp float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     highp float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    highp float p0_0_0 = 1.0162344 * mu_b5_v5 + 4.4736357 * mu_b5_b1 + 3.9708667 * mu_b5_b2 + 5.9722705 * mu_b5_b3 + 2.5582027 * mu_b5_b4 + 1.2185494 * mu_b5_u5;
-    highp float p0_0_1 = 8.129941 * mu_b5_v5 + 47.83675 * mu_b5_b1 + 71.79555 * mu_b5_b2 + 77.865555 * mu_b5_b3 + 35.29779 * mu_b5_b4 + 10.116731 * mu_b5_u5;
-    highp float p0_0_2 = 16.577013 * mu_b5_v5 + 102.450066 * mu_b5_b1 + 140.98352 * mu_b5_b2 + 136.67961 * mu_b5_b3 + 57.219017 * mu_b5_b4 + 16.841404 * mu_b5_u5;
-    highp float p0_0_3 = 15.580376 * mu_b5_v5 + 98.793976 * mu_b5_b1 + 117.00543 * mu_b5_b2 + 100.22544 * mu_b5_b3 + 37.986958 * mu_b5_b4 + 12.744862 * mu_b5_u5;
-    highp float p0_0_4 = 7.033678 * mu_b5_v5 + 48.0007 * mu_b5_b1 + 51.870888 * mu_b5_b2 + 41.410206 * mu_b5_b3 + 15.372893 * mu_b5_b4 + 5.4623127 * mu_b5_u5;
-    highp float p0_0_5 = 0.98975754 * mu_b5_v5 + 8.659418 * mu_b5_b1 + 8.755791 * mu_b5_b2 + 6.702567 * mu_b5_b3 + 2.231108 * mu_b5_b4 + 0.7338227 * mu_b5_u5;
+    highp float p0_0_0 = 0.9907336 * mu_b5_v5 + 4.50676 * mu_b5_b1 + 5.4644012 * mu_b5_b2 + 2.748234 * mu_b5_b3 + 1.911116 * mu_b5_b4 + 0.78355795 * mu_b5_u5;
+    highp float p0_0_1 = 5.5027137 * mu_b5_v5 + 32.36199 * mu_b5_b1 + 59.539516 * mu_b5_b2 + 50.72739 * mu_b5_b3 + 26.111626 * mu_b5_b4 + 6.425979 * mu_b5_u5;
+    highp float p0_0_2 = 7.209148 * mu_b5_v5 + 47.8622 * mu_b5_b1 + 95.2542 * mu_b5_b2 + 80.467445 * mu_b5_b3 + 38.594547 * mu_b5_b4 + 9.45126 * mu_b5_u5;
+    highp float p0_0_3 = 7.3390045 * mu_b5_v5 + 42.696487 * mu_b5_b1 + 84.86336 * mu_b5_b2 + 68.521545 * mu_b5_b3 + 29.900345 * mu_b5_b4 + 7.6076803 * mu_b5_u5;
+    highp float p0_0_4 = 4.828456 * mu_b5_v5 + 22.71726 * mu_b5_b1 + 43.580032 * mu_b5_b2 + 34.37543 * mu_b5_b3 + 14.084312 * mu_b5_b4 + 3.761617 * mu_b5_u5;
+    highp float p0_0_5 = 0.99012965 * mu_b5_v5 + 4.045295 * mu_b5_b1 + 7.930865 * mu_b5_b2 + 6.377271 * mu_b5_b3 + 2.5955553 * mu_b5_b4 + 0.7662853 * mu_b5_u5;
     highp float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     highp float p0 = p0_0 * 1.0;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -93,15 +93,15 @@ highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu)
     highp float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     highp float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    highp float u0_0_0 = 0.97053736 * 1.0;
+    highp float u0_0_0 = 1.0254667 * 1.0;
     highp float u0_0 = u0_0_0 * 1.0;
-    highp float u0_1_0 = 3.8348455 * 1.0;
+    highp float u0_1_0 = 3.9952197 * 1.0;
     highp float u0_1 = u0_1_0 * 1.0;
-    highp float u0_2_0 = 5.6900406 * 1.0;
+    highp float u0_2_0 = 5.8857417 * 1.0;
     highp float u0_2 = u0_2_0 * 1.0;
-    highp float u0_3_0 = 3.7498703 * 1.0;
+    highp float u0_3_0 = 3.8524761 * 1.0;
     highp float u0_3 = u0_3_0 * 1.0;
-    highp float u0_4_0 = 0.923711 * 1.0;
+    highp float u0_4_0 = 0.94163924 * 1.0;
     highp float u0_4 = u0_4_0 * 1.0;
     highp float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -127,101 +127,101 @@ highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu)
     highp float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     highp float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q0_0_0 = 1.0 * mu_b4_v4 + 3.145864 * mu_b4_b1 + 3.0277724 * mu_b4_b2 + 1.6133788 * mu_b4_b3 + 1.0877806 * mu_b4_u4;
-    highp float q0_0_1 = 6.259094 * mu_b4_v4 + 24.364012 * mu_b4_b1 + 31.635311 * mu_b4_b2 + 20.71224 * mu_b4_b3 + 8.607087 * mu_b4_u4;
-    highp float q0_0_2 = 7.840843 * mu_b4_v4 + 34.89055 * mu_b4_b1 + 45.500614 * mu_b4_b2 + 28.212233 * mu_b4_b3 + 11.899182 * mu_b4_u4;
-    highp float q0_0_3 = 5.855884 * mu_b4_v4 + 29.793024 * mu_b4_b1 + 40.059025 * mu_b4_b2 + 22.690931 * mu_b4_b3 + 7.9942884 * mu_b4_u4;
-    highp float q0_0_4 = 0.8819122 * mu_b4_v4 + 6.55173 * mu_b4_b1 + 8.812605 * mu_b4_b2 + 4.0086665 * mu_b4_b3 + 1.2221894 * mu_b4_u4;
+    highp float q0_0_0 = 1.0 * mu_b4_v4 + 3.0348456 * mu_b4_b1 + 2.960446 * mu_b4_b2 + 1.0842955 * mu_b4_b3 + 0.7390577 * mu_b4_u4;
+    highp float q0_0_1 = 3.7665906 * mu_b4_v4 + 16.690815 * mu_b4_b1 + 26.29477 * mu_b4_b2 + 16.579062 * mu_b4_b3 + 5.529967 * mu_b4_u4;
+    highp float q0_0_2 = 2.8900478 * mu_b4_v4 + 15.517546 * mu_b4_b1 + 28.587652 * mu_b4_b2 + 17.562033 * mu_b4_b3 + 5.084053 * mu_b4_u4;
+    highp float q0_0_3 = 3.345769 * mu_b4_v4 + 14.631535 * mu_b4_b1 + 25.528627 * mu_b4_b2 + 15.389021 * mu_b4_b3 + 3.4676077 * mu_b4_u4;
+    highp float q0_0_4 = 0.8874868 * mu_b4_v4 + 3.4306586 * mu_b4_b1 + 6.266349 * mu_b4_b2 + 3.982453 * mu_b4_b3 + 0.8396384 * mu_b4_u4;
     highp float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     highp float q0 = q0_0 * 1.0;
     highp float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    highp float p1_0_0 = 0.09647274 * mu_b5_v5 + 0.8781565 * mu_b5_b1 + 1.8363549 * mu_b5_b2 + 1.8992183 * mu_b5_b3 + 1.4951116 * mu_b5_b4 + 0.2723391 * mu_b5_u5;
-    highp float p1_0_1 = 0.32235637 * mu_b5_v5 + 3.7656176 * mu_b5_b1 + 2.8573322 * mu_b5_b2 - 0.65418893 * mu_b5_b3 + 2.8361342 * mu_b5_b4 + 1.0132675 * mu_b5_u5;
-    highp float p1_0_2 = 1.6231837 * mu_b5_v5 + 30.35185 * mu_b5_b1 + 46.0422 * mu_b5_b2 + 16.295033 * mu_b5_b3 + 3.0634584 * mu_b5_b4 + 0.29970416 * mu_b5_u5;
-    highp float p1_0_3 = 3.0062795 * mu_b5_v5 + 62.874084 * mu_b5_b1 + 101.52118 * mu_b5_b2 + 35.60485 * mu_b5_b3 - 4.8035355 * mu_b5_b4 - 2.5372617 * mu_b5_u5;
-    highp float p1_0_4 = 2.0858004 * mu_b5_v5 + 47.109856 * mu_b5_b1 + 72.78821 * mu_b5_b2 + 17.970425 * mu_b5_b3 - 9.98224 * mu_b5_b4 - 2.079637 * mu_b5_u5;
-    highp float p1_0_5 = 0.44026604 * mu_b5_v5 + 11.517384 * mu_b5_b1 + 15.922695 * mu_b5_b2 + 0.84846216 * mu_b5_b3 - 3.639044 * mu_b5_b4 - 0.020154685 * mu_b5_u5;
+    highp float p1_0_0 = -0.100235224 * mu_b5_v5 - 1.2671572 * mu_b5_b1 - 3.4528759 * mu_b5_b2 - 1.189188 * mu_b5_b3 - 1.333978 * mu_b5_b4 - 0.18649799 * mu_b5_u5;
+    highp float p1_0_1 = -0.42865333 * mu_b5_v5 - 6.642797 * mu_b5_b1 - 17.679926 * mu_b5_b2 - 2.9096415 * mu_b5_b3 - 3.1889262 * mu_b5_b4 - 0.52383894 * mu_b5_u5;
+    highp float p1_0_2 = -1.439365 * mu_b5_v5 - 23.955368 * mu_b5_b1 - 57.802166 * mu_b5_b2 - 15.907312 * mu_b5_b3 - 3.4910116 * mu_b5_b4 - 0.42740592 * mu_b5_u5;
+    highp float p1_0_3 = -3.2819247 * mu_b5_v5 - 43.536903 * mu_b5_b1 - 95.06496 * mu_b5_b2 - 33.981644 * mu_b5_b3 - 1.459892 * mu_b5_b4 + 0.15423128 * mu_b5_u5;
+    highp float p1_0_4 = -2.3732774 * mu_b5_v5 - 31.044527 * mu_b5_b1 - 63.443554 * mu_b5_b2 - 21.26076 * mu_b5_b3 + 2.7730558 * mu_b5_b4 + 0.4827412 * mu_b5_u5;
+    highp float p1_0_5 = -0.4314861 * mu_b5_v5 - 7.233282 * mu_b5_b1 - 14.245575 * mu_b5_b2 - 3.7578387 * mu_b5_b3 + 1.4509529 * mu_b5_b4 + 0.009258602 * mu_b5_u5;
     highp float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     highp float p1 = p1_0 * 1.0;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    highp float u1_0_0 = -0.30203885 * 1.0;
+    highp float u1_0_0 = 1.0438017 * 1.0;
     highp float u1_0 = u1_0_0 * 1.0;
-    highp float u1_1_0 = -0.9333914 * 1.0;
+    highp float u1_1_0 = 3.288948 * 1.0;
     highp float u1_1 = u1_1_0 * 1.0;
-    highp float u1_2_0 = -0.67660177 * 1.0;
+    highp float u1_2_0 = 4.006849 * 1.0;
     highp float u1_2 = u1_2_0 * 1.0;
-    highp float u1_3_0 = 0.09384288 * 1.0;
+    highp float u1_3_0 = 1.9863466 * 1.0;
     highp float u1_3 = u1_3_0 * 1.0;
-    highp float u1_4_0 = 0.22160204 * 1.0;
+    highp float u1_4_0 = 0.26811206 * 1.0;
     highp float u1_4 = u1_4_0 * 1.0;
     highp float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q1_0_0 = 1.0 * mu_b4_v4 + 8.657395 * mu_b4_b1 + 12.777618 * mu_b4_b2 + 11.822208 * mu_b4_b3 + 2.8701522 * mu_b4_u4;
-    highp float q1_0_1 = 2.2953598 * mu_b4_v4 + 24.631987 * mu_b4_b1 + 24.508755 * mu_b4_b2 + 24.226818 * mu_b4_b3 + 6.7273555 * mu_b4_u4;
-    highp float q1_0_2 = 14.7501335 * mu_b4_v4 + 83.40107 * mu_b4_b1 + 86.67938 * mu_b4_b2 + 52.492626 * mu_b4_b3 + 11.473177 * mu_b4_u4;
-    highp float q1_0_3 = 16.922028 * mu_b4_v4 + 90.77715 * mu_b4_b1 + 98.8201 * mu_b4_b2 + 46.855076 * mu_b4_b3 + 6.5627637 * mu_b4_u4;
-    highp float q1_0_4 = 4.584057 * mu_b4_v4 + 27.817883 * mu_b4_b1 + 30.57267 * mu_b4_b2 + 11.23427 * mu_b4_b3 + 0.0635934 * mu_b4_u4;
+    highp float q1_0_0 = 1.0 * mu_b4_v4 + 10.146837 * mu_b4_b1 + 15.406089 * mu_b4_b2 + 9.346714 * mu_b4_b3 + 1.6139945 * mu_b4_u4;
+    highp float q1_0_1 = 1.9089038 * mu_b4_v4 + 22.525576 * mu_b4_b1 + 27.681719 * mu_b4_b2 + 16.782152 * mu_b4_b3 + 3.8232336 * mu_b4_u4;
+    highp float q1_0_2 = 10.376444 * mu_b4_v4 + 58.246944 * mu_b4_b1 + 65.37644 * mu_b4_b2 + 31.747025 * mu_b4_b3 + 5.400272 * mu_b4_u4;
+    highp float q1_0_3 = 13.90726 * mu_b4_v4 + 72.697105 * mu_b4_b1 + 89.62336 * mu_b4_b2 + 41.063553 * mu_b4_b3 + 4.336163 * mu_b4_u4;
+    highp float q1_0_4 = 3.3771415 * mu_b4_v4 + 22.578583 * mu_b4_b1 + 30.147078 * mu_b4_b2 + 12.501656 * mu_b4_b3 + 0.082551576 * mu_b4_u4;
     highp float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     highp float q1 = q1_0 * 1.0;
     highp float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    highp float p2_0_0 = -0.040102724 * mu_b5_v5 + 0.19178766 * mu_b5_b1 - 0.8368772 * mu_b5_b2 + 0.8980312 * mu_b5_b3 - 0.29945505 * mu_b5_b4 + 0.025050469 * mu_b5_u5;
-    highp float p2_0_1 = 0.013297097 * mu_b5_v5 + 6.639678 * mu_b5_b1 + 7.817308 * mu_b5_b2 + 14.143945 * mu_b5_b3 + 1.1073527 * mu_b5_b4 - 0.38914356 * mu_b5_u5;
-    highp float p2_0_2 = 1.037497 * mu_b5_v5 + 12.012423 * mu_b5_b1 - 3.0034528 * mu_b5_b2 + 1.2439462 * mu_b5_b3 - 10.784769 * mu_b5_b4 - 3.094051 * mu_b5_u5;
-    highp float p2_0_3 = 2.1864839 * mu_b5_v5 + 9.269218 * mu_b5_b1 - 22.321037 * mu_b5_b2 - 17.630522 * mu_b5_b3 - 12.002251 * mu_b5_b4 - 0.86245686 * mu_b5_u5;
-    highp float p2_0_4 = -0.7849974 * mu_b5_v5 - 7.257294 * mu_b5_b1 - 38.61929 * mu_b5_b2 - 33.073166 * mu_b5_b3 - 12.668819 * mu_b5_b4 - 0.2861219 * mu_b5_u5;
-    highp float p2_0_5 = 0.06027567 * mu_b5_v5 - 0.72368246 * mu_b5_b1 - 7.4792933 * mu_b5_b2 - 6.9680166 * mu_b5_b3 - 2.619848 * mu_b5_b4 - 0.055862263 * mu_b5_u5;
+    highp float p2_0_0 = -0.059720945 * mu_b5_v5 + 0.15936998 * mu_b5_b1 - 0.3311102 * mu_b5_b2 + 0.023527486 * mu_b5_b3 - 0.05245887 * mu_b5_b4 - 0.0125570595 * mu_b5_u5;
+    highp float p2_0_1 = -0.014399631 * mu_b5_v5 + 2.129311 * mu_b5_b1 + 1.7390658 * mu_b5_b2 + 2.8733425 * mu_b5_b3 + 0.08808306 * mu_b5_b4 - 0.12175231 * mu_b5_u5;
+    highp float p2_0_2 = -0.5481625 * mu_b5_v5 - 2.428023 * mu_b5_b1 - 8.782222 * mu_b5_b2 - 3.2182052 * mu_b5_b3 - 2.8943217 * mu_b5_b4 - 0.4421736 * mu_b5_u5;
+    highp float p2_0_3 = 0.6349877 * mu_b5_v5 - 5.034402 * mu_b5_b1 - 15.181289 * mu_b5_b2 - 4.614906 * mu_b5_b3 - 0.6037936 * mu_b5_b4 + 0.63551784 * mu_b5_u5;
+    highp float p2_0_4 = -0.0063240924 * mu_b5_v5 - 10.156501 * mu_b5_b1 - 24.154806 * mu_b5_b2 - 15.51656 * mu_b5_b3 - 4.8517375 * mu_b5_b4 - 0.2716546 * mu_b5_u5;
+    highp float p2_0_5 = -0.019475564 * mu_b5_v5 - 3.4434626 * mu_b5_b1 - 7.672714 * mu_b5_b2 - 4.8164725 * mu_b5_b3 - 1.2062068 * mu_b5_b4 - 0.02483068 * mu_b5_u5;
     highp float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     highp float p2 = p2_0 * 1.0;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    highp float u2_0_0 = -0.9296301 * 1.0;
+    highp float u2_0_0 = -0.6654204 * 1.0;
     highp float u2_0 = u2_0_0 * 1.0;
-    highp float u2_1_0 = -4.2776785 * 1.0;
+    highp float u2_1_0 = -3.2169888 * 1.0;
     highp float u2_1 = u2_1_0 * 1.0;
-    highp float u2_2_0 = -6.4291754 * 1.0;
+    highp float u2_2_0 = -4.8174977 * 1.0;
     highp float u2_2 = u2_2_0 * 1.0;
-    highp float u2_3_0 = -4.059894 * 1.0;
+    highp float u2_3_0 = -2.8652062 * 1.0;
     highp float u2_3 = u2_3_0 * 1.0;
-    highp float u2_4_0 = -0.84883404 * 1.0;
+    highp float u2_4_0 = -0.48381108 * 1.0;
     highp float u2_4 = u2_4_0 * 1.0;
     highp float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q2_0_0 = 1.0 * mu_b4_v4 + 3.1782312 * mu_b4_b1 + 1.95995 * mu_b4_b2 + 1.4936684 * mu_b4_b3 + 1.4911876 * mu_b4_u4;
-    highp float q2_0_1 = 9.532073 * mu_b4_v4 + 27.309004 * mu_b4_b1 + 27.448544 * mu_b4_b2 + 18.75498 * mu_b4_b3 + 8.200319 * mu_b4_u4;
-    highp float q2_0_2 = 22.492985 * mu_b4_v4 + 65.57639 * mu_b4_b1 + 65.12582 * mu_b4_b2 + 27.813456 * mu_b4_b3 + 4.446476 * mu_b4_u4;
-    highp float q2_0_3 = 20.114452 * mu_b4_v4 + 71.77271 * mu_b4_b1 + 86.89965 * mu_b4_b2 + 37.041092 * mu_b4_b3 + 0.9166609 * mu_b4_u4;
-    highp float q2_0_4 = 3.3283787 * mu_b4_v4 + 19.026451 * mu_b4_b1 + 30.311459 * mu_b4_b2 + 15.188303 * mu_b4_b3 + 0.35415503 * mu_b4_u4;
+    highp float q2_0_0 = 1.0 * mu_b4_v4 + 1.7742529 * mu_b4_b1 + 0.52079743 * mu_b4_b2 + 0.24143761 * mu_b4_b3 + 0.42773446 * mu_b4_u4;
+    highp float q2_0_1 = 6.0190024 * mu_b4_v4 + 14.26842 * mu_b4_b1 + 11.008988 * mu_b4_b2 + 5.2373643 * mu_b4_b3 + 2.2091594 * mu_b4_u4;
+    highp float q2_0_2 = 11.335267 * mu_b4_v4 + 34.744442 * mu_b4_b1 + 31.760975 * mu_b4_b2 + 7.3400064 * mu_b4_b3 - 1.4147475 * mu_b4_u4;
+    highp float q2_0_3 = 11.138746 * mu_b4_v4 + 48.383926 * mu_b4_b1 + 61.236748 * mu_b4_b2 + 23.541805 * mu_b4_b3 - 0.71839595 * mu_b4_u4;
+    highp float q2_0_4 = 3.281436 * mu_b4_v4 + 19.969473 * mu_b4_b1 + 30.717693 * mu_b4_b2 + 15.033546 * mu_b4_b3 + 0.9367315 * mu_b4_u4;
     highp float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     highp float q2 = q2_0 * 1.0;
     highp float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    highp float p3_0_0 = -0.004851262 * mu_b5_v5 + 0.17766273 * mu_b5_b1 - 0.12758593 * mu_b5_b2 + 0.7648201 * mu_b5_b3 - 0.0711408 * mu_b5_b4 + 0.060724724 * mu_b5_u5;
-    highp float p3_0_1 = 0.2536607 * mu_b5_v5 + 5.711465 * mu_b5_b1 + 5.338416 * mu_b5_b2 + 6.9932933 * mu_b5_b3 + 0.9939476 * mu_b5_b4 - 0.08480599 * mu_b5_u5;
-    highp float p3_0_2 = 0.15675429 * mu_b5_v5 + 13.606451 * mu_b5_b1 + 3.6325378 * mu_b5_b2 + 0.33906865 * mu_b5_b3 - 3.612769 * mu_b5_b4 - 1.7011411 * mu_b5_u5;
-    highp float p3_0_3 = 0.96919835 * mu_b5_v5 + 21.764172 * mu_b5_b1 + 8.877133 * mu_b5_b2 + 0.63552034 * mu_b5_b3 - 0.11042441 * mu_b5_b4 - 0.59592897 * mu_b5_u5;
-    highp float p3_0_4 = -0.012470674 * mu_b5_v5 + 11.07795 * mu_b5_b1 - 0.3110576 * mu_b5_b2 - 6.738531 * mu_b5_b3 - 1.6128336 * mu_b5_b4 - 0.24185269 * mu_b5_u5;
-    highp float p3_0_5 = 0.06286549 * mu_b5_v5 + 3.1178882 * mu_b5_b1 + 0.44126692 * mu_b5_b2 - 1.8005339 * mu_b5_b3 - 0.4488055 * mu_b5_b4 - 0.055241913 * mu_b5_u5;
+    highp float p3_0_0 = -0.07487691 * mu_b5_v5 + 0.3004217 * mu_b5_b1 - 0.3112007 * mu_b5_b2 - 0.2965515 * mu_b5_b3 - 0.010486786 * mu_b5_b4 - 0.0036552635 * mu_b5_u5;
+    highp float p3_0_1 = 0.25886703 * mu_b5_v5 + 4.4095097 * mu_b5_b1 + 2.5587726 * mu_b5_b2 + 0.4495594 * mu_b5_b3 + 0.0025651809 * mu_b5_b4 - 0.054967515 * mu_b5_u5;
+    highp float p3_0_2 = 0.008026247 * mu_b5_v5 + 6.258319 * mu_b5_b1 + 0.8220442 * mu_b5_b2 - 2.1289618 * mu_b5_b3 - 0.7160967 * mu_b5_b4 - 0.04758968 * mu_b5_u5;
+    highp float p3_0_3 = 0.20560399 * mu_b5_v5 + 5.209762 * mu_b5_b1 - 1.2624727 * mu_b5_b2 - 2.332558 * mu_b5_b3 + 0.090840176 * mu_b5_b4 + 0.124560915 * mu_b5_u5;
+    highp float p3_0_4 = 0.3909611 * mu_b5_v5 + 1.9157977 * mu_b5_b1 - 2.5985756 * mu_b5_b2 - 2.065018 * mu_b5_b3 + 0.024177747 * mu_b5_b4 - 0.050319515 * mu_b5_u5;
+    highp float p3_0_5 = 0.057786323 * mu_b5_v5 - 0.15399888 * mu_b5_b1 - 1.4025629 * mu_b5_b2 - 0.62606394 * mu_b5_b3 + 0.1949234 * mu_b5_b4 + 0.02698904 * mu_b5_u5;
     highp float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     highp float p3 = p3_0 * 1.0;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    highp float u3_0_0 = -1.196201 * 1.0;
+    highp float u3_0_0 = -0.6537632 * 1.0;
     highp float u3_0 = u3_0_0 * 1.0;
-    highp float u3_1_0 = -3.732997 * 1.0;
+    highp float u3_1_0 = -2.3478787 * 1.0;
     highp float u3_1 = u3_1_0 * 1.0;
-    highp float u3_2_0 = -5.6556067 * 1.0;
+    highp float u3_2_0 = -3.8100486 * 1.0;
     highp float u3_2 = u3_2_0 * 1.0;
-    highp float u3_3_0 = -3.9752557 * 1.0;
+    highp float u3_3_0 = -2.8509183 * 1.0;
     highp float u3_3 = u3_3_0 * 1.0;
-    highp float u3_4_0 = -1.1577096 * 1.0;
+    highp float u3_4_0 = -0.8640732 * 1.0;
     highp float u3_4 = u3_4_0 * 1.0;
     highp float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q3_0_0 = 1.0 * mu_b4_v4 + 5.5136786 * mu_b4_b1 + 7.77073 * mu_b4_b2 + 4.251388 * mu_b4_b3 + 1.6942191 * mu_b4_u4;
-    highp float q3_0_1 = 2.8764992 * mu_b4_v4 + 15.325624 * mu_b4_b1 + 20.095743 * mu_b4_b2 + 13.475571 * mu_b4_b3 + 8.628482 * mu_b4_u4;
-    highp float q3_0_2 = 5.552222 * mu_b4_v4 + 24.114697 * mu_b4_b1 + 17.955091 * mu_b4_b2 + 1.5340728 * mu_b4_b3 + 6.3407497 * mu_b4_u4;
-    highp float q3_0_3 = 6.940413 * mu_b4_v4 + 33.663815 * mu_b4_b1 + 31.98281 * mu_b4_b2 + 3.9929864 * mu_b4_b3 + 1.5331093 * mu_b4_u4;
-    highp float q3_0_4 = 1.7220893 * mu_b4_v4 + 13.1906595 * mu_b4_b1 + 17.097124 * mu_b4_b2 + 5.512693 * mu_b4_b3 + 0.5840212 * mu_b4_u4;
+    highp float q3_0_0 = 1.0 * mu_b4_v4 + 2.4713907 * mu_b4_b1 + 2.5596545 * mu_b4_b2 + 0.32175344 * mu_b4_b3 + 0.17118807 * mu_b4_u4;
+    highp float q3_0_1 = 3.1714053 * mu_b4_v4 + 10.033551 * mu_b4_b1 + 13.612902 * mu_b4_b2 + 3.4159515 * mu_b4_b3 + 0.41598934 * mu_b4_u4;
+    highp float q3_0_2 = 3.1097286 * mu_b4_v4 + 10.370661 * mu_b4_b1 + 17.116997 * mu_b4_b2 + 4.67677 * mu_b4_b3 + 0.4468956 * mu_b4_u4;
+    highp float q3_0_3 = 3.1468213 * mu_b4_v4 + 7.4709573 * mu_b4_b1 + 9.81861 * mu_b4_b2 + 1.6942444 * mu_b4_b3 - 0.049436424 * mu_b4_u4;
+    highp float q3_0_4 = 2.5934765 * mu_b4_v4 + 6.2023716 * mu_b4_b1 + 6.064732 * mu_b4_b2 + 1.6515862 * mu_b4_b3 + 0.13344777 * mu_b4_u4;
     highp float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     highp float q3 = q3_0 * 1.0;
     highp float e3 = p3 * u3 / q3;

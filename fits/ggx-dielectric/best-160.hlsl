@@ -14,18 +14,18 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.498x the least-squares start's.
-// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 b586b7894feac5c989a0d72c2a672a76cacbf3f59d7279e0fff03e7b477634d2.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 8, its MAE there 1.325x the least-squares start's.
+// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 ff8082b2780708b1491222d29a9b7fcbcce4e00d13413beba4fd924207cf180f.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.3e-6, shifted 2.6e-6, bernstein 2.5e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.28e-5, max 7.39e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.48e-5, max 5.93e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.55e-7 (every op rounded, as this Rust), 7.25e-7 (fused multiply-add), 3.32e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.32e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6459 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.12e-5, max 7.39e-4; this f32 code MAE 8.12e-5, max 7.39e-4.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
-// Denominator proved >= 6.359e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.3e-6, shifted 3.2e-6, bernstein 2.9e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 8.17e-5, max 5.71e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.31e-5, max 5.48e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.22e-7 (every op rounded, as this Rust), 7.22e-7 (fused multiply-add), 3.77e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 9.16e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 10949 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.08e-5, max 5.71e-4; this f32 code MAE 8.08e-5, max 5.71e-4.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.7e-4 on the measurement grid.
+// Denominator proved >= 5.572e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -35,14 +35,14 @@ float ggx_dielectric_albedo(float f0, float r, float mu) {
     // t = square(r)
     float r_t = r_c * r_c;
     float mu_c = max(min(mu, 1.0f), 0.0f);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     float mu_logs = sqrt(sqrt(sqrt(sqrt(max(mu_c, 5.421011e-20f)))));
     float mu_logq = sqrt(sqrt(sqrt(sqrt(1.0f + mu_c))));
-    float mu_logv = (mu_c + 2.5f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 2.5f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
-    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    float mu_t = (mu_logv * (1.0f + 1.5f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.5f * (r_c * r_c) + 7.888609e-31f);
-    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
-    float mu_u = (mu_t - 5.259073e-31f) * 1.0f;
+    float mu_logv = (mu_c + 3.0f * (r_c * r_c * (r_c * r_c)) * (16.0f * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0f + 3.0f * (r_c * r_c * (r_c * r_c)) * 0.7083805f);
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    float mu_t = (mu_logv * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.0f * (r_c * r_c) + 7.888609e-31f);
+    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
+    float mu_u = (mu_t - 7.888609e-31f) * 1.0f;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     float r_b5_v = 1.0f - r_t;
     float r_b5_u2 = r_t * r_t;
@@ -72,12 +72,12 @@ float ggx_dielectric_albedo(float f0, float r, float mu) {
     float mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     float mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    float p0_0_0 = 1.0162344f * mu_b5_v5 + 4.4736357f * mu_b5_b1 + 3.9708667f * mu_b5_b2 + 5.9722705f * mu_b5_b3 + 2.5582027f * mu_b5_b4 + 1.2185494f * mu_b5_u5;
-    float p0_0_1 = 8.129941f * mu_b5_v5 + 47.83675f * mu_b5_b1 + 71.79555f * mu_b5_b2 + 77.865555f * mu_b5_b3 + 35.29779f * mu_b5_b4 + 10.116731f * mu_b5_u5;
-    float p0_0_2 = 16.577013f * mu_b5_v5 + 102.450066f * mu_b5_b1 + 140.98352f * mu_b5_b2 + 136.67961f * mu_b5_b3 + 57.219017f * mu_b5_b4 + 16.841404f * mu_b5_u5;
-    float p0_0_3 = 15.580376f * mu_b5_v5 + 98.793976f * mu_b5_b1 + 117.00543f * mu_b5_b2 + 100.22544f * mu_b5_b3 + 37.986958f * mu_b5_b4 + 12.744862f * mu_b5_u5;
-    float p0_0_4 = 7.033678f * mu_b5_v5 + 48.0007f * mu_b5_b1 + 51.870888f * mu_b5_b2 + 41.410206f * mu_b5_b3 + 15.372893f * mu_b5_b4 + 5.4623127f * mu_b5_u5;
-    float p0_0_5 = 0.98975754f * mu_b5_v5 + 8.659418f * mu_b5_b1 + 8.755791f * mu_b5_b2 + 6.702567f * mu_b5_b3 + 2.231108f * mu_b5_b4 + 0.7338227f * mu_b5_u5;
+    float p0_0_0 = 0.9907336f * mu_b5_v5 + 4.50676f * mu_b5_b1 + 5.4644012f * mu_b5_b2 + 2.748234f * mu_b5_b3 + 1.911116f * mu_b5_b4 + 0.78355795f * mu_b5_u5;
+    float p0_0_1 = 5.5027137f * mu_b5_v5 + 32.36199f * mu_b5_b1 + 59.539516f * mu_b5_b2 + 50.72739f * mu_b5_b3 + 26.111626f * mu_b5_b4 + 6.425979f * mu_b5_u5;
+    float p0_0_2 = 7.209148f * mu_b5_v5 + 47.8622f * mu_b5_b1 + 95.2542f * mu_b5_b2 + 80.467445f * mu_b5_b3 + 38.594547f * mu_b5_b4 + 9.45126f * mu_b5_u5;
+    float p0_0_3 = 7.3390045f * mu_b5_v5 + 42.696487f * mu_b5_b1 + 84.86336f * mu_b5_b2 + 68.521545f * mu_b5_b3 + 29.900345f * mu_b5_b4 + 7.6076803f * mu_b5_u5;
+    float p0_0_4 = 4.828456f * mu_b5_v5 + 22.71726f * mu_b5_b1 + 43.580032f * mu_b5_b2 + 34.37543f * mu_b5_b3 + 14.084312f * mu_b5_b4 + 3.761617f * mu_b5_u5;
+    float p0_0_5 = 0.99012965f * mu_b5_v5 + 4.045295f * mu_b5_b1 + 7.930865f * mu_b5_b2 + 6.377271f * mu_b5_b3 + 2.5955553f * mu_b5_b4 + 0.7662853f * mu_b5_u5;
     float p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     float p0 = p0_0 * 1.0f;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -92,15 +92,15 @@ float ggx_dielectric_albedo(float f0, float r, float mu) {
     float f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     float f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    float u0_0_0 = 0.97053736f * 1.0f;
+    float u0_0_0 = 1.0254667f * 1.0f;
     float u0_0 = u0_0_0 * 1.0f;
-    float u0_1_0 = 3.8348455f * 1.0f;
+    float u0_1_0 = 3.9952197f * 1.0f;
     float u0_1 = u0_1_0 * 1.0f;
-    float u0_2_0 = 5.6900406f * 1.0f;
+    float u0_2_0 = 5.8857417f * 1.0f;
     float u0_2 = u0_2_0 * 1.0f;
-    float u0_3_0 = 3.7498703f * 1.0f;
+    float u0_3_0 = 3.8524761f * 1.0f;
     float u0_3 = u0_3_0 * 1.0f;
-    float u0_4_0 = 0.923711f * 1.0f;
+    float u0_4_0 = 0.94163924f * 1.0f;
     float u0_4 = u0_4_0 * 1.0f;
     float u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -126,101 +126,101 @@ float ggx_dielectric_albedo(float f0, float r, float mu) {
     float mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     float mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q0_0_0 = 1.0f * mu_b4_v4 + 3.145864f * mu_b4_b1 + 3.0277724f * mu_b4_b2 + 1.6133788f * mu_b4_b3 + 1.0877806f * mu_b4_u4;
-    float q0_0_1 = 6.259094f * mu_b4_v4 + 24.364012f * mu_b4_b1 + 31.635311f * mu_b4_b2 + 20.71224f * mu_b4_b3 + 8.607087f * mu_b4_u4;
-    float q0_0_2 = 7.840843f * mu_b4_v4 + 34.89055f * mu_b4_b1 + 45.500614f * mu_b4_b2 + 28.212233f * mu_b4_b3 + 11.899182f * mu_b4_u4;
-    float q0_0_3 = 5.855884f * mu_b4_v4 + 29.793024f * mu_b4_b1 + 40.059025f * mu_b4_b2 + 22.690931f * mu_b4_b3 + 7.9942884f * mu_b4_u4;
-    float q0_0_4 = 0.8819122f * mu_b4_v4 + 6.55173f * mu_b4_b1 + 8.812605f * mu_b4_b2 + 4.0086665f * mu_b4_b3 + 1.2221894f * mu_b4_u4;
+    float q0_0_0 = 1.0f * mu_b4_v4 + 3.0348456f * mu_b4_b1 + 2.960446f * mu_b4_b2 + 1.0842955f * mu_b4_b3 + 0.7390577f * mu_b4_u4;
+    float q0_0_1 = 3.7665906f * mu_b4_v4 + 16.690815f * mu_b4_b1 + 26.29477f * mu_b4_b2 + 16.579062f * mu_b4_b3 + 5.529967f * mu_b4_u4;
+    float q0_0_2 = 2.8900478f * mu_b4_v4 + 15.517546f * mu_b4_b1 + 28.587652f * mu_b4_b2 + 17.562033f * mu_b4_b3 + 5.084053f * mu_b4_u4;
+    float q0_0_3 = 3.345769f * mu_b4_v4 + 14.631535f * mu_b4_b1 + 25.528627f * mu_b4_b2 + 15.389021f * mu_b4_b3 + 3.4676077f * mu_b4_u4;
+    float q0_0_4 = 0.8874868f * mu_b4_v4 + 3.4306586f * mu_b4_b1 + 6.266349f * mu_b4_b2 + 3.982453f * mu_b4_b3 + 0.8396384f * mu_b4_u4;
     float q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     float q0 = q0_0 * 1.0f;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    float p1_0_0 = 0.09647274f * mu_b5_v5 + 0.8781565f * mu_b5_b1 + 1.8363549f * mu_b5_b2 + 1.8992183f * mu_b5_b3 + 1.4951116f * mu_b5_b4 + 0.2723391f * mu_b5_u5;
-    float p1_0_1 = 0.32235637f * mu_b5_v5 + 3.7656176f * mu_b5_b1 + 2.8573322f * mu_b5_b2 - 0.65418893f * mu_b5_b3 + 2.8361342f * mu_b5_b4 + 1.0132675f * mu_b5_u5;
-    float p1_0_2 = 1.6231837f * mu_b5_v5 + 30.35185f * mu_b5_b1 + 46.0422f * mu_b5_b2 + 16.295033f * mu_b5_b3 + 3.0634584f * mu_b5_b4 + 0.29970416f * mu_b5_u5;
-    float p1_0_3 = 3.0062795f * mu_b5_v5 + 62.874084f * mu_b5_b1 + 101.52118f * mu_b5_b2 + 35.60485f * mu_b5_b3 - 4.8035355f * mu_b5_b4 - 2.5372617f * mu_b5_u5;
-    float p1_0_4 = 2.0858004f * mu_b5_v5 + 47.109856f * mu_b5_b1 + 72.78821f * mu_b5_b2 + 17.970425f * mu_b5_b3 - 9.98224f * mu_b5_b4 - 2.079637f * mu_b5_u5;
-    float p1_0_5 = 0.44026604f * mu_b5_v5 + 11.517384f * mu_b5_b1 + 15.922695f * mu_b5_b2 + 0.84846216f * mu_b5_b3 - 3.639044f * mu_b5_b4 - 0.020154685f * mu_b5_u5;
+    float p1_0_0 = -0.100235224f * mu_b5_v5 - 1.2671572f * mu_b5_b1 - 3.4528759f * mu_b5_b2 - 1.189188f * mu_b5_b3 - 1.333978f * mu_b5_b4 - 0.18649799f * mu_b5_u5;
+    float p1_0_1 = -0.42865333f * mu_b5_v5 - 6.642797f * mu_b5_b1 - 17.679926f * mu_b5_b2 - 2.9096415f * mu_b5_b3 - 3.1889262f * mu_b5_b4 - 0.52383894f * mu_b5_u5;
+    float p1_0_2 = -1.439365f * mu_b5_v5 - 23.955368f * mu_b5_b1 - 57.802166f * mu_b5_b2 - 15.907312f * mu_b5_b3 - 3.4910116f * mu_b5_b4 - 0.42740592f * mu_b5_u5;
+    float p1_0_3 = -3.2819247f * mu_b5_v5 - 43.536903f * mu_b5_b1 - 95.06496f * mu_b5_b2 - 33.981644f * mu_b5_b3 - 1.459892f * mu_b5_b4 + 0.15423128f * mu_b5_u5;
+    float p1_0_4 = -2.3732774f * mu_b5_v5 - 31.044527f * mu_b5_b1 - 63.443554f * mu_b5_b2 - 21.26076f * mu_b5_b3 + 2.7730558f * mu_b5_b4 + 0.4827412f * mu_b5_u5;
+    float p1_0_5 = -0.4314861f * mu_b5_v5 - 7.233282f * mu_b5_b1 - 14.245575f * mu_b5_b2 - 3.7578387f * mu_b5_b3 + 1.4509529f * mu_b5_b4 + 0.009258602f * mu_b5_u5;
     float p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     float p1 = p1_0 * 1.0f;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    float u1_0_0 = -0.30203885f * 1.0f;
+    float u1_0_0 = 1.0438017f * 1.0f;
     float u1_0 = u1_0_0 * 1.0f;
-    float u1_1_0 = -0.9333914f * 1.0f;
+    float u1_1_0 = 3.288948f * 1.0f;
     float u1_1 = u1_1_0 * 1.0f;
-    float u1_2_0 = -0.67660177f * 1.0f;
+    float u1_2_0 = 4.006849f * 1.0f;
     float u1_2 = u1_2_0 * 1.0f;
-    float u1_3_0 = 0.09384288f * 1.0f;
+    float u1_3_0 = 1.9863466f * 1.0f;
     float u1_3 = u1_3_0 * 1.0f;
-    float u1_4_0 = 0.22160204f * 1.0f;
+    float u1_4_0 = 0.26811206f * 1.0f;
     float u1_4 = u1_4_0 * 1.0f;
     float u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q1_0_0 = 1.0f * mu_b4_v4 + 8.657395f * mu_b4_b1 + 12.777618f * mu_b4_b2 + 11.822208f * mu_b4_b3 + 2.8701522f * mu_b4_u4;
-    float q1_0_1 = 2.2953598f * mu_b4_v4 + 24.631987f * mu_b4_b1 + 24.508755f * mu_b4_b2 + 24.226818f * mu_b4_b3 + 6.7273555f * mu_b4_u4;
-    float q1_0_2 = 14.7501335f * mu_b4_v4 + 83.40107f * mu_b4_b1 + 86.67938f * mu_b4_b2 + 52.492626f * mu_b4_b3 + 11.473177f * mu_b4_u4;
-    float q1_0_3 = 16.922028f * mu_b4_v4 + 90.77715f * mu_b4_b1 + 98.8201f * mu_b4_b2 + 46.855076f * mu_b4_b3 + 6.5627637f * mu_b4_u4;
-    float q1_0_4 = 4.584057f * mu_b4_v4 + 27.817883f * mu_b4_b1 + 30.57267f * mu_b4_b2 + 11.23427f * mu_b4_b3 + 0.0635934f * mu_b4_u4;
+    float q1_0_0 = 1.0f * mu_b4_v4 + 10.146837f * mu_b4_b1 + 15.406089f * mu_b4_b2 + 9.346714f * mu_b4_b3 + 1.6139945f * mu_b4_u4;
+    float q1_0_1 = 1.9089038f * mu_b4_v4 + 22.525576f * mu_b4_b1 + 27.681719f * mu_b4_b2 + 16.782152f * mu_b4_b3 + 3.8232336f * mu_b4_u4;
+    float q1_0_2 = 10.376444f * mu_b4_v4 + 58.246944f * mu_b4_b1 + 65.37644f * mu_b4_b2 + 31.747025f * mu_b4_b3 + 5.400272f * mu_b4_u4;
+    float q1_0_3 = 13.90726f * mu_b4_v4 + 72.697105f * mu_b4_b1 + 89.62336f * mu_b4_b2 + 41.063553f * mu_b4_b3 + 4.336163f * mu_b4_u4;
+    float q1_0_4 = 3.3771415f * mu_b4_v4 + 22.578583f * mu_b4_b1 + 30.147078f * mu_b4_b2 + 12.501656f * mu_b4_b3 + 0.082551576f * mu_b4_u4;
     float q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     float q1 = q1_0 * 1.0f;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    float p2_0_0 = -0.040102724f * mu_b5_v5 + 0.19178766f * mu_b5_b1 - 0.8368772f * mu_b5_b2 + 0.8980312f * mu_b5_b3 - 0.29945505f * mu_b5_b4 + 0.025050469f * mu_b5_u5;
-    float p2_0_1 = 0.013297097f * mu_b5_v5 + 6.639678f * mu_b5_b1 + 7.817308f * mu_b5_b2 + 14.143945f * mu_b5_b3 + 1.1073527f * mu_b5_b4 - 0.38914356f * mu_b5_u5;
-    float p2_0_2 = 1.037497f * mu_b5_v5 + 12.012423f * mu_b5_b1 - 3.0034528f * mu_b5_b2 + 1.2439462f * mu_b5_b3 - 10.784769f * mu_b5_b4 - 3.094051f * mu_b5_u5;
-    float p2_0_3 = 2.1864839f * mu_b5_v5 + 9.269218f * mu_b5_b1 - 22.321037f * mu_b5_b2 - 17.630522f * mu_b5_b3 - 12.002251f * mu_b5_b4 - 0.86245686f * mu_b5_u5;
-    float p2_0_4 = -0.7849974f * mu_b5_v5 - 7.257294f * mu_b5_b1 - 38.61929f * mu_b5_b2 - 33.073166f * mu_b5_b3 - 12.668819f * mu_b5_b4 - 0.2861219f * mu_b5_u5;
-    float p2_0_5 = 0.06027567f * mu_b5_v5 - 0.72368246f * mu_b5_b1 - 7.4792933f * mu_b5_b2 - 6.9680166f * mu_b5_b3 - 2.619848f * mu_b5_b4 - 0.055862263f * mu_b5_u5;
+    float p2_0_0 = -0.059720945f * mu_b5_v5 + 0.15936998f * mu_b5_b1 - 0.3311102f * mu_b5_b2 + 0.023527486f * mu_b5_b3 - 0.05245887f * mu_b5_b4 - 0.0125570595f * mu_b5_u5;
+    float p2_0_1 = -0.014399631f * mu_b5_v5 + 2.129311f * mu_b5_b1 + 1.7390658f * mu_b5_b2 + 2.8733425f * mu_b5_b3 + 0.08808306f * mu_b5_b4 - 0.12175231f * mu_b5_u5;
+    float p2_0_2 = -0.5481625f * mu_b5_v5 - 2.428023f * mu_b5_b1 - 8.782222f * mu_b5_b2 - 3.2182052f * mu_b5_b3 - 2.8943217f * mu_b5_b4 - 0.4421736f * mu_b5_u5;
+    float p2_0_3 = 0.6349877f * mu_b5_v5 - 5.034402f * mu_b5_b1 - 15.181289f * mu_b5_b2 - 4.614906f * mu_b5_b3 - 0.6037936f * mu_b5_b4 + 0.63551784f * mu_b5_u5;
+    float p2_0_4 = -0.0063240924f * mu_b5_v5 - 10.156501f * mu_b5_b1 - 24.154806f * mu_b5_b2 - 15.51656f * mu_b5_b3 - 4.8517375f * mu_b5_b4 - 0.2716546f * mu_b5_u5;
+    float p2_0_5 = -0.019475564f * mu_b5_v5 - 3.4434626f * mu_b5_b1 - 7.672714f * mu_b5_b2 - 4.8164725f * mu_b5_b3 - 1.2062068f * mu_b5_b4 - 0.02483068f * mu_b5_u5;
     float p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     float p2 = p2_0 * 1.0f;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    float u2_0_0 = -0.9296301f * 1.0f;
+    float u2_0_0 = -0.6654204f * 1.0f;
     float u2_0 = u2_0_0 * 1.0f;
-    float u2_1_0 = -4.2776785f * 1.0f;
+    float u2_1_0 = -3.2169888f * 1.0f;
     float u2_1 = u2_1_0 * 1.0f;
-    float u2_2_0 = -6.4291754f * 1.0f;
+    float u2_2_0 = -4.8174977f * 1.0f;
     float u2_2 = u2_2_0 * 1.0f;
-    float u2_3_0 = -4.059894f * 1.0f;
+    float u2_3_0 = -2.8652062f * 1.0f;
     float u2_3 = u2_3_0 * 1.0f;
-    float u2_4_0 = -0.84883404f * 1.0f;
+    float u2_4_0 = -0.48381108f * 1.0f;
     float u2_4 = u2_4_0 * 1.0f;
     float u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q2_0_0 = 1.0f * mu_b4_v4 + 3.1782312f * mu_b4_b1 + 1.95995f * mu_b4_b2 + 1.4936684f * mu_b4_b3 + 1.4911876f * mu_b4_u4;
-    float q2_0_1 = 9.532073f * mu_b4_v4 + 27.309004f * mu_b4_b1 + 27.448544f * mu_b4_b2 + 18.75498f * mu_b4_b3 + 8.200319f * mu_b4_u4;
-    float q2_0_2 = 22.492985f * mu_b4_v4 + 65.57639f * mu_b4_b1 + 65.12582f * mu_b4_b2 + 27.813456f * mu_b4_b3 + 4.446476f * mu_b4_u4;
-    float q2_0_3 = 20.114452f * mu_b4_v4 + 71.77271f * mu_b4_b1 + 86.89965f * mu_b4_b2 + 37.041092f * mu_b4_b3 + 0.9166609f * mu_b4_u4;
-    float q2_0_4 = 3.3283787f * mu_b4_v4 + 19.026451f * mu_b4_b1 + 30.311459f * mu_b4_b2 + 15.188303f * mu_b4_b3 + 0.35415503f * mu_b4_u4;
+    float q2_0_0 = 1.0f * mu_b4_v4 + 1.7742529f * mu_b4_b1 + 0.52079743f * mu_b4_b2 + 0.24143761f * mu_b4_b3 + 0.42773446f * mu_b4_u4;
+    float q2_0_1 = 6.0190024f * mu_b4_v4 + 14.26842f * mu_b4_b1 + 11.008988f * mu_b4_b2 + 5.2373643f * mu_b4_b3 + 2.2091594f * mu_b4_u4;
+    float q2_0_2 = 11.335267f * mu_b4_v4 + 34.744442f * mu_b4_b1 + 31.760975f * mu_b4_b2 + 7.3400064f * mu_b4_b3 - 1.4147475f * mu_b4_u4;
+    float q2_0_3 = 11.138746f * mu_b4_v4 + 48.383926f * mu_b4_b1 + 61.236748f * mu_b4_b2 + 23.541805f * mu_b4_b3 - 0.71839595f * mu_b4_u4;
+    float q2_0_4 = 3.281436f * mu_b4_v4 + 19.969473f * mu_b4_b1 + 30.717693f * mu_b4_b2 + 15.033546f * mu_b4_b3 + 0.9367315f * mu_b4_u4;
     float q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     float q2 = q2_0 * 1.0f;
     float e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    float p3_0_0 = -0.004851262f * mu_b5_v5 + 0.17766273f * mu_b5_b1 - 0.12758593f * mu_b5_b2 + 0.7648201f * mu_b5_b3 - 0.0711408f * mu_b5_b4 + 0.060724724f * mu_b5_u5;
-    float p3_0_1 = 0.2536607f * mu_b5_v5 + 5.711465f * mu_b5_b1 + 5.338416f * mu_b5_b2 + 6.9932933f * mu_b5_b3 + 0.9939476f * mu_b5_b4 - 0.08480599f * mu_b5_u5;
-    float p3_0_2 = 0.15675429f * mu_b5_v5 + 13.606451f * mu_b5_b1 + 3.6325378f * mu_b5_b2 + 0.33906865f * mu_b5_b3 - 3.612769f * mu_b5_b4 - 1.7011411f * mu_b5_u5;
-    float p3_0_3 = 0.96919835f * mu_b5_v5 + 21.764172f * mu_b5_b1 + 8.877133f * mu_b5_b2 + 0.63552034f * mu_b5_b3 - 0.11042441f * mu_b5_b4 - 0.59592897f * mu_b5_u5;
-    float p3_0_4 = -0.012470674f * mu_b5_v5 + 11.07795f * mu_b5_b1 - 0.3110576f * mu_b5_b2 - 6.738531f * mu_b5_b3 - 1.6128336f * mu_b5_b4 - 0.24185269f * mu_b5_u5;
-    float p3_0_5 = 0.06286549f * mu_b5_v5 + 3.1178882f * mu_b5_b1 + 0.44126692f * mu_b5_b2 - 1.8005339f * mu_b5_b3 - 0.4488055f * mu_b5_b4 - 0.055241913f * mu_b5_u5;
+    float p3_0_0 = -0.07487691f * mu_b5_v5 + 0.3004217f * mu_b5_b1 - 0.3112007f * mu_b5_b2 - 0.2965515f * mu_b5_b3 - 0.010486786f * mu_b5_b4 - 0.0036552635f * mu_b5_u5;
+    float p3_0_1 = 0.25886703f * mu_b5_v5 + 4.4095097f * mu_b5_b1 + 2.5587726f * mu_b5_b2 + 0.4495594f * mu_b5_b3 + 0.0025651809f * mu_b5_b4 - 0.054967515f * mu_b5_u5;
+    float p3_0_2 = 0.008026247f * mu_b5_v5 + 6.258319f * mu_b5_b1 + 0.8220442f * mu_b5_b2 - 2.1289618f * mu_b5_b3 - 0.7160967f * mu_b5_b4 - 0.04758968f * mu_b5_u5;
+    float p3_0_3 = 0.20560399f * mu_b5_v5 + 5.209762f * mu_b5_b1 - 1.2624727f * mu_b5_b2 - 2.332558f * mu_b5_b3 + 0.090840176f * mu_b5_b4 + 0.124560915f * mu_b5_u5;
+    float p3_0_4 = 0.3909611f * mu_b5_v5 + 1.9157977f * mu_b5_b1 - 2.5985756f * mu_b5_b2 - 2.065018f * mu_b5_b3 + 0.024177747f * mu_b5_b4 - 0.050319515f * mu_b5_u5;
+    float p3_0_5 = 0.057786323f * mu_b5_v5 - 0.15399888f * mu_b5_b1 - 1.4025629f * mu_b5_b2 - 0.62606394f * mu_b5_b3 + 0.1949234f * mu_b5_b4 + 0.02698904f * mu_b5_u5;
     float p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     float p3 = p3_0 * 1.0f;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    float u3_0_0 = -1.196201f * 1.0f;
+    float u3_0_0 = -0.6537632f * 1.0f;
     float u3_0 = u3_0_0 * 1.0f;
-    float u3_1_0 = -3.732997f * 1.0f;
+    float u3_1_0 = -2.3478787f * 1.0f;
     float u3_1 = u3_1_0 * 1.0f;
-    float u3_2_0 = -5.6556067f * 1.0f;
+    float u3_2_0 = -3.8100486f * 1.0f;
     float u3_2 = u3_2_0 * 1.0f;
-    float u3_3_0 = -3.9752557f * 1.0f;
+    float u3_3_0 = -2.8509183f * 1.0f;
     float u3_3 = u3_3_0 * 1.0f;
-    float u3_4_0 = -1.1577096f * 1.0f;
+    float u3_4_0 = -0.8640732f * 1.0f;
     float u3_4 = u3_4_0 * 1.0f;
     float u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    float q3_0_0 = 1.0f * mu_b4_v4 + 5.5136786f * mu_b4_b1 + 7.77073f * mu_b4_b2 + 4.251388f * mu_b4_b3 + 1.6942191f * mu_b4_u4;
-    float q3_0_1 = 2.8764992f * mu_b4_v4 + 15.325624f * mu_b4_b1 + 20.095743f * mu_b4_b2 + 13.475571f * mu_b4_b3 + 8.628482f * mu_b4_u4;
-    float q3_0_2 = 5.552222f * mu_b4_v4 + 24.114697f * mu_b4_b1 + 17.955091f * mu_b4_b2 + 1.5340728f * mu_b4_b3 + 6.3407497f * mu_b4_u4;
-    float q3_0_3 = 6.940413f * mu_b4_v4 + 33.663815f * mu_b4_b1 + 31.98281f * mu_b4_b2 + 3.9929864f * mu_b4_b3 + 1.5331093f * mu_b4_u4;
-    float q3_0_4 = 1.7220893f * mu_b4_v4 + 13.1906595f * mu_b4_b1 + 17.097124f * mu_b4_b2 + 5.512693f * mu_b4_b3 + 0.5840212f * mu_b4_u4;
+    float q3_0_0 = 1.0f * mu_b4_v4 + 2.4713907f * mu_b4_b1 + 2.5596545f * mu_b4_b2 + 0.32175344f * mu_b4_b3 + 0.17118807f * mu_b4_u4;
+    float q3_0_1 = 3.1714053f * mu_b4_v4 + 10.033551f * mu_b4_b1 + 13.612902f * mu_b4_b2 + 3.4159515f * mu_b4_b3 + 0.41598934f * mu_b4_u4;
+    float q3_0_2 = 3.1097286f * mu_b4_v4 + 10.370661f * mu_b4_b1 + 17.116997f * mu_b4_b2 + 4.67677f * mu_b4_b3 + 0.4468956f * mu_b4_u4;
+    float q3_0_3 = 3.1468213f * mu_b4_v4 + 7.4709573f * mu_b4_b1 + 9.81861f * mu_b4_b2 + 1.6942444f * mu_b4_b3 - 0.049436424f * mu_b4_u4;
+    float q3_0_4 = 2.5934765f * mu_b4_v4 + 6.2023716f * mu_b4_b1 + 6.064732f * mu_b4_b2 + 1.6515862f * mu_b4_b3 + 0.13344777f * mu_b4_u4;
     float q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     float q3 = q3_0 * 1.0f;
     float e3 = p3 * u3 / q3;

@@ -12,18 +12,18 @@
 /// Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 ///   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
-///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 6 (step 4 of the polish), its MAE on the fitting points 1.498x the least-squares start's.
-/// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 b586b7894feac5c989a0d72c2a672a76cacbf3f59d7279e0fff03e7b477634d2.
+///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 4], 160 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 8, its MAE there 1.325x the least-squares start's.
+/// Source: fits/ggx-dielectric/best-160.json (furnace 0.1.0), fit SHA-256 ff8082b2780708b1491222d29a9b7fcbcce4e00d13413beba4fd924207cf180f.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.3e-6, shifted 2.6e-6, bernstein 2.5e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 8.28e-5, max 7.39e-4 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.48e-5, max 5.93e-4.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.55e-7 (every op rounded, as this Rust), 7.25e-7 (fused multiply-add), 3.32e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 9.32e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 6459 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.12e-5, max 7.39e-4; this f32 code MAE 8.12e-5, max 7.39e-4.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.2e-4 on the measurement grid.
-/// Denominator proved >= 6.359e-2 on the domain (Bernstein certificate), so the division is safe.
+///   Why: no form keeps max |f32 - f64| <= 2.5e-6 on the measurement grid; this one is the most accurate. Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 6.3e-6, shifted 3.2e-6, bernstein 2.9e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 8.17e-5, max 5.71e-4 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.31e-5, max 5.48e-4.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 7.22e-7 (every op rounded, as this Rust), 7.22e-7 (fused multiply-add), 3.77e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 9.16e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 10949 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 8.08e-5, max 5.71e-4; this f32 code MAE 8.08e-5, max 5.71e-4.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 3.7e-4 on the measurement grid.
+/// Denominator proved >= 5.572e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -40,14 +40,14 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = square(r)
     let r_t = r_c * r_c;
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
-    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
+    // log-corrected mu: v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(x) = 16*x^(15/16)*((1 + x)^(1/16) - x^(1/16)) ~ x*ln(1 + 1/x), as 16*x/(s*(q + s)*(q^2 + s^2)*(q^4 + s^4)*(q^8 + s^8)) with s = max(x, 2^-64)^(1/16), q = (1 + x)^(1/16)
     let mu_logs = sqrtf(sqrtf(sqrtf(sqrtf(mu_c.max(5.421011e-20_f32)))));
     let mu_logq = sqrtf(sqrtf(sqrtf(sqrtf(1.0_f32 + mu_c))));
-    let mu_logv = (mu_c + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 2.5_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
-    // t = (1*(v*(1 + 1.5*r*r) + 2^-100)/(v + 1.5*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2.5*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
-    let mu_t = (mu_logv * (1.0_f32 + 1.5_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.5_f32 * (r_c * r_c) + 7.888609e-31_f32);
-    // u = (t - 0.0000000000000000000000000000005259072701473412)/(1 - 0.0000000000000000000000000000005259072701473412) in [0, 1]
-    let mu_u = (mu_t - 5.259073e-31_f32) * 1.0_f32;
+    let mu_logv = (mu_c + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * (16.0_f32 * mu_c / (mu_logs * (mu_logq + mu_logs) * (mu_logq * mu_logq + mu_logs * mu_logs) * (mu_logq * mu_logq * (mu_logq * mu_logq) + mu_logs * mu_logs * (mu_logs * mu_logs)) * (mu_logq * mu_logq * (mu_logq * mu_logq) * (mu_logq * mu_logq * (mu_logq * mu_logq)) + mu_logs * mu_logs * (mu_logs * mu_logs) * (mu_logs * mu_logs * (mu_logs * mu_logs)))))) / (1.0_f32 + 3.0_f32 * (r_c * r_c * (r_c * r_c)) * 0.7083805_f32);
+    // t = (1*(v*(1 + 1*r*r) + 2^-100)/(v + 1*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 3*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
+    let mu_t = (mu_logv * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_logv + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32);
+    // u = (t - 0.0000000000000000000000000000007888609052210118)/(1 - 0.0000000000000000000000000000007888609052210118) in [0, 1]
+    let mu_u = (mu_t - 7.888609e-31_f32) * 1.0_f32;
     // Bernstein basis of r_b5: u^i (1 - u)^(n - i), n = 5
     let r_b5_v = 1.0_f32 - r_t;
     let r_b5_u2 = r_t * r_t;
@@ -77,12 +77,12 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b5_b3 = mu_b5_u3 * mu_b5_v2;
     let mu_b5_b4 = mu_b5_u4 * mu_b5_v;
     // term 0: numerator P_0: Bernstein sums over the last variable, then the earlier ones
-    let p0_0_0 = 1.0162344_f32 * mu_b5_v5 + 4.4736357_f32 * mu_b5_b1 + 3.9708667_f32 * mu_b5_b2 + 5.9722705_f32 * mu_b5_b3 + 2.5582027_f32 * mu_b5_b4 + 1.2185494_f32 * mu_b5_u5;
-    let p0_0_1 = 8.129941_f32 * mu_b5_v5 + 47.83675_f32 * mu_b5_b1 + 71.79555_f32 * mu_b5_b2 + 77.865555_f32 * mu_b5_b3 + 35.29779_f32 * mu_b5_b4 + 10.116731_f32 * mu_b5_u5;
-    let p0_0_2 = 16.577013_f32 * mu_b5_v5 + 102.450066_f32 * mu_b5_b1 + 140.98352_f32 * mu_b5_b2 + 136.67961_f32 * mu_b5_b3 + 57.219017_f32 * mu_b5_b4 + 16.841404_f32 * mu_b5_u5;
-    let p0_0_3 = 15.580376_f32 * mu_b5_v5 + 98.793976_f32 * mu_b5_b1 + 117.00543_f32 * mu_b5_b2 + 100.22544_f32 * mu_b5_b3 + 37.986958_f32 * mu_b5_b4 + 12.744862_f32 * mu_b5_u5;
-    let p0_0_4 = 7.033678_f32 * mu_b5_v5 + 48.0007_f32 * mu_b5_b1 + 51.870888_f32 * mu_b5_b2 + 41.410206_f32 * mu_b5_b3 + 15.372893_f32 * mu_b5_b4 + 5.4623127_f32 * mu_b5_u5;
-    let p0_0_5 = 0.98975754_f32 * mu_b5_v5 + 8.659418_f32 * mu_b5_b1 + 8.755791_f32 * mu_b5_b2 + 6.702567_f32 * mu_b5_b3 + 2.231108_f32 * mu_b5_b4 + 0.7338227_f32 * mu_b5_u5;
+    let p0_0_0 = 0.9907336_f32 * mu_b5_v5 + 4.50676_f32 * mu_b5_b1 + 5.4644012_f32 * mu_b5_b2 + 2.748234_f32 * mu_b5_b3 + 1.911116_f32 * mu_b5_b4 + 0.78355795_f32 * mu_b5_u5;
+    let p0_0_1 = 5.5027137_f32 * mu_b5_v5 + 32.36199_f32 * mu_b5_b1 + 59.539516_f32 * mu_b5_b2 + 50.72739_f32 * mu_b5_b3 + 26.111626_f32 * mu_b5_b4 + 6.425979_f32 * mu_b5_u5;
+    let p0_0_2 = 7.209148_f32 * mu_b5_v5 + 47.8622_f32 * mu_b5_b1 + 95.2542_f32 * mu_b5_b2 + 80.467445_f32 * mu_b5_b3 + 38.594547_f32 * mu_b5_b4 + 9.45126_f32 * mu_b5_u5;
+    let p0_0_3 = 7.3390045_f32 * mu_b5_v5 + 42.696487_f32 * mu_b5_b1 + 84.86336_f32 * mu_b5_b2 + 68.521545_f32 * mu_b5_b3 + 29.900345_f32 * mu_b5_b4 + 7.6076803_f32 * mu_b5_u5;
+    let p0_0_4 = 4.828456_f32 * mu_b5_v5 + 22.71726_f32 * mu_b5_b1 + 43.580032_f32 * mu_b5_b2 + 34.37543_f32 * mu_b5_b3 + 14.084312_f32 * mu_b5_b4 + 3.761617_f32 * mu_b5_u5;
+    let p0_0_5 = 0.99012965_f32 * mu_b5_v5 + 4.045295_f32 * mu_b5_b1 + 7.930865_f32 * mu_b5_b2 + 6.377271_f32 * mu_b5_b3 + 2.5955553_f32 * mu_b5_b4 + 0.7662853_f32 * mu_b5_u5;
     let p0_0 = p0_0_0 * r_b5_v5 + p0_0_1 * r_b5_b1 + p0_0_2 * r_b5_b2 + p0_0_3 * r_b5_b3 + p0_0_4 * r_b5_b4 + p0_0_5 * r_b5_u5;
     let p0 = p0_0 * 1.0_f32;
     // Bernstein basis of f0_b4: u^i (1 - u)^(n - i), n = 4
@@ -97,15 +97,15 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let f0_b4_b2 = f0_b4_u2 * f0_b4_v2;
     let f0_b4_b3 = f0_b4_u3 * f0_b4_v;
     // term 0: factor u_0: Bernstein sums over the last variable, then the earlier ones
-    let u0_0_0 = 0.97053736_f32 * 1.0_f32;
+    let u0_0_0 = 1.0254667_f32 * 1.0_f32;
     let u0_0 = u0_0_0 * 1.0_f32;
-    let u0_1_0 = 3.8348455_f32 * 1.0_f32;
+    let u0_1_0 = 3.9952197_f32 * 1.0_f32;
     let u0_1 = u0_1_0 * 1.0_f32;
-    let u0_2_0 = 5.6900406_f32 * 1.0_f32;
+    let u0_2_0 = 5.8857417_f32 * 1.0_f32;
     let u0_2 = u0_2_0 * 1.0_f32;
-    let u0_3_0 = 3.7498703_f32 * 1.0_f32;
+    let u0_3_0 = 3.8524761_f32 * 1.0_f32;
     let u0_3 = u0_3_0 * 1.0_f32;
-    let u0_4_0 = 0.923711_f32 * 1.0_f32;
+    let u0_4_0 = 0.94163924_f32 * 1.0_f32;
     let u0_4 = u0_4_0 * 1.0_f32;
     let u0 = u0_0 * f0_b4_v4 + u0_1 * f0_b4_b1 + u0_2 * f0_b4_b2 + u0_3 * f0_b4_b3 + u0_4 * f0_b4_u4;
     // Bernstein basis of r_b4: u^i (1 - u)^(n - i), n = 4
@@ -131,101 +131,101 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let mu_b4_b2 = mu_b4_u2 * mu_b4_v2;
     let mu_b4_b3 = mu_b4_u3 * mu_b4_v;
     // term 0: denominator Q_0 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 3.145864_f32 * mu_b4_b1 + 3.0277724_f32 * mu_b4_b2 + 1.6133788_f32 * mu_b4_b3 + 1.0877806_f32 * mu_b4_u4;
-    let q0_0_1 = 6.259094_f32 * mu_b4_v4 + 24.364012_f32 * mu_b4_b1 + 31.635311_f32 * mu_b4_b2 + 20.71224_f32 * mu_b4_b3 + 8.607087_f32 * mu_b4_u4;
-    let q0_0_2 = 7.840843_f32 * mu_b4_v4 + 34.89055_f32 * mu_b4_b1 + 45.500614_f32 * mu_b4_b2 + 28.212233_f32 * mu_b4_b3 + 11.899182_f32 * mu_b4_u4;
-    let q0_0_3 = 5.855884_f32 * mu_b4_v4 + 29.793024_f32 * mu_b4_b1 + 40.059025_f32 * mu_b4_b2 + 22.690931_f32 * mu_b4_b3 + 7.9942884_f32 * mu_b4_u4;
-    let q0_0_4 = 0.8819122_f32 * mu_b4_v4 + 6.55173_f32 * mu_b4_b1 + 8.812605_f32 * mu_b4_b2 + 4.0086665_f32 * mu_b4_b3 + 1.2221894_f32 * mu_b4_u4;
+    let q0_0_0 = 1.0_f32 * mu_b4_v4 + 3.0348456_f32 * mu_b4_b1 + 2.960446_f32 * mu_b4_b2 + 1.0842955_f32 * mu_b4_b3 + 0.7390577_f32 * mu_b4_u4;
+    let q0_0_1 = 3.7665906_f32 * mu_b4_v4 + 16.690815_f32 * mu_b4_b1 + 26.29477_f32 * mu_b4_b2 + 16.579062_f32 * mu_b4_b3 + 5.529967_f32 * mu_b4_u4;
+    let q0_0_2 = 2.8900478_f32 * mu_b4_v4 + 15.517546_f32 * mu_b4_b1 + 28.587652_f32 * mu_b4_b2 + 17.562033_f32 * mu_b4_b3 + 5.084053_f32 * mu_b4_u4;
+    let q0_0_3 = 3.345769_f32 * mu_b4_v4 + 14.631535_f32 * mu_b4_b1 + 25.528627_f32 * mu_b4_b2 + 15.389021_f32 * mu_b4_b3 + 3.4676077_f32 * mu_b4_u4;
+    let q0_0_4 = 0.8874868_f32 * mu_b4_v4 + 3.4306586_f32 * mu_b4_b1 + 6.266349_f32 * mu_b4_b2 + 3.982453_f32 * mu_b4_b3 + 0.8396384_f32 * mu_b4_u4;
     let q0_0 = q0_0_0 * r_b4_v4 + q0_0_1 * r_b4_b1 + q0_0_2 * r_b4_b2 + q0_0_3 * r_b4_b3 + q0_0_4 * r_b4_u4;
     let q0 = q0_0 * 1.0_f32;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1: Bernstein sums over the last variable, then the earlier ones
-    let p1_0_0 = 0.09647274_f32 * mu_b5_v5 + 0.8781565_f32 * mu_b5_b1 + 1.8363549_f32 * mu_b5_b2 + 1.8992183_f32 * mu_b5_b3 + 1.4951116_f32 * mu_b5_b4 + 0.2723391_f32 * mu_b5_u5;
-    let p1_0_1 = 0.32235637_f32 * mu_b5_v5 + 3.7656176_f32 * mu_b5_b1 + 2.8573322_f32 * mu_b5_b2 - 0.65418893_f32 * mu_b5_b3 + 2.8361342_f32 * mu_b5_b4 + 1.0132675_f32 * mu_b5_u5;
-    let p1_0_2 = 1.6231837_f32 * mu_b5_v5 + 30.35185_f32 * mu_b5_b1 + 46.0422_f32 * mu_b5_b2 + 16.295033_f32 * mu_b5_b3 + 3.0634584_f32 * mu_b5_b4 + 0.29970416_f32 * mu_b5_u5;
-    let p1_0_3 = 3.0062795_f32 * mu_b5_v5 + 62.874084_f32 * mu_b5_b1 + 101.52118_f32 * mu_b5_b2 + 35.60485_f32 * mu_b5_b3 - 4.8035355_f32 * mu_b5_b4 - 2.5372617_f32 * mu_b5_u5;
-    let p1_0_4 = 2.0858004_f32 * mu_b5_v5 + 47.109856_f32 * mu_b5_b1 + 72.78821_f32 * mu_b5_b2 + 17.970425_f32 * mu_b5_b3 - 9.98224_f32 * mu_b5_b4 - 2.079637_f32 * mu_b5_u5;
-    let p1_0_5 = 0.44026604_f32 * mu_b5_v5 + 11.517384_f32 * mu_b5_b1 + 15.922695_f32 * mu_b5_b2 + 0.84846216_f32 * mu_b5_b3 - 3.639044_f32 * mu_b5_b4 - 0.020154685_f32 * mu_b5_u5;
+    let p1_0_0 = -0.100235224_f32 * mu_b5_v5 - 1.2671572_f32 * mu_b5_b1 - 3.4528759_f32 * mu_b5_b2 - 1.189188_f32 * mu_b5_b3 - 1.333978_f32 * mu_b5_b4 - 0.18649799_f32 * mu_b5_u5;
+    let p1_0_1 = -0.42865333_f32 * mu_b5_v5 - 6.642797_f32 * mu_b5_b1 - 17.679926_f32 * mu_b5_b2 - 2.9096415_f32 * mu_b5_b3 - 3.1889262_f32 * mu_b5_b4 - 0.52383894_f32 * mu_b5_u5;
+    let p1_0_2 = -1.439365_f32 * mu_b5_v5 - 23.955368_f32 * mu_b5_b1 - 57.802166_f32 * mu_b5_b2 - 15.907312_f32 * mu_b5_b3 - 3.4910116_f32 * mu_b5_b4 - 0.42740592_f32 * mu_b5_u5;
+    let p1_0_3 = -3.2819247_f32 * mu_b5_v5 - 43.536903_f32 * mu_b5_b1 - 95.06496_f32 * mu_b5_b2 - 33.981644_f32 * mu_b5_b3 - 1.459892_f32 * mu_b5_b4 + 0.15423128_f32 * mu_b5_u5;
+    let p1_0_4 = -2.3732774_f32 * mu_b5_v5 - 31.044527_f32 * mu_b5_b1 - 63.443554_f32 * mu_b5_b2 - 21.26076_f32 * mu_b5_b3 + 2.7730558_f32 * mu_b5_b4 + 0.4827412_f32 * mu_b5_u5;
+    let p1_0_5 = -0.4314861_f32 * mu_b5_v5 - 7.233282_f32 * mu_b5_b1 - 14.245575_f32 * mu_b5_b2 - 3.7578387_f32 * mu_b5_b3 + 1.4509529_f32 * mu_b5_b4 + 0.009258602_f32 * mu_b5_u5;
     let p1_0 = p1_0_0 * r_b5_v5 + p1_0_1 * r_b5_b1 + p1_0_2 * r_b5_b2 + p1_0_3 * r_b5_b3 + p1_0_4 * r_b5_b4 + p1_0_5 * r_b5_u5;
     let p1 = p1_0 * 1.0_f32;
     // term 1: factor u_1: Bernstein sums over the last variable, then the earlier ones
-    let u1_0_0 = -0.30203885_f32 * 1.0_f32;
+    let u1_0_0 = 1.0438017_f32 * 1.0_f32;
     let u1_0 = u1_0_0 * 1.0_f32;
-    let u1_1_0 = -0.9333914_f32 * 1.0_f32;
+    let u1_1_0 = 3.288948_f32 * 1.0_f32;
     let u1_1 = u1_1_0 * 1.0_f32;
-    let u1_2_0 = -0.67660177_f32 * 1.0_f32;
+    let u1_2_0 = 4.006849_f32 * 1.0_f32;
     let u1_2 = u1_2_0 * 1.0_f32;
-    let u1_3_0 = 0.09384288_f32 * 1.0_f32;
+    let u1_3_0 = 1.9863466_f32 * 1.0_f32;
     let u1_3 = u1_3_0 * 1.0_f32;
-    let u1_4_0 = 0.22160204_f32 * 1.0_f32;
+    let u1_4_0 = 0.26811206_f32 * 1.0_f32;
     let u1_4 = u1_4_0 * 1.0_f32;
     let u1 = u1_0 * f0_b4_v4 + u1_1 * f0_b4_b1 + u1_2 * f0_b4_b2 + u1_3 * f0_b4_b3 + u1_4 * f0_b4_u4;
     // term 1: denominator Q_1 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 8.657395_f32 * mu_b4_b1 + 12.777618_f32 * mu_b4_b2 + 11.822208_f32 * mu_b4_b3 + 2.8701522_f32 * mu_b4_u4;
-    let q1_0_1 = 2.2953598_f32 * mu_b4_v4 + 24.631987_f32 * mu_b4_b1 + 24.508755_f32 * mu_b4_b2 + 24.226818_f32 * mu_b4_b3 + 6.7273555_f32 * mu_b4_u4;
-    let q1_0_2 = 14.7501335_f32 * mu_b4_v4 + 83.40107_f32 * mu_b4_b1 + 86.67938_f32 * mu_b4_b2 + 52.492626_f32 * mu_b4_b3 + 11.473177_f32 * mu_b4_u4;
-    let q1_0_3 = 16.922028_f32 * mu_b4_v4 + 90.77715_f32 * mu_b4_b1 + 98.8201_f32 * mu_b4_b2 + 46.855076_f32 * mu_b4_b3 + 6.5627637_f32 * mu_b4_u4;
-    let q1_0_4 = 4.584057_f32 * mu_b4_v4 + 27.817883_f32 * mu_b4_b1 + 30.57267_f32 * mu_b4_b2 + 11.23427_f32 * mu_b4_b3 + 0.0635934_f32 * mu_b4_u4;
+    let q1_0_0 = 1.0_f32 * mu_b4_v4 + 10.146837_f32 * mu_b4_b1 + 15.406089_f32 * mu_b4_b2 + 9.346714_f32 * mu_b4_b3 + 1.6139945_f32 * mu_b4_u4;
+    let q1_0_1 = 1.9089038_f32 * mu_b4_v4 + 22.525576_f32 * mu_b4_b1 + 27.681719_f32 * mu_b4_b2 + 16.782152_f32 * mu_b4_b3 + 3.8232336_f32 * mu_b4_u4;
+    let q1_0_2 = 10.376444_f32 * mu_b4_v4 + 58.246944_f32 * mu_b4_b1 + 65.37644_f32 * mu_b4_b2 + 31.747025_f32 * mu_b4_b3 + 5.400272_f32 * mu_b4_u4;
+    let q1_0_3 = 13.90726_f32 * mu_b4_v4 + 72.697105_f32 * mu_b4_b1 + 89.62336_f32 * mu_b4_b2 + 41.063553_f32 * mu_b4_b3 + 4.336163_f32 * mu_b4_u4;
+    let q1_0_4 = 3.3771415_f32 * mu_b4_v4 + 22.578583_f32 * mu_b4_b1 + 30.147078_f32 * mu_b4_b2 + 12.501656_f32 * mu_b4_b3 + 0.082551576_f32 * mu_b4_u4;
     let q1_0 = q1_0_0 * r_b4_v4 + q1_0_1 * r_b4_b1 + q1_0_2 * r_b4_b2 + q1_0_3 * r_b4_b3 + q1_0_4 * r_b4_u4;
     let q1 = q1_0 * 1.0_f32;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2: Bernstein sums over the last variable, then the earlier ones
-    let p2_0_0 = -0.040102724_f32 * mu_b5_v5 + 0.19178766_f32 * mu_b5_b1 - 0.8368772_f32 * mu_b5_b2 + 0.8980312_f32 * mu_b5_b3 - 0.29945505_f32 * mu_b5_b4 + 0.025050469_f32 * mu_b5_u5;
-    let p2_0_1 = 0.013297097_f32 * mu_b5_v5 + 6.639678_f32 * mu_b5_b1 + 7.817308_f32 * mu_b5_b2 + 14.143945_f32 * mu_b5_b3 + 1.1073527_f32 * mu_b5_b4 - 0.38914356_f32 * mu_b5_u5;
-    let p2_0_2 = 1.037497_f32 * mu_b5_v5 + 12.012423_f32 * mu_b5_b1 - 3.0034528_f32 * mu_b5_b2 + 1.2439462_f32 * mu_b5_b3 - 10.784769_f32 * mu_b5_b4 - 3.094051_f32 * mu_b5_u5;
-    let p2_0_3 = 2.1864839_f32 * mu_b5_v5 + 9.269218_f32 * mu_b5_b1 - 22.321037_f32 * mu_b5_b2 - 17.630522_f32 * mu_b5_b3 - 12.002251_f32 * mu_b5_b4 - 0.86245686_f32 * mu_b5_u5;
-    let p2_0_4 = -0.7849974_f32 * mu_b5_v5 - 7.257294_f32 * mu_b5_b1 - 38.61929_f32 * mu_b5_b2 - 33.073166_f32 * mu_b5_b3 - 12.668819_f32 * mu_b5_b4 - 0.2861219_f32 * mu_b5_u5;
-    let p2_0_5 = 0.06027567_f32 * mu_b5_v5 - 0.72368246_f32 * mu_b5_b1 - 7.4792933_f32 * mu_b5_b2 - 6.9680166_f32 * mu_b5_b3 - 2.619848_f32 * mu_b5_b4 - 0.055862263_f32 * mu_b5_u5;
+    let p2_0_0 = -0.059720945_f32 * mu_b5_v5 + 0.15936998_f32 * mu_b5_b1 - 0.3311102_f32 * mu_b5_b2 + 0.023527486_f32 * mu_b5_b3 - 0.05245887_f32 * mu_b5_b4 - 0.0125570595_f32 * mu_b5_u5;
+    let p2_0_1 = -0.014399631_f32 * mu_b5_v5 + 2.129311_f32 * mu_b5_b1 + 1.7390658_f32 * mu_b5_b2 + 2.8733425_f32 * mu_b5_b3 + 0.08808306_f32 * mu_b5_b4 - 0.12175231_f32 * mu_b5_u5;
+    let p2_0_2 = -0.5481625_f32 * mu_b5_v5 - 2.428023_f32 * mu_b5_b1 - 8.782222_f32 * mu_b5_b2 - 3.2182052_f32 * mu_b5_b3 - 2.8943217_f32 * mu_b5_b4 - 0.4421736_f32 * mu_b5_u5;
+    let p2_0_3 = 0.6349877_f32 * mu_b5_v5 - 5.034402_f32 * mu_b5_b1 - 15.181289_f32 * mu_b5_b2 - 4.614906_f32 * mu_b5_b3 - 0.6037936_f32 * mu_b5_b4 + 0.63551784_f32 * mu_b5_u5;
+    let p2_0_4 = -0.0063240924_f32 * mu_b5_v5 - 10.156501_f32 * mu_b5_b1 - 24.154806_f32 * mu_b5_b2 - 15.51656_f32 * mu_b5_b3 - 4.8517375_f32 * mu_b5_b4 - 0.2716546_f32 * mu_b5_u5;
+    let p2_0_5 = -0.019475564_f32 * mu_b5_v5 - 3.4434626_f32 * mu_b5_b1 - 7.672714_f32 * mu_b5_b2 - 4.8164725_f32 * mu_b5_b3 - 1.2062068_f32 * mu_b5_b4 - 0.02483068_f32 * mu_b5_u5;
     let p2_0 = p2_0_0 * r_b5_v5 + p2_0_1 * r_b5_b1 + p2_0_2 * r_b5_b2 + p2_0_3 * r_b5_b3 + p2_0_4 * r_b5_b4 + p2_0_5 * r_b5_u5;
     let p2 = p2_0 * 1.0_f32;
     // term 2: factor u_2: Bernstein sums over the last variable, then the earlier ones
-    let u2_0_0 = -0.9296301_f32 * 1.0_f32;
+    let u2_0_0 = -0.6654204_f32 * 1.0_f32;
     let u2_0 = u2_0_0 * 1.0_f32;
-    let u2_1_0 = -4.2776785_f32 * 1.0_f32;
+    let u2_1_0 = -3.2169888_f32 * 1.0_f32;
     let u2_1 = u2_1_0 * 1.0_f32;
-    let u2_2_0 = -6.4291754_f32 * 1.0_f32;
+    let u2_2_0 = -4.8174977_f32 * 1.0_f32;
     let u2_2 = u2_2_0 * 1.0_f32;
-    let u2_3_0 = -4.059894_f32 * 1.0_f32;
+    let u2_3_0 = -2.8652062_f32 * 1.0_f32;
     let u2_3 = u2_3_0 * 1.0_f32;
-    let u2_4_0 = -0.84883404_f32 * 1.0_f32;
+    let u2_4_0 = -0.48381108_f32 * 1.0_f32;
     let u2_4 = u2_4_0 * 1.0_f32;
     let u2 = u2_0 * f0_b4_v4 + u2_1 * f0_b4_b1 + u2_2 * f0_b4_b2 + u2_3 * f0_b4_b3 + u2_4 * f0_b4_u4;
     // term 2: denominator Q_2 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 3.1782312_f32 * mu_b4_b1 + 1.95995_f32 * mu_b4_b2 + 1.4936684_f32 * mu_b4_b3 + 1.4911876_f32 * mu_b4_u4;
-    let q2_0_1 = 9.532073_f32 * mu_b4_v4 + 27.309004_f32 * mu_b4_b1 + 27.448544_f32 * mu_b4_b2 + 18.75498_f32 * mu_b4_b3 + 8.200319_f32 * mu_b4_u4;
-    let q2_0_2 = 22.492985_f32 * mu_b4_v4 + 65.57639_f32 * mu_b4_b1 + 65.12582_f32 * mu_b4_b2 + 27.813456_f32 * mu_b4_b3 + 4.446476_f32 * mu_b4_u4;
-    let q2_0_3 = 20.114452_f32 * mu_b4_v4 + 71.77271_f32 * mu_b4_b1 + 86.89965_f32 * mu_b4_b2 + 37.041092_f32 * mu_b4_b3 + 0.9166609_f32 * mu_b4_u4;
-    let q2_0_4 = 3.3283787_f32 * mu_b4_v4 + 19.026451_f32 * mu_b4_b1 + 30.311459_f32 * mu_b4_b2 + 15.188303_f32 * mu_b4_b3 + 0.35415503_f32 * mu_b4_u4;
+    let q2_0_0 = 1.0_f32 * mu_b4_v4 + 1.7742529_f32 * mu_b4_b1 + 0.52079743_f32 * mu_b4_b2 + 0.24143761_f32 * mu_b4_b3 + 0.42773446_f32 * mu_b4_u4;
+    let q2_0_1 = 6.0190024_f32 * mu_b4_v4 + 14.26842_f32 * mu_b4_b1 + 11.008988_f32 * mu_b4_b2 + 5.2373643_f32 * mu_b4_b3 + 2.2091594_f32 * mu_b4_u4;
+    let q2_0_2 = 11.335267_f32 * mu_b4_v4 + 34.744442_f32 * mu_b4_b1 + 31.760975_f32 * mu_b4_b2 + 7.3400064_f32 * mu_b4_b3 - 1.4147475_f32 * mu_b4_u4;
+    let q2_0_3 = 11.138746_f32 * mu_b4_v4 + 48.383926_f32 * mu_b4_b1 + 61.236748_f32 * mu_b4_b2 + 23.541805_f32 * mu_b4_b3 - 0.71839595_f32 * mu_b4_u4;
+    let q2_0_4 = 3.281436_f32 * mu_b4_v4 + 19.969473_f32 * mu_b4_b1 + 30.717693_f32 * mu_b4_b2 + 15.033546_f32 * mu_b4_b3 + 0.9367315_f32 * mu_b4_u4;
     let q2_0 = q2_0_0 * r_b4_v4 + q2_0_1 * r_b4_b1 + q2_0_2 * r_b4_b2 + q2_0_3 * r_b4_b3 + q2_0_4 * r_b4_u4;
     let q2 = q2_0 * 1.0_f32;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3: Bernstein sums over the last variable, then the earlier ones
-    let p3_0_0 = -0.004851262_f32 * mu_b5_v5 + 0.17766273_f32 * mu_b5_b1 - 0.12758593_f32 * mu_b5_b2 + 0.7648201_f32 * mu_b5_b3 - 0.0711408_f32 * mu_b5_b4 + 0.060724724_f32 * mu_b5_u5;
-    let p3_0_1 = 0.2536607_f32 * mu_b5_v5 + 5.711465_f32 * mu_b5_b1 + 5.338416_f32 * mu_b5_b2 + 6.9932933_f32 * mu_b5_b3 + 0.9939476_f32 * mu_b5_b4 - 0.08480599_f32 * mu_b5_u5;
-    let p3_0_2 = 0.15675429_f32 * mu_b5_v5 + 13.606451_f32 * mu_b5_b1 + 3.6325378_f32 * mu_b5_b2 + 0.33906865_f32 * mu_b5_b3 - 3.612769_f32 * mu_b5_b4 - 1.7011411_f32 * mu_b5_u5;
-    let p3_0_3 = 0.96919835_f32 * mu_b5_v5 + 21.764172_f32 * mu_b5_b1 + 8.877133_f32 * mu_b5_b2 + 0.63552034_f32 * mu_b5_b3 - 0.11042441_f32 * mu_b5_b4 - 0.59592897_f32 * mu_b5_u5;
-    let p3_0_4 = -0.012470674_f32 * mu_b5_v5 + 11.07795_f32 * mu_b5_b1 - 0.3110576_f32 * mu_b5_b2 - 6.738531_f32 * mu_b5_b3 - 1.6128336_f32 * mu_b5_b4 - 0.24185269_f32 * mu_b5_u5;
-    let p3_0_5 = 0.06286549_f32 * mu_b5_v5 + 3.1178882_f32 * mu_b5_b1 + 0.44126692_f32 * mu_b5_b2 - 1.8005339_f32 * mu_b5_b3 - 0.4488055_f32 * mu_b5_b4 - 0.055241913_f32 * mu_b5_u5;
+    let p3_0_0 = -0.07487691_f32 * mu_b5_v5 + 0.3004217_f32 * mu_b5_b1 - 0.3112007_f32 * mu_b5_b2 - 0.2965515_f32 * mu_b5_b3 - 0.010486786_f32 * mu_b5_b4 - 0.0036552635_f32 * mu_b5_u5;
+    let p3_0_1 = 0.25886703_f32 * mu_b5_v5 + 4.4095097_f32 * mu_b5_b1 + 2.5587726_f32 * mu_b5_b2 + 0.4495594_f32 * mu_b5_b3 + 0.0025651809_f32 * mu_b5_b4 - 0.054967515_f32 * mu_b5_u5;
+    let p3_0_2 = 0.008026247_f32 * mu_b5_v5 + 6.258319_f32 * mu_b5_b1 + 0.8220442_f32 * mu_b5_b2 - 2.1289618_f32 * mu_b5_b3 - 0.7160967_f32 * mu_b5_b4 - 0.04758968_f32 * mu_b5_u5;
+    let p3_0_3 = 0.20560399_f32 * mu_b5_v5 + 5.209762_f32 * mu_b5_b1 - 1.2624727_f32 * mu_b5_b2 - 2.332558_f32 * mu_b5_b3 + 0.090840176_f32 * mu_b5_b4 + 0.124560915_f32 * mu_b5_u5;
+    let p3_0_4 = 0.3909611_f32 * mu_b5_v5 + 1.9157977_f32 * mu_b5_b1 - 2.5985756_f32 * mu_b5_b2 - 2.065018_f32 * mu_b5_b3 + 0.024177747_f32 * mu_b5_b4 - 0.050319515_f32 * mu_b5_u5;
+    let p3_0_5 = 0.057786323_f32 * mu_b5_v5 - 0.15399888_f32 * mu_b5_b1 - 1.4025629_f32 * mu_b5_b2 - 0.62606394_f32 * mu_b5_b3 + 0.1949234_f32 * mu_b5_b4 + 0.02698904_f32 * mu_b5_u5;
     let p3_0 = p3_0_0 * r_b5_v5 + p3_0_1 * r_b5_b1 + p3_0_2 * r_b5_b2 + p3_0_3 * r_b5_b3 + p3_0_4 * r_b5_b4 + p3_0_5 * r_b5_u5;
     let p3 = p3_0 * 1.0_f32;
     // term 3: factor u_3: Bernstein sums over the last variable, then the earlier ones
-    let u3_0_0 = -1.196201_f32 * 1.0_f32;
+    let u3_0_0 = -0.6537632_f32 * 1.0_f32;
     let u3_0 = u3_0_0 * 1.0_f32;
-    let u3_1_0 = -3.732997_f32 * 1.0_f32;
+    let u3_1_0 = -2.3478787_f32 * 1.0_f32;
     let u3_1 = u3_1_0 * 1.0_f32;
-    let u3_2_0 = -5.6556067_f32 * 1.0_f32;
+    let u3_2_0 = -3.8100486_f32 * 1.0_f32;
     let u3_2 = u3_2_0 * 1.0_f32;
-    let u3_3_0 = -3.9752557_f32 * 1.0_f32;
+    let u3_3_0 = -2.8509183_f32 * 1.0_f32;
     let u3_3 = u3_3_0 * 1.0_f32;
-    let u3_4_0 = -1.1577096_f32 * 1.0_f32;
+    let u3_4_0 = -0.8640732_f32 * 1.0_f32;
     let u3_4 = u3_4_0 * 1.0_f32;
     let u3 = u3_0 * f0_b4_v4 + u3_1 * f0_b4_b1 + u3_2 * f0_b4_b2 + u3_3 * f0_b4_b3 + u3_4 * f0_b4_u4;
     // term 3: denominator Q_3 (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 5.5136786_f32 * mu_b4_b1 + 7.77073_f32 * mu_b4_b2 + 4.251388_f32 * mu_b4_b3 + 1.6942191_f32 * mu_b4_u4;
-    let q3_0_1 = 2.8764992_f32 * mu_b4_v4 + 15.325624_f32 * mu_b4_b1 + 20.095743_f32 * mu_b4_b2 + 13.475571_f32 * mu_b4_b3 + 8.628482_f32 * mu_b4_u4;
-    let q3_0_2 = 5.552222_f32 * mu_b4_v4 + 24.114697_f32 * mu_b4_b1 + 17.955091_f32 * mu_b4_b2 + 1.5340728_f32 * mu_b4_b3 + 6.3407497_f32 * mu_b4_u4;
-    let q3_0_3 = 6.940413_f32 * mu_b4_v4 + 33.663815_f32 * mu_b4_b1 + 31.98281_f32 * mu_b4_b2 + 3.9929864_f32 * mu_b4_b3 + 1.5331093_f32 * mu_b4_u4;
-    let q3_0_4 = 1.7220893_f32 * mu_b4_v4 + 13.1906595_f32 * mu_b4_b1 + 17.097124_f32 * mu_b4_b2 + 5.512693_f32 * mu_b4_b3 + 0.5840212_f32 * mu_b4_u4;
+    let q3_0_0 = 1.0_f32 * mu_b4_v4 + 2.4713907_f32 * mu_b4_b1 + 2.5596545_f32 * mu_b4_b2 + 0.32175344_f32 * mu_b4_b3 + 0.17118807_f32 * mu_b4_u4;
+    let q3_0_1 = 3.1714053_f32 * mu_b4_v4 + 10.033551_f32 * mu_b4_b1 + 13.612902_f32 * mu_b4_b2 + 3.4159515_f32 * mu_b4_b3 + 0.41598934_f32 * mu_b4_u4;
+    let q3_0_2 = 3.1097286_f32 * mu_b4_v4 + 10.370661_f32 * mu_b4_b1 + 17.116997_f32 * mu_b4_b2 + 4.67677_f32 * mu_b4_b3 + 0.4468956_f32 * mu_b4_u4;
+    let q3_0_3 = 3.1468213_f32 * mu_b4_v4 + 7.4709573_f32 * mu_b4_b1 + 9.81861_f32 * mu_b4_b2 + 1.6942444_f32 * mu_b4_b3 - 0.049436424_f32 * mu_b4_u4;
+    let q3_0_4 = 2.5934765_f32 * mu_b4_v4 + 6.2023716_f32 * mu_b4_b1 + 6.064732_f32 * mu_b4_b2 + 1.6515862_f32 * mu_b4_b3 + 0.13344777_f32 * mu_b4_u4;
     let q3_0 = q3_0_0 * r_b4_v4 + q3_0_1 * r_b4_b1 + q3_0_2 * r_b4_b2 + q3_0_3 * r_b4_b3 + q3_0_4 * r_b4_u4;
     let q3 = q3_0 * 1.0_f32;
     let e3 = p3 * u3 / q3;

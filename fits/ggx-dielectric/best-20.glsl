@@ -17,16 +17,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100).
 // Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-dielectric/best-20.json (furnace 0.1.0), fit SHA-256 324f0ac97f9cf2a11bfd87be82766a10c998170ef98b0c342e2974dfefa3fa6d.
+// Source: fits/ggx-dielectric/best-20.json (furnace 0.1.0), fit SHA-256 1f0c3f12c6e149cfc4d2c5a47d2e31d16bb560ada022811788f5c834ad6bf274.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-6, shifted 1.2e-6, bernstein 3.8e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 6.64e-3, max 4.27e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.41e-3, max 4.72e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.78e-6 (every op rounded, as this Rust), 4.09e-6 (fused multiply-add), 4.03e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.46e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 933 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 6.12e-3, max 4.27e-2; this f32 code MAE 6.12e-3, max 4.27e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 5.361e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.1e-6, shifted 1.2e-6, bernstein 3.6e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 6.66e-3, max 4.27e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.42e-3, max 4.72e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.67e-6 (every op rounded, as this Rust), 3.03e-6 (fused multiply-add), 3.09e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.45e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 927 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 6.16e-3, max 4.27e-2; this f32 code MAE 6.16e-3, max 4.27e-2.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.6e-2 on the measurement grid.
+// Denominator proved >= 5.289e-2 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -39,14 +39,14 @@ highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu)
     // t = (mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100)
     highp float mu_t = (mu_c * (1.0 + 1.0 * (r_c * r_c)) + 7.888609e-31) / (mu_c + 1.0 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = (1.1814386 * r_t + (-0.30300078 * mu_t - 2.2043908)) * r_t + ((-0.2680384 * mu_t + 1.371925) * mu_t + 0.97321886);
-    highp float p_1 = -0.47893253 * r_t + (-1.719422 * mu_t + 1.4576956);
-    highp float p_2 = -0.24774906;
+    highp float p_0 = (1.1744102 * r_t + (-0.29446828 * mu_t - 2.197166)) * r_t + ((-0.26239422 * mu_t + 1.3531768) * mu_t + 0.9731403);
+    highp float p_1 = -0.47462708 * r_t + (-1.7002282 * mu_t + 1.4441315);
+    highp float p_2 = -0.24262251;
     highp float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = (1.2075133 * r_t + (-0.1964008 * mu_t - 2.2605176)) * r_t + ((-0.7630808 * mu_t + 1.8210841) * mu_t + 1.0);
-    highp float q_1 = -0.37341583 * r_t + (-1.6205503 * mu_t + 1.3746258);
-    highp float q_2 = -0.21555597;
+    highp float q_0 = (1.1993356 * r_t + (-0.18828122 * mu_t - 2.252388)) * r_t + ((-0.7549267 * mu_t + 1.799468) * mu_t + 1.0);
+    highp float q_1 = -0.3689276 * r_t + (-1.5993016 * mu_t + 1.3607564);
+    highp float q_2 = -0.2114429;
     highp float q = (q_2 * f0_t + q_1) * f0_t + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

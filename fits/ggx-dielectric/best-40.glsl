@@ -16,17 +16,17 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 11 (step 4 of the polish), its MAE on the fitting points 1.657x the least-squares start's.
-// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 a5057f17ec72808b2f755292bc7f2fbb131729543c38bfca973acabd289f51ee.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the L_p polish's solve of p = 12: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.509x the least-squares start's.
+// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 0a0d3542e966d229c9aab57b6b92be5de8866cb0ade4665a94c4c82871488b85.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-6, shifted 2.3e-6, bernstein 2.3e-6.
-// Its 2 terms cancel (sum of |term| up to 12x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
-// Error of the f64 fit on its 2097152 data points: MAE 2.81e-3, max 1.00e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.80e-3, max 9.71e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.39e-7 (every op rounded, as this Rust), 5.19e-7 (fused multiply-add), 3.49e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.45e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 427 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.47e-3, max 1.00e-2; this f32 code MAE 2.47e-3, max 1.00e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 7.4e-3 on the measurement grid.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.3e-6, shifted 2.3e-6, bernstein 2.3e-6.
+// Its 2 terms cancel (sum of |term| up to 11x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+// Error of the f64 fit on its 2097152 data points: MAE 2.56e-3, max 9.17e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.65e-3, max 9.08e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.64e-7 (every op rounded, as this Rust), 5.64e-7 (fused multiply-add), 3.45e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.48e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 395 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.36e-3, max 9.17e-3; this f32 code MAE 2.36e-3, max 9.17e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.0e-3 on the measurement grid.
 // Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
@@ -44,12 +44,12 @@ highp float ggx_dielectric_albedo(highp float f0, highp float r, highp float mu)
     // t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
     highp float mu_t = (mu_logv * (1.0 + 1.25 * (r_c * r_c)) + 7.888609e-31) / (mu_logv + 1.25 * (r_c * r_c) + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = ((((-2.0722864 * r_t + (3.7687058 * mu_t + 4.1101317)) * r_t + ((-7.2600927 * mu_t - 2.0243673) * mu_t - 2.299593)) * r_t + (((29.248333 * mu_t - 1.7258041) * mu_t - 24.018818) * mu_t + 11.095989)) * r_t + ((((20.426823 * mu_t - 44.161095) * mu_t + 26.845716) * mu_t + 10.374626) * mu_t + 7.480737)) * r_t + (((((-15.357296 * mu_t + 28.103065) * mu_t - 12.086679) * mu_t + 3.8222294) * mu_t + 4.5408096) * mu_t + 1.0032908);
-    highp float p_1 = ((((0.030213408 * r_t + (0.7749547 * mu_t - 0.77411705)) * r_t + ((-8.774224 * mu_t + 4.7606688) * mu_t + 0.20649828)) * r_t + (((-2.5731573 * mu_t - 6.605368) * mu_t + 4.8309793) * mu_t + 0.8063185)) * r_t + ((((2.0240958 * mu_t - 3.392147) * mu_t - 0.4467911) * mu_t + 1.7438203) * mu_t + 0.25829798)) * r_t + (((((-0.17275508 * mu_t + 0.6516643) * mu_t - 0.52491134) * mu_t + 0.17741072) * mu_t + 0.1896943) * mu_t + 0.022206241);
-    highp float p_2 = ((((0.07965314 * r_t + (-0.02795328 * mu_t - 0.25858855)) * r_t + ((-0.9718505 * mu_t + 0.7442745) * mu_t + 0.112756066)) * r_t + (((-1.42663 * mu_t - 0.8676872) * mu_t + 1.5544144) * mu_t - 0.29012752)) * r_t + ((((-0.45807147 * mu_t + 1.1288946) * mu_t - 1.0396798) * mu_t - 0.13181876) * mu_t - 0.2357899)) * r_t + (((((0.534417 * mu_t - 0.9306904) * mu_t + 0.36581326) * mu_t - 0.11407484) * mu_t - 0.13848898) * mu_t - 0.03337512);
+    highp float p_0 = ((((-1.0875661 * r_t + (3.2703595 * mu_t + 2.4978344)) * r_t + ((-7.33891 * mu_t - 1.0688449) * mu_t - 1.6986849)) * r_t + (((28.748434 * mu_t - 0.56243676) * mu_t - 25.092318) * mu_t + 11.259349)) * r_t + ((((20.663198 * mu_t - 44.431377) * mu_t + 26.742975) * mu_t + 10.447335) * mu_t + 7.5874577)) * r_t + (((((-13.986134 * mu_t + 24.847776) * mu_t - 9.536847) * mu_t + 2.989133) * mu_t + 4.632555) * mu_t + 1.0063764);
+    highp float p_1 = ((((0.10415761 * r_t + (0.8376307 * mu_t - 0.9926259)) * r_t + ((-8.569252 * mu_t + 4.5041485) * mu_t + 0.2771314)) * r_t + (((-2.521206 * mu_t - 6.7039013) * mu_t + 4.9293947) * mu_t + 0.91390574)) * r_t + ((((2.0687017 * mu_t - 3.7516901) * mu_t - 0.2403405) * mu_t + 1.8140815) * mu_t + 0.2553902)) * r_t + (((((-0.08867805 * mu_t + 0.5787484) * mu_t - 0.5348558) * mu_t + 0.2128774) * mu_t + 0.17976068) * mu_t + 0.019047927);
+    highp float p_2 = ((((0.055143937 * r_t + (0.0005611195 * mu_t - 0.2355731)) * r_t + ((-0.96839577 * mu_t + 0.6905791) * mu_t + 0.10267606)) * r_t + (((-1.424109 * mu_t - 0.94848096) * mu_t + 1.6375141) * mu_t - 0.28286907)) * r_t + ((((-0.46252173 * mu_t + 1.0952508) * mu_t - 1.0204376) * mu_t - 0.12279772) * mu_t - 0.24273512)) * r_t + (((((0.50267935 * mu_t - 0.8321655) * mu_t + 0.27418208) * mu_t - 0.07939666) * mu_t - 0.14475763) * mu_t - 0.03433911);
     highp float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = (10.882374 * r_t + (13.607015 * mu_t + 7.5429974)) * r_t + ((4.2377634 * mu_t + 4.8546185) * mu_t + 1.0);
+    highp float q_0 = (10.992735 * r_t + (13.537311 * mu_t + 7.688538)) * r_t + ((4.1491485 * mu_t + 4.8940983) * mu_t + 1.0);
     highp float q = q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

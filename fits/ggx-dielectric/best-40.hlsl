@@ -15,17 +15,17 @@
 //   f0: normal-incidence reflectance F0 of the interface; the light enters the medium of relative IOR eta = (1+sqrt(F0))/(1-sqrt(F0)) (1.25 ... 3 by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16)).
-// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 11 (step 4 of the polish), its MAE on the fitting points 1.657x the least-squares start's.
-// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 a5057f17ec72808b2f755292bc7f2fbb131729543c38bfca973acabd289f51ee.
+// Fit: low rank 2: u_k(x0) of degree 2 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 1], 40 coefficients (2 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the L_p polish's solve of p = 12: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.509x the least-squares start's.
+// Source: fits/ggx-dielectric/best-40.json (furnace 0.1.0), fit SHA-256 0a0d3542e966d229c9aab57b6b92be5de8866cb0ade4665a94c4c82871488b85.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-6, shifted 2.3e-6, bernstein 2.3e-6.
-// Its 2 terms cancel (sum of |term| up to 12x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
-// Error of the f64 fit on its 2097152 data points: MAE 2.81e-3, max 1.00e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.80e-3, max 9.71e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.39e-7 (every op rounded, as this Rust), 5.19e-7 (fused multiply-add), 3.49e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.45e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 427 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.47e-3, max 1.00e-2; this f32 code MAE 2.47e-3, max 1.00e-2.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 7.4e-3 on the measurement grid.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.3e-6, shifted 2.3e-6, bernstein 2.3e-6.
+// Its 2 terms cancel (sum of |term| up to 11x the albedo on the measurement grid), so they are evaluated as one quotient over the product of their denominators, multiplied out in f64.
+// Error of the f64 fit on its 2097152 data points: MAE 2.56e-3, max 9.17e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.65e-3, max 9.08e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 5.64e-7 (every op rounded, as this Rust), 5.64e-7 (fused multiply-add), 3.45e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.48e-3 for every input, in all three rounding models (interval error analysis over the whole domain, 395 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 2.36e-3, max 9.17e-3; this f32 code MAE 2.36e-3, max 9.17e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.0e-3 on the measurement grid.
 // Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
@@ -43,12 +43,12 @@ float ggx_dielectric_albedo(float f0, float r, float mu) {
     // t = (1*(v*(1 + 1.25*r*r) + 2^-100)/(v + 1.25*r*r + 2^-100) + 0*v)^(1/1) with v = (mu + b*l(mu))/(1 + b*l(1)), b = 2*r^4, l(z) = 16*z^(15/16)*((1 + z)^(1/16) - z^(1/16))
     float mu_t = (mu_logv * (1.0f + 1.25f * (r_c * r_c)) + 7.888609e-31f) / (mu_logv + 1.25f * (r_c * r_c) + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    float p_0 = ((((-2.0722864f * r_t + (3.7687058f * mu_t + 4.1101317f)) * r_t + ((-7.2600927f * mu_t - 2.0243673f) * mu_t - 2.299593f)) * r_t + (((29.248333f * mu_t - 1.7258041f) * mu_t - 24.018818f) * mu_t + 11.095989f)) * r_t + ((((20.426823f * mu_t - 44.161095f) * mu_t + 26.845716f) * mu_t + 10.374626f) * mu_t + 7.480737f)) * r_t + (((((-15.357296f * mu_t + 28.103065f) * mu_t - 12.086679f) * mu_t + 3.8222294f) * mu_t + 4.5408096f) * mu_t + 1.0032908f);
-    float p_1 = ((((0.030213408f * r_t + (0.7749547f * mu_t - 0.77411705f)) * r_t + ((-8.774224f * mu_t + 4.7606688f) * mu_t + 0.20649828f)) * r_t + (((-2.5731573f * mu_t - 6.605368f) * mu_t + 4.8309793f) * mu_t + 0.8063185f)) * r_t + ((((2.0240958f * mu_t - 3.392147f) * mu_t - 0.4467911f) * mu_t + 1.7438203f) * mu_t + 0.25829798f)) * r_t + (((((-0.17275508f * mu_t + 0.6516643f) * mu_t - 0.52491134f) * mu_t + 0.17741072f) * mu_t + 0.1896943f) * mu_t + 0.022206241f);
-    float p_2 = ((((0.07965314f * r_t + (-0.02795328f * mu_t - 0.25858855f)) * r_t + ((-0.9718505f * mu_t + 0.7442745f) * mu_t + 0.112756066f)) * r_t + (((-1.42663f * mu_t - 0.8676872f) * mu_t + 1.5544144f) * mu_t - 0.29012752f)) * r_t + ((((-0.45807147f * mu_t + 1.1288946f) * mu_t - 1.0396798f) * mu_t - 0.13181876f) * mu_t - 0.2357899f)) * r_t + (((((0.534417f * mu_t - 0.9306904f) * mu_t + 0.36581326f) * mu_t - 0.11407484f) * mu_t - 0.13848898f) * mu_t - 0.03337512f);
+    float p_0 = ((((-1.0875661f * r_t + (3.2703595f * mu_t + 2.4978344f)) * r_t + ((-7.33891f * mu_t - 1.0688449f) * mu_t - 1.6986849f)) * r_t + (((28.748434f * mu_t - 0.56243676f) * mu_t - 25.092318f) * mu_t + 11.259349f)) * r_t + ((((20.663198f * mu_t - 44.431377f) * mu_t + 26.742975f) * mu_t + 10.447335f) * mu_t + 7.5874577f)) * r_t + (((((-13.986134f * mu_t + 24.847776f) * mu_t - 9.536847f) * mu_t + 2.989133f) * mu_t + 4.632555f) * mu_t + 1.0063764f);
+    float p_1 = ((((0.10415761f * r_t + (0.8376307f * mu_t - 0.9926259f)) * r_t + ((-8.569252f * mu_t + 4.5041485f) * mu_t + 0.2771314f)) * r_t + (((-2.521206f * mu_t - 6.7039013f) * mu_t + 4.9293947f) * mu_t + 0.91390574f)) * r_t + ((((2.0687017f * mu_t - 3.7516901f) * mu_t - 0.2403405f) * mu_t + 1.8140815f) * mu_t + 0.2553902f)) * r_t + (((((-0.08867805f * mu_t + 0.5787484f) * mu_t - 0.5348558f) * mu_t + 0.2128774f) * mu_t + 0.17976068f) * mu_t + 0.019047927f);
+    float p_2 = ((((0.055143937f * r_t + (0.0005611195f * mu_t - 0.2355731f)) * r_t + ((-0.96839577f * mu_t + 0.6905791f) * mu_t + 0.10267606f)) * r_t + (((-1.424109f * mu_t - 0.94848096f) * mu_t + 1.6375141f) * mu_t - 0.28286907f)) * r_t + ((((-0.46252173f * mu_t + 1.0952508f) * mu_t - 1.0204376f) * mu_t - 0.12279772f) * mu_t - 0.24273512f)) * r_t + (((((0.50267935f * mu_t - 0.8321655f) * mu_t + 0.27418208f) * mu_t - 0.07939666f) * mu_t - 0.14475763f) * mu_t - 0.03433911f);
     float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    float q_0 = (10.882374f * r_t + (13.607015f * mu_t + 7.5429974f)) * r_t + ((4.2377634f * mu_t + 4.8546185f) * mu_t + 1.0f);
+    float q_0 = (10.992735f * r_t + (13.537311f * mu_t + 7.688538f)) * r_t + ((4.1491485f * mu_t + 4.8940983f) * mu_t + 1.0f);
     float q = q_0;
     float e = p / q;
     return max(min(e, 1.0f), 0.0f);

@@ -16,16 +16,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 // Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-dielectric/best-80.json (furnace 0.1.0), fit SHA-256 99544f044aa3b17808c41314c81008d32d2250c6d0072433790d68f8f8083dfd.
+// Source: fits/ggx-dielectric/best-80.json (furnace 0.1.0), fit SHA-256 fe910f5c79a98a8860d8cd1dfe6767374547874cc0128e451b4c31d2f9f5e99c.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-6, shifted 7.3e-7, bernstein 7.3e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 6.33e-4, max 5.48e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.63e-4, max 4.73e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.79e-6 (every op rounded, as this Rust), 2.04e-6 (fused multiply-add), 2.35e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.68e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 9791 boxes).
-// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 5.89e-4, max 5.48e-3; this f32 code MAE 5.89e-4, max 5.48e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.5e-3 on the measurement grid.
-// Denominator proved >= 4.865e-2 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.5e-6, shifted 8.6e-7, bernstein 7.1e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 6.92e-4, max 5.39e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.09e-4, max 4.46e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.89e-6 (every op rounded, as this Rust), 2.34e-6 (fused multiply-add), 2.40e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.21e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 7465 boxes).
+// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 6.51e-4, max 5.39e-3; this f32 code MAE 6.50e-4, max 5.39e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.6e-3 on the measurement grid.
+// Denominator proved >= 6.175e-2 on the domain (Bernstein certificate), so the division is safe.
 float ggx_dielectric_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -38,42 +38,42 @@ float ggx_dielectric_albedo(float f0, float r, float mu) {
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     float mu_t = sqrt((mu_c * (1.0f + 1.0f * (r_c * r_c)) + 7.888609e-31f) / (mu_c + 1.0f * (r_c * r_c) + 7.888609e-31f));
     // term 0: numerator P_0, grouped by powers of the first variable
-    float p0_0 = (((-0.10936587f * r_t + (1.027604f * mu_t + 0.17064528f)) * r_t + ((-1.5354145f * mu_t - 1.0920179f) * mu_t - 0.36877605f)) * r_t + (((0.5682775f * mu_t - 0.41437313f) * mu_t + 2.549954f) * mu_t - 0.34481072f)) * r_t + ((((0.935841f * mu_t - 1.8242762f) * mu_t + 4.1641564f) * mu_t - 2.9817312f) * mu_t + 1.0675008f);
+    float p0_0 = (((-0.43141225f * r_t + (0.66457605f * mu_t + 1.0498469f)) * r_t + ((-1.5906599f * mu_t + 0.078494914f) * mu_t - 1.235474f)) * r_t + (((0.0038523283f * mu_t + 0.7675361f) * mu_t + 0.71561295f) * mu_t - 0.024807373f)) * r_t + ((((0.52762973f * mu_t - 1.1647316f) * mu_t + 3.0978134f) * mu_t - 2.408413f) * mu_t + 0.9964407f);
     float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    float u0_0 = 0.9095577f;
-    float u0_1 = -0.036631383f;
-    float u0_2 = 0.036043677f;
-    float u0_3 = -0.003470396f;
+    float u0_0 = 0.9085928f;
+    float u0_1 = -0.24751738f;
+    float u0_2 = 0.15083575f;
+    float u0_3 = -0.05233769f;
     float u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    float q0_0 = (-0.38230684f * r_t + (2.328365f * mu_t - 0.21046239f)) * r_t + ((2.8094964f * mu_t - 2.4804068f) * mu_t + 1.0f);
+    float q0_0 = (-0.464914f * r_t + (1.524339f * mu_t - 0.17063092f)) * r_t + ((2.186482f * mu_t - 2.1015904f) * mu_t + 1.0f);
     float q0 = q0_0;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    float p1_0 = (((0.07981976f * r_t + (-0.5521009f * mu_t - 0.09016272f)) * r_t + ((-1.263012f * mu_t + 1.3538164f) * mu_t + 0.020242194f)) * r_t + (((1.5308323f * mu_t - 2.5070827f) * mu_t + 0.9973618f) * mu_t - 0.03935085f)) * r_t + ((((0.44255435f * mu_t - 1.1041911f) * mu_t + 0.9001192f) * mu_t - 0.23892651f) * mu_t - 0.001123753f);
+    float p1_0 = (((0.12024745f * r_t + (-0.46834666f * mu_t - 0.14593583f)) * r_t + ((-1.1258596f * mu_t + 1.0885425f) * mu_t + 0.18722779f)) * r_t + (((0.4464178f * mu_t - 0.5401655f) * mu_t + 0.15997805f) * mu_t - 0.06950059f)) * r_t + ((((0.31581894f * mu_t - 0.80068576f) * mu_t + 0.67665774f) * mu_t - 0.32720223f) * mu_t + 0.16188832f);
     float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    float u1_0 = -0.1207561f;
-    float u1_1 = 0.6453306f;
-    float u1_2 = -0.30489507f;
-    float u1_3 = 0.14462659f;
+    float u1_0 = 0.25350675f;
+    float u1_1 = 1.2737864f;
+    float u1_2 = -0.69186974f;
+    float u1_3 = 0.29119503f;
     float u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    float q1_0 = (1.0865954f * r_t + (0.11541582f * mu_t - 0.484158f)) * r_t + ((0.03526161f * mu_t - 0.860452f) * mu_t + 1.0f);
+    float q1_0 = (1.1206731f * r_t + (0.41222876f * mu_t - 0.39737856f)) * r_t + ((-0.016327703f * mu_t - 0.8090783f) * mu_t + 1.0f);
     float q1 = q1_0;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    float p2_0 = (((0.066899285f * r_t + (-0.11239701f * mu_t - 0.042400416f)) * r_t + ((-0.08951473f * mu_t + 0.011246725f) * mu_t + 0.008417986f)) * r_t + (((-0.4851108f * mu_t + 0.83569145f) * mu_t - 0.18254305f) * mu_t - 0.17178027f)) * r_t + ((((0.6131893f * mu_t - 1.5479264f) * mu_t + 1.226112f) * mu_t - 0.25875053f) * mu_t - 0.037740566f);
+    float p2_0 = (((0.12597536f * r_t + (-0.48772213f * mu_t + 0.086728655f)) * r_t + ((-0.7096163f * mu_t + 1.0104412f) * mu_t - 0.36995563f)) * r_t + (((-0.6436948f * mu_t + 1.3962415f) * mu_t - 0.80346286f) * mu_t + 0.04459883f)) * r_t + ((((0.55189365f * mu_t - 1.3697371f) * mu_t + 1.0462196f) * mu_t - 0.18911472f) * mu_t - 0.044365767f);
     float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    float u2_0 = -0.8299574f;
-    float u2_1 = -0.5874986f;
-    float u2_2 = 0.559355f;
-    float u2_3 = -0.09911916f;
+    float u2_0 = -1.2201868f;
+    float u2_1 = -0.7446025f;
+    float u2_2 = 0.6840518f;
+    float u2_3 = -0.13617937f;
     float u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    float q2_0 = (0.26700595f * r_t + (-0.7407985f * mu_t + 0.82409555f)) * r_t + ((1.2058591f * mu_t - 2.1412804f) * mu_t + 1.0f);
+    float q2_0 = (0.66126204f * r_t + (-0.6571267f * mu_t + 0.7594221f)) * r_t + ((1.158048f * mu_t - 2.08165f) * mu_t + 1.0f);
     float q2 = q2_0;
     float e2 = p2 * u2 / q2;
     // the sum of the 3 terms

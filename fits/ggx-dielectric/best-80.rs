@@ -14,16 +14,16 @@
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1]; evaluated in t = square(r).
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2).
 /// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-dielectric/best-80.json (furnace 0.1.0), fit SHA-256 99544f044aa3b17808c41314c81008d32d2250c6d0072433790d68f8f8083dfd.
+/// Source: fits/ggx-dielectric/best-80.json (furnace 0.1.0), fit SHA-256 fe910f5c79a98a8860d8cd1dfe6767374547874cc0128e451b4c31d2f9f5e99c.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.0e-6, shifted 7.3e-7, bernstein 7.3e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 6.33e-4, max 5.48e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 6.63e-4, max 4.73e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.79e-6 (every op rounded, as this Rust), 2.04e-6 (fused multiply-add), 2.35e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 3.68e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 9791 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 5.89e-4, max 5.48e-3; this f32 code MAE 5.89e-4, max 5.48e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.5e-3 on the measurement grid.
-/// Denominator proved >= 4.865e-2 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.5e-6, shifted 8.6e-7, bernstein 7.1e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 6.92e-4, max 5.39e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 7.09e-4, max 4.46e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.89e-6 (every op rounded, as this Rust), 2.34e-6 (fused multiply-add), 2.40e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 3.21e-2 for every input, in all three rounding models (interval error analysis over the whole domain, 7465 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-dielectric/128x128x128 (output clamp applied): f64 MAE 6.51e-4, max 5.39e-3; this f32 code MAE 6.50e-4, max 5.39e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.6e-3 on the measurement grid.
+/// Denominator proved >= 6.175e-2 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -43,42 +43,42 @@ pub fn ggx_dielectric_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = (1*(mu*(1 + 1*r*r) + 2^-100)/(mu + 1*r*r + 2^-100) + 0*mu)^(1/2)
     let mu_t = sqrtf((mu_c * (1.0_f32 + 1.0_f32 * (r_c * r_c)) + 7.888609e-31_f32) / (mu_c + 1.0_f32 * (r_c * r_c) + 7.888609e-31_f32));
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = (((-0.10936587_f32 * r_t + (1.027604_f32 * mu_t + 0.17064528_f32)) * r_t + ((-1.5354145_f32 * mu_t - 1.0920179_f32) * mu_t - 0.36877605_f32)) * r_t + (((0.5682775_f32 * mu_t - 0.41437313_f32) * mu_t + 2.549954_f32) * mu_t - 0.34481072_f32)) * r_t + ((((0.935841_f32 * mu_t - 1.8242762_f32) * mu_t + 4.1641564_f32) * mu_t - 2.9817312_f32) * mu_t + 1.0675008_f32);
+    let p0_0 = (((-0.43141225_f32 * r_t + (0.66457605_f32 * mu_t + 1.0498469_f32)) * r_t + ((-1.5906599_f32 * mu_t + 0.078494914_f32) * mu_t - 1.235474_f32)) * r_t + (((0.0038523283_f32 * mu_t + 0.7675361_f32) * mu_t + 0.71561295_f32) * mu_t - 0.024807373_f32)) * r_t + ((((0.52762973_f32 * mu_t - 1.1647316_f32) * mu_t + 3.0978134_f32) * mu_t - 2.408413_f32) * mu_t + 0.9964407_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.9095577_f32;
-    let u0_1 = -0.036631383_f32;
-    let u0_2 = 0.036043677_f32;
-    let u0_3 = -0.003470396_f32;
+    let u0_0 = 0.9085928_f32;
+    let u0_1 = -0.24751738_f32;
+    let u0_2 = 0.15083575_f32;
+    let u0_3 = -0.05233769_f32;
     let u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (-0.38230684_f32 * r_t + (2.328365_f32 * mu_t - 0.21046239_f32)) * r_t + ((2.8094964_f32 * mu_t - 2.4804068_f32) * mu_t + 1.0_f32);
+    let q0_0 = (-0.464914_f32 * r_t + (1.524339_f32 * mu_t - 0.17063092_f32)) * r_t + ((2.186482_f32 * mu_t - 2.1015904_f32) * mu_t + 1.0_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = (((0.07981976_f32 * r_t + (-0.5521009_f32 * mu_t - 0.09016272_f32)) * r_t + ((-1.263012_f32 * mu_t + 1.3538164_f32) * mu_t + 0.020242194_f32)) * r_t + (((1.5308323_f32 * mu_t - 2.5070827_f32) * mu_t + 0.9973618_f32) * mu_t - 0.03935085_f32)) * r_t + ((((0.44255435_f32 * mu_t - 1.1041911_f32) * mu_t + 0.9001192_f32) * mu_t - 0.23892651_f32) * mu_t - 0.001123753_f32);
+    let p1_0 = (((0.12024745_f32 * r_t + (-0.46834666_f32 * mu_t - 0.14593583_f32)) * r_t + ((-1.1258596_f32 * mu_t + 1.0885425_f32) * mu_t + 0.18722779_f32)) * r_t + (((0.4464178_f32 * mu_t - 0.5401655_f32) * mu_t + 0.15997805_f32) * mu_t - 0.06950059_f32)) * r_t + ((((0.31581894_f32 * mu_t - 0.80068576_f32) * mu_t + 0.67665774_f32) * mu_t - 0.32720223_f32) * mu_t + 0.16188832_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = -0.1207561_f32;
-    let u1_1 = 0.6453306_f32;
-    let u1_2 = -0.30489507_f32;
-    let u1_3 = 0.14462659_f32;
+    let u1_0 = 0.25350675_f32;
+    let u1_1 = 1.2737864_f32;
+    let u1_2 = -0.69186974_f32;
+    let u1_3 = 0.29119503_f32;
     let u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (1.0865954_f32 * r_t + (0.11541582_f32 * mu_t - 0.484158_f32)) * r_t + ((0.03526161_f32 * mu_t - 0.860452_f32) * mu_t + 1.0_f32);
+    let q1_0 = (1.1206731_f32 * r_t + (0.41222876_f32 * mu_t - 0.39737856_f32)) * r_t + ((-0.016327703_f32 * mu_t - 0.8090783_f32) * mu_t + 1.0_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = (((0.066899285_f32 * r_t + (-0.11239701_f32 * mu_t - 0.042400416_f32)) * r_t + ((-0.08951473_f32 * mu_t + 0.011246725_f32) * mu_t + 0.008417986_f32)) * r_t + (((-0.4851108_f32 * mu_t + 0.83569145_f32) * mu_t - 0.18254305_f32) * mu_t - 0.17178027_f32)) * r_t + ((((0.6131893_f32 * mu_t - 1.5479264_f32) * mu_t + 1.226112_f32) * mu_t - 0.25875053_f32) * mu_t - 0.037740566_f32);
+    let p2_0 = (((0.12597536_f32 * r_t + (-0.48772213_f32 * mu_t + 0.086728655_f32)) * r_t + ((-0.7096163_f32 * mu_t + 1.0104412_f32) * mu_t - 0.36995563_f32)) * r_t + (((-0.6436948_f32 * mu_t + 1.3962415_f32) * mu_t - 0.80346286_f32) * mu_t + 0.04459883_f32)) * r_t + ((((0.55189365_f32 * mu_t - 1.3697371_f32) * mu_t + 1.0462196_f32) * mu_t - 0.18911472_f32) * mu_t - 0.044365767_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.8299574_f32;
-    let u2_1 = -0.5874986_f32;
-    let u2_2 = 0.559355_f32;
-    let u2_3 = -0.09911916_f32;
+    let u2_0 = -1.2201868_f32;
+    let u2_1 = -0.7446025_f32;
+    let u2_2 = 0.6840518_f32;
+    let u2_3 = -0.13617937_f32;
     let u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (0.26700595_f32 * r_t + (-0.7407985_f32 * mu_t + 0.82409555_f32)) * r_t + ((1.2058591_f32 * mu_t - 2.1412804_f32) * mu_t + 1.0_f32);
+    let q2_0 = (0.66126204_f32 * r_t + (-0.6571267_f32 * mu_t + 0.7594221_f32)) * r_t + ((1.158048_f32 * mu_t - 2.08165_f32) * mu_t + 1.0_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // the sum of the 3 terms

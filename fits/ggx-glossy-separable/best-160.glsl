@@ -17,16 +17,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
 // Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 df3a937764f55d510f813a4068ae49d9b59c75ae1d4f42c25e5850e929270ef3.
+// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 6ed170b25a9ca9b1a7b0121f442604bd0f527d694b15b7db197cac5eaf8377ea.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-6, shifted 1.1e-5, bernstein 6.2e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.11e-4, max 2.07e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.33e-4, max 2.14e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.45e-6 (every op rounded, as this Rust), 2.85e-6 (fused multiply-add), 2.27e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.06e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 35843 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-4, max 2.07e-3; this f32 code MAE 2.11e-4, max 2.07e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-3 on the measurement grid.
-// Denominator proved >= 2.174e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 9.0e-7, shifted 3.4e-5, bernstein 6.5e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.11e-4, max 1.97e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.37e-4, max 1.84e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.03e-6 (every op rounded, as this Rust), 6.61e-7 (fused multiply-add), 8.91e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 8.39e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 26041 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-4, max 1.97e-3; this f32 code MAE 2.11e-4, max 1.97e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
+// Denominator proved >= 2.326e-4 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_glossy_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -37,59 +37,59 @@ highp float ggx_glossy_separable_albedo(highp float f0, highp float r, highp flo
     // t = sqrt(mu)
     highp float mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    highp float p0_0 = ((((-12.999557 * r_c + (-27.002766 * mu_t + 34.300724)) * r_c + ((12.341216 * mu_t + 36.42689) * mu_t - 30.60814)) * r_c + (((2.7060878 * mu_t - 20.477213) * mu_t - 11.7002125) * mu_t + 14.372335)) * r_c + ((((-12.445711 * mu_t + 23.325317) * mu_t - 13.897768) * mu_t + 11.238086) * mu_t - 6.413701)) * r_c + (((((5.8766694 * mu_t - 6.6221156) * mu_t - 0.9037057) * mu_t + 7.727992) * mu_t - 6.7062206) * mu_t + 2.0649385);
+    highp float p0_0 = ((((-0.3957232 * r_c + (-7.3388543 * mu_t + 1.8182844)) * r_c + ((2.2015023 * mu_t + 18.774372) * mu_t - 6.315177)) * r_c + (((4.540648 * mu_t - 4.7881827) * mu_t - 18.202303) * mu_t + 9.535985)) * r_c + ((((5.772894 * mu_t - 14.848735) * mu_t + 3.8529956) * mu_t + 11.418914) * mu_t - 6.1314673)) * r_c + (((((-5.69302 * mu_t + 6.706301) * mu_t + 3.0935335) * mu_t - 0.79979235) * mu_t - 3.9401178) * mu_t + 1.7552861);
     highp float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    highp float u0_0 = 0.6508343;
-    highp float u0_1 = -0.29189625;
-    highp float u0_2 = 0.2088498;
-    highp float u0_3 = 0.07094076;
-    highp float u0_4 = -0.05415143;
+    highp float u0_0 = 0.5354735;
+    highp float u0_1 = -0.1317262;
+    highp float u0_2 = 0.08344291;
+    highp float u0_3 = 0.07173703;
+    highp float u0_4 = -0.038982954;
     highp float u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    highp float q0_0 = ((-9.219861 * r_c + (5.7342863 * mu_t + 11.029042)) * r_c + ((-0.94070184 * mu_t - 7.750092) * mu_t - 0.33895013)) * r_c + (((-0.40652835 * mu_t + 5.078679) * mu_t - 1.7895069) * mu_t + 1.0);
+    highp float q0_0 = ((-7.722646 * r_c + (9.787184 * mu_t + 9.189153)) * r_c + ((-6.4292665 * mu_t - 5.9332247) * mu_t - 0.8084298)) * r_c + (((2.6846263 * mu_t + 2.9366264) * mu_t - 0.9683171) * mu_t + 1.0);
     highp float q0 = q0_0;
     highp float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    highp float p1_0 = ((((1.2151661 * r_c + (-0.1899415 * mu_t - 2.264238)) * r_c + ((-0.75418216 * mu_t + 1.6597778) * mu_t - 8.335117)) * r_c + (((0.34316087 * mu_t + 0.2855805) * mu_t + 4.445948) * mu_t - 0.7491528)) * r_c + ((((-0.2501897 * mu_t - 0.030182896) * mu_t - 0.2533415) * mu_t - 0.24289592) * mu_t + 0.07135345)) * r_c + (((((-2.4416096 * mu_t + 6.372526) * mu_t - 6.880079) * mu_t + 1.3876938) * mu_t + 0.08054735) * mu_t - 0.1077185);
+    highp float p1_0 = ((((0.21152575 * r_c + (-1.1283457 * mu_t + 0.63953555)) * r_c + ((-0.1896054 * mu_t + 2.8111253) * mu_t - 7.147822)) * r_c + (((0.48971772 * mu_t - 0.75808173) * mu_t + 2.785249) * mu_t - 0.69412726)) * r_c + ((((-1.183868 * mu_t + 1.7995471) * mu_t - 0.6469437) * mu_t + 0.21643452) * mu_t - 0.043586146)) * r_c + (((((-2.3144403 * mu_t + 6.3409777) * mu_t - 6.6648836) * mu_t + 1.3499664) * mu_t - 0.0622459) * mu_t - 0.01613069);
     highp float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    highp float u1_0 = 0.9328409;
-    highp float u1_1 = -0.31337735;
-    highp float u1_2 = -0.56614625;
-    highp float u1_3 = 0.100894816;
-    highp float u1_4 = -0.26144806;
+    highp float u1_0 = 0.24168624;
+    highp float u1_1 = -0.38282138;
+    highp float u1_2 = -0.34741786;
+    highp float u1_3 = 0.010293779;
+    highp float u1_4 = -0.18386677;
     highp float u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    highp float q1_0 = ((35.66784 * r_c + (-23.121347 * mu_t + 4.787847)) * r_c + ((3.4648013 * mu_t - 0.83405286) * mu_t + 0.12339186)) * r_c + (((6.36513 * mu_t - 0.30026767) * mu_t - 0.7568775) * mu_t + 1.0);
+    highp float q1_0 = ((19.50399 * r_c + (-16.121574 * mu_t + 7.587382)) * r_c + ((1.3419865 * mu_t - 1.2450347) * mu_t - 0.30004206)) * r_c + (((3.902769 * mu_t + 1.5158505) * mu_t - 1.2753456) * mu_t + 1.0);
     highp float q1 = q1_0;
     highp float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    highp float p2_0 = ((((-17.554438 * r_c + (-32.043617 * mu_t + 49.90711)) * r_c + ((16.76994 * mu_t + 38.68799) * mu_t - 43.182262)) * r_c + (((6.7491236 * mu_t - 40.362335) * mu_t + 5.2451224) * mu_t + 11.157399)) * r_c + ((((-16.289942 * mu_t + 24.093124) * mu_t + 5.5975795) * mu_t - 8.917347) * mu_t - 0.24786606)) * r_c + (((((7.537825 * mu_t - 7.019577) * mu_t - 1.8715698) * mu_t + 1.2009686) * mu_t + 0.4091049) * mu_t + 0.0056480966);
+    highp float p2_0 = ((((-1.7168584 * r_c + (-8.659245 * mu_t + 4.8083587)) * r_c + ((11.407647 * mu_t + 10.121544) * mu_t - 3.5524817)) * r_c + (((6.5683937 * mu_t - 27.42274) * mu_t + 5.043392) * mu_t + 0.38841754)) * r_c + ((((0.22037233 * mu_t - 5.176393) * mu_t + 13.649462) * mu_t - 5.381767) * mu_t + 0.047562875)) * r_c + (((((-4.3337455 * mu_t + 6.1349125) * mu_t - 0.48033106) * mu_t - 1.3260386) * mu_t + 0.085123934) * mu_t + 9.883035e-5);
     highp float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    highp float u2_0 = -0.377575;
-    highp float u2_1 = 0.16733286;
-    highp float u2_2 = -0.11789154;
-    highp float u2_3 = -0.056520093;
-    highp float u2_4 = 0.04321115;
+    highp float u2_0 = -0.15051839;
+    highp float u2_1 = 0.039261114;
+    highp float u2_2 = 0.021746982;
+    highp float u2_3 = -0.100488275;
+    highp float u2_4 = 0.051797383;
     highp float u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    highp float q2_0 = ((-5.305678 * r_c + (2.714171 * mu_t + 6.944426)) * r_c + ((0.4284458 * mu_t - 5.2894363) * mu_t - 0.15068132)) * r_c + (((-0.051548753 * mu_t + 1.9500158) * mu_t + 0.28686604) * mu_t + 0.003743737);
+    highp float q2_0 = ((-3.4861097 * r_c + (2.5577857 * mu_t + 5.4651427)) * r_c + ((0.1569499 * mu_t - 5.584669) * mu_t + 0.10714213)) * r_c + (((-0.45532843 * mu_t + 2.421028) * mu_t + 0.21547228) * mu_t + 0.00023256143);
     highp float q2 = q2_0;
     highp float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    highp float p3_0 = ((((123.316574 * r_c + (79.0997 * mu_t - 358.92822)) * r_c + ((-134.63322 * mu_t + 47.763115) * mu_t + 296.48938)) * r_c + (((53.58353 * mu_t + 182.70366) * mu_t - 295.86578) * mu_t - 36.334415)) * r_c + ((((176.6199 * mu_t - 406.02832) * mu_t + 130.60239) * mu_t + 187.05997) * mu_t - 70.315414)) * r_c + (((((-179.71297 * mu_t + 294.15475) * mu_t - 88.36722) * mu_t - 16.763868) * mu_t - 20.220406) * mu_t - 1.7392691);
+    highp float p3_0 = ((((-41.80448 * r_c + (3.56529 * mu_t + 72.93893)) * r_c + ((-51.64818 * mu_t + 47.76757) * mu_t - 0.5305372)) * r_c + (((236.90042 * mu_t - 217.89993) * mu_t + 1.7934612) * mu_t - 20.53305)) * r_c + ((((148.27554 * mu_t - 531.5154) * mu_t + 418.5009) * mu_t - 24.442236) * mu_t - 24.14277)) * r_c + (((((-107.630844 * mu_t + 127.911476) * mu_t + 68.4848) * mu_t - 58.779053) * mu_t - 18.302568) * mu_t - 1.3780255);
     highp float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    highp float u3_0 = -0.1886304;
-    highp float u3_1 = -0.1818253;
-    highp float u3_2 = 0.20064692;
-    highp float u3_3 = -0.009921245;
-    highp float u3_4 = 0.008625439;
+    highp float u3_0 = -0.093801394;
+    highp float u3_1 = -0.14938699;
+    highp float u3_2 = 0.12981676;
+    highp float u3_3 = 0.029412823;
+    highp float u3_4 = -0.01464012;
     highp float u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    highp float q3_0 = ((43.785816 * r_c + (81.47616 * mu_t + 6.025371)) * r_c + ((27.17763 * mu_t - 107.947586) * mu_t + 37.66675)) * r_c + (((43.433933 * mu_t - 11.7445965) * mu_t + 13.015665) * mu_t + 1.0);
+    highp float q3_0 = ((99.30919 * r_c + (38.661724 * mu_t - 11.6024275)) * r_c + ((-47.764835 * mu_t - 17.614449) * mu_t + 13.410329)) * r_c + (((58.394127 * mu_t - 34.5032) * mu_t + 16.549187) * mu_t + 1.0);
     highp float q3 = q3_0;
     highp float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

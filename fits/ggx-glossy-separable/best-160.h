@@ -29,16 +29,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
 // Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 df3a937764f55d510f813a4068ae49d9b59c75ae1d4f42c25e5850e929270ef3.
+// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 6ed170b25a9ca9b1a7b0121f442604bd0f527d694b15b7db197cac5eaf8377ea.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-6, shifted 1.1e-5, bernstein 6.2e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.11e-4, max 2.07e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.33e-4, max 2.14e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.45e-6 (every op rounded, as this Rust), 2.85e-6 (fused multiply-add), 2.27e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.06e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 35843 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-4, max 2.07e-3; this f32 code MAE 2.11e-4, max 2.07e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-3 on the measurement grid.
-// Denominator proved >= 2.174e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 9.0e-7, shifted 3.4e-5, bernstein 6.5e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.11e-4, max 1.97e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.37e-4, max 1.84e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.03e-6 (every op rounded, as this Rust), 6.61e-7 (fused multiply-add), 8.91e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 8.39e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 26041 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-4, max 1.97e-3; this f32 code MAE 2.11e-4, max 1.97e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
+// Denominator proved >= 2.326e-4 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -49,59 +49,59 @@ FURNACE_FN float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     const float mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    const float p0_0 = ((((-12.999557f * r_c + (-27.002766f * mu_t + 34.300724f)) * r_c + ((12.341216f * mu_t + 36.42689f) * mu_t - 30.60814f)) * r_c + (((2.7060878f * mu_t - 20.477213f) * mu_t - 11.7002125f) * mu_t + 14.372335f)) * r_c + ((((-12.445711f * mu_t + 23.325317f) * mu_t - 13.897768f) * mu_t + 11.238086f) * mu_t - 6.413701f)) * r_c + (((((5.8766694f * mu_t - 6.6221156f) * mu_t - 0.9037057f) * mu_t + 7.727992f) * mu_t - 6.7062206f) * mu_t + 2.0649385f);
+    const float p0_0 = ((((-0.3957232f * r_c + (-7.3388543f * mu_t + 1.8182844f)) * r_c + ((2.2015023f * mu_t + 18.774372f) * mu_t - 6.315177f)) * r_c + (((4.540648f * mu_t - 4.7881827f) * mu_t - 18.202303f) * mu_t + 9.535985f)) * r_c + ((((5.772894f * mu_t - 14.848735f) * mu_t + 3.8529956f) * mu_t + 11.418914f) * mu_t - 6.1314673f)) * r_c + (((((-5.69302f * mu_t + 6.706301f) * mu_t + 3.0935335f) * mu_t - 0.79979235f) * mu_t - 3.9401178f) * mu_t + 1.7552861f);
     const float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    const float u0_0 = 0.6508343f;
-    const float u0_1 = -0.29189625f;
-    const float u0_2 = 0.2088498f;
-    const float u0_3 = 0.07094076f;
-    const float u0_4 = -0.05415143f;
+    const float u0_0 = 0.5354735f;
+    const float u0_1 = -0.1317262f;
+    const float u0_2 = 0.08344291f;
+    const float u0_3 = 0.07173703f;
+    const float u0_4 = -0.038982954f;
     const float u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    const float q0_0 = ((-9.219861f * r_c + (5.7342863f * mu_t + 11.029042f)) * r_c + ((-0.94070184f * mu_t - 7.750092f) * mu_t - 0.33895013f)) * r_c + (((-0.40652835f * mu_t + 5.078679f) * mu_t - 1.7895069f) * mu_t + 1.0f);
+    const float q0_0 = ((-7.722646f * r_c + (9.787184f * mu_t + 9.189153f)) * r_c + ((-6.4292665f * mu_t - 5.9332247f) * mu_t - 0.8084298f)) * r_c + (((2.6846263f * mu_t + 2.9366264f) * mu_t - 0.9683171f) * mu_t + 1.0f);
     const float q0 = q0_0;
     const float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    const float p1_0 = ((((1.2151661f * r_c + (-0.1899415f * mu_t - 2.264238f)) * r_c + ((-0.75418216f * mu_t + 1.6597778f) * mu_t - 8.335117f)) * r_c + (((0.34316087f * mu_t + 0.2855805f) * mu_t + 4.445948f) * mu_t - 0.7491528f)) * r_c + ((((-0.2501897f * mu_t - 0.030182896f) * mu_t - 0.2533415f) * mu_t - 0.24289592f) * mu_t + 0.07135345f)) * r_c + (((((-2.4416096f * mu_t + 6.372526f) * mu_t - 6.880079f) * mu_t + 1.3876938f) * mu_t + 0.08054735f) * mu_t - 0.1077185f);
+    const float p1_0 = ((((0.21152575f * r_c + (-1.1283457f * mu_t + 0.63953555f)) * r_c + ((-0.1896054f * mu_t + 2.8111253f) * mu_t - 7.147822f)) * r_c + (((0.48971772f * mu_t - 0.75808173f) * mu_t + 2.785249f) * mu_t - 0.69412726f)) * r_c + ((((-1.183868f * mu_t + 1.7995471f) * mu_t - 0.6469437f) * mu_t + 0.21643452f) * mu_t - 0.043586146f)) * r_c + (((((-2.3144403f * mu_t + 6.3409777f) * mu_t - 6.6648836f) * mu_t + 1.3499664f) * mu_t - 0.0622459f) * mu_t - 0.01613069f);
     const float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    const float u1_0 = 0.9328409f;
-    const float u1_1 = -0.31337735f;
-    const float u1_2 = -0.56614625f;
-    const float u1_3 = 0.100894816f;
-    const float u1_4 = -0.26144806f;
+    const float u1_0 = 0.24168624f;
+    const float u1_1 = -0.38282138f;
+    const float u1_2 = -0.34741786f;
+    const float u1_3 = 0.010293779f;
+    const float u1_4 = -0.18386677f;
     const float u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    const float q1_0 = ((35.66784f * r_c + (-23.121347f * mu_t + 4.787847f)) * r_c + ((3.4648013f * mu_t - 0.83405286f) * mu_t + 0.12339186f)) * r_c + (((6.36513f * mu_t - 0.30026767f) * mu_t - 0.7568775f) * mu_t + 1.0f);
+    const float q1_0 = ((19.50399f * r_c + (-16.121574f * mu_t + 7.587382f)) * r_c + ((1.3419865f * mu_t - 1.2450347f) * mu_t - 0.30004206f)) * r_c + (((3.902769f * mu_t + 1.5158505f) * mu_t - 1.2753456f) * mu_t + 1.0f);
     const float q1 = q1_0;
     const float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    const float p2_0 = ((((-17.554438f * r_c + (-32.043617f * mu_t + 49.90711f)) * r_c + ((16.76994f * mu_t + 38.68799f) * mu_t - 43.182262f)) * r_c + (((6.7491236f * mu_t - 40.362335f) * mu_t + 5.2451224f) * mu_t + 11.157399f)) * r_c + ((((-16.289942f * mu_t + 24.093124f) * mu_t + 5.5975795f) * mu_t - 8.917347f) * mu_t - 0.24786606f)) * r_c + (((((7.537825f * mu_t - 7.019577f) * mu_t - 1.8715698f) * mu_t + 1.2009686f) * mu_t + 0.4091049f) * mu_t + 0.0056480966f);
+    const float p2_0 = ((((-1.7168584f * r_c + (-8.659245f * mu_t + 4.8083587f)) * r_c + ((11.407647f * mu_t + 10.121544f) * mu_t - 3.5524817f)) * r_c + (((6.5683937f * mu_t - 27.42274f) * mu_t + 5.043392f) * mu_t + 0.38841754f)) * r_c + ((((0.22037233f * mu_t - 5.176393f) * mu_t + 13.649462f) * mu_t - 5.381767f) * mu_t + 0.047562875f)) * r_c + (((((-4.3337455f * mu_t + 6.1349125f) * mu_t - 0.48033106f) * mu_t - 1.3260386f) * mu_t + 0.085123934f) * mu_t + 9.883035e-5f);
     const float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    const float u2_0 = -0.377575f;
-    const float u2_1 = 0.16733286f;
-    const float u2_2 = -0.11789154f;
-    const float u2_3 = -0.056520093f;
-    const float u2_4 = 0.04321115f;
+    const float u2_0 = -0.15051839f;
+    const float u2_1 = 0.039261114f;
+    const float u2_2 = 0.021746982f;
+    const float u2_3 = -0.100488275f;
+    const float u2_4 = 0.051797383f;
     const float u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    const float q2_0 = ((-5.305678f * r_c + (2.714171f * mu_t + 6.944426f)) * r_c + ((0.4284458f * mu_t - 5.2894363f) * mu_t - 0.15068132f)) * r_c + (((-0.051548753f * mu_t + 1.9500158f) * mu_t + 0.28686604f) * mu_t + 0.003743737f);
+    const float q2_0 = ((-3.4861097f * r_c + (2.5577857f * mu_t + 5.4651427f)) * r_c + ((0.1569499f * mu_t - 5.584669f) * mu_t + 0.10714213f)) * r_c + (((-0.45532843f * mu_t + 2.421028f) * mu_t + 0.21547228f) * mu_t + 0.00023256143f);
     const float q2 = q2_0;
     const float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    const float p3_0 = ((((123.316574f * r_c + (79.0997f * mu_t - 358.92822f)) * r_c + ((-134.63322f * mu_t + 47.763115f) * mu_t + 296.48938f)) * r_c + (((53.58353f * mu_t + 182.70366f) * mu_t - 295.86578f) * mu_t - 36.334415f)) * r_c + ((((176.6199f * mu_t - 406.02832f) * mu_t + 130.60239f) * mu_t + 187.05997f) * mu_t - 70.315414f)) * r_c + (((((-179.71297f * mu_t + 294.15475f) * mu_t - 88.36722f) * mu_t - 16.763868f) * mu_t - 20.220406f) * mu_t - 1.7392691f);
+    const float p3_0 = ((((-41.80448f * r_c + (3.56529f * mu_t + 72.93893f)) * r_c + ((-51.64818f * mu_t + 47.76757f) * mu_t - 0.5305372f)) * r_c + (((236.90042f * mu_t - 217.89993f) * mu_t + 1.7934612f) * mu_t - 20.53305f)) * r_c + ((((148.27554f * mu_t - 531.5154f) * mu_t + 418.5009f) * mu_t - 24.442236f) * mu_t - 24.14277f)) * r_c + (((((-107.630844f * mu_t + 127.911476f) * mu_t + 68.4848f) * mu_t - 58.779053f) * mu_t - 18.302568f) * mu_t - 1.3780255f);
     const float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    const float u3_0 = -0.1886304f;
-    const float u3_1 = -0.1818253f;
-    const float u3_2 = 0.20064692f;
-    const float u3_3 = -0.009921245f;
-    const float u3_4 = 0.008625439f;
+    const float u3_0 = -0.093801394f;
+    const float u3_1 = -0.14938699f;
+    const float u3_2 = 0.12981676f;
+    const float u3_3 = 0.029412823f;
+    const float u3_4 = -0.01464012f;
     const float u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    const float q3_0 = ((43.785816f * r_c + (81.47616f * mu_t + 6.025371f)) * r_c + ((27.17763f * mu_t - 107.947586f) * mu_t + 37.66675f)) * r_c + (((43.433933f * mu_t - 11.7445965f) * mu_t + 13.015665f) * mu_t + 1.0f);
+    const float q3_0 = ((99.30919f * r_c + (38.661724f * mu_t - 11.6024275f)) * r_c + ((-47.764835f * mu_t - 17.614449f) * mu_t + 13.410329f)) * r_c + (((58.394127f * mu_t - 34.5032f) * mu_t + 16.549187f) * mu_t + 1.0f);
     const float q3 = q3_0;
     const float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

@@ -14,16 +14,16 @@
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
 /// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 df3a937764f55d510f813a4068ae49d9b59c75ae1d4f42c25e5850e929270ef3.
+/// Source: fits/ggx-glossy-separable/best-160.json (furnace 0.1.0), fit SHA-256 6ed170b25a9ca9b1a7b0121f442604bd0f527d694b15b7db197cac5eaf8377ea.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-6, shifted 1.1e-5, bernstein 6.2e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 2.11e-4, max 2.07e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.33e-4, max 2.14e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 3.45e-6 (every op rounded, as this Rust), 2.85e-6 (fused multiply-add), 2.27e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.06e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 35843 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-4, max 2.07e-3; this f32 code MAE 2.11e-4, max 2.07e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.9e-3 on the measurement grid.
-/// Denominator proved >= 2.174e-3 on the domain (Bernstein certificate), so the division is safe.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 9.0e-7, shifted 3.4e-5, bernstein 6.5e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 2.11e-4, max 1.97e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.37e-4, max 1.84e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.03e-6 (every op rounded, as this Rust), 6.61e-7 (fused multiply-add), 8.91e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 8.39e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 26041 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.11e-4, max 1.97e-3; this f32 code MAE 2.11e-4, max 1.97e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.3e-3 on the measurement grid.
+/// Denominator proved >= 2.326e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -41,59 +41,59 @@ pub fn ggx_glossy_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((-12.999557_f32 * r_c + (-27.002766_f32 * mu_t + 34.300724_f32)) * r_c + ((12.341216_f32 * mu_t + 36.42689_f32) * mu_t - 30.60814_f32)) * r_c + (((2.7060878_f32 * mu_t - 20.477213_f32) * mu_t - 11.7002125_f32) * mu_t + 14.372335_f32)) * r_c + ((((-12.445711_f32 * mu_t + 23.325317_f32) * mu_t - 13.897768_f32) * mu_t + 11.238086_f32) * mu_t - 6.413701_f32)) * r_c + (((((5.8766694_f32 * mu_t - 6.6221156_f32) * mu_t - 0.9037057_f32) * mu_t + 7.727992_f32) * mu_t - 6.7062206_f32) * mu_t + 2.0649385_f32);
+    let p0_0 = ((((-0.3957232_f32 * r_c + (-7.3388543_f32 * mu_t + 1.8182844_f32)) * r_c + ((2.2015023_f32 * mu_t + 18.774372_f32) * mu_t - 6.315177_f32)) * r_c + (((4.540648_f32 * mu_t - 4.7881827_f32) * mu_t - 18.202303_f32) * mu_t + 9.535985_f32)) * r_c + ((((5.772894_f32 * mu_t - 14.848735_f32) * mu_t + 3.8529956_f32) * mu_t + 11.418914_f32) * mu_t - 6.1314673_f32)) * r_c + (((((-5.69302_f32 * mu_t + 6.706301_f32) * mu_t + 3.0935335_f32) * mu_t - 0.79979235_f32) * mu_t - 3.9401178_f32) * mu_t + 1.7552861_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.6508343_f32;
-    let u0_1 = -0.29189625_f32;
-    let u0_2 = 0.2088498_f32;
-    let u0_3 = 0.07094076_f32;
-    let u0_4 = -0.05415143_f32;
+    let u0_0 = 0.5354735_f32;
+    let u0_1 = -0.1317262_f32;
+    let u0_2 = 0.08344291_f32;
+    let u0_3 = 0.07173703_f32;
+    let u0_4 = -0.038982954_f32;
     let u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = ((-9.219861_f32 * r_c + (5.7342863_f32 * mu_t + 11.029042_f32)) * r_c + ((-0.94070184_f32 * mu_t - 7.750092_f32) * mu_t - 0.33895013_f32)) * r_c + (((-0.40652835_f32 * mu_t + 5.078679_f32) * mu_t - 1.7895069_f32) * mu_t + 1.0_f32);
+    let q0_0 = ((-7.722646_f32 * r_c + (9.787184_f32 * mu_t + 9.189153_f32)) * r_c + ((-6.4292665_f32 * mu_t - 5.9332247_f32) * mu_t - 0.8084298_f32)) * r_c + (((2.6846263_f32 * mu_t + 2.9366264_f32) * mu_t - 0.9683171_f32) * mu_t + 1.0_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((1.2151661_f32 * r_c + (-0.1899415_f32 * mu_t - 2.264238_f32)) * r_c + ((-0.75418216_f32 * mu_t + 1.6597778_f32) * mu_t - 8.335117_f32)) * r_c + (((0.34316087_f32 * mu_t + 0.2855805_f32) * mu_t + 4.445948_f32) * mu_t - 0.7491528_f32)) * r_c + ((((-0.2501897_f32 * mu_t - 0.030182896_f32) * mu_t - 0.2533415_f32) * mu_t - 0.24289592_f32) * mu_t + 0.07135345_f32)) * r_c + (((((-2.4416096_f32 * mu_t + 6.372526_f32) * mu_t - 6.880079_f32) * mu_t + 1.3876938_f32) * mu_t + 0.08054735_f32) * mu_t - 0.1077185_f32);
+    let p1_0 = ((((0.21152575_f32 * r_c + (-1.1283457_f32 * mu_t + 0.63953555_f32)) * r_c + ((-0.1896054_f32 * mu_t + 2.8111253_f32) * mu_t - 7.147822_f32)) * r_c + (((0.48971772_f32 * mu_t - 0.75808173_f32) * mu_t + 2.785249_f32) * mu_t - 0.69412726_f32)) * r_c + ((((-1.183868_f32 * mu_t + 1.7995471_f32) * mu_t - 0.6469437_f32) * mu_t + 0.21643452_f32) * mu_t - 0.043586146_f32)) * r_c + (((((-2.3144403_f32 * mu_t + 6.3409777_f32) * mu_t - 6.6648836_f32) * mu_t + 1.3499664_f32) * mu_t - 0.0622459_f32) * mu_t - 0.01613069_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 0.9328409_f32;
-    let u1_1 = -0.31337735_f32;
-    let u1_2 = -0.56614625_f32;
-    let u1_3 = 0.100894816_f32;
-    let u1_4 = -0.26144806_f32;
+    let u1_0 = 0.24168624_f32;
+    let u1_1 = -0.38282138_f32;
+    let u1_2 = -0.34741786_f32;
+    let u1_3 = 0.010293779_f32;
+    let u1_4 = -0.18386677_f32;
     let u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = ((35.66784_f32 * r_c + (-23.121347_f32 * mu_t + 4.787847_f32)) * r_c + ((3.4648013_f32 * mu_t - 0.83405286_f32) * mu_t + 0.12339186_f32)) * r_c + (((6.36513_f32 * mu_t - 0.30026767_f32) * mu_t - 0.7568775_f32) * mu_t + 1.0_f32);
+    let q1_0 = ((19.50399_f32 * r_c + (-16.121574_f32 * mu_t + 7.587382_f32)) * r_c + ((1.3419865_f32 * mu_t - 1.2450347_f32) * mu_t - 0.30004206_f32)) * r_c + (((3.902769_f32 * mu_t + 1.5158505_f32) * mu_t - 1.2753456_f32) * mu_t + 1.0_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((-17.554438_f32 * r_c + (-32.043617_f32 * mu_t + 49.90711_f32)) * r_c + ((16.76994_f32 * mu_t + 38.68799_f32) * mu_t - 43.182262_f32)) * r_c + (((6.7491236_f32 * mu_t - 40.362335_f32) * mu_t + 5.2451224_f32) * mu_t + 11.157399_f32)) * r_c + ((((-16.289942_f32 * mu_t + 24.093124_f32) * mu_t + 5.5975795_f32) * mu_t - 8.917347_f32) * mu_t - 0.24786606_f32)) * r_c + (((((7.537825_f32 * mu_t - 7.019577_f32) * mu_t - 1.8715698_f32) * mu_t + 1.2009686_f32) * mu_t + 0.4091049_f32) * mu_t + 0.0056480966_f32);
+    let p2_0 = ((((-1.7168584_f32 * r_c + (-8.659245_f32 * mu_t + 4.8083587_f32)) * r_c + ((11.407647_f32 * mu_t + 10.121544_f32) * mu_t - 3.5524817_f32)) * r_c + (((6.5683937_f32 * mu_t - 27.42274_f32) * mu_t + 5.043392_f32) * mu_t + 0.38841754_f32)) * r_c + ((((0.22037233_f32 * mu_t - 5.176393_f32) * mu_t + 13.649462_f32) * mu_t - 5.381767_f32) * mu_t + 0.047562875_f32)) * r_c + (((((-4.3337455_f32 * mu_t + 6.1349125_f32) * mu_t - 0.48033106_f32) * mu_t - 1.3260386_f32) * mu_t + 0.085123934_f32) * mu_t + 9.883035e-5_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.377575_f32;
-    let u2_1 = 0.16733286_f32;
-    let u2_2 = -0.11789154_f32;
-    let u2_3 = -0.056520093_f32;
-    let u2_4 = 0.04321115_f32;
+    let u2_0 = -0.15051839_f32;
+    let u2_1 = 0.039261114_f32;
+    let u2_2 = 0.021746982_f32;
+    let u2_3 = -0.100488275_f32;
+    let u2_4 = 0.051797383_f32;
     let u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = ((-5.305678_f32 * r_c + (2.714171_f32 * mu_t + 6.944426_f32)) * r_c + ((0.4284458_f32 * mu_t - 5.2894363_f32) * mu_t - 0.15068132_f32)) * r_c + (((-0.051548753_f32 * mu_t + 1.9500158_f32) * mu_t + 0.28686604_f32) * mu_t + 0.003743737_f32);
+    let q2_0 = ((-3.4861097_f32 * r_c + (2.5577857_f32 * mu_t + 5.4651427_f32)) * r_c + ((0.1569499_f32 * mu_t - 5.584669_f32) * mu_t + 0.10714213_f32)) * r_c + (((-0.45532843_f32 * mu_t + 2.421028_f32) * mu_t + 0.21547228_f32) * mu_t + 0.00023256143_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((123.316574_f32 * r_c + (79.0997_f32 * mu_t - 358.92822_f32)) * r_c + ((-134.63322_f32 * mu_t + 47.763115_f32) * mu_t + 296.48938_f32)) * r_c + (((53.58353_f32 * mu_t + 182.70366_f32) * mu_t - 295.86578_f32) * mu_t - 36.334415_f32)) * r_c + ((((176.6199_f32 * mu_t - 406.02832_f32) * mu_t + 130.60239_f32) * mu_t + 187.05997_f32) * mu_t - 70.315414_f32)) * r_c + (((((-179.71297_f32 * mu_t + 294.15475_f32) * mu_t - 88.36722_f32) * mu_t - 16.763868_f32) * mu_t - 20.220406_f32) * mu_t - 1.7392691_f32);
+    let p3_0 = ((((-41.80448_f32 * r_c + (3.56529_f32 * mu_t + 72.93893_f32)) * r_c + ((-51.64818_f32 * mu_t + 47.76757_f32) * mu_t - 0.5305372_f32)) * r_c + (((236.90042_f32 * mu_t - 217.89993_f32) * mu_t + 1.7934612_f32) * mu_t - 20.53305_f32)) * r_c + ((((148.27554_f32 * mu_t - 531.5154_f32) * mu_t + 418.5009_f32) * mu_t - 24.442236_f32) * mu_t - 24.14277_f32)) * r_c + (((((-107.630844_f32 * mu_t + 127.911476_f32) * mu_t + 68.4848_f32) * mu_t - 58.779053_f32) * mu_t - 18.302568_f32) * mu_t - 1.3780255_f32);
     let p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = -0.1886304_f32;
-    let u3_1 = -0.1818253_f32;
-    let u3_2 = 0.20064692_f32;
-    let u3_3 = -0.009921245_f32;
-    let u3_4 = 0.008625439_f32;
+    let u3_0 = -0.093801394_f32;
+    let u3_1 = -0.14938699_f32;
+    let u3_2 = 0.12981676_f32;
+    let u3_3 = 0.029412823_f32;
+    let u3_4 = -0.01464012_f32;
     let u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = ((43.785816_f32 * r_c + (81.47616_f32 * mu_t + 6.025371_f32)) * r_c + ((27.17763_f32 * mu_t - 107.947586_f32) * mu_t + 37.66675_f32)) * r_c + (((43.433933_f32 * mu_t - 11.7445965_f32) * mu_t + 13.015665_f32) * mu_t + 1.0_f32);
+    let q3_0 = ((99.30919_f32 * r_c + (38.661724_f32 * mu_t - 11.6024275_f32)) * r_c + ((-47.764835_f32 * mu_t - 17.614449_f32) * mu_t + 13.410329_f32)) * r_c + (((58.394127_f32 * mu_t - 34.5032_f32) * mu_t + 16.549187_f32) * mu_t + 1.0_f32);
     let q3 = q3_0;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms

@@ -17,30 +17,30 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-glossy-separable/best-20.json (furnace 0.1.0), fit SHA-256 b715c41e4233611f1e00e05f6d70477b26ff44aa842b61b7640894265383397a.
+// Source: fits/ggx-glossy-separable/best-20.json (furnace 0.1.0), fit SHA-256 ada950bb6f5d38eef3970feefb8869d89fd0d4620915981806ccefee58efcaf6.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-7, shifted 1.0e-6, bernstein 2.7e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.61e-2, max 5.90e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.68e-2, max 5.38e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.05e-7 (every op rounded, as this Rust), 2.18e-7 (fused multiply-add), 3.38e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.42e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 579 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 1.61e-2, max 5.90e-2; this f32 code MAE 1.61e-2, max 5.90e-2.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-7, shifted 1.0e-6, bernstein 2.5e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 1.62e-2, max 5.89e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.69e-2, max 5.38e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.20e-7 (every op rounded, as this Rust), 1.97e-7 (fused multiply-add), 2.97e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.45e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 531 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 1.62e-2, max 5.89e-2; this f32 code MAE 1.62e-2, max 5.89e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.6e-2 on the measurement grid.
-// Denominator proved >= 8.148e-1 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 8.062e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_glossy_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
     highp float r_c = max(min(r, 1.0), 0.0);
     highp float mu_c = max(min(mu, 1.0), 0.0);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = (0.8368479 * r_c + (-0.9310736 * mu_c - 0.49197465)) * r_c + ((2.45853 * mu_c - 2.868388) * mu_c + 0.9298881);
-    highp float p_1 = 14.201118 * r_c + (15.077828 * mu_c + 1.758437);
-    highp float p_2 = -8.141476;
+    highp float p_0 = (0.8474077 * r_c + (-0.90668714 * mu_c - 0.50446755)) * r_c + ((2.4598048 * mu_c - 2.8668277) * mu_c + 0.9299616);
+    highp float p_1 = 14.147028 * r_c + (15.1192045 * mu_c + 1.7269808);
+    highp float p_2 = -8.164708;
     highp float p = (p_2 * f0_c + p_1) * f0_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = (17.363192 * r_c + (-8.727378 * mu_c - 1.0986621)) * r_c + ((12.90836 * mu_c + 0.86699116) * mu_c + 1.0);
-    highp float q_1 = 21.091291 * r_c + (28.492413 * mu_c + 0.88659173);
-    highp float q_2 = -6.509555;
+    highp float q_0 = (17.297453 * r_c + (-8.695 * mu_c - 1.1011302)) * r_c + ((12.951587 * mu_c + 0.86492974) * mu_c + 1.0);
+    highp float q_1 = 20.916279 * r_c + (28.32464 * mu_c + 0.86131275);
+    highp float q_2 = -6.54586;
     highp float q = (q_2 * f0_c + q_1) * f0_c + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

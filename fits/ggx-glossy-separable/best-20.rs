@@ -13,16 +13,16 @@
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 /// Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/ggx-glossy-separable/best-20.json (furnace 0.1.0), fit SHA-256 b715c41e4233611f1e00e05f6d70477b26ff44aa842b61b7640894265383397a.
+/// Source: fits/ggx-glossy-separable/best-20.json (furnace 0.1.0), fit SHA-256 ada950bb6f5d38eef3970feefb8869d89fd0d4620915981806ccefee58efcaf6.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-7, shifted 1.0e-6, bernstein 2.7e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 1.61e-2, max 5.90e-2 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.68e-2, max 5.38e-2.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.05e-7 (every op rounded, as this Rust), 2.18e-7 (fused multiply-add), 3.38e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 1.42e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 579 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 1.61e-2, max 5.90e-2; this f32 code MAE 1.61e-2, max 5.90e-2.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.7e-7, shifted 1.0e-6, bernstein 2.5e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 1.62e-2, max 5.89e-2 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.69e-2, max 5.38e-2.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.20e-7 (every op rounded, as this Rust), 1.97e-7 (fused multiply-add), 2.97e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.45e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 531 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 1.62e-2, max 5.89e-2; this f32 code MAE 1.62e-2, max 5.89e-2.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.6e-2 on the measurement grid.
-/// Denominator proved >= 8.148e-1 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 8.062e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -32,14 +32,14 @@ pub fn ggx_glossy_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     let r_c = r.min(1.0_f32).max(0.0_f32);
     let mu_c = mu.min(1.0_f32).max(0.0_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = (0.8368479_f32 * r_c + (-0.9310736_f32 * mu_c - 0.49197465_f32)) * r_c + ((2.45853_f32 * mu_c - 2.868388_f32) * mu_c + 0.9298881_f32);
-    let p_1 = 14.201118_f32 * r_c + (15.077828_f32 * mu_c + 1.758437_f32);
-    let p_2 = -8.141476_f32;
+    let p_0 = (0.8474077_f32 * r_c + (-0.90668714_f32 * mu_c - 0.50446755_f32)) * r_c + ((2.4598048_f32 * mu_c - 2.8668277_f32) * mu_c + 0.9299616_f32);
+    let p_1 = 14.147028_f32 * r_c + (15.1192045_f32 * mu_c + 1.7269808_f32);
+    let p_2 = -8.164708_f32;
     let p = (p_2 * f0_c + p_1) * f0_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (17.363192_f32 * r_c + (-8.727378_f32 * mu_c - 1.0986621_f32)) * r_c + ((12.90836_f32 * mu_c + 0.86699116_f32) * mu_c + 1.0_f32);
-    let q_1 = 21.091291_f32 * r_c + (28.492413_f32 * mu_c + 0.88659173_f32);
-    let q_2 = -6.509555_f32;
+    let q_0 = (17.297453_f32 * r_c + (-8.695_f32 * mu_c - 1.1011302_f32)) * r_c + ((12.951587_f32 * mu_c + 0.86492974_f32) * mu_c + 1.0_f32);
+    let q_1 = 20.916279_f32 * r_c + (28.32464_f32 * mu_c + 0.86131275_f32);
+    let q_2 = -6.54586_f32;
     let q = (q_2 * f0_c + q_1) * f0_c + q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -16,16 +16,16 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (q(clamp(f0, 0.0125, 0.25)) - q(0.0125))/(q(0.25) - q(0.0125)), q(z) = z^(1/8) + 0.25*z.
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r.
-// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.332x the least-squares start's.
-// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 31dfc8e5d8cf6e2bf6165aa7b5c147a79a4f84343844a0cecd9614ae3e794703.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.329x the least-squares start's.
+// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 aec70d9e449aa452c8bbcad48ef311ea1a9d68efba4c6ab1d1105ba4dff07368.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.2e-7, shifted 4.6e-6, bernstein 7.3e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.77e-3, max 9.93e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.91e-3, max 9.52e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.32e-7 (every op rounded, as this Rust), 2.52e-7 (fused multiply-add), 8.43e-7 (GPU division/sqrt error).
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.3e-7, shifted 2.9e-6, bernstein 7.3e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.78e-3, max 9.97e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.92e-3, max 9.55e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.81e-7 (every op rounded, as this Rust), 2.23e-7 (fused multiply-add), 8.47e-7 (GPU division/sqrt error).
 // Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.77e-3, max 9.93e-3; this f32 code MAE 2.77e-3, max 9.93e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.9e-3 on the measurement grid.
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.78e-3, max 9.95e-3; this f32 code MAE 2.78e-3, max 9.95e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-2 on the measurement grid.
 // Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_glossy_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
@@ -39,12 +39,12 @@ highp float ggx_glossy_separable_albedo(highp float f0, highp float r, highp flo
     // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r
     highp float mu_t = mu_c * (sqrt(1.0 + mu_s) + mu_rs) / (sqrt(mu_c + mu_s) + mu_rs + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = ((4.1566443 * r_c + (5.75643 * mu_t - 6.3864193)) * r_c + ((6.9877295 * mu_t - 8.492478) * mu_t + 3.3609562)) * r_c + (((12.683699 * mu_t - 22.172237) * mu_t + 9.021252) * mu_t + 0.9967626);
-    highp float p_1 = ((-12.3896055 * r_c + (-1.8380386 * mu_t + 13.087005)) * r_c + ((-20.346739 * mu_t + 15.55017) * mu_t + 0.15309162)) * r_c + (((-19.675196 * mu_t + 20.205359) * mu_t - 1.4382957) * mu_t + 0.0021712354);
-    highp float p_2 = ((19.09292 * r_c + (48.41714 * mu_t - 9.057678)) * r_c + ((41.925526 * mu_t - 21.870747) * mu_t - 0.35456115)) * r_c + (((27.294737 * mu_t - 17.987406) * mu_t + 0.82084) * mu_t + 0.010987604);
+    highp float p_0 = ((4.1024504 * r_c + (5.627933 * mu_t - 6.290747)) * r_c + ((6.857855 * mu_t - 8.313918) * mu_t + 3.3067384)) * r_c + (((12.5772705 * mu_t - 21.969538) * mu_t + 8.921358) * mu_t + 0.9967689);
+    highp float p_1 = ((-12.304277 * r_c + (-1.7702777 * mu_t + 12.999166)) * r_c + ((-20.121286 * mu_t + 15.427502) * mu_t + 0.15302266)) * r_c + (((-19.51465 * mu_t + 20.032164) * mu_t - 1.4212557) * mu_t + 0.0018995919);
+    highp float p_2 = ((18.952961 * r_c + (48.072765 * mu_t - 8.984467)) * r_c + ((41.563957 * mu_t - 21.695179) * mu_t - 0.35568932)) * r_c + (((27.053799 * mu_t - 17.812714) * mu_t + 0.80477464) * mu_t + 0.0113);
     highp float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = ((25.168118 * r_c + (195.3841 * mu_t + 15.780094)) * r_c + ((92.18039 * mu_t - 34.12226) * mu_t + 4.1534467)) * r_c + (((36.8235 * mu_t - 8.538606) * mu_t + 8.530877) * mu_t + 1.0);
+    highp float q_0 = ((24.970707 * r_c + (194.17699 * mu_t + 15.731505)) * r_c + ((91.69415 * mu_t - 33.86982) * mu_t + 4.1001506)) * r_c + (((36.47995 * mu_t - 8.419287) * mu_t + 8.43617) * mu_t + 1.0);
     highp float q = q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

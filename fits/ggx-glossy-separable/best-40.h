@@ -28,16 +28,16 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (q(clamp(f0, 0.0125, 0.25)) - q(0.0125))/(q(0.25) - q(0.0125)), q(z) = z^(1/8) + 0.25*z.
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r.
-// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.332x the least-squares start's.
-// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 31dfc8e5d8cf6e2bf6165aa7b5c147a79a4f84343844a0cecd9614ae3e794703.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.329x the least-squares start's.
+// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 aec70d9e449aa452c8bbcad48ef311ea1a9d68efba4c6ab1d1105ba4dff07368.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.2e-7, shifted 4.6e-6, bernstein 7.3e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.77e-3, max 9.93e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.91e-3, max 9.52e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.32e-7 (every op rounded, as this Rust), 2.52e-7 (fused multiply-add), 8.43e-7 (GPU division/sqrt error).
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.3e-7, shifted 2.9e-6, bernstein 7.3e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.78e-3, max 9.97e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.92e-3, max 9.55e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.81e-7 (every op rounded, as this Rust), 2.23e-7 (fused multiply-add), 8.47e-7 (GPU division/sqrt error).
 // Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.77e-3, max 9.93e-3; this f32 code MAE 2.77e-3, max 9.93e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.9e-3 on the measurement grid.
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.78e-3, max 9.95e-3; this f32 code MAE 2.78e-3, max 9.95e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-2 on the measurement grid.
 // Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
@@ -51,12 +51,12 @@ FURNACE_FN float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r
     const float mu_t = mu_c * (sqrtf(1.0f + mu_s) + mu_rs) / (sqrtf(mu_c + mu_s) + mu_rs + 7.888609e-31f);
     // numerator P, grouped by powers of the first variable
-    const float p_0 = ((4.1566443f * r_c + (5.75643f * mu_t - 6.3864193f)) * r_c + ((6.9877295f * mu_t - 8.492478f) * mu_t + 3.3609562f)) * r_c + (((12.683699f * mu_t - 22.172237f) * mu_t + 9.021252f) * mu_t + 0.9967626f);
-    const float p_1 = ((-12.3896055f * r_c + (-1.8380386f * mu_t + 13.087005f)) * r_c + ((-20.346739f * mu_t + 15.55017f) * mu_t + 0.15309162f)) * r_c + (((-19.675196f * mu_t + 20.205359f) * mu_t - 1.4382957f) * mu_t + 0.0021712354f);
-    const float p_2 = ((19.09292f * r_c + (48.41714f * mu_t - 9.057678f)) * r_c + ((41.925526f * mu_t - 21.870747f) * mu_t - 0.35456115f)) * r_c + (((27.294737f * mu_t - 17.987406f) * mu_t + 0.82084f) * mu_t + 0.010987604f);
+    const float p_0 = ((4.1024504f * r_c + (5.627933f * mu_t - 6.290747f)) * r_c + ((6.857855f * mu_t - 8.313918f) * mu_t + 3.3067384f)) * r_c + (((12.5772705f * mu_t - 21.969538f) * mu_t + 8.921358f) * mu_t + 0.9967689f);
+    const float p_1 = ((-12.304277f * r_c + (-1.7702777f * mu_t + 12.999166f)) * r_c + ((-20.121286f * mu_t + 15.427502f) * mu_t + 0.15302266f)) * r_c + (((-19.51465f * mu_t + 20.032164f) * mu_t - 1.4212557f) * mu_t + 0.0018995919f);
+    const float p_2 = ((18.952961f * r_c + (48.072765f * mu_t - 8.984467f)) * r_c + ((41.563957f * mu_t - 21.695179f) * mu_t - 0.35568932f)) * r_c + (((27.053799f * mu_t - 17.812714f) * mu_t + 0.80477464f) * mu_t + 0.0113f);
     const float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = ((25.168118f * r_c + (195.3841f * mu_t + 15.780094f)) * r_c + ((92.18039f * mu_t - 34.12226f) * mu_t + 4.1534467f)) * r_c + (((36.8235f * mu_t - 8.538606f) * mu_t + 8.530877f) * mu_t + 1.0f);
+    const float q_0 = ((24.970707f * r_c + (194.17699f * mu_t + 15.731505f)) * r_c + ((91.69415f * mu_t - 33.86982f) * mu_t + 4.1001506f)) * r_c + (((36.47995f * mu_t - 8.419287f) * mu_t + 8.43617f) * mu_t + 1.0f);
     const float q = q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -13,16 +13,16 @@
 ///   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (q(clamp(f0, 0.0125, 0.25)) - q(0.0125))/(q(0.25) - q(0.0125)), q(z) = z^(1/8) + 0.25*z.
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r.
-/// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.332x the least-squares start's.
-/// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 31dfc8e5d8cf6e2bf6165aa7b5c147a79a4f84343844a0cecd9614ae3e794703.
+/// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.329x the least-squares start's.
+/// Source: fits/ggx-glossy-separable/best-40.json (furnace 0.1.0), fit SHA-256 aec70d9e449aa452c8bbcad48ef311ea1a9d68efba4c6ab1d1105ba4dff07368.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.2e-7, shifted 4.6e-6, bernstein 7.3e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 2.77e-3, max 9.93e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.91e-3, max 9.52e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.32e-7 (every op rounded, as this Rust), 2.52e-7 (fused multiply-add), 8.43e-7 (GPU division/sqrt error).
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.3e-7, shifted 2.9e-6, bernstein 7.3e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 2.78e-3, max 9.97e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.92e-3, max 9.55e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.81e-7 (every op rounded, as this Rust), 2.23e-7 (fused multiply-add), 8.47e-7 (GPU division/sqrt error).
 /// Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.77e-3, max 9.93e-3; this f32 code MAE 2.77e-3, max 9.93e-3.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 9.9e-3 on the measurement grid.
+/// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 2.78e-3, max 9.95e-3; this f32 code MAE 2.78e-3, max 9.95e-3.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-2 on the measurement grid.
 /// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
@@ -43,12 +43,12 @@ pub fn ggx_glossy_separable_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r
     let mu_t = mu_c * (sqrtf(1.0_f32 + mu_s) + mu_rs) / (sqrtf(mu_c + mu_s) + mu_rs + 7.888609e-31_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((4.1566443_f32 * r_c + (5.75643_f32 * mu_t - 6.3864193_f32)) * r_c + ((6.9877295_f32 * mu_t - 8.492478_f32) * mu_t + 3.3609562_f32)) * r_c + (((12.683699_f32 * mu_t - 22.172237_f32) * mu_t + 9.021252_f32) * mu_t + 0.9967626_f32);
-    let p_1 = ((-12.3896055_f32 * r_c + (-1.8380386_f32 * mu_t + 13.087005_f32)) * r_c + ((-20.346739_f32 * mu_t + 15.55017_f32) * mu_t + 0.15309162_f32)) * r_c + (((-19.675196_f32 * mu_t + 20.205359_f32) * mu_t - 1.4382957_f32) * mu_t + 0.0021712354_f32);
-    let p_2 = ((19.09292_f32 * r_c + (48.41714_f32 * mu_t - 9.057678_f32)) * r_c + ((41.925526_f32 * mu_t - 21.870747_f32) * mu_t - 0.35456115_f32)) * r_c + (((27.294737_f32 * mu_t - 17.987406_f32) * mu_t + 0.82084_f32) * mu_t + 0.010987604_f32);
+    let p_0 = ((4.1024504_f32 * r_c + (5.627933_f32 * mu_t - 6.290747_f32)) * r_c + ((6.857855_f32 * mu_t - 8.313918_f32) * mu_t + 3.3067384_f32)) * r_c + (((12.5772705_f32 * mu_t - 21.969538_f32) * mu_t + 8.921358_f32) * mu_t + 0.9967689_f32);
+    let p_1 = ((-12.304277_f32 * r_c + (-1.7702777_f32 * mu_t + 12.999166_f32)) * r_c + ((-20.121286_f32 * mu_t + 15.427502_f32) * mu_t + 0.15302266_f32)) * r_c + (((-19.51465_f32 * mu_t + 20.032164_f32) * mu_t - 1.4212557_f32) * mu_t + 0.0018995919_f32);
+    let p_2 = ((18.952961_f32 * r_c + (48.072765_f32 * mu_t - 8.984467_f32)) * r_c + ((41.563957_f32 * mu_t - 21.695179_f32) * mu_t - 0.35568932_f32)) * r_c + (((27.053799_f32 * mu_t - 17.812714_f32) * mu_t + 0.80477464_f32) * mu_t + 0.0113_f32);
     let p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((25.168118_f32 * r_c + (195.3841_f32 * mu_t + 15.780094_f32)) * r_c + ((92.18039_f32 * mu_t - 34.12226_f32) * mu_t + 4.1534467_f32)) * r_c + (((36.8235_f32 * mu_t - 8.538606_f32) * mu_t + 8.530877_f32) * mu_t + 1.0_f32);
+    let q_0 = ((24.970707_f32 * r_c + (194.17699_f32 * mu_t + 15.731505_f32)) * r_c + ((91.69415_f32 * mu_t - 33.86982_f32) * mu_t + 4.1001506_f32)) * r_c + (((36.47995_f32 * mu_t - 8.419287_f32) * mu_t + 8.43617_f32) * mu_t + 1.0_f32);
     let q = q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

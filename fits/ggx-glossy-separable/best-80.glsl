@@ -16,17 +16,17 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 dcd0d25e9197503b970aed22ee3be1a556eeb8e1eed12f7d89b6966ce9210f4b.
+// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 8, its MAE there 1.475x the least-squares start's.
+// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 e6cf438a07a98afdad422aab62051680c0ba5ff3d7b1a910c48d0831e6d8c458.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 6.0e-6, bernstein 1.1e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.19e-4, max 5.88e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.65e-4, max 4.35e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.40e-6 (every op rounded, as this Rust), 1.08e-6 (fused multiply-add), 1.53e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.63e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 34929 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 8.19e-4, max 5.50e-3; this f32 code MAE 8.19e-4, max 5.50e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.9e-3 on the measurement grid.
-// Denominator proved >= 6.820e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-6, shifted 4.4e-6, bernstein 8.8e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 7.66e-4, max 4.18e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.61e-4, max 4.29e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.31e-6 (every op rounded, as this Rust), 1.26e-6 (fused multiply-add), 1.58e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 5.18e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 7.66e-4, max 4.18e-3; this f32 code MAE 7.66e-4, max 4.18e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.1e-3 on the measurement grid.
+// Denominator proved >= 7.387e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_glossy_separable_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
@@ -37,42 +37,42 @@ highp float ggx_glossy_separable_albedo(highp float f0, highp float r, highp flo
     // t = sqrt(mu)
     highp float mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    highp float p0_0 = (((-1.3962878 * r_c + (-0.49735415 * mu_t + 3.0505917)) * r_c + ((2.4664638 * mu_t - 2.3944201) * mu_t - 4.049333)) * r_c + (((-1.3966255 * mu_t - 0.90385276) * mu_t + 4.933641) * mu_t - 0.6180842)) * r_c + ((((-0.30946267 * mu_t + 2.4112334) * mu_t - 3.7336142) * mu_t + 0.2417191) * mu_t - 0.117688514);
+    highp float p0_0 = (((-2.1546257 * r_c + (-1.6585721 * mu_t + 5.322332)) * r_c + ((3.0001779 * mu_t - 1.7645129) * mu_t - 6.3333125)) * r_c + (((-0.7711597 * mu_t - 2.3718166) * mu_t + 6.1381955) * mu_t - 0.8318627)) * r_c + ((((-1.6255169 * mu_t + 5.0355177) * mu_t - 5.146773) * mu_t + 0.30107707) * mu_t - 0.10179822);
     highp float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    highp float u0_0 = -0.23599152;
-    highp float u0_1 = -7.333519;
-    highp float u0_2 = 8.907212;
-    highp float u0_3 = 1.1328572;
+    highp float u0_0 = -0.96926916;
+    highp float u0_1 = -3.562182;
+    highp float u0_2 = 4.5555105;
+    highp float u0_3 = 0.6227164;
     highp float u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    highp float q0_0 = (7.572578 * r_c + (-5.3392215 * mu_t - 0.16198945)) * r_c + ((4.8195415 * mu_t - 1.3433154) * mu_t + 1.0);
+    highp float q0_0 = (10.133762 * r_c + (-6.729139 * mu_t + 0.68818825)) * r_c + ((5.419534 * mu_t - 1.481746) * mu_t + 1.0);
     highp float q0 = q0_0;
     highp float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    highp float p1_0 = (((-1.2792143 * r_c + (-0.3989824 * mu_t + 2.752893)) * r_c + ((2.377576 * mu_t - 2.4538627) * mu_t - 4.0573087)) * r_c + (((-1.3233174 * mu_t - 0.84766424) * mu_t + 4.8579626) * mu_t - 0.553193)) * r_c + ((((-0.14867622 * mu_t + 1.987234) * mu_t - 3.5587056) * mu_t + 0.3103782) * mu_t - 0.16465637);
+    highp float p1_0 = (((-1.4800881 * r_c + (-0.83259284 * mu_t + 3.4424217)) * r_c + ((2.6151464 * mu_t - 2.3471408) * mu_t - 4.6515484)) * r_c + (((-1.0392576 * mu_t - 1.5159127) * mu_t + 5.4843554) * mu_t - 0.7078609)) * r_c + ((((-0.59825265 * mu_t + 2.8984942) * mu_t - 4.1838074) * mu_t + 0.34287104) * mu_t - 0.15294425);
     highp float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    highp float u1_0 = 1.8370216;
-    highp float u1_1 = 5.827149;
-    highp float u1_2 = -7.531888;
-    highp float u1_3 = -1.197112;
+    highp float u1_0 = 2.3731697;
+    highp float u1_1 = 2.5447562;
+    highp float u1_2 = -3.719011;
+    highp float u1_3 = -0.7491292;
     highp float u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    highp float q1_0 = (6.5917683 * r_c + (-4.246831 * mu_t - 0.39866728)) * r_c + ((4.0624976 * mu_t - 1.3620676) * mu_t + 1.0);
+    highp float q1_0 = (6.96782 * r_c + (-4.7179966 * mu_t - 0.04664044)) * r_c + ((4.5200524 * mu_t - 1.4919366) * mu_t + 1.0);
     highp float q1 = q1_0;
     highp float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    highp float p2_0 = (((-10.910807 * r_c + (-8.268369 * mu_t + 28.155968)) * r_c + ((21.271198 * mu_t - 11.8119135) * mu_t - 49.67516)) * r_c + (((-13.587264 * mu_t - 6.036749) * mu_t + 49.670033) * mu_t + 0.25793248)) * r_c + ((((-0.7492716 * mu_t + 16.040087) * mu_t - 34.674294) * mu_t + 0.9851072) * mu_t - 0.28204095);
+    highp float p2_0 = (((-6.3488812 * r_c + (-5.2680793 * mu_t + 16.80059)) * r_c + ((12.20083 * mu_t - 6.9033346) * mu_t - 30.44616)) * r_c + (((-6.7774615 * mu_t - 4.638895) * mu_t + 30.419947) * mu_t + 0.13625923)) * r_c + ((((-1.3994206 * mu_t + 10.724521) * mu_t - 21.592106) * mu_t + 0.7637902) * mu_t - 0.23124416);
     highp float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    highp float u2_0 = -4.540414;
-    highp float u2_1 = -0.26048216;
-    highp float u2_2 = 0.59797996;
-    highp float u2_3 = 0.24020356;
+    highp float u2_0 = -5.485146;
+    highp float u2_1 = -0.033209357;
+    highp float u2_2 = 0.3639702;
+    highp float u2_3 = 0.25124913;
     highp float u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    highp float q2_0 = (185.17882 * r_c + (-182.7535 * mu_t - 1.2058603)) * r_c + ((120.35306 * mu_t - 3.2606404) * mu_t + 1.0);
+    highp float q2_0 = (142.60556 * r_c + (-138.69022 * mu_t - 0.87738913)) * r_c + ((92.52762 * mu_t - 3.1511028) * mu_t + 1.0);
     highp float q2 = q2_0;
     highp float e2 = p2 * u2 / q2;
     // the sum of the 3 terms

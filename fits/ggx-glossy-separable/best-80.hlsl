@@ -15,17 +15,17 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 dcd0d25e9197503b970aed22ee3be1a556eeb8e1eed12f7d89b6966ce9210f4b.
+// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 8, its MAE there 1.475x the least-squares start's.
+// Source: fits/ggx-glossy-separable/best-80.json (furnace 0.1.0), fit SHA-256 e6cf438a07a98afdad422aab62051680c0ba5ff3d7b1a910c48d0831e6d8c458.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 6.0e-6, bernstein 1.1e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 8.19e-4, max 5.88e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.65e-4, max 4.35e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.40e-6 (every op rounded, as this Rust), 1.08e-6 (fused multiply-add), 1.53e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.63e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 34929 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 8.19e-4, max 5.50e-3; this f32 code MAE 8.19e-4, max 5.50e-3.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.9e-3 on the measurement grid.
-// Denominator proved >= 6.820e-1 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.4e-6, shifted 4.4e-6, bernstein 8.8e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 7.66e-4, max 4.18e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 8.61e-4, max 4.29e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.31e-6 (every op rounded, as this Rust), 1.26e-6 (fused multiply-add), 1.58e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 5.18e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 39999 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy-separable/128x128x128 (output clamp applied): f64 MAE 7.66e-4, max 4.18e-3; this f32 code MAE 7.66e-4, max 4.18e-3.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.1e-3 on the measurement grid.
+// Denominator proved >= 7.387e-1 on the domain (Bernstein certificate), so the division is safe.
 float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -36,42 +36,42 @@ float ggx_glossy_separable_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     float mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    float p0_0 = (((-1.3962878f * r_c + (-0.49735415f * mu_t + 3.0505917f)) * r_c + ((2.4664638f * mu_t - 2.3944201f) * mu_t - 4.049333f)) * r_c + (((-1.3966255f * mu_t - 0.90385276f) * mu_t + 4.933641f) * mu_t - 0.6180842f)) * r_c + ((((-0.30946267f * mu_t + 2.4112334f) * mu_t - 3.7336142f) * mu_t + 0.2417191f) * mu_t - 0.117688514f);
+    float p0_0 = (((-2.1546257f * r_c + (-1.6585721f * mu_t + 5.322332f)) * r_c + ((3.0001779f * mu_t - 1.7645129f) * mu_t - 6.3333125f)) * r_c + (((-0.7711597f * mu_t - 2.3718166f) * mu_t + 6.1381955f) * mu_t - 0.8318627f)) * r_c + ((((-1.6255169f * mu_t + 5.0355177f) * mu_t - 5.146773f) * mu_t + 0.30107707f) * mu_t - 0.10179822f);
     float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    float u0_0 = -0.23599152f;
-    float u0_1 = -7.333519f;
-    float u0_2 = 8.907212f;
-    float u0_3 = 1.1328572f;
+    float u0_0 = -0.96926916f;
+    float u0_1 = -3.562182f;
+    float u0_2 = 4.5555105f;
+    float u0_3 = 0.6227164f;
     float u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    float q0_0 = (7.572578f * r_c + (-5.3392215f * mu_t - 0.16198945f)) * r_c + ((4.8195415f * mu_t - 1.3433154f) * mu_t + 1.0f);
+    float q0_0 = (10.133762f * r_c + (-6.729139f * mu_t + 0.68818825f)) * r_c + ((5.419534f * mu_t - 1.481746f) * mu_t + 1.0f);
     float q0 = q0_0;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    float p1_0 = (((-1.2792143f * r_c + (-0.3989824f * mu_t + 2.752893f)) * r_c + ((2.377576f * mu_t - 2.4538627f) * mu_t - 4.0573087f)) * r_c + (((-1.3233174f * mu_t - 0.84766424f) * mu_t + 4.8579626f) * mu_t - 0.553193f)) * r_c + ((((-0.14867622f * mu_t + 1.987234f) * mu_t - 3.5587056f) * mu_t + 0.3103782f) * mu_t - 0.16465637f);
+    float p1_0 = (((-1.4800881f * r_c + (-0.83259284f * mu_t + 3.4424217f)) * r_c + ((2.6151464f * mu_t - 2.3471408f) * mu_t - 4.6515484f)) * r_c + (((-1.0392576f * mu_t - 1.5159127f) * mu_t + 5.4843554f) * mu_t - 0.7078609f)) * r_c + ((((-0.59825265f * mu_t + 2.8984942f) * mu_t - 4.1838074f) * mu_t + 0.34287104f) * mu_t - 0.15294425f);
     float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    float u1_0 = 1.8370216f;
-    float u1_1 = 5.827149f;
-    float u1_2 = -7.531888f;
-    float u1_3 = -1.197112f;
+    float u1_0 = 2.3731697f;
+    float u1_1 = 2.5447562f;
+    float u1_2 = -3.719011f;
+    float u1_3 = -0.7491292f;
     float u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    float q1_0 = (6.5917683f * r_c + (-4.246831f * mu_t - 0.39866728f)) * r_c + ((4.0624976f * mu_t - 1.3620676f) * mu_t + 1.0f);
+    float q1_0 = (6.96782f * r_c + (-4.7179966f * mu_t - 0.04664044f)) * r_c + ((4.5200524f * mu_t - 1.4919366f) * mu_t + 1.0f);
     float q1 = q1_0;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    float p2_0 = (((-10.910807f * r_c + (-8.268369f * mu_t + 28.155968f)) * r_c + ((21.271198f * mu_t - 11.8119135f) * mu_t - 49.67516f)) * r_c + (((-13.587264f * mu_t - 6.036749f) * mu_t + 49.670033f) * mu_t + 0.25793248f)) * r_c + ((((-0.7492716f * mu_t + 16.040087f) * mu_t - 34.674294f) * mu_t + 0.9851072f) * mu_t - 0.28204095f);
+    float p2_0 = (((-6.3488812f * r_c + (-5.2680793f * mu_t + 16.80059f)) * r_c + ((12.20083f * mu_t - 6.9033346f) * mu_t - 30.44616f)) * r_c + (((-6.7774615f * mu_t - 4.638895f) * mu_t + 30.419947f) * mu_t + 0.13625923f)) * r_c + ((((-1.3994206f * mu_t + 10.724521f) * mu_t - 21.592106f) * mu_t + 0.7637902f) * mu_t - 0.23124416f);
     float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    float u2_0 = -4.540414f;
-    float u2_1 = -0.26048216f;
-    float u2_2 = 0.59797996f;
-    float u2_3 = 0.24020356f;
+    float u2_0 = -5.485146f;
+    float u2_1 = -0.033209357f;
+    float u2_2 = 0.3639702f;
+    float u2_3 = 0.25124913f;
     float u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    float q2_0 = (185.17882f * r_c + (-182.7535f * mu_t - 1.2058603f)) * r_c + ((120.35306f * mu_t - 3.2606404f) * mu_t + 1.0f);
+    float q2_0 = (142.60556f * r_c + (-138.69022f * mu_t - 0.87738913f)) * r_c + ((92.52762f * mu_t - 3.1511028f) * mu_t + 1.0f);
     float q2 = q2_0;
     float e2 = p2 * u2 / q2;
     // the sum of the 3 terms

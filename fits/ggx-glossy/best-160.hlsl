@@ -15,17 +15,17 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 3b176238b1f9d1da0a6e71691a97a42ecc32db07ec9de2f21538ee000aafb461.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.559x the least-squares start's.
+// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 d7f965f4cc403eb926f43d5c9abda3507aadc8362a1315a5b09345660efcd3f3.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 1.0e-5, bernstein 6.0e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.01e-4, max 1.69e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.20e-4, max 1.67e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.22e-6 (fused multiply-add), 1.55e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.31e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 24615 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.01e-4, max 1.69e-3; this f32 code MAE 2.01e-4, max 1.69e-3.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.6e-7, shifted 1.3e-5, bernstein 6.2e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.06e-4, max 1.06e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.41e-4, max 1.56e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.49e-7 (every op rounded, as this Rust), 6.86e-7 (fused multiply-add), 1.01e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.07e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 26647 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.06e-4, max 1.06e-3; this f32 code MAE 2.06e-4, max 1.06e-3.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-3 on the measurement grid.
-// Denominator proved >= 5.886e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 2.107e-4 on the domain (Bernstein certificate), so the division is safe.
 float ggx_glossy_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     float f0_c = max(min(f0, 0.25f), 0.0125f);
@@ -36,59 +36,59 @@ float ggx_glossy_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     float mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    float p0_0 = ((((0.542951f * r_c + (-8.586605f * mu_t - 2.0543315f)) * r_c + ((6.9268723f * mu_t + 11.172109f) * mu_t + 1.1653869f)) * r_c + (((2.6589653f * mu_t - 11.776362f) * mu_t - 3.9086628f) * mu_t + 2.870944f)) * r_c + ((((-6.676469f * mu_t + 7.245712f) * mu_t - 2.7904541f) * mu_t + 5.091804f) * mu_t - 2.9230185f)) * r_c + (((((5.7034183f * mu_t - 9.612123f) * mu_t + 8.911564f) * mu_t - 2.0223515f) * mu_t - 2.237271f) * mu_t + 1.046212f);
+    float p0_0 = ((((-0.9915061f * r_c + (-1.463245f * mu_t + 2.0735736f)) * r_c + ((-3.1939328f * mu_t + 7.4000525f) * mu_t - 3.5045524f)) * r_c + (((1.4767196f * mu_t + 8.0023155f) * mu_t - 17.005806f) * mu_t + 7.8250785f)) * r_c + ((((6.873194f * mu_t - 11.1027975f) * mu_t - 6.020663f) * mu_t + 16.928415f) * mu_t - 7.2364902f)) * r_c + (((((-5.2881536f * mu_t + 1.6495091f) * mu_t + 9.738047f) * mu_t - 3.468819f) * mu_t - 4.6503725f) * mu_t + 2.015508f);
     float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    float u0_0 = 0.62028056f;
-    float u0_1 = -0.6041401f;
-    float u0_2 = 0.6076107f;
-    float u0_3 = -0.053592127f;
-    float u0_4 = 0.0057759914f;
+    float u0_0 = 0.46417165f;
+    float u0_1 = -0.07750368f;
+    float u0_2 = 0.078161515f;
+    float u0_3 = 0.03310865f;
+    float u0_4 = -0.011710468f;
     float u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    float q0_0 = ((-8.989494f * r_c + (6.5417156f * mu_t + 11.851045f)) * r_c + ((-5.834017f * mu_t - 6.7621417f) * mu_t - 0.37899318f)) * r_c + (((2.8516452f * mu_t + 4.024934f) * mu_t - 1.3231983f) * mu_t + 1.0f);
+    float q0_0 = ((-7.317374f * r_c + (6.0560093f * mu_t + 9.189046f)) * r_c + ((-4.464676f * mu_t - 4.667561f) * mu_t - 0.7884988f)) * r_c + (((1.819757f * mu_t + 3.12765f) * mu_t - 1.2565166f) * mu_t + 1.0f);
     float q0 = q0_0;
     float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    float p1_0 = ((((1.907799f * r_c + (-0.3902504f * mu_t - 3.3765345f)) * r_c + ((-1.5287853f * mu_t + 2.8310602f) * mu_t - 10.463065f)) * r_c + (((-0.10560665f * mu_t + 2.511859f) * mu_t + 6.082503f) * mu_t - 1.4656507f)) * r_c + ((((0.7822139f * mu_t - 2.4460642f) * mu_t - 0.25144958f) * mu_t - 0.4112809f) * mu_t + 0.3548339f)) * r_c + (((((-3.4141603f * mu_t + 7.685082f) * mu_t - 7.316363f) * mu_t + 1.7125392f) * mu_t - 0.039946295f) * mu_t - 0.15762377f);
+    float p1_0 = ((((0.25495976f * r_c + (-5.892479f * mu_t + 4.946628f)) * r_c + ((-0.88019246f * mu_t + 9.230702f) * mu_t - 20.08213f)) * r_c + (((1.757114f * mu_t - 4.619589f) * mu_t + 4.275928f) * mu_t + 1.1449456f)) * r_c + ((((-7.423341f * mu_t + 13.9603815f) * mu_t - 4.257807f) * mu_t - 3.2183683f) * mu_t + 1.2007293f)) * r_c + (((((-2.4010441f * mu_t + 11.811279f) * mu_t - 19.449274f) * mu_t + 5.7468824f) * mu_t + 0.14289214f) * mu_t + 0.1732051f);
     float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    float u1_0 = 0.5995943f;
-    float u1_1 = -0.74899507f;
-    float u1_2 = -0.07728812f;
-    float u1_3 = -0.055129815f;
-    float u1_4 = -0.19994311f;
+    float u1_0 = -0.09757968f;
+    float u1_1 = -0.3667839f;
+    float u1_2 = -0.3425506f;
+    float u1_3 = -0.010040771f;
+    float u1_4 = -0.17396875f;
     float u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    float q1_0 = ((48.691257f * r_c + (-40.88161f * mu_t + 9.939983f)) * r_c + ((8.865399f * mu_t + 0.9197293f) * mu_t - 1.818689f)) * r_c + (((8.962781f * mu_t - 3.8616655f) * mu_t + 0.48102197f) * mu_t + 1.0f);
+    float q1_0 = ((39.153946f * r_c + (-12.68769f * mu_t + 7.106944f)) * r_c + ((5.6191397f * mu_t - 12.824736f) * mu_t + 5.364613f)) * r_c + (((15.253026f * mu_t - 5.799256f) * mu_t + 2.6423204f) * mu_t + 1.0f);
     float q1 = q1_0;
     float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    float p2_0 = ((((-6.4082894f * r_c + (-16.938074f * mu_t + 18.143356f)) * r_c + ((13.764908f * mu_t + 18.469824f) * mu_t - 14.789674f)) * r_c + (((3.2518241f * mu_t - 27.386093f) * mu_t + 4.7157583f) * mu_t + 3.032533f)) * r_c + ((((-18.077038f * mu_t + 29.604761f) * mu_t - 4.7939014f) * mu_t - 2.7616553f) * mu_t - 0.049442288f)) * r_c + (((((12.387365f * mu_t - 16.216774f) * mu_t + 4.299622f) * mu_t - 0.20168793f) * mu_t + 0.11495155f) * mu_t + 0.0008625643f);
+    float p2_0 = ((((-5.389645f * r_c + (-2.3334482f * mu_t + 15.495756f)) * r_c + ((11.410082f * mu_t - 11.255864f) * mu_t - 11.367489f)) * r_c + (((1.4667808f * mu_t - 21.935564f) * mu_t + 22.495848f) * mu_t + 1.5081501f)) * r_c + ((((-2.7852697f * mu_t + 11.206712f) * mu_t - 1.4541988f) * mu_t - 6.6475673f) * mu_t + 0.06472178f)) * r_c + (((((-3.2674937f * mu_t + 2.5999997f) * mu_t + 0.13707948f) * mu_t - 0.26751652f) * mu_t + 0.113758616f) * mu_t + 0.000118926604f);
     float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    float u2_0 = -0.23084056f;
-    float u2_1 = 0.09623895f;
-    float u2_2 = -0.13454744f;
-    float u2_3 = 0.080642395f;
-    float u2_4 = -0.023585863f;
+    float u2_0 = -0.13382445f;
+    float u2_1 = 0.040570512f;
+    float u2_2 = 0.015142637f;
+    float u2_3 = -0.08749858f;
+    float u2_4 = 0.046412542f;
     float u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    float q2_0 = ((-2.442528f * r_c + (1.6615406f * mu_t + 4.381782f)) * r_c + ((-0.6283849f * mu_t - 3.2984827f) * mu_t - 0.06797808f)) * r_c + (((1.0015712f * mu_t + 1.010707f) * mu_t + 0.18342371f) * mu_t + 0.0012967238f);
+    float q2_0 = ((-4.674957f * r_c + (4.2672815f * mu_t + 6.257166f)) * r_c + ((-0.90140206f * mu_t - 6.63442f) * mu_t + 0.11141922f)) * r_c + (((-0.38945806f * mu_t + 2.9342554f) * mu_t + 0.21485783f) * mu_t + 0.00021073522f);
     float q2 = q2_0;
     float e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    float p3_0 = ((((361.50314f * r_c + (417.05548f * mu_t - 977.82f)) * r_c + ((-496.51776f * mu_t - 169.80788f) * mu_t + 745.7977f)) * r_c + (((-37.847977f * mu_t + 983.0823f) * mu_t - 715.05975f) * mu_t - 47.933746f)) * r_c + ((((564.8033f * mu_t - 1076.5059f) * mu_t + 116.5405f) * mu_t + 456.64215f) * mu_t - 127.40062f)) * r_c + (((((-447.658f * mu_t + 674.72174f) * mu_t - 244.65298f) * mu_t + 83.40349f) * mu_t - 72.37961f) * mu_t - 3.7406726f);
+    float p3_0 = ((((-43.46659f * r_c + (-7.360842f * mu_t + 63.487103f)) * r_c + ((22.571037f * mu_t - 13.808405f) * mu_t + 56.33182f)) * r_c + (((238.87556f * mu_t - 334.7862f) * mu_t + 128.97464f) * mu_t - 60.055176f)) * r_c + ((((10.507812f * mu_t - 260.63095f) * mu_t + 314.79044f) * mu_t - 45.338512f) * mu_t - 27.997929f)) * r_c + (((((-194.20416f * mu_t + 296.15155f) * mu_t - 9.6571665f) * mu_t - 58.093246f) * mu_t - 16.700336f) * mu_t - 1.1206771f);
     float p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    float u3_0 = -0.1603616f;
-    float u3_1 = -0.12237434f;
-    float u3_2 = 0.16523837f;
-    float u3_3 = -0.025339339f;
-    float u3_4 = 0.018995076f;
+    float u3_0 = -0.14087857f;
+    float u3_1 = -0.17039172f;
+    float u3_2 = 0.090494566f;
+    float u3_3 = 0.011601873f;
+    float u3_4 = -0.022606336f;
     float u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    float q3_0 = ((32.05144f * r_c + (31.644182f * mu_t + 53.1115f)) * r_c + ((-12.968734f * mu_t - 89.036095f) * mu_t + 33.676273f)) * r_c + (((71.9122f * mu_t - 23.105791f) * mu_t + 20.612938f) * mu_t + 1.0f);
+    float q3_0 = ((125.974976f * r_c + (46.193188f * mu_t - 17.39486f)) * r_c + ((-23.499094f * mu_t - 26.538269f) * mu_t + 19.481598f)) * r_c + (((65.49176f * mu_t - 36.75035f) * mu_t + 17.148087f) * mu_t + 1.0f);
     float q3 = q3_0;
     float e3 = p3 * u3 / q3;
     // the sum of the 4 terms

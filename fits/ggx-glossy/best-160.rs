@@ -13,17 +13,17 @@
 ///   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-/// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 3b176238b1f9d1da0a6e71691a97a42ecc32db07ec9de2f21538ee000aafb461.
+/// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.559x the least-squares start's.
+/// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 d7f965f4cc403eb926f43d5c9abda3507aadc8362a1315a5b09345660efcd3f3.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 1.0e-5, bernstein 6.0e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 2.01e-4, max 1.69e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.20e-4, max 1.67e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.22e-6 (fused multiply-add), 1.55e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 6.31e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 24615 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.01e-4, max 1.69e-3; this f32 code MAE 2.01e-4, max 1.69e-3.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.6e-7, shifted 1.3e-5, bernstein 6.2e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 2.06e-4, max 1.06e-3 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.41e-4, max 1.56e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.49e-7 (every op rounded, as this Rust), 6.86e-7 (fused multiply-add), 1.01e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 1.07e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 26647 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.06e-4, max 1.06e-3; this f32 code MAE 2.06e-4, max 1.06e-3.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-3 on the measurement grid.
-/// Denominator proved >= 5.886e-4 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 2.107e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -41,59 +41,59 @@ pub fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((0.542951_f32 * r_c + (-8.586605_f32 * mu_t - 2.0543315_f32)) * r_c + ((6.9268723_f32 * mu_t + 11.172109_f32) * mu_t + 1.1653869_f32)) * r_c + (((2.6589653_f32 * mu_t - 11.776362_f32) * mu_t - 3.9086628_f32) * mu_t + 2.870944_f32)) * r_c + ((((-6.676469_f32 * mu_t + 7.245712_f32) * mu_t - 2.7904541_f32) * mu_t + 5.091804_f32) * mu_t - 2.9230185_f32)) * r_c + (((((5.7034183_f32 * mu_t - 9.612123_f32) * mu_t + 8.911564_f32) * mu_t - 2.0223515_f32) * mu_t - 2.237271_f32) * mu_t + 1.046212_f32);
+    let p0_0 = ((((-0.9915061_f32 * r_c + (-1.463245_f32 * mu_t + 2.0735736_f32)) * r_c + ((-3.1939328_f32 * mu_t + 7.4000525_f32) * mu_t - 3.5045524_f32)) * r_c + (((1.4767196_f32 * mu_t + 8.0023155_f32) * mu_t - 17.005806_f32) * mu_t + 7.8250785_f32)) * r_c + ((((6.873194_f32 * mu_t - 11.1027975_f32) * mu_t - 6.020663_f32) * mu_t + 16.928415_f32) * mu_t - 7.2364902_f32)) * r_c + (((((-5.2881536_f32 * mu_t + 1.6495091_f32) * mu_t + 9.738047_f32) * mu_t - 3.468819_f32) * mu_t - 4.6503725_f32) * mu_t + 2.015508_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.62028056_f32;
-    let u0_1 = -0.6041401_f32;
-    let u0_2 = 0.6076107_f32;
-    let u0_3 = -0.053592127_f32;
-    let u0_4 = 0.0057759914_f32;
+    let u0_0 = 0.46417165_f32;
+    let u0_1 = -0.07750368_f32;
+    let u0_2 = 0.078161515_f32;
+    let u0_3 = 0.03310865_f32;
+    let u0_4 = -0.011710468_f32;
     let u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = ((-8.989494_f32 * r_c + (6.5417156_f32 * mu_t + 11.851045_f32)) * r_c + ((-5.834017_f32 * mu_t - 6.7621417_f32) * mu_t - 0.37899318_f32)) * r_c + (((2.8516452_f32 * mu_t + 4.024934_f32) * mu_t - 1.3231983_f32) * mu_t + 1.0_f32);
+    let q0_0 = ((-7.317374_f32 * r_c + (6.0560093_f32 * mu_t + 9.189046_f32)) * r_c + ((-4.464676_f32 * mu_t - 4.667561_f32) * mu_t - 0.7884988_f32)) * r_c + (((1.819757_f32 * mu_t + 3.12765_f32) * mu_t - 1.2565166_f32) * mu_t + 1.0_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((1.907799_f32 * r_c + (-0.3902504_f32 * mu_t - 3.3765345_f32)) * r_c + ((-1.5287853_f32 * mu_t + 2.8310602_f32) * mu_t - 10.463065_f32)) * r_c + (((-0.10560665_f32 * mu_t + 2.511859_f32) * mu_t + 6.082503_f32) * mu_t - 1.4656507_f32)) * r_c + ((((0.7822139_f32 * mu_t - 2.4460642_f32) * mu_t - 0.25144958_f32) * mu_t - 0.4112809_f32) * mu_t + 0.3548339_f32)) * r_c + (((((-3.4141603_f32 * mu_t + 7.685082_f32) * mu_t - 7.316363_f32) * mu_t + 1.7125392_f32) * mu_t - 0.039946295_f32) * mu_t - 0.15762377_f32);
+    let p1_0 = ((((0.25495976_f32 * r_c + (-5.892479_f32 * mu_t + 4.946628_f32)) * r_c + ((-0.88019246_f32 * mu_t + 9.230702_f32) * mu_t - 20.08213_f32)) * r_c + (((1.757114_f32 * mu_t - 4.619589_f32) * mu_t + 4.275928_f32) * mu_t + 1.1449456_f32)) * r_c + ((((-7.423341_f32 * mu_t + 13.9603815_f32) * mu_t - 4.257807_f32) * mu_t - 3.2183683_f32) * mu_t + 1.2007293_f32)) * r_c + (((((-2.4010441_f32 * mu_t + 11.811279_f32) * mu_t - 19.449274_f32) * mu_t + 5.7468824_f32) * mu_t + 0.14289214_f32) * mu_t + 0.1732051_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 0.5995943_f32;
-    let u1_1 = -0.74899507_f32;
-    let u1_2 = -0.07728812_f32;
-    let u1_3 = -0.055129815_f32;
-    let u1_4 = -0.19994311_f32;
+    let u1_0 = -0.09757968_f32;
+    let u1_1 = -0.3667839_f32;
+    let u1_2 = -0.3425506_f32;
+    let u1_3 = -0.010040771_f32;
+    let u1_4 = -0.17396875_f32;
     let u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = ((48.691257_f32 * r_c + (-40.88161_f32 * mu_t + 9.939983_f32)) * r_c + ((8.865399_f32 * mu_t + 0.9197293_f32) * mu_t - 1.818689_f32)) * r_c + (((8.962781_f32 * mu_t - 3.8616655_f32) * mu_t + 0.48102197_f32) * mu_t + 1.0_f32);
+    let q1_0 = ((39.153946_f32 * r_c + (-12.68769_f32 * mu_t + 7.106944_f32)) * r_c + ((5.6191397_f32 * mu_t - 12.824736_f32) * mu_t + 5.364613_f32)) * r_c + (((15.253026_f32 * mu_t - 5.799256_f32) * mu_t + 2.6423204_f32) * mu_t + 1.0_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((-6.4082894_f32 * r_c + (-16.938074_f32 * mu_t + 18.143356_f32)) * r_c + ((13.764908_f32 * mu_t + 18.469824_f32) * mu_t - 14.789674_f32)) * r_c + (((3.2518241_f32 * mu_t - 27.386093_f32) * mu_t + 4.7157583_f32) * mu_t + 3.032533_f32)) * r_c + ((((-18.077038_f32 * mu_t + 29.604761_f32) * mu_t - 4.7939014_f32) * mu_t - 2.7616553_f32) * mu_t - 0.049442288_f32)) * r_c + (((((12.387365_f32 * mu_t - 16.216774_f32) * mu_t + 4.299622_f32) * mu_t - 0.20168793_f32) * mu_t + 0.11495155_f32) * mu_t + 0.0008625643_f32);
+    let p2_0 = ((((-5.389645_f32 * r_c + (-2.3334482_f32 * mu_t + 15.495756_f32)) * r_c + ((11.410082_f32 * mu_t - 11.255864_f32) * mu_t - 11.367489_f32)) * r_c + (((1.4667808_f32 * mu_t - 21.935564_f32) * mu_t + 22.495848_f32) * mu_t + 1.5081501_f32)) * r_c + ((((-2.7852697_f32 * mu_t + 11.206712_f32) * mu_t - 1.4541988_f32) * mu_t - 6.6475673_f32) * mu_t + 0.06472178_f32)) * r_c + (((((-3.2674937_f32 * mu_t + 2.5999997_f32) * mu_t + 0.13707948_f32) * mu_t - 0.26751652_f32) * mu_t + 0.113758616_f32) * mu_t + 0.000118926604_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.23084056_f32;
-    let u2_1 = 0.09623895_f32;
-    let u2_2 = -0.13454744_f32;
-    let u2_3 = 0.080642395_f32;
-    let u2_4 = -0.023585863_f32;
+    let u2_0 = -0.13382445_f32;
+    let u2_1 = 0.040570512_f32;
+    let u2_2 = 0.015142637_f32;
+    let u2_3 = -0.08749858_f32;
+    let u2_4 = 0.046412542_f32;
     let u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = ((-2.442528_f32 * r_c + (1.6615406_f32 * mu_t + 4.381782_f32)) * r_c + ((-0.6283849_f32 * mu_t - 3.2984827_f32) * mu_t - 0.06797808_f32)) * r_c + (((1.0015712_f32 * mu_t + 1.010707_f32) * mu_t + 0.18342371_f32) * mu_t + 0.0012967238_f32);
+    let q2_0 = ((-4.674957_f32 * r_c + (4.2672815_f32 * mu_t + 6.257166_f32)) * r_c + ((-0.90140206_f32 * mu_t - 6.63442_f32) * mu_t + 0.11141922_f32)) * r_c + (((-0.38945806_f32 * mu_t + 2.9342554_f32) * mu_t + 0.21485783_f32) * mu_t + 0.00021073522_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((361.50314_f32 * r_c + (417.05548_f32 * mu_t - 977.82_f32)) * r_c + ((-496.51776_f32 * mu_t - 169.80788_f32) * mu_t + 745.7977_f32)) * r_c + (((-37.847977_f32 * mu_t + 983.0823_f32) * mu_t - 715.05975_f32) * mu_t - 47.933746_f32)) * r_c + ((((564.8033_f32 * mu_t - 1076.5059_f32) * mu_t + 116.5405_f32) * mu_t + 456.64215_f32) * mu_t - 127.40062_f32)) * r_c + (((((-447.658_f32 * mu_t + 674.72174_f32) * mu_t - 244.65298_f32) * mu_t + 83.40349_f32) * mu_t - 72.37961_f32) * mu_t - 3.7406726_f32);
+    let p3_0 = ((((-43.46659_f32 * r_c + (-7.360842_f32 * mu_t + 63.487103_f32)) * r_c + ((22.571037_f32 * mu_t - 13.808405_f32) * mu_t + 56.33182_f32)) * r_c + (((238.87556_f32 * mu_t - 334.7862_f32) * mu_t + 128.97464_f32) * mu_t - 60.055176_f32)) * r_c + ((((10.507812_f32 * mu_t - 260.63095_f32) * mu_t + 314.79044_f32) * mu_t - 45.338512_f32) * mu_t - 27.997929_f32)) * r_c + (((((-194.20416_f32 * mu_t + 296.15155_f32) * mu_t - 9.6571665_f32) * mu_t - 58.093246_f32) * mu_t - 16.700336_f32) * mu_t - 1.1206771_f32);
     let p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = -0.1603616_f32;
-    let u3_1 = -0.12237434_f32;
-    let u3_2 = 0.16523837_f32;
-    let u3_3 = -0.025339339_f32;
-    let u3_4 = 0.018995076_f32;
+    let u3_0 = -0.14087857_f32;
+    let u3_1 = -0.17039172_f32;
+    let u3_2 = 0.090494566_f32;
+    let u3_3 = 0.011601873_f32;
+    let u3_4 = -0.022606336_f32;
     let u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = ((32.05144_f32 * r_c + (31.644182_f32 * mu_t + 53.1115_f32)) * r_c + ((-12.968734_f32 * mu_t - 89.036095_f32) * mu_t + 33.676273_f32)) * r_c + (((71.9122_f32 * mu_t - 23.105791_f32) * mu_t + 20.612938_f32) * mu_t + 1.0_f32);
+    let q3_0 = ((125.974976_f32 * r_c + (46.193188_f32 * mu_t - 17.39486_f32)) * r_c + ((-23.499094_f32 * mu_t - 26.538269_f32) * mu_t + 19.481598_f32)) * r_c + (((65.49176_f32 * mu_t - 36.75035_f32) * mu_t + 17.148087_f32) * mu_t + 1.0_f32);
     let q3 = q3_0;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms

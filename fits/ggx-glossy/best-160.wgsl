@@ -12,17 +12,17 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (clamp(f0, 0.0125, 0.25)^(1/4) - 0.0125^(1/4))/(0.25^(1/4) - 0.0125^(1/4)).
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
-// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the Lawson iterate of round 1 of 12, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.5x the least-squares start's.
-// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 3b176238b1f9d1da0a6e71691a97a42ecc32db07ec9de2f21538ee000aafb461.
+// Fit: low rank 4: u_k(x0) of degree 4 times [x0^0 x deg(x1, x2) <= 5]/[x0^0 x deg(x1, x2) <= 3], 141 coefficients (4 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.559x the least-squares start's.
+// Source: fits/ggx-glossy/best-160.json (furnace 0.1.0), fit SHA-256 d7f965f4cc403eb926f43d5c9abda3507aadc8362a1315a5b09345660efcd3f3.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.3e-6, shifted 1.0e-5, bernstein 6.0e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.01e-4, max 1.69e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.20e-4, max 1.67e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.44e-6 (every op rounded, as this Rust), 1.22e-6 (fused multiply-add), 1.55e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.31e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 24615 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.01e-4, max 1.69e-3; this f32 code MAE 2.01e-4, max 1.69e-3.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 8.6e-7, shifted 1.3e-5, bernstein 6.2e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.06e-4, max 1.06e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.41e-4, max 1.56e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 8.49e-7 (every op rounded, as this Rust), 6.86e-7 (fused multiply-add), 1.01e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.07e-4 for every input, in all three rounding models (interval error analysis over the whole domain, 26647 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.06e-4, max 1.06e-3; this f32 code MAE 2.06e-4, max 1.06e-3.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-3 on the measurement grid.
-// Denominator proved >= 5.886e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 2.107e-4 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -33,59 +33,59 @@ fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = ((((0.542951 * r_c + (-8.586605 * mu_t - 2.0543315)) * r_c + ((6.9268723 * mu_t + 11.172109) * mu_t + 1.1653869)) * r_c + (((2.6589653 * mu_t - 11.776362) * mu_t - 3.9086628) * mu_t + 2.870944)) * r_c + ((((-6.676469 * mu_t + 7.245712) * mu_t - 2.7904541) * mu_t + 5.091804) * mu_t - 2.9230185)) * r_c + (((((5.7034183 * mu_t - 9.612123) * mu_t + 8.911564) * mu_t - 2.0223515) * mu_t - 2.237271) * mu_t + 1.046212);
+    let p0_0 = ((((-0.9915061 * r_c + (-1.463245 * mu_t + 2.0735736)) * r_c + ((-3.1939328 * mu_t + 7.4000525) * mu_t - 3.5045524)) * r_c + (((1.4767196 * mu_t + 8.0023155) * mu_t - 17.005806) * mu_t + 7.8250785)) * r_c + ((((6.873194 * mu_t - 11.1027975) * mu_t - 6.020663) * mu_t + 16.928415) * mu_t - 7.2364902)) * r_c + (((((-5.2881536 * mu_t + 1.6495091) * mu_t + 9.738047) * mu_t - 3.468819) * mu_t - 4.6503725) * mu_t + 2.015508);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 0.62028056;
-    let u0_1 = -0.6041401;
-    let u0_2 = 0.6076107;
-    let u0_3 = -0.053592127;
-    let u0_4 = 0.0057759914;
+    let u0_0 = 0.46417165;
+    let u0_1 = -0.07750368;
+    let u0_2 = 0.078161515;
+    let u0_3 = 0.03310865;
+    let u0_4 = -0.011710468;
     let u0 = (((u0_4 * f0_t + u0_3) * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = ((-8.989494 * r_c + (6.5417156 * mu_t + 11.851045)) * r_c + ((-5.834017 * mu_t - 6.7621417) * mu_t - 0.37899318)) * r_c + (((2.8516452 * mu_t + 4.024934) * mu_t - 1.3231983) * mu_t + 1.0);
+    let q0_0 = ((-7.317374 * r_c + (6.0560093 * mu_t + 9.189046)) * r_c + ((-4.464676 * mu_t - 4.667561) * mu_t - 0.7884988)) * r_c + (((1.819757 * mu_t + 3.12765) * mu_t - 1.2565166) * mu_t + 1.0);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = ((((1.907799 * r_c + (-0.3902504 * mu_t - 3.3765345)) * r_c + ((-1.5287853 * mu_t + 2.8310602) * mu_t - 10.463065)) * r_c + (((-0.10560665 * mu_t + 2.511859) * mu_t + 6.082503) * mu_t - 1.4656507)) * r_c + ((((0.7822139 * mu_t - 2.4460642) * mu_t - 0.25144958) * mu_t - 0.4112809) * mu_t + 0.3548339)) * r_c + (((((-3.4141603 * mu_t + 7.685082) * mu_t - 7.316363) * mu_t + 1.7125392) * mu_t - 0.039946295) * mu_t - 0.15762377);
+    let p1_0 = ((((0.25495976 * r_c + (-5.892479 * mu_t + 4.946628)) * r_c + ((-0.88019246 * mu_t + 9.230702) * mu_t - 20.08213)) * r_c + (((1.757114 * mu_t - 4.619589) * mu_t + 4.275928) * mu_t + 1.1449456)) * r_c + ((((-7.423341 * mu_t + 13.9603815) * mu_t - 4.257807) * mu_t - 3.2183683) * mu_t + 1.2007293)) * r_c + (((((-2.4010441 * mu_t + 11.811279) * mu_t - 19.449274) * mu_t + 5.7468824) * mu_t + 0.14289214) * mu_t + 0.1732051);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 0.5995943;
-    let u1_1 = -0.74899507;
-    let u1_2 = -0.07728812;
-    let u1_3 = -0.055129815;
-    let u1_4 = -0.19994311;
+    let u1_0 = -0.09757968;
+    let u1_1 = -0.3667839;
+    let u1_2 = -0.3425506;
+    let u1_3 = -0.010040771;
+    let u1_4 = -0.17396875;
     let u1 = (((u1_4 * f0_t + u1_3) * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = ((48.691257 * r_c + (-40.88161 * mu_t + 9.939983)) * r_c + ((8.865399 * mu_t + 0.9197293) * mu_t - 1.818689)) * r_c + (((8.962781 * mu_t - 3.8616655) * mu_t + 0.48102197) * mu_t + 1.0);
+    let q1_0 = ((39.153946 * r_c + (-12.68769 * mu_t + 7.106944)) * r_c + ((5.6191397 * mu_t - 12.824736) * mu_t + 5.364613)) * r_c + (((15.253026 * mu_t - 5.799256) * mu_t + 2.6423204) * mu_t + 1.0);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = ((((-6.4082894 * r_c + (-16.938074 * mu_t + 18.143356)) * r_c + ((13.764908 * mu_t + 18.469824) * mu_t - 14.789674)) * r_c + (((3.2518241 * mu_t - 27.386093) * mu_t + 4.7157583) * mu_t + 3.032533)) * r_c + ((((-18.077038 * mu_t + 29.604761) * mu_t - 4.7939014) * mu_t - 2.7616553) * mu_t - 0.049442288)) * r_c + (((((12.387365 * mu_t - 16.216774) * mu_t + 4.299622) * mu_t - 0.20168793) * mu_t + 0.11495155) * mu_t + 0.0008625643);
+    let p2_0 = ((((-5.389645 * r_c + (-2.3334482 * mu_t + 15.495756)) * r_c + ((11.410082 * mu_t - 11.255864) * mu_t - 11.367489)) * r_c + (((1.4667808 * mu_t - 21.935564) * mu_t + 22.495848) * mu_t + 1.5081501)) * r_c + ((((-2.7852697 * mu_t + 11.206712) * mu_t - 1.4541988) * mu_t - 6.6475673) * mu_t + 0.06472178)) * r_c + (((((-3.2674937 * mu_t + 2.5999997) * mu_t + 0.13707948) * mu_t - 0.26751652) * mu_t + 0.113758616) * mu_t + 0.000118926604);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -0.23084056;
-    let u2_1 = 0.09623895;
-    let u2_2 = -0.13454744;
-    let u2_3 = 0.080642395;
-    let u2_4 = -0.023585863;
+    let u2_0 = -0.13382445;
+    let u2_1 = 0.040570512;
+    let u2_2 = 0.015142637;
+    let u2_3 = -0.08749858;
+    let u2_4 = 0.046412542;
     let u2 = (((u2_4 * f0_t + u2_3) * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = ((-2.442528 * r_c + (1.6615406 * mu_t + 4.381782)) * r_c + ((-0.6283849 * mu_t - 3.2984827) * mu_t - 0.06797808)) * r_c + (((1.0015712 * mu_t + 1.010707) * mu_t + 0.18342371) * mu_t + 0.0012967238);
+    let q2_0 = ((-4.674957 * r_c + (4.2672815 * mu_t + 6.257166)) * r_c + ((-0.90140206 * mu_t - 6.63442) * mu_t + 0.11141922)) * r_c + (((-0.38945806 * mu_t + 2.9342554) * mu_t + 0.21485783) * mu_t + 0.00021073522);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // term 3: numerator P_3, grouped by powers of the first variable
-    let p3_0 = ((((361.50314 * r_c + (417.05548 * mu_t - 977.82)) * r_c + ((-496.51776 * mu_t - 169.80788) * mu_t + 745.7977)) * r_c + (((-37.847977 * mu_t + 983.0823) * mu_t - 715.05975) * mu_t - 47.933746)) * r_c + ((((564.8033 * mu_t - 1076.5059) * mu_t + 116.5405) * mu_t + 456.64215) * mu_t - 127.40062)) * r_c + (((((-447.658 * mu_t + 674.72174) * mu_t - 244.65298) * mu_t + 83.40349) * mu_t - 72.37961) * mu_t - 3.7406726);
+    let p3_0 = ((((-43.46659 * r_c + (-7.360842 * mu_t + 63.487103)) * r_c + ((22.571037 * mu_t - 13.808405) * mu_t + 56.33182)) * r_c + (((238.87556 * mu_t - 334.7862) * mu_t + 128.97464) * mu_t - 60.055176)) * r_c + ((((10.507812 * mu_t - 260.63095) * mu_t + 314.79044) * mu_t - 45.338512) * mu_t - 27.997929)) * r_c + (((((-194.20416 * mu_t + 296.15155) * mu_t - 9.6571665) * mu_t - 58.093246) * mu_t - 16.700336) * mu_t - 1.1206771);
     let p3 = p3_0;
     // term 3: factor u_3, grouped by powers of the first variable
-    let u3_0 = -0.1603616;
-    let u3_1 = -0.12237434;
-    let u3_2 = 0.16523837;
-    let u3_3 = -0.025339339;
-    let u3_4 = 0.018995076;
+    let u3_0 = -0.14087857;
+    let u3_1 = -0.17039172;
+    let u3_2 = 0.090494566;
+    let u3_3 = 0.011601873;
+    let u3_4 = -0.022606336;
     let u3 = (((u3_4 * f0_t + u3_3) * f0_t + u3_2) * f0_t + u3_1) * f0_t + u3_0;
     // term 3: denominator Q_3 (proved positive on the domain), grouped by powers of the first variable
-    let q3_0 = ((32.05144 * r_c + (31.644182 * mu_t + 53.1115)) * r_c + ((-12.968734 * mu_t - 89.036095) * mu_t + 33.676273)) * r_c + (((71.9122 * mu_t - 23.105791) * mu_t + 20.612938) * mu_t + 1.0);
+    let q3_0 = ((125.974976 * r_c + (46.193188 * mu_t - 17.39486)) * r_c + ((-23.499094 * mu_t - 26.538269) * mu_t + 19.481598)) * r_c + (((65.49176 * mu_t - 36.75035) * mu_t + 17.148087) * mu_t + 1.0);
     let q3 = q3_0;
     let e3 = p3 * u3 / q3;
     // the sum of the 4 terms

@@ -17,30 +17,30 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 2/2, 19 coefficients (numerator 10, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/ggx-glossy/best-20.json (furnace 0.1.0), fit SHA-256 66a3ae66bbac26976006fbb8201aba665ff80906e00be9cd8774fc77d9fae28d.
+// Source: fits/ggx-glossy/best-20.json (furnace 0.1.0), fit SHA-256 d6d67fafa3da69bcc548263b01241370b7c2200c55e7c9fdae08f79e2bef717d.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.4e-7, shifted 7.6e-7, bernstein 2.4e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 1.56e-2, max 5.61e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.61e-2, max 5.17e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.40e-7 (every op rounded, as this Rust), 2.40e-7 (fused multiply-add), 3.32e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.41e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 521 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 1.56e-2, max 5.61e-2; this f32 code MAE 1.56e-2, max 5.61e-2.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 2.6e-7, shifted 1.2e-6, bernstein 3.3e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 1.57e-2, max 5.61e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.62e-2, max 5.15e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.45e-7 (every op rounded, as this Rust), 2.43e-7 (fused multiply-add), 3.45e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.44e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 475 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 1.57e-2, max 5.61e-2; this f32 code MAE 1.57e-2, max 5.61e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.4e-2 on the measurement grid.
-// Denominator proved >= 7.777e-1 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 7.694e-1 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_glossy_albedo(highp float f0, highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float f0_c = max(min(f0, 0.25), 0.0125);
     highp float r_c = max(min(r, 1.0), 0.0);
     highp float mu_c = max(min(mu, 1.0), 0.0);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = (0.86527497 * r_c + (-0.8601323 * mu_c - 0.458424)) * r_c + ((2.3902287 * mu_c - 2.8771956) * mu_c + 0.93338436);
-    highp float p_1 = 13.910526 * r_c + (14.016565 * mu_c + 1.7088624);
-    highp float p_2 = -8.656953;
+    highp float p_0 = (0.87488693 * r_c + (-0.83388954 * mu_c - 0.4725624)) * r_c + ((2.3865294 * mu_c - 2.8734808) * mu_c + 0.933515);
+    highp float p_1 = 13.842125 * r_c + (14.022817 * mu_c + 1.6772695);
+    highp float p_2 = -8.674792;
     highp float p = (p_2 * f0_c + p_1) * f0_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = (16.403522 * r_c + (-6.877103 * mu_c - 1.0199353)) * r_c + ((11.254169 * mu_c + 1.0750666) * mu_c + 1.0);
-    highp float q_1 = 20.168762 * r_c + (25.203344 * mu_c + 0.898118);
-    highp float q_2 = -7.1489515;
+    highp float q_0 = (16.31596 * r_c + (-6.845702 * mu_c - 1.0216502)) * r_c + ((11.25039 * mu_c + 1.0826015) * mu_c + 1.0);
+    highp float q_1 = 19.98248 * r_c + (24.953989 * mu_c + 0.87214667);
+    highp float q_2 = -7.1776047;
     highp float q = (q_2 * f0_c + q_1) * f0_c + q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

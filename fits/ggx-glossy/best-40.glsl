@@ -16,15 +16,15 @@
 //   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (q(clamp(f0, 0.0125, 0.25)) - q(0.0125))/(q(0.25) - q(0.0125)), q(z) = z^(1/8) + 0.25*z.
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r.
-// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.345x the least-squares start's.
-// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 170c36d3a870ad452ea49d9fe6dab7d2f0fc18c13c5e9350b8b81466552629ff.
+// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.342x the least-squares start's.
+// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 f9ae2f8eb390736e906c5a79c88dfcea6b9691df8a029e54b4487861527275ef.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-7, shifted 1.8e-6, bernstein 7.4e-7.
-// Error of the f64 fit on its 2097152 data points: MAE 2.79e-3, max 9.97e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.91e-3, max 9.51e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.95e-7 (every op rounded, as this Rust), 2.69e-7 (fused multiply-add), 8.72e-7 (GPU division/sqrt error).
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.1e-7, shifted 5.8e-6, bernstein 7.1e-7.
+// Error of the f64 fit on its 2097152 data points: MAE 2.79e-3, max 1.00e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.92e-3, max 9.53e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.46e-7 (every op rounded, as this Rust), 2.44e-7 (fused multiply-add), 8.33e-7 (GPU division/sqrt error).
 // Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.78e-3, max 9.90e-3; this f32 code MAE 2.78e-3, max 9.90e-3.
+// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.79e-3, max 9.93e-3; this f32 code MAE 2.79e-3, max 9.93e-3.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-2 on the measurement grid.
 // Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 highp float ggx_glossy_albedo(highp float f0, highp float r, highp float mu) {
@@ -39,12 +39,12 @@ highp float ggx_glossy_albedo(highp float f0, highp float r, highp float mu) {
     // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r
     highp float mu_t = mu_c * (sqrt(1.0 + mu_s) + mu_rs) / (sqrt(mu_c + mu_s) + mu_rs + 7.888609e-31);
     // numerator P, grouped by powers of the first variable
-    highp float p_0 = ((3.773065 * r_c + (5.0841002 * mu_t - 5.5219274)) * r_c + ((7.2081175 * mu_t - 8.926383) * mu_t + 3.445171)) * r_c + (((11.42763 * mu_t - 19.852955) * mu_t + 7.920682) * mu_t + 0.99588805);
-    highp float p_1 = ((-11.580998 * r_c + (-2.7637038 * mu_t + 12.996512)) * r_c + ((-18.711164 * mu_t + 14.384269) * mu_t + 0.11332484)) * r_c + (((-18.006376 * mu_t + 18.420399) * mu_t - 1.2761017) * mu_t + 0.00070818595);
-    highp float p_2 = ((18.64065 * r_c + (46.325672 * mu_t - 9.205341)) * r_c + ((38.03028 * mu_t - 20.034407) * mu_t - 0.31528023)) * r_c + (((24.769361 * mu_t - 16.175442) * mu_t + 0.6631969) * mu_t + 0.013372052);
+    highp float p_0 = ((3.722177 * r_c + (4.958979 * mu_t - 5.431849)) * r_c + ((7.0789723 * mu_t - 8.741921) * mu_t + 3.3860552)) * r_c + (((11.331804 * mu_t - 19.669535) * mu_t + 7.8302794) * mu_t + 0.9958846);
+    highp float p_1 = ((-11.482345 * r_c + (-2.663917 * mu_t + 12.887958)) * r_c + ((-18.506294 * mu_t + 14.258922) * mu_t + 0.11627932)) * r_c + (((-17.86814 * mu_t + 18.270636) * mu_t - 1.2618228) * mu_t + 0.00046510046);
+    highp float p_2 = ((18.462385 * r_c + (45.967724 * mu_t - 9.104055)) * r_c + ((37.697872 * mu_t - 19.863825) * mu_t - 0.31964883)) * r_c + (((24.560297 * mu_t - 16.025236) * mu_t + 0.6499473) * mu_t + 0.013665325);
     highp float p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    highp float q_0 = ((26.540731 * r_c + (182.17798 * mu_t + 15.822226)) * r_c + ((83.50242 * mu_t - 32.034775) * mu_t + 4.146454)) * r_c + (((33.147434 * mu_t - 7.108034) * mu_t + 7.472199) * mu_t + 1.0);
+    highp float q_0 = ((26.26521 * r_c + (181.03992 * mu_t + 15.77536)) * r_c + ((83.026276 * mu_t - 31.784985) * mu_t + 4.088351)) * r_c + (((32.846798 * mu_t - 7.0040307) * mu_t + 7.3867764) * mu_t + 1.0);
     highp float q = q_0;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -13,15 +13,15 @@
 ///   f0: normal-incidence reflectance F0 of the specular layer (0.0125 ... 0.25, eta 1.25 ... 3, by default); fitted domain [0.0125, 0.25]; evaluated in t = (q(clamp(f0, 0.0125, 0.25)) - q(0.0125))/(q(0.25) - q(0.0125)), q(z) = z^(1/8) + 0.25*z.
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r.
-/// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.345x the least-squares start's.
-/// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 170c36d3a870ad452ea49d9fe6dab7d2f0fc18c13c5e9350b8b81466552629ff.
+/// Fit: rational over [x0^2 x deg(x1, x2) <= 3]/[x0^0 x deg(x1, x2) <= 3], 39 coefficients (numerator 30, denominator 9 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 40960 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then an L_p polish from the least-squares fit: Levenberg-Marquardt on the sum of |e_i|^p for each p in turn, this the solve of p = 12 (step 4 of the polish), its MAE on the fitting points 1.342x the least-squares start's.
+/// Source: fits/ggx-glossy/best-40.json (furnace 0.1.0), fit SHA-256 f9ae2f8eb390736e906c5a79c88dfcea6b9691df8a029e54b4487861527275ef.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.5e-7, shifted 1.8e-6, bernstein 7.4e-7.
-/// Error of the f64 fit on its 2097152 data points: MAE 2.79e-3, max 9.97e-3 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.91e-3, max 9.51e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.95e-7 (every op rounded, as this Rust), 2.69e-7 (fused multiply-add), 8.72e-7 (GPU division/sqrt error).
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 7.1e-7, shifted 5.8e-6, bernstein 7.1e-7.
+/// Error of the f64 fit on its 2097152 data points: MAE 2.79e-3, max 1.00e-2 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.92e-3, max 9.53e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 2.46e-7 (every op rounded, as this Rust), 2.44e-7 (fused multiply-add), 8.33e-7 (GPU division/sqrt error).
 /// Bound: none proved; the interval error analysis over the whole domain (1 boxes) gives no finite bound for this form and its input transforms, so the stress test above is the measure of |f32 - f64|.
-/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.78e-3, max 9.90e-3; this f32 code MAE 2.78e-3, max 9.90e-3.
+/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 2.79e-3, max 9.93e-3; this f32 code MAE 2.79e-3, max 9.93e-3.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.0e-2 on the measurement grid.
 /// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
@@ -43,12 +43,12 @@ pub fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = mu*(sqrt(1 + s) + sqrt(s))/(sqrt(mu + s) + sqrt(s) + 2^-100), s = 40*r*r*r*r
     let mu_t = mu_c * (sqrtf(1.0_f32 + mu_s) + mu_rs) / (sqrtf(mu_c + mu_s) + mu_rs + 7.888609e-31_f32);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((3.773065_f32 * r_c + (5.0841002_f32 * mu_t - 5.5219274_f32)) * r_c + ((7.2081175_f32 * mu_t - 8.926383_f32) * mu_t + 3.445171_f32)) * r_c + (((11.42763_f32 * mu_t - 19.852955_f32) * mu_t + 7.920682_f32) * mu_t + 0.99588805_f32);
-    let p_1 = ((-11.580998_f32 * r_c + (-2.7637038_f32 * mu_t + 12.996512_f32)) * r_c + ((-18.711164_f32 * mu_t + 14.384269_f32) * mu_t + 0.11332484_f32)) * r_c + (((-18.006376_f32 * mu_t + 18.420399_f32) * mu_t - 1.2761017_f32) * mu_t + 0.00070818595_f32);
-    let p_2 = ((18.64065_f32 * r_c + (46.325672_f32 * mu_t - 9.205341_f32)) * r_c + ((38.03028_f32 * mu_t - 20.034407_f32) * mu_t - 0.31528023_f32)) * r_c + (((24.769361_f32 * mu_t - 16.175442_f32) * mu_t + 0.6631969_f32) * mu_t + 0.013372052_f32);
+    let p_0 = ((3.722177_f32 * r_c + (4.958979_f32 * mu_t - 5.431849_f32)) * r_c + ((7.0789723_f32 * mu_t - 8.741921_f32) * mu_t + 3.3860552_f32)) * r_c + (((11.331804_f32 * mu_t - 19.669535_f32) * mu_t + 7.8302794_f32) * mu_t + 0.9958846_f32);
+    let p_1 = ((-11.482345_f32 * r_c + (-2.663917_f32 * mu_t + 12.887958_f32)) * r_c + ((-18.506294_f32 * mu_t + 14.258922_f32) * mu_t + 0.11627932_f32)) * r_c + (((-17.86814_f32 * mu_t + 18.270636_f32) * mu_t - 1.2618228_f32) * mu_t + 0.00046510046_f32);
+    let p_2 = ((18.462385_f32 * r_c + (45.967724_f32 * mu_t - 9.104055_f32)) * r_c + ((37.697872_f32 * mu_t - 19.863825_f32) * mu_t - 0.31964883_f32)) * r_c + (((24.560297_f32 * mu_t - 16.025236_f32) * mu_t + 0.6499473_f32) * mu_t + 0.013665325_f32);
     let p = (p_2 * f0_t + p_1) * f0_t + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((26.540731_f32 * r_c + (182.17798_f32 * mu_t + 15.822226_f32)) * r_c + ((83.50242_f32 * mu_t - 32.034775_f32) * mu_t + 4.146454_f32)) * r_c + (((33.147434_f32 * mu_t - 7.108034_f32) * mu_t + 7.472199_f32) * mu_t + 1.0_f32);
+    let q_0 = ((26.26521_f32 * r_c + (181.03992_f32 * mu_t + 15.77536_f32)) * r_c + ((83.026276_f32 * mu_t - 31.784985_f32) * mu_t + 4.088351_f32)) * r_c + (((32.846798_f32 * mu_t - 7.0040307_f32) * mu_t + 7.3867764_f32) * mu_t + 1.0_f32);
     let q = q_0;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -29,16 +29,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
 // Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-glossy/best-80.json (furnace 0.1.0), fit SHA-256 8d4d76cb9928a0af79a34398392e0d1d8ec41ced06d4422a2e0d3d79ccb117b5.
+// Source: fits/ggx-glossy/best-80.json (furnace 0.1.0), fit SHA-256 1cb847ede3d2bc1fc37b41a7b1f1f4f7ab262601c40f26827b7fdb8f319c2fac.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.2e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 4.55e-4, max 1.11e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.86e-4, max 7.26e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.97e-6 (every op rounded, as this Rust), 1.69e-6 (fused multiply-add), 2.20e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.10e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 16811 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 4.55e-4, max 7.78e-3; this f32 code MAE 4.55e-4, max 7.78e-3.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.5e-6, shifted 1.1e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.62e-4, max 1.13e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.91e-4, max 7.13e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.61e-6 (every op rounded, as this Rust), 1.25e-6 (fused multiply-add), 1.66e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 8.98e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 15599 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 4.62e-4, max 7.67e-3; this f32 code MAE 4.62e-4, max 7.67e-3.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-2 on the measurement grid.
-// Denominator proved >= 7.837e-1 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 7.661e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float ggx_glossy_albedo(float f0, float r, float mu) {
     // inputs clamped to the fitted domain
     const float f0_c = fmaxf(fminf(f0, 0.25f), 0.0125f);
@@ -49,42 +49,42 @@ FURNACE_FN float ggx_glossy_albedo(float f0, float r, float mu) {
     // t = sqrt(mu)
     const float mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    const float p0_0 = (((-0.34739077f * r_c + (-0.91631144f * mu_t + 1.4563439f)) * r_c + ((2.0049744f * mu_t - 1.4810222f) * mu_t - 3.0541217f)) * r_c + (((-1.4141896f * mu_t - 0.3603125f) * mu_t + 4.108343f) * mu_t - 0.58803505f)) * r_c + ((((0.051203758f * mu_t + 1.5271472f) * mu_t - 3.081692f) * mu_t + 0.18863441f) * mu_t - 0.20156707f);
+    const float p0_0 = (((-0.49384552f * r_c + (-0.961334f * mu_t + 1.7693892f)) * r_c + ((2.1327915f * mu_t - 1.6207981f) * mu_t - 3.4262023f)) * r_c + (((-1.4349802f * mu_t - 0.4955591f) * mu_t + 4.487841f) * mu_t - 0.6502585f)) * r_c + ((((-0.032385983f * mu_t + 1.7924769f) * mu_t - 3.3878107f) * mu_t + 0.20087032f) * mu_t - 0.21053597f);
     const float p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    const float u0_0 = 1.1858519f;
-    const float u0_1 = -9.145399f;
-    const float u0_2 = 10.663764f;
-    const float u0_3 = 1.2948135f;
+    const float u0_0 = 1.0415472f;
+    const float u0_1 = -8.529911f;
+    const float u0_2 = 9.970578f;
+    const float u0_3 = 1.1854762f;
     const float u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    const float q0_0 = (5.739857f * r_c + (-4.3752832f * mu_t - 0.07030342f)) * r_c + ((4.01243f * mu_t - 1.0891274f) * mu_t + 1.0f);
+    const float q0_0 = (5.7890368f * r_c + (-4.3190303f * mu_t - 0.054027922f)) * r_c + ((3.970096f * mu_t - 1.0881575f) * mu_t + 1.0f);
     const float q0 = q0_0;
     const float e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    const float p1_0 = (((-0.2553217f * r_c + (-0.7667283f * mu_t + 1.160192f)) * r_c + ((1.8088714f * mu_t - 1.4279904f) * mu_t - 2.8361866f)) * r_c + (((-1.0986303f * mu_t - 0.5149589f) * mu_t + 3.7644396f) * mu_t - 0.47113106f)) * r_c + ((((0.017145475f * mu_t + 1.2388225f) * mu_t - 2.546054f) * mu_t + 0.2154828f) * mu_t - 0.20864202f);
+    const float p1_0 = (((-0.332235f * r_c + (-0.71647716f * mu_t + 1.25808f)) * r_c + ((1.7202413f * mu_t - 1.3936617f) * mu_t - 2.8172944f)) * r_c + (((-0.99595004f * mu_t - 0.57241005f) * mu_t + 3.6660848f) * mu_t - 0.4680152f)) * r_c + ((((-0.044056643f * mu_t + 1.2979652f) * mu_t - 2.5026953f) * mu_t + 0.2048802f) * mu_t - 0.19581652f);
     const float p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    const float u1_0 = 0.92303026f;
-    const float u1_1 = 8.058173f;
-    const float u1_2 = -9.89617f;
-    const float u1_3 = -1.5049897f;
+    const float u1_0 = 0.9549702f;
+    const float u1_1 = 8.511728f;
+    const float u1_2 = -10.460304f;
+    const float u1_3 = -1.5522056f;
     const float u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    const float q1_0 = (5.2971206f * r_c + (-3.627569f * mu_t - 0.32117793f)) * r_c + ((3.245834f * mu_t - 1.1866579f) * mu_t + 1.0f);
+    const float q1_0 = (5.333221f * r_c + (-3.5958588f * mu_t - 0.30028883f)) * r_c + ((3.2313359f * mu_t - 1.1838751f) * mu_t + 1.0f);
     const float q1 = q1_0;
     const float e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    const float p2_0 = (((-2.5794477f * r_c + (-9.944693f * mu_t + 14.057678f)) * r_c + ((16.7946f * mu_t - 5.4394774f) * mu_t - 36.712532f)) * r_c + (((-11.5602045f * mu_t - 3.8605433f) * mu_t + 40.65409f) * mu_t + 0.058744397f)) * r_c + ((((1.099018f * mu_t + 9.217602f) * mu_t - 24.796371f) * mu_t + 0.25648344f) * mu_t - 0.24337177f);
+    const float p2_0 = (((-2.3839507f * r_c + (-7.060898f * mu_t + 11.037237f)) * r_c + ((11.656226f * mu_t - 3.6365013f) * mu_t - 27.31869f)) * r_c + (((-7.6521635f * mu_t - 3.2165277f) * mu_t + 28.762516f) * mu_t + 0.19231787f)) * r_c + ((((0.43466157f * mu_t + 6.969173f) * mu_t - 17.659603f) * mu_t + 0.16077931f) * mu_t - 0.17575514f);
     const float p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    const float u2_0 = -5.9278297f;
-    const float u2_1 = 0.82883453f;
-    const float u2_2 = -0.50198585f;
-    const float u2_3 = 0.24290727f;
+    const float u2_0 = -8.065728f;
+    const float u2_1 = 0.95785f;
+    const float u2_2 = -0.50002456f;
+    const float u2_3 = 0.34404695f;
     const float u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    const float q2_0 = (158.60431f * r_c + (-171.44734f * mu_t - 0.6429318f)) * r_c + ((99.231224f * mu_t - 0.92043895f) * mu_t + 1.0f);
+    const float q2_0 = (162.56046f * r_c + (-168.13243f * mu_t - 1.4598248f)) * r_c + ((97.765686f * mu_t - 0.7718614f) * mu_t + 1.0f);
     const float q2 = q2_0;
     const float e2 = p2 * u2 / q2;
     // the sum of the 3 terms

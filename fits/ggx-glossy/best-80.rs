@@ -14,16 +14,16 @@
 ///   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
 /// Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-/// Source: fits/ggx-glossy/best-80.json (furnace 0.1.0), fit SHA-256 8d4d76cb9928a0af79a34398392e0d1d8ec41ced06d4422a2e0d3d79ccb117b5.
+/// Source: fits/ggx-glossy/best-80.json (furnace 0.1.0), fit SHA-256 1cb847ede3d2bc1fc37b41a7b1f1f4f7ab262601c40f26827b7fdb8f319c2fac.
 /// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.2e-5, bernstein 1.4e-6.
-/// Error of the f64 fit on its 2097152 data points: MAE 4.55e-4, max 1.11e-2 (recorded by the fitter).
-/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.86e-4, max 7.26e-3.
-/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.97e-6 (every op rounded, as this Rust), 1.69e-6 (fused multiply-add), 2.20e-6 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 9.10e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 16811 boxes).
-/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 4.55e-4, max 7.78e-3; this f32 code MAE 4.55e-4, max 7.78e-3.
+///   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.5e-6, shifted 1.1e-5, bernstein 1.4e-6.
+/// Error of the f64 fit on its 2097152 data points: MAE 4.62e-4, max 1.13e-2 (recorded by the fitter).
+/// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.91e-4, max 7.13e-3.
+/// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.61e-6 (every op rounded, as this Rust), 1.25e-6 (fused multiply-add), 1.66e-6 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 8.98e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 15599 boxes).
+/// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 4.62e-4, max 7.67e-3; this f32 code MAE 4.62e-4, max 7.67e-3.
 /// Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-2 on the measurement grid.
-/// Denominator proved >= 7.837e-1 on the domain (Bernstein certificate), so the division is safe.
+/// Denominator proved >= 7.661e-1 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -41,42 +41,42 @@ pub fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrtf(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = (((-0.34739077_f32 * r_c + (-0.91631144_f32 * mu_t + 1.4563439_f32)) * r_c + ((2.0049744_f32 * mu_t - 1.4810222_f32) * mu_t - 3.0541217_f32)) * r_c + (((-1.4141896_f32 * mu_t - 0.3603125_f32) * mu_t + 4.108343_f32) * mu_t - 0.58803505_f32)) * r_c + ((((0.051203758_f32 * mu_t + 1.5271472_f32) * mu_t - 3.081692_f32) * mu_t + 0.18863441_f32) * mu_t - 0.20156707_f32);
+    let p0_0 = (((-0.49384552_f32 * r_c + (-0.961334_f32 * mu_t + 1.7693892_f32)) * r_c + ((2.1327915_f32 * mu_t - 1.6207981_f32) * mu_t - 3.4262023_f32)) * r_c + (((-1.4349802_f32 * mu_t - 0.4955591_f32) * mu_t + 4.487841_f32) * mu_t - 0.6502585_f32)) * r_c + ((((-0.032385983_f32 * mu_t + 1.7924769_f32) * mu_t - 3.3878107_f32) * mu_t + 0.20087032_f32) * mu_t - 0.21053597_f32);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 1.1858519_f32;
-    let u0_1 = -9.145399_f32;
-    let u0_2 = 10.663764_f32;
-    let u0_3 = 1.2948135_f32;
+    let u0_0 = 1.0415472_f32;
+    let u0_1 = -8.529911_f32;
+    let u0_2 = 9.970578_f32;
+    let u0_3 = 1.1854762_f32;
     let u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (5.739857_f32 * r_c + (-4.3752832_f32 * mu_t - 0.07030342_f32)) * r_c + ((4.01243_f32 * mu_t - 1.0891274_f32) * mu_t + 1.0_f32);
+    let q0_0 = (5.7890368_f32 * r_c + (-4.3190303_f32 * mu_t - 0.054027922_f32)) * r_c + ((3.970096_f32 * mu_t - 1.0881575_f32) * mu_t + 1.0_f32);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = (((-0.2553217_f32 * r_c + (-0.7667283_f32 * mu_t + 1.160192_f32)) * r_c + ((1.8088714_f32 * mu_t - 1.4279904_f32) * mu_t - 2.8361866_f32)) * r_c + (((-1.0986303_f32 * mu_t - 0.5149589_f32) * mu_t + 3.7644396_f32) * mu_t - 0.47113106_f32)) * r_c + ((((0.017145475_f32 * mu_t + 1.2388225_f32) * mu_t - 2.546054_f32) * mu_t + 0.2154828_f32) * mu_t - 0.20864202_f32);
+    let p1_0 = (((-0.332235_f32 * r_c + (-0.71647716_f32 * mu_t + 1.25808_f32)) * r_c + ((1.7202413_f32 * mu_t - 1.3936617_f32) * mu_t - 2.8172944_f32)) * r_c + (((-0.99595004_f32 * mu_t - 0.57241005_f32) * mu_t + 3.6660848_f32) * mu_t - 0.4680152_f32)) * r_c + ((((-0.044056643_f32 * mu_t + 1.2979652_f32) * mu_t - 2.5026953_f32) * mu_t + 0.2048802_f32) * mu_t - 0.19581652_f32);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 0.92303026_f32;
-    let u1_1 = 8.058173_f32;
-    let u1_2 = -9.89617_f32;
-    let u1_3 = -1.5049897_f32;
+    let u1_0 = 0.9549702_f32;
+    let u1_1 = 8.511728_f32;
+    let u1_2 = -10.460304_f32;
+    let u1_3 = -1.5522056_f32;
     let u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (5.2971206_f32 * r_c + (-3.627569_f32 * mu_t - 0.32117793_f32)) * r_c + ((3.245834_f32 * mu_t - 1.1866579_f32) * mu_t + 1.0_f32);
+    let q1_0 = (5.333221_f32 * r_c + (-3.5958588_f32 * mu_t - 0.30028883_f32)) * r_c + ((3.2313359_f32 * mu_t - 1.1838751_f32) * mu_t + 1.0_f32);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = (((-2.5794477_f32 * r_c + (-9.944693_f32 * mu_t + 14.057678_f32)) * r_c + ((16.7946_f32 * mu_t - 5.4394774_f32) * mu_t - 36.712532_f32)) * r_c + (((-11.5602045_f32 * mu_t - 3.8605433_f32) * mu_t + 40.65409_f32) * mu_t + 0.058744397_f32)) * r_c + ((((1.099018_f32 * mu_t + 9.217602_f32) * mu_t - 24.796371_f32) * mu_t + 0.25648344_f32) * mu_t - 0.24337177_f32);
+    let p2_0 = (((-2.3839507_f32 * r_c + (-7.060898_f32 * mu_t + 11.037237_f32)) * r_c + ((11.656226_f32 * mu_t - 3.6365013_f32) * mu_t - 27.31869_f32)) * r_c + (((-7.6521635_f32 * mu_t - 3.2165277_f32) * mu_t + 28.762516_f32) * mu_t + 0.19231787_f32)) * r_c + ((((0.43466157_f32 * mu_t + 6.969173_f32) * mu_t - 17.659603_f32) * mu_t + 0.16077931_f32) * mu_t - 0.17575514_f32);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -5.9278297_f32;
-    let u2_1 = 0.82883453_f32;
-    let u2_2 = -0.50198585_f32;
-    let u2_3 = 0.24290727_f32;
+    let u2_0 = -8.065728_f32;
+    let u2_1 = 0.95785_f32;
+    let u2_2 = -0.50002456_f32;
+    let u2_3 = 0.34404695_f32;
     let u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (158.60431_f32 * r_c + (-171.44734_f32 * mu_t - 0.6429318_f32)) * r_c + ((99.231224_f32 * mu_t - 0.92043895_f32) * mu_t + 1.0_f32);
+    let q2_0 = (162.56046_f32 * r_c + (-168.13243_f32 * mu_t - 1.4598248_f32)) * r_c + ((97.765686_f32 * mu_t - 0.7718614_f32) * mu_t + 1.0_f32);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // the sum of the 3 terms

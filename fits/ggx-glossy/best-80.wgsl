@@ -13,16 +13,16 @@
 //   r: square root of GGX alpha (alpha = r^2); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
 // Fit: low rank 3: u_k(x0) of degree 3 times [x0^0 x deg(x1, x2) <= 4]/[x0^0 x deg(x1, x2) <= 2], 72 coefficients (3 terms (factor, numerator and denominator of each), denominator constants 1 not counted); minimax objective, levenberg-marquardt; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/ggx-glossy/best-80.json (furnace 0.1.0), fit SHA-256 8d4d76cb9928a0af79a34398392e0d1d8ec41ced06d4422a2e0d3d79ccb117b5.
+// Source: fits/ggx-glossy/best-80.json (furnace 0.1.0), fit SHA-256 1cb847ede3d2bc1fc37b41a7b1f1f4f7ab262601c40f26827b7fdb8f319c2fac.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.9e-6, shifted 1.2e-5, bernstein 1.4e-6.
-// Error of the f64 fit on its 2097152 data points: MAE 4.55e-4, max 1.11e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.86e-4, max 7.26e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.97e-6 (every op rounded, as this Rust), 1.69e-6 (fused multiply-add), 2.20e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 9.10e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 16811 boxes).
-// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 4.55e-4, max 7.78e-3; this f32 code MAE 4.55e-4, max 7.78e-3.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 35937 points of the measurement grid: monomial 1.5e-6, shifted 1.1e-5, bernstein 1.4e-6.
+// Error of the f64 fit on its 2097152 data points: MAE 4.62e-4, max 1.13e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 26112 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 5.91e-4, max 7.13e-3.
+// f32 - f64, measured at the stress test's 1000000 random + 43787 edge points (`furnace stress`, seed 0x5eedf00d): max 1.61e-6 (every op rounded, as this Rust), 1.25e-6 (fused multiply-add), 1.66e-6 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 8.98e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 15599 boxes).
+// Error at the 2097152 nodes of its table data/ggx-glossy/128x128x128 (output clamp applied): f64 MAE 4.62e-4, max 7.67e-3; this f32 code MAE 4.62e-4, max 7.67e-3.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.1e-2 on the measurement grid.
-// Denominator proved >= 7.837e-1 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 7.661e-1 on the domain (Bernstein certificate), so the division is safe.
 fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let f0_c = max(min(f0, 0.25), 0.0125);
@@ -33,42 +33,42 @@ fn ggx_glossy_albedo(f0: f32, r: f32, mu: f32) -> f32 {
     // t = sqrt(mu)
     let mu_t = sqrt(mu_c);
     // term 0: numerator P_0, grouped by powers of the first variable
-    let p0_0 = (((-0.34739077 * r_c + (-0.91631144 * mu_t + 1.4563439)) * r_c + ((2.0049744 * mu_t - 1.4810222) * mu_t - 3.0541217)) * r_c + (((-1.4141896 * mu_t - 0.3603125) * mu_t + 4.108343) * mu_t - 0.58803505)) * r_c + ((((0.051203758 * mu_t + 1.5271472) * mu_t - 3.081692) * mu_t + 0.18863441) * mu_t - 0.20156707);
+    let p0_0 = (((-0.49384552 * r_c + (-0.961334 * mu_t + 1.7693892)) * r_c + ((2.1327915 * mu_t - 1.6207981) * mu_t - 3.4262023)) * r_c + (((-1.4349802 * mu_t - 0.4955591) * mu_t + 4.487841) * mu_t - 0.6502585)) * r_c + ((((-0.032385983 * mu_t + 1.7924769) * mu_t - 3.3878107) * mu_t + 0.20087032) * mu_t - 0.21053597);
     let p0 = p0_0;
     // term 0: factor u_0, grouped by powers of the first variable
-    let u0_0 = 1.1858519;
-    let u0_1 = -9.145399;
-    let u0_2 = 10.663764;
-    let u0_3 = 1.2948135;
+    let u0_0 = 1.0415472;
+    let u0_1 = -8.529911;
+    let u0_2 = 9.970578;
+    let u0_3 = 1.1854762;
     let u0 = ((u0_3 * f0_t + u0_2) * f0_t + u0_1) * f0_t + u0_0;
     // term 0: denominator Q_0 (proved positive on the domain), grouped by powers of the first variable
-    let q0_0 = (5.739857 * r_c + (-4.3752832 * mu_t - 0.07030342)) * r_c + ((4.01243 * mu_t - 1.0891274) * mu_t + 1.0);
+    let q0_0 = (5.7890368 * r_c + (-4.3190303 * mu_t - 0.054027922)) * r_c + ((3.970096 * mu_t - 1.0881575) * mu_t + 1.0);
     let q0 = q0_0;
     let e0 = p0 * u0 / q0;
     // term 1: numerator P_1, grouped by powers of the first variable
-    let p1_0 = (((-0.2553217 * r_c + (-0.7667283 * mu_t + 1.160192)) * r_c + ((1.8088714 * mu_t - 1.4279904) * mu_t - 2.8361866)) * r_c + (((-1.0986303 * mu_t - 0.5149589) * mu_t + 3.7644396) * mu_t - 0.47113106)) * r_c + ((((0.017145475 * mu_t + 1.2388225) * mu_t - 2.546054) * mu_t + 0.2154828) * mu_t - 0.20864202);
+    let p1_0 = (((-0.332235 * r_c + (-0.71647716 * mu_t + 1.25808)) * r_c + ((1.7202413 * mu_t - 1.3936617) * mu_t - 2.8172944)) * r_c + (((-0.99595004 * mu_t - 0.57241005) * mu_t + 3.6660848) * mu_t - 0.4680152)) * r_c + ((((-0.044056643 * mu_t + 1.2979652) * mu_t - 2.5026953) * mu_t + 0.2048802) * mu_t - 0.19581652);
     let p1 = p1_0;
     // term 1: factor u_1, grouped by powers of the first variable
-    let u1_0 = 0.92303026;
-    let u1_1 = 8.058173;
-    let u1_2 = -9.89617;
-    let u1_3 = -1.5049897;
+    let u1_0 = 0.9549702;
+    let u1_1 = 8.511728;
+    let u1_2 = -10.460304;
+    let u1_3 = -1.5522056;
     let u1 = ((u1_3 * f0_t + u1_2) * f0_t + u1_1) * f0_t + u1_0;
     // term 1: denominator Q_1 (proved positive on the domain), grouped by powers of the first variable
-    let q1_0 = (5.2971206 * r_c + (-3.627569 * mu_t - 0.32117793)) * r_c + ((3.245834 * mu_t - 1.1866579) * mu_t + 1.0);
+    let q1_0 = (5.333221 * r_c + (-3.5958588 * mu_t - 0.30028883)) * r_c + ((3.2313359 * mu_t - 1.1838751) * mu_t + 1.0);
     let q1 = q1_0;
     let e1 = p1 * u1 / q1;
     // term 2: numerator P_2, grouped by powers of the first variable
-    let p2_0 = (((-2.5794477 * r_c + (-9.944693 * mu_t + 14.057678)) * r_c + ((16.7946 * mu_t - 5.4394774) * mu_t - 36.712532)) * r_c + (((-11.5602045 * mu_t - 3.8605433) * mu_t + 40.65409) * mu_t + 0.058744397)) * r_c + ((((1.099018 * mu_t + 9.217602) * mu_t - 24.796371) * mu_t + 0.25648344) * mu_t - 0.24337177);
+    let p2_0 = (((-2.3839507 * r_c + (-7.060898 * mu_t + 11.037237)) * r_c + ((11.656226 * mu_t - 3.6365013) * mu_t - 27.31869)) * r_c + (((-7.6521635 * mu_t - 3.2165277) * mu_t + 28.762516) * mu_t + 0.19231787)) * r_c + ((((0.43466157 * mu_t + 6.969173) * mu_t - 17.659603) * mu_t + 0.16077931) * mu_t - 0.17575514);
     let p2 = p2_0;
     // term 2: factor u_2, grouped by powers of the first variable
-    let u2_0 = -5.9278297;
-    let u2_1 = 0.82883453;
-    let u2_2 = -0.50198585;
-    let u2_3 = 0.24290727;
+    let u2_0 = -8.065728;
+    let u2_1 = 0.95785;
+    let u2_2 = -0.50002456;
+    let u2_3 = 0.34404695;
     let u2 = ((u2_3 * f0_t + u2_2) * f0_t + u2_1) * f0_t + u2_0;
     // term 2: denominator Q_2 (proved positive on the domain), grouped by powers of the first variable
-    let q2_0 = (158.60431 * r_c + (-171.44734 * mu_t - 0.6429318)) * r_c + ((99.231224 * mu_t - 0.92043895) * mu_t + 1.0);
+    let q2_0 = (162.56046 * r_c + (-168.13243 * mu_t - 1.4598248)) * r_c + ((97.765686 * mu_t - 0.7718614) * mu_t + 1.0);
     let q2 = q2_0;
     let e2 = p2 * u2 / q2;
     // the sum of the 3 terms

@@ -28,16 +28,16 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 7b2d5d52194eccb029ab5ec568e021c8e6b723b096934559653228f57fd7acb8.
+// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 4ab349b75cd7c239a16436d300da16565e4e85cc3de884feec941e445ebf4c2a.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.0e-2, shifted 2.4e-4, bernstein 4.8e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.28e-9, max 4.91e-7 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.03e-9, max 4.74e-7.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.41e-7 (every op rounded, as this Rust), 5.03e-7 (fused multiply-add), 6.00e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.22e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 4111 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.28e-9, max 4.91e-7; this f32 code MAE 6.85e-8, max 5.76e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.3e-9 on the measurement grid.
-// Denominator proved >= 3.320e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.6e-2, shifted 9.0e-5, bernstein 5.2e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.28e-9, max 4.71e-7 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.02e-9, max 4.73e-7.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.97e-7 (every op rounded, as this Rust), 5.80e-7 (fused multiply-add), 6.08e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.27e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 3509 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.28e-9, max 4.71e-7; this f32 code MAE 6.93e-8, max 5.93e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.4e-9 on the measurement grid.
+// Denominator proved >= 2.926e-3 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float oren_nayar_fon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -101,30 +101,30 @@ FURNACE_FN float oren_nayar_fon_albedo(float r, float mu) {
     const float mu_b8 = mu_u8 * mu_v2;
     const float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 1.0f * mu_v10 + 29.472298f * mu_b1 + 17.42078f * mu_b2 - 99.2155f * mu_b3 + 82.41676f * mu_b4 + 562.7477f * mu_b5 + 611.93677f * mu_b6 + 237.34694f * mu_b7 + 28.617155f * mu_b8 + 0.8717732f * mu_b9 + 0.0041753766f * mu_u10;
-    const float p_1 = 10.074699f * mu_v10 + 309.68967f * mu_b1 + 208.79898f * mu_b2 - 922.17883f * mu_b3 + 1018.6601f * mu_b4 + 5824.4844f * mu_b5 + 6172.004f * mu_b6 + 2368.9688f * mu_b7 + 281.3929f * mu_b8 + 8.278815f * mu_b9 + 0.036900256f * mu_u10;
-    const float p_2 = 43.16623f * mu_v10 + 1434.8835f * mu_b1 + 991.6529f * mu_b2 - 4046.4607f * mu_b3 + 5213.6216f * mu_b4 + 26936.281f * mu_b5 + 27962.31f * mu_b6 + 10641.091f * mu_b7 + 1248.4657f * mu_b8 + 35.813805f * mu_b9 + 0.15369304f * mu_u10;
-    const float p_3 = 108.31072f * mu_v10 + 3911.5725f * mu_b1 + 2663.3943f * mu_b2 - 10764.367f * mu_b3 + 15316.921f * mu_b4 + 73634.39f * mu_b5 + 75067.28f * mu_b6 + 28352.785f * mu_b7 + 3291.1526f * mu_b8 + 92.37364f * mu_b9 + 0.39035517f * mu_u10;
-    const float p_4 = 184.14827f * mu_v10 + 7015.435f * mu_b1 + 4709.0054f * mu_b2 - 18776.256f * mu_b3 + 29382.004f * mu_b4 + 132232.39f * mu_b5 + 132453.0f * mu_b6 + 49677.664f * mu_b7 + 5713.5586f * mu_b8 + 156.9134f * mu_b9 + 0.645634f * mu_u10;
-    const float p_5 = 228.77025f * mu_v10 + 8697.758f * mu_b1 + 5899.2144f * mu_b2 - 22085.367f * mu_b3 + 38933.992f * mu_b4 + 163364.56f * mu_b5 + 160694.28f * mu_b6 + 59868.363f * mu_b7 + 6835.7354f * mu_b8 + 183.94075f * mu_b9 + 0.7233917f * mu_u10;
-    const float p_6 = 209.88216f * mu_v10 + 7548.7935f * mu_b1 + 5301.8403f * mu_b2 - 17669.7f * mu_b3 + 36085.46f * mu_b4 + 140674.77f * mu_b5 + 135813.19f * mu_b6 + 50285.113f * mu_b7 + 5715.869f * mu_b8 + 151.61896f * mu_b9 + 0.5689914f * mu_u10;
-    const float p_7 = 134.90994f * mu_v10 + 4497.2f * mu_b1 + 3259.7112f * mu_b2 - 9643.013f * mu_b3 + 22834.941f * mu_b4 + 83203.52f * mu_b5 + 78890.45f * mu_b6 + 29053.53f * mu_b7 + 3298.8018f * mu_b8 + 87.204895f * mu_b9 + 0.3204215f * mu_u10;
-    const float p_8 = 54.476467f * mu_v10 + 1733.7609f * mu_b1 + 1222.9948f * mu_b2 - 3605.229f * mu_b3 + 9238.75f * mu_b4 + 32185.617f * mu_b5 + 30062.924f * mu_b6 + 11028.475f * mu_b7 + 1254.5452f * mu_b8 + 33.431126f * mu_b9 + 0.12596709f * mu_u10;
-    const float p_9 = 11.271313f * mu_v10 + 380.4813f * mu_b1 + 216.61617f * mu_b2 - 904.6802f * mu_b3 + 2083.181f * mu_b4 + 7287.7183f * mu_b5 + 6752.55f * mu_b6 + 2472.9229f * mu_b7 + 282.1217f * mu_b8 + 7.603053f * mu_b9 + 0.030281048f * mu_u10;
-    const float p_10 = 0.663796f * mu_v10 + 34.356155f * mu_b1 + 4.8199186f * mu_b2 - 122.74685f * mu_b3 + 185.44096f * mu_b4 + 722.8793f * mu_b5 + 673.21686f * mu_b6 + 246.87949f * mu_b7 + 28.148146f * mu_b8 + 0.7519824f * mu_b9 + 0.0028794864f * mu_u10;
+    const float p_0 = 1.0f * mu_v10 + 27.95588f * mu_b1 + 9.276739f * mu_b2 - 117.9475f * mu_b3 + 57.24731f * mu_b4 + 540.9669f * mu_b5 + 598.3177f * mu_b6 + 231.60571f * mu_b7 + 27.003006f * mu_b8 + 0.73872143f * mu_b9 + 0.0029255569f * mu_u10;
+    const float p_1 = 9.894012f * mu_v10 + 292.11963f * mu_b1 + 136.10738f * mu_b2 - 1011.16534f * mu_b3 + 1042.2445f * mu_b4 + 5984.441f * mu_b5 + 6319.8096f * mu_b6 + 2425.8252f * mu_b7 + 286.49826f * mu_b8 + 8.087325f * mu_b9 + 0.032976776f * mu_u10;
+    const float p_2 = 46.037445f * mu_v10 + 1373.4586f * mu_b1 + 768.4726f * mu_b2 - 3973.301f * mu_b3 + 6426.608f * mu_b4 + 29067.867f * mu_b5 + 29646.236f * mu_b6 + 11297.12f * mu_b7 + 1345.3073f * mu_b8 + 38.926968f * mu_b9 + 0.16539799f * mu_u10;
+    const float p_3 = 130.98001f * mu_v10 + 3818.283f * mu_b1 + 2341.762f * mu_b2 - 9556.719f * mu_b3 + 20767.484f * mu_b4 + 82045.48f * mu_b5 + 81471.79f * mu_b6 + 30838.848f * mu_b7 + 3684.7986f * mu_b8 + 108.05758f * mu_b9 + 0.47708368f * mu_u10;
+    const float p_4 = 248.363f * mu_v10 + 6940.3184f * mu_b1 + 4386.3003f * mu_b2 - 15724.749f * mu_b3 + 41109.668f * mu_b4 + 149674.11f * mu_b5 + 145537.92f * mu_b6 + 54732.12f * mu_b7 + 6531.0986f * mu_b8 + 191.5571f * mu_b9 + 0.852331f * mu_u10;
+    const float p_5 = 323.1347f * mu_v10 + 8609.959f * mu_b1 + 5364.1567f * mu_b2 - 18480.23f * mu_b3 + 53525.563f * mu_b4 + 185160.6f * mu_b5 + 176978.75f * mu_b6 + 66122.91f * mu_b7 + 7849.2563f * mu_b8 + 227.5852f * mu_b9 + 0.98698694f * mu_u10;
+    const float p_6 = 288.24844f * mu_v10 + 7376.287f * mu_b1 + 4384.7676f * mu_b2 - 15548.112f * mu_b3 + 47245.066f * mu_b4 + 157931.95f * mu_b5 + 148725.61f * mu_b6 + 55199.496f * mu_b7 + 6500.9893f * mu_b8 + 184.96164f * mu_b9 + 0.76576775f * mu_u10;
+    const float p_7 = 171.53577f * mu_v10 + 4301.8687f * mu_b1 + 2375.028f * mu_b2 - 9122.908f * mu_b3 + 28265.506f * mu_b4 + 92035.914f * mu_b5 + 85485.6f * mu_b6 + 31515.121f * mu_b7 + 3677.7878f * mu_b8 + 102.51907f * mu_b9 + 0.4057838f * mu_u10;
+    const float p_8 = 63.735012f * mu_v10 + 1628.0897f * mu_b1 + 805.72644f * mu_b2 - 3544.1216f * mu_b3 + 11053.426f * mu_b4 + 35161.195f * mu_b5 + 32223.158f * mu_b6 + 11799.212f * mu_b7 + 1364.336f * mu_b8 + 37.397106f * mu_b9 + 0.14562878f * mu_u10;
+    const float p_9 = 12.753043f * mu_v10 + 357.99677f * mu_b1 + 145.6555f * mu_b2 - 827.78845f * mu_b3 + 2553.374f * mu_b4 + 7958.251f * mu_b5 + 7197.918f * mu_b6 + 2617.8613f * mu_b7 + 299.97974f * mu_b8 + 8.113175f * mu_b9 + 0.032138582f * mu_u10;
+    const float p_10 = 0.91360664f * mu_v10 + 34.11682f * mu_b1 + 8.165483f * mu_b2 - 90.581154f * mu_b3 + 262.15198f * mu_b4 + 808.5886f * mu_b5 + 722.6171f * mu_b6 + 261.00403f * mu_b7 + 29.585848f * mu_b8 + 0.7807221f * mu_b9 + 0.0029095009f * mu_u10;
     const float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v10 + 29.472298f * mu_b1 + 17.42078f * mu_b2 - 99.2155f * mu_b3 + 82.41679f * mu_b4 + 562.7476f * mu_b5 + 611.9368f * mu_b6 + 237.34694f * mu_b7 + 28.617157f * mu_b8 + 0.8717732f * mu_b9 + 0.0041753766f * mu_u10;
-    const float q_1 = 10.074699f * mu_v10 + 310.008f * mu_b1 + 218.00558f * mu_b2 - 921.9234f * mu_b3 + 980.12354f * mu_b4 + 5884.853f * mu_b5 + 6320.827f * mu_b6 + 2435.481f * mu_b7 + 289.60464f * mu_b8 + 8.529678f * mu_b9 + 0.0381019f * mu_u10;
-    const float q_2 = 43.16623f * mu_v10 + 1437.6805f * mu_b1 + 1076.7151f * mu_b2 - 4032.9766f * mu_b3 + 4890.3223f * mu_b4 + 27503.33f * mu_b5 + 29310.793f * mu_b6 + 11238.424f * mu_b7 + 1321.0083f * mu_b8 + 37.94529f * mu_b9 + 0.16311105f * mu_u10;
-    const float q_3 = 108.31072f * mu_v10 + 3921.7112f * mu_b1 + 3003.9392f * mu_b2 - 10696.239f * mu_b3 + 14067.242f * mu_b4 + 75956.11f * mu_b5 + 80482.98f * mu_b6 + 30736.963f * mu_b7 + 3576.91f * mu_b8 + 100.54815f * mu_b9 + 0.4251691f * mu_u10;
-    const float q_4 = 184.14827f * mu_v10 + 7036.8555f * mu_b1 + 5499.856f * mu_b2 - 18608.102f * mu_b3 + 26526.021f * mu_b4 + 137747.58f * mu_b5 + 145140.95f * mu_b6 + 55236.164f * mu_b7 + 6372.3535f * mu_b8 + 175.32083f * mu_b9 + 0.723161f * mu_u10;
-    const float q_5 = 228.77025f * mu_v10 + 8728.789f * mu_b1 + 7088.503f * mu_b2 - 21806.342f * mu_b3 + 34760.285f * mu_b4 + 171824.16f * mu_b5 + 179849.06f * mu_b6 + 68223.43f * mu_b7 + 7816.759f * mu_b8 + 210.68748f * mu_b9 + 0.83167547f * mu_u10;
-    const float q_6 = 209.88216f * mu_v10 + 7581.652f * mu_b1 + 6508.795f * mu_b2 - 17329.723f * mu_b3 + 32081.975f * mu_b4 + 149404.89f * mu_b5 + 155165.8f * mu_b6 + 58693.066f * mu_b7 + 6696.809f * mu_b8 + 177.80429f * mu_b9 + 0.6688941f * mu_u10;
-    const float q_7 = 134.90994f * mu_v10 + 4521.694f * mu_b1 + 4082.0764f * mu_b2 - 9363.28f * mu_b3 + 20305.057f * mu_b4 + 89249.77f * mu_b5 + 91972.125f * mu_b6 + 34719.45f * mu_b7 + 3958.445f * mu_b8 + 104.650795f * mu_b9 + 0.38427058f * mu_u10;
-    const float q_8 = 54.476467f * mu_v10 + 1745.1617f * mu_b1 + 1579.7108f * mu_b2 - 3475.3655f * mu_b3 + 8195.067f * mu_b4 + 34864.574f * mu_b5 + 35751.176f * mu_b6 + 13489.071f * mu_b7 + 1541.701f * mu_b8 + 41.080063f * mu_b9 + 0.1543335f * mu_u10;
-    const float q_9 = 11.271313f * mu_v10 + 383.1399f * mu_b1 + 303.23578f * mu_b2 - 881.8189f * mu_b3 + 1812.2329f * mu_b4 + 7961.392f * mu_b5 + 8186.762f * mu_b6 + 3094.5227f * mu_b7 + 354.9957f * mu_b8 + 9.574537f * mu_b9 + 0.03816704f * mu_u10;
-    const float q_10 = 0.663796f * mu_v10 + 34.52023f * mu_b1 + 13.262521f * mu_b2 - 124.223236f * mu_b3 + 149.13557f * mu_b4 + 793.1697f * mu_b5 + 831.0891f * mu_b6 + 315.77194f * mu_b7 + 36.22483f * mu_b8 + 0.9683767f * mu_b9 + 0.0037081835f * mu_u10;
+    const float q_0 = 1.0f * mu_v10 + 27.95588f * mu_b1 + 9.276734f * mu_b2 - 117.94748f * mu_b3 + 57.247257f * mu_b4 + 540.967f * mu_b5 + 598.3176f * mu_b6 + 231.60571f * mu_b7 + 27.003006f * mu_b8 + 0.7387214f * mu_b9 + 0.0029255569f * mu_u10;
+    const float q_1 = 9.894012f * mu_v10 + 292.43793f * mu_b1 + 144.83122f * mu_b2 - 1013.23615f * mu_b3 + 999.3897f * mu_b4 + 6040.2944f * mu_b5 + 6465.5283f * mu_b6 + 2490.8542f * mu_b7 + 294.25082f * mu_b8 + 8.299907f * mu_b9 + 0.033818733f * mu_u10;
+    const float q_2 = 46.037445f * mu_v10 + 1376.1981f * mu_b1 + 848.5942f * mu_b2 - 3977.0066f * mu_b3 + 6095.087f * mu_b4 + 29662.21f * mu_b5 + 31033.785f * mu_b6 + 11912.278f * mu_b7 + 1419.7935f * mu_b8 + 41.041664f * mu_b9 + 0.17404652f * mu_u10;
+    const float q_3 = 130.98001f * mu_v10 + 3829.4097f * mu_b1 + 2668.5938f * mu_b2 - 9528.747f * mu_b3 + 19597.389f * mu_b4 + 84693.516f * mu_b5 + 87248.25f * mu_b6 + 33387.48f * mu_b7 + 3996.4058f * mu_b8 + 117.144775f * mu_b9 + 0.5160358f * mu_u10;
+    const float q_4 = 248.363f * mu_v10 + 6967.682f * mu_b1 + 5161.4697f * mu_b2 - 15599.005f * mu_b3 + 38611.637f * mu_b4 + 156276.52f * mu_b5 + 159371.67f * mu_b6 + 60811.332f * mu_b7 + 7276.834f * mu_b8 + 213.56497f * mu_b9 + 0.95067966f * mu_u10;
+    const float q_5 = 323.1347f * mu_v10 + 8653.776f * mu_b1 + 6540.422f * mu_b2 - 18252.258f * mu_b3 + 49964.516f * mu_b4 + 195442.48f * mu_b5 + 198043.77f * mu_b6 + 75344.7f * mu_b7 + 8977.426f * mu_b8 + 260.7001f * mu_b9 + 1.1339349f * mu_u10;
+    const float q_6 = 288.24844f * mu_v10 + 7422.7163f * mu_b1 + 5568.171f * mu_b2 - 15318.6f * mu_b3 + 43759.293f * mu_b4 + 168414.14f * mu_b5 + 169948.73f * mu_b6 + 64453.82f * mu_b7 + 7624.889f * mu_b8 + 217.33725f * mu_b9 + 0.9028673f * mu_u10;
+    const float q_7 = 171.53577f * mu_v10 + 4333.83f * mu_b1 + 3163.4795f * mu_b2 - 8984.993f * mu_b3 + 25954.777f * mu_b4 + 99097.37f * mu_b5 + 99683.32f * mu_b6 + 37679.887f * mu_b7 + 4419.185f * mu_b8 + 123.368904f * mu_b9 + 0.48906696f * mu_u10;
+    const float q_8 = 63.735012f * mu_v10 + 1641.5317f * mu_b1 + 1139.9395f * mu_b2 - 3497.0818f * mu_b3 + 10064.1875f * mu_b4 + 38213.79f * mu_b5 + 38322.586f * mu_b6 + 14435.826f * mu_b7 + 1678.2358f * mu_b8 + 46.04874f * mu_b9 + 0.17912778f * mu_u10;
+    const float q_9 = 12.753043f * mu_v10 + 360.97363f * mu_b1 + 226.65616f * mu_b2 - 821.66064f * mu_b3 + 2305.0962f * mu_b4 + 8728.472f * mu_b5 + 8726.973f * mu_b6 + 3275.7979f * mu_b7 + 377.564f * mu_b8 + 10.223184f * mu_b9 + 0.040550523f * mu_u10;
+    const float q_10 = 0.91360664f * mu_v10 + 34.342644f * mu_b1 + 16.530365f * mu_b2 - 91.25618f * mu_b3 + 233.71498f * mu_b4 + 894.50476f * mu_b5 + 892.74725f * mu_b6 + 333.86127f * mu_b7 + 38.075657f * mu_b8 + 1.0053878f * mu_b9 + 0.003746836f * mu_u10;
     const float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -12,16 +12,16 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 7b2d5d52194eccb029ab5ec568e021c8e6b723b096934559653228f57fd7acb8.
+// Source: fits/oren-nayar-fon/best-160.json (furnace 0.1.0), fit SHA-256 4ab349b75cd7c239a16436d300da16565e4e85cc3de884feec941e445ebf4c2a.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.0e-2, shifted 2.4e-4, bernstein 4.8e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.28e-9, max 4.91e-7 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.03e-9, max 4.74e-7.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.41e-7 (every op rounded, as this Rust), 5.03e-7 (fused multiply-add), 6.00e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.22e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 4111 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.28e-9, max 4.91e-7; this f32 code MAE 6.85e-8, max 5.76e-7.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.3e-9 on the measurement grid.
-// Denominator proved >= 3.320e-3 on the domain (Bernstein certificate), so the division is safe.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.6e-2, shifted 9.0e-5, bernstein 5.2e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.28e-9, max 4.71e-7 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.02e-9, max 4.73e-7.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.97e-7 (every op rounded, as this Rust), 5.80e-7 (fused multiply-add), 6.08e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.27e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 3509 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.28e-9, max 4.71e-7; this f32 code MAE 6.93e-8, max 5.93e-7.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.4e-9 on the measurement grid.
+// Denominator proved >= 2.926e-3 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -85,30 +85,30 @@ fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b8 = mu_u8 * mu_v2;
     let mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0 * mu_v10 + 29.472298 * mu_b1 + 17.42078 * mu_b2 - 99.2155 * mu_b3 + 82.41676 * mu_b4 + 562.7477 * mu_b5 + 611.93677 * mu_b6 + 237.34694 * mu_b7 + 28.617155 * mu_b8 + 0.8717732 * mu_b9 + 0.0041753766 * mu_u10;
-    let p_1 = 10.074699 * mu_v10 + 309.68967 * mu_b1 + 208.79898 * mu_b2 - 922.17883 * mu_b3 + 1018.6601 * mu_b4 + 5824.4844 * mu_b5 + 6172.004 * mu_b6 + 2368.9688 * mu_b7 + 281.3929 * mu_b8 + 8.278815 * mu_b9 + 0.036900256 * mu_u10;
-    let p_2 = 43.16623 * mu_v10 + 1434.8835 * mu_b1 + 991.6529 * mu_b2 - 4046.4607 * mu_b3 + 5213.6216 * mu_b4 + 26936.281 * mu_b5 + 27962.31 * mu_b6 + 10641.091 * mu_b7 + 1248.4657 * mu_b8 + 35.813805 * mu_b9 + 0.15369304 * mu_u10;
-    let p_3 = 108.31072 * mu_v10 + 3911.5725 * mu_b1 + 2663.3943 * mu_b2 - 10764.367 * mu_b3 + 15316.921 * mu_b4 + 73634.39 * mu_b5 + 75067.28 * mu_b6 + 28352.785 * mu_b7 + 3291.1526 * mu_b8 + 92.37364 * mu_b9 + 0.39035517 * mu_u10;
-    let p_4 = 184.14827 * mu_v10 + 7015.435 * mu_b1 + 4709.0054 * mu_b2 - 18776.256 * mu_b3 + 29382.004 * mu_b4 + 132232.39 * mu_b5 + 132453.0 * mu_b6 + 49677.664 * mu_b7 + 5713.5586 * mu_b8 + 156.9134 * mu_b9 + 0.645634 * mu_u10;
-    let p_5 = 228.77025 * mu_v10 + 8697.758 * mu_b1 + 5899.2144 * mu_b2 - 22085.367 * mu_b3 + 38933.992 * mu_b4 + 163364.56 * mu_b5 + 160694.28 * mu_b6 + 59868.363 * mu_b7 + 6835.7354 * mu_b8 + 183.94075 * mu_b9 + 0.7233917 * mu_u10;
-    let p_6 = 209.88216 * mu_v10 + 7548.7935 * mu_b1 + 5301.8403 * mu_b2 - 17669.7 * mu_b3 + 36085.46 * mu_b4 + 140674.77 * mu_b5 + 135813.19 * mu_b6 + 50285.113 * mu_b7 + 5715.869 * mu_b8 + 151.61896 * mu_b9 + 0.5689914 * mu_u10;
-    let p_7 = 134.90994 * mu_v10 + 4497.2 * mu_b1 + 3259.7112 * mu_b2 - 9643.013 * mu_b3 + 22834.941 * mu_b4 + 83203.52 * mu_b5 + 78890.45 * mu_b6 + 29053.53 * mu_b7 + 3298.8018 * mu_b8 + 87.204895 * mu_b9 + 0.3204215 * mu_u10;
-    let p_8 = 54.476467 * mu_v10 + 1733.7609 * mu_b1 + 1222.9948 * mu_b2 - 3605.229 * mu_b3 + 9238.75 * mu_b4 + 32185.617 * mu_b5 + 30062.924 * mu_b6 + 11028.475 * mu_b7 + 1254.5452 * mu_b8 + 33.431126 * mu_b9 + 0.12596709 * mu_u10;
-    let p_9 = 11.271313 * mu_v10 + 380.4813 * mu_b1 + 216.61617 * mu_b2 - 904.6802 * mu_b3 + 2083.181 * mu_b4 + 7287.7183 * mu_b5 + 6752.55 * mu_b6 + 2472.9229 * mu_b7 + 282.1217 * mu_b8 + 7.603053 * mu_b9 + 0.030281048 * mu_u10;
-    let p_10 = 0.663796 * mu_v10 + 34.356155 * mu_b1 + 4.8199186 * mu_b2 - 122.74685 * mu_b3 + 185.44096 * mu_b4 + 722.8793 * mu_b5 + 673.21686 * mu_b6 + 246.87949 * mu_b7 + 28.148146 * mu_b8 + 0.7519824 * mu_b9 + 0.0028794864 * mu_u10;
+    let p_0 = 1.0 * mu_v10 + 27.95588 * mu_b1 + 9.276739 * mu_b2 - 117.9475 * mu_b3 + 57.24731 * mu_b4 + 540.9669 * mu_b5 + 598.3177 * mu_b6 + 231.60571 * mu_b7 + 27.003006 * mu_b8 + 0.73872143 * mu_b9 + 0.0029255569 * mu_u10;
+    let p_1 = 9.894012 * mu_v10 + 292.11963 * mu_b1 + 136.10738 * mu_b2 - 1011.16534 * mu_b3 + 1042.2445 * mu_b4 + 5984.441 * mu_b5 + 6319.8096 * mu_b6 + 2425.8252 * mu_b7 + 286.49826 * mu_b8 + 8.087325 * mu_b9 + 0.032976776 * mu_u10;
+    let p_2 = 46.037445 * mu_v10 + 1373.4586 * mu_b1 + 768.4726 * mu_b2 - 3973.301 * mu_b3 + 6426.608 * mu_b4 + 29067.867 * mu_b5 + 29646.236 * mu_b6 + 11297.12 * mu_b7 + 1345.3073 * mu_b8 + 38.926968 * mu_b9 + 0.16539799 * mu_u10;
+    let p_3 = 130.98001 * mu_v10 + 3818.283 * mu_b1 + 2341.762 * mu_b2 - 9556.719 * mu_b3 + 20767.484 * mu_b4 + 82045.48 * mu_b5 + 81471.79 * mu_b6 + 30838.848 * mu_b7 + 3684.7986 * mu_b8 + 108.05758 * mu_b9 + 0.47708368 * mu_u10;
+    let p_4 = 248.363 * mu_v10 + 6940.3184 * mu_b1 + 4386.3003 * mu_b2 - 15724.749 * mu_b3 + 41109.668 * mu_b4 + 149674.11 * mu_b5 + 145537.92 * mu_b6 + 54732.12 * mu_b7 + 6531.0986 * mu_b8 + 191.5571 * mu_b9 + 0.852331 * mu_u10;
+    let p_5 = 323.1347 * mu_v10 + 8609.959 * mu_b1 + 5364.1567 * mu_b2 - 18480.23 * mu_b3 + 53525.563 * mu_b4 + 185160.6 * mu_b5 + 176978.75 * mu_b6 + 66122.91 * mu_b7 + 7849.2563 * mu_b8 + 227.5852 * mu_b9 + 0.98698694 * mu_u10;
+    let p_6 = 288.24844 * mu_v10 + 7376.287 * mu_b1 + 4384.7676 * mu_b2 - 15548.112 * mu_b3 + 47245.066 * mu_b4 + 157931.95 * mu_b5 + 148725.61 * mu_b6 + 55199.496 * mu_b7 + 6500.9893 * mu_b8 + 184.96164 * mu_b9 + 0.76576775 * mu_u10;
+    let p_7 = 171.53577 * mu_v10 + 4301.8687 * mu_b1 + 2375.028 * mu_b2 - 9122.908 * mu_b3 + 28265.506 * mu_b4 + 92035.914 * mu_b5 + 85485.6 * mu_b6 + 31515.121 * mu_b7 + 3677.7878 * mu_b8 + 102.51907 * mu_b9 + 0.4057838 * mu_u10;
+    let p_8 = 63.735012 * mu_v10 + 1628.0897 * mu_b1 + 805.72644 * mu_b2 - 3544.1216 * mu_b3 + 11053.426 * mu_b4 + 35161.195 * mu_b5 + 32223.158 * mu_b6 + 11799.212 * mu_b7 + 1364.336 * mu_b8 + 37.397106 * mu_b9 + 0.14562878 * mu_u10;
+    let p_9 = 12.753043 * mu_v10 + 357.99677 * mu_b1 + 145.6555 * mu_b2 - 827.78845 * mu_b3 + 2553.374 * mu_b4 + 7958.251 * mu_b5 + 7197.918 * mu_b6 + 2617.8613 * mu_b7 + 299.97974 * mu_b8 + 8.113175 * mu_b9 + 0.032138582 * mu_u10;
+    let p_10 = 0.91360664 * mu_v10 + 34.11682 * mu_b1 + 8.165483 * mu_b2 - 90.581154 * mu_b3 + 262.15198 * mu_b4 + 808.5886 * mu_b5 + 722.6171 * mu_b6 + 261.00403 * mu_b7 + 29.585848 * mu_b8 + 0.7807221 * mu_b9 + 0.0029095009 * mu_u10;
     let p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v10 + 29.472298 * mu_b1 + 17.42078 * mu_b2 - 99.2155 * mu_b3 + 82.41679 * mu_b4 + 562.7476 * mu_b5 + 611.9368 * mu_b6 + 237.34694 * mu_b7 + 28.617157 * mu_b8 + 0.8717732 * mu_b9 + 0.0041753766 * mu_u10;
-    let q_1 = 10.074699 * mu_v10 + 310.008 * mu_b1 + 218.00558 * mu_b2 - 921.9234 * mu_b3 + 980.12354 * mu_b4 + 5884.853 * mu_b5 + 6320.827 * mu_b6 + 2435.481 * mu_b7 + 289.60464 * mu_b8 + 8.529678 * mu_b9 + 0.0381019 * mu_u10;
-    let q_2 = 43.16623 * mu_v10 + 1437.6805 * mu_b1 + 1076.7151 * mu_b2 - 4032.9766 * mu_b3 + 4890.3223 * mu_b4 + 27503.33 * mu_b5 + 29310.793 * mu_b6 + 11238.424 * mu_b7 + 1321.0083 * mu_b8 + 37.94529 * mu_b9 + 0.16311105 * mu_u10;
-    let q_3 = 108.31072 * mu_v10 + 3921.7112 * mu_b1 + 3003.9392 * mu_b2 - 10696.239 * mu_b3 + 14067.242 * mu_b4 + 75956.11 * mu_b5 + 80482.98 * mu_b6 + 30736.963 * mu_b7 + 3576.91 * mu_b8 + 100.54815 * mu_b9 + 0.4251691 * mu_u10;
-    let q_4 = 184.14827 * mu_v10 + 7036.8555 * mu_b1 + 5499.856 * mu_b2 - 18608.102 * mu_b3 + 26526.021 * mu_b4 + 137747.58 * mu_b5 + 145140.95 * mu_b6 + 55236.164 * mu_b7 + 6372.3535 * mu_b8 + 175.32083 * mu_b9 + 0.723161 * mu_u10;
-    let q_5 = 228.77025 * mu_v10 + 8728.789 * mu_b1 + 7088.503 * mu_b2 - 21806.342 * mu_b3 + 34760.285 * mu_b4 + 171824.16 * mu_b5 + 179849.06 * mu_b6 + 68223.43 * mu_b7 + 7816.759 * mu_b8 + 210.68748 * mu_b9 + 0.83167547 * mu_u10;
-    let q_6 = 209.88216 * mu_v10 + 7581.652 * mu_b1 + 6508.795 * mu_b2 - 17329.723 * mu_b3 + 32081.975 * mu_b4 + 149404.89 * mu_b5 + 155165.8 * mu_b6 + 58693.066 * mu_b7 + 6696.809 * mu_b8 + 177.80429 * mu_b9 + 0.6688941 * mu_u10;
-    let q_7 = 134.90994 * mu_v10 + 4521.694 * mu_b1 + 4082.0764 * mu_b2 - 9363.28 * mu_b3 + 20305.057 * mu_b4 + 89249.77 * mu_b5 + 91972.125 * mu_b6 + 34719.45 * mu_b7 + 3958.445 * mu_b8 + 104.650795 * mu_b9 + 0.38427058 * mu_u10;
-    let q_8 = 54.476467 * mu_v10 + 1745.1617 * mu_b1 + 1579.7108 * mu_b2 - 3475.3655 * mu_b3 + 8195.067 * mu_b4 + 34864.574 * mu_b5 + 35751.176 * mu_b6 + 13489.071 * mu_b7 + 1541.701 * mu_b8 + 41.080063 * mu_b9 + 0.1543335 * mu_u10;
-    let q_9 = 11.271313 * mu_v10 + 383.1399 * mu_b1 + 303.23578 * mu_b2 - 881.8189 * mu_b3 + 1812.2329 * mu_b4 + 7961.392 * mu_b5 + 8186.762 * mu_b6 + 3094.5227 * mu_b7 + 354.9957 * mu_b8 + 9.574537 * mu_b9 + 0.03816704 * mu_u10;
-    let q_10 = 0.663796 * mu_v10 + 34.52023 * mu_b1 + 13.262521 * mu_b2 - 124.223236 * mu_b3 + 149.13557 * mu_b4 + 793.1697 * mu_b5 + 831.0891 * mu_b6 + 315.77194 * mu_b7 + 36.22483 * mu_b8 + 0.9683767 * mu_b9 + 0.0037081835 * mu_u10;
+    let q_0 = 1.0 * mu_v10 + 27.95588 * mu_b1 + 9.276734 * mu_b2 - 117.94748 * mu_b3 + 57.247257 * mu_b4 + 540.967 * mu_b5 + 598.3176 * mu_b6 + 231.60571 * mu_b7 + 27.003006 * mu_b8 + 0.7387214 * mu_b9 + 0.0029255569 * mu_u10;
+    let q_1 = 9.894012 * mu_v10 + 292.43793 * mu_b1 + 144.83122 * mu_b2 - 1013.23615 * mu_b3 + 999.3897 * mu_b4 + 6040.2944 * mu_b5 + 6465.5283 * mu_b6 + 2490.8542 * mu_b7 + 294.25082 * mu_b8 + 8.299907 * mu_b9 + 0.033818733 * mu_u10;
+    let q_2 = 46.037445 * mu_v10 + 1376.1981 * mu_b1 + 848.5942 * mu_b2 - 3977.0066 * mu_b3 + 6095.087 * mu_b4 + 29662.21 * mu_b5 + 31033.785 * mu_b6 + 11912.278 * mu_b7 + 1419.7935 * mu_b8 + 41.041664 * mu_b9 + 0.17404652 * mu_u10;
+    let q_3 = 130.98001 * mu_v10 + 3829.4097 * mu_b1 + 2668.5938 * mu_b2 - 9528.747 * mu_b3 + 19597.389 * mu_b4 + 84693.516 * mu_b5 + 87248.25 * mu_b6 + 33387.48 * mu_b7 + 3996.4058 * mu_b8 + 117.144775 * mu_b9 + 0.5160358 * mu_u10;
+    let q_4 = 248.363 * mu_v10 + 6967.682 * mu_b1 + 5161.4697 * mu_b2 - 15599.005 * mu_b3 + 38611.637 * mu_b4 + 156276.52 * mu_b5 + 159371.67 * mu_b6 + 60811.332 * mu_b7 + 7276.834 * mu_b8 + 213.56497 * mu_b9 + 0.95067966 * mu_u10;
+    let q_5 = 323.1347 * mu_v10 + 8653.776 * mu_b1 + 6540.422 * mu_b2 - 18252.258 * mu_b3 + 49964.516 * mu_b4 + 195442.48 * mu_b5 + 198043.77 * mu_b6 + 75344.7 * mu_b7 + 8977.426 * mu_b8 + 260.7001 * mu_b9 + 1.1339349 * mu_u10;
+    let q_6 = 288.24844 * mu_v10 + 7422.7163 * mu_b1 + 5568.171 * mu_b2 - 15318.6 * mu_b3 + 43759.293 * mu_b4 + 168414.14 * mu_b5 + 169948.73 * mu_b6 + 64453.82 * mu_b7 + 7624.889 * mu_b8 + 217.33725 * mu_b9 + 0.9028673 * mu_u10;
+    let q_7 = 171.53577 * mu_v10 + 4333.83 * mu_b1 + 3163.4795 * mu_b2 - 8984.993 * mu_b3 + 25954.777 * mu_b4 + 99097.37 * mu_b5 + 99683.32 * mu_b6 + 37679.887 * mu_b7 + 4419.185 * mu_b8 + 123.368904 * mu_b9 + 0.48906696 * mu_u10;
+    let q_8 = 63.735012 * mu_v10 + 1641.5317 * mu_b1 + 1139.9395 * mu_b2 - 3497.0818 * mu_b3 + 10064.1875 * mu_b4 + 38213.79 * mu_b5 + 38322.586 * mu_b6 + 14435.826 * mu_b7 + 1678.2358 * mu_b8 + 46.04874 * mu_b9 + 0.17912778 * mu_u10;
+    let q_9 = 12.753043 * mu_v10 + 360.97363 * mu_b1 + 226.65616 * mu_b2 - 821.66064 * mu_b3 + 2305.0962 * mu_b4 + 8728.472 * mu_b5 + 8726.973 * mu_b6 + 3275.7979 * mu_b7 + 377.564 * mu_b8 + 10.223184 * mu_b9 + 0.040550523 * mu_u10;
+    let q_10 = 0.91360664 * mu_v10 + 34.342644 * mu_b1 + 16.530365 * mu_b2 - 91.25618 * mu_b3 + 233.71498 * mu_b4 + 894.50476 * mu_b5 + 892.74725 * mu_b6 + 333.86127 * mu_b7 + 38.075657 * mu_b8 + 1.0053878 * mu_b9 + 0.003746836 * mu_u10;
     let q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -28,31 +28,31 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-fon/best-20.json (furnace 0.1.0), fit SHA-256 6ef6db93abe7e96caa5b0869ce0301b82d7bcc19ae974b79ba0549ef0aec67f7.
+// Source: fits/oren-nayar-fon/best-20.json (furnace 0.1.0), fit SHA-256 5c8076665f73e82c530414ab8849c1eae5bba62213a53c0bab365f12860020af.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 7.1e-7, shifted 8.3e-7, bernstein 4.5e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.43e-5, max 1.84e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.35e-5, max 1.83e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.15e-6 (every op rounded, as this Rust), 7.77e-7 (fused multiply-add), 8.37e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.62e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 47 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.42e-5, max 1.84e-4; this f32 code MAE 1.42e-5, max 1.84e-4.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.3e-7, shifted 5.1e-7, bernstein 3.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.44e-5, max 1.71e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.35e-5, max 1.70e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.46e-6 (every op rounded, as this Rust), 7.38e-7 (fused multiply-add), 7.84e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.87e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 49 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.44e-5, max 1.71e-4; this f32 code MAE 1.44e-5, max 1.71e-4.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-4 on the measurement grid.
-// Denominator proved >= 1.058e-1 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 1.056e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float oren_nayar_fon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
     // numerator P, grouped by powers of the first variable
-    const float p_0 = ((-0.4174664f * mu_c + 0.8234927f) * mu_c - 1.30017f) * mu_c + 0.9999885f;
-    const float p_1 = (0.38949102f * mu_c - 0.65752286f) * mu_c + 0.40349075f;
-    const float p_2 = -0.023053702f * mu_c + 0.021168973f;
-    const float p_3 = -0.00012183053f;
+    const float p_0 = ((-0.41822997f * mu_c + 0.8250717f) * mu_c - 1.3012173f) * mu_c + 0.9999886f;
+    const float p_1 = (0.3881586f * mu_c - 0.6561338f) * mu_c + 0.4017255f;
+    const float p_2 = -0.022645744f * mu_c + 0.020800665f;
+    const float p_3 = -0.00013306375f;
     const float p = ((p_3 * r_c + p_2) * r_c + p_1) * r_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = ((-0.41770062f * mu_c + 0.8238726f) * mu_c - 1.3003323f) * mu_c + 1.0f;
-    const float q_1 = (0.10036327f * mu_c - 0.33779368f) * mu_c + 0.403403f;
-    const float q_2 = 0.01549889f * mu_c + 0.021423139f;
-    const float q_3 = -0.0004958577f;
+    const float q_0 = ((-0.41845807f * mu_c + 0.82544273f) * mu_c - 1.3013765f) * mu_c + 1.0f;
+    const float q_1 = (0.09904773f * mu_c - 0.33649117f) * mu_c + 0.40163904f;
+    const float q_2 = 0.015416917f * mu_c + 0.02106008f;
+    const float q_3 = -0.0005105075f;
     const float q = ((q_3 * r_c + q_2) * r_c + q_1) * r_c + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

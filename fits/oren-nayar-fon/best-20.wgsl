@@ -12,31 +12,31 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-fon/best-20.json (furnace 0.1.0), fit SHA-256 6ef6db93abe7e96caa5b0869ce0301b82d7bcc19ae974b79ba0549ef0aec67f7.
+// Source: fits/oren-nayar-fon/best-20.json (furnace 0.1.0), fit SHA-256 5c8076665f73e82c530414ab8849c1eae5bba62213a53c0bab365f12860020af.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 7.1e-7, shifted 8.3e-7, bernstein 4.5e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.43e-5, max 1.84e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.35e-5, max 1.83e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.15e-6 (every op rounded, as this Rust), 7.77e-7 (fused multiply-add), 8.37e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 5.62e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 47 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.42e-5, max 1.84e-4; this f32 code MAE 1.42e-5, max 1.84e-4.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.3e-7, shifted 5.1e-7, bernstein 3.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 1.44e-5, max 1.71e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.35e-5, max 1.70e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.46e-6 (every op rounded, as this Rust), 7.38e-7 (fused multiply-add), 7.84e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.87e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 49 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.44e-5, max 1.71e-4; this f32 code MAE 1.44e-5, max 1.71e-4.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-4 on the measurement grid.
-// Denominator proved >= 1.058e-1 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 1.056e-1 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
     let mu_c = max(min(mu, 1.0), 0.0);
     // numerator P, grouped by powers of the first variable
-    let p_0 = ((-0.4174664 * mu_c + 0.8234927) * mu_c - 1.30017) * mu_c + 0.9999885;
-    let p_1 = (0.38949102 * mu_c - 0.65752286) * mu_c + 0.40349075;
-    let p_2 = -0.023053702 * mu_c + 0.021168973;
-    let p_3 = -0.00012183053;
+    let p_0 = ((-0.41822997 * mu_c + 0.8250717) * mu_c - 1.3012173) * mu_c + 0.9999886;
+    let p_1 = (0.3881586 * mu_c - 0.6561338) * mu_c + 0.4017255;
+    let p_2 = -0.022645744 * mu_c + 0.020800665;
+    let p_3 = -0.00013306375;
     let p = ((p_3 * r_c + p_2) * r_c + p_1) * r_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = ((-0.41770062 * mu_c + 0.8238726) * mu_c - 1.3003323) * mu_c + 1.0;
-    let q_1 = (0.10036327 * mu_c - 0.33779368) * mu_c + 0.403403;
-    let q_2 = 0.01549889 * mu_c + 0.021423139;
-    let q_3 = -0.0004958577;
+    let q_0 = ((-0.41845807 * mu_c + 0.82544273) * mu_c - 1.3013765) * mu_c + 1.0;
+    let q_1 = (0.09904773 * mu_c - 0.33649117) * mu_c + 0.40163904;
+    let q_2 = 0.015416917 * mu_c + 0.02106008;
+    let q_3 = -0.0005105075;
     let q = ((q_3 * r_c + q_2) * r_c + q_1) * r_c + q_0;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

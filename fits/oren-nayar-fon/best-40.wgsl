@@ -10,36 +10,60 @@
 // Model: Fujii's Oren-Nayar (FON), white albedo (EON paper, eqs. 10-11).
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
-//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 4/4, 29 coefficients (numerator 15, denominator 14 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; the iterate of round 3 of a branch of the Lawson path solved with weights (1 - lambda)*1 + lambda*u (u Lawson's), lambda = 0.75, the lowest max error among the path's iterates whose MAE on the fitting points is <= 1.15x the least-squares start's.
-// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 7103852f378b7fa39fec3ee84ce80f5d00723722806cb6c2be3e1eecfe26bf90.
-// Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.1e-6, shifted 1.1e-6, bernstein 3.9e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 5.24e-6, max 9.21e-5 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.83e-6, max 9.20e-5.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 1.48e-6 (every op rounded, as this Rust), 1.31e-6 (fused multiply-add), 1.37e-6 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 4.60e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 47 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 5.24e-6, max 9.21e-5; this f32 code MAE 5.25e-6, max 9.16e-5.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 6.0e-6 on the measurement grid.
-// Denominator proved >= 1.000e0 on the domain (Bernstein certificate), so the division is safe.
+//   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1]; evaluated in t = sqrt(mu).
+// Fit: rational over [x0^4 x x1^4]/[x0^3 x x1^3], 40 coefficients (numerator 25, denominator 15 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 8, its MAE there 1.049x the least-squares start's.
+// Source: fits/oren-nayar-fon/best-40.json (furnace 0.1.0), fit SHA-256 fbb12b9a7e3648b17736ba0dc897b3f8fc788297fa8078b07a73521dba853403.
+// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.2e-3, shifted 1.1e-4, bernstein 4.0e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 4.06e-6, max 5.11e-5 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 4.64e-6, max 5.11e-5.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 4.18e-7 (every op rounded, as this Rust), 3.85e-7 (fused multiply-add), 4.66e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 4.81e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 1691 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 4.03e-6, max 5.11e-5; this f32 code MAE 4.03e-6, max 5.12e-5.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 5.1e-5 on the measurement grid.
+// Denominator proved >= 1.408e-3 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
     let mu_c = max(min(mu, 1.0), 0.0);
-    // numerator P, grouped by powers of the first variable
-    let p_0 = (((-18.808918 * mu_c + 39.812977) * mu_c - 66.26506) * mu_c + 53.991467) * mu_c + 0.99999315;
-    let p_1 = ((10.072785 * mu_c - 16.429718) * mu_c - 3.2404897) * mu_c + 15.726979;
-    let p_2 = (4.3945036 * mu_c - 8.664934) * mu_c + 4.733495;
-    let p_3 = -0.060503017 * mu_c + 0.05338007;
-    let p_4 = 0.0016207;
-    let p = (((p_4 * r_c + p_3) * r_c + p_2) * r_c + p_1) * r_c + p_0;
-    // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    let q_0 = (((-18.803637 * mu_c + 39.80325) * mu_c - 66.25975) * mu_c + 53.990665) * mu_c + 1.0;
-    let q_1 = ((-4.7831936 * mu_c + 0.88899267) * mu_c - 2.9026594) * mu_c + 15.726819;
-    let q_2 = (1.3161211 * mu_c - 3.8191938) * mu_c + 4.7332625;
-    let q_3 = 0.07011556 * mu_c + 0.05526561;
-    let q_4 = 9.455497e-5;
-    let q = (((q_4 * r_c + q_3) * r_c + q_2) * r_c + q_1) * r_c + q_0;
+    // t = sqrt(mu)
+    let mu_t = sqrt(mu_c);
+    // Bernstein basis of r: u^i (1 - u)^(n - i), n = 4
+    let r_v = 1.0 - r_c;
+    let r_u2 = r_c * r_c;
+    let r_v2 = r_v * r_v;
+    let r_u3 = r_u2 * r_c;
+    let r_v3 = r_v2 * r_v;
+    let r_u4 = r_u3 * r_c;
+    let r_v4 = r_v3 * r_v;
+    let r_b1 = r_c * r_v3;
+    let r_b2 = r_u2 * r_v2;
+    let r_b3 = r_u3 * r_v;
+    // Bernstein basis of mu: u^i (1 - u)^(n - i), n = 4
+    let mu_v = 1.0 - mu_t;
+    let mu_u2 = mu_t * mu_t;
+    let mu_v2 = mu_v * mu_v;
+    let mu_u3 = mu_u2 * mu_t;
+    let mu_v3 = mu_v2 * mu_v;
+    let mu_u4 = mu_u3 * mu_t;
+    let mu_v4 = mu_v3 * mu_v;
+    let mu_b1 = mu_t * mu_v3;
+    let mu_b2 = mu_u2 * mu_v2;
+    let mu_b3 = mu_u3 * mu_v;
+    // numerator P: Bernstein sums over the last variable, then the earlier ones
+    let p_0 = 1.0000001 * mu_v4 + 1.9405589 * mu_b1 + 1.244817 * mu_b2 + 0.31461006 * mu_b3 + 0.01035142 * mu_u4;
+    let p_1 = 24.267962 * mu_v4 + 47.126675 * mu_b1 + 30.161062 * mu_b2 + 7.7824187 * mu_b3 + 0.2790325 * mu_u4;
+    let p_2 = 51.649582 * mu_v4 + 100.242294 * mu_b1 + 58.205162 * mu_b2 + 14.652193 * mu_b3 + 0.5282836 * mu_u4;
+    let p_3 = 28.472204 * mu_v4 + 55.237057 * mu_b1 + 29.38338 * mu_b2 + 7.2104926 * mu_b3 + 0.2606533 * mu_u4;
+    let p_4 = 0.091758266 * mu_v4 + 0.17871976 * mu_b1 + 0.09746931 * mu_b2 + 0.024985526 * mu_b3 + 0.0010934914 * mu_u4;
+    let p = p_0 * r_v4 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_u4;
+    // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
+    let q_0 = 1.0 * mu_v4 + 1.9405588 * mu_b1 + 1.2448174 * mu_b2 + 0.31460997 * mu_b3 + 0.010351421 * mu_u4;
+    let q_1 = 24.267918 * mu_v4 + 47.12954 * mu_b1 + 30.452145 * mu_b2 + 7.872534 * mu_b3 + 0.28201154 * mu_u4;
+    let q_2 = 51.646915 * mu_v4 + 100.320404 * mu_b1 + 64.85651 * mu_b2 + 16.788635 * mu_b3 + 0.60561836 * mu_u4;
+    let q_3 = 28.47075 * mu_v4 + 55.310406 * mu_b1 + 35.76709 * mu_b2 + 9.262802 * mu_b3 + 0.33536652 * mu_u4;
+    let q_4 = 0.09175358 * mu_v4 + 0.17898029 * mu_b1 + 0.11790988 * mu_b2 + 0.03209146 * mu_b3 + 0.0014082837 * mu_u4;
+    let q = q_0 * r_v4 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_u4;
     let e = p / q;
     return max(min(e, 1.0), 0.0);
 }

@@ -28,16 +28,16 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 1eaa6c5653889cf15f692b1a8e6dd6d238bedc265a93c1bb2f84b1ce6529e2c3.
+// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 72ef5ffff52831d4e3463084f460ca7e32439b5ea1d951272668a4a7a3a071c2.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.3e-4, shifted 2.7e-5, bernstein 4.6e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.99e-8, max 1.12e-6 (recorded by the fitter).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.4e-4, shifted 4.1e-5, bernstein 4.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.02e-8, max 1.11e-6 (recorded by the fitter).
 // Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.91e-8, max 1.13e-6.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.25e-7 (every op rounded, as this Rust), 5.27e-7 (fused multiply-add), 6.46e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 231 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.99e-8, max 1.12e-6; this f32 code MAE 6.98e-8, max 1.20e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-8 on the measurement grid.
-// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.01e-7 (every op rounded, as this Rust), 4.87e-7 (fused multiply-add), 5.61e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.64e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 253 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.02e-8, max 1.11e-6; this f32 code MAE 7.05e-8, max 1.16e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.3e-8 on the measurement grid.
+// Denominator proved >= 4.641e-4 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float oren_nayar_fon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -83,24 +83,24 @@ FURNACE_FN float oren_nayar_fon_albedo(float r, float mu) {
     const float mu_b5 = mu_u5 * mu_v2;
     const float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 1.0f * mu_v7 + 5.1011095f * mu_b1 + 10.647227f * mu_b2 + 10.999072f * mu_b3 + 5.732346f * mu_b4 + 1.226235f * mu_b5 + 0.06514031f * mu_b6 + 0.00046473462f * mu_u7;
-    const float p_1 = 7.361943f * mu_v7 + 37.377716f * mu_b1 + 77.38827f * mu_b2 + 79.30011f * mu_b3 + 41.11573f * mu_b4 + 8.833261f * mu_b5 + 0.47342497f * mu_b6 + 0.0034550254f * mu_u7;
-    const float p_2 = 23.19012f * mu_v7 + 117.261024f * mu_b1 + 240.95193f * mu_b2 + 244.9778f * mu_b3 + 126.37144f * mu_b4 + 27.265232f * mu_b5 + 1.4758053f * mu_b6 + 0.01078305f * mu_u7;
-    const float p_3 = 40.529556f * mu_v7 + 204.21931f * mu_b1 + 416.6769f * mu_b2 + 420.45633f * mu_b3 + 215.81833f * mu_b4 + 46.767445f * mu_b5 + 2.561131f * mu_b6 + 0.018724384f * mu_u7;
-    const float p_4 = 42.45836f * mu_v7 + 213.29225f * mu_b1 + 432.31454f * mu_b2 + 433.09018f * mu_b3 + 221.24219f * mu_b4 + 48.16336f * mu_b5 + 2.6746392f * mu_b6 + 0.019820683f * mu_u7;
-    const float p_5 = 26.669676f * mu_v7 + 133.62798f * mu_b1 + 269.1679f * mu_b2 + 267.78757f * mu_b3 + 136.17274f * mu_b4 + 29.788954f * mu_b5 + 1.6814866f * mu_b6 + 0.01283601f * mu_u7;
-    const float p_6 = 9.303553f * mu_v7 + 46.509846f * mu_b1 + 93.13894f * mu_b2 + 92.04779f * mu_b3 + 46.60279f * mu_b4 + 10.247245f * mu_b5 + 0.58908623f * mu_b6 + 0.004665278f * mu_u7;
-    const float p_7 = 1.390856f * mu_v7 + 6.93922f * mu_b1 + 13.819602f * mu_b2 + 13.570889f * mu_b3 + 6.8420086f * mu_b4 + 1.5124452f * mu_b5 + 0.088639595f * mu_b6 + 0.00071990927f * mu_u7;
+    const float p_0 = 1.0f * mu_v7 + 5.1080475f * mu_b1 + 10.671044f * mu_b2 + 11.031186f * mu_b3 + 5.751524f * mu_b4 + 1.2303966f * mu_b5 + 0.065233044f * mu_b6 + 0.00046407207f * mu_u7;
+    const float p_1 = 7.3602f * mu_v7 + 37.414684f * mu_b1 + 77.52967f * mu_b2 + 79.4992f * mu_b3 + 41.239044f * mu_b4 + 8.861954f * mu_b5 + 0.47431308f * mu_b6 + 0.0034420802f * mu_u7;
+    const float p_2 = 23.175379f * mu_v7 + 117.317085f * mu_b1 + 241.26418f * mu_b2 + 245.46591f * mu_b3 + 126.694275f * mu_b4 + 27.34788f * mu_b5 + 1.4796808f * mu_b6 + 0.010766689f * mu_u7;
+    const float p_3 = 40.480755f * mu_v7 + 204.18224f * mu_b1 + 416.93893f * mu_b2 + 421.02f * mu_b3 + 216.2417f * mu_b4 + 46.88951f * mu_b5 + 2.5688865f * mu_b6 + 0.018785141f * mu_u7;
+    const float p_4 = 42.376324f * mu_v7 + 213.0828f * mu_b1 + 432.2412f * mu_b2 + 433.32944f * mu_b3 + 221.50853f * mu_b4 + 48.25594f * mu_b5 + 2.681779f * mu_b6 + 0.019926865f * mu_u7;
+    const float p_5 = 26.595327f * mu_v7 + 133.37505f * mu_b1 + 268.87964f * mu_b2 + 267.6955f * mu_b3 + 136.21503f * mu_b4 + 29.818783f * mu_b5 + 1.6840684f * mu_b6 + 0.012860364f * mu_u7;
+    const float p_6 = 9.269005f * mu_v7 + 46.37698f * mu_b1 + 92.95112f * mu_b2 + 91.92984f * mu_b3 + 46.573387f * mu_b4 + 10.2472515f * mu_b5 + 0.5891664f * mu_b6 + 0.0046480997f * mu_u7;
+    const float p_7 = 1.3844261f * mu_v7 + 6.9129405f * mu_b1 + 13.77933f * mu_b2 + 13.541702f * mu_b3 + 6.831953f * mu_b4 + 1.5112352f * mu_b5 + 0.08859522f * mu_b6 + 0.000718751f * mu_u7;
     const float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v7 + 5.10111f * mu_b1 + 10.6472225f * mu_b2 + 10.999079f * mu_b3 + 5.7323427f * mu_b4 + 1.2262354f * mu_b5 + 0.0651403f * mu_b6 + 0.00046473468f * mu_u7;
-    const float q_1 = 7.3619432f * mu_v7 + 37.696022f * mu_b1 + 78.83745f * mu_b2 + 81.64647f * mu_b3 + 42.663155f * mu_b4 + 9.183913f * mu_b5 + 0.49216852f * mu_b6 + 0.0035887728f * mu_u7;
-    const float q_2 = 23.19012f * mu_v7 + 119.19451f * mu_b1 + 249.79927f * mu_b2 + 259.3498f * mu_b3 + 135.8871f * mu_b4 + 29.439657f * mu_b5 + 1.5932821f * mu_b6 + 0.011643623f * mu_u7;
-    const float q_3 = 40.529556f * mu_v7 + 209.11122f * mu_b1 + 439.17432f * mu_b2 + 457.1239f * mu_b3 + 240.19186f * mu_b4 + 52.38437f * mu_b5 + 2.8682914f * mu_b6 + 0.020967225f * mu_u7;
-    const float q_4 = 42.458355f * mu_v7 + 219.89389f * mu_b1 + 462.82642f * mu_b2 + 482.98645f * mu_b3 + 254.54338f * mu_b4 + 55.905624f * mu_b5 + 3.104394f * mu_b6 + 0.022966392f * mu_u7;
-    const float q_5 = 26.669674f * mu_v7 + 138.6418f * mu_b1 + 292.4546f * mu_b2 + 305.99588f * mu_b3 + 161.7802f * mu_b4 + 35.798496f * mu_b5 + 2.0213025f * mu_b6 + 0.015394681f * mu_u7;
-    const float q_6 = 9.303553f * mu_v7 + 48.542534f * mu_b1 + 102.624626f * mu_b2 + 107.66357f * mu_b3 + 57.114105f * mu_b4 + 12.738742f * mu_b5 + 0.733072f * mu_b6 + 0.0058007305f * mu_u7;
-    const float q_7 = 1.390856f * mu_v7 + 7.283011f * mu_b1 + 15.431238f * mu_b2 + 16.23274f * mu_b3 + 8.64179f * mu_b4 + 1.9435301f * mu_b5 + 0.11414203f * mu_b6 + 0.00092709484f * mu_u7;
+    const float q_0 = 1.0f * mu_v7 + 5.108048f * mu_b1 + 10.6710415f * mu_b2 + 11.031192f * mu_b3 + 5.751521f * mu_b4 + 1.2303971f * mu_b5 + 0.06523303f * mu_b6 + 0.0004640722f * mu_u7;
+    const float q_1 = 7.3602f * mu_v7 + 37.73299f * mu_b1 + 78.98108f * mu_b2 + 81.85184f * mu_b3 + 42.791702f * mu_b4 + 9.213804f * mu_b5 + 0.49308327f * mu_b6 + 0.0035756347f * mu_u7;
+    const float q_2 = 23.175379f * mu_v7 + 119.25001f * mu_b1 + 250.12082f * mu_b2 + 259.86893f * mu_b3 + 136.23793f * mu_b4 + 29.529373f * mu_b5 + 1.5973873f * mu_b6 + 0.011623753f * mu_u7;
+    const float q_3 = 40.480755f * mu_v7 + 209.07014f * mu_b1 + 439.44482f * mu_b2 + 457.74158f * mu_b3 + 240.67262f * mu_b4 + 52.523075f * mu_b5 + 2.8769324f * mu_b6 + 0.021026693f * mu_u7;
+    const float q_4 = 42.376324f * mu_v7 + 219.67403f * mu_b1 + 462.73785f * mu_b2 + 483.2557f * mu_b3 + 254.86145f * mu_b4 + 56.01638f * mu_b5 + 3.11288f * mu_b6 + 0.023091454f * mu_u7;
+    const float q_5 = 26.595324f * mu_v7 + 138.37616f * mu_b1 + 292.1304f * mu_b2 + 305.88715f * mu_b3 + 161.83643f * mu_b4 + 35.836414f * mu_b5 + 2.024591f * mu_b6 + 0.015430665f * mu_u7;
+    const float q_6 = 9.269005f * mu_v7 + 48.402363f * mu_b1 + 102.41153f * mu_b2 + 107.52138f * mu_b3 + 57.07877f * mu_b4 + 12.739111f * mu_b5 + 0.73318845f * mu_b6 + 0.0057789413f * mu_u7;
+    const float q_7 = 1.3844261f * mu_v7 + 7.255142f * mu_b1 + 15.38495f * mu_b2 + 16.196655f * mu_b3 + 8.628934f * mu_b4 + 1.9419755f * mu_b5 + 0.11408489f * mu_b6 + 0.0009256032f * mu_u7;
     const float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

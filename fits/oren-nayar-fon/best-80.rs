@@ -12,16 +12,16 @@
 ///   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 ///   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 /// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-/// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 1eaa6c5653889cf15f692b1a8e6dd6d238bedc265a93c1bb2f84b1ce6529e2c3.
+/// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 72ef5ffff52831d4e3463084f460ca7e32439b5ea1d951272668a4a7a3a071c2.
 /// Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.3e-4, shifted 2.7e-5, bernstein 4.6e-7.
-/// Error of the f64 fit on its 1048576 data points: MAE 1.99e-8, max 1.12e-6 (recorded by the fitter).
+///   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.4e-4, shifted 4.1e-5, bernstein 4.7e-7.
+/// Error of the f64 fit on its 1048576 data points: MAE 2.02e-8, max 1.11e-6 (recorded by the fitter).
 /// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.91e-8, max 1.13e-6.
-/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.25e-7 (every op rounded, as this Rust), 5.27e-7 (fused multiply-add), 6.46e-7 (GPU division/sqrt error).
-/// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 231 boxes).
-/// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.99e-8, max 1.12e-6; this f32 code MAE 6.98e-8, max 1.20e-6.
-/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-8 on the measurement grid.
-/// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
+/// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.01e-7 (every op rounded, as this Rust), 4.87e-7 (fused multiply-add), 5.61e-7 (GPU division/sqrt error).
+/// Bound: |f32 - f64| <= 6.64e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 253 boxes).
+/// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.02e-8, max 1.11e-6; this f32 code MAE 7.05e-8, max 1.16e-6.
+/// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.3e-8 on the measurement grid.
+/// Denominator proved >= 4.641e-4 on the domain (Bernstein certificate), so the division is safe.
 #[inline]
 #[rustfmt::skip]
 #[allow(clippy::excessive_precision, clippy::approx_constant, clippy::manual_clamp, clippy::unreadable_literal, unused_variables, unexpected_cfgs)]
@@ -70,24 +70,24 @@ pub fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0_f32 * mu_v7 + 5.1011095_f32 * mu_b1 + 10.647227_f32 * mu_b2 + 10.999072_f32 * mu_b3 + 5.732346_f32 * mu_b4 + 1.226235_f32 * mu_b5 + 0.06514031_f32 * mu_b6 + 0.00046473462_f32 * mu_u7;
-    let p_1 = 7.361943_f32 * mu_v7 + 37.377716_f32 * mu_b1 + 77.38827_f32 * mu_b2 + 79.30011_f32 * mu_b3 + 41.11573_f32 * mu_b4 + 8.833261_f32 * mu_b5 + 0.47342497_f32 * mu_b6 + 0.0034550254_f32 * mu_u7;
-    let p_2 = 23.19012_f32 * mu_v7 + 117.261024_f32 * mu_b1 + 240.95193_f32 * mu_b2 + 244.9778_f32 * mu_b3 + 126.37144_f32 * mu_b4 + 27.265232_f32 * mu_b5 + 1.4758053_f32 * mu_b6 + 0.01078305_f32 * mu_u7;
-    let p_3 = 40.529556_f32 * mu_v7 + 204.21931_f32 * mu_b1 + 416.6769_f32 * mu_b2 + 420.45633_f32 * mu_b3 + 215.81833_f32 * mu_b4 + 46.767445_f32 * mu_b5 + 2.561131_f32 * mu_b6 + 0.018724384_f32 * mu_u7;
-    let p_4 = 42.45836_f32 * mu_v7 + 213.29225_f32 * mu_b1 + 432.31454_f32 * mu_b2 + 433.09018_f32 * mu_b3 + 221.24219_f32 * mu_b4 + 48.16336_f32 * mu_b5 + 2.6746392_f32 * mu_b6 + 0.019820683_f32 * mu_u7;
-    let p_5 = 26.669676_f32 * mu_v7 + 133.62798_f32 * mu_b1 + 269.1679_f32 * mu_b2 + 267.78757_f32 * mu_b3 + 136.17274_f32 * mu_b4 + 29.788954_f32 * mu_b5 + 1.6814866_f32 * mu_b6 + 0.01283601_f32 * mu_u7;
-    let p_6 = 9.303553_f32 * mu_v7 + 46.509846_f32 * mu_b1 + 93.13894_f32 * mu_b2 + 92.04779_f32 * mu_b3 + 46.60279_f32 * mu_b4 + 10.247245_f32 * mu_b5 + 0.58908623_f32 * mu_b6 + 0.004665278_f32 * mu_u7;
-    let p_7 = 1.390856_f32 * mu_v7 + 6.93922_f32 * mu_b1 + 13.819602_f32 * mu_b2 + 13.570889_f32 * mu_b3 + 6.8420086_f32 * mu_b4 + 1.5124452_f32 * mu_b5 + 0.088639595_f32 * mu_b6 + 0.00071990927_f32 * mu_u7;
+    let p_0 = 1.0_f32 * mu_v7 + 5.1080475_f32 * mu_b1 + 10.671044_f32 * mu_b2 + 11.031186_f32 * mu_b3 + 5.751524_f32 * mu_b4 + 1.2303966_f32 * mu_b5 + 0.065233044_f32 * mu_b6 + 0.00046407207_f32 * mu_u7;
+    let p_1 = 7.3602_f32 * mu_v7 + 37.414684_f32 * mu_b1 + 77.52967_f32 * mu_b2 + 79.4992_f32 * mu_b3 + 41.239044_f32 * mu_b4 + 8.861954_f32 * mu_b5 + 0.47431308_f32 * mu_b6 + 0.0034420802_f32 * mu_u7;
+    let p_2 = 23.175379_f32 * mu_v7 + 117.317085_f32 * mu_b1 + 241.26418_f32 * mu_b2 + 245.46591_f32 * mu_b3 + 126.694275_f32 * mu_b4 + 27.34788_f32 * mu_b5 + 1.4796808_f32 * mu_b6 + 0.010766689_f32 * mu_u7;
+    let p_3 = 40.480755_f32 * mu_v7 + 204.18224_f32 * mu_b1 + 416.93893_f32 * mu_b2 + 421.02_f32 * mu_b3 + 216.2417_f32 * mu_b4 + 46.88951_f32 * mu_b5 + 2.5688865_f32 * mu_b6 + 0.018785141_f32 * mu_u7;
+    let p_4 = 42.376324_f32 * mu_v7 + 213.0828_f32 * mu_b1 + 432.2412_f32 * mu_b2 + 433.32944_f32 * mu_b3 + 221.50853_f32 * mu_b4 + 48.25594_f32 * mu_b5 + 2.681779_f32 * mu_b6 + 0.019926865_f32 * mu_u7;
+    let p_5 = 26.595327_f32 * mu_v7 + 133.37505_f32 * mu_b1 + 268.87964_f32 * mu_b2 + 267.6955_f32 * mu_b3 + 136.21503_f32 * mu_b4 + 29.818783_f32 * mu_b5 + 1.6840684_f32 * mu_b6 + 0.012860364_f32 * mu_u7;
+    let p_6 = 9.269005_f32 * mu_v7 + 46.37698_f32 * mu_b1 + 92.95112_f32 * mu_b2 + 91.92984_f32 * mu_b3 + 46.573387_f32 * mu_b4 + 10.2472515_f32 * mu_b5 + 0.5891664_f32 * mu_b6 + 0.0046480997_f32 * mu_u7;
+    let p_7 = 1.3844261_f32 * mu_v7 + 6.9129405_f32 * mu_b1 + 13.77933_f32 * mu_b2 + 13.541702_f32 * mu_b3 + 6.831953_f32 * mu_b4 + 1.5112352_f32 * mu_b5 + 0.08859522_f32 * mu_b6 + 0.000718751_f32 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0_f32 * mu_v7 + 5.10111_f32 * mu_b1 + 10.6472225_f32 * mu_b2 + 10.999079_f32 * mu_b3 + 5.7323427_f32 * mu_b4 + 1.2262354_f32 * mu_b5 + 0.0651403_f32 * mu_b6 + 0.00046473468_f32 * mu_u7;
-    let q_1 = 7.3619432_f32 * mu_v7 + 37.696022_f32 * mu_b1 + 78.83745_f32 * mu_b2 + 81.64647_f32 * mu_b3 + 42.663155_f32 * mu_b4 + 9.183913_f32 * mu_b5 + 0.49216852_f32 * mu_b6 + 0.0035887728_f32 * mu_u7;
-    let q_2 = 23.19012_f32 * mu_v7 + 119.19451_f32 * mu_b1 + 249.79927_f32 * mu_b2 + 259.3498_f32 * mu_b3 + 135.8871_f32 * mu_b4 + 29.439657_f32 * mu_b5 + 1.5932821_f32 * mu_b6 + 0.011643623_f32 * mu_u7;
-    let q_3 = 40.529556_f32 * mu_v7 + 209.11122_f32 * mu_b1 + 439.17432_f32 * mu_b2 + 457.1239_f32 * mu_b3 + 240.19186_f32 * mu_b4 + 52.38437_f32 * mu_b5 + 2.8682914_f32 * mu_b6 + 0.020967225_f32 * mu_u7;
-    let q_4 = 42.458355_f32 * mu_v7 + 219.89389_f32 * mu_b1 + 462.82642_f32 * mu_b2 + 482.98645_f32 * mu_b3 + 254.54338_f32 * mu_b4 + 55.905624_f32 * mu_b5 + 3.104394_f32 * mu_b6 + 0.022966392_f32 * mu_u7;
-    let q_5 = 26.669674_f32 * mu_v7 + 138.6418_f32 * mu_b1 + 292.4546_f32 * mu_b2 + 305.99588_f32 * mu_b3 + 161.7802_f32 * mu_b4 + 35.798496_f32 * mu_b5 + 2.0213025_f32 * mu_b6 + 0.015394681_f32 * mu_u7;
-    let q_6 = 9.303553_f32 * mu_v7 + 48.542534_f32 * mu_b1 + 102.624626_f32 * mu_b2 + 107.66357_f32 * mu_b3 + 57.114105_f32 * mu_b4 + 12.738742_f32 * mu_b5 + 0.733072_f32 * mu_b6 + 0.0058007305_f32 * mu_u7;
-    let q_7 = 1.390856_f32 * mu_v7 + 7.283011_f32 * mu_b1 + 15.431238_f32 * mu_b2 + 16.23274_f32 * mu_b3 + 8.64179_f32 * mu_b4 + 1.9435301_f32 * mu_b5 + 0.11414203_f32 * mu_b6 + 0.00092709484_f32 * mu_u7;
+    let q_0 = 1.0_f32 * mu_v7 + 5.108048_f32 * mu_b1 + 10.6710415_f32 * mu_b2 + 11.031192_f32 * mu_b3 + 5.751521_f32 * mu_b4 + 1.2303971_f32 * mu_b5 + 0.06523303_f32 * mu_b6 + 0.0004640722_f32 * mu_u7;
+    let q_1 = 7.3602_f32 * mu_v7 + 37.73299_f32 * mu_b1 + 78.98108_f32 * mu_b2 + 81.85184_f32 * mu_b3 + 42.791702_f32 * mu_b4 + 9.213804_f32 * mu_b5 + 0.49308327_f32 * mu_b6 + 0.0035756347_f32 * mu_u7;
+    let q_2 = 23.175379_f32 * mu_v7 + 119.25001_f32 * mu_b1 + 250.12082_f32 * mu_b2 + 259.86893_f32 * mu_b3 + 136.23793_f32 * mu_b4 + 29.529373_f32 * mu_b5 + 1.5973873_f32 * mu_b6 + 0.011623753_f32 * mu_u7;
+    let q_3 = 40.480755_f32 * mu_v7 + 209.07014_f32 * mu_b1 + 439.44482_f32 * mu_b2 + 457.74158_f32 * mu_b3 + 240.67262_f32 * mu_b4 + 52.523075_f32 * mu_b5 + 2.8769324_f32 * mu_b6 + 0.021026693_f32 * mu_u7;
+    let q_4 = 42.376324_f32 * mu_v7 + 219.67403_f32 * mu_b1 + 462.73785_f32 * mu_b2 + 483.2557_f32 * mu_b3 + 254.86145_f32 * mu_b4 + 56.01638_f32 * mu_b5 + 3.11288_f32 * mu_b6 + 0.023091454_f32 * mu_u7;
+    let q_5 = 26.595324_f32 * mu_v7 + 138.37616_f32 * mu_b1 + 292.1304_f32 * mu_b2 + 305.88715_f32 * mu_b3 + 161.83643_f32 * mu_b4 + 35.836414_f32 * mu_b5 + 2.024591_f32 * mu_b6 + 0.015430665_f32 * mu_u7;
+    let q_6 = 9.269005_f32 * mu_v7 + 48.402363_f32 * mu_b1 + 102.41153_f32 * mu_b2 + 107.52138_f32 * mu_b3 + 57.07877_f32 * mu_b4 + 12.739111_f32 * mu_b5 + 0.73318845_f32 * mu_b6 + 0.0057789413_f32 * mu_u7;
+    let q_7 = 1.3844261_f32 * mu_v7 + 7.255142_f32 * mu_b1 + 15.38495_f32 * mu_b2 + 16.196655_f32 * mu_b3 + 8.628934_f32 * mu_b4 + 1.9419755_f32 * mu_b5 + 0.11408489_f32 * mu_b6 + 0.0009256032_f32 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     e.min(1.0_f32).max(0.0_f32)

@@ -12,16 +12,16 @@
 //   r: Fujii's roughness weight r: A_F = 1/(1 + (1/2 - 2/(3pi)) r), B_F = r A_F (r = 0 is Lambert); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 1eaa6c5653889cf15f692b1a8e6dd6d238bedc265a93c1bb2f84b1ce6529e2c3.
+// Source: fits/oren-nayar-fon/best-80.json (furnace 0.1.0), fit SHA-256 72ef5ffff52831d4e3463084f460ca7e32439b5ea1d951272668a4a7a3a071c2.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.3e-4, shifted 2.7e-5, bernstein 4.6e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.99e-8, max 1.12e-6 (recorded by the fitter).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 2.4e-4, shifted 4.1e-5, bernstein 4.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.02e-8, max 1.11e-6 (recorded by the fitter).
 // Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.91e-8, max 1.13e-6.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.25e-7 (every op rounded, as this Rust), 5.27e-7 (fused multiply-add), 6.46e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 6.65e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 231 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 1.99e-8, max 1.12e-6; this f32 code MAE 6.98e-8, max 1.20e-6.
-// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.9e-8 on the measurement grid.
-// Denominator proved >= 4.647e-4 on the domain (Bernstein certificate), so the division is safe.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.01e-7 (every op rounded, as this Rust), 4.87e-7 (fused multiply-add), 5.61e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 6.64e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 253 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-fon/1024x1024 (output clamp applied): f64 MAE 2.02e-8, max 1.11e-6; this f32 code MAE 7.05e-8, max 1.16e-6.
+// Output clamped to [0, 1]; the f64 fit leaves that range by up to 4.3e-8 on the measurement grid.
+// Denominator proved >= 4.641e-4 on the domain (Bernstein certificate), so the division is safe.
 fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     // inputs clamped to the fitted domain
     let r_c = max(min(r, 1.0), 0.0);
@@ -67,24 +67,24 @@ fn oren_nayar_fon_albedo(r: f32, mu: f32) -> f32 {
     let mu_b5 = mu_u5 * mu_v2;
     let mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    let p_0 = 1.0 * mu_v7 + 5.1011095 * mu_b1 + 10.647227 * mu_b2 + 10.999072 * mu_b3 + 5.732346 * mu_b4 + 1.226235 * mu_b5 + 0.06514031 * mu_b6 + 0.00046473462 * mu_u7;
-    let p_1 = 7.361943 * mu_v7 + 37.377716 * mu_b1 + 77.38827 * mu_b2 + 79.30011 * mu_b3 + 41.11573 * mu_b4 + 8.833261 * mu_b5 + 0.47342497 * mu_b6 + 0.0034550254 * mu_u7;
-    let p_2 = 23.19012 * mu_v7 + 117.261024 * mu_b1 + 240.95193 * mu_b2 + 244.9778 * mu_b3 + 126.37144 * mu_b4 + 27.265232 * mu_b5 + 1.4758053 * mu_b6 + 0.01078305 * mu_u7;
-    let p_3 = 40.529556 * mu_v7 + 204.21931 * mu_b1 + 416.6769 * mu_b2 + 420.45633 * mu_b3 + 215.81833 * mu_b4 + 46.767445 * mu_b5 + 2.561131 * mu_b6 + 0.018724384 * mu_u7;
-    let p_4 = 42.45836 * mu_v7 + 213.29225 * mu_b1 + 432.31454 * mu_b2 + 433.09018 * mu_b3 + 221.24219 * mu_b4 + 48.16336 * mu_b5 + 2.6746392 * mu_b6 + 0.019820683 * mu_u7;
-    let p_5 = 26.669676 * mu_v7 + 133.62798 * mu_b1 + 269.1679 * mu_b2 + 267.78757 * mu_b3 + 136.17274 * mu_b4 + 29.788954 * mu_b5 + 1.6814866 * mu_b6 + 0.01283601 * mu_u7;
-    let p_6 = 9.303553 * mu_v7 + 46.509846 * mu_b1 + 93.13894 * mu_b2 + 92.04779 * mu_b3 + 46.60279 * mu_b4 + 10.247245 * mu_b5 + 0.58908623 * mu_b6 + 0.004665278 * mu_u7;
-    let p_7 = 1.390856 * mu_v7 + 6.93922 * mu_b1 + 13.819602 * mu_b2 + 13.570889 * mu_b3 + 6.8420086 * mu_b4 + 1.5124452 * mu_b5 + 0.088639595 * mu_b6 + 0.00071990927 * mu_u7;
+    let p_0 = 1.0 * mu_v7 + 5.1080475 * mu_b1 + 10.671044 * mu_b2 + 11.031186 * mu_b3 + 5.751524 * mu_b4 + 1.2303966 * mu_b5 + 0.065233044 * mu_b6 + 0.00046407207 * mu_u7;
+    let p_1 = 7.3602 * mu_v7 + 37.414684 * mu_b1 + 77.52967 * mu_b2 + 79.4992 * mu_b3 + 41.239044 * mu_b4 + 8.861954 * mu_b5 + 0.47431308 * mu_b6 + 0.0034420802 * mu_u7;
+    let p_2 = 23.175379 * mu_v7 + 117.317085 * mu_b1 + 241.26418 * mu_b2 + 245.46591 * mu_b3 + 126.694275 * mu_b4 + 27.34788 * mu_b5 + 1.4796808 * mu_b6 + 0.010766689 * mu_u7;
+    let p_3 = 40.480755 * mu_v7 + 204.18224 * mu_b1 + 416.93893 * mu_b2 + 421.02 * mu_b3 + 216.2417 * mu_b4 + 46.88951 * mu_b5 + 2.5688865 * mu_b6 + 0.018785141 * mu_u7;
+    let p_4 = 42.376324 * mu_v7 + 213.0828 * mu_b1 + 432.2412 * mu_b2 + 433.32944 * mu_b3 + 221.50853 * mu_b4 + 48.25594 * mu_b5 + 2.681779 * mu_b6 + 0.019926865 * mu_u7;
+    let p_5 = 26.595327 * mu_v7 + 133.37505 * mu_b1 + 268.87964 * mu_b2 + 267.6955 * mu_b3 + 136.21503 * mu_b4 + 29.818783 * mu_b5 + 1.6840684 * mu_b6 + 0.012860364 * mu_u7;
+    let p_6 = 9.269005 * mu_v7 + 46.37698 * mu_b1 + 92.95112 * mu_b2 + 91.92984 * mu_b3 + 46.573387 * mu_b4 + 10.2472515 * mu_b5 + 0.5891664 * mu_b6 + 0.0046480997 * mu_u7;
+    let p_7 = 1.3844261 * mu_v7 + 6.9129405 * mu_b1 + 13.77933 * mu_b2 + 13.541702 * mu_b3 + 6.831953 * mu_b4 + 1.5112352 * mu_b5 + 0.08859522 * mu_b6 + 0.000718751 * mu_u7;
     let p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    let q_0 = 1.0 * mu_v7 + 5.10111 * mu_b1 + 10.6472225 * mu_b2 + 10.999079 * mu_b3 + 5.7323427 * mu_b4 + 1.2262354 * mu_b5 + 0.0651403 * mu_b6 + 0.00046473468 * mu_u7;
-    let q_1 = 7.3619432 * mu_v7 + 37.696022 * mu_b1 + 78.83745 * mu_b2 + 81.64647 * mu_b3 + 42.663155 * mu_b4 + 9.183913 * mu_b5 + 0.49216852 * mu_b6 + 0.0035887728 * mu_u7;
-    let q_2 = 23.19012 * mu_v7 + 119.19451 * mu_b1 + 249.79927 * mu_b2 + 259.3498 * mu_b3 + 135.8871 * mu_b4 + 29.439657 * mu_b5 + 1.5932821 * mu_b6 + 0.011643623 * mu_u7;
-    let q_3 = 40.529556 * mu_v7 + 209.11122 * mu_b1 + 439.17432 * mu_b2 + 457.1239 * mu_b3 + 240.19186 * mu_b4 + 52.38437 * mu_b5 + 2.8682914 * mu_b6 + 0.020967225 * mu_u7;
-    let q_4 = 42.458355 * mu_v7 + 219.89389 * mu_b1 + 462.82642 * mu_b2 + 482.98645 * mu_b3 + 254.54338 * mu_b4 + 55.905624 * mu_b5 + 3.104394 * mu_b6 + 0.022966392 * mu_u7;
-    let q_5 = 26.669674 * mu_v7 + 138.6418 * mu_b1 + 292.4546 * mu_b2 + 305.99588 * mu_b3 + 161.7802 * mu_b4 + 35.798496 * mu_b5 + 2.0213025 * mu_b6 + 0.015394681 * mu_u7;
-    let q_6 = 9.303553 * mu_v7 + 48.542534 * mu_b1 + 102.624626 * mu_b2 + 107.66357 * mu_b3 + 57.114105 * mu_b4 + 12.738742 * mu_b5 + 0.733072 * mu_b6 + 0.0058007305 * mu_u7;
-    let q_7 = 1.390856 * mu_v7 + 7.283011 * mu_b1 + 15.431238 * mu_b2 + 16.23274 * mu_b3 + 8.64179 * mu_b4 + 1.9435301 * mu_b5 + 0.11414203 * mu_b6 + 0.00092709484 * mu_u7;
+    let q_0 = 1.0 * mu_v7 + 5.108048 * mu_b1 + 10.6710415 * mu_b2 + 11.031192 * mu_b3 + 5.751521 * mu_b4 + 1.2303971 * mu_b5 + 0.06523303 * mu_b6 + 0.0004640722 * mu_u7;
+    let q_1 = 7.3602 * mu_v7 + 37.73299 * mu_b1 + 78.98108 * mu_b2 + 81.85184 * mu_b3 + 42.791702 * mu_b4 + 9.213804 * mu_b5 + 0.49308327 * mu_b6 + 0.0035756347 * mu_u7;
+    let q_2 = 23.175379 * mu_v7 + 119.25001 * mu_b1 + 250.12082 * mu_b2 + 259.86893 * mu_b3 + 136.23793 * mu_b4 + 29.529373 * mu_b5 + 1.5973873 * mu_b6 + 0.011623753 * mu_u7;
+    let q_3 = 40.480755 * mu_v7 + 209.07014 * mu_b1 + 439.44482 * mu_b2 + 457.74158 * mu_b3 + 240.67262 * mu_b4 + 52.523075 * mu_b5 + 2.8769324 * mu_b6 + 0.021026693 * mu_u7;
+    let q_4 = 42.376324 * mu_v7 + 219.67403 * mu_b1 + 462.73785 * mu_b2 + 483.2557 * mu_b3 + 254.86145 * mu_b4 + 56.01638 * mu_b5 + 3.11288 * mu_b6 + 0.023091454 * mu_u7;
+    let q_5 = 26.595324 * mu_v7 + 138.37616 * mu_b1 + 292.1304 * mu_b2 + 305.88715 * mu_b3 + 161.83643 * mu_b4 + 35.836414 * mu_b5 + 2.024591 * mu_b6 + 0.015430665 * mu_u7;
+    let q_6 = 9.269005 * mu_v7 + 48.402363 * mu_b1 + 102.41153 * mu_b2 + 107.52138 * mu_b3 + 57.07877 * mu_b4 + 12.739111 * mu_b5 + 0.73318845 * mu_b6 + 0.0057789413 * mu_u7;
+    let q_7 = 1.3844261 * mu_v7 + 7.255142 * mu_b1 + 15.38495 * mu_b2 + 16.196655 * mu_b3 + 8.628934 * mu_b4 + 1.9419755 * mu_b5 + 0.11408489 * mu_b6 + 0.0009256032 * mu_u7;
     let q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     let e = p / q;
     return max(min(e, 1.0), 0.0);

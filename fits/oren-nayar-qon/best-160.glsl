@@ -15,17 +15,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 6c94ded3eaf9351f4993f05bb783c301dfef3ae67e98a6a0c21aab824a1ecb4f.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 29269c26b1f1cb44019335b0323c109384f54198a1af7a85d2da000ac25dbe8e.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 8.2e-2, shifted 1.4e-4, bernstein 5.2e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.74e-6, max 5.08e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.93e-6, max 8.43e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.42e-7 (every op rounded, as this Rust), 6.18e-7 (fused multiply-add), 6.50e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.83e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2663 boxes).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.3e-2, shifted 6.0e-4, bernstein 4.6e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.80e-6, max 5.27e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.94e-6, max 8.55e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.50e-7 (every op rounded, as this Rust), 5.24e-7 (fused multiply-add), 6.43e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.46e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2593 boxes).
 // Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.79e-4, max 1.52e-2; this f32 code MAE 2.79e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 9.457e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 9.506e-4 on the domain (Bernstein certificate), so the division is safe.
 highp float oren_nayar_qon_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
@@ -89,30 +89,30 @@ highp float oren_nayar_qon_albedo(highp float r, highp float mu) {
     highp float mu_b8 = mu_u8 * mu_v2;
     highp float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 0.9999927 * mu_v10 + 10.065746 * mu_b1 + 47.213024 * mu_b2 + 120.03619 * mu_b3 + 181.51901 * mu_b4 + 270.47495 * mu_b5 + 223.34532 * mu_b6 + 110.515015 * mu_b7 + 22.26286 * mu_b8 + 2.1706314 * mu_b9 + 0.010305284 * mu_u10;
-    highp float p_1 = 5.7304115 * mu_v10 + 61.419155 * mu_b1 + 285.62994 * mu_b2 + 738.794 * mu_b3 + 1012.72107 * mu_b4 + 1685.902 * mu_b5 + 1416.331 * mu_b6 + 706.7659 * mu_b7 + 91.48886 * mu_b8 - 1.8959898 * mu_b9 - 0.03633815 * mu_u10;
-    highp float p_2 = 50.17952 * mu_v10 + 538.6206 * mu_b1 + 2433.6333 * mu_b2 + 6385.391 * mu_b3 + 9782.001 * mu_b4 + 13455.701 * mu_b5 + 10841.972 * mu_b6 + 5308.0356 * mu_b7 + 895.3779 * mu_b8 + 21.54095 * mu_b9 + 0.086524956 * mu_u10;
-    highp float p_3 = 146.2215 * mu_v10 + 1661.7953 * mu_b1 + 7602.073 * mu_b2 + 20089.951 * mu_b3 + 32130.592 * mu_b4 + 44320.035 * mu_b5 + 36492.305 * mu_b6 + 17868.113 * mu_b7 + 3080.1282 * mu_b8 + 60.761246 * mu_b9 - 0.10225384 * mu_u10;
-    highp float p_4 = 315.95554 * mu_v10 + 3769.4434 * mu_b1 + 17409.047 * mu_b2 + 45509.684 * mu_b3 + 75332.96 * mu_b4 + 103505.77 * mu_b5 + 86387.414 * mu_b6 + 41980.875 * mu_b7 + 7576.559 * mu_b8 + 218.4486 * mu_b9 + 0.76659626 * mu_u10;
-    highp float p_5 = 272.50504 * mu_v10 + 3969.7085 * mu_b1 + 19341.178 * mu_b2 + 51228.33 * mu_b3 + 90733.695 * mu_b4 + 136608.73 * mu_b5 + 121339.48 * mu_b6 + 60151.527 * mu_b7 + 11055.553 * mu_b8 + 337.82144 * mu_b9 - 0.10694969 * mu_u10;
-    highp float p_6 = 32.00871 * mu_v10 + 1604.5731 * mu_b1 + 8489.263 * mu_b2 + 21889.982 * mu_b3 + 46624.367 * mu_b4 + 95685.8 * mu_b5 + 98494.56 * mu_b6 + 51605.49 * mu_b7 + 9431.623 * mu_b8 + 248.70547 * mu_b9 + 1.2020265 * mu_u10;
-    highp float p_7 = 18.736595 * mu_v10 + 695.8365 * mu_b1 + 2194.2412 * mu_b2 + 1384.7206 * mu_b3 + 7660.1616 * mu_b4 + 39930.207 * mu_b5 + 51199.5 * mu_b6 + 28632.027 * mu_b7 + 5130.0464 * mu_b8 + 108.99789 * mu_b9 - 0.33606556 * mu_u10;
-    highp float p_8 = 62.98797 * mu_v10 + 668.86847 * mu_b1 + 1538.7048 * mu_b2 - 507.6057 * mu_b3 - 685.70276 * mu_b4 + 12068.419 * mu_b5 + 18442.104 * mu_b6 + 10660.058 * mu_b7 + 1876.1604 * mu_b8 + 50.696514 * mu_b9 + 0.14193358 * mu_u10;
-    highp float p_9 = 16.892342 * mu_v10 + 194.00217 * mu_b1 + 423.16617 * mu_b2 - 394.47723 * mu_b3 - 933.67975 * mu_b4 + 2017.6278 * mu_b5 + 3785.4731 * mu_b6 + 2192.7979 * mu_b7 + 347.56406 * mu_b8 + 8.596948 * mu_b9 + 0.0115514565 * mu_u10;
-    highp float p_10 = 0.73213327 * mu_v10 + 18.970074 * mu_b1 + 53.4364 * mu_b2 - 16.816317 * mu_b3 - 48.283848 * mu_b4 + 276.39917 * mu_b5 + 427.0653 * mu_b6 + 219.61649 * mu_b7 + 27.80597 * mu_b8 + 0.49910644 * mu_b9 + 0.000530254 * mu_u10;
+    highp float p_0 = 0.99999136 * mu_v10 + 10.048686 * mu_b1 + 47.332127 * mu_b2 + 119.41881 * mu_b3 + 178.06783 * mu_b4 + 268.9201 * mu_b5 + 223.40977 * mu_b6 + 111.60901 * mu_b7 + 22.607246 * mu_b8 + 2.1637545 * mu_b9 + 0.009615741 * mu_u10;
+    highp float p_1 = 5.709787 * mu_v10 + 61.212906 * mu_b1 + 287.1961 * mu_b2 + 737.04126 * mu_b3 + 988.3534 * mu_b4 + 1677.7802 * mu_b5 + 1419.7999 * mu_b6 + 719.5761 * mu_b7 + 95.39443 * mu_b8 - 1.8515054 * mu_b9 - 0.032770794 * mu_u10;
+    highp float p_2 = 50.145603 * mu_v10 + 536.6129 * mu_b1 + 2433.0525 * mu_b2 + 6355.876 * mu_b3 + 9643.716 * mu_b4 + 13395.082 * mu_b5 + 10854.423 * mu_b6 + 5376.657 * mu_b7 + 916.4826 * mu_b8 + 21.684122 * mu_b9 + 0.072848715 * mu_u10;
+    highp float p_3 = 146.12303 * mu_v10 + 1653.1552 * mu_b1 + 7585.764 * mu_b2 + 19944.422 * mu_b3 + 31658.684 * mu_b4 + 44112.6 * mu_b5 + 36582.875 * mu_b6 + 18131.926 * mu_b7 + 3163.5994 * mu_b8 + 62.927116 * mu_b9 - 0.06572087 * mu_u10;
+    highp float p_4 = 316.1847 * mu_v10 + 3746.2222 * mu_b1 + 17346.514 * mu_b2 + 45071.453 * mu_b3 + 74201.484 * mu_b4 + 103015.48 * mu_b5 + 86698.336 * mu_b6 + 42632.285 * mu_b7 + 7782.3154 * mu_b8 + 224.22186 * mu_b9 + 0.7243224 * mu_u10;
+    highp float p_5 = 274.6653 * mu_v10 + 3929.1262 * mu_b1 + 19210.002 * mu_b2 + 50400.082 * mu_b3 + 88885.47 * mu_b4 + 135877.5 * mu_b5 + 122035.055 * mu_b6 + 61269.89 * mu_b7 + 11409.853 * mu_b8 + 351.39642 * mu_b9 + 0.045318916 * mu_u10;
+    highp float p_6 = 35.888924 * mu_v10 + 1554.6343 * mu_b1 + 8325.686 * mu_b2 + 20904.893 * mu_b3 + 44577.297 * mu_b4 + 94892.63 * mu_b5 + 99336.47 * mu_b6 + 52816.46 * mu_b7 + 9810.311 * mu_b8 + 262.25186 * mu_b9 + 1.1216712 * mu_u10;
+    highp float p_7 = 22.927038 * mu_v10 + 669.9215 * mu_b1 + 2158.8643 * mu_b2 + 879.78906 * mu_b3 + 6504.5806 * mu_b4 + 39633.324 * mu_b5 + 51975.934 * mu_b6 + 29533.42 * mu_b7 + 5407.0757 * mu_b8 + 120.70336 * mu_b9 - 0.2780518 * mu_u10;
+    highp float p_8 = 64.8423 * mu_v10 + 663.1099 * mu_b1 + 1589.5485 * mu_b2 - 561.54 * mu_b3 - 983.8226 * mu_b4 + 12074.507 * mu_b5 + 18827.797 * mu_b6 + 11047.882 * mu_b7 + 1993.2507 * mu_b8 + 55.828674 * mu_b9 + 0.15093258 * mu_u10;
+    highp float p_9 = 16.948248 * mu_v10 + 192.04779 * mu_b1 + 450.99857 * mu_b2 - 369.0207 * mu_b3 - 978.0555 * mu_b4 + 2005.8165 * mu_b5 + 3843.645 * mu_b6 + 2262.139 * mu_b7 + 369.61255 * mu_b8 + 9.517813 * mu_b9 + 0.013505856 * mu_u10;
+    highp float p_10 = 0.7095652 * mu_v10 + 18.812227 * mu_b1 + 58.586998 * mu_b2 - 10.066639 * mu_b3 - 54.202488 * mu_b4 + 264.62683 * mu_b5 + 420.38013 * mu_b6 + 219.77957 * mu_b7 + 28.462963 * mu_b8 + 0.5195246 * mu_b9 + 0.0005495453 * mu_u10;
     highp float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v10 + 10.065195 * mu_b1 + 47.214687 * mu_b2 + 120.06985 * mu_b3 + 181.38885 * mu_b4 + 270.60934 * mu_b5 + 223.32181 * mu_b6 + 110.495895 * mu_b7 + 22.267324 * mu_b8 + 2.170489 * mu_b9 + 0.010305426 * mu_u10;
-    highp float q_1 = 5.7297163 * mu_v10 + 61.467827 * mu_b1 + 285.15732 * mu_b2 + 738.8458 * mu_b3 + 1014.1867 * mu_b4 + 1685.0387 * mu_b5 + 1414.4537 * mu_b6 + 709.1443 * mu_b7 + 91.04681 * mu_b8 - 1.8805333 * mu_b9 - 0.036350474 * mu_u10;
-    highp float q_2 = 47.767834 * mu_v10 + 517.804 * mu_b1 + 2363.0278 * mu_b2 + 6283.604 * mu_b3 + 9689.315 * mu_b4 + 13411.851 * mu_b5 + 10966.051 * mu_b6 + 5495.6416 * mu_b7 + 951.62067 * mu_b8 + 28.359009 * mu_b9 + 0.12516598 * mu_u10;
-    highp float q_3 = 136.78064 * mu_v10 + 1568.0161 * mu_b1 + 7259.046 * mu_b2 + 19523.57 * mu_b3 + 31502.234 * mu_b4 + 44163.945 * mu_b5 + 37514.977 * mu_b6 + 18982.604 * mu_b7 + 3286.1506 * mu_b8 + 45.6772 * mu_b9 - 0.31473833 * mu_u10;
-    highp float q_4 = 366.8491 * mu_v10 + 4316.9805 * mu_b1 + 20094.418 * mu_b2 + 53278.773 * mu_b3 + 89260.19 * mu_b4 + 121515.77 * mu_b5 + 103902.305 * mu_b6 + 51988.477 * mu_b7 + 9732.703 * mu_b8 + 281.4146 * mu_b9 + 1.3225598 * mu_u10;
-    highp float q_5 = 348.4262 * mu_v10 + 4949.411 * mu_b1 + 24490.549 * mu_b2 + 66414.0 * mu_b3 + 119090.586 * mu_b4 + 175802.38 * mu_b5 + 160609.39 * mu_b6 + 82453.836 * mu_b7 + 15964.112 * mu_b8 + 511.25754 * mu_b9 - 0.5543173 * mu_u10;
-    highp float q_6 = 37.610065 * mu_v10 + 1964.332 * mu_b1 + 10929.812 * mu_b2 + 29779.291 * mu_b3 + 63530.82 * mu_b4 + 126008.9 * mu_b5 + 135755.39 * mu_b6 + 74636.71 * mu_b7 + 14512.617 * mu_b8 + 402.9105 * mu_b9 + 2.252351 * mu_u10;
-    highp float q_7 = 14.716966 * mu_v10 + 795.39825 * mu_b1 + 2703.5776 * mu_b2 + 2242.687 * mu_b3 + 10175.116 * mu_b4 + 51306.934 * mu_b5 + 71573.98 * mu_b6 + 42712.86 * mu_b7 + 8183.3745 * mu_b8 + 177.17488 * mu_b9 - 0.6472672 * mu_u10;
-    highp float q_8 = 78.636925 * mu_v10 + 846.413 * mu_b1 + 2058.329 * mu_b2 - 290.90787 * mu_b3 - 991.6916 * mu_b4 + 15152.668 * mu_b5 + 26217.15 * mu_b6 + 16376.915 * mu_b7 + 3089.4834 * mu_b8 + 86.42163 * mu_b9 + 0.24992286 * mu_u10;
-    highp float q_9 = 21.6603 * mu_v10 + 250.97974 * mu_b1 + 580.4502 * mu_b2 - 417.03485 * mu_b3 - 1338.1686 * mu_b4 + 2362.43 * mu_b5 + 5426.098 * mu_b6 + 3445.3064 * mu_b7 + 584.53754 * mu_b8 + 14.994969 * mu_b9 + 0.020492442 * mu_u10;
-    highp float q_10 = 0.9433714 * mu_v10 + 24.613022 * mu_b1 + 73.182144 * mu_b2 - 9.546943 * mu_b3 - 72.43957 * mu_b4 + 345.26614 * mu_b5 + 628.3052 * mu_b6 + 354.7204 * mu_b7 + 47.734905 * mu_b8 + 0.8821646 * mu_b9 + 0.00094858516 * mu_u10;
+    highp float q_0 = 1.0 * mu_v10 + 10.048031 * mu_b1 + 47.335186 * mu_b2 + 119.446884 * mu_b3 + 177.94469 * mu_b4 + 269.04846 * mu_b5 + 223.38866 * mu_b6 + 111.59165 * mu_b7 + 22.611094 * mu_b8 + 2.1636343 * mu_b9 + 0.009615862 * mu_u10;
+    highp float q_1 = 5.708971 * mu_v10 + 61.266773 * mu_b1 + 286.67926 * mu_b2 + 737.18555 * mu_b3 + 990.04456 * mu_b4 + 1676.7104 * mu_b5 + 1417.8225 * mu_b6 + 721.9584 * mu_b7 + 94.967705 * mu_b8 - 1.8366745 * mu_b9 - 0.032784466 * mu_u10;
+    highp float q_2 = 47.736534 * mu_v10 + 515.78613 * mu_b1 + 2361.9604 * mu_b2 + 6255.709 * mu_b3 + 9553.325 * mu_b4 + 13348.549 * mu_b5 + 10976.168 * mu_b6 + 5564.829 * mu_b7 + 973.65295 * mu_b8 + 28.503443 * mu_b9 + 0.109062776 * mu_u10;
+    highp float q_3 = 136.71883 * mu_v10 + 1560.0923 * mu_b1 + 7245.548 * mu_b2 + 19389.621 * mu_b3 + 31028.832 * mu_b4 + 43926.043 * mu_b5 + 37591.7 * mu_b6 + 19259.354 * mu_b7 + 3379.3823 * mu_b8 + 47.937176 * mu_b9 - 0.26224613 * mu_u10;
+    highp float q_4 = 366.83923 * mu_v10 + 4292.465 * mu_b1 + 20029.232 * mu_b2 + 52823.277 * mu_b3 + 88018.06 * mu_b4 + 120862.18 * mu_b5 + 104190.22 * mu_b6 + 52727.527 * mu_b7 + 9985.571 * mu_b8 + 287.68747 * mu_b9 + 1.2228816 * mu_u10;
+    highp float q_5 = 350.66214 * mu_v10 + 4905.223 * mu_b1 + 24343.568 * mu_b2 + 65484.92 * mu_b3 + 116913.25 * mu_b4 + 174742.22 * mu_b5 + 161389.31 * mu_b6 + 83869.64 * mu_b7 + 16453.857 * mu_b8 + 530.7356 * mu_b9 - 0.270633 * mu_u10;
+    highp float q_6 = 41.95168 * mu_v10 + 1904.3129 * mu_b1 + 10714.226 * mu_b2 + 28552.293 * mu_b3 + 60882.35 * mu_b4 + 124687.27 * mu_b5 + 136712.92 * mu_b6 + 76258.48 * mu_b7 + 15069.86 * mu_b8 + 423.0384 * mu_b9 + 2.0948534 * mu_u10;
+    highp float q_7 = 19.842323 * mu_v10 + 763.73694 * mu_b1 + 2644.288 * mu_b2 + 1589.4734 * mu_b3 + 8617.981 * mu_b4 + 50703.066 * mu_b5 + 72548.47 * mu_b6 + 43993.777 * mu_b7 + 8614.964 * mu_b8 + 196.07796 * mu_b9 - 0.54761773 * mu_u10;
+    highp float q_8 = 81.01832 * mu_v10 + 839.7255 * mu_b1 + 2118.2593 * mu_b2 - 353.58664 * mu_b3 - 1387.3352 * mu_b4 + 15096.451 * mu_b5 + 26738.773 * mu_b6 + 16953.318 * mu_b7 + 3279.6353 * mu_b8 + 95.132484 * mu_b9 + 0.26546285 * mu_u10;
+    highp float q_9 = 21.73564 * mu_v10 + 248.50116 * mu_b1 + 615.05914 * mu_b2 - 378.71106 * mu_b3 - 1390.9674 * mu_b4 + 2335.776 * mu_b5 + 5505.3945 * mu_b6 + 3550.5205 * mu_b7 + 621.3543 * mu_b8 + 16.607979 * mu_b9 + 0.02397973 * mu_u10;
+    highp float q_10 = 0.91429263 * mu_v10 + 24.404537 * mu_b1 + 79.77646 * mu_b2 + 0.41437408 * mu_b3 - 78.86045 * mu_b4 + 327.94476 * mu_b5 + 617.57086 * mu_b6 + 354.57202 * mu_b7 + 48.842327 * mu_b8 + 0.91822934 * mu_b9 + 0.0009831088 * mu_u10;
     highp float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

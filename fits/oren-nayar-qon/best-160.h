@@ -27,17 +27,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 6c94ded3eaf9351f4993f05bb783c301dfef3ae67e98a6a0c21aab824a1ecb4f.
+// Fit: rational of degree 10/10, 131 coefficients (numerator 66, denominator 65 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 26200 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
+// Source: fits/oren-nayar-qon/best-160.json (furnace 0.1.0), fit SHA-256 29269c26b1f1cb44019335b0323c109384f54198a1af7a85d2da000ac25dbe8e.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 8.2e-2, shifted 1.4e-4, bernstein 5.2e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 2.74e-6, max 5.08e-4 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.93e-6, max 8.43e-4.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.42e-7 (every op rounded, as this Rust), 6.18e-7 (fused multiply-add), 6.50e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 3.83e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2663 boxes).
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 1.3e-2, shifted 6.0e-4, bernstein 4.6e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.80e-6, max 5.27e-4 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.94e-6, max 8.55e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.50e-7 (every op rounded, as this Rust), 5.24e-7 (fused multiply-add), 6.43e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 3.46e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2593 boxes).
 // Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.79e-4, max 1.52e-2; this f32 code MAE 2.79e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 9.457e-4 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 9.506e-4 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float oren_nayar_qon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
@@ -101,30 +101,30 @@ FURNACE_FN float oren_nayar_qon_albedo(float r, float mu) {
     const float mu_b8 = mu_u8 * mu_v2;
     const float mu_b9 = mu_u9 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    const float p_0 = 0.9999927f * mu_v10 + 10.065746f * mu_b1 + 47.213024f * mu_b2 + 120.03619f * mu_b3 + 181.51901f * mu_b4 + 270.47495f * mu_b5 + 223.34532f * mu_b6 + 110.515015f * mu_b7 + 22.26286f * mu_b8 + 2.1706314f * mu_b9 + 0.010305284f * mu_u10;
-    const float p_1 = 5.7304115f * mu_v10 + 61.419155f * mu_b1 + 285.62994f * mu_b2 + 738.794f * mu_b3 + 1012.72107f * mu_b4 + 1685.902f * mu_b5 + 1416.331f * mu_b6 + 706.7659f * mu_b7 + 91.48886f * mu_b8 - 1.8959898f * mu_b9 - 0.03633815f * mu_u10;
-    const float p_2 = 50.17952f * mu_v10 + 538.6206f * mu_b1 + 2433.6333f * mu_b2 + 6385.391f * mu_b3 + 9782.001f * mu_b4 + 13455.701f * mu_b5 + 10841.972f * mu_b6 + 5308.0356f * mu_b7 + 895.3779f * mu_b8 + 21.54095f * mu_b9 + 0.086524956f * mu_u10;
-    const float p_3 = 146.2215f * mu_v10 + 1661.7953f * mu_b1 + 7602.073f * mu_b2 + 20089.951f * mu_b3 + 32130.592f * mu_b4 + 44320.035f * mu_b5 + 36492.305f * mu_b6 + 17868.113f * mu_b7 + 3080.1282f * mu_b8 + 60.761246f * mu_b9 - 0.10225384f * mu_u10;
-    const float p_4 = 315.95554f * mu_v10 + 3769.4434f * mu_b1 + 17409.047f * mu_b2 + 45509.684f * mu_b3 + 75332.96f * mu_b4 + 103505.77f * mu_b5 + 86387.414f * mu_b6 + 41980.875f * mu_b7 + 7576.559f * mu_b8 + 218.4486f * mu_b9 + 0.76659626f * mu_u10;
-    const float p_5 = 272.50504f * mu_v10 + 3969.7085f * mu_b1 + 19341.178f * mu_b2 + 51228.33f * mu_b3 + 90733.695f * mu_b4 + 136608.73f * mu_b5 + 121339.48f * mu_b6 + 60151.527f * mu_b7 + 11055.553f * mu_b8 + 337.82144f * mu_b9 - 0.10694969f * mu_u10;
-    const float p_6 = 32.00871f * mu_v10 + 1604.5731f * mu_b1 + 8489.263f * mu_b2 + 21889.982f * mu_b3 + 46624.367f * mu_b4 + 95685.8f * mu_b5 + 98494.56f * mu_b6 + 51605.49f * mu_b7 + 9431.623f * mu_b8 + 248.70547f * mu_b9 + 1.2020265f * mu_u10;
-    const float p_7 = 18.736595f * mu_v10 + 695.8365f * mu_b1 + 2194.2412f * mu_b2 + 1384.7206f * mu_b3 + 7660.1616f * mu_b4 + 39930.207f * mu_b5 + 51199.5f * mu_b6 + 28632.027f * mu_b7 + 5130.0464f * mu_b8 + 108.99789f * mu_b9 - 0.33606556f * mu_u10;
-    const float p_8 = 62.98797f * mu_v10 + 668.86847f * mu_b1 + 1538.7048f * mu_b2 - 507.6057f * mu_b3 - 685.70276f * mu_b4 + 12068.419f * mu_b5 + 18442.104f * mu_b6 + 10660.058f * mu_b7 + 1876.1604f * mu_b8 + 50.696514f * mu_b9 + 0.14193358f * mu_u10;
-    const float p_9 = 16.892342f * mu_v10 + 194.00217f * mu_b1 + 423.16617f * mu_b2 - 394.47723f * mu_b3 - 933.67975f * mu_b4 + 2017.6278f * mu_b5 + 3785.4731f * mu_b6 + 2192.7979f * mu_b7 + 347.56406f * mu_b8 + 8.596948f * mu_b9 + 0.0115514565f * mu_u10;
-    const float p_10 = 0.73213327f * mu_v10 + 18.970074f * mu_b1 + 53.4364f * mu_b2 - 16.816317f * mu_b3 - 48.283848f * mu_b4 + 276.39917f * mu_b5 + 427.0653f * mu_b6 + 219.61649f * mu_b7 + 27.80597f * mu_b8 + 0.49910644f * mu_b9 + 0.000530254f * mu_u10;
+    const float p_0 = 0.99999136f * mu_v10 + 10.048686f * mu_b1 + 47.332127f * mu_b2 + 119.41881f * mu_b3 + 178.06783f * mu_b4 + 268.9201f * mu_b5 + 223.40977f * mu_b6 + 111.60901f * mu_b7 + 22.607246f * mu_b8 + 2.1637545f * mu_b9 + 0.009615741f * mu_u10;
+    const float p_1 = 5.709787f * mu_v10 + 61.212906f * mu_b1 + 287.1961f * mu_b2 + 737.04126f * mu_b3 + 988.3534f * mu_b4 + 1677.7802f * mu_b5 + 1419.7999f * mu_b6 + 719.5761f * mu_b7 + 95.39443f * mu_b8 - 1.8515054f * mu_b9 - 0.032770794f * mu_u10;
+    const float p_2 = 50.145603f * mu_v10 + 536.6129f * mu_b1 + 2433.0525f * mu_b2 + 6355.876f * mu_b3 + 9643.716f * mu_b4 + 13395.082f * mu_b5 + 10854.423f * mu_b6 + 5376.657f * mu_b7 + 916.4826f * mu_b8 + 21.684122f * mu_b9 + 0.072848715f * mu_u10;
+    const float p_3 = 146.12303f * mu_v10 + 1653.1552f * mu_b1 + 7585.764f * mu_b2 + 19944.422f * mu_b3 + 31658.684f * mu_b4 + 44112.6f * mu_b5 + 36582.875f * mu_b6 + 18131.926f * mu_b7 + 3163.5994f * mu_b8 + 62.927116f * mu_b9 - 0.06572087f * mu_u10;
+    const float p_4 = 316.1847f * mu_v10 + 3746.2222f * mu_b1 + 17346.514f * mu_b2 + 45071.453f * mu_b3 + 74201.484f * mu_b4 + 103015.48f * mu_b5 + 86698.336f * mu_b6 + 42632.285f * mu_b7 + 7782.3154f * mu_b8 + 224.22186f * mu_b9 + 0.7243224f * mu_u10;
+    const float p_5 = 274.6653f * mu_v10 + 3929.1262f * mu_b1 + 19210.002f * mu_b2 + 50400.082f * mu_b3 + 88885.47f * mu_b4 + 135877.5f * mu_b5 + 122035.055f * mu_b6 + 61269.89f * mu_b7 + 11409.853f * mu_b8 + 351.39642f * mu_b9 + 0.045318916f * mu_u10;
+    const float p_6 = 35.888924f * mu_v10 + 1554.6343f * mu_b1 + 8325.686f * mu_b2 + 20904.893f * mu_b3 + 44577.297f * mu_b4 + 94892.63f * mu_b5 + 99336.47f * mu_b6 + 52816.46f * mu_b7 + 9810.311f * mu_b8 + 262.25186f * mu_b9 + 1.1216712f * mu_u10;
+    const float p_7 = 22.927038f * mu_v10 + 669.9215f * mu_b1 + 2158.8643f * mu_b2 + 879.78906f * mu_b3 + 6504.5806f * mu_b4 + 39633.324f * mu_b5 + 51975.934f * mu_b6 + 29533.42f * mu_b7 + 5407.0757f * mu_b8 + 120.70336f * mu_b9 - 0.2780518f * mu_u10;
+    const float p_8 = 64.8423f * mu_v10 + 663.1099f * mu_b1 + 1589.5485f * mu_b2 - 561.54f * mu_b3 - 983.8226f * mu_b4 + 12074.507f * mu_b5 + 18827.797f * mu_b6 + 11047.882f * mu_b7 + 1993.2507f * mu_b8 + 55.828674f * mu_b9 + 0.15093258f * mu_u10;
+    const float p_9 = 16.948248f * mu_v10 + 192.04779f * mu_b1 + 450.99857f * mu_b2 - 369.0207f * mu_b3 - 978.0555f * mu_b4 + 2005.8165f * mu_b5 + 3843.645f * mu_b6 + 2262.139f * mu_b7 + 369.61255f * mu_b8 + 9.517813f * mu_b9 + 0.013505856f * mu_u10;
+    const float p_10 = 0.7095652f * mu_v10 + 18.812227f * mu_b1 + 58.586998f * mu_b2 - 10.066639f * mu_b3 - 54.202488f * mu_b4 + 264.62683f * mu_b5 + 420.38013f * mu_b6 + 219.77957f * mu_b7 + 28.462963f * mu_b8 + 0.5195246f * mu_b9 + 0.0005495453f * mu_u10;
     const float p = p_0 * r_v10 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_b7 + p_8 * r_b8 + p_9 * r_b9 + p_10 * r_u10;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    const float q_0 = 1.0f * mu_v10 + 10.065195f * mu_b1 + 47.214687f * mu_b2 + 120.06985f * mu_b3 + 181.38885f * mu_b4 + 270.60934f * mu_b5 + 223.32181f * mu_b6 + 110.495895f * mu_b7 + 22.267324f * mu_b8 + 2.170489f * mu_b9 + 0.010305426f * mu_u10;
-    const float q_1 = 5.7297163f * mu_v10 + 61.467827f * mu_b1 + 285.15732f * mu_b2 + 738.8458f * mu_b3 + 1014.1867f * mu_b4 + 1685.0387f * mu_b5 + 1414.4537f * mu_b6 + 709.1443f * mu_b7 + 91.04681f * mu_b8 - 1.8805333f * mu_b9 - 0.036350474f * mu_u10;
-    const float q_2 = 47.767834f * mu_v10 + 517.804f * mu_b1 + 2363.0278f * mu_b2 + 6283.604f * mu_b3 + 9689.315f * mu_b4 + 13411.851f * mu_b5 + 10966.051f * mu_b6 + 5495.6416f * mu_b7 + 951.62067f * mu_b8 + 28.359009f * mu_b9 + 0.12516598f * mu_u10;
-    const float q_3 = 136.78064f * mu_v10 + 1568.0161f * mu_b1 + 7259.046f * mu_b2 + 19523.57f * mu_b3 + 31502.234f * mu_b4 + 44163.945f * mu_b5 + 37514.977f * mu_b6 + 18982.604f * mu_b7 + 3286.1506f * mu_b8 + 45.6772f * mu_b9 - 0.31473833f * mu_u10;
-    const float q_4 = 366.8491f * mu_v10 + 4316.9805f * mu_b1 + 20094.418f * mu_b2 + 53278.773f * mu_b3 + 89260.19f * mu_b4 + 121515.77f * mu_b5 + 103902.305f * mu_b6 + 51988.477f * mu_b7 + 9732.703f * mu_b8 + 281.4146f * mu_b9 + 1.3225598f * mu_u10;
-    const float q_5 = 348.4262f * mu_v10 + 4949.411f * mu_b1 + 24490.549f * mu_b2 + 66414.0f * mu_b3 + 119090.586f * mu_b4 + 175802.38f * mu_b5 + 160609.39f * mu_b6 + 82453.836f * mu_b7 + 15964.112f * mu_b8 + 511.25754f * mu_b9 - 0.5543173f * mu_u10;
-    const float q_6 = 37.610065f * mu_v10 + 1964.332f * mu_b1 + 10929.812f * mu_b2 + 29779.291f * mu_b3 + 63530.82f * mu_b4 + 126008.9f * mu_b5 + 135755.39f * mu_b6 + 74636.71f * mu_b7 + 14512.617f * mu_b8 + 402.9105f * mu_b9 + 2.252351f * mu_u10;
-    const float q_7 = 14.716966f * mu_v10 + 795.39825f * mu_b1 + 2703.5776f * mu_b2 + 2242.687f * mu_b3 + 10175.116f * mu_b4 + 51306.934f * mu_b5 + 71573.98f * mu_b6 + 42712.86f * mu_b7 + 8183.3745f * mu_b8 + 177.17488f * mu_b9 - 0.6472672f * mu_u10;
-    const float q_8 = 78.636925f * mu_v10 + 846.413f * mu_b1 + 2058.329f * mu_b2 - 290.90787f * mu_b3 - 991.6916f * mu_b4 + 15152.668f * mu_b5 + 26217.15f * mu_b6 + 16376.915f * mu_b7 + 3089.4834f * mu_b8 + 86.42163f * mu_b9 + 0.24992286f * mu_u10;
-    const float q_9 = 21.6603f * mu_v10 + 250.97974f * mu_b1 + 580.4502f * mu_b2 - 417.03485f * mu_b3 - 1338.1686f * mu_b4 + 2362.43f * mu_b5 + 5426.098f * mu_b6 + 3445.3064f * mu_b7 + 584.53754f * mu_b8 + 14.994969f * mu_b9 + 0.020492442f * mu_u10;
-    const float q_10 = 0.9433714f * mu_v10 + 24.613022f * mu_b1 + 73.182144f * mu_b2 - 9.546943f * mu_b3 - 72.43957f * mu_b4 + 345.26614f * mu_b5 + 628.3052f * mu_b6 + 354.7204f * mu_b7 + 47.734905f * mu_b8 + 0.8821646f * mu_b9 + 0.00094858516f * mu_u10;
+    const float q_0 = 1.0f * mu_v10 + 10.048031f * mu_b1 + 47.335186f * mu_b2 + 119.446884f * mu_b3 + 177.94469f * mu_b4 + 269.04846f * mu_b5 + 223.38866f * mu_b6 + 111.59165f * mu_b7 + 22.611094f * mu_b8 + 2.1636343f * mu_b9 + 0.009615862f * mu_u10;
+    const float q_1 = 5.708971f * mu_v10 + 61.266773f * mu_b1 + 286.67926f * mu_b2 + 737.18555f * mu_b3 + 990.04456f * mu_b4 + 1676.7104f * mu_b5 + 1417.8225f * mu_b6 + 721.9584f * mu_b7 + 94.967705f * mu_b8 - 1.8366745f * mu_b9 - 0.032784466f * mu_u10;
+    const float q_2 = 47.736534f * mu_v10 + 515.78613f * mu_b1 + 2361.9604f * mu_b2 + 6255.709f * mu_b3 + 9553.325f * mu_b4 + 13348.549f * mu_b5 + 10976.168f * mu_b6 + 5564.829f * mu_b7 + 973.65295f * mu_b8 + 28.503443f * mu_b9 + 0.109062776f * mu_u10;
+    const float q_3 = 136.71883f * mu_v10 + 1560.0923f * mu_b1 + 7245.548f * mu_b2 + 19389.621f * mu_b3 + 31028.832f * mu_b4 + 43926.043f * mu_b5 + 37591.7f * mu_b6 + 19259.354f * mu_b7 + 3379.3823f * mu_b8 + 47.937176f * mu_b9 - 0.26224613f * mu_u10;
+    const float q_4 = 366.83923f * mu_v10 + 4292.465f * mu_b1 + 20029.232f * mu_b2 + 52823.277f * mu_b3 + 88018.06f * mu_b4 + 120862.18f * mu_b5 + 104190.22f * mu_b6 + 52727.527f * mu_b7 + 9985.571f * mu_b8 + 287.68747f * mu_b9 + 1.2228816f * mu_u10;
+    const float q_5 = 350.66214f * mu_v10 + 4905.223f * mu_b1 + 24343.568f * mu_b2 + 65484.92f * mu_b3 + 116913.25f * mu_b4 + 174742.22f * mu_b5 + 161389.31f * mu_b6 + 83869.64f * mu_b7 + 16453.857f * mu_b8 + 530.7356f * mu_b9 - 0.270633f * mu_u10;
+    const float q_6 = 41.95168f * mu_v10 + 1904.3129f * mu_b1 + 10714.226f * mu_b2 + 28552.293f * mu_b3 + 60882.35f * mu_b4 + 124687.27f * mu_b5 + 136712.92f * mu_b6 + 76258.48f * mu_b7 + 15069.86f * mu_b8 + 423.0384f * mu_b9 + 2.0948534f * mu_u10;
+    const float q_7 = 19.842323f * mu_v10 + 763.73694f * mu_b1 + 2644.288f * mu_b2 + 1589.4734f * mu_b3 + 8617.981f * mu_b4 + 50703.066f * mu_b5 + 72548.47f * mu_b6 + 43993.777f * mu_b7 + 8614.964f * mu_b8 + 196.07796f * mu_b9 - 0.54761773f * mu_u10;
+    const float q_8 = 81.01832f * mu_v10 + 839.7255f * mu_b1 + 2118.2593f * mu_b2 - 353.58664f * mu_b3 - 1387.3352f * mu_b4 + 15096.451f * mu_b5 + 26738.773f * mu_b6 + 16953.318f * mu_b7 + 3279.6353f * mu_b8 + 95.132484f * mu_b9 + 0.26546285f * mu_u10;
+    const float q_9 = 21.73564f * mu_v10 + 248.50116f * mu_b1 + 615.05914f * mu_b2 - 378.71106f * mu_b3 - 1390.9674f * mu_b4 + 2335.776f * mu_b5 + 5505.3945f * mu_b6 + 3550.5205f * mu_b7 + 621.3543f * mu_b8 + 16.607979f * mu_b9 + 0.02397973f * mu_u10;
+    const float q_10 = 0.91429263f * mu_v10 + 24.404537f * mu_b1 + 79.77646f * mu_b2 + 0.41437408f * mu_b3 - 78.86045f * mu_b4 + 327.94476f * mu_b5 + 617.57086f * mu_b6 + 354.57202f * mu_b7 + 48.842327f * mu_b8 + 0.91822934f * mu_b9 + 0.0009831088f * mu_u10;
     const float q = q_0 * r_v10 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_b7 + q_8 * r_b8 + q_9 * r_b9 + q_10 * r_u10;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -28,31 +28,31 @@
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
 // Fit: rational of degree 3/3, 19 coefficients (numerator 10, denominator 9 with constant term 1); least_squares objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points.
-// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 f1f9e0d027ac78c19a0dec5f2d0a894464043e1603e25e287730c5076346b517.
+// Source: fits/oren-nayar-qon/best-20.json (furnace 0.1.0), fit SHA-256 45ac298d6aa913fdc7dd375625e3ed7393c3f055352cd29e8850d1123aded7a1.
 // Evaluation: nested Horner in the transformed variables t, with the fit's monomial coefficients.
-//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.1e-7, shifted 6.9e-7, bernstein 3.1e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 8.70e-4, max 1.53e-2 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.04e-3, max 1.53e-2.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.36e-7 (every op rounded, as this Rust), 2.59e-7 (fused multiply-add), 3.78e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.62e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 155 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 1.08e-3, max 1.53e-2; this f32 code MAE 1.08e-3, max 1.53e-2.
+//   Why: the cheapest form, and stable in f32 (max |f32 - f64| <= 2.5e-6 on the measurement grid). Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 3.1e-7, shifted 7.3e-7, bernstein 3.7e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 9.01e-4, max 1.47e-2 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 1.06e-3, max 1.47e-2.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 3.24e-7 (every op rounded, as this Rust), 2.65e-7 (fused multiply-add), 3.74e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.75e-6 for every input, in all three rounding models (interval error analysis over the whole domain, 141 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 1.10e-3, max 1.52e-2; this f32 code MAE 1.10e-3, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.4e-2 on the measurement grid.
-// Denominator proved >= 5.388e-1 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 5.045e-1 on the domain (Bernstein certificate), so the division is safe.
 FURNACE_FN float oren_nayar_qon_albedo(float r, float mu) {
     // inputs clamped to the fitted domain
     const float r_c = fmaxf(fminf(r, 1.0f), 0.0f);
     const float mu_c = fmaxf(fminf(mu, 1.0f), 0.0f);
     // numerator P, grouped by powers of the first variable
-    const float p_0 = ((-0.32410613f * mu_c + 0.21693912f) * mu_c - 0.34680727f) * mu_c + 0.99534506f;
-    const float p_1 = (0.074344404f * mu_c + 1.8924198f) * mu_c - 1.9569131f;
-    const float p_2 = -4.0576053f * mu_c + 6.1586447f;
-    const float p_3 = 0.975015f;
+    const float p_0 = ((-0.3434068f * mu_c + 0.2268612f) * mu_c - 0.37185803f) * mu_c + 0.9953f;
+    const float p_1 = (0.15800278f * mu_c + 1.7985454f) * mu_c - 1.9334215f;
+    const float p_2 = -4.1336055f * mu_c + 6.1265855f;
+    const float p_3 = 0.95403403f;
     const float p = ((p_3 * r_c + p_2) * r_c + p_1) * r_c + p_0;
     // denominator Q (proved positive on the domain), grouped by powers of the first variable
-    const float q_0 = ((-0.34727904f * mu_c + 0.24674149f) * mu_c - 0.36070967f) * mu_c + 1.0f;
-    const float q_1 = (0.09596805f * mu_c + 2.1828f) * mu_c - 2.2219026f;
-    const float q_2 = -3.4621284f * mu_c + 7.1030493f;
-    const float q_3 = 2.079957f;
+    const float q_0 = ((-0.36798877f * mu_c + 0.26007107f) * mu_c - 0.38763013f) * mu_c + 1.0f;
+    const float q_1 = (0.1474176f * mu_c + 2.1189315f) * mu_c - 2.200083f;
+    const float q_2 = -3.6338067f * mu_c + 7.082669f;
+    const float q_3 = 2.041096f;
     const float q = ((q_3 * r_c + q_2) * r_c + q_1) * r_c + q_0;
     const float e = p / q;
     return fmaxf(fminf(e, 1.0f), 0.0f);

@@ -15,17 +15,17 @@
 // Arguments (f32, dimensionless; an input outside its fitted domain is clamped to it):
 //   r: QON roughness as a fraction of its range: the microfacet-slope angle is sigma = (pi/2)*r radians (sigma in [0, pi/2]); fitted domain [0, 1].
 //   mu: cosine of the outgoing direction, mu_o = n*w_o; fitted domain [0, 1].
-// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error.
-// Source: fits/oren-nayar-qon/best-80.json (furnace 0.1.0), fit SHA-256 9dff5a9cc8fb5a7eddc130be8c3ad1d53d04cb2661ff0667ba0c9b6e1401ad51.
+// Fit: rational of degree 7/7, 71 coefficients (numerator 36, denominator 35 with constant term 1); minimax objective, multi-start Levenberg-Marquardt (linearised LS, Sanathanan-Koerner, polynomial, supplied starts) on 16384 of 73728 points; best pole-certified start refined on all points; then Lawson reweighting for minimax error; then a max-mean polish of the minimax fit: its denominators and factors held, the coefficients in which it is linear set to the exact minimiser of max error + lambda*mean error on the fitting points (a linear program, primal-dual interior point), lambda = 2, its MAE there 1.168x the least-squares start's.
+// Source: fits/oren-nayar-qon/best-80.json (furnace 0.1.0), fit SHA-256 014ac4c067acf36e92a392583f55186813147877f896b13d5b8e69f70a01c52c.
 // Evaluation: tensor-product Bernstein form on the domain box, u = (t - lo)/(hi - lo) in [0, 1], coefficients converted exactly from the fit's (non-negative basis values: far less cancellation in f32).
-//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 7.8e-4, shifted 4.1e-5, bernstein 4.7e-7.
-// Error of the f64 fit on its 1048576 data points: MAE 1.97e-5, max 1.08e-3 (recorded by the fitter).
-// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.50e-5, max 1.04e-3.
-// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.52e-7 (every op rounded, as this Rust), 5.52e-7 (fused multiply-add), 6.46e-7 (GPU division/sqrt error).
-// Bound: |f32 - f64| <= 1.51e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 2719 boxes).
-// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.94e-4, max 1.52e-2; this f32 code MAE 2.94e-4, max 1.52e-2.
+//   Why: the cheapest form with max |f32 - f64| <= 2.5e-6 on the measurement grid; the monomial form cancels in f32. Max |f32 - f64| of each form on the 16641 points of the measurement grid: monomial 5.1e-4, shifted 1.4e-4, bernstein 4.3e-7.
+// Error of the f64 fit on its 1048576 data points: MAE 2.24e-5, max 1.08e-3 (recorded by the fitter).
+// Error of the f64 fit between the nodes, at 23552 off-grid check points (exact values by quadrature; `off_grid` of the fit file): MAE 2.83e-5, max 9.99e-4.
+// f32 - f64, measured at the stress test's 1000000 random + 1265 edge points (`furnace stress`, seed 0x5eedf00d): max 5.06e-7 (every op rounded, as this Rust), 4.62e-7 (fused multiply-add), 5.66e-7 (GPU division/sqrt error).
+// Bound: |f32 - f64| <= 1.08e-5 for every input, in all three rounding models (interval error analysis over the whole domain, 3077 boxes).
+// Error at the 1048576 nodes of its table data/oren-nayar-qon/1024x1024 (output clamp applied): f64 MAE 2.97e-4, max 1.52e-2; this f32 code MAE 2.97e-4, max 1.52e-2.
 // Output clamped to [0, 1]; the f64 fit leaves that range by up to 1.5e-2 on the measurement grid.
-// Denominator proved >= 1.452e-3 on the domain (Bernstein certificate), so the division is safe.
+// Denominator proved >= 1.476e-3 on the domain (Bernstein certificate), so the division is safe.
 highp float oren_nayar_qon_albedo(highp float r, highp float mu) {
     // inputs clamped to the fitted domain
     highp float r_c = max(min(r, 1.0), 0.0);
@@ -71,24 +71,24 @@ highp float oren_nayar_qon_albedo(highp float r, highp float mu) {
     highp float mu_b5 = mu_u5 * mu_v2;
     highp float mu_b6 = mu_u6 * mu_v;
     // numerator P: Bernstein sums over the last variable, then the earlier ones
-    highp float p_0 = 1.0001463 * mu_v7 + 5.824768 * mu_b1 + 13.497747 * mu_b2 + 20.189142 * mu_b3 + 16.218342 * mu_b4 + 6.384989 * mu_b5 + 0.31852436 * mu_b6 + 0.0029529936 * mu_u7;
-    highp float p_1 = 5.185611 * mu_v7 + 32.975056 * mu_b1 + 72.547104 * mu_b2 + 116.92702 * mu_b3 + 101.66731 * mu_b4 + 42.119175 * mu_b5 + 3.0502598 * mu_b6 - 0.001307497 * mu_u7;
-    highp float p_2 = 27.534594 * mu_v7 + 164.5857 * mu_b1 + 335.93307 * mu_b2 + 477.16013 * mu_b3 + 382.5508 * mu_b4 + 141.97533 * mu_b5 + 9.035781 * mu_b6 + 0.04203832 * mu_u7;
-    highp float p_3 = 79.57964 * mu_v7 + 466.56036 * mu_b1 + 953.8767 * mu_b2 + 1258.3455 * mu_b3 + 948.20776 * mu_b4 + 323.5535 * mu_b5 + 18.969925 * mu_b6 + 0.022917585 * mu_u7;
-    highp float p_4 = 108.712326 * mu_v7 + 653.6617 * mu_b1 + 1355.1414 * mu_b2 + 1740.317 * mu_b3 + 1271.7688 * mu_b4 + 407.37955 * mu_b5 + 18.046852 * mu_b6 + 0.1593069 * mu_u7;
-    highp float p_5 = 79.423035 * mu_v7 + 519.8256 * mu_b1 + 1136.0695 * mu_b2 + 1466.3862 * mu_b3 + 1055.2765 * mu_b4 + 323.9243 * mu_b5 + 10.558331 * mu_b6 - 0.09992526 * mu_u7;
-    highp float p_6 = 27.746977 * mu_v7 + 221.60764 * mu_b1 + 542.7914 * mu_b2 + 738.33856 * mu_b3 + 543.4667 * mu_b4 + 172.84999 * mu_b5 + 9.270311 * mu_b6 + 0.048839178 * mu_u7;
-    highp float p_7 = 0.47892025 * mu_v7 + 24.030897 * mu_b1 + 78.00675 * mu_b2 + 122.906906 * mu_b3 + 97.41395 * mu_b4 + 32.12942 * mu_b5 + 1.8051295 * mu_b6 + 0.0046205414 * mu_u7;
+    highp float p_0 = 1.0001872 * mu_v7 + 5.8978324 * mu_b1 + 13.777747 * mu_b2 + 20.533623 * mu_b3 + 16.46151 * mu_b4 + 6.44991 * mu_b5 + 0.32613227 * mu_b6 + 0.0028375827 * mu_u7;
+    highp float p_1 = 5.164246 * mu_v7 + 33.079758 * mu_b1 + 73.08901 * mu_b2 + 117.634026 * mu_b3 + 102.30005 * mu_b4 + 42.152504 * mu_b5 + 3.084188 * mu_b6 + 0.0015899952 * mu_u7;
+    highp float p_2 = 27.618397 * mu_v7 + 166.09557 * mu_b1 + 339.82718 * mu_b2 + 481.89926 * mu_b3 + 385.7881 * mu_b4 + 141.97661 * mu_b5 + 9.083998 * mu_b6 + 0.03736353 * mu_u7;
+    highp float p_3 = 79.78611 * mu_v7 + 471.25018 * mu_b1 + 964.8216 * mu_b2 + 1270.4406 * mu_b3 + 955.0619 * mu_b4 + 323.088 * mu_b5 + 18.976507 * mu_b6 + 0.019273039 * mu_u7;
+    highp float p_4 = 109.47169 * mu_v7 + 663.4618 * mu_b1 + 1375.59 * mu_b2 + 1759.5117 * mu_b3 + 1279.7676 * mu_b4 + 405.4857 * mu_b5 + 17.585972 * mu_b6 + 0.10801455 * mu_u7;
+    highp float p_5 = 81.011345 * mu_v7 + 533.3961 * mu_b1 + 1164.0948 * mu_b2 + 1493.6378 * mu_b3 + 1068.7415 * mu_b4 + 325.46567 * mu_b5 + 10.903444 * mu_b6 - 0.05742309 * mu_u7;
+    highp float p_6 = 28.612045 * mu_v7 + 228.52771 * mu_b1 + 556.7608 * mu_b2 + 751.39026 * mu_b3 + 549.5191 * mu_b4 + 173.47458 * mu_b5 + 9.308562 * mu_b6 + 0.03831733 * mu_u7;
+    highp float p_7 = 0.5223701 * mu_v7 + 24.729067 * mu_b1 + 79.367 * mu_b2 + 123.9837 * mu_b3 + 97.79421 * mu_b4 + 32.097366 * mu_b5 + 1.8127731 * mu_b6 + 0.00484306 * mu_u7;
     highp float p = p_0 * r_v7 + p_1 * r_b1 + p_2 * r_b2 + p_3 * r_b3 + p_4 * r_b4 + p_5 * r_b5 + p_6 * r_b6 + p_7 * r_u7;
     // denominator Q (proved positive on the domain): Bernstein sums over the last variable, then the earlier ones
-    highp float q_0 = 1.0 * mu_v7 + 5.8266044 * mu_b1 + 13.484624 * mu_b2 + 20.186308 * mu_b3 + 16.234709 * mu_b4 + 6.3778777 * mu_b5 + 0.3187787 * mu_b6 + 0.0029523512 * mu_u7;
-    highp float q_1 = 5.207215 * mu_v7 + 33.028996 * mu_b1 + 73.41477 * mu_b2 + 117.10106 * mu_b3 + 101.448784 * mu_b4 + 42.472828 * mu_b5 + 3.0414064 * mu_b6 - 0.0012919935 * mu_u7;
-    highp float q_2 = 24.243511 * mu_v7 + 148.87413 * mu_b1 + 310.34482 * mu_b2 + 457.79584 * mu_b3 + 387.4285 * mu_b4 + 153.88795 * mu_b5 + 10.1257925 * mu_b6 + 0.05293392 * mu_u7;
-    highp float q_3 = 85.135345 * mu_v7 + 508.58362 * mu_b1 + 1079.2307 * mu_b2 + 1457.8328 * mu_b3 + 1150.9597 * mu_b4 + 423.9425 * mu_b5 + 27.582756 * mu_b6 - 0.0033247198 * mu_u7;
-    highp float q_4 = 128.7116 * mu_v7 + 785.72485 * mu_b1 + 1694.5712 * mu_b2 + 2223.3022 * mu_b3 + 1698.9258 * mu_b4 + 588.44586 * mu_b5 + 28.132275 * mu_b6 + 0.31493968 * mu_u7;
-    highp float q_5 = 98.04053 * mu_v7 + 651.7968 * mu_b1 + 1483.3937 * mu_b2 + 1968.3691 * mu_b3 + 1488.8036 * mu_b4 + 494.6224 * mu_b5 + 15.888293 * mu_b6 - 0.1940021 * mu_u7;
-    highp float q_6 = 35.692074 * mu_v7 + 288.56754 * mu_b1 + 737.39844 * mu_b2 + 1039.9321 * mu_b3 + 809.753 * mu_b4 + 279.3741 * mu_b5 + 15.62656 * mu_b6 + 0.085633054 * mu_u7;
-    highp float q_7 = 0.61728394 * mu_v7 + 31.056086 * mu_b1 + 106.176926 * mu_b2 + 175.27542 * mu_b3 + 148.49178 * mu_b4 + 53.46516 * mu_b5 + 3.1633162 * mu_b6 + 0.008273124 * mu_u7;
+    highp float q_0 = 1.0 * mu_v7 + 5.900124 * mu_b1 + 13.764223 * mu_b2 + 20.528425 * mu_b3 + 16.475306 * mu_b4 + 6.4434686 * mu_b5 + 0.32635567 * mu_b6 + 0.002837135 * mu_u7;
+    highp float q_1 = 5.1872954 * mu_v7 + 33.13612 * mu_b1 + 73.93114 * mu_b2 + 117.8541 * mu_b3 + 102.140045 * mu_b4 + 42.504726 * mu_b5 + 3.075296 * mu_b6 + 0.0016189939 * mu_u7;
+    highp float q_2 = 24.31688 * mu_v7 + 150.26215 * mu_b1 + 313.8081 * mu_b2 + 462.53897 * mu_b3 + 390.89832 * mu_b4 + 153.85623 * mu_b5 + 10.193047 * mu_b6 + 0.047389034 * mu_u7;
+    highp float q_3 = 85.33577 * mu_v7 + 513.4957 * mu_b1 + 1090.9661 * mu_b2 + 1472.5087 * mu_b3 + 1160.0583 * mu_b4 + 423.93204 * mu_b5 + 27.77076 * mu_b6 + 0.008541675 * mu_u7;
+    highp float q_4 = 129.43573 * mu_v7 + 796.2622 * mu_b1 + 1717.3618 * mu_b2 + 2246.2446 * mu_b3 + 1708.0413 * mu_b4 + 585.1621 * mu_b5 + 27.224873 * mu_b6 + 0.20863952 * mu_u7;
+    highp float q_5 = 99.940384 * mu_v7 + 668.4841 * mu_b1 + 1519.8728 * mu_b2 + 2006.7188 * mu_b3 + 1508.5638 * mu_b4 + 497.23602 * mu_b5 + 16.458607 * mu_b6 - 0.11474032 * mu_u7;
+    highp float q_6 = 36.805614 * mu_v7 + 297.60193 * mu_b1 + 756.7753 * mu_b2 + 1059.4868 * mu_b3 + 819.20447 * mu_b4 + 280.48053 * mu_b5 + 15.687802 * mu_b6 + 0.066770256 * mu_u7;
+    highp float q_7 = 0.6732235 * mu_v7 + 31.959677 * mu_b1 + 108.08694 * mu_b2 + 176.96317 * mu_b3 + 149.10287 * mu_b4 + 53.417088 * mu_b5 + 3.1765945 * mu_b6 + 0.008669523 * mu_u7;
     highp float q = q_0 * r_v7 + q_1 * r_b1 + q_2 * r_b2 + q_3 * r_b3 + q_4 * r_b4 + q_5 * r_b5 + q_6 * r_b6 + q_7 * r_u7;
     highp float e = p / q;
     return max(min(e, 1.0), 0.0);

@@ -151,7 +151,9 @@ pub fn check_points(names: &[String], domain: &[(f64, f64)]) -> Vec<f64> {
 }
 
 /// Version of the training set: a change to [`training_points`] bumps it.
-pub const TRAINING_SET_VERSION: u32 = 1;
+pub const TRAINING_SET_VERSION: u32 = 2;
+/// The share of the training points on each face of the box (1/64: 6 × 128 of 8 192 in 3-D).
+pub const TRAINING_FACE_DIVISOR: usize = 64;
 /// The training points are points [`TRAINING_START`]… of the R_d sequence, the check points
 /// 0…[`QUASI_POINTS`] − 1 (in every sub-box): the two sets never share a point.
 pub const TRAINING_START: usize = 1 << 24;
@@ -161,8 +163,10 @@ pub const TRAINING_START: usize = 1 << 24;
 /// albedos vary fastest. Disjoint from [`check_points`] (a later stretch of the same R_d
 /// sequence, from [`TRAINING_START`]): a quarter over the whole box; with `mu`, three eighths in
 /// its grazing layer over every r (μ clustered quadratically towards the low end); with `r`, an
-/// eighth in the low-roughness layer; with both, a quarter in their corner (μ clustered). The
-/// shares of missing layers go to the whole box.
+/// eighth in the low-roughness layer; with both, a quarter in their corner (μ clustered); on
+/// every face of the box, n/[`TRAINING_FACE_DIVISOR`] (one coordinate at its end, the others
+/// quasi-random), where the check set has points too and the graded nodes leave the far ends
+/// of the axes sparse. The shares of missing layers go to the whole box.
 pub fn training_points(names: &[String], domain: &[(f64, f64)], n: usize) -> Vec<f64> {
     let d = names.len();
     let find = |x: &str| names.iter().position(|v| v.eq_ignore_ascii_case(x));
@@ -184,6 +188,20 @@ pub fn training_points(names: &[String], domain: &[(f64, f64)], n: usize) -> Vec
         s[m] = Span::Range(0.0, GRAZING_FRACTION, true);
         s[k] = Span::Range(0.0, SMOOTH_FRACTION, false);
         layers.push((s, n / 4));
+    }
+    // faces only where a point on one has free coordinates, and never more than is left
+    let left = n - layers.iter().map(|l| l.1).sum::<usize>();
+    let per_face = if d >= 2 {
+        (n / TRAINING_FACE_DIVISOR).min(left / (2 * d))
+    } else {
+        0
+    };
+    for k in 0..d {
+        for end in [0.0, 1.0] {
+            let mut s = whole.clone();
+            s[k] = Span::Fixed(end);
+            layers.push((s, per_face));
+        }
     }
     let rest = n - layers.iter().map(|l| l.1).sum::<usize>();
     let mut out = Vec::with_capacity(n * d);
@@ -335,7 +353,7 @@ impl CheckSet {
     /// In words, for fit files, when the set is a training set ([`training_points`]).
     pub fn training_description(&self) -> String {
         format!(
-            "{} exact off-grid training points (training set v{}, disjoint from the check set: quasi-random over the whole domain, the grazing and low-roughness layers and their corner; error estimate ≤ {:.1e})",
+            "{} exact off-grid training points (training set v{}, disjoint from the check set: quasi-random over the whole domain, the grazing and low-roughness layers, their corner and every face; error estimate ≤ {:.1e})",
             self.len(),
             self.version,
             self.max_error_estimate
@@ -466,6 +484,13 @@ mod tests {
         assert!(deep_rough > 50, "{deep_rough}");
         let corner = t.chunks(3).filter(|x| x[1] < 0.15 && x[2] < 1e-3).count();
         assert!(corner > 100, "{corner}");
+        // every face, between the nodes a grid puts there
+        for k in 0..3 {
+            for end in [domain[k].0, domain[k].1] {
+                let on = t.chunks(3).filter(|x| x[k] == end).count();
+                assert!(on >= n / TRAINING_FACE_DIVISOR, "axis {k} at {end}: {on}");
+            }
+        }
         // data without the named layers: all over the box
         let xy: Vec<String> = ["x", "y"].iter().map(|s| s.to_string()).collect();
         assert_eq!(training_points(&xy, &[(0.0, 1.0); 2], 100).len(), 200);

@@ -31,8 +31,8 @@ use super::poles::CertifyOptions;
 use super::polynomial::solve_polynomial;
 use super::result::{Approximant, FitResult, Form, Objective, SolverReport, StartReport};
 use super::robust::{
-    check_lp_polish, check_max_mean, max_abs, max_mean_branch, mean_abs, pnorm_path, reweight,
-    Iterate, PnormProblem, PnormSolve, Solve, Solved,
+    check_lp_polish, check_max_mean, max_abs, max_mean_path, mean_abs, reweight, PnormProblem,
+    PnormSolve, Solve, Solved,
 };
 
 /// Settings of a rational fit.
@@ -500,29 +500,21 @@ pub(crate) fn fit_rational_model(
                     certified_steps: None,
                 };
                 let linear: Vec<usize> = (0..model.n_num).collect();
-                // from the minimax fit and from the L_p polish's last iterate
-                let mut starts = vec![(None, params.clone())];
-                if let Some(last) = path.iter().rfind(|it| it.pnorm.is_some()) {
-                    starts.push((last.pnorm, last.params.clone()));
-                }
-                let mut polished: Vec<Iterate> = Vec::new();
-                for (pnorm, from) in starts {
-                    for (l, p) in max_mean_branch(&problem, &linear, &from, &opts.max_mean_polish)?
-                    {
-                        if let Some(e) = model.errors(&prep, phi_all, &p) {
-                            polished.push(Iterate {
-                                round: polished.len() + 1,
-                                blend: 1.0,
-                                pnorm,
-                                max_mean: Some(l),
-                                max: max_abs(&prep.w, &e),
-                                mae: mean_abs(&prep.w, &e),
-                                params: p,
-                            });
-                        }
-                    }
-                }
-                path.extend(pnorm_path(&polished, ls_mae, &mut accept));
+                // from the minimax fit and from the L_p polish's last solve
+                let measure = |p: &[f64]| {
+                    let e = model.errors(&prep, phi_all, p)?;
+                    Some((max_abs(&prep.w, &e), mean_abs(&prep.w, &e)))
+                };
+                let polished = max_mean_path(
+                    &problem,
+                    &linear,
+                    (&params, &path),
+                    &opts.max_mean_polish,
+                    &measure,
+                    ls_mae,
+                    &mut accept,
+                )?;
+                path.extend(polished);
             }
         }
     }

@@ -298,7 +298,7 @@ pub(crate) fn pnorm_branch(
 /// the others are held, e.g. the numerators of a rational with its denominator held) set to
 /// the exact minimiser of max_i |ρ_i| + λ·mean_i |ρ_i|, the other parameters kept. Returns
 /// (λ, parameters) per λ, in order; None for a λ whose linear program failed.
-pub(crate) fn max_mean_branch(
+fn max_mean_branch(
     problem: &dyn LeastSquaresProblem,
     linear: &[usize],
     start: &[f64],
@@ -337,6 +337,45 @@ pub(crate) fn max_mean_branch(
         out.push((lambda, p));
     }
     Ok(out)
+}
+
+/// (max, MAE) of parameters on the fitting points; None where they cannot be evaluated.
+pub(crate) type MaxMae<'a> = dyn Fn(&[f64]) -> Option<(f64, f64)> + 'a;
+
+/// The max–mean polish of a minimax fit as path iterates: [`max_mean_branch`] from the fit's
+/// parameters `params` and from the L_p polish's last solve in `path` (if any), each iterate
+/// measured by `measure` ((max, MAE) on the fitting points, None to drop it) and kept if
+/// `accept`ed, its `mae_bound` its MAE as a multiple of `start_mae` (the least-squares start's).
+pub(crate) fn max_mean_path(
+    problem: &dyn LeastSquaresProblem,
+    linear: &[usize],
+    (params, path): (&[f64], &[PathIterate]),
+    lambdas: &[f64],
+    measure: &MaxMae<'_>,
+    start_mae: f64,
+    accept: &mut dyn FnMut(&[f64]) -> bool,
+) -> Result<Vec<PathIterate>> {
+    let mut starts = vec![(None, params.to_vec())];
+    if let Some(last) = path.iter().rfind(|it| it.pnorm.is_some()) {
+        starts.push((last.pnorm, last.params.clone()));
+    }
+    let mut polished: Vec<Iterate> = Vec::new();
+    for (pnorm, from) in starts {
+        for (l, p) in max_mean_branch(problem, linear, &from, lambdas)? {
+            if let Some((max, mae)) = measure(&p) {
+                polished.push(Iterate {
+                    round: polished.len() + 1,
+                    blend: 1.0,
+                    pnorm,
+                    max_mean: Some(l),
+                    max,
+                    mae,
+                    params: p,
+                });
+            }
+        }
+    }
+    Ok(pnorm_path(&polished, start_mae, accept))
 }
 
 /// Checks the λ values of a max–mean polish: each finite and ≥ 0.

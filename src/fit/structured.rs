@@ -37,7 +37,7 @@ use super::result::{
     Approximant, Family, FitResult, Form, Objective, SolverReport, StartReport, Structure, Term,
 };
 use super::robust::{
-    blended_roots, check_lp_polish, check_max_mean, lawson_update, max_mean_branch, path_iterates,
+    blended_roots, check_lp_polish, check_max_mean, lawson_update, max_mean_path, path_iterates,
     pnorm_branch, pnorm_path, Iterate, PnormProblem, Solved, LAWSON_BLEND,
 };
 
@@ -759,27 +759,16 @@ pub fn fit_structured(
             let linear: Vec<usize> = (0..layout.k)
                 .flat_map(|t| t * pt + nf..t * pt + nf + np)
                 .collect();
-            let mut starts = vec![(None, params.clone())];
-            if let Some(last) = path.iter().rfind(|it| it.pnorm.is_some()) {
-                starts.push((last.pnorm, last.params.clone()));
-            }
-            let mut polished: Vec<Iterate> = Vec::new();
-            for (pnorm, from) in starts {
-                for (l, p) in max_mean_branch(&problem, &linear, &from, &opts.max_mean_polish)? {
-                    if let Some((max, mae)) = both(&p) {
-                        polished.push(Iterate {
-                            round: polished.len() + 1,
-                            blend: 1.0,
-                            pnorm,
-                            max_mean: Some(l),
-                            max,
-                            mae,
-                            params: p,
-                        });
-                    }
-                }
-            }
-            path.extend(pnorm_path(&polished, start.1, &mut |_| true));
+            let polished = max_mean_path(
+                &problem,
+                &linear,
+                (&params, &path),
+                &opts.max_mean_polish,
+                &both,
+                start.1,
+                &mut |_| true,
+            )?;
+            path.extend(polished);
         }
     }
 

@@ -297,7 +297,7 @@ pub(crate) fn pnorm_branch(
 /// `lambdas`, the parameters `linear` (in which `problem`'s residuals ρ are jointly linear when
 /// the others are held, e.g. the numerators of a rational with its denominator held) set to
 /// the exact minimiser of max_i |ρ_i| + λ·mean_i |ρ_i|, the other parameters kept. Returns
-/// (λ, parameters) per λ, in order; None for a λ whose linear program failed.
+/// (λ, parameters) per λ, in order; a λ whose linear program fails is left out.
 fn max_mean_branch(
     problem: &dyn LeastSquaresProblem,
     linear: &[usize],
